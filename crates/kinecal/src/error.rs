@@ -1,0 +1,105 @@
+//! The library's one error type.
+
+use std::fmt;
+
+/// Where in an input file something went wrong: enough for a user to find and fix it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Location {
+    /// The file name as the user gave it (or `<built-in ge-a4>`, `<input>`).
+    pub file: String,
+    /// 1-based line number, when known.
+    pub line: Option<usize>,
+    /// The field (TOML key path such as `links[2].beta`, or CSV column name), when known.
+    pub field: Option<String>,
+}
+
+impl Location {
+    /// A location in `file` with nothing more precise known.
+    pub fn file(file: impl Into<String>) -> Self {
+        Self { file: file.into(), line: None, field: None }
+    }
+
+    /// The same file, at `line`.
+    pub fn at_line(&self, line: usize) -> Self {
+        Self { line: Some(line), ..self.clone() }
+    }
+
+    /// The same place, naming `field`.
+    pub fn with_field(&self, field: impl Into<String>) -> Self {
+        Self { field: Some(field.into()), ..self.clone() }
+    }
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+        }
+        if let Some(field) = &self.field {
+            write!(f, ": field `{field}`")?;
+        }
+        Ok(())
+    }
+}
+
+/// Everything that can go wrong in kinecal's library.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// An input file (robot TOML, measurement CSV) is malformed.
+    #[error("{at}: {message}")]
+    Input {
+        /// Where.
+        at: Location,
+        /// What was wrong and what was expected.
+        message: String,
+    },
+    /// A parameter list (`--estimate`, `--fix`, `--perturb`) names something that does not exist.
+    #[error("parameter list `{list}`: {message}")]
+    ParamList {
+        /// The list as given.
+        list: String,
+        /// What was wrong.
+        message: String,
+    },
+    /// The problem cannot be solved as posed (e.g. fewer residuals than estimated parameters).
+    #[error("{0}")]
+    Problem(String),
+    /// Gauss-Newton met a singular normal matrix (thesis 3.3.3).
+    #[error(
+        "Gauss-Newton cannot proceed: the normal matrix J^T J is singular (numerical rank {rank} \
+         of {parameters} estimated parameters, relative tolerance {rcond:e}); the data cannot \
+         separate some of the estimated parameters (thesis 3.3.3). Use --method lm or svd, or \
+         estimate fewer parameters"
+    )]
+    SingularNormalEquations {
+        /// Numerical rank of the scaled Jacobian.
+        rank: usize,
+        /// Number of estimated parameters.
+        parameters: usize,
+        /// Relative singular-value tolerance used for the rank.
+        rcond: f64,
+    },
+    /// A numerical routine failed (should not happen on finite input).
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The path.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+}
+
+impl Error {
+    /// An input error at `at`.
+    pub fn input(at: Location, message: impl Into<String>) -> Self {
+        Error::Input { at, message: message.into() }
+    }
+}
+
+/// Result with kinecal's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

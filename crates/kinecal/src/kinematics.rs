@@ -1,0 +1,328 @@
+//! Forward kinematics and the analytic parameter Jacobian.
+//!
+//! Frames are rigid transforms `(R, p)` mapping distal to proximal coordinates; poses are given
+//! in the global frame. Orientation is reported as ZYX Euler angles `(alpha, beta, gamma)` with
+//! `R = Rz(alpha) Ry(beta) Rx(gamma)`, `beta` in `[-pi/2, pi/2]`.
+//!
+//! The Jacobian is the *geometric* one: for every parameter, the derivative of the target's
+//! origin (rows 0-2, m per parameter unit) and the target's angular velocity in the global frame
+//! (rows 3-5, rad per parameter unit). It is propagated through the chain: each parameter is a
+//! unit translation along, or rotation about, a known axis of a known frame, so its column is
+//! `(u, 0)` for a translation along `u`, or `(u x (e - c), u)` for a rotation about `u` through
+//! `c`, with `e` the target origin. Slopes are the offset column times the reading.
+//! [`euler_rates`] turns the angular rows into derivatives of the ZYX angles.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::params::ParamId;
+use crate::robot::{JointKind, Link, Robot};
+
+/// A rigid transform: a point `v` in this frame is `rotation * v + translation` in the parent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// Orientation of the frame's axes in the parent frame.
+    pub rotation: Matrix3<f64>,
+    /// Origin of the frame in the parent frame.
+    pub translation: Vector3<f64>,
+}
+
+impl Frame {
+    /// The identity transform.
+    pub fn identity() -> Self {
+        Frame { rotation: Matrix3::identity(), translation: Vector3::zeros() }
+    }
+
+    /// `self * other`: `other` expressed in `self`'s parent.
+    #[inline]
+    pub fn then(&self, other: &Frame) -> Frame {
+        Frame {
+            rotation: self.rotation * other.rotation,
+            translation: self.translation + self.rotation * other.translation,
+        }
+    }
+
+    /// The link transform `Trans(x,y,z) Rz(alpha) Ry(beta) Rx(gamma)` (thesis eq. 2.1).
+    pub fn from_link(l: &Link) -> Frame {
+        Frame { rotation: rot_zyx(l.alpha, l.beta, l.gamma), translation: Vector3::new(l.x, l.y, l.z) }
+    }
+
+    /// The pose of this frame: origin and ZYX Euler angles.
+    pub fn pose(&self) -> Pose {
+        Pose { position: self.translation, euler: euler_zyx(&self.rotation) }
+    }
+}
+
+/// A position and ZYX Euler attitude (m, rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// Origin `(x, y, z)`.
+    pub position: Vector3<f64>,
+    /// `(alpha, beta, gamma)`, `R = Rz(alpha) Ry(beta) Rx(gamma)`.
+    pub euler: Vector3<f64>,
+}
+
+/// `Rz(alpha) Ry(beta) Rx(gamma)`.
+pub fn rot_zyx(alpha: f64, beta: f64, gamma: f64) -> Matrix3<f64> {
+    let (sa, ca) = alpha.sin_cos();
+    let (sb, cb) = beta.sin_cos();
+    let (sg, cg) = gamma.sin_cos();
+    Matrix3::new(
+        ca * cb,
+        ca * sb * sg - sa * cg,
+        ca * sb * cg + sa * sg,
+        sa * cb,
+        sa * sb * sg + ca * cg,
+        sa * sb * cg - ca * sg,
+        -sb,
+        cb * sg,
+        cb * cg,
+    )
+}
+
+/// ZYX Euler angles `(alpha, beta, gamma)` of a rotation matrix, `beta` in `[-pi/2, pi/2]`,
+/// `alpha` and `gamma` in `(-pi, pi]`. At `beta = +-pi/2` (gimbal lock) `gamma` is set to 0.
+pub fn euler_zyx(r: &Matrix3<f64>) -> Vector3<f64> {
+    let cb = (r[(0, 0)] * r[(0, 0)] + r[(1, 0)] * r[(1, 0)]).sqrt();
+    let beta = (-r[(2, 0)]).atan2(cb);
+    if cb > 1e-12 {
+        Vector3::new(r[(1, 0)].atan2(r[(0, 0)]), beta, r[(2, 1)].atan2(r[(2, 2)]))
+    } else {
+        // Only alpha - gamma (beta = +pi/2) or alpha + gamma (beta = -pi/2) is defined.
+        Vector3::new((-r[(0, 1)]).atan2(r[(1, 1)]), beta, 0.0)
+    }
+}
+
+/// Converts an angular velocity `omega` (global frame) to the rates of the ZYX Euler angles of a
+/// frame at attitude `(alpha, beta, _)`. Infinite at `beta = +-pi/2`; there `cos(beta)` is
+/// clamped to 1e-12 so the result stays finite (callers warn about gimbal lock).
+#[inline]
+pub fn euler_rates(alpha: f64, beta: f64, omega: &Vector3<f64>) -> Vector3<f64> {
+    let (sa, ca) = alpha.sin_cos();
+    let (sb, mut cb) = beta.sin_cos();
+    if cb.abs() < 1e-12 {
+        cb = 1e-12f64.copysign(cb);
+    }
+    let h = (omega.x * ca + omega.y * sa) / cb;
+    Vector3::new(omega.z + sb * h, -omega.x * sa + omega.y * ca, h)
+}
+
+/// Which frame of the robot is measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Target {
+    /// The end-effector frame.
+    EndEffector,
+    /// Extra site number `i` (0-based index into `Robot::sites`).
+    Site(usize),
+}
+
+/// Posture-independent data of one link (or site) transform, precomputed once per parameter set.
+#[derive(Debug, Clone, Copy)]
+struct LinkCache {
+    frame: Frame,
+    /// `Rz(alpha) e_y`: the axis of beta, in the proximal frame.
+    beta_axis: Vector3<f64>,
+    /// `Rz(alpha) Ry(beta) e_x`: the axis of gamma, in the proximal frame.
+    gamma_axis: Vector3<f64>,
+}
+
+impl LinkCache {
+    fn new(l: &Link) -> Self {
+        let (sa, ca) = l.alpha.sin_cos();
+        let (sb, cb) = l.beta.sin_cos();
+        LinkCache {
+            frame: Frame::from_link(l),
+            beta_axis: Vector3::new(-sa, ca, 0.0),
+            gamma_axis: Vector3::new(ca * cb, sa * cb, -sb),
+        }
+    }
+}
+
+/// The frames of one posture, filled by [`Chain::forward`]. Allocate once and reuse: the hot
+/// path does not allocate.
+#[derive(Debug, Clone)]
+pub struct Workspace {
+    /// `prox[i]`: global frame at the proximal end of link i (`prox[0]` is the global frame).
+    prox: Vec<Frame>,
+    /// `dist[i]`: global frame at the distal end of link i (before joint i; `dist[n]` is the EECF).
+    dist: Vec<Frame>,
+    readings: Vec<f64>,
+}
+
+impl Workspace {
+    /// A workspace for `robot`'s chain.
+    pub fn new(robot: &Robot) -> Self {
+        let n = robot.dof();
+        Workspace {
+            prox: vec![Frame::identity(); n + 1],
+            dist: vec![Frame::identity(); n + 1],
+            readings: vec![0.0; n],
+        }
+    }
+
+    /// The end-effector frame of the last [`Chain::forward`].
+    pub fn end_effector(&self) -> &Frame {
+        self.dist.last().expect("chain has links")
+    }
+}
+
+/// A robot's chain with its posture-independent transforms precomputed.
+#[derive(Debug, Clone)]
+pub struct Chain<'r> {
+    robot: &'r Robot,
+    links: Vec<LinkCache>,
+    sites: Vec<LinkCache>,
+}
+
+impl<'r> Chain<'r> {
+    /// Precomputes the link and site transforms of `robot`.
+    pub fn new(robot: &'r Robot) -> Self {
+        Chain {
+            robot,
+            links: robot.links.iter().map(LinkCache::new).collect(),
+            sites: robot.sites.iter().map(|s| LinkCache::new(&s.frame)).collect(),
+        }
+    }
+
+    /// The robot.
+    pub fn robot(&self) -> &'r Robot {
+        self.robot
+    }
+
+    /// Computes every frame of the chain for transducer `readings` (one per joint).
+    #[inline]
+    pub fn forward(&self, readings: &[f64], ws: &mut Workspace) {
+        let n = self.robot.dof();
+        debug_assert_eq!(readings.len(), n);
+        ws.readings.copy_from_slice(readings);
+        let mut current = Frame::identity();
+        for i in 0..=n {
+            ws.prox[i] = current;
+            current = current.then(&self.links[i].frame);
+            ws.dist[i] = current;
+            if i < n {
+                let joint = &self.robot.joints[i];
+                let q = joint.value(readings[i]);
+                match joint.kind {
+                    JointKind::Revolute => {
+                        let (s, c) = q.sin_cos();
+                        let r = current.rotation;
+                        current.rotation.set_column(0, &(r.column(0) * c + r.column(1) * s));
+                        current.rotation.set_column(1, &(r.column(1) * c - r.column(0) * s));
+                    }
+                    JointKind::Prismatic => {
+                        current.translation += current.rotation.column(2) * q;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The global frame of `target` after [`Chain::forward`].
+    #[inline]
+    pub fn target_frame(&self, ws: &Workspace, target: Target) -> Frame {
+        match target {
+            Target::EndEffector => *ws.end_effector(),
+            Target::Site(s) => {
+                // The frame right after joint k is the proximal frame of link k+1.
+                let k = self.robot.sites[s].joint;
+                ws.prox[k].then(&self.sites[s].frame)
+            }
+        }
+    }
+
+    /// Convenience: the global frame of `target` at `readings` (allocates a workspace).
+    pub fn frame_at(&self, readings: &[f64], target: Target) -> Frame {
+        let mut ws = Workspace::new(self.robot);
+        self.forward(readings, &mut ws);
+        self.target_frame(&ws, target)
+    }
+
+    /// Writes the geometric Jacobian of `target` (after [`Chain::forward`]) into `out`, a
+    /// column-major 6 x `param_count` block: column `p` holds `d(origin)/dp` in rows 0-2 and the
+    /// global angular velocity per unit `p` in rows 3-5. Parameters that cannot move the target
+    /// get zero columns.
+    pub fn jacobian(&self, ws: &Workspace, target: Target, out: &mut [f64]) {
+        let robot = self.robot;
+        let (nl, nj) = (robot.links.len(), robot.dof());
+        assert_eq!(out.len(), 6 * robot.param_count(), "Jacobian block has the wrong size");
+        out.fill(0.0);
+        let e = self.target_frame(ws, target).translation;
+        // Links and joints upstream of the target.
+        let (links_upto, joints_upto) = match target {
+            Target::EndEffector => (nl, nj),
+            Target::Site(s) => {
+                let k = robot.sites[s].joint;
+                (k, k)
+            }
+        };
+        let mut put = |col: usize, dp: Vector3<f64>, w: Vector3<f64>| {
+            let c = &mut out[6 * col..6 * col + 6];
+            c[0] = dp.x;
+            c[1] = dp.y;
+            c[2] = dp.z;
+            c[3] = w.x;
+            c[4] = w.y;
+            c[5] = w.z;
+        };
+        let mut link_columns = |first_col: usize, prox: &Frame, cache: &LinkCache| {
+            let r = &prox.rotation;
+            for k in 0..3 {
+                put(first_col + k, r.column(k).into_owned(), Vector3::zeros());
+            }
+            let c = prox.translation + r * cache.frame.translation;
+            let lever = e - c;
+            for (k, axis_local) in
+                [Vector3::z(), cache.beta_axis, cache.gamma_axis].iter().enumerate()
+            {
+                let u = r * axis_local;
+                put(first_col + 3 + k, u.cross(&lever), u);
+            }
+        };
+        for i in 0..links_upto {
+            link_columns(6 * i, &ws.prox[i], &self.links[i]);
+        }
+        if let Target::Site(s) = target {
+            let k = robot.sites[s].joint;
+            link_columns(6 * nl + 2 * nj + 6 * s, &ws.prox[k], &self.sites[s]);
+        }
+        for j in 0..joints_upto {
+            let f = &ws.dist[j];
+            let u = f.rotation.column(2).into_owned();
+            let (dp, w) = match robot.joints[j].kind {
+                JointKind::Revolute => (u.cross(&(e - f.translation)), u),
+                JointKind::Prismatic => (u, Vector3::zeros()),
+            };
+            let v = ws.readings[j];
+            put(6 * nl + j, dp, w);
+            put(6 * nl + nj + j, dp * v, w * v);
+        }
+    }
+}
+
+/// The pose of `target` for `robot` at `readings` (convenience; allocates).
+pub fn forward_pose(robot: &Robot, readings: &[f64], target: Target) -> Pose {
+    Chain::new(robot).frame_at(readings, target).pose()
+}
+
+/// Column of the Jacobian block for parameter `id` (for reading [`Chain::jacobian`] output).
+pub fn block_column(block: &[f64], id: ParamId) -> &[f64] {
+    &block[6 * id.0..6 * id.0 + 6]
+}
+
+/// The rotation vector (axis times angle, rad) of a rotation matrix, angle in `[0, pi]`.
+pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
+    nalgebra::Rotation3::from_matrix_unchecked(*r).scaled_axis()
+}
+
+/// Inverse of the right Jacobian of SO(3) at `phi`: maps a body-frame angular velocity to the
+/// rate of the rotation vector `phi` of `E` when `dE = E [w]x`.
+pub fn so3_right_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let theta = phi.norm();
+    let k = phi.cross_matrix();
+    let coef = if theta < 1e-6 {
+        1.0 / 12.0 + theta * theta / 720.0
+    } else {
+        1.0 / (theta * theta) - (1.0 + theta.cos()) / (2.0 * theta * theta.sin())
+    };
+    Matrix3::identity() + 0.5 * k + coef * k * k
+}

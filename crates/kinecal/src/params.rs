@@ -1,0 +1,264 @@
+//! Parameter identities and lists, numbered as the thesis numbers them.
+//!
+//! Order: the 6 parameters of each link (`x, y, z, alpha, beta, gamma`, links 1..n+1), then the n
+//! joint offsets, then the n slopes, then 6 per extra site. `ParamId(0)` is the thesis's `p1`.
+//! Lists (`--estimate`, `--fix`) accept comma-separated ids (`p3`), ranges (`p1-p30`), names
+//! (`link1.x`, `joint3.offset`, `joint4.slope`, `site.NAME.x`), whole links or joints (`link2`,
+//! `joint3`, `site.NAME`) and the groups `all`, `links`, `offsets`, `slopes`, `sites`.
+
+use std::fmt;
+
+use crate::error::{Error, Result};
+use crate::robot::Robot;
+use crate::units::Quantity;
+
+/// Identity of one model parameter; displayed 1-based as `p1`, `p2`, ...
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ParamId(pub usize);
+
+impl fmt::Display for ParamId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "p{}", self.0 + 1)
+    }
+}
+
+/// One of the six components of a link (or site) transform.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinkComponent {
+    /// Translation along x.
+    X,
+    /// Translation along y.
+    Y,
+    /// Translation along z.
+    Z,
+    /// Rotation about z (first ZYX angle).
+    Alpha,
+    /// Rotation about y (second).
+    Beta,
+    /// Rotation about x (third).
+    Gamma,
+}
+
+impl LinkComponent {
+    /// The six in parameter order.
+    pub const ALL: [LinkComponent; 6] = [
+        LinkComponent::X,
+        LinkComponent::Y,
+        LinkComponent::Z,
+        LinkComponent::Alpha,
+        LinkComponent::Beta,
+        LinkComponent::Gamma,
+    ];
+
+    /// Name as used in parameter names and robot files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LinkComponent::X => "x",
+            LinkComponent::Y => "y",
+            LinkComponent::Z => "z",
+            LinkComponent::Alpha => "alpha",
+            LinkComponent::Beta => "beta",
+            LinkComponent::Gamma => "gamma",
+        }
+    }
+
+    /// Length for x, y, z; angle for the Euler angles.
+    pub fn quantity(self) -> Quantity {
+        match self {
+            LinkComponent::X | LinkComponent::Y | LinkComponent::Z => Quantity::Length,
+            _ => Quantity::Angle,
+        }
+    }
+
+    fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.as_str() == s)
+    }
+}
+
+/// What a parameter is (0-based link, joint and site indices).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamKind {
+    /// A component of link `link`.
+    Link {
+        /// 0-based link index.
+        link: usize,
+        /// Which component.
+        component: LinkComponent,
+    },
+    /// The transducer zero offset of joint `joint`.
+    Offset {
+        /// 0-based joint index.
+        joint: usize,
+    },
+    /// The transducer slope of joint `joint`.
+    Slope {
+        /// 0-based joint index.
+        joint: usize,
+    },
+    /// A component of site `site`'s attachment.
+    Site {
+        /// 0-based site index.
+        site: usize,
+        /// Which component.
+        component: LinkComponent,
+    },
+}
+
+impl ParamKind {
+    /// Decodes a parameter id for a robot with the given counts; `None` when out of range.
+    pub fn of(id: ParamId, links: usize, joints: usize, sites: usize) -> Option<ParamKind> {
+        let mut i = id.0;
+        if i < 6 * links {
+            return Some(ParamKind::Link { link: i / 6, component: LinkComponent::ALL[i % 6] });
+        }
+        i -= 6 * links;
+        if i < joints {
+            return Some(ParamKind::Offset { joint: i });
+        }
+        i -= joints;
+        if i < joints {
+            return Some(ParamKind::Slope { joint: i });
+        }
+        i -= joints;
+        if i < 6 * sites {
+            return Some(ParamKind::Site { site: i / 6, component: LinkComponent::ALL[i % 6] });
+        }
+        None
+    }
+
+    /// The id of this parameter for a robot with the given counts.
+    pub fn id(self, links: usize, joints: usize) -> ParamId {
+        ParamId(match self {
+            ParamKind::Link { link, component } => 6 * link + component as usize,
+            ParamKind::Offset { joint } => 6 * links + joint,
+            ParamKind::Slope { joint } => 6 * links + joints + joint,
+            ParamKind::Site { site, component } => {
+                6 * links + 2 * joints + 6 * site + component as usize
+            }
+        })
+    }
+}
+
+/// Parses a comma-separated parameter list (see the module docs) into sorted, distinct ids.
+pub fn parse_param_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
+    let err = |message: String| Error::ParamList { list: list.to_string(), message };
+    let mut out = Vec::new();
+    for token in list.split(',').map(str::trim) {
+        if token.is_empty() {
+            return Err(err("empty entry".into()));
+        }
+        out.extend(parse_token(token, robot).map_err(err)?);
+    }
+    out.sort();
+    out.dedup();
+    Ok(out)
+}
+
+/// Parses one parameter reference (an id or a name) to exactly one parameter.
+pub fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
+    let ids = parse_token(token, robot)
+        .map_err(|message| Error::ParamList { list: token.to_string(), message })?;
+    match ids.as_slice() {
+        [one] => Ok(*one),
+        _ => Err(Error::ParamList {
+            list: token.to_string(),
+            message: "names several parameters where one is expected".into(),
+        }),
+    }
+}
+
+fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, String> {
+    let (nl, nj, ns) = (robot.links.len(), robot.joints.len(), robot.sites.len());
+    let id = |k: ParamKind| k.id(nl, nj);
+    let all: Vec<ParamId> = robot.param_ids().collect();
+    let pick = |f: &dyn Fn(ParamKind) -> bool| -> Vec<ParamId> {
+        all.iter().copied().filter(|&p| f(robot.param_kind(p))).collect()
+    };
+    match token {
+        "all" => return Ok(all.clone()),
+        "links" => return Ok(pick(&|k| matches!(k, ParamKind::Link { .. }))),
+        "offsets" => return Ok(pick(&|k| matches!(k, ParamKind::Offset { .. }))),
+        "slopes" => return Ok(pick(&|k| matches!(k, ParamKind::Slope { .. }))),
+        "sites" => return Ok(pick(&|k| matches!(k, ParamKind::Site { .. }))),
+        _ => {}
+    }
+    let p_number = |s: &str| -> Option<std::result::Result<ParamId, String>> {
+        let digits = s.strip_prefix('p').or_else(|| s.strip_prefix('P'))?;
+        let n: usize = digits.parse().ok()?;
+        Some(if n >= 1 && n <= all.len() {
+            Ok(ParamId(n - 1))
+        } else {
+            Err(format!("`{s}` is out of range: this robot has parameters p1..p{}", all.len()))
+        })
+    };
+    if let Some((a, b)) = token.split_once('-') {
+        if let (Some(a), Some(b)) = (p_number(a), p_number(b)) {
+            let (a, b) = (a?, b?);
+            if a > b {
+                return Err(format!("range `{token}` runs backwards"));
+            }
+            return Ok((a.0..=b.0).map(ParamId).collect());
+        }
+    }
+    if let Some(p) = p_number(token) {
+        return p.map(|p| vec![p]);
+    }
+    let bad_index = |what: &str, i: &str, max: usize| {
+        format!("`{token}`: {what} `{i}` does not exist (this robot has {what}s 1..{max})")
+    };
+    let unknown = || {
+        format!(
+            "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
+             link1.x, joint2.offset, joint2.slope or site.NAME.x, or one of all, links, offsets, \
+             slopes, sites)"
+        )
+    };
+    if let Some(rest) = token.strip_prefix("site.") {
+        let (name, comp) = match rest.rsplit_once('.') {
+            Some((n, c)) if LinkComponent::parse(c).is_some() => (n, Some(c)),
+            _ => (rest, None),
+        };
+        let site = robot
+            .site_index(name)
+            .ok_or_else(|| format!("`{token}`: the robot has no site named `{name}`"))?;
+        return Ok(match comp.and_then(LinkComponent::parse) {
+            Some(component) => vec![id(ParamKind::Site { site, component })],
+            None => LinkComponent::ALL.map(|component| id(ParamKind::Site { site, component })).to_vec(),
+        });
+    }
+    let (head, comp) = match token.split_once('.') {
+        Some((h, c)) => (h, Some(c)),
+        None => (token, None),
+    };
+    if let Some(num) = head.strip_prefix("link") {
+        let link = num.parse::<usize>().map_err(|_| unknown())?;
+        if link == 0 || link > nl {
+            return Err(bad_index("link", num, nl));
+        }
+        let link = link - 1;
+        return match comp {
+            None => Ok(LinkComponent::ALL.map(|component| id(ParamKind::Link { link, component })).to_vec()),
+            Some(c) => {
+                let component = LinkComponent::parse(c).ok_or_else(|| {
+                    format!("`{token}`: unknown link component `{c}` (expected x, y, z, alpha, beta or gamma)")
+                })?;
+                Ok(vec![id(ParamKind::Link { link, component })])
+            }
+        };
+    }
+    if let Some(num) = head.strip_prefix("joint") {
+        let joint = num.parse::<usize>().map_err(|_| unknown())?;
+        if joint == 0 || joint > nj {
+            return Err(bad_index("joint", num, nj));
+        }
+        let joint = joint - 1;
+        return match comp {
+            None => Ok(vec![id(ParamKind::Offset { joint }), id(ParamKind::Slope { joint })]),
+            Some("offset") => Ok(vec![id(ParamKind::Offset { joint })]),
+            Some("slope") => Ok(vec![id(ParamKind::Slope { joint })]),
+            Some(c) => Err(format!("`{token}`: unknown joint parameter `{c}` (expected offset or slope)")),
+        };
+    }
+    let _ = ns;
+    Err(unknown())
+}

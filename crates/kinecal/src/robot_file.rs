@@ -1,0 +1,296 @@
+//! The robot file: TOML in the user's units.
+//!
+//! ```toml
+//! name = "GE A4"
+//! length_unit = "in"      # "m", "mm" or "in"
+//! angle_unit = "deg"      # "deg" or "rad"
+//! [[links]]               # n+1 of them
+//! x = 15.08               # missing components are 0
+//! beta = 180.0
+//! [[joints]]              # n of them
+//! kind = "revolute"       # or "prismatic"
+//! offset = 90.0           # angle_unit (revolute) or length_unit (prismatic); default 0
+//! slope = 7.2             # per transducer unit; default 1
+//! min = -14.0             # optional reading range (both or neither)
+//! max = -6.0
+//! [[sites]]               # optional
+//! name = "elbow"
+//! joint = 2               # attached right after joint 2
+//! x = 0.0                 # y, z, alpha, beta, gamma as for links
+//! ```
+//!
+//! Writing goes through [`write_robot_toml`], which updates the numbers of an existing document
+//! and keeps everything else in it (comments, layout, keys kinecal does not know).
+
+use std::ops::Range;
+
+use toml_edit::{DocumentMut, Item, Table, Value};
+
+use crate::error::{Error, Location, Result};
+use crate::params::LinkComponent;
+use crate::robot::{Joint, JointKind, Link, Robot, Site};
+use crate::units::{AngleUnit, LengthUnit, Units};
+
+fn line_of(text: &str, span: Option<Range<usize>>) -> Option<usize> {
+    span.map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
+}
+
+struct Reader<'t> {
+    text: &'t str,
+    file: &'t str,
+}
+
+impl Reader<'_> {
+    fn err(&self, span: Option<Range<usize>>, field: &str, message: impl Into<String>) -> Error {
+        let mut at = Location::file(self.file).with_field(field);
+        at.line = line_of(self.text, span);
+        Error::input(at, message)
+    }
+
+    fn number(&self, table: &Table, key: &str, field: &str) -> Result<Option<f64>> {
+        let Some(item) = table.get(key) else { return Ok(None) };
+        let v = match item.as_value() {
+            Some(Value::Float(f)) => *f.value(),
+            Some(Value::Integer(i)) => *i.value() as f64,
+            _ => return Err(self.err(item.span(), field, "expected a number")),
+        };
+        if !v.is_finite() {
+            return Err(self.err(item.span(), field, format!("expected a finite number, found {v}")));
+        }
+        Ok(Some(v))
+    }
+
+    fn string<'a>(&self, table: &'a Table, key: &str, field: &str) -> Result<Option<&'a str>> {
+        let Some(item) = table.get(key) else { return Ok(None) };
+        item.as_str()
+            .map(Some)
+            .ok_or_else(|| self.err(item.span(), field, "expected a string"))
+    }
+
+    fn check_keys(&self, table: &Table, allowed: &[&str], what: &str) -> Result<()> {
+        for (key, item) in table.iter() {
+            if !allowed.contains(&key) {
+                return Err(self.err(
+                    item.span().or(table.span()),
+                    &format!("{what}.{key}"),
+                    format!("unknown key `{key}` (expected one of: {})", allowed.join(", ")),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn tables<'a>(&self, root: &'a Table, key: &str) -> Result<Vec<&'a Table>> {
+        match root.get(key) {
+            None => Ok(Vec::new()),
+            Some(Item::ArrayOfTables(a)) => Ok(a.iter().collect()),
+            Some(other) => Err(self.err(
+                other.span(),
+                key,
+                format!("expected an array of tables written as [[{key}]]"),
+            )),
+        }
+    }
+
+    fn link(&self, t: &Table, what: &str, units: &Units, extra: &[&str]) -> Result<Link> {
+        let mut allowed = vec!["x", "y", "z", "alpha", "beta", "gamma"];
+        allowed.extend_from_slice(extra);
+        self.check_keys(t, &allowed, what)?;
+        let mut link = Link::default();
+        for c in LinkComponent::ALL {
+            let field = format!("{what}.{}", c.as_str());
+            if let Some(v) = self.number(t, c.as_str(), &field)? {
+                *link.get_mut(c) = units.to_si(c.quantity(), v);
+            }
+        }
+        Ok(link)
+    }
+}
+
+/// Parses a robot file. `file` names it in error messages.
+pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
+    let r = Reader { text, file };
+    let doc = toml_edit::Document::parse(text).map_err(|e| {
+        let mut at = Location::file(file);
+        at.line = line_of(text, e.span());
+        Error::input(at, format!("invalid TOML: {}", e.message().trim()))
+    })?;
+    let root = doc.as_table();
+    let name = r.string(root, "name", "name")?.unwrap_or("").to_string();
+    let unit = |key: &str, expected: &str| -> Result<(&str, Option<Range<usize>>)> {
+        let s = r.string(root, key, key)?.ok_or_else(|| {
+            r.err(None, key, format!("missing `{key}` (expected {expected})"))
+        })?;
+        Ok((s, root.get(key).and_then(Item::span)))
+    };
+    let (ls, lspan) = unit("length_unit", "\"m\", \"mm\" or \"in\"")?;
+    let length: LengthUnit = ls.parse().map_err(|m: String| r.err(lspan, "length_unit", m))?;
+    let (as_, aspan) = unit("angle_unit", "\"deg\" or \"rad\"")?;
+    let angle: AngleUnit = as_.parse().map_err(|m: String| r.err(aspan, "angle_unit", m))?;
+    let units = Units { length, angle };
+
+    let links = r
+        .tables(root, "links")?
+        .iter()
+        .enumerate()
+        .map(|(i, t)| r.link(t, &format!("links[{i}]"), &units, &[]))
+        .collect::<Result<Vec<_>>>()?;
+
+    let mut joints = Vec::new();
+    for (i, t) in r.tables(root, "joints")?.into_iter().enumerate() {
+        let what = format!("joints[{i}]");
+        r.check_keys(t, &["kind", "offset", "slope", "min", "max"], &what)?;
+        let kind_field = format!("{what}.kind");
+        let kind = match r.string(t, "kind", &kind_field)? {
+            Some("revolute") => JointKind::Revolute,
+            Some("prismatic") => JointKind::Prismatic,
+            Some(other) => {
+                return Err(r.err(
+                    t.get("kind").and_then(Item::span),
+                    &kind_field,
+                    format!("unknown joint kind `{other}` (expected \"revolute\" or \"prismatic\")"),
+                ))
+            }
+            None => {
+                return Err(r.err(
+                    t.span(),
+                    &kind_field,
+                    "missing `kind` (expected \"revolute\" or \"prismatic\")",
+                ))
+            }
+        };
+        let offset = r.number(t, "offset", &format!("{what}.offset"))?.unwrap_or(0.0);
+        let slope = r.number(t, "slope", &format!("{what}.slope"))?.unwrap_or(1.0);
+        let min = r.number(t, "min", &format!("{what}.min"))?;
+        let max = r.number(t, "max", &format!("{what}.max"))?;
+        let range = match (min, max) {
+            (None, None) => None,
+            (Some(a), Some(b)) if a < b => Some((a, b)),
+            (Some(_), Some(_)) => {
+                return Err(r.err(t.get("min").and_then(Item::span), &format!("{what}.min"), "min must be below max"))
+            }
+            _ => {
+                return Err(r.err(t.span(), &what, "give both `min` and `max`, or neither"));
+            }
+        };
+        joints.push(Joint {
+            kind,
+            offset: units.to_si(kind.variable(), offset),
+            slope: units.to_si(kind.slope(), slope),
+            range,
+        });
+    }
+
+    let mut sites = Vec::new();
+    for (i, t) in r.tables(root, "sites")?.into_iter().enumerate() {
+        let what = format!("sites[{i}]");
+        let frame = r.link(t, &what, &units, &["name", "joint"])?;
+        let name_field = format!("{what}.name");
+        let name = r
+            .string(t, "name", &name_field)?
+            .ok_or_else(|| r.err(t.span(), &name_field, "missing `name`"))?
+            .to_string();
+        let joint_field = format!("{what}.joint");
+        let joint = match t.get("joint").and_then(Item::as_integer) {
+            Some(j) if j >= 1 => j as usize,
+            _ => {
+                return Err(r.err(
+                    t.get("joint").and_then(Item::span).or(t.span()),
+                    &joint_field,
+                    "expected `joint = K`, the number (1..n) of the joint the site follows",
+                ))
+            }
+        };
+        sites.push(Site { name, joint, frame });
+    }
+
+    let robot = Robot { name, units, links, joints, sites };
+    robot.validate().map_err(|m| Error::input(Location::file(file), m))?;
+    Ok(robot)
+}
+
+/// Rounds to 12 significant digits so written files do not show float noise.
+fn tidy(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return if v == 0.0 { 0.0 } else { v };
+    }
+    format!("{v:.11e}").parse().unwrap_or(v)
+}
+
+fn set_number(table: &mut Table, key: &str, v: f64) {
+    let mut new = Value::from(tidy(v));
+    if let Some(old) = table.get(key).and_then(Item::as_value) {
+        *new.decor_mut() = old.decor().clone();
+    }
+    table.insert(key, Item::Value(new));
+}
+
+fn set_string(table: &mut Table, key: &str, v: &str) {
+    let mut new = Value::from(v);
+    if let Some(old) = table.get(key).and_then(Item::as_value) {
+        if old.as_str() == Some(v) {
+            return;
+        }
+        *new.decor_mut() = old.decor().clone();
+    }
+    table.insert(key, Item::Value(new));
+}
+
+fn array_of_tables<'d>(root: &'d mut Table, key: &str, len: usize) -> &'d mut toml_edit::ArrayOfTables {
+    if !matches!(root.get(key), Some(Item::ArrayOfTables(_))) {
+        root.insert(key, Item::ArrayOfTables(Default::default()));
+    }
+    let arr = root.get_mut(key).and_then(Item::as_array_of_tables_mut).expect("just inserted");
+    while arr.len() < len {
+        arr.push(Table::new());
+    }
+    while arr.len() > len {
+        arr.remove(arr.len() - 1);
+    }
+    arr
+}
+
+fn write_link(t: &mut Table, l: &Link, units: &Units) {
+    for c in LinkComponent::ALL {
+        set_number(t, c.as_str(), units.from_si(c.quantity(), l.get(c)));
+    }
+}
+
+/// Writes `robot` as a robot file. With `original` (the text of the file the robot was read
+/// from), only the model's numbers and names change: comments, layout and any other keys are
+/// kept. Without it, a fresh file is written.
+pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
+    let mut doc: DocumentMut = original.and_then(|t| t.parse().ok()).unwrap_or_default();
+    let units = robot.units;
+    let root = doc.as_table_mut();
+    set_string(root, "name", &robot.name);
+    set_string(root, "length_unit", units.length.as_str());
+    set_string(root, "angle_unit", units.angle.as_str());
+    let links = array_of_tables(root, "links", robot.links.len());
+    for (t, l) in links.iter_mut().zip(&robot.links) {
+        write_link(t, l, &units);
+    }
+    let joints = array_of_tables(root, "joints", robot.joints.len());
+    for (t, j) in joints.iter_mut().zip(&robot.joints) {
+        set_string(t, "kind", j.kind.as_str());
+        set_number(t, "offset", units.from_si(j.kind.variable(), j.offset));
+        set_number(t, "slope", units.from_si(j.kind.slope(), j.slope));
+        if let Some((a, b)) = j.range {
+            set_number(t, "min", a);
+            set_number(t, "max", b);
+        }
+    }
+    if !robot.sites.is_empty() || root.contains_key("sites") {
+        let sites = array_of_tables(root, "sites", robot.sites.len());
+        for (t, s) in sites.iter_mut().zip(&robot.sites) {
+            set_string(t, "name", &s.name);
+            let mut joint = Value::from(s.joint as i64);
+            if let Some(old) = t.get("joint").and_then(Item::as_value) {
+                *joint.decor_mut() = old.decor().clone();
+            }
+            t.insert("joint", Item::Value(joint));
+            write_link(t, &s.frame, &units);
+        }
+    }
+    doc.to_string()
+}

@@ -1,0 +1,119 @@
+//! Synthesized data (thesis 4.3): postures, perturbed "true" robots, measurements and noise.
+//!
+//! Random streams are ChaCha8 seeded from the user's seed, so a seed gives the same data on every
+//! machine. Postures, perturbations and noise draw from separate streams: changing the noise
+//! level does not move the postures.
+
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+use crate::kinematics::{Chain, Target, Workspace};
+use crate::measurement::{Dataset, Measurement, Posture};
+use crate::params::ParamKind;
+use crate::robot::{JointKind, Robot};
+use crate::units::Quantity;
+
+fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(seed);
+    r.set_stream(stream);
+    r
+}
+
+/// The reading range used for a joint: its `min..max` from the robot file, otherwise the readings
+/// that move a revolute joint +-150 deg, or a prismatic joint +-0.1 m, about its offset.
+pub fn reading_range(robot: &Robot, joint: usize) -> (f64, f64) {
+    let j = &robot.joints[joint];
+    if let Some(r) = j.range {
+        return r;
+    }
+    let span = match j.kind {
+        JointKind::Revolute => 150f64.to_radians(),
+        JointKind::Prismatic => 0.1,
+    };
+    let half = if j.slope != 0.0 { span / j.slope.abs() } else { 1.0 };
+    (-half, half)
+}
+
+/// `count` postures with readings drawn uniformly in each joint's [`reading_range`], labelled
+/// `1..count`.
+pub fn sample_postures(robot: &Robot, count: usize, seed: u64) -> Vec<Posture> {
+    let mut r = rng(seed, 1);
+    let ranges: Vec<(f64, f64)> = (0..robot.dof()).map(|j| reading_range(robot, j)).collect();
+    (1..=count)
+        .map(|i| Posture {
+            label: i.to_string(),
+            readings: ranges.iter().map(|&(a, b)| r.random_range(a..=b)).collect(),
+        })
+        .collect()
+}
+
+/// Standard deviations of a random perturbation (internal units).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PerturbStd {
+    /// Lengths (link and site x, y, z; prismatic offsets), m.
+    pub length: f64,
+    /// Angles (link and site Euler angles; revolute offsets), rad.
+    pub angle: f64,
+    /// Slopes, as a fraction of their value.
+    pub slope_fraction: f64,
+}
+
+/// Adds independent Gaussian perturbations to every parameter of `robot`.
+pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
+    let mut r = rng(seed, 2);
+    let mut out = robot.clone();
+    let unit = Normal::new(0.0, 1.0).expect("valid normal");
+    for id in robot.param_ids() {
+        let v = robot.get(id);
+        let s = match (robot.param_kind(id), robot.param_quantity(id)) {
+            (ParamKind::Slope { .. }, _) => std.slope_fraction * v.abs(),
+            (_, Quantity::Length) => std.length,
+            (_, _) => std.angle,
+        };
+        let z: f64 = unit.sample(&mut r);
+        out.set(id, v + s * z);
+    }
+    out
+}
+
+/// The noise-free measurements `robot` gives at `postures`: the end effector and every site,
+/// full poses, or positions only when `position_only`.
+pub fn measure(robot: &Robot, postures: &[Posture], position_only: bool) -> Dataset {
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    let targets: Vec<Target> = std::iter::once(Target::EndEffector)
+        .chain((0..robot.sites.len()).map(Target::Site))
+        .collect();
+    let mut measurements = Vec::with_capacity(postures.len() * targets.len());
+    for (i, p) in postures.iter().enumerate() {
+        chain.forward(&p.readings, &mut ws);
+        for &t in &targets {
+            let pose = chain.target_frame(&ws, t).pose();
+            measurements.push(Measurement {
+                posture: i,
+                target: t,
+                position: pose.position,
+                orientation: (!position_only).then_some(pose.euler),
+                line: 0,
+            });
+        }
+    }
+    Dataset::new(postures.to_vec(), measurements)
+}
+
+/// Adds Gaussian noise to every measured coordinate (`length`, m) and Euler angle (`angle`, rad).
+pub fn add_noise(data: &mut Dataset, length: f64, angle: f64, seed: u64) {
+    let mut r = rng(seed, 3);
+    let unit = Normal::new(0.0, 1.0).expect("valid normal");
+    let mut draw = |s: f64| -> Vector3<f64> {
+        Vector3::new(unit.sample(&mut r), unit.sample(&mut r), unit.sample(&mut r)) * s
+    };
+    for m in &mut data.measurements {
+        m.position += draw(length);
+        if let Some(e) = m.orientation.as_mut() {
+            *e += draw(angle);
+        }
+    }
+}
