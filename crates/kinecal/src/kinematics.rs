@@ -310,8 +310,24 @@ pub fn block_column(block: &[f64], id: ParamId) -> &[f64] {
 }
 
 /// The rotation vector (axis times angle, rad) of a rotation matrix, angle in `[0, pi]`.
+///
+/// Accurate for small angles (computed from the skew-symmetric part, not from `acos` of the
+/// trace, which loses half the digits near the identity).
 pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
-    nalgebra::Rotation3::from_matrix_unchecked(*r).scaled_axis()
+    let s = 0.5 * Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]);
+    let c = 0.5 * (r.trace() - 1.0);
+    let sn = s.norm();
+    let theta = sn.atan2(c);
+    if theta < 3.0 {
+        if sn < 1e-300 {
+            return Vector3::zeros();
+        }
+        // theta / sin(theta), with its series near 0.
+        let k = if theta < 1e-4 { 1.0 + theta * theta / 6.0 } else { theta / sn };
+        s * k
+    } else {
+        nalgebra::Rotation3::from_matrix_unchecked(*r).scaled_axis()
+    }
 }
 
 /// Inverse of the right Jacobian of SO(3) at `phi`: maps a body-frame angular velocity to the

@@ -117,3 +117,42 @@ pub fn add_noise(data: &mut Dataset, length: f64, angle: f64, seed: u64) {
         }
     }
 }
+
+/// A random robot with the given joint kinds (metres and radians): link offsets up to 0.4 m per
+/// axis, Euler angles anywhere (beta within +-70 deg), offsets anywhere, slopes of either sign
+/// between 0.5 and 2. For tests and benchmarks of arbitrary geometry.
+pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
+    use crate::robot::{Joint, Link};
+    let mut r = rng(seed, 4);
+    let link = |r: &mut ChaCha8Rng| Link {
+        x: r.random_range(-0.4..0.4),
+        y: r.random_range(-0.4..0.4),
+        z: r.random_range(-0.4..0.4),
+        alpha: r.random_range(-3.1..3.1),
+        beta: r.random_range(-1.2..1.2),
+        gamma: r.random_range(-3.1..3.1),
+    };
+    let links = (0..=kinds.len()).map(|_| link(&mut r)).collect();
+    let joints = kinds
+        .iter()
+        .map(|&kind| {
+            let sign = if r.random_range(0.0..1.0) < 0.5 { -1.0 } else { 1.0 };
+            Joint {
+                kind,
+                offset: match kind {
+                    JointKind::Revolute => r.random_range(-3.1..3.1),
+                    JointKind::Prismatic => r.random_range(-0.2..0.2),
+                },
+                slope: sign * r.random_range(0.5..2.0),
+                range: None,
+            }
+        })
+        .collect();
+    Robot {
+        name: format!("random-{seed}"),
+        units: crate::units::Units::default(),
+        links,
+        joints,
+        sites: Vec::new(),
+    }
+}
