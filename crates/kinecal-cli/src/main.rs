@@ -1,1 +1,256 @@
-fn main() {}
+//! The `kinecal` command: a thin layer over the `kinecal` library.
+
+mod args;
+mod demo;
+mod report;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Parser;
+
+use args::{CalibrateArgs, Cli, Command, DampingArg, FkArgs, MethodArg, OrientationArg, SimulateArgs};
+use kinecal::estimation::{self, CalibrationOptions, Damping, Method, OrientationError, SolverOptions, Weights};
+use kinecal::measurement_file::{parse_measurements, parse_postures, write_measurements};
+use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
+use kinecal::simulate::{self, PerturbStd};
+use kinecal::units::Quantity;
+use kinecal::{examples, parse_param_list, Robot};
+
+/// Exit code for errors in the input (files, parameter lists, unsolvable problems).
+const EXIT_INPUT: u8 = 1;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo => demo::run(),
+        Command::Fk(a) => fk(a),
+        Command::Simulate(a) => simulate(a),
+        Command::Calibrate(a) => calibrate(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(EXIT_INPUT)
+        }
+    }
+}
+
+/// A robot as loaded: the model, the text it came from, and how to name it.
+struct LoadedRobot {
+    robot: Robot,
+    text: String,
+}
+
+fn read_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
+}
+
+fn load_robot(spec: &str) -> Result<LoadedRobot> {
+    let path = Path::new(spec);
+    let (text, name) = if path.exists() {
+        (read_text(path)?, spec.to_string())
+    } else if let Some(text) = examples::builtin(spec) {
+        (text.to_string(), format!("<built-in {spec}>"))
+    } else {
+        bail!(
+            "{spec}: no such robot file, and not a built-in robot (built-in: {})",
+            examples::BUILTIN_NAMES.join(", ")
+        );
+    };
+    let robot = parse_robot_toml(&text, &name)?;
+    Ok(LoadedRobot { robot, text })
+}
+
+/// Writes `contents` to `path` atomically: a temporary file in the same directory, then a rename,
+/// so an interrupted run never leaves a half-written file in place of a good one.
+fn write_file(path: &Path, contents: &str) -> Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().ok_or_else(|| anyhow!("{}: not a file path", path.display()))?;
+    let tmp: PathBuf = dir.join(format!(".{}.kinecal-tmp", name.to_string_lossy()));
+    std::fs::write(&tmp, contents).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("cannot write {}", path.display())
+    })
+}
+
+/// Parses `key=value,...` with numbers, allowing only `keys`.
+fn parse_spec(option: &str, spec: &str, keys: &[&str]) -> Result<Vec<(String, f64)>> {
+    let mut out = Vec::new();
+    for part in spec.split(',').map(str::trim) {
+        let (k, v) = part.split_once('=').ok_or_else(|| {
+            anyhow!("{option} `{spec}`: expected key=value pairs ({})", keys.iter().map(|k| format!("{k}=...")).collect::<Vec<_>>().join(","))
+        })?;
+        let k = k.trim();
+        if !keys.contains(&k) {
+            bail!("{option} `{spec}`: unknown key `{k}` (expected {})", keys.join(", "));
+        }
+        let v: f64 = v.trim().parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| {
+            anyhow!("{option} `{spec}`: `{}` is not a finite number", v.trim())
+        })?;
+        if v < 0.0 {
+            bail!("{option} `{spec}`: `{k}` must not be negative");
+        }
+        out.push((k.to_string(), v));
+    }
+    Ok(out)
+}
+
+fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
+    spec.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
+}
+
+fn fk(a: FkArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let file = a.postures.display().to_string();
+    let postures = parse_postures(&read_text(&a.postures)?, &file, &r.robot)?;
+    let data = simulate::measure(&r.robot, &postures, false);
+    let csv = write_measurements(&r.robot, &data);
+    match a.out {
+        Some(path) => {
+            write_file(&path, &csv)?;
+            eprintln!("wrote {} poses to {}", data.measurements.len(), path.display());
+        }
+        None => print!("{csv}"),
+    }
+    Ok(())
+}
+
+fn simulate(a: SimulateArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let nominal = &r.robot;
+    if a.postures == 0 {
+        bail!("--postures must be at least 1");
+    }
+    let units = nominal.units;
+    let mut truth = nominal.clone();
+    if let Some(spec) = &a.perturb_std {
+        let s = parse_spec("--perturb-std", spec, &["length", "angle", "slope"])?;
+        let std = PerturbStd {
+            length: units.to_si(Quantity::Length, spec_value(&s, "length").unwrap_or(0.0)),
+            angle: units.to_si(Quantity::Angle, spec_value(&s, "angle").unwrap_or(0.0)),
+            slope_fraction: spec_value(&s, "slope").unwrap_or(0.0),
+        };
+        truth = simulate::perturb(&truth, std, a.seed);
+    }
+    if let Some(list) = &a.perturb {
+        for part in list.split(',').map(str::trim) {
+            let (name, delta) = part
+                .split_once('=')
+                .ok_or_else(|| anyhow!("--perturb `{part}`: expected NAME=DELTA, e.g. p3=+0.1"))?;
+            let delta: f64 = delta
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| anyhow!("--perturb `{part}`: `{}` is not a finite number", delta.trim()))?;
+            for id in parse_param_list(name.trim(), nominal)? {
+                let q = nominal.param_quantity(id);
+                truth.set(id, truth.get(id) + units.to_si(q, delta));
+            }
+        }
+    }
+    let postures = simulate::sample_postures(nominal, a.postures, a.seed);
+    let mut data = simulate::measure(&truth, &postures, a.position_only);
+    if let Some(spec) = &a.noise {
+        let s = parse_spec("--noise", spec, &["length", "angle"])?;
+        let l = units.to_si(Quantity::Length, spec_value(&s, "length").unwrap_or(0.0));
+        let an = units.to_si(Quantity::Angle, spec_value(&s, "angle").unwrap_or(0.0));
+        simulate::add_noise(&mut data, l, an, a.seed);
+    }
+    write_file(&a.out, &write_measurements(nominal, &data))?;
+    eprintln!(
+        "wrote {} measurements ({} postures) to {}",
+        data.measurements.len(),
+        postures.len(),
+        a.out.display()
+    );
+    if let Some(path) = &a.truth {
+        write_file(path, &write_robot_toml(&truth, Some(&r.text)))?;
+        eprintln!("wrote the true robot to {}", path.display());
+    }
+    Ok(())
+}
+
+fn calibrate(a: CalibrateArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let robot = &r.robot;
+    let file = a.data.display().to_string();
+    let data = parse_measurements(&read_text(&a.data)?, &file, robot)?;
+    let mut estimate = parse_param_list(&a.estimate, robot)?;
+    if let Some(fix) = &a.fix {
+        let fixed = parse_param_list(fix, robot)?;
+        estimate.retain(|id| !fixed.contains(id));
+    }
+    let method = match a.method {
+        MethodArg::Lm => Method::LevenbergMarquardt,
+        MethodArg::Gn => Method::GaussNewton,
+        MethodArg::Sd => Method::SteepestDescent,
+        MethodArg::Svd => Method::Svd,
+    };
+    let mut solver = SolverOptions::new(method);
+    if let Some(n) = a.max_iter {
+        solver.max_iterations = n;
+    }
+    solver.damping = match a.damping {
+        DampingArg::Marquardt => Damping::Marquardt,
+        DampingArg::Identity => Damping::Identity,
+    };
+    if !(a.rcond > 0.0 && a.rcond < 1.0) {
+        bail!("--rcond must be between 0 and 1, got {}", a.rcond);
+    }
+    solver.rcond = a.rcond;
+    let mut weights = Weights::default();
+    if let Some(spec) = &a.weights {
+        let s = parse_spec("--weights", spec, &["length", "angle"])?;
+        if let Some(l) = spec_value(&s, "length") {
+            weights.length = robot.units.to_si(Quantity::Length, l);
+        }
+        if let Some(an) = spec_value(&s, "angle") {
+            weights.angle = robot.units.to_si(Quantity::Angle, an);
+        }
+        if weights.length <= 0.0 || weights.angle <= 0.0 {
+            bail!("--weights: standard deviations must be positive");
+        }
+    }
+    let opts = CalibrationOptions {
+        estimate,
+        solver,
+        weights,
+        orientation: match a.orientation_error {
+            OrientationArg::Euler => OrientationError::Euler,
+            OrientationArg::Rotvec => OrientationError::RotVec,
+        },
+    };
+    if a.verbose {
+        eprintln!("{:>5} {:>14} {:>11} {:>10} {:>5}", "iter", "objective", "step", "lambda/t", "evals");
+    }
+    let cal = estimation::calibrate(robot, &data, &opts, &mut |it| {
+        if a.verbose {
+            eprintln!(
+                "{:>5} {:>14.6e} {:>11.3e} {:>10.1e} {:>5}",
+                it.iteration, it.objective, it.step, it.lambda, it.evaluations
+            );
+        }
+    })?;
+    let rep = kinecal::report::CalibrationReport::new(&cal, data.postures.len(), data.measurements.len(), data.rows());
+    print!("{}", report::summary(&rep));
+    for w in &rep.warnings {
+        eprintln!("warning: {w}");
+    }
+    if !rep.converged {
+        eprintln!("warning: the solver stopped at the iteration cap before converging (--max-iter)");
+    }
+    if let Some(path) = &a.out {
+        write_file(path, &write_robot_toml(&cal.calibrated, Some(&r.text)))?;
+        eprintln!("wrote the calibrated robot to {}", path.display());
+    }
+    if let Some(path) = &a.report {
+        write_file(path, &(rep.to_json() + "\n"))?;
+        eprintln!("wrote the report to {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,180 @@
+//! Command-line arguments.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Robot kinematic calibration (Goswami 1988 model: 6 parameters per link, 2 per joint).
+#[derive(Debug, Parser)]
+#[command(name = "kinecal", version, about, long_about = None, after_help = "\
+Examples:
+  kinecal demo
+  kinecal fk --robot ge-a4 --postures postures.csv
+  kinecal simulate --robot ge-a4 --postures 30 --seed 1 --perturb p1=+0.1 --out data.csv
+  kinecal calibrate --robot ge-a4 --data data.csv --out calibrated.toml --report report.json
+
+A robot is a TOML file, or the name of a built-in robot (ge-a4).")]
+pub struct Cli {
+    /// The command.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// kinecal's commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the thesis's experiment (section 4.3) on the built-in GE A4.
+    #[command(after_help = "Example:\n  kinecal demo")]
+    Demo,
+    /// Forward kinematics: the pose of the end effector (and every site) at each posture.
+    #[command(after_help = "\
+Example:
+  kinecal fk --robot ge-a4 --postures postures.csv --out poses.csv
+
+The postures file is CSV with the header posture,v1,...,vn (one transducer reading per joint).
+The output is in the measurement format, in the robot file's units.")]
+    Fk(FkArgs),
+    /// Synthesize measurements from a perturbed ("true") copy of a robot.
+    #[command(after_help = "\
+Example:
+  kinecal simulate --robot ge-a4 --postures 30 --seed 7 \\
+      --perturb p3=+0.1,joint2.offset=-0.5 --noise length=0.001,angle=0.01 \\
+      --out data.csv --truth truth.toml
+
+Readings are drawn uniformly in each joint's min..max (otherwise +-150 deg or +-0.1 m about the
+offset). Perturbations are additive changes in the robot file's units.")]
+    Simulate(SimulateArgs),
+    /// Estimate kinematic parameters from measured poses or positions.
+    #[command(after_help = "\
+Example:
+  kinecal calibrate --robot ge-a4 --data data.csv --estimate all --fix slopes \\
+      --out calibrated.toml --report report.json
+
+Parameter lists take ids (p3), ranges (p1-p30), names (link1.x, joint2.offset, joint4.slope,
+site.NAME.x), whole links or joints (link2, joint3) and the groups all, links, offsets, slopes,
+sites, separated by commas.")]
+    Calibrate(CalibrateArgs),
+}
+
+/// `kinecal fk`.
+#[derive(Debug, Args)]
+pub struct FkArgs {
+    /// Robot file (TOML) or built-in robot name.
+    #[arg(long)]
+    pub robot: String,
+    /// Postures file: CSV `posture,v1,...,vn` (a measurement file also works).
+    #[arg(long)]
+    pub postures: PathBuf,
+    /// Write the poses here instead of standard output.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `kinecal simulate`.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Nominal robot file (TOML) or built-in robot name.
+    #[arg(long)]
+    pub robot: String,
+    /// Number of postures to draw.
+    #[arg(long, value_name = "N")]
+    pub postures: usize,
+    /// Random seed (the same seed gives the same data on every machine).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Additive changes to named parameters, e.g. `p3=+0.1,joint2.offset=-0.5` (file units).
+    #[arg(long, value_name = "LIST")]
+    pub perturb: Option<String>,
+    /// Random Gaussian changes to every parameter: `length=L,angle=A[,slope=F]` (file units; F a
+    /// fraction of each slope).
+    #[arg(long, value_name = "SPEC")]
+    pub perturb_std: Option<String>,
+    /// Gaussian measurement noise: `length=L,angle=A` (file units).
+    #[arg(long, value_name = "SPEC")]
+    pub noise: Option<String>,
+    /// Measure positions only (a laser tracker with one reflector).
+    #[arg(long)]
+    pub position_only: bool,
+    /// Measurement file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write the perturbed ("true") robot file here.
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+}
+
+/// Least-squares method.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum MethodArg {
+    /// Levenberg-Marquardt (thesis 3.3.4).
+    Lm,
+    /// Gauss-Newton (3.3.2); refuses singular systems.
+    Gn,
+    /// Steepest descent with a line search (3.3.1).
+    Sd,
+    /// Truncated SVD pseudo-inverse steps (3.4).
+    Svd,
+}
+
+/// Orientation residual.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum OrientationArg {
+    /// Differences of ZYX Euler angles, wrapped to (-180, 180] deg (thesis eq. 3.1).
+    Euler,
+    /// Rotation vector of R_measured^T R_model (well defined at gimbal lock).
+    Rotvec,
+}
+
+/// Levenberg-Marquardt damping.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum DampingArg {
+    /// Marquardt's diagonal scaling (eq. 3.15).
+    Marquardt,
+    /// Plain lambda I in internal units (eq. 3.14).
+    Identity,
+}
+
+/// `kinecal calibrate`.
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// Nominal robot file (TOML) or built-in robot name: the model and the starting point.
+    #[arg(long)]
+    pub robot: String,
+    /// Measurement file: CSV `posture,site,v1,...,vn,x,y,z,alpha,beta,gamma`.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Least-squares method.
+    #[arg(long, value_enum, default_value = "lm")]
+    pub method: MethodArg,
+    /// Parameters to estimate.
+    #[arg(long, value_name = "LIST", default_value = "all")]
+    pub estimate: String,
+    /// Parameters to hold at their nominal values (removed from --estimate).
+    #[arg(long, value_name = "LIST")]
+    pub fix: Option<String>,
+    /// Iteration cap (default 100; 5000 for sd).
+    #[arg(long, value_name = "N")]
+    pub max_iter: Option<usize>,
+    /// Orientation residual.
+    #[arg(long, value_enum, default_value = "euler")]
+    pub orientation_error: OrientationArg,
+    /// Levenberg-Marquardt damping.
+    #[arg(long, value_enum, default_value = "marquardt")]
+    pub damping: DampingArg,
+    /// Relative singular-value threshold for svd (dropped) and gn (refused).
+    #[arg(long, value_name = "X", default_value_t = kinecal::estimation::DEFAULT_RCOND)]
+    pub rcond: f64,
+    /// Measurement standard deviations weighting the residuals: `length=L,angle=A` (file units;
+    /// default 1 mm and 1 mrad).
+    #[arg(long, value_name = "SPEC")]
+    pub weights: Option<String>,
+    /// Write the calibrated robot file here (same schema, other fields and comments kept).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write a JSON report here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Print one line per iteration (to standard error).
+    #[arg(long, short)]
+    pub verbose: bool,
+}
