@@ -38,7 +38,10 @@ fn row(r: &Robot, truth: &Robot, start: &Robot, cal: &Robot, p: usize) -> String
 /// Runs the demo, printing to standard output.
 pub fn run() -> Result<()> {
     let nominal = examples::ge_a4();
-    println!("kinecal demo: Goswami (1988), section 4.3, on the GE A4 (RRPR, {} parameters)", nominal.param_count());
+    println!(
+        "kinecal demo: Goswami (1988), section 4.3, on the GE A4 (RRPR, {} parameters)",
+        nominal.param_count()
+    );
     println!();
     let postures = simulate::sample_postures(&nominal, 30, 1988);
 
@@ -52,15 +55,30 @@ pub fn run() -> Result<()> {
         start.set(id, start.units.to_si(start.param_quantity(id), v));
     }
     let t0 = Instant::now();
-    let cal = calibrate(&start, &data, &CalibrationOptions::new(ids.clone()), &mut |_| {})?;
+    let cal = calibrate(
+        &start,
+        &data,
+        &CalibrationOptions::new(ids.clone()),
+        &mut |_| {},
+    )?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
-    println!("1. Table 4.8, run 1. Data: 30 postures synthesized from the design values (Table 4.1).");
-    println!("   Start p1, p3, p9, p10, p15, p21, p27, p33 at the thesis's guesses; estimate them by");
+    println!(
+        "1. Table 4.8, run 1. Data: 30 postures synthesized from the design values (Table 4.1)."
+    );
+    println!(
+        "   Start p1, p3, p9, p10, p15, p21, p27, p33 at the thesis's guesses; estimate them by"
+    );
     println!("   Levenberg-Marquardt.");
     println!();
-    println!("  {:<4} {:<13} {:<8} {:>10} {:>10} {:>10}", "id", "name", "unit", "true", "start", "estimated");
+    println!(
+        "  {:<4} {:<13} {:<8} {:>10} {:>10} {:>10}",
+        "id", "name", "unit", "true", "start", "estimated"
+    );
     for &id in &ids {
-        println!("{}", row(&nominal, &truth, &start, &cal.calibrated, id.0 + 1));
+        println!(
+            "{}",
+            row(&nominal, &truth, &start, &cal.calibrated, id.0 + 1)
+        );
     }
     println!();
     println!(
@@ -73,28 +91,56 @@ pub fn run() -> Result<()> {
         eq_4_1(&start),
         eq_4_1(&cal.calibrated)
     );
-    println!("   The four joint axes are parallel, so these z lengths and the prismatic offset move the");
-    println!("   end effector identically: the data fixes only their algebraic sum, not each one. (The");
-    println!("   estimates above are the ones the thesis prints for this run: 10.09, -0.49, 0.71, 0.91,");
+    println!(
+        "   The four joint axes are parallel, so these z lengths and the prismatic offset move the"
+    );
+    println!(
+        "   end effector identically: the data fixes only their algebraic sum, not each one. (The"
+    );
+    println!(
+        "   estimates above are the ones the thesis prints for this run: 10.09, -0.49, 0.71, 0.91,"
+    );
     println!("   2.91, 0.26.)");
     println!();
 
     // Part 2: a physical change, all 38 parameters estimated.
     let mut truth = nominal.clone();
-    let changes = [(1, 0.05), (8, -0.03), (14, 0.04), (26, 0.02), (15, 0.1), (31, 0.5), (35, 0.01), (38, -0.02)];
+    let changes = [
+        (1, 0.05),
+        (8, -0.03),
+        (14, 0.04),
+        (26, 0.02),
+        (15, 0.1),
+        (31, 0.5),
+        (35, 0.01),
+        (38, -0.02),
+    ];
     for (p, d) in changes {
         let id = ParamId(p - 1);
-        truth.set(id, truth.get(id) + nominal.units.to_si(nominal.param_quantity(id), d));
+        truth.set(
+            id,
+            truth.get(id) + nominal.units.to_si(nominal.param_quantity(id), d),
+        );
     }
     let data = simulate::measure(&truth, &postures, false);
     let all: Vec<ParamId> = nominal.param_ids().collect();
     let t0 = Instant::now();
-    let cal = calibrate(&nominal, &data, &CalibrationOptions::new(all.clone()), &mut |_| {})?;
+    let cal = calibrate(
+        &nominal,
+        &data,
+        &CalibrationOptions::new(all.clone()),
+        &mut |_| {},
+    )?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
-    println!("2. The robot changes (p1, p8, p14, p26, p15, p31, p35, p38 perturbed); all 38 parameters");
+    println!(
+        "2. The robot changes (p1, p8, p14, p26, p15, p31, p35, p38 perturbed); all 38 parameters"
+    );
     println!("   are estimated from the nominal values.");
     println!();
-    println!("  {:<4} {:<13} {:<8} {:>10} {:>10} {:>10}", "id", "name", "unit", "true", "nominal", "estimated");
+    println!(
+        "  {:<4} {:<13} {:<8} {:>10} {:>10} {:>10}",
+        "id", "name", "unit", "true", "nominal", "estimated"
+    );
     for (p, _) in changes {
         println!("{}", row(&nominal, &truth, &nominal, &cal.calibrated, p));
     }

@@ -10,8 +10,12 @@ use std::process::ExitCode;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
 
-use args::{CalibrateArgs, Cli, Command, DampingArg, FkArgs, MethodArg, OrientationArg, SimulateArgs};
-use kinecal::estimation::{self, CalibrationOptions, Damping, Method, OrientationError, SolverOptions, Weights};
+use args::{
+    CalibrateArgs, Cli, Command, DampingArg, FkArgs, MethodArg, OrientationArg, SimulateArgs,
+};
+use kinecal::estimation::{
+    self, CalibrationOptions, Damping, Method, OrientationError, SolverOptions, Weights,
+};
 use kinecal::measurement_file::{parse_measurements, parse_postures, write_measurements};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::simulate::{self, PerturbStd};
@@ -67,8 +71,13 @@ fn load_robot(spec: &str) -> Result<LoadedRobot> {
 /// Writes `contents` to `path` atomically: a temporary file in the same directory, then a rename,
 /// so an interrupted run never leaves a half-written file in place of a good one.
 fn write_file(path: &Path, contents: &str) -> Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| anyhow!("{}: not a file path", path.display()))?;
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .ok_or_else(|| anyhow!("{}: not a file path", path.display()))?;
     let tmp: PathBuf = dir.join(format!(".{}.kinecal-tmp", name.to_string_lossy()));
     std::fs::write(&tmp, contents).with_context(|| format!("cannot write {}", tmp.display()))?;
     std::fs::rename(&tmp, path).with_context(|| {
@@ -82,15 +91,27 @@ fn parse_spec(option: &str, spec: &str, keys: &[&str]) -> Result<Vec<(String, f6
     let mut out = Vec::new();
     for part in spec.split(',').map(str::trim) {
         let (k, v) = part.split_once('=').ok_or_else(|| {
-            anyhow!("{option} `{spec}`: expected key=value pairs ({})", keys.iter().map(|k| format!("{k}=...")).collect::<Vec<_>>().join(","))
+            anyhow!(
+                "{option} `{spec}`: expected key=value pairs ({})",
+                keys.iter()
+                    .map(|k| format!("{k}=..."))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
         })?;
         let k = k.trim();
         if !keys.contains(&k) {
-            bail!("{option} `{spec}`: unknown key `{k}` (expected {})", keys.join(", "));
+            bail!(
+                "{option} `{spec}`: unknown key `{k}` (expected {})",
+                keys.join(", ")
+            );
         }
-        let v: f64 = v.trim().parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| {
-            anyhow!("{option} `{spec}`: `{}` is not a finite number", v.trim())
-        })?;
+        let v: f64 = v
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| anyhow!("{option} `{spec}`: `{}` is not a finite number", v.trim()))?;
         if v < 0.0 {
             bail!("{option} `{spec}`: `{k}` must not be negative");
         }
@@ -112,7 +133,11 @@ fn fk(a: FkArgs) -> Result<()> {
     match a.out {
         Some(path) => {
             write_file(&path, &csv)?;
-            eprintln!("wrote {} poses to {}", data.measurements.len(), path.display());
+            eprintln!(
+                "wrote {} poses to {}",
+                data.measurements.len(),
+                path.display()
+            );
         }
         None => print!("{csv}"),
     }
@@ -146,7 +171,12 @@ fn simulate(a: SimulateArgs) -> Result<()> {
                 .parse()
                 .ok()
                 .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| anyhow!("--perturb `{part}`: `{}` is not a finite number", delta.trim()))?;
+                .ok_or_else(|| {
+                    anyhow!(
+                        "--perturb `{part}`: `{}` is not a finite number",
+                        delta.trim()
+                    )
+                })?;
             for id in parse_param_list(name.trim(), nominal)? {
                 let q = nominal.param_quantity(id);
                 truth.set(id, truth.get(id) + units.to_si(q, delta));
@@ -226,7 +256,10 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         },
     };
     if a.verbose {
-        eprintln!("{:>5} {:>14} {:>11} {:>10} {:>5}", "iter", "objective", "step", "lambda/t", "evals");
+        eprintln!(
+            "{:>5} {:>14} {:>11} {:>10} {:>5}",
+            "iter", "objective", "step", "lambda/t", "evals"
+        );
     }
     let cal = estimation::calibrate(robot, &data, &opts, &mut |it| {
         if a.verbose {
@@ -236,13 +269,20 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
             );
         }
     })?;
-    let rep = kinecal::report::CalibrationReport::new(&cal, data.postures.len(), data.measurements.len(), data.rows());
+    let rep = kinecal::report::CalibrationReport::new(
+        &cal,
+        data.postures.len(),
+        data.measurements.len(),
+        data.rows(),
+    );
     print!("{}", report::summary(&rep));
     for w in &rep.warnings {
         eprintln!("warning: {w}");
     }
     if !rep.converged {
-        eprintln!("warning: the solver stopped at the iteration cap before converging (--max-iter)");
+        eprintln!(
+            "warning: the solver stopped at the iteration cap before converging (--max-iter)"
+        );
     }
     if let Some(path) = &a.out {
         write_file(path, &write_robot_toml(&cal.calibrated, Some(&r.text)))?;

@@ -10,14 +10,23 @@ fn kinecal() -> Command {
 
 fn run_ok(dir: &Path, args: &[&str]) -> String {
     let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8(out.stdout).unwrap()
 }
 
 /// Runs a command expected to fail with exit code 1; returns its standard error.
 fn run_err(dir: &Path, args: &[&str]) -> String {
     let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {}", String::from_utf8_lossy(&out.stdout));
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stdout)
+    );
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(!err.contains("panicked"), "{err}");
     err
@@ -42,14 +51,35 @@ fn every_command_has_help_with_an_example() {
 #[test]
 fn fk_reproduces_table_4_2_posture_4() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("p.csv"), "posture,v1,v2,v3,v4\n4,-6.883,13.301,4.122,-28.645\n").unwrap();
-    let out = run_ok(dir.path(), &["fk", "--robot", "ge-a4", "--postures", "p.csv"]);
+    std::fs::write(
+        dir.path().join("p.csv"),
+        "posture,v1,v2,v3,v4\n4,-6.883,13.301,4.122,-28.645\n",
+    )
+    .unwrap();
+    let out = run_ok(
+        dir.path(),
+        &["fk", "--robot", "ge-a4", "--postures", "p.csv"],
+    );
     let mut lines = out.lines();
-    assert_eq!(lines.next(), Some("posture,site,v1,v2,v3,v4,x,y,z,alpha,beta,gamma"));
-    let f: Vec<f64> = lines.next().unwrap().split(',').skip(2).map(|v| v.parse().unwrap()).collect();
+    assert_eq!(
+        lines.next(),
+        Some("posture,site,v1,v2,v3,v4,x,y,z,alpha,beta,gamma")
+    );
+    let f: Vec<f64> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .skip(2)
+        .map(|v| v.parse().unwrap())
+        .collect();
     let printed = [28.576, 13.995, 0.020, 47.600, 0.000, -90.000];
     for k in 0..6 {
-        assert!((f[4 + k] - printed[k]).abs() < 0.01, "{k}: {} vs {}", f[4 + k], printed[k]);
+        assert!(
+            (f[4 + k] - printed[k]).abs() < 0.01,
+            "{k}: {} vs {}",
+            f[4 + k],
+            printed[k]
+        );
     }
 }
 
@@ -57,26 +87,62 @@ fn fk_reproduces_table_4_2_posture_4() {
 fn simulate_then_calibrate_recovers_the_truth_and_keeps_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::copy(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/robots/ge_a4.toml"), d.join("a4.toml")).unwrap();
+    std::fs::copy(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/robots/ge_a4.toml"
+        ),
+        d.join("a4.toml"),
+    )
+    .unwrap();
     run_ok(
         d,
         &[
-            "simulate", "--robot", "a4.toml", "--postures", "30", "--seed", "3", "--perturb",
-            "p1=+0.2,joint2.offset=-0.5,p38=+0.05", "--out", "data.csv", "--truth", "truth.toml",
+            "simulate",
+            "--robot",
+            "a4.toml",
+            "--postures",
+            "30",
+            "--seed",
+            "3",
+            "--perturb",
+            "p1=+0.2,joint2.offset=-0.5,p38=+0.05",
+            "--out",
+            "data.csv",
+            "--truth",
+            "truth.toml",
         ],
     );
     let out = run_ok(
         d,
         &[
-            "calibrate", "--robot", "a4.toml", "--data", "data.csv", "--estimate", "p1,p32,p38",
-            "--out", "cal.toml", "--report", "rep.json",
+            "calibrate",
+            "--robot",
+            "a4.toml",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "p1,p32,p38",
+            "--out",
+            "cal.toml",
+            "--report",
+            "rep.json",
         ],
     );
     assert!(out.contains("converged"), "{out}");
-    let rep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
     for key in [
-        "method", "converged", "iterations", "objective_before", "objective_after", "rms_position_before",
-        "rms_position_after", "rms_orientation_before", "rms_orientation_after", "parameters",
+        "method",
+        "converged",
+        "iterations",
+        "objective_before",
+        "objective_after",
+        "rms_position_before",
+        "rms_position_after",
+        "rms_orientation_before",
+        "rms_orientation_after",
+        "parameters",
     ] {
         assert!(rep.get(key).is_some(), "report lacks {key}");
     }
@@ -99,7 +165,10 @@ fn simulate_then_calibrate_recovers_the_truth_and_keeps_the_file() {
     assert!(cal.contains("offset = -117.5\n"));
     assert!(cal.contains("slope = 9.05\n"));
     // ... and reads back as a robot giving the same poses as the truth.
-    let truth = run_ok(d, &["fk", "--robot", "truth.toml", "--postures", "data.csv"]);
+    let truth = run_ok(
+        d,
+        &["fk", "--robot", "truth.toml", "--postures", "data.csv"],
+    );
     let calibrated = run_ok(d, &["fk", "--robot", "cal.toml", "--postures", "data.csv"]);
     for (a, b) in truth.lines().zip(calibrated.lines()).skip(1) {
         for (x, y) in a.split(',').zip(b.split(',')).skip(2) {
@@ -113,16 +182,60 @@ fn simulate_then_calibrate_recovers_the_truth_and_keeps_the_file() {
 fn position_only_data_and_all_methods() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    run_ok(d, &["simulate", "--robot", "ge-a4", "--postures", "25", "--perturb", "p31=+1,p2=-0.1", "--position-only", "--out", "pos.csv"]);
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "25",
+            "--perturb",
+            "p31=+1,p2=-0.1",
+            "--position-only",
+            "--out",
+            "pos.csv",
+        ],
+    );
     let text = std::fs::read_to_string(d.join("pos.csv")).unwrap();
     assert!(text.lines().nth(1).unwrap().ends_with(",,,"));
     for method in ["lm", "gn", "svd", "sd"] {
-        let out = run_ok(d, &["calibrate", "--robot", "ge-a4", "--data", "pos.csv", "--estimate", "p2,p31", "--method", method, "--report", "r.json"]);
-        let rep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
-        assert!(rep["rms_position_after"].as_f64().unwrap() < 1e-6, "{method}: {out}");
+        let out = run_ok(
+            d,
+            &[
+                "calibrate",
+                "--robot",
+                "ge-a4",
+                "--data",
+                "pos.csv",
+                "--estimate",
+                "p2,p31",
+                "--method",
+                method,
+                "--report",
+                "r.json",
+            ],
+        );
+        let rep: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+        assert!(
+            rep["rms_position_after"].as_f64().unwrap() < 1e-6,
+            "{method}: {out}"
+        );
     }
     // Gauss-Newton on the full, singular model says so.
-    let err = run_err(d, &["calibrate", "--robot", "ge-a4", "--data", "pos.csv", "--method", "gn"]);
+    let err = run_err(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "pos.csv",
+            "--method",
+            "gn",
+        ],
+    );
     assert!(err.contains("singular"), "{err}");
 }
 
@@ -137,26 +250,102 @@ fn gimbal_lock_warns_and_rotvec_works() {
          [[links]]\nz = 100\n[[links]]\nx = 300\nbeta = 90\n[[joints]]\nkind = \"revolute\"\n",
     )
     .unwrap();
-    run_ok(d, &["simulate", "--robot", "r.toml", "--postures", "20", "--perturb", "link2.x=+1", "--out", "data.csv"]);
-    let out = kinecal().current_dir(d).args(["calibrate", "--robot", "r.toml", "--data", "data.csv", "--estimate", "link2.x"]).output().unwrap();
-    assert!(String::from_utf8_lossy(&out.stderr).contains("rotvec"), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = run_ok(d, &["calibrate", "--robot", "r.toml", "--data", "data.csv", "--estimate", "link2.x", "--orientation-error", "rotvec", "--report", "rep.json"]);
-    let rep: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
-    assert!((rep["parameters"][6]["estimated"].as_f64().unwrap() - 301.0).abs() < 1e-6, "{out}");
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "r.toml",
+            "--postures",
+            "20",
+            "--perturb",
+            "link2.x=+1",
+            "--out",
+            "data.csv",
+        ],
+    );
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "calibrate",
+            "--robot",
+            "r.toml",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "link2.x",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("rotvec"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "r.toml",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "link2.x",
+            "--orientation-error",
+            "rotvec",
+            "--report",
+            "rep.json",
+        ],
+    );
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    assert!(
+        (rep["parameters"][6]["estimated"].as_f64().unwrap() - 301.0).abs() < 1e-6,
+        "{out}"
+    );
 }
 
 #[test]
 fn bad_input_names_file_line_and_field() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let a4 = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/robots/ge_a4.toml")).unwrap();
+    let a4 = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/robots/ge_a4.toml"
+    ))
+    .unwrap();
     let cases: Vec<(&str, String, &str)> = vec![
-        ("unit.toml", a4.replace("length_unit = \"in\"", "length_unit = \"ft\""), "unit.toml:4: field `length_unit`: unknown length unit `ft`"),
-        ("kind.toml", a4.replacen("kind = \"prismatic\"", "kind = \"helical\"", 1), "field `joints[2].kind`: unknown joint kind `helical`"),
-        ("num.toml", a4.replace("beta = 180.0", "beta = \"x\""), "num.toml:13: field `links[0].beta`: expected a number"),
-        ("nan.toml", a4.replace("beta = 180.0", "beta = nan"), "field `links[0].beta`: expected a finite number"),
-        ("syntax.toml", a4.replace("x = 15.08", "x = = 15.08"), "syntax.toml:9: invalid TOML"),
-        ("links.toml", a4.replacen("[[links]]", "[[linkz]]", 1), "5 links"),
+        (
+            "unit.toml",
+            a4.replace("length_unit = \"in\"", "length_unit = \"ft\""),
+            "unit.toml:4: field `length_unit`: unknown length unit `ft`",
+        ),
+        (
+            "kind.toml",
+            a4.replacen("kind = \"prismatic\"", "kind = \"helical\"", 1),
+            "field `joints[2].kind`: unknown joint kind `helical`",
+        ),
+        (
+            "num.toml",
+            a4.replace("beta = 180.0", "beta = \"x\""),
+            "num.toml:13: field `links[0].beta`: expected a number",
+        ),
+        (
+            "nan.toml",
+            a4.replace("beta = 180.0", "beta = nan"),
+            "field `links[0].beta`: expected a finite number",
+        ),
+        (
+            "syntax.toml",
+            a4.replace("x = 15.08", "x = = 15.08"),
+            "syntax.toml:9: invalid TOML",
+        ),
+        (
+            "links.toml",
+            a4.replacen("[[links]]", "[[linkz]]", 1),
+            "5 links",
+        ),
     ];
     std::fs::write(d.join("p.csv"), "posture,v1,v2,v3,v4\n1,0,0,0,0\n").unwrap();
     for (file, text, expected) in &cases {
@@ -166,20 +355,52 @@ fn bad_input_names_file_line_and_field() {
     }
     let header = "posture,site,v1,v2,v3,v4,x,y,z,alpha,beta,gamma\n";
     let csv_cases = [
-        ("cols.csv", format!("{header}1,ee,0,0,0,0,1,2,3,4,5\n"), "cols.csv:2: expected 12 columns"),
-        ("num.csv", format!("{header}1,ee,0,0,0,0,1,abc,3,4,5,6\n"), "num.csv:2: field `y`: expected a number, found `abc`"),
-        ("inf.csv", format!("{header}1,ee,0,0,inf,0,1,2,3,4,5,6\n"), "inf.csv:2: field `v3`: expected a finite number"),
-        ("site.csv", format!("{header}1,wrist,0,0,0,0,1,2,3,4,5,6\n"), "site.csv:2: field `site`: unknown site `wrist`"),
-        ("head.csv", "posture,v1,v2,x\n1,2,3,4\n".to_string(), "head.csv:1: unexpected header"),
-        ("angles.csv", format!("{header}1,ee,0,0,0,0,1,2,3,4,,6\n"), "angles.csv:2: field `beta`: empty angle"),
-        ("same.csv", format!("{header}1,ee,0,0,0,0,1,2,3,4,5,6\n1,ee,0,0,0,1,1,2,3,4,5,6\n"), "same.csv:3: field `v4`"),
+        (
+            "cols.csv",
+            format!("{header}1,ee,0,0,0,0,1,2,3,4,5\n"),
+            "cols.csv:2: expected 12 columns",
+        ),
+        (
+            "num.csv",
+            format!("{header}1,ee,0,0,0,0,1,abc,3,4,5,6\n"),
+            "num.csv:2: field `y`: expected a number, found `abc`",
+        ),
+        (
+            "inf.csv",
+            format!("{header}1,ee,0,0,inf,0,1,2,3,4,5,6\n"),
+            "inf.csv:2: field `v3`: expected a finite number",
+        ),
+        (
+            "site.csv",
+            format!("{header}1,wrist,0,0,0,0,1,2,3,4,5,6\n"),
+            "site.csv:2: field `site`: unknown site `wrist`",
+        ),
+        (
+            "head.csv",
+            "posture,v1,v2,x\n1,2,3,4\n".to_string(),
+            "head.csv:1: unexpected header",
+        ),
+        (
+            "angles.csv",
+            format!("{header}1,ee,0,0,0,0,1,2,3,4,,6\n"),
+            "angles.csv:2: field `beta`: empty angle",
+        ),
+        (
+            "same.csv",
+            format!("{header}1,ee,0,0,0,0,1,2,3,4,5,6\n1,ee,0,0,0,1,1,2,3,4,5,6\n"),
+            "same.csv:3: field `v4`",
+        ),
     ];
     for (file, text, expected) in &csv_cases {
         std::fs::write(d.join(file), text).unwrap();
         let err = run_err(d, &["calibrate", "--robot", "ge-a4", "--data", file]);
         assert!(err.contains(expected), "{file}: {err}");
     }
-    std::fs::write(d.join("ok.csv"), format!("{header}1,ee,0,0,0,0,1,2,3,4,5,6\n")).unwrap();
+    std::fs::write(
+        d.join("ok.csv"),
+        format!("{header}1,ee,0,0,0,0,1,2,3,4,5,6\n"),
+    )
+    .unwrap();
     for (args, expected) in [
         (vec!["--estimate", "p39"], "out of range"),
         (vec!["--estimate", "link1.q"], "unknown link component"),
@@ -192,10 +413,27 @@ fn bad_input_names_file_line_and_field() {
         let err = run_err(d, &a);
         assert!(err.contains(expected), "{a:?}: {err}");
     }
-    let err = run_err(d, &["calibrate", "--robot", "nope.toml", "--data", "ok.csv"]);
+    let err = run_err(
+        d,
+        &["calibrate", "--robot", "nope.toml", "--data", "ok.csv"],
+    );
     assert!(err.contains("no such robot file"), "{err}");
     // A failed run leaves an existing output file untouched.
     std::fs::write(d.join("keep.toml"), "precious").unwrap();
-    run_err(d, &["calibrate", "--robot", "ge-a4", "--data", "num.csv", "--out", "keep.toml"]);
-    assert_eq!(std::fs::read_to_string(d.join("keep.toml")).unwrap(), "precious");
+    run_err(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "num.csv",
+            "--out",
+            "keep.toml",
+        ],
+    );
+    assert_eq!(
+        std::fs::read_to_string(d.join("keep.toml")).unwrap(),
+        "precious"
+    );
 }

@@ -1,1 +1,75 @@
-fn main(){}
+//! Hot-path benchmarks on a 6-joint all-revolute robot with all 54 parameters:
+//! forward kinematics and the analytic Jacobian per posture, and a full Levenberg-Marquardt
+//! calibration from 1,000 full-pose postures.
+//!
+//! Run: `cargo bench -p kinecal --bench kinematics`
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::simulate::{self, PerturbStd};
+use kinecal::{Chain, JointKind, ParamId, Target, Workspace};
+
+fn robot() -> kinecal::Robot {
+    simulate::random_robot(&[JointKind::Revolute; 6], 42)
+}
+
+fn kinematics(c: &mut Criterion) {
+    let robot = robot();
+    let postures = simulate::sample_postures(&robot, 1000, 1);
+    let chain = Chain::new(&robot);
+    let mut ws = Workspace::new(&robot);
+    let mut block = vec![0.0; 6 * robot.param_count()];
+    let mut i = 0;
+    c.bench_function("fk_pose_per_posture_6R", |b| {
+        b.iter(|| {
+            i = (i + 1) % postures.len();
+            chain.forward(black_box(&postures[i].readings), &mut ws);
+            black_box(chain.target_frame(&ws, Target::EndEffector).pose())
+        })
+    });
+    c.bench_function("fk_frames_only_per_posture_6R", |b| {
+        b.iter(|| {
+            i = (i + 1) % postures.len();
+            chain.forward(black_box(&postures[i].readings), &mut ws);
+            black_box(ws.end_effector().translation.x)
+        })
+    });
+    c.bench_function("fk_plus_jacobian_54_per_posture_6R", |b| {
+        b.iter(|| {
+            i = (i + 1) % postures.len();
+            chain.forward(black_box(&postures[i].readings), &mut ws);
+            chain.jacobian(&ws, Target::EndEffector, &mut block);
+            black_box(block[17])
+        })
+    });
+}
+
+fn calibration(c: &mut Criterion) {
+    let nominal = robot();
+    let std = PerturbStd {
+        length: 1e-3,
+        angle: 0.2f64.to_radians(),
+        slope_fraction: 0.002,
+    };
+    let truth = simulate::perturb(&nominal, std, 3);
+    let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 1000, 2), false);
+    simulate::add_noise(&mut data, 2e-5, 2e-5, 4);
+    let opts = CalibrationOptions::new(nominal.param_ids().collect::<Vec<ParamId>>());
+    let mut group = c.benchmark_group("calibration");
+    group.sample_size(20);
+    group.bench_function("lm_54_params_1000_poses_6R", |b| {
+        b.iter(|| {
+            black_box(
+                calibrate(&nominal, &data, &opts, &mut |_| {})
+                    .unwrap()
+                    .objective_after,
+            )
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, kinematics, calibration);
+criterion_main!(benches);

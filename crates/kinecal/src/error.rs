@@ -16,17 +16,27 @@ pub struct Location {
 impl Location {
     /// A location in `file` with nothing more precise known.
     pub fn file(file: impl Into<String>) -> Self {
-        Self { file: file.into(), line: None, field: None }
+        Self {
+            file: file.into(),
+            line: None,
+            field: None,
+        }
     }
 
     /// The same file, at `line`.
     pub fn at_line(&self, line: usize) -> Self {
-        Self { line: Some(line), ..self.clone() }
+        Self {
+            line: Some(line),
+            ..self.clone()
+        }
     }
 
     /// The same place, naming `field`.
     pub fn with_field(&self, field: impl Into<String>) -> Self {
-        Self { field: Some(field.into()), ..self.clone() }
+        Self {
+            field: Some(field.into()),
+            ..self.clone()
+        }
     }
 }
 
@@ -97,7 +107,10 @@ pub enum Error {
 impl Error {
     /// An input error at `at`.
     pub fn input(at: Location, message: impl Into<String>) -> Self {
-        Error::Input { at, message: message.into() }
+        Error::Input {
+            at,
+            message: message.into(),
+        }
     }
 }
 

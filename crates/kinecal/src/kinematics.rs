@@ -29,26 +29,50 @@ pub struct Frame {
 impl Frame {
     /// The identity transform.
     pub fn identity() -> Self {
-        Frame { rotation: Matrix3::identity(), translation: Vector3::zeros() }
+        Frame {
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+        }
     }
 
     /// `self * other`: `other` expressed in `self`'s parent.
     #[inline]
     pub fn then(&self, other: &Frame) -> Frame {
+        // Written out: nalgebra's generic 3x3 product is several times slower here.
+        let a = &self.rotation;
+        let b = &other.rotation;
+        let t = &other.translation;
+        let mut r = Matrix3::zeros();
+        for i in 0..3 {
+            for j in 0..3 {
+                r[(i, j)] = a[(i, 0)] * b[(0, j)] + a[(i, 1)] * b[(1, j)] + a[(i, 2)] * b[(2, j)];
+            }
+        }
+        let p = Vector3::new(
+            self.translation.x + a[(0, 0)] * t.x + a[(0, 1)] * t.y + a[(0, 2)] * t.z,
+            self.translation.y + a[(1, 0)] * t.x + a[(1, 1)] * t.y + a[(1, 2)] * t.z,
+            self.translation.z + a[(2, 0)] * t.x + a[(2, 1)] * t.y + a[(2, 2)] * t.z,
+        );
         Frame {
-            rotation: self.rotation * other.rotation,
-            translation: self.translation + self.rotation * other.translation,
+            rotation: r,
+            translation: p,
         }
     }
 
     /// The link transform `Trans(x,y,z) Rz(alpha) Ry(beta) Rx(gamma)` (thesis eq. 2.1).
     pub fn from_link(l: &Link) -> Frame {
-        Frame { rotation: rot_zyx(l.alpha, l.beta, l.gamma), translation: Vector3::new(l.x, l.y, l.z) }
+        Frame {
+            rotation: rot_zyx(l.alpha, l.beta, l.gamma),
+            translation: Vector3::new(l.x, l.y, l.z),
+        }
     }
 
     /// The pose of this frame: origin and ZYX Euler angles.
     pub fn pose(&self) -> Pose {
-        Pose { position: self.translation, euler: euler_zyx(&self.rotation) }
+        Pose {
+            position: self.translation,
+            euler: euler_zyx(&self.rotation),
+        }
     }
 }
 
@@ -179,7 +203,11 @@ impl<'r> Chain<'r> {
         Chain {
             robot,
             links: robot.links.iter().map(LinkCache::new).collect(),
-            sites: robot.sites.iter().map(|s| LinkCache::new(&s.frame)).collect(),
+            sites: robot
+                .sites
+                .iter()
+                .map(|s| LinkCache::new(&s.frame))
+                .collect(),
         }
     }
 
@@ -190,6 +218,7 @@ impl<'r> Chain<'r> {
 
     /// Computes every frame of the chain for transducer `readings` (one per joint).
     #[inline]
+    #[allow(clippy::needless_range_loop)] // i indexes links, frames and joints together
     pub fn forward(&self, readings: &[f64], ws: &mut Workspace) {
         let n = self.robot.dof();
         debug_assert_eq!(readings.len(), n);
@@ -206,8 +235,12 @@ impl<'r> Chain<'r> {
                     JointKind::Revolute => {
                         let (s, c) = q.sin_cos();
                         let r = current.rotation;
-                        current.rotation.set_column(0, &(r.column(0) * c + r.column(1) * s));
-                        current.rotation.set_column(1, &(r.column(1) * c - r.column(0) * s));
+                        current
+                            .rotation
+                            .set_column(0, &(r.column(0) * c + r.column(1) * s));
+                        current
+                            .rotation
+                            .set_column(1, &(r.column(1) * c - r.column(0) * s));
                     }
                     JointKind::Prismatic => {
                         current.translation += current.rotation.column(2) * q;
@@ -244,7 +277,11 @@ impl<'r> Chain<'r> {
     pub fn jacobian(&self, ws: &Workspace, target: Target, out: &mut [f64]) {
         let robot = self.robot;
         let (nl, nj) = (robot.links.len(), robot.dof());
-        assert_eq!(out.len(), 6 * robot.param_count(), "Jacobian block has the wrong size");
+        assert_eq!(
+            out.len(),
+            6 * robot.param_count(),
+            "Jacobian block has the wrong size"
+        );
         out.fill(0.0);
         let e = self.target_frame(ws, target).translation;
         // Links and joints upstream of the target.
@@ -271,8 +308,9 @@ impl<'r> Chain<'r> {
             }
             let c = prox.translation + r * cache.frame.translation;
             let lever = e - c;
-            for (k, axis_local) in
-                [Vector3::z(), cache.beta_axis, cache.gamma_axis].iter().enumerate()
+            for (k, axis_local) in [Vector3::z(), cache.beta_axis, cache.gamma_axis]
+                .iter()
+                .enumerate()
             {
                 let u = r * axis_local;
                 put(first_col + 3 + k, u.cross(&lever), u);
@@ -314,7 +352,12 @@ pub fn block_column(block: &[f64], id: ParamId) -> &[f64] {
 /// Accurate for small angles (computed from the skew-symmetric part, not from `acos` of the
 /// trace, which loses half the digits near the identity).
 pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
-    let s = 0.5 * Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]);
+    let s = 0.5
+        * Vector3::new(
+            r[(2, 1)] - r[(1, 2)],
+            r[(0, 2)] - r[(2, 0)],
+            r[(1, 0)] - r[(0, 1)],
+        );
     let c = 0.5 * (r.trace() - 1.0);
     let sn = s.norm();
     let theta = sn.atan2(c);
@@ -323,7 +366,11 @@ pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
             return Vector3::zeros();
         }
         // theta / sin(theta), with its series near 0.
-        let k = if theta < 1e-4 { 1.0 + theta * theta / 6.0 } else { theta / sn };
+        let k = if theta < 1e-4 {
+            1.0 + theta * theta / 6.0
+        } else {
+            theta / sn
+        };
         s * k
     } else {
         nalgebra::Rotation3::from_matrix_unchecked(*r).scaled_axis()

@@ -15,13 +15,22 @@ pub fn zeros(rows: usize, cols: usize) -> Matrix {
 /// `A^T A` (symmetric, full storage).
 pub fn gram(a: &Matrix) -> Matrix {
     let mut out = Mat::zeros(a.ncols(), a.ncols());
-    faer::linalg::matmul::matmul(out.as_mut(), Accum::Replace, a.transpose(), a.as_ref(), 1.0, Par::Seq);
+    faer::linalg::matmul::matmul(
+        out.as_mut(),
+        Accum::Replace,
+        a.transpose(),
+        a.as_ref(),
+        1.0,
+        Par::Seq,
+    );
     out
 }
 
 /// `A^T v`.
 pub fn at_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
-    (0..a.ncols()).map(|j| a.col(j).iter().zip(v).map(|(x, y)| x * y).sum()).collect()
+    (0..a.ncols())
+        .map(|j| a.col(j).iter().zip(v).map(|(x, y)| x * y).sum())
+        .collect()
 }
 
 /// `A v`.
@@ -73,7 +82,11 @@ pub struct ThinSvd {
 pub fn thin_svd(a: &Matrix) -> Option<ThinSvd> {
     let svd = a.thin_svd().ok()?;
     let s = svd.S().column_vector().iter().copied().collect();
-    Some(ThinSvd { u: svd.U().to_owned(), s, v: svd.V().to_owned() })
+    Some(ThinSvd {
+        u: svd.U().to_owned(),
+        s,
+        v: svd.V().to_owned(),
+    })
 }
 
 /// Singular values of `a`, non-increasing.

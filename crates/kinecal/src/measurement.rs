@@ -55,7 +55,10 @@ impl Dataset {
     /// Builds a dataset, sorting measurements by posture (stable: file order within a posture).
     pub fn new(postures: Vec<Posture>, mut measurements: Vec<Measurement>) -> Self {
         measurements.sort_by_key(|m| m.posture);
-        Dataset { postures, measurements }
+        Dataset {
+            postures,
+            measurements,
+        }
     }
 
     /// Total residual rows (6 per full pose, 3 per position).

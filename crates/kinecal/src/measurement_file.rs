@@ -59,9 +59,17 @@ fn read_csv(text: &str, file: &str) -> Result<Rows> {
         };
         Error::input(at, format!("invalid CSV: {e}"))
     };
-    let header: Vec<String> = rdr.headers().map_err(csv_err)?.iter().map(str::to_string).collect();
+    let header: Vec<String> = rdr
+        .headers()
+        .map_err(csv_err)?
+        .iter()
+        .map(str::to_string)
+        .collect();
     if header.iter().all(String::is_empty) {
-        return Err(Error::input(loc.at_line(1), "empty file: a header line is required"));
+        return Err(Error::input(
+            loc.at_line(1),
+            "empty file: a header line is required",
+        ));
     }
     let mut rows = Vec::new();
     for rec in rdr.records() {
@@ -72,7 +80,11 @@ fn read_csv(text: &str, file: &str) -> Result<Rows> {
         }
         rows.push((line, rec.iter().map(str::to_string).collect()));
     }
-    Ok(Rows { file: file.to_string(), header, rows })
+    Ok(Rows {
+        file: file.to_string(),
+        header,
+        rows,
+    })
 }
 
 impl Rows {
@@ -103,10 +115,16 @@ impl Rows {
 
     fn number(&self, line: usize, field: &str, s: &str) -> Result<f64> {
         let v: f64 = s.parse().map_err(|_| {
-            Error::input(self.at(line, field), format!("expected a number, found `{s}`"))
+            Error::input(
+                self.at(line, field),
+                format!("expected a number, found `{s}`"),
+            )
         })?;
         if !v.is_finite() {
-            return Err(Error::input(self.at(line, field), format!("expected a finite number, found `{s}`")));
+            return Err(Error::input(
+                self.at(line, field),
+                format!("expected a finite number, found `{s}`"),
+            ));
         }
         Ok(v)
     }
@@ -120,12 +138,24 @@ struct PostureTable {
 
 impl PostureTable {
     fn new() -> Self {
-        PostureTable { postures: Vec::new(), index: HashMap::new() }
+        PostureTable {
+            postures: Vec::new(),
+            index: HashMap::new(),
+        }
     }
 
-    fn get_or_insert(&mut self, rows: &Rows, line: usize, label: &str, readings: Vec<f64>) -> Result<usize> {
+    fn get_or_insert(
+        &mut self,
+        rows: &Rows,
+        line: usize,
+        label: &str,
+        readings: Vec<f64>,
+    ) -> Result<usize> {
         if label.is_empty() {
-            return Err(Error::input(rows.at(line, "posture"), "empty posture label"));
+            return Err(Error::input(
+                rows.at(line, "posture"),
+                "empty posture label",
+            ));
         }
         if let Some(&i) = self.index.get(label) {
             let known = &self.postures[i].readings;
@@ -144,7 +174,10 @@ impl PostureTable {
             return Ok(i);
         }
         self.index.insert(label.to_string(), self.postures.len());
-        self.postures.push(Posture { label: label.to_string(), readings });
+        self.postures.push(Posture {
+            label: label.to_string(),
+            readings,
+        });
         Ok(self.postures.len() - 1)
     }
 }
@@ -152,7 +185,11 @@ impl PostureTable {
 fn wrong_count(rows: &Rows, line: usize, got: usize) -> Error {
     Error::input(
         Location::file(&rows.file).at_line(line),
-        format!("expected {} columns ({}), found {got}", rows.header.len(), rows.header.join(",")),
+        format!(
+            "expected {} columns ({}), found {got}",
+            rows.header.len(),
+            rows.header.join(",")
+        ),
     )
 }
 
@@ -177,11 +214,15 @@ pub fn parse_measurements(text: &str, file: &str, robot: &Robot) -> Result<Datas
             match f[1].as_str() {
                 "" | "ee" => Target::EndEffector,
                 name => Target::Site(robot.site_index(name).ok_or_else(|| {
-                    let known: Vec<&str> =
-                        std::iter::once("ee").chain(robot.sites.iter().map(|s| s.name.as_str())).collect();
+                    let known: Vec<&str> = std::iter::once("ee")
+                        .chain(robot.sites.iter().map(|s| s.name.as_str()))
+                        .collect();
                     Error::input(
                         rows.at(line, "site"),
-                        format!("unknown site `{name}` (the robot file defines: {})", known.join(", ")),
+                        format!(
+                            "unknown site `{name}` (the robot file defines: {})",
+                            known.join(", ")
+                        ),
                     )
                 })?),
             }
@@ -216,7 +257,10 @@ pub fn parse_measurements(text: &str, file: &str, robot: &Robot) -> Result<Datas
         if let Some(first) = seen.insert((posture, target), line) {
             return Err(Error::input(
                 Location::file(file).at_line(line),
-                format!("posture `{}` measures the same site twice (first on line {first})", f[0]),
+                format!(
+                    "posture `{}` measures the same site twice (first on line {first})",
+                    f[0]
+                ),
             ));
         }
         measurements.push(Measurement {
@@ -228,7 +272,10 @@ pub fn parse_measurements(text: &str, file: &str, robot: &Robot) -> Result<Datas
         });
     }
     if measurements.is_empty() {
-        return Err(Error::input(Location::file(file), "no measurements: the file has a header but no rows"));
+        return Err(Error::input(
+            Location::file(file),
+            "no measurements: the file has a header but no rows",
+        ));
     }
     Ok(Dataset::new(table.postures, measurements))
 }
@@ -251,12 +298,18 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
             .map(|j| rows.number(*line, &format!("v{}", j + 1), &f[1 + j]))
             .collect::<Result<Vec<_>>>()?;
         if table.index.contains_key(&f[0]) {
-            return Err(Error::input(rows.at(*line, "posture"), format!("posture `{}` listed twice", f[0])));
+            return Err(Error::input(
+                rows.at(*line, "posture"),
+                format!("posture `{}` listed twice", f[0]),
+            ));
         }
         table.get_or_insert(&rows, *line, &f[0], readings)?;
     }
     if table.postures.is_empty() {
-        return Err(Error::input(Location::file(file), "no postures: the file has a header but no rows"));
+        return Err(Error::input(
+            Location::file(file),
+            "no postures: the file has a header but no rows",
+        ));
     }
     Ok(table.postures)
 }

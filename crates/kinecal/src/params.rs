@@ -109,7 +109,10 @@ impl ParamKind {
     pub fn of(id: ParamId, links: usize, joints: usize, sites: usize) -> Option<ParamKind> {
         let mut i = id.0;
         if i < 6 * links {
-            return Some(ParamKind::Link { link: i / 6, component: LinkComponent::ALL[i % 6] });
+            return Some(ParamKind::Link {
+                link: i / 6,
+                component: LinkComponent::ALL[i % 6],
+            });
         }
         i -= 6 * links;
         if i < joints {
@@ -121,7 +124,10 @@ impl ParamKind {
         }
         i -= joints;
         if i < 6 * sites {
-            return Some(ParamKind::Site { site: i / 6, component: LinkComponent::ALL[i % 6] });
+            return Some(ParamKind::Site {
+                site: i / 6,
+                component: LinkComponent::ALL[i % 6],
+            });
         }
         None
     }
@@ -141,7 +147,10 @@ impl ParamKind {
 
 /// Parses a comma-separated parameter list (see the module docs) into sorted, distinct ids.
 pub fn parse_param_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
-    let err = |message: String| Error::ParamList { list: list.to_string(), message };
+    let err = |message: String| Error::ParamList {
+        list: list.to_string(),
+        message,
+    };
     let mut out = Vec::new();
     for token in list.split(',').map(str::trim) {
         if token.is_empty() {
@@ -156,8 +165,10 @@ pub fn parse_param_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
 
 /// Parses one parameter reference (an id or a name) to exactly one parameter.
 pub fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
-    let ids = parse_token(token, robot)
-        .map_err(|message| Error::ParamList { list: token.to_string(), message })?;
+    let ids = parse_token(token, robot).map_err(|message| Error::ParamList {
+        list: token.to_string(),
+        message,
+    })?;
     match ids.as_slice() {
         [one] => Ok(*one),
         _ => Err(Error::ParamList {
@@ -172,7 +183,10 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
     let id = |k: ParamKind| k.id(nl, nj);
     let all: Vec<ParamId> = robot.param_ids().collect();
     let pick = |f: &dyn Fn(ParamKind) -> bool| -> Vec<ParamId> {
-        all.iter().copied().filter(|&p| f(robot.param_kind(p))).collect()
+        all.iter()
+            .copied()
+            .filter(|&p| f(robot.param_kind(p)))
+            .collect()
     };
     match token {
         "all" => return Ok(all.clone()),
@@ -188,7 +202,10 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         Some(if n >= 1 && n <= all.len() {
             Ok(ParamId(n - 1))
         } else {
-            Err(format!("`{s}` is out of range: this robot has parameters p1..p{}", all.len()))
+            Err(format!(
+                "`{s}` is out of range: this robot has parameters p1..p{}",
+                all.len()
+            ))
         })
     };
     if let Some((a, b)) = token.split_once('-') {
@@ -223,7 +240,9 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
             .ok_or_else(|| format!("`{token}`: the robot has no site named `{name}`"))?;
         return Ok(match comp.and_then(LinkComponent::parse) {
             Some(component) => vec![id(ParamKind::Site { site, component })],
-            None => LinkComponent::ALL.map(|component| id(ParamKind::Site { site, component })).to_vec(),
+            None => LinkComponent::ALL
+                .map(|component| id(ParamKind::Site { site, component }))
+                .to_vec(),
         });
     }
     let (head, comp) = match token.split_once('.') {
@@ -237,7 +256,9 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         }
         let link = link - 1;
         return match comp {
-            None => Ok(LinkComponent::ALL.map(|component| id(ParamKind::Link { link, component })).to_vec()),
+            None => Ok(LinkComponent::ALL
+                .map(|component| id(ParamKind::Link { link, component }))
+                .to_vec()),
             Some(c) => {
                 let component = LinkComponent::parse(c).ok_or_else(|| {
                     format!("`{token}`: unknown link component `{c}` (expected x, y, z, alpha, beta or gamma)")
@@ -253,10 +274,15 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         }
         let joint = joint - 1;
         return match comp {
-            None => Ok(vec![id(ParamKind::Offset { joint }), id(ParamKind::Slope { joint })]),
+            None => Ok(vec![
+                id(ParamKind::Offset { joint }),
+                id(ParamKind::Slope { joint }),
+            ]),
             Some("offset") => Ok(vec![id(ParamKind::Offset { joint })]),
             Some("slope") => Ok(vec![id(ParamKind::Slope { joint })]),
-            Some(c) => Err(format!("`{token}`: unknown joint parameter `{c}` (expected offset or slope)")),
+            Some(c) => Err(format!(
+                "`{token}`: unknown joint parameter `{c}` (expected offset or slope)"
+            )),
         };
     }
     let _ = ns;

@@ -164,7 +164,9 @@ impl Robot {
     /// The parameter's name: `link1.x`, `joint3.offset`, `joint4.slope`, `site.NAME.gamma`.
     pub fn param_name(&self, id: ParamId) -> String {
         match self.param_kind(id) {
-            ParamKind::Link { link, component } => format!("link{}.{}", link + 1, component.as_str()),
+            ParamKind::Link { link, component } => {
+                format!("link{}.{}", link + 1, component.as_str())
+            }
             ParamKind::Offset { joint } => format!("joint{}.offset", joint + 1),
             ParamKind::Slope { joint } => format!("joint{}.slope", joint + 1),
             ParamKind::Site { site, component } => {
@@ -256,7 +258,9 @@ impl Robot {
                     self.joints.len()
                 ));
             }
-            if s.name == "ee" || s.name.is_empty() || self.sites[..i].iter().any(|o| o.name == s.name)
+            if s.name == "ee"
+                || s.name.is_empty()
+                || self.sites[..i].iter().any(|o| o.name == s.name)
             {
                 return Err(format!(
                     "site {}: name `{}` is empty, reserved (`ee`) or used twice",
@@ -266,7 +270,11 @@ impl Robot {
             }
         }
         if let Some(id) = self.param_ids().find(|&id| !self.get(id).is_finite()) {
-            return Err(format!("parameter {} ({}) is not finite", id, self.param_name(id)));
+            return Err(format!(
+                "parameter {} ({}) is not finite",
+                id,
+                self.param_name(id)
+            ));
         }
         Ok(())
     }

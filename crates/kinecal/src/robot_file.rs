@@ -48,20 +48,28 @@ impl Reader<'_> {
     }
 
     fn number(&self, table: &Table, key: &str, field: &str) -> Result<Option<f64>> {
-        let Some(item) = table.get(key) else { return Ok(None) };
+        let Some(item) = table.get(key) else {
+            return Ok(None);
+        };
         let v = match item.as_value() {
             Some(Value::Float(f)) => *f.value(),
             Some(Value::Integer(i)) => *i.value() as f64,
             _ => return Err(self.err(item.span(), field, "expected a number")),
         };
         if !v.is_finite() {
-            return Err(self.err(item.span(), field, format!("expected a finite number, found {v}")));
+            return Err(self.err(
+                item.span(),
+                field,
+                format!("expected a finite number, found {v}"),
+            ));
         }
         Ok(Some(v))
     }
 
     fn string<'a>(&self, table: &'a Table, key: &str, field: &str) -> Result<Option<&'a str>> {
-        let Some(item) = table.get(key) else { return Ok(None) };
+        let Some(item) = table.get(key) else {
+            return Ok(None);
+        };
         item.as_str()
             .map(Some)
             .ok_or_else(|| self.err(item.span(), field, "expected a string"))
@@ -73,7 +81,10 @@ impl Reader<'_> {
                 return Err(self.err(
                     item.span().or(table.span()),
                     &format!("{what}.{key}"),
-                    format!("unknown key `{key}` (expected one of: {})", allowed.join(", ")),
+                    format!(
+                        "unknown key `{key}` (expected one of: {})",
+                        allowed.join(", ")
+                    ),
                 ));
             }
         }
@@ -118,15 +129,19 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     let root = doc.as_table();
     let name = r.string(root, "name", "name")?.unwrap_or("").to_string();
     let unit = |key: &str, expected: &str| -> Result<(&str, Option<Range<usize>>)> {
-        let s = r.string(root, key, key)?.ok_or_else(|| {
-            r.err(None, key, format!("missing `{key}` (expected {expected})"))
-        })?;
+        let s = r
+            .string(root, key, key)?
+            .ok_or_else(|| r.err(None, key, format!("missing `{key}` (expected {expected})")))?;
         Ok((s, root.get(key).and_then(Item::span)))
     };
     let (ls, lspan) = unit("length_unit", "\"m\", \"mm\" or \"in\"")?;
-    let length: LengthUnit = ls.parse().map_err(|m: String| r.err(lspan, "length_unit", m))?;
+    let length: LengthUnit = ls
+        .parse()
+        .map_err(|m: String| r.err(lspan, "length_unit", m))?;
     let (as_, aspan) = unit("angle_unit", "\"deg\" or \"rad\"")?;
-    let angle: AngleUnit = as_.parse().map_err(|m: String| r.err(aspan, "angle_unit", m))?;
+    let angle: AngleUnit = as_
+        .parse()
+        .map_err(|m: String| r.err(aspan, "angle_unit", m))?;
     let units = Units { length, angle };
 
     let links = r
@@ -148,7 +163,9 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 return Err(r.err(
                     t.get("kind").and_then(Item::span),
                     &kind_field,
-                    format!("unknown joint kind `{other}` (expected \"revolute\" or \"prismatic\")"),
+                    format!(
+                        "unknown joint kind `{other}` (expected \"revolute\" or \"prismatic\")"
+                    ),
                 ))
             }
             None => {
@@ -159,15 +176,23 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 ))
             }
         };
-        let offset = r.number(t, "offset", &format!("{what}.offset"))?.unwrap_or(0.0);
-        let slope = r.number(t, "slope", &format!("{what}.slope"))?.unwrap_or(1.0);
+        let offset = r
+            .number(t, "offset", &format!("{what}.offset"))?
+            .unwrap_or(0.0);
+        let slope = r
+            .number(t, "slope", &format!("{what}.slope"))?
+            .unwrap_or(1.0);
         let min = r.number(t, "min", &format!("{what}.min"))?;
         let max = r.number(t, "max", &format!("{what}.max"))?;
         let range = match (min, max) {
             (None, None) => None,
             (Some(a), Some(b)) if a < b => Some((a, b)),
             (Some(_), Some(_)) => {
-                return Err(r.err(t.get("min").and_then(Item::span), &format!("{what}.min"), "min must be below max"))
+                return Err(r.err(
+                    t.get("min").and_then(Item::span),
+                    &format!("{what}.min"),
+                    "min must be below max",
+                ))
             }
             _ => {
                 return Err(r.err(t.span(), &what, "give both `min` and `max`, or neither"));
@@ -204,8 +229,16 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         sites.push(Site { name, joint, frame });
     }
 
-    let robot = Robot { name, units, links, joints, sites };
-    robot.validate().map_err(|m| Error::input(Location::file(file), m))?;
+    let robot = Robot {
+        name,
+        units,
+        links,
+        joints,
+        sites,
+    };
+    robot
+        .validate()
+        .map_err(|m| Error::input(Location::file(file), m))?;
     Ok(robot)
 }
 
@@ -236,11 +269,18 @@ fn set_string(table: &mut Table, key: &str, v: &str) {
     table.insert(key, Item::Value(new));
 }
 
-fn array_of_tables<'d>(root: &'d mut Table, key: &str, len: usize) -> &'d mut toml_edit::ArrayOfTables {
+fn array_of_tables<'d>(
+    root: &'d mut Table,
+    key: &str,
+    len: usize,
+) -> &'d mut toml_edit::ArrayOfTables {
     if !matches!(root.get(key), Some(Item::ArrayOfTables(_))) {
         root.insert(key, Item::ArrayOfTables(Default::default()));
     }
-    let arr = root.get_mut(key).and_then(Item::as_array_of_tables_mut).expect("just inserted");
+    let arr = root
+        .get_mut(key)
+        .and_then(Item::as_array_of_tables_mut)
+        .expect("just inserted");
     while arr.len() < len {
         arr.push(Table::new());
     }

@@ -32,7 +32,11 @@ pub fn reading_range(robot: &Robot, joint: usize) -> (f64, f64) {
         JointKind::Revolute => 150f64.to_radians(),
         JointKind::Prismatic => 0.1,
     };
-    let half = if j.slope != 0.0 { span / j.slope.abs() } else { 1.0 };
+    let half = if j.slope != 0.0 {
+        span / j.slope.abs()
+    } else {
+        1.0
+    };
     (-half, half)
 }
 
@@ -108,7 +112,11 @@ pub fn add_noise(data: &mut Dataset, length: f64, angle: f64, seed: u64) {
     let mut r = rng(seed, 3);
     let unit = Normal::new(0.0, 1.0).expect("valid normal");
     let mut draw = |s: f64| -> Vector3<f64> {
-        Vector3::new(unit.sample(&mut r), unit.sample(&mut r), unit.sample(&mut r)) * s
+        Vector3::new(
+            unit.sample(&mut r),
+            unit.sample(&mut r),
+            unit.sample(&mut r),
+        ) * s
     };
     for m in &mut data.measurements {
         m.position += draw(length);
@@ -136,7 +144,11 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
     let joints = kinds
         .iter()
         .map(|&kind| {
-            let sign = if r.random_range(0.0..1.0) < 0.5 { -1.0 } else { 1.0 };
+            let sign = if r.random_range(0.0..1.0) < 0.5 {
+                -1.0
+            } else {
+                1.0
+            };
             Joint {
                 kind,
                 offset: match kind {

@@ -46,7 +46,9 @@ impl FromStr for LengthUnit {
             "m" => Ok(LengthUnit::M),
             "mm" => Ok(LengthUnit::Mm),
             "in" => Ok(LengthUnit::In),
-            _ => Err(format!("unknown length unit `{s}` (expected \"m\", \"mm\" or \"in\")")),
+            _ => Err(format!(
+                "unknown length unit `{s}` (expected \"m\", \"mm\" or \"in\")"
+            )),
         }
     }
 }
@@ -90,7 +92,9 @@ impl FromStr for AngleUnit {
         match s {
             "deg" => Ok(AngleUnit::Deg),
             "rad" => Ok(AngleUnit::Rad),
-            _ => Err(format!("unknown angle unit `{s}` (expected \"deg\" or \"rad\")")),
+            _ => Err(format!(
+                "unknown angle unit `{s}` (expected \"deg\" or \"rad\")"
+            )),
         }
     }
 }
@@ -125,7 +129,10 @@ pub struct Units {
 
 impl Default for Units {
     fn default() -> Self {
-        Units { length: LengthUnit::M, angle: AngleUnit::Rad }
+        Units {
+            length: LengthUnit::M,
+            angle: AngleUnit::Rad,
+        }
     }
 }
 
@@ -184,7 +191,10 @@ mod tests {
 
     #[test]
     fn conversions_round_trip() {
-        let u = Units { length: LengthUnit::In, angle: AngleUnit::Deg };
+        let u = Units {
+            length: LengthUnit::In,
+            angle: AngleUnit::Deg,
+        };
         assert!((u.to_si(Quantity::Length, 1.0) - 0.0254).abs() < 1e-15);
         assert!((u.from_si(Quantity::Angle, std::f64::consts::PI) - 180.0).abs() < 1e-12);
     }

@@ -2,7 +2,7 @@
 //! random kinds, with sites, slopes, full poses and positions, and both orientation residuals.
 
 use kinecal::estimation::{OrientationError, Problem, Weights};
-use kinecal::kinematics::{forward_pose, rot_zyx, euler_zyx, Target};
+use kinecal::kinematics::{euler_zyx, forward_pose, rot_zyx, Target};
 use kinecal::{simulate, JointKind, Link, ParamId, Robot, Site};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -10,7 +10,13 @@ use rand::{RngExt, SeedableRng};
 fn robot_with_sites(dof: usize, seed: u64) -> Robot {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let kinds: Vec<JointKind> = (0..dof)
-        .map(|_| if rng.random_range(0.0..1.0) < 0.3 { JointKind::Prismatic } else { JointKind::Revolute })
+        .map(|_| {
+            if rng.random_range(0.0..1.0) < 0.3 {
+                JointKind::Prismatic
+            } else {
+                JointKind::Revolute
+            }
+        })
         .collect();
     let mut robot = simulate::random_robot(&kinds, seed);
     // One or two sites on random joints.
@@ -18,7 +24,14 @@ fn robot_with_sites(dof: usize, seed: u64) -> Robot {
         robot.sites.push(Site {
             name: format!("s{s}"),
             joint: rng.random_range(1..=dof),
-            frame: Link { x: 0.05, y: -0.1, z: 0.2, alpha: 0.3, beta: -0.4, gamma: 1.0 },
+            frame: Link {
+                x: 0.05,
+                y: -0.1,
+                z: 0.2,
+                alpha: 0.3,
+                beta: -0.4,
+                gamma: 1.0,
+            },
         });
     }
     robot
@@ -41,7 +54,8 @@ fn data_for(robot: &Robot, seed: u64, euler: bool) -> kinecal::Dataset {
         }
     }
     if euler {
-        data.measurements.retain(|m| m.orientation.is_none_or(|e| e.y.cos() > 0.1));
+        data.measurements
+            .retain(|m| m.orientation.is_none_or(|e| e.y.cos() > 0.1));
     }
     data
 }
@@ -54,7 +68,10 @@ fn check(robot: &Robot, data: &kinecal::Dataset, mode: OrientationError) {
     let mut r = vec![0.0; m];
     let mut jac = faer::Mat::<f64>::zeros(m, ids.len());
     problem.evaluate(robot, &mut r, Some(&mut jac));
-    let scale = (0..m).flat_map(|i| (0..ids.len()).map(move |j| (i, j))).map(|(i, j)| jac[(i, j)].abs()).fold(1.0, f64::max);
+    let scale = (0..m)
+        .flat_map(|i| (0..ids.len()).map(move |j| (i, j)))
+        .map(|(i, j)| jac[(i, j)].abs())
+        .fold(1.0, f64::max);
     // Central differences: truncation ~h^2 |f'''| (lever arms <= ~3 m: 1e-12 m), rounding
     // ~eps |r| / h with |r| ~ 1e3 (weighted): ~1e-7. Tolerance 1e-6 of the Jacobian's scale.
     let h = 1e-6;
@@ -90,7 +107,11 @@ fn analytic_jacobian_matches_central_differences() {
             let s = 100 * dof as u64 + seed;
             let robot = robot_with_sites(dof, s);
             check(&robot, &data_for(&robot, s, true), OrientationError::Euler);
-            check(&robot, &data_for(&robot, s, false), OrientationError::RotVec);
+            check(
+                &robot,
+                &data_for(&robot, s, false),
+                OrientationError::RotVec,
+            );
         }
     }
 }
@@ -98,7 +119,11 @@ fn analytic_jacobian_matches_central_differences() {
 #[test]
 fn zero_columns_for_parameters_a_site_cannot_feel() {
     let mut robot = simulate::random_robot(&[JointKind::Revolute; 3], 5);
-    robot.sites.push(Site { name: "a".into(), joint: 1, frame: Link::default() });
+    robot.sites.push(Site {
+        name: "a".into(),
+        joint: 1,
+        frame: Link::default(),
+    });
     let chain = kinecal::Chain::new(&robot);
     let mut ws = kinecal::Workspace::new(&robot);
     chain.forward(&[0.1, 0.2, 0.3], &mut ws);
@@ -108,7 +133,8 @@ fn zero_columns_for_parameters_a_site_cannot_feel() {
     for p in 0..robot.param_count() {
         let nonzero = block[6 * p..6 * p + 6].iter().any(|v| *v != 0.0);
         let n = name_of(p);
-        let upstream = n.starts_with("link1.") || n.starts_with("joint1.") || n.starts_with("site.a.");
+        let upstream =
+            n.starts_with("link1.") || n.starts_with("joint1.") || n.starts_with("site.a.");
         // link1.x/y/z move the site; every upstream parameter has some effect here.
         assert_eq!(nonzero, upstream, "{n}");
     }
@@ -123,7 +149,11 @@ fn zero_columns_for_parameters_a_site_cannot_feel() {
 fn euler_extraction_round_trips() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     for _ in 0..1000 {
-        let e = Vector3::new(rng.random_range(-3.14..3.14), rng.random_range(-1.57..1.57), rng.random_range(-3.14..3.14));
+        let e = Vector3::new(
+            rng.random_range(-3.1..3.1),
+            rng.random_range(-1.56..1.56),
+            rng.random_range(-3.1..3.1),
+        );
         let back = euler_zyx(&rot_zyx(e.x, e.y, e.z));
         assert!((back - e).norm() < 1e-9, "{e} -> {back}");
     }

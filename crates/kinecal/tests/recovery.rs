@@ -16,7 +16,11 @@ fn truth_and_nominal() -> (Robot, Robot) {
         JointKind::Revolute,
     ];
     let nominal = simulate::random_robot(&kinds, 2024);
-    let std = PerturbStd { length: 2e-3, angle: 0.5f64.to_radians(), slope_fraction: 0.005 };
+    let std = PerturbStd {
+        length: 2e-3,
+        angle: 0.5f64.to_radians(),
+        slope_fraction: 0.005,
+    };
     (simulate::perturb(&nominal, std, 7), nominal)
 }
 
@@ -35,7 +39,12 @@ fn held_out_error(a: &Robot, b: &Robot) -> (f64, f64) {
     (dp, da)
 }
 
-fn run(method: Method, estimate: Vec<ParamId>, nominal: &Robot, data: &kinecal::Dataset) -> kinecal::Calibration {
+fn run(
+    method: Method,
+    estimate: Vec<ParamId>,
+    nominal: &Robot,
+    data: &kinecal::Dataset,
+) -> kinecal::Calibration {
     let mut opts = CalibrationOptions::new(estimate);
     opts.solver = SolverOptions::new(method);
     calibrate(nominal, data, &opts, &mut |_| {}).expect("calibration runs")
@@ -58,7 +67,10 @@ fn lm_and_svd_recover_all_54_parameters() {
             cal.objective_after
         );
         let (dp, da) = held_out_error(&cal.calibrated, &truth);
-        assert!(dp < 1e-6 && da < 1e-6, "{method:?}: held-out error {dp} mm, {da} deg");
+        assert!(
+            dp < 1e-6 && da < 1e-6,
+            "{method:?}: held-out error {dp} mm, {da} deg"
+        );
         for v in cal.calibrated.param_ids().map(|id| cal.calibrated.get(id)) {
             assert!(v.is_finite());
         }
@@ -85,7 +97,9 @@ fn gauss_newton_recovers_offsets_and_refuses_a_singular_system() {
     let mut opts = CalibrationOptions::new(all);
     opts.solver = SolverOptions::new(Method::GaussNewton);
     match calibrate(&nominal, &data, &opts, &mut |_| {}) {
-        Err(Error::SingularNormalEquations { rank, parameters, .. }) => {
+        Err(Error::SingularNormalEquations {
+            rank, parameters, ..
+        }) => {
             assert_eq!(parameters, 54);
             // 5 nr + 3 np + 6 = 5*5 + 3 + 6 = 34 (thesis eq. 4.2).
             assert_eq!(rank, 34);
@@ -105,21 +119,36 @@ fn steepest_descent_reduces_the_objective() {
     let cal = run(Method::SteepestDescent, ids, &nominal, &data);
     // Position-only parameters with unit Jacobian columns: steepest descent in the scaled space
     // is exact for translations of the base, so it converges quickly.
-    assert!(cal.objective_after < 1e-12 * cal.objective_before, "{}", cal.objective_after);
+    assert!(
+        cal.objective_after < 1e-12 * cal.objective_before,
+        "{}",
+        cal.objective_after
+    );
 }
 
 #[test]
 fn rank_deficient_lm_stays_finite_on_the_full_ge_a4() {
     let nominal = examples::ge_a4();
-    let std = PerturbStd { length: 0.01 * 0.0254, angle: 0.2f64.to_radians(), slope_fraction: 0.001 };
+    let std = PerturbStd {
+        length: 0.01 * 0.0254,
+        angle: 0.2f64.to_radians(),
+        slope_fraction: 0.001,
+    };
     let truth = simulate::perturb(&nominal, std, 5);
     let data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 2), false);
     let all: Vec<ParamId> = nominal.param_ids().collect();
     for method in [Method::LevenbergMarquardt, Method::Svd] {
         let cal = run(method, all.clone(), &nominal, &data);
         assert!(cal.converged());
-        assert!(cal.objective_after < 1e-12 * cal.objective_before, "{method:?} {}", cal.objective_after);
-        assert!(cal.calibrated.param_ids().all(|id| cal.calibrated.get(id).is_finite()));
+        assert!(
+            cal.objective_after < 1e-12 * cal.objective_before,
+            "{method:?} {}",
+            cal.objective_after
+        );
+        assert!(cal
+            .calibrated
+            .param_ids()
+            .all(|id| cal.calibrated.get(id).is_finite()));
     }
 }
 
@@ -134,7 +163,11 @@ fn results_do_not_depend_on_units() {
     use kinecal::measurement_file::{parse_measurements, write_measurements};
     use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
     let nominal = examples::ge_a4();
-    let std = PerturbStd { length: 0.02 * 0.0254, angle: 0.3f64.to_radians(), slope_fraction: 0.0 };
+    let std = PerturbStd {
+        length: 0.02 * 0.0254,
+        angle: 0.3f64.to_radians(),
+        slope_fraction: 0.0,
+    };
     let truth = simulate::perturb(&nominal, std, 9);
     let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 4), false);
     simulate::add_noise(&mut data, 0.001 * 0.0254, 0.01f64.to_radians(), 4);
@@ -153,13 +186,23 @@ fn results_do_not_depend_on_units() {
             let mut opts = CalibrationOptions::new(ids.clone());
             opts.orientation = orientation;
             let cal = calibrate(&robot, &d, &opts, &mut |_| {}).unwrap();
-            results.push((orientation, cal.objective_after, ids.iter().map(|&id| cal.calibrated.get(id)).collect::<Vec<_>>()));
+            results.push((
+                orientation,
+                cal.objective_after,
+                ids.iter()
+                    .map(|&id| cal.calibrated.get(id))
+                    .collect::<Vec<_>>(),
+            ));
         }
     }
     for w in results.chunks(2).collect::<Vec<_>>().windows(2) {
-        for k in 0..2 {
-            let (a, b) = (&w[0][k], &w[1][k]);
-            assert!((a.1 - b.1).abs() <= 1e-9 * a.1.max(1e-300), "objective {} vs {}", a.1, b.1);
+        for (a, b) in w[0].iter().zip(w[1]) {
+            assert!(
+                (a.1 - b.1).abs() <= 1e-9 * a.1.max(1e-300),
+                "objective {} vs {}",
+                a.1,
+                b.1
+            );
             for (x, y) in a.2.iter().zip(&b.2) {
                 // Same SI values to 1 nm / 1 nrad (/unit): the solver stops when the objective
                 // changes by 1e-12 relative, which pins parameters to ~1e-6 of their statistical

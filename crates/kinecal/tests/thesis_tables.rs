@@ -6,16 +6,46 @@ use kinecal::{examples, parse_param_list, simulate, ParamId, Robot};
 
 /// Table 4.2: joint voltages and EECF poses (in, deg) of ten postures.
 const TABLE_4_2: [([f64; 4], [f64; 6]); 10] = [
-    ([-11.053, 12.369, 4.009, -11.583], [14.071, 19.083, 0.177, -69.233, 0.000, -90.000]),
-    ([-12.696, 9.037, 1.493, 5.156], [6.098, 14.220, 3.669, 175.940, 0.000, -90.000]),
-    ([-13.197, 9.964, 3.714, -1.898], [5.120, 15.465, 0.590, -123.644, 0.000, -90.000]),
-    ([-6.883, 13.301, 4.122, -28.645], [28.576, 13.995, 0.020, 47.600, 0.000, -90.000]),
-    ([-8.793, 12.922, 3.391, -20.333], [21.851, 17.546, 1.042, -10.730, 0.000, -90.000]),
-    ([-9.353, 6.637, 1.760, 11.523], [12.889, 13.330, 3.326, 111.850, 0.000, -90.000]),
-    ([-8.917, 11.267, 1.496, 5.202], [20.452, 16.645, 3.695, 132.262, 0.000, -90.000]),
-    ([-6.367, 12.479, 1.369, -4.141], [30.381, 14.222, 3.873, -170.732, 0.000, -90.000]),
-    ([-6.034, 12.081, 0.159, -11.348], [30.125, 14.500, 5.567, -105.410, 0.000, -90.000]),
-    ([-6.420, 6.843, 0.314, -14.182], [20.507, 14.236, 5.350, -39.404, 0.000, -90.000]),
+    (
+        [-11.053, 12.369, 4.009, -11.583],
+        [14.071, 19.083, 0.177, -69.233, 0.000, -90.000],
+    ),
+    (
+        [-12.696, 9.037, 1.493, 5.156],
+        [6.098, 14.220, 3.669, 175.940, 0.000, -90.000],
+    ),
+    (
+        [-13.197, 9.964, 3.714, -1.898],
+        [5.120, 15.465, 0.590, -123.644, 0.000, -90.000],
+    ),
+    (
+        [-6.883, 13.301, 4.122, -28.645],
+        [28.576, 13.995, 0.020, 47.600, 0.000, -90.000],
+    ),
+    (
+        [-8.793, 12.922, 3.391, -20.333],
+        [21.851, 17.546, 1.042, -10.730, 0.000, -90.000],
+    ),
+    (
+        [-9.353, 6.637, 1.760, 11.523],
+        [12.889, 13.330, 3.326, 111.850, 0.000, -90.000],
+    ),
+    (
+        [-8.917, 11.267, 1.496, 5.202],
+        [20.452, 16.645, 3.695, 132.262, 0.000, -90.000],
+    ),
+    (
+        [-6.367, 12.479, 1.369, -4.141],
+        [30.381, 14.222, 3.873, -170.732, 0.000, -90.000],
+    ),
+    (
+        [-6.034, 12.081, 0.159, -11.348],
+        [30.125, 14.500, 5.567, -105.410, 0.000, -90.000],
+    ),
+    (
+        [-6.420, 6.843, 0.314, -14.182],
+        [20.507, 14.236, 5.350, -39.404, 0.000, -90.000],
+    ),
 ];
 
 fn user_pose(robot: &Robot, v: &[f64]) -> [f64; 6] {
@@ -46,7 +76,13 @@ fn table_4_2_forward_kinematics() {
             if k >= 3 {
                 d = (d + 180.0).rem_euclid(360.0) - 180.0;
             }
-            assert!(d.abs() < 0.01, "posture {} component {k}: model {} printed {}", i + 1, got[k], printed[k]);
+            assert!(
+                d.abs() < 0.01,
+                "posture {} component {k}: model {} printed {}",
+                i + 1,
+                got[k],
+                printed[k]
+            );
             checked += 1;
         }
     }
@@ -105,16 +141,34 @@ fn table_4_3_jacobian_of_posture_1() {
     for (c, &p) in cols.iter().enumerate() {
         let id = ParamId(p - 1);
         let col = kinecal::kinematics::block_column(&block, id);
-        let per = if robot.param_quantity(id) == kinecal::units::Quantity::Length { inch } else { 1.0 };
+        let is_length = robot.param_quantity(id) == kinecal::units::Quantity::Length;
+        let per = if is_length { inch } else { 1.0 };
         let w = nalgebra::Vector3::new(col[3], col[4], col[5]);
         let e = kinecal::kinematics::euler_rates(pose.euler.x, pose.euler.y, &w);
-        let analytic = [col[0] / inch * per, col[1] / inch * per, col[2] / inch * per, e.x * per, e.y * per, e.z * per];
+        let analytic = [
+            col[0] / inch * per,
+            col[1] / inch * per,
+            col[2] / inch * per,
+            e.x * per,
+            e.y * per,
+            e.z * per,
+        ];
         // Lengths enter linearly, so their step does not matter; 0.28 deg for angles.
-        let fd = forward_difference(&robot, v, id, if per == 1.0 { 0.28f64.to_radians() } else { 0.3 });
+        let fd = forward_difference(
+            &robot,
+            v,
+            id,
+            if is_length { 0.3 } else { 0.28f64.to_radians() },
+        );
         for r in 0..6 {
             // Printed to 2 decimals: 0.005, plus 1e-4 for the 3-decimal voltages.
             let tol = 0.0051;
-            assert!((fd[r] - printed[r][c]).abs() <= tol, "forward difference row {r} p{p}: {:.4} vs {}", fd[r], printed[r][c]);
+            assert!(
+                (fd[r] - printed[r][c]).abs() <= tol,
+                "forward difference row {r} p{p}: {:.4} vs {}",
+                fd[r],
+                printed[r][c]
+            );
             let truncation = (fd[r] - analytic[r]).abs();
             assert!(
                 (analytic[r] - printed[r][c]).abs() <= tol + truncation,
@@ -166,11 +220,22 @@ fn table_4_8_levenberg_marquardt_runs() {
             let q = start.param_quantity(id);
             start.set(id, start.units.to_si(q, v));
         }
-        let cal = calibrate(&start, &data, &CalibrationOptions::new(ids.clone()), &mut |_| {}).unwrap();
+        let cal = calibrate(
+            &start,
+            &data,
+            &CalibrationOptions::new(ids.clone()),
+            &mut |_| {},
+        )
+        .unwrap();
         let c = &cal.calibrated;
         let g = |p: usize| c.get_user(ParamId(p - 1));
         assert!(cal.converged());
-        assert!(cal.objective_after < 1e-12 * cal.objective_before, "{} -> {}", cal.objective_before, cal.objective_after);
+        assert!(
+            cal.objective_after < 1e-12 * cal.objective_before,
+            "{} -> {}",
+            cal.objective_before,
+            cal.objective_after
+        );
         assert!((g(1) - 15.08).abs() < 1e-6, "p1 = {}", g(1));
         assert!(g(10).abs() < 1e-6, "p10 = {}", g(10));
         let sum = g(3) - (g(9) + g(15) + g(21) + g(27) + g(33));
@@ -184,7 +249,12 @@ fn table_4_8_levenberg_marquardt_runs() {
         // (p33 moves 0.42 while the others move 0.03), so no path-independent check applies.
         if let Some(expected) = printed_final[k] {
             for (p, e) in [3, 9, 15, 21, 27, 33].iter().zip(expected) {
-                assert!((g(*p) - e).abs() <= 0.015, "run {} p{p}: {} vs printed {e}", k + 1, g(*p));
+                assert!(
+                    (g(*p) - e).abs() <= 0.015,
+                    "run {} p{p}: {} vs printed {e}",
+                    k + 1,
+                    g(*p)
+                );
             }
         }
     }

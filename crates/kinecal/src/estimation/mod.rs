@@ -117,10 +117,22 @@ pub fn calibrate(
     if opts.estimate.is_empty() {
         return Err(Error::Problem("no parameters to estimate".into()));
     }
-    if let Some(bad) = opts.estimate.iter().find(|id| id.0 >= initial.param_count()) {
-        return Err(Error::Problem(format!("parameter {bad} does not exist in this robot")));
+    if let Some(bad) = opts
+        .estimate
+        .iter()
+        .find(|id| id.0 >= initial.param_count())
+    {
+        return Err(Error::Problem(format!(
+            "parameter {bad} does not exist in this robot"
+        )));
     }
-    let problem = Problem::new(initial, data, &opts.estimate, opts.weights, opts.orientation);
+    let problem = Problem::new(
+        initial,
+        data,
+        &opts.estimate,
+        opts.weights,
+        opts.orientation,
+    );
     if problem.rows() < problem.cols() {
         return Err(Error::Problem(format!(
             "{} residuals ({} measurements) cannot determine {} parameters: measure more \

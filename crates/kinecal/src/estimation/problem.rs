@@ -2,7 +2,9 @@
 
 use nalgebra::Vector3;
 
-use crate::kinematics::{euler_rates, log_so3, rot_zyx, so3_right_jacobian_inverse, Chain, Workspace};
+use crate::kinematics::{
+    euler_rates, log_so3, rot_zyx, so3_right_jacobian_inverse, Chain, Workspace,
+};
 use crate::linalg::Matrix;
 use crate::measurement::Dataset;
 use crate::params::ParamId;
@@ -36,7 +38,10 @@ pub struct Weights {
 
 impl Default for Weights {
     fn default() -> Self {
-        Weights { length: 1e-3, angle: 1e-3 }
+        Weights {
+            length: 1e-3,
+            angle: 1e-3,
+        }
     }
 }
 
@@ -58,7 +63,13 @@ impl<'a> Problem<'a> {
         weights: Weights,
         orientation: OrientationError,
     ) -> Self {
-        Problem { base, data, estimated, weights, orientation }
+        Problem {
+            base,
+            data,
+            estimated,
+            weights,
+            orientation,
+        }
     }
 
     /// Number of residuals.

@@ -178,6 +178,15 @@ pub struct Solution {
     pub termination: Termination,
 }
 
+/// An accepted trial: new parameters, scaled step, objective, damping and step factor.
+struct Accepted {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    f: f64,
+    lambda: f64,
+    t: f64,
+}
+
 struct State {
     x: Vec<f64>,
     r: Vec<f64>,
@@ -197,10 +206,17 @@ pub fn solve(
     observer: &mut dyn FnMut(&Iteration),
 ) -> Result<Solution> {
     let (m, n) = (problem.rows(), problem.cols());
-    let mut st = State { x: x0.to_vec(), r: vec![0.0; m], jac: linalg::zeros(m, n), f: 0.0 };
+    let mut st = State {
+        x: x0.to_vec(),
+        r: vec![0.0; m],
+        jac: linalg::zeros(m, n),
+        f: 0.0,
+    };
     st.f = problem.evaluate(&problem.robot_at(&st.x), &mut st.r, Some(&mut st.jac));
     if !st.f.is_finite() {
-        return Err(Error::Numerical("the objective is not finite at the starting point".into()));
+        return Err(Error::Numerical(
+            "the objective is not finite at the starting point".into(),
+        ));
     }
     let objective_before = st.f;
     let mut trial_r = vec![0.0; m];
@@ -210,7 +226,12 @@ pub fn solve(
 
     // Tries x + y/d; returns the trial objective (residuals left in trial_r).
     let try_step = |st: &State, y: &[f64], d: &[f64], t: f64, trial_r: &mut Vec<f64>| {
-        let x: Vec<f64> = st.x.iter().zip(y).zip(d).map(|((x, y), d)| x + t * y / d).collect();
+        let x: Vec<f64> =
+            st.x.iter()
+                .zip(y)
+                .zip(d)
+                .map(|((x, y), d)| x + t * y / d)
+                .collect();
         let f = problem.evaluate(&problem.robot_at(&x), trial_r, None);
         (x, if f.is_finite() { f } else { f64::INFINITY })
     };
@@ -241,7 +262,7 @@ pub fn solve(
         }
         let g = linalg::at_v(&js, &st.r);
         let mut evaluations = 0;
-        let accepted: Option<(Vec<f64>, Vec<f64>, f64, f64, f64)> = match opts.method {
+        let accepted: Option<Accepted> = match opts.method {
             Method::LevenbergMarquardt => {
                 let c = linalg::gram(&js);
                 if lambda.is_nan() {
@@ -260,7 +281,13 @@ pub fn solve(
                         evaluations += 1;
                         let (x, f) = try_step(&st, &y, &d, 1.0, &mut trial_r);
                         if f < st.f {
-                            result = Some((x, y, f, lambda, 1.0));
+                            result = Some(Accepted {
+                                x,
+                                y,
+                                f,
+                                lambda,
+                                t: 1.0,
+                            });
                             lambda = (lambda / 10.0).max(1e-15);
                             break;
                         }
@@ -300,7 +327,14 @@ pub fn solve(
                         let mut y = vec![0.0; n];
                         for (k, &s) in svd.s.iter().enumerate() {
                             if s > opts.rcond * smax {
-                                let coef = -svd.u.col(k).iter().zip(&st.r).map(|(u, r)| u * r).sum::<f64>() / s;
+                                let coef = -svd
+                                    .u
+                                    .col(k)
+                                    .iter()
+                                    .zip(&st.r)
+                                    .map(|(u, r)| u * r)
+                                    .sum::<f64>()
+                                    / s;
                                 for (yi, vi) in y.iter_mut().zip(svd.v.col(k).iter()) {
                                     *yi += coef * vi;
                                 }
@@ -311,7 +345,11 @@ pub fn solve(
                     _ => {
                         let jg = linalg::a_v(&js, &g);
                         let denom = dot(&jg, &jg);
-                        let t = if denom > 0.0 { dot(&g, &g) / denom } else { 0.0 };
+                        let t = if denom > 0.0 {
+                            dot(&g, &g) / denom
+                        } else {
+                            0.0
+                        };
                         g.iter().map(|v| -t * v).collect()
                     }
                 };
@@ -323,7 +361,13 @@ pub fn solve(
                         let (x, f) = try_step(&st, &y, &d, t, &mut trial_r);
                         if f < st.f {
                             let ys = y.iter().map(|v| v * t).collect();
-                            result = Some((x, ys, f, f64::NAN, t));
+                            result = Some(Accepted {
+                                x,
+                                y: ys,
+                                f,
+                                lambda: f64::NAN,
+                                t,
+                            });
                             break;
                         }
                         t *= 0.5;
@@ -332,7 +376,14 @@ pub fn solve(
                 result
             }
         };
-        let Some((x, y, f_new, lam, t)) = accepted else {
+        let Some(Accepted {
+            x,
+            y,
+            f: f_new,
+            lambda: lam,
+            t,
+        }) = accepted
+        else {
             termination = Termination::NoFurtherReduction;
             iterations -= 1;
             break;
@@ -340,7 +391,12 @@ pub fn solve(
         let reduction = st.f - f_new;
         let f_old = st.f;
         let step = dot(&y, &y).sqrt();
-        let xnorm = st.x.iter().zip(&d).map(|(x, d)| (x * d) * (x * d)).sum::<f64>().sqrt();
+        let xnorm =
+            st.x.iter()
+                .zip(&d)
+                .map(|(x, d)| (x * d) * (x * d))
+                .sum::<f64>()
+                .sqrt();
         st.x = x;
         std::mem::swap(&mut st.r, &mut trial_r);
         st.f = problem.evaluate(&problem.robot_at(&st.x), &mut st.r, Some(&mut st.jac));
