@@ -18,6 +18,7 @@
 pub mod error;
 pub mod estimation;
 pub mod examples;
+pub mod identifiability;
 pub mod kinematics;
 mod linalg;
 pub mod measurement;

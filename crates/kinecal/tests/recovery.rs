@@ -221,3 +221,17 @@ fn too_few_residuals_is_an_error() {
     let err = calibrate(&nominal, &data, &CalibrationOptions::new(all), &mut |_| {}).unwrap_err();
     assert!(err.to_string().contains("6 residuals"), "{err}");
 }
+
+#[test]
+fn position_only_data_leaves_unseen_parameters_alone() {
+    // With positions only, the tool frame's attitude (the last link's three angles) has no
+    // effect on any residual: the solver must not move those parameters.
+    let (truth, nominal) = truth_and_nominal();
+    let data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 40, 5), true);
+    let all: Vec<ParamId> = nominal.param_ids().collect();
+    let cal = run(Method::LevenbergMarquardt, all, &nominal, &data);
+    assert!(cal.objective_after < 1e-12 * cal.objective_before);
+    for p in 6 * 6 + 3..6 * 6 + 6 {
+        assert_eq!(cal.calibrated.get(ParamId(p)), nominal.get(ParamId(p)), "{}", nominal.param_name(ParamId(p)));
+    }
+}

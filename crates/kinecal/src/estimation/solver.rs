@@ -243,22 +243,22 @@ pub fn solve(
         }
         iterations += 1;
         // Column scaling D (Marquardt's B) and the scaled Jacobian.
+        // A column below 1e-12 of the largest holds only rounding noise (a parameter no
+        // measurement feels, e.g. the tool's attitude under position-only data): it is zeroed,
+        // not scaled up, so the parameter stays where it is.
+        let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&st.jac, j)).collect();
+        let max_norm = norms.iter().copied().fold(0.0, f64::max);
+        let dead: Vec<bool> = norms.iter().map(|&c| !(c > 1e-12 * max_norm)).collect();
         let d: Vec<f64> = (0..n)
             .map(|j| match opts.damping {
+                _ if dead[j] => 1.0,
                 Damping::Identity if opts.method == Method::LevenbergMarquardt => 1.0,
-                _ => {
-                    let c = linalg::col_norm(&st.jac, j);
-                    if c > 0.0 && c.is_finite() {
-                        c
-                    } else {
-                        1.0
-                    }
-                }
+                _ => norms[j],
             })
             .collect();
         let mut js = st.jac.clone();
         for (j, &dj) in d.iter().enumerate() {
-            linalg::scale_col(&mut js, j, 1.0 / dj);
+            linalg::scale_col(&mut js, j, if dead[j] { 0.0 } else { 1.0 / dj });
         }
         let g = linalg::at_v(&js, &st.r);
         let mut evaluations = 0;

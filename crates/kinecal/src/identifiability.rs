@@ -1,0 +1,531 @@
+//! Identifiability (thesis 3.4, 4.4.2-4.4.8): what the data can and cannot determine.
+//!
+//! Everything here works on the Jacobian of the estimated parameters over a dataset, in two
+//! unit systems:
+//! - *scaled*: residuals weighted by the measurement standard deviations and every column divided
+//!   by its norm, the space the solvers work in (see [`crate::estimation`]); ranks, gaps and
+//!   dependencies are decided here, where units cannot distort them;
+//! - *file*: rows in the robot file's length and angle units, columns per unit of each parameter,
+//!   as the thesis prints its Tables 4.3-4.7.
+//!
+//! ```
+//! use kinecal::{examples, simulate, identifiability::{analyze, AnalysisOptions}};
+//! let robot = examples::ge_a4();
+//! let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 1), false);
+//! let all: Vec<_> = robot.param_ids().collect();
+//! let a = analyze(&robot, &data, &all, &AnalysisOptions::default()).unwrap();
+//! assert_eq!(a.rank, 24); // 5 nr + 3 np + 6 (eq. 4.2)
+//! assert_eq!(a.expected.unwrap().rank, 24);
+//! ```
+
+use crate::error::{Error, Result};
+use crate::estimation::{OrientationError, Problem, Weights};
+use crate::kinematics::Target;
+use crate::linalg::{self, Matrix};
+use crate::measurement::Dataset;
+use crate::params::{LinkComponent, ParamId, ParamKind};
+use crate::robot::{JointKind, Robot};
+use crate::units::Quantity;
+
+/// Settings of an analysis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnalysisOptions {
+    /// Relative tolerance: singular values of the scaled Jacobian below `rcond * s_max` count as
+    /// zero.
+    pub rcond: f64,
+    /// Residual weights (as in calibration).
+    pub weights: Weights,
+    /// Orientation residual (as in calibration).
+    pub orientation: OrientationError,
+    /// Parameters to prefer in the identifiable set, most preferred first; the rest follow in the
+    /// default order (see [`default_priority`]).
+    pub priority: Vec<ParamId>,
+}
+
+/// Default relative singular-value tolerance for the numerical rank.
+pub const DEFAULT_RANK_RCOND: f64 = 1e-9;
+
+impl Default for AnalysisOptions {
+    fn default() -> Self {
+        AnalysisOptions {
+            rcond: DEFAULT_RANK_RCOND,
+            weights: Weights::default(),
+            orientation: OrientationError::Euler,
+            priority: Vec::new(),
+        }
+    }
+}
+
+/// The rank the thesis's formulas predict (eqs. 4.2, 4.3, 4.5).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExpectedRank {
+    /// The predicted number of independent parameters.
+    pub rank: usize,
+    /// How it was computed, e.g. `4*4 + 2*1 ... `.
+    pub formula: String,
+}
+
+/// A set of parameters whose Jacobian columns are equal or opposite at every posture (thesis
+/// 4.4.3): the data determines only one combination of them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdenticalGroup {
+    /// Members and the coefficients of the determined combination (file units, first member 1).
+    pub terms: Vec<(ParamId, f64)>,
+    /// Value of the combination for the analysed robot (file units).
+    pub value: f64,
+}
+
+/// The result of [`analyze`].
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// The analysed parameters, in order.
+    pub parameters: Vec<ParamId>,
+    /// Number of residuals.
+    pub residuals: usize,
+    /// Singular values of the scaled Jacobian (non-increasing).
+    pub singular_values_scaled: Vec<f64>,
+    /// Singular values of the Jacobian in file units.
+    pub singular_values_file: Vec<f64>,
+    /// Numerical rank: scaled singular values above `rcond * s_max`.
+    pub rank: usize,
+    /// The tolerance used.
+    pub rcond: f64,
+    /// Position of the largest gap in the scaled spectrum: the rank it suggests.
+    pub gap_rank: usize,
+    /// The gap's size, `s[gap_rank - 1] / s[gap_rank]` (infinite for an exact zero).
+    pub gap_ratio: f64,
+    /// The thesis's count, when it applies to the analysed parameters.
+    pub expected: Option<ExpectedRank>,
+    /// Parameters with a zero column: no measurement feels them.
+    pub unobservable: Vec<ParamId>,
+    /// Identically redundant groups.
+    pub identical_groups: Vec<IdenticalGroup>,
+    /// A basis of the null space in reduced form: each entry is a direction (file units) along
+    /// which the parameters can move without changing any prediction.
+    pub null_space: Vec<Vec<(ParamId, f64)>>,
+    /// An identifiable (base) parameter set: a maximal independent subset, by priority.
+    pub identifiable: Vec<ParamId>,
+    /// For each analysed parameter: whether the data determines it individually (it has no
+    /// component in the null space).
+    pub determined: Vec<bool>,
+    /// Links or sites whose beta is near +-90 deg: alpha and gamma then act alike, a singularity
+    /// of the Euler parameterisation rather than a physical redundancy.
+    pub euler_singular: Vec<String>,
+    /// Warnings (unclear gap, ...).
+    pub warnings: Vec<String>,
+    /// The scaled Jacobian.
+    pub jacobian_scaled: Matrix,
+    /// The Jacobian in file units.
+    pub jacobian_file: Matrix,
+    /// Row labels of the Jacobians: (posture label, site, component).
+    pub row_labels: Vec<(String, String, &'static str)>,
+    /// Column scale factors (norms of the weighted SI columns).
+    pub column_norms: Vec<f64>,
+}
+
+impl Analysis {
+    /// Condition number over the numerical rank, `s_1 / s_rank` (scaled units).
+    pub fn condition_number(&self) -> f64 {
+        cond(&self.singular_values_scaled, self.rank)
+    }
+
+    /// The same in file units.
+    pub fn condition_number_file(&self) -> f64 {
+        cond(&self.singular_values_file, self.rank)
+    }
+
+    /// Whether parameter `id` (one of the analysed) is individually determined.
+    pub fn is_determined(&self, id: ParamId) -> bool {
+        self.parameters.iter().position(|&p| p == id).is_some_and(|k| self.determined[k])
+    }
+}
+
+fn cond(s: &[f64], rank: usize) -> f64 {
+    if rank == 0 {
+        return f64::INFINITY;
+    }
+    s[0] / s[rank - 1]
+}
+
+/// The default preference for the identifiable set (thesis 4.4.3 and 4.4.7: keep parameters
+/// that carry physical meaning): joint offsets, then slopes, then link lengths and angles that
+/// are non-zero in the nominal model, then zero-valued link components (redundant copies), then
+/// site parameters. Earlier is preferred.
+pub fn default_priority(robot: &Robot) -> Vec<ParamId> {
+    let mut ids: Vec<ParamId> = robot.param_ids().collect();
+    ids.sort_by_key(|&id| (default_tier(robot, id), id));
+    ids
+}
+
+/// The thesis's predicted rank for estimating `params` on `data`, when its assumptions hold:
+/// every link parameter and joint offset estimated, the end effector measured, and the six
+/// parameters of every measured site estimated. Each revolute joint contributes 4, each
+/// prismatic 2 (eq. 4.3), each estimated slope 1 (eq. 4.2), and each measured frame 6 with full
+/// poses or 3 with positions only (eq. 4.5).
+pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Option<ExpectedRank> {
+    let has = |id: ParamId| params.binary_search(&id).is_ok();
+    let (nl, nj) = (robot.links.len(), robot.dof());
+    let all_links = (0..6 * nl).all(|i| has(ParamId(i)));
+    let all_offsets = (0..nj).all(|j| has(ParamKind::Offset { joint: j }.id(nl, nj)));
+    let ee_measured = data.measurements.iter().any(|m| m.target == Target::EndEffector);
+    if !(all_links && all_offsets && ee_measured) {
+        return None;
+    }
+    let nr = robot.joints.iter().filter(|j| j.kind == JointKind::Revolute).count();
+    let np = nj - nr;
+    let slopes = (0..nj).filter(|&j| has(ParamKind::Slope { joint: j }.id(nl, nj))).count();
+    let mut frames = Vec::new();
+    let mut targets: Vec<Target> = vec![Target::EndEffector];
+    targets.extend((0..robot.sites.len()).map(Target::Site));
+    for t in targets {
+        let rows: Vec<_> = data.measurements.iter().filter(|m| m.target == t).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        if let Target::Site(s) = t {
+            let site_params = (0..6).map(|c| {
+                ParamKind::Site { site: s, component: LinkComponent::ALL[c] }.id(nl, nj)
+            });
+            if !site_params.into_iter().all(has) {
+                return None;
+            }
+        }
+        frames.push(if rows.iter().any(|m| m.orientation.is_some()) { 6 } else { 3 });
+    }
+    let rank = 4 * nr + 2 * np + slopes + frames.iter().sum::<usize>();
+    let frame_terms: Vec<String> = frames.iter().map(|f| f.to_string()).collect();
+    Some(ExpectedRank {
+        rank,
+        formula: format!(
+            "4*{nr} (revolute) + 2*{np} (prismatic) + {slopes} (slopes) + {} (measured frames: 6 per pose, 3 per position) = {rank}",
+            frame_terms.join(" + ")
+        ),
+    })
+}
+
+/// Analyses what `data` determines about `params` of `robot`.
+pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &AnalysisOptions) -> Result<Analysis> {
+    let mut params = params.to_vec();
+    params.sort();
+    params.dedup();
+    if params.is_empty() {
+        return Err(Error::Problem("no parameters to analyse".into()));
+    }
+    let n = params.len();
+    let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
+    let m = problem.rows();
+    let mut r = vec![0.0; m];
+    let mut jw = linalg::zeros(m, n);
+    problem.evaluate(robot, &mut r, Some(&mut jw));
+
+    // Row labels and the file-unit Jacobian.
+    let units = robot.units;
+    let mut row_labels = Vec::with_capacity(m);
+    let mut row_scale = Vec::with_capacity(m); // weighted -> file units
+    for meas in &data.measurements {
+        let posture = data.postures[meas.posture].label.clone();
+        let site = match meas.target {
+            Target::EndEffector => "ee".to_string(),
+            Target::Site(s) => robot.sites[s].name.clone(),
+        };
+        let comps: &[&'static str] =
+            if meas.orientation.is_some() { &["x", "y", "z", "alpha", "beta", "gamma"] } else { &["x", "y", "z"] };
+        for (k, c) in comps.iter().enumerate() {
+            row_labels.push((posture.clone(), site.clone(), *c));
+            row_scale.push(if k < 3 {
+                opts.weights.length / units.length.metres()
+            } else {
+                opts.weights.angle / units.angle.radians()
+            });
+        }
+    }
+    let col_factor: Vec<f64> = params.iter().map(|&id| units.factor(robot.param_quantity(id))).collect();
+    let jacobian_file = Matrix::from_fn(m, n, |i, j| jw[(i, j)] * row_scale[i] * col_factor[j]);
+
+    let column_norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&jw, j)).collect();
+    let max_norm = column_norms.iter().copied().fold(0.0, f64::max);
+    let unobservable: Vec<ParamId> =
+        (0..n).filter(|&j| column_norms[j] <= 1e-12 * max_norm.max(1e-300)).map(|j| params[j]).collect();
+    let mut js = jw.clone();
+    for (j, &c) in column_norms.iter().enumerate() {
+        // Unobservable columns hold only rounding noise: zero them rather than blow it up.
+        let s = if unobservable.contains(&params[j]) { 0.0 } else { 1.0 / c };
+        linalg::scale_col(&mut js, j, s);
+    }
+    let svd = linalg::thin_svd(&js).ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+    let sv_file = linalg::singular_values(&jacobian_file)
+        .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+    let s = &svd.s;
+    let smax = s.first().copied().unwrap_or(0.0);
+    let rank = s.iter().filter(|&&v| v > opts.rcond * smax).count();
+    // The largest gap, on a log scale, between consecutive singular values.
+    let (mut gap_rank, mut gap_ratio) = (s.len(), 1.0);
+    for i in 0..s.len().saturating_sub(1) {
+        let ratio = if s[i + 1] > 0.0 { s[i] / s[i + 1] } else { f64::INFINITY };
+        if ratio > gap_ratio {
+            gap_rank = i + 1;
+            gap_ratio = ratio;
+        }
+    }
+    let mut warnings = Vec::new();
+    if rank < n && gap_rank != rank {
+        warnings.push(format!(
+            "the rank from the tolerance ({rank}, rcond {:e}) differs from the largest gap in the \
+             spectrum (after singular value {gap_rank}, ratio {gap_ratio:.3e}): the split between \
+             determined and undetermined directions is not clear-cut; more, better spread postures \
+             would help",
+            opts.rcond
+        ));
+    } else if rank < n && gap_ratio < 1e4 {
+        warnings.push(format!(
+            "the gap at rank {rank} is only a factor {gap_ratio:.3e}: nearly-undetermined directions \
+             are hard to tell from undetermined ones"
+        ));
+    } else if rank == n && smax > 0.0 && s[n - 1] / smax < 1e-6 {
+        warnings.push(format!(
+            "full rank, but the smallest scaled singular value is {:.3e} of the largest: some \
+             combinations are barely determined",
+            s[n - 1] / smax
+        ));
+    }
+
+    // Null space (scaled coordinates) and which parameters it touches.
+    let null: Vec<Vec<f64>> = (rank..n)
+        .map(|k| {
+            // Columns of V beyond the thin SVD's k are needed when m < n; thin_svd gives n of
+            // them only when m >= n, which calibration requires anyway.
+            (0..n).map(|j| if k < svd.v.ncols() { svd.v[(j, k)] } else { 0.0 }).collect()
+        })
+        .collect();
+    let determined: Vec<bool> =
+        (0..n).map(|j| null.iter().map(|v| v[j] * v[j]).sum::<f64>().sqrt() < 1e-6).collect();
+
+    // Identical redundancies: equal or opposite unit columns.
+    let mut group_of: Vec<Option<usize>> = vec![None; n];
+    let mut groups: Vec<Vec<(usize, f64)>> = Vec::new();
+    for i in 0..n {
+        if group_of[i].is_some() || column_norms[i] == 0.0 || unobservable.contains(&params[i]) {
+            continue;
+        }
+        let mut g = vec![(i, 1.0)];
+        for j in i + 1..n {
+            if group_of[j].is_some() || unobservable.contains(&params[j]) {
+                continue;
+            }
+            let dot: f64 = (0..m).map(|k| js[(k, i)] * js[(k, j)]).sum();
+            if (dot.abs() - 1.0).abs() < 1e-10 {
+                g.push((j, dot.signum()));
+            }
+        }
+        if g.len() > 1 {
+            for &(j, _) in &g {
+                group_of[j] = Some(groups.len());
+            }
+            groups.push(g);
+        }
+    }
+    let file_norm = |j: usize| column_norms[j] * col_factor[j];
+    let identical_groups = groups
+        .iter()
+        .map(|g| {
+            let first = g[0].0;
+            let terms: Vec<(ParamId, f64)> =
+                g.iter().map(|&(j, sign)| (params[j], tidy_coef(sign * file_norm(j) / file_norm(first)))).collect();
+            let value = terms.iter().map(|&(id, c)| c * robot.get_user(id)).sum();
+            IdenticalGroup { terms, value }
+        })
+        .collect();
+
+    // Identifiable set: greedy by priority, column pivoting within each priority tier.
+    let mut order = opts.priority.clone();
+    for id in default_priority(robot) {
+        if !order.contains(&id) {
+            order.push(id);
+        }
+    }
+    let order: Vec<usize> = order.iter().filter_map(|id| params.iter().position(|p| p == id)).collect();
+    let identifiable = select_base(&js, &order, rank, opts.rcond * smax, robot, &params, &opts.priority);
+
+    // Null space in reduced form, pivots on the least preferred parameters, in file units.
+    let reverse: Vec<usize> = order.iter().rev().copied().collect();
+    let file_null: Vec<Vec<f64>> = null
+        .iter()
+        .map(|v| (0..n).map(|j| if column_norms[j] > 0.0 { v[j] / column_norms[j] / col_factor[j] } else { v[j] }).collect())
+        .collect();
+    let null_space = reduced_form(&file_null, &reverse)
+        .into_iter()
+        .map(|row| row.into_iter().map(|(j, c)| (params[j], tidy_coef(c))).collect())
+        .collect();
+
+    let euler_singular = robot
+        .links
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.beta.cos().abs() < 1e-3)
+        .map(|(i, _)| format!("link{}", i + 1))
+        .chain(robot.sites.iter().filter(|s| s.frame.beta.cos().abs() < 1e-3).map(|s| format!("site.{}", s.name)))
+        .collect::<Vec<_>>();
+    for name in &euler_singular {
+        warnings.push(format!(
+            "{name} has beta within 0.06 deg of +-90 deg: its alpha and gamma act alike (gimbal \
+             lock of the Euler parameterisation), which costs a rank here; this is not a physical \
+             redundancy: re-choose that frame's axes if you can"
+        ));
+    }
+
+    Ok(Analysis {
+        expected: expected_rank(robot, data, &params),
+        parameters: params,
+        residuals: m,
+        singular_values_scaled: s.clone(),
+        singular_values_file: sv_file,
+        rank,
+        rcond: opts.rcond,
+        gap_rank,
+        gap_ratio,
+        unobservable,
+        identical_groups,
+        null_space,
+        identifiable,
+        determined,
+        euler_singular,
+        warnings,
+        jacobian_scaled: js,
+        jacobian_file,
+        row_labels,
+        column_norms,
+    })
+}
+
+/// Rounds coefficients within 1e-9 of an integer to it, and drops float noise.
+fn tidy_coef(c: f64) -> f64 {
+    let r = c.round();
+    if (c - r).abs() < 1e-9 {
+        r
+    } else {
+        c
+    }
+}
+
+/// Greedy base selection: tiers from the priority list (each user-given parameter its own tier,
+/// then the default tiers), and within a tier the column with the largest residual after
+/// projection on the already chosen ones (QR with column pivoting), while that residual exceeds
+/// `tol`.
+fn select_base(
+    js: &Matrix,
+    order: &[usize],
+    rank: usize,
+    tol: f64,
+    robot: &Robot,
+    params: &[ParamId],
+    user: &[ParamId],
+) -> Vec<ParamId> {
+    let m = js.nrows();
+    let tier_of = |j: usize| -> usize {
+        match user.iter().position(|&p| p == params[j]) {
+            Some(k) => k,
+            None => user.len() + default_tier(robot, params[j]),
+        }
+    };
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut q: Vec<Vec<f64>> = Vec::new(); // orthonormal basis of chosen columns
+    let mut remaining: Vec<usize> = order.to_vec();
+    while chosen.len() < rank && !remaining.is_empty() {
+        let tier = remaining.iter().map(|&j| tier_of(j)).min().expect("non-empty");
+        // Residual norms of this tier's candidates.
+        let mut best: Option<(usize, f64, Vec<f64>)> = None;
+        for &j in remaining.iter().filter(|&&j| tier_of(j) == tier) {
+            let mut v: Vec<f64> = (0..m).map(|i| js[(i, j)]).collect();
+            for _ in 0..2 {
+                for b in &q {
+                    let d: f64 = v.iter().zip(b).map(|(x, y)| x * y).sum();
+                    for (x, y) in v.iter_mut().zip(b) {
+                        *x -= d * y;
+                    }
+                }
+            }
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if best.as_ref().is_none_or(|b| norm > b.1) {
+                best = Some((j, norm, v));
+            }
+        }
+        let (j, norm, v) = best.expect("tier has a candidate");
+        if norm > tol.max(1e-12) {
+            chosen.push(j);
+            q.push(v.iter().map(|x| x / norm).collect());
+            remaining.retain(|&k| k != j);
+        } else {
+            // Nothing left in this tier adds a direction.
+            remaining.retain(|&k| tier_of(k) != tier);
+        }
+    }
+    let mut ids: Vec<ParamId> = chosen.iter().map(|&j| params[j]).collect();
+    ids.sort();
+    ids
+}
+
+fn default_tier(robot: &Robot, id: ParamId) -> usize {
+    let nonzero = robot.get(id).abs() > 1e-12;
+    match robot.param_kind(id) {
+        ParamKind::Offset { .. } => 0,
+        ParamKind::Slope { .. } => 1,
+        ParamKind::Link { component, .. } => match (component.quantity(), nonzero) {
+            (Quantity::Length, true) => 2,
+            (_, true) => 3,
+            (Quantity::Length, false) => 4,
+            _ => 5,
+        },
+        ParamKind::Site { .. } => 6,
+    }
+}
+
+/// Gauss-Jordan reduction of the rows `vectors` (each of length n) with pivots searched in the
+/// column order `order`; entries below 1e-9 of their row's largest are dropped. Returns each
+/// reduced row as (column, coefficient) with the pivot's coefficient 1.
+fn reduced_form(vectors: &[Vec<f64>], order: &[usize]) -> Vec<Vec<(usize, f64)>> {
+    let mut rows: Vec<Vec<f64>> = vectors.to_vec();
+    let k = rows.len();
+    let mut pivots = Vec::new();
+    let mut r = 0;
+    for &c in order {
+        if r == k {
+            break;
+        }
+        // Partial pivoting among the remaining rows.
+        let (best, val) = (r..k).map(|i| (i, rows[i][c].abs())).fold((r, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+        let scale = rows.iter().flat_map(|row| row.iter()).fold(0.0f64, |a, &b| a.max(b.abs()));
+        if val <= 1e-8 * scale {
+            continue;
+        }
+        rows.swap(r, best);
+        let p = rows[r][c];
+        for x in rows[r].iter_mut() {
+            *x /= p;
+        }
+        for i in 0..k {
+            if i != r {
+                let f = rows[i][c];
+                if f != 0.0 {
+                    let pivot_row = rows[r].clone();
+                    for (x, y) in rows[i].iter_mut().zip(&pivot_row) {
+                        *x -= f * y;
+                    }
+                }
+            }
+        }
+        pivots.push(c);
+        r += 1;
+    }
+    rows.truncate(r);
+    rows.iter()
+        .zip(&pivots)
+        .map(|(row, &pc)| {
+            let big = row.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            let mut terms: Vec<(usize, f64)> =
+                row.iter().enumerate().filter(|(_, &v)| v.abs() > 1e-9 * big).map(|(j, &v)| (j, v)).collect();
+            // Pivot first, then by parameter order.
+            terms.sort_by_key(|&(j, _)| (j != pc, j));
+            terms
+        })
+        .collect()
+}
