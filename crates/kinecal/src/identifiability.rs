@@ -121,6 +121,9 @@ pub struct Analysis {
     pub row_labels: Vec<(String, String, &'static str)>,
     /// Column scale factors (norms of the weighted SI columns).
     pub column_norms: Vec<f64>,
+    /// Right singular vectors of the scaled Jacobian (n x n), in the order of the singular
+    /// values: columns `rank..` span the null space.
+    pub right_singular_vectors: Matrix,
 }
 
 impl Analysis {
@@ -290,13 +293,12 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
     }
 
     // Null space (scaled coordinates) and which parameters it touches.
-    let null: Vec<Vec<f64>> = (rank..n)
-        .map(|k| {
-            // Columns of V beyond the thin SVD's k are needed when m < n; thin_svd gives n of
-            // them only when m >= n, which calibration requires anyway.
-            (0..n).map(|j| if k < svd.v.ncols() { svd.v[(j, k)] } else { 0.0 }).collect()
-        })
-        .collect();
+    if m < n {
+        return Err(Error::Problem(format!(
+            "{m} residuals cannot determine {n} parameters: measure more postures or analyse fewer parameters"
+        )));
+    }
+    let null: Vec<Vec<f64>> = (rank..n).map(|k| (0..n).map(|j| svd.v[(j, k)]).collect()).collect();
     let determined: Vec<bool> =
         (0..n).map(|j| null.iter().map(|v| v[j] * v[j]).sum::<f64>().sqrt() < 1e-6).collect();
 
@@ -394,6 +396,7 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
         jacobian_file,
         row_labels,
         column_norms,
+        right_singular_vectors: svd.v,
     })
 }
 

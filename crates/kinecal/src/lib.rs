@@ -28,6 +28,7 @@ pub mod report;
 pub mod robot;
 pub mod robot_file;
 pub mod simulate;
+pub mod uncertainty;
 pub mod units;
 
 pub use error::{Error, Location, Result};

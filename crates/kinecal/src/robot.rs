@@ -136,9 +136,62 @@ pub struct Robot {
     pub joints: Vec<Joint>,
     /// Extra measurement sites.
     pub sites: Vec<Site>,
+    /// Expected deviations from nominal, the metric of minimum-change solutions.
+    pub tolerances: Tolerances,
+}
+
+/// How far each parameter is expected to deviate from its nominal value (internal units): the
+/// metric in which a minimum-change calibration picks, among equally good answers, the one
+/// closest to nominal. Set in the robot file's `[tolerances]` table:
+///
+/// ```toml
+/// [tolerances]
+/// length = 0.04     # file length unit; default 1 mm
+/// angle = 0.1       # file angle unit; default 0.1 deg
+/// slope = 0.01      # fraction of each slope; default 1 %
+/// "link3.y" = 0.01  # any parameter by id or name, in its own unit
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tolerances {
+    /// For link and site lengths and prismatic offsets (m).
+    pub length: f64,
+    /// For link and site angles and revolute offsets (rad).
+    pub angle: f64,
+    /// For slopes, as a fraction of the slope's magnitude.
+    pub slope_fraction: f64,
+    /// Per-parameter values (internal units), overriding the above.
+    pub overrides: Vec<(ParamId, f64)>,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances {
+            length: 1e-3,
+            angle: 0.1f64.to_radians(),
+            slope_fraction: 0.01,
+            overrides: Vec::new(),
+        }
+    }
 }
 
 impl Robot {
+    /// The tolerance of parameter `id` (internal units, always positive).
+    pub fn tolerance(&self, id: ParamId) -> f64 {
+        if let Some(&(_, t)) = self.tolerances.overrides.iter().find(|(p, _)| *p == id) {
+            return t;
+        }
+        let t = match (self.param_kind(id), self.param_quantity(id)) {
+            (ParamKind::Slope { .. }, _) => self.tolerances.slope_fraction * self.get(id).abs(),
+            (_, Quantity::Length) => self.tolerances.length,
+            _ => self.tolerances.angle,
+        };
+        if t > 0.0 {
+            t
+        } else {
+            self.tolerances.slope_fraction.max(1e-6)
+        }
+    }
+
     /// Number of joints n.
     pub fn dof(&self) -> usize {
         self.joints.len()

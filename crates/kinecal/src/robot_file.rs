@@ -29,7 +29,7 @@ use toml_edit::{DocumentMut, Item, Table, Value};
 use crate::error::{Error, Location, Result};
 use crate::params::LinkComponent;
 use crate::robot::{Joint, JointKind, Link, Robot, Site};
-use crate::units::{AngleUnit, LengthUnit, Units};
+use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 fn line_of(text: &str, span: Option<Range<usize>>) -> Option<usize> {
     span.map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
@@ -229,16 +229,33 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         sites.push(Site { name, joint, frame });
     }
 
-    let robot = Robot {
-        name,
-        units,
-        links,
-        joints,
-        sites,
-    };
-    robot
-        .validate()
-        .map_err(|m| Error::input(Location::file(file), m))?;
+    let mut robot = Robot { name, units, links, joints, sites, tolerances: Default::default() };
+    robot.validate().map_err(|m| Error::input(Location::file(file), m))?;
+    match root.get("tolerances") {
+        None => {}
+        Some(Item::Table(t)) => {
+            for (key, item) in t.iter() {
+                let field = format!("tolerances.{key}");
+                let v = r.number(t, key, &field)?.expect("key exists");
+                if v <= 0.0 {
+                    return Err(r.err(item.span(), &field, "a tolerance must be positive"));
+                }
+                match key {
+                    "length" => robot.tolerances.length = units.to_si(Quantity::Length, v),
+                    "angle" => robot.tolerances.angle = units.to_si(Quantity::Angle, v),
+                    "slope" => robot.tolerances.slope_fraction = v,
+                    name => {
+                        let id = crate::params::parse_param(name, &robot).map_err(|e| {
+                            r.err(item.span(), &field, format!("{e} (expected length, angle, slope or a parameter)"))
+                        })?;
+                        let si = units.to_si(robot.param_quantity(id), v);
+                        robot.tolerances.overrides.push((id, si));
+                    }
+                }
+            }
+        }
+        Some(other) => return Err(r.err(other.span(), "tolerances", "expected a [tolerances] table")),
+    }
     Ok(robot)
 }
 

@@ -166,5 +166,6 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
         links,
         joints,
         sites: Vec::new(),
+        tolerances: Default::default(),
     }
 }

@@ -89,3 +89,99 @@ fn random_robots_follow_the_formula() {
         }
     }
 }
+
+use kinecal::estimation::{calibrate, CalibrationOptions, SolutionRule, Weights};
+
+/// Table 4.8 with the minimum-change rule: the same answer from every printed guess, and that
+/// answer is Table 4.1 itself (the data were made by it).
+#[test]
+fn min_change_answer_does_not_depend_on_the_guess() {
+    let runs: [[f64; 8]; 5] = [
+        [14.08, 10.00, -0.40, 2.00, 0.80, 1.00, 3.00, 0.35],
+        [14.08, 12.00, -0.60, 2.00, 0.40, 1.20, 4.00, 0.45],
+        [17.08, 9.00, 0.10, 2.00, -0.20, 0.30, 2.80, 0.50],
+        [17.08, 13.00, 0.60, 2.00, -0.40, 1.00, 2.50, 0.15],
+        [14.08, 12.00, -0.60, 3.00, 0.40, 1.20, 4.00, 0.45],
+    ];
+    let nominal = examples::ge_a4();
+    let est = ids("p1,p3,p9,p10,p15,p21,p27,p33", &nominal);
+    let data = simulate::measure(&nominal, &simulate::sample_postures(&nominal, 30, 1988), false);
+    for run in runs {
+        let mut start = nominal.clone();
+        for (&id, &v) in est.iter().zip(&run) {
+            start.set(id, start.units.to_si(start.param_quantity(id), v));
+        }
+        let mut opts = CalibrationOptions::new(est.clone());
+        opts.solution = SolutionRule::MinChange(Box::new(nominal.clone()));
+        let cal = calibrate(&start, &data, &opts, &mut |_| {}).unwrap();
+        assert!(cal.objective_after < 1e-12 * cal.objective_before);
+        for &id in &est {
+            let (got, want) = (cal.calibrated.get_user(id), nominal.get_user(id));
+            assert!((got - want).abs() < 1e-6, "{run:?}: {id} = {got}, Table 4.1 says {want}");
+        }
+    }
+    // The same with all 38 parameters, from a random start.
+    let std = simulate::PerturbStd { length: 0.05 * 0.0254, angle: 0.5f64.to_radians(), slope_fraction: 0.005 };
+    let start = simulate::perturb(&nominal, std, 77);
+    let mut opts = CalibrationOptions::new(ids("all", &nominal));
+    opts.solution = SolutionRule::MinChange(Box::new(nominal.clone()));
+    let cal = calibrate(&start, &data, &opts, &mut |_| {}).unwrap();
+    for id in nominal.param_ids() {
+        let (got, want) = (cal.calibrated.get(id), nominal.get(id));
+        assert!((got - want).abs() < 1e-7, "{} = {got}, nominal {want}", nominal.param_name(id));
+    }
+}
+
+/// The reported standard deviations agree with the spread of estimates over noisy repetitions.
+#[test]
+fn monte_carlo_sigmas_match_the_spread() {
+    let nominal = examples::ge_a4();
+    let postures = simulate::sample_postures(&nominal, 30, 5);
+    let clean = simulate::measure(&nominal, &postures, false);
+    let all = ids("all", &nominal);
+    let base = analyze(&nominal, &clean, &all, &AnalysisOptions::default()).unwrap().identifiable;
+    let (sl, sa) = (0.002 * 0.0254, 0.02f64.to_radians());
+    let mut opts = CalibrationOptions::new(base.clone());
+    opts.weights = Weights { length: sl, angle: sa };
+    let runs = 300;
+    let mut estimates = vec![Vec::with_capacity(runs); base.len()];
+    let mut sigmas = vec![0.0; base.len()];
+    let mut combo = (Vec::new(), 0.0);
+    let mut full = ids("all", &nominal);
+    full.retain(|id| !ids("slopes", &nominal).contains(id));
+    for seed in 0..runs as u64 {
+        let mut data = clean.clone();
+        simulate::add_noise(&mut data, sl, sa, 1000 + seed);
+        let cal = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+        let u = kinecal::uncertainty::uncertainty(&cal, &data).unwrap();
+        for (k, &id) in base.iter().enumerate() {
+            estimates[k].push(cal.calibrated.get_user(id));
+            sigmas[k] += u.parameter(id).unwrap().sigma.unwrap() / runs as f64;
+        }
+        assert!((u.variance_factor - 1.0).abs() < 0.5, "variance factor {}", u.variance_factor);
+        if seed < 100 {
+            // A redundant model: the identical group's combination (eq. 4.1) has a sigma too.
+            let mut o = opts.clone();
+            o.estimate = full.clone();
+            let cal = calibrate(&nominal, &data, &o, &mut |_| {}).unwrap();
+            let u = kinecal::uncertainty::uncertainty(&cal, &data).unwrap();
+            let c = u.combinations.iter().find(|c| c.terms[0].0 == ParamId(2)).unwrap();
+            combo.0.push(c.value);
+            combo.1 += c.sigma / 100.0;
+            assert!(u.parameter(ParamId(2)).unwrap().sigma.is_none(), "p3 alone is not determined");
+        }
+    }
+    let spread = |v: &[f64]| {
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    };
+    // 300 runs estimate a standard deviation to ~4 % (1/sqrt(2*299)); 15 % is ~3.5 of those.
+    for (k, &id) in base.iter().enumerate() {
+        let s = spread(&estimates[k]);
+        eprintln!("{}: ratio {:.3}", nominal.param_name(id), sigmas[k] / s);
+        assert!((sigmas[k] / s - 1.0).abs() < 0.15, "{}: reported {} vs spread {s}", nominal.param_name(id), sigmas[k]);
+    }
+    // 100 runs: ~7 %; 25 % is ~3.5 of those.
+    let s = spread(&combo.0);
+    assert!((combo.1 / s - 1.0).abs() < 0.25, "eq. 4.1 combination: reported {} vs spread {s}", combo.1);
+}

@@ -38,6 +38,21 @@ pub struct CalibrationOptions {
     pub weights: Weights,
     /// Orientation residual.
     pub orientation: OrientationError,
+    /// Which of several equally good answers to return.
+    pub solution: SolutionRule,
+}
+
+/// Which answer a calibration returns when the data leaves some parameters undetermined.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum SolutionRule {
+    /// Wherever the solver stops: in the undetermined directions this depends on the starting
+    /// point and the solver's path (thesis Table 4.8).
+    #[default]
+    Solver,
+    /// Among the equally good answers, the one closest to this reference robot (the nominal
+    /// model) in the metric `sum ((p - p_ref) / tolerance)^2`, tolerances from the reference's
+    /// [`Tolerances`](crate::robot::Tolerances). It does not depend on the starting point.
+    MinChange(Box<Robot>),
 }
 
 impl CalibrationOptions {
@@ -48,6 +63,7 @@ impl CalibrationOptions {
             solver: SolverOptions::new(Method::LevenbergMarquardt),
             weights: Weights::default(),
             orientation: OrientationError::Euler,
+            solution: SolutionRule::Solver,
         }
     }
 }
@@ -163,11 +179,27 @@ pub fn calibrate(
     }
     let x0 = problem.values(initial);
     let mut log = Vec::new();
-    let sol = solve(&problem, &x0, &opts.solver, &mut |it| {
+    let sol = solve(&problem, &x0, &opts.solver, &mut |it: &Iteration| {
         log.push(*it);
         observer(it);
     })?;
-    let mut calibrated = problem.robot_at(&sol.x);
+    let (mut x, mut iterations, mut termination) = (sol.x, sol.iterations, sol.termination);
+    if let SolutionRule::MinChange(reference) = &opts.solution {
+        for _round in 0..10 {
+            let (projected, size) = project_min_change(&problem, &x, reference, data, opts)?;
+            let again = solve(&problem, &projected, &opts.solver, &mut |it| {
+                log.push(*it);
+                observer(it);
+            })?;
+            x = again.x;
+            iterations += again.iterations;
+            termination = again.termination;
+            if size < 1e-9 {
+                break;
+            }
+        }
+    }
+    let mut calibrated = problem.robot_at(&x);
     for &id in &opts.estimate {
         let q = initial.param_quantity(id);
         if q == Quantity::Angle {
@@ -175,6 +207,7 @@ pub fn calibrate(
             calibrated.set(id, v0 + wrap_angle(calibrated.get(id) - v0));
         }
     }
+    let objective_after = problem.evaluate(&calibrated, &mut vec![0.0; problem.rows()], None);
     Ok(Calibration {
         accuracy_before: accuracy(initial, data),
         accuracy_after: accuracy(&calibrated, data),
@@ -182,11 +215,120 @@ pub fn calibrate(
         calibrated,
         estimated: opts.estimate.clone(),
         options: opts.clone(),
-        termination: sol.termination,
-        iterations: sol.iterations,
+        termination,
+        iterations,
         objective_before: sol.objective_before,
-        objective_after: sol.objective_after,
+        objective_after,
         warnings,
         log,
     })
+}
+
+/// Moves `x` along the undetermined directions to the point closest to `reference` in the
+/// tolerance-scaled metric. Returns the new point and the size of the move in tolerance units.
+///
+/// The undetermined directions are the null space of the Jacobian at the reference (nominal)
+/// model, where the design's exact redundancies hold; noise in the data would otherwise turn
+/// them into barely determined directions at `x`.
+fn project_min_change(
+    problem: &Problem<'_>,
+    x: &[f64],
+    reference: &Robot,
+    data: &Dataset,
+    opts: &CalibrationOptions,
+) -> Result<(Vec<f64>, f64)> {
+    let mut robot = problem.robot_at(x);
+    for &id in problem.estimated() {
+        robot.set(id, reference.get(id));
+    }
+    let aopts = crate::identifiability::AnalysisOptions {
+        weights: opts.weights,
+        orientation: opts.orientation,
+        ..Default::default()
+    };
+    let a = crate::identifiability::analyze(&robot, data, problem.estimated(), &aopts)?;
+    let n = x.len();
+    // analyze sorts its parameters; map them back to the problem's order.
+    let pos: Vec<usize> = problem
+        .estimated()
+        .iter()
+        .map(|id| a.parameters.iter().position(|p| p == id).expect("same parameters"))
+        .collect();
+    let null: Vec<Vec<f64>> = (a.rank..n)
+        .map(|k| {
+            pos.iter()
+                .map(|&j| {
+                    let v = a.right_singular_vectors[(j, k)];
+                    if a.column_norms[j] > 0.0 {
+                        v / a.column_norms[j]
+                    } else {
+                        v
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    if null.is_empty() {
+        return Ok((x.to_vec(), 0.0));
+    }
+    let ids = problem.estimated();
+    let w: Vec<f64> = ids.iter().map(|&id| 1.0 / reference.tolerance(id).powi(2)).collect();
+    let dx: Vec<f64> = ids
+        .iter()
+        .zip(x)
+        .map(|(&id, &v)| {
+            let d = v - reference.get(id);
+            if reference.param_quantity(id) == Quantity::Angle {
+                wrap_angle(d)
+            } else {
+                d
+            }
+        })
+        .collect();
+    let k = null.len();
+    let ata = crate::linalg::Matrix::from_fn(k, k, |a, b| (0..n).map(|j| null[a][j] * w[j] * null[b][j]).sum());
+    let atb: Vec<f64> = (0..k).map(|a| (0..n).map(|j| null[a][j] * w[j] * dx[j]).sum()).collect();
+    let z = crate::linalg::solve_spd(&ata, &atb)
+        .ok_or_else(|| Error::Numerical("minimum-change projection is singular".into()))?;
+    let mut out = x.to_vec();
+    let mut size = 0.0;
+    for j in 0..n {
+        let step: f64 = (0..k).map(|a| null[a][j] * z[a]).sum();
+        out[j] -= step;
+        size += step * step * w[j];
+    }
+    Ok((out, size.sqrt()))
+}
+
+/// Calibrates, then removes, one at a time, the determined parameter whose change is least
+/// significant while it is below `k` standard deviations, refitting after each removal (pruning
+/// everything below `k` at once makes held-out accuracy worse when parameters are correlated).
+/// Returns the full fit, the pruned fit and the removed parameters in removal order.
+pub fn calibrate_pruned(
+    initial: &Robot,
+    data: &Dataset,
+    opts: &CalibrationOptions,
+    k: f64,
+) -> Result<(Calibration, Calibration, Vec<ParamId>)> {
+    let full = calibrate(initial, data, opts, &mut |_| {})?;
+    let mut current = full.clone();
+    let mut removed = Vec::new();
+    loop {
+        let u = crate::uncertainty::uncertainty(&current, data)?;
+        let weakest = u
+            .parameters
+            .iter()
+            .filter_map(|p| p.significance.map(|s| (p.id, s)))
+            .filter(|&(_, s)| s < k)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let Some((id, _)) = weakest else { break };
+        let mut o = current.options.clone();
+        o.estimate.retain(|&p| p != id);
+        if o.estimate.is_empty() {
+            break;
+        }
+        removed.push(id);
+        current = calibrate(initial, data, &o, &mut |_| {})?;
+    }
+    Ok((full, current, removed))
 }

@@ -1,0 +1,167 @@
+//! Uncertainty of a calibration, and the verdict on each change.
+//!
+//! The covariance of the estimated parameters is `s0^2 (J^T W J)^+` restricted to the determined
+//! directions (the first `rank` singular vectors of the scaled Jacobian), with the variance
+//! factor `s0^2 = SSR / (m - r)`: the weighted sum of squared residuals over the residual count
+//! minus the rank (not the parameter count, which would overstate the degrees of freedom of a
+//! redundant model). `s0` near 1 means the `--weights` match the actual noise. Only determined
+//! quantities get a standard deviation: a parameter the data cannot separate from others has
+//! none, and its group's combination is reported instead.
+//!
+//! The Jacobian is taken at the starting model, where a design's exact redundancies (parallel
+//! axes) hold. At the calibrated point, noise breaks such exact parallelism by a little, which
+//! would turn each exact redundancy into a barely determined direction with an enormous standard
+//! deviation; to first order in the (small) parameter changes the covariance is the same.
+
+use crate::error::{Error, Result};
+use crate::estimation::Calibration;
+use crate::identifiability::{analyze, Analysis, AnalysisOptions};
+use crate::measurement::Dataset;
+use crate::params::ParamId;
+
+/// Changes below this many standard deviations are reported as within the noise.
+pub const NOISE_SIGMAS: f64 = 2.0;
+
+/// Correlations above this (in magnitude) are reported.
+pub const HIGH_CORRELATION: f64 = 0.95;
+
+/// One estimated parameter's uncertainty (file units).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterUncertainty {
+    /// The parameter.
+    pub id: ParamId,
+    /// Whether the data determines it individually.
+    pub determined: bool,
+    /// Its standard deviation (file units), when determined.
+    pub sigma: Option<f64>,
+    /// Its change from the starting value (file units).
+    pub change: f64,
+    /// `|change| / sigma`, when determined.
+    pub significance: Option<f64>,
+}
+
+/// A combination the data determines although its members are not (an identical group).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CombinationUncertainty {
+    /// Members and coefficients (file units).
+    pub terms: Vec<(ParamId, f64)>,
+    /// Value after calibration.
+    pub value: f64,
+    /// Value before calibration.
+    pub initial: f64,
+    /// Standard deviation.
+    pub sigma: f64,
+    /// `|value - initial| / sigma`.
+    pub significance: f64,
+}
+
+/// The uncertainty of a calibration.
+#[derive(Debug, Clone)]
+pub struct Uncertainty {
+    /// Variance factor `s0^2 = SSR / (m - r)`.
+    pub variance_factor: f64,
+    /// Degrees of freedom `m - r`.
+    pub dof: usize,
+    /// Per estimated parameter.
+    pub parameters: Vec<ParameterUncertainty>,
+    /// Determined combinations of identically redundant groups.
+    pub combinations: Vec<CombinationUncertainty>,
+    /// Pairs of determined parameters correlated above [`HIGH_CORRELATION`].
+    pub correlations: Vec<(ParamId, ParamId, f64)>,
+    /// The identifiability analysis at the calibrated parameters.
+    pub analysis: Analysis,
+    /// Covariance of the estimated parameters in internal units over the determined directions.
+    covariance: Vec<Vec<f64>>,
+}
+
+impl Uncertainty {
+    /// Variance of `sum c_j p_j` with `c` over the estimated parameters in file units.
+    fn variance_file(&self, cal: &Calibration, coefs: &[(ParamId, f64)]) -> f64 {
+        let robot = &cal.calibrated;
+        let idx: Vec<(usize, f64)> = coefs
+            .iter()
+            .filter_map(|&(id, c)| {
+                let k = self.analysis.parameters.iter().position(|&p| p == id)?;
+                Some((k, c / robot.units.factor(robot.param_quantity(id))))
+            })
+            .collect();
+        idx.iter().map(|&(a, ca)| idx.iter().map(|&(b, cb)| ca * cb * self.covariance[a][b]).sum::<f64>()).sum()
+    }
+
+    /// The uncertainty of parameter `id`, if it was estimated.
+    pub fn parameter(&self, id: ParamId) -> Option<&ParameterUncertainty> {
+        self.parameters.iter().find(|p| p.id == id)
+    }
+}
+
+/// Computes the uncertainty of `cal`, calibrated on `data`.
+pub fn uncertainty(cal: &Calibration, data: &Dataset) -> Result<Uncertainty> {
+    let opts = AnalysisOptions {
+        weights: cal.options.weights,
+        orientation: cal.options.orientation,
+        ..Default::default()
+    };
+    let robot = &cal.calibrated;
+    let analysis = analyze(&cal.initial, data, &cal.estimated, &opts)?;
+    let (m, n, r) = (analysis.residuals, analysis.parameters.len(), analysis.rank);
+    if m <= r {
+        return Err(Error::Problem(format!(
+            "{m} residuals leave no degrees of freedom over rank {r}: no uncertainty can be estimated"
+        )));
+    }
+    let dof = m - r;
+    let variance_factor = cal.objective_after / dof as f64;
+    // Covariance in internal units: s0^2 D^-1 V_r S_r^-2 V_r^T D^-1.
+    let v = &analysis.right_singular_vectors;
+    let s = &analysis.singular_values_scaled;
+    let d = analysis.column_norms.clone();
+    let mut covariance = vec![vec![0.0; n]; n];
+    for (a, row) in covariance.iter_mut().enumerate() {
+        for (b, c) in row.iter_mut().enumerate() {
+            if d[a] == 0.0 || d[b] == 0.0 {
+                continue;
+            }
+            let sum: f64 = (0..r).map(|k| v[(a, k)] * v[(b, k)] / (s[k] * s[k])).sum();
+            *c = variance_factor * sum / (d[a] * d[b]);
+        }
+    }
+    let mut u = Uncertainty {
+        variance_factor,
+        dof,
+        parameters: Vec::new(),
+        combinations: Vec::new(),
+        correlations: Vec::new(),
+        analysis,
+        covariance,
+    };
+    for (k, &id) in u.analysis.parameters.clone().iter().enumerate() {
+        let determined = u.analysis.determined[k] && d[k] > 0.0;
+        let f = robot.units.factor(robot.param_quantity(id));
+        let sigma = determined.then(|| u.covariance[k][k].max(0.0).sqrt() / f);
+        let change = robot.get_user(id) - cal.initial.get_user(id);
+        let significance = sigma.map(|s| if s > 0.0 { change.abs() / s } else { f64::INFINITY });
+        u.parameters.push(ParameterUncertainty { id, determined, sigma, change, significance });
+    }
+    for g in u.analysis.identical_groups.clone() {
+        let sigma = u.variance_file(cal, &g.terms).max(0.0).sqrt();
+        let initial: f64 = g.terms.iter().map(|&(id, c)| c * cal.initial.get_user(id)).sum();
+        let value: f64 = g.terms.iter().map(|&(id, c)| c * robot.get_user(id)).sum();
+        let significance = if sigma > 0.0 { (value - initial).abs() / sigma } else { f64::INFINITY };
+        u.combinations.push(CombinationUncertainty { terms: g.terms, value, initial, sigma, significance });
+    }
+    for a in 0..n {
+        for b in a + 1..n {
+            if !(u.parameters[a].determined && u.parameters[b].determined) {
+                continue;
+            }
+            let denom = (u.covariance[a][a] * u.covariance[b][b]).sqrt();
+            if denom > 0.0 {
+                let rho = u.covariance[a][b] / denom;
+                if rho.abs() > HIGH_CORRELATION {
+                    u.correlations.push((u.parameters[a].id, u.parameters[b].id, rho));
+                }
+            }
+        }
+    }
+    Ok(u)
+}
