@@ -44,6 +44,17 @@ Example:
 Readings are drawn uniformly in each joint's min..max (otherwise +-150 deg or +-0.1 m about the
 offset). Perturbations are additive changes in the robot file's units.")]
     Simulate(SimulateArgs),
+    /// What the data can and cannot determine: singular values, rank, redundancies, a base set.
+    #[command(after_help = "\
+Examples:
+  kinecal analyze --robot ge-a4 --data data.csv
+  kinecal analyze --robot ge-a4 --postures postures.csv --estimate all --fix slopes --json
+  kinecal analyze --robot ge-a4 --data data.csv --estimate p1-p6,p14,p29 --print hessian --units file
+
+Ranks and dependencies are decided on the scaled Jacobian (residuals weighted, columns
+normalised), where units cannot distort them; the file-unit figures show what units do
+(thesis Tables 4.4 and 4.5).")]
+    Analyze(AnalyzeArgs),
     /// Estimate kinematic parameters from measured poses or positions.
     #[command(after_help = "\
 Example:
@@ -52,7 +63,10 @@ Example:
 
 Parameter lists take ids (p3), ranges (p1-p30), names (link1.x, joint2.offset, joint4.slope,
 site.NAME.x), whole links or joints (link2, joint3) and the groups all, links, offsets, slopes,
-sites, separated by commas.")]
+sites, separated by commas. `--estimate identifiable` estimates the identifiable (base) set that
+`kinecal analyze` reports; `--solution min-change` estimates everything and returns, of the
+equally good answers, the one closest to the --robot file (tolerances from its [tolerances]
+table).")]
     Calibrate(CalibrateArgs),
 }
 
@@ -103,6 +117,82 @@ pub struct SimulateArgs {
     pub truth: Option<PathBuf>,
 }
 
+/// Units of printed matrices.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum UnitsArg {
+    /// The robot file's units (thesis Tables 4.3-4.7 style).
+    File,
+    /// The solver's scaled units (weighted residuals, unit-norm columns).
+    Scaled,
+}
+
+/// A matrix to print.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum MatrixArg {
+    /// The Jacobian, rows labelled by posture, site and pose component.
+    Jacobian,
+    /// J^T J (the thesis's "Hessian").
+    Hessian,
+}
+
+/// `kinecal analyze`.
+#[derive(Debug, Args)]
+pub struct AnalyzeArgs {
+    /// Robot file (TOML) or built-in robot name: the model, analysed at its parameter values.
+    #[arg(long)]
+    pub robot: String,
+    /// Measurement file: the analysis uses its postures, sites and row kinds.
+    #[arg(
+        long,
+        conflicts_with = "postures",
+        required_unless_present = "postures"
+    )]
+    pub data: Option<PathBuf>,
+    /// Postures file: full poses of the end effector and every site are assumed.
+    #[arg(long)]
+    pub postures: Option<PathBuf>,
+    /// With --postures: assume position-only measurements.
+    #[arg(long, requires = "postures")]
+    pub position_only: bool,
+    /// Parameters to analyse.
+    #[arg(long, value_name = "LIST", default_value = "all")]
+    pub estimate: String,
+    /// Parameters to leave out.
+    #[arg(long, value_name = "LIST")]
+    pub fix: Option<String>,
+    /// Parameters to prefer in the identifiable set, most preferred first (default order: joint
+    /// offsets, slopes, non-zero link lengths, non-zero link angles, zero-valued link components,
+    /// sites).
+    #[arg(long, value_name = "LIST")]
+    pub priority: Option<String>,
+    /// Relative singular-value tolerance for the numerical rank.
+    #[arg(long, value_name = "X", default_value_t = kinecal::identifiability::DEFAULT_RANK_RCOND)]
+    pub rcond: f64,
+    #[command(flatten)]
+    pub residuals: ResidualArgs,
+    /// Print a matrix as well.
+    #[arg(long, value_enum)]
+    pub print: Option<MatrixArg>,
+    /// Units of the printed matrix.
+    #[arg(long, value_enum, default_value = "file")]
+    pub units: UnitsArg,
+    /// Print a JSON document instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// How residuals are formed (shared by analyze and calibrate).
+#[derive(Debug, Args)]
+pub struct ResidualArgs {
+    /// Orientation residual.
+    #[arg(long, value_enum, default_value = "euler")]
+    pub orientation_error: OrientationArg,
+    /// Measurement standard deviations weighting the residuals: `length=L,angle=A` (file units;
+    /// default 1 mm and 1 mrad).
+    #[arg(long, value_name = "SPEC")]
+    pub weights: Option<String>,
+}
+
 /// Least-squares method.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum MethodArg {
@@ -123,6 +213,15 @@ pub enum OrientationArg {
     Euler,
     /// Rotation vector of R_measured^T R_model (well defined at gimbal lock).
     Rotvec,
+}
+
+/// Which of several equally good answers.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SolutionArg {
+    /// Wherever the solver stops (depends on the start in undetermined directions).
+    Solver,
+    /// Closest to the nominal robot in the tolerance-scaled metric; independent of the start.
+    MinChange,
 }
 
 /// Levenberg-Marquardt damping.
@@ -155,19 +254,25 @@ pub struct CalibrateArgs {
     /// Iteration cap (default 100; 5000 for sd).
     #[arg(long, value_name = "N")]
     pub max_iter: Option<usize>,
-    /// Orientation residual.
-    #[arg(long, value_enum, default_value = "euler")]
-    pub orientation_error: OrientationArg,
+    #[command(flatten)]
+    pub residuals: ResidualArgs,
+    /// Which answer to return when some parameters are undetermined: the solver's, or the one
+    /// closest to the --robot file.
+    #[arg(long, value_enum, default_value = "solver")]
+    pub solution: SolutionArg,
+    /// Start the solver from this robot file instead of --robot (which stays the nominal model).
+    #[arg(long, value_name = "GUESS.toml")]
+    pub initial: Option<String>,
+    /// Then refit, removing one at a time the least significant change while it is below K
+    /// standard deviations; both fits are reported.
+    #[arg(long, value_name = "K")]
+    pub prune: Option<f64>,
     /// Levenberg-Marquardt damping.
     #[arg(long, value_enum, default_value = "marquardt")]
     pub damping: DampingArg,
     /// Relative singular-value threshold for svd (dropped) and gn (refused).
     #[arg(long, value_name = "X", default_value_t = kinecal::estimation::DEFAULT_RCOND)]
     pub rcond: f64,
-    /// Measurement standard deviations weighting the residuals: `length=L,angle=A` (file units;
-    /// default 1 mm and 1 mrad).
-    #[arg(long, value_name = "SPEC")]
-    pub weights: Option<String>,
     /// Write the calibrated robot file here (same schema, other fields and comments kept).
     #[arg(long)]
     pub out: Option<PathBuf>,

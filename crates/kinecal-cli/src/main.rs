@@ -1,5 +1,6 @@
 //! The `kinecal` command: a thin layer over the `kinecal` library.
 
+mod analyze;
 mod args;
 mod demo;
 mod report;
@@ -11,11 +12,14 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
 
 use args::{
-    CalibrateArgs, Cli, Command, DampingArg, FkArgs, MethodArg, OrientationArg, SimulateArgs,
+    CalibrateArgs, Cli, Command, DampingArg, FkArgs, MethodArg, OrientationArg, ResidualArgs,
+    SimulateArgs, SolutionArg,
 };
 use kinecal::estimation::{
-    self, CalibrationOptions, Damping, Method, OrientationError, SolverOptions, Weights,
+    self, CalibrationOptions, Damping, Method, OrientationError, SolutionRule, SolverOptions,
+    Weights,
 };
+use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::measurement_file::{parse_measurements, parse_postures, write_measurements};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::simulate::{self, PerturbStd};
@@ -32,6 +36,7 @@ fn main() -> ExitCode {
         Command::Fk(a) => fk(a),
         Command::Simulate(a) => simulate(a),
         Command::Calibrate(a) => calibrate(a),
+        Command::Analyze(a) => analyze::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -124,6 +129,62 @@ fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
     spec.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
 }
 
+/// The residual weights and orientation error chosen on the command line.
+fn residual_settings(a: &ResidualArgs, robot: &Robot) -> Result<(Weights, OrientationError)> {
+    let mut weights = Weights::default();
+    if let Some(spec) = &a.weights {
+        let s = parse_spec("--weights", spec, &["length", "angle"])?;
+        if let Some(l) = spec_value(&s, "length") {
+            weights.length = robot.units.to_si(Quantity::Length, l);
+        }
+        if let Some(an) = spec_value(&s, "angle") {
+            weights.angle = robot.units.to_si(Quantity::Angle, an);
+        }
+        if weights.length <= 0.0 || weights.angle <= 0.0 {
+            bail!("--weights: standard deviations must be positive");
+        }
+    }
+    let orientation = match a.orientation_error {
+        OrientationArg::Euler => OrientationError::Euler,
+        OrientationArg::Rotvec => OrientationError::RotVec,
+    };
+    Ok((weights, orientation))
+}
+
+/// Parses `--estimate` minus `--fix`. The token `identifiable` stands for the identifiable set of
+/// the other tokens (all parameters when alone), computed on `data`.
+fn estimate_list(
+    estimate: &str,
+    fix: Option<&str>,
+    robot: &Robot,
+    data: &kinecal::Dataset,
+    aopts: &AnalysisOptions,
+) -> Result<Vec<kinecal::ParamId>> {
+    let tokens: Vec<&str> = estimate.split(',').map(str::trim).collect();
+    let identifiable = tokens.contains(&"identifiable");
+    let rest: Vec<&str> = tokens
+        .iter()
+        .copied()
+        .filter(|t| *t != "identifiable")
+        .collect();
+    let mut ids = if rest.is_empty() {
+        robot.param_ids().collect()
+    } else {
+        parse_param_list(&rest.join(","), robot)?
+    };
+    if let Some(fix) = fix {
+        let fixed = parse_param_list(fix, robot)?;
+        ids.retain(|id| !fixed.contains(id));
+    }
+    if identifiable && !ids.is_empty() {
+        ids = analyze(robot, data, &ids, aopts)?.identifiable;
+    }
+    if ids.is_empty() {
+        bail!("--estimate `{estimate}` minus --fix leaves no parameter to estimate");
+    }
+    Ok(ids)
+}
+
 fn fk(a: FkArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
     let file = a.postures.display().to_string();
@@ -210,11 +271,13 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
     let robot = &r.robot;
     let file = a.data.display().to_string();
     let data = parse_measurements(&read_text(&a.data)?, &file, robot)?;
-    let mut estimate = parse_param_list(&a.estimate, robot)?;
-    if let Some(fix) = &a.fix {
-        let fixed = parse_param_list(fix, robot)?;
-        estimate.retain(|id| !fixed.contains(id));
-    }
+    let (weights, orientation) = residual_settings(&a.residuals, robot)?;
+    let aopts = AnalysisOptions {
+        weights,
+        orientation,
+        ..Default::default()
+    };
+    let estimate = estimate_list(&a.estimate, a.fix.as_deref(), robot, &data, &aopts)?;
     let method = match a.method {
         MethodArg::Lm => Method::LevenbergMarquardt,
         MethodArg::Gn => Method::GaussNewton,
@@ -233,27 +296,39 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         bail!("--rcond must be between 0 and 1, got {}", a.rcond);
     }
     solver.rcond = a.rcond;
-    let mut weights = Weights::default();
-    if let Some(spec) = &a.weights {
-        let s = parse_spec("--weights", spec, &["length", "angle"])?;
-        if let Some(l) = spec_value(&s, "length") {
-            weights.length = robot.units.to_si(Quantity::Length, l);
-        }
-        if let Some(an) = spec_value(&s, "angle") {
-            weights.angle = robot.units.to_si(Quantity::Angle, an);
-        }
-        if weights.length <= 0.0 || weights.angle <= 0.0 {
-            bail!("--weights: standard deviations must be positive");
-        }
-    }
     let opts = CalibrationOptions {
         estimate,
         solver,
         weights,
-        orientation: match a.orientation_error {
-            OrientationArg::Euler => OrientationError::Euler,
-            OrientationArg::Rotvec => OrientationError::RotVec,
+        orientation,
+        solution: match a.solution {
+            SolutionArg::Solver => SolutionRule::Solver,
+            SolutionArg::MinChange => SolutionRule::MinChange(Box::new(robot.clone())),
         },
+    };
+    let start = match &a.initial {
+        None => robot.clone(),
+        Some(spec) => {
+            let guess = load_robot(spec)?.robot;
+            if guess.links.len() != robot.links.len()
+                || guess.sites.len() != robot.sites.len()
+                || guess
+                    .joints
+                    .iter()
+                    .zip(&robot.joints)
+                    .any(|(g, r)| g.kind != r.kind)
+            {
+                bail!(
+                    "--initial {spec}: not the same robot structure as --robot {}",
+                    a.robot
+                );
+            }
+            let mut start = robot.clone();
+            for id in robot.param_ids() {
+                start.set(id, guess.get(id));
+            }
+            start
+        }
     };
     if a.verbose {
         eprintln!(
@@ -261,7 +336,7 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
             "iter", "objective", "step", "lambda/t", "evals"
         );
     }
-    let cal = estimation::calibrate(robot, &data, &opts, &mut |it| {
+    let cal = estimation::calibrate(&start, &data, &opts, &mut |it| {
         if a.verbose {
             eprintln!(
                 "{:>5} {:>14.6e} {:>11.3e} {:>10.1e} {:>5}",
@@ -269,12 +344,45 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
             );
         }
     })?;
-    let rep = kinecal::report::CalibrationReport::new(
-        &cal,
-        data.postures.len(),
-        data.measurements.len(),
-        data.rows(),
-    );
+    let report_of = |cal: &estimation::Calibration| -> Result<kinecal::report::CalibrationReport> {
+        let mut rep = kinecal::report::CalibrationReport::new(
+            cal,
+            data.postures.len(),
+            data.measurements.len(),
+            data.rows(),
+        );
+        match kinecal::uncertainty::uncertainty(cal, &data) {
+            Ok(u) => rep.add_uncertainty(cal, &u),
+            Err(e) => rep.warnings.push(format!("no uncertainty: {e}")),
+        }
+        Ok(rep)
+    };
+    let mut rep = report_of(&cal)?;
+    let mut final_cal = cal;
+    if let Some(k) = a.prune {
+        if !(k > 0.0 && k.is_finite()) {
+            bail!("--prune must be a positive number of standard deviations, got {k}");
+        }
+        let (full, pruned, removed) = estimation::calibrate_pruned(&start, &data, &opts, k)?;
+        println!("== full fit ==");
+        print!("{}", report::summary(&rep));
+        println!();
+        println!(
+            "== pruned fit: removed {} (changes below {k} sigma, one at a time) ==",
+            if removed.is_empty() {
+                "nothing".to_string()
+            } else {
+                removed
+                    .iter()
+                    .map(|id| id.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
+        );
+        rep = report_of(&pruned)?;
+        rep.add_pruning(k, &removed, &full);
+        final_cal = pruned;
+    }
     print!("{}", report::summary(&rep));
     for w in &rep.warnings {
         eprintln!("warning: {w}");
@@ -284,6 +392,7 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
             "warning: the solver stopped at the iteration cap before converging (--max-iter)"
         );
     }
+    let cal = final_cal;
     if let Some(path) = &a.out {
         write_file(path, &write_robot_toml(&cal.calibrated, Some(&r.text)))?;
         eprintln!("wrote the calibrated robot to {}", path.display());

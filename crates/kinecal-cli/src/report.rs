@@ -10,17 +10,14 @@ pub fn summary(r: &CalibrationReport) -> String {
     let (l, a) = (&r.length_unit, &r.angle_unit);
     let _ = writeln!(
         s,
-        "{}: {} postures, {} measurements, {} residuals; method {}, {} orientation residuals",
-        if r.robot.is_empty() {
-            "robot"
-        } else {
-            &r.robot
-        },
+        "{}: {} postures, {} measurements, {} residuals; method {}, {} orientation residuals, {} solution",
+        if r.robot.is_empty() { "robot" } else { &r.robot },
         r.postures,
         r.measurements,
         r.residuals,
         r.method,
-        r.orientation_error
+        r.orientation_error,
+        r.solution
     );
     let _ = writeln!(
         s,
@@ -70,17 +67,74 @@ pub fn summary(r: &CalibrationReport) -> String {
             r.max_orientation_after
         );
     }
+    if let (Some(vf), Some(rank)) = (r.variance_factor, r.rank) {
+        let estimated = r.parameters.iter().filter(|p| p.estimated_flag).count();
+        let _ = writeln!(
+            s,
+            "rank {rank} of {estimated} estimated parameters; variance factor {vf:.4} (about 1 when --weights match the noise)"
+        );
+    }
     let _ = writeln!(s);
     let _ = writeln!(
         s,
-        "{:<5} {:<20} {:<9} {:>14} {:>14} {:>14}",
-        "id", "name", "unit", "initial", "estimated", "change"
+        "{:<5} {:<20} {:<9} {:>14} {:>14} {:>13} {:>11} {:>7}",
+        "id", "name", "unit", "initial", "estimated", "change", "sigma", "change/sigma"
     );
     for p in r.parameters.iter().filter(|p| p.estimated_flag) {
+        let (sigma, sig) = match (p.sigma, p.significance, p.determined) {
+            (Some(sd), Some(z), _) => (
+                format!("{sd:>11.3e}"),
+                format!("{z:>7.1}{}", if z < 2.0 { "  within noise" } else { "" }),
+            ),
+            (_, _, Some(false)) => (format!("{:>11}", "-"), "  not determined alone".to_string()),
+            _ => (String::new(), String::new()),
+        };
         let _ = writeln!(
             s,
-            "{:<5} {:<20} {:<9} {:>14.6} {:>14.6} {:>+14.6}",
+            "{:<5} {:<20} {:<9} {:>14.6} {:>14.6} {:>+13.6} {sigma} {sig}",
             p.id, p.name, p.unit, p.initial, p.estimated, p.change
+        );
+    }
+    if !r.combinations.is_empty() {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "Determined combinations of parameters the data cannot separate:"
+        );
+        for c in &r.combinations {
+            let _ = writeln!(
+                s,
+                "  {} = {:.6} (was {:.6}, sigma {:.3e}, change {:.1} sigma{})",
+                c.expression,
+                c.value,
+                c.initial,
+                c.sigma,
+                c.significance,
+                if c.within_noise { ", within noise" } else { "" }
+            );
+        }
+    }
+    if !r.undetermined.is_empty() {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "Not individually determined ({}): {}. Their changes mean nothing one by one (see the combinations \
+             above); --estimate identifiable estimates only a determined set, --solution min-change picks the \
+             answer closest to nominal.",
+            r.undetermined.len(),
+            r.undetermined.join(", ")
+        );
+    }
+    if let Some(p) = &r.pruning {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "Pruned at {} sigma: removed {}; full fit had objective {:.6e}, RMS position {:.6} {l}, RMS attitude {:.6} {a}",
+            p.k,
+            if p.removed.is_empty() { "nothing".to_string() } else { p.removed.join(", ") },
+            p.full_objective_after,
+            p.full_rms_position_after,
+            p.full_rms_orientation_after
         );
     }
     s

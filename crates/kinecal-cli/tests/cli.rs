@@ -437,3 +437,240 @@ fn bad_input_names_file_line_and_field() {
         "precious"
     );
 }
+
+#[test]
+fn analyze_reports_the_thesis_structure_as_text_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--seed",
+            "2",
+            "--out",
+            "data.csv",
+        ],
+    );
+    let text = run_ok(d, &["analyze", "--robot", "ge-a4", "--data", "data.csv"]);
+    assert!(text.contains("Numerical rank 24 of 38"), "{text}");
+    assert!(text.contains("= 24."), "{text}");
+    assert!(
+        text.contains("p3 - p9 - p15 - p21 - p27 - p33 = 5.79"),
+        "{text}"
+    );
+    let json: serde_json::Value = serde_json::from_str(&run_ok(
+        d,
+        &[
+            "analyze", "--robot", "ge-a4", "--data", "data.csv", "--json",
+        ],
+    ))
+    .unwrap();
+    for key in [
+        "parameters",
+        "rank",
+        "expected_rank",
+        "singular_values_jacobian",
+        "singular_values_hessian",
+        "condition_number",
+        "identical_groups",
+        "null_space",
+        "identifiable",
+    ] {
+        assert!(json.get(key).is_some(), "analyze --json lacks {key}");
+    }
+    assert_eq!(json["parameters"], 38);
+    assert_eq!(json["rank"], 24);
+    assert_eq!(json["expected_rank"], 24);
+    assert_eq!(json["identical_groups"].as_array().unwrap().len(), 6);
+    assert_eq!(json["null_space"].as_array().unwrap().len(), 14);
+    assert_eq!(json["identifiable"].as_array().unwrap().len(), 24);
+    // Without slopes, from a postures file: rank 20 (eq. 4.3).
+    std::fs::write(d.join("p.csv"), {
+        let mut s = String::from("posture,v1,v2,v3,v4\n");
+        for line in std::fs::read_to_string(d.join("data.csv"))
+            .unwrap()
+            .lines()
+            .skip(1)
+        {
+            let f: Vec<&str> = line.split(',').collect();
+            s.push_str(&format!("{},{}\n", f[0], f[2..6].join(",")));
+        }
+        s
+    })
+    .unwrap();
+    let json: serde_json::Value = serde_json::from_str(&run_ok(
+        d,
+        &[
+            "analyze",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "p.csv",
+            "--fix",
+            "slopes",
+            "--json",
+        ],
+    ))
+    .unwrap();
+    assert_eq!(
+        (json["parameters"].as_u64(), json["rank"].as_u64()),
+        (Some(34), Some(20))
+    );
+    // The thesis's Table 4.5 layout: J^T J in file units.
+    let out = run_ok(
+        d,
+        &[
+            "analyze",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "p1-p6,p14,p29",
+            "--print",
+            "hessian",
+        ],
+    );
+    assert!(out.contains("J^T J (in, deg)"), "{out}");
+    let out = run_ok(
+        d,
+        &[
+            "analyze",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "p1,p2",
+            "--print",
+            "jacobian",
+            "--units",
+            "scaled",
+        ],
+    );
+    assert!(out.contains("1 ee alpha"), "{out}");
+}
+
+#[test]
+fn calibrate_identifiable_min_change_initial_and_prune() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--seed",
+            "7",
+            "--perturb",
+            "p1=+0.05,p14=-0.02,joint2.offset=-0.5,joint4.slope=+0.02",
+            "--noise",
+            "length=0.0005,angle=0.005",
+            "--out",
+            "data.csv",
+        ],
+    );
+    // Only the identifiable set, then pruned to the real changes.
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "identifiable",
+            "--weights",
+            "length=0.0005,angle=0.005",
+            "--prune",
+            "3",
+            "--report",
+            "r.json",
+        ],
+    );
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    let kept: Vec<&str> = rep["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["estimated_flag"] == true)
+        .map(|p| p["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(kept, vec!["p1", "p14", "p32", "p38"]);
+    assert!((rep["variance_factor"].as_f64().unwrap() - 1.0).abs() < 0.5);
+    assert_eq!(rep["pruning"]["k"], 3.0);
+    assert!(rep["undetermined"].as_array().unwrap().is_empty());
+    // Table 4.8 from the command line: the min-change answer from a far guess is Table 4.1.
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--seed",
+            "1",
+            "--out",
+            "clean.csv",
+        ],
+    );
+    let a4 = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/robots/ge_a4.toml"
+    ))
+    .unwrap();
+    let guess = a4
+        .replacen("x = 15.08", "x = 14.08", 1)
+        .replacen("z = 10.54", "z = 10.0", 1);
+    std::fs::write(d.join("guess.toml"), guess).unwrap();
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "clean.csv",
+            "--initial",
+            "guess.toml",
+            "--estimate",
+            "p1,p3,p9,p10,p15,p21,p27,p33",
+            "--solution",
+            "min-change",
+            "--report",
+            "m.json",
+        ],
+    );
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("m.json")).unwrap()).unwrap();
+    assert_eq!(rep["solution"], "min-change");
+    let p = |i: usize| rep["parameters"][i]["estimated"].as_f64().unwrap();
+    assert!(
+        (p(0) - 15.08).abs() < 1e-6 && (p(2) - 10.54).abs() < 1e-6,
+        "{} {}",
+        p(0),
+        p(2)
+    );
+    assert!((rep["parameters"][2]["initial"].as_f64().unwrap() - 10.0).abs() < 1e-12);
+    assert_eq!(
+        rep["combinations"][0]["expression"],
+        "p3 - p9 - p15 - p21 - p27 - p33"
+    );
+    assert!((rep["combinations"][0]["value"].as_f64().unwrap() - 5.79).abs() < 1e-6);
+    assert!(rep["undetermined"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|v| v == "p3"));
+}

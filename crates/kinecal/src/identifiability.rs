@@ -73,6 +73,9 @@ pub struct IdenticalGroup {
     pub terms: Vec<(ParamId, f64)>,
     /// Value of the combination for the analysed robot (file units).
     pub value: f64,
+    /// Whether the data determines the combination. It does unless members also take part in
+    /// other dependencies (then only a larger combination is determined).
+    pub determined: bool,
 }
 
 /// The result of [`analyze`].
@@ -139,7 +142,10 @@ impl Analysis {
 
     /// Whether parameter `id` (one of the analysed) is individually determined.
     pub fn is_determined(&self, id: ParamId) -> bool {
-        self.parameters.iter().position(|&p| p == id).is_some_and(|k| self.determined[k])
+        self.parameters
+            .iter()
+            .position(|&p| p == id)
+            .is_some_and(|k| self.determined[k])
     }
 }
 
@@ -170,13 +176,22 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     let (nl, nj) = (robot.links.len(), robot.dof());
     let all_links = (0..6 * nl).all(|i| has(ParamId(i)));
     let all_offsets = (0..nj).all(|j| has(ParamKind::Offset { joint: j }.id(nl, nj)));
-    let ee_measured = data.measurements.iter().any(|m| m.target == Target::EndEffector);
+    let ee_measured = data
+        .measurements
+        .iter()
+        .any(|m| m.target == Target::EndEffector);
     if !(all_links && all_offsets && ee_measured) {
         return None;
     }
-    let nr = robot.joints.iter().filter(|j| j.kind == JointKind::Revolute).count();
+    let nr = robot
+        .joints
+        .iter()
+        .filter(|j| j.kind == JointKind::Revolute)
+        .count();
     let np = nj - nr;
-    let slopes = (0..nj).filter(|&j| has(ParamKind::Slope { joint: j }.id(nl, nj))).count();
+    let slopes = (0..nj)
+        .filter(|&j| has(ParamKind::Slope { joint: j }.id(nl, nj)))
+        .count();
     let mut frames = Vec::new();
     let mut targets: Vec<Target> = vec![Target::EndEffector];
     targets.extend((0..robot.sites.len()).map(Target::Site));
@@ -187,13 +202,21 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
         }
         if let Target::Site(s) = t {
             let site_params = (0..6).map(|c| {
-                ParamKind::Site { site: s, component: LinkComponent::ALL[c] }.id(nl, nj)
+                ParamKind::Site {
+                    site: s,
+                    component: LinkComponent::ALL[c],
+                }
+                .id(nl, nj)
             });
             if !site_params.into_iter().all(has) {
                 return None;
             }
         }
-        frames.push(if rows.iter().any(|m| m.orientation.is_some()) { 6 } else { 3 });
+        frames.push(if rows.iter().any(|m| m.orientation.is_some()) {
+            6
+        } else {
+            3
+        });
     }
     let rank = 4 * nr + 2 * np + slopes + frames.iter().sum::<usize>();
     let frame_terms: Vec<String> = frames.iter().map(|f| f.to_string()).collect();
@@ -207,7 +230,12 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
 }
 
 /// Analyses what `data` determines about `params` of `robot`.
-pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &AnalysisOptions) -> Result<Analysis> {
+pub fn analyze(
+    robot: &Robot,
+    data: &Dataset,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+) -> Result<Analysis> {
     let mut params = params.to_vec();
     params.sort();
     params.dedup();
@@ -231,8 +259,11 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
             Target::EndEffector => "ee".to_string(),
             Target::Site(s) => robot.sites[s].name.clone(),
         };
-        let comps: &[&'static str] =
-            if meas.orientation.is_some() { &["x", "y", "z", "alpha", "beta", "gamma"] } else { &["x", "y", "z"] };
+        let comps: &[&'static str] = if meas.orientation.is_some() {
+            &["x", "y", "z", "alpha", "beta", "gamma"]
+        } else {
+            &["x", "y", "z"]
+        };
         for (k, c) in comps.iter().enumerate() {
             row_labels.push((posture.clone(), site.clone(), *c));
             row_scale.push(if k < 3 {
@@ -242,20 +273,30 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
             });
         }
     }
-    let col_factor: Vec<f64> = params.iter().map(|&id| units.factor(robot.param_quantity(id))).collect();
+    let col_factor: Vec<f64> = params
+        .iter()
+        .map(|&id| units.factor(robot.param_quantity(id)))
+        .collect();
     let jacobian_file = Matrix::from_fn(m, n, |i, j| jw[(i, j)] * row_scale[i] * col_factor[j]);
 
     let column_norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&jw, j)).collect();
     let max_norm = column_norms.iter().copied().fold(0.0, f64::max);
-    let unobservable: Vec<ParamId> =
-        (0..n).filter(|&j| column_norms[j] <= 1e-12 * max_norm.max(1e-300)).map(|j| params[j]).collect();
+    let unobservable: Vec<ParamId> = (0..n)
+        .filter(|&j| column_norms[j] <= 1e-12 * max_norm.max(1e-300))
+        .map(|j| params[j])
+        .collect();
     let mut js = jw.clone();
     for (j, &c) in column_norms.iter().enumerate() {
         // Unobservable columns hold only rounding noise: zero them rather than blow it up.
-        let s = if unobservable.contains(&params[j]) { 0.0 } else { 1.0 / c };
+        let s = if unobservable.contains(&params[j]) {
+            0.0
+        } else {
+            1.0 / c
+        };
         linalg::scale_col(&mut js, j, s);
     }
-    let svd = linalg::thin_svd(&js).ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+    let svd =
+        linalg::thin_svd(&js).ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
     let sv_file = linalg::singular_values(&jacobian_file)
         .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
     let s = &svd.s;
@@ -264,7 +305,11 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
     // The largest gap, on a log scale, between consecutive singular values.
     let (mut gap_rank, mut gap_ratio) = (s.len(), 1.0);
     for i in 0..s.len().saturating_sub(1) {
-        let ratio = if s[i + 1] > 0.0 { s[i] / s[i + 1] } else { f64::INFINITY };
+        let ratio = if s[i + 1] > 0.0 {
+            s[i] / s[i + 1]
+        } else {
+            f64::INFINITY
+        };
         if ratio > gap_ratio {
             gap_rank = i + 1;
             gap_ratio = ratio;
@@ -298,9 +343,12 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
             "{m} residuals cannot determine {n} parameters: measure more postures or analyse fewer parameters"
         )));
     }
-    let null: Vec<Vec<f64>> = (rank..n).map(|k| (0..n).map(|j| svd.v[(j, k)]).collect()).collect();
-    let determined: Vec<bool> =
-        (0..n).map(|j| null.iter().map(|v| v[j] * v[j]).sum::<f64>().sqrt() < 1e-6).collect();
+    let null: Vec<Vec<f64>> = (rank..n)
+        .map(|k| (0..n).map(|j| svd.v[(j, k)]).collect())
+        .collect();
+    let determined: Vec<bool> = (0..n)
+        .map(|j| null.iter().map(|v| v[j] * v[j]).sum::<f64>().sqrt() < 1e-6)
+        .collect();
 
     // Identical redundancies: equal or opposite unit columns.
     let mut group_of: Vec<Option<usize>> = vec![None; n];
@@ -326,15 +374,51 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
             groups.push(g);
         }
     }
+    // Null space in file units, for estimability checks and the reduced form below.
+    let file_null: Vec<Vec<f64>> = null
+        .iter()
+        .map(|v| {
+            (0..n)
+                .map(|j| {
+                    if column_norms[j] > 0.0 {
+                        v[j] / column_norms[j] / col_factor[j]
+                    } else {
+                        v[j]
+                    }
+                })
+                .collect()
+        })
+        .collect();
     let file_norm = |j: usize| column_norms[j] * col_factor[j];
     let identical_groups = groups
         .iter()
         .map(|g| {
             let first = g[0].0;
-            let terms: Vec<(ParamId, f64)> =
-                g.iter().map(|&(j, sign)| (params[j], tidy_coef(sign * file_norm(j) / file_norm(first)))).collect();
+            let terms: Vec<(ParamId, f64)> = g
+                .iter()
+                .map(|&(j, sign)| (params[j], tidy_coef(sign * file_norm(j) / file_norm(first))))
+                .collect();
             let value = terms.iter().map(|&(id, c)| c * robot.get_user(id)).sum();
-            IdenticalGroup { terms, value }
+            // Determined iff the combination does not change along any undetermined direction.
+            let determined = file_null.iter().all(|nv| {
+                let along: f64 = g
+                    .iter()
+                    .zip(&terms)
+                    .map(|(&(j, _), &(_, c))| c * nv[j])
+                    .sum();
+                let scale: f64 = g
+                    .iter()
+                    .zip(&terms)
+                    .map(|(&(j, _), &(_, c))| (c * nv[j]).abs())
+                    .sum::<f64>()
+                    + nv.iter().map(|x| x.abs()).fold(0.0, f64::max);
+                along.abs() <= 1e-8 * scale
+            });
+            IdenticalGroup {
+                terms,
+                value,
+                determined,
+            }
         })
         .collect();
 
@@ -345,18 +429,29 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
             order.push(id);
         }
     }
-    let order: Vec<usize> = order.iter().filter_map(|id| params.iter().position(|p| p == id)).collect();
-    let identifiable = select_base(&js, &order, rank, opts.rcond * smax, robot, &params, &opts.priority);
+    let order: Vec<usize> = order
+        .iter()
+        .filter_map(|id| params.iter().position(|p| p == id))
+        .collect();
+    let identifiable = select_base(
+        &js,
+        &order,
+        rank,
+        opts.rcond * smax,
+        robot,
+        &params,
+        &opts.priority,
+    );
 
     // Null space in reduced form, pivots on the least preferred parameters, in file units.
     let reverse: Vec<usize> = order.iter().rev().copied().collect();
-    let file_null: Vec<Vec<f64>> = null
-        .iter()
-        .map(|v| (0..n).map(|j| if column_norms[j] > 0.0 { v[j] / column_norms[j] / col_factor[j] } else { v[j] }).collect())
-        .collect();
     let null_space = reduced_form(&file_null, &reverse)
         .into_iter()
-        .map(|row| row.into_iter().map(|(j, c)| (params[j], tidy_coef(c))).collect())
+        .map(|row| {
+            row.into_iter()
+                .map(|(j, c)| (params[j], tidy_coef(c)))
+                .collect()
+        })
         .collect();
 
     let euler_singular = robot
@@ -365,13 +460,20 @@ pub fn analyze(robot: &Robot, data: &Dataset, params: &[ParamId], opts: &Analysi
         .enumerate()
         .filter(|(_, l)| l.beta.cos().abs() < 1e-3)
         .map(|(i, _)| format!("link{}", i + 1))
-        .chain(robot.sites.iter().filter(|s| s.frame.beta.cos().abs() < 1e-3).map(|s| format!("site.{}", s.name)))
+        .chain(
+            robot
+                .sites
+                .iter()
+                .filter(|s| s.frame.beta.cos().abs() < 1e-3)
+                .map(|s| format!("site.{}", s.name)),
+        )
         .collect::<Vec<_>>();
     for name in &euler_singular {
         warnings.push(format!(
-            "{name} has beta within 0.06 deg of +-90 deg: its alpha and gamma act alike (gimbal \
-             lock of the Euler parameterisation), which costs a rank here; this is not a physical \
-             redundancy: re-choose that frame's axes if you can"
+            "{name} has beta within 0.06 deg of +-90 deg: its alpha and gamma rotate about the same \
+             axis (gimbal lock of the Euler parameterisation), so they cannot be told apart; this \
+             is a singularity of the parameterisation, not a physical redundancy: choose that \
+             frame's axes so that beta is away from +-90 deg"
         ));
     }
 
@@ -434,7 +536,11 @@ fn select_base(
     let mut q: Vec<Vec<f64>> = Vec::new(); // orthonormal basis of chosen columns
     let mut remaining: Vec<usize> = order.to_vec();
     while chosen.len() < rank && !remaining.is_empty() {
-        let tier = remaining.iter().map(|&j| tier_of(j)).min().expect("non-empty");
+        let tier = remaining
+            .iter()
+            .map(|&j| tier_of(j))
+            .min()
+            .expect("non-empty");
         // Residual norms of this tier's candidates.
         let mut best: Option<(usize, f64, Vec<f64>)> = None;
         for &j in remaining.iter().filter(|&&j| tier_of(j) == tier) {
@@ -495,8 +601,13 @@ fn reduced_form(vectors: &[Vec<f64>], order: &[usize]) -> Vec<Vec<(usize, f64)>>
             break;
         }
         // Partial pivoting among the remaining rows.
-        let (best, val) = (r..k).map(|i| (i, rows[i][c].abs())).fold((r, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-        let scale = rows.iter().flat_map(|row| row.iter()).fold(0.0f64, |a, &b| a.max(b.abs()));
+        let (best, val) = (r..k)
+            .map(|i| (i, rows[i][c].abs()))
+            .fold((r, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+        let scale = rows
+            .iter()
+            .flat_map(|row| row.iter())
+            .fold(0.0f64, |a, &b| a.max(b.abs()));
         if val <= 1e-8 * scale {
             continue;
         }
@@ -524,11 +635,51 @@ fn reduced_form(vectors: &[Vec<f64>], order: &[usize]) -> Vec<Vec<(usize, f64)>>
         .zip(&pivots)
         .map(|(row, &pc)| {
             let big = row.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-            let mut terms: Vec<(usize, f64)> =
-                row.iter().enumerate().filter(|(_, &v)| v.abs() > 1e-9 * big).map(|(j, &v)| (j, v)).collect();
+            let mut terms: Vec<(usize, f64)> = row
+                .iter()
+                .enumerate()
+                .filter(|(_, &v)| v.abs() > 1e-9 * big)
+                .map(|(j, &v)| (j, v))
+                .collect();
             // Pivot first, then by parameter order.
             terms.sort_by_key(|&(j, _)| (j != pc, j));
             terms
         })
         .collect()
+}
+
+/// Writes `sum c_j p_j` readably: `p3 - p9 - p15`, `p4 + 0.5 p31`.
+pub fn format_combination(terms: &[(ParamId, f64)]) -> String {
+    let mut s = String::new();
+    for (k, &(id, c)) in terms.iter().enumerate() {
+        let sign = if c < 0.0 { "-" } else { "+" };
+        let mag = c.abs();
+        let coef = if (mag - 1.0).abs() < 1e-12 {
+            String::new()
+        } else {
+            format!("{} ", fmt_sig(mag))
+        };
+        if k == 0 {
+            s.push_str(if c < 0.0 { "-" } else { "" });
+        } else {
+            s.push_str(&format!(" {sign} "));
+        }
+        s.push_str(&format!("{coef}{id}"));
+    }
+    s
+}
+
+/// A number with 6 significant digits and no trailing zeros.
+pub fn fmt_sig(v: f64) -> String {
+    let s = format!("{:.6}", v);
+    let s = if v != 0.0 && v.abs() < 1e-3 {
+        format!("{v:.4e}")
+    } else {
+        s
+    };
+    if s.contains('.') && !s.contains('e') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }

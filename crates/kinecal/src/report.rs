@@ -2,7 +2,10 @@
 
 use serde::Serialize;
 
-use crate::estimation::{Calibration, OrientationError};
+use crate::estimation::{Calibration, OrientationError, SolutionRule};
+use crate::identifiability::format_combination;
+use crate::params::ParamId;
+use crate::uncertainty::{Uncertainty, NOISE_SIGMAS};
 use crate::units::Quantity;
 
 /// One parameter's line in the report.
@@ -22,6 +25,74 @@ pub struct ParameterReport {
     pub change: f64,
     /// Whether the parameter was estimated.
     pub estimated_flag: bool,
+    /// Whether the data determines it individually (absent when not estimated or not analysed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub determined: Option<bool>,
+    /// Standard deviation (same unit), when determined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<f64>,
+    /// `|change| / sigma`, when determined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub significance: Option<f64>,
+    /// Whether the change is within the noise (below 2 sigma).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub within_noise: Option<bool>,
+}
+
+/// A member of a determined combination.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TermReport {
+    /// Parameter id.
+    pub id: String,
+    /// Parameter name.
+    pub name: String,
+    /// Coefficient (file units).
+    pub coefficient: f64,
+}
+
+/// A combination of parameters the data determines although its members are not.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CombinationReport {
+    /// Readable form, e.g. `p3 - p9 - p15 - p21 - p27 - p33`.
+    pub expression: String,
+    /// The members.
+    pub terms: Vec<TermReport>,
+    /// Value before calibration.
+    pub initial: f64,
+    /// Value after.
+    pub value: f64,
+    /// Standard deviation.
+    pub sigma: f64,
+    /// `|value - initial| / sigma`.
+    pub significance: f64,
+    /// Whether the change is within the noise (below 2 sigma).
+    pub within_noise: bool,
+}
+
+/// A pair of strongly correlated estimates.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct CorrelationReport {
+    /// First parameter id.
+    pub a: String,
+    /// Second parameter id.
+    pub b: String,
+    /// Correlation coefficient.
+    pub rho: f64,
+}
+
+/// The fit before pruning, when `--prune` was used.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct PruneReport {
+    /// The significance threshold K.
+    pub k: f64,
+    /// Parameters removed, in order.
+    pub removed: Vec<String>,
+    /// The full fit's objective after.
+    pub full_objective_after: f64,
+    /// The full fit's RMS position error after.
+    pub full_rms_position_after: f64,
+    /// The full fit's RMS attitude error after.
+    pub full_rms_orientation_after: f64,
 }
 
 /// The calibration report written by `kinecal calibrate --report`.
@@ -77,6 +148,23 @@ pub struct CalibrationReport {
     pub parameters: Vec<ParameterReport>,
     /// Warnings.
     pub warnings: Vec<String>,
+    /// `solver` or `min-change`.
+    pub solution: String,
+    /// Variance factor `SSR / (m - rank)`: about 1 when the weights match the noise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub variance_factor: Option<f64>,
+    /// Numerical rank of the estimated parameters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rank: Option<usize>,
+    /// Estimated parameters the data does not determine individually.
+    pub undetermined: Vec<String>,
+    /// Determined combinations of identically redundant groups.
+    pub combinations: Vec<CombinationReport>,
+    /// Correlations above 0.95 between determined estimates.
+    pub correlations: Vec<CorrelationReport>,
+    /// The fit before pruning, when pruning was asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pruning: Option<PruneReport>,
 }
 
 impl CalibrationReport {
@@ -99,6 +187,10 @@ impl CalibrationReport {
                     estimated,
                     change: estimated - initial,
                     estimated_flag: cal.estimated.binary_search(&id).is_ok(),
+                    determined: None,
+                    sigma: None,
+                    significance: None,
+                    within_noise: None,
                 }
             })
             .collect();
@@ -133,7 +225,90 @@ impl CalibrationReport {
             max_orientation_after: ang(a.max_orientation),
             parameters,
             warnings: cal.warnings.clone(),
+            solution: match cal.options.solution {
+                SolutionRule::Solver => "solver",
+                SolutionRule::MinChange(_) => "min-change",
+            }
+            .to_string(),
+            variance_factor: None,
+            rank: None,
+            undetermined: Vec::new(),
+            combinations: Vec::new(),
+            correlations: Vec::new(),
+            pruning: None,
         }
+    }
+
+    /// Adds the uncertainty of the calibration: sigmas, significance, determined combinations,
+    /// correlations, and the parameters the data does not determine.
+    pub fn add_uncertainty(&mut self, cal: &Calibration, u: &Uncertainty) {
+        let robot = &cal.calibrated;
+        self.variance_factor = Some(u.variance_factor);
+        self.rank = Some(u.analysis.rank);
+        for pu in &u.parameters {
+            let p = &mut self.parameters[pu.id.0];
+            p.determined = Some(pu.determined);
+            p.sigma = pu.sigma;
+            p.significance = pu.significance;
+            p.within_noise = pu.significance.map(|s| s < NOISE_SIGMAS);
+            if !pu.determined {
+                self.undetermined.push(pu.id.to_string());
+            }
+        }
+        self.combinations = u
+            .combinations
+            .iter()
+            .map(|c| CombinationReport {
+                expression: format_combination(&c.terms),
+                terms: c
+                    .terms
+                    .iter()
+                    .map(|&(id, coefficient)| TermReport {
+                        id: id.to_string(),
+                        name: robot.param_name(id),
+                        coefficient,
+                    })
+                    .collect(),
+                initial: c.initial,
+                value: c.value,
+                sigma: c.sigma,
+                significance: c.significance,
+                within_noise: c.significance < NOISE_SIGMAS,
+            })
+            .collect();
+        self.correlations = u
+            .correlations
+            .iter()
+            .map(|&(a, b, rho)| CorrelationReport {
+                a: a.to_string(),
+                b: b.to_string(),
+                rho,
+            })
+            .collect();
+        for c in &self.correlations {
+            self.warnings.push(format!(
+                "{} and {} are correlated {:+.3}: the data barely separates them",
+                c.a, c.b, c.rho
+            ));
+        }
+        for w in &u.analysis.warnings {
+            if !self.warnings.contains(w) {
+                self.warnings.push(w.clone());
+            }
+        }
+    }
+
+    /// Records that this report is the pruned refit of `full`.
+    pub fn add_pruning(&mut self, k: f64, removed: &[ParamId], full: &Calibration) {
+        let u = full.calibrated.units;
+        self.pruning = Some(PruneReport {
+            k,
+            removed: removed.iter().map(ToString::to_string).collect(),
+            full_objective_after: full.objective_after,
+            full_rms_position_after: u.from_si(Quantity::Length, full.accuracy_after.rms_position),
+            full_rms_orientation_after: u
+                .from_si(Quantity::Angle, full.accuracy_after.rms_orientation),
+        });
     }
 
     /// Pretty-printed JSON.

@@ -229,8 +229,17 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         sites.push(Site { name, joint, frame });
     }
 
-    let mut robot = Robot { name, units, links, joints, sites, tolerances: Default::default() };
-    robot.validate().map_err(|m| Error::input(Location::file(file), m))?;
+    let mut robot = Robot {
+        name,
+        units,
+        links,
+        joints,
+        sites,
+        tolerances: Default::default(),
+    };
+    robot
+        .validate()
+        .map_err(|m| Error::input(Location::file(file), m))?;
     match root.get("tolerances") {
         None => {}
         Some(Item::Table(t)) => {
@@ -246,7 +255,11 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                     "slope" => robot.tolerances.slope_fraction = v,
                     name => {
                         let id = crate::params::parse_param(name, &robot).map_err(|e| {
-                            r.err(item.span(), &field, format!("{e} (expected length, angle, slope or a parameter)"))
+                            r.err(
+                                item.span(),
+                                &field,
+                                format!("{e} (expected length, angle, slope or a parameter)"),
+                            )
                         })?;
                         let si = units.to_si(robot.param_quantity(id), v);
                         robot.tolerances.overrides.push((id, si));
@@ -254,7 +267,9 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 }
             }
         }
-        Some(other) => return Err(r.err(other.span(), "tolerances", "expected a [tolerances] table")),
+        Some(other) => {
+            return Err(r.err(other.span(), "tolerances", "expected a [tolerances] table"))
+        }
     }
     Ok(robot)
 }

@@ -64,7 +64,8 @@ pub struct Uncertainty {
     pub dof: usize,
     /// Per estimated parameter.
     pub parameters: Vec<ParameterUncertainty>,
-    /// Determined combinations of identically redundant groups.
+    /// Determined combinations of identically redundant groups (groups whose members also take
+    /// part in other dependencies have no determined combination of their own and are left out).
     pub combinations: Vec<CombinationUncertainty>,
     /// Pairs of determined parameters correlated above [`HIGH_CORRELATION`].
     pub correlations: Vec<(ParamId, ParamId, f64)>,
@@ -85,7 +86,13 @@ impl Uncertainty {
                 Some((k, c / robot.units.factor(robot.param_quantity(id))))
             })
             .collect();
-        idx.iter().map(|&(a, ca)| idx.iter().map(|&(b, cb)| ca * cb * self.covariance[a][b]).sum::<f64>()).sum()
+        idx.iter()
+            .map(|&(a, ca)| {
+                idx.iter()
+                    .map(|&(b, cb)| ca * cb * self.covariance[a][b])
+                    .sum::<f64>()
+            })
+            .sum()
     }
 
     /// The uncertainty of parameter `id`, if it was estimated.
@@ -139,15 +146,47 @@ pub fn uncertainty(cal: &Calibration, data: &Dataset) -> Result<Uncertainty> {
         let f = robot.units.factor(robot.param_quantity(id));
         let sigma = determined.then(|| u.covariance[k][k].max(0.0).sqrt() / f);
         let change = robot.get_user(id) - cal.initial.get_user(id);
-        let significance = sigma.map(|s| if s > 0.0 { change.abs() / s } else { f64::INFINITY });
-        u.parameters.push(ParameterUncertainty { id, determined, sigma, change, significance });
+        let significance = sigma.map(|s| {
+            if s > 0.0 {
+                change.abs() / s
+            } else {
+                f64::INFINITY
+            }
+        });
+        u.parameters.push(ParameterUncertainty {
+            id,
+            determined,
+            sigma,
+            change,
+            significance,
+        });
     }
-    for g in u.analysis.identical_groups.clone() {
+    for g in u
+        .analysis
+        .identical_groups
+        .clone()
+        .into_iter()
+        .filter(|g| g.determined)
+    {
         let sigma = u.variance_file(cal, &g.terms).max(0.0).sqrt();
-        let initial: f64 = g.terms.iter().map(|&(id, c)| c * cal.initial.get_user(id)).sum();
+        let initial: f64 = g
+            .terms
+            .iter()
+            .map(|&(id, c)| c * cal.initial.get_user(id))
+            .sum();
         let value: f64 = g.terms.iter().map(|&(id, c)| c * robot.get_user(id)).sum();
-        let significance = if sigma > 0.0 { (value - initial).abs() / sigma } else { f64::INFINITY };
-        u.combinations.push(CombinationUncertainty { terms: g.terms, value, initial, sigma, significance });
+        let significance = if sigma > 0.0 {
+            (value - initial).abs() / sigma
+        } else {
+            f64::INFINITY
+        };
+        u.combinations.push(CombinationUncertainty {
+            terms: g.terms,
+            value,
+            initial,
+            sigma,
+            significance,
+        });
     }
     for a in 0..n {
         for b in a + 1..n {
@@ -158,7 +197,8 @@ pub fn uncertainty(cal: &Calibration, data: &Dataset) -> Result<Uncertainty> {
             if denom > 0.0 {
                 let rho = u.covariance[a][b] / denom;
                 if rho.abs() > HIGH_CORRELATION {
-                    u.correlations.push((u.parameters[a].id, u.parameters[b].id, rho));
+                    u.correlations
+                        .push((u.parameters[a].id, u.parameters[b].id, rho));
                 }
             }
         }

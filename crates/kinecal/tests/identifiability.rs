@@ -12,23 +12,43 @@ fn ids(list: &str, robot: &kinecal::Robot) -> Vec<ParamId> {
 fn ge_a4_full_model_rank_24_with_the_thesis_identical_groups() {
     let robot = examples::ge_a4();
     let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 1988), false);
-    let a = analyze(&robot, &data, &ids("all", &robot), &AnalysisOptions::default()).unwrap();
+    let a = analyze(
+        &robot,
+        &data,
+        &ids("all", &robot),
+        &AnalysisOptions::default(),
+    )
+    .unwrap();
     assert_eq!(a.rank, 24);
     assert_eq!(a.parameters.len() - a.rank, 14);
     assert_eq!(a.expected.as_ref().unwrap().rank, 24);
     assert_eq!(a.gap_rank, 24);
     assert!(a.gap_ratio > 1e8, "gap {}", a.gap_ratio);
-    let mut groups: Vec<Vec<usize>> =
-        a.identical_groups.iter().map(|g| g.terms.iter().map(|(id, _)| id.0 + 1).collect()).collect();
+    let mut groups: Vec<Vec<usize>> = a
+        .identical_groups
+        .iter()
+        .map(|g| g.terms.iter().map(|(id, _)| id.0 + 1).collect())
+        .collect();
     groups.sort();
     assert_eq!(
         groups,
-        vec![vec![3, 9, 15, 21, 27, 33], vec![4, 31], vec![10, 32], vec![13, 19], vec![14, 20], vec![16, 22, 34]]
+        vec![
+            vec![3, 9, 15, 21, 27, 33],
+            vec![4, 31],
+            vec![10, 32],
+            vec![13, 19],
+            vec![14, 20],
+            vec![16, 22, 34]
+        ]
     );
     // 11 identical redundancies: members minus one per group.
     assert_eq!(groups.iter().map(|g| g.len() - 1).sum::<usize>(), 11);
     // Eq. 4.1: p3 - p9 - p15 - p21 - p27 - p33 = 5.79.
-    let z = a.identical_groups.iter().find(|g| g.terms[0].0 == ParamId(2)).unwrap();
+    let z = a
+        .identical_groups
+        .iter()
+        .find(|g| g.terms[0].0 == ParamId(2))
+        .unwrap();
     let coefs: Vec<f64> = z.terms.iter().map(|t| t.1).collect();
     assert_eq!(coefs, vec![1.0, -1.0, -1.0, -1.0, -1.0, -1.0]);
     assert!((z.value - 5.79).abs() < 1e-9);
@@ -46,7 +66,10 @@ fn ge_a4_full_model_rank_24_with_the_thesis_identical_groups() {
     let mut no_slopes = ids("all", &robot);
     no_slopes.retain(|id| !ids("slopes", &robot).contains(id));
     let c = analyze(&robot, &data, &no_slopes, &AnalysisOptions::default()).unwrap();
-    assert_eq!((c.parameters.len(), c.rank, c.expected.unwrap().rank), (34, 20, 20));
+    assert_eq!(
+        (c.parameters.len(), c.rank, c.expected.unwrap().rank),
+        (34, 20, 20)
+    );
 }
 
 #[test]
@@ -55,7 +78,13 @@ fn random_robots_follow_the_formula() {
     for dof in 1..=6 {
         for trial in 0..3 {
             let kinds: Vec<JointKind> = (0..dof)
-                .map(|_| if rng.random_range(0.0..1.0) < 0.3 { JointKind::Prismatic } else { JointKind::Revolute })
+                .map(|_| {
+                    if rng.random_range(0.0..1.0) < 0.3 {
+                        JointKind::Prismatic
+                    } else {
+                        JointKind::Revolute
+                    }
+                })
                 .collect();
             let seed = 10 * dof as u64 + trial;
             let mut robot = simulate::random_robot(&kinds, seed);
@@ -66,7 +95,14 @@ fn random_robots_follow_the_formula() {
                     robot.sites.push(Site {
                         name: "s".into(),
                         joint: rng.random_range(1..=dof),
-                        frame: Link { x: 0.1, y: 0.05, z: -0.2, alpha: 0.4, beta: 0.3, gamma: -0.7 },
+                        frame: Link {
+                            x: 0.1,
+                            y: 0.05,
+                            z: -0.2,
+                            alpha: 0.4,
+                            beta: 0.3,
+                            gamma: -0.7,
+                        },
                     });
                 }
                 let postures = simulate::sample_postures(&robot, 40, seed);
@@ -77,13 +113,21 @@ fn random_robots_follow_the_formula() {
                     let all: Vec<ParamId> = robot.param_ids().collect();
                     let a = analyze(&robot, &data, &all, &AnalysisOptions::default()).unwrap();
                     let expected = 5 * nr + 3 * np + frame * (1 + sites);
-                    assert_eq!(a.rank, expected, "{kinds:?} site {with_site} position-only {position_only}");
+                    assert_eq!(
+                        a.rank, expected,
+                        "{kinds:?} site {with_site} position-only {position_only}"
+                    );
                     assert_eq!(a.expected.unwrap().rank, expected);
                     let mut no_slopes = all.clone();
                     let slopes = parse_param_list("slopes", &robot).unwrap();
                     no_slopes.retain(|id| !slopes.contains(id));
-                    let b = analyze(&robot, &data, &no_slopes, &AnalysisOptions::default()).unwrap();
-                    assert_eq!(b.rank, 4 * nr + 2 * np + frame * (1 + sites), "{kinds:?} without slopes");
+                    let b =
+                        analyze(&robot, &data, &no_slopes, &AnalysisOptions::default()).unwrap();
+                    assert_eq!(
+                        b.rank,
+                        4 * nr + 2 * np + frame * (1 + sites),
+                        "{kinds:?} without slopes"
+                    );
                 }
             }
         }
@@ -105,7 +149,11 @@ fn min_change_answer_does_not_depend_on_the_guess() {
     ];
     let nominal = examples::ge_a4();
     let est = ids("p1,p3,p9,p10,p15,p21,p27,p33", &nominal);
-    let data = simulate::measure(&nominal, &simulate::sample_postures(&nominal, 30, 1988), false);
+    let data = simulate::measure(
+        &nominal,
+        &simulate::sample_postures(&nominal, 30, 1988),
+        false,
+    );
     for run in runs {
         let mut start = nominal.clone();
         for (&id, &v) in est.iter().zip(&run) {
@@ -117,18 +165,29 @@ fn min_change_answer_does_not_depend_on_the_guess() {
         assert!(cal.objective_after < 1e-12 * cal.objective_before);
         for &id in &est {
             let (got, want) = (cal.calibrated.get_user(id), nominal.get_user(id));
-            assert!((got - want).abs() < 1e-6, "{run:?}: {id} = {got}, Table 4.1 says {want}");
+            assert!(
+                (got - want).abs() < 1e-6,
+                "{run:?}: {id} = {got}, Table 4.1 says {want}"
+            );
         }
     }
     // The same with all 38 parameters, from a random start.
-    let std = simulate::PerturbStd { length: 0.05 * 0.0254, angle: 0.5f64.to_radians(), slope_fraction: 0.005 };
+    let std = simulate::PerturbStd {
+        length: 0.05 * 0.0254,
+        angle: 0.5f64.to_radians(),
+        slope_fraction: 0.005,
+    };
     let start = simulate::perturb(&nominal, std, 77);
     let mut opts = CalibrationOptions::new(ids("all", &nominal));
     opts.solution = SolutionRule::MinChange(Box::new(nominal.clone()));
     let cal = calibrate(&start, &data, &opts, &mut |_| {}).unwrap();
     for id in nominal.param_ids() {
         let (got, want) = (cal.calibrated.get(id), nominal.get(id));
-        assert!((got - want).abs() < 1e-7, "{} = {got}, nominal {want}", nominal.param_name(id));
+        assert!(
+            (got - want).abs() < 1e-7,
+            "{} = {got}, nominal {want}",
+            nominal.param_name(id)
+        );
     }
 }
 
@@ -139,10 +198,15 @@ fn monte_carlo_sigmas_match_the_spread() {
     let postures = simulate::sample_postures(&nominal, 30, 5);
     let clean = simulate::measure(&nominal, &postures, false);
     let all = ids("all", &nominal);
-    let base = analyze(&nominal, &clean, &all, &AnalysisOptions::default()).unwrap().identifiable;
+    let base = analyze(&nominal, &clean, &all, &AnalysisOptions::default())
+        .unwrap()
+        .identifiable;
     let (sl, sa) = (0.002 * 0.0254, 0.02f64.to_radians());
     let mut opts = CalibrationOptions::new(base.clone());
-    opts.weights = Weights { length: sl, angle: sa };
+    opts.weights = Weights {
+        length: sl,
+        angle: sa,
+    };
     let runs = 300;
     let mut estimates = vec![Vec::with_capacity(runs); base.len()];
     let mut sigmas = vec![0.0; base.len()];
@@ -158,17 +222,28 @@ fn monte_carlo_sigmas_match_the_spread() {
             estimates[k].push(cal.calibrated.get_user(id));
             sigmas[k] += u.parameter(id).unwrap().sigma.unwrap() / runs as f64;
         }
-        assert!((u.variance_factor - 1.0).abs() < 0.5, "variance factor {}", u.variance_factor);
+        assert!(
+            (u.variance_factor - 1.0).abs() < 0.5,
+            "variance factor {}",
+            u.variance_factor
+        );
         if seed < 100 {
             // A redundant model: the identical group's combination (eq. 4.1) has a sigma too.
             let mut o = opts.clone();
             o.estimate = full.clone();
             let cal = calibrate(&nominal, &data, &o, &mut |_| {}).unwrap();
             let u = kinecal::uncertainty::uncertainty(&cal, &data).unwrap();
-            let c = u.combinations.iter().find(|c| c.terms[0].0 == ParamId(2)).unwrap();
+            let c = u
+                .combinations
+                .iter()
+                .find(|c| c.terms[0].0 == ParamId(2))
+                .unwrap();
             combo.0.push(c.value);
             combo.1 += c.sigma / 100.0;
-            assert!(u.parameter(ParamId(2)).unwrap().sigma.is_none(), "p3 alone is not determined");
+            assert!(
+                u.parameter(ParamId(2)).unwrap().sigma.is_none(),
+                "p3 alone is not determined"
+            );
         }
     }
     let spread = |v: &[f64]| {
@@ -179,9 +254,84 @@ fn monte_carlo_sigmas_match_the_spread() {
     for (k, &id) in base.iter().enumerate() {
         let s = spread(&estimates[k]);
         eprintln!("{}: ratio {:.3}", nominal.param_name(id), sigmas[k] / s);
-        assert!((sigmas[k] / s - 1.0).abs() < 0.15, "{}: reported {} vs spread {s}", nominal.param_name(id), sigmas[k]);
+        assert!(
+            (sigmas[k] / s - 1.0).abs() < 0.15,
+            "{}: reported {} vs spread {s}",
+            nominal.param_name(id),
+            sigmas[k]
+        );
     }
     // 100 runs: ~7 %; 25 % is ~3.5 of those.
     let s = spread(&combo.0);
-    assert!((combo.1 / s - 1.0).abs() < 0.25, "eq. 4.1 combination: reported {} vs spread {s}", combo.1);
+    assert!(
+        (combo.1 / s - 1.0).abs() < 0.25,
+        "eq. 4.1 combination: reported {} vs spread {s}",
+        combo.1
+    );
+}
+
+#[test]
+fn a_link_at_beta_90_is_reported_as_a_parameterisation_singularity() {
+    let mut robot = simulate::random_robot(&[JointKind::Revolute; 3], 8);
+    robot.links[1].beta = std::f64::consts::FRAC_PI_2;
+    let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 2), false);
+    let a = analyze(
+        &robot,
+        &data,
+        &ids("all", &robot),
+        &AnalysisOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(a.euler_singular, vec!["link2".to_string()]);
+    assert!(a.warnings.iter().any(|w| w.contains("gimbal lock")));
+    // alpha and gamma of link 2 now rotate about the same axis: identically redundant.
+    let (alpha, gamma) = (ParamId(6 + 3), ParamId(6 + 5));
+    assert!(a
+        .identical_groups
+        .iter()
+        .any(|g| g.terms.iter().any(|t| t.0 == alpha) && g.terms.iter().any(|t| t.0 == gamma)));
+}
+
+#[test]
+fn multi_site_data_calibrates_sites_and_follows_eq_4_5() {
+    let mut nominal = simulate::random_robot(
+        &[
+            JointKind::Revolute,
+            JointKind::Revolute,
+            JointKind::Prismatic,
+            JointKind::Revolute,
+        ],
+        21,
+    );
+    for (k, joint) in [(0, 1), (1, 3)] {
+        nominal.sites.push(Site {
+            name: format!("site{k}"),
+            joint,
+            frame: Link {
+                x: 0.1,
+                y: -0.05,
+                z: 0.02,
+                alpha: 0.2,
+                beta: 0.1,
+                gamma: -0.3,
+            },
+        });
+    }
+    let std = simulate::PerturbStd {
+        length: 1e-3,
+        angle: 0.3f64.to_radians(),
+        slope_fraction: 0.002,
+    };
+    let truth = simulate::perturb(&nominal, std, 4);
+    let data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 9), false);
+    let all = ids("all", &nominal);
+    let a = analyze(&nominal, &data, &all, &AnalysisOptions::default()).unwrap();
+    // N_s = 5 nr + 3 np + 6 ns with ns = 3 measured frames (eq. 4.5).
+    assert_eq!(a.rank, 5 * 3 + 3 + 6 * 3);
+    let mut opts = CalibrationOptions::new(all);
+    opts.solution = SolutionRule::Solver;
+    let cal = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+    assert!(cal.objective_after < 1e-12 * cal.objective_before);
+    // Every site's pose is reproduced (the calibrated model predicts each measured frame).
+    assert!(cal.accuracy_after.rms_position < 1e-9 && cal.accuracy_after.rms_orientation < 1e-9);
 }

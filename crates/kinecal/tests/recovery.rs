@@ -232,6 +232,12 @@ fn position_only_data_leaves_unseen_parameters_alone() {
     let cal = run(Method::LevenbergMarquardt, all, &nominal, &data);
     assert!(cal.objective_after < 1e-12 * cal.objective_before);
     for p in 6 * 6 + 3..6 * 6 + 6 {
-        assert_eq!(cal.calibrated.get(ParamId(p)), nominal.get(ParamId(p)), "{}", nominal.param_name(ParamId(p)));
+        // Exactly unchanged: the solver zeroes these columns, so their steps are exactly 0.
+        let (a, b) = (cal.calibrated.get(ParamId(p)), nominal.get(ParamId(p)));
+        assert!(
+            a.to_bits() == b.to_bits(),
+            "{}: {a} vs {b}",
+            nominal.param_name(ParamId(p))
+        );
     }
 }

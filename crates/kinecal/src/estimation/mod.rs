@@ -252,7 +252,12 @@ fn project_min_change(
     let pos: Vec<usize> = problem
         .estimated()
         .iter()
-        .map(|id| a.parameters.iter().position(|p| p == id).expect("same parameters"))
+        .map(|id| {
+            a.parameters
+                .iter()
+                .position(|p| p == id)
+                .expect("same parameters")
+        })
         .collect();
     let null: Vec<Vec<f64>> = (a.rank..n)
         .map(|k| {
@@ -272,7 +277,10 @@ fn project_min_change(
         return Ok((x.to_vec(), 0.0));
     }
     let ids = problem.estimated();
-    let w: Vec<f64> = ids.iter().map(|&id| 1.0 / reference.tolerance(id).powi(2)).collect();
+    let w: Vec<f64> = ids
+        .iter()
+        .map(|&id| 1.0 / reference.tolerance(id).powi(2))
+        .collect();
     let dx: Vec<f64> = ids
         .iter()
         .zip(x)
@@ -286,8 +294,12 @@ fn project_min_change(
         })
         .collect();
     let k = null.len();
-    let ata = crate::linalg::Matrix::from_fn(k, k, |a, b| (0..n).map(|j| null[a][j] * w[j] * null[b][j]).sum());
-    let atb: Vec<f64> = (0..k).map(|a| (0..n).map(|j| null[a][j] * w[j] * dx[j]).sum()).collect();
+    let ata = crate::linalg::Matrix::from_fn(k, k, |a, b| {
+        (0..n).map(|j| null[a][j] * w[j] * null[b][j]).sum()
+    });
+    let atb: Vec<f64> = (0..k)
+        .map(|a| (0..n).map(|j| null[a][j] * w[j] * dx[j]).sum())
+        .collect();
     let z = crate::linalg::solve_spd(&ata, &atb)
         .ok_or_else(|| Error::Numerical("minimum-change projection is singular".into()))?;
     let mut out = x.to_vec();

@@ -248,7 +248,10 @@ pub fn solve(
         // not scaled up, so the parameter stays where it is.
         let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&st.jac, j)).collect();
         let max_norm = norms.iter().copied().fold(0.0, f64::max);
-        let dead: Vec<bool> = norms.iter().map(|&c| !(c > 1e-12 * max_norm)).collect();
+        let dead: Vec<bool> = norms
+            .iter()
+            .map(|&c| c.is_nan() || c <= 1e-12 * max_norm)
+            .collect();
         let d: Vec<f64> = (0..n)
             .map(|j| match opts.damping {
                 _ if dead[j] => 1.0,

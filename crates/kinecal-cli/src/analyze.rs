@@ -1,0 +1,351 @@
+//! `kinecal analyze`: what the data can and cannot determine.
+
+use std::fmt::Write as _;
+
+use anyhow::{bail, Result};
+use kinecal::identifiability::{analyze, fmt_sig, format_combination, Analysis, AnalysisOptions};
+use kinecal::measurement_file::{parse_measurements, parse_postures};
+use kinecal::{parse_param_list, simulate, Robot};
+use serde_json::json;
+
+use crate::args::{AnalyzeArgs, MatrixArg, UnitsArg};
+use crate::{estimate_list, load_robot, read_text, residual_settings};
+
+/// Runs `kinecal analyze`.
+pub fn run(a: AnalyzeArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let robot = &r.robot;
+    let data = match (&a.data, &a.postures) {
+        (Some(path), _) => {
+            parse_measurements(&read_text(path)?, &path.display().to_string(), robot)?
+        }
+        (None, Some(path)) => {
+            let postures = parse_postures(&read_text(path)?, &path.display().to_string(), robot)?;
+            simulate::measure(robot, &postures, a.position_only)
+        }
+        (None, None) => bail!("give --data or --postures"),
+    };
+    let (weights, orientation) = residual_settings(&a.residuals, robot)?;
+    if !(a.rcond > 0.0 && a.rcond < 1.0) {
+        bail!("--rcond must be between 0 and 1, got {}", a.rcond);
+    }
+    let priority = match &a.priority {
+        Some(list) => ordered_list(list, robot)?,
+        None => Vec::new(),
+    };
+    let opts = AnalysisOptions {
+        rcond: a.rcond,
+        weights,
+        orientation,
+        priority,
+    };
+    let params = estimate_list(&a.estimate, a.fix.as_deref(), robot, &data, &opts)?;
+    let an = analyze(robot, &data, &params, &opts)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&to_json(&an, robot))?);
+    } else {
+        print!("{}", text(&an, robot, &data));
+    }
+    if let Some(which) = a.print {
+        print!("{}", matrix(&an, robot, which, a.units));
+    }
+    Ok(())
+}
+
+/// A parameter list in the order given (for priorities).
+fn ordered_list(list: &str, robot: &Robot) -> Result<Vec<kinecal::ParamId>> {
+    let mut out = Vec::new();
+    for token in list.split(',') {
+        for id in parse_param_list(token.trim(), robot)? {
+            if !out.contains(&id) {
+                out.push(id);
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn ids(list: &[kinecal::ParamId]) -> Vec<String> {
+    list.iter().map(ToString::to_string).collect()
+}
+
+fn to_json(an: &Analysis, robot: &Robot) -> serde_json::Value {
+    let sq = |v: &[f64]| v.iter().map(|s| s * s).collect::<Vec<_>>();
+    json!({
+        "robot": robot.name,
+        "parameters": an.parameters.len(),
+        "parameter_ids": ids(&an.parameters),
+        "residuals": an.residuals,
+        "rank": an.rank,
+        "rcond": an.rcond,
+        "gap_rank": an.gap_rank,
+        "gap_ratio": if an.gap_ratio.is_finite() { json!(an.gap_ratio) } else { json!(null) },
+        "expected_rank": an.expected.as_ref().map(|e| e.rank),
+        "expected_rank_formula": an.expected.as_ref().map(|e| e.formula.clone()),
+        "singular_values_jacobian": an.singular_values_scaled,
+        "singular_values_hessian": sq(&an.singular_values_scaled),
+        "singular_values_jacobian_file_units": an.singular_values_file,
+        "singular_values_hessian_file_units": sq(&an.singular_values_file),
+        "condition_number": finite(an.condition_number()),
+        "condition_number_file_units": finite(an.condition_number_file()),
+        "unobservable": ids(&an.unobservable),
+        "identical_groups": an.identical_groups.iter().map(|g| g.terms.iter().map(|(id, _)| id.to_string()).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        "identical_combinations": an.identical_groups.iter().map(|g| json!({
+            "expression": format_combination(&g.terms),
+            "coefficients": g.terms.iter().map(|(id, c)| (id.to_string(), json!(c))).collect::<serde_json::Map<_, _>>(),
+            "value": g.value,
+            "determined": g.determined,
+        })).collect::<Vec<_>>(),
+        "null_space": an.null_space.iter().map(|row| row.iter().map(|(id, c)| (id.to_string(), json!(c))).collect::<serde_json::Map<_, _>>()).collect::<Vec<_>>(),
+        "identifiable": ids(&an.identifiable),
+        "undetermined": an.parameters.iter().zip(&an.determined).filter(|(_, d)| !**d).map(|(id, _)| id.to_string()).collect::<Vec<_>>(),
+        "euler_singular": an.euler_singular,
+        "warnings": an.warnings,
+    })
+}
+
+fn finite(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        json!(null)
+    }
+}
+
+fn names(robot: &Robot, list: &[kinecal::ParamId]) -> String {
+    list.iter()
+        .map(|&id| format!("{id} ({})", robot.param_name(id)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
+    let mut s = String::new();
+    let n = an.parameters.len();
+    let full = data
+        .measurements
+        .iter()
+        .filter(|m| m.orientation.is_some())
+        .count();
+    let _ = writeln!(
+        s,
+        "{}: {} parameters over {} postures, {} measurements ({} full poses, {} positions), {} residuals",
+        if robot.name.is_empty() { "robot" } else { &robot.name },
+        n,
+        data.postures.len(),
+        data.measurements.len(),
+        full,
+        data.measurements.len() - full,
+        an.residuals
+    );
+    let _ = writeln!(s);
+    let gap = if an.gap_ratio.is_finite() {
+        format!("{:.2e}", an.gap_ratio)
+    } else {
+        "infinite".into()
+    };
+    let _ = writeln!(
+        s,
+        "Numerical rank {} of {n}: scaled singular values above {:e} x the largest. Largest gap in the \
+         spectrum: after value {} (ratio {gap}){}.",
+        an.rank,
+        an.rcond,
+        an.gap_rank,
+        if an.gap_rank == an.rank || an.rank == n { ", consistent" } else { ", NOT consistent with the tolerance" }
+    );
+    match &an.expected {
+        Some(e) => {
+            let _ = writeln!(s, "Thesis count (eqs. 4.2, 4.3, 4.5): {}.", e.formula);
+            let verdict = match an.rank.cmp(&e.rank) {
+                std::cmp::Ordering::Equal => "The measured rank matches: every loss of rank is the model's inherent redundancy.".to_string(),
+                std::cmp::Ordering::Less => format!(
+                    "The measured rank is {} below it: the postures do not excite every direction (too few, too alike, or a joint \
+                     that barely moves), or the geometry is special (a link at beta = +-90 deg).",
+                    e.rank - an.rank
+                ),
+                std::cmp::Ordering::Greater => format!(
+                    "The measured rank is {} above it: nearly-redundant directions are counted as determined; check the gap and --rcond.",
+                    an.rank - e.rank
+                ),
+            };
+            let _ = writeln!(s, "{verdict}");
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "Thesis count: not applicable (it assumes every link parameter and joint offset estimated, the end effector \
+                 measured, and every measured site's parameters estimated)."
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "{} redundant parameter(s): the data determines {} independent combinations of the {n}.",
+        n - an.rank,
+        an.rank
+    );
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "Singular values (scaled: the solver's units; file: {} and {}):",
+        robot.units.length, robot.units.angle
+    );
+    let _ = writeln!(
+        s,
+        "{:>4} {:>12} {:>12} {:>12} {:>12}",
+        "#", "J scaled", "J^TJ scaled", "J file", "J^TJ file"
+    );
+    for k in 0..n {
+        let (a, b) = (
+            an.singular_values_scaled[k],
+            an.singular_values_file.get(k).copied().unwrap_or(0.0),
+        );
+        let _ = writeln!(
+            s,
+            "{:>4} {:>12.4e} {:>12.4e} {:>12.4e} {:>12.4e}{}",
+            k + 1,
+            a,
+            a * a,
+            b,
+            b * b,
+            if k + 1 == an.rank && an.rank < n {
+                "   <- rank"
+            } else {
+                ""
+            }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "Condition number over the rank, s1/s{}: scaled {:.4e} (J^TJ {:.4e}); file units {:.4e} (J^TJ {:.4e}).",
+        an.rank,
+        an.condition_number(),
+        an.condition_number().powi(2),
+        an.condition_number_file(),
+        an.condition_number_file().powi(2)
+    );
+    if !an.unobservable.is_empty() {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "No measurement feels: {}.",
+            names(robot, &an.unobservable)
+        );
+    }
+    if !an.identical_groups.is_empty() {
+        let _ = writeln!(s);
+        let count: usize = an.identical_groups.iter().map(|g| g.terms.len() - 1).sum();
+        let _ = writeln!(
+            s,
+            "Identical redundancies ({count}, in {} groups; equal or opposite Jacobian columns at every posture). The data \
+             determines at most each group's combination:",
+            an.identical_groups.len()
+        );
+        for g in &an.identical_groups {
+            let members: Vec<String> = g
+                .terms
+                .iter()
+                .map(|(id, _)| robot.param_name(*id))
+                .collect();
+            let status = if g.determined {
+                ""
+            } else {
+                "   NOT determined: members also enter other dependencies below"
+            };
+            let _ = writeln!(
+                s,
+                "  {} = {}   ({}){status}",
+                format_combination(&g.terms),
+                fmt_sig(g.value),
+                members.join(", ")
+            );
+        }
+    }
+    if !an.null_space.is_empty() {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "Undetermined directions (a basis of the null space in reduced form, file units): moving the parameters by \
+             any multiple of one of these changes no prediction:"
+        );
+        for row in &an.null_space {
+            let terms: Vec<String> = row
+                .iter()
+                .map(|&(id, c)| format!("{} {}", fmt_sig(c), robot.param_name(id)))
+                .collect();
+            let _ = writeln!(s, "  [{}]", terms.join(", "));
+        }
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "Identifiable set ({}; QR with column pivoting on scaled columns, by priority): {}",
+        an.identifiable.len(),
+        ids(&an.identifiable).join(" ")
+    );
+    let undetermined: Vec<kinecal::ParamId> = an
+        .parameters
+        .iter()
+        .zip(&an.determined)
+        .filter(|(_, d)| !**d)
+        .map(|(id, _)| *id)
+        .collect();
+    if !undetermined.is_empty() {
+        let _ = writeln!(
+            s,
+            "Not individually determined ({}): {}",
+            undetermined.len(),
+            ids(&undetermined).join(" ")
+        );
+    }
+    for w in &an.warnings {
+        let _ = writeln!(s, "warning: {w}");
+    }
+    s
+}
+
+fn matrix(an: &Analysis, robot: &Robot, which: MatrixArg, units: UnitsArg) -> String {
+    let mut s = String::new();
+    let m = match units {
+        UnitsArg::File => &an.jacobian_file,
+        UnitsArg::Scaled => &an.jacobian_scaled,
+    };
+    let unit_label = match units {
+        UnitsArg::File => format!("{}, {}", robot.units.length, robot.units.angle),
+        UnitsArg::Scaled => "scaled".to_string(),
+    };
+    let _ = writeln!(s);
+    let head: String = an
+        .parameters
+        .iter()
+        .map(|id| format!("{:>11}", id.to_string()))
+        .collect();
+    match which {
+        MatrixArg::Jacobian => {
+            let _ = writeln!(s, "Jacobian ({unit_label}):");
+            let _ = writeln!(s, "{:<22}{head}", "posture site comp");
+            for (i, (p, site, c)) in an.row_labels.iter().enumerate() {
+                let row: String = (0..m.ncols())
+                    .map(|j| format!("{:>11.4}", m[(i, j)]))
+                    .collect();
+                let _ = writeln!(s, "{:<22}{row}", format!("{p} {site} {c}"));
+            }
+        }
+        MatrixArg::Hessian => {
+            let _ = writeln!(s, "J^T J ({unit_label}):");
+            let _ = writeln!(s, "{:<8}{head}", "");
+            for a in 0..m.ncols() {
+                let row: String = (0..m.ncols())
+                    .map(|b| {
+                        format!(
+                            "{:>11.4}",
+                            (0..m.nrows()).map(|i| m[(i, a)] * m[(i, b)]).sum::<f64>()
+                        )
+                    })
+                    .collect();
+                let _ = writeln!(s, "{:<8}{row}", an.parameters[a].to_string());
+            }
+        }
+    }
+    s
+}
