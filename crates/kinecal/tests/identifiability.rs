@@ -335,3 +335,35 @@ fn multi_site_data_calibrates_sites_and_follows_eq_4_5() {
     // Every site's pose is reproduced (the calibrated model predicts each measured frame).
     assert!(cal.accuracy_after.rms_position < 1e-9 && cal.accuracy_after.rms_orientation < 1e-9);
 }
+
+#[test]
+fn priority_and_tolerances_are_the_users_to_set() {
+    let robot = examples::ge_a4();
+    let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 3), false);
+    let all = ids("all", &robot);
+    // Default: the joint offset p31 is kept, its identical twin p4 is not.
+    let a = analyze(&robot, &data, &all, &AnalysisOptions::default()).unwrap();
+    assert!(a.identifiable.contains(&ParamId(30)) && !a.identifiable.contains(&ParamId(3)));
+    // Preferring p4 swaps them.
+    let opts = AnalysisOptions { priority: vec![ParamId(3)], ..Default::default() };
+    let b = analyze(&robot, &data, &all, &opts).unwrap();
+    assert!(b.identifiable.contains(&ParamId(3)) && !b.identifiable.contains(&ParamId(30)));
+    assert_eq!(b.identifiable.len(), 24);
+
+    let text = format!(
+        "{}\n[tolerances]\nlength = 0.04\nangle = 0.2\nslope = 0.02\n\"link3.y\" = 0.5\np31 = 1.0\n",
+        kinecal::examples::GE_A4_TOML
+    );
+    let r = kinecal::robot_file::parse_robot_toml(&text, "t.toml").unwrap();
+    assert!((r.tolerance(ParamId(0)) - 0.04 * 0.0254).abs() < 1e-15);
+    assert!((r.tolerance(ParamId(3)) - 0.2f64.to_radians()).abs() < 1e-15);
+    assert!((r.tolerance(ParamId(13)) - 0.5 * 0.0254).abs() < 1e-15);
+    assert!((r.tolerance(ParamId(30)) - 1f64.to_radians()).abs() < 1e-15);
+    assert!((r.tolerance(ParamId(34)) - 0.02 * 7.2f64.to_radians()).abs() < 1e-15);
+    let bad = format!("{}\n[tolerances]\nlink9.x = 1\n", kinecal::examples::GE_A4_TOML);
+    let err = kinecal::robot_file::parse_robot_toml(&bad, "t.toml").unwrap_err().to_string();
+    assert!(err.contains("tolerances.link9.x") || err.contains("tolerances"), "{err}");
+    // The file keeps its [tolerances] table when written back.
+    let out = kinecal::robot_file::write_robot_toml(&r, Some(&text));
+    assert!(out.contains("\"link3.y\" = 0.5"));
+}
