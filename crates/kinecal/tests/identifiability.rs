@@ -1,5 +1,7 @@
 //! Identifiability analysis against the thesis (4.4.3, 4.4.7, 4.4.8) and its formulas.
 
+mod common;
+
 use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::{examples, parse_param_list, simulate, JointKind, Link, ParamId, Site};
 use rand::{RngExt, SeedableRng};
@@ -140,15 +142,9 @@ use kinecal::estimation::{calibrate, CalibrationOptions, SolutionRule, Weights};
 /// answer is Table 4.1 itself (the data were made by it).
 #[test]
 fn min_change_answer_does_not_depend_on_the_guess() {
-    let runs: [[f64; 8]; 5] = [
-        [14.08, 10.00, -0.40, 2.00, 0.80, 1.00, 3.00, 0.35],
-        [14.08, 12.00, -0.60, 2.00, 0.40, 1.20, 4.00, 0.45],
-        [17.08, 9.00, 0.10, 2.00, -0.20, 0.30, 2.80, 0.50],
-        [17.08, 13.00, 0.60, 2.00, -0.40, 1.00, 2.50, 0.15],
-        [14.08, 12.00, -0.60, 3.00, 0.40, 1.20, 4.00, 0.45],
-    ];
+    let runs = common::TABLE_4_8_GUESSES;
     let nominal = examples::ge_a4();
-    let est = ids("p1,p3,p9,p10,p15,p21,p27,p33", &nominal);
+    let est = ids(common::TABLE_4_8_PARAMS, &nominal);
     let data = simulate::measure(
         &nominal,
         &simulate::sample_postures(&nominal, 30, 1988),
@@ -345,7 +341,10 @@ fn priority_and_tolerances_are_the_users_to_set() {
     let a = analyze(&robot, &data, &all, &AnalysisOptions::default()).unwrap();
     assert!(a.identifiable.contains(&ParamId(30)) && !a.identifiable.contains(&ParamId(3)));
     // Preferring p4 swaps them.
-    let opts = AnalysisOptions { priority: vec![ParamId(3)], ..Default::default() };
+    let opts = AnalysisOptions {
+        priority: vec![ParamId(3)],
+        ..Default::default()
+    };
     let b = analyze(&robot, &data, &all, &opts).unwrap();
     assert!(b.identifiable.contains(&ParamId(3)) && !b.identifiable.contains(&ParamId(30)));
     assert_eq!(b.identifiable.len(), 24);
@@ -360,9 +359,17 @@ fn priority_and_tolerances_are_the_users_to_set() {
     assert!((r.tolerance(ParamId(13)) - 0.5 * 0.0254).abs() < 1e-15);
     assert!((r.tolerance(ParamId(30)) - 1f64.to_radians()).abs() < 1e-15);
     assert!((r.tolerance(ParamId(34)) - 0.02 * 7.2f64.to_radians()).abs() < 1e-15);
-    let bad = format!("{}\n[tolerances]\nlink9.x = 1\n", kinecal::examples::GE_A4_TOML);
-    let err = kinecal::robot_file::parse_robot_toml(&bad, "t.toml").unwrap_err().to_string();
-    assert!(err.contains("tolerances.link9.x") || err.contains("tolerances"), "{err}");
+    let bad = format!(
+        "{}\n[tolerances]\nlink9.x = 1\n",
+        kinecal::examples::GE_A4_TOML
+    );
+    let err = kinecal::robot_file::parse_robot_toml(&bad, "t.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("tolerances.link9.x") || err.contains("tolerances"),
+        "{err}"
+    );
     // The file keeps its [tolerances] table when written back.
     let out = kinecal::robot_file::write_robot_toml(&r, Some(&text));
     assert!(out.contains("\"link3.y\" = 0.5"));

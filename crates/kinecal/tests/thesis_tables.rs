@@ -1,5 +1,7 @@
 //! The thesis's printed tables (Goswami 1988, chapter 4) reproduced on the built-in GE A4.
 
+mod common;
+
 use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::kinematics::{forward_pose, Chain, Target, Workspace};
 use kinecal::{examples, parse_param_list, simulate, ParamId, Robot};
@@ -196,15 +198,9 @@ fn eq_4_1_holds_at_nominal() {
 /// p33 estimated, LM returns p1 = 15.08 and p10 = 0, the objective to ~0, and eq. 4.1 holds.
 #[test]
 fn table_4_8_levenberg_marquardt_runs() {
-    let runs: [[f64; 8]; 5] = [
-        [14.08, 10.00, -0.40, 2.00, 0.80, 1.00, 3.00, 0.35],
-        [14.08, 12.00, -0.60, 2.00, 0.40, 1.20, 4.00, 0.45],
-        [17.08, 9.00, 0.10, 2.00, -0.20, 0.30, 2.80, 0.50],
-        [17.08, 13.00, 0.60, 2.00, -0.40, 1.00, 2.50, 0.15],
-        [14.08, 12.00, -0.60, 3.00, 0.40, 1.20, 4.00, 0.45],
-    ];
+    let runs = common::TABLE_4_8_GUESSES;
     let nominal = examples::ge_a4();
-    let ids = parse_param_list("p1,p3,p9,p10,p15,p21,p27,p33", &nominal).unwrap();
+    let ids = parse_param_list(common::TABLE_4_8_PARAMS, &nominal).unwrap();
     let postures = simulate::sample_postures(&nominal, 30, 1988);
     let data = simulate::measure(&nominal, &postures, false);
     let printed_final: [Option<[f64; 6]>; 5] = [
