@@ -19,6 +19,7 @@ pub mod error;
 pub mod estimation;
 pub mod examples;
 pub mod identifiability;
+pub mod import;
 pub mod kinematics;
 mod linalg;
 pub mod measurement;

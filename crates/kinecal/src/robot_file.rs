@@ -31,23 +31,29 @@ use crate::params::LinkComponent;
 use crate::robot::{Joint, JointKind, Link, Robot, Site};
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
-fn line_of(text: &str, span: Option<Range<usize>>) -> Option<usize> {
+pub(crate) fn line_of(text: &str, span: Option<Range<usize>>) -> Option<usize> {
     span.map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
 }
 
-struct Reader<'t> {
-    text: &'t str,
-    file: &'t str,
+/// Reads typed values out of a parsed TOML document, with errors naming file, line and field.
+pub(crate) struct Reader<'t> {
+    pub(crate) text: &'t str,
+    pub(crate) file: &'t str,
 }
 
-impl Reader<'_> {
-    fn err(&self, span: Option<Range<usize>>, field: &str, message: impl Into<String>) -> Error {
+impl<'t> Reader<'t> {
+    pub(crate) fn err(
+        &self,
+        span: Option<Range<usize>>,
+        field: &str,
+        message: impl Into<String>,
+    ) -> Error {
         let mut at = Location::file(self.file).with_field(field);
         at.line = line_of(self.text, span);
         Error::input(at, message)
     }
 
-    fn number(&self, table: &Table, key: &str, field: &str) -> Result<Option<f64>> {
+    pub(crate) fn number(&self, table: &Table, key: &str, field: &str) -> Result<Option<f64>> {
         let Some(item) = table.get(key) else {
             return Ok(None);
         };
@@ -66,7 +72,12 @@ impl Reader<'_> {
         Ok(Some(v))
     }
 
-    fn string<'a>(&self, table: &'a Table, key: &str, field: &str) -> Result<Option<&'a str>> {
+    pub(crate) fn string<'a>(
+        &self,
+        table: &'a Table,
+        key: &str,
+        field: &str,
+    ) -> Result<Option<&'a str>> {
         let Some(item) = table.get(key) else {
             return Ok(None);
         };
@@ -75,7 +86,7 @@ impl Reader<'_> {
             .ok_or_else(|| self.err(item.span(), field, "expected a string"))
     }
 
-    fn check_keys(&self, table: &Table, allowed: &[&str], what: &str) -> Result<()> {
+    pub(crate) fn check_keys(&self, table: &Table, allowed: &[&str], what: &str) -> Result<()> {
         for (key, item) in table.iter() {
             if !allowed.contains(&key) {
                 return Err(self.err(
@@ -91,7 +102,7 @@ impl Reader<'_> {
         Ok(())
     }
 
-    fn tables<'a>(&self, root: &'a Table, key: &str) -> Result<Vec<&'a Table>> {
+    pub(crate) fn tables<'a>(&self, root: &'a Table, key: &str) -> Result<Vec<&'a Table>> {
         match root.get(key) {
             None => Ok(Vec::new()),
             Some(Item::ArrayOfTables(a)) => Ok(a.iter().collect()),
@@ -101,6 +112,64 @@ impl Reader<'_> {
                 format!("expected an array of tables written as [[{key}]]"),
             )),
         }
+    }
+
+    /// A 3-vector `[a, b, c]` of numbers, if present.
+    pub(crate) fn vec3(&self, table: &Table, key: &str, field: &str) -> Result<Option<[f64; 3]>> {
+        let Some(item) = table.get(key) else {
+            return Ok(None);
+        };
+        let bad = || {
+            self.err(
+                item.span(),
+                field,
+                "expected an array of 3 finite numbers, e.g. [0, 0, 1]",
+            )
+        };
+        let arr = item.as_array().ok_or_else(bad)?;
+        if arr.len() != 3 {
+            return Err(bad());
+        }
+        let mut out = [0.0; 3];
+        for (k, v) in arr.iter().enumerate() {
+            out[k] = match v {
+                Value::Float(f) => *f.value(),
+                Value::Integer(i) => *i.value() as f64,
+                _ => return Err(bad()),
+            };
+            if !out[k].is_finite() {
+                return Err(bad());
+            }
+        }
+        Ok(Some(out))
+    }
+
+    /// Parses the document, or says where it is not TOML.
+    pub(crate) fn parse(&self) -> Result<toml_edit::Document<&'t str>> {
+        toml_edit::Document::parse(self.text).map_err(|e| {
+            let mut at = Location::file(self.file);
+            at.line = line_of(self.text, e.span());
+            Error::input(at, format!("invalid TOML: {}", e.message().trim()))
+        })
+    }
+
+    /// The `length_unit` and `angle_unit` of a document's root.
+    pub(crate) fn units(&self, root: &Table) -> Result<Units> {
+        let unit = |key: &str, expected: &str| -> Result<(&str, Option<Range<usize>>)> {
+            let s = self.string(root, key, key)?.ok_or_else(|| {
+                self.err(None, key, format!("missing `{key}` (expected {expected})"))
+            })?;
+            Ok((s, root.get(key).and_then(Item::span)))
+        };
+        let (ls, lspan) = unit("length_unit", "\"m\", \"mm\" or \"in\"")?;
+        let length: LengthUnit = ls
+            .parse()
+            .map_err(|m: String| self.err(lspan, "length_unit", m))?;
+        let (as_, aspan) = unit("angle_unit", "\"deg\" or \"rad\"")?;
+        let angle: AngleUnit = as_
+            .parse()
+            .map_err(|m: String| self.err(aspan, "angle_unit", m))?;
+        Ok(Units { length, angle })
     }
 
     fn link(&self, t: &Table, what: &str, units: &Units, extra: &[&str]) -> Result<Link> {
@@ -121,28 +190,10 @@ impl Reader<'_> {
 /// Parses a robot file. `file` names it in error messages.
 pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     let r = Reader { text, file };
-    let doc = toml_edit::Document::parse(text).map_err(|e| {
-        let mut at = Location::file(file);
-        at.line = line_of(text, e.span());
-        Error::input(at, format!("invalid TOML: {}", e.message().trim()))
-    })?;
+    let doc = r.parse()?;
     let root = doc.as_table();
     let name = r.string(root, "name", "name")?.unwrap_or("").to_string();
-    let unit = |key: &str, expected: &str| -> Result<(&str, Option<Range<usize>>)> {
-        let s = r
-            .string(root, key, key)?
-            .ok_or_else(|| r.err(None, key, format!("missing `{key}` (expected {expected})")))?;
-        Ok((s, root.get(key).and_then(Item::span)))
-    };
-    let (ls, lspan) = unit("length_unit", "\"m\", \"mm\" or \"in\"")?;
-    let length: LengthUnit = ls
-        .parse()
-        .map_err(|m: String| r.err(lspan, "length_unit", m))?;
-    let (as_, aspan) = unit("angle_unit", "\"deg\" or \"rad\"")?;
-    let angle: AngleUnit = as_
-        .parse()
-        .map_err(|m: String| r.err(aspan, "angle_unit", m))?;
-    let units = Units { length, angle };
+    let units = r.units(root)?;
 
     let links = r
         .tables(root, "links")?

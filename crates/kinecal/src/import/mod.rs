@@ -1,0 +1,92 @@
+//! Robots described in other conventions, converted exactly into the thesis model.
+//!
+//! Each importer produces joint frames (global pose of each joint's frame at the zero
+//! configuration, local z along the joint axis) and a tool frame; [`chain_from_frames`] turns
+//! them into links: `L1 = F1`, `L(i+1) = Fi^-1 F(i+1)`, `L(n+1) = Fn^-1 Tool`. With readings equal
+//! to the joint values (slope 1), the imported model has the same forward kinematics.
+
+pub mod dh;
+pub mod poe;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::kinematics::{euler_zyx, Frame};
+use crate::robot::{Joint, JointKind, Link, Robot, Tolerances};
+use crate::units::Units;
+
+/// The inverse of a rigid transform.
+pub fn inverse(f: &Frame) -> Frame {
+    let rt = f.rotation.transpose();
+    Frame {
+        rotation: rt,
+        translation: -(rt * f.translation),
+    }
+}
+
+/// The six link parameters of a frame (m, rad).
+pub fn link_of(f: &Frame) -> Link {
+    let e = euler_zyx(&f.rotation);
+    Link {
+        x: f.translation.x,
+        y: f.translation.y,
+        z: f.translation.z,
+        alpha: e.x,
+        beta: e.y,
+        gamma: e.z,
+    }
+}
+
+/// A rotation taking local axes to `x` and `z` (orthonormalised; `z` kept).
+pub fn rotation_from_xz(x: &Vector3<f64>, z: &Vector3<f64>) -> Matrix3<f64> {
+    let z = z.normalize();
+    let x = (x - z * x.dot(&z)).normalize();
+    let y = z.cross(&x);
+    Matrix3::from_columns(&[x, y, z])
+}
+
+/// One joint of an imported chain.
+#[derive(Debug, Clone)]
+pub struct ImportedJoint {
+    /// Revolute or prismatic.
+    pub kind: JointKind,
+    /// Global frame of the joint at the zero configuration; the joint moves about/along its z.
+    pub frame: Frame,
+    /// Joint value at zero reading (rad or m).
+    pub offset: f64,
+    /// Reading range, in reading units.
+    pub range: Option<(f64, f64)>,
+}
+
+/// Builds a robot from joint frames and a tool frame (internal units). Readings are the joint
+/// values minus `offset` (slope 1).
+pub fn chain_from_frames(
+    name: &str,
+    units: Units,
+    joints: &[ImportedJoint],
+    tool: &Frame,
+) -> Robot {
+    let mut links = Vec::with_capacity(joints.len() + 1);
+    let mut prev = Frame::identity();
+    for j in joints {
+        links.push(link_of(&inverse(&prev).then(&j.frame)));
+        prev = j.frame;
+    }
+    links.push(link_of(&inverse(&prev).then(tool)));
+    Robot {
+        name: name.to_string(),
+        units,
+        links,
+        joints: joints
+            .iter()
+            // Readings are joint values in the file's units: slope 1 there.
+            .map(|j| Joint {
+                kind: j.kind,
+                offset: j.offset,
+                slope: units.factor(j.kind.slope()),
+                range: j.range,
+            })
+            .collect(),
+        sites: Vec::new(),
+        tolerances: Tolerances::default(),
+    }
+}
