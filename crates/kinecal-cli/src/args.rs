@@ -55,6 +55,9 @@ Ranks and dependencies are decided on the scaled Jacobian (residuals weighted, c
 normalised), where units cannot distort them; the file-unit figures show what units do
 (thesis Tables 4.4 and 4.5).")]
     Analyze(AnalyzeArgs),
+    /// Convert a robot from another convention (product of exponentials, Denavit-Hartenberg).
+    #[command(subcommand)]
+    Import(ImportCommand),
     /// Estimate kinematic parameters from measured poses or positions.
     #[command(after_help = "\
 Example:
@@ -115,6 +118,72 @@ pub struct SimulateArgs {
     /// Also write the perturbed ("true") robot file here.
     #[arg(long)]
     pub truth: Option<PathBuf>,
+}
+
+/// `kinecal import ...`.
+#[derive(Debug, Subcommand)]
+pub enum ImportCommand {
+    /// A product-of-exponentials model (joint axes and points at zero, tool frame).
+    #[command(after_help = "\
+Example:
+  kinecal import poe robot_poe.toml --out robot.toml
+
+The file is TOML: length_unit, angle_unit, [[joints]] with kind, axis = [x, y, z], point = [x, y, z]
+(a point on the axis), optional offset (joint value at zero reading), min, max; a [tool] table with
+position = [x, y, z] and optional euler = [alpha, beta, gamma]; optional [[sites]] with name, joint,
+position, euler at the zero configuration. Joint frames go on the axes with x along the common
+normal, which keeps every link's beta at 0. Readings are joint values (slope 1).")]
+    Poe(ImportPoeArgs),
+    /// A Denavit-Hartenberg table.
+    #[command(after_help = "\
+Example:
+  kinecal import dh --convention modified puma560.csv --length-unit m --angle-unit deg --out puma.toml
+
+The table is CSV `kind,a,alpha,d,theta`, one row per joint. standard: Rz(theta+q) Tz(d) Tx(a) Rx(alpha);
+modified (Craig): Rx(alpha) Tx(a) Rz(theta+q) Tz(d); for a prismatic joint q adds to d. Readings are
+the joint values (slope 1); theta (or d) becomes the joint offset.")]
+    Dh(ImportDhArgs),
+}
+
+/// `kinecal import poe`.
+#[derive(Debug, Args)]
+pub struct ImportPoeArgs {
+    /// The product-of-exponentials file (TOML).
+    pub file: PathBuf,
+    /// The robot file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// DH convention.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ConventionArg {
+    /// Rz(theta) Tz(d) Tx(a) Rx(alpha).
+    Standard,
+    /// Rx(alpha) Tx(a) Rz(theta) Tz(d) (Craig).
+    Modified,
+}
+
+/// `kinecal import dh`.
+#[derive(Debug, Args)]
+pub struct ImportDhArgs {
+    /// The table (CSV `kind,a,alpha,d,theta`).
+    pub file: PathBuf,
+    /// Which convention the table uses.
+    #[arg(long, value_enum)]
+    pub convention: ConventionArg,
+    /// Length unit of the table (and of the robot file written).
+    #[arg(long, default_value = "m")]
+    pub length_unit: String,
+    /// Angle unit of the table (and of the robot file written).
+    #[arg(long, default_value = "deg")]
+    pub angle_unit: String,
+    /// Robot name.
+    #[arg(long, default_value = "")]
+    pub name: String,
+    /// The robot file to write.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// Units of printed matrices.
@@ -245,9 +314,10 @@ pub struct CalibrateArgs {
     /// Least-squares method.
     #[arg(long, value_enum, default_value = "lm")]
     pub method: MethodArg,
-    /// Parameters to estimate.
-    #[arg(long, value_name = "LIST", default_value = "all")]
-    pub estimate: String,
+    /// Parameters to estimate. Default: all, except the slopes when every slope is 1 (readings
+    /// that are already joint values).
+    #[arg(long, value_name = "LIST")]
+    pub estimate: Option<String>,
     /// Parameters to hold at their nominal values (removed from --estimate).
     #[arg(long, value_name = "LIST")]
     pub fix: Option<String>,
@@ -267,6 +337,15 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
+    /// Held-out measurement file: report the accuracy on it before and after.
+    #[arg(long, value_name = "V.csv", conflicts_with = "holdout")]
+    pub validate: Option<PathBuf>,
+    /// Hold out this fraction of the postures (drawn with --seed) for validation.
+    #[arg(long, value_name = "FRACTION")]
+    pub holdout: Option<f64>,
+    /// Seed for --holdout.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
     /// Levenberg-Marquardt damping.
     #[arg(long, value_enum, default_value = "marquardt")]
     pub damping: DampingArg,

@@ -12,8 +12,8 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
 
 use args::{
-    CalibrateArgs, Cli, Command, DampingArg, FkArgs, MethodArg, OrientationArg, ResidualArgs,
-    SimulateArgs, SolutionArg,
+    CalibrateArgs, Cli, Command, ConventionArg, DampingArg, FkArgs, ImportCommand, MethodArg,
+    OrientationArg, ResidualArgs, SimulateArgs, SolutionArg,
 };
 use kinecal::estimation::{
     self, CalibrationOptions, Damping, Method, OrientationError, SolutionRule, SolverOptions,
@@ -37,6 +37,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate(a),
         Command::Calibrate(a) => calibrate(a),
         Command::Analyze(a) => analyze::run(a),
+        Command::Import(c) => import(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -152,7 +153,7 @@ fn residual_settings(a: &ResidualArgs, robot: &Robot) -> Result<(Weights, Orient
 }
 
 /// Parses `--estimate` minus `--fix`. The token `identifiable` stands for the identifiable set of
-/// the other tokens (all parameters when alone), computed on `data`.
+/// the other tokens (of the default list when alone), computed on `data`.
 fn estimate_list(
     estimate: &str,
     fix: Option<&str>,
@@ -168,7 +169,7 @@ fn estimate_list(
         .filter(|t| *t != "identifiable")
         .collect();
     let mut ids = if rest.is_empty() {
-        robot.param_ids().collect()
+        parse_param_list(&default_estimate(robot), robot)?
     } else {
         parse_param_list(&rest.join(","), robot)?
     };
@@ -183,6 +184,67 @@ fn estimate_list(
         bail!("--estimate `{estimate}` minus --fix leaves no parameter to estimate");
     }
     Ok(ids)
+}
+
+fn import(c: ImportCommand) -> Result<()> {
+    let (robot, out) = match c {
+        ImportCommand::Poe(a) => {
+            let file = a.file.display().to_string();
+            (
+                kinecal::import::poe::parse_poe_toml(&read_text(&a.file)?, &file)?,
+                a.out,
+            )
+        }
+        ImportCommand::Dh(a) => {
+            let units = kinecal::Units {
+                length: a
+                    .length_unit
+                    .parse()
+                    .map_err(|e: String| anyhow!("--length-unit: {e}"))?,
+                angle: a
+                    .angle_unit
+                    .parse()
+                    .map_err(|e: String| anyhow!("--angle-unit: {e}"))?,
+            };
+            let file = a.file.display().to_string();
+            let rows = kinecal::import::dh::parse_dh_csv(&read_text(&a.file)?, &file, units)?;
+            let convention = match a.convention {
+                ConventionArg::Standard => kinecal::import::dh::Convention::Standard,
+                ConventionArg::Modified => kinecal::import::dh::Convention::Modified,
+            };
+            (
+                kinecal::import::dh::robot_from_dh(&a.name, units, &rows, convention),
+                a.out,
+            )
+        }
+    };
+    write_file(&out, &write_robot_toml(&robot, None))?;
+    eprintln!(
+        "wrote {} ({} joints, {} parameters) to {}",
+        if robot.name.is_empty() {
+            "the robot"
+        } else {
+            &robot.name
+        },
+        robot.dof(),
+        robot.param_count(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// The default parameter list: all, except the slopes when every slope is 1 in the file's units
+/// (the readings are already joint values).
+fn default_estimate(robot: &Robot) -> String {
+    let unit_slopes = robot
+        .joints
+        .iter()
+        .all(|j| (robot.units.from_si(j.kind.slope(), j.slope) - 1.0).abs() < 1e-12);
+    if unit_slopes {
+        "links,offsets,sites".to_string()
+    } else {
+        "all".to_string()
+    }
 }
 
 fn fk(a: FkArgs) -> Result<()> {
@@ -277,7 +339,28 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         orientation,
         ..Default::default()
     };
-    let estimate = estimate_list(&a.estimate, a.fix.as_deref(), robot, &data, &aopts)?;
+    let (data, validation) = match (&a.validate, a.holdout) {
+        (Some(path), _) => {
+            let v = parse_measurements(&read_text(path)?, &path.display().to_string(), robot)?;
+            (data, Some(v))
+        }
+        (None, Some(f)) => {
+            if !(f > 0.0 && f < 1.0) {
+                bail!("--holdout must be a fraction between 0 and 1, got {f}");
+            }
+            let (ident, held) = kinecal::measurement::split_postures(&data, f, a.seed);
+            if held.measurements.is_empty() || ident.measurements.is_empty() {
+                bail!("--holdout {f} leaves an empty identification or validation set");
+            }
+            (ident, Some(held))
+        }
+        (None, None) => (data, None),
+    };
+    let estimate_spec = a
+        .estimate
+        .clone()
+        .unwrap_or_else(|| default_estimate(robot));
+    let estimate = estimate_list(&estimate_spec, a.fix.as_deref(), robot, &data, &aopts)?;
     let method = match a.method {
         MethodArg::Lm => Method::LevenbergMarquardt,
         MethodArg::Gn => Method::GaussNewton,
@@ -345,12 +428,10 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         }
     })?;
     let report_of = |cal: &estimation::Calibration| -> Result<kinecal::report::CalibrationReport> {
-        let mut rep = kinecal::report::CalibrationReport::new(
-            cal,
-            data.postures.len(),
-            data.measurements.len(),
-            data.rows(),
-        );
+        let mut rep = kinecal::report::CalibrationReport::new(cal, &data);
+        if let Some(v) = &validation {
+            rep.add_validation(cal, v);
+        }
         match kinecal::uncertainty::uncertainty(cal, &data) {
             Ok(u) => rep.add_uncertainty(cal, &u),
             Err(e) => rep.warnings.push(format!("no uncertainty: {e}")),

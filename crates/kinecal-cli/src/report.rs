@@ -67,6 +67,62 @@ pub fn summary(r: &CalibrationReport) -> String {
             r.max_orientation_after
         );
     }
+    if let Some(v) = &r.validation {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "{:<34} {:>11} {:>11} {:>11} {:>11}",
+            format!("position error ({l})"),
+            "rms",
+            "mean",
+            "p95",
+            "max"
+        );
+        let rows = [
+            (
+                format!(
+                    "identification ({} postures) before",
+                    r.identification.postures
+                ),
+                &r.identification.before,
+            ),
+            ("identification after".to_string(), &r.identification.after),
+            (
+                format!("validation ({} postures) before", v.postures),
+                &v.before,
+            ),
+            ("validation after".to_string(), &v.after),
+        ];
+        for (name, e) in &rows {
+            let _ = writeln!(
+                s,
+                "{name:<34} {:>11.6} {:>11.6} {:>11.6} {:>11.6}",
+                e.rms_position, e.mean_position, e.p95_position, e.max_position
+            );
+        }
+        if v.before.rms_orientation.is_some() {
+            let _ = writeln!(
+                s,
+                "{:<34} {:>11} {:>11} {:>11} {:>11}",
+                format!("attitude error ({a})"),
+                "rms",
+                "mean",
+                "p95",
+                "max"
+            );
+            for (name, e) in &rows {
+                let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.6}"));
+                let _ = writeln!(
+                    s,
+                    "{name:<34} {:>11} {:>11} {:>11} {:>11}",
+                    f(e.rms_orientation),
+                    f(e.mean_orientation),
+                    f(e.p95_orientation),
+                    f(e.max_orientation)
+                );
+            }
+        }
+    }
     if let (Some(vf), Some(rank)) = (r.variance_factor, r.rank) {
         let estimated = r.parameters.iter().filter(|p| p.estimated_flag).count();
         let _ = writeln!(

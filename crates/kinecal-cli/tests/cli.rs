@@ -674,3 +674,153 @@ fn calibrate_identifiable_min_change_initial_and_prune() {
         .iter()
         .any(|v| v == "p3"));
 }
+
+#[test]
+fn import_dh_and_poe_then_calibrate_with_validation() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("puma.csv"),
+        "kind,a,alpha,d,theta\nrevolute,0,0,0,0\nrevolute,0,-90,0,0\nrevolute,0.4318,0,0.15005,0\n\
+         revolute,0.0203,-90,0.4318,0\nrevolute,0,90,0,0\nrevolute,0,-90,0,0\n",
+    )
+    .unwrap();
+    run_ok(
+        d,
+        &[
+            "import",
+            "dh",
+            "--convention",
+            "modified",
+            "puma.csv",
+            "--out",
+            "puma.toml",
+        ],
+    );
+    // Zero configuration of Craig's PUMA 560: the wrist centre at (a2 + a3, d3, -d4).
+    std::fs::write(
+        d.join("zero.csv"),
+        "posture,v1,v2,v3,v4,v5,v6\n0,0,0,0,0,0,0\n",
+    )
+    .unwrap();
+    let out = run_ok(d, &["fk", "--robot", "puma.toml", "--postures", "zero.csv"]);
+    let f: Vec<f64> = out
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .skip(8)
+        .take(3)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    for (got, want) in f.iter().zip([0.4521, 0.15005, -0.4318]) {
+        assert!((got - want).abs() < 1e-9, "{f:?}");
+    }
+    // Readings are joint values (slope 1): by default the slopes are not estimated.
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "puma.toml",
+            "--postures",
+            "60",
+            "--perturb",
+            "p8=+0.001,joint3.offset=+0.2",
+            "--out",
+            "all.csv",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "puma.toml",
+            "--data",
+            "all.csv",
+            "--holdout",
+            "0.25",
+            "--report",
+            "r.json",
+        ],
+    );
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    assert!(rep["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["name"].as_str().unwrap().ends_with(".slope"))
+        .all(|p| p["estimated_flag"] == false));
+    assert_eq!(rep["validation"]["postures"], 15);
+    assert_eq!(rep["identification"]["postures"], 45);
+    assert!(rep["validation"]["after"]["max_position"].as_f64().unwrap() < 1e-9);
+    assert!(
+        rep["validation"]["before"]["p95_position"]
+            .as_f64()
+            .unwrap()
+            > 1e-4
+    );
+    // --validate with a separate file.
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "puma.toml",
+            "--postures",
+            "10",
+            "--seed",
+            "9",
+            "--perturb",
+            "p8=+0.001,joint3.offset=+0.2",
+            "--out",
+            "v.csv",
+        ],
+    );
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "puma.toml",
+            "--data",
+            "all.csv",
+            "--validate",
+            "v.csv",
+        ],
+    );
+    assert!(out.contains("validation (10 postures) before"), "{out}");
+
+    // A POE file, and its errors.
+    std::fs::write(
+        d.join("poe.toml"),
+        "length_unit = \"mm\"\nangle_unit = \"deg\"\n[[joints]]\nkind = \"revolute\"\naxis = [0, 0, 1]\npoint = [0, 0, 0]\n\
+         [[joints]]\nkind = \"revolute\"\naxis = [0, 1, 0]\npoint = [0, 0, 300]\n[tool]\nposition = [250, 0, 300]\n",
+    )
+    .unwrap();
+    run_ok(d, &["import", "poe", "poe.toml", "--out", "r2.toml"]);
+    std::fs::write(d.join("p2.csv"), "posture,v1,v2\n1,90,0\n").unwrap();
+    let out = run_ok(d, &["fk", "--robot", "r2.toml", "--postures", "p2.csv"]);
+    let f: Vec<f64> = out
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .skip(4)
+        .take(3)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        f[0].abs() < 1e-9 && (f[1] - 250.0).abs() < 1e-9 && (f[2] - 300.0).abs() < 1e-9,
+        "{f:?}"
+    );
+    std::fs::write(d.join("bad.toml"), "length_unit = \"mm\"\nangle_unit = \"deg\"\n[[joints]]\nkind = \"revolute\"\naxis = [0, 0, 1]\n").unwrap();
+    let err = run_err(d, &["import", "poe", "bad.toml", "--out", "x.toml"]);
+    assert!(
+        err.contains("bad.toml") && err.contains("joints[0].point"),
+        "{err}"
+    );
+    assert!(!d.join("x.toml").exists());
+}

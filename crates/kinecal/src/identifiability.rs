@@ -303,13 +303,13 @@ pub fn analyze(
     let smax = s.first().copied().unwrap_or(0.0);
     let rank = s.iter().filter(|&&v| v > opts.rcond * smax).count();
     // The largest gap, on a log scale, between consecutive singular values.
+    // Values below the rounding level of the SVD are all "zero": clamp them there, so that
+    // the gap between two rounding-level values (or an exact 0) is not taken for the real one.
+    let floor = f64::EPSILON * smax * m.max(n) as f64;
     let (mut gap_rank, mut gap_ratio) = (s.len(), 1.0);
     for i in 0..s.len().saturating_sub(1) {
-        let ratio = if s[i + 1] > 0.0 {
-            s[i] / s[i + 1]
-        } else {
-            f64::INFINITY
-        };
+        let (a, b) = (s[i].max(floor), s[i + 1].max(floor));
+        let ratio = if b > 0.0 { a / b } else { f64::INFINITY };
         if ratio > gap_ratio {
             gap_rank = i + 1;
             gap_ratio = ratio;

@@ -85,3 +85,41 @@ impl Dataset {
             .collect()
     }
 }
+
+/// Splits `data` by posture: a fraction `holdout` of the postures (at least one, drawn with
+/// `seed`) and their measurements go to the second dataset. Returns (identification, held out).
+pub fn split_postures(data: &Dataset, holdout: f64, seed: u64) -> (Dataset, Dataset) {
+    use rand::{seq::SliceRandom, SeedableRng};
+    let n = data.postures.len();
+    let k = ((holdout * n as f64).round() as usize).clamp(1, n);
+    let mut order: Vec<usize> = (0..n).collect();
+    order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+    let held: Vec<bool> = {
+        let mut h = vec![false; n];
+        for &i in &order[..k] {
+            h[i] = true;
+        }
+        h
+    };
+    let part = |want: bool| {
+        let mut map = vec![usize::MAX; n];
+        let mut postures = Vec::new();
+        for (i, p) in data.postures.iter().enumerate() {
+            if held[i] == want {
+                map[i] = postures.len();
+                postures.push(p.clone());
+            }
+        }
+        let measurements = data
+            .measurements
+            .iter()
+            .filter(|m| held[m.posture] == want)
+            .map(|m| Measurement {
+                posture: map[m.posture],
+                ..m.clone()
+            })
+            .collect();
+        Dataset::new(postures, measurements)
+    };
+    (part(false), part(true))
+}

@@ -2,11 +2,12 @@
 
 use serde::Serialize;
 
-use crate::estimation::{Calibration, OrientationError, SolutionRule};
+use crate::estimation::{accuracy, Accuracy, Calibration, OrientationError, SolutionRule};
 use crate::identifiability::format_combination;
+use crate::measurement::Dataset;
 use crate::params::ParamId;
 use crate::uncertainty::{Uncertainty, NOISE_SIGMAS};
-use crate::units::Quantity;
+use crate::units::{Quantity, Units};
 
 /// One parameter's line in the report.
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -78,6 +79,76 @@ pub struct CorrelationReport {
     pub b: String,
     /// Correlation coefficient.
     pub rho: f64,
+}
+
+/// Error statistics on one dataset, in the robot file's units.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ErrorStats {
+    /// RMS 3D position error.
+    pub rms_position: f64,
+    /// Mean 3D position error.
+    pub mean_position: f64,
+    /// 95th percentile (nearest rank) of the position errors.
+    pub p95_position: f64,
+    /// Largest position error.
+    pub max_position: f64,
+    /// RMS attitude error (absent without full-pose rows).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rms_orientation: Option<f64>,
+    /// Mean attitude error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mean_orientation: Option<f64>,
+    /// 95th percentile of the attitude errors.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub p95_orientation: Option<f64>,
+    /// Largest attitude error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_orientation: Option<f64>,
+}
+
+impl ErrorStats {
+    /// Converts an [`Accuracy`] to `units`; `orientation` says whether attitude was measured.
+    pub fn new(a: &Accuracy, units: &Units, orientation: bool) -> Self {
+        let len = |v: f64| units.from_si(Quantity::Length, v);
+        let ang = |v: f64| orientation.then(|| units.from_si(Quantity::Angle, v));
+        ErrorStats {
+            rms_position: len(a.rms_position),
+            mean_position: len(a.mean_position),
+            p95_position: len(a.p95_position),
+            max_position: len(a.max_position),
+            rms_orientation: ang(a.rms_orientation),
+            mean_orientation: ang(a.mean_orientation),
+            p95_orientation: ang(a.p95_orientation),
+            max_orientation: ang(a.max_orientation),
+        }
+    }
+}
+
+/// Accuracy before and after calibration on one dataset.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct DatasetAccuracy {
+    /// Postures in the dataset.
+    pub postures: usize,
+    /// Measurements in the dataset.
+    pub measurements: usize,
+    /// With the initial robot.
+    pub before: ErrorStats,
+    /// With the calibrated robot.
+    pub after: ErrorStats,
+}
+
+impl DatasetAccuracy {
+    /// Accuracy of `cal`'s initial and calibrated robots on `data`.
+    pub fn new(cal: &Calibration, data: &Dataset) -> Self {
+        let orientation = data.measurements.iter().any(|m| m.orientation.is_some());
+        let u = cal.calibrated.units;
+        DatasetAccuracy {
+            postures: data.postures.len(),
+            measurements: data.measurements.len(),
+            before: ErrorStats::new(&accuracy(&cal.initial, data), &u, orientation),
+            after: ErrorStats::new(&accuracy(&cal.calibrated, data), &u, orientation),
+        }
+    }
 }
 
 /// The fit before pruning, when `--prune` was used.
@@ -165,11 +236,18 @@ pub struct CalibrationReport {
     /// The fit before pruning, when pruning was asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pruning: Option<PruneReport>,
+    /// Accuracy on the identification data (the data calibrated on).
+    pub identification: DatasetAccuracy,
+    /// Accuracy on held-out validation data, when given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation: Option<DatasetAccuracy>,
 }
 
 impl CalibrationReport {
-    /// Builds the report of `cal` on a dataset of the given size.
-    pub fn new(cal: &Calibration, postures: usize, measurements: usize, residuals: usize) -> Self {
+    /// Builds the report of `cal`, calibrated on `data`.
+    pub fn new(cal: &Calibration, data: &Dataset) -> Self {
+        let (postures, measurements, residuals) =
+            (data.postures.len(), data.measurements.len(), data.rows());
         let robot = &cal.calibrated;
         let u = robot.units;
         let len = |v: f64| u.from_si(Quantity::Length, v);
@@ -236,7 +314,14 @@ impl CalibrationReport {
             combinations: Vec::new(),
             correlations: Vec::new(),
             pruning: None,
+            identification: DatasetAccuracy::new(cal, data),
+            validation: None,
         }
+    }
+
+    /// Adds the accuracy on held-out `validation` data.
+    pub fn add_validation(&mut self, cal: &Calibration, validation: &Dataset) {
+        self.validation = Some(DatasetAccuracy::new(cal, validation));
     }
 
     /// Adds the uncertainty of the calibration: sigmas, significance, determined combinations,

@@ -178,39 +178,62 @@ enum OrientationMap {
 pub struct Accuracy {
     /// Root mean square of the 3D position errors (m).
     pub rms_position: f64,
+    /// Mean 3D position error (m).
+    pub mean_position: f64,
+    /// 95th percentile of the 3D position errors (m; nearest rank).
+    pub p95_position: f64,
     /// Largest 3D position error (m).
     pub max_position: f64,
     /// Root mean square of the attitude errors (rad): the angle of `R_measured^T R_model`, over
     /// full-pose measurements.
     pub rms_orientation: f64,
+    /// Mean attitude error (rad).
+    pub mean_orientation: f64,
+    /// 95th percentile of the attitude errors (rad).
+    pub p95_orientation: f64,
     /// Largest attitude error (rad).
     pub max_orientation: f64,
+}
+
+/// RMS, mean, 95th percentile (nearest rank) and max of non-negative errors.
+fn stats(mut e: Vec<f64>) -> (f64, f64, f64, f64) {
+    if e.is_empty() {
+        return (0.0, 0.0, 0.0, 0.0);
+    }
+    e.sort_by(f64::total_cmp);
+    let n = e.len() as f64;
+    let rms = (e.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+    let mean = e.iter().sum::<f64>() / n;
+    let rank = ((0.95 * n).ceil() as usize).clamp(1, e.len());
+    (rms, mean, e[rank - 1], e[e.len() - 1])
 }
 
 /// How far `robot`'s predictions are from the measurements in `data`.
 pub fn accuracy(robot: &Robot, data: &Dataset) -> Accuracy {
     let chain = Chain::new(robot);
     let mut ws = Workspace::new(robot);
-    let (mut sp, mut so, mut np, mut no) = (0.0, 0.0, 0usize, 0usize);
-    let mut acc = Accuracy::default();
+    let (mut ep, mut eo) = (Vec::new(), Vec::new());
     for (posture, measurements) in data.by_posture() {
         chain.forward(&posture.readings, &mut ws);
         for m in measurements {
             let f = chain.target_frame(&ws, m.target);
-            let e = (f.translation - m.position).norm();
-            sp += e * e;
-            np += 1;
-            acc.max_position = acc.max_position.max(e);
+            ep.push((f.translation - m.position).norm());
             if let Some(meas) = m.orientation {
                 let rm = rot_zyx(meas.x, meas.y, meas.z);
-                let a = log_so3(&(rm.transpose() * f.rotation)).norm();
-                so += a * a;
-                no += 1;
-                acc.max_orientation = acc.max_orientation.max(a);
+                eo.push(log_so3(&(rm.transpose() * f.rotation)).norm());
             }
         }
     }
-    acc.rms_position = if np > 0 { (sp / np as f64).sqrt() } else { 0.0 };
-    acc.rms_orientation = if no > 0 { (so / no as f64).sqrt() } else { 0.0 };
-    acc
+    let (rms_position, mean_position, p95_position, max_position) = stats(ep);
+    let (rms_orientation, mean_orientation, p95_orientation, max_orientation) = stats(eo);
+    Accuracy {
+        rms_position,
+        mean_position,
+        p95_position,
+        max_position,
+        rms_orientation,
+        mean_orientation,
+        p95_orientation,
+        max_orientation,
+    }
 }
