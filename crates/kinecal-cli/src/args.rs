@@ -58,6 +58,9 @@ normalised), where units cannot distort them; the file-unit figures show what un
     /// Convert a robot from another convention (product of exponentials, Denavit-Hartenberg).
     #[command(subcommand)]
     Import(ImportCommand),
+    /// Write a calibrated robot back into another format (URDF).
+    #[command(subcommand)]
+    Export(ExportCommand),
     /// Estimate kinematic parameters from measured poses or positions.
     #[command(after_help = "\
 Example:
@@ -134,6 +137,15 @@ position = [x, y, z] and optional euler = [alpha, beta, gamma]; optional [[sites
 position, euler at the zero configuration. Joint frames go on the axes with x along the common
 normal, which keeps every link's beta at 0. Readings are joint values (slope 1).")]
     Poe(ImportPoeArgs),
+    /// The serial chain of a URDF file.
+    #[command(after_help = "\
+Example:
+  kinecal import urdf ur5_robot.urdf --base base_link --tip tool0 --out ur5.toml
+
+Revolute, continuous and prismatic joints become joints; fixed joints merge into the links; axes
+other than +z are folded exactly into the neighbouring links. Readings are the URDF joint values
+(rad, m) and joint limits become reading ranges. The model is written in metres and radians.")]
+    Urdf(ImportUrdfArgs),
     /// A Denavit-Hartenberg table.
     #[command(after_help = "\
 Example:
@@ -143,6 +155,57 @@ The table is CSV `kind,a,alpha,d,theta`, one row per joint. standard: Rz(theta+q
 modified (Craig): Rx(alpha) Tx(a) Rz(theta+q) Tz(d); for a prismatic joint q adds to d. Readings are
 the joint values (slope 1); theta (or d) becomes the joint offset.")]
     Dh(ImportDhArgs),
+}
+
+/// `kinecal import urdf`.
+#[derive(Debug, Args)]
+pub struct ImportUrdfArgs {
+    /// The URDF file (plain URDF; expand xacro first).
+    pub file: PathBuf,
+    /// First link of the chain (default: the root link).
+    #[arg(long)]
+    pub base: Option<String>,
+    /// Last link of the chain (default: the only leaf link).
+    #[arg(long)]
+    pub tip: Option<String>,
+    /// The robot file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `kinecal export`.
+#[derive(Debug, Subcommand)]
+pub enum ExportCommand {
+    /// Write a calibrated robot into the URDF it was imported from.
+    #[command(after_help = "\
+Example:
+  kinecal export urdf --robot calibrated.toml --template ur5_robot.urdf --base base_link --tip tool0 --out ur5_calibrated.urdf
+
+Only the <origin> of the chain's movable joints (and of the first fixed joint after the last one,
+for the tool frame) change; visuals, inertias, limits, comments and formatting are kept. Joint
+offsets are folded into the origins. A slope other than 1 cannot be expressed in URDF: a warning
+says so.")]
+    Urdf(ExportUrdfArgs),
+}
+
+/// `kinecal export urdf`.
+#[derive(Debug, Args)]
+pub struct ExportUrdfArgs {
+    /// The calibrated robot file (imported from the template).
+    #[arg(long)]
+    pub robot: String,
+    /// The original URDF.
+    #[arg(long)]
+    pub template: PathBuf,
+    /// First link of the chain, as at import.
+    #[arg(long)]
+    pub base: Option<String>,
+    /// Last link of the chain, as at import.
+    #[arg(long)]
+    pub tip: Option<String>,
+    /// The URDF to write.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `kinecal import poe`.

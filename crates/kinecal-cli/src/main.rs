@@ -12,8 +12,8 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
 
 use args::{
-    CalibrateArgs, Cli, Command, ConventionArg, DampingArg, FkArgs, ImportCommand, MethodArg,
-    OrientationArg, ResidualArgs, SimulateArgs, SolutionArg,
+    CalibrateArgs, Cli, Command, ConventionArg, DampingArg, ExportCommand, ExportUrdfArgs, FkArgs,
+    ImportCommand, MethodArg, OrientationArg, ResidualArgs, SimulateArgs, SolutionArg,
 };
 use kinecal::estimation::{
     self, CalibrationOptions, Damping, Method, OrientationError, SolutionRule, SolverOptions,
@@ -38,6 +38,7 @@ fn main() -> ExitCode {
         Command::Calibrate(a) => calibrate(a),
         Command::Analyze(a) => analyze::run(a),
         Command::Import(c) => import(c),
+        Command::Export(ExportCommand::Urdf(a)) => export_urdf(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -195,6 +196,16 @@ fn import(c: ImportCommand) -> Result<()> {
                 a.out,
             )
         }
+        ImportCommand::Urdf(a) => {
+            let file = a.file.display().to_string();
+            let imp = kinecal::import::urdf::import_urdf(
+                &read_text(&a.file)?,
+                &file,
+                a.base.as_deref(),
+                a.tip.as_deref(),
+            )?;
+            (imp.robot, a.out)
+        }
         ImportCommand::Dh(a) => {
             let units = kinecal::Units {
                 length: a
@@ -230,6 +241,24 @@ fn import(c: ImportCommand) -> Result<()> {
         robot.param_count(),
         out.display()
     );
+    Ok(())
+}
+
+fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let file = a.template.display().to_string();
+    let (text, warnings) = kinecal::import::urdf::export_urdf(
+        &r.robot,
+        &read_text(&a.template)?,
+        &file,
+        a.base.as_deref(),
+        a.tip.as_deref(),
+    )?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    write_file(&a.out, &text)?;
+    eprintln!("wrote the calibrated URDF to {}", a.out.display());
     Ok(())
 }
 

@@ -824,3 +824,88 @@ fn import_dh_and_poe_then_calibrate_with_validation() {
     );
     assert!(!d.join("x.toml").exists());
 }
+
+#[test]
+fn urdf_import_calibrate_export_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let urdf = r#"<?xml version="1.0"?>
+<!-- a small arm: the comment must survive export -->
+<robot name="arm">
+  <link name="base"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0.1 0.2" rpy="1.5707963 0 0"/><axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+  <joint name="j3" type="continuous"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0.4 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/></joint>
+  <joint name="tool_joint" type="fixed"><parent link="l3"/><child link="tool"/>
+    <origin xyz="0.1 0 0" rpy="0 0 0"/></joint>
+</robot>
+"#;
+    std::fs::write(d.join("arm.urdf"), urdf).unwrap();
+    run_ok(d, &["import", "urdf", "arm.urdf", "--out", "arm.toml"]);
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "arm.toml",
+            "--postures",
+            "30",
+            "--perturb",
+            "link2.y=+0.002,joint2.offset=+0.01",
+            "--out",
+            "d.csv",
+            "--truth",
+            "t.toml",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "arm.toml",
+            "--data",
+            "d.csv",
+            "--out",
+            "c.toml",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "export",
+            "urdf",
+            "--robot",
+            "c.toml",
+            "--template",
+            "arm.urdf",
+            "--out",
+            "c.urdf",
+        ],
+    );
+    let out = std::fs::read_to_string(d.join("c.urdf")).unwrap();
+    assert!(out.contains("<!-- a small arm: the comment must survive export -->"));
+    assert!(out.contains(r#"<limit lower="-2" upper="2" effort="1" velocity="1"/>"#));
+    // Importing the exported URDF gives the true robot's poses.
+    run_ok(d, &["import", "urdf", "c.urdf", "--out", "c2.toml"]);
+    let a = run_ok(d, &["fk", "--robot", "t.toml", "--postures", "d.csv"]);
+    let b = run_ok(d, &["fk", "--robot", "c2.toml", "--postures", "d.csv"]);
+    for (x, y) in a.lines().zip(b.lines()).skip(1) {
+        for (u, v) in x.split(',').zip(y.split(',')).skip(5).take(3) {
+            assert!(
+                (u.parse::<f64>().unwrap() - v.parse::<f64>().unwrap()).abs() < 1e-9,
+                "{x}\n{y}"
+            );
+        }
+    }
+    let err = run_err(
+        d,
+        &[
+            "import", "urdf", "arm.urdf", "--tip", "nowhere", "--out", "x.toml",
+        ],
+    );
+    assert!(err.contains("--tip: no link named `nowhere`"), "{err}");
+}

@@ -7,6 +7,7 @@
 
 pub mod dh;
 pub mod poe;
+pub mod urdf;
 
 use nalgebra::{Matrix3, Vector3};
 

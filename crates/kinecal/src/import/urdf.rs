@@ -1,0 +1,434 @@
+//! URDF: import a serial chain, and write a calibration back into the original file.
+//!
+//! Import: the chain from `base` to `tip`; revolute, continuous and prismatic joints become
+//! joints, fixed joints merge into the neighbouring link transform. A joint origin `xyz rpy` is
+//! `Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)`, the thesis's link transform. A joint axis other than
+//! +z is handled exactly by a constant rotation `R_a` (with `R_a e_z = axis`) folded into the
+//! link before the joint, and its inverse into the link after it. Readings are the URDF joint
+//! values (rad, m; slope 1) and joint limits become reading ranges. Mimic joints, closed chains
+//! and floating or planar joints in the chain are refused with the element named.
+//!
+//! Export: each movable joint's `<origin>` is rewritten so that the URDF's forward kinematics is
+//! the calibrated one (joint offsets folded in); the first fixed joint after the last movable one
+//! takes the tool-frame correction. Everything else in the file (visuals, inertias, limits,
+//! comments, formatting) is kept byte for byte.
+
+use std::collections::HashMap;
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::{chain_from_frames, inverse, rotation_from_xz, ImportedJoint};
+use crate::error::{Error, Location, Result};
+use crate::kinematics::{euler_zyx, rot_zyx, Frame};
+use crate::robot::{JointKind, Robot};
+use crate::units::Units;
+
+/// A URDF joint origin as a frame: `Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)`.
+pub fn origin_frame(xyz: [f64; 3], rpy: [f64; 3]) -> Frame {
+    Frame {
+        rotation: rot_zyx(rpy[2], rpy[1], rpy[0]),
+        translation: Vector3::from(xyz),
+    }
+}
+
+/// The URDF chain behind an imported robot: what export needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UrdfChain {
+    /// Joint names from base to tip.
+    pub joints: Vec<String>,
+    /// Which of them are movable (in order, one per robot joint).
+    pub movable: Vec<String>,
+    /// For each movable joint, the constant rotation `R_a` (in its child frame) whose z is the
+    /// joint axis; its x is chosen along the common normal with the previous joint's axis, which
+    /// keeps the links' beta at 0, away from the Euler singularity.
+    pub axis_frames: Vec<Matrix3<f64>>,
+    /// Origin of every chain joint as in the file.
+    pub origins: Vec<Frame>,
+}
+
+/// A joint whose origin export rewrites: (joint name, new origin, origin in the template).
+pub type NewOrigin = (String, Frame, Frame);
+
+/// The result of [`import_urdf`].
+#[derive(Debug, Clone)]
+pub struct UrdfImport {
+    /// The robot (metres and radians).
+    pub robot: Robot,
+    /// The chain it came from.
+    pub chain: UrdfChain,
+}
+
+fn err(file: &str, message: impl Into<String>) -> Error {
+    Error::input(Location::file(file), message)
+}
+
+/// Reads the chain from `base` to `tip` of a URDF. `base` defaults to the root link, `tip` to the
+/// only leaf (an error lists the leaves when there are several).
+pub fn import_urdf(
+    text: &str,
+    file: &str,
+    base: Option<&str>,
+    tip: Option<&str>,
+) -> Result<UrdfImport> {
+    let urdf =
+        urdf_rs::read_from_string(text).map_err(|e| err(file, format!("not a valid URDF: {e}")))?;
+    let links: Vec<&str> = urdf.links.iter().map(|l| l.name.as_str()).collect();
+    let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
+    for j in &urdf.joints {
+        for (role, l) in [("parent", &j.parent.link), ("child", &j.child.link)] {
+            if !links.contains(&l.as_str()) {
+                return Err(err(
+                    file,
+                    format!("joint `{}`: its {role} link `{l}` is not defined", j.name),
+                ));
+            }
+        }
+        if let Some(other) = parent_of.insert(&j.child.link, j) {
+            return Err(err(
+                file,
+                format!(
+                    "link `{}` is the child of two joints (`{}` and `{}`): a closed chain, which a serial model cannot describe",
+                    j.child.link, other.name, j.name
+                ),
+            ));
+        }
+    }
+    let roots: Vec<&str> = links
+        .iter()
+        .copied()
+        .filter(|l| !parent_of.contains_key(l))
+        .collect();
+    let base = match base {
+        Some(b) if links.contains(&b) => b,
+        Some(b) => return Err(err(file, format!("--base: no link named `{b}`"))),
+        None => match roots.as_slice() {
+            [one] => *one,
+            _ => {
+                return Err(err(
+                    file,
+                    format!(
+                        "several root links ({}): choose one with --base",
+                        roots.join(", ")
+                    ),
+                ))
+            }
+        },
+    };
+    let has_children: Vec<&str> = urdf.joints.iter().map(|j| j.parent.link.as_str()).collect();
+    let tip = match tip {
+        Some(t) if links.contains(&t) => t,
+        Some(t) => return Err(err(file, format!("--tip: no link named `{t}`"))),
+        None => {
+            let leaves: Vec<&str> = links
+                .iter()
+                .copied()
+                .filter(|l| !has_children.contains(l))
+                .collect();
+            match leaves.as_slice() {
+                [one] => *one,
+                _ => {
+                    return Err(err(
+                        file,
+                        format!(
+                            "several leaf links ({}): choose one with --tip",
+                            leaves.join(", ")
+                        ),
+                    ))
+                }
+            }
+        }
+    };
+    // Walk from the tip up to the base.
+    let mut chain: Vec<&urdf_rs::Joint> = Vec::new();
+    let mut at = tip;
+    while at != base {
+        let Some(j) = parent_of.get(at) else {
+            return Err(err(
+                file,
+                format!("link `{tip}` is not below link `{base}`: base and tip are not connected"),
+            ));
+        };
+        chain.push(j);
+        at = &j.parent.link;
+        if chain.len() > urdf.joints.len() {
+            return Err(err(file, "the joints form a loop"));
+        }
+    }
+    chain.reverse();
+    let mut acc = Frame::identity();
+    let mut joints = Vec::new();
+    let mut movable = Vec::new();
+    let mut axis_frames = Vec::new();
+    let mut origins = Vec::new();
+    let mut prev_joint = Frame::identity();
+    for j in &chain {
+        if let Some(m) = &j.mimic {
+            return Err(err(
+                file,
+                format!(
+                    "joint `{}` mimics joint `{}`: mimic joints are not supported in the chain",
+                    j.name, m.joint
+                ),
+            ));
+        }
+        let o = origin_frame(j.origin.xyz.0, j.origin.rpy.0);
+        origins.push(o);
+        acc = acc.then(&o);
+        let kind = match j.joint_type {
+            urdf_rs::JointType::Fixed => continue,
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => JointKind::Revolute,
+            urdf_rs::JointType::Prismatic => JointKind::Prismatic,
+            ref other => {
+                return Err(err(file, format!("joint `{}` is {other:?}: only revolute, continuous, prismatic and fixed joints can be calibrated", j.name)))
+            }
+        };
+        let axis = Vector3::from(j.axis.xyz.0);
+        if axis.norm() < 1e-12 {
+            return Err(err(file, format!("joint `{}` has a zero axis", j.name)));
+        }
+        // x along the common normal with the previous joint's axis (global), or, for a parallel
+        // axis, the previous joint frame's x.
+        let zg = acc.rotation * axis.normalize();
+        let pz = prev_joint.rotation.column(2).into_owned();
+        let n = pz.cross(&zg);
+        let xg = if n.norm() > 1e-9 {
+            n
+        } else {
+            prev_joint.rotation.column(0).into_owned()
+        };
+        let xg = if (xg - zg * xg.dot(&zg)).norm() > 1e-9 {
+            xg
+        } else {
+            prev_joint.rotation.column(1).into_owned()
+        };
+        let ra = rotation_from_xz(&(acc.rotation.transpose() * xg), &axis);
+        prev_joint = acc.then(&Frame {
+            rotation: ra,
+            translation: Vector3::zeros(),
+        });
+        let range = (j.limit.lower < j.limit.upper
+            && j.joint_type != urdf_rs::JointType::Continuous)
+            .then_some((j.limit.lower, j.limit.upper));
+        joints.push(ImportedJoint {
+            kind,
+            frame: acc.then(&Frame {
+                rotation: ra,
+                translation: Vector3::zeros(),
+            }),
+            offset: 0.0,
+            range,
+        });
+        movable.push(j.name.clone());
+        axis_frames.push(ra);
+    }
+    if joints.is_empty() {
+        return Err(err(
+            file,
+            format!("no movable joint between `{base}` and `{tip}`"),
+        ));
+    }
+    let robot = chain_from_frames(&urdf.name, Units::default(), &joints, &acc);
+    Ok(UrdfImport {
+        robot,
+        chain: UrdfChain {
+            joints: chain.iter().map(|j| j.name.clone()).collect(),
+            movable,
+            axis_frames,
+            origins,
+        },
+    })
+}
+
+/// The new origins (by joint name) that make `chain`'s URDF reproduce `robot`'s forward
+/// kinematics, and warnings for what a URDF cannot express (slopes other than 1, a tool
+/// correction with no fixed joint after the last movable one).
+pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin>, Vec<String>)> {
+    if robot.dof() != chain.movable.len() {
+        return Err(Error::Problem(format!(
+            "the robot has {} joints but the URDF chain has {} movable joints",
+            robot.dof(),
+            chain.movable.len()
+        )));
+    }
+    let mut warnings = Vec::new();
+    // Calibrated frames at zero readings: C'_i = L1 J1(off1) ... L_i.
+    let mut c = Frame::identity();
+    let mut w_frames = Vec::new(); // W_i: the frame the URDF joint must act in
+    for (i, (link, joint)) in robot.links.iter().zip(&robot.joints).enumerate() {
+        c = c.then(&Frame::from_link(link));
+        let unit_slope = 1.0; // URDF joint values are in rad / m
+        if (joint.slope - unit_slope).abs() > 1e-12 {
+            warnings.push(format!(
+                "joint {} (`{}`) has slope {} rad or m per unit: a URDF cannot scale joint values, so the controller must",
+                i + 1,
+                chain.movable[i],
+                joint.slope
+            ));
+        }
+        let off = match joint.kind {
+            JointKind::Revolute => Frame {
+                rotation: rot_zyx(joint.offset, 0.0, 0.0),
+                translation: Vector3::zeros(),
+            },
+            JointKind::Prismatic => Frame {
+                rotation: Matrix3::identity(),
+                translation: Vector3::new(0.0, 0.0, joint.offset),
+            },
+        };
+        c = c.then(&off);
+        let ra = chain.axis_frames[i];
+        w_frames.push(c.then(&Frame {
+            rotation: ra.transpose(),
+            translation: Vector3::zeros(),
+        }));
+    }
+    let ee = c.then(&Frame::from_link(robot.links.last().expect("links")));
+    let mut out = Vec::new();
+    let mut fixed_before = Frame::identity(); // fixed origins since the last movable joint
+    let mut prev_w = Frame::identity();
+    let mut k = 0;
+    let mut tool_joint = None;
+    for (name, origin) in chain.joints.iter().zip(&chain.origins) {
+        if k < chain.movable.len() && *name == chain.movable[k] {
+            let o = inverse(&fixed_before)
+                .then(&inverse(&prev_w))
+                .then(&w_frames[k]);
+            out.push((name.clone(), o, *origin));
+            prev_w = w_frames[k];
+            fixed_before = Frame::identity();
+            k += 1;
+        } else {
+            if k == chain.movable.len() && tool_joint.is_none() {
+                tool_joint = Some(out.len());
+                out.push((name.clone(), *origin, *origin));
+            }
+            fixed_before = fixed_before.then(origin);
+        }
+    }
+    // The tool: W_n * F_after must equal the calibrated end-effector frame.
+    let needed = inverse(&prev_w).then(&ee);
+    match tool_joint {
+        Some(t) => {
+            // F_after = O_t * rest; replace O_t so that O_t' * rest = needed.
+            let rest = inverse(&out[t].1).then(&fixed_before);
+            out[t].1 = needed.then(&inverse(&rest));
+        }
+        None => {
+            let d = needed.translation.norm() + crate::kinematics::log_so3(&needed.rotation).norm();
+            if d > 1e-12 {
+                warnings.push(
+                    "the tip link is the child of the last movable joint: the calibrated tool frame cannot be \
+                     written (add a fixed tool joint to the URDF)"
+                        .into(),
+                );
+            }
+        }
+    }
+    Ok((out, warnings))
+}
+
+fn fmt_num(v: f64) -> String {
+    let r = format!("{v:.12}");
+    let r = r.trim_end_matches('0').trim_end_matches('.').to_string();
+    if r == "-0" {
+        "0".into()
+    } else {
+        r
+    }
+}
+
+/// The URDF `rpy` of a rotation: of the two equivalent ZYX solutions, the one closer to `near`
+/// (the origin's previous angles), so that a small calibration gives small changes.
+fn rpy_near(r: &Matrix3<f64>, near: &Matrix3<f64>) -> [f64; 3] {
+    use crate::units::wrap_angle;
+    use std::f64::consts::PI;
+    let e = euler_zyx(r);
+    let n = euler_zyx(near);
+    let alt = Vector3::new(
+        wrap_angle(e.x + PI),
+        wrap_angle(PI - e.y),
+        wrap_angle(e.z + PI),
+    );
+    let dist = |a: &Vector3<f64>| (0..3).map(|k| wrap_angle(a[k] - n[k]).abs()).sum::<f64>();
+    let best = if dist(&alt) < dist(&e) { alt } else { e };
+    [best.z, best.y, best.x]
+}
+
+/// Rewrites the `<origin>` of the named joints in URDF `text`, keeping everything else. Each
+/// entry is (joint name, new origin, old origin).
+pub fn rewrite_origins(text: &str, file: &str, origins: &[NewOrigin]) -> Result<String> {
+    let mut out = text.to_string();
+    for (name, f, old) in origins {
+        let [roll, pitch, yaw] = rpy_near(&f.rotation, &old.rotation);
+        let xyz = format!(
+            "{} {} {}",
+            fmt_num(f.translation.x),
+            fmt_num(f.translation.y),
+            fmt_num(f.translation.z)
+        );
+        let rpy = format!("{} {} {}", fmt_num(roll), fmt_num(pitch), fmt_num(yaw));
+        let new_origin = format!("<origin xyz=\"{xyz}\" rpy=\"{rpy}\"/>");
+        // The joint element: `<joint` ... name="NAME" ... `</joint>` (or a self-closing tag).
+        let start = find_joint(&out, name)
+            .ok_or_else(|| err(file, format!("joint `{name}` not found in the template")))?;
+        let end = out[start..]
+            .find("</joint>")
+            .map(|e| start + e)
+            .ok_or_else(|| err(file, format!("joint `{name}` has no </joint>")))?;
+        let body = &out[start..end];
+        match body.find("<origin") {
+            Some(o) => {
+                let os = start + o;
+                let close = out[os..]
+                    .find('>')
+                    .map(|c| os + c + 1)
+                    .ok_or_else(|| err(file, "unterminated <origin>"))?;
+                let close = if out[os..close].ends_with("/>") {
+                    close
+                } else {
+                    out[close..]
+                        .find("</origin>")
+                        .map(|c| close + c + "</origin>".len())
+                        .unwrap_or(close)
+                };
+                out.replace_range(os..close, &new_origin);
+            }
+            None => {
+                let tag_end = out[start..]
+                    .find('>')
+                    .map(|c| start + c + 1)
+                    .ok_or_else(|| err(file, "unterminated <joint>"))?;
+                out.insert_str(tag_end, &format!("\n    {new_origin}"));
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn find_joint(text: &str, name: &str) -> Option<usize> {
+    let mut from = 0;
+    while let Some(p) = text[from..].find("<joint") {
+        let s = from + p;
+        let tag_end = text[s..].find('>').map(|e| s + e)?;
+        let tag = &text[s..tag_end];
+        if tag.contains(&format!("name=\"{name}\"")) || tag.contains(&format!("name='{name}'")) {
+            return Some(s);
+        }
+        from = tag_end;
+    }
+    None
+}
+
+/// Writes `robot` (calibrated) into the URDF `template`: the chain from `base` to `tip` is
+/// re-imported from the template to know its structure. Returns the new text and warnings.
+pub fn export_urdf(
+    robot: &Robot,
+    template: &str,
+    file: &str,
+    base: Option<&str>,
+    tip: Option<&str>,
+) -> Result<(String, Vec<String>)> {
+    let imported = import_urdf(template, file, base, tip)?;
+    let (origins, warnings) = export_origins(robot, &imported.chain)?;
+    Ok((rewrite_origins(template, file, &origins)?, warnings))
+}

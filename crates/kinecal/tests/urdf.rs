@@ -1,0 +1,249 @@
+//! URDF import and export against an independent URDF forward kinematics, on real robot files.
+
+use std::path::{Path, PathBuf};
+
+use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::import::urdf::{export_urdf, import_urdf};
+use kinecal::kinematics::Target;
+use kinecal::{simulate, ParamId};
+use nalgebra::{Matrix4, Rotation3, Unit, Vector3};
+use rand::{RngExt, SeedableRng};
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/urdf")
+        .join(rel);
+    if p.exists() {
+        return Some(p);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "{} is missing on CI",
+        p.display()
+    );
+    eprintln!("skipped: {} not found", p.display());
+    None
+}
+
+/// Forward kinematics straight from the URDF: the product of `origin * motion(axis, q)` along
+/// the chain from `base` to `tip`, with 4x4 matrices. Returns also the movable joint count.
+fn urdf_fk(text: &str, base: &str, tip: &str, q: &[f64]) -> Matrix4<f64> {
+    let robot = urdf_rs::read_from_string(text).unwrap();
+    let mut chain = Vec::new();
+    let mut at = tip.to_string();
+    while at != base {
+        let j = robot.joints.iter().find(|j| j.child.link == at).unwrap();
+        chain.push(j.clone());
+        at = j.parent.link.clone();
+    }
+    chain.reverse();
+    let mut t = Matrix4::identity();
+    let mut k = 0;
+    for j in chain {
+        let [x, y, z] = j.origin.xyz.0;
+        let [r, p, yw] = j.origin.rpy.0;
+        let rot = Rotation3::from_euler_angles(r, p, yw); // URDF: Rz(yaw) Ry(pitch) Rx(roll)
+        t *= Matrix4::new_translation(&Vector3::new(x, y, z)) * rot.to_homogeneous();
+        let axis = Vector3::from(j.axis.xyz.0);
+        match j.joint_type {
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
+                t *= Rotation3::from_axis_angle(&Unit::new_normalize(axis), q[k]).to_homogeneous();
+                k += 1;
+            }
+            urdf_rs::JointType::Prismatic => {
+                t *= Matrix4::new_translation(&(axis.normalize() * q[k]));
+                k += 1;
+            }
+            _ => {}
+        }
+    }
+    assert_eq!(k, q.len());
+    t
+}
+
+fn check_fk(robot: &kinecal::Robot, text: &str, base: &str, tip: &str, seed: u64) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let chain = kinecal::Chain::new(robot);
+    for _ in 0..100 {
+        let q: Vec<f64> = robot
+            .joints
+            .iter()
+            .map(|j| match j.range {
+                Some((a, b)) => rng.random_range(a..=b),
+                None => rng.random_range(-3.0..3.0),
+            })
+            .collect();
+        let f = chain.frame_at(&q, Target::EndEffector);
+        let e = urdf_fk(text, base, tip, &q);
+        for i in 0..3 {
+            assert!(
+                (f.translation[i] - e[(i, 3)]).abs() < 1e-9,
+                "{tip} position {i}: {} vs {}",
+                f.translation[i],
+                e[(i, 3)]
+            );
+            for j in 0..3 {
+                assert!(
+                    (f.rotation[(i, j)] - e[(i, j)]).abs() < 1e-9,
+                    "{tip} rotation ({i},{j})"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn real_urdfs_import_with_identical_fk() {
+    // UR5: parallel shoulder/elbow/wrist-1 axes. iiwa14: 7 axes. Panda to a finger: 7 revolute
+    // joints, fixed joints, and a prismatic joint.
+    let cases = [
+        (
+            "universal_robots/urdf_plain/ur5_robot.urdf",
+            "base_link",
+            "tool0",
+        ),
+        ("kuka_iiwa14/iiwa14_mukca.urdf", "", "ball_link"),
+        ("franka_panda/panda.urdf", "panda_link0", "panda_leftfinger"),
+    ];
+    for (k, (rel, base, tip)) in cases.iter().enumerate() {
+        let Some(path) = shared(rel) else { return };
+        let text = std::fs::read_to_string(&path).unwrap();
+        let opt = |s: &'static str| (!s.is_empty()).then_some(s);
+        let imp = import_urdf(&text, rel, opt(base), opt(tip)).unwrap();
+        let urdf = urdf_rs::read_from_string(&text).unwrap();
+        let children: Vec<&str> = urdf.joints.iter().map(|j| j.child.link.as_str()).collect();
+        let parents: Vec<&str> = urdf.joints.iter().map(|j| j.parent.link.as_str()).collect();
+        let root = urdf
+            .links
+            .iter()
+            .find(|l| !children.contains(&l.name.as_str()))
+            .unwrap()
+            .name
+            .clone();
+        let leaf = urdf
+            .links
+            .iter()
+            .find(|l| !parents.contains(&l.name.as_str()))
+            .unwrap()
+            .name
+            .clone();
+        let (b, t) = (
+            opt(base).map_or(root, String::from),
+            opt(tip).map_or(leaf, String::from),
+        );
+        check_fk(&imp.robot, &text, &b, &t, k as u64);
+        // Frames on the common normals: no link between two joints is near beta = +-90 deg.
+        for l in &imp.robot.links[1..imp.robot.dof()] {
+            assert!(l.beta.abs() < 1e-9, "{rel}: beta {}", l.beta);
+        }
+        if rel.contains("panda") {
+            assert!(imp
+                .robot
+                .joints
+                .iter()
+                .any(|j| j.kind == kinecal::JointKind::Prismatic));
+            assert_eq!(imp.robot.dof(), 8);
+        }
+    }
+}
+
+#[test]
+fn export_after_calibration_then_import_gives_the_calibrated_fk() {
+    let Some(path) = shared("universal_robots/urdf_plain/ur5_robot.urdf") else {
+        return;
+    };
+    let text = std::fs::read_to_string(&path).unwrap();
+    let nominal = import_urdf(&text, "ur5", Some("base_link"), Some("tool0"))
+        .unwrap()
+        .robot;
+    let std = simulate::PerturbStd {
+        length: 5e-4,
+        angle: 0.1f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    let truth = simulate::perturb(&nominal, std, 12);
+    let data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 40, 3), false);
+    let mut est: Vec<ParamId> = kinecal::parse_param_list("links,offsets", &nominal).unwrap();
+    est.sort();
+    let cal = calibrate(&nominal, &data, &CalibrationOptions::new(est), &mut |_| {}).unwrap();
+    assert!(cal.accuracy_after.rms_position < 1e-9);
+    let (new_text, warnings) = export_urdf(
+        &cal.calibrated,
+        &text,
+        "ur5",
+        Some("base_link"),
+        Some("tool0"),
+    )
+    .unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    // Everything but the origins is kept: same line count, visuals and limits untouched.
+    assert_eq!(new_text.lines().count(), text.lines().count());
+    assert!(new_text.contains("<mesh filename="));
+    let again = import_urdf(&new_text, "new", Some("base_link"), Some("tool0"))
+        .unwrap()
+        .robot;
+    let (c1, c2) = (
+        kinecal::Chain::new(&cal.calibrated),
+        kinecal::Chain::new(&again),
+    );
+    for p in simulate::sample_postures(&nominal, 50, 8) {
+        let (a, b) = (
+            c1.frame_at(&p.readings, Target::EndEffector),
+            c2.frame_at(&p.readings, Target::EndEffector),
+        );
+        assert!((a.translation - b.translation).norm() < 1e-9);
+        assert!((a.rotation - b.rotation).norm() < 1e-9);
+        // And the URDF itself, by the independent FK, is the calibrated robot.
+        let e = urdf_fk(&new_text, "base_link", "tool0", &p.readings);
+        assert!((a.translation - Vector3::new(e[(0, 3)], e[(1, 3)], e[(2, 3)])).norm() < 1e-9);
+    }
+}
+
+#[test]
+fn bad_urdfs_name_the_element() {
+    let base = r#"<robot name="r">
+  <link name="a"/><link name="b"/><link name="c"/>
+  <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>"#;
+    assert_eq!(
+        import_urdf(base, "ok.urdf", None, None)
+            .unwrap()
+            .robot
+            .dof(),
+        2
+    );
+    let cases = [
+        (
+            base.replace(r#"<child link="c"/>"#, r#"<child link="b"/>"#),
+            "child of two joints",
+        ),
+        (
+            base.replace(r#"<child link="c"/>"#, r#"<child link="zz"/>"#),
+            "`zz` is not defined",
+        ),
+        (
+            base.replace(
+                r#"<axis xyz="0 1 0"/>"#,
+                r#"<axis xyz="0 1 0"/><mimic joint="j1"/>"#,
+            ),
+            "joint `j2` mimics joint `j1`",
+        ),
+        (
+            base.replace(r#"<link name="c"/>"#, r#"<link name="c"/><link name="d"/>"#),
+            "several root links",
+        ),
+    ];
+    for (text, expected) in cases {
+        let e = import_urdf(&text, "bad.urdf", None, Some("c"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bad.urdf") && e.contains(expected), "{e}");
+    }
+    let e = import_urdf(base, "bad.urdf", Some("c"), Some("a"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not connected"), "{e}");
+}
