@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 
 use anyhow::{bail, Result};
 use kinecal::identifiability::{analyze, fmt_sig, format_combination, Analysis, AnalysisOptions};
-use kinecal::measurement_file::{parse_measurements, parse_postures};
+use kinecal::measurement_file::parse_postures;
 use kinecal::{parse_param_list, simulate, Robot};
 use serde_json::json;
 
@@ -16,9 +16,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
     let data = match (&a.data, &a.postures) {
-        (Some(path), _) => {
-            parse_measurements(&read_text(path)?, &path.display().to_string(), robot)?
-        }
+        (Some(path), _) => crate::read_measurements(path, a.columns.as_deref(), robot)?,
         (None, Some(path)) => {
             let postures = parse_postures(&read_text(path)?, &path.display().to_string(), robot)?;
             simulate::measure(robot, &postures, a.position_only)

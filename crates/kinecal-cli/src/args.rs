@@ -280,6 +280,9 @@ pub struct AnalyzeArgs {
         required_unless_present = "postures"
     )]
     pub data: Option<PathBuf>,
+    /// Read --data through a column mapping `ours=theirs,...` (see `kinecal calibrate --help`).
+    #[arg(long, value_name = "MAP", requires = "data")]
+    pub columns: Option<String>,
     /// Postures file: full poses of the end effector and every site are assumed.
     #[arg(long)]
     pub postures: Option<PathBuf>,
@@ -347,6 +350,15 @@ pub enum OrientationArg {
     Rotvec,
 }
 
+/// Loss function.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum LossArg {
+    /// Least squares (thesis eq. 3.1).
+    Squared,
+    /// Huber: quadratic up to --huber-scale sigmas, linear beyond.
+    Huber,
+}
+
 /// Which of several equally good answers.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum SolutionArg {
@@ -400,6 +412,11 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
+    /// Read --data (and --validate) through a column mapping `ours=theirs,...`, e.g.
+    /// `posture=id,v1=q1,v2=q2,v3=q3,x=X,y=Y,z=Z` (missing site: end effector; missing angles:
+    /// positions only; other columns ignored).
+    #[arg(long, value_name = "MAP")]
+    pub columns: Option<String>,
     /// Held-out measurement file: report the accuracy on it before and after.
     #[arg(long, value_name = "V.csv", conflicts_with = "holdout")]
     pub validate: Option<PathBuf>,
@@ -409,6 +426,15 @@ pub struct CalibrateArgs {
     /// Seed for --holdout.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows).
+    #[arg(long, value_enum, default_value = "squared")]
+    pub loss: LossArg,
+    /// Huber threshold, in standard deviations of --weights.
+    #[arg(long, value_name = "K", default_value_t = 1.345)]
+    pub huber_scale: f64,
+    /// List measurements with a residual beyond K robust standard deviations (never dropped).
+    #[arg(long, value_name = "K", default_value_t = kinecal::report::DEFAULT_OUTLIER_SIGMAS)]
+    pub outlier_sigma: f64,
     /// Levenberg-Marquardt damping.
     #[arg(long, value_enum, default_value = "marquardt")]
     pub damping: DampingArg,

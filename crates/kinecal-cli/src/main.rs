@@ -13,7 +13,7 @@ use clap::Parser;
 
 use args::{
     CalibrateArgs, Cli, Command, ConventionArg, DampingArg, ExportCommand, ExportUrdfArgs, FkArgs,
-    ImportCommand, MethodArg, OrientationArg, ResidualArgs, SimulateArgs, SolutionArg,
+    ImportCommand, LossArg, MethodArg, OrientationArg, ResidualArgs, SimulateArgs, SolutionArg,
 };
 use kinecal::estimation::{
     self, CalibrationOptions, Damping, Method, OrientationError, SolutionRule, SolverOptions,
@@ -129,6 +129,21 @@ fn parse_spec(option: &str, spec: &str, keys: &[&str]) -> Result<Vec<(String, f6
 
 fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
     spec.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
+}
+
+/// Reads a measurement file, through a `--columns` mapping when given.
+fn read_measurements(
+    path: &Path,
+    columns: Option<&str>,
+    robot: &Robot,
+) -> Result<kinecal::Dataset> {
+    let file = path.display().to_string();
+    let mut text = read_text(path)?;
+    if let Some(spec) = columns {
+        let mapping = kinecal::measurement_file::parse_column_mapping(spec)?;
+        text = kinecal::measurement_file::remap_columns(&text, &file, &mapping, robot)?;
+    }
+    Ok(parse_measurements(&text, &file, robot)?)
 }
 
 /// The residual weights and orientation error chosen on the command line.
@@ -360,8 +375,7 @@ fn simulate(a: SimulateArgs) -> Result<()> {
 fn calibrate(a: CalibrateArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
-    let file = a.data.display().to_string();
-    let data = parse_measurements(&read_text(&a.data)?, &file, robot)?;
+    let data = read_measurements(&a.data, a.columns.as_deref(), robot)?;
     let (weights, orientation) = residual_settings(&a.residuals, robot)?;
     let aopts = AnalysisOptions {
         weights,
@@ -370,7 +384,7 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
     };
     let (data, validation) = match (&a.validate, a.holdout) {
         (Some(path), _) => {
-            let v = parse_measurements(&read_text(path)?, &path.display().to_string(), robot)?;
+            let v = read_measurements(path, a.columns.as_deref(), robot)?;
             (data, Some(v))
         }
         (None, Some(f)) => {
@@ -413,6 +427,10 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         solver,
         weights,
         orientation,
+        loss: match a.loss {
+            LossArg::Squared => estimation::Loss::Squared,
+            LossArg::Huber => estimation::Loss::Huber(a.huber_scale),
+        },
         solution: match a.solution {
             SolutionArg::Solver => SolutionRule::Solver,
             SolutionArg::MinChange => SolutionRule::MinChange(Box::new(robot.clone())),
@@ -457,7 +475,14 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         }
     })?;
     let report_of = |cal: &estimation::Calibration| -> Result<kinecal::report::CalibrationReport> {
-        let mut rep = kinecal::report::CalibrationReport::new(cal, &data);
+        if a.outlier_sigma.is_nan() || a.outlier_sigma <= 0.0 {
+            bail!("--outlier-sigma must be positive");
+        }
+        let mut rep = kinecal::report::CalibrationReport::new(cal, &data).with_outliers(
+            cal,
+            &data,
+            a.outlier_sigma,
+        );
         if let Some(v) = &validation {
             rep.add_validation(cal, v);
         }

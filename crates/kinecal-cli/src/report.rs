@@ -170,6 +170,33 @@ pub fn summary(r: &CalibrationReport) -> String {
             );
         }
     }
+    if !r.outliers.is_empty() {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "Outliers ({}; a residual beyond {} robust sigmas; kept in the fit{}):",
+            r.outliers.len(),
+            r.outlier_sigmas,
+            if r.loss == "squared" {
+                ", consider --loss huber"
+            } else {
+                ""
+            }
+        );
+        for o in &r.outliers {
+            let _ = writeln!(
+                s,
+                "  line {:<5} posture {:<10} site {:<8} position error {:.6} {l}{}  ({:.1} sigma)",
+                o.line,
+                o.posture,
+                o.site,
+                o.position_error,
+                o.orientation_error
+                    .map_or(String::new(), |e| format!(", attitude error {e:.6} {a}")),
+                o.sigmas
+            );
+        }
+    }
     if !r.undetermined.is_empty() {
         let _ = writeln!(s);
         let _ = writeln!(

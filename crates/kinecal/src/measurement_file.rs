@@ -361,3 +361,109 @@ pub fn write_postures(robot: &Robot, postures: &[Posture]) -> String {
     }
     out
 }
+
+/// Rewrites a CSV whose columns are named or ordered otherwise into kinecal's measurement
+/// layout. `mapping` pairs kinecal's column names (`posture`, `site`, `v1`..`vn`, `x`, `y`, `z`,
+/// `alpha`, `beta`, `gamma`) with the file's header names, e.g. `("v1", "q1")`; a kinecal column
+/// not in the mapping is looked up under its own name. `site` may be missing (every row is
+/// then the end effector) and so may the three angles (position-only rows); columns the mapping
+/// does not use are ignored. Line numbers are preserved, so later errors still point into the
+/// original file.
+pub fn remap_columns(
+    text: &str,
+    file: &str,
+    mapping: &[(String, String)],
+    robot: &Robot,
+) -> Result<String> {
+    let loc = Location::file(file);
+    let canonical = measurement_header(robot);
+    for (ours, _) in mapping {
+        if !canonical.contains(ours) {
+            return Err(Error::input(
+                loc.clone(),
+                format!(
+                    "--columns: `{ours}` is not a kinecal column (expected one of {})",
+                    canonical.join(", ")
+                ),
+            ));
+        }
+    }
+    let mut lines = text.lines();
+    let header_line = lines
+        .next()
+        .ok_or_else(|| Error::input(loc.at_line(1), "empty file: a header line is required"))?;
+    let mut hdr = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .trim(csv::Trim::All)
+        .from_reader(header_line.as_bytes());
+    let theirs: Vec<String> = match hdr.records().next() {
+        Some(Ok(r)) => r.iter().map(str::to_string).collect(),
+        _ => return Err(Error::input(loc.at_line(1), "unreadable header")),
+    };
+    let mut source: Vec<Option<usize>> = Vec::new();
+    for col in &canonical {
+        let name = mapping
+            .iter()
+            .find(|(o, _)| o == col)
+            .map_or(col.as_str(), |(_, t)| t.as_str());
+        let idx = theirs.iter().position(|h| h == name);
+        let optional = matches!(col.as_str(), "site" | "alpha" | "beta" | "gamma");
+        if idx.is_none() && !optional {
+            return Err(Error::input(
+                loc.at_line(1).with_field(name),
+                format!(
+                    "no column `{name}` (for kinecal's `{col}`) in the header `{}`",
+                    theirs.join(",")
+                ),
+            ));
+        }
+        source.push(idx);
+    }
+    let mut out = canonical.join(",");
+    out.push('\n');
+    for (i, line) in lines.enumerate() {
+        if line.trim().is_empty() || line.trim_start().starts_with('#') {
+            out.push_str(line);
+            out.push('\n');
+            continue;
+        }
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .trim(csv::Trim::All)
+            .from_reader(line.as_bytes());
+        let rec = match rdr.records().next() {
+            Some(Ok(r)) => r,
+            _ => return Err(Error::input(loc.at_line(i + 2), "unreadable CSV row")),
+        };
+        if rec.len() != theirs.len() {
+            return Err(Error::input(
+                loc.at_line(i + 2),
+                format!(
+                    "expected {} columns ({}), found {}",
+                    theirs.len(),
+                    theirs.join(","),
+                    rec.len()
+                ),
+            ));
+        }
+        let fields: Vec<&str> = source.iter().map(|s| s.map_or("", |k| &rec[k])).collect();
+        out.push_str(&fields.join(","));
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// Parses a `--columns` value: `ours=theirs,...`.
+pub fn parse_column_mapping(spec: &str) -> Result<Vec<(String, String)>> {
+    spec.split(',')
+        .map(|part| {
+            let (a, b) = part.split_once('=').ok_or_else(|| {
+                Error::input(
+                    Location::file("--columns"),
+                    format!("`{part}`: expected KINECAL_COLUMN=FILE_COLUMN, e.g. v1=q1"),
+                )
+            })?;
+            Ok((a.trim().to_string(), b.trim().to_string()))
+        })
+        .collect()
+}

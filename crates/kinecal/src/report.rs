@@ -2,7 +2,10 @@
 
 use serde::Serialize;
 
-use crate::estimation::{accuracy, Accuracy, Calibration, OrientationError, SolutionRule};
+use crate::estimation::{accuracy, Accuracy, Calibration, Loss, OrientationError, SolutionRule};
+
+/// Default outlier threshold, in robust standard deviations.
+pub const DEFAULT_OUTLIER_SIGMAS: f64 = 4.0;
 use crate::identifiability::format_combination;
 use crate::measurement::Dataset;
 use crate::params::ParamId;
@@ -151,6 +154,24 @@ impl DatasetAccuracy {
     }
 }
 
+/// A measurement the calibrated model misses by far more than the rest.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct OutlierReport {
+    /// Line in the measurement file (0 when synthesized).
+    pub line: usize,
+    /// Posture label.
+    pub posture: String,
+    /// Site (`ee` for the end effector).
+    pub site: String,
+    /// Position error (length unit).
+    pub position_error: f64,
+    /// Attitude error (angle unit), for a full pose.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_error: Option<f64>,
+    /// Largest residual component in robust standard deviations.
+    pub sigmas: f64,
+}
+
 /// The fit before pruning, when `--prune` was used.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct PruneReport {
@@ -241,6 +262,12 @@ pub struct CalibrationReport {
     /// Accuracy on held-out validation data, when given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub validation: Option<DatasetAccuracy>,
+    /// `squared` or `huber K`.
+    pub loss: String,
+    /// Measurements beyond the outlier threshold (listed, not dropped).
+    pub outliers: Vec<OutlierReport>,
+    /// The threshold used, in robust standard deviations.
+    pub outlier_sigmas: f64,
 }
 
 impl CalibrationReport {
@@ -316,7 +343,39 @@ impl CalibrationReport {
             pruning: None,
             identification: DatasetAccuracy::new(cal, data),
             validation: None,
+            loss: match cal.options.loss {
+                Loss::Squared => "squared".to_string(),
+                Loss::Huber(k) => format!("huber {k}"),
+            },
+            outliers: Vec::new(),
+            outlier_sigmas: f64::NAN,
         }
+        .with_outliers(cal, data, DEFAULT_OUTLIER_SIGMAS)
+    }
+
+    /// Lists the measurements beyond `k` robust standard deviations (see
+    /// [`outliers`](crate::estimation::outliers)).
+    pub fn with_outliers(mut self, cal: &Calibration, data: &Dataset, k: f64) -> Self {
+        let u = cal.calibrated.units;
+        self.outlier_sigmas = k;
+        self.outliers = crate::estimation::outliers(cal, data, k)
+            .into_iter()
+            .map(|o| {
+                let m = &data.measurements[o.measurement];
+                OutlierReport {
+                    line: m.line,
+                    posture: data.postures[m.posture].label.clone(),
+                    site: match m.target {
+                        crate::kinematics::Target::EndEffector => "ee".to_string(),
+                        crate::kinematics::Target::Site(s) => cal.calibrated.sites[s].name.clone(),
+                    },
+                    position_error: u.from_si(Quantity::Length, o.position_error),
+                    orientation_error: o.orientation_error.map(|a| u.from_si(Quantity::Angle, a)),
+                    sigmas: o.sigmas,
+                }
+            })
+            .collect();
+        self
     }
 
     /// Adds the accuracy on held-out `validation` data.

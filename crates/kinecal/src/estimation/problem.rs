@@ -52,9 +52,17 @@ pub struct Problem<'a> {
     estimated: &'a [ParamId],
     weights: Weights,
     orientation: OrientationError,
+    row_scale: Option<&'a [f64]>,
 }
 
 impl<'a> Problem<'a> {
+    /// Multiplies residual row `i` (and its Jacobian row) by `scale[i]`: the square roots of
+    /// robust-loss weights.
+    pub fn with_row_scale(mut self, scale: &'a [f64]) -> Self {
+        self.row_scale = Some(scale);
+        self
+    }
+
     /// A problem estimating `estimated`, all other parameters held at `base`'s values.
     pub fn new(
         base: &'a Robot,
@@ -69,6 +77,7 @@ impl<'a> Problem<'a> {
             estimated,
             weights,
             orientation,
+            row_scale: None,
         }
     }
 
@@ -162,6 +171,16 @@ impl<'a> Problem<'a> {
                     }
                 }
                 row += m.rows();
+            }
+        }
+        if let Some(scale) = self.row_scale {
+            for (i, &w) in scale.iter().enumerate() {
+                res[i] *= w;
+                if let Some(jac) = jac.as_deref_mut() {
+                    for c in 0..jac.ncols() {
+                        jac[(i, c)] *= w;
+                    }
+                }
             }
         }
         res.iter().map(|r| r * r).sum()

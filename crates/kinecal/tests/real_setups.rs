@@ -1,0 +1,176 @@
+//! Measurements as real setups produce them: several reflectors per posture measured by
+//! position only, outliers, robust loss, and files laid out differently.
+
+use kinecal::estimation::{accuracy, calibrate, outliers, CalibrationOptions, Loss, Weights};
+use kinecal::identifiability::{analyze, AnalysisOptions};
+use kinecal::kinematics::Target;
+use kinecal::measurement_file::{parse_measurements, remap_columns};
+use kinecal::simulate::{self, PerturbStd};
+use kinecal::{JointKind, Link, ParamId, Site};
+use nalgebra::Vector3;
+
+fn six_r_with_reflectors() -> kinecal::Robot {
+    let mut robot = simulate::random_robot(&[JointKind::Revolute; 6], 66);
+    for (k, (x, y)) in [(0.05, 0.0), (-0.03, 0.05), (0.0, -0.06)]
+        .iter()
+        .enumerate()
+    {
+        robot.sites.push(Site {
+            name: format!("smr{}", k + 1),
+            joint: 6,
+            frame: Link {
+                x: *x,
+                y: *y,
+                z: 0.08,
+                ..Link::default()
+            },
+        });
+    }
+    robot
+}
+
+/// Position-only data of three reflectors on a 6R arm, one reflector per posture as a laser
+/// tracker measures them, 0.05 mm noise: the calibrated model predicts held-out postures of the
+/// true robot to the noise level.
+#[test]
+fn position_only_reflectors_recover_the_truth_to_the_noise_level() {
+    let nominal = six_r_with_reflectors();
+    let std = PerturbStd {
+        length: 1e-3,
+        angle: 0.2f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    let truth = simulate::perturb(&nominal, std, 8);
+    let noise = 5e-5;
+    let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 90, 4), true);
+    // One reflector per posture, in turn.
+    let mut k = 0;
+    data.measurements.retain(|m| {
+        k += 1;
+        m.target == Target::Site((k - 1) / 4 % 3)
+    });
+    data = kinecal::Dataset::new(data.postures.clone(), data.measurements.clone());
+    simulate::add_noise(&mut data, noise, 0.0, 9);
+    let mut candidates: Vec<ParamId> =
+        kinecal::parse_param_list("links,offsets,sites", &nominal).unwrap();
+    candidates.sort();
+    let a = analyze(&nominal, &data, &candidates, &AnalysisOptions::default()).unwrap();
+    // 4 per revolute joint + 3 per measured point (QKM-style setup).
+    assert_eq!(a.rank, 4 * 6 + 3 * 3);
+    let mut opts = CalibrationOptions::new(a.identifiable.clone());
+    opts.weights = Weights {
+        length: noise,
+        angle: 1e-3,
+    };
+    let cal = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+    // Held-out: fresh postures, every reflector, noise-free truth.
+    let mut held = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 77), true);
+    // The reflectors only: the flange itself was never measured.
+    held.measurements
+        .retain(|m| m.target != Target::EndEffector);
+    let acc = accuracy(&cal.calibrated, &held);
+    // The fit's own error at a point is ~noise * sqrt(p / m) per coordinate (p = 33 parameters
+    // over m = 270 residuals): ~0.35 noise per coordinate, ~0.6 noise in 3D. 1.5 noise is a
+    // generous bound that a wrong model (mm-level errors) cannot meet.
+    assert!(
+        acc.rms_position < 1.5 * noise,
+        "held-out RMS {} m for noise {noise}",
+        acc.rms_position
+    );
+    eprintln!("held-out RMS {:.3e} m (noise {noise:e})", acc.rms_position);
+    let nominal_acc = accuracy(&nominal, &held);
+    assert!(nominal_acc.rms_position > 20.0 * noise);
+}
+
+#[test]
+fn outliers_are_listed_and_huber_resists_them() {
+    let nominal = kinecal::examples::ge_a4();
+    let mut truth = nominal.clone();
+    truth.set(ParamId(0), truth.get(ParamId(0)) + 0.002);
+    let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 40, 2), false);
+    simulate::add_noise(&mut data, 2e-5, 2e-5, 3);
+    // Two bad rows: a reflector bumped by 2 mm.
+    for i in [5, 17] {
+        data.measurements[i].position += Vector3::new(2e-3, -1e-3, 0.0);
+    }
+    let ids = kinecal::parse_param_list("p1,p2,p8,p14,offsets", &nominal).unwrap();
+    let mut opts = CalibrationOptions::new(ids);
+    opts.weights = Weights {
+        length: 2e-5,
+        angle: 2e-5,
+    };
+    let ls = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+    // Least squares lets the two bad rows pull the fit: they are flagged, among others.
+    let flagged: Vec<usize> = outliers(&ls, &data, 4.0)
+        .iter()
+        .map(|o| o.measurement)
+        .collect();
+    assert!(flagged.contains(&5) && flagged.contains(&17), "{flagged:?}");
+    opts.loss = Loss::Huber(1.345);
+    let hub = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+    // The robust fit is not pulled: exactly the two bad rows stand out.
+    let flagged: Vec<usize> = outliers(&hub, &data, 4.0)
+        .iter()
+        .map(|o| o.measurement)
+        .collect();
+    assert_eq!(flagged, vec![5, 17]);
+    let err =
+        |c: &kinecal::Calibration| (c.calibrated.get(ParamId(0)) - truth.get(ParamId(0))).abs();
+    assert!(
+        err(&hub) < 0.1 * err(&ls),
+        "huber {} vs least squares {}",
+        err(&hub),
+        err(&ls)
+    );
+    assert!(err(&hub) < 1e-5);
+    // Clean data: nothing flagged.
+    let clean = simulate::measure(&truth, &simulate::sample_postures(&nominal, 40, 2), false);
+    let c = calibrate(
+        &nominal,
+        &clean,
+        &CalibrationOptions::new(vec![ParamId(0)]),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(outliers(&c, &clean, 4.0).is_empty());
+}
+
+#[test]
+fn column_mapping_reads_a_tracker_export() {
+    let robot = kinecal::examples::ge_a4();
+    let text = "# tracker export\nid;q1\n"; // wrong delimiter: refused below
+    let mapping = vec![("posture".to_string(), "id".to_string())];
+    assert!(remap_columns(text, "t.csv", &mapping, &robot).is_err());
+    let text =
+        "Point,J1,J2,J3,J4,X,Y,Z,Quality\nA,-11.053,12.369,4.009,-11.583,14.071,19.083,0.177,ok\n\
+                B,-12.696,9.037,1.493,5.156,6.098,14.220,3.700,ok\n";
+    let mapping: Vec<(String, String)> = [
+        ("posture", "Point"),
+        ("v1", "J1"),
+        ("v2", "J2"),
+        ("v3", "J3"),
+        ("v4", "J4"),
+        ("x", "X"),
+        ("y", "Y"),
+        ("z", "Z"),
+    ]
+    .iter()
+    .map(|(a, b)| (a.to_string(), b.to_string()))
+    .collect();
+    let out = remap_columns(text, "t.csv", &mapping, &robot).unwrap();
+    let data = parse_measurements(&out, "t.csv", &robot).unwrap();
+    assert_eq!(data.measurements.len(), 2);
+    assert!(data
+        .measurements
+        .iter()
+        .all(|m| m.orientation.is_none() && m.target == Target::EndEffector));
+    assert!((data.measurements[1].position.z - 3.7 * 0.0254).abs() < 1e-12);
+    let bad = text.replace("B,-12.696", "B,oops");
+    let e = parse_measurements(
+        &remap_columns(&bad, "t.csv", &mapping, &robot).unwrap(),
+        "t.csv",
+        &robot,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("t.csv:3: field `v1`"), "{e}");
+}
