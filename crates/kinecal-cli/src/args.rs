@@ -58,6 +58,18 @@ normalised), where units cannot distort them; the file-unit figures show what un
     /// Convert a robot from another convention (product of exponentials, Denavit-Hartenberg).
     #[command(subcommand)]
     Import(ImportCommand),
+    /// The maintenance history: record calibrations, list them, flag drift.
+    #[command(subcommand)]
+    History(HistoryCommand),
+    /// Does a calibrated robot still meet its accuracy? (exit 0 yes, 3 no)
+    #[command(after_help = "\
+Example:
+  kinecal check --robot calibrated.toml --data check.csv --threshold 0.5,0.1
+
+Compares the robot's predictions with a few measured check postures. The threshold is the
+largest acceptable position error (length unit) and, optionally, attitude error (angle unit).
+Exit code 0: within the threshold; 3: recalibrate; 1: bad input. Usable from cron.")]
+    Check(CheckArgs),
     /// Write a calibrated robot back into another format (URDF).
     #[command(subcommand)]
     Export(ExportCommand),
@@ -155,6 +167,178 @@ The table is CSV `kind,a,alpha,d,theta`, one row per joint. standard: Rz(theta+q
 modified (Craig): Rx(alpha) Tx(a) Rz(theta+q) Tz(d); for a prismatic joint q adds to d. Readings are
 the joint values (slope 1); theta (or d) becomes the joint offset.")]
     Dh(ImportDhArgs),
+}
+
+/// `kinecal check`.
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// The calibrated robot file.
+    #[arg(long)]
+    pub robot: String,
+    /// Measured check postures (measurement file).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// LENGTH[,ANGLE]: largest acceptable errors, in the robot file's units.
+    #[arg(long)]
+    pub threshold: String,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `kinecal history ...`.
+#[derive(Debug, Subcommand)]
+pub enum HistoryCommand {
+    /// Record an existing calibration report.
+    #[command(
+        after_help = "Example:\n  kinecal history add --robot-id A4-0042 --report report.json --at 2026-11-01"
+    )]
+    Add(HistoryAddArgs),
+    /// List recorded calibrations (one robot or all).
+    #[command(after_help = "Example:\n  kinecal history list --robot-id A4-0042")]
+    List(HistoryListArgs),
+    /// Show one calibration: by id, or the latest of a robot.
+    #[command(
+        after_help = "Example:\n  kinecal history show --robot-id A4-0042\n  kinecal history show --id 17"
+    )]
+    Show(HistoryShowArgs),
+    /// Export the history as CSV (one row per parameter) or JSON.
+    #[command(
+        after_help = "Example:\n  kinecal history export --robot-id A4-0042 --format csv --out a4.csv"
+    )]
+    Export(HistoryExportArgs),
+    /// Flag determined quantities that changed since the baseline (exit 0 none, 3 some).
+    #[command(after_help = "\
+Example:
+  kinecal history drift --robot-id A4-0042 --sigma 3 --tolerance tolerances.toml --json
+
+Tracks individually determined parameters and the determined combinations of redundant groups,
+never a lone redundant parameter (it wanders between runs with no physical change). A tolerance
+file has `key = value` lines, keys being parameter names or ids (link3.y, p14) or combination
+expressions (\"p14 + p20\"), values in the quantity's unit.")]
+    Drift(HistoryDriftArgs),
+    /// Plot the history of each quantity with sigma bands and tolerance lines (SVG).
+    #[command(after_help = "Example:\n  kinecal history plot --robot-id A4-0042 --out a4.svg")]
+    Plot(HistoryPlotArgs),
+}
+
+/// The database option shared by history commands.
+#[derive(Debug, Args)]
+pub struct DbArg {
+    /// History database (default: the user's data folder, kinecal/history.sqlite).
+    #[arg(long, value_name = "PATH")]
+    pub db: Option<PathBuf>,
+}
+
+/// `kinecal history add`.
+#[derive(Debug, Args)]
+pub struct HistoryAddArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// The robot's serial number.
+    #[arg(long)]
+    pub robot_id: String,
+    /// A report written by `kinecal calibrate --report`.
+    #[arg(long)]
+    pub report: PathBuf,
+    /// When (RFC 3339 or YYYY-MM-DD; default now).
+    #[arg(long)]
+    pub at: Option<String>,
+    /// A note.
+    #[arg(long, default_value = "")]
+    pub note: String,
+}
+
+/// `kinecal history list`.
+#[derive(Debug, Args)]
+pub struct HistoryListArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// Only this robot.
+    #[arg(long)]
+    pub robot_id: Option<String>,
+}
+
+/// `kinecal history show`.
+#[derive(Debug, Args)]
+pub struct HistoryShowArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// The latest calibration of this robot.
+    #[arg(long, required_unless_present = "id")]
+    pub robot_id: Option<String>,
+    /// A calibration by id.
+    #[arg(long)]
+    pub id: Option<i64>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Export format.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum FormatArg {
+    /// One row per calibration and parameter.
+    Csv,
+    /// Every calibration with its parameters and combinations.
+    Json,
+}
+
+/// `kinecal history export`.
+#[derive(Debug, Args)]
+pub struct HistoryExportArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// Only this robot.
+    #[arg(long)]
+    pub robot_id: Option<String>,
+    /// Format.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: FormatArg,
+    /// Write here instead of standard output.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `kinecal history drift`.
+#[derive(Debug, Args)]
+pub struct HistoryDriftArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// The robot.
+    #[arg(long)]
+    pub robot_id: String,
+    /// first, latest-ok, or a calibration id.
+    #[arg(long, default_value = "first")]
+    pub baseline: String,
+    /// Flag changes beyond K standard deviations.
+    #[arg(long, value_name = "K", default_value_t = 3.0)]
+    pub sigma: f64,
+    /// Tolerance file (TOML `key = value`).
+    #[arg(long, value_name = "FILE")]
+    pub tolerance: Option<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `kinecal history plot`.
+#[derive(Debug, Args)]
+pub struct HistoryPlotArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// The robot.
+    #[arg(long)]
+    pub robot_id: String,
+    /// Only these quantities (parameter names or ids, or combination expressions), comma-separated.
+    #[arg(long, value_name = "LIST")]
+    pub param: Option<String>,
+    /// Tolerance file, drawn as lines around the first value.
+    #[arg(long, value_name = "FILE")]
+    pub tolerance: Option<PathBuf>,
+    /// The SVG to write.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `kinecal import urdf`.
@@ -447,6 +631,18 @@ pub struct CalibrateArgs {
     /// Write a JSON report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Record the calibration in the history database under this robot serial.
+    #[arg(long, value_name = "SERIAL")]
+    pub record: Option<String>,
+    /// History database (default: the user's data folder, kinecal/history.sqlite).
+    #[arg(long, value_name = "PATH")]
+    pub db: Option<PathBuf>,
+    /// Time of the calibration for --record (RFC 3339 or YYYY-MM-DD; default now).
+    #[arg(long, value_name = "TIME")]
+    pub at: Option<String>,
+    /// A note stored with --record.
+    #[arg(long, default_value = "")]
+    pub note: String,
     /// Print one line per iteration (to standard error).
     #[arg(long, short)]
     pub verbose: bool,

@@ -3,7 +3,9 @@
 mod analyze;
 mod args;
 mod demo;
+mod history;
 mod report;
+mod svg;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -32,16 +34,18 @@ const EXIT_INPUT: u8 = 1;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Demo => demo::run(),
-        Command::Fk(a) => fk(a),
-        Command::Simulate(a) => simulate(a),
-        Command::Calibrate(a) => calibrate(a),
-        Command::Analyze(a) => analyze::run(a),
-        Command::Import(c) => import(c),
-        Command::Export(ExportCommand::Urdf(a)) => export_urdf(a),
+        Command::Demo => demo::run().map(|()| 0),
+        Command::Fk(a) => fk(a).map(|()| 0),
+        Command::Simulate(a) => simulate(a).map(|()| 0),
+        Command::Calibrate(a) => calibrate(a).map(|()| 0),
+        Command::Analyze(a) => analyze::run(a).map(|()| 0),
+        Command::Import(c) => import(c).map(|()| 0),
+        Command::Export(ExportCommand::Urdf(a)) => export_urdf(a).map(|()| 0),
+        Command::History(c) => history::run(c),
+        Command::Check(a) => history::check(a),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(EXIT_INPUT)
@@ -382,6 +386,12 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         orientation,
         ..Default::default()
     };
+    // Open the history first, so that an unwritable database fails before the work.
+    let record_at = history::parse_at(a.at.as_deref())?;
+    let record_db = match &a.record {
+        Some(_) => Some(history::open_db(a.db.as_deref())?),
+        None => None,
+    };
     let (data, validation) = match (&a.validate, a.holdout) {
         (Some(path), _) => {
             let v = read_measurements(path, a.columns.as_deref(), robot)?;
@@ -486,7 +496,7 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         if let Some(v) = &validation {
             rep.add_validation(cal, v);
         }
-        match kinecal::uncertainty::uncertainty(cal, &data) {
+        match kinecal::uncertainty::uncertainty_at(cal, &data, robot) {
             Ok(u) => rep.add_uncertainty(cal, &u),
             Err(e) => rep.warnings.push(format!("no uncertainty: {e}")),
         }
@@ -532,9 +542,15 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         write_file(path, &write_robot_toml(&cal.calibrated, Some(&r.text)))?;
         eprintln!("wrote the calibrated robot to {}", path.display());
     }
+    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(r.text.as_bytes()));
+    rep.data_file_sha256 = Some(kinecal_history::fingerprint(&std::fs::read(&a.data)?));
     if let Some(path) = &a.report {
         write_file(path, &(rep.to_json() + "\n"))?;
         eprintln!("wrote the report to {}", path.display());
+    }
+    if let (Some(serial), Some(db)) = (&a.record, &record_db) {
+        let id = db.add(serial, record_at, &rep, &a.note)?;
+        eprintln!("recorded as calibration {id} of robot {serial}");
     }
     Ok(())
 }

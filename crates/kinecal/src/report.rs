@@ -1,6 +1,6 @@
 //! The machine-readable calibration report (JSON), in the robot file's units.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::estimation::{accuracy, Accuracy, Calibration, Loss, OrientationError, SolutionRule};
 
@@ -13,7 +13,7 @@ use crate::uncertainty::{Uncertainty, NOISE_SIGMAS};
 use crate::units::{Quantity, Units};
 
 /// One parameter's line in the report.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ParameterReport {
     /// `p1`, `p2`, ...
     pub id: String,
@@ -44,7 +44,7 @@ pub struct ParameterReport {
 }
 
 /// A member of a determined combination.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TermReport {
     /// Parameter id.
     pub id: String,
@@ -55,7 +55,7 @@ pub struct TermReport {
 }
 
 /// A combination of parameters the data determines although its members are not.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CombinationReport {
     /// Readable form, e.g. `p3 - p9 - p15 - p21 - p27 - p33`.
     pub expression: String,
@@ -74,7 +74,7 @@ pub struct CombinationReport {
 }
 
 /// A pair of strongly correlated estimates.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CorrelationReport {
     /// First parameter id.
     pub a: String,
@@ -85,7 +85,7 @@ pub struct CorrelationReport {
 }
 
 /// Error statistics on one dataset, in the robot file's units.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ErrorStats {
     /// RMS 3D position error.
     pub rms_position: f64,
@@ -128,7 +128,7 @@ impl ErrorStats {
 }
 
 /// Accuracy before and after calibration on one dataset.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct DatasetAccuracy {
     /// Postures in the dataset.
     pub postures: usize,
@@ -155,7 +155,7 @@ impl DatasetAccuracy {
 }
 
 /// A measurement the calibrated model misses by far more than the rest.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct OutlierReport {
     /// Line in the measurement file (0 when synthesized).
     pub line: usize,
@@ -173,7 +173,7 @@ pub struct OutlierReport {
 }
 
 /// The fit before pruning, when `--prune` was used.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct PruneReport {
     /// The significance threshold K.
     pub k: f64,
@@ -188,7 +188,7 @@ pub struct PruneReport {
 }
 
 /// The calibration report written by `kinecal calibrate --report`.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CalibrationReport {
     /// Robot name.
     pub robot: String,
@@ -268,6 +268,12 @@ pub struct CalibrationReport {
     pub outliers: Vec<OutlierReport>,
     /// The threshold used, in robust standard deviations.
     pub outlier_sigmas: f64,
+    /// SHA-256 of the robot file, when the caller provides it (history fingerprints).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot_file_sha256: Option<String>,
+    /// SHA-256 of the measurement file, when the caller provides it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_file_sha256: Option<String>,
 }
 
 impl CalibrationReport {
@@ -348,7 +354,9 @@ impl CalibrationReport {
                 Loss::Huber(k) => format!("huber {k}"),
             },
             outliers: Vec::new(),
-            outlier_sigmas: f64::NAN,
+            outlier_sigmas: DEFAULT_OUTLIER_SIGMAS,
+            robot_file_sha256: None,
+            data_file_sha256: None,
         }
         .with_outliers(cal, data, DEFAULT_OUTLIER_SIGMAS)
     }
@@ -458,5 +466,10 @@ impl CalibrationReport {
     /// Pretty-printed JSON.
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("report serializes")
+    }
+
+    /// Reads a report written by [`CalibrationReport::to_json`].
+    pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
+        serde_json::from_str(text)
     }
 }

@@ -101,15 +101,31 @@ impl Uncertainty {
     }
 }
 
-/// Computes the uncertainty of `cal`, calibrated on `data`.
+/// Computes the uncertainty of `cal`, calibrated on `data`, linearised at the minimum-change
+/// reference when there is one, else at the starting model. See [`uncertainty_at`].
 pub fn uncertainty(cal: &Calibration, data: &Dataset) -> Result<Uncertainty> {
+    let at = match &cal.options.solution {
+        crate::estimation::SolutionRule::MinChange(reference) => reference.as_ref(),
+        crate::estimation::SolutionRule::Solver => &cal.initial,
+    };
+    uncertainty_at(cal, data, at)
+}
+
+/// Computes the uncertainty of `cal`, calibrated on `data`, with the Jacobian taken at
+/// `nominal` (the design model, whose exact redundancies define what is determined; pass the
+/// robot file the calibration started from when the solver started elsewhere).
+pub fn uncertainty_at(
+    cal: &Calibration,
+    data: &Dataset,
+    nominal: &crate::robot::Robot,
+) -> Result<Uncertainty> {
     let opts = AnalysisOptions {
         weights: cal.options.weights,
         orientation: cal.options.orientation,
         ..Default::default()
     };
     let robot = &cal.calibrated;
-    let analysis = analyze(&cal.initial, data, &cal.estimated, &opts)?;
+    let analysis = analyze(nominal, data, &cal.estimated, &opts)?;
     let (m, n, r) = (analysis.residuals, analysis.parameters.len(), analysis.rank);
     if m <= r {
         return Err(Error::Problem(format!(

@@ -1,0 +1,447 @@
+//! `kinecal history ...` and `kinecal check`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use kinecal::report::CalibrationReport;
+use kinecal_history::{
+    drift, parse_time, Baseline, Database, DriftOptions, DriftReport, Tolerances,
+};
+
+use crate::args::{
+    CheckArgs, DbArg, FormatArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs,
+    HistoryExportArgs, HistoryListArgs, HistoryPlotArgs, HistoryShowArgs,
+};
+use crate::{load_robot, read_measurements, read_text, write_file};
+
+/// Exit code when drift or a check finds something: usable from cron and monitoring.
+pub const EXIT_FLAGGED: u8 = 3;
+
+/// Opens the database named by `--db`, or the default one.
+pub fn open_db(db: Option<&Path>) -> Result<Database> {
+    let path: PathBuf = match db {
+        Some(p) => p.to_path_buf(),
+        None => kinecal_history::default_db_path().ok_or_else(|| {
+            anyhow!("no home or data folder to keep the history in: give --db PATH")
+        })?,
+    };
+    Ok(Database::open(&path)?)
+}
+
+/// Parses `--at`.
+pub fn parse_at(at: Option<&str>) -> Result<Option<i64>> {
+    at.map(|s| parse_time(s).map_err(|e| anyhow!("--at: {e}")))
+        .transpose()
+}
+
+/// Runs a history command; returns the exit code.
+pub fn run(c: HistoryCommand) -> Result<u8> {
+    match c {
+        HistoryCommand::Add(a) => add(a),
+        HistoryCommand::List(a) => list(a),
+        HistoryCommand::Show(a) => show(a),
+        HistoryCommand::Export(a) => export(a),
+        HistoryCommand::Drift(a) => drift_cmd(a),
+        HistoryCommand::Plot(a) => plot(a),
+    }
+}
+
+fn db_of(d: &DbArg) -> Result<Database> {
+    open_db(d.db.as_deref())
+}
+
+fn add(a: HistoryAddArgs) -> Result<u8> {
+    let text = read_text(&a.report)?;
+    let report = CalibrationReport::from_json(&text)
+        .with_context(|| format!("{}: not a kinecal calibration report", a.report.display()))?;
+    let at = parse_at(a.at.as_deref())?;
+    let db = db_of(&a.db)?;
+    let id = db.add(&a.robot_id, at, &report, &a.note)?;
+    eprintln!("recorded calibration {id} of robot {}", a.robot_id);
+    Ok(0)
+}
+
+fn list(a: HistoryListArgs) -> Result<u8> {
+    let db = db_of(&a.db)?;
+    let cals = db.calibrations(a.robot_id.as_deref())?;
+    if cals.is_empty() {
+        match &a.robot_id {
+            Some(r) => bail!("no calibration recorded for robot `{r}`"),
+            None => {
+                println!("(no calibrations recorded)");
+                return Ok(0);
+            }
+        }
+    }
+    println!(
+        "{:>5}  {:<14} {:<21} {:<12} {:<8} {:>13} {:>13}  note",
+        "id", "robot", "at", "model", "method", "rms pos before", "rms pos after"
+    );
+    for c in cals {
+        println!(
+            "{:>5}  {:<14} {:<21} {:<12} {:<8} {:>13.6} {:>13.6}  {}",
+            c.id,
+            c.robot_id,
+            c.at_text,
+            c.robot_name,
+            c.method,
+            c.rms_position_before,
+            c.rms_position_after,
+            c.note
+        );
+    }
+    Ok(0)
+}
+
+fn show(a: HistoryShowArgs) -> Result<u8> {
+    let db = db_of(&a.db)?;
+    let cal = match (a.id, &a.robot_id) {
+        (Some(id), _) => db
+            .calibration(id)?
+            .ok_or_else(|| anyhow!("no calibration with id {id}"))?,
+        (None, Some(r)) => db
+            .calibrations(Some(r))?
+            .pop()
+            .ok_or_else(|| anyhow!("no calibration recorded for robot `{r}`"))?,
+        (None, None) => bail!("give --id or --robot-id"),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&cal)?);
+        return Ok(0);
+    }
+    println!(
+        "calibration {} of robot {} at {} ({}, {} {}, solution {})",
+        cal.id,
+        cal.robot_id,
+        cal.at_text,
+        cal.robot_name,
+        cal.method,
+        cal.length_unit,
+        cal.solution
+    );
+    println!(
+        "RMS position error {:.6} -> {:.6} {}",
+        cal.rms_position_before, cal.rms_position_after, cal.length_unit
+    );
+    println!(
+        "model sha256 {}  data sha256 {}",
+        or_dash(&cal.model_fingerprint),
+        or_dash(&cal.data_fingerprint)
+    );
+    if !cal.note.is_empty() {
+        println!("note: {}", cal.note);
+    }
+    println!();
+    println!(
+        "{:<5} {:<20} {:<9} {:>16} {:>12}  status",
+        "id", "name", "unit", "value", "sigma"
+    );
+    for p in cal.parameters.iter().filter(|p| p.estimated) {
+        println!(
+            "{:<5} {:<20} {:<9} {:>16.6} {:>12}  {}",
+            p.id,
+            p.name,
+            p.unit,
+            p.value,
+            p.sigma.map_or("-".into(), |s| format!("{s:.3e}")),
+            if p.determined {
+                "determined"
+            } else {
+                "not determined alone"
+            }
+        );
+    }
+    for c in &cal.combinations {
+        println!(
+            "  {} = {:.6} (sigma {:.3e})",
+            c.expression, c.value, c.sigma
+        );
+    }
+    Ok(0)
+}
+
+fn or_dash(s: &str) -> &str {
+    if s.is_empty() {
+        "-"
+    } else {
+        &s[..16.min(s.len())]
+    }
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn export(a: HistoryExportArgs) -> Result<u8> {
+    let db = db_of(&a.db)?;
+    let cals = db.calibrations(a.robot_id.as_deref())?;
+    let text = match a.format {
+        FormatArg::Json => serde_json::to_string_pretty(&cals)? + "\n",
+        FormatArg::Csv => {
+            let mut s = String::from("calibration,robot_id,at,method,solution,kind,id,name,unit,value,sigma,estimated,determined\n");
+            for c in &cals {
+                for p in &c.parameters {
+                    let _ = writeln!(
+                        s,
+                        "{},{},{},{},{},parameter,{},{},{},{},{},{},{}",
+                        c.id,
+                        csv_field(&c.robot_id),
+                        c.at_text,
+                        c.method,
+                        c.solution,
+                        p.id,
+                        p.name,
+                        p.unit,
+                        p.value,
+                        p.sigma.map_or(String::new(), |v| v.to_string()),
+                        p.estimated,
+                        p.determined
+                    );
+                }
+                for comb in &c.combinations {
+                    let _ = writeln!(
+                        s,
+                        "{},{},{},{},{},combination,,{},,{},{},true,true",
+                        c.id,
+                        csv_field(&c.robot_id),
+                        c.at_text,
+                        c.method,
+                        c.solution,
+                        csv_field(&comb.expression),
+                        comb.value,
+                        comb.sigma
+                    );
+                }
+            }
+            s
+        }
+    };
+    match a.out {
+        Some(p) => write_file(&p, &text)?,
+        None => print!("{text}"),
+    }
+    Ok(0)
+}
+
+fn tolerances(path: Option<&Path>) -> Result<Tolerances> {
+    Ok(match path {
+        Some(p) => Tolerances::parse_toml(&read_text(p)?, &p.display().to_string())?,
+        None => Tolerances::default(),
+    })
+}
+
+fn drift_report(
+    db: &Database,
+    robot_id: &str,
+    baseline: &str,
+    sigma: f64,
+    tol: Option<&Path>,
+) -> Result<DriftReport> {
+    let history = db.calibrations(Some(robot_id))?;
+    if history.is_empty() {
+        bail!("no calibration recorded for robot `{robot_id}`");
+    }
+    let baseline = match baseline {
+        "first" => Baseline::First,
+        "latest-ok" => Baseline::LatestOk,
+        id => Baseline::Id(id.parse().map_err(|_| {
+            anyhow!("--baseline `{id}`: expected first, latest-ok or a calibration id")
+        })?),
+    };
+    if sigma.is_nan() || sigma <= 0.0 {
+        bail!("--sigma must be positive");
+    }
+    let opts = DriftOptions {
+        baseline,
+        sigma,
+        tolerances: tolerances(tol)?,
+    };
+    Ok(drift(&history, &opts)?)
+}
+
+fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
+    let db = db_of(&a.db)?;
+    let r = drift_report(
+        &db,
+        &a.robot_id,
+        &a.baseline,
+        a.sigma,
+        a.tolerance.as_deref(),
+    )?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        println!(
+            "robot {}: {} calibrations; latest {} ({}) against baseline {} ({}); flag beyond {} sigma",
+            r.robot_id, r.calibrations, r.latest_id, r.latest_at, r.baseline_id, r.baseline_at, r.sigma_threshold
+        );
+        println!();
+        println!(
+            "{:<50} {:>13} {:>11} {:>8} {:>22}  ",
+            "quantity", "change", "sigma", "z", "trend per 30 days"
+        );
+        for q in &r.quantities {
+            let trend = match (q.trend_per_30_days, q.trend_sigma) {
+                (Some(t), Some(s)) => format!("{t:+.3e} +- {s:.1e}"),
+                _ => "-".into(),
+            };
+            println!(
+                "{:<50} {:>+13.6} {:>11.3e} {:>8.1} {:>22}  {}",
+                format!("{} [{}]", q.quantity, q.unit),
+                q.change,
+                q.sigma,
+                q.significance,
+                trend,
+                if q.flagged { "FLAGGED" } else { "" }
+            );
+        }
+        println!();
+        if r.flags.is_empty() {
+            println!("nothing flagged");
+        } else {
+            for q in &r.flags {
+                println!(
+                    "FLAG: {} ({}) changed by {:+.6} {} ({})",
+                    q.quantity,
+                    q.parameters.join(", "),
+                    q.change,
+                    q.unit,
+                    q.reason.clone().unwrap_or_default()
+                );
+            }
+        }
+    }
+    Ok(if r.flags.is_empty() { 0 } else { EXIT_FLAGGED })
+}
+
+fn plot(a: HistoryPlotArgs) -> Result<u8> {
+    let db = db_of(&a.db)?;
+    let history = db.calibrations(Some(&a.robot_id))?;
+    if history.is_empty() {
+        bail!("no calibration recorded for robot `{}`", a.robot_id);
+    }
+    let tol = tolerances(a.tolerance.as_deref())?;
+    let r = drift(
+        &history,
+        &DriftOptions {
+            tolerances: tol.clone(),
+            ..Default::default()
+        },
+    )?;
+    let wanted: Option<Vec<String>> = a
+        .param
+        .as_ref()
+        .map(|l| l.split(',').map(|s| s.trim().to_string()).collect());
+    let mut series = Vec::new();
+    for q in &r.quantities {
+        if let Some(w) = &wanted {
+            if !w
+                .iter()
+                .any(|k| *k == q.key || q.parameters.len() == 1 && *k == q.parameters[0])
+            {
+                continue;
+            }
+        }
+        // Every calibration's value of this quantity.
+        let pts: Vec<(i64, f64, f64)> = history
+            .iter()
+            .filter_map(|c| {
+                c.parameters
+                    .iter()
+                    .find(|p| p.name == q.key && p.determined && p.estimated)
+                    .and_then(|p| p.sigma.map(|s| (c.at, p.value, s)))
+                    .or_else(|| {
+                        c.combinations
+                            .iter()
+                            .find(|k| k.expression == q.key)
+                            .map(|k| (c.at, k.value, k.sigma))
+                    })
+            })
+            .collect();
+        series.push((q.clone(), pts));
+    }
+    if series.is_empty() {
+        bail!("no tracked quantity matches --param");
+    }
+    write_file(&a.out, &crate::svg::history_svg(&a.robot_id, &series))?;
+    eprintln!("wrote {} panels to {}", series.len(), a.out.display());
+    Ok(0)
+}
+
+/// `kinecal check`.
+pub fn check(a: CheckArgs) -> Result<u8> {
+    let r = load_robot(&a.robot)?;
+    let data = read_measurements(&a.data, None, &r.robot)?;
+    let mut parts = a.threshold.split(',');
+    let num = |s: Option<&str>, what: &str| -> Result<Option<f64>> {
+        s.map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|x| *x > 0.0 && x.is_finite())
+                .ok_or_else(|| {
+                    anyhow!(
+                        "--threshold: {what} `{}` is not a positive number",
+                        v.trim()
+                    )
+                })
+        })
+        .transpose()
+    };
+    let lmax =
+        num(parts.next(), "length")?.ok_or_else(|| anyhow!("--threshold: give LENGTH[,ANGLE]"))?;
+    let amax = num(parts.next(), "angle")?;
+    let acc = kinecal::estimation::accuracy(&r.robot, &data);
+    let u = r.robot.units;
+    let len = |v: f64| u.from_si(kinecal::units::Quantity::Length, v);
+    let ang = |v: f64| u.from_si(kinecal::units::Quantity::Angle, v);
+    let has_orientation = data.measurements.iter().any(|m| m.orientation.is_some());
+    let pos_ok = len(acc.max_position) <= lmax;
+    let ang_ok = match (amax, has_orientation) {
+        (Some(t), true) => ang(acc.max_orientation) <= t,
+        _ => true,
+    };
+    let ok = pos_ok && ang_ok;
+    if a.json {
+        let v = serde_json::json!({
+            "ok": ok,
+            "measurements": data.measurements.len(),
+            "max_position_error": len(acc.max_position),
+            "rms_position_error": len(acc.rms_position),
+            "max_orientation_error": has_orientation.then(|| ang(acc.max_orientation)),
+            "threshold_length": lmax,
+            "threshold_angle": amax,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "{} check measurements: max position error {:.6} {} (threshold {lmax}), RMS {:.6}",
+            data.measurements.len(),
+            len(acc.max_position),
+            u.length,
+            len(acc.rms_position)
+        );
+        if has_orientation {
+            println!(
+                "max attitude error {:.6} {}{}",
+                ang(acc.max_orientation),
+                u.angle,
+                amax.map_or(String::new(), |t| format!(" (threshold {t})"))
+            );
+        }
+        println!(
+            "{}",
+            if ok {
+                "OK: the robot meets its accuracy"
+            } else {
+                "RECALIBRATE: the robot no longer meets its accuracy"
+            }
+        );
+    }
+    Ok(if ok { 0 } else { EXIT_FLAGGED })
+}
