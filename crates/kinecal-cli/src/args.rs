@@ -22,6 +22,7 @@ pub struct Cli {
 
 /// kinecal's commands.
 #[derive(Debug, Subcommand)]
+#[allow(clippy::large_enum_variant)] // parsed once per run: size does not matter
 pub enum Command {
     /// Run the thesis's experiment (section 4.3) on the built-in GE A4.
     #[command(after_help = "Example:\n  kinecal demo")]

@@ -12,8 +12,11 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-/// The SVG document for `series`: (quantity, [(unix time, value, sigma)]).
-pub fn history_svg(robot: &str, series: &[(Quantity, Vec<(i64, f64, f64)>)]) -> String {
+/// One panel: the quantity and its points (unix time, value, sigma).
+pub type Series = (Quantity, Vec<(i64, f64, f64)>);
+
+/// The SVG document for `series`.
+pub fn history_svg(robot: &str, series: &[Series]) -> String {
     let (w, ph, top) = (900.0, 220.0, 50.0);
     let h = top + ph * series.len() as f64 + 20.0;
     let mut s = String::new();
