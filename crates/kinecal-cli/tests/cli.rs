@@ -909,3 +909,319 @@ fn urdf_import_calibrate_export_round_trip() {
     );
     assert!(err.contains("--tip: no link named `nowhere`"), "{err}");
 }
+
+#[test]
+fn history_record_drift_plot_and_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run_code = |args: &[&str]| -> (i32, String, String) {
+        let out = kinecal().current_dir(d).args(args).output().unwrap();
+        (
+            out.status.code().unwrap(),
+            String::from_utf8(out.stdout).unwrap(),
+            String::from_utf8(out.stderr).unwrap(),
+        )
+    };
+    for (m, delta) in [(1, "0"), (2, "0"), (3, "0.02")] {
+        let data = format!("m{m}.csv");
+        run_ok(
+            d,
+            &[
+                "simulate",
+                "--robot",
+                "ge-a4",
+                "--postures",
+                "30",
+                "--seed",
+                &m.to_string(),
+                "--perturb",
+                &format!("p14=+{delta}"),
+                "--noise",
+                "length=0.0005,angle=0.005",
+                "--out",
+                &data,
+            ],
+        );
+        let at = format!("2026-0{m}-01");
+        if m < 3 {
+            run_ok(
+                d,
+                &[
+                    "calibrate",
+                    "--robot",
+                    "ge-a4",
+                    "--data",
+                    &data,
+                    "--solution",
+                    "min-change",
+                    "--weights",
+                    "length=0.0005,angle=0.005",
+                    "--record",
+                    "A4-7",
+                    "--db",
+                    "h.sqlite",
+                    "--at",
+                    &at,
+                    "--note",
+                    "monthly",
+                ],
+            );
+        } else {
+            run_ok(
+                d,
+                &[
+                    "calibrate",
+                    "--robot",
+                    "ge-a4",
+                    "--data",
+                    &data,
+                    "--solution",
+                    "min-change",
+                    "--weights",
+                    "length=0.0005,angle=0.005",
+                    "--report",
+                    "r3.json",
+                ],
+            );
+            run_ok(
+                d,
+                &[
+                    "history",
+                    "add",
+                    "--robot-id",
+                    "A4-7",
+                    "--report",
+                    "r3.json",
+                    "--db",
+                    "h.sqlite",
+                    "--at",
+                    &at,
+                ],
+            );
+        }
+    }
+    let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
+    assert_eq!(
+        list.lines().filter(|l| l.contains("A4-7")).count(),
+        3,
+        "{list}"
+    );
+    let show = run_ok(
+        d,
+        &["history", "show", "--robot-id", "A4-7", "--db", "h.sqlite"],
+    );
+    assert!(show.contains("p14 + p20 ="), "{show}");
+    let csv = run_ok(
+        d,
+        &["history", "export", "--db", "h.sqlite", "--format", "csv"],
+    );
+    assert!(csv.starts_with("calibration,robot_id,at,"));
+    let json: serde_json::Value = serde_json::from_str(&run_ok(
+        d,
+        &["history", "export", "--db", "h.sqlite", "--format", "json"],
+    ))
+    .unwrap();
+    assert_eq!(json.as_array().unwrap().len(), 3);
+    // Drift: the wear of link 3 (with link 4, which the data cannot separate) is flagged; exit 3.
+    let (code, out, _) = run_code(&[
+        "history",
+        "drift",
+        "--robot-id",
+        "A4-7",
+        "--db",
+        "h.sqlite",
+        "--json",
+    ]);
+    assert_eq!(code, 3, "{out}");
+    let r: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let flags = r["flags"].as_array().unwrap();
+    assert!(
+        flags
+            .iter()
+            .any(|f| f["quantity"] == "y lengths of links 3 and 4, together"),
+        "{out}"
+    );
+    for key in ["quantity", "parameters", "change", "sigma", "significance"] {
+        assert!(flags[0].get(key).is_some(), "{key}");
+    }
+    assert!(r["quantities"].as_array().unwrap().len() > 10);
+    // Against the second calibration as baseline, month 2 vs month 1 would be clean; and a
+    // tolerance wider than the change with a huge K: nothing flagged, exit 0.
+    std::fs::write(d.join("tol.toml"), "[tolerances]\n\"p14 + p20\" = 0.5\n").unwrap();
+    let (code, out, _) = run_code(&[
+        "history",
+        "drift",
+        "--robot-id",
+        "A4-7",
+        "--db",
+        "h.sqlite",
+        "--sigma",
+        "1000",
+        "--tolerance",
+        "tol.toml",
+    ]);
+    assert_eq!(code, 0, "{out}");
+    let (code, out, _) = run_code(&[
+        "history",
+        "drift",
+        "--robot-id",
+        "A4-7",
+        "--db",
+        "h.sqlite",
+        "--sigma",
+        "1000",
+        "--baseline",
+        "latest-ok",
+    ]);
+    assert_eq!(code, 0, "{out}");
+    run_ok(
+        d,
+        &[
+            "history",
+            "plot",
+            "--robot-id",
+            "A4-7",
+            "--db",
+            "h.sqlite",
+            "--param",
+            "p14 + p20,link1.x",
+            "--out",
+            "h.svg",
+        ],
+    );
+    let svg = std::fs::read_to_string(d.join("h.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg")
+            && svg.contains("y lengths of links 3 and 4")
+            && svg.matches("<circle").count() == 6
+    );
+    // Errors.
+    let err = run_err(
+        d,
+        &["history", "drift", "--robot-id", "NOPE", "--db", "h.sqlite"],
+    );
+    assert!(
+        err.contains("no calibration recorded for robot `NOPE`"),
+        "{err}"
+    );
+    std::fs::write(
+        d.join("junk.sqlite"),
+        "this is not a database at all, not even close........................",
+    )
+    .unwrap();
+    let err = run_err(d, &["history", "list", "--db", "junk.sqlite"]);
+    assert!(
+        err.contains("junk.sqlite") && err.contains("not modified"),
+        "{err}"
+    );
+
+    // check: the month-3 robot (link 3 grown) against the original calibration.
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "m1.csv",
+            "--out",
+            "cal1.toml",
+        ],
+    );
+    let (code, out, _) = run_code(&[
+        "check",
+        "--robot",
+        "cal1.toml",
+        "--data",
+        "m2.csv",
+        "--threshold",
+        "0.005,0.05",
+    ]);
+    assert_eq!(code, 0, "{out}");
+    let (code, out, _) = run_code(&[
+        "check",
+        "--robot",
+        "cal1.toml",
+        "--data",
+        "m3.csv",
+        "--threshold",
+        "0.005,0.05",
+    ]);
+    assert_eq!(code, 3, "{out}");
+    assert!(out.contains("RECALIBRATE"));
+    let err = run_err(
+        d,
+        &[
+            "check",
+            "--robot",
+            "cal1.toml",
+            "--data",
+            "m3.csv",
+            "--threshold",
+            "abc",
+        ],
+    );
+    assert!(err.contains("--threshold"), "{err}");
+}
+
+#[test]
+fn concurrent_processes_recording_all_succeed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "12",
+            "--out",
+            "d.csv",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "d.csv",
+            "--estimate",
+            "p1,p2",
+            "--report",
+            "r.json",
+        ],
+    );
+    let bin = assert_cmd::cargo::cargo_bin("kinecal");
+    let children: Vec<_> = (0..12)
+        .map(|k| {
+            std::process::Command::new(&bin)
+                .current_dir(d)
+                .args([
+                    "history",
+                    "add",
+                    "--robot-id",
+                    &format!("R{}", k % 3),
+                    "--report",
+                    "r.json",
+                    "--db",
+                    "h.sqlite",
+                ])
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for c in children {
+        let out = c.wait_with_output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
+    assert_eq!(list.lines().count(), 13, "{list}");
+}

@@ -185,15 +185,9 @@ impl Database {
             .map_err(|e| fail(e.to_string()))?;
         let db = Database { conn, path: shown };
         // Reading the schema version is the first access: a non-database file fails here,
-        // before anything is written.
-        let version: i64 = db
-            .conn
-            .query_row("PRAGMA user_version", [], |r| r.get(0))
-            .map_err(|e| {
-                db.err(format!(
-                    "not a kinecal history database ({e}); the file was not modified"
-                ))
-            })?;
+        // before anything is written. Version and tables are read in one read transaction, so
+        // that another process migrating meanwhile is seen either before or after, never half.
+        let (version, tables, has_calibrations) = db.snapshot()?;
         if version > SCHEMA_VERSION {
             return Err(Error::NewerSchema {
                 path: db.path.clone(),
@@ -201,29 +195,10 @@ impl Database {
                 supported: SCHEMA_VERSION,
             });
         }
-        if version > 0 {
-            let has_table: bool = db
-                .conn
-                .query_row(
-                    "SELECT count(*) FROM sqlite_master WHERE name = 'calibrations'",
-                    [],
-                    |r| r.get::<_, i64>(0),
-                )
-                .map(|n| n > 0)
-                .map_err(|e| db.err(e))?;
-            if !has_table {
-                return Err(db.err("a SQLite database, but not a kinecal history (no calibrations table); the file was not modified"));
-            }
-        } else {
-            let tables: i64 = db
-                .conn
-                .query_row("SELECT count(*) FROM sqlite_master", [], |r| r.get(0))
-                .map_err(|e| db.err(e))?;
-            if tables > 0 {
-                return Err(db.err(
-                    "a SQLite database, but not a kinecal history; the file was not modified",
-                ));
-            }
+        if (version > 0 && !has_calibrations) || (version == 0 && tables > 0) {
+            return Err(
+                db.err("a SQLite database, but not a kinecal history; the file was not modified")
+            );
         }
         db.conn
             .query_row("PRAGMA journal_mode = WAL", [], |r| r.get::<_, String>(0))
@@ -237,6 +212,33 @@ impl Database {
             .map_err(|e| db.err(e))?;
         db.migrate(version)?;
         Ok(db)
+    }
+
+    /// (schema version, number of schema objects, whether the calibrations table exists).
+    fn snapshot(&self) -> Result<(i64, i64, bool)> {
+        let not_db = |e: rusqlite::Error| {
+            self.err(format!(
+                "not a kinecal history database ({e}); the file was not modified"
+            ))
+        };
+        self.conn.execute_batch("BEGIN DEFERRED").map_err(not_db)?;
+        let read = || -> rusqlite::Result<(i64, i64, bool)> {
+            let v: i64 = self
+                .conn
+                .query_row("PRAGMA user_version", [], |r| r.get(0))?;
+            let n: i64 = self
+                .conn
+                .query_row("SELECT count(*) FROM sqlite_master", [], |r| r.get(0))?;
+            let c: i64 = self.conn.query_row(
+                "SELECT count(*) FROM sqlite_master WHERE name = 'calibrations'",
+                [],
+                |r| r.get(0),
+            )?;
+            Ok((v, n, c > 0))
+        };
+        let result = read();
+        let _ = self.conn.execute_batch("COMMIT");
+        result.map_err(not_db)
     }
 
     fn migrate(&self, from: i64) -> Result<()> {
