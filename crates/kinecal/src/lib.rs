@@ -15,6 +15,7 @@
 //! Conventions: internally metres and radians (see [`units`]); files are in the units their robot
 //! file declares. Parameters are numbered as the thesis numbers them (see [`params`]).
 
+pub mod curves;
 pub mod datasets;
 pub mod error;
 pub mod estimation;

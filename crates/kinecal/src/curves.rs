@@ -1,0 +1,117 @@
+//! Characteristic curves (thesis 4.4.1 and 4.4.4): the pose of the end effector, and the
+//! objective, as one parameter varies with all others held.
+//!
+//! Values are in the robot file's units. Euler angles along a pose curve are unwrapped (made
+//! continuous by whole turns), so a curve shows no false jump at +-180 deg.
+
+use crate::estimation::{OrientationError, Problem, Weights};
+use crate::kinematics::{Chain, Target, Workspace};
+use crate::measurement::Dataset;
+use crate::params::{ParamId, ParamKind};
+use crate::robot::{JointKind, Robot};
+use crate::units::Quantity;
+
+/// `count` evenly spaced values from `from` to `to` (inclusive).
+pub fn samples(from: f64, to: f64, count: usize) -> Vec<f64> {
+    let n = count.max(2);
+    (0..n).map(|i| from + (to - from) * i as f64 / (n - 1) as f64).collect()
+}
+
+/// The end effector's (or a site's) pose `[x, y, z, alpha, beta, gamma]` (file units) at
+/// `readings` as parameter `id` takes each of `values` (file units). Angles are unwrapped along
+/// the curve.
+pub fn pose_curve(robot: &Robot, readings: &[f64], target: Target, id: ParamId, values: &[f64]) -> Vec<[f64; 6]> {
+    let u = robot.units;
+    let q = robot.param_quantity(id);
+    let mut r = robot.clone();
+    let mut ws = Workspace::new(robot);
+    let mut out: Vec<[f64; 6]> = Vec::with_capacity(values.len());
+    let turn = u.from_si(Quantity::Angle, std::f64::consts::TAU);
+    for &v in values {
+        r.set(id, u.to_si(q, v));
+        let chain = Chain::new(&r);
+        chain.forward(readings, &mut ws);
+        let p = chain.target_frame(&ws, target).pose();
+        let mut row = [
+            u.from_si(Quantity::Length, p.position.x),
+            u.from_si(Quantity::Length, p.position.y),
+            u.from_si(Quantity::Length, p.position.z),
+            u.from_si(Quantity::Angle, p.euler.x),
+            u.from_si(Quantity::Angle, p.euler.y),
+            u.from_si(Quantity::Angle, p.euler.z),
+        ];
+        if let Some(prev) = out.last() {
+            for k in 3..6 {
+                row[k] -= turn * ((row[k] - prev[k]) / turn).round();
+            }
+        }
+        out.push(row);
+    }
+    out
+}
+
+/// The objective (weighted sum of squares, as the solvers minimise it) over `data` as parameter
+/// `id` takes each of `values` (file units).
+pub fn objective_curve(
+    robot: &Robot,
+    data: &Dataset,
+    id: ParamId,
+    values: &[f64],
+    weights: Weights,
+    orientation: OrientationError,
+) -> Vec<f64> {
+    let u = robot.units;
+    let q = robot.param_quantity(id);
+    let ids = [id];
+    let problem = Problem::new(robot, data, &ids, weights, orientation);
+    let mut res = vec![0.0; problem.rows()];
+    values.iter().map(|&v| problem.evaluate(&problem.robot_at(&[u.to_si(q, v)]), &mut res, None)).collect()
+}
+
+/// Interior local minima of a sampled curve `f(x)`: `(x, f)` where `f` is below both
+/// neighbours (plateaus count once).
+pub fn local_minima(x: &[f64], f: &[f64]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let n = f.len();
+    let mut i = 1;
+    while i + 1 < n {
+        if f[i] < f[i - 1] {
+            // Walk over a plateau.
+            let mut j = i;
+            while j + 1 < n && f[j + 1] == f[i] {
+                j += 1;
+            }
+            if j + 1 < n && f[j + 1] > f[i] {
+                out.push((x[(i + j) / 2], f[i]));
+            }
+            i = j + 1;
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
+/// Whether a sampled curve is convex: no second difference below `-tol` times its range.
+pub fn is_convex(f: &[f64]) -> bool {
+    let range = f.iter().copied().fold(f64::NEG_INFINITY, f64::max) - f.iter().copied().fold(f64::INFINITY, f64::min);
+    f.windows(3).all(|w| w[0] - 2.0 * w[1] + w[2] >= -1e-9 * range.max(f64::MIN_POSITIVE))
+}
+
+/// The period of the pose (and objective) in parameter `id` (file units), when it has one:
+/// a full turn for link and site angles and revolute offsets; for a revolute slope, a full turn
+/// divided by the reading, which only exists for a single posture (`readings` of that posture).
+pub fn period(robot: &Robot, id: ParamId, readings: Option<&[f64]>) -> Option<f64> {
+    let u = robot.units;
+    let turn = u.from_si(Quantity::Angle, std::f64::consts::TAU);
+    match robot.param_kind(id) {
+        ParamKind::Link { component, .. } | ParamKind::Site { component, .. } => {
+            (component.quantity() == Quantity::Angle).then_some(turn)
+        }
+        ParamKind::Offset { joint } => (robot.joints[joint].kind == JointKind::Revolute).then_some(turn),
+        ParamKind::Slope { joint } => {
+            let v = readings?.get(joint).copied()?;
+            (robot.joints[joint].kind == JointKind::Revolute && v != 0.0).then(|| turn / v.abs())
+        }
+    }
+}
