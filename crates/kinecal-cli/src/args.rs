@@ -71,6 +71,19 @@ Compares the robot's predictions with a few measured check postures. The thresho
 largest acceptable position error (length unit) and, optionally, attitude error (angle unit).
 Exit code 0: within the threshold; 3: recalibrate; 1: bad input. Usable from cron.")]
     Check(CheckArgs),
+    /// Characteristic curves: the pose or the objective against one parameter at a time.
+    #[command(subcommand)]
+    Curves(CurvesCommand),
+    /// A self-contained HTML report of a calibration (inline SVG; opens offline).
+    #[command(after_help = "\
+Example:
+  kinecal report --robot ge-a4 --data data.csv --calibrated calibrated.toml --out report.html
+  kinecal report --robot ge-a4 --data data.csv --calibration report.json --out report.html
+
+Sections: summary, residuals per posture before/after, error histogram, parameter changes with
++-sigma bars, singular-value spectrum with the rank cut, redundant groups and determined
+combinations, warnings. `kinecal calibrate --html report.html` writes it directly.")]
+    Report(ReportArgs),
     /// Write a calibrated robot back into another format (URDF).
     #[command(subcommand)]
     Export(ExportCommand),
@@ -168,6 +181,121 @@ The table is CSV `kind,a,alpha,d,theta`, one row per joint. standard: Rz(theta+q
 modified (Craig): Rx(alpha) Tx(a) Rz(theta+q) Tz(d); for a prismatic joint q adds to d. Readings are
 the joint values (slope 1); theta (or d) becomes the joint offset.")]
     Dh(ImportDhArgs),
+}
+
+/// `kinecal curves ...`.
+#[derive(Debug, Subcommand)]
+pub enum CurvesCommand {
+    /// The six pose components of the end effector (or a site) against each parameter.
+    #[command(after_help = "\
+Example:
+  kinecal curves pose --robot ge-a4 --readings -6.883,13.301,4.122,-28.645 --param p1,p4,p35 --out pose.svg
+
+One panel pair (positions, angles) per parameter, the nominal value marked by dotted guide lines
+(thesis Figs 4.2-4.5). Angles are unwrapped: no false jumps at +-180 deg. --out ending in .svg,
+.png or .csv (columns param,value,x,y,z,alpha,beta,gamma). Default span: 50 units either side.")]
+    Pose(CurvesPoseArgs),
+    /// The objective over a data set against each parameter.
+    #[command(after_help = "\
+Example:
+  kinecal curves objective --robot ge-a4 --data data.csv --param p38 --span 100 --out p38.svg
+
+Lists every local minimum inside the span and warns when the objective is not convex there (a
+solver started there could stop in a false valley, thesis 4.4.4); prints the period of periodic
+parameters (360 deg for angles, 360/V for a revolute slope at reading V). --out ending in .svg,
+.png or .csv (columns param,value,objective). Default span: 10 units either side.")]
+    Objective(CurvesObjectiveArgs),
+}
+
+/// The sweep of a curve.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Parameters to sweep.
+    #[arg(long, value_name = "LIST")]
+    pub param: String,
+    /// Total width of the sweep, centred on the nominal value (file units).
+    #[arg(long, conflicts_with_all = ["from", "to"])]
+    pub span: Option<f64>,
+    /// Start of the sweep (with --to).
+    #[arg(long, requires = "to", allow_hyphen_values = true)]
+    pub from: Option<f64>,
+    /// End of the sweep (with --from).
+    #[arg(long, requires = "from", allow_hyphen_values = true)]
+    pub to: Option<f64>,
+    /// Samples per curve.
+    #[arg(long, default_value_t = 201)]
+    pub points: usize,
+    /// Output: .svg, .png or .csv.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `kinecal curves pose`.
+#[derive(Debug, Args)]
+pub struct CurvesPoseArgs {
+    /// Robot file or built-in name.
+    #[arg(long)]
+    pub robot: String,
+    /// Transducer readings, comma-separated.
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        conflicts_with = "postures",
+        required_unless_present = "postures"
+    )]
+    pub readings: Option<String>,
+    /// A postures (or measurement) file, with --posture.
+    #[arg(long, requires = "posture")]
+    pub postures: Option<PathBuf>,
+    /// The posture label in --postures.
+    #[arg(long)]
+    pub posture: Option<String>,
+    /// The frame: ee or a site name.
+    #[arg(long, default_value = "ee")]
+    pub site: String,
+    #[command(flatten)]
+    pub sweep: SweepArgs,
+}
+
+/// `kinecal curves objective`.
+#[derive(Debug, Args)]
+pub struct CurvesObjectiveArgs {
+    /// Robot file or built-in name.
+    #[arg(long)]
+    pub robot: String,
+    /// Measurement file.
+    #[arg(long)]
+    pub data: PathBuf,
+    #[command(flatten)]
+    pub residuals: ResidualArgs,
+    #[command(flatten)]
+    pub sweep: SweepArgs,
+}
+
+/// `kinecal report`.
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// The nominal robot (before calibration).
+    #[arg(long)]
+    pub robot: String,
+    /// The measurement file calibrated on.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// The calibrated robot file.
+    #[arg(
+        long,
+        conflicts_with = "calibration",
+        required_unless_present = "calibration"
+    )]
+    pub calibrated: Option<String>,
+    /// Or a calibration report (JSON from `kinecal calibrate --report`).
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    #[command(flatten)]
+    pub residuals: ResidualArgs,
+    /// The HTML file to write.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `kinecal check`.
@@ -644,6 +772,9 @@ pub struct CalibrateArgs {
     /// A note stored with --record.
     #[arg(long, default_value = "")]
     pub note: String,
+    /// Also write a self-contained HTML report here.
+    #[arg(long, value_name = "FILE")]
+    pub html: Option<PathBuf>,
     /// Print one line per iteration (to standard error).
     #[arg(long, short)]
     pub verbose: bool,

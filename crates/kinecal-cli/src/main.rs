@@ -2,6 +2,7 @@
 
 mod analyze;
 mod args;
+mod curves;
 mod demo;
 mod history;
 mod report;
@@ -43,6 +44,8 @@ fn main() -> ExitCode {
         Command::Export(ExportCommand::Urdf(a)) => export_urdf(a).map(|()| 0),
         Command::History(c) => history::run(c),
         Command::Check(a) => history::check(a),
+        Command::Curves(c) => curves::run(c).map(|()| 0),
+        Command::Report(a) => curves::report(a).map(|()| 0),
     };
     match result {
         Ok(code) => ExitCode::from(code),
@@ -547,6 +550,10 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
     if let Some(path) = &a.report {
         write_file(path, &(rep.to_json() + "\n"))?;
         eprintln!("wrote the report to {}", path.display());
+    }
+    if let Some(path) = &a.html {
+        write_file(path, &curves::html_of(&cal, &data, &rep, robot)?)?;
+        eprintln!("wrote the HTML report to {}", path.display());
     }
     if let (Some(serial), Some(db)) = (&a.record, &record_db) {
         let id = db.add(serial, record_at, &rep, &a.note)?;

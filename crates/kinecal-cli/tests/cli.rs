@@ -1225,3 +1225,222 @@ fn concurrent_processes_recording_all_succeed() {
     let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
     assert_eq!(list.lines().count(), 13, "{list}");
 }
+
+#[test]
+fn curves_and_html_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Pose curves at Table 4.2's posture 4, in the three formats.
+    for out in ["pose.svg", "pose.png", "pose.csv"] {
+        let text = run_ok(
+            d,
+            &[
+                "curves",
+                "pose",
+                "--robot",
+                "ge-a4",
+                "--readings",
+                "-6.883,13.301,4.122,-28.645",
+                "--param",
+                "p1,p4,p35",
+                "--out",
+                out,
+            ],
+        );
+        assert!(
+            text.contains("p35 (joint1.slope): periodic, period 52.30"),
+            "{text}"
+        );
+    }
+    let svg = std::fs::read_to_string(d.join("pose.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.len() > 20_000 && svg.contains("link1.alpha"));
+    let png = std::fs::read(d.join("pose.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 20_000);
+    let csv = std::fs::read_to_string(d.join("pose.csv")).unwrap();
+    assert!(csv.starts_with("param,value,x,y,z,alpha,beta,gamma\n"));
+    assert_eq!(csv.lines().count(), 1 + 3 * 201);
+    // At the nominal value the curve passes through Table 4.2's pose (28.576, 13.995, 0.020, 47.6).
+    let row: Vec<f64> = csv
+        .lines()
+        .filter(|l| l.starts_with("p4,"))
+        .nth(100)
+        .unwrap()
+        .split(',')
+        .skip(1)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        row[0].abs() < 1e-9 && (row[1] - 28.576).abs() < 0.01 && (row[4] - 47.6).abs() < 0.01,
+        "{row:?}"
+    );
+
+    // The objective of Fig 4.11 (postures 1 and 2 of Table 4.2) against p38.
+    std::fs::write(
+        d.join("p.csv"),
+        "posture,v1,v2,v3,v4\n1,-11.053,12.369,4.009,-11.583\n2,-12.696,9.037,1.493,5.156\n",
+    )
+    .unwrap();
+    run_ok(
+        d,
+        &[
+            "fk",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "p.csv",
+            "--out",
+            "d.csv",
+        ],
+    );
+    let text = run_ok(
+        d,
+        &[
+            "curves",
+            "objective",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "d.csv",
+            "--param",
+            "p38",
+            "--span",
+            "100",
+            "--points",
+            "2001",
+            "--out",
+            "o.csv",
+        ],
+    );
+    assert!(
+        text.contains("local minimum at 9.000000 deg/unit: objective 0.000000e0"),
+        "{text}"
+    );
+    assert!(text.contains("not convex"), "{text}");
+    assert!(
+        text.contains("1: 31.080") && text.contains("2: 69.82"),
+        "{text}"
+    );
+    let o = std::fs::read_to_string(d.join("o.csv")).unwrap();
+    assert!(o.starts_with("param,value,objective\n") && o.lines().count() == 2002);
+    run_ok(
+        d,
+        &[
+            "curves",
+            "objective",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "d.csv",
+            "--param",
+            "p1,p38",
+            "--out",
+            "o.svg",
+        ],
+    );
+    let err = run_err(
+        d,
+        &[
+            "curves",
+            "objective",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "d.csv",
+            "--param",
+            "p1",
+            "--out",
+            "o.txt",
+        ],
+    );
+    assert!(err.contains(".svg, .png or .csv"), "{err}");
+
+    // The HTML report, from calibrate --html and from files.
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--perturb",
+            "p1=+0.05,joint2.offset=-0.5",
+            "--noise",
+            "length=0.0005,angle=0.005",
+            "--out",
+            "data.csv",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--html",
+            "a.html",
+            "--report",
+            "r.json",
+            "--out",
+            "c.toml",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "report",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--calibrated",
+            "c.toml",
+            "--out",
+            "b.html",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "report",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--calibration",
+            "r.json",
+            "--out",
+            "c.html",
+        ],
+    );
+    for f in ["a.html", "b.html", "c.html"] {
+        let h = std::fs::read_to_string(d.join(f)).unwrap();
+        assert!(
+            h.starts_with("<!DOCTYPE html>") && h.trim_end().ends_with("</html>"),
+            "{f}"
+        );
+        for id in [
+            "summary",
+            "residuals",
+            "histogram",
+            "changes",
+            "spectrum",
+            "redundancy",
+            "warnings",
+        ] {
+            assert!(
+                h.contains(&format!("id=\"{id}\"")),
+                "{f} lacks section {id}"
+            );
+        }
+        // Self-contained: no URL, no external resource, no script.
+        for bad in ["http:", "https:", "src=", "<script", "<link", "@import"] {
+            assert!(!h.contains(bad), "{f} contains {bad}");
+        }
+        assert_eq!(h.matches("<svg").count(), h.matches("</svg>").count());
+        assert!(h.matches("<svg").count() >= 4);
+        assert!(h.contains("p3 - p9 - p15 - p21 - p27 - p33"), "{f}");
+    }
+}

@@ -14,13 +14,21 @@ use crate::units::Quantity;
 /// `count` evenly spaced values from `from` to `to` (inclusive).
 pub fn samples(from: f64, to: f64, count: usize) -> Vec<f64> {
     let n = count.max(2);
-    (0..n).map(|i| from + (to - from) * i as f64 / (n - 1) as f64).collect()
+    (0..n)
+        .map(|i| from + (to - from) * i as f64 / (n - 1) as f64)
+        .collect()
 }
 
 /// The end effector's (or a site's) pose `[x, y, z, alpha, beta, gamma]` (file units) at
 /// `readings` as parameter `id` takes each of `values` (file units). Angles are unwrapped along
 /// the curve.
-pub fn pose_curve(robot: &Robot, readings: &[f64], target: Target, id: ParamId, values: &[f64]) -> Vec<[f64; 6]> {
+pub fn pose_curve(
+    robot: &Robot,
+    readings: &[f64],
+    target: Target,
+    id: ParamId,
+    values: &[f64],
+) -> Vec<[f64; 6]> {
     let u = robot.units;
     let q = robot.param_quantity(id);
     let mut r = robot.clone();
@@ -47,6 +55,19 @@ pub fn pose_curve(robot: &Robot, readings: &[f64], target: Target, id: ParamId, 
         }
         out.push(row);
     }
+    // Anchor the unwrapped angles at the robot's own value of the parameter: there they are the
+    // pose's true angles, in (-180, 180].
+    let v0 = robot.get_user(id);
+    if let Some(k) =
+        (0..values.len()).min_by(|&a, &b| (values[a] - v0).abs().total_cmp(&(values[b] - v0).abs()))
+    {
+        for c in 3..6 {
+            let shift = turn * (out[k][c] / turn).round();
+            for row in &mut out {
+                row[c] -= shift;
+            }
+        }
+    }
     out
 }
 
@@ -65,7 +86,10 @@ pub fn objective_curve(
     let ids = [id];
     let problem = Problem::new(robot, data, &ids, weights, orientation);
     let mut res = vec![0.0; problem.rows()];
-    values.iter().map(|&v| problem.evaluate(&problem.robot_at(&[u.to_si(q, v)]), &mut res, None)).collect()
+    values
+        .iter()
+        .map(|&v| problem.evaluate(&problem.robot_at(&[u.to_si(q, v)]), &mut res, None))
+        .collect()
 }
 
 /// Interior local minima of a sampled curve `f(x)`: `(x, f)` where `f` is below both
@@ -76,9 +100,9 @@ pub fn local_minima(x: &[f64], f: &[f64]) -> Vec<(f64, f64)> {
     let mut i = 1;
     while i + 1 < n {
         if f[i] < f[i - 1] {
-            // Walk over a plateau.
+            // Walk over a plateau (exactly equal samples).
             let mut j = i;
-            while j + 1 < n && f[j + 1] == f[i] {
+            while j + 1 < n && f[j + 1].to_bits() == f[i].to_bits() {
                 j += 1;
             }
             if j + 1 < n && f[j + 1] > f[i] {
@@ -94,8 +118,10 @@ pub fn local_minima(x: &[f64], f: &[f64]) -> Vec<(f64, f64)> {
 
 /// Whether a sampled curve is convex: no second difference below `-tol` times its range.
 pub fn is_convex(f: &[f64]) -> bool {
-    let range = f.iter().copied().fold(f64::NEG_INFINITY, f64::max) - f.iter().copied().fold(f64::INFINITY, f64::min);
-    f.windows(3).all(|w| w[0] - 2.0 * w[1] + w[2] >= -1e-9 * range.max(f64::MIN_POSITIVE))
+    let range = f.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - f.iter().copied().fold(f64::INFINITY, f64::min);
+    f.windows(3)
+        .all(|w| w[0] - 2.0 * w[1] + w[2] >= -1e-9 * range.max(f64::MIN_POSITIVE))
 }
 
 /// The period of the pose (and objective) in parameter `id` (file units), when it has one:
@@ -108,7 +134,9 @@ pub fn period(robot: &Robot, id: ParamId, readings: Option<&[f64]>) -> Option<f6
         ParamKind::Link { component, .. } | ParamKind::Site { component, .. } => {
             (component.quantity() == Quantity::Angle).then_some(turn)
         }
-        ParamKind::Offset { joint } => (robot.joints[joint].kind == JointKind::Revolute).then_some(turn),
+        ParamKind::Offset { joint } => {
+            (robot.joints[joint].kind == JointKind::Revolute).then_some(turn)
+        }
         ParamKind::Slope { joint } => {
             let v = readings?.get(joint).copied()?;
             (robot.joints[joint].kind == JointKind::Revolute && v != 0.0).then(|| turn / v.abs())

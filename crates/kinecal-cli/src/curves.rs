@@ -1,0 +1,345 @@
+//! `kinecal curves ...` and `kinecal report`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Result};
+use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve, samples};
+use kinecal::estimation::{
+    accuracy, data_warnings, Calibration, CalibrationOptions, Problem, Termination,
+};
+use kinecal::kinematics::Target;
+use kinecal::measurement_file::parse_postures;
+use kinecal::report::CalibrationReport;
+use kinecal::{parse_param_list, ParamId, Robot};
+use kinecal_report::{render_png, render_svg, Line, Panel};
+
+use crate::args::{CurvesCommand, CurvesObjectiveArgs, CurvesPoseArgs, ReportArgs, SweepArgs};
+use crate::{load_robot, read_measurements, read_text, residual_settings, write_file};
+
+/// Runs a curves command.
+pub fn run(c: CurvesCommand) -> Result<()> {
+    match c {
+        CurvesCommand::Pose(a) => pose(a),
+        CurvesCommand::Objective(a) => objective(a),
+    }
+}
+
+fn sweep(s: &SweepArgs, robot: &Robot, id: ParamId, default_half: f64) -> Result<Vec<f64>> {
+    if s.points < 3 {
+        bail!("--points must be at least 3");
+    }
+    let v = robot.get_user(id);
+    let (a, b) = match (s.from, s.to, s.span) {
+        (Some(a), Some(b), _) => (a, b),
+        (_, _, Some(w)) => (v - w / 2.0, v + w / 2.0),
+        _ => (v - default_half, v + default_half),
+    };
+    if !(a.is_finite() && b.is_finite() && a < b) {
+        bail!("the sweep must run from a smaller to a larger finite value, got {a} .. {b}");
+    }
+    Ok(samples(a, b, s.points))
+}
+
+enum Out {
+    Svg,
+    Png,
+    Csv,
+}
+
+fn out_kind(path: &Path) -> Result<Out> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("svg") => Ok(Out::Svg),
+        Some("png") => Ok(Out::Png),
+        Some("csv") => Ok(Out::Csv),
+        _ => bail!(
+            "--out {}: the name must end in .svg, .png or .csv",
+            path.display()
+        ),
+    }
+}
+
+fn draw(path: &Path, panels: &[Panel], cols: usize) -> Result<()> {
+    match out_kind(path)? {
+        Out::Svg => write_file(path, &render_svg(panels, cols)?),
+        Out::Png => {
+            // Render to a temporary file beside the target, then rename (no half-written file).
+            let tmp = path.with_extension("kinecal-tmp.png");
+            render_png(panels, cols, &tmp)?;
+            std::fs::rename(&tmp, path).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))
+        }
+        Out::Csv => unreachable!("CSV is written by the caller"),
+    }
+}
+
+fn pose(a: CurvesPoseArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let robot = &r.robot;
+    let readings: Vec<f64> = match (&a.readings, &a.postures, &a.posture) {
+        (Some(list), _, _) => list
+            .split(',')
+            .map(|v| {
+                v.trim()
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| anyhow!("--readings: `{}` is not a number", v.trim()))
+            })
+            .collect::<Result<_>>()?,
+        (None, Some(path), Some(label)) => {
+            let ps = parse_postures(&read_text(path)?, &path.display().to_string(), robot)?;
+            ps.into_iter()
+                .find(|p| &p.label == label)
+                .ok_or_else(|| anyhow!("{}: no posture `{label}`", path.display()))?
+                .readings
+        }
+        _ => bail!("give --readings, or --postures with --posture"),
+    };
+    if readings.len() != robot.dof() {
+        bail!(
+            "--readings: {} values for a robot with {} joints",
+            readings.len(),
+            robot.dof()
+        );
+    }
+    let target = match a.site.as_str() {
+        "ee" => Target::EndEffector,
+        name => Target::Site(
+            robot
+                .site_index(name)
+                .ok_or_else(|| anyhow!("--site: the robot has no site `{name}`"))?,
+        ),
+    };
+    let ids = parse_param_list(&a.sweep.param, robot)?;
+    let (l, an) = (
+        robot.units.length.to_string(),
+        robot.units.angle.to_string(),
+    );
+    let mut panels = Vec::new();
+    let mut csv = String::from("param,value,x,y,z,alpha,beta,gamma\n");
+    for &id in &ids {
+        let x = sweep(&a.sweep, robot, id, 50.0)?;
+        let c = pose_curve(robot, &readings, target, id, &x);
+        let name = robot.param_name(id);
+        let unit = robot.param_unit(id);
+        for (v, row) in x.iter().zip(&c) {
+            let _ = writeln!(
+                csv,
+                "{id},{v},{},{},{},{},{},{}",
+                row[0], row[1], row[2], row[3], row[4], row[5]
+            );
+        }
+        let col = |k: usize| c.iter().map(|r| r[k]).collect::<Vec<_>>();
+        let mark = Some(robot.get_user(id));
+        panels.push(Panel {
+            title: format!("{id} ({name}): position"),
+            x_label: format!("{name} ({unit})"),
+            y_label: format!("position ({l})"),
+            x: x.clone(),
+            lines: vec![
+                Line::new("x", col(0)),
+                Line::new("y", col(1)),
+                Line::new("z", col(2)),
+            ],
+            mark_x: mark,
+            ..Default::default()
+        });
+        panels.push(Panel {
+            title: format!("{id} ({name}): attitude (unwrapped)"),
+            x_label: format!("{name} ({unit})"),
+            y_label: format!("ZYX Euler angle ({an})"),
+            x,
+            lines: vec![
+                Line::new("alpha", col(3)),
+                Line::new("beta", col(4)),
+                Line::new("gamma", col(5)),
+            ],
+            mark_x: mark,
+            ..Default::default()
+        });
+        match period(robot, id, Some(&readings)) {
+            Some(t) => println!("{id} ({name}): periodic, period {t:.6} {unit}"),
+            None => println!("{id} ({name}): not periodic"),
+        }
+    }
+    match out_kind(&a.sweep.out)? {
+        Out::Csv => write_file(&a.sweep.out, &csv)?,
+        _ => draw(&a.sweep.out, &panels, 2)?,
+    }
+    eprintln!("wrote {}", a.sweep.out.display());
+    Ok(())
+}
+
+fn objective(a: CurvesObjectiveArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let robot = &r.robot;
+    let data = read_measurements(&a.data, None, robot)?;
+    let (weights, orientation) = residual_settings(&a.residuals, robot)?;
+    let ids = parse_param_list(&a.sweep.param, robot)?;
+    let mut panels = Vec::new();
+    let mut csv = String::from("param,value,objective\n");
+    let single = (data.postures.len() == 1).then(|| data.postures[0].readings.clone());
+    for &id in &ids {
+        let x = sweep(&a.sweep, robot, id, 10.0)?;
+        let f = objective_curve(robot, &data, id, &x, weights, orientation);
+        let name = robot.param_name(id);
+        let unit = robot.param_unit(id);
+        for (v, o) in x.iter().zip(&f) {
+            let _ = writeln!(csv, "{id},{v},{o}");
+        }
+        let minima = local_minima(&x, &f);
+        println!("{id} ({name}), {} .. {} {unit}:", x[0], x[x.len() - 1]);
+        if minima.is_empty() {
+            println!("  no interior local minimum (the minimum is at an end of the span)");
+        }
+        for (v, o) in &minima {
+            println!("  local minimum at {v:.6} {unit}: objective {o:.6e}");
+        }
+        if !is_convex(&f) {
+            println!(
+                "  warning: the objective is not convex over this span ({} valleys): a solver started here could stop in a false valley",
+                minima.len()
+            );
+        }
+        match period(robot, id, single.as_deref()) {
+            Some(t) => println!("  periodic: period {t:.6} {unit}"),
+            None if matches!(robot.param_kind(id), kinecal::ParamKind::Slope { .. })
+                && robot.joints[slope_joint(robot, id)].kind == kinecal::JointKind::Revolute =>
+            {
+                let periods: Vec<String> = data
+                    .postures
+                    .iter()
+                    .filter_map(|p| {
+                        period(robot, id, Some(&p.readings)).map(|t| format!("{}: {t:.3}", p.label))
+                    })
+                    .take(8)
+                    .collect();
+                println!(
+                    "  each posture alone repeats every 360/V {unit} ({}{})",
+                    periods.join(", "),
+                    if data.postures.len() > 8 { ", ..." } else { "" }
+                );
+            }
+            None => {}
+        }
+        panels.push(Panel {
+            title: format!("Objective against {id} ({name})"),
+            x_label: format!("{name} ({unit})"),
+            y_label: "objective (weighted sum of squares)".into(),
+            x,
+            lines: vec![Line::new("objective", f)],
+            mark_x: Some(robot.get_user(id)),
+            ..Default::default()
+        });
+    }
+    match out_kind(&a.sweep.out)? {
+        Out::Csv => write_file(&a.sweep.out, &csv)?,
+        _ => draw(&a.sweep.out, &panels, 1)?,
+    }
+    eprintln!("wrote {}", a.sweep.out.display());
+    Ok(())
+}
+
+fn slope_joint(robot: &Robot, id: ParamId) -> usize {
+    match robot.param_kind(id) {
+        kinecal::ParamKind::Slope { joint } | kinecal::ParamKind::Offset { joint } => joint,
+        _ => 0,
+    }
+}
+
+/// A [`Calibration`] rebuilt from a nominal and a calibrated robot (for reports from files):
+/// the estimated parameters are those that differ.
+pub fn calibration_from_files(
+    nominal: &Robot,
+    calibrated: &Robot,
+    data: &kinecal::Dataset,
+    weights: kinecal::estimation::Weights,
+    orientation: kinecal::estimation::OrientationError,
+) -> Result<Calibration> {
+    let mut estimated: Vec<ParamId> = nominal
+        .param_ids()
+        .filter(|&id| (nominal.get(id) - calibrated.get(id)).abs() > 0.0)
+        .collect();
+    if estimated.is_empty() {
+        estimated = nominal.param_ids().collect();
+    }
+    let mut options = CalibrationOptions::new(estimated.clone());
+    options.weights = weights;
+    options.orientation = orientation;
+    let problem = Problem::new(nominal, data, &estimated, weights, orientation);
+    let mut r = vec![0.0; problem.rows()];
+    Ok(Calibration {
+        objective_before: problem.evaluate(nominal, &mut r, None),
+        objective_after: problem.evaluate(calibrated, &mut r, None),
+        accuracy_before: accuracy(nominal, data),
+        accuracy_after: accuracy(calibrated, data),
+        initial: nominal.clone(),
+        calibrated: calibrated.clone(),
+        estimated,
+        options,
+        termination: Termination::NoFurtherReduction,
+        iterations: 0,
+        warnings: data_warnings(data, orientation),
+        log: Vec::new(),
+    })
+}
+
+/// The HTML report of `cal` (with its uncertainty when it can be computed).
+pub fn html_of(
+    cal: &Calibration,
+    data: &kinecal::Dataset,
+    rep: &CalibrationReport,
+    nominal: &Robot,
+) -> Result<String> {
+    let u = kinecal::uncertainty::uncertainty_at(cal, data, nominal).ok();
+    Ok(kinecal_report::html_report(cal, data, rep, u.as_ref())?)
+}
+
+/// `kinecal report`.
+pub fn report(a: ReportArgs) -> Result<()> {
+    let r = load_robot(&a.robot)?;
+    let nominal = &r.robot;
+    let data = read_measurements(&a.data, None, nominal)?;
+    let (weights, orientation) = residual_settings(&a.residuals, nominal)?;
+    let calibrated = match (&a.calibrated, &a.calibration) {
+        (Some(spec), _) => load_robot(spec)?.robot,
+        (None, Some(path)) => {
+            let rep = CalibrationReport::from_json(&read_text(path)?).map_err(|e| {
+                anyhow!("{}: not a kinecal calibration report: {e}", path.display())
+            })?;
+            if rep.parameters.len() != nominal.param_count() {
+                bail!(
+                    "{}: the report has {} parameters, the robot {}",
+                    path.display(),
+                    rep.parameters.len(),
+                    nominal.param_count()
+                );
+            }
+            let mut c = nominal.clone();
+            for (id, p) in nominal.param_ids().zip(&rep.parameters) {
+                c.set(
+                    id,
+                    nominal.units.to_si(nominal.param_quantity(id), p.estimated),
+                );
+            }
+            c
+        }
+        _ => bail!("give --calibrated or --calibration"),
+    };
+    if calibrated.param_count() != nominal.param_count() || calibrated.dof() != nominal.dof() {
+        bail!("the calibrated robot does not have the structure of --robot");
+    }
+    let cal = calibration_from_files(nominal, &calibrated, &data, weights, orientation)?;
+    let mut rep = CalibrationReport::new(&cal, &data);
+    if let Ok(u) = kinecal::uncertainty::uncertainty_at(&cal, &data, nominal) {
+        rep.add_uncertainty(&cal, &u);
+    }
+    write_file(&a.out, &html_of(&cal, &data, &rep, nominal)?)?;
+    eprintln!("wrote {}", a.out.display());
+    Ok(())
+}
