@@ -1,4 +1,5 @@
 //! Characteristic curves against the thesis's figures (4.2-4.11) and known invariants.
+#![allow(clippy::needless_range_loop)] // pose components are indexed by number, as in the thesis
 
 use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve, samples};
 use kinecal::estimation::{OrientationError, Weights};
