@@ -14,6 +14,7 @@ use crate::args::{
     HistoryExportArgs, HistoryListArgs, HistoryPlotArgs, HistoryShowArgs,
 };
 use crate::{load_robot, read_measurements, read_text, write_file};
+use kinecal_report::{Line, Panel};
 
 /// Exit code when drift or a check finds something: usable from cron and monitoring.
 pub const EXIT_FLAGGED: u8 = 3;
@@ -368,8 +369,42 @@ fn plot(a: HistoryPlotArgs) -> Result<u8> {
     if series.is_empty() {
         bail!("no tracked quantity matches --param");
     }
-    write_file(&a.out, &crate::svg::history_svg(&a.robot_id, &series))?;
-    eprintln!("wrote {} panels to {}", series.len(), a.out.display());
+    // One panel per quantity: values with +-1 sigma bars against days since the first
+    // calibration; the first value +-3 sigma, and the tolerance, as reference lines.
+    let t0 = history[0].at;
+    let panels: Vec<Panel> = series
+        .iter()
+        .map(|(q, pts)| {
+            let (v0, s0) = pts.first().map_or((q.baseline, q.sigma), |p| (p.1, p.2));
+            let mut h_lines = vec![
+                (v0 - 3.0 * s0, "first -3 sigma".to_string()),
+                (v0 + 3.0 * s0, "first +3 sigma".to_string()),
+            ];
+            if let Some(t) = q.tolerance {
+                h_lines.push((v0 - t, "tolerance".into()));
+                h_lines.push((v0 + t, "tolerance".into()));
+            }
+            Panel {
+                title: format!(
+                    "{}{}",
+                    q.quantity,
+                    if q.flagged { " (FLAGGED)" } else { "" }
+                ),
+                x_label: format!("days since {}", &kinecal_history::format_time(t0)[..10]),
+                y_label: format!("{} ({})", q.key, q.unit),
+                x: pts.iter().map(|p| (p.0 - t0) as f64 / 86400.0).collect(),
+                lines: vec![Line {
+                    points: true,
+                    error: Some(pts.iter().map(|p| p.2).collect()),
+                    ..Line::new("value +-1 sigma", pts.iter().map(|p| p.1).collect())
+                }],
+                h_lines,
+                ..Default::default()
+            }
+        })
+        .collect();
+    write_file(&a.out, &kinecal_report::render_svg(&panels, 1)?)?;
+    eprintln!("wrote {} panels to {}", panels.len(), a.out.display());
     Ok(0)
 }
 

@@ -6,7 +6,6 @@ mod curves;
 mod demo;
 mod history;
 mod report;
-mod svg;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -1090,10 +1090,11 @@ fn history_record_drift_plot_and_check() {
         ],
     );
     let svg = std::fs::read_to_string(d.join("h.svg")).unwrap();
+    // Three calibrations of two quantities: six points, plus a legend marker per panel.
     assert!(
         svg.starts_with("<svg")
             && svg.contains("y lengths of links 3 and 4")
-            && svg.matches("<circle").count() == 6
+            && svg.matches("<circle").count() == 6 + 2
     );
     // Errors.
     let err = run_err(
