@@ -454,18 +454,46 @@ pub fn analyze(
         })
         .collect();
 
+    // A frame at beta = +-90 deg matters only when its alpha and gamma are both analysed and
+    // felt by some measurement.
+    let (nl, nj) = (robot.links.len(), robot.dof());
+    let felt = |k: ParamKind| {
+        let id = k.id(nl, nj);
+        params.contains(&id) && !unobservable.contains(&id)
+    };
     let euler_singular = robot
         .links
         .iter()
         .enumerate()
-        .filter(|(_, l)| l.beta.cos().abs() < 1e-3)
+        .filter(|(i, l)| {
+            l.beta.cos().abs() < 1e-3
+                && felt(ParamKind::Link {
+                    link: *i,
+                    component: LinkComponent::Alpha,
+                })
+                && felt(ParamKind::Link {
+                    link: *i,
+                    component: LinkComponent::Gamma,
+                })
+        })
         .map(|(i, _)| format!("link{}", i + 1))
         .chain(
             robot
                 .sites
                 .iter()
-                .filter(|s| s.frame.beta.cos().abs() < 1e-3)
-                .map(|s| format!("site.{}", s.name)),
+                .enumerate()
+                .filter(|(k, s)| {
+                    s.frame.beta.cos().abs() < 1e-3
+                        && felt(ParamKind::Site {
+                            site: *k,
+                            component: LinkComponent::Alpha,
+                        })
+                        && felt(ParamKind::Site {
+                            site: *k,
+                            component: LinkComponent::Gamma,
+                        })
+                })
+                .map(|(_, s)| format!("site.{}", s.name)),
         )
         .collect::<Vec<_>>();
     for name in &euler_singular {
