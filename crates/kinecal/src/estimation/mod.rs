@@ -219,14 +219,7 @@ pub fn calibrate(
             if change < 1e-9 {
                 break;
             }
-            let weighted = Problem::new(
-                initial,
-                data,
-                &opts.estimate,
-                opts.weights,
-                opts.orientation,
-            )
-            .with_row_scale(&row_scale);
+            let weighted = problem.clone().with_row_scale(&row_scale);
             let before = sol.objective_before;
             sol = solve(&weighted, &sol.x, &opts.solver, &mut |it: &Iteration| {
                 log.push(*it);
@@ -236,14 +229,7 @@ pub fn calibrate(
         }
     }
     // From here on, the problem as the loss weighted it.
-    let problem = Problem::new(
-        initial,
-        data,
-        &opts.estimate,
-        opts.weights,
-        opts.orientation,
-    )
-    .with_row_scale(&row_scale);
+    let problem = problem.clone().with_row_scale(&row_scale);
     let (mut x, mut iterations, mut termination) = (sol.x, sol.iterations, sol.termination);
     if let SolutionRule::MinChange(reference) = &opts.solution {
         for _round in 0..10 {

@@ -46,6 +46,7 @@ impl Default for Weights {
 }
 
 /// Weighted residuals and Jacobian of a calibration over one dataset.
+#[derive(Clone)]
 pub struct Problem<'a> {
     base: &'a Robot,
     data: &'a Dataset,
