@@ -42,9 +42,33 @@ fn demo_shows_returning_and_redundant_parameters() {
 
 #[test]
 fn every_command_has_help_with_an_example() {
-    for cmd in ["demo", "fk", "simulate", "calibrate"] {
-        let out = run_ok(Path::new("."), &[cmd, "--help"]);
-        assert!(out.contains("Example"), "{cmd}: {out}");
+    let commands: [&[&str]; 20] = [
+        &["demo"],
+        &["fk"],
+        &["simulate"],
+        &["calibrate"],
+        &["analyze"],
+        &["check"],
+        &["report"],
+        &["import", "urdf"],
+        &["import", "dh"],
+        &["import", "poe"],
+        &["export", "urdf"],
+        &["curves", "pose"],
+        &["curves", "objective"],
+        &["history", "add"],
+        &["history", "list"],
+        &["history", "show"],
+        &["history", "export"],
+        &["history", "drift"],
+        &["history", "plot"],
+        &[],
+    ];
+    for cmd in commands {
+        let mut args = cmd.to_vec();
+        args.push("--help");
+        let out = run_ok(Path::new("."), &args);
+        assert!(out.contains("Example"), "{cmd:?}: {out}");
     }
 }
 
