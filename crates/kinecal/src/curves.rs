@@ -125,8 +125,9 @@ pub fn is_convex(f: &[f64]) -> bool {
 }
 
 /// The period of the pose (and objective) in parameter `id` (file units), when it has one:
-/// a full turn for link and site angles and revolute offsets; for a revolute slope, a full turn
-/// divided by the reading, which only exists for a single posture (`readings` of that posture).
+/// a full turn for link, site and plane angles and revolute offsets; for a revolute slope (or
+/// coupling factor), a full turn divided by the reading (of the other joint), which only exists
+/// for a single posture (`readings` of that posture).
 pub fn period(robot: &Robot, id: ParamId, readings: Option<&[f64]>) -> Option<f64> {
     let u = robot.units;
     let turn = u.from_si(Quantity::Angle, std::f64::consts::TAU);
@@ -140,6 +141,14 @@ pub fn period(robot: &Robot, id: ParamId, readings: Option<&[f64]>) -> Option<f6
         ParamKind::Slope { joint } => {
             let v = readings?.get(joint).copied()?;
             (robot.joints[joint].kind == JointKind::Revolute && v != 0.0).then(|| turn / v.abs())
+        }
+        ParamKind::Coupling { joint } => {
+            let other = robot.joints[joint].coupling?.joint;
+            let v = readings?.get(other).copied()?;
+            (robot.joints[joint].kind == JointKind::Revolute && v != 0.0).then(|| turn / v.abs())
+        }
+        ParamKind::Plane { component, .. } => {
+            (component.quantity() == Quantity::Angle).then_some(turn)
         }
     }
 }

@@ -175,7 +175,7 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     let has = |id: ParamId| params.binary_search(&id).is_ok();
     let (nl, nj) = (robot.links.len(), robot.dof());
     let all_links = (0..6 * nl).all(|i| has(ParamId(i)));
-    let all_offsets = (0..nj).all(|j| has(ParamKind::Offset { joint: j }.id(nl, nj)));
+    let all_offsets = (0..nj).all(|j| has(robot.param_id(ParamKind::Offset { joint: j })));
     let ee_measured = data
         .measurements
         .iter()
@@ -190,7 +190,7 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
         .count();
     let np = nj - nr;
     let slopes = (0..nj)
-        .filter(|&j| has(ParamKind::Slope { joint: j }.id(nl, nj)))
+        .filter(|&j| has(robot.param_id(ParamKind::Slope { joint: j })))
         .count();
     let mut frames = Vec::new();
     let mut targets: Vec<Target> = vec![Target::EndEffector];
@@ -202,11 +202,10 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
         }
         if let Target::Site(s) = t {
             let site_params = (0..6).map(|c| {
-                ParamKind::Site {
+                robot.param_id(ParamKind::Site {
                     site: s,
                     component: LinkComponent::ALL[c],
-                }
-                .id(nl, nj)
+                })
             });
             if !site_params.into_iter().all(has) {
                 return None;
@@ -456,9 +455,8 @@ pub fn analyze(
 
     // A frame at beta = +-90 deg matters only when its alpha and gamma are both analysed and
     // felt by some measurement.
-    let (nl, nj) = (robot.links.len(), robot.dof());
     let felt = |k: ParamKind| {
-        let id = k.id(nl, nj);
+        let id = robot.param_id(k);
         params.contains(&id) && !unobservable.contains(&id)
     };
     let euler_singular = robot
@@ -605,7 +603,7 @@ fn default_tier(robot: &Robot, id: ParamId) -> usize {
     let nonzero = robot.get(id).abs() > 1e-12;
     match robot.param_kind(id) {
         ParamKind::Offset { .. } => 0,
-        ParamKind::Slope { .. } => 1,
+        ParamKind::Slope { .. } | ParamKind::Coupling { .. } => 1,
         ParamKind::Link { component, .. } => match (component.quantity(), nonzero) {
             (Quantity::Length, true) => 2,
             (_, true) => 3,
@@ -613,6 +611,7 @@ fn default_tier(robot: &Robot, id: ParamId) -> usize {
             _ => 5,
         },
         ParamKind::Site { .. } => 6,
+        ParamKind::Plane { .. } => 7,
     }
 }
 

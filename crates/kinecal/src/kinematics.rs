@@ -14,7 +14,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::params::ParamId;
+use crate::params::{ParamId, ParamKind};
 use crate::robot::{JointKind, Link, Robot};
 
 /// A rigid transform: a point `v` in this frame is `rotation * v + translation` in the parent.
@@ -230,7 +230,7 @@ impl<'r> Chain<'r> {
             ws.dist[i] = current;
             if i < n {
                 let joint = &self.robot.joints[i];
-                let q = joint.value(readings[i]);
+                let q = joint.value(readings, i);
                 match joint.kind {
                     JointKind::Revolute => {
                         let (s, c) = q.sin_cos();
@@ -333,6 +333,14 @@ impl<'r> Chain<'r> {
             let v = ws.readings[j];
             put(6 * nl + j, dp, w);
             put(6 * nl + nj + j, dp * v, w * v);
+            if let Some(c) = robot.joints[j].coupling {
+                let vk = ws.readings[c.joint];
+                put(
+                    robot.param_id(ParamKind::Coupling { joint: j }).0,
+                    dp * vk,
+                    w * vk,
+                );
+            }
         }
     }
 }

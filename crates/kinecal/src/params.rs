@@ -1,10 +1,14 @@
 //! Parameter identities and lists, numbered as the thesis numbers them.
 //!
 //! Order: the 6 parameters of each link (`x, y, z, alpha, beta, gamma`, links 1..n+1), then the n
-//! joint offsets, then the n slopes, then 6 per extra site. `ParamId(0)` is the thesis's `p1`.
+//! joint offsets, then the n slopes, then 6 per extra site; then, beyond the thesis, one coupling
+//! factor per coupled joint and 3 per plane (`tilt_x, tilt_y, offset`), so that a robot without
+//! couplings and planes keeps the thesis's numbering. `ParamId(0)` is the thesis's `p1`.
 //! Lists (`--estimate`, `--fix`) accept comma-separated ids (`p3`), ranges (`p1-p30`), names
-//! (`link1.x`, `joint3.offset`, `joint4.slope`, `site.NAME.x`), whole links or joints (`link2`,
-//! `joint3`, `site.NAME`) and the groups `all`, `links`, `offsets`, `slopes`, `sites`.
+//! (`link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`, `site.NAME.x`,
+//! `plane.NAME.offset`), whole links, joints, sites or planes (`link2`, `joint3` = its offset,
+//! slope and coupling, `site.NAME`, `plane.NAME`) and the groups `all`, `links`, `offsets`,
+//! `slopes`, `couplings`, `sites`, `planes`.
 
 use std::fmt;
 
@@ -75,7 +79,48 @@ impl LinkComponent {
     }
 }
 
-/// What a parameter is (0-based link, joint and site indices).
+/// One of the three parameters of a plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlaneComponent {
+    /// Tilt of the normal about the reference frame's x axis.
+    TiltX,
+    /// Tilt of the normal about the reference frame's y axis.
+    TiltY,
+    /// Signed distance from the global origin along the normal.
+    Offset,
+}
+
+impl PlaneComponent {
+    /// The three in parameter order.
+    pub const ALL: [PlaneComponent; 3] = [
+        PlaneComponent::TiltX,
+        PlaneComponent::TiltY,
+        PlaneComponent::Offset,
+    ];
+
+    /// Name as used in parameter names.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PlaneComponent::TiltX => "tilt_x",
+            PlaneComponent::TiltY => "tilt_y",
+            PlaneComponent::Offset => "offset",
+        }
+    }
+
+    /// Angle for the tilts, length for the offset.
+    pub fn quantity(self) -> Quantity {
+        match self {
+            PlaneComponent::Offset => Quantity::Length,
+            _ => Quantity::Angle,
+        }
+    }
+
+    fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.as_str() == s)
+    }
+}
+
+/// What a parameter is (0-based link, joint, site and plane indices).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParamKind {
     /// A component of link `link`.
@@ -102,47 +147,18 @@ pub enum ParamKind {
         /// Which component.
         component: LinkComponent,
     },
-}
-
-impl ParamKind {
-    /// Decodes a parameter id for a robot with the given counts; `None` when out of range.
-    pub fn of(id: ParamId, links: usize, joints: usize, sites: usize) -> Option<ParamKind> {
-        let mut i = id.0;
-        if i < 6 * links {
-            return Some(ParamKind::Link {
-                link: i / 6,
-                component: LinkComponent::ALL[i % 6],
-            });
-        }
-        i -= 6 * links;
-        if i < joints {
-            return Some(ParamKind::Offset { joint: i });
-        }
-        i -= joints;
-        if i < joints {
-            return Some(ParamKind::Slope { joint: i });
-        }
-        i -= joints;
-        if i < 6 * sites {
-            return Some(ParamKind::Site {
-                site: i / 6,
-                component: LinkComponent::ALL[i % 6],
-            });
-        }
-        None
-    }
-
-    /// The id of this parameter for a robot with the given counts.
-    pub fn id(self, links: usize, joints: usize) -> ParamId {
-        ParamId(match self {
-            ParamKind::Link { link, component } => 6 * link + component as usize,
-            ParamKind::Offset { joint } => 6 * links + joint,
-            ParamKind::Slope { joint } => 6 * links + joints + joint,
-            ParamKind::Site { site, component } => {
-                6 * links + 2 * joints + 6 * site + component as usize
-            }
-        })
-    }
+    /// The coupling factor of joint `joint` (to another joint's reading).
+    Coupling {
+        /// 0-based index of the coupled joint.
+        joint: usize,
+    },
+    /// A component of plane `plane`.
+    Plane {
+        /// 0-based plane index.
+        plane: usize,
+        /// Which component.
+        component: PlaneComponent,
+    },
 }
 
 /// Parses a comma-separated parameter list (see the module docs) into sorted, distinct ids.
@@ -179,8 +195,8 @@ pub fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
 }
 
 fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, String> {
-    let (nl, nj, ns) = (robot.links.len(), robot.joints.len(), robot.sites.len());
-    let id = |k: ParamKind| k.id(nl, nj);
+    let (nl, nj) = (robot.links.len(), robot.joints.len());
+    let id = |k: ParamKind| robot.param_id(k);
     let all: Vec<ParamId> = robot.param_ids().collect();
     let pick = |f: &dyn Fn(ParamKind) -> bool| -> Vec<ParamId> {
         all.iter()
@@ -194,6 +210,8 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         "offsets" => return Ok(pick(&|k| matches!(k, ParamKind::Offset { .. }))),
         "slopes" => return Ok(pick(&|k| matches!(k, ParamKind::Slope { .. }))),
         "sites" => return Ok(pick(&|k| matches!(k, ParamKind::Site { .. }))),
+        "couplings" => return Ok(pick(&|k| matches!(k, ParamKind::Coupling { .. }))),
+        "planes" => return Ok(pick(&|k| matches!(k, ParamKind::Plane { .. }))),
         _ => {}
     }
     let p_number = |s: &str| -> Option<std::result::Result<ParamId, String>> {
@@ -226,8 +244,8 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
     let unknown = || {
         format!(
             "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
-             link1.x, joint2.offset, joint2.slope or site.NAME.x, or one of all, links, offsets, \
-             slopes, sites)"
+             link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x or \
+             plane.NAME.offset, or one of all, links, offsets, slopes, couplings, sites, planes)"
         )
     };
     if let Some(rest) = token.strip_prefix("site.") {
@@ -242,6 +260,21 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
             Some(component) => vec![id(ParamKind::Site { site, component })],
             None => LinkComponent::ALL
                 .map(|component| id(ParamKind::Site { site, component }))
+                .to_vec(),
+        });
+    }
+    if let Some(rest) = token.strip_prefix("plane.") {
+        let (name, comp) = match rest.rsplit_once('.') {
+            Some((n, c)) if PlaneComponent::parse(c).is_some() => (n, Some(c)),
+            _ => (rest, None),
+        };
+        let plane = robot
+            .plane_index(name)
+            .ok_or_else(|| format!("`{token}`: the robot has no plane named `{name}`"))?;
+        return Ok(match comp.and_then(PlaneComponent::parse) {
+            Some(component) => vec![id(ParamKind::Plane { plane, component })],
+            None => PlaneComponent::ALL
+                .map(|component| id(ParamKind::Plane { plane, component }))
                 .to_vec(),
         });
     }
@@ -273,18 +306,30 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
             return Err(bad_index("joint", num, nj));
         }
         let joint = joint - 1;
+        let coupled = robot.joints[joint].coupling.is_some();
         return match comp {
-            None => Ok(vec![
-                id(ParamKind::Offset { joint }),
-                id(ParamKind::Slope { joint }),
-            ]),
+            None => {
+                let mut v = vec![
+                    id(ParamKind::Offset { joint }),
+                    id(ParamKind::Slope { joint }),
+                ];
+                if coupled {
+                    v.push(id(ParamKind::Coupling { joint }));
+                }
+                Ok(v)
+            }
             Some("offset") => Ok(vec![id(ParamKind::Offset { joint })]),
             Some("slope") => Ok(vec![id(ParamKind::Slope { joint })]),
+            Some("coupling") if coupled => Ok(vec![id(ParamKind::Coupling { joint })]),
+            Some("coupling") => Err(format!(
+                "`{token}`: joint {} is not coupled to another joint (add `coupling = {{ joint = K, \
+                 factor = F }}` to it in the robot file)",
+                joint + 1
+            )),
             Some(c) => Err(format!(
-                "`{token}`: unknown joint parameter `{c}` (expected offset or slope)"
+                "`{token}`: unknown joint parameter `{c}` (expected offset, slope or coupling)"
             )),
         };
     }
-    let _ = ns;
     Err(unknown())
 }

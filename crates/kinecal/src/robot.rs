@@ -8,9 +8,17 @@
 //! - the end-effector frame (EECF) is `T = L1 J1 L2 J2 ... Ln Jn L(n+1)` (eq. 2.6) in the global
 //!   frame;
 //! - a site is a frame rigidly attached to the frame right after joint `k` (1-based), by the same
-//!   six-parameter transform as a link.
+//!   six-parameter transform as a link;
+//! - a joint may be *coupled* to another joint's reading: `q_j = offset_j + slope_j * V_j +
+//!   coupling_j * V_k` (a controller that measures joint 3 from the horizontal makes the model's
+//!   joint 3 `J2 + J3`, coupling 1 to joint 2);
+//! - a plane (for contact measurements) is the set of points `p` with `n . p = offset` in the
+//!   global frame, `n` its unit normal. Its three parameters are the offset and two tilts of the
+//!   normal about the axes of the plane's reference frame (see [`Plane`]).
 
-use crate::params::{LinkComponent, ParamId, ParamKind};
+use nalgebra::{Matrix3, Vector3};
+
+use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
 use crate::units::{Quantity, Units};
 
 /// The six parameters of a link (or of a site's attachment), internal units.
@@ -91,7 +99,17 @@ impl JointKind {
     }
 }
 
-/// A joint and its linear transducer, `q = offset + slope * V`.
+/// A joint's dependence on another joint's reading: `factor * V_joint` adds to its variable.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coupling {
+    /// The other joint (0-based index).
+    pub joint: usize,
+    /// Joint units (rad or m) per transducer unit of the other joint.
+    pub factor: f64,
+}
+
+/// A joint and its linear transducer, `q = offset + slope * V` (plus `factor * V_k` when
+/// coupled to joint `k`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joint {
     /// Revolute or prismatic.
@@ -100,15 +118,141 @@ pub struct Joint {
     pub offset: f64,
     /// Transducer output slope (rad or m per transducer unit).
     pub slope: f64,
+    /// Dependence on another joint's reading, if any.
+    pub coupling: Option<Coupling>,
     /// Range of transducer readings `(min, max)` the robot can take, in transducer units.
     pub range: Option<(f64, f64)>,
 }
 
 impl Joint {
-    /// The joint variable for a reading.
+    /// An uncoupled joint without a reading range.
+    pub fn new(kind: JointKind, offset: f64, slope: f64) -> Self {
+        Joint {
+            kind,
+            offset,
+            slope,
+            coupling: None,
+            range: None,
+        }
+    }
+
+    /// The joint variable (rad or m) of this joint, number `own`, for a posture's `readings`.
     #[inline]
-    pub fn value(&self, reading: f64) -> f64 {
-        self.offset + self.slope * reading
+    pub fn value(&self, readings: &[f64], own: usize) -> f64 {
+        let mut q = self.offset + self.slope * readings[own];
+        if let Some(c) = self.coupling {
+            q += c.factor * readings[c.joint];
+        }
+        q
+    }
+}
+
+/// A plane the robot's targets touch (contact measurements), in the global frame.
+///
+/// The plane is `{p : n . p = offset}` with `n` its unit normal. The normal is parameterised by
+/// two tilts about the axes of a *reference frame* fixed when the plane is created (from the
+/// robot file's `normal`): `z_ref` the given normal, `x_ref` the global axis least aligned with
+/// it (x before y before z on ties) made perpendicular to it, `y_ref = z_ref x x_ref`. Then
+/// `n = R_ref Rx(tilt_x) Ry(tilt_y) e_z`, so both tilts are 0 for the normal as written and the
+/// parameterisation is regular there (a horizontal table `normal = [0, 0, 1]` has `x_ref = x`,
+/// `y_ref = y`: `tilt_x` turns the normal about the global x axis). Written back, the file gets
+/// the tilted normal, and the tilts start at 0 again.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plane {
+    /// The name used in contact files and parameter names (`plane.NAME.offset`).
+    pub name: String,
+    reference: Matrix3<f64>,
+    /// Rotation of the normal about `x_ref` (rad).
+    pub tilt_x: f64,
+    /// Rotation of the normal about `y_ref` (after `tilt_x`) (rad).
+    pub tilt_y: f64,
+    /// Signed distance of the plane from the global origin along the normal (m).
+    pub offset: f64,
+}
+
+impl Plane {
+    /// A plane with the given normal (any non-zero length) and offset (m); `None` if the normal
+    /// is zero or not finite.
+    pub fn new(name: impl Into<String>, normal: Vector3<f64>, offset: f64) -> Option<Plane> {
+        let len = normal.norm();
+        if !(len.is_finite() && len > 0.0 && offset.is_finite()) {
+            return None;
+        }
+        let z = normal / len;
+        let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
+        let least = axes
+            .iter()
+            .min_by(|a, b| a.dot(&z).abs().total_cmp(&b.dot(&z).abs()))
+            .expect("three axes");
+        let x = (least - z * least.dot(&z)).normalize();
+        let y = z.cross(&x);
+        Some(Plane {
+            name: name.into(),
+            reference: Matrix3::from_columns(&[x, y, z]),
+            tilt_x: 0.0,
+            tilt_y: 0.0,
+            offset,
+        })
+    }
+
+    /// The reference frame's axes `[x_ref, y_ref, z_ref]` as columns (global frame).
+    pub fn reference(&self) -> &Matrix3<f64> {
+        &self.reference
+    }
+
+    /// The unit normal.
+    pub fn normal(&self) -> Vector3<f64> {
+        let (sx, cx) = self.tilt_x.sin_cos();
+        let (sy, cy) = self.tilt_y.sin_cos();
+        self.reference * Vector3::new(sy, -sx * cy, cx * cy)
+    }
+
+    /// Derivatives of the normal with respect to `tilt_x` and `tilt_y`.
+    pub fn normal_derivatives(&self) -> [Vector3<f64>; 2] {
+        let (sx, cx) = self.tilt_x.sin_cos();
+        let (sy, cy) = self.tilt_y.sin_cos();
+        [
+            self.reference * Vector3::new(0.0, -cx * cy, -sx * cy),
+            self.reference * Vector3::new(cy, sx * sy, -cx * sy),
+        ]
+    }
+
+    /// Sets the tilts so that the normal is `n` (any non-zero length), keeping the reference
+    /// frame; `false` (nothing changed) if `n` is zero or faces away from the reference normal
+    /// by 90 deg or more.
+    pub fn set_normal(&mut self, n: &Vector3<f64>) -> bool {
+        let len = n.norm();
+        if !(len.is_finite() && len > 0.0) {
+            return false;
+        }
+        let l = self.reference.transpose() * (n / len);
+        if l.z <= 0.0 {
+            return false;
+        }
+        self.tilt_y = l.x.clamp(-1.0, 1.0).asin();
+        self.tilt_x = (-l.y).atan2(l.z);
+        true
+    }
+
+    /// The signed distance of point `p` (m) from the plane, positive on the normal's side.
+    pub fn distance(&self, p: &Vector3<f64>) -> f64 {
+        self.normal().dot(p) - self.offset
+    }
+
+    fn get(&self, c: PlaneComponent) -> f64 {
+        match c {
+            PlaneComponent::TiltX => self.tilt_x,
+            PlaneComponent::TiltY => self.tilt_y,
+            PlaneComponent::Offset => self.offset,
+        }
+    }
+
+    fn get_mut(&mut self, c: PlaneComponent) -> &mut f64 {
+        match c {
+            PlaneComponent::TiltX => &mut self.tilt_x,
+            PlaneComponent::TiltY => &mut self.tilt_y,
+            PlaneComponent::Offset => &mut self.offset,
+        }
     }
 }
 
@@ -136,6 +280,8 @@ pub struct Robot {
     pub joints: Vec<Joint>,
     /// Extra measurement sites.
     pub sites: Vec<Site>,
+    /// Planes touched in contact measurements.
+    pub planes: Vec<Plane>,
     /// Expected deviations from nominal, the metric of minimum-change solutions.
     pub tolerances: Tolerances,
 }
@@ -182,6 +328,9 @@ impl Robot {
         }
         let t = match (self.param_kind(id), self.param_quantity(id)) {
             (ParamKind::Slope { .. }, _) => self.tolerances.slope_fraction * self.get(id).abs(),
+            (ParamKind::Coupling { .. }, _) => {
+                self.tolerances.slope_fraction * self.get(id).abs().max(1.0)
+            }
             (_, Quantity::Length) => self.tolerances.length,
             _ => self.tolerances.angle,
         };
@@ -197,9 +346,19 @@ impl Robot {
         self.joints.len()
     }
 
-    /// Number of parameters: `6(n+1) + 2n + 6 * sites`.
+    /// The joints that are coupled to another joint's reading (0-based, ascending).
+    pub fn coupled_joints(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.joints.len()).filter(|&j| self.joints[j].coupling.is_some())
+    }
+
+    /// Number of parameters: `6(n+1) + 2n + 6 * sites + couplings + 3 * planes`. Robots without
+    /// couplings and planes have the thesis's numbering and count.
     pub fn param_count(&self) -> usize {
-        6 * self.links.len() + 2 * self.joints.len() + 6 * self.sites.len()
+        6 * self.links.len()
+            + 2 * self.joints.len()
+            + 6 * self.sites.len()
+            + self.coupled_joints().count()
+            + 3 * self.planes.len()
     }
 
     /// All parameter ids, in the thesis's order.
@@ -210,11 +369,80 @@ impl Robot {
     /// What parameter `id` is. Panics if `id` is out of range.
     #[track_caller]
     pub fn param_kind(&self, id: ParamId) -> ParamKind {
-        ParamKind::of(id, self.links.len(), self.joints.len(), self.sites.len())
-            .expect("parameter id out of range")
+        self.try_param_kind(id).expect("parameter id out of range")
     }
 
-    /// The parameter's name: `link1.x`, `joint3.offset`, `joint4.slope`, `site.NAME.gamma`.
+    /// What parameter `id` is, `None` when out of range. Order: the 6 of each link, the n
+    /// offsets, the n slopes, the 6 of each site, one coupling factor per coupled joint (in
+    /// joint order), the 3 of each plane.
+    pub fn try_param_kind(&self, id: ParamId) -> Option<ParamKind> {
+        let (nl, nj, ns) = (self.links.len(), self.joints.len(), self.sites.len());
+        let mut i = id.0;
+        if i < 6 * nl {
+            return Some(ParamKind::Link {
+                link: i / 6,
+                component: LinkComponent::ALL[i % 6],
+            });
+        }
+        i -= 6 * nl;
+        if i < nj {
+            return Some(ParamKind::Offset { joint: i });
+        }
+        i -= nj;
+        if i < nj {
+            return Some(ParamKind::Slope { joint: i });
+        }
+        i -= nj;
+        if i < 6 * ns {
+            return Some(ParamKind::Site {
+                site: i / 6,
+                component: LinkComponent::ALL[i % 6],
+            });
+        }
+        i -= 6 * ns;
+        let nc = self.coupled_joints().count();
+        if i < nc {
+            let joint = self.coupled_joints().nth(i).expect("counted");
+            return Some(ParamKind::Coupling { joint });
+        }
+        i -= nc;
+        if i < 3 * self.planes.len() {
+            return Some(ParamKind::Plane {
+                plane: i / 3,
+                component: PlaneComponent::ALL[i % 3],
+            });
+        }
+        None
+    }
+
+    /// The id of a parameter of this robot. Panics if it does not exist (a coupling of an
+    /// uncoupled joint, an index out of range).
+    #[track_caller]
+    pub fn param_id(&self, kind: ParamKind) -> ParamId {
+        let (nl, nj, ns) = (self.links.len(), self.joints.len(), self.sites.len());
+        let couplings = 6 * nl + 2 * nj + 6 * ns;
+        let id = match kind {
+            ParamKind::Link { link, component } => 6 * link + component as usize,
+            ParamKind::Offset { joint } => 6 * nl + joint,
+            ParamKind::Slope { joint } => 6 * nl + nj + joint,
+            ParamKind::Site { site, component } => 6 * nl + 2 * nj + 6 * site + component as usize,
+            ParamKind::Coupling { joint } => {
+                couplings
+                    + self
+                        .coupled_joints()
+                        .position(|j| j == joint)
+                        .expect("the joint is coupled")
+            }
+            ParamKind::Plane { plane, component } => {
+                couplings + self.coupled_joints().count() + 3 * plane + component as usize
+            }
+        };
+        assert!(id < self.param_count(), "parameter out of range");
+        ParamId(id)
+    }
+
+    /// The parameter's name: `link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`,
+    /// `site.NAME.gamma`, `plane.NAME.offset`.
     pub fn param_name(&self, id: ParamId) -> String {
         match self.param_kind(id) {
             ParamKind::Link { link, component } => {
@@ -222,8 +450,12 @@ impl Robot {
             }
             ParamKind::Offset { joint } => format!("joint{}.offset", joint + 1),
             ParamKind::Slope { joint } => format!("joint{}.slope", joint + 1),
+            ParamKind::Coupling { joint } => format!("joint{}.coupling", joint + 1),
             ParamKind::Site { site, component } => {
                 format!("site.{}.{}", self.sites[site].name, component.as_str())
+            }
+            ParamKind::Plane { plane, component } => {
+                format!("plane.{}.{}", self.planes[plane].name, component.as_str())
             }
         }
     }
@@ -235,7 +467,10 @@ impl Robot {
                 component.quantity()
             }
             ParamKind::Offset { joint } => self.joints[joint].kind.variable(),
-            ParamKind::Slope { joint } => self.joints[joint].kind.slope(),
+            ParamKind::Slope { joint } | ParamKind::Coupling { joint } => {
+                self.joints[joint].kind.slope()
+            }
+            ParamKind::Plane { component, .. } => component.quantity(),
         }
     }
 
@@ -245,7 +480,9 @@ impl Robot {
             ParamKind::Link { link, component } => self.links[link].get(component),
             ParamKind::Offset { joint } => self.joints[joint].offset,
             ParamKind::Slope { joint } => self.joints[joint].slope,
+            ParamKind::Coupling { joint } => self.joints[joint].coupling.map_or(0.0, |c| c.factor),
             ParamKind::Site { site, component } => self.sites[site].frame.get(component),
+            ParamKind::Plane { plane, component } => self.planes[plane].get(component),
         }
     }
 
@@ -255,9 +492,15 @@ impl Robot {
             ParamKind::Link { link, component } => *self.links[link].get_mut(component) = value,
             ParamKind::Offset { joint } => self.joints[joint].offset = value,
             ParamKind::Slope { joint } => self.joints[joint].slope = value,
+            ParamKind::Coupling { joint } => {
+                if let Some(c) = self.joints[joint].coupling.as_mut() {
+                    c.factor = value;
+                }
+            }
             ParamKind::Site { site, component } => {
                 *self.sites[site].frame.get_mut(component) = value
             }
+            ParamKind::Plane { plane, component } => *self.planes[plane].get_mut(component) = value,
         }
     }
 
@@ -276,6 +519,31 @@ impl Robot {
         self.sites.iter().position(|s| s.name == name)
     }
 
+    /// Index of the plane called `name`.
+    pub fn plane_index(&self, name: &str) -> Option<usize> {
+        self.planes.iter().position(|p| p.name == name)
+    }
+
+    /// Whether `other` has the same structure (joint kinds and couplings, links, site and plane
+    /// names), so that its parameters can be copied into this robot one by one.
+    pub fn same_structure(&self, other: &Robot) -> bool {
+        self.links.len() == other.links.len()
+            && self.joints.len() == other.joints.len()
+            && self.joints.iter().zip(&other.joints).all(|(a, b)| {
+                a.kind == b.kind && a.coupling.map(|c| c.joint) == b.coupling.map(|c| c.joint)
+            })
+            && self
+                .sites
+                .iter()
+                .map(|s| (&s.name, s.joint))
+                .eq(other.sites.iter().map(|s| (&s.name, s.joint)))
+            && self
+                .planes
+                .iter()
+                .map(|p| &p.name)
+                .eq(other.planes.iter().map(|p| &p.name))
+    }
+
     /// A characteristic length of the robot (m): the sum of its link offsets' lengths, at least
     /// 1 mm. Used where a lever arm converts angles to lengths.
     pub fn reach(&self) -> f64 {
@@ -287,7 +555,8 @@ impl Robot {
         sum.max(1e-3)
     }
 
-    /// Checks the model's structural invariants (n+1 links, finite values, valid sites).
+    /// Checks the model's structural invariants (n+1 links, finite values, valid sites,
+    /// couplings and planes).
     pub fn validate(&self) -> Result<(), String> {
         if self.joints.is_empty() {
             return Err("a robot needs at least one joint".into());
@@ -311,14 +580,36 @@ impl Robot {
                     self.joints.len()
                 ));
             }
-            if s.name == "ee"
-                || s.name.is_empty()
+            if s.name.trim().is_empty()
+                || s.name == "ee"
                 || self.sites[..i].iter().any(|o| o.name == s.name)
             {
                 return Err(format!(
                     "site {}: name `{}` is empty, reserved (`ee`) or used twice",
                     i + 1,
                     s.name
+                ));
+            }
+        }
+        for (i, j) in self.joints.iter().enumerate() {
+            if let Some(c) = j.coupling {
+                if c.joint >= self.joints.len() || c.joint == i {
+                    return Err(format!(
+                        "joint {}: coupled to joint {} but the robot has joints 1..{} (and a joint \
+                         cannot be coupled to itself)",
+                        i + 1,
+                        c.joint + 1,
+                        self.joints.len()
+                    ));
+                }
+            }
+        }
+        for (i, p) in self.planes.iter().enumerate() {
+            if p.name.trim().is_empty() || self.planes[..i].iter().any(|o| o.name == p.name) {
+                return Err(format!(
+                    "plane {}: name `{}` is empty or used twice",
+                    i + 1,
+                    p.name
                 ));
             }
         }

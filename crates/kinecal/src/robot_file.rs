@@ -13,10 +13,15 @@
 //! slope = 7.2             # per transducer unit; default 1
 //! min = -14.0             # optional reading range (both or neither)
 //! max = -6.0
+//! coupling = { joint = 2, factor = 1.0 }   # optional: q += factor * V2 (angle_unit per unit)
 //! [[sites]]               # optional
 //! name = "elbow"
 //! joint = 2               # attached right after joint 2
 //! x = 0.0                 # y, z, alpha, beta, gamma as for links
+//! [[planes]]              # optional: planes touched in contact measurements
+//! name = "table"
+//! normal = [0, 0, 1]      # any length; the global frame
+//! offset = 0.25           # length_unit: signed distance of the plane from the origin along normal
 //! ```
 //!
 //! Writing goes through [`write_robot_toml`], which updates the numbers of an existing document
@@ -28,7 +33,7 @@ use toml_edit::{DocumentMut, Item, Table, Value};
 
 use crate::error::{Error, Location, Result};
 use crate::params::LinkComponent;
-use crate::robot::{Joint, JointKind, Link, Robot, Site};
+use crate::robot::{Coupling, Joint, JointKind, Link, Plane, Robot, Site};
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 pub(crate) fn line_of(text: &str, span: Option<Range<usize>>) -> Option<usize> {
@@ -205,7 +210,11 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     let mut joints = Vec::new();
     for (i, t) in r.tables(root, "joints")?.into_iter().enumerate() {
         let what = format!("joints[{i}]");
-        r.check_keys(t, &["kind", "offset", "slope", "min", "max"], &what)?;
+        r.check_keys(
+            t,
+            &["kind", "offset", "slope", "min", "max", "coupling"],
+            &what,
+        )?;
         let kind_field = format!("{what}.kind");
         let kind = match r.string(t, "kind", &kind_field)? {
             Some("revolute") => JointKind::Revolute,
@@ -249,10 +258,56 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 return Err(r.err(t.span(), &what, "give both `min` and `max`, or neither"));
             }
         };
+        let coupling = match t.get("coupling") {
+            None => None,
+            Some(item) => {
+                let field = format!("{what}.coupling");
+                let bad = || {
+                    r.err(
+                        item.span().or(t.span()),
+                        &field,
+                        "expected `coupling = { joint = K, factor = F }` (K the number of the other \
+                         joint, F the joint units added per unit of its reading; default 1)",
+                    )
+                };
+                let ct = item.as_table_like().ok_or_else(bad)?;
+                for (key, _) in ct.iter() {
+                    if key != "joint" && key != "factor" {
+                        return Err(r.err(
+                            item.span().or(t.span()),
+                            &format!("{field}.{key}"),
+                            format!("unknown key `{key}` (expected joint, factor)"),
+                        ));
+                    }
+                }
+                let joint = match ct.get("joint").and_then(Item::as_integer) {
+                    Some(k) if k >= 1 => k as usize - 1,
+                    _ => return Err(bad()),
+                };
+                let factor = match ct.get("factor") {
+                    None => 1.0,
+                    Some(f) => match f.as_float().or_else(|| f.as_integer().map(|i| i as f64)) {
+                        Some(v) if v.is_finite() => v,
+                        _ => {
+                            return Err(r.err(
+                                f.span().or(item.span()),
+                                &format!("{field}.factor"),
+                                "expected a finite number",
+                            ))
+                        }
+                    },
+                };
+                Some(Coupling {
+                    joint,
+                    factor: units.to_si(kind.slope(), factor),
+                })
+            }
+        };
         joints.push(Joint {
             kind,
             offset: units.to_si(kind.variable(), offset),
             slope: units.to_si(kind.slope(), slope),
+            coupling,
             range,
         });
     }
@@ -280,12 +335,48 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         sites.push(Site { name, joint, frame });
     }
 
+    let mut planes = Vec::new();
+    for (i, t) in r.tables(root, "planes")?.into_iter().enumerate() {
+        let what = format!("planes[{i}]");
+        r.check_keys(t, &["name", "normal", "offset"], &what)?;
+        let name_field = format!("{what}.name");
+        let name = r
+            .string(t, "name", &name_field)?
+            .ok_or_else(|| r.err(t.span(), &name_field, "missing `name`"))?
+            .to_string();
+        let normal_field = format!("{what}.normal");
+        let normal = r.vec3(t, "normal", &normal_field)?.ok_or_else(|| {
+            r.err(
+                t.span(),
+                &normal_field,
+                "missing `normal = [nx, ny, nz]` (the plane's normal in the global frame)",
+            )
+        })?;
+        let offset = r
+            .number(t, "offset", &format!("{what}.offset"))?
+            .unwrap_or(0.0);
+        let plane = Plane::new(
+            name,
+            nalgebra::Vector3::from(normal),
+            units.to_si(Quantity::Length, offset),
+        )
+        .ok_or_else(|| {
+            r.err(
+                t.get("normal").and_then(Item::span),
+                &normal_field,
+                "the normal must not be zero",
+            )
+        })?;
+        planes.push(plane);
+    }
+
     let mut robot = Robot {
         name,
         units,
         links,
         joints,
         sites,
+        planes,
         tolerances: Default::default(),
     };
     robot
@@ -402,6 +493,34 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
             set_number(t, "min", a);
             set_number(t, "max", b);
         }
+        match j.coupling {
+            Some(c) => {
+                let factor = tidy(units.from_si(j.kind.slope(), c.factor));
+                match t.get_mut("coupling").and_then(Item::as_table_like_mut) {
+                    Some(ct) => {
+                        let mut joint = Value::from(c.joint as i64 + 1);
+                        if let Some(old) = ct.get("joint").and_then(Item::as_value) {
+                            *joint.decor_mut() = old.decor().clone();
+                        }
+                        ct.insert("joint", Item::Value(joint));
+                        let mut f = Value::from(factor);
+                        if let Some(old) = ct.get("factor").and_then(Item::as_value) {
+                            *f.decor_mut() = old.decor().clone();
+                        }
+                        ct.insert("factor", Item::Value(f));
+                    }
+                    None => {
+                        let mut it = toml_edit::InlineTable::new();
+                        it.insert("joint", Value::from(c.joint as i64 + 1));
+                        it.insert("factor", Value::from(factor));
+                        t.insert("coupling", Item::Value(Value::InlineTable(it)));
+                    }
+                }
+            }
+            None => {
+                t.remove("coupling");
+            }
+        }
     }
     if !robot.sites.is_empty() || root.contains_key("sites") {
         let sites = array_of_tables(root, "sites", robot.sites.len());
@@ -413,6 +532,23 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
             }
             t.insert("joint", Item::Value(joint));
             write_link(t, &s.frame, &units);
+        }
+    }
+    if !robot.planes.is_empty() || root.contains_key("planes") {
+        let planes = array_of_tables(root, "planes", robot.planes.len());
+        for (t, p) in planes.iter_mut().zip(&robot.planes) {
+            set_string(t, "name", &p.name);
+            let n = p.normal();
+            let mut arr = toml_edit::Array::new();
+            for k in 0..3 {
+                arr.push(tidy(n[k]));
+            }
+            let mut v = Value::Array(arr);
+            if let Some(old) = t.get("normal").and_then(Item::as_value) {
+                *v.decor_mut() = old.decor().clone();
+            }
+            t.insert("normal", Item::Value(v));
+            set_number(t, "offset", units.from_si(Quantity::Length, p.offset));
         }
     }
     doc.to_string()

@@ -64,7 +64,8 @@ pub struct PerturbStd {
     pub slope_fraction: f64,
 }
 
-/// Adds independent Gaussian perturbations to every parameter of `robot`.
+/// Adds independent Gaussian perturbations to every parameter of `robot` (coupling factors like
+/// slopes, by a fraction of their magnitude or of 1, whichever is larger).
 pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
     let mut r = rng(seed, 2);
     let mut out = robot.clone();
@@ -73,6 +74,7 @@ pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
         let v = robot.get(id);
         let s = match (robot.param_kind(id), robot.param_quantity(id)) {
             (ParamKind::Slope { .. }, _) => std.slope_fraction * v.abs(),
+            (ParamKind::Coupling { .. }, _) => std.slope_fraction * v.abs().max(1.0),
             (_, Quantity::Length) => std.length,
             (_, _) => std.angle,
         };
@@ -156,6 +158,7 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
                     JointKind::Prismatic => r.random_range(-0.2..0.2),
                 },
                 slope: sign * r.random_range(0.5..2.0),
+                coupling: None,
                 range: None,
             }
         })
@@ -166,6 +169,7 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
         links,
         joints,
         sites: Vec::new(),
+        planes: Vec::new(),
         tolerances: Default::default(),
     }
 }

@@ -1,5 +1,6 @@
 //! The analytic Jacobian against central differences, on random robots of 1 to 7 joints of
-//! random kinds, with sites, slopes, full poses and positions, and both orientation residuals.
+//! random kinds, with sites, slopes, coupled joints, full poses and positions, and both
+//! orientation residuals.
 
 use kinecal::estimation::{OrientationError, Problem, Weights};
 use kinecal::kinematics::{euler_zyx, forward_pose, rot_zyx, Target};
@@ -32,6 +33,14 @@ fn robot_with_sites(dof: usize, seed: u64) -> Robot {
                 beta: -0.4,
                 gamma: 1.0,
             },
+        });
+    }
+    // Most robots of two joints or more get a coupled joint (like the FANUC J2/J3 coupling).
+    if dof >= 2 && seed % 3 != 0 {
+        let last = dof - 1;
+        robot.joints[last].coupling = Some(kinecal::robot::Coupling {
+            joint: seed as usize % last,
+            factor: 0.6,
         });
     }
     robot

@@ -84,10 +84,12 @@ pub fn chain_from_frames(
                 kind: j.kind,
                 offset: j.offset,
                 slope: units.factor(j.kind.slope()),
+                coupling: None,
                 range: j.range,
             })
             .collect(),
         sites: Vec::new(),
+        planes: Vec::new(),
         tolerances: Tolerances::default(),
     }
 }

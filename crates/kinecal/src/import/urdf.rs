@@ -257,6 +257,33 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin
     for (i, (link, joint)) in robot.links.iter().zip(&robot.joints).enumerate() {
         c = c.then(&Frame::from_link(link));
         let unit_slope = 1.0; // URDF joint values are in rad / m
+        if let Some(c) = joint.coupling {
+            // A URDF joint value is one number per joint. The coupled convention (controller J3
+            // measured from the horizontal, URDF joint 3 = J2 + J3) is exact when the coupling
+            // scales the other reading like the joint's own slope: the URDF joint's value is then
+            // slope * (V_j + V_k), which drivers publish. Anything else cannot be written.
+            if (c.factor - joint.slope).abs() > 1e-9 * joint.slope.abs().max(1e-300) {
+                return Err(Error::Problem(format!(
+                    "joint {} (`{}`) is coupled to joint {} with factor {} rad or m per unit but \
+                     its own slope is {}: a URDF joint value is one number per joint, so only the \
+                     coupled convention (factor equal to the slope: the URDF joint is the sum of \
+                     the two readings, as controller drivers publish it) can be written; calibrate \
+                     with the coupling factor fixed",
+                    i + 1,
+                    chain.movable[i],
+                    c.joint + 1,
+                    c.factor,
+                    joint.slope
+                )));
+            }
+            warnings.push(format!(
+                "joint {} (`{}`) is coupled to joint {}: the URDF joint's value is the sum of the two \
+                 readings (as controller drivers for coupled arms publish it)",
+                i + 1,
+                chain.movable[i],
+                c.joint + 1
+            ));
+        }
         if (joint.slope - unit_slope).abs() > 1e-12 {
             warnings.push(format!(
                 "joint {} (`{}`) has slope {} rad or m per unit: a URDF cannot scale joint values, so the controller must",
