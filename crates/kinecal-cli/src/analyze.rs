@@ -4,24 +4,33 @@ use std::fmt::Write as _;
 
 use anyhow::{bail, Result};
 use kinecal::identifiability::{analyze, fmt_sig, format_combination, Analysis, AnalysisOptions};
-use kinecal::measurement_file::parse_postures;
+use kinecal::observe::point::parse_postures;
+use kinecal::workflow::{resolve, Selection};
 use kinecal::{parse_param_list, simulate, Robot};
 use serde_json::json;
 
 use crate::args::{AnalyzeArgs, MatrixArg, UnitsArg};
-use crate::{estimate_list, load_robot, read_text, residual_settings};
+use crate::{load_observations, load_robot, residual_settings, word};
 
 /// Runs `kinecal analyze`.
 pub fn run(a: AnalyzeArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
-    let data = match (&a.data, &a.postures) {
-        (Some(path), _) => crate::read_measurements(path, a.columns.as_deref(), robot)?,
-        (None, Some(path)) => {
-            let postures = parse_postures(&read_text(path)?, &path.display().to_string(), robot)?;
+    let data = match &a.postures {
+        Some(path) => {
+            if !a.observations.files.is_empty() {
+                bail!("give observation files or --postures, not both");
+            }
+            let s = kinecal::source::Source::read(path)?;
+            let postures = parse_postures(&s.text, &s.name, robot)?;
             simulate::measure(robot, &postures, a.position_only)
         }
-        (None, None) => bail!("give --data or --postures"),
+        None => {
+            if a.position_only {
+                bail!("--position-only goes with --postures");
+            }
+            load_observations(&a.observations, robot)?.0
+        }
     };
     let (weights, orientation) = residual_settings(&a.residuals, robot)?;
     if !(a.rcond > 0.0 && a.rcond < 1.0) {
@@ -37,7 +46,8 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         orientation,
         priority,
     };
-    let params = estimate_list(&a.estimate, a.fix.as_deref(), robot, &data, &opts)?;
+    let selection = Selection::parse(&a.estimate, a.fix.as_deref(), robot)?;
+    let params = resolve(&selection, robot, &data, &opts)?;
     let an = analyze(robot, &data, &params, &opts)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&to_json(&an, robot))?);
@@ -98,7 +108,8 @@ fn to_json(an: &Analysis, robot: &Robot) -> serde_json::Value {
         "identifiable": ids(&an.identifiable),
         "undetermined": an.parameters.iter().zip(&an.determined).filter(|(_, d)| !**d).map(|(id, _)| id.to_string()).collect::<Vec<_>>(),
         "euler_singular": an.euler_singular,
-        "warnings": an.warnings,
+        "warnings": an.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
+        "warning_details": an.warnings,
     })
 }
 
@@ -120,20 +131,23 @@ fn names(robot: &Robot, list: &[kinecal::ParamId]) -> String {
 fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
     let mut s = String::new();
     let n = an.parameters.len();
-    let full = data
-        .measurements
+    let kinds: Vec<String> = data
+        .kinds()
         .iter()
-        .filter(|m| m.orientation.is_some())
-        .count();
+        .map(|(k, c)| format!("{c} {k}{}", if *c == 1 { "" } else { "s" }))
+        .collect();
     let _ = writeln!(
         s,
-        "{}: {} parameters over {} postures, {} measurements ({} full poses, {} positions), {} residuals",
-        if robot.name.is_empty() { "robot" } else { &robot.name },
+        "{}: {} parameters over {} postures, {} observations ({}), {} residuals",
+        if robot.name.is_empty() {
+            "robot"
+        } else {
+            &robot.name
+        },
         n,
         data.postures.len(),
-        data.measurements.len(),
-        full,
-        data.measurements.len() - full,
+        data.observations.len(),
+        kinds.join(", "),
         an.residuals
     );
     let _ = writeln!(s);
@@ -297,7 +311,7 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
         );
     }
     for w in &an.warnings {
-        let _ = writeln!(s, "warning: {w}");
+        let _ = writeln!(s, "warning: {}", word(w));
     }
     s
 }

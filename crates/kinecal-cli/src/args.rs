@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand, ValueEnum};
 
 /// Robot kinematic calibration (Goswami 1988 model: 6 parameters per link, 2 per joint).
 #[derive(Debug, Parser)]
@@ -263,9 +263,8 @@ pub struct CurvesObjectiveArgs {
     /// Robot file or built-in name.
     #[arg(long)]
     pub robot: String,
-    /// Measurement file.
-    #[arg(long)]
-    pub data: PathBuf,
+    #[command(flatten)]
+    pub observations: ObservationFiles,
     #[command(flatten)]
     pub residuals: ResidualArgs,
     #[command(flatten)]
@@ -278,9 +277,8 @@ pub struct ReportArgs {
     /// The nominal robot (before calibration).
     #[arg(long)]
     pub robot: String,
-    /// The measurement file calibrated on.
-    #[arg(long)]
-    pub data: PathBuf,
+    #[command(flatten)]
+    pub observations: ObservationFiles,
     /// The calibrated robot file.
     #[arg(
         long,
@@ -304,9 +302,8 @@ pub struct CheckArgs {
     /// The calibrated robot file.
     #[arg(long)]
     pub robot: String,
-    /// Measured check postures (measurement file).
-    #[arg(long)]
-    pub data: PathBuf,
+    #[command(flatten)]
+    pub observations: ObservationFiles,
     /// LENGTH[,ANGLE]: largest acceptable errors, in the robot file's units.
     #[arg(long)]
     pub threshold: String,
@@ -586,17 +583,10 @@ pub struct AnalyzeArgs {
     /// Robot file (TOML) or built-in robot name: the model, analysed at its parameter values.
     #[arg(long)]
     pub robot: String,
-    /// Measurement file: the analysis uses its postures, sites and row kinds.
-    #[arg(
-        long,
-        conflicts_with = "postures",
-        required_unless_present = "postures"
-    )]
-    pub data: Option<PathBuf>,
-    /// Read --data through a column mapping `ours=theirs,...` (see `kinecal calibrate --help`).
-    #[arg(long, value_name = "MAP", requires = "data")]
-    pub columns: Option<String>,
-    /// Postures file: full poses of the end effector and every site are assumed.
+    #[command(flatten)]
+    pub observations: ObservationFiles,
+    /// Postures file instead of observations: full poses of the end effector and every site are
+    /// assumed.
     #[arg(long)]
     pub postures: Option<PathBuf>,
     /// With --postures: assume position-only measurements.
@@ -696,9 +686,8 @@ pub struct CalibrateArgs {
     /// Nominal robot file (TOML) or built-in robot name: the model and the starting point.
     #[arg(long)]
     pub robot: String,
-    /// Measurement file: CSV `posture,site,v1,...,vn,x,y,z,alpha,beta,gamma`.
-    #[arg(long)]
-    pub data: PathBuf,
+    #[command(flatten)]
+    pub observations: ObservationFiles,
     /// Least-squares method.
     #[arg(long, value_enum, default_value = "lm")]
     pub method: MethodArg,
@@ -725,11 +714,6 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
-    /// Read --data (and --validate) through a column mapping `ours=theirs,...`, e.g.
-    /// `posture=id,v1=q1,v2=q2,v3=q3,x=X,y=Y,z=Z` (missing site: end effector; missing angles:
-    /// positions only; other columns ignored).
-    #[arg(long, value_name = "MAP")]
-    pub columns: Option<String>,
     /// Held-out measurement file: report the accuracy on it before and after.
     #[arg(long, value_name = "V.csv", conflicts_with = "holdout")]
     pub validate: Option<PathBuf>,
@@ -746,7 +730,7 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "K", default_value_t = 1.345)]
     pub huber_scale: f64,
     /// List measurements with a residual beyond K robust standard deviations (never dropped).
-    #[arg(long, value_name = "K", default_value_t = kinecal::report::DEFAULT_OUTLIER_SIGMAS)]
+    #[arg(long, value_name = "K", default_value_t = kinecal::outliers::DEFAULT_SIGMAS)]
     pub outlier_sigma: f64,
     /// Levenberg-Marquardt damping.
     #[arg(long, value_enum, default_value = "marquardt")]
@@ -778,4 +762,69 @@ pub struct CalibrateArgs {
     /// Print one line per iteration (to standard error).
     #[arg(long, short)]
     pub verbose: bool,
+}
+
+/// Observation files, one option per file format of the library (`--data`, `--distances`, ...),
+/// and the column mapping of measurement files. At least one file is needed unless the command
+/// says otherwise.
+#[derive(Debug, Clone, Default)]
+pub struct ObservationFiles {
+    /// (index into `kinecal::observe::FORMATS`, path), in the order of the formats.
+    pub files: Vec<(usize, PathBuf)>,
+    /// `--columns` mappings.
+    pub columns: Vec<String>,
+}
+
+impl FromArgMatches for ObservationFiles {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        let mut out = ObservationFiles::default();
+        out.update_from_arg_matches(m)?;
+        Ok(out)
+    }
+
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        self.files = kinecal::observe::FORMATS
+            .iter()
+            .enumerate()
+            .filter_map(|(i, f)| m.get_one::<PathBuf>(f.option).map(|p| (i, p.clone())))
+            .collect();
+        self.columns = m
+            .get_many::<String>("columns")
+            .map(|v| v.cloned().collect())
+            .unwrap_or_default();
+        Ok(())
+    }
+}
+
+impl Args for ObservationFiles {
+    fn augment_args(mut cmd: clap::Command) -> clap::Command {
+        for f in kinecal::observe::FORMATS {
+            cmd = cmd.arg(
+                Arg::new(f.option)
+                    .long(f.option)
+                    .value_name("FILE")
+                    .value_parser(clap::value_parser!(PathBuf))
+                    .action(ArgAction::Set)
+                    .help(format!("{}: CSV `{}`", f.help, f.header)),
+            );
+        }
+        cmd.arg(
+            Arg::new("columns")
+                .long("columns")
+                .value_name("MAP")
+                .action(ArgAction::Append)
+                .requires(kinecal::observe::FORMATS[0].option)
+                .help(
+                    "Read --data (and --validate) through a column mapping `ours=theirs,...`, e.g. \
+                     `v1=q1,v2=q2,x=X,y=Y,z=Z` (missing posture: rows number the postures; missing \
+                     site: end effector; missing angles: positions; other columns ignored). \
+                     Repeat with a `SITE:` prefix for markers side by side in one row: \
+                     `--columns v1=q1,... --columns smr1:x=x1,y=y1,z=z1 --columns smr2:x=x2,...`",
+                ),
+        )
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
 }

@@ -5,17 +5,14 @@ use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
 use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve, samples};
-use kinecal::estimation::{
-    accuracy, data_warnings, Calibration, CalibrationOptions, Problem, Termination,
-};
 use kinecal::kinematics::Target;
-use kinecal::measurement_file::parse_postures;
+use kinecal::observe::point::parse_postures;
 use kinecal::report::CalibrationReport;
 use kinecal::{parse_param_list, ParamId, Robot};
 use kinecal_report::{render_png, render_svg, Line, Panel};
 
 use crate::args::{CurvesCommand, CurvesObjectiveArgs, CurvesPoseArgs, ReportArgs, SweepArgs};
-use crate::{load_robot, read_measurements, read_text, residual_settings, write_file};
+use crate::{load_observations, load_robot, read_text, residual_settings, write_file};
 
 /// Runs a curves command.
 pub fn run(c: CurvesCommand) -> Result<()> {
@@ -178,7 +175,7 @@ fn pose(a: CurvesPoseArgs) -> Result<()> {
 fn objective(a: CurvesObjectiveArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
-    let data = read_measurements(&a.data, None, robot)?;
+    let (data, _) = load_observations(&a.observations, robot)?;
     let (weights, orientation) = residual_settings(&a.residuals, robot)?;
     let ids = parse_param_list(&a.sweep.param, robot)?;
     let mut panels = Vec::new();
@@ -252,59 +249,11 @@ fn slope_joint(robot: &Robot, id: ParamId) -> usize {
     }
 }
 
-/// A [`Calibration`] rebuilt from a nominal and a calibrated robot (for reports from files):
-/// the estimated parameters are those that differ.
-pub fn calibration_from_files(
-    nominal: &Robot,
-    calibrated: &Robot,
-    data: &kinecal::Dataset,
-    weights: kinecal::estimation::Weights,
-    orientation: kinecal::estimation::OrientationError,
-) -> Result<Calibration> {
-    let mut estimated: Vec<ParamId> = nominal
-        .param_ids()
-        .filter(|&id| (nominal.get(id) - calibrated.get(id)).abs() > 0.0)
-        .collect();
-    if estimated.is_empty() {
-        estimated = nominal.param_ids().collect();
-    }
-    let mut options = CalibrationOptions::new(estimated.clone());
-    options.weights = weights;
-    options.orientation = orientation;
-    let problem = Problem::new(nominal, data, &estimated, weights, orientation);
-    let mut r = vec![0.0; problem.rows()];
-    Ok(Calibration {
-        objective_before: problem.evaluate(nominal, &mut r, None),
-        objective_after: problem.evaluate(calibrated, &mut r, None),
-        accuracy_before: accuracy(nominal, data),
-        accuracy_after: accuracy(calibrated, data),
-        initial: nominal.clone(),
-        calibrated: calibrated.clone(),
-        estimated,
-        options,
-        termination: Termination::NoFurtherReduction,
-        iterations: 0,
-        warnings: data_warnings(data, orientation),
-        log: Vec::new(),
-    })
-}
-
-/// The HTML report of `cal` (with its uncertainty when it can be computed).
-pub fn html_of(
-    cal: &Calibration,
-    data: &kinecal::Dataset,
-    rep: &CalibrationReport,
-    nominal: &Robot,
-) -> Result<String> {
-    let u = kinecal::uncertainty::uncertainty_at(cal, data, nominal).ok();
-    Ok(kinecal_report::html_report(cal, data, rep, u.as_ref())?)
-}
-
 /// `kinecal report`.
 pub fn report(a: ReportArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
     let nominal = &r.robot;
-    let data = read_measurements(&a.data, None, nominal)?;
+    let (data, sources) = load_observations(&a.observations, nominal)?;
     let (weights, orientation) = residual_settings(&a.residuals, nominal)?;
     let calibrated = match (&a.calibrated, &a.calibration) {
         (Some(spec), _) => load_robot(spec)?.robot,
@@ -331,15 +280,10 @@ pub fn report(a: ReportArgs) -> Result<()> {
         }
         _ => bail!("give --calibrated or --calibration"),
     };
-    if calibrated.param_count() != nominal.param_count() || calibrated.dof() != nominal.dof() {
-        bail!("the calibrated robot does not have the structure of --robot");
-    }
-    let cal = calibration_from_files(nominal, &calibrated, &data, weights, orientation)?;
-    let mut rep = CalibrationReport::new(&cal, &data);
-    if let Ok(u) = kinecal::uncertainty::uncertainty_at(&cal, &data, nominal) {
-        rep.add_uncertainty(&cal, &u);
-    }
-    write_file(&a.out, &html_of(&cal, &data, &rep, nominal)?)?;
+    let sources: Vec<_> = std::iter::once(r.source.clone()).chain(sources).collect();
+    let outcome =
+        kinecal::workflow::assess(nominal, &calibrated, &data, weights, orientation, &sources)?;
+    write_file(&a.out, &kinecal_report::html_report(&outcome)?)?;
     eprintln!("wrote {}", a.out.display());
     Ok(())
 }

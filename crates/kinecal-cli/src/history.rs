@@ -13,7 +13,8 @@ use crate::args::{
     CheckArgs, DbArg, FormatArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs,
     HistoryExportArgs, HistoryListArgs, HistoryPlotArgs, HistoryShowArgs,
 };
-use crate::{load_robot, read_measurements, read_text, write_file};
+use crate::{load_observations, load_robot, read_text, write_file};
+use kinecal::units::Quantity;
 use kinecal_report::{Line, Panel};
 
 /// Exit code when drift or a check finds something: usable from cron and monitoring.
@@ -411,56 +412,68 @@ fn plot(a: HistoryPlotArgs) -> Result<u8> {
 /// `kinecal check`.
 pub fn check(a: CheckArgs) -> Result<u8> {
     let r = load_robot(&a.robot)?;
-    let data = read_measurements(&a.data, None, &r.robot)?;
-    let mut parts = a.threshold.split(',');
-    let num = |s: Option<&str>, what: &str| -> Result<Option<f64>> {
-        s.map(|v| {
-            v.trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|x| *x > 0.0 && x.is_finite())
-                .ok_or_else(|| {
-                    anyhow!(
-                        "--threshold: {what} `{}` is not a positive number",
-                        v.trim()
-                    )
-                })
-        })
-        .transpose()
-    };
-    let lmax =
-        num(parts.next(), "length")?.ok_or_else(|| anyhow!("--threshold: give LENGTH[,ANGLE]"))?;
-    let amax = num(parts.next(), "angle")?;
-    let acc = kinecal::estimation::accuracy(&r.robot, &data);
+    let (data, _) = load_observations(&a.observations, &r.robot)?;
     let u = r.robot.units;
-    let len = |v: f64| u.from_si(kinecal::units::Quantity::Length, v);
-    let ang = |v: f64| u.from_si(kinecal::units::Quantity::Angle, v);
-    let has_orientation = data.measurements.iter().any(|m| m.orientation.is_some());
-    let pos_ok = len(acc.max_position) <= lmax;
-    let ang_ok = match (amax, has_orientation) {
-        (Some(t), true) => ang(acc.max_orientation) <= t,
-        _ => true,
+    let parts: Vec<&str> = a.threshold.split(',').map(str::trim).collect();
+    if parts.is_empty() || parts.len() > 2 {
+        bail!(
+            "--threshold `{}`: give LENGTH or LENGTH,ANGLE (in the robot file's units)",
+            a.threshold
+        );
+    }
+    let num = |v: &str, what: &str| -> Result<f64> {
+        v.parse::<f64>()
+            .ok()
+            .filter(|x| *x > 0.0 && x.is_finite())
+            .ok_or_else(|| anyhow!("--threshold: {what} `{v}` is not a positive number"))
     };
-    let ok = pos_ok && ang_ok;
+    let thresholds = kinecal::workflow::Thresholds {
+        length: u.to_si(Quantity::Length, num(parts[0], "length")?),
+        angle: parts
+            .get(1)
+            .map(|v| num(v, "angle").map(|t| u.to_si(Quantity::Angle, t)))
+            .transpose()?,
+    };
+    let verdict = kinecal::workflow::check(&r.robot, &data, thresholds)?;
+    let acc = &verdict.accuracy;
+    let len = |v: f64| u.from_si(Quantity::Length, v);
+    let ang = |v: f64| u.from_si(Quantity::Angle, v);
+    let has_orientation = acc.orientations > 0;
+    let (lmax, amax) = (len(thresholds.length), thresholds.angle.map(ang));
     if a.json {
         let v = serde_json::json!({
-            "ok": ok,
-            "measurements": data.measurements.len(),
+            "ok": verdict.ok,
+            "measurements": data.observations.len(),
             "max_position_error": len(acc.max_position),
             "rms_position_error": len(acc.rms_position),
             "max_orientation_error": has_orientation.then(|| ang(acc.max_orientation)),
+            "other": acc.other.iter().map(|m| serde_json::json!({
+                "metric": m.metric, "max": len(m.max), "rms": len(m.rms)
+            })).collect::<Vec<_>>(),
             "threshold_length": lmax,
             "threshold_angle": amax,
         });
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!(
-            "{} check measurements: max position error {:.6} {} (threshold {lmax}), RMS {:.6}",
-            data.measurements.len(),
-            len(acc.max_position),
-            u.length,
-            len(acc.rms_position)
-        );
+        if acc.positions > 0 {
+            println!(
+                "{} check measurements: max position error {:.6} {} (threshold {lmax}), RMS {:.6}",
+                acc.positions,
+                len(acc.max_position),
+                u.length,
+                len(acc.rms_position)
+            );
+        }
+        for m in &acc.other {
+            println!(
+                "{} check {}s: max error {:.6} {} (threshold {lmax}), RMS {:.6}",
+                m.count,
+                m.metric,
+                len(m.max),
+                u.length,
+                len(m.rms)
+            );
+        }
         if has_orientation {
             println!(
                 "max attitude error {:.6} {}{}",
@@ -471,12 +484,12 @@ pub fn check(a: CheckArgs) -> Result<u8> {
         }
         println!(
             "{}",
-            if ok {
+            if verdict.ok {
                 "OK: the robot meets its accuracy"
             } else {
                 "RECALIBRATE: the robot no longer meets its accuracy"
             }
         );
     }
-    Ok(if ok { 0 } else { EXIT_FLAGGED })
+    Ok(if verdict.ok { 0 } else { EXIT_FLAGGED })
 }

@@ -1,4 +1,5 @@
-//! The `kinecal` command: a thin layer over the `kinecal` library.
+//! The `kinecal` command: a thin layer over the `kinecal` library. Arguments are mapped to the
+//! library's requests, outcomes are rendered; no calibration arithmetic happens here.
 
 mod analyze;
 mod args;
@@ -10,23 +11,25 @@ mod report;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Context as _, Result};
 use clap::Parser;
 
 use args::{
     CalibrateArgs, Cli, Command, ConventionArg, DampingArg, ExportCommand, ExportUrdfArgs, FkArgs,
-    ImportCommand, LossArg, MethodArg, OrientationArg, ResidualArgs, SimulateArgs, SolutionArg,
+    ImportCommand, LossArg, MethodArg, ObservationFiles, OrientationArg, ResidualArgs,
+    SimulateArgs, SolutionArg,
 };
-use kinecal::estimation::{
-    self, CalibrationOptions, Damping, Method, OrientationError, SolutionRule, SolverOptions,
-    Weights,
+use kinecal::estimation::{Damping, Loss, Method, SolverOptions};
+use kinecal::observe::point::{
+    parse_measurements_mapped, parse_postures, write_measurements, ColumnMap,
 };
-use kinecal::identifiability::{analyze, AnalysisOptions};
-use kinecal::measurement_file::{parse_measurements, parse_postures, write_measurements};
+use kinecal::observe::{Dataset, OrientationError, Weights, FORMATS};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::simulate::{self, PerturbStd};
+use kinecal::source::Source;
 use kinecal::units::Quantity;
-use kinecal::{examples, parse_param_list, Robot};
+use kinecal::workflow::{self, Request, Selection, SolutionRule, Validation};
+use kinecal::{examples, parse_param_list, Robot, Warning};
 
 /// Exit code for errors in the input (files, parameter lists, unsolvable problems).
 const EXIT_INPUT: u8 = 1;
@@ -50,40 +53,74 @@ fn main() -> ExitCode {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
+            if let Some(hint) = e.downcast_ref::<kinecal::Error>().and_then(hint) {
+                eprintln!("hint: {hint}");
+            }
             ExitCode::from(EXIT_INPUT)
         }
     }
 }
 
-/// A robot as loaded: the model, the text it came from, and how to name it.
-struct LoadedRobot {
-    robot: Robot,
-    text: String,
+/// What the command line adds to a library error: which option to use.
+fn hint(e: &kinecal::Error) -> Option<&'static str> {
+    match e {
+        kinecal::Error::SingularNormalEquations { .. } => {
+            Some("use --method lm or --method svd, or --estimate identifiable")
+        }
+        kinecal::Error::TooFewResiduals { .. } => {
+            Some("--estimate identifiable estimates only what the data determines")
+        }
+        _ => None,
+    }
 }
 
-fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
+/// A warning as the command line words it: the library's sentence, and the option to use.
+pub fn word(w: &Warning) -> String {
+    let extra = match w {
+        Warning::GimbalLock { .. } => " (--orientation-error rotvec)",
+        Warning::NotConverged { .. } => " (raise --max-iter)",
+        Warning::Stalled { .. } => " (use --method lm)",
+        Warning::UnclearRank { .. } | Warning::SmallGap { .. } => {
+            " (kinecal analyze shows the spectrum; --rcond sets the tolerance)"
+        }
+        _ => "",
+    };
+    format!("{w}{extra}")
 }
 
-fn load_robot(spec: &str) -> Result<LoadedRobot> {
+/// A robot as loaded: the model and the file it came from.
+pub struct LoadedRobot {
+    /// The model.
+    pub robot: Robot,
+    /// The file (text and fingerprint).
+    pub source: Source,
+}
+
+/// Reads a text file, naming it in errors.
+pub fn read_text(path: &Path) -> Result<String> {
+    Ok(Source::read(path)?.text)
+}
+
+/// Loads `--robot`: a file, or a built-in robot's name.
+pub fn load_robot(spec: &str) -> Result<LoadedRobot> {
     let path = Path::new(spec);
-    let (text, name) = if path.exists() {
-        (read_text(path)?, spec.to_string())
+    let source = if path.exists() {
+        Source::read(path)?
     } else if let Some(text) = examples::builtin(spec) {
-        (text.to_string(), format!("<built-in {spec}>"))
+        Source::text(format!("<built-in {spec}>"), text)
     } else {
         bail!(
             "{spec}: no such robot file, and not a built-in robot (built-in: {})",
             examples::BUILTIN_NAMES.join(", ")
         );
     };
-    let robot = parse_robot_toml(&text, &name)?;
-    Ok(LoadedRobot { robot, text })
+    let robot = parse_robot_toml(&source.text, &source.name)?;
+    Ok(LoadedRobot { robot, source })
 }
 
 /// Writes `contents` to `path` atomically: a temporary file in the same directory, then a rename,
 /// so an interrupted run never leaves a half-written file in place of a good one.
-fn write_file(path: &Path, contents: &str) -> Result<()> {
+pub fn write_file(path: &Path, contents: &str) -> Result<()> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -137,23 +174,49 @@ fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
     spec.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
 }
 
-/// Reads a measurement file, through a `--columns` mapping when given.
-fn read_measurements(
-    path: &Path,
-    columns: Option<&str>,
+/// Reads a measurement file through the `--columns` mappings.
+fn read_measurements(path: &Path, columns: &[String], robot: &Robot) -> Result<(Dataset, Source)> {
+    let source = Source::read(path)?;
+    let specs: Vec<&str> = columns.iter().map(String::as_str).collect();
+    let map = ColumnMap::parse(&specs, "--columns")?;
+    let data = parse_measurements_mapped(&source.text, &source.name, robot, &map)?;
+    Ok((data, source))
+}
+
+/// Reads every observation file given (`--data`, `--distances`, ...) into one dataset; an
+/// error when none is given.
+pub fn load_observations(
+    files: &ObservationFiles,
     robot: &Robot,
-) -> Result<kinecal::Dataset> {
-    let file = path.display().to_string();
-    let mut text = read_text(path)?;
-    if let Some(spec) = columns {
-        let mapping = kinecal::measurement_file::parse_column_mapping(spec)?;
-        text = kinecal::measurement_file::remap_columns(&text, &file, &mapping, robot)?;
+) -> Result<(Dataset, Vec<Source>)> {
+    if files.files.is_empty() {
+        bail!(
+            "no observations: give {}",
+            FORMATS
+                .iter()
+                .map(|f| format!("--{}", f.option))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
     }
-    Ok(parse_measurements(&text, &file, robot)?)
+    let mut data = Dataset::default();
+    let mut sources = Vec::new();
+    for (i, path) in &files.files {
+        let format = &FORMATS[*i];
+        let (d, source) = if *i == 0 {
+            read_measurements(path, &files.columns, robot)?
+        } else {
+            let source = Source::read(path)?;
+            ((format.parse)(&source.text, &source.name, robot)?, source)
+        };
+        data = data.merge(d);
+        sources.push(source);
+    }
+    Ok((data, sources))
 }
 
 /// The residual weights and orientation error chosen on the command line.
-fn residual_settings(a: &ResidualArgs, robot: &Robot) -> Result<(Weights, OrientationError)> {
+pub fn residual_settings(a: &ResidualArgs, robot: &Robot) -> Result<(Weights, OrientationError)> {
     let mut weights = Weights::default();
     if let Some(spec) = &a.weights {
         let s = parse_spec("--weights", spec, &["length", "angle"])?;
@@ -174,54 +237,20 @@ fn residual_settings(a: &ResidualArgs, robot: &Robot) -> Result<(Weights, Orient
     Ok((weights, orientation))
 }
 
-/// Parses `--estimate` minus `--fix`. The token `identifiable` stands for the identifiable set of
-/// the other tokens (of the default list when alone), computed on `data`.
-fn estimate_list(
-    estimate: &str,
-    fix: Option<&str>,
-    robot: &Robot,
-    data: &kinecal::Dataset,
-    aopts: &AnalysisOptions,
-) -> Result<Vec<kinecal::ParamId>> {
-    let tokens: Vec<&str> = estimate.split(',').map(str::trim).collect();
-    let identifiable = tokens.contains(&"identifiable");
-    let rest: Vec<&str> = tokens
-        .iter()
-        .copied()
-        .filter(|t| *t != "identifiable")
-        .collect();
-    let mut ids = if rest.is_empty() {
-        parse_param_list(&default_estimate(robot), robot)?
-    } else {
-        parse_param_list(&rest.join(","), robot)?
-    };
-    if let Some(fix) = fix {
-        let fixed = parse_param_list(fix, robot)?;
-        ids.retain(|id| !fixed.contains(id));
-    }
-    if identifiable && !ids.is_empty() {
-        ids = analyze(robot, data, &ids, aopts)?.identifiable;
-    }
-    if ids.is_empty() {
-        bail!("--estimate `{estimate}` minus --fix leaves no parameter to estimate");
-    }
-    Ok(ids)
-}
-
 fn import(c: ImportCommand) -> Result<()> {
     let (robot, out) = match c {
         ImportCommand::Poe(a) => {
-            let file = a.file.display().to_string();
+            let s = Source::read(&a.file)?;
             (
-                kinecal::import::poe::parse_poe_toml(&read_text(&a.file)?, &file)?,
+                kinecal::import::poe::parse_poe_toml(&s.text, &s.name)?,
                 a.out,
             )
         }
         ImportCommand::Urdf(a) => {
-            let file = a.file.display().to_string();
+            let s = Source::read(&a.file)?;
             let imp = kinecal::import::urdf::import_urdf(
-                &read_text(&a.file)?,
-                &file,
+                &s.text,
+                &s.name,
                 a.base.as_deref(),
                 a.tip.as_deref(),
             )?;
@@ -238,8 +267,8 @@ fn import(c: ImportCommand) -> Result<()> {
                     .parse()
                     .map_err(|e: String| anyhow!("--angle-unit: {e}"))?,
             };
-            let file = a.file.display().to_string();
-            let rows = kinecal::import::dh::parse_dh_csv(&read_text(&a.file)?, &file, units)?;
+            let s = Source::read(&a.file)?;
+            let rows = kinecal::import::dh::parse_dh_csv(&s.text, &s.name, units)?;
             let convention = match a.convention {
                 ConventionArg::Standard => kinecal::import::dh::Convention::Standard,
                 ConventionArg::Modified => kinecal::import::dh::Convention::Modified,
@@ -267,40 +296,26 @@ fn import(c: ImportCommand) -> Result<()> {
 
 fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
-    let file = a.template.display().to_string();
+    let template = Source::read(&a.template)?;
     let (text, warnings) = kinecal::import::urdf::export_urdf(
         &r.robot,
-        &read_text(&a.template)?,
-        &file,
+        &template.text,
+        &template.name,
         a.base.as_deref(),
         a.tip.as_deref(),
     )?;
     for w in &warnings {
-        eprintln!("warning: {w}");
+        eprintln!("warning: {}", word(w));
     }
     write_file(&a.out, &text)?;
     eprintln!("wrote the calibrated URDF to {}", a.out.display());
     Ok(())
 }
 
-/// The default parameter list: all, except the slopes when every slope is 1 in the file's units
-/// (the readings are already joint values).
-fn default_estimate(robot: &Robot) -> String {
-    let unit_slopes = robot
-        .joints
-        .iter()
-        .all(|j| (robot.units.from_si(j.kind.slope(), j.slope) - 1.0).abs() < 1e-12);
-    if unit_slopes {
-        "links,offsets,sites".to_string()
-    } else {
-        "all".to_string()
-    }
-}
-
 fn fk(a: FkArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
-    let file = a.postures.display().to_string();
-    let postures = parse_postures(&read_text(&a.postures)?, &file, &r.robot)?;
+    let s = Source::read(&a.postures)?;
+    let postures = parse_postures(&s.text, &s.name, &r.robot)?;
     let data = simulate::measure(&r.robot, &postures, false);
     let csv = write_measurements(&r.robot, &data);
     match a.out {
@@ -308,7 +323,7 @@ fn fk(a: FkArgs) -> Result<()> {
             write_file(&path, &csv)?;
             eprintln!(
                 "wrote {} poses to {}",
-                data.measurements.len(),
+                data.observations.len(),
                 path.display()
             );
         }
@@ -367,62 +382,67 @@ fn simulate(a: SimulateArgs) -> Result<()> {
     write_file(&a.out, &write_measurements(nominal, &data))?;
     eprintln!(
         "wrote {} measurements ({} postures) to {}",
-        data.measurements.len(),
+        data.observations.len(),
         postures.len(),
         a.out.display()
     );
     if let Some(path) = &a.truth {
-        write_file(path, &write_robot_toml(&truth, Some(&r.text)))?;
+        write_file(path, &write_robot_toml(&truth, Some(&r.source.text)))?;
         eprintln!("wrote the true robot to {}", path.display());
     }
     Ok(())
 }
 
+/// Prints the solver's iterations (to standard error) when asked.
+struct Verbose(bool);
+
+impl workflow::Progress for Verbose {
+    fn phase(&mut self, phase: workflow::Phase) {
+        if self.0 && phase == workflow::Phase::Estimation {
+            eprintln!(
+                "{:>5} {:>14} {:>11} {:>10} {:>5}",
+                "iter", "objective", "step", "lambda/t", "evals"
+            );
+        }
+    }
+
+    fn iteration(&mut self, it: &kinecal::estimation::Iteration) {
+        if self.0 {
+            eprintln!(
+                "{:>5} {:>14.6e} {:>11.3e} {:>10.1e} {:>5}",
+                it.iteration, it.objective, it.step, it.lambda, it.evaluations
+            );
+        }
+    }
+}
+
 fn calibrate(a: CalibrateArgs) -> Result<()> {
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
-    let data = read_measurements(&a.data, a.columns.as_deref(), robot)?;
+    let (data, data_sources) = load_observations(&a.observations, robot)?;
     let (weights, orientation) = residual_settings(&a.residuals, robot)?;
-    let aopts = AnalysisOptions {
-        weights,
-        orientation,
-        ..Default::default()
-    };
     // Open the history first, so that an unwritable database fails before the work.
     let record_at = history::parse_at(a.at.as_deref())?;
     let record_db = match &a.record {
         Some(_) => Some(history::open_db(a.db.as_deref())?),
         None => None,
     };
-    let (data, validation) = match (&a.validate, a.holdout) {
+    let validation = match (&a.validate, a.holdout) {
         (Some(path), _) => {
-            let v = read_measurements(path, a.columns.as_deref(), robot)?;
-            (data, Some(v))
+            Validation::Data(read_measurements(path, &a.observations.columns, robot)?.0)
         }
-        (None, Some(f)) => {
-            if !(f > 0.0 && f < 1.0) {
-                bail!("--holdout must be a fraction between 0 and 1, got {f}");
-            }
-            let (ident, held) = kinecal::measurement::split_postures(&data, f, a.seed);
-            if held.measurements.is_empty() || ident.measurements.is_empty() {
-                bail!("--holdout {f} leaves an empty identification or validation set");
-            }
-            (ident, Some(held))
-        }
-        (None, None) => (data, None),
+        (None, Some(fraction)) => Validation::Holdout {
+            fraction,
+            seed: a.seed,
+        },
+        (None, None) => Validation::None,
     };
-    let estimate_spec = a
-        .estimate
-        .clone()
-        .unwrap_or_else(|| default_estimate(robot));
-    let estimate = estimate_list(&estimate_spec, a.fix.as_deref(), robot, &data, &aopts)?;
-    let method = match a.method {
+    let mut solver = SolverOptions::new(match a.method {
         MethodArg::Lm => Method::LevenbergMarquardt,
         MethodArg::Gn => Method::GaussNewton,
         MethodArg::Sd => Method::SteepestDescent,
         MethodArg::Svd => Method::Svd,
-    };
-    let mut solver = SolverOptions::new(method);
+    });
     if let Some(n) = a.max_iter {
         solver.max_iterations = n;
     }
@@ -430,133 +450,106 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         DampingArg::Marquardt => Damping::Marquardt,
         DampingArg::Identity => Damping::Identity,
     };
-    if !(a.rcond > 0.0 && a.rcond < 1.0) {
-        bail!("--rcond must be between 0 and 1, got {}", a.rcond);
-    }
     solver.rcond = a.rcond;
-    let opts = CalibrationOptions {
-        estimate,
-        solver,
-        weights,
-        orientation,
-        loss: match a.loss {
-            LossArg::Squared => estimation::Loss::Squared,
-            LossArg::Huber => estimation::Loss::Huber(a.huber_scale),
-        },
-        solution: match a.solution {
-            SolutionArg::Solver => SolutionRule::Solver,
-            SolutionArg::MinChange => SolutionRule::MinChange(Box::new(robot.clone())),
-        },
-    };
-    let start = match &a.initial {
-        None => robot.clone(),
+    let mut req = Request::new(robot.clone(), data);
+    if a.estimate.is_some() || a.fix.is_some() {
+        req.selection =
+            Selection::parse(a.estimate.as_deref().unwrap_or(""), a.fix.as_deref(), robot)?;
+    }
+    req.initial = match &a.initial {
+        None => None,
         Some(spec) => {
             let guess = load_robot(spec)?.robot;
-            if guess.links.len() != robot.links.len()
-                || guess.sites.len() != robot.sites.len()
-                || guess
-                    .joints
-                    .iter()
-                    .zip(&robot.joints)
-                    .any(|(g, r)| g.kind != r.kind)
-            {
+            if !robot.same_structure(&guess) {
                 bail!(
                     "--initial {spec}: not the same robot structure as --robot {}",
                     a.robot
                 );
             }
-            let mut start = robot.clone();
-            for id in robot.param_ids() {
-                start.set(id, guess.get(id));
-            }
-            start
+            Some(guess)
         }
     };
-    if a.verbose {
-        eprintln!(
-            "{:>5} {:>14} {:>11} {:>10} {:>5}",
-            "iter", "objective", "step", "lambda/t", "evals"
-        );
-    }
-    let cal = estimation::calibrate(&start, &data, &opts, &mut |it| {
-        if a.verbose {
-            eprintln!(
-                "{:>5} {:>14.6e} {:>11.3e} {:>10.1e} {:>5}",
-                it.iteration, it.objective, it.step, it.lambda, it.evaluations
-            );
+    req.solver = solver;
+    req.loss = match a.loss {
+        LossArg::Squared => Loss::Squared,
+        LossArg::Huber => Loss::Huber(a.huber_scale),
+    };
+    req.weights = weights;
+    req.orientation = orientation;
+    req.solution = match a.solution {
+        SolutionArg::Solver => SolutionRule::Solver,
+        SolutionArg::MinChange => SolutionRule::MinChange,
+    };
+    req.prune = a.prune;
+    req.validation = validation;
+    req.outlier_sigmas = a.outlier_sigma;
+    req.sources = std::iter::once(r.source.clone())
+        .chain(data_sources)
+        .collect();
+    let outcome = workflow::run(&req, &mut Verbose(a.verbose)).map_err(|e| match e {
+        kinecal::Error::InvalidOption { option, message } => {
+            anyhow!("{}: {message}", flag_of(option))
         }
+        e => e.into(),
     })?;
-    let report_of = |cal: &estimation::Calibration| -> Result<kinecal::report::CalibrationReport> {
-        if a.outlier_sigma.is_nan() || a.outlier_sigma <= 0.0 {
-            bail!("--outlier-sigma must be positive");
-        }
-        let mut rep = kinecal::report::CalibrationReport::new(cal, &data).with_outliers(
-            cal,
-            &data,
-            a.outlier_sigma,
-        );
-        if let Some(v) = &validation {
-            rep.add_validation(cal, v);
-        }
-        match kinecal::uncertainty::uncertainty_at(cal, &data, robot) {
-            Ok(u) => rep.add_uncertainty(cal, &u),
-            Err(e) => rep.warnings.push(format!("no uncertainty: {e}")),
-        }
-        Ok(rep)
-    };
-    let mut rep = report_of(&cal)?;
-    let mut final_cal = cal;
-    if let Some(k) = a.prune {
-        if !(k > 0.0 && k.is_finite()) {
-            bail!("--prune must be a positive number of standard deviations, got {k}");
-        }
-        let (full, pruned, removed) = estimation::calibrate_pruned(&start, &data, &opts, k)?;
+    if let Some(p) = &outcome.pruning {
         println!("== full fit ==");
-        print!("{}", report::summary(&rep));
+        print!("{}", report::summary(&p.full_report));
         println!();
         println!(
-            "== pruned fit: removed {} (changes below {k} sigma, one at a time) ==",
-            if removed.is_empty() {
+            "== pruned fit: removed {} (changes below {} sigma, one at a time) ==",
+            if p.removed.is_empty() {
                 "nothing".to_string()
             } else {
-                removed
+                p.removed
                     .iter()
                     .map(|id| id.to_string())
                     .collect::<Vec<_>>()
                     .join(", ")
-            }
-        );
-        rep = report_of(&pruned)?;
-        rep.add_pruning(k, &removed, &full);
-        final_cal = pruned;
-    }
-    print!("{}", report::summary(&rep));
-    for w in &rep.warnings {
-        eprintln!("warning: {w}");
-    }
-    if !rep.converged {
-        eprintln!(
-            "warning: the solver stopped at the iteration cap before converging (--max-iter)"
+            },
+            p.k
         );
     }
-    let cal = final_cal;
-    if let Some(path) = &a.out {
-        write_file(path, &write_robot_toml(&cal.calibrated, Some(&r.text)))?;
+    print!("{}", report::summary(&outcome.report));
+    for w in &outcome.warnings {
+        eprintln!("warning: {}", word(w));
+    }
+    // Everything is computed before anything is written.
+    let robot_out = a
+        .out
+        .as_ref()
+        .map(|_| write_robot_toml(&outcome.calibration.calibrated, Some(&r.source.text)));
+    let html = match &a.html {
+        Some(_) => Some(kinecal_report::html_report(&outcome)?),
+        None => None,
+    };
+    if let (Some(path), Some(text)) = (&a.out, &robot_out) {
+        write_file(path, text)?;
         eprintln!("wrote the calibrated robot to {}", path.display());
     }
-    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(r.text.as_bytes()));
-    rep.data_file_sha256 = Some(kinecal_history::fingerprint(&std::fs::read(&a.data)?));
     if let Some(path) = &a.report {
-        write_file(path, &(rep.to_json() + "\n"))?;
+        write_file(path, &(outcome.report.to_json() + "\n"))?;
         eprintln!("wrote the report to {}", path.display());
     }
-    if let Some(path) = &a.html {
-        write_file(path, &curves::html_of(&cal, &data, &rep, robot)?)?;
+    if let (Some(path), Some(text)) = (&a.html, &html) {
+        write_file(path, text)?;
         eprintln!("wrote the HTML report to {}", path.display());
     }
     if let (Some(serial), Some(db)) = (&a.record, &record_db) {
-        let id = db.add(serial, record_at, &rep, &a.note)?;
+        let id = db.add(serial, record_at, &outcome.report, &a.note)?;
         eprintln!("recorded as calibration {id} of robot {serial}");
     }
     Ok(())
+}
+
+/// The command-line option behind a library setting.
+fn flag_of(option: &str) -> &str {
+    match option {
+        "outlier threshold" => "--outlier-sigma",
+        "pruning threshold" => "--prune",
+        "rcond" => "--rcond",
+        "hold-out fraction" => "--holdout",
+        "Huber scale" => "--huber-scale",
+        other => other,
+    }
 }

@@ -8,12 +8,25 @@ use kinecal::report::CalibrationReport;
 pub fn summary(r: &CalibrationReport) -> String {
     let mut s = String::new();
     let (l, a) = (&r.length_unit, &r.angle_unit);
+    let kinds: Vec<String> = r
+        .observations
+        .iter()
+        .map(|k| {
+            format!(
+                "{} {}{}",
+                k.count,
+                k.kind,
+                if k.count == 1 { "" } else { "s" }
+            )
+        })
+        .collect();
     let _ = writeln!(
         s,
-        "{}: {} postures, {} measurements, {} residuals; method {}, {} orientation residuals, {} solution",
+        "{}: {} postures, {} observations ({}), {} residuals; method {}, {} orientation residuals, {} solution",
         if r.robot.is_empty() { "robot" } else { &r.robot },
         r.postures,
         r.measurements,
+        kinds.join(", "),
         r.residuals,
         r.method,
         r.orientation_error,
@@ -37,20 +50,39 @@ pub fn summary(r: &CalibrationReport) -> String {
         "{:<28} {:>14.6e} {:>14.6e}",
         "objective (weighted)", r.objective_before, r.objective_after
     );
-    let _ = writeln!(
-        s,
-        "{:<28} {:>14.6} {:>14.6}",
-        format!("RMS position error ({l})"),
-        r.rms_position_before,
-        r.rms_position_after
-    );
-    let _ = writeln!(
-        s,
-        "{:<28} {:>14.6} {:>14.6}",
-        format!("max position error ({l})"),
-        r.max_position_before,
-        r.max_position_after
-    );
+    let (ib, ia) = (&r.identification.before, &r.identification.after);
+    if ib.positions > 0 {
+        let _ = writeln!(
+            s,
+            "{:<28} {:>14.6} {:>14.6}",
+            format!("RMS position error ({l})"),
+            r.rms_position_before,
+            r.rms_position_after
+        );
+        let _ = writeln!(
+            s,
+            "{:<28} {:>14.6} {:>14.6}",
+            format!("max position error ({l})"),
+            r.max_position_before,
+            r.max_position_after
+        );
+    }
+    for (b, a) in ib.other.iter().zip(&ia.other) {
+        let _ = writeln!(
+            s,
+            "{:<28} {:>14.6} {:>14.6}",
+            format!("RMS {} error ({l})", b.metric),
+            b.rms,
+            a.rms
+        );
+        let _ = writeln!(
+            s,
+            "{:<28} {:>14.6} {:>14.6}",
+            format!("max {} error ({l})", b.metric),
+            b.max,
+            a.max
+        );
+    }
     if r.rms_orientation_before > 0.0 || r.rms_orientation_after > 0.0 {
         let _ = writeln!(
             s,
@@ -186,10 +218,15 @@ pub fn summary(r: &CalibrationReport) -> String {
         for o in &r.outliers {
             let _ = writeln!(
                 s,
-                "  line {:<5} posture {:<10} site {:<8} position error {:.6} {l}{}  ({:.1} sigma)",
+                "  line {:<5} posture {:<10} site {:<8} {} error {:.6} {l}{}  ({:.1} sigma)",
                 o.line,
                 o.posture,
                 o.site,
+                if o.metric.is_empty() {
+                    "position"
+                } else {
+                    &o.metric
+                },
                 o.position_error,
                 o.orientation_error
                     .map_or(String::new(), |e| format!(", attitude error {e:.6} {a}")),

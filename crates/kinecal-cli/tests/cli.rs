@@ -382,7 +382,7 @@ fn bad_input_names_file_line_and_field() {
         (
             "cols.csv",
             format!("{header}1,ee,0,0,0,0,1,2,3,4,5\n"),
-            "cols.csv:2: expected 12 columns",
+            "cols.csv:2: expected 12 fields",
         ),
         (
             "num.csv",
@@ -402,7 +402,7 @@ fn bad_input_names_file_line_and_field() {
         (
             "head.csv",
             "posture,v1,v2,x\n1,2,3,4\n".to_string(),
-            "head.csv:1: unexpected header",
+            "head.csv:1: field `v3`: no column `v3` in the header",
         ),
         (
             "angles.csv",

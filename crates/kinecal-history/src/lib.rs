@@ -16,9 +16,8 @@ mod store;
 mod timefmt;
 
 pub use drift::{drift, Baseline, DriftOptions, DriftReport, Quantity, Tolerances};
-pub use store::{
-    default_db_path, fingerprint, Calibration, Combination, Database, Parameter, SCHEMA_VERSION,
-};
+pub use kinecal::source::fingerprint;
+pub use store::{default_db_path, Calibration, Combination, Database, Parameter, SCHEMA_VERSION};
 pub use timefmt::{format_time, parse_time};
 
 /// Errors of the history store.

@@ -6,7 +6,6 @@ use std::time::Duration;
 use kinecal::report::CalibrationReport;
 use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
 use serde::Serialize;
-use sha2::{Digest, Sha256};
 
 use crate::timefmt::{format_time, now};
 use crate::{Error, Result};
@@ -128,14 +127,6 @@ pub struct Calibration {
     pub parameters: Vec<Parameter>,
     /// Every determined combination.
     pub combinations: Vec<Combination>,
-}
-
-/// SHA-256 of `bytes`, hex.
-pub fn fingerprint(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
 }
 
 /// Where the history lives by default: `$XDG_DATA_HOME/kinecal/history.sqlite`, else

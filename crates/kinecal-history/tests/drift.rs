@@ -1,14 +1,15 @@
 //! Drift detection on simulated maintenance histories.
 
-use kinecal::estimation::{calibrate, CalibrationOptions, SolutionRule, Weights};
+use kinecal::observe::Weights;
 use kinecal::report::CalibrationReport;
 use kinecal::simulate::{self, PerturbStd};
+use kinecal::workflow::{self, Request, Selection, SolutionRule};
 use kinecal::{examples, ParamId};
 use kinecal_history::{drift, Database, DriftOptions};
 
 const DAY: i64 = 86_400;
 
-/// One calibration of `truth` from `start`, as `kinecal calibrate --solution min-change` does,
+/// One calibration of `truth` from `start`, as `kinecal calibrate [--solution min-change]` does,
 /// with the uncertainty in its report.
 fn calibrate_report(
     nominal: &kinecal::Robot,
@@ -20,19 +21,19 @@ fn calibrate_report(
     let (sl, sa) = (0.0005 * 0.0254, 0.005f64.to_radians());
     let mut data = simulate::measure(truth, &simulate::sample_postures(nominal, 30, seed), false);
     simulate::add_noise(&mut data, sl, sa, seed + 1000);
-    let mut opts = CalibrationOptions::new(nominal.param_ids().collect());
-    opts.weights = Weights {
+    let mut req = Request::new(nominal.clone(), data);
+    req.selection = Selection::List(nominal.param_ids().collect());
+    req.initial = Some(start.clone());
+    req.weights = Weights {
         length: sl,
         angle: sa,
     };
     if min_change {
-        opts.solution = SolutionRule::MinChange(Box::new(nominal.clone()));
+        req.solution = SolutionRule::MinChange;
     }
-    let cal = calibrate(start, &data, &opts, &mut |_| {}).unwrap();
-    let u = kinecal::uncertainty::uncertainty(&cal, &data).unwrap();
-    let mut rep = CalibrationReport::new(&cal, &data);
-    rep.add_uncertainty(&cal, &u);
-    rep
+    let outcome = workflow::run(&req, &mut ()).unwrap();
+    assert!(outcome.uncertainty.is_some());
+    outcome.report
 }
 
 /// A different starting guess each month, as in the thesis's Table 4.8: lengths, alpha angles,

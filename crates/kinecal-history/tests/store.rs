@@ -20,9 +20,9 @@ fn report() -> CalibrationReport {
         &mut |_| {},
     )
     .unwrap();
-    let u = kinecal::uncertainty::uncertainty(&cal, &data).unwrap();
+    let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
     let mut rep = CalibrationReport::new(&cal, &data);
-    rep.add_uncertainty(&cal, &u);
+    rep.set_uncertainty(&cal, &u);
     rep
 }
 

@@ -3,13 +3,10 @@
 
 use std::fmt::Write as _;
 
-use kinecal::estimation::Calibration;
 use kinecal::identifiability::format_combination;
-use kinecal::kinematics::{log_so3, rot_zyx, Chain};
-use kinecal::measurement::Dataset;
-use kinecal::report::CalibrationReport;
-use kinecal::uncertainty::Uncertainty;
+use kinecal::observe::{for_each_observation, Context, Dataset, OrientationError};
 use kinecal::units::Quantity;
+use kinecal::workflow::Outcome;
 
 use crate::chart::{render_svg, Line, Panel};
 use crate::DrawError;
@@ -28,35 +25,32 @@ fn inline(svg: String) -> String {
         .replace(" xmlns:xlink=\"http://www.w3.org/1999/xlink\"", "")
 }
 
-/// Per measurement: (position error, attitude error) in file units, for `robot`.
+/// Per observation: (length error in its metric, attitude error) in file units, for `robot`.
 fn errors(robot: &kinecal::Robot, data: &Dataset) -> Vec<(f64, Option<f64>)> {
-    let chain = Chain::new(robot);
     let u = robot.units;
-    data.measurements
-        .iter()
-        .map(|m| {
-            let f = chain.frame_at(&data.postures[m.posture].readings, m.target);
-            let p = u.from_si(Quantity::Length, (f.translation - m.position).norm());
-            let a = m.orientation.map(|e| {
-                let r = rot_zyx(e.x, e.y, e.z);
-                u.from_si(
-                    Quantity::Angle,
-                    log_so3(&(r.transpose() * f.rotation)).norm(),
-                )
-            });
-            (p, a)
-        })
-        .collect()
+    let ctx = Context {
+        robot,
+        orientation: OrientationError::default(),
+    };
+    let mut out = Vec::with_capacity(data.observations.len());
+    for_each_observation(robot, data, |_, o, frames| {
+        let e = o.error(&ctx, frames);
+        out.push((
+            u.from_si(Quantity::Length, e.length),
+            e.angle.map(|a| u.from_si(Quantity::Angle, a)),
+        ));
+    });
+    out
 }
 
-/// Builds the report of `cal` on `data` (`rep` is its JSON report; `u` its uncertainty, when
-/// computed).
-pub fn html_report(
-    cal: &Calibration,
-    data: &Dataset,
-    rep: &CalibrationReport,
-    u: Option<&Uncertainty>,
-) -> Result<String, DrawError> {
+/// The HTML report of a calibration outcome.
+pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
+    let (cal, data, rep, u) = (
+        &outcome.calibration,
+        &outcome.data,
+        &outcome.report,
+        outcome.uncertainty.as_ref(),
+    );
     let (l, a) = (&rep.length_unit, &rep.angle_unit);
     let mut h = String::new();
     let _ = write!(
@@ -129,8 +123,8 @@ pub fn html_report(
     let (eb, ea) = (errors(&cal.initial, data), errors(&cal.calibrated, data));
     let x: Vec<f64> = (1..=eb.len()).map(|i| i as f64).collect();
     let mut panels = vec![Panel {
-        title: "Position error per measurement".into(),
-        x_label: "measurement (file order by posture)".into(),
+        title: "Position error per observation".into(),
+        x_label: "observation (file order by posture)".into(),
         y_label: format!("position error ({l})"),
         x: x.clone(),
         lines: vec![
@@ -147,8 +141,8 @@ pub fn html_report(
     }];
     if eb.iter().any(|e| e.1.is_some()) {
         panels.push(Panel {
-            title: "Attitude error per measurement".into(),
-            x_label: "measurement".into(),
+            title: "Attitude error per observation".into(),
+            x_label: "observation".into(),
             y_label: format!("attitude error ({a})"),
             x,
             lines: vec![

@@ -4,10 +4,10 @@
 //! Values are in the robot file's units. Euler angles along a pose curve are unwrapped (made
 //! continuous by whole turns), so a curve shows no false jump at +-180 deg.
 
-use crate::estimation::{OrientationError, Problem, Weights};
 use crate::kinematics::{Chain, Target, Workspace};
-use crate::measurement::Dataset;
+use crate::observe::{Dataset, OrientationError, Weights};
 use crate::params::{ParamId, ParamKind};
+use crate::problem::Problem;
 use crate::robot::{JointKind, Robot};
 use crate::units::Quantity;
 

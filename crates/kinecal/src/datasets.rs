@@ -14,7 +14,8 @@ pub mod qkm_hl6 {
     use crate::error::{Error, Location, Result};
     use crate::import::poe::parse_poe_toml;
     use crate::kinematics::Target;
-    use crate::measurement::{Dataset, Measurement, Posture};
+    use crate::observe::point::Position;
+    use crate::observe::{Dataset, Posture};
     use crate::robot::Robot;
 
     /// The data set converted to kinecal's model and measurements.
@@ -91,13 +92,13 @@ pub mod qkm_hl6 {
                 label: format!("{prefix}{}", i + 1),
                 readings: a[..6].to_vec(),
             });
-            measurements.push(Measurement {
-                posture: i,
-                target: Target::Site(a[6] as usize - 1),
-                position: to_ref(Vector3::new(p[0], p[1], p[2])) * 1e-3,
-                orientation: None,
-                line: i + 1,
-            });
+            let mut m = Position::new(
+                i,
+                Target::Site(a[6] as usize - 1),
+                to_ref(Vector3::new(p[0], p[1], p[2])) * 1e-3,
+            );
+            m.line = i + 1;
+            measurements.push(m.into());
         }
         Dataset::new(postures, measurements)
     }

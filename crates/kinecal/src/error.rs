@@ -73,15 +73,63 @@ pub enum Error {
         /// What was wrong.
         message: String,
     },
-    /// The problem cannot be solved as posed (e.g. fewer residuals than estimated parameters).
+    /// The problem cannot be solved as posed.
     #[error("{0}")]
     Problem(String),
+    /// Nothing was left to estimate.
+    #[error("no parameters to estimate")]
+    NothingToEstimate,
+    /// Fewer residuals than estimated parameters.
+    #[error(
+        "{residuals} residuals ({observations} observations) cannot determine {parameters} \
+         parameters: measure more postures or estimate fewer parameters"
+    )]
+    TooFewResiduals {
+        /// Residual rows.
+        residuals: usize,
+        /// Observations.
+        observations: usize,
+        /// Estimated parameters.
+        parameters: usize,
+    },
+    /// No degrees of freedom are left to estimate the noise from.
+    #[error(
+        "{residuals} residuals leave no degrees of freedom over rank {rank}: no uncertainty can \
+         be estimated"
+    )]
+    NoDegreesOfFreedom {
+        /// Residual rows.
+        residuals: usize,
+        /// Numerical rank.
+        rank: usize,
+    },
+    /// A setting of a request is out of its range.
+    #[error("{option}: {message}")]
+    InvalidOption {
+        /// The setting, as the library names it (e.g. `huber scale`).
+        option: &'static str,
+        /// What was wrong and what is expected.
+        message: String,
+    },
+    /// An observation's residual is not finite at the starting point.
+    #[error(
+        "the {kind} observation from line {line} has a non-finite `{row}` residual at the \
+         starting point (numbers too large for the model?)"
+    )]
+    NonFiniteResidual {
+        /// Line of the observation in its file (0 when synthesized).
+        line: usize,
+        /// The observation's kind.
+        kind: &'static str,
+        /// The residual row's label.
+        row: &'static str,
+    },
     /// Gauss-Newton met a singular normal matrix (thesis 3.3.3).
     #[error(
         "Gauss-Newton cannot proceed: the normal matrix J^T J is singular (numerical rank {rank} \
          of {parameters} estimated parameters, relative tolerance {rcond:e}); the data cannot \
-         separate some of the estimated parameters (thesis 3.3.3). Use --method lm or svd, or \
-         estimate fewer parameters"
+         separate some of the estimated parameters (thesis 3.3.3): use Levenberg-Marquardt or \
+         truncated SVD, or estimate fewer parameters"
     )]
     SingularNormalEquations {
         /// Numerical rank of the scaled Jacobian.

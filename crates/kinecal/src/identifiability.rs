@@ -19,13 +19,14 @@
 //! ```
 
 use crate::error::{Error, Result};
-use crate::estimation::{OrientationError, Problem, Weights};
 use crate::kinematics::Target;
 use crate::linalg::{self, Matrix};
-use crate::measurement::Dataset;
-use crate::params::{LinkComponent, ParamId, ParamKind};
+use crate::observe::{Anchoring, Dataset, OrientationError, RowQuantity, Weights};
+use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
+use crate::problem::Problem;
 use crate::robot::{JointKind, Robot};
 use crate::units::Quantity;
+use crate::warning::Warning;
 
 /// Settings of an analysis.
 #[derive(Debug, Clone, PartialEq)]
@@ -115,12 +116,12 @@ pub struct Analysis {
     /// of the Euler parameterisation rather than a physical redundancy.
     pub euler_singular: Vec<String>,
     /// Warnings (unclear gap, ...).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// The scaled Jacobian.
     pub jacobian_scaled: Matrix,
     /// The Jacobian in file units.
     pub jacobian_file: Matrix,
-    /// Row labels of the Jacobians: (posture label, site, component).
+    /// Row labels of the Jacobians: (posture label(s), target, row label).
     pub row_labels: Vec<(String, String, &'static str)>,
     /// Column scale factors (norms of the weighted SI columns).
     pub column_norms: Vec<f64>,
@@ -166,20 +167,29 @@ pub fn default_priority(robot: &Robot) -> Vec<ParamId> {
     ids
 }
 
-/// The thesis's predicted rank for estimating `params` on `data`, when its assumptions hold:
-/// every link parameter and joint offset estimated, the end effector measured, and the six
-/// parameters of every measured site estimated. Each revolute joint contributes 4, each
-/// prismatic 2 (eq. 4.3), each estimated slope 1 (eq. 4.2), and each measured frame 6 with full
-/// poses or 3 with positions only (eq. 4.5).
+/// The thesis's predicted rank for estimating `params` on `data`, generalised to coupled joints,
+/// planes and observations that do not fix the robot's placement; `None` when its assumptions
+/// fail.
+///
+/// Assumptions: every link parameter and joint offset estimated, the end effector observed, the
+/// six parameters of every observed site estimated, and each plane touched either fully
+/// estimated or fully fixed. Then each revolute joint contributes 4, each prismatic 2 (eq. 4.3),
+/// each estimated slope or coupling factor 1 (eq. 4.2), each observed frame 6 when a pose of it
+/// is measured or 3 when only its origin is (positions, distances, contacts; eq. 4.5), and each
+/// estimated plane 3. From this, the motions of the whole world that change no observation are
+/// subtracted: none when some observation is in the global frame (poses, positions); otherwise
+/// the rigid motions that keep every fixed plane touched in place: 6 with none (distances
+/// only), 3 with one normal direction (slides in the plane and turns about its normal), 1 with
+/// two (slides along their intersection), 0 with three independent normals.
 pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Option<ExpectedRank> {
     let has = |id: ParamId| params.binary_search(&id).is_ok();
     let (nl, nj) = (robot.links.len(), robot.dof());
     let all_links = (0..6 * nl).all(|i| has(ParamId(i)));
     let all_offsets = (0..nj).all(|j| has(robot.param_id(ParamKind::Offset { joint: j })));
     let ee_measured = data
-        .measurements
+        .observations
         .iter()
-        .any(|m| m.target == Target::EndEffector);
+        .any(|o| o.measured_frame().0 == Target::EndEffector);
     if !(all_links && all_offsets && ee_measured) {
         return None;
     }
@@ -192,40 +202,113 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     let slopes = (0..nj)
         .filter(|&j| has(robot.param_id(ParamKind::Slope { joint: j })))
         .count();
+    let couplings = robot
+        .coupled_joints()
+        .filter(|&j| has(robot.param_id(ParamKind::Coupling { joint: j })))
+        .count();
     let mut frames = Vec::new();
     let mut targets: Vec<Target> = vec![Target::EndEffector];
     targets.extend((0..robot.sites.len()).map(Target::Site));
     for t in targets {
-        let rows: Vec<_> = data.measurements.iter().filter(|m| m.target == t).collect();
-        if rows.is_empty() {
-            continue;
-        }
+        let dof = data
+            .observations
+            .iter()
+            .filter(|o| o.measured_frame().0 == t)
+            .map(|o| o.measured_frame().1)
+            .max();
+        let Some(dof) = dof else { continue };
         if let Target::Site(s) = t {
-            let site_params = (0..6).map(|c| {
-                robot.param_id(ParamKind::Site {
-                    site: s,
-                    component: LinkComponent::ALL[c],
-                })
-            });
-            if !site_params.into_iter().all(has) {
+            let all = LinkComponent::ALL
+                .iter()
+                .all(|&component| has(robot.param_id(ParamKind::Site { site: s, component })));
+            if !all {
                 return None;
             }
         }
-        frames.push(if rows.iter().any(|m| m.orientation.is_some()) {
-            6
-        } else {
-            3
-        });
+        frames.push(dof);
     }
-    let rank = 4 * nr + 2 * np + slopes + frames.iter().sum::<usize>();
+    let mut absolute = false;
+    let mut touched: Vec<usize> = Vec::new();
+    for o in &data.observations {
+        match o.anchoring() {
+            Anchoring::Absolute => absolute = true,
+            Anchoring::Relative => {}
+            Anchoring::Plane(k) => {
+                if !touched.contains(&k) {
+                    touched.push(k);
+                }
+            }
+        }
+    }
+    touched.sort();
+    let mut estimated_planes = 0;
+    let mut fixed_normals = Vec::new();
+    for &k in &touched {
+        let n = PlaneComponent::ALL
+            .iter()
+            .filter(|&&component| {
+                has(robot.param_id(ParamKind::Plane {
+                    plane: k,
+                    component,
+                }))
+            })
+            .count();
+        match n {
+            3 => estimated_planes += 1,
+            0 => fixed_normals.push(robot.planes[k].normal()),
+            _ => return None,
+        }
+    }
+    let free_motions = if absolute {
+        0
+    } else {
+        match independent_directions(&fixed_normals) {
+            0 => 6,
+            1 => 3,
+            2 => 1,
+            _ => 0,
+        }
+    };
+    let positive =
+        4 * nr + 2 * np + slopes + couplings + frames.iter().sum::<usize>() + 3 * estimated_planes;
+    let rank = positive.checked_sub(free_motions)?;
     let frame_terms: Vec<String> = frames.iter().map(|f| f.to_string()).collect();
-    Some(ExpectedRank {
-        rank,
-        formula: format!(
-            "4*{nr} (revolute) + 2*{np} (prismatic) + {slopes} (slopes) + {} (measured frames: 6 per pose, 3 per position) = {rank}",
-            frame_terms.join(" + ")
-        ),
-    })
+    let mut formula = format!(
+        "4*{nr} (revolute) + 2*{np} (prismatic) + {slopes} (slopes) + {} (observed frames: 6 per pose, 3 per point)",
+        frame_terms.join(" + ")
+    );
+    if couplings > 0 {
+        formula.push_str(&format!(" + {couplings} (couplings)"));
+    }
+    if estimated_planes > 0 {
+        formula.push_str(&format!(" + 3*{estimated_planes} (planes)"));
+    }
+    if free_motions > 0 {
+        formula.push_str(&format!(
+            " - {free_motions} (motions of the world no observation sees: {})",
+            match free_motions {
+                6 => "no observation in the global frame",
+                3 => "sliding in the touched plane and turning about its normal",
+                _ => "sliding along the touched planes' intersection",
+            }
+        ));
+    }
+    formula.push_str(&format!(" = {rank}"));
+    Some(ExpectedRank { rank, formula })
+}
+
+/// The number of linearly independent directions among unit vectors (0 to 3).
+fn independent_directions(normals: &[nalgebra::Vector3<f64>]) -> usize {
+    let Some(a) = normals.first() else { return 0 };
+    let Some(b) = normals.iter().find(|n| a.cross(n).norm() > 1e-6) else {
+        return 1;
+    };
+    let c = a.cross(b);
+    if normals.iter().any(|n| c.dot(n).abs() > 1e-6 * c.norm()) {
+        3
+    } else {
+        2
+    }
 }
 
 /// Analyses what `data` determines about `params` of `robot`.
@@ -239,36 +322,39 @@ pub fn analyze(
     params.sort();
     params.dedup();
     if params.is_empty() {
-        return Err(Error::Problem("no parameters to analyse".into()));
+        return Err(Error::NothingToEstimate);
+    }
+    if let Some(bad) = params.iter().find(|id| id.0 >= robot.param_count()) {
+        return Err(Error::Problem(format!(
+            "parameter {bad} does not exist in this robot"
+        )));
     }
     let n = params.len();
     let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
     let m = problem.rows();
     let mut r = vec![0.0; m];
-    let mut jw = linalg::zeros(m, n);
+    let mut jw = Matrix::zeros(m, n);
     problem.evaluate(robot, &mut r, Some(&mut jw));
 
     // Row labels and the file-unit Jacobian.
     let units = robot.units;
     let mut row_labels = Vec::with_capacity(m);
     let mut row_scale = Vec::with_capacity(m); // weighted -> file units
-    for meas in &data.measurements {
-        let posture = data.postures[meas.posture].label.clone();
-        let site = match meas.target {
-            Target::EndEffector => "ee".to_string(),
-            Target::Site(s) => robot.sites[s].name.clone(),
-        };
-        let comps: &[&'static str] = if meas.orientation.is_some() {
-            &["x", "y", "z", "alpha", "beta", "gamma"]
-        } else {
-            &["x", "y", "z"]
-        };
-        for (k, c) in comps.iter().enumerate() {
-            row_labels.push((posture.clone(), site.clone(), *c));
-            row_scale.push(if k < 3 {
-                opts.weights.length / units.length.metres()
-            } else {
-                opts.weights.angle / units.angle.radians()
+    let sigma = problem.row_sigma();
+    for o in &data.observations {
+        let postures: Vec<&str> = o
+            .views()
+            .iter()
+            .map(|v| data.postures[v.posture].label.as_str())
+            .collect();
+        let postures = postures.join("&");
+        let site = crate::observe::target_name(robot, o.target()).to_string();
+        for row in o.rows() {
+            let i = row_labels.len();
+            row_labels.push((postures.clone(), site.clone(), row.label));
+            row_scale.push(match row.quantity {
+                RowQuantity::Length => sigma[i] / units.length.metres(),
+                RowQuantity::Angle => sigma[i] / units.angle.radians(),
             });
         }
     }
@@ -316,31 +402,27 @@ pub fn analyze(
     }
     let mut warnings = Vec::new();
     if rank < n && gap_rank != rank {
-        warnings.push(format!(
-            "the rank from the tolerance ({rank}, rcond {:e}) differs from the largest gap in the \
-             spectrum (after singular value {gap_rank}, ratio {gap_ratio:.3e}): the split between \
-             determined and undetermined directions is not clear-cut; more, better spread postures \
-             would help",
-            opts.rcond
-        ));
+        warnings.push(Warning::UnclearRank {
+            rank,
+            rcond: opts.rcond,
+            gap_rank,
+            gap_ratio,
+        });
     } else if rank < n && gap_ratio < 1e4 {
-        warnings.push(format!(
-            "the gap at rank {rank} is only a factor {gap_ratio:.3e}: nearly-undetermined directions \
-             are hard to tell from undetermined ones"
-        ));
+        warnings.push(Warning::SmallGap { rank, gap_ratio });
     } else if rank == n && smax > 0.0 && s[n - 1] / smax < 1e-6 {
-        warnings.push(format!(
-            "full rank, but the smallest scaled singular value is {:.3e} of the largest: some \
-             combinations are barely determined",
-            s[n - 1] / smax
-        ));
+        warnings.push(Warning::BarelyDetermined {
+            ratio: s[n - 1] / smax,
+        });
     }
 
     // Null space (scaled coordinates) and which parameters it touches.
     if m < n {
-        return Err(Error::Problem(format!(
-            "{m} residuals cannot determine {n} parameters: measure more postures or analyse fewer parameters"
-        )));
+        return Err(Error::TooFewResiduals {
+            residuals: m,
+            observations: data.observations.len(),
+            parameters: n,
+        });
     }
     let null: Vec<Vec<f64>> = (rank..n)
         .map(|k| (0..n).map(|j| svd.v[(j, k)]).collect())
@@ -495,12 +577,9 @@ pub fn analyze(
         )
         .collect::<Vec<_>>();
     for name in &euler_singular {
-        warnings.push(format!(
-            "{name} has beta within 0.06 deg of +-90 deg: its alpha and gamma rotate about the same \
-             axis (gimbal lock of the Euler parameterisation), so they cannot be told apart; this \
-             is a singularity of the parameterisation, not a physical redundancy: choose that \
-             frame's axes so that beta is away from +-90 deg"
-        ));
+        warnings.push(Warning::EulerSingular {
+            frame: name.clone(),
+        });
     }
 
     Ok(Analysis {

@@ -7,10 +7,16 @@
 //! least-squares estimation by Levenberg-Marquardt, Gauss-Newton, steepest descent or truncated
 //! SVD.
 //!
-//! The data flows through the modules in this order: [`robot`] (the model, [`params`] its
-//! numbering) -> [`kinematics`] (poses, Jacobian) -> [`measurement`] (what was measured) ->
-//! [`estimation`] (solvers) -> [`report`] (what the user reads). [`robot_file`] and
-//! [`measurement_file`] read and write the file formats; [`simulate`] synthesizes data.
+//! The data flows through the modules in this order, with no cycle: [`robot`] (the model,
+//! [`params`] its numbering, [`units`]) -> [`kinematics`] (frames, analytic Jacobian) ->
+//! [`observe`] (the measurement model: one type per kind of observation, owning its residuals;
+//! the file formats) -> [`problem`] (weighted residuals and Jacobian of a dataset) ->
+//! [`estimation`] (one solver driver, four step rules, robust loss) -> [`identifiability`]
+//! (rank, redundancies, base set) -> [`uncertainty`] (covariance, significance) and
+//! [`outliers`] -> [`workflow`] (request to outcome: the calibration procedure) -> [`report`]
+//! (the outcome as a document). Around them: [`robot_file`] (robot TOML), [`import`] (URDF,
+//! DH, POE), [`datasets`] (public data sets), [`simulate`], [`curves`], [`source`] (files with
+//! their fingerprints), [`warning`] and [`error`].
 //!
 //! Conventions: internally metres and radians (see [`units`]); files are in the units their robot
 //! file declares. Parameters are numbered as the thesis numbers them (see [`params`]).
@@ -23,21 +29,26 @@ pub mod examples;
 pub mod identifiability;
 pub mod import;
 pub mod kinematics;
-mod linalg;
-pub mod measurement;
-pub mod measurement_file;
+pub mod linalg;
+pub mod observe;
+pub mod outliers;
 pub mod params;
+pub mod problem;
 pub mod report;
 pub mod robot;
 pub mod robot_file;
 pub mod simulate;
+pub mod source;
 pub mod uncertainty;
 pub mod units;
+pub mod warning;
+pub mod workflow;
 
 pub use error::{Error, Location, Result};
 pub use estimation::{calibrate, Calibration, CalibrationOptions, Method};
 pub use kinematics::{Chain, Frame, Pose, Target, Workspace};
-pub use measurement::{Dataset, Measurement, Posture};
+pub use observe::{Dataset, Observation, Posture};
 pub use params::{parse_param_list, ParamId, ParamKind};
 pub use robot::{Joint, JointKind, Link, Robot, Site};
 pub use units::{AngleUnit, LengthUnit, Units};
+pub use warning::Warning;

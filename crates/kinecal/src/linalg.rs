@@ -1,44 +1,127 @@
-//! The one place that talks to the dense linear-algebra crate (faer), so that an upgrade of it
-//! touches this file only.
+//! Dense linear algebra. [`Matrix`] is kinecal's own column-major matrix (the type public
+//! signatures use); this module is also the one place that talks to the dense linear-algebra
+//! crate (faer), so that an upgrade of it touches this file only.
+
+use std::ops::{Index, IndexMut};
 
 use faer::linalg::solvers::SolveCore;
-use faer::{Accum, Mat, Par, Side};
+use faer::{Accum, Mat, MatRef, Par, Side};
 
 /// A dense column-major matrix of `f64`.
-pub type Matrix = Mat<f64>;
+#[derive(Clone, PartialEq)]
+pub struct Matrix {
+    rows: usize,
+    cols: usize,
+    data: Vec<f64>,
+}
 
-/// A zero matrix.
-pub fn zeros(rows: usize, cols: usize) -> Matrix {
-    Mat::zeros(rows, cols)
+impl std::fmt::Debug for Matrix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Matrix {}x{}", self.rows, self.cols)
+    }
+}
+
+impl Matrix {
+    /// A zero matrix.
+    pub fn zeros(rows: usize, cols: usize) -> Self {
+        Matrix {
+            rows,
+            cols,
+            data: vec![0.0; rows * cols],
+        }
+    }
+
+    /// A matrix with entries `f(i, j)`.
+    pub fn from_fn(rows: usize, cols: usize, mut f: impl FnMut(usize, usize) -> f64) -> Self {
+        let mut m = Matrix::zeros(rows, cols);
+        for j in 0..cols {
+            for i in 0..rows {
+                m.data[j * rows + i] = f(i, j);
+            }
+        }
+        m
+    }
+
+    /// Number of rows.
+    pub fn nrows(&self) -> usize {
+        self.rows
+    }
+
+    /// Number of columns.
+    pub fn ncols(&self) -> usize {
+        self.cols
+    }
+
+    /// Column `j`.
+    pub fn col(&self, j: usize) -> &[f64] {
+        &self.data[j * self.rows..(j + 1) * self.rows]
+    }
+
+    /// Column `j`, mutable.
+    pub fn col_mut(&mut self, j: usize) -> &mut [f64] {
+        &mut self.data[j * self.rows..(j + 1) * self.rows]
+    }
+
+    /// Resizes to `rows x cols` (contents unspecified afterwards), reusing the allocation.
+    pub fn resize(&mut self, rows: usize, cols: usize) {
+        self.rows = rows;
+        self.cols = cols;
+        self.data.resize(rows * cols, 0.0);
+    }
+
+    fn faer(&self) -> MatRef<'_, f64> {
+        MatRef::from_column_major_slice(&self.data, self.rows, self.cols)
+    }
+}
+
+impl Index<(usize, usize)> for Matrix {
+    type Output = f64;
+    #[inline]
+    fn index(&self, (i, j): (usize, usize)) -> &f64 {
+        debug_assert!(i < self.rows && j < self.cols);
+        &self.data[j * self.rows + i]
+    }
+}
+
+impl IndexMut<(usize, usize)> for Matrix {
+    #[inline]
+    fn index_mut(&mut self, (i, j): (usize, usize)) -> &mut f64 {
+        debug_assert!(i < self.rows && j < self.cols);
+        &mut self.data[j * self.rows + i]
+    }
+}
+
+fn from_faer(m: MatRef<'_, f64>) -> Matrix {
+    Matrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)])
 }
 
 /// `A^T A` (symmetric, full storage).
-pub fn gram(a: &Matrix) -> Matrix {
+pub(crate) fn gram(a: &Matrix) -> Matrix {
     let mut out = Mat::zeros(a.ncols(), a.ncols());
     faer::linalg::matmul::matmul(
         out.as_mut(),
         Accum::Replace,
-        a.transpose(),
-        a.as_ref(),
+        a.faer().transpose(),
+        a.faer(),
         1.0,
         Par::Seq,
     );
-    out
+    from_faer(out.as_ref())
 }
 
 /// `A^T v`.
-pub fn at_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
+pub(crate) fn at_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
     (0..a.ncols())
         .map(|j| a.col(j).iter().zip(v).map(|(x, y)| x * y).sum())
         .collect()
 }
 
 /// `A v`.
-pub fn a_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
+pub(crate) fn a_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
     let mut out = vec![0.0; a.nrows()];
     for (j, &vj) in v.iter().enumerate() {
         if vj != 0.0 {
-            for (o, x) in out.iter_mut().zip(a.col(j).iter()) {
+            for (o, x) in out.iter_mut().zip(a.col(j)) {
                 *o += x * vj;
             }
         }
@@ -47,21 +130,21 @@ pub fn a_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
 }
 
 /// Euclidean norm of column `j`.
-pub fn col_norm(a: &Matrix, j: usize) -> f64 {
+pub(crate) fn col_norm(a: &Matrix, j: usize) -> f64 {
     a.col(j).iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// Multiplies column `j` by `s`.
-pub fn scale_col(a: &mut Matrix, j: usize, s: f64) {
-    for x in a.col_mut(j).iter_mut() {
+pub(crate) fn scale_col(a: &mut Matrix, j: usize, s: f64) {
+    for x in a.col_mut(j) {
         *x *= s;
     }
 }
 
 /// Solves the symmetric positive definite system `A x = b` by Cholesky; `None` if `A` is not
 /// numerically positive definite.
-pub fn solve_spd(a: &Matrix, b: &[f64]) -> Option<Vec<f64>> {
-    let llt = a.llt(Side::Lower).ok()?;
+pub(crate) fn solve_spd(a: &Matrix, b: &[f64]) -> Option<Vec<f64>> {
+    let llt = a.faer().llt(Side::Lower).ok()?;
     let mut rhs = Mat::from_fn(b.len(), 1, |i, _| b[i]);
     llt.solve_in_place_with_conj(faer::Conj::No, rhs.as_mut());
     let x: Vec<f64> = (0..b.len()).map(|i| rhs[(i, 0)]).collect();
@@ -69,7 +152,7 @@ pub fn solve_spd(a: &Matrix, b: &[f64]) -> Option<Vec<f64>> {
 }
 
 /// A thin singular value decomposition `A = U diag(s) V^T`, `s` non-increasing.
-pub struct ThinSvd {
+pub(crate) struct ThinSvd {
     /// Left singular vectors (m x k).
     pub u: Matrix,
     /// Singular values (k).
@@ -79,17 +162,48 @@ pub struct ThinSvd {
 }
 
 /// Thin SVD of `a`; `None` if the iteration did not converge.
-pub fn thin_svd(a: &Matrix) -> Option<ThinSvd> {
-    let svd = a.thin_svd().ok()?;
+pub(crate) fn thin_svd(a: &Matrix) -> Option<ThinSvd> {
+    let svd = a.faer().thin_svd().ok()?;
     let s = svd.S().column_vector().iter().copied().collect();
     Some(ThinSvd {
-        u: svd.U().to_owned(),
+        u: from_faer(svd.U()),
         s,
-        v: svd.V().to_owned(),
+        v: from_faer(svd.V()),
     })
 }
 
 /// Singular values of `a`, non-increasing.
-pub fn singular_values(a: &Matrix) -> Option<Vec<f64>> {
-    a.singular_values().ok()
+pub(crate) fn singular_values(a: &Matrix) -> Option<Vec<f64>> {
+    a.faer().singular_values().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svd_reconstructs_and_gram_is_a_transpose_a() {
+        let a = Matrix::from_fn(5, 3, |i, j| {
+            ((i * 3 + j) as f64).sin() + (i == j) as u8 as f64
+        });
+        let svd = thin_svd(&a).unwrap();
+        for i in 0..5 {
+            for j in 0..3 {
+                let r: f64 = (0..3)
+                    .map(|k| svd.u[(i, k)] * svd.s[k] * svd.v[(j, k)])
+                    .sum();
+                assert!((r - a[(i, j)]).abs() < 1e-12);
+            }
+        }
+        let g = gram(&a);
+        for p in 0..3 {
+            for q in 0..3 {
+                let d: f64 = (0..5).map(|i| a[(i, p)] * a[(i, q)]).sum();
+                assert!((g[(p, q)] - d).abs() < 1e-12);
+            }
+        }
+        let x = solve_spd(&g, &[1.0, 2.0, 3.0]).unwrap();
+        let gx = a_v(&g, &x);
+        assert!((gx[0] - 1.0).abs() + (gx[1] - 2.0).abs() + (gx[2] - 3.0).abs() < 1e-10);
+    }
 }

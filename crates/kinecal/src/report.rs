@@ -1,16 +1,18 @@
-//! The machine-readable calibration report (JSON), in the robot file's units.
+//! The machine-readable calibration report (JSON), in the robot file's units. The
+//! [`workflow`](crate::workflow) fills it in; the history stores it.
 
 use serde::{Deserialize, Serialize};
 
-use crate::estimation::{accuracy, Accuracy, Calibration, Loss, OrientationError, SolutionRule};
-
-/// Default outlier threshold, in robust standard deviations.
-pub const DEFAULT_OUTLIER_SIGMAS: f64 = 4.0;
+use crate::estimation::Calibration;
 use crate::identifiability::format_combination;
-use crate::measurement::Dataset;
+use crate::observe::{target_name, Accuracy, Dataset};
+use crate::outliers::Outlier;
 use crate::params::ParamId;
+use crate::robot::Robot;
+use crate::source::Source;
 use crate::uncertainty::{Uncertainty, NOISE_SIGMAS};
 use crate::units::{Quantity, Units};
+use crate::warning::Warning;
 
 /// One parameter's line in the report.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -87,6 +89,9 @@ pub struct CorrelationReport {
 /// Error statistics on one dataset, in the robot file's units.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ErrorStats {
+    /// Observations with a position error (poses and positions).
+    #[serde(default)]
+    pub positions: usize,
     /// RMS 3D position error.
     pub rms_position: f64,
     /// Mean 3D position error.
@@ -107,14 +112,35 @@ pub struct ErrorStats {
     /// Largest attitude error.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_orientation: Option<f64>,
+    /// Errors of the other metrics (distances, contacts), when observed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub other: Vec<MetricStats>,
+}
+
+/// Length errors of one metric other than positions (length unit).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct MetricStats {
+    /// `distance` (error of a measured distance), `contact` (distance from the plane), ...
+    pub metric: String,
+    /// Observations.
+    pub count: usize,
+    /// RMS error.
+    pub rms: f64,
+    /// Mean error.
+    pub mean: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+    /// Largest error.
+    pub max: f64,
 }
 
 impl ErrorStats {
-    /// Converts an [`Accuracy`] to `units`; `orientation` says whether attitude was measured.
-    pub fn new(a: &Accuracy, units: &Units, orientation: bool) -> Self {
+    /// Converts an [`Accuracy`] to `units`.
+    pub fn new(a: &Accuracy, units: &Units) -> Self {
         let len = |v: f64| units.from_si(Quantity::Length, v);
-        let ang = |v: f64| orientation.then(|| units.from_si(Quantity::Angle, v));
+        let ang = |v: f64| (a.orientations > 0).then(|| units.from_si(Quantity::Angle, v));
         ErrorStats {
+            positions: a.positions,
             rms_position: len(a.rms_position),
             mean_position: len(a.mean_position),
             p95_position: len(a.p95_position),
@@ -123,6 +149,18 @@ impl ErrorStats {
             mean_orientation: ang(a.mean_orientation),
             p95_orientation: ang(a.p95_orientation),
             max_orientation: ang(a.max_orientation),
+            other: a
+                .other
+                .iter()
+                .map(|m| MetricStats {
+                    metric: m.metric.to_string(),
+                    count: m.count,
+                    rms: len(m.rms),
+                    mean: len(m.mean),
+                    p95: len(m.p95),
+                    max: len(m.max),
+                })
+                .collect(),
         }
     }
 }
@@ -132,7 +170,7 @@ impl ErrorStats {
 pub struct DatasetAccuracy {
     /// Postures in the dataset.
     pub postures: usize,
-    /// Measurements in the dataset.
+    /// Observations in the dataset.
     pub measurements: usize,
     /// With the initial robot.
     pub before: ErrorStats,
@@ -141,29 +179,58 @@ pub struct DatasetAccuracy {
 }
 
 impl DatasetAccuracy {
-    /// Accuracy of `cal`'s initial and calibrated robots on `data`.
-    pub fn new(cal: &Calibration, data: &Dataset) -> Self {
-        let orientation = data.measurements.iter().any(|m| m.orientation.is_some());
-        let u = cal.calibrated.units;
+    /// From the accuracies before and after on a dataset of `postures` and `observations`.
+    pub fn new(
+        postures: usize,
+        observations: usize,
+        before: &Accuracy,
+        after: &Accuracy,
+        units: &Units,
+    ) -> Self {
         DatasetAccuracy {
-            postures: data.postures.len(),
-            measurements: data.measurements.len(),
-            before: ErrorStats::new(&accuracy(&cal.initial, data), &u, orientation),
-            after: ErrorStats::new(&accuracy(&cal.calibrated, data), &u, orientation),
+            postures,
+            measurements: observations,
+            before: ErrorStats::new(before, units),
+            after: ErrorStats::new(after, units),
         }
     }
 }
 
-/// A measurement the calibrated model misses by far more than the rest.
+/// How many observations of one kind.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct KindCount {
+    /// `pose`, `position`, `distance`, `contact`.
+    pub kind: String,
+    /// How many.
+    pub count: usize,
+}
+
+/// A file the calibration read, with the SHA-256 of the bytes read.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SourceReport {
+    /// The file name as given.
+    pub name: String,
+    /// SHA-256, hex.
+    pub sha256: String,
+}
+
+/// An observation the calibrated model misses by far more than the rest.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct OutlierReport {
-    /// Line in the measurement file (0 when synthesized).
+    /// Line in its file (0 when synthesized).
     pub line: usize,
-    /// Posture label.
+    /// The observation's kind.
+    #[serde(default)]
+    pub kind: String,
+    /// The metric of `position_error`: `position`, `distance`, `contact`.
+    #[serde(default)]
+    pub metric: String,
+    /// Posture label (labels joined by `&` for observations of two postures).
     pub posture: String,
     /// Site (`ee` for the end effector).
     pub site: String,
-    /// Position error (length unit).
+    /// Length error in the observation's metric: the position error of a pose or position, the
+    /// error of a distance, the distance from a plane (length unit).
     pub position_error: f64,
     /// Attitude error (angle unit), for a full pose.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -208,9 +275,12 @@ pub struct CalibrationReport {
     pub iterations: usize,
     /// Postures in the data.
     pub postures: usize,
-    /// Measurements (rows) in the data.
+    /// Observations in the data.
     pub measurements: usize,
-    /// Residuals (3 per position, 6 per pose).
+    /// Observations of each kind.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub observations: Vec<KindCount>,
+    /// Residuals (3 per position, 6 per pose, 1 per distance or contact).
     pub residuals: usize,
     /// Standard deviation weighting position residuals (length unit).
     pub weight_length: f64,
@@ -238,8 +308,11 @@ pub struct CalibrationReport {
     pub max_orientation_after: f64,
     /// Every parameter of the model, in thesis order.
     pub parameters: Vec<ParameterReport>,
-    /// Warnings.
+    /// Warnings, worded.
     pub warnings: Vec<String>,
+    /// The same warnings with their quantities.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warning_details: Vec<Warning>,
     /// `solver` or `min-change`.
     pub solution: String,
     /// Variance factor `SSR / (m - rank)`: about 1 when the weights match the noise.
@@ -271,16 +344,19 @@ pub struct CalibrationReport {
     /// SHA-256 of the robot file, when the caller provides it (history fingerprints).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robot_file_sha256: Option<String>,
-    /// SHA-256 of the measurement file, when the caller provides it.
+    /// SHA-256 of the (first) measurement file, when the caller provides it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub data_file_sha256: Option<String>,
+    /// Every file read, with its SHA-256.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sources: Vec<SourceReport>,
 }
 
 impl CalibrationReport {
-    /// Builds the report of `cal`, calibrated on `data`.
+    /// The report of `cal`, calibrated on `data` (identification accuracy from `cal`).
     pub fn new(cal: &Calibration, data: &Dataset) -> Self {
         let (postures, measurements, residuals) =
-            (data.postures.len(), data.measurements.len(), data.rows());
+            (data.postures.len(), data.observations.len(), data.rows());
         let robot = &cal.calibrated;
         let u = robot.units;
         let len = |v: f64| u.from_si(Quantity::Length, v);
@@ -311,16 +387,20 @@ impl CalibrationReport {
             length_unit: u.length.to_string(),
             angle_unit: u.angle.to_string(),
             method: cal.options.solver.method.as_str().to_string(),
-            orientation_error: match cal.options.orientation {
-                OrientationError::Euler => "euler",
-                OrientationError::RotVec => "rotvec",
-            }
-            .to_string(),
+            orientation_error: cal.options.orientation.as_str().to_string(),
             converged: cal.converged(),
             termination: cal.termination.describe().to_string(),
             iterations: cal.iterations,
             postures,
             measurements,
+            observations: data
+                .kinds()
+                .into_iter()
+                .map(|(kind, count)| KindCount {
+                    kind: kind.to_string(),
+                    count,
+                })
+                .collect(),
             residuals,
             weight_length: len(cal.options.weights.length),
             weight_angle: ang(cal.options.weights.angle),
@@ -335,65 +415,74 @@ impl CalibrationReport {
             max_orientation_before: ang(b.max_orientation),
             max_orientation_after: ang(a.max_orientation),
             parameters,
-            warnings: cal.warnings.clone(),
-            solution: match cal.options.solution {
-                SolutionRule::Solver => "solver",
-                SolutionRule::MinChange(_) => "min-change",
-            }
-            .to_string(),
+            warnings: Vec::new(),
+            warning_details: Vec::new(),
+            solution: "solver".to_string(),
             variance_factor: None,
             rank: None,
             undetermined: Vec::new(),
             combinations: Vec::new(),
             correlations: Vec::new(),
             pruning: None,
-            identification: DatasetAccuracy::new(cal, data),
+            identification: DatasetAccuracy::new(postures, measurements, b, a, &u),
             validation: None,
-            loss: match cal.options.loss {
-                Loss::Squared => "squared".to_string(),
-                Loss::Huber(k) => format!("huber {k}"),
-            },
+            loss: cal.options.loss.to_string(),
             outliers: Vec::new(),
-            outlier_sigmas: DEFAULT_OUTLIER_SIGMAS,
+            outlier_sigmas: crate::outliers::DEFAULT_SIGMAS,
             robot_file_sha256: None,
             data_file_sha256: None,
+            sources: Vec::new(),
         }
-        .with_outliers(cal, data, DEFAULT_OUTLIER_SIGMAS)
     }
 
-    /// Lists the measurements beyond `k` robust standard deviations (see
-    /// [`outliers`](crate::estimation::outliers)).
-    pub fn with_outliers(mut self, cal: &Calibration, data: &Dataset, k: f64) -> Self {
-        let u = cal.calibrated.units;
+    /// Lists the outliers (see [`crate::outliers`]) found at threshold `k`.
+    pub fn set_outliers(&mut self, outliers: &[Outlier], data: &Dataset, robot: &Robot, k: f64) {
+        let u = robot.units;
         self.outlier_sigmas = k;
-        self.outliers = crate::estimation::outliers(cal, data, k)
-            .into_iter()
+        self.outliers = outliers
+            .iter()
             .map(|o| {
-                let m = &data.measurements[o.measurement];
+                let obs = &data.observations[o.observation];
                 OutlierReport {
-                    line: m.line,
-                    posture: data.postures[m.posture].label.clone(),
-                    site: match m.target {
-                        crate::kinematics::Target::EndEffector => "ee".to_string(),
-                        crate::kinematics::Target::Site(s) => cal.calibrated.sites[s].name.clone(),
-                    },
-                    position_error: u.from_si(Quantity::Length, o.position_error),
-                    orientation_error: o.orientation_error.map(|a| u.from_si(Quantity::Angle, a)),
+                    line: obs.line(),
+                    kind: obs.kind().to_string(),
+                    metric: o.error.metric.to_string(),
+                    posture: obs
+                        .views()
+                        .iter()
+                        .map(|v| data.postures[v.posture].label.as_str())
+                        .collect::<Vec<_>>()
+                        .join("&"),
+                    site: target_name(robot, obs.target()).to_string(),
+                    position_error: u.from_si(Quantity::Length, o.error.length),
+                    orientation_error: o.error.angle.map(|a| u.from_si(Quantity::Angle, a)),
                     sigmas: o.sigmas,
                 }
             })
             .collect();
-        self
     }
 
-    /// Adds the accuracy on held-out `validation` data.
-    pub fn add_validation(&mut self, cal: &Calibration, validation: &Dataset) {
-        self.validation = Some(DatasetAccuracy::new(cal, validation));
+    /// Sets the accuracy on held-out validation data.
+    pub fn set_validation(
+        &mut self,
+        postures: usize,
+        observations: usize,
+        before: &Accuracy,
+        after: &Accuracy,
+        robot: &Robot,
+    ) {
+        self.validation = Some(DatasetAccuracy::new(
+            postures,
+            observations,
+            before,
+            after,
+            &robot.units,
+        ));
     }
 
-    /// Adds the uncertainty of the calibration: sigmas, significance, determined combinations,
+    /// Sets the uncertainty of the calibration: sigmas, significance, determined combinations,
     /// correlations, and the parameters the data does not determine.
-    pub fn add_uncertainty(&mut self, cal: &Calibration, u: &Uncertainty) {
+    pub fn set_uncertainty(&mut self, cal: &Calibration, u: &Uncertainty) {
         let robot = &cal.calibrated;
         self.variance_factor = Some(u.variance_factor);
         self.rank = Some(u.analysis.rank);
@@ -437,21 +526,10 @@ impl CalibrationReport {
                 rho,
             })
             .collect();
-        for c in &self.correlations {
-            self.warnings.push(format!(
-                "{} and {} are correlated {:+.3}: the data barely separates them",
-                c.a, c.b, c.rho
-            ));
-        }
-        for w in &u.analysis.warnings {
-            if !self.warnings.contains(w) {
-                self.warnings.push(w.clone());
-            }
-        }
     }
 
     /// Records that this report is the pruned refit of `full`.
-    pub fn add_pruning(&mut self, k: f64, removed: &[ParamId], full: &Calibration) {
+    pub fn set_pruning(&mut self, k: f64, removed: &[ParamId], full: &Calibration) {
         let u = full.calibrated.units;
         self.pruning = Some(PruneReport {
             k,
@@ -461,6 +539,30 @@ impl CalibrationReport {
             full_rms_orientation_after: u
                 .from_si(Quantity::Angle, full.accuracy_after.rms_orientation),
         });
+    }
+
+    /// Sets the solution rule's name (`solver`, `min-change`).
+    pub fn set_solution(&mut self, rule: &str) {
+        self.solution = rule.to_string();
+    }
+
+    /// Sets the warnings.
+    pub fn set_warnings(&mut self, warnings: &[Warning]) {
+        self.warnings = warnings.iter().map(ToString::to_string).collect();
+        self.warning_details = warnings.to_vec();
+    }
+
+    /// Records the files read: the first is the robot file, the second the (first) data file.
+    pub fn set_sources(&mut self, sources: &[Source]) {
+        self.robot_file_sha256 = sources.first().map(|s| s.sha256.clone());
+        self.data_file_sha256 = sources.get(1).map(|s| s.sha256.clone());
+        self.sources = sources
+            .iter()
+            .map(|s| SourceReport {
+                name: s.name.clone(),
+                sha256: s.sha256.clone(),
+            })
+            .collect();
     }
 
     /// Pretty-printed JSON.

@@ -4,13 +4,15 @@
 //! machine. Postures, perturbations and noise draw from separate streams: changing the noise
 //! level does not move the postures.
 
-use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::kinematics::{Chain, Target, Workspace};
-use crate::measurement::{Dataset, Measurement, Posture};
+use crate::observe::point::{Pose, Position};
+use crate::observe::{
+    for_each_observation, Context, Dataset, Observation, OrientationError, Posture,
+};
 use crate::params::ParamKind;
 use crate::robot::{JointKind, Robot};
 use crate::units::Quantity;
@@ -92,39 +94,46 @@ pub fn measure(robot: &Robot, postures: &[Posture], position_only: bool) -> Data
     let targets: Vec<Target> = std::iter::once(Target::EndEffector)
         .chain((0..robot.sites.len()).map(Target::Site))
         .collect();
-    let mut measurements = Vec::with_capacity(postures.len() * targets.len());
+    let mut observations: Vec<Observation> = Vec::with_capacity(postures.len() * targets.len());
     for (i, p) in postures.iter().enumerate() {
         chain.forward(&p.readings, &mut ws);
         for &t in &targets {
             let pose = chain.target_frame(&ws, t).pose();
-            measurements.push(Measurement {
-                posture: i,
-                target: t,
-                position: pose.position,
-                orientation: (!position_only).then_some(pose.euler),
-                line: 0,
+            observations.push(if position_only {
+                Position::new(i, t, pose.position).into()
+            } else {
+                Pose::new(i, t, pose.position, pose.euler).into()
             });
         }
     }
-    Dataset::new(postures.to_vec(), measurements)
+    Dataset::new(postures.to_vec(), observations)
 }
 
-/// Adds Gaussian noise to every measured coordinate (`length`, m) and Euler angle (`angle`, rad).
+/// The same observations as `data`, with the measured values `robot` gives (noise-free).
+pub fn remeasure(robot: &Robot, data: &Dataset) -> Dataset {
+    let ctx = Context {
+        robot,
+        orientation: OrientationError::default(),
+    };
+    let mut out = data.clone();
+    let mut measured = Vec::with_capacity(data.observations.len());
+    for_each_observation(robot, data, |_, o, frames| {
+        let mut o = o.clone();
+        o.remeasure(&ctx, frames);
+        measured.push(o);
+    });
+    out.observations = measured;
+    out
+}
+
+/// Adds Gaussian noise to every observation: `length` (m) to each measured length (a position
+/// coordinate, a distance), `angle` (rad) to each measured Euler angle.
 pub fn add_noise(data: &mut Dataset, length: f64, angle: f64, seed: u64) {
     let mut r = rng(seed, 3);
     let unit = Normal::new(0.0, 1.0).expect("valid normal");
-    let mut draw = |s: f64| -> Vector3<f64> {
-        Vector3::new(
-            unit.sample(&mut r),
-            unit.sample(&mut r),
-            unit.sample(&mut r),
-        ) * s
-    };
-    for m in &mut data.measurements {
-        m.position += draw(length);
-        if let Some(e) = m.orientation.as_mut() {
-            *e += draw(angle);
-        }
+    let mut draw = || -> f64 { unit.sample(&mut r) };
+    for o in &mut data.observations {
+        o.add_noise(&mut draw, length, angle);
     }
 }
 

@@ -8,15 +8,18 @@
 //! quantities get a standard deviation: a parameter the data cannot separate from others has
 //! none, and its group's combination is reported instead.
 //!
-//! The Jacobian is taken at the starting model, where a design's exact redundancies (parallel
-//! axes) hold. At the calibrated point, noise breaks such exact parallelism by a little, which
-//! would turn each exact redundancy into a barely determined direction with an enormous standard
-//! deviation; to first order in the (small) parameter changes the covariance is the same.
+//! The Jacobian is taken at a *reference* model, not at the calibrated point: the workflow's
+//! one linearisation rule (see [`crate::workflow`]) passes the nominal robot for
+//! minimum-change answers and the solver's starting robot otherwise. There a design's exact
+//! redundancies (parallel axes) hold; at the calibrated point, noise breaks such exact
+//! parallelism by a little, which would turn each exact redundancy into a barely determined
+//! direction with an enormous standard deviation. To first order in the (small) parameter
+//! changes the covariance is the same.
 
 use crate::error::{Error, Result};
 use crate::estimation::Calibration;
 use crate::identifiability::{analyze, Analysis, AnalysisOptions};
-use crate::measurement::Dataset;
+use crate::observe::Dataset;
 use crate::params::ParamId;
 
 /// Changes below this many standard deviations are reported as within the noise.
@@ -101,20 +104,10 @@ impl Uncertainty {
     }
 }
 
-/// Computes the uncertainty of `cal`, calibrated on `data`, linearised at the minimum-change
-/// reference when there is one, else at the starting model. See [`uncertainty_at`].
-pub fn uncertainty(cal: &Calibration, data: &Dataset) -> Result<Uncertainty> {
-    let at = match &cal.options.solution {
-        crate::estimation::SolutionRule::MinChange(reference) => reference.as_ref(),
-        crate::estimation::SolutionRule::Solver => &cal.initial,
-    };
-    uncertainty_at(cal, data, at)
-}
-
 /// Computes the uncertainty of `cal`, calibrated on `data`, with the Jacobian taken at
 /// `nominal` (the design model, whose exact redundancies define what is determined; pass the
 /// robot file the calibration started from when the solver started elsewhere).
-pub fn uncertainty_at(
+pub fn uncertainty(
     cal: &Calibration,
     data: &Dataset,
     nominal: &crate::robot::Robot,
@@ -128,9 +121,10 @@ pub fn uncertainty_at(
     let analysis = analyze(nominal, data, &cal.estimated, &opts)?;
     let (m, n, r) = (analysis.residuals, analysis.parameters.len(), analysis.rank);
     if m <= r {
-        return Err(Error::Problem(format!(
-            "{m} residuals leave no degrees of freedom over rank {r}: no uncertainty can be estimated"
-        )));
+        return Err(Error::NoDegreesOfFreedom {
+            residuals: m,
+            rank: r,
+        });
     }
     let dof = m - r;
     let variance_factor = cal.objective_after / dof as f64;

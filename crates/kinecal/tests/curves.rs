@@ -2,9 +2,9 @@
 #![allow(clippy::needless_range_loop)] // pose components are indexed by number, as in the thesis
 
 use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve, samples};
-use kinecal::estimation::{OrientationError, Weights};
 use kinecal::kinematics::Target;
-use kinecal::measurement::Posture;
+use kinecal::observe::Posture;
+use kinecal::observe::{OrientationError, Weights};
 use kinecal::{examples, simulate, ParamId};
 
 const P1: [f64; 4] = [-11.053, 12.369, 4.009, -11.583];

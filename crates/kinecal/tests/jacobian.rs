@@ -1,9 +1,11 @@
 //! The analytic Jacobian against central differences, on random robots of 1 to 7 joints of
-//! random kinds, with sites, slopes, coupled joints, full poses and positions, and both
-//! orientation residuals.
+//! random kinds, with sites, slopes, coupled joints, full poses, positions and distances, rows
+//! with their own standard deviations, and both orientation residuals.
 
-use kinecal::estimation::{OrientationError, Problem, Weights};
 use kinecal::kinematics::{euler_zyx, forward_pose, rot_zyx, Target};
+use kinecal::observe::distance::Distance;
+use kinecal::observe::{Observation, OrientationError, Weights};
+use kinecal::problem::Problem;
 use kinecal::{simulate, JointKind, Link, ParamId, Robot, Site};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -48,25 +50,38 @@ fn robot_with_sites(dof: usize, seed: u64) -> Robot {
 
 /// Measurements near (not at) the model's poses, so orientation residuals are non-zero; rows
 /// at beta within ~6 deg of +-90 are dropped for the Euler check (the Euler map is singular
-/// there, and differences would not resolve its derivative).
+/// there, and differences would not resolve its derivative). Some rows are positions, some
+/// carry their own standard deviations, and distances join consecutive postures.
 fn data_for(robot: &Robot, seed: u64, euler: bool) -> kinecal::Dataset {
     let postures = simulate::sample_postures(robot, 6, seed);
     let mut data = simulate::measure(robot, &postures, false);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 99);
-    for (i, m) in data.measurements.iter_mut().enumerate() {
-        m.position += Vector3::new(0.01, -0.02, 0.015);
-        let e = m.orientation.unwrap();
-        let r = rot_zyx(e.x, e.y, e.z) * rot_zyx(rng.random_range(-0.3..0.3), 0.2, -0.1);
-        m.orientation = Some(euler_zyx(&r));
+    for (i, o) in data.observations.iter_mut().enumerate() {
+        let Observation::Pose(p) = o else { continue };
+        p.position += Vector3::new(0.01, -0.02, 0.015);
+        let r = rot_zyx(p.euler.x, p.euler.y, p.euler.z)
+            * rot_zyx(rng.random_range(-0.3..0.3), 0.2, -0.1);
+        p.euler = euler_zyx(&r);
+        if i % 3 == 1 {
+            p.sigma_position = Some(2e-4);
+            p.sigma_angle = Some(3e-3);
+        }
         if i % 4 == 3 {
-            m.orientation = None; // some position-only rows
+            *o = p.to_position().into(); // some position-only rows
         }
     }
     if euler {
-        data.measurements
-            .retain(|m| m.orientation.is_none_or(|e| e.y.cos() > 0.1));
+        data.observations.retain(|o| match o {
+            Observation::Pose(p) => p.euler.y.cos() > 0.1,
+            _ => true,
+        });
     }
-    data
+    for a in 0..postures.len() - 1 {
+        let mut d = Distance::new(a, a + 1, Target::EndEffector, 0.3);
+        d.sigma = (a % 2 == 0).then_some(5e-4);
+        data.observations.push(d.into());
+    }
+    kinecal::Dataset::new(data.postures, data.observations)
 }
 
 fn check(robot: &Robot, data: &kinecal::Dataset, mode: OrientationError) {
@@ -75,7 +90,7 @@ fn check(robot: &Robot, data: &kinecal::Dataset, mode: OrientationError) {
     let problem = Problem::new(robot, data, &ids, w, mode);
     let m = problem.rows();
     let mut r = vec![0.0; m];
-    let mut jac = faer::Mat::<f64>::zeros(m, ids.len());
+    let mut jac = kinecal::linalg::Matrix::zeros(m, ids.len());
     problem.evaluate(robot, &mut r, Some(&mut jac));
     let scale = (0..m)
         .flat_map(|i| (0..ids.len()).map(move |j| (i, j)))

@@ -8,8 +8,9 @@
 use std::path::Path;
 
 use kinecal::datasets::qkm_hl6;
-use kinecal::estimation::{accuracy, calibrate, CalibrationOptions};
+use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::identifiability::{analyze, AnalysisOptions};
+use kinecal::observe::accuracy;
 use kinecal::{parse_param_list, ParamId};
 
 fn data() -> Option<qkm_hl6::QkmData> {

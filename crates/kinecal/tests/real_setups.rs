@@ -1,10 +1,12 @@
 //! Measurements as real setups produce them: several reflectors per posture measured by
 //! position only, outliers, robust loss, and files laid out differently.
 
-use kinecal::estimation::{accuracy, calibrate, outliers, CalibrationOptions, Loss, Weights};
+use kinecal::estimation::{calibrate, CalibrationOptions, Loss};
 use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::kinematics::Target;
-use kinecal::measurement_file::{parse_measurements, remap_columns};
+use kinecal::observe::point::{parse_measurements, parse_measurements_mapped, ColumnMap};
+use kinecal::observe::{accuracy, Observation, Weights};
+use kinecal::outliers::outliers;
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::{JointKind, Link, ParamId, Site};
 use nalgebra::Vector3;
@@ -45,11 +47,10 @@ fn position_only_reflectors_recover_the_truth_to_the_noise_level() {
     let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 90, 4), true);
     // One reflector per posture, in turn.
     let mut k = 0;
-    data.measurements.retain(|m| {
+    data.observations.retain(|m| {
         k += 1;
-        m.target == Target::Site((k - 1) / 4 % 3)
+        m.target() == Target::Site((k - 1) / 4 % 3)
     });
-    data = kinecal::Dataset::new(data.postures.clone(), data.measurements.clone());
     simulate::add_noise(&mut data, noise, 0.0, 9);
     let mut candidates: Vec<ParamId> =
         kinecal::parse_param_list("links,offsets,sites", &nominal).unwrap();
@@ -66,8 +67,8 @@ fn position_only_reflectors_recover_the_truth_to_the_noise_level() {
     // Held-out: fresh postures, every reflector, noise-free truth.
     let mut held = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 77), true);
     // The reflectors only: the flange itself was never measured.
-    held.measurements
-        .retain(|m| m.target != Target::EndEffector);
+    held.observations
+        .retain(|m| m.target() != Target::EndEffector);
     let acc = accuracy(&cal.calibrated, &held);
     // The fit's own error at a point is ~noise * sqrt(p / m) per coordinate (p = 33 parameters
     // over m = 270 residuals): ~0.35 noise per coordinate, ~0.6 noise in 3D. 1.5 noise is a
@@ -91,7 +92,10 @@ fn outliers_are_listed_and_huber_resists_them() {
     simulate::add_noise(&mut data, 2e-5, 2e-5, 3);
     // Two bad rows: a reflector bumped by 2 mm.
     for i in [5, 17] {
-        data.measurements[i].position += Vector3::new(2e-3, -1e-3, 0.0);
+        let Observation::Pose(p) = &mut data.observations[i] else {
+            panic!("poses")
+        };
+        p.position += Vector3::new(2e-3, -1e-3, 0.0);
     }
     let ids = kinecal::parse_param_list("p1,p2,p8,p14,offsets", &nominal).unwrap();
     let mut opts = CalibrationOptions::new(ids);
@@ -103,7 +107,7 @@ fn outliers_are_listed_and_huber_resists_them() {
     // Least squares lets the two bad rows pull the fit: they are flagged, among others.
     let flagged: Vec<usize> = outliers(&ls, &data, 4.0)
         .iter()
-        .map(|o| o.measurement)
+        .map(|o| o.observation)
         .collect();
     assert!(flagged.contains(&5) && flagged.contains(&17), "{flagged:?}");
     opts.loss = Loss::Huber(1.345);
@@ -111,7 +115,7 @@ fn outliers_are_listed_and_huber_resists_them() {
     // The robust fit is not pulled: exactly the two bad rows stand out.
     let flagged: Vec<usize> = outliers(&hub, &data, 4.0)
         .iter()
-        .map(|o| o.measurement)
+        .map(|o| o.observation)
         .collect();
     assert_eq!(flagged, vec![5, 17]);
     let err =
@@ -135,42 +139,99 @@ fn outliers_are_listed_and_huber_resists_them() {
     assert!(outliers(&c, &clean, 4.0).is_empty());
 }
 
+fn map(specs: &[&str]) -> ColumnMap {
+    ColumnMap::parse(specs, "--columns").unwrap()
+}
+
 #[test]
 fn column_mapping_reads_a_tracker_export() {
     let robot = kinecal::examples::ge_a4();
-    let text = "# tracker export\nid;q1\n"; // wrong delimiter: refused below
-    let mapping = vec![("posture".to_string(), "id".to_string())];
-    assert!(remap_columns(text, "t.csv", &mapping, &robot).is_err());
     let text =
         "Point,J1,J2,J3,J4,X,Y,Z,Quality\nA,-11.053,12.369,4.009,-11.583,14.071,19.083,0.177,ok\n\
                 B,-12.696,9.037,1.493,5.156,6.098,14.220,3.700,ok\n";
-    let mapping: Vec<(String, String)> = [
-        ("posture", "Point"),
-        ("v1", "J1"),
-        ("v2", "J2"),
-        ("v3", "J3"),
-        ("v4", "J4"),
-        ("x", "X"),
-        ("y", "Y"),
-        ("z", "Z"),
-    ]
-    .iter()
-    .map(|(a, b)| (a.to_string(), b.to_string()))
-    .collect();
-    let out = remap_columns(text, "t.csv", &mapping, &robot).unwrap();
-    let data = parse_measurements(&out, "t.csv", &robot).unwrap();
-    assert_eq!(data.measurements.len(), 2);
+    let m = map(&["posture=Point,v1=J1,v2=J2,v3=J3,v4=J4,x=X,y=Y,z=Z"]);
+    let data = parse_measurements_mapped(text, "t.csv", &robot, &m).unwrap();
+    assert_eq!(data.observations.len(), 2);
     assert!(data
-        .measurements
+        .observations
         .iter()
-        .all(|m| m.orientation.is_none() && m.target == Target::EndEffector));
-    assert!((data.measurements[1].position.z - 3.7 * 0.0254).abs() < 1e-12);
+        .all(|m| m.kind() == "position" && m.target() == Target::EndEffector));
+    let Observation::Position(p) = &data.observations[1] else {
+        panic!()
+    };
+    assert!((p.position.z - 3.7 * 0.0254).abs() < 1e-12);
+    assert_eq!(p.line, 3);
     let bad = text.replace("B,-12.696", "B,oops");
-    let e = parse_measurements(
-        &remap_columns(&bad, "t.csv", &mapping, &robot).unwrap(),
-        "t.csv",
-        &robot,
+    let e = parse_measurements_mapped(&bad, "t.csv", &robot, &m).unwrap_err();
+    assert!(e.to_string().contains("t.csv:3: field `J1`"), "{e}");
+}
+
+#[test]
+fn other_layouts_load_as_they_are() {
+    let robot = kinecal::examples::ge_a4();
+    // No posture column: rows number the postures. Comment lines before the header, `;` as
+    // the delimiter (as tracker software exports).
+    let text = "# Tracker export 2026-11-22\n# units: in, deg\nJ1;J2;J3;J4;X;Y;Z\n\
+                -11.053;12.369;4.009;-11.583;14.071;19.083;0.177\n\
+                -12.696;9.037;1.493;5.156;6.098;14.220;3.700\n";
+    let m = map(&["v1=J1,v2=J2,v3=J3,v4=J4,x=X,y=Y,z=Z"]);
+    let d = parse_measurements_mapped(text, "t.csv", &robot, &m).unwrap();
+    assert_eq!(d.postures.len(), 2);
+    assert_eq!(d.postures[1].label, "2");
+    assert_eq!(d.observations[1].line(), 5);
+    // Tabs, and the plain reader (kinecal's own column names) also reads them.
+    let tabbed = "posture\tv1\tv2\tv3\tv4\tx\ty\tz\n1\t1\t2\t3\t4\t5\t6\t7\n";
+    let d = parse_measurements(tabbed, "t.tsv", &robot).unwrap();
+    assert_eq!(d.observations.len(), 1);
+    // FIGAROH's wide layout: several markers side by side, one mapping per site.
+    let mut a4 = robot.clone();
+    for name in ["m1", "m2"] {
+        a4.sites.push(Site {
+            name: name.into(),
+            joint: 4,
+            frame: Link::default(),
+        });
+    }
+    let wide = "x1,y1,z1,x2,y2,z2,q1,q2,q3,q4\n\
+                1,2,3,4,5,6,-11,12,4,-11\n\
+                1,2,3,,,,-12,9,1.5,5\n";
+    let m = map(&[
+        "v1=q1,v2=q2,v3=q3,v4=q4",
+        "m1:x=x1,y=y1,z=z1",
+        "m2:x=x2,y=y2,z=z2",
+    ]);
+    let d = parse_measurements_mapped(wide, "w.csv", &a4, &m).unwrap();
+    assert_eq!(d.postures.len(), 2);
+    // The second marker was not measured in the second row.
+    assert_eq!(d.observations.len(), 3);
+    assert_eq!(d.observations[1].target(), Target::Site(1));
+    // Mistakes are refused with a message.
+    for (specs, expect) in [
+        (&["v1=q1,v1=q2"][..], "mapped twice"),
+        (&["v1=q1,v2=q1"][..], "mapped to both"),
+        (&["m1:v1=q1"][..], "not a marker column"),
+        (&["v1=q1", "v2=q2"][..], "only one mapping"),
+    ] {
+        let e = ColumnMap::parse(specs, "--columns")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(expect), "{specs:?}: {e}");
+    }
+    let e = parse_measurements_mapped(
+        wide,
+        "w.csv",
+        &a4,
+        &map(&["v1=q1,v2=q2,v3=q3,v4=q4", "m9:x=x1,y=y1,z=z1"]),
     )
-    .unwrap_err();
-    assert!(e.to_string().contains("t.csv:3: field `v1`"), "{e}");
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("unknown site `m9`"), "{e}");
+    // A plain file with a column kinecal does not know says what it expected.
+    let e = parse_measurements("posture,v1,v2,v3,v4,v5,x,y,z\n", "p.csv", &robot)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unknown column `v5` (the robot has 4 joints)"),
+        "{e}"
+    );
 }

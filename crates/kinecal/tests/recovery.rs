@@ -1,8 +1,9 @@
 //! Calibration recovers a perturbed robot from noise-free data; solvers behave on singular
 //! problems; results do not depend on the file's units.
 
-use kinecal::estimation::{calibrate, CalibrationOptions, Method, OrientationError, SolverOptions};
+use kinecal::estimation::{calibrate, CalibrationOptions, Method, SolverOptions};
 use kinecal::kinematics::{forward_pose, Target};
+use kinecal::observe::OrientationError;
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::{examples, parse_param_list, Error, JointKind, ParamId, Robot};
 
@@ -160,7 +161,7 @@ fn to_units(robot: &Robot, length: kinecal::LengthUnit, angle: kinecal::AngleUni
 
 #[test]
 fn results_do_not_depend_on_units() {
-    use kinecal::measurement_file::{parse_measurements, write_measurements};
+    use kinecal::observe::point::{parse_measurements, write_measurements};
     use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
     let nominal = examples::ge_a4();
     let std = PerturbStd {
@@ -239,5 +240,34 @@ fn position_only_data_leaves_unseen_parameters_alone() {
             "{}: {a} vs {b}",
             nominal.param_name(ParamId(p))
         );
+        // And the calibration says so.
+        assert!(cal.unfelt.contains(&ParamId(p)), "{:?}", cal.unfelt);
     }
+}
+
+#[test]
+fn a_method_that_stops_where_lm_still_descends_is_stalled_not_converged() {
+    // Truncated SVD that drops every direction below half the largest singular value converges
+    // within the directions it keeps; Levenberg-Marquardt from there goes further down.
+    let nominal = examples::ge_a4();
+    let ids = parse_param_list("p1,p2,p8,p14,offsets", &nominal).unwrap();
+    let mut truth = nominal.clone();
+    for (k, &id) in ids.iter().enumerate() {
+        truth.set(id, truth.get(id) + 1e-3 * (k as f64 - 2.5));
+    }
+    let data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 3), false);
+    let mut opts = CalibrationOptions::new(ids.clone());
+    opts.solver = SolverOptions::new(Method::Svd);
+    opts.solver.rcond = 0.5;
+    let cal = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+    assert_eq!(cal.termination, kinecal::estimation::Termination::Stalled);
+    assert!(!cal.converged());
+    // Levenberg-Marquardt on the same problem converges to the truth.
+    let lm = run(Method::LevenbergMarquardt, ids, &nominal, &data);
+    assert!(lm.converged());
+    assert!(lm.objective_after < 1e-9 * cal.objective_after);
+    // Gauss-Newton, a well-posed problem: converged, not stalled.
+    let offsets = parse_param_list("offsets", &nominal).unwrap();
+    let gn = run(Method::GaussNewton, offsets, &nominal, &data);
+    assert!(gn.converged(), "{:?}", gn.termination);
 }

@@ -1,11 +1,18 @@
-//! The least-squares solvers of thesis chapter 3, run in a scaled parameter space.
+//! The least-squares solvers of thesis chapter 3: one driver and four step rules.
 //!
-//! Every method works on `J_s = W J D^-1`: residuals weighted by the measurement standard
-//! deviations `W` (see [`Weights`](super::Weights)), and columns divided by their Euclidean norms
-//! `D` (recomputed every iteration). `J_s^T J_s` then has a unit diagonal: this is exactly
+//! The driver ([`solve`]) owns everything the methods share: evaluating the problem, the scaled
+//! space, termination, the iteration log and the observer. Every method works on `J_s = W J
+//! D^-1`: residuals weighted by their standard deviations `W` (see
+//! [`Problem`](crate::problem::Problem)), and columns divided by their Euclidean norms `D`
+//! (recomputed every iteration). `J_s^T J_s` then has a unit diagonal: this is exactly
 //! Marquardt's scaling `B_ii = sqrt(H_ii)` of eq. 3.15, and it makes every method independent of
-//! the units parameters are expressed in (thesis 4.4.2: the conditioning that units spoil).
+//! the units parameters are expressed in (thesis 4.4.2: the conditioning that units spoil). A
+//! column below 1e-12 of the largest holds only rounding noise (a parameter no observation feels,
+//! e.g. the tool's attitude under position-only data): it is zeroed, not scaled up, so the
+//! parameter stays where it is.
 //!
+//! A method is a [`StepRule`]: given the scaled system, it proposes steps until one lowers the
+//! objective.
 //! - `lm`: `(C + lambda I) y = -g` with `C = J_s^T J_s`, `g = J_s^T r`; lambda divided by 10 after
 //!   a successful step, multiplied by 10 after a failed one (eqs. 3.14-3.15). With
 //!   [`Damping::Identity`] no column scaling is applied, so the damping is plain `lambda I` in
@@ -16,11 +23,19 @@
 //!   the local quadratic model, then halved until the objective decreases.
 //! - `svd`: `y = -J_s^+ r` (eq. 3.20) with singular values below `rcond * s_max` dropped; step
 //!   halving as for `gn`.
+//!
+//! Stopping: an accepted step that lowers the objective by less than `ftol` relative, a scaled
+//! step below `xtol`, a zero objective, no step that lowers the objective, or the iteration cap.
+//! When Gauss-Newton, steepest descent or SVD stop short of the cap (no step of theirs lowers
+//! the objective, or the last one lowered it by less than `ftol`, or was below `xtol`), the
+//! driver tries one Levenberg-Marquardt step from the same point: if that lowers the objective
+//! by more than 1e-6 of it (and the objective is not already at the rounding floor, 1e-16 of
+//! its start), the method stalled ([`Termination::Stalled`], not converged): it stopped where
+//! the objective still goes down.
 
 use crate::error::{Error, Result};
 use crate::linalg::{self, Matrix};
-
-use super::problem::Problem;
+use crate::problem::Problem;
 
 /// A least-squares method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -52,6 +67,15 @@ impl Method {
         match self {
             Method::SteepestDescent => 5000,
             _ => 100,
+        }
+    }
+
+    fn rule(self, opts: &SolverOptions) -> Box<dyn StepRule> {
+        match self {
+            Method::LevenbergMarquardt => Box::new(LevenbergMarquardt::new(opts.damping)),
+            Method::GaussNewton => Box::new(GaussNewton { rcond: opts.rcond }),
+            Method::SteepestDescent => Box::new(SteepestDescent),
+            Method::Svd => Box::new(TruncatedSvd { rcond: opts.rcond }),
         }
     }
 }
@@ -123,17 +147,20 @@ pub enum Termination {
     SmallReduction,
     /// The step fell below `xtol`.
     SmallStep,
-    /// No step along the method's direction reduces the objective: a minimum to numerical
-    /// precision.
+    /// No step along the method's direction reduces the objective, nor does a
+    /// Levenberg-Marquardt step: a minimum to numerical precision.
     NoFurtherReduction,
+    /// The method's steps no longer reduce the objective, but a Levenberg-Marquardt step from
+    /// the same point does: not a minimum.
+    Stalled,
     /// The iteration cap was reached first.
     MaxIterations,
 }
 
 impl Termination {
-    /// True for every reason but the iteration cap.
+    /// True when the solver stopped at a minimum (not at the cap, not stalled).
     pub fn converged(self) -> bool {
-        self != Termination::MaxIterations
+        !matches!(self, Termination::MaxIterations | Termination::Stalled)
     }
 
     /// A sentence for reports.
@@ -143,6 +170,9 @@ impl Termination {
             Termination::SmallReduction => "relative reduction of the objective below ftol",
             Termination::SmallStep => "parameter step below xtol",
             Termination::NoFurtherReduction => "no step reduces the objective any further",
+            Termination::Stalled => {
+                "stalled: the method's steps no longer reduce the objective, a Levenberg-Marquardt step does"
+            }
             Termination::MaxIterations => "iteration cap reached before convergence",
         }
     }
@@ -176,241 +206,330 @@ pub struct Solution {
     pub iterations: usize,
     /// Why it stopped.
     pub termination: Termination,
+    /// Columns (in the problem's parameter order) that no residual felt at the start: their
+    /// Jacobian column was zero, or below 1e-12 of the largest.
+    pub unfelt: Vec<usize>,
 }
 
-/// An accepted trial: new parameters, scaled step, objective, damping and step factor.
-struct Accepted {
-    x: Vec<f64>,
-    y: Vec<f64>,
-    f: f64,
+/// The scaled system a step rule works on, at the current point.
+pub struct Scaled<'s> {
+    /// The scaled Jacobian `J_s = W J D^-1` (dead columns zeroed).
+    pub js: &'s Matrix,
+    /// The weighted residuals.
+    pub r: &'s [f64],
+    /// The gradient `g = J_s^T r`.
+    pub g: &'s [f64],
+    /// The objective.
+    pub f: f64,
+}
+
+/// A step a rule had accepted: the scaled step, the objective it reached, the damping (LM) or
+/// line-search factor (others), and the evaluations spent.
+pub struct Step {
+    /// Scaled step.
+    pub y: Vec<f64>,
+    /// Objective after the step.
+    pub f: f64,
+    /// LM damping, or line-search factor.
+    pub lambda: f64,
+    /// Objective evaluations spent.
+    pub evaluations: usize,
+}
+
+/// A least-squares method: proposes scaled steps `y` (the parameters move by `D^-1 y`) and
+/// evaluates them with `trial`, which returns the objective there (infinite when not finite),
+/// until one lowers the objective. `None` when none does.
+pub trait StepRule {
+    /// Whether the driver divides columns by their norms (plain LM damping does not).
+    fn scales_columns(&self) -> bool {
+        true
+    }
+    /// Proposes steps until one lowers `sys.f`.
+    fn step(
+        &mut self,
+        sys: &Scaled<'_>,
+        trial: &mut dyn FnMut(&[f64]) -> f64,
+    ) -> Result<Option<Step>>;
+}
+
+/// Levenberg-Marquardt (eqs. 3.14-3.15).
+pub struct LevenbergMarquardt {
+    damping: Damping,
     lambda: f64,
-    t: f64,
 }
 
-struct State {
-    x: Vec<f64>,
-    r: Vec<f64>,
-    jac: Matrix,
-    f: f64,
+impl LevenbergMarquardt {
+    /// With damping `damping`, lambda chosen at the first step.
+    pub fn new(damping: Damping) -> Self {
+        LevenbergMarquardt {
+            damping,
+            lambda: f64::NAN,
+        }
+    }
+}
+
+impl StepRule for LevenbergMarquardt {
+    fn scales_columns(&self) -> bool {
+        self.damping == Damping::Marquardt
+    }
+
+    fn step(
+        &mut self,
+        sys: &Scaled<'_>,
+        trial: &mut dyn FnMut(&[f64]) -> f64,
+    ) -> Result<Option<Step>> {
+        let c = linalg::gram(sys.js);
+        let n = c.ncols();
+        let max_diag = (0..n).map(|i| c[(i, i)]).fold(0.0, f64::max);
+        if self.lambda.is_nan() {
+            self.lambda = 1e-3 * if max_diag > 0.0 { max_diag } else { 1.0 };
+        }
+        let cap = 1e12 * max_diag.max(1.0);
+        let rhs: Vec<f64> = sys.g.iter().map(|v| -v).collect();
+        let mut evaluations = 0;
+        let mut a = c.clone();
+        while self.lambda <= cap {
+            for i in 0..n {
+                a[(i, i)] = c[(i, i)] + self.lambda;
+            }
+            if let Some(y) = linalg::solve_spd(&a, &rhs) {
+                evaluations += 1;
+                let f = trial(&y);
+                if f < sys.f {
+                    let used = self.lambda;
+                    self.lambda = (self.lambda / 10.0).max(1e-15);
+                    return Ok(Some(Step {
+                        y,
+                        f,
+                        lambda: used,
+                        evaluations,
+                    }));
+                }
+            }
+            self.lambda *= 10.0;
+        }
+        Ok(None)
+    }
+}
+
+/// Gauss-Newton (eq. 3.13), refusing a singular system.
+pub struct GaussNewton {
+    /// Relative singular-value threshold for the rank test.
+    pub rcond: f64,
+}
+
+impl StepRule for GaussNewton {
+    fn step(
+        &mut self,
+        sys: &Scaled<'_>,
+        trial: &mut dyn FnMut(&[f64]) -> f64,
+    ) -> Result<Option<Step>> {
+        let n = sys.js.ncols();
+        let s = linalg::singular_values(sys.js)
+            .ok_or_else(|| Error::Numerical("SVD of the Jacobian did not converge".into()))?;
+        let smax = s.first().copied().unwrap_or(0.0);
+        let rank = s.iter().filter(|&&v| v > self.rcond * smax).count();
+        let singular = Error::SingularNormalEquations {
+            rank,
+            parameters: n,
+            rcond: self.rcond,
+        };
+        if rank < n {
+            return Err(singular);
+        }
+        let rhs: Vec<f64> = sys.g.iter().map(|v| -v).collect();
+        let y = linalg::solve_spd(&linalg::gram(sys.js), &rhs).ok_or(singular)?;
+        Ok(halving(y, sys.f, trial))
+    }
+}
+
+/// Steepest descent with the model's exact step length, then halving (eq. 3.10).
+pub struct SteepestDescent;
+
+impl StepRule for SteepestDescent {
+    fn step(
+        &mut self,
+        sys: &Scaled<'_>,
+        trial: &mut dyn FnMut(&[f64]) -> f64,
+    ) -> Result<Option<Step>> {
+        let jg = linalg::a_v(sys.js, sys.g);
+        let denom = dot(&jg, &jg);
+        let t = if denom > 0.0 {
+            dot(sys.g, sys.g) / denom
+        } else {
+            0.0
+        };
+        let y = sys.g.iter().map(|v| -t * v).collect();
+        Ok(halving(y, sys.f, trial))
+    }
+}
+
+/// Truncated-SVD pseudo-inverse steps (eq. 3.20).
+pub struct TruncatedSvd {
+    /// Singular values below `rcond * s_max` are dropped.
+    pub rcond: f64,
+}
+
+impl StepRule for TruncatedSvd {
+    fn step(
+        &mut self,
+        sys: &Scaled<'_>,
+        trial: &mut dyn FnMut(&[f64]) -> f64,
+    ) -> Result<Option<Step>> {
+        let svd = linalg::thin_svd(sys.js)
+            .ok_or_else(|| Error::Numerical("SVD of the Jacobian did not converge".into()))?;
+        let smax = svd.s.first().copied().unwrap_or(0.0);
+        let mut y = vec![0.0; sys.js.ncols()];
+        for (k, &s) in svd.s.iter().enumerate() {
+            if s > self.rcond * smax {
+                let coef = -dot(svd.u.col(k), sys.r) / s;
+                for (yi, vi) in y.iter_mut().zip(svd.v.col(k)) {
+                    *yi += coef * vi;
+                }
+            }
+        }
+        Ok(halving(y, sys.f, trial))
+    }
+}
+
+/// Tries `y`, `y/2`, `y/4`, ... (40 times) until the objective drops below `f`.
+fn halving(y: Vec<f64>, f: f64, trial: &mut dyn FnMut(&[f64]) -> f64) -> Option<Step> {
+    if !(y.iter().all(|v| v.is_finite()) && y.iter().any(|&v| v != 0.0)) {
+        return None;
+    }
+    let mut t = 1.0;
+    let mut ys = y.clone();
+    for evaluations in 1..=40 {
+        let fv = trial(&ys);
+        if fv < f {
+            return Some(Step {
+                y: ys,
+                f: fv,
+                lambda: t,
+                evaluations,
+            });
+        }
+        t *= 0.5;
+        for (s, v) in ys.iter_mut().zip(&y) {
+            *s = v * t;
+        }
+    }
+    None
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Minimises the problem's objective from `x0`, calling `observer` after every iteration.
+/// Minimises the problem's objective from `x0` with `opts.method`, calling `observer` after
+/// every iteration.
 pub fn solve(
     problem: &Problem<'_>,
     x0: &[f64],
     opts: &SolverOptions,
     observer: &mut dyn FnMut(&Iteration),
 ) -> Result<Solution> {
+    drive(problem, x0, opts, opts.method.rule(opts).as_mut(), observer)
+}
+
+/// The driver: runs `rule` from `x0` (see the module documentation).
+pub fn drive(
+    problem: &Problem<'_>,
+    x0: &[f64],
+    opts: &SolverOptions,
+    rule: &mut dyn StepRule,
+    observer: &mut dyn FnMut(&Iteration),
+) -> Result<Solution> {
     let (m, n) = (problem.rows(), problem.cols());
-    let mut st = State {
-        x: x0.to_vec(),
-        r: vec![0.0; m],
-        jac: linalg::zeros(m, n),
-        f: 0.0,
-    };
-    st.f = problem.evaluate(&problem.robot_at(&st.x), &mut st.r, Some(&mut st.jac));
-    if !st.f.is_finite() {
-        return Err(Error::Numerical(
-            "the objective is not finite at the starting point".into(),
-        ));
+    let mut x = x0.to_vec();
+    let mut r = vec![0.0; m];
+    let mut jac = Matrix::zeros(m, n);
+    let mut js = Matrix::zeros(m, n);
+    let mut f = problem.evaluate(&problem.robot_at(&x), &mut r, Some(&mut jac));
+    if !f.is_finite() {
+        return Err(non_finite_start(problem, &r));
     }
-    let objective_before = st.f;
+    let objective_before = f;
     let mut trial_r = vec![0.0; m];
-    let mut lambda = f64::NAN;
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
-
-    // Tries x + y/d; returns the trial objective (residuals left in trial_r).
-    let try_step = |st: &State, y: &[f64], d: &[f64], t: f64, trial_r: &mut Vec<f64>| {
-        let x: Vec<f64> =
-            st.x.iter()
-                .zip(y)
-                .zip(d)
-                .map(|((x, y), d)| x + t * y / d)
-                .collect();
-        let f = problem.evaluate(&problem.robot_at(&x), trial_r, None);
-        (x, if f.is_finite() { f } else { f64::INFINITY })
-    };
-
+    let mut unfelt = None;
+    let mut trial_x = vec![0.0; n];
     while iterations < opts.max_iterations {
-        if st.f == 0.0 {
+        if f == 0.0 {
             termination = Termination::ZeroObjective;
             break;
         }
         iterations += 1;
-        // Column scaling D (Marquardt's B) and the scaled Jacobian.
-        // A column below 1e-12 of the largest holds only rounding noise (a parameter no
-        // measurement feels, e.g. the tool's attitude under position-only data): it is zeroed,
-        // not scaled up, so the parameter stays where it is.
-        let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&st.jac, j)).collect();
+        let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&jac, j)).collect();
         let max_norm = norms.iter().copied().fold(0.0, f64::max);
         let dead: Vec<bool> = norms
             .iter()
             .map(|&c| c.is_nan() || c <= 1e-12 * max_norm)
             .collect();
+        if unfelt.is_none() {
+            unfelt = Some((0..n).filter(|&j| dead[j]).collect::<Vec<_>>());
+        }
         let d: Vec<f64> = (0..n)
-            .map(|j| match opts.damping {
-                _ if dead[j] => 1.0,
-                Damping::Identity if opts.method == Method::LevenbergMarquardt => 1.0,
-                _ => norms[j],
+            .map(|j| {
+                if dead[j] || !rule.scales_columns() {
+                    1.0
+                } else {
+                    norms[j]
+                }
             })
             .collect();
-        let mut js = st.jac.clone();
-        for (j, &dj) in d.iter().enumerate() {
-            linalg::scale_col(&mut js, j, if dead[j] { 0.0 } else { 1.0 / dj });
-        }
-        let g = linalg::at_v(&js, &st.r);
-        let mut evaluations = 0;
-        let accepted: Option<Accepted> = match opts.method {
-            Method::LevenbergMarquardt => {
-                let c = linalg::gram(&js);
-                if lambda.is_nan() {
-                    let max_diag = (0..n).map(|i| c[(i, i)]).fold(0.0, f64::max);
-                    lambda = 1e-3 * if max_diag > 0.0 { max_diag } else { 1.0 };
-                }
-                let lambda_cap = 1e12 * (0..n).map(|i| c[(i, i)]).fold(1.0, f64::max);
-                let rhs: Vec<f64> = g.iter().map(|v| -v).collect();
-                let mut result = None;
-                while lambda <= lambda_cap {
-                    let mut a = c.clone();
-                    for i in 0..n {
-                        a[(i, i)] += lambda;
-                    }
-                    if let Some(y) = linalg::solve_spd(&a, &rhs) {
-                        evaluations += 1;
-                        let (x, f) = try_step(&st, &y, &d, 1.0, &mut trial_r);
-                        if f < st.f {
-                            result = Some(Accepted {
-                                x,
-                                y,
-                                f,
-                                lambda,
-                                t: 1.0,
-                            });
-                            lambda = (lambda / 10.0).max(1e-15);
-                            break;
-                        }
-                    }
-                    lambda *= 10.0;
-                }
-                result
+        for j in 0..n {
+            let s = if dead[j] { 0.0 } else { 1.0 / d[j] };
+            for (o, v) in js.col_mut(j).iter_mut().zip(jac.col(j)) {
+                *o = v * s;
             }
-            Method::GaussNewton | Method::Svd | Method::SteepestDescent => {
-                let y: Vec<f64> = match opts.method {
-                    Method::GaussNewton => {
-                        let s = linalg::singular_values(&js).ok_or_else(|| {
-                            Error::Numerical("SVD of the Jacobian did not converge".into())
-                        })?;
-                        let smax = s.first().copied().unwrap_or(0.0);
-                        let rank = s.iter().filter(|&&v| v > opts.rcond * smax).count();
-                        if rank < n {
-                            return Err(Error::SingularNormalEquations {
-                                rank,
-                                parameters: n,
-                                rcond: opts.rcond,
-                            });
-                        }
-                        let c = linalg::gram(&js);
-                        let rhs: Vec<f64> = g.iter().map(|v| -v).collect();
-                        linalg::solve_spd(&c, &rhs).ok_or(Error::SingularNormalEquations {
-                            rank,
-                            parameters: n,
-                            rcond: opts.rcond,
-                        })?
-                    }
-                    Method::Svd => {
-                        let svd = linalg::thin_svd(&js).ok_or_else(|| {
-                            Error::Numerical("SVD of the Jacobian did not converge".into())
-                        })?;
-                        let smax = svd.s.first().copied().unwrap_or(0.0);
-                        let mut y = vec![0.0; n];
-                        for (k, &s) in svd.s.iter().enumerate() {
-                            if s > opts.rcond * smax {
-                                let coef = -svd
-                                    .u
-                                    .col(k)
-                                    .iter()
-                                    .zip(&st.r)
-                                    .map(|(u, r)| u * r)
-                                    .sum::<f64>()
-                                    / s;
-                                for (yi, vi) in y.iter_mut().zip(svd.v.col(k).iter()) {
-                                    *yi += coef * vi;
-                                }
-                            }
-                        }
-                        y
-                    }
-                    _ => {
-                        let jg = linalg::a_v(&js, &g);
-                        let denom = dot(&jg, &jg);
-                        let t = if denom > 0.0 {
-                            dot(&g, &g) / denom
-                        } else {
-                            0.0
-                        };
-                        g.iter().map(|v| -t * v).collect()
-                    }
-                };
-                let mut t = 1.0;
-                let mut result = None;
-                if y.iter().all(|v| v.is_finite()) && y.iter().any(|&v| v != 0.0) {
-                    for _ in 0..40 {
-                        evaluations += 1;
-                        let (x, f) = try_step(&st, &y, &d, t, &mut trial_r);
-                        if f < st.f {
-                            let ys = y.iter().map(|v| v * t).collect();
-                            result = Some(Accepted {
-                                x,
-                                y: ys,
-                                f,
-                                lambda: f64::NAN,
-                                t,
-                            });
-                            break;
-                        }
-                        t *= 0.5;
-                    }
-                }
-                result
+        }
+        let g = linalg::at_v(&js, &r);
+        let sys = Scaled {
+            js: &js,
+            r: &r,
+            g: &g,
+            f,
+        };
+        let mut trial = |y: &[f64]| {
+            for j in 0..n {
+                trial_x[j] = x[j] + y[j] / d[j];
+            }
+            let v = problem.evaluate(&problem.robot_at(&trial_x), &mut trial_r, None);
+            if v.is_finite() {
+                v
+            } else {
+                f64::INFINITY
             }
         };
-        let Some(Accepted {
-            x,
-            y,
-            f: f_new,
-            lambda: lam,
-            t,
-        }) = accepted
-        else {
+        let accepted = rule.step(&sys, &mut trial)?;
+        let Some(step) = accepted else {
             termination = Termination::NoFurtherReduction;
             iterations -= 1;
             break;
         };
-        let reduction = st.f - f_new;
-        let f_old = st.f;
-        let step = dot(&y, &y).sqrt();
-        let xnorm =
-            st.x.iter()
-                .zip(&d)
-                .map(|(x, d)| (x * d) * (x * d))
-                .sum::<f64>()
-                .sqrt();
-        st.x = x;
-        std::mem::swap(&mut st.r, &mut trial_r);
-        st.f = problem.evaluate(&problem.robot_at(&st.x), &mut st.r, Some(&mut st.jac));
+        let reduction = f - step.f;
+        let f_old = f;
+        let step_norm = dot(&step.y, &step.y).sqrt();
+        let xnorm = x
+            .iter()
+            .zip(&d)
+            .map(|(x, d)| (x * d) * (x * d))
+            .sum::<f64>()
+            .sqrt();
+        for j in 0..n {
+            x[j] += step.y[j] / d[j];
+        }
+        f = problem.evaluate(&problem.robot_at(&x), &mut r, Some(&mut jac));
         observer(&Iteration {
             iteration: iterations,
-            objective: st.f,
-            step,
-            lambda: if lam.is_nan() { t } else { lam },
-            evaluations,
+            objective: f,
+            step: step_norm,
+            lambda: step.lambda,
+            evaluations: step.evaluations,
         });
-        if st.f == 0.0 {
+        if f == 0.0 {
             termination = Termination::ZeroObjective;
             break;
         }
@@ -418,16 +537,60 @@ pub fn solve(
             termination = Termination::SmallReduction;
             break;
         }
-        if step <= opts.xtol * (xnorm + opts.xtol) {
+        if step_norm <= opts.xtol * (xnorm + opts.xtol) {
             termination = Termination::SmallStep;
             break;
         }
     }
+    // A method other than Levenberg-Marquardt that stopped short of the cap has converged only
+    // if Levenberg-Marquardt cannot go down from the same point either.
+    if opts.method != Method::LevenbergMarquardt
+        && matches!(
+            termination,
+            Termination::NoFurtherReduction | Termination::SmallReduction | Termination::SmallStep
+        )
+        && f > 1e-16 * objective_before
+        && lm_descends(problem, &x, f, opts)?
+    {
+        termination = Termination::Stalled;
+    }
     Ok(Solution {
-        x: st.x,
+        x,
         objective_before,
-        objective_after: st.f,
+        objective_after: f,
         iterations,
         termination,
+        unfelt: unfelt.unwrap_or_default(),
     })
+}
+
+/// Whether one Levenberg-Marquardt step from `x` (objective `f`) lowers the objective by more
+/// than 1e-6 of it.
+fn lm_descends(problem: &Problem<'_>, x: &[f64], f: f64, opts: &SolverOptions) -> Result<bool> {
+    let mut lm = LevenbergMarquardt::new(Damping::Marquardt);
+    let probe = SolverOptions {
+        method: Method::LevenbergMarquardt,
+        max_iterations: 1,
+        ..*opts
+    };
+    let s = drive(problem, x, &probe, &mut lm, &mut |_| {})?;
+    Ok(f - s.objective_after > 1e-6 * f)
+}
+
+/// The error for a start where the objective is not finite, naming the first observation with a
+/// non-finite residual.
+fn non_finite_start(problem: &Problem<'_>, r: &[f64]) -> Error {
+    let mut row = 0;
+    for o in &problem.data().observations {
+        let n = o.rows().len();
+        if let Some(k) = (0..n).find(|&k| !r[row + k].is_finite()) {
+            return Error::NonFiniteResidual {
+                line: o.line(),
+                kind: o.kind(),
+                row: o.rows()[k].label,
+            };
+        }
+        row += n;
+    }
+    Error::Numerical("the objective is not finite at the starting point".into())
 }

@@ -22,6 +22,7 @@ use crate::error::{Error, Location, Result};
 use crate::kinematics::{euler_zyx, rot_zyx, Frame};
 use crate::robot::{JointKind, Robot};
 use crate::units::Units;
+use crate::warning::Warning;
 
 /// A URDF joint origin as a frame: `Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)`.
 pub fn origin_frame(xyz: [f64; 3], rpy: [f64; 3]) -> Frame {
@@ -242,7 +243,7 @@ pub fn import_urdf(
 /// The new origins (by joint name) that make `chain`'s URDF reproduce `robot`'s forward
 /// kinematics, and warnings for what a URDF cannot express (slopes other than 1, a tool
 /// correction with no fixed joint after the last movable one).
-pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin>, Vec<String>)> {
+pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin>, Vec<Warning>)> {
     if robot.dof() != chain.movable.len() {
         return Err(Error::Problem(format!(
             "the robot has {} joints but the URDF chain has {} movable joints",
@@ -276,21 +277,18 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin
                     joint.slope
                 )));
             }
-            warnings.push(format!(
-                "joint {} (`{}`) is coupled to joint {}: the URDF joint's value is the sum of the two \
-                 readings (as controller drivers for coupled arms publish it)",
-                i + 1,
-                chain.movable[i],
-                c.joint + 1
-            ));
+            warnings.push(Warning::UrdfCoupled {
+                joint: i + 1,
+                name: chain.movable[i].clone(),
+                other: c.joint + 1,
+            });
         }
         if (joint.slope - unit_slope).abs() > 1e-12 {
-            warnings.push(format!(
-                "joint {} (`{}`) has slope {} rad or m per unit: a URDF cannot scale joint values, so the controller must",
-                i + 1,
-                chain.movable[i],
-                joint.slope
-            ));
+            warnings.push(Warning::UrdfSlope {
+                joint: i + 1,
+                name: chain.movable[i].clone(),
+                slope: joint.slope,
+            });
         }
         let off = match joint.kind {
             JointKind::Revolute => Frame {
@@ -343,11 +341,7 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin
         None => {
             let d = needed.translation.norm() + crate::kinematics::log_so3(&needed.rotation).norm();
             if d > 1e-12 {
-                warnings.push(
-                    "the tip link is the child of the last movable joint: the calibrated tool frame cannot be \
-                     written (add a fixed tool joint to the URDF)"
-                        .into(),
-                );
+                warnings.push(Warning::UrdfToolDropped);
             }
         }
     }
@@ -454,7 +448,7 @@ pub fn export_urdf(
     file: &str,
     base: Option<&str>,
     tip: Option<&str>,
-) -> Result<(String, Vec<String>)> {
+) -> Result<(String, Vec<Warning>)> {
     let imported = import_urdf(template, file, base, tip)?;
     let (origins, warnings) = export_origins(robot, &imported.chain)?;
     Ok((rewrite_origins(template, file, &origins)?, warnings))

@@ -1,0 +1,644 @@
+//! The measurement model: what was observed, and how each kind of observation turns the robot's
+//! frames into residuals.
+//!
+//! An observation looks at one or two *views* (a posture and a target frame: the end effector or
+//! a site) and owns everything about its residual rows: how many, what each one is (a length or
+//! an angle, and its label), its standard deviation when the file gives one, the residual
+//! `model - measured`, the Jacobian rows built from the geometric Jacobians of its views, its
+//! error metric for accuracy figures, and what it tells about the robot's placement in the world
+//! (for the rank count). Estimation, identifiability, uncertainty, outliers, validation and the
+//! reports all go through this interface, so a new instrument is one new file here.
+//!
+//! The kinds:
+//! - [`point::Pose`]: a full pose (position and ZYX Euler angles) of a target, 6 rows;
+//! - [`point::Position`]: a position, 3 rows;
+//! - [`distance::Distance`]: the distance between a target's positions in two postures (ballbar,
+//!   fixed-length artefact), 1 row.
+//!
+//! Values are internal (m, rad). A [`Dataset`] keeps its observations sorted by their first
+//! posture so that forward kinematics runs once per posture however many targets it measured.
+
+pub mod distance;
+pub mod point;
+pub(crate) mod table;
+
+use std::fmt;
+
+use crate::error::Result;
+use crate::kinematics::{Frame, Target};
+use crate::params::ParamId;
+use crate::robot::Robot;
+
+/// One posture: a label and one transducer reading per joint.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Posture {
+    /// The posture's label in files (`posture` column).
+    pub label: String,
+    /// One reading per joint, in transducer units.
+    pub readings: Vec<f64>,
+}
+
+/// A frame an observation looks at: a target in a posture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct View {
+    /// Index into [`Dataset::postures`].
+    pub posture: usize,
+    /// The frame.
+    pub target: Target,
+}
+
+/// What a residual row measures, which decides its default standard deviation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum RowQuantity {
+    /// A length (m).
+    Length,
+    /// An angle (rad).
+    Angle,
+}
+
+/// One residual row of a kind: its label (`x`, `alpha`, `distance`, ...) and quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Row {
+    /// Short label, e.g. `x` or `distance`.
+    pub label: &'static str,
+    /// Length or angle.
+    pub quantity: RowQuantity,
+}
+
+/// The measurement standard deviations that weight residuals without a standard deviation of
+/// their own (internal units).
+///
+/// The objective is `sum (length residual / sigma_L)^2 + (angle residual / sigma_A)^2`, which
+/// makes it dimensionless and the same whatever units the files use. Defaults: 1 mm and 1 mrad
+/// (0.0573 deg), i.e. an attitude error of 1 mrad counts like a 1 mm error, as it would at the
+/// end of a 1 m lever. A row's own standard deviation (`sigma_position`, `sigma_angle` columns)
+/// replaces these for that row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Weights {
+    /// Standard deviation of a length residual (m).
+    pub length: f64,
+    /// Standard deviation of an angle residual (rad).
+    pub angle: f64,
+}
+
+impl Default for Weights {
+    fn default() -> Self {
+        Weights {
+            length: 1e-3,
+            angle: 1e-3,
+        }
+    }
+}
+
+impl Weights {
+    /// The default standard deviation of a row of `quantity`.
+    pub fn of(&self, quantity: RowQuantity) -> f64 {
+        match quantity {
+            RowQuantity::Length => self.length,
+            RowQuantity::Angle => self.angle,
+        }
+    }
+}
+
+/// How an orientation residual is formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OrientationError {
+    /// Differences of the ZYX Euler angles, each wrapped to (-180, 180] deg (thesis eq. 3.1).
+    #[default]
+    Euler,
+    /// The rotation vector of `R_measured^T R_model`: defined everywhere, including at
+    /// beta = +-90 deg where Euler angles lock.
+    RotVec,
+}
+
+impl OrientationError {
+    /// `euler` or `rotvec`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            OrientationError::Euler => "euler",
+            OrientationError::RotVec => "rotvec",
+        }
+    }
+}
+
+/// What observations need besides their views' frames.
+#[derive(Debug, Clone, Copy)]
+pub struct Context<'a> {
+    /// The robot being evaluated (planes, sites).
+    pub robot: &'a Robot,
+    /// How pose observations form orientation residuals.
+    pub orientation: OrientationError,
+}
+
+/// The derivatives an observation builds its Jacobian rows from, and where it writes them.
+pub struct Derivatives<'b> {
+    /// Number of estimated columns `k`.
+    pub cols: usize,
+    /// Per view: the geometric Jacobian of the view's target over the estimated columns, 6 x k
+    /// column-major (entry `(i, c)` at `6 * c + i`): rows 0-2 the origin's derivative (m per
+    /// parameter unit), rows 3-5 the angular velocity in the global frame (rad per unit).
+    pub blocks: &'b [&'b [f64]],
+    /// The estimated column of each parameter (indexed by `ParamId.0`), for parameters that
+    /// enter an observation directly (planes).
+    pub columns: &'b [Option<usize>],
+    /// The output: `rows x k`, row-major, zeroed.
+    pub out: &'b mut [f64],
+}
+
+impl Derivatives<'_> {
+    /// Column `c` of view `v`'s origin derivative.
+    #[inline]
+    pub fn dp(&self, v: usize, c: usize) -> nalgebra::Vector3<f64> {
+        let b = &self.blocks[v][6 * c..6 * c + 3];
+        nalgebra::Vector3::new(b[0], b[1], b[2])
+    }
+
+    /// Column `c` of view `v`'s angular velocity.
+    #[inline]
+    pub fn w(&self, v: usize, c: usize) -> nalgebra::Vector3<f64> {
+        let b = &self.blocks[v][6 * c + 3..6 * c + 6];
+        nalgebra::Vector3::new(b[0], b[1], b[2])
+    }
+
+    /// The estimated column of parameter `id`, if estimated.
+    #[inline]
+    pub fn column(&self, id: ParamId) -> Option<usize> {
+        self.columns.get(id.0).copied().flatten()
+    }
+
+    /// Sets entry (row, column).
+    #[inline]
+    pub fn set(&mut self, row: usize, c: usize, v: f64) {
+        self.out[row * self.cols + c] = v;
+    }
+}
+
+/// What an observation tells about where the robot stands in the world, for the rank count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Anchoring {
+    /// Measured in the global frame (a tracker's or camera's coordinates): fixes the placement.
+    Absolute,
+    /// Invariant under any rigid motion of the world (distances): fixes nothing.
+    Relative,
+    /// Fixes the placement only across the plane with this index (a contact).
+    Plane(usize),
+}
+
+/// One observation's error in its own metric, for accuracy figures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorSample {
+    /// The metric: `position` (3D distance, and attitude angle for poses), `distance` (error of
+    /// a measured distance), `contact` (distance from the plane), ...
+    pub metric: &'static str,
+    /// The length error (m, non-negative).
+    pub length: f64,
+    /// The attitude error (rad, non-negative), for observations of an attitude.
+    pub angle: Option<f64>,
+}
+
+/// The measurement model of one kind of observation. Object safe: [`Observation`] dereferences
+/// to it.
+pub trait Observe: fmt::Debug {
+    /// The kind's name: `pose`, `position`, `distance`, `contact`.
+    fn kind(&self) -> &'static str;
+    /// The frames it looks at (one or two).
+    fn views(&self) -> &[View];
+    /// The same, to renumber postures.
+    fn views_mut(&mut self) -> &mut [View];
+    /// Its residual rows.
+    fn rows(&self) -> &'static [Row];
+    /// Row `row`'s own standard deviation (internal units), when the file gives one.
+    fn sigma(&self, row: usize) -> Option<f64>;
+    /// The line of the file it came from (0 when synthesized).
+    fn line(&self) -> usize;
+    /// Residuals `model - measured` (internal units, unweighted) from the frames of its views,
+    /// and, when asked, their derivatives.
+    fn evaluate(
+        &self,
+        ctx: &Context<'_>,
+        frames: &[Frame],
+        residuals: &mut [f64],
+        derivatives: Option<&mut Derivatives<'_>>,
+    );
+    /// Its error in its own metric.
+    fn error(&self, ctx: &Context<'_>, frames: &[Frame]) -> ErrorSample;
+    /// The target frame whose geometry it measures, and how many of the frame's degrees of
+    /// freedom a set of such observations determines (6 for poses, 3 for points).
+    fn measured_frame(&self) -> (Target, usize);
+    /// What it tells about the robot's placement in the world.
+    fn anchoring(&self) -> Anchoring;
+    /// Replaces the measured value with the model's (for synthesizing data).
+    fn remeasure(&mut self, ctx: &Context<'_>, frames: &[Frame]);
+    /// Adds Gaussian noise to the measured value: `unit()` draws a standard normal number,
+    /// `length` and `angle` are the standard deviations (internal units).
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, angle: f64);
+    /// Whether its residual metric is degenerate here (a pose near gimbal lock under Euler
+    /// residuals).
+    fn degenerate(&self, _ctx: &Context<'_>) -> bool {
+        false
+    }
+    /// A short description for listings: posture label(s), the target, and what it touched.
+    fn describe(&self, postures: &[Posture], robot: &Robot) -> String;
+    /// The first view's target.
+    fn target(&self) -> Target {
+        self.views()[0].target
+    }
+    /// The first view's posture.
+    fn posture(&self) -> usize {
+        self.views()[0].posture
+    }
+}
+
+/// The name of a target as files write it: `ee` or the site's name.
+pub fn target_name(robot: &Robot, t: Target) -> &str {
+    match t {
+        Target::EndEffector => "ee",
+        Target::Site(s) => &robot.sites[s].name,
+    }
+}
+
+macro_rules! observation_kinds {
+    ($($(#[$doc:meta])* $variant:ident($ty:ty),)*) => {
+        /// One observation, of any kind. Dereferences to [`Observe`].
+        #[derive(Debug, Clone, PartialEq)]
+        pub enum Observation {
+            $($(#[$doc])* $variant($ty),)*
+        }
+
+        impl std::ops::Deref for Observation {
+            type Target = dyn Observe;
+            fn deref(&self) -> &(dyn Observe + 'static) {
+                match self {
+                    $(Observation::$variant(o) => o,)*
+                }
+            }
+        }
+
+        impl std::ops::DerefMut for Observation {
+            fn deref_mut(&mut self) -> &mut (dyn Observe + 'static) {
+                match self {
+                    $(Observation::$variant(o) => o,)*
+                }
+            }
+        }
+
+        $(impl From<$ty> for Observation {
+            fn from(o: $ty) -> Self {
+                Observation::$variant(o)
+            }
+        })*
+    };
+}
+
+// The kinds of observation. A new kind: a file in this folder implementing `Observe`, a line
+// here, and its file format in `FORMATS`.
+observation_kinds! {
+    /// A full pose.
+    Pose(point::Pose),
+    /// A position.
+    Position(point::Position),
+    /// A distance between two postures' positions of a target.
+    Distance(distance::Distance),
+}
+
+/// A file format of observations, for the command line and other front ends.
+#[derive(Clone, Copy)]
+pub struct Format {
+    /// The command-line option that names such a file, without dashes (`data`, `distances`).
+    pub option: &'static str,
+    /// One line for help texts.
+    pub help: &'static str,
+    /// The header, e.g. `posture,site,v1..vn,x,y,z[,alpha,beta,gamma]`.
+    pub header: &'static str,
+    /// Reads a file (`text`, named `file` in errors) for `robot`.
+    pub parse: fn(&str, &str, &Robot) -> Result<Dataset>,
+}
+
+impl fmt::Debug for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Format({})", self.option)
+    }
+}
+
+/// Every observation file format, the measurement file (`data`) first.
+pub const FORMATS: &[Format] = &[point::FORMAT, distance::FORMAT];
+
+/// A set of postures and the observations made in them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Dataset {
+    /// The postures.
+    pub postures: Vec<Posture>,
+    /// The observations, sorted by their first posture.
+    pub observations: Vec<Observation>,
+}
+
+impl Dataset {
+    /// Builds a dataset, sorting observations by their first posture (stable: file order within
+    /// a posture).
+    pub fn new(postures: Vec<Posture>, mut observations: Vec<Observation>) -> Self {
+        observations.sort_by_key(|o| o.posture());
+        Dataset {
+            postures,
+            observations,
+        }
+    }
+
+    /// Total residual rows.
+    pub fn rows(&self) -> usize {
+        self.observations.iter().map(|o| o.rows().len()).sum()
+    }
+
+    /// Whether there is no observation.
+    pub fn is_empty(&self) -> bool {
+        self.observations.is_empty()
+    }
+
+    /// The observations of each kind: `(kind, count)` in order of first appearance.
+    pub fn kinds(&self) -> Vec<(&'static str, usize)> {
+        let mut out: Vec<(&'static str, usize)> = Vec::new();
+        for o in &self.observations {
+            match out.iter_mut().find(|(k, _)| *k == o.kind()) {
+                Some(e) => e.1 += 1,
+                None => out.push((o.kind(), 1)),
+            }
+        }
+        out
+    }
+
+    /// This dataset followed by `other`'s postures and observations (renumbered).
+    pub fn merge(mut self, other: Dataset) -> Dataset {
+        let shift = self.postures.len();
+        self.postures.extend(other.postures);
+        for mut o in other.observations {
+            for v in o.views_mut() {
+                v.posture += shift;
+            }
+            self.observations.push(o);
+        }
+        Dataset::new(self.postures, self.observations)
+    }
+
+    /// Groups of postures that must stay together when data is split (postures linked by an
+    /// observation, such as the two ends of a distance), in order of their first posture.
+    pub fn posture_groups(&self) -> Vec<Vec<usize>> {
+        let n = self.postures.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn root(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        for o in &self.observations {
+            let v = o.views();
+            for w in &v[1..] {
+                let (a, b) = (
+                    root(&mut parent, v[0].posture),
+                    root(&mut parent, w.posture),
+                );
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        let mut index = vec![usize::MAX; n];
+        for p in 0..n {
+            let r = root(&mut parent, p);
+            if index[r] == usize::MAX {
+                index[r] = groups.len();
+                groups.push(Vec::new());
+            }
+            groups[index[r]].push(p);
+        }
+        groups
+    }
+
+    /// The postures for which `keep` is true and the observations all of whose postures are
+    /// kept, renumbered.
+    pub fn subset(&self, keep: &[bool]) -> Dataset {
+        let mut map = vec![usize::MAX; self.postures.len()];
+        let mut postures = Vec::new();
+        for (i, p) in self.postures.iter().enumerate() {
+            if keep[i] {
+                map[i] = postures.len();
+                postures.push(p.clone());
+            }
+        }
+        let observations = self
+            .observations
+            .iter()
+            .filter(|o| o.views().iter().all(|v| keep[v.posture]))
+            .map(|o| {
+                let mut o = o.clone();
+                for v in o.views_mut() {
+                    v.posture = map[v.posture];
+                }
+                o
+            })
+            .collect();
+        Dataset::new(postures, observations)
+    }
+
+    /// Splits by posture groups: a fraction `holdout` of the groups (at least one, drawn with
+    /// `seed`) and their observations go to the second dataset. Returns (identification, held
+    /// out).
+    pub fn split(&self, holdout: f64, seed: u64) -> (Dataset, Dataset) {
+        use rand::{seq::SliceRandom, SeedableRng};
+        let groups = self.posture_groups();
+        let n = groups.len();
+        let k = ((holdout * n as f64).round() as usize).clamp(1, n);
+        let mut order: Vec<usize> = (0..n).collect();
+        order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+        let mut held = vec![false; self.postures.len()];
+        for &g in &order[..k] {
+            for &p in &groups[g] {
+                held[p] = true;
+            }
+        }
+        let kept: Vec<bool> = held.iter().map(|h| !h).collect();
+        (self.subset(&kept), self.subset(&held))
+    }
+
+    /// The observations whose residual metric is degenerate (poses near gimbal lock under Euler
+    /// residuals).
+    pub fn degenerate(&self, ctx: &Context<'_>) -> Vec<&Observation> {
+        self.observations
+            .iter()
+            .filter(|o| o.degenerate(ctx))
+            .collect()
+    }
+}
+
+/// Unweighted accuracy of a robot on a dataset (internal units), per metric.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Accuracy {
+    /// Observations with the `position` metric (poses and positions).
+    pub positions: usize,
+    /// Root mean square of the 3D position errors (m).
+    pub rms_position: f64,
+    /// Mean 3D position error (m).
+    pub mean_position: f64,
+    /// 95th percentile of the 3D position errors (m; nearest rank).
+    pub p95_position: f64,
+    /// Largest 3D position error (m).
+    pub max_position: f64,
+    /// Observations with an attitude (poses).
+    pub orientations: usize,
+    /// Root mean square of the attitude errors (rad): the angle of `R_measured^T R_model`.
+    pub rms_orientation: f64,
+    /// Mean attitude error (rad).
+    pub mean_orientation: f64,
+    /// 95th percentile of the attitude errors (rad).
+    pub p95_orientation: f64,
+    /// Largest attitude error (rad).
+    pub max_orientation: f64,
+    /// The other metrics (`distance`, `contact`, ...), in order of first appearance.
+    pub other: Vec<MetricAccuracy>,
+}
+
+/// Length errors of one metric other than `position`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MetricAccuracy {
+    /// The metric's name.
+    pub metric: &'static str,
+    /// Observations.
+    pub count: usize,
+    /// Root mean square (m).
+    pub rms: f64,
+    /// Mean (m).
+    pub mean: f64,
+    /// 95th percentile (m; nearest rank).
+    pub p95: f64,
+    /// Largest (m).
+    pub max: f64,
+}
+
+/// RMS, mean, 95th percentile (nearest rank) and max of non-negative errors.
+pub fn stats(mut e: Vec<f64>) -> (f64, f64, f64, f64) {
+    if e.is_empty() {
+        return (0.0, 0.0, 0.0, 0.0);
+    }
+    e.sort_by(f64::total_cmp);
+    let n = e.len() as f64;
+    let rms = (e.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+    let mean = e.iter().sum::<f64>() / n;
+    let rank = ((0.95 * n).ceil() as usize).clamp(1, e.len());
+    (rms, mean, e[rank - 1], e[e.len() - 1])
+}
+
+/// Evaluates `f` on every observation of `data` with the frames of its views for `robot`,
+/// running forward kinematics once per posture.
+pub fn for_each_observation(
+    robot: &Robot,
+    data: &Dataset,
+    mut f: impl FnMut(usize, &Observation, &[Frame]),
+) {
+    let chain = crate::kinematics::Chain::new(robot);
+    let mut cache = FrameCache::new(robot);
+    let mut frames = [Frame::identity(); 2];
+    for (i, o) in data.observations.iter().enumerate() {
+        let views = o.views();
+        for (k, v) in views.iter().enumerate() {
+            frames[k] = chain.target_frame(cache.posture(&chain, data, v.posture), v.target);
+        }
+        f(i, o, &frames[..views.len()]);
+    }
+}
+
+/// Two workspaces holding the frames of the last two postures visited: observations sorted by
+/// posture reuse them, and a distance's second posture does not evict its first.
+pub(crate) struct FrameCache {
+    ws: [crate::kinematics::Workspace; 2],
+    at: [usize; 2],
+    next: usize,
+}
+
+impl FrameCache {
+    pub fn new(robot: &Robot) -> Self {
+        FrameCache {
+            ws: [
+                crate::kinematics::Workspace::new(robot),
+                crate::kinematics::Workspace::new(robot),
+            ],
+            at: [usize::MAX; 2],
+            next: 0,
+        }
+    }
+
+    /// The workspace holding `posture`'s frames, computing them if needed.
+    pub fn posture(
+        &mut self,
+        chain: &crate::kinematics::Chain<'_>,
+        data: &Dataset,
+        posture: usize,
+    ) -> &crate::kinematics::Workspace {
+        let slot = match self.at.iter().position(|&p| p == posture) {
+            Some(s) => s,
+            None => {
+                let s = self.next;
+                self.next = 1 - s;
+                chain.forward(&data.postures[posture].readings, &mut self.ws[s]);
+                self.at[s] = posture;
+                s
+            }
+        };
+        &self.ws[slot]
+    }
+}
+
+/// How far `robot`'s predictions are from the observations in `data`. (Error metrics do not
+/// depend on how residuals are formed.)
+pub fn accuracy(robot: &Robot, data: &Dataset) -> Accuracy {
+    let ctx = Context {
+        robot,
+        orientation: OrientationError::default(),
+    };
+    let (mut ep, mut eo) = (Vec::new(), Vec::new());
+    let mut other: Vec<(&'static str, Vec<f64>)> = Vec::new();
+    for_each_observation(robot, data, |_, o, frames| {
+        let e = o.error(&ctx, frames);
+        if e.metric == "position" {
+            ep.push(e.length);
+            if let Some(a) = e.angle {
+                eo.push(a);
+            }
+        } else {
+            match other.iter_mut().find(|(m, _)| *m == e.metric) {
+                Some(g) => g.1.push(e.length),
+                None => other.push((e.metric, vec![e.length])),
+            }
+        }
+    });
+    let (positions, orientations) = (ep.len(), eo.len());
+    let (rms_position, mean_position, p95_position, max_position) = stats(ep);
+    let (rms_orientation, mean_orientation, p95_orientation, max_orientation) = stats(eo);
+    Accuracy {
+        positions,
+        rms_position,
+        mean_position,
+        p95_position,
+        max_position,
+        orientations,
+        rms_orientation,
+        mean_orientation,
+        p95_orientation,
+        max_orientation,
+        other: other
+            .into_iter()
+            .map(|(metric, e)| {
+                let count = e.len();
+                let (rms, mean, p95, max) = stats(e);
+                MetricAccuracy {
+                    metric,
+                    count,
+                    rms,
+                    mean,
+                    p95,
+                    max,
+                }
+            })
+            .collect(),
+    }
+}

@@ -1,0 +1,819 @@
+//! Poses and positions of a target, as a laser tracker, a camera or a CMM measures them; the
+//! measurement file; the postures file.
+//!
+//! Measurement file (CSV, the robot file's units): columns `posture, site, v1..vn, x, y, z`,
+//! optionally `alpha, beta, gamma` (a row whose three angles are empty is a position) and
+//! `sigma_position, sigma_angle` (the row's own standard deviations, replacing the default
+//! weights for that row). Columns may come in any order; `site` may be left out (every row is
+//! then the end effector, `ee`) and so may `posture` (each row is then its own posture, numbered
+//! from 1). Rows of one posture must carry the same readings. A [`ColumnMap`] reads files laid
+//! out otherwise, including several markers side by side in one row.
+//!
+//! Postures file: `posture,v1,...,vn`.
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+
+use nalgebra::Vector3;
+
+use super::table::{self, PostureTable};
+use super::{
+    target_name, Anchoring, Context, Dataset, Derivatives, ErrorSample, Format, Observation,
+    Observe, OrientationError, Posture, Row, RowQuantity, View,
+};
+use crate::error::{Error, Location, Result};
+use crate::kinematics::{
+    euler_rates, euler_zyx, log_so3, rot_zyx, so3_right_jacobian_inverse, Frame, Target,
+};
+use crate::robot::Robot;
+use crate::units::{wrap_angle, Quantity};
+
+const POSE_ROWS: &[Row] = &[
+    Row {
+        label: "x",
+        quantity: RowQuantity::Length,
+    },
+    Row {
+        label: "y",
+        quantity: RowQuantity::Length,
+    },
+    Row {
+        label: "z",
+        quantity: RowQuantity::Length,
+    },
+    Row {
+        label: "alpha",
+        quantity: RowQuantity::Angle,
+    },
+    Row {
+        label: "beta",
+        quantity: RowQuantity::Angle,
+    },
+    Row {
+        label: "gamma",
+        quantity: RowQuantity::Angle,
+    },
+];
+
+/// A measured pose of a target: its origin and ZYX Euler angles in the global frame. Six
+/// residual rows: the position difference (m), then the orientation difference (rad): Euler
+/// angle differences wrapped to (-pi, pi] (thesis eq. 3.1), or the rotation vector of
+/// `R_measured^T R_model`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pose {
+    /// The posture and target.
+    pub view: [View; 1],
+    /// Measured origin (m).
+    pub position: Vector3<f64>,
+    /// Measured ZYX Euler angles `(alpha, beta, gamma)` (rad).
+    pub euler: Vector3<f64>,
+    /// The row's own standard deviation of a position coordinate (m), if given.
+    pub sigma_position: Option<f64>,
+    /// The row's own standard deviation of an angle (rad), if given.
+    pub sigma_angle: Option<f64>,
+    /// Line in the file (0 when synthesized).
+    pub line: usize,
+}
+
+/// A measured position of a target's origin in the global frame. Three residual rows (m).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Position {
+    /// The posture and target.
+    pub view: [View; 1],
+    /// Measured origin (m).
+    pub position: Vector3<f64>,
+    /// The row's own standard deviation of a coordinate (m), if given.
+    pub sigma_position: Option<f64>,
+    /// Line in the file (0 when synthesized).
+    pub line: usize,
+}
+
+impl Pose {
+    /// A pose of `target` in `posture`, without a standard deviation of its own.
+    pub fn new(
+        posture: usize,
+        target: Target,
+        position: Vector3<f64>,
+        euler: Vector3<f64>,
+    ) -> Self {
+        Pose {
+            view: [View { posture, target }],
+            position,
+            euler,
+            sigma_position: None,
+            sigma_angle: None,
+            line: 0,
+        }
+    }
+
+    /// The same measurement without its attitude.
+    pub fn to_position(&self) -> Position {
+        Position {
+            view: self.view,
+            position: self.position,
+            sigma_position: self.sigma_position,
+            line: self.line,
+        }
+    }
+}
+
+impl Position {
+    /// A position of `target` in `posture`, without a standard deviation of its own.
+    pub fn new(posture: usize, target: Target, position: Vector3<f64>) -> Self {
+        Position {
+            view: [View { posture, target }],
+            position,
+            sigma_position: None,
+            line: 0,
+        }
+    }
+}
+
+fn describe_view(view: &View, postures: &[Posture], robot: &Robot) -> String {
+    format!(
+        "posture {} site {}",
+        postures[view.posture].label,
+        target_name(robot, view.target)
+    )
+}
+
+impl Observe for Pose {
+    fn kind(&self) -> &'static str {
+        "pose"
+    }
+    fn views(&self) -> &[View] {
+        &self.view
+    }
+    fn views_mut(&mut self) -> &mut [View] {
+        &mut self.view
+    }
+    fn rows(&self) -> &'static [Row] {
+        POSE_ROWS
+    }
+    fn sigma(&self, row: usize) -> Option<f64> {
+        if row < 3 {
+            self.sigma_position
+        } else {
+            self.sigma_angle
+        }
+    }
+    fn line(&self) -> usize {
+        self.line
+    }
+
+    fn evaluate(
+        &self,
+        ctx: &Context<'_>,
+        frames: &[Frame],
+        res: &mut [f64],
+        derivatives: Option<&mut Derivatives<'_>>,
+    ) {
+        let f = &frames[0];
+        let dp = f.translation - self.position;
+        res[..3].copy_from_slice(dp.as_slice());
+        // How an angular velocity (global frame) maps to orientation-residual rates.
+        enum Map {
+            Euler(f64, f64),
+            Matrix(nalgebra::Matrix3<f64>),
+        }
+        let map = match ctx.orientation {
+            OrientationError::Euler => {
+                let e = euler_zyx(&f.rotation);
+                for k in 0..3 {
+                    res[3 + k] = wrap_angle(e[k] - self.euler[k]);
+                }
+                Map::Euler(e.x, e.y)
+            }
+            OrientationError::RotVec => {
+                let rm = rot_zyx(self.euler.x, self.euler.y, self.euler.z);
+                let phi = log_so3(&(rm.transpose() * f.rotation));
+                res[3..6].copy_from_slice(phi.as_slice());
+                Map::Matrix(so3_right_jacobian_inverse(&phi) * f.rotation.transpose())
+            }
+        };
+        if let Some(d) = derivatives {
+            for c in 0..d.cols {
+                let dp = d.dp(0, c);
+                let w = d.w(0, c);
+                let rate = match &map {
+                    Map::Euler(a, b) => euler_rates(*a, *b, &w),
+                    Map::Matrix(m) => m * w,
+                };
+                for k in 0..3 {
+                    d.set(k, c, dp[k]);
+                    d.set(3 + k, c, rate[k]);
+                }
+            }
+        }
+    }
+
+    fn error(&self, _ctx: &Context<'_>, frames: &[Frame]) -> ErrorSample {
+        let f = &frames[0];
+        let rm = rot_zyx(self.euler.x, self.euler.y, self.euler.z);
+        ErrorSample {
+            metric: "position",
+            length: (f.translation - self.position).norm(),
+            angle: Some(log_so3(&(rm.transpose() * f.rotation)).norm()),
+        }
+    }
+
+    fn measured_frame(&self) -> (Target, usize) {
+        (self.view[0].target, 6)
+    }
+
+    fn anchoring(&self) -> Anchoring {
+        Anchoring::Absolute
+    }
+
+    fn remeasure(&mut self, _ctx: &Context<'_>, frames: &[Frame]) {
+        let p = frames[0].pose();
+        self.position = p.position;
+        self.euler = p.euler;
+    }
+
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, angle: f64) {
+        for k in 0..3 {
+            self.position[k] += unit() * length;
+        }
+        for k in 0..3 {
+            self.euler[k] += unit() * angle;
+        }
+    }
+
+    fn degenerate(&self, ctx: &Context<'_>) -> bool {
+        ctx.orientation == OrientationError::Euler
+            && (self.euler.y.abs() - std::f64::consts::FRAC_PI_2).abs() < 1f64.to_radians()
+    }
+
+    fn describe(&self, postures: &[Posture], robot: &Robot) -> String {
+        describe_view(&self.view[0], postures, robot)
+    }
+}
+
+impl Observe for Position {
+    fn kind(&self) -> &'static str {
+        "position"
+    }
+    fn views(&self) -> &[View] {
+        &self.view
+    }
+    fn views_mut(&mut self) -> &mut [View] {
+        &mut self.view
+    }
+    fn rows(&self) -> &'static [Row] {
+        &POSE_ROWS[..3]
+    }
+    fn sigma(&self, _row: usize) -> Option<f64> {
+        self.sigma_position
+    }
+    fn line(&self) -> usize {
+        self.line
+    }
+
+    fn evaluate(
+        &self,
+        _ctx: &Context<'_>,
+        frames: &[Frame],
+        res: &mut [f64],
+        derivatives: Option<&mut Derivatives<'_>>,
+    ) {
+        let dp = frames[0].translation - self.position;
+        res[..3].copy_from_slice(dp.as_slice());
+        if let Some(d) = derivatives {
+            for c in 0..d.cols {
+                let dp = d.dp(0, c);
+                for k in 0..3 {
+                    d.set(k, c, dp[k]);
+                }
+            }
+        }
+    }
+
+    fn error(&self, _ctx: &Context<'_>, frames: &[Frame]) -> ErrorSample {
+        ErrorSample {
+            metric: "position",
+            length: (frames[0].translation - self.position).norm(),
+            angle: None,
+        }
+    }
+
+    fn measured_frame(&self) -> (Target, usize) {
+        (self.view[0].target, 3)
+    }
+
+    fn anchoring(&self) -> Anchoring {
+        Anchoring::Absolute
+    }
+
+    fn remeasure(&mut self, _ctx: &Context<'_>, frames: &[Frame]) {
+        self.position = frames[0].translation;
+    }
+
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, _angle: f64) {
+        for k in 0..3 {
+            self.position[k] += unit() * length;
+        }
+    }
+
+    fn describe(&self, postures: &[Posture], robot: &Robot) -> String {
+        describe_view(&self.view[0], postures, robot)
+    }
+}
+
+/// The measurement file format.
+pub const FORMAT: Format = Format {
+    option: "data",
+    help: "Measurement file: poses or positions of the end effector or sites",
+    header: "posture,site,v1..vn,x,y,z[,alpha,beta,gamma][,sigma_position,sigma_angle]",
+    parse: parse_measurements,
+};
+
+/// Names of the columns of one measured target.
+const MARKER_COLUMNS: [&str; 8] = [
+    "x",
+    "y",
+    "z",
+    "alpha",
+    "beta",
+    "gamma",
+    "sigma_position",
+    "sigma_angle",
+];
+
+fn reading_columns(n: usize) -> Vec<String> {
+    (1..=n).map(|i| format!("v{i}")).collect()
+}
+
+/// The measurement header kinecal writes for `robot` (with the `site` column).
+pub fn measurement_header(robot: &Robot) -> Vec<String> {
+    let mut h = vec!["posture".to_string(), "site".to_string()];
+    h.extend(reading_columns(robot.dof()));
+    h.extend(["x", "y", "z", "alpha", "beta", "gamma"].map(String::from));
+    h
+}
+
+/// The postures-file header for `robot`.
+pub fn postures_header(robot: &Robot) -> Vec<String> {
+    let mut h = vec!["posture".to_string()];
+    h.extend(reading_columns(robot.dof()));
+    h
+}
+
+/// How a measurement file's columns map to kinecal's (`posture`, `site`, `v1..vn`, `x, y, z`,
+/// `alpha, beta, gamma`, `sigma_position`, `sigma_angle`): pairs `(ours, theirs)`. A kinecal
+/// column left out is looked up under its own name; other columns of the file are ignored.
+///
+/// `markers` reads several targets measured side by side in one row (FIGAROH's wide layout
+/// `x1,y1,z1,x2,y2,z2,...`): each marker is a site name (or `ee`) with the mapping of its
+/// `x..sigma_angle` columns; the shared mapping then gives the posture and the readings, and
+/// a marker whose position fields are all empty in a row was not measured there.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ColumnMap {
+    /// Shared columns.
+    pub shared: Vec<(String, String)>,
+    /// Markers side by side: (site or `ee`, its columns).
+    pub markers: Vec<(String, Vec<(String, String)>)>,
+}
+
+impl ColumnMap {
+    /// Parses mappings written `[SITE:]ours=theirs,...`, one per string: a mapping with a
+    /// `SITE:` prefix is a marker, one without it the shared columns. `source` names them in
+    /// errors.
+    pub fn parse(specs: &[&str], source: &str) -> Result<ColumnMap> {
+        let loc = Location::file(source);
+        let mut map = ColumnMap::default();
+        for spec in specs {
+            let (site, body) = match spec.split_once(':') {
+                Some((s, b)) if !s.contains('=') => (Some(s.trim().to_string()), b),
+                _ => (None, *spec),
+            };
+            let mut pairs: Vec<(String, String)> = Vec::new();
+            for part in body.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+                let (a, b) = part.split_once('=').ok_or_else(|| {
+                    Error::input(
+                        loc.clone(),
+                        format!("`{part}`: expected KINECAL_COLUMN=FILE_COLUMN, e.g. v1=q1"),
+                    )
+                })?;
+                let (a, b) = (a.trim().to_string(), b.trim().to_string());
+                if a.is_empty() || b.is_empty() {
+                    return Err(Error::input(
+                        loc.clone(),
+                        format!("`{part}`: both column names are needed"),
+                    ));
+                }
+                if let Some((_, t)) = pairs.iter().find(|(o, _)| *o == a) {
+                    return Err(Error::input(
+                        loc.clone(),
+                        format!("`{a}` is mapped twice (to `{t}` and to `{b}`)"),
+                    ));
+                }
+                if let Some((o, _)) = pairs.iter().find(|(_, t)| *t == b) {
+                    return Err(Error::input(
+                        loc.clone(),
+                        format!("file column `{b}` is mapped to both `{o}` and `{a}`"),
+                    ));
+                }
+                pairs.push((a, b));
+            }
+            match site {
+                Some(s) => {
+                    if s.is_empty() {
+                        return Err(Error::input(loc.clone(), "empty site name before `:`"));
+                    }
+                    if let Some((o, _)) = pairs
+                        .iter()
+                        .find(|(o, _)| !MARKER_COLUMNS.contains(&o.as_str()))
+                    {
+                        return Err(Error::input(
+                            loc.clone(),
+                            format!(
+                                "marker `{s}`: `{o}` is not a marker column (expected {})",
+                                MARKER_COLUMNS.join(", ")
+                            ),
+                        ));
+                    }
+                    if map.markers.iter().any(|(m, _)| *m == s) {
+                        return Err(Error::input(
+                            loc.clone(),
+                            format!("marker `{s}` is mapped twice"),
+                        ));
+                    }
+                    map.markers.push((s, pairs));
+                }
+                None => {
+                    if !map.shared.is_empty() {
+                        return Err(Error::input(
+                            loc.clone(),
+                            "only one mapping without a SITE: prefix (the shared columns)",
+                        ));
+                    }
+                    map.shared = pairs;
+                }
+            }
+        }
+        Ok(map)
+    }
+
+    fn is_identity(&self) -> bool {
+        self.shared.is_empty() && self.markers.is_empty()
+    }
+}
+
+/// Parses a measurement file for `robot`. `file` names it in error messages.
+pub fn parse_measurements(text: &str, file: &str, robot: &Robot) -> Result<Dataset> {
+    parse_measurements_mapped(text, file, robot, &ColumnMap::default())
+}
+
+/// One target's columns in the file.
+struct Marker {
+    /// Fixed site (a marker of a wide layout), or read from the `site` column.
+    target: Option<Target>,
+    /// Column indices of x, y, z, alpha, beta, gamma, sigma_position, sigma_angle.
+    cols: [Option<usize>; 8],
+    /// The file's names of those columns (for error messages).
+    names: [String; 8],
+}
+
+fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
+    match name {
+        "" | "ee" => Ok(Target::EndEffector),
+        name => robot.site_index(name).map(Target::Site).ok_or_else(|| {
+            let known: Vec<&str> = std::iter::once("ee")
+                .chain(robot.sites.iter().map(|s| s.name.as_str()))
+                .collect();
+            format!(
+                "unknown site `{name}` (the robot file defines: {})",
+                known.join(", ")
+            )
+        }),
+    }
+}
+
+/// Parses a measurement file whose columns `map` maps to kinecal's (see [`ColumnMap`]).
+pub fn parse_measurements_mapped(
+    text: &str,
+    file: &str,
+    robot: &Robot,
+    map: &ColumnMap,
+) -> Result<Dataset> {
+    let t = table::read(text, file)?;
+    let n = robot.dof();
+    let readings = reading_columns(n);
+    let mut canonical: Vec<String> = vec!["posture".into(), "site".into()];
+    canonical.extend(readings.iter().cloned());
+    canonical.extend(MARKER_COLUMNS.iter().map(|s| s.to_string()));
+    for (ours, _) in &map.shared {
+        if !canonical.contains(ours) {
+            return Err(Error::input(
+                t.header_at(),
+                format!(
+                    "column mapping: `{ours}` is not a kinecal column (expected one of {})",
+                    canonical.join(", ")
+                ),
+            ));
+        }
+    }
+    let theirs = |mapping: &[(String, String)], ours: &str| -> String {
+        mapping
+            .iter()
+            .find(|(o, _)| o == ours)
+            .map_or(ours.to_string(), |(_, t)| t.clone())
+    };
+    // Where each of kinecal's columns is: (index, the file's name for it).
+    let find = |mapping: &[(String, String)], ours: &str, required: bool| {
+        let name = theirs(mapping, ours);
+        match t.column(&name) {
+            Some(i) => Ok((Some(i), name)),
+            None if !required => Ok((None, name)),
+            None => Err(Error::input(
+                t.header_at().with_field(name.clone()),
+                format!(
+                    "no column `{name}`{} in the header `{}` (expected {})",
+                    if name == ours {
+                        String::new()
+                    } else {
+                        format!(" (for kinecal's `{ours}`)")
+                    },
+                    t.header.join(","),
+                    FORMAT.header.replace("vn", &format!("v{n}"))
+                ),
+            )),
+        }
+    };
+    let (posture_col, _) = find(&map.shared, "posture", false)?;
+    let (site_col, _) = find(&map.shared, "site", false)?;
+    let reading_cols = readings
+        .iter()
+        .map(|r| find(&map.shared, r, true).map(|(i, name)| (i.expect("required"), name)))
+        .collect::<Result<Vec<_>>>()?;
+    let marker_of = |mapping: &[(String, String)], target: Option<Target>| -> Result<Marker> {
+        let mut cols = [None; 8];
+        let mut names: [String; 8] = Default::default();
+        for (k, c) in MARKER_COLUMNS.iter().enumerate() {
+            let (i, name) = find(mapping, c, k < 3)?;
+            cols[k] = i;
+            names[k] = name;
+        }
+        Ok(Marker {
+            target,
+            cols,
+            names,
+        })
+    };
+    let markers: Vec<Marker> = if map.markers.is_empty() {
+        vec![marker_of(&map.shared, None)?]
+    } else {
+        if site_col.is_some() && map.shared.iter().any(|(o, _)| o == "site") {
+            return Err(Error::input(
+                t.header_at(),
+                "column mapping: a `site` column cannot be mapped when markers name their sites",
+            ));
+        }
+        map.markers
+            .iter()
+            .map(|(site, mapping)| {
+                let target = site_target(robot, site)
+                    .map_err(|m| Error::input(t.header_at(), format!("column mapping: {m}")))?;
+                marker_of(mapping, Some(target))
+            })
+            .collect::<Result<Vec<_>>>()?
+    };
+    if map.is_identity() {
+        // A plain file: every column must be one of kinecal's.
+        if let Some(h) = t
+            .header
+            .iter()
+            .find(|h| !h.is_empty() && !canonical.iter().any(|c| c.eq_ignore_ascii_case(h)))
+        {
+            let hint = if h.len() > 1
+                && h.starts_with(['v', 'V'])
+                && h[1..].parse::<usize>().is_ok_and(|j| j > n)
+            {
+                format!(" (the robot has {n} joints)")
+            } else {
+                String::new()
+            };
+            return Err(Error::input(
+                t.header_at().with_field(h.clone()),
+                format!(
+                    "unknown column `{h}`{hint}: expected {} (other layouts can be read through a \
+                     column mapping)",
+                    FORMAT.header.replace("vn", &format!("v{n}"))
+                ),
+            ));
+        }
+    }
+    let units = robot.units;
+    let mut postures = PostureTable::new();
+    let mut observations: Vec<Observation> = Vec::new();
+    let mut seen: HashMap<(usize, Target), usize> = HashMap::new();
+    let wide = !map.markers.is_empty();
+    for (row_number, (line, f)) in t.rows.iter().enumerate() {
+        let line = *line;
+        let label = match posture_col {
+            Some(i) => f[i].clone(),
+            None => (row_number + 1).to_string(),
+        };
+        let values = reading_cols
+            .iter()
+            .map(|(i, name)| t.number(line, name, &f[*i]))
+            .collect::<Result<Vec<_>>>()?;
+        let field_of = |j: usize| reading_cols[j].1.clone();
+        let posture = postures.get_or_insert(&t, line, &label, values, &field_of)?;
+        for m in &markers {
+            let target = match m.target {
+                Some(t) => t,
+                None => match site_col {
+                    Some(i) => site_target(robot, &f[i])
+                        .map_err(|msg| Error::input(t.at(line, "site"), msg))?,
+                    None => Target::EndEffector,
+                },
+            };
+            let field = |k: usize| m.cols[k].map_or("", |i| f[i].as_str());
+            if wide && (0..3).all(|k| field(k).is_empty()) {
+                continue; // this marker was not measured in this row
+            }
+            let mut pos = [0.0; 3];
+            for (k, p) in pos.iter_mut().enumerate() {
+                *p = units.to_si(Quantity::Length, t.number(line, &m.names[k], field(k))?);
+            }
+            let angles = (3..6).map(field).collect::<Vec<_>>();
+            let euler = if angles.iter().all(|a| a.is_empty()) {
+                None
+            } else {
+                let mut e = [0.0; 3];
+                for k in 0..3 {
+                    if angles[k].is_empty() {
+                        return Err(Error::input(
+                            t.at(line, &m.names[3 + k]),
+                            "empty angle: give all of alpha, beta, gamma (a full pose) or none (a \
+                             position)",
+                        ));
+                    }
+                    e[k] =
+                        units.to_si(Quantity::Angle, t.number(line, &m.names[3 + k], angles[k])?);
+                }
+                Some(Vector3::from(e))
+            };
+            let sigma_position = t
+                .sigma(line, &m.names[6], field(6))?
+                .map(|s| units.to_si(Quantity::Length, s));
+            let sigma_angle = t
+                .sigma(line, &m.names[7], field(7))?
+                .map(|s| units.to_si(Quantity::Angle, s));
+            if euler.is_none() && sigma_angle.is_some() {
+                return Err(Error::input(
+                    t.at(line, &m.names[7]),
+                    "sigma_angle on a position-only row (no alpha, beta, gamma)",
+                ));
+            }
+            if let Some(first) = seen.insert((posture, target), line) {
+                return Err(Error::input(
+                    Location::file(file).at_line(line),
+                    format!(
+                        "posture `{label}` measures {} twice (first on line {first})",
+                        target_name(robot, target)
+                    ),
+                ));
+            }
+            let view = [View { posture, target }];
+            let position = Vector3::from(pos);
+            observations.push(match euler {
+                Some(euler) => Pose {
+                    view,
+                    position,
+                    euler,
+                    sigma_position,
+                    sigma_angle,
+                    line,
+                }
+                .into(),
+                None => Position {
+                    view,
+                    position,
+                    sigma_position,
+                    line,
+                }
+                .into(),
+            });
+        }
+    }
+    if observations.is_empty() {
+        return Err(Error::input(
+            Location::file(file),
+            "no measurements: the file has a header but no rows",
+        ));
+    }
+    Ok(Dataset::new(postures.postures, observations))
+}
+
+/// Parses a postures file (`posture,v1,...,vn`) for `robot`. A measurement file is accepted too
+/// (its readings are used).
+pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Posture>> {
+    let t = table::read(text, file)?;
+    if t.column("x").is_some() {
+        return Ok(parse_measurements(text, file, robot)?.postures);
+    }
+    let expected = postures_header(robot);
+    let got: Vec<String> = t.header.iter().map(|h| h.to_ascii_lowercase()).collect();
+    if got != expected {
+        return Err(Error::input(
+            t.header_at(),
+            format!(
+                "unexpected header `{}`: expected `{}`",
+                t.header.join(","),
+                expected.join(",")
+            ),
+        ));
+    }
+    let mut table = PostureTable::new();
+    for (line, f) in &t.rows {
+        let readings = (0..robot.dof())
+            .map(|j| t.number(*line, &format!("v{}", j + 1), &f[1 + j]))
+            .collect::<Result<Vec<_>>>()?;
+        if table.contains(&f[0]) {
+            return Err(Error::input(
+                t.at(*line, "posture"),
+                format!("posture `{}` listed twice", f[0]),
+            ));
+        }
+        table.get_or_insert(&t, *line, &f[0], readings, &|j| format!("v{}", j + 1))?;
+    }
+    if table.postures.is_empty() {
+        return Err(Error::input(
+            Location::file(file),
+            "no postures: the file has a header but no rows",
+        ));
+    }
+    Ok(table.postures)
+}
+
+/// Writes the poses and positions of `data` as a measurement file in `robot`'s units, with full
+/// precision (observations of other kinds are not written). The optional `sigma_position` and
+/// `sigma_angle` columns are written when some row has them.
+pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
+    let units = robot.units;
+    let with_sigma = data.observations.iter().any(|o| match o {
+        Observation::Pose(p) => p.sigma_position.is_some() || p.sigma_angle.is_some(),
+        Observation::Position(p) => p.sigma_position.is_some(),
+        _ => false,
+    });
+    let mut out = measurement_header(robot).join(",");
+    if with_sigma {
+        out.push_str(",sigma_position,sigma_angle");
+    }
+    out.push('\n');
+    let len = |v: f64| units.from_si(Quantity::Length, v);
+    let ang = |v: f64| units.from_si(Quantity::Angle, v);
+    let opt =
+        |v: Option<f64>, f: &dyn Fn(f64) -> f64| v.map_or(String::new(), |v| f(v).to_string());
+    for o in &data.observations {
+        let (view, position, euler, sp, sa) = match o {
+            Observation::Pose(p) => (
+                p.view[0],
+                p.position,
+                Some(p.euler),
+                p.sigma_position,
+                p.sigma_angle,
+            ),
+            Observation::Position(p) => (p.view[0], p.position, None, p.sigma_position, None),
+            _ => continue,
+        };
+        let p = &data.postures[view.posture];
+        let _ = write!(out, "{},{}", p.label, target_name(robot, view.target));
+        for v in &p.readings {
+            let _ = write!(out, ",{v}");
+        }
+        for k in 0..3 {
+            let _ = write!(out, ",{}", len(position[k]));
+        }
+        match euler {
+            Some(e) => {
+                for k in 0..3 {
+                    let _ = write!(out, ",{}", ang(e[k]));
+                }
+            }
+            None => out.push_str(",,,"),
+        }
+        if with_sigma {
+            let _ = write!(out, ",{},{}", opt(sp, &len), opt(sa, &ang));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Writes a postures file.
+pub fn write_postures(robot: &Robot, postures: &[Posture]) -> String {
+    let mut out = postures_header(robot).join(",");
+    out.push('\n');
+    for p in postures {
+        out.push_str(&p.label);
+        for v in &p.readings {
+            let _ = write!(out, ",{v}");
+        }
+        out.push('\n');
+    }
+    out
+}

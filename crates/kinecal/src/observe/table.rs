@@ -1,0 +1,292 @@
+//! CSV tables as the observation files use them: a header naming the columns, `#` comment lines
+//! anywhere (also before the header), blank lines ignored, fields trimmed, and the delimiter
+//! (`,`, `;` or tab, as tracker software exports) detected from the header line.
+
+use std::collections::HashMap;
+
+use crate::error::{Error, Location, Result};
+use crate::observe::Posture;
+
+/// A parsed CSV table with the line of every row.
+pub(crate) struct Table {
+    pub file: String,
+    pub header: Vec<String>,
+    /// The header's line.
+    pub header_line: usize,
+    /// (line, fields); every row has as many fields as the header.
+    pub rows: Vec<(usize, Vec<String>)>,
+}
+
+/// The delimiter of a table: the most frequent of `,`, `;` and tab in its first line that is not
+/// blank or a comment (`,` when none occurs).
+pub(crate) fn detect_delimiter(text: &str) -> u8 {
+    let first = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .unwrap_or("");
+    let count = |c: char| first.matches(c).count();
+    let (comma, semi, tab) = (count(','), count(';'), count('\t'));
+    if semi > comma && semi >= tab {
+        b';'
+    } else if tab > comma && tab > semi {
+        b'\t'
+    } else {
+        b','
+    }
+}
+
+/// Reads a table. Every row must have as many fields as the header.
+pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
+    // Comment lines become blank lines, which the reader skips but counts (its own comment
+    // handling does not count them, and line numbers after a comment would be off).
+    let uncommented: String;
+    let text = if text.contains('#') {
+        uncommented = text
+            .split('\n')
+            .map(|l| {
+                if l.trim_start().starts_with('#') {
+                    ""
+                } else {
+                    l
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n");
+        &uncommented
+    } else {
+        text
+    };
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .delimiter(detect_delimiter(text))
+        .from_reader(text.as_bytes());
+    let loc = Location::file(file);
+    // The reader's positions point just after the previous record, before any blank lines:
+    // the real line is the first non-blank one from there.
+    let line_at = |p: &csv::Position| -> usize {
+        let start = (p.byte() as usize).min(text.len());
+        let skip = text.as_bytes()[start..]
+            .iter()
+            .take_while(|b| b.is_ascii_whitespace())
+            .count();
+        text.as_bytes()[..start + skip]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1
+    };
+    let csv_err = |e: csv::Error| {
+        let at = match e.position() {
+            Some(p) => loc.at_line(line_at(p)),
+            None => loc.clone(),
+        };
+        let what = match e.kind() {
+            csv::ErrorKind::Utf8 { .. } => "the file is not UTF-8 text".to_string(),
+            _ => format!("invalid CSV: {e}"),
+        };
+        Error::input(at, what)
+    };
+    let header: Vec<String> = rdr
+        .headers()
+        .map_err(csv_err)?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if header.iter().all(String::is_empty) {
+        return Err(Error::input(
+            loc.at_line(1),
+            "empty file: a header line is required",
+        ));
+    }
+    let header_line = rdr
+        .headers()
+        .ok()
+        .and_then(|h| h.position().map(line_at))
+        .unwrap_or(1);
+    if let Some(dup) = header
+        .iter()
+        .enumerate()
+        .find(|(i, h)| !h.is_empty() && header[..*i].contains(h))
+    {
+        return Err(Error::input(
+            loc.at_line(header_line).with_field(dup.1.clone()),
+            format!("column `{}` appears twice in the header", dup.1),
+        ));
+    }
+    let mut rows = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(csv_err)?;
+        let line = rec.position().map_or(0, line_at);
+        if rec.iter().all(str::is_empty) {
+            continue;
+        }
+        if rec.len() != header.len() {
+            return Err(Error::input(
+                loc.at_line(line),
+                format!(
+                    "expected {} fields ({}), found {}",
+                    header.len(),
+                    header.join(","),
+                    rec.len()
+                ),
+            ));
+        }
+        rows.push((line, rec.iter().map(str::to_string).collect()));
+    }
+    Ok(Table {
+        file: file.to_string(),
+        header,
+        header_line,
+        rows,
+    })
+}
+
+impl Table {
+    /// The index of the column called `name` (ASCII case-insensitive).
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.header
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(name))
+    }
+
+    /// The location of `field` on `line`.
+    pub fn at(&self, line: usize, field: &str) -> Location {
+        Location::file(&self.file).at_line(line).with_field(field)
+    }
+
+    /// The header's location.
+    pub fn header_at(&self) -> Location {
+        Location::file(&self.file).at_line(self.header_line)
+    }
+
+    /// Parses a finite number.
+    pub fn number(&self, line: usize, field: &str, s: &str) -> Result<f64> {
+        let v: f64 = s.parse().map_err(|_| {
+            let hint = if s.contains(',') && s.replace(',', ".").parse::<f64>().is_ok() {
+                " (a decimal comma? write decimal points)"
+            } else {
+                ""
+            };
+            Error::input(
+                self.at(line, field),
+                format!("expected a number, found `{s}`{hint}"),
+            )
+        })?;
+        if !v.is_finite() {
+            return Err(Error::input(
+                self.at(line, field),
+                format!("expected a finite number, found `{s}`"),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// Parses an optional standard deviation: empty is `None`; otherwise a positive number.
+    pub fn sigma(&self, line: usize, field: &str, s: &str) -> Result<Option<f64>> {
+        if s.is_empty() {
+            return Ok(None);
+        }
+        let v = self.number(line, field, s)?;
+        if v <= 0.0 {
+            return Err(Error::input(
+                self.at(line, field),
+                format!("a standard deviation must be positive, found `{s}`"),
+            ));
+        }
+        Ok(Some(v))
+    }
+}
+
+/// Keeps postures unique by label and checks that repeated labels carry the same readings.
+pub(crate) struct PostureTable {
+    pub postures: Vec<Posture>,
+    index: HashMap<String, usize>,
+}
+
+impl PostureTable {
+    pub fn new() -> Self {
+        PostureTable {
+            postures: Vec::new(),
+            index: HashMap::new(),
+        }
+    }
+
+    /// Whether a posture called `label` exists.
+    pub fn contains(&self, label: &str) -> bool {
+        self.index.contains_key(label)
+    }
+
+    /// The index of posture `label`, added with `readings` if new; an error at `line` if it
+    /// exists with other readings (`field_of(j)` names reading column j).
+    pub fn get_or_insert(
+        &mut self,
+        table: &Table,
+        line: usize,
+        label: &str,
+        readings: Vec<f64>,
+        field_of: &dyn Fn(usize) -> String,
+    ) -> Result<usize> {
+        if label.is_empty() {
+            return Err(Error::input(
+                table.at(line, "posture"),
+                "empty posture label",
+            ));
+        }
+        if let Some(&i) = self.index.get(label) {
+            let known = &self.postures[i].readings;
+            if let Some(j) = (0..known.len())
+                .find(|&j| (known[j] - readings[j]).abs() > 1e-9 * known[j].abs().max(1.0))
+            {
+                return Err(Error::input(
+                    table.at(line, &field_of(j)),
+                    format!(
+                        "posture `{label}` appears earlier with reading {} here {}: rows of one \
+                         posture must share the same readings",
+                        known[j], readings[j]
+                    ),
+                ));
+            }
+            return Ok(i);
+        }
+        self.index.insert(label.to_string(), self.postures.len());
+        self.postures.push(Posture {
+            label: label.to_string(),
+            readings,
+        });
+        Ok(self.postures.len() - 1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn delimiters_comments_and_lines() {
+        for (d, text) in [
+            (b',', "# exported\n\na,b\n1,2\n# note\n3,4\n"),
+            (b';', "a;b\n1;2\n3;4\n"),
+            (b'\t', "a\tb\n1\t2\n3\t4\n"),
+        ] {
+            assert_eq!(detect_delimiter(text), d);
+            let t = read(text, "t.csv").unwrap();
+            assert_eq!(t.header, vec!["a", "b"]);
+            assert_eq!(t.rows.len(), 2);
+            assert_eq!(t.rows[1].1, vec!["3", "4"]);
+        }
+        let t = read("# exported\n\na,b\n1,2\n# note\n\n3,4\n", "t.csv").unwrap();
+        assert_eq!(t.header_line, 3);
+        assert_eq!(t.rows[0].0, 4);
+        assert_eq!(t.rows[1].0, 7);
+        let e = read("a,b\n1,2,3\n", "t.csv").err().unwrap().to_string();
+        assert!(e.starts_with("t.csv:2:"), "{e}");
+        let e = read("a,a\n1,2\n", "t.csv").err().unwrap().to_string();
+        assert!(e.contains("twice"), "{e}");
+        let t = read("a;b\n1,5;2\n", "t.csv").unwrap();
+        let e = t.number(2, "a", "1,5").unwrap_err().to_string();
+        assert!(e.contains("decimal comma"), "{e}");
+    }
+}

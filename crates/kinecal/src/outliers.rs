@@ -1,0 +1,88 @@
+//! Observations that the calibrated model misses by much more than the others.
+//!
+//! Each residual row is taken in its own standard deviations (the row's own `sigma_*`, or the
+//! default weights) and compared with a robust scale of the rows *like it*: the rows of the same
+//! kind of observation and the same quantity (lengths apart from angles), scale 1.4826 times
+//! their median absolute value, which a few bad rows cannot inflate. Pooling lengths and angles
+//! would make whichever the weights overstate look clean and the other look bad. An observation
+//! is an outlier when one of its rows is beyond `k` such scales. Outliers are listed for the user
+//! to look at, never dropped.
+
+use std::collections::HashMap;
+
+use crate::estimation::Calibration;
+use crate::observe::{for_each_observation, Context, Dataset, ErrorSample, RowQuantity};
+use crate::problem::Problem;
+
+/// Default threshold, in robust standard deviations.
+pub const DEFAULT_SIGMAS: f64 = 4.0;
+
+/// An observation the calibrated model misses by far more than the rest.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outlier {
+    /// Index into the dataset's observations.
+    pub observation: usize,
+    /// Its largest residual row in robust standard deviations of rows like it.
+    pub sigmas: f64,
+    /// Its error in its own metric.
+    pub error: ErrorSample,
+}
+
+/// The observations of `data` with a residual row beyond `k` robust standard deviations, for
+/// the calibrated robot of `cal`.
+pub fn outliers(cal: &Calibration, data: &Dataset, k: f64) -> Vec<Outlier> {
+    let robot = &cal.calibrated;
+    let problem = Problem::new(
+        robot,
+        data,
+        &cal.estimated,
+        cal.options.weights,
+        cal.options.orientation,
+    );
+    let mut r = vec![0.0; problem.rows()];
+    problem.evaluate(robot, &mut r, None);
+    // The robust scale of each (kind, quantity) group of rows.
+    let mut groups: HashMap<(&'static str, RowQuantity), Vec<f64>> = HashMap::new();
+    let mut row = 0;
+    for o in &data.observations {
+        for (i, spec) in o.rows().iter().enumerate() {
+            groups
+                .entry((o.kind(), spec.quantity))
+                .or_default()
+                .push(r[row + i].abs());
+        }
+        row += o.rows().len();
+    }
+    let scale: HashMap<(&'static str, RowQuantity), f64> = groups
+        .into_iter()
+        .map(|(key, mut v)| {
+            v.sort_by(f64::total_cmp);
+            // Floor: 1e-6 of the stated standard deviation, so noise-free data never flags
+            // rounding.
+            (key, (1.4826 * v[v.len() / 2]).max(1e-6))
+        })
+        .collect();
+    let ctx = Context {
+        robot,
+        orientation: cal.options.orientation,
+    };
+    let mut out = Vec::new();
+    let mut row = 0;
+    for_each_observation(robot, data, |i, o, frames| {
+        let worst = o
+            .rows()
+            .iter()
+            .enumerate()
+            .map(|(j, spec)| r[row + j].abs() / scale[&(o.kind(), spec.quantity)])
+            .fold(0.0f64, f64::max);
+        if worst > k {
+            out.push(Outlier {
+                observation: i,
+                sigmas: worst,
+                error: o.error(&ctx, frames),
+            });
+        }
+        row += o.rows().len();
+    });
+    out
+}

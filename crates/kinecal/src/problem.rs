@@ -1,0 +1,180 @@
+//! The least-squares problem: the weighted residuals of a dataset's observations and their
+//! Jacobian with respect to the estimated parameters.
+//!
+//! Row `i` of the problem is observation row `i` divided by its standard deviation: the row's
+//! own (`sigma_position`, `sigma_angle` columns) when given, else the default [`Weights`] of its
+//! quantity; times the robust-loss weight of the row when one is set. The objective is the sum
+//! of the squared weighted residuals: dimensionless, and independent of the files' units.
+
+use crate::kinematics::{Chain, Frame};
+use crate::linalg::Matrix;
+use crate::observe::{Context, Dataset, Derivatives, FrameCache, OrientationError, Weights};
+use crate::params::ParamId;
+use crate::robot::Robot;
+
+/// Weighted residuals and Jacobian of a calibration over one dataset.
+#[derive(Clone)]
+pub struct Problem<'a> {
+    base: &'a Robot,
+    data: &'a Dataset,
+    estimated: &'a [ParamId],
+    orientation: OrientationError,
+    sigma: Vec<f64>,
+    row_scale: Option<&'a [f64]>,
+    columns: Vec<Option<usize>>,
+}
+
+impl<'a> Problem<'a> {
+    /// A problem estimating `estimated`, all other parameters held at `base`'s values; rows
+    /// without a standard deviation of their own are weighted by `weights`.
+    pub fn new(
+        base: &'a Robot,
+        data: &'a Dataset,
+        estimated: &'a [ParamId],
+        weights: Weights,
+        orientation: OrientationError,
+    ) -> Self {
+        let sigma = data
+            .observations
+            .iter()
+            .flat_map(|o| {
+                o.rows()
+                    .iter()
+                    .enumerate()
+                    .map(|(k, row)| o.sigma(k).unwrap_or(weights.of(row.quantity)))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let mut columns = vec![None; base.param_count()];
+        for (c, id) in estimated.iter().enumerate() {
+            if let Some(slot) = columns.get_mut(id.0) {
+                *slot = Some(c);
+            }
+        }
+        Problem {
+            base,
+            data,
+            estimated,
+            orientation,
+            sigma,
+            row_scale: None,
+            columns,
+        }
+    }
+
+    /// Multiplies residual row `i` (and its Jacobian row) by `scale[i]`: the square roots of
+    /// robust-loss weights.
+    pub fn with_row_scale(mut self, scale: &'a [f64]) -> Self {
+        self.row_scale = Some(scale);
+        self
+    }
+
+    /// Number of residuals.
+    pub fn rows(&self) -> usize {
+        self.sigma.len()
+    }
+
+    /// Number of estimated parameters.
+    pub fn cols(&self) -> usize {
+        self.estimated.len()
+    }
+
+    /// The estimated parameters.
+    pub fn estimated(&self) -> &[ParamId] {
+        self.estimated
+    }
+
+    /// The dataset.
+    pub fn data(&self) -> &'a Dataset {
+        self.data
+    }
+
+    /// The standard deviation of each row (internal units).
+    pub fn row_sigma(&self) -> &[f64] {
+        &self.sigma
+    }
+
+    /// How orientation residuals are formed.
+    pub fn orientation(&self) -> OrientationError {
+        self.orientation
+    }
+
+    /// The estimated parameters' values in `robot` (internal units).
+    pub fn values(&self, robot: &Robot) -> Vec<f64> {
+        self.estimated.iter().map(|&id| robot.get(id)).collect()
+    }
+
+    /// The base robot with the estimated parameters set to `x`.
+    pub fn robot_at(&self, x: &[f64]) -> Robot {
+        let mut r = self.base.clone();
+        for (&id, &v) in self.estimated.iter().zip(x) {
+            r.set(id, v);
+        }
+        r
+    }
+
+    /// Fills `res` (length [`Problem::rows`]) with the weighted residuals `(model - measured) /
+    /// sigma` of `robot`, and, if given, `jac` (resized to rows x cols) with their derivatives
+    /// with respect to the estimated parameters. Returns the objective, the sum of squared
+    /// residuals.
+    pub fn evaluate(&self, robot: &Robot, res: &mut [f64], mut jac: Option<&mut Matrix>) -> f64 {
+        assert_eq!(res.len(), self.rows());
+        let chain = Chain::new(robot);
+        let mut cache = FrameCache::new(robot);
+        let ctx = Context {
+            robot,
+            orientation: self.orientation,
+        };
+        let k = self.cols();
+        let np = robot.param_count();
+        let mut full = vec![0.0; 6 * np];
+        let mut blocks = [vec![0.0; 6 * k], vec![0.0; 6 * k]];
+        let mut out = Vec::new();
+        if let Some(j) = jac.as_deref_mut() {
+            j.resize(self.rows(), k);
+        }
+        let mut frames = [Frame::identity(); 2];
+        let mut row = 0;
+        for o in &self.data.observations {
+            let views = o.views();
+            let nrows = o.rows().len();
+            for (vi, v) in views.iter().enumerate() {
+                let ws = cache.posture(&chain, self.data, v.posture);
+                frames[vi] = chain.target_frame(ws, v.target);
+                if jac.is_some() {
+                    chain.jacobian(ws, v.target, &mut full);
+                    for (c, id) in self.estimated.iter().enumerate() {
+                        blocks[vi][6 * c..6 * c + 6].copy_from_slice(&full[6 * id.0..6 * id.0 + 6]);
+                    }
+                }
+            }
+            let r = &mut res[row..row + nrows];
+            match jac.as_deref_mut() {
+                Some(j) => {
+                    out.clear();
+                    out.resize(nrows * k, 0.0);
+                    let refs = [blocks[0].as_slice(), blocks[1].as_slice()];
+                    let mut d = Derivatives {
+                        cols: k,
+                        blocks: &refs[..views.len()],
+                        columns: &self.columns,
+                        out: &mut out,
+                    };
+                    o.evaluate(&ctx, &frames[..views.len()], r, Some(&mut d));
+                    for i in 0..nrows {
+                        let w = self.row_scale.map_or(1.0, |s| s[row + i]) / self.sigma[row + i];
+                        for c in 0..k {
+                            j[(row + i, c)] = out[i * k + c] * w;
+                        }
+                    }
+                }
+                None => o.evaluate(&ctx, &frames[..views.len()], r, None),
+            }
+            for i in 0..nrows {
+                r[i] *= self.row_scale.map_or(1.0, |s| s[row + i]) / self.sigma[row + i];
+            }
+            row += nrows;
+        }
+        res.iter().map(|r| r * r).sum()
+    }
+}

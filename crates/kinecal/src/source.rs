@@ -1,0 +1,60 @@
+//! Input files as read: their text and a fingerprint of the bytes actually read, so that what a
+//! report records is what the calibration used.
+
+use sha2::{Digest, Sha256};
+
+use crate::error::{Error, Location, Result};
+
+/// SHA-256 of `bytes`, as 64 lowercase hex digits.
+pub fn fingerprint(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// A file's text, name and fingerprint.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Source {
+    /// The path as the user gave it (or `<built-in ge-a4>`).
+    pub name: String,
+    /// The text.
+    pub text: String,
+    /// SHA-256 of the bytes read.
+    pub sha256: String,
+}
+
+impl Source {
+    /// Text that did not come from a file (a built-in robot), named `name`.
+    pub fn text(name: impl Into<String>, text: impl Into<String>) -> Source {
+        let text = text.into();
+        Source {
+            name: name.into(),
+            sha256: fingerprint(text.as_bytes()),
+            text,
+        }
+    }
+
+    /// Reads a UTF-8 text file; invalid UTF-8 is an error naming the line where it occurs.
+    pub fn read(path: &std::path::Path) -> Result<Source> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: name.clone(),
+            source,
+        })?;
+        let sha256 = fingerprint(&bytes);
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let valid = e.utf8_error().valid_up_to();
+            let line = e.as_bytes()[..valid]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1;
+            Error::input(
+                Location::file(&name).at_line(line),
+                format!("not UTF-8 text (invalid byte at offset {valid}); save the file as UTF-8"),
+            )
+        })?;
+        Ok(Source { name, text, sha256 })
+    }
+}

@@ -1,0 +1,187 @@
+//! Things a user should know about a result, with the quantities in them.
+//!
+//! The library words each warning neutrally ([`std::fmt::Display`]); front ends may word them
+//! their own way (the command line adds which option to use).
+
+use serde::{Deserialize, Serialize};
+
+/// A warning, with its quantities.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "warning", rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum Warning {
+    /// Poses measured within 1 deg of beta = +-90 deg while orientation residuals are Euler
+    /// angle differences, which are ill-defined there.
+    GimbalLock {
+        /// How many.
+        count: usize,
+        /// Their lines (the first few).
+        lines: Vec<usize>,
+    },
+    /// Estimated parameters that no residual feels: they keep their initial values.
+    Unfelt {
+        /// Their names.
+        parameters: Vec<String>,
+    },
+    /// The rank from the tolerance differs from the largest gap in the spectrum.
+    UnclearRank {
+        /// Rank from the tolerance.
+        rank: usize,
+        /// The tolerance.
+        rcond: f64,
+        /// The rank the largest gap suggests.
+        gap_rank: usize,
+        /// The gap's ratio.
+        gap_ratio: f64,
+    },
+    /// The gap at the rank is small.
+    SmallGap {
+        /// The rank.
+        rank: usize,
+        /// The gap's ratio.
+        gap_ratio: f64,
+    },
+    /// Full rank, but the smallest scaled singular value is tiny.
+    BarelyDetermined {
+        /// Smallest over largest scaled singular value.
+        ratio: f64,
+    },
+    /// A link or site frame at beta = +-90 deg: its alpha and gamma cannot be told apart.
+    EulerSingular {
+        /// The frame (`link3`, `site.NAME`).
+        frame: String,
+    },
+    /// Two determined estimates are strongly correlated.
+    Correlated {
+        /// First parameter (id).
+        a: String,
+        /// Second parameter (id).
+        b: String,
+        /// Correlation coefficient.
+        rho: f64,
+    },
+    /// The solver stopped at its iteration cap.
+    NotConverged {
+        /// Iterations run.
+        iterations: usize,
+    },
+    /// The method stalled where Levenberg-Marquardt still reduces the objective.
+    Stalled {
+        /// The method (`gn`, `sd`, `svd`).
+        method: String,
+    },
+    /// The uncertainty could not be computed.
+    NoUncertainty {
+        /// Why.
+        reason: String,
+    },
+    /// The data has no degrees of freedom left: standard deviations are not estimated.
+    ExactFit,
+    /// URDF export: a joint's slope cannot be expressed in URDF.
+    UrdfSlope {
+        /// Joint number (1-based).
+        joint: usize,
+        /// URDF joint name.
+        name: String,
+        /// The slope (rad or m per unit).
+        slope: f64,
+    },
+    /// URDF export: a coupled joint's URDF value is the sum of two readings.
+    UrdfCoupled {
+        /// Joint number (1-based).
+        joint: usize,
+        /// URDF joint name.
+        name: String,
+        /// The other joint (1-based).
+        other: usize,
+    },
+    /// URDF export: the tool frame could not be written.
+    UrdfToolDropped,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Warning::GimbalLock { count, lines } => write!(
+                f,
+                "{count} measured pose(s) have beta within 1 deg of +-90 deg (gimbal lock; lines \
+                 {}{}), where ZYX Euler differences are ill-defined: use rotation-vector \
+                 orientation residuals",
+                lines
+                    .iter()
+                    .map(ToString::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if *count > lines.len() { ", ..." } else { "" }
+            ),
+            Warning::Unfelt { parameters } => write!(
+                f,
+                "no observation feels {}: these parameters stay at their initial values",
+                parameters.join(", ")
+            ),
+            Warning::UnclearRank {
+                rank,
+                rcond,
+                gap_rank,
+                gap_ratio,
+            } => write!(
+                f,
+                "the rank from the tolerance ({rank}, rcond {rcond:e}) differs from the largest gap \
+                 in the spectrum (after singular value {gap_rank}, ratio {gap_ratio:.3e}): the \
+                 split between determined and undetermined directions is not clear-cut; more, \
+                 better spread postures would help"
+            ),
+            Warning::SmallGap { rank, gap_ratio } => write!(
+                f,
+                "the gap at rank {rank} is only a factor {gap_ratio:.3e}: nearly-undetermined \
+                 directions are hard to tell from undetermined ones"
+            ),
+            Warning::BarelyDetermined { ratio } => write!(
+                f,
+                "full rank, but the smallest scaled singular value is {ratio:.3e} of the largest: \
+                 some combinations are barely determined"
+            ),
+            Warning::EulerSingular { frame } => write!(
+                f,
+                "{frame} has beta within 0.06 deg of +-90 deg: its alpha and gamma rotate about \
+                 the same axis (gimbal lock of the Euler parameterisation), so they cannot be told \
+                 apart; this is a singularity of the parameterisation, not a physical redundancy: \
+                 choose that frame's axes so that beta is away from +-90 deg"
+            ),
+            Warning::Correlated { a, b, rho } => write!(
+                f,
+                "{a} and {b} are correlated {rho:+.3}: the data barely separates them"
+            ),
+            Warning::NotConverged { iterations } => write!(
+                f,
+                "the solver stopped at the iteration cap ({iterations}) before converging"
+            ),
+            Warning::Stalled { method } => write!(
+                f,
+                "the {method} steps stopped reducing the objective where a Levenberg-Marquardt \
+                 step still does: the result is not a minimum"
+            ),
+            Warning::NoUncertainty { reason } => write!(f, "no uncertainty: {reason}"),
+            Warning::ExactFit => write!(
+                f,
+                "as many independent residuals as determined parameters: the fit is exact and no \
+                 standard deviation can be estimated"
+            ),
+            Warning::UrdfSlope { joint, name, slope } => write!(
+                f,
+                "joint {joint} (`{name}`) has slope {slope} rad or m per unit: a URDF cannot scale \
+                 joint values, so the controller must"
+            ),
+            Warning::UrdfCoupled { joint, name, other } => write!(
+                f,
+                "joint {joint} (`{name}`) is coupled to joint {other}: the URDF joint's value is \
+                 the sum of the two readings (as controller drivers for coupled arms publish it)"
+            ),
+            Warning::UrdfToolDropped => write!(
+                f,
+                "the tip link is the child of the last movable joint: the calibrated tool frame \
+                 cannot be written (add a fixed tool joint to the URDF)"
+            ),
+        }
+    }
+}

@@ -1,0 +1,819 @@
+//! The calibration workflow: a [`Request`] in, an [`Outcome`] out.
+//!
+//! One entry point, [`run`], does what a calibration is: set aside the validation data, choose
+//! the parameters (a list, or the identifiable set of one), estimate them with the chosen method
+//! and loss, pick among equally good answers (the solver's, or the one closest to the nominal
+//! robot), compute the uncertainty, prune insignificant changes if asked, check the result on
+//! the validation data, list outliers, collect the warnings, and write it all into the
+//! [`CalibrationReport`]. The command line, the HTML report, the history and bindings all call
+//! it; [`assess`] builds the same outcome for a calibrated robot that already exists, and
+//! [`check`] tells whether a robot still meets its accuracy.
+//!
+//! **Linearisation rule.** The identifiable set, the uncertainty and the significance that
+//! pruning judges by all use the Jacobian at one point, the *reference* of the solution rule:
+//! the nominal robot for minimum-change answers (whose undetermined coordinates it takes), the
+//! robot the solver started from (the nominal, or the `initial` guess) for the solver's answer
+//! (whose undetermined coordinates it keeps, as damped steps hardly move along directions no
+//! residual feels). There the design's exact redundancies hold, and the determined combinations
+//! are those of the answer; see [`crate::uncertainty`].
+
+use crate::error::{Error, Result};
+use crate::estimation::{self, Calibration, CalibrationOptions, Iteration, Loss, SolverOptions};
+use crate::identifiability::{self, AnalysisOptions};
+use crate::observe::{accuracy, Accuracy, Context, Dataset, OrientationError, Weights};
+use crate::outliers::{self, Outlier};
+use crate::params::{parse_param_list, ParamId, ParamKind};
+use crate::problem::Problem;
+use crate::report::CalibrationReport;
+use crate::robot::Robot;
+use crate::source::Source;
+use crate::uncertainty::{self, Uncertainty};
+use crate::units::{wrap_angle, Quantity};
+use crate::warning::Warning;
+
+/// Which parameters to estimate.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Selection {
+    /// The default set: see [`default_parameters`].
+    #[default]
+    Default,
+    /// These parameters.
+    List(Vec<ParamId>),
+    /// The identifiable (base) set of these parameters, as the data at the nominal robot
+    /// determines it (see [`crate::identifiability`]).
+    Identifiable(Vec<ParamId>),
+}
+
+impl Selection {
+    /// Parses a parameter list (see [`crate::params`]) minus `fix`; the keyword
+    /// `identifiable` asks for the identifiable set of the other entries (of the default set
+    /// when alone); an empty list is the default set.
+    pub fn parse(estimate: &str, fix: Option<&str>, robot: &Robot) -> Result<Selection> {
+        let tokens: Vec<&str> = if estimate.trim().is_empty() {
+            Vec::new()
+        } else {
+            estimate.split(',').map(str::trim).collect()
+        };
+        let identifiable = tokens.contains(&"identifiable");
+        let rest: Vec<&str> = tokens
+            .iter()
+            .copied()
+            .filter(|t| *t != "identifiable")
+            .collect();
+        let mut ids = if rest.is_empty() {
+            default_parameters(robot)
+        } else {
+            parse_param_list(&rest.join(","), robot)?
+        };
+        if let Some(fix) = fix {
+            let fixed = parse_param_list(fix, robot)?;
+            ids.retain(|id| !fixed.contains(id));
+        }
+        if ids.is_empty() {
+            return Err(Error::ParamList {
+                list: estimate.to_string(),
+                message: "no parameter is left to estimate".into(),
+            });
+        }
+        Ok(if identifiable {
+            Selection::Identifiable(ids)
+        } else {
+            Selection::List(ids)
+        })
+    }
+}
+
+/// The parameters a selection stands for on `data`, analysed at `robot` with `opts` (sorted).
+pub fn resolve(
+    selection: &Selection,
+    robot: &Robot,
+    data: &Dataset,
+    opts: &AnalysisOptions,
+) -> Result<Vec<ParamId>> {
+    let mut ids = match selection {
+        Selection::Default => default_parameters(robot),
+        Selection::List(ids) => ids.clone(),
+        Selection::Identifiable(ids) => {
+            identifiability::analyze(robot, data, ids, opts)?.identifiable
+        }
+    };
+    ids.sort();
+    ids.dedup();
+    if ids.is_empty() {
+        return Err(Error::NothingToEstimate);
+    }
+    Ok(ids)
+}
+
+/// The default parameters: every link and site parameter and every joint offset, and the
+/// slopes unless every slope is 1 in the file's units (readings that are already joint
+/// values). Coupling factors and planes are held unless named.
+pub fn default_parameters(robot: &Robot) -> Vec<ParamId> {
+    let unit_slopes = robot
+        .joints
+        .iter()
+        .all(|j| (robot.units.from_si(j.kind.slope(), j.slope) - 1.0).abs() < 1e-12);
+    robot
+        .param_ids()
+        .filter(|&id| match robot.param_kind(id) {
+            ParamKind::Link { .. } | ParamKind::Offset { .. } | ParamKind::Site { .. } => true,
+            ParamKind::Slope { .. } => !unit_slopes,
+            ParamKind::Coupling { .. } | ParamKind::Plane { .. } => false,
+        })
+        .collect()
+}
+
+/// Which of several equally good answers a calibration returns when the data leaves some
+/// parameters undetermined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SolutionRule {
+    /// Wherever the solver stops: in the undetermined directions this depends on the starting
+    /// point and the solver's path (thesis Table 4.8).
+    #[default]
+    Solver,
+    /// Among the equally good answers, the one closest to the nominal robot in the metric
+    /// `sum ((p - p_nominal) / tolerance)^2`, tolerances from the nominal's
+    /// [`Tolerances`](crate::robot::Tolerances). It does not depend on the starting point.
+    MinChange,
+}
+
+impl SolutionRule {
+    /// `solver` or `min-change`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SolutionRule::Solver => "solver",
+            SolutionRule::MinChange => "min-change",
+        }
+    }
+}
+
+/// Held-out data to check the calibration on.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Validation {
+    /// None.
+    #[default]
+    None,
+    /// A separate dataset.
+    Data(Dataset),
+    /// A fraction of the posture groups (postures an observation links stay together), drawn
+    /// with a seed.
+    Holdout {
+        /// Fraction, strictly between 0 and 1.
+        fraction: f64,
+        /// Seed of the draw.
+        seed: u64,
+    },
+}
+
+/// Everything that decides a calibration.
+#[derive(Debug, Clone)]
+pub struct Request {
+    /// The nominal robot: the model, the starting point unless `initial` is given, the
+    /// linearisation point of the uncertainty, and the reference of minimum-change answers.
+    pub robot: Robot,
+    /// The observations.
+    pub data: Dataset,
+    /// What to estimate.
+    pub selection: Selection,
+    /// Start the solver from this robot's parameter values instead (same structure).
+    pub initial: Option<Robot>,
+    /// Method and stopping rules.
+    pub solver: SolverOptions,
+    /// Least squares or Huber.
+    pub loss: Loss,
+    /// Default residual weights.
+    pub weights: Weights,
+    /// Orientation residuals.
+    pub orientation: OrientationError,
+    /// Which of equally good answers.
+    pub solution: SolutionRule,
+    /// Remove, one at a time, changes below this many standard deviations, refitting after
+    /// each.
+    pub prune: Option<f64>,
+    /// Held-out data.
+    pub validation: Validation,
+    /// Outlier threshold, in robust standard deviations.
+    pub outlier_sigmas: f64,
+    /// Parameters to prefer in an identifiable set, most preferred first.
+    pub priority: Vec<ParamId>,
+    /// Relative singular-value tolerance of the identifiability analysis.
+    pub rank_rcond: f64,
+    /// The files read (for the report's fingerprints): the robot file first, then the data.
+    pub sources: Vec<Source>,
+}
+
+impl Request {
+    /// Default settings: the default parameters by Levenberg-Marquardt, least squares, default
+    /// weights and Euler residuals, the solver's answer, no pruning or validation.
+    pub fn new(robot: Robot, data: Dataset) -> Request {
+        Request {
+            robot,
+            data,
+            selection: Selection::Default,
+            initial: None,
+            solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
+            loss: Loss::Squared,
+            weights: Weights::default(),
+            orientation: OrientationError::Euler,
+            solution: SolutionRule::Solver,
+            prune: None,
+            validation: Validation::None,
+            outlier_sigmas: outliers::DEFAULT_SIGMAS,
+            priority: Vec::new(),
+            rank_rcond: identifiability::DEFAULT_RANK_RCOND,
+            sources: Vec::new(),
+        }
+    }
+
+    fn analysis_options(&self) -> AnalysisOptions {
+        AnalysisOptions {
+            rcond: self.rank_rcond,
+            weights: self.weights,
+            orientation: self.orientation,
+            priority: self.priority.clone(),
+        }
+    }
+}
+
+/// The phases of a calibration, for progress displays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// Choosing the identifiable parameters.
+    Selection,
+    /// Estimating (iterations follow).
+    Estimation,
+    /// Computing the uncertainty.
+    Uncertainty,
+    /// Pruning (refits follow).
+    Pruning,
+    /// Validation, outliers and the report.
+    Report,
+}
+
+/// Receives the progress of a calibration. Both methods do nothing by default.
+pub trait Progress {
+    /// A phase starts.
+    fn phase(&mut self, _phase: Phase) {}
+    /// An iteration of the solver ended.
+    fn iteration(&mut self, _it: &Iteration) {}
+}
+
+/// No progress display.
+impl Progress for () {}
+
+/// The pruned refit and what it removed.
+#[derive(Debug, Clone)]
+pub struct Pruning {
+    /// The significance threshold, in standard deviations.
+    pub k: f64,
+    /// The fit of every selected parameter, before pruning.
+    pub full: Calibration,
+    /// The full fit's report.
+    pub full_report: Box<CalibrationReport>,
+    /// The parameters removed, in removal order.
+    pub removed: Vec<ParamId>,
+}
+
+/// Accuracy before and after calibration on a dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checked {
+    /// Postures in the dataset.
+    pub postures: usize,
+    /// Observations in the dataset.
+    pub observations: usize,
+    /// With the nominal (starting) robot.
+    pub before: Accuracy,
+    /// With the calibrated robot.
+    pub after: Accuracy,
+}
+
+impl Checked {
+    fn new(cal: &Calibration, data: &Dataset) -> Checked {
+        Checked {
+            postures: data.postures.len(),
+            observations: data.observations.len(),
+            before: accuracy(&cal.initial, data),
+            after: accuracy(&cal.calibrated, data),
+        }
+    }
+}
+
+/// What a calibration produced.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The nominal robot of the request.
+    pub nominal: Robot,
+    /// The identification data (the request's data minus any hold-out).
+    pub data: Dataset,
+    /// The validation data, when there was some.
+    pub validation_data: Option<Dataset>,
+    /// The calibration (after pruning, when pruned).
+    pub calibration: Calibration,
+    /// Its uncertainty, linearised at the nominal robot; `None` when it cannot be computed
+    /// (a warning says why).
+    pub uncertainty: Option<Uncertainty>,
+    /// The pruning, when asked for.
+    pub pruning: Option<Pruning>,
+    /// Accuracy on the identification data.
+    pub identification: Checked,
+    /// Accuracy on the validation data.
+    pub validation: Option<Checked>,
+    /// Outliers of the identification data.
+    pub outliers: Vec<Outlier>,
+    /// Everything the user should know.
+    pub warnings: Vec<Warning>,
+    /// The report document.
+    pub report: CalibrationReport,
+}
+
+/// Runs a calibration.
+pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
+    if !(req.outlier_sigmas.is_finite() && req.outlier_sigmas > 0.0) {
+        return Err(Error::InvalidOption {
+            option: "outlier threshold",
+            message: format!(
+                "expected a positive number of standard deviations, got {}",
+                req.outlier_sigmas
+            ),
+        });
+    }
+    if let Some(k) = req.prune {
+        if !(k.is_finite() && k > 0.0) {
+            return Err(Error::InvalidOption {
+                option: "pruning threshold",
+                message: format!("expected a positive number of standard deviations, got {k}"),
+            });
+        }
+    }
+    if !(req.solver.rcond > 0.0 && req.solver.rcond < 1.0) {
+        return Err(Error::InvalidOption {
+            option: "rcond",
+            message: format!(
+                "expected a number between 0 and 1, got {}",
+                req.solver.rcond
+            ),
+        });
+    }
+    if req.data.is_empty() {
+        return Err(Error::Problem("no observations to calibrate from".into()));
+    }
+    let (data, validation_data) = match &req.validation {
+        Validation::None => (req.data.clone(), None),
+        Validation::Data(v) => (req.data.clone(), Some(v.clone())),
+        Validation::Holdout { fraction, seed } => {
+            if !(*fraction > 0.0 && *fraction < 1.0) {
+                return Err(Error::InvalidOption {
+                    option: "hold-out fraction",
+                    message: format!("expected a fraction between 0 and 1, got {fraction}"),
+                });
+            }
+            let (ident, held) = req.data.split(*fraction, *seed);
+            if held.is_empty() || ident.is_empty() {
+                return Err(Error::InvalidOption {
+                    option: "hold-out fraction",
+                    message: format!("{fraction} leaves an empty identification or validation set"),
+                });
+            }
+            (ident, Some(held))
+        }
+    };
+    let start = match &req.initial {
+        None => req.robot.clone(),
+        Some(guess) => {
+            if !req.robot.same_structure(guess) {
+                return Err(Error::Problem(
+                    "the initial guess does not have the nominal robot's structure (joints, \
+                     couplings, sites, planes)"
+                        .into(),
+                ));
+            }
+            let mut start = req.robot.clone();
+            for id in req.robot.param_ids() {
+                start.set(id, guess.get(id));
+            }
+            for (p, g) in start.planes.iter_mut().zip(&guess.planes) {
+                // Tilts are relative to each file's own reference normal.
+                p.set_normal(&g.normal());
+            }
+            start
+        }
+    };
+    let reference = match req.solution {
+        SolutionRule::MinChange => &req.robot,
+        SolutionRule::Solver => &start,
+    };
+    if matches!(req.selection, Selection::Identifiable(_)) {
+        progress.phase(Phase::Selection);
+    }
+    let estimate = resolve(&req.selection, reference, &data, &req.analysis_options())?;
+    let opts = CalibrationOptions {
+        estimate,
+        solver: req.solver,
+        weights: req.weights,
+        orientation: req.orientation,
+        loss: req.loss,
+    };
+    progress.phase(Phase::Estimation);
+    let mut cal = fit(req, &start, &data, &opts, progress)?;
+    let mut pruning = None;
+    if let Some(k) = req.prune {
+        progress.phase(Phase::Pruning);
+        let full = cal.clone();
+        let mut removed = Vec::new();
+        while let Ok(u) = uncertainty::uncertainty(&cal, &data, reference) {
+            let weakest = u
+                .parameters
+                .iter()
+                .filter_map(|p| p.significance.map(|s| (p.id, s)))
+                .filter(|&(_, s)| s < k)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((id, _)) = weakest else { break };
+            let mut o = cal.options.clone();
+            o.estimate.retain(|&p| p != id);
+            if o.estimate.is_empty() {
+                break;
+            }
+            removed.push(id);
+            cal = fit(req, &start, &data, &o, &mut ())?;
+        }
+        let full_outcome = finish(
+            req.robot.clone(),
+            data.clone(),
+            validation_data.clone(),
+            full.clone(),
+            uncertainty::uncertainty(&full, &data, reference),
+            None,
+            req.outlier_sigmas,
+            req.solution,
+            &req.sources,
+            &mut data_warnings(&req.robot, &data, req.orientation),
+        );
+        pruning = Some(Pruning {
+            k,
+            full,
+            full_report: Box::new(full_outcome.report),
+            removed,
+        });
+    }
+    progress.phase(Phase::Uncertainty);
+    let mut warnings = data_warnings(&req.robot, &data, req.orientation);
+    let unc = uncertainty::uncertainty(&cal, &data, reference);
+    progress.phase(Phase::Report);
+    Ok(finish(
+        req.robot.clone(),
+        data,
+        validation_data,
+        cal,
+        unc,
+        pruning,
+        req.outlier_sigmas,
+        req.solution,
+        &req.sources,
+        &mut warnings,
+    ))
+}
+
+/// Assembles an outcome: validation, outliers, warnings, the report.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    nominal: Robot,
+    data: Dataset,
+    validation_data: Option<Dataset>,
+    cal: Calibration,
+    unc: Result<Uncertainty>,
+    pruning: Option<Pruning>,
+    outlier_sigmas: f64,
+    solution: SolutionRule,
+    sources: &[Source],
+    warnings: &mut Vec<Warning>,
+) -> Outcome {
+    if !cal.unfelt.is_empty() {
+        warnings.push(Warning::Unfelt {
+            parameters: cal
+                .unfelt
+                .iter()
+                .map(|&id| cal.calibrated.param_name(id))
+                .collect(),
+        });
+    }
+    let uncertainty = match unc {
+        Ok(u) => {
+            for &(a, b, rho) in &u.correlations {
+                warnings.push(Warning::Correlated {
+                    a: a.to_string(),
+                    b: b.to_string(),
+                    rho,
+                });
+            }
+            for w in &u.analysis.warnings {
+                if !warnings.contains(w) {
+                    warnings.push(w.clone());
+                }
+            }
+            Some(u)
+        }
+        Err(e) => {
+            warnings.push(Warning::NoUncertainty {
+                reason: e.to_string(),
+            });
+            None
+        }
+    };
+    match cal.termination {
+        estimation::Termination::MaxIterations => warnings.push(Warning::NotConverged {
+            iterations: cal.iterations,
+        }),
+        estimation::Termination::Stalled => warnings.push(Warning::Stalled {
+            method: cal.options.solver.method.as_str().to_string(),
+        }),
+        _ => {}
+    }
+    let outliers = outliers::outliers(&cal, &data, outlier_sigmas);
+    let identification = Checked::new(&cal, &data);
+    let validation = validation_data.as_ref().map(|v| Checked::new(&cal, v));
+    let mut report = CalibrationReport::new(&cal, &data);
+    report.set_outliers(&outliers, &data, &cal.calibrated, outlier_sigmas);
+    if let Some(v) = &validation {
+        report.set_validation(
+            v.postures,
+            v.observations,
+            &v.before,
+            &v.after,
+            &cal.calibrated,
+        );
+    }
+    if let Some(u) = &uncertainty {
+        report.set_uncertainty(&cal, u);
+    }
+    if let Some(p) = &pruning {
+        report.set_pruning(p.k, &p.removed, &p.full);
+    }
+    report.set_warnings(warnings);
+    report.set_sources(sources);
+    report.set_solution(solution.as_str());
+    Outcome {
+        nominal,
+        data,
+        validation_data,
+        calibration: cal,
+        uncertainty,
+        pruning,
+        identification,
+        validation,
+        outliers,
+        warnings: std::mem::take(warnings),
+        report,
+    }
+}
+
+/// Warnings about the data itself: poses near gimbal lock under Euler residuals.
+fn data_warnings(robot: &Robot, data: &Dataset, orientation: OrientationError) -> Vec<Warning> {
+    let ctx = Context { robot, orientation };
+    let near = data.degenerate(&ctx);
+    if near.is_empty() {
+        return Vec::new();
+    }
+    vec![Warning::GimbalLock {
+        count: near.len(),
+        lines: near.iter().take(5).map(|o| o.line()).collect(),
+    }]
+}
+
+/// Estimates, then applies the solution rule.
+fn fit(
+    req: &Request,
+    start: &Robot,
+    data: &Dataset,
+    opts: &CalibrationOptions,
+    progress: &mut dyn Progress,
+) -> Result<Calibration> {
+    let mut cal = estimation::calibrate(start, data, opts, &mut |it| progress.iteration(it))?;
+    if req.solution == SolutionRule::MinChange {
+        let problem = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
+        let problem = problem.with_row_scale(&cal.row_scale);
+        let mut x = problem.values(&cal.calibrated);
+        for _round in 0..10 {
+            let (projected, size) = project_min_change(&problem, &x, &req.robot, data, opts)?;
+            let again = estimation::solve(&problem, &projected, &opts.solver, &mut |it| {
+                cal.log.push(*it);
+                progress.iteration(it)
+            })?;
+            x = again.x;
+            cal.iterations += again.iterations;
+            cal.termination = again.termination;
+            if size < 1e-9 {
+                break;
+            }
+        }
+        let mut calibrated = problem.robot_at(&x);
+        for &id in &opts.estimate {
+            if start.param_quantity(id) == Quantity::Angle {
+                let v0 = start.get(id);
+                calibrated.set(id, v0 + wrap_angle(calibrated.get(id) - v0));
+            }
+        }
+        cal.objective_after = problem.evaluate(&calibrated, &mut vec![0.0; problem.rows()], None);
+        cal.accuracy_after = accuracy(&calibrated, data);
+        cal.calibrated = calibrated;
+    }
+    Ok(cal)
+}
+
+/// Moves `x` along the undetermined directions to the point closest to `reference` in the
+/// tolerance-scaled metric. Returns the new point and the size of the move in tolerance units.
+///
+/// The undetermined directions are the null space of the Jacobian at the reference (nominal)
+/// model, where the design's exact redundancies hold; noise in the data would otherwise turn
+/// them into barely determined directions at `x`.
+fn project_min_change(
+    problem: &Problem<'_>,
+    x: &[f64],
+    reference: &Robot,
+    data: &Dataset,
+    opts: &CalibrationOptions,
+) -> Result<(Vec<f64>, f64)> {
+    let mut robot = problem.robot_at(x);
+    for &id in problem.estimated() {
+        robot.set(id, reference.get(id));
+    }
+    let aopts = AnalysisOptions {
+        weights: opts.weights,
+        orientation: opts.orientation,
+        ..Default::default()
+    };
+    let a = identifiability::analyze(&robot, data, problem.estimated(), &aopts)?;
+    let n = x.len();
+    // analyze sorts its parameters; map them back to the problem's order.
+    let pos: Vec<usize> = problem
+        .estimated()
+        .iter()
+        .map(|id| {
+            a.parameters
+                .iter()
+                .position(|p| p == id)
+                .expect("same parameters")
+        })
+        .collect();
+    let null: Vec<Vec<f64>> = (a.rank..n)
+        .map(|k| {
+            pos.iter()
+                .map(|&j| {
+                    let v = a.right_singular_vectors[(j, k)];
+                    if a.column_norms[j] > 0.0 {
+                        v / a.column_norms[j]
+                    } else {
+                        v
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    if null.is_empty() {
+        return Ok((x.to_vec(), 0.0));
+    }
+    let ids = problem.estimated();
+    let w: Vec<f64> = ids
+        .iter()
+        .map(|&id| 1.0 / reference.tolerance(id).powi(2))
+        .collect();
+    let dx: Vec<f64> = ids
+        .iter()
+        .zip(x)
+        .map(|(&id, &v)| {
+            let d = v - reference.get(id);
+            if reference.param_quantity(id) == Quantity::Angle {
+                wrap_angle(d)
+            } else {
+                d
+            }
+        })
+        .collect();
+    let k = null.len();
+    let ata = crate::linalg::Matrix::from_fn(k, k, |a, b| {
+        (0..n).map(|j| null[a][j] * w[j] * null[b][j]).sum()
+    });
+    let atb: Vec<f64> = (0..k)
+        .map(|a| (0..n).map(|j| null[a][j] * w[j] * dx[j]).sum())
+        .collect();
+    let z = crate::linalg::solve_spd(&ata, &atb)
+        .ok_or_else(|| Error::Numerical("minimum-change projection is singular".into()))?;
+    let mut out = x.to_vec();
+    let mut size = 0.0;
+    for j in 0..n {
+        let step: f64 = (0..k).map(|a| null[a][j] * z[a]).sum();
+        out[j] -= step;
+        size += step * step * w[j];
+    }
+    Ok((out, size.sqrt()))
+}
+
+/// The outcome of a calibration that already exists: `calibrated` (a robot file written by a
+/// calibration of `nominal`) assessed on `data`. The estimated parameters are those that
+/// differ from the nominal ones.
+pub fn assess(
+    nominal: &Robot,
+    calibrated: &Robot,
+    data: &Dataset,
+    weights: Weights,
+    orientation: OrientationError,
+    sources: &[Source],
+) -> Result<Outcome> {
+    if !nominal.same_structure(calibrated) {
+        return Err(Error::Problem(
+            "the calibrated robot does not have the nominal robot's structure (joints, couplings, \
+             sites, planes)"
+                .into(),
+        ));
+    }
+    let mut calibrated = calibrated.clone();
+    for (p, c) in nominal.planes.iter().zip(calibrated.planes.iter_mut()) {
+        let (n, offset) = (c.normal(), c.offset);
+        *c = p.clone();
+        c.offset = offset;
+        c.set_normal(&n);
+    }
+    let mut estimated: Vec<ParamId> = nominal
+        .param_ids()
+        .filter(|&id| (nominal.get(id) - calibrated.get(id)).abs() > 0.0)
+        .collect();
+    if estimated.is_empty() {
+        estimated = nominal.param_ids().collect();
+    }
+    let mut options = CalibrationOptions::new(estimated.clone());
+    options.weights = weights;
+    options.orientation = orientation;
+    let problem = Problem::new(nominal, data, &estimated, weights, orientation);
+    let mut r = vec![0.0; problem.rows()];
+    let cal = Calibration {
+        objective_before: problem.evaluate(nominal, &mut r, None),
+        objective_after: problem.evaluate(&calibrated, &mut r, None),
+        accuracy_before: accuracy(nominal, data),
+        accuracy_after: accuracy(&calibrated, data),
+        initial: nominal.clone(),
+        calibrated,
+        estimated: estimated.clone(),
+        options,
+        termination: estimation::Termination::NoFurtherReduction,
+        iterations: 0,
+        unfelt: Vec::new(),
+        row_scale: vec![1.0; problem.rows()],
+        log: Vec::new(),
+    };
+    let mut warnings = data_warnings(nominal, data, orientation);
+    let unc = uncertainty::uncertainty(&cal, data, nominal);
+    Ok(finish(
+        nominal.clone(),
+        data.clone(),
+        None,
+        cal,
+        unc,
+        None,
+        outliers::DEFAULT_SIGMAS,
+        SolutionRule::Solver,
+        sources,
+        &mut warnings,
+    ))
+}
+
+/// The largest acceptable errors of a robot in service.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Thresholds {
+    /// Largest acceptable length error (m): position errors, and the errors of other length
+    /// metrics (distances, contacts).
+    pub length: f64,
+    /// Largest acceptable attitude error (rad), when attitudes are checked.
+    pub angle: Option<f64>,
+}
+
+/// Whether a robot still meets its accuracy on check observations.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// True when every error is within the thresholds.
+    pub ok: bool,
+    /// The errors.
+    pub accuracy: Accuracy,
+    /// The thresholds.
+    pub thresholds: Thresholds,
+}
+
+/// Checks `robot`'s predictions against check observations.
+pub fn check(robot: &Robot, data: &Dataset, thresholds: Thresholds) -> Result<Verdict> {
+    let ok_threshold = |v: f64| v.is_finite() && v > 0.0;
+    if !ok_threshold(thresholds.length) || !thresholds.angle.is_none_or(ok_threshold) {
+        return Err(Error::InvalidOption {
+            option: "threshold",
+            message: "thresholds must be positive finite numbers".into(),
+        });
+    }
+    let acc = accuracy(robot, data);
+    let mut ok = acc.max_position <= thresholds.length
+        && acc.other.iter().all(|m| m.max <= thresholds.length);
+    if let Some(t) = thresholds.angle {
+        ok &= acc.orientations == 0 || acc.max_orientation <= t;
+    }
+    Ok(Verdict {
+        ok,
+        accuracy: acc,
+        thresholds,
+    })
+}
