@@ -87,6 +87,27 @@ combinations, warnings. `kinecal calibrate --html report.html` writes it directl
     /// Write a calibrated robot back into another format (URDF).
     #[command(subcommand)]
     Export(ExportCommand),
+    /// Convert a public calibration data set (as in ../shared/data) into kinecal's files.
+    #[command(after_help = "\
+Example:
+  kinecal dataset fanuc-r2000ic ../shared/data/fanuc_r2000ic_lasertracker --out fanuc
+  kinecal calibrate --robot fanuc/fanuc.toml --data fanuc/measurements.csv --estimate identifiable
+
+Data sets:
+  qkm-hl6         QKM HL6 + FARO laser tracker (qkm_hl6_faro): 46 reflector positions, 9 held out
+  fanuc-r2000ic   FANUC R-2000iC + laser tracker (fanuc_r2000ic_lasertracker): 36 postures x 3
+                  reflectors, the controller's joint values, joint 3 coupled to joint 2
+  ur10e-camera    UR10e + wrist camera (ur10e_camera): 23 camera-measured poses
+
+Writes the robot file(s) and measurement files into the output folder and prints the
+calibration the data set's README suggests.")]
+    Dataset(DatasetArgs),
+    /// Print a shell completion script.
+    #[command(after_help = "\
+Example:
+  kinecal completions bash > ~/.local/share/bash-completion/completions/kinecal
+  kinecal completions zsh > ~/.zfunc/_kinecal")]
+    Completions(CompletionsArgs),
     /// Estimate kinematic parameters from measured poses or positions.
     #[command(after_help = "\
 Example:
@@ -827,4 +848,24 @@ impl Args for ObservationFiles {
     fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
         Self::augment_args(cmd)
     }
+}
+
+/// `kinecal dataset`.
+#[derive(Debug, Args)]
+pub struct DatasetArgs {
+    /// The data set: qkm-hl6, fanuc-r2000ic or ur10e-camera.
+    pub name: String,
+    /// Its folder (e.g. ../shared/data/qkm_hl6_faro).
+    pub dir: PathBuf,
+    /// The folder to write kinecal's files into (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `kinecal completions`.
+#[derive(Debug, Args)]
+pub struct CompletionsArgs {
+    /// The shell.
+    #[arg(value_enum)]
+    pub shell: clap_complete::Shell,
 }

@@ -15,9 +15,9 @@ use anyhow::{anyhow, bail, Context as _, Result};
 use clap::Parser;
 
 use args::{
-    CalibrateArgs, Cli, Command, ConventionArg, DampingArg, ExportCommand, ExportUrdfArgs, FkArgs,
-    ImportCommand, LossArg, MethodArg, ObservationFiles, OrientationArg, ResidualArgs,
-    SimulateArgs, SolutionArg,
+    CalibrateArgs, Cli, Command, ConventionArg, DampingArg, DatasetArgs, ExportCommand,
+    ExportUrdfArgs, FkArgs, ImportCommand, LossArg, MethodArg, ObservationFiles, OrientationArg,
+    ResidualArgs, SimulateArgs, SolutionArg,
 };
 use kinecal::estimation::{Damping, Loss, Method, SolverOptions};
 use kinecal::observe::point::{
@@ -48,6 +48,17 @@ fn main() -> ExitCode {
         Command::Check(a) => history::check(a),
         Command::Curves(c) => curves::run(c).map(|()| 0),
         Command::Report(a) => curves::report(a).map(|()| 0),
+        Command::Dataset(a) => dataset(a).map(|()| 0),
+        Command::Completions(a) => {
+            use clap::CommandFactory;
+            clap_complete::generate(
+                a.shell,
+                &mut Cli::command(),
+                "kinecal",
+                &mut std::io::stdout(),
+            );
+            Ok(0)
+        }
     };
     match result {
         Ok(code) => ExitCode::from(code),
@@ -390,6 +401,45 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         write_file(path, &write_robot_toml(&truth, Some(&r.source.text)))?;
         eprintln!("wrote the true robot to {}", path.display());
     }
+    Ok(())
+}
+
+fn dataset(a: DatasetArgs) -> Result<()> {
+    let adapter = kinecal::datasets::DATASETS
+        .iter()
+        .find(|d| d.name == a.name)
+        .ok_or_else(|| {
+            anyhow!(
+                "unknown data set `{}` (known: {})",
+                a.name,
+                kinecal::datasets::DATASETS
+                    .iter()
+                    .map(|d| d.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+    if !a.dir.is_dir() {
+        bail!("{}: no such folder", a.dir.display());
+    }
+    let converted = (adapter.convert)(&a.dir)?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    for (name, text) in &converted.files {
+        write_file(&a.out.join(name), text)?;
+    }
+    println!("{}", converted.summary);
+    println!(
+        "wrote {} to {}",
+        converted
+            .files
+            .iter()
+            .map(|f| f.0.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        a.out.display()
+    );
+    println!("next, in {}: {}", a.out.display(), converted.command);
     Ok(())
 }
 

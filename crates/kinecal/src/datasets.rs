@@ -1,8 +1,103 @@
-//! Adapters for public calibration data sets whose files are laid out in their own way.
+//! Adapters for public calibration data sets whose files are laid out in their own way: each
+//! reads a data set's folder (as in `../shared/data`, described by its README) into a kinecal
+//! robot and observations, and [`DATASETS`] lists them for front ends (`kinecal dataset`).
 //!
-//! [`qkm_hl6`] reads the QKM HL6 + FARO laser tracker data (see
-//! `../shared/data/qkm_hl6_faro/README.txt`): 46 identification positions of one of three
-//! reflectors (SMRs) per posture, and 9 held-out test points.
+//! - [`qkm_hl6`]: QKM HL6 + FARO laser tracker: 46 identification positions of one of three
+//!   reflectors (SMRs) per posture, and 9 held-out test points.
+//! - [`fanuc_r2000ic`]: FANUC R-2000iC/165F + laser tracker: 36 postures (single-joint sweeps) x
+//!   3 reflectors; the controller's joint values as read, with the J2/J3 coupling in the robot.
+//! - [`ur10e_camera`]: UR10e with a wrist camera: 23 camera-measured poses.
+
+use std::path::Path;
+
+use crate::error::{Error, Location, Result};
+use crate::observe::point::write_measurements;
+use crate::robot_file::write_robot_toml;
+
+/// A data set converted into kinecal's files.
+#[derive(Debug, Clone)]
+pub struct Converted {
+    /// (file name, contents) to write.
+    pub files: Vec<(String, String)>,
+    /// What was converted, for the user.
+    pub summary: String,
+    /// The calibration the data set's README suggests, as a command line over the files.
+    pub command: String,
+}
+
+/// A data set adapter: its name, a line about it, and the conversion of its folder.
+#[derive(Clone, Copy)]
+pub struct Adapter {
+    /// The name (`qkm-hl6`).
+    pub name: &'static str,
+    /// What it reads.
+    pub about: &'static str,
+    /// Converts the folder.
+    pub convert: fn(&Path) -> Result<Converted>,
+}
+
+impl std::fmt::Debug for Adapter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Adapter({})", self.name)
+    }
+}
+
+/// Every adapter.
+pub const DATASETS: &[Adapter] = &[
+    Adapter {
+        name: "qkm-hl6",
+        about: "QKM HL6 + FARO laser tracker (qkm_hl6_faro): 46 reflector positions, 9 held-out",
+        convert: qkm_hl6::convert,
+    },
+    Adapter {
+        name: "fanuc-r2000ic",
+        about: "FANUC R-2000iC + laser tracker (fanuc_r2000ic_lasertracker): 36 postures x 3 \
+                reflectors, controller joint values with the J2/J3 coupling",
+        convert: fanuc_r2000ic::convert,
+    },
+    Adapter {
+        name: "ur10e-camera",
+        about: "UR10e + wrist camera (ur10e_camera): 23 camera-measured poses",
+        convert: ur10e_camera::convert,
+    },
+];
+
+/// Reads whitespace- or comma-separated rows of `cols` numbers (blank lines skipped).
+fn read_rows(path: &Path, cols: usize) -> Result<Vec<Vec<f64>>> {
+    let source = crate::source::Source::read(path)?;
+    let file = source.name;
+    let mut rows = Vec::new();
+    for (i, line) in source.text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let vals: Vec<f64> = line
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse::<f64>())
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|e| {
+                Error::input(
+                    Location::file(&file).at_line(i + 1),
+                    format!("not a number: {e}"),
+                )
+            })?;
+        if vals.len() != cols {
+            return Err(Error::input(
+                Location::file(&file).at_line(i + 1),
+                format!("expected {cols} numbers, found {}", vals.len()),
+            ));
+        }
+        if let Some(k) = vals.iter().position(|v| !v.is_finite()) {
+            return Err(Error::input(
+                Location::file(&file).at_line(i + 1),
+                format!("number {} is not finite", k + 1),
+            ));
+        }
+        rows.push(vals);
+    }
+    Ok(rows)
+}
 
 /// The QKM HL6 data set.
 pub mod qkm_hl6 {
@@ -11,7 +106,8 @@ pub mod qkm_hl6 {
 
     use nalgebra::{Matrix3, Vector3};
 
-    use crate::error::{Error, Location, Result};
+    use super::{read_rows, write_measurements, write_robot_toml, Converted};
+    use crate::error::Result;
     use crate::import::poe::parse_poe_toml;
     use crate::kinematics::Target;
     use crate::observe::point::Position;
@@ -30,39 +126,6 @@ pub mod qkm_hl6 {
         pub identification: Dataset,
         /// The 9 held-out test points.
         pub validation: Dataset,
-    }
-
-    fn read_rows(path: &Path, cols: usize) -> Result<Vec<Vec<f64>>> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
-            path: file.clone(),
-            source: e,
-        })?;
-        let mut rows = Vec::new();
-        for (i, line) in text.lines().enumerate() {
-            if line.trim().is_empty() {
-                continue;
-            }
-            let vals: Vec<f64> = line
-                .split(|c: char| c == ',' || c.is_whitespace())
-                .filter(|s| !s.is_empty())
-                .map(|s| s.parse::<f64>())
-                .collect::<std::result::Result<_, _>>()
-                .map_err(|e| {
-                    Error::input(
-                        Location::file(&file).at_line(i + 1),
-                        format!("not a number: {e}"),
-                    )
-                })?;
-            if vals.len() != cols {
-                return Err(Error::input(
-                    Location::file(&file).at_line(i + 1),
-                    format!("expected {cols} numbers, found {}", vals.len()),
-                ));
-            }
-            rows.push(vals);
-        }
-        Ok(rows)
     }
 
     /// The user (reference) frame built from three tracker points (README: "method 1"): origin
@@ -154,6 +217,297 @@ pub mod qkm_hl6 {
             identification: dataset(&angles, &points, &to_ref, "c"),
             validation: dataset(&test_angles, &test_points, &to_ref, "t"),
             poe_toml: poe,
+        })
+    }
+
+    /// Reads and converts the folder: `qkm_poe.toml`, `qkm.toml`, `identification.csv`,
+    /// `validation.csv`.
+    pub fn convert(dir: &Path) -> Result<Converted> {
+        let d = load(dir)?;
+        Ok(Converted {
+            files: vec![
+                ("qkm_poe.toml".into(), d.poe_toml.clone()),
+                ("qkm.toml".into(), write_robot_toml(&d.robot, None)),
+                (
+                    "identification.csv".into(),
+                    write_measurements(&d.robot, &d.identification),
+                ),
+                (
+                    "validation.csv".into(),
+                    write_measurements(&d.robot, &d.validation),
+                ),
+            ],
+            summary: format!(
+                "QKM HL6: {} identification positions, {} held-out test points; the three \
+                 reflectors are sites smr1..smr3 on joint 6 (mm, deg, reference frame)",
+                d.identification.observations.len(),
+                d.validation.observations.len()
+            ),
+            command: "kinecal calibrate --robot qkm.toml --data identification.csv \
+                      --validate validation.csv --estimate all,identifiable"
+                .into(),
+        })
+    }
+}
+
+/// The FANUC R-2000iC/165F laser-tracker data set (Boby & Klimchik; see
+/// `../shared/data/fanuc_r2000ic_lasertracker/README.txt`).
+///
+/// The controller measures J3 from the horizontal: the model's joint 3 (ROS-Industrial's
+/// `joint_3`) is `J2 + J3`. The adapter keeps the controller's values as the readings and puts
+/// the coupling in the robot (joint 3 coupled to joint 2, factor 1), so that joint 3's slope
+/// scales J3 itself. Points are converted from the tracker frame into the robot's World frame
+/// with the data set's `TransTractoWorld0` (any error in it is absorbed by the first link); the
+/// three reflectors are sites on joint 6, placed from `TransFlangtoNest0` and the reflector
+/// spacing measured in the data. The end effector is the flange (`link_6`) frame.
+pub mod fanuc_r2000ic {
+    use std::fmt::Write as _;
+    use std::path::Path;
+
+    use nalgebra::{Matrix3, Vector3};
+
+    use super::{read_rows, write_measurements, write_robot_toml, Converted};
+    use crate::error::Result;
+    use crate::import::poe::parse_poe_toml;
+    use crate::kinematics::{rot_zyx, Target};
+    use crate::observe::point::Position;
+    use crate::observe::{Dataset, Observation, Posture};
+    use crate::robot::Robot;
+
+    /// The data set converted to kinecal's model and measurements.
+    #[derive(Debug, Clone)]
+    pub struct FanucData {
+        /// The nominal robot as a product-of-exponentials file (mm, deg; robot World frame).
+        pub poe_toml: String,
+        /// The nominal robot, joint 3 coupled to joint 2.
+        pub robot: Robot,
+        /// 36 postures x 3 reflector positions (mm in files; the World frame).
+        pub data: Dataset,
+    }
+
+    fn transform(rows: &[Vec<f64>]) -> (Matrix3<f64>, Vector3<f64>) {
+        (
+            Matrix3::from_fn(|i, j| rows[i][j]),
+            Vector3::new(rows[0][3], rows[1][3], rows[2][3]),
+        )
+    }
+
+    /// Loads the data set from its folder.
+    pub fn load(dir: &Path) -> Result<FanucData> {
+        let rows = read_rows(&dir.join("N1N2N3Jval.csv"), 21)?;
+        let (rw, tw) = transform(&read_rows(&dir.join("TransTractoWorld0.csv"), 4)?);
+        let (rn, tn) = transform(&read_rows(&dir.join("TransFlangtoNest0.csv"), 4)?);
+        // p_tracker = R p_world + t.
+        let to_world = |p: Vector3<f64>| rw.transpose() * (p - tw);
+        let point = |r: &[f64], k: usize| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]);
+        // The reflectors in the nest frame (origin N2, x towards N1, N3 in the xy-plane),
+        // averaged over the postures.
+        let (mut n1, mut n3) = (Vector3::zeros(), Vector3::zeros());
+        for r in &rows {
+            let (p1, p2, p3) = (point(r, 0), point(r, 1), point(r, 2));
+            let x = (p1 - p2).normalize();
+            let z = x.cross(&(p3 - p2)).normalize();
+            let m = Matrix3::from_columns(&[x, z.cross(&x), z]);
+            n1 += m.transpose() * (p1 - p2);
+            n3 += m.transpose() * (p3 - p2);
+        }
+        let nest = [
+            n1 / rows.len() as f64,
+            Vector3::zeros(),
+            n3 / rows.len() as f64,
+        ];
+        // ROS-Industrial's tool0 (the faceplate) at the zero configuration: the joint 6 centre,
+        // rotated rpy(pi, -pi/2, 0) from link_6.
+        let tool0 = rot_zyx(0.0, -std::f64::consts::FRAC_PI_2, std::f64::consts::PI);
+        let wrist = Vector3::new(1807.0, 0.0, 1300.0);
+        let mut poe = String::from(
+            "# FANUC R-2000iC/165F, nominal (ROS-Industrial fanuc_r2000ic_support), World frame, \
+             mm, deg.\n# Readings are the controller's J1..J6; J3 is measured from the \
+             horizontal, so\n# the model's joint 3 is J2 + J3: joint 3 is coupled to joint 2.\n\
+             name = \"FANUC R-2000iC/165F\"\nlength_unit = \"mm\"\nangle_unit = \"deg\"\n",
+        );
+        let joints = [
+            ([0, 0, 1], [0, 0, 0], Some((-185, 185)), ""),
+            ([0, 1, 0], [312, 0, 0], Some((-60, 76)), ""),
+            (
+                [0, -1, 0],
+                [312, 0, 1075],
+                None,
+                "coupling = { joint = 2, factor = 1 }\n",
+            ),
+            ([-1, 0, 0], [312, 0, 1300], Some((-360, 360)), ""),
+            ([0, -1, 0], [1592, 0, 1300], Some((-125, 125)), ""),
+            ([-1, 0, 0], [1807, 0, 1300], Some((-360, 360)), ""),
+        ];
+        for (w, q, range, extra) in joints {
+            let _ = write!(
+                poe,
+                "\n[[joints]]\nkind = \"revolute\"\naxis = [{}, {}, {}]\npoint = [{}, {}, {}]\n{extra}",
+                w[0], w[1], w[2], q[0], q[1], q[2]
+            );
+            if let Some((a, b)) = range {
+                let _ = writeln!(poe, "min = {a}\nmax = {b}");
+            }
+        }
+        poe.push_str("\n# The flange (link_6) frame.\n[tool]\nposition = [1807, 0, 1300]\n");
+        for (k, n) in nest.iter().enumerate() {
+            let p = wrist + tool0 * (rn * n + tn);
+            let _ = write!(
+                poe,
+                "\n[[sites]]\nname = \"smr{}\"\njoint = 6\nposition = [{}, {}, {}]\n",
+                k + 1,
+                p.x,
+                p.y,
+                p.z
+            );
+        }
+        let robot = parse_poe_toml(&poe, "<fanuc_r2000ic nominal>")?;
+        let mut postures = Vec::new();
+        let mut observations: Vec<Observation> = Vec::new();
+        for (i, r) in rows.iter().enumerate() {
+            postures.push(Posture {
+                label: (i + 1).to_string(),
+                readings: r[15..21].to_vec(),
+            });
+            for k in 0..3 {
+                let mut m = Position::new(i, Target::Site(k), to_world(point(r, k)) * 1e-3);
+                m.line = i + 1;
+                observations.push(m.into());
+            }
+        }
+        Ok(FanucData {
+            robot,
+            data: Dataset::new(postures, observations),
+            poe_toml: poe,
+        })
+    }
+
+    /// Reads and converts the folder: `fanuc_poe.toml`, `fanuc.toml`, `measurements.csv`.
+    pub fn convert(dir: &Path) -> Result<Converted> {
+        let d = load(dir)?;
+        Ok(Converted {
+            files: vec![
+                ("fanuc_poe.toml".into(), d.poe_toml.clone()),
+                ("fanuc.toml".into(), write_robot_toml(&d.robot, None)),
+                (
+                    "measurements.csv".into(),
+                    write_measurements(&d.robot, &d.data),
+                ),
+            ],
+            summary: format!(
+                "FANUC R-2000iC/165F: {} postures x 3 reflector positions (sites smr1..smr3 on \
+                 joint 6), controller joint values, joint 3 coupled to joint 2 (mm, deg, World \
+                 frame); single-joint sweeps, no separate test set",
+                d.data.postures.len()
+            ),
+            command: "kinecal calibrate --robot fanuc.toml --data measurements.csv --estimate \
+                      identifiable --holdout 0.17"
+                .into(),
+        })
+    }
+}
+
+/// The UR10e wrist-camera data set of FIGAROH (see `../shared/data/ur10e_camera/README.txt`):
+/// 23 camera-measured 6-D poses of a frame on the wrist, in an undocumented world frame. The
+/// robot is imported from the data set's URDF (`world` to `wrist_3_link`); the first and the
+/// last links absorb the unknown placement of the camera's world frame and of the measured
+/// frame on the wrist. Orientations are pinocchio RPY, `R = Rz(phiz) Ry(phiy) Rx(phix)`: the
+/// ZYX Euler angles `(phiz, phiy, phix)`.
+pub mod ur10e_camera {
+    use std::path::Path;
+
+    use nalgebra::Vector3;
+
+    use super::{write_measurements, write_robot_toml, Converted};
+    use crate::error::{Error, Location, Result};
+    use crate::kinematics::Target;
+    use crate::observe::point::Pose;
+    use crate::observe::{Dataset, Observation, Posture};
+    use crate::robot::Robot;
+
+    /// The data set converted to kinecal's model and measurements.
+    #[derive(Debug, Clone)]
+    pub struct Ur10eData {
+        /// The nominal robot (m, rad), imported from the URDF.
+        pub robot: Robot,
+        /// The 23 poses.
+        pub data: Dataset,
+    }
+
+    /// Loads the data set from its folder.
+    pub fn load(dir: &Path) -> Result<Ur10eData> {
+        let urdf = crate::source::Source::read(&dir.join("ur10_robot.urdf"))?;
+        let robot = crate::import::urdf::import_urdf(
+            &urdf.text,
+            &urdf.name,
+            Some("world"),
+            Some("wrist_3_link"),
+        )?
+        .robot;
+        let csv = crate::source::Source::read(&dir.join("calibration.csv"))?;
+        let mut lines = csv.text.lines().enumerate();
+        let expected = "x1,y1,z1,phix1,phiy1,phiz1,shoulder_pan_joint,shoulder_lift_joint,\
+                        elbow_joint,wrist_1_joint,wrist_2_joint,wrist_3_joint";
+        match lines.next() {
+            Some((_, h)) if h.trim() == expected => {}
+            _ => {
+                return Err(Error::input(
+                    Location::file(&csv.name).at_line(1),
+                    format!("expected the header `{expected}`"),
+                ))
+            }
+        }
+        let mut postures = Vec::new();
+        let mut observations: Vec<Observation> = Vec::new();
+        for (i, line) in lines {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let at = Location::file(&csv.name).at_line(i + 1);
+            let v: Vec<f64> = line
+                .split(',')
+                .map(|s| s.trim().parse::<f64>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|e| Error::input(at.clone(), format!("not a number: {e}")))?;
+            if v.len() != 12 || v.iter().any(|x| !x.is_finite()) {
+                return Err(Error::input(at, "expected 12 finite numbers"));
+            }
+            let k = postures.len();
+            postures.push(Posture {
+                label: (k + 1).to_string(),
+                readings: v[6..12].to_vec(),
+            });
+            let mut p = Pose::new(
+                k,
+                Target::EndEffector,
+                Vector3::new(v[0], v[1], v[2]),
+                Vector3::new(v[5], v[4], v[3]),
+            );
+            p.line = i + 1;
+            observations.push(p.into());
+        }
+        Ok(Ur10eData {
+            robot,
+            data: Dataset::new(postures, observations),
+        })
+    }
+
+    /// Reads and converts the folder: `ur10e.toml`, `poses.csv`.
+    pub fn convert(dir: &Path) -> Result<Converted> {
+        let d = load(dir)?;
+        Ok(Converted {
+            files: vec![
+                ("ur10e.toml".into(), write_robot_toml(&d.robot, None)),
+                ("poses.csv".into(), write_measurements(&d.robot, &d.data)),
+            ],
+            summary: format!(
+                "UR10e: {} camera-measured poses of a wrist frame (m, rad); the camera's world \
+                 frame and the measured frame on the wrist are unknown (links 1 and 7)",
+                d.data.observations.len()
+            ),
+            command: "kinecal calibrate --robot ur10e.toml --data poses.csv --estimate \
+                      link1,link7,offsets --orientation-error rotvec"
+                .into(),
         })
     }
 }

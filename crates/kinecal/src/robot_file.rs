@@ -177,6 +177,62 @@ impl<'t> Reader<'t> {
         Ok(Units { length, angle })
     }
 
+    /// A joint's optional `coupling = { joint = K, factor = F }` (F in the file's units per
+    /// reading unit of joint K; default 1).
+    pub(crate) fn coupling(
+        &self,
+        t: &Table,
+        what: &str,
+        kind: JointKind,
+        units: &Units,
+    ) -> Result<Option<Coupling>> {
+        Ok(match t.get("coupling") {
+            None => None,
+            Some(item) => {
+                let field = format!("{what}.coupling");
+                let bad = || {
+                    self.err(
+                        item.span().or(t.span()),
+                        &field,
+                        "expected `coupling = { joint = K, factor = F }` (K the number of the other \
+                         joint, F the joint units added per unit of its reading; default 1)",
+                    )
+                };
+                let ct = item.as_table_like().ok_or_else(bad)?;
+                for (key, _) in ct.iter() {
+                    if key != "joint" && key != "factor" {
+                        return Err(self.err(
+                            item.span().or(t.span()),
+                            &format!("{field}.{key}"),
+                            format!("unknown key `{key}` (expected joint, factor)"),
+                        ));
+                    }
+                }
+                let joint = match ct.get("joint").and_then(Item::as_integer) {
+                    Some(k) if k >= 1 => k as usize - 1,
+                    _ => return Err(bad()),
+                };
+                let factor = match ct.get("factor") {
+                    None => 1.0,
+                    Some(f) => match f.as_float().or_else(|| f.as_integer().map(|i| i as f64)) {
+                        Some(v) if v.is_finite() => v,
+                        _ => {
+                            return Err(self.err(
+                                f.span().or(item.span()),
+                                &format!("{field}.factor"),
+                                "expected a finite number",
+                            ))
+                        }
+                    },
+                };
+                Some(Coupling {
+                    joint,
+                    factor: units.to_si(kind.slope(), factor),
+                })
+            }
+        })
+    }
+
     fn link(&self, t: &Table, what: &str, units: &Units, extra: &[&str]) -> Result<Link> {
         let mut allowed = vec!["x", "y", "z", "alpha", "beta", "gamma"];
         allowed.extend_from_slice(extra);
@@ -258,51 +314,7 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 return Err(r.err(t.span(), &what, "give both `min` and `max`, or neither"));
             }
         };
-        let coupling = match t.get("coupling") {
-            None => None,
-            Some(item) => {
-                let field = format!("{what}.coupling");
-                let bad = || {
-                    r.err(
-                        item.span().or(t.span()),
-                        &field,
-                        "expected `coupling = { joint = K, factor = F }` (K the number of the other \
-                         joint, F the joint units added per unit of its reading; default 1)",
-                    )
-                };
-                let ct = item.as_table_like().ok_or_else(bad)?;
-                for (key, _) in ct.iter() {
-                    if key != "joint" && key != "factor" {
-                        return Err(r.err(
-                            item.span().or(t.span()),
-                            &format!("{field}.{key}"),
-                            format!("unknown key `{key}` (expected joint, factor)"),
-                        ));
-                    }
-                }
-                let joint = match ct.get("joint").and_then(Item::as_integer) {
-                    Some(k) if k >= 1 => k as usize - 1,
-                    _ => return Err(bad()),
-                };
-                let factor = match ct.get("factor") {
-                    None => 1.0,
-                    Some(f) => match f.as_float().or_else(|| f.as_integer().map(|i| i as f64)) {
-                        Some(v) if v.is_finite() => v,
-                        _ => {
-                            return Err(r.err(
-                                f.span().or(item.span()),
-                                &format!("{field}.factor"),
-                                "expected a finite number",
-                            ))
-                        }
-                    },
-                };
-                Some(Coupling {
-                    joint,
-                    factor: units.to_si(kind.slope(), factor),
-                })
-            }
-        };
+        let coupling = r.coupling(t, &what, kind, &units)?;
         joints.push(Joint {
             kind,
             offset: units.to_si(kind.variable(), offset),

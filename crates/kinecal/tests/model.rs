@@ -166,3 +166,50 @@ fn bad_couplings_and_planes_are_refused_with_their_field() {
         assert!(e.starts_with("bad.toml"), "{e}");
     }
 }
+
+/// A perturbed coupling factor is recovered, and counts one in the rank like a slope.
+#[test]
+fn a_perturbed_coupling_factor_is_recovered() {
+    use kinecal::estimation::{calibrate, CalibrationOptions};
+    use kinecal::identifiability::{analyze, AnalysisOptions};
+    use kinecal::robot::Coupling;
+    use kinecal::simulate;
+    let mut nominal = simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 41);
+    nominal.joints[2].coupling = Some(Coupling {
+        joint: 1,
+        factor: nominal.joints[2].slope,
+    });
+    let coupling = parse_param_list("joint3.coupling", &nominal).unwrap()[0];
+    let mut truth = simulate::perturb(
+        &nominal,
+        simulate::PerturbStd {
+            length: 1e-3,
+            angle: 0.2f64.to_radians(),
+            slope_fraction: 0.0,
+        },
+        2,
+    );
+    truth.set(coupling, nominal.get(coupling) * 1.02);
+    let data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 40, 3), false);
+    let candidates = parse_param_list("links,offsets,joint3.coupling", &nominal).unwrap();
+    let a = analyze(&nominal, &data, &candidates, &AnalysisOptions::default()).unwrap();
+    let expected = a.expected.as_ref().unwrap();
+    assert_eq!(expected.rank, 4 * 6 + 6 + 1, "{}", expected.formula);
+    assert!(
+        expected.formula.contains("1 (couplings)"),
+        "{}",
+        expected.formula
+    );
+    assert_eq!(a.rank, expected.rank);
+    assert!(a.identifiable.contains(&coupling));
+    let cal = calibrate(
+        &nominal,
+        &data,
+        &CalibrationOptions::new(a.identifiable.clone()),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(cal.objective_after < 1e-16 * cal.objective_before);
+    let (got, want) = (cal.calibrated.get(coupling), truth.get(coupling));
+    assert!((got - want).abs() < 1e-9 * want.abs(), "{got} vs {want}");
+}

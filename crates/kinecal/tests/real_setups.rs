@@ -235,3 +235,140 @@ fn other_layouts_load_as_they_are() {
         "{e}"
     );
 }
+
+/// The ABB setup: test points on the tool known only from one precise measurement at the zero
+/// posture. Each is anchored by that single row with its own standard deviation (1 um), not by
+/// repeating the row: the held-out accuracy equals that of the same data fitted with the points
+/// fixed exactly (the robot fitted on the flange data, then each point placed so that it passes
+/// through its zero-posture measurement), to 1 %, and the statistics are not distorted.
+#[test]
+fn tool_points_anchored_by_one_precise_row_match_points_fixed_exactly() {
+    use kinecal::observe::Posture;
+    let mut truth = simulate::random_robot(&[JointKind::Revolute; 6], 120);
+    let tips = [(0.05, 0.0, 0.10), (0.0, 0.05, 0.12), (-0.04, -0.03, 0.09)];
+    for (k, &(x, y, z)) in tips.iter().enumerate() {
+        truth.sites.push(Site {
+            name: format!("tip{}", k + 1),
+            joint: 6,
+            frame: Link {
+                x,
+                y,
+                z,
+                ..Link::default()
+            },
+        });
+    }
+    let std = PerturbStd {
+        length: 1e-3,
+        angle: 0.2f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    let mut nominal = simulate::perturb(&truth, std, 3);
+    for s in &mut nominal.sites {
+        s.frame.x += 2e-3; // the points are known only roughly before the measurement
+    }
+    let noise = 2e-5;
+    // The flange marker at 40 postures, 20 um noise.
+    let postures = simulate::sample_postures(&nominal, 40, 5);
+    let mut flange = simulate::measure(&truth, &postures, true);
+    flange
+        .observations
+        .retain(|o| o.target() == Target::EndEffector);
+    simulate::add_noise(&mut flange, noise, 0.0, 6);
+    // The three tool points, once each, at the zero posture, 1 um.
+    let zero = vec![Posture {
+        label: "zero".into(),
+        readings: vec![0.0; 6],
+    }];
+    let mut anchors = simulate::measure(&truth, &zero, true);
+    anchors
+        .observations
+        .retain(|o| o.target() != Target::EndEffector);
+    simulate::add_noise(&mut anchors, 1e-6, 0.0, 7);
+    for o in &mut anchors.observations {
+        if let Observation::Position(p) = o {
+            p.sigma_position = Some(1e-6);
+        }
+    }
+    let data = flange.clone().merge(anchors.clone());
+    let weights = Weights {
+        length: noise,
+        angle: 1e-3,
+    };
+    let robot_params = kinecal::parse_param_list("links,offsets", &nominal).unwrap();
+    let mut with_points = robot_params.clone();
+    for k in 1..=3 {
+        with_points.extend(
+            kinecal::parse_param_list(
+                &format!("site.tip{k}.x,site.tip{k}.y,site.tip{k}.z"),
+                &nominal,
+            )
+            .unwrap(),
+        );
+    }
+    with_points.sort();
+    let aopts = AnalysisOptions {
+        weights,
+        ..Default::default()
+    };
+    // A: one fit, the points anchored by their rows.
+    let a_set = analyze(&nominal, &data, &with_points, &aopts)
+        .unwrap()
+        .identifiable;
+    let mut opts = CalibrationOptions::new(a_set);
+    opts.weights = weights;
+    let a = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+    // B: the robot from the flange data, then the points fixed exactly through their rows.
+    let b_set = analyze(&nominal, &flange, &robot_params, &aopts)
+        .unwrap()
+        .identifiable;
+    let mut opts = CalibrationOptions::new(b_set);
+    opts.weights = weights;
+    let mut b = calibrate(&nominal, &flange, &opts, &mut |_| {})
+        .unwrap()
+        .calibrated;
+    let chain = kinecal::Chain::new(&b);
+    let mut ws = kinecal::Workspace::new(&b);
+    chain.forward(&[0.0; 6], &mut ws);
+    // The frame right after joint 6 is the proximal frame of the last link: the end effector
+    // frame with the last link undone.
+    let last = kinecal::Frame::from_link(b.links.last().unwrap());
+    let after6 = ws.end_effector().then(&kinecal::import::inverse(&last));
+    for o in &anchors.observations {
+        let Observation::Position(p) = o else {
+            panic!()
+        };
+        let Target::Site(s) = p.view[0].target else {
+            panic!()
+        };
+        let local = after6.rotation.transpose() * (p.position - after6.translation);
+        b.sites[s].frame.x = local.x;
+        b.sites[s].frame.y = local.y;
+        b.sites[s].frame.z = local.z;
+    }
+    // Held out: the tool points at fresh postures, noise-free.
+    let mut held = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 77), true);
+    held.observations
+        .retain(|o| o.target() != Target::EndEffector);
+    let (ea, eb) = (
+        accuracy(&a.calibrated, &held).mean_position,
+        accuracy(&b, &held).mean_position,
+    );
+    eprintln!("held-out mean: anchored {ea:.4e} m, fixed exactly {eb:.4e} m");
+    assert!((ea - eb).abs() <= 0.01 * eb, "anchored {ea} vs fixed {eb}");
+    assert!(eb < 3.0 * noise, "{eb}");
+    // The anchor rows are fitted, not flagged, and the variance factor is the flange data's.
+    let outcome_flags = outliers(&a, &data, 4.0);
+    assert!(
+        outcome_flags
+            .iter()
+            .all(|o| data.observations[o.observation].target() == Target::EndEffector),
+        "{outcome_flags:?}"
+    );
+    let ua = kinecal::uncertainty::uncertainty(&a, &data, &nominal).unwrap();
+    assert!(
+        (ua.variance_factor - 1.0).abs() < 0.35,
+        "variance factor {}",
+        ua.variance_factor
+    );
+}

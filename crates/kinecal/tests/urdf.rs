@@ -247,3 +247,50 @@ fn bad_urdfs_name_the_element() {
         .to_string();
     assert!(e.contains("not connected"), "{e}");
 }
+
+/// A coupled joint exports exactly when its coupling is the controller's sum convention (the
+/// URDF joint's value is slope * (V_j + V_k), as drivers of coupled arms publish it), with a
+/// warning that says so; any other factor is refused.
+#[test]
+fn coupled_joints_export_where_exact_and_are_refused_otherwise() {
+    let Some(path) = shared("universal_robots/urdf_plain/ur5_robot.urdf") else {
+        return;
+    };
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut robot = import_urdf(&text, "ur5", Some("base_link"), Some("tool0"))
+        .unwrap()
+        .robot;
+    robot.joints[2].coupling = Some(kinecal::robot::Coupling {
+        joint: 1,
+        factor: robot.joints[2].slope,
+    });
+    let (out, warnings) =
+        export_urdf(&robot, &text, "ur5", Some("base_link"), Some("tool0")).unwrap();
+    assert!(
+        warnings.iter().any(|w| matches!(
+            w,
+            kinecal::Warning::UrdfCoupled {
+                joint: 3,
+                other: 2,
+                ..
+            }
+        )),
+        "{warnings:?}"
+    );
+    // The URDF's joint 3 value is V3 + V2: its FK at (V2, V3 + V2) is the model's at (V2, V3).
+    for p in simulate::sample_postures(&robot, 20, 4) {
+        let mut urdf_q = p.readings.clone();
+        urdf_q[2] += urdf_q[1];
+        let e = urdf_fk(&out, "base_link", "tool0", &urdf_q);
+        let f = kinecal::Chain::new(&robot).frame_at(&p.readings, Target::EndEffector);
+        assert!((f.translation - Vector3::new(e[(0, 3)], e[(1, 3)], e[(2, 3)])).norm() < 1e-9);
+    }
+    robot.joints[2].coupling.as_mut().unwrap().factor *= 1.001;
+    let e = export_urdf(&robot, &text, "ur5", Some("base_link"), Some("tool0"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("coupled to joint 2") && e.contains("fixed"),
+        "{e}"
+    );
+}

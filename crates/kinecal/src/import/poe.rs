@@ -13,6 +13,7 @@
 //! offset = 0                   # joint value at zero reading; default 0
 //! min = -147                   # optional reading range
 //! max = 111
+//! coupling = { joint = 2, factor = 1 }  # optional: the joint value also adds factor * V2
 //! [tool]                       # the tool frame M at the zero configuration
 //! position = [-240, 410, 841]
 //! euler = [0, 0, 0]            # ZYX alpha, beta, gamma; default 0
@@ -123,9 +124,14 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
     let len = |v: [f64; 3]| Vector3::from(v.map(|x| units.to_si(Quantity::Length, x)));
     let mut axes = Vec::new();
     let mut extra = Vec::new();
+    let mut couplings = Vec::new();
     for (i, t) in r.tables(root, "joints")?.into_iter().enumerate() {
         let what = format!("joints[{i}]");
-        r.check_keys(t, &["kind", "axis", "point", "offset", "min", "max"], &what)?;
+        r.check_keys(
+            t,
+            &["kind", "axis", "point", "offset", "min", "max", "coupling"],
+            &what,
+        )?;
         let kind = match r.string(t, "kind", &format!("{what}.kind"))? {
             Some("revolute") => JointKind::Revolute,
             Some("prismatic") => JointKind::Prismatic,
@@ -176,6 +182,7 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
         };
         axes.push((kind, Vector3::from(axis), point));
         extra.push((units.to_si(kind.variable(), offset), range));
+        couplings.push(r.coupling(t, &what, kind, &units)?);
     }
     if axes.is_empty() {
         return Err(Error::input(Location::file(file), "no [[joints]]"));
@@ -206,6 +213,9 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
         })
         .collect();
     let mut robot = chain_from_frames(&name, units, &joints, &tool);
+    for (j, c) in robot.joints.iter_mut().zip(couplings) {
+        j.coupling = c;
+    }
     for (i, t) in r.tables(root, "sites")?.into_iter().enumerate() {
         let what = format!("sites[{i}]");
         r.check_keys(t, &["name", "joint", "position", "euler"], &what)?;

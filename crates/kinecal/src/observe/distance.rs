@@ -172,6 +172,7 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
     let cb = b.iter().map(|c| need(c)).collect::<Result<Vec<_>>>()?;
     let distance = need("distance")?;
     let (site, sigma) = (t.column("site"), t.column("sigma_position"));
+    t.check_rows()?;
     let units = robot.units;
     let mut postures = PostureTable::new();
     let mut observations: Vec<Observation> = Vec::new();

@@ -604,6 +604,7 @@ pub fn parse_measurements_mapped(
             ));
         }
     }
+    t.check_rows()?;
     let units = robot.units;
     let mut postures = PostureTable::new();
     let mut observations: Vec<Observation> = Vec::new();
@@ -727,6 +728,7 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
             ),
         ));
     }
+    t.check_rows()?;
     let mut table = PostureTable::new();
     for (line, f) in &t.rows {
         let readings = (0..robot.dof())

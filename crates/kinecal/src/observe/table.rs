@@ -36,7 +36,8 @@ pub(crate) fn detect_delimiter(text: &str) -> u8 {
     }
 }
 
-/// Reads a table. Every row must have as many fields as the header.
+/// Reads a table. Rows may have any number of fields: check the header first, then
+/// [`Table::check_rows`].
 pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
     // Comment lines become blank lines, which the reader skips but counts (its own comment
     // handling does not count them, and line numbers after a comment would be off).
@@ -123,17 +124,6 @@ pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
         if rec.iter().all(str::is_empty) {
             continue;
         }
-        if rec.len() != header.len() {
-            return Err(Error::input(
-                loc.at_line(line),
-                format!(
-                    "expected {} fields ({}), found {}",
-                    header.len(),
-                    header.join(","),
-                    rec.len()
-                ),
-            ));
-        }
         rows.push((line, rec.iter().map(str::to_string).collect()));
     }
     Ok(Table {
@@ -145,6 +135,24 @@ pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
 }
 
 impl Table {
+    /// Every row must have as many fields as the header.
+    pub fn check_rows(&self) -> Result<()> {
+        for (line, f) in &self.rows {
+            if f.len() != self.header.len() {
+                return Err(Error::input(
+                    Location::file(&self.file).at_line(*line),
+                    format!(
+                        "expected {} fields ({}), found {}",
+                        self.header.len(),
+                        self.header.join(","),
+                        f.len()
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The index of the column called `name` (ASCII case-insensitive).
     pub fn column(&self, name: &str) -> Option<usize> {
         self.header
@@ -281,7 +289,11 @@ mod tests {
         assert_eq!(t.header_line, 3);
         assert_eq!(t.rows[0].0, 4);
         assert_eq!(t.rows[1].0, 7);
-        let e = read("a,b\n1,2,3\n", "t.csv").err().unwrap().to_string();
+        let e = read("a,b\n1,2,3\n", "t.csv")
+            .unwrap()
+            .check_rows()
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("t.csv:2:"), "{e}");
         let e = read("a,a\n1,2\n", "t.csv").err().unwrap().to_string();
         assert!(e.contains("twice"), "{e}");

@@ -1,0 +1,179 @@
+//! Instruments other than a tracker or a camera: distances (ballbar, fixed-length artefacts),
+//! read from their files, counted by the documented rank formula, and enough to recover a
+//! perturbed 6-joint robot.
+
+use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::identifiability::{analyze, AnalysisOptions};
+use kinecal::kinematics::Target;
+use kinecal::observe::distance::{parse_distances, Distance};
+use kinecal::observe::{accuracy, Dataset, Observation, Posture};
+use kinecal::simulate::{self, PerturbStd};
+use kinecal::{parse_param_list, JointKind, ParamId, Robot};
+
+fn six_joint() -> Robot {
+    simulate::random_robot(
+        &[
+            JointKind::Revolute,
+            JointKind::Revolute,
+            JointKind::Revolute,
+            JointKind::Prismatic,
+            JointKind::Revolute,
+            JointKind::Revolute,
+        ],
+        303,
+    )
+}
+
+/// `pairs` distances of the end effector between random postures, as `truth` measures them.
+fn distances(truth: &Robot, pairs: usize, seed: u64) -> Dataset {
+    let postures: Vec<Posture> = simulate::sample_postures(truth, 2 * pairs, seed);
+    let observations: Vec<Observation> = (0..pairs)
+        .map(|k| Distance::new(2 * k, 2 * k + 1, Target::EndEffector, 0.0).into())
+        .collect();
+    simulate::remeasure(truth, &Dataset::new(postures, observations))
+}
+
+#[test]
+fn distances_alone_recover_a_6_joint_robot_except_its_placement() {
+    let nominal = six_joint();
+    let std = PerturbStd {
+        length: 2e-3,
+        angle: 0.5f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    let truth = simulate::perturb(&nominal, std, 5);
+    let data = distances(&truth, 120, 1);
+    let candidates = parse_param_list("links,offsets", &nominal).unwrap();
+    let a = analyze(&nominal, &data, &candidates, &AnalysisOptions::default()).unwrap();
+    // 4 per revolute, 2 per prismatic, 3 for the measured point, minus the 6 motions of the
+    // whole world that change no distance: 4*5 + 2*1 + 3 - 6 = 19.
+    let expected = a.expected.clone().expect("the count applies");
+    assert_eq!(expected.rank, 19, "{}", expected.formula);
+    assert!(expected.formula.contains("- 6"), "{}", expected.formula);
+    assert_eq!(
+        a.rank, expected.rank,
+        "gap {} at {}",
+        a.gap_ratio, a.gap_rank
+    );
+    // The same postures measured by a tracker determine 6 more: the placement.
+    let tracked = simulate::measure(&truth, &data.postures, true);
+    let b = analyze(&nominal, &tracked, &candidates, &AnalysisOptions::default()).unwrap();
+    assert_eq!(b.rank, 19 + 6);
+    assert_eq!(b.expected.unwrap().rank, 25);
+
+    let cal = calibrate(
+        &nominal,
+        &data,
+        &CalibrationOptions::new(a.identifiable.clone()),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(
+        cal.objective_after < 1e-16 * cal.objective_before,
+        "{} -> {}",
+        cal.objective_before,
+        cal.objective_after
+    );
+    // Fresh distances are predicted exactly ...
+    let held = distances(&truth, 50, 99);
+    let before = accuracy(&nominal, &held).other[0].max;
+    let after = accuracy(&cal.calibrated, &held).other[0].max;
+    assert!(before > 1e-3, "nominal misses by {before} m");
+    assert!(after < 1e-9, "held-out distance error {after} m");
+    // ... and so is the arm's whole geometry up to a rigid motion of the world: the calibrated
+    // end-effector positions over fresh postures are the true ones moved rigidly.
+    let fresh = simulate::sample_postures(&nominal, 40, 7);
+    let p = |r: &Robot| -> Vec<nalgebra::Vector3<f64>> {
+        fresh
+            .iter()
+            .map(|q| {
+                kinecal::Chain::new(r)
+                    .frame_at(&q.readings, Target::EndEffector)
+                    .translation
+            })
+            .collect()
+    };
+    let (pt, pc) = (p(&truth), p(&cal.calibrated));
+    for i in 0..pt.len() {
+        for j in 0..i {
+            let (dt, dc) = ((pt[i] - pt[j]).norm(), (pc[i] - pc[j]).norm());
+            assert!((dt - dc).abs() < 1e-9, "{dt} vs {dc}");
+        }
+    }
+}
+
+#[test]
+fn distances_with_slopes_and_positions_follow_the_count() {
+    let nominal = six_joint();
+    let data = distances(&nominal, 80, 3);
+    // Slopes add one each.
+    let all = parse_param_list("links,offsets,slopes", &nominal).unwrap();
+    let a = analyze(&nominal, &data, &all, &AnalysisOptions::default()).unwrap();
+    assert_eq!(a.expected.as_ref().unwrap().rank, 19 + 6);
+    assert_eq!(a.rank, 19 + 6);
+    // One tracked position fixes the world.
+    let mut mixed = data.clone();
+    let tracked = simulate::measure(&nominal, &mixed.postures[..3], true);
+    mixed = mixed.merge(tracked);
+    let b = analyze(&nominal, &mixed, &all, &AnalysisOptions::default()).unwrap();
+    assert_eq!(b.expected.unwrap().rank, 19 + 6 + 6);
+    assert_eq!(b.rank, 31);
+}
+
+#[test]
+fn distance_files_read_with_their_lines_and_refuse_mistakes() {
+    let robot = kinecal::examples::ge_a4();
+    let text = "# ballbar run\npair,a1,a2,a3,a4,b1,b2,b3,b4,distance,sigma_position\n\
+                1,-11,12,4,-11,-12,9,1.5,5,6.0,0.0004\n\
+                2;x\n";
+    let e = parse_distances(text, "d.csv", &robot)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("d.csv:4:"), "{e}");
+    let ok = "# ballbar run\npair,a1,a2,a3,a4,b1,b2,b3,b4,distance,sigma_position\n\
+              1,-11,12,4,-11,-12,9,1.5,5,6.0,0.0004\n\
+              2,-11,12,4,-11,-10,9,1.5,5,6.5,\n";
+    let d = parse_distances(ok, "d.csv", &robot).unwrap();
+    assert_eq!(d.observations.len(), 2);
+    assert_eq!(d.postures.len(), 4);
+    assert_eq!(d.postures[1].label, "1/b");
+    let Observation::Distance(x) = &d.observations[0] else {
+        panic!()
+    };
+    assert!((x.distance - 6.0 * 0.0254).abs() < 1e-15);
+    assert!((x.sigma.unwrap() - 0.0004 * 0.0254).abs() < 1e-15);
+    assert_eq!(x.line, 3);
+    for (text, expect) in [
+        (
+            ok.replace("6.0,0.0004", "-6.0,0.0004"),
+            "d.csv:3: field `distance`: a distance cannot be negative",
+        ),
+        (
+            ok.replace("b4,distance", "b4,dist"),
+            "unknown column `dist`",
+        ),
+        (ok.replace("b4,distance", "b4"), "no column `distance`"),
+        (
+            ok.replace(",sigma_position", ",weight"),
+            "unknown column `weight`",
+        ),
+        (ok.replace("6.0,0.0004", "6.0,0"), "must be positive"),
+        (
+            ok.replace(
+                "\n2,-11,12,4,-11,-10,9,1.5,5,6.5,",
+                "\n1,-11,12,4,-11,-12,9,1.5,5,6.5,",
+            ),
+            "d.csv:4: pair `1` measures ee twice (first on line 3)",
+        ),
+        (
+            ok.replace("\n2,", "\n1,"),
+            "d.csv:4: field `b1`: posture `1/b` appears earlier",
+        ),
+    ] {
+        let e = parse_distances(&text, "d.csv", &robot)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(expect), "expected `{expect}` in {e}");
+    }
+    let _ = ParamId(0);
+}
