@@ -380,9 +380,12 @@ pub fn analyze(
         };
         linalg::scale_col(&mut js, j, s);
     }
-    let svd =
-        linalg::thin_svd(&js).ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
-    let sv_file = linalg::singular_values(&jacobian_file)
+    // Fewer residuals than parameters (a plan, or a short test): zero rows change neither the
+    // singular values nor the right singular vectors, and give the full n x n set of them.
+    let pad = |a: &Matrix| Matrix::from_fn(m.max(n), n, |i, j| if i < m { a[(i, j)] } else { 0.0 });
+    let svd = linalg::thin_svd(&pad(&js))
+        .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+    let sv_file = linalg::singular_values(&pad(&jacobian_file))
         .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
     let s = &svd.s;
     let smax = s.first().copied().unwrap_or(0.0);
@@ -417,13 +420,6 @@ pub fn analyze(
     }
 
     // Null space (scaled coordinates) and which parameters it touches.
-    if m < n {
-        return Err(Error::TooFewResiduals {
-            residuals: m,
-            observations: data.observations.len(),
-            parameters: n,
-        });
-    }
     let null: Vec<Vec<f64>> = (rank..n)
         .map(|k| (0..n).map(|j| svd.v[(j, k)]).collect())
         .collect();
