@@ -1469,3 +1469,117 @@ fn curves_and_html_report() {
         assert!(h.contains("p3 - p9 - p15 - p21 - p27 - p33"), "{f}");
     }
 }
+
+/// Without a tracker: a ballbar's distances and probe contacts with a table, each from its own
+/// file, calibrate the robot; the analysis says what the placement leaves undetermined.
+#[test]
+fn distances_and_contacts_calibrate_without_a_tracker() {
+    use std::fmt::Write as _;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = kinecal::examples::GE_A4_TOML.to_string()
+        + "\n# The table the probe touches.\n[[planes]]\nname = \"table\"\nnormal = [0, 0, 1]\noffset = -1.5\n";
+    std::fs::write(d.join("a4.toml"), &text).unwrap();
+    let nominal = kinecal::robot_file::parse_robot_toml(&text, "a4.toml").unwrap();
+    let mut truth = nominal.clone();
+    for (name, delta) in [
+        ("link3.y", -0.02),
+        ("joint2.offset", 0.3),
+        ("link2.y", 0.01),
+    ] {
+        let id = kinecal::parse_param_list(name, &nominal).unwrap()[0];
+        let q = nominal.param_quantity(id);
+        truth.set(id, truth.get(id) + nominal.units.to_si(q, delta));
+    }
+    let postures = kinecal::simulate::sample_postures(&nominal, 120, 4);
+    let (mut contacts, mut distances) = (
+        String::from("posture,site,plane,v1,v2,v3,v4,gap\n"),
+        String::from("pair,a1,a2,a3,a4,b1,b2,b3,b4,distance,sigma_position\n"),
+    );
+    let chain = kinecal::Chain::new(&truth);
+    let at = |k: usize| {
+        chain
+            .frame_at(&postures[k].readings, kinecal::Target::EndEffector)
+            .translation
+            / 0.0254
+    };
+    let v = |k: usize| {
+        postures[k]
+            .readings
+            .iter()
+            .map(|x| x.to_string())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    for k in 0..60 {
+        let _ = writeln!(contacts, "{},ee,table,{},{}", k + 1, v(k), at(k).z + 1.5);
+    }
+    for k in 0..30 {
+        let (a, b) = (60 + 2 * k, 61 + 2 * k);
+        let _ = writeln!(
+            distances,
+            "{},{},{},{},0.0004",
+            k + 1,
+            v(a),
+            v(b),
+            (at(a) - at(b)).norm()
+        );
+    }
+    std::fs::write(d.join("contacts.csv"), contacts).unwrap();
+    std::fs::write(d.join("ballbar.csv"), distances).unwrap();
+    let out = run_ok(
+        d,
+        &[
+            "analyze",
+            "--robot",
+            "a4.toml",
+            "--distances",
+            "ballbar.csv",
+            "--estimate",
+            "links,offsets",
+        ],
+    );
+    assert!(out.contains("30 distances"), "{out}");
+    assert!(
+        out.contains("- 6 (motions of the world no observation sees: no observation in the global frame) = 11."),
+        "{out}"
+    );
+    assert!(out.contains("Numerical rank 11 of 34"), "{out}");
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "a4.toml",
+            "--contacts",
+            "contacts.csv",
+            "--distances",
+            "ballbar.csv",
+            "--estimate",
+            "identifiable",
+            "--report",
+            "rep.json",
+            "--out",
+            "cal.toml",
+        ],
+    );
+    assert!(out.contains("30 distances, 60 contacts"), "{out}");
+    assert!(out.contains("RMS contact error (in)"), "{out}");
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    assert_eq!(rep["converged"], true);
+    assert_eq!(rep["observations"][0]["kind"], "distance");
+    let other = &rep["identification"]["after"]["other"];
+    assert!(other[0]["max"].as_f64().unwrap() < 1e-8, "{other}");
+    let cal = std::fs::read_to_string(d.join("cal.toml")).unwrap();
+    assert!(cal.contains("# The table the probe touches."), "{cal}");
+    // The changes the data can see are found: link 3's y length, to 1e-6 in.
+    let p14 = &rep["parameters"][13];
+    assert!(
+        (p14["estimated"].as_f64().unwrap() - 11.79).abs() < 1e-6,
+        "{p14}"
+    );
+    // Observations are needed.
+    let err = run_err(d, &["calibrate", "--robot", "a4.toml"]);
+    assert!(err.contains("--data, --distances, --contacts"), "{err}");
+}

@@ -1,8 +1,10 @@
 //! The analytic Jacobian against central differences, on random robots of 1 to 7 joints of
-//! random kinds, with sites, slopes, coupled joints, full poses, positions and distances, rows
-//! with their own standard deviations, and both orientation residuals.
+//! random kinds, with sites, slopes, coupled joints and a plane, full poses, positions,
+//! distances and plane contacts, rows with their own standard deviations, and both orientation
+//! residuals.
 
 use kinecal::kinematics::{euler_zyx, forward_pose, rot_zyx, Target};
+use kinecal::observe::contact::Contact;
 use kinecal::observe::distance::Distance;
 use kinecal::observe::{Observation, OrientationError, Weights};
 use kinecal::problem::Problem;
@@ -37,6 +39,12 @@ fn robot_with_sites(dof: usize, seed: u64) -> Robot {
             },
         });
     }
+    // A tilted plane for contacts, away from the origin.
+    robot
+        .planes
+        .push(kinecal::robot::Plane::new("table", Vector3::new(0.2, -0.3, 1.0), 0.4).unwrap());
+    robot.planes[0].tilt_x = 0.05;
+    robot.planes[0].tilt_y = -0.1;
     // Most robots of two joints or more get a coupled joint (like the FANUC J2/J3 coupling).
     if dof >= 2 && seed % 3 != 0 {
         let last = dof - 1;
@@ -80,6 +88,10 @@ fn data_for(robot: &Robot, seed: u64, euler: bool) -> kinecal::Dataset {
         let mut d = Distance::new(a, a + 1, Target::EndEffector, 0.3);
         d.sigma = (a % 2 == 0).then_some(5e-4);
         data.observations.push(d.into());
+        let mut c = Contact::new(a, Target::Site(0), 0);
+        c.gap = 0.01;
+        c.sigma = (a % 2 == 1).then_some(2e-4);
+        data.observations.push(c.into());
     }
     kinecal::Dataset::new(data.postures, data.observations)
 }

@@ -177,3 +177,182 @@ fn distance_files_read_with_their_lines_and_refuse_mistakes() {
     }
     let _ = ParamId(0);
 }
+
+/// `per_plane` contacts of the end effector with each plane of `truth`, at random postures (the
+/// known gap is each posture's true distance: touching at a known height).
+fn contacts(truth: &Robot, per_plane: usize, seed: u64) -> Dataset {
+    use kinecal::observe::contact::Contact;
+    let n = truth.planes.len();
+    let postures = simulate::sample_postures(truth, n * per_plane, seed);
+    let observations: Vec<Observation> = (0..n * per_plane)
+        .map(|i| Contact::new(i, Target::EndEffector, i % n).into())
+        .collect();
+    simulate::remeasure(truth, &Dataset::new(postures, observations))
+}
+
+fn with_planes(mut robot: Robot, normals: &[[f64; 3]]) -> Robot {
+    for (k, n) in normals.iter().enumerate() {
+        robot.planes.push(
+            kinecal::robot::Plane::new(
+                format!("p{k}"),
+                nalgebra::Vector3::from(*n),
+                0.1 * k as f64,
+            )
+            .unwrap(),
+        );
+    }
+    robot
+}
+
+#[test]
+fn plane_contacts_recover_a_6_joint_robot_and_follow_the_count() {
+    let std = PerturbStd {
+        length: 2e-3,
+        angle: 0.5f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    // Three fixed planes with independent normals fix the placement: 4*5 + 2 + 3 = 25.
+    // One normal leaves sliding in the plane and turning about its normal: 25 - 3 = 22.
+    // Two normals leave sliding along their intersection: 25 - 1 = 24.
+    for (normals, rank) in [
+        (&[[0.0, 0.0, 1.0], [1.0, 0.0, 0.2], [0.1, 1.0, 0.0]][..], 25),
+        (&[[0.0, 0.0, 1.0]][..], 22),
+        (&[[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]][..], 22),
+        (&[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]][..], 24),
+    ] {
+        let nominal = with_planes(six_joint(), normals);
+        let truth = simulate::perturb(&nominal, std, 11);
+        // The planes are fixed (known): keep them as in the nominal robot.
+        let mut truth = truth;
+        truth.planes = nominal.planes.clone();
+        let data = contacts(&truth, 150 / normals.len(), 2);
+        let candidates = parse_param_list("links,offsets", &nominal).unwrap();
+        let a = analyze(&nominal, &data, &candidates, &AnalysisOptions::default()).unwrap();
+        let expected = a.expected.clone().expect("the count applies");
+        assert_eq!(expected.rank, rank, "{normals:?}: {}", expected.formula);
+        assert_eq!(
+            a.rank, rank,
+            "{normals:?}: gap {} at {}",
+            a.gap_ratio, a.gap_rank
+        );
+        let cal = calibrate(
+            &nominal,
+            &data,
+            &CalibrationOptions::new(a.identifiable.clone()),
+            &mut |_| {},
+        )
+        .unwrap();
+        assert!(cal.objective_after < 1e-16 * cal.objective_before);
+        let held = contacts(&truth, 20, 9);
+        let before = accuracy(&nominal, &held).other[0].max;
+        let after = accuracy(&cal.calibrated, &held).other[0].max;
+        assert!(
+            before > 1e-3 && after < 1e-9,
+            "{normals:?}: {before} -> {after}"
+        );
+        if rank == 25 {
+            // Placement fixed: the end effector's positions are the true ones.
+            for p in simulate::sample_postures(&nominal, 20, 5) {
+                let (t, c) = (
+                    kinecal::Chain::new(&truth).frame_at(&p.readings, Target::EndEffector),
+                    kinecal::Chain::new(&cal.calibrated).frame_at(&p.readings, Target::EndEffector),
+                );
+                assert!((t.translation - c.translation).norm() < 1e-9);
+            }
+        }
+    }
+}
+
+#[test]
+fn estimated_planes_join_the_count_and_are_recovered() {
+    let nominal = with_planes(
+        six_joint(),
+        &[[0.0, 0.0, 1.0], [1.0, 0.0, 0.2], [0.1, 1.0, 0.0]],
+    );
+    // A tracker anchors the placement; the planes' tilts and offsets are unknown.
+    let std = PerturbStd {
+        length: 2e-3,
+        angle: 0.5f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    let truth = simulate::perturb(&nominal, std, 13);
+    let data = contacts(&truth, 60, 4).merge(simulate::measure(
+        &truth,
+        &simulate::sample_postures(&nominal, 10, 6),
+        true,
+    ));
+    let candidates = parse_param_list("links,offsets,planes", &nominal).unwrap();
+    let a = analyze(&nominal, &data, &candidates, &AnalysisOptions::default()).unwrap();
+    let expected = a.expected.clone().unwrap();
+    assert_eq!(expected.rank, 25 + 9, "{}", expected.formula);
+    assert_eq!(a.rank, 34);
+    // Contacts alone with every plane estimated: the world's six motions return.
+    let alone = contacts(&truth, 60, 4);
+    let b = analyze(&nominal, &alone, &candidates, &AnalysisOptions::default()).unwrap();
+    assert_eq!(b.expected.unwrap().rank, 25 + 9 - 6);
+    assert_eq!(b.rank, 28);
+    let cal = calibrate(
+        &nominal,
+        &data,
+        &CalibrationOptions::new(a.identifiable.clone()),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(cal.objective_after < 1e-16 * cal.objective_before);
+    for k in 0..3 {
+        let (t, c) = (&truth.planes[k], &cal.calibrated.planes[k]);
+        assert!((t.normal() - c.normal()).norm() < 1e-9);
+        assert!((t.offset - c.offset).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn contact_files_read_and_refuse_mistakes() {
+    use kinecal::observe::contact::parse_contacts;
+    let text = kinecal::examples::GE_A4_TOML.to_string()
+        + "\n[[planes]]\nname = \"table\"\nnormal = [0, 0, 1]\noffset = -2\n";
+    let robot = kinecal::robot_file::parse_robot_toml(&text, "a4.toml").unwrap();
+    let ok = "posture,site,plane,v1,v2,v3,v4,gap,sigma_position\n\
+              1,ee,table,-11,12,4,-11,0.25,0.001\n\
+              2,,table,-12,9,1.5,5,,\n";
+    let d = parse_contacts(ok, "c.csv", &robot).unwrap();
+    assert_eq!(d.observations.len(), 2);
+    let Observation::Contact(c) = &d.observations[0] else {
+        panic!()
+    };
+    assert!((c.gap - 0.25 * 0.0254).abs() < 1e-15);
+    assert_eq!((c.line, c.plane), (2, 0));
+    // With one plane, the plane column may be left out.
+    let short = "posture,v1,v2,v3,v4\n1,-11,12,4,-11\n";
+    assert_eq!(
+        parse_contacts(short, "c.csv", &robot)
+            .unwrap()
+            .observations
+            .len(),
+        1
+    );
+    for (text, expect) in [
+        (
+            ok.replace(",table,-11", ",floor,-11"),
+            "c.csv:2: field `plane`: unknown plane `floor`",
+        ),
+        (ok.replace("gap,", "height,"), "unknown column `height`"),
+        (
+            ok.replace("\n2,,", "\n1,,"),
+            "c.csv:3: field `v1`: posture `1` appears earlier",
+        ),
+        (
+            ok.replace("0.25,0.001", "x,0.001"),
+            "c.csv:2: field `gap`: expected a number",
+        ),
+    ] {
+        let e = parse_contacts(&text, "c.csv", &robot)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(expect), "expected `{expect}` in {e}");
+    }
+    let e = parse_contacts(short, "c.csv", &kinecal::examples::ge_a4())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no [[planes]]"), "{e}");
+}

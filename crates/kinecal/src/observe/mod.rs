@@ -13,11 +13,14 @@
 //! - [`point::Pose`]: a full pose (position and ZYX Euler angles) of a target, 6 rows;
 //! - [`point::Position`]: a position, 3 rows;
 //! - [`distance::Distance`]: the distance between a target's positions in two postures (ballbar,
-//!   fixed-length artefact), 1 row.
+//!   fixed-length artefact), 1 row;
+//! - [`contact::Contact`]: a target touching a plane of the robot file, 1 row (its distance from
+//!   the plane).
 //!
 //! Values are internal (m, rad). A [`Dataset`] keeps its observations sorted by their first
 //! posture so that forward kinematics runs once per posture however many targets it measured.
 
+pub mod contact;
 pub mod distance;
 pub mod point;
 pub(crate) mod table;
@@ -299,6 +302,8 @@ observation_kinds! {
     Position(point::Position),
     /// A distance between two postures' positions of a target.
     Distance(distance::Distance),
+    /// A target touching a plane.
+    Contact(contact::Contact),
 }
 
 /// A file format of observations, for the command line and other front ends.
@@ -321,7 +326,7 @@ impl fmt::Debug for Format {
 }
 
 /// Every observation file format, the measurement file (`data`) first.
-pub const FORMATS: &[Format] = &[point::FORMAT, distance::FORMAT];
+pub const FORMATS: &[Format] = &[point::FORMAT, distance::FORMAT, contact::FORMAT];
 
 /// A set of postures and the observations made in them.
 #[derive(Debug, Clone, PartialEq, Default)]
