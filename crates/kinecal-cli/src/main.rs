@@ -81,6 +81,9 @@ fn hint(e: &kinecal::Error) -> Option<&'static str> {
         kinecal::Error::TooFewResiduals { .. } => {
             Some("--estimate identifiable estimates only what the data determines")
         }
+        kinecal::Error::Input { message, .. } if message.contains("the chain's") => {
+            Some("--base LINK and --tip LINK choose the chain")
+        }
         _ => None,
     }
 }

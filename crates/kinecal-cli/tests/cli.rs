@@ -931,7 +931,10 @@ fn urdf_import_calibrate_export_round_trip() {
             "import", "urdf", "arm.urdf", "--tip", "nowhere", "--out", "x.toml",
         ],
     );
-    assert!(err.contains("--tip: no link named `nowhere`"), "{err}");
+    assert!(
+        err.contains("no link named `nowhere` (the chain's tip)") && err.contains("--tip LINK"),
+        "{err}"
+    );
 }
 
 #[test]

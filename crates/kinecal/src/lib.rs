@@ -8,7 +8,7 @@
 //! SVD.
 //!
 //! The data flows through the modules in this order, with no cycle: [`robot`] (the model,
-//! [`params`] its numbering, [`units`]) -> [`kinematics`] (frames, analytic Jacobian) ->
+//! [`params`] its numbering, [`param_list`] lists of them, [`units`]) -> [`kinematics`] (frames, analytic Jacobian) ->
 //! [`observe`] (the measurement model: one type per kind of observation, owning its residuals;
 //! the file formats) -> [`problem`] (weighted residuals and Jacobian of a dataset) ->
 //! [`estimation`] (one solver driver, four step rules, robust loss) -> [`identifiability`]
@@ -32,6 +32,7 @@ pub mod kinematics;
 pub mod linalg;
 pub mod observe;
 pub mod outliers;
+pub mod param_list;
 pub mod params;
 pub mod problem;
 pub mod report;
@@ -48,7 +49,8 @@ pub use error::{Error, Location, Result};
 pub use estimation::{calibrate, Calibration, CalibrationOptions, Method};
 pub use kinematics::{Chain, Frame, Pose, Target, Workspace};
 pub use observe::{Dataset, Observation, Posture};
-pub use params::{parse_param_list, ParamId, ParamKind};
+pub use param_list::parse_param_list;
+pub use params::{ParamId, ParamKind};
 pub use robot::{Joint, JointKind, Link, Robot, Site};
 pub use units::{AngleUnit, LengthUnit, Units};
 pub use warning::Warning;

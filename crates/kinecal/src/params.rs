@@ -4,16 +4,10 @@
 //! joint offsets, then the n slopes, then 6 per extra site; then, beyond the thesis, one coupling
 //! factor per coupled joint and 3 per plane (`tilt_x, tilt_y, offset`), so that a robot without
 //! couplings and planes keeps the thesis's numbering. `ParamId(0)` is the thesis's `p1`.
-//! Lists (`--estimate`, `--fix`) accept comma-separated ids (`p3`), ranges (`p1-p30`), names
-//! (`link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`, `site.NAME.x`,
-//! `plane.NAME.offset`), whole links, joints, sites or planes (`link2`, `joint3` = its offset,
-//! slope and coupling, `site.NAME`, `plane.NAME`) and the groups `all`, `links`, `offsets`,
-//! `slopes`, `couplings`, `sites`, `planes`.
+//! Lists of parameters are read by [`crate::param_list`].
 
 use std::fmt;
 
-use crate::error::{Error, Result};
-use crate::robot::Robot;
 use crate::units::Quantity;
 
 /// Identity of one model parameter; displayed 1-based as `p1`, `p2`, ...
@@ -74,7 +68,8 @@ impl LinkComponent {
         }
     }
 
-    fn parse(s: &str) -> Option<Self> {
+    /// The component called `s`.
+    pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|c| c.as_str() == s)
     }
 }
@@ -115,7 +110,8 @@ impl PlaneComponent {
         }
     }
 
-    fn parse(s: &str) -> Option<Self> {
+    /// The component called `s`.
+    pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|c| c.as_str() == s)
     }
 }
@@ -159,177 +155,4 @@ pub enum ParamKind {
         /// Which component.
         component: PlaneComponent,
     },
-}
-
-/// Parses a comma-separated parameter list (see the module docs) into sorted, distinct ids.
-pub fn parse_param_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
-    let err = |message: String| Error::ParamList {
-        list: list.to_string(),
-        message,
-    };
-    let mut out = Vec::new();
-    for token in list.split(',').map(str::trim) {
-        if token.is_empty() {
-            return Err(err("empty entry".into()));
-        }
-        out.extend(parse_token(token, robot).map_err(err)?);
-    }
-    out.sort();
-    out.dedup();
-    Ok(out)
-}
-
-/// Parses one parameter reference (an id or a name) to exactly one parameter.
-pub fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
-    let ids = parse_token(token, robot).map_err(|message| Error::ParamList {
-        list: token.to_string(),
-        message,
-    })?;
-    match ids.as_slice() {
-        [one] => Ok(*one),
-        _ => Err(Error::ParamList {
-            list: token.to_string(),
-            message: "names several parameters where one is expected".into(),
-        }),
-    }
-}
-
-fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, String> {
-    let (nl, nj) = (robot.links.len(), robot.joints.len());
-    let id = |k: ParamKind| robot.param_id(k);
-    let all: Vec<ParamId> = robot.param_ids().collect();
-    let pick = |f: &dyn Fn(ParamKind) -> bool| -> Vec<ParamId> {
-        all.iter()
-            .copied()
-            .filter(|&p| f(robot.param_kind(p)))
-            .collect()
-    };
-    match token {
-        "all" => return Ok(all.clone()),
-        "links" => return Ok(pick(&|k| matches!(k, ParamKind::Link { .. }))),
-        "offsets" => return Ok(pick(&|k| matches!(k, ParamKind::Offset { .. }))),
-        "slopes" => return Ok(pick(&|k| matches!(k, ParamKind::Slope { .. }))),
-        "sites" => return Ok(pick(&|k| matches!(k, ParamKind::Site { .. }))),
-        "couplings" => return Ok(pick(&|k| matches!(k, ParamKind::Coupling { .. }))),
-        "planes" => return Ok(pick(&|k| matches!(k, ParamKind::Plane { .. }))),
-        _ => {}
-    }
-    let p_number = |s: &str| -> Option<std::result::Result<ParamId, String>> {
-        let digits = s.strip_prefix('p').or_else(|| s.strip_prefix('P'))?;
-        let n: usize = digits.parse().ok()?;
-        Some(if n >= 1 && n <= all.len() {
-            Ok(ParamId(n - 1))
-        } else {
-            Err(format!(
-                "`{s}` is out of range: this robot has parameters p1..p{}",
-                all.len()
-            ))
-        })
-    };
-    if let Some((a, b)) = token.split_once('-') {
-        if let (Some(a), Some(b)) = (p_number(a), p_number(b)) {
-            let (a, b) = (a?, b?);
-            if a > b {
-                return Err(format!("range `{token}` runs backwards"));
-            }
-            return Ok((a.0..=b.0).map(ParamId).collect());
-        }
-    }
-    if let Some(p) = p_number(token) {
-        return p.map(|p| vec![p]);
-    }
-    let bad_index = |what: &str, i: &str, max: usize| {
-        format!("`{token}`: {what} `{i}` does not exist (this robot has {what}s 1..{max})")
-    };
-    let unknown = || {
-        format!(
-            "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
-             link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x or \
-             plane.NAME.offset, or one of all, links, offsets, slopes, couplings, sites, planes)"
-        )
-    };
-    if let Some(rest) = token.strip_prefix("site.") {
-        let (name, comp) = match rest.rsplit_once('.') {
-            Some((n, c)) if LinkComponent::parse(c).is_some() => (n, Some(c)),
-            _ => (rest, None),
-        };
-        let site = robot
-            .site_index(name)
-            .ok_or_else(|| format!("`{token}`: the robot has no site named `{name}`"))?;
-        return Ok(match comp.and_then(LinkComponent::parse) {
-            Some(component) => vec![id(ParamKind::Site { site, component })],
-            None => LinkComponent::ALL
-                .map(|component| id(ParamKind::Site { site, component }))
-                .to_vec(),
-        });
-    }
-    if let Some(rest) = token.strip_prefix("plane.") {
-        let (name, comp) = match rest.rsplit_once('.') {
-            Some((n, c)) if PlaneComponent::parse(c).is_some() => (n, Some(c)),
-            _ => (rest, None),
-        };
-        let plane = robot
-            .plane_index(name)
-            .ok_or_else(|| format!("`{token}`: the robot has no plane named `{name}`"))?;
-        return Ok(match comp.and_then(PlaneComponent::parse) {
-            Some(component) => vec![id(ParamKind::Plane { plane, component })],
-            None => PlaneComponent::ALL
-                .map(|component| id(ParamKind::Plane { plane, component }))
-                .to_vec(),
-        });
-    }
-    let (head, comp) = match token.split_once('.') {
-        Some((h, c)) => (h, Some(c)),
-        None => (token, None),
-    };
-    if let Some(num) = head.strip_prefix("link") {
-        let link = num.parse::<usize>().map_err(|_| unknown())?;
-        if link == 0 || link > nl {
-            return Err(bad_index("link", num, nl));
-        }
-        let link = link - 1;
-        return match comp {
-            None => Ok(LinkComponent::ALL
-                .map(|component| id(ParamKind::Link { link, component }))
-                .to_vec()),
-            Some(c) => {
-                let component = LinkComponent::parse(c).ok_or_else(|| {
-                    format!("`{token}`: unknown link component `{c}` (expected x, y, z, alpha, beta or gamma)")
-                })?;
-                Ok(vec![id(ParamKind::Link { link, component })])
-            }
-        };
-    }
-    if let Some(num) = head.strip_prefix("joint") {
-        let joint = num.parse::<usize>().map_err(|_| unknown())?;
-        if joint == 0 || joint > nj {
-            return Err(bad_index("joint", num, nj));
-        }
-        let joint = joint - 1;
-        let coupled = robot.joints[joint].coupling.is_some();
-        return match comp {
-            None => {
-                let mut v = vec![
-                    id(ParamKind::Offset { joint }),
-                    id(ParamKind::Slope { joint }),
-                ];
-                if coupled {
-                    v.push(id(ParamKind::Coupling { joint }));
-                }
-                Ok(v)
-            }
-            Some("offset") => Ok(vec![id(ParamKind::Offset { joint })]),
-            Some("slope") => Ok(vec![id(ParamKind::Slope { joint })]),
-            Some("coupling") if coupled => Ok(vec![id(ParamKind::Coupling { joint })]),
-            Some("coupling") => Err(format!(
-                "`{token}`: joint {} is not coupled to another joint (add `coupling = {{ joint = K, \
-                 factor = F }}` to it in the robot file)",
-                joint + 1
-            )),
-            Some(c) => Err(format!(
-                "`{token}`: unknown joint parameter `{c}` (expected offset, slope or coupling)"
-            )),
-        };
-    }
-    Err(unknown())
 }

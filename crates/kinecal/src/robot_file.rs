@@ -408,7 +408,7 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                     "angle" => robot.tolerances.angle = units.to_si(Quantity::Angle, v),
                     "slope" => robot.tolerances.slope_fraction = v,
                     name => {
-                        let id = crate::params::parse_param(name, &robot).map_err(|e| {
+                        let id = crate::param_list::parse_param(name, &robot).map_err(|e| {
                             r.err(
                                 item.span(),
                                 &field,

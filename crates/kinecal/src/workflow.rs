@@ -22,7 +22,8 @@ use crate::estimation::{self, Calibration, CalibrationOptions, Iteration, Loss, 
 use crate::identifiability::{self, AnalysisOptions};
 use crate::observe::{accuracy, Accuracy, Context, Dataset, OrientationError, Weights};
 use crate::outliers::{self, Outlier};
-use crate::params::{parse_param_list, ParamId, ParamKind};
+use crate::param_list::parse_param_list;
+use crate::params::{ParamId, ParamKind};
 use crate::problem::Problem;
 use crate::report::CalibrationReport;
 use crate::robot::Robot;

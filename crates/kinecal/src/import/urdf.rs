@@ -101,14 +101,14 @@ pub fn import_urdf(
         .collect();
     let base = match base {
         Some(b) if links.contains(&b) => b,
-        Some(b) => return Err(err(file, format!("--base: no link named `{b}`"))),
+        Some(b) => return Err(err(file, format!("no link named `{b}` (the chain's base)"))),
         None => match roots.as_slice() {
             [one] => *one,
             _ => {
                 return Err(err(
                     file,
                     format!(
-                        "several root links ({}): choose one with --base",
+                        "several root links ({}): name the chain's base link",
                         roots.join(", ")
                     ),
                 ))
@@ -118,7 +118,7 @@ pub fn import_urdf(
     let has_children: Vec<&str> = urdf.joints.iter().map(|j| j.parent.link.as_str()).collect();
     let tip = match tip {
         Some(t) if links.contains(&t) => t,
-        Some(t) => return Err(err(file, format!("--tip: no link named `{t}`"))),
+        Some(t) => return Err(err(file, format!("no link named `{t}` (the chain's tip)"))),
         None => {
             let leaves: Vec<&str> = links
                 .iter()
@@ -131,7 +131,7 @@ pub fn import_urdf(
                     return Err(err(
                         file,
                         format!(
-                            "several leaf links ({}): choose one with --tip",
+                            "several leaf links ({}): name the chain's tip link",
                             leaves.join(", ")
                         ),
                     ))
