@@ -51,10 +51,13 @@ Examples:
   kinecal analyze --robot ge-a4 --data data.csv
   kinecal analyze --robot ge-a4 --postures postures.csv --estimate all --fix slopes --json
   kinecal analyze --robot ge-a4 --data data.csv --estimate p1-p6,p14,p29 --print hessian --units file
+  kinecal analyze --robot arm.toml --distances ballbar.csv --estimate links,offsets
 
 Ranks and dependencies are decided on the scaled Jacobian (residuals weighted, columns
 normalised), where units cannot distort them; the file-unit figures show what units do
-(thesis Tables 4.4 and 4.5).")]
+(thesis Tables 4.4 and 4.5). The expected count is the thesis's, generalised: 4 per revolute
+joint, 2 per prismatic, 1 per slope or coupling, 6 or 3 per observed frame, 3 per estimated
+plane, minus the motions of the world the observations cannot see.")]
     Analyze(AnalyzeArgs),
     /// Convert a robot from another convention (product of exponentials, Denavit-Hartenberg).
     #[command(subcommand)]
@@ -108,18 +111,21 @@ Example:
   kinecal completions bash > ~/.local/share/bash-completion/completions/kinecal
   kinecal completions zsh > ~/.zfunc/_kinecal")]
     Completions(CompletionsArgs),
-    /// Estimate kinematic parameters from measured poses or positions.
+    /// Estimate kinematic parameters from observations: poses, positions, distances, contacts.
     #[command(after_help = "\
-Example:
+Examples:
   kinecal calibrate --robot ge-a4 --data data.csv --estimate all --fix slopes \\
       --out calibrated.toml --report report.json
+  kinecal calibrate --robot arm.toml --contacts touches.csv --distances ballbar.csv \\
+      --estimate identifiable
 
 Parameter lists take ids (p3), ranges (p1-p30), names (link1.x, joint2.offset, joint4.slope,
-site.NAME.x), whole links or joints (link2, joint3) and the groups all, links, offsets, slopes,
-sites, separated by commas. `--estimate identifiable` estimates the identifiable (base) set that
-`kinecal analyze` reports; `--solution min-change` estimates everything and returns, of the
+joint3.coupling, site.NAME.x, plane.NAME.offset), whole links, joints, sites or planes (link2,
+joint3, site.NAME, plane.NAME) and the groups all, links, offsets, slopes, couplings, sites,
+planes, separated by commas. `--estimate identifiable` estimates the identifiable (base) set
+that `kinecal analyze` reports; `--solution min-change` estimates everything and returns, of the
 equally good answers, the one closest to the --robot file (tolerances from its [tolerances]
-table).")]
+table). Observation files combine; rows may carry their own sigma_position and sigma_angle.")]
     Calibrate(CalibrateArgs),
 }
 
@@ -712,8 +718,8 @@ pub struct CalibrateArgs {
     /// Least-squares method.
     #[arg(long, value_enum, default_value = "lm")]
     pub method: MethodArg,
-    /// Parameters to estimate. Default: all, except the slopes when every slope is 1 (readings
-    /// that are already joint values).
+    /// Parameters to estimate. Default: links, offsets, sites and, unless every slope is 1
+    /// (readings that are already joint values), slopes; couplings and planes only when named.
     #[arg(long, value_name = "LIST")]
     pub estimate: Option<String>,
     /// Parameters to hold at their nominal values (removed from --estimate).
@@ -735,10 +741,11 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
-    /// Held-out measurement file: report the accuracy on it before and after.
+    /// Held-out measurement file (read like --data): report the accuracy on it before and after.
     #[arg(long, value_name = "V.csv", conflicts_with = "holdout")]
     pub validate: Option<PathBuf>,
-    /// Hold out this fraction of the postures (drawn with --seed) for validation.
+    /// Hold out this fraction of the postures (drawn with --seed; postures an observation links
+    /// stay together) for validation.
     #[arg(long, value_name = "FRACTION")]
     pub holdout: Option<f64>,
     /// Seed for --holdout.
@@ -750,7 +757,8 @@ pub struct CalibrateArgs {
     /// Huber threshold, in standard deviations of --weights.
     #[arg(long, value_name = "K", default_value_t = 1.345)]
     pub huber_scale: f64,
-    /// List measurements with a residual beyond K robust standard deviations (never dropped).
+    /// List observations with a residual beyond K robust standard deviations of the rows like
+    /// them (never dropped).
     #[arg(long, value_name = "K", default_value_t = kinecal::outliers::DEFAULT_SIGMAS)]
     pub outlier_sigma: f64,
     /// Levenberg-Marquardt damping.

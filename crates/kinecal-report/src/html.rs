@@ -11,6 +11,13 @@ use kinecal::workflow::Outcome;
 use crate::chart::{render_svg, Line, Panel};
 use crate::DrawError;
 
+fn cap(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -64,9 +71,15 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
     let _ = writeln!(h, "<h1>Calibration report: {}</h1>", esc(&rep.robot));
     let _ = writeln!(
         h,
-        "<p>{} postures, {} measurements, {} residuals; method <b>{}</b>, {} orientation residuals, {} solution; {} after {} iterations ({}).</p>",
+        "<p>{} postures, {} observations ({}), {} residuals; method <b>{}</b>, {} orientation residuals, {} solution; {} after {} iterations ({}).</p>",
         rep.postures,
         rep.measurements,
+        esc(&rep
+            .observations
+            .iter()
+            .map(|k| format!("{} {}{}", k.count, k.kind, if k.count == 1 { "" } else { "s" }))
+            .collect::<Vec<_>>()
+            .join(", ")),
         rep.residuals,
         esc(&rep.method),
         esc(&rep.orientation_error),
@@ -76,33 +89,40 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         esc(&rep.termination)
     );
     let _ = writeln!(h, "<h2 id=\"summary\">Summary</h2><table><tr><th class=\"l\"></th><th>before</th><th>after</th></tr>");
-    let rows = [
-        (
-            "objective (weighted)".to_string(),
-            rep.objective_before,
-            rep.objective_after,
-        ),
-        (
+    let (ib, ia) = (&rep.identification.before, &rep.identification.after);
+    let mut rows = vec![(
+        "objective (weighted)".to_string(),
+        rep.objective_before,
+        rep.objective_after,
+    )];
+    if ib.positions > 0 {
+        rows.push((
             format!("RMS position error ({l})"),
             rep.rms_position_before,
             rep.rms_position_after,
-        ),
-        (
+        ));
+        rows.push((
             format!("max position error ({l})"),
             rep.max_position_before,
             rep.max_position_after,
-        ),
-        (
+        ));
+    }
+    for (b, af) in ib.other.iter().zip(&ia.other) {
+        rows.push((format!("RMS {} error ({l})", b.metric), b.rms, af.rms));
+        rows.push((format!("max {} error ({l})", b.metric), b.max, af.max));
+    }
+    if ib.rms_orientation.is_some() {
+        rows.push((
             format!("RMS attitude error ({a})"),
             rep.rms_orientation_before,
             rep.rms_orientation_after,
-        ),
-        (
+        ));
+        rows.push((
             format!("max attitude error ({a})"),
             rep.max_orientation_before,
             rep.max_orientation_after,
-        ),
-    ];
+        ));
+    }
     for (name, b, af) in rows {
         let _ = writeln!(
             h,
@@ -119,13 +139,22 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         );
     }
 
-    // Residuals per measurement, before and after.
+    // Residuals per observation, before and after: positions, or lengths of several metrics.
+    let kind_of_error = if outcome.identification.after.other.is_empty() {
+        "position"
+    } else if outcome.identification.after.positions == 0
+        && outcome.identification.after.other.len() == 1
+    {
+        outcome.identification.after.other[0].metric
+    } else {
+        "length"
+    };
     let (eb, ea) = (errors(&cal.initial, data), errors(&cal.calibrated, data));
     let x: Vec<f64> = (1..=eb.len()).map(|i| i as f64).collect();
     let mut panels = vec![Panel {
-        title: "Position error per observation".into(),
+        title: format!("{} error per observation", cap(kind_of_error)),
         x_label: "observation (file order by posture)".into(),
-        y_label: format!("position error ({l})"),
+        y_label: format!("{kind_of_error} error ({l})"),
         x: x.clone(),
         lines: vec![
             Line {
@@ -186,8 +215,8 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         .map(|i| (i as f64 + 0.5) * max / bins as f64)
         .collect();
     let hist = Panel {
-        title: "Histogram of position errors after calibration".into(),
-        x_label: format!("position error ({l})"),
+        title: format!("Histogram of {kind_of_error} errors after calibration"),
+        x_label: format!("{kind_of_error} error ({l})"),
         y_label: "measurements".into(),
         x: centers,
         lines: vec![Line {

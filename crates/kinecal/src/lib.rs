@@ -54,3 +54,8 @@ pub use params::{ParamId, ParamKind};
 pub use robot::{Joint, JointKind, Link, Robot, Site};
 pub use units::{AngleUnit, LengthUnit, Units};
 pub use warning::Warning;
+
+/// The README's library example compiles (`cargo test --doc`).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeDoctests;

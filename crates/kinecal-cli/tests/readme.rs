@@ -1,0 +1,258 @@
+//! The README cannot drift from the program: every ```console block in it runs here, in order,
+//! in one scratch folder (with `examples/` and `../shared` reachable as from the repository
+//! root), and its output must match what the README shows; and every command's `--help` is a
+//! snapshot under `tests/snapshots/help/`.
+//!
+//! In the README, `$ ` starts a command (a trailing `\` continues it), the lines after it are
+//! its expected output (standard output, then standard error): a line `...` stands for any
+//! number of lines, `[..]` for any text within a line. A command that should fail ends with
+//! `# exit N`. Run with `SNAPSHOTS=overwrite` to rewrite the help snapshots and to print the
+//! actual output of any README command that does not match.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn overwrite() -> bool {
+    std::env::var("SNAPSHOTS").is_ok_and(|v| v == "overwrite")
+}
+
+/// Whether `line` matches `pattern`, where `[..]` stands for any text.
+fn line_matches(pattern: &str, line: &str) -> bool {
+    let parts: Vec<&str> = pattern.split("[..]").collect();
+    if parts.len() == 1 {
+        return pattern == line;
+    }
+    let (first, last) = (parts[0], parts[parts.len() - 1]);
+    if !line.starts_with(first) || !line[first.len()..].ends_with(last) {
+        return false;
+    }
+    let mut rest = &line[first.len()..line.len() - last.len()];
+    for p in &parts[1..parts.len() - 1] {
+        match rest.find(p) {
+            Some(i) => rest = &rest[i + p.len()..],
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Whether `actual` matches `expected`, where a line `...` stands for any number of lines.
+fn text_matches(expected: &[&str], actual: &[&str]) -> bool {
+    match expected.split_first() {
+        None => actual.is_empty(),
+        Some((&"...", rest)) => (0..=actual.len()).any(|k| text_matches(rest, &actual[k..])),
+        Some((e, rest)) => match actual.split_first() {
+            Some((a, arest)) => line_matches(e, a) && text_matches(rest, arest),
+            None => false,
+        },
+    }
+}
+
+/// Splits a command line into words: spaces separate, double quotes group.
+fn words(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let (mut quoted, mut any) = (false, false);
+    for c in line.chars() {
+        match c {
+            '"' => {
+                quoted = !quoted;
+                any = true;
+            }
+            ' ' if !quoted => {
+                if any {
+                    out.push(std::mem::take(&mut cur));
+                    any = false;
+                }
+            }
+            c => {
+                cur.push(c);
+                any = true;
+            }
+        }
+    }
+    if any {
+        out.push(cur);
+    }
+    out
+}
+
+struct Session {
+    line: usize,
+    command: String,
+    expected: Vec<String>,
+}
+
+/// The commands of the README's console blocks, with their expected output.
+fn sessions(readme: &str) -> Vec<Session> {
+    let mut out: Vec<Session> = Vec::new();
+    let mut in_block = false;
+    let mut continuing = false;
+    for (i, line) in readme.lines().enumerate() {
+        if line.trim_start().starts_with("```") {
+            in_block = line.trim() == "```console";
+            continuing = false;
+            continue;
+        }
+        if !in_block {
+            continue;
+        }
+        if continuing {
+            let s = out.last_mut().expect("a command");
+            let l = line.trim();
+            continuing = l.ends_with('\\');
+            s.command.push(' ');
+            s.command.push_str(l.trim_end_matches('\\').trim());
+        } else if let Some(cmd) = line.strip_prefix("$ ") {
+            continuing = cmd.trim_end().ends_with('\\');
+            out.push(Session {
+                line: i + 1,
+                command: cmd.trim_end().trim_end_matches('\\').trim().to_string(),
+                expected: Vec::new(),
+            });
+        } else if let Some(s) = out.last_mut() {
+            s.expected.push(line.to_string());
+        }
+    }
+    for s in &mut out {
+        while s.expected.last().is_some_and(|l| l.trim().is_empty()) {
+            s.expected.pop();
+        }
+    }
+    out
+}
+
+#[test]
+fn readme_sessions_run_as_shown() {
+    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    let shared = repo().join("../shared");
+    if !shared.exists() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "../shared is missing on CI"
+        );
+        eprintln!("skipped: {} not found", shared.display());
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let work = tmp.path().join("work");
+    std::fs::create_dir(&work).unwrap();
+    std::os::unix::fs::symlink(shared.canonicalize().unwrap(), tmp.path().join("shared")).unwrap();
+    std::os::unix::fs::symlink(
+        repo().join("examples").canonicalize().unwrap(),
+        work.join("examples"),
+    )
+    .unwrap();
+    let sessions = sessions(&readme);
+    assert!(sessions.len() >= 10, "{} sessions", sessions.len());
+    let mut failures = Vec::new();
+    for s in &sessions {
+        let (command, exit) = match s.command.split_once("# exit ") {
+            Some((c, code)) => (c.trim().to_string(), code.trim().parse::<i32>().unwrap()),
+            None => (s.command.clone(), 0),
+        };
+        let w = words(&command);
+        assert_eq!(w[0], "kinecal", "README line {}: {command}", s.line);
+        let out = Command::new(env!("CARGO_BIN_EXE_kinecal"))
+            .args(&w[1..])
+            .env("COLUMNS", "100")
+            .current_dir(&work)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        let actual: Vec<&str> = text.lines().map(str::trim_end).collect();
+        let expected: Vec<&str> = s.expected.iter().map(|l| l.trim_end()).collect();
+        let code = out.status.code().unwrap_or(-1);
+        if code != exit || !text_matches(&expected, &actual) {
+            failures.push(format!(
+                "README line {}: `{command}` exited {code} (expected {exit}); its output:\n{text}",
+                s.line
+            ));
+            if !overwrite() {
+                break;
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Every command's `--help` (found by walking `Commands:` sections), as a snapshot.
+#[test]
+fn help_texts_match_their_snapshots() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots/help");
+    if overwrite() {
+        std::fs::create_dir_all(&dir).unwrap();
+    }
+    let mut todo: Vec<Vec<String>> = vec![Vec::new()];
+    let mut seen = 0;
+    let mut failures = Vec::new();
+    while let Some(path) = todo.pop() {
+        // Help is wrapped to the terminal, or to COLUMNS when there is none: fix it.
+        let out = Command::new(env!("CARGO_BIN_EXE_kinecal"))
+            .env("COLUMNS", "100")
+            .args(&path)
+            .arg("--help")
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{path:?}");
+        let text = String::from_utf8(out.stdout).unwrap();
+        let mut in_commands = false;
+        for line in text.lines() {
+            if line == "Commands:" {
+                in_commands = true;
+            } else if in_commands {
+                match line.split_whitespace().next() {
+                    None => in_commands = false,
+                    Some("help") => {}
+                    Some(sub) if line.starts_with("  ") && !line.starts_with("   ") => {
+                        let mut p = path.clone();
+                        p.push(sub.to_string());
+                        todo.push(p);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let name = if path.is_empty() {
+            "kinecal".to_string()
+        } else {
+            format!("kinecal-{}", path.join("-"))
+        };
+        let file = dir.join(format!("{name}.txt"));
+        seen += 1;
+        if overwrite() {
+            std::fs::write(&file, &text).unwrap();
+        } else {
+            let snap = std::fs::read_to_string(&file).unwrap_or_default();
+            if snap != text {
+                failures.push(format!(
+                    "{}: `kinecal {} --help` differs from its snapshot (SNAPSHOTS=overwrite \
+                     rewrites it):\n{text}",
+                    file.display(),
+                    path.join(" ")
+                ));
+            }
+        }
+    }
+    assert!(seen >= 20, "only {seen} commands found");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn matching_rules() {
+    assert!(line_matches("a [..] c", "a b c"));
+    assert!(line_matches("[..]x", "yyx"));
+    assert!(!line_matches("a [..] c", "a b d"));
+    assert!(text_matches(&["a", "...", "d"], &["a", "b", "c", "d"]));
+    assert!(text_matches(&["a", "...", "d"], &["a", "d"]));
+    assert!(!text_matches(&["a", "...", "d"], &["a", "b"]));
+    assert_eq!(
+        words(r#"kinecal x --columns "a=b c" -v"#),
+        ["kinecal", "x", "--columns", "a=b c", "-v"]
+    );
+}
