@@ -364,6 +364,7 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         truth = simulate::perturb(&truth, std, a.seed);
     }
     if let Some(list) = &a.perturb {
+        let mut changes = Vec::new();
         for part in list.split(',').map(str::trim) {
             let (name, delta) = part
                 .split_once('=')
@@ -380,10 +381,10 @@ fn simulate(a: SimulateArgs) -> Result<()> {
                     )
                 })?;
             for id in parse_param_list(name.trim(), nominal)? {
-                let q = nominal.param_quantity(id);
-                truth.set(id, truth.get(id) + units.to_si(q, delta));
+                changes.push((id, delta));
             }
         }
+        truth = simulate::changed(&truth, &changes).map_err(|e| anyhow!("--perturb: {e}"))?;
     }
     let postures = simulate::sample_postures(nominal, a.postures, a.seed);
     let mut data = simulate::measure(&truth, &postures, a.position_only);

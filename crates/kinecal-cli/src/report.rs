@@ -132,6 +132,13 @@ pub fn summary(r: &CalibrationReport) -> String {
                 e.rms_position, e.mean_position, e.p95_position, e.max_position
             );
         }
+        if let (Some(ni), Some(nv)) = (r.identification.normalized_rms, v.normalized_rms) {
+            let _ = writeln!(
+                s,
+                "residuals in their standard deviations (RMS): identification {:.4} -> {:.4}, validation {:.4} -> {:.4}",
+                ni[0], ni[1], nv[0], nv[1]
+            );
+        }
         if v.before.rms_orientation.is_some() {
             let _ = writeln!(
                 s,

@@ -20,6 +20,8 @@ pub struct Problem<'a> {
     estimated: &'a [ParamId],
     orientation: OrientationError,
     sigma: Vec<f64>,
+    /// 1 / sigma, per row (residuals are multiplied by it).
+    weight: Vec<f64>,
     row_scale: Option<&'a [f64]>,
     columns: Vec<Option<usize>>,
 }
@@ -34,7 +36,7 @@ impl<'a> Problem<'a> {
         weights: Weights,
         orientation: OrientationError,
     ) -> Self {
-        let sigma = data
+        let sigma: Vec<f64> = data
             .observations
             .iter()
             .flat_map(|o| {
@@ -51,12 +53,14 @@ impl<'a> Problem<'a> {
                 *slot = Some(c);
             }
         }
+        let weight = sigma.iter().map(|s| 1.0 / s).collect();
         Problem {
             base,
             data,
             estimated,
             orientation,
             sigma,
+            weight,
             row_scale: None,
             columns,
         }
@@ -162,16 +166,20 @@ impl<'a> Problem<'a> {
                     };
                     o.evaluate(&ctx, &frames[..views.len()], r, Some(&mut d));
                     for i in 0..nrows {
-                        let w = self.row_scale.map_or(1.0, |s| s[row + i]) / self.sigma[row + i];
+                        let (w, s) = (self.weight[row + i], self.row_scale.map(|s| s[row + i]));
                         for c in 0..k {
-                            j[(row + i, c)] = out[i * k + c] * w;
+                            let v = out[i * k + c] * w;
+                            j[(row + i, c)] = s.map_or(v, |s| v * s);
                         }
                     }
                 }
                 None => o.evaluate(&ctx, &frames[..views.len()], r, None),
             }
             for i in 0..nrows {
-                r[i] *= self.row_scale.map_or(1.0, |s| s[row + i]) / self.sigma[row + i];
+                r[i] *= self.weight[row + i];
+                if let Some(s) = self.row_scale {
+                    r[i] *= s[row + i];
+                }
             }
             row += nrows;
         }

@@ -176,6 +176,10 @@ pub struct DatasetAccuracy {
     pub before: ErrorStats,
     /// With the calibrated robot.
     pub after: ErrorStats,
+    /// RMS of the residuals in their own standard deviations (row sigmas, else the weights),
+    /// before and after: about 1 when the stated uncertainties are right.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normalized_rms: Option<[f64; 2]>,
 }
 
 impl DatasetAccuracy {
@@ -192,6 +196,7 @@ impl DatasetAccuracy {
             measurements: observations,
             before: ErrorStats::new(before, units),
             after: ErrorStats::new(after, units),
+            normalized_rms: None,
         }
     }
 }
@@ -462,22 +467,24 @@ impl CalibrationReport {
             .collect();
     }
 
-    /// Sets the accuracy on held-out validation data.
+    /// Sets the accuracy on held-out validation data, with its normalized RMS (before, after).
     pub fn set_validation(
         &mut self,
         postures: usize,
         observations: usize,
         before: &Accuracy,
         after: &Accuracy,
+        normalized: [f64; 2],
         robot: &Robot,
     ) {
-        self.validation = Some(DatasetAccuracy::new(
-            postures,
-            observations,
-            before,
-            after,
-            &robot.units,
-        ));
+        let mut v = DatasetAccuracy::new(postures, observations, before, after, &robot.units);
+        v.normalized_rms = Some(normalized);
+        self.validation = Some(v);
+    }
+
+    /// Sets the normalized RMS (before, after) of the identification data.
+    pub fn set_normalized(&mut self, before_after: [f64; 2]) {
+        self.identification.normalized_rms = Some(before_after);
     }
 
     /// Sets the uncertainty of the calibration: sigmas, significance, determined combinations,

@@ -8,6 +8,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
+use crate::error::{Error, Result};
 use crate::kinematics::{Chain, Target, Workspace};
 use crate::observe::point::{Pose, Position};
 use crate::observe::{
@@ -84,6 +85,24 @@ pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
         out.set(id, v + s * z);
     }
     out
+}
+
+/// `robot` with parameters changed by deltas in the robot file's units, e.g. a "true" robot for
+/// synthesized data; an error when a value becomes infinite or not a number.
+pub fn changed(robot: &Robot, changes: &[(crate::params::ParamId, f64)]) -> Result<Robot> {
+    let mut out = robot.clone();
+    for &(id, delta) in changes {
+        let q = robot.param_quantity(id);
+        let v = out.get(id) + robot.units.to_si(q, delta);
+        if !v.is_finite() {
+            return Err(Error::InvalidOption {
+                option: "parameter change",
+                message: format!("{} ({}) would become {v}", id, robot.param_name(id)),
+            });
+        }
+        out.set(id, v);
+    }
+    Ok(out)
 }
 
 /// The noise-free measurements `robot` gives at `postures`: the end effector and every site,

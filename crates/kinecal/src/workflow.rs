@@ -286,15 +286,34 @@ pub struct Checked {
     pub before: Accuracy,
     /// With the calibrated robot.
     pub after: Accuracy,
+    /// The RMS of the residuals in their own standard deviations (each row's `sigma_*`, else
+    /// the weights), with the nominal robot: how far the errors are from what the stated
+    /// uncertainties allow (about 1 when they are right).
+    pub normalized_before: f64,
+    /// The same with the calibrated robot.
+    pub normalized_after: f64,
 }
 
 impl Checked {
     fn new(cal: &Calibration, data: &Dataset) -> Checked {
+        let normalized = |robot: &Robot| {
+            let p = Problem::new(
+                robot,
+                data,
+                &[],
+                cal.options.weights,
+                cal.options.orientation,
+            );
+            let m = p.rows().max(1);
+            (p.evaluate(robot, &mut vec![0.0; p.rows()], None) / m as f64).sqrt()
+        };
         Checked {
             postures: data.postures.len(),
             observations: data.observations.len(),
             before: accuracy(&cal.initial, data),
             after: accuracy(&cal.calibrated, data),
+            normalized_before: normalized(&cal.initial),
+            normalized_after: normalized(&cal.calibrated),
         }
     }
 }
@@ -533,6 +552,10 @@ fn finish(
     let identification = Checked::new(&cal, &data);
     let validation = validation_data.as_ref().map(|v| Checked::new(&cal, v));
     let mut report = CalibrationReport::new(&cal, &data);
+    report.set_normalized([
+        identification.normalized_before,
+        identification.normalized_after,
+    ]);
     report.set_outliers(&outliers, &data, &cal.calibrated, outlier_sigmas);
     if let Some(v) = &validation {
         report.set_validation(
@@ -540,6 +563,7 @@ fn finish(
             v.observations,
             &v.before,
             &v.after,
+            [v.normalized_before, v.normalized_after],
             &cal.calibrated,
         );
     }

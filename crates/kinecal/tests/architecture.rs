@@ -23,7 +23,8 @@ fn imports() -> BTreeMap<String, BTreeSet<String>> {
                 .chars()
                 .take_while(|c| c.is_alphanumeric() || *c == '_')
                 .collect();
-            if !name.is_empty() && name != module {
+            // Modules only (lower case); items re-exported at the root are not layers.
+            if !name.is_empty() && name != module && name.starts_with(|c: char| c.is_lowercase()) {
                 entry.insert(name);
             }
         }
