@@ -10,7 +10,7 @@ use serde::Serialize;
 use crate::timefmt::{format_time, now};
 use crate::{Error, Result};
 
-/// The schema version this build writes. Each entry of [`MIGRATIONS`] brings a database from
+/// The schema version this build writes. Each entry of `MIGRATIONS` brings a database from
 /// version `i` to `i + 1`.
 pub const SCHEMA_VERSION: i64 = 1;
 
@@ -259,7 +259,7 @@ impl Database {
 
     /// Records a calibration report for robot `robot_id` at `at` (Unix seconds; now if `None`).
     /// The model and data fingerprints are the report's (SHA-256 of the robot and measurement
-    /// files, see [`fingerprint`]), empty when it has none.
+    /// files, see [`crate::fingerprint`]), empty when it has none.
     pub fn add(
         &self,
         robot_id: &str,

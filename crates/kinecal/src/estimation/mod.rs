@@ -1,6 +1,6 @@
 //! Estimation: from a starting robot and observations to estimated parameters.
 //!
-//! [`calibrate`] minimises the weighted objective of a [`Problem`](crate::problem::Problem)
+//! [`calibrate`] minimises the weighted objective of a [`Problem`](crate::problem)
 //! over the chosen parameters with one of the thesis's methods (see [`solver`]), under least
 //! squares or a robust Huber loss. What to estimate, which of several equally good answers to
 //! return, pruning, validation and reporting are the [`workflow`](crate::workflow)'s.

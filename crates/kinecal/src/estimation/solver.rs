@@ -3,7 +3,7 @@
 //! The driver ([`solve`]) owns everything the methods share: evaluating the problem, the scaled
 //! space, termination, the iteration log and the observer. Every method works on `J_s = W J
 //! D^-1`: residuals weighted by their standard deviations `W` (see
-//! [`Problem`](crate::problem::Problem)), and columns divided by their Euclidean norms `D`
+//! [`Problem`](crate::problem)), and columns divided by their Euclidean norms `D`
 //! (recomputed every iteration). `J_s^T J_s` then has a unit diagonal: this is exactly
 //! Marquardt's scaling `B_ii = sqrt(H_ii)` of eq. 3.15, and it makes every method independent of
 //! the units parameters are expressed in (thesis 4.4.2: the conditioning that units spoil). A
