@@ -225,7 +225,8 @@ pub fn summary(r: &CalibrationReport) -> String {
         for o in &r.outliers {
             let _ = writeln!(
                 s,
-                "  line {:<5} posture {:<10} site {:<8} {} error {:.6} {l}{}  ({:.1} sigma)",
+                "  {:<9} line {:<5} posture {:<10} site {:<8} {} error {:.6} {l}{}  ({:.1} sigma)",
+                o.kind,
                 o.line,
                 o.posture,
                 o.site,
