@@ -506,7 +506,8 @@ pub mod ur10e_camera {
                 d.data.observations.len()
             ),
             command: "kinecal calibrate --robot ur10e.toml --data poses.csv --estimate \
-                      link1,link7,offsets --orientation-error rotvec"
+                      link1,link7,offsets --orientation-error rotvec --weights \
+                      length=0.001,angle=0.01 --holdout 0.3"
                 .into(),
         })
     }

@@ -179,3 +179,50 @@ fn fanuc_r2000ic_with_the_coupling_in_the_robot() {
     eprintln!("6-fold held-out mean {:.3} mm", cv * mm);
     assert!(cv * mm <= 0.40, "{} mm", cv * mm);
 }
+
+/// The UR10e wrist-camera poses read as the data set's files are: the URDF's nominal model
+/// with the unknown camera world frame and wrist frame estimated (links 1 and 7), positions
+/// weighted over attitudes (1 mm against 10 mrad, as a position fit), reaches the README's
+/// independent check: 3.20 mm mean, 6.32 mm max (the camera's noise floor). (The README's
+/// 0.079 deg attitude figure is not reproduced: every weighting leaves about 0.5 deg RMS; the
+/// ZYX reading of pinocchio's RPY is confirmed by the XYZ one failing by 90 deg.)
+#[test]
+fn ur10e_camera_poses_reach_the_camera_floor() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/ur10e_camera");
+    if !dir.exists() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{} is missing",
+            dir.display()
+        );
+        return;
+    }
+    let d = kinecal::datasets::ur10e_camera::load(&dir).unwrap();
+    assert_eq!(d.data.observations.len(), 23);
+    let ids = parse_param_list("link1,link7", &d.robot).unwrap();
+    let mut opts = CalibrationOptions::new(ids);
+    opts.orientation = kinecal::observe::OrientationError::RotVec;
+    opts.weights = kinecal::observe::Weights {
+        length: 1e-3,
+        angle: 1e-2,
+    };
+    let cal = calibrate(&d.robot, &d.data, &opts, &mut |_| {}).unwrap();
+    let acc = accuracy(&cal.calibrated, &d.data);
+    eprintln!(
+        "UR10e base + tool: mean {:.3} mm, max {:.3} mm, attitude mean {:.3} deg",
+        acc.mean_position * 1e3,
+        acc.max_position * 1e3,
+        acc.mean_orientation.to_degrees()
+    );
+    // README: mean 3.20 / max 6.32 mm, attitude 0.079 deg mean.
+    assert!(
+        (acc.mean_position * 1e3 - 3.20).abs() < 0.05,
+        "{}",
+        acc.mean_position
+    );
+    assert!(
+        (acc.max_position * 1e3 - 6.32).abs() < 0.2,
+        "{}",
+        acc.max_position
+    );
+}
