@@ -88,6 +88,7 @@ fn to_json(an: &Analysis, robot: &Robot) -> serde_json::Value {
         "rcond": an.rcond,
         "gap_rank": an.gap_rank,
         "gap_ratio": if an.gap_ratio.is_finite() { json!(an.gap_ratio) } else { json!(null) },
+        "rank_consistent": an.rank_consistent,
         "expected_rank": an.expected.as_ref().map(|e| e.rank),
         "expected_rank_formula": an.expected.as_ref().map(|e| e.formula.clone()),
         "singular_values_jacobian": an.singular_values_scaled,
@@ -163,7 +164,7 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
         an.rank,
         an.rcond,
         an.gap_rank,
-        if an.gap_rank == an.rank || an.rank == n { ", consistent" } else { ", NOT consistent with the tolerance" }
+        if an.rank_consistent { ", consistent" } else { ", NOT consistent with the tolerance" }
     );
     match &an.expected {
         Some(e) => {

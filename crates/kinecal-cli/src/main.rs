@@ -34,13 +34,24 @@ use kinecal::{examples, parse_param_list, Robot, Warning};
 /// Exit code for errors in the input (files, parameter lists, unsolvable problems).
 const EXIT_INPUT: u8 = 1;
 
+/// Exit code when the solver stopped at its iteration cap or stalled: the outputs are written,
+/// the report says `converged: false`, and scripts can tell.
+pub const EXIT_NOT_CONVERGED: u8 = 4;
+
 fn main() -> ExitCode {
+    // Output piped into `head` and closed: end quietly, as other command-line tools do, rather
+    // than panic on the failed write.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread or I/O exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo => demo::run().map(|()| 0),
         Command::Fk(a) => fk(a).map(|()| 0),
         Command::Simulate(a) => simulate(a).map(|()| 0),
-        Command::Calibrate(a) => calibrate(a).map(|()| 0),
+        Command::Calibrate(a) => calibrate(a),
         Command::Analyze(a) => analyze::run(a).map(|()| 0),
         Command::Import(c) => import(c).map(|()| 0),
         Command::Export(ExportCommand::Urdf(a)) => export_urdf(a).map(|()| 0),
@@ -470,7 +481,7 @@ impl workflow::Progress for Verbose {
     }
 }
 
-fn calibrate(a: CalibrateArgs) -> Result<()> {
+fn calibrate(a: CalibrateArgs) -> Result<u8> {
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
     let (data, data_sources) = load_observations(&a.observations, robot)?;
@@ -593,7 +604,11 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         let id = db.add(serial, record_at, &outcome.report, &a.note)?;
         eprintln!("recorded as calibration {id} of robot {serial}");
     }
-    Ok(())
+    Ok(if outcome.calibration.converged() {
+        0
+    } else {
+        EXIT_NOT_CONVERGED
+    })
 }
 
 /// The command-line option behind a library setting.

@@ -4,6 +4,25 @@ use std::fmt::Write as _;
 
 use kinecal::report::CalibrationReport;
 
+/// A number as a person reads it: six decimals, or four significant digits below 1e-5, where six
+/// decimals would keep fewer than two (a small error is not printed as 0.000000).
+pub fn num(v: f64) -> String {
+    if v != 0.0 && v.abs() < 1e-5 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.6}")
+    }
+}
+
+/// [`num`] with a sign.
+fn signed(v: f64) -> String {
+    if v >= 0.0 {
+        format!("+{}", num(v))
+    } else {
+        num(v)
+    }
+}
+
 /// The text summary `kinecal calibrate` prints.
 pub fn summary(r: &CalibrationReport) -> String {
     let mut s = String::new();
@@ -54,49 +73,54 @@ pub fn summary(r: &CalibrationReport) -> String {
     if ib.positions > 0 {
         let _ = writeln!(
             s,
-            "{:<28} {:>14.6} {:>14.6}",
+            "{:<28} {:>14} {:>14}",
             format!("RMS position error ({l})"),
-            r.rms_position_before,
-            r.rms_position_after
+            num(r.rms_position_before),
+            num(r.rms_position_after)
         );
         let _ = writeln!(
             s,
-            "{:<28} {:>14.6} {:>14.6}",
+            "{:<28} {:>14} {:>14}",
             format!("max position error ({l})"),
-            r.max_position_before,
-            r.max_position_after
+            num(r.max_position_before),
+            num(r.max_position_after)
         );
     }
     for (b, a) in ib.other.iter().zip(&ia.other) {
         let _ = writeln!(
             s,
-            "{:<28} {:>14.6} {:>14.6}",
+            "{:<28} {:>14} {:>14}",
             format!("RMS {} error ({l})", b.metric),
-            b.rms,
-            a.rms
+            num(b.rms),
+            num(a.rms)
         );
         let _ = writeln!(
             s,
-            "{:<28} {:>14.6} {:>14.6}",
+            "{:<28} {:>14} {:>14}",
             format!("max {} error ({l})", b.metric),
-            b.max,
-            a.max
+            num(b.max),
+            num(a.max)
         );
     }
-    if r.rms_orientation_before > 0.0 || r.rms_orientation_after > 0.0 {
+    if let (Some(rb), Some(ra), Some(mb), Some(ma)) = (
+        r.rms_orientation_before,
+        r.rms_orientation_after,
+        r.max_orientation_before,
+        r.max_orientation_after,
+    ) {
         let _ = writeln!(
             s,
-            "{:<28} {:>14.6} {:>14.6}",
+            "{:<28} {:>14} {:>14}",
             format!("RMS attitude error ({a})"),
-            r.rms_orientation_before,
-            r.rms_orientation_after
+            num(rb),
+            num(ra)
         );
         let _ = writeln!(
             s,
-            "{:<28} {:>14.6} {:>14.6}",
+            "{:<28} {:>14} {:>14}",
             format!("max attitude error ({a})"),
-            r.max_orientation_before,
-            r.max_orientation_after
+            num(mb),
+            num(ma)
         );
     }
     if let Some(v) = &r.validation {
@@ -128,8 +152,11 @@ pub fn summary(r: &CalibrationReport) -> String {
         for (name, e) in &rows {
             let _ = writeln!(
                 s,
-                "{name:<34} {:>11.6} {:>11.6} {:>11.6} {:>11.6}",
-                e.rms_position, e.mean_position, e.p95_position, e.max_position
+                "{name:<34} {:>11} {:>11} {:>11} {:>11}",
+                num(e.rms_position),
+                num(e.mean_position),
+                num(e.p95_position),
+                num(e.max_position)
             );
         }
         if let (Some(ni), Some(nv)) = (r.identification.normalized_rms, v.normalized_rms) {
@@ -150,7 +177,7 @@ pub fn summary(r: &CalibrationReport) -> String {
                 "max"
             );
             for (name, e) in &rows {
-                let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.6}"));
+                let f = |x: Option<f64>| x.map_or("n/a".to_string(), num);
                 let _ = writeln!(
                     s,
                     "{name:<34} {:>11} {:>11} {:>11} {:>11}",
@@ -186,8 +213,13 @@ pub fn summary(r: &CalibrationReport) -> String {
         };
         let _ = writeln!(
             s,
-            "{:<5} {:<20} {:<9} {:>14.6} {:>14.6} {:>+13.6} {sigma} {sig}",
-            p.id, p.name, p.unit, p.initial, p.estimated, p.change
+            "{:<5} {:<20} {:<9} {:>14} {:>14} {:>13} {sigma} {sig}",
+            p.id,
+            p.name,
+            p.unit,
+            num(p.initial),
+            num(p.estimated),
+            signed(p.change)
         );
     }
     if !r.combinations.is_empty() {
@@ -255,14 +287,16 @@ pub fn summary(r: &CalibrationReport) -> String {
     }
     if let Some(p) = &r.pruning {
         let _ = writeln!(s);
-        let _ = writeln!(
+        let _ =
+            writeln!(
             s,
-            "Pruned at {} sigma: removed {}; full fit had objective {:.6e}, RMS position {:.6} {l}, RMS attitude {:.6} {a}",
+            "Pruned at {} sigma: removed {}; full fit had objective {:.6e}, RMS position {} {l}{}",
             p.k,
             if p.removed.is_empty() { "nothing".to_string() } else { p.removed.join(", ") },
             p.full_objective_after,
-            p.full_rms_position_after,
+            num(p.full_rms_position_after),
             p.full_rms_orientation_after
+                .map_or(String::new(), |v| format!(", RMS attitude {} {a}", num(v)))
         );
     }
     s

@@ -1586,3 +1586,79 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     let err = run_err(d, &["calibrate", "--robot", "a4.toml"]);
     assert!(err.contains("--data, --distances, --contacts"), "{err}");
 }
+
+/// Numbers that do not mislead and exit codes scripts can rely on: a run stopped by the
+/// iteration cap exits 4; position-only data has no attitude error (JSON null, not 0); output
+/// piped into a closed reader ends quietly.
+#[test]
+fn exit_codes_and_absent_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "20",
+            "--seed",
+            "3",
+            "--perturb",
+            "p1=0.1",
+            "--position-only",
+            "--out",
+            "pos.csv",
+        ],
+    );
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "pos.csv",
+            "--estimate",
+            "p1,p2,p8",
+            "--max-iter",
+            "1",
+            "--report",
+            "r.json",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(4),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("NOT converged"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("iteration cap"));
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    assert_eq!(rep["converged"], false);
+    assert!(
+        rep["rms_orientation_after"].is_null(),
+        "{}",
+        rep["rms_orientation_after"]
+    );
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("attitude"));
+    // A closed pipe: no panic.
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("kinecal"))
+        .current_dir(d)
+        .args([
+            "analyze", "--robot", "ge-a4", "--data", "pos.csv", "--print", "jacobian",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(!err.contains("panicked"), "{err}");
+    assert_ne!(status.code(), Some(101));
+}

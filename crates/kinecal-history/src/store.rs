@@ -117,7 +117,7 @@ pub struct Calibration {
     pub rms_position_before: f64,
     /// RMS position error after.
     pub rms_position_after: f64,
-    /// RMS attitude error before.
+    /// RMS attitude error before (0 without full-pose observations).
     pub rms_orientation_before: f64,
     /// RMS attitude error after.
     pub rms_orientation_after: f64,
@@ -297,8 +297,8 @@ impl Database {
                 report.angle_unit,
                 report.rms_position_before,
                 report.rms_position_after,
-                report.rms_orientation_before,
-                report.rms_orientation_after,
+                report.rms_orientation_before.unwrap_or(0.0),
+                report.rms_orientation_after.unwrap_or(0.0),
                 note,
                 json
             ],

@@ -11,6 +11,16 @@ use kinecal::workflow::Outcome;
 use crate::chart::{render_svg, Line, Panel};
 use crate::DrawError;
 
+/// A number as a person reads it: six decimals, or four significant digits below 1e-5, where six
+/// decimals would keep fewer than two.
+fn num(v: f64) -> String {
+    if v != 0.0 && v.abs() < 1e-5 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.6}")
+    }
+}
+
 fn cap(s: &str) -> String {
     let mut c = s.chars();
     c.next()
@@ -111,23 +121,22 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         rows.push((format!("RMS {} error ({l})", b.metric), b.rms, af.rms));
         rows.push((format!("max {} error ({l})", b.metric), b.max, af.max));
     }
-    if ib.rms_orientation.is_some() {
-        rows.push((
-            format!("RMS attitude error ({a})"),
-            rep.rms_orientation_before,
-            rep.rms_orientation_after,
-        ));
-        rows.push((
-            format!("max attitude error ({a})"),
-            rep.max_orientation_before,
-            rep.max_orientation_after,
-        ));
+    if let (Some(rb), Some(ra), Some(mb), Some(ma)) = (
+        rep.rms_orientation_before,
+        rep.rms_orientation_after,
+        rep.max_orientation_before,
+        rep.max_orientation_after,
+    ) {
+        rows.push((format!("RMS attitude error ({a})"), rb, ra));
+        rows.push((format!("max attitude error ({a})"), mb, ma));
     }
     for (name, b, af) in rows {
         let _ = writeln!(
             h,
-            "<tr><td class=\"l\">{}</td><td>{b:.6e}</td><td>{af:.6e}</td></tr>",
-            esc(&name)
+            "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&name),
+            num(b),
+            num(af)
         );
     }
     let _ = writeln!(h, "</table>");

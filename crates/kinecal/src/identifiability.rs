@@ -98,6 +98,9 @@ pub struct Analysis {
     pub gap_rank: usize,
     /// The gap's size, `s[gap_rank - 1] / s[gap_rank]` (infinite for an exact zero).
     pub gap_ratio: f64,
+    /// Whether the rank from the tolerance and the largest gap agree (at full rank: no gap over
+    /// 1e3 elsewhere); a warning says so when not.
+    pub rank_consistent: bool,
     /// The thesis's count, when it applies to the analysed parameters.
     pub expected: Option<ExpectedRank>,
     /// Parameters with a zero column: no measurement feels them.
@@ -404,7 +407,10 @@ pub fn analyze(
         }
     }
     let mut warnings = Vec::new();
-    if rank < n && gap_rank != rank {
+    // The tolerance and the largest gap disagree: below full rank, whenever they differ; at
+    // full rank, when the spectrum has a clear gap (over 1e3) somewhere else.
+    let rank_consistent = gap_rank == rank || (rank == n && gap_ratio <= 1e3);
+    if !rank_consistent {
         warnings.push(Warning::UnclearRank {
             rank,
             rcond: opts.rcond,
@@ -588,6 +594,7 @@ pub fn analyze(
         rcond: opts.rcond,
         gap_rank,
         gap_ratio,
+        rank_consistent,
         unobservable,
         identical_groups,
         null_space,

@@ -255,8 +255,9 @@ pub struct PruneReport {
     pub full_objective_after: f64,
     /// The full fit's RMS position error after.
     pub full_rms_position_after: f64,
-    /// The full fit's RMS attitude error after.
-    pub full_rms_orientation_after: f64,
+    /// The full fit's RMS attitude error after (absent without full-pose observations).
+    #[serde(default)]
+    pub full_rms_orientation_after: Option<f64>,
 }
 
 /// The calibration report written by `kinecal calibrate --report`.
@@ -303,14 +304,19 @@ pub struct CalibrationReport {
     pub max_position_before: f64,
     /// Largest position error after.
     pub max_position_after: f64,
-    /// RMS attitude error (angle of `R_measured^T R_model`) before (angle unit).
-    pub rms_orientation_before: f64,
+    /// RMS attitude error (angle of `R_measured^T R_model`) before (angle unit; null without
+    /// full-pose observations).
+    #[serde(default)]
+    pub rms_orientation_before: Option<f64>,
     /// RMS attitude error after.
-    pub rms_orientation_after: f64,
+    #[serde(default)]
+    pub rms_orientation_after: Option<f64>,
     /// Largest attitude error before.
-    pub max_orientation_before: f64,
+    #[serde(default)]
+    pub max_orientation_before: Option<f64>,
     /// Largest attitude error after.
-    pub max_orientation_after: f64,
+    #[serde(default)]
+    pub max_orientation_after: Option<f64>,
     /// Every parameter of the model, in thesis order.
     pub parameters: Vec<ParameterReport>,
     /// Warnings, worded.
@@ -387,6 +393,7 @@ impl CalibrationReport {
             })
             .collect();
         let (b, a) = (&cal.accuracy_before, &cal.accuracy_after);
+        let poses = b.orientations > 0;
         CalibrationReport {
             robot: robot.name.clone(),
             length_unit: u.length.to_string(),
@@ -415,10 +422,10 @@ impl CalibrationReport {
             rms_position_after: len(a.rms_position),
             max_position_before: len(b.max_position),
             max_position_after: len(a.max_position),
-            rms_orientation_before: ang(b.rms_orientation),
-            rms_orientation_after: ang(a.rms_orientation),
-            max_orientation_before: ang(b.max_orientation),
-            max_orientation_after: ang(a.max_orientation),
+            rms_orientation_before: poses.then(|| ang(b.rms_orientation)),
+            rms_orientation_after: poses.then(|| ang(a.rms_orientation)),
+            max_orientation_before: poses.then(|| ang(b.max_orientation)),
+            max_orientation_after: poses.then(|| ang(a.max_orientation)),
             parameters,
             warnings: Vec::new(),
             warning_details: Vec::new(),
@@ -543,8 +550,8 @@ impl CalibrationReport {
             removed: removed.iter().map(ToString::to_string).collect(),
             full_objective_after: full.objective_after,
             full_rms_position_after: u.from_si(Quantity::Length, full.accuracy_after.rms_position),
-            full_rms_orientation_after: u
-                .from_si(Quantity::Angle, full.accuracy_after.rms_orientation),
+            full_rms_orientation_after: (full.accuracy_after.orientations > 0)
+                .then(|| u.from_si(Quantity::Angle, full.accuracy_after.rms_orientation)),
         });
     }
 

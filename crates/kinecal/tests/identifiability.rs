@@ -382,3 +382,46 @@ fn priority_and_tolerances_are_the_users_to_set() {
     let out = kinecal::robot_file::write_robot_toml(&r, Some(&text));
     assert!(out.contains("\"link3.y\" = 0.5"));
 }
+
+/// Full rank by the tolerance, but a clear gap in the spectrum before the last singular value:
+/// not "consistent", and a warning says so.
+#[test]
+fn a_full_rank_with_a_clear_gap_elsewhere_is_not_called_consistent() {
+    let mut robot = examples::ge_a4();
+    // Joint 1's axis tilted by 0.001 deg: link 2's z (along it) and link 1's z are nearly, not
+    // exactly, redundant.
+    robot.links[0].gamma = 1e-3f64.to_radians();
+    let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 3), false);
+    let a = analyze(
+        &robot,
+        &data,
+        &ids("p3,p8,p9,p14", &robot),
+        &AnalysisOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(a.rank, 4);
+    assert_eq!(a.gap_rank, 3);
+    assert!(a.gap_ratio > 1e3, "{}", a.gap_ratio);
+    assert!(!a.rank_consistent);
+    assert!(a.warnings.iter().any(|w| matches!(
+        w,
+        kinecal::Warning::UnclearRank {
+            rank: 4,
+            gap_rank: 3,
+            ..
+        }
+    )));
+    // A well-conditioned full-rank set is consistent.
+    let b = analyze(
+        &robot,
+        &data,
+        &ids("p1,p2,p8,p14", &robot),
+        &AnalysisOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        b.rank_consistent && b.warnings.is_empty(),
+        "{:?}",
+        b.warnings
+    );
+}

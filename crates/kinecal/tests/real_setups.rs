@@ -372,3 +372,28 @@ fn tool_points_anchored_by_one_precise_row_match_points_fixed_exactly() {
         ua.variance_factor
     );
 }
+
+/// Clean Gaussian data, with weights that overstate the position noise 40 times and the angle
+/// noise not at all (so a pooled robust scale would flag every second pose): at most 1 % of the
+/// observations are flagged at the default threshold, for 30 and for 1,000 postures.
+#[test]
+fn clean_gaussian_data_flags_at_most_one_percent() {
+    let nominal = kinecal::examples::ge_a4();
+    let mut truth = nominal.clone();
+    truth.set(ParamId(0), truth.get(ParamId(0)) + 0.05 * 0.0254);
+    for (postures, seed) in [(30, 7), (1000, 8)] {
+        let mut data = simulate::measure(
+            &truth,
+            &simulate::sample_postures(&nominal, postures, seed),
+            false,
+        );
+        simulate::add_noise(&mut data, 0.0005 * 0.0254, 0.005f64.to_radians(), seed);
+        let ids = kinecal::parse_param_list("p1,p2,p8,p14,offsets,slopes", &nominal).unwrap();
+        let cal = calibrate(&nominal, &data, &CalibrationOptions::new(ids), &mut |_| {}).unwrap();
+        let flagged = outliers(&cal, &data, kinecal::outliers::DEFAULT_SIGMAS).len();
+        assert!(
+            flagged as f64 <= 0.01 * postures as f64,
+            "{flagged} of {postures} flagged"
+        );
+    }
+}
