@@ -65,10 +65,9 @@ fn draw(path: &Path, panels: &[Panel], cols: usize) -> Result<()> {
     match out_kind(path)? {
         Out::Svg => write_file(path, &render_svg(panels, cols)?),
         Out::Png => {
-            // Render to a temporary file beside the target, then rename (no half-written file).
-            let tmp = path.with_extension("kinecal-tmp.png");
-            render_png(panels, cols, &tmp)?;
-            std::fs::rename(&tmp, path).map_err(|e| anyhow!("cannot write {}: {e}", path.display()))
+            let mut staged = crate::output::Staged::new();
+            staged.by_path(path, |tmp| Ok(render_png(panels, cols, tmp)?))?;
+            staged.commit()
         }
         Out::Csv => unreachable!("CSV is written by the caller"),
     }
@@ -173,6 +172,14 @@ fn pose(a: CurvesPoseArgs) -> Result<()> {
 }
 
 fn objective(a: CurvesObjectiveArgs) -> Result<()> {
+    let mut inputs: Vec<&Path> = a
+        .observations
+        .files
+        .iter()
+        .map(|(_, p)| p.as_path())
+        .collect();
+    inputs.push(Path::new(&a.robot));
+    crate::output::check_distinct(&[&a.sweep.out], &inputs)?;
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
     let (data, _) = load_observations(&a.observations, robot)?;
@@ -251,6 +258,18 @@ fn slope_joint(robot: &Robot, id: ParamId) -> usize {
 
 /// `kinecal report`.
 pub fn report(a: ReportArgs) -> Result<()> {
+    let mut inputs: Vec<&Path> = a
+        .observations
+        .files
+        .iter()
+        .map(|(_, p)| p.as_path())
+        .collect();
+    inputs.push(Path::new(&a.robot));
+    inputs.extend(a.calibration.as_deref());
+    if let Some(c) = &a.calibrated {
+        inputs.push(Path::new(c));
+    }
+    crate::output::check_distinct(&[&a.out], &inputs)?;
     let r = load_robot(&a.robot)?;
     let nominal = &r.robot;
     let (data, sources) = load_observations(&a.observations, nominal)?;

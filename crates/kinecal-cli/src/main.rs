@@ -6,9 +6,12 @@ mod args;
 mod curves;
 mod demo;
 mod history;
+mod output;
 mod report;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+pub use output::write_file;
 use std::process::ExitCode;
 
 use anyhow::{anyhow, bail, Context as _, Result};
@@ -143,24 +146,6 @@ pub fn load_robot(spec: &str) -> Result<LoadedRobot> {
     Ok(LoadedRobot { robot, source })
 }
 
-/// Writes `contents` to `path` atomically: a temporary file in the same directory, then a rename,
-/// so an interrupted run never leaves a half-written file in place of a good one.
-pub fn write_file(path: &Path, contents: &str) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .ok_or_else(|| anyhow!("{}: not a file path", path.display()))?;
-    let tmp: PathBuf = dir.join(format!(".{}.kinecal-tmp", name.to_string_lossy()));
-    std::fs::write(&tmp, contents).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| {
-        let _ = std::fs::remove_file(&tmp);
-        format!("cannot write {}", path.display())
-    })
-}
-
 /// Parses `key=value,...` with numbers, allowing only `keys`.
 fn parse_spec(option: &str, spec: &str, keys: &[&str]) -> Result<Vec<(String, f64)>> {
     let mut out = Vec::new();
@@ -263,6 +248,12 @@ pub fn residual_settings(a: &ResidualArgs, robot: &Robot) -> Result<(Weights, Or
 }
 
 fn import(c: ImportCommand) -> Result<()> {
+    let (input, output) = match &c {
+        ImportCommand::Poe(a) => (&a.file, &a.out),
+        ImportCommand::Urdf(a) => (&a.file, &a.out),
+        ImportCommand::Dh(a) => (&a.file, &a.out),
+    };
+    output::check_distinct(&[output], &[input])?;
     let (robot, out) = match c {
         ImportCommand::Poe(a) => {
             let s = Source::read(&a.file)?;
@@ -320,6 +311,7 @@ fn import(c: ImportCommand) -> Result<()> {
 }
 
 fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
+    output::check_distinct(&[&a.out], &[&a.template, Path::new(&a.robot)])?;
     let r = load_robot(&a.robot)?;
     let template = Source::read(&a.template)?;
     let (text, warnings) = kinecal::import::urdf::export_urdf(
@@ -338,6 +330,9 @@ fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
 }
 
 fn fk(a: FkArgs) -> Result<()> {
+    if let Some(out) = &a.out {
+        output::check_distinct(&[out], &[&a.postures, Path::new(&a.robot)])?;
+    }
     let r = load_robot(&a.robot)?;
     let s = Source::read(&a.postures)?;
     let postures = parse_postures(&s.text, &s.name, &r.robot)?;
@@ -358,6 +353,10 @@ fn fk(a: FkArgs) -> Result<()> {
 }
 
 fn simulate(a: SimulateArgs) -> Result<()> {
+    let outputs: Vec<&Path> = std::iter::once(a.out.as_path())
+        .chain(a.truth.as_deref())
+        .collect();
+    output::check_distinct(&outputs, &[Path::new(&a.robot)])?;
     let r = load_robot(&a.robot)?;
     let nominal = &r.robot;
     if a.postures == 0 {
@@ -405,7 +404,12 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         let an = units.to_si(Quantity::Angle, spec_value(&s, "angle").unwrap_or(0.0));
         simulate::add_noise(&mut data, l, an, a.seed);
     }
-    write_file(&a.out, &write_measurements(nominal, &data))?;
+    let mut staged = output::Staged::new();
+    staged.text(&a.out, &write_measurements(nominal, &data))?;
+    if let Some(path) = &a.truth {
+        staged.text(path, &write_robot_toml(&truth, Some(&r.source.text)))?;
+    }
+    staged.commit()?;
     eprintln!(
         "wrote {} measurements ({} postures) to {}",
         data.observations.len(),
@@ -413,7 +417,6 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         a.out.display()
     );
     if let Some(path) = &a.truth {
-        write_file(path, &write_robot_toml(&truth, Some(&r.source.text)))?;
         eprintln!("wrote the true robot to {}", path.display());
     }
     Ok(())
@@ -440,9 +443,11 @@ fn dataset(a: DatasetArgs) -> Result<()> {
     let converted = (adapter.convert)(&a.dir)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let mut staged = output::Staged::new();
     for (name, text) in &converted.files {
-        write_file(&a.out.join(name), text)?;
+        staged.text(&a.out.join(name), text)?;
     }
+    staged.commit()?;
     println!("{}", converted.summary);
     println!(
         "wrote {} to {}",
@@ -482,6 +487,26 @@ impl workflow::Progress for Verbose {
 }
 
 fn calibrate(a: CalibrateArgs) -> Result<u8> {
+    let outputs: Vec<&Path> = [&a.out, &a.report, &a.html]
+        .into_iter()
+        .flatten()
+        .map(|p| p.as_path())
+        .collect();
+    let mut inputs: Vec<&Path> = a
+        .observations
+        .files
+        .iter()
+        .map(|(_, p)| p.as_path())
+        .collect();
+    inputs.extend(a.validate.as_deref());
+    inputs.push(Path::new(&a.robot));
+    if let Some(i) = &a.initial {
+        inputs.push(Path::new(i));
+    }
+    if let Some(db) = &a.db {
+        inputs.push(db);
+    }
+    output::check_distinct(&outputs, &inputs)?;
     let r = load_robot(&a.robot)?;
     let robot = &r.robot;
     let (data, data_sources) = load_observations(&a.observations, robot)?;
@@ -579,30 +604,34 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
     for w in &outcome.warnings {
         eprintln!("warning: {}", word(w));
     }
-    // Everything is computed before anything is written.
-    let robot_out = a
-        .out
-        .as_ref()
-        .map(|_| write_robot_toml(&outcome.calibration.calibrated, Some(&r.source.text)));
-    let html = match &a.html {
-        Some(_) => Some(kinecal_report::html_report(&outcome)?),
-        None => None,
-    };
-    if let (Some(path), Some(text)) = (&a.out, &robot_out) {
-        write_file(path, text)?;
-        eprintln!("wrote the calibrated robot to {}", path.display());
+    // Everything is computed, and every output written beside its target, before anything is
+    // replaced; the history record is the last step that can fail.
+    let mut staged = output::Staged::new();
+    if let Some(path) = &a.out {
+        staged.text(
+            path,
+            &write_robot_toml(&outcome.calibration.calibrated, Some(&r.source.text)),
+        )?;
     }
     if let Some(path) = &a.report {
-        write_file(path, &(outcome.report.to_json() + "\n"))?;
-        eprintln!("wrote the report to {}", path.display());
+        staged.text(path, &(outcome.report.to_json() + "\n"))?;
     }
-    if let (Some(path), Some(text)) = (&a.html, &html) {
-        write_file(path, text)?;
-        eprintln!("wrote the HTML report to {}", path.display());
+    if let Some(path) = &a.html {
+        staged.text(path, &kinecal_report::html_report(&outcome)?)?;
     }
     if let (Some(serial), Some(db)) = (&a.record, &record_db) {
         let id = db.add(serial, record_at, &outcome.report, &a.note)?;
         eprintln!("recorded as calibration {id} of robot {serial}");
+    }
+    staged.commit()?;
+    for (path, what) in [
+        (&a.out, "the calibrated robot"),
+        (&a.report, "the report"),
+        (&a.html, "the HTML report"),
+    ] {
+        if let Some(p) = path {
+            eprintln!("wrote {what} to {}", p.display());
+        }
     }
     Ok(if outcome.calibration.converged() {
         0

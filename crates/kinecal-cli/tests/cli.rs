@@ -1662,3 +1662,112 @@ fn exit_codes_and_absent_figures() {
     assert!(!err.contains("panicked"), "{err}");
     assert_ne!(status.code(), Some(101));
 }
+
+/// Outputs never replace an input, follow a planted symlink, or land half-way: a run that fails
+/// at its last step leaves every earlier output as it was, and no temporary file behind.
+#[test]
+fn outputs_are_written_only_when_the_whole_run_succeeds() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "20",
+            "--seed",
+            "3",
+            "--out",
+            "d.csv",
+        ],
+    );
+    let data = std::fs::read(d.join("d.csv")).unwrap();
+    let err = run_err(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "d.csv",
+            "--out",
+            "d.csv",
+        ],
+    );
+    assert!(
+        err.contains("refusing to write an output over an input"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(d.join("d.csv")).unwrap(), data);
+    let err = run_err(
+        d,
+        &[
+            "fk",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "d.csv",
+            "--out",
+            "./d.csv",
+        ],
+    );
+    assert!(err.contains("over an input"), "{err}");
+    // An existing output stays as it was when a later output cannot be written.
+    std::fs::write(d.join("out.toml"), "keep me").unwrap();
+    std::fs::create_dir(d.join("rep.json")).unwrap();
+    let err = run_err(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "d.csv",
+            "--estimate",
+            "p1",
+            "--out",
+            "out.toml",
+            "--report",
+            "rep.json",
+        ],
+    );
+    assert!(err.contains("rep.json"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(d.join("out.toml")).unwrap(),
+        "keep me"
+    );
+    // A symlink planted where a temporary file would go is not followed.
+    let victim = d.join("victim.txt");
+    std::fs::write(&victim, "untouched").unwrap();
+    #[cfg(unix)]
+    for name in [".out.toml.kinecal-tmp", ".out.toml.kinecal-tmp.toml"] {
+        std::os::unix::fs::symlink(&victim, d.join(name)).unwrap();
+    }
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "d.csv",
+            "--estimate",
+            "p1",
+            "--out",
+            "out.toml",
+        ],
+    );
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "untouched");
+    assert!(std::fs::read_to_string(d.join("out.toml"))
+        .unwrap()
+        .contains("[[links]]"));
+    // No temporary file is left behind.
+    let left: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.contains("kinecal-tmp") && !n.starts_with(".out.toml.kinecal-tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
