@@ -107,14 +107,51 @@ impl<'t> Reader<'t> {
         Ok(())
     }
 
-    pub(crate) fn tables<'a>(&self, root: &'a Table, key: &str) -> Result<Vec<&'a Table>> {
+    /// The tables of `key`: an array of tables (`[[key]]`), or an inline array of inline tables
+    /// (`key = [{ ... }, { ... }]`, as some TOML writers produce).
+    pub(crate) fn tables<'a>(
+        &self,
+        root: &'a Table,
+        key: &str,
+    ) -> Result<Vec<std::borrow::Cow<'a, Table>>> {
+        use std::borrow::Cow;
         match root.get(key) {
             None => Ok(Vec::new()),
-            Some(Item::ArrayOfTables(a)) => Ok(a.iter().collect()),
+            Some(Item::ArrayOfTables(a)) => Ok(a.iter().map(Cow::Borrowed).collect()),
+            Some(Item::Value(Value::Array(arr))) => arr
+                .iter()
+                .map(|v| match v {
+                    Value::InlineTable(t) => Ok(Cow::Owned(t.clone().into_table())),
+                    other => Err(self.err(
+                        other.span(),
+                        key,
+                        format!("expected tables in `{key}`, e.g. [[{key}]] sections"),
+                    )),
+                })
+                .collect(),
             Some(other) => Err(self.err(
                 other.span(),
                 key,
-                format!("expected an array of tables written as [[{key}]]"),
+                format!("expected an array of tables, written as [[{key}]] sections"),
+            )),
+        }
+    }
+
+    /// The table of `key` (`[key]` or an inline `key = { ... }`), if present.
+    pub(crate) fn table<'a>(
+        &self,
+        root: &'a Table,
+        key: &str,
+    ) -> Result<Option<std::borrow::Cow<'a, Table>>> {
+        use std::borrow::Cow;
+        match root.get(key) {
+            None => Ok(None),
+            Some(Item::Table(t)) => Ok(Some(Cow::Borrowed(t))),
+            Some(Item::Value(Value::InlineTable(t))) => Ok(Some(Cow::Owned(t.clone().into_table()))),
+            Some(other) => Err(self.err(
+                other.span(),
+                key,
+                format!("expected a table, written as [{key}]"),
             )),
         }
     }
@@ -264,7 +301,8 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         .collect::<Result<Vec<_>>>()?;
 
     let mut joints = Vec::new();
-    for (i, t) in r.tables(root, "joints")?.into_iter().enumerate() {
+    for (i, t) in r.tables(root, "joints")?.iter().enumerate() {
+        let t: &Table = t;
         let what = format!("joints[{i}]");
         r.check_keys(
             t,
@@ -325,7 +363,8 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     }
 
     let mut sites = Vec::new();
-    for (i, t) in r.tables(root, "sites")?.into_iter().enumerate() {
+    for (i, t) in r.tables(root, "sites")?.iter().enumerate() {
+        let t: &Table = t;
         let what = format!("sites[{i}]");
         let frame = r.link(t, &what, &units, &["name", "joint"])?;
         let name_field = format!("{what}.name");
@@ -348,7 +387,8 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     }
 
     let mut planes = Vec::new();
-    for (i, t) in r.tables(root, "planes")?.into_iter().enumerate() {
+    for (i, t) in r.tables(root, "planes")?.iter().enumerate() {
+        let t: &Table = t;
         let what = format!("planes[{i}]");
         r.check_keys(t, &["name", "normal", "offset"], &what)?;
         let name_field = format!("{what}.name");
@@ -394,12 +434,12 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     robot
         .validate()
         .map_err(|m| Error::input(Location::file(file), m))?;
-    match root.get("tolerances") {
+    match r.table(root, "tolerances")? {
         None => {}
-        Some(Item::Table(t)) => {
+        Some(t) => {
             for (key, item) in t.iter() {
                 let field = format!("tolerances.{key}");
-                let v = r.number(t, key, &field)?.expect("key exists");
+                let v = r.number(&t, key, &field)?.expect("key exists");
                 if v <= 0.0 {
                     return Err(r.err(item.span(), &field, "a tolerance must be positive"));
                 }
@@ -420,9 +460,6 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                     }
                 }
             }
-        }
-        Some(other) => {
-            return Err(r.err(other.span(), "tolerances", "expected a [tolerances] table"))
         }
     }
     Ok(robot)

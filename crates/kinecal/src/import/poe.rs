@@ -125,7 +125,8 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
     let mut axes = Vec::new();
     let mut extra = Vec::new();
     let mut couplings = Vec::new();
-    for (i, t) in r.tables(root, "joints")?.into_iter().enumerate() {
+    for (i, t) in r.tables(root, "joints")?.iter().enumerate() {
+        let t: &Table = t;
         let what = format!("joints[{i}]");
         r.check_keys(
             t,
@@ -188,10 +189,10 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
         return Err(Error::input(Location::file(file), "no [[joints]]"));
     }
     let frames = joint_frames(&axes);
-    let tool = match root.get("tool").and_then(toml_edit::Item::as_table) {
+    let tool = match r.table(root, "tool")? {
         Some(t) => {
-            r.check_keys(t, &["position", "euler"], "tool")?;
-            frame_at(&r, t, "tool", &units)?
+            r.check_keys(&t, &["position", "euler"], "tool")?;
+            frame_at(&r, &t, "tool", &units)?
         }
         None => {
             return Err(r.err(
@@ -216,7 +217,8 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
     for (j, c) in robot.joints.iter_mut().zip(couplings) {
         j.coupling = c;
     }
-    for (i, t) in r.tables(root, "sites")?.into_iter().enumerate() {
+    for (i, t) in r.tables(root, "sites")?.iter().enumerate() {
+        let t: &Table = t;
         let what = format!("sites[{i}]");
         r.check_keys(t, &["name", "joint", "position", "euler"], &what)?;
         let name = r
