@@ -147,7 +147,9 @@ impl<'t> Reader<'t> {
         match root.get(key) {
             None => Ok(None),
             Some(Item::Table(t)) => Ok(Some(Cow::Borrowed(t))),
-            Some(Item::Value(Value::InlineTable(t))) => Ok(Some(Cow::Owned(t.clone().into_table()))),
+            Some(Item::Value(Value::InlineTable(t))) => {
+                Ok(Some(Cow::Owned(t.clone().into_table())))
+            }
             Some(other) => Err(self.err(
                 other.span(),
                 key,
@@ -465,16 +467,8 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     Ok(robot)
 }
 
-/// Rounds to 12 significant digits so written files do not show float noise.
-fn tidy(v: f64) -> f64 {
-    if v == 0.0 || !v.is_finite() {
-        return if v == 0.0 { 0.0 } else { v };
-    }
-    format!("{v:.11e}").parse().unwrap_or(v)
-}
-
 fn set_number(table: &mut Table, key: &str, v: f64) {
-    let mut new = Value::from(tidy(v));
+    let mut new = Value::from(crate::units::tidy(v));
     if let Some(old) = table.get(key).and_then(Item::as_value) {
         *new.decor_mut() = old.decor().clone();
     }
@@ -544,7 +538,7 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
         }
         match j.coupling {
             Some(c) => {
-                let factor = tidy(units.from_si(j.kind.slope(), c.factor));
+                let factor = crate::units::tidy(units.from_si(j.kind.slope(), c.factor));
                 match t.get_mut("coupling").and_then(Item::as_table_like_mut) {
                     Some(ct) => {
                         let mut joint = Value::from(c.joint as i64 + 1);
@@ -590,7 +584,7 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
             let n = p.normal();
             let mut arr = toml_edit::Array::new();
             for k in 0..3 {
-                arr.push(tidy(n[k]));
+                arr.push(crate::units::tidy(n[k]));
             }
             let mut v = Value::Array(arr);
             if let Some(old) = t.get("normal").and_then(Item::as_value) {

@@ -166,6 +166,23 @@ impl Units {
     }
 }
 
+/// A number as kinecal writes it into files (in the file's units): 0 for float noise below
+/// 1e-12 (a computed `beta` of 1e-34), the value to 15 significant digits when that is within 4
+/// units in the last place of it (an estimate of 15.28 that came out as 15.279999999999998
+/// after unit conversions), else the value itself, written in the shortest form that reads back
+/// exactly. A robot written and read back is the same to 1e-15.
+pub fn tidy(v: f64) -> f64 {
+    if v.abs() < 1e-12 || !v.is_finite() {
+        return if v.is_finite() { 0.0 } else { v };
+    }
+    let short: f64 = format!("{v:.14e}").parse().unwrap_or(v);
+    if (short - v).abs() <= 4.0 * f64::EPSILON * v.abs() {
+        short
+    } else {
+        v
+    }
+}
+
 /// Wraps an angle in radians into (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::PI;

@@ -7,8 +7,12 @@ use kinecal::observe::point::parse_measurements;
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 
 fn fixture(name: &str) -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name))
-        .unwrap()
+    std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures")
+            .join(name),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -28,7 +32,10 @@ fn robot_files_from_python_toml_writers_load() {
     // A mistake inside an inline table still names its field and line.
     let bad = fixture("ge_a4_tomli_w.toml").replace("slope = 7.2", "slope = \"fast\"");
     let e = parse_robot_toml(&bad, "b.toml").unwrap_err().to_string();
-    assert!(e.contains("b.toml:") && e.contains("joints[0].slope"), "{e}");
+    assert!(
+        e.contains("b.toml:") && e.contains("joints[0].slope"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -40,4 +47,45 @@ fn measurement_files_from_python_csv_writers_load() {
     assert_eq!(plain.observations.len(), 10);
     assert_eq!(plain, quoted);
     assert_eq!(plain.observations[9].line(), 11);
+}
+
+/// Files kinecal writes carry no float noise: exact zeros are 0, other values read back to the
+/// same robot (to 1e-15), whatever the units.
+#[test]
+fn written_robots_read_back_the_same_without_float_noise() {
+    use kinecal::simulate;
+    let kinds = [kinecal::JointKind::Revolute; 6];
+    for (k, (length, angle)) in [
+        (kinecal::LengthUnit::M, kinecal::AngleUnit::Rad),
+        (kinecal::LengthUnit::Mm, kinecal::AngleUnit::Deg),
+        (kinecal::LengthUnit::In, kinecal::AngleUnit::Deg),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut r = simulate::random_robot(&kinds, 70 + k as u64);
+        r.units = kinecal::Units { length, angle };
+        r.links[2].beta = 0.0;
+        r.links[3].y = 0.0;
+        let text = write_robot_toml(&r, None);
+        let back = parse_robot_toml(&text, "r.toml").unwrap();
+        for id in r.param_ids() {
+            let (a, b) = (r.get(id), back.get(id));
+            assert!(
+                (a - b).abs() <= 1e-15 * a.abs().max(1.0),
+                "{id}: {a} vs {b}"
+            );
+        }
+        assert!(text.contains("beta = 0.0\n"), "{text}");
+        // No value is written as float noise (tiny exponents).
+        assert!(
+            !text.contains("e-1") && !text.contains("e-2") && !text.contains("e-3"),
+            "{text}"
+        );
+    }
+    // The poses `fk` writes: an exact 0 angle is 0, not 6.6e-15.
+    let a4 = kinecal::examples::ge_a4();
+    let data = simulate::measure(&a4, &simulate::sample_postures(&a4, 5, 1), false);
+    let csv = kinecal::observe::point::write_measurements(&a4, &data);
+    assert!(!csv.contains("e-"), "{csv}");
 }

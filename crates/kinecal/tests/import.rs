@@ -177,6 +177,7 @@ euler = [10, 20, -30]
 [[sites]]
 name = "smr1"
 position = [-150, 450, 800]
+euler = [0, 0, 0]
 [[sites]]
 name = "wrist"
 joint = 4
@@ -188,6 +189,22 @@ euler = [0, 90, 0]
     // Common-normal frames keep every link away from beta = +-90 deg.
     for l in &robot.links[1..robot.dof()] {
         assert!(l.beta.abs() < 1e-9, "beta {}", l.beta);
+    }
+    // A tool or a site given without angles takes its joint's frame: angles exactly 0 (no
+    // beta = -90 deg where the last axis is along x), position unchanged.
+    let bare = text
+        .replace("euler = [10, 20, -30]\n", "")
+        .replacen("euler = [0, 0, 0]\n", "", 1);
+    let b = parse_poe_toml(&bare, "bare.toml").unwrap();
+    let last = b.links.last().unwrap();
+    assert_eq!((last.alpha, last.beta, last.gamma), (0.0, 0.0, 0.0));
+    let s0 = &b.sites[0].frame;
+    assert_eq!((s0.alpha, s0.beta, s0.gamma), (0.0, 0.0, 0.0));
+    let v = [10.0, -20.0, 30.0, 40.0, -50.0, 60.0];
+    let (c1, c2) = (kinecal::Chain::new(&robot), kinecal::Chain::new(&b));
+    for t in [Target::EndEffector, Target::Site(0)] {
+        let d = c1.frame_at(&v, t).translation - c2.frame_at(&v, t).translation;
+        assert!(d.norm() < 1e-12);
     }
     let mm = 1e-3;
     let axes: Vec<(Vector3<f64>, Vector3<f64>, bool, f64)> = vec![

@@ -24,16 +24,18 @@ pub fn inverse(f: &Frame) -> Frame {
     }
 }
 
-/// The six link parameters of a frame (m, rad).
+/// The six link parameters of a frame (m, rad). Components within rounding noise of zero (below
+/// 1e-13 m or rad) are written as exact zeros, not as float noise.
 pub fn link_of(f: &Frame) -> Link {
     let e = euler_zyx(&f.rotation);
+    let snap = |v: f64| if v.abs() < 1e-13 { 0.0 } else { v };
     Link {
-        x: f.translation.x,
-        y: f.translation.y,
-        z: f.translation.z,
-        alpha: e.x,
-        beta: e.y,
-        gamma: e.z,
+        x: snap(f.translation.x),
+        y: snap(f.translation.y),
+        z: snap(f.translation.z),
+        alpha: snap(e.x),
+        beta: snap(e.y),
+        gamma: snap(e.z),
     }
 }
 

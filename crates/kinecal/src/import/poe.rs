@@ -16,18 +16,20 @@
 //! coupling = { joint = 2, factor = 1 }  # optional: the joint value also adds factor * V2
 //! [tool]                       # the tool frame M at the zero configuration
 //! position = [-240, 410, 841]
-//! euler = [0, 0, 0]            # ZYX alpha, beta, gamma; default 0
+//! euler = [0, 0, 0]            # ZYX alpha, beta, gamma; default: the last joint frame's
 //! [[sites]]                    # optional measured frames, rigidly attached after `joint`
 //! name = "smr1"
 //! joint = 6                    # default: the last joint
 //! position = [-100, 400, 900]  # at the zero configuration, global frame
-//! euler = [0, 0, 0]            # optional
+//! euler = [0, 0, 0]            # optional; default: the frame of its joint
 //! ```
 //!
 //! Joint frames are placed on the axes with local z along the axis, the x axis along the common
 //! normal with the previous joint's z (for parallel axes, the previous x), and the origin at the
-//! foot of that common normal. This keeps every link's beta at 0, away from the Euler
-//! singularity at +-90 deg, and gives link lengths their physical meaning. Readings are the joint
+//! foot of that common normal. This keeps every interior link's beta at 0, away from the Euler
+//! singularity at +-90 deg, and gives link lengths their physical meaning. The tool and the
+//! sites take the orientation of the joint frame they follow unless `euler` is given, so their
+//! angles are 0 too; given angles are the user's, whatever their beta. Readings are the joint
 //! values minus `offset` (slope 1 in the file's units).
 
 use nalgebra::Vector3;
@@ -82,7 +84,15 @@ pub fn joint_frames(axes: &[(JointKind, Vector3<f64>, Vector3<f64>)]) -> Vec<Fra
     out
 }
 
-fn frame_at(r: &Reader<'_>, t: &Table, what: &str, units: &Units) -> Result<Frame> {
+/// The frame at `position` with ZYX `euler` angles; without `euler`, oriented as `default` (the
+/// frame of the joint it follows, so that its link's angles are 0, away from +-90 deg).
+fn frame_at(
+    r: &Reader<'_>,
+    t: &Table,
+    what: &str,
+    units: &Units,
+    default: &nalgebra::Matrix3<f64>,
+) -> Result<Frame> {
     let p = r
         .vec3(t, "position", &format!("{what}.position"))?
         .ok_or_else(|| {
@@ -92,12 +102,13 @@ fn frame_at(r: &Reader<'_>, t: &Table, what: &str, units: &Units) -> Result<Fram
                 "missing `position = [x, y, z]`",
             )
         })?;
-    let e = r
-        .vec3(t, "euler", &format!("{what}.euler"))?
-        .unwrap_or([0.0; 3]);
     let a = |v: f64| units.to_si(Quantity::Angle, v);
+    let rotation = match r.vec3(t, "euler", &format!("{what}.euler"))? {
+        Some(e) => rot_zyx(a(e[0]), a(e[1]), a(e[2])),
+        None => *default,
+    };
     Ok(Frame {
-        rotation: rot_zyx(a(e[0]), a(e[1]), a(e[2])),
+        rotation,
         translation: Vector3::from(p.map(|v| units.to_si(Quantity::Length, v))),
     })
 }
@@ -192,7 +203,8 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
     let tool = match r.table(root, "tool")? {
         Some(t) => {
             r.check_keys(&t, &["position", "euler"], "tool")?;
-            frame_at(&r, &t, "tool", &units)?
+            let last = frames.last().expect("at least one joint").rotation;
+            frame_at(&r, &t, "tool", &units, &last)?
         }
         None => {
             return Err(r.err(
@@ -238,7 +250,7 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
                 }
             },
         };
-        let global = frame_at(&r, t, &what, &units)?;
+        let global = frame_at(&r, t, &what, &units, &frames[joint - 1].rotation)?;
         robot.sites.push(Site {
             name,
             joint,

@@ -26,7 +26,7 @@ use crate::kinematics::{
     euler_rates, euler_zyx, log_so3, rot_zyx, so3_right_jacobian_inverse, Frame, Target,
 };
 use crate::robot::Robot;
-use crate::units::{wrap_angle, Quantity};
+use crate::units::{tidy, wrap_angle, Quantity};
 
 const POSE_ROWS: &[Row] = &[
     Row {
