@@ -1339,10 +1339,13 @@ fn curves_and_html_report() {
             "o.csv",
         ],
     );
-    assert!(
-        text.contains("local minimum at 9.000000 deg/unit: objective 0.000000e0"),
-        "{text}"
-    );
+    // At the true value the objective is zero (to the rounding of the file's numbers).
+    let at_9 = text
+        .lines()
+        .find(|l| l.contains("local minimum at 9.000000 deg/unit: objective"))
+        .unwrap_or_else(|| panic!("{text}"));
+    let objective: f64 = at_9.rsplit(' ').next().unwrap().parse().unwrap();
+    assert!(objective < 1e-20, "{at_9}");
     assert!(text.contains("not convex"), "{text}");
     assert!(
         text.contains("1: 31.080") && text.contains("2: 69.82"),

@@ -183,6 +183,16 @@ pub fn tidy(v: f64) -> f64 {
     }
 }
 
+/// A measured or computed value as kinecal writes it into data files: float noise below 1e-12
+/// (in the file's unit) as 0, any other value exactly (shortest form that reads back the same).
+pub fn snap(v: f64) -> f64 {
+    if v.abs() < 1e-12 {
+        0.0
+    } else {
+        v
+    }
+}
+
 /// Wraps an angle in radians into (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::PI;

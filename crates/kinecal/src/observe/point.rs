@@ -26,7 +26,7 @@ use crate::kinematics::{
     euler_rates, euler_zyx, log_so3, rot_zyx, so3_right_jacobian_inverse, Frame, Target,
 };
 use crate::robot::Robot;
-use crate::units::{tidy, wrap_angle, Quantity};
+use crate::units::{snap, wrap_angle, Quantity};
 
 const POSE_ROWS: &[Row] = &[
     Row {
@@ -766,8 +766,8 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
         out.push_str(",sigma_position,sigma_angle");
     }
     out.push('\n');
-    let len = |v: f64| units.from_si(Quantity::Length, v);
-    let ang = |v: f64| units.from_si(Quantity::Angle, v);
+    let len = |v: f64| snap(units.from_si(Quantity::Length, v));
+    let ang = |v: f64| snap(units.from_si(Quantity::Angle, v));
     let opt =
         |v: Option<f64>, f: &dyn Fn(f64) -> f64| v.map_or(String::new(), |v| f(v).to_string());
     for o in &data.observations {
