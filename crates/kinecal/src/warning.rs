@@ -95,8 +95,12 @@ pub enum Warning {
         /// The other joint (1-based).
         other: usize,
     },
-    /// URDF export: the tool frame could not be written.
-    UrdfToolDropped,
+    /// URDF export: the tip hung off the last movable joint; a fixed joint and a link that is
+    /// the calibrated tool frame were added.
+    UrdfToolAdded {
+        /// The new link's name.
+        link: String,
+    },
 }
 
 impl std::fmt::Display for Warning {
@@ -177,10 +181,10 @@ impl std::fmt::Display for Warning {
                 "joint {joint} (`{name}`) is coupled to joint {other}: the URDF joint's value is \
                  the sum of the two readings (as controller drivers for coupled arms publish it)"
             ),
-            Warning::UrdfToolDropped => write!(
+            Warning::UrdfToolAdded { link } => write!(
                 f,
                 "the tip link is the child of the last movable joint: the calibrated tool frame \
-                 cannot be written (add a fixed tool joint to the URDF)"
+                 is the added link `{link}` (fixed joint `{link}_joint`)"
             ),
         }
     }

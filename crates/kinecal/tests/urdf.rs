@@ -294,3 +294,98 @@ fn coupled_joints_export_where_exact_and_are_refused_otherwise() {
         "{e}"
     );
 }
+
+/// URDFs as people keep them: a commented-out joint before the real one, a transmission naming
+/// the joint, a tip that hangs off the last movable joint. Export touches only the real
+/// elements, adds the tool joint it needs, and the result is the calibrated robot.
+#[test]
+fn export_finds_real_elements_and_adds_the_tool_joint() {
+    let template = r#"<?xml version="1.0"?>
+<robot name="arm">
+  <!-- An old version of the first joint, kept for reference:
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="9 9 9" rpy="0 0 0"/><axis xyz="0 0 1"/></joint> -->
+  <link name="base"/><link name="l1"/><link name="l2"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/>
+    <axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+  </joint>
+  <joint name="j2" type="revolute">
+    <parent link="l1"/><child link="l2"/>
+    <origin xyz="0.4 0 0" rpy="0 0 0"/>
+    <axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/>
+  </joint>
+  <transmission name="t1"><joint name="j1"><hardwareInterface>E</hardwareInterface></joint></transmission>
+</robot>
+"#;
+    let nominal = import_urdf(template, "arm.urdf", Some("base"), Some("l2"))
+        .unwrap()
+        .robot;
+    let mut cal = nominal.clone();
+    cal.links[0].x += 0.002;
+    cal.links[1].y -= 0.001;
+    cal.links[2].z += 0.05; // a tool 5 cm beyond the last joint: the URDF has no place for it
+    cal.links[2].alpha += 0.1;
+    let (text, warnings) =
+        export_urdf(&cal, template, "arm.urdf", Some("base"), Some("l2")).unwrap();
+    assert!(
+        warnings.iter().any(
+            |w| matches!(w, kinecal::Warning::UrdfToolAdded { link } if link == "l2_calibrated")
+        ),
+        "{warnings:?}"
+    );
+    // The comment and the transmission are untouched.
+    assert!(text.contains(r#"<origin xyz="9 9 9" rpy="0 0 0"/><axis xyz="0 0 1"/></joint> -->"#));
+    assert!(text.contains(r#"<transmission name="t1"><joint name="j1"><hardwareInterface>E"#));
+    let again = import_urdf(&text, "new.urdf", Some("base"), Some("l2_calibrated"))
+        .unwrap()
+        .robot;
+    let (c1, c2) = (kinecal::Chain::new(&cal), kinecal::Chain::new(&again));
+    for q in [[0.0, 0.0], [0.5, -1.0], [2.0, 1.5]] {
+        let (a, b) = (
+            c1.frame_at(&q, Target::EndEffector),
+            c2.frame_at(&q, Target::EndEffector),
+        );
+        assert!((a.translation - b.translation).norm() < 1e-9, "{q:?}");
+        assert!((a.rotation - b.rotation).norm() < 1e-9);
+    }
+}
+
+/// Numbers a URDF cannot mean, and XML nobody should parse, are refused by line and joint.
+#[test]
+fn impossible_urdfs_are_refused_with_their_line() {
+    let base = "<robot name=\"r\">\n  <link name=\"a\"/><link name=\"b\"/>\n  <joint name=\"j\" type=\"revolute\">\n    <parent link=\"a\"/><child link=\"b\"/>\n    <origin xyz=\"0 0 1\" rpy=\"0 0 0\"/>\n    <axis xyz=\"0 0 1\"/>\n    <limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/>\n  </joint>\n</robot>\n";
+    assert!(import_urdf(base, "ok.urdf", None, None).is_ok());
+    for (text, expect) in [
+        (
+            base.replace("xyz=\"0 0 1\"", "xyz=\"0 0 1e400\""),
+            "ok.urdf:3: field `joint `j` origin xyz`",
+        ),
+        (
+            base.replace("axis xyz=\"0 0 1\"", "axis xyz=\"0 nan 0\""),
+            "joint `j` axis xyz",
+        ),
+        (
+            base.replace("upper=\"1\"", "upper=\"inf\""),
+            "joint `j` limit upper",
+        ),
+        (base.replace("</joint>", ""), "ok.urdf:9: not well-formed"),
+        (
+            format!(
+                "<robot name=\"r\">{}{}</robot>",
+                "<x>".repeat(20_000),
+                "</x>".repeat(20_000)
+            ),
+            "nested deeper than 256",
+        ),
+    ] {
+        let e = import_urdf(&text, "ok.urdf", None, None)
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {expect}"))
+            .to_string();
+        assert!(e.contains(expect), "expected `{expect}` in {e}");
+    }
+}

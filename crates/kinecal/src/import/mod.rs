@@ -8,6 +8,7 @@
 pub mod dh;
 pub mod poe;
 pub mod urdf;
+pub mod xml;
 
 use nalgebra::{Matrix3, Vector3};
 

@@ -45,6 +45,8 @@ pub struct UrdfChain {
     pub axis_frames: Vec<Matrix3<f64>>,
     /// Origin of every chain joint as in the file.
     pub origins: Vec<Frame>,
+    /// The tip link.
+    pub tip: String,
 }
 
 /// A joint whose origin export rewrites: (joint name, new origin, origin in the template).
@@ -71,8 +73,38 @@ pub fn import_urdf(
     base: Option<&str>,
     tip: Option<&str>,
 ) -> Result<UrdfImport> {
+    let index = super::xml::scan(text, file)?;
     let urdf =
         urdf_rs::read_from_string(text).map_err(|e| err(file, format!("not a valid URDF: {e}")))?;
+    // Every number of every joint is finite and of a plausible size (a metre is a metre).
+    for j in &urdf.joints {
+        let line = index.joint(&j.name).map(|s| s.line);
+        let bad = |field: &str, what: String| {
+            let mut at = Location::file(file).with_field(format!("joint `{}` {field}", j.name));
+            at.line = line;
+            Error::input(at, what)
+        };
+        for (field, v) in [
+            ("origin xyz", j.origin.xyz.0),
+            ("origin rpy", j.origin.rpy.0),
+            ("axis xyz", j.axis.xyz.0),
+        ] {
+            if let Some(x) = v.iter().find(|x| !x.is_finite() || x.abs() > 1e6) {
+                return Err(bad(
+                    field,
+                    format!("{x} is not a finite number of plausible size (|x| <= 1e6)"),
+                ));
+            }
+        }
+        for (field, v) in [
+            ("limit lower", j.limit.lower),
+            ("limit upper", j.limit.upper),
+        ] {
+            if !v.is_finite() {
+                return Err(bad(field, format!("{v} is not a finite number")));
+            }
+        }
+    }
     let links: Vec<&str> = urdf.links.iter().map(|l| l.name.as_str()).collect();
     let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
     for j in &urdf.joints {
@@ -236,14 +268,15 @@ pub fn import_urdf(
             movable,
             axis_frames,
             origins,
+            tip: tip.to_string(),
         },
     })
 }
 
 /// The new origins (by joint name) that make `chain`'s URDF reproduce `robot`'s forward
-/// kinematics, and warnings for what a URDF cannot express (slopes other than 1, a tool
-/// correction with no fixed joint after the last movable one).
-pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin>, Vec<Warning>)> {
+/// kinematics, the tool joint to add when the tip hangs off the last movable joint, and
+/// warnings for what a URDF cannot express (slopes other than 1).
+pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
     if robot.dof() != chain.movable.len() {
         return Err(Error::Problem(format!(
             "the robot has {} joints but the URDF chain has {} movable joints",
@@ -332,6 +365,7 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin
     }
     // The tool: W_n * F_after must equal the calibrated end-effector frame.
     let needed = inverse(&prev_w).then(&ee);
+    let mut tool = None;
     match tool_joint {
         Some(t) => {
             // F_after = O_t * rest; replace O_t so that O_t' * rest = needed.
@@ -339,13 +373,31 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<(Vec<NewOrigin
             out[t].1 = needed.then(&inverse(&rest));
         }
         None => {
+            // The tip hangs off the last movable joint: a fixed joint carries the correction.
             let d = needed.translation.norm() + crate::kinematics::log_so3(&needed.rotation).norm();
             if d > 1e-12 {
-                warnings.push(Warning::UrdfToolDropped);
+                tool = Some(needed);
             }
         }
     }
-    Ok((out, warnings))
+    Ok(Exported {
+        origins: out,
+        tool,
+        warnings,
+    })
+}
+
+/// What a calibrated robot changes in its URDF.
+#[derive(Debug, Clone)]
+pub struct Exported {
+    /// Joints whose origin is rewritten.
+    pub origins: Vec<NewOrigin>,
+    /// When the tip link is the child of the last movable joint and the calibrated tool frame
+    /// differs from it: the origin of a fixed joint from the tip to a new link that is the
+    /// calibrated tool frame.
+    pub tool: Option<Frame>,
+    /// What the URDF cannot express.
+    pub warnings: Vec<Warning>,
 }
 
 fn fmt_num(v: f64) -> String {
@@ -378,7 +430,9 @@ fn rpy_near(r: &Matrix3<f64>, near: &Matrix3<f64>) -> [f64; 3] {
 /// Rewrites the `<origin>` of the named joints in URDF `text`, keeping everything else. Each
 /// entry is (joint name, new origin, old origin).
 pub fn rewrite_origins(text: &str, file: &str, origins: &[NewOrigin]) -> Result<String> {
-    let mut out = text.to_string();
+    let index = super::xml::scan(text, file)?;
+    // (start, end, replacement), applied from the end of the text so spans stay valid.
+    let mut edits: Vec<(usize, usize, String)> = Vec::new();
     for (name, f, old) in origins {
         let [roll, pitch, yaw] = rpy_near(&f.rotation, &old.rotation);
         let xyz = format!(
@@ -389,59 +443,31 @@ pub fn rewrite_origins(text: &str, file: &str, origins: &[NewOrigin]) -> Result<
         );
         let rpy = format!("{} {} {}", fmt_num(roll), fmt_num(pitch), fmt_num(yaw));
         let new_origin = format!("<origin xyz=\"{xyz}\" rpy=\"{rpy}\"/>");
-        // The joint element: `<joint` ... name="NAME" ... `</joint>` (or a self-closing tag).
-        let start = find_joint(&out, name)
+        let joint = index
+            .joint(name)
             .ok_or_else(|| err(file, format!("joint `{name}` not found in the template")))?;
-        let end = out[start..]
-            .find("</joint>")
-            .map(|e| start + e)
-            .ok_or_else(|| err(file, format!("joint `{name}` has no </joint>")))?;
-        let body = &out[start..end];
-        match body.find("<origin") {
-            Some(o) => {
-                let os = start + o;
-                let close = out[os..]
-                    .find('>')
-                    .map(|c| os + c + 1)
-                    .ok_or_else(|| err(file, "unterminated <origin>"))?;
-                let close = if out[os..close].ends_with("/>") {
-                    close
-                } else {
-                    out[close..]
-                        .find("</origin>")
-                        .map(|c| close + c + "</origin>".len())
-                        .unwrap_or(close)
-                };
-                out.replace_range(os..close, &new_origin);
-            }
-            None => {
-                let tag_end = out[start..]
-                    .find('>')
-                    .map(|c| start + c + 1)
-                    .ok_or_else(|| err(file, "unterminated <joint>"))?;
-                out.insert_str(tag_end, &format!("\n    {new_origin}"));
-            }
+        match joint.origin {
+            Some((s, e)) => edits.push((s, e, new_origin)),
+            None => edits.push((
+                joint.after_open,
+                joint.after_open,
+                format!("\n    {new_origin}"),
+            )),
         }
+    }
+    edits.sort_by_key(|e| std::cmp::Reverse(e.0));
+    let mut out = text.to_string();
+    for (s, e, r) in edits {
+        out.replace_range(s..e, &r);
     }
     Ok(out)
 }
 
-fn find_joint(text: &str, name: &str) -> Option<usize> {
-    let mut from = 0;
-    while let Some(p) = text[from..].find("<joint") {
-        let s = from + p;
-        let tag_end = text[s..].find('>').map(|e| s + e)?;
-        let tag = &text[s..tag_end];
-        if tag.contains(&format!("name=\"{name}\"")) || tag.contains(&format!("name='{name}'")) {
-            return Some(s);
-        }
-        from = tag_end;
-    }
-    None
-}
-
 /// Writes `robot` (calibrated) into the URDF `template`: the chain from `base` to `tip` is
-/// re-imported from the template to know its structure. Returns the new text and warnings.
+/// re-imported from the template to know its structure. Only origins change, except when the
+/// tip link is the child of the last movable joint: then a fixed joint `<tip>_calibrated_joint`
+/// and a link `<tip>_calibrated` are added after the tip, and that new link is the calibrated
+/// tool frame (a warning names it). Returns the new text and warnings.
 pub fn export_urdf(
     robot: &Robot,
     template: &str,
@@ -450,6 +476,28 @@ pub fn export_urdf(
     tip: Option<&str>,
 ) -> Result<(String, Vec<Warning>)> {
     let imported = import_urdf(template, file, base, tip)?;
-    let (origins, warnings) = export_origins(robot, &imported.chain)?;
-    Ok((rewrite_origins(template, file, &origins)?, warnings))
+    let mut e = export_origins(robot, &imported.chain)?;
+    let mut text = rewrite_origins(template, file, &e.origins)?;
+    if let Some(tool) = e.tool {
+        let tip = &imported.chain.tip;
+        let link = format!("{tip}_calibrated");
+        let [roll, pitch, yaw] = rpy_near(&tool.rotation, &Matrix3::identity());
+        let block = format!(
+            "  <!-- Added by kinecal export: the calibrated tool frame. -->\n  <link name=\"{link}\"/>\n  \
+             <joint name=\"{link}_joint\" type=\"fixed\">\n    <parent link=\"{tip}\"/>\n    \
+             <child link=\"{link}\"/>\n    <origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>\n  </joint>\n",
+            fmt_num(tool.translation.x),
+            fmt_num(tool.translation.y),
+            fmt_num(tool.translation.z),
+            fmt_num(roll),
+            fmt_num(pitch),
+            fmt_num(yaw)
+        );
+        let end = super::xml::scan(&text, file)?
+            .robot_end
+            .ok_or_else(|| err(file, "no </robot> to add the tool joint before"))?;
+        text.insert_str(end, &block);
+        e.warnings.push(Warning::UrdfToolAdded { link });
+    }
+    Ok((text, e.warnings))
 }
