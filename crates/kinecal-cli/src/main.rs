@@ -27,7 +27,7 @@ use kinecal::observe::point::{
     parse_measurements_mapped, parse_postures, write_measurements, ColumnMap,
 };
 use kinecal::observe::{Dataset, OrientationError, Weights, FORMATS};
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
+use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::source::Source;
 use kinecal::units::Quantity;
@@ -295,7 +295,7 @@ fn import(c: ImportCommand) -> Result<()> {
             )
         }
     };
-    write_file(&out, &write_robot_toml(&robot, None))?;
+    write_file(&out, &write_robot_toml_checked(&robot, None)?)?;
     eprintln!(
         "wrote {} ({} joints, {} parameters) to {}",
         if robot.name.is_empty() {
@@ -407,7 +407,10 @@ fn simulate(a: SimulateArgs) -> Result<()> {
     let mut staged = output::Staged::new();
     staged.text(&a.out, &write_measurements(nominal, &data))?;
     if let Some(path) = &a.truth {
-        staged.text(path, &write_robot_toml(&truth, Some(&r.source.text)))?;
+        staged.text(
+            path,
+            &write_robot_toml_checked(&truth, Some(&r.source.text))?,
+        )?;
     }
     staged.commit()?;
     eprintln!(
@@ -576,9 +579,18 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
     req.sources = std::iter::once(r.source.clone())
         .chain(data_sources)
         .collect();
+    let files = a.observations.files.clone();
     let outcome = workflow::run(&req, &mut Verbose(a.verbose)).map_err(|e| match e {
         kinecal::Error::InvalidOption { option, message } => {
             anyhow!("{}: {message}", flag_of(option))
+        }
+        kinecal::Error::NonFiniteResidual { line, kind, .. } => {
+            // Name the file the observation came from (one file per format).
+            let file = files
+                .iter()
+                .find(|(i, _)| FORMATS[*i].kinds.contains(&kind))
+                .map_or(String::from("?"), |(_, p)| p.display().to_string());
+            anyhow!("{file}:{line}: {e}")
         }
         e => e.into(),
     })?;
@@ -610,7 +622,7 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
     if let Some(path) = &a.out {
         staged.text(
             path,
-            &write_robot_toml(&outcome.calibration.calibrated, Some(&r.source.text)),
+            &write_robot_toml_checked(&outcome.calibration.calibrated, Some(&r.source.text))?,
         )?;
     }
     if let Some(path) = &a.report {

@@ -1774,3 +1774,78 @@ fn outputs_are_written_only_when_the_whole_run_succeeds() {
         .collect();
     assert!(left.is_empty(), "{left:?}");
 }
+
+/// Numbers no file should hold are refused by file, line and field, and nothing kinecal writes
+/// holds NaN or infinity.
+#[test]
+fn impossible_numbers_are_refused_by_file_line_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let err = run_err(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "3",
+            "--perturb",
+            "all=-1e308",
+            "--out",
+            "x.csv",
+        ],
+    );
+    assert!(
+        err.contains("--perturb") && err.contains("within +-1e9"),
+        "{err}"
+    );
+    assert!(!d.join("x.csv").exists());
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "10",
+            "--out",
+            "d.csv",
+        ],
+    );
+    let data = std::fs::read_to_string(d.join("d.csv")).unwrap();
+    let mut lines: Vec<&str> = data.lines().collect();
+    let row = lines[3].to_string();
+    let mut fields: Vec<&str> = row.split(',').collect();
+    fields[7] = "1e308";
+    let bad_row = fields.join(",");
+    lines[3] = &bad_row;
+    std::fs::write(d.join("big.csv"), lines.join("\n")).unwrap();
+    let err = run_err(d, &["calibrate", "--robot", "ge-a4", "--data", "big.csv"]);
+    assert!(
+        err.contains("big.csv:4: field `y`") && err.contains("within +-1e9"),
+        "{err}"
+    );
+    let robot = kinecal::examples::GE_A4_TOML.replacen("y = -8.5", "y = -1e308", 1);
+    std::fs::write(d.join("r.toml"), robot).unwrap();
+    let err = run_err(d, &["calibrate", "--robot", "r.toml", "--data", "d.csv"]);
+    assert!(err.contains("r.toml:10: field `links[0].y`"), "{err}");
+    std::fs::write(
+        d.join("dh.csv"),
+        "kind,a,alpha,d,theta\nrevolute,1e308,0,0,0\n",
+    )
+    .unwrap();
+    let err = run_err(
+        d,
+        &[
+            "import",
+            "dh",
+            "--convention",
+            "standard",
+            "dh.csv",
+            "--out",
+            "dh.toml",
+        ],
+    );
+    assert!(err.contains("dh.csv:2: field `a`"), "{err}");
+    assert!(!d.join("dh.toml").exists());
+}

@@ -613,11 +613,16 @@ impl Robot {
                 ));
             }
         }
-        if let Some(id) = self.param_ids().find(|&id| !self.get(id).is_finite()) {
+        if let Some(id) = self
+            .param_ids()
+            .find(|&id| !crate::units::plausible(self.get_user(id)))
+        {
             return Err(format!(
-                "parameter {} ({}) is not finite",
+                "parameter {} ({}) is {}: not a finite number within +-1e9 {}",
                 id,
-                self.param_name(id)
+                self.param_name(id),
+                self.get_user(id),
+                self.param_unit(id)
             ));
         }
         Ok(())

@@ -67,11 +67,11 @@ impl<'t> Reader<'t> {
             Some(Value::Integer(i)) => *i.value() as f64,
             _ => return Err(self.err(item.span(), field, "expected a number")),
         };
-        if !v.is_finite() {
+        if !crate::units::plausible(v) {
             return Err(self.err(
                 item.span(),
                 field,
-                format!("expected a finite number, found {v}"),
+                format!("expected a finite number within +-1e9, found {v:e}"),
             ));
         }
         Ok(Some(v))
@@ -167,7 +167,7 @@ impl<'t> Reader<'t> {
             self.err(
                 item.span(),
                 field,
-                "expected an array of 3 finite numbers, e.g. [0, 0, 1]",
+                "expected an array of 3 finite numbers within +-1e9, e.g. [0, 0, 1]",
             )
         };
         let arr = item.as_array().ok_or_else(bad)?;
@@ -181,7 +181,7 @@ impl<'t> Reader<'t> {
                 Value::Integer(i) => *i.value() as f64,
                 _ => return Err(bad()),
             };
-            if !out[k].is_finite() {
+            if !crate::units::plausible(out[k]) {
                 return Err(bad());
             }
         }
@@ -254,7 +254,7 @@ impl<'t> Reader<'t> {
                 let factor = match ct.get("factor") {
                     None => 1.0,
                     Some(f) => match f.as_float().or_else(|| f.as_integer().map(|i| i as f64)) {
-                        Some(v) if v.is_finite() => v,
+                        Some(v) if crate::units::plausible(v) => v,
                         _ => {
                             return Err(self.err(
                                 f.span().or(item.span()),
@@ -511,6 +511,17 @@ fn write_link(t: &mut Table, l: &Link, units: &Units) {
     for c in LinkComponent::ALL {
         set_number(t, c.as_str(), units.from_si(c.quantity(), l.get(c)));
     }
+}
+
+/// [`write_robot_toml`] after checking the model (every parameter finite and within +-1e9 in
+/// the file's units): what kinecal writes, it can read back.
+pub fn write_robot_toml_checked(robot: &Robot, original: Option<&str>) -> Result<String> {
+    robot.validate().map_err(|m| {
+        Error::Problem(format!(
+            "the computed robot cannot be written: {m} (diverged, or a unit mix-up in the input?)"
+        ))
+    })?;
+    Ok(write_robot_toml(robot, original))
 }
 
 /// Writes `robot` as a robot file. With `original` (the text of the file the robot was read

@@ -94,10 +94,16 @@ pub fn changed(robot: &Robot, changes: &[(crate::params::ParamId, f64)]) -> Resu
     for &(id, delta) in changes {
         let q = robot.param_quantity(id);
         let v = out.get(id) + robot.units.to_si(q, delta);
-        if !v.is_finite() {
+        if !crate::units::plausible(robot.units.from_si(q, v)) {
             return Err(Error::InvalidOption {
                 option: "parameter change",
-                message: format!("{} ({}) would become {v}", id, robot.param_name(id)),
+                message: format!(
+                    "{} ({}) would become {:e} {}, not a finite number within +-1e9",
+                    id,
+                    robot.param_name(id),
+                    robot.units.from_si(q, v),
+                    robot.param_unit(id)
+                ),
             });
         }
         out.set(id, v);

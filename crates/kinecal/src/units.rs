@@ -166,6 +166,16 @@ impl Units {
     }
 }
 
+/// The largest magnitude any number in an input file may have, in the file's own units (1e9:
+/// a million kilometres in metres, a thousand kilometres in millimetres). Larger values are
+/// refused as unit mix-ups or corrupt data: their squares would overflow the objective.
+pub const MAX_MAGNITUDE: f64 = 1e9;
+
+/// Whether `v` is finite and within [`MAX_MAGNITUDE`].
+pub fn plausible(v: f64) -> bool {
+    v.is_finite() && v.abs() <= MAX_MAGNITUDE
+}
+
 /// A number as kinecal writes it into files (in the file's units): 0 for float noise below
 /// 1e-12 (a computed `beta` of 1e-34), the value to 15 significant digits when that is within 4
 /// units in the last place of it (an estimate of 15.28 that came out as 15.279999999999998

@@ -150,11 +150,14 @@ pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> 
             v[k] = rec[k + 1]
                 .parse::<f64>()
                 .ok()
-                .filter(|x| x.is_finite())
+                .filter(|x| crate::units::plausible(*x))
                 .ok_or_else(|| {
                     Error::input(
                         at(name),
-                        format!("expected a finite number, found `{}`", &rec[k + 1]),
+                        format!(
+                            "expected a finite number within +-1e9, found `{}`",
+                            &rec[k + 1]
+                        ),
                     )
                 })?;
         }

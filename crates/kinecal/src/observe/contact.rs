@@ -148,6 +148,7 @@ impl Observe for Contact {
 /// The contact file format.
 pub const FORMAT: Format = Format {
     option: "contacts",
+    kinds: &["contact"],
     help: "Contact file: a target touching a plane of the robot file (no external sensor)",
     header: "posture,site,plane,v1..vn[,gap][,sigma_position]",
     parse: parse_contacts,

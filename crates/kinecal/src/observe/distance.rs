@@ -129,6 +129,7 @@ impl Observe for Distance {
 /// The distance file format.
 pub const FORMAT: Format = Format {
     option: "distances",
+    kinds: &["distance"],
     help: "Distance file: the distance between a target's positions in two postures (ballbar, \
            fixed-length artefact)",
     header: "pair,site,a1..an,b1..bn,distance[,sigma_position]",

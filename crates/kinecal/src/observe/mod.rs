@@ -315,6 +315,8 @@ pub struct Format {
     pub help: &'static str,
     /// The header, e.g. `posture,site,v1..vn,x,y,z[,alpha,beta,gamma]`.
     pub header: &'static str,
+    /// The kinds of observation its rows become.
+    pub kinds: &'static [&'static str],
     /// Reads a file (`text`, named `file` in errors) for `robot`.
     pub parse: fn(&str, &str, &Robot) -> Result<Dataset>,
 }

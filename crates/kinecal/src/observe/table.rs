@@ -183,10 +183,10 @@ impl Table {
                 format!("expected a number, found `{s}`{hint}"),
             )
         })?;
-        if !v.is_finite() {
+        if !crate::units::plausible(v) {
             return Err(Error::input(
                 self.at(line, field),
-                format!("expected a finite number, found `{s}`"),
+                format!("expected a finite number within +-1e9, found `{s}`"),
             ));
         }
         Ok(v)
