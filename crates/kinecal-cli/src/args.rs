@@ -220,7 +220,8 @@ Example:
 
 One panel pair (positions, angles) per parameter, the nominal value marked by dotted guide lines
 (thesis Figs 4.2-4.5). Angles are unwrapped: no false jumps at +-180 deg. --out ending in .svg,
-.png or .csv (columns param,value,x,y,z,alpha,beta,gamma). Default span: 50 units either side.")]
+.png or .csv (columns param,value,x,y,z,alpha,beta,gamma). Default span, either side: the robot's
+reach for lengths, 50 deg for angles, half the value for slopes. At most 100000 points.")]
     Pose(CurvesPoseArgs),
     /// The objective over a data set against each parameter.
     #[command(after_help = "\
@@ -230,7 +231,8 @@ Example:
 Lists every local minimum inside the span and warns when the objective is not convex there (a
 solver started there could stop in a false valley, thesis 4.4.4); prints the period of periodic
 parameters (360 deg for angles, 360/V for a revolute slope at reading V). --out ending in .svg,
-.png or .csv (columns param,value,objective). Default span: 10 units either side.")]
+.png or .csv (columns param,value,objective). Default span, either side: a fifth of the robot's
+reach for lengths, 10 deg for angles, a tenth of the value for slopes. At most 100000 points.")]
     Objective(CurvesObjectiveArgs),
 }
 

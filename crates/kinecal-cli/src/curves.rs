@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
-use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve, samples};
+use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve};
 use kinecal::kinematics::Target;
 use kinecal::observe::point::parse_postures;
 use kinecal::report::CalibrationReport;
@@ -22,20 +22,22 @@ pub fn run(c: CurvesCommand) -> Result<()> {
     }
 }
 
-fn sweep(s: &SweepArgs, robot: &Robot, id: ParamId, default_half: f64) -> Result<Vec<f64>> {
-    if s.points < 3 {
-        bail!("--points must be at least 3");
-    }
+fn sweep(s: &SweepArgs, robot: &Robot, id: ParamId, objective: bool) -> Result<Vec<f64>> {
     let v = robot.get_user(id);
     let (a, b) = match (s.from, s.to, s.span) {
         (Some(a), Some(b), _) => (a, b),
         (_, _, Some(w)) => (v - w / 2.0, v + w / 2.0),
-        _ => (v - default_half, v + default_half),
+        _ => {
+            let half = kinecal::curves::default_half_width(robot, id, objective);
+            (v - half, v + half)
+        }
     };
-    if !(a.is_finite() && b.is_finite() && a < b) {
-        bail!("the sweep must run from a smaller to a larger finite value, got {a} .. {b}");
-    }
-    Ok(samples(a, b, s.points))
+    kinecal::curves::sweep(a, b, s.points).map_err(|e| match e {
+        kinecal::Error::InvalidOption { message, .. } => {
+            anyhow!("--from/--to/--span/--points: {message}")
+        }
+        e => e.into(),
+    })
 }
 
 enum Out {
@@ -119,7 +121,7 @@ fn pose(a: CurvesPoseArgs) -> Result<()> {
     let mut panels = Vec::new();
     let mut csv = String::from("param,value,x,y,z,alpha,beta,gamma\n");
     for &id in &ids {
-        let x = sweep(&a.sweep, robot, id, 50.0)?;
+        let x = sweep(&a.sweep, robot, id, false)?;
         let c = pose_curve(robot, &readings, target, id, &x);
         let name = robot.param_name(id);
         let unit = robot.param_unit(id);
@@ -189,7 +191,7 @@ fn objective(a: CurvesObjectiveArgs) -> Result<()> {
     let mut csv = String::from("param,value,objective\n");
     let single = (data.postures.len() == 1).then(|| data.postures[0].readings.clone());
     for &id in &ids {
-        let x = sweep(&a.sweep, robot, id, 10.0)?;
+        let x = sweep(&a.sweep, robot, id, true)?;
         let f = objective_curve(robot, &data, id, &x, weights, orientation);
         let name = robot.param_name(id);
         let unit = robot.param_unit(id);

@@ -1849,3 +1849,50 @@ fn impossible_numbers_are_refused_by_file_line_and_field() {
     assert!(err.contains("dh.csv:2: field `a`"), "{err}");
     assert!(!d.join("dh.toml").exists());
 }
+
+/// Sweeps are bounded (no run without end), and the default span fits the parameter: the
+/// robot's reach for a length, 50 deg for an angle.
+#[test]
+fn curve_sweeps_are_bounded_and_sized_to_the_parameter() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let r = [
+        "curves",
+        "pose",
+        "--robot",
+        "ge-a4",
+        "--readings",
+        "-6.883,13.301,4.122,-28.645",
+    ];
+    for (extra, expect) in [
+        (vec!["--from", "-1e308", "--to", "50"], "within +-1e9"),
+        (vec!["--points", "100000000"], "between 3 and 100000"),
+        (
+            vec!["--from", "1", "--to", "1.0000000000000002"],
+            "too narrow",
+        ),
+    ] {
+        let mut a: Vec<&str> = r.to_vec();
+        a.extend(["--param", "p1", "--out", "c.csv"]);
+        a.extend(extra);
+        let err = run_err(d, &a);
+        assert!(err.contains(expect), "{err}");
+    }
+    let mut a: Vec<&str> = r.to_vec();
+    a.extend(["--param", "p1,p4", "--points", "3", "--out", "c.csv"]);
+    run_ok(d, &a);
+    let csv = std::fs::read_to_string(d.join("c.csv")).unwrap();
+    let values: Vec<(String, f64)> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[0].to_string(), f[1].parse().unwrap())
+        })
+        .collect();
+    // p1 (15.08 in) +- the GE A4's reach (about 52 in); p4 (0 deg) +- 50 deg.
+    let p1: Vec<f64> = values.iter().filter(|v| v.0 == "p1").map(|v| v.1).collect();
+    assert!((p1[2] - p1[0] - 2.0 * kinecal::examples::ge_a4().reach() / 0.0254).abs() < 1e-9);
+    let p4: Vec<f64> = values.iter().filter(|v| v.0 == "p4").map(|v| v.1).collect();
+    assert_eq!(p4, [-50.0, 0.0, 50.0]);
+}

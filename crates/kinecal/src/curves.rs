@@ -11,6 +11,45 @@ use crate::problem::Problem;
 use crate::robot::{JointKind, Robot};
 use crate::units::Quantity;
 
+/// Most samples a curve may have.
+pub const MAX_POINTS: usize = 100_000;
+
+/// `points` evenly spaced values from `from` to `to` (file units), checked: both ends finite
+/// within +-1e9, `from < to` with a width the numbers can resolve, 3 to [`MAX_POINTS`] points.
+pub fn sweep(from: f64, to: f64, points: usize) -> crate::Result<Vec<f64>> {
+    let bad = |message: String| crate::Error::InvalidOption {
+        option: "sweep",
+        message,
+    };
+    if !(3..=MAX_POINTS).contains(&points) {
+        return Err(bad(format!("{points} points: between 3 and {MAX_POINTS}")));
+    }
+    if !(crate::units::plausible(from) && crate::units::plausible(to) && from < to) {
+        return Err(bad(format!(
+            "from {from:e} to {to:e}: a sweep runs from a smaller to a larger number within +-1e9"
+        )));
+    }
+    if (to - from) < 1e-12 * from.abs().max(to.abs()) {
+        return Err(bad(format!(
+            "from {from} to {to}: too narrow for the numbers to tell its points apart"
+        )));
+    }
+    Ok(samples(from, to, points))
+}
+
+/// The default half-width of a sweep of parameter `id` (file units), by its kind and the
+/// robot's size: lengths the robot's reach (a fifth of it for the objective), angles 50 deg
+/// (10 deg), slopes and coupling factors half their value (a tenth), at least 1 unit.
+pub fn default_half_width(robot: &Robot, id: ParamId, objective: bool) -> f64 {
+    let u = robot.units;
+    let scale = if objective { 0.2 } else { 1.0 };
+    match robot.param_quantity(id) {
+        Quantity::Length => u.from_si(Quantity::Length, robot.reach()) * scale,
+        Quantity::Angle => u.from_si(Quantity::Angle, 50f64.to_radians()) * scale,
+        _ => (0.5 * robot.get_user(id).abs()).max(1.0) * scale,
+    }
+}
+
 /// `count` evenly spaced values from `from` to `to` (inclusive).
 pub fn samples(from: f64, to: f64, count: usize) -> Vec<f64> {
     let n = count.max(2);
