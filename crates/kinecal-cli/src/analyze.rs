@@ -47,7 +47,15 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         priority,
     };
     let selection = Selection::parse(&a.estimate, a.fix.as_deref(), robot)?;
-    let params = resolve(&selection, robot, &data, &opts)?;
+    let (params, unseen) = resolve(&selection, robot, &data, &opts)?;
+    if !unseen.is_empty() {
+        eprintln!(
+            "note: {}",
+            word(&kinecal::Warning::Unseen {
+                parameters: unseen.iter().map(|&id| robot.param_name(id)).collect()
+            })
+        );
+    }
     let an = analyze(robot, &data, &params, &opts)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&to_json(&an, robot))?);

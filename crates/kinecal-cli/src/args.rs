@@ -621,8 +621,9 @@ pub struct AnalyzeArgs {
     /// With --postures: assume position-only measurements.
     #[arg(long, requires = "postures")]
     pub position_only: bool,
-    /// Parameters to analyse.
-    #[arg(long, value_name = "LIST", default_value = "all")]
+    /// Parameters to analyse (default: the default set of `calibrate`, so that the identifiable
+    /// set shown is the one `calibrate --estimate identifiable` estimates; `all` for every one).
+    #[arg(long, value_name = "LIST", default_value = "")]
     pub estimate: String,
     /// Parameters to leave out.
     #[arg(long, value_name = "LIST")]

@@ -175,8 +175,8 @@ pub fn default_priority(robot: &Robot) -> Vec<ParamId> {
 /// fail.
 ///
 /// Assumptions: every link parameter and joint offset estimated, the end effector observed, the
-/// six parameters of every observed site estimated, and each plane touched either fully
-/// estimated or fully fixed. Then each revolute joint contributes 4, each prismatic 2 (eq. 4.3),
+/// six parameters of every observed site estimated (of a frame observed only as a point, its
+/// position parameters suffice), and each plane touched either fully estimated or fully fixed. Then each revolute joint contributes 4, each prismatic 2 (eq. 4.3),
 /// each estimated slope or coupling factor 1 (eq. 4.2), each observed frame 6 when a pose of it
 /// is measured or 3 when only its origin is (positions, distances, contacts; eq. 4.5), and each
 /// estimated plane 3. From this, the motions of the whole world that change no observation are
@@ -187,13 +187,22 @@ pub fn default_priority(robot: &Robot) -> Vec<ParamId> {
 pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Option<ExpectedRank> {
     let has = |id: ParamId| params.binary_search(&id).is_ok();
     let (nl, nj) = (robot.links.len(), robot.dof());
-    let all_links = (0..6 * nl).all(|i| has(ParamId(i)));
+    // The degrees of freedom observed of a frame (0, 3 or 6).
+    let seen = |t: Target| {
+        data.observations
+            .iter()
+            .filter(|o| o.measured_frame().0 == t)
+            .map(|o| o.measured_frame().1)
+            .max()
+            .unwrap_or(0)
+    };
+    // A frame observed as a point needs only its position parameters: its angles change nothing.
+    let needed = |dof: usize, c: LinkComponent| dof == 6 || c.quantity() == Quantity::Length;
+    let ee = seen(Target::EndEffector);
+    let all_links = (0..6 * nl)
+        .all(|i| has(ParamId(i)) || (i / 6 == nl - 1 && !needed(ee, LinkComponent::ALL[i % 6])));
     let all_offsets = (0..nj).all(|j| has(robot.param_id(ParamKind::Offset { joint: j })));
-    let ee_measured = data
-        .observations
-        .iter()
-        .any(|o| o.measured_frame().0 == Target::EndEffector);
-    if !(all_links && all_offsets && ee_measured) {
+    if !(all_links && all_offsets && ee > 0) {
         return None;
     }
     let nr = robot
@@ -213,17 +222,15 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     let mut targets: Vec<Target> = vec![Target::EndEffector];
     targets.extend((0..robot.sites.len()).map(Target::Site));
     for t in targets {
-        let dof = data
-            .observations
-            .iter()
-            .filter(|o| o.measured_frame().0 == t)
-            .map(|o| o.measured_frame().1)
-            .max();
-        let Some(dof) = dof else { continue };
+        let dof = seen(t);
+        if dof == 0 {
+            continue;
+        }
         if let Target::Site(s) = t {
-            let all = LinkComponent::ALL
-                .iter()
-                .all(|&component| has(robot.param_id(ParamKind::Site { site: s, component })));
+            let all = LinkComponent::ALL.iter().all(|&component| {
+                has(robot.param_id(ParamKind::Site { site: s, component }))
+                    || !needed(dof, component)
+            });
             if !all {
                 return None;
             }

@@ -18,6 +18,12 @@ pub enum Warning {
         /// Their lines (the first few).
         lines: Vec<usize>,
     },
+    /// Parameters left out of the default set because no observation sees their frame (or its
+    /// attitude).
+    Unseen {
+        /// Their names.
+        parameters: Vec<String>,
+    },
     /// Estimated parameters that no residual feels: they keep their initial values.
     Unfelt {
         /// Their names.
@@ -117,6 +123,12 @@ impl std::fmt::Display for Warning {
                     .collect::<Vec<_>>()
                     .join(", "),
                 if *count > lines.len() { ", ..." } else { "" }
+            ),
+            Warning::Unseen { parameters } => write!(
+                f,
+                "not estimated by default, as no observation sees them: {} (name them to estimate \
+                 them anyway)",
+                parameters.join(", ")
             ),
             Warning::Unfelt { parameters } => write!(
                 f,

@@ -33,22 +33,37 @@ use crate::units::{wrap_angle, Quantity};
 use crate::warning::Warning;
 
 /// Which parameters to estimate.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Selection {
-    /// The default set: see [`default_parameters`].
-    #[default]
-    Default,
+    /// The default set (see [`default_parameters`]) minus `fix`.
+    Default {
+        /// Parameters held.
+        fix: Vec<ParamId>,
+    },
     /// These parameters.
     List(Vec<ParamId>),
-    /// The identifiable (base) set of these parameters, as the data at the nominal robot
-    /// determines it (see [`crate::identifiability`]).
-    Identifiable(Vec<ParamId>),
+    /// The identifiable (base) set of the default parameters and `with`, minus `fix`, as the
+    /// data at the reference robot determines it (see [`crate::identifiability`]).
+    Identifiable {
+        /// Parameters added to the default set before the selection (`identifiable,slopes`).
+        with: Vec<ParamId>,
+        /// Parameters held.
+        fix: Vec<ParamId>,
+    },
+}
+
+impl Default for Selection {
+    fn default() -> Self {
+        Selection::Default { fix: Vec::new() }
+    }
 }
 
 impl Selection {
-    /// Parses a parameter list (see [`crate::params`]) minus `fix`; the keyword
-    /// `identifiable` asks for the identifiable set of the other entries (of the default set
-    /// when alone); an empty list is the default set.
+    /// Parses a parameter list (see [`crate::param_list`]) and the parameters to hold. An empty
+    /// list is the default set. The keyword `identifiable` asks for the identifiable set of the
+    /// union of the default set and the other entries: `identifiable` alone is that of the
+    /// default set, `identifiable,slopes` adds the slopes first, `all,identifiable` is that of
+    /// every parameter.
     pub fn parse(estimate: &str, fix: Option<&str>, robot: &Robot) -> Result<Selection> {
         let tokens: Vec<&str> = if estimate.trim().is_empty() {
             Vec::new()
@@ -61,41 +76,59 @@ impl Selection {
             .copied()
             .filter(|t| *t != "identifiable")
             .collect();
-        let mut ids = if rest.is_empty() {
-            default_parameters(robot)
+        let listed = if rest.is_empty() {
+            Vec::new()
         } else {
             parse_param_list(&rest.join(","), robot)?
         };
-        if let Some(fix) = fix {
-            let fixed = parse_param_list(fix, robot)?;
-            ids.retain(|id| !fixed.contains(id));
-        }
-        if ids.is_empty() {
-            return Err(Error::ParamList {
-                list: estimate.to_string(),
-                message: "no parameter is left to estimate".into(),
-            });
-        }
+        let fix = match fix {
+            Some(f) => parse_param_list(f, robot)?,
+            None => Vec::new(),
+        };
         Ok(if identifiable {
-            Selection::Identifiable(ids)
+            Selection::Identifiable { with: listed, fix }
+        } else if rest.is_empty() {
+            Selection::Default { fix }
         } else {
+            let mut ids = listed;
+            ids.retain(|id| !fix.contains(id));
+            if ids.is_empty() {
+                return Err(Error::ParamList {
+                    list: estimate.to_string(),
+                    message: "no parameter is left to estimate".into(),
+                });
+            }
             Selection::List(ids)
         })
     }
 }
 
-/// The parameters a selection stands for on `data`, analysed at `robot` with `opts` (sorted).
+/// The parameters a selection stands for on `data`, analysed at `robot` with `opts` (sorted),
+/// and the default parameters left out because no observation sees them.
 pub fn resolve(
     selection: &Selection,
     robot: &Robot,
     data: &Dataset,
     opts: &AnalysisOptions,
-) -> Result<Vec<ParamId>> {
-    let mut ids = match selection {
-        Selection::Default => default_parameters(robot),
-        Selection::List(ids) => ids.clone(),
-        Selection::Identifiable(ids) => {
-            identifiability::analyze(robot, data, ids, opts)?.identifiable
+) -> Result<(Vec<ParamId>, Vec<ParamId>)> {
+    let (mut ids, unseen) = match selection {
+        Selection::Default { fix } => {
+            let (mut ids, unseen) = default_parameters(robot, data);
+            ids.retain(|id| !fix.contains(id));
+            (ids, unseen)
+        }
+        Selection::List(ids) => (ids.clone(), Vec::new()),
+        Selection::Identifiable { with, fix } => {
+            let (mut ids, unseen) = default_parameters(robot, data);
+            ids.extend(with.iter().copied());
+            ids.sort();
+            ids.dedup();
+            ids.retain(|id| !fix.contains(id));
+            if ids.is_empty() {
+                return Err(Error::NothingToEstimate);
+            }
+            let base = identifiability::analyze(robot, data, &ids, opts)?.identifiable;
+            (base, unseen)
         }
     };
     ids.sort();
@@ -103,25 +136,63 @@ pub fn resolve(
     if ids.is_empty() {
         return Err(Error::NothingToEstimate);
     }
-    Ok(ids)
+    Ok((ids, unseen))
 }
 
-/// The default parameters: every link and site parameter and every joint offset, and the
-/// slopes unless every slope is 1 in the file's units (readings that are already joint
-/// values). Coupling factors and planes are held unless named.
-pub fn default_parameters(robot: &Robot) -> Vec<ParamId> {
+/// The default parameters on `data`: every link and site parameter and every joint offset, and
+/// the slopes unless every slope is 1 in the file's units (readings that are already joint
+/// values); coupling factors and planes only when named. Left out, and returned second, are the
+/// parameters of frames no observation sees: a site or the end effector never observed (their
+/// link's six), or observed by position only (its three angles).
+pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<ParamId>) {
+    use crate::kinematics::Target;
+    use crate::params::LinkComponent;
     let unit_slopes = robot
         .joints
         .iter()
         .all(|j| (robot.units.from_si(j.kind.slope(), j.slope) - 1.0).abs() < 1e-12);
-    robot
-        .param_ids()
-        .filter(|&id| match robot.param_kind(id) {
-            ParamKind::Link { .. } | ParamKind::Offset { .. } | ParamKind::Site { .. } => true,
+    // The degrees of freedom observed of a frame (0, 3 or 6).
+    let seen = |t: Target| {
+        data.observations
+            .iter()
+            .filter(|o| o.measured_frame().0 == t)
+            .map(|o| o.measured_frame().1)
+            .max()
+            .unwrap_or(0)
+    };
+    let ee = seen(Target::EndEffector);
+    let last = robot.links.len() - 1;
+    let unseen_component = |dof: usize, c: LinkComponent| {
+        dof == 0 || (dof < 6 && c.quantity() == crate::units::Quantity::Angle)
+    };
+    let (mut ids, mut unseen) = (Vec::new(), Vec::new());
+    for id in robot.param_ids() {
+        let default = match robot.param_kind(id) {
+            ParamKind::Link { link, component } => {
+                if link == last && unseen_component(ee, component) {
+                    unseen.push(id);
+                    false
+                } else {
+                    true
+                }
+            }
+            ParamKind::Site { site, component } => {
+                if unseen_component(seen(Target::Site(site)), component) {
+                    unseen.push(id);
+                    false
+                } else {
+                    true
+                }
+            }
+            ParamKind::Offset { .. } => true,
             ParamKind::Slope { .. } => !unit_slopes,
             ParamKind::Coupling { .. } | ParamKind::Plane { .. } => false,
-        })
-        .collect()
+        };
+        if default {
+            ids.push(id);
+        }
+    }
+    (ids, unseen)
 }
 
 /// Which of several equally good answers a calibration returns when the data leaves some
@@ -210,7 +281,7 @@ impl Request {
         Request {
             robot,
             data,
-            selection: Selection::Default,
+            selection: Selection::default(),
             initial: None,
             solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
             loss: Loss::Squared,
@@ -422,10 +493,10 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         SolutionRule::MinChange => &req.robot,
         SolutionRule::Solver => &start,
     };
-    if matches!(req.selection, Selection::Identifiable(_)) {
+    if matches!(req.selection, Selection::Identifiable { .. }) {
         progress.phase(Phase::Selection);
     }
-    let estimate = resolve(&req.selection, reference, &data, &req.analysis_options())?;
+    let (estimate, unseen) = resolve(&req.selection, reference, &data, &req.analysis_options())?;
     let opts = CalibrationOptions {
         estimate,
         solver: req.solver,
@@ -477,6 +548,14 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     }
     progress.phase(Phase::Uncertainty);
     let mut warnings = data_warnings(&req.robot, &data, req.orientation);
+    if !unseen.is_empty() {
+        warnings.insert(
+            0,
+            Warning::Unseen {
+                parameters: unseen.iter().map(|&id| req.robot.param_name(id)).collect(),
+            },
+        );
+    }
     let unc = uncertainty::uncertainty(&cal, &data, reference);
     progress.phase(Phase::Report);
     Ok(finish(
