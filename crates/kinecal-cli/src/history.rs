@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, bail, Context, Result};
 use kinecal::report::CalibrationReport;
 use kinecal_history::{
-    drift, parse_time, Baseline, Database, DriftOptions, DriftReport, Tolerances,
+    drift, parse_time, printable, samples, AddOptions, Baseline, Calibration, Database,
+    DriftOptions, DriftReport, Tolerances,
 };
 
 use crate::args::{
@@ -20,15 +21,45 @@ use kinecal_report::{Line, Panel};
 /// Exit code when drift or a check finds something: usable from cron and monitoring.
 pub const EXIT_FLAGGED: u8 = 3;
 
-/// Opens the database named by `--db`, or the default one.
-pub fn open_db(db: Option<&Path>) -> Result<Database> {
-    let path: PathBuf = match db {
-        Some(p) => p.to_path_buf(),
+/// The database named by `--db`, or the default one.
+fn db_path(db: Option<&Path>) -> Result<PathBuf> {
+    match db {
+        Some(p) => Ok(p.to_path_buf()),
         None => kinecal_history::default_db_path().ok_or_else(|| {
             anyhow!("no home or data folder to keep the history in: give --db PATH")
-        })?,
-    };
-    Ok(Database::open(&path)?)
+        }),
+    }
+}
+
+/// Opens the database named by `--db`, or the default one, for writing (creating it if
+/// needed). An existing file is inspected read-only first and refused, untouched, unless it
+/// is a sound kinecal history.
+pub fn open_db(db: Option<&Path>) -> Result<Database> {
+    Ok(Database::open(&db_path(db)?)?)
+}
+
+/// Opens an existing database for reading only: never creates one (a mistyped `--db` is an
+/// error), and works on read-only files and folders.
+fn open_db_read(d: &DbArg) -> Result<Database> {
+    let db = Database::open_read_only(&db_path(d.db.as_deref())?)?;
+    if let Some(problem) = db.integrity_problem() {
+        eprintln!(
+            "warning: {}: the database fails its integrity check ({}); showing what can be read",
+            db.path(),
+            printable(problem)
+        );
+    }
+    Ok(db)
+}
+
+/// The readable calibrations of `robot_id` (all robots when `None`); each record that cannot
+/// be read is named on standard error.
+fn read_calibrations(db: &Database, robot_id: Option<&str>) -> Result<Vec<Calibration>> {
+    let records = db.records(robot_id)?;
+    for d in &records.damaged {
+        eprintln!("warning: {}: {}", db.path(), printable(&d.to_string()));
+    }
+    Ok(records.calibrations)
 }
 
 /// Parses `--at`.
@@ -40,7 +71,7 @@ pub fn parse_at(at: Option<&str>) -> Result<Option<i64>> {
 /// Runs a history command; returns the exit code.
 pub fn run(c: HistoryCommand) -> Result<u8> {
     match c {
-        HistoryCommand::Add(a) => add(a),
+        HistoryCommand::Add(a) => add(a, AddOptions::default()),
         HistoryCommand::List(a) => list(a),
         HistoryCommand::Show(a) => show(a),
         HistoryCommand::Export(a) => export(a),
@@ -49,27 +80,26 @@ pub fn run(c: HistoryCommand) -> Result<u8> {
     }
 }
 
-fn db_of(d: &DbArg) -> Result<Database> {
-    open_db(d.db.as_deref())
-}
-
-fn add(a: HistoryAddArgs) -> Result<u8> {
+fn add(a: HistoryAddArgs, options: AddOptions) -> Result<u8> {
     let text = read_text(&a.report)?;
     let report = CalibrationReport::from_json(&text)
         .with_context(|| format!("{}: not a kinecal calibration report", a.report.display()))?;
     let at = parse_at(a.at.as_deref())?;
-    let db = db_of(&a.db)?;
-    let id = db.add(&a.robot_id, at, &report, &a.note)?;
-    eprintln!("recorded calibration {id} of robot {}", a.robot_id);
+    let db = open_db(a.db.db.as_deref())?;
+    let id = db.add_with(&a.robot_id, at, &report, &a.note, options)?;
+    eprintln!(
+        "recorded calibration {id} of robot {}",
+        printable(&a.robot_id)
+    );
     Ok(0)
 }
 
 fn list(a: HistoryListArgs) -> Result<u8> {
-    let db = db_of(&a.db)?;
-    let cals = db.calibrations(a.robot_id.as_deref())?;
+    let db = open_db_read(&a.db)?;
+    let cals = read_calibrations(&db, a.robot_id.as_deref())?;
     if cals.is_empty() {
         match &a.robot_id {
-            Some(r) => bail!("no calibration recorded for robot `{r}`"),
+            Some(r) => bail!("no calibration recorded for robot `{}`", printable(r)),
             None => {
                 println!("(no calibrations recorded)");
                 return Ok(0);
@@ -84,28 +114,27 @@ fn list(a: HistoryListArgs) -> Result<u8> {
         println!(
             "{:>5}  {:<14} {:<21} {:<12} {:<8} {:>13.6} {:>13.6}  {}",
             c.id,
-            c.robot_id,
+            printable(&c.robot_id),
             c.at_text,
-            c.robot_name,
-            c.method,
+            printable(&c.robot_name),
+            printable(&c.method),
             c.rms_position_before,
             c.rms_position_after,
-            c.note
+            printable(&c.note)
         );
     }
     Ok(0)
 }
 
 fn show(a: HistoryShowArgs) -> Result<u8> {
-    let db = db_of(&a.db)?;
+    let db = open_db_read(&a.db)?;
     let cal = match (a.id, &a.robot_id) {
         (Some(id), _) => db
             .calibration(id)?
             .ok_or_else(|| anyhow!("no calibration with id {id}"))?,
-        (None, Some(r)) => db
-            .calibrations(Some(r))?
+        (None, Some(r)) => read_calibrations(&db, Some(r))?
             .pop()
-            .ok_or_else(|| anyhow!("no calibration recorded for robot `{r}`"))?,
+            .ok_or_else(|| anyhow!("no calibration recorded for robot `{}`", printable(r)))?,
         (None, None) => bail!("give --id or --robot-id"),
     };
     if a.json {
@@ -115,16 +144,18 @@ fn show(a: HistoryShowArgs) -> Result<u8> {
     println!(
         "calibration {} of robot {} at {} ({}, {} {}, solution {})",
         cal.id,
-        cal.robot_id,
+        printable(&cal.robot_id),
         cal.at_text,
-        cal.robot_name,
-        cal.method,
-        cal.length_unit,
-        cal.solution
+        printable(&cal.robot_name),
+        printable(&cal.method),
+        printable(&cal.length_unit),
+        printable(&cal.solution)
     );
     println!(
         "RMS position error {:.6} -> {:.6} {}",
-        cal.rms_position_before, cal.rms_position_after, cal.length_unit
+        cal.rms_position_before,
+        cal.rms_position_after,
+        printable(&cal.length_unit)
     );
     println!(
         "model sha256 {}  data sha256 {}",
@@ -132,7 +163,7 @@ fn show(a: HistoryShowArgs) -> Result<u8> {
         or_dash(&cal.data_fingerprint)
     );
     if !cal.note.is_empty() {
-        println!("note: {}", cal.note);
+        println!("note: {}", printable(&cal.note));
     }
     println!();
     println!(
@@ -142,9 +173,9 @@ fn show(a: HistoryShowArgs) -> Result<u8> {
     for p in cal.parameters.iter().filter(|p| p.estimated) {
         println!(
             "{:<5} {:<20} {:<9} {:>16.6} {:>12}  {}",
-            p.id,
-            p.name,
-            p.unit,
+            printable(&p.id),
+            printable(&p.name),
+            printable(&p.unit),
             p.value,
             p.sigma.map_or("-".into(), |s| format!("{s:.3e}")),
             if p.determined {
@@ -157,22 +188,25 @@ fn show(a: HistoryShowArgs) -> Result<u8> {
     for c in &cal.combinations {
         println!(
             "  {} = {:.6} (sigma {:.3e})",
-            c.expression, c.value, c.sigma
+            printable(&c.expression),
+            c.value,
+            c.sigma
         );
     }
     Ok(0)
 }
 
-fn or_dash(s: &str) -> &str {
+/// The first 16 characters of a fingerprint, or `-`.
+fn or_dash(s: &str) -> String {
     if s.is_empty() {
-        "-"
+        "-".into()
     } else {
-        &s[..16.min(s.len())]
+        printable(&s.chars().take(16).collect::<String>()).into_owned()
     }
 }
 
 fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
+    if s.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
@@ -180,8 +214,8 @@ fn csv_field(s: &str) -> String {
 }
 
 fn export(a: HistoryExportArgs) -> Result<u8> {
-    let db = db_of(&a.db)?;
-    let cals = db.calibrations(a.robot_id.as_deref())?;
+    let db = open_db_read(&a.db)?;
+    let cals = read_calibrations(&db, a.robot_id.as_deref())?;
     let text = match a.format {
         FormatArg::Json => serde_json::to_string_pretty(&cals)? + "\n",
         FormatArg::Csv => {
@@ -194,11 +228,11 @@ fn export(a: HistoryExportArgs) -> Result<u8> {
                         c.id,
                         csv_field(&c.robot_id),
                         c.at_text,
-                        c.method,
-                        c.solution,
-                        p.id,
-                        p.name,
-                        p.unit,
+                        csv_field(&c.method),
+                        csv_field(&c.solution),
+                        csv_field(&p.id),
+                        csv_field(&p.name),
+                        csv_field(&p.unit),
                         p.value,
                         p.sigma.map_or(String::new(), |v| v.to_string()),
                         p.estimated,
@@ -212,8 +246,8 @@ fn export(a: HistoryExportArgs) -> Result<u8> {
                         c.id,
                         csv_field(&c.robot_id),
                         c.at_text,
-                        c.method,
-                        c.solution,
+                        csv_field(&c.method),
+                        csv_field(&c.solution),
                         csv_field(&comb.expression),
                         comb.value,
                         comb.sigma
@@ -237,51 +271,85 @@ fn tolerances(path: Option<&Path>) -> Result<Tolerances> {
     })
 }
 
+/// Refuses a `--sigma` that is not a positive, finite number (`inf`, `NaN`, 0, negative).
+fn check_sigma(sigma: f64) -> Result<()> {
+    if !(sigma.is_finite() && sigma > 0.0) {
+        bail!("--sigma {sigma}: expected a positive, finite number of standard deviations");
+    }
+    Ok(())
+}
+
 fn drift_report(
-    db: &Database,
+    history: &[Calibration],
     robot_id: &str,
     baseline: &str,
     sigma: f64,
-    tol: Option<&Path>,
+    tolerances: Tolerances,
 ) -> Result<DriftReport> {
-    let history = db.calibrations(Some(robot_id))?;
     if history.is_empty() {
-        bail!("no calibration recorded for robot `{robot_id}`");
+        bail!(
+            "no calibration recorded for robot `{}`",
+            printable(robot_id)
+        );
     }
     let baseline = match baseline {
         "first" => Baseline::First,
         "latest-ok" => Baseline::LatestOk,
         id => Baseline::Id(id.parse().map_err(|_| {
-            anyhow!("--baseline `{id}`: expected first, latest-ok or a calibration id")
+            anyhow!(
+                "--baseline `{}`: expected first, latest-ok or a calibration id",
+                printable(id)
+            )
         })?),
     };
-    if sigma.is_nan() || sigma <= 0.0 {
-        bail!("--sigma must be positive");
-    }
     let opts = DriftOptions {
         baseline,
         sigma,
-        tolerances: tolerances(tol)?,
+        tolerances,
     };
-    Ok(drift(&history, &opts)?)
+    Ok(drift(history, &opts)?)
 }
 
 fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
-    let db = db_of(&a.db)?;
-    let r = drift_report(
-        &db,
-        &a.robot_id,
-        &a.baseline,
-        a.sigma,
-        a.tolerance.as_deref(),
-    )?;
+    // Arguments first: nothing is opened for a command that cannot run.
+    check_sigma(a.sigma)?;
+    let tol = tolerances(a.tolerance.as_deref())?;
+    let db = open_db_read(&a.db)?;
+    let history = read_calibrations(&db, Some(&a.robot_id))?;
+    let r = drift_report(&history, &a.robot_id, &a.baseline, a.sigma, tol)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
         println!(
             "robot {}: {} calibrations; latest {} ({}) against baseline {} ({}); flag beyond {} sigma",
-            r.robot_id, r.calibrations, r.latest_id, r.latest_at, r.baseline_id, r.baseline_at, r.sigma_threshold
+            printable(&r.robot_id),
+            r.calibrations,
+            r.latest_id,
+            r.latest_at,
+            r.baseline_id,
+            r.baseline_at,
+            r.sigma_threshold
         );
+        let converted: Vec<String> = history
+            .iter()
+            .filter(|c| c.length_unit != r.length_unit || c.angle_unit != r.angle_unit)
+            .map(|c| {
+                format!(
+                    "{} ({} and {})",
+                    c.id,
+                    printable(&c.length_unit),
+                    printable(&c.angle_unit)
+                )
+            })
+            .collect();
+        if !converted.is_empty() {
+            println!(
+                "values in {} and {}, the units of the first calibration; converted from other units: calibration {}",
+                r.length_unit,
+                r.angle_unit,
+                converted.join(", ")
+            );
+        }
         println!();
         println!(
             "{:<50} {:>13} {:>11} {:>8} {:>22}  ",
@@ -294,13 +362,32 @@ fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
             };
             println!(
                 "{:<50} {:>+13.6} {:>11.3e} {:>8.1} {:>22}  {}",
-                format!("{} [{}]", q.quantity, q.unit),
+                format!("{} [{}]", printable(&q.quantity), q.unit),
                 q.change,
                 q.sigma,
                 q.significance,
                 trend,
                 if q.flagged { "FLAGGED" } else { "" }
             );
+        }
+        if !r.left_out.is_empty() {
+            println!();
+            println!("not compared (only one of the two runs tracks them):");
+            for q in &r.left_out {
+                println!(
+                    "  {} ({}): {}",
+                    printable(&q.quantity),
+                    printable(&q.key),
+                    printable(&q.reason)
+                );
+            }
+        }
+        if !r.unused_tolerances.is_empty() {
+            println!();
+            println!("tolerances not applied:");
+            for t in &r.unused_tolerances {
+                println!("  {}: {}", printable(&t.key), printable(&t.reason));
+            }
         }
         println!();
         if r.flags.is_empty() {
@@ -309,8 +396,8 @@ fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
             for q in &r.flags {
                 println!(
                     "FLAG: {} ({}) changed by {:+.6} {} ({})",
-                    q.quantity,
-                    q.parameters.join(", "),
+                    printable(&q.quantity),
+                    printable(&q.parameters.join(", ")),
                     q.change,
                     q.unit,
                     q.reason.clone().unwrap_or_default()
@@ -321,62 +408,110 @@ fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
     Ok(if r.flags.is_empty() { 0 } else { EXIT_FLAGGED })
 }
 
-fn plot(a: HistoryPlotArgs) -> Result<u8> {
-    let db = db_of(&a.db)?;
-    let history = db.calibrations(Some(&a.robot_id))?;
-    if history.is_empty() {
-        bail!("no calibration recorded for robot `{}`", a.robot_id);
+/// The picture formats `history plot` writes, by the extension of `--out`.
+enum PlotFormat {
+    Svg,
+    Png,
+}
+
+fn plot_format(path: &Path) -> Result<PlotFormat> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("svg") => Ok(PlotFormat::Svg),
+        Some("png") => Ok(PlotFormat::Png),
+        _ => bail!(
+            "--out {}: the name must end in .svg or .png (the format written)",
+            path.display()
+        ),
     }
+}
+
+fn plot(a: HistoryPlotArgs) -> Result<u8> {
+    let format = plot_format(&a.out)?;
     let tol = tolerances(a.tolerance.as_deref())?;
+    let db = open_db_read(&a.db)?;
+    let history = read_calibrations(&db, Some(&a.robot_id))?;
+    if history.is_empty() {
+        bail!(
+            "no calibration recorded for robot `{}`",
+            printable(&a.robot_id)
+        );
+    }
     let r = drift(
         &history,
         &DriftOptions {
-            tolerances: tol.clone(),
+            tolerances: tol,
             ..Default::default()
         },
     )?;
-    let wanted: Option<Vec<String>> = a
-        .param
-        .as_ref()
-        .map(|l| l.split(',').map(|s| s.trim().to_string()).collect());
+    let wanted: Option<Vec<String>> = a.param.as_ref().map(|l| {
+        l.split(',')
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty())
+            .collect()
+    });
+    let matches = |k: &str, key: &str, parameters: &[String]| {
+        k == key || (parameters.len() == 1 && k == parameters[0])
+    };
+    // Say which entries of --param match nothing, and why.
+    let mut unmatched = Vec::new();
+    for k in wanted.iter().flatten() {
+        if r.quantities
+            .iter()
+            .any(|q| matches(k, &q.key, &q.parameters))
+        {
+            continue;
+        }
+        let why = match r
+            .left_out
+            .iter()
+            .find(|q| matches(k, &q.key, &q.parameters))
+        {
+            Some(q) => format!("left out: {}", q.reason),
+            None => format!(
+                "matches no tracked quantity of robot {} (a determined parameter's name or id, or a determined combination's expression)",
+                r.robot_id
+            ),
+        };
+        unmatched.push(format!("--param `{}`: {}", printable(k), printable(&why)));
+    }
     let mut series = Vec::new();
     for q in &r.quantities {
         if let Some(w) = &wanted {
-            if !w
-                .iter()
-                .any(|k| *k == q.key || q.parameters.len() == 1 && *k == q.parameters[0])
-            {
+            if !w.iter().any(|k| matches(k, &q.key, &q.parameters)) {
                 continue;
             }
         }
-        // Every calibration's value of this quantity.
-        let pts: Vec<(i64, f64, f64)> = history
-            .iter()
-            .filter_map(|c| {
-                c.parameters
-                    .iter()
-                    .find(|p| p.name == q.key && p.determined && p.estimated)
-                    .and_then(|p| p.sigma.map(|s| (c.at, p.value, s)))
-                    .or_else(|| {
-                        c.combinations
-                            .iter()
-                            .find(|k| k.expression == q.key)
-                            .map(|k| (c.at, k.value, k.sigma))
-                    })
-            })
-            .collect();
-        series.push((q.clone(), pts));
+        // Every calibration's value of this quantity, in the history's units.
+        series.push((q.clone(), samples(&history, &q.key)?));
     }
     if series.is_empty() {
-        bail!("no tracked quantity matches --param");
+        bail!(
+            "nothing to plot: {}",
+            if unmatched.is_empty() {
+                "no tracked quantity".to_string()
+            } else {
+                unmatched.join("; ")
+            }
+        );
+    }
+    for u in &unmatched {
+        eprintln!("warning: {u}");
     }
     // One panel per quantity: values with +-1 sigma bars against days since the first
     // calibration; the first value +-3 sigma, and the tolerance, as reference lines.
     let t0 = history[0].at;
+    let since: String = kinecal_history::format_time(t0).chars().take(10).collect();
     let panels: Vec<Panel> = series
         .iter()
         .map(|(q, pts)| {
-            let (v0, s0) = pts.first().map_or((q.baseline, q.sigma), |p| (p.1, p.2));
+            let (v0, s0) = pts
+                .first()
+                .map_or((q.baseline, q.sigma), |p| (p.value, p.sigma));
             let mut h_lines = vec![
                 (v0 - 3.0 * s0, "first -3 sigma".to_string()),
                 (v0 + 3.0 * s0, "first +3 sigma".to_string()),
@@ -388,23 +523,32 @@ fn plot(a: HistoryPlotArgs) -> Result<u8> {
             Panel {
                 title: format!(
                     "{}{}",
-                    q.quantity,
+                    printable(&q.quantity),
                     if q.flagged { " (FLAGGED)" } else { "" }
                 ),
-                x_label: format!("days since {}", &kinecal_history::format_time(t0)[..10]),
-                y_label: format!("{} ({})", q.key, q.unit),
-                x: pts.iter().map(|p| (p.0 - t0) as f64 / 86400.0).collect(),
+                x_label: format!("days since {since}"),
+                y_label: format!("{} ({})", printable(&q.key), q.unit),
+                x: pts.iter().map(|p| (p.at - t0) as f64 / 86400.0).collect(),
                 lines: vec![Line {
                     points: true,
-                    error: Some(pts.iter().map(|p| p.2).collect()),
-                    ..Line::new("value +-1 sigma", pts.iter().map(|p| p.1).collect())
+                    error: Some(pts.iter().map(|p| p.sigma).collect()),
+                    ..Line::new("value +-1 sigma", pts.iter().map(|p| p.value).collect())
                 }],
                 h_lines,
                 ..Default::default()
             }
         })
         .collect();
-    write_file(&a.out, &kinecal_report::render_svg(&panels, 1)?)?;
+    match format {
+        PlotFormat::Svg => write_file(&a.out, &kinecal_report::render_svg(&panels, 1)?)?,
+        PlotFormat::Png => {
+            let mut staged = crate::output::Staged::new();
+            staged.by_path(&a.out, |tmp| {
+                Ok(kinecal_report::render_png(&panels, 1, tmp)?)
+            })?;
+            staged.commit()?;
+        }
+    }
     eprintln!("wrote {} panels to {}", panels.len(), a.out.display());
     Ok(0)
 }

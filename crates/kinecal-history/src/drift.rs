@@ -6,10 +6,20 @@
 //! its significance `|delta| / sqrt(s1^2 + s2^2)`, the trend per 30 days (weighted regression
 //! over the whole history, with its standard error), and a flag when the change exceeds `K`
 //! sigma or a tolerance.
+//!
+//! Values and sigmas are converted to the units of the robot's first record before anything
+//! is compared (lengths m/mm/in, angles deg/rad, slopes per transducer unit accordingly): a
+//! calibration in inches and one in millimetres are never compared raw. What is not compared is
+//! said, with the reason: quantities only one of the two runs determined
+//! ([`DriftReport::left_out`]) and tolerance keys that match no tracked quantity
+//! ([`DriftReport::unused_tolerances`]).
 
+use kinecal::units::Units;
 use serde::Serialize;
 
 use crate::store::Calibration;
+use crate::text::printable;
+use crate::units::{conversion, parse_units};
 use crate::{Error, Result};
 
 /// Which calibration the latest one is compared with.
@@ -24,22 +34,34 @@ pub enum Baseline {
 }
 
 /// Per-quantity tolerances: keys are parameter names or ids (`link3.y`, `p14`) or combination
-/// expressions (`p14 + p20`), values in the quantity's unit.
+/// expressions (`p14 + p20`), values in the quantity's unit (that of the robot's first record).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Tolerances {
     entries: Vec<(String, f64)>,
 }
 
 impl Tolerances {
-    /// Reads a TOML file of `key = value` lines (optionally under `[tolerances]`).
+    /// Reads a TOML file of `key = value` lines (optionally under `[tolerances]`). Keys may be
+    /// quoted (`"p14 + p20" = 0.5`) or not: an unquoted dotted key (`link1.x = 0.001`, which
+    /// TOML reads as a table `link1` holding `x`) is the parameter name `link1.x`.
     pub fn parse_toml(text: &str, file: &str) -> Result<Self> {
-        let doc: tolerance_file::Table =
-            tolerance_file::parse(text).map_err(|e| Error::Input(format!("{file}: {e}")))?;
-        let mut entries = Vec::new();
+        let fail = |message: String| Error::Tolerance {
+            file: file.to_string(),
+            message,
+        };
+        let doc: tolerance_file::Table = tolerance_file::parse(text).map_err(fail)?;
+        let mut entries: Vec<(String, f64)> = Vec::new();
         for (k, v) in doc {
             if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::Input(format!(
-                    "{file}: tolerance `{k}` must be a positive number"
+                return Err(fail(format!(
+                    "tolerance `{}` must be a positive number",
+                    printable(&k)
+                )));
+            }
+            if entries.iter().any(|(e, _)| *e == k) {
+                return Err(fail(format!(
+                    "tolerance `{}` is given twice",
+                    printable(&k)
                 )));
             }
             entries.push((k, v));
@@ -47,12 +69,28 @@ impl Tolerances {
         Ok(Tolerances { entries })
     }
 
+    /// A tolerance per key.
+    pub fn from_entries(entries: Vec<(String, f64)>) -> Self {
+        Tolerances { entries }
+    }
+
+    /// The keys, in file order.
+    pub fn keys(&self) -> impl Iterator<Item = &str> {
+        self.entries.iter().map(|(k, _)| k.as_str())
+    }
+
     fn get(&self, q: &Quantity) -> Option<f64> {
         self.entries
             .iter()
-            .find(|(k, _)| *k == q.key || (q.parameters.len() == 1 && *k == q.parameters[0]))
+            .find(|(k, _)| matches_key(k, &q.key, &q.parameters))
             .map(|(_, v)| *v)
     }
+}
+
+/// Whether `k` names the quantity `key` (of parameter ids `parameters`): its name or
+/// expression, or the id of its single parameter.
+fn matches_key(k: &str, key: &str, parameters: &[String]) -> bool {
+    k == key || (parameters.len() == 1 && k == parameters[0])
 }
 
 /// Settings of a drift analysis.
@@ -60,7 +98,7 @@ impl Tolerances {
 pub struct DriftOptions {
     /// The baseline.
     pub baseline: Baseline,
-    /// Flag changes beyond this many standard deviations.
+    /// Flag changes beyond this many standard deviations (positive and finite).
     pub sigma: f64,
     /// Optional tolerances.
     pub tolerances: Tolerances,
@@ -85,7 +123,7 @@ pub struct Quantity {
     pub key: String,
     /// The parameter ids involved.
     pub parameters: Vec<String>,
-    /// Unit.
+    /// Unit (that of the robot's first record).
     pub unit: String,
     /// Value at the baseline.
     pub baseline: f64,
@@ -109,6 +147,29 @@ pub struct Quantity {
     pub reason: Option<String>,
 }
 
+/// A quantity one of the two compared runs tracks and the other does not: not compared.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LeftOut {
+    /// The physical quantity in words.
+    pub quantity: String,
+    /// The parameter name or the combination's expression.
+    pub key: String,
+    /// The parameter ids involved.
+    pub parameters: Vec<String>,
+    /// Why it is not compared, e.g. "not determined by the data of the latest run
+    /// (calibration 7)".
+    pub reason: String,
+}
+
+/// A tolerance that applies to no compared quantity.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UnusedTolerance {
+    /// The key as written in the file.
+    pub key: String,
+    /// Why it is unused.
+    pub reason: String,
+}
+
 /// The result of [`drift`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DriftReport {
@@ -126,13 +187,22 @@ pub struct DriftReport {
     pub latest_at: String,
     /// The threshold K.
     pub sigma_threshold: f64,
+    /// The length unit of every value (the robot's first record's).
+    pub length_unit: String,
+    /// The angle unit of every value (the robot's first record's).
+    pub angle_unit: String,
     /// The flagged quantities.
     pub flags: Vec<Quantity>,
-    /// Every tracked quantity.
+    /// Every compared quantity.
     pub quantities: Vec<Quantity>,
+    /// Quantities only one of the two runs tracks, with the reason.
+    pub left_out: Vec<LeftOut>,
+    /// Tolerance keys that match no compared quantity, with the reason.
+    pub unused_tolerances: Vec<UnusedTolerance>,
 }
 
-/// A value with its sigma, words and members, keyed for matching across calibrations.
+/// A value with its sigma, words and members, keyed for matching across calibrations; in the
+/// history's units.
 struct Tracked {
     key: String,
     words: String,
@@ -198,11 +268,11 @@ fn combination_words(names: &[String]) -> String {
                 "gamma" => "x rotations (gamma)".into(),
                 other => other.to_string(),
             };
-            if ks.len() == 1 {
-                words(&format!("link{}.{c}", ks[0]))
-            } else {
-                let (last, rest) = ks.split_last().expect("two or more");
-                format!("{what} of links {} and {last}", rest.join(", "))
+            match ks.split_last() {
+                Some((last, rest)) if !rest.is_empty() => {
+                    format!("{what} of links {} and {last}", rest.join(", "))
+                }
+                _ => words(&format!("link{}.{c}", ks.join(""))),
             }
         })
         .collect();
@@ -210,11 +280,13 @@ fn combination_words(names: &[String]) -> String {
     format!("{}, together", parts.join(" and "))
 }
 
-fn tracked(c: &Calibration) -> Vec<Tracked> {
-    let mut out = Vec::new();
+/// The quantities `c` tracks, converted to `units`; and those whose unit cannot be converted,
+/// with the reason.
+fn tracked(c: &Calibration, units: &Units) -> (Vec<Tracked>, Vec<LeftOut>) {
+    let mut raw = Vec::new();
     for p in &c.parameters {
         if let (true, true, Some(s)) = (p.estimated, p.determined, p.sigma) {
-            out.push(Tracked {
+            raw.push(Tracked {
                 key: p.name.clone(),
                 words: words(&p.name),
                 parameters: vec![p.id.clone()],
@@ -226,12 +298,13 @@ fn tracked(c: &Calibration) -> Vec<Tracked> {
     }
     for comb in &c.combinations {
         let names: Vec<String> = comb.terms.iter().map(|t| t.1.clone()).collect();
+        // The combination's value is in its first member's unit.
         let unit = comb
             .terms
             .first()
             .and_then(|t| c.parameters.iter().find(|p| p.id == t.0))
             .map_or(String::new(), |p| p.unit.clone());
-        out.push(Tracked {
+        raw.push(Tracked {
             key: comb.expression.clone(),
             words: combination_words(&names),
             parameters: comb.terms.iter().map(|t| t.0.clone()).collect(),
@@ -240,19 +313,93 @@ fn tracked(c: &Calibration) -> Vec<Tracked> {
             sigma: comb.sigma,
         });
     }
-    out
+    let mut out = Vec::new();
+    let mut left_out = Vec::new();
+    for mut t in raw {
+        match conversion(&t.unit, units) {
+            Some((factor, unit)) => {
+                t.value *= factor;
+                t.sigma *= factor.abs();
+                t.unit = unit;
+                out.push(t);
+            }
+            None => left_out.push(LeftOut {
+                quantity: t.words,
+                key: t.key,
+                parameters: t.parameters,
+                reason: format!(
+                    "its unit `{}` in calibration {} is not one kinecal converts",
+                    printable(&t.unit),
+                    c.id
+                ),
+            }),
+        }
+    }
+    (out, left_out)
+}
+
+/// Why `c` (the baseline or the latest run, `role`) does not track `key`.
+fn why_not_tracked(c: &Calibration, key: &str, role: &str) -> String {
+    let run = format!("{role} (calibration {})", c.id);
+    match c.parameters.iter().find(|p| p.name == key) {
+        Some(p) if !p.estimated => format!("not estimated by {run}"),
+        Some(_) => format!("not determined by the data of {run}"),
+        None if c.combinations.is_empty() && key.contains(' ') => {
+            format!("{run} has no determined combination")
+        }
+        None if key.contains(' ') => {
+            format!("not a determined combination of {run}")
+        }
+        None => format!("not a parameter of the robot model of {run}"),
+    }
+}
+
+/// The units every value of `history` is converted to: those of its first record.
+fn history_units(history: &[Calibration]) -> Result<Units> {
+    let first = history
+        .first()
+        .ok_or_else(|| Error::Input("empty history".into()))?;
+    parse_units(&first.length_unit, &first.angle_unit).ok_or_else(|| {
+        Error::Input(format!(
+            "calibration {}: units `{}` and `{}` are not kinecal units",
+            first.id,
+            printable(&first.length_unit),
+            printable(&first.angle_unit)
+        ))
+    })
 }
 
 fn compare(
     history: &[Calibration],
+    units: &Units,
     base: &Calibration,
     latest: &Calibration,
     opts: &DriftOptions,
-) -> Vec<Quantity> {
-    let b = tracked(base);
+) -> (Vec<Quantity>, Vec<LeftOut>) {
+    let (b, mut left_out) = tracked(base, units);
+    let (l, left_latest) = tracked(latest, units);
+    left_out.extend(left_latest);
     let mut out = Vec::new();
-    for l in tracked(latest) {
+    for b in &b {
+        if !l.iter().any(|q| q.key == b.key) && !left_out.iter().any(|q| q.key == b.key) {
+            left_out.push(LeftOut {
+                quantity: b.words.clone(),
+                key: b.key.clone(),
+                parameters: b.parameters.clone(),
+                reason: why_not_tracked(latest, &b.key, "the latest run"),
+            });
+        }
+    }
+    for l in l {
         let Some(b) = b.iter().find(|q| q.key == l.key) else {
+            if !left_out.iter().any(|q| q.key == l.key) {
+                left_out.push(LeftOut {
+                    reason: why_not_tracked(base, &l.key, "the baseline run"),
+                    quantity: l.words,
+                    key: l.key,
+                    parameters: l.parameters,
+                });
+            }
             continue;
         };
         let change = l.value - b.value;
@@ -265,14 +412,9 @@ fn compare(
             f64::INFINITY
         };
         // Trend over every calibration that tracks this quantity.
-        let pts: Vec<(f64, f64, f64)> = history
-            .iter()
-            .filter_map(|c| {
-                tracked(c)
-                    .into_iter()
-                    .find(|q| q.key == l.key)
-                    .map(|q| (c.at as f64 / 86400.0, q.value, q.sigma))
-            })
+        let pts: Vec<(f64, f64, f64)> = samples_in(history, units, &l.key)
+            .into_iter()
+            .map(|s| (s.at as f64 / 86400.0, s.value, s.sigma))
             .filter(|p| p.2 > 0.0)
             .collect();
         let (trend, trend_sigma) = regression(&pts);
@@ -302,7 +444,7 @@ fn compare(
         }
         out.push(q);
     }
-    out
+    (out, left_out)
 }
 
 /// Weighted least-squares slope of value over time (days) and its standard error.
@@ -331,26 +473,95 @@ fn regression(pts: &[(f64, f64, f64)]) -> (Option<f64>, Option<f64>) {
     (Some(slope), Some((1.0 / stt).sqrt()))
 }
 
+/// One calibration's value of a tracked quantity.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Sample {
+    /// The calibration's id.
+    pub id: i64,
+    /// Its time (Unix seconds).
+    pub at: i64,
+    /// The value, in the units of the history's first record.
+    pub value: f64,
+    /// Its standard deviation, same unit.
+    pub sigma: f64,
+}
+
+fn samples_in(history: &[Calibration], units: &Units, key: &str) -> Vec<Sample> {
+    history
+        .iter()
+        .filter_map(|c| {
+            tracked(c, units)
+                .0
+                .into_iter()
+                .find(|q| q.key == key)
+                .map(|q| Sample {
+                    id: c.id,
+                    at: c.at,
+                    value: q.value,
+                    sigma: q.sigma,
+                })
+        })
+        .collect()
+}
+
+/// Every calibration's value of the quantity `key` (a parameter name or a combination's
+/// expression) in a robot's `history` (oldest first), converted to the units of its first
+/// record; calibrations that do not track it are skipped.
+pub fn samples(history: &[Calibration], key: &str) -> Result<Vec<Sample>> {
+    Ok(samples_in(history, &history_units(history)?, key))
+}
+
 /// Compares the latest calibration of a robot's `history` (oldest first) with the baseline.
 pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport> {
+    if !(opts.sigma.is_finite() && opts.sigma > 0.0) {
+        return Err(Error::InvalidSigma { value: opts.sigma });
+    }
     let (Some(first), Some(latest)) = (history.first(), history.last()) else {
         return Err(Error::Input("empty history".into()));
     };
+    let units = history_units(history)?;
     let base = match opts.baseline {
         Baseline::First => first,
         Baseline::Id(id) => history.iter().find(|c| c.id == id).ok_or_else(|| {
             Error::Input(format!(
                 "calibration {id} is not in the history of robot `{}`",
-                latest.robot_id
+                printable(&latest.robot_id)
             ))
         })?,
         Baseline::LatestOk => history[..history.len() - 1]
             .iter()
             .rev()
-            .find(|c| compare(history, first, c, opts).iter().all(|q| !q.flagged))
+            .find(|c| {
+                compare(history, &units, first, c, opts)
+                    .0
+                    .iter()
+                    .all(|q| !q.flagged)
+            })
             .unwrap_or(first),
     };
-    let quantities = compare(history, base, latest, opts);
+    let (quantities, left_out) = compare(history, &units, base, latest, opts);
+    let unused_tolerances = opts
+        .tolerances
+        .keys()
+        .filter(|k| {
+            !quantities
+                .iter()
+                .any(|q| matches_key(k, &q.key, &q.parameters))
+        })
+        .map(|k| {
+            let reason = match left_out
+                .iter()
+                .find(|q| matches_key(k, &q.key, &q.parameters))
+            {
+                Some(q) => format!("its quantity `{}` is left out: {}", q.key, q.reason),
+                None => "matches no tracked quantity (the name or id of a determined parameter, or a determined combination's expression)".to_string(),
+            };
+            UnusedTolerance {
+                key: k.to_string(),
+                reason,
+            }
+        })
+        .collect();
     Ok(DriftReport {
         robot_id: latest.robot_id.clone(),
         calibrations: history.len(),
@@ -359,32 +570,60 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
         latest_id: latest.id,
         latest_at: latest.at_text.clone(),
         sigma_threshold: opts.sigma,
+        length_unit: units.length.to_string(),
+        angle_unit: units.angle.to_string(),
         flags: quantities.iter().filter(|q| q.flagged).cloned().collect(),
         quantities,
+        left_out,
+        unused_tolerances,
     })
 }
 
 /// A minimal reader for tolerance files: `key = number` lines, `#` comments, an optional
-/// `[tolerances]` header; keys may be quoted.
+/// `[tolerances]` header; keys may be quoted, and dotted keys name dotted parameters.
 mod tolerance_file {
+    use toml_edit::{Item, TableLike};
+
     pub type Table = Vec<(String, f64)>;
 
     pub fn parse(text: &str) -> Result<Table, String> {
         let doc: toml_edit::DocumentMut = text
             .parse()
             .map_err(|e: toml_edit::TomlError| e.to_string())?;
-        let table = match doc.get("tolerances").and_then(|t| t.as_table()) {
-            Some(t) => t.clone(),
-            None => doc.as_table().clone(),
-        };
+        let root = doc.as_table();
         let mut out = Vec::new();
+        match root.get("tolerances").and_then(Item::as_table_like) {
+            Some(t) => {
+                if let Some((k, _)) = root.iter().find(|(k, _)| *k != "tolerances") {
+                    return Err(format!(
+                        "`{k}` is outside the [tolerances] table: put every tolerance under it"
+                    ));
+                }
+                flatten("", t, &mut out)?;
+            }
+            None => flatten("", root, &mut out)?,
+        }
+        Ok(out)
+    }
+
+    /// `link1.x = 1` is a table `link1` holding `x`: its keys joined with dots.
+    fn flatten(prefix: &str, table: &dyn TableLike, out: &mut Table) -> Result<(), String> {
         for (k, v) in table.iter() {
+            let key = if prefix.is_empty() {
+                k.to_string()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            if let Some(t) = v.as_table_like() {
+                flatten(&key, t, out)?;
+                continue;
+            }
             let n = v
                 .as_float()
                 .or_else(|| v.as_integer().map(|i| i as f64))
-                .ok_or_else(|| format!("`{k}`: expected a number"))?;
-            out.push((k.to_string(), n));
+                .ok_or_else(|| format!("`{key}`: expected a number"))?;
+            out.push((key, n));
         }
-        Ok(out)
+        Ok(())
     }
 }

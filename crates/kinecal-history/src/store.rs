@@ -1,13 +1,17 @@
 //! The SQLite store.
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use kinecal::report::CalibrationReport;
-use rusqlite::{params, Connection, OpenFlags, OptionalExtension, Transaction};
+use rusqlite::types::ValueRef;
+use rusqlite::{params, Connection, ErrorCode, OpenFlags, OptionalExtension, Row, Transaction};
 use serde::Serialize;
 
+use crate::text::printable;
 use crate::timefmt::{format_time, now};
+use crate::units::{parse_label, quantity_words};
 use crate::{Error, Result};
 
 /// The schema version this build writes. Each entry of `MIGRATIONS` brings a database from
@@ -140,10 +144,444 @@ pub fn default_db_path() -> Option<PathBuf> {
     Some(base.join("kinecal").join("history.sqlite"))
 }
 
+/// Options of [`Database::add_with`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AddOptions {
+    /// Record the calibration even when its robot model (joints, joint kinds, parameter names)
+    /// differs from every earlier record of the robot.
+    pub force: bool,
+}
+
+/// A record that could not be read, and why.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct DamagedRecord {
+    /// The record's id.
+    pub id: i64,
+    /// Which field is damaged, and how (e.g. "its note is not valid UTF-8 text").
+    pub problem: String,
+}
+
+impl std::fmt::Display for DamagedRecord {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "calibration {} cannot be read ({}); left out",
+            self.id, self.problem
+        )
+    }
+}
+
+/// The records of a history: those that could be read, and those that could not.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Records {
+    /// The readable calibrations, by robot, then oldest first.
+    pub calibrations: Vec<Calibration>,
+    /// The records with a damaged field, by id.
+    pub damaged: Vec<DamagedRecord>,
+}
+
 /// An open history database.
 pub struct Database {
     conn: Connection,
     path: String,
+    read_only: bool,
+    /// Schema version of the file (0: an empty file, no tables yet).
+    version: i64,
+    /// What `quick_check` reported when opened for reading, if not "ok".
+    integrity: Option<String>,
+}
+
+/// The tables (with their columns) and the views and triggers of a database.
+#[derive(Debug, Default, PartialEq)]
+struct Schema {
+    tables: BTreeMap<String, Vec<String>>,
+    others: Vec<(String, String)>,
+}
+
+/// A column read as text, whatever its bytes.
+fn lossy(r: &Row<'_>, i: usize) -> rusqlite::Result<String> {
+    Ok(match r.get_ref(i)? {
+        ValueRef::Text(b) | ValueRef::Blob(b) => String::from_utf8_lossy(b).into_owned(),
+        ValueRef::Integer(v) => v.to_string(),
+        ValueRef::Real(v) => v.to_string(),
+        ValueRef::Null => String::new(),
+    })
+}
+
+fn read_schema(conn: &Connection) -> rusqlite::Result<(i64, Schema)> {
+    let version: i64 = conn.query_row("PRAGMA user_version", [], |r| r.get(0))?;
+    let mut schema = Schema::default();
+    let objects: Vec<(String, String)> = {
+        let mut st = conn.prepare(
+            "SELECT type, name FROM sqlite_master WHERE name NOT LIKE 'sqlite\\_%' ESCAPE '\\'",
+        )?;
+        let rows = st.query_map([], |r| Ok((lossy(r, 0)?, lossy(r, 1)?)))?;
+        rows.collect::<rusqlite::Result<_>>()?
+    };
+    for (kind, name) in objects {
+        match kind.as_str() {
+            "table" => {
+                let mut st = conn.prepare("SELECT name FROM pragma_table_info(?1) ORDER BY cid")?;
+                let columns = st
+                    .query_map([&name], |r| lossy(r, 0))?
+                    .collect::<rusqlite::Result<Vec<_>>>()?;
+                schema.tables.insert(name, columns);
+            }
+            "index" => {}
+            _ => schema.others.push((kind, name)),
+        }
+    }
+    Ok((version, schema))
+}
+
+/// The schema kinecal's migrations give at `version`.
+fn reference_schema(version: i64) -> rusqlite::Result<Schema> {
+    let conn = Connection::open_in_memory()?;
+    for sql in MIGRATIONS
+        .iter()
+        .take(version.clamp(0, SCHEMA_VERSION) as usize)
+    {
+        conn.execute_batch(sql)?;
+    }
+    Ok(read_schema(&conn)?.1)
+}
+
+fn names<'a>(v: impl IntoIterator<Item = &'a String>) -> String {
+    let v: Vec<String> = v
+        .into_iter()
+        .map(|s| format!("`{}`", printable(s)))
+        .collect();
+    if v.len() > 6 {
+        format!("{} and {} more", v[..6].join(", "), v.len() - 6)
+    } else {
+        v.join(", ")
+    }
+}
+
+/// Why `found` is not kinecal's schema at `version`, if it is not.
+fn schema_difference(version: i64, found: &Schema, reference: &Schema) -> Option<String> {
+    if found == reference {
+        return None;
+    }
+    if version == 0 {
+        return Some(format!(
+            "it holds tables ({}) but no kinecal schema version",
+            names(found.tables.keys())
+        ));
+    }
+    let mut parts = Vec::new();
+    let extra: Vec<&String> = found
+        .tables
+        .keys()
+        .filter(|t| !reference.tables.contains_key(*t))
+        .collect();
+    if !extra.is_empty() {
+        parts.push(format!("tables kinecal never creates: {}", names(extra)));
+    }
+    let missing: Vec<&String> = reference
+        .tables
+        .keys()
+        .filter(|t| !found.tables.contains_key(*t))
+        .collect();
+    if !missing.is_empty() {
+        parts.push(format!("no table {}", names(missing)));
+    }
+    for (table, columns) in &found.tables {
+        if let Some(want) = reference.tables.get(table) {
+            if columns != want {
+                parts.push(format!(
+                    "table `{}` has columns ({}), kinecal's has ({})",
+                    printable(table),
+                    printable(&columns.join(", ")),
+                    want.join(", ")
+                ));
+            }
+        }
+    }
+    for (kind, name) in &found.others {
+        parts.push(format!("a {} `{}`", printable(kind), printable(name)));
+    }
+    Some(format!(
+        "schema version {version}, but {}",
+        parts.join("; ")
+    ))
+}
+
+/// `PRAGMA quick_check`: `None` when the file is sound, else the first problems reported.
+fn quick_check(conn: &Connection) -> Option<String> {
+    let rows = (|| -> rusqlite::Result<Vec<String>> {
+        let mut st = conn.prepare("PRAGMA quick_check(5)")?;
+        let rows = st.query_map([], |r| lossy(r, 0))?;
+        rows.collect()
+    })();
+    match rows {
+        Ok(v) if v.len() == 1 && v[0] == "ok" => None,
+        Ok(v) => Some(v.join("; ")),
+        Err(e) => Some(e.to_string()),
+    }
+}
+
+/// The file as an SQLite URI opening it immutable (no locks, no shared-memory file).
+fn immutable_uri(path: &Path) -> std::io::Result<String> {
+    let abs = std::path::absolute(path)?;
+    #[cfg(unix)]
+    let bytes = {
+        use std::os::unix::ffi::OsStrExt;
+        abs.as_os_str().as_bytes().to_vec()
+    };
+    #[cfg(not(unix))]
+    let bytes = abs.to_string_lossy().replace('\\', "/").into_bytes();
+    let mut uri = String::from("file:");
+    if !bytes.starts_with(b"/") {
+        uri.push('/');
+    }
+    for b in bytes {
+        if b.is_ascii_alphanumeric() || b"-._~/:".contains(&b) {
+            uri.push(b as char);
+        } else {
+            uri.push_str(&format!("%{b:02X}"));
+        }
+    }
+    uri.push_str("?immutable=1");
+    Ok(uri)
+}
+
+/// A robot model as far as a history can tell it from the parameters: name -> quantity.
+#[derive(Debug, Default, PartialEq)]
+struct Model(BTreeMap<String, Kind>);
+
+#[derive(Debug, Clone, PartialEq)]
+enum Kind {
+    Known(kinecal::units::Quantity),
+    Unknown(String),
+}
+
+impl Kind {
+    fn of(unit: &str) -> Kind {
+        match parse_label(unit) {
+            Some((q, _)) => Kind::Known(q),
+            None => Kind::Unknown(unit.to_string()),
+        }
+    }
+
+    fn words(&self) -> String {
+        match self {
+            Kind::Known(q) => quantity_words(*q).to_string(),
+            Kind::Unknown(u) => format!("in `{}`", printable(u)),
+        }
+    }
+}
+
+/// `jointN.xxx` -> N.
+fn joint_of(name: &str) -> Option<usize> {
+    name.strip_prefix("joint")?.split_once('.')?.0.parse().ok()
+}
+
+impl Model {
+    fn of_report(report: &CalibrationReport) -> Model {
+        Model(
+            report
+                .parameters
+                .iter()
+                .map(|p| (p.name.clone(), Kind::of(&p.unit)))
+                .collect(),
+        )
+    }
+
+    fn joints(&self) -> BTreeSet<usize> {
+        self.0.keys().filter_map(|n| joint_of(n)).collect()
+    }
+
+    fn joint_kind(&self, j: usize) -> Option<&'static str> {
+        use kinecal::units::Quantity;
+        match self.0.get(&format!("joint{j}.offset"))? {
+            Kind::Known(Quantity::Angle) => Some("revolute"),
+            Kind::Known(Quantity::Length) => Some("prismatic"),
+            _ => None,
+        }
+    }
+
+    /// What differs from `earlier`, in words.
+    fn difference(&self, earlier: &Model) -> String {
+        let mut parts = Vec::new();
+        let (jn, je) = (self.joints(), earlier.joints());
+        if jn.len() != je.len() {
+            parts.push(format!("{} joints, earlier {}", jn.len(), je.len()));
+        }
+        let mut kind_changed = BTreeSet::new();
+        for &j in jn.intersection(&je) {
+            if let (Some(a), Some(b)) = (self.joint_kind(j), earlier.joint_kind(j)) {
+                if a != b {
+                    parts.push(format!("joint {j} is {a}, earlier {b}"));
+                    kind_changed.insert(j);
+                }
+            }
+        }
+        let added: Vec<&String> = self
+            .0
+            .keys()
+            .filter(|n| !earlier.0.contains_key(*n))
+            .collect();
+        if !added.is_empty() {
+            parts.push(format!(
+                "parameters not in the earlier model: {}",
+                names(added)
+            ));
+        }
+        let missing: Vec<&String> = earlier
+            .0
+            .keys()
+            .filter(|n| !self.0.contains_key(*n))
+            .collect();
+        if !missing.is_empty() {
+            parts.push(format!("parameters missing: {}", names(missing)));
+        }
+        for (name, kind) in &self.0 {
+            if let Some(old) = earlier.0.get(name) {
+                let joint_reported = joint_of(name).is_some_and(|j| kind_changed.contains(&j));
+                if old != kind && !joint_reported {
+                    parts.push(format!(
+                        "`{}` is {}, earlier {}",
+                        printable(name),
+                        kind.words(),
+                        old.words()
+                    ));
+                }
+            }
+        }
+        if parts.is_empty() {
+            "the parameters differ".into()
+        } else {
+            parts.join("; ")
+        }
+    }
+}
+
+/// Decoders of one stored field: a damaged value gives a sentence naming the field.
+mod field {
+    use rusqlite::types::ValueRef;
+    use rusqlite::Row;
+
+    pub type Decoded<T> = std::result::Result<T, String>;
+
+    pub fn text(r: &Row<'_>, i: usize, field: &str) -> Decoded<String> {
+        match r.get_ref(i) {
+            Ok(ValueRef::Text(b)) => std::str::from_utf8(b)
+                .map(str::to_owned)
+                .map_err(|_| format!("{field} is not valid UTF-8 text")),
+            Ok(ValueRef::Null) => Err(format!("{field} is missing")),
+            Ok(_) => Err(format!("{field} is not text")),
+            Err(e) => Err(format!("{field}: {e}")),
+        }
+    }
+
+    pub fn number(r: &Row<'_>, i: usize, field: &str) -> Decoded<f64> {
+        optional_number(r, i, field)?.ok_or_else(|| format!("{field} is missing"))
+    }
+
+    pub fn optional_number(r: &Row<'_>, i: usize, field: &str) -> Decoded<Option<f64>> {
+        match r.get_ref(i) {
+            Ok(ValueRef::Real(v)) if v.is_finite() => Ok(Some(v)),
+            Ok(ValueRef::Integer(v)) => Ok(Some(v as f64)),
+            Ok(ValueRef::Null) => Ok(None),
+            Ok(_) => Err(format!("{field} is not a finite number")),
+            Err(e) => Err(format!("{field}: {e}")),
+        }
+    }
+
+    pub fn integer(r: &Row<'_>, i: usize, field: &str) -> Decoded<i64> {
+        match r.get_ref(i) {
+            Ok(ValueRef::Integer(v)) => Ok(v),
+            Ok(_) => Err(format!("{field} is not an integer")),
+            Err(e) => Err(format!("{field}: {e}")),
+        }
+    }
+
+    pub fn flag(r: &Row<'_>, i: usize, field: &str) -> Decoded<bool> {
+        match r.get_ref(i) {
+            Ok(ValueRef::Integer(0)) => Ok(false),
+            Ok(ValueRef::Integer(1)) => Ok(true),
+            Ok(_) => Err(format!("{field} is not true or false")),
+            Err(e) => Err(format!("{field}: {e}")),
+        }
+    }
+}
+
+fn open_connection(path: &Path, shown: &str, flags: OpenFlags) -> Result<Connection> {
+    let fail = |m: String| Error::Database {
+        path: shown.to_string(),
+        message: m,
+    };
+    let conn =
+        Connection::open_with_flags(path, flags).map_err(|e| fail(format!("cannot open: {e}")))?;
+    conn.busy_timeout(Duration::from_secs(30))
+        .map_err(|e| fail(e.to_string()))?;
+    Ok(conn)
+}
+
+/// A database that can be read but not written here.
+fn read_only_location(path: &str, e: impl std::fmt::Display) -> Error {
+    Error::Database {
+        path: path.to_string(),
+        message: format!(
+            "cannot write here: the file or its folder is read-only ({e}); nothing was written \
+             (the read commands still work)"
+        ),
+    }
+}
+
+/// An error met while reading the file's schema, as the user should read it.
+fn classify(path: &str, e: rusqlite::Error) -> Error {
+    match e.sqlite_error_code() {
+        Some(ErrorCode::NotADatabase) => Error::Foreign {
+            path: path.to_string(),
+            reason: format!("not an SQLite database: {e}"),
+        },
+        Some(ErrorCode::DatabaseCorrupt) => Error::Corrupt {
+            path: path.to_string(),
+            problem: e.to_string(),
+        },
+        _ => Error::Database {
+            path: path.to_string(),
+            message: format!("cannot read: {e}"),
+        },
+    }
+}
+
+/// Reads the file's schema version and schema in one read transaction, and checks that they
+/// are kinecal's. Reads only.
+fn inspect(conn: &Connection, path: &str) -> Result<i64> {
+    conn.execute_batch("BEGIN DEFERRED")
+        .map_err(|e| classify(path, e))?;
+    let read = read_schema(conn);
+    let _ = conn.execute_batch("COMMIT");
+    let (version, schema) = read.map_err(|e| classify(path, e))?;
+    if version < 0 {
+        return Err(Error::Foreign {
+            path: path.to_string(),
+            reason: format!(
+                "its schema version (user_version) is {version}, which kinecal never writes"
+            ),
+        });
+    }
+    if version > SCHEMA_VERSION {
+        return Err(Error::NewerSchema {
+            path: path.to_string(),
+            found: version,
+            supported: SCHEMA_VERSION,
+        });
+    }
+    let reference = reference_schema(version).map_err(|e| Error::Database {
+        path: path.to_string(),
+        message: e.to_string(),
+    })?;
+    if let Some(reason) = schema_difference(version, &schema, &reference) {
+        return Err(Error::Foreign {
+            path: path.to_string(),
+            reason,
+        });
+    }
+    Ok(version)
 }
 
 impl Database {
@@ -154,43 +592,66 @@ impl Database {
         }
     }
 
-    /// Opens (creating it and its folder if needed) and migrates the database at `path`.
+    /// Opens the database at `path` for writing, creating it and its folder if needed, and
+    /// migrates it. An existing file is first opened read-only and inspected: a file that is
+    /// not a kinecal history (another schema, a negative or newer schema version, not SQLite
+    /// at all) or that fails `PRAGMA quick_check` is refused, and nothing is written to it.
     pub fn open(path: &Path) -> Result<Database> {
         let shown = path.display().to_string();
         let fail = |m: String| Error::Database {
             path: shown.clone(),
             message: m,
         };
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        // (An error here, e.g. a file where a folder should be, is reported by the creation.)
+        let existed = matches!(path.try_exists(), Ok(true));
+        if existed {
+            if path.is_dir() {
+                return Err(fail("is a folder, not a database file".into()));
+            }
+            let ro = open_connection(
+                path,
+                &shown,
+                OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+            )?;
+            if let Err(e) = ro.query_row("PRAGMA user_version", [], |r| r.get::<_, i64>(0)) {
+                if matches!(
+                    e.sqlite_error_code(),
+                    Some(ErrorCode::CannotOpen | ErrorCode::ReadOnly)
+                ) {
+                    return Err(read_only_location(&shown, e));
+                }
+            }
+            inspect(&ro, &shown)?;
+            if let Some(problem) = quick_check(&ro) {
+                return Err(Error::Corrupt {
+                    path: shown,
+                    problem,
+                });
+            }
+        } else if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir)
                 .map_err(|e| fail(format!("cannot create the folder: {e}")))?;
         }
-        let conn = Connection::open_with_flags(
-            path,
-            OpenFlags::SQLITE_OPEN_READ_WRITE
-                | OpenFlags::SQLITE_OPEN_CREATE
-                | OpenFlags::SQLITE_OPEN_NO_MUTEX,
-        )
-        .map_err(|e| fail(format!("cannot open: {e}")))?;
-        conn.busy_timeout(Duration::from_secs(30))
-            .map_err(|e| fail(e.to_string()))?;
-        let db = Database { conn, path: shown };
-        // Reading the schema version is the first access: a non-database file fails here,
-        // before anything is written. Version and tables are read in one read transaction, so
-        // that another process migrating meanwhile is seen either before or after, never half.
-        let (version, tables, has_calibrations) = db.snapshot()?;
-        if version > SCHEMA_VERSION {
-            return Err(Error::NewerSchema {
-                path: db.path.clone(),
-                found: version,
-                supported: SCHEMA_VERSION,
-            });
+        let mut flags = OpenFlags::SQLITE_OPEN_READ_WRITE | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+        if !existed {
+            flags |= OpenFlags::SQLITE_OPEN_CREATE;
         }
-        if (version > 0 && !has_calibrations) || (version == 0 && tables > 0) {
-            return Err(
-                db.err("a SQLite database, but not a kinecal history; the file was not modified")
-            );
+        let conn = open_connection(path, &shown, flags)?;
+        // SQLite opens a write-protected file read-only rather than failing.
+        if conn.is_readonly(rusqlite::MAIN_DB).unwrap_or(false) {
+            return Err(read_only_location(&shown, "the file is write-protected"));
         }
+        // The schema again, on the connection that writes (reading only): another kinecal may
+        // have created or migrated the file meanwhile. Version and tables are read in one read
+        // transaction, so that a migration is seen either before or after, never half.
+        let version = inspect(&conn, &shown)?;
+        let db = Database {
+            conn,
+            path: shown,
+            read_only: false,
+            version: SCHEMA_VERSION,
+            integrity: None,
+        };
         db.conn
             .query_row("PRAGMA journal_mode = WAL", [], |r| r.get::<_, String>(0))
             .map_err(|e| {
@@ -205,31 +666,62 @@ impl Database {
         Ok(db)
     }
 
-    /// (schema version, number of schema objects, whether the calibrations table exists).
-    fn snapshot(&self) -> Result<(i64, i64, bool)> {
-        let not_db = |e: rusqlite::Error| {
-            self.err(format!(
-                "not a kinecal history database ({e}); the file was not modified"
-            ))
+    /// Opens an existing database for reading only (`SQLITE_OPEN_READ_ONLY`): never creates a
+    /// file, never writes, and works on a read-only file in a read-only folder. The file is
+    /// inspected as by [`Database::open`]; a failed `quick_check` does not stop the reading
+    /// (see [`Database::integrity_problem`]).
+    pub fn open_read_only(path: &Path) -> Result<Database> {
+        let shown = path.display().to_string();
+        let fail = |m: String| Error::Database {
+            path: shown.clone(),
+            message: m,
         };
-        self.conn.execute_batch("BEGIN DEFERRED").map_err(not_db)?;
-        let read = || -> rusqlite::Result<(i64, i64, bool)> {
-            let v: i64 = self
-                .conn
-                .query_row("PRAGMA user_version", [], |r| r.get(0))?;
-            let n: i64 = self
-                .conn
-                .query_row("SELECT count(*) FROM sqlite_master", [], |r| r.get(0))?;
-            let c: i64 = self.conn.query_row(
-                "SELECT count(*) FROM sqlite_master WHERE name = 'calibrations'",
-                [],
-                |r| r.get(0),
-            )?;
-            Ok((v, n, c > 0))
-        };
-        let result = read();
-        let _ = self.conn.execute_batch("COMMIT");
-        result.map_err(not_db)
+        match path.try_exists() {
+            Ok(true) => {}
+            Ok(false) => return Err(Error::NoDatabase { path: shown }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotADirectory => {
+                return Err(Error::NoDatabase { path: shown })
+            }
+            Err(e) => return Err(fail(format!("cannot open: {e}"))),
+        }
+        if path.is_dir() {
+            return Err(fail("is a folder, not a database file".into()));
+        }
+        let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+        let mut conn = open_connection(path, &shown, flags)?;
+        if let Err(e) = conn.query_row("PRAGMA user_version", [], |r| r.get::<_, i64>(0)) {
+            // A WAL database in a folder that cannot be written: SQLite cannot create the
+            // shared-memory file a reader needs. No writer can be at work there either, so the
+            // file is read as it stands.
+            if matches!(
+                e.sqlite_error_code(),
+                Some(ErrorCode::CannotOpen | ErrorCode::ReadOnly)
+            ) {
+                let uri = immutable_uri(path).map_err(|e| fail(format!("cannot open: {e}")))?;
+                conn =
+                    open_connection(Path::new(&uri), &shown, flags | OpenFlags::SQLITE_OPEN_URI)?;
+            }
+        }
+        let version = inspect(&conn, &shown)?;
+        let integrity = quick_check(&conn);
+        Ok(Database {
+            conn,
+            path: shown,
+            read_only: true,
+            version,
+            integrity,
+        })
+    }
+
+    /// When opened for reading: what `PRAGMA quick_check` reported, if the file is not sound.
+    /// The records that can still be read are served.
+    pub fn integrity_problem(&self) -> Option<&str> {
+        self.integrity.as_deref()
+    }
+
+    /// The database file, as given.
+    pub fn path(&self) -> &str {
+        &self.path
     }
 
     fn migrate(&self, from: i64) -> Result<()> {
@@ -241,7 +733,11 @@ impl Database {
         let now_version: i64 = tx
             .query_row("PRAGMA user_version", [], |r| r.get(0))
             .map_err(|e| self.err(e))?;
-        for (k, sql) in MIGRATIONS.iter().enumerate().skip(now_version as usize) {
+        for (k, sql) in MIGRATIONS
+            .iter()
+            .enumerate()
+            .skip(now_version.clamp(0, SCHEMA_VERSION) as usize)
+        {
             tx.execute_batch(sql)
                 .map_err(|e| self.err(format!("migration to version {}: {e}", k + 1)))?;
         }
@@ -257,9 +753,9 @@ impl Database {
             .map_err(|e| self.err(e))
     }
 
-    /// Records a calibration report for robot `robot_id` at `at` (Unix seconds; now if `None`).
-    /// The model and data fingerprints are the report's (SHA-256 of the robot and measurement
-    /// files, see [`crate::fingerprint`]), empty when it has none.
+    /// Records a calibration report for robot `robot_id` at `at` (Unix seconds; now if `None`);
+    /// refuses a report of another robot model than the robot's earlier records (see
+    /// [`Database::add_with`]).
     pub fn add(
         &self,
         robot_id: &str,
@@ -267,6 +763,28 @@ impl Database {
         report: &CalibrationReport,
         note: &str,
     ) -> Result<i64> {
+        self.add_with(robot_id, at, report, note, AddOptions::default())
+    }
+
+    /// Records a calibration report for robot `robot_id` at `at` (Unix seconds; now if `None`).
+    /// The model and data fingerprints are the report's (SHA-256 of the robot and measurement
+    /// files, see [`crate::fingerprint`]), empty when it has none.
+    ///
+    /// In the write transaction, before anything is written: the database must pass `PRAGMA
+    /// quick_check` ([`Error::Corrupt`] otherwise), and the report's robot model (joint count,
+    /// joint kinds, parameter names) must be the model of one of the robot's earlier records
+    /// ([`Error::ModelMismatch`] otherwise, unless `options.force`). Its units may differ.
+    pub fn add_with(
+        &self,
+        robot_id: &str,
+        at: Option<i64>,
+        report: &CalibrationReport,
+        note: &str,
+        options: AddOptions,
+    ) -> Result<i64> {
+        if self.read_only {
+            return Err(self.err("opened for reading only; nothing was written"));
+        }
         if robot_id.trim().is_empty() {
             return Err(Error::Input(
                 "the robot id (serial) must not be empty".into(),
@@ -277,9 +795,19 @@ impl Database {
                 "the report has no uncertainty (no rank or sigmas): recalibrate with a kinecal that writes them".into(),
             ));
         }
+        check_finite(report)?;
         let at = at.unwrap_or_else(now);
         let json = report.to_json();
         let tx = self.begin()?;
+        if let Some(problem) = quick_check(&tx) {
+            return Err(Error::Corrupt {
+                path: self.path.clone(),
+                problem,
+            });
+        }
+        if !options.force {
+            self.check_model(&tx, robot_id, &Model::of_report(report))?;
+        }
         tx.execute(
             "INSERT INTO calibrations (robot_id, at, robot_name, model_fingerprint, data_fingerprint, method, solution,
                 length_unit, angle_unit, rms_position_before, rms_position_after, rms_orientation_before,
@@ -319,9 +847,10 @@ impl Database {
                 .iter()
                 .map(|t| (t.id.clone(), t.name.clone(), t.coefficient))
                 .collect();
+            let terms = serde_json::to_string(&terms).map_err(|e| self.err(e))?;
             tx.execute(
                 "INSERT INTO combinations (calibration_id, expression, terms, value, sigma) VALUES (?1, ?2, ?3, ?4, ?5)",
-                params![id, c.expression, serde_json::to_string(&terms).expect("terms serialize"), c.value, c.sigma],
+                params![id, c.expression, terms, c.value, c.sigma],
             )
             .map_err(|e| self.err(e))?;
         }
@@ -329,8 +858,45 @@ impl Database {
         Ok(id)
     }
 
+    /// Refuses `model` unless it is the model of one of `robot_id`'s earlier records (or the
+    /// robot has none).
+    fn check_model(&self, tx: &Transaction<'_>, robot_id: &str, model: &Model) -> Result<()> {
+        let mut earlier: BTreeMap<i64, Model> = BTreeMap::new();
+        let mut st = tx
+            .prepare(
+                "SELECT p.calibration_id, p.name, p.unit FROM parameters p
+                 JOIN calibrations c ON c.id = p.calibration_id WHERE c.robot_id = ?1",
+            )
+            .map_err(|e| self.err(e))?;
+        let rows = st
+            .query_map([robot_id], |r| {
+                Ok((r.get::<_, i64>(0)?, lossy(r, 1)?, lossy(r, 2)?))
+            })
+            .map_err(|e| self.err(e))?;
+        for row in rows {
+            let (id, name, unit) = row.map_err(|e| self.err(e))?;
+            earlier
+                .entry(id)
+                .or_default()
+                .0
+                .insert(name, Kind::of(&unit));
+        }
+        if earlier.is_empty() || earlier.values().any(|m| m == model) {
+            return Ok(());
+        }
+        let (&earlier_id, latest) = earlier.iter().next_back().expect("not empty");
+        Err(Error::ModelMismatch {
+            robot_id: printable(robot_id).into_owned(),
+            earlier_id,
+            difference: model.difference(latest),
+        })
+    }
+
     /// The robots with a history, with their number of calibrations.
     pub fn robots(&self) -> Result<Vec<(String, i64)>> {
+        if self.version == 0 {
+            return Ok(Vec::new());
+        }
         let mut st = self
             .conn
             .prepare(
@@ -338,108 +904,222 @@ impl Database {
             )
             .map_err(|e| self.err(e))?;
         let rows = st
-            .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+            .query_map([], |r| Ok((lossy(r, 0)?, r.get(1)?)))
             .map_err(|e| self.err(e))?;
         rows.collect::<rusqlite::Result<Vec<_>>>()
             .map_err(|e| self.err(e))
     }
 
-    /// Every calibration of `robot_id` (all robots when `None`), oldest first.
-    pub fn calibrations(&self, robot_id: Option<&str>) -> Result<Vec<Calibration>> {
-        let ids: Vec<i64> = {
-            let mut st = self
-                .conn
-                .prepare("SELECT id FROM calibrations WHERE ?1 IS NULL OR robot_id = ?1 ORDER BY robot_id, at, id")
+    /// Every calibration of `robot_id` (all robots when `None`), by robot then oldest first;
+    /// the records with a damaged field are listed apart, by id, and the others served.
+    pub fn records(&self, robot_id: Option<&str>) -> Result<Records> {
+        if self.version == 0 {
+            return Ok(Records::default());
+        }
+        // One read transaction: a consistent snapshot while other processes write.
+        let tx = self.conn.unchecked_transaction().map_err(|e| self.err(e))?;
+        // A full scan, not the index: the list must not depend on more of the file than needed,
+        // and robots are compared by their stored bytes.
+        let mut keys: Vec<(Vec<u8>, i64, i64)> = Vec::new();
+        {
+            let mut st = tx
+                .prepare("SELECT id, robot_id, at FROM calibrations NOT INDEXED")
                 .map_err(|e| self.err(e))?;
-            let rows = st
-                .query_map([robot_id], |r| r.get(0))
-                .map_err(|e| self.err(e))?;
-            rows.collect::<rusqlite::Result<Vec<_>>>()
-                .map_err(|e| self.err(e))?
-        };
-        ids.into_iter()
-            .map(|id| {
-                self.calibration(id)
-                    .and_then(|c| c.ok_or_else(|| self.err("vanished")))
-            })
-            .collect()
+            let mut rows = st.query([]).map_err(|e| self.err(e))?;
+            while let Some(r) = rows.next().map_err(|e| self.err(e))? {
+                let id: i64 = r.get(0).map_err(|e| self.err(e))?;
+                let robot = match r.get_ref(1).map_err(|e| self.err(e))? {
+                    ValueRef::Text(b) | ValueRef::Blob(b) => b.to_vec(),
+                    _ => Vec::new(),
+                };
+                if robot_id.is_some_and(|want| want.as_bytes() != robot.as_slice()) {
+                    continue;
+                }
+                let at = r
+                    .get_ref(2)
+                    .ok()
+                    .and_then(|v| v.as_i64().ok())
+                    .unwrap_or(i64::MIN);
+                keys.push((robot, at, id));
+            }
+        }
+        keys.sort();
+        let mut out = Records::default();
+        for (_, _, id) in keys {
+            match self.read_record(id) {
+                Ok(Some(c)) => out.calibrations.push(c),
+                Ok(None) => {}
+                Err(problem) => out.damaged.push(DamagedRecord { id, problem }),
+            }
+        }
+        drop(tx);
+        Ok(out)
     }
 
-    /// One calibration by id.
+    /// Every calibration of `robot_id` (all robots when `None`), oldest first; an error
+    /// ([`Error::DamagedRecord`]) when one cannot be read ([`Database::records`] serves the
+    /// others).
+    pub fn calibrations(&self, robot_id: Option<&str>) -> Result<Vec<Calibration>> {
+        let r = self.records(robot_id)?;
+        match r.damaged.into_iter().next() {
+            Some(d) => Err(Error::DamagedRecord {
+                path: self.path.clone(),
+                id: d.id,
+                problem: d.problem,
+            }),
+            None => Ok(r.calibrations),
+        }
+    }
+
+    /// One calibration by id ([`Error::DamagedRecord`] when it cannot be read).
     pub fn calibration(&self, id: i64) -> Result<Option<Calibration>> {
+        if self.version == 0 {
+            return Ok(None);
+        }
+        self.read_record(id)
+            .map_err(|problem| Error::DamagedRecord {
+                path: self.path.clone(),
+                id,
+                problem,
+            })
+    }
+
+    /// One record, or the sentence saying which of its fields is damaged.
+    fn read_record(&self, id: i64) -> field::Decoded<Option<Calibration>> {
+        use field::{flag, integer, number, optional_number, text};
+        let unreadable = |e: rusqlite::Error| format!("the record cannot be read: {e}");
         let head = self
             .conn
             .query_row(
                 "SELECT robot_id, at, robot_name, model_fingerprint, data_fingerprint, method, solution, length_unit,
                         angle_unit, rms_position_before, rms_position_after, rms_orientation_before,
-                        rms_orientation_after, note
+                        rms_orientation_after, note, report
                  FROM calibrations WHERE id = ?1",
                 [id],
                 |r| {
-                    Ok(Calibration {
-                        id,
-                        robot_id: r.get(0)?,
-                        at: r.get(1)?,
-                        at_text: format_time(r.get(1)?),
-                        robot_name: r.get(2)?,
-                        model_fingerprint: r.get(3)?,
-                        data_fingerprint: r.get(4)?,
-                        method: r.get(5)?,
-                        solution: r.get(6)?,
-                        length_unit: r.get(7)?,
-                        angle_unit: r.get(8)?,
-                        rms_position_before: r.get(9)?,
-                        rms_position_after: r.get(10)?,
-                        rms_orientation_before: r.get(11)?,
-                        rms_orientation_after: r.get(12)?,
-                        note: r.get(13)?,
-                        parameters: Vec::new(),
-                        combinations: Vec::new(),
-                    })
+                    Ok((|| -> field::Decoded<Calibration> {
+                        let at = integer(r, 1, "its time")?;
+                        let report = text(r, 14, "its stored report")?;
+                        serde_json::from_str::<serde::de::IgnoredAny>(&report)
+                            .map_err(|e| format!("its stored report is not valid JSON ({e})"))?;
+                        Ok(Calibration {
+                            id,
+                            robot_id: text(r, 0, "its robot serial")?,
+                            at,
+                            at_text: format_time(at),
+                            robot_name: text(r, 2, "its robot model name")?,
+                            model_fingerprint: text(r, 3, "its model fingerprint")?,
+                            data_fingerprint: text(r, 4, "its data fingerprint")?,
+                            method: text(r, 5, "its method")?,
+                            solution: text(r, 6, "its solution rule")?,
+                            length_unit: text(r, 7, "its length unit")?,
+                            angle_unit: text(r, 8, "its angle unit")?,
+                            rms_position_before: number(r, 9, "its RMS position error before")?,
+                            rms_position_after: number(r, 10, "its RMS position error after")?,
+                            rms_orientation_before: number(r, 11, "its RMS attitude error before")?,
+                            rms_orientation_after: number(r, 12, "its RMS attitude error after")?,
+                            note: text(r, 13, "its note")?,
+                            parameters: Vec::new(),
+                            combinations: Vec::new(),
+                        })
+                    })())
                 },
             )
             .optional()
-            .map_err(|e| self.err(e))?;
-        let Some(mut c) = head else { return Ok(None) };
+            .map_err(unreadable)?;
+        let Some(head) = head else { return Ok(None) };
+        let mut c = head?;
         let mut st = self
             .conn
             .prepare(
                 "SELECT param_id, name, unit, value, sigma, estimated, determined FROM parameters
                  WHERE calibration_id = ?1 ORDER BY CAST(substr(param_id, 2) AS INTEGER)",
             )
-            .map_err(|e| self.err(e))?;
-        c.parameters = st
+            .map_err(unreadable)?;
+        let rows = st
             .query_map([id], |r| {
-                Ok(Parameter {
-                    id: r.get(0)?,
-                    name: r.get(1)?,
-                    unit: r.get(2)?,
-                    value: r.get(3)?,
-                    sigma: r.get(4)?,
-                    estimated: r.get(5)?,
-                    determined: r.get(6)?,
-                })
+                Ok((|| -> field::Decoded<Parameter> {
+                    let pid = text(r, 0, "a parameter id")?;
+                    let f = |what: &str| format!("parameter {}'s {what}", printable(&pid));
+                    Ok(Parameter {
+                        name: text(r, 1, &f("name"))?,
+                        unit: text(r, 2, &f("unit"))?,
+                        value: number(r, 3, &f("value"))?,
+                        sigma: optional_number(r, 4, &f("sigma"))?,
+                        estimated: flag(r, 5, &f("estimated flag"))?,
+                        determined: flag(r, 6, &f("determined flag"))?,
+                        id: pid,
+                    })
+                })())
             })
-            .map_err(|e| self.err(e))?
-            .collect::<rusqlite::Result<Vec<_>>>()
-            .map_err(|e| self.err(e))?;
+            .map_err(unreadable)?;
+        for row in rows {
+            c.parameters.push(row.map_err(unreadable)??);
+        }
         let mut st = self
             .conn
             .prepare("SELECT expression, terms, value, sigma FROM combinations WHERE calibration_id = ?1 ORDER BY expression")
-            .map_err(|e| self.err(e))?;
-        c.combinations = st
+            .map_err(unreadable)?;
+        let rows = st
             .query_map([id], |r| {
-                let terms: String = r.get(1)?;
-                Ok(Combination {
-                    expression: r.get(0)?,
-                    terms: serde_json::from_str(&terms).unwrap_or_default(),
-                    value: r.get(2)?,
-                    sigma: r.get(3)?,
-                })
+                Ok((|| -> field::Decoded<Combination> {
+                    let expression = text(r, 0, "a combination's expression")?;
+                    let f =
+                        |what: &str| format!("combination `{}`'s {what}", printable(&expression));
+                    let terms = text(r, 1, &f("terms"))?;
+                    let terms: Vec<(String, String, f64)> = serde_json::from_str(&terms)
+                        .map_err(|e| format!("{} are not valid JSON ({e})", f("terms")))?;
+                    Ok(Combination {
+                        terms,
+                        value: number(r, 2, &f("value"))?,
+                        sigma: number(r, 3, &f("sigma"))?,
+                        expression,
+                    })
+                })())
             })
-            .map_err(|e| self.err(e))?
-            .collect::<rusqlite::Result<Vec<_>>>()
-            .map_err(|e| self.err(e))?;
+            .map_err(unreadable)?;
+        for row in rows {
+            c.combinations.push(row.map_err(unreadable)??);
+        }
         Ok(Some(c))
     }
+}
+
+/// Refuses a report with a number SQLite could not store (NaN and infinities would be stored
+/// as NULL, or refused with an unhelpful message).
+fn check_finite(report: &CalibrationReport) -> Result<()> {
+    let bad = |what: String| {
+        Error::Input(format!(
+            "the report's {what} is not a finite number; not recorded"
+        ))
+    };
+    for (what, v) in [
+        (
+            "RMS position error before",
+            Some(report.rms_position_before),
+        ),
+        ("RMS position error after", Some(report.rms_position_after)),
+        ("RMS attitude error before", report.rms_orientation_before),
+        ("RMS attitude error after", report.rms_orientation_after),
+    ] {
+        if v.is_some_and(|v| !v.is_finite()) {
+            return Err(bad(what.to_string()));
+        }
+    }
+    for p in &report.parameters {
+        if !p.estimated.is_finite() {
+            return Err(bad(format!("value of {} ({})", p.id, printable(&p.name))));
+        }
+        if p.sigma.is_some_and(|s| !s.is_finite()) {
+            return Err(bad(format!("sigma of {} ({})", p.id, printable(&p.name))));
+        }
+    }
+    for c in &report.combinations {
+        if !(c.value.is_finite() && c.sigma.is_finite())
+            || c.terms.iter().any(|t| !t.coefficient.is_finite())
+        {
+            return Err(bad(format!("combination `{}`", printable(&c.expression))));
+        }
+    }
+    Ok(())
 }
