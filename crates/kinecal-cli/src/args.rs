@@ -372,7 +372,7 @@ never a lone redundant parameter (it wanders between runs with no physical chang
 file has `key = value` lines, keys being parameter names or ids (link3.y, p14) or combination
 expressions (\"p14 + p20\"), values in the quantity's unit.")]
     Drift(HistoryDriftArgs),
-    /// Plot the history of each quantity with sigma bands and tolerance lines (SVG).
+    /// Plot the history of each quantity with sigma bands and tolerance lines (SVG or PNG).
     #[command(after_help = "Example:\n  kinecal history plot --robot-id A4-0042 --out a4.svg")]
     Plot(HistoryPlotArgs),
 }
@@ -402,6 +402,10 @@ pub struct HistoryAddArgs {
     /// A note.
     #[arg(long, default_value = "")]
     pub note: String,
+    /// Record it even if the robot model differs from the earlier records of this serial
+    /// (the robot was rebuilt: other joints, other parameters).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// `kinecal history list`.
@@ -491,7 +495,7 @@ pub struct HistoryPlotArgs {
     /// Tolerance file, drawn as lines around the first value.
     #[arg(long, value_name = "FILE")]
     pub tolerance: Option<PathBuf>,
-    /// The SVG to write.
+    /// The file to write: .svg or .png (by its extension).
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -788,6 +792,10 @@ pub struct CalibrateArgs {
     /// A note stored with --record.
     #[arg(long, default_value = "")]
     pub note: String,
+    /// With --record: record even if the robot model differs from the earlier records of
+    /// this serial (the robot was rebuilt).
+    #[arg(long, requires = "record")]
+    pub force: bool,
     /// Also write a self-contained HTML report here.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,

@@ -71,7 +71,10 @@ pub fn parse_at(at: Option<&str>) -> Result<Option<i64>> {
 /// Runs a history command; returns the exit code.
 pub fn run(c: HistoryCommand) -> Result<u8> {
     match c {
-        HistoryCommand::Add(a) => add(a, AddOptions::default()),
+        HistoryCommand::Add(a) => {
+            let options = AddOptions { force: a.force };
+            add(a, options)
+        }
         HistoryCommand::List(a) => list(a),
         HistoryCommand::Show(a) => show(a),
         HistoryCommand::Export(a) => export(a),

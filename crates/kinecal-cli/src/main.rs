@@ -632,7 +632,8 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
         staged.text(path, &kinecal_report::html_report(&outcome)?)?;
     }
     if let (Some(serial), Some(db)) = (&a.record, &record_db) {
-        let id = db.add(serial, record_at, &outcome.report, &a.note)?;
+        let options = kinecal_history::AddOptions { force: a.force };
+        let id = db.add_with(serial, record_at, &outcome.report, &a.note, options)?;
         eprintln!("recorded as calibration {id} of robot {serial}");
     }
     staged.commit()?;

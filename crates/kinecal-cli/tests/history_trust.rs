@@ -430,6 +430,30 @@ fn a_report_of_another_robot_model_is_refused() {
             "h.sqlite",
         ],
     );
+    // A rebuilt robot keeps its serial with --force.
+    run_ok(
+        d,
+        &[
+            "history",
+            "add",
+            "--robot-id",
+            "A4-7",
+            "--report",
+            "other.json",
+            "--db",
+            "h.sqlite",
+            "--force",
+        ],
+    );
+    let list = run_ok(
+        d,
+        &["history", "list", "--db", "h.sqlite", "--robot-id", "A4-7"],
+    );
+    assert_eq!(
+        list.lines().filter(|l| l.contains("A4-7")).count(),
+        2,
+        "{list}"
+    );
 }
 
 #[test]

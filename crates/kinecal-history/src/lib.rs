@@ -105,7 +105,7 @@ pub enum Error {
     #[error(
         "robot `{robot_id}`: this calibration is of another robot model than its earlier ones \
          ({difference}; compared with calibration {earlier_id}); not recorded: a history is one \
-         robot model (use another serial, or force it if the robot really was rebuilt)"
+         robot model (use another serial; if the robot really was rebuilt, record it with the force option)"
     )]
     ModelMismatch {
         /// The robot (escaped for printing).
