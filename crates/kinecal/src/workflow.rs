@@ -857,7 +857,7 @@ pub fn assess(
         calibrated,
         estimated: estimated.clone(),
         options,
-        termination: estimation::Termination::NoFurtherReduction,
+        termination: estimation::Termination::Given,
         iterations: 0,
         unfelt: Vec::new(),
         row_scale: vec![1.0; problem.rows()],

@@ -155,6 +155,9 @@ pub enum Termination {
     Stalled,
     /// The iteration cap was reached first.
     MaxIterations,
+    /// Not solved here: a calibration given from elsewhere (a robot file or a report) was
+    /// assessed on the data ([`crate::workflow::assess`]).
+    Given,
 }
 
 impl Termination {
@@ -174,6 +177,7 @@ impl Termination {
                 "stalled: the method's steps no longer reduce the objective, a Levenberg-Marquardt step does"
             }
             Termination::MaxIterations => "iteration cap reached before convergence",
+            Termination::Given => "a given calibration, assessed (not solved here)",
         }
     }
 }
