@@ -872,7 +872,8 @@ impl Args for ObservationFiles {
 /// `kinecal dataset`.
 #[derive(Debug, Args)]
 pub struct DatasetArgs {
-    /// The data set: qkm-hl6, fanuc-r2000ic or ur10e-camera.
+    /// The data set.
+    #[arg(value_parser = dataset_names())]
     pub name: String,
     /// Its folder (e.g. ../shared/data/qkm_hl6_faro).
     pub dir: PathBuf,
@@ -887,4 +888,9 @@ pub struct CompletionsArgs {
     /// The shell.
     #[arg(value_enum)]
     pub shell: clap_complete::Shell,
+}
+
+/// The names of the data set adapters, for `kinecal dataset NAME` (checked and completed).
+fn dataset_names() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(kinecal::datasets::DATASETS.iter().map(|d| d.name))
 }

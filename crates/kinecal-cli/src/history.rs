@@ -110,23 +110,41 @@ fn list(a: HistoryListArgs) -> Result<u8> {
         }
     }
     println!(
-        "{:>5}  {:<14} {:<21} {:<12} {:<8} {:>13} {:>13}  note",
-        "id", "robot", "at", "model", "method", "rms pos before", "rms pos after"
+        "{:>5}  {:<14} {:<21} {:<12} {:<8} {:<40} note",
+        "id", "robot", "at", "model", "method", "RMS error before -> after"
     );
     for c in cals {
         println!(
-            "{:>5}  {:<14} {:<21} {:<12} {:<8} {:>13.6} {:>13.6}  {}",
+            "{:>5}  {:<14} {:<21} {:<12} {:<8} {:<40} {}",
             c.id,
             printable(&c.robot_id),
             c.at_text,
             printable(&c.robot_name),
             printable(&c.method),
-            c.rms_position_before,
-            c.rms_position_after,
+            errors_line(&c),
             printable(&c.note)
         );
     }
     Ok(0)
+}
+
+/// The RMS errors of a record, one `metric before -> after` per kind of observation.
+fn errors_line(c: &Calibration) -> String {
+    if c.errors.is_empty() {
+        return "-".into();
+    }
+    c.errors
+        .iter()
+        .map(|e| {
+            format!(
+                "{} {} -> {}",
+                printable(&e.metric),
+                crate::report::num(e.before),
+                crate::report::num(e.after)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 fn show(a: HistoryShowArgs) -> Result<u8> {
@@ -154,12 +172,15 @@ fn show(a: HistoryShowArgs) -> Result<u8> {
         printable(&cal.length_unit),
         printable(&cal.solution)
     );
-    println!(
-        "RMS position error {:.6} -> {:.6} {}",
-        cal.rms_position_before,
-        cal.rms_position_after,
-        printable(&cal.length_unit)
-    );
+    for e in &cal.errors {
+        println!(
+            "RMS {} error {} -> {} {}",
+            printable(&e.metric),
+            crate::report::num(e.before),
+            crate::report::num(e.after),
+            printable(&e.unit)
+        );
+    }
     println!(
         "model sha256 {}  data sha256 {}",
         or_dash(&cal.model_fingerprint),

@@ -443,7 +443,14 @@ fn dataset(a: DatasetArgs) -> Result<()> {
     if !a.dir.is_dir() {
         bail!("{}: no such folder", a.dir.display());
     }
-    let converted = (adapter.convert)(&a.dir)?;
+    let converted = (adapter.convert)(&a.dir).map_err(|e| match e {
+        kinecal::Error::Io { .. } => anyhow!(
+            "{e}\nhint: is {} the folder of the data set ({})?",
+            a.dir.display(),
+            adapter.about
+        ),
+        e => e.into(),
+    })?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut staged = output::Staged::new();
@@ -462,8 +469,31 @@ fn dataset(a: DatasetArgs) -> Result<()> {
             .join(", "),
         a.out.display()
     );
-    println!("next, in {}: {}", a.out.display(), converted.command);
+    println!(
+        "next, in {}: {}",
+        a.out.display(),
+        suggested_command(&converted.suggested)
+    );
     Ok(())
+}
+
+/// The command line of a data set's suggested calibration.
+fn suggested_command(s: &kinecal::datasets::Suggested) -> String {
+    let mut c = format!("kinecal calibrate --robot {} --data {}", s.robot, s.data);
+    if let Some(v) = s.validate {
+        c += &format!(" --validate {v}");
+    }
+    c += &format!(" --estimate {}", s.estimate);
+    if let Some(o) = s.orientation {
+        c += &format!(" --orientation-error {}", o.as_str());
+    }
+    if let Some((l, a)) = s.weights {
+        c += &format!(" --weights length={l},angle={a}");
+    }
+    if let Some(h) = s.holdout {
+        c += &format!(" --holdout {h}");
+    }
+    c
 }
 
 /// Prints the solver's iterations (to standard error) when asked.

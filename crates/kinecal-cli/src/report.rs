@@ -14,6 +14,22 @@ pub fn num(v: f64) -> String {
     }
 }
 
+/// A dimensionless figure: four decimals from 1 to 1e5, four significant digits down to 1e-3,
+/// else scientific (never `0.0000` for a small nonzero value).
+pub fn sig4(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let e = v.abs().log10().floor() as i32;
+    if (0..5).contains(&e) {
+        format!("{v:.4}")
+    } else if (-3..0).contains(&e) {
+        format!("{v:.*}", (3 - e) as usize)
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
 /// [`num`] with a sign.
 fn signed(v: f64) -> String {
     if v >= 0.0 {
@@ -125,15 +141,6 @@ pub fn summary(r: &CalibrationReport) -> String {
     }
     if let Some(v) = &r.validation {
         let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "{:<34} {:>11} {:>11} {:>11} {:>11}",
-            format!("position error ({l})"),
-            "rms",
-            "mean",
-            "p95",
-            "max"
-        );
         let rows = [
             (
                 format!(
@@ -149,51 +156,89 @@ pub fn summary(r: &CalibrationReport) -> String {
             ),
             ("validation after".to_string(), &v.after),
         ];
-        for (name, e) in &rows {
+        // One table per error metric present in the data: positions, attitudes, then the
+        // other metrics (distances, contacts), each row [rms, mean, p95, max] or n/a.
+        type Pick = Box<dyn Fn(&kinecal::report::ErrorStats) -> Option<[f64; 4]>>;
+        let mut tables: Vec<(String, Pick)> = Vec::new();
+        let any = |f: &dyn Fn(&kinecal::report::ErrorStats) -> bool| rows.iter().any(|(_, e)| f(e));
+        if any(&|e| e.positions > 0) {
+            tables.push((
+                format!("position error ({l})"),
+                Box::new(|e| {
+                    (e.positions > 0).then_some([
+                        e.rms_position,
+                        e.mean_position,
+                        e.p95_position,
+                        e.max_position,
+                    ])
+                }),
+            ));
+        }
+        if any(&|e| e.rms_orientation.is_some()) {
+            tables.push((
+                format!("attitude error ({a})"),
+                Box::new(|e| {
+                    Some([
+                        e.rms_orientation?,
+                        e.mean_orientation?,
+                        e.p95_orientation?,
+                        e.max_orientation?,
+                    ])
+                }),
+            ));
+        }
+        let mut metrics: Vec<String> = Vec::new();
+        for (_, e) in &rows {
+            for m in &e.other {
+                if !metrics.contains(&m.metric) {
+                    metrics.push(m.metric.clone());
+                }
+            }
+        }
+        for metric in metrics {
+            let title = format!("{metric} error ({l})");
+            tables.push((
+                title,
+                Box::new(move |e| {
+                    e.other
+                        .iter()
+                        .find(|m| m.metric == metric)
+                        .map(|m| [m.rms, m.mean, m.p95, m.max])
+                }),
+            ));
+        }
+        for (title, pick) in &tables {
             let _ = writeln!(
                 s,
-                "{name:<34} {:>11} {:>11} {:>11} {:>11}",
-                num(e.rms_position),
-                num(e.mean_position),
-                num(e.p95_position),
-                num(e.max_position)
+                "{title:<34} {:>11} {:>11} {:>11} {:>11}",
+                "rms", "mean", "p95", "max"
             );
+            for (name, e) in &rows {
+                let cells: Vec<String> = match pick(e) {
+                    Some(v) => v.iter().map(|&x| num(x)).collect(),
+                    None => vec!["n/a".to_string(); 4],
+                };
+                let _ = writeln!(
+                    s,
+                    "{name:<34} {:>11} {:>11} {:>11} {:>11}",
+                    cells[0], cells[1], cells[2], cells[3]
+                );
+            }
         }
         if let (Some(ni), Some(nv)) = (r.identification.normalized_rms, v.normalized_rms) {
             let _ = writeln!(
                 s,
-                "residuals in their standard deviations (RMS): identification {:.4} -> {:.4}, validation {:.4} -> {:.4}",
-                ni[0], ni[1], nv[0], nv[1]
+                "residuals in their standard deviations (RMS): identification {} -> {}, validation {} -> {}",
+                sig4(ni[0]), sig4(ni[1]), sig4(nv[0]), sig4(nv[1])
             );
-        }
-        if v.before.rms_orientation.is_some() {
-            let _ = writeln!(
-                s,
-                "{:<34} {:>11} {:>11} {:>11} {:>11}",
-                format!("attitude error ({a})"),
-                "rms",
-                "mean",
-                "p95",
-                "max"
-            );
-            for (name, e) in &rows {
-                let f = |x: Option<f64>| x.map_or("n/a".to_string(), num);
-                let _ = writeln!(
-                    s,
-                    "{name:<34} {:>11} {:>11} {:>11} {:>11}",
-                    f(e.rms_orientation),
-                    f(e.mean_orientation),
-                    f(e.p95_orientation),
-                    f(e.max_orientation)
-                );
-            }
         }
     }
     if let (Some(vf), Some(rank)) = (r.variance_factor, r.rank) {
         let estimated = r.parameters.iter().filter(|p| p.estimated_flag).count();
         let _ = writeln!(
             s,
-            "rank {rank} of {estimated} estimated parameters; variance factor {vf:.4} (about 1 when --weights match the noise)"
+            "rank {rank} of {estimated} estimated parameters; variance factor {} (about 1 when --weights match the noise)",
+            sig4(vf)
         );
     }
     let _ = writeln!(s);

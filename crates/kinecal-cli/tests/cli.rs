@@ -1585,6 +1585,69 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
         (p14["estimated"].as_f64().unwrap() - 11.79).abs() < 1e-6,
         "{p14}"
     );
+    // The minimum-change rule works without a tracker too (parameters no observation feels,
+    // such as the probe's attitude, stay at nominal), converging to the same fit.
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "a4.toml",
+            "--contacts",
+            "contacts.csv",
+            "--distances",
+            "ballbar.csv",
+            "--solution",
+            "min-change",
+            "--report",
+            "mc.json",
+        ],
+    );
+    assert!(out.contains("min-change solution"), "{out}");
+    let mc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("mc.json")).unwrap()).unwrap();
+    assert_eq!(mc["converged"], true);
+    assert!(
+        mc["identification"]["after"]["other"][0]["max"]
+            .as_f64()
+            .unwrap()
+            < 1e-8
+    );
+    // Validation and the history show the errors of the kinds observed, not zero positions.
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "a4.toml",
+            "--contacts",
+            "contacts.csv",
+            "--distances",
+            "ballbar.csv",
+            "--holdout",
+            "0.3",
+            "--record",
+            "A4-9",
+            "--db",
+            "h.sqlite",
+        ],
+    );
+    assert!(out.contains("distance error (in)"), "{out}");
+    assert!(out.contains("contact error (in)"), "{out}");
+    assert!(!out.contains("position error"), "{out}");
+    let validation = out
+        .lines()
+        .find(|l| l.starts_with("validation after"))
+        .unwrap();
+    assert!(!validation.contains("0.000000"), "{out}");
+    let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
+    assert!(
+        list.contains("distance 0.0") && list.contains("; contact "),
+        "{list}"
+    );
+    assert!(!list.contains("position"), "{list}");
+    let show = run_ok(d, &["history", "show", "--db", "h.sqlite", "--id", "1"]);
+    assert!(show.contains("RMS distance error 0.0"), "{show}");
     // Observations are needed.
     let err = run_err(d, &["calibrate", "--robot", "a4.toml"]);
     assert!(err.contains("--data, --distances, --contacts"), "{err}");

@@ -35,7 +35,7 @@ pub use drift::{
 pub use kinecal::source::fingerprint;
 pub use store::{
     default_db_path, AddOptions, Calibration, Combination, DamagedRecord, Database, Parameter,
-    Records, SCHEMA_VERSION,
+    Records, RmsError, SCHEMA_VERSION,
 };
 pub use text::printable;
 pub use timefmt::{format_time, parse_time};

@@ -127,6 +127,9 @@ pub struct Calibration {
     pub rms_orientation_after: f64,
     /// Free-form note.
     pub note: String,
+    /// The RMS error of each kind of observation the calibration used (positions, attitudes,
+    /// distances, contacts), before and after, from its stored report.
+    pub errors: Vec<RmsError>,
     /// Every parameter.
     pub parameters: Vec<Parameter>,
     /// Every determined combination.
@@ -150,6 +153,73 @@ pub struct AddOptions {
     /// Record the calibration even when its robot model (joints, joint kinds, parameter names)
     /// differs from every earlier record of the robot.
     pub force: bool,
+}
+
+/// The RMS error of one kind of observation before and after a calibration.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RmsError {
+    /// `position`, `attitude`, `distance`, `contact`, ...
+    pub metric: String,
+    /// Its unit (the record's length or angle unit).
+    pub unit: String,
+    /// Before (the initial robot).
+    pub before: f64,
+    /// After (the calibrated robot).
+    pub after: f64,
+}
+
+/// The RMS errors a stored report gives, one per kind of observation present. Reports written
+/// before distances and contacts existed have no observation counts: their position errors are
+/// taken as present.
+fn rms_errors(report: &serde_json::Value, length_unit: &str, angle_unit: &str) -> Vec<RmsError> {
+    let mut out = Vec::new();
+    let num = |v: &serde_json::Value| v.as_f64();
+    let ident = &report["identification"];
+    let positions = ident["before"]["positions"].as_u64();
+    if positions != Some(0) {
+        if let (Some(b), Some(a)) = (
+            num(&report["rms_position_before"]),
+            num(&report["rms_position_after"]),
+        ) {
+            out.push(RmsError {
+                metric: "position".into(),
+                unit: length_unit.into(),
+                before: b,
+                after: a,
+            });
+        }
+    }
+    if let (Some(b), Some(a)) = (
+        num(&report["rms_orientation_before"]),
+        num(&report["rms_orientation_after"]),
+    ) {
+        out.push(RmsError {
+            metric: "attitude".into(),
+            unit: angle_unit.into(),
+            before: b,
+            after: a,
+        });
+    }
+    if let (Some(before), Some(after)) = (
+        ident["before"]["other"].as_array(),
+        ident["after"]["other"].as_array(),
+    ) {
+        for m in before {
+            let Some(metric) = m["metric"].as_str() else {
+                continue;
+            };
+            let a = after.iter().find(|x| x["metric"].as_str() == Some(metric));
+            if let (Some(b), Some(a)) = (num(&m["rms"]), a.and_then(|a| num(&a["rms"]))) {
+                out.push(RmsError {
+                    metric: metric.into(),
+                    unit: length_unit.into(),
+                    before: b,
+                    after: a,
+                });
+            }
+        }
+    }
+    out
 }
 
 /// A record that could not be read, and why.
@@ -1000,9 +1070,12 @@ impl Database {
                     Ok((|| -> field::Decoded<Calibration> {
                         let at = integer(r, 1, "its time")?;
                         let report = text(r, 14, "its stored report")?;
-                        serde_json::from_str::<serde::de::IgnoredAny>(&report)
+                        let report: serde_json::Value = serde_json::from_str(&report)
                             .map_err(|e| format!("its stored report is not valid JSON ({e})"))?;
+                        let length_unit = text(r, 7, "its length unit")?;
+                        let angle_unit = text(r, 8, "its angle unit")?;
                         Ok(Calibration {
+                            errors: rms_errors(&report, &length_unit, &angle_unit),
                             id,
                             robot_id: text(r, 0, "its robot serial")?,
                             at,
@@ -1012,8 +1085,8 @@ impl Database {
                             data_fingerprint: text(r, 4, "its data fingerprint")?,
                             method: text(r, 5, "its method")?,
                             solution: text(r, 6, "its solution rule")?,
-                            length_unit: text(r, 7, "its length unit")?,
-                            angle_unit: text(r, 8, "its angle unit")?,
+                            length_unit,
+                            angle_unit,
                             rms_position_before: number(r, 9, "its RMS position error before")?,
                             rms_position_after: number(r, 10, "its RMS position error after")?,
                             rms_orientation_before: number(r, 11, "its RMS attitude error before")?,

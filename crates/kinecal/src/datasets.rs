@@ -21,8 +21,28 @@ pub struct Converted {
     pub files: Vec<(String, String)>,
     /// What was converted, for the user.
     pub summary: String,
-    /// The calibration the data set's README suggests, as a command line over the files.
-    pub command: String,
+    /// The calibration the data set's README suggests, over the files.
+    pub suggested: Suggested,
+}
+
+/// The calibration a data set's README suggests: which files, what to estimate, how to weigh
+/// and validate. Front ends turn it into their own form (a command line, a call).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Suggested {
+    /// The robot file (one of [`Converted::files`]).
+    pub robot: &'static str,
+    /// The measurement file.
+    pub data: &'static str,
+    /// A separate validation file, when the data set has one.
+    pub validate: Option<&'static str>,
+    /// The parameters to estimate, as a parameter list (`identifiable`, `link1,link7,offsets`).
+    pub estimate: &'static str,
+    /// The fraction of postures to hold out, when there is no validation file.
+    pub holdout: Option<f64>,
+    /// Standard deviations `(length, angle)` in the robot file's units, when not the default.
+    pub weights: Option<(f64, f64)>,
+    /// The attitude residual, when not the default (Euler angles).
+    pub orientation: Option<crate::observe::OrientationError>,
 }
 
 /// A data set adapter: its name, a line about it, and the conversion of its folder.
@@ -243,9 +263,15 @@ pub mod qkm_hl6 {
                 d.identification.observations.len(),
                 d.validation.observations.len()
             ),
-            command: "kinecal calibrate --robot qkm.toml --data identification.csv \
-                      --validate validation.csv --estimate all,identifiable"
-                .into(),
+            suggested: super::Suggested {
+                robot: "qkm.toml",
+                data: "identification.csv",
+                validate: Some("validation.csv"),
+                estimate: "all,identifiable",
+                holdout: None,
+                weights: None,
+                orientation: None,
+            },
         })
     }
 }
@@ -400,9 +426,15 @@ pub mod fanuc_r2000ic {
                  frame); single-joint sweeps, no separate test set",
                 d.data.postures.len()
             ),
-            command: "kinecal calibrate --robot fanuc.toml --data measurements.csv --estimate \
-                      identifiable --holdout 0.17"
-                .into(),
+            suggested: super::Suggested {
+                robot: "fanuc.toml",
+                data: "measurements.csv",
+                validate: None,
+                estimate: "identifiable",
+                holdout: Some(0.17),
+                weights: None,
+                orientation: None,
+            },
         })
     }
 }
@@ -505,10 +537,15 @@ pub mod ur10e_camera {
                  frame and the measured frame on the wrist are unknown (links 1 and 7)",
                 d.data.observations.len()
             ),
-            command: "kinecal calibrate --robot ur10e.toml --data poses.csv --estimate \
-                      link1,link7,offsets --orientation-error rotvec --weights \
-                      length=0.001,angle=0.01 --holdout 0.3"
-                .into(),
+            suggested: super::Suggested {
+                robot: "ur10e.toml",
+                data: "poses.csv",
+                validate: None,
+                estimate: "link1,link7,offsets",
+                holdout: Some(0.3),
+                weights: Some((0.001, 0.01)),
+                orientation: Some(crate::observe::OrientationError::RotVec),
+            },
         })
     }
 }

@@ -143,12 +143,12 @@ pub enum Error {
     #[error("numerical failure: {0}")]
     Numerical(String),
     /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The path.
         path: String,
-        /// The OS error.
-        source: std::io::Error,
+        /// The OS error (in the message, not a separate source, so it is printed once).
+        cause: std::io::Error,
     },
 }
 

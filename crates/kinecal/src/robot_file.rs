@@ -224,6 +224,7 @@ impl<'t> Reader<'t> {
         what: &str,
         kind: JointKind,
         units: &Units,
+        (this, count): (usize, usize),
     ) -> Result<Option<Coupling>> {
         Ok(match t.get("coupling") {
             None => None,
@@ -251,6 +252,22 @@ impl<'t> Reader<'t> {
                     Some(k) if k >= 1 => k as usize - 1,
                     _ => return Err(bad()),
                 };
+                if joint == this || joint >= count {
+                    let span = ct.get("joint").and_then(Item::span).or(item.span());
+                    return Err(self.err(
+                        span,
+                        &format!("{field}.joint"),
+                        if joint == this {
+                            format!("joint {} cannot be coupled to itself", this + 1)
+                        } else {
+                            format!(
+                                "joint {}: there is no joint {} (the robot has joints 1..{count})",
+                                this + 1,
+                                joint + 1
+                            )
+                        },
+                    ));
+                }
                 let factor = match ct.get("factor") {
                     None => 1.0,
                     Some(f) => match f.as_float().or_else(|| f.as_integer().map(|i| i as f64)) {
@@ -303,7 +320,9 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         .collect::<Result<Vec<_>>>()?;
 
     let mut joints = Vec::new();
-    for (i, t) in r.tables(root, "joints")?.iter().enumerate() {
+    let joint_tables = r.tables(root, "joints")?;
+    let joint_count = joint_tables.len();
+    for (i, t) in joint_tables.iter().enumerate() {
         let t: &Table = t;
         let what = format!("joints[{i}]");
         r.check_keys(
@@ -354,7 +373,7 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 return Err(r.err(t.span(), &what, "give both `min` and `max`, or neither"));
             }
         };
-        let coupling = r.coupling(t, &what, kind, &units)?;
+        let coupling = r.coupling(t, &what, kind, &units, (i, joint_count))?;
         joints.push(Joint {
             kind,
             offset: units.to_si(kind.variable(), offset),
@@ -406,9 +425,15 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 "missing `normal = [nx, ny, nz]` (the plane's normal in the global frame)",
             )
         })?;
-        let offset = r
-            .number(t, "offset", &format!("{what}.offset"))?
-            .unwrap_or(0.0);
+        let offset_field = format!("{what}.offset");
+        let offset = r.number(t, "offset", &offset_field)?.ok_or_else(|| {
+            r.err(
+                t.span(),
+                &offset_field,
+                "missing `offset` (the plane's signed distance from the global origin along its \
+                 normal, in length_unit)",
+            )
+        })?;
         let plane = Plane::new(
             name,
             nalgebra::Vector3::from(normal),

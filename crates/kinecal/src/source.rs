@@ -38,9 +38,9 @@ impl Source {
     /// Reads a UTF-8 text file; invalid UTF-8 is an error naming the line where it occurs.
     pub fn read(path: &std::path::Path) -> Result<Source> {
         let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        let bytes = std::fs::read(path).map_err(|cause| Error::Io {
             path: name.clone(),
-            source,
+            cause,
         })?;
         let sha256 = fingerprint(&bytes);
         let text = String::from_utf8(bytes).map_err(|e| {

@@ -93,9 +93,33 @@ impl Selection {
             let mut ids = listed;
             ids.retain(|id| !fix.contains(id));
             if ids.is_empty() {
+                // Say why: a group this robot has none of, or everything listed also fixed.
+                let empty: Vec<&str> = rest
+                    .iter()
+                    .map(|t| t.trim())
+                    .filter(|t| parse_param_list(t, robot).is_ok_and(|v| v.is_empty()))
+                    .collect();
+                let message = if empty.is_empty() {
+                    "no parameter is left to estimate (every listed parameter is also fixed)"
+                        .to_string()
+                } else {
+                    format!(
+                        "no parameter to estimate: this robot has no {} (none declared in its file)",
+                        empty
+                            .iter()
+                            .map(|g| match *g {
+                                "couplings" => "coupled joints",
+                                "planes" => "planes",
+                                "sites" => "sites",
+                                g => g,
+                            })
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                };
                 return Err(Error::ParamList {
                     list: estimate.to_string(),
-                    message: "no parameter is left to estimate".into(),
+                    message,
                 });
             }
             Selection::List(ids)
@@ -240,8 +264,10 @@ pub enum Validation {
 /// Everything that decides a calibration.
 #[derive(Debug, Clone)]
 pub struct Request {
-    /// The nominal robot: the model, the starting point unless `initial` is given, the
-    /// linearisation point of the uncertainty, and the reference of minimum-change answers.
+    /// The nominal robot: the model, the starting point unless `initial` is given, and the
+    /// reference of minimum-change answers. The uncertainty is linearised at the reference of
+    /// the solution rule (this robot, or `initial` under the solver rule: see the module's
+    /// linearisation rule).
     pub robot: Robot,
     /// The observations.
     pub data: Dataset,
@@ -400,7 +426,8 @@ pub struct Outcome {
     pub validation_data: Option<Dataset>,
     /// The calibration (after pruning, when pruned).
     pub calibration: Calibration,
-    /// Its uncertainty, linearised at the nominal robot; `None` when it cannot be computed
+    /// Its uncertainty, linearised at the reference of the solution rule (the module's
+    /// linearisation rule); `None` when it cannot be computed
     /// (a warning says why).
     pub uncertainty: Option<Uncertainty>,
     /// The pruning, when asked for.
@@ -758,18 +785,28 @@ fn project_min_change(
                 .expect("same parameters")
         })
         .collect();
+    // Back from scaled to parameter units; a column no observation feels was zeroed in the
+    // scaled Jacobian (its null direction is the parameter alone), so it stays unscaled, as
+    // dividing by its rounding-level norm would swamp every other direction. Each direction is
+    // then normalised, which keeps the small system below well conditioned.
     let null: Vec<Vec<f64>> = (a.rank..n)
         .map(|k| {
-            pos.iter()
+            let mut v: Vec<f64> = pos
+                .iter()
                 .map(|&j| {
                     let v = a.right_singular_vectors[(j, k)];
-                    if a.column_norms[j] > 0.0 {
-                        v / a.column_norms[j]
-                    } else {
+                    if a.unobservable.contains(&a.parameters[j]) || a.column_norms[j] <= 0.0 {
                         v
+                    } else {
+                        v / a.column_norms[j]
                     }
                 })
-                .collect()
+                .collect();
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm > 0.0 {
+                v.iter_mut().for_each(|x| *x /= norm);
+            }
+            v
         })
         .collect();
     if null.is_empty() {

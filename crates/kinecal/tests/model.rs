@@ -128,7 +128,15 @@ fn bad_couplings_and_planes_are_refused_with_their_field() {
                 "kind = \"prismatic\"\ncoupling = { joint = 3 }",
                 1,
             ),
-            "coupled to joint 3",
+            "bad.toml:69: field `joints[2].coupling.joint`: joint 3 cannot be coupled to itself",
+        ),
+        (
+            examples::GE_A4_TOML.replacen(
+                "kind = \"prismatic\"",
+                "kind = \"prismatic\"\ncoupling = { joint = 7 }",
+                1,
+            ),
+            "field `joints[2].coupling.joint`: joint 3: there is no joint 7 (the robot has joints 1..4)",
         ),
         (
             examples::GE_A4_TOML.replacen(
@@ -147,7 +155,7 @@ fn bad_couplings_and_planes_are_refused_with_their_field() {
             "joints[2].coupling",
         ),
         (
-            examples::GE_A4_TOML.to_string() + "\n[[planes]]\nname = \"t\"\nnormal = [0, 0, 0]\n",
+            examples::GE_A4_TOML.to_string() + "\n[[planes]]\nname = \"t\"\nnormal = [0, 0, 0]\noffset = 0\n",
             "planes[0].normal",
         ),
         (
@@ -155,8 +163,12 @@ fn bad_couplings_and_planes_are_refused_with_their_field() {
             "planes[0].normal",
         ),
         (
+            examples::GE_A4_TOML.to_string() + "\n[[planes]]\nname = \"t\"\nnormal = [0, 0, 1]\n",
+            "planes[0].offset`: missing `offset`",
+        ),
+        (
             examples::GE_A4_TOML.to_string()
-                + "\n[[planes]]\nname = \"t\"\nnormal = [0, 0, 1]\n[[planes]]\nname = \"t\"\nnormal = [0, 1, 0]\n",
+                + "\n[[planes]]\nname = \"t\"\nnormal = [0, 0, 1]\noffset = 0\n[[planes]]\nname = \"t\"\nnormal = [0, 1, 0]\noffset = 0\n",
             "used twice",
         ),
     ];

@@ -154,6 +154,10 @@ fn distance_files_read_with_their_lines_and_refuse_mistakes() {
         ),
         (ok.replace("b4,distance", "b4"), "no column `distance`"),
         (
+            ok.replace("b4,distance", "b4"),
+            "expected pair,site,a1..a4,b1..b4,distance[,sigma_position]",
+        ),
+        (
             ok.replace(",sigma_position", ",weight"),
             "unknown column `weight`",
         ),

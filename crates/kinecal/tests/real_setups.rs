@@ -179,6 +179,23 @@ fn other_layouts_load_as_they_are() {
     assert_eq!(d.postures.len(), 2);
     assert_eq!(d.postures[1].label, "2");
     assert_eq!(d.observations[1].line(), 5);
+    // A spreadsheet in a decimal-comma locale: `;` between fields, `,` in numbers, and a
+    // delimiter ending every data row (not the header).
+    let euro = "J1;J2;J3;J4;X;Y;Z\n-11,053;12,369;4,009;-11,583;14,071;19,083;0,177;\n\
+                -12,696;9,037;1,493;5,156;6,098;14,220;3,700;\n";
+    let e = parse_measurements_mapped(euro, "t.csv", &robot, &m).unwrap();
+    assert_eq!(e.observations.len(), 2);
+    for (a, b) in e.observations.iter().zip(&d.observations) {
+        let (Observation::Position(a), Observation::Position(b)) = (a, b) else {
+            panic!()
+        };
+        assert_eq!(a.position, b.position);
+    }
+    assert_eq!(e.postures[1].readings, d.postures[1].readings);
+    // Two commas are not a number.
+    let bad = euro.replace("0,177", "0,1,77");
+    let err = parse_measurements_mapped(&bad, "t.csv", &robot, &m).unwrap_err();
+    assert!(err.to_string().contains("t.csv:2: field `Z`"), "{err}");
     // Tabs, and the plain reader (kinecal's own column names) also reads them.
     let tabbed = "posture\tv1\tv2\tv3\tv4\tx\ty\tz\n1\t1\t2\t3\t4\t5\t6\t7\n";
     let d = parse_measurements(tabbed, "t.tsv", &robot).unwrap();
@@ -226,6 +243,39 @@ fn other_layouts_load_as_they_are() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("unknown site `m9`"), "{e}");
+    // A mapping to a column the file does not have, a shared marker column next to markers,
+    // and one file column read for two markers are refused, never silently ignored.
+    for (specs, expect) in [
+        (
+            &["v1=q1,v2=q2,v3=q3,v4=q4,x=x1,y=y1,z=z1,sigma_position=RMS"][..],
+            "column mapping `sigma_position=RMS`: no column `RMS`",
+        ),
+        (
+            &["v1=q1,v2=q2,v3=q3,v4=q4", "m1:x=x1,y=y1,z=z1,alpha=Rz"][..],
+            "column mapping `alpha=Rz`: no column `Rz`",
+        ),
+        (
+            &["v1=q1,v2=q2,v3=q3,v4=q4,posture=Point", "m1:x=x1,y=y1,z=z1"][..],
+            "column mapping `posture=Point`",
+        ),
+        (
+            &["v1=q1,v2=q2,v3=q3,v4=q4,x=x1", "m1:x=x1,y=y1,z=z1"][..],
+            "`x=x1` in the shared mapping is not used when markers are given",
+        ),
+        (
+            &[
+                "v1=q1,v2=q2,v3=q3,v4=q4",
+                "m1:x=x1,y=y1,z=z1",
+                "m2:x=x1,y=y2,z=z2",
+            ][..],
+            "file column `x1` is mapped for both markers `m1` and `m2`",
+        ),
+    ] {
+        let e = parse_measurements_mapped(wide, "w.csv", &a4, &map(specs))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(expect), "{specs:?}: {e}");
+    }
     // A plain file with a column kinecal does not know says what it expected.
     let e = parse_measurements("posture,v1,v2,v3,v4,v5,x,y,z\n", "p.csv", &robot)
         .unwrap_err()

@@ -136,7 +136,9 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
     let mut axes = Vec::new();
     let mut extra = Vec::new();
     let mut couplings = Vec::new();
-    for (i, t) in r.tables(root, "joints")?.iter().enumerate() {
+    let joint_tables = r.tables(root, "joints")?;
+    let joint_count = joint_tables.len();
+    for (i, t) in joint_tables.iter().enumerate() {
         let t: &Table = t;
         let what = format!("joints[{i}]");
         r.check_keys(
@@ -194,7 +196,7 @@ pub fn parse_poe_toml(text: &str, file: &str) -> Result<Robot> {
         };
         axes.push((kind, Vector3::from(axis), point));
         extra.push((units.to_si(kind.variable(), offset), range));
-        couplings.push(r.coupling(t, &what, kind, &units)?);
+        couplings.push(r.coupling(t, &what, kind, &units, (i, joint_count))?);
     }
     if axes.is_empty() {
         return Err(Error::input(Location::file(file), "no [[joints]]"));

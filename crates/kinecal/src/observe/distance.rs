@@ -142,8 +142,8 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
     let n = robot.dof();
     let header = FORMAT
         .header
-        .replace("an", &format!("a{n}"))
-        .replace("bn", &format!("b{n}"));
+        .replace("a1..an", &format!("a1..a{n}"))
+        .replace("b1..bn", &format!("b1..b{n}"));
     let a: Vec<String> = (1..=n).map(|i| format!("a{i}")).collect();
     let b: Vec<String> = (1..=n).map(|i| format!("b{i}")).collect();
     let mut known: Vec<String> = vec!["pair".into(), "site".into()];

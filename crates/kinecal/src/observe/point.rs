@@ -524,8 +524,16 @@ pub fn parse_measurements_mapped(
     // Where each of kinecal's columns is: (index, the file's name for it).
     let find = |mapping: &[(String, String)], ours: &str, required: bool| {
         let name = theirs(mapping, ours);
+        let explicit = mapping.iter().any(|(o, _)| o == ours);
         match t.column(&name) {
             Some(i) => Ok((Some(i), name)),
+            None if explicit => Err(Error::input(
+                t.header_at().with_field(name.clone()),
+                format!(
+                    "column mapping `{ours}={name}`: no column `{name}` in the header `{}`",
+                    t.header.join(",")
+                ),
+            )),
             None if !required => Ok((None, name)),
             None => Err(Error::input(
                 t.header_at().with_field(name.clone()),
@@ -537,7 +545,7 @@ pub fn parse_measurements_mapped(
                         format!(" (for kinecal's `{ours}`)")
                     },
                     t.header.join(","),
-                    FORMAT.header.replace("vn", &format!("v{n}"))
+                    FORMAT.header.replace("v1..vn", &format!("v1..v{n}"))
                 ),
             )),
         }
@@ -565,6 +573,35 @@ pub fn parse_measurements_mapped(
     let markers: Vec<Marker> = if map.markers.is_empty() {
         vec![marker_of(&map.shared, None)?]
     } else {
+        if let Some((o, th)) = map
+            .shared
+            .iter()
+            .find(|(o, _)| MARKER_COLUMNS.contains(&o.as_str()))
+        {
+            return Err(Error::input(
+                t.header_at(),
+                format!(
+                    "column mapping: `{o}={th}` in the shared mapping is not used when markers \
+                     are given: map it in each marker (`SITE:{o}={th}`)"
+                ),
+            ));
+        }
+        let mut used: HashMap<&str, &str> = HashMap::new();
+        for (site, mapping) in &map.markers {
+            for (_, th) in mapping {
+                if let Some(other) = used.insert(th.as_str(), site.as_str()) {
+                    if other != site {
+                        return Err(Error::input(
+                            t.header_at().with_field(th.clone()),
+                            format!(
+                                "column mapping: file column `{th}` is mapped for both markers \
+                                 `{other}` and `{site}`"
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
         if site_col.is_some() && map.shared.iter().any(|(o, _)| o == "site") {
             return Err(Error::input(
                 t.header_at(),
@@ -600,7 +637,7 @@ pub fn parse_measurements_mapped(
                 format!(
                     "unknown column `{h}`{hint}: expected {} (other layouts can be read through a \
                      column mapping)",
-                    FORMAT.header.replace("vn", &format!("v{n}"))
+                    FORMAT.header.replace("v1..vn", &format!("v1..v{n}"))
                 ),
             ));
         }

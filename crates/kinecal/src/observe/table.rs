@@ -1,6 +1,8 @@
 //! CSV tables as the observation files use them: a header naming the columns, `#` comment lines
 //! anywhere (also before the header), blank lines ignored, fields trimmed, and the delimiter
-//! (`,`, `;` or tab, as tracker software exports) detected from the header line.
+//! (`,`, `;` or tab, as tracker software exports) detected from the header line. In a `;` or
+//! tab separated file a number may be written with a decimal comma (`12,5`, as spreadsheets in
+//! many locales write it); a delimiter ending every data row but not the header is ignored.
 
 use std::collections::HashMap;
 
@@ -15,6 +17,8 @@ pub(crate) struct Table {
     pub header_line: usize,
     /// (line, fields); every row has as many fields as the header.
     pub rows: Vec<(usize, Vec<String>)>,
+    /// The delimiter.
+    pub delimiter: u8,
 }
 
 /// The delimiter of a table: the most frequent of `,`, `;` and tab in its first line that is not
@@ -58,11 +62,12 @@ pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
     } else {
         text
     };
+    let delimiter = detect_delimiter(text);
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)
         .trim(csv::Trim::All)
-        .delimiter(detect_delimiter(text))
+        .delimiter(delimiter)
         .from_reader(text.as_bytes());
     let loc = Location::file(file);
     // The reader's positions point just after the previous record, before any blank lines:
@@ -124,13 +129,19 @@ pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
         if rec.iter().all(str::is_empty) {
             continue;
         }
-        rows.push((line, rec.iter().map(str::to_string).collect()));
+        let mut fields: Vec<String> = rec.iter().map(str::to_string).collect();
+        // A trailing delimiter on a data row (some exporters end every row with one).
+        if fields.len() == header.len() + 1 && fields.last().is_some_and(String::is_empty) {
+            fields.pop();
+        }
+        rows.push((line, fields));
     }
     Ok(Table {
         file: file.to_string(),
         header,
         header_line,
         rows,
+        delimiter,
     })
 }
 
@@ -172,7 +183,16 @@ impl Table {
 
     /// Parses a finite number.
     pub fn number(&self, line: usize, field: &str, s: &str) -> Result<f64> {
-        let v: f64 = s.parse().map_err(|_| {
+        let decimal_comma = self.delimiter != b','
+            && s.matches(',').count() == 1
+            && !s.contains('.')
+            && s.replace(',', ".").parse::<f64>().is_ok();
+        let parsed = if decimal_comma {
+            s.replace(',', ".").parse::<f64>()
+        } else {
+            s.parse::<f64>()
+        };
+        let v: f64 = parsed.map_err(|_| {
             let hint = if s.contains(',') && s.replace(',', ".").parse::<f64>().is_ok() {
                 " (a decimal comma? write decimal points)"
             } else {
@@ -297,8 +317,16 @@ mod tests {
         assert!(e.starts_with("t.csv:2:"), "{e}");
         let e = read("a,a\n1,2\n", "t.csv").err().unwrap().to_string();
         assert!(e.contains("twice"), "{e}");
+        // A decimal comma is read where the delimiter is not a comma; quoted in a comma
+        // separated file, it gets a hint.
         let t = read("a;b\n1,5;2\n", "t.csv").unwrap();
-        let e = t.number(2, "a", "1,5").unwrap_err().to_string();
+        assert!((t.number(2, "a", "1,5").unwrap() - 1.5).abs() < 1e-15);
+        let t = read("a,b\n\"1,5\",2\n", "t.csv").unwrap();
+        let e = t.number(2, "a", &t.rows[0].1[0]).unwrap_err().to_string();
         assert!(e.contains("decimal comma"), "{e}");
+        // A trailing delimiter on data rows only.
+        let t = read("a,b\n1,2,\n", "t.csv").unwrap();
+        t.check_rows().unwrap();
+        assert_eq!(t.rows[0].1, vec!["1", "2"]);
     }
 }
