@@ -692,8 +692,17 @@ pub enum OrientationArg {
 pub enum LossArg {
     /// Least squares (thesis eq. 3.1).
     Squared,
-    /// Huber: quadratic up to --huber-scale sigmas, linear beyond.
+    /// Huber: quadratic up to --huber-scale spreads of the residuals, linear beyond.
     Huber,
+}
+
+/// The unit of the Huber threshold.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SpreadArg {
+    /// The residuals' own robust spread (1.4826 x median |r| of the rows alike).
+    Robust,
+    /// The stated standard deviations (--weights, or each row's sigma columns).
+    Stated,
 }
 
 /// Which of several equally good answers.
@@ -761,9 +770,13 @@ pub struct CalibrateArgs {
     /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows).
     #[arg(long, value_enum, default_value = "squared")]
     pub loss: LossArg,
-    /// Huber threshold, in standard deviations of --weights.
+    /// Huber threshold, in spreads of the residuals (see --huber-spread).
     #[arg(long, value_name = "K", default_value_t = 1.345)]
     pub huber_scale: f64,
+    /// What one spread of the Huber threshold is: the residuals' robust spread, re-estimated
+    /// per kind of row at every reweighting, or the stated standard deviations.
+    #[arg(long, value_enum, value_name = "SPREAD", default_value = "robust")]
+    pub huber_spread: SpreadArg,
     /// List observations with a residual beyond K robust standard deviations of the rows like
     /// them (never dropped).
     #[arg(long, value_name = "K", default_value_t = kinecal::outliers::DEFAULT_SIGMAS)]

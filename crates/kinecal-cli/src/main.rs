@@ -20,7 +20,7 @@ use clap::Parser;
 use args::{
     CalibrateArgs, Cli, Command, ConventionArg, DampingArg, DatasetArgs, ExportCommand,
     ExportUrdfArgs, FkArgs, ImportCommand, LossArg, MethodArg, ObservationFiles, OrientationArg,
-    ResidualArgs, SimulateArgs, SolutionArg,
+    ResidualArgs, SimulateArgs, SolutionArg, SpreadArg,
 };
 use kinecal::estimation::{Damping, Loss, Method, SolverOptions};
 use kinecal::observe::point::{
@@ -595,7 +595,13 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
     req.solver = solver;
     req.loss = match a.loss {
         LossArg::Squared => Loss::Squared,
-        LossArg::Huber => Loss::Huber(a.huber_scale),
+        LossArg::Huber => Loss::Huber {
+            k: a.huber_scale,
+            spread: match a.huber_spread {
+                SpreadArg::Robust => kinecal::estimation::Spread::Robust,
+                SpreadArg::Stated => kinecal::estimation::Spread::Stated,
+            },
+        },
     };
     req.weights = weights;
     req.orientation = orientation;

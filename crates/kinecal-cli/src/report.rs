@@ -78,6 +78,13 @@ pub fn summary(r: &CalibrationReport) -> String {
         r.iterations,
         r.termination
     );
+    if let Some(n) = r.down_weighted_rows {
+        let _ = writeln!(
+            s,
+            "loss {}: {n} of {} residual rows down-weighted",
+            r.loss, r.residuals
+        );
+    }
     let _ = writeln!(s);
     let _ = writeln!(s, "{:<28} {:>14} {:>14}", "", "before", "after");
     let _ = writeln!(

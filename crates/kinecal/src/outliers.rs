@@ -8,10 +8,8 @@
 //! is an outlier when one of its rows is beyond `k` such scales. Outliers are listed for the user
 //! to look at, never dropped.
 
-use std::collections::HashMap;
-
 use crate::estimation::Calibration;
-use crate::observe::{for_each_observation, Context, Dataset, ErrorSample, RowQuantity};
+use crate::observe::{for_each_observation, Context, Dataset, ErrorSample, RobustSpread};
 use crate::problem::Problem;
 
 /// Default threshold, in robust standard deviations.
@@ -42,26 +40,7 @@ pub fn outliers(cal: &Calibration, data: &Dataset, k: f64) -> Vec<Outlier> {
     let mut r = vec![0.0; problem.rows()];
     problem.evaluate(robot, &mut r, None);
     // The robust scale of each (kind, quantity) group of rows.
-    let mut groups: HashMap<(&'static str, RowQuantity), Vec<f64>> = HashMap::new();
-    let mut row = 0;
-    for o in &data.observations {
-        for (i, spec) in o.rows().iter().enumerate() {
-            groups
-                .entry((o.kind(), spec.quantity))
-                .or_default()
-                .push(r[row + i].abs());
-        }
-        row += o.rows().len();
-    }
-    let scale: HashMap<(&'static str, RowQuantity), f64> = groups
-        .into_iter()
-        .map(|(key, mut v)| {
-            v.sort_by(f64::total_cmp);
-            // Floor: 1e-6 of the stated standard deviation, so noise-free data never flags
-            // rounding.
-            (key, (1.4826 * v[v.len() / 2]).max(1e-6))
-        })
-        .collect();
+    let scale = RobustSpread::of(data, &r).per_row;
     let ctx = Context {
         robot,
         orientation: cal.options.orientation,
@@ -73,7 +52,7 @@ pub fn outliers(cal: &Calibration, data: &Dataset, k: f64) -> Vec<Outlier> {
             .rows()
             .iter()
             .enumerate()
-            .map(|(j, spec)| r[row + j].abs() / scale[&(o.kind(), spec.quantity)])
+            .map(|(j, _)| r[row + j].abs() / scale[row + j])
             .fold(0.0f64, f64::max);
         if worst > k {
             out.push(Outlier {

@@ -346,8 +346,11 @@ pub struct CalibrationReport {
     /// Accuracy on held-out validation data, when given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub validation: Option<DatasetAccuracy>,
-    /// `squared` or `huber K`.
+    /// `squared`, or `huber K x robust spread` / `huber K x stated sigma`.
     pub loss: String,
+    /// Under a Huber loss, the residual rows it down-weighted (beyond its threshold).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub down_weighted_rows: Option<usize>,
     /// Measurements beyond the outlier threshold (listed, not dropped).
     pub outliers: Vec<OutlierReport>,
     /// The threshold used, in robust standard deviations.
@@ -439,6 +442,12 @@ impl CalibrationReport {
             identification: DatasetAccuracy::new(postures, measurements, b, a, &u),
             validation: None,
             loss: cal.options.loss.to_string(),
+            down_weighted_rows: match cal.options.loss {
+                crate::estimation::Loss::Squared => None,
+                crate::estimation::Loss::Huber { .. } => {
+                    Some(cal.row_scale.iter().filter(|&&w| w < 1.0 - 1e-9).count())
+                }
+            },
             outliers: Vec::new(),
             outlier_sigmas: crate::outliers::DEFAULT_SIGMAS,
             robot_file_sha256: None,

@@ -110,7 +110,7 @@ fn outliers_are_listed_and_huber_resists_them() {
         .map(|o| o.observation)
         .collect();
     assert!(flagged.contains(&5) && flagged.contains(&17), "{flagged:?}");
-    opts.loss = Loss::Huber(1.345);
+    opts.loss = Loss::huber(1.345);
     let hub = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
     // The robust fit is not pulled: exactly the two bad rows stand out.
     let flagged: Vec<usize> = outliers(&hub, &data, 4.0)

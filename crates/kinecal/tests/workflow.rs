@@ -120,7 +120,7 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
         assert_eq!(worst.posture, "5");
         // The robust loss leaves it alone.
         let mut huber = req.clone();
-        huber.loss = kinecal::estimation::Loss::Huber(1.345);
+        huber.loss = kinecal::estimation::Loss::huber(1.345);
         let out = workflow::run(&huber, &mut ()).unwrap();
         let flagged: Vec<&str> = out
             .report
@@ -162,7 +162,7 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
             "hold-out fraction",
         ),
         (
-            Box::new(|r: &mut Request| r.loss = kinecal::estimation::Loss::Huber(1e-320)),
+            Box::new(|r: &mut Request| r.loss = kinecal::estimation::Loss::huber(1e-320)),
             "Huber scale",
         ),
     ] {
@@ -174,4 +174,49 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
         }
     }
     let _ = ParamId(0);
+}
+
+/// With the default weights (1 mm and 1 mrad, far above this data's 0.0127 mm noise) a Huber
+/// threshold in stated standard deviations is never reached and changes nothing; in the
+/// residuals' robust spread it down-weights the bad rows, the fit is not pulled by them, and
+/// the report says how many rows it down-weighted.
+#[test]
+fn huber_takes_its_scale_from_the_residuals_unless_told_to_trust_the_weights() {
+    use kinecal::estimation::{Loss, Spread};
+    let (nominal, mut data) = session();
+    for k in [4, 11, 23] {
+        if let kinecal::Observation::Pose(p) = &mut data.observations[k] {
+            p.position.x += 0.05 * 0.0254;
+        }
+    }
+    let fit = |loss: Loss| {
+        let mut req = Request::new(nominal.clone(), data.clone());
+        req.selection = Selection::parse("p1,p2,p8,p14,offsets,slopes", None, &nominal).unwrap();
+        req.loss = loss;
+        workflow::run(&req, &mut ()).unwrap()
+    };
+    let ls = fit(Loss::Squared);
+    let stated = fit(Loss::Huber {
+        k: 1.345,
+        spread: Spread::Stated,
+    });
+    let robust = fit(Loss::huber(1.345));
+    assert_eq!(ls.report.down_weighted_rows, None);
+    assert_eq!(stated.report.down_weighted_rows, Some(0));
+    let p1 = |o: &kinecal::workflow::Outcome| o.report.parameters[0].estimated;
+    assert!((p1(&stated) - p1(&ls)).abs() < 1e-9);
+    // 180 rows: the 3 bad x rows and the Gaussian tail beyond 1.345 spreads (about 18 %).
+    let n = robust.report.down_weighted_rows.unwrap();
+    assert!((3..=60).contains(&n), "{n}");
+    // link1.x was moved by +0.05 in: the robust fit finds it to 0.002 in, least squares is
+    // pulled by the three bumped rows.
+    let err = |o: &kinecal::workflow::Outcome| (p1(o) - (15.08 + 0.05)).abs();
+    assert!(err(&robust) < 0.002, "robust {}", err(&robust));
+    assert!(
+        err(&robust) < 0.5 * err(&ls),
+        "robust {} vs squared {}",
+        err(&robust),
+        err(&ls)
+    );
+    assert_eq!(robust.report.loss, "huber 1.345 x robust spread");
 }

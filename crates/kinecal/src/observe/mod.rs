@@ -339,6 +339,60 @@ pub struct Dataset {
     pub observations: Vec<Observation>,
 }
 
+/// The robust spread of residual rows, taken per group of rows *alike*: the same kind of
+/// observation and the same quantity (lengths apart from angles), as 1.4826 times the median
+/// absolute value (the MAD about zero, the standard deviation for Gaussian rows; a few bad rows
+/// cannot inflate it). `r` holds the weighted residuals of `data`'s rows in order (in standard
+/// deviations); the spread is in the same units, floored at 1e-6 so that noise-free data has a
+/// positive one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobustSpread {
+    /// The spread of each row's group, per row.
+    pub per_row: Vec<f64>,
+    /// Each group (observation kind, quantity) with its spread and row count, in order of first
+    /// appearance.
+    pub groups: Vec<(&'static str, RowQuantity, f64, usize)>,
+}
+
+impl RobustSpread {
+    /// The spread of the rows of `data` whose weighted residuals are `r`.
+    pub fn of(data: &Dataset, r: &[f64]) -> RobustSpread {
+        let mut keys: Vec<(&'static str, RowQuantity)> = Vec::new();
+        let mut values: Vec<Vec<f64>> = Vec::new();
+        let mut group_of = Vec::with_capacity(r.len());
+        let mut row = 0;
+        for o in &data.observations {
+            for spec in o.rows() {
+                let key = (o.kind(), spec.quantity);
+                let g = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                    keys.push(key);
+                    values.push(Vec::new());
+                    keys.len() - 1
+                });
+                values[g].push(r[row].abs());
+                group_of.push(g);
+                row += 1;
+            }
+        }
+        let spread: Vec<f64> = values
+            .iter_mut()
+            .map(|v| {
+                v.sort_by(f64::total_cmp);
+                (1.4826 * v[v.len() / 2]).max(1e-6)
+            })
+            .collect();
+        RobustSpread {
+            per_row: group_of.iter().map(|&g| spread[g]).collect(),
+            groups: keys
+                .iter()
+                .zip(&spread)
+                .zip(&values)
+                .map(|((&(k, q), &s), v)| (k, q, s, v.len()))
+                .collect(),
+        }
+    }
+}
+
 impl Dataset {
     /// Builds a dataset, sorting observations by their first posture (stable: file order within
     /// a posture).
