@@ -812,6 +812,11 @@ pub struct CalibrateArgs {
     /// Also write a self-contained HTML report here.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
+    /// Treat warnings that say the result is most likely wrong (data in another unit than the
+    /// robot file, readings outside the joint ranges or in the other angle unit, lengths moved
+    /// beyond the robot's reach) as failures: exit 3, write and record nothing.
+    #[arg(long)]
+    pub strict: bool,
     /// Print one line per iteration (to standard error).
     #[arg(long, short)]
     pub verbose: bool,

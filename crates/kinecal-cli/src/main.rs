@@ -41,6 +41,11 @@ const EXIT_INPUT: u8 = 1;
 /// the report says `converged: false`, and scripts can tell.
 pub const EXIT_NOT_CONVERGED: u8 = 4;
 
+/// Exit code of `calibrate --strict` when a warning says the result is most likely wrong (see
+/// [`kinecal::Warning::implausible`]): nothing is written. The code `check` and `history drift`
+/// use for "look at this robot".
+pub const EXIT_IMPLAUSIBLE: u8 = 3;
+
 fn main() -> ExitCode {
     // Output piped into `head` and closed: end quietly, as other command-line tools do, rather
     // than panic on the failed write.
@@ -651,6 +656,14 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
     print!("{}", report::summary(&outcome.report));
     for w in &outcome.warnings {
         eprintln!("warning: {}", word(w));
+    }
+    let implausible = outcome.warnings.iter().filter(|w| w.implausible()).count();
+    if a.strict && implausible > 0 {
+        eprintln!(
+            "STRICT: {implausible} warning(s) above say the result is most likely wrong (units, \
+             readings or a model that does not fit this robot); nothing written or recorded"
+        );
+        return Ok(EXIT_IMPLAUSIBLE);
     }
     // Everything is computed, and every output written beside its target, before anything is
     // replaced; the history record is the last step that can fail.

@@ -1959,3 +1959,88 @@ fn curve_sweeps_are_bounded_and_sized_to_the_parameter() {
     let p4: Vec<f64> = values.iter().filter(|v| v.0 == "p4").map(|v| v.1).collect();
     assert_eq!(p4, [-50.0, 0.0, 50.0]);
 }
+
+/// Data in millimetres against the built-in robot in inches: a warning that names the likely
+/// unit, and with --strict exit 3 with nothing written.
+#[test]
+fn data_in_another_unit_is_said_and_strict_refuses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--seed",
+            "2",
+            "--out",
+            "in.csv",
+        ],
+    );
+    // The same measurements in millimetres.
+    let text = std::fs::read_to_string(d.join("in.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let mut mm = header.join(",") + "\n";
+    for l in lines {
+        let f: Vec<String> = l
+            .split(',')
+            .zip(&header)
+            .map(|(v, h)| match *h {
+                "x" | "y" | "z" => (v.parse::<f64>().unwrap() * 25.4).to_string(),
+                _ => v.to_string(),
+            })
+            .collect();
+        mm += &(f.join(",") + "\n");
+    }
+    std::fs::write(d.join("mm.csv"), mm).unwrap();
+    let out = kinecal()
+        .current_dir(d)
+        .args(["calibrate", "--robot", "ge-a4", "--data", "mm.csv"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("warning: the measured positions spread 25 times as widely as the nominal robot predicts for the same postures: are they in mm? the data must be in the robot file's length unit (in)"),
+        "{err}"
+    );
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "mm.csv",
+            "--strict",
+            "--out",
+            "cal.toml",
+            "--report",
+            "r.json",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(err.contains("STRICT:"), "{err}");
+    assert!(!d.join("cal.toml").exists() && !d.join("r.json").exists());
+    // The data in the right unit passes --strict.
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "in.csv",
+            "--strict",
+            "--out",
+            "cal.toml",
+        ],
+    );
+    assert!(d.join("cal.toml").exists());
+}

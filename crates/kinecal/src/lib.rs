@@ -38,6 +38,7 @@ pub mod problem;
 pub mod report;
 pub mod robot;
 pub mod robot_file;
+pub mod sanity;
 pub mod simulate;
 pub mod source;
 pub mod uncertainty;

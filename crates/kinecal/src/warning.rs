@@ -83,6 +83,50 @@ pub enum Warning {
     },
     /// The data has no degrees of freedom left: standard deviations are not estimated.
     ExactFit,
+    /// The measured spread (positions about their centroid, or distances) is far from what the
+    /// nominal robot predicts for the same postures: most likely the data is in another length
+    /// unit than the robot file.
+    ScaleMismatch {
+        /// `position` or `distance`.
+        metric: String,
+        /// Measured over predicted spread.
+        ratio: f64,
+        /// The robot file's length unit.
+        unit: String,
+        /// The unit the data is likely in, when the ratio matches one.
+        likely: Option<String>,
+    },
+    /// Readings outside a joint's range (by more than 5 % of its width).
+    ReadingsOutOfRange {
+        /// Joint number (1-based).
+        joint: usize,
+        /// How many postures.
+        count: usize,
+        /// The first few postures' labels.
+        postures: Vec<String>,
+        /// The range's lower end (reading units).
+        min: f64,
+        /// The range's upper end (reading units).
+        max: f64,
+    },
+    /// Joint readings taken directly as angles look like the other angle unit.
+    AngleUnitMismatch {
+        /// The joints (1-based).
+        joints: Vec<usize>,
+        /// The robot file's angle unit.
+        file_unit: String,
+        /// What the readings look like.
+        looks_like: String,
+    },
+    /// Estimated lengths moved by more than the robot's reach.
+    ChangeBeyondReach {
+        /// Their names.
+        parameters: Vec<String>,
+        /// The reach (file units).
+        reach: f64,
+        /// The length unit.
+        unit: String,
+    },
     /// URDF export: a joint's slope cannot be expressed in URDF.
     UrdfSlope {
         /// Joint number (1-based).
@@ -109,9 +153,84 @@ pub enum Warning {
     },
 }
 
+impl Warning {
+    /// True for the warnings that say the result is most likely wrong, whatever the fit's
+    /// figures (units mixed up, readings impossible for the robot, lengths moved beyond its
+    /// size): a strict caller stops there.
+    pub fn implausible(&self) -> bool {
+        matches!(
+            self,
+            Warning::ScaleMismatch { .. }
+                | Warning::ReadingsOutOfRange { .. }
+                | Warning::AngleUnitMismatch { .. }
+                | Warning::ChangeBeyondReach { .. }
+        )
+    }
+}
+
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
+            Warning::ScaleMismatch {
+                metric,
+                ratio,
+                unit,
+                likely,
+            } => write!(
+                f,
+                "the measured {metric}s spread {} times as widely as the nominal robot predicts \
+                 for the same postures: {}the data must be in the robot file's length unit \
+                 ({unit})",
+                if *ratio >= 10.0 {
+                    format!("{ratio:.0}")
+                } else if *ratio >= 0.01 {
+                    format!("{ratio:.3}")
+                } else {
+                    format!("{ratio:.2e}")
+                },
+                match likely {
+                    Some(l) => format!("are they in {l}? "),
+                    None => String::new(),
+                }
+            ),
+            Warning::ReadingsOutOfRange {
+                joint,
+                count,
+                postures,
+                min,
+                max,
+            } => write!(
+                f,
+                "joint {joint}: {count} posture(s) read outside its range [{min}, {max}] \
+                 (postures {}{}): wrong column, wrong unit, or a wrong range in the robot file",
+                postures.join(", "),
+                if *count > postures.len() { ", ..." } else { "" }
+            ),
+            Warning::AngleUnitMismatch {
+                joints,
+                file_unit,
+                looks_like,
+            } => write!(
+                f,
+                "the readings of joint(s) {} look like {looks_like} but the robot file reads them \
+                 as {file_unit} (slope 1): convert them, or set the slopes (the offsets would \
+                 otherwise absorb whole turns)",
+                joints
+                    .iter()
+                    .map(ToString::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Warning::ChangeBeyondReach {
+                parameters,
+                reach,
+                unit,
+            } => write!(
+                f,
+                "{} moved by more than the robot's reach ({reach:.4} {unit}): not a calibration \
+                 of this robot (units, a wrong model, or a far start)",
+                parameters.join(", ")
+            ),
             Warning::GimbalLock { count, lines } => write!(
                 f,
                 "{count} measured pose(s) have beta within 1 deg of +-90 deg (gimbal lock; lines \

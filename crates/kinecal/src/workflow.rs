@@ -613,6 +613,11 @@ fn finish(
     sources: &[Source],
     warnings: &mut Vec<Warning>,
 ) -> Outcome {
+    warnings.extend(crate::sanity::check_result(
+        &nominal,
+        &cal.calibrated,
+        &cal.estimated,
+    ));
     if !cal.unfelt.is_empty() {
         warnings.push(Warning::Unfelt {
             parameters: cal
@@ -697,17 +702,19 @@ fn finish(
     }
 }
 
-/// Warnings about the data itself: poses near gimbal lock under Euler residuals.
+/// Warnings about the data itself: units that do not match the robot file's, readings the
+/// robot cannot take ([`crate::sanity`]), poses near gimbal lock under Euler residuals.
 fn data_warnings(robot: &Robot, data: &Dataset, orientation: OrientationError) -> Vec<Warning> {
+    let mut out = crate::sanity::check_data(robot, data);
     let ctx = Context { robot, orientation };
     let near = data.degenerate(&ctx);
-    if near.is_empty() {
-        return Vec::new();
+    if !near.is_empty() {
+        out.push(Warning::GimbalLock {
+            count: near.len(),
+            lines: near.iter().take(5).map(|o| o.line()).collect(),
+        });
     }
-    vec![Warning::GimbalLock {
-        count: near.len(),
-        lines: near.iter().take(5).map(|o| o.line()).collect(),
-    }]
+    out
 }
 
 /// Estimates, then applies the solution rule.

@@ -59,6 +59,7 @@ fn modules_import_in_one_direction() {
         "warning",
         "robot_file",
         "observe",
+        "sanity",
         "problem",
         "estimation",
         "identifiability",

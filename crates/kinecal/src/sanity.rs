@@ -1,0 +1,250 @@
+//! Checks that the data and the robot file speak the same units, before and after a fit.
+//!
+//! A calibration fits whatever it is given: measurements in millimetres against a robot in
+//! metres "converge" to links a thousand times too long, joint readings in radians against a
+//! degree robot let the offsets absorb whole turns. None of that is an error the solver can
+//! see, so these checks look at what is independent of the unknown parameters:
+//!
+//! - **Scale.** The spread of the measured positions about their centroid (and the measured
+//!   distances) against what the nominal robot predicts for the same postures. The spread is
+//!   the same in every frame, so an unknown tracker placement does not matter; a ratio near
+//!   1000, 25.4 or their inverses is a unit mix-up, and anything beyond a factor 3 is
+//!   implausible for a robot whose nominal model is anywhere near right.
+//! - **Readings.** Readings outside a joint's range (`min`/`max` in the robot file) by more than
+//!   5 % of its width; readings of a revolute joint read directly as angles (slope 1 in the
+//!   file's angle unit) that look like radians against a degree robot (every joint within
+//!   one turn, +-2 pi, and some moving over 0.3: no calibration keeps every joint within 6 deg) or like degrees against a radian robot (beyond +-7).
+//! - **Result.** An estimated length that moves by more than the robot's reach (the first
+//!   link, which carries the measurement frame, and plane offsets aside).
+//!
+//! Each finding is a [`Warning`] naming the joint, the postures and the ratio; the caller may
+//! treat them as fatal ([`Warning::implausible`]).
+
+use crate::kinematics::Chain;
+use crate::kinematics::Target;
+use crate::observe::{Dataset, Observation};
+use crate::params::{ParamId, ParamKind};
+use crate::robot::{JointKind, Robot};
+use crate::units::{AngleUnit, Quantity};
+use crate::warning::Warning;
+
+/// Beyond this factor between measured and predicted spreads, the scale is implausible.
+pub const SCALE_FACTOR_LIMIT: f64 = 3.0;
+
+/// The warnings about `data` against the nominal `robot`: scale and readings.
+pub fn check_data(robot: &Robot, data: &Dataset) -> Vec<Warning> {
+    let mut out = Vec::new();
+    out.extend(scale(robot, data));
+    out.extend(readings(robot, data));
+    out
+}
+
+/// The warning when an estimated length moved by more than the robot's reach from `initial`
+/// to `calibrated`.
+pub fn check_result(initial: &Robot, calibrated: &Robot, estimated: &[ParamId]) -> Vec<Warning> {
+    let reach = initial.reach();
+    let moved: Vec<String> = estimated
+        .iter()
+        .filter(|&&id| initial.param_quantity(id) == Quantity::Length)
+        // The first link carries the measurement frame (a tracker metres away is fine), and a
+        // plane's offset its placement.
+        .filter(|&&id| {
+            !matches!(
+                initial.param_kind(id),
+                ParamKind::Link { link: 0, .. } | ParamKind::Plane { .. }
+            )
+        })
+        .filter(|&&id| (calibrated.get(id) - initial.get(id)).abs() > reach)
+        .map(|&id| initial.param_name(id))
+        .collect();
+    if moved.is_empty() {
+        return Vec::new();
+    }
+    let u = initial.units;
+    vec![Warning::ChangeBeyondReach {
+        parameters: moved,
+        reach: u.from_si(Quantity::Length, reach),
+        unit: u.length.to_string(),
+    }]
+}
+
+/// RMS distance of points from their centroid.
+fn spread(points: &[nalgebra::Vector3<f64>]) -> f64 {
+    let n = points.len() as f64;
+    let c = points.iter().sum::<nalgebra::Vector3<f64>>() / n;
+    (points.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / n).sqrt()
+}
+
+fn scale(robot: &Robot, data: &Dataset) -> Vec<Warning> {
+    let chain = Chain::new(robot);
+    let at = |posture: usize, target: Target| {
+        chain
+            .frame_at(&data.postures[posture].readings, target)
+            .translation
+    };
+    let mut out = Vec::new();
+    // Positions: per target, as different targets are different points.
+    let (mut measured, mut predicted) = (Vec::new(), Vec::new());
+    let mut targets: Vec<Target> = Vec::new();
+    for o in &data.observations {
+        let (view, position) = match o {
+            Observation::Pose(p) => (p.view[0], p.position),
+            Observation::Position(p) => (p.view[0], p.position),
+            _ => continue,
+        };
+        let k = targets
+            .iter()
+            .position(|t| *t == view.target)
+            .unwrap_or_else(|| {
+                targets.push(view.target);
+                measured.push(Vec::new());
+                predicted.push(Vec::new());
+                targets.len() - 1
+            });
+        measured[k].push(position);
+        predicted[k].push(at(view.posture, view.target));
+    }
+    let (mut sm, mut sp) = (0.0f64, 0.0f64);
+    for (m, p) in measured.iter().zip(&predicted) {
+        if m.len() >= 3 {
+            sm += spread(m).powi(2) * m.len() as f64;
+            sp += spread(p).powi(2) * p.len() as f64;
+        }
+    }
+    if let Some(w) = ratio_warning("position", sm.sqrt(), sp.sqrt(), robot) {
+        out.push(w);
+    }
+    // Distances: the measured lengths against the predicted ones.
+    let (mut dm, mut dp) = (0.0f64, 0.0f64);
+    let mut count = 0;
+    for o in &data.observations {
+        if let Observation::Distance(d) = o {
+            let [a, b] = d.views;
+            dm += d.distance.powi(2);
+            dp += (at(a.posture, a.target) - at(b.posture, b.target)).norm_squared();
+            count += 1;
+        }
+    }
+    if count >= 3 {
+        if let Some(w) = ratio_warning("distance", dm.sqrt(), dp.sqrt(), robot) {
+            out.push(w);
+        }
+    }
+    out
+}
+
+fn ratio_warning(metric: &str, measured: f64, predicted: f64, robot: &Robot) -> Option<Warning> {
+    // Too little motion to judge (a few micrometres either way).
+    if !(measured > 1e-6 && predicted > 1e-6) {
+        return None;
+    }
+    let ratio = measured / predicted;
+    if (1.0 / SCALE_FACTOR_LIMIT..=SCALE_FACTOR_LIMIT).contains(&ratio) {
+        return None;
+    }
+    // The unit mix-ups that give such a ratio (data unit per robot-file unit).
+    let file = robot.units.length.metres();
+    let guesses: Vec<String> = [("m", 1.0), ("mm", 1e-3), ("cm", 1e-2), ("in", 0.0254)]
+        .iter()
+        .filter(|(_, metres)| {
+            let r = file / metres;
+            (ratio / r - 1.0).abs() < 0.15 && (r - 1.0).abs() > 1e-9
+        })
+        .map(|(name, _)| name.to_string())
+        .collect();
+    Some(Warning::ScaleMismatch {
+        metric: metric.to_string(),
+        ratio,
+        unit: robot.units.length.to_string(),
+        likely: guesses.into_iter().next(),
+    })
+}
+
+fn readings(robot: &Robot, data: &Dataset) -> Vec<Warning> {
+    let mut out = Vec::new();
+    if data.postures.is_empty() {
+        return out;
+    }
+    let labels = |pick: &dyn Fn(f64) -> bool, j: usize| -> (usize, Vec<String>) {
+        let hits: Vec<&str> = data
+            .postures
+            .iter()
+            .filter(|p| pick(p.readings[j]))
+            .map(|p| p.label.as_str())
+            .collect();
+        (
+            hits.len(),
+            hits.iter().take(5).map(|s| s.to_string()).collect(),
+        )
+    };
+    for (j, joint) in robot.joints.iter().enumerate() {
+        if let Some((lo, hi)) = joint.range {
+            let margin = 0.05 * (hi - lo);
+            let outside = |v: f64| v < lo - margin || v > hi + margin;
+            let (count, postures) = labels(&outside, j);
+            if count > 0 {
+                out.push(Warning::ReadingsOutOfRange {
+                    joint: j + 1,
+                    count,
+                    postures,
+                    min: lo,
+                    max: hi,
+                });
+            }
+        }
+    }
+    // Angles read directly (slope 1 in the file's angle unit): do they look like the other
+    // angle unit?
+    let u = robot.units;
+    let direct: Vec<usize> = robot
+        .joints
+        .iter()
+        .enumerate()
+        .filter(|(_, jt)| {
+            jt.kind == JointKind::Revolute
+                && jt.coupling.is_none()
+                && (u.from_si(Quantity::Angle, jt.slope) - 1.0).abs() < 1e-6
+        })
+        .map(|(j, _)| j)
+        .collect();
+    if direct.is_empty() {
+        return out;
+    }
+    let column = |j: usize| data.postures.iter().map(move |p| p.readings[j]);
+    let max_abs = |j: usize| column(j).fold(0.0f64, |m, v| m.max(v.abs()));
+    let width = |j: usize| {
+        let (lo, hi) = column(j).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+        hi - lo
+    };
+    let degrees = u.angle == AngleUnit::Deg;
+    let radians = u.angle == AngleUnit::Rad;
+    if degrees && data.postures.len() >= 5 {
+        let all_small = direct
+            .iter()
+            .all(|&j| max_abs(j) <= std::f64::consts::TAU + 1e-6);
+        let moving = direct.iter().any(|&j| width(j) > 0.3);
+        if all_small && moving {
+            out.push(Warning::AngleUnitMismatch {
+                joints: direct.iter().map(|j| j + 1).collect(),
+                file_unit: "deg".into(),
+                looks_like: "rad".into(),
+            });
+        }
+    } else if radians {
+        let big: Vec<usize> = direct
+            .iter()
+            .copied()
+            .filter(|&j| max_abs(j) > 7.0)
+            .collect();
+        if !big.is_empty() {
+            out.push(Warning::AngleUnitMismatch {
+                joints: big.iter().map(|j| j + 1).collect(),
+                file_unit: "rad".into(),
+                looks_like: "deg".into(),
+            });
+        }
+    }
+    out
+}
