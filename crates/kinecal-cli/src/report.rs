@@ -78,6 +78,16 @@ pub fn summary(r: &CalibrationReport) -> String {
         r.iterations,
         r.termination
     );
+    if let Some(p) = &r.start_placement {
+        let _ = writeln!(
+            s,
+            "far start: the measurement frame and the measured frames were first placed in \
+             closed form (RMS position error {} -> {} {})",
+            num(p.rms_before),
+            num(p.rms_after),
+            r.length_unit
+        );
+    }
     if let Some(n) = r.down_weighted_rows {
         let _ = writeln!(
             s,

@@ -2003,7 +2003,8 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(0), "{err}");
+    // Whether such a fit reaches a minimum or the iteration cap (exit 4), it runs, and says.
+    assert!(matches!(out.status.code(), Some(0 | 4)), "{err}");
     assert!(
         err.contains("warning: the measured positions spread 25 times as widely as the nominal robot predicts for the same postures: are they in mm? the data must be in the robot file's length unit (in)"),
         "{err}"

@@ -20,7 +20,7 @@
 //!
 //! A history is one robot model: a record whose model (joints, joint kinds, parameter names)
 //! differs from the robot's earlier records is refused unless forced ([`AddOptions`]). Its unit
-//! system may change: [`drift`] converts every value to the units of the robot's first record.
+//! system may change: [`drift()`] converts every value to the units of the robot's first record.
 
 pub mod drift;
 mod store;

@@ -183,6 +183,12 @@ impl Workspace {
         }
     }
 
+    /// The global frame right after joint `k` (1-based; 0 is the global frame itself) of the
+    /// last [`Chain::forward`]: the frame link `k + 1` and the sites of joint `k` hang off.
+    pub fn after_joint(&self, k: usize) -> &Frame {
+        &self.prox[k]
+    }
+
     /// The end-effector frame of the last [`Chain::forward`].
     pub fn end_effector(&self) -> &Frame {
         self.dist.last().expect("chain has links")

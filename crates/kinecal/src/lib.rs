@@ -35,6 +35,7 @@ pub mod outliers;
 pub mod param_list;
 pub mod params;
 pub mod problem;
+pub mod registration;
 pub mod report;
 pub mod robot;
 pub mod robot_file;

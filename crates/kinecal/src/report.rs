@@ -117,6 +117,16 @@ pub struct ErrorStats {
     pub other: Vec<MetricStats>,
 }
 
+/// The closed-form placement of a far start ([`crate::registration`]): RMS position error of
+/// the start before and after it (length unit).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct StartPlacement {
+    /// Before.
+    pub rms_before: f64,
+    /// After.
+    pub rms_after: f64,
+}
+
 /// Length errors of one metric other than positions (length unit).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct MetricStats {
@@ -348,6 +358,10 @@ pub struct CalibrationReport {
     pub validation: Option<DatasetAccuracy>,
     /// `squared`, or `huber K x robust spread` / `huber K x stated sigma`.
     pub loss: String,
+    /// When the start was far, the closed-form placement of the measurement and target frames
+    /// done before the solver.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_placement: Option<StartPlacement>,
     /// Under a Huber loss, the residual rows it down-weighted (beyond its threshold).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub down_weighted_rows: Option<usize>,
@@ -442,6 +456,7 @@ impl CalibrationReport {
             identification: DatasetAccuracy::new(postures, measurements, b, a, &u),
             validation: None,
             loss: cal.options.loss.to_string(),
+            start_placement: None,
             down_weighted_rows: match cal.options.loss {
                 crate::estimation::Loss::Squared => None,
                 crate::estimation::Loss::Huber { .. } => {

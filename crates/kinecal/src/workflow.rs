@@ -440,6 +440,9 @@ pub struct Outcome {
     pub outliers: Vec<Outlier>,
     /// Everything the user should know.
     pub warnings: Vec<Warning>,
+    /// The closed-form placement of the measurement and target frames done first, when the
+    /// start was far ([`crate::registration`]).
+    pub registration: Option<crate::registration::Registration>,
     /// The report document.
     pub report: CalibrationReport,
 }
@@ -516,6 +519,23 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             start
         }
     };
+    // A far start (a measurement frame placed roughly or not at all): place the measurement
+    // frame and the measured frames in closed form first, among the parameters that may move.
+    let registration = match &req.selection {
+        Selection::List(ids) => crate::registration::register_far_start(&start, &data, ids),
+        Selection::Default { fix } | Selection::Identifiable { fix, .. } => {
+            let (mut ids, _) = default_parameters(&start, &data);
+            if let Selection::Identifiable { with, .. } = &req.selection {
+                ids.extend(with.iter().copied());
+            }
+            ids.retain(|id| !fix.contains(id));
+            crate::registration::register_far_start(&start, &data, &ids)
+        }
+    };
+    let start = match &registration {
+        Some(r) => r.robot.clone(),
+        None => start,
+    };
     let reference = match req.solution {
         SolutionRule::MinChange => &req.robot,
         SolutionRule::Solver => &start,
@@ -585,7 +605,7 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     }
     let unc = uncertainty::uncertainty(&cal, &data, reference);
     progress.phase(Phase::Report);
-    Ok(finish(
+    let mut outcome = finish(
         req.robot.clone(),
         data,
         validation_data,
@@ -596,7 +616,16 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         req.solution,
         &req.sources,
         &mut warnings,
-    ))
+    );
+    if let Some(r) = &registration {
+        let len = |v: f64| req.robot.units.from_si(Quantity::Length, v);
+        outcome.report.start_placement = Some(crate::report::StartPlacement {
+            rms_before: len(r.rms_before),
+            rms_after: len(r.rms_after),
+        });
+    }
+    outcome.registration = registration;
+    Ok(outcome)
 }
 
 /// Assembles an outcome: validation, outliers, warnings, the report.
@@ -698,6 +727,7 @@ fn finish(
         validation,
         outliers,
         warnings: std::mem::take(warnings),
+        registration: None,
         report,
     }
 }

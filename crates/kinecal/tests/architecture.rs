@@ -60,6 +60,7 @@ fn modules_import_in_one_direction() {
         "robot_file",
         "observe",
         "sanity",
+        "registration",
         "problem",
         "estimation",
         "identifiability",
