@@ -757,9 +757,10 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
-    /// Held-out measurement file (read like --data): report the accuracy on it before and after.
+    /// Held-out observation file, repeatable: measurements (read like --data), distances or
+    /// contacts, told apart by their header. Reports the accuracy on them before and after.
     #[arg(long, value_name = "V.csv", conflicts_with = "holdout")]
-    pub validate: Option<PathBuf>,
+    pub validate: Vec<PathBuf>,
     /// Hold out this fraction of the postures (drawn with --seed; postures an observation links
     /// stay together) for validation.
     #[arg(long, value_name = "FRACTION")]

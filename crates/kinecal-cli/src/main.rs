@@ -198,6 +198,21 @@ fn read_measurements(path: &Path, columns: &[String], robot: &Robot) -> Result<(
     Ok((data, source))
 }
 
+/// Reads an observation file of any kind, told by its header (measurements through the
+/// `--columns` mapping).
+fn read_any(path: &Path, columns: &[String], robot: &Robot) -> Result<(Dataset, Source)> {
+    let source = Source::read(path)?;
+    let data = match kinecal::observe::detect_format(&source.text) {
+        0 => {
+            let specs: Vec<&str> = columns.iter().map(String::as_str).collect();
+            let map = ColumnMap::parse(&specs, "--columns")?;
+            parse_measurements_mapped(&source.text, &source.name, robot, &map)?
+        }
+        i => (FORMATS[i].parse)(&source.text, &source.name, robot)?,
+    };
+    Ok((data, source))
+}
+
 /// Reads every observation file given (`--data`, `--distances`, ...) into one dataset; an
 /// error when none is given.
 pub fn load_observations(
@@ -536,7 +551,7 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
         .iter()
         .map(|(_, p)| p.as_path())
         .collect();
-    inputs.extend(a.validate.as_deref());
+    inputs.extend(a.validate.iter().map(|p| p.as_path()));
     inputs.push(Path::new(&a.robot));
     if let Some(i) = &a.initial {
         inputs.push(Path::new(i));
@@ -555,15 +570,19 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
         Some(_) => Some(history::open_db(a.db.as_deref())?),
         None => None,
     };
-    let validation = match (&a.validate, a.holdout) {
-        (Some(path), _) => {
-            Validation::Data(read_measurements(path, &a.observations.columns, robot)?.0)
+    let validation = match (a.validate.is_empty(), a.holdout) {
+        (false, _) => {
+            let mut v = Dataset::default();
+            for path in &a.validate {
+                v = v.merge(read_any(path, &a.observations.columns, robot)?.0);
+            }
+            Validation::Data(v)
         }
-        (None, Some(fraction)) => Validation::Holdout {
+        (true, Some(fraction)) => Validation::Holdout {
             fraction,
             seed: a.seed,
         },
-        (None, None) => Validation::None,
+        (true, None) => Validation::None,
     };
     let mut solver = SolverOptions::new(match a.method {
         MethodArg::Lm => Method::LevenbergMarquardt,

@@ -1648,6 +1648,28 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     assert!(!list.contains("position"), "{list}");
     let show = run_ok(d, &["history", "show", "--db", "h.sqlite", "--id", "1"]);
     assert!(show.contains("RMS distance error 0.0"), "{show}");
+    // Validation files of any kind, told by their header: fit on the contacts, check on the
+    // ballbar.
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "a4.toml",
+            "--contacts",
+            "contacts.csv",
+            "--validate",
+            "ballbar.csv",
+            "--estimate",
+            "link3.y,joint2.offset",
+        ],
+    );
+    assert!(out.contains("distance error (in)"), "{out}");
+    let after = out
+        .lines()
+        .filter(|l| l.starts_with("validation after"))
+        .collect::<Vec<_>>();
+    assert_eq!(after.len(), 2, "{out}");
     // Observations are needed.
     let err = run_err(d, &["calibrate", "--robot", "a4.toml"]);
     assert!(err.contains("--data, --distances, --contacts"), "{err}");

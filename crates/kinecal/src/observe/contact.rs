@@ -149,6 +149,7 @@ impl Observe for Contact {
 pub const FORMAT: Format = Format {
     option: "contacts",
     kinds: &["contact"],
+    marks: &["plane"],
     help: "Contact file: a target touching a plane of the robot file (no external sensor)",
     header: "posture,site,plane,v1..vn[,gap][,sigma_position]",
     parse: parse_contacts,

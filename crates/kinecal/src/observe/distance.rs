@@ -130,6 +130,7 @@ impl Observe for Distance {
 pub const FORMAT: Format = Format {
     option: "distances",
     kinds: &["distance"],
+    marks: &["pair", "distance"],
     help: "Distance file: the distance between a target's positions in two postures (ballbar, \
            fixed-length artefact)",
     header: "pair,site,a1..an,b1..bn,distance[,sigma_position]",

@@ -317,6 +317,9 @@ pub struct Format {
     pub header: &'static str,
     /// The kinds of observation its rows become.
     pub kinds: &'static [&'static str],
+    /// Columns that tell such a file by its header ([`detect_format`]); empty for the
+    /// measurement file, the format of any other header.
+    pub marks: &'static [&'static str],
     /// Reads a file (`text`, named `file` in errors) for `robot`.
     pub parse: fn(&str, &str, &Robot) -> Result<Dataset>,
 }
@@ -329,6 +332,26 @@ impl fmt::Debug for Format {
 
 /// Every observation file format, the measurement file (`data`) first.
 pub const FORMATS: &[Format] = &[point::FORMAT, distance::FORMAT, contact::FORMAT];
+
+/// The format of an observation file, told by its header (the first line that is not blank or
+/// a `#` comment): the first format all of whose [`Format::marks`] columns it names, else the
+/// measurement file. Returns the index into [`FORMATS`].
+pub fn detect_format(text: &str) -> usize {
+    let delimiter = table::detect_delimiter(text) as char;
+    let header: Vec<String> = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .unwrap_or("")
+        .trim_start_matches('\u{feff}')
+        .split(delimiter)
+        .map(|c| c.trim().trim_matches('"').to_ascii_lowercase())
+        .collect();
+    FORMATS
+        .iter()
+        .position(|f| !f.marks.is_empty() && f.marks.iter().all(|m| header.iter().any(|h| h == m)))
+        .unwrap_or(0)
+}
 
 /// A set of postures and the observations made in them.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -701,5 +724,23 @@ pub fn accuracy(robot: &Robot, data: &Dataset) -> Accuracy {
                 }
             })
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_are_told_by_their_header() {
+        let name = |t: &str| FORMATS[detect_format(t)].option;
+        assert_eq!(name("posture,site,v1,v2,x,y,z\n"), "data");
+        assert_eq!(
+            name("# ballbar\n\npair,a1,a2,b1,b2,distance\n"),
+            "distances"
+        );
+        assert_eq!(name("\u{feff}posture;plane;v1;v2\n"), "contacts");
+        assert_eq!(name("Point,J1,J2,X,Y,Z\n"), "data");
+        assert_eq!(name(""), "data");
     }
 }

@@ -324,6 +324,7 @@ impl Observe for Position {
 pub const FORMAT: Format = Format {
     option: "data",
     kinds: &["pose", "position"],
+    marks: &[],
     help: "Measurement file: poses or positions of the end effector or sites",
     header: "posture,site,v1..vn,x,y,z[,alpha,beta,gamma][,sigma_position,sigma_angle]",
     parse: parse_measurements,
