@@ -763,11 +763,17 @@ pub struct CalibrateArgs {
     pub validate: Vec<PathBuf>,
     /// Hold out this fraction of the postures (drawn with --seed; postures an observation links
     /// stay together) for validation.
-    #[arg(long, value_name = "FRACTION")]
+    #[arg(long, value_name = "FRACTION", conflicts_with = "folds")]
     pub holdout: Option<f64>,
-    /// Seed for --holdout.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    /// Cross-validate: calibrate on all the data, and run the same calibration on K folds of
+    /// the postures, each checked on the postures it left out (interleaved in file order, so
+    /// every fold samples every sweep; shuffled with --seed). Reports each fold's held-out
+    /// errors, the overall ones and a bootstrap 95 % interval of the held-out mean.
+    #[arg(long, value_name = "K", conflicts_with = "validate")]
+    pub folds: Option<usize>,
+    /// Seed for --holdout (default 1) or --folds (default: no shuffle).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows).
     #[arg(long, value_enum, default_value = "squared")]
     pub loss: LossArg,

@@ -580,9 +580,12 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
         }
         (true, Some(fraction)) => Validation::Holdout {
             fraction,
-            seed: a.seed,
+            seed: a.seed.unwrap_or(1),
         },
-        (true, None) => Validation::None,
+        (true, None) => match a.folds {
+            Some(k) => Validation::Folds { k, seed: a.seed },
+            None => Validation::None,
+        },
     };
     let mut solver = SolverOptions::new(match a.method {
         MethodArg::Lm => Method::LevenbergMarquardt,
@@ -728,6 +731,7 @@ fn flag_of(option: &str) -> &str {
         "pruning threshold" => "--prune",
         "rcond" => "--rcond",
         "hold-out fraction" => "--holdout",
+        "folds" => "--folds",
         "Huber scale" => "--huber-scale",
         other => other,
     }

@@ -250,6 +250,58 @@ pub fn summary(r: &CalibrationReport) -> String {
             );
         }
     }
+    if let Some(cv) = &r.cross_validation {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "cross-validation, {} folds by posture ({}): held-out {} error ({l})",
+            cv.folds.len(),
+            match cv.seed {
+                Some(seed) => format!("shuffled with seed {seed}"),
+                None => "interleaved in file order".to_string(),
+            },
+            cv.metric
+        );
+        let _ = writeln!(
+            s,
+            "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}",
+            "fold", "postures", "observations", "mean", "rms", "p95", "max"
+        );
+        for (i, f) in cv.folds.iter().enumerate() {
+            let e = &f.errors;
+            let _ = writeln!(
+                s,
+                "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}{}",
+                i + 1,
+                f.postures,
+                e.count,
+                num(e.mean),
+                num(e.rms),
+                num(e.p95),
+                num(e.max),
+                if f.converged { "" } else { "  NOT converged" }
+            );
+        }
+        let o = &cv.overall;
+        let _ = writeln!(
+            s,
+            "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}",
+            "all",
+            cv.folds.iter().map(|f| f.postures).sum::<usize>(),
+            o.count,
+            num(o.mean),
+            num(o.rms),
+            num(o.p95),
+            num(o.max)
+        );
+        let _ = writeln!(
+            s,
+            "held-out mean {} {l}, bootstrap 95 % interval {} .. {}",
+            num(o.mean),
+            num(cv.mean_low),
+            num(cv.mean_high)
+        );
+    }
     if let (Some(vf), Some(rank)) = (r.variance_factor, r.rank) {
         let estimated = r.parameters.iter().filter(|p| p.estimated_flag).count();
         let _ = writeln!(

@@ -117,6 +117,36 @@ pub struct ErrorStats {
     pub other: Vec<MetricStats>,
 }
 
+/// Cross-validation by posture folds (length unit): the same calibration run on each training
+/// fold and checked on the postures it left out.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct CrossValidationReport {
+    /// The folds' shuffle seed (absent: interleaved in posture order).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// The metric judged (`position`, else the first other one).
+    pub metric: String,
+    /// Each fold's held-out errors.
+    pub folds: Vec<FoldReport>,
+    /// All folds' held-out errors together.
+    pub overall: MetricStats,
+    /// Bootstrap 95 % interval of the overall held-out mean: low end.
+    pub mean_low: f64,
+    /// High end.
+    pub mean_high: f64,
+}
+
+/// One fold of a cross-validation (length unit).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct FoldReport {
+    /// Postures held out.
+    pub postures: usize,
+    /// Their errors.
+    pub errors: MetricStats,
+    /// Whether the fold's fit converged.
+    pub converged: bool,
+}
+
 /// The closed-form placement of a far start ([`crate::registration`]): RMS position error of
 /// the start before and after it (length unit).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
@@ -358,6 +388,9 @@ pub struct CalibrationReport {
     pub validation: Option<DatasetAccuracy>,
     /// `squared`, or `huber K x robust spread` / `huber K x stated sigma`.
     pub loss: String,
+    /// Cross-validation by posture folds, when asked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cross_validation: Option<CrossValidationReport>,
     /// When the start was far, the closed-form placement of the measurement and target frames
     /// done before the solver.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -457,6 +490,7 @@ impl CalibrationReport {
             validation: None,
             loss: cal.options.loss.to_string(),
             start_placement: None,
+            cross_validation: None,
             down_weighted_rows: match cal.options.loss {
                 crate::estimation::Loss::Squared => None,
                 crate::estimation::Loss::Huber { .. } => {

@@ -259,6 +259,41 @@ pub enum Validation {
         /// Seed of the draw.
         seed: u64,
     },
+    /// Cross-validation: the calibration is made on all the data, and the same request run
+    /// on `k` training folds, each checked on the postures it left out ([`Dataset::folds`]:
+    /// interleaved in posture order, or shuffled with `seed`).
+    Folds {
+        /// Number of folds, at least 2.
+        k: usize,
+        /// Shuffle seed; `None` interleaves in posture order.
+        seed: Option<u64>,
+    },
+}
+
+/// The result of cross-validation ([`Validation::Folds`]), in the metric that judges the
+/// model: positions when the data has them, else the first other length metric.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrossValidation {
+    /// The folds' shuffle seed (`None`: interleaved).
+    pub seed: Option<u64>,
+    /// Each fold: its held-out postures and errors (m).
+    pub folds: Vec<Fold>,
+    /// The held-out errors of all folds together (m).
+    pub overall: crate::observe::MetricAccuracy,
+    /// A bootstrap 95 % interval of the overall held-out mean (m): 2000 resamples of the
+    /// held-out errors, percentiles 2.5 and 97.5.
+    pub mean_interval: (f64, f64),
+}
+
+/// One fold of a cross-validation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fold {
+    /// Postures held out.
+    pub postures: usize,
+    /// The held-out errors (m).
+    pub errors: crate::observe::MetricAccuracy,
+    /// Whether the fold's fit converged.
+    pub converged: bool,
 }
 
 /// Everything that decides a calibration.
@@ -443,6 +478,8 @@ pub struct Outcome {
     /// The closed-form placement of the measurement and target frames done first, when the
     /// start was far ([`crate::registration`]).
     pub registration: Option<crate::registration::Registration>,
+    /// The cross-validation, when asked for ([`Validation::Folds`]).
+    pub cross_validation: Option<CrossValidation>,
     /// The report document.
     pub report: CalibrationReport,
 }
@@ -497,6 +534,7 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             }
             (ident, Some(held))
         }
+        Validation::Folds { .. } => (req.data.clone(), None),
     };
     let start = match &req.initial {
         None => req.robot.clone(),
@@ -625,7 +663,127 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         });
     }
     outcome.registration = registration;
+    if let Validation::Folds { k, seed } = req.validation {
+        let cv = cross_validate(req, k, seed)?;
+        outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot.units));
+        outcome.cross_validation = Some(cv);
+    }
     Ok(outcome)
+}
+
+/// Runs `req` on each training fold and checks it on the postures left out.
+fn cross_validate(req: &Request, k: usize, seed: Option<u64>) -> Result<CrossValidation> {
+    use crate::observe::{stats, MetricAccuracy};
+    let folds = req
+        .data
+        .folds(k, seed)
+        .ok_or_else(|| Error::InvalidOption {
+            option: "folds",
+            message: format!(
+                "expected between 2 and the number of posture groups ({}), got {k}",
+                req.data.posture_groups().len()
+            ),
+        })?;
+    let metrics: Vec<&'static str> = crate::observe::errors(&req.robot, &req.data)
+        .iter()
+        .map(|e| e.metric)
+        .collect();
+    let metric = if metrics.contains(&"position") {
+        "position"
+    } else {
+        metrics.first().copied().unwrap_or("position")
+    };
+    let summary = |e: Vec<f64>| {
+        let count = e.len();
+        let (rms, mean, p95, max) = stats(e);
+        MetricAccuracy {
+            metric,
+            count,
+            rms,
+            mean,
+            p95,
+            max,
+        }
+    };
+    let mut all = Vec::new();
+    let mut out = Vec::with_capacity(k);
+    for (train, held) in folds {
+        let mut sub = req.clone();
+        sub.data = train;
+        sub.validation = Validation::None;
+        sub.sources = Vec::new();
+        let o = run(&sub, &mut ())?;
+        let e: Vec<f64> = crate::observe::errors(&o.calibration.calibrated, &held)
+            .into_iter()
+            .filter(|e| e.metric == metric)
+            .map(|e| e.length)
+            .collect();
+        all.extend(e.iter().copied());
+        out.push(Fold {
+            postures: held.postures.len(),
+            errors: summary(e),
+            converged: o.calibration.converged(),
+        });
+    }
+    let mean_interval = bootstrap_mean_interval(&all, seed.unwrap_or(0));
+    Ok(CrossValidation {
+        seed,
+        folds: out,
+        overall: summary(all),
+        mean_interval,
+    })
+}
+
+/// The report of `cv` in `units`.
+fn cross_validation_report(
+    cv: &CrossValidation,
+    units: &crate::units::Units,
+) -> crate::report::CrossValidationReport {
+    use crate::report::{CrossValidationReport, FoldReport, MetricStats};
+    let len = |v: f64| units.from_si(Quantity::Length, v);
+    let stats = |m: &crate::observe::MetricAccuracy| MetricStats {
+        metric: m.metric.to_string(),
+        count: m.count,
+        rms: len(m.rms),
+        mean: len(m.mean),
+        p95: len(m.p95),
+        max: len(m.max),
+    };
+    CrossValidationReport {
+        seed: cv.seed,
+        metric: cv.overall.metric.to_string(),
+        folds: cv
+            .folds
+            .iter()
+            .map(|f| FoldReport {
+                postures: f.postures,
+                errors: stats(&f.errors),
+                converged: f.converged,
+            })
+            .collect(),
+        overall: stats(&cv.overall),
+        mean_low: len(cv.mean_interval.0),
+        mean_high: len(cv.mean_interval.1),
+    }
+}
+
+/// The 2.5 and 97.5 percentiles of the mean of 2000 resamples (with replacement) of `e`.
+fn bootstrap_mean_interval(e: &[f64], seed: u64) -> (f64, f64) {
+    use rand::{RngExt, SeedableRng};
+    if e.is_empty() {
+        return (0.0, 0.0);
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x000b_0075_78a9);
+    let mut means: Vec<f64> = (0..2000)
+        .map(|_| {
+            (0..e.len())
+                .map(|_| e[rng.random_range(0..e.len())])
+                .sum::<f64>()
+                / e.len() as f64
+        })
+        .collect();
+    means.sort_by(f64::total_cmp);
+    (means[49], means[1949])
 }
 
 /// Assembles an outcome: validation, outliers, warnings, the report.
@@ -728,6 +886,7 @@ fn finish(
         outliers,
         warnings: std::mem::take(warnings),
         registration: None,
+        cross_validation: None,
         report,
     }
 }

@@ -220,3 +220,57 @@ fn huber_takes_its_scale_from_the_residuals_unless_told_to_trust_the_weights() {
     );
     assert_eq!(robust.report.loss, "huber 1.345 x robust spread");
 }
+
+/// Folds partition the postures (each held out exactly once, linked postures together), and
+/// cross-validation runs the same request on each: on clean data with known noise the held-out
+/// mean is the noise's (a 3D Gaussian of 0.0005 in per axis: mean distance 0.0008 in), inside
+/// its bootstrap interval, and every fold converges.
+#[test]
+fn cross_validation_folds_partition_the_postures_and_check_each() {
+    let (nominal, data) = session();
+    for seed in [None, Some(3)] {
+        let folds = data.folds(5, seed).unwrap();
+        assert_eq!(folds.len(), 5);
+        let held: usize = folds.iter().map(|(_, h)| h.postures.len()).sum();
+        assert_eq!(held, data.postures.len());
+        let mut labels: Vec<String> = folds
+            .iter()
+            .flat_map(|(_, h)| h.postures.iter().map(|p| p.label.clone()))
+            .collect();
+        labels.sort();
+        labels.dedup();
+        assert_eq!(labels.len(), data.postures.len());
+        for (t, h) in &folds {
+            assert_eq!(t.postures.len() + h.postures.len(), data.postures.len());
+        }
+    }
+    assert!(data.folds(1, None).is_none());
+    assert!(data.folds(31, None).is_none());
+    let mut req = Request::new(nominal.clone(), data);
+    req.selection = Selection::parse("p1,p2,p8,p14,offsets,slopes", None, &nominal).unwrap();
+    req.weights = Weights {
+        length: 0.0005 * 0.0254,
+        angle: 0.005f64.to_radians(),
+    };
+    req.validation = Validation::Folds { k: 5, seed: None };
+    let out = workflow::run(&req, &mut ()).unwrap();
+    let cv = out.cross_validation.as_ref().unwrap();
+    assert_eq!(cv.folds.len(), 5);
+    assert!(cv.folds.iter().all(|f| f.converged && f.postures == 6));
+    assert_eq!(cv.overall.count, 30);
+    let mean = cv.overall.mean / 0.0254;
+    // Held-out errors include the fit's own error: between the noise's mean (0.0008 in) and
+    // twice it.
+    assert!((0.0006..0.0016).contains(&mean), "{mean}");
+    let (lo, hi) = cv.mean_interval;
+    assert!(lo < cv.overall.mean && cv.overall.mean < hi, "{lo} {hi}");
+    let rep = out.report.cross_validation.as_ref().unwrap();
+    assert!((rep.overall.mean - mean).abs() < 1e-12);
+    assert_eq!(rep.metric, "position");
+    // The calibration itself is made on all the data.
+    assert_eq!(out.identification.postures, 30);
+    // Bad fold counts are refused by name.
+    req.validation = Validation::Folds { k: 99, seed: None };
+    let e = workflow::run(&req, &mut ()).unwrap_err().to_string();
+    assert!(e.contains("folds") && e.contains("99"), "{e}");
+}

@@ -545,6 +545,38 @@ impl Dataset {
         (self.subset(&kept), self.subset(&held))
     }
 
+    /// `k` folds by posture group (postures an observation links stay together; every target
+    /// of a posture with it): group `g`, in posture order, goes to fold `g mod k`, so that each
+    /// fold samples the whole file (every sweep of single-joint sweeps), or, with a `seed`, to
+    /// the fold of its place in a shuffled order. Returns (training, held-out) per fold; `None`
+    /// when `k` is below 2 or above the number of groups.
+    pub fn folds(&self, k: usize, seed: Option<u64>) -> Option<Vec<(Dataset, Dataset)>> {
+        use rand::{seq::SliceRandom, SeedableRng};
+        let groups = self.posture_groups();
+        if k < 2 || k > groups.len() {
+            return None;
+        }
+        let mut order: Vec<usize> = (0..groups.len()).collect();
+        if let Some(seed) = seed {
+            order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+        }
+        let mut fold_of = vec![0; self.postures.len()];
+        for (place, &g) in order.iter().enumerate() {
+            for &p in &groups[g] {
+                fold_of[p] = place % k;
+            }
+        }
+        Some(
+            (0..k)
+                .map(|f| {
+                    let held: Vec<bool> = fold_of.iter().map(|&x| x == f).collect();
+                    let kept: Vec<bool> = held.iter().map(|h| !h).collect();
+                    (self.subset(&kept), self.subset(&held))
+                })
+                .collect(),
+        )
+    }
+
     /// The observations whose residual metric is degenerate (poses near gimbal lock under Euler
     /// residuals).
     pub fn degenerate(&self, ctx: &Context<'_>) -> Vec<&Observation> {
@@ -670,6 +702,17 @@ impl FrameCache {
         };
         &self.ws[slot]
     }
+}
+
+/// The error of every observation of `data` for `robot`, in order.
+pub fn errors(robot: &Robot, data: &Dataset) -> Vec<ErrorSample> {
+    let ctx = Context {
+        robot,
+        orientation: OrientationError::default(),
+    };
+    let mut out = Vec::with_capacity(data.observations.len());
+    for_each_observation(robot, data, |_, o, frames| out.push(o.error(&ctx, frames)));
+    out
 }
 
 /// How far `robot`'s predictions are from the observations in `data`. (Error metrics do not
