@@ -11,13 +11,29 @@ use kinecal::workflow::Outcome;
 use crate::chart::{render_svg, Line, Panel};
 use crate::DrawError;
 
-/// A number as a person reads it: six decimals, or four significant digits below 1e-5, where six
-/// decimals would keep fewer than two.
-fn num(v: f64) -> String {
-    if v != 0.0 && v.abs() < 1e-5 {
-        format!("{v:.3e}")
+/// A number as a person reads it: plain decimals with four significant digits (`0.08043`,
+/// `3478.1`), never an exponent for ordinary magnitudes (1e-9 to 1e9), `0` for zero.
+pub fn num(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    if !v.is_finite() {
+        return "n/a".into();
+    }
+    let e = v.abs().log10().floor() as i32;
+    if !(-9..9).contains(&e) {
+        return format!("{v:.3e}");
+    }
+    let decimals = (3 - e).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
+/// [`num`] with a sign.
+fn signed(v: f64) -> String {
+    if v > 0.0 {
+        format!("+{}", num(v))
     } else {
-        format!("{v:.6}")
+        num(v)
     }
 }
 
@@ -60,6 +76,129 @@ fn errors(robot: &kinecal::Robot, data: &Dataset) -> Vec<(f64, Option<f64>)> {
     out
 }
 
+/// One table per kind of error present (positions, attitudes, distances, contacts): RMS, mean,
+/// p95 and max on the identification and validation data, before and after; `n/a` where a set
+/// has none of that kind.
+fn validation_tables(
+    h: &mut String,
+    rep: &kinecal::report::CalibrationReport,
+    v: &kinecal::report::DatasetAccuracy,
+    l: &str,
+    a: &str,
+) {
+    use kinecal::report::ErrorStats;
+    let rows: [(String, &ErrorStats); 4] = [
+        (
+            format!(
+                "identification ({} postures) before",
+                rep.identification.postures
+            ),
+            &rep.identification.before,
+        ),
+        ("identification after".into(), &rep.identification.after),
+        (
+            format!("validation ({} postures) before", v.postures),
+            &v.before,
+        ),
+        ("validation after".into(), &v.after),
+    ];
+    type Pick<'a> = Box<dyn Fn(&ErrorStats) -> Option<[f64; 4]> + 'a>;
+    let mut tables: Vec<(String, Pick<'_>)> = Vec::new();
+    if rows.iter().any(|(_, e)| e.positions > 0) {
+        tables.push((
+            format!("Position error ({l})"),
+            Box::new(|e: &ErrorStats| {
+                (e.positions > 0).then_some([
+                    e.rms_position,
+                    e.mean_position,
+                    e.p95_position,
+                    e.max_position,
+                ])
+            }),
+        ));
+    }
+    if rows.iter().any(|(_, e)| e.rms_orientation.is_some()) {
+        tables.push((
+            format!("Attitude error ({a})"),
+            Box::new(|e: &ErrorStats| {
+                Some([
+                    e.rms_orientation?,
+                    e.mean_orientation?,
+                    e.p95_orientation?,
+                    e.max_orientation?,
+                ])
+            }),
+        ));
+    }
+    let mut metrics: Vec<String> = Vec::new();
+    for (_, e) in &rows {
+        for m in &e.other {
+            if !metrics.contains(&m.metric) {
+                metrics.push(m.metric.clone());
+            }
+        }
+    }
+    for metric in metrics {
+        tables.push((
+            format!("{} error ({l})", cap(&metric)),
+            Box::new(move |e: &ErrorStats| {
+                e.other
+                    .iter()
+                    .find(|m| m.metric == metric)
+                    .map(|m| [m.rms, m.mean, m.p95, m.max])
+            }),
+        ));
+    }
+    for (title, pick) in &tables {
+        let _ = writeln!(
+            h,
+            "<table><tr><th class=\"l\">{}</th><th>RMS</th><th>mean</th><th>p95</th><th>max</th></tr>",
+            esc(title)
+        );
+        for (name, e) in &rows {
+            let cells: Vec<String> = match pick(e) {
+                Some(v) => v.iter().map(|&x| num(x)).collect(),
+                None => vec!["n/a".into(); 4],
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                esc(name),
+                cells[0],
+                cells[1],
+                cells[2],
+                cells[3]
+            );
+        }
+        let _ = writeln!(h, "</table>");
+    }
+}
+
+/// Each panel as its own inline SVG, side by side while the page is wide enough.
+fn charts(panels: &[Panel]) -> Result<String, DrawError> {
+    let mut out = String::from("<div class=\"charts\">");
+    for p in panels {
+        out += &inline(render_svg(std::slice::from_ref(p), 1)?);
+    }
+    out += "</div>";
+    Ok(out)
+}
+
+/// A round bin width (1, 2 or 5 times a power of ten) near `w`.
+fn nice_width(w: f64) -> f64 {
+    let p = 10f64.powf(w.log10().floor());
+    let m = w / p;
+    p * if m <= 1.0 {
+        1.0
+    } else if m <= 2.0 {
+        2.0
+    } else if m <= 5.0 {
+        5.0
+    } else {
+        10.0
+    }
+}
+
 /// The HTML report of a calibration outcome.
 pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
     let (cal, data, rep, u) = (
@@ -75,29 +214,68 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>kinecal calibration report: {}</title>\n\
          <style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}\
          table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}\
-         th{{background:#eee}}td.l,th.l{{text-align:left}}.warn{{color:#a33}}svg{{max-width:100%;height:auto}}</style></head><body>\n",
+         th{{background:#eee}}td.l,th.l{{text-align:left}}.warn{{color:#a33}}svg{{max-width:100%;height:auto}}.charts{{display:flex;flex-wrap:wrap;gap:0}}.charts svg{{max-width:50%}}</style></head><body>\n",
         esc(&rep.robot)
     );
     let _ = writeln!(h, "<h1>Calibration report: {}</h1>", esc(&rep.robot));
+    let kinds = rep
+        .observations
+        .iter()
+        .map(|k| {
+            format!(
+                "{} {}{}",
+                k.count,
+                k.kind,
+                if k.count == 1 { "" } else { "s" }
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    let how = if rep.termination == kinecal::estimation::Termination::Given.describe() {
+        format!(
+            "{} orientation residuals; a given calibration, assessed on these data (not solved here)",
+            esc(&rep.orientation_error)
+        )
+    } else {
+        format!(
+            "method <b>{}</b>, {} orientation residuals, {} solution; {} after {} iterations ({})",
+            esc(&rep.method),
+            esc(&rep.orientation_error),
+            esc(&rep.solution),
+            if rep.converged {
+                "converged"
+            } else {
+                "NOT converged"
+            },
+            rep.iterations,
+            esc(&rep.termination)
+        )
+    };
     let _ = writeln!(
         h,
-        "<p>{} postures, {} observations ({}), {} residuals; method <b>{}</b>, {} orientation residuals, {} solution; {} after {} iterations ({}).</p>",
+        "<p>{} postures, {} observations ({}), {} residuals; {how}.</p>",
         rep.postures,
         rep.measurements,
-        esc(&rep
-            .observations
-            .iter()
-            .map(|k| format!("{} {}{}", k.count, k.kind, if k.count == 1 { "" } else { "s" }))
-            .collect::<Vec<_>>()
-            .join(", ")),
-        rep.residuals,
-        esc(&rep.method),
-        esc(&rep.orientation_error),
-        esc(&rep.solution),
-        if rep.converged { "converged" } else { "NOT converged" },
-        rep.iterations,
-        esc(&rep.termination)
+        esc(&kinds),
+        rep.residuals
     );
+    if let Some(p) = &rep.start_placement {
+        let _ = writeln!(
+            h,
+            "<p>Far start: the measurement frame and the measured frames were first placed in closed form (RMS position error {} &rarr; {} {}).</p>",
+            num(p.rms_before),
+            num(p.rms_after),
+            esc(&rep.length_unit)
+        );
+    }
+    if let Some(n) = rep.down_weighted_rows {
+        let _ = writeln!(
+            h,
+            "<p>Loss {}: {n} of {} residual rows down-weighted.</p>",
+            esc(&rep.loss),
+            rep.residuals
+        );
+    }
     let _ = writeln!(h, "<h2 id=\"summary\">Summary</h2><table><tr><th class=\"l\"></th><th>before</th><th>after</th></tr>");
     let (ib, ia) = (&rep.identification.before, &rep.identification.after);
     let mut rows = vec![(
@@ -141,10 +319,53 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
     }
     let _ = writeln!(h, "</table>");
     if let Some(v) = &rep.validation {
+        let _ = writeln!(h, "<h2 id=\"validation\">Validation</h2>");
+        validation_tables(&mut h, rep, v, l, a);
+    }
+    if let Some(cv) = &rep.cross_validation {
         let _ = writeln!(
             h,
-            "<p>Validation ({} postures): position error RMS {:.6} &rarr; {:.6} {l}, max {:.6} &rarr; {:.6} {l}.</p>",
-            v.postures, v.before.rms_position, v.after.rms_position, v.before.max_position, v.after.max_position
+            "<h2 id=\"cross-validation\">Cross-validation</h2><p>{} folds by posture ({}): each fold's calibration checked on the postures it left out; held-out {} error ({l}).</p>",
+            cv.folds.len(),
+            match cv.seed {
+                Some(seed) => format!("shuffled with seed {seed}"),
+                None => "interleaved in file order".to_string(),
+            },
+            esc(&cv.metric)
+        );
+        let _ = writeln!(h, "<table><tr><th class=\"l\">fold</th><th>postures</th><th>observations</th><th>mean</th><th>RMS</th><th>p95</th><th>max</th></tr>");
+        for (i, f) in cv.folds.iter().enumerate() {
+            let e = &f.errors;
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                i + 1,
+                if f.converged { "" } else { " (NOT converged)" },
+                f.postures,
+                e.count,
+                num(e.mean),
+                num(e.rms),
+                num(e.p95),
+                num(e.max)
+            );
+        }
+        let o = &cv.overall;
+        let _ = writeln!(
+            h,
+            "<tr><th class=\"l\">all</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th></tr></table>",
+            cv.folds.iter().map(|f| f.postures).sum::<usize>(),
+            o.count,
+            num(o.mean),
+            num(o.rms),
+            num(o.p95),
+            num(o.max)
+        );
+        let _ = writeln!(
+            h,
+            "<p>Held-out mean {} {l}; bootstrap 95 % interval {} to {} {l}.</p>",
+            num(o.mean),
+            num(cv.mean_low),
+            num(cv.mean_high)
         );
     }
 
@@ -160,10 +381,13 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
     };
     let (eb, ea) = (errors(&cal.initial, data), errors(&cal.calibrated, data));
     let x: Vec<f64> = (1..=eb.len()).map(|i| i as f64).collect();
+    // Log axes: the errors after calibration are 10-1000 times smaller than before, and both
+    // must be readable.
     let mut panels = vec![Panel {
         title: format!("{} error per observation", cap(kind_of_error)),
         x_label: "observation (file order by posture)".into(),
-        y_label: format!("{kind_of_error} error ({l})"),
+        y_label: format!("{kind_of_error} error ({l}, log scale)"),
+        log_y: true,
         x: x.clone(),
         lines: vec![
             Line {
@@ -180,8 +404,9 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
     if eb.iter().any(|e| e.1.is_some()) {
         panels.push(Panel {
             title: "Attitude error per observation".into(),
-            x_label: "observation".into(),
-            y_label: format!("attitude error ({a})"),
+            x_label: "observation (file order by posture)".into(),
+            y_label: format!("attitude error ({a}, log scale)"),
+            log_y: true,
             x,
             lines: vec![
                 Line {
@@ -204,35 +429,39 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
     }
     let _ = writeln!(
         h,
-        "<h2 id=\"residuals\">Residuals per posture</h2>\n{}",
-        inline(render_svg(&panels, 2)?)
+        "<h2 id=\"residuals\">Errors per observation</h2>\n{}",
+        charts(&panels)?
     );
 
-    // Histogram of the position errors after calibration.
+    // Histogram of the errors after calibration: bars of a round width, integer counts.
     let after: Vec<f64> = ea.iter().map(|e| e.0).collect();
-    let max = after
-        .iter()
-        .copied()
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let bins = 20usize;
+    let max = after.iter().copied().fold(0.0, f64::max);
+    let bins_wanted = ((after.len() as f64).sqrt().ceil() as usize).clamp(5, 20);
+    let width = if max > 0.0 {
+        nice_width(max / bins_wanted as f64)
+    } else {
+        1.0
+    };
+    let bins = ((max / width).floor() as usize + 1).max(1);
     let mut counts = vec![0.0; bins];
     for e in &after {
-        counts[((e / max * bins as f64) as usize).min(bins - 1)] += 1.0;
+        counts[((e / width) as usize).min(bins - 1)] += 1.0;
     }
-    let centers: Vec<f64> = (0..bins)
-        .map(|i| (i as f64 + 0.5) * max / bins as f64)
-        .collect();
     let hist = Panel {
-        title: format!("Histogram of {kind_of_error} errors after calibration"),
-        x_label: format!("{kind_of_error} error ({l})"),
-        y_label: "measurements".into(),
-        x: centers,
-        lines: vec![Line {
-            points: true,
-            error: Some(counts.iter().map(|c| c / 2.0).collect()),
-            ..Line::new("count", counts.iter().map(|c| c / 2.0).collect())
-        }],
+        title: format!(
+            "Histogram of {kind_of_error} errors after calibration ({} observations)",
+            after.len()
+        ),
+        x_label: format!(
+            "{kind_of_error} error ({l}; bins of {})",
+            crate::chart::tick_label(width, width)
+        ),
+        y_label: "observations".into(),
+        bars: counts
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| (i as f64 * width, (i + 1) as f64 * width, c))
+            .collect(),
         ..Default::default()
     };
     let _ = writeln!(
@@ -243,10 +472,10 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
 
     // Parameter changes with +-sigma bars, one chart per unit.
     // (unit, [(parameter number, change, sigma)])
-    type Group = (String, Vec<(f64, f64, f64)>);
+    // (unit, [(parameter id, change, sigma)])
+    type Group = (String, Vec<(String, f64, f64)>);
     let mut groups: Vec<Group> = Vec::new();
     for p in rep.parameters.iter().filter(|p| p.estimated_flag) {
-        let n: f64 = p.id[1..].parse().unwrap_or(0.0);
         let entry = match groups.iter_mut().find(|g| g.0 == p.unit) {
             Some(g) => g,
             None => {
@@ -254,15 +483,18 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
                 groups.last_mut().expect("just pushed")
             }
         };
-        entry.1.push((n, p.change, p.sigma.unwrap_or(0.0)));
+        entry
+            .1
+            .push((p.id.clone(), p.change, p.sigma.unwrap_or(0.0)));
     }
     let panels: Vec<Panel> = groups
         .iter()
         .map(|(unit, pts)| Panel {
             title: format!("Parameter changes ({unit}), +-1 sigma"),
-            x_label: "parameter number (p#)".into(),
+            x_label: "parameter".into(),
             y_label: format!("change ({unit})"),
-            x: pts.iter().map(|p| p.0).collect(),
+            x: (0..pts.len()).map(|i| i as f64).collect(),
+            x_names: pts.iter().map(|p| p.0.clone()).collect(),
             lines: vec![Line {
                 points: true,
                 error: Some(pts.iter().map(|p| p.2).collect()),
@@ -274,20 +506,20 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         .collect();
     let _ = writeln!(h, "<h2 id=\"changes\">Parameter changes</h2>");
     if !panels.is_empty() {
-        let _ = writeln!(h, "{}", inline(render_svg(&panels, 2)?));
+        let _ = writeln!(h, "{}", charts(&panels)?);
     }
     let _ = writeln!(h, "<table><tr><th class=\"l\">id</th><th class=\"l\">name</th><th class=\"l\">unit</th><th>initial</th><th>estimated</th><th>change</th><th>sigma</th><th>change/sigma</th></tr>");
     for p in rep.parameters.iter().filter(|p| p.estimated_flag) {
         let _ = writeln!(
             h,
-            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{:.6}</td><td>{:.6}</td><td>{:+.6}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{:.6}</td><td>{:.6}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             p.id,
             esc(&p.name),
             esc(&p.unit),
             p.initial,
             p.estimated,
-            p.change,
-            p.sigma.map_or("not determined alone".into(), |s| format!("{s:.3e}")),
+            signed(p.change),
+            p.sigma.map_or("not determined alone".into(), num),
             p.significance.map_or(String::new(), |z| format!("{z:.1}{}", if z < 2.0 { " (within noise)" } else { "" }))
         );
     }
@@ -392,11 +624,12 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
     for o in &rep.outliers {
         let _ = writeln!(
             h,
-            "<p class=\"warn\">Outlier: line {} posture {} site {}: position error {:.6} {l} ({:.1} sigma)</p>",
+            "<p class=\"warn\">Outlier: line {} posture {} site {}: {} error {} {l} ({:.1} sigma)</p>",
             o.line,
             esc(&o.posture),
             esc(&o.site),
-            o.position_error,
+            esc(&o.metric),
+            num(o.position_error),
             o.sigmas
         );
     }
@@ -406,4 +639,21 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         env!("CARGO_PKG_VERSION")
     );
     Ok(h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_in_tables_are_plain_with_four_significant_digits() {
+        assert_eq!(num(8.04273e-2), "0.08043");
+        assert_eq!(num(3478.053673), "3478");
+        assert_eq!(num(0.000864), "0.0008640");
+        assert_eq!(num(0.0), "0");
+        assert_eq!(num(-0.4995), "-0.4995");
+        assert_eq!(num(1e-12), "1.000e-12");
+        assert_eq!(signed(0.05031), "+0.05031");
+        assert!((nice_width(0.00043) - 0.0005).abs() < 1e-15);
+    }
 }
