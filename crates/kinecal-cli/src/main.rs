@@ -304,13 +304,12 @@ fn import(c: ImportCommand) -> Result<()> {
                     .map_err(|e: String| anyhow!("--angle-unit: {e}"))?,
             };
             let s = Source::read(&a.file)?;
-            let rows = kinecal::import::dh::parse_dh_csv(&s.text, &s.name, units)?;
             let convention = match a.convention {
                 ConventionArg::Standard => kinecal::import::dh::Convention::Standard,
                 ConventionArg::Modified => kinecal::import::dh::Convention::Modified,
             };
             (
-                kinecal::import::dh::robot_from_dh(&a.name, units, &rows, convention),
+                kinecal::import::dh::import_dh(&s.text, &s.name, &a.name, units, convention)?,
                 a.out,
             )
         }

@@ -178,7 +178,13 @@ impl Plane {
         if !(len.is_finite() && len > 0.0 && offset.is_finite()) {
             return None;
         }
-        let z = normal / len;
+        // A normal already of unit length (to rounding, as kinecal writes them) is kept as it
+        // is, so that reading and writing a file again gives the same digits.
+        let z = if (len - 1.0).abs() <= 16.0 * f64::EPSILON {
+            normal
+        } else {
+            normal / len
+        };
         let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
         let least = axes
             .iter()
@@ -592,6 +598,15 @@ impl Robot {
             }
         }
         for (i, j) in self.joints.iter().enumerate() {
+            if let Some((lo, hi)) = j.range {
+                if !(crate::units::plausible(lo) && crate::units::plausible(hi) && lo < hi) {
+                    return Err(format!(
+                        "joint {}: reading range [{lo}, {hi}] is not two finite numbers within \
+                         +-1e9, min < max",
+                        i + 1
+                    ));
+                }
+            }
             if let Some(c) = j.coupling {
                 if c.joint >= self.joints.len() || c.joint == i {
                     return Err(format!(

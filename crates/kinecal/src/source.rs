@@ -42,6 +42,13 @@ impl Source {
             path: name.clone(),
             cause,
         })?;
+        Source::from_bytes(name, bytes)
+    }
+
+    /// A file's bytes as read, named `name`: UTF-8 text, else an error naming the line of the
+    /// first invalid byte.
+    pub fn from_bytes(name: impl Into<String>, bytes: Vec<u8>) -> Result<Source> {
+        let name = name.into();
         let sha256 = fingerprint(&bytes);
         let text = String::from_utf8(bytes).map_err(|e| {
             let valid = e.utf8_error().valid_up_to();

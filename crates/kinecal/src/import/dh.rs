@@ -105,6 +105,27 @@ pub fn robot_from_dh(name: &str, units: Units, rows: &[DhRow], convention: Conve
     chain_from_frames(name, units, &joints, &current)
 }
 
+/// Reads a DH table file (`text`, named `file` in errors) in `units` and builds the robot
+/// ([`robot_from_dh`]), refusing a table whose robot is not usable (values beyond +-1e9 once
+/// converted).
+pub fn import_dh(
+    text: &str,
+    file: &str,
+    name: &str,
+    units: Units,
+    convention: Convention,
+) -> Result<Robot> {
+    let rows = parse_dh_csv(text, file, units)?;
+    let robot = robot_from_dh(name, units, &rows, convention);
+    robot.validate().map_err(|m| {
+        Error::input(
+            Location::file(file),
+            format!("the robot these rows describe is not usable: {m}"),
+        )
+    })?;
+    Ok(robot)
+}
+
 /// Parses a DH table (`kind,a,alpha,d,theta`) in `units`.
 pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> {
     let mut rdr = csv::ReaderBuilder::new()

@@ -100,8 +100,11 @@ pub fn import_urdf(
             ("limit lower", j.limit.lower),
             ("limit upper", j.limit.upper),
         ] {
-            if !v.is_finite() {
-                return Err(bad(field, format!("{v} is not a finite number")));
+            if !crate::units::plausible(v) {
+                return Err(bad(
+                    field,
+                    format!("{v:e} is not a finite number within +-1e9"),
+                ));
             }
         }
     }
@@ -261,6 +264,7 @@ pub fn import_urdf(
         ));
     }
     let robot = chain_from_frames(&urdf.name, Units::default(), &joints, &acc);
+    robot.validate().map_err(|m| err(file, m))?;
     Ok(UrdfImport {
         robot,
         chain: UrdfChain {
