@@ -757,6 +757,17 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
+    /// Choose the model by cross-validation: fit each candidate (`LIST [fix=LIST] [prune=K]`,
+    /// listed from the simplest up) under the same --folds (default 5) and keep the first whose
+    /// held-out mean is within one standard error of the best. Without candidates: the
+    /// identifiable geometric set (slopes held), + slopes, + pruning at 2 and 3 sigma.
+    #[arg(
+        long,
+        num_args = 0..,
+        value_name = "CANDIDATE",
+        conflicts_with_all = ["estimate", "prune", "holdout"]
+    )]
+    pub choose: Option<Vec<String>>,
     /// Held-out observation file, repeatable: measurements (read like --data), distances or
     /// contacts, told apart by their header. Reports the accuracy on them before and after.
     #[arg(long, value_name = "V.csv", conflicts_with = "holdout")]
@@ -769,7 +780,7 @@ pub struct CalibrateArgs {
     /// the postures, each checked on the postures it left out (interleaved in file order, so
     /// every fold samples every sweep; shuffled with --seed). Reports each fold's held-out
     /// errors, the overall ones and a bootstrap 95 % interval of the held-out mean.
-    #[arg(long, value_name = "K", conflicts_with = "validate")]
+    #[arg(long, value_name = "K")]
     pub folds: Option<usize>,
     /// Seed for --holdout (default 1) or --folds (default: no shuffle).
     #[arg(long)]

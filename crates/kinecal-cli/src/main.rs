@@ -569,6 +569,12 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
         Some(_) => Some(history::open_db(a.db.as_deref())?),
         None => None,
     };
+    if a.folds.is_some() && !a.validate.is_empty() && a.choose.is_none() {
+        bail!(
+            "--folds and --validate are two ways to check a calibration: give one (with --choose, \
+             the folds choose the model and the validation file checks it)"
+        );
+    }
     let validation = match (a.validate.is_empty(), a.holdout) {
         (false, _) => {
             let mut v = Dataset::default();
@@ -642,7 +648,25 @@ fn calibrate(a: CalibrateArgs) -> Result<u8> {
         .chain(data_sources)
         .collect();
     let files = a.observations.files.clone();
-    let outcome = workflow::run(&req, &mut Verbose(a.verbose)).map_err(|e| match e {
+    let result = match &a.choose {
+        None => workflow::run(&req, &mut Verbose(a.verbose)),
+        Some(list) => {
+            let candidates = if list.is_empty() {
+                workflow::Candidate::defaults(robot)
+            } else {
+                list.iter()
+                    .map(|t| workflow::Candidate::parse(t, robot))
+                    .collect()
+            };
+            candidates
+                .and_then(|c| workflow::choose(&req, &c, a.folds.unwrap_or(5), a.seed))
+                .map(|choice| {
+                    print!("{}", report::choice_table(&choice.outcome.report));
+                    choice.outcome
+                })
+        }
+    };
+    let outcome = result.map_err(|e| match e {
         kinecal::Error::InvalidOption { option, message } => {
             anyhow!("{}: {message}", flag_of(option))
         }
@@ -731,6 +755,7 @@ fn flag_of(option: &str) -> &str {
         "rcond" => "--rcond",
         "hold-out fraction" => "--holdout",
         "folds" => "--folds",
+        "candidate" => "--choose",
         "Huber scale" => "--huber-scale",
         other => other,
     }

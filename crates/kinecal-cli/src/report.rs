@@ -415,3 +415,40 @@ pub fn summary(r: &CalibrationReport) -> String {
     }
     s
 }
+
+/// The table of a model choice (`calibrate --choose`).
+pub fn choice_table(r: &CalibrationReport) -> String {
+    let mut s = String::new();
+    let folds = r.cross_validation.as_ref().map_or(0, |c| c.folds.len());
+    let metric = r
+        .cross_validation
+        .as_ref()
+        .map_or("position", |c| c.metric.as_str());
+    let _ = writeln!(
+        s,
+        "model choice: {folds} folds by posture, the same for every candidate; held-out {metric} error ({})",
+        r.length_unit
+    );
+    let _ = writeln!(
+        s,
+        "{:<36} {:>10} {:>11} {:>11}",
+        "candidate", "parameters", "mean", "std. error"
+    );
+    for c in &r.model_choice {
+        let _ = writeln!(
+            s,
+            "{:<36} {:>10} {:>11} {:>11}{}",
+            c.candidate,
+            c.parameters,
+            num(c.mean),
+            num(c.standard_error),
+            if c.chosen {
+                "  <- chosen: the first (simplest) within one std. error of the best"
+            } else {
+                ""
+            }
+        );
+    }
+    let _ = writeln!(s);
+    s
+}

@@ -136,6 +136,21 @@ pub struct CrossValidationReport {
     pub mean_high: f64,
 }
 
+/// One candidate of a model choice (length unit).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ChoiceReport {
+    /// The candidate as written.
+    pub candidate: String,
+    /// Parameters estimated on all the data.
+    pub parameters: usize,
+    /// Cross-validated held-out mean.
+    pub mean: f64,
+    /// Its standard error (over the folds).
+    pub standard_error: f64,
+    /// Whether it was chosen.
+    pub chosen: bool,
+}
+
 /// One fold of a cross-validation (length unit).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct FoldReport {
@@ -388,6 +403,10 @@ pub struct CalibrationReport {
     pub validation: Option<DatasetAccuracy>,
     /// `squared`, or `huber K x robust spread` / `huber K x stated sigma`.
     pub loss: String,
+    /// The model choice this calibration came out of, when asked for: every candidate with its
+    /// cross-validated held-out mean.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub model_choice: Vec<ChoiceReport>,
     /// Cross-validation by posture folds, when asked for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cross_validation: Option<CrossValidationReport>,
@@ -491,6 +510,7 @@ impl CalibrationReport {
             loss: cal.options.loss.to_string(),
             start_placement: None,
             cross_validation: None,
+            model_choice: Vec::new(),
             down_weighted_rows: match cal.options.loss {
                 crate::estimation::Loss::Squared => None,
                 crate::estimation::Loss::Huber { .. } => {

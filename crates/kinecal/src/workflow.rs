@@ -767,6 +767,171 @@ fn cross_validation_report(
     }
 }
 
+/// A candidate model for [`choose`]: what to estimate, and whether to prune.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// How it is written (`identifiable,slopes prune=3`).
+    pub label: String,
+    /// What to estimate.
+    pub selection: Selection,
+    /// Pruning threshold, if any.
+    pub prune: Option<f64>,
+}
+
+impl Candidate {
+    /// Parses `LIST [fix=LIST] [prune=K]` (a parameter list as for [`Selection::parse`]).
+    pub fn parse(text: &str, robot: &Robot) -> Result<Candidate> {
+        let mut words = text.split_whitespace();
+        let list = words.next().unwrap_or("");
+        let (mut fix, mut prune) = (None, None);
+        for w in words {
+            match w.split_once('=') {
+                Some(("fix", f)) => fix = Some(f),
+                Some(("prune", k)) => {
+                    prune = Some(
+                        k.parse::<f64>()
+                            .ok()
+                            .filter(|k| k.is_finite() && *k > 0.0)
+                            .ok_or_else(|| Error::InvalidOption {
+                                option: "candidate",
+                                message: format!("`{text}`: prune={k} is not a positive number"),
+                            })?,
+                    )
+                }
+                _ => {
+                    return Err(Error::InvalidOption {
+                        option: "candidate",
+                        message: format!(
+                            "`{text}`: expected `LIST [fix=LIST] [prune=K]`, found `{w}`"
+                        ),
+                    })
+                }
+            }
+        }
+        Ok(Candidate {
+            label: text.split_whitespace().collect::<Vec<_>>().join(" "),
+            selection: Selection::parse(list, fix, robot)?,
+            prune,
+        })
+    }
+
+    /// The default candidates, from the simplest up: the identifiable set of the geometric
+    /// model (links, offsets, sites: slopes held), the same with the joint transducer slopes,
+    /// and the latter pruned stepwise at 2 and at 3 standard deviations.
+    pub fn defaults(robot: &Robot) -> Result<Vec<Candidate>> {
+        [
+            "identifiable fix=slopes",
+            "identifiable,slopes",
+            "identifiable,slopes prune=2",
+            "identifiable,slopes prune=3",
+        ]
+        .iter()
+        .map(|t| Candidate::parse(t, robot))
+        .collect()
+    }
+}
+
+/// One candidate of a model choice, cross-validated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scored {
+    /// The candidate.
+    pub candidate: Candidate,
+    /// Parameters its fit on all the data estimates.
+    pub parameters: usize,
+    /// Its held-out mean (m).
+    pub mean: f64,
+    /// The standard error of that mean: the standard deviation of the folds' means over the
+    /// square root of the number of folds.
+    pub standard_error: f64,
+}
+
+/// The result of [`choose`].
+#[derive(Debug)]
+pub struct Choice {
+    /// Every candidate, in the order given.
+    pub scored: Vec<Scored>,
+    /// The index of the chosen one.
+    pub chosen: usize,
+    /// The chosen candidate's calibration on all the data, with its cross-validation.
+    pub outcome: Outcome,
+}
+
+/// Chooses among `candidates`, listed from the simplest model up, by `k`-fold cross-validation
+/// (the same folds for all): the first whose held-out mean is within one standard error of the
+/// best (the one-standard-error rule: a more elaborate model must earn its place by more than
+/// the noise of the estimate; a pruned fit counts as more elaborate than the set it prunes, as
+/// its parameters were chosen from the data), and returns its calibration (checked on `req`'s validation
+/// data too, when it is a separate dataset).
+pub fn choose(
+    req: &Request,
+    candidates: &[Candidate],
+    k: usize,
+    seed: Option<u64>,
+) -> Result<Choice> {
+    if candidates.is_empty() {
+        return Err(Error::InvalidOption {
+            option: "candidate",
+            message: "no candidate to choose from".into(),
+        });
+    }
+    let mut scored = Vec::with_capacity(candidates.len());
+    let mut outcomes = Vec::with_capacity(candidates.len());
+    for c in candidates {
+        let mut sub = req.clone();
+        sub.selection = c.selection.clone();
+        sub.prune = c.prune;
+        sub.validation = Validation::Folds { k, seed };
+        let out = run(&sub, &mut ())?;
+        let cv = out.cross_validation.as_ref().expect("folds asked for");
+        let means: Vec<f64> = cv.folds.iter().map(|f| f.errors.mean).collect();
+        let m = means.iter().sum::<f64>() / means.len() as f64;
+        let var =
+            means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (means.len() - 1).max(1) as f64;
+        scored.push(Scored {
+            candidate: c.clone(),
+            parameters: out.calibration.estimated.len(),
+            mean: cv.overall.mean,
+            standard_error: (var / means.len() as f64).sqrt(),
+        });
+        outcomes.push(out);
+    }
+    let best = (0..scored.len())
+        .min_by(|&a, &b| scored[a].mean.total_cmp(&scored[b].mean))
+        .expect("candidates");
+    let limit = scored[best].mean + scored[best].standard_error;
+    let chosen = (0..scored.len())
+        .find(|&i| scored[i].mean <= limit)
+        .expect("the best qualifies");
+    let mut outcome = outcomes.swap_remove(chosen);
+    // Held-out data of its own (a separate file) checks the chosen model too.
+    if let Validation::Data(_) = &req.validation {
+        let mut sub = req.clone();
+        sub.selection = candidates[chosen].selection.clone();
+        sub.prune = candidates[chosen].prune;
+        let mut checked = run(&sub, &mut ())?;
+        checked.report.cross_validation = outcome.report.cross_validation.take();
+        checked.cross_validation = outcome.cross_validation.take();
+        outcome = checked;
+    }
+    let len = |v: f64| req.robot.units.from_si(Quantity::Length, v);
+    outcome.report.model_choice = scored
+        .iter()
+        .enumerate()
+        .map(|(i, s)| crate::report::ChoiceReport {
+            candidate: s.candidate.label.clone(),
+            parameters: s.parameters,
+            mean: len(s.mean),
+            standard_error: len(s.standard_error),
+            chosen: i == chosen,
+        })
+        .collect();
+    Ok(Choice {
+        scored,
+        chosen,
+        outcome,
+    })
+}
+
 /// The 2.5 and 97.5 percentiles of the mean of 2000 resamples (with replacement) of `e`.
 fn bootstrap_mean_interval(e: &[f64], seed: u64) -> (f64, f64) {
     use rand::{RngExt, SeedableRng};

@@ -274,3 +274,60 @@ fn cross_validation_folds_partition_the_postures_and_check_each() {
     let e = workflow::run(&req, &mut ()).unwrap_err().to_string();
     assert!(e.contains("folds") && e.contains("99"), "{e}");
 }
+
+/// Model choice by cross-validation: when a joint's gear ratio really changed (joint 4's slope
+/// +0.02 deg/unit), the slope models earn their place and the geometric set is not chosen; when
+/// only lengths and zeros changed, the geometric set is (the one-standard-error rule keeps the
+/// simplest model the data cannot beat).
+#[test]
+fn model_choice_keeps_slopes_only_when_the_data_earns_them() {
+    use kinecal::workflow::{choose, Candidate};
+    let nominal = examples::ge_a4();
+    for slope_changed in [true, false] {
+        let mut truth = nominal.clone();
+        let mut changes = vec![("p1", 0.05), ("p14", -0.02), ("joint2.offset", -0.5)];
+        if slope_changed {
+            changes.push(("joint4.slope", 0.02));
+        }
+        for (name, delta) in changes {
+            let id = parse_param_list(name, &nominal).unwrap()[0];
+            let q = nominal.param_quantity(id);
+            truth.set(id, truth.get(id) + nominal.units.to_si(q, delta));
+        }
+        let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 40, 9), true);
+        simulate::add_noise(&mut data, 0.0005 * 0.0254, 0.0, 9);
+        let mut req = Request::new(nominal.clone(), data);
+        req.weights = Weights {
+            length: 0.0005 * 0.0254,
+            angle: 0.005f64.to_radians(),
+        };
+        let candidates = Candidate::defaults(&nominal).unwrap();
+        let choice = choose(&req, &candidates, 5, None).unwrap();
+        let label = &choice.scored[choice.chosen].candidate.label;
+        if slope_changed {
+            assert_ne!(label, "identifiable fix=slopes", "{:?}", choice.scored);
+            // The geometric model cannot follow a gear-ratio change: far worse held out.
+            assert!(choice.scored[0].mean > 3.0 * choice.scored[1].mean);
+        } else {
+            assert_eq!(label, "identifiable fix=slopes", "{:?}", choice.scored);
+        }
+        let rep = &choice.outcome.report;
+        assert_eq!(rep.model_choice.len(), 4);
+        assert_eq!(rep.model_choice.iter().filter(|c| c.chosen).count(), 1);
+        assert!(rep.cross_validation.is_some());
+    }
+    // Candidates are parsed with their options, and mistakes named.
+    let c = Candidate::parse("identifiable,slopes  prune=3", &nominal).unwrap();
+    assert_eq!(
+        (c.label.as_str(), c.prune),
+        ("identifiable,slopes prune=3", Some(3.0))
+    );
+    let e = Candidate::parse("links prune=-1", &nominal)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("prune=-1"), "{e}");
+    let e = Candidate::parse("links fixx=slopes", &nominal)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("fixx=slopes"), "{e}");
+}

@@ -309,7 +309,8 @@ observation_kinds! {
 /// A file format of observations, for the command line and other front ends.
 #[derive(Clone, Copy)]
 pub struct Format {
-    /// The command-line option that names such a file, without dashes (`data`, `distances`).
+    /// The name of such files (`data`, `distances`, `contacts`); front ends name their options
+    /// after it.
     pub option: &'static str,
     /// One line for help texts.
     pub help: &'static str,
