@@ -322,6 +322,25 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         let _ = writeln!(h, "<h2 id=\"validation\">Validation</h2>");
         validation_tables(&mut h, rep, v, l, a);
     }
+    if !rep.model_choice.is_empty() {
+        let _ = writeln!(
+            h,
+            "<h2 id=\"model-choice\">Model choice</h2><p>Candidates from the simplest up, cross-validated on the same folds; chosen: the first within one standard error of the best held-out mean ({l}).</p>"
+        );
+        let _ = writeln!(h, "<table><tr><th class=\"l\">candidate</th><th>parameters</th><th>held-out mean</th><th>std. error</th><th class=\"l\"></th></tr>");
+        for c in &rep.model_choice {
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+                esc(&c.candidate),
+                c.parameters,
+                num(c.mean),
+                num(c.standard_error),
+                if c.chosen { "<b>chosen</b>" } else { "" }
+            );
+        }
+        let _ = writeln!(h, "</table>");
+    }
     if let Some(cv) = &rep.cross_validation {
         let _ = writeln!(
             h,
