@@ -226,3 +226,71 @@ fn ur10e_camera_poses_reach_the_camera_floor() {
         acc.max_position
     );
 }
+
+/// Cross-validation and model choice on real data (issue: plan the measurements and choose the
+/// model). On the QKM data (all 55 postures), 6 folds by posture reproduce, for the geometric
+/// and the slope models, the mean held-out error of 20 random 46/9 splits within their
+/// bootstrap interval; `choose` keeps a slope model there, and the geometric model on the
+/// FANUC data, whose slopes do not beat it by more than the standard error.
+#[test]
+fn cross_validation_and_model_choice_on_real_data() {
+    use kinecal::workflow::{choose, run, Candidate, Request, Selection, Validation};
+    let Some(d) = data() else { return };
+    let robot = &d.robot;
+    let all = d.identification.clone().merge(d.validation.clone());
+    assert_eq!(all.postures.len(), 55);
+    for (fix, list) in [
+        (Some("slopes"), "identifiable"),
+        (None, "identifiable,slopes"),
+    ] {
+        let mut req = Request::new(robot.clone(), all.clone());
+        req.selection = Selection::parse(list, fix, robot).unwrap();
+        req.validation = Validation::Folds { k: 6, seed: None };
+        let cv = run(&req, &mut ()).unwrap().cross_validation.unwrap();
+        let mut splits = 0.0;
+        for seed in 1..=20 {
+            req.validation = Validation::Holdout {
+                fraction: 9.0 / 55.0,
+                seed,
+            };
+            splits += run(&req, &mut ())
+                .unwrap()
+                .validation
+                .unwrap()
+                .after
+                .mean_position;
+        }
+        let splits = splits / 20.0;
+        let (lo, hi) = cv.mean_interval;
+        eprintln!(
+            "QKM {list} (fix {fix:?}): 6-fold held-out mean {:.3} mm [{:.3}, {:.3}]; 20 random \
+             46/9 splits {:.3} mm",
+            cv.overall.mean * 1e3,
+            lo * 1e3,
+            hi * 1e3,
+            splits * 1e3
+        );
+        assert!(
+            lo <= splits && splits <= hi,
+            "{splits} outside [{lo}, {hi}]"
+        );
+    }
+    let mut req = Request::new(robot.clone(), d.identification.clone());
+    req.validation = Validation::Data(d.validation.clone());
+    let candidates = Candidate::defaults(robot).unwrap();
+    let choice = choose(&req, &candidates, 5, None).unwrap();
+    let chosen = &choice.scored[choice.chosen].candidate.label;
+    assert!(
+        chosen.contains("slopes") && !chosen.contains("fix"),
+        "{chosen}"
+    );
+    let Some(f) = fanuc() else { return };
+    let req = Request::new(f.robot.clone(), f.data.clone());
+    let candidates = Candidate::defaults(&f.robot).unwrap();
+    let choice = choose(&req, &candidates, 6, None).unwrap();
+    assert_eq!(
+        choice.scored[choice.chosen].candidate.label, "identifiable fix=slopes",
+        "{:?}",
+        choice.scored
+    );
+}
