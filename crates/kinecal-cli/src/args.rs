@@ -65,6 +65,60 @@ plane, minus the motions of the world the observations cannot see.")]
     /// The maintenance history: record calibrations, list them, flag drift.
     #[command(subcommand)]
     History(HistoryCommand),
+    /// Put a calibration to work: readings that make the calibrated robot reach what was meant.
+    #[command(after_help = "\
+Examples:
+  kinecal compensate --robot calibrated.toml --nominal nominal.toml --in program.csv \\
+      --out compensated.csv
+  kinecal compensate --robot calibrated.toml --nominal nominal.toml --in targets.csv \\
+      --out readings.csv --site tcp
+
+--in is a program (posture,v1,...,vn: readings taught or planned with the nominal model; the
+pose each was meant to reach is the nominal model's) or Cartesian targets
+(target,x,y,z[,alpha,beta,gamma][,v1,...,vn]: positions and optional ZYX attitudes in the robot
+file's units, optional seed readings; without them, each target is seeded by the nominal
+model's solution nearest the previous row's). The output has the compensated readings and, per row, the
+remaining position and attitude error, the iterations and the flags (unreachable, outside
+range, near singularity, configuration change). Files of any length stream through. Exit code
+3 when any row is flagged.")]
+    Compensate(CompensateArgs),
+    /// Calibrate a fleet: every robot of a manifest, in parallel, with a summary table.
+    #[command(after_help = "\
+Examples:
+  kinecal batch fleet.csv --summary summary.csv
+  kinecal batch fleet.toml --record --db fleet.sqlite --jobs 4
+
+The manifest is CSV with the header serial,robot,data[,options] or TOML with [[robot]] tables
+(serial, robot, data, options), and an optional top-level options for every robot:
+
+  serial,robot,data,options
+  A4-0042,a4.toml,a4-0042.csv,--estimate identifiable --holdout 0.2
+  A4-0043,a4.toml,a4-0043.csv,--out a4-0043-calibrated.toml
+
+options are calibrate's (its --help), quoted like a shell's; paths are relative to the
+manifest's folder. One robot's failure never stops the others. Exit code 0: every robot
+calibrated and converged; 1: some failed (the summary says why); 3: some flagged by --strict;
+4: some did not converge.")]
+    Batch(BatchArgs),
+    /// Plan the measurements: which postures to measure to determine the parameters best.
+    #[command(after_help = "\
+Examples:
+  kinecal plan --robot arm.toml --sample 1000 --seed 3 --count 30 --position-only --out plan.csv
+  kinecal plan --robot qkm.toml --candidates identification.csv --count 20 --out chosen.csv
+  kinecal plan --robot arm.toml --sample 2000 --count 10 --keep measured.csv --criterion i \\
+      --html plan.html --out more.csv
+
+Chooses --count postures from the candidates (a postures file, a measurement file whose rows
+say what is measured at each posture, or --sample postures drawn within the joint ranges) to
+maximise a criterion of the scaled identification Jacobian of the parameters (default: the
+identifiable set the candidates determine): d (log det, the default), a (trace of the inverse),
+i (mean prediction variance over the candidates: the criterion of held-out accuracy), e, and
+the observability indices o1-o5. Greedy start, then exchange until no swap improves the plan;
+--keep adds postures already measured. Prints the criterion, the rank and condition number
+reached, the information per posture against the candidates' average (D-efficiency), and the
+same figures for 100 random plans. --out gets the chosen postures (a measurement file when the
+candidates were one).")]
+    Plan(PlanArgs),
     /// Does a calibrated robot still meet its accuracy? (exit 0 yes, 3 no)
     #[command(after_help = "\
 Example:
@@ -208,6 +262,26 @@ The table is CSV `kind,a,alpha,d,theta`, one row per joint. standard: Rz(theta+q
 modified (Craig): Rx(alpha) Tx(a) Rz(theta+q) Tz(d); for a prismatic joint q adds to d. Readings are
 the joint values (slope 1); theta (or d) becomes the joint offset.")]
     Dh(ImportDhArgs),
+    /// A Universal Robots kinematics file (default_kinematics.yaml, or a robot's factory
+    /// calibration extracted by the UR driver).
+    #[command(after_help = "\
+Example:
+  kinecal import ur ur3e_calibration.yaml --out ur3e.toml
+
+The file gives each joint's origin (x, y, z, roll, pitch, yaw) in its parent; the chain is the
+UR description's, from base_link to tool0. Readings are the joint values (rad, slope 1), ranges
++-2 pi. The model is written in metres and radians.")]
+    Ur(ImportUrArgs),
+}
+
+/// `kinecal import ur`.
+#[derive(Debug, Args)]
+pub struct ImportUrArgs {
+    /// The kinematics file (YAML).
+    pub file: PathBuf,
+    /// The robot file to write.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `kinecal curves ...`.
@@ -529,6 +603,78 @@ for the tool frame) change; visuals, inertias, limits, comments and formatting a
 offsets are folded into the origins. A slope other than 1 cannot be expressed in URDF: a warning
 says so.")]
     Urdf(ExportUrdfArgs),
+    /// Write a calibrated UR arm as a Universal Robots kinematics file for the ROS driver.
+    #[command(after_help = "\
+Example:
+  kinecal export ur --robot calibrated.toml --template default_kinematics.yaml --out my_robot_calibration.yaml
+
+The robot must have been imported from the template (kinecal import ur). Joint offsets are
+folded into the origins exactly; what the file cannot hold (transducer slopes other than 1,
+couplings, a tool correction) is listed with the largest position and attitude deviation it
+causes over the joint ranges.")]
+    Ur(ExportUrArgs),
+    /// Write the joint offsets and slopes as a table, for controllers that take only those.
+    #[command(after_help = "\
+Example:
+  kinecal export joints --robot calibrated.toml --nominal nominal.toml --out joints.csv
+
+Writes joint,offset,slope,offset_change,slope_change (the robot file's units: the joint value at
+zero reading, joint units per reading unit, and their change from the nominal robot). What a
+joint table cannot carry (link and tool changes, couplings) is printed as the largest deviation
+it leaves at the tool over the joint ranges.")]
+    Joints(ExportJointsArgs),
+    /// Write a robot as a Denavit-Hartenberg table, with what the DH form cannot represent.
+    #[command(after_help = "\
+Example:
+  kinecal export dh --robot calibrated.toml --convention modified --out calibrated_dh.csv
+
+Writes kind,a,alpha,d,theta per joint in the robot file's units (read back by kinecal import
+dh). DH has 4 parameters per joint where the thesis model has 6 per link, and no base frame,
+tool frame or transducer gains: the largest position and attitude deviation at the tool over the
+joint ranges between the robot and the table is printed, never dropped silently.")]
+    Dh(ExportDhArgs),
+}
+
+/// `kinecal export dh`.
+#[derive(Debug, Args)]
+pub struct ExportDhArgs {
+    /// The robot file (TOML) or built-in robot name.
+    #[arg(long)]
+    pub robot: String,
+    /// DH convention of the table.
+    #[arg(long, value_enum)]
+    pub convention: ConventionArg,
+    /// The table to write (CSV).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `kinecal export joints`.
+#[derive(Debug, Args)]
+pub struct ExportJointsArgs {
+    /// The calibrated robot.
+    #[arg(long)]
+    pub robot: String,
+    /// The nominal robot (what the controller uses).
+    #[arg(long)]
+    pub nominal: String,
+    /// The table to write (CSV).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `kinecal export ur`.
+#[derive(Debug, Args)]
+pub struct ExportUrArgs {
+    /// The calibrated robot file (imported from the template).
+    #[arg(long)]
+    pub robot: String,
+    /// The kinematics file the robot was imported from.
+    #[arg(long)]
+    pub template: PathBuf,
+    /// The kinematics file to write.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `kinecal export urdf`.
@@ -651,6 +797,145 @@ pub struct AnalyzeArgs {
     /// Print a JSON document instead of text.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `kinecal compensate`.
+#[derive(Debug, Args)]
+pub struct CompensateArgs {
+    /// The calibrated robot (TOML) or built-in robot name: how the robot really moves.
+    #[arg(long)]
+    pub robot: String,
+    /// The nominal robot the controller uses (and the program was made with).
+    #[arg(long)]
+    pub nominal: String,
+    /// The program (posture,v1,...,vn) or the targets (target,x,y,z[,alpha,beta,gamma]...).
+    #[arg(long = "in", value_name = "FILE")]
+    pub input: PathBuf,
+    /// The frame that must reach the goal: `ee` (default) or a site of the robot.
+    #[arg(long, default_value = "ee")]
+    pub site: String,
+    /// For a program: reach the meant positions only (the attitude then changes as little as
+    /// it can).
+    #[arg(long)]
+    pub position_only: bool,
+    /// Largest acceptable remaining error: `length=L,angle=A` (file units; default 1 um and 1
+    /// urad).
+    #[arg(long, value_name = "SPEC")]
+    pub tolerance: Option<String>,
+    /// Flag solutions whose weighted reading Jacobian has a smallest singular value below this
+    /// fraction of its largest.
+    #[arg(long, value_name = "X", default_value_t = 1e-3)]
+    pub singular: f64,
+    /// Flag a revolute joint that turns more than this from the seed (the file's angle unit;
+    /// default 0.5 rad).
+    #[arg(long, value_name = "ANGLE")]
+    pub branch: Option<f64>,
+    /// The file to write.
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+}
+
+/// `kinecal batch`.
+#[derive(Debug, Args)]
+pub struct BatchArgs {
+    /// The manifest: CSV (serial,robot,data[,options]) or TOML ([[robot]] tables).
+    pub manifest: PathBuf,
+    /// Robots calibrated at once (default: one per core).
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Record every calibration in the history under its serial (see --db).
+    #[arg(long)]
+    pub record: bool,
+    /// History database for --record (default: the user's data folder).
+    #[arg(long, value_name = "PATH", requires = "record")]
+    pub db: Option<PathBuf>,
+    /// Also write the summary as CSV.
+    #[arg(long, value_name = "FILE")]
+    pub summary: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Criterion of a measurement plan.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum CriterionArg {
+    /// Log det of the information (D-optimal).
+    D,
+    /// Trace of the inverse information (A-optimal).
+    A,
+    /// Mean prediction variance over the candidates (I-optimal).
+    I,
+    /// Smallest eigenvalue of the information (E-optimal).
+    E,
+    /// Geometric mean of the singular values over sqrt(rows) (Borm & Menq).
+    O1,
+    /// Inverse condition number (Driels & Pathre).
+    O2,
+    /// Smallest singular value (Nahvi, Hollerbach & Hayward).
+    O3,
+    /// Noise amplification index (Nahvi & Hollerbach).
+    O4,
+    /// 1 / sum of inverse singular values (Sun & Hollerbach).
+    O5,
+}
+
+/// `kinecal plan`.
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// Robot file (TOML) or built-in robot name: the nominal model the plan is made for.
+    #[arg(long)]
+    pub robot: String,
+    /// Candidate postures: a postures file (posture,v1,...,vn) or an observation file (what
+    /// each row measures is what the plan assumes).
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with = "sample",
+        required_unless_present = "sample"
+    )]
+    pub candidates: Option<PathBuf>,
+    /// Sample this many candidate postures uniformly within the joint ranges instead.
+    #[arg(long, value_name = "N")]
+    pub sample: Option<usize>,
+    /// Random seed of the sample and of the random plans compared with.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// How many postures to choose (besides the kept ones).
+    #[arg(long, value_name = "K")]
+    pub count: usize,
+    /// What the plan maximises.
+    #[arg(long, value_enum, default_value = "d")]
+    pub criterion: CriterionArg,
+    /// For postures (sampled or a postures file): the targets measure positions only (a laser
+    /// tracker) rather than full poses.
+    #[arg(long)]
+    pub position_only: bool,
+    /// For postures: the targets measured at each, `ee` for the end effector and site names
+    /// (default: every site of the robot, or the end effector when it has none).
+    #[arg(long, value_name = "LIST")]
+    pub sites: Option<String>,
+    /// Parameters to determine (as calibrate's --estimate; default `identifiable`).
+    #[arg(long, value_name = "LIST", default_value = "identifiable")]
+    pub estimate: String,
+    /// Parameters to leave out.
+    #[arg(long, value_name = "LIST")]
+    pub fix: Option<String>,
+    /// Postures already measured (a postures file or an observation file): always in the plan.
+    #[arg(long, value_name = "FILE")]
+    pub keep: Option<PathBuf>,
+    #[command(flatten)]
+    pub residuals: ResidualArgs,
+    /// Print a JSON document instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Also write an HTML page of the plan (the postures in joint space, the information each
+    /// carries).
+    #[arg(long, value_name = "FILE")]
+    pub html: Option<PathBuf>,
+    /// The file to write the chosen postures to.
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
 }
 
 /// How residuals are formed (shared by analyze and calibrate).
@@ -838,6 +1123,9 @@ pub struct CalibrateArgs {
     /// Print one line per iteration (to standard error).
     #[arg(long, short)]
     pub verbose: bool,
+    /// No progress display on standard error.
+    #[arg(long, short = 'q')]
+    pub quiet: bool,
 }
 
 /// Observation files, one option per file format of the library (`--data`, `--distances`, ...),

@@ -3,11 +3,16 @@
 
 mod analyze;
 mod args;
+mod batch;
+mod calibrate;
+mod compensate;
 mod curves;
 mod demo;
 mod history;
 mod output;
+mod plan;
 mod report;
+mod stream;
 
 use std::path::Path;
 
@@ -18,11 +23,9 @@ use anyhow::{anyhow, bail, Context as _, Result};
 use clap::Parser;
 
 use args::{
-    CalibrateArgs, Cli, Command, ConventionArg, DampingArg, DatasetArgs, ExportCommand,
-    ExportUrdfArgs, FkArgs, ImportCommand, LossArg, MethodArg, ObservationFiles, OrientationArg,
-    ResidualArgs, SimulateArgs, SolutionArg, SpreadArg,
+    Cli, Command, ConventionArg, DatasetArgs, ExportCommand, ExportUrdfArgs, FkArgs, ImportCommand,
+    ObservationFiles, OrientationArg, ResidualArgs, SimulateArgs,
 };
-use kinecal::estimation::{Damping, Loss, Method, SolverOptions};
 use kinecal::observe::point::{
     parse_measurements_mapped, parse_postures, write_measurements, ColumnMap,
 };
@@ -31,7 +34,6 @@ use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::source::Source;
 use kinecal::units::Quantity;
-use kinecal::workflow::{self, Request, Selection, SolutionRule, Validation};
 use kinecal::{examples, parse_param_list, Robot, Warning};
 
 /// Exit code for errors in the input (files, parameter lists, unsolvable problems).
@@ -59,11 +61,17 @@ fn main() -> ExitCode {
         Command::Demo => demo::run().map(|()| 0),
         Command::Fk(a) => fk(a).map(|()| 0),
         Command::Simulate(a) => simulate(a).map(|()| 0),
-        Command::Calibrate(a) => calibrate(a),
+        Command::Calibrate(a) => calibrate::run(a),
         Command::Analyze(a) => analyze::run(a).map(|()| 0),
         Command::Import(c) => import(c).map(|()| 0),
         Command::Export(ExportCommand::Urdf(a)) => export_urdf(a).map(|()| 0),
+        Command::Export(ExportCommand::Ur(a)) => export_ur(a).map(|()| 0),
+        Command::Export(ExportCommand::Joints(a)) => export_joints(a).map(|()| 0),
+        Command::Export(ExportCommand::Dh(a)) => export_dh(a).map(|()| 0),
         Command::History(c) => history::run(c),
+        Command::Plan(a) => plan::run(a).map(|()| 0),
+        Command::Batch(a) => batch::run(a),
+        Command::Compensate(a) => compensate::run(a),
         Command::Check(a) => history::check(a),
         Command::Curves(c) => curves::run(c).map(|()| 0),
         Command::Report(a) => curves::report(a).map(|()| 0),
@@ -129,6 +137,30 @@ pub struct LoadedRobot {
     pub source: Source,
 }
 
+/// The target a command-line name stands for: `ee` for the end effector, else a site of
+/// `robot`; an error naming `option` and the valid names otherwise.
+pub fn target_named(robot: &Robot, name: &str, option: &str) -> Result<kinecal::Target> {
+    if name == "ee" {
+        return Ok(kinecal::Target::EndEffector);
+    }
+    robot
+        .sites
+        .iter()
+        .position(|s| s.name == name)
+        .map(kinecal::Target::Site)
+        .ok_or_else(|| {
+            anyhow!(
+                "{option}: `{name}` is not a site of {}; expected `ee`{}",
+                robot.name,
+                robot
+                    .sites
+                    .iter()
+                    .map(|s| format!(", `{}`", s.name))
+                    .collect::<String>()
+            )
+        })
+}
+
 /// Reads a text file, naming it in errors.
 pub fn read_text(path: &Path) -> Result<String> {
     Ok(Source::read(path)?.text)
@@ -152,7 +184,7 @@ pub fn load_robot(spec: &str) -> Result<LoadedRobot> {
 }
 
 /// Parses `key=value,...` with numbers, allowing only `keys`.
-fn parse_spec(option: &str, spec: &str, keys: &[&str]) -> Result<Vec<(String, f64)>> {
+pub fn parse_spec(option: &str, spec: &str, keys: &[&str]) -> Result<Vec<(String, f64)>> {
     let mut out = Vec::new();
     for part in spec.split(',').map(str::trim) {
         let (k, v) = part.split_once('=').ok_or_else(|| {
@@ -185,7 +217,8 @@ fn parse_spec(option: &str, spec: &str, keys: &[&str]) -> Result<Vec<(String, f6
     Ok(out)
 }
 
-fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
+/// The value of `key` in a parsed `key=value` spec.
+pub fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
     spec.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
 }
 
@@ -200,7 +233,7 @@ fn read_measurements(path: &Path, columns: &[String], robot: &Robot) -> Result<(
 
 /// Reads an observation file of any kind, told by its header (measurements through the
 /// `--columns` mapping).
-fn read_any(path: &Path, columns: &[String], robot: &Robot) -> Result<(Dataset, Source)> {
+pub fn read_any(path: &Path, columns: &[String], robot: &Robot) -> Result<(Dataset, Source)> {
     let source = Source::read(path)?;
     let data = match kinecal::observe::detect_format(&source.text) {
         0 => {
@@ -272,9 +305,17 @@ fn import(c: ImportCommand) -> Result<()> {
         ImportCommand::Poe(a) => (&a.file, &a.out),
         ImportCommand::Urdf(a) => (&a.file, &a.out),
         ImportCommand::Dh(a) => (&a.file, &a.out),
+        ImportCommand::Ur(a) => (&a.file, &a.out),
     };
     output::check_distinct(&[output], &[input])?;
     let (robot, out) = match c {
+        ImportCommand::Ur(a) => {
+            let s = Source::read(&a.file)?;
+            (
+                kinecal::import::ur::import_ur(&s.text, &s.name)?.robot,
+                a.out,
+            )
+        }
         ImportCommand::Poe(a) => {
             let s = Source::read(&a.file)?;
             (
@@ -348,25 +389,164 @@ fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
     Ok(())
 }
 
+fn export_dh(a: args::ExportDhArgs) -> Result<()> {
+    output::check_distinct(&[&a.out], &[Path::new(&a.robot)])?;
+    let robot = load_robot(&a.robot)?.robot;
+    let convention = match a.convention {
+        ConventionArg::Standard => kinecal::import::dh::Convention::Standard,
+        ConventionArg::Modified => kinecal::import::dh::Convention::Modified,
+    };
+    let (rows, (p, an)) = kinecal::import::dh::export_dh(&robot, convention);
+    let text = kinecal::import::dh::write_dh_csv(&rows, robot.units);
+    let u = robot.units;
+    if p > 1e-9 || an > 1e-9 {
+        eprintln!(
+            "not representable in DH: the table's robot misses this one by up to {} {} and {} {} \
+             at the tool over the joint ranges (DH has 4 parameters per joint, no base or tool \
+             frame, and takes the readings as joint values)",
+            kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, p)),
+            u.length.as_str(),
+            kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, an)),
+            u.angle.as_str()
+        );
+    }
+    write_file(&a.out, &text)?;
+    eprintln!(
+        "wrote the DH table to {}{}",
+        a.out.display(),
+        if p > 1e-9 || an > 1e-9 {
+            ""
+        } else {
+            " (exact)"
+        }
+    );
+    Ok(())
+}
+
+fn export_joints(a: args::ExportJointsArgs) -> Result<()> {
+    output::check_distinct(&[&a.out], &[Path::new(&a.robot), Path::new(&a.nominal)])?;
+    let cal = load_robot(&a.robot)?.robot;
+    let nominal = load_robot(&a.nominal)?.robot;
+    let (text, lost) = kinecal::import::joints::joint_table(&cal, &nominal)?;
+    let l = |v: f64| cal.units.from_si(Quantity::Length, v);
+    let an = |v: f64| cal.units.from_si(Quantity::Angle, v);
+    if let Some(x) = &lost {
+        eprintln!(
+            "not written: {}; up to {} {} and {} {} at the tool over the joint ranges",
+            x.what,
+            kinecal::identifiability::fmt_sig(l(x.position)),
+            cal.units.length.as_str(),
+            kinecal::identifiability::fmt_sig(an(x.attitude)),
+            cal.units.angle.as_str()
+        );
+    }
+    write_file(&a.out, &text)?;
+    eprintln!(
+        "wrote the joint table to {}{}",
+        a.out.display(),
+        if lost.is_none() { " (exact)" } else { "" }
+    );
+    Ok(())
+}
+
+fn export_ur(a: args::ExportUrArgs) -> Result<()> {
+    output::check_distinct(&[&a.out], &[&a.template, Path::new(&a.robot)])?;
+    let r = load_robot(&a.robot)?;
+    let template = Source::read(&a.template)?;
+    let (text, lost) = kinecal::import::ur::export_ur(&r.robot, &template.text, &template.name)?;
+    for l in &lost {
+        eprintln!(
+            "not written: {}; up to {:.4} mm and {:.5} deg at the tool over the joint ranges",
+            l.what,
+            l.position * 1e3,
+            l.attitude.to_degrees()
+        );
+    }
+    write_file(&a.out, &text)?;
+    eprintln!(
+        "wrote the calibrated kinematics to {}{}",
+        a.out.display(),
+        if lost.is_empty() { " (exact)" } else { "" }
+    );
+    Ok(())
+}
+
 fn fk(a: FkArgs) -> Result<()> {
     if let Some(out) = &a.out {
         output::check_distinct(&[out], &[&a.postures, Path::new(&a.robot)])?;
     }
     let r = load_robot(&a.robot)?;
-    let s = Source::read(&a.postures)?;
-    let postures = parse_postures(&s.text, &s.name, &r.robot)?;
-    let data = simulate::measure(&r.robot, &postures, false);
-    let csv = write_measurements(&r.robot, &data);
-    match a.out {
-        Some(path) => {
-            write_file(&path, &csv)?;
-            eprintln!(
-                "wrote {} poses to {}",
-                data.observations.len(),
-                path.display()
+    let robot = &r.robot;
+    let mut rows = stream::Rows::open(&a.postures)?;
+    let mut poses = 0;
+    // A postures file streams through row by row (flat memory, any length); a measurement
+    // file is read whole (its postures are those of its rows, merged).
+    let mut emit = |w: &mut dyn std::io::Write| -> Result<()> {
+        if rows.column("x").is_some() {
+            let s = Source::read(&a.postures)?;
+            let postures = parse_postures(&s.text, &s.name, robot)?;
+            let data = simulate::measure(robot, &postures, false);
+            poses = data.observations.len();
+            w.write_all(write_measurements(robot, &data).as_bytes())?;
+            return Ok(());
+        }
+        let expected = kinecal::observe::point::postures_header(robot);
+        if rows.header != expected {
+            bail!(
+                "{}:1: unexpected header `{}`: expected `{}`",
+                rows.file,
+                rows.header.join(","),
+                expected.join(",")
             );
         }
-        None => print!("{csv}"),
+        let mut first = true;
+        let mut posture = kinecal::Posture {
+            label: String::new(),
+            readings: vec![0.0; robot.dof()],
+        };
+        while let Some(line) = rows.advance()? {
+            posture.label.clear();
+            posture.label.push_str(rows.field(0));
+            for j in 0..robot.dof() {
+                posture.readings[j] = stream::cell(&rows, line, j + 1)?;
+            }
+            let data = simulate::measure(robot, std::slice::from_ref(&posture), false);
+            poses += data.observations.len();
+            let text = write_measurements(robot, &data);
+            let body = if first {
+                text.as_str()
+            } else {
+                text.split_once('\n').map_or("", |(_, rest)| rest)
+            };
+            w.write_all(body.as_bytes())?;
+            first = false;
+        }
+        if first {
+            bail!(
+                "{}: no postures: the file has a header but no rows",
+                rows.file
+            );
+        }
+        Ok(())
+    };
+    match &a.out {
+        Some(path) => {
+            let mut staged = output::Staged::new();
+            staged.by_path(path, |tmp| {
+                let mut w = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+                emit(&mut w)?;
+                std::io::Write::flush(&mut w)?;
+                Ok(())
+            })?;
+            staged.commit()?;
+            eprintln!("wrote {poses} poses to {}", path.display());
+        }
+        None => {
+            let stdout = std::io::stdout();
+            let mut w = std::io::BufWriter::new(stdout.lock());
+            emit(&mut w)?;
+            std::io::Write::flush(&mut w)?;
+        }
     }
     Ok(())
 }
@@ -513,250 +693,4 @@ fn suggested_command(s: &kinecal::datasets::Suggested) -> String {
         c += &format!(" --holdout {h}");
     }
     c
-}
-
-/// Prints the solver's iterations (to standard error) when asked.
-struct Verbose(bool);
-
-impl workflow::Progress for Verbose {
-    fn phase(&mut self, phase: workflow::Phase) {
-        if self.0 && phase == workflow::Phase::Estimation {
-            eprintln!(
-                "{:>5} {:>14} {:>11} {:>10} {:>5}",
-                "iter", "objective", "step", "lambda/t", "evals"
-            );
-        }
-    }
-
-    fn iteration(&mut self, it: &kinecal::estimation::Iteration) {
-        if self.0 {
-            eprintln!(
-                "{:>5} {:>14.6e} {:>11.3e} {:>10.1e} {:>5}",
-                it.iteration, it.objective, it.step, it.lambda, it.evaluations
-            );
-        }
-    }
-}
-
-fn calibrate(a: CalibrateArgs) -> Result<u8> {
-    let outputs: Vec<&Path> = [&a.out, &a.report, &a.html]
-        .into_iter()
-        .flatten()
-        .map(|p| p.as_path())
-        .collect();
-    let mut inputs: Vec<&Path> = a
-        .observations
-        .files
-        .iter()
-        .map(|(_, p)| p.as_path())
-        .collect();
-    inputs.extend(a.validate.iter().map(|p| p.as_path()));
-    inputs.push(Path::new(&a.robot));
-    if let Some(i) = &a.initial {
-        inputs.push(Path::new(i));
-    }
-    if let Some(db) = &a.db {
-        inputs.push(db);
-    }
-    output::check_distinct(&outputs, &inputs)?;
-    let r = load_robot(&a.robot)?;
-    let robot = &r.robot;
-    let (data, data_sources) = load_observations(&a.observations, robot)?;
-    let (weights, orientation) = residual_settings(&a.residuals, robot)?;
-    // Open the history first, so that an unwritable database fails before the work.
-    let record_at = history::parse_at(a.at.as_deref())?;
-    let record_db = match &a.record {
-        Some(_) => Some(history::open_db(a.db.as_deref())?),
-        None => None,
-    };
-    if a.folds.is_some() && !a.validate.is_empty() && a.choose.is_none() {
-        bail!(
-            "--folds and --validate are two ways to check a calibration: give one (with --choose, \
-             the folds choose the model and the validation file checks it)"
-        );
-    }
-    let validation = match (a.validate.is_empty(), a.holdout) {
-        (false, _) => {
-            let mut v = Dataset::default();
-            for path in &a.validate {
-                v = v.merge(read_any(path, &a.observations.columns, robot)?.0);
-            }
-            Validation::Data(v)
-        }
-        (true, Some(fraction)) => Validation::Holdout {
-            fraction,
-            seed: a.seed.unwrap_or(1),
-        },
-        (true, None) => match a.folds {
-            Some(k) => Validation::Folds { k, seed: a.seed },
-            None => Validation::None,
-        },
-    };
-    let mut solver = SolverOptions::new(match a.method {
-        MethodArg::Lm => Method::LevenbergMarquardt,
-        MethodArg::Gn => Method::GaussNewton,
-        MethodArg::Sd => Method::SteepestDescent,
-        MethodArg::Svd => Method::Svd,
-    });
-    if let Some(n) = a.max_iter {
-        solver.max_iterations = n;
-    }
-    solver.damping = match a.damping {
-        DampingArg::Marquardt => Damping::Marquardt,
-        DampingArg::Identity => Damping::Identity,
-    };
-    solver.rcond = a.rcond;
-    let mut req = Request::new(robot.clone(), data);
-    if a.estimate.is_some() || a.fix.is_some() {
-        req.selection =
-            Selection::parse(a.estimate.as_deref().unwrap_or(""), a.fix.as_deref(), robot)?;
-    }
-    req.initial = match &a.initial {
-        None => None,
-        Some(spec) => {
-            let guess = load_robot(spec)?.robot;
-            if !robot.same_structure(&guess) {
-                bail!(
-                    "--initial {spec}: not the same robot structure as --robot {}",
-                    a.robot
-                );
-            }
-            Some(guess)
-        }
-    };
-    req.solver = solver;
-    req.loss = match a.loss {
-        LossArg::Squared => Loss::Squared,
-        LossArg::Huber => Loss::Huber {
-            k: a.huber_scale,
-            spread: match a.huber_spread {
-                SpreadArg::Robust => kinecal::estimation::Spread::Robust,
-                SpreadArg::Stated => kinecal::estimation::Spread::Stated,
-            },
-        },
-    };
-    req.weights = weights;
-    req.orientation = orientation;
-    req.solution = match a.solution {
-        SolutionArg::Solver => SolutionRule::Solver,
-        SolutionArg::MinChange => SolutionRule::MinChange,
-    };
-    req.prune = a.prune;
-    req.validation = validation;
-    req.outlier_sigmas = a.outlier_sigma;
-    req.sources = std::iter::once(r.source.clone())
-        .chain(data_sources)
-        .collect();
-    let files = a.observations.files.clone();
-    let result = match &a.choose {
-        None => workflow::run(&req, &mut Verbose(a.verbose)),
-        Some(list) => {
-            let candidates = if list.is_empty() {
-                workflow::Candidate::defaults(robot)
-            } else {
-                list.iter()
-                    .map(|t| workflow::Candidate::parse(t, robot))
-                    .collect()
-            };
-            candidates
-                .and_then(|c| workflow::choose(&req, &c, a.folds.unwrap_or(5), a.seed))
-                .map(|choice| {
-                    print!("{}", report::choice_table(&choice.outcome.report));
-                    choice.outcome
-                })
-        }
-    };
-    let outcome = result.map_err(|e| match e {
-        kinecal::Error::InvalidOption { option, message } => {
-            anyhow!("{}: {message}", flag_of(option))
-        }
-        kinecal::Error::NonFiniteResidual { line, kind, .. } => {
-            // Name the file the observation came from (one file per format).
-            let file = files
-                .iter()
-                .find(|(i, _)| FORMATS[*i].kinds.contains(&kind))
-                .map_or(String::from("?"), |(_, p)| p.display().to_string());
-            anyhow!("{file}:{line}: {e}")
-        }
-        e => e.into(),
-    })?;
-    if let Some(p) = &outcome.pruning {
-        println!("== full fit ==");
-        print!("{}", report::summary(&p.full_report));
-        println!();
-        println!(
-            "== pruned fit: removed {} (changes below {} sigma, one at a time) ==",
-            if p.removed.is_empty() {
-                "nothing".to_string()
-            } else {
-                p.removed
-                    .iter()
-                    .map(|id| id.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            },
-            p.k
-        );
-    }
-    print!("{}", report::summary(&outcome.report));
-    for w in &outcome.warnings {
-        eprintln!("warning: {}", word(w));
-    }
-    let implausible = outcome.warnings.iter().filter(|w| w.implausible()).count();
-    if a.strict && implausible > 0 {
-        eprintln!(
-            "STRICT: {implausible} warning(s) above say the result is most likely wrong (units, \
-             readings or a model that does not fit this robot); nothing written or recorded"
-        );
-        return Ok(EXIT_IMPLAUSIBLE);
-    }
-    // Everything is computed, and every output written beside its target, before anything is
-    // replaced; the history record is the last step that can fail.
-    let mut staged = output::Staged::new();
-    if let Some(path) = &a.out {
-        staged.text(
-            path,
-            &write_robot_toml_checked(&outcome.calibration.calibrated, Some(&r.source.text))?,
-        )?;
-    }
-    if let Some(path) = &a.report {
-        staged.text(path, &(outcome.report.to_json() + "\n"))?;
-    }
-    if let Some(path) = &a.html {
-        staged.text(path, &kinecal_report::html_report(&outcome)?)?;
-    }
-    if let (Some(serial), Some(db)) = (&a.record, &record_db) {
-        let options = kinecal_history::AddOptions { force: a.force };
-        let id = db.add_with(serial, record_at, &outcome.report, &a.note, options)?;
-        eprintln!("recorded as calibration {id} of robot {serial}");
-    }
-    staged.commit()?;
-    for (path, what) in [
-        (&a.out, "the calibrated robot"),
-        (&a.report, "the report"),
-        (&a.html, "the HTML report"),
-    ] {
-        if let Some(p) = path {
-            eprintln!("wrote {what} to {}", p.display());
-        }
-    }
-    Ok(if outcome.calibration.converged() {
-        0
-    } else {
-        EXIT_NOT_CONVERGED
-    })
-}
-
-/// The command-line option behind a library setting.
-fn flag_of(option: &str) -> &str {
-    match option {
-        "outlier threshold" => "--outlier-sigma",
-        "pruning threshold" => "--prune",
-        "rcond" => "--rcond",
-        "hold-out fraction" => "--holdout",
-        "folds" => "--folds",
-        "candidate" => "--choose",
-        "Huber scale" => "--huber-scale",
-        other => other,
-    }
 }

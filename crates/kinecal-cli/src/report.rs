@@ -413,6 +413,18 @@ pub fn summary(r: &CalibrationReport) -> String {
                 .map_or(String::new(), |v| format!(", RMS attitude {} {a}", num(v)))
         );
     }
+    if !r.timings.is_empty() {
+        let _ = writeln!(
+            s,
+            "\ntime: {:.3} s ({})",
+            r.timings.iter().map(|t| t.seconds).sum::<f64>(),
+            r.timings
+                .iter()
+                .map(|t| format!("{} {:.3}", t.phase, t.seconds))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     s
 }
 

@@ -42,8 +42,15 @@ fn demo_shows_returning_and_redundant_parameters() {
 
 #[test]
 fn every_command_has_help_with_an_example() {
-    let commands: [&[&str]; 20] = [
+    let commands: [&[&str]; 27] = [
         &["demo"],
+        &["export", "dh"],
+        &["export", "joints"],
+        &["import", "ur"],
+        &["export", "ur"],
+        &["compensate"],
+        &["plan"],
+        &["batch"],
         &["fk"],
         &["simulate"],
         &["calibrate"],
@@ -2066,4 +2073,582 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
         ],
     );
     assert!(d.join("cal.toml").exists());
+}
+
+/// `kinecal plan` as a user runs it: sampled candidates to a postures file and an HTML page;
+/// a measurement file as candidates gives the chosen rows of that file; postures kept;
+/// mistakes refused with a message.
+#[test]
+fn plan_chooses_postures_and_refuses_mistakes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = run_ok(
+        d,
+        &[
+            "plan",
+            "--robot",
+            "ge-a4",
+            "--sample",
+            "500",
+            "--seed",
+            "3",
+            "--count",
+            "12",
+            "--out",
+            "plan.csv",
+            "--html",
+            "plan.html",
+        ],
+    );
+    assert!(out.contains("chose 12 of 500 candidates"), "{out}");
+    assert!(out.contains("rank 24 of 24"), "{out}");
+    assert!(out.contains("at least as good as 100 of them"), "{out}");
+    let csv = std::fs::read_to_string(d.join("plan.csv")).unwrap();
+    assert!(csv.starts_with("posture,v1,v2,v3,v4\n"), "{csv}");
+    assert_eq!(csv.lines().count(), 13);
+    let html = std::fs::read_to_string(d.join("plan.html")).unwrap();
+    assert!(html.contains("<svg") && html.contains("Joint 4: readings of the plan"));
+    assert!(!html.contains("http://") && !html.contains("https://"));
+
+    // The chosen postures measured (simulated), then planned again from that measurement file
+    // with the first 6 kept: the output is the chosen rows of the file.
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "60",
+            "--seed",
+            "4",
+            "--out",
+            "measured.csv",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "plan", "--robot", "ge-a4", "--sample", "10", "--count", "6", "--out", "kept.csv",
+        ],
+    );
+    let json = run_ok(
+        d,
+        &[
+            "plan",
+            "--robot",
+            "ge-a4",
+            "--candidates",
+            "measured.csv",
+            "--count",
+            "8",
+            "--keep",
+            "kept.csv",
+            "--criterion",
+            "i",
+            "--json",
+            "--out",
+            "chosen.csv",
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["criterion"], "i");
+    assert_eq!(v["postures"].as_array().unwrap().len(), 14);
+    assert_eq!(v["postures"][0]["kept"], true);
+    assert_eq!(v["rank"], v["parameters"].as_array().unwrap().len());
+    let chosen = std::fs::read_to_string(d.join("chosen.csv")).unwrap();
+    assert!(chosen.starts_with("posture,site,v1"), "{chosen}");
+    assert_eq!(chosen.lines().count(), 9);
+
+    let err = run_err(
+        d,
+        &[
+            "plan", "--robot", "ge-a4", "--sample", "5", "--count", "6", "--out", "p.csv",
+        ],
+    );
+    assert!(err.contains("the pool has 5 candidates"), "{err}");
+    let err = run_err(
+        d,
+        &[
+            "plan", "--robot", "ge-a4", "--sample", "5", "--count", "0", "--out", "p.csv",
+        ],
+    );
+    assert!(err.contains("--count must be at least 1"), "{err}");
+    let err = run_err(
+        d,
+        &[
+            "plan", "--robot", "ge-a4", "--sample", "50", "--count", "5", "--sites", "nope",
+            "--out", "p.csv",
+        ],
+    );
+    assert!(err.contains("`nope` is not a site"), "{err}");
+    let err = run_err(
+        d,
+        &[
+            "plan",
+            "--robot",
+            "ge-a4",
+            "--candidates",
+            "measured.csv",
+            "--count",
+            "5",
+            "--position-only",
+            "--out",
+            "p.csv",
+        ],
+    );
+    assert!(err.contains("observation file"), "{err}");
+    let err = run_err(
+        d,
+        &[
+            "plan",
+            "--robot",
+            "ge-a4",
+            "--candidates",
+            "measured.csv",
+            "--count",
+            "5",
+            "--out",
+            "measured.csv",
+        ],
+    );
+    assert!(err.contains("over an input"), "{err}");
+    assert!(!d.join("p.csv").exists(), "a refused run writes nothing");
+}
+
+/// `kinecal batch`: every robot of a manifest (CSV or TOML) calibrated, outputs written per
+/// robot, one robot's failure never stopping the others, the exit code saying some failed;
+/// results identical on one thread and on several; records in the history.
+#[test]
+fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("fleet")).unwrap();
+    let mut csv = String::from("serial,robot,data,options\n");
+    for i in 1..=6 {
+        run_ok(
+            d,
+            &[
+                "simulate",
+                "--robot",
+                "ge-a4",
+                "--postures",
+                "40",
+                "--seed",
+                &i.to_string(),
+                "--perturb-std",
+                "length=0.01,angle=0.1",
+                "--noise",
+                "length=0.001,angle=0.01",
+                "--out",
+                &format!("fleet/d{i}.csv"),
+            ],
+        );
+        csv += &format!("A4-{i},ge-a4,d{i}.csv,--estimate identifiable --holdout 0.2\n");
+    }
+    csv += "A4-missing,ge-a4,nope.csv,\n";
+    csv += "A4-typo,ge-a4,d1.csv,--estimat identifiable\n";
+    csv += "A4-out,ge-a4,d2.csv,\"--out 'calibrated 2.toml' --report r2.json\"\n";
+    std::fs::write(d.join("fleet/fleet.csv"), &csv).unwrap();
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "batch",
+            "fleet/fleet.csv",
+            "--summary",
+            "summary.csv",
+            "--jobs",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "some robots failed");
+    let text = String::from_utf8(out.stdout).unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("9 robots: 7 calibrated, 2 failed"), "{err}");
+    for i in 1..=6 {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("A4-{i} ")))
+            .unwrap();
+        assert!(line.ends_with("ok"), "{line}");
+    }
+    assert!(text.contains("nope.csv"), "{text}");
+    assert!(
+        text.contains("fleet.csv:9: unexpected argument '--estimat'"),
+        "{text}"
+    );
+    // Outputs of a row are written relative to the manifest.
+    assert!(d.join("fleet/calibrated 2.toml").exists());
+    assert!(d.join("fleet/r2.json").exists());
+    let summary = std::fs::read_to_string(d.join("summary.csv")).unwrap();
+    assert!(summary.starts_with("serial,status,parameters,iterations,metric,unit,"));
+    assert_eq!(summary.lines().count(), 10);
+
+    // One thread gives the same table.
+    let one = kinecal()
+        .current_dir(d)
+        .args(["batch", "fleet/fleet.csv", "--jobs", "1", "--quiet"])
+        .output()
+        .unwrap();
+    assert_eq!(String::from_utf8(one.stdout).unwrap(), text);
+
+    // TOML manifest, common options, recorded in the history.
+    let toml = "options = \"--estimate identifiable\"\n\
+                [[robot]]\nserial = \"A4-1\"\nrobot = \"ge-a4\"\ndata = \"d1.csv\"\n\
+                [[robot]]\nserial = \"A4-2\"\nrobot = \"ge-a4\"\ndata = \"d2.csv\"\noptions = [\"--holdout\", \"0.25\"]\n";
+    std::fs::write(d.join("fleet/fleet.toml"), toml).unwrap();
+    let text = run_ok(
+        d,
+        &[
+            "batch",
+            "fleet/fleet.toml",
+            "--record",
+            "--db",
+            "h.sqlite",
+            "--quiet",
+        ],
+    );
+    assert_eq!(
+        text.lines().filter(|l| l.ends_with("ok")).count(),
+        2,
+        "{text}"
+    );
+    let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
+    assert!(list.contains("A4-1") && list.contains("A4-2"), "{list}");
+
+    // Manifest mistakes stop everything before any work.
+    for (name, body, says) in [
+        ("m1.csv", "serial,robot\nA,ge-a4\nA,ge-a4\n", "listed twice"),
+        ("m2.csv", "serial,robots,data\n", "unknown column `robots`"),
+        (
+            "m3.csv",
+            "robot,data\n",
+            "expected the header serial,robot,data",
+        ),
+        (
+            "m4.csv",
+            "serial,robot,data,options\nA,ge-a4,d1.csv,--out x.toml\nB,ge-a4,d2.csv,--out x.toml\n",
+            "is also written for A",
+        ),
+        (
+            "m5.toml",
+            "[[robot]]\nserial = \"A\"\n",
+            "`serial` and `robot` are required",
+        ),
+        (
+            "m6.csv",
+            "serial,robot,data,options\nA,ge-a4,d1.csv,--record A\n",
+            "not a per-robot option",
+        ),
+    ] {
+        std::fs::write(d.join("fleet").join(name), body).unwrap();
+        let out = kinecal()
+            .current_dir(d)
+            .args(["batch", &format!("fleet/{name}"), "--quiet"])
+            .output()
+            .unwrap();
+        let all = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {all}");
+        assert!(all.contains(says), "{name}: {all}");
+    }
+}
+
+/// `kinecal compensate` as a user runs it: a program through a calibrated twin (each row
+/// reaches, through the calibrated robot's `fk`, the pose the nominal robot gives the original
+/// readings), Cartesian targets with and without seeds, flags and exit code 3 for what cannot be
+/// done, and mistakes refused with the file, line and field.
+#[test]
+fn compensate_programs_and_targets() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "40",
+            "--seed",
+            "3",
+            "--perturb",
+            "p1=+0.05,p14=-0.02,joint2.offset=-0.5",
+            "--out",
+            "m.csv",
+            "--truth",
+            "true.toml",
+        ],
+    );
+    // The program: the readings of m.csv.
+    let m = std::fs::read_to_string(d.join("m.csv")).unwrap();
+    let mut program = String::from("posture;v1;v2;v3;v4\n# a comment, ; delimited\n");
+    for l in m.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        program += &format!("{};{}\n", f[0], f[2..6].join(";"));
+    }
+    std::fs::write(d.join("program.csv"), &program).unwrap();
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "compensate",
+            "--robot",
+            "true.toml",
+            "--nominal",
+            "ge-a4",
+            "--in",
+            "program.csv",
+            "--out",
+            "comp.csv",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("compensated 40 rows"), "{err}");
+    let comp = std::fs::read_to_string(d.join("comp.csv")).unwrap();
+    assert!(
+        comp.starts_with("posture,v1,v2,v3,v4,position_error,attitude_error,iterations,flags\n")
+    );
+    // Through the calibrated robot, the compensated readings give the nominal poses.
+    let mut readings = String::from("posture,v1,v2,v3,v4\n");
+    for l in comp.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        readings += &format!("{}\n", f[..5].join(","));
+    }
+    std::fs::write(d.join("compensated.csv"), &readings).unwrap();
+    run_ok(
+        d,
+        &[
+            "fk",
+            "--robot",
+            "true.toml",
+            "--postures",
+            "compensated.csv",
+            "--out",
+            "reached.csv",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "fk",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "program.csv",
+            "--out",
+            "meant.csv",
+        ],
+    );
+    let nums = |p: &str| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(d.join(p))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').skip(6).map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    let (reached, meant) = (nums("reached.csv"), nums("meant.csv"));
+    assert_eq!(reached.len(), 40);
+    for (r, m) in reached.iter().zip(&meant) {
+        for k in 0..6 {
+            // The file's 15 significant digits on values up to 360: 1e-9 is rounding.
+            assert!((r[k] - m[k]).abs() < 1e-9, "{r:?} {m:?}");
+        }
+    }
+    // The program's rows outside the GE A4's reading ranges, if any, are flagged, and the exit
+    // code says so.
+    let flagged = comp.lines().skip(1).filter(|l| !l.ends_with(',')).count();
+    assert_eq!(
+        out.status.code(),
+        Some(if flagged > 0 { 3 } else { 0 }),
+        "{err}"
+    );
+
+    // Targets: positions with seeds, and one far away: flagged unreachable, exit 3.
+    let mut targets = String::from("target,x,y,z,v1,v2,v3,v4\n");
+    for l in m.lines().skip(1).take(5) {
+        let f: Vec<&str> = l.split(',').collect();
+        targets += &format!("t{},{},{}\n", f[0], f[6..9].join(","), f[2..6].join(","));
+    }
+    targets += "far,1000,0,0,-10,10,2,0\n";
+    std::fs::write(d.join("targets.csv"), &targets).unwrap();
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "compensate",
+            "--robot",
+            "true.toml",
+            "--nominal",
+            "ge-a4",
+            "--in",
+            "targets.csv",
+            "--out",
+            "t.csv",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    let t = std::fs::read_to_string(d.join("t.csv")).unwrap();
+    let far = t.lines().last().unwrap();
+    assert!(
+        far.starts_with("far,") && far.contains("unreachable"),
+        "{far}"
+    );
+    assert!(t.lines().count() == 7);
+
+    // Mistakes.
+    std::fs::write(d.join("bad.csv"), "posture,v1,v2,v3,v4\n1,0,0,zero,0\n").unwrap();
+    let err = run_err(
+        d,
+        &[
+            "compensate",
+            "--robot",
+            "true.toml",
+            "--nominal",
+            "ge-a4",
+            "--in",
+            "bad.csv",
+            "--out",
+            "o.csv",
+        ],
+    );
+    assert!(
+        err.contains("bad.csv:2: field `v3`: expected a number, found `zero`"),
+        "{err}"
+    );
+    assert!(!d.join("o.csv").exists(), "a failed run writes nothing");
+    std::fs::write(d.join("odd.csv"), "id,a,b\n1,2,3\n").unwrap();
+    let err = run_err(
+        d,
+        &[
+            "compensate",
+            "--robot",
+            "true.toml",
+            "--nominal",
+            "ge-a4",
+            "--in",
+            "odd.csv",
+            "--out",
+            "o.csv",
+        ],
+    );
+    assert!(
+        err.contains("expected a program (posture,v1,...,v4) or targets"),
+        "{err}"
+    );
+    let err = run_err(
+        d,
+        &[
+            "compensate",
+            "--robot",
+            "true.toml",
+            "--nominal",
+            "ge-a4",
+            "--in",
+            "targets.csv",
+            "--out",
+            "o.csv",
+            "--site",
+            "tcp",
+        ],
+    );
+    assert!(err.contains("`tcp` is not a site"), "{err}");
+    let err = run_err(
+        d,
+        &[
+            "compensate",
+            "--robot",
+            "true.toml",
+            "--nominal",
+            "ge-a4",
+            "--in",
+            "targets.csv",
+            "--out",
+            "targets.csv",
+        ],
+    );
+    assert!(err.contains("over an input"), "{err}");
+}
+
+/// `kinecal import ur` and `kinecal export ur` on a real UR3e factory calibration: the round
+/// trip is exact, and a slope the file cannot hold is named with its deviation.
+#[test]
+fn ur_kinematics_round_trip_and_what_is_not_written() {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/urdf/universal_robots/real_factory_calibration_ur3e");
+    if !d.exists() {
+        assert!(std::env::var_os("CI").is_none());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path();
+    std::fs::copy(d.join("ur3e_calibration_1.yaml"), t.join("cal.yaml")).unwrap();
+    run_ok(t, &["import", "ur", "cal.yaml", "--out", "ur3e.toml"]);
+    let out = kinecal()
+        .current_dir(t)
+        .args([
+            "export",
+            "ur",
+            "--robot",
+            "ur3e.toml",
+            "--template",
+            "cal.yaml",
+            "--out",
+            "back.yaml",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("(exact)"));
+    // The same poses from the file written back.
+    std::fs::write(
+        t.join("p.csv"),
+        "posture,v1,v2,v3,v4,v5,v6\n1,0.1,-1.2,1.5,-0.3,1.57,0.2\n2,2,-0.5,-1,1,-1,3\n",
+    )
+    .unwrap();
+    run_ok(t, &["import", "ur", "back.yaml", "--out", "back.toml"]);
+    let a = run_ok(t, &["fk", "--robot", "ur3e.toml", "--postures", "p.csv"]);
+    let b = run_ok(t, &["fk", "--robot", "back.toml", "--postures", "p.csv"]);
+    let nums = |s: &str| -> Vec<f64> {
+        s.lines()
+            .skip(1)
+            .flat_map(|l| {
+                l.split(',')
+                    .skip(8)
+                    .map(|v| v.parse::<f64>().unwrap())
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    for (x, y) in nums(&a).iter().zip(nums(&b)) {
+        assert!((x - y).abs() < 1e-9, "{a}\n{b}");
+    }
+    // A transducer slope: written without it, and said so.
+    let toml = std::fs::read_to_string(t.join("ur3e.toml")).unwrap();
+    let changed = toml.replacen("slope = 1.0", "slope = 1.001", 1);
+    assert_ne!(toml, changed, "the robot file has slopes");
+    std::fs::write(t.join("sloped.toml"), changed).unwrap();
+    let out = kinecal()
+        .current_dir(t)
+        .args([
+            "export",
+            "ur",
+            "--robot",
+            "sloped.toml",
+            "--template",
+            "cal.yaml",
+            "--out",
+            "s.yaml",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("not written: joint 1 (shoulder_pan_joint) slope 1.001"),
+        "{err}"
+    );
 }

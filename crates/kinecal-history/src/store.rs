@@ -722,18 +722,46 @@ impl Database {
             version: SCHEMA_VERSION,
             integrity: None,
         };
-        db.conn
-            .query_row("PRAGMA journal_mode = WAL", [], |r| r.get::<_, String>(0))
-            .map_err(|e| {
-                db.err(format!(
-                    "cannot enable the WAL journal (is the location writable?): {e}"
-                ))
-            })?;
+        db.enable_wal()?;
         db.conn
             .execute_batch("PRAGMA foreign_keys = ON; PRAGMA synchronous = NORMAL;")
             .map_err(|e| db.err(e))?;
         db.migrate(version)?;
         Ok(db)
+    }
+
+    /// Switches the file to the WAL journal unless it already is. SQLite answers a journal-mode
+    /// change that meets another process's lock with "database is locked" at once, without
+    /// calling the busy handler (typical when several processes create the same file at the
+    /// same moment), so the change is retried here within the same 30 s as any other lock.
+    fn enable_wal(&self) -> Result<()> {
+        let mode = |sql: &str| self.conn.query_row(sql, [], |r| r.get::<_, String>(0));
+        let deadline = std::time::Instant::now() + Duration::from_secs(30);
+        let mut pause = Duration::from_millis(2);
+        loop {
+            let attempt = match mode("PRAGMA journal_mode") {
+                Ok(m) if m.eq_ignore_ascii_case("wal") => return Ok(()),
+                Ok(_) => mode("PRAGMA journal_mode = WAL").map(|_| ()),
+                Err(e) => Err(e),
+            };
+            match attempt {
+                Ok(()) => return Ok(()),
+                Err(e)
+                    if matches!(
+                        e.sqlite_error_code(),
+                        Some(ErrorCode::DatabaseBusy | ErrorCode::DatabaseLocked)
+                    ) && std::time::Instant::now() < deadline =>
+                {
+                    std::thread::sleep(pause);
+                    pause = (pause * 2).min(Duration::from_millis(100));
+                }
+                Err(e) => {
+                    return Err(self.err(format!(
+                        "cannot enable the WAL journal (is the location writable?): {e}"
+                    )))
+                }
+            }
+        }
     }
 
     /// Opens an existing database for reading only (`SQLITE_OPEN_READ_ONLY`): never creates a

@@ -44,7 +44,7 @@ fn cap(s: &str) -> String {
         .unwrap_or_default()
 }
 
-fn esc(s: &str) -> String {
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -174,8 +174,20 @@ fn validation_tables(
     }
 }
 
+/// The start of a self-contained page titled `title` (escaped here): the shared inline style,
+/// up to the opening `<body>`.
+pub(crate) fn page_head(title: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n\
+         <style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}\
+         table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}\
+         th{{background:#eee}}td.l,th.l{{text-align:left}}.warn{{color:#a33}}svg{{max-width:100%;height:auto}}.charts{{display:flex;flex-wrap:wrap;gap:0}}.charts svg{{max-width:50%}}</style></head><body>\n",
+        esc(title)
+    )
+}
+
 /// Each panel as its own inline SVG, side by side while the page is wide enough.
-fn charts(panels: &[Panel]) -> Result<String, DrawError> {
+pub(crate) fn charts(panels: &[Panel]) -> Result<String, DrawError> {
     let mut out = String::from("<div class=\"charts\">");
     for p in panels {
         out += &inline(render_svg(std::slice::from_ref(p), 1)?);
@@ -185,7 +197,7 @@ fn charts(panels: &[Panel]) -> Result<String, DrawError> {
 }
 
 /// A round bin width (1, 2 or 5 times a power of ten) near `w`.
-fn nice_width(w: f64) -> f64 {
+pub(crate) fn nice_width(w: f64) -> f64 {
     let p = 10f64.powf(w.log10().floor());
     let m = w / p;
     p * if m <= 1.0 {
@@ -208,15 +220,7 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         outcome.uncertainty.as_ref(),
     );
     let (l, a) = (&rep.length_unit, &rep.angle_unit);
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>kinecal calibration report: {}</title>\n\
-         <style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}\
-         table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}\
-         th{{background:#eee}}td.l,th.l{{text-align:left}}.warn{{color:#a33}}svg{{max-width:100%;height:auto}}.charts{{display:flex;flex-wrap:wrap;gap:0}}.charts svg{{max-width:50%}}</style></head><body>\n",
-        esc(&rep.robot)
-    );
+    let mut h = page_head(&format!("kinecal calibration report: {}", rep.robot));
     let _ = writeln!(h, "<h1>Calibration report: {}</h1>", esc(&rep.robot));
     let kinds = rep
         .observations

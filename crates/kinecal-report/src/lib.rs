@@ -7,6 +7,7 @@
 
 mod chart;
 mod html;
+pub mod plan;
 
 pub use chart::{render_png, render_svg, Line, Panel};
 pub use html::html_report;

@@ -393,11 +393,20 @@ pub fn analyze(
     // Fewer residuals than parameters (a plan, or a short test): zero rows change neither the
     // singular values nor the right singular vectors, and give the full n x n set of them.
     let pad = |a: &Matrix| Matrix::from_fn(m.max(n), n, |i, j| if i < m { a[(i, j)] } else { 0.0 });
-    let svd = linalg::thin_svd(&pad(&js))
-        .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
-    let sv_file = linalg::singular_values(&pad(&jacobian_file))
-        .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
-    let s = &svd.s;
+    // Singular values and right vectors from the QR's R: no m x n U is formed.
+    let (s_scaled, v_scaled, r_scaled) = if m >= n {
+        linalg::right_svd(&js)
+    } else {
+        linalg::right_svd(&pad(&js))
+    }
+    .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+    let sv_file = if m >= n {
+        linalg::singular_values_qr(&jacobian_file)
+    } else {
+        linalg::singular_values_qr(&pad(&jacobian_file))
+    }
+    .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+    let s = &s_scaled;
     let smax = s.first().copied().unwrap_or(0.0);
     let rank = s.iter().filter(|&&v| v > opts.rcond * smax).count();
     // The largest gap, on a log scale, between consecutive singular values.
@@ -434,7 +443,7 @@ pub fn analyze(
 
     // Null space (scaled coordinates) and which parameters it touches.
     let null: Vec<Vec<f64>> = (rank..n)
-        .map(|k| (0..n).map(|j| svd.v[(j, k)]).collect())
+        .map(|k| (0..n).map(|j| v_scaled[(j, k)]).collect())
         .collect();
     let determined: Vec<bool> = (0..n)
         .map(|j| null.iter().map(|v| v[j] * v[j]).sum::<f64>().sqrt() < 1e-6)
@@ -452,7 +461,10 @@ pub fn analyze(
             if group_of[j].is_some() || unobservable.contains(&params[j]) {
                 continue;
             }
-            let dot: f64 = (0..m).map(|k| js[(k, i)] * js[(k, j)]).sum();
+            // On R's columns: the same inner products as the Jacobian's, n long instead of m.
+            let dot: f64 = (0..r_scaled.nrows())
+                .map(|k| r_scaled[(k, i)] * r_scaled[(k, j)])
+                .sum();
             if (dot.abs() - 1.0).abs() < 1e-10 {
                 g.push((j, dot.signum()));
             }
@@ -523,8 +535,9 @@ pub fn analyze(
         .iter()
         .filter_map(|id| params.iter().position(|p| p == id))
         .collect();
+    // On R's columns (n long, the same inner products as the scaled Jacobian's m-long ones).
     let identifiable = select_base(
-        &js,
+        &r_scaled,
         &order,
         rank,
         opts.rcond * smax,
@@ -613,7 +626,7 @@ pub fn analyze(
         jacobian_file,
         row_labels,
         column_norms,
-        right_singular_vectors: svd.v,
+        right_singular_vectors: v_scaled,
     })
 }
 
@@ -630,7 +643,8 @@ fn tidy_coef(c: f64) -> f64 {
 /// Greedy base selection: tiers from the priority list (each user-given parameter its own tier,
 /// then the default tiers), and within a tier the column with the largest residual after
 /// projection on the already chosen ones (QR with column pivoting), while that residual exceeds
-/// `tol`.
+/// `tol`; residuals within 1e-9 of each other are a tie, won by the earlier in `order`. `js` may
+/// be the scaled Jacobian or the `R` of its QR (the same inner products, n rows instead of m).
 fn select_base(
     js: &Matrix,
     order: &[usize],
@@ -669,7 +683,8 @@ fn select_base(
                 }
             }
             let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if best.as_ref().is_none_or(|b| norm > b.1) {
+            // Equal up to rounding is a tie, which the order decides.
+            if best.as_ref().is_none_or(|b| norm > b.1 * (1.0 + 1e-9)) {
                 best = Some((j, norm, v));
             }
         }

@@ -281,6 +281,29 @@ impl<'r> Chain<'r> {
     /// global angular velocity per unit `p` in rows 3-5. Parameters that cannot move the target
     /// get zero columns.
     pub fn jacobian(&self, ws: &Workspace, target: Target, out: &mut [f64]) {
+        self.jacobian_of(ws, target, None, out);
+    }
+
+    /// [`Chain::jacobian`] for the parameters `wanted` marks (indexed by parameter number) only:
+    /// the other columns are left zero and cost nothing (a link none of whose six parameters is
+    /// wanted is skipped whole).
+    pub fn jacobian_wanted(
+        &self,
+        ws: &Workspace,
+        target: Target,
+        wanted: &[bool],
+        out: &mut [f64],
+    ) {
+        self.jacobian_of(ws, target, Some(wanted), out);
+    }
+
+    fn jacobian_of(
+        &self,
+        ws: &Workspace,
+        target: Target,
+        wanted: Option<&[bool]>,
+        out: &mut [f64],
+    ) {
         let robot = self.robot;
         let (nl, nj) = (robot.links.len(), robot.dof());
         assert_eq!(
@@ -298,7 +321,11 @@ impl<'r> Chain<'r> {
                 (k, k)
             }
         };
+        let want = |col: usize| wanted.is_none_or(|w| w[col]);
         let mut put = |col: usize, dp: Vector3<f64>, w: Vector3<f64>| {
+            if !want(col) {
+                return;
+            }
             let c = &mut out[6 * col..6 * col + 6];
             c[0] = dp.x;
             c[1] = dp.y;
@@ -308,6 +335,9 @@ impl<'r> Chain<'r> {
             c[5] = w.z;
         };
         let mut link_columns = |first_col: usize, prox: &Frame, cache: &LinkCache| {
+            if !(first_col..first_col + 6).any(want) {
+                return;
+            }
             let r = &prox.rotation;
             for k in 0..3 {
                 put(first_col + k, r.column(k).into_owned(), Vector3::zeros());
@@ -330,12 +360,7 @@ impl<'r> Chain<'r> {
             link_columns(6 * nl + 2 * nj + 6 * s, &ws.prox[k], &self.sites[s]);
         }
         for j in 0..joints_upto {
-            let f = &ws.dist[j];
-            let u = f.rotation.column(2).into_owned();
-            let (dp, w) = match robot.joints[j].kind {
-                JointKind::Revolute => (u.cross(&(e - f.translation)), u),
-                JointKind::Prismatic => (u, Vector3::zeros()),
-            };
+            let (dp, w) = self.joint_motion(ws, j, &e);
             let v = ws.readings[j];
             put(6 * nl + j, dp, w);
             put(6 * nl + nj + j, dp * v, w * v);
@@ -346,6 +371,64 @@ impl<'r> Chain<'r> {
                     dp * vk,
                     w * vk,
                 );
+            }
+        }
+    }
+}
+
+impl Chain<'_> {
+    /// How a point `e` (global) moves per unit of joint `j`'s variable, and the frame's angular
+    /// velocity: `(u x (e - o), u)` for a revolute joint of axis `u` through `o`, `(u, 0)` for a
+    /// prismatic one (after [`Chain::forward`]).
+    #[inline]
+    fn joint_motion(
+        &self,
+        ws: &Workspace,
+        j: usize,
+        e: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let f = &ws.dist[j];
+        let u = f.rotation.column(2).into_owned();
+        match self.robot.joints[j].kind {
+            JointKind::Revolute => (u.cross(&(e - f.translation)), u),
+            JointKind::Prismatic => (u, Vector3::zeros()),
+        }
+    }
+
+    /// Writes the Jacobian of `target` (after [`Chain::forward`]) with respect to the
+    /// transducer *readings* into `out`, a column-major 6 x `dof` block: column `i` holds
+    /// `d(origin)/dV_i` in rows 0-2 and the global angular velocity per unit `V_i` in rows 3-5.
+    /// A reading moves its own joint by `slope` and every joint coupled to it by the coupling
+    /// factor. Joints downstream of a site's joint get zero columns for that site. Does not
+    /// allocate.
+    pub fn reading_jacobian(&self, ws: &Workspace, target: Target, out: &mut [f64]) {
+        let robot = self.robot;
+        let nj = robot.dof();
+        assert_eq!(
+            out.len(),
+            6 * nj,
+            "reading Jacobian block has the wrong size"
+        );
+        out.fill(0.0);
+        let e = self.target_frame(ws, target).translation;
+        let joints_upto = match target {
+            Target::EndEffector => nj,
+            Target::Site(s) => robot.sites[s].joint,
+        };
+        for j in 0..joints_upto {
+            let (dp, w) = self.joint_motion(ws, j, &e);
+            // dq_j/dV_j = slope_j; dq_j/dV_k = factor for the reading it is coupled to.
+            let joint = &robot.joints[j];
+            let mut add = |col: usize, scale: f64| {
+                let c = &mut out[6 * col..6 * col + 6];
+                for k in 0..3 {
+                    c[k] += dp[k] * scale;
+                    c[3 + k] += w[k] * scale;
+                }
+            };
+            add(j, joint.slope);
+            if let Some(c) = joint.coupling {
+                add(c.joint, c.factor);
             }
         }
     }

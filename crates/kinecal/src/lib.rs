@@ -14,13 +14,17 @@
 //! [`estimation`] (one solver driver, four step rules, robust loss) -> [`identifiability`]
 //! (rank, redundancies, base set) -> [`uncertainty`] (covariance, significance) and
 //! [`outliers`] -> [`workflow`] (request to outcome: the calibration procedure) -> [`report`]
-//! (the outcome as a document). Around them: [`robot_file`] (robot TOML), [`import`] (URDF,
-//! DH, POE), [`datasets`] (public data sets), [`simulate`], [`curves`], [`source`] (files with
-//! their fingerprints), [`warning`] and [`error`].
+//! (the outcome as a document). Before a calibration, [`plan`] chooses the postures to
+//! measure; after it, [`compensate`] puts it to work (readings that make the real robot reach
+//! what was meant). Around them: [`robot_file`] (robot TOML), [`import`] (URDF, DH, POE and UR
+//! kinematics in, URDF, DH, UR kinematics and joint tables out), [`datasets`] (public data
+//! sets), [`simulate`], [`curves`], [`source`] (files with their fingerprints), [`warning`] and
+//! [`error`].
 //!
 //! Conventions: internally metres and radians (see [`units`]); files are in the units their robot
 //! file declares. Parameters are numbered as the thesis numbers them (see [`params`]).
 
+pub mod compensate;
 pub mod curves;
 pub mod datasets;
 pub mod error;
@@ -34,6 +38,7 @@ pub mod observe;
 pub mod outliers;
 pub mod param_list;
 pub mod params;
+pub mod plan;
 pub mod problem;
 pub mod registration;
 pub mod report;

@@ -24,6 +24,9 @@ pub struct Problem<'a> {
     weight: Vec<f64>,
     row_scale: Option<&'a [f64]>,
     columns: Vec<Option<usize>>,
+    /// Per parameter number: whether it is estimated (the Jacobian columns to compute), and the
+    /// parameters the observations themselves read (plane columns of contacts).
+    wanted: Vec<bool>,
 }
 
 impl<'a> Problem<'a> {
@@ -54,6 +57,7 @@ impl<'a> Problem<'a> {
             }
         }
         let weight = sigma.iter().map(|s| 1.0 / s).collect();
+        let wanted = columns.iter().map(Option::is_some).collect();
         Problem {
             base,
             data,
@@ -63,6 +67,7 @@ impl<'a> Problem<'a> {
             weight,
             row_scale: None,
             columns,
+            wanted,
         }
     }
 
@@ -146,7 +151,7 @@ impl<'a> Problem<'a> {
                 let ws = cache.posture(&chain, self.data, v.posture);
                 frames[vi] = chain.target_frame(ws, v.target);
                 if jac.is_some() {
-                    chain.jacobian(ws, v.target, &mut full);
+                    chain.jacobian_wanted(ws, v.target, &self.wanted, &mut full);
                     for (c, id) in self.estimated.iter().enumerate() {
                         blocks[vi][6 * c..6 * c + 6].copy_from_slice(&full[6 * id.0..6 * id.0 + 6]);
                     }

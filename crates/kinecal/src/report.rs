@@ -315,6 +315,16 @@ pub struct PruneReport {
     pub full_rms_orientation_after: Option<f64>,
 }
 
+/// The wall time of one phase.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PhaseTime {
+    /// The phase (`reading`, `preparation`, `selection`, `estimation`, `pruning`,
+    /// `uncertainty`, `report`, `cross-validation`, `writing`).
+    pub phase: String,
+    /// Seconds.
+    pub seconds: f64,
+}
+
 /// The calibration report written by `kinecal calibrate --report`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CalibrationReport {
@@ -417,6 +427,10 @@ pub struct CalibrationReport {
     /// Under a Huber loss, the residual rows it down-weighted (beyond its threshold).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub down_weighted_rows: Option<usize>,
+    /// Wall time of each phase of the calibration, in the order they first ran (a caller may
+    /// add its own, such as reading the files).
+    #[serde(default)]
+    pub timings: Vec<PhaseTime>,
     /// Measurements beyond the outlier threshold (listed, not dropped).
     pub outliers: Vec<OutlierReport>,
     /// The threshold used, in robust standard deviations.
@@ -517,6 +531,7 @@ impl CalibrationReport {
                     Some(cal.row_scale.iter().filter(|&&w| w < 1.0 - 1e-9).count())
                 }
             },
+            timings: Vec::new(),
             outliers: Vec::new(),
             outlier_sigmas: crate::outliers::DEFAULT_SIGMAS,
             robot_file_sha256: None,

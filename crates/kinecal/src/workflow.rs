@@ -368,9 +368,11 @@ impl Request {
     }
 }
 
-/// The phases of a calibration, for progress displays.
+/// The phases of a calibration, for progress displays and the report's timings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
+    /// Checking the data and placing the measurement frame (before the first other phase).
+    Preparation,
     /// Choosing the identifiable parameters.
     Selection,
     /// Estimating (iterations follow).
@@ -381,6 +383,52 @@ pub enum Phase {
     Pruning,
     /// Validation, outliers and the report.
     Report,
+    /// Cross-validation (a calibration per fold).
+    CrossValidation,
+}
+
+impl Phase {
+    /// The phase's name in reports (`estimation`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Phase::Preparation => "preparation",
+            Phase::Selection => "selection",
+            Phase::Estimation => "estimation",
+            Phase::Uncertainty => "uncertainty",
+            Phase::Pruning => "pruning",
+            Phase::Report => "report",
+            Phase::CrossValidation => "cross-validation",
+        }
+    }
+}
+
+/// Passes progress on, and clocks each phase (wall time).
+struct Clock<'a> {
+    inner: &'a mut dyn Progress,
+    current: (Phase, std::time::Instant),
+    times: Vec<(Phase, f64)>,
+}
+
+impl Clock<'_> {
+    fn lap(&mut self, next: Phase) {
+        let (phase, since) =
+            std::mem::replace(&mut self.current, (next, std::time::Instant::now()));
+        let t = since.elapsed().as_secs_f64();
+        match self.times.iter_mut().find(|(p, _)| *p == phase) {
+            Some(e) => e.1 += t,
+            None => self.times.push((phase, t)),
+        }
+    }
+}
+
+impl Progress for Clock<'_> {
+    fn phase(&mut self, phase: Phase) {
+        self.lap(phase);
+        self.inner.phase(phase);
+    }
+    fn iteration(&mut self, it: &Iteration) {
+        self.inner.iteration(it);
+    }
 }
 
 /// Receives the progress of a calibration. Both methods do nothing by default.
@@ -485,7 +533,28 @@ pub struct Outcome {
 }
 
 /// Runs a calibration.
+///
+/// The report's `timings` give the wall time of each [`Phase`] that ran.
 pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
+    let mut clock = Clock {
+        inner: progress,
+        current: (Phase::Preparation, std::time::Instant::now()),
+        times: Vec::new(),
+    };
+    let mut outcome = run_clocked(req, &mut clock)?;
+    clock.lap(Phase::Report);
+    outcome.report.timings = clock
+        .times
+        .iter()
+        .map(|&(p, seconds)| crate::report::PhaseTime {
+            phase: p.as_str().to_string(),
+            seconds,
+        })
+        .collect();
+    Ok(outcome)
+}
+
+fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     if !(req.outlier_sigmas.is_finite() && req.outlier_sigmas > 0.0) {
         return Err(Error::InvalidOption {
             option: "outlier threshold",
@@ -664,6 +733,7 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     }
     outcome.registration = registration;
     if let Validation::Folds { k, seed } = req.validation {
+        progress.phase(Phase::CrossValidation);
         let cv = cross_validate(req, k, seed)?;
         outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot.units));
         outcome.cross_validation = Some(cv);

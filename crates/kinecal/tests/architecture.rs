@@ -71,6 +71,8 @@ fn modules_import_in_one_direction() {
         "import",
         "examples",
         "simulate",
+        "plan",
+        "compensate",
         "curves",
         "datasets",
     ];

@@ -356,6 +356,32 @@ x = 100
     });
 }
 
+/// Universal Robots kinematics files: the description's defaults and the real factory
+/// calibrations as seeds.
+#[test]
+fn ur_kinematics_files() {
+    let dir = repo().join("../shared/data/urdf/universal_robots");
+    let mut seeds = vec![b"kinematics:\n  shoulder:\n    x: 0\n    y: 0\n    z: 0.15\n    roll: 0\n    pitch: 0\n    yaw: 0\n  hash: calib_1\n".to_vec()];
+    for f in [
+        "config/ur3e/default_kinematics.yaml",
+        "real_factory_calibration_ur3e/ur3e_calibration_1.yaml",
+    ] {
+        if let Ok(b) = std::fs::read(dir.join(f)) {
+            seeds.push(b);
+        }
+    }
+    fuzz("ur", "k.yaml", &seeds, &|b| {
+        let t = match read_text(b, "k.yaml") {
+            Ok(t) => t,
+            Err(o) => return o,
+        };
+        outcome(
+            kinecal::import::ur::import_ur(&t, "k.yaml").map(|i| i.robot),
+            check_robot,
+        )
+    });
+}
+
 #[test]
 fn report_json() {
     let robot = examples::ge_a4();

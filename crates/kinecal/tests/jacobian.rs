@@ -199,3 +199,28 @@ fn euler_extraction_round_trips() {
     let f = kinecal::Chain::new(&robot).frame_at(&[0.3, -0.2], Target::EndEffector);
     assert!((rot_zyx(p.euler.x, p.euler.y, p.euler.z) - f.rotation).norm() < 1e-12);
 }
+
+/// The Jacobian of the wanted parameters only: those columns equal the full Jacobian's, the
+/// others are zero.
+#[test]
+fn the_jacobian_of_wanted_parameters_is_the_full_ones_columns() {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+    let robot = kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 8);
+    let chain = kinecal::Chain::new(&robot);
+    let mut ws = kinecal::Workspace::new(&robot);
+    let np = robot.param_count();
+    let (mut full, mut some) = (vec![0.0; 6 * np], vec![0.0; 6 * np]);
+    for p in kinecal::simulate::sample_postures(&robot, 20, 2) {
+        chain.forward(&p.readings, &mut ws);
+        let wanted: Vec<bool> = (0..np).map(|_| rng.random_range(0..3) == 0).collect();
+        chain.jacobian(&ws, kinecal::Target::EndEffector, &mut full);
+        chain.jacobian_wanted(&ws, kinecal::Target::EndEffector, &wanted, &mut some);
+        for (c, w) in wanted.iter().enumerate() {
+            for k in 0..6 {
+                let want = if *w { full[6 * c + k] } else { 0.0 };
+                assert_eq!(some[6 * c + k].to_bits(), want.to_bits(), "column {c}");
+            }
+        }
+    }
+}

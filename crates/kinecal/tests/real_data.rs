@@ -294,3 +294,111 @@ fn cross_validation_and_model_choice_on_real_data() {
         choice.scored
     );
 }
+
+/// Measurement planning on real data (issue: plan the measurements): of the 46 QKM
+/// identification postures, the 20 a D-optimal plan picks (for the geometric identifiable set,
+/// and for the set with the slopes) calibrate to a held-out error on the 9 test points no worse
+/// than the median of 100 random choices of 20.
+#[test]
+fn a_plan_of_20_qkm_postures_is_no_worse_than_the_median_random_20() {
+    use kinecal::plan::{plan, PlanRequest};
+    use kinecal::workflow::{run, Request, Selection};
+    use rand::{seq::SliceRandom, SeedableRng};
+    let Some(d) = data() else { return };
+    let robot = &d.robot;
+    let pool = &d.identification;
+    assert_eq!(pool.postures.len(), 46);
+    for (list, fix) in [
+        ("identifiable", Some("slopes")),
+        ("identifiable,slopes", None),
+    ] {
+        let selection = Selection::parse(list, fix, robot).unwrap();
+        let held_out = |keep: &[bool]| -> f64 {
+            let mut req = Request::new(robot.clone(), pool.subset(keep));
+            req.selection = selection.clone();
+            let out = run(&req, &mut ()).expect("calibrates");
+            accuracy(&out.calibration.calibrated, &d.validation).mean_position
+        };
+        let mut req = PlanRequest::new(robot.clone(), pool.clone(), 20);
+        req.selection = selection.clone();
+        let p = plan(&req).unwrap();
+        assert_eq!(p.rank, p.parameters.len(), "{list}");
+        let mut keep = vec![false; 46];
+        for q in &p.postures {
+            keep[q.candidate.unwrap()] = true;
+        }
+        let own = held_out(&keep);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20);
+        let mut order: Vec<usize> = (0..46).collect();
+        let mut random: Vec<f64> = (0..100)
+            .map(|_| {
+                order.shuffle(&mut rng);
+                let mut keep = vec![false; 46];
+                for &i in &order[..20] {
+                    keep[i] = true;
+                }
+                held_out(&keep)
+            })
+            .collect();
+        random.sort_by(f64::total_cmp);
+        let median = random[50];
+        eprintln!(
+            "QKM {list}: plan of 20 {:.3} mm held-out mean, random 20: median {median:.3} mm \
+             (best {:.3}, worst {:.3}); D-efficiency {:.3}",
+            own * 1e3,
+            random[0] * 1e3,
+            random[99] * 1e3,
+            p.efficiency.unwrap_or(f64::NAN),
+            median = median * 1e3,
+        );
+        assert!(own <= median, "{list}: {own} against the median {median}");
+    }
+}
+
+/// Compensation on real data (issue: put the calibration to work): the calibrated model's
+/// readings for the 9 held-out QKM points (position goals: where the tracker saw the reflector,
+/// seeded by the recorded readings), pushed through the model fitted on all 55 points (the best
+/// estimate of the real robot), land on the intended positions to within the held-out error the
+/// calibration reported.
+#[test]
+fn compensated_readings_land_on_the_held_out_points() {
+    use kinecal::compensate::{Compensator, Goal, Options};
+    use kinecal::workflow::{run, Request, Selection};
+    use kinecal::Observation;
+    let Some(d) = data() else { return };
+    let robot = &d.robot;
+    let fit = |data: &kinecal::Dataset| {
+        let mut req = Request::new(robot.clone(), data.clone());
+        req.selection = Selection::parse("identifiable,slopes", None, robot).unwrap();
+        run(&req, &mut ()).unwrap().calibration.calibrated
+    };
+    let calibrated = fit(&d.identification);
+    let all = fit(&d.identification.clone().merge(d.validation.clone()));
+    let held_out = accuracy(&calibrated, &d.validation);
+    let mut c = Compensator::new(&calibrated, robot, Options::default()).unwrap();
+    let chain = kinecal::Chain::new(&all);
+    let mut out = vec![0.0; 6];
+    let mut errors = Vec::new();
+    for o in &d.validation.observations {
+        let Observation::Position(p) = o else {
+            panic!("positions only")
+        };
+        let view = p.view[0];
+        let seed = &d.validation.postures[view.posture].readings;
+        let s = c.solve(&Goal::Position(p.position), view.target, seed, &mut out);
+        assert!(!s.flags.any(), "{}", s.flags.describe());
+        let landed = chain.frame_at(&out, view.target).translation;
+        errors.push((landed - p.position).norm());
+    }
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let max = errors.iter().copied().fold(0.0, f64::max);
+    eprintln!(
+        "compensated: mean {:.3} mm, max {:.3} mm off the intended points; the calibration's \
+         held-out error: mean {:.3} mm, max {:.3} mm",
+        mean * 1e3,
+        max * 1e3,
+        held_out.mean_position * 1e3,
+        held_out.max_position * 1e3
+    );
+    assert!(mean <= held_out.mean_position && max <= held_out.max_position);
+}

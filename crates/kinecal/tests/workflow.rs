@@ -331,3 +331,47 @@ fn model_choice_keeps_slopes_only_when_the_data_earns_them() {
         .to_string();
     assert!(e.contains("fixx=slopes"), "{e}");
 }
+
+/// The report clocks every phase that ran, in the order they first ran, and the phases a
+/// progress display is told about are the same.
+#[test]
+fn the_report_gives_the_time_of_each_phase() {
+    struct Seen(Vec<workflow::Phase>);
+    impl workflow::Progress for Seen {
+        fn phase(&mut self, p: workflow::Phase) {
+            self.0.push(p);
+        }
+    }
+    let (robot, data) = session();
+    let mut req = Request::new(robot, data);
+    req.selection = Selection::parse("identifiable", None, &req.robot).unwrap();
+    req.validation = Validation::Folds { k: 3, seed: None };
+    let mut seen = Seen(Vec::new());
+    let out = workflow::run(&req, &mut seen).unwrap();
+    let names: Vec<&str> = out
+        .report
+        .timings
+        .iter()
+        .map(|t| t.phase.as_str())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "preparation",
+            "selection",
+            "estimation",
+            "uncertainty",
+            "report",
+            "cross-validation"
+        ]
+    );
+    let told: Vec<&str> = seen.0.iter().map(|p| p.as_str()).collect();
+    assert_eq!(told, names[1..]);
+    assert!(out
+        .report
+        .timings
+        .iter()
+        .all(|t| t.seconds.is_finite() && t.seconds >= 0.0));
+    // The JSON report carries them.
+    assert!(out.report.to_json().contains("\"timings\""));
+}

@@ -416,7 +416,7 @@ fn fmt_num(v: f64) -> String {
 
 /// The URDF `rpy` of a rotation: of the two equivalent ZYX solutions, the one closer to `near`
 /// (the origin's previous angles), so that a small calibration gives small changes.
-fn rpy_near(r: &Matrix3<f64>, near: &Matrix3<f64>) -> [f64; 3] {
+pub(crate) fn rpy_near(r: &Matrix3<f64>, near: &Matrix3<f64>) -> [f64; 3] {
     use crate::units::wrap_angle;
     use std::f64::consts::PI;
     let e = euler_zyx(r);

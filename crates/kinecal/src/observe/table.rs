@@ -71,18 +71,26 @@ pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
         .from_reader(text.as_bytes());
     let loc = Location::file(file);
     // The reader's positions point just after the previous record, before any blank lines:
-    // the real line is the first non-blank one from there.
+    // the real line is the first non-blank one from there. Lines are counted incrementally
+    // (records come in order), so reading stays linear in the file's length.
+    let counted = std::cell::Cell::new((0usize, 1usize)); // (byte, line number at that byte)
     let line_at = |p: &csv::Position| -> usize {
         let start = (p.byte() as usize).min(text.len());
         let skip = text.as_bytes()[start..]
             .iter()
             .take_while(|b| b.is_ascii_whitespace())
             .count();
-        text.as_bytes()[..start + skip]
+        let target = start + skip;
+        let (mut at, mut line) = counted.get();
+        if target < at {
+            (at, line) = (0, 1);
+        }
+        line += text.as_bytes()[at..target]
             .iter()
             .filter(|&&b| b == b'\n')
-            .count()
-            + 1
+            .count();
+        counted.set((target, line));
+        line
     };
     let csv_err = |e: csv::Error| {
         let at = match e.position() {

@@ -1,0 +1,613 @@
+//! `kinecal batch`: calibrate every robot of a manifest, in parallel (the fleet case).
+//!
+//! Each robot is the calibration `kinecal calibrate` runs with the manifest row's arguments
+//! ([`crate::calibrate`]'s three steps): its outputs are written when it succeeds, whatever the
+//! others do. The calibrations run on a thread pool (`rayon`); recording in the history is done
+//! afterwards, in manifest order, by one writer.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use anyhow::{anyhow, bail, Context as _, Result};
+use clap::Parser as _;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use kinecal::units::Quantity;
+use kinecal::workflow::Outcome;
+use rayon::prelude::*;
+
+use crate::args::{BatchArgs, CalibrateArgs, Cli, Command};
+use crate::calibrate::{prepare, solve, stage_outputs, Prepared};
+use crate::{history, output, EXIT_IMPLAUSIBLE, EXIT_NOT_CONVERGED};
+
+/// One robot of the manifest.
+struct Entry {
+    serial: String,
+    /// Where the row is (`fleet.csv:3`), for messages.
+    at: String,
+    /// Calibrate's arguments, or why the row cannot be run.
+    args: std::result::Result<CalibrateArgs, String>,
+}
+
+/// How one robot's calibration ended.
+enum Status {
+    Ok,
+    NotConverged,
+    /// `--strict` and a warning that the result is most likely wrong: nothing written.
+    Flagged,
+    Failed(String),
+}
+
+impl Status {
+    fn word(&self) -> String {
+        match self {
+            Status::Ok => "ok".into(),
+            Status::NotConverged => "not converged".into(),
+            Status::Flagged => "flagged (--strict): nothing written".into(),
+            Status::Failed(e) => format!("failed: {e}"),
+        }
+    }
+}
+
+/// A summary row.
+struct Row {
+    serial: String,
+    status: Status,
+    parameters: Option<usize>,
+    iterations: Option<usize>,
+    /// RMS error before and after (robot file's length unit), and its metric.
+    rms: Option<(f64, f64, &'static str)>,
+    /// Held-out mean error (validation data, hold-out or cross-validation).
+    held_out: Option<f64>,
+    unit: String,
+    warnings: Vec<String>,
+    /// The warnings that say the result is most likely wrong.
+    implausible: Vec<String>,
+}
+
+/// Splits an options string as a shell would: whitespace separates, single and double quotes
+/// group, a backslash escapes the next character.
+fn split_options(s: &str) -> std::result::Result<Vec<String>, String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut any = false;
+    let mut quote: Option<char> = None;
+    let mut chars = s.chars();
+    while let Some(c) = chars.next() {
+        match (quote, c) {
+            (Some(q), c) if c == q => quote = None,
+            (Some(_), c) => cur.push(c),
+            (None, '\'' | '"') => {
+                quote = Some(c);
+                any = true;
+            }
+            (None, '\\') => {
+                cur.extend(chars.next());
+                any = true;
+            }
+            (None, c) if c.is_whitespace() => {
+                if any || !cur.is_empty() {
+                    out.push(std::mem::take(&mut cur));
+                    any = false;
+                }
+            }
+            (None, c) => cur.push(c),
+        }
+    }
+    if let Some(q) = quote {
+        return Err(format!("unclosed {q} in the options"));
+    }
+    if any || !cur.is_empty() {
+        out.push(cur);
+    }
+    Ok(out)
+}
+
+/// A path of the manifest, relative to its folder.
+fn rebase(dir: &Path, p: &Path) -> PathBuf {
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        dir.join(p)
+    }
+}
+
+/// A robot argument: a built-in name stays, a file is taken relative to the manifest.
+fn rebase_robot(dir: &Path, spec: &str) -> String {
+    if kinecal::examples::builtin(spec).is_some() {
+        spec.to_string()
+    } else {
+        rebase(dir, Path::new(spec)).to_string_lossy().into_owned()
+    }
+}
+
+/// Calibrate's arguments for one row: `--robot`, `--data` and the options, parsed by the same
+/// definitions as `kinecal calibrate`, with every path taken relative to the manifest.
+fn calibrate_args(
+    dir: &Path,
+    robot: &str,
+    data: &str,
+    options: &[String],
+) -> std::result::Result<CalibrateArgs, String> {
+    let mut argv: Vec<String> = vec!["kinecal".into(), "calibrate".into(), "--robot".into()];
+    argv.push(robot.to_string());
+    if !data.is_empty() {
+        argv.push("--data".into());
+        argv.push(data.to_string());
+    }
+    argv.extend(options.iter().cloned());
+    let cli = Cli::try_parse_from(&argv).map_err(|e| {
+        e.to_string()
+            .lines()
+            .next()
+            .unwrap_or("invalid options")
+            .trim_start_matches("error: ")
+            .to_string()
+    })?;
+    let Command::Calibrate(mut a) = cli.command else {
+        unreachable!("the arguments name calibrate")
+    };
+    for (flag, given) in [
+        ("--record", a.record.is_some()),
+        ("--db", a.db.is_some()),
+        ("--at", a.at.is_some()),
+        ("--verbose", a.verbose),
+    ] {
+        if given {
+            return Err(format!(
+                "{flag} is not a per-robot option here: `kinecal batch --record` records every \
+                 robot under its serial"
+            ));
+        }
+    }
+    a.robot = rebase_robot(dir, &a.robot);
+    for (_, p) in &mut a.observations.files {
+        *p = rebase(dir, p);
+    }
+    for p in &mut a.validate {
+        *p = rebase(dir, p);
+    }
+    for p in [&mut a.out, &mut a.report, &mut a.html]
+        .into_iter()
+        .flatten()
+    {
+        *p = rebase(dir, p);
+    }
+    if let Some(i) = &mut a.initial {
+        *i = rebase_robot(dir, i);
+    }
+    Ok(a)
+}
+
+/// Options given as a TOML string or array of strings.
+fn toml_options(item: Option<&toml_edit::Item>, at: &str) -> Result<Vec<String>> {
+    match item {
+        None => Ok(Vec::new()),
+        Some(i) => {
+            if let Some(s) = i.as_str() {
+                return split_options(s).map_err(|e| anyhow!("{at}: options: {e}"));
+            }
+            let arr = i.as_array().ok_or_else(|| {
+                anyhow!("{at}: options: expected a string or an array of strings")
+            })?;
+            arr.iter()
+                .map(|v| {
+                    v.as_str()
+                        .map(str::to_string)
+                        .ok_or_else(|| anyhow!("{at}: options: expected an array of strings"))
+                })
+                .collect()
+        }
+    }
+}
+
+/// Reads the manifest (CSV, or TOML by its `.toml` extension).
+fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
+    let source = kinecal::source::Source::read(path)?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let name = path.display().to_string();
+    let mut entries = Vec::new();
+    let is_toml = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_toml {
+        let doc: toml_edit::DocumentMut = source
+            .text
+            .parse()
+            .map_err(|e: toml_edit::TomlError| anyhow!("{name}: {}", e.to_string().trim()))?;
+        let common = toml_options(doc.get("options"), &name)?;
+        let robots = doc
+            .get("robot")
+            .and_then(|r| r.as_array_of_tables())
+            .ok_or_else(|| anyhow!("{name}: no [[robot]] tables"))?;
+        for (k, t) in robots.iter().enumerate() {
+            let at = format!("{name}: robot {}", k + 1);
+            let field = |f: &str| -> Result<String> {
+                t.get(f)
+                    .map(|v| {
+                        v.as_str()
+                            .map(str::to_string)
+                            .ok_or_else(|| anyhow!("{at}: `{f}` must be a string"))
+                    })
+                    .transpose()
+                    .map(Option::unwrap_or_default)
+            };
+            let serial = field("serial")?;
+            let robot = field("robot")?;
+            if serial.is_empty() || robot.is_empty() {
+                bail!("{at}: `serial` and `robot` are required");
+            }
+            for key in t.iter().map(|(k, _)| k) {
+                if !["serial", "robot", "data", "options"].contains(&key) {
+                    bail!("{at}: unknown key `{key}` (expected serial, robot, data, options)");
+                }
+            }
+            let mut options = common.clone();
+            options.extend(toml_options(t.get("options"), &at)?);
+            let args = calibrate_args(dir, &robot, &field("data")?, &options);
+            entries.push(Entry { serial, at, args });
+        }
+    } else {
+        let mut rdr = csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .flexible(false)
+            .from_reader(source.text.as_bytes());
+        let header: Vec<String> = rdr
+            .headers()
+            .map_err(|e| anyhow!("{name}: {e}"))?
+            .iter()
+            .map(|h| h.trim_start_matches('\u{feff}').to_ascii_lowercase())
+            .collect();
+        let col = |c: &str| header.iter().position(|h| h == c);
+        if let Some(extra) = header
+            .iter()
+            .find(|h| !["serial", "robot", "data", "options"].contains(&h.as_str()))
+        {
+            bail!("{name}:1: unknown column `{extra}` (expected serial, robot, data, options)");
+        }
+        let (Some(s), Some(r)) = (col("serial"), col("robot")) else {
+            bail!(
+                "{name}:1: expected the header serial,robot,data[,options], found `{}`",
+                header.join(",")
+            );
+        };
+        let (d, o) = (col("data"), col("options"));
+        for rec in rdr.records() {
+            let rec = rec.map_err(|e| anyhow!("{name}: {e}"))?;
+            let line = rec.position().map_or(0, |p| p.line());
+            let at = format!("{name}:{line}");
+            let get = |i: Option<usize>| i.and_then(|i| rec.get(i)).unwrap_or("").to_string();
+            let serial = get(Some(s));
+            if serial.is_empty() {
+                bail!("{at}: the serial is empty");
+            }
+            let args = split_options(&get(o))
+                .and_then(|opts| calibrate_args(dir, &get(Some(r)), &get(d), &opts));
+            entries.push(Entry { serial, at, args });
+        }
+    }
+    if entries.is_empty() {
+        bail!("{name}: no robots listed");
+    }
+    let mut serials: Vec<&str> = entries.iter().map(|e| e.serial.as_str()).collect();
+    serials.sort_unstable();
+    if let Some(w) = serials.windows(2).find(|w| w[0] == w[1]) {
+        bail!("{name}: serial `{}` listed twice", w[0]);
+    }
+    // Two robots writing one file would race: refuse before anything runs.
+    let mut outputs: Vec<(PathBuf, &str)> = Vec::new();
+    for e in &entries {
+        if let Ok(a) = &e.args {
+            for p in [&a.out, &a.report, &a.html].into_iter().flatten() {
+                if let Some((_, other)) = outputs.iter().find(|(q, _)| q == p) {
+                    bail!(
+                        "{}: {} is also written for {other}: give each robot its own outputs",
+                        e.at,
+                        p.display()
+                    );
+                }
+                outputs.push((p.clone(), &e.serial));
+            }
+        }
+    }
+    Ok(entries)
+}
+
+/// The summary figures of one calibration.
+fn figures(serial: &str, status: Status, p: &Prepared, o: &Outcome) -> Row {
+    let robot = &p.req.robot;
+    let l = |v: f64| robot.units.from_si(Quantity::Length, v);
+    let (b, a) = (&o.identification.before, &o.identification.after);
+    let rms = if b.positions > 0 {
+        Some((l(b.rms_position), l(a.rms_position), "position"))
+    } else {
+        b.other
+            .first()
+            .zip(a.other.first())
+            .map(|(x, y)| (l(x.rms), l(y.rms), x.metric))
+    };
+    let mean = |acc: &kinecal::observe::Accuracy| {
+        if acc.positions > 0 {
+            Some(acc.mean_position)
+        } else {
+            acc.other.first().map(|m| m.mean)
+        }
+    };
+    let held_out = o
+        .validation
+        .as_ref()
+        .and_then(|v| mean(&v.after))
+        .or_else(|| o.cross_validation.as_ref().map(|c| c.overall.mean))
+        .map(l);
+    Row {
+        serial: serial.to_string(),
+        status,
+        parameters: Some(o.calibration.estimated.len()),
+        iterations: Some(o.calibration.iterations),
+        rms,
+        held_out,
+        unit: robot.units.length.as_str().to_string(),
+        warnings: o.warnings.iter().map(crate::word).collect(),
+        implausible: o
+            .warnings
+            .iter()
+            .filter(|w| w.implausible())
+            .map(crate::word)
+            .collect(),
+    }
+}
+
+fn failed(serial: &str, e: String) -> Row {
+    Row {
+        serial: serial.to_string(),
+        status: Status::Failed(e),
+        parameters: None,
+        iterations: None,
+        rms: None,
+        held_out: None,
+        unit: String::new(),
+        warnings: Vec::new(),
+        implausible: Vec::new(),
+    }
+}
+
+/// A calibrated robot waiting to be recorded and have its outputs put in place.
+struct Done {
+    row: Row,
+    staged: Option<output::Staged>,
+    report: Option<kinecal::report::CalibrationReport>,
+}
+
+/// Calibrates one robot and stages its outputs.
+fn calibrate_one(e: &Entry) -> Done {
+    let a = match &e.args {
+        Ok(a) => a,
+        Err(msg) => {
+            return Done {
+                row: failed(&e.serial, format!("{}: {msg}", e.at)),
+                staged: None,
+                report: None,
+            }
+        }
+    };
+    let run = || -> Result<Done> {
+        let p = prepare(a)?;
+        let (o, _) = solve(a, &p, &mut ())?;
+        let implausible = o.warnings.iter().any(|w| w.implausible());
+        if a.strict && implausible {
+            return Ok(Done {
+                row: figures(&e.serial, Status::Flagged, &p, &o),
+                staged: None,
+                report: None,
+            });
+        }
+        let mut staged = output::Staged::new();
+        stage_outputs(a, &p, &o, &mut staged)?;
+        let status = if o.calibration.converged() {
+            Status::Ok
+        } else {
+            Status::NotConverged
+        };
+        Ok(Done {
+            row: figures(&e.serial, status, &p, &o),
+            staged: Some(staged),
+            report: Some(o.report),
+        })
+    };
+    run().unwrap_or_else(|err| Done {
+        row: failed(&e.serial, format!("{err:#}")),
+        staged: None,
+        report: None,
+    })
+}
+
+fn fmt(v: Option<f64>) -> String {
+    v.map(|v| format!("{v:.6}")).unwrap_or_else(|| "-".into())
+}
+
+/// The summary as text.
+fn table(rows: &[Row]) -> String {
+    use std::fmt::Write as _;
+    let w = rows
+        .iter()
+        .map(|r| r.serial.len())
+        .max()
+        .unwrap_or(6)
+        .max(6);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:<w$}  {:>6} {:>5} {:>12} {:>12} {:>12} {:>4} {:>8}  status",
+        "serial", "params", "iter", "rms before", "rms after", "held out", "unit", "warnings"
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{:<w$}  {:>6} {:>5} {:>12} {:>12} {:>12} {:>4} {:>8}  {}{}",
+            r.serial,
+            r.parameters.map_or("-".into(), |v| v.to_string()),
+            r.iterations.map_or("-".into(), |v| v.to_string()),
+            fmt(r.rms.map(|x| x.0)),
+            fmt(r.rms.map(|x| x.1)),
+            fmt(r.held_out),
+            if r.unit.is_empty() { "-" } else { &r.unit },
+            r.warnings.len(),
+            r.status.word(),
+            r.rms
+                .filter(|x| x.2 != "position")
+                .map(|x| format!(" ({} errors)", x.2))
+                .unwrap_or_default()
+        );
+    }
+    s
+}
+
+/// The summary as CSV.
+fn summary_csv(rows: &[Row]) -> Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "serial",
+        "status",
+        "parameters",
+        "iterations",
+        "metric",
+        "unit",
+        "rms_before",
+        "rms_after",
+        "held_out_mean",
+        "warnings",
+    ])?;
+    for r in rows {
+        let status = match &r.status {
+            Status::Ok => "ok".to_string(),
+            Status::NotConverged => "not converged".into(),
+            Status::Flagged => "flagged".into(),
+            Status::Failed(_) => "failed".into(),
+        };
+        let detail = match &r.status {
+            Status::Failed(e) => e.clone(),
+            _ => r.warnings.join(" | "),
+        };
+        w.write_record([
+            r.serial.clone(),
+            status,
+            r.parameters.map_or(String::new(), |v| v.to_string()),
+            r.iterations.map_or(String::new(), |v| v.to_string()),
+            r.rms.map_or(String::new(), |x| x.2.to_string()),
+            r.unit.clone(),
+            r.rms.map_or(String::new(), |x| x.0.to_string()),
+            r.rms.map_or(String::new(), |x| x.1.to_string()),
+            r.held_out.map_or(String::new(), |v| v.to_string()),
+            detail,
+        ])?;
+    }
+    Ok(String::from_utf8(
+        w.into_inner().map_err(|e| anyhow!("{e}"))?,
+    )?)
+}
+
+/// Runs `kinecal batch`.
+pub fn run(a: BatchArgs) -> Result<u8> {
+    if let Some(s) = &a.summary {
+        output::check_distinct(&[s], &[&a.manifest])?;
+    }
+    let entries = read_manifest(&a.manifest)?;
+    let db = if a.record {
+        Some(history::open_db(a.db.as_deref())?)
+    } else {
+        None
+    };
+    let jobs = match a.jobs {
+        Some(0) => bail!("--jobs must be at least 1"),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .context("cannot start the worker threads")?;
+    let bar = ProgressBar::with_draw_target(
+        Some(entries.len() as u64),
+        if a.quiet {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        },
+    );
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} robots, {elapsed} ({msg})")
+            .expect("a valid template"),
+    );
+    let failures = AtomicUsize::new(0);
+    let done: Vec<Done> = pool.install(|| {
+        entries
+            .par_iter()
+            .map(|e| {
+                let d = calibrate_one(e);
+                if matches!(d.row.status, Status::Failed(_)) {
+                    failures.fetch_add(1, Ordering::Relaxed);
+                }
+                bar.set_message(format!("{} failed", failures.load(Ordering::Relaxed)));
+                bar.inc(1);
+                d
+            })
+            .collect()
+    });
+    bar.finish_and_clear();
+    // One writer: record in manifest order, then put each robot's outputs in place.
+    let mut rows = Vec::with_capacity(done.len());
+    for d in done {
+        let Done {
+            mut row,
+            staged,
+            report,
+        } = d;
+        let recorded = match (&db, &report) {
+            (Some(db), Some(rep)) => db
+                .add_with(&row.serial, None, rep, "", Default::default())
+                .map(|_| ())
+                .map_err(|e| format!("not recorded: {e}")),
+            _ => Ok(()),
+        };
+        match (recorded, staged) {
+            (Err(e), _) => row.status = Status::Failed(e),
+            (Ok(()), Some(s)) => {
+                if let Err(e) = s.commit() {
+                    row.status = Status::Failed(format!("{e:#}"));
+                }
+            }
+            (Ok(()), None) => {}
+        }
+        rows.push(row);
+    }
+    print!("{}", table(&rows));
+    for r in &rows {
+        for w in &r.implausible {
+            println!("{}: {w}", r.serial);
+        }
+    }
+    if let Some(path) = &a.summary {
+        crate::write_file(path, &summary_csv(&rows)?)?;
+        eprintln!("wrote the summary to {}", path.display());
+    }
+    let count = |f: fn(&Status) -> bool| rows.iter().filter(|r| f(&r.status)).count();
+    let (failed, flagged, unconverged) = (
+        count(|s| matches!(s, Status::Failed(_))),
+        count(|s| matches!(s, Status::Flagged)),
+        count(|s| matches!(s, Status::NotConverged)),
+    );
+    eprintln!(
+        "{} robots: {} calibrated, {failed} failed, {flagged} flagged, {unconverged} not converged",
+        rows.len(),
+        rows.len() - failed - flagged
+    );
+    Ok(if failed > 0 {
+        1
+    } else if flagged > 0 {
+        EXIT_IMPLAUSIBLE
+    } else if unconverged > 0 {
+        EXIT_NOT_CONVERGED
+    } else {
+        0
+    })
+}

@@ -1,0 +1,132 @@
+//! Tables read and written row by row, so that files of any length pass through in flat
+//! memory (`fk`, `compensate`).
+
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Result};
+
+/// A CSV table read one row at a time: `,`, `;` or tab delimited (told by the header line),
+/// `#` comment lines, fields trimmed, a byte-order mark ignored.
+pub struct Rows {
+    reader: csv::Reader<BufReader<File>>,
+    /// The header, lower case.
+    pub header: Vec<String>,
+    /// The file's name, for messages.
+    pub file: String,
+    record: csv::StringRecord,
+    /// `;` or tab delimited: a decimal comma (`0,25`) is read as a decimal point.
+    decimal_comma: bool,
+}
+
+impl Rows {
+    /// Opens `path` and reads its header.
+    pub fn open(path: &Path) -> Result<Rows> {
+        let file = path.display().to_string();
+        let open = || File::open(path).map_err(|e| anyhow!("{file}: {e}"));
+        // The delimiter from the first line that is not blank or a comment.
+        let mut first = String::new();
+        for line in BufReader::new(open()?).lines() {
+            let line = line.map_err(|e| anyhow!("{file}: {e}"))?;
+            let t = line.trim().trim_start_matches('\u{feff}');
+            if !t.is_empty() && !t.starts_with('#') {
+                first = t.to_string();
+                break;
+            }
+        }
+        let count = |c: char| first.matches(c).count();
+        let delimiter = if count(';') > count(',') && count(';') >= count('\t') {
+            b';'
+        } else if count('\t') > count(',') {
+            b'\t'
+        } else {
+            b','
+        };
+        let mut reader = BufReader::new(open()?);
+        // Skip a byte-order mark.
+        if reader
+            .fill_buf()
+            .map_err(|e| anyhow!("{file}: {e}"))?
+            .starts_with(&[0xef, 0xbb, 0xbf])
+        {
+            reader.consume(3);
+        }
+        let mut reader = csv::ReaderBuilder::new()
+            .delimiter(delimiter)
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .flexible(true)
+            .from_reader(reader);
+        let header: Vec<String> = reader
+            .headers()
+            .map_err(|e| anyhow!("{file}: {e}"))?
+            .iter()
+            .map(str::to_ascii_lowercase)
+            .collect();
+        if header.iter().all(String::is_empty) {
+            bail!("{file}:1: empty file: a header line is required");
+        }
+        Ok(Rows {
+            reader,
+            header,
+            file,
+            record: csv::StringRecord::new(),
+            decimal_comma: delimiter != b',',
+        })
+    }
+
+    /// The index of a column.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
+    }
+
+    /// Field `i` of the current row (after [`Rows::advance`]).
+    pub fn field(&self, i: usize) -> &str {
+        &self.record[i]
+    }
+
+    /// Moves to the next row that is not blank: its line; `None` at the end.
+    pub fn advance(&mut self) -> Result<Option<u64>> {
+        loop {
+            if !self
+                .reader
+                .read_record(&mut self.record)
+                .map_err(|e| anyhow!("{}: {e}", self.file))?
+            {
+                return Ok(None);
+            }
+            if self.record.iter().all(str::is_empty) {
+                continue;
+            }
+            let line = self.record.position().map_or(0, |p| p.line());
+            if self.record.len() != self.header.len() {
+                bail!(
+                    "{}:{line}: {} fields, the header has {}",
+                    self.file,
+                    self.record.len(),
+                    self.header.len()
+                );
+            }
+            return Ok(Some(line));
+        }
+    }
+}
+
+/// A finite number in field `field` of line `line`.
+pub fn number(file: &str, line: u64, field: &str, s: &str) -> Result<f64> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v.abs() <= 1e9 => Ok(v),
+        Ok(v) => bail!("{file}:{line}: field `{field}`: {v} is not a finite number within +-1e9"),
+        Err(_) => bail!("{file}:{line}: field `{field}`: expected a number, found `{s}`"),
+    }
+}
+
+/// A finite number in column `c` of the current row.
+pub fn cell(rows: &Rows, line: u64, c: usize) -> Result<f64> {
+    let s = rows.field(c);
+    if rows.decimal_comma && s.contains(',') && !s.contains('.') {
+        return number(&rows.file, line, &rows.header[c], &s.replace(',', "."));
+    }
+    number(&rows.file, line, &rows.header[c], s)
+}

@@ -1,0 +1,474 @@
+//! Compensation: put a calibration to work on the robot.
+//!
+//! A controller moves its robot by the *nominal* model: the pose it means to reach at readings
+//! `V` is the nominal forward kinematics `F_nom(V)`, while the robot really goes to
+//! `F_cal(V)`, the calibrated model's. Compensation finds the readings `V'` with
+//! `F_cal(V') = F_nom(V)` (a *program*: readings taught or planned with the nominal model), or
+//! `F_cal(V') = T` for a Cartesian target `T`, so that the real robot reaches what was meant.
+//!
+//! The inverse kinematics is damped least squares (Levenberg-Marquardt on the pose error) with
+//! the analytic Jacobian of the target frame with respect to the readings
+//! ([`Chain::reading_jacobian`]), started from a *seed* (the program's own readings, or given):
+//! each step is the minimum-norm change that reduces the error, so the solution stays in the
+//! configuration (branch) of the seed, and a redundant arm (7 joints) gets the solution nearest
+//! the seed. Attitude errors are weighted by the robot's reach, so that a radian of attitude
+//! counts as much as moving the tool by the reach.
+//!
+//! Conventions: positions in metres, attitudes as rotation matrices in the robot's global frame;
+//! the attitude error is the angle of `R_goal R^T` (rad); readings in transducer units. Nothing
+//! is silent: every solution carries its residual errors and [`Flags`] for a goal that cannot
+//! be reached (the residual above tolerance), readings outside the joint ranges of the robot
+//! file, a solution near a singularity (the smallest singular value of the weighted reading
+//! Jacobian below [`Options::singular`] times the largest), and a change of configuration (a
+//! revolute joint moved more than [`Options::branch`] from the seed).
+
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+
+use crate::error::{Error, Result};
+use crate::kinematics::{log_so3, Chain, Frame, Target, Workspace};
+use crate::robot::{JointKind, Robot};
+
+/// Settings of the inverse kinematics and of the flags.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Options {
+    /// Iteration cap of the damped least squares.
+    pub max_iterations: usize,
+    /// A goal is reached when the position error is at most this (m)...
+    pub position_tolerance: f64,
+    /// ... and the attitude error at most this (rad).
+    pub attitude_tolerance: f64,
+    /// Flag a solution whose weighted reading Jacobian has a smallest singular value below this
+    /// fraction of its largest.
+    pub singular: f64,
+    /// Flag a solution in which a revolute joint turned more than this (rad) from the seed: a
+    /// change of configuration, not a correction.
+    pub branch: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            max_iterations: 100,
+            position_tolerance: 1e-6,
+            attitude_tolerance: 1e-6,
+            singular: 1e-3,
+            branch: 0.5,
+        }
+    }
+}
+
+/// What was wrong with a solution (none: it is good to use).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Flags {
+    /// The goal was not reached within the tolerances.
+    pub unreachable: bool,
+    /// Joints (bit `j` for joint `j + 1`) whose reading falls outside the robot file's range.
+    pub out_of_range: u64,
+    /// The solution is near a singularity.
+    pub singular: bool,
+    /// A revolute joint moved more than [`Options::branch`] from the seed.
+    pub branch: bool,
+}
+
+impl Flags {
+    /// Whether any flag is set.
+    pub fn any(&self) -> bool {
+        self.unreachable || self.out_of_range != 0 || self.singular || self.branch
+    }
+
+    /// The flags in words, `;`-separated (empty when none): `unreachable`, `outside range:
+    /// joint 2`, `near singularity`, `configuration change`.
+    pub fn describe(&self) -> String {
+        let mut out = Vec::new();
+        if self.unreachable {
+            out.push("unreachable".to_string());
+        }
+        if self.out_of_range != 0 {
+            let joints: Vec<String> = (0..64)
+                .filter(|j| self.out_of_range & (1 << j) != 0)
+                .map(|j| format!("joint {}", j + 1))
+                .collect();
+            out.push(format!("outside range: {}", joints.join(" ")));
+        }
+        if self.singular {
+            out.push("near singularity".to_string());
+        }
+        if self.branch {
+            out.push("configuration change".to_string());
+        }
+        out.join("; ")
+    }
+}
+
+/// How a goal was solved; the readings are written to the caller's buffer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solved {
+    /// Remaining position error (m).
+    pub position_error: f64,
+    /// Remaining attitude error (rad); `None` for a position goal.
+    pub attitude_error: Option<f64>,
+    /// Iterations of the damped least squares.
+    pub iterations: usize,
+    /// Smallest over largest singular value of the weighted reading Jacobian at the solution.
+    pub conditioning: f64,
+    /// The flags.
+    pub flags: Flags,
+}
+
+/// What a target frame must reach.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Goal {
+    /// A full pose.
+    Pose(Frame),
+    /// A position; the attitude is left as near the seed's as the minimum change gives.
+    Position(Vector3<f64>),
+}
+
+/// Solves compensation goals for one calibrated robot and its nominal model. Holds its work
+/// space: solving does not allocate.
+pub struct Compensator<'r> {
+    calibrated: Chain<'r>,
+    nominal: Chain<'r>,
+    ws: Workspace,
+    ws_nominal: Workspace,
+    jac: Vec<f64>,
+    step: Vec<f64>,
+    trial: Vec<f64>,
+    /// Weight of attitude rows (m per rad): the reach.
+    reach: f64,
+    options: Options,
+}
+
+impl<'r> Compensator<'r> {
+    /// A compensator for `calibrated`, whose programs were made with `nominal` (the same
+    /// structure: joints, kinds, sites).
+    pub fn new(calibrated: &'r Robot, nominal: &'r Robot, options: Options) -> Result<Self> {
+        if !calibrated.same_structure(nominal) {
+            return Err(Error::InvalidOption {
+                option: "nominal robot",
+                message: "the calibrated and the nominal robot differ in structure (joints, \
+                          kinds, sites): compensation needs the same robot twice"
+                    .into(),
+            });
+        }
+        let n = calibrated.dof();
+        if n > 64 {
+            return Err(Error::InvalidOption {
+                option: "nominal robot",
+                message: format!("{n} joints: compensation handles at most 64"),
+            });
+        }
+        let reach = nominal.reach().max(1e-3);
+        Ok(Compensator {
+            calibrated: Chain::new(calibrated),
+            nominal: Chain::new(nominal),
+            ws: Workspace::new(calibrated),
+            ws_nominal: Workspace::new(nominal),
+            jac: vec![0.0; 6 * n],
+            step: vec![0.0; n],
+            trial: vec![0.0; n],
+            reach,
+            options,
+        })
+    }
+
+    /// The pose the nominal model gives `target` at `readings`: what a program means.
+    pub fn intended(&mut self, readings: &[f64], target: Target) -> Frame {
+        self.nominal.forward(readings, &mut self.ws_nominal);
+        self.nominal.target_frame(&self.ws_nominal, target)
+    }
+
+    /// Compensates a program posture: writes into `out` the readings at which the calibrated
+    /// model puts `target` where the nominal model puts it at `readings` (the full pose, or only
+    /// the position when `position_only`), starting from `readings`.
+    pub fn program(
+        &mut self,
+        readings: &[f64],
+        target: Target,
+        position_only: bool,
+        out: &mut [f64],
+    ) -> Solved {
+        let f = self.intended(readings, target);
+        let goal = if position_only {
+            Goal::Position(f.translation)
+        } else {
+            Goal::Pose(f)
+        };
+        self.solve(&goal, target, readings, out)
+    }
+
+    /// Writes into `out` the readings, nearest `seed`, at which the calibrated model puts
+    /// `target` at `goal`.
+    pub fn solve(&mut self, goal: &Goal, target: Target, seed: &[f64], out: &mut [f64]) -> Solved {
+        let n = self.calibrated.robot().dof();
+        assert_eq!(seed.len(), n);
+        assert_eq!(out.len(), n);
+        out.copy_from_slice(seed);
+        let rows = match goal {
+            Goal::Pose(_) => 6,
+            Goal::Position(_) => 3,
+        };
+        let (mut err, mut iterations) = self.converge(goal, target, out, rows, 0);
+        // Redundant (more joints than error rows): remove, step by step, the part of the change
+        // from the seed that lies along the self-motion (the null space of the Jacobian), then
+        // re-reach the goal, until the change is orthogonal to the self-motion: the first-order
+        // condition of the minimum change.
+        let n = out.len();
+        if n > rows && self.reached(&err) {
+            let distance = |v: &[f64]| -> f64 {
+                v.iter()
+                    .zip(seed)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f64>()
+                    .sqrt()
+            };
+            let mut best = distance(out);
+            // The null-space step is exact only to first order: halve it when the re-reached
+            // solution is not nearer the seed, double it back when it is.
+            let mut alpha: f64 = 1.0;
+            let mut kept = vec![0.0; n];
+            for _ in 0..100 {
+                self.calibrated.forward(out, &mut self.ws);
+                self.calibrated
+                    .reading_jacobian(&self.ws, target, &mut self.jac);
+                let jjt = self.normal(rows);
+                let scale = jjt.diagonal().max().max(f64::MIN_POSITIVE);
+                // z = seed - V; its null-space part N z = z - J^T (J J^T)^-1 J z.
+                for ((t, s), o) in self.trial.iter_mut().zip(seed).zip(out.iter()) {
+                    *t = s - o;
+                }
+                let mut jz = Vector6::zeros();
+                for (c, z) in self.jac.chunks_exact(6).zip(&self.trial) {
+                    for k in 0..rows {
+                        jz[k] += c[k] * self.w(k) * z;
+                    }
+                }
+                let Some(y) = solve_spd(&jjt, 1e-14 * scale, &jz, rows) else {
+                    break;
+                };
+                back_project(&self.jac, self.reach, &y, rows, &mut self.step);
+                let mut size: f64 = 0.0;
+                for (t, b) in self.trial.iter_mut().zip(&self.step) {
+                    *t -= b;
+                    size = size.max(t.abs());
+                }
+                // Orthogonal to the self-motion to rounding, or no smaller step helps.
+                if size * alpha <= 1e-10 * best.max(1e-3) {
+                    break;
+                }
+                kept.copy_from_slice(out);
+                for (o, t) in out.iter_mut().zip(&self.trial) {
+                    *o += alpha * t;
+                }
+                let (e, it) = self.converge(goal, target, out, rows, 0);
+                iterations += it;
+                let d = distance(out);
+                if self.reached(&e) && d < best {
+                    err = e;
+                    best = d;
+                    alpha = (2.0 * alpha).min(1.0);
+                } else {
+                    out.copy_from_slice(&kept);
+                    alpha /= 2.0;
+                }
+            }
+        }
+        // Residuals, conditioning and flags at the solution.
+        let (position_error, attitude_error) = (
+            Vector3::new(err[0], err[1], err[2]).norm(),
+            (rows == 6).then(|| Vector3::new(err[3], err[4], err[5]).norm() / self.reach),
+        );
+        self.calibrated.forward(out, &mut self.ws);
+        self.calibrated
+            .reading_jacobian(&self.ws, target, &mut self.jac);
+        let conditioning = self.conditioning(rows);
+        let robot = self.calibrated.robot();
+        let mut flags = Flags {
+            unreachable: position_error > self.options.position_tolerance
+                || attitude_error.is_some_and(|a| a > self.options.attitude_tolerance),
+            singular: conditioning < self.options.singular,
+            ..Flags::default()
+        };
+        for (j, joint) in robot.joints.iter().enumerate() {
+            if let Some((lo, hi)) = joint.range {
+                if out[j] < lo || out[j] > hi {
+                    flags.out_of_range |= 1 << j;
+                }
+            }
+            if joint.kind == JointKind::Revolute {
+                let moved = joint.value(out, j) - joint.value(seed, j);
+                if moved.abs() > self.options.branch {
+                    flags.branch = true;
+                }
+            }
+        }
+        Solved {
+            position_error,
+            attitude_error,
+            iterations,
+            conditioning,
+            flags,
+        }
+    }
+
+    /// Damped least squares from `out` towards `goal`; returns the final weighted error and
+    /// the iteration count (continuing from `iterations`).
+    fn converge(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        out: &mut [f64],
+        rows: usize,
+        mut iterations: usize,
+    ) -> (Vector6<f64>, usize) {
+        let mut err = self.error(goal, target, out);
+        let mut cost = err.norm_squared();
+        let mut mu = 1e-12;
+        while iterations < self.options.max_iterations && !self.reached(&err) {
+            iterations += 1;
+            self.calibrated.forward(out, &mut self.ws);
+            self.calibrated
+                .reading_jacobian(&self.ws, target, &mut self.jac);
+            let jjt = self.normal(rows);
+            let scale = jjt.diagonal().max().max(f64::MIN_POSITIVE);
+            let mut improved = false;
+            for _ in 0..30 {
+                // Step = J^T (J J^T + mu I)^-1 e: the minimum-norm change.
+                let Some(y) = solve_spd(&jjt, mu * scale, &err, rows) else {
+                    mu *= 10.0;
+                    continue;
+                };
+                back_project(&self.jac, self.reach, &y, rows, &mut self.step);
+                for ((t, o), s) in self.trial.iter_mut().zip(out.iter()).zip(&self.step) {
+                    *t = o + s;
+                }
+                let trial = std::mem::take(&mut self.trial);
+                let e = self.error(goal, target, &trial);
+                self.trial = trial;
+                let c = e.norm_squared();
+                if c < cost {
+                    out.copy_from_slice(&self.trial);
+                    err = e;
+                    cost = c;
+                    mu = (mu / 10.0).max(1e-15);
+                    improved = true;
+                    break;
+                }
+                mu *= 10.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        (err, iterations)
+    }
+
+    /// Weight of error row `k`: 1 for positions, the reach for attitudes.
+    fn w(&self, k: usize) -> f64 {
+        if k < 3 {
+            1.0
+        } else {
+            self.reach
+        }
+    }
+
+    /// The weighted error `goal - F_cal(readings)`: position (m), then attitude times reach.
+    fn error(&mut self, goal: &Goal, target: Target, readings: &[f64]) -> Vector6<f64> {
+        self.calibrated.forward(readings, &mut self.ws);
+        let f = self.calibrated.target_frame(&self.ws, target);
+        match goal {
+            Goal::Position(p) => {
+                let d = p - f.translation;
+                Vector6::new(d.x, d.y, d.z, 0.0, 0.0, 0.0)
+            }
+            Goal::Pose(g) => {
+                let d = g.translation - f.translation;
+                let r = log_so3(&(g.rotation * f.rotation.transpose())) * self.reach;
+                Vector6::new(d.x, d.y, d.z, r.x, r.y, r.z)
+            }
+        }
+    }
+
+    fn reached(&self, e: &Vector6<f64>) -> bool {
+        // Converged well below the tolerances: the flags judge against those.
+        let p = Vector3::new(e[0], e[1], e[2]).norm();
+        let a = Vector3::new(e[3], e[4], e[5]).norm() / self.reach;
+        p <= 1e-6 * self.options.position_tolerance && a <= 1e-6 * self.options.attitude_tolerance
+    }
+
+    /// `W J J^T W` over the first `rows` rows (the rest zero).
+    fn normal(&self, rows: usize) -> Matrix6<f64> {
+        let mut m = Matrix6::zeros();
+        for c in self.jac.chunks_exact(6) {
+            for a in 0..rows {
+                for b in 0..=a {
+                    m[(a, b)] += c[a] * self.w(a) * c[b] * self.w(b);
+                }
+            }
+        }
+        for a in 0..rows {
+            for b in 0..a {
+                m[(b, a)] = m[(a, b)];
+            }
+        }
+        m
+    }
+
+    /// Smallest over largest singular value of the weighted reading Jacobian (first `rows`
+    /// rows): the `min(rows, joints)` largest eigenvalues of `W J J^T W` are the squares of its
+    /// singular values (an arm of fewer joints than error rows has the rest zero by design).
+    fn conditioning(&self, rows: usize) -> f64 {
+        let n = self.jac.len() / 6;
+        let k = n.min(rows);
+        let m = self.normal(rows);
+        let mut e = [0.0; 6];
+        if rows == 6 {
+            e.copy_from_slice(m.symmetric_eigenvalues().as_slice());
+        } else {
+            let m3: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
+            e[..3].copy_from_slice(m3.symmetric_eigenvalues().as_slice());
+        }
+        let e = &mut e[..rows];
+        e.sort_by(|a, b| b.total_cmp(a));
+        let (max, min) = (e[0], e[k - 1]);
+        if max > 0.0 {
+            (min.max(0.0) / max).sqrt()
+        } else {
+            0.0
+        }
+    }
+}
+
+/// `out = (W J)^T y` over the first `rows` rows: a vector of the row space back in readings
+/// (`W` weighs attitude rows by `reach`).
+fn back_project(jac: &[f64], reach: f64, y: &Vector6<f64>, rows: usize, out: &mut [f64]) {
+    for (o, c) in out.iter_mut().zip(jac.chunks_exact(6)) {
+        *o = (0..rows)
+            .map(|k| c[k] * if k < 3 { 1.0 } else { reach } * y[k])
+            .sum();
+    }
+}
+
+/// Solves `(A + mu I) y = e` over the first `rows` rows by Cholesky.
+fn solve_spd(a: &Matrix6<f64>, mu: f64, e: &Vector6<f64>, rows: usize) -> Option<Vector6<f64>> {
+    let mut y = Vector6::zeros();
+    if rows == 6 {
+        let mut m = *a;
+        for k in 0..6 {
+            m[(k, k)] += mu;
+        }
+        let c = m.cholesky()?;
+        y.copy_from(&c.solve(e));
+    } else {
+        let mut m: Matrix3<f64> = a.fixed_view::<3, 3>(0, 0).into_owned();
+        for k in 0..3 {
+            m[(k, k)] += mu;
+        }
+        let c = m.cholesky()?;
+        let s = c.solve(&Vector3::new(e[0], e[1], e[2]));
+        y[0] = s.x;
+        y[1] = s.y;
+        y[2] = s.z;
+    }
+    y.iter().all(|v| v.is_finite()).then_some(y)
+}
