@@ -7,7 +7,6 @@ use kinecal::identifiability::{analyze, fmt_sig, format_combination, Analysis, A
 use kinecal::observe::point::parse_postures;
 use kinecal::workflow::{resolve, Selection};
 use kinecal::{parse_param_list, simulate, Robot};
-use serde_json::json;
 
 use crate::args::{AnalyzeArgs, MatrixArg, UnitsArg};
 use crate::{load_observations, load_robot, residual_settings, word};
@@ -58,7 +57,10 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     }
     let an = analyze(robot, &data, &params, &opts)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&an, robot))?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&kinecal::report::analysis_json(&an, robot))?
+        );
     } else {
         print!("{}", text(&an, robot, &data));
     }
@@ -83,51 +85,6 @@ fn ordered_list(list: &str, robot: &Robot) -> Result<Vec<kinecal::ParamId>> {
 
 fn ids(list: &[kinecal::ParamId]) -> Vec<String> {
     list.iter().map(ToString::to_string).collect()
-}
-
-fn to_json(an: &Analysis, robot: &Robot) -> serde_json::Value {
-    let sq = |v: &[f64]| v.iter().map(|s| s * s).collect::<Vec<_>>();
-    json!({
-        "robot": robot.name,
-        "parameters": an.parameters.len(),
-        "parameter_ids": ids(&an.parameters),
-        "residuals": an.residuals,
-        "rank": an.rank,
-        "rcond": an.rcond,
-        "gap_rank": an.gap_rank,
-        "gap_ratio": if an.gap_ratio.is_finite() { json!(an.gap_ratio) } else { json!(null) },
-        "rank_consistent": an.rank_consistent,
-        "expected_rank": an.expected.as_ref().map(|e| e.rank),
-        "expected_rank_formula": an.expected.as_ref().map(|e| e.formula.clone()),
-        "singular_values_jacobian": an.singular_values_scaled,
-        "singular_values_hessian": sq(&an.singular_values_scaled),
-        "singular_values_jacobian_file_units": an.singular_values_file,
-        "singular_values_hessian_file_units": sq(&an.singular_values_file),
-        "condition_number": finite(an.condition_number()),
-        "condition_number_file_units": finite(an.condition_number_file()),
-        "unobservable": ids(&an.unobservable),
-        "identical_groups": an.identical_groups.iter().map(|g| g.terms.iter().map(|(id, _)| id.to_string()).collect::<Vec<_>>()).collect::<Vec<_>>(),
-        "identical_combinations": an.identical_groups.iter().map(|g| json!({
-            "expression": format_combination(&g.terms),
-            "coefficients": g.terms.iter().map(|(id, c)| (id.to_string(), json!(c))).collect::<serde_json::Map<_, _>>(),
-            "value": g.value,
-            "determined": g.determined,
-        })).collect::<Vec<_>>(),
-        "null_space": an.null_space.iter().map(|row| row.iter().map(|(id, c)| (id.to_string(), json!(c))).collect::<serde_json::Map<_, _>>()).collect::<Vec<_>>(),
-        "identifiable": ids(&an.identifiable),
-        "undetermined": an.parameters.iter().zip(&an.determined).filter(|(_, d)| !**d).map(|(id, _)| id.to_string()).collect::<Vec<_>>(),
-        "euler_singular": an.euler_singular,
-        "warnings": an.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
-        "warning_details": an.warnings,
-    })
-}
-
-fn finite(v: f64) -> serde_json::Value {
-    if v.is_finite() {
-        json!(v)
-    } else {
-        json!(null)
-    }
 }
 
 fn names(robot: &Robot, list: &[kinecal::ParamId]) -> String {

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::estimation::Calibration;
-use crate::identifiability::format_combination;
+use crate::identifiability::{format_combination, Analysis};
 use crate::observe::{target_name, Accuracy, Dataset};
 use crate::outliers::Outlier;
 use crate::params::ParamId;
@@ -13,6 +13,7 @@ use crate::source::Source;
 use crate::uncertainty::{Uncertainty, NOISE_SIGMAS};
 use crate::units::{Quantity, Units};
 use crate::warning::Warning;
+use serde_json::json;
 
 /// One parameter's line in the report.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -680,5 +681,57 @@ impl CalibrationReport {
     /// Reads a report written by [`CalibrationReport::to_json`].
     pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
         serde_json::from_str(text)
+    }
+}
+
+fn ids(list: &[ParamId]) -> Vec<String> {
+    list.iter().map(ToString::to_string).collect()
+}
+
+/// The analysis as the JSON document `kinecal analyze --json` prints (and the Python
+/// bindings return): rank, singular values, the identifiable set, identically redundant
+/// combinations, null space and warnings, parameters named by id (`p1`, ...).
+pub fn analysis_json(an: &Analysis, robot: &Robot) -> serde_json::Value {
+    let sq = |v: &[f64]| v.iter().map(|s| s * s).collect::<Vec<_>>();
+    json!({
+        "robot": robot.name,
+        "parameters": an.parameters.len(),
+        "parameter_ids": ids(&an.parameters),
+        "residuals": an.residuals,
+        "rank": an.rank,
+        "rcond": an.rcond,
+        "gap_rank": an.gap_rank,
+        "gap_ratio": if an.gap_ratio.is_finite() { json!(an.gap_ratio) } else { json!(null) },
+        "rank_consistent": an.rank_consistent,
+        "expected_rank": an.expected.as_ref().map(|e| e.rank),
+        "expected_rank_formula": an.expected.as_ref().map(|e| e.formula.clone()),
+        "singular_values_jacobian": an.singular_values_scaled,
+        "singular_values_hessian": sq(&an.singular_values_scaled),
+        "singular_values_jacobian_file_units": an.singular_values_file,
+        "singular_values_hessian_file_units": sq(&an.singular_values_file),
+        "condition_number": finite(an.condition_number()),
+        "condition_number_file_units": finite(an.condition_number_file()),
+        "unobservable": ids(&an.unobservable),
+        "identical_groups": an.identical_groups.iter().map(|g| g.terms.iter().map(|(id, _)| id.to_string()).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        "identical_combinations": an.identical_groups.iter().map(|g| json!({
+            "expression": format_combination(&g.terms),
+            "coefficients": g.terms.iter().map(|(id, c)| (id.to_string(), json!(c))).collect::<serde_json::Map<_, _>>(),
+            "value": g.value,
+            "determined": g.determined,
+        })).collect::<Vec<_>>(),
+        "null_space": an.null_space.iter().map(|row| row.iter().map(|(id, c)| (id.to_string(), json!(c))).collect::<serde_json::Map<_, _>>()).collect::<Vec<_>>(),
+        "identifiable": ids(&an.identifiable),
+        "undetermined": an.parameters.iter().zip(&an.determined).filter(|(_, d)| !**d).map(|(id, _)| id.to_string()).collect::<Vec<_>>(),
+        "euler_singular": an.euler_singular,
+        "warnings": an.warnings.iter().map(ToString::to_string).collect::<Vec<_>>(),
+        "warning_details": an.warnings,
+    })
+}
+
+fn finite(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        json!(v)
+    } else {
+        json!(null)
     }
 }

@@ -1,0 +1,1126 @@
+//! Python bindings of kinecal: the native module `kinecal._native`, wrapped by the pure-Python
+//! package `kinecal` (`python/kinecal/__init__.py`), which adds the result class.
+//!
+//! Conventions, as in kinecal's files: readings are the transducer values of the robot file
+//! (`q = offset + slope * V`); lengths are in the robot's length unit, angles in its angle unit;
+//! attitudes are ZYX Euler angles `(alpha, beta, gamma)`, `R = Rz(alpha) Ry(beta) Rx(gamma)`.
+//! Every array is checked (shape, dtype, finite and within +-1e9) before any work; bad input
+//! raises `kinecal.KinecalError` (a `ValueError`) or `TypeError`, never crashes. Long work
+//! (calibration, analysis) runs with the GIL released.
+
+use std::path::PathBuf;
+
+use kinecal::identifiability::{analyze as analyze_ids, AnalysisOptions};
+use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
+use kinecal::observe::point::{
+    parse_measurements_mapped, write_measurements, ColumnMap, Pose, Position,
+};
+use kinecal::observe::{detect_format, Dataset, OrientationError, Weights, FORMATS};
+use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
+use kinecal::source::Source;
+use kinecal::units::plausible;
+use kinecal::units::Quantity;
+use kinecal::workflow::{self, Request, Selection, SolutionRule, Validation};
+use kinecal::{Chain, JointKind, Posture, Target, Units, Workspace};
+use nalgebra::Vector3;
+use numpy::ndarray::{Array2, Array3, ArrayViewD};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+
+pyo3::create_exception!(
+    kinecal,
+    KinecalError,
+    PyValueError,
+    "An error of kinecal: bad input (with `file`, `line` and `field` when it came from a \
+     file) or a calibration that cannot be made."
+);
+
+/// A kinecal error as a Python exception, carrying `file`, `line` and `field` (or None).
+fn error(py: Python<'_>, e: kinecal::Error) -> PyErr {
+    let (file, line, field) = match &e {
+        kinecal::Error::Input { at, .. } => (Some(at.file.clone()), at.line, at.field.clone()),
+        kinecal::Error::Io { path, .. } => (Some(path.clone()), None, None),
+        _ => (None, None, None),
+    };
+    let message = match &e {
+        kinecal::Error::InvalidOption { option, message } => {
+            format!("{}: {message}", keyword(option))
+        }
+        _ => e.to_string(),
+    };
+    let err = KinecalError::new_err(message);
+    let value = err.value(py);
+    let _ = value.setattr("file", file);
+    let _ = value.setattr("line", line);
+    let _ = value.setattr("field", field);
+    err
+}
+
+/// The Python keyword of a library option.
+fn keyword(option: &str) -> &str {
+    match option {
+        "outlier threshold" => "outlier_sigma",
+        "pruning threshold" => "prune",
+        "hold-out fraction" => "holdout",
+        "Huber scale" => "huber_scale",
+        "candidate" => "choose",
+        other => other,
+    }
+}
+
+fn bad(message: impl Into<String>) -> PyErr {
+    KinecalError::new_err(message.into())
+}
+
+/// An array argument as contiguous float64 of `ndim` dimensions (or `ndim - 1` when
+/// `allow_flat`, for one row), after checking that it holds real numbers, finite and within
+/// +-1e9. Returns the values and the shape.
+fn numbers(
+    py: Python<'_>,
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    ndim: usize,
+) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    let np = py.import("numpy")?;
+    let arr = np
+        .call_method1("asarray", (obj,))
+        .map_err(|e| PyTypeError::new_err(format!("{name}: not an array of numbers ({e})")))?;
+    let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
+    if !matches!(kind.as_str(), "f" | "i" | "u") {
+        let dtype = arr.getattr("dtype")?.str()?.to_string();
+        return Err(PyTypeError::new_err(format!(
+            "{name}: expected real numbers (float or integer dtype), got dtype {dtype}"
+        )));
+    }
+    let arr = np.call_method1("ascontiguousarray", (arr, "float64"))?;
+    let view: PyReadonlyArrayDyn<'_, f64> = arr.extract()?;
+    let a: ArrayViewD<'_, f64> = view.as_array();
+    let shape = a.shape().to_vec();
+    if shape.len() != ndim {
+        return Err(bad(format!(
+            "{name}: expected a {ndim}-dimensional array, got shape {shape:?}"
+        )));
+    }
+    let values: Vec<f64> = a.iter().copied().collect();
+    if let Some(i) = values.iter().position(|v| !plausible(*v)) {
+        let cols: usize = shape[1..].iter().product::<usize>().max(1);
+        return Err(bad(format!(
+            "{name}: row {}, column {}: expected a finite number within +-1e9, found {:?}",
+            i / cols,
+            i % cols,
+            values[i]
+        )));
+    }
+    Ok((values, shape))
+}
+
+/// A robot model: links, joints, sites and planes, in the units of its file.
+#[pyclass(module = "kinecal", name = "Robot")]
+#[derive(Clone)]
+struct Robot {
+    robot: kinecal::Robot,
+    /// The TOML text it was read from: the template of [`Robot::to_toml`], which keeps its
+    /// comments and layout.
+    text: Option<String>,
+}
+
+impl Robot {
+    fn from_source(py: Python<'_>, s: &Source) -> PyResult<Robot> {
+        let robot = parse_robot_toml(&s.text, &s.name).map_err(|e| error(py, e))?;
+        Ok(Robot {
+            robot,
+            text: Some(s.text.clone()),
+        })
+    }
+
+    fn param(&self, name: &str) -> PyResult<kinecal::ParamId> {
+        let ids = kinecal::parse_param_list(name, &self.robot)
+            .map_err(|e| bad(format!("{name}: {e}")))?;
+        match ids.as_slice() {
+            [id] => Ok(*id),
+            _ => Err(bad(format!(
+                "{name}: names {} parameters; give one (`link2.x`, `p8`)",
+                ids.len()
+            ))),
+        }
+    }
+
+    fn target(&self, site: Option<&str>) -> PyResult<Target> {
+        match site {
+            None => Ok(Target::EndEffector),
+            Some(s) => self.robot.site_index(s).map(Target::Site).ok_or_else(|| {
+                bad(format!(
+                    "site `{s}`: not a site of this robot (sites: {})",
+                    site_names(&self.robot).join(", ")
+                ))
+            }),
+        }
+    }
+}
+
+fn site_names(robot: &kinecal::Robot) -> Vec<String> {
+    robot.sites.iter().map(|s| s.name.clone()).collect()
+}
+
+fn units(length: &str, angle: &str) -> PyResult<Units> {
+    Ok(Units {
+        length: length
+            .parse()
+            .map_err(|e| bad(format!("length_unit: {e}")))?,
+        angle: angle.parse().map_err(|e| bad(format!("angle_unit: {e}")))?,
+    })
+}
+
+#[pymethods]
+impl Robot {
+    /// Reads a robot TOML file (a path) or TOML text (a string holding a newline or `=`).
+    #[staticmethod]
+    fn from_toml(py: Python<'_>, source: &Bound<'_, PyAny>) -> PyResult<Robot> {
+        if let Ok(s) = source.cast::<PyString>() {
+            let s: String = s.extract()?;
+            if s.contains('\n') || s.contains('=') {
+                return Robot::from_source(py, &Source::text("<text>", s));
+            }
+        }
+        let path: PathBuf = source.extract()?;
+        let s = Source::read(&path).map_err(|e| error(py, e))?;
+        Robot::from_source(py, &s)
+    }
+
+    /// A robot built into kinecal, by name (`ge-a4`: the GE A4 of the thesis, Table 4.1).
+    #[staticmethod]
+    fn builtin(py: Python<'_>, name: &str) -> PyResult<Robot> {
+        let text = kinecal::examples::builtin(name).ok_or_else(|| {
+            bad(format!(
+                "{name}: not a built-in robot (built-in: {})",
+                kinecal::examples::BUILTIN_NAMES.join(", ")
+            ))
+        })?;
+        Robot::from_source(py, &Source::text(format!("<built-in {name}>"), text))
+    }
+
+    /// Reads the chain from `base` to `tip` of a URDF file (metres, radians); `base` defaults
+    /// to the root link, `tip` to the only leaf.
+    #[staticmethod]
+    #[pyo3(signature = (path, base=None, tip=None))]
+    fn from_urdf(
+        py: Python<'_>,
+        path: PathBuf,
+        base: Option<&str>,
+        tip: Option<&str>,
+    ) -> PyResult<Robot> {
+        let s = Source::read(&path).map_err(|e| error(py, e))?;
+        let imported = kinecal::import::urdf::import_urdf(&s.text, &s.name, base, tip)
+            .map_err(|e| error(py, e))?;
+        Ok(Robot {
+            robot: imported.robot,
+            text: None,
+        })
+    }
+
+    /// A robot from a DH table: an `(n, 4)` array of `a, alpha, d, theta` rows in the given
+    /// units (`kinds`: "revolute" or "prismatic" per row, revolute by default), or the path of
+    /// a DH CSV file (`kind,a,alpha,d,theta`). `convention`: "standard" or "modified".
+    #[staticmethod]
+    #[pyo3(signature = (table, convention="standard", length_unit="m", angle_unit="deg", kinds=None, name="dh"))]
+    fn from_dh(
+        py: Python<'_>,
+        table: &Bound<'_, PyAny>,
+        convention: &str,
+        length_unit: &str,
+        angle_unit: &str,
+        kinds: Option<Vec<String>>,
+        name: &str,
+    ) -> PyResult<Robot> {
+        let convention = match convention {
+            "standard" => Convention::Standard,
+            "modified" => Convention::Modified,
+            other => {
+                return Err(bad(format!(
+                    "convention `{other}`: expected \"standard\" or \"modified\""
+                )))
+            }
+        };
+        let u = units(length_unit, angle_unit)?;
+        if table.cast::<PyString>().is_ok() || table.hasattr("__fspath__")? {
+            let path: PathBuf = table.extract()?;
+            let s = Source::read(&path).map_err(|e| error(py, e))?;
+            let robot = kinecal::import::dh::import_dh(&s.text, &s.name, name, u, convention)
+                .map_err(|e| error(py, e))?;
+            return Ok(Robot { robot, text: None });
+        }
+        let (v, shape) = numbers(py, table, "table", 2)?;
+        if shape[1] != 4 || shape[0] == 0 {
+            return Err(bad(format!(
+                "table: expected shape (joints, 4) with columns a, alpha, d, theta, got {shape:?}"
+            )));
+        }
+        let kinds = match kinds {
+            None => vec![JointKind::Revolute; shape[0]],
+            Some(k) if k.len() == shape[0] => k
+                .iter()
+                .map(|s| match s.as_str() {
+                    "revolute" => Ok(JointKind::Revolute),
+                    "prismatic" => Ok(JointKind::Prismatic),
+                    o => Err(bad(format!(
+                        "kinds: `{o}`: expected \"revolute\" or \"prismatic\""
+                    ))),
+                })
+                .collect::<PyResult<_>>()?,
+            Some(k) => {
+                return Err(bad(format!(
+                    "kinds: {} entries for {} rows",
+                    k.len(),
+                    shape[0]
+                )))
+            }
+        };
+        let (l, a) = (u.length.metres(), u.angle.radians());
+        let rows: Vec<DhRow> = v
+            .chunks(4)
+            .zip(kinds)
+            .map(|(r, kind)| DhRow {
+                kind,
+                a: r[0] * l,
+                alpha: r[1] * a,
+                d: r[2] * l,
+                theta: r[3] * a,
+            })
+            .collect();
+        let robot = robot_from_dh(name, u, &rows, convention);
+        robot
+            .validate()
+            .map_err(|m| bad(format!("table: the robot it describes is not usable: {m}")))?;
+        Ok(Robot { robot, text: None })
+    }
+
+    /// The robot as a TOML file's text (keeping the comments and layout of the file it was read
+    /// from, when it was read from one).
+    fn to_toml(&self, py: Python<'_>) -> PyResult<String> {
+        write_robot_toml_checked(&self.robot, self.text.as_deref()).map_err(|e| error(py, e))
+    }
+
+    /// The robot written into a URDF `template` (a path): only joint origins change, plus a
+    /// fixed tool joint when the tip hangs off a movable joint. Returns the URDF text.
+    #[pyo3(signature = (template, base=None, tip=None))]
+    fn to_urdf(
+        &self,
+        py: Python<'_>,
+        template: PathBuf,
+        base: Option<&str>,
+        tip: Option<&str>,
+    ) -> PyResult<String> {
+        let s = Source::read(&template).map_err(|e| error(py, e))?;
+        let (text, _warnings) =
+            kinecal::import::urdf::export_urdf(&self.robot, &s.text, &s.name, base, tip)
+                .map_err(|e| error(py, e))?;
+        Ok(text)
+    }
+
+    /// The robot's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.robot.name.clone()
+    }
+
+    /// Number of joints.
+    #[getter]
+    fn dof(&self) -> usize {
+        self.robot.dof()
+    }
+
+    /// `(length unit, angle unit)` of the file, e.g. `("mm", "deg")`.
+    #[getter]
+    fn units(&self) -> (String, String) {
+        (
+            self.robot.units.length.as_str().to_string(),
+            self.robot.units.angle.as_str().to_string(),
+        )
+    }
+
+    /// Names of the measurement sites.
+    #[getter]
+    fn sites(&self) -> Vec<String> {
+        site_names(&self.robot)
+    }
+
+    /// Every parameter's name, in thesis order (`link1.x`, ..., `joint1.offset`, ...).
+    #[getter]
+    fn parameter_names(&self) -> Vec<String> {
+        self.robot
+            .param_ids()
+            .map(|id| self.robot.param_name(id))
+            .collect()
+    }
+
+    /// Every parameter's id (`p1`, `p2`, ...), in the same order.
+    #[getter]
+    fn parameter_ids(&self) -> Vec<String> {
+        self.robot.param_ids().map(|id| id.to_string()).collect()
+    }
+
+    /// Every parameter's unit (`mm`, `deg`, `deg/unit`, ...), in the same order.
+    #[getter]
+    fn parameter_units(&self) -> Vec<String> {
+        self.robot
+            .param_ids()
+            .map(|id| self.robot.param_unit(id))
+            .collect()
+    }
+
+    /// Every parameter's value in the file's units, in the same order.
+    #[getter]
+    fn values<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let v: Vec<f64> = self
+            .robot
+            .param_ids()
+            .map(|id| self.robot.get_user(id))
+            .collect();
+        v.into_pyarray(py)
+    }
+
+    /// The value of one parameter (name or id) in the file's units.
+    fn get(&self, name: &str) -> PyResult<f64> {
+        Ok(self.robot.get_user(self.param(name)?))
+    }
+
+    /// A copy with one parameter (name or id) set to `value` in the file's units.
+    fn with_value(&self, name: &str, value: f64) -> PyResult<Robot> {
+        let id = self.param(name)?;
+        if !plausible(value) {
+            return Err(bad(format!(
+                "{name}: expected a finite number within +-1e9, got {value}"
+            )));
+        }
+        let mut r = self.clone();
+        let q = r.robot.param_quantity(id);
+        let si = r.robot.units.to_si(q, value);
+        r.robot.set(id, si);
+        r.robot
+            .validate()
+            .map_err(|m| bad(format!("{name} = {value}: {m}")))?;
+        Ok(r)
+    }
+
+    /// Forward kinematics of `readings` (`(n, joints)` or one row of `joints`): the pose of the
+    /// end effector (or of `site`) as `(n, 6)` rows `x, y, z, alpha, beta, gamma` (file
+    /// units; ZYX Euler angles), or as `(n, 4, 4)` homogeneous transforms when
+    /// `matrix=True` (translation in the length unit).
+    #[pyo3(signature = (readings, site=None, matrix=false))]
+    fn fk<'py>(
+        &self,
+        py: Python<'py>,
+        readings: &Bound<'py, PyAny>,
+        site: Option<&str>,
+        matrix: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.robot.dof();
+        let (v, shape) = readings_array(py, readings, n)?;
+        let target = self.target(site)?;
+        let rows = shape[0];
+        let robot = &self.robot;
+        let (l, a) = (robot.units.length.metres(), robot.units.angle.radians());
+        let out = py.detach(|| {
+            let chain = Chain::new(robot);
+            let mut ws = Workspace::new(robot);
+            let mut out = Vec::with_capacity(rows * if matrix { 16 } else { 6 });
+            for r in v.chunks(n) {
+                chain.forward(r, &mut ws);
+                let f = chain.target_frame(&ws, target);
+                if matrix {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            out.push(f.rotation[(i, j)]);
+                        }
+                        out.push(f.translation[i] / l);
+                    }
+                    out.extend([0.0, 0.0, 0.0, 1.0]);
+                } else {
+                    let p = f.pose();
+                    out.extend(p.position.iter().map(|x| x / l));
+                    out.extend(p.euler.iter().map(|x| x / a));
+                }
+            }
+            out
+        });
+        if let Some(bad_row) = out
+            .chunks(if matrix { 16 } else { 6 })
+            .position(|r| r.iter().any(|x| !x.is_finite()))
+        {
+            return Err(bad(format!(
+                "readings: row {bad_row}: the pose is not finite"
+            )));
+        }
+        let flat = shape.len() == 1;
+        Ok(if matrix {
+            let arr = Array3::from_shape_vec((rows, 4, 4), out).expect("shape");
+            if flat {
+                arr.index_axis_move(numpy::ndarray::Axis(0), 0)
+                    .into_pyarray(py)
+                    .into_any()
+            } else {
+                arr.into_pyarray(py).into_any()
+            }
+        } else {
+            let arr = Array2::from_shape_vec((rows, 6), out).expect("shape");
+            if flat {
+                arr.index_axis_move(numpy::ndarray::Axis(0), 0)
+                    .into_pyarray(py)
+                    .into_any()
+            } else {
+                arr.into_pyarray(py).into_any()
+            }
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Robot({:?}: {} joints, {} sites, {} parameters, {}/{})",
+            self.robot.name,
+            self.robot.dof(),
+            self.robot.sites.len(),
+            self.robot.param_count(),
+            self.robot.units.length.as_str(),
+            self.robot.units.angle.as_str()
+        )
+    }
+}
+
+/// Readings as `(rows, joints)`, or one row of `joints`: returns the values and the shape
+/// `[rows]` for one row given flat, `[rows, joints]` otherwise.
+fn readings_array(
+    py: Python<'_>,
+    readings: &Bound<'_, PyAny>,
+    joints: usize,
+) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    let ndim: usize = py
+        .import("numpy")?
+        .call_method1("ndim", (readings,))
+        .map_err(|e| PyTypeError::new_err(format!("readings: not an array of numbers ({e})")))?
+        .extract()?;
+    let flat = ndim == 1;
+    let (v, shape) = numbers(py, readings, "readings", if flat { 1 } else { 2 })?;
+    if shape.last() != Some(&joints) || v.is_empty() {
+        return Err(bad(format!(
+            "readings: expected shape (postures, {joints}) for a robot of {joints} joints, got \
+             {shape:?}"
+        )));
+    }
+    let rows = v.len() / joints;
+    Ok((v, if flat { vec![rows] } else { vec![rows, joints] }))
+}
+
+/// Observations of a robot: postures (readings) and what was measured in them (poses,
+/// positions, distances, plane contacts), with optional per-row standard deviations.
+#[pyclass(module = "kinecal", name = "Measurements")]
+#[derive(Clone)]
+struct Measurements {
+    data: Dataset,
+    /// The robot's joint count and site names when built (checked against the robot used).
+    dof: usize,
+    sites: Vec<String>,
+}
+
+impl Measurements {
+    fn check(&self, robot: &kinecal::Robot, name: &str) -> PyResult<()> {
+        if self.dof != robot.dof() || self.sites != site_names(robot) {
+            return Err(bad(format!(
+                "{name}: built for a robot with {} joints and sites [{}], not for this one \
+                 ({} joints, sites [{}])",
+                self.dof,
+                self.sites.join(", "),
+                robot.dof(),
+                site_names(robot).join(", ")
+            )));
+        }
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl Measurements {
+    /// Measurements from arrays: `readings` `(n, joints)`; `positions` `(n, 3)` in the robot's
+    /// length unit; `orientations` `(n, 3)` ZYX Euler angles in its angle unit (full poses;
+    /// omit for position-only data); `sites`: one site name per row (None: the end effector);
+    /// `sigma_position`, `sigma_angle`: per-row standard deviations `(n,)` in file units;
+    /// `postures`: a label per row (rows with the same label share one posture).
+    #[new]
+    #[pyo3(signature = (robot, readings, positions, orientations=None, sites=None, sigma_position=None, sigma_angle=None, postures=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        robot: &Robot,
+        readings: &Bound<'_, PyAny>,
+        positions: &Bound<'_, PyAny>,
+        orientations: Option<&Bound<'_, PyAny>>,
+        sites: Option<Vec<Option<String>>>,
+        sigma_position: Option<&Bound<'_, PyAny>>,
+        sigma_angle: Option<&Bound<'_, PyAny>>,
+        postures: Option<Vec<String>>,
+    ) -> PyResult<Measurements> {
+        let r = &robot.robot;
+        let n = r.dof();
+        let (q, qs) = numbers(py, readings, "readings", 2)?;
+        if qs[1] != n || qs[0] == 0 {
+            return Err(bad(format!(
+                "readings: expected shape (rows, {n}) for a robot of {n} joints, got {qs:?}"
+            )));
+        }
+        let rows = qs[0];
+        let shaped = |name: &str, v: (Vec<f64>, Vec<usize>), cols: Option<usize>| {
+            let want: Vec<usize> = match cols {
+                Some(c) => vec![rows, c],
+                None => vec![rows],
+            };
+            if v.1 != want {
+                return Err(bad(format!(
+                    "{name}: expected shape {want:?} (one row per row of readings), got {:?}",
+                    v.1
+                )));
+            }
+            Ok(v.0)
+        };
+        let p = shaped(
+            "positions",
+            numbers(py, positions, "positions", 2)?,
+            Some(3),
+        )?;
+        let o = match orientations {
+            Some(o) => Some(shaped(
+                "orientations",
+                numbers(py, o, "orientations", 2)?,
+                Some(3),
+            )?),
+            None => None,
+        };
+        let positive = |name: &str, v: &[f64]| {
+            if let Some(i) = v.iter().position(|s| *s <= 0.0) {
+                return Err(bad(format!(
+                    "{name}: row {i}: a standard deviation must be positive, got {}",
+                    v[i]
+                )));
+            }
+            Ok(())
+        };
+        let sp = match sigma_position {
+            Some(s) => Some(shaped(
+                "sigma_position",
+                numbers(py, s, "sigma_position", 1)?,
+                None,
+            )?),
+            None => None,
+        };
+        let sa = match sigma_angle {
+            Some(s) => {
+                if o.is_none() {
+                    return Err(bad(
+                        "sigma_angle: position-only rows have no angle: give orientations too",
+                    ));
+                }
+                Some(shaped(
+                    "sigma_angle",
+                    numbers(py, s, "sigma_angle", 1)?,
+                    None,
+                )?)
+            }
+            None => None,
+        };
+        if let Some(s) = &sp {
+            positive("sigma_position", s)?;
+        }
+        if let Some(s) = &sa {
+            positive("sigma_angle", s)?;
+        }
+        let targets: Vec<Target> = match sites {
+            None => vec![Target::EndEffector; rows],
+            Some(s) if s.len() == rows => s
+                .iter()
+                .enumerate()
+                .map(|(i, name)| match name {
+                    None => Ok(Target::EndEffector),
+                    Some(name) => r.site_index(name).map(Target::Site).ok_or_else(|| {
+                        bad(format!(
+                            "sites: row {i}: `{name}` is not a site of this robot (sites: {})",
+                            site_names(r).join(", ")
+                        ))
+                    }),
+                })
+                .collect::<PyResult<_>>()?,
+            Some(s) => {
+                return Err(bad(format!(
+                    "sites: {} names for {rows} rows of readings",
+                    s.len()
+                )))
+            }
+        };
+        let labels: Vec<String> = match postures {
+            None => (1..=rows).map(|i| i.to_string()).collect(),
+            Some(p) if p.len() == rows => p,
+            Some(p) => {
+                return Err(bad(format!(
+                    "postures: {} labels for {rows} rows of readings",
+                    p.len()
+                )))
+            }
+        };
+        let (l, a) = (r.units.length.metres(), r.units.angle.radians());
+        let mut posture_list: Vec<Posture> = Vec::new();
+        let mut index: std::collections::HashMap<&str, usize> = Default::default();
+        let mut observations = Vec::with_capacity(rows);
+        for i in 0..rows {
+            let reading = &q[i * n..(i + 1) * n];
+            let k = match index.get(labels[i].as_str()) {
+                Some(&k) => {
+                    if posture_list[k].readings != reading {
+                        return Err(bad(format!(
+                            "postures: row {i}: posture `{}` has other readings in an earlier row",
+                            labels[i]
+                        )));
+                    }
+                    k
+                }
+                None => {
+                    posture_list.push(Posture {
+                        label: labels[i].clone(),
+                        readings: reading.to_vec(),
+                    });
+                    index.insert(labels[i].as_str(), posture_list.len() - 1);
+                    posture_list.len() - 1
+                }
+            };
+            let pos = Vector3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]) * l;
+            let obs: kinecal::Observation = match &o {
+                Some(o) => {
+                    let e = Vector3::new(o[3 * i], o[3 * i + 1], o[3 * i + 2]) * a;
+                    let mut m = Pose::new(k, targets[i], pos, e);
+                    m.sigma_position = sp.as_ref().map(|s| s[i] * l);
+                    m.sigma_angle = sa.as_ref().map(|s| s[i] * a);
+                    m.line = i + 1;
+                    m.into()
+                }
+                None => {
+                    let mut m = Position::new(k, targets[i], pos);
+                    m.sigma_position = sp.as_ref().map(|s| s[i] * l);
+                    m.line = i + 1;
+                    m.into()
+                }
+            };
+            observations.push(obs);
+        }
+        Ok(Measurements {
+            data: Dataset::new(posture_list, observations),
+            dof: n,
+            sites: site_names(r),
+        })
+    }
+
+    /// Reads an observation file of any kind kinecal reads, told by its header (measurements,
+    /// distances, contacts); `columns` maps another tool's measurement columns
+    /// (`["v1=J1", "x=X", ...]`, as `--columns`).
+    #[staticmethod]
+    #[pyo3(signature = (path, robot, columns=None))]
+    fn read_csv(
+        py: Python<'_>,
+        path: PathBuf,
+        robot: &Robot,
+        columns: Option<Vec<String>>,
+    ) -> PyResult<Measurements> {
+        let r = &robot.robot;
+        let s = Source::read(&path).map_err(|e| error(py, e))?;
+        let data = match detect_format(&s.text) {
+            0 => {
+                let specs: Vec<&str> = columns.iter().flatten().map(String::as_str).collect();
+                let map = ColumnMap::parse(&specs, "columns").map_err(|e| error(py, e))?;
+                parse_measurements_mapped(&s.text, &s.name, r, &map)
+            }
+            i => {
+                if columns.is_some() {
+                    return Err(bad(format!(
+                        "columns: maps measurement files, and {} holds {}",
+                        s.name, FORMATS[i].option
+                    )));
+                }
+                (FORMATS[i].parse)(&s.text, &s.name, r)
+            }
+        }
+        .map_err(|e| error(py, e))?;
+        Ok(Measurements {
+            data,
+            dof: r.dof(),
+            sites: site_names(r),
+        })
+    }
+
+    /// These measurements and `other` together (distances with positions, say).
+    fn merge(&self, other: &Measurements) -> PyResult<Measurements> {
+        if self.dof != other.dof || self.sites != other.sites {
+            return Err(bad("merge: the two were built for different robots"));
+        }
+        Ok(Measurements {
+            data: self.data.clone().merge(other.data.clone()),
+            dof: self.dof,
+            sites: self.sites.clone(),
+        })
+    }
+
+    /// The measurement rows (poses and positions) as kinecal's CSV text.
+    fn to_csv(&self, robot: &Robot) -> PyResult<String> {
+        self.check(&robot.robot, "to_csv")?;
+        Ok(write_measurements(&robot.robot, &self.data))
+    }
+
+    /// The readings of every posture, `(postures, joints)`.
+    #[getter]
+    fn readings<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let v: Vec<f64> = self
+            .data
+            .postures
+            .iter()
+            .flat_map(|p| p.readings.iter().copied())
+            .collect();
+        Array2::from_shape_vec((self.data.postures.len(), self.dof), v)
+            .expect("shape")
+            .into_pyarray(py)
+    }
+
+    /// Number of postures.
+    #[getter]
+    fn postures(&self) -> usize {
+        self.data.postures.len()
+    }
+
+    /// Number of residual rows.
+    #[getter]
+    fn residuals(&self) -> usize {
+        self.data.rows()
+    }
+
+    /// Observations of each kind, e.g. `{"position": 46}`.
+    #[getter]
+    fn kinds(&self) -> std::collections::BTreeMap<String, usize> {
+        self.data
+            .kinds()
+            .into_iter()
+            .map(|(k, n)| (k.to_string(), n))
+            .collect()
+    }
+
+    /// Number of observations.
+    fn __len__(&self) -> usize {
+        self.data.observations.len()
+    }
+
+    fn __repr__(&self) -> String {
+        let kinds: Vec<String> = self
+            .data
+            .kinds()
+            .into_iter()
+            .map(|(k, n)| format!("{n} {k}"))
+            .collect();
+        format!(
+            "Measurements({} postures: {})",
+            self.data.postures.len(),
+            kinds.join(", ")
+        )
+    }
+}
+
+/// Residual weights `(length, angle)` in file units, and the orientation error.
+fn residual_settings(
+    robot: &kinecal::Robot,
+    weights: Option<(f64, f64)>,
+    orientation_error: &str,
+) -> PyResult<(Weights, OrientationError)> {
+    let mut w = Weights::default();
+    if let Some((l, a)) = weights {
+        if !(l > 0.0 && a > 0.0 && l.is_finite() && a.is_finite()) {
+            return Err(bad(format!(
+                "weights: standard deviations must be positive and finite, got ({l}, {a})"
+            )));
+        }
+        w.length = robot.units.to_si(Quantity::Length, l);
+        w.angle = robot.units.to_si(Quantity::Angle, a);
+    }
+    let o = match orientation_error {
+        "euler" => OrientationError::Euler,
+        "rotvec" => OrientationError::RotVec,
+        other => {
+            return Err(bad(format!(
+                "orientation_error `{other}`: expected \"euler\" or \"rotvec\""
+            )))
+        }
+    };
+    Ok((w, o))
+}
+
+/// A parameter list: a string (`"identifiable,slopes"`) or a list of strings.
+fn param_list(obj: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<String>> {
+    let Some(obj) = obj else { return Ok(None) };
+    if obj.is_none() {
+        return Ok(None);
+    }
+    if let Ok(s) = obj.extract::<String>() {
+        return Ok(Some(s));
+    }
+    let v: Vec<String> = obj.extract().map_err(|_| {
+        PyTypeError::new_err(format!(
+            "{name}: expected a parameter list, as a string (\"identifiable,slopes\") or a list of strings"
+        ))
+    })?;
+    Ok(Some(v.join(",")))
+}
+
+/// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`). Returns the
+/// calibrated robot and the report as JSON text.
+#[pyfunction]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=1.345, weights=None, orientation_error="euler", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None))]
+#[allow(clippy::too_many_arguments)]
+fn calibrate(
+    py: Python<'_>,
+    robot: &Robot,
+    data: &Measurements,
+    estimate: Option<&Bound<'_, PyAny>>,
+    fix: Option<&Bound<'_, PyAny>>,
+    method: &str,
+    loss: &str,
+    huber_scale: f64,
+    weights: Option<(f64, f64)>,
+    orientation_error: &str,
+    validate: Option<&Measurements>,
+    holdout: Option<f64>,
+    folds: Option<usize>,
+    seed: Option<u64>,
+    prune: Option<f64>,
+    solution: &str,
+    initial: Option<&Robot>,
+    max_iterations: Option<usize>,
+    outlier_sigma: Option<f64>,
+) -> PyResult<(Robot, String)> {
+    use kinecal::estimation::{Loss, Method, SolverOptions, Spread};
+    let r = &robot.robot;
+    data.check(r, "data")?;
+    let mut req = Request::new(r.clone(), data.data.clone());
+    let estimate = param_list(estimate, "estimate")?;
+    let fix = param_list(fix, "fix")?;
+    if estimate.is_some() || fix.is_some() {
+        req.selection = Selection::parse(estimate.as_deref().unwrap_or(""), fix.as_deref(), r)
+            .map_err(|e| error(py, e))?;
+    }
+    let mut solver = SolverOptions::new(match method {
+        "lm" => Method::LevenbergMarquardt,
+        "gn" => Method::GaussNewton,
+        "sd" => Method::SteepestDescent,
+        "svd" => Method::Svd,
+        other => {
+            return Err(bad(format!(
+                "method `{other}`: expected \"lm\", \"gn\", \"sd\" or \"svd\""
+            )))
+        }
+    });
+    if let Some(n) = max_iterations {
+        if n == 0 {
+            return Err(bad("max_iterations: must be at least 1"));
+        }
+        solver.max_iterations = n;
+    }
+    req.solver = solver;
+    req.loss = match loss {
+        "squared" => Loss::Squared,
+        "huber" => Loss::Huber {
+            k: huber_scale,
+            spread: Spread::Robust,
+        },
+        other => {
+            return Err(bad(format!(
+                "loss `{other}`: expected \"squared\" or \"huber\""
+            )))
+        }
+    };
+    (req.weights, req.orientation) = residual_settings(r, weights, orientation_error)?;
+    req.solution = match solution {
+        "solver" => SolutionRule::Solver,
+        "min-change" | "min_change" => SolutionRule::MinChange,
+        other => {
+            return Err(bad(format!(
+                "solution `{other}`: expected \"solver\" or \"min-change\""
+            )))
+        }
+    };
+    req.prune = prune;
+    if let Some(k) = outlier_sigma {
+        req.outlier_sigmas = k;
+    }
+    if let Some(init) = initial {
+        if !r.same_structure(&init.robot) {
+            return Err(bad("initial: not the same robot structure as robot"));
+        }
+        req.initial = Some(init.robot.clone());
+    }
+    let given = [validate.is_some(), holdout.is_some(), folds.is_some()];
+    if given.iter().filter(|g| **g).count() > 1 {
+        return Err(bad(
+            "validate, holdout and folds are three ways to check a calibration: give one",
+        ));
+    }
+    req.validation = if let Some(v) = validate {
+        v.check(r, "validate")?;
+        Validation::Data(v.data.clone())
+    } else if let Some(fraction) = holdout {
+        Validation::Holdout {
+            fraction,
+            seed: seed.unwrap_or(1),
+        }
+    } else if let Some(k) = folds {
+        Validation::Folds { k, seed }
+    } else {
+        Validation::None
+    };
+    let outcome = py
+        .detach(|| workflow::run(&req, &mut ()))
+        .map_err(|e| error(py, e))?;
+    let report = serde_json::to_string(&outcome.report)
+        .map_err(|e| bad(format!("the report cannot be written: {e}")))?;
+    let calibrated = Robot {
+        robot: outcome.calibration.calibrated.clone(),
+        text: robot.text.clone(),
+    };
+    Ok((calibrated, report))
+}
+
+/// What `data` determines about the parameters of `estimate` (see the Python package's
+/// `kinecal.analyze`). Returns the analysis as JSON text.
+#[pyfunction]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, weights=None, orientation_error="euler", rcond=None))]
+#[allow(clippy::too_many_arguments)]
+fn analyze(
+    py: Python<'_>,
+    robot: &Robot,
+    data: &Measurements,
+    estimate: Option<&Bound<'_, PyAny>>,
+    fix: Option<&Bound<'_, PyAny>>,
+    weights: Option<(f64, f64)>,
+    orientation_error: &str,
+    rcond: Option<f64>,
+) -> PyResult<String> {
+    let r = &robot.robot;
+    data.check(r, "data")?;
+    let (weights, orientation) = residual_settings(r, weights, orientation_error)?;
+    let rcond = rcond.unwrap_or(kinecal::identifiability::DEFAULT_RANK_RCOND);
+    if !(rcond > 0.0 && rcond < 1.0) {
+        return Err(bad(format!("rcond: must be between 0 and 1, got {rcond}")));
+    }
+    let opts = AnalysisOptions {
+        rcond,
+        weights,
+        orientation,
+        priority: Vec::new(),
+    };
+    let estimate = param_list(estimate, "estimate")?.unwrap_or_else(|| "identifiable".into());
+    let fix = param_list(fix, "fix")?;
+    let selection = Selection::parse(&estimate, fix.as_deref(), r).map_err(|e| error(py, e))?;
+    let d = &data.data;
+    let json = py
+        .detach(|| -> kinecal::Result<serde_json::Value> {
+            let (params, unseen) = workflow::resolve(&selection, r, d, &opts)?;
+            let an = analyze_ids(r, d, &params, &opts)?;
+            let mut v = kinecal::report::analysis_json(&an, r);
+            v["unseen"] = unseen.iter().map(|id| id.to_string()).collect();
+            Ok(v)
+        })
+        .map_err(|e| error(py, e))?;
+    Ok(json.to_string())
+}
+
+/// The data sets kinecal can read as they are published (`qkm-hl6`, `fanuc-r2000ic`,
+/// `ur10e-camera`): `(name, about)` pairs.
+#[pyfunction]
+fn datasets() -> Vec<(String, String)> {
+    kinecal::datasets::DATASETS
+        .iter()
+        .map(|a| (a.name.to_string(), a.about.to_string()))
+        .collect()
+}
+
+/// Converts a published data set's folder: returns the robot, the identification data, the
+/// validation data (or None) and the suggested calibration as a dict of `calibrate` keywords.
+#[pyfunction]
+fn dataset(
+    py: Python<'_>,
+    name: &str,
+    folder: PathBuf,
+) -> PyResult<(Robot, Measurements, Option<Measurements>, String)> {
+    let adapter = kinecal::datasets::DATASETS
+        .iter()
+        .find(|a| a.name == name)
+        .ok_or_else(|| {
+            bad(format!(
+                "{name}: not a data set kinecal reads (known: {})",
+                kinecal::datasets::DATASETS
+                    .iter()
+                    .map(|a| a.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })?;
+    let converted = py
+        .detach(|| (adapter.convert)(&folder))
+        .map_err(|e| error(py, e))?;
+    let s = &converted.suggested;
+    let file = |n: &str| {
+        converted
+            .files
+            .iter()
+            .find(|(f, _)| f == n)
+            .map(|(_, t)| t.clone())
+            .ok_or_else(|| bad(format!("{name}: the conversion wrote no {n}")))
+    };
+    let robot = Robot::from_source(py, &Source::text(s.robot, file(s.robot)?))?;
+    let read = |n: &str| -> PyResult<Measurements> {
+        let text = file(n)?;
+        let data = match detect_format(&text) {
+            0 => kinecal::observe::point::parse_measurements(&text, n, &robot.robot),
+            i => (FORMATS[i].parse)(&text, n, &robot.robot),
+        }
+        .map_err(|e| error(py, e))?;
+        Ok(Measurements {
+            data,
+            dof: robot.robot.dof(),
+            sites: site_names(&robot.robot),
+        })
+    };
+    let identification = read(s.data)?;
+    let validation = s.validate.map(read).transpose()?;
+    let mut kw = serde_json::Map::new();
+    kw.insert("estimate".into(), s.estimate.into());
+    if let Some(h) = s.holdout {
+        kw.insert("holdout".into(), h.into());
+    }
+    if let Some((l, a)) = s.weights {
+        kw.insert("weights".into(), serde_json::json!([l, a]));
+    }
+    if let Some(o) = s.orientation {
+        kw.insert("orientation_error".into(), o.as_str().into());
+    }
+    Ok((
+        robot,
+        identification,
+        validation,
+        serde_json::Value::Object(kw).to_string(),
+    ))
+}
+
+/// The native part of the `kinecal` Python package.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("KinecalError", m.py().get_type::<KinecalError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<Robot>()?;
+    m.add_class::<Measurements>()?;
+    m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(analyze, m)?)?;
+    m.add_function(wrap_pyfunction!(datasets, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset, m)?)?;
+    Ok(())
+}
