@@ -475,7 +475,39 @@ pub struct Checked {
 }
 
 impl Checked {
+    /// `cal` checked on the data it was fitted to: its accuracies are already known.
+    /// Under least squares, the objectives before and after are the sums of squared
+    /// normalized residuals too.
+    fn fitted(cal: &Calibration, data: &Dataset) -> Checked {
+        let (before, after) = (cal.accuracy_before.clone(), cal.accuracy_after.clone());
+        if matches!(cal.options.loss, Loss::Squared) {
+            let m = data.rows().max(1) as f64;
+            return Checked {
+                postures: data.postures.len(),
+                observations: data.observations.len(),
+                before,
+                after,
+                normalized_before: (cal.objective_before / m).sqrt(),
+                normalized_after: (cal.objective_after / m).sqrt(),
+            };
+        }
+        Checked {
+            before,
+            after,
+            ..Checked::normalized(cal, data)
+        }
+    }
+
     fn new(cal: &Calibration, data: &Dataset) -> Checked {
+        Checked {
+            before: accuracy(&cal.initial, data),
+            after: accuracy(&cal.calibrated, data),
+            ..Checked::normalized(cal, data)
+        }
+    }
+
+    /// The normalized RMS residuals, with the accuracies left empty.
+    fn normalized(cal: &Calibration, data: &Dataset) -> Checked {
         let normalized = |robot: &Robot| {
             let p = Problem::new(
                 robot,
@@ -490,8 +522,8 @@ impl Checked {
         Checked {
             postures: data.postures.len(),
             observations: data.observations.len(),
-            before: accuracy(&cal.initial, data),
-            after: accuracy(&cal.calibrated, data),
+            before: Accuracy::default(),
+            after: Accuracy::default(),
             normalized_before: normalized(&cal.initial),
             normalized_after: normalized(&cal.calibrated),
         }
@@ -1082,7 +1114,7 @@ fn finish(
         _ => {}
     }
     let outliers = outliers::outliers(&cal, &data, outlier_sigmas);
-    let identification = Checked::new(&cal, &data);
+    let identification = Checked::fitted(&cal, &data);
     let validation = validation_data.as_ref().map(|v| Checked::new(&cal, v));
     let mut report = CalibrationReport::new(&cal, &data);
     report.set_normalized([

@@ -455,6 +455,10 @@ pub fn drive(
     }
     let objective_before = f;
     let mut trial_r = vec![0.0; m];
+    // The Jacobian at the last trial point, computed with its residuals: a step rule accepts
+    // the last point it tried (nearly always), and then the next iteration needs no second
+    // pass of forward kinematics there.
+    let mut trial_jac = Matrix::zeros(m, n);
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
     let mut unfelt = None;
@@ -496,11 +500,17 @@ pub fn drive(
             g: &g,
             f,
         };
+        let mut last_trial = f64::NAN;
         let mut trial = |y: &[f64]| {
             for j in 0..n {
                 trial_x[j] = x[j] + y[j] / d[j];
             }
-            let v = problem.evaluate(&problem.robot_at(&trial_x), &mut trial_r, None);
+            let v = problem.evaluate(
+                &problem.robot_at(&trial_x),
+                &mut trial_r,
+                Some(&mut trial_jac),
+            );
+            last_trial = v;
             if v.is_finite() {
                 v
             } else {
@@ -525,7 +535,15 @@ pub fn drive(
         for j in 0..n {
             x[j] += step.y[j] / d[j];
         }
-        f = problem.evaluate(&problem.robot_at(&x), &mut r, Some(&mut jac));
+        if x == trial_x && last_trial.is_finite() {
+            // The accepted point is the last one evaluated: its residuals and Jacobian are
+            // at hand (the same arithmetic, so the same numbers).
+            std::mem::swap(&mut r, &mut trial_r);
+            std::mem::swap(&mut jac, &mut trial_jac);
+            f = last_trial;
+        } else {
+            f = problem.evaluate(&problem.robot_at(&x), &mut r, Some(&mut jac));
+        }
         observer(&Iteration {
             iteration: iterations,
             objective: f,
