@@ -378,3 +378,40 @@ def test_the_type_stubs_name_what_the_package_has():
             stubbed = {n.name for n in cls.body if isinstance(n, ast.FunctionDef)}
             actual = {n for n in dir(getattr(kinecal, cls.name)) if not n.startswith("_")}
             assert stubbed - {"__init__", "__len__"} == actual, cls.name
+
+
+def test_random_arrays_either_work_or_raise_a_clear_exception():
+    # 3,000 random inputs: shapes, dtypes and values users and buggy scripts produce.
+    robot = kinecal.Robot.builtin("ge-a4")
+    rng = np.random.default_rng(20261124)
+    specials = [np.nan, np.inf, -np.inf, 1e300, -1e10, 0.0, 1e-320]
+    dtypes = [np.float64, np.float32, np.int64, np.uint8, np.bool_, np.complex128, object, "U3"]
+
+    def random_array():
+        ndim = int(rng.integers(0, 4))
+        shape = tuple(int(rng.integers(0, 6)) for _ in range(ndim))
+        a = rng.normal(0, 30, size=shape)
+        if a.size and rng.random() < 0.3:
+            a.flat[int(rng.integers(0, a.size))] = specials[int(rng.integers(0, len(specials)))]
+        dtype = dtypes[int(rng.integers(0, len(dtypes)))] if rng.random() < 0.2 else np.float64
+        try:
+            with np.errstate(invalid="ignore", over="ignore"):
+                return a.astype(dtype)
+        except (TypeError, ValueError):
+            return a
+
+    worked = 0
+    for _ in range(1000):
+        q, p, o = random_array(), random_array(), random_array() if rng.random() < 0.5 else None
+        for call in (lambda: robot.fk(q),
+                     lambda: robot.fk(q, matrix=True),
+                     lambda: kinecal.Measurements(robot, q, p, orientations=o)):
+            try:
+                out = call()
+            except (kinecal.KinecalError, TypeError) as e:
+                assert str(e), "an exception without a message"
+                continue
+            worked += 1
+            if isinstance(out, np.ndarray):
+                assert np.isfinite(out).all()
+    assert worked > 0
