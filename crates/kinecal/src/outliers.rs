@@ -9,7 +9,7 @@
 //! to look at, never dropped.
 
 use crate::estimation::Calibration;
-use crate::observe::{for_each_observation, Context, Dataset, ErrorSample, RobustSpread};
+use crate::observe::{Context, Dataset, ErrorSample, RobustSpread};
 use crate::problem::Problem;
 
 /// Default threshold, in robust standard deviations.
@@ -45,23 +45,29 @@ pub fn outliers(cal: &Calibration, data: &Dataset, k: f64) -> Vec<Outlier> {
         robot,
         orientation: cal.options.orientation,
     };
+    // The residuals tell which observations are outliers; forward kinematics runs again only
+    // for those, to give their errors.
+    let chain = crate::kinematics::Chain::new(robot);
     let mut out = Vec::new();
     let mut row = 0;
-    for_each_observation(robot, data, |i, o, frames| {
-        let worst = o
-            .rows()
-            .iter()
-            .enumerate()
-            .map(|(j, _)| r[row + j].abs() / scale[row + j])
+    for (i, o) in data.observations.iter().enumerate() {
+        let n = o.rows().len();
+        let worst = (row..row + n)
+            .map(|j| r[j].abs() / scale[j])
             .fold(0.0f64, f64::max);
         if worst > k {
+            let views = o.views();
+            let mut frames = [crate::kinematics::Frame::identity(); 2];
+            for (f, v) in frames.iter_mut().zip(views) {
+                *f = chain.frame_at(&data.postures[v.posture].readings, v.target);
+            }
             out.push(Outlier {
                 observation: i,
                 sigmas: worst,
-                error: o.error(&ctx, frames),
+                error: o.error(&ctx, &frames[..views.len()]),
             });
         }
-        row += o.rows().len();
-    });
+        row += n;
+    }
     out
 }

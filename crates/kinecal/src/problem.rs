@@ -8,9 +8,15 @@
 
 use crate::kinematics::{Chain, Frame};
 use crate::linalg::Matrix;
-use crate::observe::{Context, Dataset, Derivatives, FrameCache, OrientationError, Weights};
+use crate::observe::{
+    Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
+    OrientationError, Weights,
+};
 use crate::params::ParamId;
 use crate::robot::Robot;
+
+/// A function shown each observation with its frames.
+type ObservationVisitor<'a> = dyn FnMut(&Observation, &[Frame]) + 'a;
 
 /// Weighted residuals and Jacobian of a calibration over one dataset.
 #[derive(Clone)]
@@ -126,7 +132,35 @@ impl<'a> Problem<'a> {
     /// sigma` of `robot`, and, if given, `jac` (resized to rows x cols) with their derivatives
     /// with respect to the estimated parameters. Returns the objective, the sum of squared
     /// residuals.
-    pub fn evaluate(&self, robot: &Robot, res: &mut [f64], mut jac: Option<&mut Matrix>) -> f64 {
+    pub fn evaluate(&self, robot: &Robot, res: &mut [f64], jac: Option<&mut Matrix>) -> f64 {
+        self.evaluate_with(robot, res, jac, None)
+    }
+
+    /// [`Problem::evaluate`] without derivatives, and with the errors of every observation
+    /// summarised (the [`crate::observe::accuracy`] of `robot`) from the same pass of forward
+    /// kinematics.
+    pub fn evaluate_checked(&self, robot: &Robot, res: &mut [f64]) -> (f64, Accuracy) {
+        let ctx = Context {
+            robot,
+            orientation: OrientationError::default(),
+        };
+        let mut tally = AccuracyTally::default();
+        let f = self.evaluate_with(
+            robot,
+            res,
+            None,
+            Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
+        );
+        (f, tally.finish())
+    }
+
+    fn evaluate_with(
+        &self,
+        robot: &Robot,
+        res: &mut [f64],
+        mut jac: Option<&mut Matrix>,
+        mut each: Option<&mut ObservationVisitor<'_>>,
+    ) -> f64 {
         assert_eq!(res.len(), self.rows());
         let chain = Chain::new(robot);
         let mut cache = FrameCache::new(robot);
@@ -179,6 +213,9 @@ impl<'a> Problem<'a> {
                     }
                 }
                 None => o.evaluate(&ctx, &frames[..views.len()], r, None),
+            }
+            if let Some(f) = each.as_deref_mut() {
+                f(o, &frames[..views.len()]);
             }
             for i in 0..nrows {
                 r[i] *= self.weight[row + i];

@@ -494,21 +494,14 @@ impl Checked {
         Checked {
             before,
             after,
-            ..Checked::normalized(cal, data)
+            ..Checked::new(cal, data)
         }
     }
 
+    /// `cal` checked on other data: one pass of forward kinematics per robot gives both the
+    /// accuracy and the normalized residuals.
     fn new(cal: &Calibration, data: &Dataset) -> Checked {
-        Checked {
-            before: accuracy(&cal.initial, data),
-            after: accuracy(&cal.calibrated, data),
-            ..Checked::normalized(cal, data)
-        }
-    }
-
-    /// The normalized RMS residuals, with the accuracies left empty.
-    fn normalized(cal: &Calibration, data: &Dataset) -> Checked {
-        let normalized = |robot: &Robot| {
+        let check = |robot: &Robot| {
             let p = Problem::new(
                 robot,
                 data,
@@ -517,15 +510,18 @@ impl Checked {
                 cal.options.orientation,
             );
             let m = p.rows().max(1);
-            (p.evaluate(robot, &mut vec![0.0; p.rows()], None) / m as f64).sqrt()
+            let (f, acc) = p.evaluate_checked(robot, &mut vec![0.0; p.rows()]);
+            ((f / m as f64).sqrt(), acc)
         };
+        let (normalized_before, before) = check(&cal.initial);
+        let (normalized_after, after) = check(&cal.calibrated);
         Checked {
             postures: data.postures.len(),
             observations: data.observations.len(),
-            before: Accuracy::default(),
-            after: Accuracy::default(),
-            normalized_before: normalized(&cal.initial),
-            normalized_after: normalized(&cal.calibrated),
+            before,
+            after,
+            normalized_before,
+            normalized_after,
         }
     }
 }

@@ -262,10 +262,11 @@ pub fn calibrate(
         }
     }
     let weighted = problem.clone().with_row_scale(&row_scale);
-    let objective_after = weighted.evaluate(&calibrated, &mut vec![0.0; problem.rows()], None);
+    let (objective_after, accuracy_after) =
+        weighted.evaluate_checked(&calibrated, &mut vec![0.0; problem.rows()]);
     Ok(Calibration {
         accuracy_before: accuracy(initial, data),
-        accuracy_after: accuracy(&calibrated, data),
+        accuracy_after,
         initial: initial.clone(),
         calibrated,
         estimated: opts.estimate.clone(),

@@ -723,51 +723,67 @@ pub fn accuracy(robot: &Robot, data: &Dataset) -> Accuracy {
         robot,
         orientation: OrientationError::default(),
     };
-    let (mut ep, mut eo) = (Vec::new(), Vec::new());
-    let mut other: Vec<(&'static str, Vec<f64>)> = Vec::new();
-    for_each_observation(robot, data, |_, o, frames| {
-        let e = o.error(&ctx, frames);
+    let mut acc = AccuracyTally::default();
+    for_each_observation(robot, data, |_, o, frames| acc.push(o.error(&ctx, frames)));
+    acc.finish()
+}
+
+/// Errors gathered one observation at a time, summarised as an [`Accuracy`].
+#[derive(Default)]
+pub(crate) struct AccuracyTally {
+    positions: Vec<f64>,
+    orientations: Vec<f64>,
+    other: Vec<(&'static str, Vec<f64>)>,
+}
+
+impl AccuracyTally {
+    pub(crate) fn push(&mut self, e: ErrorSample) {
         if e.metric == "position" {
-            ep.push(e.length);
+            self.positions.push(e.length);
             if let Some(a) = e.angle {
-                eo.push(a);
+                self.orientations.push(a);
             }
         } else {
-            match other.iter_mut().find(|(m, _)| *m == e.metric) {
+            match self.other.iter_mut().find(|(m, _)| *m == e.metric) {
                 Some(g) => g.1.push(e.length),
-                None => other.push((e.metric, vec![e.length])),
+                None => self.other.push((e.metric, vec![e.length])),
             }
         }
-    });
-    let (positions, orientations) = (ep.len(), eo.len());
-    let (rms_position, mean_position, p95_position, max_position) = stats(ep);
-    let (rms_orientation, mean_orientation, p95_orientation, max_orientation) = stats(eo);
-    Accuracy {
-        positions,
-        rms_position,
-        mean_position,
-        p95_position,
-        max_position,
-        orientations,
-        rms_orientation,
-        mean_orientation,
-        p95_orientation,
-        max_orientation,
-        other: other
-            .into_iter()
-            .map(|(metric, e)| {
-                let count = e.len();
-                let (rms, mean, p95, max) = stats(e);
-                MetricAccuracy {
-                    metric,
-                    count,
-                    rms,
-                    mean,
-                    p95,
-                    max,
-                }
-            })
-            .collect(),
+    }
+
+    pub(crate) fn finish(self) -> Accuracy {
+        let (positions, orientations) = (self.positions.len(), self.orientations.len());
+        let (rms_position, mean_position, p95_position, max_position) = stats(self.positions);
+        let (rms_orientation, mean_orientation, p95_orientation, max_orientation) =
+            stats(self.orientations);
+        Accuracy {
+            positions,
+            rms_position,
+            mean_position,
+            p95_position,
+            max_position,
+            orientations,
+            rms_orientation,
+            mean_orientation,
+            p95_orientation,
+            max_orientation,
+            other: self
+                .other
+                .into_iter()
+                .map(|(metric, e)| {
+                    let count = e.len();
+                    let (rms, mean, p95, max) = stats(e);
+                    MetricAccuracy {
+                        metric,
+                        count,
+                        rms,
+                        mean,
+                        p95,
+                        max,
+                    }
+                })
+                .collect(),
+        }
     }
 }
 
