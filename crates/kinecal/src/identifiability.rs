@@ -328,6 +328,28 @@ pub fn analyze(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
+    analyze_with(robot, data, params, opts, true)
+}
+
+/// [`analyze`] without what only a display needs: the row labels, the file-unit Jacobian and
+/// its singular values are left empty (the uncertainty needs none of them, and they cost an
+/// m x n copy, a second factorization and a string per row).
+pub(crate) fn analyze_core(
+    robot: &Robot,
+    data: &Dataset,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+) -> Result<Analysis> {
+    analyze_with(robot, data, params, opts, false)
+}
+
+fn analyze_with(
+    robot: &Robot,
+    data: &Dataset,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+    display: bool,
+) -> Result<Analysis> {
     let mut params = params.to_vec();
     params.sort();
     params.dedup();
@@ -346,33 +368,17 @@ pub fn analyze(
     let mut jw = Matrix::zeros(m, n);
     problem.evaluate(robot, &mut r, Some(&mut jw));
 
-    // Row labels and the file-unit Jacobian.
+    // Row labels and the file-unit Jacobian (for display only).
     let units = robot.units;
-    let mut row_labels = Vec::with_capacity(m);
-    let mut row_scale = Vec::with_capacity(m); // weighted -> file units
-    let sigma = problem.row_sigma();
-    for o in &data.observations {
-        let postures: Vec<&str> = o
-            .views()
-            .iter()
-            .map(|v| data.postures[v.posture].label.as_str())
-            .collect();
-        let postures = postures.join("&");
-        let site = crate::observe::target_name(robot, o.target()).to_string();
-        for row in o.rows() {
-            let i = row_labels.len();
-            row_labels.push((postures.clone(), site.clone(), row.label));
-            row_scale.push(match row.quantity {
-                RowQuantity::Length => sigma[i] / units.length.metres(),
-                RowQuantity::Angle => sigma[i] / units.angle.radians(),
-            });
-        }
-    }
     let col_factor: Vec<f64> = params
         .iter()
         .map(|&id| units.factor(robot.param_quantity(id)))
         .collect();
-    let jacobian_file = Matrix::from_fn(m, n, |i, j| jw[(i, j)] * row_scale[i] * col_factor[j]);
+    let (row_labels, jacobian_file) = if display {
+        file_unit_rows(robot, data, &problem, &params, &jw)
+    } else {
+        (Vec::new(), Matrix::zeros(0, 0))
+    };
 
     let column_norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&jw, j)).collect();
     let max_norm = column_norms.iter().copied().fold(0.0, f64::max);
@@ -400,12 +406,15 @@ pub fn analyze(
         linalg::right_svd(&pad(&js))
     }
     .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
-    let sv_file = if m >= n {
+    let sv_file = if !display {
+        Vec::new()
+    } else if m >= n {
         linalg::singular_values_qr(&jacobian_file)
+            .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?
     } else {
         linalg::singular_values_qr(&pad(&jacobian_file))
-    }
-    .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+            .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?
+    };
     let s = &s_scaled;
     let smax = s.first().copied().unwrap_or(0.0);
     let rank = s.iter().filter(|&&v| v > opts.rcond * smax).count();
@@ -628,6 +637,48 @@ pub fn analyze(
         column_norms,
         right_singular_vectors: v_scaled,
     })
+}
+
+/// The row labels of `problem` (posture label(s), target, row label) and its weighted
+/// Jacobian `jw` in file units.
+#[allow(clippy::type_complexity)]
+fn file_unit_rows(
+    robot: &Robot,
+    data: &Dataset,
+    problem: &Problem<'_>,
+    params: &[ParamId],
+    jw: &Matrix,
+) -> (Vec<(String, String, &'static str)>, Matrix) {
+    let m = problem.rows();
+    let n = params.len();
+    let units = robot.units;
+    let mut row_labels = Vec::with_capacity(m);
+    let mut row_scale = Vec::with_capacity(m); // weighted -> file units
+    let sigma = problem.row_sigma();
+    for o in &data.observations {
+        let postures: Vec<&str> = o
+            .views()
+            .iter()
+            .map(|v| data.postures[v.posture].label.as_str())
+            .collect();
+        let postures = postures.join("&");
+        let site = crate::observe::target_name(robot, o.target()).to_string();
+        for row in o.rows() {
+            let i = row_labels.len();
+            row_labels.push((postures.clone(), site.clone(), row.label));
+            row_scale.push(match row.quantity {
+                RowQuantity::Length => sigma[i] / units.length.metres(),
+                RowQuantity::Angle => sigma[i] / units.angle.radians(),
+            });
+        }
+    }
+    let col_factor: Vec<f64> = params
+        .iter()
+        .map(|&id| units.factor(robot.param_quantity(id)))
+        .collect();
+    let jacobian_file = Matrix::from_fn(m, n, |i, j| jw[(i, j)] * row_scale[i] * col_factor[j]);
+
+    (row_labels, jacobian_file)
 }
 
 /// Rounds coefficients within 1e-9 of an integer to it, and drops float noise.

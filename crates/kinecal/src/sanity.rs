@@ -77,10 +77,15 @@ fn spread(points: &[nalgebra::Vector3<f64>]) -> f64 {
 
 fn scale(robot: &Robot, data: &Dataset) -> Vec<Warning> {
     let chain = Chain::new(robot);
-    let at = |posture: usize, target: Target| {
-        chain
-            .frame_at(&data.postures[posture].readings, target)
-            .translation
+    // Observations come sorted by posture: forward kinematics once per posture.
+    let mut ws = crate::kinematics::Workspace::new(robot);
+    let mut at_posture = usize::MAX;
+    let mut at = |posture: usize, target: Target| {
+        if posture != at_posture {
+            chain.forward(&data.postures[posture].readings, &mut ws);
+            at_posture = posture;
+        }
+        chain.target_frame(&ws, target).translation
     };
     let mut out = Vec::new();
     // Positions: per target, as different targets are different points.

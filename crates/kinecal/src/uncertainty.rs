@@ -18,7 +18,7 @@
 
 use crate::error::{Error, Result};
 use crate::estimation::Calibration;
-use crate::identifiability::{analyze, Analysis, AnalysisOptions};
+use crate::identifiability::{analyze_core, Analysis, AnalysisOptions};
 use crate::observe::Dataset;
 use crate::params::ParamId;
 
@@ -72,7 +72,9 @@ pub struct Uncertainty {
     pub combinations: Vec<CombinationUncertainty>,
     /// Pairs of determined parameters correlated above [`HIGH_CORRELATION`].
     pub correlations: Vec<(ParamId, ParamId, f64)>,
-    /// The identifiability analysis at the calibrated parameters.
+    /// The identifiability analysis behind it (without the display-only parts: row labels,
+    /// file-unit Jacobian and its singular values are empty; `identifiability::analyze` gives
+    /// them).
     pub analysis: Analysis,
     /// Covariance of the estimated parameters in internal units over the determined directions.
     covariance: Vec<Vec<f64>>,
@@ -118,7 +120,7 @@ pub fn uncertainty(
         ..Default::default()
     };
     let robot = &cal.calibrated;
-    let analysis = analyze(nominal, data, &cal.estimated, &opts)?;
+    let analysis = analyze_core(nominal, data, &cal.estimated, &opts)?;
     let (m, n, r) = (analysis.residuals, analysis.parameters.len(), analysis.rank);
     if m <= r {
         return Err(Error::NoDegreesOfFreedom {
