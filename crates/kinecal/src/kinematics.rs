@@ -161,6 +161,77 @@ impl LinkCache {
     }
 }
 
+/// The sines and cosines of the reading parts `b = slope * V_j + coupling * V_k` of every
+/// revolute joint angle at every posture of a dataset, for a robot's slopes and couplings: a
+/// solver that moves offsets and geometry but not slopes or couplings computes them once
+/// instead of at every pass ([`Chain::forward_with`]). Prismatic joints get `(0, 1)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadingTrig {
+    /// `(slope, coupling)` of each joint the table was made for.
+    made_for: Vec<(f64, Option<(usize, f64)>)>,
+    /// Posture-major: `values[p * dof + j]`.
+    values: Vec<(f64, f64)>,
+    dof: usize,
+}
+
+impl ReadingTrig {
+    /// The table for `robot`'s slopes and couplings over the readings of each posture.
+    pub fn new<'a>(
+        robot: &Robot,
+        postures: impl ExactSizeIterator<Item = &'a [f64]>,
+    ) -> ReadingTrig {
+        let dof = robot.dof();
+        let mut values = Vec::with_capacity(postures.len() * dof);
+        for readings in postures {
+            for (j, joint) in robot.joints.iter().enumerate() {
+                values.push(match joint.kind {
+                    JointKind::Revolute => {
+                        let mut b = joint.slope * readings[j];
+                        if let Some(c) = joint.coupling {
+                            b += c.factor * readings[c.joint];
+                        }
+                        b.sin_cos()
+                    }
+                    JointKind::Prismatic => (0.0, 1.0),
+                });
+            }
+        }
+        ReadingTrig {
+            made_for: ReadingTrig::signature(robot),
+            values,
+            dof,
+        }
+    }
+
+    fn signature(robot: &Robot) -> Vec<(f64, Option<(usize, f64)>)> {
+        robot
+            .joints
+            .iter()
+            .map(|j| (j.slope, j.coupling.map(|c| (c.joint, c.factor))))
+            .collect()
+    }
+
+    /// Whether the table holds for `robot` (the same slopes and couplings, bit for bit).
+    pub fn fits(&self, robot: &Robot) -> bool {
+        robot.dof() == self.dof
+            && robot.joints.iter().zip(&self.made_for).all(|(j, (s, c))| {
+                j.slope.to_bits() == s.to_bits()
+                    && match (j.coupling, c) {
+                        (None, None) => true,
+                        (Some(a), Some((k, f))) => {
+                            a.joint == *k && a.factor.to_bits() == f.to_bits()
+                        }
+                        _ => false,
+                    }
+            })
+    }
+
+    /// The row of posture `p`.
+    pub fn posture(&self, p: usize) -> &[(f64, f64)] {
+        &self.values[p * self.dof..(p + 1) * self.dof]
+    }
+}
+
 /// The frames of one posture, filled by [`Chain::forward`]. Allocate once and reuse: the hot
 /// path does not allocate.
 #[derive(Debug, Clone)]
@@ -201,6 +272,8 @@ pub struct Chain<'r> {
     robot: &'r Robot,
     links: Vec<LinkCache>,
     sites: Vec<LinkCache>,
+    /// `(sin, cos)` of each joint's offset (for [`Chain::forward_with`]).
+    offset_trig: Vec<(f64, f64)>,
 }
 
 impl<'r> Chain<'r> {
@@ -214,6 +287,7 @@ impl<'r> Chain<'r> {
                 .iter()
                 .map(|s| LinkCache::new(&s.frame))
                 .collect(),
+            offset_trig: robot.joints.iter().map(|j| j.offset.sin_cos()).collect(),
         }
     }
 
@@ -226,6 +300,21 @@ impl<'r> Chain<'r> {
     #[inline]
     #[allow(clippy::needless_range_loop)] // i indexes links, frames and joints together
     pub fn forward(&self, readings: &[f64], ws: &mut Workspace) {
+        self.forward_with(readings, None, ws);
+    }
+
+    /// [`Chain::forward`], with the sines and cosines of the reading parts of the joint angles
+    /// given (`reading_trig[j] = (sin b, cos b)`, `b = slope * V_j + coupling * V_k`, the angle
+    /// without its offset; see [`ReadingTrig`]): each revolute joint's angle then costs four
+    /// products (`sin(offset + b)` by the addition formula) instead of a sine and a cosine.
+    #[inline]
+    #[allow(clippy::needless_range_loop)] // i indexes links, frames and joints together
+    pub fn forward_with(
+        &self,
+        readings: &[f64],
+        reading_trig: Option<&[(f64, f64)]>,
+        ws: &mut Workspace,
+    ) {
         let n = self.robot.dof();
         debug_assert_eq!(readings.len(), n);
         ws.readings.copy_from_slice(readings);
@@ -239,7 +328,13 @@ impl<'r> Chain<'r> {
                 let q = joint.value(readings, i);
                 match joint.kind {
                     JointKind::Revolute => {
-                        let (s, c) = q.sin_cos();
+                        let (s, c) = match reading_trig {
+                            Some(t) => {
+                                let ((so, co), (sb, cb)) = (self.offset_trig[i], t[i]);
+                                (so * cb + co * sb, co * cb - so * sb)
+                            }
+                            None => q.sin_cos(),
+                        };
                         let r = current.rotation;
                         current
                             .rotation

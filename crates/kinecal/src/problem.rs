@@ -6,13 +6,13 @@
 //! quantity; times the robust-loss weight of the row when one is set. The objective is the sum
 //! of the squared weighted residuals: dimensionless, and independent of the files' units.
 
-use crate::kinematics::{Chain, Frame};
+use crate::kinematics::{Chain, Frame, ReadingTrig};
 use crate::linalg::Matrix;
 use crate::observe::{
     Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
     OrientationError, Weights,
 };
-use crate::params::ParamId;
+use crate::params::{ParamId, ParamKind};
 use crate::robot::Robot;
 
 /// A function shown each observation with its frames.
@@ -33,6 +33,9 @@ pub struct Problem<'a> {
     /// Per parameter number: whether it is estimated (the Jacobian columns to compute), and the
     /// parameters the observations themselves read (plane columns of contacts).
     wanted: Vec<bool>,
+    /// The joint angles' reading parts, when slopes and couplings stay fixed
+    /// ([`Problem::with_reading_trig`]).
+    trig: Option<std::sync::Arc<ReadingTrig>>,
 }
 
 impl<'a> Problem<'a> {
@@ -74,7 +77,26 @@ impl<'a> Problem<'a> {
             row_scale: None,
             columns,
             wanted,
+            trig: None,
         }
+    }
+
+    /// The same problem, computing the sines and cosines of the reading parts of the joint
+    /// angles once for all evaluations (worth it for a solver's many passes), unless slopes or
+    /// couplings are estimated. Evaluations at a robot with other slopes or couplings do
+    /// without the table.
+    pub fn with_reading_trig(mut self) -> Self {
+        let moves_readings = self.estimated.iter().any(|&id| {
+            matches!(
+                self.base.try_param_kind(id),
+                Some(ParamKind::Slope { .. } | ParamKind::Coupling { .. })
+            )
+        });
+        if !moves_readings {
+            let readings = self.data.postures.iter().map(|p| p.readings.as_slice());
+            self.trig = Some(std::sync::Arc::new(ReadingTrig::new(self.base, readings)));
+        }
+        self
     }
 
     /// Multiplies residual row `i` (and its Jacobian row) by `scale[i]`: the square roots of
@@ -164,6 +186,7 @@ impl<'a> Problem<'a> {
         assert_eq!(res.len(), self.rows());
         let chain = Chain::new(robot);
         let mut cache = FrameCache::new(robot);
+        let trig = self.trig.as_deref().filter(|t| t.fits(robot));
         let ctx = Context {
             robot,
             orientation: self.orientation,
@@ -182,7 +205,7 @@ impl<'a> Problem<'a> {
             let views = o.views();
             let nrows = o.rows().len();
             for (vi, v) in views.iter().enumerate() {
-                let ws = cache.posture(&chain, self.data, v.posture);
+                let ws = cache.posture_with(&chain, self.data, v.posture, trig);
                 frames[vi] = chain.target_frame(ws, v.target);
                 if jac.is_some() {
                     chain.jacobian_wanted(ws, v.target, &self.wanted, &mut full);

@@ -194,7 +194,8 @@ pub fn calibrate(
         &opts.estimate,
         opts.weights,
         opts.orientation,
-    );
+    )
+    .with_reading_trig();
     if problem.rows() < problem.cols() {
         return Err(Error::TooFewResiduals {
             residuals: problem.rows(),

@@ -691,12 +691,28 @@ impl FrameCache {
         data: &Dataset,
         posture: usize,
     ) -> &crate::kinematics::Workspace {
+        self.posture_with(chain, data, posture, None)
+    }
+
+    /// [`FrameCache::posture`] with the reading parts of the joint angles' sines and cosines
+    /// known (a table that fits the chain's robot).
+    pub fn posture_with(
+        &mut self,
+        chain: &crate::kinematics::Chain<'_>,
+        data: &Dataset,
+        posture: usize,
+        trig: Option<&crate::kinematics::ReadingTrig>,
+    ) -> &crate::kinematics::Workspace {
         let slot = match self.at.iter().position(|&p| p == posture) {
             Some(s) => s,
             None => {
                 let s = self.next;
                 self.next = 1 - s;
-                chain.forward(&data.postures[posture].readings, &mut self.ws[s]);
+                chain.forward_with(
+                    &data.postures[posture].readings,
+                    trig.map(|t| t.posture(posture)),
+                    &mut self.ws[s],
+                );
                 self.at[s] = posture;
                 s
             }
