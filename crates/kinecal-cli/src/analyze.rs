@@ -65,7 +65,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         print!("{}", text(&an, robot, &data));
     }
     if let Some(which) = a.print {
-        print!("{}", matrix(&an, robot, which, a.units));
+        print!("{}", matrix(&an, robot, &data, &opts, which, a.units));
     }
     Ok(())
 }
@@ -282,11 +282,19 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
     s
 }
 
-fn matrix(an: &Analysis, robot: &Robot, which: MatrixArg, units: UnitsArg) -> String {
+fn matrix(
+    an: &Analysis,
+    robot: &Robot,
+    data: &kinecal::Dataset,
+    opts: &AnalysisOptions,
+    which: MatrixArg,
+    units: UnitsArg,
+) -> String {
     let mut s = String::new();
+    let table = kinecal::identifiability::jacobian_table(robot, data, an, opts);
     let m = match units {
-        UnitsArg::File => &an.jacobian_file,
-        UnitsArg::Scaled => &an.jacobian_scaled,
+        UnitsArg::File => &table.file,
+        UnitsArg::Scaled => &table.scaled,
     };
     let unit_label = match units {
         UnitsArg::File => format!("{}, {}", robot.units.length, robot.units.angle),
@@ -302,7 +310,7 @@ fn matrix(an: &Analysis, robot: &Robot, which: MatrixArg, units: UnitsArg) -> St
         MatrixArg::Jacobian => {
             let _ = writeln!(s, "Jacobian ({unit_label}):");
             let _ = writeln!(s, "{:<22}{head}", "posture site comp");
-            for (i, (p, site, c)) in an.row_labels.iter().enumerate() {
+            for (i, (p, site, c)) in table.row_labels.iter().enumerate() {
                 let row: String = (0..m.ncols())
                     .map(|j| format!("{:>11.4}", m[(i, j)]))
                     .collect();

@@ -20,7 +20,7 @@
 
 use crate::error::{Error, Result};
 use crate::kinematics::Target;
-use crate::linalg::{self, Matrix};
+use crate::linalg::{self, Matrix, QrAccumulator, QR_BLOCK};
 use crate::observe::{Anchoring, Dataset, OrientationError, RowQuantity, Weights};
 use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
 use crate::problem::Problem;
@@ -120,12 +120,6 @@ pub struct Analysis {
     pub euler_singular: Vec<String>,
     /// Warnings (unclear gap, ...).
     pub warnings: Vec<Warning>,
-    /// The scaled Jacobian.
-    pub jacobian_scaled: Matrix,
-    /// The Jacobian in file units.
-    pub jacobian_file: Matrix,
-    /// Row labels of the Jacobians: (posture label(s), target, row label).
-    pub row_labels: Vec<(String, String, &'static str)>,
     /// Column scale factors (norms of the weighted SI columns).
     pub column_norms: Vec<f64>,
     /// Right singular vectors of the scaled Jacobian (n x n), in the order of the singular
@@ -364,29 +358,29 @@ fn analyze_with(
     let n = params.len();
     let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
     let m = problem.rows();
+    // The weighted Jacobian is never held: its rows go into the R of a QR, a block at a time
+    // (the same inner products between columns, n long instead of m; memory flat in m).
     let mut r = vec![0.0; m];
-    let mut jw = Matrix::zeros(m, n);
-    problem.evaluate(robot, &mut r, Some(&mut jw));
+    let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
+    problem.evaluate_qr(robot, &mut r, &mut acc);
+    let mut raug = Matrix::zeros(0, 0);
+    acc.r_into(&mut raug);
+    // R of [W J | W r]: its leading n x n block is the R of W J alone.
+    let rw = Matrix::from_fn(n, n, |i, j| raug[(i, j)]);
 
-    // Row labels and the file-unit Jacobian (for display only).
     let units = robot.units;
     let col_factor: Vec<f64> = params
         .iter()
         .map(|&id| units.factor(robot.param_quantity(id)))
         .collect();
-    let (row_labels, jacobian_file) = if display {
-        file_unit_rows(robot, data, &problem, &params, &jw)
-    } else {
-        (Vec::new(), Matrix::zeros(0, 0))
-    };
 
-    let column_norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&jw, j)).collect();
+    let column_norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&rw, j)).collect();
     let max_norm = column_norms.iter().copied().fold(0.0, f64::max);
     let unobservable: Vec<ParamId> = (0..n)
         .filter(|&j| column_norms[j] <= 1e-12 * max_norm.max(1e-300))
         .map(|j| params[j])
         .collect();
-    let mut js = jw.clone();
+    let mut r_scaled = rw;
     for (j, &c) in column_norms.iter().enumerate() {
         // Unobservable columns hold only rounding noise: zero them rather than blow it up.
         let s = if unobservable.contains(&params[j]) {
@@ -394,26 +388,25 @@ fn analyze_with(
         } else {
             1.0 / c
         };
-        linalg::scale_col(&mut js, j, s);
+        linalg::scale_col(&mut r_scaled, j, s);
     }
-    // Fewer residuals than parameters (a plan, or a short test): zero rows change neither the
-    // singular values nor the right singular vectors, and give the full n x n set of them.
-    let pad = |a: &Matrix| Matrix::from_fn(m.max(n), n, |i, j| if i < m { a[(i, j)] } else { 0.0 });
-    // Singular values and right vectors from the QR's R: no m x n U is formed.
-    let (s_scaled, v_scaled, r_scaled) = if m >= n {
-        linalg::right_svd(&js)
+    // Singular values and right vectors of the scaled Jacobian are those of its R (n x n).
+    let (s_scaled, v_scaled, _) = linalg::right_svd(&r_scaled)
+        .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
+    let sv_file = if display {
+        // The Jacobian in file units: rows back from weighted to file units, columns to the
+        // file's units; a second pass, again through a QR's R only.
+        let row_scale = file_row_scale(robot, data, &problem);
+        let fp = Problem::new(robot, data, &params, opts.weights, opts.orientation)
+            .with_row_scale(&row_scale);
+        acc.clear();
+        fp.evaluate_qr(robot, &mut r, &mut acc);
+        acc.r_into(&mut raug);
+        let rf = Matrix::from_fn(n, n, |i, j| raug[(i, j)] * col_factor[j]);
+        linalg::singular_values_qr(&rf)
+            .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?
     } else {
-        linalg::right_svd(&pad(&js))
-    }
-    .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?;
-    let sv_file = if !display {
         Vec::new()
-    } else if m >= n {
-        linalg::singular_values_qr(&jacobian_file)
-            .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?
-    } else {
-        linalg::singular_values_qr(&pad(&jacobian_file))
-            .ok_or_else(|| Error::Numerical("SVD did not converge".into()))?
     };
     let s = &s_scaled;
     let smax = s.first().copied().unwrap_or(0.0);
@@ -631,30 +624,57 @@ fn analyze_with(
         determined,
         euler_singular,
         warnings,
-        jacobian_scaled: js,
-        jacobian_file,
-        row_labels,
         column_norms,
         right_singular_vectors: v_scaled,
     })
 }
 
-/// The row labels of `problem` (posture label(s), target, row label) and its weighted
-/// Jacobian `jw` in file units.
-#[allow(clippy::type_complexity)]
-fn file_unit_rows(
+/// Per row of `problem`, the factor from its weighted residual to file units (its sigma in
+/// the file's length or angle unit).
+fn file_row_scale(robot: &Robot, data: &Dataset, problem: &Problem<'_>) -> Vec<f64> {
+    let units = robot.units;
+    let sigma = problem.row_sigma();
+    let mut scale = Vec::with_capacity(problem.rows());
+    for o in &data.observations {
+        for row in o.rows() {
+            let i = scale.len();
+            scale.push(match row.quantity {
+                RowQuantity::Length => sigma[i] / units.length.metres(),
+                RowQuantity::Angle => sigma[i] / units.angle.radians(),
+            });
+        }
+    }
+    scale
+}
+
+/// The Jacobian of an [`Analysis`], row by row, for display (`kinecal analyze --print`): an
+/// m x n matrix and a label per row, so build it only to show it; the analysis itself never
+/// holds it.
+#[derive(Debug, Clone)]
+pub struct JacobianTable {
+    /// Per row: posture label(s) (`a&b` for a pair), target, row label.
+    pub row_labels: Vec<(String, String, &'static str)>,
+    /// The scaled Jacobian `W J D^-1` (unit columns; unfelt columns zeroed), as analysed.
+    pub scaled: Matrix,
+    /// The Jacobian in file units: rows in the file's length or angle unit per the parameter's
+    /// file unit.
+    pub file: Matrix,
+}
+
+/// The Jacobian that `analysis` (of `data` on `robot`, with `opts`) analysed, for display.
+pub fn jacobian_table(
     robot: &Robot,
     data: &Dataset,
-    problem: &Problem<'_>,
-    params: &[ParamId],
-    jw: &Matrix,
-) -> (Vec<(String, String, &'static str)>, Matrix) {
-    let m = problem.rows();
-    let n = params.len();
-    let units = robot.units;
+    analysis: &Analysis,
+    opts: &AnalysisOptions,
+) -> JacobianTable {
+    let params = &analysis.parameters;
+    let problem = Problem::new(robot, data, params, opts.weights, opts.orientation);
+    let (m, n) = (problem.rows(), params.len());
+    let mut r = vec![0.0; m];
+    let mut jw = Matrix::zeros(m, n);
+    problem.evaluate(robot, &mut r, Some(&mut jw));
     let mut row_labels = Vec::with_capacity(m);
-    let mut row_scale = Vec::with_capacity(m); // weighted -> file units
-    let sigma = problem.row_sigma();
     for o in &data.observations {
         let postures: Vec<&str> = o
             .views()
@@ -664,21 +684,29 @@ fn file_unit_rows(
         let postures = postures.join("&");
         let site = crate::observe::target_name(robot, o.target()).to_string();
         for row in o.rows() {
-            let i = row_labels.len();
             row_labels.push((postures.clone(), site.clone(), row.label));
-            row_scale.push(match row.quantity {
-                RowQuantity::Length => sigma[i] / units.length.metres(),
-                RowQuantity::Angle => sigma[i] / units.angle.radians(),
-            });
         }
     }
+    let row_scale = file_row_scale(robot, data, &problem);
+    let units = robot.units;
     let col_factor: Vec<f64> = params
         .iter()
         .map(|&id| units.factor(robot.param_quantity(id)))
         .collect();
-    let jacobian_file = Matrix::from_fn(m, n, |i, j| jw[(i, j)] * row_scale[i] * col_factor[j]);
-
-    (row_labels, jacobian_file)
+    let file = Matrix::from_fn(m, n, |i, j| jw[(i, j)] * row_scale[i] * col_factor[j]);
+    let scaled = Matrix::from_fn(m, n, |i, j| {
+        let c = analysis.column_norms[j];
+        if analysis.unobservable.contains(&params[j]) || c <= 0.0 {
+            0.0
+        } else {
+            jw[(i, j)] / c
+        }
+    });
+    JacobianTable {
+        row_labels,
+        scaled,
+        file,
+    }
 }
 
 /// Rounds coefficients within 1e-9 of an integer to it, and drops float noise.

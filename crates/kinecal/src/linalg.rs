@@ -109,13 +109,6 @@ pub(crate) fn gram(a: &Matrix) -> Matrix {
     from_faer(out.as_ref())
 }
 
-/// `A^T v`.
-pub(crate) fn at_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
-    (0..a.ncols())
-        .map(|j| a.col(j).iter().zip(v).map(|(x, y)| x * y).sum())
-        .collect()
-}
-
 /// `A v`.
 pub(crate) fn a_v(a: &Matrix, v: &[f64]) -> Vec<f64> {
     let mut out = vec![0.0; a.nrows()];
@@ -232,5 +225,139 @@ mod tests {
         let x = solve_spd(&g, &[1.0, 2.0, 3.0]).unwrap();
         let gx = a_v(&g, &x);
         assert!((gx[0] - 1.0).abs() + (gx[1] - 2.0).abs() + (gx[2] - 3.0).abs() < 1e-10);
+    }
+
+    /// The accumulated R against the matrix it summarises: R^T R = A^T A (the normal
+    /// equations, formed directly) and the same singular values as the QR of all of A, for row
+    /// counts below, at and across block boundaries, including fewer rows than columns.
+    #[test]
+    fn accumulated_r_summarises_every_row_pushed() {
+        for (rows, block) in [(2, 4), (7, 7), (8, 7), (50, 7), (1000, 64)] {
+            let cols = 5;
+            let a = Matrix::from_fn(rows, cols, |i, j| {
+                ((i * 7 + j * 3) as f64 * 0.37).sin() + 0.1 * (j as f64) * (i % 3) as f64
+            });
+            let mut acc = QrAccumulator::new(cols, block);
+            let mut row = vec![0.0; cols];
+            for i in 0..rows {
+                for (j, v) in row.iter_mut().enumerate() {
+                    *v = a[(i, j)];
+                }
+                acc.push(&row);
+            }
+            let mut r = Matrix::zeros(0, 0);
+            acc.r_into(&mut r);
+            let (g, rtr) = (gram(&a), gram(&r));
+            let scale = (0..cols).map(|j| g[(j, j)]).fold(0.0, f64::max);
+            for i in 0..cols {
+                for j in 0..cols {
+                    assert!(
+                        (g[(i, j)] - rtr[(i, j)]).abs() < 1e-12 * scale,
+                        "{rows} rows, block {block}: ({i},{j}) {} vs {}",
+                        g[(i, j)],
+                        rtr[(i, j)]
+                    );
+                }
+                for k in i + 1..cols {
+                    assert_eq!(r[(k, i)], 0.0, "R is upper triangular");
+                }
+            }
+            let (sa, sr) = (singular_values(&a).unwrap(), singular_values(&r).unwrap());
+            for (x, y) in sa.iter().zip(&sr) {
+                assert!((x - y).abs() < 1e-12 * sa[0], "{rows} rows: {x} vs {y}");
+            }
+            // Cleared, it starts again from no rows.
+            acc.clear();
+            acc.push(&row);
+            acc.r_into(&mut r);
+            let n2: f64 = row.iter().map(|v| v * v).sum();
+            assert!((gram(&r)[(0, 0)] - row[0] * row[0]).abs() < 1e-12 * n2);
+        }
+    }
+}
+
+/// Rows folded into a [`QrAccumulator`]'s `R` at a time: large enough that the QR of a block
+/// runs at matrix speed, small enough (a few hundred KB) that memory does not grow with the
+/// postures.
+pub(crate) const QR_BLOCK: usize = 512;
+
+/// The `R` factor of a tall matrix's QR, accumulated a block of rows at a time, so that the
+/// matrix itself is never held: rows are pushed one by one, and every `block` of them is folded
+/// into `R` by a QR of `R` stacked on the block. `R^T R` equals `A^T A` of all the rows pushed
+/// (up to rounding), which is all a least-squares step or a rank analysis needs; memory is
+/// `(cols + block) x cols` whatever the number of rows.
+pub(crate) struct QrAccumulator {
+    cols: usize,
+    /// `cols + block` rows: `R` on top, then the rows pushed since the last fold.
+    stack: Matrix,
+    filled: usize,
+}
+
+impl QrAccumulator {
+    /// An empty accumulator of `cols` columns, folding every `block` rows.
+    pub(crate) fn new(cols: usize, block: usize) -> Self {
+        QrAccumulator {
+            cols,
+            stack: Matrix::zeros(cols + block.max(1), cols),
+            filled: 0,
+        }
+    }
+
+    /// Number of columns.
+    pub(crate) fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// Starts again from no rows, keeping the allocation.
+    pub(crate) fn clear(&mut self) {
+        self.stack.data.fill(0.0);
+        self.filled = 0;
+    }
+
+    /// Appends one row (length [`QrAccumulator::cols`]).
+    pub(crate) fn push(&mut self, row: &[f64]) {
+        debug_assert_eq!(row.len(), self.cols);
+        if self.cols + self.filled == self.stack.rows {
+            self.fold();
+        }
+        let i = self.cols + self.filled;
+        for (j, &v) in row.iter().enumerate() {
+            self.stack[(i, j)] = v;
+        }
+        self.filled += 1;
+    }
+
+    fn fold(&mut self) {
+        if self.filled == 0 || self.cols == 0 {
+            return;
+        }
+        let rows = self.cols + self.filled;
+        let view = MatRef::from_column_major_slice_with_stride(
+            &self.stack.data,
+            rows,
+            self.cols,
+            self.stack.rows,
+        );
+        let r = view.qr().thin_R().to_owned();
+        for j in 0..self.cols {
+            for i in 0..self.cols {
+                self.stack[(i, j)] = if i <= j { r[(i, j)] } else { 0.0 };
+            }
+            for i in self.cols..rows {
+                self.stack[(i, j)] = 0.0;
+            }
+        }
+        self.filled = 0;
+    }
+
+    /// The `cols x cols` upper-triangular `R` of all the rows pushed so far, written to `out`.
+    pub(crate) fn r_into(&mut self, out: &mut Matrix) {
+        self.fold();
+        out.resize(self.cols, self.cols);
+        for j in 0..self.cols {
+            for i in 0..self.cols {
+                out[(i, j)] = self.stack[(i, j)];
+            }
+        }
     }
 }

@@ -7,7 +7,7 @@
 //! of the squared weighted residuals: dimensionless, and independent of the files' units.
 
 use crate::kinematics::{Chain, Frame, ReadingTrig};
-use crate::linalg::Matrix;
+use crate::linalg::{Matrix, QrAccumulator};
 use crate::observe::{
     Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
     OrientationError, Weights,
@@ -17,6 +17,13 @@ use crate::robot::Robot;
 
 /// A function shown each observation with its frames.
 type ObservationVisitor<'a> = dyn FnMut(&Observation, &[Frame]) + 'a;
+
+/// Where an evaluation's derivatives go: a full rows x cols matrix, or, a row at a time, into
+/// the `R` of a QR (with the residual as the last column).
+enum Sink<'m> {
+    Full(&'m mut Matrix),
+    Qr(&'m mut QrAccumulator),
+}
 
 /// Weighted residuals and Jacobian of a calibration over one dataset.
 #[derive(Clone)]
@@ -155,7 +162,22 @@ impl<'a> Problem<'a> {
     /// with respect to the estimated parameters. Returns the objective, the sum of squared
     /// residuals.
     pub fn evaluate(&self, robot: &Robot, res: &mut [f64], jac: Option<&mut Matrix>) -> f64 {
-        self.evaluate_with(robot, res, jac, None)
+        self.evaluate_with(robot, res, jac.map(Sink::Full), None)
+    }
+
+    /// [`Problem::evaluate`] that never holds the Jacobian: each row `[J_i | r_i]` (the
+    /// weighted derivatives, then the weighted residual) is pushed into `acc` (cleared first;
+    /// `cols + 1` columns), which keeps only the `R` of their QR. Memory is flat in the number
+    /// of rows.
+    pub(crate) fn evaluate_qr(
+        &self,
+        robot: &Robot,
+        res: &mut [f64],
+        acc: &mut QrAccumulator,
+    ) -> f64 {
+        assert_eq!(acc.cols(), self.cols() + 1);
+        acc.clear();
+        self.evaluate_with(robot, res, Some(Sink::Qr(acc)), None)
     }
 
     /// [`Problem::evaluate`] without derivatives, and with the errors of every observation
@@ -180,7 +202,7 @@ impl<'a> Problem<'a> {
         &self,
         robot: &Robot,
         res: &mut [f64],
-        mut jac: Option<&mut Matrix>,
+        mut jac: Option<Sink<'_>>,
         mut each: Option<&mut ObservationVisitor<'_>>,
     ) -> f64 {
         assert_eq!(res.len(), self.rows());
@@ -196,7 +218,8 @@ impl<'a> Problem<'a> {
         let mut full = vec![0.0; 6 * np];
         let mut blocks = [vec![0.0; 6 * k], vec![0.0; 6 * k]];
         let mut out = Vec::new();
-        if let Some(j) = jac.as_deref_mut() {
+        let mut qr_row = vec![0.0; k + 1];
+        if let Some(Sink::Full(j)) = jac.as_mut() {
             j.resize(self.rows(), k);
         }
         let mut frames = [Frame::identity(); 2];
@@ -215,8 +238,8 @@ impl<'a> Problem<'a> {
                 }
             }
             let r = &mut res[row..row + nrows];
-            match jac.as_deref_mut() {
-                Some(j) => {
+            match jac.as_mut() {
+                Some(sink) => {
                     out.clear();
                     out.resize(nrows * k, 0.0);
                     let refs = [blocks[0].as_slice(), blocks[1].as_slice()];
@@ -229,9 +252,20 @@ impl<'a> Problem<'a> {
                     o.evaluate(&ctx, &frames[..views.len()], r, Some(&mut d));
                     for i in 0..nrows {
                         let (w, s) = (self.weight[row + i], self.row_scale.map(|s| s[row + i]));
-                        for c in 0..k {
-                            let v = out[i * k + c] * w;
-                            j[(row + i, c)] = s.map_or(v, |s| v * s);
+                        let scaled = |v: f64| s.map_or(v * w, |s| v * w * s);
+                        match sink {
+                            Sink::Full(j) => {
+                                for c in 0..k {
+                                    j[(row + i, c)] = scaled(out[i * k + c]);
+                                }
+                            }
+                            Sink::Qr(acc) => {
+                                for c in 0..k {
+                                    qr_row[c] = scaled(out[i * k + c]);
+                                }
+                                qr_row[k] = scaled(r[i]);
+                                acc.push(&qr_row);
+                            }
                         }
                     }
                 }

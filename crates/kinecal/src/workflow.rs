@@ -151,7 +151,7 @@ pub fn resolve(
             if ids.is_empty() {
                 return Err(Error::NothingToEstimate);
             }
-            let base = identifiability::analyze(robot, data, &ids, opts)?.identifiable;
+            let base = identifiability::analyze_core(robot, data, &ids, opts)?.identifiable;
             (base, unseen)
         }
     };
@@ -1231,7 +1231,7 @@ fn project_min_change(
         orientation: opts.orientation,
         ..Default::default()
     };
-    let a = identifiability::analyze(&robot, data, problem.estimated(), &aopts)?;
+    let a = identifiability::analyze_core(&robot, data, problem.estimated(), &aopts)?;
     let n = x.len();
     // analyze sorts its parameters; map them back to the problem's order.
     let pos: Vec<usize> = problem

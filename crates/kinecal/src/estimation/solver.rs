@@ -11,6 +11,12 @@
 //! e.g. the tool's attitude under position-only data): it is zeroed, not scaled up, so the
 //! parameter stays where it is.
 //!
+//! The Jacobian itself is never held: each evaluation pushes its rows `[W J | W r]` into the `R`
+//! factor of a QR, 512 rows at a time, and the methods work on that `(n+1) x (n+1)`
+//! factor ([`Scaled`]), so memory does not grow with the number of postures and no m x n
+//! matrix is copied, multiplied or decomposed per iteration. The column norms `D` are those of
+//! `R`'s columns.
+//!
 //! A method is a [`StepRule`]: given the scaled system, it proposes steps until one lowers the
 //! objective.
 //! - `lm`: `(C + lambda I) y = -g` with `C = J_s^T J_s`, `g = J_s^T r`; lambda divided by 10 after
@@ -34,7 +40,7 @@
 //! the objective still goes down.
 
 use crate::error::{Error, Result};
-use crate::linalg::{self, Matrix};
+use crate::linalg::{self, Matrix, QrAccumulator, QR_BLOCK};
 use crate::problem::Problem;
 
 /// A least-squares method.
@@ -215,13 +221,16 @@ pub struct Solution {
     pub unfelt: Vec<usize>,
 }
 
-/// The scaled system a step rule works on, at the current point.
+/// The scaled system a step rule works on, at the current point, in the `R` form that needs no
+/// m-row matrix: with `W J = Q R` (thin QR of the weighted Jacobian) and `z = Q^T r`, the
+/// scaled Jacobian `J_s = W J D^-1` is `Q R_s` with `R_s = R D^-1`, so `J_s^T J_s = R_s^T R_s`,
+/// `J_s^T r = R_s^T z`, and `J_s`'s singular values and right vectors are `R_s`'s.
 pub struct Scaled<'s> {
-    /// The scaled Jacobian `J_s = W J D^-1` (dead columns zeroed).
-    pub js: &'s Matrix,
-    /// The weighted residuals.
-    pub r: &'s [f64],
-    /// The gradient `g = J_s^T r`.
+    /// `R_s = R D^-1`, n x n upper triangular (dead columns zeroed).
+    pub rs: &'s Matrix,
+    /// `z = Q^T r`, the residuals' component in the Jacobian's column space.
+    pub z: &'s [f64],
+    /// The gradient `g = J_s^T r = R_s^T z`.
     pub g: &'s [f64],
     /// The objective.
     pub f: f64,
@@ -282,7 +291,7 @@ impl StepRule for LevenbergMarquardt {
         sys: &Scaled<'_>,
         trial: &mut dyn FnMut(&[f64]) -> f64,
     ) -> Result<Option<Step>> {
-        let c = linalg::gram(sys.js);
+        let c = linalg::gram(sys.rs);
         let n = c.ncols();
         let max_diag = (0..n).map(|i| c[(i, i)]).fold(0.0, f64::max);
         if self.lambda.is_nan() {
@@ -328,8 +337,8 @@ impl StepRule for GaussNewton {
         sys: &Scaled<'_>,
         trial: &mut dyn FnMut(&[f64]) -> f64,
     ) -> Result<Option<Step>> {
-        let n = sys.js.ncols();
-        let s = linalg::singular_values(sys.js)
+        let n = sys.rs.ncols();
+        let s = linalg::singular_values(sys.rs)
             .ok_or_else(|| Error::Numerical("SVD of the Jacobian did not converge".into()))?;
         let smax = s.first().copied().unwrap_or(0.0);
         let rank = s.iter().filter(|&&v| v > self.rcond * smax).count();
@@ -342,7 +351,7 @@ impl StepRule for GaussNewton {
             return Err(singular);
         }
         let rhs: Vec<f64> = sys.g.iter().map(|v| -v).collect();
-        let y = linalg::solve_spd(&linalg::gram(sys.js), &rhs).ok_or(singular)?;
+        let y = linalg::solve_spd(&linalg::gram(sys.rs), &rhs).ok_or(singular)?;
         Ok(halving(y, sys.f, trial))
     }
 }
@@ -356,7 +365,8 @@ impl StepRule for SteepestDescent {
         sys: &Scaled<'_>,
         trial: &mut dyn FnMut(&[f64]) -> f64,
     ) -> Result<Option<Step>> {
-        let jg = linalg::a_v(sys.js, sys.g);
+        // |J_s g| = |Q R_s g| = |R_s g|.
+        let jg = linalg::a_v(sys.rs, sys.g);
         let denom = dot(&jg, &jg);
         let t = if denom > 0.0 {
             dot(sys.g, sys.g) / denom
@@ -380,13 +390,14 @@ impl StepRule for TruncatedSvd {
         sys: &Scaled<'_>,
         trial: &mut dyn FnMut(&[f64]) -> f64,
     ) -> Result<Option<Step>> {
-        let svd = linalg::thin_svd(sys.js)
+        // J_s = (Q U) S V^T with R_s = U S V^T: u_k^T r of J_s's vectors is U's u_k^T z.
+        let svd = linalg::thin_svd(sys.rs)
             .ok_or_else(|| Error::Numerical("SVD of the Jacobian did not converge".into()))?;
         let smax = svd.s.first().copied().unwrap_or(0.0);
-        let mut y = vec![0.0; sys.js.ncols()];
+        let mut y = vec![0.0; sys.rs.ncols()];
         for (k, &s) in svd.s.iter().enumerate() {
             if s > self.rcond * smax {
-                let coef = -dot(svd.u.col(k), sys.r) / s;
+                let coef = -dot(svd.u.col(k), sys.z) / s;
                 for (yi, vi) in y.iter_mut().zip(svd.v.col(k)) {
                     *yi += coef * vi;
                 }
@@ -447,56 +458,69 @@ pub fn drive(
     let (m, n) = (problem.rows(), problem.cols());
     let mut x = x0.to_vec();
     let mut r = vec![0.0; m];
-    let mut jac = Matrix::zeros(m, n);
-    let mut js = Matrix::zeros(m, n);
-    let mut f = problem.evaluate(&problem.robot_at(&x), &mut r, Some(&mut jac));
+    // The Jacobian is never held: its rows (with the residual) go into the R of a QR, a block
+    // of rows at a time, so memory is flat in the number of postures.
+    let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
+    let mut f = problem.evaluate_qr(&problem.robot_at(&x), &mut r, &mut acc);
     if !f.is_finite() {
         return Err(non_finite_start(problem, &r));
     }
     let objective_before = f;
     let mut trial_r = vec![0.0; m];
-    // The Jacobian at the last trial point, computed with its residuals: a step rule accepts
-    // the last point it tried (nearly always), and then the next iteration needs no second
-    // pass of forward kinematics there.
-    let mut trial_jac = Matrix::zeros(m, n);
+    // The R at the last trial point, computed with its residuals: a step rule accepts the last
+    // point it tried (nearly always), and then the next iteration needs no second pass of
+    // forward kinematics there.
+    let mut trial_acc = QrAccumulator::new(n + 1, QR_BLOCK);
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
     let mut unfelt = None;
     let mut trial_x = vec![0.0; n];
+    let mut raug = Matrix::zeros(n + 1, n + 1);
+    let mut rs = Matrix::zeros(n, n);
+    let mut z = vec![0.0; n];
+    let mut g = vec![0.0; n];
+    let mut norms = vec![0.0; n];
+    let mut d = vec![1.0; n];
+    let mut dead = vec![false; n];
     while iterations < opts.max_iterations {
         if f == 0.0 {
             termination = Termination::ZeroObjective;
             break;
         }
         iterations += 1;
-        let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&jac, j)).collect();
+        acc.r_into(&mut raug);
+        // Column norms of J are those of R (Q has orthonormal columns).
+        for j in 0..n {
+            norms[j] = (0..=j)
+                .map(|i| raug[(i, j)] * raug[(i, j)])
+                .sum::<f64>()
+                .sqrt();
+        }
         let max_norm = norms.iter().copied().fold(0.0, f64::max);
-        let dead: Vec<bool> = norms
-            .iter()
-            .map(|&c| c.is_nan() || c <= 1e-12 * max_norm)
-            .collect();
+        for j in 0..n {
+            dead[j] = norms[j].is_nan() || norms[j] <= 1e-12 * max_norm;
+            d[j] = if dead[j] || !rule.scales_columns() {
+                1.0
+            } else {
+                norms[j]
+            };
+        }
         if unfelt.is_none() {
             unfelt = Some((0..n).filter(|&j| dead[j]).collect::<Vec<_>>());
         }
-        let d: Vec<f64> = (0..n)
-            .map(|j| {
-                if dead[j] || !rule.scales_columns() {
-                    1.0
-                } else {
-                    norms[j]
-                }
-            })
-            .collect();
         for j in 0..n {
             let s = if dead[j] { 0.0 } else { 1.0 / d[j] };
-            for (o, v) in js.col_mut(j).iter_mut().zip(jac.col(j)) {
-                *o = v * s;
+            for i in 0..n {
+                rs[(i, j)] = raug[(i, j)] * s;
             }
+            z[j] = raug[(j, n)];
         }
-        let g = linalg::at_v(&js, &r);
+        for j in 0..n {
+            g[j] = (0..=j).map(|i| rs[(i, j)] * z[i]).sum();
+        }
         let sys = Scaled {
-            js: &js,
-            r: &r,
+            rs: &rs,
+            z: &z,
             g: &g,
             f,
         };
@@ -505,11 +529,7 @@ pub fn drive(
             for j in 0..n {
                 trial_x[j] = x[j] + y[j] / d[j];
             }
-            let v = problem.evaluate(
-                &problem.robot_at(&trial_x),
-                &mut trial_r,
-                Some(&mut trial_jac),
-            );
+            let v = problem.evaluate_qr(&problem.robot_at(&trial_x), &mut trial_r, &mut trial_acc);
             last_trial = v;
             if v.is_finite() {
                 v
@@ -539,10 +559,10 @@ pub fn drive(
             // The accepted point is the last one evaluated: its residuals and Jacobian are
             // at hand (the same arithmetic, so the same numbers).
             std::mem::swap(&mut r, &mut trial_r);
-            std::mem::swap(&mut jac, &mut trial_jac);
+            std::mem::swap(&mut acc, &mut trial_acc);
             f = last_trial;
         } else {
-            f = problem.evaluate(&problem.robot_at(&x), &mut r, Some(&mut jac));
+            f = problem.evaluate_qr(&problem.robot_at(&x), &mut r, &mut acc);
         }
         observer(&Iteration {
             iteration: iterations,
