@@ -197,85 +197,6 @@ pub(crate) fn singular_values(a: &Matrix) -> Option<Vec<f64>> {
     a.faer().singular_values().ok()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn svd_reconstructs_and_gram_is_a_transpose_a() {
-        let a = Matrix::from_fn(5, 3, |i, j| {
-            ((i * 3 + j) as f64).sin() + (i == j) as u8 as f64
-        });
-        let svd = thin_svd(&a).unwrap();
-        for i in 0..5 {
-            for j in 0..3 {
-                let r: f64 = (0..3)
-                    .map(|k| svd.u[(i, k)] * svd.s[k] * svd.v[(j, k)])
-                    .sum();
-                assert!((r - a[(i, j)]).abs() < 1e-12);
-            }
-        }
-        let g = gram(&a);
-        for p in 0..3 {
-            for q in 0..3 {
-                let d: f64 = (0..5).map(|i| a[(i, p)] * a[(i, q)]).sum();
-                assert!((g[(p, q)] - d).abs() < 1e-12);
-            }
-        }
-        let x = solve_spd(&g, &[1.0, 2.0, 3.0]).unwrap();
-        let gx = a_v(&g, &x);
-        assert!((gx[0] - 1.0).abs() + (gx[1] - 2.0).abs() + (gx[2] - 3.0).abs() < 1e-10);
-    }
-
-    /// The accumulated R against the matrix it summarises: R^T R = A^T A (the normal
-    /// equations, formed directly) and the same singular values as the QR of all of A, for row
-    /// counts below, at and across block boundaries, including fewer rows than columns.
-    #[test]
-    fn accumulated_r_summarises_every_row_pushed() {
-        for (rows, block) in [(2, 4), (7, 7), (8, 7), (50, 7), (1000, 64)] {
-            let cols = 5;
-            let a = Matrix::from_fn(rows, cols, |i, j| {
-                ((i * 7 + j * 3) as f64 * 0.37).sin() + 0.1 * (j as f64) * (i % 3) as f64
-            });
-            let mut acc = QrAccumulator::new(cols, block);
-            let mut row = vec![0.0; cols];
-            for i in 0..rows {
-                for (j, v) in row.iter_mut().enumerate() {
-                    *v = a[(i, j)];
-                }
-                acc.push(&row);
-            }
-            let mut r = Matrix::zeros(0, 0);
-            acc.r_into(&mut r);
-            let (g, rtr) = (gram(&a), gram(&r));
-            let scale = (0..cols).map(|j| g[(j, j)]).fold(0.0, f64::max);
-            for i in 0..cols {
-                for j in 0..cols {
-                    assert!(
-                        (g[(i, j)] - rtr[(i, j)]).abs() < 1e-12 * scale,
-                        "{rows} rows, block {block}: ({i},{j}) {} vs {}",
-                        g[(i, j)],
-                        rtr[(i, j)]
-                    );
-                }
-                for k in i + 1..cols {
-                    assert_eq!(r[(k, i)], 0.0, "R is upper triangular");
-                }
-            }
-            let (sa, sr) = (singular_values(&a).unwrap(), singular_values(&r).unwrap());
-            for (x, y) in sa.iter().zip(&sr) {
-                assert!((x - y).abs() < 1e-12 * sa[0], "{rows} rows: {x} vs {y}");
-            }
-            // Cleared, it starts again from no rows.
-            acc.clear();
-            acc.push(&row);
-            acc.r_into(&mut r);
-            let n2: f64 = row.iter().map(|v| v * v).sum();
-            assert!((gram(&r)[(0, 0)] - row[0] * row[0]).abs() < 1e-12 * n2);
-        }
-    }
-}
-
 /// Rows folded into a [`QrAccumulator`]'s `R` at a time: large enough that the QR of a block
 /// runs at matrix speed, small enough (a few hundred KB) that memory does not grow with the
 /// postures.
@@ -358,6 +279,85 @@ impl QrAccumulator {
             for i in 0..self.cols {
                 out[(i, j)] = self.stack[(i, j)];
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svd_reconstructs_and_gram_is_a_transpose_a() {
+        let a = Matrix::from_fn(5, 3, |i, j| {
+            ((i * 3 + j) as f64).sin() + (i == j) as u8 as f64
+        });
+        let svd = thin_svd(&a).unwrap();
+        for i in 0..5 {
+            for j in 0..3 {
+                let r: f64 = (0..3)
+                    .map(|k| svd.u[(i, k)] * svd.s[k] * svd.v[(j, k)])
+                    .sum();
+                assert!((r - a[(i, j)]).abs() < 1e-12);
+            }
+        }
+        let g = gram(&a);
+        for p in 0..3 {
+            for q in 0..3 {
+                let d: f64 = (0..5).map(|i| a[(i, p)] * a[(i, q)]).sum();
+                assert!((g[(p, q)] - d).abs() < 1e-12);
+            }
+        }
+        let x = solve_spd(&g, &[1.0, 2.0, 3.0]).unwrap();
+        let gx = a_v(&g, &x);
+        assert!((gx[0] - 1.0).abs() + (gx[1] - 2.0).abs() + (gx[2] - 3.0).abs() < 1e-10);
+    }
+
+    /// The accumulated R against the matrix it summarises: R^T R = A^T A (the normal
+    /// equations, formed directly) and the same singular values as the QR of all of A, for row
+    /// counts below, at and across block boundaries, including fewer rows than columns.
+    #[test]
+    fn accumulated_r_summarises_every_row_pushed() {
+        for (rows, block) in [(2, 4), (7, 7), (8, 7), (50, 7), (1000, 64)] {
+            let cols = 5;
+            let a = Matrix::from_fn(rows, cols, |i, j| {
+                ((i * 7 + j * 3) as f64 * 0.37).sin() + 0.1 * (j as f64) * (i % 3) as f64
+            });
+            let mut acc = QrAccumulator::new(cols, block);
+            let mut row = vec![0.0; cols];
+            for i in 0..rows {
+                for (j, v) in row.iter_mut().enumerate() {
+                    *v = a[(i, j)];
+                }
+                acc.push(&row);
+            }
+            let mut r = Matrix::zeros(0, 0);
+            acc.r_into(&mut r);
+            let (g, rtr) = (gram(&a), gram(&r));
+            let scale = (0..cols).map(|j| g[(j, j)]).fold(0.0, f64::max);
+            for i in 0..cols {
+                for j in 0..cols {
+                    assert!(
+                        (g[(i, j)] - rtr[(i, j)]).abs() < 1e-12 * scale,
+                        "{rows} rows, block {block}: ({i},{j}) {} vs {}",
+                        g[(i, j)],
+                        rtr[(i, j)]
+                    );
+                }
+                for k in i + 1..cols {
+                    assert!(r[(k, i)].abs() < f64::MIN_POSITIVE, "R is upper triangular");
+                }
+            }
+            let (sa, sr) = (singular_values(&a).unwrap(), singular_values(&r).unwrap());
+            for (x, y) in sa.iter().zip(&sr) {
+                assert!((x - y).abs() < 1e-12 * sa[0], "{rows} rows: {x} vs {y}");
+            }
+            // Cleared, it starts again from no rows.
+            acc.clear();
+            acc.push(&row);
+            acc.r_into(&mut r);
+            let n2: f64 = row.iter().map(|v| v * v).sum();
+            assert!((gram(&r)[(0, 0)] - row[0] * row[0]).abs() < 1e-12 * n2);
         }
     }
 }
