@@ -397,8 +397,7 @@ fn analyze_with(
         // The Jacobian in file units: rows back from weighted to file units, columns to the
         // file's units; a second pass, again through a QR's R only.
         let row_scale = file_row_scale(robot, data, &problem);
-        let fp = Problem::new(robot, data, &params, opts.weights, opts.orientation)
-            .with_row_scale(&row_scale);
+        let fp = problem.with_row_scale(&row_scale);
         acc.clear();
         fp.evaluate_qr(robot, &mut r, &mut acc);
         acc.r_into(&mut raug);

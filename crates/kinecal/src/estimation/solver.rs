@@ -490,11 +490,8 @@ pub fn drive(
         iterations += 1;
         acc.r_into(&mut raug);
         // Column norms of J are those of R (Q has orthonormal columns).
-        for j in 0..n {
-            norms[j] = (0..=j)
-                .map(|i| raug[(i, j)] * raug[(i, j)])
-                .sum::<f64>()
-                .sqrt();
+        for (j, c) in norms.iter_mut().enumerate() {
+            *c = linalg::col_norm(&raug, j);
         }
         let max_norm = norms.iter().copied().fold(0.0, f64::max);
         for j in 0..n {
