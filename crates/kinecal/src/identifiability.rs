@@ -322,7 +322,7 @@ pub fn analyze(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, true)
+    analyze_with(robot, data, params, opts, None, true)
 }
 
 /// [`analyze`] without what only a display needs: the row labels, the file-unit Jacobian and
@@ -334,7 +334,20 @@ pub(crate) fn analyze_core(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, false)
+    analyze_with(robot, data, params, opts, None, false)
+}
+
+/// [`analyze_core`] from the `R` of the QR of the weighted `[J | r]` at `robot`, over `params`
+/// in ascending order, already at hand (a solver's first evaluation at its start is one): no
+/// pass of forward kinematics.
+pub(crate) fn analyze_from_r(
+    robot: &Robot,
+    data: &Dataset,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+    raug: &Matrix,
+) -> Result<Analysis> {
+    analyze_with(robot, data, params, opts, Some(raug), false)
 }
 
 fn analyze_with(
@@ -342,6 +355,7 @@ fn analyze_with(
     data: &Dataset,
     params: &[ParamId],
     opts: &AnalysisOptions,
+    known_r: Option<&Matrix>,
     display: bool,
 ) -> Result<Analysis> {
     let mut params = params.to_vec();
@@ -360,11 +374,22 @@ fn analyze_with(
     let m = problem.rows();
     // The weighted Jacobian is never held: its rows go into the R of a QR, a block at a time
     // (the same inner products between columns, n long instead of m; memory flat in m).
-    let mut r = vec![0.0; m];
+    let mut r = Vec::new();
     let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
-    problem.evaluate_qr(robot, &mut r, &mut acc);
     let mut raug = Matrix::zeros(0, 0);
-    acc.r_into(&mut raug);
+    match known_r {
+        Some(known) if known.nrows() == n + 1 && known.ncols() == n + 1 => raug = known.clone(),
+        Some(_) => {
+            return Err(Error::Numerical(
+                "the given R does not match the parameters analysed".into(),
+            ))
+        }
+        None => {
+            r.resize(m, 0.0);
+            problem.evaluate_qr(robot, &mut r, &mut acc);
+            acc.r_into(&mut raug);
+        }
+    }
     // R of [W J | W r]: its leading n x n block is the R of W J alone.
     let rw = Matrix::from_fn(n, n, |i, j| raug[(i, j)]);
 
@@ -398,6 +423,7 @@ fn analyze_with(
         // file's units; a second pass, again through a QR's R only.
         let row_scale = file_row_scale(robot, data, &problem);
         let fp = problem.with_row_scale(&row_scale);
+        r.resize(m, 0.0);
         acc.clear();
         fp.evaluate_qr(robot, &mut r, &mut acc);
         acc.r_into(&mut raug);

@@ -39,8 +39,24 @@ pub fn outliers(cal: &Calibration, data: &Dataset, k: f64) -> Vec<Outlier> {
     );
     let mut r = vec![0.0; problem.rows()];
     problem.evaluate(robot, &mut r, None);
+    flag(cal, data, &r, k)
+}
+
+/// [`outliers`] of a calibration on the data it was fitted to: its final residuals are those
+/// wanted, and no further pass of forward kinematics is needed.
+pub(crate) fn outliers_of_fit(cal: &Calibration, data: &Dataset, k: f64) -> Vec<Outlier> {
+    if cal.residuals.len() != data.rows() {
+        return outliers(cal, data, k);
+    }
+    flag(cal, data, &cal.residuals, k)
+}
+
+/// The observations with a row of `r` (the weighted residuals of `cal.calibrated` on `data`)
+/// beyond `k` robust scales.
+fn flag(cal: &Calibration, data: &Dataset, r: &[f64], k: f64) -> Vec<Outlier> {
+    let robot = &cal.calibrated;
     // The robust scale of each (kind, quantity) group of rows.
-    let scale = RobustSpread::of(data, &r).per_row;
+    let scale = RobustSpread::of(data, r).per_row;
     let ctx = Context {
         robot,
         orientation: cal.options.orientation,
@@ -70,4 +86,54 @@ pub fn outliers(cal: &Calibration, data: &Dataset, k: f64) -> Vec<Outlier> {
         row += n;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimation::{calibrate, CalibrationOptions};
+    use crate::simulate::{self, PerturbStd};
+    use crate::{JointKind, ParamId};
+
+    /// The calibration's own final residuals flag the same observations, by the same amounts,
+    /// as a fresh pass of forward kinematics.
+    #[test]
+    fn the_fits_residuals_flag_what_a_fresh_pass_flags() {
+        let nominal = simulate::random_robot(&[JointKind::Revolute; 6], 8);
+        let std = PerturbStd {
+            length: 1e-3,
+            angle: 0.2f64.to_radians(),
+            slope_fraction: 0.0,
+        };
+        let truth = simulate::perturb(&nominal, std, 1);
+        let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 80, 2), true);
+        simulate::add_noise(&mut data, 2e-5, 0.0, 3);
+        // Three gross errors.
+        for i in [5, 40, 77] {
+            if let crate::observe::Observation::Position(p) = &mut data.observations[i] {
+                p.position.x += 1e-3;
+            }
+        }
+        let ids: Vec<ParamId> = crate::workflow::default_parameters(&nominal, &data).0;
+        let base = crate::identifiability::analyze_core(
+            &nominal,
+            &data,
+            &ids,
+            &crate::identifiability::AnalysisOptions::default(),
+        )
+        .unwrap()
+        .identifiable;
+        let cal = calibrate(&nominal, &data, &CalibrationOptions::new(base), &mut |_| {}).unwrap();
+        let reused = outliers_of_fit(&cal, &data, DEFAULT_SIGMAS);
+        let fresh = outliers(&cal, &data, DEFAULT_SIGMAS);
+        let found: Vec<usize> = reused.iter().map(|o| o.observation).collect();
+        assert_eq!(found, vec![5, 40, 77]);
+        assert_eq!(
+            found,
+            fresh.iter().map(|o| o.observation).collect::<Vec<_>>()
+        );
+        for (a, b) in reused.iter().zip(&fresh) {
+            assert!((a.sigmas - b.sigmas).abs() <= 1e-9 * b.sigmas);
+        }
+    }
 }

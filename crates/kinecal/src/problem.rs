@@ -180,6 +180,30 @@ impl<'a> Problem<'a> {
         self.evaluate_with(robot, res, Some(Sink::Qr(acc)), None)
     }
 
+    /// [`Problem::evaluate_qr`], with the errors of every observation summarised (the
+    /// [`crate::observe::accuracy`] of `robot`) from the same pass of forward kinematics.
+    pub(crate) fn evaluate_qr_checked(
+        &self,
+        robot: &Robot,
+        res: &mut [f64],
+        acc: &mut QrAccumulator,
+    ) -> (f64, Accuracy) {
+        assert_eq!(acc.cols(), self.cols() + 1);
+        acc.clear();
+        let ctx = Context {
+            robot,
+            orientation: OrientationError::default(),
+        };
+        let mut tally = AccuracyTally::default();
+        let f = self.evaluate_with(
+            robot,
+            res,
+            Some(Sink::Qr(acc)),
+            Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
+        );
+        (f, tally.finish())
+    }
+
     /// [`Problem::evaluate`] without derivatives, and with the errors of every observation
     /// summarised (the [`crate::observe::accuracy`] of `robot`) from the same pass of forward
     /// kinematics.

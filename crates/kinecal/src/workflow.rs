@@ -693,7 +693,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         progress.phase(Phase::Pruning);
         let full = cal.clone();
         let mut removed = Vec::new();
-        while let Ok(u) = uncertainty::uncertainty(&cal, &data, reference) {
+        while let Ok(u) = uncertainty::uncertainty_of_fit(&cal, &data, reference) {
             let weakest = u
                 .parameters
                 .iter()
@@ -714,7 +714,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             data.clone(),
             validation_data.clone(),
             full.clone(),
-            uncertainty::uncertainty(&full, &data, reference),
+            uncertainty::uncertainty_of_fit(&full, &data, reference),
             None,
             req.outlier_sigmas,
             req.solution,
@@ -738,7 +738,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             },
         );
     }
-    let unc = uncertainty::uncertainty(&cal, &data, reference);
+    let unc = uncertainty::uncertainty_of_fit(&cal, &data, reference);
     progress.phase(Phase::Report);
     let mut outcome = finish(
         req.robot.clone(),
@@ -1109,7 +1109,7 @@ fn finish(
         }),
         _ => {}
     }
-    let outliers = outliers::outliers(&cal, &data, outlier_sigmas);
+    let outliers = outliers::outliers_of_fit(&cal, &data, outlier_sigmas);
     let identification = Checked::fitted(&cal, &data);
     let validation = validation_data.as_ref().map(|v| Checked::new(&cal, v));
     let mut report = CalibrationReport::new(&cal, &data);
@@ -1202,8 +1202,9 @@ fn fit(
                 calibrated.set(id, v0 + wrap_angle(calibrated.get(id) - v0));
             }
         }
-        cal.objective_after = problem.evaluate(&calibrated, &mut vec![0.0; problem.rows()], None);
-        cal.accuracy_after = accuracy(&calibrated, data);
+        let plain = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
+        (cal.objective_after, cal.accuracy_after) =
+            estimation::settle(&plain, &calibrated, &cal.row_scale, &mut cal.residuals);
         cal.calibrated = calibrated;
     }
     Ok(cal)
@@ -1343,12 +1344,14 @@ pub fn assess(
     options.weights = weights;
     options.orientation = orientation;
     let problem = Problem::new(nominal, data, &estimated, weights, orientation);
-    let mut r = vec![0.0; problem.rows()];
+    let mut residuals = vec![0.0; problem.rows()];
+    let (objective_before, accuracy_before) = problem.evaluate_checked(nominal, &mut residuals);
+    let (objective_after, accuracy_after) = problem.evaluate_checked(&calibrated, &mut residuals);
     let cal = Calibration {
-        objective_before: problem.evaluate(nominal, &mut r, None),
-        objective_after: problem.evaluate(&calibrated, &mut r, None),
-        accuracy_before: accuracy(nominal, data),
-        accuracy_after: accuracy(&calibrated, data),
+        objective_before,
+        objective_after,
+        accuracy_before,
+        accuracy_after,
         initial: nominal.clone(),
         calibrated,
         estimated: estimated.clone(),
@@ -1358,6 +1361,8 @@ pub fn assess(
         unfelt: Vec::new(),
         row_scale: vec![1.0; problem.rows()],
         log: Vec::new(),
+        residuals,
+        start_r: None,
     };
     let mut warnings = data_warnings(nominal, data, orientation);
     let unc = uncertainty::uncertainty(&cal, data, nominal);

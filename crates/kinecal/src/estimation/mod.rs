@@ -25,7 +25,8 @@ pub use solver::{
 };
 
 use crate::error::{Error, Result};
-use crate::observe::{accuracy, Accuracy, Dataset, OrientationError, Weights};
+use crate::linalg::Matrix;
+use crate::observe::{Accuracy, Dataset, OrientationError, Weights};
 use crate::params::ParamId;
 use crate::problem::Problem;
 use crate::robot::Robot;
@@ -146,6 +147,13 @@ pub struct Calibration {
     pub row_scale: Vec<f64>,
     /// Per-iteration log.
     pub log: Vec<Iteration>,
+    /// The weighted residuals of `calibrated` (without the robust loss's row scale), one per
+    /// row of the problem.
+    pub residuals: Vec<f64>,
+    /// The linearisation at `initial`: the `R` of the QR of the weighted `[J | r]` over
+    /// `estimated` (see [`solver::Solution::start_r`]), when the solver computed it there;
+    /// the uncertainty at the start reuses it instead of another pass.
+    pub(crate) start_r: Option<Matrix>,
 }
 
 impl Calibration {
@@ -165,6 +173,27 @@ impl Calibration {
         )
         .with_row_scale(&self.row_scale)
     }
+}
+
+/// The weighted residuals of `robot` (without the row scale) into `residuals`, the objective
+/// with the row scale `row_scale` (the robust loss's; all 1 for least squares), and the
+/// accuracy: one pass of forward kinematics.
+pub(crate) fn settle(
+    problem: &Problem<'_>,
+    robot: &Robot,
+    row_scale: &[f64],
+    residuals: &mut [f64],
+) -> (f64, Accuracy) {
+    let (plain, accuracy) = problem.evaluate_checked(robot, residuals);
+    if row_scale.iter().all(|&s| s == 1.0) {
+        return (plain, accuracy);
+    }
+    let objective = residuals
+        .iter()
+        .zip(row_scale)
+        .map(|(r, s)| (r * s) * (r * s))
+        .sum();
+    (objective, accuracy)
 }
 
 /// Estimates `opts.estimate` of `initial` from `data`, keeping the other parameters.
@@ -219,6 +248,10 @@ pub fn calibrate(
         log.push(*it);
         observer(it);
     })?;
+    // The first solve's start is `initial`, weighted as least squares would (the robust
+    // loss's row scale comes later).
+    let start_r = std::mem::replace(&mut sol.start_r, Matrix::zeros(0, 0));
+    let accuracy_before = sol.start_accuracy.clone();
     let unfelt: Vec<ParamId> = sol.unfelt.iter().map(|&j| opts.estimate[j]).collect();
     // Huber loss: iteratively reweighted least squares, weights min(1, k/|r|) per residual.
     let mut row_scale = vec![1.0; problem.rows()];
@@ -262,11 +295,11 @@ pub fn calibrate(
             calibrated.set(id, v0 + wrap_angle(calibrated.get(id) - v0));
         }
     }
-    let weighted = problem.clone().with_row_scale(&row_scale);
+    let mut residuals = vec![0.0; problem.rows()];
     let (objective_after, accuracy_after) =
-        weighted.evaluate_checked(&calibrated, &mut vec![0.0; problem.rows()]);
+        settle(&problem, &calibrated, &row_scale, &mut residuals);
     Ok(Calibration {
-        accuracy_before: accuracy(initial, data),
+        accuracy_before,
         accuracy_after,
         initial: initial.clone(),
         calibrated,
@@ -279,5 +312,7 @@ pub fn calibrate(
         unfelt,
         row_scale,
         log,
+        residuals,
+        start_r: Some(start_r),
     })
 }

@@ -41,6 +41,7 @@
 
 use crate::error::{Error, Result};
 use crate::linalg::{self, Matrix, QrAccumulator, QR_BLOCK};
+use crate::observe::Accuracy;
 use crate::problem::Problem;
 
 /// A least-squares method.
@@ -219,6 +220,12 @@ pub struct Solution {
     /// Columns (in the problem's parameter order) that no residual felt at the start: their
     /// Jacobian column was zero, or below 1e-12 of the largest.
     pub unfelt: Vec<usize>,
+    /// The linearisation at the start: the `(cols + 1) x (cols + 1)` upper-triangular `R` of the
+    /// QR of the weighted `[J | r]` at `x0` (columns in the problem's parameter order, the
+    /// residual last), as the first evaluation left it.
+    pub start_r: Matrix,
+    /// The errors at `x0`, from the same first evaluation.
+    pub start_accuracy: Accuracy,
 }
 
 /// The scaled system a step rule works on, at the current point, in the `R` form that needs no
@@ -461,11 +468,14 @@ pub fn drive(
     // The Jacobian is never held: its rows (with the residual) go into the R of a QR, a block
     // of rows at a time, so memory is flat in the number of postures.
     let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
-    let mut f = problem.evaluate_qr(&problem.robot_at(&x), &mut r, &mut acc);
+    let (mut f, start_accuracy) =
+        problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, &mut acc);
     if !f.is_finite() {
         return Err(non_finite_start(problem, &r));
     }
     let objective_before = f;
+    let mut start_r = Matrix::zeros(0, 0);
+    acc.r_into(&mut start_r);
     let mut trial_r = vec![0.0; m];
     // The R at the last trial point, computed with its residuals: a step rule accepts the last
     // point it tried (nearly always), and then the next iteration needs no second pass of
@@ -521,12 +531,28 @@ pub fn drive(
             g: &g,
             f,
         };
+        let xnorm = x
+            .iter()
+            .zip(&d)
+            .map(|(x, d)| (x * d) * (x * d))
+            .sum::<f64>()
+            .sqrt();
+        let final_step = opts.xtol * (xnorm + opts.xtol);
         let mut last_trial = f64::NAN;
+        let mut last_with_jacobian = false;
         let mut trial = |y: &[f64]| {
             for j in 0..n {
                 trial_x[j] = x[j] + y[j] / d[j];
             }
-            let v = problem.evaluate_qr(&problem.robot_at(&trial_x), &mut trial_r, &mut trial_acc);
+            let robot = problem.robot_at(&trial_x);
+            // A step this small ends the run whether it is taken or not (below xtol, or no
+            // further reduction): the Jacobian there would never be used.
+            last_with_jacobian = dot(y, y).sqrt() > final_step;
+            let v = if last_with_jacobian {
+                problem.evaluate_qr(&robot, &mut trial_r, &mut trial_acc)
+            } else {
+                problem.evaluate(&robot, &mut trial_r, None)
+            };
             last_trial = v;
             if v.is_finite() {
                 v
@@ -543,20 +569,21 @@ pub fn drive(
         let reduction = f - step.f;
         let f_old = f;
         let step_norm = dot(&step.y, &step.y).sqrt();
-        let xnorm = x
-            .iter()
-            .zip(&d)
-            .map(|(x, d)| (x * d) * (x * d))
-            .sum::<f64>()
-            .sqrt();
         for j in 0..n {
             x[j] += step.y[j] / d[j];
         }
+        // Whether `acc` is still the R at the previous point (the accepted one was evaluated
+        // without its Jacobian).
+        let mut stale = false;
         if x == trial_x && last_trial.is_finite() {
-            // The accepted point is the last one evaluated: its residuals and Jacobian are
-            // at hand (the same arithmetic, so the same numbers).
+            // The accepted point is the last one evaluated: its residuals (and Jacobian, unless
+            // the step was final) are at hand (the same arithmetic, so the same numbers).
             std::mem::swap(&mut r, &mut trial_r);
-            std::mem::swap(&mut acc, &mut trial_acc);
+            if last_with_jacobian {
+                std::mem::swap(&mut acc, &mut trial_acc);
+            } else {
+                stale = true;
+            }
             f = last_trial;
         } else {
             f = problem.evaluate_qr(&problem.robot_at(&x), &mut r, &mut acc);
@@ -576,9 +603,12 @@ pub fn drive(
             termination = Termination::SmallReduction;
             break;
         }
-        if step_norm <= opts.xtol * (xnorm + opts.xtol) {
+        if step_norm <= final_step {
             termination = Termination::SmallStep;
             break;
+        }
+        if stale {
+            f = problem.evaluate_qr(&problem.robot_at(&x), &mut r, &mut acc);
         }
     }
     // A method other than Levenberg-Marquardt that stopped short of the cap has converged only
@@ -600,6 +630,8 @@ pub fn drive(
         iterations,
         termination,
         unfelt: unfelt.unwrap_or_default(),
+        start_r,
+        start_accuracy,
     })
 }
 

@@ -218,8 +218,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
     let mut postures = PostureTable::new();
     let mut observations: Vec<Observation> = Vec::new();
     let mut seen: HashMap<(usize, Target, usize), usize> = HashMap::new();
-    for (line, f) in &t.rows {
-        let line = *line;
+    for (line, f) in t.rows() {
         let values = cols
             .iter()
             .zip(&readings)
@@ -227,7 +226,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
             .collect::<Result<Vec<_>>>()?;
         let posture =
             postures.get_or_insert(&t, line, &f[posture_col], values, &|j| readings[j].clone())?;
-        let target = match site.map_or("", |i| f[i].as_str()) {
+        let target = match site.map_or("", |i| f.get(i)) {
             "" | "ee" => Target::EndEffector,
             name => Target::Site(robot.site_index(name).ok_or_else(|| {
                 Error::input(
@@ -250,7 +249,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
                     t.at(line, "plane"),
                     format!(
                         "unknown plane `{}` (the robot file defines: {})",
-                        f[i],
+                        &f[i],
                         robot
                             .planes
                             .iter()
@@ -261,7 +260,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
                 )
             })?,
         };
-        let gap = match gap.map(|i| f[i].as_str()) {
+        let gap = match gap.map(|i| f.get(i)) {
             None | Some("") => 0.0,
             Some(s) => units.to_si(Quantity::Length, t.number(line, "gap", s)?),
         };
@@ -276,7 +275,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
                 Location::file(file).at_line(line),
                 format!(
                     "posture `{}` touches plane `{}` with {} twice (first on line {first})",
-                    f[posture_col],
+                    &f[posture_col],
                     robot.planes[plane].name,
                     target_name(robot, target)
                 ),

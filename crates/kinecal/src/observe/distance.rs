@@ -179,13 +179,12 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
     let mut postures = PostureTable::new();
     let mut observations: Vec<Observation> = Vec::new();
     let mut seen: HashMap<(String, Target), usize> = HashMap::new();
-    for (line, f) in &t.rows {
-        let line = *line;
+    for (line, f) in t.rows() {
         let label = &f[pair];
         if label.is_empty() {
             return Err(Error::input(t.at(line, "pair"), "empty pair label"));
         }
-        let target = match site.map_or("", |i| f[i].as_str()) {
+        let target = match site.map_or("", |i| f.get(i)) {
             "" | "ee" => Target::EndEffector,
             name => Target::Site(robot.site_index(name).ok_or_else(|| {
                 Error::input(
@@ -225,7 +224,7 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
                 .map(|s| units.to_si(Quantity::Length, s)),
             None => None,
         };
-        if let Some(first) = seen.insert((label.clone(), target), line) {
+        if let Some(first) = seen.insert((label.to_string(), target), line) {
             return Err(Error::input(
                 Location::file(file).at_line(line),
                 format!(

@@ -649,18 +649,22 @@ pub fn parse_measurements_mapped(
     let mut observations: Vec<Observation> = Vec::new();
     let mut seen: HashMap<(usize, Target), usize> = HashMap::new();
     let wide = !map.markers.is_empty();
-    for (row_number, (line, f)) in t.rows.iter().enumerate() {
-        let line = *line;
+    let mut numbered = String::new();
+    for (row_number, (line, f)) in t.rows().enumerate() {
         let label = match posture_col {
-            Some(i) => f[i].clone(),
-            None => (row_number + 1).to_string(),
+            Some(i) => f.get(i),
+            None => {
+                numbered.clear();
+                numbered.push_str(&(row_number + 1).to_string());
+                &numbered
+            }
         };
         let values = reading_cols
             .iter()
             .map(|(i, name)| t.number(line, name, &f[*i]))
             .collect::<Result<Vec<_>>>()?;
         let field_of = |j: usize| reading_cols[j].1.clone();
-        let posture = postures.get_or_insert(&t, line, &label, values, &field_of)?;
+        let posture = postures.get_or_insert(&t, line, label, values, &field_of)?;
         for m in &markers {
             let target = match m.target {
                 Some(t) => t,
@@ -670,7 +674,7 @@ pub fn parse_measurements_mapped(
                     None => Target::EndEffector,
                 },
             };
-            let field = |k: usize| m.cols[k].map_or("", |i| f[i].as_str());
+            let field = |k: usize| m.cols[k].map_or("", |i| f.get(i));
             if wide && (0..3).all(|k| field(k).is_empty()) {
                 continue; // this marker was not measured in this row
             }
@@ -678,7 +682,7 @@ pub fn parse_measurements_mapped(
             for (k, p) in pos.iter_mut().enumerate() {
                 *p = units.to_si(Quantity::Length, t.number(line, &m.names[k], field(k))?);
             }
-            let angles = (3..6).map(field).collect::<Vec<_>>();
+            let angles = [field(3), field(4), field(5)];
             let euler = if angles.iter().all(|a| a.is_empty()) {
                 None
             } else {
@@ -769,17 +773,17 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
     }
     t.check_rows()?;
     let mut table = PostureTable::new();
-    for (line, f) in &t.rows {
+    for (line, f) in t.rows() {
         let readings = (0..robot.dof())
-            .map(|j| t.number(*line, &format!("v{}", j + 1), &f[1 + j]))
+            .map(|j| t.number(line, &format!("v{}", j + 1), &f[1 + j]))
             .collect::<Result<Vec<_>>>()?;
         if table.contains(&f[0]) {
             return Err(Error::input(
-                t.at(*line, "posture"),
-                format!("posture `{}` listed twice", f[0]),
+                t.at(line, "posture"),
+                format!("posture `{}` listed twice", &f[0]),
             ));
         }
-        table.get_or_insert(&t, *line, &f[0], readings, &|j| format!("v{}", j + 1))?;
+        table.get_or_insert(&t, line, &f[0], readings, &|j| format!("v{}", j + 1))?;
     }
     if table.postures.is_empty() {
         return Err(Error::input(
