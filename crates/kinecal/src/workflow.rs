@@ -1203,8 +1203,13 @@ fn fit(
             }
         }
         let plain = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
-        (cal.objective_after, cal.accuracy_after) =
-            estimation::settle(&plain, &calibrated, &cal.row_scale, &mut cal.residuals);
+        (cal.objective_after, cal.accuracy_after) = estimation::settle(
+            &plain,
+            &calibrated,
+            opts.loss,
+            &cal.row_scale,
+            &mut cal.residuals,
+        );
         cal.calibrated = calibrated;
     }
     Ok(cal)

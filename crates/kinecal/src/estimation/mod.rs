@@ -176,16 +176,17 @@ impl Calibration {
 }
 
 /// The weighted residuals of `robot` (without the row scale) into `residuals`, the objective
-/// with the row scale `row_scale` (the robust loss's; all 1 for least squares), and the
-/// accuracy: one pass of forward kinematics.
+/// under `loss` (with the robust loss's row scale `row_scale`), and the accuracy: one pass of
+/// forward kinematics.
 pub(crate) fn settle(
     problem: &Problem<'_>,
     robot: &Robot,
+    loss: Loss,
     row_scale: &[f64],
     residuals: &mut [f64],
 ) -> (f64, Accuracy) {
     let (plain, accuracy) = problem.evaluate_checked(robot, residuals);
-    if row_scale.iter().all(|&s| s == 1.0) {
+    if matches!(loss, Loss::Squared) {
         return (plain, accuracy);
     }
     let objective = residuals
@@ -297,7 +298,7 @@ pub fn calibrate(
     }
     let mut residuals = vec![0.0; problem.rows()];
     let (objective_after, accuracy_after) =
-        settle(&problem, &calibrated, &row_scale, &mut residuals);
+        settle(&problem, &calibrated, opts.loss, &row_scale, &mut residuals);
     Ok(Calibration {
         accuracy_before,
         accuracy_after,
