@@ -1,0 +1,99 @@
+//! The workflow reuses evaluations instead of running forward kinematics again: the uncertainty
+//! comes from the solver's first evaluation at the start, the outliers from the fit's final
+//! residuals. What it reports must be what fresh passes give.
+
+use kinecal::observe::Observation;
+use kinecal::simulate::{self, PerturbStd};
+use kinecal::workflow::{self, Request, Selection};
+use kinecal::{JointKind, ParamId};
+
+fn data(position_only: bool, seed: u64) -> (kinecal::Robot, kinecal::Dataset) {
+    let nominal = simulate::random_robot(&[JointKind::Revolute; 6], seed);
+    let std = PerturbStd {
+        length: 1e-3,
+        angle: 0.2f64.to_radians(),
+        slope_fraction: 0.001,
+    };
+    let truth = simulate::perturb(&nominal, std, seed + 1);
+    let postures = simulate::sample_postures(&nominal, 80, seed + 2);
+    let mut data = simulate::measure(&truth, &postures, position_only);
+    simulate::add_noise(&mut data, 2e-5, 2e-5, seed + 3);
+    (nominal, data)
+}
+
+/// On a redundant problem (all 54 parameters of a 6R arm, rank below 54, with noise), the
+/// reported uncertainty is a fresh analysis's at the start.
+#[test]
+fn the_uncertainty_from_the_solvers_start_is_a_fresh_passs() {
+    let (nominal, data) = data(false, 5);
+    let mut req = Request::new(nominal.clone(), data.clone());
+    req.selection = Selection::List(nominal.param_ids().collect::<Vec<ParamId>>());
+    let out = workflow::run(&req, &mut ()).unwrap();
+    let reused = out.uncertainty.as_ref().unwrap();
+    let fresh = kinecal::uncertainty::uncertainty(&out.calibration, &data, &nominal).unwrap();
+    assert!(reused.analysis.rank < 54);
+    assert_eq!(reused.analysis.rank, fresh.analysis.rank);
+    assert_eq!(reused.analysis.identifiable, fresh.analysis.identifiable);
+    assert_eq!(reused.combinations.len(), fresh.combinations.len());
+    assert_eq!(
+        reused.variance_factor.to_bits(),
+        fresh.variance_factor.to_bits()
+    );
+    // The two evaluations differ only in how the joint angles' sines and cosines are formed
+    // (the solver's table of the readings' against sin_cos of the sum): rounding, 1e-16
+    // relative, grown by the problem's conditioning (below 1e6 here) to well under 1e-8.
+    for (a, b) in reused.parameters.iter().zip(&fresh.parameters) {
+        assert_eq!(a.determined, b.determined, "{}", a.id);
+        if let (Some(sa), Some(sb)) = (a.sigma, b.sigma) {
+            assert!((sa - sb).abs() <= 1e-8 * sb, "{}: {sa} against {sb}", a.id);
+        }
+    }
+    for (a, b) in reused.combinations.iter().zip(&fresh.combinations) {
+        assert!((a.sigma - b.sigma).abs() <= 1e-8 * b.sigma);
+    }
+}
+
+/// With another start (`initial`), the solver's start is not the reference of the solution
+/// rule's minimum change: the uncertainty is then taken at the nominal robot, as a fresh pass
+/// there gives it.
+#[test]
+fn another_start_is_not_mistaken_for_the_reference() {
+    let (nominal, data) = data(false, 15);
+    let mut req = Request::new(nominal.clone(), data.clone());
+    let mut initial = nominal.clone();
+    let id = nominal.param_ids().next().unwrap();
+    initial.set(id, nominal.get(id) + 1e-3);
+    req.initial = Some(initial);
+    req.solution = workflow::SolutionRule::MinChange;
+    let out = workflow::run(&req, &mut ()).unwrap();
+    let reused = out.uncertainty.as_ref().unwrap();
+    let fresh = kinecal::uncertainty::uncertainty(&out.calibration, &data, &nominal).unwrap();
+    for (a, b) in reused.parameters.iter().zip(&fresh.parameters) {
+        assert_eq!(a.sigma, b.sigma, "{}", a.id);
+    }
+}
+
+/// The fit's own final residuals flag the same observations, by the same amounts, as a fresh
+/// pass of forward kinematics at the calibrated robot.
+#[test]
+fn the_outliers_from_the_fits_residuals_are_a_fresh_passs() {
+    let (nominal, mut data) = data(true, 8);
+    for i in [5, 40, 77] {
+        if let Observation::Position(p) = &mut data.observations[i] {
+            p.position.x += 1e-3;
+        }
+    }
+    let req = Request::new(nominal.clone(), data.clone());
+    let out = workflow::run(&req, &mut ()).unwrap();
+    let fresh = kinecal::outliers::outliers(&out.calibration, &data, req.outlier_sigmas);
+    let found: Vec<usize> = out.outliers.iter().map(|o| o.observation).collect();
+    // The gross errors, and whatever least squares smeared them into.
+    assert!([5, 40, 77].iter().all(|i| found.contains(i)), "{found:?}");
+    assert_eq!(
+        found,
+        fresh.iter().map(|o| o.observation).collect::<Vec<_>>()
+    );
+    for (a, b) in out.outliers.iter().zip(&fresh) {
+        assert!((a.sigmas - b.sigmas).abs() <= 1e-9 * b.sigmas);
+    }
+}
