@@ -7,7 +7,7 @@
 //! of the squared weighted residuals: dimensionless, and independent of the files' units.
 
 use crate::kinematics::{Chain, Frame, ReadingTrig};
-use crate::linalg::{Matrix, QrAccumulator};
+use crate::linalg::{GramAccumulator, Matrix, QrAccumulator};
 use crate::observe::{
     Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
     OrientationError, Weights,
@@ -19,10 +19,11 @@ use crate::robot::Robot;
 type ObservationVisitor<'a> = dyn FnMut(&Observation, &[Frame]) + 'a;
 
 /// Where an evaluation's derivatives go: a full rows x cols matrix, or, a row at a time, into
-/// the `R` of a QR (with the residual as the last column).
+/// the `R` of a QR or the Gram matrix (with the residual as the last column).
 enum Sink<'m> {
     Full(&'m mut Matrix),
     Qr(&'m mut QrAccumulator),
+    Gram(&'m mut GramAccumulator),
 }
 
 /// Weighted residuals and Jacobian of a calibration over one dataset.
@@ -180,6 +181,19 @@ impl<'a> Problem<'a> {
         self.evaluate_with(robot, res, Some(Sink::Qr(acc)), None)
     }
 
+    /// [`Problem::evaluate_qr`] into the Gram matrix of `[J | r]` instead (`acc`, cleared
+    /// first; `cols + 1` columns): `J^T J`, `J^T r` and `r^T r`.
+    pub(crate) fn evaluate_gram(
+        &self,
+        robot: &Robot,
+        res: &mut [f64],
+        acc: &mut GramAccumulator,
+    ) -> f64 {
+        assert_eq!(acc.cols(), self.cols() + 1);
+        acc.clear();
+        self.evaluate_with(robot, res, Some(Sink::Gram(acc)), None)
+    }
+
     /// [`Problem::evaluate_qr`], with the errors of every observation summarised (the
     /// [`crate::observe::accuracy`] of `robot`) from the same pass of forward kinematics.
     pub(crate) fn evaluate_qr_checked(
@@ -283,12 +297,16 @@ impl<'a> Problem<'a> {
                                     j[(row + i, c)] = scaled(out[i * k + c]);
                                 }
                             }
-                            Sink::Qr(acc) => {
+                            Sink::Qr(_) | Sink::Gram(_) => {
                                 for c in 0..k {
                                     qr_row[c] = scaled(out[i * k + c]);
                                 }
                                 qr_row[k] = scaled(r[i]);
-                                acc.push(&qr_row);
+                                if let Sink::Qr(acc) = sink {
+                                    acc.push(&qr_row);
+                                } else if let Sink::Gram(acc) = sink {
+                                    acc.push(&qr_row);
+                                }
                             }
                         }
                     }

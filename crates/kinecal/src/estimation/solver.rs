@@ -40,9 +40,10 @@
 //! the objective still goes down.
 
 use crate::error::{Error, Result};
-use crate::linalg::{self, Matrix, QrAccumulator, QR_BLOCK};
+use crate::linalg::{self, GramAccumulator, Matrix, QrAccumulator, QR_BLOCK};
 use crate::observe::Accuracy;
 use crate::problem::Problem;
+use crate::robot::Robot;
 
 /// A least-squares method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -232,11 +233,18 @@ pub struct Solution {
 /// m-row matrix: with `W J = Q R` (thin QR of the weighted Jacobian) and `z = Q^T r`, the
 /// scaled Jacobian `J_s = W J D^-1` is `Q R_s` with `R_s = R D^-1`, so `J_s^T J_s = R_s^T R_s`,
 /// `J_s^T r = R_s^T z`, and `J_s`'s singular values and right vectors are `R_s`'s.
+///
+/// A rule that only forms `J_s^T J_s` (see [`StepRule::needs_r`]) gets it computed from the
+/// Gram matrix of `[J | r]` after the first iteration, and `rs` and `z` empty.
 pub struct Scaled<'s> {
-    /// `R_s = R D^-1`, n x n upper triangular (dead columns zeroed).
+    /// `R_s = R D^-1`, n x n upper triangular (dead columns zeroed); empty (0 x 0) for a rule
+    /// that does not need it.
     pub rs: &'s Matrix,
-    /// `z = Q^T r`, the residuals' component in the Jacobian's column space.
+    /// `z = Q^T r`, the residuals' component in the Jacobian's column space; empty for a rule
+    /// that does not need `rs`.
     pub z: &'s [f64],
+    /// `C = J_s^T J_s` (`= R_s^T R_s`), n x n symmetric.
+    pub c: &'s Matrix,
     /// The gradient `g = J_s^T r = R_s^T z`.
     pub g: &'s [f64],
     /// The objective.
@@ -262,6 +270,12 @@ pub struct Step {
 pub trait StepRule {
     /// Whether the driver divides columns by their norms (plain LM damping does not).
     fn scales_columns(&self) -> bool {
+        true
+    }
+    /// Whether the rule works on `R_s` and `z` ([`Scaled`]); a rule that forms only
+    /// `J_s^T J_s` and `g` says no, and the driver then accumulates the Gram matrix of the
+    /// Jacobian instead of a QR (half the arithmetic per residual row).
+    fn needs_r(&self) -> bool {
         true
     }
     /// Proposes steps until one lowers `sys.f`.
@@ -293,12 +307,16 @@ impl StepRule for LevenbergMarquardt {
         self.damping == Damping::Marquardt
     }
 
+    fn needs_r(&self) -> bool {
+        false
+    }
+
     fn step(
         &mut self,
         sys: &Scaled<'_>,
         trial: &mut dyn FnMut(&[f64]) -> f64,
     ) -> Result<Option<Step>> {
-        let c = linalg::gram(sys.rs);
+        let c = sys.c;
         let n = c.ncols();
         let max_diag = (0..n).map(|i| c[(i, i)]).fold(0.0, f64::max);
         if self.lambda.is_nan() {
@@ -358,7 +376,7 @@ impl StepRule for GaussNewton {
             return Err(singular);
         }
         let rhs: Vec<f64> = sys.g.iter().map(|v| -v).collect();
-        let y = linalg::solve_spd(&linalg::gram(sys.rs), &rhs).ok_or(singular)?;
+        let y = linalg::solve_spd(sys.c, &rhs).ok_or(singular)?;
         Ok(halving(y, sys.f, trial))
     }
 }
@@ -454,6 +472,40 @@ pub fn solve(
     drive(problem, x0, opts, opts.method.rule(opts).as_mut(), observer)
 }
 
+/// What an evaluation kept of the weighted `[J | r]`: the `R` of its QR, or its Gram matrix.
+struct Linearization {
+    qr: QrAccumulator,
+    gram: GramAccumulator,
+    /// Which of the two the last evaluation filled.
+    by_qr: bool,
+}
+
+impl Linearization {
+    fn new(cols: usize) -> Self {
+        Linearization {
+            qr: QrAccumulator::new(cols, QR_BLOCK),
+            gram: GramAccumulator::new(cols, QR_BLOCK),
+            by_qr: true,
+        }
+    }
+
+    /// Evaluates `problem` at `robot` into `res` and the QR (`by_qr`) or the Gram matrix.
+    fn evaluate(
+        &mut self,
+        problem: &Problem<'_>,
+        robot: &Robot,
+        res: &mut [f64],
+        by_qr: bool,
+    ) -> f64 {
+        self.by_qr = by_qr;
+        if by_qr {
+            problem.evaluate_qr(robot, res, &mut self.qr)
+        } else {
+            problem.evaluate_gram(robot, res, &mut self.gram)
+        }
+    }
+}
+
 /// The driver: runs `rule` from `x0` (see the module documentation).
 pub fn drive(
     problem: &Problem<'_>,
@@ -465,28 +517,32 @@ pub fn drive(
     let (m, n) = (problem.rows(), problem.cols());
     let mut x = x0.to_vec();
     let mut r = vec![0.0; m];
-    // The Jacobian is never held: its rows (with the residual) go into the R of a QR, a block
-    // of rows at a time, so memory is flat in the number of postures.
-    let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
+    // The Jacobian is never held: its rows (with the residual) go into the R of a QR, or the
+    // Gram matrix, a block of rows at a time, so memory is flat in the number of postures.
+    // The start is always by QR (its R is the linearisation the uncertainty reuses).
+    let mut lin = Linearization::new(n + 1);
     let (mut f, start_accuracy) =
-        problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, &mut acc);
+        problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, &mut lin.qr);
+    lin.by_qr = true;
     if !f.is_finite() {
         return Err(non_finite_start(problem, &r));
     }
     let objective_before = f;
     let mut start_r = Matrix::zeros(0, 0);
-    acc.r_into(&mut start_r);
+    lin.qr.r_into(&mut start_r);
+    let by_qr = rule.needs_r();
     let mut trial_r = vec![0.0; m];
-    // The R at the last trial point, computed with its residuals: a step rule accepts the last
-    // point it tried (nearly always), and then the next iteration needs no second pass of
-    // forward kinematics there.
-    let mut trial_acc = QrAccumulator::new(n + 1, QR_BLOCK);
+    // The linearisation at the last trial point, computed with its residuals: a step rule
+    // accepts the last point it tried (nearly always), and then the next iteration needs no
+    // second pass of forward kinematics there.
+    let mut trial_lin = Linearization::new(n + 1);
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
     let mut unfelt = None;
     let mut trial_x = vec![0.0; n];
     let mut raug = Matrix::zeros(n + 1, n + 1);
     let mut rs = Matrix::zeros(n, n);
+    let mut c = Matrix::zeros(n, n);
     let mut z = vec![0.0; n];
     let mut g = vec![0.0; n];
     let mut norms = vec![0.0; n];
@@ -498,10 +554,18 @@ pub fn drive(
             break;
         }
         iterations += 1;
-        acc.r_into(&mut raug);
-        // Column norms of J are those of R (Q has orthonormal columns).
-        for (j, c) in norms.iter_mut().enumerate() {
-            *c = linalg::col_norm(&raug, j);
+        if lin.by_qr {
+            lin.qr.r_into(&mut raug);
+            // Column norms of J are those of R (Q has orthonormal columns).
+            for (j, c) in norms.iter_mut().enumerate() {
+                *c = linalg::col_norm(&raug, j);
+            }
+        } else {
+            // `raug` holds the Gram matrix of [J | r].
+            lin.gram.gram_into(&mut raug);
+            for (j, c) in norms.iter_mut().enumerate() {
+                *c = raug[(j, j)].max(0.0).sqrt();
+            }
         }
         let max_norm = norms.iter().copied().fold(0.0, f64::max);
         for j in 0..n {
@@ -515,19 +579,37 @@ pub fn drive(
         if unfelt.is_none() {
             unfelt = Some((0..n).filter(|&j| dead[j]).collect::<Vec<_>>());
         }
-        for j in 0..n {
-            let s = if dead[j] { 0.0 } else { 1.0 / d[j] };
-            for i in 0..n {
-                rs[(i, j)] = raug[(i, j)] * s;
+        let inv = |j: usize| if dead[j] { 0.0 } else { 1.0 / d[j] };
+        if lin.by_qr {
+            rs.resize(n, n);
+            z.resize(n, 0.0);
+            for j in 0..n {
+                let s = inv(j);
+                for i in 0..n {
+                    rs[(i, j)] = raug[(i, j)] * s;
+                }
+                z[j] = raug[(j, n)];
             }
-            z[j] = raug[(j, n)];
-        }
-        for j in 0..n {
-            g[j] = (0..=j).map(|i| rs[(i, j)] * z[i]).sum();
+            for j in 0..n {
+                g[j] = (0..=j).map(|i| rs[(i, j)] * z[i]).sum();
+            }
+            c = linalg::gram(&rs);
+        } else {
+            // J_s^T J_s = D^-1 (J^T J) D^-1 and g = D^-1 J^T r, from the Gram matrix.
+            rs.resize(0, 0);
+            z.clear();
+            c.resize(n, n);
+            for j in 0..n {
+                for i in 0..n {
+                    c[(i, j)] = raug[(i, j)] * inv(i) * inv(j);
+                }
+                g[j] = raug[(j, n)] * inv(j);
+            }
         }
         let sys = Scaled {
             rs: &rs,
             z: &z,
+            c: &c,
             g: &g,
             f,
         };
@@ -549,7 +631,7 @@ pub fn drive(
             // further reduction): the Jacobian there would never be used.
             last_with_jacobian = dot(y, y).sqrt() > final_step;
             let v = if last_with_jacobian {
-                problem.evaluate_qr(&robot, &mut trial_r, &mut trial_acc)
+                trial_lin.evaluate(problem, &robot, &mut trial_r, by_qr)
             } else {
                 problem.evaluate(&robot, &mut trial_r, None)
             };
@@ -580,13 +662,13 @@ pub fn drive(
             // the step was final) are at hand (the same arithmetic, so the same numbers).
             std::mem::swap(&mut r, &mut trial_r);
             if last_with_jacobian {
-                std::mem::swap(&mut acc, &mut trial_acc);
+                std::mem::swap(&mut lin, &mut trial_lin);
             } else {
                 stale = true;
             }
             f = last_trial;
         } else {
-            f = problem.evaluate_qr(&problem.robot_at(&x), &mut r, &mut acc);
+            f = lin.evaluate(problem, &problem.robot_at(&x), &mut r, by_qr);
         }
         observer(&Iteration {
             iteration: iterations,
@@ -608,7 +690,7 @@ pub fn drive(
             break;
         }
         if stale {
-            f = problem.evaluate_qr(&problem.robot_at(&x), &mut r, &mut acc);
+            f = lin.evaluate(problem, &problem.robot_at(&x), &mut r, by_qr);
         }
     }
     // A method other than Levenberg-Marquardt that stopped short of the cap has converged only

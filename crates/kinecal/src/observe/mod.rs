@@ -452,6 +452,9 @@ impl Dataset {
 
     /// This dataset followed by `other`'s postures and observations (renumbered).
     pub fn merge(mut self, other: Dataset) -> Dataset {
+        if self.postures.is_empty() && self.observations.is_empty() {
+            return Dataset::new(other.postures, other.observations);
+        }
         let shift = self.postures.len();
         self.postures.extend(other.postures);
         for mut o in other.observations {
