@@ -379,33 +379,42 @@ impl<'r> Chain<'r> {
         self.jacobian_of(ws, target, None, out);
     }
 
-    /// [`Chain::jacobian`] for the parameters `wanted` marks (indexed by parameter number) only:
-    /// the other columns are left zero and cost nothing (a link none of whose six parameters is
-    /// wanted is skipped whole).
-    pub fn jacobian_wanted(
+    /// [`Chain::jacobian`] of some parameters only, packed: `columns[p]` (indexed by parameter
+    /// number) is the column of `out` (6 x `out.len() / 6`, column-major) parameter `p` goes
+    /// to, `None` for a parameter not wanted. Parameters not wanted cost nothing (a link none of
+    /// whose six parameters is wanted is skipped whole); a wanted one that cannot move the
+    /// target gets a zero column.
+    pub fn jacobian_columns(
         &self,
         ws: &Workspace,
         target: Target,
-        wanted: &[bool],
+        columns: &[Option<usize>],
         out: &mut [f64],
     ) {
-        self.jacobian_of(ws, target, Some(wanted), out);
+        assert_eq!(
+            columns.len(),
+            self.robot.param_count(),
+            "one entry per parameter"
+        );
+        self.jacobian_of(ws, target, Some(columns), out);
     }
 
     fn jacobian_of(
         &self,
         ws: &Workspace,
         target: Target,
-        wanted: Option<&[bool]>,
+        columns: Option<&[Option<usize>]>,
         out: &mut [f64],
     ) {
         let robot = self.robot;
         let (nl, nj) = (robot.links.len(), robot.dof());
-        assert_eq!(
-            out.len(),
-            6 * robot.param_count(),
-            "Jacobian block has the wrong size"
-        );
+        if columns.is_none() {
+            assert_eq!(
+                out.len(),
+                6 * robot.param_count(),
+                "Jacobian block has the wrong size"
+            );
+        }
         out.fill(0.0);
         let e = self.target_frame(ws, target).translation;
         // Links and joints upstream of the target.
@@ -416,11 +425,16 @@ impl<'r> Chain<'r> {
                 (k, k)
             }
         };
-        let want = |col: usize| wanted.is_none_or(|w| w[col]);
+        // Where parameter `col` goes in `out`, if wanted.
+        let slot = |col: usize| match columns {
+            None => Some(col),
+            Some(map) => map[col],
+        };
+        let want = |col: usize| slot(col).is_some();
         let mut put = |col: usize, dp: Vector3<f64>, w: Vector3<f64>| {
-            if !want(col) {
+            let Some(col) = slot(col) else {
                 return;
-            }
+            };
             let c = &mut out[6 * col..6 * col + 6];
             c[0] = dp.x;
             c[1] = dp.y;
@@ -435,7 +449,12 @@ impl<'r> Chain<'r> {
             }
             let r = &prox.rotation;
             for k in 0..3 {
-                put(first_col + k, r.column(k).into_owned(), Vector3::zeros());
+                if want(first_col + k) {
+                    put(first_col + k, r.column(k).into_owned(), Vector3::zeros());
+                }
+            }
+            if !(first_col + 3..first_col + 6).any(want) {
+                return;
             }
             let c = prox.translation + r * cache.frame.translation;
             let lever = e - c;
@@ -443,8 +462,10 @@ impl<'r> Chain<'r> {
                 .iter()
                 .enumerate()
             {
-                let u = r * axis_local;
-                put(first_col + 3 + k, u.cross(&lever), u);
+                if want(first_col + 3 + k) {
+                    let u = r * axis_local;
+                    put(first_col + 3 + k, u.cross(&lever), u);
+                }
             }
         };
         for i in 0..links_upto {
@@ -455,17 +476,20 @@ impl<'r> Chain<'r> {
             link_columns(6 * nl + 2 * nj + 6 * s, &ws.prox[k], &self.sites[s]);
         }
         for j in 0..joints_upto {
+            let coupling = robot.joints[j].coupling;
+            let coupling_col = coupling.map(|_| robot.param_id(ParamKind::Coupling { joint: j }).0);
+            if !(want(6 * nl + j) || want(6 * nl + nj + j) || coupling_col.is_some_and(want)) {
+                continue;
+            }
             let (dp, w) = self.joint_motion(ws, j, &e);
             let v = ws.readings[j];
             put(6 * nl + j, dp, w);
             put(6 * nl + nj + j, dp * v, w * v);
-            if let Some(c) = robot.joints[j].coupling {
+            if let Some(c) = coupling {
                 let vk = ws.readings[c.joint];
-                put(
-                    robot.param_id(ParamKind::Coupling { joint: j }).0,
-                    dp * vk,
-                    w * vk,
-                );
+                if let Some(col) = coupling_col {
+                    put(col, dp * vk, w * vk);
+                }
             }
         }
     }

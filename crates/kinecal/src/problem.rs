@@ -37,10 +37,10 @@ pub struct Problem<'a> {
     /// 1 / sigma, per row (residuals are multiplied by it).
     weight: Vec<f64>,
     row_scale: Option<&'a [f64]>,
+    /// Per parameter number: its column among the estimated, if estimated (the Jacobian
+    /// columns to compute; observations that read parameters themselves, as contacts read
+    /// their plane's, put those columns by it too).
     columns: Vec<Option<usize>>,
-    /// Per parameter number: whether it is estimated (the Jacobian columns to compute), and the
-    /// parameters the observations themselves read (plane columns of contacts).
-    wanted: Vec<bool>,
     /// The joint angles' reading parts, when slopes and couplings stay fixed
     /// ([`Problem::with_reading_trig`]).
     trig: Option<std::sync::Arc<ReadingTrig>>,
@@ -56,17 +56,12 @@ impl<'a> Problem<'a> {
         weights: Weights,
         orientation: OrientationError,
     ) -> Self {
-        let sigma: Vec<f64> = data
-            .observations
-            .iter()
-            .flat_map(|o| {
-                o.rows()
-                    .iter()
-                    .enumerate()
-                    .map(|(k, row)| o.sigma(k).unwrap_or(weights.of(row.quantity)))
-                    .collect::<Vec<_>>()
-            })
-            .collect();
+        let mut sigma: Vec<f64> = Vec::with_capacity(data.rows());
+        for o in &data.observations {
+            for (k, row) in o.rows().iter().enumerate() {
+                sigma.push(o.sigma(k).unwrap_or(weights.of(row.quantity)));
+            }
+        }
         let mut columns = vec![None; base.param_count()];
         for (c, id) in estimated.iter().enumerate() {
             if let Some(slot) = columns.get_mut(id.0) {
@@ -74,7 +69,6 @@ impl<'a> Problem<'a> {
             }
         }
         let weight = sigma.iter().map(|s| 1.0 / s).collect();
-        let wanted = columns.iter().map(Option::is_some).collect();
         Problem {
             base,
             data,
@@ -84,7 +78,6 @@ impl<'a> Problem<'a> {
             weight,
             row_scale: None,
             columns,
-            wanted,
             trig: None,
         }
     }
@@ -252,8 +245,6 @@ impl<'a> Problem<'a> {
             orientation: self.orientation,
         };
         let k = self.cols();
-        let np = robot.param_count();
-        let mut full = vec![0.0; 6 * np];
         let mut blocks = [vec![0.0; 6 * k], vec![0.0; 6 * k]];
         let mut out = Vec::new();
         let mut qr_row = vec![0.0; k + 1];
@@ -269,10 +260,7 @@ impl<'a> Problem<'a> {
                 let ws = cache.posture_with(&chain, self.data, v.posture, trig);
                 frames[vi] = chain.target_frame(ws, v.target);
                 if jac.is_some() {
-                    chain.jacobian_wanted(ws, v.target, &self.wanted, &mut full);
-                    for (c, id) in self.estimated.iter().enumerate() {
-                        blocks[vi][6 * c..6 * c + 6].copy_from_slice(&full[6 * id.0..6 * id.0 + 6]);
-                    }
+                    chain.jacobian_columns(ws, v.target, &self.columns, &mut blocks[vi]);
                 }
             }
             let r = &mut res[row..row + nrows];

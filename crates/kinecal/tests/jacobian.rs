@@ -200,26 +200,43 @@ fn euler_extraction_round_trips() {
     assert!((rot_zyx(p.euler.x, p.euler.y, p.euler.z) - f.rotation).norm() < 1e-12);
 }
 
-/// The Jacobian of the wanted parameters only: those columns equal the full Jacobian's, the
-/// others are zero.
+/// The Jacobian of some parameters only, packed: each wanted parameter's column equals the full
+/// Jacobian's, bit for bit, at its place; on robots with sites, couplings and prismatic joints,
+/// for the end effector and a site.
 #[test]
-fn the_jacobian_of_wanted_parameters_is_the_full_ones_columns() {
+fn the_packed_jacobian_of_some_parameters_is_the_full_ones_columns() {
     use rand::{RngExt, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
-    let robot = kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 8);
-    let chain = kinecal::Chain::new(&robot);
-    let mut ws = kinecal::Workspace::new(&robot);
-    let np = robot.param_count();
-    let (mut full, mut some) = (vec![0.0; 6 * np], vec![0.0; 6 * np]);
-    for p in kinecal::simulate::sample_postures(&robot, 20, 2) {
-        chain.forward(&p.readings, &mut ws);
-        let wanted: Vec<bool> = (0..np).map(|_| rng.random_range(0..3) == 0).collect();
-        chain.jacobian(&ws, kinecal::Target::EndEffector, &mut full);
-        chain.jacobian_wanted(&ws, kinecal::Target::EndEffector, &wanted, &mut some);
-        for (c, w) in wanted.iter().enumerate() {
-            for k in 0..6 {
-                let want = if *w { full[6 * c + k] } else { 0.0 };
-                assert_eq!(some[6 * c + k].to_bits(), want.to_bits(), "column {c}");
+    for seed in 0..12u64 {
+        let robot = robot_with_sites(1 + (seed % 7) as usize, seed);
+        let chain = kinecal::Chain::new(&robot);
+        let mut ws = kinecal::Workspace::new(&robot);
+        let np = robot.param_count();
+        let mut full = vec![0.0; 6 * np];
+        for p in kinecal::simulate::sample_postures(&robot, 10, seed) {
+            chain.forward(&p.readings, &mut ws);
+            // A random subset, in a random order.
+            let mut chosen: Vec<usize> = (0..np).filter(|_| rng.random_range(0..3) == 0).collect();
+            for i in (1..chosen.len()).rev() {
+                chosen.swap(i, rng.random_range(0..=i));
+            }
+            let mut columns = vec![None; np];
+            for (c, &p) in chosen.iter().enumerate() {
+                columns[p] = Some(c);
+            }
+            for target in [kinecal::Target::EndEffector, kinecal::Target::Site(0)] {
+                chain.jacobian(&ws, target, &mut full);
+                let mut some = vec![f64::NAN; 6 * chosen.len()];
+                chain.jacobian_columns(&ws, target, &columns, &mut some);
+                for (c, &p) in chosen.iter().enumerate() {
+                    for k in 0..6 {
+                        assert_eq!(
+                            some[6 * c + k].to_bits(),
+                            full[6 * p + k].to_bits(),
+                            "seed {seed}, parameter {p} at column {c}"
+                        );
+                    }
+                }
             }
         }
     }
