@@ -326,8 +326,32 @@ pub fn register_far_start(
     data: &Dataset,
     estimated: &[ParamId],
 ) -> Option<Registration> {
-    let s = samples(data);
-    if s.len() < 3 || rms(robot, data, &s) <= FAR_START * robot.reach() {
+    register_far_start_with(
+        robot,
+        data,
+        estimated,
+        &crate::sanity::predicted(robot, data),
+    )
+}
+
+/// [`register_far_start`] with `robot`'s predicted points at hand ([`crate::sanity::predicted`]).
+pub(crate) fn register_far_start_with(
+    robot: &Robot,
+    data: &Dataset,
+    estimated: &[ParamId],
+    predicted: &[[Vector3<f64>; 2]],
+) -> Option<Registration> {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (o, at) in data.observations.iter().zip(predicted) {
+        let position = match o {
+            Observation::Pose(p) => p.position,
+            Observation::Position(p) => p.position,
+            _ => continue,
+        };
+        sum += (at[0] - position).norm_squared();
+        count += 1;
+    }
+    if count < 3 || (sum / count as f64).sqrt() <= FAR_START * robot.reach() {
         return None;
     }
     register(robot, data, estimated)

@@ -20,6 +20,8 @@
 //! Each finding is a [`Warning`] naming the joint, the postures and the ratio; the caller may
 //! treat them as fatal ([`Warning::implausible`]).
 
+use nalgebra::Vector3;
+
 use crate::kinematics::Chain;
 use crate::kinematics::Target;
 use crate::observe::{Dataset, Observation};
@@ -33,10 +35,38 @@ pub const SCALE_FACTOR_LIMIT: f64 = 3.0;
 
 /// The warnings about `data` against the nominal `robot`: scale and readings.
 pub fn check_data(robot: &Robot, data: &Dataset) -> Vec<Warning> {
+    check_data_with(robot, data, &predicted(robot, data))
+}
+
+/// [`check_data`] with the nominal robot's [`predicted`] points at hand.
+pub(crate) fn check_data_with(
+    robot: &Robot,
+    data: &Dataset,
+    predicted: &[[Vector3<f64>; 2]],
+) -> Vec<Warning> {
     let mut out = Vec::new();
-    out.extend(scale(robot, data));
+    out.extend(scale(robot, data, predicted));
     out.extend(readings(robot, data));
     out
+}
+
+/// Where `robot` puts the target of each view of each observation of `data` (global frame; a
+/// second view's slot is zero for observations of one view): one pass of forward kinematics,
+/// once per posture, shared by the checks that compare the data with the nominal model.
+pub(crate) fn predicted(robot: &Robot, data: &Dataset) -> Vec<[Vector3<f64>; 2]> {
+    let chain = Chain::new(robot);
+    let mut cache = crate::observe::FrameCache::new(robot);
+    data.observations
+        .iter()
+        .map(|o| {
+            let mut at = [Vector3::zeros(); 2];
+            for (p, v) in at.iter_mut().zip(o.views()) {
+                let ws = cache.posture(&chain, data, v.posture);
+                *p = chain.target_frame(ws, v.target).translation;
+            }
+            at
+        })
+        .collect()
 }
 
 /// The warning when an estimated length moved by more than the robot's reach from `initial`
@@ -75,23 +105,12 @@ fn spread(points: &[nalgebra::Vector3<f64>]) -> f64 {
     (points.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / n).sqrt()
 }
 
-fn scale(robot: &Robot, data: &Dataset) -> Vec<Warning> {
-    let chain = Chain::new(robot);
-    // Observations come sorted by posture: forward kinematics once per posture.
-    let mut ws = crate::kinematics::Workspace::new(robot);
-    let mut at_posture = usize::MAX;
-    let mut at = |posture: usize, target: Target| {
-        if posture != at_posture {
-            chain.forward(&data.postures[posture].readings, &mut ws);
-            at_posture = posture;
-        }
-        chain.target_frame(&ws, target).translation
-    };
+fn scale(robot: &Robot, data: &Dataset, predicted: &[[Vector3<f64>; 2]]) -> Vec<Warning> {
     let mut out = Vec::new();
     // Positions: per target, as different targets are different points.
-    let (mut measured, mut predicted) = (Vec::new(), Vec::new());
+    let (mut measured, mut modelled) = (Vec::new(), Vec::new());
     let mut targets: Vec<Target> = Vec::new();
-    for o in &data.observations {
+    for (o, at) in data.observations.iter().zip(predicted) {
         let (view, position) = match o {
             Observation::Pose(p) => (p.view[0], p.position),
             Observation::Position(p) => (p.view[0], p.position),
@@ -103,14 +122,14 @@ fn scale(robot: &Robot, data: &Dataset) -> Vec<Warning> {
             .unwrap_or_else(|| {
                 targets.push(view.target);
                 measured.push(Vec::new());
-                predicted.push(Vec::new());
+                modelled.push(Vec::new());
                 targets.len() - 1
             });
         measured[k].push(position);
-        predicted[k].push(at(view.posture, view.target));
+        modelled[k].push(at[0]);
     }
     let (mut sm, mut sp) = (0.0f64, 0.0f64);
-    for (m, p) in measured.iter().zip(&predicted) {
+    for (m, p) in measured.iter().zip(&modelled) {
         if m.len() >= 3 {
             sm += spread(m).powi(2) * m.len() as f64;
             sp += spread(p).powi(2) * p.len() as f64;
@@ -122,11 +141,10 @@ fn scale(robot: &Robot, data: &Dataset) -> Vec<Warning> {
     // Distances: the measured lengths against the predicted ones.
     let (mut dm, mut dp) = (0.0f64, 0.0f64);
     let mut count = 0;
-    for o in &data.observations {
+    for (o, at) in data.observations.iter().zip(predicted) {
         if let Observation::Distance(d) = o {
-            let [a, b] = d.views;
             dm += d.distance.powi(2);
-            dp += (at(a.posture, a.target) - at(b.posture, b.target)).norm_squared();
+            dp += (at[0] - at[1]).norm_squared();
             count += 1;
         }
     }

@@ -501,16 +501,20 @@ impl Checked {
     /// `cal` checked on other data: one pass of forward kinematics per robot gives both the
     /// accuracy and the normalized residuals.
     fn new(cal: &Calibration, data: &Dataset) -> Checked {
-        let check = |robot: &Robot| {
-            let p = Problem::new(
-                robot,
-                data,
-                &[],
-                cal.options.weights,
-                cal.options.orientation,
-            );
+        // One table of the readings' sines and cosines serves both robots when the calibration
+        // kept the slopes and couplings.
+        let p = Problem::new(
+            &cal.initial,
+            data,
+            &[],
+            cal.options.weights,
+            cal.options.orientation,
+        )
+        .with_reading_trig();
+        let mut r = vec![0.0; p.rows()];
+        let mut check = |robot: &Robot| {
             let m = p.rows().max(1);
-            let (f, acc) = p.evaluate_checked(robot, &mut vec![0.0; p.rows()]);
+            let (f, acc) = p.evaluate_checked(robot, &mut r);
             ((f / m as f64).sqrt(), acc)
         };
         let (normalized_before, before) = check(&cal.initial);
@@ -654,17 +658,28 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             start
         }
     };
+    // Where the nominal robot puts the observed points: one pass, for the checks of the data
+    // against it (scale) and, when the start is the nominal robot, of the start's distance.
+    let nominal_points = crate::sanity::predicted(&req.robot, &data);
+    let start_points = if start == req.robot {
+        None
+    } else {
+        Some(crate::sanity::predicted(&start, &data))
+    };
+    let start_points = start_points.as_deref().unwrap_or(&nominal_points);
     // A far start (a measurement frame placed roughly or not at all): place the measurement
     // frame and the measured frames in closed form first, among the parameters that may move.
     let registration = match &req.selection {
-        Selection::List(ids) => crate::registration::register_far_start(&start, &data, ids),
+        Selection::List(ids) => {
+            crate::registration::register_far_start_with(&start, &data, ids, start_points)
+        }
         Selection::Default { fix } | Selection::Identifiable { fix, .. } => {
             let (mut ids, _) = default_parameters(&start, &data);
             if let Selection::Identifiable { with, .. } = &req.selection {
                 ids.extend(with.iter().copied());
             }
             ids.retain(|id| !fix.contains(id));
-            crate::registration::register_far_start(&start, &data, &ids)
+            crate::registration::register_far_start_with(&start, &data, &ids, start_points)
         }
     };
     let start = match &registration {
@@ -719,7 +734,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             req.outlier_sigmas,
             req.solution,
             &req.sources,
-            &mut data_warnings(&req.robot, &data, req.orientation),
+            &mut data_warnings(&req.robot, &data, req.orientation, &nominal_points),
         );
         pruning = Some(Pruning {
             k,
@@ -729,7 +744,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         });
     }
     progress.phase(Phase::Uncertainty);
-    let mut warnings = data_warnings(&req.robot, &data, req.orientation);
+    let mut warnings = data_warnings(&req.robot, &data, req.orientation, &nominal_points);
     if !unseen.is_empty() {
         warnings.insert(
             0,
@@ -1155,9 +1170,15 @@ fn finish(
 }
 
 /// Warnings about the data itself: units that do not match the robot file's, readings the
-/// robot cannot take ([`crate::sanity`]), poses near gimbal lock under Euler residuals.
-fn data_warnings(robot: &Robot, data: &Dataset, orientation: OrientationError) -> Vec<Warning> {
-    let mut out = crate::sanity::check_data(robot, data);
+/// robot cannot take ([`crate::sanity`]; `predicted`: `robot`'s points,
+/// [`crate::sanity::predicted`]), poses near gimbal lock under Euler residuals.
+fn data_warnings(
+    robot: &Robot,
+    data: &Dataset,
+    orientation: OrientationError,
+    predicted: &[[nalgebra::Vector3<f64>; 2]],
+) -> Vec<Warning> {
+    let mut out = crate::sanity::check_data_with(robot, data, predicted);
     let ctx = Context { robot, orientation };
     let near = data.degenerate(&ctx);
     if !near.is_empty() {
@@ -1369,7 +1390,12 @@ pub fn assess(
         residuals,
         start_r: None,
     };
-    let mut warnings = data_warnings(nominal, data, orientation);
+    let mut warnings = data_warnings(
+        nominal,
+        data,
+        orientation,
+        &crate::sanity::predicted(nominal, data),
+    );
     let unc = uncertainty::uncertainty(&cal, data, nominal);
     Ok(finish(
         nominal.clone(),

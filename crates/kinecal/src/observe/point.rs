@@ -15,6 +15,7 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 
 use nalgebra::Vector3;
+use rustc_hash::FxHashMap;
 
 use super::table::{self, PostureTable};
 use super::{
@@ -645,9 +646,10 @@ pub fn parse_measurements_mapped(
     }
     t.check_rows()?;
     let units = robot.units;
-    let mut postures = PostureTable::new();
-    let mut observations: Vec<Observation> = Vec::new();
-    let mut seen: HashMap<(usize, Target), usize> = HashMap::new();
+    let mut postures = PostureTable::with_capacity(t.rows().count());
+    let mut observations: Vec<Observation> = Vec::with_capacity(t.rows().count() * markers.len());
+    let mut seen: FxHashMap<(usize, Target), usize> = FxHashMap::default();
+    seen.reserve(observations.capacity());
     let wide = !map.markers.is_empty();
     let mut numbered = String::new();
     for (row_number, (line, f)) in t.rows().enumerate() {
@@ -659,10 +661,10 @@ pub fn parse_measurements_mapped(
                 &numbered
             }
         };
-        let values = reading_cols
-            .iter()
-            .map(|(i, name)| t.number(line, name, &f[*i]))
-            .collect::<Result<Vec<_>>>()?;
+        let mut values = Vec::with_capacity(reading_cols.len());
+        for (i, name) in &reading_cols {
+            values.push(t.number(line, name, &f[*i])?);
+        }
         let field_of = |j: usize| reading_cols[j].1.clone();
         let posture = postures.get_or_insert(&t, line, label, values, &field_of)?;
         for m in &markers {

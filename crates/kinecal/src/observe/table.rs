@@ -4,7 +4,7 @@
 //! tab separated file a number may be written with a decimal comma (`12,5`, as spreadsheets in
 //! many locales write it); a delimiter ending every data row but not the header is ignored.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use crate::error::{Error, Location, Result};
 use crate::observe::Posture;
@@ -320,14 +320,22 @@ impl Table {
 /// Keeps postures unique by label and checks that repeated labels carry the same readings.
 pub(crate) struct PostureTable {
     pub postures: Vec<Posture>,
-    index: HashMap<String, usize>,
+    /// Label to index (a fast hash: labels come from the user's own files).
+    index: FxHashMap<String, usize>,
 }
 
 impl PostureTable {
     pub fn new() -> Self {
+        PostureTable::with_capacity(0)
+    }
+
+    /// An empty table with room for `n` postures.
+    pub fn with_capacity(n: usize) -> Self {
+        let mut index = FxHashMap::default();
+        index.reserve(n);
         PostureTable {
-            postures: Vec::new(),
-            index: HashMap::new(),
+            postures: Vec::with_capacity(n),
+            index,
         }
     }
 
