@@ -23,7 +23,7 @@ use crate::kinematics::Target;
 use crate::linalg::{self, Matrix, QrAccumulator, QR_BLOCK};
 use crate::observe::{Anchoring, Dataset, OrientationError, RowQuantity, Weights};
 use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
-use crate::problem::Problem;
+use crate::problem::{Linearized, Problem};
 use crate::robot::{JointKind, Robot};
 use crate::units::Quantity;
 use crate::warning::Warning;
@@ -322,7 +322,7 @@ pub fn analyze(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, None, true)
+    analyze_with(robot, data, params, opts, None, true).map(|(a, _)| a)
 }
 
 /// [`analyze`] without what only a display needs: the row labels, the file-unit Jacobian and
@@ -334,7 +334,20 @@ pub(crate) fn analyze_core(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, None, false)
+    analyze_with(robot, data, params, opts, None, false).map(|(a, _)| a)
+}
+
+/// [`analyze_core`], keeping the linearisation it made at `robot` (for a solver that starts
+/// there: its first evaluation then costs no pass).
+pub(crate) fn analyze_linearized(
+    robot: &Robot,
+    data: &Dataset,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+) -> Result<(Analysis, Linearized)> {
+    let (analysis, lin) = analyze_with(robot, data, params, opts, None, false)?;
+    let lin = lin.ok_or_else(|| Error::Numerical("no linearisation was made".into()))?;
+    Ok((analysis, lin))
 }
 
 /// [`analyze_core`] from the `R` of the QR of the weighted `[J | r]` at `robot`, over `params`
@@ -347,7 +360,7 @@ pub(crate) fn analyze_from_r(
     opts: &AnalysisOptions,
     raug: &Matrix,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, Some(raug), false)
+    analyze_with(robot, data, params, opts, Some(raug), false).map(|(a, _)| a)
 }
 
 fn analyze_with(
@@ -357,7 +370,7 @@ fn analyze_with(
     opts: &AnalysisOptions,
     known_r: Option<&Matrix>,
     display: bool,
-) -> Result<Analysis> {
+) -> Result<(Analysis, Option<Linearized>)> {
     let mut params = params.to_vec();
     params.sort();
     params.dedup();
@@ -377,6 +390,7 @@ fn analyze_with(
     let mut r = Vec::new();
     let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
     let mut raug = Matrix::zeros(0, 0);
+    let mut accuracy = None;
     match known_r {
         Some(known) if known.nrows() == n + 1 && known.ncols() == n + 1 => raug = known.clone(),
         Some(_) => {
@@ -386,7 +400,7 @@ fn analyze_with(
         }
         None => {
             r.resize(m, 0.0);
-            problem.evaluate_qr(robot, &mut r, &mut acc);
+            accuracy = Some(problem.evaluate_qr_checked(robot, &mut r, &mut acc).1);
             acc.r_into(&mut raug);
         }
     }
@@ -631,7 +645,12 @@ fn analyze_with(
         });
     }
 
-    Ok(Analysis {
+    let lin = accuracy.map(|accuracy| Linearized {
+        params: params.clone(),
+        r: raug,
+        accuracy,
+    });
+    let analysis = Analysis {
         expected: expected_rank(robot, data, &params),
         parameters: params,
         residuals: m,
@@ -651,7 +670,8 @@ fn analyze_with(
         warnings,
         column_norms,
         right_singular_vectors: v_scaled,
-    })
+    };
+    Ok((analysis, lin))
 }
 
 /// Per row of `problem`, the factor from its weighted residual to file units (its sigma in

@@ -197,6 +197,27 @@ pub(crate) fn singular_values(a: &Matrix) -> Option<Vec<f64>> {
     a.faer().singular_values().ok()
 }
 
+/// The upper-triangular `R` (`cols.len()` square) of the QR of the columns `cols` of `a`:
+/// for `a` the `R` of some tall matrix `M`, the `R` of those columns of `M`.
+pub(crate) fn r_of_columns(a: &Matrix, cols: &[usize]) -> Matrix {
+    let k = cols.len();
+    let rows = a.nrows().max(k);
+    // Padded with zero rows when `a` has fewer rows than columns wanted (QR of a tall matrix).
+    let m = Mat::from_fn(
+        rows,
+        k,
+        |i, j| {
+            if i < a.nrows() {
+                a[(i, cols[j])]
+            } else {
+                0.0
+            }
+        },
+    );
+    let r = m.qr().thin_R().to_owned();
+    Matrix::from_fn(k, k, |i, j| if i <= j { r[(i, j)] } else { 0.0 })
+}
+
 /// Rows folded into a [`QrAccumulator`]'s `R` at a time: large enough that the QR of a block
 /// runs at matrix speed, small enough (a few hundred KB) that memory does not grow with the
 /// postures.
@@ -476,6 +497,36 @@ mod tests {
                             g[(i, j)]
                         );
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn r_of_some_columns_is_the_r_of_those_columns_of_the_tall_matrix() {
+        let (rows, cols) = (40, 6);
+        let a = Matrix::from_fn(rows, cols, |i, j| ((i * 5 + j * 11) as f64 * 0.21).cos());
+        let mut acc = QrAccumulator::new(cols, 16);
+        let mut row = vec![0.0; cols];
+        for i in 0..rows {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = a[(i, j)];
+            }
+            acc.push(&row);
+        }
+        let mut r = Matrix::zeros(0, 0);
+        acc.r_into(&mut r);
+        for pick in [vec![0, 2, 5], vec![4, 1], vec![5], vec![0, 1, 2, 3, 4, 5]] {
+            let sub = r_of_columns(&r, &pick);
+            let direct = Matrix::from_fn(rows, pick.len(), |i, j| a[(i, pick[j])]);
+            // R_S^T R_S is the Gram matrix of the chosen columns, R_S upper triangular.
+            let (g, rtr) = (gram(&direct), gram(&sub));
+            for i in 0..pick.len() {
+                for j in 0..pick.len() {
+                    assert!((g[(i, j)] - rtr[(i, j)]).abs() < 1e-12 * rows as f64);
+                }
+                for k in i + 1..pick.len() {
+                    assert!(sub[(k, i)].abs() < f64::MIN_POSITIVE);
                 }
             }
         }

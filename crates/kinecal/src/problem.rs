@@ -26,6 +26,35 @@ enum Sink<'m> {
     Gram(&'m mut GramAccumulator),
 }
 
+/// The linearisation of a problem at one robot, from one pass of forward kinematics: the
+/// upper-triangular `R` of the QR of the weighted `[J | r]` over `params` (ascending, the
+/// residual last; `(n + 1) x (n + 1)`), and the errors there. The `R` of any subset of the
+/// parameters follows from it without another pass ([`Linearized::restricted`]).
+#[derive(Debug, Clone)]
+pub(crate) struct Linearized {
+    /// The parameters of the columns of `r` (the residual column aside).
+    pub params: Vec<ParamId>,
+    /// `R` of the weighted `[J | r]`.
+    pub r: Matrix,
+    /// The errors at the robot.
+    pub accuracy: Accuracy,
+}
+
+impl Linearized {
+    /// The `R` of the weighted `[J_S | r]` for the parameters `subset` (in that order), each
+    /// among `params`: `J_S = Q R_S` with `R_S` the columns of `R` for `S`, so the QR of
+    /// `[R_S | z]` (a few rows) gives it. `None` when a parameter is not among `params`.
+    pub(crate) fn restricted(&self, subset: &[ParamId]) -> Option<Matrix> {
+        let n = self.params.len();
+        let mut cols: Vec<usize> = subset
+            .iter()
+            .map(|id| self.params.iter().position(|p| p == id))
+            .collect::<Option<_>>()?;
+        cols.push(n);
+        Some(crate::linalg::r_of_columns(&self.r, &cols))
+    }
+}
+
 /// Weighted residuals and Jacobian of a calibration over one dataset.
 #[derive(Clone)]
 pub struct Problem<'a> {

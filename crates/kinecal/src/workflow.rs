@@ -24,7 +24,7 @@ use crate::observe::{accuracy, Accuracy, Context, Dataset, OrientationError, Wei
 use crate::outliers::{self, Outlier};
 use crate::param_list::parse_param_list;
 use crate::params::{ParamId, ParamKind};
-use crate::problem::Problem;
+use crate::problem::{Linearized, Problem};
 use crate::report::CalibrationReport;
 use crate::robot::Robot;
 use crate::source::Source;
@@ -135,6 +135,18 @@ pub fn resolve(
     data: &Dataset,
     opts: &AnalysisOptions,
 ) -> Result<(Vec<ParamId>, Vec<ParamId>)> {
+    resolve_linearized(selection, robot, data, opts).map(|(ids, unseen, _)| (ids, unseen))
+}
+
+/// [`resolve`], with the linearisation the identifiability analysis made at `robot` (over the
+/// candidates) when it ran: a fit starting at `robot` needs no first pass.
+fn resolve_linearized(
+    selection: &Selection,
+    robot: &Robot,
+    data: &Dataset,
+    opts: &AnalysisOptions,
+) -> Result<(Vec<ParamId>, Vec<ParamId>, Option<Linearized>)> {
+    let mut lin = None;
     let (mut ids, unseen) = match selection {
         Selection::Default { fix } => {
             let (mut ids, unseen) = default_parameters(robot, data);
@@ -151,8 +163,9 @@ pub fn resolve(
             if ids.is_empty() {
                 return Err(Error::NothingToEstimate);
             }
-            let base = identifiability::analyze_core(robot, data, &ids, opts)?.identifiable;
-            (base, unseen)
+            let (analysis, at) = identifiability::analyze_linearized(robot, data, &ids, opts)?;
+            lin = Some(at);
+            (analysis.identifiable, unseen)
         }
     };
     ids.sort();
@@ -160,7 +173,7 @@ pub fn resolve(
     if ids.is_empty() {
         return Err(Error::NothingToEstimate);
     }
-    Ok((ids, unseen))
+    Ok((ids, unseen, lin))
 }
 
 /// The default parameters on `data`: every link and site parameter and every joint offset, and
@@ -693,7 +706,11 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     if matches!(req.selection, Selection::Identifiable { .. }) {
         progress.phase(Phase::Selection);
     }
-    let (estimate, unseen) = resolve(&req.selection, reference, &data, &req.analysis_options())?;
+    let (estimate, unseen, lin) =
+        resolve_linearized(&req.selection, reference, &data, &req.analysis_options())?;
+    // The analysis linearised the problem at the reference: the solver's start when they are
+    // the same robot (and the loss starts as least squares, which it always does).
+    let lin = lin.filter(|_| *reference == start);
     let opts = CalibrationOptions {
         estimate,
         solver: req.solver,
@@ -702,7 +719,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         loss: req.loss,
     };
     progress.phase(Phase::Estimation);
-    let mut cal = fit(req, &start, &data, &opts, progress)?;
+    let mut cal = fit(req, &start, &data, &opts, lin.as_ref(), progress)?;
     let mut pruning = None;
     if let Some(k) = req.prune {
         progress.phase(Phase::Pruning);
@@ -722,7 +739,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
                 break;
             }
             removed.push(id);
-            cal = fit(req, &start, &data, &o, &mut ())?;
+            cal = fit(req, &start, &data, &o, lin.as_ref(), &mut ())?;
         }
         let full_outcome = finish(
             req.robot.clone(),
@@ -1196,9 +1213,11 @@ fn fit(
     start: &Robot,
     data: &Dataset,
     opts: &CalibrationOptions,
+    lin: Option<&Linearized>,
     progress: &mut dyn Progress,
 ) -> Result<Calibration> {
-    let mut cal = estimation::calibrate(start, data, opts, &mut |it| progress.iteration(it))?;
+    let mut cal =
+        estimation::calibrate_from(start, data, opts, &mut |it| progress.iteration(it), lin)?;
     if req.solution == SolutionRule::MinChange {
         let problem = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
         let problem = problem.with_row_scale(&cal.row_scale);

@@ -28,7 +28,7 @@ use crate::error::{Error, Result};
 use crate::linalg::Matrix;
 use crate::observe::{Accuracy, Dataset, OrientationError, Weights};
 use crate::params::ParamId;
-use crate::problem::Problem;
+use crate::problem::{Linearized, Problem};
 use crate::robot::Robot;
 use crate::units::{wrap_angle, Quantity};
 
@@ -206,6 +206,19 @@ pub fn calibrate(
     opts: &CalibrationOptions,
     observer: &mut dyn FnMut(&Iteration),
 ) -> Result<Calibration> {
+    calibrate_from(initial, data, opts, observer, None)
+}
+
+/// [`calibrate`], with a linearisation at `initial` at hand (over the estimated parameters or
+/// more, with `opts`' weights and orientation residuals): the solver's first evaluation is then
+/// taken from it instead of a pass.
+pub(crate) fn calibrate_from(
+    initial: &Robot,
+    data: &Dataset,
+    opts: &CalibrationOptions,
+    observer: &mut dyn FnMut(&Iteration),
+    start: Option<&Linearized>,
+) -> Result<Calibration> {
     if opts.estimate.is_empty() {
         return Err(Error::NothingToEstimate);
     }
@@ -245,10 +258,18 @@ pub fn calibrate(
     }
     let x0 = problem.values(initial);
     let mut log = Vec::new();
-    let mut sol = solve(&problem, &x0, &opts.solver, &mut |it: &Iteration| {
-        log.push(*it);
-        observer(it);
-    })?;
+    let start_r = start.and_then(|l| Some((l.restricted(&opts.estimate)?, &l.accuracy)));
+    let mut sol = solver::drive_from(
+        &problem,
+        &x0,
+        &opts.solver,
+        opts.solver.method.rule(&opts.solver).as_mut(),
+        &mut |it: &Iteration| {
+            log.push(*it);
+            observer(it);
+        },
+        start_r.as_ref().map(|(r, a)| (r, *a)),
+    )?;
     // The first solve's start is `initial`, weighted as least squares would (the robust
     // loss's row scale comes later).
     let start_r = std::mem::replace(&mut sol.start_r, Matrix::zeros(0, 0));

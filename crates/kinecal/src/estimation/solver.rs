@@ -78,7 +78,7 @@ impl Method {
         }
     }
 
-    fn rule(self, opts: &SolverOptions) -> Box<dyn StepRule> {
+    pub(crate) fn rule(self, opts: &SolverOptions) -> Box<dyn StepRule> {
         match self {
             Method::LevenbergMarquardt => Box::new(LevenbergMarquardt::new(opts.damping)),
             Method::GaussNewton => Box::new(GaussNewton { rcond: opts.rcond }),
@@ -514,6 +514,20 @@ pub fn drive(
     rule: &mut dyn StepRule,
     observer: &mut dyn FnMut(&Iteration),
 ) -> Result<Solution> {
+    drive_from(problem, x0, opts, rule, observer, None)
+}
+
+/// [`drive`], with the linearisation at `x0` at hand when `start` gives it: the `R` of the
+/// weighted `[J | r]` there (`(cols + 1)` square, in the problem's column order) and the
+/// errors there, as a pass at `x0` would make them. The first evaluation is then skipped.
+pub(crate) fn drive_from(
+    problem: &Problem<'_>,
+    x0: &[f64],
+    opts: &SolverOptions,
+    rule: &mut dyn StepRule,
+    observer: &mut dyn FnMut(&Iteration),
+    start: Option<(&Matrix, &Accuracy)>,
+) -> Result<Solution> {
     let (m, n) = (problem.rows(), problem.cols());
     let mut x = x0.to_vec();
     let mut r = vec![0.0; m];
@@ -521,10 +535,28 @@ pub fn drive(
     // Gram matrix, a block of rows at a time, so memory is flat in the number of postures.
     // The start is always by QR (its R is the linearisation the uncertainty reuses).
     let mut lin = Linearization::new(n + 1);
-    let (mut f, start_accuracy) =
-        problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, &mut lin.qr);
     lin.by_qr = true;
+    let given = start.filter(|(r0, _)| r0.nrows() == n + 1 && r0.ncols() == n + 1);
+    let (mut f, start_accuracy) = match given {
+        Some((r0, accuracy)) => {
+            // Its rows are their own R: pushed into the accumulator, the iterations read it
+            // back as from a pass. The last column is [Q^T r; rho]: its squared norm is the
+            // objective.
+            lin.qr.clear();
+            let mut row = vec![0.0; n + 1];
+            for i in 0..=n {
+                for (j, v) in row.iter_mut().enumerate() {
+                    *v = r0[(i, j)];
+                }
+                lin.qr.push(&row);
+            }
+            let f: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
+            (f, accuracy.clone())
+        }
+        None => problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, &mut lin.qr),
+    };
     if !f.is_finite() {
+        problem.evaluate(&problem.robot_at(&x), &mut r, None);
         return Err(non_finite_start(problem, &r));
     }
     let objective_before = f;
