@@ -4,12 +4,14 @@
 //! of the estimated columns (`fk_jacobian`) and forming `J^T J` from it (`normal_equations`).
 //!
 //! - `fk_jacobian`: `Problem::evaluate` with the full m x n Jacobian (the floor's first half);
-//! - `normal_equations`: `J^T J` of that Jacobian (nalgebra's matrix product; the second half);
+//! - `normal_equations`: `J^T J` of that Jacobian (faer's matrix product, the fastest at hand;
+//!   the second half);
 //! - `selection`: the base-set choice (`workflow::resolve` of `identifiable`), one analysis;
 //! - `analysis`: `identifiability::analyze` as `kinecal analyze` runs it (with the file-unit
 //!   singular values, a second pass);
 //! - `estimation`: the Levenberg-Marquardt fit from the nominal robot;
-//! - `uncertainty`: covariances and sigmas of the fit.
+//! - `uncertainty`: covariances and sigmas of the fit, as the workflow takes them (from the
+//!   solver's linearisation at the start: no pass).
 //!
 //! Run: `cargo bench -p kinecal --bench phases` (the 100,000 group takes a few minutes).
 
@@ -22,7 +24,7 @@ use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::linalg::Matrix;
 use kinecal::problem::Problem;
 use kinecal::simulate::{self, PerturbStd};
-use kinecal::uncertainty::uncertainty;
+use kinecal::uncertainty::uncertainty_of_fit;
 use kinecal::workflow::{resolve, Selection};
 use kinecal::{Dataset, JointKind, Robot};
 
@@ -61,9 +63,20 @@ fn phases(c: &mut Criterion) {
             b.iter(|| black_box(p.evaluate(&nominal, &mut r, Some(&mut jac))))
         });
         p.evaluate(&nominal, &mut r, Some(&mut jac));
-        let j = nalgebra::DMatrix::from_fn(p.rows(), p.cols(), |i, k| jac[(i, k)]);
+        let j = faer::Mat::from_fn(p.rows(), p.cols(), |i, k| jac[(i, k)]);
+        let mut jtj = faer::Mat::<f64>::zeros(p.cols(), p.cols());
         group.bench_function(BenchmarkId::new("normal_equations", ids.len()), |b| {
-            b.iter(|| black_box(j.tr_mul(&j)[(0, 0)]))
+            b.iter(|| {
+                faer::linalg::matmul::matmul(
+                    jtj.as_mut(),
+                    faer::Accum::Replace,
+                    j.transpose(),
+                    j.as_ref(),
+                    1.0,
+                    faer::Par::Seq,
+                );
+                black_box(jtj[(0, 0)])
+            })
         });
         drop(j);
         drop(jac);
@@ -90,7 +103,14 @@ fn phases(c: &mut Criterion) {
             })
         });
         group.bench_function(BenchmarkId::new("uncertainty", ids.len()), |b| {
-            b.iter(|| black_box(uncertainty(&cal, &data, &nominal).unwrap().parameters.len()))
+            b.iter(|| {
+                black_box(
+                    uncertainty_of_fit(&cal, &data, &nominal)
+                        .unwrap()
+                        .parameters
+                        .len(),
+                )
+            })
         });
         group.finish();
     }

@@ -123,11 +123,11 @@ pub fn uncertainty(
     from_analysis(cal, analysis)
 }
 
-/// [`uncertainty`] of a calibration on the data it was fitted to (`data`): when `nominal` is
-/// the solver's start, the solver's first evaluation there (over the estimated parameters, with
-/// the same weights) is the linearisation wanted, and no further pass of forward kinematics is
-/// needed.
-pub(crate) fn uncertainty_of_fit(
+/// [`uncertainty`] of a calibration on the data it was fitted to (`data` must be that data):
+/// when `nominal` is the solver's start, the solver's first evaluation there (over the
+/// estimated parameters, with the same weights) is the linearisation wanted, and no further
+/// pass of forward kinematics is needed. This is what the workflow runs.
+pub fn uncertainty_of_fit(
     cal: &Calibration,
     data: &Dataset,
     nominal: &crate::robot::Robot,
