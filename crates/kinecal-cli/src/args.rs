@@ -1081,7 +1081,8 @@ pub struct CalibrateArgs {
     #[arg(long, value_enum, value_name = "SPREAD", default_value = "robust")]
     pub huber_spread: SpreadArg,
     /// List observations with a residual beyond K robust standard deviations of the rows like
-    /// them (never dropped).
+    /// them (never dropped). K is raised for large data so that clean Gaussian noise is expected
+    /// to show no outlier (4.15 for 3,000 residual rows, 4.8 for 60,000).
     #[arg(long, value_name = "K", default_value_t = kinecal::outliers::DEFAULT_SIGMAS)]
     pub outlier_sigma: f64,
     /// Levenberg-Marquardt damping.

@@ -361,7 +361,7 @@ pub fn summary(r: &CalibrationReport) -> String {
             s,
             "Outliers ({}; a residual beyond {} robust sigmas; kept in the fit{}):",
             r.outliers.len(),
-            r.outlier_sigmas,
+            (r.outlier_sigmas * 100.0).round() / 100.0,
             if r.loss == "squared" {
                 ", consider --loss huber"
             } else {

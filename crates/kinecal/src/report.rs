@@ -434,7 +434,8 @@ pub struct CalibrationReport {
     pub timings: Vec<PhaseTime>,
     /// Measurements beyond the outlier threshold (listed, not dropped).
     pub outliers: Vec<OutlierReport>,
-    /// The threshold used, in robust standard deviations.
+    /// The threshold used, in robust standard deviations: the one asked for, raised for the
+    /// number of rows tested ([`crate::outliers::threshold`]).
     pub outlier_sigmas: f64,
     /// SHA-256 of the robot file, when the caller provides it (history fingerprints).
     #[serde(default, skip_serializing_if = "Option::is_none")]

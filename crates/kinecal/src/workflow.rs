@@ -1149,7 +1149,12 @@ fn finish(
         identification.normalized_before,
         identification.normalized_after,
     ]);
-    report.set_outliers(&outliers, &data, &cal.calibrated, outlier_sigmas);
+    report.set_outliers(
+        &outliers,
+        &data,
+        &cal.calibrated,
+        outliers::threshold(outlier_sigmas, data.rows()),
+    );
     if let Some(v) = &validation {
         report.set_validation(
             v.postures,

@@ -151,3 +151,60 @@ fn the_identifiable_fit_starts_from_the_analysis_linearisation() {
         }
     }
 }
+
+/// The outlier threshold grows with the number of rows tested: 4 standard deviations is a
+/// large value among a few hundred rows and an ordinary one among a million.
+#[test]
+fn the_outlier_threshold_grows_with_the_rows_tested() {
+    use kinecal::outliers::threshold;
+    // Without a floor: the two-sided normal quantile with rows * P(|z| > t) = 0.1 (values of
+    // scipy.stats.norm.isf: 1.6449 at 10 %, 2.5758 at 1 %, 4.8916 at 1e-6).
+    for (rows, t) in [
+        (1, 1.6448536269514722),
+        (10, 2.5758293035489004),
+        (100_000, 4.891638475698553),
+    ] {
+        assert!(
+            (threshold(0.0, rows) - t).abs() < 1e-9,
+            "{rows}: {}",
+            threshold(0.0, rows)
+        );
+    }
+    // The floor stands for small data, the quantile takes over for large.
+    assert_eq!(threshold(4.0, 1000).to_bits(), 4.0f64.to_bits());
+    assert!((threshold(4.0, 3000) - 4.15).abs() < 0.01);
+    assert!((threshold(4.0, 6_000_000) - 5.6435).abs() < 1e-3);
+    // Monotone in the rows.
+    let mut last = 0.0;
+    for rows in [1, 10, 100, 1000, 10_000, 100_000, 1_000_000, 100_000_000] {
+        let t = threshold(0.0, rows);
+        assert!(t > last);
+        last = t;
+    }
+}
+
+/// Clean data of 40,000 residual rows (Gaussian noise only): no outlier (at a fixed 4 sigmas
+/// about 2.5 rows would be flagged); a gross error among them is still found.
+#[test]
+fn clean_data_of_many_rows_shows_no_outlier_and_a_gross_error_still_shows() {
+    let nominal = kinecal::simulate::random_robot(&[JointKind::Revolute; 6], 31);
+    let std = PerturbStd {
+        length: 1e-3,
+        angle: 0.2f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    let truth = kinecal::simulate::perturb(&nominal, std, 32);
+    let postures = kinecal::simulate::sample_postures(&nominal, 13_334, 33);
+    let mut data = kinecal::simulate::measure(&truth, &postures, true);
+    kinecal::simulate::add_noise(&mut data, 2e-5, 0.0, 34);
+    let req = Request::new(nominal.clone(), data.clone());
+    let out = workflow::run(&req, &mut ()).unwrap();
+    assert!(out.outliers.is_empty(), "{} flagged", out.outliers.len());
+    assert!(out.report.outlier_sigmas > 4.5);
+    if let Observation::Position(p) = &mut data.observations[777] {
+        p.position.y += 4e-4; // 20 standard deviations
+    }
+    let out = workflow::run(&Request::new(nominal, data), &mut ()).unwrap();
+    let found: Vec<usize> = out.outliers.iter().map(|o| o.observation).collect();
+    assert_eq!(found, vec![777]);
+}
