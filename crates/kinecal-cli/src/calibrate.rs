@@ -245,7 +245,10 @@ impl Display {
             indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
                 .expect("a valid template"),
         );
-        bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        // No ticking thread for a display nobody sees (--quiet, -v, or not a terminal).
+        if !bar.is_hidden() {
+            bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        }
         Display {
             bar,
             verbose: Verbose(a.verbose),
