@@ -266,6 +266,145 @@ impl Workspace {
     }
 }
 
+/// Which Jacobian columns to compute for one target, and where each goes: worked out once from
+/// a robot's structure (joint kinds, couplings, sites) and the wanted parameters, then used at
+/// every posture by [`Chain::jacobian_columns`] for any robot of that structure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnPlan {
+    target: Target,
+    /// The columns of the output block.
+    width: usize,
+    /// Links (and the target site's frame) with a wanted parameter, upstream of the target.
+    links: Vec<LinkColumns>,
+    /// Joints with a wanted offset, slope or coupling factor, upstream of the target.
+    joints: Vec<JointColumns>,
+    /// Wanted columns of parameters that cannot move the target.
+    zero: Vec<usize>,
+}
+
+/// The wanted columns of one link transform: its translations along and rotations about its
+/// proximal frame's axes.
+#[derive(Debug, Clone, PartialEq)]
+struct LinkColumns {
+    /// The proximal frame (`Workspace::prox` index).
+    frame: usize,
+    cache: LinkOf,
+    /// Columns of `x, y, z`.
+    translation: [Option<usize>; 3],
+    /// Columns of `alpha, beta, gamma`.
+    rotation: [Option<usize>; 3],
+}
+
+/// Whose transform: link `i` or site `s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LinkOf {
+    Link(usize),
+    Site(usize),
+}
+
+/// The wanted columns of one joint.
+#[derive(Debug, Clone, PartialEq)]
+struct JointColumns {
+    joint: usize,
+    offset: Option<usize>,
+    slope: Option<usize>,
+    /// The coupling factor's column and the joint whose reading it multiplies.
+    coupling: Option<(usize, usize)>,
+}
+
+impl ColumnPlan {
+    /// The plan for `target` of `robot`: `columns[p]` (one entry per parameter number) is the
+    /// output column of parameter `p`, `None` when not wanted. The output is as wide as the
+    /// largest column named, plus one.
+    pub fn new(robot: &Robot, target: Target, columns: &[Option<usize>]) -> ColumnPlan {
+        assert_eq!(
+            columns.len(),
+            robot.param_count(),
+            "one entry per parameter"
+        );
+        let (nl, nj) = (robot.links.len(), robot.dof());
+        let (links_upto, joints_upto) = match target {
+            Target::EndEffector => (nl, nj),
+            Target::Site(s) => {
+                let k = robot.sites[s].joint;
+                (k, k)
+            }
+        };
+        let mut covered = vec![false; columns.len()];
+        let mut take = |p: usize| {
+            covered[p] = true;
+            columns[p]
+        };
+        let mut links = Vec::new();
+        let mut link = |first: usize, frame: usize, cache: LinkOf| {
+            let l = LinkColumns {
+                frame,
+                cache,
+                translation: [take(first), take(first + 1), take(first + 2)],
+                rotation: [take(first + 3), take(first + 4), take(first + 5)],
+            };
+            if l.translation.iter().chain(&l.rotation).any(Option::is_some) {
+                links.push(l);
+            }
+        };
+        for i in 0..links_upto {
+            link(6 * i, i, LinkOf::Link(i));
+        }
+        if let Target::Site(s) = target {
+            link(
+                6 * nl + 2 * nj + 6 * s,
+                robot.sites[s].joint,
+                LinkOf::Site(s),
+            );
+        }
+        let mut joints = Vec::new();
+        for j in 0..joints_upto {
+            let coupling = robot.joints[j].coupling.and_then(|c| {
+                let p = robot.param_id(ParamKind::Coupling { joint: j }).0;
+                take(p).map(|col| (col, c.joint))
+            });
+            let jc = JointColumns {
+                joint: j,
+                offset: take(6 * nl + j),
+                slope: take(6 * nl + nj + j),
+                coupling,
+            };
+            if jc.offset.is_some() || jc.slope.is_some() || jc.coupling.is_some() {
+                joints.push(jc);
+            }
+        }
+        let zero = columns
+            .iter()
+            .zip(&covered)
+            .filter_map(|(c, &done)| c.filter(|_| !done))
+            .collect();
+        ColumnPlan {
+            target,
+            width: columns.iter().flatten().max().map_or(0, |&c| c + 1),
+            links,
+            joints,
+            zero,
+        }
+    }
+
+    /// The plan of every parameter of `robot`, each in its own column (parameter `p` in column
+    /// `p`): [`Chain::jacobian`]'s.
+    pub fn all(robot: &Robot, target: Target) -> ColumnPlan {
+        let columns: Vec<Option<usize>> = (0..robot.param_count()).map(Some).collect();
+        ColumnPlan::new(robot, target, &columns)
+    }
+
+    /// The target.
+    pub fn target(&self) -> Target {
+        self.target
+    }
+
+    /// The number of columns of the output block.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+}
+
 /// A robot's chain with its posture-independent transforms precomputed.
 #[derive(Debug, Clone)]
 pub struct Chain<'r> {
@@ -374,67 +513,25 @@ impl<'r> Chain<'r> {
     /// Writes the geometric Jacobian of `target` (after [`Chain::forward`]) into `out`, a
     /// column-major 6 x `param_count` block: column `p` holds `d(origin)/dp` in rows 0-2 and the
     /// global angular velocity per unit `p` in rows 3-5. Parameters that cannot move the target
-    /// get zero columns.
+    /// get zero columns. Works out its [`ColumnPlan`] at every call (allocates): a loop over
+    /// postures makes the plan once and calls [`Chain::jacobian_columns`].
     pub fn jacobian(&self, ws: &Workspace, target: Target, out: &mut [f64]) {
-        self.jacobian_of(ws, target, None, out);
-    }
-
-    /// [`Chain::jacobian`] of some parameters only, packed: `columns[p]` (indexed by parameter
-    /// number) is the column of `out` (6 x `out.len() / 6`, column-major) parameter `p` goes
-    /// to, `None` for a parameter not wanted. Parameters not wanted cost nothing (a link none of
-    /// whose six parameters is wanted is skipped whole); a wanted one that cannot move the
-    /// target gets a zero column.
-    pub fn jacobian_columns(
-        &self,
-        ws: &Workspace,
-        target: Target,
-        columns: &[Option<usize>],
-        out: &mut [f64],
-    ) {
         assert_eq!(
-            columns.len(),
-            self.robot.param_count(),
-            "one entry per parameter"
+            out.len(),
+            6 * self.robot.param_count(),
+            "Jacobian block has the wrong size"
         );
-        self.jacobian_of(ws, target, Some(columns), out);
+        self.jacobian_columns(ws, &ColumnPlan::all(self.robot, target), out);
     }
 
-    fn jacobian_of(
-        &self,
-        ws: &Workspace,
-        target: Target,
-        columns: Option<&[Option<usize>]>,
-        out: &mut [f64],
-    ) {
-        let robot = self.robot;
-        let (nl, nj) = (robot.links.len(), robot.dof());
-        if columns.is_none() {
-            assert_eq!(
-                out.len(),
-                6 * robot.param_count(),
-                "Jacobian block has the wrong size"
-            );
-        }
-        out.fill(0.0);
-        let e = self.target_frame(ws, target).translation;
-        // Links and joints upstream of the target.
-        let (links_upto, joints_upto) = match target {
-            Target::EndEffector => (nl, nj),
-            Target::Site(s) => {
-                let k = robot.sites[s].joint;
-                (k, k)
-            }
-        };
-        // Where parameter `col` goes in `out`, if wanted.
-        let slot = |col: usize| match columns {
-            None => Some(col),
-            Some(map) => map[col],
-        };
-        let want = |col: usize| slot(col).is_some();
-        let mut put = |col: usize, dp: Vector3<f64>, w: Vector3<f64>| {
-            let Some(col) = slot(col) else {
-                return;
-            };
+    /// The Jacobian columns `plan` names, packed into `out` (6 x [`ColumnPlan::width`],
+    /// column-major), after [`Chain::forward`]: each as in [`Chain::jacobian`]. Only the
+    /// planned columns are touched, and each is written (zero for a parameter that cannot move
+    /// the target); nothing is allocated and no parameter is looked at that is not wanted.
+    pub fn jacobian_columns(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
+        assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
+        let e = self.target_frame(ws, plan.target).translation;
+        let mut put = |col: usize, dp: &Vector3<f64>, w: &Vector3<f64>| {
             let c = &mut out[6 * col..6 * col + 6];
             c[0] = dp.x;
             c[1] = dp.y;
@@ -443,54 +540,50 @@ impl<'r> Chain<'r> {
             c[4] = w.y;
             c[5] = w.z;
         };
-        let mut link_columns = |first_col: usize, prox: &Frame, cache: &LinkCache| {
-            if !(first_col..first_col + 6).any(want) {
-                return;
-            }
+        let zero = Vector3::zeros();
+        for l in &plan.links {
+            let prox = &ws.prox[l.frame];
             let r = &prox.rotation;
-            for k in 0..3 {
-                if want(first_col + k) {
-                    put(first_col + k, r.column(k).into_owned(), Vector3::zeros());
+            for (k, col) in l.translation.iter().enumerate() {
+                if let Some(col) = *col {
+                    put(col, &r.column(k).into_owned(), &zero);
                 }
             }
-            if !(first_col + 3..first_col + 6).any(want) {
-                return;
+            if l.rotation.iter().all(Option::is_none) {
+                continue;
             }
+            let cache = match l.cache {
+                LinkOf::Link(i) => &self.links[i],
+                LinkOf::Site(s) => &self.sites[s],
+            };
             let c = prox.translation + r * cache.frame.translation;
             let lever = e - c;
             for (k, axis_local) in [Vector3::z(), cache.beta_axis, cache.gamma_axis]
                 .iter()
                 .enumerate()
             {
-                if want(first_col + 3 + k) {
+                if let Some(col) = l.rotation[k] {
                     let u = r * axis_local;
-                    put(first_col + 3 + k, u.cross(&lever), u);
+                    put(col, &u.cross(&lever), &u);
                 }
             }
-        };
-        for i in 0..links_upto {
-            link_columns(6 * i, &ws.prox[i], &self.links[i]);
         }
-        if let Target::Site(s) = target {
-            let k = robot.sites[s].joint;
-            link_columns(6 * nl + 2 * nj + 6 * s, &ws.prox[k], &self.sites[s]);
+        for j in &plan.joints {
+            let (dp, w) = self.joint_motion(ws, j.joint, &e);
+            if let Some(col) = j.offset {
+                put(col, &dp, &w);
+            }
+            if let Some(col) = j.slope {
+                let v = ws.readings[j.joint];
+                put(col, &(dp * v), &(w * v));
+            }
+            if let Some((col, k)) = j.coupling {
+                let vk = ws.readings[k];
+                put(col, &(dp * vk), &(w * vk));
+            }
         }
-        for j in 0..joints_upto {
-            let coupling = robot.joints[j].coupling;
-            let coupling_col = coupling.map(|_| robot.param_id(ParamKind::Coupling { joint: j }).0);
-            if !(want(6 * nl + j) || want(6 * nl + nj + j) || coupling_col.is_some_and(want)) {
-                continue;
-            }
-            let (dp, w) = self.joint_motion(ws, j, &e);
-            let v = ws.readings[j];
-            put(6 * nl + j, dp, w);
-            put(6 * nl + nj + j, dp * v, w * v);
-            if let Some(c) = coupling {
-                let vk = ws.readings[c.joint];
-                if let Some(col) = coupling_col {
-                    put(col, dp * vk, w * vk);
-                }
-            }
+        for &col in &plan.zero {
+            put(col, &zero, &zero);
         }
     }
 }

@@ -6,7 +6,7 @@
 //! quantity; times the robust-loss weight of the row when one is set. The objective is the sum
 //! of the squared weighted residuals: dimensionless, and independent of the files' units.
 
-use crate::kinematics::{Chain, Frame, ReadingTrig};
+use crate::kinematics::{Chain, ColumnPlan, Frame, ReadingTrig, Target};
 use crate::linalg::{GramAccumulator, Matrix, QrAccumulator};
 use crate::observe::{
     Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
@@ -70,6 +70,8 @@ pub struct Problem<'a> {
     /// columns to compute; observations that read parameters themselves, as contacts read
     /// their plane's, put those columns by it too).
     columns: Vec<Option<usize>>,
+    /// The Jacobian columns of the end effector (first) and of each site, by `columns`.
+    plans: Vec<ColumnPlan>,
     /// The joint angles' reading parts, when slopes and couplings stay fixed
     /// ([`Problem::with_reading_trig`]).
     trig: Option<std::sync::Arc<ReadingTrig>>,
@@ -98,6 +100,10 @@ impl<'a> Problem<'a> {
             }
         }
         let weight = sigma.iter().map(|s| 1.0 / s).collect();
+        let plans = std::iter::once(Target::EndEffector)
+            .chain((0..base.sites.len()).map(Target::Site))
+            .map(|t| ColumnPlan::new(base, t, &columns))
+            .collect();
         Problem {
             base,
             data,
@@ -107,6 +113,7 @@ impl<'a> Problem<'a> {
             weight,
             row_scale: None,
             columns,
+            plans,
             trig: None,
         }
     }
@@ -289,7 +296,11 @@ impl<'a> Problem<'a> {
                 let ws = cache.posture_with(&chain, self.data, v.posture, trig);
                 frames[vi] = chain.target_frame(ws, v.target);
                 if jac.is_some() {
-                    chain.jacobian_columns(ws, v.target, &self.columns, &mut blocks[vi]);
+                    let plan = match v.target {
+                        Target::EndEffector => &self.plans[0],
+                        Target::Site(s) => &self.plans[1 + s],
+                    };
+                    chain.jacobian_columns(ws, plan, &mut blocks[vi]);
                 }
             }
             let r = &mut res[row..row + nrows];
