@@ -264,6 +264,11 @@ impl Display {
     pub fn done(&self) {
         self.bar.finish_and_clear();
     }
+
+    /// Runs `f` (which prints) with the display cleared, then draws it again.
+    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        self.bar.suspend(f)
+    }
 }
 
 impl workflow::Progress for Display {
@@ -295,7 +300,9 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
         None => None,
     };
     let solved = solve(&a, &p, &mut display);
-    display.done();
+    if solved.is_err() {
+        display.done();
+    }
     let (mut outcome, choice) = solved?;
     outcome.report.timings.insert(
         0,
@@ -305,9 +312,10 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
         },
     );
     if let Some(table) = choice {
-        print!("{table}");
+        display.suspend(|| print!("{table}"));
     }
-    let code = finish(&a, &p, &outcome, record_at, record_db.as_ref());
+    let code = finish(&a, &p, &outcome, record_at, record_db.as_ref(), &display);
+    display.done();
     // The process ends here: the operating system takes the memory back at once, where freeing
     // the datasets' hundreds of thousands of small allocations one by one would cost several
     // milliseconds per 10,000 postures.
@@ -323,7 +331,51 @@ fn finish(
     outcome: &Outcome,
     record_at: Option<i64>,
     record_db: Option<&kinecal_history::Database>,
+    display: &Display,
 ) -> Result<u8> {
+    display.suspend(|| print_outcome(outcome));
+    let implausible = outcome.warnings.iter().filter(|w| w.implausible()).count();
+    if a.strict && implausible > 0 {
+        display.suspend(|| {
+            eprintln!(
+                "STRICT: {implausible} warning(s) above say the result is most likely wrong \
+                 (units, readings or a model that does not fit this robot); nothing written or \
+                 recorded"
+            )
+        });
+        return Ok(EXIT_IMPLAUSIBLE);
+    }
+    // Everything is computed, and every output written beside its target, before anything is
+    // replaced; the history record is the last step that can fail.
+    display.say("writing");
+    let mut staged = output::Staged::new();
+    stage_outputs(a, p, outcome, &mut staged)?;
+    if let (Some(serial), Some(db)) = (&a.record, record_db) {
+        display.say("recording in the history");
+        let options = kinecal_history::AddOptions { force: a.force };
+        let id = db.add_with(serial, record_at, &outcome.report, &a.note, options)?;
+        display.suspend(|| eprintln!("recorded as calibration {id} of robot {serial}"));
+    }
+    staged.commit()?;
+    display.done();
+    for (path, what) in [
+        (&a.out, "the calibrated robot"),
+        (&a.report, "the report"),
+        (&a.html, "the HTML report"),
+    ] {
+        if let Some(p) = path {
+            eprintln!("wrote {what} to {}", p.display());
+        }
+    }
+    Ok(if outcome.calibration.converged() {
+        0
+    } else {
+        EXIT_NOT_CONVERGED
+    })
+}
+
+/// Prints the summary (of the full fit too, when pruned) and the warnings.
+fn print_outcome(outcome: &Outcome) {
     if let Some(p) = &outcome.pruning {
         println!("== full fit ==");
         print!("{}", report::summary(&p.full_report));
@@ -346,38 +398,6 @@ fn finish(
     for w in &outcome.warnings {
         eprintln!("warning: {}", word(w));
     }
-    let implausible = outcome.warnings.iter().filter(|w| w.implausible()).count();
-    if a.strict && implausible > 0 {
-        eprintln!(
-            "STRICT: {implausible} warning(s) above say the result is most likely wrong (units, \
-             readings or a model that does not fit this robot); nothing written or recorded"
-        );
-        return Ok(EXIT_IMPLAUSIBLE);
-    }
-    // Everything is computed, and every output written beside its target, before anything is
-    // replaced; the history record is the last step that can fail.
-    let mut staged = output::Staged::new();
-    stage_outputs(a, p, outcome, &mut staged)?;
-    if let (Some(serial), Some(db)) = (&a.record, record_db) {
-        let options = kinecal_history::AddOptions { force: a.force };
-        let id = db.add_with(serial, record_at, &outcome.report, &a.note, options)?;
-        eprintln!("recorded as calibration {id} of robot {serial}");
-    }
-    staged.commit()?;
-    for (path, what) in [
-        (&a.out, "the calibrated robot"),
-        (&a.report, "the report"),
-        (&a.html, "the HTML report"),
-    ] {
-        if let Some(p) = path {
-            eprintln!("wrote {what} to {}", p.display());
-        }
-    }
-    Ok(if outcome.calibration.converged() {
-        0
-    } else {
-        EXIT_NOT_CONVERGED
-    })
 }
 
 /// The command-line option behind a library setting.

@@ -76,6 +76,55 @@ fn errors(robot: &kinecal::Robot, data: &Dataset) -> Vec<(f64, Option<f64>)> {
     out
 }
 
+/// The points of a per-observation chart: every observation up to [`RunMaxima::MAX_POINTS`];
+/// beyond, the largest error of each run of consecutive observations (so that no large error
+/// disappears, and a chart of a million observations stays a few hundred kilobytes).
+struct RunMaxima {
+    /// Observations.
+    n: usize,
+    /// Observations per point.
+    run: usize,
+}
+
+impl RunMaxima {
+    /// The most points a chart draws.
+    const MAX_POINTS: usize = 2000;
+
+    fn of(n: usize) -> RunMaxima {
+        RunMaxima {
+            n,
+            run: n.div_ceil(Self::MAX_POINTS).max(1),
+        }
+    }
+
+    /// Each point's x: the number (from 1) of the run's first observation.
+    fn x(&self) -> Vec<f64> {
+        (0..self.n)
+            .step_by(self.run)
+            .map(|i| (i + 1) as f64)
+            .collect()
+    }
+
+    /// The largest of each run of `values` (NaN when a run has no number).
+    fn maxima(&self, values: impl Iterator<Item = f64>) -> Vec<f64> {
+        let values: Vec<f64> = values.collect();
+        values
+            .chunks(self.run)
+            .map(|c| c.iter().copied().filter(|v| !v.is_nan()).reduce(f64::max))
+            .map(|m| m.unwrap_or(f64::NAN))
+            .collect()
+    }
+
+    /// What the title says of the points.
+    fn note(&self) -> String {
+        if self.run == 1 {
+            String::new()
+        } else {
+            format!(" (largest of each {} consecutive)", self.run)
+        }
+    }
+}
+
 /// One table per kind of error present (positions, attitudes, distances, contacts): RMS, mean,
 /// p95 and max on the identification and validation data, before and after; `n/a` where a set
 /// has none of that kind.
@@ -403,11 +452,16 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         "length"
     };
     let (eb, ea) = (errors(&cal.initial, data), errors(&cal.calibrated, data));
-    let x: Vec<f64> = (1..=eb.len()).map(|i| i as f64).collect();
+    let runs = RunMaxima::of(eb.len());
+    let x = runs.x();
     // Log axes: the errors after calibration are 10-1000 times smaller than before, and both
     // must be readable.
     let mut panels = vec![Panel {
-        title: format!("{} error per observation", cap(kind_of_error)),
+        title: format!(
+            "{} error per observation{}",
+            cap(kind_of_error),
+            runs.note()
+        ),
         x_label: "observation (file order by posture)".into(),
         y_label: format!("{kind_of_error} error ({l}, log scale)"),
         log_y: true,
@@ -415,18 +469,18 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         lines: vec![
             Line {
                 points: true,
-                ..Line::new("before", eb.iter().map(|e| e.0).collect())
+                ..Line::new("before", runs.maxima(eb.iter().map(|e| e.0)))
             },
             Line {
                 points: true,
-                ..Line::new("after", ea.iter().map(|e| e.0).collect())
+                ..Line::new("after", runs.maxima(ea.iter().map(|e| e.0)))
             },
         ],
         ..Default::default()
     }];
     if eb.iter().any(|e| e.1.is_some()) {
         panels.push(Panel {
-            title: "Attitude error per observation".into(),
+            title: format!("Attitude error per observation{}", runs.note()),
             x_label: "observation (file order by posture)".into(),
             y_label: format!("attitude error ({a}, log scale)"),
             log_y: true,
@@ -436,14 +490,14 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
                     points: true,
                     ..Line::new(
                         "before",
-                        eb.iter().map(|e| e.1.unwrap_or(f64::NAN)).collect(),
+                        runs.maxima(eb.iter().map(|e| e.1.unwrap_or(f64::NAN))),
                     )
                 },
                 Line {
                     points: true,
                     ..Line::new(
                         "after",
-                        ea.iter().map(|e| e.1.unwrap_or(f64::NAN)).collect(),
+                        runs.maxima(ea.iter().map(|e| e.1.unwrap_or(f64::NAN))),
                     )
                 },
             ],
@@ -678,5 +732,36 @@ mod tests {
         assert_eq!(num(1e-12), "1.000e-12");
         assert_eq!(signed(0.05031), "+0.05031");
         assert!((nice_width(0.00043) - 0.0005).abs() < 1e-15);
+    }
+
+    #[test]
+    fn long_series_are_drawn_as_the_largest_of_each_run() {
+        // Up to the limit, every value at its own observation number.
+        let r = RunMaxima::of(3);
+        assert_eq!(r.x(), vec![1.0, 2.0, 3.0]);
+        assert_eq!(r.maxima([1.0, 5.0, 2.0].into_iter()), vec![1.0, 5.0, 2.0]);
+        assert_eq!(r.note(), "");
+        // Beyond it, runs of equal length (the last shorter), each point its run's largest
+        // number, NaN only for a run without one; one large value among a million is kept.
+        let n = 1_000_001;
+        let r = RunMaxima::of(n);
+        assert_eq!(r.run, 501);
+        let x = r.x();
+        assert!(x.len() <= RunMaxima::MAX_POINTS, "{}", x.len());
+        assert_eq!((x[0], x[1]), (1.0, 502.0));
+        let mut v = vec![1.0; n];
+        v[777_777] = 9.0;
+        v[n - 1] = f64::NAN;
+        let m = r.maxima(v.into_iter());
+        assert_eq!(m.len(), x.len());
+        assert_eq!(m.iter().filter(|&&y| y == 9.0).count(), 1);
+        assert_eq!(m[777_777 / 501], 9.0);
+        assert!(
+            m.iter().all(|&y| y == 1.0 || y == 9.0),
+            "the last run has a number too"
+        );
+        let only_nan = RunMaxima::of(4000).maxima(std::iter::repeat_n(f64::NAN, 4000));
+        assert!(only_nan.iter().all(|y| y.is_nan()));
+        assert!(r.note().contains("501"));
     }
 }

@@ -233,15 +233,31 @@ pub(crate) struct QrAccumulator {
     /// `cols + block` rows: `R` on top, then the rows pushed since the last fold.
     stack: Matrix,
     filled: usize,
+    /// The Householder coefficients of a fold (not used after it), and the factorization's
+    /// workspace: kept, so that folding allocates nothing.
+    q_coeff: Mat<f64>,
+    workspace: faer::dyn_stack::MemBuffer,
 }
 
 impl QrAccumulator {
     /// An empty accumulator of `cols` columns, folding every `block` rows.
     pub(crate) fn new(cols: usize, block: usize) -> Self {
+        use faer::linalg::qr::no_pivoting::factor;
+        let rows = cols + block.max(1);
+        // The block size of the largest fold is the largest of any.
+        let bs = factor::recommended_block_size::<f64>(rows, cols);
         QrAccumulator {
             cols,
-            stack: Matrix::zeros(cols + block.max(1), cols),
+            stack: Matrix::zeros(rows, cols),
             filled: 0,
+            q_coeff: Mat::zeros(bs, cols),
+            workspace: faer::dyn_stack::MemBuffer::new(factor::qr_in_place_scratch::<f64>(
+                rows,
+                cols,
+                bs,
+                faer::get_global_parallelism(),
+                Default::default(),
+            )),
         }
     }
 
@@ -273,19 +289,27 @@ impl QrAccumulator {
         if self.filled == 0 || self.cols == 0 {
             return;
         }
-        let rows = self.cols + self.filled;
-        let view = MatRef::from_column_major_slice_with_stride(
-            &self.stack.data,
-            rows,
-            self.cols,
-            self.stack.rows,
+        use faer::linalg::qr::no_pivoting::factor;
+        let (rows, cols) = (self.cols + self.filled, self.cols);
+        // Householder QR in place, as faer's `Qr::new` does it (same block size, same
+        // parallelism): `R` is left in the upper triangle.
+        let bs = factor::recommended_block_size::<f64>(rows, cols);
+        let ld = self.stack.rows;
+        factor::qr_in_place(
+            faer::MatMut::from_column_major_slice_with_stride_mut(
+                &mut self.stack.data,
+                rows,
+                cols,
+                ld,
+            ),
+            self.q_coeff.as_mut().get_mut(..bs, ..),
+            faer::get_global_parallelism(),
+            faer::dyn_stack::MemStack::new(&mut self.workspace),
+            Default::default(),
         );
-        let r = view.qr().thin_R().to_owned();
-        for j in 0..self.cols {
-            for i in 0..self.cols {
-                self.stack[(i, j)] = if i <= j { r[(i, j)] } else { 0.0 };
-            }
-            for i in self.cols..rows {
+        // Below `R`: the Householder vectors, cleared for the next rows.
+        for j in 0..cols {
+            for i in j + 1..rows {
                 self.stack[(i, j)] = 0.0;
             }
         }

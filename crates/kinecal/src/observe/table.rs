@@ -4,6 +4,8 @@
 //! tab separated file a number may be written with a decimal comma (`12,5`, as spreadsheets in
 //! many locales write it); a delimiter ending every data row but not the header is ignored.
 
+use std::borrow::Cow;
+
 use rustc_hash::FxHashMap;
 
 use crate::error::{Error, Location, Result};
@@ -11,18 +13,19 @@ use crate::observe::Posture;
 
 /// A parsed CSV table with the line of every row.
 ///
-/// The fields of all rows are held in one buffer (no allocation per field or row): reading
+/// A field is a span of a text: the file's own text when it is [`plain`] (nothing copied), else
+/// one buffer of the fields the `csv` reader unquoted. No allocation per field or row: reading
 /// stays a few hundred nanoseconds per row.
-pub(crate) struct Table {
+pub(crate) struct Table<'a> {
     pub file: String,
     pub header: Vec<String>,
     /// The header's line.
     pub header_line: usize,
-    /// The rows' trimmed fields, one after another.
-    text: String,
-    /// The end of each field in `text` (a field starts where the previous one ends).
-    ends: Vec<usize>,
-    /// Per row: its line and the index of its first field in `ends`; the row's last field is
+    /// The text the fields are spans of.
+    text: Cow<'a, str>,
+    /// Each field's byte range in `text`, trimmed, row after row.
+    spans: Vec<(u32, u32)>,
+    /// Per row: its line and the index of its first field in `spans`; the row's last field is
     /// before the next row's first.
     starts: Vec<(usize, usize)>,
     /// The delimiter.
@@ -33,20 +36,20 @@ pub(crate) struct Table {
 #[derive(Clone, Copy)]
 pub(crate) struct Fields<'t> {
     text: &'t str,
-    /// The ends of this row's fields, after the end of the field before (`ends[0]` is where
-    /// the row's first field starts).
-    ends: &'t [usize],
+    /// The byte ranges of this row's fields in `text`.
+    spans: &'t [(u32, u32)],
 }
 
 impl<'t> Fields<'t> {
     /// The number of fields.
     pub fn len(&self) -> usize {
-        self.ends.len() - 1
+        self.spans.len()
     }
 
     /// Field `i`.
     pub fn get(&self, i: usize) -> &'t str {
-        &self.text[self.ends[i]..self.ends[i + 1]]
+        let (a, b) = self.spans[i];
+        &self.text[a as usize..b as usize]
     }
 }
 
@@ -82,7 +85,13 @@ pub(crate) fn detect_delimiter(text: &str) -> u8 {
 /// A text without quotes, byte order mark or lone carriage return (what tracker software and
 /// `csv.writer` write) is split at its line ends and delimiters directly; any other goes through
 /// the `csv` crate's reader. Both give the same table (a test compares them on random texts).
-pub(crate) fn read(text: &str, file: &str) -> Result<Table> {
+pub(crate) fn read<'a>(text: &'a str, file: &str) -> Result<Table<'a>> {
+    if u32::try_from(text.len()).is_err() {
+        return Err(Error::input(
+            Location::file(file),
+            "the file is larger than 4 GiB: split it into several files",
+        ));
+    }
     if plain(text) {
         read_plain(text, file)
     } else {
@@ -101,14 +110,16 @@ fn plain(text: &str) -> bool {
 
 /// [`read`] of a [`plain`] text: a record per line; comment lines, empty lines and rows whose
 /// fields are all blank skipped; the first record the header.
-fn read_plain(text: &str, file: &str) -> Result<Table> {
+fn read_plain<'a>(text: &'a str, file: &str) -> Result<Table<'a>> {
     let loc = Location::file(file);
     let delimiter = detect_delimiter(text);
     let mut header: Option<(Vec<String>, usize)> = None;
-    let mut fields: Vec<u8> = Vec::with_capacity(text.len());
-    let mut ends = vec![0];
+    let mut spans = Vec::new();
     let mut starts = Vec::new();
+    let mut at = 0;
     for (i, line) in text.split('\n').enumerate() {
+        let offset = at;
+        at += line.len() + 1;
         let line = line.strip_suffix('\r').unwrap_or(line);
         // Empty lines are no record; comment lines are skipped wherever they are.
         if line.is_empty() || line.trim_start().starts_with('#') {
@@ -116,31 +127,34 @@ fn read_plain(text: &str, file: &str) -> Result<Table> {
         }
         let number = i + 1;
         let Some((h, _)) = &header else {
-            // Fields are cut at ASCII bytes of a UTF-8 text: they are UTF-8.
             let names: Vec<String> = split_fields(line, delimiter)
-                .map(|f| String::from_utf8_lossy(f).into_owned())
+                .map(|(a, b)| line[a..b].to_string())
                 .collect();
             check_header(&names, number, &loc)?;
+            // Room for every row with as many fields as the header, and a trailing delimiter.
+            let rest = text.get(at..).unwrap_or_default();
+            let lines = memchr::memchr_iter(b'\n', rest.as_bytes()).count() + 1;
+            spans.reserve(lines * (names.len() + 1));
+            starts.reserve(lines);
             header = Some((names, number));
             continue;
         };
-        let (first, mark) = (ends.len() - 1, fields.len());
+        let first = spans.len();
         let mut blank = true;
-        for f in split_fields(line, delimiter) {
-            blank &= f.is_empty();
-            fields.extend_from_slice(f);
-            ends.push(fields.len());
+        for (a, b) in split_fields(line, delimiter) {
+            blank &= a == b;
+            // Within 4 GiB (checked above).
+            spans.push(((offset + a) as u32, (offset + b) as u32));
         }
         if blank {
             // A row of blank fields is no row.
-            ends.truncate(first + 1);
-            fields.truncate(mark);
+            spans.truncate(first);
             continue;
         }
         // A trailing delimiter on a data row (some exporters end every row with one): its empty
         // last field is dropped.
-        if ends.len() - 1 - first == h.len() + 1 && ends[ends.len() - 1] == ends[ends.len() - 2] {
-            ends.pop();
+        if spans.len() - first == h.len() + 1 && spans.last().is_some_and(|&(a, b)| a == b) {
+            spans.pop();
         }
         starts.push((number, first));
     }
@@ -150,29 +164,33 @@ fn read_plain(text: &str, file: &str) -> Result<Table> {
             "empty file: a header line is required",
         ));
     };
-    let text = String::from_utf8(fields)
-        .map_err(|_| Error::input(loc.clone(), "the file is not UTF-8 text"))?;
     Ok(Table {
         file: file.to_string(),
         header,
         header_line,
-        text,
-        ends,
+        text: Cow::Borrowed(text),
+        spans,
         starts,
         delimiter,
     })
 }
 
-/// The trimmed fields of a line.
-fn split_fields(line: &str, delimiter: u8) -> impl Iterator<Item = &[u8]> {
+/// The byte ranges of a line's fields, trimmed of ASCII white space.
+fn split_fields(line: &str, delimiter: u8) -> impl Iterator<Item = (usize, usize)> + '_ {
     let bytes = line.as_bytes();
     let mut start = 0;
     memchr::memchr_iter(delimiter, bytes)
         .chain(std::iter::once(bytes.len()))
         .map(move |end| {
-            let field = bytes[start..end].trim_ascii();
+            let (mut a, mut b) = (start, end);
+            while a < b && bytes[a].is_ascii_whitespace() {
+                a += 1;
+            }
+            while b > a && bytes[b - 1].is_ascii_whitespace() {
+                b -= 1;
+            }
             start = end + 1;
-            field
+            (a, b)
         })
 }
 
@@ -199,7 +217,7 @@ fn check_header(header: &[String], line: usize, loc: &Location) -> Result<()> {
 
 /// [`read`] through the `csv` crate's reader (quoted fields, a byte order mark, lone carriage
 /// returns).
-fn read_quoted(text: &str, file: &str) -> Result<Table> {
+fn read_quoted<'a>(text: &str, file: &str) -> Result<Table<'a>> {
     // Comment lines become blank lines, which the reader skips but counts (its own comment
     // handling does not count them, and line numbers after a comment would be off).
     let uncommented: String;
@@ -273,7 +291,7 @@ fn read_quoted(text: &str, file: &str) -> Result<Table> {
     check_header(&header, header_line, &loc)?;
     let header_fields = header.len();
     let mut fields: Vec<u8> = Vec::with_capacity(text.len());
-    let mut ends = vec![0];
+    let mut spans = Vec::new();
     let mut starts = Vec::new();
     let mut rec = csv::ByteRecord::new();
     loop {
@@ -295,10 +313,12 @@ fn read_quoted(text: &str, file: &str) -> Result<Table> {
         {
             count -= 1;
         }
-        starts.push((line, ends.len() - 1));
+        starts.push((line, spans.len()));
         for f in rec.iter().take(count) {
+            let a = fields.len() as u32;
             fields.extend_from_slice(f.trim_ascii());
-            ends.push(fields.len());
+            // The unquoted fields are no longer than the text: within 4 GiB (checked).
+            spans.push((a, fields.len() as u32));
         }
     }
     // The text is UTF-8 and fields are cut at ASCII bytes (delimiters, quotes, white space):
@@ -309,14 +329,14 @@ fn read_quoted(text: &str, file: &str) -> Result<Table> {
         file: file.to_string(),
         header,
         header_line,
-        text,
-        ends,
+        text: Cow::Owned(text),
+        spans,
         starts,
         delimiter,
     })
 }
 
-impl Table {
+impl Table<'_> {
     /// The rows: their line and fields.
     pub fn rows(&self) -> impl Iterator<Item = (usize, Fields<'_>)> + '_ {
         (0..self.starts.len()).map(|r| self.row(r))
@@ -325,12 +345,12 @@ impl Table {
     /// Row `r`: its line and fields.
     pub fn row(&self, r: usize) -> (usize, Fields<'_>) {
         let (line, first) = self.starts[r];
-        let end = self.starts.get(r + 1).map_or(self.ends.len() - 1, |s| s.1);
+        let end = self.starts.get(r + 1).map_or(self.spans.len(), |s| s.1);
         (
             line,
             Fields {
                 text: &self.text,
-                ends: &self.ends[first..=end],
+                spans: &self.spans[first..end],
             },
         )
     }
@@ -454,7 +474,7 @@ impl PostureTable {
     /// exists with other readings (`field_of(j)` names reading column j).
     pub fn get_or_insert(
         &mut self,
-        table: &Table,
+        table: &Table<'_>,
         line: usize,
         label: &str,
         readings: Vec<f64>,
@@ -495,7 +515,7 @@ impl PostureTable {
 mod tests {
     use super::*;
 
-    fn fields(t: &Table, r: usize) -> Vec<&str> {
+    fn fields<'t>(t: &'t Table<'_>, r: usize) -> Vec<&'t str> {
         let f = t.row(r).1;
         (0..f.len()).map(|i| f.get(i)).collect()
     }
@@ -541,7 +561,7 @@ mod tests {
     /// Everything a table says: header, its line, and each row's line and fields.
     type Seen = (Vec<String>, usize, Vec<(usize, Vec<String>)>);
 
-    fn seen(t: Result<Table>) -> std::result::Result<Seen, String> {
+    fn seen(t: Result<Table<'_>>) -> std::result::Result<Seen, String> {
         let t = t.map_err(|e| e.to_string())?;
         let rows = (0..t.starts.len())
             .map(|r| {
