@@ -89,7 +89,7 @@ pub fn prepare(a: &CalibrateArgs) -> Result<Prepared> {
             for path in &a.validate {
                 v = v.merge(read_any(path, &a.observations.columns, robot)?.0);
             }
-            Validation::Data(v)
+            Validation::Data(v.into())
         }
         (true, Some(fraction)) => Validation::Holdout {
             fraction,

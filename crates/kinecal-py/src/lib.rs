@@ -966,7 +966,7 @@ fn calibrate(
     }
     req.validation = if let Some(v) = validate {
         v.check(r, "validate")?;
-        Validation::Data(v.data.clone())
+        Validation::Data(v.data.clone().into())
     } else if let Some(fraction) = holdout {
         Validation::Holdout {
             fraction,

@@ -17,6 +17,8 @@
 //! residual feels). There the design's exact redundancies hold, and the determined combinations
 //! are those of the answer; see [`crate::uncertainty`].
 
+use std::sync::Arc;
+
 use crate::error::{Error, Result};
 use crate::estimation::{self, Calibration, CalibrationOptions, Iteration, Loss, SolverOptions};
 use crate::identifiability::{self, AnalysisOptions};
@@ -262,8 +264,8 @@ pub enum Validation {
     /// None.
     #[default]
     None,
-    /// A separate dataset.
-    Data(Dataset),
+    /// A separate dataset (shared, not copied, into the outcome).
+    Data(Arc<Dataset>),
     /// A fraction of the posture groups (postures an observation links stay together), drawn
     /// with a seed.
     Holdout {
@@ -317,8 +319,8 @@ pub struct Request {
     /// the solution rule (this robot, or `initial` under the solver rule: see the module's
     /// linearisation rule).
     pub robot: Robot,
-    /// The observations.
-    pub data: Dataset,
+    /// The observations (shared, not copied, into the outcome).
+    pub data: Arc<Dataset>,
     /// What to estimate.
     pub selection: Selection,
     /// Start the solver from this robot's parameter values instead (same structure).
@@ -351,10 +353,10 @@ pub struct Request {
 impl Request {
     /// Default settings: the default parameters by Levenberg-Marquardt, least squares, default
     /// weights and Euler residuals, the solver's answer, no pruning or validation.
-    pub fn new(robot: Robot, data: Dataset) -> Request {
+    pub fn new(robot: Robot, data: impl Into<Arc<Dataset>>) -> Request {
         Request {
             robot,
-            data,
+            data: data.into(),
             selection: Selection::default(),
             initial: None,
             solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
@@ -549,9 +551,9 @@ pub struct Outcome {
     /// The nominal robot of the request.
     pub nominal: Robot,
     /// The identification data (the request's data minus any hold-out).
-    pub data: Dataset,
+    pub data: Arc<Dataset>,
     /// The validation data, when there was some.
-    pub validation_data: Option<Dataset>,
+    pub validation_data: Option<Arc<Dataset>>,
     /// The calibration (after pruning, when pruned).
     pub calibration: Calibration,
     /// Its uncertainty, linearised at the reference of the solution rule (the module's
@@ -646,7 +648,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
                     message: format!("{fraction} leaves an empty identification or validation set"),
                 });
             }
-            (ident, Some(held))
+            (Arc::new(ident), Some(Arc::new(held)))
         }
         Validation::Folds { .. } => (req.data.clone(), None),
     };
@@ -839,7 +841,7 @@ fn cross_validate(req: &Request, k: usize, seed: Option<u64>) -> Result<CrossVal
     let mut out = Vec::with_capacity(k);
     for (train, held) in folds {
         let mut sub = req.clone();
-        sub.data = train;
+        sub.data = Arc::new(train);
         sub.validation = Validation::None;
         sub.sources = Vec::new();
         let o = run(&sub, &mut ())?;
@@ -1085,8 +1087,8 @@ fn bootstrap_mean_interval(e: &[f64], seed: u64) -> (f64, f64) {
 #[allow(clippy::too_many_arguments)]
 fn finish(
     nominal: Robot,
-    data: Dataset,
-    validation_data: Option<Dataset>,
+    data: Arc<Dataset>,
+    validation_data: Option<Arc<Dataset>>,
     cal: Calibration,
     unc: Result<Uncertainty>,
     pruning: Option<Pruning>,
@@ -1423,7 +1425,7 @@ pub fn assess(
     let unc = uncertainty::uncertainty(&cal, data, nominal);
     Ok(finish(
         nominal.clone(),
-        data.clone(),
+        Arc::new(data.clone()),
         None,
         cal,
         unc,

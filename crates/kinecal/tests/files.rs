@@ -93,3 +93,65 @@ fn written_robots_read_back_the_same_without_float_noise() {
         .any(|v| v != 0.0 && v.abs() < 1e-9);
     assert!(!noise, "{csv}");
 }
+
+/// A posture that measures the same target twice is refused, naming both lines: the end
+/// effector, a site, and a site beyond the 64th (kept apart from the first ones); the same
+/// sites in other postures, or other sites in the same posture, are accepted.
+#[test]
+fn a_target_measured_twice_in_one_posture_is_refused_with_both_lines() {
+    let mut robot = kinecal::examples::ge_a4();
+    for s in 0..70 {
+        robot.sites.push(kinecal::Site {
+            name: format!("s{s}"),
+            joint: 4,
+            frame: kinecal::Link {
+                x: 0.1 * s as f64,
+                y: 0.0,
+                z: 0.0,
+                alpha: 0.0,
+                beta: 0.0,
+                gamma: 0.0,
+            },
+        });
+    }
+    let row = |posture: &str, site: &str| format!("{posture},{site},1,2,3,4,5,6,7\n");
+    let header = "posture,site,v1,v2,v3,v4,x,y,z\n";
+    let file = |rows: &[(&str, &str)]| {
+        header.to_string() + &rows.iter().map(|(p, s)| row(p, s)).collect::<String>()
+    };
+    let ok = file(&[
+        ("1", "ee"),
+        ("1", "s0"),
+        ("1", "s69"),
+        ("2", "ee"),
+        ("2", "s0"),
+        ("2", "s69"),
+        ("1", "s68"),
+    ]);
+    assert_eq!(
+        parse_measurements(&ok, "m.csv", &robot)
+            .unwrap()
+            .observations
+            .len(),
+        7
+    );
+    for (rows, expect) in [
+        (
+            &[("1", "ee"), ("2", "ee"), ("1", "ee")][..],
+            "m.csv:4: posture `1` measures ee twice (first on line 2)",
+        ),
+        (
+            &[("1", "s0"), ("2", "s0"), ("2", "s1"), ("2", "s0")][..],
+            "m.csv:5: posture `2` measures s0 twice (first on line 3)",
+        ),
+        (
+            &[("1", "s69"), ("1", "s68"), ("1", "s69")][..],
+            "m.csv:4: posture `1` measures s69 twice (first on line 2)",
+        ),
+    ] {
+        let e = parse_measurements(&file(rows), "m.csv", &robot)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(expect), "expected `{expect}` in {e}");
+    }
+}

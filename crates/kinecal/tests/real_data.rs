@@ -276,7 +276,7 @@ fn cross_validation_and_model_choice_on_real_data() {
         );
     }
     let mut req = Request::new(robot.clone(), d.identification.clone());
-    req.validation = Validation::Data(d.validation.clone());
+    req.validation = Validation::Data(d.validation.clone().into());
     let candidates = Candidate::defaults(robot).unwrap();
     let choice = choose(&req, &candidates, 5, None).unwrap();
     let chosen = &choice.scored[choice.chosen].candidate.label;

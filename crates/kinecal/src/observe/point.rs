@@ -15,7 +15,6 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 
 use nalgebra::Vector3;
-use rustc_hash::FxHashMap;
 
 use super::table::{self, PostureTable};
 use super::{
@@ -648,8 +647,7 @@ pub fn parse_measurements_mapped(
     let units = robot.units;
     let mut postures = PostureTable::with_capacity(t.rows().count());
     let mut observations: Vec<Observation> = Vec::with_capacity(t.rows().count() * markers.len());
-    let mut seen: FxHashMap<(usize, Target), usize> = FxHashMap::default();
-    seen.reserve(observations.capacity());
+    let mut seen = TargetsSeen::default();
     let wide = !map.markers.is_empty();
     let mut numbered = String::new();
     for (row_number, (line, f)) in t.rows().enumerate() {
@@ -714,7 +712,12 @@ pub fn parse_measurements_mapped(
                     "sigma_angle on a position-only row (no alpha, beta, gamma)",
                 ));
             }
-            if let Some(first) = seen.insert((posture, target), line) {
+            if !seen.insert(posture, target) {
+                // The first measurement of the same target in the same posture.
+                let first = observations
+                    .iter()
+                    .find(|o| o.views()[0] == View { posture, target })
+                    .map_or(0, |o| o.line());
                 return Err(Error::input(
                     Location::file(file).at_line(line),
                     format!(
@@ -752,6 +755,31 @@ pub fn parse_measurements_mapped(
         ));
     }
     Ok(Dataset::new(postures.postures, observations))
+}
+
+/// Which targets each posture has a measurement of: a bit per target (the end effector and the
+/// first 63 sites) per posture, a set for the others.
+#[derive(Default)]
+struct TargetsSeen {
+    bits: Vec<u64>,
+    more: rustc_hash::FxHashSet<(usize, Target)>,
+}
+
+impl TargetsSeen {
+    /// Records `target` in `posture`; false if it was there already.
+    fn insert(&mut self, posture: usize, target: Target) -> bool {
+        let bit = match target {
+            Target::EndEffector => 0,
+            Target::Site(s) if s < 63 => s + 1,
+            Target::Site(_) => return self.more.insert((posture, target)),
+        };
+        if self.bits.len() <= posture {
+            self.bits.resize(posture + 1, 0);
+        }
+        let new = self.bits[posture] & (1 << bit) == 0;
+        self.bits[posture] |= 1 << bit;
+        new
+    }
 }
 
 /// Parses a postures file (`posture,v1,...,vn`) for `robot`. A measurement file is accepted too

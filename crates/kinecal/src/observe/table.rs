@@ -6,7 +6,10 @@
 
 use std::borrow::Cow;
 
-use rustc_hash::FxHashMap;
+use std::hash::BuildHasher;
+
+use hashbrown::HashTable;
+use rustc_hash::FxBuildHasher;
 
 use crate::error::{Error, Location, Result};
 use crate::observe::Posture;
@@ -446,8 +449,10 @@ impl Table<'_> {
 /// Keeps postures unique by label and checks that repeated labels carry the same readings.
 pub(crate) struct PostureTable {
     pub postures: Vec<Posture>,
-    /// Label to index (a fast hash: labels come from the user's own files).
-    index: FxHashMap<String, usize>,
+    /// The index of each posture, by the hash of its label (a fast hash: labels come from the
+    /// user's own files); the labels themselves are the postures' (not copied).
+    index: HashTable<usize>,
+    hasher: FxBuildHasher,
 }
 
 impl PostureTable {
@@ -457,17 +462,24 @@ impl PostureTable {
 
     /// An empty table with room for `n` postures.
     pub fn with_capacity(n: usize) -> Self {
-        let mut index = FxHashMap::default();
-        index.reserve(n);
         PostureTable {
             postures: Vec::with_capacity(n),
-            index,
+            index: HashTable::with_capacity(n),
+            hasher: FxBuildHasher,
         }
+    }
+
+    /// The index of the posture called `label`, if there is one.
+    fn find(&self, label: &str) -> Option<usize> {
+        let postures = &self.postures;
+        self.index
+            .find(self.hasher.hash_one(label), |&i| postures[i].label == label)
+            .copied()
     }
 
     /// Whether a posture called `label` exists.
     pub fn contains(&self, label: &str) -> bool {
-        self.index.contains_key(label)
+        self.find(label).is_some()
     }
 
     /// The index of posture `label`, added with `readings` if new; an error at `line` if it
@@ -486,7 +498,7 @@ impl PostureTable {
                 "empty posture label",
             ));
         }
-        if let Some(&i) = self.index.get(label) {
+        if let Some(i) = self.find(label) {
             let known = &self.postures[i].readings;
             if let Some(j) = (0..known.len())
                 .find(|&j| (known[j] - readings[j]).abs() > 1e-9 * known[j].abs().max(1.0))
@@ -502,7 +514,11 @@ impl PostureTable {
             }
             return Ok(i);
         }
-        self.index.insert(label.to_string(), self.postures.len());
+        let (postures, hasher) = (&self.postures, &self.hasher);
+        self.index
+            .insert_unique(hasher.hash_one(label), postures.len(), |&i| {
+                hasher.hash_one(postures[i].label.as_str())
+            });
         self.postures.push(Posture {
             label: label.to_string(),
             readings,
