@@ -474,8 +474,11 @@ pub fn solve(
 
 /// What an evaluation kept of the weighted `[J | r]`: the `R` of its QR, or its Gram matrix.
 struct Linearization {
-    qr: QrAccumulator,
-    gram: GramAccumulator,
+    cols: usize,
+    /// Made on first use: a step rule that forms only `J^T J` needs one QR (the start) and
+    /// Gram matrices after, so most of these are never made.
+    qr_acc: Option<QrAccumulator>,
+    gram_acc: Option<GramAccumulator>,
     /// Which of the two the last evaluation filled.
     by_qr: bool,
 }
@@ -483,10 +486,25 @@ struct Linearization {
 impl Linearization {
     fn new(cols: usize) -> Self {
         Linearization {
-            qr: QrAccumulator::new(cols, QR_BLOCK),
-            gram: GramAccumulator::new(cols, QR_BLOCK),
+            cols,
+            qr_acc: None,
+            gram_acc: None,
             by_qr: true,
         }
+    }
+
+    /// The QR accumulator.
+    fn qr(&mut self) -> &mut QrAccumulator {
+        let cols = self.cols;
+        self.qr_acc
+            .get_or_insert_with(|| QrAccumulator::new(cols, QR_BLOCK))
+    }
+
+    /// The Gram accumulator.
+    fn gram(&mut self) -> &mut GramAccumulator {
+        let cols = self.cols;
+        self.gram_acc
+            .get_or_insert_with(|| GramAccumulator::new(cols, QR_BLOCK))
     }
 
     /// Evaluates `problem` at `robot` into `res` and the QR (`by_qr`) or the Gram matrix.
@@ -499,9 +517,9 @@ impl Linearization {
     ) -> f64 {
         self.by_qr = by_qr;
         if by_qr {
-            problem.evaluate_qr(robot, res, &mut self.qr)
+            problem.evaluate_qr(robot, res, self.qr())
         } else {
-            problem.evaluate_gram(robot, res, &mut self.gram)
+            problem.evaluate_gram(robot, res, self.gram())
         }
     }
 }
@@ -542,18 +560,18 @@ pub(crate) fn drive_from(
             // Its rows are their own R: pushed into the accumulator, the iterations read it
             // back as from a pass. The last column is [Q^T r; rho]: its squared norm is the
             // objective.
-            lin.qr.clear();
+            lin.qr().clear();
             let mut row = vec![0.0; n + 1];
             for i in 0..=n {
                 for (j, v) in row.iter_mut().enumerate() {
                     *v = r0[(i, j)];
                 }
-                lin.qr.push(&row);
+                lin.qr().push(&row);
             }
             let f: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
             (f, accuracy.clone())
         }
-        None => problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, &mut lin.qr),
+        None => problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, lin.qr()),
     };
     if !f.is_finite() {
         problem.evaluate(&problem.robot_at(&x), &mut r, None);
@@ -561,7 +579,7 @@ pub(crate) fn drive_from(
     }
     let objective_before = f;
     let mut start_r = Matrix::zeros(0, 0);
-    lin.qr.r_into(&mut start_r);
+    lin.qr().r_into(&mut start_r);
     let by_qr = rule.needs_r();
     let mut trial_r = vec![0.0; m];
     // The linearisation at the last trial point, computed with its residuals: a step rule
@@ -587,14 +605,14 @@ pub(crate) fn drive_from(
         }
         iterations += 1;
         if lin.by_qr {
-            lin.qr.r_into(&mut raug);
+            lin.qr().r_into(&mut raug);
             // Column norms of J are those of R (Q has orthonormal columns).
             for (j, c) in norms.iter_mut().enumerate() {
                 *c = linalg::col_norm(&raug, j);
             }
         } else {
             // `raug` holds the Gram matrix of [J | r].
-            lin.gram.gram_into(&mut raug);
+            lin.gram().gram_into(&mut raug);
             for (j, c) in norms.iter_mut().enumerate() {
                 *c = raug[(j, j)].max(0.0).sqrt();
             }
