@@ -269,8 +269,14 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         outcome.uncertainty.as_ref(),
     );
     let (l, a) = (&rep.length_unit, &rep.angle_unit);
-    let mut h = page_head(&format!("kinecal calibration report: {}", rep.robot));
-    let _ = writeln!(h, "<h1>Calibration report: {}</h1>", esc(&rep.robot));
+    // A robot without a name (an imported DH table) gets none, not a dangling colon.
+    let named = if rep.robot.trim().is_empty() {
+        String::new()
+    } else {
+        format!(": {}", rep.robot)
+    };
+    let mut h = page_head(&format!("kinecal calibration report{named}"));
+    let _ = writeln!(h, "<h1>Calibration report{}</h1>", esc(&named));
     let kinds = rep
         .observations
         .iter()
