@@ -741,6 +741,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::float_cmp)] // the maxima are copies of the values: equal, not close
     fn long_series_are_drawn_as_the_largest_of_each_run() {
         // Up to the limit, every value at its own observation number.
         let r = RunMaxima::of(3);
