@@ -394,11 +394,6 @@ impl ColumnPlan {
         ColumnPlan::new(robot, target, &columns)
     }
 
-    /// The target.
-    pub fn target(&self) -> Target {
-        self.target
-    }
-
     /// The number of columns of the output block.
     pub fn width(&self) -> usize {
         self.width

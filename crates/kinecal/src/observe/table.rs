@@ -5,7 +5,6 @@
 //! many locales write it); a delimiter ending every data row but not the header is ignored.
 
 use std::borrow::Cow;
-
 use std::hash::BuildHasher;
 
 use hashbrown::HashTable;
@@ -161,11 +160,10 @@ fn read_plain<'a>(text: &'a str, file: &str) -> Result<Table<'a>> {
         }
         starts.push((number, first));
     }
-    let Some((header, header_line)) = header else {
-        return Err(Error::input(
-            loc.at_line(1),
-            "empty file: a header line is required",
-        ));
+    // No header at all: refused as a header of no name.
+    let (header, header_line) = match header {
+        Some(h) => h,
+        None => check_header(&[], 1, &loc).map(|()| (Vec::new(), 1))?,
     };
     Ok(Table {
         file: file.to_string(),
