@@ -942,7 +942,7 @@ pub struct PlanArgs {
 #[derive(Debug, Args)]
 pub struct ResidualArgs {
     /// Orientation residual.
-    #[arg(long, value_enum, default_value = "euler")]
+    #[arg(long, value_enum, default_value = "rotvec")]
     pub orientation_error: OrientationArg,
     /// Measurement standard deviations weighting the residuals: `length=L,angle=A` (file units;
     /// default 1 mm and 1 mrad).
@@ -966,10 +966,11 @@ pub enum MethodArg {
 /// Orientation residual.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum OrientationArg {
-    /// Differences of ZYX Euler angles, wrapped to (-180, 180] deg (thesis eq. 3.1).
-    Euler,
-    /// Rotation vector of R_measured^T R_model (well defined at gimbal lock).
+    /// Rotation vector of R_measured^T R_model (defined everywhere, gimbal lock included).
     Rotvec,
+    /// Differences of ZYX Euler angles, wrapped to (-180, 180] deg (thesis eq. 3.1); refused
+    /// when a measured attitude is within 1 deg of gimbal lock (beta = +-90 deg).
+    Euler,
 }
 
 /// Loss function.

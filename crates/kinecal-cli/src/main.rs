@@ -118,7 +118,6 @@ fn hint(e: &kinecal::Error) -> Option<&'static str> {
 /// A warning as the command line words it: the library's sentence, and the option to use.
 pub fn word(w: &Warning) -> String {
     let extra = match w {
-        Warning::GimbalLock { .. } => " (--orientation-error rotvec)",
         Warning::NotConverged { .. } => " (raise --max-iter)",
         Warning::Stalled { .. } => " (use --method lm)",
         Warning::UnclearRank { .. } | Warning::SmallGap { .. } => {

@@ -67,9 +67,21 @@ pub fn summary(r: &CalibrationReport) -> String {
         r.orientation_error,
         r.solution
     );
+    let measures = r
+        .stationarity
+        .as_ref()
+        .map(|st| {
+            format!(
+                " (reduction {:.1e}, step {}, gradient {:.1e})",
+                st.predicted_reduction,
+                st.step.map_or("-".to_string(), |v| format!("{v:.1e}")),
+                st.gradient
+            )
+        })
+        .unwrap_or_default();
     let _ = writeln!(
         s,
-        "{} after {} iterations: {}",
+        "{} after {} iterations: {}{measures}",
         if r.converged {
             "converged"
         } else {

@@ -271,7 +271,7 @@ fn position_only_data_and_all_methods() {
 }
 
 #[test]
-fn gimbal_lock_warns_and_rotvec_works() {
+fn euler_residuals_refused_at_gimbal_lock_rotvec_by_default() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // A 1-joint robot whose tool frame is Rz(q) Ry(90 deg): beta = 90 deg at every posture.
@@ -305,13 +305,16 @@ fn gimbal_lock_warns_and_rotvec_works() {
             "data.csv",
             "--estimate",
             "link2.x",
+            "--orientation-error",
+            "euler",
         ])
         .output()
         .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
-        String::from_utf8_lossy(&out.stderr).contains("rotvec"),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        err.contains("gimbal lock") && err.contains("lines 2, 3, 4, 5, 6, ..."),
+        "{err}"
     );
     let out = run_ok(
         d,
@@ -323,8 +326,6 @@ fn gimbal_lock_warns_and_rotvec_works() {
             "data.csv",
             "--estimate",
             "link2.x",
-            "--orientation-error",
-            "rotvec",
             "--report",
             "rep.json",
         ],
@@ -1700,7 +1701,7 @@ fn exit_codes_and_absent_figures() {
             "--seed",
             "3",
             "--perturb",
-            "p1=0.1",
+            "p1=0.1,joint2.offset=5",
             "--position-only",
             "--out",
             "pos.csv",
@@ -1715,7 +1716,7 @@ fn exit_codes_and_absent_figures() {
             "--data",
             "pos.csv",
             "--estimate",
-            "p1,p2,p8",
+            "p1,p2,p8,joint2.offset",
             "--max-iter",
             "1",
             "--report",

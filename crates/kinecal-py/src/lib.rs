@@ -875,7 +875,7 @@ fn param_list(obj: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<Str
 /// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`). Returns the
 /// calibrated robot and the report as JSON text.
 #[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=1.345, weights=None, orientation_error="euler", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None))]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=1.345, weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate(
     py: Python<'_>,
@@ -992,7 +992,7 @@ fn calibrate(
 /// What `data` determines about the parameters of `estimate` (see the Python package's
 /// `kinecal.analyze`). Returns the analysis as JSON text.
 #[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, weights=None, orientation_error="euler", rcond=None))]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, weights=None, orientation_error="rotvec", rcond=None))]
 #[allow(clippy::too_many_arguments)]
 fn analyze(
     py: Python<'_>,

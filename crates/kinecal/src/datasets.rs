@@ -41,7 +41,7 @@ pub struct Suggested {
     pub holdout: Option<f64>,
     /// Standard deviations `(length, angle)` in the robot file's units, when not the default.
     pub weights: Option<(f64, f64)>,
-    /// The attitude residual, when not the default (Euler angles).
+    /// The attitude residual, when not the default (the rotation vector).
     pub orientation: Option<crate::observe::OrientationError>,
 }
 
@@ -544,7 +544,7 @@ pub mod ur10e_camera {
                 estimate: "link1,link7,offsets",
                 holdout: Some(0.3),
                 weights: Some((0.001, 0.01)),
-                orientation: Some(crate::observe::OrientationError::RotVec),
+                orientation: None,
             },
         })
     }

@@ -139,6 +139,21 @@ pub enum Error {
         /// Relative singular-value tolerance used for the rank.
         rcond: f64,
     },
+    /// Euler-angle orientation residuals were asked for, but measured attitudes come within 1
+    /// deg of gimbal lock (ZYX beta = +-90 deg), where Euler differences are undefined.
+    #[error(
+        "Euler-angle orientation residuals are undefined at gimbal lock, and {count} measured \
+         pose(s) have ZYX beta within 1 deg of +-90 deg (lines {}{}): use rotation-vector \
+         residuals (the default)",
+        lines.iter().map(ToString::to_string).collect::<Vec<_>>().join(", "),
+        if *count > lines.len() { ", ..." } else { "" }
+    )]
+    EulerNearGimbalLock {
+        /// How many poses.
+        count: usize,
+        /// Their lines (the first few).
+        lines: Vec<usize>,
+    },
     /// A numerical routine failed (should not happen on finite input).
     #[error("numerical failure: {0}")]
     Numerical(String),

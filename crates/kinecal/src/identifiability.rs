@@ -51,7 +51,7 @@ impl Default for AnalysisOptions {
         AnalysisOptions {
             rcond: DEFAULT_RANK_RCOND,
             weights: Weights::default(),
-            orientation: OrientationError::Euler,
+            orientation: OrientationError::RotVec,
             priority: Vec::new(),
         }
     }
@@ -383,6 +383,7 @@ fn analyze_with(
         )));
     }
     let n = params.len();
+    data.check_orientation(robot, opts.orientation)?;
     let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
     let m = problem.rows();
     // The weighted Jacobian is never held: its rows go into the R of a QR, a block at a time

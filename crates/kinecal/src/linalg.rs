@@ -96,6 +96,7 @@ fn from_faer(m: MatRef<'_, f64>) -> Matrix {
 }
 
 /// `A^T A` (symmetric, full storage).
+#[cfg(test)]
 pub(crate) fn gram(a: &Matrix) -> Matrix {
     let mut out = Mat::zeros(a.ncols(), a.ncols());
     faer::linalg::matmul::matmul(
@@ -355,11 +356,6 @@ impl GramAccumulator {
         }
     }
 
-    /// Number of columns.
-    pub(crate) fn cols(&self) -> usize {
-        self.cols
-    }
-
     /// Starts again from no rows, keeping the allocations.
     pub(crate) fn clear(&mut self) {
         self.gram.fill(0.0);
@@ -410,6 +406,285 @@ impl GramAccumulator {
             }
         }
     }
+}
+
+/// Something rows of a tall matrix are pushed into, one at a time: the `R` of a QR being
+/// accumulated, a Gram matrix `A^T A`, or a test's dense matrix. A least-squares problem
+/// hands its Jacobian to a solver this way ([`crate::estimation::LeastSquares`]), so that no
+/// m x n matrix need exist.
+pub trait RowSink {
+    /// Appends one row (its length is the sink's number of columns).
+    fn push(&mut self, row: &[f64]);
+}
+
+impl RowSink for QrAccumulator {
+    fn push(&mut self, row: &[f64]) {
+        QrAccumulator::push(self, row);
+    }
+}
+
+impl RowSink for GramAccumulator {
+    fn push(&mut self, row: &[f64]) {
+        GramAccumulator::push(self, row);
+    }
+}
+
+/// Column norms within this relative distance of the largest are tied: a pivoted QR then
+/// takes the first of them in its order of preference, so that the choice among identical or
+/// opposite columns is deterministic (and follows the caller's priorities), not rounding's.
+const TIE: f64 = 1e-10;
+
+/// The QR factorization with column pivoting `A P = Q T` of a small dense matrix (Householder
+/// reflections; Businger and Golub, 1965): at each step the remaining column of largest norm
+/// (orthogonal to the columns already taken) is brought forward, so `|T_00| >= |T_11| >= ...`
+/// and the diagonal reveals the numerical rank. Column norms are downdated after each step and
+/// recomputed when cancellation has eaten half their digits (LAPACK's `dgeqp3` safeguard), so
+/// the whole costs `O(m n^2)`.
+///
+/// Ties (norms within 1e-10 relative of the largest) go to the column listed first in the
+/// `order` given to [`PivotedQr::with_order`] (by default, the lowest index).
+#[derive(Debug, Clone)]
+pub struct PivotedQr {
+    /// `T` (upper triangular, `min(m, n) x n`, column `k` is column `perm[k]` of `A`).
+    t: Matrix,
+    /// The Householder vectors (below the diagonal, column `k` for step `k`; `v_k = 1` at
+    /// `k`) and their coefficients.
+    v: Matrix,
+    tau: Vec<f64>,
+    /// `perm[k]`: the column of `A` in position `k`.
+    perm: Vec<usize>,
+}
+
+impl PivotedQr {
+    /// `A P = Q T`, ties to the lowest index.
+    pub fn new(a: &Matrix) -> Self {
+        let order: Vec<usize> = (0..a.ncols()).collect();
+        Self::with_order(a, &order)
+    }
+
+    /// `A P = Q T`, ties to the column listed first in `order` (a permutation of the columns).
+    pub fn with_order(a: &Matrix, order: &[usize]) -> Self {
+        let (m, n) = (a.nrows(), a.ncols());
+        assert_eq!(order.len(), n, "order must list every column");
+        let steps = m.min(n);
+        // Work on the columns in preference order; `perm` maps back.
+        let mut w = Matrix::from_fn(m, n, |i, j| a[(i, order[j])]);
+        let mut perm = order.to_vec();
+        // The preference of each column of `A`: its place in `order`.
+        let mut pref = vec![0; n];
+        for (k, &c) in order.iter().enumerate() {
+            pref[c] = k;
+        }
+        let mut norms: Vec<f64> = (0..n).map(|j| col_norm(&w, j)).collect();
+        let mut exact = norms.clone();
+        let mut tau = vec![0.0; steps];
+        for k in 0..steps {
+            // Pivot: the largest remaining norm, the first in preference order among ties.
+            let big = norms[k..].iter().copied().fold(0.0, f64::max);
+            let p = (k..n)
+                .filter(|&j| norms[j] >= big * (1.0 - TIE))
+                .min_by_key(|&j| pref[perm[j]])
+                .unwrap_or(k);
+            if p != k {
+                for i in 0..m {
+                    let tmp = w[(i, k)];
+                    w[(i, k)] = w[(i, p)];
+                    w[(i, p)] = tmp;
+                }
+                perm.swap(k, p);
+                norms.swap(k, p);
+                exact.swap(k, p);
+            }
+            // Householder reflection zeroing w[k+1.., k].
+            let alpha = w[(k, k)];
+            let sigma: f64 = (k + 1..m).map(|i| w[(i, k)] * w[(i, k)]).sum();
+            if sigma == 0.0 {
+                tau[k] = 0.0;
+            } else {
+                let mu = (alpha * alpha + sigma).sqrt();
+                let beta = if alpha <= 0.0 {
+                    alpha - mu
+                } else {
+                    -sigma / (alpha + mu)
+                };
+                tau[k] = 2.0 * beta * beta / (sigma + beta * beta);
+                for i in k + 1..m {
+                    w[(i, k)] /= beta;
+                }
+                w[(k, k)] = mu;
+                // Apply (I - tau v v^T) to the remaining columns.
+                for j in k + 1..n {
+                    let mut s = w[(k, j)];
+                    for i in k + 1..m {
+                        s += w[(i, k)] * w[(i, j)];
+                    }
+                    s *= tau[k];
+                    w[(k, j)] -= s;
+                    for i in k + 1..m {
+                        let vik = w[(i, k)];
+                        w[(i, j)] -= s * vik;
+                    }
+                }
+            }
+            // Downdate the remaining norms (recompute when cancellation is severe).
+            for j in k + 1..n {
+                if norms[j] == 0.0 {
+                    continue;
+                }
+                let ratio = w[(k, j)].abs() / norms[j];
+                let left = (1.0 - ratio * ratio).max(0.0);
+                let updated = norms[j] * left.sqrt();
+                if left * (norms[j] / exact[j]).powi(2) <= 1e-8 {
+                    let s: f64 = (k + 1..m).map(|i| w[(i, j)] * w[(i, j)]).sum();
+                    norms[j] = s.sqrt();
+                    exact[j] = norms[j];
+                } else {
+                    norms[j] = updated;
+                }
+            }
+        }
+        let t = Matrix::from_fn(steps, n, |i, j| if i <= j { w[(i, j)] } else { 0.0 });
+        let v = Matrix::from_fn(m, steps, |i, j| {
+            if i > j {
+                w[(i, j)]
+            } else if i == j {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        PivotedQr { t, v, tau, perm }
+    }
+
+    /// `T`: upper triangular, `min(m, n) x n`.
+    pub fn t(&self) -> &Matrix {
+        &self.t
+    }
+
+    /// The permutation: `perm()[k]` is the column of `A` in position `k`.
+    pub fn perm(&self) -> &[usize] {
+        &self.perm
+    }
+
+    /// `|T_kk|`, the diagonal's magnitudes (non-increasing up to the ties' tolerance).
+    pub fn diagonal(&self) -> Vec<f64> {
+        (0..self.t.nrows()).map(|k| self.t[(k, k)].abs()).collect()
+    }
+
+    /// The numerical rank: the number of diagonal entries above `rcond` times the first.
+    pub fn rank(&self, rcond: f64) -> usize {
+        let d = self.diagonal();
+        let first = d.first().copied().unwrap_or(0.0);
+        d.iter()
+            .take_while(|&&x| x > rcond * first && x > 0.0)
+            .count()
+    }
+
+    /// `Q b` in place (`b` has `m` entries).
+    pub fn apply_q(&self, b: &mut [f64]) {
+        let m = self.v.nrows();
+        assert_eq!(b.len(), m);
+        for k in (0..self.tau.len()).rev() {
+            let v = &self.v.col(k)[k..];
+            let s = self.tau[k] * v.iter().zip(&b[k..]).map(|(x, y)| x * y).sum::<f64>();
+            for (bi, vi) in b[k..].iter_mut().zip(v) {
+                *bi -= s * vi;
+            }
+        }
+    }
+
+    /// `Q^T b` in place (`b` has `m` entries).
+    pub fn apply_qt(&self, b: &mut [f64]) {
+        let m = self.v.nrows();
+        assert_eq!(b.len(), m);
+        for k in 0..self.tau.len() {
+            let v = &self.v.col(k)[k..];
+            let s = self.tau[k] * v.iter().zip(&b[k..]).map(|(x, y)| x * y).sum::<f64>();
+            for (bi, vi) in b[k..].iter_mut().zip(v) {
+                *bi -= s * vi;
+            }
+        }
+    }
+}
+
+/// The minimum-norm least-squares solution of `T u = -w` restricted to the leading `rank` rows
+/// of an upper-triangular (pivoted-QR) factor `T` (`rank x n`, the rows below taken as zero):
+/// back substitution when the columns beyond `rank` are zero there (a basic solution that is
+/// also the shortest), else through a QR of `T[..rank, ..]^T` (a complete orthogonal
+/// decomposition): `T_k = P S^T Q^T`, `u = Q S^-T P^T (-w)`. Identical columns then share a
+/// change equally instead of one of them taking all of it.
+pub(crate) fn min_norm_solve(t: &Matrix, w: &[f64], rank: usize) -> Vec<f64> {
+    let n = t.ncols();
+    let neg: Vec<f64> = w[..rank].iter().map(|v| -v).collect();
+    let coupled = (0..rank).any(|i| (rank..n).any(|j| t[(i, j)] != 0.0));
+    if !coupled {
+        let mut u = solve_upper(t, &neg, rank);
+        u.resize(n, 0.0);
+        return u;
+    }
+    let at = Matrix::from_fn(n, rank, |i, j| t[(j, i)]);
+    let qr = PivotedQr::new(&at);
+    // A = T_k, A^T P = Q S: A = P S^T Q^T; A u = b with u = Q c: P S^T c = b, S^T c = P^T b.
+    let pb: Vec<f64> = qr.perm().iter().map(|&i| neg[i]).collect();
+    let c = solve_upper_transposed(qr.t(), &pb, rank);
+    let mut u = vec![0.0; n];
+    u[..rank].copy_from_slice(&c);
+    qr.apply_q(&mut u);
+    u
+}
+
+/// Solves `T x = b` for the leading `k x k` block of the upper-triangular `t` (back
+/// substitution); `x` has `k` entries.
+pub(crate) fn solve_upper(t: &Matrix, b: &[f64], k: usize) -> Vec<f64> {
+    let mut x = b[..k].to_vec();
+    for i in (0..k).rev() {
+        let mut s = x[i];
+        for j in i + 1..k {
+            s -= t[(i, j)] * x[j];
+        }
+        x[i] = s / t[(i, i)];
+    }
+    x
+}
+
+/// Solves `T^T x = b` for the leading `k x k` block of the upper-triangular `t` (forward
+/// substitution).
+pub(crate) fn solve_upper_transposed(t: &Matrix, b: &[f64], k: usize) -> Vec<f64> {
+    let mut x = b[..k].to_vec();
+    for i in 0..k {
+        let mut s = x[i];
+        for j in 0..i {
+            s -= t[(j, i)] * x[j];
+        }
+        x[i] = s / t[(i, i)];
+    }
+    x
+}
+
+/// The lower Cholesky factor `L` of a symmetric positive definite matrix (`A = L L^T`), or
+/// `None` when a pivot is not positive.
+pub(crate) fn cholesky(a: &Matrix) -> Option<Matrix> {
+    let n = a.ncols();
+    let mut l = Matrix::zeros(n, n);
+    for j in 0..n {
+        let mut d = a[(j, j)];
+        for k in 0..j {
+            d -= l[(j, k)] * l[(j, k)];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let d = d.sqrt();
+        l[(j, j)] = d;
+        for i in j + 1..n {
+            let mut s = a[(i, j)];
+            for k in 0..j {
+                s -= l[(i, k)] * l[(j, k)];
+            }
+            l[(i, j)] = s / d;
+        }
+    }
+    Some(l)
 }
 
 #[cfg(test)]
@@ -554,5 +829,95 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The pivoted QR reconstructs `A P`, orders its diagonal, reveals the rank of a matrix with
+    /// dependent columns, breaks exact ties by the order given, and `Q` is orthogonal.
+    #[test]
+    fn pivoted_qr_reconstructs_and_reveals_rank() {
+        let (m, n) = (7, 5);
+        let mut a = Matrix::from_fn(m, n, |i, j| {
+            ((i * i * 5 + j * j * 3 + i * j) as f64 * 0.77).sin()
+        });
+        // Column 3 = column 0 - 2 column 1: rank 4.
+        for i in 0..m {
+            a[(i, 3)] = a[(i, 0)] - 2.0 * a[(i, 1)];
+        }
+        let qr = PivotedQr::new(&a);
+        let d = qr.diagonal();
+        for k in 1..d.len() {
+            assert!(d[k] <= d[k - 1] * (1.0 + 1e-9));
+        }
+        assert_eq!(qr.rank(1e-9), 4);
+        // Q T = A P, column by column.
+        for k in 0..n {
+            let mut col = vec![0.0; m];
+            for (i, c) in col.iter_mut().enumerate().take(qr.t().nrows()) {
+                *c = qr.t()[(i, k)];
+            }
+            qr.apply_q(&mut col);
+            for i in 0..m {
+                assert!((col[i] - a[(i, qr.perm()[k])]).abs() < 1e-12);
+            }
+        }
+        // Q^T Q b = b.
+        let mut b: Vec<f64> = (0..m).map(|i| i as f64 - 2.5).collect();
+        let orig = b.clone();
+        qr.apply_qt(&mut b);
+        qr.apply_q(&mut b);
+        for (x, y) in b.iter().zip(&orig) {
+            assert!((x - y).abs() < 1e-12);
+        }
+        // Two identical columns: the one listed first in the order wins.
+        let mut c = Matrix::from_fn(m, 3, |i, j| ((i + j) as f64 * 0.3).cos());
+        for i in 0..m {
+            c[(i, 2)] = c[(i, 0)];
+        }
+        assert_eq!(PivotedQr::with_order(&c, &[2, 1, 0]).perm()[0], 2);
+        assert_eq!(PivotedQr::with_order(&c, &[0, 1, 2]).perm()[0], 0);
+    }
+
+    /// The minimum-norm solution against the pseudo-inverse (by SVD) on a rank-deficient
+    /// triangular factor; and the Cholesky factor reconstructs its matrix.
+    #[test]
+    fn min_norm_solve_is_the_pseudo_inverse_solution() {
+        let (m, n) = (8, 4);
+        let mut a = Matrix::from_fn(m, n, |i, j| {
+            ((i * i * 3 + j * j * 7 + 2 * i * j) as f64 * 0.41).cos()
+        });
+        for i in 0..m {
+            a[(i, 2)] = a[(i, 0)]; // identical columns: the change is shared
+        }
+        let qr = PivotedQr::new(&a);
+        let rank = qr.rank(1e-9);
+        assert_eq!(rank, 3);
+        let w: Vec<f64> = (0..n).map(|i| 1.0 + i as f64).collect();
+        let u = min_norm_solve(qr.t(), &w, rank);
+        let svd = thin_svd(qr.t()).unwrap();
+        let mut want = vec![0.0; n];
+        for k in 0..svd.s.len() {
+            if svd.s[k] > 1e-9 * svd.s[0] {
+                let c = -(0..n).map(|i| svd.u[(i, k)] * w[i]).sum::<f64>() / svd.s[k];
+                for (j, wj) in want.iter_mut().enumerate() {
+                    *wj += c * svd.v[(j, k)];
+                }
+            }
+        }
+        for (x, y) in u.iter().zip(&want) {
+            assert!((x - y).abs() < 1e-10, "{u:?} vs {want:?}");
+        }
+        let g = gram(&a);
+        let mut g2 = g.clone();
+        for i in 0..n {
+            g2[(i, i)] += 1.0;
+        }
+        let l = cholesky(&g2).unwrap();
+        for i in 0..n {
+            for j in 0..n {
+                let llt: f64 = (0..n).map(|k| l[(i, k)] * l[(j, k)]).sum();
+                assert!((llt - g2[(i, j)]).abs() < 1e-12);
+            }
+        }
+        assert!(cholesky(&g).is_none() || cholesky(&g).unwrap()[(3, 3)].abs() < 1e-6);
     }
 }

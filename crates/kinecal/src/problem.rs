@@ -7,7 +7,7 @@
 //! of the squared weighted residuals: dimensionless, and independent of the files' units.
 
 use crate::kinematics::{Chain, ColumnPlan, Frame, ReadingTrig, Target};
-use crate::linalg::{GramAccumulator, Matrix, QrAccumulator};
+use crate::linalg::{Matrix, QrAccumulator, RowSink};
 use crate::observe::{
     Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
     OrientationError, Weights,
@@ -18,12 +18,11 @@ use crate::robot::Robot;
 /// A function shown each observation with its frames.
 type ObservationVisitor<'a> = dyn FnMut(&Observation, &[Frame]) + 'a;
 
-/// Where an evaluation's derivatives go: a full rows x cols matrix, or, a row at a time, into
-/// the `R` of a QR or the Gram matrix (with the residual as the last column).
+/// Where an evaluation's derivatives go: a full rows x cols matrix, or, a row at a time (with
+/// the residual as the last column), into a [`RowSink`] (the `R` of a QR, a Gram matrix).
 enum Sink<'m> {
     Full(&'m mut Matrix),
-    Qr(&'m mut QrAccumulator),
-    Gram(&'m mut GramAccumulator),
+    Rows(&'m mut dyn RowSink),
 }
 
 /// The linearisation of a problem at one robot, from one pass of forward kinematics: the
@@ -207,20 +206,18 @@ impl<'a> Problem<'a> {
     ) -> f64 {
         assert_eq!(acc.cols(), self.cols() + 1);
         acc.clear();
-        self.evaluate_with(robot, res, Some(Sink::Qr(acc)), None)
+        self.evaluate_with(robot, res, Some(Sink::Rows(acc)), None)
     }
 
-    /// [`Problem::evaluate_qr`] into the Gram matrix of `[J | r]` instead (`acc`, cleared
-    /// first; `cols + 1` columns): `J^T J`, `J^T r` and `r^T r`.
-    pub(crate) fn evaluate_gram(
+    /// [`Problem::evaluate`], each row `[J_i | r_i]` (weighted) pushed into `rows`, which is not
+    /// cleared first.
+    pub(crate) fn evaluate_rows(
         &self,
         robot: &Robot,
         res: &mut [f64],
-        acc: &mut GramAccumulator,
+        rows: &mut dyn RowSink,
     ) -> f64 {
-        assert_eq!(acc.cols(), self.cols() + 1);
-        acc.clear();
-        self.evaluate_with(robot, res, Some(Sink::Gram(acc)), None)
+        self.evaluate_with(robot, res, Some(Sink::Rows(rows)), None)
     }
 
     /// [`Problem::evaluate_qr`], with the errors of every observation summarised (the
@@ -241,7 +238,7 @@ impl<'a> Problem<'a> {
         let f = self.evaluate_with(
             robot,
             res,
-            Some(Sink::Qr(acc)),
+            Some(Sink::Rows(acc)),
             Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
         );
         (f, tally.finish())
@@ -325,16 +322,12 @@ impl<'a> Problem<'a> {
                                     j[(row + i, c)] = scaled(out[i * k + c]);
                                 }
                             }
-                            Sink::Qr(_) | Sink::Gram(_) => {
+                            Sink::Rows(acc) => {
                                 for c in 0..k {
                                     qr_row[c] = scaled(out[i * k + c]);
                                 }
                                 qr_row[k] = scaled(r[i]);
-                                if let Sink::Qr(acc) = sink {
-                                    acc.push(&qr_row);
-                                } else if let Sink::Gram(acc) = sink {
-                                    acc.push(&qr_row);
-                                }
+                                acc.push(&qr_row);
                             }
                         }
                     }

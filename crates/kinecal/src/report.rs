@@ -326,6 +326,25 @@ pub struct PhaseTime {
     pub seconds: f64,
 }
 
+/// The solver's stationarity measures at its last point ([`crate::estimation::Stationarity`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StationarityReport {
+    /// The relative reduction of the objective a Gauss-Newton step would bring by the local
+    /// linear model (converged at or below `ftol`, 1e-15 by default).
+    pub predicted_reduction: f64,
+    /// The Gauss-Newton step's length relative to the parameters, both scaled by the column
+    /// norms (converged at or below `xtol`, 1e-12); absent when every scaled parameter is 0.
+    pub step: Option<f64>,
+    /// The largest |cos| between the residual and a column of the Jacobian.
+    pub gradient: f64,
+    /// The numerical rank the Gauss-Newton step used.
+    pub rank: usize,
+}
+
+fn finite_or_none(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
 /// The calibration report written by `kinecal calibrate --report`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CalibrationReport {
@@ -343,6 +362,10 @@ pub struct CalibrationReport {
     pub converged: bool,
     /// Why the solver stopped.
     pub termination: String,
+    /// How stationary the solver's last point is (absent for a calibration assessed, not
+    /// solved).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stationarity: Option<StationarityReport>,
     /// Iterations run.
     pub iterations: usize,
     /// Postures in the data.
@@ -487,6 +510,14 @@ impl CalibrationReport {
             orientation_error: cal.options.orientation.as_str().to_string(),
             converged: cal.converged(),
             termination: cal.termination.describe().to_string(),
+            stationarity: (cal.termination != crate::estimation::Termination::Given).then(|| {
+                StationarityReport {
+                    predicted_reduction: cal.stationarity.predicted_reduction,
+                    step: finite_or_none(cal.stationarity.step),
+                    gradient: cal.stationarity.gradient,
+                    rank: cal.stationarity.rank,
+                }
+            }),
             iterations: cal.iterations,
             postures,
             measurements,

@@ -10,14 +10,6 @@ use serde::{Deserialize, Serialize};
 #[serde(tag = "warning", rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum Warning {
-    /// Poses measured within 1 deg of beta = +-90 deg while orientation residuals are Euler
-    /// angle differences, which are ill-defined there.
-    GimbalLock {
-        /// How many.
-        count: usize,
-        /// Their lines (the first few).
-        lines: Vec<usize>,
-    },
     /// Parameters left out of the default set because no observation sees their frame (or its
     /// attitude).
     Unseen {
@@ -230,18 +222,6 @@ impl std::fmt::Display for Warning {
                 "{} moved by more than the robot's reach ({reach:.4} {unit}): not a calibration \
                  of this robot (units, a wrong model, or a far start)",
                 parameters.join(", ")
-            ),
-            Warning::GimbalLock { count, lines } => write!(
-                f,
-                "{count} measured pose(s) have beta within 1 deg of +-90 deg (gimbal lock; lines \
-                 {}{}), where ZYX Euler differences are ill-defined: use rotation-vector \
-                 orientation residuals",
-                lines
-                    .iter()
-                    .map(ToString::to_string)
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                if *count > lines.len() { ", ..." } else { "" }
             ),
             Warning::Unseen { parameters } => write!(
                 f,

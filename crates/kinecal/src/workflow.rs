@@ -22,7 +22,7 @@ use std::sync::Arc;
 use crate::error::{Error, Result};
 use crate::estimation::{self, Calibration, CalibrationOptions, Iteration, Loss, SolverOptions};
 use crate::identifiability::{self, AnalysisOptions};
-use crate::observe::{accuracy, Accuracy, Context, Dataset, OrientationError, Weights};
+use crate::observe::{accuracy, Accuracy, Dataset, OrientationError, Weights};
 use crate::outliers::{self, Outlier};
 use crate::param_list::parse_param_list;
 use crate::params::{ParamId, ParamKind};
@@ -352,7 +352,7 @@ pub struct Request {
 
 impl Request {
     /// Default settings: the default parameters by Levenberg-Marquardt, least squares, default
-    /// weights and Euler residuals, the solver's answer, no pruning or validation.
+    /// weights and rotation-vector residuals, the solver's answer, no pruning or validation.
     pub fn new(robot: Robot, data: impl Into<Arc<Dataset>>) -> Request {
         Request {
             robot,
@@ -362,7 +362,7 @@ impl Request {
             solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
             loss: Loss::Squared,
             weights: Weights::default(),
-            orientation: OrientationError::Euler,
+            orientation: OrientationError::RotVec,
             solution: SolutionRule::Solver,
             prune: None,
             validation: Validation::None,
@@ -753,7 +753,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             req.outlier_sigmas,
             req.solution,
             &req.sources,
-            &mut data_warnings(&req.robot, &data, req.orientation, &nominal_points),
+            &mut data_warnings(&req.robot, &data, &nominal_points),
         );
         pruning = Some(Pruning {
             k,
@@ -763,7 +763,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         });
     }
     progress.phase(Phase::Uncertainty);
-    let mut warnings = data_warnings(&req.robot, &data, req.orientation, &nominal_points);
+    let mut warnings = data_warnings(&req.robot, &data, &nominal_points);
     if !unseen.is_empty() {
         warnings.insert(
             0,
@@ -1195,23 +1195,13 @@ fn finish(
 
 /// Warnings about the data itself: units that do not match the robot file's, readings the
 /// robot cannot take ([`crate::sanity`]; `predicted`: `robot`'s points,
-/// [`crate::sanity::predicted`]), poses near gimbal lock under Euler residuals.
+/// [`crate::sanity::predicted`]).
 fn data_warnings(
     robot: &Robot,
     data: &Dataset,
-    orientation: OrientationError,
     predicted: &[[nalgebra::Vector3<f64>; 2]],
 ) -> Vec<Warning> {
-    let mut out = crate::sanity::check_data_with(robot, data, predicted);
-    let ctx = Context { robot, orientation };
-    let near = data.degenerate(&ctx);
-    if !near.is_empty() {
-        out.push(Warning::GimbalLock {
-            count: near.len(),
-            lines: near.iter().take(5).map(|o| o.line()).collect(),
-        });
-    }
-    out
+    crate::sanity::check_data_with(robot, data, predicted)
 }
 
 /// Estimates, then applies the solution rule.
@@ -1409,6 +1399,7 @@ pub fn assess(
         estimated: estimated.clone(),
         options,
         termination: estimation::Termination::Given,
+        stationarity: Default::default(),
         iterations: 0,
         unfelt: Vec::new(),
         row_scale: vec![1.0; problem.rows()],
@@ -1416,12 +1407,7 @@ pub fn assess(
         residuals,
         start_r: None,
     };
-    let mut warnings = data_warnings(
-        nominal,
-        data,
-        orientation,
-        &crate::sanity::predicted(nominal, data),
-    );
+    let mut warnings = data_warnings(nominal, data, &crate::sanity::predicted(nominal, data));
     let unc = uncertainty::uncertainty(&cal, data, nominal);
     Ok(finish(
         nominal.clone(),

@@ -360,3 +360,43 @@ fn contact_files_read_and_refuse_mistakes() {
         .to_string();
     assert!(e.contains("no [[planes]]"), "{e}");
 }
+
+/// Orientation residuals default to the rotation vector; Euler-angle residuals are refused,
+/// naming the lines, when a measured attitude is within 1 deg of gimbal lock (beta = +-90 deg),
+/// and accepted 2 deg away.
+#[test]
+fn euler_residuals_are_refused_near_gimbal_lock() {
+    use kinecal::observe::OrientationError;
+    assert_eq!(
+        CalibrationOptions::new(vec![]).orientation,
+        OrientationError::RotVec
+    );
+    let robot = kinecal::examples::ge_a4();
+    let postures = simulate::sample_postures(&robot, 12, 5);
+    for (beta_deg, refused) in [(89.5, true), (-89.2, true), (88.0, false)] {
+        let mut data = simulate::measure(&robot, &postures, false);
+        for (k, o) in data.observations.iter_mut().enumerate() {
+            if k % 4 == 1 {
+                if let kinecal::Observation::Pose(p) = o {
+                    p.euler.y = f64::to_radians(beta_deg);
+                }
+            }
+        }
+        let mut opts = CalibrationOptions::new(vec![kinecal::ParamId(0)]);
+        opts.orientation = OrientationError::Euler;
+        let got = calibrate(&robot, &data, &opts, &mut |_| {});
+        if refused {
+            let err = got.unwrap_err();
+            assert!(
+                matches!(err, kinecal::Error::EulerNearGimbalLock { count: 3, .. }),
+                "{err}"
+            );
+            assert!(err.to_string().contains("gimbal lock"), "{err}");
+        } else {
+            assert!(got.is_ok(), "{:?}", got.err());
+        }
+        // The rotation vector takes the same data.
+        opts.orientation = OrientationError::RotVec;
+        assert!(calibrate(&robot, &data, &opts, &mut |_| {}).is_ok());
+    }
+}

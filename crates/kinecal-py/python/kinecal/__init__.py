@@ -149,7 +149,7 @@ def calibrate(
     loss: str = "squared",
     huber_scale: float = 1.345,
     weights: Optional[Sequence[float]] = None,
-    orientation_error: str = "euler",
+    orientation_error: str = "rotvec",
     validate: Optional[Measurements] = None,
     holdout: Optional[float] = None,
     folds: Optional[int] = None,
@@ -205,7 +205,7 @@ def analyze(
     estimate: ParamList = "identifiable",
     fix: ParamList = None,
     weights: Optional[Sequence[float]] = None,
-    orientation_error: str = "euler",
+    orientation_error: str = "rotvec",
     rcond: Optional[float] = None,
 ) -> Dict[str, Any]:
     """What ``data`` determines about the parameters of ``estimate``: the same document as

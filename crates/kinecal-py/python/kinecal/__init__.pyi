@@ -151,7 +151,7 @@ def calibrate(
     loss: str = "squared",
     huber_scale: float = 1.345,
     weights: Optional[Sequence[float]] = None,
-    orientation_error: str = "euler",
+    orientation_error: str = "rotvec",
     validate: Optional[Measurements] = None,
     holdout: Optional[float] = None,
     folds: Optional[int] = None,
@@ -171,7 +171,7 @@ def analyze(
     estimate: ParamList = "identifiable",
     fix: ParamList = None,
     weights: Optional[Sequence[float]] = None,
-    orientation_error: str = "euler",
+    orientation_error: str = "rotvec",
     rcond: Optional[float] = None,
 ) -> Dict[str, Any]:
     """The document of ``kinecal analyze --json``, plus ``unseen``."""

@@ -18,14 +18,17 @@
 //! assert!((cal.calibrated.get(p1) - truth.get(p1)).abs() < 1e-9);
 //! ```
 
+pub mod least_squares;
 pub mod solver;
 
+pub use least_squares::{LeastSquares, RowSink};
 pub use solver::{
-    solve, Damping, Iteration, Method, Solution, SolverOptions, Termination, DEFAULT_RCOND,
+    solve, Damping, Iteration, Method, Solution, SolverOptions, Stationarity, Termination,
+    DEFAULT_RCOND,
 };
 
 use crate::error::{Error, Result};
-use crate::linalg::Matrix;
+use crate::linalg::{Matrix, QrAccumulator, QR_BLOCK};
 use crate::observe::{Accuracy, Dataset, OrientationError, Weights};
 use crate::params::ParamId;
 use crate::problem::{Linearized, Problem};
@@ -111,7 +114,7 @@ impl CalibrationOptions {
             estimate,
             solver: SolverOptions::new(Method::LevenbergMarquardt),
             weights: Weights::default(),
-            orientation: OrientationError::Euler,
+            orientation: OrientationError::RotVec,
             loss: Loss::Squared,
         }
     }
@@ -130,6 +133,8 @@ pub struct Calibration {
     pub options: CalibrationOptions,
     /// Why the solver stopped.
     pub termination: Termination,
+    /// How stationary the solver's last point is.
+    pub stationarity: Stationarity,
     /// Iterations run.
     pub iterations: usize,
     /// Weighted sum of squared residuals before.
@@ -231,6 +236,7 @@ pub(crate) fn calibrate_from(
             "parameter {bad} does not exist in this robot"
         )));
     }
+    data.check_orientation(initial, opts.orientation)?;
     let problem = Problem::new(
         initial,
         data,
@@ -258,8 +264,25 @@ pub(crate) fn calibrate_from(
     }
     let x0 = problem.values(initial);
     let mut log = Vec::new();
-    let start_r = start.and_then(|l| Some((l.restricted(&opts.estimate)?, &l.accuracy)));
-    let mut sol = solver::drive_from(
+    // The linearisation at the start, with the errors there from the same pass: given, or
+    // computed here (by QR: its R is what the uncertainty at the start reuses).
+    let (start_r, accuracy_before) =
+        match start.and_then(|l| Some((l.restricted(&opts.estimate)?, l.accuracy.clone()))) {
+            Some(given) => given,
+            None => {
+                let n = problem.cols();
+                let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
+                let mut r = vec![0.0; problem.rows()];
+                let (f, accuracy) = problem.evaluate_qr_checked(initial, &mut r, &mut acc);
+                if !f.is_finite() {
+                    return Err(non_finite_start(&problem, &r));
+                }
+                let mut r0 = Matrix::zeros(0, 0);
+                acc.r_into(&mut r0);
+                (r0, accuracy)
+            }
+        };
+    let mut sol = solver::drive(
         &problem,
         &x0,
         &opts.solver,
@@ -268,12 +291,8 @@ pub(crate) fn calibrate_from(
             log.push(*it);
             observer(it);
         },
-        start_r.as_ref().map(|(r, a)| (r, *a)),
+        Some(&start_r),
     )?;
-    // The first solve's start is `initial`, weighted as least squares would (the robust
-    // loss's row scale comes later).
-    let start_r = std::mem::replace(&mut sol.start_r, Matrix::zeros(0, 0));
-    let accuracy_before = sol.start_accuracy.clone();
     let unfelt: Vec<ParamId> = sol.unfelt.iter().map(|&j| opts.estimate[j]).collect();
     // Huber loss: iteratively reweighted least squares, weights min(1, k/|r|) per residual.
     let mut row_scale = vec![1.0; problem.rows()];
@@ -328,6 +347,7 @@ pub(crate) fn calibrate_from(
         estimated: opts.estimate.clone(),
         options: opts.clone(),
         termination: sol.termination,
+        stationarity: sol.stationarity,
         iterations: sol.iterations,
         objective_before: sol.objective_before,
         objective_after,
@@ -337,4 +357,22 @@ pub(crate) fn calibrate_from(
         residuals,
         start_r: Some(start_r),
     })
+}
+
+/// The error for a start where the objective is not finite, naming the first observation with a
+/// non-finite residual.
+fn non_finite_start(problem: &Problem<'_>, r: &[f64]) -> Error {
+    let mut row = 0;
+    for o in &problem.data().observations {
+        let n = o.rows().len();
+        if let Some(k) = (0..n).find(|&k| !r[row + k].is_finite()) {
+            return Error::NonFiniteResidual {
+                line: o.line(),
+                kind: o.kind(),
+                row: o.rows()[k].label,
+            };
+        }
+        row += n;
+    }
+    Error::Numerical("the objective is not finite at the starting point".into())
 }

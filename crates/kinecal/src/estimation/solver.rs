@@ -1,54 +1,71 @@
 //! The least-squares solvers of thesis chapter 3: one driver and four step rules.
 //!
-//! The driver ([`solve`]) owns everything the methods share: evaluating the problem, the scaled
-//! space, termination, the iteration log and the observer. Every method works on `J_s = W J
-//! D^-1`: residuals weighted by their standard deviations `W` (see
-//! [`Problem`](crate::problem)), and columns divided by their Euclidean norms `D`
-//! (recomputed every iteration). `J_s^T J_s` then has a unit diagonal: this is exactly
-//! Marquardt's scaling `B_ii = sqrt(H_ii)` of eq. 3.15, and it makes every method independent of
-//! the units parameters are expressed in (thesis 4.4.2: the conditioning that units spoil). A
-//! column below 1e-12 of the largest holds only rounding noise (a parameter no observation feels,
-//! e.g. the tool's attitude under position-only data): it is zeroed, not scaled up, so the
-//! parameter stays where it is.
+//! The driver ([`solve`]) owns everything the methods share: the linearisation of the problem
+//! ([`LeastSquares`]) at each point, the stationarity test, the iteration log and the observer. A
+//! method is a [`StepRule`]: given the linearisation, it proposes steps until one lowers the
+//! objective `f = |r|^2`.
 //!
-//! The Jacobian itself is never held: each evaluation pushes its rows `[W J | W r]` into the `R`
-//! factor of a QR, 512 rows at a time, and the methods work on that `(n+1) x (n+1)`
-//! factor ([`Scaled`]), so memory does not grow with the number of postures and no m x n
-//! matrix is copied, multiplied or decomposed per iteration. The column norms `D` are those of
-//! `R`'s columns.
+//! **The linearisation.** The Jacobian is never held: each evaluation pushes its rows
+//! `[J_i | r_i]` into the `R` factor of a QR, 512 rows at a time, so memory does not grow with
+//! the number of rows and every method works on the `n x n` upper-triangular `R` (`J = Q R`)
+//! and `z = Q^T r`. Tiny standard deviations (rows weighted 10^9 times the others) are thus
+//! never squared into `J^T J`, where the other rows' information would drown in its rounding.
+//! Forming the Gram matrix `[J | r]^T [J | r]` instead costs half the arithmetic per row; the
+//! driver does that only after a QR linearisation has shown the column-scaled Jacobian to be
+//! well conditioned (condition below 10^4, so the Gram matrix's below 10^8 and its rounding far
+//! below any tolerance here), takes `R` as its Cholesky factor, and goes back to QR for good
+//! when a Cholesky factor says the conditioning has degraded.
 //!
-//! A method is a [`StepRule`]: given the scaled system, it proposes steps until one lowers the
-//! objective.
-//! - `lm`: `(C + lambda I) y = -g` with `C = J_s^T J_s`, `g = J_s^T r`; lambda divided by 10 after
-//!   a successful step, multiplied by 10 after a failed one (eqs. 3.14-3.15). With
-//!   [`Damping::Identity`] no column scaling is applied, so the damping is plain `lambda I` in
-//!   the internal units (m, rad), as in eq. 3.14.
-//! - `gn`: `C y = -g` (eq. 3.13), refused when `C` is singular (thesis 3.3.3); step halving
-//!   when a full step does not reduce the objective.
-//! - `sd`: `y = -t g` (eq. 3.10) with `t = |g|^2 / |J_s g|^2`, the exact minimiser along `-g` of
-//!   the local quadratic model, then halved until the objective decreases.
+//! **Scaling.** Column `j` of `J` is measured by its Euclidean norm `d_j` (the norm of `R`'s
+//! column), so that nothing depends on the units of the parameters (thesis 4.4.2). A column
+//! below 1e-12 of the largest holds only rounding noise (a parameter no observation feels, e.g.
+//! the tool's attitude under position-only data): it is zeroed, and the parameter stays where
+//! it is.
+//!
+//! **Stationarity.** At every point the driver computes the Gauss-Newton step by a
+//! column-pivoted QR of the scaled `R` (truncated at rank `rcond`, as [`Method::Svd`] does) and
+//! stops, *converged*, only when one of these holds:
+//! - the objective is zero, or below what rounding the parameters alone makes (`(16 eps sqrt(n)
+//!   |D x|)^2`, `D` the column norms);
+//! - **reduction**: the relative reduction the local linear model predicts for the
+//!   Gauss-Newton step, `|P_J r|^2 / |r|^2`, is at most `ftol` (no direction the data can
+//!   determine lowers the objective any further);
+//! - **step**: the Gauss-Newton step is at most `xtol` of the scaled parameters (the point is
+//!   a fixed point of the iteration, as at a zero-residual solution);
+//! - **rounding**: no step of the method lowers the objective, and the predicted reduction is
+//!   below [`ROUNDING_REDUCTION`] (1e-10): what is left cannot be told from the objective's
+//!   rounding.
+//!
+//! The scaled gradient (the largest cosine between the residual and a column of `J`, MINPACK's
+//! `gnorm`) is reported with them. A method whose steps no longer lower the objective at a
+//! point that passes none of these tests has *stalled* ([`Termination::Stalled`]), and the cap
+//! on iterations ends a run as not converged. So a run never reports convergence where the
+//! local model still promises a reduction the objective could show.
+//!
+//! **The methods.**
+//! - `lm`: Levenberg-Marquardt as a trust region (Moré 1978, as in MINPACK's `lmder`): the step
+//!   minimises `|r + J p|^2` subject to `|D p| <= Delta`, with `D` the running maximum of the
+//!   column norms (Marquardt's scaling `B_ii = sqrt(H_ii)` of eq. 3.15, kept from growing
+//!   back); the damping `lambda` for which the step has length `Delta` is found by Newton's
+//!   method on the secular equation, each trial solved from the QR of `[R_s; sqrt(lambda) I]`
+//!   by Givens rotations; `Delta` grows or shrinks with the ratio of the actual to the
+//!   predicted reduction. With [`Damping::Identity`] `D = I`: plain `lambda I` in the internal
+//!   units (m, rad), as in eq. 3.14.
+//! - `gn`: the Gauss-Newton step (eq. 3.13), refused when the scaled `R` is rank deficient
+//!   (thesis 3.3.3); step halving when a full step does not lower the objective.
+//! - `sd`: `y = -t g` (eq. 3.10) with `t = |g|^2 / |J_s g|^2`, the exact minimiser along `-g`
+//!   of the local model, then halved until the objective decreases.
 //! - `svd`: `y = -J_s^+ r` (eq. 3.20) with singular values below `rcond * s_max` dropped; step
 //!   halving as for `gn`.
-//!
-//! Stopping: an accepted step that lowers the objective by less than `ftol` relative, a scaled
-//! step below `xtol`, a zero objective, no step that lowers the objective, or the iteration cap.
-//! When Gauss-Newton, steepest descent or SVD stop short of the cap (no step of theirs lowers
-//! the objective, or the last one lowered it by less than `ftol`, or was below `xtol`), the
-//! driver tries one Levenberg-Marquardt step from the same point: if that lowers the objective
-//! by more than 1e-6 of it (and the objective is not already at the rounding floor, 1e-16 of
-//! its start), the method stalled ([`Termination::Stalled`], not converged): it stopped where
-//! the objective still goes down.
 
+use super::least_squares::LeastSquares;
 use crate::error::{Error, Result};
-use crate::linalg::{self, GramAccumulator, Matrix, QrAccumulator, QR_BLOCK};
-use crate::observe::Accuracy;
-use crate::problem::Problem;
-use crate::robot::Robot;
+use crate::linalg::{self, GramAccumulator, Matrix, PivotedQr, QrAccumulator, QR_BLOCK};
 
 /// A least-squares method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
-    /// Levenberg-Marquardt (thesis 3.3.4).
+    /// Levenberg-Marquardt (thesis 3.3.4), as a scaled trust region.
     #[default]
     LevenbergMarquardt,
     /// Gauss-Newton (3.3.2).
@@ -80,7 +97,9 @@ impl Method {
 
     pub(crate) fn rule(self, opts: &SolverOptions) -> Box<dyn StepRule> {
         match self {
-            Method::LevenbergMarquardt => Box::new(LevenbergMarquardt::new(opts.damping)),
+            Method::LevenbergMarquardt => {
+                Box::new(LevenbergMarquardt::new(opts.damping, opts.rcond))
+            }
             Method::GaussNewton => Box::new(GaussNewton { rcond: opts.rcond }),
             Method::SteepestDescent => Box::new(SteepestDescent),
             Method::Svd => Box::new(TruncatedSvd { rcond: opts.rcond }),
@@ -104,7 +123,8 @@ impl std::str::FromStr for Method {
 /// The damping matrix of Levenberg-Marquardt.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Damping {
-    /// Marquardt's diagonal scaling `B^2`, `B_ii = sqrt(H_ii)` (eq. 3.15).
+    /// Marquardt's diagonal scaling `B^2`, `B_ii = sqrt(H_ii)` (eq. 3.15): the trust region is
+    /// measured in the column norms (their running maximum, as MINPACK does).
     #[default]
     Marquardt,
     /// Plain `lambda I` in internal units (eq. 3.14).
@@ -120,17 +140,28 @@ pub struct SolverOptions {
     pub max_iterations: usize,
     /// LM damping.
     pub damping: Damping,
-    /// Relative singular-value threshold: `svd` drops, and `gn` refuses, singular values of the
-    /// scaled Jacobian below `rcond * s_max`.
+    /// Relative threshold on the scaled Jacobian's singular values (or the pivoted QR's
+    /// diagonal): `svd` drops, `gn` refuses, and the stationarity test's Gauss-Newton step
+    /// leaves out, directions below `rcond` times the largest.
     pub rcond: f64,
-    /// Stop when an accepted step reduces the objective by less than this fraction.
+    /// Converged when the relative reduction of the objective that the local linear model
+    /// predicts for a Gauss-Newton step is at most this.
     pub ftol: f64,
-    /// Stop when the scaled step is below `xtol * (|scaled parameters| + xtol)`.
+    /// Converged when the Gauss-Newton step is at most this fraction of the scaled parameters.
     pub xtol: f64,
 }
 
 /// Default relative singular-value threshold ([`SolverOptions::rcond`]).
 pub const DEFAULT_RCOND: f64 = 1e-9;
+
+/// A method that finds no lower point where the local model predicts a relative reduction
+/// below this has converged to the precision of the objective ([`Termination::RoundingLimited`]);
+/// above it, the method has stalled.
+pub const ROUNDING_REDUCTION: f64 = 1e-10;
+
+/// A Levenberg-Marquardt trial whose predicted relative reduction is below this cannot be
+/// told from the objective's rounding: the rule stops trying.
+const RESOLVABLE: f64 = 1e-14;
 
 impl SolverOptions {
     /// Defaults for `method`.
@@ -140,7 +171,7 @@ impl SolverOptions {
             max_iterations: method.default_max_iterations(),
             damping: Damping::Marquardt,
             rcond: DEFAULT_RCOND,
-            ftol: 1e-12,
+            ftol: 1e-15,
             xtol: 1e-12,
         }
     }
@@ -149,19 +180,22 @@ impl SolverOptions {
 /// Why a solver stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Termination {
-    /// The objective reached exactly zero.
+    /// Converged: the objective is zero, or below what rounding the parameters alone makes
+    /// (`(16 eps sqrt(n) |D x|)^2`).
     ZeroObjective,
-    /// An accepted step reduced the objective by less than `ftol` relative.
-    SmallReduction,
-    /// The step fell below `xtol`.
+    /// Converged: the local model predicts a relative reduction below `ftol` for a
+    /// Gauss-Newton step.
+    SmallPredictedReduction,
+    /// Converged: the Gauss-Newton step is below `xtol` of the scaled parameters.
     SmallStep,
-    /// No step along the method's direction reduces the objective, nor does a
-    /// Levenberg-Marquardt step: a minimum to numerical precision.
-    NoFurtherReduction,
-    /// The method's steps no longer reduce the objective, but a Levenberg-Marquardt step from
-    /// the same point does: not a minimum.
+    /// Converged to the precision of the objective: no step lowers it any more, and the
+    /// reduction the local model predicts is below [`ROUNDING_REDUCTION`] of it (what is left
+    /// is rounding: the objective's own rounding error is of that order).
+    RoundingLimited,
+    /// Not converged: no step of the method lowers the objective any more, yet the point is
+    /// not stationary (the local model still predicts a reduction).
     Stalled,
-    /// The iteration cap was reached first.
+    /// Not converged: the iteration cap was reached first.
     MaxIterations,
     /// Not solved here: a calibration given from elsewhere (a robot file or a report) was
     /// assessed on the data ([`crate::workflow::assess`]).
@@ -169,7 +203,7 @@ pub enum Termination {
 }
 
 impl Termination {
-    /// True when the solver stopped at a minimum (not at the cap, not stalled).
+    /// True when the solver stopped at a stationary point (not at the cap, not stalled).
     pub fn converged(self) -> bool {
         !matches!(self, Termination::MaxIterations | Termination::Stalled)
     }
@@ -177,17 +211,34 @@ impl Termination {
     /// A sentence for reports.
     pub fn describe(self) -> &'static str {
         match self {
-            Termination::ZeroObjective => "objective is exactly zero",
-            Termination::SmallReduction => "relative reduction of the objective below ftol",
-            Termination::SmallStep => "parameter step below xtol",
-            Termination::NoFurtherReduction => "no step reduces the objective any further",
+            Termination::ZeroObjective => "the objective is zero to rounding",
+            Termination::SmallPredictedReduction => "stationary: predicted reduction below ftol",
+            Termination::SmallStep => "stationary: Gauss-Newton step below xtol",
+            Termination::RoundingLimited => "stationary to rounding: no step lowers the objective",
             Termination::Stalled => {
-                "stalled: the method's steps no longer reduce the objective, a Levenberg-Marquardt step does"
+                "stalled: no step lowers the objective, yet the model predicts a reduction"
             }
             Termination::MaxIterations => "iteration cap reached before convergence",
             Termination::Given => "a given calibration, assessed (not solved here)",
         }
     }
+}
+
+/// How stationary the solver's last point is: the three measures its tests use.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Stationarity {
+    /// The relative reduction of the objective the local linear model predicts for a
+    /// Gauss-Newton step, `|P_J r|^2 / |r|^2` (0 at a stationary point; compared with
+    /// `ftol`).
+    pub predicted_reduction: f64,
+    /// The Gauss-Newton step's length relative to the parameters, both scaled by the column
+    /// norms (compared with `xtol`; infinite when every scaled parameter is 0).
+    pub step: f64,
+    /// The scaled gradient: the largest `|cos|` between the residual and a column of the
+    /// Jacobian (MINPACK's `gnorm`).
+    pub gradient: f64,
+    /// The numerical rank of the scaled Jacobian (at `rcond`) the Gauss-Newton step used.
+    pub rank: usize,
 }
 
 /// One line of the per-iteration log.
@@ -197,9 +248,10 @@ pub struct Iteration {
     pub iteration: usize,
     /// Objective after the iteration.
     pub objective: f64,
-    /// Norm of the accepted step in scaled units.
+    /// Norm of the accepted step in scaled units (the parameters times their column norms).
     pub step: f64,
-    /// LM damping used for the accepted step, or the line-search factor for the others.
+    /// LM damping used for the accepted step (relative to the scaled problem), or the
+    /// line-search factor for the others.
     pub lambda: f64,
     /// Objective evaluations spent in this iteration (rejected trials included).
     pub evaluations: usize,
@@ -208,7 +260,7 @@ pub struct Iteration {
 /// What a solver returns.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Solution {
-    /// Estimated values (internal units), in the problem's parameter order.
+    /// Estimated values, in the problem's order.
     pub x: Vec<f64>,
     /// Objective at the start.
     pub objective_before: f64,
@@ -218,44 +270,72 @@ pub struct Solution {
     pub iterations: usize,
     /// Why it stopped.
     pub termination: Termination,
-    /// Columns (in the problem's parameter order) that no residual felt at the start: their
-    /// Jacobian column was zero, or below 1e-12 of the largest.
+    /// How stationary the last point is.
+    pub stationarity: Stationarity,
+    /// Columns (in the problem's order) that no residual felt at the start: their Jacobian
+    /// column was zero, or below 1e-12 of the largest.
     pub unfelt: Vec<usize>,
     /// The linearisation at the start: the `(cols + 1) x (cols + 1)` upper-triangular `R` of the
-    /// QR of the weighted `[J | r]` at `x0` (columns in the problem's parameter order, the
-    /// residual last), as the first evaluation left it.
+    /// QR of `[J | r]` at `x0` (the residual last), as the first evaluation left it.
     pub start_r: Matrix,
-    /// The errors at `x0`, from the same first evaluation.
-    pub start_accuracy: Accuracy,
 }
 
-/// The scaled system a step rule works on, at the current point, in the `R` form that needs no
-/// m-row matrix: with `W J = Q R` (thin QR of the weighted Jacobian) and `z = Q^T r`, the
-/// scaled Jacobian `J_s = W J D^-1` is `Q R_s` with `R_s = R D^-1`, so `J_s^T J_s = R_s^T R_s`,
-/// `J_s^T r = R_s^T z`, and `J_s`'s singular values and right vectors are `R_s`'s.
-///
-/// A rule that only forms `J_s^T J_s` (see [`StepRule::needs_r`]) gets it computed from the
-/// Gram matrix of `[J | r]` after the first iteration, and `rs` and `z` empty.
-pub struct Scaled<'s> {
-    /// `R_s = R D^-1`, n x n upper triangular (dead columns zeroed); empty (0 x 0) for a rule
-    /// that does not need it.
-    pub rs: &'s Matrix,
-    /// `z = Q^T r`, the residuals' component in the Jacobian's column space; empty for a rule
-    /// that does not need `rs`.
+/// The linearisation a step rule works on, at the current point: with `J = Q R` (the thin QR
+/// of the Jacobian) and `z = Q^T r`, `|r + J p|^2 = |z + R p|^2 + (|r|^2 - |z|^2)`, so `R` and
+/// `z` are all a step needs; no `m`-row matrix exists.
+pub struct System<'s> {
+    /// `R`, `n x n` upper triangular (unscaled; dead columns zeroed).
+    pub r: &'s Matrix,
+    /// `z = Q^T r`.
     pub z: &'s [f64],
-    /// `C = J_s^T J_s` (`= R_s^T R_s`), n x n symmetric.
-    pub c: &'s Matrix,
-    /// The gradient `g = J_s^T r = R_s^T z`.
-    pub g: &'s [f64],
-    /// The objective.
+    /// The objective `|r|^2`.
     pub f: f64,
+    /// The current point.
+    pub x: &'s [f64],
+    /// The column norms of `J` (those of `R`); 1 for dead columns.
+    pub norms: &'s [f64],
+    /// Columns no residual feels (below 1e-12 of the largest norm).
+    pub dead: &'s [bool],
+    /// The Gauss-Newton step from the point (unscaled; rank-truncated at `rcond`).
+    pub gauss_newton: &'s [f64],
+    /// The numerical rank of the scaled `R` (at `rcond`).
+    pub rank: usize,
 }
 
-/// A step a rule had accepted: the scaled step, the objective it reached, the damping (LM) or
-/// line-search factor (others), and the evaluations spent.
+impl System<'_> {
+    /// `R_s = R D^-1` (columns divided by their norms, dead ones zeroed).
+    fn scaled_r(&self) -> Matrix {
+        let n = self.r.ncols();
+        Matrix::from_fn(n, n, |i, j| {
+            if self.dead[j] {
+                0.0
+            } else {
+                self.r[(i, j)] / self.norms[j]
+            }
+        })
+    }
+
+    /// The scaled gradient `g = R_s^T z`.
+    fn scaled_gradient(&self, rs: &Matrix) -> Vec<f64> {
+        let n = rs.ncols();
+        (0..n)
+            .map(|j| (0..=j).map(|i| rs[(i, j)] * self.z[i]).sum())
+            .collect()
+    }
+
+    /// The unscaled step of a scaled one.
+    fn unscale(&self, y: &[f64]) -> Vec<f64> {
+        y.iter()
+            .enumerate()
+            .map(|(j, v)| if self.dead[j] { 0.0 } else { v / self.norms[j] })
+            .collect()
+    }
+}
+
+/// A step a rule had accepted.
 pub struct Step {
-    /// Scaled step.
-    pub y: Vec<f64>,
+    /// The step in the problem's parameters.
+    pub p: Vec<f64>,
     /// Objective after the step.
     pub f: f64,
     /// LM damping, or line-search factor.
@@ -264,120 +344,302 @@ pub struct Step {
     pub evaluations: usize,
 }
 
-/// A least-squares method: proposes scaled steps `y` (the parameters move by `D^-1 y`) and
-/// evaluates them with `trial`, which returns the objective there (infinite when not finite),
-/// until one lowers the objective. `None` when none does.
-pub trait StepRule {
-    /// Whether the driver divides columns by their norms (plain LM damping does not).
-    fn scales_columns(&self) -> bool {
-        true
-    }
-    /// Whether the rule works on `R_s` and `z` ([`Scaled`]); a rule that forms only
-    /// `J_s^T J_s` and `g` says no, and the driver then accumulates the Gram matrix of the
-    /// Jacobian instead of a QR (half the arithmetic per residual row).
-    fn needs_r(&self) -> bool {
-        true
-    }
-    /// Proposes steps until one lowers `sys.f`.
-    fn step(
-        &mut self,
-        sys: &Scaled<'_>,
-        trial: &mut dyn FnMut(&[f64]) -> f64,
-    ) -> Result<Option<Step>>;
+/// What a step rule may ask of the problem at the current point `x`.
+pub trait Trials {
+    /// The objective at `x + p` (infinite where it is not finite).
+    fn objective(&mut self, p: &[f64]) -> f64;
 }
 
-/// Levenberg-Marquardt (eqs. 3.14-3.15).
+/// What a step rule found.
+pub enum Proposal {
+    /// A step that lowers the objective.
+    Step(Step),
+    /// No step lowers the objective. `at_rounding`: the last steps tried were so short that
+    /// the reduction the local model promised for them (below 1e-14 of the objective) could
+    /// not be told from the objective's rounding, so the point is stationary within the region
+    /// where the model was found to hold.
+    Exhausted {
+        /// Whether the rule gave up at the rounding of the objective.
+        at_rounding: bool,
+    },
+}
+
+/// A least-squares method: proposes steps `p` (the parameters move to `x + p`) and evaluates
+/// them with `trials`, until one lowers the objective.
+pub trait StepRule {
+    /// Proposes steps until one lowers `sys.f`.
+    fn step(&mut self, sys: &System<'_>, trials: &mut dyn Trials) -> Result<Proposal>;
+}
+
+/// Levenberg-Marquardt as a scaled trust region (Moré 1978).
 pub struct LevenbergMarquardt {
     damping: Damping,
-    lambda: f64,
+    rcond: f64,
+    /// The trust region's radius (in scaled units); NaN before the first step.
+    delta: f64,
+    /// The last damping found.
+    par: f64,
+    /// The scaling `D` (running maximum of the column norms); empty before the first step.
+    diag: Vec<f64>,
 }
 
+/// The initial trust region: the scaled parameters' length (MINPACK's `factor` = 1: its default
+/// 100 lets the first step of BoxBOD, MGH09 and MGH17 from NIST's first start leap onto a
+/// plateau).
+const INITIAL_RADIUS: f64 = 1.0;
+
 impl LevenbergMarquardt {
-    /// With damping `damping`, lambda chosen at the first step.
-    pub fn new(damping: Damping) -> Self {
+    /// With damping `damping`; Gauss-Newton steps truncated at `rcond`.
+    pub fn new(damping: Damping, rcond: f64) -> Self {
         LevenbergMarquardt {
             damping,
-            lambda: f64::NAN,
+            rcond,
+            delta: f64::NAN,
+            par: 0.0,
+            diag: Vec::new(),
         }
     }
 }
 
 impl StepRule for LevenbergMarquardt {
-    fn scales_columns(&self) -> bool {
-        self.damping == Damping::Marquardt
-    }
-
-    fn needs_r(&self) -> bool {
-        false
-    }
-
-    fn step(
-        &mut self,
-        sys: &Scaled<'_>,
-        trial: &mut dyn FnMut(&[f64]) -> f64,
-    ) -> Result<Option<Step>> {
-        let c = sys.c;
-        let n = c.ncols();
-        let max_diag = (0..n).map(|i| c[(i, i)]).fold(0.0, f64::max);
-        if self.lambda.is_nan() {
-            self.lambda = 1e-3 * if max_diag > 0.0 { max_diag } else { 1.0 };
+    fn step(&mut self, sys: &System<'_>, trials: &mut dyn Trials) -> Result<Proposal> {
+        let n = sys.r.ncols();
+        let first = self.diag.is_empty();
+        if first {
+            self.diag = vec![1.0; n];
         }
-        let cap = 1e12 * max_diag.max(1.0);
-        let rhs: Vec<f64> = sys.g.iter().map(|v| -v).collect();
-        let mut evaluations = 0;
-        let mut a = c.clone();
-        while self.lambda <= cap {
-            for i in 0..n {
-                a[(i, i)] = c[(i, i)] + self.lambda;
+        for j in 0..n {
+            self.diag[j] = match self.damping {
+                Damping::Identity => 1.0,
+                Damping::Marquardt if sys.dead[j] => 1.0,
+                Damping::Marquardt if first => sys.norms[j],
+                Damping::Marquardt => self.diag[j].max(sys.norms[j]),
+            };
+        }
+        let rs = Matrix::from_fn(n, n, |i, j| {
+            if sys.dead[j] {
+                0.0
+            } else {
+                sys.r[(i, j)] / self.diag[j]
             }
-            if let Some(y) = linalg::solve_spd(&a, &rhs) {
-                evaluations += 1;
-                let f = trial(&y);
-                if f < sys.f {
-                    let used = self.lambda;
-                    self.lambda = (self.lambda / 10.0).max(1e-15);
-                    return Ok(Some(Step {
-                        y,
-                        f,
-                        lambda: used,
-                        evaluations,
-                    }));
+        });
+        let qr = PivotedQr::new(&rs);
+        let mut w = sys.z.to_vec();
+        qr.apply_qt(&mut w);
+        let t = qr.t();
+        let rank = qr.rank(self.rcond);
+        let xnorm = sys
+            .x
+            .iter()
+            .zip(&self.diag)
+            .map(|(x, d)| (x * d) * (x * d))
+            .sum::<f64>()
+            .sqrt();
+        if self.delta.is_nan() {
+            self.delta = if xnorm > 0.0 {
+                INITIAL_RADIUS * xnorm
+            } else {
+                INITIAL_RADIUS
+            };
+        }
+        let fnorm = sys.f.sqrt();
+        let mut first_trial = first;
+        // Each rejection at least halves the radius: 60 of them take it from any size to the
+        // rounding of the parameters.
+        for evaluations in 1..=60 {
+            let (par, u) = trust_region_step(t, &w, rank, self.delta, self.par);
+            self.par = par;
+            let pnorm = norm(&u);
+            if first_trial {
+                self.delta = self.delta.min(pnorm);
+                first_trial = false;
+            }
+            let mut p = vec![0.0; n];
+            for (k, &uk) in u.iter().enumerate() {
+                let j = qr.perm()[k];
+                p[j] = if sys.dead[j] { 0.0 } else { uk / self.diag[j] };
+            }
+            let f1 = trials.objective(&p);
+            let fnorm1 = f1.sqrt();
+            let actred = if 0.1 * fnorm1 < fnorm {
+                1.0 - (fnorm1 / fnorm).powi(2)
+            } else {
+                -1.0
+            };
+            // The linear model's relative reduction, `(|w|^2 - |w + T u|^2) / f = (|T u|^2 + 2
+            // par |u|^2) / f` for the damped step.
+            let tu = upper_times(t, &u);
+            let temp1 = norm(&tu) / fnorm;
+            let temp2 = par.sqrt() * pnorm / fnorm;
+            let dirder = -(temp1 * temp1 + temp2 * temp2);
+            let prered = temp1 * temp1 + 2.0 * temp2 * temp2;
+            let ratio = if prered != 0.0 { actred / prered } else { 0.0 };
+            if ratio <= 0.25 {
+                let mut temp = if actred >= 0.0 {
+                    0.5
+                } else {
+                    0.5 * dirder / (dirder + 0.5 * actred)
+                };
+                if 0.1 * fnorm1 >= fnorm || temp.is_nan() || temp < 0.1 {
+                    temp = 0.1;
                 }
+                self.delta = temp * self.delta.min(pnorm / 0.1);
+                self.par /= temp;
+            } else if self.par == 0.0 || ratio >= 0.75 {
+                self.delta = pnorm / 0.5;
+                self.par *= 0.5;
             }
-            self.lambda *= 10.0;
+            if ratio >= 1e-4 && f1 < sys.f {
+                return Ok(Proposal::Step(Step {
+                    p,
+                    f: f1,
+                    lambda: par,
+                    evaluations,
+                }));
+            }
+            if prered <= RESOLVABLE {
+                return Ok(Proposal::Exhausted { at_rounding: true });
+            }
+            if self.delta.is_nan() || self.delta <= f64::EPSILON * xnorm || pnorm == 0.0 {
+                break;
+            }
         }
-        Ok(None)
+        Ok(Proposal::Exhausted { at_rounding: false })
     }
 }
 
-/// Gauss-Newton (eq. 3.13), refusing a singular system.
+/// The step `u` minimising `|T u + w|^2` subject to `|u| <= delta` (Moré's `lmpar`): the
+/// Gauss-Newton step (truncated at `rank`) when it is within 1.1 `delta`, else the damped
+/// step `(T^T T + par I) u = -T^T w` with `par` found by Newton's method on `1/|u(par)| -
+/// 1/delta` within safeguarding bounds, to 10 % of `delta` (at most 10 solves). Returns `par`
+/// (0 for the Gauss-Newton step) and `u`. `par0` is the previous call's `par`, a good start.
+fn trust_region_step(t: &Matrix, w: &[f64], rank: usize, delta: f64, par0: f64) -> (f64, Vec<f64>) {
+    let n = t.ncols();
+    let mut u = linalg::min_norm_solve(t, w, rank);
+    let mut dxnorm = norm(&u);
+    let mut fp = dxnorm - delta;
+    if fp <= 0.1 * delta {
+        return (0.0, u);
+    }
+    // Lower bound: Newton's step at par = 0 when T is nonsingular.
+    let mut parl = 0.0;
+    if rank == n {
+        let a: Vec<f64> = u.iter().map(|v| v / dxnorm).collect();
+        let b = linalg::solve_upper_transposed(t, &a, n);
+        let bn = norm(&b);
+        parl = fp / delta / (bn * bn);
+    }
+    // Upper bound: |T^T w| / delta.
+    let g: Vec<f64> = (0..n)
+        .map(|j| (0..=j.min(t.nrows() - 1)).map(|i| t[(i, j)] * w[i]).sum())
+        .collect();
+    let gnorm = norm(&g);
+    let mut paru = gnorm / delta;
+    if paru == 0.0 {
+        paru = f64::MIN_POSITIVE / delta.min(0.1);
+    }
+    let mut par = par0.max(parl).min(paru);
+    if par == 0.0 {
+        par = gnorm / dxnorm;
+    }
+    for iter in 0..10 {
+        if par == 0.0 {
+            par = f64::MIN_POSITIVE.max(0.001 * paru);
+        }
+        let (step, s) = damped_solve(t, w, par);
+        u = step;
+        dxnorm = norm(&u);
+        let temp = fp;
+        fp = dxnorm - delta;
+        if fp.abs() <= 0.1 * delta || (parl == 0.0 && fp <= temp && temp < 0.0) || iter == 9 {
+            break;
+        }
+        // Newton's correction on 1/|u(par)|.
+        let a: Vec<f64> = u.iter().map(|v| v / dxnorm).collect();
+        let b = linalg::solve_upper_transposed(&s, &a, n);
+        let bn = norm(&b);
+        let parc = fp / delta / (bn * bn);
+        if fp > 0.0 {
+            parl = parl.max(par);
+        }
+        if fp < 0.0 {
+            paru = paru.min(par);
+        }
+        par = parl.max(par + parc);
+    }
+    (par, u)
+}
+
+/// The least-squares solution of `[T; sqrt(par) I] u = [-w; 0]` (`par > 0`), from the QR of
+/// the stacked matrix by Givens rotations (the damping rows folded into `T` one at a time),
+/// and that QR's triangular factor `S` (`S^T S = T^T T + par I`).
+fn damped_solve(t: &Matrix, w: &[f64], par: f64) -> (Vec<f64>, Matrix) {
+    let n = t.ncols();
+    let mut s = Matrix::from_fn(n, n, |i, j| {
+        if i <= j && i < t.nrows() {
+            t[(i, j)]
+        } else {
+            0.0
+        }
+    });
+    let mut b: Vec<f64> = (0..n)
+        .map(|i| if i < w.len() { -w[i] } else { 0.0 })
+        .collect();
+    let root = par.sqrt();
+    let mut row = vec![0.0; n];
+    for j in 0..n {
+        row.fill(0.0);
+        row[j] = root;
+        let mut rb = 0.0;
+        for k in j..n {
+            if row[k] == 0.0 {
+                continue;
+            }
+            let (a, c) = (s[(k, k)], row[k]);
+            let h = a.hypot(c);
+            let (cos, sin) = (a / h, c / h);
+            for l in k..n {
+                let (x, y) = (s[(k, l)], row[l]);
+                s[(k, l)] = cos * x + sin * y;
+                row[l] = -sin * x + cos * y;
+            }
+            let (x, y) = (b[k], rb);
+            b[k] = cos * x + sin * y;
+            rb = -sin * x + cos * y;
+        }
+    }
+    let u = linalg::solve_upper(&s, &b, n);
+    (u, s)
+}
+
+/// `T u` for an upper-triangular `T`.
+fn upper_times(t: &Matrix, u: &[f64]) -> Vec<f64> {
+    (0..t.nrows())
+        .map(|i| (i..t.ncols()).map(|j| t[(i, j)] * u[j]).sum())
+        .collect()
+}
+
+fn norm(v: &[f64]) -> f64 {
+    dot(v, v).sqrt()
+}
+
+/// Gauss-Newton (eq. 3.13), refusing a rank-deficient system.
 pub struct GaussNewton {
-    /// Relative singular-value threshold for the rank test.
+    /// The relative threshold of the rank test (the same as the driver's).
     pub rcond: f64,
 }
 
 impl StepRule for GaussNewton {
-    fn step(
-        &mut self,
-        sys: &Scaled<'_>,
-        trial: &mut dyn FnMut(&[f64]) -> f64,
-    ) -> Result<Option<Step>> {
-        let n = sys.rs.ncols();
-        let s = linalg::singular_values(sys.rs)
-            .ok_or_else(|| Error::Numerical("SVD of the Jacobian did not converge".into()))?;
-        let smax = s.first().copied().unwrap_or(0.0);
-        let rank = s.iter().filter(|&&v| v > self.rcond * smax).count();
-        let singular = Error::SingularNormalEquations {
-            rank,
-            parameters: n,
-            rcond: self.rcond,
-        };
-        if rank < n {
-            return Err(singular);
+    fn step(&mut self, sys: &System<'_>, trials: &mut dyn Trials) -> Result<Proposal> {
+        let live = sys.dead.iter().filter(|d| !**d).count();
+        if sys.rank < live {
+            return Err(Error::SingularNormalEquations {
+                rank: sys.rank,
+                parameters: sys.r.ncols(),
+                rcond: self.rcond,
+            });
         }
-        let rhs: Vec<f64> = sys.g.iter().map(|v| -v).collect();
-        let y = linalg::solve_spd(sys.c, &rhs).ok_or(singular)?;
-        Ok(halving(y, sys.f, trial))
+        Ok(halving(sys.gauss_newton.to_vec(), sys.f, trials))
     }
 }
 
@@ -385,21 +647,19 @@ impl StepRule for GaussNewton {
 pub struct SteepestDescent;
 
 impl StepRule for SteepestDescent {
-    fn step(
-        &mut self,
-        sys: &Scaled<'_>,
-        trial: &mut dyn FnMut(&[f64]) -> f64,
-    ) -> Result<Option<Step>> {
+    fn step(&mut self, sys: &System<'_>, trials: &mut dyn Trials) -> Result<Proposal> {
+        let rs = sys.scaled_r();
+        let g = sys.scaled_gradient(&rs);
         // |J_s g| = |Q R_s g| = |R_s g|.
-        let jg = linalg::a_v(sys.rs, sys.g);
+        let jg = linalg::a_v(&rs, &g);
         let denom = dot(&jg, &jg);
         let t = if denom > 0.0 {
-            dot(sys.g, sys.g) / denom
+            dot(&g, &g) / denom
         } else {
             0.0
         };
-        let y = sys.g.iter().map(|v| -t * v).collect();
-        Ok(halving(y, sys.f, trial))
+        let y: Vec<f64> = g.iter().map(|v| -t * v).collect();
+        Ok(halving(sys.unscale(&y), sys.f, trials))
     }
 }
 
@@ -410,16 +670,13 @@ pub struct TruncatedSvd {
 }
 
 impl StepRule for TruncatedSvd {
-    fn step(
-        &mut self,
-        sys: &Scaled<'_>,
-        trial: &mut dyn FnMut(&[f64]) -> f64,
-    ) -> Result<Option<Step>> {
+    fn step(&mut self, sys: &System<'_>, trials: &mut dyn Trials) -> Result<Proposal> {
         // J_s = (Q U) S V^T with R_s = U S V^T: u_k^T r of J_s's vectors is U's u_k^T z.
-        let svd = linalg::thin_svd(sys.rs)
+        let rs = sys.scaled_r();
+        let svd = linalg::thin_svd(&rs)
             .ok_or_else(|| Error::Numerical("SVD of the Jacobian did not converge".into()))?;
         let smax = svd.s.first().copied().unwrap_or(0.0);
-        let mut y = vec![0.0; sys.rs.ncols()];
+        let mut y = vec![0.0; rs.ncols()];
         for (k, &s) in svd.s.iter().enumerate() {
             if s > self.rcond * smax {
                 let coef = -dot(svd.u.col(k), sys.z) / s;
@@ -428,33 +685,34 @@ impl StepRule for TruncatedSvd {
                 }
             }
         }
-        Ok(halving(y, sys.f, trial))
+        Ok(halving(sys.unscale(&y), sys.f, trials))
     }
 }
 
-/// Tries `y`, `y/2`, `y/4`, ... (40 times) until the objective drops below `f`.
-fn halving(y: Vec<f64>, f: f64, trial: &mut dyn FnMut(&[f64]) -> f64) -> Option<Step> {
-    if !(y.iter().all(|v| v.is_finite()) && y.iter().any(|&v| v != 0.0)) {
-        return None;
+/// Tries `p`, `p/2`, `p/4`, ... (40 times) until the objective drops below `f`.
+fn halving(p: Vec<f64>, f: f64, trials: &mut dyn Trials) -> Proposal {
+    let exhausted = Proposal::Exhausted { at_rounding: false };
+    if !(p.iter().all(|v| v.is_finite()) && p.iter().any(|&v| v != 0.0)) {
+        return exhausted;
     }
     let mut t = 1.0;
-    let mut ys = y.clone();
+    let mut ps = p.clone();
     for evaluations in 1..=40 {
-        let fv = trial(&ys);
+        let fv = trials.objective(&ps);
         if fv < f {
-            return Some(Step {
-                y: ys,
+            return Proposal::Step(Step {
+                p: ps,
                 f: fv,
                 lambda: t,
                 evaluations,
             });
         }
         t *= 0.5;
-        for (s, v) in ys.iter_mut().zip(&y) {
+        for (s, v) in ps.iter_mut().zip(&p) {
             *s = v * t;
         }
     }
-    None
+    exhausted
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -464,336 +722,491 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// Minimises the problem's objective from `x0` with `opts.method`, calling `observer` after
 /// every iteration.
 pub fn solve(
-    problem: &Problem<'_>,
+    problem: &dyn LeastSquares,
     x0: &[f64],
     opts: &SolverOptions,
     observer: &mut dyn FnMut(&Iteration),
 ) -> Result<Solution> {
-    drive(problem, x0, opts, opts.method.rule(opts).as_mut(), observer)
+    drive(
+        problem,
+        x0,
+        opts,
+        opts.method.rule(opts).as_mut(),
+        observer,
+        None,
+    )
 }
 
-/// What an evaluation kept of the weighted `[J | r]`: the `R` of its QR, or its Gram matrix.
+/// The Jacobian's condition (of the column-scaled `R`, by the pivoted QR's diagonal) below
+/// which the Gram matrix is accurate enough to stand in for the QR.
+const GRAM_CONDITION: f64 = 1e4;
+
+/// A linearisation: `R` (`n x n`), `z` and the objective, at one point.
 struct Linearization {
-    cols: usize,
-    /// Made on first use: a step rule that forms only `J^T J` needs one QR (the start) and
-    /// Gram matrices after, so most of these are never made.
-    qr_acc: Option<QrAccumulator>,
-    gram_acc: Option<GramAccumulator>,
-    /// Which of the two the last evaluation filled.
-    by_qr: bool,
+    r: Matrix,
+    z: Vec<f64>,
+    f: f64,
 }
 
 impl Linearization {
-    fn new(cols: usize) -> Self {
+    fn new(n: usize) -> Self {
         Linearization {
-            cols,
-            qr_acc: None,
-            gram_acc: None,
-            by_qr: true,
+            r: Matrix::zeros(n, n),
+            z: vec![0.0; n],
+            f: f64::NAN,
         }
     }
 
-    /// The QR accumulator.
-    fn qr(&mut self) -> &mut QrAccumulator {
-        let cols = self.cols;
-        self.qr_acc
-            .get_or_insert_with(|| QrAccumulator::new(cols, QR_BLOCK))
-    }
-
-    /// The Gram accumulator.
-    fn gram(&mut self) -> &mut GramAccumulator {
-        let cols = self.cols;
-        self.gram_acc
-            .get_or_insert_with(|| GramAccumulator::new(cols, QR_BLOCK))
-    }
-
-    /// Evaluates `problem` at `robot` into `res` and the QR (`by_qr`) or the Gram matrix.
-    fn evaluate(
-        &mut self,
-        problem: &Problem<'_>,
-        robot: &Robot,
-        res: &mut [f64],
-        by_qr: bool,
-    ) -> f64 {
-        self.by_qr = by_qr;
-        if by_qr {
-            problem.evaluate_qr(robot, res, self.qr())
-        } else {
-            problem.evaluate_gram(robot, res, self.gram())
-        }
-    }
-}
-
-/// The driver: runs `rule` from `x0` (see the module documentation).
-pub fn drive(
-    problem: &Problem<'_>,
-    x0: &[f64],
-    opts: &SolverOptions,
-    rule: &mut dyn StepRule,
-    observer: &mut dyn FnMut(&Iteration),
-) -> Result<Solution> {
-    drive_from(problem, x0, opts, rule, observer, None)
-}
-
-/// [`drive`], with the linearisation at `x0` at hand when `start` gives it: the `R` of the
-/// weighted `[J | r]` there (`(cols + 1)` square, in the problem's column order) and the
-/// errors there, as a pass at `x0` would make them. The first evaluation is then skipped.
-pub(crate) fn drive_from(
-    problem: &Problem<'_>,
-    x0: &[f64],
-    opts: &SolverOptions,
-    rule: &mut dyn StepRule,
-    observer: &mut dyn FnMut(&Iteration),
-    start: Option<(&Matrix, &Accuracy)>,
-) -> Result<Solution> {
-    let (m, n) = (problem.rows(), problem.cols());
-    let mut x = x0.to_vec();
-    let mut r = vec![0.0; m];
-    // The Jacobian is never held: its rows (with the residual) go into the R of a QR, or the
-    // Gram matrix, a block of rows at a time, so memory is flat in the number of postures.
-    // The start is always by QR (its R is the linearisation the uncertainty reuses).
-    let mut lin = Linearization::new(n + 1);
-    lin.by_qr = true;
-    let given = start.filter(|(r0, _)| r0.nrows() == n + 1 && r0.ncols() == n + 1);
-    let (mut f, start_accuracy) = match given {
-        Some((r0, accuracy)) => {
-            // Its rows are their own R: pushed into the accumulator, the iterations read it
-            // back as from a pass. The last column is [Q^T r; rho]: its squared norm is the
-            // objective.
-            lin.qr().clear();
-            let mut row = vec![0.0; n + 1];
-            for i in 0..=n {
-                for (j, v) in row.iter_mut().enumerate() {
-                    *v = r0[(i, j)];
-                }
-                lin.qr().push(&row);
+    /// From the `R` of `[J | r]` (`(n + 1)` square).
+    fn set_from_augmented(&mut self, raug: &Matrix, f: f64) {
+        let n = self.z.len();
+        for j in 0..n {
+            for i in 0..n {
+                self.r[(i, j)] = raug[(i, j)];
             }
-            let f: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
-            (f, accuracy.clone())
+            self.z[j] = raug[(j, n)];
         }
-        None => problem.evaluate_qr_checked(&problem.robot_at(&x), &mut r, lin.qr()),
-    };
-    if !f.is_finite() {
-        problem.evaluate(&problem.robot_at(&x), &mut r, None);
-        return Err(non_finite_start(problem, &r));
+        self.f = f;
     }
-    let objective_before = f;
-    let mut start_r = Matrix::zeros(0, 0);
-    lin.qr().r_into(&mut start_r);
-    let by_qr = rule.needs_r();
-    let mut trial_r = vec![0.0; m];
-    // The linearisation at the last trial point, computed with its residuals: a step rule
-    // accepts the last point it tried (nearly always), and then the next iteration needs no
-    // second pass of forward kinematics there.
-    let mut trial_lin = Linearization::new(n + 1);
-    let mut termination = Termination::MaxIterations;
+
+    /// From the Gram matrix of `[J | r]`: `R` the Cholesky factor of `J^T J` (with dead columns
+    /// left zero), `z = R^-T J^T r`. False when the scaled Gram matrix is not comfortably
+    /// positive definite (its Cholesky pivots below `1 / GRAM_CONDITION`).
+    fn set_from_gram(&mut self, gram: &Matrix, f: f64) -> bool {
+        let n = self.z.len();
+        let norms: Vec<f64> = (0..n).map(|j| gram[(j, j)].max(0.0).sqrt()).collect();
+        let max = norms.iter().copied().fold(0.0, f64::max);
+        let live: Vec<usize> = (0..n).filter(|&j| norms[j] > 1e-12 * max).collect();
+        let k = live.len();
+        let c = Matrix::from_fn(k, k, |a, b| {
+            let (i, j) = (live[a], live[b]);
+            gram[(i, j)] / (norms[i] * norms[j])
+        });
+        let Some(l) = linalg::cholesky(&c) else {
+            return false;
+        };
+        if (0..k).any(|i| l[(i, i)] < 1.0 / GRAM_CONDITION) {
+            return false;
+        }
+        // R (scaled) = L^T; unscale: R_ij = L_ji * norm_j; z = R^-T g.
+        self.r = Matrix::zeros(n, n);
+        self.z.fill(0.0);
+        let mut rl = Matrix::zeros(k, k);
+        for a in 0..k {
+            for b in a..k {
+                rl[(a, b)] = l[(b, a)] * norms[live[b]];
+            }
+        }
+        let g: Vec<f64> = live.iter().map(|&j| gram[(j, n)]).collect();
+        let zl = linalg::solve_upper_transposed(&rl, &g, k);
+        for a in 0..k {
+            for b in a..k {
+                self.r[(live[a], live[b])] = rl[(a, b)];
+            }
+            self.z[live[a]] = zl[a];
+        }
+        self.f = f;
+        true
+    }
+}
+
+/// Evaluates a problem into linearisations, by QR, or by the Gram matrix once that is known to
+/// be accurate.
+struct Evaluator<'p> {
+    problem: &'p dyn LeastSquares,
+    qr: QrAccumulator,
+    gram: Option<GramAccumulator>,
+    use_gram: bool,
+    res: Vec<f64>,
+    raug: Matrix,
+}
+
+impl<'p> Evaluator<'p> {
+    fn new(problem: &'p dyn LeastSquares) -> Self {
+        let n = problem.cols();
+        Evaluator {
+            problem,
+            qr: QrAccumulator::new(n + 1, QR_BLOCK),
+            gram: None,
+            use_gram: false,
+            res: vec![0.0; problem.rows()],
+            raug: Matrix::zeros(n + 1, n + 1),
+        }
+    }
+
+    /// The linearisation at `x` into `out`; returns the objective (non-finite ones as they
+    /// are, `out` then unusable).
+    fn linearize(&mut self, x: &[f64], out: &mut Linearization) -> f64 {
+        let n = self.problem.cols();
+        if self.use_gram {
+            let gram = self
+                .gram
+                .get_or_insert_with(|| GramAccumulator::new(n + 1, QR_BLOCK));
+            gram.clear();
+            let f = self.problem.linearize(x, &mut self.res, gram);
+            if !f.is_finite() {
+                return f;
+            }
+            gram.gram_into(&mut self.raug);
+            if out.set_from_gram(&self.raug, f) {
+                return f;
+            }
+            // The conditioning degraded: QR from here on.
+            self.use_gram = false;
+        }
+        self.qr.clear();
+        let f = self.problem.linearize(x, &mut self.res, &mut self.qr);
+        if f.is_finite() {
+            self.qr.r_into(&mut self.raug);
+            out.set_from_augmented(&self.raug, f);
+        }
+        f
+    }
+}
+
+/// The driver's [`Trials`]: each objective is evaluated with its linearisation (a rule accepts
+/// the last point it tried nearly always, and then the next iteration needs no second pass).
+struct DriverTrials<'a, 'p> {
+    ev: &'a mut Evaluator<'p>,
+    x: &'a [f64],
+    trial_x: &'a mut Vec<f64>,
+    trial_lin: &'a mut Linearization,
+    /// The objective at the last trial.
+    last: f64,
+}
+
+impl Trials for DriverTrials<'_, '_> {
+    fn objective(&mut self, p: &[f64]) -> f64 {
+        for (t, (x, p)) in self.trial_x.iter_mut().zip(self.x.iter().zip(p)) {
+            *t = x + p;
+        }
+        let v = self.ev.linearize(self.trial_x, self.trial_lin);
+        self.last = v;
+        if v.is_finite() {
+            v
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The stationarity measures at a linearisation, and the Gauss-Newton step.
+struct Certificate {
+    stationarity: Stationarity,
+    gauss_newton: Vec<f64>,
+    well_conditioned: bool,
+}
+
+fn certify(
+    lin: &Linearization,
+    x: &[f64],
+    norms: &[f64],
+    dead: &[bool],
+    rcond: f64,
+) -> Certificate {
+    let n = x.len();
+    let rs = Matrix::from_fn(n, n, |i, j| {
+        if dead[j] {
+            0.0
+        } else {
+            lin.r[(i, j)] / norms[j]
+        }
+    });
+    let qr = PivotedQr::new(&rs);
+    let mut w = lin.z.clone();
+    qr.apply_qt(&mut w);
+    let rank = qr.rank(rcond);
+    let u = linalg::min_norm_solve(qr.t(), &w, rank);
+    let mut y = vec![0.0; n];
+    for (k, &uk) in u.iter().enumerate() {
+        y[qr.perm()[k]] = uk;
+    }
+    let p: Vec<f64> = (0..n)
+        .map(|j| if dead[j] { 0.0 } else { y[j] / norms[j] })
+        .collect();
+    let predicted: f64 = w[..rank].iter().map(|v| v * v).sum();
+    let xs = x
+        .iter()
+        .zip(norms)
+        .zip(dead)
+        .map(|((x, d), &dd)| if dd { 0.0 } else { (x * d) * (x * d) })
+        .sum::<f64>()
+        .sqrt();
+    let ynorm = norm(&y);
+    let step = if ynorm == 0.0 {
+        0.0
+    } else if xs > 0.0 {
+        ynorm / xs
+    } else {
+        f64::INFINITY
+    };
+    let fnorm = lin.f.sqrt();
+    let gradient = if fnorm > 0.0 {
+        (0..n)
+            .map(|j| (0..=j).map(|i| rs[(i, j)] * lin.z[i]).sum::<f64>().abs() / fnorm)
+            .fold(0.0, f64::max)
+    } else {
+        0.0
+    };
+    let live = dead.iter().filter(|d| !**d).count();
+    let diag = qr.diagonal();
+    let well_conditioned = rank == live && live > 0 && diag[live - 1] >= diag[0] / GRAM_CONDITION;
+    Certificate {
+        stationarity: Stationarity {
+            predicted_reduction: if lin.f > 0.0 { predicted / lin.f } else { 0.0 },
+            step,
+            gradient,
+            rank,
+        },
+        gauss_newton: p,
+        well_conditioned,
+    }
+}
+
+/// The driver: runs `rule` from `x0` (see the module documentation). `start`, when given, is
+/// the `R` of `[J | r]` at `x0` (`(cols + 1)` square), as a QR pass there would make it: the
+/// first evaluation is then skipped.
+pub(crate) fn drive(
+    problem: &dyn LeastSquares,
+    x0: &[f64],
+    opts: &SolverOptions,
+    rule: &mut dyn StepRule,
+    observer: &mut dyn FnMut(&Iteration),
+    start: Option<&Matrix>,
+) -> Result<Solution> {
+    let n = problem.cols();
+    assert_eq!(x0.len(), n, "x0 must have one value per unknown");
+    let mut x = x0.to_vec();
+    let mut ev = Evaluator::new(problem);
+    let mut lin = Linearization::new(n);
+    let given = start.filter(|r0| r0.nrows() == n + 1 && r0.ncols() == n + 1);
+    let start_r = match given {
+        Some(r0) => {
+            let f: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
+            lin.set_from_augmented(r0, f);
+            r0.clone()
+        }
+        None => {
+            let f = ev.linearize(&x, &mut lin);
+            if !f.is_finite() {
+                return Err(Error::Numerical(
+                    "the objective is not finite at the starting point".into(),
+                ));
+            }
+            ev.raug.clone()
+        }
+    };
+    let objective_before = lin.f;
+    let mut trial_lin = Linearization::new(n);
+    let termination;
     let mut iterations = 0;
     let mut unfelt = None;
     let mut trial_x = vec![0.0; n];
-    let mut raug = Matrix::zeros(n + 1, n + 1);
-    let mut rs = Matrix::zeros(n, n);
-    let mut c = Matrix::zeros(n, n);
-    let mut z = vec![0.0; n];
-    let mut g = vec![0.0; n];
-    let mut norms = vec![0.0; n];
-    let mut d = vec![1.0; n];
+    let mut norms = vec![1.0; n];
     let mut dead = vec![false; n];
-    while iterations < opts.max_iterations {
-        if f == 0.0 {
+    let mut stationarity;
+    let mut decided = false;
+    loop {
+        let f = lin.f;
+        for (j, c) in norms.iter_mut().enumerate() {
+            *c = linalg::col_norm(&lin.r, j);
+        }
+        // Columns no residual feels (rounding noise, below 1e-12 of the largest) are left out.
+        // Column norms may legitimately span many orders of magnitude away from the start, so
+        // after it a column is left out that way only if it was unfelt at the start too (a
+        // parameter the observations cannot see), or is exactly zero.
+        let max_norm = norms.iter().copied().fold(0.0, f64::max);
+        let faint: Vec<bool> = norms
+            .iter()
+            .map(|&c| !c.is_finite() || c <= 1e-12 * max_norm)
+            .collect();
+        let unfelt = unfelt.get_or_insert_with(|| (0..n).filter(|&j| faint[j]).collect::<Vec<_>>());
+        for j in 0..n {
+            dead[j] = (faint[j] && unfelt.contains(&j)) || norms[j] == 0.0 || !norms[j].is_finite();
+            if dead[j] {
+                norms[j] = 1.0;
+            }
+        }
+        let cert = certify(&lin, &x, &norms, &dead, opts.rcond);
+        stationarity = cert.stationarity;
+        if !decided {
+            ev.use_gram = cert.well_conditioned;
+            decided = true;
+        }
+        // The residual rounding the parameters alone would make: `|J dx|` for `|dx_j| <= eps
+        // |x_j|`, at most `eps sqrt(n) |D x|`.
+        let xs = (0..n)
+            .filter(|&j| !dead[j])
+            .map(|j| (x[j] * norms[j]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let floor = 16.0 * f64::EPSILON * (n as f64).sqrt() * xs;
+        if f == 0.0 || f <= floor * floor {
             termination = Termination::ZeroObjective;
             break;
         }
+        if stationarity.predicted_reduction <= opts.ftol {
+            termination = Termination::SmallPredictedReduction;
+            break;
+        }
+        if stationarity.step <= opts.xtol {
+            // The last Gauss-Newton step is below xtol: taken when it does not raise the
+            // objective (one pass of the residuals), it leaves the parameters at rounding
+            // rather than at xtol (at a zero-residual solution, the step is the error).
+            let polished: Vec<f64> = x
+                .iter()
+                .zip(&cert.gauss_newton)
+                .map(|(a, b)| a + b)
+                .collect();
+            let mut r = vec![0.0; problem.rows()];
+            let fp = problem.residuals(&polished, &mut r);
+            if fp.is_finite() && fp <= f {
+                x = polished;
+                lin.f = fp;
+            }
+            termination = Termination::SmallStep;
+            break;
+        }
+        if iterations >= opts.max_iterations {
+            termination = Termination::MaxIterations;
+            break;
+        }
         iterations += 1;
-        if lin.by_qr {
-            lin.qr().r_into(&mut raug);
-            // Column norms of J are those of R (Q has orthonormal columns).
-            for (j, c) in norms.iter_mut().enumerate() {
-                *c = linalg::col_norm(&raug, j);
-            }
-        } else {
-            // `raug` holds the Gram matrix of [J | r].
-            lin.gram().gram_into(&mut raug);
-            for (j, c) in norms.iter_mut().enumerate() {
-                *c = raug[(j, j)].max(0.0).sqrt();
-            }
-        }
-        let max_norm = norms.iter().copied().fold(0.0, f64::max);
-        for j in 0..n {
-            dead[j] = norms[j].is_nan() || norms[j] <= 1e-12 * max_norm;
-            d[j] = if dead[j] || !rule.scales_columns() {
-                1.0
-            } else {
-                norms[j]
-            };
-        }
-        if unfelt.is_none() {
-            unfelt = Some((0..n).filter(|&j| dead[j]).collect::<Vec<_>>());
-        }
-        let inv = |j: usize| if dead[j] { 0.0 } else { 1.0 / d[j] };
-        if lin.by_qr {
-            rs.resize(n, n);
-            z.resize(n, 0.0);
-            for j in 0..n {
-                let s = inv(j);
-                for i in 0..n {
-                    rs[(i, j)] = raug[(i, j)] * s;
-                }
-                z[j] = raug[(j, n)];
-            }
-            for j in 0..n {
-                g[j] = (0..=j).map(|i| rs[(i, j)] * z[i]).sum();
-            }
-            c = linalg::gram(&rs);
-        } else {
-            // J_s^T J_s = D^-1 (J^T J) D^-1 and g = D^-1 J^T r, from the Gram matrix.
-            rs.resize(0, 0);
-            z.clear();
-            c.resize(n, n);
-            for j in 0..n {
-                for i in 0..n {
-                    c[(i, j)] = raug[(i, j)] * inv(i) * inv(j);
-                }
-                g[j] = raug[(j, n)] * inv(j);
-            }
-        }
-        let sys = Scaled {
-            rs: &rs,
-            z: &z,
-            c: &c,
-            g: &g,
+        let sys = System {
+            r: &lin.r,
+            z: &lin.z,
             f,
+            x: &x,
+            norms: &norms,
+            dead: &dead,
+            gauss_newton: &cert.gauss_newton,
+            rank: stationarity.rank,
         };
-        let xnorm = x
+        let mut trials = DriverTrials {
+            ev: &mut ev,
+            x: &x,
+            trial_x: &mut trial_x,
+            trial_lin: &mut trial_lin,
+            last: f64::NAN,
+        };
+        let step = match rule.step(&sys, &mut trials)? {
+            Proposal::Step(step) => step,
+            Proposal::Exhausted { at_rounding } => {
+                termination =
+                    if at_rounding || stationarity.predicted_reduction <= ROUNDING_REDUCTION {
+                        Termination::RoundingLimited
+                    } else {
+                        Termination::Stalled
+                    };
+                iterations -= 1;
+                break;
+            }
+        };
+        let last_trial = trials.last;
+        let step_norm = step
+            .p
             .iter()
-            .zip(&d)
-            .map(|(x, d)| (x * d) * (x * d))
+            .zip(&norms)
+            .map(|(p, d)| (p * d) * (p * d))
             .sum::<f64>()
             .sqrt();
-        let final_step = opts.xtol * (xnorm + opts.xtol);
-        let mut last_trial = f64::NAN;
-        let mut last_with_jacobian = false;
-        let mut trial = |y: &[f64]| {
-            for j in 0..n {
-                trial_x[j] = x[j] + y[j] / d[j];
-            }
-            let robot = problem.robot_at(&trial_x);
-            // A step this small ends the run whether it is taken or not (below xtol, or no
-            // further reduction): the Jacobian there would never be used.
-            last_with_jacobian = dot(y, y).sqrt() > final_step;
-            let v = if last_with_jacobian {
-                trial_lin.evaluate(problem, &robot, &mut trial_r, by_qr)
-            } else {
-                problem.evaluate(&robot, &mut trial_r, None)
-            };
-            last_trial = v;
-            if v.is_finite() {
-                v
-            } else {
-                f64::INFINITY
-            }
-        };
-        let accepted = rule.step(&sys, &mut trial)?;
-        let Some(step) = accepted else {
-            termination = Termination::NoFurtherReduction;
-            iterations -= 1;
-            break;
-        };
-        let reduction = f - step.f;
-        let f_old = f;
-        let step_norm = dot(&step.y, &step.y).sqrt();
-        for j in 0..n {
-            x[j] += step.y[j] / d[j];
+        let x_new: Vec<f64> = x.iter().zip(&step.p).map(|(a, b)| a + b).collect();
+        if x_new == trial_x && last_trial.is_finite() {
+            // The accepted point is the last one evaluated: its linearisation is at hand.
+            std::mem::swap(&mut lin, &mut trial_lin);
+        } else if !ev.linearize(&x_new, &mut lin).is_finite() {
+            return Err(Error::Numerical(
+                "the objective is not finite at an accepted point".into(),
+            ));
         }
-        // Whether `acc` is still the R at the previous point (the accepted one was evaluated
-        // without its Jacobian).
-        let mut stale = false;
-        if x == trial_x && last_trial.is_finite() {
-            // The accepted point is the last one evaluated: its residuals (and Jacobian, unless
-            // the step was final) are at hand (the same arithmetic, so the same numbers).
-            std::mem::swap(&mut r, &mut trial_r);
-            if last_with_jacobian {
-                std::mem::swap(&mut lin, &mut trial_lin);
-            } else {
-                stale = true;
-            }
-            f = last_trial;
-        } else {
-            f = lin.evaluate(problem, &problem.robot_at(&x), &mut r, by_qr);
-        }
+        x = x_new;
         observer(&Iteration {
             iteration: iterations,
-            objective: f,
+            objective: lin.f,
             step: step_norm,
             lambda: step.lambda,
             evaluations: step.evaluations,
         });
-        if f == 0.0 {
-            termination = Termination::ZeroObjective;
-            break;
-        }
-        if reduction <= opts.ftol * f_old {
-            termination = Termination::SmallReduction;
-            break;
-        }
-        if step_norm <= final_step {
-            termination = Termination::SmallStep;
-            break;
-        }
-        if stale {
-            f = lin.evaluate(problem, &problem.robot_at(&x), &mut r, by_qr);
-        }
-    }
-    // A method other than Levenberg-Marquardt that stopped short of the cap has converged only
-    // if Levenberg-Marquardt cannot go down from the same point either.
-    if opts.method != Method::LevenbergMarquardt
-        && matches!(
-            termination,
-            Termination::NoFurtherReduction | Termination::SmallReduction | Termination::SmallStep
-        )
-        && f > 1e-16 * objective_before
-        && lm_descends(problem, &x, f, opts)?
-    {
-        termination = Termination::Stalled;
     }
     Ok(Solution {
         x,
         objective_before,
-        objective_after: f,
+        objective_after: lin.f,
         iterations,
         termination,
+        stationarity,
         unfelt: unfelt.unwrap_or_default(),
         start_r,
-        start_accuracy,
     })
 }
 
-/// Whether one Levenberg-Marquardt step from `x` (objective `f`) lowers the objective by more
-/// than 1e-6 of it.
-fn lm_descends(problem: &Problem<'_>, x: &[f64], f: f64, opts: &SolverOptions) -> Result<bool> {
-    let mut lm = LevenbergMarquardt::new(Damping::Marquardt);
-    let probe = SolverOptions {
-        method: Method::LevenbergMarquardt,
-        max_iterations: 1,
-        ..*opts
-    };
-    let s = drive(problem, x, &probe, &mut lm, &mut |_| {})?;
-    Ok(f - s.objective_after > 1e-6 * f)
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// The error for a start where the objective is not finite, naming the first observation with a
-/// non-finite residual.
-fn non_finite_start(problem: &Problem<'_>, r: &[f64]) -> Error {
-    let mut row = 0;
-    for o in &problem.data().observations {
-        let n = o.rows().len();
-        if let Some(k) = (0..n).find(|&k| !r[row + k].is_finite()) {
-            return Error::NonFiniteResidual {
-                line: o.line(),
-                kind: o.kind(),
-                row: o.rows()[k].label,
-            };
+    /// The damped solve against the normal equations `(T^T T + par I) u = -T^T w`.
+    #[test]
+    fn damped_solve_solves_the_damped_normal_equations() {
+        let n = 5;
+        let t = Matrix::from_fn(n, n, |i, j| {
+            if i <= j {
+                1.0 + ((i * 7 + j * 3) as f64 * 0.31).sin()
+            } else {
+                0.0
+            }
+        });
+        let w: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).cos()).collect();
+        for par in [1e-6, 0.3, 7.0] {
+            let (u, s) = damped_solve(&t, &w, par);
+            for i in 0..n {
+                let mut lhs = par * u[i];
+                let mut rhs = 0.0;
+                for k in 0..n {
+                    let tki = t[(k, i)];
+                    rhs -= tki * w[k];
+                    let tu: f64 = (0..n).map(|j| t[(k, j)] * u[j]).sum();
+                    lhs += tki * tu;
+                }
+                assert!((lhs - rhs).abs() < 1e-12, "par {par}: {lhs} vs {rhs}");
+                // S^T S = T^T T + par I.
+                for j in 0..n {
+                    let sts: f64 = (0..n).map(|k| s[(k, i)] * s[(k, j)]).sum();
+                    let ttt: f64 = (0..n).map(|k| t[(k, i)] * t[(k, j)]).sum();
+                    let want = ttt + if i == j { par } else { 0.0 };
+                    assert!((sts - want).abs() < 1e-12);
+                }
+            }
         }
-        row += n;
     }
-    Error::Numerical("the objective is not finite at the starting point".into())
+
+    /// The trust-region step: the Gauss-Newton step inside the region; on its boundary (to
+    /// 10 %) otherwise, with a damping that makes it the damped step.
+    #[test]
+    fn trust_region_step_lands_on_the_boundary() {
+        let n = 4;
+        let t = Matrix::from_fn(n, n, |i, j| {
+            if i <= j {
+                (1 + i + j) as f64 * if i == j { 2.0 } else { 0.3 }
+            } else {
+                0.0
+            }
+        });
+        let w = vec![1.0, -2.0, 0.5, 3.0];
+        let (par, gn) = trust_region_step(&t, &w, n, 1e6, 0.0);
+        assert!(par.abs() == 0.0, "{par}");
+        let gn_norm = norm(&gn);
+        for delta in [0.5 * gn_norm, 0.1 * gn_norm, 1e-3 * gn_norm] {
+            let (par, u) = trust_region_step(&t, &w, n, delta, 0.0);
+            assert!(par > 0.0);
+            assert!(
+                (norm(&u) - delta).abs() <= 0.1 * delta,
+                "{} vs {delta}",
+                norm(&u)
+            );
+            let (v, _) = damped_solve(&t, &w, par);
+            for (a, b) in u.iter().zip(&v) {
+                assert!((a - b).abs() < 1e-12);
+            }
+        }
+    }
 }

@@ -27,7 +27,7 @@ pub(crate) mod table;
 
 use std::fmt;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::kinematics::{Frame, Target};
 use crate::params::ParamId;
 use crate::robot::Robot;
@@ -107,10 +107,11 @@ impl Weights {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum OrientationError {
     /// Differences of the ZYX Euler angles, each wrapped to (-180, 180] deg (thesis eq. 3.1).
-    #[default]
+    /// Undefined at gimbal lock: refused when a measured attitude is within 1 deg of it.
     Euler,
-    /// The rotation vector of `R_measured^T R_model`: defined everywhere, including at
-    /// beta = +-90 deg where Euler angles lock.
+    /// The rotation vector of `R_measured^T R_model` (its three components, in rad): defined
+    /// everywhere, including at beta = +-90 deg where Euler angles lock. The default.
+    #[default]
     RotVec,
 }
 
@@ -588,6 +589,19 @@ impl Dataset {
             .iter()
             .filter(|o| o.degenerate(ctx))
             .collect()
+    }
+
+    /// Refuses `orientation` when it is undefined at some measured attitude
+    /// ([`Error::EulerNearGimbalLock`]: Euler residuals within 1 deg of gimbal lock).
+    pub fn check_orientation(&self, robot: &Robot, orientation: OrientationError) -> Result<()> {
+        let near = self.degenerate(&Context { robot, orientation });
+        if near.is_empty() {
+            return Ok(());
+        }
+        Err(Error::EulerNearGimbalLock {
+            count: near.len(),
+            lines: near.iter().take(5).map(|o| o.line()).collect(),
+        })
     }
 }
 
