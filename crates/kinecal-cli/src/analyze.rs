@@ -22,14 +22,9 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
             }
             let s = kinecal::source::Source::read(path)?;
             let postures = parse_postures(&s.text, &s.name, robot)?;
-            simulate::measure(robot, &postures, a.position_only)
+            simulate::measure(robot, &postures, a.observations.position_only)
         }
-        None => {
-            if a.position_only {
-                bail!("--position-only goes with --postures");
-            }
-            load_observations(&a.observations, robot)?.0
-        }
+        None => load_observations(&a.observations, robot)?.0,
     };
     let (weights, orientation) = residual_settings(&a.residuals, robot)?;
     if !(a.rcond > 0.0 && a.rcond < 1.0) {
@@ -57,10 +52,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     }
     let an = analyze(robot, &data, &params, &opts)?;
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&kinecal::report::analysis_json(&an, robot))?
-        );
+        println!("{}", serde_json::to_string_pretty(&json(&an, robot))?);
     } else {
         print!("{}", text(&an, robot, &data));
     }
@@ -68,6 +60,38 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         print!("{}", matrix(&an, robot, &data, &opts, which, a.units));
     }
     Ok(())
+}
+
+/// The analysis as JSON: the library's, with the parameters left out as dependent within the
+/// noise and the rule (`identifiable` already excludes them).
+fn json(an: &Analysis, robot: &Robot) -> serde_json::Value {
+    let mut v = kinecal::report::analysis_json(an, robot);
+    if let Some(map) = v.as_object_mut() {
+        let noise: Vec<serde_json::Value> = an
+            .noise_dependent
+            .iter()
+            .map(|d| {
+                serde_json::json!({
+                    "id": d.id.to_string(),
+                    "name": robot.param_name(d.id),
+                    "ratio": d.ratio,
+                    "sigma": d.sigma,
+                    "unit": robot.param_unit(d.id),
+                    "sine": d.sine,
+                    "expression": d.expression(),
+                    "coefficients": d
+                        .terms
+                        .iter()
+                        .map(|(id, c)| (id.to_string(), serde_json::json!(c)))
+                        .collect::<serde_json::Map<_, _>>(),
+                    "omitted_terms": d.omitted,
+                })
+            })
+            .collect();
+        map.insert("noise_dependent".into(), noise.into());
+        map.insert("noise_rule".into(), an.noise_rule.clone().into());
+    }
+    v
 }
 
 /// A parameter list in the order given (for priorities).
@@ -257,10 +281,30 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
     let _ = writeln!(s);
     let _ = writeln!(
         s,
-        "Identifiable set ({}; QR with column pivoting on scaled columns, by priority): {}",
+        "Identifiable set ({} of rank {}; QR with column pivoting on noise-scaled columns, by priority): {}",
         an.identifiable.len(),
+        an.rank,
         ids(&an.identifiable).join(" ")
     );
+    if !an.noise_dependent.is_empty() {
+        let _ = writeln!(
+            s,
+            "Not determined at the noise level ({}; at the stated weights, each only to worse than \
+             0.02 rad, 2 % of the reach or 2 % of a slope, given the parameters chosen before it):",
+            an.noise_dependent.len()
+        );
+        for d in &an.noise_dependent {
+            let _ = writeln!(
+                s,
+                "  {}   ({}; sigma {} {}, sin {:.2e})",
+                d.expression(),
+                robot.param_name(d.id),
+                kinecal::identifiability::fmt_sig(d.sigma),
+                robot.param_unit(d.id),
+                d.sine
+            );
+        }
+    }
     let undetermined: Vec<kinecal::ParamId> = an
         .parameters
         .iter()

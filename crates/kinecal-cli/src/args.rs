@@ -768,9 +768,6 @@ pub struct AnalyzeArgs {
     /// assumed.
     #[arg(long)]
     pub postures: Option<PathBuf>,
-    /// With --postures: assume position-only measurements.
-    #[arg(long, requires = "postures")]
-    pub position_only: bool,
     /// Parameters to analyse (default: the default set of `calibrate`, so that the identifiable
     /// set shown is the one `calibrate --estimate identifiable` estimates; `all` for every one).
     #[arg(long, value_name = "LIST", default_value = "")]
@@ -907,8 +904,9 @@ pub struct PlanArgs {
     /// What the plan maximises.
     #[arg(long, value_enum, default_value = "d")]
     pub criterion: CriterionArg,
-    /// For postures (sampled or a postures file): the targets measure positions only (a laser
-    /// tracker) rather than full poses.
+    /// The targets measure positions only (a laser tracker) rather than full poses: for
+    /// postures (sampled or a postures file), and for an observation file whose poses are then
+    /// read as positions.
     #[arg(long)]
     pub position_only: bool,
     /// For postures: the targets measured at each, `ee` for the end effector and site names
@@ -1071,6 +1069,11 @@ pub struct CalibrateArgs {
     /// Seed for --holdout (default 1) or --folds (default: no shuffle).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// With --choose: repeat the cross-validation over this many shuffles of the postures (the
+    /// first as --seed says, the others with the seeds after it), so that the choice does not
+    /// hang on one split.
+    #[arg(long, value_name = "N", default_value_t = kinecal::workflow::CHOICE_REPEATS, requires = "choose")]
+    pub repeats: usize,
     /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows).
     #[arg(long, value_enum, default_value = "squared")]
     pub loss: LossArg,
@@ -1139,6 +1142,49 @@ pub struct ObservationFiles {
     pub files: Vec<(usize, PathBuf)>,
     /// `--columns` mappings.
     pub columns: Vec<String>,
+    /// `--length-unit`.
+    pub length_unit: Option<String>,
+    /// `--angle-unit`.
+    pub angle_unit: Option<String>,
+    /// `--position-only`.
+    pub position_only: bool,
+    /// `--session-per-file`.
+    pub session_per_file: bool,
+    /// The command's `--validate` files, when it has them (to name sessions apart).
+    pub validate: Vec<PathBuf>,
+}
+
+impl ObservationFiles {
+    /// Every observation file of the command (those of `--validate` too, for commands that
+    /// have it: they are added by the caller), for naming sessions.
+    pub fn all_paths(&self) -> Vec<&std::path::Path> {
+        let mut v: Vec<&std::path::Path> = self.files.iter().map(|(_, p)| p.as_path()).collect();
+        v.extend(self.validate.iter().map(|p| p.as_path()));
+        v
+    }
+
+    /// How the files are read: the mapping, the units, positions only.
+    pub fn read_options(&self) -> anyhow::Result<kinecal::observe::ReadOptions> {
+        let specs: Vec<&str> = self.columns.iter().map(String::as_str).collect();
+        Ok(kinecal::observe::ReadOptions {
+            columns: kinecal::observe::point::ColumnMap::parse(&specs, "--columns")?,
+            length_unit: match &self.length_unit {
+                Some(u) => Some(
+                    u.parse()
+                        .map_err(|m| anyhow::anyhow!("--length-unit: {m}"))?,
+                ),
+                None => None,
+            },
+            angle_unit: match &self.angle_unit {
+                Some(u) => Some(
+                    u.parse()
+                        .map_err(|m| anyhow::anyhow!("--angle-unit: {m}"))?,
+                ),
+                None => None,
+            },
+            position_only: self.position_only,
+        })
+    }
 }
 
 impl FromArgMatches for ObservationFiles {
@@ -1152,10 +1198,25 @@ impl FromArgMatches for ObservationFiles {
         self.files = kinecal::observe::FORMATS
             .iter()
             .enumerate()
-            .filter_map(|(i, f)| m.get_one::<PathBuf>(f.option).map(|p| (i, p.clone())))
+            .flat_map(|(i, f)| {
+                m.get_many::<PathBuf>(f.option)
+                    .into_iter()
+                    .flatten()
+                    .map(move |p| (i, p.clone()))
+            })
             .collect();
         self.columns = m
             .get_many::<String>("columns")
+            .map(|v| v.cloned().collect())
+            .unwrap_or_default();
+        self.length_unit = m.get_one::<String>("length-unit").cloned();
+        self.angle_unit = m.get_one::<String>("angle-unit").cloned();
+        self.position_only = m.get_flag("position-only");
+        self.session_per_file = m.get_flag("session-per-file");
+        self.validate = m
+            .try_get_many::<PathBuf>("validate")
+            .ok()
+            .flatten()
             .map(|v| v.cloned().collect())
             .unwrap_or_default();
         Ok(())
@@ -1170,8 +1231,8 @@ impl Args for ObservationFiles {
                     .long(f.option)
                     .value_name("FILE")
                     .value_parser(clap::value_parser!(PathBuf))
-                    .action(ArgAction::Set)
-                    .help(format!("{}: CSV `{}`", f.help, f.header)),
+                    .action(ArgAction::Append)
+                    .help(format!("{} (repeatable): CSV `{}`", f.help, f.header)),
             );
         }
         cmd.arg(
@@ -1185,7 +1246,50 @@ impl Args for ObservationFiles {
                      `v1=q1,v2=q2,x=X,y=Y,z=Z` (missing posture: rows number the postures; missing \
                      site: end effector; missing angles: positions; other columns ignored). \
                      Repeat with a `SITE:` prefix for markers side by side in one row: \
-                     `--columns v1=q1,... --columns smr1:x=x1,y=y1,z=z1 --columns smr2:x=x2,...`",
+                     `--columns v1=q1,... --columns smr1:x=x1,y=y1,z=z1 --columns smr2:x=x2,...`. \
+                     `alpha=-` leaves a column out; `length_unit=mm`, `angle_unit=deg` state the \
+                     file's units",
+                ),
+        )
+        .arg(
+            Arg::new("length-unit")
+                .long("length-unit")
+                .value_name("UNIT")
+                .value_parser(["m", "mm", "in"])
+                .help(
+                    "The unit of the observation files' lengths (positions, distances, their \
+                     sigmas), when not the robot file's: converted on reading",
+                ),
+        )
+        .arg(
+            Arg::new("angle-unit")
+                .long("angle-unit")
+                .value_name("UNIT")
+                .value_parser(["deg", "rad"])
+                .help(
+                    "The unit of the observation files' attitudes (and sigma_angle), when not the \
+                     robot file's: converted on reading",
+                ),
+        )
+        .arg(
+            Arg::new("position-only")
+                .long("position-only")
+                .action(ArgAction::SetTrue)
+                .help(
+                    "Read measured poses as positions: their attitudes (and sigma_angle) are left \
+                     out",
+                ),
+        )
+        .arg(
+            Arg::new("session-per-file")
+                .long("session-per-file")
+                .action(ArgAction::SetTrue)
+                .help(
+                    "Each observation file is a measurement session with its own measurement \
+                     frame (the instrument moved between them), named after the file: the \
+                     frames are placed and estimated with the robot, and a validation file's \
+                     frame is re-estimated on it when identification never saw its session. \
+                     Without it, a `session` column (or mapping) says the session per row",
                 ),
         )
     }

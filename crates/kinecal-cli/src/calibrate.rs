@@ -87,7 +87,7 @@ pub fn prepare(a: &CalibrateArgs) -> Result<Prepared> {
         (false, _) => {
             let mut v = Dataset::default();
             for path in &a.validate {
-                v = v.merge(read_any(path, &a.observations.columns, robot)?.0);
+                v = v.merge(read_any(path, &a.observations, robot)?.0);
             }
             Validation::Data(v.into())
         }
@@ -180,7 +180,7 @@ pub fn solve(
                     .collect()
             };
             candidates
-                .and_then(|c| workflow::choose(req, &c, a.folds.unwrap_or(5), a.seed))
+                .and_then(|c| workflow::choose(req, &c, a.folds.unwrap_or(5), a.seed, a.repeats))
                 .map(|choice| {
                     let table = report::choice_table(&choice.outcome.report);
                     (choice.outcome, Some(table))
@@ -192,12 +192,16 @@ pub fn solve(
             anyhow!("{}: {message}", flag_of(option))
         }
         kinecal::Error::NonFiniteResidual { line, kind, .. } => {
-            // Name the file the observation came from (one file per format).
-            let file = files
+            // Name the file the observation came from (or the files it may have come from).
+            let of_kind: Vec<String> = files
                 .iter()
-                .find(|(i, _)| FORMATS[*i].kinds.contains(&kind))
-                .map_or(String::from("?"), |(_, p)| p.display().to_string());
-            anyhow!("{file}:{line}: {e}")
+                .filter(|(i, _)| FORMATS[*i].kinds.contains(&kind))
+                .map(|(_, p)| p.display().to_string())
+                .collect();
+            match of_kind.as_slice() {
+                [one] => anyhow!("{one}:{line}: {e}"),
+                many => anyhow!("line {line} of one of {}: {e}", many.join(", ")),
+            }
         }
         e => e.into(),
     })
@@ -230,6 +234,12 @@ pub fn stage_outputs(
 pub struct Display {
     bar: indicatif::ProgressBar,
     verbose: Verbose,
+    /// `--strict`: a warning that the result would be wrong stops the run.
+    strict: bool,
+    /// The warnings printed before the solve (not printed again after it).
+    shown: Vec<kinecal::Warning>,
+    /// Whether the data checks stopped the run.
+    stopped: bool,
 }
 
 impl Display {
@@ -252,6 +262,9 @@ impl Display {
         Display {
             bar,
             verbose: Verbose(a.verbose),
+            strict: a.strict,
+            shown: Vec::new(),
+            stopped: false,
         }
     }
 
@@ -284,6 +297,22 @@ impl workflow::Progress for Display {
         ));
         self.verbose.iteration(it);
     }
+
+    fn data_checked(&mut self, warnings: &[kinecal::Warning]) -> bool {
+        // Said at once, before a solve that could not make sense of such data.
+        self.suspend(|| {
+            for w in warnings {
+                eprintln!("warning: {}", word(w));
+            }
+        });
+        self.shown.extend(warnings.iter().cloned());
+        let implausible = warnings.iter().filter(|w| w.implausible()).count();
+        if self.strict && implausible > 0 {
+            self.stopped = true;
+            return false;
+        }
+        true
+    }
 }
 
 /// Runs `kinecal calibrate`.
@@ -302,6 +331,13 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     let solved = solve(&a, &p, &mut display);
     if solved.is_err() {
         display.done();
+    }
+    if display.stopped {
+        eprintln!(
+            "STRICT: the warning(s) above say the result would most likely be wrong (units, \
+             attitudes or readings that do not fit this robot); nothing solved, written or recorded"
+        );
+        return Ok(EXIT_IMPLAUSIBLE);
     }
     let (mut outcome, choice) = solved?;
     outcome.report.timings.insert(
@@ -333,7 +369,7 @@ fn finish(
     record_db: Option<&kinecal_history::Database>,
     display: &Display,
 ) -> Result<u8> {
-    display.suspend(|| print_outcome(outcome));
+    display.suspend(|| print_outcome(outcome, &display.shown));
     let implausible = outcome.warnings.iter().filter(|w| w.implausible()).count();
     if a.strict && implausible > 0 {
         display.suspend(|| {
@@ -374,8 +410,9 @@ fn finish(
     })
 }
 
-/// Prints the summary (of the full fit too, when pruned) and the warnings.
-fn print_outcome(outcome: &Outcome) {
+/// Prints the summary (of the full fit too, when pruned) and the warnings (but those in
+/// `shown`, printed before the solve).
+fn print_outcome(outcome: &Outcome, shown: &[kinecal::Warning]) {
     if let Some(p) = &outcome.pruning {
         println!("== full fit ==");
         print!("{}", report::summary(&p.full_report));
@@ -395,7 +432,7 @@ fn print_outcome(outcome: &Outcome) {
         );
     }
     print!("{}", report::summary(&outcome.report));
-    for w in &outcome.warnings {
+    for w in outcome.warnings.iter().filter(|w| !shown.contains(w)) {
         eprintln!("warning: {}", word(w));
     }
 }

@@ -26,10 +26,10 @@ use args::{
     Cli, Command, ConventionArg, DatasetArgs, ExportCommand, ExportUrdfArgs, FkArgs, ImportCommand,
     ObservationFiles, OrientationArg, ResidualArgs, SimulateArgs,
 };
-use kinecal::observe::point::{
-    parse_measurements_mapped, parse_postures, write_measurements, ColumnMap,
+use kinecal::observe::point::{parse_postures, write_measurements, ColumnMap};
+use kinecal::observe::{
+    read_observations_as, Dataset, OrientationError, ReadOptions, Weights, FORMATS,
 };
-use kinecal::observe::{Dataset, OrientationError, Weights, FORMATS};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::source::Source;
@@ -122,6 +122,15 @@ pub fn word(w: &Warning) -> String {
         Warning::Stalled { .. } => " (use --method lm)",
         Warning::UnclearRank { .. } | Warning::SmallGap { .. } => {
             " (kinecal analyze shows the spectrum; --rcond sets the tolerance)"
+        }
+        Warning::ScaleMismatch {
+            likely: Some(_), ..
+        } => " (--length-unit)",
+        Warning::AttitudeMismatch {
+            likely: Some(_), ..
+        } => " (--angle-unit)",
+        Warning::AttitudeMismatch { likely: None, .. } | Warning::AttitudesUnfit { .. } => {
+            " (--position-only)"
         }
         _ => "",
     };
@@ -222,27 +231,66 @@ pub fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
 }
 
 /// Reads a measurement file through the `--columns` mappings.
-fn read_measurements(path: &Path, columns: &[String], robot: &Robot) -> Result<(Dataset, Source)> {
+/// Reads an observation file as `FORMATS[format]`, or as its header says when `format` is
+/// `None` (the `--columns` mapping applying to measurement files only).
+pub fn read_observation_file(
+    path: &Path,
+    opts: &ReadOptions,
+    robot: &Robot,
+    format: Option<usize>,
+) -> Result<(Dataset, Source)> {
     let source = Source::read(path)?;
-    let specs: Vec<&str> = columns.iter().map(String::as_str).collect();
-    let map = ColumnMap::parse(&specs, "--columns")?;
-    let data = parse_measurements_mapped(&source.text, &source.name, robot, &map)?;
+    let format = format.unwrap_or_else(|| kinecal::observe::detect_format(&source.text));
+    let mut o = opts.clone();
+    if format != 0 {
+        // The mapping's pairs name measurement columns; its units apply to every file.
+        o.columns = ColumnMap {
+            length_unit: o.columns.length_unit,
+            angle_unit: o.columns.angle_unit,
+            ..ColumnMap::default()
+        };
+    }
+    let data = read_observations_as(&source.text, &source.name, robot, &o, format)?;
     Ok((data, source))
 }
 
 /// Reads an observation file of any kind, told by its header (measurements through the
-/// `--columns` mapping).
-pub fn read_any(path: &Path, columns: &[String], robot: &Robot) -> Result<(Dataset, Source)> {
-    let source = Source::read(path)?;
-    let data = match kinecal::observe::detect_format(&source.text) {
-        0 => {
-            let specs: Vec<&str> = columns.iter().map(String::as_str).collect();
-            let map = ColumnMap::parse(&specs, "--columns")?;
-            parse_measurements_mapped(&source.text, &source.name, robot, &map)?
-        }
-        i => (FORMATS[i].parse)(&source.text, &source.name, robot)?,
-    };
+/// `--columns` mapping), in its own session with `--session-per-file`.
+pub fn read_any(path: &Path, files: &ObservationFiles, robot: &Robot) -> Result<(Dataset, Source)> {
+    let (mut data, source) = read_observation_file(path, &files.read_options()?, robot, None)?;
+    if files.session_per_file {
+        data.set_session(&session_name(path, &files.all_paths()));
+    }
     Ok((data, source))
+}
+
+/// The session of a file read with `--session-per-file`: its name without the extension, with
+/// as many parent folders as it takes to tell it from the other files `all`.
+pub fn session_name(path: &Path, all: &[&Path]) -> String {
+    let parts = |p: &Path| -> Vec<String> {
+        let mut v: Vec<String> = p
+            .with_extension("")
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .collect();
+        v.reverse();
+        v
+    };
+    let mine = parts(path);
+    let others: Vec<Vec<String>> = all
+        .iter()
+        .filter(|p| **p != path)
+        .map(|p| parts(p))
+        .collect();
+    for k in 1..=mine.len() {
+        let tail = &mine[..k];
+        if others.iter().all(|o| o.len() < k || o[..k] != *tail) {
+            let mut t = tail.to_vec();
+            t.reverse();
+            return t.join("/");
+        }
+    }
+    path.display().to_string()
 }
 
 /// Reads every observation file given (`--data`, `--distances`, ...) into one dataset; an
@@ -261,16 +309,15 @@ pub fn load_observations(
                 .join(", ")
         );
     }
+    let opts = files.read_options()?;
+    let all = files.all_paths();
     let mut data = Dataset::default();
     let mut sources = Vec::new();
     for (i, path) in &files.files {
-        let format = &FORMATS[*i];
-        let (d, source) = if *i == 0 {
-            read_measurements(path, &files.columns, robot)?
-        } else {
-            let source = Source::read(path)?;
-            ((format.parse)(&source.text, &source.name, robot)?, source)
-        };
+        let (mut d, source) = read_observation_file(path, &opts, robot, Some(*i))?;
+        if files.session_per_file {
+            d.set_session(&session_name(path, &all));
+        }
         data = data.merge(d);
         sources.push(source);
     }
@@ -502,6 +549,7 @@ fn fk(a: FkArgs) -> Result<()> {
         let mut posture = kinecal::Posture {
             label: String::new(),
             readings: vec![0.0; robot.dof()],
+            session: None,
         };
         while let Some(line) = rows.advance()? {
             posture.label.clear();

@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use kinecal::identifiability::{fmt_sig, AnalysisOptions};
 use kinecal::kinematics::Target;
 use kinecal::observe::point::{parse_postures, write_measurements, write_postures};
-use kinecal::observe::{detect_format, Dataset, Observation, FORMATS};
+use kinecal::observe::{detect_format, Dataset, Observation};
 use kinecal::plan::{candidates, plan, Criterion, Plan, PlanRequest};
 use kinecal::source::Source;
 use kinecal::workflow::Selection;
@@ -92,7 +92,13 @@ fn read(
             Origin::Postures,
         ));
     }
-    let data = (FORMATS[detect_format(&s.text)].parse)(&s.text, &s.name, robot)?;
+    // An observation file: its rows say what is measured; --position-only reads its poses as
+    // positions (a tracker that measures the probe's position only).
+    let opts = kinecal::observe::ReadOptions {
+        position_only,
+        ..Default::default()
+    };
+    let data = kinecal::observe::read_observations(&s.text, &s.name, robot, &opts)?;
     Ok((data, Origin::Observations))
 }
 
@@ -136,10 +142,10 @@ pub fn run(a: PlanArgs) -> Result<()> {
         }
         (None, None) => bail!("give --candidates FILE or --sample N"),
     };
-    if matches!(origin, Origin::Observations) && (a.sites.is_some() || a.position_only) {
+    if matches!(origin, Origin::Observations) && a.sites.is_some() {
         bail!(
-            "--sites and --position-only describe postures; the candidates file is an \
-             observation file, whose rows say what is measured"
+            "--sites describes postures; the candidates file is an observation file, whose rows \
+             say what is measured"
         );
     }
     let keep = match &a.keep {
@@ -176,6 +182,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         .map(|q| kinecal::Posture {
             label: q.label.clone(),
             readings: q.readings.clone(),
+            session: None,
         })
         .collect();
     let points_only = p

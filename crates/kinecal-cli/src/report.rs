@@ -108,43 +108,73 @@ pub fn summary(r: &CalibrationReport) -> String {
         );
     }
     let _ = writeln!(s);
-    let _ = writeln!(s, "{:<28} {:>14} {:>14}", "", "before", "after");
-    let _ = writeln!(
-        s,
-        "{:<28} {:>14.6e} {:>14.6e}",
-        "objective (weighted)", r.objective_before, r.objective_after
+    // Columns: before (the nominal robot), the solver's start when it is elsewhere, after.
+    let start = r.start.as_ref();
+    let row = |s: &mut String, label: String, cells: [String; 3]| {
+        let _ = match start {
+            Some(_) => writeln!(
+                s,
+                "{label:<28} {:>14} {:>14} {:>14}",
+                cells[0], cells[1], cells[2]
+            ),
+            None => writeln!(s, "{label:<28} {:>14} {:>14}", cells[0], cells[2]),
+        };
+    };
+    row(
+        &mut s,
+        String::new(),
+        ["before".into(), "start".into(), "after".into()],
+    );
+    row(
+        &mut s,
+        "objective (weighted)".into(),
+        [
+            format!("{:.6e}", r.objective_before),
+            start.map_or(String::new(), |st| format!("{:.6e}", st.objective)),
+            format!("{:.6e}", r.objective_after),
+        ],
     );
     let (ib, ia) = (&r.identification.before, &r.identification.after);
+    let is = r.identification.start.as_ref();
     if ib.positions > 0 {
-        let _ = writeln!(
-            s,
-            "{:<28} {:>14} {:>14}",
+        row(
+            &mut s,
             format!("RMS position error ({l})"),
-            num(r.rms_position_before),
-            num(r.rms_position_after)
+            [
+                num(r.rms_position_before),
+                start.map_or(String::new(), |st| num(st.rms_position)),
+                num(r.rms_position_after),
+            ],
         );
-        let _ = writeln!(
-            s,
-            "{:<28} {:>14} {:>14}",
+        row(
+            &mut s,
             format!("max position error ({l})"),
-            num(r.max_position_before),
-            num(r.max_position_after)
+            [
+                num(r.max_position_before),
+                start.map_or(String::new(), |st| num(st.max_position)),
+                num(r.max_position_after),
+            ],
         );
     }
-    for (b, a) in ib.other.iter().zip(&ia.other) {
-        let _ = writeln!(
-            s,
-            "{:<28} {:>14} {:>14}",
+    for (k, (b, a)) in ib.other.iter().zip(&ia.other).enumerate() {
+        let st = is.and_then(|st| st.other.get(k));
+        row(
+            &mut s,
             format!("RMS {} error ({l})", b.metric),
-            num(b.rms),
-            num(a.rms)
+            [
+                num(b.rms),
+                st.map_or(String::new(), |m| num(m.rms)),
+                num(a.rms),
+            ],
         );
-        let _ = writeln!(
-            s,
-            "{:<28} {:>14} {:>14}",
+        row(
+            &mut s,
             format!("max {} error ({l})", b.metric),
-            num(b.max),
-            num(a.max)
+            [
+                num(b.max),
+                st.map_or(String::new(), |m| num(m.max)),
+                num(a.max),
+            ],
         );
     }
     if let (Some(rb), Some(ra), Some(mb), Some(ma)) = (
@@ -153,38 +183,50 @@ pub fn summary(r: &CalibrationReport) -> String {
         r.max_orientation_before,
         r.max_orientation_after,
     ) {
-        let _ = writeln!(
-            s,
-            "{:<28} {:>14} {:>14}",
+        row(
+            &mut s,
             format!("RMS attitude error ({a})"),
-            num(rb),
-            num(ra)
+            [
+                num(rb),
+                start
+                    .and_then(|st| st.rms_orientation)
+                    .map_or(String::new(), num),
+                num(ra),
+            ],
         );
-        let _ = writeln!(
-            s,
-            "{:<28} {:>14} {:>14}",
+        row(
+            &mut s,
             format!("max attitude error ({a})"),
-            num(mb),
-            num(ma)
+            [
+                num(mb),
+                start
+                    .and_then(|st| st.max_orientation)
+                    .map_or(String::new(), num),
+                num(ma),
+            ],
         );
     }
     if let Some(v) = &r.validation {
         let _ = writeln!(s);
-        let rows = [
-            (
-                format!(
-                    "identification ({} postures) before",
-                    r.identification.postures
-                ),
-                &r.identification.before,
+        let mut rows = vec![(
+            format!(
+                "identification ({} postures) before",
+                r.identification.postures
             ),
-            ("identification after".to_string(), &r.identification.after),
-            (
-                format!("validation ({} postures) before", v.postures),
-                &v.before,
-            ),
-            ("validation after".to_string(), &v.after),
-        ];
+            &r.identification.before,
+        )];
+        if let Some(st) = &r.identification.start {
+            rows.push(("identification start".to_string(), st));
+        }
+        rows.push(("identification after".to_string(), &r.identification.after));
+        rows.push((
+            format!("validation ({} postures) before", v.postures),
+            &v.before,
+        ));
+        if let Some(st) = &v.start {
+            rows.push(("validation start".to_string(), st));
+        }
+        rows.push(("validation after".to_string(), &v.after));
         // One table per error metric present in the data: positions, attitudes, then the
         // other metrics (distances, contacts), each row [rms, mean, p95, max] or n/a.
         type Pick = Box<dyn Fn(&kinecal::report::ErrorStats) -> Option<[f64; 4]>>;
@@ -261,6 +303,15 @@ pub fn summary(r: &CalibrationReport) -> String {
                 sig4(ni[0]), sig4(ni[1]), sig4(nv[0]), sig4(nv[1])
             );
         }
+        if !v.sessions_refitted.is_empty() {
+            let _ = writeln!(
+                s,
+                "validation sessions identification never saw ({}): their measurement frames \
+                 re-estimated on the validation data first (6 parameters each, the robot held), \
+                 for both robots",
+                v.sessions_refitted.join(", ")
+            );
+        }
     }
     if let Some(cv) = &r.cross_validation {
         let _ = writeln!(s);
@@ -276,14 +327,14 @@ pub fn summary(r: &CalibrationReport) -> String {
         );
         let _ = writeln!(
             s,
-            "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}",
-            "fold", "postures", "observations", "mean", "rms", "p95", "max"
+            "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}  {:<14} rank/estimated",
+            "fold", "postures", "observations", "mean", "rms", "p95", "max", "worst posture",
         );
         for (i, f) in cv.folds.iter().enumerate() {
             let e = &f.errors;
             let _ = writeln!(
                 s,
-                "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}{}",
+                "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}  {:<14} {}/{}{}",
                 i + 1,
                 f.postures,
                 e.count,
@@ -291,6 +342,9 @@ pub fn summary(r: &CalibrationReport) -> String {
                 num(e.rms),
                 num(e.p95),
                 num(e.max),
+                f.worst_posture.as_deref().unwrap_or("-"),
+                f.rank.map_or("-".to_string(), |r| r.to_string()),
+                f.estimated.len(),
                 if f.converged { "" } else { "  NOT converged" }
             );
         }
@@ -448,9 +502,15 @@ pub fn choice_table(r: &CalibrationReport) -> String {
         .cross_validation
         .as_ref()
         .map_or("position", |c| c.metric.as_str());
+    let repeats = r.model_choice_repeats.unwrap_or(1);
     let _ = writeln!(
         s,
-        "model choice: {folds} folds by posture, the same for every candidate; held-out {metric} error ({})",
+        "model choice: {folds} folds by posture{}, the same for every candidate; held-out {metric} error ({})",
+        if repeats > 1 {
+            format!(" over {repeats} shuffles")
+        } else {
+            String::new()
+        },
         r.length_unit
     );
     let _ = writeln!(

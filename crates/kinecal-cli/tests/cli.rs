@@ -2036,9 +2036,27 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
     // Whether such a fit reaches a minimum or the iteration cap (exit 4), it runs, and says.
     assert!(matches!(out.status.code(), Some(0 | 4)), "{err}");
     assert!(
-        err.contains("warning: the measured positions spread 25 times as widely as the nominal robot predicts for the same postures: are they in mm? the data must be in the robot file's length unit (in)"),
+        err.contains("warning: the measured positions spread 25 times as widely as the nominal robot predicts for the same postures: are they in mm? the data is read in the robot file's length unit (in): state the file's unit when it is another (--length-unit)"),
         "{err}"
     );
+    // Stated, the same file calibrates without a word about units.
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "mm.csv",
+            "--length-unit",
+            "mm",
+            "--strict",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(!err.contains("spread"), "{err}");
     let out = kinecal()
         .current_dir(d)
         .args([
@@ -2193,12 +2211,30 @@ fn plan_chooses_postures_and_refuses_mistakes() {
             "measured.csv",
             "--count",
             "5",
-            "--position-only",
+            "--sites",
+            "ee",
             "--out",
             "p.csv",
         ],
     );
     assert!(err.contains("observation file"), "{err}");
+    // Its poses may be read as positions (a tracker that measures positions only).
+    let out = run_ok(
+        d,
+        &[
+            "plan",
+            "--robot",
+            "ge-a4",
+            "--candidates",
+            "measured.csv",
+            "--count",
+            "10",
+            "--position-only",
+            "--out",
+            "positions.csv",
+        ],
+    );
+    assert!(out.contains("30 residual rows"), "{out}");
     let err = run_err(
         d,
         &[
@@ -2651,5 +2687,147 @@ fn ur_kinematics_round_trip_and_what_is_not_written() {
     assert!(
         err.contains("not written: joint 1 (shoulder_pan_joint) slope 1.001"),
         "{err}"
+    );
+}
+
+/// Another lab's tracker export, as a user meets it: `;`-separated with decimal commas, in mm
+/// and degrees (attitudes unused) for a robot in metres, its own column names and per-axis
+/// standard deviations, two series measured from two tracker placements, and a third series
+/// from a third one for validation. Stated at the door (`--columns`, `--length-unit`,
+/// `--position-only`, `--session-per-file`), it calibrates and validates; unstated, the unit
+/// mix-up is named before any solving and `--strict` stops there (exit 3).
+#[test]
+fn tracker_series_from_moved_placements() {
+    use kinecal::robot::{Link, Session};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let nominal = kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 77);
+    std::fs::write(
+        d.join("r.toml"),
+        kinecal::robot_file::write_robot_toml(&nominal, None),
+    )
+    .unwrap();
+    let mut truth = kinecal::simulate::perturb(
+        &nominal,
+        kinecal::simulate::PerturbStd {
+            length: 0.001,
+            angle: 0.002,
+            slope_fraction: 0.0,
+        },
+        78,
+    );
+    let frame = |x: f64, a: f64| Link {
+        x,
+        y: -1.0,
+        z: 0.4,
+        alpha: a,
+        beta: 0.02,
+        gamma: -0.03,
+    };
+    truth.sessions = vec![
+        Session {
+            name: "B".into(),
+            frame: frame(2.0, 1.2),
+        },
+        Session {
+            name: "C".into(),
+            frame: frame(-1.5, -2.0),
+        },
+    ];
+    let export = |session: &str, seed: u64, path: &str| {
+        let mut ps = kinecal::simulate::sample_postures(&nominal, 50, seed);
+        for p in &mut ps {
+            p.session = Some(session.into());
+        }
+        let mut data = kinecal::simulate::measure(&truth, &ps, false);
+        kinecal::simulate::add_noise(&mut data, 2e-5, 1e-4, seed + 1);
+        let mut out = String::from("J1;J2;J3;J4;J5;J6;X;sX;Y;sY;Z;sZ;RX;RY;RZ\n");
+        for o in &data.observations {
+            let kinecal::Observation::Pose(p) = o else {
+                unreachable!()
+            };
+            let v = &data.postures[p.view[0].posture].readings;
+            let mut cells: Vec<String> = v.iter().map(|x| format!("{x}")).collect();
+            for k in 0..3 {
+                cells.push(format!("{}", p.position[k] * 1e3));
+                cells.push("0,02".into());
+            }
+            for k in 0..3 {
+                cells.push(format!("{}", p.euler[k].to_degrees()));
+            }
+            out.push_str(&cells.join(";").replace('.', ","));
+            out.push('\n');
+        }
+        std::fs::write(d.join(path), out).unwrap();
+    };
+    export("A", 1, "A.csv");
+    export("B", 3, "B.csv");
+    export("C", 5, "C.csv");
+    let cols = "v1=J1,v2=J2,v3=J3,v4=J4,v5=J5,v6=J6,x=X,y=Y,z=Z,sigma_x=sX,sigma_y=sY,sigma_z=sZ";
+    // Unstated units: named before the solve; --strict stops there.
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "calibrate",
+            "--robot",
+            "r.toml",
+            "--data",
+            "A.csv",
+            "--columns",
+            cols,
+            "--strict",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("are they in mm?") && err.contains("nothing solved"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty(), "nothing solved, nothing printed");
+    // Stated: two series from two placements identify the robot and the second placement; the
+    // third series is validated after its placement is re-estimated on it.
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "r.toml",
+            "--data",
+            "A.csv",
+            "--data",
+            "B.csv",
+            "--validate",
+            "C.csv",
+            "--columns",
+            cols,
+            "--length-unit",
+            "mm",
+            "--position-only",
+            "--session-per-file",
+            "--estimate",
+            "identifiable",
+            "--report",
+            "rep.json",
+            "--out",
+            "cal.toml",
+        ],
+    );
+    assert!(out.contains("converged after"), "{out}");
+    assert!(
+        out.contains("validation sessions identification never saw (C)"),
+        "{out}"
+    );
+    let rep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    assert_eq!(rep["validation"]["sessions_refitted"][0], "C");
+    // 0.02 mm per axis: about 0.035 mm in 3D.
+    let after = rep["validation"]["after"]["rms_position"].as_f64().unwrap();
+    assert!(after < 6e-5, "{after} m");
+    let cal = std::fs::read_to_string(d.join("cal.toml")).unwrap();
+    assert!(
+        cal.contains("[[sessions]]") && cal.contains("name = \"B\""),
+        "{cal}"
     );
 }

@@ -12,9 +12,7 @@ use std::path::PathBuf;
 
 use kinecal::identifiability::{analyze as analyze_ids, AnalysisOptions};
 use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
-use kinecal::observe::point::{
-    parse_measurements_mapped, write_measurements, ColumnMap, Pose, Position,
-};
+use kinecal::observe::point::{write_measurements, ColumnMap, Pose, Position};
 use kinecal::observe::{detect_format, Dataset, OrientationError, Weights, FORMATS};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::source::Source;
@@ -685,6 +683,7 @@ impl Measurements {
                     posture_list.push(Posture {
                         label: labels[i].clone(),
                         readings: reading.to_vec(),
+                        session: None,
                     });
                     index.insert(labels[i].as_str(), posture_list.len() - 1);
                     posture_list.len() - 1
@@ -695,14 +694,14 @@ impl Measurements {
                 Some(o) => {
                     let e = Vector3::new(o[3 * i], o[3 * i + 1], o[3 * i + 2]) * a;
                     let mut m = Pose::new(k, targets[i], pos, e);
-                    m.sigma_position = sp.as_ref().map(|s| s[i] * l);
+                    m.sigma_position = sp.as_ref().map(|s| Vector3::repeat(s[i] * l));
                     m.sigma_angle = sa.as_ref().map(|s| s[i] * a);
                     m.line = i + 1;
                     m.into()
                 }
                 None => {
                     let mut m = Position::new(k, targets[i], pos);
-                    m.sigma_position = sp.as_ref().map(|s| s[i] * l);
+                    m.sigma_position = sp.as_ref().map(|s| Vector3::repeat(s[i] * l));
                     m.line = i + 1;
                     m.into()
                 }
@@ -718,34 +717,48 @@ impl Measurements {
 
     /// Reads an observation file of any kind kinecal reads, told by its header (measurements,
     /// distances, contacts); `columns` maps another tool's measurement columns
-    /// (`["v1=J1", "x=X", ...]`, as `--columns`).
+    /// (`["v1=J1", "x=X", ...]`, as `--columns`); `length_unit` (`"m"`, `"mm"`, `"in"`) and
+    /// `angle_unit` (`"deg"`, `"rad"`) state the file's units when they are not the robot
+    /// file's; `position_only` reads poses as positions; `session` puts the file's postures
+    /// (those without a `session` column value) in that measurement session, with a frame of
+    /// its own (an instrument moved between files).
     #[staticmethod]
-    #[pyo3(signature = (path, robot, columns=None))]
+    #[pyo3(signature = (path, robot, columns=None, length_unit=None, angle_unit=None, position_only=false, session=None))]
+    #[allow(clippy::too_many_arguments)]
     fn read_csv(
         py: Python<'_>,
         path: PathBuf,
         robot: &Robot,
         columns: Option<Vec<String>>,
+        length_unit: Option<&str>,
+        angle_unit: Option<&str>,
+        position_only: bool,
+        session: Option<&str>,
     ) -> PyResult<Measurements> {
         let r = &robot.robot;
         let s = Source::read(&path).map_err(|e| error(py, e))?;
-        let data = match detect_format(&s.text) {
-            0 => {
-                let specs: Vec<&str> = columns.iter().flatten().map(String::as_str).collect();
-                let map = ColumnMap::parse(&specs, "columns").map_err(|e| error(py, e))?;
-                parse_measurements_mapped(&s.text, &s.name, r, &map)
-            }
-            i => {
-                if columns.is_some() {
-                    return Err(bad(format!(
-                        "columns: maps measurement files, and {} holds {}",
-                        s.name, FORMATS[i].option
-                    )));
-                }
-                (FORMATS[i].parse)(&s.text, &s.name, r)
-            }
+        let specs: Vec<&str> = columns.iter().flatten().map(String::as_str).collect();
+        let opts = kinecal::observe::ReadOptions {
+            columns: ColumnMap::parse(&specs, "columns").map_err(|e| error(py, e))?,
+            length_unit: length_unit
+                .map(|u| {
+                    u.parse()
+                        .map_err(|m: String| bad(format!("length_unit: {m}")))
+                })
+                .transpose()?,
+            angle_unit: angle_unit
+                .map(|u| {
+                    u.parse()
+                        .map_err(|m: String| bad(format!("angle_unit: {m}")))
+                })
+                .transpose()?,
+            position_only,
+        };
+        let mut data = kinecal::observe::read_observations(&s.text, &s.name, r, &opts)
+            .map_err(|e| error(py, e))?;
+        if let Some(name) = session {
+            data.set_session(name);
         }
-        .map_err(|e| error(py, e))?;
         Ok(Measurements {
             data,
             dof: r.dof(),

@@ -171,7 +171,9 @@ pub fn period(robot: &Robot, id: ParamId, readings: Option<&[f64]>) -> Option<f6
     let u = robot.units;
     let turn = u.from_si(Quantity::Angle, std::f64::consts::TAU);
     match robot.param_kind(id) {
-        ParamKind::Link { component, .. } | ParamKind::Site { component, .. } => {
+        ParamKind::Link { component, .. }
+        | ParamKind::Site { component, .. }
+        | ParamKind::Session { component, .. } => {
             (component.quantity() == Quantity::Angle).then_some(turn)
         }
         ParamKind::Offset { joint } => {

@@ -174,6 +174,7 @@ pub mod qkm_hl6 {
             postures.push(Posture {
                 label: format!("{prefix}{}", i + 1),
                 readings: a[..6].to_vec(),
+                session: None,
             });
             let mut m = Position::new(
                 i,
@@ -394,6 +395,7 @@ pub mod fanuc_r2000ic {
             postures.push(Posture {
                 label: (i + 1).to_string(),
                 readings: r[15..21].to_vec(),
+                session: None,
             });
             for k in 0..3 {
                 let mut m = Position::new(i, Target::Site(k), to_world(point(r, k)) * 1e-3);
@@ -508,6 +510,7 @@ pub mod ur10e_camera {
             postures.push(Posture {
                 label: (k + 1).to_string(),
                 readings: v[6..12].to_vec(),
+                session: None,
             });
             let mut p = Pose::new(
                 k,

@@ -154,6 +154,12 @@ pub enum Error {
         /// Their lines (the first few).
         lines: Vec<usize>,
     },
+    /// The caller stopped the run (its progress observer said so).
+    #[error("stopped after {after}")]
+    Stopped {
+        /// Where.
+        after: &'static str,
+    },
     /// A numerical routine failed (should not happen on finite input).
     #[error("numerical failure: {0}")]
     Numerical(String),

@@ -633,6 +633,40 @@ pub(crate) fn min_norm_solve(t: &Matrix, w: &[f64], rank: usize) -> Vec<f64> {
     u
 }
 
+/// The standard deviations of least-squares estimates of the columns `cols` of a tall matrix
+/// `A` (given by its `R`, `a`: the same inner products) estimated together with unit-variance
+/// residuals: `sqrt(diag((A_S^T A_S)^-1))`, the row norms of `R_S^-1` (`R_S` the `R` of the
+/// chosen columns). Infinite for a column dependent on the others.
+pub(crate) fn marginal_sigmas(a: &Matrix, cols: &[usize]) -> Vec<f64> {
+    let k = cols.len();
+    let r = r_of_columns(a, cols);
+    // R^-1 column by column (upper triangular), accumulating the squared row norms.
+    let mut sq = vec![0.0; k];
+    let mut x = vec![0.0; k];
+    for c in 0..k {
+        x.fill(0.0);
+        for i in (0..=c).rev() {
+            let mut s = if i == c { 1.0 } else { 0.0 };
+            for (j, xj) in x.iter().enumerate().take(c + 1).skip(i + 1) {
+                s -= r[(i, j)] * xj;
+            }
+            x[i] = s / r[(i, i)];
+        }
+        for (q, v) in sq.iter_mut().zip(&x) {
+            *q += v * v;
+        }
+    }
+    sq.iter()
+        .map(|v| {
+            if v.is_finite() {
+                v.sqrt()
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect()
+}
+
 /// Solves `T x = b` for the leading `k x k` block of the upper-triangular `t` (back
 /// substitution); `x` has `k` entries.
 pub(crate) fn solve_upper(t: &Matrix, b: &[f64], k: usize) -> Vec<f64> {

@@ -105,7 +105,8 @@ fn flag(cal: &Calibration, data: &Dataset, r: &[f64], k: f64) -> Vec<Outlier> {
             let views = o.views();
             let mut frames = [crate::kinematics::Frame::identity(); 2];
             for (f, v) in frames.iter_mut().zip(views) {
-                *f = chain.frame_at(&data.postures[v.posture].readings, v.target);
+                let at = chain.frame_at(&data.postures[v.posture].readings, v.target);
+                *f = crate::observe::observed_frame(robot, data, o, *v, at);
             }
             out.push(Outlier {
                 observation: i,

@@ -1,8 +1,9 @@
 //! Parameter lists as users write them: comma-separated ids (`p3`), ranges (`p1-p30`), names
 //! (`link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`, `site.NAME.x`,
-//! `plane.NAME.offset`), whole links, joints, sites or planes (`link2`, `joint3` = its offset,
-//! slope and coupling, `site.NAME`, `plane.NAME`) and the groups `all`, `links`, `offsets`,
-//! `slopes`, `couplings`, `sites`, `planes`.
+//! `plane.NAME.offset`, `session.NAME.x`), whole links, joints, sites, planes or sessions
+//! (`link2`, `joint3` = its offset, slope and coupling, `site.NAME`, `plane.NAME`,
+//! `session.NAME`) and the groups `all`, `links`, `offsets`, `slopes`, `couplings`, `sites`,
+//! `planes`, `sessions`.
 
 use crate::error::{Error, Result};
 use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
@@ -59,6 +60,7 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         "sites" => return Ok(pick(&|k| matches!(k, ParamKind::Site { .. }))),
         "couplings" => return Ok(pick(&|k| matches!(k, ParamKind::Coupling { .. }))),
         "planes" => return Ok(pick(&|k| matches!(k, ParamKind::Plane { .. }))),
+        "sessions" => return Ok(pick(&|k| matches!(k, ParamKind::Session { .. }))),
         _ => {}
     }
     let p_number = |s: &str| -> Option<std::result::Result<ParamId, String>> {
@@ -91,8 +93,9 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
     let unknown = || {
         format!(
             "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
-             link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x or \
-             plane.NAME.offset, or one of all, links, offsets, slopes, couplings, sites, planes)"
+             link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
+             plane.NAME.offset or session.NAME.x, or one of all, links, offsets, slopes, couplings, \
+             sites, planes, sessions)"
         )
     };
     if let Some(rest) = token.strip_prefix("site.") {
@@ -107,6 +110,21 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
             Some(component) => vec![id(ParamKind::Site { site, component })],
             None => LinkComponent::ALL
                 .map(|component| id(ParamKind::Site { site, component }))
+                .to_vec(),
+        });
+    }
+    if let Some(rest) = token.strip_prefix("session.") {
+        let (name, comp) = match rest.rsplit_once('.') {
+            Some((n, c)) if LinkComponent::parse(c).is_some() => (n, Some(c)),
+            _ => (rest, None),
+        };
+        let session = robot
+            .session_index(name)
+            .ok_or_else(|| format!("`{token}`: the robot has no session named `{name}`"))?;
+        return Ok(match comp.and_then(LinkComponent::parse) {
+            Some(component) => vec![id(ParamKind::Session { session, component })],
+            None => LinkComponent::ALL
+                .map(|component| id(ParamKind::Session { session, component }))
                 .to_vec(),
         });
     }

@@ -155,4 +155,12 @@ pub enum ParamKind {
         /// Which component.
         component: PlaneComponent,
     },
+    /// A component of measurement session `session`'s frame: the pose of the robot's global
+    /// frame in that session's measurement frame (an instrument moved between series).
+    Session {
+        /// 0-based session index ([`crate::robot::Robot::sessions`]).
+        session: usize,
+        /// Which component.
+        component: LinkComponent,
+    },
 }

@@ -12,8 +12,9 @@ use crate::observe::{
     Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
     OrientationError, Weights,
 };
-use crate::params::{ParamId, ParamKind};
+use crate::params::{LinkComponent, ParamId, ParamKind};
 use crate::robot::Robot;
+use nalgebra::Vector3;
 
 /// A function shown each observation with its frames.
 type ObservationVisitor<'a> = dyn FnMut(&Observation, &[Frame]) + 'a;
@@ -35,6 +36,14 @@ pub(crate) struct Linearized {
     pub params: Vec<ParamId>,
     /// `R` of the weighted `[J | r]`.
     pub r: Matrix,
+    /// Per parameter of `params`, what one typical row tells about it: `e_j`, the RMS over
+    /// the `m` rows of its weighted Jacobian column, each row's weight clamped at the median
+    /// weight of the rows of its quantity (see
+    /// [`crate::identifiability::Analysis::typical_row`]). It needs the rows themselves, which
+    /// `r` no longer has, so it travels with it (read by an analysis that reuses this
+    /// linearisation; none outside the tests does yet).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub typical_row: Vec<f64>,
     /// The errors at the robot.
     pub accuracy: Accuracy,
 }
@@ -74,6 +83,11 @@ pub struct Problem<'a> {
     /// The joint angles' reading parts, when slopes and couplings stay fixed
     /// ([`Problem::with_reading_trig`]).
     trig: Option<std::sync::Arc<ReadingTrig>>,
+    /// Per posture, the robot session whose measurement frame its poses and positions are in
+    /// (empty when the robot has no sessions).
+    posture_session: Vec<Option<usize>>,
+    /// Per robot session, the estimated column of each of its six parameters.
+    session_cols: Vec<[Option<usize>; 6]>,
 }
 
 impl<'a> Problem<'a> {
@@ -103,6 +117,21 @@ impl<'a> Problem<'a> {
             .chain((0..base.sites.len()).map(Target::Site))
             .map(|t| ColumnPlan::new(base, t, &columns))
             .collect();
+        let posture_session = if base.sessions.is_empty() {
+            Vec::new()
+        } else {
+            data.postures
+                .iter()
+                .map(|p| p.session.as_deref().and_then(|s| base.session_index(s)))
+                .collect()
+        };
+        let session_cols = (0..base.sessions.len())
+            .map(|session| {
+                LinkComponent::ALL.map(|component| {
+                    columns[base.param_id(ParamKind::Session { session, component }).0]
+                })
+            })
+            .collect();
         Problem {
             base,
             data,
@@ -114,6 +143,8 @@ impl<'a> Problem<'a> {
             columns,
             plans,
             trig: None,
+            posture_session,
+            session_cols,
         }
     }
 
@@ -244,6 +275,29 @@ impl<'a> Problem<'a> {
         (f, tally.finish())
     }
 
+    /// [`Problem::evaluate_rows`] (each weighted row `[J_i | r_i]` pushed into `rows`, which is
+    /// not cleared first), with the errors of every observation summarised (the
+    /// [`crate::observe::accuracy`] of `robot`) from the same pass of forward kinematics.
+    pub(crate) fn evaluate_rows_checked(
+        &self,
+        robot: &Robot,
+        res: &mut [f64],
+        rows: &mut dyn RowSink,
+    ) -> (f64, Accuracy) {
+        let ctx = Context {
+            robot,
+            orientation: OrientationError::default(),
+        };
+        let mut tally = AccuracyTally::default();
+        let f = self.evaluate_with(
+            robot,
+            res,
+            Some(Sink::Rows(rows)),
+            Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
+        );
+        (f, tally.finish())
+    }
+
     /// [`Problem::evaluate`] without derivatives, and with the errors of every observation
     /// summarised (the [`crate::observe::accuracy`] of `robot`) from the same pass of forward
     /// kinematics.
@@ -285,10 +339,14 @@ impl<'a> Problem<'a> {
             j.resize(self.rows(), k);
         }
         let mut frames = [Frame::identity(); 2];
+        let sessions = SessionFrames::new(robot);
         let mut row = 0;
         for o in &self.data.observations {
             let views = o.views();
             let nrows = o.rows().len();
+            // Measured in a session's frame: the target's frame is seen through it.
+            let absolute = !self.posture_session.is_empty()
+                && matches!(o.anchoring(), crate::observe::Anchoring::Absolute);
             for (vi, v) in views.iter().enumerate() {
                 let ws = cache.posture_with(&chain, self.data, v.posture, trig);
                 frames[vi] = chain.target_frame(ws, v.target);
@@ -298,6 +356,39 @@ impl<'a> Problem<'a> {
                         Target::Site(s) => &self.plans[1 + s],
                     };
                     chain.jacobian_columns(ws, plan, &mut blocks[vi]);
+                }
+                let session = if absolute {
+                    self.posture_session[v.posture]
+                } else {
+                    None
+                };
+                if let Some(s) = session {
+                    let t = &sessions.frames[s];
+                    if jac.is_some() {
+                        for c in blocks[vi][..6 * k].chunks_exact_mut(6) {
+                            let dp = t.rotation * Vector3::new(c[0], c[1], c[2]);
+                            let w = t.rotation * Vector3::new(c[3], c[4], c[5]);
+                            c[..3].copy_from_slice(dp.as_slice());
+                            c[3..].copy_from_slice(w.as_slice());
+                        }
+                    }
+                    frames[vi] = t.then(&frames[vi]);
+                }
+                if jac.is_some() {
+                    // The session frames' columns: the view's own session's, else zero.
+                    for (si, cols) in self.session_cols.iter().enumerate() {
+                        for (comp, col) in cols.iter().enumerate() {
+                            let Some(c) = *col else { continue };
+                            let out = &mut blocks[vi][6 * c..6 * c + 6];
+                            out.fill(0.0);
+                            if session == Some(si) {
+                                let (dp, w) =
+                                    sessions.derivative(si, comp, &frames[vi].translation);
+                                out[..3].copy_from_slice(dp.as_slice());
+                                out[3..].copy_from_slice(w.as_slice());
+                            }
+                        }
+                    }
                 }
             }
             let r = &mut res[row..row + nrows];
@@ -346,5 +437,48 @@ impl<'a> Problem<'a> {
             row += nrows;
         }
         res.iter().map(|r| r * r).sum()
+    }
+}
+
+/// The robot's session frames at one evaluation, and the axes of their Euler angles.
+struct SessionFrames {
+    frames: Vec<Frame>,
+    /// Per session, the rotation axes (session frame) of alpha, beta, gamma: `R = Rz(alpha)
+    /// Ry(beta) Rx(gamma)`, so `dR/dalpha = [z]x R`, `dR/dbeta = [Rz(alpha) y]x R`, `dR/dgamma
+    /// = [Rz(alpha) Ry(beta) x]x R`.
+    axes: Vec<[Vector3<f64>; 3]>,
+}
+
+impl SessionFrames {
+    fn new(robot: &Robot) -> Self {
+        let frames = robot
+            .sessions
+            .iter()
+            .map(|s| Frame::from_link(&s.frame))
+            .collect();
+        let axes = robot
+            .sessions
+            .iter()
+            .map(|s| {
+                let l = &s.frame;
+                let rz = crate::kinematics::rot_zyx(l.alpha, 0.0, 0.0);
+                let rzy = crate::kinematics::rot_zyx(l.alpha, l.beta, 0.0);
+                [Vector3::z(), rz * Vector3::y(), rzy * Vector3::x()]
+            })
+            .collect();
+        SessionFrames { frames, axes }
+    }
+
+    /// The derivative of a point `p` (session frame) and of its frame's attitude with respect
+    /// to component `comp` (x, y, z, alpha, beta, gamma) of session `s`'s frame.
+    fn derivative(&self, s: usize, comp: usize, p: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        if comp < 3 {
+            let mut dp = Vector3::zeros();
+            dp[comp] = 1.0;
+            (dp, Vector3::zeros())
+        } else {
+            let w = self.axes[s][comp - 3];
+            (w.cross(&(p - self.frames[s].translation)), w)
+        }
     }
 }

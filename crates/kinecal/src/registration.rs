@@ -50,9 +50,14 @@ struct Sample {
     rotation: Option<Matrix3<f64>>,
 }
 
-fn samples(data: &Dataset) -> Vec<Sample> {
+/// The measured points and frames in the global frame's own measurement frame (those of
+/// sessions with frames of their own in `robot` are left to [`place_sessions`]).
+fn samples(robot: &Robot, data: &Dataset) -> Vec<Sample> {
+    let framed =
+        |posture: usize| crate::observe::session_frame(robot, &data.postures[posture]).is_some();
     data.observations
         .iter()
+        .filter(|o| !framed(o.posture()))
         .filter_map(|o| match o {
             Observation::Pose(p) => Some(Sample {
                 posture: p.view[0].posture,
@@ -183,7 +188,7 @@ fn link_mut(robot: &mut Robot, f: FrameRef) -> &mut Link {
 /// in closed form. `None` when there is nothing to place, too little data (three points not on
 /// a line are needed), or no improvement.
 pub fn register(robot: &Robot, data: &Dataset, estimated: &[ParamId]) -> Option<Registration> {
-    let s = samples(data);
+    let s = samples(robot, data);
     if s.len() < 3 {
         return None;
     }
@@ -343,6 +348,9 @@ pub(crate) fn register_far_start_with(
 ) -> Option<Registration> {
     let (mut sum, mut count) = (0.0, 0usize);
     for (o, at) in data.observations.iter().zip(predicted) {
+        if crate::observe::session_frame(robot, &data.postures[o.posture()]).is_some() {
+            continue; // measured in a session's own frame, placed apart
+        }
         let position = match o {
             Observation::Pose(p) => p.position,
             Observation::Position(p) => p.position,
@@ -363,4 +371,78 @@ fn inverse(f: &Frame) -> Frame {
         rotation: rt,
         translation: -(rt * f.translation),
     }
+}
+
+/// Places the frames of `robot`'s sessions whose six parameters are all in `estimated`, in
+/// closed form: for each, the rigid transform (Kabsch) taking the points `robot` predicts (in
+/// its global frame) to the positions measured in the session. A session is re-placed only when
+/// that lowers its RMS position error. Returns the robot and the RMS position errors (m) of the
+/// placed sessions before and after (over their observations together), or `None` when no
+/// session was placed.
+pub fn place_sessions(
+    robot: &Robot,
+    data: &Dataset,
+    estimated: &[ParamId],
+) -> Option<(Robot, f64, f64)> {
+    let mut r = robot.clone();
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    let (mut before, mut after, mut count) = (0.0, 0.0, 0usize);
+    for (si, session) in robot.sessions.iter().enumerate() {
+        let all = LinkComponent::ALL.iter().all(|&component| {
+            estimated.contains(&robot.param_id(ParamKind::Session {
+                session: si,
+                component,
+            }))
+        });
+        if !all {
+            continue;
+        }
+        let (mut predicted, mut measured) = (Vec::new(), Vec::new());
+        for o in &data.observations {
+            let (view, position) = match o {
+                Observation::Pose(p) => (p.view[0], p.position),
+                Observation::Position(p) => (p.view[0], p.position),
+                _ => continue,
+            };
+            if data.postures[view.posture].session.as_deref() != Some(session.name.as_str()) {
+                continue;
+            }
+            chain.forward(&data.postures[view.posture].readings, &mut ws);
+            predicted.push(chain.target_frame(&ws, view.target).translation);
+            measured.push(position);
+        }
+        if predicted.len() < 3 {
+            continue;
+        }
+        let Some((rot, tr)) = kabsch(&predicted, &measured) else {
+            continue;
+        };
+        let now = Frame::from_link(&session.frame);
+        let placed = Frame {
+            rotation: rot,
+            translation: tr,
+        };
+        let err = |f: &Frame| -> f64 {
+            predicted
+                .iter()
+                .zip(&measured)
+                .map(|(p, m)| (f.rotation * p + f.translation - m).norm_squared())
+                .sum()
+        };
+        let (e0, e1) = (err(&now), err(&placed));
+        before += e0;
+        count += predicted.len();
+        if e1 < e0 {
+            set_frame(&mut r.sessions[si].frame, &placed);
+            after += e1;
+        } else {
+            after += e0;
+        }
+    }
+    if count == 0 || r == *robot {
+        return None;
+    }
+    let n = count as f64;
+    Some((r, (before / n).sqrt(), (after / n).sqrt()))
 }

@@ -157,10 +157,22 @@ pub struct ChoiceReport {
 pub struct FoldReport {
     /// Postures held out.
     pub postures: usize,
+    /// Their labels.
+    #[serde(default)]
+    pub held_out: Vec<String>,
     /// Their errors.
     pub errors: MetricStats,
+    /// The held-out posture with the largest error.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub worst_posture: Option<String>,
     /// Whether the fold's fit converged.
     pub converged: bool,
+    /// The parameters the fold's fit estimated (names).
+    #[serde(default)]
+    pub estimated: Vec<String>,
+    /// Their numerical rank in the fold's fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rank: Option<usize>,
 }
 
 /// The closed-form placement of a far start ([`crate::registration`]): RMS position error of
@@ -228,14 +240,23 @@ pub struct DatasetAccuracy {
     pub postures: usize,
     /// Observations in the dataset.
     pub measurements: usize,
-    /// With the initial robot.
+    /// With the nominal robot (the request's).
     pub before: ErrorStats,
+    /// With the solver's start, when it is not the nominal robot (its frames placed in closed
+    /// form first, or an initial guess).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<ErrorStats>,
     /// With the calibrated robot.
     pub after: ErrorStats,
     /// RMS of the residuals in their own standard deviations (row sigmas, else the weights),
     /// before and after: about 1 when the stated uncertainties are right.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normalized_rms: Option<[f64; 2]>,
+    /// Measurement sessions of this data that the identification never saw: their frames were
+    /// re-estimated (placed in closed form, then their six parameters fitted on this data with
+    /// the robot held) before either robot was checked.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sessions_refitted: Vec<String>,
 }
 
 impl DatasetAccuracy {
@@ -248,9 +269,11 @@ impl DatasetAccuracy {
         units: &Units,
     ) -> Self {
         DatasetAccuracy {
+            sessions_refitted: Vec::new(),
             postures,
             measurements: observations,
             before: ErrorStats::new(before, units),
+            start: None,
             after: ErrorStats::new(after, units),
             normalized_rms: None,
         }
@@ -326,6 +349,24 @@ pub struct PhaseTime {
     pub seconds: f64,
 }
 
+/// The figures of the solver's start on the identification data (robot file's units), when it
+/// is not the nominal robot.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct StartFigures {
+    /// Weighted sum of squared residuals.
+    pub objective: f64,
+    /// RMS 3D position error.
+    pub rms_position: f64,
+    /// Largest position error.
+    pub max_position: f64,
+    /// RMS attitude error (absent without poses).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rms_orientation: Option<f64>,
+    /// Largest attitude error.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_orientation: Option<f64>,
+}
+
 /// The solver's stationarity measures at its last point ([`crate::estimation::Stationarity`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StationarityReport {
@@ -381,7 +422,11 @@ pub struct CalibrationReport {
     pub weight_length: f64,
     /// Standard deviation weighting orientation residuals (angle unit).
     pub weight_angle: f64,
-    /// Weighted sum of squared residuals before (dimensionless).
+    /// The solver's start, when it is not the nominal robot (the `*_before` figures are the
+    /// nominal robot's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<StartFigures>,
+    /// Weighted sum of squared residuals before (dimensionless): the nominal robot's.
     pub objective_before: f64,
     /// Weighted sum of squared residuals after.
     pub objective_after: f64,
@@ -441,6 +486,9 @@ pub struct CalibrationReport {
     /// cross-validated held-out mean.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub model_choice: Vec<ChoiceReport>,
+    /// Over how many shuffles of the postures the model choice repeated its cross-validation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_choice_repeats: Option<usize>,
     /// Cross-validation by posture folds, when asked for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cross_validation: Option<CrossValidationReport>,
@@ -532,6 +580,7 @@ impl CalibrationReport {
             residuals,
             weight_length: len(cal.options.weights.length),
             weight_angle: ang(cal.options.weights.angle),
+            start: None,
             objective_before: cal.objective_before,
             objective_after: cal.objective_after,
             rms_position_before: len(b.rms_position),
@@ -558,6 +607,7 @@ impl CalibrationReport {
             start_placement: None,
             cross_validation: None,
             model_choice: Vec::new(),
+            model_choice_repeats: None,
             down_weighted_rows: match cal.options.loss {
                 crate::estimation::Loss::Squared => None,
                 crate::estimation::Loss::Huber { .. } => {
@@ -613,6 +663,47 @@ impl CalibrationReport {
         let mut v = DatasetAccuracy::new(postures, observations, before, after, &robot.units);
         v.normalized_rms = Some(normalized);
         self.validation = Some(v);
+    }
+
+    /// Makes the nominal robot's figures (its weighted objective and accuracy on the
+    /// identification data) the `before` ones, keeping the solver's start's as `start`: for a
+    /// start that is not the nominal robot (frames placed in closed form, an initial guess).
+    pub fn set_nominal(&mut self, objective: f64, accuracy: &Accuracy, units: &Units) {
+        let len = |v: f64| units.from_si(Quantity::Length, v);
+        let ang = |v: f64| units.from_si(Quantity::Angle, v);
+        self.start = Some(StartFigures {
+            objective: self.objective_before,
+            rms_position: self.rms_position_before,
+            max_position: self.max_position_before,
+            rms_orientation: self.rms_orientation_before,
+            max_orientation: self.max_orientation_before,
+        });
+        self.objective_before = objective;
+        self.rms_position_before = len(accuracy.rms_position);
+        self.max_position_before = len(accuracy.max_position);
+        let poses = accuracy.orientations > 0;
+        self.rms_orientation_before = poses.then(|| ang(accuracy.rms_orientation));
+        self.max_orientation_before = poses.then(|| ang(accuracy.max_orientation));
+        let start = std::mem::replace(
+            &mut self.identification.before,
+            ErrorStats::new(accuracy, units),
+        );
+        self.identification.start = Some(start);
+    }
+
+    /// Sets the validation data's accuracy with the solver's start, when it is not the
+    /// nominal robot.
+    pub fn set_validation_start(&mut self, start: &Accuracy, units: &Units) {
+        if let Some(v) = &mut self.validation {
+            v.start = Some(ErrorStats::new(start, units));
+        }
+    }
+
+    /// Names the validation data's sessions whose frames were re-estimated.
+    pub fn set_validation_sessions(&mut self, refitted: Vec<String>) {
+        if let Some(v) = &mut self.validation {
+            v.sessions_refitted = refitted;
+        }
     }
 
     /// Sets the normalized RMS (before, after) of the identification data.

@@ -273,6 +273,19 @@ pub struct Site {
     pub frame: Link,
 }
 
+/// A session of measurements with its own measurement frame (a laser tracker moved between
+/// series, a camera re-mounted): `frame` is the pose of the robot's global frame in the
+/// session's measurement frame, so that a point `p` of the global frame is measured at
+/// `R p + t` there. The robot's global frame is the measurement frame of observations outside
+/// every listed session.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Session {
+    /// The session's name (the observations' `session`).
+    pub name: String,
+    /// The global frame in the session's measurement frame (x, y, z, ZYX Euler angles).
+    pub frame: Link,
+}
+
 /// A serial robot: the thesis model plus the units its files are written in.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
@@ -288,6 +301,8 @@ pub struct Robot {
     pub sites: Vec<Site>,
     /// Planes touched in contact measurements.
     pub planes: Vec<Plane>,
+    /// Measurement sessions with frames of their own.
+    pub sessions: Vec<Session>,
     /// Expected deviations from nominal, the metric of minimum-change solutions.
     pub tolerances: Tolerances,
 }
@@ -357,14 +372,15 @@ impl Robot {
         (0..self.joints.len()).filter(|&j| self.joints[j].coupling.is_some())
     }
 
-    /// Number of parameters: `6(n+1) + 2n + 6 * sites + couplings + 3 * planes`. Robots without
-    /// couplings and planes have the thesis's numbering and count.
+    /// Number of parameters: `6(n+1) + 2n + 6 * sites + couplings + 3 * planes + 6 * sessions`.
+    /// Robots without couplings, planes and sessions have the thesis's numbering and count.
     pub fn param_count(&self) -> usize {
         6 * self.links.len()
             + 2 * self.joints.len()
             + 6 * self.sites.len()
             + self.coupled_joints().count()
             + 3 * self.planes.len()
+            + 6 * self.sessions.len()
     }
 
     /// All parameter ids, in the thesis's order.
@@ -380,7 +396,7 @@ impl Robot {
 
     /// What parameter `id` is, `None` when out of range. Order: the 6 of each link, the n
     /// offsets, the n slopes, the 6 of each site, one coupling factor per coupled joint (in
-    /// joint order), the 3 of each plane.
+    /// joint order), the 3 of each plane, the 6 of each session.
     pub fn try_param_kind(&self, id: ParamId) -> Option<ParamKind> {
         let (nl, nj, ns) = (self.links.len(), self.joints.len(), self.sites.len());
         let mut i = id.0;
@@ -418,6 +434,13 @@ impl Robot {
                 component: PlaneComponent::ALL[i % 3],
             });
         }
+        i -= 3 * self.planes.len();
+        if i < 6 * self.sessions.len() {
+            return Some(ParamKind::Session {
+                session: i / 6,
+                component: LinkComponent::ALL[i % 6],
+            });
+        }
         None
     }
 
@@ -442,13 +465,20 @@ impl Robot {
             ParamKind::Plane { plane, component } => {
                 couplings + self.coupled_joints().count() + 3 * plane + component as usize
             }
+            ParamKind::Session { session, component } => {
+                couplings
+                    + self.coupled_joints().count()
+                    + 3 * self.planes.len()
+                    + 6 * session
+                    + component as usize
+            }
         };
         assert!(id < self.param_count(), "parameter out of range");
         ParamId(id)
     }
 
     /// The parameter's name: `link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`,
-    /// `site.NAME.gamma`, `plane.NAME.offset`.
+    /// `site.NAME.gamma`, `plane.NAME.offset`, `session.NAME.x`.
     pub fn param_name(&self, id: ParamId) -> String {
         match self.param_kind(id) {
             ParamKind::Link { link, component } => {
@@ -463,15 +493,22 @@ impl Robot {
             ParamKind::Plane { plane, component } => {
                 format!("plane.{}.{}", self.planes[plane].name, component.as_str())
             }
+            ParamKind::Session { session, component } => {
+                format!(
+                    "session.{}.{}",
+                    self.sessions[session].name,
+                    component.as_str()
+                )
+            }
         }
     }
 
     /// The physical quantity of parameter `id` (decides its unit).
     pub fn param_quantity(&self, id: ParamId) -> Quantity {
         match self.param_kind(id) {
-            ParamKind::Link { component, .. } | ParamKind::Site { component, .. } => {
-                component.quantity()
-            }
+            ParamKind::Link { component, .. }
+            | ParamKind::Site { component, .. }
+            | ParamKind::Session { component, .. } => component.quantity(),
             ParamKind::Offset { joint } => self.joints[joint].kind.variable(),
             ParamKind::Slope { joint } | ParamKind::Coupling { joint } => {
                 self.joints[joint].kind.slope()
@@ -489,6 +526,9 @@ impl Robot {
             ParamKind::Coupling { joint } => self.joints[joint].coupling.map_or(0.0, |c| c.factor),
             ParamKind::Site { site, component } => self.sites[site].frame.get(component),
             ParamKind::Plane { plane, component } => self.planes[plane].get(component),
+            ParamKind::Session { session, component } => {
+                self.sessions[session].frame.get(component)
+            }
         }
     }
 
@@ -507,6 +547,9 @@ impl Robot {
                 *self.sites[site].frame.get_mut(component) = value
             }
             ParamKind::Plane { plane, component } => *self.planes[plane].get_mut(component) = value,
+            ParamKind::Session { session, component } => {
+                *self.sessions[session].frame.get_mut(component) = value
+            }
         }
     }
 
@@ -523,6 +566,11 @@ impl Robot {
     /// Index of the site called `name`.
     pub fn site_index(&self, name: &str) -> Option<usize> {
         self.sites.iter().position(|s| s.name == name)
+    }
+
+    /// Index of the session called `name`.
+    pub fn session_index(&self, name: &str) -> Option<usize> {
+        self.sessions.iter().position(|s| s.name == name)
     }
 
     /// Index of the plane called `name`.
@@ -617,6 +665,15 @@ impl Robot {
                         self.joints.len()
                     ));
                 }
+            }
+        }
+        for (i, s) in self.sessions.iter().enumerate() {
+            if s.name.trim().is_empty() || self.sessions[..i].iter().any(|o| o.name == s.name) {
+                return Err(format!(
+                    "session {}: name `{}` is empty or used twice",
+                    i + 1,
+                    s.name
+                ));
             }
         }
         for (i, p) in self.planes.iter().enumerate() {

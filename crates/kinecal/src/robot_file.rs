@@ -22,6 +22,10 @@
 //! name = "table"
 //! normal = [0, 0, 1]      # any length; the global frame
 //! offset = 0.25           # length_unit: signed distance of the plane from the origin along normal
+//! [[sessions]]            # optional: a session of measurements with its own measurement frame
+//! name = "C"              # the observations' `session`
+//! x = 508.0               # the robot's global frame in the session's measurement frame:
+//! gamma = 1.5             # x, y, z, alpha, beta, gamma as for links
 //! ```
 //!
 //! Writing goes through [`write_robot_toml`], which updates the numbers of an existing document
@@ -33,7 +37,7 @@ use toml_edit::{DocumentMut, Item, Table, Value};
 
 use crate::error::{Error, Location, Result};
 use crate::params::LinkComponent;
-use crate::robot::{Coupling, Joint, JointKind, Link, Plane, Robot, Site};
+use crate::robot::{Coupling, Joint, JointKind, Link, Plane, Robot, Session, Site};
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 pub(crate) fn line_of(text: &str, span: Option<Range<usize>>) -> Option<usize> {
@@ -449,6 +453,19 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         planes.push(plane);
     }
 
+    let mut sessions = Vec::new();
+    for (i, t) in r.tables(root, "sessions")?.iter().enumerate() {
+        let t: &Table = t;
+        let what = format!("sessions[{i}]");
+        let frame = r.link(t, &what, &units, &["name"])?;
+        let name_field = format!("{what}.name");
+        let name = r
+            .string(t, "name", &name_field)?
+            .ok_or_else(|| r.err(t.span(), &name_field, "missing `name`"))?
+            .to_string();
+        sessions.push(Session { name, frame });
+    }
+
     let mut robot = Robot {
         name,
         units,
@@ -456,6 +473,7 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         joints,
         sites,
         planes,
+        sessions,
         tolerances: Default::default(),
     };
     robot
@@ -628,6 +646,13 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
             }
             t.insert("normal", Item::Value(v));
             set_number(t, "offset", units.from_si(Quantity::Length, p.offset));
+        }
+    }
+    if !robot.sessions.is_empty() || root.contains_key("sessions") {
+        let sessions = array_of_tables(root, "sessions", robot.sessions.len());
+        for (t, s) in sessions.iter_mut().zip(&robot.sessions) {
+            set_string(t, "name", &s.name);
+            write_link(t, &s.frame, &units);
         }
     }
     doc.to_string()

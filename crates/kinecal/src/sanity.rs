@@ -10,6 +10,10 @@
 //!   the same in every frame, so an unknown tracker placement does not matter; a ratio near
 //!   1000, 25.4 or their inverses is a unit mix-up, and anything beyond a factor 3 is
 //!   implausible for a robot whose nominal model is anywhere near right.
+//! - **Attitudes.** The angle of the relative rotation between two measured poses of a target
+//!   against the model's (the same in every measurement frame and for every tool frame): a
+//!   median disagreement beyond 0.1 rad is attitudes in another angle unit (named when the
+//!   other unit agrees) or another Euler convention.
 //! - **Readings.** Readings outside a joint's range (`min`/`max` in the robot file) by more than
 //!   5 % of its width; readings of a revolute joint read directly as angles (slope 1 in the
 //!   file's angle unit) that look like radians against a degree robot (every joint within
@@ -46,8 +50,89 @@ pub(crate) fn check_data_with(
 ) -> Vec<Warning> {
     let mut out = Vec::new();
     out.extend(scale(robot, data, predicted));
+    out.extend(attitudes(robot, data));
     out.extend(readings(robot, data));
     out
+}
+
+/// Beyond this disagreement (rad; 5.7 deg) of attitudes, the measured attitudes are not the
+/// model's: a calibration moves them by well under a degree.
+pub const ATTITUDE_LIMIT: f64 = 0.1;
+
+/// At most this many pairs of poses are compared (spread over the file).
+const ATTITUDE_PAIRS: usize = 200;
+
+/// Measured attitudes against the nominal robot's: the angle of the relative rotation between
+/// two poses of one target, `angle(R_a^T R_b)`, is the same in every measurement frame and for
+/// every tool frame, so it needs neither placed. Read in the wrong angle unit (or another Euler
+/// convention), the measured attitudes give other angles than the model's.
+fn attitudes(robot: &Robot, data: &Dataset) -> Option<Warning> {
+    use crate::kinematics::rot_zyx;
+    let poses: Vec<(usize, Target, Vector3<f64>)> = data
+        .observations
+        .iter()
+        .filter_map(|o| match o {
+            Observation::Pose(p) => Some((p.view[0].posture, p.view[0].target, p.euler)),
+            _ => None,
+        })
+        .collect();
+    // Consecutive poses of the same target in the same session, spread over the file.
+    let session = |p: usize| data.postures[p].session.as_deref();
+    let mut pairs = Vec::new();
+    for (i, a) in poses.iter().enumerate() {
+        if let Some(b) = poses[i + 1..]
+            .iter()
+            .find(|b| b.1 == a.1 && session(b.0) == session(a.0))
+        {
+            pairs.push((a, b));
+        }
+    }
+    if pairs.len() < 5 {
+        return None;
+    }
+    let stride = pairs.len().div_ceil(ATTITUDE_PAIRS);
+    let chain = Chain::new(robot);
+    let angle = |r: nalgebra::Matrix3<f64>| ((r.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
+    let deg = std::f64::consts::PI / 180.0;
+    // As read; as if the file's numbers were degrees read as radians; or radians read as
+    // degrees (the factor that would turn the numbers as read into the true angles).
+    let factors = [1.0, deg, 1.0 / deg];
+    let mut errors: [Vec<f64>; 3] = Default::default();
+    for (a, b) in pairs.iter().step_by(stride) {
+        let ra = chain.frame_at(&data.postures[a.0].readings, a.1).rotation;
+        let rb = chain.frame_at(&data.postures[b.0].readings, b.1).rotation;
+        let model = angle(ra.transpose() * rb);
+        for (e, s) in errors.iter_mut().zip(factors) {
+            let (ea, eb) = (a.2 * s, b.2 * s);
+            let ma = rot_zyx(ea.x, ea.y, ea.z);
+            let mb = rot_zyx(eb.x, eb.y, eb.z);
+            e.push((angle(ma.transpose() * mb) - model).abs());
+        }
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let [mut as_read, mut in_deg, mut in_rad] = errors;
+    let (as_read, in_deg, in_rad) = (
+        median(&mut as_read),
+        median(&mut in_deg),
+        median(&mut in_rad),
+    );
+    if as_read <= ATTITUDE_LIMIT {
+        return None;
+    }
+    let read_as = robot.units.angle;
+    let likely = [(in_deg, AngleUnit::Deg), (in_rad, AngleUnit::Rad)]
+        .into_iter()
+        .filter(|&(e, u)| u != read_as && e <= ATTITUDE_LIMIT && e < as_read / 3.0)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, u)| u.to_string());
+    Some(Warning::AttitudeMismatch {
+        median_deg: as_read.to_degrees(),
+        likely,
+        read_as: read_as.to_string(),
+    })
 }
 
 /// Where `robot` puts the target of each view of each observation of `data` (global frame; a
@@ -107,24 +192,23 @@ fn spread(points: &[nalgebra::Vector3<f64>]) -> f64 {
 
 fn scale(robot: &Robot, data: &Dataset, predicted: &[[Vector3<f64>; 2]]) -> Vec<Warning> {
     let mut out = Vec::new();
-    // Positions: per target, as different targets are different points.
+    // Positions: per target, as different targets are different points, and per measurement
+    // session, as each has its own frame.
     let (mut measured, mut modelled) = (Vec::new(), Vec::new());
-    let mut targets: Vec<Target> = Vec::new();
+    let mut targets: Vec<(Target, Option<&str>)> = Vec::new();
     for (o, at) in data.observations.iter().zip(predicted) {
         let (view, position) = match o {
             Observation::Pose(p) => (p.view[0], p.position),
             Observation::Position(p) => (p.view[0], p.position),
             _ => continue,
         };
-        let k = targets
-            .iter()
-            .position(|t| *t == view.target)
-            .unwrap_or_else(|| {
-                targets.push(view.target);
-                measured.push(Vec::new());
-                modelled.push(Vec::new());
-                targets.len() - 1
-            });
+        let key = (view.target, data.postures[view.posture].session.as_deref());
+        let k = targets.iter().position(|t| *t == key).unwrap_or_else(|| {
+            targets.push(key);
+            measured.push(Vec::new());
+            modelled.push(Vec::new());
+            targets.len() - 1
+        });
         measured[k].push(position);
         modelled[k].push(at[0]);
     }

@@ -52,6 +52,7 @@ pub fn sample_postures(robot: &Robot, count: usize, seed: u64) -> Vec<Posture> {
         .map(|i| Posture {
             label: i.to_string(),
             readings: ranges.iter().map(|&(a, b)| r.random_range(a..=b)).collect(),
+            session: None,
         })
         .collect()
 }
@@ -112,7 +113,8 @@ pub fn changed(robot: &Robot, changes: &[(crate::params::ParamId, f64)]) -> Resu
 }
 
 /// The noise-free measurements `robot` gives at `postures`: the end effector and every site,
-/// full poses, or positions only when `position_only`.
+/// full poses, or positions only when `position_only`; in a posture's session frame when its
+/// session has one in `robot`.
 pub fn measure(robot: &Robot, postures: &[Posture], position_only: bool) -> Dataset {
     let chain = Chain::new(robot);
     let mut ws = Workspace::new(robot);
@@ -122,8 +124,10 @@ pub fn measure(robot: &Robot, postures: &[Posture], position_only: bool) -> Data
     let mut observations: Vec<Observation> = Vec::with_capacity(postures.len() * targets.len());
     for (i, p) in postures.iter().enumerate() {
         chain.forward(&p.readings, &mut ws);
+        let session = crate::observe::session_frame(robot, p);
         for &t in &targets {
-            let pose = chain.target_frame(&ws, t).pose();
+            let f = chain.target_frame(&ws, t);
+            let pose = session.map_or(f, |s| s.then(&f)).pose();
             observations.push(if position_only {
                 Position::new(i, t, pose.position).into()
             } else {
@@ -204,6 +208,7 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
         joints,
         sites: Vec::new(),
         planes: Vec::new(),
+        sessions: Vec::new(),
         tolerances: Default::default(),
     }
 }

@@ -110,6 +110,45 @@ pub enum Warning {
         /// What the readings look like.
         looks_like: String,
     },
+    /// The measured attitudes disagree with the nominal robot's far beyond any calibration
+    /// error: the angle of the relative rotation between two poses of a target (the same in
+    /// every measurement frame and for every tool frame) differs from the model's by a median
+    /// of `median_deg`. `likely`: the angle unit in which the file's attitudes would agree
+    /// (else another Euler convention, or not the same target).
+    AttitudeMismatch {
+        /// The median disagreement (deg).
+        median_deg: f64,
+        /// The unit the attitudes look like they are in, if one fits.
+        likely: Option<String>,
+        /// The unit they were read in.
+        read_as: String,
+    },
+    /// After calibration, the measured attitudes still disagree with the model by an RMS of
+    /// `rms_deg`: no geometry fits them, so they are most likely not ZYX Euler angles of the
+    /// measured frame (another convention, another frame).
+    AttitudesUnfit {
+        /// The RMS attitude error after calibration (deg).
+        rms_deg: f64,
+    },
+    /// The calibrated robot does worse on the held-out data than the robot it started from:
+    /// the mean error of `metric` grew from `before` to `after` (file units).
+    WorseOnValidation {
+        /// `position`, `distance`, ...
+        metric: String,
+        /// The held-out mean before calibration.
+        before: f64,
+        /// After.
+        after: f64,
+        /// The unit of both.
+        unit: String,
+    },
+    /// The residuals are far from the stated standard deviations: the variance factor (the
+    /// weighted objective per degree of freedom) is above 100 or below 0.01, the sigmas off by
+    /// more than 10 times.
+    SigmasOff {
+        /// The variance factor.
+        variance_factor: f64,
+    },
     /// Estimated lengths moved by more than the robot's reach.
     ChangeBeyondReach {
         /// Their names.
@@ -155,6 +194,9 @@ impl Warning {
             Warning::ScaleMismatch { .. }
                 | Warning::ReadingsOutOfRange { .. }
                 | Warning::AngleUnitMismatch { .. }
+                | Warning::AttitudeMismatch { .. }
+                | Warning::AttitudesUnfit { .. }
+                | Warning::WorseOnValidation { .. }
                 | Warning::ChangeBeyondReach { .. }
         )
     }
@@ -171,8 +213,8 @@ impl std::fmt::Display for Warning {
             } => write!(
                 f,
                 "the measured {metric}s spread {} times as widely as the nominal robot predicts \
-                 for the same postures: {}the data must be in the robot file's length unit \
-                 ({unit})",
+                 for the same postures: {}the data is read in the robot file's length unit \
+                 ({unit}): state the file's unit when it is another",
                 if *ratio >= 10.0 {
                     format!("{ratio:.0}")
                 } else if *ratio >= 0.01 {
@@ -198,6 +240,67 @@ impl std::fmt::Display for Warning {
                 postures.join(", "),
                 if *count > postures.len() { ", ..." } else { "" }
             ),
+            Warning::AttitudeMismatch {
+                median_deg,
+                likely,
+                read_as,
+            } => match likely {
+                Some(u) => write!(
+                    f,
+                    "the measured attitudes look like {u}, not {read_as}: relative rotations \
+                     between poses differ from the nominal robot's by a median {median_deg:.1} \
+                     deg as read, and agree in {u}; state the file's angle unit"
+                ),
+                None => write!(
+                    f,
+                    "the measured attitudes disagree with the nominal robot's by a median \
+                     {median_deg:.1} deg (relative rotations between poses, independent of the \
+                     measurement and tool frames): another Euler convention than ZYX, another \
+                     target, or not this robot? Use positions only if the attitudes cannot be \
+                     read as ZYX Euler angles"
+                ),
+            },
+            Warning::AttitudesUnfit { rms_deg } => write!(
+                f,
+                "after calibration the measured attitudes still disagree with the model by an RMS \
+                 of {rms_deg:.1} deg: no geometry of this robot fits them, so they are most \
+                 likely not ZYX Euler angles (alpha about z, then beta about y, then gamma about \
+                 x) of the measured frame; convert them, or use the positions alone"
+            ),
+            Warning::WorseOnValidation {
+                metric,
+                before,
+                after,
+                unit,
+            } => write!(
+                f,
+                "the calibration made the held-out {metric} errors worse: mean {before:.6} -> \
+                 {after:.6} {unit}; the model fits the identification data but not other \
+                 postures (too many parameters for the data, postures that do not cover the \
+                 workspace, or the validation data measured differently)"
+            ),
+            Warning::SigmasOff { variance_factor } => {
+                let k = variance_factor.sqrt();
+                if k > 1.0 {
+                    write!(
+                        f,
+                        "the residuals are {k:.0} times the stated standard deviations (variance \
+                         factor {variance_factor:.4}): the parameters' sigmas are scaled to the \
+                         residuals, but the outliers listed and the relative weights of rows are \
+                         judged with the stated ones; state sigmas near the residuals' size \
+                         (--weights, or the files' sigma columns)"
+                    )
+                } else {
+                    write!(
+                        f,
+                        "the residuals are {:.0} times smaller than the stated standard \
+                         deviations (variance factor {variance_factor:.4}): the weights do not \
+                         describe this data; state sigmas near the residuals' size (--weights, \
+                         or the files' sigma columns)",
+                        1.0 / k
+                    )
+                }
+            }
             Warning::AngleUnitMismatch {
                 joints,
                 file_unit,

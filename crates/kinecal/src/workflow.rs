@@ -226,12 +226,123 @@ pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<P
             ParamKind::Offset { .. } => true,
             ParamKind::Slope { .. } => !unit_slopes,
             ParamKind::Coupling { .. } | ParamKind::Plane { .. } => false,
+            // A session's frame is estimated wherever its observations are.
+            ParamKind::Session { session, .. } => {
+                let name = robot.sessions[session].name.as_str();
+                data.postures
+                    .iter()
+                    .any(|p| p.session.as_deref() == Some(name))
+            }
         };
         if default {
             ids.push(id);
         }
     }
     (ids, unseen)
+}
+
+/// `robot` with its rigid frames fitted to `data` by least squares, the rest held: the first
+/// link (the measurement frame), the last link and the sites (the measured targets' frames) and
+/// the sessions' frames, those of them among `candidates`; `robot` itself when the fit does not
+/// lower the objective.
+fn rigid_fit(robot: &Robot, data: &Dataset, candidates: &[ParamId], req: &Request) -> Robot {
+    let last = robot.links.len() - 1;
+    let ids: Vec<ParamId> = candidates
+        .iter()
+        .copied()
+        .filter(|&id| {
+            matches!(
+                robot.param_kind(id),
+                ParamKind::Link { link: 0, .. }
+                    | ParamKind::Site { .. }
+                    | ParamKind::Session { .. }
+            ) || matches!(robot.param_kind(id), ParamKind::Link { link, .. } if link == last)
+        })
+        .collect();
+    if ids.is_empty() {
+        return robot.clone();
+    }
+    let mut ids = ids;
+    ids.sort();
+    ids.dedup();
+    let opts = CalibrationOptions {
+        estimate: ids,
+        solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
+        weights: req.weights,
+        orientation: req.orientation,
+        loss: Loss::Squared,
+    };
+    match estimation::calibrate(robot, data, &opts, &mut |_| {}) {
+        Ok(c) if c.objective_after < c.objective_before && c.calibrated.validate().is_ok() => {
+            c.calibrated
+        }
+        _ => robot.clone(),
+    }
+}
+
+/// `robot` with frames for the sessions `names` of `data`, placed in closed form and then
+/// estimated on `data` (their six parameters each, the robot held, with `opts`' weights and
+/// residuals): how a robot is checked on data measured from somewhere it has not been told.
+pub fn refit_sessions(
+    robot: &Robot,
+    data: &Dataset,
+    names: &[String],
+    opts: &CalibrationOptions,
+) -> Robot {
+    let mut r = robot.clone();
+    let first = r.sessions.len();
+    for name in names {
+        r.sessions.push(crate::robot::Session {
+            name: name.clone(),
+            frame: crate::robot::Link::default(),
+        });
+    }
+    let ids: Vec<ParamId> = r
+        .param_ids()
+        .filter(|&id| matches!(r.param_kind(id), ParamKind::Session { session, .. } if session >= first))
+        .collect();
+    if let Some((placed, _, _)) = crate::registration::place_sessions(&r, data, &ids) {
+        r = placed;
+    }
+    let fit = CalibrationOptions {
+        estimate: ids,
+        solver: opts.solver,
+        weights: opts.weights,
+        orientation: opts.orientation,
+        loss: Loss::Squared,
+    };
+    match estimation::calibrate(&r, data, &fit, &mut |_| {}) {
+        Ok(c) => c.calibrated,
+        Err(_) => r,
+    }
+}
+
+/// `robot` with a measurement frame for each session of `data` that needs one and it lacks:
+/// every session but the first (in data order) when every posture has a session, every session
+/// otherwise (the postures without one are in the global frame); `None` when none is missing.
+/// A frame starts at the identity, to be placed in closed form and estimated.
+pub fn session_frames_for(robot: &Robot, data: &Dataset) -> Option<Robot> {
+    let sessions = data.sessions();
+    let unframed: Vec<&std::sync::Arc<str>> = sessions
+        .iter()
+        .filter(|s| robot.session_index(s).is_none())
+        .collect();
+    let all_in_sessions = data.postures.iter().all(|p| p.session.is_some());
+    // The global frame is the first session's unless some posture is in none, or the robot
+    // already frames some session (then the global frame is the robot's own).
+    let skip = usize::from(all_in_sessions && robot.sessions.is_empty());
+    let new: Vec<&std::sync::Arc<str>> = unframed.into_iter().skip(skip).collect();
+    if new.is_empty() {
+        return None;
+    }
+    let mut r = robot.clone();
+    for name in new {
+        r.sessions.push(crate::robot::Session {
+            name: name.to_string(),
+            frame: crate::robot::Link::default(),
+        });
+    }
+    Some(r)
 }
 
 /// Which of several equally good answers a calibration returns when the data leaves some
@@ -300,15 +411,25 @@ pub struct CrossValidation {
     pub mean_interval: (f64, f64),
 }
 
-/// One fold of a cross-validation.
+/// One fold of a cross-validation: what was held out, what the fit on the rest estimated and
+/// could determine, and how it did on the held-out postures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fold {
     /// Postures held out.
     pub postures: usize,
+    /// Their labels.
+    pub held_out: Vec<String>,
     /// The held-out errors (m).
     pub errors: crate::observe::MetricAccuracy,
+    /// The held-out posture with the largest error, and that error (m).
+    pub worst: Option<(String, f64)>,
     /// Whether the fold's fit converged.
     pub converged: bool,
+    /// The parameters the fold's fit estimated.
+    pub estimated: Vec<ParamId>,
+    /// The numerical rank of its estimated parameters (absent when the uncertainty could not
+    /// be computed).
+    pub rank: Option<usize>,
 }
 
 /// Everything that decides a calibration.
@@ -444,14 +565,25 @@ impl Progress for Clock<'_> {
     fn iteration(&mut self, it: &Iteration) {
         self.inner.iteration(it);
     }
+    fn data_checked(&mut self, warnings: &[Warning]) -> bool {
+        self.inner.data_checked(warnings)
+    }
 }
 
-/// Receives the progress of a calibration. Both methods do nothing by default.
+/// Receives the progress of a calibration. Every method does nothing by default.
 pub trait Progress {
     /// A phase starts.
     fn phase(&mut self, _phase: Phase) {}
     /// An iteration of the solver ended.
     fn iteration(&mut self, _it: &Iteration) {}
+    /// The data was checked against the nominal robot before any solving (units, attitudes,
+    /// readings; [`crate::sanity::check_data`]): `warnings` are what was found, empty when all
+    /// is well. Returning false stops the run there ([`Error::Stopped`]), e.g. for a caller
+    /// that treats a warning saying the result would be wrong ([`Warning::implausible`]) as
+    /// fatal.
+    fn data_checked(&mut self, _warnings: &[Warning]) -> bool {
+        true
+    }
 }
 
 /// No progress display.
@@ -477,8 +609,11 @@ pub struct Checked {
     pub postures: usize,
     /// Observations in the dataset.
     pub observations: usize,
-    /// With the nominal (starting) robot.
+    /// With the nominal robot (the request's).
     pub before: Accuracy,
+    /// With the solver's start, when it is not the nominal robot (its frames placed in
+    /// closed form first, or an initial guess).
+    pub start: Option<Accuracy>,
     /// With the calibrated robot.
     pub after: Accuracy,
     /// The RMS of the residuals in their own standard deviations (each row's `sigma_*`, else
@@ -501,6 +636,7 @@ impl Checked {
                 postures: data.postures.len(),
                 observations: data.observations.len(),
                 before,
+                start: None,
                 after,
                 normalized_before: (cal.objective_before / m).sqrt(),
                 normalized_after: (cal.objective_after / m).sqrt(),
@@ -509,17 +645,40 @@ impl Checked {
         Checked {
             before,
             after,
-            ..Checked::new(cal, data)
+            ..Checked::new(cal, data, data, &cal.initial).0
         }
     }
 
     /// `cal` checked on other data: one pass of forward kinematics per robot gives both the
-    /// accuracy and the normalized residuals.
-    fn new(cal: &Calibration, data: &Dataset) -> Checked {
+    /// accuracy and the normalized residuals. Sessions of `data` that neither the robots frame
+    /// nor `identification` has (a tracker moved since) first get their frames re-estimated on
+    /// `data` for each robot ([`refit_sessions`]); their names are returned.
+    fn new(
+        cal: &Calibration,
+        data: &Dataset,
+        identification: &Dataset,
+        nominal: &Robot,
+    ) -> (Checked, Vec<String>) {
+        let seen = identification.sessions();
+        let unseen: Vec<String> = data
+            .sessions()
+            .iter()
+            .filter(|s| cal.calibrated.session_index(s).is_none() && !seen.contains(s))
+            .map(|s| s.to_string())
+            .collect();
+        let refit = |r: &Robot| {
+            if unseen.is_empty() {
+                r.clone()
+            } else {
+                refit_sessions(r, data, &unseen, &cal.options)
+            }
+        };
+        let (initial, calibrated) = (refit(&cal.initial), refit(&cal.calibrated));
+        let nominal = (cal.initial != *nominal).then(|| refit(nominal));
         // One table of the readings' sines and cosines serves both robots when the calibration
         // kept the slopes and couplings.
         let p = Problem::new(
-            &cal.initial,
+            &initial,
             data,
             &[],
             cal.options.weights,
@@ -532,16 +691,27 @@ impl Checked {
             let (f, acc) = p.evaluate_checked(robot, &mut r);
             ((f / m as f64).sqrt(), acc)
         };
-        let (normalized_before, before) = check(&cal.initial);
-        let (normalized_after, after) = check(&cal.calibrated);
-        Checked {
-            postures: data.postures.len(),
-            observations: data.observations.len(),
-            before,
-            after,
-            normalized_before,
-            normalized_after,
-        }
+        let (normalized_start, start) = check(&initial);
+        let (normalized_after, after) = check(&calibrated);
+        let (normalized_before, before, start) = match &nominal {
+            Some(n) => {
+                let (nb, b) = check(n);
+                (nb, b, Some(start))
+            }
+            None => (normalized_start, start, None),
+        };
+        (
+            Checked {
+                postures: data.postures.len(),
+                observations: data.observations.len(),
+                before,
+                start,
+                after,
+                normalized_before,
+                normalized_after,
+            },
+            unseen,
+        )
     }
 }
 
@@ -652,6 +822,19 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         }
         Validation::Folds { .. } => (req.data.clone(), None),
     };
+    // Sessions of the data with a measurement frame of their own: added to the model (the first
+    // session, or the postures without one, are in the global frame).
+    let with_frames;
+    let req = match session_frames_for(&req.robot, &data) {
+        Some(robot) => {
+            with_frames = Request {
+                robot,
+                ..req.clone()
+            };
+            &with_frames
+        }
+        None => req,
+    };
     let start = match &req.initial {
         None => req.robot.clone(),
         Some(guess) => {
@@ -663,7 +846,11 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
                 ));
             }
             let mut start = req.robot.clone();
-            for id in req.robot.param_ids() {
+            for id in req
+                .robot
+                .param_ids()
+                .filter(|id| id.0 < guess.param_count())
+            {
                 start.set(id, guess.get(id));
             }
             for (p, g) in start.planes.iter_mut().zip(&guess.planes) {
@@ -676,6 +863,14 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     // Where the nominal robot puts the observed points: one pass, for the checks of the data
     // against it (scale) and, when the start is the nominal robot, of the start's distance.
     let nominal_points = crate::sanity::predicted(&req.robot, &data);
+    // The data against the nominal robot, before any solving: a unit mix-up is named now, not
+    // after a solve that could not have made sense of it.
+    let data_warns = data_warnings(&req.robot, &data, &nominal_points);
+    if !progress.data_checked(&data_warns) {
+        return Err(Error::Stopped {
+            after: "the checks of the data against the nominal robot",
+        });
+    }
     let start_points = if start == req.robot {
         None
     } else {
@@ -684,22 +879,41 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     let start_points = start_points.as_deref().unwrap_or(&nominal_points);
     // A far start (a measurement frame placed roughly or not at all): place the measurement
     // frame and the measured frames in closed form first, among the parameters that may move.
-    let registration = match &req.selection {
-        Selection::List(ids) => {
-            crate::registration::register_far_start_with(&start, &data, ids, start_points)
-        }
+    let candidates: Vec<ParamId> = match &req.selection {
+        Selection::List(ids) => ids.clone(),
         Selection::Default { fix } | Selection::Identifiable { fix, .. } => {
             let (mut ids, _) = default_parameters(&start, &data);
             if let Selection::Identifiable { with, .. } = &req.selection {
                 ids.extend(with.iter().copied());
             }
             ids.retain(|id| !fix.contains(id));
-            crate::registration::register_far_start_with(&start, &data, &ids, start_points)
+            ids
         }
     };
+    let registration =
+        crate::registration::register_far_start_with(&start, &data, &candidates, start_points);
     let start = match &registration {
         Some(r) => r.robot.clone(),
         None => start,
+    };
+    // Each session's frame placed in closed form (they start unknown).
+    let session_ids: Vec<ParamId> = start
+        .param_ids()
+        .filter(|&id| matches!(start.param_kind(id), ParamKind::Session { .. }))
+        .collect();
+    let sessions_placed = crate::registration::place_sessions(&start, &data, &session_ids);
+    let placed = registration.is_some() || sessions_placed.is_some();
+    let start = match sessions_placed {
+        Some((placed, _, _)) => placed,
+        None => start,
+    };
+    // Placed in closed form, the frames are then fitted by least squares with the robot held
+    // (a rigid fit of the nominal robot: the measurement frames, the measured targets' frames),
+    // so that the solver starts, and "start" is reported, at the nominal robot's best placement.
+    let start = if placed {
+        rigid_fit(&start, &data, &candidates, req)
+    } else {
+        start
     };
     let reference = match req.solution {
         SolutionRule::MinChange => &req.robot,
@@ -753,7 +967,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             req.outlier_sigmas,
             req.solution,
             &req.sources,
-            &mut data_warnings(&req.robot, &data, &nominal_points),
+            &mut data_warns.clone(),
         );
         pruning = Some(Pruning {
             k,
@@ -763,7 +977,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         });
     }
     progress.phase(Phase::Uncertainty);
-    let mut warnings = data_warnings(&req.robot, &data, &nominal_points);
+    let mut warnings = data_warns;
     if !unseen.is_empty() {
         warnings.insert(
             0,
@@ -797,7 +1011,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     if let Validation::Folds { k, seed } = req.validation {
         progress.phase(Phase::CrossValidation);
         let cv = cross_validate(req, k, seed)?;
-        outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot.units));
+        outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot));
         outcome.cross_validation = Some(cv);
     }
     Ok(outcome)
@@ -845,16 +1059,30 @@ fn cross_validate(req: &Request, k: usize, seed: Option<u64>) -> Result<CrossVal
         sub.validation = Validation::None;
         sub.sources = Vec::new();
         let o = run(&sub, &mut ())?;
-        let e: Vec<f64> = crate::observe::errors(&o.calibration.calibrated, &held)
-            .into_iter()
-            .filter(|e| e.metric == metric)
-            .map(|e| e.length)
-            .collect();
+        let mut worst: Option<(String, f64)> = None;
+        let mut e = Vec::new();
+        for (o, err) in held
+            .observations
+            .iter()
+            .zip(crate::observe::errors(&o.calibration.calibrated, &held))
+        {
+            if err.metric != metric {
+                continue;
+            }
+            if worst.as_ref().is_none_or(|w| err.length > w.1) {
+                worst = Some((held.postures[o.posture()].label.clone(), err.length));
+            }
+            e.push(err.length);
+        }
         all.extend(e.iter().copied());
         out.push(Fold {
             postures: held.postures.len(),
+            held_out: held.postures.iter().map(|p| p.label.clone()).collect(),
             errors: summary(e),
+            worst,
             converged: o.calibration.converged(),
+            estimated: o.calibration.estimated.clone(),
+            rank: o.uncertainty.as_ref().map(|u| u.analysis.rank),
         });
     }
     let mean_interval = bootstrap_mean_interval(&all, seed.unwrap_or(0));
@@ -869,8 +1097,9 @@ fn cross_validate(req: &Request, k: usize, seed: Option<u64>) -> Result<CrossVal
 /// The report of `cv` in `units`.
 fn cross_validation_report(
     cv: &CrossValidation,
-    units: &crate::units::Units,
+    robot: &Robot,
 ) -> crate::report::CrossValidationReport {
+    let units = &robot.units;
     use crate::report::{CrossValidationReport, FoldReport, MetricStats};
     let len = |v: f64| units.from_si(Quantity::Length, v);
     let stats = |m: &crate::observe::MetricAccuracy| MetricStats {
@@ -889,8 +1118,12 @@ fn cross_validation_report(
             .iter()
             .map(|f| FoldReport {
                 postures: f.postures,
+                held_out: f.held_out.clone(),
                 errors: stats(&f.errors),
+                worst_posture: f.worst.as_ref().map(|w| w.0.clone()),
                 converged: f.converged,
+                estimated: f.estimated.iter().map(|&id| robot.param_name(id)).collect(),
+                rank: f.rank,
             })
             .collect(),
         overall: stats(&cv.overall),
@@ -948,18 +1181,27 @@ impl Candidate {
     }
 
     /// The default candidates, from the simplest up: the identifiable set of the geometric
-    /// model (links, offsets, sites: slopes held), the same with the joint transducer slopes,
-    /// and the latter pruned stepwise at 2 and at 3 standard deviations.
+    /// model (links, offsets, sites: slopes held); with the coupling factors, when the robot
+    /// has coupled joints; with the joint transducer slopes (and the couplings); and the latter
+    /// pruned stepwise at 2 and at 3 standard deviations.
     pub fn defaults(robot: &Robot) -> Result<Vec<Candidate>> {
-        [
-            "identifiable fix=slopes",
-            "identifiable,slopes",
-            "identifiable,slopes prune=2",
-            "identifiable,slopes prune=3",
-        ]
-        .iter()
-        .map(|t| Candidate::parse(t, robot))
-        .collect()
+        let mut texts = vec!["identifiable fix=slopes"];
+        let coupled = robot.coupled_joints().next().is_some();
+        if coupled {
+            texts.push("identifiable,couplings fix=slopes");
+            texts.extend([
+                "identifiable,slopes,couplings",
+                "identifiable,slopes,couplings prune=2",
+                "identifiable,slopes,couplings prune=3",
+            ]);
+        } else {
+            texts.extend([
+                "identifiable,slopes",
+                "identifiable,slopes prune=2",
+                "identifiable,slopes prune=3",
+            ]);
+        }
+        texts.iter().map(|t| Candidate::parse(t, robot)).collect()
     }
 }
 
@@ -988,17 +1230,25 @@ pub struct Choice {
     pub outcome: Outcome,
 }
 
+/// How many times [`choose`] repeats its cross-validation, over as many shuffles of the
+/// postures, by default.
+pub const CHOICE_REPEATS: usize = 5;
+
 /// Chooses among `candidates`, listed from the simplest model up, by `k`-fold cross-validation
-/// (the same folds for all): the first whose held-out mean is within one standard error of the
-/// best (the one-standard-error rule: a more elaborate model must earn its place by more than
-/// the noise of the estimate; a pruned fit counts as more elaborate than the set it prunes, as
-/// its parameters were chosen from the data), and returns its calibration (checked on `req`'s validation
-/// data too, when it is a separate dataset).
+/// repeated over `repeats` shuffles of the postures (the same folds for all candidates; the
+/// first repeat with `seed`, the others with the seeds after it), so that the choice does not
+/// hang on one split: the first whose held-out mean over all repeats is within one standard
+/// error of the best (the one-standard-error rule: a more elaborate model must earn its place
+/// by more than the noise of the estimate; a pruned fit counts as more elaborate than the set it
+/// prunes, as its parameters were chosen from the data), and returns its calibration (checked on
+/// `req`'s validation data too, when it is a separate dataset). The standard error is that of
+/// one `k`-fold estimate: the spread of the folds' means over `sqrt(k)`.
 pub fn choose(
     req: &Request,
     candidates: &[Candidate],
     k: usize,
     seed: Option<u64>,
+    repeats: usize,
 ) -> Result<Choice> {
     if candidates.is_empty() {
         return Err(Error::InvalidOption {
@@ -1015,15 +1265,23 @@ pub fn choose(
         sub.validation = Validation::Folds { k, seed };
         let out = run(&sub, &mut ())?;
         let cv = out.cross_validation.as_ref().expect("folds asked for");
-        let means: Vec<f64> = cv.folds.iter().map(|f| f.errors.mean).collect();
+        let mut means: Vec<f64> = cv.folds.iter().map(|f| f.errors.mean).collect();
+        let (mut sum, mut count) = (cv.overall.mean * cv.overall.count as f64, cv.overall.count);
+        for r in 1..repeats.max(1) {
+            let shuffle = seed.unwrap_or(0).wrapping_add(r as u64);
+            let again = cross_validate(&sub, k, Some(shuffle))?;
+            means.extend(again.folds.iter().map(|f| f.errors.mean));
+            sum += again.overall.mean * again.overall.count as f64;
+            count += again.overall.count;
+        }
         let m = means.iter().sum::<f64>() / means.len() as f64;
         let var =
             means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (means.len() - 1).max(1) as f64;
         scored.push(Scored {
             candidate: c.clone(),
             parameters: out.calibration.estimated.len(),
-            mean: cv.overall.mean,
-            standard_error: (var / means.len() as f64).sqrt(),
+            mean: sum / count.max(1) as f64,
+            standard_error: (var / k as f64).sqrt(),
         });
         outcomes.push(out);
     }
@@ -1046,6 +1304,7 @@ pub fn choose(
         outcome = checked;
     }
     let len = |v: f64| req.robot.units.from_si(Quantity::Length, v);
+    outcome.report.model_choice_repeats = Some(repeats.max(1));
     outcome.report.model_choice = scored
         .iter()
         .enumerate()
@@ -1102,6 +1361,13 @@ fn finish(
         &cal.calibrated,
         &cal.estimated,
     ));
+    if cal.accuracy_after.orientations > 0
+        && cal.accuracy_after.rms_orientation > crate::sanity::ATTITUDE_LIMIT
+    {
+        warnings.push(Warning::AttitudesUnfit {
+            rms_deg: cal.accuracy_after.rms_orientation.to_degrees(),
+        });
+    }
     if !cal.unfelt.is_empty() {
         warnings.push(Warning::Unfelt {
             parameters: cal
@@ -1113,6 +1379,11 @@ fn finish(
     }
     let uncertainty = match unc {
         Ok(u) => {
+            if u.dof > 0 && !(0.01..=100.0).contains(&u.variance_factor) {
+                warnings.push(Warning::SigmasOff {
+                    variance_factor: u.variance_factor,
+                });
+            }
             for &(a, b, rho) in &u.correlations {
                 warnings.push(Warning::Correlated {
                     a: a.to_string(),
@@ -1144,9 +1415,32 @@ fn finish(
         _ => {}
     }
     let outliers = outliers::outliers_of_fit(&cal, &data, outlier_sigmas);
-    let identification = Checked::fitted(&cal, &data);
-    let validation = validation_data.as_ref().map(|v| Checked::new(&cal, v));
+    let mut identification = Checked::fitted(&cal, &data);
+    let validation = validation_data
+        .as_ref()
+        .map(|v| Checked::new(&cal, v, &data, &nominal));
     let mut report = CalibrationReport::new(&cal, &data);
+    // The solver started elsewhere than the nominal robot (frames placed in closed form, an
+    // initial guess): "before" is the nominal robot, the start is said apart.
+    let nominal_figures = (cal.initial != nominal).then(|| {
+        let p = Problem::new(
+            &nominal,
+            &data,
+            &[],
+            cal.options.weights,
+            cal.options.orientation,
+        );
+        let mut r = vec![0.0; p.rows()];
+        p.evaluate_checked(&nominal, &mut r)
+    });
+    if let Some((objective, accuracy)) = &nominal_figures {
+        report.set_nominal(*objective, accuracy, &nominal.units);
+        identification.start = Some(std::mem::replace(
+            &mut identification.before,
+            accuracy.clone(),
+        ));
+        identification.normalized_before = (objective / data.rows().max(1) as f64).sqrt();
+    }
     report.set_normalized([
         identification.normalized_before,
         identification.normalized_after,
@@ -1157,7 +1451,7 @@ fn finish(
         &cal.calibrated,
         outliers::threshold(outlier_sigmas, data.rows()),
     );
-    if let Some(v) = &validation {
+    if let Some((v, refitted)) = &validation {
         report.set_validation(
             v.postures,
             v.observations,
@@ -1166,6 +1460,34 @@ fn finish(
             [v.normalized_before, v.normalized_after],
             &cal.calibrated,
         );
+        report.set_validation_sessions(refitted.clone());
+        if let Some(s) = &v.start {
+            report.set_validation_start(s, &nominal.units);
+        }
+    }
+    let validation = validation.map(|(v, _)| v);
+    if let Some(v) = &validation {
+        let len = |x: f64| cal.calibrated.units.from_si(Quantity::Length, x);
+        let mut worse = |metric: &str, before: f64, after: f64| {
+            // Beyond rounding: a held-out error that grew by more than a part in a million.
+            if after > before * (1.0 + 1e-6) {
+                warnings.push(Warning::WorseOnValidation {
+                    metric: metric.to_string(),
+                    before: len(before),
+                    after: len(after),
+                    unit: cal.calibrated.units.length.to_string(),
+                });
+            }
+        };
+        // Against the start when it is not the nominal robot (a nominal whose frames were far
+        // off says nothing).
+        let base = v.start.as_ref().unwrap_or(&v.before);
+        if base.positions > 0 {
+            worse("position", base.mean_position, v.after.mean_position);
+        }
+        for (b, a) in base.other.iter().zip(&v.after.other) {
+            worse(b.metric, b.mean, a.mean);
+        }
     }
     if let Some(u) = &uncertainty {
         report.set_uncertainty(&cal, u);

@@ -85,6 +85,7 @@ fn p38_objective_valleys_fig_4_11() {
             &[Posture {
                 label: label.into(),
                 readings: v.to_vec(),
+                session: None,
             }],
             false,
         )
@@ -96,10 +97,12 @@ fn p38_objective_valleys_fig_4_11() {
             Posture {
                 label: "1".into(),
                 readings: P1.to_vec(),
+                session: None,
             },
             Posture {
                 label: "2".into(),
                 readings: P2.to_vec(),
+                session: None,
             },
         ],
         false,

@@ -55,6 +55,9 @@ fn ge_a4_full_model_rank_24_with_the_thesis_identical_groups() {
     assert_eq!(coefs, vec![1.0, -1.0, -1.0, -1.0, -1.0, -1.0]);
     assert!((z.value - 5.79).abs() < 1e-9);
     assert_eq!(a.null_space.len(), 14);
+    // A base set of 24, every member determined at the noise level (at the default weights,
+    // 1 mm and 1 mrad, the loosest is link3.beta, to about 0.3 deg: within 0.02 rad).
+    assert!(a.noise_dependent.is_empty(), "{:?}", a.noise_dependent);
     assert_eq!(a.identifiable.len(), 24);
     // Joint offsets are kept (thesis advice).
     for p in 31..=34 {
@@ -355,7 +358,8 @@ fn priority_and_tolerances_are_the_users_to_set() {
     };
     let b = analyze(&robot, &data, &all, &opts).unwrap();
     assert!(b.identifiable.contains(&ParamId(3)) && !b.identifiable.contains(&ParamId(30)));
-    assert_eq!(b.identifiable.len(), 24);
+    assert_eq!(b.identifiable.len(), a.identifiable.len());
+    assert_eq!(b.identifiable.len() + b.noise_dependent.len(), 24);
 
     let text = format!(
         "{}\n[tolerances]\nlength = 0.04\nangle = 0.2\nslope = 0.02\n\"link3.y\" = 0.5\np31 = 1.0\n",
@@ -470,4 +474,491 @@ fn the_accumulated_analysis_matches_the_whole_jacobian() {
             "column {j}: {norm}"
         );
     }
+}
+
+/// A UR10 (standard DH, the nominal of `../shared/data/ipa_ur10_tracker`) whose tool point is
+/// `off` (m) from joint 6's axis, 192.2 mm along it.
+fn ur10_with_tool_off_axis(off: f64) -> kinecal::Robot {
+    use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
+    use std::f64::consts::FRAC_PI_2;
+    let row = |a: f64, alpha: f64, d: f64| DhRow {
+        kind: JointKind::Revolute,
+        a,
+        alpha,
+        d,
+        theta: 0.0,
+    };
+    let rows = [
+        row(0.0, FRAC_PI_2, 0.1273),
+        row(-0.612, 0.0, 0.0),
+        row(-0.5723, 0.0, 0.0),
+        row(0.0, FRAC_PI_2, 0.163941),
+        row(0.0, -FRAC_PI_2, 0.1157),
+        row(off, 0.0, 0.1922),
+    ];
+    robot_from_dh(
+        "UR10",
+        kinecal::units::Units::default(),
+        &rows,
+        Convention::Standard,
+    )
+}
+
+/// The same observations in CSV with a standard deviation per row, read back: the first
+/// `anchors` at `tiny`, the others at `sigma` (m).
+fn with_sigmas(
+    robot: &kinecal::Robot,
+    data: &kinecal::Dataset,
+    anchors: usize,
+    tiny: f64,
+    sigma: f64,
+) -> kinecal::Dataset {
+    use kinecal::observe::point::{parse_measurements, write_measurements};
+    let text = write_measurements(robot, data);
+    let mut out = String::new();
+    for (k, line) in text.lines().enumerate() {
+        out.push_str(line);
+        if k == 0 {
+            out.push_str(",sigma_position");
+        } else {
+            out.push_str(&format!(",{}", if k <= anchors { tiny } else { sigma }));
+        }
+        out.push('\n');
+    }
+    parse_measurements(&out, "sigmas.csv", robot).unwrap()
+}
+
+/// The weighted Jacobian (m x n, per internal unit) and each row's sigma, formed directly.
+fn weighted_jacobian(
+    robot: &kinecal::Robot,
+    data: &kinecal::Dataset,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+) -> (nalgebra::DMatrix<f64>, Vec<f64>) {
+    let p = kinecal::problem::Problem::new(robot, data, params, opts.weights, opts.orientation);
+    let mut r = vec![0.0; p.rows()];
+    let mut j = kinecal::linalg::Matrix::zeros(0, 0);
+    p.evaluate(robot, &mut r, Some(&mut j));
+    let m = nalgebra::DMatrix::from_fn(j.nrows(), j.ncols(), |i, k| j[(i, k)]);
+    (m, p.row_sigma().to_vec())
+}
+
+/// A laser tracker's probe point 0.3 mm off the UR10's joint-6 axis (positions, 0.05 mm of
+/// noise): the rank is full, but the link-6 attitude terms (and what they confound: link 5's
+/// tilt, joint 5's offset) are determined only to 0.02-0.03 rad (sines about 1e-3, where every
+/// other parameter's is above 0.2). They are left out, each with its regression on the
+/// identifiable set, which an explicit least-squares fit on the whole weighted Jacobian
+/// reproduces. 100 mm off the axis, nothing is left out.
+#[test]
+fn a_probe_point_near_the_last_axis_leaves_link6_terms_out_within_the_noise() {
+    for (off, left_out) in [(0.3e-3, 2..=4), (0.1, 0..=0)] {
+        let robot = ur10_with_tool_off_axis(off);
+        let postures = simulate::sample_postures(&robot, 100, 4);
+        let mut data = simulate::measure(&robot, &postures, true);
+        simulate::add_noise(&mut data, 5e-5, 0.0, 8);
+        let (params, _) = kinecal::workflow::default_parameters(&robot, &data);
+        let opts = AnalysisOptions {
+            weights: Weights {
+                length: 5e-5,
+                angle: 1e-3,
+            },
+            ..Default::default()
+        };
+        let a = analyze(&robot, &data, &params, &opts).unwrap();
+        // 4 per revolute joint and 3 for the observed point (readings are joint values:
+        // no slopes).
+        assert_eq!(a.rank, 27, "{off}");
+        assert_eq!(a.expected.as_ref().unwrap().rank, 27);
+        assert!(
+            left_out.contains(&a.noise_dependent.len()),
+            "{off}: {:?}",
+            a.noise_dependent
+        );
+        // Each left out is out of the set, and takes a direction of the rank with it.
+        assert!(
+            left_out.contains(&(27 - a.identifiable.len())),
+            "{off}: {} kept",
+            a.identifiable.len()
+        );
+        for d in &a.noise_dependent {
+            assert!(!a.identifiable.contains(&d.id));
+        }
+        if off < 1e-3 {
+            let gamma = robot.param_id(kinecal::ParamKind::Link {
+                link: 5,
+                component: kinecal::params::LinkComponent::Gamma,
+            });
+            assert!(a.noise_dependent.iter().any(|d| d.id == gamma));
+        }
+        assert!(
+            a.noise_rule.contains("exceeds 0.02 rad for an angle"),
+            "{}",
+            a.noise_rule
+        );
+        let (jw, _) = weighted_jacobian(&robot, &data, &a.parameters, &opts);
+        let m = jw.nrows();
+        let col = |id: ParamId| a.parameters.iter().position(|&p| p == id).unwrap();
+        for d in &a.noise_dependent {
+            let name = robot.param_name(d.id);
+            assert!(
+                ["link6.alpha", "link6.gamma", "link5.beta", "joint5.offset"]
+                    .contains(&name.as_str()),
+                "{name}"
+            );
+            // Angles, determined to worse than 0.02 rad; and none of them independent.
+            assert!(d.sigma > 0.02 && d.sigma < 0.1, "{name}: {d:?}");
+            assert!(!d.terms.is_empty() && d.terms.len() <= 4);
+            // Uniform weights: e_j is the column's RMS, and the sine is r/e over sqrt(m).
+            let j = col(d.id);
+            let e = (jw.column(j).norm_squared() / m as f64).sqrt();
+            assert!((a.typical_row[j] - e).abs() < 1e-12 * e);
+            assert!((d.ratio / (m as f64).sqrt() - d.sine).abs() < 1e-12 * d.sine);
+            // Left out given the parameters before it (1 / r_jj) or given the whole set.
+            assert!(
+                d.sigma >= 1.0 / (d.ratio * e) * (1.0 - 1e-9),
+                "{name}: {d:?}"
+            );
+            // The regression on the identifiable columns, by SVD of the whole matrix (file
+            // units are the internal ones here: m and rad).
+            let s: Vec<usize> = a.identifiable.iter().map(|&id| col(id)).collect();
+            let js = nalgebra::DMatrix::from_fn(m, s.len(), |i, k| jw[(i, s[k])]);
+            let y = jw.column(j).into_owned();
+            let fit = js.clone().svd(true, true).solve(&y, 1e-14).unwrap();
+            for &(id, c) in &d.terms {
+                let k = a.identifiable.iter().position(|&p| p == id).unwrap();
+                assert!(
+                    (fit[k] - c).abs() < 1e-6 * fit[k].abs().max(1e-3),
+                    "{name}: {id} {c} vs {}",
+                    fit[k]
+                );
+            }
+            // Given the whole identifiable set, it is at most as determined as at its step.
+            let rest = (&y - &js * &fit).norm();
+            assert!(
+                rest / e <= d.ratio * (1.0 + 1e-9),
+                "{rest} / {e} vs {}",
+                d.ratio
+            );
+        }
+        // The report names the combination.
+        if let Some(d) = a.noise_dependent.first() {
+            assert!(d.expression().starts_with(&format!("{} ~= ", d.id)));
+        }
+    }
+}
+
+/// 3 anchor points at 1e-6 mm among 37 positions at 0.05 mm: their rows are clamped at the
+/// median weight in e_j, so the other parameters are not made to look negligible (unclamped,
+/// e_j grows about 10^4 times and every parameter would be "dependent within the noise").
+#[test]
+fn anchor_rows_do_not_make_the_other_parameters_dependent_within_the_noise() {
+    let robot = ur10_with_tool_off_axis(0.1);
+    let clean = simulate::measure(&robot, &simulate::sample_postures(&robot, 40, 6), true);
+    let (params, _) = kinecal::workflow::default_parameters(&robot, &clean);
+    let opts = AnalysisOptions::default();
+    let plain = with_sigmas(&robot, &clean, 0, 5e-5, 5e-5);
+    let anchored = with_sigmas(&robot, &clean, 3, 1e-9, 5e-5);
+    let a = analyze(&robot, &plain, &params, &opts).unwrap();
+    let b = analyze(&robot, &anchored, &params, &opts).unwrap();
+    assert_eq!((a.rank, b.rank), (27, 27));
+    assert!(a.noise_dependent.is_empty() && b.noise_dependent.is_empty());
+    assert_eq!(b.identifiable, a.identifiable);
+    // e_j against the clamped RMS formed directly: weights 1/sigma, the median 1/(0.05 mm).
+    let (jw, sigma) = weighted_jacobian(&robot, &anchored, &b.parameters, &opts);
+    let m = jw.nrows();
+    let median = 1.0 / 5e-5;
+    for j in 0..jw.ncols() {
+        let clamped: f64 = (0..m)
+            .map(|i| (jw[(i, j)] * (median * sigma[i]).min(1.0)).powi(2))
+            .sum::<f64>();
+        let e = (clamped / m as f64).sqrt();
+        assert!((b.typical_row[j] - e).abs() < 1e-12 * e, "{j}");
+        // Unclamped, the anchors' rows would dominate it.
+        let plain_rms = (jw.column(j).norm_squared() / m as f64).sqrt();
+        assert!(plain_rms > 1e3 * e, "{j}: {plain_rms} vs {e}");
+    }
+}
+
+/// The GE A4's six identically redundant z parameters (thesis eq. 4.1), joint 3's offset
+/// left out: one of them is kept, the one the priority names first, every time.
+#[test]
+fn identical_columns_are_resolved_by_priority() {
+    let robot = examples::ge_a4();
+    let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 11), false);
+    let mut params = ids("all", &robot);
+    params.retain(|&id| id != ParamId(32));
+    let group = [
+        ParamId(2),
+        ParamId(8),
+        ParamId(14),
+        ParamId(20),
+        ParamId(26),
+    ];
+    for first in group {
+        let opts = AnalysisOptions {
+            priority: vec![first],
+            ..Default::default()
+        };
+        let a = analyze(&robot, &data, &params, &opts).unwrap();
+        let kept: Vec<ParamId> = group
+            .iter()
+            .copied()
+            .filter(|id| a.identifiable.contains(id))
+            .collect();
+        assert_eq!(kept, vec![first]);
+        let again = analyze(&robot, &data, &params, &opts).unwrap();
+        assert_eq!(again.identifiable, a.identifiable);
+    }
+    // By default: the first of the group in the default order (non-zero lengths first).
+    let a = analyze(&robot, &data, &params, &AnalysisOptions::default()).unwrap();
+    let order = kinecal::identifiability::default_priority(&robot);
+    let first = *order.iter().find(|id| group.contains(id)).unwrap();
+    assert!(a.identifiable.contains(&first));
+    assert_eq!(
+        group
+            .iter()
+            .filter(|id| a.identifiable.contains(id))
+            .count(),
+        1
+    );
+}
+
+/// The same robot and data in inches and degrees or in metres and radians: the same base
+/// set, the same parameters left out within the noise with the same ratios, and their
+/// combinations the same up to the change of units.
+#[test]
+fn the_base_set_does_not_depend_on_the_units() {
+    let inch = examples::ge_a4();
+    let mut metre = inch.clone();
+    metre.units = kinecal::units::Units::default();
+    let data = simulate::measure(&inch, &simulate::sample_postures(&inch, 30, 7), false);
+    let all = ids("all", &inch);
+    for weights in [
+        Weights::default(),
+        Weights {
+            length: 0.0005 * 0.0254,
+            angle: 0.005f64.to_radians(),
+        },
+    ] {
+        let opts = AnalysisOptions {
+            weights,
+            ..Default::default()
+        };
+        let a = analyze(&inch, &data, &all, &opts).unwrap();
+        let b = analyze(&metre, &data, &all, &opts).unwrap();
+        assert_eq!(a.rank, b.rank);
+        assert_eq!(a.identifiable, b.identifiable);
+        assert_eq!(a.noise_dependent.len(), b.noise_dependent.len());
+        for (x, y) in a.noise_dependent.iter().zip(&b.noise_dependent) {
+            assert_eq!(x.id, y.id);
+            assert!((x.ratio - y.ratio).abs() < 1e-9 * y.ratio);
+            let f = |id: ParamId| inch.units.factor(inch.param_quantity(id));
+            for (&(k, cx), &(l, cy)) in x.terms.iter().zip(&y.terms) {
+                assert_eq!(k, l);
+                // Per inch or degree: c_file = c_SI * f_j / f_k.
+                let want = cy * f(x.id) / f(k);
+                assert!((cx - want).abs() < 1e-6 * want.abs(), "{cx} vs {want}");
+            }
+        }
+    }
+}
+
+/// The greedy base selection `analyze` made before the pivoted QR (Gram-Schmidt, twice, of
+/// every candidate at every step: O(n^4)), verbatim but for the tiers, handed to it: the
+/// reference the pivoted QR must agree with where the noise rule does not bite. `js` holds
+/// unit columns; returns the chosen columns, sorted.
+fn greedy(
+    js: &kinecal::linalg::Matrix,
+    order: &[usize],
+    tier: &[usize],
+    rank: usize,
+    tol: f64,
+) -> Vec<usize> {
+    let m = js.nrows();
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut q: Vec<Vec<f64>> = Vec::new(); // orthonormal basis of chosen columns
+    let mut remaining: Vec<usize> = order.to_vec();
+    while chosen.len() < rank && !remaining.is_empty() {
+        let t = remaining.iter().map(|&j| tier[j]).min().expect("non-empty");
+        let mut best: Option<(usize, f64, Vec<f64>)> = None;
+        for &j in remaining.iter().filter(|&&j| tier[j] == t) {
+            let mut v: Vec<f64> = (0..m).map(|i| js[(i, j)]).collect();
+            for _ in 0..2 {
+                for b in &q {
+                    let d: f64 = v.iter().zip(b).map(|(x, y)| x * y).sum();
+                    for (x, y) in v.iter_mut().zip(b) {
+                        *x -= d * y;
+                    }
+                }
+            }
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if best.as_ref().is_none_or(|b| norm > b.1 * (1.0 + 1e-9)) {
+                best = Some((j, norm, v));
+            }
+        }
+        let (j, norm, v) = best.expect("tier has a candidate");
+        if norm > tol.max(1e-12) {
+            chosen.push(j);
+            q.push(v.iter().map(|x| x / norm).collect());
+            remaining.retain(|&k| k != j);
+        } else {
+            remaining.retain(|&k| tier[k] != t);
+        }
+    }
+    chosen.sort();
+    chosen
+}
+
+/// The analysed columns in order of preference and their tiers, as the documentation states
+/// them: the user's priority first (each its own tier), then joint offsets, slopes and
+/// couplings, non-zero lengths, non-zero angles, zero lengths, zero angles, sites, planes.
+fn preference(
+    robot: &kinecal::Robot,
+    params: &[ParamId],
+    priority: &[ParamId],
+) -> (Vec<usize>, Vec<usize>) {
+    use kinecal::params::ParamKind;
+    use kinecal::units::Quantity;
+    let tier = |id: ParamId| -> usize {
+        if let Some(k) = priority.iter().position(|&p| p == id) {
+            return k;
+        }
+        let nonzero = robot.get(id).abs() > 1e-12;
+        priority.len()
+            + match robot.param_kind(id) {
+                ParamKind::Offset { .. } => 0,
+                ParamKind::Slope { .. } | ParamKind::Coupling { .. } => 1,
+                ParamKind::Link { component, .. } => match (component.quantity(), nonzero) {
+                    (Quantity::Length, true) => 2,
+                    (_, true) => 3,
+                    (Quantity::Length, false) => 4,
+                    _ => 5,
+                },
+                ParamKind::Site { .. } => 6,
+                _ => 7,
+            }
+    };
+    let tiers: Vec<usize> = params.iter().map(|&id| tier(id)).collect();
+    let mut order: Vec<usize> = (0..params.len()).collect();
+    order.sort_by_key(|&j| (tiers[j], params[j]));
+    (order, tiers)
+}
+
+/// Robots and data of every shape the analysis meets: the GE A4 (three posture sets; the
+/// default weights and those of its noise; with priorities; without slopes), random robots
+/// of 1 to 6 joints with prismatic joints and a site, poses and positions.
+fn cases() -> Vec<(
+    kinecal::Robot,
+    kinecal::Dataset,
+    Vec<ParamId>,
+    AnalysisOptions,
+)> {
+    let mut out = Vec::new();
+    let ge = examples::ge_a4();
+    let all = ids("all", &ge);
+    let noise = Weights {
+        length: 0.0005 * 0.0254,
+        angle: 0.005f64.to_radians(),
+    };
+    for seed in [1988, 3, 7] {
+        let data = simulate::measure(&ge, &simulate::sample_postures(&ge, 30, seed), false);
+        out.push((
+            ge.clone(),
+            data.clone(),
+            all.clone(),
+            AnalysisOptions::default(),
+        ));
+        let opts = AnalysisOptions {
+            weights: noise,
+            ..Default::default()
+        };
+        out.push((ge.clone(), data.clone(), all.clone(), opts));
+        let opts = AnalysisOptions {
+            priority: vec![ParamId(3), ParamId(8)],
+            weights: noise,
+            ..Default::default()
+        };
+        out.push((ge.clone(), data.clone(), all.clone(), opts));
+        let mut no_slopes = all.clone();
+        no_slopes.retain(|id| !ids("slopes", &ge).contains(id));
+        out.push((ge.clone(), data, no_slopes, AnalysisOptions::default()));
+    }
+    for dof in 1..=6usize {
+        let kinds: Vec<JointKind> = (0..dof)
+            .map(|k| {
+                if k % 3 == 2 {
+                    JointKind::Prismatic
+                } else {
+                    JointKind::Revolute
+                }
+            })
+            .collect();
+        let mut robot = simulate::random_robot(&kinds, 40 + dof as u64);
+        if dof >= 3 {
+            robot.sites.push(Site {
+                name: "s".into(),
+                joint: dof - 1,
+                frame: Link {
+                    x: 0.1,
+                    y: 0.05,
+                    z: -0.2,
+                    alpha: 0.4,
+                    beta: 0.3,
+                    gamma: -0.7,
+                },
+            });
+        }
+        let postures = simulate::sample_postures(&robot, 40, dof as u64);
+        for position_only in [false, true] {
+            let data = simulate::measure(&robot, &postures, position_only);
+            let all: Vec<ParamId> = robot.param_ids().collect();
+            out.push((robot.clone(), data, all, AnalysisOptions::default()));
+        }
+    }
+    out
+}
+
+/// The base set by the tiered pivoted QR on R against the greedy selection it replaces, run
+/// on the whole m x n scaled Jacobian (formed directly, `jacobian_table`): the same set
+/// wherever no parameter is dependent within the noise; where some are, a smaller set, still
+/// independent.
+#[test]
+fn the_base_set_is_the_greedy_one_where_the_noise_rule_does_not_bite() {
+    let (mut same, mut bitten) = (0, Vec::new());
+    for (robot, data, params, opts) in cases() {
+        let an = analyze(&robot, &data, &params, &opts).unwrap();
+        let js = kinecal::identifiability::jacobian_table(&robot, &data, &an, &opts).scaled;
+        let (order, tiers) = preference(&robot, &an.parameters, &opts.priority);
+        let tol = opts.rcond * an.singular_values_scaled[0];
+        let old: Vec<ParamId> = greedy(&js, &order, &tiers, an.rank, tol)
+            .into_iter()
+            .map(|j| an.parameters[j])
+            .collect();
+        assert_eq!(old.len(), an.rank, "{}", robot.name);
+        if an.noise_dependent.is_empty() {
+            assert_eq!(an.identifiable, old, "{}", robot.name);
+            same += 1;
+        } else {
+            assert!(an.identifiable.len() < an.rank, "{}", robot.name);
+            for d in &an.noise_dependent {
+                assert!(!an.identifiable.contains(&d.id));
+                assert!(d.ratio < 1.0 && d.sine > tol, "{}: {d:?}", robot.name);
+            }
+            // Analysed alone, the set is independent.
+            let b = analyze(&robot, &data, &an.identifiable, &opts).unwrap();
+            assert_eq!(b.rank, an.identifiable.len());
+            bitten.push(format!(
+                "{} {:?}",
+                robot.name,
+                an.noise_dependent
+                    .iter()
+                    .map(|d| robot.param_name(d.id))
+                    .collect::<Vec<_>>()
+            ));
+        }
+    }
+    // Near-dependences (sines 0.02 to 0.07) are common in these cases, but every parameter is
+    // still determined to within 0.02 rad or 2 % of the reach: the rule leaves nothing out,
+    // and the set is the greedy one throughout.
+    assert_eq!((same, bitten.len()), (24, 0), "{bitten:#?}");
 }

@@ -1,7 +1,7 @@
 //! The analytic Jacobian against central differences, on random robots of 1 to 7 joints of
-//! random kinds, with sites, slopes, coupled joints and a plane, full poses, positions,
-//! distances and plane contacts, rows with their own standard deviations, and both orientation
-//! residuals.
+//! random kinds, with sites, slopes, coupled joints, a plane and a measurement session with a
+//! frame of its own, full poses, positions, distances and plane contacts, rows with their own
+//! standard deviations (per axis too), and both orientation residuals.
 
 use kinecal::kinematics::{euler_zyx, forward_pose, rot_zyx, Target};
 use kinecal::observe::contact::Contact;
@@ -45,6 +45,18 @@ fn robot_with_sites(dof: usize, seed: u64) -> Robot {
         .push(kinecal::robot::Plane::new("table", Vector3::new(0.2, -0.3, 1.0), 0.4).unwrap());
     robot.planes[0].tilt_x = 0.05;
     robot.planes[0].tilt_y = -0.1;
+    // A session measured from elsewhere: its poses and positions seen through its frame.
+    robot.sessions.push(kinecal::robot::Session {
+        name: "far".into(),
+        frame: Link {
+            x: 1.5,
+            y: -0.7,
+            z: 0.3,
+            alpha: 0.8,
+            beta: -0.3,
+            gamma: 0.5,
+        },
+    });
     // Most robots of two joints or more get a coupled joint (like the FANUC J2/J3 coupling).
     if dof >= 2 && seed % 3 != 0 {
         let last = dof - 1;
@@ -71,7 +83,7 @@ fn data_for(robot: &Robot, seed: u64, euler: bool) -> kinecal::Dataset {
             * rot_zyx(rng.random_range(-0.3..0.3), 0.2, -0.1);
         p.euler = euler_zyx(&r);
         if i % 3 == 1 {
-            p.sigma_position = Some(2e-4);
+            p.sigma_position = Some(Vector3::new(2e-4, 5e-4, 3e-4));
             p.sigma_angle = Some(3e-3);
         }
         if i % 4 == 3 {
@@ -83,6 +95,12 @@ fn data_for(robot: &Robot, seed: u64, euler: bool) -> kinecal::Dataset {
             Observation::Pose(p) => p.euler.y.cos() > 0.1,
             _ => true,
         });
+    }
+    // Every other posture in the session with a frame of its own.
+    for (k, p) in data.postures.iter_mut().enumerate() {
+        if k % 2 == 0 {
+            p.session = Some("far".into());
+        }
     }
     for a in 0..postures.len() - 1 {
         let mut d = Distance::new(a, a + 1, Target::EndEffector, 0.3);

@@ -55,6 +55,7 @@ fn postures_of(p: &kinecal::plan::Plan) -> Vec<Posture> {
         .map(|q| Posture {
             label: q.label.clone(),
             readings: q.readings.clone(),
+            session: None,
         })
         .collect()
 }

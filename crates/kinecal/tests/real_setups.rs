@@ -329,6 +329,7 @@ fn tool_points_anchored_by_one_precise_row_match_points_fixed_exactly() {
     let zero = vec![Posture {
         label: "zero".into(),
         readings: vec![0.0; 6],
+        session: None,
     }];
     let mut anchors = simulate::measure(&truth, &zero, true);
     anchors
@@ -337,7 +338,7 @@ fn tool_points_anchored_by_one_precise_row_match_points_fixed_exactly() {
     simulate::add_noise(&mut anchors, 1e-6, 0.0, 7);
     for o in &mut anchors.observations {
         if let Observation::Position(p) = o {
-            p.sigma_position = Some(1e-6);
+            p.sigma_position = Some(nalgebra::Vector3::repeat(1e-6));
         }
     }
     let data = flange.clone().merge(anchors.clone());

@@ -57,7 +57,7 @@ fn data_in_millimetres_against_a_robot_in_metres_is_said() {
         .collect::<Vec<_>>()
         .join("\n");
     assert!(
-        text.contains("are they in mm? the data must be in the robot file's length unit (m)"),
+        text.contains("are they in mm? the data is read in the robot file's length unit (m)"),
         "{text}"
     );
     // And the fit, which "converges" to links of hundreds of metres, says so too.

@@ -130,11 +130,16 @@ class Calibration:
         return self._json
 
     def __repr__(self) -> str:
+        # From the solver's start when the robot was placed (or rigidly fitted) first: the
+        # nominal robot's error in a tracker's frame says nothing about the fit.
         state = "converged" if self.converged else "NOT converged"
+        start = self.report.get("start")
+        before = start["rms_position"] if start else self.report["rms_position_before"]
+        label = "RMS position from the start" if start else "RMS position"
         return (
             f"Calibration({self.report['robot']!r}: {len(self.estimated)} parameters, "
-            f"{state} in {self.iterations} iterations, RMS position "
-            f"{self.report['rms_position_before']:.4g} -> "
+            f"{state} in {self.iterations} iterations, {label} "
+            f"{before:.4g} -> "
             f"{self.report['rms_position_after']:.4g} {self.report['length_unit']})"
         )
 

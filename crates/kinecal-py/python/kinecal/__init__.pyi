@@ -94,7 +94,15 @@ class Measurements:
         ZYX Euler angles for full poses; ``sites`` a site name (or None: the end effector)
         per row; sigmas ``(n,)``; ``postures`` a label per row (equal labels: one posture)."""
     @staticmethod
-    def read_csv(path: PathLike, robot: Robot, columns: Optional[Sequence[str]] = None) -> Measurements:
+    def read_csv(
+        path: PathLike,
+        robot: Robot,
+        columns: Optional[Sequence[str]] = None,
+        length_unit: Optional[str] = None,
+        angle_unit: Optional[str] = None,
+        position_only: bool = False,
+        session: Optional[str] = None,
+    ) -> Measurements:
         """A measurement, distance or contact file (told by its header); ``columns`` maps
         another tool's measurement columns (``["v1=J1", "x=X", ...]``)."""
     def merge(self, other: Measurements) -> Measurements: ...

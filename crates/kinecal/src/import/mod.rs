@@ -95,6 +95,7 @@ pub fn chain_from_frames(
             .collect(),
         sites: Vec::new(),
         planes: Vec::new(),
+        sessions: Vec::new(),
         tolerances: Tolerances::default(),
     }
 }

@@ -39,6 +39,10 @@ pub struct Posture {
     pub label: String,
     /// One reading per joint, in transducer units.
     pub readings: Vec<f64>,
+    /// The measurement session the posture was measured in (`session` column, or one per
+    /// file), when the data has sessions: its poses and positions are in that session's
+    /// measurement frame ([`crate::robot::Session`]).
+    pub session: Option<std::sync::Arc<str>>,
 }
 
 /// A frame an observation looks at: a target in a posture.
@@ -355,6 +359,111 @@ pub fn detect_format(text: &str) -> usize {
         .unwrap_or(0)
 }
 
+/// How an observation file is read, beyond its header: the column mapping of a measurement
+/// file (which may state the file's units), the units of its numbers, and whether to read its
+/// poses as positions only.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadOptions {
+    /// The column mapping of a measurement file ([`point::ColumnMap`]); files of the other
+    /// formats are read by their own headers.
+    pub columns: point::ColumnMap,
+    /// The unit of the file's lengths, when not the robot file's (a mapping's `length_unit`
+    /// must agree).
+    pub length_unit: Option<crate::units::LengthUnit>,
+    /// The unit of the file's angles, when not the robot file's.
+    pub angle_unit: Option<crate::units::AngleUnit>,
+    /// Read poses as positions (their attitudes and `sigma_angle` left out).
+    pub position_only: bool,
+}
+
+impl ReadOptions {
+    /// The units of a file read with these options for `robot`; an error when the mapping and
+    /// the options state different ones.
+    pub fn units(&self, robot: &Robot, file: &str) -> Result<crate::units::Units> {
+        let conflict = |what: &str, a: String, b: String| {
+            Error::input(
+                crate::error::Location::file(file),
+                format!("the {what} unit is stated twice: `{a}` in the column mapping, `{b}` as an option"),
+            )
+        };
+        if let (Some(a), Some(b)) = (self.columns.length_unit, self.length_unit) {
+            if a != b {
+                return Err(conflict("length", a.to_string(), b.to_string()));
+            }
+        }
+        if let (Some(a), Some(b)) = (self.columns.angle_unit, self.angle_unit) {
+            if a != b {
+                return Err(conflict("angle", a.to_string(), b.to_string()));
+            }
+        }
+        Ok(crate::units::Units {
+            length: self
+                .columns
+                .length_unit
+                .or(self.length_unit)
+                .unwrap_or(robot.units.length),
+            angle: self
+                .columns
+                .angle_unit
+                .or(self.angle_unit)
+                .unwrap_or(robot.units.angle),
+        })
+    }
+}
+
+/// Reads an observation file of any format (told by its header, [`detect_format`]) for
+/// `robot`: `text`, named `file` in errors, its numbers in the units `opts` states (by default
+/// the robot file's), converted to metres and radians.
+pub fn read_observations(
+    text: &str,
+    file: &str,
+    robot: &Robot,
+    opts: &ReadOptions,
+) -> Result<Dataset> {
+    read_observations_as(text, file, robot, opts, detect_format(text))
+}
+
+/// [`read_observations`] as a file of the format `FORMATS[format]`, whatever its header (which
+/// that format's reader then checks).
+pub fn read_observations_as(
+    text: &str,
+    file: &str,
+    robot: &Robot,
+    opts: &ReadOptions,
+    format: usize,
+) -> Result<Dataset> {
+    let units = opts.units(robot, file)?;
+    // Every reader converts with its robot's units: give it the file's.
+    let mut reading = robot.clone();
+    reading.units = units;
+    let mut data = if format == 0 {
+        let mut columns = opts.columns.clone();
+        columns.length_unit = Some(units.length);
+        columns.angle_unit = Some(units.angle);
+        point::parse_measurements_mapped(text, file, &reading, &columns)?
+    } else {
+        let pairs = &opts.columns;
+        if !(pairs.shared.is_empty() && pairs.markers.is_empty()) {
+            return Err(Error::input(
+                crate::error::Location::file(file),
+                format!(
+                    "a column mapping applies to measurement files, and this is a {} file",
+                    FORMATS[format].option
+                ),
+            ));
+        }
+        (FORMATS[format].parse)(text, file, &reading)?
+    };
+    if opts.position_only {
+        for o in &mut data.observations {
+            if let Observation::Pose(p) = o {
+                *o = p.to_position().into();
+            }
+        }
+    }
+    Ok(data)
+}
+
 /// A set of postures and the observations made in them.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Dataset {
@@ -465,6 +574,30 @@ impl Dataset {
             self.observations.push(o);
         }
         Dataset::new(self.postures, self.observations)
+    }
+
+    /// The measurement sessions of the postures, in the order they first appear (postures
+    /// without a session aside).
+    pub fn sessions(&self) -> Vec<std::sync::Arc<str>> {
+        let mut out: Vec<std::sync::Arc<str>> = Vec::new();
+        for p in &self.postures {
+            if let Some(s) = &p.session {
+                if !out.contains(s) {
+                    out.push(s.clone());
+                }
+            }
+        }
+        out
+    }
+
+    /// Puts every posture without a session into session `name` (one session per file).
+    pub fn set_session(&mut self, name: &str) {
+        let name: std::sync::Arc<str> = name.into();
+        for p in &mut self.postures {
+            if p.session.is_none() {
+                p.session = Some(name.clone());
+            }
+        }
     }
 
     /// Groups of postures that must stay together when data is split (postures linked by an
@@ -662,8 +795,34 @@ pub fn stats(mut e: Vec<f64>) -> (f64, f64, f64, f64) {
     (rms, mean, e[rank - 1], e[e.len() - 1])
 }
 
-/// Evaluates `f` on every observation of `data` with the frames of its views for `robot`,
-/// running forward kinematics once per posture.
+/// The measurement frame `posture`'s poses and positions are in, when its session has a frame
+/// of its own in `robot` ([`crate::robot::Session`]): the pose of the global frame there.
+pub fn session_frame(robot: &Robot, posture: &Posture) -> Option<Frame> {
+    let name = posture.session.as_deref()?;
+    let s = robot.sessions.iter().find(|s| s.name == name)?;
+    Some(Frame::from_link(&s.frame))
+}
+
+/// The frames of `o`'s views for `robot` as its instrument sees them: each view's target frame,
+/// seen through the view's session frame when `o` is measured in one (a pose or a position).
+pub fn observed_frame(
+    robot: &Robot,
+    data: &Dataset,
+    o: &Observation,
+    view: View,
+    frame: Frame,
+) -> Frame {
+    if !matches!(o.anchoring(), Anchoring::Absolute) || robot.sessions.is_empty() {
+        return frame;
+    }
+    match session_frame(robot, &data.postures[view.posture]) {
+        Some(t) => t.then(&frame),
+        None => frame,
+    }
+}
+
+/// Evaluates `f` on every observation of `data` with the frames of its views for `robot` (as
+/// [`observed_frame`] gives them), running forward kinematics once per posture.
 pub fn for_each_observation(
     robot: &Robot,
     data: &Dataset,
@@ -675,7 +834,8 @@ pub fn for_each_observation(
     for (i, o) in data.observations.iter().enumerate() {
         let views = o.views();
         for (k, v) in views.iter().enumerate() {
-            frames[k] = chain.target_frame(cache.posture(&chain, data, v.posture), v.target);
+            let at = chain.target_frame(cache.posture(&chain, data, v.posture), v.target);
+            frames[k] = observed_frame(robot, data, o, *v, at);
         }
         f(i, o, &frames[..views.len()]);
     }

@@ -1,10 +1,11 @@
 //! Poses and positions of a target, as a laser tracker, a camera or a CMM measures them; the
 //! measurement file; the postures file.
 //!
-//! Measurement file (CSV, the robot file's units): columns `posture, site, v1..vn, x, y, z`,
-//! optionally `alpha, beta, gamma` (a row whose three angles are empty is a position) and
-//! `sigma_position, sigma_angle` (the row's own standard deviations, replacing the default
-//! weights for that row). Columns may come in any order; `site` may be left out (every row is
+//! Measurement file (CSV, the robot file's units unless a [`ColumnMap`] states the file's):
+//! columns `posture, site, v1..vn, x, y, z`, optionally `alpha, beta, gamma` (a row whose three
+//! angles are empty is a position) and the row's own standard deviations, replacing the default
+//! weights for that row: `sigma_position` (every axis) or `sigma_x, sigma_y, sigma_z` (each
+//! axis of the measurement frame), and `sigma_angle`. Columns may come in any order; `site` may be left out (every row is
 //! then the end effector, `ee`) and so may `posture` (each row is then its own posture, numbered
 //! from 1). Rows of one posture must carry the same readings. A [`ColumnMap`] reads files laid
 //! out otherwise, including several markers side by side in one row.
@@ -67,8 +68,9 @@ pub struct Pose {
     pub position: Vector3<f64>,
     /// Measured ZYX Euler angles `(alpha, beta, gamma)` (rad).
     pub euler: Vector3<f64>,
-    /// The row's own standard deviation of a position coordinate (m), if given.
-    pub sigma_position: Option<f64>,
+    /// The row's own standard deviations of the position's x, y, z (m, measurement frame), if
+    /// given.
+    pub sigma_position: Option<Vector3<f64>>,
     /// The row's own standard deviation of an angle (rad), if given.
     pub sigma_angle: Option<f64>,
     /// Line in the file (0 when synthesized).
@@ -82,8 +84,8 @@ pub struct Position {
     pub view: [View; 1],
     /// Measured origin (m).
     pub position: Vector3<f64>,
-    /// The row's own standard deviation of a coordinate (m), if given.
-    pub sigma_position: Option<f64>,
+    /// The row's own standard deviations of x, y, z (m, measurement frame), if given.
+    pub sigma_position: Option<Vector3<f64>>,
     /// Line in the file (0 when synthesized).
     pub line: usize,
 }
@@ -152,7 +154,7 @@ impl Observe for Pose {
     }
     fn sigma(&self, row: usize) -> Option<f64> {
         if row < 3 {
-            self.sigma_position
+            self.sigma_position.map(|s| s[row])
         } else {
             self.sigma_angle
         }
@@ -263,8 +265,8 @@ impl Observe for Position {
     fn rows(&self) -> &'static [Row] {
         &POSE_ROWS[..3]
     }
-    fn sigma(&self, _row: usize) -> Option<f64> {
-        self.sigma_position
+    fn sigma(&self, row: usize) -> Option<f64> {
+        self.sigma_position.map(|s| s[row])
     }
     fn line(&self) -> usize {
         self.line
@@ -326,12 +328,12 @@ pub const FORMAT: Format = Format {
     kinds: &["pose", "position"],
     marks: &[],
     help: "Measurement file: poses or positions of the end effector or sites",
-    header: "posture,site,v1..vn,x,y,z[,alpha,beta,gamma][,sigma_position,sigma_angle]",
+    header: "posture,site,v1..vn,x,y,z[,alpha,beta,gamma][,sigma_position|sigma_x,sigma_y,sigma_z][,sigma_angle]",
     parse: parse_measurements,
 };
 
 /// Names of the columns of one measured target.
-const MARKER_COLUMNS: [&str; 8] = [
+const MARKER_COLUMNS: [&str; 11] = [
     "x",
     "y",
     "z",
@@ -340,7 +342,14 @@ const MARKER_COLUMNS: [&str; 8] = [
     "gamma",
     "sigma_position",
     "sigma_angle",
+    "sigma_x",
+    "sigma_y",
+    "sigma_z",
 ];
+
+/// Mapped to this (`alpha=-`), a kinecal column is left out: not read even if the file has a
+/// column of that name.
+pub const NOT_READ: &str = "-";
 
 fn reading_columns(n: usize) -> Vec<String> {
     (1..=n).map(|i| format!("v{i}")).collect()
@@ -362,8 +371,11 @@ pub fn postures_header(robot: &Robot) -> Vec<String> {
 }
 
 /// How a measurement file's columns map to kinecal's (`posture`, `site`, `v1..vn`, `x, y, z`,
-/// `alpha, beta, gamma`, `sigma_position`, `sigma_angle`): pairs `(ours, theirs)`. A kinecal
-/// column left out is looked up under its own name; other columns of the file are ignored.
+/// `alpha, beta, gamma`, `sigma_position` or `sigma_x, sigma_y, sigma_z`, `sigma_angle`):
+/// pairs `(ours, theirs)`. A kinecal column not mapped is looked up under its own name; one
+/// mapped to `-` ([`NOT_READ`]) is left out (`alpha=-,beta=-,gamma=-` reads a pose file's
+/// positions only); other columns of the file are ignored. Two more entries state the file's
+/// units, when they are not the robot file's: `length_unit=mm`, `angle_unit=deg`.
 ///
 /// `markers` reads several targets measured side by side in one row (FIGAROH's wide layout
 /// `x1,y1,z1,x2,y2,z2,...`): each marker is a site name (or `ee`) with the mapping of its
@@ -375,6 +387,10 @@ pub struct ColumnMap {
     pub shared: Vec<(String, String)>,
     /// Markers side by side: (site or `ee`, its columns).
     pub markers: Vec<(String, Vec<(String, String)>)>,
+    /// The file's length unit, when stated (`length_unit=...`).
+    pub length_unit: Option<crate::units::LengthUnit>,
+    /// The file's angle unit, when stated (`angle_unit=...`).
+    pub angle_unit: Option<crate::units::AngleUnit>,
 }
 
 impl ColumnMap {
@@ -398,6 +414,20 @@ impl ColumnMap {
                     )
                 })?;
                 let (a, b) = (a.trim().to_string(), b.trim().to_string());
+                if site.is_none() && a == "length_unit" {
+                    map.length_unit = Some(
+                        b.parse()
+                            .map_err(|m: String| Error::input(loc.clone(), m))?,
+                    );
+                    continue;
+                }
+                if site.is_none() && a == "angle_unit" {
+                    map.angle_unit = Some(
+                        b.parse()
+                            .map_err(|m: String| Error::input(loc.clone(), m))?,
+                    );
+                    continue;
+                }
                 if a.is_empty() || b.is_empty() {
                     return Err(Error::input(
                         loc.clone(),
@@ -410,7 +440,7 @@ impl ColumnMap {
                         format!("`{a}` is mapped twice (to `{t}` and to `{b}`)"),
                     ));
                 }
-                if let Some((o, _)) = pairs.iter().find(|(_, t)| *t == b) {
+                if let Some((o, _)) = pairs.iter().find(|(_, t)| *t == b && b != NOT_READ) {
                     return Err(Error::input(
                         loc.clone(),
                         format!("file column `{b}` is mapped to both `{o}` and `{a}`"),
@@ -460,6 +490,14 @@ impl ColumnMap {
     fn is_identity(&self) -> bool {
         self.shared.is_empty() && self.markers.is_empty()
     }
+
+    /// The units the file's numbers are in: the stated ones, else `robot`'s.
+    pub fn units(&self, robot: &Robot) -> crate::units::Units {
+        crate::units::Units {
+            length: self.length_unit.unwrap_or(robot.units.length),
+            angle: self.angle_unit.unwrap_or(robot.units.angle),
+        }
+    }
 }
 
 /// Parses a measurement file for `robot`. `file` names it in error messages.
@@ -471,10 +509,10 @@ pub fn parse_measurements(text: &str, file: &str, robot: &Robot) -> Result<Datas
 struct Marker {
     /// Fixed site (a marker of a wide layout), or read from the `site` column.
     target: Option<Target>,
-    /// Column indices of x, y, z, alpha, beta, gamma, sigma_position, sigma_angle.
-    cols: [Option<usize>; 8],
+    /// Column indices of [`MARKER_COLUMNS`].
+    cols: [Option<usize>; 11],
     /// The file's names of those columns (for error messages).
-    names: [String; 8],
+    names: [String; 11],
 }
 
 fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
@@ -502,7 +540,7 @@ pub fn parse_measurements_mapped(
     let t = table::read(text, file)?;
     let n = robot.dof();
     let readings = reading_columns(n);
-    let mut canonical: Vec<String> = vec!["posture".into(), "site".into()];
+    let mut canonical: Vec<String> = vec!["posture".into(), "site".into(), "session".into()];
     canonical.extend(readings.iter().cloned());
     canonical.extend(MARKER_COLUMNS.iter().map(|s| s.to_string()));
     for (ours, _) in &map.shared {
@@ -526,6 +564,16 @@ pub fn parse_measurements_mapped(
     let find = |mapping: &[(String, String)], ours: &str, required: bool| {
         let name = theirs(mapping, ours);
         let explicit = mapping.iter().any(|(o, _)| o == ours);
+        if name == NOT_READ {
+            return if required {
+                Err(Error::input(
+                    t.header_at(),
+                    format!("column mapping `{ours}=-`: `{ours}` cannot be left out"),
+                ))
+            } else {
+                Ok((None, name))
+            };
+        }
         match t.column(&name) {
             Some(i) => Ok((Some(i), name)),
             None if explicit => Err(Error::input(
@@ -553,13 +601,15 @@ pub fn parse_measurements_mapped(
     };
     let (posture_col, _) = find(&map.shared, "posture", false)?;
     let (site_col, _) = find(&map.shared, "site", false)?;
+    let (session_col, session_name) = find(&map.shared, "session", false)?;
+    let mut session_names: Vec<std::sync::Arc<str>> = Vec::new();
     let reading_cols = readings
         .iter()
         .map(|r| find(&map.shared, r, true).map(|(i, name)| (i.expect("required"), name)))
         .collect::<Result<Vec<_>>>()?;
     let marker_of = |mapping: &[(String, String)], target: Option<Target>| -> Result<Marker> {
-        let mut cols = [None; 8];
-        let mut names: [String; 8] = Default::default();
+        let mut cols = [None; 11];
+        let mut names: [String; 11] = Default::default();
         for (k, c) in MARKER_COLUMNS.iter().enumerate() {
             let (i, name) = find(mapping, c, k < 3)?;
             cols[k] = i;
@@ -644,7 +694,23 @@ pub fn parse_measurements_mapped(
         }
     }
     t.check_rows()?;
-    let units = robot.units;
+    for m in &markers {
+        let axes = m.cols[8..11].iter().filter(|c| c.is_some()).count();
+        if axes > 0 && axes < 3 {
+            return Err(Error::input(
+                t.header_at(),
+                "per-axis standard deviations: give all of sigma_x, sigma_y, sigma_z",
+            ));
+        }
+        if axes == 3 && m.cols[6].is_some() {
+            return Err(Error::input(
+                t.header_at().with_field(m.names[6].clone()),
+                "give sigma_position (every axis) or sigma_x, sigma_y, sigma_z (each axis), not \
+                 both",
+            ));
+        }
+    }
+    let units = map.units(robot);
     let mut postures = PostureTable::with_capacity(t.rows().count());
     let mut observations: Vec<Observation> = Vec::with_capacity(t.rows().count() * markers.len());
     let mut seen = TargetsSeen::default();
@@ -664,7 +730,38 @@ pub fn parse_measurements_mapped(
             values.push(t.number(line, name, &f[*i])?);
         }
         let field_of = |j: usize| reading_cols[j].1.clone();
+        let known = postures.postures.len();
         let posture = postures.get_or_insert(&t, line, label, values, &field_of)?;
+        if let Some(i) = session_col {
+            let name = f.get(i).trim();
+            let name = match session_names.iter().find(|s| &***s == name) {
+                Some(s) => s.clone(),
+                None => {
+                    session_names.push(name.into());
+                    session_names.last().expect("pushed").clone()
+                }
+            };
+            let p = &mut postures.postures[posture];
+            let name = (!name.is_empty()).then_some(name);
+            match &p.session {
+                _ if posture == known => p.session = name,
+                Some(s) if Some(s) == name.as_ref() => {}
+                None if name.is_none() => {}
+                was => {
+                    let say = |s: Option<&std::sync::Arc<str>>| {
+                        s.map_or("no session".to_string(), |s| format!("session `{s}`"))
+                    };
+                    return Err(Error::input(
+                        t.at(line, &session_name),
+                        format!(
+                            "posture `{label}` is in {} on an earlier line and in {} here",
+                            say(was.as_ref()),
+                            say(name.as_ref())
+                        ),
+                    ));
+                }
+            }
+        }
         for m in &markers {
             let target = match m.target {
                 Some(t) => t,
@@ -700,9 +797,26 @@ pub fn parse_measurements_mapped(
                 }
                 Some(Vector3::from(e))
             };
-            let sigma_position = t
-                .sigma(line, &m.names[6], field(6))?
-                .map(|s| units.to_si(Quantity::Length, s));
+            let sigma_position = match m.cols[8] {
+                Some(_) => {
+                    let mut axes = [None; 3];
+                    for (k, a) in axes.iter_mut().enumerate() {
+                        *a = t.sigma(line, &m.names[8 + k], field(8 + k))?;
+                    }
+                    match axes {
+                        [Some(x), Some(y), Some(z)] => Some(Vector3::new(x, y, z)),
+                        [None, None, None] => None,
+                        _ => {
+                            return Err(Error::input(
+                                t.at(line, &m.names[8]),
+                                "give all of sigma_x, sigma_y, sigma_z in a row, or none",
+                            ))
+                        }
+                    }
+                }
+                None => t.sigma(line, &m.names[6], field(6))?.map(Vector3::repeat),
+            }
+            .map(|s| s.map(|v| units.to_si(Quantity::Length, v)));
             let sigma_angle = t
                 .sigma(line, &m.names[7], field(7))?
                 .map(|s| units.to_si(Quantity::Angle, s));
@@ -826,7 +940,8 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
 
 /// Writes the poses and positions of `data` as a measurement file in `robot`'s units, with full
 /// precision (observations of other kinds are not written). The optional `sigma_position` and
-/// `sigma_angle` columns are written when some row has them.
+/// `sigma_angle` columns are written when some row has them (`sigma_x, sigma_y, sigma_z`
+/// instead of `sigma_position` when some row's axes differ).
 pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
     let units = robot.units;
     let with_sigma = data.observations.iter().any(|o| match o {
@@ -834,9 +949,27 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
         Observation::Position(p) => p.sigma_position.is_some(),
         _ => false,
     });
-    let mut out = measurement_header(robot).join(",");
+    let per_axis = data.observations.iter().any(|o| {
+        let s = match o {
+            Observation::Pose(p) => p.sigma_position,
+            Observation::Position(p) => p.sigma_position,
+            _ => None,
+        };
+        // Bit equality: one column is written only when it reproduces every axis exactly.
+        s.is_some_and(|s| s.x.to_bits() != s.y.to_bits() || s.x.to_bits() != s.z.to_bits())
+    });
+    let with_session = data.postures.iter().any(|p| p.session.is_some());
+    let mut header = measurement_header(robot);
+    if with_session {
+        header.insert(1, "session".into());
+    }
+    let mut out = header.join(",");
     if with_sigma {
-        out.push_str(",sigma_position,sigma_angle");
+        out.push_str(if per_axis {
+            ",sigma_x,sigma_y,sigma_z,sigma_angle"
+        } else {
+            ",sigma_position,sigma_angle"
+        });
     }
     out.push('\n');
     let len = |v: f64| snap(units.from_si(Quantity::Length, v));
@@ -856,7 +989,11 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
             _ => continue,
         };
         let p = &data.postures[view.posture];
-        let _ = write!(out, "{},{}", p.label, target_name(robot, view.target));
+        let _ = write!(out, "{}", p.label);
+        if with_session {
+            let _ = write!(out, ",{}", p.session.as_deref().unwrap_or(""));
+        }
+        let _ = write!(out, ",{}", target_name(robot, view.target));
         for v in &p.readings {
             let _ = write!(out, ",{v}");
         }
@@ -872,7 +1009,16 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
             None => out.push_str(",,,"),
         }
         if with_sigma {
-            let _ = write!(out, ",{},{}", opt(sp, &len), opt(sa, &ang));
+            match (per_axis, sp) {
+                (true, Some(s)) => {
+                    let _ = write!(out, ",{},{},{}", len(s.x), len(s.y), len(s.z));
+                }
+                (true, None) => out.push_str(",,,"),
+                (false, s) => {
+                    let _ = write!(out, ",{}", opt(s.map(|s| s.x), &len));
+                }
+            }
+            let _ = write!(out, ",{}", opt(sa, &ang));
         }
         out.push('\n');
     }

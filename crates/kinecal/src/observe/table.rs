@@ -520,6 +520,7 @@ impl PostureTable {
         self.postures.push(Posture {
             label: label.to_string(),
             readings,
+            session: None,
         });
         Ok(self.postures.len() - 1)
     }
