@@ -39,6 +39,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         weights,
         orientation,
         priority,
+        noise_scale: 1.0,
     };
     let selection = Selection::parse(&a.estimate, a.fix.as_deref(), robot)?;
     let (params, unseen) = resolve(&selection, robot, &data, &opts)?;

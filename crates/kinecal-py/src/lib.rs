@@ -1029,6 +1029,7 @@ fn analyze(
         weights,
         orientation,
         priority: Vec::new(),
+        noise_scale: 1.0,
     };
     let estimate = param_list(estimate, "estimate")?.unwrap_or_else(|| "identifiable".into());
     let fix = param_list(fix, "fix")?;

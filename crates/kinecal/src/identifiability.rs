@@ -41,6 +41,12 @@ pub struct AnalysisOptions {
     /// Parameters to prefer in the identifiable set, most preferred first; the rest follow in the
     /// default order (see [`default_priority`]).
     pub priority: Vec<ParamId>,
+    /// The noise the noise-level rule assumes, as a multiple of the stated sigmas (1: the
+    /// stated ones). A fit whose residuals are `k` times the stated sigmas (variance factor
+    /// `k^2`) shows that the rows are `k` times as noisy as stated (a tracker's own sigmas
+    /// under a model error): the rule judged at `k` times them leaves out what only the
+    /// stated precision made look determined.
+    pub noise_scale: f64,
 }
 
 /// Default relative singular-value tolerance for the numerical rank.
@@ -53,6 +59,7 @@ impl Default for AnalysisOptions {
             weights: Weights::default(),
             orientation: OrientationError::RotVec,
             priority: Vec::new(),
+            noise_scale: 1.0,
         }
     }
 }
@@ -93,7 +100,8 @@ pub struct NoiseDependent {
     /// the data gives about it once the parameters chosen before it are estimated too) over
     /// the information one typical row gives about it alone ([`Analysis::typical_row`]).
     pub ratio: f64,
-    /// Its standard deviation at the stated weights (the robot file's unit of the parameter):
+    /// Its standard deviation at the stated weights times [`AnalysisOptions::noise_scale`] (the
+    /// robot file's unit of the parameter):
     /// given the parameters chosen before it, `1 / r_jj`, or given the whole identifiable set
     /// when that is what left it out.
     pub sigma: f64,
@@ -463,6 +471,15 @@ fn analyze_with(
             "parameter {bad} does not exist in this robot"
         )));
     }
+    if !(opts.noise_scale.is_finite() && opts.noise_scale > 0.0) {
+        return Err(Error::InvalidOption {
+            option: "noise scale",
+            message: format!(
+                "expected a positive multiple of the stated sigmas, got {}",
+                opts.noise_scale
+            ),
+        });
+    }
     let n = params.len();
     data.check_orientation(robot, opts.orientation)?;
     let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
@@ -717,7 +734,7 @@ fn analyze_with(
                     _ => 1.0,
                 },
             };
-            let loose = 1.0 / (LOOSE * typical[j] * scale);
+            let loose = opts.noise_scale / (LOOSE * typical[j] * scale);
             if loose.is_finite() {
                 loose
             } else {
@@ -815,7 +832,7 @@ fn analyze_with(
                 ratio: d.ratio,
                 sigma: robot.units.from_si(
                     robot.param_quantity(params[j]),
-                    loose_sigma[j].unwrap_or(1.0 / (d.ratio * typical[j])),
+                    opts.noise_scale * loose_sigma[j].unwrap_or(1.0 / (d.ratio * typical[j])),
                 ),
                 sine: d.ratio / gain[j],
                 terms: terms[..shown]
@@ -826,7 +843,7 @@ fn analyze_with(
             }
         })
         .collect();
-    let noise_rule = noise_rule_words(m, exact_typical);
+    let noise_rule = noise_rule_words(m, exact_typical, opts.noise_scale);
 
     // Null space in reduced form, pivots on the least preferred parameters, in file units.
     let reverse: Vec<usize> = order.iter().rev().copied().collect();
@@ -1122,7 +1139,7 @@ impl RowSink for TypicalRowTally<'_> {
 }
 
 /// The noise-level rule in words, for `m` rows; `exact` when `e_j` came from the rows.
-fn noise_rule_words(m: usize, exact: bool) -> String {
+fn noise_rule_words(m: usize, exact: bool, noise_scale: f64) -> String {
     let root = (m.max(1) as f64).sqrt();
     let mut s = format!(
         "a parameter is not determined at the noise level when, given the parameters chosen before \
@@ -1134,6 +1151,12 @@ fn noise_rule_words(m: usize, exact: bool) -> String {
          r_jj / e_j = sqrt({m}) sin(angle to the chosen columns), sqrt({m}) = {})",
         fmt_sig(root)
     );
+    if (noise_scale - 1.0).abs() > f64::EPSILON {
+        s.push_str(&format!(
+            "; judged at {} times the stated sigmas (the noise a fit's residuals showed)",
+            fmt_sig(noise_scale)
+        ));
+    }
     if !exact {
         s.push_str(
             "; e_j bounded below from the column norms (the rows were not at hand): a lower \

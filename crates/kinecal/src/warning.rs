@@ -149,6 +149,16 @@ pub enum Warning {
         /// The variance factor.
         variance_factor: f64,
     },
+    /// The fit's residuals were far beyond the stated sigmas, so the identifiable set was
+    /// chosen again at the residuals' noise (the noise-level rule at `scale` times the stated
+    /// sigmas) and fitted again without the parameters that left.
+    ChosenAtResidualNoise {
+        /// The residuals' RMS over the stated sigmas (square root of the first fit's variance
+        /// factor).
+        scale: f64,
+        /// The parameters left out then.
+        left_out: Vec<String>,
+    },
     /// Estimated lengths moved by more than the robot's reach.
     ChangeBeyondReach {
         /// Their names.
@@ -278,6 +288,13 @@ impl std::fmt::Display for Warning {
                  {after:.6} {unit}; the model fits the identification data but not other \
                  postures (too many parameters for the data, postures that do not cover the \
                  workspace, or the validation data measured differently)"
+            ),
+            Warning::ChosenAtResidualNoise { scale, left_out } => write!(
+                f,
+                "the residuals of a first fit were {scale:.0} times the stated standard \
+                 deviations: the identifiable set was chosen again at that noise, leaving out {} \
+                 (determined only at the stated precision), and fitted again",
+                left_out.join(", ")
             ),
             Warning::SigmasOff { variance_factor } => {
                 let k = variance_factor.sqrt();

@@ -500,6 +500,7 @@ impl Request {
             weights: self.weights,
             orientation: self.orientation,
             priority: self.priority.clone(),
+            noise_scale: 1.0,
         }
     }
 }
@@ -935,7 +936,45 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         loss: req.loss,
     };
     progress.phase(Phase::Estimation);
+    let mut opts = opts;
     let mut cal = fit(req, &start, &data, &opts, lin.as_ref(), progress)?;
+    // The noise-level rule judged the set at the stated sigmas. Residuals far beyond them (a
+    // tracker's own sigmas under a model error ten times larger) show the rows' real noise:
+    // the set is chosen again at it, and fitted again when that leaves parameters out (those
+    // only the stated precision made look determined, along whose valley the solver crawls).
+    let mut rechosen = None;
+    if matches!(req.selection, Selection::Identifiable { .. }) {
+        let (m, n) = (cal.residuals.len(), opts.estimate.len());
+        let vf = if m > n {
+            cal.objective_after / (m - n) as f64
+        } else {
+            f64::NAN
+        };
+        if vf > SIGMAS_TOO_SMALL {
+            let aopts = AnalysisOptions {
+                noise_scale: vf.sqrt(),
+                ..req.analysis_options()
+            };
+            progress.phase(Phase::Selection);
+            let (estimate, _, lin) = resolve_linearized(&req.selection, reference, &data, &aopts)?;
+            if estimate != opts.estimate {
+                let left_out = opts
+                    .estimate
+                    .iter()
+                    .filter(|id| !estimate.contains(id))
+                    .map(|&id| req.robot.param_name(id))
+                    .collect();
+                let lin = lin.filter(|_| *reference == start);
+                opts.estimate = estimate;
+                progress.phase(Phase::Estimation);
+                cal = fit(req, &start, &data, &opts, lin.as_ref(), progress)?;
+                rechosen = Some(Warning::ChosenAtResidualNoise {
+                    scale: vf.sqrt(),
+                    left_out,
+                });
+            }
+        }
+    }
     let mut pruning = None;
     if let Some(k) = req.prune {
         progress.phase(Phase::Pruning);
@@ -978,6 +1017,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     }
     progress.phase(Phase::Uncertainty);
     let mut warnings = data_warns;
+    warnings.extend(rechosen);
     if !unseen.is_empty() {
         warnings.insert(
             0,
@@ -1016,6 +1056,15 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     }
     Ok(outcome)
 }
+
+/// A variance factor above this says the stated sigmas are more than 10 times too small
+/// ([`Warning::SigmasOff`]); the identifiable set is then chosen again at the residuals' noise.
+pub const SIGMAS_TOO_SMALL: f64 = 100.0;
+
+/// A variance factor below this says the stated sigmas are more than 10 times too large
+/// ([`Warning::SigmasOff`]). The set is not chosen again then: the rule at overstated noise
+/// errs towards fewer parameters, which the warning names.
+pub const SIGMAS_TOO_LARGE: f64 = 0.01;
 
 /// Runs `req` on each training fold and checks it on the postures left out.
 fn cross_validate(req: &Request, k: usize, seed: Option<u64>) -> Result<CrossValidation> {
@@ -1379,7 +1428,7 @@ fn finish(
     }
     let uncertainty = match unc {
         Ok(u) => {
-            if u.dof > 0 && !(0.01..=100.0).contains(&u.variance_factor) {
+            if u.dof > 0 && !(SIGMAS_TOO_LARGE..=SIGMAS_TOO_SMALL).contains(&u.variance_factor) {
                 warnings.push(Warning::SigmasOff {
                     variance_factor: u.variance_factor,
                 });

@@ -647,6 +647,55 @@ fn a_probe_point_near_the_last_axis_leaves_link6_terms_out_within_the_noise() {
     }
 }
 
+/// The noise-level rule at `k` times the stated sigmas (a fit's residuals showed that noise)
+/// is the rule at sigmas stated `k` times larger: the same set, the same parameters left out
+/// with `k` times the standard deviations. Stated 1,000 times too precisely (0.05 um), the
+/// link-6 attitude looks determined; judged at the noise the residuals would show, it is not.
+#[test]
+fn the_noise_scale_is_the_rule_at_correspondingly_larger_sigmas() {
+    let robot = ur10_with_tool_off_axis(0.3e-3);
+    let postures = simulate::sample_postures(&robot, 100, 4);
+    let mut data = simulate::measure(&robot, &postures, true);
+    simulate::add_noise(&mut data, 5e-5, 0.0, 8);
+    let (params, _) = kinecal::workflow::default_parameters(&robot, &data);
+    let at = |sigma: f64, scale: f64| {
+        let opts = AnalysisOptions {
+            weights: Weights {
+                length: sigma,
+                angle: 1e-3,
+            },
+            noise_scale: scale,
+            ..Default::default()
+        };
+        analyze(&robot, &data, &params, &opts).unwrap()
+    };
+    let stated = at(5e-5, 1.0);
+    let precise = at(5e-8, 1.0);
+    let scaled = at(5e-8, 1e3);
+    assert!(
+        precise.noise_dependent.is_empty(),
+        "{:?}",
+        precise.noise_dependent
+    );
+    assert!(!stated.noise_dependent.is_empty());
+    assert_eq!(scaled.identifiable, stated.identifiable);
+    assert_eq!(scaled.noise_dependent.len(), stated.noise_dependent.len());
+    for (a, b) in scaled.noise_dependent.iter().zip(&stated.noise_dependent) {
+        assert_eq!(a.id, b.id);
+        assert!((a.sigma - b.sigma).abs() < 1e-6 * b.sigma, "{a:?} vs {b:?}");
+    }
+    assert!(scaled
+        .noise_rule
+        .contains("judged at 1000 times the stated sigmas"));
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let opts = AnalysisOptions {
+            noise_scale: bad,
+            ..Default::default()
+        };
+        assert!(analyze(&robot, &data, &params, &opts).is_err(), "{bad}");
+    }
+}
+
 /// 3 anchor points at 1e-6 mm among 37 positions at 0.05 mm: their rows are clamped at the
 /// median weight in e_j, so the other parameters are not made to look negligible (unclamped,
 /// e_j grows about 10^4 times and every parameter would be "dependent within the noise").
