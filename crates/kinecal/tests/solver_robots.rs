@@ -74,6 +74,11 @@ fn anchor_rows_a_billion_times_more_precise_are_honoured() {
             cal.iterations
         );
         let from_truth = calibrate(&truth, &data, &opts, &mut |_| {}).unwrap();
+        eprintln!(
+            "anchors at {anchor_sigma} m: {:?} after {} iterations, objective {:.6e} (from the \
+             truth {:.6e})",
+            cal.termination, cal.iterations, cal.objective_after, from_truth.objective_after
+        );
         assert!(
             cal.objective_after <= from_truth.objective_after * (1.0 + 1e-6) + 1e-9,
             "sigma {anchor_sigma}: {} ({:?}, {} iterations, {:?}) vs {} from the truth ({:?})",
