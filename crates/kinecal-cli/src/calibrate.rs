@@ -188,9 +188,6 @@ pub fn solve(
         }
     };
     result.map_err(|e| match e {
-        kinecal::Error::InvalidOption { option, message } => {
-            anyhow!("{}: {message}", flag_of(option))
-        }
         kinecal::Error::NonFiniteResidual { line, kind, .. } => {
             // Name the file the observation came from (or the files it may have come from).
             let of_kind: Vec<String> = files
@@ -434,19 +431,5 @@ fn print_outcome(outcome: &Outcome, shown: &[kinecal::Warning]) {
     print!("{}", report::summary(&outcome.report));
     for w in outcome.warnings.iter().filter(|w| !shown.contains(w)) {
         eprintln!("warning: {}", word(w));
-    }
-}
-
-/// The command-line option behind a library setting.
-fn flag_of(option: &str) -> &str {
-    match option {
-        "outlier threshold" => "--outlier-sigma",
-        "pruning threshold" => "--prune",
-        "rcond" => "--rcond",
-        "hold-out fraction" => "--holdout",
-        "folds" => "--folds",
-        "candidate" => "--choose",
-        "Huber scale" => "--huber-scale",
-        other => other,
     }
 }

@@ -32,12 +32,7 @@ fn sweep(s: &SweepArgs, robot: &Robot, id: ParamId, objective: bool) -> Result<V
             (v - half, v + half)
         }
     };
-    kinecal::curves::sweep(a, b, s.points).map_err(|e| match e {
-        kinecal::Error::InvalidOption { message, .. } => {
-            anyhow!("--from/--to/--span/--points: {message}")
-        }
-        e => e.into(),
-    })
+    Ok(kinecal::curves::sweep(a, b, s.points)?)
 }
 
 enum Out {

@@ -34,7 +34,7 @@ use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::source::Source;
 use kinecal::units::Quantity;
-use kinecal::{examples, parse_param_list, Robot, Warning};
+use kinecal::{examples, parse_param_list, Robot, Setting, Warning};
 
 /// Exit code for errors in the input (files, parameter lists, unsolvable problems).
 const EXIT_INPUT: u8 = 1;
@@ -90,7 +90,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", in_flags(&e));
             if let Some(hint) = e.downcast_ref::<kinecal::Error>().and_then(hint) {
                 eprintln!("hint: {hint}");
             }
@@ -99,17 +99,53 @@ fn main() -> ExitCode {
     }
 }
 
+/// An error and its causes, as `{e:#}` words them, with the library's settings named by the
+/// command line's flags.
+fn in_flags(e: &anyhow::Error) -> String {
+    e.chain()
+        .map(|cause| match cause.downcast_ref::<kinecal::Error>() {
+            Some(kinecal::Error::InvalidOption { setting, message }) => {
+                format!("{}: {message}", flag_of(*setting))
+            }
+            _ => cause.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// The command-line flag behind a library setting: the one table.
+pub fn flag_of(setting: Setting) -> &'static str {
+    match setting {
+        Setting::OutlierThreshold => "--outlier-sigma",
+        Setting::PruningThreshold => "--prune",
+        Setting::Rcond => "--rcond",
+        Setting::HoldoutFraction => "--holdout",
+        Setting::Folds => "--folds",
+        Setting::ModelCandidate => "--choose",
+        Setting::PlanCandidates => "--candidates",
+        Setting::PlanCount => "--count",
+        Setting::PlanCriterion => "--criterion",
+        Setting::HuberScale => "--huber-scale",
+        // Set by the library from a fit's residuals, never from the command line.
+        Setting::NoiseScale => "noise scale",
+        Setting::CheckThreshold => "--threshold",
+        Setting::ParameterChange => "--perturb",
+        Setting::Sweep => "--from/--to/--span/--points",
+        Setting::NominalRobot => "--nominal",
+        Setting::ChainBase => "--base",
+        Setting::ChainTip => "--tip",
+    }
+}
+
 /// What the command line adds to a library error: which option to use.
 fn hint(e: &kinecal::Error) -> Option<&'static str> {
     match e {
+        kinecal::Error::ChainEnd { .. } => Some("--base LINK and --tip LINK choose the chain"),
         kinecal::Error::SingularNormalEquations { .. } => {
             Some("use --method lm or --method svd, or --estimate identifiable")
         }
         kinecal::Error::TooFewResiduals { .. } => {
             Some("--estimate identifiable estimates only what the data determines")
-        }
-        kinecal::Error::Input { message, .. } if message.contains("the chain's") => {
-            Some("--base LINK and --tip LINK choose the chain")
         }
         _ => None,
     }
@@ -740,4 +776,50 @@ fn suggested_command(s: &kinecal::datasets::Suggested) -> String {
         c += &format!(" --holdout {h}");
     }
     c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every library setting has a flag, and the flag is one the command line has (the noise
+    /// scale excepted: the library sets it from a fit's residuals).
+    #[test]
+    fn every_setting_names_a_flag_of_the_command_line() {
+        use clap::CommandFactory;
+        fn longs(c: &clap::Command, out: &mut Vec<String>) {
+            for a in c.get_arguments() {
+                if let Some(l) = a.get_long() {
+                    out.push(format!("--{l}"));
+                }
+            }
+            for s in c.get_subcommands() {
+                longs(s, out);
+            }
+        }
+        let mut known = Vec::new();
+        longs(&Cli::command(), &mut known);
+        for s in Setting::ALL {
+            if s == Setting::NoiseScale {
+                continue;
+            }
+            for flag in flag_of(s).split('/') {
+                assert!(known.iter().any(|k| k == flag), "{s:?}: {flag} is no flag");
+            }
+        }
+    }
+
+    /// A library error names the flag, through a context too.
+    #[test]
+    fn an_invalid_setting_is_worded_with_its_flag() {
+        let e = anyhow::Error::from(kinecal::Error::InvalidOption {
+            setting: Setting::HoldoutFraction,
+            message: "expected a fraction between 0 and 1, got 2".into(),
+        })
+        .context("calibrating");
+        assert_eq!(
+            in_flags(&e),
+            "calibrating: --holdout: expected a fraction between 0 and 1, got 2"
+        );
+    }
 }

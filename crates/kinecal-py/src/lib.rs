@@ -38,13 +38,18 @@ pyo3::create_exception!(
 /// A kinecal error as a Python exception, carrying `file`, `line` and `field` (or None).
 fn error(py: Python<'_>, e: kinecal::Error) -> PyErr {
     let (file, line, field) = match &e {
-        kinecal::Error::Input { at, .. } => (Some(at.file.clone()), at.line, at.field.clone()),
+        kinecal::Error::Input { at, .. } | kinecal::Error::ChainEnd { at, .. } => {
+            (Some(at.file.clone()), at.line, at.field.clone())
+        }
         kinecal::Error::Io { path, .. } => (Some(path.clone()), None, None),
         _ => (None, None, None),
     };
     let message = match &e {
-        kinecal::Error::InvalidOption { option, message } => {
-            format!("{}: {message}", keyword(option))
+        kinecal::Error::InvalidOption { setting, message } => {
+            format!("{}: {message}", keyword(*setting))
+        }
+        kinecal::Error::ChainEnd { setting, .. } => {
+            format!("{e} (give {}=LINK)", keyword(*setting))
         }
         _ => e.to_string(),
     };
@@ -56,15 +61,27 @@ fn error(py: Python<'_>, e: kinecal::Error) -> PyErr {
     err
 }
 
-/// The Python keyword of a library option.
-fn keyword(option: &str) -> &str {
-    match option {
-        "outlier threshold" => "outlier_sigma",
-        "pruning threshold" => "prune",
-        "hold-out fraction" => "holdout",
-        "Huber scale" => "huber_scale",
-        "candidate" => "choose",
-        other => other,
+/// The Python keyword behind a library setting: the one table.
+fn keyword(setting: kinecal::Setting) -> &'static str {
+    use kinecal::Setting;
+    match setting {
+        Setting::OutlierThreshold => "outlier_sigma",
+        Setting::PruningThreshold => "prune",
+        Setting::Rcond => "rcond",
+        Setting::HoldoutFraction => "holdout",
+        Setting::Folds => "folds",
+        Setting::ModelCandidate => "choose",
+        Setting::PlanCandidates => "candidates",
+        Setting::PlanCount => "count",
+        Setting::PlanCriterion => "criterion",
+        Setting::HuberScale => "huber_scale",
+        Setting::NoiseScale => "noise_scale",
+        Setting::CheckThreshold => "threshold",
+        Setting::ParameterChange => "perturb",
+        Setting::Sweep => "sweep",
+        Setting::NominalRobot => "nominal",
+        Setting::ChainBase => "base",
+        Setting::ChainTip => "tip",
     }
 }
 

@@ -194,8 +194,15 @@ def test_per_row_sigmas_and_validation_options(qkm_files):
     assert held.validation["postures"] in (9, 10)
     with pytest.raises(kinecal.KinecalError, match="give one"):
         kinecal.calibrate(robot, data, holdout=0.2, folds=3)
-    with pytest.raises(kinecal.KinecalError, match="holdout"):
-        kinecal.calibrate(robot, data, holdout=1.5)
+    # A setting out of range is named by its keyword.
+    for bad, keyword in [
+        (dict(holdout=1.5), "holdout"),
+        (dict(huber_scale=-1.0, loss="huber"), "huber_scale"),
+        (dict(outlier_sigma=0.0), "outlier_sigma"),
+        (dict(prune=-2.0), "prune"),
+    ]:
+        with pytest.raises(kinecal.KinecalError, match=f"^{keyword}: "):
+            kinecal.calibrate(robot, data, **bad)
 
 
 # --- Inputs users get wrong --------------------------------------------------------------------
@@ -345,8 +352,10 @@ def test_robot_round_trips_and_urdf_export(tmp_path):
     assert robot.units == ("in", "deg")
     # A real URDF with comments and several leaves: the tip is named.
     path = os.path.join(SHARED, "urdf", "franka_panda", "panda.urdf")
-    with pytest.raises(kinecal.KinecalError, match="several leaf links"):
+    with pytest.raises(kinecal.KinecalError, match="several leaf links.*give tip=LINK"):
         kinecal.Robot.from_urdf(path)
+    with pytest.raises(kinecal.KinecalError, match="no link named `nowhere`.*give base=LINK"):
+        kinecal.Robot.from_urdf(path, base="nowhere", tip="panda_hand_tcp")
     r = kinecal.Robot.from_urdf(path, tip="panda_hand_tcp")
     assert r.dof == 7 and r.units == ("m", "rad")
     moved = r.with_value("link3.z", r.get("link3.z") + 0.001)

@@ -145,7 +145,7 @@ impl<'r> Compensator<'r> {
     pub fn new(calibrated: &'r Robot, nominal: &'r Robot, options: Options) -> Result<Self> {
         if !calibrated.same_structure(nominal) {
             return Err(Error::InvalidOption {
-                option: "nominal robot",
+                setting: crate::error::Setting::NominalRobot,
                 message: "the calibrated and the nominal robot differ in structure (joints, \
                           kinds, sites): compensation needs the same robot twice"
                     .into(),
@@ -154,7 +154,7 @@ impl<'r> Compensator<'r> {
         let n = calibrated.dof();
         if n > 64 {
             return Err(Error::InvalidOption {
-                option: "nominal robot",
+                setting: crate::error::Setting::NominalRobot,
                 message: format!("{n} joints: compensation handles at most 64"),
             });
         }

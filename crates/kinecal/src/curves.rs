@@ -18,7 +18,7 @@ pub const MAX_POINTS: usize = 100_000;
 /// within +-1e9, `from < to` with a width the numbers can resolve, 3 to [`MAX_POINTS`] points.
 pub fn sweep(from: f64, to: f64, points: usize) -> crate::Result<Vec<f64>> {
     let bad = |message: String| crate::Error::InvalidOption {
-        option: "sweep",
+        setting: crate::error::Setting::Sweep,
         message,
     };
     if !(3..=MAX_POINTS).contains(&points) {

@@ -2,6 +2,99 @@
 
 use std::fmt;
 
+/// A setting of a request, as errors name it ([`Error::InvalidOption`]). Each front end says it
+/// in its own terms through one table (the command line's flag, the Python keyword), which a
+/// test checks covers every setting; the library's own wording is [`Setting::name`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Setting {
+    /// How many robust standard deviations make a residual an outlier.
+    OutlierThreshold,
+    /// The significance below which parameters are pruned.
+    PruningThreshold,
+    /// The relative singular-value tolerance of the rank.
+    Rcond,
+    /// The fraction of postures held out for validation.
+    HoldoutFraction,
+    /// The number of cross-validation folds.
+    Folds,
+    /// A model candidate of a choice by cross-validation.
+    ModelCandidate,
+    /// The candidate observations a plan chooses from.
+    PlanCandidates,
+    /// The number of postures a plan chooses.
+    PlanCount,
+    /// The optimality criterion of a plan.
+    PlanCriterion,
+    /// The spread of the Huber loss.
+    HuberScale,
+    /// The noise the noise-level identifiability rule assumes, over the stated sigmas.
+    NoiseScale,
+    /// The largest acceptable error of a check.
+    CheckThreshold,
+    /// A change made to a parameter (simulation).
+    ParameterChange,
+    /// The range and sampling of a characteristic curve.
+    Sweep,
+    /// The nominal robot of a compensation.
+    NominalRobot,
+    /// The first link of a chain read from a URDF file.
+    ChainBase,
+    /// The last link of a chain read from a URDF file.
+    ChainTip,
+}
+
+impl Setting {
+    /// Every setting.
+    pub const ALL: [Setting; 17] = [
+        Setting::OutlierThreshold,
+        Setting::PruningThreshold,
+        Setting::Rcond,
+        Setting::HoldoutFraction,
+        Setting::Folds,
+        Setting::ModelCandidate,
+        Setting::PlanCandidates,
+        Setting::PlanCount,
+        Setting::PlanCriterion,
+        Setting::HuberScale,
+        Setting::NoiseScale,
+        Setting::CheckThreshold,
+        Setting::ParameterChange,
+        Setting::Sweep,
+        Setting::NominalRobot,
+        Setting::ChainBase,
+        Setting::ChainTip,
+    ];
+
+    /// The library's words for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Setting::OutlierThreshold => "outlier threshold",
+            Setting::PruningThreshold => "pruning threshold",
+            Setting::Rcond => "rcond",
+            Setting::HoldoutFraction => "hold-out fraction",
+            Setting::Folds => "folds",
+            Setting::ModelCandidate => "model candidate",
+            Setting::PlanCandidates => "plan candidates",
+            Setting::PlanCount => "plan size",
+            Setting::PlanCriterion => "plan criterion",
+            Setting::HuberScale => "Huber scale",
+            Setting::NoiseScale => "noise scale",
+            Setting::CheckThreshold => "check threshold",
+            Setting::ParameterChange => "parameter change",
+            Setting::Sweep => "sweep",
+            Setting::NominalRobot => "nominal robot",
+            Setting::ChainBase => "chain base",
+            Setting::ChainTip => "chain tip",
+        }
+    }
+}
+
+impl fmt::Display for Setting {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// Where in an input file something went wrong: enough for a user to find and fix it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Location {
@@ -65,6 +158,17 @@ pub enum Error {
         /// What was wrong and what was expected.
         message: String,
     },
+    /// The chain to read from a file of several chains or a tree (URDF) needs an end named: the
+    /// one given is not in the file, or the file has several candidates.
+    #[error("{at}: {message}")]
+    ChainEnd {
+        /// The file.
+        at: Location,
+        /// Which end: [`Setting::ChainBase`] or [`Setting::ChainTip`].
+        setting: Setting,
+        /// What was wrong, with the candidates.
+        message: String,
+    },
     /// A parameter list (`--estimate`, `--fix`, `--perturb`) names something that does not exist.
     #[error("parameter list `{list}`: {message}")]
     ParamList {
@@ -104,10 +208,10 @@ pub enum Error {
         rank: usize,
     },
     /// A setting of a request is out of its range.
-    #[error("{option}: {message}")]
+    #[error("{setting}: {message}")]
     InvalidOption {
-        /// The setting, as the library names it (e.g. `huber scale`).
-        option: &'static str,
+        /// The setting; front ends name it in their own terms (a flag, a keyword).
+        setting: Setting,
         /// What was wrong and what is expected.
         message: String,
     },

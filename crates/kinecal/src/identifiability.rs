@@ -473,7 +473,7 @@ fn analyze_with(
     }
     if !(opts.noise_scale.is_finite() && opts.noise_scale > 0.0) {
         return Err(Error::InvalidOption {
-            option: "noise scale",
+            setting: crate::error::Setting::NoiseScale,
             message: format!(
                 "expected a positive multiple of the stated sigmas, got {}",
                 opts.noise_scale

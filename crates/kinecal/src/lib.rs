@@ -52,7 +52,7 @@ pub mod units;
 pub mod warning;
 pub mod workflow;
 
-pub use error::{Error, Location, Result};
+pub use error::{Error, Location, Result, Setting};
 pub use estimation::{calibrate, Calibration, CalibrationOptions, Method};
 pub use kinematics::{Chain, Frame, Pose, Target, Workspace};
 pub use observe::{Dataset, Observation, Posture};

@@ -190,7 +190,7 @@ impl std::str::FromStr for Criterion {
             .into_iter()
             .find(|c| c.as_str().eq_ignore_ascii_case(s.trim()))
             .ok_or_else(|| Error::InvalidOption {
-                option: "criterion",
+                setting: crate::error::Setting::PlanCriterion,
                 message: format!(
                     "`{s}` is not a criterion: expected d, a, i, e, o1, o2, o3, o4 or o5"
                 ),
@@ -514,7 +514,7 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
     let robot = &req.robot;
     if req.pool.is_empty() {
         return Err(Error::InvalidOption {
-            option: "candidates",
+            setting: crate::error::Setting::PlanCandidates,
             message: "no candidate observations to choose from".into(),
         });
     }
@@ -557,13 +557,13 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
     let pool_candidates = pool_groups.len();
     if req.count == 0 {
         return Err(Error::InvalidOption {
-            option: "count",
+            setting: crate::error::Setting::PlanCount,
             message: "a plan of 0 postures: ask for at least 1".into(),
         });
     }
     if req.count > pool_candidates {
         return Err(Error::InvalidOption {
-            option: "count",
+            setting: crate::error::Setting::PlanCount,
             message: format!(
                 "{} postures asked for, but the pool has {pool_candidates} candidates",
                 req.count

@@ -97,7 +97,7 @@ pub fn changed(robot: &Robot, changes: &[(crate::params::ParamId, f64)]) -> Resu
         let v = out.get(id) + robot.units.to_si(q, delta);
         if !crate::units::plausible(robot.units.from_si(q, v)) {
             return Err(Error::InvalidOption {
-                option: "parameter change",
+                setting: crate::error::Setting::ParameterChange,
                 message: format!(
                     "{} ({}) would become {:e} {}, not a finite number within +-1e9",
                     id,

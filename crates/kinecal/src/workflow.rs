@@ -775,7 +775,7 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
 fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     if !(req.outlier_sigmas.is_finite() && req.outlier_sigmas > 0.0) {
         return Err(Error::InvalidOption {
-            option: "outlier threshold",
+            setting: crate::error::Setting::OutlierThreshold,
             message: format!(
                 "expected a positive number of standard deviations, got {}",
                 req.outlier_sigmas
@@ -785,14 +785,14 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     if let Some(k) = req.prune {
         if !(k.is_finite() && k > 0.0) {
             return Err(Error::InvalidOption {
-                option: "pruning threshold",
+                setting: crate::error::Setting::PruningThreshold,
                 message: format!("expected a positive number of standard deviations, got {k}"),
             });
         }
     }
     if !(req.solver.rcond > 0.0 && req.solver.rcond < 1.0) {
         return Err(Error::InvalidOption {
-            option: "rcond",
+            setting: crate::error::Setting::Rcond,
             message: format!(
                 "expected a number between 0 and 1, got {}",
                 req.solver.rcond
@@ -808,14 +808,14 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         Validation::Holdout { fraction, seed } => {
             if !(*fraction > 0.0 && *fraction < 1.0) {
                 return Err(Error::InvalidOption {
-                    option: "hold-out fraction",
+                    setting: crate::error::Setting::HoldoutFraction,
                     message: format!("expected a fraction between 0 and 1, got {fraction}"),
                 });
             }
             let (ident, held) = req.data.split(*fraction, *seed);
             if held.is_empty() || ident.is_empty() {
                 return Err(Error::InvalidOption {
-                    option: "hold-out fraction",
+                    setting: crate::error::Setting::HoldoutFraction,
                     message: format!("{fraction} leaves an empty identification or validation set"),
                 });
             }
@@ -1073,7 +1073,7 @@ fn cross_validate(req: &Request, k: usize, seed: Option<u64>) -> Result<CrossVal
         .data
         .folds(k, seed)
         .ok_or_else(|| Error::InvalidOption {
-            option: "folds",
+            setting: crate::error::Setting::Folds,
             message: format!(
                 "expected between 2 and the number of posture groups ({}), got {k}",
                 req.data.posture_groups().len()
@@ -1207,14 +1207,14 @@ impl Candidate {
                             .ok()
                             .filter(|k| k.is_finite() && *k > 0.0)
                             .ok_or_else(|| Error::InvalidOption {
-                                option: "candidate",
+                                setting: crate::error::Setting::ModelCandidate,
                                 message: format!("`{text}`: prune={k} is not a positive number"),
                             })?,
                     )
                 }
                 _ => {
                     return Err(Error::InvalidOption {
-                        option: "candidate",
+                        setting: crate::error::Setting::ModelCandidate,
                         message: format!(
                             "`{text}`: expected `LIST [fix=LIST] [prune=K]`, found `{w}`"
                         ),
@@ -1301,7 +1301,7 @@ pub fn choose(
 ) -> Result<Choice> {
     if candidates.is_empty() {
         return Err(Error::InvalidOption {
-            option: "candidate",
+            setting: crate::error::Setting::ModelCandidate,
             message: "no candidate to choose from".into(),
         });
     }
@@ -1820,7 +1820,7 @@ pub fn check(robot: &Robot, data: &Dataset, thresholds: Thresholds) -> Result<Ve
     let ok_threshold = |v: f64| v.is_finite() && v > 0.0;
     if !ok_threshold(thresholds.length) || !thresholds.angle.is_none_or(ok_threshold) {
         return Err(Error::InvalidOption {
-            option: "threshold",
+            setting: crate::error::Setting::CheckThreshold,
             message: "thresholds must be positive finite numbers".into(),
         });
     }

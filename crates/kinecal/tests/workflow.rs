@@ -146,11 +146,11 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
     for (mutate, option) in [
         (
             Box::new(|r: &mut Request| r.outlier_sigmas = f64::NAN) as Box<dyn Fn(&mut Request)>,
-            "outlier threshold",
+            kinecal::Setting::OutlierThreshold,
         ),
         (
             Box::new(|r: &mut Request| r.prune = Some(-1.0)),
-            "pruning threshold",
+            kinecal::Setting::PruningThreshold,
         ),
         (
             Box::new(|r: &mut Request| {
@@ -159,18 +159,18 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
                     seed: 1,
                 }
             }),
-            "hold-out fraction",
+            kinecal::Setting::HoldoutFraction,
         ),
         (
             Box::new(|r: &mut Request| r.loss = kinecal::estimation::Loss::huber(1e-320)),
-            "Huber scale",
+            kinecal::Setting::HuberScale,
         ),
     ] {
         let mut r = req.clone();
         mutate(&mut r);
         match workflow::run(&r, &mut ()) {
-            Err(kinecal::Error::InvalidOption { option: o, .. }) => assert_eq!(o, option),
-            other => panic!("{option}: {:?}", other.map(|o| o.report.converged)),
+            Err(kinecal::Error::InvalidOption { setting, .. }) => assert_eq!(setting, option),
+            other => panic!("{option:?}: {:?}", other.map(|o| o.report.converged)),
         }
     }
     let _ = ParamId(0);

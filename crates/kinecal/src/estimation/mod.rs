@@ -255,7 +255,7 @@ pub(crate) fn calibrate_from(
     if let Loss::Huber { k, .. } = opts.loss {
         if !(k.is_finite() && k >= 1e-6) {
             return Err(Error::InvalidOption {
-                option: "Huber scale",
+                setting: crate::error::Setting::HuberScale,
                 message: format!(
                     "expected a number of standard deviations of at least 1e-6, got {k}"
                 ),

@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use nalgebra::{Matrix3, Vector3};
 
 use super::{chain_from_frames, inverse, rotation_from_xz, ImportedJoint};
-use crate::error::{Error, Location, Result};
+use crate::error::{Error, Location, Result, Setting};
 use crate::kinematics::{euler_zyx, rot_zyx, Frame};
 use crate::robot::{JointKind, Robot};
 use crate::units::Units;
@@ -59,6 +59,15 @@ pub struct UrdfImport {
     pub robot: Robot,
     /// The chain it came from.
     pub chain: UrdfChain,
+}
+
+/// A chain end that is not in `file` or not unique.
+fn chain(setting: Setting, file: &str, message: String) -> Error {
+    Error::ChainEnd {
+        at: Location::file(file),
+        setting,
+        message,
+    }
 }
 
 fn err(file: &str, message: impl Into<String>) -> Error {
@@ -136,14 +145,21 @@ pub fn import_urdf(
         .collect();
     let base = match base {
         Some(b) if links.contains(&b) => b,
-        Some(b) => return Err(err(file, format!("no link named `{b}` (the chain's base)"))),
+        Some(b) => {
+            return Err(chain(
+                Setting::ChainBase,
+                file,
+                format!("no link named `{b}` (the chain's base)"),
+            ))
+        }
         None => match roots.as_slice() {
             [one] => *one,
             _ => {
-                return Err(err(
+                return Err(chain(
+                    Setting::ChainBase,
                     file,
                     format!(
-                        "several root links ({}): name the chain's base link",
+                        "several root links ({}): name the chain's base",
                         roots.join(", ")
                     ),
                 ))
@@ -153,7 +169,13 @@ pub fn import_urdf(
     let has_children: Vec<&str> = urdf.joints.iter().map(|j| j.parent.link.as_str()).collect();
     let tip = match tip {
         Some(t) if links.contains(&t) => t,
-        Some(t) => return Err(err(file, format!("no link named `{t}` (the chain's tip)"))),
+        Some(t) => {
+            return Err(chain(
+                Setting::ChainTip,
+                file,
+                format!("no link named `{t}` (the chain's tip)"),
+            ))
+        }
         None => {
             let leaves: Vec<&str> = links
                 .iter()
@@ -163,10 +185,11 @@ pub fn import_urdf(
             match leaves.as_slice() {
                 [one] => *one,
                 _ => {
-                    return Err(err(
+                    return Err(chain(
+                        Setting::ChainTip,
                         file,
                         format!(
-                            "several leaf links ({}): name the chain's tip link",
+                            "several leaf links ({}): name the chain's tip",
                             leaves.join(", ")
                         ),
                     ))
