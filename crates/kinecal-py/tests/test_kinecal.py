@@ -182,6 +182,25 @@ def test_a_perturbed_robot_is_recovered_from_its_simulated_measurements():
     np.testing.assert_allclose(result.robot.fk(q), measured, atol=1e-9)
 
 
+def test_weights_as_a_pair_or_a_dict(qkm_files):
+    d = qkm_files
+    robot = kinecal.Robot.from_toml(d / "qkm.toml")
+    data = kinecal.Measurements.read_csv(d / "identification.csv", robot)
+    pair = kinecal.calibrate(robot, data, weights=(0.05, 0.01))
+    named = kinecal.calibrate(robot, data, weights={"angle": 0.01, "length": 0.05})
+    assert pair.robot.to_toml() == named.robot.to_toml()
+    assert pair.report["variance_factor"] == named.report["variance_factor"]
+    for bad, words in [
+        ({"length": 0.05}, "expected the keys length and angle"),
+        ({"length": 0.05, "angel": 0.01}, "not 'angel'"),
+        ({"length": "x", "angle": 0.01}, "length 'x' is not a number"),
+        ((0.05,), "expected \\(length, angle\\)"),
+        ("0.05,0.01", "expected \\(length, angle\\)"),
+    ]:
+        with pytest.raises(kinecal.KinecalError, match=f"^weights: .*{words}"):
+            kinecal.calibrate(robot, data, weights=bad)
+
+
 def test_per_row_sigmas_and_validation_options(qkm_files):
     d = qkm_files
     robot = kinecal.Robot.from_toml(d / "qkm.toml")

@@ -144,6 +144,36 @@ class Calibration:
         )
 
 
+Weights = Union[None, Sequence[float], Dict[str, float]]
+
+
+def _weights(weights: Weights) -> Optional[tuple]:
+    """Standard deviations ``(length, angle)`` from a pair or a ``{"length", "angle"}`` dict."""
+    if weights is None:
+        return None
+    if isinstance(weights, dict):
+        unknown = sorted(set(weights) - {"length", "angle"})
+        if unknown or len(weights) != 2:
+            raise KinecalError(
+                "weights: expected the keys length and angle"
+                + (f", not {', '.join(map(repr, unknown))}" if unknown else "")
+            )
+        pair = [weights["length"], weights["angle"]]
+    elif isinstance(weights, (str, bytes)):
+        raise KinecalError("weights: expected (length, angle) or {'length': .., 'angle': ..}")
+    else:
+        pair = list(weights)
+    if len(pair) != 2:
+        raise KinecalError("weights: expected (length, angle) standard deviations")
+    out = []
+    for name, w in zip(("length", "angle"), pair):
+        try:
+            out.append(float(w))
+        except (TypeError, ValueError):
+            raise KinecalError(f"weights: {name} {w!r} is not a number") from None
+    return tuple(out)
+
+
 def calibrate(
     robot: Robot,
     data: Measurements,
@@ -153,7 +183,7 @@ def calibrate(
     method: str = "lm",
     loss: str = "squared",
     huber_scale: float = 1.345,
-    weights: Optional[Sequence[float]] = None,
+    weights: Weights = None,
     orientation_error: str = "rotvec",
     validate: Optional[Measurements] = None,
     holdout: Optional[float] = None,
@@ -171,15 +201,12 @@ def calibrate(
     (``"identifiable,slopes"``, ``["link2", "offsets"]``); by default the parameters the data
     can see. ``method``: ``"lm"``, ``"gn"``, ``"sd"`` or ``"svd"``. ``loss``: ``"squared"``
     or ``"huber"`` (threshold ``huber_scale`` robust spreads). ``weights``: standard
-    deviations ``(length, angle)`` in file units. One of ``validate`` (other measurements),
+    deviations in file units, ``(length, angle)`` or ``{"length": ..., "angle": ...}``. One of ``validate`` (other measurements),
     ``holdout`` (a fraction of the postures, drawn with ``seed``) or ``folds`` (k-fold
     cross-validation) checks the result. ``prune``: drop changes below this many standard
     deviations. ``solution``: ``"solver"`` or ``"min-change"``.
     """
-    if weights is not None:
-        weights = tuple(float(w) for w in weights)
-        if len(weights) != 2:
-            raise KinecalError("weights: expected (length, angle) standard deviations")
+    weights = _weights(weights)
     robot_out, report = _native.calibrate(
         robot,
         data,
@@ -209,7 +236,7 @@ def analyze(
     *,
     estimate: ParamList = "identifiable",
     fix: ParamList = None,
-    weights: Optional[Sequence[float]] = None,
+    weights: Weights = None,
     orientation_error: str = "rotvec",
     rcond: Optional[float] = None,
 ) -> Dict[str, Any]:
@@ -217,10 +244,7 @@ def analyze(
     ``kinecal analyze --json`` (rank, singular values, the identifiable set, identically
     redundant combinations, null space, warnings), plus ``unseen``: parameters left out of
     the default set because no measurement sees them."""
-    if weights is not None:
-        weights = tuple(float(w) for w in weights)
-        if len(weights) != 2:
-            raise KinecalError("weights: expected (length, angle) standard deviations")
+    weights = _weights(weights)
     return json.loads(
         _native.analyze(
             robot,

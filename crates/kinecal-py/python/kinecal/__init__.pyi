@@ -158,7 +158,7 @@ def calibrate(
     method: str = "lm",
     loss: str = "squared",
     huber_scale: float = 1.345,
-    weights: Optional[Sequence[float]] = None,
+    weights: Union[None, Sequence[float], Dict[str, float]] = None,
     orientation_error: str = "rotvec",
     validate: Optional[Measurements] = None,
     holdout: Optional[float] = None,
@@ -178,7 +178,7 @@ def analyze(
     *,
     estimate: ParamList = "identifiable",
     fix: ParamList = None,
-    weights: Optional[Sequence[float]] = None,
+    weights: Union[None, Sequence[float], Dict[str, float]] = None,
     orientation_error: str = "rotvec",
     rcond: Optional[float] = None,
 ) -> Dict[str, Any]:
