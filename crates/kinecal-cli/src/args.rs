@@ -88,15 +88,25 @@ Examples:
   kinecal batch fleet.csv --summary summary.csv
   kinecal batch fleet.toml --record --db fleet.sqlite --jobs 4
 
-The manifest is CSV with the header serial,robot,data[,options] or TOML with [[robot]] tables
-(serial, robot, data, options), and an optional top-level options for every robot:
+The manifest is CSV with the header serial,robot,data[,options], options being calibrate's
+(its --help) quoted like a shell's:
 
   serial,robot,data,options
   A4-0042,a4.toml,a4-0042.csv,--estimate identifiable --holdout 0.2
   A4-0043,a4.toml,a4-0043.csv,--out a4-0043-calibrated.toml
 
-options are calibrate's (its --help), quoted like a shell's; paths are relative to the
-manifest's folder. One robot's failure never stops the others. Exit code 0: every robot
+or TOML: one [[robots]] table per robot, a calibration spec (as `calibrate --spec` reads) with
+its serial (and strict = true for --strict), over an optional [defaults] spec they share:
+
+  [defaults]
+  robot = \"a4.toml\"
+  selection = { estimate = \"identifiable\" }
+  [[robots]]
+  serial = \"A4-0042\"
+  observations = [{ file = \"a4-0042.csv\" }]
+  validation = { holdout = 0.2 }
+
+Paths are relative to the manifest's folder. One robot's failure never stops the others. Exit code 0: every robot
 calibrated and converged; 1: some failed (the summary says why); 3: some flagged by --strict;
 4: some did not converge.")]
     Batch(BatchArgs),
@@ -172,6 +182,8 @@ Examples:
       --out calibrated.toml --report report.json
   kinecal calibrate --robot arm.toml --contacts touches.csv --distances ballbar.csv \\
       --estimate identifiable
+  kinecal calibrate --robot ge-a4 --data data.csv --folds 5 --write-spec job.toml
+  kinecal calibrate --spec job.toml --method svd     # the job again, one setting changed
 
 Parameter lists take ids (p3), ranges (p1-p30), names (link1.x, joint2.offset, joint4.slope,
 joint3.coupling, site.NAME.x, plane.NAME.offset), whole links, joints, sites or planes (link2,
@@ -835,7 +847,8 @@ pub struct CompensateArgs {
 /// `kinecal batch`.
 #[derive(Debug, Args)]
 pub struct BatchArgs {
-    /// The manifest: CSV (serial,robot,data[,options]) or TOML ([[robot]] tables).
+    /// The manifest: CSV (serial,robot,data[,options]) or TOML ([[robots]] tables, each a
+    /// calibration spec with its serial, over a [defaults] table).
     pub manifest: PathBuf,
     /// Robots calibrated at once (default: one per core).
     #[arg(long, value_name = "N")]
@@ -939,9 +952,9 @@ pub struct PlanArgs {
 /// How residuals are formed (shared by analyze and calibrate).
 #[derive(Debug, Args)]
 pub struct ResidualArgs {
-    /// Orientation residual.
-    #[arg(long, value_enum, default_value = "rotvec")]
-    pub orientation_error: OrientationArg,
+    /// Orientation residual [default: rotvec].
+    #[arg(long, value_enum)]
+    pub orientation_error: Option<OrientationArg>,
     /// Measurement standard deviations weighting the residuals: `length=L,angle=A` (file units;
     /// default 1 mm and 1 mrad).
     #[arg(long, value_name = "SPEC")]
@@ -1010,14 +1023,23 @@ pub enum DampingArg {
 /// `kinecal calibrate`.
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
+    /// The job as a spec file (TOML: robot, observation files, settings, outputs; see the
+    /// README's "The calibration spec"). Flags given with it override its values; observation
+    /// or --validate files given replace its lists.
+    #[arg(long, value_name = "JOB.toml")]
+    pub spec: Option<PathBuf>,
+    /// Write the job of this command line (with --spec's, flags overriding) as a spec file
+    /// here, then run it.
+    #[arg(long, value_name = "JOB.toml")]
+    pub write_spec: Option<PathBuf>,
     /// Nominal robot file (TOML) or built-in robot name: the model and the starting point.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     #[command(flatten)]
     pub observations: ObservationFiles,
-    /// Least-squares method.
-    #[arg(long, value_enum, default_value = "lm")]
-    pub method: MethodArg,
+    /// Least-squares method [default: lm].
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
     /// Parameters to estimate. Default: links, offsets, sites and, unless every slope is 1
     /// (readings that are already joint values), slopes; couplings and planes only when named.
     #[arg(long, value_name = "LIST")]
@@ -1031,9 +1053,9 @@ pub struct CalibrateArgs {
     #[command(flatten)]
     pub residuals: ResidualArgs,
     /// Which answer to return when some parameters are undetermined: the solver's, or the one
-    /// closest to the --robot file.
-    #[arg(long, value_enum, default_value = "solver")]
-    pub solution: SolutionArg,
+    /// closest to the --robot file [default: solver].
+    #[arg(long, value_enum)]
+    pub solution: Option<SolutionArg>,
     /// Start the solver from this robot file instead of --robot (which stays the nominal model).
     #[arg(long, value_name = "GUESS.toml")]
     pub initial: Option<String>,
@@ -1071,30 +1093,32 @@ pub struct CalibrateArgs {
     pub seed: Option<u64>,
     /// With --choose: repeat the cross-validation over this many shuffles of the postures (the
     /// first as --seed says, the others with the seeds after it), so that the choice does not
-    /// hang on one split.
-    #[arg(long, value_name = "N", default_value_t = kinecal::workflow::CHOICE_REPEATS, requires = "choose")]
-    pub repeats: usize,
-    /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows).
-    #[arg(long, value_enum, default_value = "squared")]
-    pub loss: LossArg,
-    /// Huber threshold, in spreads of the residuals (see --huber-spread).
-    #[arg(long, value_name = "K", default_value_t = 1.345)]
-    pub huber_scale: f64,
+    /// hang on one split [default: 5].
+    #[arg(long, value_name = "N")]
+    pub repeats: Option<usize>,
+    /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows)
+    /// [default: squared].
+    #[arg(long, value_enum)]
+    pub loss: Option<LossArg>,
+    /// Huber threshold, in spreads of the residuals (see --huber-spread) [default: 1.345].
+    #[arg(long, value_name = "K")]
+    pub huber_scale: Option<f64>,
     /// What one spread of the Huber threshold is: the residuals' robust spread, re-estimated
-    /// per kind of row at every reweighting, or the stated standard deviations.
-    #[arg(long, value_enum, value_name = "SPREAD", default_value = "robust")]
-    pub huber_spread: SpreadArg,
+    /// per kind of row at every reweighting, or the stated standard deviations [default:
+    /// robust].
+    #[arg(long, value_enum, value_name = "SPREAD")]
+    pub huber_spread: Option<SpreadArg>,
     /// List observations with a residual beyond K robust standard deviations of the rows like
     /// them (never dropped). K is raised for large data so that clean Gaussian noise is expected
-    /// to show no outlier (4.15 for 3,000 residual rows, 4.8 for 60,000).
-    #[arg(long, value_name = "K", default_value_t = kinecal::outliers::DEFAULT_SIGMAS)]
-    pub outlier_sigma: f64,
-    /// Levenberg-Marquardt damping.
-    #[arg(long, value_enum, default_value = "marquardt")]
-    pub damping: DampingArg,
-    /// Relative singular-value threshold for svd (dropped) and gn (refused).
-    #[arg(long, value_name = "X", default_value_t = kinecal::estimation::DEFAULT_RCOND)]
-    pub rcond: f64,
+    /// to show no outlier (4.15 for 3,000 residual rows, 4.8 for 60,000) [default: 4].
+    #[arg(long, value_name = "K")]
+    pub outlier_sigma: Option<f64>,
+    /// Levenberg-Marquardt damping [default: marquardt].
+    #[arg(long, value_enum)]
+    pub damping: Option<DampingArg>,
+    /// Relative singular-value threshold for svd (dropped) and gn (refused) [default: 1e-9].
+    #[arg(long, value_name = "X")]
+    pub rcond: Option<f64>,
     /// Write the calibrated robot file here (same schema, other fields and comments kept).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -1163,27 +1187,35 @@ impl ObservationFiles {
         v
     }
 
-    /// How the files are read: the mapping, the units, positions only.
-    pub fn read_options(&self) -> anyhow::Result<kinecal::observe::ReadOptions> {
-        let specs: Vec<&str> = self.columns.iter().map(String::as_str).collect();
-        Ok(kinecal::observe::ReadOptions {
-            columns: kinecal::observe::point::ColumnMap::parse(&specs, "--columns")?,
-            length_unit: match &self.length_unit {
-                Some(u) => Some(
-                    u.parse()
-                        .map_err(|m| anyhow::anyhow!("--length-unit: {m}"))?,
-                ),
-                None => None,
-            },
-            angle_unit: match &self.angle_unit {
-                Some(u) => Some(
-                    u.parse()
-                        .map_err(|m| anyhow::anyhow!("--angle-unit: {m}"))?,
-                ),
-                None => None,
-            },
+    /// The files as a calibration spec says them: how they are read, and the list (each of the
+    /// kind of its option).
+    pub fn spec(
+        &self,
+    ) -> anyhow::Result<(
+        kinecal::spec::ReadSettings,
+        Vec<kinecal::spec::ObservationFile>,
+    )> {
+        let read = kinecal::spec::ReadSettings {
+            columns: self.columns.clone(),
+            length_unit: self.length_unit.clone(),
+            angle_unit: self.angle_unit.clone(),
             position_only: self.position_only,
-        })
+            session_per_file: self.session_per_file,
+        };
+        let list = self
+            .files
+            .iter()
+            .map(|(k, p)| {
+                let file = p.to_str().ok_or_else(|| {
+                    anyhow::anyhow!("{}: the path is not valid UTF-8", p.display())
+                })?;
+                Ok(kinecal::spec::ObservationFile {
+                    kind: Some(kinecal::observe::FORMATS[*k].option.to_string()),
+                    ..kinecal::spec::ObservationFile::new(file)
+                })
+            })
+            .collect::<anyhow::Result<_>>()?;
+        Ok((read, list))
     }
 }
 

@@ -1,8 +1,9 @@
 //! `kinecal batch`: calibrate every robot of a manifest, in parallel (the fleet case).
 //!
-//! Each robot is the calibration `kinecal calibrate` runs with the manifest row's arguments
-//! ([`crate::calibrate`]'s three steps): its outputs are written when it succeeds, whatever the
-//! others do. The calibrations run on a thread pool (`rayon`); recording in the history is done
+//! Each robot is a calibration spec: a TOML `[[robots]]` table over the `[defaults]` one, or a
+//! CSV row's arguments read as `kinecal calibrate` reads them ([`crate::calibrate::spec_of`]).
+//! It runs as `calibrate` runs it; its outputs are written when it succeeds, whatever the others
+//! do. The calibrations run on a thread pool (`rayon`); recording in the history is done
 //! afterwards, in manifest order, by one writer.
 
 use std::path::{Path, PathBuf};
@@ -15,17 +16,20 @@ use kinecal::units::Quantity;
 use kinecal::workflow::Outcome;
 use rayon::prelude::*;
 
-use crate::args::{BatchArgs, CalibrateArgs, Cli, Command};
-use crate::calibrate::{prepare, solve, stage_outputs, Prepared};
+use crate::args::{BatchArgs, Cli, Command};
+use crate::calibrate::{prepare, stage_outputs, Prepared};
 use crate::{history, output, EXIT_IMPLAUSIBLE, EXIT_NOT_CONVERGED};
+use kinecal::spec::CalibrationSpec;
 
 /// One robot of the manifest.
 struct Entry {
     serial: String,
     /// Where the row is (`fleet.csv:3`), for messages.
     at: String,
-    /// Calibrate's arguments, or why the row cannot be run.
-    args: std::result::Result<CalibrateArgs, String>,
+    /// The job (paths relative to the working folder), or why the row cannot be run.
+    job: std::result::Result<CalibrationSpec, String>,
+    /// `--strict` for this robot.
+    strict: bool,
 }
 
 /// How one robot's calibration ended.
@@ -120,14 +124,14 @@ fn rebase_robot(dir: &Path, spec: &str) -> String {
     }
 }
 
-/// Calibrate's arguments for one row: `--robot`, `--data` and the options, parsed by the same
-/// definitions as `kinecal calibrate`, with every path taken relative to the manifest.
-fn calibrate_args(
+/// The job of one CSV row: `--robot`, `--data` and the options, parsed by the same definitions
+/// as `kinecal calibrate`, with every path taken relative to the manifest; and `--strict`.
+fn row_job(
     dir: &Path,
     robot: &str,
     data: &str,
     options: &[String],
-) -> std::result::Result<CalibrateArgs, String> {
+) -> std::result::Result<(CalibrationSpec, bool), String> {
     let mut argv: Vec<String> = vec!["kinecal".into(), "calibrate".into(), "--robot".into()];
     argv.push(robot.to_string());
     if !data.is_empty() {
@@ -151,6 +155,7 @@ fn calibrate_args(
         ("--db", a.db.is_some()),
         ("--at", a.at.is_some()),
         ("--verbose", a.verbose),
+        ("--write-spec", a.write_spec.is_some()),
     ] {
         if given {
             return Err(format!(
@@ -159,45 +164,98 @@ fn calibrate_args(
             ));
         }
     }
-    a.robot = rebase_robot(dir, &a.robot);
+    a.robot = a.robot.map(|r| rebase_robot(dir, &r));
+    a.initial = a.initial.map(|r| rebase_robot(dir, &r));
     for (_, p) in &mut a.observations.files {
         *p = rebase(dir, p);
     }
-    for p in &mut a.validate {
-        *p = rebase(dir, p);
-    }
-    for p in [&mut a.out, &mut a.report, &mut a.html]
-        .into_iter()
-        .flatten()
+    for p in a
+        .validate
+        .iter_mut()
+        .chain(&mut a.out)
+        .chain(&mut a.report)
+        .chain(&mut a.html)
+        .chain(&mut a.spec)
     {
         *p = rebase(dir, p);
     }
-    if let Some(i) = &mut a.initial {
-        *i = rebase_robot(dir, i);
-    }
-    Ok(a)
+    let spec = crate::calibrate::spec_of(&a).map_err(|e| crate::in_flags(&e))?;
+    Ok((spec, a.strict))
 }
 
-/// Options given as a TOML string or array of strings.
-fn toml_options(item: Option<&toml_edit::Item>, at: &str) -> Result<Vec<String>> {
-    match item {
-        None => Ok(Vec::new()),
-        Some(i) => {
-            if let Some(s) = i.as_str() {
-                return split_options(s).map_err(|e| anyhow!("{at}: options: {e}"));
+/// Deep-merges `over` into `base` (tables merged key by key, other values replaced).
+fn merge_tables(base: &mut toml_edit::Table, over: &toml_edit::Table) {
+    for (k, v) in over.iter() {
+        match (base.get_mut(k), v) {
+            (Some(toml_edit::Item::Table(b)), toml_edit::Item::Table(o)) => merge_tables(b, o),
+            _ => {
+                base.insert(k, v.clone());
             }
-            let arr = i.as_array().ok_or_else(|| {
-                anyhow!("{at}: options: expected a string or an array of strings")
-            })?;
-            arr.iter()
-                .map(|v| {
-                    v.as_str()
-                        .map(str::to_string)
-                        .ok_or_else(|| anyhow!("{at}: options: expected an array of strings"))
-                })
-                .collect()
         }
     }
+}
+
+/// The jobs of a TOML manifest: a `[[robots]]` table per robot, a calibration spec with its
+/// `serial` (and `strict = true` to refuse a result most likely wrong), over the `[defaults]`
+/// table every robot shares.
+fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec<Entry>> {
+    if doc.get("robot").is_some() {
+        bail!(
+            "{name}: `[[robot]]` tables with `options` are no longer read: write each robot as a \
+             `[[robots]]` table holding its calibration spec and `serial` (see the README's \
+             \"The calibration spec\"), or use a CSV manifest"
+        );
+    }
+    for key in doc.iter().map(|(k, _)| k) {
+        if !["defaults", "robots"].contains(&key) {
+            bail!("{name}: unknown key `{key}` (expected [defaults] and [[robots]])");
+        }
+    }
+    let defaults = match doc.get("defaults") {
+        None => toml_edit::Table::new(),
+        Some(d) => d
+            .as_table()
+            .cloned()
+            .ok_or_else(|| anyhow!("{name}: `defaults` must be a table"))?,
+    };
+    let robots = doc
+        .get("robots")
+        .and_then(|r| r.as_array_of_tables())
+        .ok_or_else(|| anyhow!("{name}: no [[robots]] tables"))?;
+    let mut entries = Vec::new();
+    for (k, t) in robots.iter().enumerate() {
+        let mut at = format!("{name}: robot {}", k + 1);
+        let mut table = defaults.clone();
+        merge_tables(&mut table, t);
+        let serial = match table.remove("serial") {
+            Some(v) => v
+                .as_str()
+                .map(str::to_string)
+                .ok_or_else(|| anyhow!("{at}: `serial` must be a string"))?,
+            None => bail!("{at}: `serial` is required"),
+        };
+        if serial.is_empty() {
+            bail!("{at}: the serial is empty");
+        }
+        at = format!("{at} ({serial})");
+        let strict = match table.remove("strict") {
+            Some(v) => v
+                .as_bool()
+                .ok_or_else(|| anyhow!("{at}: `strict` must be true or false"))?,
+            None => false,
+        };
+        let text = toml_edit::DocumentMut::from(table).to_string();
+        let job = CalibrationSpec::from_toml(&text, &at)
+            .map(|s| s.rebased(dir))
+            .map_err(|e| e.to_string());
+        entries.push(Entry {
+            serial,
+            at,
+            job,
+            strict,
+        });
+    }
+    Ok(entries)
 }
 
 /// Reads the manifest (CSV, or TOML by its `.toml` extension).
@@ -214,38 +272,7 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
             .text
             .parse()
             .map_err(|e: toml_edit::TomlError| anyhow!("{name}: {}", e.to_string().trim()))?;
-        let common = toml_options(doc.get("options"), &name)?;
-        let robots = doc
-            .get("robot")
-            .and_then(|r| r.as_array_of_tables())
-            .ok_or_else(|| anyhow!("{name}: no [[robot]] tables"))?;
-        for (k, t) in robots.iter().enumerate() {
-            let at = format!("{name}: robot {}", k + 1);
-            let field = |f: &str| -> Result<String> {
-                t.get(f)
-                    .map(|v| {
-                        v.as_str()
-                            .map(str::to_string)
-                            .ok_or_else(|| anyhow!("{at}: `{f}` must be a string"))
-                    })
-                    .transpose()
-                    .map(Option::unwrap_or_default)
-            };
-            let serial = field("serial")?;
-            let robot = field("robot")?;
-            if serial.is_empty() || robot.is_empty() {
-                bail!("{at}: `serial` and `robot` are required");
-            }
-            for key in t.iter().map(|(k, _)| k) {
-                if !["serial", "robot", "data", "options"].contains(&key) {
-                    bail!("{at}: unknown key `{key}` (expected serial, robot, data, options)");
-                }
-            }
-            let mut options = common.clone();
-            options.extend(toml_options(t.get("options"), &at)?);
-            let args = calibrate_args(dir, &robot, &field("data")?, &options);
-            entries.push(Entry { serial, at, args });
-        }
+        entries = toml_jobs(&doc, dir, &name)?;
     } else {
         let mut rdr = csv::ReaderBuilder::new()
             .comment(Some(b'#'))
@@ -281,9 +308,15 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
             if serial.is_empty() {
                 bail!("{at}: the serial is empty");
             }
-            let args = split_options(&get(o))
-                .and_then(|opts| calibrate_args(dir, &get(Some(r)), &get(d), &opts));
-            entries.push(Entry { serial, at, args });
+            let job =
+                split_options(&get(o)).and_then(|opts| row_job(dir, &get(Some(r)), &get(d), &opts));
+            let strict = job.as_ref().is_ok_and(|j| j.1);
+            entries.push(Entry {
+                serial,
+                at,
+                job: job.map(|j| j.0),
+                strict,
+            });
         }
     }
     if entries.is_empty() {
@@ -297,8 +330,8 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
     // Two robots writing one file would race: refuse before anything runs.
     let mut outputs: Vec<(PathBuf, &str)> = Vec::new();
     for e in &entries {
-        if let Ok(a) = &e.args {
-            for p in [&a.out, &a.report, &a.html].into_iter().flatten() {
+        if let Ok(spec) = &e.job {
+            for p in &spec.outputs() {
                 if let Some((_, other)) = outputs.iter().find(|(q, _)| q == p) {
                     bail!(
                         "{}: {} is also written for {other}: give each robot its own outputs",
@@ -315,7 +348,7 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
 
 /// The summary figures of one calibration.
 fn figures(serial: &str, status: Status, p: &Prepared, o: &Outcome) -> Row {
-    let robot = &p.req.robot;
+    let robot = &p.job.request.robot;
     let l = |v: f64| robot.units.from_si(Quantity::Length, v);
     let (b, a) = (&o.identification.before, &o.identification.after);
     let rms = if b.positions > 0 {
@@ -380,8 +413,8 @@ struct Done {
 
 /// Calibrates one robot and stages its outputs.
 fn calibrate_one(e: &Entry) -> Done {
-    let a = match &e.args {
-        Ok(a) => a,
+    let spec = match &e.job {
+        Ok(s) => s,
         Err(msg) => {
             return Done {
                 row: failed(&e.serial, format!("{}: {msg}", e.at)),
@@ -391,10 +424,10 @@ fn calibrate_one(e: &Entry) -> Done {
         }
     };
     let run = || -> Result<Done> {
-        let p = prepare(a)?;
-        let (o, _) = solve(a, &p, &mut ())?;
+        let p = prepare(spec, None)?;
+        let o = p.job.run(&mut ())?;
         let implausible = o.warnings.iter().any(|w| w.implausible());
-        if a.strict && implausible {
+        if e.strict && implausible {
             return Ok(Done {
                 row: figures(&e.serial, Status::Flagged, &p, &o),
                 staged: None,
@@ -402,7 +435,7 @@ fn calibrate_one(e: &Entry) -> Done {
             });
         }
         let mut staged = output::Staged::new();
-        stage_outputs(a, &p, &o, &mut staged)?;
+        stage_outputs(&p, &o, &mut staged)?;
         let status = if o.calibration.converged() {
             Status::Ok
         } else {

@@ -1,21 +1,24 @@
-//! `kinecal calibrate`: arguments to a library request, the outcome rendered and written.
+//! `kinecal calibrate`: arguments to a library calibration spec, the outcome rendered and
+//! written.
 //!
-//! Three steps, so that `kinecal batch` runs the same calibration for every robot of a
-//! manifest: [`prepare`] (read the files, build the request), [`solve`] (the library's
-//! workflow), [`finish`] (print, write the outputs, record in the history).
+//! [`spec_of`] turns the flags (over `--spec`'s file) into a [`CalibrationSpec`]; [`prepare`]
+//! has the library read it into a job, which runs; [`finish`] prints, writes the outputs and
+//! records in the history. `kinecal batch` runs the same steps for every robot of a manifest.
 
 use std::path::Path;
 
-use anyhow::{anyhow, bail, Result};
-use kinecal::estimation::{Damping, Loss, Method, SolverOptions};
-use kinecal::observe::{Dataset, FORMATS};
+use std::path::PathBuf;
+
+use anyhow::{anyhow, Result};
+use kinecal::estimation::{Damping, Method, Spread};
+use kinecal::observe::FORMATS;
 use kinecal::robot_file::write_robot_toml_checked;
-use kinecal::workflow::{self, Outcome, Request, Selection, SolutionRule, Validation};
+use kinecal::spec::{CalibrationSpec, Job, LossKind, ObservationFile};
+use kinecal::workflow::{self, Outcome, SolutionRule};
 
 use crate::args::{CalibrateArgs, DampingArg, LossArg, MethodArg, SolutionArg, SpreadArg};
 use crate::{
-    history, load_observations, load_robot, output, read_any, report, residual_settings, word,
-    LoadedRobot, EXIT_IMPLAUSIBLE, EXIT_NOT_CONVERGED,
+    history, orientation_of, output, report, weights_of, word, EXIT_IMPLAUSIBLE, EXIT_NOT_CONVERGED,
 };
 
 /// Progress for `-v`: one line per iteration.
@@ -41,187 +44,164 @@ impl workflow::Progress for Verbose {
     }
 }
 
-/// A calibration ready to run: the request, and what writing its outputs needs.
+/// A calibration ready to run: the library's job (spec, request, robot file).
 pub struct Prepared {
-    /// The library request.
-    pub req: Request,
-    /// The robot as read (its file text is the template of the calibrated robot file).
-    pub robot: LoadedRobot,
-    /// The observation files (to name the file of a bad row).
-    files: Vec<(usize, std::path::PathBuf)>,
+    /// The job.
+    pub job: Job,
 }
 
-/// Reads the files and builds the request; refuses outputs over inputs.
-pub fn prepare(a: &CalibrateArgs) -> Result<Prepared> {
-    let outputs: Vec<&Path> = [&a.out, &a.report, &a.html]
-        .into_iter()
-        .flatten()
-        .map(|p| p.as_path())
-        .collect();
-    let mut inputs: Vec<&Path> = a
-        .observations
-        .files
-        .iter()
-        .map(|(_, p)| p.as_path())
-        .collect();
-    inputs.extend(a.validate.iter().map(|p| p.as_path()));
-    inputs.push(Path::new(&a.robot));
+/// A path of the command line as a spec's string.
+fn path_text(p: &Path) -> Result<String> {
+    p.to_str()
+        .map(str::to_string)
+        .ok_or_else(|| anyhow!("{}: the path is not valid UTF-8", p.display()))
+}
+
+/// The job of a command line: `--spec`'s, with the flags given overriding it (observation or
+/// validation files given replace the spec's lists; a way of checking given replaces the
+/// spec's).
+pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
+    let mut s = match &a.spec {
+        Some(path) => CalibrationSpec::read(path)?,
+        None => CalibrationSpec::default(),
+    };
+    if let Some(r) = &a.robot {
+        s.robot = r.clone();
+    }
     if let Some(i) = &a.initial {
-        inputs.push(Path::new(i));
+        s.initial = Some(i.clone());
     }
-    if let Some(db) = &a.db {
-        inputs.push(db);
-    }
-    output::check_distinct(&outputs, &inputs)?;
-    let r = load_robot(&a.robot)?;
-    let robot = &r.robot;
-    let (data, data_sources) = load_observations(&a.observations, robot)?;
-    let (weights, orientation) = residual_settings(&a.residuals, robot)?;
-    if a.folds.is_some() && !a.validate.is_empty() && a.choose.is_none() {
-        bail!(
-            "--folds and --validate are two ways to check a calibration: give one (with --choose, \
-             the folds choose the model and the validation file checks it)"
-        );
-    }
-    let validation = match (a.validate.is_empty(), a.holdout) {
-        (false, _) => {
-            let mut v = Dataset::default();
-            for path in &a.validate {
-                v = v.merge(read_any(path, &a.observations, robot)?.0);
-            }
-            Validation::Data(v.into())
-        }
-        (true, Some(fraction)) => Validation::Holdout {
-            fraction,
-            seed: a.seed.unwrap_or(1),
-        },
-        (true, None) => match a.folds {
-            Some(k) => Validation::Folds { k, seed: a.seed },
-            None => Validation::None,
-        },
-    };
-    let mut solver = SolverOptions::new(match a.method {
-        MethodArg::Lm => Method::LevenbergMarquardt,
-        MethodArg::Gn => Method::GaussNewton,
-        MethodArg::Sd => Method::SteepestDescent,
-        MethodArg::Svd => Method::Svd,
-    });
-    if let Some(n) = a.max_iter {
-        solver.max_iterations = n;
-    }
-    solver.damping = match a.damping {
-        DampingArg::Marquardt => Damping::Marquardt,
-        DampingArg::Identity => Damping::Identity,
-    };
-    solver.rcond = a.rcond;
-    let mut req = Request::new(robot.clone(), data);
-    if a.estimate.is_some() || a.fix.is_some() {
-        req.selection =
-            Selection::parse(a.estimate.as_deref().unwrap_or(""), a.fix.as_deref(), robot)?;
-    }
-    req.initial = match &a.initial {
-        None => None,
-        Some(spec) => {
-            let guess = load_robot(spec)?.robot;
-            if !robot.same_structure(&guess) {
-                bail!(
-                    "--initial {spec}: not the same robot structure as --robot {}",
-                    a.robot
-                );
-            }
-            Some(guess)
-        }
-    };
-    req.solver = solver;
-    req.loss = match a.loss {
-        LossArg::Squared => Loss::Squared,
-        LossArg::Huber => Loss::Huber {
-            k: a.huber_scale,
-            spread: match a.huber_spread {
-                SpreadArg::Robust => kinecal::estimation::Spread::Robust,
-                SpreadArg::Stated => kinecal::estimation::Spread::Stated,
-            },
-        },
-    };
-    req.weights = weights;
-    req.orientation = orientation;
-    req.solution = match a.solution {
-        SolutionArg::Solver => SolutionRule::Solver,
-        SolutionArg::MinChange => SolutionRule::MinChange,
-    };
-    req.prune = a.prune;
-    req.validation = validation;
-    req.outlier_sigmas = a.outlier_sigma;
-    req.sources = std::iter::once(r.source.clone())
-        .chain(data_sources)
-        .collect();
-    Ok(Prepared {
-        req,
-        robot: r,
-        files: a.observations.files.clone(),
-    })
-}
-
-/// Runs the workflow (or the model choice, whose table is returned too).
-pub fn solve(
-    a: &CalibrateArgs,
-    p: &Prepared,
-    progress: &mut dyn workflow::Progress,
-) -> Result<(Outcome, Option<String>)> {
-    let (req, robot, files) = (&p.req, &p.robot.robot, &p.files);
-    let result = match &a.choose {
-        None => workflow::run(req, progress).map(|o| (o, None)),
-        Some(list) => {
-            let candidates = if list.is_empty() {
-                workflow::Candidate::defaults(robot)
-            } else {
-                list.iter()
-                    .map(|t| workflow::Candidate::parse(t, robot))
-                    .collect()
-            };
-            candidates
-                .and_then(|c| workflow::choose(req, &c, a.folds.unwrap_or(5), a.seed, a.repeats))
-                .map(|choice| {
-                    let table = report::choice_table(&choice.outcome.report);
-                    (choice.outcome, Some(table))
+    let o = &a.observations;
+    if !o.files.is_empty() {
+        s.observations = o
+            .files
+            .iter()
+            .map(|(k, p)| {
+                Ok(ObservationFile {
+                    kind: Some(FORMATS[*k].option.to_string()),
+                    ..ObservationFile::new(path_text(p)?)
                 })
+            })
+            .collect::<Result<_>>()?;
+    }
+    let read = &mut s.read;
+    if !o.columns.is_empty() {
+        read.columns = o.columns.clone();
+    }
+    read.length_unit = o.length_unit.clone().or(read.length_unit.take());
+    read.angle_unit = o.angle_unit.clone().or(read.angle_unit.take());
+    read.position_only |= o.position_only;
+    read.session_per_file |= o.session_per_file;
+    let sel = &mut s.selection;
+    if a.choose.is_some() {
+        (sel.estimate, sel.prune) = (None, None);
+    }
+    if a.estimate.is_some() || a.prune.is_some() {
+        s.validation.choose = None;
+    }
+    sel.estimate = a.estimate.clone().or(sel.estimate.take());
+    sel.fix = a.fix.clone().or(sel.fix.take());
+    sel.prune = a.prune.or(sel.prune);
+    let sol = &mut s.solver;
+    if let Some(m) = a.method {
+        sol.method = match m {
+            MethodArg::Lm => Method::LevenbergMarquardt,
+            MethodArg::Gn => Method::GaussNewton,
+            MethodArg::Sd => Method::SteepestDescent,
+            MethodArg::Svd => Method::Svd,
+        };
+    }
+    sol.max_iterations = a.max_iter.or(sol.max_iterations);
+    if let Some(d) = a.damping {
+        sol.damping = match d {
+            DampingArg::Marquardt => Damping::Marquardt,
+            DampingArg::Identity => Damping::Identity,
+        };
+    }
+    sol.rcond = a.rcond.or(sol.rcond);
+    if let Some(r) = a.solution {
+        sol.solution = match r {
+            SolutionArg::Solver => SolutionRule::Solver,
+            SolutionArg::MinChange => SolutionRule::MinChange,
+        };
+    }
+    let res = &mut s.residuals;
+    if let Some(l) = a.loss {
+        res.loss = match l {
+            LossArg::Squared => LossKind::Squared,
+            LossArg::Huber => LossKind::Huber,
+        };
+    }
+    res.huber_scale = a.huber_scale.or(res.huber_scale);
+    if let Some(h) = a.huber_spread {
+        res.huber_spread = match h {
+            SpreadArg::Robust => Spread::Robust,
+            SpreadArg::Stated => Spread::Stated,
+        };
+    }
+    if let Some(w) = weights_of(&a.residuals)? {
+        res.weights = w;
+    }
+    if let Some(e) = orientation_of(&a.residuals) {
+        res.orientation_error = e;
+    }
+    res.outlier_sigma = a.outlier_sigma.or(res.outlier_sigma);
+    let v = &mut s.validation;
+    if !a.validate.is_empty() || a.holdout.is_some() || a.folds.is_some() {
+        v.files = a
+            .validate
+            .iter()
+            .map(|p| Ok(ObservationFile::new(path_text(p)?)))
+            .collect::<Result<_>>()?;
+        (v.holdout, v.folds) = (a.holdout, a.folds);
+    }
+    v.seed = a.seed.or(v.seed);
+    if a.choose.is_some() {
+        v.choose = a.choose.clone();
+    }
+    v.repeats = a.repeats.or(v.repeats);
+    let out = &mut s.outputs;
+    for (flag, slot) in [
+        (&a.out, &mut out.robot),
+        (&a.report, &mut out.report),
+        (&a.html, &mut out.html),
+    ] {
+        if let Some(p) = flag {
+            *slot = Some(path_text(p)?);
         }
-    };
-    result.map_err(|e| match e {
-        kinecal::Error::NonFiniteResidual { line, kind, .. } => {
-            // Name the file the observation came from (or the files it may have come from).
-            let of_kind: Vec<String> = files
-                .iter()
-                .filter(|(i, _)| FORMATS[*i].kinds.contains(&kind))
-                .map(|(_, p)| p.display().to_string())
-                .collect();
-            match of_kind.as_slice() {
-                [one] => anyhow!("{one}:{line}: {e}"),
-                many => anyhow!("line {line} of one of {}: {e}", many.join(", ")),
-            }
-        }
-        e => e.into(),
-    })
+    }
+    Ok(s)
 }
 
-/// Stages the outputs `a` names (`--out`, `--report`, `--html`) for `outcome`.
-pub fn stage_outputs(
-    a: &CalibrateArgs,
-    p: &Prepared,
-    outcome: &Outcome,
-    staged: &mut output::Staged,
-) -> Result<()> {
-    if let Some(path) = &a.out {
+/// Reads the files and builds the job; refuses outputs over inputs.
+pub fn prepare(spec: &CalibrationSpec, db: Option<&Path>) -> Result<Prepared> {
+    let outputs = spec.outputs();
+    let mut inputs = spec.inputs();
+    inputs.extend(db.map(Path::to_path_buf));
+    output::check_distinct(
+        &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+        &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+    )?;
+    Ok(Prepared { job: spec.load()? })
+}
+
+/// Stages the job's outputs (the calibrated robot, the report, the HTML report) for `outcome`.
+pub fn stage_outputs(p: &Prepared, outcome: &Outcome, staged: &mut output::Staged) -> Result<()> {
+    let o = &p.job.spec.outputs;
+    if let Some(path) = &o.robot {
         staged.text(
-            path,
-            &write_robot_toml_checked(&outcome.calibration.calibrated, Some(&p.robot.source.text))?,
+            Path::new(path),
+            &write_robot_toml_checked(
+                &outcome.calibration.calibrated,
+                Some(&p.job.robot_source.text),
+            )?,
         )?;
     }
-    if let Some(path) = &a.report {
-        staged.text(path, &(outcome.report.to_json() + "\n"))?;
+    if let Some(path) = &o.report {
+        staged.text(Path::new(path), &(outcome.report.to_json() + "\n"))?;
     }
-    if let Some(path) = &a.html {
-        staged.text(path, &kinecal_report::html_report(outcome)?)?;
+    if let Some(path) = &o.html {
+        staged.text(Path::new(path), &kinecal_report::html_report(outcome)?)?;
     }
     Ok(())
 }
@@ -316,16 +296,28 @@ impl workflow::Progress for Display {
 pub fn run(a: CalibrateArgs) -> Result<u8> {
     let mut display = Display::new(&a);
     display.say("reading");
-    let read = std::time::Instant::now();
-    let p = prepare(&a)?;
-    let reading = read.elapsed().as_secs_f64();
+    let spec = spec_of(&a)?;
+    let p = prepare(&spec, a.db.as_deref())?;
+    // Written once the job has been read and checked, before it runs.
+    if let Some(path) = &a.write_spec {
+        output::check_distinct(
+            &[path.as_path()],
+            &spec
+                .inputs()
+                .iter()
+                .map(PathBuf::as_path)
+                .collect::<Vec<_>>(),
+        )?;
+        crate::write_file(path, &spec.written_to(path)?.to_toml())?;
+        display.suspend(|| eprintln!("wrote the spec to {}", path.display()));
+    }
     // Open the history first, so that an unwritable database fails before the work.
     let record_at = history::parse_at(a.at.as_deref())?;
     let record_db = match &a.record {
         Some(_) => Some(history::open_db(a.db.as_deref())?),
         None => None,
     };
-    let solved = solve(&a, &p, &mut display);
+    let solved = p.job.run(&mut display);
     if solved.is_err() {
         display.done();
     }
@@ -336,16 +328,9 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
         );
         return Ok(EXIT_IMPLAUSIBLE);
     }
-    let (mut outcome, choice) = solved?;
-    outcome.report.timings.insert(
-        0,
-        kinecal::report::PhaseTime {
-            phase: "reading".into(),
-            seconds: reading,
-        },
-    );
-    if let Some(table) = choice {
-        display.suspend(|| print!("{table}"));
+    let outcome = solved?;
+    if p.job.choice.is_some() {
+        display.suspend(|| print!("{}", report::choice_table(&outcome.report)));
     }
     let code = finish(&a, &p, &outcome, record_at, record_db.as_ref(), &display);
     display.done();
@@ -382,7 +367,7 @@ fn finish(
     // replaced; the history record is the last step that can fail.
     display.say("writing");
     let mut staged = output::Staged::new();
-    stage_outputs(a, p, outcome, &mut staged)?;
+    stage_outputs(p, outcome, &mut staged)?;
     if let (Some(serial), Some(db)) = (&a.record, record_db) {
         display.say("recording in the history");
         let options = kinecal_history::AddOptions { force: a.force };
@@ -391,13 +376,14 @@ fn finish(
     }
     staged.commit()?;
     display.done();
+    let o = &p.job.spec.outputs;
     for (path, what) in [
-        (&a.out, "the calibrated robot"),
-        (&a.report, "the report"),
-        (&a.html, "the HTML report"),
+        (&o.robot, "the calibrated robot"),
+        (&o.report, "the report"),
+        (&o.html, "the HTML report"),
     ] {
         if let Some(p) = path {
-            eprintln!("wrote {what} to {}", p.display());
+            eprintln!("wrote {what} to {p}");
         }
     }
     Ok(if outcome.calibration.converged() {

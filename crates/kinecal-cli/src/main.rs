@@ -26,15 +26,14 @@ use args::{
     Cli, Command, ConventionArg, DatasetArgs, ExportCommand, ExportUrdfArgs, FkArgs, ImportCommand,
     ObservationFiles, OrientationArg, ResidualArgs, SimulateArgs,
 };
-use kinecal::observe::point::{parse_postures, write_measurements, ColumnMap};
-use kinecal::observe::{
-    read_observations_as, Dataset, OrientationError, ReadOptions, Weights, FORMATS,
-};
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
+use kinecal::observe::point::{parse_postures, write_measurements};
+use kinecal::observe::{Dataset, OrientationError, Weights, FORMATS};
+use kinecal::robot_file::write_robot_toml_checked;
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::source::Source;
+use kinecal::spec::WeightsSpec;
 use kinecal::units::Quantity;
-use kinecal::{examples, parse_param_list, Robot, Setting, Warning};
+use kinecal::{parse_param_list, Robot, Setting, Warning};
 
 /// Exit code for errors in the input (files, parameter lists, unsolvable problems).
 const EXIT_INPUT: u8 = 1;
@@ -134,6 +133,17 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::NominalRobot => "--nominal",
         Setting::ChainBase => "--base",
         Setting::ChainTip => "--tip",
+        Setting::Robot => "--robot",
+        Setting::InitialRobot => "--initial",
+        Setting::Observations => "--data/--distances/--contacts",
+        // A spec file's `kind`: the command line's options are the kinds.
+        Setting::ObservationKind => "kind",
+        Setting::Columns => "--columns",
+        Setting::LengthUnit => "--length-unit",
+        Setting::AngleUnit => "--angle-unit",
+        Setting::Weights => "--weights",
+        Setting::MaxIterations => "--max-iter",
+        Setting::Validation => "--validate/--holdout/--folds",
     }
 }
 
@@ -211,19 +221,8 @@ pub fn read_text(path: &Path) -> Result<String> {
 }
 
 /// Loads `--robot`: a file, or a built-in robot's name.
-pub fn load_robot(spec: &str) -> Result<LoadedRobot> {
-    let path = Path::new(spec);
-    let source = if path.exists() {
-        Source::read(path)?
-    } else if let Some(text) = examples::builtin(spec) {
-        Source::text(format!("<built-in {spec}>"), text)
-    } else {
-        bail!(
-            "{spec}: no such robot file, and not a built-in robot (built-in: {})",
-            examples::BUILTIN_NAMES.join(", ")
-        );
-    };
-    let robot = parse_robot_toml(&source.text, &source.name)?;
+pub fn load_robot(name: &str) -> Result<LoadedRobot> {
+    let (robot, source) = kinecal::spec::load_robot(name)?;
     Ok(LoadedRobot { robot, source })
 }
 
@@ -266,71 +265,8 @@ pub fn spec_value(spec: &[(String, f64)], key: &str) -> Option<f64> {
     spec.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
 }
 
-/// Reads a measurement file through the `--columns` mappings.
-/// Reads an observation file as `FORMATS[format]`, or as its header says when `format` is
-/// `None` (the `--columns` mapping applying to measurement files only).
-pub fn read_observation_file(
-    path: &Path,
-    opts: &ReadOptions,
-    robot: &Robot,
-    format: Option<usize>,
-) -> Result<(Dataset, Source)> {
-    let source = Source::read(path)?;
-    let format = format.unwrap_or_else(|| kinecal::observe::detect_format(&source.text));
-    let mut o = opts.clone();
-    if format != 0 {
-        // The mapping's pairs name measurement columns; its units apply to every file.
-        o.columns = ColumnMap {
-            length_unit: o.columns.length_unit,
-            angle_unit: o.columns.angle_unit,
-            ..ColumnMap::default()
-        };
-    }
-    let data = read_observations_as(&source.text, &source.name, robot, &o, format)?;
-    Ok((data, source))
-}
-
-/// Reads an observation file of any kind, told by its header (measurements through the
-/// `--columns` mapping), in its own session with `--session-per-file`.
-pub fn read_any(path: &Path, files: &ObservationFiles, robot: &Robot) -> Result<(Dataset, Source)> {
-    let (mut data, source) = read_observation_file(path, &files.read_options()?, robot, None)?;
-    if files.session_per_file {
-        data.set_session(&session_name(path, &files.all_paths()));
-    }
-    Ok((data, source))
-}
-
-/// The session of a file read with `--session-per-file`: its name without the extension, with
-/// as many parent folders as it takes to tell it from the other files `all`.
-pub fn session_name(path: &Path, all: &[&Path]) -> String {
-    let parts = |p: &Path| -> Vec<String> {
-        let mut v: Vec<String> = p
-            .with_extension("")
-            .components()
-            .map(|c| c.as_os_str().to_string_lossy().into_owned())
-            .collect();
-        v.reverse();
-        v
-    };
-    let mine = parts(path);
-    let others: Vec<Vec<String>> = all
-        .iter()
-        .filter(|p| **p != path)
-        .map(|p| parts(p))
-        .collect();
-    for k in 1..=mine.len() {
-        let tail = &mine[..k];
-        if others.iter().all(|o| o.len() < k || o[..k] != *tail) {
-            let mut t = tail.to_vec();
-            t.reverse();
-            return t.join("/");
-        }
-    }
-    path.display().to_string()
-}
-
-/// Reads every observation file given (`--data`, `--distances`, ...) into one dataset; an
-/// error when none is given.
+/// Reads every observation file given (`--data`, `--distances`, ...) into one dataset, through
+/// the library's one reader; an error when none is given.
 pub fn load_observations(
     files: &ObservationFiles,
     robot: &Robot,
@@ -345,41 +281,35 @@ pub fn load_observations(
                 .join(", ")
         );
     }
-    let opts = files.read_options()?;
+    let (read, list) = files.spec()?;
     let all = files.all_paths();
-    let mut data = Dataset::default();
-    let mut sources = Vec::new();
-    for (i, path) in &files.files {
-        let (mut d, source) = read_observation_file(path, &opts, robot, Some(*i))?;
-        if files.session_per_file {
-            d.set_session(&session_name(path, &all));
-        }
-        data = data.merge(d);
-        sources.push(source);
-    }
-    Ok((data, sources))
+    Ok(kinecal::spec::read_files(&read, &list, robot, &all)?)
+}
+
+/// `--weights length=L,angle=A` (robot file units), when given.
+pub fn weights_of(a: &ResidualArgs) -> Result<Option<WeightsSpec>> {
+    let Some(spec) = &a.weights else {
+        return Ok(None);
+    };
+    let s = parse_spec("--weights", spec, &["length", "angle"])?;
+    Ok(Some(WeightsSpec {
+        length: spec_value(&s, "length"),
+        angle: spec_value(&s, "angle"),
+    }))
+}
+
+/// `--orientation-error`, when given.
+pub fn orientation_of(a: &ResidualArgs) -> Option<OrientationError> {
+    a.orientation_error.map(|o| match o {
+        OrientationArg::Euler => OrientationError::Euler,
+        OrientationArg::Rotvec => OrientationError::RotVec,
+    })
 }
 
 /// The residual weights and orientation error chosen on the command line.
 pub fn residual_settings(a: &ResidualArgs, robot: &Robot) -> Result<(Weights, OrientationError)> {
-    let mut weights = Weights::default();
-    if let Some(spec) = &a.weights {
-        let s = parse_spec("--weights", spec, &["length", "angle"])?;
-        if let Some(l) = spec_value(&s, "length") {
-            weights.length = robot.units.to_si(Quantity::Length, l);
-        }
-        if let Some(an) = spec_value(&s, "angle") {
-            weights.angle = robot.units.to_si(Quantity::Angle, an);
-        }
-        if weights.length <= 0.0 || weights.angle <= 0.0 {
-            bail!("--weights: standard deviations must be positive");
-        }
-    }
-    let orientation = match a.orientation_error {
-        OrientationArg::Euler => OrientationError::Euler,
-        OrientationArg::Rotvec => OrientationError::RotVec,
-    };
-    Ok((weights, orientation))
+    let weights = kinecal::spec::weights(robot, &weights_of(a)?.unwrap_or_default())?;
+    Ok((weights, orientation_of(a).unwrap_or_default()))
 }
 
 fn import(c: ImportCommand) -> Result<()> {
@@ -783,7 +713,8 @@ mod tests {
     use super::*;
 
     /// Every library setting has a flag, and the flag is one the command line has (the noise
-    /// scale excepted: the library sets it from a fit's residuals).
+    /// scale excepted: the library sets it from a fit's residuals; and a spec file's `kind`:
+    /// on the command line, the options are the kinds).
     #[test]
     fn every_setting_names_a_flag_of_the_command_line() {
         use clap::CommandFactory;
@@ -800,7 +731,7 @@ mod tests {
         let mut known = Vec::new();
         longs(&Cli::command(), &mut known);
         for s in Setting::ALL {
-            if s == Setting::NoiseScale {
+            if matches!(s, Setting::NoiseScale | Setting::ObservationKind) {
                 continue;
             }
             for flag in flag_of(s).split('/') {

@@ -1680,7 +1680,10 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     assert_eq!(after.len(), 2, "{out}");
     // Observations are needed.
     let err = run_err(d, &["calibrate", "--robot", "a4.toml"]);
-    assert!(err.contains("--data, --distances, --contacts"), "{err}");
+    assert!(
+        err.contains("--data/--distances/--contacts: no observation file given"),
+        "{err}"
+    );
 }
 
 /// Numbers that do not mislead and exit codes scripts can rely on: a run stopped by the
@@ -2332,9 +2335,10 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
     assert_eq!(String::from_utf8(one.stdout).unwrap(), text);
 
     // TOML manifest, common options, recorded in the history.
-    let toml = "options = \"--estimate identifiable\"\n\
-                [[robot]]\nserial = \"A4-1\"\nrobot = \"ge-a4\"\ndata = \"d1.csv\"\n\
-                [[robot]]\nserial = \"A4-2\"\nrobot = \"ge-a4\"\ndata = \"d2.csv\"\noptions = [\"--holdout\", \"0.25\"]\n";
+    let toml = "[defaults]\nrobot = \"ge-a4\"\nselection = { estimate = \"identifiable\" }\n\
+                [[robots]]\nserial = \"A4-1\"\nobservations = [{ file = \"d1.csv\" }]\n\
+                [[robots]]\nserial = \"A4-2\"\nobservations = [{ file = \"d2.csv\" }]\n\
+                validation = { holdout = 0.25 }\n";
     std::fs::write(d.join("fleet/fleet.toml"), toml).unwrap();
     let text = run_ok(
         d,
@@ -2371,8 +2375,13 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
         ),
         (
             "m5.toml",
-            "[[robot]]\nserial = \"A\"\n",
-            "`serial` and `robot` are required",
+            "[[robots]]\nrobot = \"ge-a4\"\n",
+            "`serial` is required",
+        ),
+        (
+            "m7.toml",
+            "[[robot]]\nserial = \"A\"\nrobot = \"ge-a4\"\n",
+            "`[[robot]]` tables with `options` are no longer read",
         ),
         (
             "m6.csv",

@@ -256,3 +256,37 @@ fn matching_rules() {
         ["kinecal", "x", "--columns", "a=b c", "-v"]
     );
 }
+
+/// A TOML block the README introduces with a link to an example file (the line before the block
+/// ends with `(examples/....toml):`) shows that file as it is.
+#[test]
+fn readme_toml_blocks_show_their_example_files() {
+    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    let lines: Vec<&str> = readme.lines().collect();
+    let mut checked = 0;
+    for (i, line) in lines.iter().enumerate() {
+        if line.trim() != "```toml" || i < 2 {
+            continue;
+        }
+        let intro = lines[..i]
+            .iter()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .expect("text before");
+        let Some(file) = intro
+            .rsplit_once("](")
+            .and_then(|(_, rest)| rest.strip_suffix("):"))
+        else {
+            continue;
+        };
+        let end = lines[i + 1..]
+            .iter()
+            .position(|l| l.trim() == "```")
+            .expect("a closed block");
+        let shown = lines[i + 1..i + 1 + end].join("\n") + "\n";
+        let actual = std::fs::read_to_string(repo().join(file)).unwrap();
+        assert_eq!(shown, actual, "README line {}: {file} differs", i + 1);
+        checked += 1;
+    }
+    assert!(checked >= 1, "no example file shown");
+}

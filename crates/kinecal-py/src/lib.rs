@@ -16,6 +16,7 @@ use kinecal::observe::point::{write_measurements, ColumnMap, Pose, Position};
 use kinecal::observe::{detect_format, Dataset, OrientationError, Weights, FORMATS};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::source::Source;
+use kinecal::spec::CalibrationSpec;
 use kinecal::units::plausible;
 use kinecal::units::Quantity;
 use kinecal::workflow::{self, Request, Selection, SolutionRule, Validation};
@@ -82,6 +83,16 @@ fn keyword(setting: kinecal::Setting) -> &'static str {
         Setting::NominalRobot => "nominal",
         Setting::ChainBase => "base",
         Setting::ChainTip => "tip",
+        Setting::Robot => "robot",
+        Setting::InitialRobot => "initial",
+        Setting::Observations => "observations",
+        Setting::ObservationKind => "kind",
+        Setting::Columns => "columns",
+        Setting::LengthUnit => "length_unit",
+        Setting::AngleUnit => "angle_unit",
+        Setting::Weights => "weights",
+        Setting::MaxIterations => "max_iterations",
+        Setting::Validation => "validate/holdout/folds",
     }
 }
 
@@ -1019,6 +1030,54 @@ fn calibrate(
     Ok((calibrated, report))
 }
 
+/// The outputs of a job: (path, text) of each.
+type Outputs = Vec<(String, String)>;
+
+/// Runs the calibration job `spec`: a spec file's path (`path`, its paths relative to its
+/// folder) or the spec as JSON (`json`, paths relative to the working folder). Returns the
+/// calibrated robot, the report as JSON, and the texts of the outputs the spec names
+/// (`[(path, text)]`: the robot file, the report, the HTML report), for the caller to write.
+#[pyfunction]
+#[pyo3(signature = (path=None, json=None))]
+fn calibrate_spec(
+    py: Python<'_>,
+    path: Option<PathBuf>,
+    json: Option<&str>,
+) -> PyResult<(Robot, String, Outputs)> {
+    let spec = match (path, json) {
+        (Some(p), None) => CalibrationSpec::read(&p),
+        (None, Some(j)) => CalibrationSpec::from_json(j, "spec"),
+        _ => return Err(bad("calibrate_spec: give a path or a JSON text")),
+    }
+    .map_err(|e| error(py, e))?;
+    let job = py.detach(|| spec.load()).map_err(|e| error(py, e))?;
+    let outcome = py.detach(|| job.run(&mut ())).map_err(|e| error(py, e))?;
+    let report = outcome.report.to_json();
+    let o = &job.spec.outputs;
+    let mut outputs = Vec::new();
+    if let Some(p) = &o.robot {
+        let text = kinecal::robot_file::write_robot_toml_checked(
+            &outcome.calibration.calibrated,
+            Some(&job.robot_source.text),
+        )
+        .map_err(|e| error(py, e))?;
+        outputs.push((p.clone(), text));
+    }
+    if let Some(p) = &o.report {
+        outputs.push((p.clone(), report.clone() + "\n"));
+    }
+    if let Some(p) = &o.html {
+        let html = kinecal_report::html_report(&outcome)
+            .map_err(|e| bad(format!("the HTML report cannot be drawn: {e}")))?;
+        outputs.push((p.clone(), html));
+    }
+    let calibrated = Robot {
+        robot: outcome.calibration.calibrated.clone(),
+        text: Some(job.robot_source.text.clone()),
+    };
+    Ok((calibrated, report, outputs))
+}
+
 /// What `data` determines about the parameters of `estimate` (see the Python package's
 /// `kinecal.analyze`). Returns the analysis as JSON text.
 #[pyfunction]
@@ -1150,6 +1209,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Robot>()?;
     m.add_class::<Measurements>()?;
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate_spec, m)?)?;
     m.add_function(wrap_pyfunction!(analyze, m)?)?;
     m.add_function(wrap_pyfunction!(datasets, m)?)?;
     m.add_function(wrap_pyfunction!(dataset, m)?)?;

@@ -98,6 +98,93 @@ def test_qkm_from_numpy_gives_the_cli_parameters_and_held_out_figures(cli, qkm_f
         assert again.values[names.index(name)] == pytest.approx(value, rel=1e-12, abs=1e-12)
 
 
+def _without_timings(path):
+    report = json.loads(path.read_text())
+    report.pop("timings")
+    return report
+
+
+def test_one_job_four_ways_gives_the_same_calibration(cli, qkm_files, monkeypatch):
+    """The same job said by flags, by a spec file, from Python and as a batch row (CSV and
+    TOML) writes byte-identical calibrated robots and reports equal but for the timings."""
+    monkeypatch.chdir(qkm_files)
+    job = ["--robot", "qkm.toml", "--data", "identification.csv", "--validate", "validation.csv",
+           "--estimate", "all,identifiable", "--loss", "huber", "--huber-scale", "2"]
+
+    def run(*args):
+        done = subprocess.run([cli, *args], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+        return done
+
+    # 1. Flags, written down as a spec.
+    run("calibrate", *job, "--out", "flags.toml", "--report", "flags.json",
+        "--write-spec", "job.toml", "--quiet")
+    spec_text = open("job.toml").read()
+    assert 'estimate = "all,identifiable"' in spec_text and "huber_scale = 2" in spec_text, spec_text
+    # 2. The spec file, its outputs overridden by flags.
+    run("calibrate", "--spec", "job.toml", "--out", "spec.toml", "--report", "spec.json",
+        "--quiet")
+    # 3. Python, the spec as a dict.
+    spec = {
+        "robot": "qkm.toml",
+        "observations": [{"file": "identification.csv", "kind": "data"}],
+        "selection": {"estimate": "all,identifiable"},
+        "residuals": {"loss": "huber", "huber_scale": 2},
+        "validation": {"files": [{"file": "validation.csv"}]},
+        "outputs": {"robot": "python.toml", "report": "python.json"},
+    }
+    result = kinecal.calibrate(spec)
+    assert result.robot.to_toml() == open("python.toml").read()
+    assert json.loads(result.to_json()) == json.loads(open("python.json").read())
+    # 4. Batch: a CSV row and a TOML [[robots]] table.
+    with open("fleet.csv", "w") as f:
+        f.write("serial,robot,data,options\n")
+        f.write('QKM-1,qkm.toml,identification.csv,"--validate validation.csv '
+                "--estimate all,identifiable --loss huber --huber-scale 2 "
+                '--out batch.toml --report batch.json"\n')
+    run("batch", "fleet.csv", "--quiet")
+    # The spec as one table of a fleet: every key under [[robots]].
+    lines = []
+    for line in spec_text.splitlines():
+        if line.startswith("[["):
+            line = "[[robots." + line[2:]
+        elif line.startswith("["):
+            line = "[robots." + line[1:]
+        lines.append(line)
+    table = "\n".join(lines).replace('"flags.', '"batch2.')
+    with open("fleet.toml", "w") as f:
+        f.write('[[robots]]\nserial = "QKM-1"\n' + table + "\n")
+    run("batch", "fleet.toml", "--quiet")
+
+    robot = open("flags.toml").read()
+    report = _without_timings(qkm_files / "flags.json")
+    assert report["validation"]["after"]["mean_position"] > 0
+    for name in ["spec", "python", "batch", "batch2"]:
+        assert open(f"{name}.toml").read() == robot, name
+        assert _without_timings(qkm_files / f"{name}.json") == report, name
+
+
+def test_a_spec_is_checked_like_flags(qkm_files, monkeypatch, tmp_path):
+    monkeypatch.chdir(qkm_files)
+    with pytest.raises(kinecal.KinecalError, match="unknown variant `lx`"):
+        kinecal.calibrate({"robot": "qkm.toml", "solver": {"method": "lx"}})
+    with pytest.raises(kinecal.KinecalError, match="^observations: no observation file"):
+        kinecal.calibrate({"robot": "qkm.toml"})
+    with pytest.raises(kinecal.KinecalError, match="^weights: standard deviations"):
+        kinecal.calibrate({"robot": "qkm.toml",
+                           "observations": [{"file": "identification.csv"}],
+                           "residuals": {"weights": {"length": -1}}})
+    with pytest.raises(TypeError, match="give no data"):
+        kinecal.calibrate({"robot": "qkm.toml"}, kinecal.Measurements.read_csv(
+            "identification.csv", kinecal.Robot.from_toml("qkm.toml")))
+    # A spec file's paths are its folder's.
+    job = tmp_path / "job.toml"
+    job.write_text(f'robot = "{qkm_files / "qkm.toml"}"\n'
+                   '[[observations]]\nfile = "missing.csv"\n')
+    with pytest.raises(kinecal.KinecalError, match=str(tmp_path / "missing.csv")):
+        kinecal.calibrate(str(job))
+
+
 def test_reading_the_files_and_building_from_arrays_are_the_same_data(qkm_files):
     d = qkm_files
     robot = kinecal.Robot.from_toml(d / "qkm.toml")

@@ -41,11 +41,31 @@ pub enum Setting {
     ChainBase,
     /// The last link of a chain read from a URDF file.
     ChainTip,
+    /// The robot to calibrate (a robot file or a built-in robot's name).
+    Robot,
+    /// The robot a calibration starts from.
+    InitialRobot,
+    /// The observation files of a calibration.
+    Observations,
+    /// The kind of an observation file.
+    ObservationKind,
+    /// The column mapping of a measurement file.
+    Columns,
+    /// The length unit of observation files.
+    LengthUnit,
+    /// The angle unit of observation files.
+    AngleUnit,
+    /// The default standard deviations of the residuals.
+    Weights,
+    /// The iteration cap of the solver.
+    MaxIterations,
+    /// How a calibration is checked (held-out files, a hold-out fraction or folds).
+    Validation,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 17] = [
+    pub const ALL: [Setting; 27] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -63,6 +83,16 @@ impl Setting {
         Setting::NominalRobot,
         Setting::ChainBase,
         Setting::ChainTip,
+        Setting::Robot,
+        Setting::InitialRobot,
+        Setting::Observations,
+        Setting::ObservationKind,
+        Setting::Columns,
+        Setting::LengthUnit,
+        Setting::AngleUnit,
+        Setting::Weights,
+        Setting::MaxIterations,
+        Setting::Validation,
     ];
 
     /// The library's words for it.
@@ -85,6 +115,16 @@ impl Setting {
             Setting::NominalRobot => "nominal robot",
             Setting::ChainBase => "chain base",
             Setting::ChainTip => "chain tip",
+            Setting::Robot => "robot",
+            Setting::InitialRobot => "initial robot",
+            Setting::Observations => "observations",
+            Setting::ObservationKind => "observation kind",
+            Setting::Columns => "column mapping",
+            Setting::LengthUnit => "length unit",
+            Setting::AngleUnit => "angle unit",
+            Setting::Weights => "weights",
+            Setting::MaxIterations => "iteration cap",
+            Setting::Validation => "validation",
         }
     }
 }

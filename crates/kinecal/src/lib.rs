@@ -47,6 +47,7 @@ pub mod robot_file;
 pub mod sanity;
 pub mod simulate;
 pub mod source;
+pub mod spec;
 pub mod uncertainty;
 pub mod units;
 pub mod warning;

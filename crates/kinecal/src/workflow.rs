@@ -346,8 +346,9 @@ pub fn session_frames_for(robot: &Robot, data: &Dataset) -> Option<Robot> {
 }
 
 /// Which of several equally good answers a calibration returns when the data leaves some
-/// parameters undetermined.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// parameters undetermined (in a calibration spec: `solver`, `min-change`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum SolutionRule {
     /// Wherever the solver stops: in the undetermined directions this depends on the starting
     /// point and the solver's path (thesis Table 4.8).

@@ -70,6 +70,7 @@ fn modules_import_in_one_direction() {
         "workflow",
         "import",
         "examples",
+        "spec",
         "simulate",
         "plan",
         "compensate",

@@ -18,6 +18,7 @@ the wrong type. Calibration and analysis release the GIL.
 from __future__ import annotations
 
 import json
+import os
 from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Union
 
 import numpy as np
@@ -174,9 +175,30 @@ def _weights(weights: Weights) -> Optional[tuple]:
     return tuple(out)
 
 
+Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
+
+
+def _calibrate_spec(spec: Spec) -> Calibration:
+    """Runs a calibration spec (a dict, or a spec file's path) and writes its outputs."""
+    if isinstance(spec, dict):
+        robot_out, report, outputs = _native.calibrate_spec(json=json.dumps(spec))
+    elif isinstance(spec, (str, os.PathLike)):
+        robot_out, report, outputs = _native.calibrate_spec(path=os.fspath(spec))
+    else:
+        raise TypeError(
+            f"calibrate: expected a Robot (with data) or a spec (a dict or a spec file's path), "
+            f"not {type(spec).__name__}"
+        )
+    for path, text in outputs:
+        # Written into what is there (a symlink's target, a device), with the umask's mode.
+        with open(path, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+    return Calibration(robot_out, report)
+
+
 def calibrate(
-    robot: Robot,
-    data: Measurements,
+    robot: Union[Robot, Spec],
+    data: Optional[Measurements] = None,
     *,
     estimate: ParamList = None,
     fix: ParamList = None,
@@ -205,7 +227,19 @@ def calibrate(
     ``holdout`` (a fraction of the postures, drawn with ``seed``) or ``folds`` (k-fold
     cross-validation) checks the result. ``prune``: drop changes below this many standard
     deviations. ``solution``: ``"solver"`` or ``"min-change"``.
+
+    ``calibrate(spec)`` runs a whole job instead: ``spec`` is a calibration spec, the document
+    ``kinecal calibrate --spec`` reads, as a dict (``{"robot": "arm.toml", "observations":
+    [{"file": "data.csv"}], "validation": {"folds": 5}}``; paths relative to the working
+    folder) or a spec file's path (paths relative to its folder); the outputs it names are
+    written. It gives the same calibration as the command line given the same job.
     """
+    if not isinstance(robot, Robot):
+        if data is not None:
+            raise TypeError("calibrate(spec): the spec names its data; give no data")
+        return _calibrate_spec(robot)
+    if data is None:
+        raise TypeError("calibrate: data is needed with a Robot (or give a spec)")
     weights = _weights(weights)
     robot_out, report = _native.calibrate(
         robot,

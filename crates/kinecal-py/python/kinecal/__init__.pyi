@@ -149,9 +149,11 @@ class Calibration:
     def warnings(self) -> List[str]: ...
     def to_json(self) -> str: ...
 
+Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
+
 def calibrate(
-    robot: Robot,
-    data: Measurements,
+    robot: Union[Robot, Spec],
+    data: Optional[Measurements] = None,
     *,
     estimate: ParamList = None,
     fix: ParamList = None,

@@ -62,17 +62,21 @@ use super::least_squares::LeastSquares;
 use crate::error::{Error, Result};
 use crate::linalg::{self, GramAccumulator, Matrix, PivotedQr, QrAccumulator, QR_BLOCK};
 
-/// A least-squares method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// A least-squares method (in a calibration spec: `lm`, `gn`, `sd`, `svd`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum Method {
     /// Levenberg-Marquardt (thesis 3.3.4), as a scaled trust region.
     #[default]
+    #[serde(rename = "lm")]
     LevenbergMarquardt,
     /// Gauss-Newton (3.3.2).
+    #[serde(rename = "gn")]
     GaussNewton,
     /// Steepest descent with a line search (3.3.1).
+    #[serde(rename = "sd")]
     SteepestDescent,
     /// Truncated SVD pseudo-inverse steps (3.4).
+    #[serde(rename = "svd")]
     Svd,
 }
 
@@ -120,8 +124,9 @@ impl std::str::FromStr for Method {
     }
 }
 
-/// The damping matrix of Levenberg-Marquardt.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// The damping matrix of Levenberg-Marquardt (in a calibration spec: `marquardt`, `identity`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Damping {
     /// Marquardt's diagonal scaling `B^2`, `B_ii = sqrt(H_ii)` (eq. 3.15): the trust region is
     /// measured in the column norms (their running maximum, as MINPACK does).

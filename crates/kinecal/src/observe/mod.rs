@@ -107,8 +107,9 @@ impl Weights {
     }
 }
 
-/// How an orientation residual is formed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// How an orientation residual is formed (in a calibration spec: `euler`, `rotvec`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum OrientationError {
     /// Differences of the ZYX Euler angles, each wrapped to (-180, 180] deg (thesis eq. 3.1).
     /// Undefined at gimbal lock: refused when a measured attitude is within 1 deg of it.

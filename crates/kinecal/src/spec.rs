@@ -1,0 +1,997 @@
+//! A calibration job as one document: the robot, the observation files and how to read them,
+//! what to estimate and how, how to check the result, and where to write it.
+//!
+//! Every front end says a job in its own syntax and turns it into a [`CalibrationSpec`]: the
+//! command line's flags (`kinecal calibrate`, and `--write-spec` writes them down), a spec file
+//! (`kinecal calibrate --spec job.toml`, with flags overriding it), a `[[robots]]` table of a
+//! fleet manifest (`kinecal batch fleet.toml`) and Python (`kinecal.calibrate(spec)`). From
+//! there one path reads the files ([`read_observation_file`]) and builds the
+//! [`Request`]: the same job gives the same calibration whichever way it was said.
+//!
+//! On disk a spec is TOML (every key optional but `robot`; a missing key takes the default):
+//!
+//! ```toml
+//! robot = "qkm_hl6.toml"          # a robot file, or a built-in robot's name
+//!
+//! [[observations]]
+//! file = "identification.csv"     # kind told by the header unless `kind` says it
+//! length_unit = "mm"              # the file's units, when not the robot file's
+//!
+//! [selection]
+//! estimate = "identifiable"
+//!
+//! [validation]
+//! folds = 5
+//!
+//! [outputs]
+//! robot = "calibrated.toml"
+//! report = "report.json"
+//! ```
+//!
+//! Conventions: relative paths are relative to the spec file's folder (to the working folder
+//! for a spec built in memory); lengths and angles (`residuals.weights`) are in the robot
+//! file's units.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Location, Result, Setting};
+use crate::estimation::{Damping, Loss, Method, SolverOptions, Spread};
+use crate::observe::point::ColumnMap;
+use crate::observe::{Dataset, OrientationError, ReadOptions, Weights, FORMATS};
+use crate::robot::Robot;
+use crate::source::Source;
+use crate::units::Quantity;
+use crate::workflow::{self, Candidate, Outcome, Request, Selection, SolutionRule, Validation};
+
+fn is_default<T: Default + PartialEq>(t: &T) -> bool {
+    *t == T::default()
+}
+
+/// One calibration job. See the [module documentation](self) for the file.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationSpec {
+    /// The nominal robot: a robot file, or a built-in robot's name (`ge-a4`) when no such file
+    /// exists.
+    pub robot: String,
+    /// A robot file to start the solver from (same structure as `robot`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial: Option<String>,
+    /// How every observation file is read, unless its own entry says otherwise.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub read: ReadSettings,
+    /// The observation files the robot is identified on.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub observations: Vec<ObservationFile>,
+    /// What to estimate.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub selection: SelectionSpec,
+    /// The method and its stopping rules.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub solver: SolverSpec,
+    /// The loss, the weights and the outlier rule.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub residuals: ResidualSpec,
+    /// How the calibration is checked (and a model chosen).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub validation: ValidationSpec,
+    /// What is written.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub outputs: OutputSpec,
+}
+
+/// How observation files are read (`[read]`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReadSettings {
+    /// Column mappings of measurement files written by another tool (`["v1=J1,x=X", ...]`,
+    /// as [`ColumnMap::parse`] reads them); files of the other kinds are read by their own
+    /// headers.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub columns: Vec<String>,
+    /// The files' length unit (`m`, `mm`, `in`), when not the robot file's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length_unit: Option<String>,
+    /// The files' angle unit (`rad`, `deg`), when not the robot file's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle_unit: Option<String>,
+    /// Read poses as positions (their attitudes left out).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub position_only: bool,
+    /// Each file a measurement session of its own (an instrument moved between files),
+    /// named after the file ([`session_name`]).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub session_per_file: bool,
+}
+
+/// One observation file (`[[observations]]`, `[[validation.files]]`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObservationFile {
+    /// The file.
+    pub file: String,
+    /// Its kind, named as [`FORMATS`] names them (`data`, `distances`, `contacts`); told by
+    /// its header when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kind: Option<String>,
+    /// The measurement session of its postures (those without a `session` column value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session: Option<String>,
+    /// Its column mappings, instead of `read.columns` (measurement files only).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub columns: Vec<String>,
+    /// Its length unit, instead of `read.length_unit`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length_unit: Option<String>,
+    /// Its angle unit, instead of `read.angle_unit`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle_unit: Option<String>,
+}
+
+impl ObservationFile {
+    /// A file of the kind its header tells, read as `[read]` says.
+    pub fn new(file: impl Into<String>) -> ObservationFile {
+        ObservationFile {
+            file: file.into(),
+            ..ObservationFile::default()
+        }
+    }
+}
+
+/// What to estimate (`[selection]`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectionSpec {
+    /// The parameter list to estimate ([`Selection::parse`]); the default parameters when
+    /// absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimate: Option<String>,
+    /// Parameters to hold at their nominal values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fix: Option<String>,
+    /// Remove, one at a time, changes below this many standard deviations.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prune: Option<f64>,
+}
+
+/// The method and its stopping rules (`[solver]`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    /// `lm` (default), `gn`, `sd` or `svd`.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub method: Method,
+    /// The iteration cap (default [`SolverOptions::new`]'s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_iterations: Option<usize>,
+    /// Levenberg-Marquardt's damping: `marquardt` (default) or `identity`.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub damping: Damping,
+    /// The relative singular-value tolerance of the SVD method (default
+    /// [`crate::estimation::DEFAULT_RCOND`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rcond: Option<f64>,
+    /// Which of equally good answers: `solver` (default) or `min-change`.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub solution: SolutionRule,
+}
+
+/// The loss of a calibration: least squares or Huber.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LossKind {
+    /// Least squares.
+    #[default]
+    Squared,
+    /// Huber ([`Loss::Huber`]).
+    Huber,
+}
+
+/// Residual standard deviations, in the robot file's units (`[residuals.weights]`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WeightsSpec {
+    /// Of a length residual (default 1 mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+    /// Of an angle residual (default 1 mrad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle: Option<f64>,
+}
+
+/// The loss, the weights and the outlier rule (`[residuals]`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResidualSpec {
+    /// `squared` (default) or `huber`.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub loss: LossKind,
+    /// Huber's threshold, in spreads (default 1.345).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub huber_scale: Option<f64>,
+    /// What one spread is: `robust` (default) or `stated`.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub huber_spread: Spread,
+    /// Default residual standard deviations.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub weights: WeightsSpec,
+    /// Orientation residuals: `rotvec` (default) or `euler`.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub orientation_error: OrientationError,
+    /// The outlier threshold, in robust standard deviations (default
+    /// [`crate::outliers::DEFAULT_SIGMAS`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outlier_sigma: Option<f64>,
+}
+
+/// How the calibration is checked (`[validation]`): held-out files, a hold-out fraction, or
+/// folds; with `choose`, the folds choose the model (and held-out files check it).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValidationSpec {
+    /// Held-out observation files.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub files: Vec<ObservationFile>,
+    /// A fraction of the postures held out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub holdout: Option<f64>,
+    /// Cross-validation folds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub folds: Option<usize>,
+    /// The seed of the hold-out draw (default 1) or of the folds' shuffle (interleaved when
+    /// absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Choose among these model candidates by cross-validation (empty: the default
+    /// candidates).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub choose: Option<Vec<String>>,
+    /// How many shuffles the choice's cross-validation repeats (default
+    /// [`workflow::CHOICE_REPEATS`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repeats: Option<usize>,
+}
+
+/// What is written (`[outputs]`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// The calibrated robot file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot: Option<String>,
+    /// The report (JSON).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub report: Option<String>,
+    /// The HTML report.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub html: Option<String>,
+}
+
+fn invalid(setting: Setting, message: impl Into<String>) -> Error {
+    Error::InvalidOption {
+        setting,
+        message: message.into(),
+    }
+}
+
+/// `p` taken relative to `base` (absolute paths and an empty base leave it as it is).
+fn rebase(base: &Path, p: &str) -> String {
+    if base.as_os_str().is_empty() || Path::new(p).is_absolute() {
+        p.to_string()
+    } else {
+        base.join(p).to_string_lossy().into_owned()
+    }
+}
+
+/// A robot name relative to `base`: a built-in robot's name stays as it is unless a file of
+/// that name is there.
+fn rebase_robot(base: &Path, name: &str) -> String {
+    let file = rebase(base, name);
+    if crate::examples::builtin(name).is_some() && !Path::new(&file).exists() {
+        name.to_string()
+    } else {
+        file
+    }
+}
+
+impl CalibrationSpec {
+    /// A spec read from TOML `text` (named `file` in errors): unknown keys and wrong types are
+    /// errors with the line.
+    pub fn from_toml(text: &str, file: &str) -> Result<CalibrationSpec> {
+        toml_edit::de::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            let loc = Location {
+                file: file.to_string(),
+                line,
+                field: None,
+            };
+            Error::input(loc, e.message().trim().to_string())
+        })
+    }
+
+    /// Reads a spec file; its relative paths are made relative to the working folder (joined
+    /// to the spec's folder).
+    pub fn read(path: &Path) -> Result<CalibrationSpec> {
+        let source = Source::read(path)?;
+        let spec = CalibrationSpec::from_toml(&source.text, &source.name)?;
+        Ok(spec.rebased(path.parent().unwrap_or(Path::new(""))))
+    }
+
+    /// The spec as TOML (the keys that differ from the defaults).
+    pub fn to_toml(&self) -> String {
+        toml_edit::ser::to_string_pretty(self).expect("a spec is plain data TOML can hold")
+    }
+
+    /// The spec as JSON (the keys that differ from the defaults).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("a spec is plain data JSON can hold")
+    }
+
+    /// A spec read from JSON `text` (the same document as the TOML file).
+    pub fn from_json(text: &str, file: &str) -> Result<CalibrationSpec> {
+        serde_json::from_str(text).map_err(|e| {
+            let loc = Location {
+                file: file.to_string(),
+                line: Some(e.line()),
+                field: None,
+            };
+            Error::input(loc, e.to_string())
+        })
+    }
+
+    /// The same spec with every relative path taken relative to `base` (the folder of the
+    /// file it was read from).
+    pub fn rebased(mut self, base: &Path) -> CalibrationSpec {
+        self.robot = rebase_robot(base, &self.robot);
+        if let Some(i) = &mut self.initial {
+            *i = rebase_robot(base, i);
+        }
+        for f in self
+            .observations
+            .iter_mut()
+            .chain(self.validation.files.iter_mut())
+        {
+            f.file = rebase(base, &f.file);
+        }
+        let o = &mut self.outputs;
+        for p in [&mut o.robot, &mut o.report, &mut o.html]
+            .into_iter()
+            .flatten()
+        {
+            *p = rebase(base, p);
+        }
+        self
+    }
+
+    /// The spec to write in the file `path`, its paths (relative to the working folder) made
+    /// to work from there: kept when the file is in the working folder, else made absolute.
+    pub fn written_to(&self, path: &Path) -> Result<CalibrationSpec> {
+        let folder = path.parent().unwrap_or(Path::new(""));
+        if folder.as_os_str().is_empty() || folder == Path::new(".") {
+            return Ok(self.clone());
+        }
+        let cwd = std::env::current_dir().map_err(|cause| Error::Io {
+            path: ".".into(),
+            cause,
+        })?;
+        Ok(self.clone().rebased(&cwd))
+    }
+
+    /// The files the job reads: the robot (unless built in), the initial robot, the
+    /// observation and validation files.
+    pub fn inputs(&self) -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = Vec::new();
+        for r in std::iter::once(&self.robot).chain(&self.initial) {
+            if Path::new(r).exists() || crate::examples::builtin(r).is_none() {
+                v.push(r.into());
+            }
+        }
+        v.extend(
+            self.observations
+                .iter()
+                .chain(&self.validation.files)
+                .map(|f| PathBuf::from(&f.file)),
+        );
+        v
+    }
+
+    /// The files the job writes.
+    pub fn outputs(&self) -> Vec<PathBuf> {
+        let o = &self.outputs;
+        [&o.robot, &o.report, &o.html]
+            .into_iter()
+            .flatten()
+            .map(PathBuf::from)
+            .collect()
+    }
+
+    /// Reads the observation files of `list` for `robot` into one dataset, and their sources.
+    fn read_files(
+        &self,
+        list: &[ObservationFile],
+        robot: &Robot,
+    ) -> Result<(Dataset, Vec<Source>)> {
+        let all: Vec<&Path> = self
+            .observations
+            .iter()
+            .chain(&self.validation.files)
+            .map(|f| Path::new(&f.file))
+            .collect();
+        read_files(&self.read, list, robot, &all)
+    }
+
+    /// The library request of this job for `robot` on `data`, starting from `initial` and
+    /// checked on `held_out` (the files' data, read by the caller): the one translation of the
+    /// settings, for jobs read from files and for data given in memory (Python).
+    pub fn request(
+        &self,
+        robot: &Robot,
+        data: impl Into<Arc<Dataset>>,
+        initial: Option<Robot>,
+        held_out: Option<Dataset>,
+    ) -> Result<Request> {
+        let v = &self.validation;
+        let given = [held_out.is_some(), v.holdout.is_some(), v.folds.is_some()];
+        if v.holdout.is_some() && (v.folds.is_some() || held_out.is_some()) {
+            return Err(invalid(
+                Setting::Validation,
+                "a hold-out fraction, held-out files and folds are three ways to check a \
+                 calibration: give one",
+            ));
+        }
+        if given[0] && given[2] && v.choose.is_none() {
+            return Err(invalid(
+                Setting::Validation,
+                "folds and held-out files are two ways to check a calibration: give one (with a \
+                 model choice, the folds choose the model and the held-out files check it)",
+            ));
+        }
+        if v.choose.is_some()
+            && (self.selection.estimate.is_some()
+                || self.selection.prune.is_some()
+                || v.holdout.is_some())
+        {
+            return Err(invalid(
+                Setting::ModelCandidate,
+                "a model choice is made among its candidates by folds: give the parameters and \
+                 the pruning in the candidates, not as estimate, prune or a hold-out fraction",
+            ));
+        }
+        if v.repeats.is_some() && v.choose.is_none() {
+            return Err(invalid(
+                Setting::ModelCandidate,
+                "repeats is the number of shuffles of a model choice, and no choice is asked for",
+            ));
+        }
+        let mut req = Request::new(robot.clone(), data);
+        let s = &self.selection;
+        if s.estimate.is_some() || s.fix.is_some() {
+            req.selection =
+                Selection::parse(s.estimate.as_deref().unwrap_or(""), s.fix.as_deref(), robot)?;
+        }
+        req.prune = s.prune;
+        if let Some(guess) = &initial {
+            if !robot.same_structure(guess) {
+                return Err(invalid(
+                    Setting::InitialRobot,
+                    "not the same robot structure as the robot to calibrate",
+                ));
+            }
+        }
+        req.initial = initial;
+        let mut solver = SolverOptions::new(self.solver.method);
+        if let Some(n) = self.solver.max_iterations {
+            if n == 0 {
+                return Err(invalid(Setting::MaxIterations, "must be at least 1"));
+            }
+            solver.max_iterations = n;
+        }
+        solver.damping = self.solver.damping;
+        if let Some(r) = self.solver.rcond {
+            solver.rcond = r;
+        }
+        req.solver = solver;
+        req.solution = self.solver.solution;
+        let r = &self.residuals;
+        req.loss = match r.loss {
+            LossKind::Squared => Loss::Squared,
+            LossKind::Huber => Loss::Huber {
+                k: r.huber_scale.unwrap_or(HUBER_SCALE),
+                spread: r.huber_spread,
+            },
+        };
+        req.weights = weights(robot, &r.weights)?;
+        req.orientation = r.orientation_error;
+        if let Some(k) = r.outlier_sigma {
+            req.outlier_sigmas = k;
+        }
+        req.validation = match (held_out, v.holdout, v.folds) {
+            (Some(d), _, _) => Validation::Data(d.into()),
+            (None, Some(fraction), _) => Validation::Holdout {
+                fraction,
+                seed: v.seed.unwrap_or(1),
+            },
+            (None, None, Some(k)) => Validation::Folds { k, seed: v.seed },
+            (None, None, None) => Validation::None,
+        };
+        Ok(req)
+    }
+
+    /// Reads the robot and the files and builds the job (paths as they are: relative to the
+    /// working folder).
+    pub fn load(&self) -> Result<Job> {
+        let started = std::time::Instant::now();
+        let (robot, robot_source) = load_robot(&self.robot)?;
+        let initial = match &self.initial {
+            None => None,
+            Some(name) => Some(load_robot(name).map_err(|e| match e {
+                Error::InvalidOption { message, .. } => invalid(Setting::InitialRobot, message),
+                e => e,
+            })?),
+        };
+        if self.observations.is_empty() {
+            return Err(invalid(Setting::Observations, "no observation file given"));
+        }
+        let (data, sources) = self.read_files(&self.observations, &robot)?;
+        let held_out = if self.validation.files.is_empty() {
+            None
+        } else {
+            Some(self.read_files(&self.validation.files, &robot)?.0)
+        };
+        let mut request = self.request(&robot, data, initial.map(|(r, _)| r), held_out)?;
+        request.sources = std::iter::once(robot_source.clone())
+            .chain(sources)
+            .collect();
+        let choice = match &self.validation.choose {
+            None => None,
+            Some(list) => Some(if list.is_empty() {
+                Candidate::defaults(&robot)?
+            } else {
+                list.iter()
+                    .map(|t| Candidate::parse(t, &robot))
+                    .collect::<Result<_>>()?
+            }),
+        };
+        Ok(Job {
+            spec: self.clone(),
+            request,
+            robot_source,
+            choice,
+            reading: started.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// A unit: the file's own, else the shared one, parsed.
+fn unit<U: std::str::FromStr<Err = String>>(
+    own: &Option<String>,
+    shared: &Option<String>,
+    setting: Setting,
+) -> Result<Option<U>> {
+    own.as_ref()
+        .or(shared.as_ref())
+        .map(|u| u.parse().map_err(|m: String| invalid(setting, m)))
+        .transpose()
+}
+
+/// Huber's threshold by default, in spreads (95 % efficiency under normal noise).
+pub const HUBER_SCALE: f64 = 1.345;
+
+/// The residual weights of `w` (robot units) in SI, the defaults where absent.
+pub fn weights(robot: &Robot, w: &WeightsSpec) -> Result<Weights> {
+    let mut out = Weights::default();
+    for (value, quantity, slot) in [
+        (w.length, Quantity::Length, &mut out.length),
+        (w.angle, Quantity::Angle, &mut out.angle),
+    ] {
+        if let Some(v) = value {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(invalid(
+                    Setting::Weights,
+                    format!("standard deviations must be positive and finite, not {v}"),
+                ));
+            }
+            *slot = robot.units.to_si(quantity, v);
+        }
+    }
+    Ok(out)
+}
+
+/// How `file` is read: its own mapping and units, else `read`'s (the shared mapping applies to
+/// measurement files only).
+pub fn read_options(
+    read: &ReadSettings,
+    file: &ObservationFile,
+    kind: usize,
+) -> Result<ReadOptions> {
+    let columns = if !file.columns.is_empty() {
+        &file.columns
+    } else if kind == 0 {
+        &read.columns
+    } else {
+        &Vec::new()
+    };
+    let specs: Vec<&str> = columns.iter().map(String::as_str).collect();
+    let columns = ColumnMap::parse(&specs, "columns").map_err(|e| match e {
+        Error::Input { message, .. } => invalid(Setting::Columns, message),
+        e => e,
+    })?;
+    Ok(ReadOptions {
+        columns,
+        length_unit: unit(&file.length_unit, &read.length_unit, Setting::LengthUnit)?,
+        angle_unit: unit(&file.angle_unit, &read.angle_unit, Setting::AngleUnit)?,
+        position_only: read.position_only,
+    })
+}
+
+/// Reads the observation files `list` for `robot`, as `read` says, into one dataset, and
+/// their sources; with `read.session_per_file`, each file's session is named to tell it from
+/// the files `all` ([`session_name`]).
+pub fn read_files(
+    read: &ReadSettings,
+    list: &[ObservationFile],
+    robot: &Robot,
+    all: &[&Path],
+) -> Result<(Dataset, Vec<Source>)> {
+    let mut data = Dataset::default();
+    let mut sources = Vec::new();
+    for f in list {
+        let source = Source::read(Path::new(&f.file))?;
+        let kind = match &f.kind {
+            Some(k) => kind_index(k)?,
+            None => crate::observe::detect_format(&source.text),
+        };
+        let opts = read_options(read, f, kind)?;
+        let session = match (&f.session, read.session_per_file) {
+            (Some(s), _) => Some(s.clone()),
+            (None, true) => Some(session_name(Path::new(&f.file), all)),
+            (None, false) => None,
+        };
+        let d = read_observation_file(&source, kind, &opts, robot, session.as_deref())?;
+        data = data.merge(d);
+        sources.push(source);
+    }
+    Ok((data, sources))
+}
+
+/// The index into [`FORMATS`] of an observation file kind named `name`.
+pub fn kind_index(name: &str) -> Result<usize> {
+    FORMATS
+        .iter()
+        .position(|f| f.option == name)
+        .ok_or_else(|| {
+            invalid(
+                Setting::ObservationKind,
+                format!(
+                    "`{name}`: expected one of {}",
+                    FORMATS
+                        .iter()
+                        .map(|f| f.option)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })
+}
+
+/// Loads a robot: the file `name`, or the built-in robot of that name when no such file
+/// exists.
+pub fn load_robot(name: &str) -> Result<(Robot, Source)> {
+    let path = Path::new(name);
+    let source = if path.exists() {
+        Source::read(path)?
+    } else if let Some(text) = crate::examples::builtin(name) {
+        Source::text(format!("<built-in {name}>"), text)
+    } else {
+        return Err(invalid(
+            Setting::Robot,
+            format!(
+                "{name}: no such robot file, and not a built-in robot (built-in: {})",
+                crate::examples::BUILTIN_NAMES.join(", ")
+            ),
+        ));
+    };
+    let robot = crate::robot_file::parse_robot_toml(&source.text, &source.name)?;
+    Ok((robot, source))
+}
+
+/// Reads one observation file, `source`, as a file of the kind `FORMATS[kind]` for `robot`,
+/// through `opts`; its postures without a session of their own go in `session`. The one reader
+/// of observation files behind every front end.
+pub fn read_observation_file(
+    source: &Source,
+    kind: usize,
+    opts: &ReadOptions,
+    robot: &Robot,
+    session: Option<&str>,
+) -> Result<Dataset> {
+    let mut data =
+        crate::observe::read_observations_as(&source.text, &source.name, robot, opts, kind)?;
+    if let Some(s) = session {
+        data.set_session(s);
+    }
+    Ok(data)
+}
+
+/// The session of a file read one session per file: its name without the extension, with as
+/// many parent folders as it takes to tell it from the other files `all`.
+pub fn session_name(path: &Path, all: &[&Path]) -> String {
+    let parts = |p: &Path| -> Vec<String> {
+        let mut v: Vec<String> = p
+            .with_extension("")
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .collect();
+        v.reverse();
+        v
+    };
+    let mine = parts(path);
+    let others: Vec<Vec<String>> = all
+        .iter()
+        .filter(|p| **p != path)
+        .map(|p| parts(p))
+        .collect();
+    for k in 1..=mine.len() {
+        let tail = &mine[..k];
+        if others.iter().all(|o| o.len() < k || o[..k] != *tail) {
+            let mut t = tail.to_vec();
+            t.reverse();
+            return t.join("/");
+        }
+    }
+    path.display().to_string()
+}
+
+/// A job ready to run: the spec, the request it gives, and what writing its outputs needs.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// The spec (paths relative to the working folder).
+    pub spec: CalibrationSpec,
+    /// The library request.
+    pub request: Request,
+    /// The robot file as read (the template of the calibrated robot file).
+    pub robot_source: Source,
+    /// The model candidates to choose among, when the spec asks for a choice.
+    pub choice: Option<Vec<Candidate>>,
+    /// The time reading the files took (s): the report's first phase, `reading`.
+    pub reading: f64,
+}
+
+impl Job {
+    /// Runs the calibration (or the model choice); an observation whose residual cannot be
+    /// computed is named with its file.
+    pub fn run(&self, progress: &mut dyn workflow::Progress) -> Result<Outcome> {
+        let v = &self.spec.validation;
+        let result = match &self.choice {
+            None => workflow::run(&self.request, progress),
+            Some(c) => workflow::choose(
+                &self.request,
+                c,
+                v.folds.unwrap_or(5),
+                v.seed,
+                v.repeats.unwrap_or(workflow::CHOICE_REPEATS),
+            )
+            .map(|choice| choice.outcome),
+        };
+        let reading = crate::report::PhaseTime {
+            phase: "reading".into(),
+            seconds: self.reading,
+        };
+        result
+            .map(|mut o| {
+                o.report.timings.insert(0, reading);
+                o
+            })
+            .map_err(|e| match e {
+                Error::NonFiniteResidual { line, kind, .. } => {
+                    // Name the file the observation came from (or the files it may have come from).
+                    let of_kind: Vec<&str> = self
+                        .spec
+                        .observations
+                        .iter()
+                        .filter(|f| {
+                            let k = match f.kind.as_deref() {
+                                Some(k) => kind_index(k).unwrap_or(0),
+                                None => Source::read(Path::new(&f.file))
+                                    .map(|s| crate::observe::detect_format(&s.text))
+                                    .unwrap_or(0),
+                            };
+                            FORMATS[k].kinds.contains(&kind)
+                        })
+                        .map(|f| f.file.as_str())
+                        .collect();
+                    let file = match of_kind.as_slice() {
+                        [one] => one.to_string(),
+                        many => format!("one of {}", many.join(", ")),
+                    };
+                    Error::input(Location::file(file).at_line(line), e.to_string())
+                }
+                e => e,
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toml_round_trip_keeps_every_setting() {
+        let spec = CalibrationSpec {
+            robot: "r.toml".into(),
+            initial: Some("g.toml".into()),
+            read: ReadSettings {
+                columns: vec!["v1=J1".into()],
+                length_unit: Some("mm".into()),
+                angle_unit: Some("deg".into()),
+                position_only: true,
+                session_per_file: true,
+            },
+            observations: vec![
+                ObservationFile::new("a.csv"),
+                ObservationFile {
+                    file: "d.csv".into(),
+                    kind: Some("distances".into()),
+                    session: Some("B".into()),
+                    ..ObservationFile::default()
+                },
+            ],
+            selection: SelectionSpec {
+                estimate: Some("identifiable,slopes".into()),
+                fix: Some("base".into()),
+                prune: Some(2.0),
+            },
+            solver: SolverSpec {
+                method: Method::Svd,
+                max_iterations: Some(7),
+                damping: Damping::Identity,
+                rcond: Some(1e-9),
+                solution: SolutionRule::MinChange,
+            },
+            residuals: ResidualSpec {
+                loss: LossKind::Huber,
+                huber_scale: Some(2.0),
+                huber_spread: Spread::Stated,
+                weights: WeightsSpec {
+                    length: Some(0.05),
+                    angle: None,
+                },
+                orientation_error: OrientationError::Euler,
+                outlier_sigma: Some(4.0),
+            },
+            validation: ValidationSpec {
+                files: vec![ObservationFile::new("v.csv")],
+                holdout: None,
+                folds: Some(5),
+                seed: Some(3),
+                choose: Some(vec![]),
+                repeats: Some(2),
+            },
+            outputs: OutputSpec {
+                robot: Some("out.toml".into()),
+                report: Some("r.json".into()),
+                html: None,
+            },
+        };
+        let text = spec.to_toml();
+        assert_eq!(
+            CalibrationSpec::from_toml(&text, "t").unwrap(),
+            spec,
+            "{text}"
+        );
+        let json = spec.to_json();
+        assert_eq!(CalibrationSpec::from_json(&json, "j").unwrap(), spec);
+        // Defaults are left out.
+        let bare = CalibrationSpec {
+            robot: "ge-a4".into(),
+            ..CalibrationSpec::default()
+        };
+        assert_eq!(bare.to_toml().trim(), "robot = \"ge-a4\"");
+    }
+
+    #[test]
+    fn unknown_keys_and_values_are_refused_with_the_line() {
+        let e =
+            CalibrationSpec::from_toml("robot = \"r\"\n\n[solver]\nmethod = \"xx\"\n", "j.toml")
+                .unwrap_err()
+                .to_string();
+        assert!(e.starts_with("j.toml:4"), "{e}");
+        assert!(e.contains("lm") && e.contains("svd"), "{e}");
+        let e = CalibrationSpec::from_toml("robot = \"r\"\n[selection]\nestimat = \"all\"\n", "j")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("estimat") && e.contains("estimate"), "{e}");
+        let e = CalibrationSpec::from_toml("[solver]\n", "j")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("robot"), "{e}");
+    }
+
+    #[test]
+    fn paths_are_taken_from_the_spec_folder_and_built_in_robots_stay() {
+        let spec = CalibrationSpec {
+            robot: "ge-a4".into(),
+            initial: Some("guess.toml".into()),
+            observations: vec![
+                ObservationFile::new("a.csv"),
+                ObservationFile::new("/abs/b.csv"),
+            ],
+            outputs: OutputSpec {
+                report: Some("r.json".into()),
+                ..OutputSpec::default()
+            },
+            ..CalibrationSpec::default()
+        }
+        .rebased(Path::new("jobs"));
+        assert_eq!(spec.robot, "ge-a4");
+        assert_eq!(spec.initial.as_deref(), Some("jobs/guess.toml"));
+        assert_eq!(spec.observations[0].file, "jobs/a.csv");
+        assert_eq!(spec.observations[1].file, "/abs/b.csv");
+        assert_eq!(spec.outputs.report.as_deref(), Some("jobs/r.json"));
+    }
+
+    #[test]
+    fn settings_errors_name_the_setting() {
+        let robot = crate::examples::ge_a4();
+        let mut spec = CalibrationSpec::default();
+        let data = Dataset::default();
+        spec.validation.holdout = Some(0.2);
+        spec.validation.folds = Some(3);
+        let e = spec.request(&robot, data.clone(), None, None).unwrap_err();
+        assert!(matches!(
+            e,
+            Error::InvalidOption {
+                setting: Setting::Validation,
+                ..
+            }
+        ));
+        let mut spec = CalibrationSpec::default();
+        spec.residuals.weights.length = Some(-1.0);
+        let e = spec.request(&robot, data.clone(), None, None).unwrap_err();
+        assert!(matches!(
+            e,
+            Error::InvalidOption {
+                setting: Setting::Weights,
+                ..
+            }
+        ));
+        let mut spec = CalibrationSpec::default();
+        spec.solver.max_iterations = Some(0);
+        let e = spec.request(&robot, data, None, None).unwrap_err();
+        assert!(matches!(
+            e,
+            Error::InvalidOption {
+                setting: Setting::MaxIterations,
+                ..
+            }
+        ));
+        let e = kind_index("distance").unwrap_err();
+        assert!(e.to_string().contains("distances"), "{e}");
+        let e = load_robot("no-such-robot").unwrap_err();
+        assert!(matches!(
+            e,
+            Error::InvalidOption {
+                setting: Setting::Robot,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn session_names_tell_files_apart() {
+        let (a, b) = (Path::new("x/run1/p.csv"), Path::new("x/run2/p.csv"));
+        assert_eq!(session_name(a, &[a, b]), "run1/p");
+        assert_eq!(
+            session_name(
+                Path::new("A.csv"),
+                &[Path::new("A.csv"), Path::new("B.csv")]
+            ),
+            "A"
+        );
+    }
+}
