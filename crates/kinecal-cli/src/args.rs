@@ -1138,7 +1138,7 @@ pub struct CalibrateArgs {
 /// says otherwise.
 #[derive(Debug, Clone, Default)]
 pub struct ObservationFiles {
-    /// (index into `kinecal::observe::FORMATS`, path), in the order of the formats.
+    /// (index into `kinecal::files::FORMATS`, path), in the order of the formats.
     pub files: Vec<(usize, PathBuf)>,
     /// `--columns` mappings.
     pub columns: Vec<String>,
@@ -1164,10 +1164,10 @@ impl ObservationFiles {
     }
 
     /// How the files are read: the mapping, the units, positions only.
-    pub fn read_options(&self) -> anyhow::Result<kinecal::observe::ReadOptions> {
+    pub fn read_options(&self) -> anyhow::Result<kinecal::files::ReadOptions> {
         let specs: Vec<&str> = self.columns.iter().map(String::as_str).collect();
-        Ok(kinecal::observe::ReadOptions {
-            columns: kinecal::observe::point::ColumnMap::parse(&specs, "--columns")?,
+        Ok(kinecal::files::ReadOptions {
+            columns: kinecal::files::ColumnMap::parse(&specs, "--columns")?,
             length_unit: match &self.length_unit {
                 Some(u) => Some(
                     u.parse()
@@ -1195,7 +1195,7 @@ impl FromArgMatches for ObservationFiles {
     }
 
     fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
-        self.files = kinecal::observe::FORMATS
+        self.files = kinecal::files::FORMATS
             .iter()
             .enumerate()
             .flat_map(|(i, f)| {
@@ -1225,7 +1225,7 @@ impl FromArgMatches for ObservationFiles {
 
 impl Args for ObservationFiles {
     fn augment_args(mut cmd: clap::Command) -> clap::Command {
-        for f in kinecal::observe::FORMATS {
+        for f in kinecal::files::FORMATS {
             cmd = cmd.arg(
                 Arg::new(f.option)
                     .long(f.option)
@@ -1240,7 +1240,7 @@ impl Args for ObservationFiles {
                 .long("columns")
                 .value_name("MAP")
                 .action(ArgAction::Append)
-                .requires(kinecal::observe::FORMATS[0].option)
+                .requires(kinecal::files::FORMATS[0].option)
                 .help(
                     "Read --data (and --validate) through a column mapping `ours=theirs,...`, e.g. \
                      `v1=q1,v2=q2,x=X,y=Y,z=Z` (missing posture: rows number the postures; missing \

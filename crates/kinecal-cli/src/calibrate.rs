@@ -8,7 +8,8 @@ use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
 use kinecal::estimation::{Damping, Loss, Method, SolverOptions};
-use kinecal::observe::{Dataset, FORMATS};
+use kinecal::files::FORMATS;
+use kinecal::observe::Dataset;
 use kinecal::robot_file::write_robot_toml_checked;
 use kinecal::workflow::{self, Outcome, Request, Selection, SolutionRule, Validation};
 

@@ -26,10 +26,10 @@ use args::{
     Cli, Command, ConventionArg, DatasetArgs, ExportCommand, ExportUrdfArgs, FkArgs, ImportCommand,
     ObservationFiles, OrientationArg, ResidualArgs, SimulateArgs,
 };
-use kinecal::observe::point::{parse_postures, write_measurements, ColumnMap};
-use kinecal::observe::{
-    read_observations_as, Dataset, OrientationError, ReadOptions, Weights, FORMATS,
+use kinecal::files::{
+    parse_postures, read_observations_as, write_measurements, ColumnMap, ReadOptions, FORMATS,
 };
+use kinecal::observe::{Dataset, OrientationError, Weights};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::source::Source;
@@ -276,7 +276,7 @@ pub fn read_observation_file(
     format: Option<usize>,
 ) -> Result<(Dataset, Source)> {
     let source = Source::read(path)?;
-    let format = format.unwrap_or_else(|| kinecal::observe::detect_format(&source.text));
+    let format = format.unwrap_or_else(|| kinecal::files::detect_format(&source.text));
     let mut o = opts.clone();
     if format != 0 {
         // The mapping's pairs name measurement columns; its units apply to every file.
@@ -572,7 +572,7 @@ fn fk(a: FkArgs) -> Result<()> {
             w.write_all(write_measurements(robot, &data).as_bytes())?;
             return Ok(());
         }
-        let expected = kinecal::observe::point::postures_header(robot);
+        let expected = kinecal::files::postures_header(robot);
         if rows.header != expected {
             bail!(
                 "{}:1: unexpected header `{}`: expected `{}`",
