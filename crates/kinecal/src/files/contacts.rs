@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 
 use super::table::{self, PostureTable};
-use super::Format;
+use super::{site_target, Format};
 use crate::error::{Error, Location, Result};
 use crate::kinematics::Target;
 use crate::observe::contact::Contact;
@@ -38,24 +38,8 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
         .map(String::from)
         .to_vec();
     known.extend(readings.iter().cloned());
-    if let Some(h) = t
-        .header
-        .iter()
-        .find(|h| !known.iter().any(|k| k.eq_ignore_ascii_case(h)))
-    {
-        return Err(Error::input(
-            t.header_at().with_field(h.clone()),
-            format!("unknown column `{h}`: expected {header}"),
-        ));
-    }
-    let need = |name: &str| {
-        t.column(name).ok_or_else(|| {
-            Error::input(
-                t.header_at().with_field(name),
-                format!("no column `{name}` in the header: expected {header}"),
-            )
-        })
-    };
+    t.refuse_unknown(&known, &header)?;
+    let need = |name: &str| t.require(name, &header);
     let posture_col = need("posture")?;
     let cols = readings
         .iter()
@@ -93,22 +77,8 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
             .collect::<Result<Vec<_>>>()?;
         let posture =
             postures.get_or_insert(&t, line, &f[posture_col], values, &|j| readings[j].clone())?;
-        let target = match site.map_or("", |i| f.get(i)) {
-            "" | "ee" => Target::EndEffector,
-            name => Target::Site(robot.site_index(name).ok_or_else(|| {
-                Error::input(
-                    t.at(line, "site"),
-                    format!(
-                        "unknown site `{name}` (the robot file defines: ee{})",
-                        robot
-                            .sites
-                            .iter()
-                            .map(|s| format!(", {}", s.name))
-                            .collect::<String>()
-                    ),
-                )
-            })?),
-        };
+        let target = site_target(robot, site.map_or("", |i| f.get(i)))
+            .map_err(|m| Error::input(t.at(line, "site"), m))?;
         let plane = match plane_col {
             None => 0,
             Some(i) => robot.plane_index(&f[i]).ok_or_else(|| {

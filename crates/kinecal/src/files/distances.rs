@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 
 use super::table::{self, PostureTable};
-use super::Format;
+use super::{site_target, Format};
 use crate::error::{Error, Location, Result};
 use crate::kinematics::Target;
 use crate::observe::distance::Distance;
@@ -37,24 +37,8 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
     known.extend(a.iter().cloned());
     known.extend(b.iter().cloned());
     known.extend(["distance".into(), "sigma_position".into()]);
-    if let Some(h) = t
-        .header
-        .iter()
-        .find(|h| !known.iter().any(|k| k.eq_ignore_ascii_case(h)))
-    {
-        return Err(Error::input(
-            t.header_at().with_field(h.clone()),
-            format!("unknown column `{h}`: expected {header}"),
-        ));
-    }
-    let need = |name: &str| {
-        t.column(name).ok_or_else(|| {
-            Error::input(
-                t.header_at().with_field(name),
-                format!("no column `{name}` in the header: expected {header}"),
-            )
-        })
-    };
+    t.refuse_unknown(&known, &header)?;
+    let need = |name: &str| t.require(name, &header);
     let pair = need("pair")?;
     let ca = a.iter().map(|c| need(c)).collect::<Result<Vec<_>>>()?;
     let cb = b.iter().map(|c| need(c)).collect::<Result<Vec<_>>>()?;
@@ -70,21 +54,8 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
         if label.is_empty() {
             return Err(Error::input(t.at(line, "pair"), "empty pair label"));
         }
-        let target = match site.map_or("", |i| f.get(i)) {
-            "" | "ee" => Target::EndEffector,
-            name => Target::Site(robot.site_index(name).ok_or_else(|| {
-                Error::input(
-                    t.at(line, "site"),
-                    format!("unknown site `{name}` (the robot file defines: ee{})", {
-                        robot
-                            .sites
-                            .iter()
-                            .map(|s| format!(", {}", s.name))
-                            .collect::<String>()
-                    }),
-                )
-            })?),
-        };
+        let target = site_target(robot, site.map_or("", |i| f.get(i)))
+            .map_err(|m| Error::input(t.at(line, "site"), m))?;
         let mut ends = [0; 2];
         for (k, (cols, names, tag)) in [(&ca, &a, "a"), (&cb, &b, "b")].into_iter().enumerate() {
             let readings = cols

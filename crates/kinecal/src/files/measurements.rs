@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use nalgebra::Vector3;
 
 use super::table::{self, PostureTable};
-use super::Format;
+use super::{site_target, Format};
 use crate::error::{Error, Location, Result};
 use crate::kinematics::Target;
 use crate::observe::point::{Pose, Position};
@@ -207,21 +207,6 @@ struct Marker {
     cols: [Option<usize>; 11],
     /// The file's names of those columns (for error messages).
     names: [String; 11],
-}
-
-fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
-    match name {
-        "" | "ee" => Ok(Target::EndEffector),
-        name => robot.site_index(name).map(Target::Site).ok_or_else(|| {
-            let known: Vec<&str> = std::iter::once("ee")
-                .chain(robot.sites.iter().map(|s| s.name.as_str()))
-                .collect();
-            format!(
-                "unknown site `{name}` (the robot file defines: {})",
-                known.join(", ")
-            )
-        }),
-    }
 }
 
 /// Parses a measurement file whose columns `map` maps to kinecal's (see [`ColumnMap`]).

@@ -41,6 +41,7 @@ mod table;
 use std::fmt;
 
 use crate::error::{Error, Result};
+use crate::kinematics::Target;
 use crate::observe::{Dataset, Observation};
 use crate::robot::Robot;
 
@@ -202,6 +203,23 @@ pub fn read_observations_as(
         }
     }
     Ok(data)
+}
+
+/// The target a `site` field names: the end effector when it is empty or `ee`, else the site of
+/// `robot` so called; otherwise the message of the error, which lists the robot's targets.
+fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
+    match name {
+        "" | "ee" => Ok(Target::EndEffector),
+        name => robot.site_index(name).map(Target::Site).ok_or_else(|| {
+            let known: Vec<&str> = std::iter::once("ee")
+                .chain(robot.sites.iter().map(|s| s.name.as_str()))
+                .collect();
+            format!(
+                "unknown site `{name}` (the robot file defines: {})",
+                known.join(", ")
+            )
+        }),
+    }
 }
 
 #[cfg(test)]
