@@ -1,4 +1,7 @@
 //! Command-line arguments.
+// The doc comments here are clap's help texts, written in usage syntax (`LENGTH[,ANGLE]`), not
+// rustdoc links.
+#![allow(rustdoc::broken_intra_doc_links)]
 
 use std::path::PathBuf;
 
