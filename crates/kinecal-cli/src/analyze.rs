@@ -3,8 +3,8 @@
 use std::fmt::Write as _;
 
 use anyhow::{bail, Result};
+use kinecal::files::parse_postures;
 use kinecal::identifiability::{analyze, fmt_sig, format_combination, Analysis, AnalysisOptions};
-use kinecal::observe::point::parse_postures;
 use kinecal::workflow::{resolve, Selection};
 use kinecal::{parse_param_list, simulate, Robot};
 

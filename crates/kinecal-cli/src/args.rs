@@ -1,4 +1,7 @@
 //! Command-line arguments.
+// The doc comments here are clap's help texts, written in usage syntax (`LENGTH[,ANGLE]`), not
+// rustdoc links.
+#![allow(rustdoc::broken_intra_doc_links)]
 
 use std::path::PathBuf;
 
@@ -1162,7 +1165,7 @@ pub struct CalibrateArgs {
 /// says otherwise.
 #[derive(Debug, Clone, Default)]
 pub struct ObservationFiles {
-    /// (index into `kinecal::observe::FORMATS`, path), in the order of the formats.
+    /// (index into `kinecal::files::FORMATS`, path), in the order of the formats.
     pub files: Vec<(usize, PathBuf)>,
     /// `--columns` mappings.
     pub columns: Vec<String>,
@@ -1192,10 +1195,10 @@ impl ObservationFiles {
     pub fn spec(
         &self,
     ) -> anyhow::Result<(
-        kinecal::spec::ReadSettings,
-        Vec<kinecal::spec::ObservationFile>,
+        kinecal::files::ReadSettings,
+        Vec<kinecal::files::ObservationFile>,
     )> {
-        let read = kinecal::spec::ReadSettings {
+        let read = kinecal::files::ReadSettings {
             columns: self.columns.clone(),
             length_unit: self.length_unit.clone(),
             angle_unit: self.angle_unit.clone(),
@@ -1209,9 +1212,9 @@ impl ObservationFiles {
                 let file = p.to_str().ok_or_else(|| {
                     anyhow::anyhow!("{}: the path is not valid UTF-8", p.display())
                 })?;
-                Ok(kinecal::spec::ObservationFile {
-                    kind: Some(kinecal::observe::FORMATS[*k].option.to_string()),
-                    ..kinecal::spec::ObservationFile::new(file)
+                Ok(kinecal::files::ObservationFile {
+                    kind: Some(kinecal::files::FORMATS[*k].option.to_string()),
+                    ..kinecal::files::ObservationFile::new(file)
                 })
             })
             .collect::<anyhow::Result<_>>()?;
@@ -1227,7 +1230,7 @@ impl FromArgMatches for ObservationFiles {
     }
 
     fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
-        self.files = kinecal::observe::FORMATS
+        self.files = kinecal::files::FORMATS
             .iter()
             .enumerate()
             .flat_map(|(i, f)| {
@@ -1257,7 +1260,7 @@ impl FromArgMatches for ObservationFiles {
 
 impl Args for ObservationFiles {
     fn augment_args(mut cmd: clap::Command) -> clap::Command {
-        for f in kinecal::observe::FORMATS {
+        for f in kinecal::files::FORMATS {
             cmd = cmd.arg(
                 Arg::new(f.option)
                     .long(f.option)
@@ -1272,7 +1275,7 @@ impl Args for ObservationFiles {
                 .long("columns")
                 .value_name("MAP")
                 .action(ArgAction::Append)
-                .requires(kinecal::observe::FORMATS[0].option)
+                .requires(kinecal::files::FORMATS[0].option)
                 .help(
                     "Read --data (and --validate) through a column mapping `ours=theirs,...`, e.g. \
                      `v1=q1,v2=q2,x=X,y=Y,z=Z` (missing posture: rows number the postures; missing \

@@ -11,9 +11,10 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, Result};
 use kinecal::estimation::{Damping, Method, Spread};
-use kinecal::observe::FORMATS;
+use kinecal::files::ObservationFile;
+use kinecal::files::FORMATS;
 use kinecal::robot_file::write_robot_toml_checked;
-use kinecal::spec::{CalibrationSpec, Job, LossKind, ObservationFile};
+use kinecal::spec::{CalibrationSpec, Job, LossKind};
 use kinecal::workflow::{self, Outcome, SolutionRule};
 
 use crate::args::{CalibrateArgs, DampingArg, LossArg, MethodArg, SolutionArg, SpreadArg};

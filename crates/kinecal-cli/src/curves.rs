@@ -5,8 +5,8 @@ use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
 use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve};
+use kinecal::files::parse_postures;
 use kinecal::kinematics::Target;
-use kinecal::observe::point::parse_postures;
 use kinecal::report::CalibrationReport;
 use kinecal::{parse_param_list, ParamId, Robot};
 use kinecal_report::{render_png, render_svg, Line, Panel};

@@ -26,8 +26,8 @@ use args::{
     Cli, Command, ConventionArg, DatasetArgs, ExportCommand, ExportUrdfArgs, FkArgs, ImportCommand,
     ObservationFiles, OrientationArg, ResidualArgs, SimulateArgs,
 };
-use kinecal::observe::point::{parse_postures, write_measurements};
-use kinecal::observe::{Dataset, OrientationError, Weights, FORMATS};
+use kinecal::files::{parse_postures, write_measurements, FORMATS};
+use kinecal::observe::{Dataset, OrientationError, Weights};
 use kinecal::robot_file::write_robot_toml_checked;
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::source::Source;
@@ -283,7 +283,7 @@ pub fn load_observations(
     }
     let (read, list) = files.spec()?;
     let all = files.all_paths();
-    Ok(kinecal::spec::read_files(&read, &list, robot, &all)?)
+    Ok(kinecal::files::read_files(&read, &list, robot, &all)?)
 }
 
 /// `--weights length=L,angle=A` (robot file units), when given.
@@ -502,7 +502,7 @@ fn fk(a: FkArgs) -> Result<()> {
             w.write_all(write_measurements(robot, &data).as_bytes())?;
             return Ok(());
         }
-        let expected = kinecal::observe::point::postures_header(robot);
+        let expected = kinecal::files::postures_header(robot);
         if rows.header != expected {
             bail!(
                 "{}:1: unexpected header `{}`: expected `{}`",

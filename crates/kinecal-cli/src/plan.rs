@@ -4,10 +4,10 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Result};
+use kinecal::files::{detect_format, parse_postures, write_measurements, write_postures};
 use kinecal::identifiability::{fmt_sig, AnalysisOptions};
 use kinecal::kinematics::Target;
-use kinecal::observe::point::{parse_postures, write_measurements, write_postures};
-use kinecal::observe::{detect_format, Dataset, Observation};
+use kinecal::observe::{Dataset, Observation};
 use kinecal::plan::{candidates, plan, Criterion, Plan, PlanRequest};
 use kinecal::source::Source;
 use kinecal::workflow::Selection;
@@ -94,11 +94,11 @@ fn read(
     }
     // An observation file: its rows say what is measured; --position-only reads its poses as
     // positions (a tracker that measures the probe's position only).
-    let opts = kinecal::observe::ReadOptions {
+    let opts = kinecal::files::ReadOptions {
         position_only,
         ..Default::default()
     };
-    let data = kinecal::observe::read_observations(&s.text, &s.name, robot, &opts)?;
+    let data = kinecal::files::read_observations(&s.text, &s.name, robot, &opts)?;
     Ok((data, Origin::Observations))
 }
 

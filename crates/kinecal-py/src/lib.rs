@@ -10,10 +10,11 @@
 
 use std::path::PathBuf;
 
+use kinecal::files::{detect_format, write_measurements, ColumnMap, FORMATS};
 use kinecal::identifiability::{analyze as analyze_ids, AnalysisOptions};
 use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
-use kinecal::observe::point::{write_measurements, ColumnMap, Pose, Position};
-use kinecal::observe::{detect_format, Dataset, OrientationError, Weights, FORMATS};
+use kinecal::observe::point::{Pose, Position};
+use kinecal::observe::{Dataset, OrientationError, Weights};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::source::Source;
 use kinecal::spec::CalibrationSpec;
@@ -766,7 +767,7 @@ impl Measurements {
         let r = &robot.robot;
         let s = Source::read(&path).map_err(|e| error(py, e))?;
         let specs: Vec<&str> = columns.iter().flatten().map(String::as_str).collect();
-        let opts = kinecal::observe::ReadOptions {
+        let opts = kinecal::files::ReadOptions {
             columns: ColumnMap::parse(&specs, "columns").map_err(|e| error(py, e))?,
             length_unit: length_unit
                 .map(|u| {
@@ -782,7 +783,7 @@ impl Measurements {
                 .transpose()?,
             position_only,
         };
-        let mut data = kinecal::observe::read_observations(&s.text, &s.name, r, &opts)
+        let mut data = kinecal::files::read_observations(&s.text, &s.name, r, &opts)
             .map_err(|e| error(py, e))?;
         if let Some(name) = session {
             data.set_session(name);
@@ -1170,7 +1171,7 @@ fn dataset(
     let read = |n: &str| -> PyResult<Measurements> {
         let text = file(n)?;
         let data = match detect_format(&text) {
-            0 => kinecal::observe::point::parse_measurements(&text, n, &robot.robot),
+            0 => kinecal::files::parse_measurements(&text, n, &robot.robot),
             i => (FORMATS[i].parse)(&text, n, &robot.robot),
         }
         .map_err(|e| error(py, e))?;

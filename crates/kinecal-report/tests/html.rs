@@ -149,10 +149,8 @@ fn tracker_free_data_shows_its_own_errors_and_an_assessed_calibration_says_so() 
     let read = |f: &str, parse: fn(&str, &str, &Robot) -> kinecal::Result<kinecal::Dataset>| {
         parse(&std::fs::read_to_string(dir.join(f)).unwrap(), f, &robot).unwrap()
     };
-    let data = read("ballbar.csv", kinecal::observe::distance::parse_distances).merge(read(
-        "contacts.csv",
-        kinecal::observe::contact::parse_contacts,
-    ));
+    let data = read("ballbar.csv", kinecal::files::parse_distances)
+        .merge(read("contacts.csv", kinecal::files::parse_contacts));
     let mut req = Request::new(robot.clone(), data.clone());
     req.validation = Validation::Holdout {
         fraction: 0.3,

@@ -6,7 +6,7 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use kinecal::observe::point::{parse_measurements, write_measurements};
+use kinecal::files::{parse_measurements, write_measurements};
 use kinecal::{simulate, JointKind};
 
 fn reading(c: &mut Criterion) {

@@ -11,7 +11,7 @@
 use std::path::Path;
 
 use crate::error::{Error, Location, Result};
-use crate::observe::point::write_measurements;
+use crate::files::write_measurements;
 use crate::robot_file::write_robot_toml;
 
 /// A data set converted into kinecal's files.

@@ -1531,7 +1531,7 @@ pub fn fmt_sig(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::observe::point::parse_measurements;
+    use crate::files::parse_measurements;
 
     /// The greedy selection this module made before the pivoted QR (Gram-Schmidt, twice, on
     /// every candidate at every step: O(n^4)), kept verbatim but for the tiers, which it is

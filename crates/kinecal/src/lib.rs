@@ -9,20 +9,20 @@
 //!
 //! The data flows through the modules in this order, with no cycle: [`robot`] (the model,
 //! [`params`] its numbering, [`param_list`] lists of them, [`units`]) -> [`kinematics`] (frames, analytic Jacobian) ->
-//! [`observe`] (the measurement model: one type per kind of observation, owning its residuals;
-//! the file formats) -> [`problem`] (weighted residuals and Jacobian of a dataset) ->
+//! [`observe`] (the measurement model: one type per kind of observation, owning its residuals)
+//! -> [`problem`] (weighted residuals and Jacobian of a dataset) ->
 //! [`estimation`] (one solver driver, four step rules, robust loss) -> [`identifiability`]
 //! (rank, redundancies, base set) -> [`uncertainty`] (covariance, significance) and
 //! [`outliers`] -> [`workflow`] (request to outcome: the calibration procedure) -> [`report`]
 //! (the outcome as a document). Before a calibration, [`plan`] chooses the postures to
 //! measure; after it, [`compensate`] puts it to work (readings that make the real robot reach
-//! what was meant). Around them: [`robot_file`] (robot TOML), [`import`] (URDF, DH, POE and UR
-//! kinematics in, URDF, DH, UR kinematics and joint tables out), [`datasets`] (public data
-//! sets), [`simulate`], [`curves`], [`source`] (files with their fingerprints), [`warning`] and
-//! [`error`].
+//! what was meant). Around them: [`robot_file`] (robot TOML), [`files`] (the observation files:
+//! CSV readers and writers), [`import`] (URDF, DH, POE and UR kinematics in, URDF, DH, UR
+//! kinematics and joint tables out), [`datasets`] (public data sets), [`simulate`], [`curves`],
+//! [`source`] (files with their fingerprints), [`warning`] and [`error`].
 //!
 //! Conventions: internally metres and radians (see [`units`]); files are in the units their robot
-//! file declares. Parameters are numbered as the thesis numbers them (see [`params`]).
+//! file declares, unless an observation file states its own (see [`files`]). Parameters are numbered as the thesis numbers them (see [`params`]).
 
 pub mod compensate;
 pub mod curves;
@@ -30,6 +30,7 @@ pub mod datasets;
 pub mod error;
 pub mod estimation;
 pub mod examples;
+pub mod files;
 pub mod identifiability;
 pub mod import;
 pub mod kinematics;

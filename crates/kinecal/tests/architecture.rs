@@ -59,6 +59,8 @@ fn modules_import_in_one_direction() {
         "warning",
         "robot_file",
         "observe",
+        // The observation files: their readers build the measurement model's types.
+        "files",
         "sanity",
         "registration",
         "problem",

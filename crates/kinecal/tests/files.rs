@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use kinecal::observe::point::parse_measurements;
+use kinecal::files::parse_measurements;
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 
 fn fixture(name: &str) -> String {
@@ -86,7 +86,7 @@ fn written_robots_read_back_the_same_without_float_noise() {
     // The poses `fk` writes: an exact 0 angle is 0, not 6.6e-15.
     let a4 = kinecal::examples::ge_a4();
     let data = simulate::measure(&a4, &simulate::sample_postures(&a4, 5, 1), false);
-    let csv = kinecal::observe::point::write_measurements(&a4, &data);
+    let csv = kinecal::files::write_measurements(&a4, &data);
     let noise = csv
         .split(['\n', ','])
         .filter_map(|f| f.parse::<f64>().ok())

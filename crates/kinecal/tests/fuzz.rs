@@ -23,11 +23,11 @@
 mod fuzz_driver;
 
 use fuzz_driver::{fuzz, repo, Outcome};
-use kinecal::observe::point::{
-    parse_measurements, parse_measurements_mapped, parse_postures, write_measurements,
-    write_postures, ColumnMap,
+use kinecal::files::{
+    parse_contacts, parse_distances, parse_measurements, parse_measurements_mapped, parse_postures,
+    write_measurements, write_postures, ColumnMap,
 };
-use kinecal::observe::{contact::parse_contacts, distance::parse_distances, Dataset, Observation};
+use kinecal::observe::{Dataset, Observation};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::units::Units;
 use kinecal::{examples, simulate, Robot};

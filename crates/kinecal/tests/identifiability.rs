@@ -513,7 +513,7 @@ fn with_sigmas(
     tiny: f64,
     sigma: f64,
 ) -> kinecal::Dataset {
-    use kinecal::observe::point::{parse_measurements, write_measurements};
+    use kinecal::files::{parse_measurements, write_measurements};
     let text = write_measurements(robot, data);
     let mut out = String::new();
     for (k, line) in text.lines().enumerate() {

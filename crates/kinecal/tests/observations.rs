@@ -3,9 +3,10 @@
 //! perturbed 6-joint robot.
 
 use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::files::parse_distances;
 use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::kinematics::Target;
-use kinecal::observe::distance::{parse_distances, Distance};
+use kinecal::observe::distance::Distance;
 use kinecal::observe::{accuracy, Dataset, Observation, Posture};
 use kinecal::simulate::{self, PerturbStd};
 use kinecal::{parse_param_list, JointKind, ParamId, Robot};
@@ -312,7 +313,7 @@ fn estimated_planes_join_the_count_and_are_recovered() {
 
 #[test]
 fn contact_files_read_and_refuse_mistakes() {
-    use kinecal::observe::contact::parse_contacts;
+    use kinecal::files::parse_contacts;
     let text = kinecal::examples::GE_A4_TOML.to_string()
         + "\n[[planes]]\nname = \"table\"\nnormal = [0, 0, 1]\noffset = -2\n";
     let robot = kinecal::robot_file::parse_robot_toml(&text, "a4.toml").unwrap();

@@ -2,9 +2,9 @@
 //! position only, outliers, robust loss, and files laid out differently.
 
 use kinecal::estimation::{calibrate, CalibrationOptions, Loss};
+use kinecal::files::{parse_measurements, parse_measurements_mapped, ColumnMap};
 use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::kinematics::Target;
-use kinecal::observe::point::{parse_measurements, parse_measurements_mapped, ColumnMap};
 use kinecal::observe::{accuracy, Observation, Weights};
 use kinecal::outliers::outliers;
 use kinecal::simulate::{self, PerturbStd};

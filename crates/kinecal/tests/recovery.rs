@@ -161,7 +161,7 @@ fn to_units(robot: &Robot, length: kinecal::LengthUnit, angle: kinecal::AngleUni
 
 #[test]
 fn results_do_not_depend_on_units() {
-    use kinecal::observe::point::{parse_measurements, write_measurements};
+    use kinecal::files::{parse_measurements, write_measurements};
     use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
     let nominal = examples::ge_a4();
     let std = PerturbStd {

@@ -1,6 +1,6 @@
 //! Units and readings that do not match the robot file are said, never fitted silently.
 
-use kinecal::observe::point::{parse_measurements, write_measurements};
+use kinecal::files::{parse_measurements, write_measurements};
 use kinecal::robot::JointKind;
 use kinecal::units::{AngleUnit, LengthUnit};
 use kinecal::workflow::{self, Request, Selection};

@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use kinecal::observe::point::{parse_measurements, write_measurements};
+use kinecal::files::{parse_measurements, write_measurements};
 use kinecal::robot::{Link, Session};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::simulate::{self, PerturbStd};

@@ -2,8 +2,8 @@
 //! read as positions, per-axis standard deviations: stated at the door and converted, or named
 //! before any solving when they are not.
 
-use kinecal::observe::point::{write_measurements, ColumnMap};
-use kinecal::observe::{read_observations, Observation, ReadOptions};
+use kinecal::files::{read_observations, write_measurements, ColumnMap, ReadOptions};
+use kinecal::observe::Observation;
 use kinecal::units::{AngleUnit, LengthUnit, Units};
 use kinecal::workflow::{self, Request};
 use kinecal::{simulate, Dataset, Error, JointKind, Robot, Warning};

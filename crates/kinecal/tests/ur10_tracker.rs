@@ -15,8 +15,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use kinecal::observe::point::ColumnMap;
-use kinecal::observe::{read_observations, ReadOptions};
+use kinecal::files::{read_observations, ColumnMap, ReadOptions};
 use kinecal::units::LengthUnit;
 use kinecal::workflow::{self, Request, Selection, Validation};
 use kinecal::{parse_param_list, Dataset, Robot};

@@ -7,7 +7,8 @@
 //! `model - measured`, the Jacobian rows built from the geometric Jacobians of its views, its
 //! error metric for accuracy figures, and what it tells about the robot's placement in the world
 //! (for the rank count). Estimation, identifiability, uncertainty, outliers, validation and the
-//! reports all go through this interface, so a new instrument is one new file here.
+//! reports all go through this interface, so a new instrument is one new file here (and its file
+//! format one in [`crate::files`]).
 //!
 //! The kinds:
 //! - [`point::Pose`]: a full pose (position and ZYX Euler angles) of a target, 6 rows;
@@ -23,7 +24,6 @@
 pub mod contact;
 pub mod distance;
 pub mod point;
-pub(crate) mod table;
 
 use std::fmt;
 
@@ -300,7 +300,7 @@ macro_rules! observation_kinds {
 }
 
 // The kinds of observation. A new kind: a file in this folder implementing `Observe`, a line
-// here, and its file format in `FORMATS`.
+// here, and its file format in `crate::files::FORMATS`.
 observation_kinds! {
     /// A full pose.
     Pose(point::Pose),
@@ -310,159 +310,6 @@ observation_kinds! {
     Distance(distance::Distance),
     /// A target touching a plane.
     Contact(contact::Contact),
-}
-
-/// A file format of observations, for the command line and other front ends.
-#[derive(Clone, Copy)]
-pub struct Format {
-    /// The name of such files (`data`, `distances`, `contacts`); front ends name their options
-    /// after it.
-    pub option: &'static str,
-    /// One line for help texts.
-    pub help: &'static str,
-    /// The header, e.g. `posture,site,v1..vn,x,y,z[,alpha,beta,gamma]`.
-    pub header: &'static str,
-    /// The kinds of observation its rows become.
-    pub kinds: &'static [&'static str],
-    /// Columns that tell such a file by its header ([`detect_format`]); empty for the
-    /// measurement file, the format of any other header.
-    pub marks: &'static [&'static str],
-    /// Reads a file (`text`, named `file` in errors) for `robot`.
-    pub parse: fn(&str, &str, &Robot) -> Result<Dataset>,
-}
-
-impl fmt::Debug for Format {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "Format({})", self.option)
-    }
-}
-
-/// Every observation file format, the measurement file (`data`) first.
-pub const FORMATS: &[Format] = &[point::FORMAT, distance::FORMAT, contact::FORMAT];
-
-/// The format of an observation file, told by its header (the first line that is not blank or
-/// a `#` comment): the first format all of whose [`Format::marks`] columns it names, else the
-/// measurement file. Returns the index into [`FORMATS`].
-pub fn detect_format(text: &str) -> usize {
-    let delimiter = table::detect_delimiter(text) as char;
-    let header: Vec<String> = text
-        .lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))
-        .unwrap_or("")
-        .trim_start_matches('\u{feff}')
-        .split(delimiter)
-        .map(|c| c.trim().trim_matches('"').to_ascii_lowercase())
-        .collect();
-    FORMATS
-        .iter()
-        .position(|f| !f.marks.is_empty() && f.marks.iter().all(|m| header.iter().any(|h| h == m)))
-        .unwrap_or(0)
-}
-
-/// How an observation file is read, beyond its header: the column mapping of a measurement
-/// file (which may state the file's units), the units of its numbers, and whether to read its
-/// poses as positions only.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct ReadOptions {
-    /// The column mapping of a measurement file ([`point::ColumnMap`]); files of the other
-    /// formats are read by their own headers.
-    pub columns: point::ColumnMap,
-    /// The unit of the file's lengths, when not the robot file's (a mapping's `length_unit`
-    /// must agree).
-    pub length_unit: Option<crate::units::LengthUnit>,
-    /// The unit of the file's angles, when not the robot file's.
-    pub angle_unit: Option<crate::units::AngleUnit>,
-    /// Read poses as positions (their attitudes and `sigma_angle` left out).
-    pub position_only: bool,
-}
-
-impl ReadOptions {
-    /// The units of a file read with these options for `robot`; an error when the mapping and
-    /// the options state different ones.
-    pub fn units(&self, robot: &Robot, file: &str) -> Result<crate::units::Units> {
-        let conflict = |what: &str, a: String, b: String| {
-            Error::input(
-                crate::error::Location::file(file),
-                format!("the {what} unit is stated twice: `{a}` in the column mapping, `{b}` as an option"),
-            )
-        };
-        if let (Some(a), Some(b)) = (self.columns.length_unit, self.length_unit) {
-            if a != b {
-                return Err(conflict("length", a.to_string(), b.to_string()));
-            }
-        }
-        if let (Some(a), Some(b)) = (self.columns.angle_unit, self.angle_unit) {
-            if a != b {
-                return Err(conflict("angle", a.to_string(), b.to_string()));
-            }
-        }
-        Ok(crate::units::Units {
-            length: self
-                .columns
-                .length_unit
-                .or(self.length_unit)
-                .unwrap_or(robot.units.length),
-            angle: self
-                .columns
-                .angle_unit
-                .or(self.angle_unit)
-                .unwrap_or(robot.units.angle),
-        })
-    }
-}
-
-/// Reads an observation file of any format (told by its header, [`detect_format`]) for
-/// `robot`: `text`, named `file` in errors, its numbers in the units `opts` states (by default
-/// the robot file's), converted to metres and radians.
-pub fn read_observations(
-    text: &str,
-    file: &str,
-    robot: &Robot,
-    opts: &ReadOptions,
-) -> Result<Dataset> {
-    read_observations_as(text, file, robot, opts, detect_format(text))
-}
-
-/// [`read_observations`] as a file of the format `FORMATS[format]`, whatever its header (which
-/// that format's reader then checks).
-pub fn read_observations_as(
-    text: &str,
-    file: &str,
-    robot: &Robot,
-    opts: &ReadOptions,
-    format: usize,
-) -> Result<Dataset> {
-    let units = opts.units(robot, file)?;
-    // Every reader converts with its robot's units: give it the file's.
-    let mut reading = robot.clone();
-    reading.units = units;
-    let mut data = if format == 0 {
-        let mut columns = opts.columns.clone();
-        columns.length_unit = Some(units.length);
-        columns.angle_unit = Some(units.angle);
-        point::parse_measurements_mapped(text, file, &reading, &columns)?
-    } else {
-        let pairs = &opts.columns;
-        if !(pairs.shared.is_empty() && pairs.markers.is_empty()) {
-            return Err(Error::input(
-                crate::error::Location::file(file),
-                format!(
-                    "a column mapping applies to measurement files, and this is a {} file",
-                    FORMATS[format].option
-                ),
-            ));
-        }
-        (FORMATS[format].parse)(text, file, &reading)?
-    };
-    if opts.position_only {
-        for o in &mut data.observations {
-            if let Observation::Pose(p) = o {
-                *o = p.to_position().into();
-            }
-        }
-    }
-    Ok(data)
 }
 
 /// A set of postures and the observations made in them.
@@ -978,23 +825,5 @@ impl AccuracyTally {
                 })
                 .collect(),
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn formats_are_told_by_their_header() {
-        let name = |t: &str| FORMATS[detect_format(t)].option;
-        assert_eq!(name("posture,site,v1,v2,x,y,z\n"), "data");
-        assert_eq!(
-            name("# ballbar\n\npair,a1,a2,b1,b2,distance\n"),
-            "distances"
-        );
-        assert_eq!(name("\u{feff}posture;plane;v1;v2\n"), "contacts");
-        assert_eq!(name("Point,J1,J2,X,Y,Z\n"), "data");
-        assert_eq!(name(""), "data");
     }
 }

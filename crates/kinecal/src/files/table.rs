@@ -387,6 +387,33 @@ impl Table<'_> {
             .position(|h| h.eq_ignore_ascii_case(name))
     }
 
+    /// Refuses a column of the header that is not among `known` (ASCII case-insensitive): the
+    /// error names the `expected` header.
+    pub fn refuse_unknown(&self, known: &[String], expected: &str) -> Result<()> {
+        match self
+            .header
+            .iter()
+            .find(|h| !known.iter().any(|k| k.eq_ignore_ascii_case(h)))
+        {
+            Some(h) => Err(Error::input(
+                self.header_at().with_field(h.clone()),
+                format!("unknown column `{h}`: expected {expected}"),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// The index of the required column `name` (ASCII case-insensitive); an error naming the
+    /// `expected` header when there is none.
+    pub fn require(&self, name: &str, expected: &str) -> Result<usize> {
+        self.column(name).ok_or_else(|| {
+            Error::input(
+                self.header_at().with_field(name),
+                format!("no column `{name}` in the header: expected {expected}"),
+            )
+        })
+    }
+
     /// The location of `field` on `line`.
     pub fn at(&self, line: usize, field: &str) -> Location {
         Location::file(&self.file).at_line(line).with_field(field)

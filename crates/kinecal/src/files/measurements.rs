@@ -1,0 +1,719 @@
+//! The measurement file (poses and positions of the end effector or sites, as a laser tracker, a
+//! camera or a CMM measures them) and the postures file: their columns, the [`ColumnMap`] of
+//! other layouts, readers and writers (see the [module](super) for the formats).
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+
+use nalgebra::Vector3;
+
+use super::table::{self, PostureTable};
+use super::{site_target, Format};
+use crate::error::{Error, Location, Result};
+use crate::kinematics::Target;
+use crate::observe::point::{Pose, Position};
+use crate::observe::{target_name, Dataset, Observation, Posture, View};
+use crate::robot::Robot;
+use crate::units::{snap, Quantity};
+
+/// The measurement file format.
+pub(super) const FORMAT: Format = Format {
+    option: "data",
+    kinds: &["pose", "position"],
+    marks: &[],
+    help: "Measurement file: poses or positions of the end effector or sites",
+    header: "posture,site,v1..vn,x,y,z[,alpha,beta,gamma][,sigma_position|sigma_x,sigma_y,sigma_z][,sigma_angle]",
+    parse: parse_measurements,
+};
+
+/// Names of the columns of one measured target.
+const MARKER_COLUMNS: [&str; 11] = [
+    "x",
+    "y",
+    "z",
+    "alpha",
+    "beta",
+    "gamma",
+    "sigma_position",
+    "sigma_angle",
+    "sigma_x",
+    "sigma_y",
+    "sigma_z",
+];
+
+/// Mapped to this (`alpha=-`), a kinecal column is left out: not read even if the file has a
+/// column of that name.
+pub const NOT_READ: &str = "-";
+
+fn reading_columns(n: usize) -> Vec<String> {
+    (1..=n).map(|i| format!("v{i}")).collect()
+}
+
+/// The measurement header kinecal writes for `robot` (with the `site` column).
+fn measurement_header(robot: &Robot) -> Vec<String> {
+    let mut h = vec!["posture".to_string(), "site".to_string()];
+    h.extend(reading_columns(robot.dof()));
+    h.extend(["x", "y", "z", "alpha", "beta", "gamma"].map(String::from));
+    h
+}
+
+/// The postures-file header for `robot`.
+pub fn postures_header(robot: &Robot) -> Vec<String> {
+    let mut h = vec!["posture".to_string()];
+    h.extend(reading_columns(robot.dof()));
+    h
+}
+
+/// How a measurement file's columns map to kinecal's (`posture`, `site`, `v1..vn`, `x, y, z`,
+/// `alpha, beta, gamma`, `sigma_position` or `sigma_x, sigma_y, sigma_z`, `sigma_angle`):
+/// pairs `(ours, theirs)`. A kinecal column not mapped is looked up under its own name; one
+/// mapped to `-` ([`NOT_READ`]) is left out (`alpha=-,beta=-,gamma=-` reads a pose file's
+/// positions only); other columns of the file are ignored. Two more entries state the file's
+/// units, when they are not the robot file's: `length_unit=mm`, `angle_unit=deg`.
+///
+/// `markers` reads several targets measured side by side in one row (FIGAROH's wide layout
+/// `x1,y1,z1,x2,y2,z2,...`): each marker is a site name (or `ee`) with the mapping of its
+/// `x..sigma_angle` columns; the shared mapping then gives the posture and the readings, and
+/// a marker whose position fields are all empty in a row was not measured there.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ColumnMap {
+    /// Shared columns.
+    pub shared: Vec<(String, String)>,
+    /// Markers side by side: (site or `ee`, its columns).
+    pub markers: Vec<(String, Vec<(String, String)>)>,
+    /// The file's length unit, when stated (`length_unit=...`).
+    pub length_unit: Option<crate::units::LengthUnit>,
+    /// The file's angle unit, when stated (`angle_unit=...`).
+    pub angle_unit: Option<crate::units::AngleUnit>,
+}
+
+impl ColumnMap {
+    /// Parses mappings written `[SITE:]ours=theirs,...`, one per string: a mapping with a
+    /// `SITE:` prefix is a marker, one without it the shared columns. `source` names them in
+    /// errors.
+    pub fn parse(specs: &[&str], source: &str) -> Result<ColumnMap> {
+        let loc = Location::file(source);
+        let mut map = ColumnMap::default();
+        for spec in specs {
+            let (site, body) = match spec.split_once(':') {
+                Some((s, b)) if !s.contains('=') => (Some(s.trim().to_string()), b),
+                _ => (None, *spec),
+            };
+            let mut pairs: Vec<(String, String)> = Vec::new();
+            for part in body.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+                let (a, b) = part.split_once('=').ok_or_else(|| {
+                    Error::input(
+                        loc.clone(),
+                        format!("`{part}`: expected KINECAL_COLUMN=FILE_COLUMN, e.g. v1=q1"),
+                    )
+                })?;
+                let (a, b) = (a.trim().to_string(), b.trim().to_string());
+                if site.is_none() && a == "length_unit" {
+                    map.length_unit = Some(
+                        b.parse()
+                            .map_err(|m: String| Error::input(loc.clone(), m))?,
+                    );
+                    continue;
+                }
+                if site.is_none() && a == "angle_unit" {
+                    map.angle_unit = Some(
+                        b.parse()
+                            .map_err(|m: String| Error::input(loc.clone(), m))?,
+                    );
+                    continue;
+                }
+                if a.is_empty() || b.is_empty() {
+                    return Err(Error::input(
+                        loc.clone(),
+                        format!("`{part}`: both column names are needed"),
+                    ));
+                }
+                if let Some((_, t)) = pairs.iter().find(|(o, _)| *o == a) {
+                    return Err(Error::input(
+                        loc.clone(),
+                        format!("`{a}` is mapped twice (to `{t}` and to `{b}`)"),
+                    ));
+                }
+                if let Some((o, _)) = pairs.iter().find(|(_, t)| *t == b && b != NOT_READ) {
+                    return Err(Error::input(
+                        loc.clone(),
+                        format!("file column `{b}` is mapped to both `{o}` and `{a}`"),
+                    ));
+                }
+                pairs.push((a, b));
+            }
+            match site {
+                Some(s) => {
+                    if s.is_empty() {
+                        return Err(Error::input(loc.clone(), "empty site name before `:`"));
+                    }
+                    if let Some((o, _)) = pairs
+                        .iter()
+                        .find(|(o, _)| !MARKER_COLUMNS.contains(&o.as_str()))
+                    {
+                        return Err(Error::input(
+                            loc.clone(),
+                            format!(
+                                "marker `{s}`: `{o}` is not a marker column (expected {})",
+                                MARKER_COLUMNS.join(", ")
+                            ),
+                        ));
+                    }
+                    if map.markers.iter().any(|(m, _)| *m == s) {
+                        return Err(Error::input(
+                            loc.clone(),
+                            format!("marker `{s}` is mapped twice"),
+                        ));
+                    }
+                    map.markers.push((s, pairs));
+                }
+                None => {
+                    if !map.shared.is_empty() {
+                        return Err(Error::input(
+                            loc.clone(),
+                            "only one mapping without a SITE: prefix (the shared columns)",
+                        ));
+                    }
+                    map.shared = pairs;
+                }
+            }
+        }
+        Ok(map)
+    }
+
+    fn is_identity(&self) -> bool {
+        self.shared.is_empty() && self.markers.is_empty()
+    }
+
+    /// The units the file's numbers are in: the stated ones, else `robot`'s.
+    pub fn units(&self, robot: &Robot) -> crate::units::Units {
+        crate::units::Units {
+            length: self.length_unit.unwrap_or(robot.units.length),
+            angle: self.angle_unit.unwrap_or(robot.units.angle),
+        }
+    }
+}
+
+/// Parses a measurement file for `robot`. `file` names it in error messages.
+pub fn parse_measurements(text: &str, file: &str, robot: &Robot) -> Result<Dataset> {
+    parse_measurements_mapped(text, file, robot, &ColumnMap::default())
+}
+
+/// One target's columns in the file.
+struct Marker {
+    /// Fixed site (a marker of a wide layout), or read from the `site` column.
+    target: Option<Target>,
+    /// Column indices of [`MARKER_COLUMNS`].
+    cols: [Option<usize>; 11],
+    /// The file's names of those columns (for error messages).
+    names: [String; 11],
+}
+
+/// Parses a measurement file whose columns `map` maps to kinecal's (see [`ColumnMap`]).
+pub fn parse_measurements_mapped(
+    text: &str,
+    file: &str,
+    robot: &Robot,
+    map: &ColumnMap,
+) -> Result<Dataset> {
+    let t = table::read(text, file)?;
+    let n = robot.dof();
+    let readings = reading_columns(n);
+    let mut canonical: Vec<String> = vec!["posture".into(), "site".into(), "session".into()];
+    canonical.extend(readings.iter().cloned());
+    canonical.extend(MARKER_COLUMNS.iter().map(|s| s.to_string()));
+    for (ours, _) in &map.shared {
+        if !canonical.contains(ours) {
+            return Err(Error::input(
+                t.header_at(),
+                format!(
+                    "column mapping: `{ours}` is not a kinecal column (expected one of {})",
+                    canonical.join(", ")
+                ),
+            ));
+        }
+    }
+    let theirs = |mapping: &[(String, String)], ours: &str| -> String {
+        mapping
+            .iter()
+            .find(|(o, _)| o == ours)
+            .map_or(ours.to_string(), |(_, t)| t.clone())
+    };
+    // Where each of kinecal's columns is: (index, the file's name for it).
+    let find = |mapping: &[(String, String)], ours: &str, required: bool| {
+        let name = theirs(mapping, ours);
+        let explicit = mapping.iter().any(|(o, _)| o == ours);
+        if name == NOT_READ {
+            return if required {
+                Err(Error::input(
+                    t.header_at(),
+                    format!("column mapping `{ours}=-`: `{ours}` cannot be left out"),
+                ))
+            } else {
+                Ok((None, name))
+            };
+        }
+        match t.column(&name) {
+            Some(i) => Ok((Some(i), name)),
+            None if explicit => Err(Error::input(
+                t.header_at().with_field(name.clone()),
+                format!(
+                    "column mapping `{ours}={name}`: no column `{name}` in the header `{}`",
+                    t.header.join(",")
+                ),
+            )),
+            None if !required => Ok((None, name)),
+            None => Err(Error::input(
+                t.header_at().with_field(name.clone()),
+                format!(
+                    "no column `{name}`{} in the header `{}` (expected {})",
+                    if name == ours {
+                        String::new()
+                    } else {
+                        format!(" (for kinecal's `{ours}`)")
+                    },
+                    t.header.join(","),
+                    FORMAT.header.replace("v1..vn", &format!("v1..v{n}"))
+                ),
+            )),
+        }
+    };
+    let (posture_col, _) = find(&map.shared, "posture", false)?;
+    let (site_col, _) = find(&map.shared, "site", false)?;
+    let (session_col, session_name) = find(&map.shared, "session", false)?;
+    let mut session_names: Vec<std::sync::Arc<str>> = Vec::new();
+    let reading_cols = readings
+        .iter()
+        .map(|r| find(&map.shared, r, true).map(|(i, name)| (i.expect("required"), name)))
+        .collect::<Result<Vec<_>>>()?;
+    let marker_of = |mapping: &[(String, String)], target: Option<Target>| -> Result<Marker> {
+        let mut cols = [None; 11];
+        let mut names: [String; 11] = Default::default();
+        for (k, c) in MARKER_COLUMNS.iter().enumerate() {
+            let (i, name) = find(mapping, c, k < 3)?;
+            cols[k] = i;
+            names[k] = name;
+        }
+        Ok(Marker {
+            target,
+            cols,
+            names,
+        })
+    };
+    let markers: Vec<Marker> = if map.markers.is_empty() {
+        vec![marker_of(&map.shared, None)?]
+    } else {
+        if let Some((o, th)) = map
+            .shared
+            .iter()
+            .find(|(o, _)| MARKER_COLUMNS.contains(&o.as_str()))
+        {
+            return Err(Error::input(
+                t.header_at(),
+                format!(
+                    "column mapping: `{o}={th}` in the shared mapping is not used when markers \
+                     are given: map it in each marker (`SITE:{o}={th}`)"
+                ),
+            ));
+        }
+        let mut used: HashMap<&str, &str> = HashMap::new();
+        for (site, mapping) in &map.markers {
+            for (_, th) in mapping {
+                if let Some(other) = used.insert(th.as_str(), site.as_str()) {
+                    if other != site {
+                        return Err(Error::input(
+                            t.header_at().with_field(th.clone()),
+                            format!(
+                                "column mapping: file column `{th}` is mapped for both markers \
+                                 `{other}` and `{site}`"
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        if site_col.is_some() && map.shared.iter().any(|(o, _)| o == "site") {
+            return Err(Error::input(
+                t.header_at(),
+                "column mapping: a `site` column cannot be mapped when markers name their sites",
+            ));
+        }
+        map.markers
+            .iter()
+            .map(|(site, mapping)| {
+                let target = site_target(robot, site)
+                    .map_err(|m| Error::input(t.header_at(), format!("column mapping: {m}")))?;
+                marker_of(mapping, Some(target))
+            })
+            .collect::<Result<Vec<_>>>()?
+    };
+    if map.is_identity() {
+        // A plain file: every column must be one of kinecal's.
+        if let Some(h) = t
+            .header
+            .iter()
+            .find(|h| !h.is_empty() && !canonical.iter().any(|c| c.eq_ignore_ascii_case(h)))
+        {
+            let hint = if h.len() > 1
+                && h.starts_with(['v', 'V'])
+                && h[1..].parse::<usize>().is_ok_and(|j| j > n)
+            {
+                format!(" (the robot has {n} joints)")
+            } else {
+                String::new()
+            };
+            return Err(Error::input(
+                t.header_at().with_field(h.clone()),
+                format!(
+                    "unknown column `{h}`{hint}: expected {} (other layouts can be read through a \
+                     column mapping)",
+                    FORMAT.header.replace("v1..vn", &format!("v1..v{n}"))
+                ),
+            ));
+        }
+    }
+    t.check_rows()?;
+    for m in &markers {
+        let axes = m.cols[8..11].iter().filter(|c| c.is_some()).count();
+        if axes > 0 && axes < 3 {
+            return Err(Error::input(
+                t.header_at(),
+                "per-axis standard deviations: give all of sigma_x, sigma_y, sigma_z",
+            ));
+        }
+        if axes == 3 && m.cols[6].is_some() {
+            return Err(Error::input(
+                t.header_at().with_field(m.names[6].clone()),
+                "give sigma_position (every axis) or sigma_x, sigma_y, sigma_z (each axis), not \
+                 both",
+            ));
+        }
+    }
+    let units = map.units(robot);
+    let mut postures = PostureTable::with_capacity(t.rows().count());
+    let mut observations: Vec<Observation> = Vec::with_capacity(t.rows().count() * markers.len());
+    let mut seen = TargetsSeen::default();
+    let wide = !map.markers.is_empty();
+    let mut numbered = String::new();
+    for (row_number, (line, f)) in t.rows().enumerate() {
+        let label = match posture_col {
+            Some(i) => f.get(i),
+            None => {
+                numbered.clear();
+                numbered.push_str(&(row_number + 1).to_string());
+                &numbered
+            }
+        };
+        let mut values = Vec::with_capacity(reading_cols.len());
+        for (i, name) in &reading_cols {
+            values.push(t.number(line, name, &f[*i])?);
+        }
+        let field_of = |j: usize| reading_cols[j].1.clone();
+        let known = postures.postures.len();
+        let posture = postures.get_or_insert(&t, line, label, values, &field_of)?;
+        if let Some(i) = session_col {
+            let name = f.get(i).trim();
+            let name = match session_names.iter().find(|s| &***s == name) {
+                Some(s) => s.clone(),
+                None => {
+                    session_names.push(name.into());
+                    session_names.last().expect("pushed").clone()
+                }
+            };
+            let p = &mut postures.postures[posture];
+            let name = (!name.is_empty()).then_some(name);
+            match &p.session {
+                _ if posture == known => p.session = name,
+                Some(s) if Some(s) == name.as_ref() => {}
+                None if name.is_none() => {}
+                was => {
+                    let say = |s: Option<&std::sync::Arc<str>>| {
+                        s.map_or("no session".to_string(), |s| format!("session `{s}`"))
+                    };
+                    return Err(Error::input(
+                        t.at(line, &session_name),
+                        format!(
+                            "posture `{label}` is in {} on an earlier line and in {} here",
+                            say(was.as_ref()),
+                            say(name.as_ref())
+                        ),
+                    ));
+                }
+            }
+        }
+        for m in &markers {
+            let target = match m.target {
+                Some(t) => t,
+                None => match site_col {
+                    Some(i) => site_target(robot, &f[i])
+                        .map_err(|msg| Error::input(t.at(line, "site"), msg))?,
+                    None => Target::EndEffector,
+                },
+            };
+            let field = |k: usize| m.cols[k].map_or("", |i| f.get(i));
+            if wide && (0..3).all(|k| field(k).is_empty()) {
+                continue; // this marker was not measured in this row
+            }
+            let mut pos = [0.0; 3];
+            for (k, p) in pos.iter_mut().enumerate() {
+                *p = units.to_si(Quantity::Length, t.number(line, &m.names[k], field(k))?);
+            }
+            let angles = [field(3), field(4), field(5)];
+            let euler = if angles.iter().all(|a| a.is_empty()) {
+                None
+            } else {
+                let mut e = [0.0; 3];
+                for k in 0..3 {
+                    if angles[k].is_empty() {
+                        return Err(Error::input(
+                            t.at(line, &m.names[3 + k]),
+                            "empty angle: give all of alpha, beta, gamma (a full pose) or none (a \
+                             position)",
+                        ));
+                    }
+                    e[k] =
+                        units.to_si(Quantity::Angle, t.number(line, &m.names[3 + k], angles[k])?);
+                }
+                Some(Vector3::from(e))
+            };
+            let sigma_position = match m.cols[8] {
+                Some(_) => {
+                    let mut axes = [None; 3];
+                    for (k, a) in axes.iter_mut().enumerate() {
+                        *a = t.sigma(line, &m.names[8 + k], field(8 + k))?;
+                    }
+                    match axes {
+                        [Some(x), Some(y), Some(z)] => Some(Vector3::new(x, y, z)),
+                        [None, None, None] => None,
+                        _ => {
+                            return Err(Error::input(
+                                t.at(line, &m.names[8]),
+                                "give all of sigma_x, sigma_y, sigma_z in a row, or none",
+                            ))
+                        }
+                    }
+                }
+                None => t.sigma(line, &m.names[6], field(6))?.map(Vector3::repeat),
+            }
+            .map(|s| s.map(|v| units.to_si(Quantity::Length, v)));
+            let sigma_angle = t
+                .sigma(line, &m.names[7], field(7))?
+                .map(|s| units.to_si(Quantity::Angle, s));
+            if euler.is_none() && sigma_angle.is_some() {
+                return Err(Error::input(
+                    t.at(line, &m.names[7]),
+                    "sigma_angle on a position-only row (no alpha, beta, gamma)",
+                ));
+            }
+            if !seen.insert(posture, target) {
+                // The first measurement of the same target in the same posture.
+                let first = observations
+                    .iter()
+                    .find(|o| o.views()[0] == View { posture, target })
+                    .map_or(0, |o| o.line());
+                return Err(Error::input(
+                    Location::file(file).at_line(line),
+                    format!(
+                        "posture `{label}` measures {} twice (first on line {first})",
+                        target_name(robot, target)
+                    ),
+                ));
+            }
+            let view = [View { posture, target }];
+            let position = Vector3::from(pos);
+            observations.push(match euler {
+                Some(euler) => Pose {
+                    view,
+                    position,
+                    euler,
+                    sigma_position,
+                    sigma_angle,
+                    line,
+                }
+                .into(),
+                None => Position {
+                    view,
+                    position,
+                    sigma_position,
+                    line,
+                }
+                .into(),
+            });
+        }
+    }
+    if observations.is_empty() {
+        return Err(Error::input(
+            Location::file(file),
+            "no measurements: the file has a header but no rows",
+        ));
+    }
+    Ok(Dataset::new(postures.postures, observations))
+}
+
+/// Which targets each posture has a measurement of: a bit per target (the end effector and the
+/// first 63 sites) per posture, a set for the others.
+#[derive(Default)]
+struct TargetsSeen {
+    bits: Vec<u64>,
+    more: rustc_hash::FxHashSet<(usize, Target)>,
+}
+
+impl TargetsSeen {
+    /// Records `target` in `posture`; false if it was there already.
+    fn insert(&mut self, posture: usize, target: Target) -> bool {
+        let bit = match target {
+            Target::EndEffector => 0,
+            Target::Site(s) if s < 63 => s + 1,
+            Target::Site(_) => return self.more.insert((posture, target)),
+        };
+        if self.bits.len() <= posture {
+            self.bits.resize(posture + 1, 0);
+        }
+        let new = self.bits[posture] & (1 << bit) == 0;
+        self.bits[posture] |= 1 << bit;
+        new
+    }
+}
+
+/// Parses a postures file (`posture,v1,...,vn`) for `robot`. A measurement file is accepted too
+/// (its readings are used).
+pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Posture>> {
+    let t = table::read(text, file)?;
+    if t.column("x").is_some() {
+        return Ok(parse_measurements(text, file, robot)?.postures);
+    }
+    let expected = postures_header(robot);
+    let got: Vec<String> = t.header.iter().map(|h| h.to_ascii_lowercase()).collect();
+    if got != expected {
+        return Err(Error::input(
+            t.header_at(),
+            format!(
+                "unexpected header `{}`: expected `{}`",
+                t.header.join(","),
+                expected.join(",")
+            ),
+        ));
+    }
+    t.check_rows()?;
+    let mut table = PostureTable::new();
+    for (line, f) in t.rows() {
+        let readings = (0..robot.dof())
+            .map(|j| t.number(line, &format!("v{}", j + 1), &f[1 + j]))
+            .collect::<Result<Vec<_>>>()?;
+        if table.contains(&f[0]) {
+            return Err(Error::input(
+                t.at(line, "posture"),
+                format!("posture `{}` listed twice", &f[0]),
+            ));
+        }
+        table.get_or_insert(&t, line, &f[0], readings, &|j| format!("v{}", j + 1))?;
+    }
+    if table.postures.is_empty() {
+        return Err(Error::input(
+            Location::file(file),
+            "no postures: the file has a header but no rows",
+        ));
+    }
+    Ok(table.postures)
+}
+
+/// Writes the poses and positions of `data` as a measurement file in `robot`'s units, with full
+/// precision (observations of other kinds are not written). The optional `sigma_position` and
+/// `sigma_angle` columns are written when some row has them (`sigma_x, sigma_y, sigma_z`
+/// instead of `sigma_position` when some row's axes differ).
+pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
+    let units = robot.units;
+    let with_sigma = data.observations.iter().any(|o| match o {
+        Observation::Pose(p) => p.sigma_position.is_some() || p.sigma_angle.is_some(),
+        Observation::Position(p) => p.sigma_position.is_some(),
+        _ => false,
+    });
+    let per_axis = data.observations.iter().any(|o| {
+        let s = match o {
+            Observation::Pose(p) => p.sigma_position,
+            Observation::Position(p) => p.sigma_position,
+            _ => None,
+        };
+        // Bit equality: one column is written only when it reproduces every axis exactly.
+        s.is_some_and(|s| s.x.to_bits() != s.y.to_bits() || s.x.to_bits() != s.z.to_bits())
+    });
+    let with_session = data.postures.iter().any(|p| p.session.is_some());
+    let mut header = measurement_header(robot);
+    if with_session {
+        header.insert(1, "session".into());
+    }
+    let mut out = header.join(",");
+    if with_sigma {
+        out.push_str(if per_axis {
+            ",sigma_x,sigma_y,sigma_z,sigma_angle"
+        } else {
+            ",sigma_position,sigma_angle"
+        });
+    }
+    out.push('\n');
+    let len = |v: f64| snap(units.from_si(Quantity::Length, v));
+    let ang = |v: f64| snap(units.from_si(Quantity::Angle, v));
+    let opt =
+        |v: Option<f64>, f: &dyn Fn(f64) -> f64| v.map_or(String::new(), |v| f(v).to_string());
+    for o in &data.observations {
+        let (view, position, euler, sp, sa) = match o {
+            Observation::Pose(p) => (
+                p.view[0],
+                p.position,
+                Some(p.euler),
+                p.sigma_position,
+                p.sigma_angle,
+            ),
+            Observation::Position(p) => (p.view[0], p.position, None, p.sigma_position, None),
+            _ => continue,
+        };
+        let p = &data.postures[view.posture];
+        let _ = write!(out, "{}", p.label);
+        if with_session {
+            let _ = write!(out, ",{}", p.session.as_deref().unwrap_or(""));
+        }
+        let _ = write!(out, ",{}", target_name(robot, view.target));
+        for v in &p.readings {
+            let _ = write!(out, ",{v}");
+        }
+        for k in 0..3 {
+            let _ = write!(out, ",{}", len(position[k]));
+        }
+        match euler {
+            Some(e) => {
+                for k in 0..3 {
+                    let _ = write!(out, ",{}", ang(e[k]));
+                }
+            }
+            None => out.push_str(",,,"),
+        }
+        if with_sigma {
+            match (per_axis, sp) {
+                (true, Some(s)) => {
+                    let _ = write!(out, ",{},{},{}", len(s.x), len(s.y), len(s.z));
+                }
+                (true, None) => out.push_str(",,,"),
+                (false, s) => {
+                    let _ = write!(out, ",{}", opt(s.map(|s| s.x), &len));
+                }
+            }
+            let _ = write!(out, ",{}", opt(sa, &ang));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Writes a postures file.
+pub fn write_postures(robot: &Robot, postures: &[Posture]) -> String {
+    let mut out = postures_header(robot).join(",");
+    out.push('\n');
+    for p in postures {
+        out.push_str(&p.label);
+        for v in &p.readings {
+            let _ = write!(out, ",{v}");
+        }
+        out.push('\n');
+    }
+    out
+}

@@ -1,0 +1,246 @@
+//! The observation files: CSV readers and writers of the measurement, postures, distance and
+//! contact files, each format told by its header ([`FORMATS`], [`detect_format`]). What the
+//! observations mean (their residuals and Jacobian rows) is [`crate::observe`]'s.
+//!
+//! Tables: a header naming the columns, `#` comment lines anywhere (also before the header),
+//! blank lines ignored, fields trimmed, the delimiter (`,`, `;` or tab) detected from the header
+//! line; in a `;` or tab separated file a number may be written with a decimal comma.
+//!
+//! Units: a file's numbers are in its robot file's units unless it states its own (a
+//! [`ColumnMap`]'s `length_unit` and `angle_unit`, or [`ReadOptions`]); readers return metres and
+//! radians, writers write the robot file's units with full precision. Frames: poses and
+//! positions are in the measurement frame, the global frame or that of the posture's session
+//! (`session` column; [`crate::robot::Session`]).
+//!
+//! The formats:
+//! - Measurement file ([`parse_measurements`], [`write_measurements`]): columns `posture, site,
+//!   v1..vn, x, y, z`, optionally `alpha, beta, gamma` (a row whose three angles are empty is a
+//!   position) and the row's own standard deviations, replacing the default weights for that
+//!   row: `sigma_position` (every axis) or `sigma_x, sigma_y, sigma_z` (each axis of the
+//!   measurement frame), and `sigma_angle`. Columns may come in any order; `site` may be left
+//!   out (every row is then the end effector, `ee`) and so may `posture` (each row is then its
+//!   own posture, numbered from 1). Rows of one posture must carry the same readings. A
+//!   [`ColumnMap`] reads files laid out otherwise, including several markers side by side in one
+//!   row.
+//! - Postures file ([`parse_postures`], [`write_postures`]): `posture,v1,...,vn`.
+//! - Distance file ([`parse_distances`]): `pair, site, a1..an, b1..bn, distance` and optionally
+//!   `sigma_position` (the row's own standard deviation of the distance). `a*` and `b*` are the
+//!   readings of the two postures, `site` as in measurement files (`ee` when left out). The two
+//!   postures of pair `P` are labelled `P/a` and `P/b`.
+//! - Contact file ([`parse_contacts`]): `posture, site, plane, v1..vn` and optionally `gap` (the
+//!   target's known distance from the plane along its normal: a probe ball's radius, a gauge
+//!   block; default 0) and `sigma_position` (the row's own standard deviation). `site` as in
+//!   measurement files (`ee` when left out); `plane` names a plane of the robot file and may be
+//!   left out when the robot has only one.
+
+mod contacts;
+mod distances;
+mod measurements;
+mod read;
+mod table;
+
+use std::fmt;
+
+use crate::error::{Error, Result};
+use crate::kinematics::Target;
+use crate::observe::{Dataset, Observation};
+use crate::robot::Robot;
+
+pub use contacts::parse_contacts;
+pub use distances::parse_distances;
+pub use measurements::{
+    parse_measurements, parse_measurements_mapped, parse_postures, postures_header,
+    write_measurements, write_postures, ColumnMap, NOT_READ,
+};
+pub use read::{
+    kind_index, read_files, read_observation_file, read_options, session_name, ObservationFile,
+    ReadSettings,
+};
+
+/// A file format of observations, for the command line and other front ends.
+#[derive(Clone, Copy)]
+pub struct Format {
+    /// The name of such files (`data`, `distances`, `contacts`); front ends name their options
+    /// after it.
+    pub option: &'static str,
+    /// One line for help texts.
+    pub help: &'static str,
+    /// The header, e.g. `posture,site,v1..vn,x,y,z[,alpha,beta,gamma]`.
+    pub header: &'static str,
+    /// The kinds of observation its rows become.
+    pub kinds: &'static [&'static str],
+    /// Columns that tell such a file by its header ([`detect_format`]); empty for the
+    /// measurement file, the format of any other header.
+    pub marks: &'static [&'static str],
+    /// Reads a file (`text`, named `file` in errors) for `robot`.
+    pub parse: fn(&str, &str, &Robot) -> Result<Dataset>,
+}
+
+impl fmt::Debug for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Format({})", self.option)
+    }
+}
+
+/// Every observation file format, the measurement file (`data`) first.
+pub const FORMATS: &[Format] = &[measurements::FORMAT, distances::FORMAT, contacts::FORMAT];
+
+/// The format of an observation file, told by its header (the first line that is not blank or
+/// a `#` comment): the first format all of whose [`Format::marks`] columns it names, else the
+/// measurement file. Returns the index into [`FORMATS`].
+pub fn detect_format(text: &str) -> usize {
+    let delimiter = table::detect_delimiter(text) as char;
+    let header: Vec<String> = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .unwrap_or("")
+        .trim_start_matches('\u{feff}')
+        .split(delimiter)
+        .map(|c| c.trim().trim_matches('"').to_ascii_lowercase())
+        .collect();
+    FORMATS
+        .iter()
+        .position(|f| !f.marks.is_empty() && f.marks.iter().all(|m| header.iter().any(|h| h == m)))
+        .unwrap_or(0)
+}
+
+/// How an observation file is read, beyond its header: the column mapping of a measurement
+/// file (which may state the file's units), the units of its numbers, and whether to read its
+/// poses as positions only.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadOptions {
+    /// The column mapping of a measurement file ([`ColumnMap`]); files of the other
+    /// formats are read by their own headers.
+    pub columns: ColumnMap,
+    /// The unit of the file's lengths, when not the robot file's (a mapping's `length_unit`
+    /// must agree).
+    pub length_unit: Option<crate::units::LengthUnit>,
+    /// The unit of the file's angles, when not the robot file's.
+    pub angle_unit: Option<crate::units::AngleUnit>,
+    /// Read poses as positions (their attitudes and `sigma_angle` left out).
+    pub position_only: bool,
+}
+
+impl ReadOptions {
+    /// The units of a file read with these options for `robot`; an error when the mapping and
+    /// the options state different ones.
+    pub fn units(&self, robot: &Robot, file: &str) -> Result<crate::units::Units> {
+        let conflict = |what: &str, a: String, b: String| {
+            Error::input(
+                crate::error::Location::file(file),
+                format!("the {what} unit is stated twice: `{a}` in the column mapping, `{b}` as an option"),
+            )
+        };
+        if let (Some(a), Some(b)) = (self.columns.length_unit, self.length_unit) {
+            if a != b {
+                return Err(conflict("length", a.to_string(), b.to_string()));
+            }
+        }
+        if let (Some(a), Some(b)) = (self.columns.angle_unit, self.angle_unit) {
+            if a != b {
+                return Err(conflict("angle", a.to_string(), b.to_string()));
+            }
+        }
+        Ok(crate::units::Units {
+            length: self
+                .columns
+                .length_unit
+                .or(self.length_unit)
+                .unwrap_or(robot.units.length),
+            angle: self
+                .columns
+                .angle_unit
+                .or(self.angle_unit)
+                .unwrap_or(robot.units.angle),
+        })
+    }
+}
+
+/// Reads an observation file of any format (told by its header, [`detect_format`]) for
+/// `robot`: `text`, named `file` in errors, its numbers in the units `opts` states (by default
+/// the robot file's), converted to metres and radians.
+pub fn read_observations(
+    text: &str,
+    file: &str,
+    robot: &Robot,
+    opts: &ReadOptions,
+) -> Result<Dataset> {
+    read_observations_as(text, file, robot, opts, detect_format(text))
+}
+
+/// [`read_observations`] as a file of the format `FORMATS[format]`, whatever its header (which
+/// that format's reader then checks).
+pub fn read_observations_as(
+    text: &str,
+    file: &str,
+    robot: &Robot,
+    opts: &ReadOptions,
+    format: usize,
+) -> Result<Dataset> {
+    let units = opts.units(robot, file)?;
+    // Every reader converts with its robot's units: give it the file's.
+    let mut reading = robot.clone();
+    reading.units = units;
+    let mut data = if format == 0 {
+        let mut columns = opts.columns.clone();
+        columns.length_unit = Some(units.length);
+        columns.angle_unit = Some(units.angle);
+        measurements::parse_measurements_mapped(text, file, &reading, &columns)?
+    } else {
+        let pairs = &opts.columns;
+        if !(pairs.shared.is_empty() && pairs.markers.is_empty()) {
+            return Err(Error::input(
+                crate::error::Location::file(file),
+                format!(
+                    "a column mapping applies to measurement files, and this is a {} file",
+                    FORMATS[format].option
+                ),
+            ));
+        }
+        (FORMATS[format].parse)(text, file, &reading)?
+    };
+    if opts.position_only {
+        for o in &mut data.observations {
+            if let Observation::Pose(p) = o {
+                *o = p.to_position().into();
+            }
+        }
+    }
+    Ok(data)
+}
+
+/// The target a `site` field names: the end effector when it is empty or `ee`, else the site of
+/// `robot` so called; otherwise the message of the error, which lists the robot's targets.
+fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
+    match name {
+        "" | "ee" => Ok(Target::EndEffector),
+        name => robot.site_index(name).map(Target::Site).ok_or_else(|| {
+            let known: Vec<&str> = std::iter::once("ee")
+                .chain(robot.sites.iter().map(|s| s.name.as_str()))
+                .collect();
+            format!(
+                "unknown site `{name}` (the robot file defines: {})",
+                known.join(", ")
+            )
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_are_told_by_their_header() {
+        let name = |t: &str| FORMATS[detect_format(t)].option;
+        assert_eq!(name("posture,site,v1,v2,x,y,z\n"), "data");
+        assert_eq!(
+            name("# ballbar\n\npair,a1,a2,b1,b2,distance\n"),
+            "distances"
+        );
+        assert_eq!(name("\u{feff}posture;plane;v1;v2\n"), "contacts");
+        assert_eq!(name("Point,J1,J2,X,Y,Z\n"), "data");
+        assert_eq!(name(""), "data");
+    }
+}

@@ -1,0 +1,368 @@
+//! What a calibration produced: the [`Outcome`] (the fit, its uncertainty, pruning, accuracy
+//! before and after on the identification and validation data, outliers, warnings) and its
+//! assembly into the report. Accuracies are in metres and radians; the report's figures are in
+//! the robot file's units.
+
+use std::sync::Arc;
+
+use crate::error::Result;
+use crate::estimation::{self, Calibration, Loss};
+use crate::observe::{Accuracy, Dataset};
+use crate::outliers::{self, Outlier};
+use crate::params::ParamId;
+use crate::problem::Problem;
+use crate::report::CalibrationReport;
+use crate::robot::Robot;
+use crate::source::Source;
+use crate::uncertainty::Uncertainty;
+use crate::units::Quantity;
+use crate::warning::Warning;
+
+use super::cross_validation::CrossValidation;
+use super::min_change::SolutionRule;
+use super::run::{SIGMAS_TOO_LARGE, SIGMAS_TOO_SMALL};
+use super::selection::refit_sessions;
+
+/// The pruned refit and what it removed.
+#[derive(Debug, Clone)]
+pub struct Pruning {
+    /// The significance threshold, in standard deviations.
+    pub k: f64,
+    /// The fit of every selected parameter, before pruning.
+    pub full: Calibration,
+    /// The full fit's report.
+    pub full_report: Box<CalibrationReport>,
+    /// The parameters removed, in removal order.
+    pub removed: Vec<ParamId>,
+}
+
+/// Accuracy before and after calibration on a dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checked {
+    /// Postures in the dataset.
+    pub postures: usize,
+    /// Observations in the dataset.
+    pub observations: usize,
+    /// With the nominal robot (the request's).
+    pub before: Accuracy,
+    /// With the solver's start, when it is not the nominal robot (its frames placed in
+    /// closed form first, or an initial guess).
+    pub start: Option<Accuracy>,
+    /// With the calibrated robot.
+    pub after: Accuracy,
+    /// The RMS of the residuals in their own standard deviations (each row's `sigma_*`, else
+    /// the weights), with the nominal robot: how far the errors are from what the stated
+    /// uncertainties allow (about 1 when they are right).
+    pub normalized_before: f64,
+    /// The same with the calibrated robot.
+    pub normalized_after: f64,
+}
+
+impl Checked {
+    /// `cal` checked on the data it was fitted to: its accuracies are already known.
+    /// Under least squares, the objectives before and after are the sums of squared
+    /// normalized residuals too.
+    fn fitted(cal: &Calibration, data: &Dataset) -> Checked {
+        let (before, after) = (cal.accuracy_before.clone(), cal.accuracy_after.clone());
+        if matches!(cal.options.loss, Loss::Squared) {
+            let m = data.rows().max(1) as f64;
+            return Checked {
+                postures: data.postures.len(),
+                observations: data.observations.len(),
+                before,
+                start: None,
+                after,
+                normalized_before: (cal.objective_before / m).sqrt(),
+                normalized_after: (cal.objective_after / m).sqrt(),
+            };
+        }
+        Checked {
+            before,
+            after,
+            ..Checked::new(cal, data, data, &cal.initial).0
+        }
+    }
+
+    /// `cal` checked on other data: one pass of forward kinematics per robot gives both the
+    /// accuracy and the normalized residuals. Sessions of `data` that neither the robots frame
+    /// nor `identification` has (a tracker moved since) first get their frames re-estimated on
+    /// `data` for each robot ([`refit_sessions`]); their names are returned.
+    fn new(
+        cal: &Calibration,
+        data: &Dataset,
+        identification: &Dataset,
+        nominal: &Robot,
+    ) -> (Checked, Vec<String>) {
+        let seen = identification.sessions();
+        let unseen: Vec<String> = data
+            .sessions()
+            .iter()
+            .filter(|s| cal.calibrated.session_index(s).is_none() && !seen.contains(s))
+            .map(|s| s.to_string())
+            .collect();
+        let refit = |r: &Robot| {
+            if unseen.is_empty() {
+                r.clone()
+            } else {
+                refit_sessions(r, data, &unseen, &cal.options)
+            }
+        };
+        let (initial, calibrated) = (refit(&cal.initial), refit(&cal.calibrated));
+        let nominal = (cal.initial != *nominal).then(|| refit(nominal));
+        // One table of the readings' sines and cosines serves both robots when the calibration
+        // kept the slopes and couplings.
+        let p = Problem::new(
+            &initial,
+            data,
+            &[],
+            cal.options.weights,
+            cal.options.orientation,
+        )
+        .with_reading_trig();
+        let mut r = vec![0.0; p.rows()];
+        let mut check = |robot: &Robot| {
+            let m = p.rows().max(1);
+            let (f, acc) = p.evaluate_checked(robot, &mut r);
+            ((f / m as f64).sqrt(), acc)
+        };
+        let (normalized_start, start) = check(&initial);
+        let (normalized_after, after) = check(&calibrated);
+        let (normalized_before, before, start) = match &nominal {
+            Some(n) => {
+                let (nb, b) = check(n);
+                (nb, b, Some(start))
+            }
+            None => (normalized_start, start, None),
+        };
+        (
+            Checked {
+                postures: data.postures.len(),
+                observations: data.observations.len(),
+                before,
+                start,
+                after,
+                normalized_before,
+                normalized_after,
+            },
+            unseen,
+        )
+    }
+}
+
+/// What a calibration produced.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The nominal robot of the request.
+    pub nominal: Robot,
+    /// The identification data (the request's data minus any hold-out).
+    pub data: Arc<Dataset>,
+    /// The validation data, when there was some.
+    pub validation_data: Option<Arc<Dataset>>,
+    /// The calibration (after pruning, when pruned).
+    pub calibration: Calibration,
+    /// Its uncertainty, linearised at the reference of the solution rule (the module's
+    /// linearisation rule); `None` when it cannot be computed
+    /// (a warning says why).
+    pub uncertainty: Option<Uncertainty>,
+    /// The pruning, when asked for.
+    pub pruning: Option<Pruning>,
+    /// Accuracy on the identification data.
+    pub identification: Checked,
+    /// Accuracy on the validation data.
+    pub validation: Option<Checked>,
+    /// Outliers of the identification data.
+    pub outliers: Vec<Outlier>,
+    /// Everything the user should know.
+    pub warnings: Vec<Warning>,
+    /// The closed-form placement of the measurement and target frames done first, when the
+    /// start was far ([`crate::registration`]).
+    pub registration: Option<crate::registration::Registration>,
+    /// The cross-validation, when asked for ([`Validation::Folds`](super::Validation::Folds)).
+    pub cross_validation: Option<CrossValidation>,
+    /// The report document.
+    pub report: CalibrationReport,
+}
+
+/// Assembles an outcome: validation, outliers, warnings, the report.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn finish(
+    nominal: Robot,
+    data: Arc<Dataset>,
+    validation_data: Option<Arc<Dataset>>,
+    cal: Calibration,
+    unc: Result<Uncertainty>,
+    pruning: Option<Pruning>,
+    outlier_sigmas: f64,
+    solution: SolutionRule,
+    sources: &[Source],
+    warnings: &mut Vec<Warning>,
+) -> Outcome {
+    warnings.extend(crate::sanity::check_result(
+        &nominal,
+        &cal.calibrated,
+        &cal.estimated,
+    ));
+    if cal.accuracy_after.orientations > 0
+        && cal.accuracy_after.rms_orientation > crate::sanity::ATTITUDE_LIMIT
+    {
+        warnings.push(Warning::AttitudesUnfit {
+            rms_deg: cal.accuracy_after.rms_orientation.to_degrees(),
+        });
+    }
+    if !cal.unfelt.is_empty() {
+        warnings.push(Warning::Unfelt {
+            parameters: cal
+                .unfelt
+                .iter()
+                .map(|&id| cal.calibrated.param_name(id))
+                .collect(),
+        });
+    }
+    let uncertainty = match unc {
+        Ok(u) => {
+            if u.dof > 0 && !(SIGMAS_TOO_LARGE..=SIGMAS_TOO_SMALL).contains(&u.variance_factor) {
+                warnings.push(Warning::SigmasOff {
+                    variance_factor: u.variance_factor,
+                });
+            }
+            for &(a, b, rho) in &u.correlations {
+                warnings.push(Warning::Correlated {
+                    a: a.to_string(),
+                    b: b.to_string(),
+                    rho,
+                });
+            }
+            for w in &u.analysis.warnings {
+                if !warnings.contains(w) {
+                    warnings.push(w.clone());
+                }
+            }
+            Some(u)
+        }
+        Err(e) => {
+            warnings.push(Warning::NoUncertainty {
+                reason: e.to_string(),
+            });
+            None
+        }
+    };
+    match cal.termination {
+        estimation::Termination::MaxIterations => warnings.push(Warning::NotConverged {
+            iterations: cal.iterations,
+        }),
+        estimation::Termination::Stalled => warnings.push(Warning::Stalled {
+            method: cal.options.solver.method.as_str().to_string(),
+        }),
+        _ => {}
+    }
+    let outliers = outliers::outliers_of_fit(&cal, &data, outlier_sigmas);
+    let mut identification = Checked::fitted(&cal, &data);
+    let validation = validation_data
+        .as_ref()
+        .map(|v| Checked::new(&cal, v, &data, &nominal));
+    let mut report = CalibrationReport::new(&cal, &data);
+    // The solver started elsewhere than the nominal robot (frames placed in closed form, an
+    // initial guess): "before" is the nominal robot, the start is said apart.
+    let nominal_figures = (cal.initial != nominal).then(|| {
+        let p = Problem::new(
+            &nominal,
+            &data,
+            &[],
+            cal.options.weights,
+            cal.options.orientation,
+        );
+        let mut r = vec![0.0; p.rows()];
+        p.evaluate_checked(&nominal, &mut r)
+    });
+    if let Some((objective, accuracy)) = &nominal_figures {
+        report.set_nominal(*objective, accuracy, &nominal.units);
+        identification.start = Some(std::mem::replace(
+            &mut identification.before,
+            accuracy.clone(),
+        ));
+        identification.normalized_before = (objective / data.rows().max(1) as f64).sqrt();
+    }
+    report.set_normalized([
+        identification.normalized_before,
+        identification.normalized_after,
+    ]);
+    report.set_outliers(
+        &outliers,
+        &data,
+        &cal.calibrated,
+        outliers::threshold(outlier_sigmas, data.rows()),
+    );
+    if let Some((v, refitted)) = &validation {
+        report.set_validation(
+            v.postures,
+            v.observations,
+            &v.before,
+            &v.after,
+            [v.normalized_before, v.normalized_after],
+            &cal.calibrated,
+        );
+        report.set_validation_sessions(refitted.clone());
+        if let Some(s) = &v.start {
+            report.set_validation_start(s, &nominal.units);
+        }
+    }
+    let validation = validation.map(|(v, _)| v);
+    if let Some(v) = &validation {
+        let len = |x: f64| cal.calibrated.units.from_si(Quantity::Length, x);
+        let mut worse = |metric: &str, before: f64, after: f64| {
+            // Beyond rounding: a held-out error that grew by more than a part in a million.
+            if after > before * (1.0 + 1e-6) {
+                warnings.push(Warning::WorseOnValidation {
+                    metric: metric.to_string(),
+                    before: len(before),
+                    after: len(after),
+                    unit: cal.calibrated.units.length.to_string(),
+                });
+            }
+        };
+        // Against the start when it is not the nominal robot (a nominal whose frames were far
+        // off says nothing).
+        let base = v.start.as_ref().unwrap_or(&v.before);
+        if base.positions > 0 {
+            worse("position", base.mean_position, v.after.mean_position);
+        }
+        for (b, a) in base.other.iter().zip(&v.after.other) {
+            worse(b.metric, b.mean, a.mean);
+        }
+    }
+    if let Some(u) = &uncertainty {
+        report.set_uncertainty(&cal, u);
+    }
+    if let Some(p) = &pruning {
+        report.set_pruning(p.k, &p.removed, &p.full);
+    }
+    report.set_warnings(warnings);
+    report.set_sources(sources);
+    report.set_solution(solution.as_str());
+    Outcome {
+        nominal,
+        data,
+        validation_data,
+        calibration: cal,
+        uncertainty,
+        pruning,
+        identification,
+        validation,
+        outliers,
+        warnings: std::mem::take(warnings),
+        registration: None,
+        cross_validation: None,
+        report,
+    }
+}
+
+/// Warnings about the data itself: units that do not match the robot file's, readings the
+/// robot cannot take ([`crate::sanity`]; `predicted`: `robot`'s points,
+/// [`crate::sanity::predicted`]).
+pub(super) fn data_warnings(
+    robot: &Robot,
+    data: &Dataset,
+    predicted: &[[nalgebra::Vector3<f64>; 2]],
+) -> Vec<Warning> {
+    crate::sanity::check_data_with(robot, data, predicted)
+}

@@ -1,0 +1,610 @@
+//! The run of a calibration: a [`Request`] (robot, data, what to estimate, how, what to check
+//! it on) in, an [`Outcome`] out, with the [`Progress`] of its phases.
+
+use std::sync::Arc;
+
+use crate::error::{Error, Result};
+use crate::estimation::{self, Calibration, CalibrationOptions, Iteration, Loss, SolverOptions};
+use crate::identifiability::{self, AnalysisOptions};
+use crate::observe::{Dataset, OrientationError, Weights};
+use crate::outliers;
+use crate::params::{ParamId, ParamKind};
+use crate::problem::{Linearized, Problem};
+use crate::robot::Robot;
+use crate::source::Source;
+use crate::uncertainty;
+use crate::units::{wrap_angle, Quantity};
+use crate::warning::Warning;
+
+use super::cross_validation::{cross_validate, cross_validation_report};
+use super::min_change::{project_min_change, SolutionRule};
+use super::outcome::{data_warnings, finish, Outcome, Pruning};
+use super::selection::{default_parameters, resolve_linearized, session_frames_for, Selection};
+
+/// Held-out data to check the calibration on.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Validation {
+    /// None.
+    #[default]
+    None,
+    /// A separate dataset (shared, not copied, into the outcome).
+    Data(Arc<Dataset>),
+    /// A fraction of the posture groups (postures an observation links stay together), drawn
+    /// with a seed.
+    Holdout {
+        /// Fraction, strictly between 0 and 1.
+        fraction: f64,
+        /// Seed of the draw.
+        seed: u64,
+    },
+    /// Cross-validation: the calibration is made on all the data, and the same request run
+    /// on `k` training folds, each checked on the postures it left out ([`Dataset::folds`]:
+    /// interleaved in posture order, or shuffled with `seed`).
+    Folds {
+        /// Number of folds, at least 2.
+        k: usize,
+        /// Shuffle seed; `None` interleaves in posture order.
+        seed: Option<u64>,
+    },
+}
+
+/// Everything that decides a calibration.
+#[derive(Debug, Clone)]
+pub struct Request {
+    /// The nominal robot: the model, the starting point unless `initial` is given, and the
+    /// reference of minimum-change answers. The uncertainty is linearised at the reference of
+    /// the solution rule (this robot, or `initial` under the solver rule: see the module's
+    /// linearisation rule).
+    pub robot: Robot,
+    /// The observations (shared, not copied, into the outcome).
+    pub data: Arc<Dataset>,
+    /// What to estimate.
+    pub selection: Selection,
+    /// Start the solver from this robot's parameter values instead (same structure).
+    pub initial: Option<Robot>,
+    /// Method and stopping rules.
+    pub solver: SolverOptions,
+    /// Least squares or Huber.
+    pub loss: Loss,
+    /// Default residual weights.
+    pub weights: Weights,
+    /// Orientation residuals.
+    pub orientation: OrientationError,
+    /// Which of equally good answers.
+    pub solution: SolutionRule,
+    /// Remove, one at a time, changes below this many standard deviations, refitting after
+    /// each.
+    pub prune: Option<f64>,
+    /// Held-out data.
+    pub validation: Validation,
+    /// Outlier threshold, in robust standard deviations.
+    pub outlier_sigmas: f64,
+    /// Parameters to prefer in an identifiable set, most preferred first.
+    pub priority: Vec<ParamId>,
+    /// Relative singular-value tolerance of the identifiability analysis.
+    pub rank_rcond: f64,
+    /// The files read (for the report's fingerprints): the robot file first, then the data.
+    pub sources: Vec<Source>,
+}
+
+impl Request {
+    /// Default settings: the default parameters by Levenberg-Marquardt, least squares, default
+    /// weights and rotation-vector residuals, the solver's answer, no pruning or validation.
+    pub fn new(robot: Robot, data: impl Into<Arc<Dataset>>) -> Request {
+        Request {
+            robot,
+            data: data.into(),
+            selection: Selection::default(),
+            initial: None,
+            solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
+            loss: Loss::Squared,
+            weights: Weights::default(),
+            orientation: OrientationError::RotVec,
+            solution: SolutionRule::Solver,
+            prune: None,
+            validation: Validation::None,
+            outlier_sigmas: outliers::DEFAULT_SIGMAS,
+            priority: Vec::new(),
+            rank_rcond: identifiability::DEFAULT_RANK_RCOND,
+            sources: Vec::new(),
+        }
+    }
+
+    fn analysis_options(&self) -> AnalysisOptions {
+        AnalysisOptions {
+            rcond: self.rank_rcond,
+            weights: self.weights,
+            orientation: self.orientation,
+            priority: self.priority.clone(),
+            noise_scale: 1.0,
+        }
+    }
+}
+
+/// The phases of a calibration, for progress displays and the report's timings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// Checking the data and placing the measurement frame (before the first other phase).
+    Preparation,
+    /// Choosing the identifiable parameters.
+    Selection,
+    /// Estimating (iterations follow).
+    Estimation,
+    /// Computing the uncertainty.
+    Uncertainty,
+    /// Pruning (refits follow).
+    Pruning,
+    /// Validation, outliers and the report.
+    Report,
+    /// Cross-validation (a calibration per fold).
+    CrossValidation,
+}
+
+impl Phase {
+    /// The phase's name in reports (`estimation`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Phase::Preparation => "preparation",
+            Phase::Selection => "selection",
+            Phase::Estimation => "estimation",
+            Phase::Uncertainty => "uncertainty",
+            Phase::Pruning => "pruning",
+            Phase::Report => "report",
+            Phase::CrossValidation => "cross-validation",
+        }
+    }
+}
+
+/// Passes progress on, and clocks each phase (wall time).
+struct Clock<'a> {
+    inner: &'a mut dyn Progress,
+    current: (Phase, std::time::Instant),
+    times: Vec<(Phase, f64)>,
+}
+
+impl Clock<'_> {
+    fn lap(&mut self, next: Phase) {
+        let (phase, since) =
+            std::mem::replace(&mut self.current, (next, std::time::Instant::now()));
+        let t = since.elapsed().as_secs_f64();
+        match self.times.iter_mut().find(|(p, _)| *p == phase) {
+            Some(e) => e.1 += t,
+            None => self.times.push((phase, t)),
+        }
+    }
+}
+
+impl Progress for Clock<'_> {
+    fn phase(&mut self, phase: Phase) {
+        self.lap(phase);
+        self.inner.phase(phase);
+    }
+    fn iteration(&mut self, it: &Iteration) {
+        self.inner.iteration(it);
+    }
+    fn data_checked(&mut self, warnings: &[Warning]) -> bool {
+        self.inner.data_checked(warnings)
+    }
+}
+
+/// Receives the progress of a calibration. Every method does nothing by default.
+pub trait Progress {
+    /// A phase starts.
+    fn phase(&mut self, _phase: Phase) {}
+    /// An iteration of the solver ended.
+    fn iteration(&mut self, _it: &Iteration) {}
+    /// The data was checked against the nominal robot before any solving (units, attitudes,
+    /// readings; [`crate::sanity::check_data`]): `warnings` are what was found, empty when all
+    /// is well. Returning false stops the run there ([`Error::Stopped`]), e.g. for a caller
+    /// that treats a warning saying the result would be wrong ([`Warning::implausible`]) as
+    /// fatal.
+    fn data_checked(&mut self, _warnings: &[Warning]) -> bool {
+        true
+    }
+}
+
+/// No progress display.
+impl Progress for () {}
+
+/// Runs a calibration.
+///
+/// The report's `timings` give the wall time of each [`Phase`] that ran.
+pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
+    let mut clock = Clock {
+        inner: progress,
+        current: (Phase::Preparation, std::time::Instant::now()),
+        times: Vec::new(),
+    };
+    let mut outcome = run_clocked(req, &mut clock)?;
+    clock.lap(Phase::Report);
+    outcome.report.timings = clock
+        .times
+        .iter()
+        .map(|&(p, seconds)| crate::report::PhaseTime {
+            phase: p.as_str().to_string(),
+            seconds,
+        })
+        .collect();
+    Ok(outcome)
+}
+
+fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
+    if !(req.outlier_sigmas.is_finite() && req.outlier_sigmas > 0.0) {
+        return Err(Error::InvalidOption {
+            setting: crate::error::Setting::OutlierThreshold,
+            message: format!(
+                "expected a positive number of standard deviations, got {}",
+                req.outlier_sigmas
+            ),
+        });
+    }
+    if let Some(k) = req.prune {
+        if !(k.is_finite() && k > 0.0) {
+            return Err(Error::InvalidOption {
+                setting: crate::error::Setting::PruningThreshold,
+                message: format!("expected a positive number of standard deviations, got {k}"),
+            });
+        }
+    }
+    if !(req.solver.rcond > 0.0 && req.solver.rcond < 1.0) {
+        return Err(Error::InvalidOption {
+            setting: crate::error::Setting::Rcond,
+            message: format!(
+                "expected a number between 0 and 1, got {}",
+                req.solver.rcond
+            ),
+        });
+    }
+    if req.data.is_empty() {
+        return Err(Error::Problem("no observations to calibrate from".into()));
+    }
+    let (data, validation_data) = match &req.validation {
+        Validation::None => (req.data.clone(), None),
+        Validation::Data(v) => (req.data.clone(), Some(v.clone())),
+        Validation::Holdout { fraction, seed } => {
+            if !(*fraction > 0.0 && *fraction < 1.0) {
+                return Err(Error::InvalidOption {
+                    setting: crate::error::Setting::HoldoutFraction,
+                    message: format!("expected a fraction between 0 and 1, got {fraction}"),
+                });
+            }
+            let (ident, held) = req.data.split(*fraction, *seed);
+            if held.is_empty() || ident.is_empty() {
+                return Err(Error::InvalidOption {
+                    setting: crate::error::Setting::HoldoutFraction,
+                    message: format!("{fraction} leaves an empty identification or validation set"),
+                });
+            }
+            (Arc::new(ident), Some(Arc::new(held)))
+        }
+        Validation::Folds { .. } => (req.data.clone(), None),
+    };
+    // Sessions of the data with a measurement frame of their own: added to the model (the first
+    // session, or the postures without one, are in the global frame).
+    let with_frames;
+    let req = match session_frames_for(&req.robot, &data) {
+        Some(robot) => {
+            with_frames = Request {
+                robot,
+                ..req.clone()
+            };
+            &with_frames
+        }
+        None => req,
+    };
+    let start = match &req.initial {
+        None => req.robot.clone(),
+        Some(guess) => {
+            if !req.robot.same_structure(guess) {
+                return Err(Error::Problem(
+                    "the initial guess does not have the nominal robot's structure (joints, \
+                     couplings, sites, planes)"
+                        .into(),
+                ));
+            }
+            let mut start = req.robot.clone();
+            for id in req
+                .robot
+                .param_ids()
+                .filter(|id| id.0 < guess.param_count())
+            {
+                start.set(id, guess.get(id));
+            }
+            for (p, g) in start.planes.iter_mut().zip(&guess.planes) {
+                // Tilts are relative to each file's own reference normal.
+                p.set_normal(&g.normal());
+            }
+            start
+        }
+    };
+    // Where the nominal robot puts the observed points: one pass, for the checks of the data
+    // against it (scale) and, when the start is the nominal robot, of the start's distance.
+    let nominal_points = crate::sanity::predicted(&req.robot, &data);
+    // The data against the nominal robot, before any solving: a unit mix-up is named now, not
+    // after a solve that could not have made sense of it.
+    let data_warns = data_warnings(&req.robot, &data, &nominal_points);
+    if !progress.data_checked(&data_warns) {
+        return Err(Error::Stopped {
+            after: "the checks of the data against the nominal robot",
+        });
+    }
+    let start_points = if start == req.robot {
+        None
+    } else {
+        Some(crate::sanity::predicted(&start, &data))
+    };
+    let start_points = start_points.as_deref().unwrap_or(&nominal_points);
+    // A far start (a measurement frame placed roughly or not at all): place the measurement
+    // frame and the measured frames in closed form first, among the parameters that may move.
+    let candidates: Vec<ParamId> = match &req.selection {
+        Selection::List(ids) => ids.clone(),
+        Selection::Default { fix } | Selection::Identifiable { fix, .. } => {
+            let (mut ids, _) = default_parameters(&start, &data);
+            if let Selection::Identifiable { with, .. } = &req.selection {
+                ids.extend(with.iter().copied());
+            }
+            ids.retain(|id| !fix.contains(id));
+            ids
+        }
+    };
+    let registration =
+        crate::registration::register_far_start_with(&start, &data, &candidates, start_points);
+    let start = match &registration {
+        Some(r) => r.robot.clone(),
+        None => start,
+    };
+    // Each session's frame placed in closed form (they start unknown).
+    let session_ids: Vec<ParamId> = start
+        .param_ids()
+        .filter(|&id| matches!(start.param_kind(id), ParamKind::Session { .. }))
+        .collect();
+    let sessions_placed = crate::registration::place_sessions(&start, &data, &session_ids);
+    let placed = registration.is_some() || sessions_placed.is_some();
+    let start = match sessions_placed {
+        Some((placed, _, _)) => placed,
+        None => start,
+    };
+    // Placed in closed form, the frames are then fitted by least squares with the robot held
+    // (a rigid fit of the nominal robot: the measurement frames, the measured targets' frames),
+    // so that the solver starts, and "start" is reported, at the nominal robot's best placement.
+    let start = if placed {
+        rigid_fit(&start, &data, &candidates, req)
+    } else {
+        start
+    };
+    let reference = match req.solution {
+        SolutionRule::MinChange => &req.robot,
+        SolutionRule::Solver => &start,
+    };
+    if matches!(req.selection, Selection::Identifiable { .. }) {
+        progress.phase(Phase::Selection);
+    }
+    let (estimate, unseen, lin) =
+        resolve_linearized(&req.selection, reference, &data, &req.analysis_options())?;
+    // The analysis linearised the problem at the reference: the solver's start when they are
+    // the same robot (and the loss starts as least squares, which it always does).
+    let lin = lin.filter(|_| *reference == start);
+    let opts = CalibrationOptions {
+        estimate,
+        solver: req.solver,
+        weights: req.weights,
+        orientation: req.orientation,
+        loss: req.loss,
+    };
+    progress.phase(Phase::Estimation);
+    let mut opts = opts;
+    let mut cal = fit(req, &start, &data, &opts, lin.as_ref(), progress)?;
+    // The noise-level rule judged the set at the stated sigmas. Residuals far beyond them (a
+    // tracker's own sigmas under a model error ten times larger) show the rows' real noise:
+    // the set is chosen again at it, and fitted again when that leaves parameters out (those
+    // only the stated precision made look determined, along whose valley the solver crawls).
+    let mut rechosen = None;
+    if matches!(req.selection, Selection::Identifiable { .. }) {
+        let (m, n) = (cal.residuals.len(), opts.estimate.len());
+        let vf = if m > n {
+            cal.objective_after / (m - n) as f64
+        } else {
+            f64::NAN
+        };
+        if vf > SIGMAS_TOO_SMALL {
+            let aopts = AnalysisOptions {
+                noise_scale: vf.sqrt(),
+                ..req.analysis_options()
+            };
+            progress.phase(Phase::Selection);
+            let (estimate, _, lin) = resolve_linearized(&req.selection, reference, &data, &aopts)?;
+            if estimate != opts.estimate {
+                let left_out = opts
+                    .estimate
+                    .iter()
+                    .filter(|id| !estimate.contains(id))
+                    .map(|&id| req.robot.param_name(id))
+                    .collect();
+                let lin = lin.filter(|_| *reference == start);
+                opts.estimate = estimate;
+                progress.phase(Phase::Estimation);
+                cal = fit(req, &start, &data, &opts, lin.as_ref(), progress)?;
+                rechosen = Some(Warning::ChosenAtResidualNoise {
+                    scale: vf.sqrt(),
+                    left_out,
+                });
+            }
+        }
+    }
+    let mut pruning = None;
+    if let Some(k) = req.prune {
+        progress.phase(Phase::Pruning);
+        let full = cal.clone();
+        let mut removed = Vec::new();
+        while let Ok(u) = uncertainty::uncertainty_of_fit(&cal, &data, reference) {
+            let weakest = u
+                .parameters
+                .iter()
+                .filter_map(|p| p.significance.map(|s| (p.id, s)))
+                .filter(|&(_, s)| s < k)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((id, _)) = weakest else { break };
+            let mut o = cal.options.clone();
+            o.estimate.retain(|&p| p != id);
+            if o.estimate.is_empty() {
+                break;
+            }
+            removed.push(id);
+            cal = fit(req, &start, &data, &o, lin.as_ref(), &mut ())?;
+        }
+        let full_outcome = finish(
+            req.robot.clone(),
+            data.clone(),
+            validation_data.clone(),
+            full.clone(),
+            uncertainty::uncertainty_of_fit(&full, &data, reference),
+            None,
+            req.outlier_sigmas,
+            req.solution,
+            &req.sources,
+            &mut data_warns.clone(),
+        );
+        pruning = Some(Pruning {
+            k,
+            full,
+            full_report: Box::new(full_outcome.report),
+            removed,
+        });
+    }
+    progress.phase(Phase::Uncertainty);
+    let mut warnings = data_warns;
+    warnings.extend(rechosen);
+    if !unseen.is_empty() {
+        warnings.insert(
+            0,
+            Warning::Unseen {
+                parameters: unseen.iter().map(|&id| req.robot.param_name(id)).collect(),
+            },
+        );
+    }
+    let unc = uncertainty::uncertainty_of_fit(&cal, &data, reference);
+    progress.phase(Phase::Report);
+    let mut outcome = finish(
+        req.robot.clone(),
+        data,
+        validation_data,
+        cal,
+        unc,
+        pruning,
+        req.outlier_sigmas,
+        req.solution,
+        &req.sources,
+        &mut warnings,
+    );
+    if let Some(r) = &registration {
+        let len = |v: f64| req.robot.units.from_si(Quantity::Length, v);
+        outcome.report.start_placement = Some(crate::report::StartPlacement {
+            rms_before: len(r.rms_before),
+            rms_after: len(r.rms_after),
+        });
+    }
+    outcome.registration = registration;
+    if let Validation::Folds { k, seed } = req.validation {
+        progress.phase(Phase::CrossValidation);
+        let cv = cross_validate(req, k, seed)?;
+        outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot));
+        outcome.cross_validation = Some(cv);
+    }
+    Ok(outcome)
+}
+
+/// A variance factor above this says the stated sigmas are more than 10 times too small
+/// ([`Warning::SigmasOff`]); the identifiable set is then chosen again at the residuals' noise.
+pub const SIGMAS_TOO_SMALL: f64 = 100.0;
+
+/// A variance factor below this says the stated sigmas are more than 10 times too large
+/// ([`Warning::SigmasOff`]). The set is not chosen again then: the rule at overstated noise
+/// errs towards fewer parameters, which the warning names.
+pub const SIGMAS_TOO_LARGE: f64 = 0.01;
+
+/// `robot` with its rigid frames fitted to `data` by least squares, the rest held: the first
+/// link (the measurement frame), the last link and the sites (the measured targets' frames) and
+/// the sessions' frames, those of them among `candidates`; `robot` itself when the fit does not
+/// lower the objective.
+fn rigid_fit(robot: &Robot, data: &Dataset, candidates: &[ParamId], req: &Request) -> Robot {
+    let last = robot.links.len() - 1;
+    let ids: Vec<ParamId> = candidates
+        .iter()
+        .copied()
+        .filter(|&id| {
+            matches!(
+                robot.param_kind(id),
+                ParamKind::Link { link: 0, .. }
+                    | ParamKind::Site { .. }
+                    | ParamKind::Session { .. }
+            ) || matches!(robot.param_kind(id), ParamKind::Link { link, .. } if link == last)
+        })
+        .collect();
+    if ids.is_empty() {
+        return robot.clone();
+    }
+    let mut ids = ids;
+    ids.sort();
+    ids.dedup();
+    let opts = CalibrationOptions {
+        estimate: ids,
+        solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
+        weights: req.weights,
+        orientation: req.orientation,
+        loss: Loss::Squared,
+    };
+    match estimation::calibrate(robot, data, &opts, &mut |_| {}) {
+        Ok(c) if c.objective_after < c.objective_before && c.calibrated.validate().is_ok() => {
+            c.calibrated
+        }
+        _ => robot.clone(),
+    }
+}
+
+/// Estimates, then applies the solution rule.
+fn fit(
+    req: &Request,
+    start: &Robot,
+    data: &Dataset,
+    opts: &CalibrationOptions,
+    lin: Option<&Linearized>,
+    progress: &mut dyn Progress,
+) -> Result<Calibration> {
+    let mut cal =
+        estimation::calibrate_from(start, data, opts, &mut |it| progress.iteration(it), lin)?;
+    if req.solution == SolutionRule::MinChange {
+        let problem = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
+        let problem = problem.with_row_scale(&cal.row_scale);
+        let mut x = problem.values(&cal.calibrated);
+        for _round in 0..10 {
+            let (projected, size) = project_min_change(&problem, &x, &req.robot, data, opts)?;
+            let again = estimation::solve(&problem, &projected, &opts.solver, &mut |it| {
+                cal.log.push(*it);
+                progress.iteration(it)
+            })?;
+            x = again.x;
+            cal.iterations += again.iterations;
+            cal.termination = again.termination;
+            if size < 1e-9 {
+                break;
+            }
+        }
+        let mut calibrated = problem.robot_at(&x);
+        for &id in &opts.estimate {
+            if start.param_quantity(id) == Quantity::Angle {
+                let v0 = start.get(id);
+                calibrated.set(id, v0 + wrap_angle(calibrated.get(id) - v0));
+            }
+        }
+        let plain = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
+        (cal.objective_after, cal.accuracy_after) = estimation::settle(
+            &plain,
+            &calibrated,
+            opts.loss,
+            &cal.row_scale,
+            &mut cal.residuals,
+        );
+        cal.calibrated = calibrated;
+    }
+    Ok(cal)
+}

@@ -1,0 +1,284 @@
+//! Which parameters to estimate: a [`Selection`] and what it stands for on a dataset (the default
+//! set, a list, or the identifiable set of one), and the measurement frames of a dataset's
+//! sessions.
+
+use crate::error::{Error, Result};
+use crate::estimation::{self, CalibrationOptions, Loss};
+use crate::identifiability::{self, AnalysisOptions};
+use crate::observe::Dataset;
+use crate::param_list::parse_param_list;
+use crate::params::{ParamId, ParamKind};
+use crate::problem::Linearized;
+use crate::robot::Robot;
+
+/// Which parameters to estimate.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Selection {
+    /// The default set (see [`default_parameters`]) minus `fix`.
+    Default {
+        /// Parameters held.
+        fix: Vec<ParamId>,
+    },
+    /// These parameters.
+    List(Vec<ParamId>),
+    /// The identifiable (base) set of the default parameters and `with`, minus `fix`, as the
+    /// data at the reference robot determines it (see [`crate::identifiability`]).
+    Identifiable {
+        /// Parameters added to the default set before the selection (`identifiable,slopes`).
+        with: Vec<ParamId>,
+        /// Parameters held.
+        fix: Vec<ParamId>,
+    },
+}
+
+impl Default for Selection {
+    fn default() -> Self {
+        Selection::Default { fix: Vec::new() }
+    }
+}
+
+impl Selection {
+    /// Parses a parameter list (see [`crate::param_list`]) and the parameters to hold. An empty
+    /// list is the default set. The keyword `identifiable` asks for the identifiable set of the
+    /// union of the default set and the other entries: `identifiable` alone is that of the
+    /// default set, `identifiable,slopes` adds the slopes first, `all,identifiable` is that of
+    /// every parameter.
+    pub fn parse(estimate: &str, fix: Option<&str>, robot: &Robot) -> Result<Selection> {
+        let tokens: Vec<&str> = if estimate.trim().is_empty() {
+            Vec::new()
+        } else {
+            estimate.split(',').map(str::trim).collect()
+        };
+        let identifiable = tokens.contains(&"identifiable");
+        let rest: Vec<&str> = tokens
+            .iter()
+            .copied()
+            .filter(|t| *t != "identifiable")
+            .collect();
+        let listed = if rest.is_empty() {
+            Vec::new()
+        } else {
+            parse_param_list(&rest.join(","), robot)?
+        };
+        let fix = match fix {
+            Some(f) => parse_param_list(f, robot)?,
+            None => Vec::new(),
+        };
+        Ok(if identifiable {
+            Selection::Identifiable { with: listed, fix }
+        } else if rest.is_empty() {
+            Selection::Default { fix }
+        } else {
+            let mut ids = listed;
+            ids.retain(|id| !fix.contains(id));
+            if ids.is_empty() {
+                // Say why: a group this robot has none of, or everything listed also fixed.
+                let empty: Vec<&str> = rest
+                    .iter()
+                    .map(|t| t.trim())
+                    .filter(|t| parse_param_list(t, robot).is_ok_and(|v| v.is_empty()))
+                    .collect();
+                let message = if empty.is_empty() {
+                    "no parameter is left to estimate (every listed parameter is also fixed)"
+                        .to_string()
+                } else {
+                    format!(
+                        "no parameter to estimate: this robot has no {} (none declared in its file)",
+                        empty
+                            .iter()
+                            .map(|g| match *g {
+                                "couplings" => "coupled joints",
+                                "planes" => "planes",
+                                "sites" => "sites",
+                                g => g,
+                            })
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                };
+                return Err(Error::ParamList {
+                    list: estimate.to_string(),
+                    message,
+                });
+            }
+            Selection::List(ids)
+        })
+    }
+}
+
+/// The parameters a selection stands for on `data`, analysed at `robot` with `opts` (sorted),
+/// and the default parameters left out because no observation sees them.
+pub fn resolve(
+    selection: &Selection,
+    robot: &Robot,
+    data: &Dataset,
+    opts: &AnalysisOptions,
+) -> Result<(Vec<ParamId>, Vec<ParamId>)> {
+    resolve_linearized(selection, robot, data, opts).map(|(ids, unseen, _)| (ids, unseen))
+}
+
+/// [`resolve`], with the linearisation the identifiability analysis made at `robot` (over the
+/// candidates) when it ran: a fit starting at `robot` needs no first pass.
+pub(super) fn resolve_linearized(
+    selection: &Selection,
+    robot: &Robot,
+    data: &Dataset,
+    opts: &AnalysisOptions,
+) -> Result<(Vec<ParamId>, Vec<ParamId>, Option<Linearized>)> {
+    let mut lin = None;
+    let (mut ids, unseen) = match selection {
+        Selection::Default { fix } => {
+            let (mut ids, unseen) = default_parameters(robot, data);
+            ids.retain(|id| !fix.contains(id));
+            (ids, unseen)
+        }
+        Selection::List(ids) => (ids.clone(), Vec::new()),
+        Selection::Identifiable { with, fix } => {
+            let (mut ids, unseen) = default_parameters(robot, data);
+            ids.extend(with.iter().copied());
+            ids.sort();
+            ids.dedup();
+            ids.retain(|id| !fix.contains(id));
+            if ids.is_empty() {
+                return Err(Error::NothingToEstimate);
+            }
+            let (analysis, at) = identifiability::analyze_linearized(robot, data, &ids, opts)?;
+            lin = Some(at);
+            (analysis.identifiable, unseen)
+        }
+    };
+    ids.sort();
+    ids.dedup();
+    if ids.is_empty() {
+        return Err(Error::NothingToEstimate);
+    }
+    Ok((ids, unseen, lin))
+}
+
+/// The default parameters on `data`: every link and site parameter and every joint offset, and
+/// the slopes unless every slope is 1 in the file's units (readings that are already joint
+/// values); coupling factors and planes only when named. Left out, and returned second, are the
+/// parameters of frames no observation sees: a site or the end effector never observed (their
+/// link's six), or observed by position only (its three angles).
+pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<ParamId>) {
+    use crate::kinematics::Target;
+    use crate::params::LinkComponent;
+    let unit_slopes = robot
+        .joints
+        .iter()
+        .all(|j| (robot.units.from_si(j.kind.slope(), j.slope) - 1.0).abs() < 1e-12);
+    // The degrees of freedom observed of a frame (0, 3 or 6).
+    let seen = |t: Target| {
+        data.observations
+            .iter()
+            .filter(|o| o.measured_frame().0 == t)
+            .map(|o| o.measured_frame().1)
+            .max()
+            .unwrap_or(0)
+    };
+    let ee = seen(Target::EndEffector);
+    let last = robot.links.len() - 1;
+    let unseen_component = |dof: usize, c: LinkComponent| {
+        dof == 0 || (dof < 6 && c.quantity() == crate::units::Quantity::Angle)
+    };
+    let (mut ids, mut unseen) = (Vec::new(), Vec::new());
+    for id in robot.param_ids() {
+        let default = match robot.param_kind(id) {
+            ParamKind::Link { link, component } => {
+                if link == last && unseen_component(ee, component) {
+                    unseen.push(id);
+                    false
+                } else {
+                    true
+                }
+            }
+            ParamKind::Site { site, component } => {
+                if unseen_component(seen(Target::Site(site)), component) {
+                    unseen.push(id);
+                    false
+                } else {
+                    true
+                }
+            }
+            ParamKind::Offset { .. } => true,
+            ParamKind::Slope { .. } => !unit_slopes,
+            ParamKind::Coupling { .. } | ParamKind::Plane { .. } => false,
+            // A session's frame is estimated wherever its observations are.
+            ParamKind::Session { session, .. } => {
+                let name = robot.sessions[session].name.as_str();
+                data.postures
+                    .iter()
+                    .any(|p| p.session.as_deref() == Some(name))
+            }
+        };
+        if default {
+            ids.push(id);
+        }
+    }
+    (ids, unseen)
+}
+
+/// `robot` with frames for the sessions `names` of `data`, placed in closed form and then
+/// estimated on `data` (their six parameters each, the robot held, with `opts`' weights and
+/// residuals): how a robot is checked on data measured from somewhere it has not been told.
+pub fn refit_sessions(
+    robot: &Robot,
+    data: &Dataset,
+    names: &[String],
+    opts: &CalibrationOptions,
+) -> Robot {
+    let mut r = robot.clone();
+    let first = r.sessions.len();
+    for name in names {
+        r.sessions.push(crate::robot::Session {
+            name: name.clone(),
+            frame: crate::robot::Link::default(),
+        });
+    }
+    let ids: Vec<ParamId> = r
+        .param_ids()
+        .filter(|&id| matches!(r.param_kind(id), ParamKind::Session { session, .. } if session >= first))
+        .collect();
+    if let Some((placed, _, _)) = crate::registration::place_sessions(&r, data, &ids) {
+        r = placed;
+    }
+    let fit = CalibrationOptions {
+        estimate: ids,
+        solver: opts.solver,
+        weights: opts.weights,
+        orientation: opts.orientation,
+        loss: Loss::Squared,
+    };
+    match estimation::calibrate(&r, data, &fit, &mut |_| {}) {
+        Ok(c) => c.calibrated,
+        Err(_) => r,
+    }
+}
+
+/// `robot` with a measurement frame for each session of `data` that needs one and it lacks:
+/// every session but the first (in data order) when every posture has a session, every session
+/// otherwise (the postures without one are in the global frame); `None` when none is missing.
+/// A frame starts at the identity, to be placed in closed form and estimated.
+pub fn session_frames_for(robot: &Robot, data: &Dataset) -> Option<Robot> {
+    let sessions = data.sessions();
+    let unframed: Vec<&std::sync::Arc<str>> = sessions
+        .iter()
+        .filter(|s| robot.session_index(s).is_none())
+        .collect();
+    let all_in_sessions = data.postures.iter().all(|p| p.session.is_some());
+    // The global frame is the first session's unless some posture is in none, or the robot
+    // already frames some session (then the global frame is the robot's own).
+    let skip = usize::from(all_in_sessions && robot.sessions.is_empty());
+    let new: Vec<&std::sync::Arc<str>> = unframed.into_iter().skip(skip).collect();
+    if new.is_empty() {
+        return None;
+    }
+    let mut r = robot.clone();
+    for name in new {
+        r.sessions.push(crate::robot::Session {
+            name: name.to_string(),
+            frame: crate::robot::Link::default(),
+        });
+    }
+    Some(r)
+}
