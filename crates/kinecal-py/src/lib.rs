@@ -8,6 +8,10 @@
 //! raises `kinecal.KinecalError` (a `ValueError`) or `TypeError`, never crashes. Long work
 //! (calibration, analysis) runs with the GIL released.
 
+mod commands;
+mod outcome;
+
+use std::ffi::CString;
 use std::path::PathBuf;
 
 use kinecal::identifiability::{analyze as analyze_ids, AnalysisOptions};
@@ -23,7 +27,7 @@ use kinecal::{Chain, JointKind, Posture, Target, Units, Workspace};
 use nalgebra::Vector3;
 use numpy::ndarray::{Array2, Array3, ArrayViewD};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyTypeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 
@@ -34,6 +38,32 @@ pyo3::create_exception!(
     "An error of kinecal: bad input (with `file`, `line` and `field` when it came from a \
      file) or a calibration that cannot be made."
 );
+
+pyo3::create_exception!(
+    kinecal,
+    ExportWarning,
+    PyUserWarning,
+    "What a robot export cannot hold (a DH table's missing base frame, a slope a URDF cannot \
+     express, ...), with the deviation it leaves at the tool: the same words as the command \
+     line's."
+);
+
+/// Issues an [`ExportWarning`].
+fn export_warning(py: Python<'_>, message: &str) -> PyResult<()> {
+    let message = CString::new(message.replace('\0', " ")).expect("no NUL left");
+    PyErr::warn(py, &py.get_type::<ExportWarning>(), &message, 1)
+}
+
+/// A DH convention by name.
+fn convention_of(convention: &str) -> PyResult<Convention> {
+    match convention {
+        "standard" => Ok(Convention::Standard),
+        "modified" => Ok(Convention::Modified),
+        other => Err(bad(format!(
+            "convention `{other}`: expected \"standard\" or \"modified\""
+        ))),
+    }
+}
 
 /// A kinecal error as a Python exception, carrying `file`, `line` and `field` (or None).
 fn error(py: Python<'_>, e: kinecal::Error) -> PyErr {
@@ -249,15 +279,7 @@ impl Robot {
         kinds: Option<Vec<String>>,
         name: &str,
     ) -> PyResult<Robot> {
-        let convention = match convention {
-            "standard" => Convention::Standard,
-            "modified" => Convention::Modified,
-            other => {
-                return Err(bad(format!(
-                    "convention `{other}`: expected \"standard\" or \"modified\""
-                )))
-            }
-        };
+        let convention = convention_of(convention)?;
         let u = units(length_unit, angle_unit)?;
         if table.cast::<PyString>().is_ok() || table.hasattr("__fspath__")? {
             let path: PathBuf = table.extract()?;
@@ -328,9 +350,87 @@ impl Robot {
         tip: Option<&str>,
     ) -> PyResult<String> {
         let s = Source::read(&template).map_err(|e| error(py, e))?;
-        let (text, _warnings) =
+        let (text, warnings) =
             kinecal::import::urdf::export_urdf(&self.robot, &s.text, &s.name, base, tip)
                 .map_err(|e| error(py, e))?;
+        for w in &warnings {
+            export_warning(py, &w.to_string())?;
+        }
+        Ok(text)
+    }
+
+    /// The robot as a Denavit-Hartenberg table (`kind,a,alpha,d,theta` CSV in the robot's
+    /// units, what `kinecal export dh` writes). What the DH form cannot represent is an
+    /// `ExportWarning` with the largest deviation it leaves at the tool.
+    #[pyo3(signature = (convention="standard"))]
+    fn to_dh(&self, py: Python<'_>, convention: &str) -> PyResult<String> {
+        let convention = convention_of(convention)?;
+        let robot = &self.robot;
+        let (rows, (p, an)) = py.detach(|| kinecal::import::dh::export_dh(robot, convention));
+        let u = robot.units;
+        if p > 1e-9 || an > 1e-9 {
+            export_warning(
+                py,
+                &format!(
+                    "not representable in DH: the table's robot misses this one by up to {} {} \
+                     and {} {} at the tool over the joint ranges (DH has 4 parameters per \
+                     joint, no base or tool frame, and takes the readings as joint values)",
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, p)),
+                    u.length.as_str(),
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, an)),
+                    u.angle.as_str()
+                ),
+            )?;
+        }
+        Ok(kinecal::import::dh::write_dh_csv(&rows, u))
+    }
+
+    /// The robot written into the Universal Robots kinematics file `template` (a path) it was
+    /// imported from, what `kinecal export ur` writes. What the file cannot hold (slopes,
+    /// couplings, a tool correction) is an `ExportWarning` each, with its deviation.
+    fn to_ur(&self, py: Python<'_>, template: PathBuf) -> PyResult<String> {
+        let s = Source::read(&template).map_err(|e| error(py, e))?;
+        let robot = &self.robot;
+        let (text, lost) = py
+            .detach(|| kinecal::import::ur::export_ur(robot, &s.text, &s.name))
+            .map_err(|e| error(py, e))?;
+        for l in &lost {
+            export_warning(
+                py,
+                &format!(
+                    "not written: {}; up to {:.4} mm and {:.5} deg at the tool over the joint \
+                     ranges",
+                    l.what,
+                    l.position * 1e3,
+                    l.attitude.to_degrees()
+                ),
+            )?;
+        }
+        Ok(text)
+    }
+
+    /// This (calibrated) robot's joint offsets and slopes as a table, with their change from
+    /// `nominal` (`joint,offset,slope,offset_change,slope_change`, what `kinecal export joints`
+    /// writes). What the table cannot carry is an `ExportWarning` with its deviation.
+    fn to_joints(&self, py: Python<'_>, nominal: &Robot) -> PyResult<String> {
+        let (cal, nom) = (&self.robot, &nominal.robot);
+        let (text, lost) = py
+            .detach(|| kinecal::import::joints::joint_table(cal, nom))
+            .map_err(|e| error(py, e))?;
+        if let Some(x) = &lost {
+            let u = cal.units;
+            export_warning(
+                py,
+                &format!(
+                    "not written: {}; up to {} {} and {} {} at the tool over the joint ranges",
+                    x.what,
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, x.position)),
+                    u.length.as_str(),
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, x.attitude)),
+                    u.angle.as_str()
+                ),
+            )?;
+        }
         Ok(text)
     }
 
@@ -903,7 +1003,7 @@ fn param_list(obj: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<Str
 }
 
 /// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`). Returns the
-/// calibrated robot and the report as JSON text.
+/// calibrated robot, the report as JSON text and the outcome's arrays ([`outcome::details`]).
 #[pyfunction]
 #[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=1.345, weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None))]
 #[allow(clippy::too_many_arguments)]
@@ -927,7 +1027,7 @@ fn calibrate(
     initial: Option<&Robot>,
     max_iterations: Option<usize>,
     outlier_sigma: Option<f64>,
-) -> PyResult<(Robot, String)> {
+) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>)> {
     use kinecal::estimation::{Loss, Method, SolverOptions, Spread};
     let r = &robot.robot;
     data.check(r, "data")?;
@@ -1016,7 +1116,7 @@ fn calibrate(
         robot: outcome.calibration.calibrated.clone(),
         text: robot.text.clone(),
     };
-    Ok((calibrated, report))
+    Ok((calibrated, report, outcome::details(py, &outcome)?.unbind()))
 }
 
 /// What `data` determines about the parameters of `estimate` (see the Python package's
@@ -1146,6 +1246,7 @@ fn dataset(
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("KinecalError", m.py().get_type::<KinecalError>())?;
+    m.add("ExportWarning", m.py().get_type::<ExportWarning>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Robot>()?;
     m.add_class::<Measurements>()?;
@@ -1153,5 +1254,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(analyze, m)?)?;
     m.add_function(wrap_pyfunction!(datasets, m)?)?;
     m.add_function(wrap_pyfunction!(dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::plan, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::simulate, m)?)?;
     Ok(())
 }
