@@ -1100,3 +1100,14 @@ def test_residuals_leave_the_holdout_out():
     kept = {x.posture for x in result.residual_rows}
     assert len(kept) == result.identification["postures"] == 30
     assert len(result.residuals) == 3 * 30
+
+
+def test_no_covariance_without_degrees_of_freedom():
+    ge = kinecal.Robot.builtin("ge-a4")
+    sim = kinecal.simulate(ge, 1, seed=1, perturb={"p1": 0.01}, position_only=True)
+    result = kinecal.calibrate(ge, sim.measurements, estimate="p1,p2,p3")
+    assert result.covariance is None and result.sigmas == {}
+    assert any("no degrees of freedom" in w for w in result.warnings)
+    assert result.residuals.shape == (3,) and np.abs(result.residuals).max() < 1e-9
+    with pytest.raises(kinecal.KinecalError, match="^residuals: this Calibration was made"):
+        _ = kinecal.Calibration(result.robot, result.to_json()).residuals
