@@ -1,12 +1,14 @@
 //! Python bindings of kinecal: the native module `kinecal._native`, wrapped by the pure-Python
-//! package `kinecal` (`python/kinecal/__init__.py`), which adds the result class.
+//! package `kinecal` (`python/kinecal/__init__.py`), which adds the result classes; the stub
+//! `python/kinecal/_native.pyi` describes this module (checked by stubtest in `test.sh`).
 //!
 //! Conventions, as in kinecal's files: readings are the transducer values of the robot file
 //! (`q = offset + slope * V`); lengths are in the robot's length unit, angles in its angle unit;
 //! attitudes are ZYX Euler angles `(alpha, beta, gamma)`, `R = Rz(alpha) Ry(beta) Rx(gamma)`.
 //! Every array is checked (shape, dtype, finite and within +-1e9) before any work; bad input
 //! raises `kinecal.KinecalError` (a `ValueError`) or `TypeError`, never crashes. Long work
-//! (calibration, analysis) runs with the GIL released.
+//! (calibration, analysis, planning, compensation, DH and UR exports) runs with the GIL
+//! released.
 
 mod commands;
 mod outcome;
