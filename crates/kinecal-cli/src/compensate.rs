@@ -4,11 +4,10 @@ use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
-use kinecal::compensate::{Compensator, Goal, Options, Solved};
+use kinecal::compensate::{Compensator, Goal, NominalSeeds, Options, Solved};
 use kinecal::identifiability::fmt_sig;
 use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::units::Quantity;
-use kinecal::{simulate, JointKind};
 use nalgebra::Vector3;
 
 use crate::args::CompensateArgs;
@@ -163,14 +162,7 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
     if a.position_only && matches!(kind, Kind::Targets { .. }) {
         bail!("--position-only is for programs; a target without alpha,beta,gamma is a position");
     }
-    let middle: Vec<f64> = (0..dof)
-        .map(|j| {
-            let (lo, hi) = simulate::reading_range(&nominal, j);
-            0.5 * (lo + hi)
-        })
-        .collect();
-    let starts = simulate::sample_postures(&nominal, 32, 1);
-    let mut nominal_ik = Compensator::new(&nominal, &nominal, options)
+    let mut seeds = NominalSeeds::new(&nominal, options)
         .map_err(|e| anyhow!("--nominal {}: {e}", a.nominal))?;
     let mut tally = Tally::default();
     let mut staged = output::Staged::new();
@@ -190,7 +182,6 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
         w.write_record(&header)?;
         let mut out = vec![0.0; dof];
         let mut seed = vec![0.0; dof];
-        let mut previous: Option<Vec<f64>> = None;
         let mut fields: Vec<String> = Vec::with_capacity(dof + 5);
         while let Some(line) = rows.advance()? {
             let (label, solved) = match &kind {
@@ -234,57 +225,13 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                                 *s = cell(&rows, line, c)?;
                             }
                         }
-                        None => {
-                            // The nominal model's solution nearest the previous row's (the middle
-                            // of the ranges for the first): what the controller would command.
-                            let near = previous.as_deref().unwrap_or(&middle).to_vec();
-                            let mut trial = vec![0.0; dof];
-                            let first = nominal_ik.solve(&goal, target, &near, &mut trial);
-                            if first.flags.unreachable {
-                                let mut best: Option<(f64, Vec<f64>)> = None;
-                                for start in &starts {
-                                    let t = nominal_ik.solve(
-                                        &goal,
-                                        target,
-                                        &start.readings,
-                                        &mut trial,
-                                    );
-                                    if t.flags.unreachable {
-                                        continue;
-                                    }
-                                    let d: f64 = trial
-                                        .iter()
-                                        .zip(&near)
-                                        .map(|(a, b)| (a - b) * (a - b))
-                                        .sum();
-                                    if best.as_ref().is_none_or(|b| d < b.0) {
-                                        best = Some((d, trial.clone()));
-                                    }
-                                }
-                                // Unreachable by the nominal model too: start from the nearest
-                                // anyway, the calibrated one says how far it stays.
-                                trial.copy_from_slice(best.as_ref().map_or(&near, |b| &b.1));
-                            }
-                            // Whole turns of a revolute joint give the same pose: bring each
-                            // reading into its range when a turn does.
-                            for (v, j) in trial.iter_mut().zip(&nominal.joints) {
-                                if let (JointKind::Revolute, Some((lo, hi))) = (j.kind, j.range) {
-                                    let turn = std::f64::consts::TAU / j.slope.abs();
-                                    let k = ((lo - *v) / turn).ceil();
-                                    let moved = *v + k * turn;
-                                    if (lo..=hi).contains(&moved) {
-                                        *v = moved;
-                                    }
-                                }
-                            }
-                            seed.copy_from_slice(&trial);
-                        }
+                        // The nominal model's solution nearest the previous row's (the middle
+                        // of the ranges for the first): what the controller would command.
+                        None => seeds.seed(&goal, target, &mut seed),
                     }
                     let s = comp.solve(&goal, target, &seed, &mut out);
                     if !s.flags.unreachable {
-                        previous
-                            .get_or_insert_with(|| vec![0.0; dof])
-                            .copy_from_slice(&out);
+                        seeds.accept(&out);
                     }
                     (rows.field(col).to_string(), s)
                 }

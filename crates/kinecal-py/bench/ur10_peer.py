@@ -48,7 +48,8 @@ def main():
                        capture_output=True)
         robot = kinecal.Robot.from_dh(os.path.join(d, "mdh_nominal.csv"), convention="modified",
                                       length_unit="mm", angle_unit="rad", name="UR10")
-        estimate = open(os.path.join(d, "est_ident.txt")).read().strip()
+        with open(os.path.join(d, "est_ident.txt")) as f:
+            estimate = f.read().strip()
         q, p = load(os.path.join(d, "val_1000.csv"), robot)
         held = kinecal.Measurements(robot, q, p)
         print(f"{'poses':>6} {'params':>6} {'numpy s':>9} {'kinecal s':>9} {'ratio':>7}"
@@ -60,7 +61,7 @@ def main():
             q, p = load(os.path.join(d, f"calib_{n}.csv"), robot)
             data = kinecal.Measurements(robot, q, p)
 
-            def timed(**kw):
+            def timed(data=data, **kw):
                 times = []
                 for _ in range(a.repeat):
                     t0 = time.process_time()

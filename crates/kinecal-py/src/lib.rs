@@ -1,31 +1,37 @@
 //! Python bindings of kinecal: the native module `kinecal._native`, wrapped by the pure-Python
-//! package `kinecal` (`python/kinecal/__init__.py`), which adds the result class.
+//! package `kinecal` (`python/kinecal/__init__.py`), which adds the result classes; the stub
+//! `python/kinecal/_native.pyi` describes this module (checked by stubtest in `test.sh`).
 //!
 //! Conventions, as in kinecal's files: readings are the transducer values of the robot file
 //! (`q = offset + slope * V`); lengths are in the robot's length unit, angles in its angle unit;
 //! attitudes are ZYX Euler angles `(alpha, beta, gamma)`, `R = Rz(alpha) Ry(beta) Rx(gamma)`.
 //! Every array is checked (shape, dtype, finite and within +-1e9) before any work; bad input
 //! raises `kinecal.KinecalError` (a `ValueError`) or `TypeError`, never crashes. Long work
-//! (calibration, analysis) runs with the GIL released.
+//! (calibration, analysis, planning, compensation, DH and UR exports) runs with the GIL
+//! released.
 
+mod commands;
+mod outcome;
+
+use std::ffi::CString;
 use std::path::PathBuf;
 
-use kinecal::files::{detect_format, write_measurements, ColumnMap, FORMATS};
+use kinecal::files::{detect_format, write_measurements, FORMATS};
 use kinecal::identifiability::{analyze as analyze_ids, AnalysisOptions};
 use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
 use kinecal::observe::point::{Pose, Position};
 use kinecal::observe::{Dataset, OrientationError, Weights};
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::source::Source;
-use kinecal::spec::CalibrationSpec;
+use kinecal::spec::{CalibrationSpec, Job};
 use kinecal::units::plausible;
 use kinecal::units::Quantity;
-use kinecal::workflow::{self, Request, Selection, SolutionRule, Validation};
+use kinecal::workflow::{self, Selection};
 use kinecal::{Chain, JointKind, Posture, Target, Units, Workspace};
 use nalgebra::Vector3;
 use numpy::ndarray::{Array2, Array3, ArrayViewD};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyTypeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 
@@ -36,6 +42,32 @@ pyo3::create_exception!(
     "An error of kinecal: bad input (with `file`, `line` and `field` when it came from a \
      file) or a calibration that cannot be made."
 );
+
+pyo3::create_exception!(
+    kinecal,
+    ExportWarning,
+    PyUserWarning,
+    "What a robot export cannot hold (a DH table's missing base frame, a slope a URDF cannot \
+     express, ...), with the deviation it leaves at the tool: the same words as the command \
+     line's."
+);
+
+/// Issues an [`ExportWarning`].
+fn export_warning(py: Python<'_>, message: &str) -> PyResult<()> {
+    let message = CString::new(message.replace('\0', " ")).expect("no NUL left");
+    PyErr::warn(py, &py.get_type::<ExportWarning>(), &message, 1)
+}
+
+/// A DH convention by name.
+fn convention_of(convention: &str) -> PyResult<Convention> {
+    match convention {
+        "standard" => Ok(Convention::Standard),
+        "modified" => Ok(Convention::Modified),
+        other => Err(bad(format!(
+            "convention `{other}`: expected \"standard\" or \"modified\""
+        ))),
+    }
+}
 
 /// A kinecal error as a Python exception, carrying `file`, `line` and `field` (or None).
 fn error(py: Python<'_>, e: kinecal::Error) -> PyErr {
@@ -261,15 +293,7 @@ impl Robot {
         kinds: Option<Vec<String>>,
         name: &str,
     ) -> PyResult<Robot> {
-        let convention = match convention {
-            "standard" => Convention::Standard,
-            "modified" => Convention::Modified,
-            other => {
-                return Err(bad(format!(
-                    "convention `{other}`: expected \"standard\" or \"modified\""
-                )))
-            }
-        };
+        let convention = convention_of(convention)?;
         let u = units(length_unit, angle_unit)?;
         if table.cast::<PyString>().is_ok() || table.hasattr("__fspath__")? {
             let path: PathBuf = table.extract()?;
@@ -340,9 +364,87 @@ impl Robot {
         tip: Option<&str>,
     ) -> PyResult<String> {
         let s = Source::read(&template).map_err(|e| error(py, e))?;
-        let (text, _warnings) =
+        let (text, warnings) =
             kinecal::import::urdf::export_urdf(&self.robot, &s.text, &s.name, base, tip)
                 .map_err(|e| error(py, e))?;
+        for w in &warnings {
+            export_warning(py, &w.to_string())?;
+        }
+        Ok(text)
+    }
+
+    /// The robot as a Denavit-Hartenberg table (`kind,a,alpha,d,theta` CSV in the robot's
+    /// units, what `kinecal export dh` writes). What the DH form cannot represent is an
+    /// `ExportWarning` with the largest deviation it leaves at the tool.
+    #[pyo3(signature = (convention="standard"))]
+    fn to_dh(&self, py: Python<'_>, convention: &str) -> PyResult<String> {
+        let convention = convention_of(convention)?;
+        let robot = &self.robot;
+        let (rows, (p, an)) = py.detach(|| kinecal::import::dh::export_dh(robot, convention));
+        let u = robot.units;
+        if p > 1e-9 || an > 1e-9 {
+            export_warning(
+                py,
+                &format!(
+                    "not representable in DH: the table's robot misses this one by up to {} {} \
+                     and {} {} at the tool over the joint ranges (DH has 4 parameters per \
+                     joint, no base or tool frame, and takes the readings as joint values)",
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, p)),
+                    u.length.as_str(),
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, an)),
+                    u.angle.as_str()
+                ),
+            )?;
+        }
+        Ok(kinecal::import::dh::write_dh_csv(&rows, u))
+    }
+
+    /// The robot written into the Universal Robots kinematics file `template` (a path) it was
+    /// imported from, what `kinecal export ur` writes. What the file cannot hold (slopes,
+    /// couplings, a tool correction) is an `ExportWarning` each, with its deviation.
+    fn to_ur(&self, py: Python<'_>, template: PathBuf) -> PyResult<String> {
+        let s = Source::read(&template).map_err(|e| error(py, e))?;
+        let robot = &self.robot;
+        let (text, lost) = py
+            .detach(|| kinecal::import::ur::export_ur(robot, &s.text, &s.name))
+            .map_err(|e| error(py, e))?;
+        for l in &lost {
+            export_warning(
+                py,
+                &format!(
+                    "not written: {}; up to {:.4} mm and {:.5} deg at the tool over the joint \
+                     ranges",
+                    l.what,
+                    l.position * 1e3,
+                    l.attitude.to_degrees()
+                ),
+            )?;
+        }
+        Ok(text)
+    }
+
+    /// This (calibrated) robot's joint offsets and slopes as a table, with their change from
+    /// `nominal` (`joint,offset,slope,offset_change,slope_change`, what `kinecal export joints`
+    /// writes). What the table cannot carry is an `ExportWarning` with its deviation.
+    fn to_joints(&self, py: Python<'_>, nominal: &Robot) -> PyResult<String> {
+        let (cal, nom) = (&self.robot, &nominal.robot);
+        let (text, lost) = py
+            .detach(|| kinecal::import::joints::joint_table(cal, nom))
+            .map_err(|e| error(py, e))?;
+        if let Some(x) = &lost {
+            let u = cal.units;
+            export_warning(
+                py,
+                &format!(
+                    "not written: {}; up to {} {} and {} {} at the tool over the joint ranges",
+                    x.what,
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, x.position)),
+                    u.length.as_str(),
+                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, x.attitude)),
+                    u.angle.as_str()
+                ),
+            )?;
+        }
         Ok(text)
     }
 
@@ -765,29 +867,24 @@ impl Measurements {
         session: Option<&str>,
     ) -> PyResult<Measurements> {
         let r = &robot.robot;
-        let s = Source::read(&path).map_err(|e| error(py, e))?;
-        let specs: Vec<&str> = columns.iter().flatten().map(String::as_str).collect();
-        let opts = kinecal::files::ReadOptions {
-            columns: ColumnMap::parse(&specs, "columns").map_err(|e| error(py, e))?,
-            length_unit: length_unit
-                .map(|u| {
-                    u.parse()
-                        .map_err(|m: String| bad(format!("length_unit: {m}")))
-                })
-                .transpose()?,
-            angle_unit: angle_unit
-                .map(|u| {
-                    u.parse()
-                        .map_err(|m: String| bad(format!("angle_unit: {m}")))
-                })
-                .transpose()?,
-            position_only,
+        let file = path
+            .to_str()
+            .ok_or_else(|| bad(format!("{}: the path is not valid UTF-8", path.display())))?;
+        // The one reader of observation files, as the command line and a spec read them; the
+        // mapping is this file's own.
+        let f = kinecal::files::ObservationFile {
+            session: session.map(str::to_string),
+            columns: columns.unwrap_or_default(),
+            length_unit: length_unit.map(str::to_string),
+            angle_unit: angle_unit.map(str::to_string),
+            ..kinecal::files::ObservationFile::new(file)
         };
-        let mut data = kinecal::files::read_observations(&s.text, &s.name, r, &opts)
-            .map_err(|e| error(py, e))?;
-        if let Some(name) = session {
-            data.set_session(name);
-        }
+        let read = kinecal::files::ReadSettings {
+            position_only,
+            ..Default::default()
+        };
+        let (data, _) =
+            kinecal::files::read_files(&read, &[f], r, &[]).map_err(|e| error(py, e))?;
         Ok(Measurements {
             data,
             dof: r.dof(),
@@ -914,10 +1011,17 @@ fn param_list(obj: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<Str
     Ok(Some(v.join(",")))
 }
 
-/// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`). Returns the
-/// calibrated robot and the report as JSON text.
+/// A keyword's string value as the spec's enum `T` (serde's names: `lm`, `huber`, ...).
+fn choice<T: serde::de::DeserializeOwned>(keyword: &str, value: &str) -> PyResult<T> {
+    serde_json::from_value(serde_json::Value::String(value.to_string()))
+        .map_err(|e| bad(format!("{keyword}: {e}")))
+}
+
+/// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`): the keywords
+/// made a calibration spec, run as every front end runs one. Returns the calibrated robot, the
+/// report as JSON text and the outcome's arrays ([`outcome::details`]).
 #[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=1.345, weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None))]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate(
     py: Python<'_>,
@@ -927,7 +1031,8 @@ fn calibrate(
     fix: Option<&Bound<'_, PyAny>>,
     method: &str,
     loss: &str,
-    huber_scale: f64,
+    huber_scale: Option<f64>,
+    huber_spread: &str,
     weights: Option<(f64, f64)>,
     orientation_error: &str,
     validate: Option<&Measurements>,
@@ -939,96 +1044,67 @@ fn calibrate(
     initial: Option<&Robot>,
     max_iterations: Option<usize>,
     outlier_sigma: Option<f64>,
-) -> PyResult<(Robot, String)> {
-    use kinecal::estimation::{Loss, Method, SolverOptions, Spread};
+    choose: Option<Vec<String>>,
+    repeats: Option<usize>,
+) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>)> {
+    use kinecal::spec::{ResidualSpec, SelectionSpec, SolverSpec, ValidationSpec, WeightsSpec};
     let r = &robot.robot;
     data.check(r, "data")?;
-    let mut req = Request::new(r.clone(), data.data.clone());
-    let estimate = param_list(estimate, "estimate")?;
-    let fix = param_list(fix, "fix")?;
-    if estimate.is_some() || fix.is_some() {
-        req.selection = Selection::parse(estimate.as_deref().unwrap_or(""), fix.as_deref(), r)
-            .map_err(|e| error(py, e))?;
-    }
-    let mut solver = SolverOptions::new(match method {
-        "lm" => Method::LevenbergMarquardt,
-        "gn" => Method::GaussNewton,
-        "sd" => Method::SteepestDescent,
-        "svd" => Method::Svd,
-        other => {
-            return Err(bad(format!(
-                "method `{other}`: expected \"lm\", \"gn\", \"sd\" or \"svd\""
-            )))
-        }
-    });
-    if let Some(n) = max_iterations {
-        if n == 0 {
-            return Err(bad("max_iterations: must be at least 1"));
-        }
-        solver.max_iterations = n;
-    }
-    req.solver = solver;
-    req.loss = match loss {
-        "squared" => Loss::Squared,
-        "huber" => Loss::Huber {
-            k: huber_scale,
-            spread: Spread::Robust,
-        },
-        other => {
-            return Err(bad(format!(
-                "loss `{other}`: expected \"squared\" or \"huber\""
-            )))
-        }
-    };
-    (req.weights, req.orientation) = residual_settings(r, weights, orientation_error)?;
-    req.solution = match solution {
-        "solver" => SolutionRule::Solver,
-        "min-change" | "min_change" => SolutionRule::MinChange,
-        other => {
-            return Err(bad(format!(
-                "solution `{other}`: expected \"solver\" or \"min-change\""
-            )))
-        }
-    };
-    req.prune = prune;
-    if let Some(k) = outlier_sigma {
-        req.outlier_sigmas = k;
-    }
-    if let Some(init) = initial {
-        if !r.same_structure(&init.robot) {
-            return Err(bad("initial: not the same robot structure as robot"));
-        }
-        req.initial = Some(init.robot.clone());
-    }
-    let given = [validate.is_some(), holdout.is_some(), folds.is_some()];
-    if given.iter().filter(|g| **g).count() > 1 {
-        return Err(bad(
-            "validate, holdout and folds are three ways to check a calibration: give one",
-        ));
-    }
-    req.validation = if let Some(v) = validate {
+    if let Some(v) = validate {
         v.check(r, "validate")?;
-        Validation::Data(v.data.clone().into())
-    } else if let Some(fraction) = holdout {
-        Validation::Holdout {
-            fraction,
-            seed: seed.unwrap_or(1),
-        }
-    } else if let Some(k) = folds {
-        Validation::Folds { k, seed }
-    } else {
-        Validation::None
+    }
+    let spec = CalibrationSpec {
+        robot: r.name.clone(),
+        selection: SelectionSpec {
+            estimate: param_list(estimate, "estimate")?,
+            fix: param_list(fix, "fix")?,
+            prune,
+        },
+        solver: SolverSpec {
+            method: choice("method", method)?,
+            max_iterations,
+            solution: choice("solution", &solution.replace('_', "-"))?,
+            ..SolverSpec::default()
+        },
+        residuals: ResidualSpec {
+            loss: choice("loss", loss)?,
+            huber_scale,
+            huber_spread: choice("huber_spread", huber_spread)?,
+            weights: WeightsSpec {
+                length: weights.map(|w| w.0),
+                angle: weights.map(|w| w.1),
+            },
+            orientation_error: choice("orientation_error", orientation_error)?,
+            outlier_sigma,
+        },
+        validation: ValidationSpec {
+            holdout,
+            folds,
+            seed,
+            choose,
+            repeats,
+            ..ValidationSpec::default()
+        },
+        ..CalibrationSpec::default()
     };
-    let outcome = py
-        .detach(|| workflow::run(&req, &mut ()))
+    let request = spec
+        .request(
+            r,
+            data.data.clone(),
+            initial.map(|i| i.robot.clone()),
+            validate.map(|v| v.data.clone()),
+        )
         .map_err(|e| error(py, e))?;
-    let report = serde_json::to_string(&outcome.report)
-        .map_err(|e| bad(format!("the report cannot be written: {e}")))?;
+    let text = robot.text.clone().unwrap_or_default();
+    let job =
+        Job::new(spec, request, Source::text(r.name.clone(), text)).map_err(|e| error(py, e))?;
+    let outcome = py.detach(|| job.run(&mut ())).map_err(|e| error(py, e))?;
     let calibrated = Robot {
         robot: outcome.calibration.calibrated.clone(),
         text: robot.text.clone(),
     };
-    Ok((calibrated, report))
+    let details = outcome::details(py, &outcome)?.unbind();
+    Ok((calibrated, outcome.report.to_json(), details))
 }
 
 /// The outputs of a job: (path, text) of each.
@@ -1036,7 +1112,8 @@ type Outputs = Vec<(String, String)>;
 
 /// Runs the calibration job `spec`: a spec file's path (`path`, its paths relative to its
 /// folder) or the spec as JSON (`json`, paths relative to the working folder). Returns the
-/// calibrated robot, the report as JSON, and the texts of the outputs the spec names
+/// calibrated robot, the report as JSON, the outcome's arrays ([`outcome::details`]) and the
+/// texts of the outputs the spec names
 /// (`[(path, text)]`: the robot file, the report, the HTML report), for the caller to write.
 #[pyfunction]
 #[pyo3(signature = (path=None, json=None))]
@@ -1044,7 +1121,7 @@ fn calibrate_spec(
     py: Python<'_>,
     path: Option<PathBuf>,
     json: Option<&str>,
-) -> PyResult<(Robot, String, Outputs)> {
+) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>, Outputs)> {
     let spec = match (path, json) {
         (Some(p), None) => CalibrationSpec::read(&p),
         (None, Some(j)) => CalibrationSpec::from_json(j, "spec"),
@@ -1076,7 +1153,8 @@ fn calibrate_spec(
         robot: outcome.calibration.calibrated.clone(),
         text: Some(job.robot_source.text.clone()),
     };
-    Ok((calibrated, report, outputs))
+    let details = outcome::details(py, &outcome)?.unbind();
+    Ok((calibrated, report, details, outputs))
 }
 
 /// What `data` determines about the parameters of `estimate` (see the Python package's
@@ -1206,6 +1284,7 @@ fn dataset(
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("KinecalError", m.py().get_type::<KinecalError>())?;
+    m.add("ExportWarning", m.py().get_type::<ExportWarning>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Robot>()?;
     m.add_class::<Measurements>()?;
@@ -1214,5 +1293,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(analyze, m)?)?;
     m.add_function(wrap_pyfunction!(datasets, m)?)?;
     m.add_function(wrap_pyfunction!(dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::plan, m)?)?;
+    m.add_function(wrap_pyfunction!(commands::simulate, m)?)?;
     Ok(())
 }

@@ -8,11 +8,13 @@ checkout (KINECAL_BIN, or built with cargo).
 
 import ast
 import doctest
+import inspect
 import json
 import os
 import subprocess
 import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -112,14 +114,14 @@ def test_one_job_four_ways_gives_the_same_calibration(cli, qkm_files, monkeypatc
            "--estimate", "all,identifiable", "--loss", "huber", "--huber-scale", "2"]
 
     def run(*args):
-        done = subprocess.run([cli, *args], capture_output=True, text=True)
+        done = subprocess.run([cli, *args], check=False, capture_output=True, text=True)
         assert done.returncode == 0, done.stderr
         return done
 
     # 1. Flags, written down as a spec.
     run("calibrate", *job, "--out", "flags.toml", "--report", "flags.json",
         "--write-spec", "job.toml", "--quiet")
-    spec_text = open("job.toml").read()
+    spec_text = (qkm_files / "job.toml").read_text()
     assert 'estimate = "all,identifiable"' in spec_text and "huber_scale = 2" in spec_text, spec_text
     # 2. The spec file, its outputs overridden by flags.
     run("calibrate", "--spec", "job.toml", "--out", "spec.toml", "--report", "spec.json",
@@ -134,14 +136,15 @@ def test_one_job_four_ways_gives_the_same_calibration(cli, qkm_files, monkeypatc
         "outputs": {"robot": "python.toml", "report": "python.json"},
     }
     result = kinecal.calibrate(spec)
-    assert result.robot.to_toml() == open("python.toml").read()
-    assert json.loads(result.to_json()) == json.loads(open("python.json").read())
+    assert result.robot.to_toml() == (qkm_files / "python.toml").read_text()
+    assert json.loads(result.to_json()) == json.loads((qkm_files / "python.json").read_text())
     # 4. Batch: a CSV row and a TOML [[robots]] table.
-    with open("fleet.csv", "w") as f:
-        f.write("serial,robot,data,options\n")
-        f.write('QKM-1,qkm.toml,identification.csv,"--validate validation.csv '
-                "--estimate all,identifiable --loss huber --huber-scale 2 "
-                '--out batch.toml --report batch.json"\n')
+    (qkm_files / "fleet.csv").write_text(
+        "serial,robot,data,options\n"
+        'QKM-1,qkm.toml,identification.csv,"--validate validation.csv '
+        "--estimate all,identifiable --loss huber --huber-scale 2 "
+        '--out batch.toml --report batch.json"\n'
+    )
     run("batch", "fleet.csv", "--quiet")
     # The spec as one table of a fleet: every key under [[robots]].
     lines = []
@@ -152,15 +155,14 @@ def test_one_job_four_ways_gives_the_same_calibration(cli, qkm_files, monkeypatc
             line = "[robots." + line[1:]
         lines.append(line)
     table = "\n".join(lines).replace('"flags.', '"batch2.')
-    with open("fleet.toml", "w") as f:
-        f.write('[[robots]]\nserial = "QKM-1"\n' + table + "\n")
+    (qkm_files / "fleet.toml").write_text('[[robots]]\nserial = "QKM-1"\n' + table + "\n")
     run("batch", "fleet.toml", "--quiet")
 
-    robot = open("flags.toml").read()
+    robot = (qkm_files / "flags.toml").read_text()
     report = _without_timings(qkm_files / "flags.json")
     assert report["validation"]["after"]["mean_position"] > 0
     for name in ["spec", "python", "batch", "batch2"]:
-        assert open(f"{name}.toml").read() == robot, name
+        assert (qkm_files / f"{name}.toml").read_text() == robot, name
         assert _without_timings(qkm_files / f"{name}.json") == report, name
 
 
@@ -302,10 +304,10 @@ def test_per_row_sigmas_and_validation_options(qkm_files):
         kinecal.calibrate(robot, data, holdout=0.2, folds=3)
     # A setting out of range is named by its keyword.
     for bad, keyword in [
-        (dict(holdout=1.5), "holdout"),
-        (dict(huber_scale=-1.0, loss="huber"), "huber_scale"),
-        (dict(outlier_sigma=0.0), "outlier_sigma"),
-        (dict(prune=-2.0), "prune"),
+        ({"holdout": 1.5}, "holdout"),
+        ({"huber_scale": -1.0, "loss": "huber"}, "huber_scale"),
+        ({"outlier_sigma": 0.0}, "outlier_sigma"),
+        ({"prune": -2.0}, "prune"),
     ]:
         with pytest.raises(kinecal.KinecalError, match=f"^{keyword}: "):
             kinecal.calibrate(robot, data, **bad)
@@ -354,15 +356,15 @@ def test_bad_measurement_arrays_name_the_argument_and_row():
     robot = kinecal.Robot.builtin("ge-a4")
     q = np.zeros((3, 4))
     cases = [
-        (dict(positions=np.zeros((2, 3))), "positions: expected shape [3, 3]"),
-        (dict(positions=np.zeros((3, 2))), "positions: expected shape [3, 3]"),
-        (dict(positions=np.zeros((3, 3)), orientations=np.zeros((3, 4))), "orientations"),
-        (dict(positions=np.zeros((3, 3)), sigma_position=[1, 0, 1]),
+        ({"positions": np.zeros((2, 3))}, "positions: expected shape [3, 3]"),
+        ({"positions": np.zeros((3, 2))}, "positions: expected shape [3, 3]"),
+        ({"positions": np.zeros((3, 3)), "orientations": np.zeros((3, 4))}, "orientations"),
+        ({"positions": np.zeros((3, 3)), "sigma_position": [1, 0, 1]},
          "sigma_position: row 1: a standard deviation must be positive"),
-        (dict(positions=np.zeros((3, 3)), sigma_angle=[1, 1, 1]), "position-only rows"),
-        (dict(positions=np.zeros((3, 3)), sites=["tool", None, None]), "not a site"),
-        (dict(positions=np.zeros((3, 3)), sites=[None]), "1 names for 3 rows"),
-        (dict(positions=np.zeros((3, 3)), postures=["a", "a", "b"]),
+        ({"positions": np.zeros((3, 3)), "sigma_angle": [1, 1, 1]}, "position-only rows"),
+        ({"positions": np.zeros((3, 3)), "sites": ["tool", None, None]}, "not a site"),
+        ({"positions": np.zeros((3, 3)), "sites": [None]}, "1 names for 3 rows"),
+        ({"positions": np.zeros((3, 3)), "postures": ["a", "a", "b"]},
          "posture `a` has other readings"),
     ]
     q[1] = 1.0
@@ -396,14 +398,16 @@ def test_options_are_checked():
     q = np.random.default_rng(1).uniform(-30, 30, size=(12, 4))
     data = kinecal.Measurements(robot, q, robot.fk(q)[:, :3])
     for kw, words in [
-        (dict(method="newton"), "method `newton`"),
-        (dict(loss="cauchy"), "loss `cauchy`"),
-        (dict(estimate="links,nonsense"), "nonsense"),
-        (dict(estimate=42), "parameter list"),
-        (dict(weights=(0, 1)), "weights"),
-        (dict(solution="best"), "solution `best`"),
-        (dict(max_iterations=0), "max_iterations"),
-        (dict(prune=-1), "prune"),
+        ({"method": "newton"}, "method: unknown variant `newton`, expected one of `lm`"),
+        ({"huber_spread": "wide"}, "huber_spread: unknown variant `wide`"),
+        ({"repeats": 3}, "choose: repeats is the number of shuffles"),
+        ({"loss": "cauchy"}, "loss: unknown variant `cauchy`"),
+        ({"estimate": "links,nonsense"}, "nonsense"),
+        ({"estimate": 42}, "parameter list"),
+        ({"weights": (0, 1)}, "weights"),
+        ({"solution": "best"}, "solution: unknown variant `best`"),
+        ({"max_iterations": 0}, "max_iterations"),
+        ({"prune": -1}, "prune"),
     ]:
         with pytest.raises((kinecal.KinecalError, TypeError)) as e:
             kinecal.calibrate(robot, data, **kw)
@@ -484,15 +488,29 @@ def test_the_readme_session_runs_as_shown(monkeypatch):
 
 
 def test_the_type_stubs_name_what_the_package_has():
-    stub = os.path.join(os.path.dirname(kinecal.__file__), "__init__.pyi")
-    tree = ast.parse(open(stub).read())
+    # The package's annotations live in __init__.py itself (a __init__.pyi would shadow them);
+    # _native.pyi describes the compiled module (stubtest in test.sh checks the signatures).
+    here = os.path.dirname(kinecal.__file__)
+    assert not os.path.exists(os.path.join(here, "__init__.pyi"))
+    assert os.path.exists(os.path.join(here, "py.typed"))
+    with open(os.path.join(here, "_native.pyi")) as f:
+        tree = ast.parse(f.read())
+    native = kinecal._native
     top = {n.name for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))}
-    assert top == set(kinecal.__all__) - {"__version__"}
+    assert top | {"__version__"} == set(native.__all__)
     for cls in tree.body:
-        if isinstance(cls, ast.ClassDef) and cls.name in ("Robot", "Measurements", "Calibration"):
+        if isinstance(cls, ast.ClassDef) and cls.name in ("Robot", "Measurements"):
             stubbed = {n.name for n in cls.body if isinstance(n, ast.FunctionDef)}
-            actual = {n for n in dir(getattr(kinecal, cls.name)) if not n.startswith("_")}
-            assert stubbed - {"__init__", "__len__"} == actual, cls.name
+            actual = {n for n in dir(getattr(native, cls.name)) if not n.startswith("_")}
+            assert stubbed - {"__new__", "__len__"} == actual, cls.name
+    # Everything the package exports is annotated, arguments and results.
+    for name in kinecal.__all__:
+        obj = getattr(kinecal, name)
+        if inspect.isfunction(obj):
+            sig = inspect.signature(obj)
+            assert sig.return_annotation is not inspect.Signature.empty, name
+            for p in sig.parameters.values():
+                assert p.annotation is not inspect.Parameter.empty, (name, p.name)
 
 
 def test_random_arrays_either_work_or_raise_a_clear_exception():
@@ -518,9 +536,9 @@ def test_random_arrays_either_work_or_raise_a_clear_exception():
     worked = 0
     for _ in range(1000):
         q, p, o = random_array(), random_array(), random_array() if rng.random() < 0.5 else None
-        for call in (lambda: robot.fk(q),
-                     lambda: robot.fk(q, matrix=True),
-                     lambda: kinecal.Measurements(robot, q, p, orientations=o)):
+        for call in (lambda q=q: robot.fk(q),
+                     lambda q=q: robot.fk(q, matrix=True),
+                     lambda q=q, p=p, o=o: kinecal.Measurements(robot, q, p, orientations=o)):
             try:
                 out = call()
             except (kinecal.KinecalError, TypeError) as e:
@@ -563,3 +581,640 @@ def test_tracker_series_from_another_lab(cli, tmp_path):
     assert validation["sessions_refitted"] == ["C"]
     # The data set's README: an independent fit reaches a held-out mean of about 0.52 mm on C.
     assert validation["after"]["mean_position"] < 0.52e-3 * 1.02
+
+
+# --- The command line's other commands: compensate, plan, simulate ------------------------------
+
+# A PUMA 560 (standard DH, metres and degrees): six joints, so that poses can be reached.
+PUMA = [[0, 90, 0, 0], [0.4318, 0, 0, 0], [0.0203, -90, 0.15005, 0], [0, 90, 0.4318, 0],
+        [0, -90, 0, 0], [0, 0, 0, 0]]
+
+
+def rotation_zyx(euler_deg):
+    """R = Rz(alpha) Ry(beta) Rx(gamma) per row, with numpy alone."""
+    a, b, g = np.radians(np.asarray(euler_deg)).T
+    ca, sa, cb, sb, cg, sg = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(g), np.sin(g)
+    return np.stack([
+        np.stack([ca * cb, ca * sb * sg - sa * cg, ca * sb * cg + sa * sg], -1),
+        np.stack([sa * cb, sa * sb * sg + ca * cg, sa * sb * cg - ca * sg], -1),
+        np.stack([-sb, cb * sg, cb * cg], -1),
+    ], -2)
+
+
+def write_rows(path, header, labels, rows):
+    """A CSV file with the exact values of `rows` (repr round-trips a float)."""
+    with open(path, "w") as f:
+        f.write(",".join(header) + "\n")
+        f.writelines(",".join([str(label)] + [repr(float(v)) for v in row]) + "\n"
+                     for label, row in zip(labels, rows))
+
+
+def read_rows(path):
+    """A CSV file as a header and rows of strings."""
+    with open(path) as f:
+        lines = f.read().splitlines()
+    return lines[0].split(","), [line.split(",") for line in lines[1:]]
+
+
+@pytest.fixture(scope="module")
+def puma(tmp_path_factory):
+    """A nominal PUMA and a perturbed twin (the real robot), both as files the command line
+    reads and as the robots read back from them (so both sides use the same numbers)."""
+    d = tmp_path_factory.mktemp("puma")
+    nominal = kinecal.Robot.from_dh(PUMA, length_unit="m", angle_unit="deg", name="puma")
+    (d / "nominal.toml").write_text(nominal.to_toml())
+    nominal = kinecal.Robot.from_toml(d / "nominal.toml")
+    truth = kinecal.simulate(nominal, 1, seed=5,
+                             perturb_std={"length": 0.002, "angle": 0.2}).truth
+    (d / "true.toml").write_text(truth.to_toml())
+    truth = kinecal.Robot.from_toml(d / "true.toml")
+    assert np.abs(truth.values - nominal.values).max() > 1e-3
+    return d, nominal, truth
+
+
+def puma_postures(seed, n):
+    """Postures away from the PUMA's singularities (the wrist's at q5 = 0, the elbow's
+    stretched near q3 = -87 deg)."""
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-90, 90, size=(n, 6))
+    q[:, 2] = rng.uniform(-60, 60, size=n)
+    q[:, 4] = rng.choice([-1, 1], size=n) * rng.uniform(20, 80, size=n)
+    return q
+
+
+def compensate_cli(cli, d, infile, *extra):
+    out = d / ("out-" + infile)
+    # Exit code 3 when a row is flagged: the rows are compared, not the code.
+    subprocess.run([cli, "compensate", "--robot", "true.toml", "--nominal", "nominal.toml",
+                    "--in", infile, "--out", out.name, *extra], cwd=d, capture_output=True,
+                   check=False)
+    return read_rows(out)
+
+
+def assert_same_as_cli(result, rows):
+    dof = result.readings.shape[1]
+    assert len(rows) == len(result)
+    np.testing.assert_array_equal(np.array([r[1:1 + dof] for r in rows], dtype=float),
+                                  result.readings)
+    np.testing.assert_allclose(np.array([r[1 + dof] for r in rows], dtype=float),
+                               result.position_error, rtol=1e-6, atol=0)
+    attitude = [float(r[2 + dof]) if r[2 + dof] else np.nan for r in rows]
+    np.testing.assert_allclose(attitude, result.attitude_error, rtol=1e-6, atol=0)
+    assert [int(r[3 + dof]) for r in rows] == result.iterations.tolist()
+    assert [r[4 + dof] for r in rows] == result.flags
+
+
+def test_compensated_programs_reach_the_nominal_poses_as_the_cli_computes_them(cli, puma):
+    d, nominal, truth = puma
+    q = puma_postures(11, 40)
+    result = kinecal.compensate(truth, nominal, program=q)
+    assert result.readings.shape == (40, 6)
+    # Through the real robot, the compensated readings give the poses the nominal robot means
+    # (a few rows near an ill-conditioned posture are flagged, not silently wrong).
+    ok = ~result.flagged
+    assert ok.sum() >= 36, result.flags
+    reached, meant = truth.fk(result.readings, matrix=True), nominal.fk(q, matrix=True)
+    np.testing.assert_allclose(reached[ok], meant[ok], atol=1e-9)
+    assert np.abs(truth.fk(q)[:, :3] - nominal.fk(q)[:, :3]).max() > 1e-3  # it had to move
+    assert (result.position_error[ok] < 1e-6).all() and (result.attitude_error[ok] < 1e-6).all()
+    assert (result.position_error[result.unreachable] > 1e-6).all()
+    write_rows(d / "program.csv", ["posture"] + [f"v{j}" for j in range(1, 7)], range(1, 41), q)
+    assert_same_as_cli(result, compensate_cli(cli, d, "program.csv")[1])
+    # Positions only: the meant positions, with the attitude left as it comes.
+    moved = kinecal.compensate(truth, nominal, program=q, position_only=True)
+    ok = ~moved.unreachable
+    assert ok.sum() >= 36, moved.flags
+    np.testing.assert_allclose(truth.fk(moved.readings)[ok, :3], nominal.fk(q)[ok, :3],
+                               atol=1e-9)
+    assert np.isnan(moved.attitude_error).all()
+    assert_same_as_cli(moved, compensate_cli(cli, d, "program.csv", "--position-only")[1])
+
+
+def test_compensated_targets_with_and_without_seeds(cli, puma):
+    d, nominal, truth = puma
+    q = puma_postures(12, 25)
+    targets = np.vstack([nominal.fk(q), [[100.0, 0, 0, 0, 0, 0]]])  # and one out of reach
+    result = kinecal.compensate(truth, nominal, targets=targets)
+    assert result.unreachable[-1] and "unreachable" in result.flags[-1]
+    reached = ~result.unreachable
+    assert reached.sum() >= 20
+    T = truth.fk(result.readings[reached], matrix=True)
+    np.testing.assert_allclose(T[:, :3, 3], targets[reached, :3], atol=1e-9)
+    np.testing.assert_allclose(T[:, :3, :3], rotation_zyx(targets[reached, 3:]), atol=1e-9)
+    # Seeded by the nominal model as the command line seeds a targets file.
+    write_rows(d / "targets.csv", ["target", "x", "y", "z", "alpha", "beta", "gamma"],
+               [f"t{i}" for i in range(26)], targets)
+    assert_same_as_cli(result, compensate_cli(cli, d, "targets.csv")[1])
+    # With seeds: the solution of each seed's configuration, reached.
+    seeded = kinecal.compensate(truth, nominal, targets=targets[:-1], seeds=q)
+    ok = ~seeded.flagged
+    assert ok.sum() >= 22, seeded.flags
+    # A correction near each seed, not a new branch.
+    assert np.median(np.abs(seeded.readings - q)) < 1.0
+    np.testing.assert_allclose(truth.fk(seeded.readings, matrix=True)[ok, :3, 3],
+                               targets[:-1, :3][ok], atol=1e-9)
+    # Positions as targets: no attitude error, the same as the command line's.
+    positions = kinecal.compensate(truth, nominal, targets=targets[:-1, :3])
+    assert np.isnan(positions.attitude_error).all()
+    write_rows(d / "positions.csv", ["target", "x", "y", "z"], [f"t{i}" for i in range(25)],
+               targets[:-1, :3])
+    assert_same_as_cli(positions, compensate_cli(cli, d, "positions.csv")[1])
+    np.testing.assert_allclose(truth.fk(positions.readings)[~positions.unreachable, :3],
+                               targets[:-1, :3][~positions.unreachable], atol=1e-9)
+
+
+def test_compensation_flags_and_its_settings():
+    ge = kinecal.Robot.builtin("ge-a4")
+    q = np.array([[-10.0, 10.0, 2.0, 0.0], [-10.0, 20.0, 2.0, 0.0]])  # joint 2: 6 to 14
+    moved = ge.with_value("link2.x", ge.get("link2.x") + 0.05)
+    result = kinecal.compensate(moved, ge, program=q, position_only=True)
+    assert result.out_of_range.shape == (2, 4)
+    assert result.out_of_range[1, 1] and not result.out_of_range[0].any()
+    assert result.flags[1] == "outside range: joint 2" and result.flags[0] == ""
+    assert result.flagged.tolist() == [False, True]
+    assert "1 flagged" in repr(result)
+    np.testing.assert_allclose(moved.fk(result.readings)[:, :3], ge.fk(q)[:, :3], atol=1e-9)
+    # A branch of 1e-9 deg flags a row whose revolute joints moved at all.
+    assert kinecal.compensate(moved, ge, program=q[:1], position_only=True,
+                              branch=1e-9).branch.all()
+    # A target out of reach is unreachable, unless the tolerance allows for that much.
+    far = [[1000.0, 0.0, 0.0]]
+    assert kinecal.compensate(ge, ge, targets=far).unreachable.all()
+    assert not kinecal.compensate(ge, ge, targets=far, tolerance={"length": 2000}).unreachable[0]
+
+
+@pytest.mark.parametrize(
+    "kw, error, words",
+    [
+        ({}, kinecal.KinecalError, "program, targets: give one"),
+        ({"program": np.zeros((2, 4)), "targets": np.zeros((2, 3))}, kinecal.KinecalError,
+         "program, targets: give one"),
+        ({"program": np.zeros((2, 5))}, kinecal.KinecalError,
+         "program: expected shape (rows, 4)"),
+        ({"program": "abc"}, TypeError, "program: expected real numbers"),
+        ({"program": [[0, 0, np.nan, 0]]}, kinecal.KinecalError, "program: row 0, column 2"),
+        ({"targets": np.zeros((2, 4))}, kinecal.KinecalError,
+         "targets: expected shape (rows, 3) or (rows, 6)"),
+        ({"targets": np.zeros((2, 3)), "seeds": np.zeros((3, 4))}, kinecal.KinecalError,
+         "seeds: 3 rows for 2 targets"),
+        ({"program": np.zeros((2, 4)), "seeds": np.zeros((2, 4))}, kinecal.KinecalError,
+         "seeds: a program's readings are its own seeds"),
+        ({"targets": np.zeros((2, 3)), "position_only": True}, kinecal.KinecalError,
+         "position_only: is for programs"),
+        ({"program": np.zeros((1, 4)), "site": "tcp"}, kinecal.KinecalError,
+         "site: `tcp` is not a site of GE A4"),
+        ({"program": np.zeros((1, 4)), "singular": 1.5}, kinecal.KinecalError,
+         "singular: must be between 0 and 1"),
+        ({"program": np.zeros((1, 4)), "branch": -1.0}, kinecal.KinecalError,
+         "branch: must be a positive angle"),
+        ({"program": np.zeros((1, 4)), "tolerance": {"lenght": 1}}, kinecal.KinecalError,
+         "tolerance: expected (length, angle) or a dict"),
+        ({"program": np.zeros((1, 4)), "tolerance": (1, "x")}, kinecal.KinecalError,
+         "tolerance: angle 'x' is not a number"),
+        ({"program": np.zeros((1, 4)), "tolerance": {"length": -1}}, kinecal.KinecalError,
+         "tolerance: length must be a non-negative finite number"),
+        ({"program": np.zeros((1, 4)), "tolerance": 0.1}, TypeError, "tolerance: expected"),
+    ],
+)
+def test_compensation_input_mistakes_are_named(kw, error, words):
+    ge = kinecal.Robot.builtin("ge-a4")
+    with pytest.raises(error) as e:
+        kinecal.compensate(ge, ge, **kw)
+    assert words in str(e.value), str(e.value)
+
+
+def test_compensation_needs_the_same_robot_twice():
+    ge = kinecal.Robot.builtin("ge-a4")
+    other = kinecal.Robot.from_dh([[0.5, 0, 0, 0]] * 4)  # four joints, none prismatic
+    with pytest.raises(kinecal.KinecalError, match="^nominal: the calibrated and the nominal"):
+        kinecal.compensate(ge, other, program=np.zeros((1, 4)))
+
+
+def plan_cli(cli, cwd, *args):
+    out = subprocess.run([cli, "plan", "--json", "--out", "plan-out.csv", *args], cwd=cwd,
+                         check=True, capture_output=True, text=True).stdout
+    with open(os.path.join(cwd, "plan-out.csv")) as f:
+        return json.loads(out), f.read()
+
+
+def assert_plan_is(p, doc, text):
+    assert p.to_csv() == text
+    assert p.criterion == doc["criterion"] and p.rank == doc["rank"] and p.rows == doc["rows"]
+    assert p.parameters == doc["parameter_names"]
+    assert p.pool_candidates == doc["pool_candidates"]
+    assert (p.exchanges, p.passes) == (doc["exchanges"], doc["passes"])
+    for mine, theirs in [(p.value, doc["value"]), (p.efficiency, doc["efficiency"]),
+                         (p.condition_number, doc["condition_number"])]:
+        assert mine == pytest.approx(theirs, rel=1e-12)
+    assert p.values == pytest.approx(doc["values"], rel=1e-12)
+    assert p.random == (doc["random"]["draws"], pytest.approx(doc["random"]["median_value"]),
+                        pytest.approx(doc["random"]["median_efficiency"]),
+                        doc["random"]["at_least_as_good_as"])
+    assert p.labels == [q["label"] for q in doc["postures"]]
+    assert p.kept.tolist() == [q["kept"] for q in doc["postures"]]
+    assert p.chosen.tolist() == [q["candidate"] for q in doc["postures"] if not q["kept"]]
+    np.testing.assert_array_equal(p.readings, [q["readings"] for q in doc["postures"]])
+    np.testing.assert_allclose(p.leverage, [q["leverage"] for q in doc["postures"]], rtol=1e-12)
+    # Independent of the command line: a plan that determines every parameter carries n
+    # parameters' worth of information in all.
+    assert p.rank == len(p.parameters)
+    assert p.leverage.sum() == pytest.approx(len(p.parameters), rel=1e-9)
+
+
+def test_plan_of_measured_candidates_is_the_cli_plan(cli, qkm_files):
+    d = qkm_files
+    robot = kinecal.Robot.from_toml(d / "qkm.toml")
+    data = kinecal.Measurements.read_csv(d / "identification.csv", robot)
+    p = kinecal.plan(robot, data, count=20, estimate="identifiable,slopes")
+    doc, text = plan_cli(cli, d, "--robot", "qkm.toml", "--candidates", "identification.csv",
+                         "--count", "20", "--estimate", "identifiable,slopes")
+    assert_plan_is(p, doc, text)
+    assert len(p.chosen) == 20 and p.random.at_least_as_good_as == 100
+    # The chosen observations are the candidates' own, and calibrate as the README's do.
+    assert p.observations.postures == 20
+    assert p.to_csv() == p.observations.to_csv(robot)
+    np.testing.assert_array_equal(p.observations.readings, data.readings[p.chosen])
+
+
+def test_plan_of_sampled_and_given_postures_is_the_cli_plan(cli, tmp_path):
+    ge = kinecal.Robot.builtin("ge-a4")
+    p = kinecal.plan(ge, sample=200, count=8, seed=3, criterion="i")
+    doc, text = plan_cli(cli, tmp_path, "--robot", "ge-a4", "--sample", "200", "--seed", "3",
+                         "--count", "8", "--criterion", "i")
+    assert_plan_is(p, doc, text)
+    assert text.startswith("posture,v1,v2,v3,v4\n")
+    # The same postures given as an array (and as a postures file to the command line), with
+    # two of them kept, positions only, weights and a fixed parameter.
+    q = p.readings
+    pool = np.random.default_rng(4).uniform(-40, 40, size=(60, 4))
+    mine = kinecal.plan(ge, pool, count=5, keep=q[:2], position_only=True,
+                        weights=(0.01, 0.1), fix="slopes", criterion="a")
+    write_rows(tmp_path / "pool.csv", ["posture", "v1", "v2", "v3", "v4"], range(1, 61), pool)
+    write_rows(tmp_path / "keep.csv", ["posture", "v1", "v2", "v3", "v4"], range(1, 3), q[:2])
+    doc, text = plan_cli(cli, tmp_path, "--robot", "ge-a4", "--candidates", "pool.csv",
+                         "--keep", "keep.csv", "--count", "5", "--position-only",
+                         "--weights", "length=0.01,angle=0.1", "--fix", "slopes",
+                         "--criterion", "a")
+    assert_plan_is(mine, doc, text)
+    assert mine.kept.tolist() == [True, True] + [False] * 5
+    np.testing.assert_array_equal(mine.readings[2:], pool[mine.chosen])
+    assert all(p.startswith("link") or "offset" in p for p in mine.parameters)
+
+
+@pytest.mark.parametrize(
+    "args, kw, error, words",
+    [
+        ((), {"count": 3}, kinecal.KinecalError, "candidates, sample: give one"),
+        ((np.zeros((5, 4)),), {"count": 3, "sample": 10}, kinecal.KinecalError,
+         "candidates, sample: give one"),
+        ((), {"count": 0, "sample": 10}, kinecal.KinecalError, "count: expected an integer of"),
+        ((), {"count": -2, "sample": 10}, kinecal.KinecalError, "count: expected an integer"),
+        ((), {"count": 2.5, "sample": 10}, TypeError, "count: expected an integer, got float"),
+        ((), {"count": 3, "sample": True}, TypeError, "sample: expected an integer, got bool"),
+        ((), {"count": 3, "sample": 10, "seed": -1}, kinecal.KinecalError, "seed: expected"),
+        ((), {"count": 3, "sample": 10, "criterion": "z"}, kinecal.KinecalError,
+         "criterion: `z` is not a criterion"),
+        ((), {"count": 3, "sample": 10, "sites": ["tcp"]}, kinecal.KinecalError,
+         "sites: `tcp` is not a site"),
+        ((), {"count": 3, "sample": 10, "sites": []}, kinecal.KinecalError, "sites: an empty"),
+        ((np.zeros((5, 3)),), {"count": 3}, kinecal.KinecalError,
+         "candidates: expected shape (rows, 4)"),
+        ((), {"count": 3, "sample": 10, "keep": "abc"}, TypeError, "keep: expected real"),
+        ((), {"count": 3, "sample": 10, "estimate": "nonsense"}, kinecal.KinecalError,
+         "nonsense"),
+        ((), {"count": 3, "sample": 10, "weights": (0, 1)}, kinecal.KinecalError, "weights"),
+        ((), {"count": 3, "sample": 10, "orientation_error": "quat"}, kinecal.KinecalError,
+         "orientation_error `quat`"),
+    ],
+)
+def test_plan_input_mistakes_are_named(args, kw, error, words):
+    ge = kinecal.Robot.builtin("ge-a4")
+    with pytest.raises(error) as e:
+        kinecal.plan(ge, *args, **kw)
+    assert words in str(e.value), str(e.value)
+
+
+def test_plan_sites_describe_postures_not_measurements():
+    ge = kinecal.Robot.builtin("ge-a4")
+    q = np.random.default_rng(1).uniform(-30, 30, size=(12, 4))
+    data = kinecal.Measurements(ge, q, ge.fk(q)[:, :3])
+    with pytest.raises(kinecal.KinecalError, match="^sites: describes postures"):
+        kinecal.plan(ge, data, count=3, sites=["ee"])
+    with pytest.raises(kinecal.KinecalError, match="^candidates: built for a robot"):
+        kinecal.plan(kinecal.Robot.from_dh(PUMA), data, count=3)
+
+
+def test_simulated_measurements_are_the_cli_ones_and_the_true_robot_gives_them(cli, tmp_path):
+    ge = kinecal.Robot.builtin("ge-a4")
+    sim = kinecal.simulate(ge, 30, seed=7, perturb={"p3": 0.1, "joint2.offset": -0.5},
+                           noise={"length": 0.001, "angle": 0.01})
+    subprocess.run([cli, "simulate", "--robot", "ge-a4", "--postures", "30", "--seed", "7",
+                    "--perturb", "p3=+0.1,joint2.offset=-0.5",
+                    "--noise", "length=0.001,angle=0.01", "--out", "data.csv",
+                    "--truth", "truth.toml"], cwd=tmp_path, check=True, capture_output=True)
+    assert sim.measurements.to_csv(ge) == (tmp_path / "data.csv").read_text()
+    assert sim.truth.to_toml() == (tmp_path / "truth.toml").read_text()
+    assert sim.truth.get("p3") - ge.get("p3") == pytest.approx(0.1, abs=1e-12)
+    assert sim.truth.get("joint2.offset") - ge.get("joint2.offset") == pytest.approx(-0.5)
+    # Without noise, the measurements are the true robot's forward kinematics.
+    clean = kinecal.simulate(ge, 30, seed=7, perturb={"p3": 0.1, "joint2.offset": -0.5})
+    _, rows = read_rows_text(clean.measurements.to_csv(ge))
+    measured = np.array([r[6:12] for r in rows], dtype=float)
+    np.testing.assert_allclose(measured, clean.truth.fk(clean.measurements.readings),
+                               atol=1e-9)
+    np.testing.assert_array_equal(clean.measurements.readings, sim.measurements.readings)
+    # The noise has the stated spread (2,000 postures: within 5 %).
+    many = kinecal.simulate(ge, 2000, seed=8, noise=(0.001, 0.01))
+    _, rows = read_rows_text(many.measurements.to_csv(ge))
+    error = np.array([r[6:12] for r in rows], dtype=float) - ge.fk(many.measurements.readings)
+    assert np.std(error[:, :3]) == pytest.approx(0.001, rel=0.05)
+    assert np.std(error[:, 3:]) == pytest.approx(0.01, rel=0.05)
+    # Random perturbations and positions only, as the command line makes them.
+    sim = kinecal.simulate(ge, 12, seed=9, perturb_std={"length": 0.01, "angle": 0.1},
+                           position_only=True)
+    subprocess.run([cli, "simulate", "--robot", "ge-a4", "--postures", "12", "--seed", "9",
+                    "--perturb-std", "length=0.01,angle=0.1", "--position-only",
+                    "--out", "data2.csv", "--truth", "truth2.toml"], cwd=tmp_path, check=True,
+                   capture_output=True)
+    assert sim.measurements.to_csv(ge) == (tmp_path / "data2.csv").read_text()
+    assert sim.truth.to_toml() == (tmp_path / "truth2.toml").read_text()
+    assert sim.measurements.kinds == {"position": 12}
+
+
+def read_rows_text(text):
+    lines = text.splitlines()
+    return lines[0].split(","), [line.split(",") for line in lines[1:]]
+
+
+def test_simulation_at_given_postures_calibrates_back_to_the_truth():
+    puma = kinecal.Robot.from_dh(PUMA, length_unit="m", angle_unit="deg")
+    q = np.random.default_rng(6).uniform(-120, 120, size=(40, 6))
+    sim = kinecal.simulate(puma, q, perturb={"link3.x": 0.003, "joint4.offset": 0.2})
+    np.testing.assert_array_equal(sim.measurements.readings, q)
+    result = kinecal.calibrate(puma, sim.measurements, estimate="link3.x,joint4.offset")
+    assert result.estimates["link3.x"] == pytest.approx(sim.truth.get("link3.x"), abs=1e-9)
+    assert result.estimates["joint4.offset"] == pytest.approx(sim.truth.get("joint4.offset"),
+                                                              abs=1e-9)
+
+
+@pytest.mark.parametrize(
+    "postures, kw, error, words",
+    [
+        (0, {}, kinecal.KinecalError, "postures: expected an integer of at least 1"),
+        (np.zeros((3, 5)), {}, kinecal.KinecalError, "postures: expected shape (rows, 4)"),
+        ("many", {}, TypeError, "postures: expected real numbers"),
+        (5, {"seed": -1}, kinecal.KinecalError, "seed: expected an integer of at least 0"),
+        (5, {"seed": 1.5}, TypeError, "seed: expected an integer"),
+        (5, {"perturb": {"nonsense": 1.0}}, kinecal.KinecalError, "perturb: "),
+        (5, {"perturb": {"p1": "x"}}, kinecal.KinecalError, "perturb: p1: 'x' is not a number"),
+        (5, {"perturb": {"p1": float("inf")}}, kinecal.KinecalError,
+         "perturb: p1: inf is not a finite number"),
+        (5, {"perturb": {"p1": 1e300}}, kinecal.KinecalError, "perturb: p1 (link1.x) would"),
+        (5, {"perturb": "p1=1"}, TypeError, "perturb: expected a dict"),
+        (5, {"noise": {"length": -1}}, kinecal.KinecalError,
+         "noise: length must be a non-negative finite number"),
+        (5, {"noise": (1, 2, 3)}, kinecal.KinecalError, "noise: expected (length, angle)"),
+        (5, {"perturb_std": {"len": 1}}, kinecal.KinecalError,
+         "perturb_std: expected (length, angle, slope) or a dict"),
+        (5, {"perturb_std": {"slope": float("nan")}}, kinecal.KinecalError,
+         "perturb_std: slope must be a non-negative finite number"),
+    ],
+)
+def test_simulation_input_mistakes_are_named(postures, kw, error, words):
+    ge = kinecal.Robot.builtin("ge-a4")
+    with pytest.raises(error) as e:
+        kinecal.simulate(ge, postures, **kw)
+    assert words in str(e.value), str(e.value)
+
+
+# --- Robot exports: the command line's `kinecal export` -----------------------------------------
+
+
+def test_dh_export_reads_back_and_is_the_cli_table(cli, puma, tmp_path):
+    d, nominal, truth = puma
+    q = np.random.default_rng(2).uniform(-150, 150, size=(30, 6))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # exact: no warning
+        for convention in ("standard", "modified"):
+            table = nominal.to_dh(convention=convention)
+            (tmp_path / f"{convention}.csv").write_text(table)
+            back = kinecal.Robot.from_dh(tmp_path / f"{convention}.csv", convention=convention,
+                                         length_unit="m", angle_unit="deg")
+            np.testing.assert_allclose(back.fk(q, matrix=True), nominal.fk(q, matrix=True),
+                                       atol=1e-9)
+    # The perturbed robot is not a DH robot: said so, with the command line's words.
+    with pytest.warns(kinecal.ExportWarning, match="^not representable in DH: ") as w:
+        table = truth.to_dh("modified")
+    out = subprocess.run([cli, "export", "dh", "--robot", "true.toml", "--convention",
+                          "modified", "--out", str(tmp_path / "t.csv")], cwd=d, check=True,
+                         capture_output=True, text=True)
+    assert (tmp_path / "t.csv").read_text() == table
+    assert str(w[0].message) in out.stderr
+    with pytest.raises(kinecal.KinecalError, match="convention `craig`"):
+        nominal.to_dh("craig")
+
+
+def test_ur_export_round_trips_and_names_what_it_cannot_hold(cli, tmp_path):
+    yaml = os.path.join(SHARED, "urdf", "universal_robots", "real_factory_calibration_ur3e",
+                        "ur3e_calibration_1.yaml")
+    subprocess.run([cli, "import", "ur", yaml, "--out", "ur3e.toml"], cwd=tmp_path, check=True,
+                   capture_output=True)
+    robot = kinecal.Robot.from_toml(tmp_path / "ur3e.toml")
+    moved = robot.with_value("link3.x", robot.get("link3.x") + 0.002)
+    moved = moved.with_value("joint2.offset", robot.get("joint2.offset") + 0.01)
+    (tmp_path / "moved.toml").write_text(moved.to_toml())
+    moved = kinecal.Robot.from_toml(tmp_path / "moved.toml")
+    text = moved.to_ur(yaml)
+    subprocess.run([cli, "export", "ur", "--robot", "moved.toml", "--template", yaml,
+                    "--out", "cli.yaml"], cwd=tmp_path, check=True, capture_output=True)
+    assert text == (tmp_path / "cli.yaml").read_text()
+    # Read back by the library's importer: the same robot.
+    (tmp_path / "back.yaml").write_text(text)
+    subprocess.run([cli, "import", "ur", "back.yaml", "--out", "back.toml"], cwd=tmp_path,
+                   check=True, capture_output=True)
+    back = kinecal.Robot.from_toml(tmp_path / "back.toml")
+    q = np.random.default_rng(3).uniform(-3, 3, size=(20, 6))
+    np.testing.assert_allclose(back.fk(q, matrix=True), moved.fk(q, matrix=True), atol=1e-9)
+    assert np.abs(back.fk(q)[:, :3] - robot.fk(q)[:, :3]).max() > 1e-3
+    # A slope the file cannot hold: said so, as the command line says it.
+    sloped = moved.with_value("joint1.slope", 1.001)
+    (tmp_path / "sloped.toml").write_text(sloped.to_toml())
+    sloped = kinecal.Robot.from_toml(tmp_path / "sloped.toml")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        text = sloped.to_ur(yaml)
+    said = [str(w.message) for w in caught if issubclass(w.category, kinecal.ExportWarning)]
+    assert said[0].startswith("not written: joint 1 (shoulder_pan_joint) slope 1.001"), said
+    out = subprocess.run([cli, "export", "ur", "--robot", "sloped.toml", "--template", yaml,
+                          "--out", "sloped.yaml"], cwd=tmp_path, check=True,
+                         capture_output=True, text=True)
+    assert (tmp_path / "sloped.yaml").read_text() == text
+    assert [line for line in out.stderr.splitlines() if line.startswith("not written")] == said
+
+
+def test_joint_table_export_is_the_robots_offsets_and_slopes(cli, puma, tmp_path):
+    d, nominal, truth = puma
+    changed = nominal.with_value("joint2.offset", nominal.get("joint2.offset") + 0.3)
+    changed = changed.with_value("joint5.slope", 1.002)
+    (tmp_path / "changed.toml").write_text(changed.to_toml())
+    changed = kinecal.Robot.from_toml(tmp_path / "changed.toml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # offsets and slopes only: nothing lost
+        table = changed.to_joints(nominal)
+    subprocess.run([cli, "export", "joints", "--robot", str(tmp_path / "changed.toml"),
+                    "--nominal", str(d / "nominal.toml"), "--out", str(tmp_path / "j.csv")],
+                   check=True, capture_output=True)
+    assert table == (tmp_path / "j.csv").read_text()
+    header, rows = read_rows_text(table)
+    assert header == ["joint", "offset", "slope", "offset_change", "slope_change"]
+    for r in rows:
+        j = int(r[0])
+        assert float(r[1]) == pytest.approx(changed.get(f"joint{j}.offset"), abs=1e-12)
+        assert float(r[2]) == pytest.approx(changed.get(f"joint{j}.slope"), abs=1e-12)
+        assert float(r[3]) == pytest.approx(
+            changed.get(f"joint{j}.offset") - nominal.get(f"joint{j}.offset"), abs=1e-12)
+    # The truth's link changes cannot go into a joint table: said so.
+    with pytest.warns(kinecal.ExportWarning, match="^not written: link and tool changes"):
+        truth.to_joints(nominal)
+    with pytest.raises(kinecal.KinecalError):
+        truth.to_joints(kinecal.Robot.builtin("ge-a4"))
+
+
+def test_urdf_export_names_what_urdf_cannot_express():
+    path = os.path.join(SHARED, "urdf", "franka_panda", "panda.urdf")
+    r = kinecal.Robot.from_urdf(path, tip="panda_hand_tcp")
+    with pytest.warns(kinecal.ExportWarning, match="slope"):
+        r.with_value("joint2.slope", 1.001).to_urdf(path, tip="panda_hand_tcp")
+
+
+# --- What the calibration's outcome holds besides the report -----------------------------------
+
+
+def test_covariance_is_the_reports_uncertainty(qkm_files):
+    robot = kinecal.Robot.from_toml(qkm_files / "qkm.toml")
+    data = kinecal.Measurements.read_csv(qkm_files / "identification.csv", robot)
+    result = kinecal.calibrate(robot, data, estimate="all,identifiable")
+    c = result.covariance
+    n = len(result.estimated)
+    assert c.shape == (n, n) and n == 39
+    np.testing.assert_array_equal(c, c.T)
+    eig = np.linalg.eigvalsh(c)
+    assert eig.min() >= -1e-12 * eig.max()
+    sigmas = result.sigmas
+    assert len(sigmas) == n  # the identifiable set: every one determined
+    for k, name in enumerate(result.estimated):
+        assert np.sqrt(c[k, k]) == pytest.approx(sigmas[name], rel=1e-9), name
+    # A copy each time: the result cannot be changed through it.
+    c[0, 0] = -1
+    assert result.covariance[0, 0] > 0
+
+
+def test_covariance_of_redundant_parameters_gives_the_combinations_variance():
+    ge = kinecal.Robot.builtin("ge-a4")
+    sim = kinecal.simulate(ge, 30, seed=1, perturb={"p1": 0.1}, noise=(0.001, 0.01))
+    result = kinecal.calibrate(ge, sim.measurements, estimate="all", fix="slopes")
+    assert result.combinations, "the GE A4's z parameters are identically redundant"
+    c, names = result.covariance, result.estimated
+    eig = np.linalg.eigvalsh(c)
+    assert eig.min() >= -1e-12 * eig.max()
+    for combo in result.combinations:
+        v = np.zeros(len(names))
+        for t in combo["terms"]:
+            v[names.index(t["name"])] = t["coefficient"]
+        assert np.sqrt(v @ c @ v) == pytest.approx(combo["sigma"], rel=1e-9)
+    for name, sigma in result.sigmas.items():
+        k = names.index(name)
+        assert np.sqrt(c[k, k]) == pytest.approx(sigma, rel=1e-9)
+
+
+def test_residuals_are_the_calibrated_robots_errors_on_the_data(qkm_files):
+    d = qkm_files
+    robot = kinecal.Robot.from_toml(d / "qkm.toml")
+    q, p, s, labels = read_measurement_csv(d / "identification.csv")
+    data = kinecal.Measurements(robot, q, p, sites=s, postures=labels)
+    result = kinecal.calibrate(robot, data, estimate="all,identifiable")
+    r, rows = result.residuals, result.residual_rows
+    assert r.shape == (data.residuals,) == (138,)
+    assert [x.row for x in rows[:3]] == ["x", "y", "z"]
+    assert {x.kind for x in rows} == {"position"}
+    # Model - measured, row by row, from the calibrated robot's forward kinematics.
+    by_label = {label: k for k, label in enumerate(labels)}
+    for k in range(0, len(rows), 3):
+        row = rows[k]
+        i = by_label[row.posture]
+        assert row.target == (s[i] or "ee")
+        model = result.robot.fk(q[i], site=s[i])[:3]
+        np.testing.assert_allclose(r[k:k + 3], model - p[i], atol=1e-9)
+    # The report's figures follow from them.
+    norms = np.linalg.norm(r.reshape(-1, 3), axis=1)
+    after = result.identification["after"]
+    assert np.sqrt(np.mean(norms ** 2)) == pytest.approx(after["rms_position"], rel=1e-9)
+    sigma = np.array([x.sigma for x in rows])
+    assert sigma == pytest.approx(0.01 * 100)  # the default 1 mm, in mm
+    assert np.sum((r / sigma) ** 2) == pytest.approx(result.report["objective_after"], rel=1e-9)
+
+
+def test_pose_residuals_are_rotation_vectors_or_euler_differences():
+    ge = kinecal.Robot.builtin("ge-a4")
+    sim = kinecal.simulate(ge, 20, seed=2, perturb={"p1": 0.1}, noise=(0.002, 0.05))
+    q = sim.measurements.readings
+    _, rows = read_rows_text(sim.measurements.to_csv(ge))
+    measured = np.array([x[6:12] for x in rows], dtype=float)
+    for orientation in ("rotvec", "euler"):
+        result = kinecal.calibrate(ge, sim.measurements, estimate="identifiable",
+                                   orientation_error=orientation)
+        r = result.residuals.reshape(-1, 6)
+        assert [x.row for x in result.residual_rows[:6]] == ["x", "y", "z", "alpha", "beta",
+                                                              "gamma"]
+        model = result.robot.fk(q)
+        np.testing.assert_allclose(r[:, :3], model[:, :3] - measured[:, :3], atol=1e-9)
+        if orientation == "euler":
+            diff = (model[:, 3:] - measured[:, 3:] + 180) % 360 - 180
+            np.testing.assert_allclose(r[:, 3:], diff, atol=1e-9)
+        else:
+            # log(R_measured^T R_model), in degrees.
+            R = rotation_zyx(measured[:, 3:]).transpose(0, 2, 1) @ rotation_zyx(model[:, 3:])
+            angle = np.arccos(np.clip((np.trace(R, axis1=1, axis2=2) - 1) / 2, -1, 1))
+            axis = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0],
+                             R[:, 1, 0] - R[:, 0, 1]], -1) / (2 * np.sin(angle))[:, None]
+            np.testing.assert_allclose(r[:, 3:], np.degrees(axis * angle[:, None]), atol=1e-7)
+        assert np.sum((r.ravel() / [x.sigma for x in result.residual_rows]) ** 2) == \
+            pytest.approx(result.report["objective_after"], rel=1e-9)
+
+
+def test_residuals_leave_the_holdout_out():
+    ge = kinecal.Robot.builtin("ge-a4")
+    sim = kinecal.simulate(ge, 40, seed=3, noise=(0.001, 0.01), position_only=True)
+    result = kinecal.calibrate(ge, sim.measurements, estimate="identifiable", holdout=0.25)
+    kept = {x.posture for x in result.residual_rows}
+    assert len(kept) == result.identification["postures"] == 30
+    assert len(result.residuals) == 3 * 30
+
+
+def test_no_covariance_without_degrees_of_freedom():
+    ge = kinecal.Robot.builtin("ge-a4")
+    sim = kinecal.simulate(ge, 1, seed=1, perturb={"p1": 0.01}, position_only=True)
+    result = kinecal.calibrate(ge, sim.measurements, estimate="p1,p2,p3")
+    assert result.covariance is None and result.sigmas == {}
+    assert any("no degrees of freedom" in w for w in result.warnings)
+    assert result.residuals.shape == (3,) and np.abs(result.residuals).max() < 1e-9
+    with pytest.raises(kinecal.KinecalError, match="^residuals: this Calibration was made"):
+        _ = kinecal.Calibration(result.robot, result.to_json()).residuals
+
+
+def test_a_model_choice_from_python_is_the_command_lines(cli, qkm_files, monkeypatch):
+    monkeypatch.chdir(qkm_files)
+    done = subprocess.run(
+        [cli, "calibrate", "--robot", "qkm.toml", "--data", "identification.csv",
+         "--choose", "identifiable", "identifiable,slopes", "--folds", "3", "--repeats", "1",
+         "--report", "choice.json", "--quiet"],
+        check=True, capture_output=True, text=True)
+    expected = json.loads((qkm_files / "choice.json").read_text())
+    robot = kinecal.Robot.from_toml("qkm.toml")
+    data = kinecal.Measurements.read_csv("identification.csv", robot)
+    result = kinecal.calibrate(robot, data, choose=["identifiable", "identifiable,slopes"],
+                               folds=3, repeats=1)
+    assert len(expected["model_choice"]) == 2, expected["model_choice"]
+    assert result.report["model_choice"] == expected["model_choice"], done.stdout
+    assert result.estimates == {p["name"]: p["estimated"] for p in expected["parameters"]
+                                if p["estimated_flag"]}

@@ -439,6 +439,91 @@ impl<'r> Compensator<'r> {
     }
 }
 
+/// Seeds for Cartesian goals given without readings to start from, as a controller would
+/// command them: the nominal model's solution nearest the last accepted solution (the middle of
+/// the joints' reading ranges before the first). A goal the nominal model cannot reach from
+/// there is tried from 32 postures drawn within the ranges, and the reachable solution nearest
+/// wins (unreachable by the nominal model too: the nearest start, and the calibrated model
+/// says how far it stays). Whole turns of a revolute joint give the same pose: each reading is
+/// brought into its range when a turn does. What `kinecal compensate` does for a targets file
+/// without seed readings.
+pub struct NominalSeeds<'r> {
+    nominal: &'r Robot,
+    ik: Compensator<'r>,
+    middle: Vec<f64>,
+    starts: Vec<crate::observe::Posture>,
+    previous: Option<Vec<f64>>,
+    trial: Vec<f64>,
+}
+
+impl<'r> NominalSeeds<'r> {
+    /// Seeds by `nominal`'s inverse kinematics with `options`.
+    pub fn new(nominal: &'r Robot, options: Options) -> Result<Self> {
+        let dof = nominal.dof();
+        let middle = (0..dof)
+            .map(|j| {
+                let (lo, hi) = crate::simulate::reading_range(nominal, j);
+                0.5 * (lo + hi)
+            })
+            .collect();
+        Ok(NominalSeeds {
+            nominal,
+            ik: Compensator::new(nominal, nominal, options)?,
+            middle,
+            starts: crate::simulate::sample_postures(nominal, 32, 1),
+            previous: None,
+            trial: vec![0.0; dof],
+        })
+    }
+
+    /// Writes into `seed` the readings to start the calibrated model's solution of `goal` from.
+    pub fn seed(&mut self, goal: &Goal, target: Target, seed: &mut [f64]) {
+        let near = self.previous.as_deref().unwrap_or(&self.middle).to_vec();
+        let first = self.ik.solve(goal, target, &near, &mut self.trial);
+        if first.flags.unreachable {
+            let mut best: Option<(f64, Vec<f64>)> = None;
+            for start in &self.starts {
+                let t = self
+                    .ik
+                    .solve(goal, target, &start.readings, &mut self.trial);
+                if t.flags.unreachable {
+                    continue;
+                }
+                let d: f64 = self
+                    .trial
+                    .iter()
+                    .zip(&near)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum();
+                if best.as_ref().is_none_or(|b| d < b.0) {
+                    best = Some((d, self.trial.clone()));
+                }
+            }
+            self.trial
+                .copy_from_slice(best.as_ref().map_or(&near, |b| &b.1));
+        }
+        for (v, j) in self.trial.iter_mut().zip(&self.nominal.joints) {
+            if let (JointKind::Revolute, Some((lo, hi))) = (j.kind, j.range) {
+                let turn = std::f64::consts::TAU / j.slope.abs();
+                let k = ((lo - *v) / turn).ceil();
+                let moved = *v + k * turn;
+                if (lo..=hi).contains(&moved) {
+                    *v = moved;
+                }
+            }
+        }
+        seed.copy_from_slice(&self.trial);
+    }
+
+    /// Records the calibrated model's solution of a goal it reached: the next goal is seeded
+    /// nearest it.
+    pub fn accept(&mut self, readings: &[f64]) {
+        self.previous
+            .get_or_insert_with(|| vec![0.0; readings.len()])
+            .copy_from_slice(readings);
+    }
+}
+
 /// `out = (W J)^T y` over the first `rows` rows: a vector of the row space back in readings
 /// (`W` weighs attitude rows by `reach`).
 fn back_project(jac: &[f64], reach: f64, y: &Vector6<f64>, rows: usize, out: &mut [f64]) {

@@ -489,16 +489,7 @@ impl CalibrationSpec {
         request.sources = std::iter::once(robot_source.clone())
             .chain(sources)
             .collect();
-        let choice = match &self.validation.choose {
-            None => None,
-            Some(list) => Some(if list.is_empty() {
-                Candidate::defaults(&robot)?
-            } else {
-                list.iter()
-                    .map(|t| Candidate::parse(t, &robot))
-                    .collect::<Result<_>>()?
-            }),
-        };
+        let choice = candidates(self, &robot)?;
         Ok(Job {
             spec: self.clone(),
             request,
@@ -507,6 +498,19 @@ impl CalibrationSpec {
             reading: started.elapsed().as_secs_f64(),
         })
     }
+}
+
+/// The model candidates of `spec`'s choice, when it asks for one.
+fn candidates(spec: &CalibrationSpec, robot: &Robot) -> Result<Option<Vec<Candidate>>> {
+    Ok(match &spec.validation.choose {
+        None => None,
+        Some(list) if list.is_empty() => Some(Candidate::defaults(robot)?),
+        Some(list) => Some(
+            list.iter()
+                .map(|t| Candidate::parse(t, robot))
+                .collect::<Result<_>>()?,
+        ),
+    })
 }
 
 /// Huber's threshold by default, in spreads (95 % efficiency under normal noise).
@@ -569,6 +573,19 @@ pub struct Job {
 }
 
 impl Job {
+    /// The job of `spec` with its request built (and its data read) by the caller, as Python
+    /// does for data given in memory; the model candidates of `spec`'s choice are read here.
+    pub fn new(spec: CalibrationSpec, request: Request, robot_source: Source) -> Result<Job> {
+        let choice = candidates(&spec, &request.robot)?;
+        Ok(Job {
+            spec,
+            request,
+            robot_source,
+            choice,
+            reading: 0.0,
+        })
+    }
+
     /// Runs the calibration (or the model choice); an observation whose residual cannot be
     /// computed is named with its file.
     pub fn run(&self, progress: &mut dyn workflow::Progress) -> Result<Outcome> {

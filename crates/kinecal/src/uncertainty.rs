@@ -100,6 +100,28 @@ impl Uncertainty {
             .sum()
     }
 
+    /// The covariance of the estimated parameters in file units, in the order of
+    /// [`Analysis::parameters`] (the calibration's `estimated`): entry `(a, b)` is in the unit
+    /// of parameter `a` times the unit of parameter `b`. It is the covariance over the determined
+    /// directions (`s0^2` times the pseudo-inverse of the information): a determined
+    /// parameter's diagonal entry is its [`ParameterUncertainty::sigma`] squared; the entries of
+    /// parameters determined only in combination mean something only in the combinations the
+    /// data determines (`c^T C c` is the variance of `sum c_j p_j`, as for
+    /// [`CombinationUncertainty::sigma`]).
+    pub fn covariance_file(&self, robot: &crate::robot::Robot) -> Vec<Vec<f64>> {
+        let f: Vec<f64> = self
+            .analysis
+            .parameters
+            .iter()
+            .map(|&id| robot.units.factor(robot.param_quantity(id)))
+            .collect();
+        self.covariance
+            .iter()
+            .zip(&f)
+            .map(|(row, fa)| row.iter().zip(&f).map(|(c, fb)| c / (fa * fb)).collect())
+            .collect()
+    }
+
     /// The uncertainty of parameter `id`, if it was estimated.
     pub fn parameter(&self, id: ParamId) -> Option<&ParameterUncertainty> {
         self.parameters.iter().find(|p| p.id == id)

@@ -12,34 +12,66 @@ unit (``Robot.units``); attitudes are ZYX Euler angles ``(alpha, beta, gamma)``,
 
 Errors are raised as ``kinecal.KinecalError`` (a ``ValueError``) with ``file``, ``line`` and
 ``field`` attributes where the problem came from a file, or as ``TypeError`` for arguments of
-the wrong type. Calibration and analysis release the GIL.
+the wrong type. Calibration, analysis, planning and compensation release the GIL.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Union
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple, Union
 
 import numpy as np
+import numpy.typing as npt
 
-from ._native import KinecalError, Measurements, Robot, __version__
 from . import _native
+from ._native import ExportWarning, KinecalError, Measurements, Robot, __version__
 
 __all__ = [
-    "Robot",
-    "Measurements",
     "Calibration",
+    "Compensation",
     "Dataset",
+    "ExportWarning",
     "KinecalError",
-    "calibrate",
+    "Measurements",
+    "Plan",
+    "RandomPlans",
+    "ResidualRow",
+    "Robot",
+    "Simulation",
+    "__version__",
     "analyze",
+    "calibrate",
+    "compensate",
     "dataset",
     "datasets",
-    "__version__",
+    "plan",
+    "simulate",
 ]
 
 ParamList = Union[str, Sequence[str], None]
+Weights = Union[None, Sequence[float], dict[str, float]]
+# Settings of a few named numbers: a sequence in the order of their names, or a dict of some.
+Spec = Union[None, Sequence[float], Mapping[str, float]]
+Floats = npt.NDArray[np.float64]
+Bools = npt.NDArray[np.bool_]
+Ints = npt.NDArray[np.int64]
+
+
+class ResidualRow(NamedTuple):
+    """What one residual row of :attr:`Calibration.residuals` is: the ``posture`` label of
+    its observation (the first posture's, for a distance), the observation's ``kind``
+    (``pose``, ``position``, ``distance``, ``contact``), its ``target`` (``ee`` or a site),
+    the ``row`` (``x``, ``y``, ``z``, ``alpha``, ``beta``, ``gamma``, ``distance``, ...) and
+    the row's standard deviation ``sigma`` (its own, else the weights), in the unit of the
+    residual."""
+
+    posture: str
+    kind: str
+    target: str
+    row: str
+    sigma: float
 
 
 class Calibration:
@@ -51,10 +83,15 @@ class Calibration:
     Values are in the robot's units.
     """
 
-    def __init__(self, robot: Robot, report_json: str) -> None:
+    def __init__(
+        self, robot: Robot, report_json: str, details: dict[str, Any] | None = None
+    ) -> None:
         self.robot: Robot = robot
-        self.report: Dict[str, Any] = json.loads(report_json)
+        self.report: dict[str, Any] = json.loads(report_json)
         self._json = report_json
+        self._details = details
+        if details is not None and details["covariance_names"] != self.estimated:
+            raise KinecalError("the covariance is not in the order of the estimated parameters")
 
     @property
     def converged(self) -> bool:
@@ -67,12 +104,12 @@ class Calibration:
         return int(self.report["iterations"])
 
     @property
-    def estimated(self) -> List[str]:
+    def estimated(self) -> list[str]:
         """Names of the estimated parameters, in thesis order."""
         return [p["name"] for p in self.report["parameters"] if p["estimated_flag"]]
 
     @property
-    def values(self) -> np.ndarray:
+    def values(self) -> Floats:
         """Estimated values of :attr:`estimated`, in the same order (file units)."""
         return np.array(
             [p["estimated"] for p in self.report["parameters"] if p["estimated_flag"]],
@@ -80,12 +117,12 @@ class Calibration:
         )
 
     @property
-    def estimates(self) -> Dict[str, float]:
+    def estimates(self) -> dict[str, float]:
         """Estimated values by parameter name (file units)."""
         return dict(zip(self.estimated, self.values.tolist()))
 
     @property
-    def sigmas(self) -> Dict[str, float]:
+    def sigmas(self) -> dict[str, float]:
         """Standard deviations (file units) of the estimated parameters the data determines
         individually; parameters determined only in combination are left out (see
         :attr:`combinations`)."""
@@ -95,34 +132,76 @@ class Calibration:
             if p["estimated_flag"] and p.get("sigma") is not None
         }
 
+    def _detail(self, name: str) -> Any:
+        if self._details is None:
+            raise KinecalError(f"{name}: this Calibration was made without the outcome's arrays")
+        return self._details[name]
+
     @property
-    def undetermined(self) -> List[str]:
+    def covariance(self) -> Floats | None:
+        """The covariance of the estimated parameters, ``(n, n)`` in the order of
+        :attr:`estimated`, entry ``(a, b)`` in the unit of parameter ``a`` times that of ``b``
+        (file units); None when the uncertainty could not be computed (a warning says why).
+
+        It is the library's covariance over the directions the data determines (the variance
+        factor times the pseudo-inverse of the information, linearised as the report's
+        standard deviations are): the diagonal of a parameter in :attr:`sigmas` is its sigma
+        squared, and for any determined combination ``c`` (see :attr:`combinations`)
+        ``c @ covariance @ c`` is its variance. The entries of parameters determined only in
+        combination mean nothing on their own."""
+        c: Floats | None = self._detail("covariance")
+        return None if c is None else c.copy()
+
+    @property
+    def residuals(self) -> Floats:
+        """The residuals of the calibrated robot on the identification data (the data minus
+        any hold-out), ``model - measured``, one per residual row, in file units: lengths in
+        the length unit, angles in the angle unit.
+
+        Rows come observation after observation in the data's order (by posture), each
+        observation's rows in its kind's order: ``x, y, z`` for a position; ``x, y, z`` then
+        three angle rows for a pose (the rotation vector of ``R_measured^T R_model`` with
+        ``orientation_error="rotvec"``, the differences of the ZYX Euler angles with
+        ``"euler"``); one row for a distance or a plane contact. :attr:`residual_rows` names
+        each row; dividing by its ``sigma`` gives the weighted residual the solver
+        minimised."""
+        r: Floats = self._detail("residuals")
+        return r.copy()
+
+    @property
+    def residual_rows(self) -> list[ResidualRow]:
+        """What each row of :attr:`residuals` is."""
+        return [ResidualRow(*row) for row in self._detail("residual_rows")]
+
+    @property
+    def undetermined(self) -> list[str]:
         """Estimated parameters the data does not determine individually (ids)."""
         return list(self.report["undetermined"])
 
     @property
-    def combinations(self) -> List[Dict[str, Any]]:
+    def combinations(self) -> list[dict[str, Any]]:
         """Combinations of parameters the data determines although their members are not
         (expression, terms, value, sigma)."""
         return list(self.report["combinations"])
 
     @property
-    def identification(self) -> Dict[str, Any]:
+    def identification(self) -> dict[str, Any]:
         """Accuracy on the data calibrated on (before and after)."""
-        return self.report["identification"]
+        ident: dict[str, Any] = self.report["identification"]
+        return ident
 
     @property
-    def validation(self) -> Optional[Dict[str, Any]]:
+    def validation(self) -> dict[str, Any] | None:
         """Accuracy on the validation data or hold-out (None without one)."""
         return self.report.get("validation")
 
     @property
-    def cross_validation(self) -> Optional[Dict[str, Any]]:
+    def cross_validation(self) -> dict[str, Any] | None:
         """The cross-validation, when ``folds`` was given."""
         return self.report.get("cross_validation")
 
     @property
-    def warnings(self) -> List[str]:
+    def warnings(self) -> list[str]:
         """Everything the user should know, worded."""
         return list(self.report["warnings"])
 
@@ -145,10 +224,7 @@ class Calibration:
         )
 
 
-Weights = Union[None, Sequence[float], Dict[str, float]]
-
-
-def _weights(weights: Weights) -> Optional[tuple]:
+def _weights(weights: Weights) -> tuple[float, float] | None:
     """Standard deviations ``(length, angle)`` from a pair or a ``{"length", "angle"}`` dict."""
     if weights is None:
         return None
@@ -172,18 +248,50 @@ def _weights(weights: Weights) -> Optional[tuple]:
             out.append(float(w))
         except (TypeError, ValueError):
             raise KinecalError(f"weights: {name} {w!r} is not a number") from None
+    return out[0], out[1]
+
+
+def _spec(keyword: str, value: Spec, keys: Sequence[str]) -> tuple[float | None, ...] | None:
+    """Numbers named ``keys``, from a sequence of all of them in that order or a dict of some
+    of them (the others None)."""
+    if value is None:
+        return None
+    expected = f"({', '.join(keys)}) or a dict of some of {', '.join(map(repr, keys))}"
+    if isinstance(value, Mapping):
+        unknown = sorted(map(str, set(value) - set(keys)))
+        if unknown or not value:
+            raise KinecalError(
+                f"{keyword}: expected {expected}"
+                + (f", not {', '.join(map(repr, unknown))}" if unknown else "")
+            )
+        given: list[Any] = [value.get(k) for k in keys]
+    elif isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
+        raise TypeError(f"{keyword}: expected {expected}, got {type(value).__name__}")
+    else:
+        given = list(value)
+        if len(given) != len(keys):
+            raise KinecalError(f"{keyword}: expected {expected}, got {len(given)} numbers")
+    out: list[float | None] = []
+    for name, v in zip(keys, given):
+        if v is None:
+            out.append(None)
+            continue
+        try:
+            out.append(float(v))
+        except (TypeError, ValueError):
+            raise KinecalError(f"{keyword}: {name} {v!r} is not a number") from None
     return tuple(out)
 
 
-Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
+JobSpec = Union[Mapping[str, Any], str, "os.PathLike[str]"]
 
 
-def _calibrate_spec(spec: Spec) -> Calibration:
+def _calibrate_spec(spec: JobSpec) -> Calibration:
     """Runs a calibration spec (a dict, or a spec file's path) and writes its outputs."""
-    if isinstance(spec, dict):
-        robot_out, report, outputs = _native.calibrate_spec(json=json.dumps(spec))
+    if isinstance(spec, Mapping):
+        robot_out, report, details, outputs = _native.calibrate_spec(json=json.dumps(spec))
     elif isinstance(spec, (str, os.PathLike)):
-        robot_out, report, outputs = _native.calibrate_spec(path=os.fspath(spec))
+        robot_out, report, details, outputs = _native.calibrate_spec(path=os.fspath(spec))
     else:
         raise TypeError(
             f"calibrate: expected a Robot (with data) or a spec (a dict or a spec file's path), "
@@ -193,40 +301,46 @@ def _calibrate_spec(spec: Spec) -> Calibration:
         # Written into what is there (a symlink's target, a device), with the umask's mode.
         with open(path, "w", encoding="utf-8", newline="") as f:
             f.write(text)
-    return Calibration(robot_out, report)
+    return Calibration(robot_out, report, details)
 
 
 def calibrate(
-    robot: Union[Robot, Spec],
-    data: Optional[Measurements] = None,
+    robot: Robot | JobSpec,
+    data: Measurements | None = None,
     *,
     estimate: ParamList = None,
     fix: ParamList = None,
     method: str = "lm",
     loss: str = "squared",
-    huber_scale: float = 1.345,
+    huber_scale: float | None = None,
+    huber_spread: str = "robust",
     weights: Weights = None,
     orientation_error: str = "rotvec",
-    validate: Optional[Measurements] = None,
-    holdout: Optional[float] = None,
-    folds: Optional[int] = None,
-    seed: Optional[int] = None,
-    prune: Optional[float] = None,
+    validate: Measurements | None = None,
+    holdout: float | None = None,
+    folds: int | None = None,
+    seed: int | None = None,
+    prune: float | None = None,
     solution: str = "solver",
-    initial: Optional[Robot] = None,
-    max_iterations: Optional[int] = None,
-    outlier_sigma: Optional[float] = None,
+    initial: Robot | None = None,
+    max_iterations: int | None = None,
+    outlier_sigma: float | None = None,
+    choose: Sequence[str] | None = None,
+    repeats: int | None = None,
 ) -> Calibration:
     """Calibrates ``robot`` on ``data``: the same workflow as ``kinecal calibrate``.
 
     ``estimate``/``fix``: parameter lists as ``--estimate``/``--fix`` take them
     (``"identifiable,slopes"``, ``["link2", "offsets"]``); by default the parameters the data
     can see. ``method``: ``"lm"``, ``"gn"``, ``"sd"`` or ``"svd"``. ``loss``: ``"squared"``
-    or ``"huber"`` (threshold ``huber_scale`` robust spreads). ``weights``: standard
-    deviations in file units, ``(length, angle)`` or ``{"length": ..., "angle": ...}``. One of ``validate`` (other measurements),
-    ``holdout`` (a fraction of the postures, drawn with ``seed``) or ``folds`` (k-fold
-    cross-validation) checks the result. ``prune``: drop changes below this many standard
-    deviations. ``solution``: ``"solver"`` or ``"min-change"``.
+    or ``"huber"`` (threshold ``huber_scale``, default 1.345, spreads: ``huber_spread``
+    ``"robust"``, the residuals' own, or ``"stated"``, the standard deviations). ``weights``: standard
+    deviations in file units, ``(length, angle)`` or ``{"length": ..., "angle": ...}``. One of
+    ``validate`` (other measurements), ``holdout`` (a fraction of the postures, drawn with
+    ``seed``) or ``folds`` (k-fold cross-validation) checks the result. ``prune``: drop
+    changes below this many standard deviations. ``solution``: ``"solver"`` or
+    ``"min-change"``. ``choose``: model candidates (as ``--choose`` takes them; ``[]`` for the
+    defaults) chosen among by ``folds`` (default 5) repeated ``repeats`` times.
 
     ``calibrate(spec)`` runs a whole job instead: ``spec`` is a calibration spec, the document
     ``kinecal calibrate --spec`` reads, as a dict (``{"robot": "arm.toml", "observations":
@@ -240,8 +354,7 @@ def calibrate(
         return _calibrate_spec(robot)
     if data is None:
         raise TypeError("calibrate: data is needed with a Robot (or give a spec)")
-    weights = _weights(weights)
-    robot_out, report = _native.calibrate(
+    robot_out, report, details = _native.calibrate(
         robot,
         data,
         estimate=estimate,
@@ -249,7 +362,8 @@ def calibrate(
         method=method,
         loss=loss,
         huber_scale=huber_scale,
-        weights=weights,
+        huber_spread=huber_spread,
+        weights=_weights(weights),
         orientation_error=orientation_error,
         validate=validate,
         holdout=holdout,
@@ -260,8 +374,10 @@ def calibrate(
         initial=initial,
         max_iterations=max_iterations,
         outlier_sigma=outlier_sigma,
+        choose=None if choose is None else list(choose),
+        repeats=repeats,
     )
-    return Calibration(robot_out, report)
+    return Calibration(robot_out, report, details)
 
 
 def analyze(
@@ -272,24 +388,297 @@ def analyze(
     fix: ParamList = None,
     weights: Weights = None,
     orientation_error: str = "rotvec",
-    rcond: Optional[float] = None,
-) -> Dict[str, Any]:
+    rcond: float | None = None,
+) -> dict[str, Any]:
     """What ``data`` determines about the parameters of ``estimate``: the same document as
     ``kinecal analyze --json`` (rank, singular values, the identifiable set, identically
     redundant combinations, null space, warnings), plus ``unseen``: parameters left out of
     the default set because no measurement sees them."""
-    weights = _weights(weights)
-    return json.loads(
+    document: dict[str, Any] = json.loads(
         _native.analyze(
             robot,
             data,
             estimate=estimate,
             fix=fix,
-            weights=weights,
+            weights=_weights(weights),
             orientation_error=orientation_error,
             rcond=rcond,
         )
     )
+    return document
+
+
+class Compensation:
+    """The outcome of :func:`compensate`, one row per program posture or target.
+
+    ``readings`` ``(n, joints)``: the compensated readings. ``position_error`` ``(n,)`` and
+    ``attitude_error`` ``(n,)``: what remains of the goal through the calibrated robot
+    (length and angle unit; the attitude error is NaN for a position goal). ``iterations``
+    ``(n,)``: of the damped least squares. ``conditioning`` ``(n,)``: smallest over largest
+    singular value of the weighted reading Jacobian at the solution. The flags, as booleans:
+    ``unreachable`` (the goal is not reached within the tolerances), ``out_of_range``
+    ``(n, joints)`` (a reading outside the robot file's range), ``singular`` (conditioning
+    below ``singular``), ``branch`` (a revolute joint turned more than ``branch`` from the
+    seed: a change of configuration); ``flags``: the same in words, as ``kinecal
+    compensate`` writes them (empty when none).
+    """
+
+    def __init__(self, fields: dict[str, Any]) -> None:
+        self.readings: Floats = fields["readings"]
+        self.position_error: Floats = fields["position_error"]
+        self.attitude_error: Floats = fields["attitude_error"]
+        self.iterations: Ints = fields["iterations"]
+        self.conditioning: Floats = fields["conditioning"]
+        self.unreachable: Bools = fields["unreachable"]
+        self.out_of_range: Bools = fields["out_of_range"]
+        self.singular: Bools = fields["singular"]
+        self.branch: Bools = fields["branch"]
+        self.flags: list[str] = fields["flags"]
+
+    @property
+    def flagged(self) -> Bools:
+        """Rows with any flag: not to be used as they are."""
+        flagged: Bools = (
+            self.unreachable | self.out_of_range.any(axis=1) | self.singular | self.branch
+        )
+        return flagged
+
+    def __len__(self) -> int:
+        return len(self.flags)
+
+    def __repr__(self) -> str:
+        return (
+            f"Compensation({len(self)} rows: {int(self.flagged.sum())} flagged "
+            f"({int(self.unreachable.sum())} unreachable, "
+            f"{int(self.out_of_range.any(axis=1).sum())} outside a joint range, "
+            f"{int(self.singular.sum())} near a singularity, "
+            f"{int(self.branch.sum())} changing configuration))"
+        )
+
+
+def compensate(
+    calibrated: Robot,
+    nominal: Robot,
+    *,
+    program: npt.ArrayLike | None = None,
+    targets: npt.ArrayLike | None = None,
+    seeds: npt.ArrayLike | None = None,
+    site: str | None = None,
+    position_only: bool = False,
+    tolerance: Spec = None,
+    singular: float = 1e-3,
+    branch: float | None = None,
+) -> Compensation:
+    """The readings that make the real (``calibrated``) robot reach what was meant: the
+    same as ``kinecal compensate``, in the robot's units.
+
+    Give one of ``program`` (``(n, joints)`` readings taught or planned with the ``nominal``
+    model, which the controller uses: each row's goal is the pose the nominal model gives
+    it, its position only with ``position_only``) or ``targets`` (``(n, 3)`` positions or
+    ``(n, 6)`` poses ``x, y, z, alpha, beta, gamma``, ZYX Euler angles), optionally with
+    ``seeds`` (``(n, joints)`` readings to start each target from; without them each target
+    starts from the nominal model's solution nearest the previous row's, as a controller
+    would command it). ``site``: the frame that must reach the goal (None or ``"ee"``: the
+    end effector). ``tolerance``: the largest acceptable remaining error, ``(length,
+    angle)`` or a dict of either (default 1 um and 1 urad). ``singular``: flag solutions
+    whose conditioning is below it. ``branch``: flag a revolute joint turning more than this
+    angle from the seed (default 0.5 rad).
+    """
+    return Compensation(
+        _native.compensate(
+            calibrated,
+            nominal,
+            program=program,
+            targets=targets,
+            seeds=seeds,
+            site=site,
+            position_only=position_only,
+            tolerance=_spec("tolerance", tolerance, ("length", "angle")),
+            singular=singular,
+            branch=branch,
+        )
+    )
+
+
+class RandomPlans(NamedTuple):
+    """Random plans of the same size from the same candidates, for comparison: how many
+    were drawn, their median criterion value and median D-efficiency (None when the median
+    plan does not determine every parameter and the criterion needs it), and how many of
+    them the plan is at least as good as."""
+
+    draws: int
+    median_value: float | None
+    median_efficiency: float | None
+    at_least_as_good_as: int
+
+
+class Plan:
+    """The outcome of :func:`plan`: the same figures as ``kinecal plan --json``.
+
+    ``criterion`` (``"d"``, ...) and its ``value`` for the plan (None when the plan does not
+    determine every parameter and the criterion needs it); ``values``: every criterion's;
+    ``parameters``: the names of the parameters planned for; ``rows``: residual rows of the
+    plan; ``rank`` and ``condition_number`` of its scaled Jacobian; ``pool_candidates``;
+    ``efficiency``: the D-efficiency against the candidates' average (1: as informative per
+    posture as the average candidate); ``random``: :class:`RandomPlans`; ``exchanges`` and
+    ``passes`` of the search.
+
+    The plan's postures, kept ones first, then the chosen ones in the candidates' order:
+    ``labels``, ``readings`` ``(k, joints)``, ``leverage`` ``(k,)`` (how many parameters'
+    worth of information each carries), ``kept`` ``(k,)``. ``chosen``: the indices of the
+    chosen candidates' postures into the candidates (rows of the candidate array, or
+    postures of the candidate Measurements). ``observations``: the chosen candidates'
+    observations as :class:`Measurements` (for candidates given as readings or sampled, with
+    the values the nominal robot predicts).
+    """
+
+    def __init__(self, fields: dict[str, Any]) -> None:
+        self.criterion: str = fields["criterion"]
+        self.value: float | None = fields["value"]
+        self.values: dict[str, float | None] = fields["values"]
+        self.parameters: list[str] = fields["parameters"]
+        self.rows: int = fields["rows"]
+        self.rank: int = fields["rank"]
+        self.condition_number: float | None = fields["condition_number"]
+        self.pool_candidates: int = fields["pool_candidates"]
+        self.efficiency: float | None = fields["efficiency"]
+        random = fields["random"]
+        self.random: RandomPlans | None = None if random is None else RandomPlans(*random)
+        self.exchanges: int = fields["exchanges"]
+        self.passes: int = fields["passes"]
+        self.labels: list[str] = fields["labels"]
+        self.readings: Floats = fields["readings"]
+        self.leverage: Floats = fields["leverage"]
+        self.kept: Bools = fields["kept"]
+        self.chosen: Ints = fields["chosen"]
+        self.observations: Measurements = fields["observations"]
+        self._csv: str = fields["csv"]
+
+    def to_csv(self) -> str:
+        """The chosen postures as ``kinecal plan --out`` writes them: a postures file, or a
+        measurement file when the candidates were Measurements of poses and positions."""
+        return self._csv
+
+    def __repr__(self) -> str:
+        value = "n/a" if self.value is None else f"{self.value:.6g}"
+        return (
+            f"Plan({len(self.chosen)} of {self.pool_candidates} candidates for "
+            f"{len(self.parameters)} parameters: rank {self.rank}, criterion "
+            f"{self.criterion} {value})"
+        )
+
+
+Candidates = Union[npt.ArrayLike, Measurements, None]
+
+
+def plan(
+    robot: Robot,
+    candidates: Candidates = None,
+    *,
+    count: int,
+    sample: int | None = None,
+    seed: int = 1,
+    criterion: str = "d",
+    position_only: bool = False,
+    sites: Sequence[str | None] | None = None,
+    estimate: ParamList = "identifiable",
+    fix: ParamList = None,
+    keep: Candidates = None,
+    weights: Weights = None,
+    orientation_error: str = "rotvec",
+) -> Plan:
+    """Which postures to measure: ``count`` of the ``candidates`` chosen to determine the
+    parameters of ``estimate`` best, as ``kinecal plan`` chooses them.
+
+    ``candidates``: ``(n, joints)`` readings (the frames of ``sites`` measured at each, full
+    poses or positions only with ``position_only``) or :class:`Measurements` (their
+    observations say what is measured; ``position_only`` reads their poses as positions);
+    or ``sample`` postures drawn within the joint ranges with ``seed``. ``criterion``:
+    ``"d"`` (log det, the default), ``"a"``, ``"i"`` (mean prediction variance over the
+    candidates), ``"e"`` or ``"o1"``-``"o5"``. ``sites``: the frames measured at each
+    posture (None or ``"ee"`` for the end effector, site names; default every site, or the
+    end effector when the robot has none). ``keep``: postures already measured (readings or
+    Measurements), always in the plan. ``weights`` and ``orientation_error`` as for
+    :func:`calibrate`. ``seed`` also draws the random plans the result is compared with.
+    """
+    return Plan(
+        _native.plan(
+            robot,
+            candidates,
+            count=count,
+            sample=sample,
+            seed=seed,
+            criterion=criterion,
+            position_only=position_only,
+            sites=sites,
+            estimate=estimate,
+            fix=fix,
+            keep=keep,
+            weights=_weights(weights),
+            orientation_error=orientation_error,
+        )
+    )
+
+
+class Simulation(NamedTuple):
+    """The outcome of :func:`simulate`: the synthesized ``measurements`` (of the nominal
+    robot's structure) and the ``truth``, the perturbed robot that gave them."""
+
+    measurements: Measurements
+    truth: Robot
+
+
+def _changes(perturb: Mapping[str, float] | None) -> list[tuple[str, float]] | None:
+    if perturb is None:
+        return None
+    if not isinstance(perturb, Mapping):
+        raise TypeError(
+            "perturb: expected a dict of additive changes {parameter: change}, e.g. "
+            f"{{'p3': 0.1, 'joint2.offset': -0.5}}, got {type(perturb).__name__}"
+        )
+    out = []
+    for name, delta in perturb.items():
+        if not isinstance(name, str):
+            raise TypeError(f"perturb: {name!r}: expected a parameter name or list (a string)")
+        try:
+            out.append((name, float(delta)))
+        except (TypeError, ValueError):
+            raise KinecalError(f"perturb: {name}: {delta!r} is not a number") from None
+    return out
+
+
+def simulate(
+    robot: Robot,
+    postures: int | npt.ArrayLike,
+    *,
+    seed: int = 1,
+    perturb: Mapping[str, float] | None = None,
+    perturb_std: Spec = None,
+    noise: Spec = None,
+    position_only: bool = False,
+) -> Simulation:
+    """Synthesized measurements from a perturbed ("true") copy of ``robot``: the same as
+    ``kinecal simulate`` (the same seed gives the same data).
+
+    ``postures``: a number of postures drawn within the joint ranges with ``seed``, or
+    ``(n, joints)`` readings. ``perturb``: additive changes by parameter (names, ids or
+    lists, e.g. ``{"p3": 0.1, "joint2.offset": -0.5}``, file units). ``perturb_std``:
+    random Gaussian changes to every parameter, ``{"length": L, "angle": A, "slope": F}``
+    (any of them; F a fraction of each slope) or ``(L, A, F)``. ``noise``: Gaussian
+    measurement noise, ``(length, angle)`` or a dict of either. ``position_only``: measure
+    positions only (a laser tracker). The end effector and every site are measured at each
+    posture.
+    """
+    measurements, truth = _native.simulate(
+        robot,
+        postures,
+        seed=seed,
+        perturb=_changes(perturb),
+        perturb_std=_spec("perturb_std", perturb_std, ("length", "angle", "slope")),
+        noise=_spec("noise", noise, ("length", "angle")),
+        position_only=position_only,
+    )
+    return Simulation(measurements, truth)
 
 
 class Dataset(NamedTuple):
@@ -298,20 +687,20 @@ class Dataset(NamedTuple):
 
     robot: Robot
     identification: Measurements
-    validation: Optional[Measurements]
-    suggested: Dict[str, Any]
+    validation: Measurements | None
+    suggested: dict[str, Any]
 
 
-def datasets() -> List[tuple]:
+def datasets() -> list[tuple[str, str]]:
     """The published data sets kinecal reads as they are: ``(name, about)`` pairs."""
     return _native.datasets()
 
 
-def dataset(name: str, folder: str) -> Dataset:
+def dataset(name: str, folder: str | os.PathLike[str]) -> Dataset:
     """Reads a published data set's folder (e.g. ``dataset("qkm-hl6",
     "shared/data/qkm_hl6_faro")``)."""
     robot, ident, valid, suggested = _native.dataset(name, folder)
-    kw = json.loads(suggested)
+    kw: dict[str, Any] = json.loads(suggested)
     if "weights" in kw:
         kw["weights"] = tuple(kw["weights"])
     return Dataset(robot, ident, valid, kw)

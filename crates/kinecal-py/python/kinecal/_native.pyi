@@ -1,0 +1,257 @@
+"""Type stubs of ``kinecal._native``, the compiled part of the kinecal package (pyo3).
+
+The package (``kinecal/__init__.py``) re-exports ``Robot``, ``Measurements``,
+``KinecalError``, ``ExportWarning`` and ``__version__`` and wraps the functions, which take
+the package's keywords after normalising them (weights and settings as tuples) and return
+tuples and dicts the package turns into its result classes.
+"""
+
+import os
+from collections.abc import Sequence
+from typing import Any, final
+
+import numpy as np
+import numpy.typing as npt
+from typing_extensions import TypeAlias
+
+__all__ = [
+    "ExportWarning",
+    "KinecalError",
+    "Measurements",
+    "Robot",
+    "__version__",
+    "analyze",
+    "calibrate",
+    "calibrate_spec",
+    "compensate",
+    "dataset",
+    "datasets",
+    "plan",
+    "simulate",
+]
+
+__version__: str
+
+_PathLike: TypeAlias = str | os.PathLike[str]
+_ParamList: TypeAlias = str | Sequence[str] | None
+
+class KinecalError(ValueError):
+    """Bad input or a calibration that cannot be made. ``file``, ``line`` and ``field`` locate
+    the problem when it came from a file (else None)."""
+
+    file: str | None
+    line: int | None
+    field: str | None
+
+class ExportWarning(UserWarning):
+    """What a robot export cannot hold, with the deviation it leaves at the tool."""
+
+@final
+class Robot:
+    """A robot model (links, joints, sites, planes) in the units of its file."""
+
+    @staticmethod
+    def from_toml(source: _PathLike | str) -> Robot:
+        """A robot TOML file (a path) or TOML text (a string holding a newline or ``=``)."""
+    @staticmethod
+    def builtin(name: str) -> Robot:
+        """A built-in robot: ``"ge-a4"`` (the GE A4 of the thesis)."""
+    @staticmethod
+    def from_urdf(path: _PathLike, base: str | None = None, tip: str | None = None) -> Robot:
+        """The chain from ``base`` (default: the root) to ``tip`` (default: the only leaf)."""
+    @staticmethod
+    def from_dh(
+        table: npt.ArrayLike | _PathLike,
+        convention: str = "standard",
+        length_unit: str = "m",
+        angle_unit: str = "deg",
+        kinds: Sequence[str] | None = None,
+        name: str = "dh",
+    ) -> Robot:
+        """An ``(n, 4)`` table of ``a, alpha, d, theta`` (or a DH CSV file);
+        ``convention``: ``"standard"`` or ``"modified"``."""
+    def to_toml(self) -> str:
+        """The robot file's text (keeping the comments of the file it came from)."""
+    def to_urdf(self, template: _PathLike, base: str | None = None, tip: str | None = None) -> str:
+        """The robot written into a URDF template's joint origins (``kinecal export urdf``);
+        what URDF cannot express is an ``ExportWarning``."""
+    def to_dh(self, convention: str = "standard") -> str:
+        """A DH table, ``kind,a,alpha,d,theta`` CSV in the robot's units (``kinecal export
+        dh``); what DH cannot represent is an ``ExportWarning`` with its deviation."""
+    def to_ur(self, template: _PathLike) -> str:
+        """The Universal Robots kinematics file ``template`` rewritten (``kinecal export
+        ur``); what it cannot hold is an ``ExportWarning`` each."""
+    def to_joints(self, nominal: Robot) -> str:
+        """The joint offsets and slopes and their change from ``nominal`` as CSV (``kinecal
+        export joints``); what the table cannot carry is an ``ExportWarning``."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def dof(self) -> int:
+        """Number of joints."""
+    @property
+    def units(self) -> tuple[str, str]:
+        """``(length unit, angle unit)``, e.g. ``("mm", "deg")``."""
+    @property
+    def sites(self) -> list[str]: ...
+    @property
+    def parameter_names(self) -> list[str]:
+        """``link1.x``, ..., ``joint1.offset``, ... in thesis order."""
+    @property
+    def parameter_ids(self) -> list[str]:
+        """``p1``, ``p2``, ... in the same order."""
+    @property
+    def parameter_units(self) -> list[str]: ...
+    @property
+    def values(self) -> npt.NDArray[np.float64]:
+        """Every parameter's value, file units, in the same order."""
+    def get(self, name: str) -> float:
+        """One parameter (name or id), file units."""
+    def with_value(self, name: str, value: float) -> Robot:
+        """A copy with one parameter set (file units)."""
+    def fk(
+        self, readings: npt.ArrayLike, site: str | None = None, matrix: bool = False
+    ) -> npt.NDArray[np.float64]:
+        """Poses ``(n, 6)``: ``x, y, z, alpha, beta, gamma`` (ZYX Euler), or transforms
+        ``(n, 4, 4)`` with ``matrix=True``; one posture given flat gives one row."""
+
+@final
+class Measurements:
+    """Postures and what was measured in them, with optional per-row standard deviations."""
+
+    def __new__(
+        cls,
+        robot: Robot,
+        readings: npt.ArrayLike,
+        positions: npt.ArrayLike,
+        orientations: npt.ArrayLike | None = None,
+        sites: Sequence[str | None] | None = None,
+        sigma_position: npt.ArrayLike | None = None,
+        sigma_angle: npt.ArrayLike | None = None,
+        postures: Sequence[str] | None = None,
+    ) -> Measurements:
+        """``readings`` ``(n, joints)``; ``positions`` ``(n, 3)``; ``orientations`` ``(n, 3)``
+        ZYX Euler angles for full poses; ``sites`` a site name (or None: the end effector)
+        per row; sigmas ``(n,)``; ``postures`` a label per row (equal labels: one posture)."""
+    @staticmethod
+    def read_csv(
+        path: _PathLike,
+        robot: Robot,
+        columns: Sequence[str] | None = None,
+        length_unit: str | None = None,
+        angle_unit: str | None = None,
+        position_only: bool = False,
+        session: str | None = None,
+    ) -> Measurements:
+        """A measurement, distance or contact file (told by its header); ``columns`` maps
+        another tool's measurement columns (``["v1=J1", "x=X", ...]``)."""
+    def merge(self, other: Measurements) -> Measurements: ...
+    def to_csv(self, robot: Robot) -> str: ...
+    @property
+    def readings(self) -> npt.NDArray[np.float64]:
+        """``(postures, joints)``."""
+    @property
+    def postures(self) -> int: ...
+    @property
+    def residuals(self) -> int:
+        """Number of residual rows."""
+    @property
+    def kinds(self) -> dict[str, int]: ...
+    def __len__(self) -> int: ...
+
+def calibrate(
+    robot: Robot,
+    data: Measurements,
+    estimate: _ParamList = None,
+    fix: _ParamList = None,
+    method: str = "lm",
+    loss: str = "squared",
+    huber_scale: float | None = None,
+    huber_spread: str = "robust",
+    weights: tuple[float, float] | None = None,
+    orientation_error: str = "rotvec",
+    validate: Measurements | None = None,
+    holdout: float | None = None,
+    folds: int | None = None,
+    seed: int | None = None,
+    prune: float | None = None,
+    solution: str = "solver",
+    initial: Robot | None = None,
+    max_iterations: int | None = None,
+    outlier_sigma: float | None = None,
+    choose: list[str] | None = None,
+    repeats: int | None = None,
+) -> tuple[Robot, str, dict[str, Any]]:
+    """The calibrated robot, the report as JSON text and the outcome's arrays
+    (``covariance``, ``covariance_names``, ``residuals``, ``residual_rows``)."""
+
+def calibrate_spec(
+    path: str | None = None, json: str | None = None
+) -> tuple[Robot, str, dict[str, Any], list[tuple[str, str]]]:
+    """Runs a calibration spec (a file's path or JSON text): the calibrated robot, the report
+    as JSON text, the outcome's arrays and the outputs the spec names, ``[(path, text)]``."""
+
+def analyze(
+    robot: Robot,
+    data: Measurements,
+    estimate: _ParamList = None,
+    fix: _ParamList = None,
+    weights: tuple[float, float] | None = None,
+    orientation_error: str = "rotvec",
+    rcond: float | None = None,
+) -> str:
+    """The document of ``kinecal analyze --json`` as JSON text, plus ``unseen``."""
+
+def compensate(
+    calibrated: Robot,
+    nominal: Robot,
+    *,
+    program: npt.ArrayLike | None = None,
+    targets: npt.ArrayLike | None = None,
+    seeds: npt.ArrayLike | None = None,
+    site: str | None = None,
+    position_only: bool = False,
+    tolerance: tuple[float | None, ...] | None = None,
+    singular: float = 1e-3,
+    branch: float | None = None,
+) -> dict[str, Any]:
+    """The fields of ``kinecal.Compensation``."""
+
+def plan(
+    robot: Robot,
+    candidates: npt.ArrayLike | Measurements | None = None,
+    *,
+    count: int,
+    sample: int | None = None,
+    seed: int | None = None,
+    criterion: str = "d",
+    position_only: bool = False,
+    sites: Sequence[str | None] | None = None,
+    estimate: _ParamList = None,
+    fix: _ParamList = None,
+    keep: npt.ArrayLike | Measurements | None = None,
+    weights: tuple[float, float] | None = None,
+    orientation_error: str = "rotvec",
+) -> dict[str, Any]:
+    """The fields of ``kinecal.Plan``, and ``csv``: what ``kinecal plan --out`` writes."""
+
+def simulate(
+    robot: Robot,
+    postures: int | npt.ArrayLike,
+    *,
+    seed: int | None = None,
+    perturb: Sequence[tuple[str, float]] | None = None,
+    perturb_std: tuple[float | None, ...] | None = None,
+    noise: tuple[float | None, ...] | None = None,
+    position_only: bool = False,
+) -> tuple[Measurements, Robot]:
+    """The measurements and the true robot."""
+
+def datasets() -> list[tuple[str, str]]:
+    """``(name, about)`` of each data set kinecal reads as published."""
+
+def dataset(
+    name: str, folder: _PathLike
+) -> tuple[Robot, Measurements, Measurements | None, str]:
+    """The robot, identification and validation data, and the suggested calibration as
+    JSON text (``calibrate`` keywords)."""
