@@ -149,6 +149,7 @@ Exit code 0: within the threshold; 3: recalibrate; 1: bad input. Usable from cro
 Example:
   kinecal report --robot ge-a4 --data data.csv --calibrated calibrated.toml --out report.html
   kinecal report --robot ge-a4 --data data.csv --calibration report.json --out report.html
+  kinecal report --from report.json --html report.html      # the calibrate --html page again
 
 Sections: summary, residuals per posture before/after, error histogram, parameter changes with
 +-sigma bars, singular-value spectrum with the rank cut, redundant groups and determined
@@ -392,16 +393,20 @@ pub struct CurvesObjectiveArgs {
 /// `kinecal report`.
 #[derive(Debug, Args)]
 pub struct ReportArgs {
+    /// Rebuild the HTML report of a calibration from its JSON report alone (`kinecal calibrate
+    /// --report`): the page `calibrate --html` writes, nothing recomputed.
+    #[arg(long, value_name = "REPORT.json", conflicts_with_all = ["robot", "calibrated", "calibration"])]
+    pub from: Option<PathBuf>,
     /// The nominal robot (before calibration).
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "from")]
+    pub robot: Option<String>,
     #[command(flatten)]
     pub observations: ObservationFiles,
     /// The calibrated robot file.
     #[arg(
         long,
         conflicts_with = "calibration",
-        required_unless_present = "calibration"
+        required_unless_present_any = ["calibration", "from"]
     )]
     pub calibrated: Option<String>,
     /// Or a calibration report (JSON from `kinecal calibrate --report`).
@@ -410,7 +415,7 @@ pub struct ReportArgs {
     #[command(flatten)]
     pub residuals: ResidualArgs,
     /// The HTML file to write.
-    #[arg(long)]
+    #[arg(long, visible_alias = "html")]
     pub out: PathBuf,
 }
 

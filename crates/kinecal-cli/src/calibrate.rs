@@ -202,7 +202,10 @@ pub fn stage_outputs(p: &Prepared, outcome: &Outcome, staged: &mut output::Stage
         staged.text(Path::new(path), &(outcome.report.to_json() + "\n"))?;
     }
     if let Some(path) = &o.html {
-        staged.text(Path::new(path), &kinecal_report::html_report(outcome)?)?;
+        staged.text(
+            Path::new(path),
+            &kinecal_report::html_report(&outcome.report)?,
+        )?;
     }
     Ok(())
 }

@@ -255,19 +255,30 @@ fn slope_joint(robot: &Robot, id: ParamId) -> usize {
 
 /// `kinecal report`.
 pub fn report(a: ReportArgs) -> Result<()> {
+    if let Some(from) = &a.from {
+        crate::output::check_distinct(&[&a.out], &[from])?;
+        let rep = CalibrationReport::from_json(&read_text(from)?)
+            .map_err(|e| anyhow!("{}: not a kinecal calibration report: {e}", from.display()))?;
+        write_file(&a.out, &kinecal_report::html_report(&rep)?)?;
+        eprintln!("wrote {}", a.out.display());
+        return Ok(());
+    }
+    let Some(robot) = &a.robot else {
+        bail!("give --robot with the data, or --from a report");
+    };
     let mut inputs: Vec<&Path> = a
         .observations
         .files
         .iter()
         .map(|(_, p)| p.as_path())
         .collect();
-    inputs.push(Path::new(&a.robot));
+    inputs.push(Path::new(robot));
     inputs.extend(a.calibration.as_deref());
     if let Some(c) = &a.calibrated {
         inputs.push(Path::new(c));
     }
     crate::output::check_distinct(&[&a.out], &inputs)?;
-    let r = load_robot(&a.robot)?;
+    let r = load_robot(robot)?;
     let nominal = &r.robot;
     let (data, sources) = load_observations(&a.observations, nominal)?;
     let (weights, orientation) = residual_settings(&a.residuals, nominal)?;
@@ -299,7 +310,7 @@ pub fn report(a: ReportArgs) -> Result<()> {
     let sources: Vec<_> = std::iter::once(r.source.clone()).chain(sources).collect();
     let outcome =
         kinecal::workflow::assess(nominal, &calibrated, &data, weights, orientation, &sources)?;
-    write_file(&a.out, &kinecal_report::html_report(&outcome)?)?;
+    write_file(&a.out, &kinecal_report::html_report(&outcome.report)?)?;
     eprintln!("wrote {}", a.out.display());
     Ok(())
 }

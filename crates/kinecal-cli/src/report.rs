@@ -386,7 +386,14 @@ pub fn summary(r: &CalibrationReport) -> String {
         let (sigma, sig) = match (p.sigma, p.significance, p.determined) {
             (Some(sd), Some(z), _) => (
                 format!("{sd:>11.3e}"),
-                format!("{z:>7.1}{}", if z < 2.0 { "  within noise" } else { "" }),
+                format!(
+                    "{z:>7.1}{}",
+                    if p.within_noise == Some(true) {
+                        "  within noise"
+                    } else {
+                        ""
+                    }
+                ),
             ),
             (_, _, Some(false)) => (format!("{:>11}", "-"), "  not determined alone".to_string()),
             _ => (String::new(), String::new()),

@@ -1482,6 +1482,23 @@ fn curves_and_html_report() {
         assert!(h.matches("<svg").count() >= 4);
         assert!(h.contains("p3 - p9 - p15 - p21 - p27 - p33"), "{f}");
     }
+    // The page rebuilt from the JSON report alone is the one calibrate wrote.
+    run_ok(d, &["report", "--from", "r.json", "--html", "d.html"]);
+    assert_eq!(
+        std::fs::read_to_string(d.join("d.html")).unwrap(),
+        std::fs::read_to_string(d.join("a.html")).unwrap()
+    );
+    // A report from a newer kinecal is refused, naming the version; nothing is written.
+    let text = std::fs::read_to_string(d.join("r.json")).unwrap();
+    assert!(text.contains("\"schema_version\": 2,"), "{text}");
+    std::fs::write(
+        d.join("r99.json"),
+        text.replace("\"schema_version\": 2,", "\"schema_version\": 99,"),
+    )
+    .unwrap();
+    let err = run_err(d, &["report", "--from", "r99.json", "--html", "e.html"]);
+    assert!(err.contains("schema version 99"), "{err}");
+    assert!(!d.join("e.html").exists());
 }
 
 /// Without a tracker: a ballbar's distances and probe contacts with a table, each from its own

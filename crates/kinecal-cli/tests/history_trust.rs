@@ -229,8 +229,8 @@ fn a_damaged_record_is_named_and_the_others_served() {
     patch(&path, b"NOTE-MARK-1", b"NOTE-MARK\xff1", None);
     patch(
         &path,
-        b"\"method\": ",
-        b"\"method\"! ",
+        b"\"schema_version\": ",
+        b"\"schema_version\"! ",
         Some(b"NOTE-MARK-2"),
     );
     let (code, out, err) = run(d, &["history", "list", "--db", "h.sqlite"]);

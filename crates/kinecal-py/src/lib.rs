@@ -1145,7 +1145,7 @@ fn calibrate_spec(
         outputs.push((p.clone(), report.clone() + "\n"));
     }
     if let Some(p) = &o.html {
-        let html = kinecal_report::html_report(&outcome)
+        let html = kinecal_report::html_report(&outcome.report)
             .map_err(|e| bad(format!("the HTML report cannot be drawn: {e}")))?;
         outputs.push((p.clone(), html));
     }

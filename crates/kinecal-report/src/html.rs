@@ -3,10 +3,7 @@
 
 use std::fmt::Write as _;
 
-use kinecal::identifiability::format_combination;
-use kinecal::observe::{for_each_observation, Context, Dataset, OrientationError};
-use kinecal::units::Quantity;
-use kinecal::workflow::Outcome;
+use kinecal::report::CalibrationReport;
 
 use crate::chart::{render_svg, Line, Panel};
 use crate::DrawError;
@@ -56,73 +53,6 @@ pub(crate) fn esc(s: &str) -> String {
 fn inline(svg: String) -> String {
     svg.replace(" xmlns=\"http://www.w3.org/2000/svg\"", "")
         .replace(" xmlns:xlink=\"http://www.w3.org/1999/xlink\"", "")
-}
-
-/// Per observation: (length error in its metric, attitude error) in file units, for `robot`.
-fn errors(robot: &kinecal::Robot, data: &Dataset) -> Vec<(f64, Option<f64>)> {
-    let u = robot.units;
-    let ctx = Context {
-        robot,
-        orientation: OrientationError::default(),
-    };
-    let mut out = Vec::with_capacity(data.observations.len());
-    for_each_observation(robot, data, |_, o, frames| {
-        let e = o.error(&ctx, frames);
-        out.push((
-            u.from_si(Quantity::Length, e.length),
-            e.angle.map(|a| u.from_si(Quantity::Angle, a)),
-        ));
-    });
-    out
-}
-
-/// The points of a per-observation chart: every observation up to [`RunMaxima::MAX_POINTS`];
-/// beyond, the largest error of each run of consecutive observations (so that no large error
-/// disappears, and a chart of a million observations stays a few hundred kilobytes).
-struct RunMaxima {
-    /// Observations.
-    n: usize,
-    /// Observations per point.
-    run: usize,
-}
-
-impl RunMaxima {
-    /// The most points a chart draws.
-    const MAX_POINTS: usize = 2000;
-
-    fn of(n: usize) -> RunMaxima {
-        RunMaxima {
-            n,
-            run: n.div_ceil(Self::MAX_POINTS).max(1),
-        }
-    }
-
-    /// Each point's x: the number (from 1) of the run's first observation.
-    fn x(&self) -> Vec<f64> {
-        (0..self.n)
-            .step_by(self.run)
-            .map(|i| (i + 1) as f64)
-            .collect()
-    }
-
-    /// The largest of each run of `values` (NaN when a run has no number).
-    fn maxima(&self, values: impl Iterator<Item = f64>) -> Vec<f64> {
-        let values: Vec<f64> = values.collect();
-        values
-            .chunks(self.run)
-            .map(|c| c.iter().copied().filter(|v| !v.is_nan()).reduce(f64::max))
-            .map(|m| m.unwrap_or(f64::NAN))
-            .collect()
-    }
-
-    /// What the title says of the points.
-    fn note(&self) -> String {
-        if self.run == 1 {
-            String::new()
-        } else {
-            format!(" (largest of each {} consecutive)", self.run)
-        }
-    }
 }
 
 /// One table per kind of error present (positions, attitudes, distances, contacts): RMS, mean,
@@ -245,29 +175,9 @@ pub(crate) fn charts(panels: &[Panel]) -> Result<String, DrawError> {
     Ok(out)
 }
 
-/// A round bin width (1, 2 or 5 times a power of ten) near `w`.
-pub(crate) fn nice_width(w: f64) -> f64 {
-    let p = 10f64.powf(w.log10().floor());
-    let m = w / p;
-    p * if m <= 1.0 {
-        1.0
-    } else if m <= 2.0 {
-        2.0
-    } else if m <= 5.0 {
-        5.0
-    } else {
-        10.0
-    }
-}
-
-/// The HTML report of a calibration outcome.
-pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
-    let (cal, data, rep, u) = (
-        &outcome.calibration,
-        &outcome.data,
-        &outcome.report,
-        outcome.uncertainty.as_ref(),
-    );
+/// The HTML report of a calibration, drawn from its report alone (`kinecal report --from`
+/// rebuilds the same page from the JSON).
+pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     let (l, a) = (&rep.length_unit, &rep.angle_unit);
     // A robot without a name (an imported DH table) gets none, not a dangling colon.
     let named = if rep.robot.trim().is_empty() {
@@ -290,7 +200,7 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         })
         .collect::<Vec<_>>()
         .join(", ");
-    let how = if rep.termination == kinecal::estimation::Termination::Given.describe() {
+    let how = if rep.given {
         format!(
             "{} orientation residuals; a given calibration, assessed on these data (not solved here)",
             esc(&rep.orientation_error)
@@ -447,111 +357,90 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
         );
     }
 
-    // Residuals per observation, before and after: positions, or lengths of several metrics.
-    let kind_of_error = if outcome.identification.after.other.is_empty() {
-        "position"
-    } else if outcome.identification.after.positions == 0
-        && outcome.identification.after.other.len() == 1
-    {
-        outcome.identification.after.other[0].metric
-    } else {
-        "length"
-    };
-    let (eb, ea) = (errors(&cal.initial, data), errors(&cal.calibrated, data));
-    let runs = RunMaxima::of(eb.len());
-    let x = runs.x();
-    // Log axes: the errors after calibration are 10-1000 times smaller than before, and both
-    // must be readable.
-    let mut panels = vec![Panel {
-        title: format!(
-            "{} error per observation{}",
-            cap(kind_of_error),
-            runs.note()
-        ),
-        x_label: "observation (file order by posture)".into(),
-        y_label: format!("{kind_of_error} error ({l}, log scale)"),
-        log_y: true,
-        x: x.clone(),
-        lines: vec![
-            Line {
-                points: true,
-                ..Line::new("before", runs.maxima(eb.iter().map(|e| e.0)))
-            },
-            Line {
-                points: true,
-                ..Line::new("after", runs.maxima(ea.iter().map(|e| e.0)))
-            },
-        ],
-        ..Default::default()
-    }];
-    if eb.iter().any(|e| e.1.is_some()) {
-        panels.push(Panel {
-            title: format!("Attitude error per observation{}", runs.note()),
+    // Errors per observation, before and after: positions, or lengths of several metrics.
+    if let Some(oe) = &rep.observation_errors {
+        let kind_of_error = oe.metric.as_str();
+        let note = if oe.run == 1 {
+            String::new()
+        } else {
+            format!(" (largest of each {} consecutive)", oe.run)
+        };
+        let x: Vec<f64> = (0..oe.before.len())
+            .map(|i| (i * oe.run + 1) as f64)
+            .collect();
+        let nan = |v: &[Option<f64>]| v.iter().map(|a| a.unwrap_or(f64::NAN)).collect();
+        // Log axes: the errors after calibration are 10-1000 times smaller than before, and
+        // both must be readable.
+        let mut panels = vec![Panel {
+            title: format!("{} error per observation{note}", cap(kind_of_error)),
             x_label: "observation (file order by posture)".into(),
-            y_label: format!("attitude error ({a}, log scale)"),
+            y_label: format!("{kind_of_error} error ({l}, log scale)"),
             log_y: true,
-            x,
+            x: x.clone(),
             lines: vec![
                 Line {
                     points: true,
-                    ..Line::new(
-                        "before",
-                        runs.maxima(eb.iter().map(|e| e.1.unwrap_or(f64::NAN))),
-                    )
+                    ..Line::new("before", oe.before.clone())
                 },
                 Line {
                     points: true,
-                    ..Line::new(
-                        "after",
-                        runs.maxima(ea.iter().map(|e| e.1.unwrap_or(f64::NAN))),
-                    )
+                    ..Line::new("after", oe.after.clone())
                 },
             ],
             ..Default::default()
-        });
-    }
-    let _ = writeln!(
-        h,
-        "<h2 id=\"residuals\">Errors per observation</h2>\n{}",
-        charts(&panels)?
-    );
+        }];
+        if let (Some(ab), Some(aa)) = (&oe.attitude_before, &oe.attitude_after) {
+            panels.push(Panel {
+                title: format!("Attitude error per observation{note}"),
+                x_label: "observation (file order by posture)".into(),
+                y_label: format!("attitude error ({a}, log scale)"),
+                log_y: true,
+                x,
+                lines: vec![
+                    Line {
+                        points: true,
+                        ..Line::new("before", nan(ab))
+                    },
+                    Line {
+                        points: true,
+                        ..Line::new("after", nan(aa))
+                    },
+                ],
+                ..Default::default()
+            });
+        }
+        let _ = writeln!(
+            h,
+            "<h2 id=\"residuals\">Errors per observation</h2>\n{}",
+            charts(&panels)?
+        );
 
-    // Histogram of the errors after calibration: bars of a round width, integer counts.
-    let after: Vec<f64> = ea.iter().map(|e| e.0).collect();
-    let max = after.iter().copied().fold(0.0, f64::max);
-    let bins_wanted = ((after.len() as f64).sqrt().ceil() as usize).clamp(5, 20);
-    let width = if max > 0.0 {
-        nice_width(max / bins_wanted as f64)
-    } else {
-        1.0
-    };
-    let bins = ((max / width).floor() as usize + 1).max(1);
-    let mut counts = vec![0.0; bins];
-    for e in &after {
-        counts[((e / width) as usize).min(bins - 1)] += 1.0;
+        // Histogram of the errors after calibration: bars of a round width, integer counts.
+        let width = oe.histogram_width;
+        let hist = Panel {
+            title: format!(
+                "Histogram of {kind_of_error} errors after calibration ({} observations)",
+                oe.observations
+            ),
+            x_label: format!(
+                "{kind_of_error} error ({l}; bins of {})",
+                crate::chart::tick_label(width, width)
+            ),
+            y_label: "observations".into(),
+            bars: oe
+                .histogram
+                .iter()
+                .enumerate()
+                .map(|(i, &c)| (i as f64 * width, (i + 1) as f64 * width, c as f64))
+                .collect(),
+            ..Default::default()
+        };
+        let _ = writeln!(
+            h,
+            "<h2 id=\"histogram\">Error histogram</h2>\n{}",
+            inline(render_svg(&[hist], 1)?)
+        );
     }
-    let hist = Panel {
-        title: format!(
-            "Histogram of {kind_of_error} errors after calibration ({} observations)",
-            after.len()
-        ),
-        x_label: format!(
-            "{kind_of_error} error ({l}; bins of {})",
-            crate::chart::tick_label(width, width)
-        ),
-        y_label: "observations".into(),
-        bars: counts
-            .iter()
-            .enumerate()
-            .map(|(i, &c)| (i as f64 * width, (i + 1) as f64 * width, c))
-            .collect(),
-        ..Default::default()
-    };
-    let _ = writeln!(
-        h,
-        "<h2 id=\"histogram\">Error histogram</h2>\n{}",
-        inline(render_svg(&[hist], 1)?)
-    );
 
     // Parameter changes with +-sigma bars, one chart per unit.
     // (unit, [(parameter number, change, sigma)])
@@ -603,14 +492,13 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
             p.estimated,
             signed(p.change),
             p.sigma.map_or("not determined alone".into(), num),
-            p.significance.map_or(String::new(), |z| format!("{z:.1}{}", if z < 2.0 { " (within noise)" } else { "" }))
+            p.significance.map_or(String::new(), |z| format!("{z:.1}{}", if p.within_noise == Some(true) { " (within noise)" } else { "" }))
         );
     }
     let _ = writeln!(h, "</table>");
 
     // Singular values.
-    if let Some(u) = u {
-        let an = &u.analysis;
+    if let Some(an) = &rep.spectrum {
         let n = an.singular_values_scaled.len();
         let smax = an.singular_values_scaled.first().copied().unwrap_or(1.0);
         let floor = smax * 1e-18;
@@ -644,11 +532,11 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
             "<h2 id=\"spectrum\">Singular-value spectrum</h2>\n{}",
             inline(render_svg(&[spectrum], 1)?)
         );
-        if let Some(e) = &an.expected {
+        if let Some(formula) = &an.expected {
             let _ = writeln!(
                 h,
                 "<p>Thesis count: {}; measured rank {}.</p>",
-                esc(&e.formula),
+                esc(formula),
                 an.rank
             );
         }
@@ -667,7 +555,7 @@ pub fn html_report(outcome: &Outcome) -> Result<String, DrawError> {
                 let _ = writeln!(
                     h,
                     "<tr><td class=\"l\">{}</td><td>{:.6}</td><td class=\"l\">{}</td></tr>",
-                    esc(&format_combination(&g.terms)),
+                    esc(&g.expression),
                     g.value,
                     if g.determined {
                         "yes"
@@ -737,38 +625,5 @@ mod tests {
         assert_eq!(num(-0.4995), "-0.4995");
         assert_eq!(num(1e-12), "1.000e-12");
         assert_eq!(signed(0.05031), "+0.05031");
-        assert!((nice_width(0.00043) - 0.0005).abs() < 1e-15);
-    }
-
-    #[test]
-    #[allow(clippy::float_cmp)] // the maxima are copies of the values: equal, not close
-    fn long_series_are_drawn_as_the_largest_of_each_run() {
-        // Up to the limit, every value at its own observation number.
-        let r = RunMaxima::of(3);
-        assert_eq!(r.x(), vec![1.0, 2.0, 3.0]);
-        assert_eq!(r.maxima([1.0, 5.0, 2.0].into_iter()), vec![1.0, 5.0, 2.0]);
-        assert_eq!(r.note(), "");
-        // Beyond it, runs of equal length (the last shorter), each point its run's largest
-        // number, NaN only for a run without one; one large value among a million is kept.
-        let n = 1_000_001;
-        let r = RunMaxima::of(n);
-        assert_eq!(r.run, 501);
-        let x = r.x();
-        assert!(x.len() <= RunMaxima::MAX_POINTS, "{}", x.len());
-        assert_eq!((x[0], x[1]), (1.0, 502.0));
-        let mut v = vec![1.0; n];
-        v[777_777] = 9.0;
-        v[n - 1] = f64::NAN;
-        let m = r.maxima(v.into_iter());
-        assert_eq!(m.len(), x.len());
-        assert_eq!(m.iter().filter(|&&y| y == 9.0).count(), 1);
-        assert_eq!(m[777_777 / 501], 9.0);
-        assert!(
-            m.iter().all(|&y| y == 1.0 || y == 9.0),
-            "the last run has a number too"
-        );
-        let only_nan = RunMaxima::of(4000).maxima(std::iter::repeat_n(f64::NAN, 4000));
-        assert!(only_nan.iter().all(|y| y.is_nan()));
-        assert!(r.note().contains("501"));
     }
 }

@@ -9,8 +9,9 @@ use kinecal::plan::Plan;
 use kinecal::Robot;
 
 use crate::chart::{Line, Panel};
-use crate::html::{charts, esc, nice_width, num, page_head};
+use crate::html::{charts, esc, num, page_head};
 use crate::DrawError;
+use kinecal::report::nice_width;
 
 /// Bins of the joint-space histograms.
 const BINS: usize = 12;

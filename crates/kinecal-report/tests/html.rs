@@ -33,7 +33,7 @@ fn report(nominal: &Robot, data: kinecal::Dataset, list: &str, validation: Valid
         angle: 0.005f64.to_radians(),
     };
     req.validation = validation;
-    html_report(&workflow::run(&req, &mut ()).unwrap()).unwrap()
+    html_report(&workflow::run(&req, &mut ()).unwrap().report).unwrap()
 }
 
 /// The part of the page under the heading with `id`, up to the next heading.
@@ -157,7 +157,7 @@ fn tracker_free_data_shows_its_own_errors_and_an_assessed_calibration_says_so() 
         seed: 1,
     };
     let out = workflow::run(&req, &mut ()).unwrap();
-    let html = html_report(&out).unwrap();
+    let html = html_report(&out.report).unwrap();
     let validation = section(&html, "validation");
     assert!(validation.contains("Distance error (in)"), "{validation}");
     assert!(validation.contains("Contact error (in)"), "{validation}");
@@ -179,7 +179,7 @@ fn tracker_free_data_shows_its_own_errors_and_an_assessed_calibration_says_so() 
         &[],
     )
     .unwrap();
-    let html = html_report(&assessed).unwrap();
+    let html = html_report(&assessed.report).unwrap();
     assert!(
         html.contains("a given calibration, assessed on these data (not solved here)"),
         "{}",

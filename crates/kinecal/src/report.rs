@@ -382,13 +382,207 @@ pub struct StationarityReport {
     pub rank: usize,
 }
 
+/// Now, in UTC, as RFC 3339 to the second (`2026-11-25T18:21:58Z`).
+pub fn now_utc() -> String {
+    let now = time::OffsetDateTime::now_utc()
+        .replace_nanosecond(0)
+        .unwrap_or_else(|_| time::OffsetDateTime::now_utc());
+    now.format(&time::format_description::well_known::Rfc3339)
+        .unwrap_or_default()
+}
+
+/// The errors of every observation of `data` with `cal`'s initial and calibrated robots.
+fn observation_errors(cal: &Calibration, data: &Dataset) -> ObservationErrors {
+    let errors = |robot: &Robot| {
+        let u = robot.units;
+        let ctx = crate::observe::Context {
+            robot,
+            orientation: crate::observe::OrientationError::default(),
+        };
+        let mut out = Vec::with_capacity(data.observations.len());
+        crate::observe::for_each_observation(robot, data, |_, o, frames| {
+            let e = o.error(&ctx, frames);
+            out.push((
+                u.from_si(Quantity::Length, e.length),
+                e.angle.map(|a| u.from_si(Quantity::Angle, a)),
+            ));
+        });
+        out
+    };
+    let a = &cal.accuracy_after;
+    let metric = if a.other.is_empty() {
+        "position"
+    } else if a.positions == 0 && a.other.len() == 1 {
+        a.other[0].metric
+    } else {
+        "length"
+    };
+    ObservationErrors::new(metric, &errors(&cal.initial), &errors(&cal.calibrated))
+}
+
 fn finite_or_none(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
+}
+
+/// The version of the calibration report's schema: raised when a field is removed or changes
+/// meaning (reports without the field are version 1). Readers refuse newer versions.
+pub const SCHEMA_VERSION: u32 = 2;
+
+fn version_one() -> u32 {
+    1
+}
+
+/// The errors of each observation before and after calibration, as charts draw them: every
+/// observation up to [`ObservationErrors::MAX_POINTS`], beyond that the largest of each run of
+/// `run` consecutive observations (so that no large error disappears); and the histogram of
+/// all the errors after.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ObservationErrors {
+    /// What the length errors are: `position`, a metric (`distance`, `contact`) when the data
+    /// has only that, or `length` for a mix.
+    pub metric: String,
+    /// Observations.
+    pub observations: usize,
+    /// Observations per point.
+    pub run: usize,
+    /// Length error of each point before (length unit).
+    pub before: Vec<f64>,
+    /// After.
+    pub after: Vec<f64>,
+    /// Attitude error of each point before (angle unit; null for a run without attitudes),
+    /// absent when no observation has an attitude.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub attitude_before: Option<Vec<Option<f64>>>,
+    /// After.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub attitude_after: Option<Vec<Option<f64>>>,
+    /// Histogram of the length errors after, over every observation: the bin width (length
+    /// unit) and the count of each bin from 0.
+    pub histogram_width: f64,
+    /// Counts.
+    pub histogram: Vec<usize>,
+}
+
+impl ObservationErrors {
+    /// The most points a chart draws.
+    pub const MAX_POINTS: usize = 2000;
+
+    /// From the errors of every observation (file units): (length, attitude) before and after.
+    pub fn new(
+        metric: &str,
+        before: &[(f64, Option<f64>)],
+        after: &[(f64, Option<f64>)],
+    ) -> ObservationErrors {
+        let n = before.len();
+        let run = n.div_ceil(Self::MAX_POINTS).max(1);
+        let maxima = |v: &[(f64, Option<f64>)], angle: bool| -> Vec<Option<f64>> {
+            v.chunks(run)
+                .map(|c| {
+                    c.iter()
+                        .filter_map(|e| if angle { e.1 } else { Some(e.0) })
+                        .filter(|x| x.is_finite())
+                        .reduce(f64::max)
+                })
+                .collect()
+        };
+        let lengths = |v| {
+            maxima(v, false)
+                .into_iter()
+                .map(|x| x.unwrap_or(0.0))
+                .collect()
+        };
+        let attitudes = before.iter().any(|e| e.1.is_some());
+        let max = after.iter().map(|e| e.0).fold(0.0, f64::max);
+        let bins_wanted = ((n as f64).sqrt().ceil() as usize).clamp(5, 20);
+        let width = if max > 0.0 {
+            nice_width(max / bins_wanted as f64)
+        } else {
+            1.0
+        };
+        let bins = ((max / width).floor() as usize + 1).max(1);
+        let mut histogram = vec![0; bins];
+        for e in after {
+            histogram[((e.0 / width) as usize).min(bins - 1)] += 1;
+        }
+        ObservationErrors {
+            metric: metric.to_string(),
+            observations: n,
+            run,
+            before: lengths(before),
+            after: lengths(after),
+            attitude_before: attitudes.then(|| maxima(before, true)),
+            attitude_after: attitudes.then(|| maxima(after, true)),
+            histogram_width: width,
+            histogram,
+        }
+    }
+}
+
+/// A round bin width near `w` (1, 2 or 5 times a power of ten).
+pub fn nice_width(w: f64) -> f64 {
+    if !(w > 0.0 && w.is_finite()) {
+        return 1.0;
+    }
+    let p = 10f64.powf(w.log10().floor());
+    let m = w / p;
+    let f = if m <= 1.0 {
+        1.0
+    } else if m <= 2.0 {
+        2.0
+    } else if m <= 5.0 {
+        5.0
+    } else {
+        10.0
+    };
+    f * p
+}
+
+/// The singular-value spectrum of the scaled Jacobian at the solution, and what it says.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SpectrumReport {
+    /// Singular values of the scaled Jacobian, largest first.
+    pub singular_values_scaled: Vec<f64>,
+    /// The numerical rank.
+    pub rank: usize,
+    /// The relative tolerance of the rank cut.
+    pub rcond: f64,
+    /// The thesis's count of identifiable parameters, when it applies (`5nr + 3np + 6 = 26`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected: Option<String>,
+    /// Identically redundant groups: their combination, its value and whether the data
+    /// determines it.
+    pub identical_groups: Vec<GroupReport>,
+}
+
+/// An identically redundant group of parameters.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct GroupReport {
+    /// The combination, e.g. `p3 + p9`.
+    pub expression: String,
+    /// Its value.
+    pub value: f64,
+    /// Whether the data determines it (its members enter no other dependency).
+    pub determined: bool,
 }
 
 /// The calibration report written by `kinecal calibrate --report`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct CalibrationReport {
+    /// The version of this document's schema ([`SCHEMA_VERSION`]).
+    #[serde(default = "version_one")]
+    pub schema_version: u32,
+    /// The kinecal that wrote it.
+    #[serde(default)]
+    pub kinecal_version: String,
+    /// When it was made (UTC, RFC 3339).
+    #[serde(default)]
+    pub created: String,
+    /// The calibration spec that produced it (outputs left out), when it came from one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spec: Option<serde_json::Value>,
+    /// A given calibration, assessed on the data (not solved here).
+    #[serde(default)]
+    pub given: bool,
     /// Robot name.
     pub robot: String,
     /// Length unit of every length below.
@@ -517,6 +711,12 @@ pub struct CalibrationReport {
     /// Every file read, with its SHA-256.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sources: Vec<SourceReport>,
+    /// The errors of each observation of the identification data, before and after.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observation_errors: Option<ObservationErrors>,
+    /// The singular-value spectrum (absent when the uncertainty could not be computed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<SpectrumReport>,
 }
 
 impl CalibrationReport {
@@ -551,6 +751,11 @@ impl CalibrationReport {
         let (b, a) = (&cal.accuracy_before, &cal.accuracy_after);
         let poses = b.orientations > 0;
         CalibrationReport {
+            schema_version: SCHEMA_VERSION,
+            kinecal_version: env!("CARGO_PKG_VERSION").to_string(),
+            created: now_utc(),
+            spec: None,
+            given: cal.termination == crate::estimation::Termination::Given,
             robot: robot.name.clone(),
             length_unit: u.length.to_string(),
             angle_unit: u.angle.to_string(),
@@ -620,6 +825,8 @@ impl CalibrationReport {
             robot_file_sha256: None,
             data_file_sha256: None,
             sources: Vec::new(),
+            observation_errors: Some(observation_errors(cal, data)),
+            spectrum: None,
         }
     }
 
@@ -717,6 +924,22 @@ impl CalibrationReport {
         let robot = &cal.calibrated;
         self.variance_factor = Some(u.variance_factor);
         self.rank = Some(u.analysis.rank);
+        let an = &u.analysis;
+        self.spectrum = Some(SpectrumReport {
+            singular_values_scaled: an.singular_values_scaled.clone(),
+            rank: an.rank,
+            rcond: an.rcond,
+            expected: an.expected.as_ref().map(|e| e.formula.clone()),
+            identical_groups: an
+                .identical_groups
+                .iter()
+                .map(|g| GroupReport {
+                    expression: format_combination(&g.terms),
+                    value: g.value,
+                    determined: g.determined,
+                })
+                .collect(),
+        });
         for pu in &u.parameters {
             let p = &mut self.parameters[pu.id.0];
             p.determined = Some(pu.determined);
@@ -803,7 +1026,15 @@ impl CalibrationReport {
 
     /// Reads a report written by [`CalibrationReport::to_json`].
     pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
-        serde_json::from_str(text)
+        let report: CalibrationReport = serde_json::from_str(text)?;
+        if report.schema_version > SCHEMA_VERSION {
+            return Err(serde::de::Error::custom(format!(
+                "written by a newer kinecal (report schema version {}; this kinecal reads up to \
+                 {SCHEMA_VERSION})",
+                report.schema_version
+            )));
+        }
+        Ok(report)
     }
 }
 
@@ -856,5 +1087,51 @@ fn finite(v: f64) -> serde_json::Value {
         json!(v)
     } else {
         json!(null)
+    }
+}
+
+#[cfg(test)]
+mod observation_error_tests {
+    use super::*;
+
+    #[test]
+    fn bin_widths_are_round() {
+        assert!((nice_width(0.00043) - 0.0005).abs() < 1e-15);
+        assert!((nice_width(1.5) - 2.0).abs() < 1e-15);
+        assert!((nice_width(7.0) - 10.0).abs() < 1e-15);
+        assert!((nice_width(0.0) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    #[allow(clippy::float_cmp)] // the maxima are copies of the values: equal, not close
+    fn long_series_are_kept_as_the_largest_of_each_run() {
+        // Up to the limit, every value at its own observation number.
+        let e = |v: &[f64]| v.iter().map(|&x| (x, None)).collect::<Vec<_>>();
+        let r = ObservationErrors::new("position", &e(&[1.0, 5.0, 2.0]), &e(&[1.0, 5.0, 2.0]));
+        assert_eq!((r.run, r.after.clone()), (1, vec![1.0, 5.0, 2.0]));
+        assert!(r.attitude_after.is_none());
+        assert_eq!(r.histogram.iter().sum::<usize>(), 3);
+        // Beyond it, runs of equal length (the last shorter), each point its run's largest
+        // value; one large value among a million is kept; the histogram counts every one.
+        let n = 1_000_001;
+        let mut v: Vec<(f64, Option<f64>)> = vec![(1.0, Some(0.5)); n];
+        v[777_777] = (9.0, None);
+        let r = ObservationErrors::new("position", &v, &v);
+        assert_eq!(r.run, 501);
+        assert!(
+            r.after.len() <= ObservationErrors::MAX_POINTS,
+            "{}",
+            r.after.len()
+        );
+        assert_eq!(r.after.iter().filter(|&&y| y == 9.0).count(), 1);
+        assert_eq!(r.after[777_777 / 501], 9.0);
+        assert!(r.after.iter().all(|&y| y == 1.0 || y == 9.0));
+        // Attitudes: a run's largest, the run with the position-only row still has others.
+        let att = r.attitude_after.as_ref().unwrap();
+        assert!(att.iter().all(|a| *a == Some(0.5)));
+        assert_eq!(r.histogram.iter().sum::<usize>(), n);
+        let all_none = vec![(1.0, None), (2.0, Some(1.0))];
+        let r = ObservationErrors::new("position", &all_none, &all_none);
+        assert_eq!(r.attitude_after, Some(vec![None, Some(1.0)]));
     }
 }

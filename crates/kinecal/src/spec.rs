@@ -605,9 +605,13 @@ impl Job {
             phase: "reading".into(),
             seconds: self.reading,
         };
+        let mut spec = self.spec.clone();
+        spec.outputs = OutputSpec::default();
+        let spec = serde_json::to_value(&spec).expect("a spec is plain data JSON can hold");
         result
             .map(|mut o| {
                 o.report.timings.insert(0, reading);
+                o.report.spec = Some(spec);
                 o
             })
             .map_err(|e| match e {
