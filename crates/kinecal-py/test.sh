@@ -13,7 +13,7 @@ if [ ! -x "$venv/bin/python" ]; then
 fi
 # mypy and ruff pinned to a major version (ruff's 0.x minors are its breaking releases).
 "$venv/bin/python" -m pip install -q --disable-pip-version-check "maturin>=1.7,<2" numpy pytest \
-    "mypy>=2,<3" "ruff>=0.17,<0.18"
+    "mypy>=2,<3" "ruff>=0.17,<0.18" "jsonschema>=4.18,<5"
 rm -rf "$root/target/wheels"
 # A debug build: the tests' problems are small, and it shares the test suite's artifacts.
 (cd "$here" && "$venv/bin/maturin" build -q -o "$root/target/wheels")

@@ -4,10 +4,14 @@ use std::path::Path;
 
 use assert_cmd::Command;
 
+mod common;
+
 fn kinecal() -> Command {
     Command::cargo_bin("kinecal").unwrap()
 }
 
+/// Runs a command expected to succeed; returns its standard output. Every report in `dir`
+/// then follows the shipped schema.
 fn run_ok(dir: &Path, args: &[&str]) -> String {
     let out = kinecal().current_dir(dir).args(args).output().unwrap();
     assert!(
@@ -15,6 +19,7 @@ fn run_ok(dir: &Path, args: &[&str]) -> String {
         "{args:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+    common::check_reports(dir);
     String::from_utf8(out.stdout).unwrap()
 }
 
@@ -2909,4 +2914,51 @@ fn a_calibration_worse_held_out_than_before_is_a_warning_and_strict_refuses_it()
         !d.join("cal.toml").exists(),
         "--strict wrote the calibration"
     );
+}
+
+/// The schema check of the tests finds the reports and catches one that breaks the schema (a
+/// non-finite number written as null, a flag written as a string).
+#[test]
+fn reports_are_checked_against_the_shipped_schema() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "20",
+            "--out",
+            "data.csv",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--report",
+            "r.json",
+        ],
+    );
+    assert_eq!(common::check_reports(d), 1);
+    let good: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    for (path, value) in [
+        ("/parameters/0/estimated", serde_json::Value::Null),
+        ("/converged", serde_json::Value::from("yes")),
+        ("/observation_errors/after", serde_json::Value::from(1.0)),
+    ] {
+        let bad_dir = tempfile::tempdir().unwrap();
+        let mut bad = good.clone();
+        *bad.pointer_mut(path).unwrap() = value;
+        std::fs::write(bad_dir.path().join("bad.json"), bad.to_string()).unwrap();
+        let caught = std::panic::catch_unwind(|| common::check_reports(bad_dir.path()));
+        assert!(caught.is_err(), "{path}: a broken report passed");
+    }
 }

@@ -7,6 +7,8 @@ use std::sync::OnceLock;
 
 use assert_cmd::Command;
 
+mod common;
+
 fn kinecal() -> Command {
     Command::cargo_bin("kinecal").unwrap()
 }
@@ -22,9 +24,11 @@ fn run(dir: &Path, args: &[&str]) -> (i32, String, String) {
     (out.status.code().unwrap_or(-1), o, e)
 }
 
+/// Runs a command expected to succeed; every report in `dir` then follows the shipped schema.
 fn run_ok(dir: &Path, args: &[&str]) -> String {
     let (code, out, err) = run(dir, args);
     assert_eq!(code, 0, "{args:?}: {err}");
+    common::check_reports(dir);
     out
 }
 

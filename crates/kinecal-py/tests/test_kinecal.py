@@ -8,6 +8,7 @@ checkout (KINECAL_BIN, or built with cargo).
 
 import ast
 import doctest
+import functools
 import inspect
 import json
 import os
@@ -16,12 +17,30 @@ import threading
 import time
 import warnings
 
+import jsonschema
 import numpy as np
 import pytest
 
 import kinecal
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
+with open(os.path.join(ROOT, "schemas", "calibration-report.schema.json")) as _f:
+    REPORT_SCHEMA = jsonschema.Draft202012Validator(json.load(_f))
+
+
+@pytest.fixture(autouse=True)
+def _reports_follow_the_schema(monkeypatch):
+    """Every report a test's calibration returns follows the shipped schema."""
+    real = kinecal.calibrate
+
+    @functools.wraps(real)
+    def checked(*args, **kwargs):
+        result = real(*args, **kwargs)
+        REPORT_SCHEMA.validate(result.report)
+        return result
+
+    monkeypatch.setattr(kinecal, "calibrate", checked)
+
 SHARED = os.path.join(ROOT, "..", "shared", "data")
 QKM = os.path.join(SHARED, "qkm_hl6_faro")
 
@@ -103,6 +122,7 @@ def test_qkm_from_numpy_gives_the_cli_parameters_and_held_out_figures(cli, qkm_f
 def _without_timings(path):
     """A report but for when it was made and how long its phases took."""
     report = json.loads(path.read_text())
+    REPORT_SCHEMA.validate(report)
     report.pop("timings")
     report.pop("created")
     return report

@@ -1,6 +1,7 @@
 //! The machine-readable calibration report (JSON), in the robot file's units. The
 //! [`workflow`](crate::workflow) fills it in; the history stores it.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::estimation::Calibration;
@@ -16,7 +17,7 @@ use crate::warning::Warning;
 use serde_json::json;
 
 /// One parameter's line in the report.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct ParameterReport {
     /// `p1`, `p2`, ...
     pub id: String,
@@ -47,7 +48,7 @@ pub struct ParameterReport {
 }
 
 /// A member of a determined combination.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct TermReport {
     /// Parameter id.
     pub id: String,
@@ -58,7 +59,7 @@ pub struct TermReport {
 }
 
 /// A combination of parameters the data determines although its members are not.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct CombinationReport {
     /// Readable form, e.g. `p3 - p9 - p15 - p21 - p27 - p33`.
     pub expression: String,
@@ -77,7 +78,7 @@ pub struct CombinationReport {
 }
 
 /// A pair of strongly correlated estimates.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct CorrelationReport {
     /// First parameter id.
     pub a: String,
@@ -88,7 +89,7 @@ pub struct CorrelationReport {
 }
 
 /// Error statistics on one dataset, in the robot file's units.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct ErrorStats {
     /// Observations with a position error (poses and positions).
     #[serde(default)]
@@ -120,7 +121,7 @@ pub struct ErrorStats {
 
 /// Cross-validation by posture folds (length unit): the same calibration run on each training
 /// fold and checked on the postures it left out.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct CrossValidationReport {
     /// The folds' shuffle seed (absent: interleaved in posture order).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -138,7 +139,7 @@ pub struct CrossValidationReport {
 }
 
 /// One candidate of a model choice (length unit).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct ChoiceReport {
     /// The candidate as written.
     pub candidate: String,
@@ -153,7 +154,7 @@ pub struct ChoiceReport {
 }
 
 /// One fold of a cross-validation (length unit).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct FoldReport {
     /// Postures held out.
     pub postures: usize,
@@ -177,7 +178,7 @@ pub struct FoldReport {
 
 /// The closed-form placement of a far start ([`crate::registration`]): RMS position error of
 /// the start before and after it (length unit).
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct StartPlacement {
     /// Before.
     pub rms_before: f64,
@@ -186,7 +187,7 @@ pub struct StartPlacement {
 }
 
 /// Length errors of one metric other than positions (length unit).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct MetricStats {
     /// `distance` (error of a measured distance), `contact` (distance from the plane), ...
     pub metric: String,
@@ -234,7 +235,7 @@ impl ErrorStats {
 }
 
 /// Accuracy before and after calibration on one dataset.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct DatasetAccuracy {
     /// Postures in the dataset.
     pub postures: usize,
@@ -281,7 +282,7 @@ impl DatasetAccuracy {
 }
 
 /// How many observations of one kind.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct KindCount {
     /// `pose`, `position`, `distance`, `contact`.
     pub kind: String,
@@ -290,7 +291,7 @@ pub struct KindCount {
 }
 
 /// A file the calibration read, with the SHA-256 of the bytes read.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct SourceReport {
     /// The file name as given.
     pub name: String,
@@ -299,7 +300,7 @@ pub struct SourceReport {
 }
 
 /// An observation the calibrated model misses by far more than the rest.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct OutlierReport {
     /// Line in its file (0 when synthesized).
     pub line: usize,
@@ -324,7 +325,7 @@ pub struct OutlierReport {
 }
 
 /// The fit before pruning, when `--prune` was used.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct PruneReport {
     /// The significance threshold K.
     pub k: f64,
@@ -340,7 +341,7 @@ pub struct PruneReport {
 }
 
 /// The wall time of one phase.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct PhaseTime {
     /// The phase (`reading`, `preparation`, `selection`, `estimation`, `pruning`,
     /// `uncertainty`, `report`, `cross-validation`, `writing`).
@@ -351,7 +352,7 @@ pub struct PhaseTime {
 
 /// The figures of the solver's start on the identification data (robot file's units), when it
 /// is not the nominal robot.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct StartFigures {
     /// Weighted sum of squared residuals.
     pub objective: f64,
@@ -368,7 +369,7 @@ pub struct StartFigures {
 }
 
 /// The solver's stationarity measures at its last point ([`crate::estimation::Stationarity`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct StationarityReport {
     /// The relative reduction of the objective a Gauss-Newton step would bring by the local
     /// linear model (converged at or below `ftol`, 1e-15 by default).
@@ -424,6 +425,13 @@ fn finite_or_none(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
+/// The JSON Schema (draft 2020-12) of [`CalibrationReport`], as shipped in the repository's
+/// `schemas/calibration-report.schema.json`.
+pub fn calibration_report_schema() -> String {
+    let schema = schemars::schema_for!(CalibrationReport);
+    serde_json::to_string_pretty(&schema).expect("a schema is JSON") + "\n"
+}
+
 /// The version of the calibration report's schema: raised when a field is removed or changes
 /// meaning (reports without the field are version 1). Readers refuse newer versions.
 pub const SCHEMA_VERSION: u32 = 2;
@@ -436,7 +444,7 @@ fn version_one() -> u32 {
 /// observation up to [`ObservationErrors::MAX_POINTS`], beyond that the largest of each run of
 /// `run` consecutive observations (so that no large error disappears); and the histogram of
 /// all the errors after.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct ObservationErrors {
     /// What the length errors are: `position`, a metric (`distance`, `contact`) when the data
     /// has only that, or `length` for a mix.
@@ -538,7 +546,7 @@ pub fn nice_width(w: f64) -> f64 {
 }
 
 /// The singular-value spectrum of the scaled Jacobian at the solution, and what it says.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct SpectrumReport {
     /// Singular values of the scaled Jacobian, largest first.
     pub singular_values_scaled: Vec<f64>,
@@ -555,7 +563,7 @@ pub struct SpectrumReport {
 }
 
 /// An identically redundant group of parameters.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct GroupReport {
     /// The combination, e.g. `p3 + p9`.
     pub expression: String,
@@ -566,7 +574,7 @@ pub struct GroupReport {
 }
 
 /// The calibration report written by `kinecal calibrate --report`.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct CalibrationReport {
     /// The version of this document's schema ([`SCHEMA_VERSION`]).
     #[serde(default = "version_one")]
