@@ -53,7 +53,10 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     }
     let an = analyze(robot, &data, &params, &opts)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&json(&an, robot))?);
+        println!(
+            "{}",
+            kinecal::report::AnalysisReport::new(&an, robot, &unseen).to_json()
+        );
     } else {
         print!("{}", text(&an, robot, &data));
     }
@@ -61,38 +64,6 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         print!("{}", matrix(&an, robot, &data, &opts, which, a.units));
     }
     Ok(())
-}
-
-/// The analysis as JSON: the library's, with the parameters left out as dependent within the
-/// noise and the rule (`identifiable` already excludes them).
-fn json(an: &Analysis, robot: &Robot) -> serde_json::Value {
-    let mut v = kinecal::report::analysis_json(an, robot);
-    if let Some(map) = v.as_object_mut() {
-        let noise: Vec<serde_json::Value> = an
-            .noise_dependent
-            .iter()
-            .map(|d| {
-                serde_json::json!({
-                    "id": d.id.to_string(),
-                    "name": robot.param_name(d.id),
-                    "ratio": d.ratio,
-                    "sigma": d.sigma,
-                    "unit": robot.param_unit(d.id),
-                    "sine": d.sine,
-                    "expression": d.expression(),
-                    "coefficients": d
-                        .terms
-                        .iter()
-                        .map(|(id, c)| (id.to_string(), serde_json::json!(c)))
-                        .collect::<serde_json::Map<_, _>>(),
-                    "omitted_terms": d.omitted,
-                })
-            })
-            .collect();
-        map.insert("noise_dependent".into(), noise.into());
-        map.insert("noise_rule".into(), an.noise_rule.clone().into());
-    }
-    v
 }
 
 /// A parameter list in the order given (for priorities).

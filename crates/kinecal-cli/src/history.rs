@@ -609,19 +609,8 @@ pub fn check(a: CheckArgs) -> Result<u8> {
     let has_orientation = acc.orientations > 0;
     let (lmax, amax) = (len(thresholds.length), thresholds.angle.map(ang));
     if a.json {
-        let v = serde_json::json!({
-            "ok": verdict.ok,
-            "measurements": data.observations.len(),
-            "max_position_error": len(acc.max_position),
-            "rms_position_error": len(acc.rms_position),
-            "max_orientation_error": has_orientation.then(|| ang(acc.max_orientation)),
-            "other": acc.other.iter().map(|m| serde_json::json!({
-                "metric": m.metric, "max": len(m.max), "rms": len(m.rms)
-            })).collect::<Vec<_>>(),
-            "threshold_length": lmax,
-            "threshold_angle": amax,
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        let v = kinecal::workflow::CheckReport::new(&verdict, &r.robot, data.observations.len());
+        println!("{}", v.to_json());
     } else {
         if acc.positions > 0 {
             println!(

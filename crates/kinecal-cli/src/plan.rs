@@ -12,7 +12,6 @@ use kinecal::plan::{candidates, plan, Criterion, Plan, PlanRequest};
 use kinecal::source::Source;
 use kinecal::workflow::Selection;
 use kinecal::{simulate, Robot};
-use serde_json::json;
 
 use crate::args::{CriterionArg, PlanArgs};
 use crate::{load_robot, output, residual_settings};
@@ -205,7 +204,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     }
     staged.commit()?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&to_json(&p, robot))?);
+        println!("{}", kinecal::plan::PlanReport::new(&p, robot).to_json());
     } else {
         print!("{}", text(&p, robot, &described));
     }
@@ -334,35 +333,4 @@ pub fn text(p: &Plan, robot: &Robot, described: &str) -> String {
         let _ = writeln!(s);
     }
     s
-}
-
-fn to_json(p: &Plan, robot: &Robot) -> serde_json::Value {
-    json!({
-        "robot": robot.name,
-        "criterion": p.criterion.as_str(),
-        "value": p.value,
-        "values": p.values.iter().map(|(c, v)| (c.as_str().to_string(), json!(v))).collect::<serde_json::Map<_, _>>(),
-        "parameters": p.parameters.iter().map(ToString::to_string).collect::<Vec<_>>(),
-        "parameter_names": p.parameters.iter().map(|&id| robot.param_name(id)).collect::<Vec<_>>(),
-        "rows": p.rows,
-        "rank": p.rank,
-        "condition_number": p.condition_number,
-        "pool_candidates": p.pool_candidates,
-        "efficiency": p.efficiency,
-        "random": p.random.as_ref().map(|r| json!({
-            "draws": r.draws,
-            "median_value": r.median_value,
-            "median_efficiency": r.median_efficiency,
-            "at_least_as_good_as": r.beaten,
-        })),
-        "exchanges": p.exchanges,
-        "passes": p.passes,
-        "postures": p.postures.iter().map(|q| json!({
-            "label": q.label,
-            "kept": q.candidate.is_none(),
-            "candidate": q.candidate,
-            "readings": q.readings,
-            "leverage": q.leverage,
-        })).collect::<Vec<_>>(),
-    })
 }

@@ -500,13 +500,15 @@ fn analyze_reports_the_thesis_structure_as_text_and_json() {
         text.contains("p3 - p9 - p15 - p21 - p27 - p33 = 5.79"),
         "{text}"
     );
-    let json: serde_json::Value = serde_json::from_str(&run_ok(
-        d,
-        &[
-            "analyze", "--robot", "ge-a4", "--data", "data.csv", "--json",
-        ],
-    ))
-    .unwrap();
+    let json = common::check_document(
+        "analysis",
+        &run_ok(
+            d,
+            &[
+                "analyze", "--robot", "ge-a4", "--data", "data.csv", "--json",
+            ],
+        ),
+    );
     for key in [
         "parameters",
         "rank",
@@ -540,20 +542,22 @@ fn analyze_reports_the_thesis_structure_as_text_and_json() {
         s
     })
     .unwrap();
-    let json: serde_json::Value = serde_json::from_str(&run_ok(
-        d,
-        &[
-            "analyze",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "p.csv",
-            "--fix",
-            "slopes",
-            "--json",
-        ],
-    ))
-    .unwrap();
+    let json = common::check_document(
+        "analysis",
+        &run_ok(
+            d,
+            &[
+                "analyze",
+                "--robot",
+                "ge-a4",
+                "--postures",
+                "p.csv",
+                "--fix",
+                "slopes",
+                "--json",
+            ],
+        ),
+    );
     assert_eq!(
         (json["parameters"].as_u64(), json["rank"].as_u64()),
         (Some(34), Some(20))
@@ -1190,6 +1194,21 @@ fn history_record_drift_plot_and_check() {
     ]);
     assert_eq!(code, 3, "{out}");
     assert!(out.contains("RECALIBRATE"));
+    // The verdict as a document: the check's schema, the same verdict and exit code.
+    let (code, out, _) = run_code(&[
+        "check",
+        "--robot",
+        "cal1.toml",
+        "--data",
+        "m3.csv",
+        "--threshold",
+        "0.005,0.05",
+        "--json",
+    ]);
+    assert_eq!(code, 3, "{out}");
+    let v = common::check_document("check", &out);
+    assert_eq!(v["ok"], false);
+    assert_eq!(v["threshold_length"], 0.005);
     let err = run_err(
         d,
         &[
@@ -2195,7 +2214,7 @@ fn plan_chooses_postures_and_refuses_mistakes() {
             "chosen.csv",
         ],
     );
-    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let v = common::check_document("plan", &json);
     assert_eq!(v["criterion"], "i");
     assert_eq!(v["postures"].as_array().unwrap().len(), 14);
     assert_eq!(v["postures"][0]["kept"], true);

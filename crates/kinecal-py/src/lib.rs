@@ -1191,15 +1191,13 @@ fn analyze(
     let selection = Selection::parse(&estimate, fix.as_deref(), r).map_err(|e| error(py, e))?;
     let d = &data.data;
     let json = py
-        .detach(|| -> kinecal::Result<serde_json::Value> {
+        .detach(|| -> kinecal::Result<String> {
             let (params, unseen) = workflow::resolve(&selection, r, d, &opts)?;
             let an = analyze_ids(r, d, &params, &opts)?;
-            let mut v = kinecal::report::analysis_json(&an, r);
-            v["unseen"] = unseen.iter().map(|id| id.to_string()).collect();
-            Ok(v)
+            Ok(kinecal::report::AnalysisReport::new(&an, r, &unseen).to_json())
         })
         .map_err(|e| error(py, e))?;
-    Ok(json.to_string())
+    Ok(json)
 }
 
 /// The data sets kinecal can read as they are published (`qkm-hl6`, `fanuc-r2000ic`,

@@ -310,6 +310,130 @@ pub struct Plan {
     pub passes: usize,
 }
 
+/// A plan as a document: what `kinecal plan --json` prints (values in the robot file's units:
+/// readings as its transducer values).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+pub struct PlanReport {
+    /// The version of this document's schema ([`crate::report::SCHEMA_VERSION`]).
+    pub schema_version: u32,
+    /// Robot name.
+    pub robot: String,
+    /// The criterion maximised (`d`, `a`, `i`, `e`).
+    pub criterion: String,
+    /// Its value for the plan (null when the plan does not determine every parameter).
+    pub value: Option<f64>,
+    /// Every criterion's value.
+    pub values: std::collections::BTreeMap<String, Option<f64>>,
+    /// The parameters it is designed to determine (ids).
+    pub parameters: Vec<String>,
+    /// Their names.
+    pub parameter_names: Vec<String>,
+    /// Residual rows of the plan.
+    pub rows: usize,
+    /// Numerical rank of its scaled Jacobian.
+    pub rank: usize,
+    /// Its condition number (null when it does not determine every parameter).
+    pub condition_number: Option<f64>,
+    /// Candidates in the pool.
+    pub pool_candidates: usize,
+    /// D-efficiency against the pool (see [`Plan::efficiency`]).
+    pub efficiency: Option<f64>,
+    /// Random plans of the same size, for comparison.
+    pub random: Option<RandomPlansReport>,
+    /// Swaps the exchange made.
+    pub exchanges: usize,
+    /// Its passes.
+    pub passes: usize,
+    /// The kept postures, then the chosen ones.
+    pub postures: Vec<PlannedPostureReport>,
+}
+
+/// Random plans of a plan's size (in a [`PlanReport`]).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+pub struct RandomPlansReport {
+    /// How many were drawn.
+    pub draws: usize,
+    /// Their median criterion value.
+    pub median_value: Option<f64>,
+    /// Their median efficiency.
+    pub median_efficiency: Option<f64>,
+    /// How many the plan is at least as good as.
+    pub at_least_as_good_as: usize,
+}
+
+/// A posture of a plan (in a [`PlanReport`]).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+pub struct PlannedPostureReport {
+    /// Its label.
+    pub label: String,
+    /// Kept (given), not chosen.
+    pub kept: bool,
+    /// The candidate's index in the pool (null when kept).
+    pub candidate: Option<usize>,
+    /// Its readings (transducer values).
+    pub readings: Vec<f64>,
+    /// Its leverage in the plan.
+    pub leverage: f64,
+}
+
+impl PlanReport {
+    /// The document of `p` for `robot`.
+    pub fn new(p: &Plan, robot: &Robot) -> PlanReport {
+        PlanReport {
+            schema_version: crate::report::SCHEMA_VERSION,
+            robot: robot.name.clone(),
+            criterion: p.criterion.as_str().to_string(),
+            value: p.value,
+            values: p
+                .values
+                .iter()
+                .map(|(c, v)| (c.as_str().to_string(), *v))
+                .collect(),
+            parameters: p.parameters.iter().map(ToString::to_string).collect(),
+            parameter_names: p
+                .parameters
+                .iter()
+                .map(|&id| robot.param_name(id))
+                .collect(),
+            rows: p.rows,
+            rank: p.rank,
+            condition_number: p.condition_number,
+            pool_candidates: p.pool_candidates,
+            efficiency: p.efficiency,
+            random: p.random.as_ref().map(|r| RandomPlansReport {
+                draws: r.draws,
+                median_value: r.median_value,
+                median_efficiency: r.median_efficiency,
+                at_least_as_good_as: r.beaten,
+            }),
+            exchanges: p.exchanges,
+            passes: p.passes,
+            postures: p
+                .postures
+                .iter()
+                .map(|q| PlannedPostureReport {
+                    label: q.label.clone(),
+                    kept: q.candidate.is_none(),
+                    candidate: q.candidate,
+                    readings: q.readings.clone(),
+                    leverage: q.leverage,
+                })
+                .collect(),
+        }
+    }
+
+    /// Pretty-printed JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a report is plain data JSON can hold")
+    }
+}
+
+/// The JSON Schema of [`PlanReport`], as shipped in `schemas/plan.schema.json`.
+pub fn plan_schema() -> String {
+    let schema = schemars::schema_for!(PlanReport);
+    serde_json::to_string_pretty(&schema).expect("a schema is JSON") + "\n"
+}
+
 /// Observations at `postures` of the given `targets` (the end effector and sites), full poses
 /// or positions only, with the values the `robot` predicts: a pool of candidates or a plan to
 /// measure.

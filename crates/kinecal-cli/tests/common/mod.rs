@@ -1,5 +1,6 @@
-//! Shared by the command's tests: every calibration report a test writes is checked against
-//! the schema shipped in `schemas/`.
+//! Shared by the command's tests (each test binary uses part of it): every calibration report
+//! and `--json` document a test writes is checked against its schema shipped in `schemas/`.
+#![allow(dead_code)]
 
 use std::path::Path;
 
@@ -49,4 +50,26 @@ pub fn check_reports(dir: &Path) -> usize {
         }
     }
     checked
+}
+
+/// Checks a document printed by `--json` (`analysis`, `plan` or `check`) against its shipped
+/// schema; returns it parsed.
+pub fn check_document(kind: &str, text: &str) -> serde_json::Value {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../schemas/{kind}.schema.json"));
+    let schema: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let v: serde_json::Value = serde_json::from_str(text).unwrap();
+    let validator = jsonschema::validator_for(&schema).unwrap();
+    let errors: Vec<String> = validator
+        .iter_errors(&v)
+        .take(5)
+        .map(|e| format!("{} at {}", e, e.instance_path()))
+        .collect();
+    assert!(
+        errors.is_empty(),
+        "not a {kind} document:\n{}",
+        errors.join("\n")
+    );
+    v
 }

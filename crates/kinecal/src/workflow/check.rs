@@ -132,3 +132,78 @@ pub fn check(robot: &Robot, data: &Dataset, thresholds: Thresholds) -> Result<Ve
         thresholds,
     })
 }
+
+/// A check's verdict as a document: what `kinecal check --json` prints (robot file's units).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+pub struct CheckReport {
+    /// The version of this document's schema ([`crate::report::SCHEMA_VERSION`]).
+    pub schema_version: u32,
+    /// True when every error is within the thresholds.
+    pub ok: bool,
+    /// Check observations.
+    pub measurements: usize,
+    /// Largest position error (length unit).
+    pub max_position_error: f64,
+    /// RMS position error.
+    pub rms_position_error: f64,
+    /// Largest attitude error (angle unit; null without attitudes).
+    pub max_orientation_error: Option<f64>,
+    /// The other length metrics (distances, contacts).
+    pub other: Vec<CheckMetric>,
+    /// The length threshold.
+    pub threshold_length: f64,
+    /// The angle threshold, when attitudes are checked.
+    pub threshold_angle: Option<f64>,
+}
+
+/// A length metric of a check (in a [`CheckReport`]).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+pub struct CheckMetric {
+    /// `distance`, `contact`.
+    pub metric: String,
+    /// Its largest error (length unit).
+    pub max: f64,
+    /// Its RMS error.
+    pub rms: f64,
+}
+
+impl CheckReport {
+    /// The document of `v`, a check of `robot` on `observations` observations.
+    pub fn new(v: &Verdict, robot: &Robot, observations: usize) -> CheckReport {
+        use crate::units::Quantity;
+        let u = robot.units;
+        let len = |x: f64| u.from_si(Quantity::Length, x);
+        let ang = |x: f64| u.from_si(Quantity::Angle, x);
+        let acc = &v.accuracy;
+        CheckReport {
+            schema_version: crate::report::SCHEMA_VERSION,
+            ok: v.ok,
+            measurements: observations,
+            max_position_error: len(acc.max_position),
+            rms_position_error: len(acc.rms_position),
+            max_orientation_error: (acc.orientations > 0).then(|| ang(acc.max_orientation)),
+            other: acc
+                .other
+                .iter()
+                .map(|m| CheckMetric {
+                    metric: m.metric.to_string(),
+                    max: len(m.max),
+                    rms: len(m.rms),
+                })
+                .collect(),
+            threshold_length: len(v.thresholds.length),
+            threshold_angle: v.thresholds.angle.map(ang),
+        }
+    }
+
+    /// Pretty-printed JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a report is plain data JSON can hold")
+    }
+}
+
+/// The JSON Schema of [`CheckReport`], as shipped in `schemas/check.schema.json`.
+pub fn check_schema() -> String {
+    let schema = schemars::schema_for!(CheckReport);
+    serde_json::to_string_pretty(&schema).expect("a schema is JSON") + "\n"
+}

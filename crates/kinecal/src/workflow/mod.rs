@@ -30,7 +30,7 @@ mod outcome;
 mod run;
 mod selection;
 
-pub use check::{assess, check, Thresholds, Verdict};
+pub use check::{assess, check, check_schema, CheckMetric, CheckReport, Thresholds, Verdict};
 pub use cross_validation::{CrossValidation, Fold};
 pub use min_change::SolutionRule;
 pub use model_choice::{choose, Candidate, Choice, Scored, CHOICE_REPEATS};
