@@ -895,7 +895,13 @@ impl Database {
         }
         check_finite(report)?;
         let at = at.unwrap_or_else(now);
-        let json = report.to_json();
+        // The history keeps the figures, not the chart of every observation (up to 2,000
+        // points before and after: the bulk of a report, of no use for drift).
+        let json = CalibrationReport {
+            observation_errors: None,
+            ..report.clone()
+        }
+        .to_json();
         let tx = self.begin()?;
         if let Some(problem) = quick_check(&tx) {
             return Err(Error::Corrupt {

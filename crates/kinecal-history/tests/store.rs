@@ -64,6 +64,22 @@ fn records_round_trip() {
     );
     assert!(!c.parameters[2].estimated);
     assert_eq!(db.robots().unwrap(), vec![("R1".to_string(), 1)]);
+    // The stored report is the report but for the chart of every observation.
+    assert!(rep.observation_errors.is_some());
+    let stored: String = rusqlite::Connection::open(dir.path().join("sub/folder/h.sqlite"))
+        .unwrap()
+        .query_row("SELECT report FROM calibrations WHERE id = ?1", [id], |r| {
+            r.get(0)
+        })
+        .unwrap();
+    let stored = CalibrationReport::from_json(&stored).unwrap();
+    assert_eq!(
+        stored,
+        CalibrationReport {
+            observation_errors: None,
+            ..rep.clone()
+        }
+    );
     assert!(db.add(" ", None, &rep, "").is_err());
 }
 
