@@ -63,8 +63,8 @@ pub fn summary(r: &CalibrationReport) -> String {
         r.measurements,
         kinds.join(", "),
         r.residuals,
-        r.method,
-        r.orientation_error,
+        r.method.as_str(),
+        r.orientation_error.as_str(),
         r.solution
     );
     let measures = r

@@ -178,7 +178,7 @@ pub(crate) fn charts(panels: &[Panel]) -> Result<String, DrawError> {
 /// The HTML report of a calibration, drawn from its report alone (`kinecal report --from`
 /// rebuilds the same page from the JSON).
 pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
-    let (l, a) = (&rep.length_unit, &rep.angle_unit);
+    let (l, a) = (rep.length_unit.as_str(), rep.angle_unit.as_str());
     // A robot without a name (an imported DH table) gets none, not a dangling colon.
     let named = if rep.robot.trim().is_empty() {
         String::new()
@@ -203,13 +203,13 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     let how = if rep.given {
         format!(
             "{} orientation residuals; a given calibration, assessed on these data (not solved here)",
-            esc(&rep.orientation_error)
+            esc(rep.orientation_error.as_str())
         )
     } else {
         format!(
             "method <b>{}</b>, {} orientation residuals, {} solution; {} after {} iterations ({})",
-            esc(&rep.method),
-            esc(&rep.orientation_error),
+            esc(rep.method.as_str()),
+            esc(rep.orientation_error.as_str()),
             esc(&rep.solution),
             if rep.converged {
                 "converged"
@@ -234,7 +234,7 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
             "<p>Far start: the measurement frame and the measured frames were first placed in closed form (RMS position error {} &rarr; {} {}).</p>",
             num(p.rms_before),
             num(p.rms_after),
-            esc(&rep.length_unit)
+            esc(rep.length_unit.as_str())
         );
     }
     if let Some(n) = rep.down_weighted_rows {

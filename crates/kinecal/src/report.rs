@@ -593,13 +593,13 @@ pub struct CalibrationReport {
     /// Robot name.
     pub robot: String,
     /// Length unit of every length below.
-    pub length_unit: String,
+    pub length_unit: crate::units::LengthUnit,
     /// Angle unit of every angle below.
-    pub angle_unit: String,
+    pub angle_unit: crate::units::AngleUnit,
     /// `lm`, `gn`, `sd` or `svd`.
-    pub method: String,
+    pub method: crate::estimation::Method,
     /// `euler` or `rotvec`.
-    pub orientation_error: String,
+    pub orientation_error: crate::observe::OrientationError,
     /// False only when the iteration cap stopped the solver.
     pub converged: bool,
     /// Why the solver stopped.
@@ -764,10 +764,10 @@ impl CalibrationReport {
             spec: None,
             given: cal.termination == crate::estimation::Termination::Given,
             robot: robot.name.clone(),
-            length_unit: u.length.to_string(),
-            angle_unit: u.angle.to_string(),
-            method: cal.options.solver.method.as_str().to_string(),
-            orientation_error: cal.options.orientation.as_str().to_string(),
+            length_unit: u.length,
+            angle_unit: u.angle,
+            method: cal.options.solver.method,
+            orientation_error: cal.options.orientation,
             converged: cal.converged(),
             termination: cal.termination.describe().to_string(),
             stationarity: (cal.termination != crate::estimation::Termination::Given).then(|| {

@@ -9,7 +9,10 @@ use std::fmt;
 use std::str::FromStr;
 
 /// A unit of length accepted in robot files.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum LengthUnit {
     /// Metre.
     M,
@@ -60,7 +63,10 @@ impl fmt::Display for LengthUnit {
 }
 
 /// A unit of angle accepted in robot files.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum AngleUnit {
     /// Degree.
     Deg,

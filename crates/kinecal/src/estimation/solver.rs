@@ -63,7 +63,17 @@ use crate::error::{Error, Result};
 use crate::linalg::{self, GramAccumulator, Matrix, PivotedQr, QrAccumulator, QR_BLOCK};
 
 /// A least-squares method (in a calibration spec: `lm`, `gn`, `sd`, `svd`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
 pub enum Method {
     /// Levenberg-Marquardt (thesis 3.3.4), as a scaled trust region.
     #[default]

@@ -108,7 +108,17 @@ impl Weights {
 }
 
 /// How an orientation residual is formed (in a calibration spec: `euler`, `rotvec`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum OrientationError {
     /// Differences of the ZYX Euler angles, each wrapped to (-180, 180] deg (thesis eq. 3.1).
