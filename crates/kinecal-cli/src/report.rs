@@ -88,7 +88,7 @@ pub fn summary(r: &CalibrationReport) -> String {
             "NOT converged"
         },
         r.iterations,
-        r.termination
+        r.termination.describe()
     );
     if let Some(p) = &r.start_placement {
         let _ = writeln!(

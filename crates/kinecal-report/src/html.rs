@@ -217,7 +217,7 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
                 "NOT converged"
             },
             rep.iterations,
-            esc(&rep.termination)
+            esc(rep.termination.describe())
         )
     };
     let _ = writeln!(

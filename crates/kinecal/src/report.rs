@@ -603,7 +603,7 @@ pub struct CalibrationReport {
     /// False only when the iteration cap stopped the solver.
     pub converged: bool,
     /// Why the solver stopped.
-    pub termination: String,
+    pub termination: crate::estimation::Termination,
     /// How stationary the solver's last point is (absent for a calibration assessed, not
     /// solved).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -769,7 +769,7 @@ impl CalibrationReport {
             method: cal.options.solver.method,
             orientation_error: cal.options.orientation,
             converged: cal.converged(),
-            termination: cal.termination.describe().to_string(),
+            termination: cal.termination,
             stationarity: (cal.termination != crate::estimation::Termination::Given).then(|| {
                 StationarityReport {
                     predicted_reduction: cal.stationarity.predicted_reduction,
@@ -1247,6 +1247,20 @@ pub fn analysis_schema() -> String {
 #[cfg(test)]
 mod observation_error_tests {
     use super::*;
+
+    #[test]
+    fn typed_fields_read_back_as_written() {
+        use crate::estimation::Termination;
+        for t in Termination::ALL {
+            let text = serde_json::to_string(&t).unwrap();
+            assert_eq!(text, format!("\"{}\"", t.describe()));
+            assert_eq!(serde_json::from_str::<Termination>(&text).unwrap(), t);
+        }
+        assert!(serde_json::from_str::<Termination>("\"done\"").is_err());
+        let u: crate::units::LengthUnit = serde_json::from_str("\"mm\"").unwrap();
+        assert_eq!(u, crate::units::LengthUnit::Mm);
+        assert!(serde_json::from_str::<crate::units::LengthUnit>("\"furlong\"").is_err());
+    }
 
     #[test]
     fn bin_widths_are_round() {

@@ -218,6 +218,17 @@ pub enum Termination {
 }
 
 impl Termination {
+    /// Every way a solve ends.
+    pub const ALL: [Termination; 7] = [
+        Termination::ZeroObjective,
+        Termination::SmallPredictedReduction,
+        Termination::SmallStep,
+        Termination::RoundingLimited,
+        Termination::Stalled,
+        Termination::MaxIterations,
+        Termination::Given,
+    ];
+
     /// True when the solver stopped at a stationary point (not at the cap, not stalled).
     pub fn converged(self) -> bool {
         !matches!(self, Termination::MaxIterations | Termination::Stalled)
@@ -1153,6 +1164,38 @@ pub(crate) fn drive(
         unfelt: unfelt.unwrap_or_default(),
         start_r,
     })
+}
+
+// In reports a termination is its sentence ([`Termination::describe`]), read back exactly.
+impl serde::Serialize for Termination {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.describe())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Termination {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        Termination::ALL
+            .into_iter()
+            .find(|t| t.describe() == text)
+            .ok_or_else(|| serde::de::Error::custom(format!("unknown termination `{text}`")))
+    }
+}
+
+impl schemars::JsonSchema for Termination {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Termination".into()
+    }
+
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let sentences: Vec<&str> = Termination::ALL.iter().map(|t| t.describe()).collect();
+        schemars::json_schema!({
+            "description": "Why the solver stopped (a sentence per way).",
+            "type": "string",
+            "enum": sentences,
+        })
+    }
 }
 
 #[cfg(test)]
