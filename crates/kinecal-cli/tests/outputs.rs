@@ -1,7 +1,7 @@
 //! How `kinecal` puts its output files in place (Unix): regular files replaced whole, with the
 //! target's mode (a new one by the umask) and through symlinks; devices, FIFOs and standard
 //! output written into, never renamed over; no temporary file left by a failed or stopped run,
-//! and those of killed runs cleaned.
+//! and those of killed runs cleaned; `batch` refusing outputs over other rows' files.
 //!
 //! Nothing here can harm the machine when the code is wrong: the destructive cases run on
 //! FIFOs, symlinks and device nodes made in a temporary folder, and `/dev/null` and
@@ -426,5 +426,61 @@ fn temporary_files_of_killed_runs_are_removed_by_the_next_run() {
     assert!(err.contains(&stale), "no note of the removal: {err}");
     for kept in [&young, &running, ".notes.txt"] {
         assert!(d.join(kept).exists(), "{kept} was removed");
+    }
+}
+
+#[test]
+fn batch_refuses_an_output_over_another_rows_file_before_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    data(d, "d1.csv", 1);
+    data(d, "d2.csv", 2);
+    let d2 = fs::read(d.join("d2.csv")).unwrap();
+    std::os::unix::fs::symlink("d2.csv", d.join("link.csv")).unwrap();
+    let head = "serial,robot,data,options\n";
+    for (name, rows, extra, says) in [
+        (
+            "m1.csv",
+            "A,ge-a4,d1.csv,--out d2.csv\nB,ge-a4,d2.csv,\n",
+            None,
+            "m1.csv:2: the output d2.csv is an input of B (m1.csv:3)",
+        ),
+        (
+            "m2.csv",
+            "A,ge-a4,d1.csv,--report r.json\nB,ge-a4,d2.csv,--report ./r.json\n",
+            None,
+            "m2.csv:3: the output ./r.json is also written for A (m2.csv:2)",
+        ),
+        (
+            "m3.csv",
+            "A,ge-a4,d2.csv,\nB,ge-a4,d1.csv,--out link.csv\n",
+            None,
+            "m3.csv:3: the output link.csv is an input of A (m3.csv:2)",
+        ),
+        (
+            "m4.csv",
+            "A,ge-a4,d1.csv,--out m4.csv\n",
+            None,
+            "m4.csv:2: the output m4.csv is the manifest",
+        ),
+        (
+            "m5.csv",
+            "A,ge-a4,d1.csv,\nB,ge-a4,d2.csv,--out x.toml\n",
+            Some("./d1.csv"),
+            "--summary ./d1.csv is an input of A (m5.csv:2)",
+        ),
+    ] {
+        fs::write(d.join(name), format!("{head}{rows}")).unwrap();
+        let mut args = vec!["batch", name, "--quiet"];
+        if let Some(s) = extra {
+            args.extend(["--summary", s]);
+        }
+        let out = kinecal(d, &args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {err}");
+        assert!(err.contains(says), "{name}: {err}");
+        assert!(out.stdout.is_empty(), "{name}: a robot ran");
+        assert_eq!(fs::read(d.join("d2.csv")).unwrap(), d2, "{name}");
+        assert!(!d.join("r.json").exists() && !d.join("x.toml").exists());
     }
 }
