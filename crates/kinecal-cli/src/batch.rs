@@ -4,7 +4,9 @@
 //! CSV row's arguments read as `kinecal calibrate` reads them ([`crate::calibrate::spec_of`]).
 //! It runs as `calibrate` runs it; its outputs are written when it succeeds, whatever the others
 //! do. The calibrations run on a thread pool (`rayon`); recording in the history is done
-//! afterwards, in manifest order, by one writer.
+//! afterwards, in manifest order, by one writer. Before any robot runs, an output that another
+//! robot reads or writes, or that is the manifest, the summary or the database, is refused
+//! ([`check_files`], paths compared as [`output::identity`] resolves them).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -327,23 +329,95 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
     if let Some(w) = serials.windows(2).find(|w| w[0] == w[1]) {
         bail!("{name}: serial `{}` listed twice", w[0]);
     }
-    // Two robots writing one file would race: refuse before anything runs.
-    let mut outputs: Vec<(PathBuf, &str)> = Vec::new();
-    for e in &entries {
+    Ok(entries)
+}
+
+/// Who reads or writes a file of the batch.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Owner {
+    /// The robot of this manifest entry.
+    Row(usize),
+    Manifest,
+    Summary,
+    Database,
+}
+
+/// One file the batch reads or writes.
+struct BatchFile {
+    id: output::Identity,
+    shown: PathBuf,
+    owner: Owner,
+    writes: bool,
+}
+
+/// Refuses, before anything runs, an output that is a file another robot reads or writes, the
+/// manifest, the summary or the history database: every path is resolved (canonical folder,
+/// links followed; device and inode compared), so `r.json`, `./r.json` and a link to it are one
+/// file. One robot's own outputs over its own inputs are refused with that robot alone, as
+/// `calibrate` refuses them. Outputs written in place (devices, FIFOs, standard output) are
+/// not compared.
+fn check_files(
+    entries: &[Entry],
+    manifest: &Path,
+    summary: Option<&Path>,
+    db: Option<&Path>,
+) -> Result<()> {
+    let mut files: Vec<BatchFile> = Vec::new();
+    let mut add = |p: &Path, owner: Owner, writes: bool| {
+        if let Some(id) = output::identity(p) {
+            files.push(BatchFile {
+                id,
+                shown: p.to_path_buf(),
+                owner,
+                writes,
+            });
+        }
+    };
+    add(manifest, Owner::Manifest, false);
+    for (k, e) in entries.iter().enumerate() {
         if let Ok(spec) = &e.job {
-            for p in &spec.outputs() {
-                if let Some((_, other)) = outputs.iter().find(|(q, _)| q == p) {
-                    bail!(
-                        "{}: {} is also written for {other}: give each robot its own outputs",
-                        e.at,
-                        p.display()
-                    );
-                }
-                outputs.push((p.clone(), &e.serial));
+            for p in spec.inputs() {
+                add(&p, Owner::Row(k), false);
+            }
+            for p in spec.outputs() {
+                add(&p, Owner::Row(k), true);
             }
         }
     }
-    Ok(entries)
+    if let Some(p) = summary {
+        add(p, Owner::Summary, true);
+    }
+    if let Some(p) = db {
+        add(p, Owner::Database, true);
+    }
+    let row = |k: usize| format!("{} ({})", entries[k].serial, entries[k].at);
+    for (j, b) in files.iter().enumerate() {
+        for a in &files[..j] {
+            if a.owner == b.owner || !(a.writes || b.writes) || a.id != b.id {
+                continue;
+            }
+            // Named from the writer's side (the later one when both write).
+            let (w, other) = if b.writes { (b, a) } else { (a, b) };
+            let who = match w.owner {
+                Owner::Row(k) => format!("{}: the output {}", entries[k].at, w.shown.display()),
+                Owner::Summary => format!("--summary {}", w.shown.display()),
+                Owner::Database => format!("the history database {}", w.shown.display()),
+                Owner::Manifest => unreachable!("the manifest is only read"),
+            };
+            let what = match (other.owner, other.writes) {
+                (Owner::Row(k), true) => format!("is also written for {}", row(k)),
+                (Owner::Row(k), false) => format!("is an input of {}", row(k)),
+                (Owner::Manifest, _) => "is the manifest itself".to_string(),
+                (Owner::Summary, _) => "is also the --summary".to_string(),
+                (Owner::Database, _) => "is the history database".to_string(),
+            };
+            bail!(
+                "{who} {what}: each output must be a file of its own, that nothing else in the \
+                 batch reads or writes"
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The summary figures of one calibration.
@@ -541,10 +615,13 @@ fn summary_csv(rows: &[Row]) -> Result<String> {
 
 /// Runs `kinecal batch`.
 pub fn run(a: BatchArgs) -> Result<u8> {
-    if let Some(s) = &a.summary {
-        output::check_distinct(&[s], &[&a.manifest])?;
-    }
     let entries = read_manifest(&a.manifest)?;
+    check_files(
+        &entries,
+        &a.manifest,
+        a.summary.as_deref(),
+        a.db.as_deref().filter(|_| a.record),
+    )?;
     let db = if a.record {
         Some(history::open_db(a.db.as_deref())?)
     } else {
