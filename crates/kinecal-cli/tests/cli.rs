@@ -1878,11 +1878,17 @@ fn outputs_are_written_only_when_the_whole_run_succeeds() {
         std::fs::read_to_string(d.join("out.toml")).unwrap(),
         "keep me"
     );
-    // A symlink planted where a temporary file would go is not followed.
+    // Symlinks planted under temporary-file names (the old fixed ones, and the new scheme's
+    // `.kinecal-tmp-PID-RANDOM-NAME` with this live process's pid) are not followed.
     let victim = d.join("victim.txt");
     std::fs::write(&victim, "untouched").unwrap();
+    let planted = [
+        ".out.toml.kinecal-tmp".to_string(),
+        ".out.toml.kinecal-tmp.toml".to_string(),
+        format!(".kinecal-tmp-{}-0-out.toml", std::process::id()),
+    ];
     #[cfg(unix)]
-    for name in [".out.toml.kinecal-tmp", ".out.toml.kinecal-tmp.toml"] {
+    for name in &planted {
         std::os::unix::fs::symlink(&victim, d.join(name)).unwrap();
     }
     run_ok(
@@ -1907,7 +1913,7 @@ fn outputs_are_written_only_when_the_whole_run_succeeds() {
     let left: Vec<String> = std::fs::read_dir(d)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .filter(|n| n.contains("kinecal-tmp") && !n.starts_with(".out.toml.kinecal-tmp"))
+        .filter(|n| n.contains("kinecal-tmp") && !planted.contains(n))
         .collect();
     assert!(left.is_empty(), "{left:?}");
 }
