@@ -2,19 +2,42 @@
 //! and `--json` document a test writes is checked against its schema shipped in `schemas/`.
 #![allow(dead_code)]
 
+use std::collections::HashMap;
 use std::path::Path;
+use std::sync::{Mutex, OnceLock};
+
+/// Asserts that `v` follows `schemas/{kind}.schema.json` (validators built once per schema),
+/// naming `what` and the first few violations otherwise.
+fn assert_follows(kind: &'static str, v: &serde_json::Value, what: &str) {
+    static VALIDATORS: OnceLock<Mutex<HashMap<&'static str, &'static jsonschema::Validator>>> =
+        OnceLock::new();
+    let validator = *VALIDATORS
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap()
+        .entry(kind)
+        .or_insert_with(|| {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join(format!("../../schemas/{kind}.schema.json"));
+            let schema: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+            Box::leak(Box::new(jsonschema::validator_for(&schema).unwrap()))
+        });
+    let errors: Vec<String> = validator
+        .iter_errors(v)
+        .take(5)
+        .map(|e| format!("{} at {}", e, e.instance_path()))
+        .collect();
+    assert!(
+        errors.is_empty(),
+        "{what} does not follow the {kind} schema:\n{}",
+        errors.join("\n")
+    );
+}
 
 /// Checks every calibration report (a `.json` file with `schema_version` and `parameters`)
 /// under `dir` against `schemas/calibration-report.schema.json`; returns how many it checked.
 pub fn check_reports(dir: &Path) -> usize {
-    static VALIDATOR: std::sync::OnceLock<jsonschema::Validator> = std::sync::OnceLock::new();
-    let validator = VALIDATOR.get_or_init(|| {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../schemas/calibration-report.schema.json");
-        let schema: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        jsonschema::validator_for(&schema).unwrap()
-    });
     let mut checked = 0;
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
@@ -35,17 +58,7 @@ pub fn check_reports(dir: &Path) -> usize {
             if v.get("schema_version").is_none() || v.get("parameters").is_none() {
                 continue;
             }
-            let errors: Vec<String> = validator
-                .iter_errors(&v)
-                .take(5)
-                .map(|e| format!("{} at {}", e, e.instance_path()))
-                .collect();
-            assert!(
-                errors.is_empty(),
-                "{} does not follow the report schema:\n{}",
-                path.display(),
-                errors.join("\n")
-            );
+            assert_follows("calibration-report", &v, &path.display().to_string());
             checked += 1;
         }
     }
@@ -54,22 +67,8 @@ pub fn check_reports(dir: &Path) -> usize {
 
 /// Checks a document printed by `--json` (`analysis`, `plan` or `check`) against its shipped
 /// schema; returns it parsed.
-pub fn check_document(kind: &str, text: &str) -> serde_json::Value {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../schemas/{kind}.schema.json"));
-    let schema: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+pub fn check_document(kind: &'static str, text: &str) -> serde_json::Value {
     let v: serde_json::Value = serde_json::from_str(text).unwrap();
-    let validator = jsonschema::validator_for(&schema).unwrap();
-    let errors: Vec<String> = validator
-        .iter_errors(&v)
-        .take(5)
-        .map(|e| format!("{} at {}", e, e.instance_path()))
-        .collect();
-    assert!(
-        errors.is_empty(),
-        "not a {kind} document:\n{}",
-        errors.join("\n")
-    );
+    assert_follows(kind, &v, &format!("a {kind} document"));
     v
 }
