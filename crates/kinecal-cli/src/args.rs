@@ -155,7 +155,7 @@ Sections: summary, residuals per posture before/after, error histogram, paramete
 +-sigma bars, singular-value spectrum with the rank cut, redundant groups and determined
 combinations, warnings. `kinecal calibrate --html report.html` writes it directly.")]
     Report(ReportArgs),
-    /// Write a calibrated robot back into another format (URDF).
+    /// Write a robot as URDF, UR kinematics, DH or a joint table, checked by reading it back.
     #[command(subcommand)]
     Export(ExportCommand),
     /// Convert a public calibration data set (as in ../shared/data) into kinecal's files.
@@ -274,9 +274,14 @@ other than +z are folded exactly into the neighbouring links. Readings are the U
 Example:
   kinecal import dh --convention modified puma560.csv --length-unit m --angle-unit deg --out puma.toml
 
-The table is CSV `kind,a,alpha,d,theta`, one row per joint. standard: Rz(theta+q) Tz(d) Tx(a) Rx(alpha);
-modified (Craig): Rx(alpha) Tx(a) Rz(theta+q) Tz(d); for a prismatic joint q adds to d. Readings are
-the joint values (slope 1); theta (or d) becomes the joint offset.")]
+The table is CSV `kind,a,alpha,d,theta`, with an optional `beta` column (the Hayati/Mooring twist
+about y, 0 when absent), one row per joint or `fixed` transform. standard: Rz(theta+q) Tz(d) Tx(a)
+Rx(alpha) Ry(beta); modified (Craig): Rx(alpha) Tx(a) Ry(beta) Rz(theta+q) Tz(d); for a prismatic
+joint q adds to d; a fixed row has no q. Readings are the joint values (slope 1); theta (or d)
+becomes the joint offset. The units and convention are those the table states in comment lines
+before its header (`# length_unit = mm`, `# angle_unit = deg`, `# convention = standard`, as kinecal
+export dh writes them); a table that states none needs --length-unit, --angle-unit and
+--convention, and flags that contradict the table are refused.")]
     Dh(ImportDhArgs),
     /// A Universal Robots kinematics file (default_kinematics.yaml, or a robot's factory
     /// calibration extracted by the UR driver).
@@ -619,9 +624,10 @@ Example:
   kinecal export urdf --robot calibrated.toml --template ur5_robot.urdf --base base_link --tip tool0 --out ur5_calibrated.urdf
 
 Only the <origin> of the chain's movable joints (and of the first fixed joint after the last one,
-for the tool frame) change; visuals, inertias, limits, comments and formatting are kept. Joint
-offsets are folded into the origins. A slope other than 1 cannot be expressed in URDF: a warning
-says so.")]
+for the tool frame) change, a joint without one gets one; visuals, inertias, limits, comments,
+formatting and a byte-order mark are kept. Joint offsets are folded into the origins. The URDF is
+read back and compared with the robot over the joint ranges (the largest deviation is printed);
+beyond --tolerance nothing is written. A slope other than 1 cannot be expressed in URDF.")]
     Urdf(ExportUrdfArgs),
     /// Write a calibrated UR arm as a Universal Robots kinematics file for the ROS driver.
     #[command(after_help = "\
@@ -629,9 +635,12 @@ Example:
   kinecal export ur --robot calibrated.toml --template default_kinematics.yaml --out my_robot_calibration.yaml
 
 The robot must have been imported from the template (kinecal import ur). Joint offsets are
-folded into the origins exactly; what the file cannot hold (transducer slopes other than 1,
-couplings, a tool correction) is listed with the largest position and attitude deviation it
-causes over the joint ranges.")]
+folded into the origins exactly. The controller's base stays the template's: the measurement
+frame the calibration put into the robot's first link (where the instrument saw it) and any
+session frames are left out, and said. The tool correction is printed as the TCP to enter on the
+controller (mm and rotation vector, and as set_tcp). The file, with that TCP, is read back and
+compared with the robot over the joint ranges; what it cannot hold (transducer slopes other than
+1, couplings) is named with its deviation, and beyond --tolerance nothing is written.")]
     Ur(ExportUrArgs),
     /// Write the joint offsets and slopes as a table, for controllers that take only those.
     #[command(after_help = "\
@@ -639,19 +648,23 @@ Example:
   kinecal export joints --robot calibrated.toml --nominal nominal.toml --out joints.csv
 
 Writes joint,offset,slope,offset_change,slope_change (the robot file's units: the joint value at
-zero reading, joint units per reading unit, and their change from the nominal robot). What a
-joint table cannot carry (link and tool changes, couplings) is printed as the largest deviation
-it leaves at the tool over the joint ranges.")]
+zero reading, joint units per reading unit, and their change from the nominal robot). The table
+is read back onto the nominal robot and compared with the calibrated one over the joint ranges:
+what a joint table cannot carry (link and tool changes, couplings) is the largest deviation it
+leaves at the tool, and beyond --tolerance nothing is written.")]
     Joints(ExportJointsArgs),
-    /// Write a robot as a Denavit-Hartenberg table, with what the DH form cannot represent.
+    /// Write a robot as a Denavit-Hartenberg table, read back and compared before it is written.
     #[command(after_help = "\
 Example:
   kinecal export dh --robot calibrated.toml --convention modified --out calibrated_dh.csv
 
-Writes kind,a,alpha,d,theta per joint in the robot file's units (read back by kinecal import
-dh). DH has 4 parameters per joint where the thesis model has 6 per link, and no base frame,
-tool frame or transducer gains: the largest position and attitude deviation at the tool over the
-joint ranges between the robot and the table is printed, never dropped silently.")]
+Writes kind,a,alpha,d,theta per joint (and beta when a pair of consecutive axes is within 1 deg of
+parallel: the Hayati/Mooring extension, where the classical common normal runs off to metres or
+kilometres), in the robot file's units or --length-unit/--angle-unit, stated in comment lines
+that kinecal import dh reads. A base or tool frame the DH frames cannot be is a `fixed` row. The
+table is read back and compared with the robot over the joint ranges (the largest deviation is
+printed); what DH cannot hold (transducer slopes other than 1, couplings: the table's joint
+variables are the readings) is named, and beyond --tolerance nothing is written.")]
     Dh(ExportDhArgs),
 }
 
@@ -664,6 +677,18 @@ pub struct ExportDhArgs {
     /// DH convention of the table.
     #[arg(long, value_enum)]
     pub convention: ConventionArg,
+    /// Length unit of the table (default: the robot file's); written into it.
+    #[arg(long)]
+    pub length_unit: Option<String>,
+    /// Angle unit of the table and of its joint values (default: the robot file's); written
+    /// into it.
+    #[arg(long)]
+    pub angle_unit: Option<String>,
+    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
+    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
+    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
+    #[arg(long, value_name = "length=L,angle=A")]
+    pub tolerance: Option<String>,
     /// The table to write (CSV).
     #[arg(long)]
     pub out: PathBuf,
@@ -678,6 +703,11 @@ pub struct ExportJointsArgs {
     /// The nominal robot (what the controller uses).
     #[arg(long)]
     pub nominal: String,
+    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
+    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
+    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
+    #[arg(long, value_name = "length=L,angle=A")]
+    pub tolerance: Option<String>,
     /// The table to write (CSV).
     #[arg(long)]
     pub out: PathBuf,
@@ -692,6 +722,11 @@ pub struct ExportUrArgs {
     /// The kinematics file the robot was imported from.
     #[arg(long)]
     pub template: PathBuf,
+    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
+    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
+    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
+    #[arg(long, value_name = "length=L,angle=A")]
+    pub tolerance: Option<String>,
     /// The kinematics file to write.
     #[arg(long)]
     pub out: PathBuf,
@@ -712,6 +747,11 @@ pub struct ExportUrdfArgs {
     /// Last link of the chain, as at import.
     #[arg(long)]
     pub tip: Option<String>,
+    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
+    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
+    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
+    #[arg(long, value_name = "length=L,angle=A")]
+    pub tolerance: Option<String>,
     /// The URDF to write.
     #[arg(long)]
     pub out: PathBuf,
@@ -730,26 +770,28 @@ pub struct ImportPoeArgs {
 /// DH convention.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum ConventionArg {
-    /// Rz(theta) Tz(d) Tx(a) Rx(alpha).
+    /// Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta).
     Standard,
-    /// Rx(alpha) Tx(a) Rz(theta) Tz(d) (Craig).
+    /// Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d) (Craig).
     Modified,
 }
 
 /// `kinecal import dh`.
 #[derive(Debug, Args)]
 pub struct ImportDhArgs {
-    /// The table (CSV `kind,a,alpha,d,theta`).
+    /// The table (CSV `kind,a,alpha,d,theta[,beta]`).
     pub file: PathBuf,
-    /// Which convention the table uses.
+    /// Which convention the table uses (required when the table does not state it).
     #[arg(long, value_enum)]
-    pub convention: ConventionArg,
-    /// Length unit of the table (and of the robot file written).
-    #[arg(long, default_value = "m")]
-    pub length_unit: String,
-    /// Angle unit of the table (and of the robot file written).
-    #[arg(long, default_value = "deg")]
-    pub angle_unit: String,
+    pub convention: Option<ConventionArg>,
+    /// Length unit of the table (and of the robot file written); required when the table does
+    /// not state it.
+    #[arg(long)]
+    pub length_unit: Option<String>,
+    /// Angle unit of the table (and of the robot file written); required when the table does
+    /// not state it.
+    #[arg(long)]
+    pub angle_unit: Option<String>,
     /// Robot name.
     #[arg(long, default_value = "")]
     pub name: String,

@@ -27,6 +27,7 @@ use args::{
     ObservationFiles, OrientationArg, ResidualArgs, SimulateArgs,
 };
 use kinecal::files::{parse_postures, write_measurements, FORMATS};
+use kinecal::import::readback::Tolerance;
 use kinecal::observe::{Dataset, OrientationError, Weights};
 use kinecal::robot_file::write_robot_toml_checked;
 use kinecal::simulate::{self, PerturbStd};
@@ -156,6 +157,9 @@ fn hint(e: &kinecal::Error) -> Option<&'static str> {
         }
         kinecal::Error::TooFewResiduals { .. } => {
             Some("--estimate identifiable estimates only what the data determines")
+        }
+        kinecal::Error::ExportMisses { .. } => {
+            Some("--tolerance length=L,angle=A (the robot file's units) accepts a larger deviation")
         }
         _ => None,
     }
@@ -346,23 +350,17 @@ fn import(c: ImportCommand) -> Result<()> {
             (imp.robot, a.out)
         }
         ImportCommand::Dh(a) => {
-            let units = kinecal::Units {
-                length: a
-                    .length_unit
-                    .parse()
-                    .map_err(|e: String| anyhow!("--length-unit: {e}"))?,
-                angle: a
-                    .angle_unit
-                    .parse()
-                    .map_err(|e: String| anyhow!("--angle-unit: {e}"))?,
-            };
+            let (length, angle) = units_of(a.length_unit.as_deref(), a.angle_unit.as_deref())?;
             let s = Source::read(&a.file)?;
-            let convention = match a.convention {
-                ConventionArg::Standard => kinecal::import::dh::Convention::Standard,
-                ConventionArg::Modified => kinecal::import::dh::Convention::Modified,
-            };
             (
-                kinecal::import::dh::import_dh(&s.text, &s.name, &a.name, units, convention)?,
+                kinecal::import::dh::import_dh(
+                    &s.text,
+                    &s.name,
+                    &a.name,
+                    length,
+                    angle,
+                    a.convention.map(convention_of),
+                )?,
                 a.out,
             )
         }
@@ -382,21 +380,74 @@ fn import(c: ImportCommand) -> Result<()> {
     Ok(())
 }
 
+/// `--length-unit` and `--angle-unit`, when given.
+fn units_of(
+    length: Option<&str>,
+    angle: Option<&str>,
+) -> Result<(Option<kinecal::LengthUnit>, Option<kinecal::AngleUnit>)> {
+    Ok((
+        length
+            .map(str::parse)
+            .transpose()
+            .map_err(|e: String| anyhow!("--length-unit: {e}"))?,
+        angle
+            .map(str::parse)
+            .transpose()
+            .map_err(|e: String| anyhow!("--angle-unit: {e}"))?,
+    ))
+}
+
+fn convention_of(c: ConventionArg) -> kinecal::import::dh::Convention {
+    match c {
+        ConventionArg::Standard => kinecal::import::dh::Convention::Standard,
+        ConventionArg::Modified => kinecal::import::dh::Convention::Modified,
+    }
+}
+
+/// `--tolerance length=L,angle=A` (robot file units) over the default for `robot`.
+fn tolerance_of(spec: Option<&str>, robot: &Robot) -> Result<Tolerance> {
+    let mut t = Tolerance::default_for(robot);
+    if let Some(spec) = spec {
+        let s = parse_spec("--tolerance", spec, &["length", "angle"])?;
+        if let Some(l) = spec_value(&s, "length") {
+            t.position = robot.units.to_si(Quantity::Length, l);
+        }
+        if let Some(a) = spec_value(&s, "angle") {
+            t.attitude = robot.units.to_si(Quantity::Angle, a);
+        }
+    }
+    Ok(t)
+}
+
+/// What an export cannot hold, each on its own line, with the deviation it causes.
+fn say_lost(lost: &[kinecal::import::Lost], robot: &Robot) {
+    for l in lost {
+        eprintln!("{}", l.line(robot.units));
+    }
+}
+
 fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
     output::check_distinct(&[&a.out], &[&a.template, Path::new(&a.robot)])?;
     let r = load_robot(&a.robot)?;
+    let tolerance = tolerance_of(a.tolerance.as_deref(), &r.robot)?;
     let template = Source::read(&a.template)?;
-    let (text, warnings) = kinecal::import::urdf::export_urdf(
+    let e = kinecal::import::urdf::export_urdf(
         &r.robot,
         &template.text,
         &template.name,
         a.base.as_deref(),
         a.tip.as_deref(),
     )?;
-    for w in &warnings {
-        eprintln!("warning: {}", word(w));
+    e.check(&r.robot, &tolerance)?;
+    // A slope is said with its deviation, as what the URDF cannot hold.
+    for w in &e.warnings {
+        if !matches!(w, Warning::UrdfSlope { .. }) {
+            eprintln!("warning: {}", word(w));
+        }
     }
-    write_file(&a.out, &text)?;
+    say_lost(&e.lost, &r.robot);
+    eprintln!("{}", e.read_back.line(r.robot.units));
+    write_file(&a.out, &e.text)?;
     eprintln!("wrote the calibrated URDF to {}", a.out.display());
     Ok(())
 }
@@ -404,33 +455,27 @@ fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
 fn export_dh(a: args::ExportDhArgs) -> Result<()> {
     output::check_distinct(&[&a.out], &[Path::new(&a.robot)])?;
     let robot = load_robot(&a.robot)?.robot;
-    let convention = match a.convention {
-        ConventionArg::Standard => kinecal::import::dh::Convention::Standard,
-        ConventionArg::Modified => kinecal::import::dh::Convention::Modified,
+    let tolerance = tolerance_of(a.tolerance.as_deref(), &robot)?;
+    let (length, angle) = units_of(a.length_unit.as_deref(), a.angle_unit.as_deref())?;
+    let units = kinecal::Units {
+        length: length.unwrap_or(robot.units.length),
+        angle: angle.unwrap_or(robot.units.angle),
     };
-    let (rows, (p, an)) = kinecal::import::dh::export_dh(&robot, convention);
-    let text = kinecal::import::dh::write_dh_csv(&rows, robot.units);
-    let u = robot.units;
-    if p > 1e-9 || an > 1e-9 {
-        eprintln!(
-            "not representable in DH: the table's robot misses this one by up to {} {} and {} {} \
-             at the tool over the joint ranges (DH has 4 parameters per joint, no base or tool \
-             frame, and takes the readings as joint values)",
-            kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, p)),
-            u.length.as_str(),
-            kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, an)),
-            u.angle.as_str()
-        );
+    let convention = convention_of(a.convention);
+    let e = kinecal::import::dh::export_dh(&robot, convention, units)?;
+    e.check(&robot, &tolerance)?;
+    say_lost(&e.lost, &robot);
+    eprintln!("{}", e.read_back.line(robot.units));
+    for note in e.notes() {
+        eprintln!("{note}");
     }
-    write_file(&a.out, &text)?;
+    write_file(&a.out, &e.text)?;
     eprintln!(
-        "wrote the DH table to {}{}",
-        a.out.display(),
-        if p > 1e-9 || an > 1e-9 {
-            ""
-        } else {
-            " (exact)"
-        }
+        "wrote the {} DH table ({}, {}) to {}",
+        convention.as_str(),
+        units.length,
+        units.angle,
+        a.out.display()
     );
     Ok(())
 }
@@ -439,47 +484,31 @@ fn export_joints(a: args::ExportJointsArgs) -> Result<()> {
     output::check_distinct(&[&a.out], &[Path::new(&a.robot), Path::new(&a.nominal)])?;
     let cal = load_robot(&a.robot)?.robot;
     let nominal = load_robot(&a.nominal)?.robot;
-    let (text, lost) = kinecal::import::joints::joint_table(&cal, &nominal)?;
-    let l = |v: f64| cal.units.from_si(Quantity::Length, v);
-    let an = |v: f64| cal.units.from_si(Quantity::Angle, v);
-    if let Some(x) = &lost {
-        eprintln!(
-            "not written: {}; up to {} {} and {} {} at the tool over the joint ranges",
-            x.what,
-            kinecal::identifiability::fmt_sig(l(x.position)),
-            cal.units.length.as_str(),
-            kinecal::identifiability::fmt_sig(an(x.attitude)),
-            cal.units.angle.as_str()
-        );
-    }
-    write_file(&a.out, &text)?;
-    eprintln!(
-        "wrote the joint table to {}{}",
-        a.out.display(),
-        if lost.is_none() { " (exact)" } else { "" }
-    );
+    let tolerance = tolerance_of(a.tolerance.as_deref(), &cal)?;
+    let e = kinecal::import::joints::joint_table(&cal, &nominal)?;
+    e.check(&cal, &tolerance)?;
+    say_lost(e.lost.as_slice(), &cal);
+    eprintln!("{}", e.read_back.line(cal.units));
+    write_file(&a.out, &e.text)?;
+    eprintln!("wrote the joint table to {}", a.out.display());
     Ok(())
 }
 
 fn export_ur(a: args::ExportUrArgs) -> Result<()> {
     output::check_distinct(&[&a.out], &[&a.template, Path::new(&a.robot)])?;
     let r = load_robot(&a.robot)?;
+    let tolerance = tolerance_of(a.tolerance.as_deref(), &r.robot)?;
     let template = Source::read(&a.template)?;
-    let (text, lost) = kinecal::import::ur::export_ur(&r.robot, &template.text, &template.name)?;
-    for l in &lost {
-        eprintln!(
-            "not written: {}; up to {:.4} mm and {:.5} deg at the tool over the joint ranges",
-            l.what,
-            l.position * 1e3,
-            l.attitude.to_degrees()
-        );
+    let e = kinecal::import::ur::export_ur(&r.robot, &template.text, &template.name)?;
+    e.check(&tolerance)?;
+    for line in e.left_out() {
+        eprintln!("{line}");
     }
-    write_file(&a.out, &text)?;
-    eprintln!(
-        "wrote the calibrated kinematics to {}{}",
-        a.out.display(),
-        if lost.is_empty() { " (exact)" } else { "" }
-    );
+    say_lost(&e.lost, &r.robot);
+    eprintln!("{}", e.read_back.line(r.robot.units));
+    write_file(&a.out, &e.text)?;
+    eprintln!("wrote the calibrated kinematics to {}", a.out.display());
+    println!("{}", e.tcp_line());
     Ok(())
 }
 

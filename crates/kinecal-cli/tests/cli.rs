@@ -734,6 +734,10 @@ fn import_dh_and_poe_then_calibrate_with_validation() {
             "--convention",
             "modified",
             "puma.csv",
+            "--length-unit",
+            "m",
+            "--angle-unit",
+            "deg",
             "--out",
             "puma.toml",
         ],
@@ -1984,6 +1988,10 @@ fn impossible_numbers_are_refused_by_file_line_and_field() {
             "dh",
             "--convention",
             "standard",
+            "--length-unit",
+            "m",
+            "--angle-unit",
+            "deg",
             "dh.csv",
             "--out",
             "dh.toml",
@@ -2667,7 +2675,8 @@ fn compensate_programs_and_targets() {
 }
 
 /// `kinecal import ur` and `kinecal export ur` on a real UR3e factory calibration: the round
-/// trip is exact, and a slope the file cannot hold is named with its deviation.
+/// trip is exact (and read back, said so), and a slope the file cannot hold is refused, or
+/// under a looser tolerance named with its deviation.
 #[test]
 fn ur_kinematics_round_trip_and_what_is_not_written() {
     let d = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -2695,7 +2704,13 @@ fn ur_kinematics_round_trip_and_what_is_not_written() {
         .output()
         .unwrap();
     assert!(out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("(exact)"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("read back: largest deviation "), "{err}");
+    assert!(!err.contains("left out"), "{err}");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "TCP to enter on the controller: none (the calibrated tool frame is tool0)\n"
+    );
     // The same poses from the file written back.
     std::fs::write(
         t.join("p.csv"),
@@ -2719,23 +2734,34 @@ fn ur_kinematics_round_trip_and_what_is_not_written() {
     for (x, y) in nums(&a).iter().zip(nums(&b)) {
         assert!((x - y).abs() < 1e-9, "{a}\n{b}");
     }
-    // A transducer slope: written without it, and said so.
+    // A transducer slope: refused, nothing written, the slope named.
     let toml = std::fs::read_to_string(t.join("ur3e.toml")).unwrap();
     let changed = toml.replacen("slope = 1.0", "slope = 1.001", 1);
     assert_ne!(toml, changed, "the robot file has slopes");
     std::fs::write(t.join("sloped.toml"), changed).unwrap();
+    let args = [
+        "export",
+        "ur",
+        "--robot",
+        "sloped.toml",
+        "--template",
+        "cal.yaml",
+        "--out",
+        "s.yaml",
+    ];
+    let err = run_err(t, &args);
+    assert!(
+        err.contains("misses the robot by up to")
+            && err.contains("it cannot hold joint 1 (shoulder_pan_joint) slope 1.001 rad/unit")
+            && err.contains("hint: --tolerance length=L,angle=A"),
+        "{err}"
+    );
+    assert!(!t.join("s.yaml").exists());
+    // Under a looser tolerance: written without it, and said so.
     let out = kinecal()
         .current_dir(t)
-        .args([
-            "export",
-            "ur",
-            "--robot",
-            "sloped.toml",
-            "--template",
-            "cal.yaml",
-            "--out",
-            "s.yaml",
-        ])
+        .args(args)
+        .args(["--tolerance", "length=0.01,angle=0.01"])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -2744,6 +2770,308 @@ fn ur_kinematics_round_trip_and_what_is_not_written() {
         err.contains("not written: joint 1 (shoulder_pan_joint) slope 1.001"),
         "{err}"
     );
+    assert!(t.join("s.yaml").exists());
+}
+
+/// A UR10 calibrated against a laser tracker 3.8 m away, with one series in a session of its
+/// own and a 150 mm tool: `export ur` keeps the controller's base (the tracker placement and
+/// the session are left out, and said), prints the TCP to enter, and the file with that TCP is
+/// the calibrated robot on its own base.
+#[test]
+fn ur_export_leaves_the_tracker_out_and_prints_the_tcp() {
+    use kinecal::{Frame, Link};
+    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/urdf/universal_robots/config/ur10");
+    if !d.exists() {
+        assert!(std::env::var_os("CI").is_none());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path();
+    std::fs::copy(d.join("default_kinematics.yaml"), t.join("ur10.yaml")).unwrap();
+    let template = std::fs::read_to_string(t.join("ur10.yaml")).unwrap();
+    let nominal = kinecal::import::ur::import_ur(&template, "ur10.yaml")
+        .unwrap()
+        .robot;
+    let mut cal = nominal.clone();
+    let placement = Frame {
+        rotation: kinecal::kinematics::rot_zyx(0.7, 0.0, 0.0),
+        translation: nalgebra::Vector3::new(3.2, -2.0, 0.5),
+    };
+    cal.links[0] = kinecal::import::link_of(&placement.then(&Frame::from_link(&nominal.links[0])));
+    cal.links[2].x += 0.0004;
+    cal.links[6].z += 0.15;
+    cal.sessions.push(kinecal::robot::Session {
+        name: "B".into(),
+        frame: Link {
+            x: 0.4,
+            ..Link::default()
+        },
+    });
+    std::fs::write(
+        t.join("cal.toml"),
+        kinecal::robot_file::write_robot_toml(&cal, None),
+    )
+    .unwrap();
+    let out = kinecal()
+        .current_dir(t)
+        .args([
+            "export",
+            "ur",
+            "--robot",
+            "cal.toml",
+            "--template",
+            "ur10.yaml",
+            "--out",
+            "new.yaml",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("left out: the measurement frame")
+            && err.contains("base_link at x 3.2 y -2 z 0.5 m")
+            && err.contains("left out: the session frame B"),
+        "{err}"
+    );
+    let tcp = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        tcp.starts_with("TCP to enter on the controller (Installation > General > TCP")
+            && tcp.contains("set_tcp(p["),
+        "{tcp}"
+    );
+    // The shoulder stays where the UR10 has it.
+    let written = std::fs::read_to_string(t.join("new.yaml")).unwrap();
+    let k = kinecal::import::ur::parse_ur_kinematics(&written, "new.yaml").unwrap();
+    let k0 = kinecal::import::ur::parse_ur_kinematics(&template, "ur10.yaml").unwrap();
+    assert_eq!(k.origins[0][..5], k0.origins[0][..5]);
+    // The printed TCP is the tool: 150 mm along tool0's z (tool0 is the nominal tool frame).
+    let z: f64 = tcp
+        .split("Z ")
+        .nth(1)
+        .and_then(|r| r.split(" mm").next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    let expected = kinecal::import::inverse(&Frame::from_link(&nominal.links[6]))
+        .then(&Frame::from_link(&cal.links[6]));
+    assert!((z - expected.translation.z * 1e3).abs() < 1e-6, "{tcp}");
+}
+
+/// The DH table states its units: a robot in radians comes back in radians from `import dh`
+/// without flags (it was read in degrees by default, 0.35 m off). A table that states none
+/// needs them; flags that contradict it are refused. A robot the table cannot hold (the GE A4's
+/// transducer slopes) is refused with the reason and nothing is written, unless the tolerance is
+/// loosened.
+#[test]
+fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/urdf/universal_robots/urdf_plain");
+    if !d.exists() {
+        assert!(std::env::var_os("CI").is_none());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path();
+    std::fs::copy(d.join("ur5_robot.urdf"), t.join("ur5.urdf")).unwrap();
+    run_ok(
+        t,
+        &[
+            "import",
+            "urdf",
+            "ur5.urdf",
+            "--base",
+            "base_link",
+            "--tip",
+            "tool0",
+            "--out",
+            "ur5.toml",
+        ],
+    );
+    std::fs::write(
+        t.join("p.csv"),
+        "posture,v1,v2,v3,v4,v5,v6\n1,0.1,-1.2,1.5,-0.3,1.57,0.2\n2,2,-0.5,-1,1,-1,3\n",
+    )
+    .unwrap();
+    let a = run_ok(t, &["fk", "--robot", "ur5.toml", "--postures", "p.csv"]);
+    for convention in ["standard", "modified"] {
+        let out = kinecal()
+            .current_dir(t)
+            .args([
+                "export",
+                "dh",
+                "--robot",
+                "ur5.toml",
+                "--convention",
+                convention,
+                "--out",
+                "ur5.csv",
+            ])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{err}");
+        assert!(err.contains("read back: largest deviation "), "{err}");
+        let table = std::fs::read_to_string(t.join("ur5.csv")).unwrap();
+        assert!(
+            table.contains("# length_unit = m\n# angle_unit = rad\n"),
+            "{table}"
+        );
+        run_ok(t, &["import", "dh", "ur5.csv", "--out", "back.toml"]);
+        let b = run_ok(t, &["fk", "--robot", "back.toml", "--postures", "p.csv"]);
+        for (x, y) in a.lines().zip(b.lines()).skip(1) {
+            for (u, v) in x.split(',').zip(y.split(',')).skip(7) {
+                let (u, v): (f64, f64) = (u.parse().unwrap(), v.parse().unwrap());
+                assert!((u - v).abs() < 1e-9, "{convention}:\n{x}\n{y}");
+            }
+        }
+        let err = run_err(
+            t,
+            &[
+                "import",
+                "dh",
+                "ur5.csv",
+                "--angle-unit",
+                "deg",
+                "--out",
+                "x.toml",
+            ],
+        );
+        assert!(
+            err.contains("--angle-unit: ur5.csv:3 states `angle_unit = rad`, not deg"),
+            "{err}"
+        );
+    }
+    std::fs::write(
+        t.join("old.csv"),
+        "kind,a,alpha,d,theta\nrevolute,0,90,0.1,0\n",
+    )
+    .unwrap();
+    let err = run_err(
+        t,
+        &[
+            "import",
+            "dh",
+            "old.csv",
+            "--convention",
+            "standard",
+            "--out",
+            "x.toml",
+        ],
+    );
+    assert!(
+        err.contains("--length-unit: old.csv does not state its length unit"),
+        "{err}"
+    );
+    assert!(!t.join("x.toml").exists());
+    // The GE A4: readings are voltages, a DH table's joint variables are joint values.
+    let err = run_err(
+        t,
+        &[
+            "export",
+            "dh",
+            "--robot",
+            "ge-a4",
+            "--convention",
+            "standard",
+            "--out",
+            "ge.csv",
+        ],
+    );
+    assert!(
+        err.contains("it cannot hold joint 1 slope 7.2 deg/unit")
+            && err.contains("nothing written"),
+        "{err}"
+    );
+    assert!(!t.join("ge.csv").exists());
+    let out = kinecal()
+        .current_dir(t)
+        .args([
+            "export",
+            "dh",
+            "--robot",
+            "ge-a4",
+            "--convention",
+            "standard",
+            "--tolerance",
+            "length=100,angle=360",
+            "--out",
+            "ge.csv",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("not written: joint 1 slope 7.2 deg/unit; up to "),
+        "{err}"
+    );
+    assert!(t.join("ge.csv").exists());
+}
+
+/// A URDF template saved with a byte-order mark, with joints without `<origin>`: the calibrated
+/// URDF is well-formed, keeps the mark, and reads back as the calibrated robot.
+#[test]
+fn urdf_export_of_a_template_with_a_bom_and_no_origins() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let urdf = "\u{feff}<?xml version=\"1.0\"?>
+<robot name=\"arm\">
+  <link name=\"base\"/><link name=\"l1\"/><link name=\"l2\"/><link name=\"tool\"/>
+  <joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"l1\"/>
+    <axis xyz=\"0 0 1\"/><limit lower=\"-3\" upper=\"3\" effort=\"1\" velocity=\"1\"/></joint>
+  <joint name=\"j2\" type=\"revolute\"><parent link=\"l1\"/><child link=\"l2\"/>
+    <origin xyz=\"0.3 0 0.2\" rpy=\"1.5707963 0 0\"/><axis xyz=\"0 0 1\"/><limit lower=\"-2\" upper=\"2\" effort=\"1\" velocity=\"1\"/></joint>
+  <joint name=\"tool_joint\" type=\"fixed\"><parent link=\"l2\"/><child link=\"tool\"/></joint>
+</robot>
+";
+    std::fs::write(d.join("arm.urdf"), urdf).unwrap();
+    run_ok(d, &["import", "urdf", "arm.urdf", "--out", "arm.toml"]);
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "arm.toml",
+            "--postures",
+            "5",
+            "--perturb",
+            "link1.x=+0.002,link2.y=+0.001,link3.z=+0.003,joint2.offset=+0.01",
+            "--out",
+            "d.csv",
+            "--truth",
+            "t.toml",
+        ],
+    );
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "export",
+            "urdf",
+            "--robot",
+            "t.toml",
+            "--template",
+            "arm.urdf",
+            "--out",
+            "t.urdf",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("read back: largest deviation "), "{err}");
+    let written = std::fs::read_to_string(d.join("t.urdf")).unwrap();
+    assert!(written.starts_with('\u{feff}'));
+    run_ok(d, &["import", "urdf", "t.urdf", "--out", "back.toml"]);
+    let a = run_ok(d, &["fk", "--robot", "t.toml", "--postures", "d.csv"]);
+    let b = run_ok(d, &["fk", "--robot", "back.toml", "--postures", "d.csv"]);
+    for (x, y) in a.lines().zip(b.lines()).skip(1) {
+        for (u, v) in x.split(',').zip(y.split(',')).skip(4) {
+            let (u, v): (f64, f64) = (u.parse().unwrap(), v.parse().unwrap());
+            assert!((u - v).abs() < 1e-9, "{x}\n{y}");
+        }
+    }
 }
 
 /// Another lab's tracker export, as a user meets it: `;`-separated with decimal commas, in mm

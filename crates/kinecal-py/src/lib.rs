@@ -47,15 +47,34 @@ pyo3::create_exception!(
     kinecal,
     ExportWarning,
     PyUserWarning,
-    "What a robot export cannot hold (a DH table's missing base frame, a slope a URDF cannot \
-     express, ...), with the deviation it leaves at the tool: the same words as the command \
-     line's."
+    "What a robot export leaves to the user: what it cannot hold (a slope a URDF cannot \
+     express, ...) with the deviation it leaves at the tool, what it left out (a UR export's \
+     measurement frame) and what to enter on the controller (its TCP): the same words as the \
+     command line's."
 );
 
 /// Issues an [`ExportWarning`].
 fn export_warning(py: Python<'_>, message: &str) -> PyResult<()> {
     let message = CString::new(message.replace('\0', " ")).expect("no NUL left");
     PyErr::warn(py, &py.get_type::<ExportWarning>(), &message, 1)
+}
+
+/// An export's tolerance: `(length, angle)` in the robot's units, or the default for it.
+fn tolerance_of(
+    robot: &kinecal::Robot,
+    tolerance: Option<(f64, f64)>,
+) -> PyResult<kinecal::import::readback::Tolerance> {
+    let mut t = kinecal::import::readback::Tolerance::default_for(robot);
+    if let Some((l, a)) = tolerance {
+        if !(l.is_finite() && a.is_finite() && l >= 0.0 && a >= 0.0) {
+            return Err(bad(format!(
+                "tolerance: ({l}, {a}) is not two non-negative finite numbers (length, angle)"
+            )));
+        }
+        t.position = robot.units.to_si(Quantity::Length, l);
+        t.attitude = robot.units.to_si(Quantity::Angle, a);
+    }
+    Ok(t)
 }
 
 /// A DH convention by name.
@@ -279,33 +298,45 @@ impl Robot {
         })
     }
 
-    /// A robot from a DH table: an `(n, 4)` array of `a, alpha, d, theta` rows in the given
-    /// units (`kinds`: "revolute" or "prismatic" per row, revolute by default), or the path of
-    /// a DH CSV file (`kind,a,alpha,d,theta`). `convention`: "standard" or "modified".
+    /// A robot from a DH table: an `(n, 4)` array of `a, alpha, d, theta` rows (or `(n, 5)`
+    /// with `beta`) in the given units (metres and degrees by default; `kinds`: "revolute" or
+    /// "prismatic" per row, revolute by default), or the path of a DH CSV file
+    /// (`kind,a,alpha,d,theta[,beta]`), in the units and convention it states (`kinecal export
+    /// dh` writes them); a file that states none needs `length_unit`, `angle_unit` and
+    /// `convention`. `convention`: "standard" or "modified".
     #[staticmethod]
-    #[pyo3(signature = (table, convention="standard", length_unit="m", angle_unit="deg", kinds=None, name="dh"))]
+    #[pyo3(signature = (table, convention=None, length_unit=None, angle_unit=None, kinds=None, name="dh"))]
     fn from_dh(
         py: Python<'_>,
         table: &Bound<'_, PyAny>,
-        convention: &str,
-        length_unit: &str,
-        angle_unit: &str,
+        convention: Option<&str>,
+        length_unit: Option<&str>,
+        angle_unit: Option<&str>,
         kinds: Option<Vec<String>>,
         name: &str,
     ) -> PyResult<Robot> {
-        let convention = convention_of(convention)?;
-        let u = units(length_unit, angle_unit)?;
+        let convention = convention.map(convention_of).transpose()?;
         if table.cast::<PyString>().is_ok() || table.hasattr("__fspath__")? {
             let path: PathBuf = table.extract()?;
             let s = Source::read(&path).map_err(|e| error(py, e))?;
-            let robot = kinecal::import::dh::import_dh(&s.text, &s.name, name, u, convention)
-                .map_err(|e| error(py, e))?;
+            let length = length_unit
+                .map(|l| l.parse().map_err(|e| bad(format!("length_unit: {e}"))))
+                .transpose()?;
+            let angle = angle_unit
+                .map(|a| a.parse().map_err(|e| bad(format!("angle_unit: {e}"))))
+                .transpose()?;
+            let robot =
+                kinecal::import::dh::import_dh(&s.text, &s.name, name, length, angle, convention)
+                    .map_err(|e| error(py, e))?;
             return Ok(Robot { robot, text: None });
         }
+        let convention = convention.unwrap_or(Convention::Standard);
+        let u = units(length_unit.unwrap_or("m"), angle_unit.unwrap_or("deg"))?;
         let (v, shape) = numbers(py, table, "table", 2)?;
-        if shape[1] != 4 || shape[0] == 0 {
+        if !(shape[1] == 4 || shape[1] == 5) || shape[0] == 0 {
             return Err(bad(format!(
-                "table: expected shape (joints, 4) with columns a, alpha, d, theta, got {shape:?}"
+                "table: expected shape (joints, 4) with columns a, alpha, d, theta (or (joints, \
+                 5) with beta), got {shape:?}"
             )));
         }
         let kinds = match kinds {
@@ -330,14 +361,15 @@ impl Robot {
         };
         let (l, a) = (u.length.metres(), u.angle.radians());
         let rows: Vec<DhRow> = v
-            .chunks(4)
+            .chunks(shape[1])
             .zip(kinds)
             .map(|(r, kind)| DhRow {
-                kind,
+                kind: kind.into(),
                 a: r[0] * l,
                 alpha: r[1] * a,
                 d: r[2] * l,
                 theta: r[3] * a,
+                beta: r.get(4).map_or(0.0, |b| b * a),
             })
             .collect();
         let robot = robot_from_dh(name, u, &rows, convention);
@@ -354,98 +386,124 @@ impl Robot {
     }
 
     /// The robot written into a URDF `template` (a path): only joint origins change, plus a
-    /// fixed tool joint when the tip hangs off a movable joint. Returns the URDF text.
-    #[pyo3(signature = (template, base=None, tip=None))]
+    /// fixed tool joint when the tip hangs off a movable joint. Returns the URDF text, read back
+    /// and compared with the robot first: beyond `tolerance` (`(length, angle)` in the robot's
+    /// units; by default a millionth of its reach and 1e-9 rad) a `KinecalError` says by how
+    /// much and why, as `kinecal export urdf` refuses.
+    #[pyo3(signature = (template, base=None, tip=None, tolerance=None))]
     fn to_urdf(
         &self,
         py: Python<'_>,
         template: PathBuf,
         base: Option<&str>,
         tip: Option<&str>,
+        tolerance: Option<(f64, f64)>,
     ) -> PyResult<String> {
+        let tolerance = tolerance_of(&self.robot, tolerance)?;
         let s = Source::read(&template).map_err(|e| error(py, e))?;
-        let (text, warnings) =
-            kinecal::import::urdf::export_urdf(&self.robot, &s.text, &s.name, base, tip)
-                .map_err(|e| error(py, e))?;
-        for w in &warnings {
-            export_warning(py, &w.to_string())?;
+        let robot = &self.robot;
+        let e = py
+            .detach(|| kinecal::import::urdf::export_urdf(robot, &s.text, &s.name, base, tip))
+            .map_err(|e| error(py, e))?;
+        e.check(robot, &tolerance).map_err(|e| error(py, e))?;
+        for w in &e.warnings {
+            if !matches!(w, kinecal::Warning::UrdfSlope { .. }) {
+                export_warning(py, &w.to_string())?;
+            }
         }
-        Ok(text)
+        for l in &e.lost {
+            export_warning(py, &l.line(robot.units))?;
+        }
+        Ok(e.text)
     }
 
-    /// The robot as a Denavit-Hartenberg table (`kind,a,alpha,d,theta` CSV in the robot's
-    /// units, what `kinecal export dh` writes). What the DH form cannot represent is an
-    /// `ExportWarning` with the largest deviation it leaves at the tool.
-    #[pyo3(signature = (convention="standard"))]
-    fn to_dh(&self, py: Python<'_>, convention: &str) -> PyResult<String> {
+    /// The robot as a Denavit-Hartenberg table, what `kinecal export dh` writes: CSV in the
+    /// robot's units (or `length_unit`, `angle_unit`), stating them, with a `beta` column where
+    /// consecutive axes are nearly parallel and `fixed` rows for a base or tool frame. The table
+    /// is read back and compared with the robot first: beyond `tolerance` (`(length, angle)` in
+    /// the robot's units) a `KinecalError` names what a DH table cannot hold (slopes,
+    /// couplings); within a looser one, each is an `ExportWarning` with its deviation.
+    #[pyo3(signature = (convention="standard", length_unit=None, angle_unit=None, tolerance=None))]
+    fn to_dh(
+        &self,
+        py: Python<'_>,
+        convention: &str,
+        length_unit: Option<&str>,
+        angle_unit: Option<&str>,
+        tolerance: Option<(f64, f64)>,
+    ) -> PyResult<String> {
         let convention = convention_of(convention)?;
         let robot = &self.robot;
-        let (rows, (p, an)) = py.detach(|| kinecal::import::dh::export_dh(robot, convention));
-        let u = robot.units;
-        if p > 1e-9 || an > 1e-9 {
-            export_warning(
-                py,
-                &format!(
-                    "not representable in DH: the table's robot misses this one by up to {} {} \
-                     and {} {} at the tool over the joint ranges (DH has 4 parameters per \
-                     joint, no base or tool frame, and takes the readings as joint values)",
-                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, p)),
-                    u.length.as_str(),
-                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, an)),
-                    u.angle.as_str()
-                ),
-            )?;
+        let tolerance = tolerance_of(robot, tolerance)?;
+        let u = units(
+            length_unit.unwrap_or(robot.units.length.as_str()),
+            angle_unit.unwrap_or(robot.units.angle.as_str()),
+        )?;
+        let e = py
+            .detach(|| kinecal::import::dh::export_dh(robot, convention, u))
+            .map_err(|e| error(py, e))?;
+        e.check(robot, &tolerance).map_err(|e| error(py, e))?;
+        for l in &e.lost {
+            export_warning(py, &l.line(robot.units))?;
         }
-        Ok(kinecal::import::dh::write_dh_csv(&rows, u))
+        Ok(e.text)
     }
 
     /// The robot written into the Universal Robots kinematics file `template` (a path) it was
-    /// imported from, what `kinecal export ur` writes. What the file cannot hold (slopes,
-    /// couplings, a tool correction) is an `ExportWarning` each, with its deviation.
-    fn to_ur(&self, py: Python<'_>, template: PathBuf) -> PyResult<String> {
+    /// imported from, what `kinecal export ur` writes: the controller's base stays the
+    /// template's (the measurement frame in the robot's first link, and session frames, are
+    /// left out: an `ExportWarning` says so), and the calibrated tool frame is the TCP to enter
+    /// on the controller (an `ExportWarning` gives it). The file, with the TCP, is read back
+    /// and compared with the robot first: beyond `tolerance` a `KinecalError` names what it
+    /// cannot hold (slopes, couplings); within a looser one, each is an `ExportWarning`.
+    #[pyo3(signature = (template, tolerance=None))]
+    fn to_ur(
+        &self,
+        py: Python<'_>,
+        template: PathBuf,
+        tolerance: Option<(f64, f64)>,
+    ) -> PyResult<String> {
         let s = Source::read(&template).map_err(|e| error(py, e))?;
         let robot = &self.robot;
-        let (text, lost) = py
+        let tolerance = tolerance_of(robot, tolerance)?;
+        let e = py
             .detach(|| kinecal::import::ur::export_ur(robot, &s.text, &s.name))
             .map_err(|e| error(py, e))?;
-        for l in &lost {
-            export_warning(
-                py,
-                &format!(
-                    "not written: {}; up to {:.4} mm and {:.5} deg at the tool over the joint \
-                     ranges",
-                    l.what,
-                    l.position * 1e3,
-                    l.attitude.to_degrees()
-                ),
-            )?;
+        e.check(&tolerance).map_err(|e| error(py, e))?;
+        for line in e.left_out() {
+            export_warning(py, &line)?;
         }
-        Ok(text)
+        for l in &e.lost {
+            export_warning(py, &l.line(robot.units))?;
+        }
+        if e.tcp.is_some() {
+            export_warning(py, &e.tcp_line())?;
+        }
+        Ok(e.text)
     }
 
     /// This (calibrated) robot's joint offsets and slopes as a table, with their change from
     /// `nominal` (`joint,offset,slope,offset_change,slope_change`, what `kinecal export joints`
-    /// writes). What the table cannot carry is an `ExportWarning` with its deviation.
-    fn to_joints(&self, py: Python<'_>, nominal: &Robot) -> PyResult<String> {
+    /// writes). The table is applied to `nominal` and compared with this robot first: beyond
+    /// `tolerance` a `KinecalError` says what it cannot carry (link and tool changes); within a
+    /// looser one, that is an `ExportWarning` with its deviation.
+    #[pyo3(signature = (nominal, tolerance=None))]
+    fn to_joints(
+        &self,
+        py: Python<'_>,
+        nominal: &Robot,
+        tolerance: Option<(f64, f64)>,
+    ) -> PyResult<String> {
         let (cal, nom) = (&self.robot, &nominal.robot);
-        let (text, lost) = py
+        let tolerance = tolerance_of(cal, tolerance)?;
+        let e = py
             .detach(|| kinecal::import::joints::joint_table(cal, nom))
             .map_err(|e| error(py, e))?;
-        if let Some(x) = &lost {
-            let u = cal.units;
-            export_warning(
-                py,
-                &format!(
-                    "not written: {}; up to {} {} and {} {} at the tool over the joint ranges",
-                    x.what,
-                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Length, x.position)),
-                    u.length.as_str(),
-                    kinecal::identifiability::fmt_sig(u.from_si(Quantity::Angle, x.attitude)),
-                    u.angle.as_str()
-                ),
-            )?;
+        e.check(cal, &tolerance).map_err(|e| error(py, e))?;
+        if let Some(x) = &e.lost {
+            export_warning(py, &x.line(cal.units))?;
         }
-        Ok(text)
+        Ok(e.text)
     }
 
     /// The robot's name.

@@ -1019,19 +1019,36 @@ def test_dh_export_reads_back_and_is_the_cli_table(cli, puma, tmp_path):
         warnings.simplefilter("error")  # exact: no warning
         for convention in ("standard", "modified"):
             table = nominal.to_dh(convention=convention)
+            assert "# length_unit = m\n# angle_unit = deg\n" in table
             (tmp_path / f"{convention}.csv").write_text(table)
-            back = kinecal.Robot.from_dh(tmp_path / f"{convention}.csv", convention=convention,
-                                         length_unit="m", angle_unit="deg")
+            # The table states its units and convention: nothing to give.
+            back = kinecal.Robot.from_dh(tmp_path / f"{convention}.csv")
             np.testing.assert_allclose(back.fk(q, matrix=True), nominal.fk(q, matrix=True),
                                        atol=1e-9)
-    # The perturbed robot is not a DH robot: said so, with the command line's words.
-    with pytest.warns(kinecal.ExportWarning, match="^not representable in DH: ") as w:
+        # The perturbed twin's geometry is a DH table too (beta, base and tool rows), exactly,
+        # and the command line writes the same table.
         table = truth.to_dh("modified")
     out = subprocess.run([cli, "export", "dh", "--robot", "true.toml", "--convention",
                           "modified", "--out", str(tmp_path / "t.csv")], cwd=d, check=True,
                          capture_output=True, text=True)
     assert (tmp_path / "t.csv").read_text() == table
-    assert str(w[0].message) in out.stderr
+    assert "read back: largest deviation" in out.stderr
+    (tmp_path / "t.csv").write_text(table)
+    back = kinecal.Robot.from_dh(tmp_path / "t.csv")
+    np.testing.assert_allclose(back.fk(q, matrix=True), truth.fk(q, matrix=True), atol=1e-9)
+    # A slope a DH table cannot hold: refused with the command line's words, and written as a
+    # warning with its deviation under a looser tolerance.
+    sloped = truth.with_value("joint2.slope", 1.001)
+    (d / "sloped.toml").write_text(sloped.to_toml())
+    with pytest.raises(kinecal.KinecalError, match="it cannot hold joint 2 slope 1.001") as e:
+        sloped.to_dh("modified")
+    out = subprocess.run([cli, "export", "dh", "--robot", "sloped.toml", "--convention",
+                          "modified", "--out", str(tmp_path / "s.csv")], cwd=d, check=False,
+                         capture_output=True, text=True)
+    assert out.returncode == 1 and str(e.value) in out.stderr
+    assert not (tmp_path / "s.csv").exists()
+    with pytest.warns(kinecal.ExportWarning, match="^not written: joint 2 slope 1.001"):
+        sloped.to_dh("modified", tolerance=(1.0, 1.0))
     with pytest.raises(kinecal.KinecalError, match="convention `craig`"):
         nominal.to_dh("craig")
 
@@ -1058,20 +1075,34 @@ def test_ur_export_round_trips_and_names_what_it_cannot_hold(cli, tmp_path):
     q = np.random.default_rng(3).uniform(-3, 3, size=(20, 6))
     np.testing.assert_allclose(back.fk(q, matrix=True), moved.fk(q, matrix=True), atol=1e-9)
     assert np.abs(back.fk(q)[:, :3] - robot.fk(q)[:, :3]).max() > 1e-3
-    # A slope the file cannot hold: said so, as the command line says it.
+    # A slope the file cannot hold: refused, and under a looser tolerance said so, as the
+    # command line says it.
     sloped = moved.with_value("joint1.slope", 1.001)
     (tmp_path / "sloped.toml").write_text(sloped.to_toml())
     sloped = kinecal.Robot.from_toml(tmp_path / "sloped.toml")
+    with pytest.raises(kinecal.KinecalError, match=r"joint 1 \(shoulder_pan_joint\) slope"):
+        sloped.to_ur(yaml)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        text = sloped.to_ur(yaml)
+        text = sloped.to_ur(yaml, tolerance=(0.1, 0.1))
     said = [str(w.message) for w in caught if issubclass(w.category, kinecal.ExportWarning)]
     assert said[0].startswith("not written: joint 1 (shoulder_pan_joint) slope 1.001"), said
     out = subprocess.run([cli, "export", "ur", "--robot", "sloped.toml", "--template", yaml,
-                          "--out", "sloped.yaml"], cwd=tmp_path, check=True,
-                         capture_output=True, text=True)
+                          "--tolerance", "length=0.1,angle=0.1", "--out", "sloped.yaml"],
+                         cwd=tmp_path, check=True, capture_output=True, text=True)
     assert (tmp_path / "sloped.yaml").read_text() == text
     assert [line for line in out.stderr.splitlines() if line.startswith("not written")] == said
+    # A tool correction is the TCP to enter on the controller, printed by the command line.
+    tooled = moved.with_value("link7.z", moved.get("link7.z") + 0.1)
+    (tmp_path / "tooled.toml").write_text(tooled.to_toml())
+    tooled = kinecal.Robot.from_toml(tmp_path / "tooled.toml")
+    with pytest.warns(kinecal.ExportWarning, match="^TCP to enter on the controller") as w:
+        tooled.to_ur(yaml)
+    out = subprocess.run([cli, "export", "ur", "--robot", "tooled.toml", "--template", yaml,
+                          "--out", "tooled.yaml"], cwd=tmp_path, check=True,
+                         capture_output=True, text=True)
+    assert out.stdout.strip() == str(w[0].message)
+    assert "set_tcp(p[" in out.stdout
 
 
 def test_joint_table_export_is_the_robots_offsets_and_slopes(cli, puma, tmp_path):
@@ -1095,9 +1126,12 @@ def test_joint_table_export_is_the_robots_offsets_and_slopes(cli, puma, tmp_path
         assert float(r[2]) == pytest.approx(changed.get(f"joint{j}.slope"), abs=1e-12)
         assert float(r[3]) == pytest.approx(
             changed.get(f"joint{j}.offset") - nominal.get(f"joint{j}.offset"), abs=1e-12)
-    # The truth's link changes cannot go into a joint table: said so.
-    with pytest.warns(kinecal.ExportWarning, match="^not written: link and tool changes"):
+    # The truth's link changes cannot go into a joint table: refused, and under a looser
+    # tolerance said so.
+    with pytest.raises(kinecal.KinecalError, match="link and tool changes"):
         truth.to_joints(nominal)
+    with pytest.warns(kinecal.ExportWarning, match="^not written: link and tool changes"):
+        truth.to_joints(nominal, tolerance=(1.0, 10.0))
     with pytest.raises(kinecal.KinecalError):
         truth.to_joints(kinecal.Robot.builtin("ge-a4"))
 
@@ -1105,8 +1139,11 @@ def test_joint_table_export_is_the_robots_offsets_and_slopes(cli, puma, tmp_path
 def test_urdf_export_names_what_urdf_cannot_express():
     path = os.path.join(SHARED, "urdf", "franka_panda", "panda.urdf")
     r = kinecal.Robot.from_urdf(path, tip="panda_hand_tcp")
-    with pytest.warns(kinecal.ExportWarning, match="slope"):
+    with pytest.raises(kinecal.KinecalError, match="panda_joint2`\\) slope 1.001"):
         r.with_value("joint2.slope", 1.001).to_urdf(path, tip="panda_hand_tcp")
+    with pytest.warns(kinecal.ExportWarning, match="slope"):
+        r.with_value("joint2.slope", 1.001).to_urdf(path, tip="panda_hand_tcp",
+                                                     tolerance=(0.1, 0.1))
 
 
 # --- What the calibration's outcome holds besides the report -----------------------------------

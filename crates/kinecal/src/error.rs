@@ -307,6 +307,21 @@ pub enum Error {
     /// A numerical routine failed (should not happen on finite input).
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// An export, read back with the matching importer, misses the robot by more than the
+    /// tolerance: nothing may be written ([`crate::import::readback`]).
+    #[error("{message}")]
+    ExportMisses {
+        /// The largest position deviation at the tool over the sampled postures (m).
+        position: f64,
+        /// The largest attitude deviation (rad).
+        attitude: f64,
+        /// The tolerance it exceeds: position (m) and attitude (rad).
+        tolerance: (f64, f64),
+        /// What the export's form cannot hold, each with the deviation it alone causes.
+        reasons: Vec<String>,
+        /// The whole sentence, in the robot file's units.
+        message: String,
+    },
     /// Reading or writing a file failed.
     #[error("{path}: {cause}")]
     Io {

@@ -294,7 +294,14 @@ fn dh_and_poe_files() {
             kinecal::import::dh::Convention::Standard,
             kinecal::import::dh::Convention::Modified,
         ] {
-            let r = kinecal::import::dh::import_dh(&t, "f.csv", "dh", units, convention);
+            let r = kinecal::import::dh::import_dh(
+                &t,
+                "f.csv",
+                "dh",
+                Some(units.length),
+                Some(units.angle),
+                Some(convention),
+            );
             if let Err(e) = r {
                 return Outcome::Refused(e.to_string());
             }

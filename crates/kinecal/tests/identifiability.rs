@@ -481,13 +481,7 @@ fn the_accumulated_analysis_matches_the_whole_jacobian() {
 fn ur10_with_tool_off_axis(off: f64) -> kinecal::Robot {
     use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
     use std::f64::consts::FRAC_PI_2;
-    let row = |a: f64, alpha: f64, d: f64| DhRow {
-        kind: JointKind::Revolute,
-        a,
-        alpha,
-        d,
-        theta: 0.0,
-    };
+    let row = |a: f64, alpha: f64, d: f64| DhRow::new(JointKind::Revolute, a, alpha, d, 0.0);
     let rows = [
         row(0.0, FRAC_PI_2, 0.1273),
         row(-0.612, 0.0, 0.0),

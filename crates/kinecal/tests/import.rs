@@ -1,7 +1,7 @@
 //! Imported models (DH, POE) have the same forward kinematics as their source convention,
 //! computed independently here with plain 4x4 matrices.
 
-use kinecal::import::dh::{parse_dh_csv, robot_from_dh, Convention};
+use kinecal::import::dh::{parse_dh_csv, robot_from_dh, Convention, RowKind};
 use kinecal::import::poe::parse_poe_toml;
 use kinecal::kinematics::Target;
 use kinecal::{AngleUnit, LengthUnit, Units};
@@ -13,6 +13,9 @@ fn rot_z(t: f64) -> Matrix4<f64> {
 }
 fn rot_x(t: f64) -> Matrix4<f64> {
     Rotation3::from_axis_angle(&Vector3::x_axis(), t).to_homogeneous()
+}
+fn rot_y(t: f64) -> Matrix4<f64> {
+    Rotation3::from_axis_angle(&Vector3::y_axis(), t).to_homogeneous()
 }
 fn trans(x: f64, y: f64, z: f64) -> Matrix4<f64> {
     Matrix4::new_translation(&Vector3::new(x, y, z))
@@ -93,11 +96,15 @@ fn dh_with_prismatic_joints_and_offsets() {
         length: LengthUnit::Mm,
         angle: AngleUnit::Rad,
     };
-    let text = "kind,a,alpha,d,theta\nrevolute,100,0.3,50,0.2\nprismatic,20,-1.2,300,0.7\nrevolute,0,1.57,10,-0.4\n";
+    // Fixed rows (a base and a tool transform) and the Hayati/Mooring beta column.
+    let text = "kind,a,alpha,d,theta,beta\nfixed,7,0.1,-3,0.5,0.02\nrevolute,100,0.3,50,0.2,0\n\
+                prismatic,20,-1.2,300,0.7,0.01\nrevolute,0,1.57,10,-0.4,-0.03\nfixed,1,2,3,0.4,0.05\n";
     let rows = parse_dh_csv(text, "t.csv", u).unwrap();
+    assert_eq!(rows.len(), 5);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     for conv in [Convention::Standard, Convention::Modified] {
         let robot = robot_from_dh("t", u, &rows, conv);
+        assert_eq!(robot.dof(), 3);
         for _ in 0..100 {
             let q = [
                 rng.random_range(-3.0..3.0),
@@ -105,17 +112,30 @@ fn dh_with_prismatic_joints_and_offsets() {
                 rng.random_range(-3.0..3.0),
             ];
             let mut e = Matrix4::identity();
-            for (i, row) in rows.iter().enumerate() {
+            let mut i = 0;
+            for row in &rows {
                 let (th, d) = match row.kind {
-                    kinecal::JointKind::Revolute => (row.theta + q[i], row.d),
-                    kinecal::JointKind::Prismatic => (row.theta, row.d + q[i] * 1e-3),
+                    RowKind::Revolute => (row.theta + q[i], row.d),
+                    RowKind::Prismatic => (row.theta, row.d + q[i] * 1e-3),
+                    RowKind::Fixed => (row.theta, row.d),
                 };
+                if row.kind != RowKind::Fixed {
+                    i += 1;
+                }
                 e *= match conv {
                     Convention::Standard => {
-                        rot_z(th) * trans(0.0, 0.0, d) * trans(row.a, 0.0, 0.0) * rot_x(row.alpha)
+                        rot_z(th)
+                            * trans(0.0, 0.0, d)
+                            * trans(row.a, 0.0, 0.0)
+                            * rot_x(row.alpha)
+                            * rot_y(row.beta)
                     }
                     Convention::Modified => {
-                        rot_x(row.alpha) * trans(row.a, 0.0, 0.0) * rot_z(th) * trans(0.0, 0.0, d)
+                        rot_x(row.alpha)
+                            * trans(row.a, 0.0, 0.0)
+                            * rot_y(row.beta)
+                            * rot_z(th)
+                            * trans(0.0, 0.0, d)
                     }
                 };
             }

@@ -3,6 +3,7 @@
 
 use kinecal::examples;
 use kinecal::import::joints::joint_table;
+use kinecal::import::readback::Tolerance;
 
 #[test]
 fn a_joint_table_carries_the_transducers_and_says_what_it_cannot() {
@@ -10,8 +11,12 @@ fn a_joint_table_carries_the_transducers_and_says_what_it_cannot() {
     let mut cal = nominal.clone();
     cal.joints[1].offset += 0.5f64.to_radians();
     cal.joints[3].slope *= 1.002;
-    let (text, lost) = joint_table(&cal, &nominal).unwrap();
+    let e = joint_table(&cal, &nominal).unwrap();
+    let (text, lost) = (e.text.clone(), e.lost.clone());
     assert!(lost.is_none(), "{lost:?}");
+    // Read back onto the nominal robot, as the command line does before writing: exact.
+    assert!(e.read_back.position < 1e-12, "{:?}", e.read_back);
+    e.check(&cal, &Tolerance::default_for(&cal)).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], "joint,offset,slope,offset_change,slope_change");
     assert_eq!(lines.len(), 5);
@@ -31,8 +36,22 @@ fn a_joint_table_carries_the_transducers_and_says_what_it_cannot() {
 
     // A link change cannot be carried: named, with the deviation it leaves at the tool.
     cal.links[2].y += 0.01 * 0.0254; // 0.01 in
-    let (_, lost) = joint_table(&cal, &nominal).unwrap();
-    let lost = lost.expect("a link change is lost");
+    let e = joint_table(&cal, &nominal).unwrap();
+    let lost = e.lost.clone().expect("a link change is lost");
     assert!(lost.what.contains("link"));
     assert!((lost.position - 0.01 * 0.0254).abs() < 1e-9, "{lost:?}");
+    // Beyond the default tolerance: refused, naming it; a looser one takes it.
+    let err = e
+        .check(&cal, &Tolerance::default_for(&cal))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("link and tool changes"), "{err}");
+    e.check(
+        &cal,
+        &Tolerance {
+            position: 0.001,
+            attitude: 1e-3,
+        },
+    )
+    .unwrap();
 }

@@ -108,8 +108,11 @@ fn real_ur3e_calibrations_reproduce_their_own_forward_kinematics() {
             assert!(dp < 1e-12 && da < 1e-12, "{name}: {dp} m, {da} rad");
         }
         // Written back as it is: the same kinematics, nothing lost.
-        let (out, lost) = export_ur(&robot, &text, &name).unwrap();
-        assert!(lost.is_empty(), "{name}: {lost:?}");
+        let e = export_ur(&robot, &text, &name).unwrap();
+        assert!(e.lost.is_empty(), "{name}: {:?}", e.lost);
+        assert!(e.base.is_none() && e.tcp.is_none() && e.sessions.is_empty());
+        assert!(e.read_back.position < 1e-12, "{name}: {:?}", e.read_back);
+        let out = e.text;
         let back = import_ur(&out, "out.yaml").unwrap().robot;
         let (dp, da) = differ(&robot, &back);
         assert!(dp < 1e-9 && da < 1e-9, "{name}: {dp} m, {da} rad");
@@ -130,7 +133,8 @@ fn a_calibration_is_written_exactly_and_what_the_form_cannot_hold_is_said() {
     let f = d.join("config/ur3e/default_kinematics.yaml");
     let text = std::fs::read_to_string(&f).unwrap();
     let nominal = import_ur(&text, "ur3e.yaml").unwrap().robot;
-    // A calibration of every link before the tool and of the joint offsets: exact.
+    // A calibration of every link before the tool and of the joint offsets: exact, but for the
+    // first link, which carries the measurement frame.
     let mut cal = nominal.clone();
     for (i, l) in cal.links.iter_mut().take(6).enumerate() {
         let s = 1e-3 * (i as f64 + 1.0);
@@ -144,22 +148,44 @@ fn a_calibration_is_written_exactly_and_what_the_form_cannot_hold_is_said() {
     for (j, joint) in cal.joints.iter_mut().enumerate() {
         joint.offset += 1e-3 * (j as f64 - 2.5);
     }
-    let (out, lost) = export_ur(&cal, &text, "ur3e.yaml").unwrap();
-    assert!(lost.is_empty(), "{lost:?}");
-    let back = import_ur(&out, "out.yaml").unwrap().robot;
-    let (dp, da) = differ(&cal, &back);
+    let e = export_ur(&cal, &text, "ur3e.yaml").unwrap();
+    assert!(e.lost.is_empty() && e.tcp.is_none(), "{:?}", e.lost);
+    // The first link's change is where the robot was measured from: left out, and said.
+    let base = e.base.expect("the first link moved");
+    let moved = kinecal::Frame::from_link(&cal.links[0]).then(&kinecal::import::inverse(
+        &kinecal::Frame::from_link(&nominal.links[0]),
+    ));
+    assert!((base.translation - moved.translation).norm() < 1e-15);
+    // The file is the robot on the template's base, exactly.
+    let back = import_ur(&e.text, "out.yaml").unwrap().robot;
+    let (dp, da) = differ(&e.robot, &back);
     assert!(dp < 1e-9 && da < 1e-9, "{dp} m, {da} rad");
+    assert!(e.read_back.position < 1e-9, "{:?}", e.read_back);
+    let k = parse_ur_kinematics(&e.text, "out.yaml").unwrap();
+    let k0 = parse_ur_kinematics(&text, "ur3e.yaml").unwrap();
+    assert_eq!(
+        k.origins[0][..5],
+        k0.origins[0][..5],
+        "the base stays the template's"
+    );
 
-    // A slope and a tool correction cannot be written: each is named with its deviation.
+    // A slope cannot be written: it is named with its deviation. A tool correction is the TCP.
     cal.joints[1].slope = 1.0005;
     cal.links[6].z += 0.002;
-    let (_, lost) = export_ur(&cal, &text, "ur3e.yaml").unwrap();
-    assert_eq!(lost.len(), 3, "{lost:?}");
-    assert!(lost[0].what.contains("joint 2") && lost[0].what.contains("slope"));
-    assert!(lost[0].attitude > 1e-4, "{lost:?}");
-    assert!(lost[1].what.contains("tool"));
-    assert!((lost[1].position - 0.002).abs() < 1e-9, "{lost:?}");
-    assert!(lost[2].what.contains("together"));
+    let e = export_ur(&cal, &text, "ur3e.yaml").unwrap();
+    assert_eq!(e.lost.len(), 1, "{:?}", e.lost);
+    assert!(e.lost[0].what.contains("joint 2") && e.lost[0].what.contains("slope"));
+    assert!(e.lost[0].attitude > 1e-4, "{:?}", e.lost);
+    let tcp = e.tcp.expect("a tool correction");
+    assert!((tcp.translation - nalgebra::Vector3::new(0.0, 0.0, 0.002)).norm() < 1e-12);
+    let err = e
+        .check(&kinecal::import::readback::Tolerance::default_for(&cal))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("joint 2 (shoulder_lift_joint) slope 1.0005"),
+        "{err}"
+    );
 }
 
 #[test]

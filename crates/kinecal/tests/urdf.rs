@@ -167,7 +167,7 @@ fn export_after_calibration_then_import_gives_the_calibrated_fk() {
     est.sort();
     let cal = calibrate(&nominal, &data, &CalibrationOptions::new(est), &mut |_| {}).unwrap();
     assert!(cal.accuracy_after.rms_position < 1e-9);
-    let (new_text, warnings) = export_urdf(
+    let e = export_urdf(
         &cal.calibrated,
         &text,
         "ur5",
@@ -175,7 +175,14 @@ fn export_after_calibration_then_import_gives_the_calibrated_fk() {
         Some("tool0"),
     )
     .unwrap();
+    let (new_text, warnings) = (e.text, e.warnings);
     assert!(warnings.is_empty(), "{warnings:?}");
+    // Read back by the library, as the command line does before writing: exact.
+    assert!(
+        e.read_back.position < 1e-9 && e.read_back.attitude < 1e-9,
+        "{:?}",
+        e.read_back
+    );
     // Everything but the origins is kept: same line count, visuals and limits untouched.
     assert_eq!(new_text.lines().count(), text.lines().count());
     assert!(new_text.contains("<mesh filename="));
@@ -264,8 +271,11 @@ fn coupled_joints_export_where_exact_and_are_refused_otherwise() {
         joint: 1,
         factor: robot.joints[2].slope,
     });
-    let (out, warnings) =
-        export_urdf(&robot, &text, "ur5", Some("base_link"), Some("tool0")).unwrap();
+    let e = export_urdf(&robot, &text, "ur5", Some("base_link"), Some("tool0")).unwrap();
+    // The read-back takes the URDF's joint 3 as the sum of the two readings: exact.
+    assert!(e.read_back.position < 1e-9, "{:?}", e.read_back);
+    assert!(e.lost.is_empty(), "{:?}", e.lost);
+    let (out, warnings) = (e.text, e.warnings);
     assert!(
         warnings.iter().any(|w| matches!(
             w,
@@ -329,8 +339,10 @@ fn export_finds_real_elements_and_adds_the_tool_joint() {
     cal.links[1].y -= 0.001;
     cal.links[2].z += 0.05; // a tool 5 cm beyond the last joint: the URDF has no place for it
     cal.links[2].alpha += 0.1;
-    let (text, warnings) =
-        export_urdf(&cal, template, "arm.urdf", Some("base"), Some("l2")).unwrap();
+    let e = export_urdf(&cal, template, "arm.urdf", Some("base"), Some("l2")).unwrap();
+    // Read back to the added tool link: exact.
+    assert!(e.read_back.position < 1e-9, "{:?}", e.read_back);
+    let (text, warnings) = (e.text, e.warnings);
     assert!(
         warnings.iter().any(
             |w| matches!(w, kinecal::Warning::UrdfToolAdded { link } if link == "l2_calibrated")

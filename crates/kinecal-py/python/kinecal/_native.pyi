@@ -62,28 +62,45 @@ class Robot:
     @staticmethod
     def from_dh(
         table: npt.ArrayLike | _PathLike,
-        convention: str = "standard",
-        length_unit: str = "m",
-        angle_unit: str = "deg",
+        convention: str | None = None,
+        length_unit: str | None = None,
+        angle_unit: str | None = None,
         kinds: Sequence[str] | None = None,
         name: str = "dh",
     ) -> Robot:
-        """An ``(n, 4)`` table of ``a, alpha, d, theta`` (or a DH CSV file);
-        ``convention``: ``"standard"`` or ``"modified"``."""
+        """An ``(n, 4)`` table of ``a, alpha, d, theta`` (``(n, 5)`` with ``beta``; metres and
+        degrees unless given), or a DH CSV file in the units and convention it states;
+        ``convention``: ``"standard"`` (default for arrays) or ``"modified"``."""
     def to_toml(self) -> str:
         """The robot file's text (keeping the comments of the file it came from)."""
-    def to_urdf(self, template: _PathLike, base: str | None = None, tip: str | None = None) -> str:
-        """The robot written into a URDF template's joint origins (``kinecal export urdf``);
-        what URDF cannot express is an ``ExportWarning``."""
-    def to_dh(self, convention: str = "standard") -> str:
-        """A DH table, ``kind,a,alpha,d,theta`` CSV in the robot's units (``kinecal export
-        dh``); what DH cannot represent is an ``ExportWarning`` with its deviation."""
-    def to_ur(self, template: _PathLike) -> str:
+    def to_urdf(
+        self,
+        template: _PathLike,
+        base: str | None = None,
+        tip: str | None = None,
+        tolerance: tuple[float, float] | None = None,
+    ) -> str:
+        """The robot written into a URDF template's joint origins (``kinecal export urdf``),
+        read back first: beyond ``tolerance`` (length, angle) a ``KinecalError``; what URDF
+        cannot express is an ``ExportWarning``."""
+    def to_dh(
+        self,
+        convention: str = "standard",
+        length_unit: str | None = None,
+        angle_unit: str | None = None,
+        tolerance: tuple[float, float] | None = None,
+    ) -> str:
+        """A DH table stating its units (``kinecal export dh``), read back first: beyond
+        ``tolerance`` (length, angle) a ``KinecalError``; what DH cannot hold is an
+        ``ExportWarning`` with its deviation."""
+    def to_ur(self, template: _PathLike, tolerance: tuple[float, float] | None = None) -> str:
         """The Universal Robots kinematics file ``template`` rewritten (``kinecal export
-        ur``); what it cannot hold is an ``ExportWarning`` each."""
-    def to_joints(self, nominal: Robot) -> str:
+        ur``), read back first; what it leaves out, cannot hold, and the TCP to enter are
+        ``ExportWarning``s."""
+    def to_joints(self, nominal: Robot, tolerance: tuple[float, float] | None = None) -> str:
         """The joint offsets and slopes and their change from ``nominal`` as CSV (``kinecal
-        export joints``); what the table cannot carry is an ``ExportWarning``."""
+        export joints``), applied to ``nominal`` and compared first; what the table cannot carry
+        is an ``ExportWarning`` (beyond ``tolerance``, a ``KinecalError``)."""
     @property
     def name(self) -> str: ...
     @property

@@ -1,33 +1,109 @@
-//! Denavit-Hartenberg tables, standard and modified (Craig), converted exactly.
+//! Denavit-Hartenberg tables, standard and modified (Craig), with the Hayati/Mooring `beta`:
+//! read, and written from any robot exactly.
 //!
-//! A table is CSV with the header `kind,a,alpha,d,theta`, one row per joint, in the given units.
-//! Standard: joint i contributes `Rz(theta + q) Tz(d) Tx(a) Rx(alpha)`; modified:
-//! `Rx(alpha) Tx(a) Rz(theta + q) Tz(d)`. For a prismatic joint `q` adds to `d` instead of
-//! `theta`. Readings are the joint values `q` (slope 1); `theta` (revolute) or `d` (prismatic)
-//! becomes the joint offset.
+//! A table is CSV with the header `kind,a,alpha,d,theta` and an optional `beta` column, one row
+//! per joint (`revolute` or `prismatic`) or constant transform (`fixed`), after comment lines
+//! that state its units and convention:
+//!
+//! ```text
+//! # length_unit = mm
+//! # angle_unit = deg
+//! # convention = standard
+//! kind,a,alpha,d,theta,beta
+//! revolute,0,90,89.159,0,0
+//! ```
+//!
+//! Standard: a row is `Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)`; modified (Craig):
+//! `Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d)`. A revolute joint's variable `q` adds to `theta`,
+//! a prismatic joint's to `d`; a `fixed` row has none. `beta` (0 where the column is absent) is
+//! the Hayati/Mooring parameter, the modified-DH extension industrial controllers use: a
+//! rotation about the y axis of the frame on the common normal. With it, consecutive axes that
+//! are nearly parallel are described by small numbers, where the classical common normal runs
+//! off towards infinity (a calibrated UR5's `d` of hundreds of metres). Readings are the joint
+//! values `q` in the table's units (slope 1); `theta` (revolute) or `d` (prismatic) becomes the
+//! joint offset.
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{chain_from_frames, ImportedJoint};
-use crate::error::{Error, Location, Result};
+use super::readback::{self, ReadBack, Tolerance};
+use super::{chain_from_frames, ImportedJoint, Lost};
+use crate::error::{Error, Location, Result, Setting};
 use crate::kinematics::Frame;
 use crate::robot::{JointKind, Robot};
-use crate::units::{Quantity, Units};
+use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 /// Which DH convention a table uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Convention {
-    /// `Rz(theta) Tz(d) Tx(a) Rx(alpha)` per joint.
+    /// `Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)` per row.
     Standard,
-    /// `Rx(alpha) Tx(a) Rz(theta) Tz(d)` per joint (Craig).
+    /// `Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d)` per row (Craig).
     Modified,
+}
+
+impl Convention {
+    /// The spelling in tables and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Convention::Standard => "standard",
+            Convention::Modified => "modified",
+        }
+    }
+
+    /// A row's transform, in words.
+    pub fn formula(self) -> &'static str {
+        match self {
+            Convention::Standard => "Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)",
+            Convention::Modified => "Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d)",
+        }
+    }
+}
+
+/// What a row of a DH table is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowKind {
+    /// A revolute joint: its variable adds to `theta`.
+    Revolute,
+    /// A prismatic joint: its variable adds to `d`.
+    Prismatic,
+    /// A constant transform of the same form (a base or tool frame the DH frames cannot be).
+    Fixed,
+}
+
+impl RowKind {
+    /// The joint's kind, `None` for a fixed row.
+    pub fn joint(self) -> Option<JointKind> {
+        match self {
+            RowKind::Revolute => Some(JointKind::Revolute),
+            RowKind::Prismatic => Some(JointKind::Prismatic),
+            RowKind::Fixed => None,
+        }
+    }
+
+    /// The spelling in tables.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RowKind::Revolute => "revolute",
+            RowKind::Prismatic => "prismatic",
+            RowKind::Fixed => "fixed",
+        }
+    }
+}
+
+impl From<JointKind> for RowKind {
+    fn from(k: JointKind) -> Self {
+        match k {
+            JointKind::Revolute => RowKind::Revolute,
+            JointKind::Prismatic => RowKind::Prismatic,
+        }
+    }
 }
 
 /// One row of a DH table (internal units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DhRow {
-    /// Joint kind.
-    pub kind: JointKind,
+    /// Joint kind, or fixed.
+    pub kind: RowKind,
     /// Link length (m).
     pub a: f64,
     /// Link twist (rad).
@@ -36,6 +112,37 @@ pub struct DhRow {
     pub d: f64,
     /// Joint angle (rad).
     pub theta: f64,
+    /// Hayati/Mooring twist about the common normal frame's y axis (rad); 0 in classical DH.
+    pub beta: f64,
+}
+
+impl DhRow {
+    /// A classical row (`beta` 0).
+    pub fn new(kind: impl Into<RowKind>, a: f64, alpha: f64, d: f64, theta: f64) -> DhRow {
+        DhRow {
+            kind: kind.into(),
+            a,
+            alpha,
+            d,
+            theta,
+            beta: 0.0,
+        }
+    }
+
+    /// The row's transform with its joint variable 0.
+    pub fn transform(&self, convention: Convention) -> Frame {
+        match convention {
+            Convention::Standard => rz(self.theta)
+                .then(&tr(self.a, self.d))
+                .then(&rx(self.alpha))
+                .then(&ry(self.beta)),
+            Convention::Modified => rx(self.alpha)
+                .then(&tr(self.a, 0.0))
+                .then(&ry(self.beta))
+                .then(&rz(self.theta))
+                .then(&tr(0.0, self.d)),
+        }
+    }
 }
 
 fn rz(t: f64) -> Frame {
@@ -54,6 +161,14 @@ fn rx(t: f64) -> Frame {
     }
 }
 
+fn ry(t: f64) -> Frame {
+    let (s, c) = t.sin_cos();
+    Frame {
+        rotation: Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c),
+        translation: Vector3::zeros(),
+    }
+}
+
 fn tr(x: f64, z: f64) -> Frame {
     Frame {
         rotation: Matrix3::identity(),
@@ -65,58 +180,208 @@ fn tr(x: f64, z: f64) -> Frame {
 ///
 /// The chain is walked at joint value 0 (`q_model = 0`, so `Rz(0)` for a revolute joint and
 /// `Tz(0)` for a prismatic one), recording the global frame in which each joint acts; `theta`
-/// (revolute) or `d` (prismatic) becomes that joint's offset, `q_model = offset + V`.
+/// (revolute) or `d` (prismatic) becomes that joint's offset, `q_model = offset + V`. Fixed rows
+/// fold into the links around them.
 pub fn robot_from_dh(name: &str, units: Units, rows: &[DhRow], convention: Convention) -> Robot {
     let mut current = Frame::identity();
     let mut joints = Vec::with_capacity(rows.len());
     for row in rows {
-        let (frame, offset) = match (convention, row.kind) {
-            (Convention::Standard, JointKind::Revolute) => (current, row.theta),
-            (Convention::Standard, JointKind::Prismatic) => (current.then(&rz(row.theta)), row.d),
-            (Convention::Modified, JointKind::Revolute) => (
-                current.then(&rx(row.alpha)).then(&tr(row.a, 0.0)),
+        let Some(kind) = row.kind.joint() else {
+            current = current.then(&row.transform(convention));
+            continue;
+        };
+        // The part of the row before the joint, and the part after it.
+        let (before, offset, after) = match (convention, kind) {
+            (Convention::Standard, JointKind::Revolute) => (
+                Frame::identity(),
                 row.theta,
+                tr(row.a, row.d).then(&rx(row.alpha)).then(&ry(row.beta)),
+            ),
+            (Convention::Standard, JointKind::Prismatic) => (
+                rz(row.theta),
+                row.d,
+                tr(row.a, 0.0).then(&rx(row.alpha)).then(&ry(row.beta)),
+            ),
+            (Convention::Modified, JointKind::Revolute) => (
+                rx(row.alpha).then(&tr(row.a, 0.0)).then(&ry(row.beta)),
+                row.theta,
+                tr(0.0, row.d),
             ),
             (Convention::Modified, JointKind::Prismatic) => (
-                current
-                    .then(&rx(row.alpha))
+                rx(row.alpha)
                     .then(&tr(row.a, 0.0))
+                    .then(&ry(row.beta))
                     .then(&rz(row.theta)),
                 row.d,
+                Frame::identity(),
             ),
         };
+        let frame = current.then(&before);
         joints.push(ImportedJoint {
-            kind: row.kind,
+            kind,
             frame,
             offset,
             range: None,
         });
-        current = match (convention, row.kind) {
-            (Convention::Standard, JointKind::Revolute) => {
-                frame.then(&tr(row.a, row.d)).then(&rx(row.alpha))
-            }
-            (Convention::Standard, JointKind::Prismatic) => {
-                frame.then(&tr(row.a, 0.0)).then(&rx(row.alpha))
-            }
-            (Convention::Modified, JointKind::Revolute) => frame.then(&tr(0.0, row.d)),
-            (Convention::Modified, JointKind::Prismatic) => frame,
-        };
+        current = frame.then(&after);
     }
     chain_from_frames(name, units, &joints, &current)
 }
 
-/// Reads a DH table file (`text`, named `file` in errors) in `units` and builds the robot
-/// ([`robot_from_dh`]), refusing a table whose robot is not usable (values beyond +-1e9 once
-/// converted).
+/// A DH table: its rows (internal units), and the units and convention it is written in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DhTable {
+    /// The rows.
+    pub rows: Vec<DhRow>,
+    /// The units of its numbers (and of the readings: the joint values).
+    pub units: Units,
+    /// Its convention.
+    pub convention: Convention,
+}
+
+/// What a table's comment lines state (`# length_unit = mm`, `# angle_unit = deg`,
+/// `# convention = standard`), each with its line.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Stated {
+    /// The length unit.
+    pub length: Option<(LengthUnit, usize)>,
+    /// The angle unit.
+    pub angle: Option<(AngleUnit, usize)>,
+    /// The convention.
+    pub convention: Option<(Convention, usize)>,
+}
+
+/// Reads the `key = value` comment lines before a table's header (`key: value` too). Other
+/// comments are free text; a stated key with a value it cannot take is refused with its line.
+pub fn stated(text: &str, file: &str) -> Result<Stated> {
+    let mut out = Stated::default();
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim_start_matches('\u{feff}').trim();
+        if line.is_empty() {
+            continue;
+        }
+        let Some(comment) = line.strip_prefix('#') else {
+            break;
+        };
+        let Some((key, value)) = comment.split_once(['=', ':']) else {
+            continue;
+        };
+        let (key, value) = (key.trim(), value.trim().trim_matches('"'));
+        let at = || {
+            Location::file(file)
+                .at_line(i + 1)
+                .with_field(key.to_string())
+        };
+        match key {
+            "length_unit" => {
+                let u = value.parse().map_err(|e: String| Error::input(at(), e))?;
+                out.length = Some((u, i + 1));
+            }
+            "angle_unit" => {
+                let u = value.parse().map_err(|e: String| Error::input(at(), e))?;
+                out.angle = Some((u, i + 1));
+            }
+            "convention" => {
+                let c = match value {
+                    "standard" => Convention::Standard,
+                    "modified" => Convention::Modified,
+                    other => {
+                        return Err(Error::input(
+                            at(),
+                            format!("unknown convention `{other}` (expected standard or modified)"),
+                        ))
+                    }
+                };
+                out.convention = Some((c, i + 1));
+            }
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+/// The one of a stated value and an asked one: both (they must agree), either, or neither (an
+/// error saying what to give).
+fn settle<T: PartialEq + Copy + std::fmt::Display>(
+    stated: Option<(T, usize)>,
+    asked: Option<T>,
+    file: &str,
+    setting: Setting,
+    key: &str,
+) -> Result<T> {
+    match (stated, asked) {
+        (Some((s, line)), Some(a)) if s != a => Err(Error::InvalidOption {
+            setting,
+            message: format!("{file}:{line} states `{key} = {s}`, not {a}"),
+        }),
+        (Some((s, _)), _) => Ok(s),
+        (None, Some(a)) => Ok(a),
+        (None, None) => Err(Error::InvalidOption {
+            setting,
+            message: format!(
+                "{file} does not state its {} (a `# {key} = ...` line before the header, as \
+                 kinecal export dh writes): give it",
+                setting.name()
+            ),
+        }),
+    }
+}
+
+/// Reads a DH table: the units and convention it states, or those given (which must agree with
+/// what it states; for a table that states none they must be given), and its rows.
+pub fn read_dh_table(
+    text: &str,
+    file: &str,
+    length: Option<LengthUnit>,
+    angle: Option<AngleUnit>,
+    convention: Option<Convention>,
+) -> Result<DhTable> {
+    let s = stated(text, file)?;
+    let units = Units {
+        length: settle(s.length, length, file, Setting::LengthUnit, "length_unit")?,
+        angle: settle(s.angle, angle, file, Setting::AngleUnit, "angle_unit")?,
+    };
+    let convention = match (s.convention, convention) {
+        (Some((c, line)), Some(a)) if c != a => {
+            return Err(Error::input(
+                Location::file(file).at_line(line),
+                format!(
+                    "the table is in the {} convention, not {}",
+                    c.as_str(),
+                    a.as_str()
+                ),
+            ))
+        }
+        (Some((c, _)), _) => c,
+        (None, Some(a)) => a,
+        (None, None) => {
+            return Err(Error::input(
+                Location::file(file),
+                "the table does not state its convention (a `# convention = standard` or \
+                 `modified` line before the header): give it",
+            ))
+        }
+    };
+    Ok(DhTable {
+        rows: parse_dh_csv(text, file, units)?,
+        units,
+        convention,
+    })
+}
+
+/// Reads a DH table file (`text`, named `file` in errors), in the units and convention it
+/// states or is given ([`read_dh_table`]), and builds the robot ([`robot_from_dh`]) in those
+/// units, refusing a table whose robot is not usable (values beyond +-1e9 once converted).
 pub fn import_dh(
     text: &str,
     file: &str,
     name: &str,
-    units: Units,
-    convention: Convention,
+    length: Option<LengthUnit>,
+    angle: Option<AngleUnit>,
+    convention: Option<Convention>,
 ) -> Result<Robot> {
-    let rows = parse_dh_csv(text, file, units)?;
-    let robot = robot_from_dh(name, units, &rows, convention);
+    let t = read_dh_table(text, file, length, angle, convention)?;
+    let robot = robot_from_dh(name, t.units, &t.rows, t.convention);
     robot.validate().map_err(|m| {
         Error::input(
             Location::file(file),
@@ -126,28 +391,39 @@ pub fn import_dh(
     Ok(robot)
 }
 
-/// Parses a DH table (`kind,a,alpha,d,theta`) in `units`.
+/// Parses a DH table's rows (`kind,a,alpha,d,theta[,beta]`) in `units`. Comment lines (`#`)
+/// are skipped; a leading byte-order mark is not part of the header.
 pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
         .from_reader(text.as_bytes());
     let loc = Location::file(file);
-    let header: Vec<String> = rdr
+    let record = rdr
         .headers()
-        .map_err(|e| Error::input(loc.at_line(1), format!("invalid CSV: {e}")))?
-        .iter()
-        .map(|h| h.to_ascii_lowercase())
-        .collect();
-    if header != ["kind", "a", "alpha", "d", "theta"] {
-        return Err(Error::input(
-            loc.at_line(1),
-            format!(
-                "unexpected header `{}`: expected `kind,a,alpha,d,theta`",
-                header.join(",")
-            ),
-        ));
-    }
+        .map_err(|e| Error::input(loc.at_line(1), format!("invalid CSV: {e}")))?;
+    let header_line = record.position().map_or(1, |p| p.line() as usize);
+    let header: Vec<String> = record.iter().map(|h| h.to_ascii_lowercase()).collect();
+    const NAMES: [&str; 5] = ["a", "alpha", "d", "theta", "beta"];
+    let with_beta = match header.as_slice() {
+        [k, a, al, d, t] if [k, a, al, d, t] == ["kind", "a", "alpha", "d", "theta"] => false,
+        [k, a, al, d, t, b]
+            if [k, a, al, d, t, b] == ["kind", "a", "alpha", "d", "theta", "beta"] =>
+        {
+            true
+        }
+        _ => {
+            return Err(Error::input(
+                loc.at_line(header_line),
+                format!(
+                    "unexpected header `{}`: expected `kind,a,alpha,d,theta` or \
+                     `kind,a,alpha,d,theta,beta`",
+                    header.join(",")
+                ),
+            ))
+        }
+    };
     let mut rows = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| {
@@ -157,17 +433,18 @@ pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> 
         let line = rec.position().map_or(0, |p| p.line() as usize);
         let at = |f: &str| loc.at_line(line).with_field(f);
         let kind = match &rec[0] {
-            "revolute" | "R" | "r" => JointKind::Revolute,
-            "prismatic" | "P" | "p" => JointKind::Prismatic,
+            "revolute" | "R" | "r" => RowKind::Revolute,
+            "prismatic" | "P" | "p" => RowKind::Prismatic,
+            "fixed" => RowKind::Fixed,
             other => {
                 return Err(Error::input(
                     at("kind"),
-                    format!("unknown joint kind `{other}` (expected revolute or prismatic)"),
+                    format!("unknown joint kind `{other}` (expected revolute, prismatic or fixed)"),
                 ))
             }
         };
-        let mut v = [0.0; 4];
-        for (k, name) in ["a", "alpha", "d", "theta"].iter().enumerate() {
+        let mut v = [0.0; 5];
+        for (k, name) in NAMES.iter().enumerate().take(if with_beta { 5 } else { 4 }) {
             v[k] = rec[k + 1]
                 .parse::<f64>()
                 .ok()
@@ -188,239 +465,514 @@ pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> 
             alpha: units.to_si(Quantity::Angle, v[1]),
             d: units.to_si(Quantity::Length, v[2]),
             theta: units.to_si(Quantity::Angle, v[3]),
+            beta: units.to_si(Quantity::Angle, v[4]),
         });
     }
-    if rows.is_empty() {
+    if !rows.iter().any(|r| r.kind != RowKind::Fixed) {
         return Err(Error::input(
             loc,
-            "no joints: the table has a header but no rows",
+            "no joints: the table has no revolute or prismatic row",
         ));
     }
     Ok(rows)
 }
 
-/// The frame on the line `(p, z)` reached from frame `f` by the common normal of `f`'s z axis
-/// and the line: its origin where the normal meets the line, x along the normal (away from
-/// `f`'s axis), z along `z`. Parallel lines take the normal through `f`'s origin; intersecting
-/// ones `z_f x z` (or its opposite, whichever is nearer `f`'s x); coincident ones keep `f`'s x.
-fn along_normal(f: &Frame, p: Vector3<f64>, z: Vector3<f64>) -> Frame {
-    let (o, zp) = (f.translation, f.rotation.column(2).into_owned());
-    let z = z.normalize();
-    let n = zp.cross(&z);
-    let eps = 1e-12;
-    let (foot, x) = if n.norm() > eps {
-        // Closest points of the two lines: o + s zp and p + t z.
-        let w = o - p;
-        let (b, d, e) = (zp.dot(&z), zp.dot(&w), z.dot(&w));
+/// Consecutive axes within this angle of parallel (or anti-parallel) take the Hayati/Mooring
+/// form: where their classical common normal would lie more than `1/sin(1 deg)`, 57 times their
+/// distance, away.
+pub const NEAR_PARALLEL: f64 = 1.0 * std::f64::consts::PI / 180.0;
+
+/// A joint axis (or the tool's z axis) at zero readings: a point on it and its unit direction.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    p: Vector3<f64>,
+    z: Vector3<f64>,
+}
+
+/// Where the next frame goes along a line nearly parallel to the current axis.
+#[derive(Debug, Clone, Copy)]
+enum Anchor {
+    /// Where the line crosses the plane normal to the current axis through the current origin
+    /// (the classical Hayati choice, `d = 0`).
+    Plane,
+    /// At (the foot on the current axis of) this point of the line: the robot's own frame on
+    /// it, so that a DH robot's table comes back digit for digit.
+    Point(Vector3<f64>),
+}
+
+fn near_parallel(a: &Vector3<f64>, b: &Vector3<f64>) -> bool {
+    a.cross(b).norm() < NEAR_PARALLEL.sin()
+}
+
+/// From frame `f` (its z the current axis) towards `line`: the foot `o` on the current axis of
+/// the next frame's x line, the unit x (perpendicular to the axis), and the point `q` of `line`
+/// that x line reaches. Lines not nearly parallel: the common normal (x along it, the way
+/// nearer `f`'s x; for crossing lines `+-z x z'`); nearly parallel: the normal through `anchor`.
+fn toward(f: &Frame, line: &Line, anchor: Anchor) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+    let (o, z) = (f.translation, f.rotation.column(2).into_owned());
+    let xf = f.rotation.column(0).into_owned();
+    let (foot, q, fallback) = if near_parallel(&z, &line.z) {
+        let foot = match anchor {
+            Anchor::Plane => o,
+            Anchor::Point(p) => o + z * z.dot(&(p - o)),
+        };
+        // Where the line crosses the plane through `foot` normal to z.
+        let t = z.dot(&(foot - line.p)) / z.dot(&line.z);
+        (foot, line.p + line.z * t, xf)
+    } else {
+        let w = o - line.p;
+        let (b, d, e) = (z.dot(&line.z), z.dot(&w), line.z.dot(&w));
         let den = 1.0 - b * b;
         let s = (b * e - d) / den;
         let t = (e - b * d) / den;
-        let (p1, p2) = (o + zp * s, p + z * t);
-        let gap = p2 - p1;
-        let x = if gap.norm() > 1e-9 {
-            gap.normalize()
-        } else {
-            let x = n.normalize();
-            if x.dot(&f.rotation.column(0)) < 0.0 {
-                -x
-            } else {
-                x
-            }
-        };
-        (p2, x)
+        let n = z.cross(&line.z).normalize();
+        let n = if n.dot(&xf) < 0.0 { -n } else { n };
+        (o + z * s, line.p + line.z * t, n)
+    };
+    let gap = q - foot;
+    let x = if gap.norm() > 1e-12 {
+        gap.normalize()
     } else {
-        // Parallel: the normal through f's origin.
-        let foot = p + z * z.dot(&(o - p));
-        let gap = foot - o;
-        let x = if gap.norm() > 1e-9 {
-            gap.normalize()
-        } else {
-            f.rotation.column(0).into_owned()
-        };
-        (foot, x)
+        fallback
     };
     let x = (x - z * x.dot(&z)).normalize();
     // Either way along the normal is a DH frame (a changes sign): the way nearer f's x, as DH
     // tables are written (theta near 0).
-    let x = if x.dot(&f.rotation.column(0)) < -1e-12 {
-        -x
+    let x = if x.dot(&xf) < -1e-12 { -x } else { x };
+    (foot, x, q)
+}
+
+/// The angles `(alpha, beta)` with `Rx(alpha) Ry(beta) e_z = v` (`v` a unit vector in the frame
+/// they turn): beta in `[-pi/2, pi/2]`, 0 when `v` is normal to x.
+fn twist_to(v: &Vector3<f64>) -> (f64, f64) {
+    let beta = if v.x.abs() < 1e-15 {
+        0.0
     } else {
-        x
+        v.x.clamp(-1.0, 1.0).asin()
     };
-    Frame {
-        rotation: Matrix3::from_columns(&[x, z.cross(&x), z]),
-        translation: foot,
-    }
+    ((-v.y).atan2(v.z), beta)
 }
 
 /// Whether `tool` can be a standard DH frame after `prev`: its x perpendicular to `prev`'s z and
 /// crossing it.
 fn standard_fits(prev: &Frame, tool: &Frame) -> bool {
     let (zp, x) = (prev.rotation.column(2), tool.rotation.column(0));
-    if x.dot(&zp).abs() > 1e-9 {
+    if x.dot(&zp).abs() > 1e-12 {
         return false;
     }
     let w = tool.translation - prev.translation;
     let n = zp.cross(&x);
     // Lines o_p + s z_p and o_t + t x_t cross when w is in their plane.
-    n.norm() > 1e-12 && (w.dot(&n) / n.norm()).abs() < 1e-9
+    n.norm() > 1e-12 && (w.dot(&n) / n.norm()).abs() < 1e-12
 }
 
-/// Whether `tool` can be the last modified DH frame, on the axis `(p, z)`: its z along the axis
+/// Whether `tool` can be the last modified DH frame, on the axis `line`: its z along the axis
 /// and its origin on it.
-fn modified_fits(p: Vector3<f64>, z: Vector3<f64>, tool: &Frame) -> bool {
-    let zt = tool.rotation.column(2);
-    let w = tool.translation - p;
-    (zt.dot(&z) - 1.0).abs() < 1e-9 && (w - z * w.dot(&z)).norm() < 1e-9
+fn modified_fits(line: &Line, tool: &Frame) -> bool {
+    let zt = tool.rotation.column(2).into_owned();
+    let w = tool.translation - line.p;
+    zt.dot(&line.z) > 0.0
+        && zt.cross(&line.z).norm() < 1e-12
+        && (w - line.z * w.dot(&line.z)).norm() < 1e-12
 }
 
-/// A DH table for `robot` in `convention`, and the largest position and attitude deviation at
-/// the end effector, over the joint ranges, between the robot and the table's robot: what the
-/// DH form (4 parameters per joint, no base or tool frame, no gains) cannot represent.
+/// `Rz(theta) Tz(d)` of `rel` (a transform whose z axis and origin stay on the z axis).
+fn along_z(rel: &Frame) -> (f64, f64) {
+    (
+        rel.rotation[(1, 0)].atan2(rel.rotation[(0, 0)]),
+        rel.translation.z,
+    )
+}
+
+/// Whether a row would be written as all zeros (the identity).
+fn is_zero(r: &DhRow) -> bool {
+    [r.a, r.alpha, r.d, r.theta, r.beta]
+        .iter()
+        .all(|v| v.abs() < 1e-13)
+}
+
+/// A DH table of `robot` in `convention` with the same forward kinematics, the readings its
+/// joint variables (the slopes and couplings it cannot hold aside: [`export_dh`] says so).
 ///
-/// The table's joint variables are the readings (slope 1); each joint's `theta` (revolute) or
-/// `d` (prismatic) holds its value at zero reading. The frames are the classical ones, built
-/// from the joint axes at zero readings: standard DH puts frame `k` on the axis of joint `k + 1`
-/// at the common normal from axis `k`, the last frame on the tool's z axis; modified DH puts
-/// frame `k` on the axis of joint `k`, its x along the common normal to the next axis (the
-/// tool's z axis after the last). The base frame is the robot's global frame: a robot whose
-/// first axis is not where the DH form expects it (standard: the global z axis; modified:
-/// perpendicular to and crossing the global x axis) shows the difference in the deviation.
-pub fn export_dh(robot: &Robot, convention: Convention) -> (Vec<DhRow>, (f64, f64)) {
+/// The frames are built from the joint axes at zero readings. Standard: frame `k` on axis
+/// `k + 1`, reached from axis `k` along their common normal; the last frame on the tool's z
+/// axis, or the tool itself when its x crosses the last axis at a right angle (as a DH robot's
+/// does). Modified: frame `k` on axis `k`, its x along the common normal to the next axis (the
+/// tool's z axis after the last), or the tool itself when it sits on the last axis. Consecutive
+/// axes within [`NEAR_PARALLEL`] of parallel take the Hayati/Mooring `beta` instead of a common
+/// normal, through the robot's own joint frame (so exactly parallel axes keep their `d`).
+/// What the DH frames cannot place is a `fixed` row: before the first joint when its axis is
+/// not the base z axis (standard) or when the base x is not the first common normal
+/// (modified), after the last one for the tool. Every value is finite; an error names the
+/// joint otherwise.
+pub fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow>> {
     use crate::kinematics::{Chain, Target, Workspace};
     let n = robot.dof();
     let chain = Chain::new(robot);
     let mut ws = Workspace::new(robot);
     chain.forward(&vec![0.0; n], &mut ws);
     // The global frame in which joint k acts is the one after joint k - 1 through link k.
-    let lines: Vec<(Vector3<f64>, Vector3<f64>)> = (0..n)
+    let lines: Vec<Line> = (0..n)
         .map(|k| {
             let f = ws.after_joint(k).then(&Frame::from_link(&robot.links[k]));
-            (f.translation, f.rotation.column(2).into_owned())
+            Line {
+                p: f.translation,
+                z: f.rotation.column(2).into_owned(),
+            }
         })
         .collect();
     let tool = chain.target_frame(&ws, Target::EndEffector);
-    let tool_line = (tool.translation, tool.rotation.column(2).into_owned());
-    let mut rows = Vec::with_capacity(n);
+    let tool_line = Line {
+        p: tool.translation,
+        z: tool.rotation.column(2).into_owned(),
+    };
+    let next_line = |k: usize| if k + 1 < n { lines[k + 1] } else { tool_line };
+    let kind = |k: usize| RowKind::from(robot.joints[k].kind);
+    let mut rows = Vec::with_capacity(n + 2);
     match convention {
         Convention::Standard => {
-            // Frame 0: the global frame (joint 1 turns about its z).
-            let mut prev = Frame::identity();
-            for k in 0..n {
-                let (p, z) = if k + 1 < n { lines[k + 1] } else { tool_line };
-                // Frame k-1's z is taken as axis k (for k = 0 the global z: if the first axis
-                // is elsewhere, the deviation shows it). The last frame is the tool itself when
-                // its x crosses the last axis at a right angle (a DH robot's tool does).
-                let next = if k + 1 == n && standard_fits(&prev, &tool) {
-                    tool
-                } else {
-                    along_normal(&prev, p, z)
-                };
-                let rel = super::inverse(&prev).then(&next);
-                let theta = rel.rotation[(1, 0)].atan2(rel.rotation[(0, 0)]);
-                let (c, s) = (theta.cos(), theta.sin());
-                let a = rel.translation.x * c + rel.translation.y * s;
-                let d = rel.translation.z;
-                // R = Rz(theta) Rx(alpha): alpha from Rz(-theta) R.
-                let m = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0) * rel.rotation;
-                let alpha = m[(2, 1)].atan2(m[(1, 1)]);
-                rows.push(DhRow {
-                    kind: robot.joints[k].kind,
-                    a,
+            // One standard step: from s (on an axis) to the next line.
+            let step = |s: &Frame, line: &Line, anchor: Anchor, kind: RowKind| {
+                let (foot, x, q) = toward(s, line, anchor);
+                let (xf, yf, z) = (
+                    s.rotation.column(0).into_owned(),
+                    s.rotation.column(1).into_owned(),
+                    s.rotation.column(2).into_owned(),
+                );
+                let theta = x.dot(&yf).atan2(x.dot(&xf));
+                let turned = Matrix3::from_columns(&[x, z.cross(&x), z]);
+                let (alpha, beta) = twist_to(&(turned.transpose() * line.z));
+                let row = DhRow {
+                    kind,
+                    a: (q - foot).dot(&x),
                     alpha,
-                    d,
+                    d: (foot - s.translation).dot(&z),
                     theta,
-                });
-                prev = next;
+                    beta,
+                };
+                let next = s.then(&row.transform(Convention::Standard));
+                (row, next)
+            };
+            // Frame 0 on axis 1: the global frame when axis 1 is its z axis, else a fixed row.
+            let (base, mut s) = step(&Frame::identity(), &lines[0], Anchor::Plane, RowKind::Fixed);
+            if !is_zero(&base) {
+                rows.push(base);
+            } else {
+                s = Frame::identity();
+            }
+            let mut tool_done = false;
+            for k in 0..n {
+                if k + 1 == n && standard_fits(&s, &tool) {
+                    let rel = super::inverse(&s).then(&tool);
+                    let theta = rel.rotation[(1, 0)].atan2(rel.rotation[(0, 0)]);
+                    let (c, si) = (theta.cos(), theta.sin());
+                    // R = Rz(theta) Rx(alpha): alpha from Rz(-theta) R.
+                    let m = Matrix3::new(c, si, 0.0, -si, c, 0.0, 0.0, 0.0, 1.0) * rel.rotation;
+                    rows.push(DhRow {
+                        kind: kind(k),
+                        a: rel.translation.x * c + rel.translation.y * si,
+                        alpha: m[(2, 1)].atan2(m[(1, 1)]),
+                        d: rel.translation.z,
+                        theta,
+                        beta: 0.0,
+                    });
+                    tool_done = true;
+                    break;
+                }
+                let line = next_line(k);
+                let (row, next) = step(&s, &line, Anchor::Point(line.p), kind(k));
+                rows.push(row);
+                s = next;
+            }
+            if !tool_done {
+                let (theta, d) = along_z(&super::inverse(&s).then(&tool));
+                let row = DhRow::new(RowKind::Fixed, 0.0, 0.0, d, theta);
+                if !is_zero(&row) {
+                    rows.push(row);
+                }
             }
         }
         Convention::Modified => {
-            let mut prev = Frame::identity();
-            for k in 0..n {
-                let (p, z) = lines[k];
-                // Frame k on axis k, x along the common normal to the next line.
-                let fallback = along_normal(&prev, p, z).rotation.column(0).into_owned();
-                let (np, nz) = if k + 1 < n { lines[k + 1] } else { tool_line };
-                // x_k: the common normal from axis k to the next line, origin on axis k.
-                let toward = along_normal(
-                    &Frame {
-                        rotation: Matrix3::from_columns(&[
-                            nz.cross(&z).try_normalize(1e-12).unwrap_or(fallback),
-                            Vector3::zeros(),
-                            nz,
-                        ]),
-                        translation: np,
-                    },
-                    p,
-                    z,
+            // Frame k on axis k, its x towards the next line: `Rz(theta) Tz(d)` from `l` (the
+            // frame where the previous row landed on the axis), and the point it points to.
+            let place = |l: &Frame, line: &Line, anchor: Anchor| {
+                let (foot, x, q) = toward(l, line, anchor);
+                let (xl, yl, z) = (
+                    l.rotation.column(0).into_owned(),
+                    l.rotation.column(1).into_owned(),
+                    l.rotation.column(2).into_owned(),
                 );
-                // `toward` has its origin on axis k and x from the next line to axis k: turn
-                // it around so x points to the next line.
-                let mut xk = -toward.rotation.column(0).into_owned();
-                // x may point either way along the normal (a then changes sign): the way nearer
-                // the previous x, as DH tables are written (theta near 0).
-                if xk.dot(&prev.rotation.column(0)) < -1e-12 {
-                    xk = -xk;
-                }
-                let frame = if k + 1 == n && modified_fits(p, z, &tool) {
-                    // The last frame is the tool when the tool sits on the last axis.
-                    tool
+                let theta = x.dot(&yl).atan2(x.dot(&xl));
+                let d = (foot - l.translation).dot(&z);
+                let m = l.then(&rz(theta)).then(&tr(0.0, d));
+                (theta, d, m, q)
+            };
+            // From frame m along its x to `q` on `line`, turned onto the line: `Rx(alpha) Tx(a)
+            // Ry(beta)`, and the frame it lands in.
+            let land = |m: &Frame, line: &Line, q: &Vector3<f64>| {
+                let a = (q - m.translation).dot(&m.rotation.column(0));
+                let (alpha, beta) = twist_to(&(m.rotation.transpose() * line.z));
+                let l = m.then(&rx(alpha)).then(&tr(a, 0.0)).then(&ry(beta));
+                (alpha, a, beta, l)
+            };
+            let (theta0, d0, mut m, mut q) = place(&Frame::identity(), &lines[0], Anchor::Plane);
+            let base = DhRow::new(RowKind::Fixed, 0.0, 0.0, d0, theta0);
+            if !is_zero(&base) {
+                rows.push(base);
+            } else {
+                m = Frame::identity();
+            }
+            let mut tool_done = false;
+            for (k, axis) in lines.iter().enumerate() {
+                let (alpha, a, beta, l) = land(&m, axis, &q);
+                let (theta, d) = if k + 1 == n && modified_fits(axis, &tool) {
+                    tool_done = true;
+                    along_z(&super::inverse(&l).then(&tool))
                 } else {
-                    Frame {
-                        rotation: Matrix3::from_columns(&[xk, z.cross(&xk), z]),
-                        translation: toward.translation,
-                    }
+                    let line = next_line(k);
+                    let (theta, d, next, nq) = place(&l, &line, Anchor::Point(line.p));
+                    m = next;
+                    q = nq;
+                    (theta, d)
                 };
-                let rel = super::inverse(&prev).then(&frame);
-                let zl = rel.rotation.column(2);
-                let alpha = (-zl.y).atan2(zl.z);
-                let (ca, sa) = (alpha.cos(), alpha.sin());
-                let t = rel.translation;
-                let a = t.x;
-                let d = -t.y * sa + t.z * ca;
-                // R = Rx(alpha) Rz(theta): theta from Rx(-alpha) R.
-                let m = Matrix3::new(1.0, 0.0, 0.0, 0.0, ca, sa, 0.0, -sa, ca) * rel.rotation;
-                let theta = m[(1, 0)].atan2(m[(0, 0)]);
                 rows.push(DhRow {
-                    kind: robot.joints[k].kind,
+                    kind: kind(k),
                     a,
                     alpha,
                     d,
                     theta,
+                    beta,
                 });
-                prev = frame;
+            }
+            if !tool_done {
+                let (alpha, a, beta, l) = land(&m, &tool_line, &q);
+                let (theta, d) = along_z(&super::inverse(&l).then(&tool));
+                let row = DhRow {
+                    kind: RowKind::Fixed,
+                    a,
+                    alpha,
+                    d,
+                    theta,
+                    beta,
+                };
+                if !is_zero(&row) {
+                    rows.push(row);
+                }
             }
         }
     }
-    let mut table = robot_from_dh(&robot.name, robot.units, &rows, convention);
-    for (t, j) in table.joints.iter_mut().zip(&robot.joints) {
-        t.range = j.range;
+    let mut joint = 0;
+    for r in &rows {
+        if ![r.a, r.alpha, r.d, r.theta, r.beta]
+            .iter()
+            .all(|v| crate::units::plausible(*v))
+        {
+            return Err(Error::Problem(format!(
+                "the {} DH row {} of the robot is not finite ({r:?}): the robot's frames are not \
+                 usable",
+                convention.as_str(),
+                if r.kind == RowKind::Fixed {
+                    "of a fixed transform".to_string()
+                } else {
+                    format!("of joint {}", joint + 1)
+                }
+            )));
+        }
+        if r.kind != RowKind::Fixed {
+            joint += 1;
+        }
     }
-    let lost = super::deviation(robot, &table);
-    (rows, lost)
+    Ok(rows)
 }
 
-/// A DH table as CSV (`kind,a,alpha,d,theta`) in `units`, read back by [`parse_dh_csv`]. Values
-/// are written to 15 significant digits (the frames are built from products of the chain, whose
-/// last digit is rounding), and below 1e-12 as 0.
-pub fn write_dh_csv(rows: &[DhRow], units: Units) -> String {
-    let f = |v: f64| -> String {
-        if v.abs() < 1e-12 {
-            return "0".into();
-        }
-        let r: f64 = format!("{v:.14e}").parse().unwrap_or(v);
-        format!("{r}")
-    };
-    let mut out = String::from("kind,a,alpha,d,theta\n");
+/// A number as a DH table holds it: 15 significant digits (the frames are products along the
+/// chain, whose last digit is rounding), below 1e-12 as 0.
+fn num(v: f64) -> String {
+    if v.abs() < 1e-12 {
+        return "0".into();
+    }
+    let r: f64 = format!("{v:.14e}").parse().unwrap_or(v);
+    format!("{r}")
+}
+
+/// A DH table as text, read back by [`read_dh_table`]: comment lines stating the convention
+/// (with its formula) and the units, then `kind,a,alpha,d,theta`, with a `beta` column when a
+/// row has one.
+pub fn write_dh_table(rows: &[DhRow], units: Units, convention: Convention) -> String {
+    let with_beta = rows.iter().any(|r| num(r.beta) != "0");
+    let mut out = format!(
+        "# DH table ({} convention): each row is {}, a revolute joint's variable added to \
+         theta, a prismatic joint's to d; a fixed row is a constant transform\n\
+         # length_unit = {}\n# angle_unit = {}\n# convention = {}\n",
+        convention.as_str(),
+        if with_beta {
+            convention.formula()
+        } else {
+            match convention {
+                Convention::Standard => "Rz(theta) Tz(d) Tx(a) Rx(alpha)",
+                Convention::Modified => "Rx(alpha) Tx(a) Rz(theta) Tz(d)",
+            }
+        },
+        units.length,
+        units.angle,
+        convention.as_str()
+    );
+    out.push_str(if with_beta {
+        "kind,a,alpha,d,theta,beta\n"
+    } else {
+        "kind,a,alpha,d,theta\n"
+    });
     for r in rows {
         out.push_str(&format!(
-            "{},{},{},{},{}\n",
+            "{},{},{},{},{}",
             r.kind.as_str(),
-            f(units.from_si(Quantity::Length, r.a)),
-            f(units.from_si(Quantity::Angle, r.alpha)),
-            f(units.from_si(Quantity::Length, r.d)),
-            f(units.from_si(Quantity::Angle, r.theta))
+            num(units.from_si(Quantity::Length, r.a)),
+            num(units.from_si(Quantity::Angle, r.alpha)),
+            num(units.from_si(Quantity::Length, r.d)),
+            num(units.from_si(Quantity::Angle, r.theta))
         ));
+        if with_beta {
+            out.push_str(&format!(",{}", num(units.from_si(Quantity::Angle, r.beta))));
+        }
+        out.push('\n');
     }
     out
+}
+
+/// A DH export: the table, its text, and what it reproduces of the robot.
+#[derive(Debug, Clone)]
+pub struct DhExport {
+    /// The table.
+    pub table: DhTable,
+    /// Its text ([`write_dh_table`]).
+    pub text: String,
+    /// The text read back by [`import_dh`] and compared with the robot.
+    pub read_back: ReadBack,
+    /// What a DH table cannot hold (transducer slopes other than 1, couplings), each with the
+    /// deviation it alone causes.
+    pub lost: Vec<Lost>,
+}
+
+impl DhExport {
+    /// The pairs of consecutive axes the table describes with the Hayati/Mooring `beta`, each
+    /// as `2-3` (joints 2 and 3), `base-1` (the base z axis and joint 1) or `6-tool` (joint 6
+    /// and the tool's z axis).
+    pub fn hayati_pairs(&self) -> Vec<String> {
+        let rows = &self.table.rows;
+        let n = rows.iter().filter(|r| r.kind != RowKind::Fixed).count();
+        let name = |k: usize| match k {
+            0 => "base".to_string(),
+            k if k > n => "tool".to_string(),
+            k => k.to_string(),
+        };
+        // The joint number each row ends at (standard: the row of joint k ends on axis k + 1;
+        // modified: on axis k), fixed rows before the first joint at 0, after the last at n + 1.
+        let mut out = Vec::new();
+        let mut joint = 0;
+        for (i, r) in rows.iter().enumerate() {
+            let fixed = r.kind == RowKind::Fixed;
+            if !fixed {
+                joint += 1;
+            }
+            if num(r.beta) == "0" {
+                continue;
+            }
+            let (from, to) = match (self.table.convention, fixed) {
+                (Convention::Standard, false) => (joint, joint + 1),
+                (Convention::Modified, false) => (joint - 1, joint),
+                (_, true) if i == 0 => (0, 1),
+                (_, true) => (n, n + 1),
+            };
+            out.push(format!("{}-{}", name(from), name(to)));
+        }
+        out
+    }
+
+    /// What the table holds beyond classical DH, in sentences: the axes that took beta, the
+    /// fixed rows.
+    pub fn notes(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let pairs = self.hayati_pairs();
+        if !pairs.is_empty() {
+            out.push(format!(
+                "beta (Hayati/Mooring) for the axes within 1 deg of parallel: {}",
+                pairs.join(", ")
+            ));
+        }
+        let (base, tool) = self.fixed_rows();
+        if base || tool {
+            out.push(format!(
+                "fixed rows: {}",
+                [
+                    base.then_some("the base (the first DH frame is not the robot's global frame)"),
+                    tool.then_some("the tool (the tool frame is not a DH frame of the last joint)"),
+                ]
+                .into_iter()
+                .flatten()
+                .collect::<Vec<_>>()
+                .join("; ")
+            ));
+        }
+        out
+    }
+
+    /// Whether the table has a fixed row before the first joint (the base) and after the last
+    /// one (the tool).
+    pub fn fixed_rows(&self) -> (bool, bool) {
+        let rows = &self.table.rows;
+        (
+            rows.first().is_some_and(|r| r.kind == RowKind::Fixed),
+            rows.last().is_some_and(|r| r.kind == RowKind::Fixed),
+        )
+    }
+
+    /// `Ok` when the table, read back, reproduces the robot within `tolerance`
+    /// ([`ReadBack::check`]).
+    pub fn check(&self, robot: &Robot, tolerance: &Tolerance) -> Result<()> {
+        self.read_back.check(
+            tolerance,
+            robot.units,
+            "the DH table (its joint variables are the readings)",
+            &self.lost,
+        )
+    }
+}
+
+/// `robot` as a DH table in `convention` and `units` ([`dh_rows`], [`write_dh_table`]), read
+/// back with [`import_dh`] (the units and convention the text states) and compared with the
+/// robot over the joint ranges ([`readback`]): the table's joint variables are the readings,
+/// converted from the robot file's units to the table's.
+pub fn export_dh(robot: &Robot, convention: Convention, units: Units) -> Result<DhExport> {
+    let rows = dh_rows(robot, convention)?;
+    let text = write_dh_table(&rows, units, convention);
+    let back = import_dh(
+        &text,
+        "<the DH table written>",
+        &robot.name,
+        None,
+        None,
+        None,
+    )?;
+    let scale = readback::unit_scale(robot, units);
+    let read_back = readback::compare(
+        robot,
+        &back,
+        &|v, out| {
+            for ((o, v), s) in out.iter_mut().zip(v).zip(&scale) {
+                *o = v * s;
+            }
+        },
+        None,
+    );
+    let lost = readback::gains_lost(robot, &|j| format!("joint {}", j + 1), &|_| false);
+    Ok(DhExport {
+        table: DhTable {
+            rows,
+            units,
+            convention,
+        },
+        text,
+        read_back,
+        lost,
+    })
 }

@@ -9,13 +9,41 @@
 
 use std::fmt::Write as _;
 
+use super::readback::{self, ReadBack, Tolerance};
 use super::{deviation, Lost};
-use crate::error::{Error, Result};
+use crate::error::{Error, Location, Result};
 use crate::robot::Robot;
 
-/// The table of `calibrated`'s joint offsets and slopes (file units), and what the nominal
-/// robot with only those applied still misses (`None` when nothing).
-pub fn joint_table(calibrated: &Robot, nominal: &Robot) -> Result<(String, Option<Lost>)> {
+/// A joint-table export: the text, and what the nominal robot with it applied reproduces of the
+/// calibrated one.
+#[derive(Debug, Clone)]
+pub struct JointTableExport {
+    /// The table.
+    pub text: String,
+    /// The table read back ([`apply_joint_table`]) onto the nominal robot, compared with the
+    /// calibrated one at the same readings.
+    pub read_back: ReadBack,
+    /// What the table cannot carry (link and tool changes, couplings), when anything.
+    pub lost: Option<Lost>,
+}
+
+impl JointTableExport {
+    /// `Ok` when the nominal robot with the table applied reproduces `calibrated` within
+    /// `tolerance`.
+    pub fn check(&self, calibrated: &Robot, tolerance: &Tolerance) -> Result<()> {
+        self.read_back.check(
+            tolerance,
+            calibrated.units,
+            "the joint table (applied to the nominal robot)",
+            self.lost.as_slice(),
+        )
+    }
+}
+
+/// The table of `calibrated`'s joint offsets and slopes (file units), read back onto `nominal`
+/// and compared with `calibrated`; what the nominal robot with only those applied still misses
+/// is [`JointTableExport::lost`].
+pub fn joint_table(calibrated: &Robot, nominal: &Robot) -> Result<JointTableExport> {
     if !calibrated.same_structure(nominal) {
         return Err(Error::Problem(
             "the calibrated and the nominal robot differ in structure (joints, kinds, sites)"
@@ -24,7 +52,6 @@ pub fn joint_table(calibrated: &Robot, nominal: &Robot) -> Result<(String, Optio
     }
     let u = calibrated.units;
     let mut text = String::from("joint,offset,slope,offset_change,slope_change\n");
-    let mut applied = nominal.clone();
     for (j, (c, n)) in calibrated.joints.iter().zip(&nominal.joints).enumerate() {
         let q = c.kind.variable();
         let (off, off0) = (u.from_si(q, c.offset), u.from_si(q, n.offset));
@@ -39,14 +66,69 @@ pub fn joint_table(calibrated: &Robot, nominal: &Robot) -> Result<(String, Optio
             off - off0,
             slope - slope0
         );
-        applied.joints[j].offset = c.offset;
-        applied.joints[j].slope = c.slope;
     }
+    let applied = apply_joint_table(nominal, &text, "<the joint table written>", u)?;
+    let read_back = readback::compare(calibrated, &applied, &|v, out| out.copy_from_slice(v), None);
     let (p, a) = deviation(calibrated, &applied);
     let lost = (p > 1e-12 || a > 1e-12).then(|| Lost {
         what: "link and tool changes (a joint table holds only offsets and slopes)".into(),
         position: p,
         attitude: a,
     });
-    Ok((text, lost))
+    Ok(JointTableExport {
+        text,
+        read_back,
+        lost,
+    })
+}
+
+/// `nominal` with the offsets and slopes of a joint table (`joint,offset,slope,...` in `units`)
+/// applied, as a controller that takes only those would.
+pub fn apply_joint_table(
+    nominal: &Robot,
+    text: &str,
+    file: &str,
+    units: crate::units::Units,
+) -> Result<Robot> {
+    let mut out = nominal.clone();
+    let mut seen = vec![false; out.dof()];
+    let at = |line: usize| Location::file(file).at_line(line);
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if h.trim().starts_with("joint,offset,slope") => {}
+        _ => {
+            return Err(Error::input(
+                at(1),
+                "expected the header `joint,offset,slope,...`",
+            ))
+        }
+    }
+    for (i, line) in lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let num = |k: usize| -> Result<f64> {
+            f.get(k)
+                .and_then(|v| v.parse::<f64>().ok())
+                .filter(|v| crate::units::plausible(*v))
+                .ok_or_else(|| Error::input(at(i + 1), format!("column {}: not a number", k + 1)))
+        };
+        let j = f
+            .first()
+            .and_then(|v| v.parse::<usize>().ok())
+            .filter(|&j| j >= 1 && j <= out.dof())
+            .ok_or_else(|| Error::input(at(i + 1), "not a joint of the robot"))?;
+        let joint = &mut out.joints[j - 1];
+        joint.offset = units.to_si(joint.kind.variable(), num(1)?);
+        joint.slope = units.to_si(joint.kind.slope(), num(2)?);
+        seen[j - 1] = true;
+    }
+    if let Some(j) = seen.iter().position(|s| !s) {
+        return Err(Error::input(
+            Location::file(file),
+            format!("no row for joint {}", j + 1),
+        ));
+    }
+    Ok(out)
 }

@@ -8,6 +8,7 @@
 pub mod dh;
 pub mod joints;
 pub mod poe;
+pub mod readback;
 pub mod ur;
 pub mod urdf;
 pub mod xml;
@@ -110,6 +111,23 @@ pub struct Lost {
     pub position: f64,
     /// Largest attitude deviation (rad).
     pub attitude: f64,
+}
+
+impl Lost {
+    /// The sentence the command line prints (and Python warns), in `units`: `not written: joint
+    /// 2 slope 1.001 rad/unit; up to 0.3 mm and 0.05 deg at the tool over the joint ranges`.
+    pub fn line(&self, units: Units) -> String {
+        use crate::units::Quantity;
+        use readback::fmt_deviation;
+        format!(
+            "not written: {}; up to {} {} and {} {} at the tool over the joint ranges",
+            self.what,
+            fmt_deviation(units.from_si(Quantity::Length, self.position)),
+            units.length,
+            fmt_deviation(units.from_si(Quantity::Angle, self.attitude)),
+            units.angle
+        )
+    }
 }
 
 /// Largest position and attitude difference of the end effector between two robots over 2,000

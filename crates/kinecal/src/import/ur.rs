@@ -10,17 +10,22 @@
 //! chain and reads it as a URDF ([`super::urdf`]), from `base_link` to `tool0`; readings are the
 //! joint values (rad, slope 1).
 //!
-//! Export writes a calibrated robot back into that form. Joint offsets are folded into the
-//! origins (exact); what the form cannot hold is said, never dropped silently: a transducer
-//! slope other than 1 (the file has no gains), a coupling, and a tool correction (the file has
-//! no tool entry; the flange and tool0 frames are fixed by the description), each with the
-//! largest position and attitude deviation it causes over the joint ranges.
+//! Export writes a calibrated robot back into that form ([`export_ur`]). Joint offsets are
+//! folded into the origins (exact). The controller's base stays the template's: the measurement
+//! frame a calibration carries in its first link (and any session frames) is left out, and
+//! said. The tool correction, which the file has no entry for (the flange and tool0 frames are
+//! fixed by the description), is the TCP to enter on the controller. What the form cannot hold
+//! is said, never dropped silently: a transducer slope other than 1 (the file has no gains) and
+//! a coupling, each with the largest position and attitude deviation it causes over the joint
+//! ranges.
 
 use std::fmt::Write as _;
 
+use super::readback::{self, ReadBack, Tolerance};
 use super::urdf::{export_origins, import_urdf, UrdfImport};
-use super::{deviation, Lost};
+use super::Lost;
 use crate::error::{Error, Location, Result};
+use crate::kinematics::{Chain, Frame, Target};
 use crate::robot::Robot;
 
 /// The joints of a UR kinematics file, in chain order: (file name, URDF joint name, link).
@@ -239,10 +244,135 @@ pub fn import_ur(text: &str, file: &str) -> Result<UrdfImport> {
     Ok(imported)
 }
 
+/// A UR export: the kinematics file's text, what it reproduces of the robot, and what the user
+/// must know.
+#[derive(Debug, Clone)]
+pub struct UrExport {
+    /// The kinematics file.
+    pub text: String,
+    /// The file read back ([`import_ur`]), with [`UrExport::tcp`] as the controller's TCP,
+    /// compared with the robot without its measurement frame ([`UrExport::robot`]).
+    pub read_back: ReadBack,
+    /// The robot the file and the TCP reproduce: the calibrated one on the template's base
+    /// (its first link the template's), without session frames.
+    pub robot: Robot,
+    /// The measurement frame left out: where the robot's `base_link` is in the robot file's
+    /// global frame (the frame the calibration was measured in), when the calibration moved it
+    /// from the template's. The controller's base is the robot's own.
+    pub base: Option<Frame>,
+    /// The names of the session frames left out (instrument placements, not part of the robot).
+    pub sessions: Vec<String>,
+    /// The TCP to enter on the controller: the calibrated tool frame in `tool0` (the tool
+    /// flange frame the controller's TCP is given in), when it is not `tool0` itself.
+    pub tcp: Option<Frame>,
+    /// What the file cannot hold (slopes other than 1, couplings), each with its deviation.
+    pub lost: Vec<Lost>,
+}
+
+impl UrExport {
+    /// `Ok` when the file (with the TCP) reproduces the robot within `tolerance`.
+    pub fn check(&self, tolerance: &Tolerance) -> Result<()> {
+        self.read_back.check(
+            tolerance,
+            self.robot.units,
+            "the UR kinematics file with the TCP (its joint values are the readings: it has no \
+             gains)",
+            &self.lost,
+        )
+    }
+}
+
+impl UrExport {
+    /// What was left out, in sentences (the robot file's units): the measurement frame, the
+    /// session frames.
+    pub fn left_out(&self) -> Vec<String> {
+        use crate::import::readback::fmt_deviation;
+        use crate::units::Quantity;
+        let u = self.robot.units;
+        let mut out = Vec::new();
+        if let Some(b) = &self.base {
+            let p = pose_vector(b);
+            let l = |v: f64| fmt_deviation(u.from_si(Quantity::Length, v));
+            out.push(format!(
+                "left out: the measurement frame, what the robot's first link holds beyond the \
+                 template's base (base_link at x {} y {} z {} {}, rotation vector {} {} {} rad, in \
+                 the frame the robot was measured in): the controller's base is the robot's own",
+                l(p[0]),
+                l(p[1]),
+                l(p[2]),
+                u.length,
+                fmt_deviation(p[3]),
+                fmt_deviation(p[4]),
+                fmt_deviation(p[5]),
+            ));
+        }
+        if !self.sessions.is_empty() {
+            out.push(format!(
+                "left out: the session frame{} {} (where the instrument stood; not part of the \
+                 robot)",
+                if self.sessions.len() > 1 { "s" } else { "" },
+                self.sessions.join(", ")
+            ));
+        }
+        out
+    }
+
+    /// The TCP to enter on the controller, in its units: the Installation screen's millimetres
+    /// and rotation vector, and the URScript `set_tcp` pose (metres, radians).
+    pub fn tcp_line(&self) -> String {
+        match &self.tcp {
+            Some(t) => {
+                let p = pose_vector(t);
+                format!(
+                    "TCP to enter on the controller (Installation > General > TCP, in the tool \
+                     flange frame tool0): X {:.6} mm, Y {:.6} mm, Z {:.6} mm, RX {:.9} rad, RY \
+                     {:.9} rad, RZ {:.9} rad (rotation vector); in URScript: set_tcp(p[{:.9}, \
+                     {:.9}, {:.9}, {:.9}, {:.9}, {:.9}])",
+                    p[0] * 1e3,
+                    p[1] * 1e3,
+                    p[2] * 1e3,
+                    p[3],
+                    p[4],
+                    p[5],
+                    p[0],
+                    p[1],
+                    p[2],
+                    p[3],
+                    p[4],
+                    p[5]
+                )
+            }
+            None => {
+                "TCP to enter on the controller: none (the calibrated tool frame is tool0)".into()
+            }
+        }
+    }
+}
+
+/// A frame as a UR controller takes a pose: position (m) and rotation vector (rad).
+pub fn pose_vector(f: &Frame) -> [f64; 6] {
+    let r = crate::kinematics::log_so3(&f.rotation);
+    [
+        f.translation.x,
+        f.translation.y,
+        f.translation.z,
+        r.x,
+        r.y,
+        r.z,
+    ]
+}
+
 /// Writes `robot` (imported from the UR kinematics file `template`, then calibrated) as a UR
-/// kinematics file. Returns the text and what it could not hold (empty when the file is
-/// exact), measured on 2,000 postures drawn within the joint ranges.
-pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<(String, Vec<Lost>)> {
+/// kinematics file.
+///
+/// The file holds the arm from the controller's base to `tool0`: the template's base stays, and
+/// what the calibration put before it (its first link beyond the template's: the measurement
+/// frame, where the instrument saw the robot; and any session frames) is left out and said.
+/// Joint offsets are folded into the origins (exact). The tool correction (the calibrated tool
+/// frame in `tool0`) is the TCP to enter on the controller. The text is read back, the TCP
+/// appended, and compared with the robot on its own base over the joint ranges; slopes other
+/// than 1 and couplings, which the file has no place for, are listed with their deviations.
+pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<UrExport> {
     let k0 = parse_ur_kinematics(template, file)?;
     let imported = import_urdf(&ur_urdf(&k0), file, Some("base_link"), Some("tool0"))?;
     if !robot.same_structure(&imported.robot) {
@@ -252,15 +382,23 @@ pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<(String, V
                 .into(),
         ));
     }
-    let e = export_origins(robot, &imported.chain)?;
+    // The robot on the template's base: the first link as imported, no sessions.
+    let mut own = robot.clone();
+    own.links[0] = imported.robot.links[0];
+    own.sessions.clear();
+    let placement = Frame::from_link(&robot.links[0])
+        .then(&super::inverse(&Frame::from_link(&imported.robot.links[0])));
+    let base = (placement.translation.norm() > 1e-12
+        || crate::kinematics::log_so3(&placement.rotation).norm() > 1e-12)
+        .then_some(placement);
+    let e = export_origins(&own, &imported.chain)?;
     let mut k = k0.clone();
     for (j, (_, name, _)) in JOINTS.iter().enumerate() {
-        let (_, f, old) = e
+        let (_, f, _) = e
             .origins
             .iter()
             .find(|(n, _, _)| n == name)
             .ok_or_else(|| Error::Problem(format!("joint `{name}` missing from the chain")))?;
-        let _ = old;
         let [roll, pitch, yaw] = rpy_near_literal(&f.rotation, &k0.origins[j]);
         k.origins[j] = [
             f.translation.x,
@@ -272,56 +410,6 @@ pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<(String, V
         ];
     }
     k.hash = Some(format!("calib_kinecal_{}", digest(&k.origins)));
-    let written = import_urdf(&ur_urdf(&k), file, Some("base_link"), Some("tool0"))?.robot;
-    // What the file cannot hold: the gains (slopes, couplings) one joint at a time, then the
-    // tool (with unit gains, the written chain matches the robot up to the last joint, so what
-    // remains is the fixed part after it), and all together.
-    let mut lost = Vec::new();
-    let push = |lost: &mut Vec<Lost>, what: String, (p, a): (f64, f64)| {
-        if p > 1e-12 || a > 1e-12 {
-            lost.push(Lost {
-                what,
-                position: p,
-                attitude: a,
-            });
-        }
-    };
-    let mut unit_gains = robot.clone();
-    for (j, joint) in robot.joints.iter().enumerate() {
-        if (joint.slope - 1.0).abs() > 1e-12 || joint.coupling.is_some() {
-            let mut without = robot.clone();
-            without.joints[j].slope = 1.0;
-            without.joints[j].coupling = None;
-            unit_gains.joints[j].slope = 1.0;
-            unit_gains.joints[j].coupling = None;
-            push(
-                &mut lost,
-                format!(
-                    "joint {} ({}) slope {}{}: the file has no gains",
-                    j + 1,
-                    JOINTS[j].1,
-                    joint.slope,
-                    if joint.coupling.is_some() {
-                        " and its coupling"
-                    } else {
-                        ""
-                    }
-                ),
-                deviation(robot, &without),
-            );
-        }
-    }
-    push(
-        &mut lost,
-        "tool correction (the flange and tool0 frames are fixed by the UR description; set it \
-         as the TCP on the controller)"
-            .into(),
-        deviation(&unit_gains, &written),
-    );
-    if !lost.is_empty() {
-        let all = deviation(robot, &written);
-        push(&mut lost, "all of the above together".into(), all);
-    }
     let mut text = String::from("kinematics:\n");
     for (j, (name, _, _)) in JOINTS.iter().enumerate() {
         let _ = writeln!(text, "  {name}:");
@@ -330,7 +418,39 @@ pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<(String, V
         }
     }
     let _ = writeln!(text, "  hash: {}", k.hash.as_deref().unwrap_or(""));
-    Ok((text, lost))
+    // Read back: the file as the importer reads it, the TCP after its tool0.
+    let written = import_ur(&text, file)?.robot;
+    let zero = vec![0.0; own.dof()];
+    let tcp = super::inverse(&Chain::new(&written).frame_at(&zero, Target::EndEffector))
+        .then(&Chain::new(&own).frame_at(&zero, Target::EndEffector));
+    let tcp = (tcp.translation.norm() > 1e-12
+        || crate::kinematics::log_so3(&tcp.rotation).norm() > 1e-12)
+        .then_some(tcp);
+    let scale = readback::unit_scale(&own, crate::units::Units::default());
+    let read_back = readback::compare(
+        &own,
+        &written,
+        &|v, out| {
+            for ((o, v), s) in out.iter_mut().zip(v).zip(&scale) {
+                *o = v * s;
+            }
+        },
+        tcp.as_ref(),
+    );
+    let lost = readback::gains_lost(
+        &own,
+        &|j| format!("joint {} ({})", j + 1, JOINTS[j].1),
+        &|_| false,
+    );
+    Ok(UrExport {
+        text,
+        read_back,
+        robot: own,
+        base,
+        sessions: robot.sessions.iter().map(|s| s.name.clone()).collect(),
+        tcp,
+        lost,
+    })
 }
 
 /// The `[roll, pitch, yaw]` of `r`: of its two ZYX solutions, the one nearer the file's own

@@ -10,14 +10,16 @@
 //!
 //! Export: each movable joint's `<origin>` is rewritten so that the URDF's forward kinematics is
 //! the calibrated one (joint offsets folded in); the first fixed joint after the last movable one
-//! takes the tool-frame correction. Everything else in the file (visuals, inertias, limits,
-//! comments, formatting) is kept byte for byte.
+//! takes the tool-frame correction; a joint without `<origin>` gets one. Everything else in the
+//! file (visuals, inertias, limits, comments, formatting, a byte-order mark) is kept byte for
+//! byte. The result is read back and compared with the robot ([`super::readback`]).
 
 use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{chain_from_frames, inverse, rotation_from_xz, ImportedJoint};
+use super::readback::{self, ReadBack, Tolerance};
+use super::{chain_from_frames, inverse, rotation_from_xz, ImportedJoint, Lost};
 use crate::error::{Error, Location, Result, Setting};
 use crate::kinematics::{euler_zyx, rot_zyx, Frame};
 use crate::robot::{JointKind, Robot};
@@ -45,6 +47,8 @@ pub struct UrdfChain {
     pub axis_frames: Vec<Matrix3<f64>>,
     /// Origin of every chain joint as in the file.
     pub origins: Vec<Frame>,
+    /// The base link.
+    pub base: String,
     /// The tip link.
     pub tip: String,
 }
@@ -83,8 +87,8 @@ pub fn import_urdf(
     tip: Option<&str>,
 ) -> Result<UrdfImport> {
     let index = super::xml::scan(text, file)?;
-    let urdf =
-        urdf_rs::read_from_string(text).map_err(|e| err(file, format!("not a valid URDF: {e}")))?;
+    let urdf = urdf_rs::read_from_string(text.strip_prefix('\u{feff}').unwrap_or(text))
+        .map_err(|e| err(file, format!("not a valid URDF: {e}")))?;
     // Every number of every joint is finite and of a plausible size (a metre is a metre).
     for j in &urdf.joints {
         let line = index.joint(&j.name).map(|s| s.line);
@@ -295,6 +299,7 @@ pub fn import_urdf(
             movable,
             axis_frames,
             origins,
+            base: base.to_string(),
             tip: tip.to_string(),
         },
     })
@@ -317,7 +322,9 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
     let mut w_frames = Vec::new(); // W_i: the frame the URDF joint must act in
     for (i, (link, joint)) in robot.links.iter().zip(&robot.joints).enumerate() {
         c = c.then(&Frame::from_link(link));
-        let unit_slope = 1.0; // URDF joint values are in rad / m
+        // URDF joint values are in rad / m: a reading of one robot file unit is one unit's
+        // worth of radians or metres.
+        let unit_slope = robot.units.factor(joint.kind.slope());
         if let Some(c) = joint.coupling {
             // A URDF joint value is one number per joint. The coupled convention (controller J3
             // measured from the horizontal, URDF joint 3 = J2 + J3) is exact when the coupling
@@ -343,7 +350,7 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
                 other: c.joint + 1,
             });
         }
-        if (joint.slope - unit_slope).abs() > 1e-12 {
+        if (joint.slope - unit_slope).abs() > 1e-12 * unit_slope {
             warnings.push(Warning::UrdfSlope {
                 joint: i + 1,
                 name: chain.movable[i].clone(),
@@ -490,21 +497,51 @@ pub fn rewrite_origins(text: &str, file: &str, origins: &[NewOrigin]) -> Result<
     Ok(out)
 }
 
+/// A URDF export: the text, its warnings, and what it reproduces of the robot.
+#[derive(Debug, Clone)]
+pub struct UrdfExport {
+    /// The URDF.
+    pub text: String,
+    /// What it cannot express, or added.
+    pub warnings: Vec<Warning>,
+    /// The text read back ([`import_urdf`], from the same base to the tip, or to the added
+    /// calibrated tool link) and compared with the robot: the URDF's joint values are the
+    /// readings in radians and metres (for a joint coupled by the sum convention, plus the other
+    /// joint's reading).
+    pub read_back: ReadBack,
+    /// What the URDF cannot hold (slopes other than 1), each with its deviation.
+    pub lost: Vec<Lost>,
+}
+
+impl UrdfExport {
+    /// `Ok` when the URDF reproduces `robot` within `tolerance`.
+    pub fn check(&self, robot: &Robot, tolerance: &Tolerance) -> Result<()> {
+        self.read_back.check(
+            tolerance,
+            robot.units,
+            "the URDF (its joint values are the readings: it cannot scale them)",
+            &self.lost,
+        )
+    }
+}
+
 /// Writes `robot` (calibrated) into the URDF `template`: the chain from `base` to `tip` is
 /// re-imported from the template to know its structure. Only origins change, except when the
 /// tip link is the child of the last movable joint: then a fixed joint `<tip>_calibrated_joint`
 /// and a link `<tip>_calibrated` are added after the tip, and that new link is the calibrated
-/// tool frame (a warning names it). Returns the new text and warnings.
+/// tool frame (a warning names it). A joint without an `<origin>` gets one; a byte-order mark
+/// is kept. The text is read back and compared with the robot ([`UrdfExport::read_back`]).
 pub fn export_urdf(
     robot: &Robot,
     template: &str,
     file: &str,
     base: Option<&str>,
     tip: Option<&str>,
-) -> Result<(String, Vec<Warning>)> {
+) -> Result<UrdfExport> {
     let imported = import_urdf(template, file, base, tip)?;
     let mut e = export_origins(robot, &imported.chain)?;
     let mut text = rewrite_origins(template, file, &e.origins)?;
+    let mut read_tip = imported.chain.tip.clone();
     if let Some(tool) = e.tool {
         let tip = &imported.chain.tip;
         let link = format!("{tip}_calibrated");
@@ -524,7 +561,44 @@ pub fn export_urdf(
             .robot_end
             .ok_or_else(|| err(file, "no </robot> to add the tool joint before"))?;
         text.insert_str(end, &block);
-        e.warnings.push(Warning::UrdfToolAdded { link });
+        e.warnings
+            .push(Warning::UrdfToolAdded { link: link.clone() });
+        read_tip = link;
     }
-    Ok((text, e.warnings))
+    let back = import_urdf(
+        &text,
+        &format!("{file} (as written)"),
+        Some(&imported.chain.base),
+        Some(&read_tip),
+    )?
+    .robot;
+    // The URDF's joint values: the readings in radians and metres, plus the other joint's for a
+    // joint coupled by the sum convention (the only coupling written).
+    let scale = readback::unit_scale(robot, Units::default());
+    let couplings: Vec<Option<usize>> = robot
+        .joints
+        .iter()
+        .map(|j| j.coupling.map(|c| c.joint))
+        .collect();
+    let read_back = readback::compare(
+        robot,
+        &back,
+        &|v, out| {
+            for (j, o) in out.iter_mut().enumerate() {
+                *o = v[j] * scale[j] + couplings[j].map_or(0.0, |k| v[k] * scale[j]);
+            }
+        },
+        None,
+    );
+    let lost = readback::gains_lost(
+        robot,
+        &|j| format!("joint {} (`{}`)", j + 1, imported.chain.movable[j]),
+        &|_| true,
+    );
+    Ok(UrdfExport {
+        text,
+        warnings: e.warnings,
+        read_back,
+        lost,
+    })
 }

@@ -67,7 +67,14 @@ pub fn scan(text: &str, file: &str) -> Result<Index> {
             ),
         ));
     }
-    let mut reader = Reader::from_str(text);
+    // A byte-order mark is not XML: the parser reads what follows it, and every position
+    // found is moved past it, so that spans index `text` itself.
+    let bom = if text.starts_with('\u{feff}') {
+        '\u{feff}'.len_utf8()
+    } else {
+        0
+    };
+    let mut reader = Reader::from_str(&text[bom..]);
     reader.config_mut().check_end_names = true;
     let mut depth = 0usize;
     // The element names from the root down, and the joint being read (index into `joints`).
@@ -77,14 +84,14 @@ pub fn scan(text: &str, file: &str) -> Result<Index> {
     let mut origin_start: Option<usize> = None;
     let mut robot_end = None;
     loop {
-        let before = reader.buffer_position() as usize;
+        let before = bom + reader.buffer_position() as usize;
         let event = reader.read_event().map_err(|e| {
             Error::input(
-                at(reader.error_position() as usize),
+                at(bom + reader.error_position() as usize),
                 format!("not well-formed XML: {e}"),
             )
         })?;
-        let after = reader.buffer_position() as usize;
+        let after = bom + reader.buffer_position() as usize;
         match event {
             Event::Start(ref e) | Event::Empty(ref e) => {
                 let empty = matches!(event, Event::Empty(_));
