@@ -4,10 +4,10 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Result};
-use kinecal::files::{detect_format, parse_postures, write_measurements, write_postures};
+use kinecal::files::{detect_format, parse_postures};
 use kinecal::identifiability::{fmt_sig, AnalysisOptions};
 use kinecal::kinematics::Target;
-use kinecal::observe::{Dataset, Observation};
+use kinecal::observe::Dataset;
 use kinecal::plan::{candidates, plan, Criterion, Plan, PlanRequest};
 use kinecal::source::Source;
 use kinecal::workflow::Selection;
@@ -174,27 +174,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     }
     let p = plan(&req)?;
 
-    let chosen_postures: Vec<kinecal::Posture> = p
-        .postures
-        .iter()
-        .filter(|q| q.candidate.is_some())
-        .map(|q| kinecal::Posture {
-            label: q.label.clone(),
-            readings: q.readings.clone(),
-            session: None,
-        })
-        .collect();
-    let points_only = p
-        .chosen
-        .observations
-        .iter()
-        .all(|o| matches!(o, Observation::Pose(_) | Observation::Position(_)));
-    let (csv, written) = match origin {
-        Origin::Observations if points_only => {
-            (write_measurements(robot, &p.chosen), "measurements")
-        }
-        _ => (write_postures(robot, &chosen_postures), "postures"),
-    };
+    let (csv, written) = p.chosen_file(robot, matches!(origin, Origin::Observations));
     let mut staged = output::Staged::new();
     staged.text(&a.out, &csv)?;
     if let Some(path) = &a.html {
@@ -210,7 +190,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     }
     eprintln!(
         "wrote the {} chosen {written} to {}{}",
-        chosen_postures.len(),
+        p.postures.iter().filter(|q| q.candidate.is_some()).count(),
         a.out.display(),
         a.html
             .as_ref()

@@ -4,7 +4,6 @@
 //! arrays and Python values, one key per field of the result class.
 
 use kinecal::compensate::{Compensator, Goal, NominalSeeds, Options};
-use kinecal::files::{write_measurements, write_postures};
 use kinecal::identifiability::AnalysisOptions;
 use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::observe::{Dataset, Observation};
@@ -437,26 +436,7 @@ pub fn plan<'py>(
     };
     let p = py.detach(|| choose(&req)).map_err(|e| error(py, e))?;
     // What `kinecal plan --out` writes.
-    let chosen_postures: Vec<Posture> = p
-        .postures
-        .iter()
-        .filter(|q| q.candidate.is_some())
-        .map(|q| Posture {
-            label: q.label.clone(),
-            readings: q.readings.clone(),
-            session: None,
-        })
-        .collect();
-    let points_only = p
-        .chosen
-        .observations
-        .iter()
-        .all(|o| matches!(o, Observation::Pose(_) | Observation::Position(_)));
-    let csv = if observed && points_only {
-        write_measurements(r, &p.chosen)
-    } else {
-        write_postures(r, &chosen_postures)
-    };
+    let (csv, _) = p.chosen_file(r, observed);
     let d = PyDict::new(py);
     d.set_item("criterion", p.criterion.as_str())?;
     d.set_item("value", p.value)?;

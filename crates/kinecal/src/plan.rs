@@ -434,6 +434,37 @@ pub fn plan_schema() -> String {
     serde_json::to_string_pretty(&schema).expect("a schema is JSON") + "\n"
 }
 
+impl Plan {
+    /// The file of the postures to measure, for `robot`: the chosen candidates' observations as
+    /// a measurement file when the pool was measured observations of poses and positions only
+    /// (`observed`), else their postures as a postures file. Returns the text and what it is
+    /// (`measurements` or `postures`).
+    pub fn chosen_file(&self, robot: &Robot, observed: bool) -> (String, &'static str) {
+        let points_only = self
+            .chosen
+            .observations
+            .iter()
+            .all(|o| matches!(o, Observation::Pose(_) | Observation::Position(_)));
+        if observed && points_only {
+            return (
+                crate::files::write_measurements(robot, &self.chosen),
+                "measurements",
+            );
+        }
+        let chosen: Vec<Posture> = self
+            .postures
+            .iter()
+            .filter(|q| q.candidate.is_some())
+            .map(|q| Posture {
+                label: q.label.clone(),
+                readings: q.readings.clone(),
+                session: None,
+            })
+            .collect();
+        (crate::files::write_postures(robot, &chosen), "postures")
+    }
+}
+
 /// Observations at `postures` of the given `targets` (the end effector and sites), full poses
 /// or positions only, with the values the `robot` predicts: a pool of candidates or a plan to
 /// measure.
