@@ -904,7 +904,11 @@ impl DhExport {
             out.push(format!(
                 "fixed rows: {}",
                 [
-                    base.then_some("the base (the first DH frame is not the robot's global frame)"),
+                    base.then_some(
+                        "the base (the first DH frame is not the robot's global frame; for a \
+                         robot calibrated in an instrument's frame it holds where the instrument \
+                         saw the robot)",
+                    ),
                     tool.then_some("the tool (the tool frame is not a DH frame of the last joint)"),
                 ]
                 .into_iter()

@@ -10,7 +10,7 @@
 use std::fmt::Write as _;
 
 use super::readback::{self, ReadBack, Tolerance};
-use super::{deviation, Lost};
+use super::Lost;
 use crate::error::{Error, Location, Result};
 use crate::robot::Robot;
 
@@ -69,7 +69,7 @@ pub fn joint_table(calibrated: &Robot, nominal: &Robot) -> Result<JointTableExpo
     }
     let applied = apply_joint_table(nominal, &text, "<the joint table written>", u)?;
     let read_back = readback::compare(calibrated, &applied, &|v, out| out.copy_from_slice(v), None);
-    let (p, a) = deviation(calibrated, &applied);
+    let (p, a) = (read_back.position, read_back.attitude);
     let lost = (p > 1e-12 || a > 1e-12).then(|| Lost {
         what: "link and tool changes (a joint table holds only offsets and slopes)".into(),
         position: p,

@@ -248,8 +248,8 @@ pub fn compare(
 /// What an export that takes the readings as its joint values (slope 1 in the robot file's
 /// units, no coupling) cannot hold of `robot`: each joint with another slope or a coupling
 /// (`joint 2 slope 1.001 deg/unit`, the joint named by `names`), with the deviation at the tool
-/// that joint alone causes. `skip_coupling(j)` says a joint's coupling is written (a URDF's sum
-/// convention).
+/// that joint alone causes over the same postures ([`postures`]). `skip_coupling(j)` says a
+/// joint's coupling is written (a URDF's sum convention).
 pub fn gains_lost(
     robot: &Robot,
     names: &dyn Fn(usize) -> String,
@@ -271,7 +271,8 @@ pub fn gains_lost(
                 c.factor = unit;
             }
         }
-        let (p, a) = super::deviation(robot, &without);
+        let alone = compare(robot, &without, &|v, out| out.copy_from_slice(v), None);
+        let (p, a) = (alone.position, alone.attitude);
         lost.push(Lost {
             what: format!(
                 "{} slope {} {}{}",

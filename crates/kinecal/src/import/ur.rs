@@ -323,23 +323,31 @@ impl UrExport {
         match &self.tcp {
             Some(t) => {
                 let p = pose_vector(t);
+                // Fixed decimals, without a sign on a value that rounds to zero.
+                let fixed = |v: f64, d: usize| {
+                    let s = format!("{v:.d$}");
+                    match s.strip_prefix('-') {
+                        Some(u) if u.chars().all(|c| c == '0' || c == '.') => u.to_string(),
+                        _ => s,
+                    }
+                };
+                let (mm, rad) = (|v: f64| fixed(v * 1e3, 6), |v: f64| fixed(v, 9));
                 format!(
                     "TCP to enter on the controller (Installation > General > TCP, in the tool \
-                     flange frame tool0): X {:.6} mm, Y {:.6} mm, Z {:.6} mm, RX {:.9} rad, RY \
-                     {:.9} rad, RZ {:.9} rad (rotation vector); in URScript: set_tcp(p[{:.9}, \
-                     {:.9}, {:.9}, {:.9}, {:.9}, {:.9}])",
-                    p[0] * 1e3,
-                    p[1] * 1e3,
-                    p[2] * 1e3,
-                    p[3],
-                    p[4],
-                    p[5],
-                    p[0],
-                    p[1],
-                    p[2],
-                    p[3],
-                    p[4],
-                    p[5]
+                     flange frame tool0): X {} mm, Y {} mm, Z {} mm, RX {} rad, RY {} rad, RZ {} \
+                     rad (rotation vector); in URScript: set_tcp(p[{}, {}, {}, {}, {}, {}])",
+                    mm(p[0]),
+                    mm(p[1]),
+                    mm(p[2]),
+                    rad(p[3]),
+                    rad(p[4]),
+                    rad(p[5]),
+                    rad(p[0]),
+                    rad(p[1]),
+                    rad(p[2]),
+                    rad(p[3]),
+                    rad(p[4]),
+                    rad(p[5])
                 )
             }
             None => {
