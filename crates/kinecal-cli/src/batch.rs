@@ -247,9 +247,14 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
             None => false,
         };
         let text = toml_edit::DocumentMut::from(table).to_string();
+        // The row's failure is said after `at` (the manifest and the robot): the message only
+        // (a line would count in the merged table, not in the manifest).
         let job = CalibrationSpec::from_toml(&text, &at)
             .map(|s| s.rebased(dir))
-            .map_err(|e| e.to_string());
+            .map_err(|e| match e {
+                kinecal::Error::Input { message, .. } => message,
+                e => e.to_string(),
+            });
         entries.push(Entry {
             serial,
             at,

@@ -2434,6 +2434,11 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
             "`serial` is required",
         ),
         (
+            "m8.toml",
+            "[[robots]]\nserial = \"A\"\nrobot = \"ge-a4\"\nsolver = { method = \"xx\" }\n",
+            "fleet/m8.toml: robot 1 (A): unknown variant `xx`",
+        ),
+        (
             "m7.toml",
             "[[robot]]\nserial = \"A\"\nrobot = \"ge-a4\"\n",
             "`[[robot]]` tables with `options` are no longer read",

@@ -240,10 +240,34 @@ fn rebase_robot(base: &Path, name: &str) -> String {
 }
 
 impl CalibrationSpec {
-    /// A spec read from TOML `text` (named `file` in errors): unknown keys and wrong types are
-    /// errors with the line.
+    /// Refuses a number that is not finite (TOML and JSON readers accept `nan` and `inf`),
+    /// naming its key.
+    fn finite(self, file: &str) -> Result<CalibrationSpec> {
+        let v = &self.validation;
+        let r = &self.residuals;
+        for (key, value) in [
+            ("selection.prune", self.selection.prune),
+            ("solver.rcond", self.solver.rcond),
+            ("residuals.huber_scale", r.huber_scale),
+            ("residuals.weights.length", r.weights.length),
+            ("residuals.weights.angle", r.weights.angle),
+            ("residuals.outlier_sigma", r.outlier_sigma),
+            ("validation.holdout", v.holdout),
+        ] {
+            if let Some(x) = value.filter(|x| !x.is_finite()) {
+                return Err(Error::input(
+                    Location::file(file).with_field(key),
+                    format!("expected a finite number, not {x}"),
+                ));
+            }
+        }
+        Ok(self)
+    }
+
+    /// A spec read from TOML `text` (named `file` in errors): unknown keys, wrong types and
+    /// numbers that are not finite are errors with the line or the key.
     pub fn from_toml(text: &str, file: &str) -> Result<CalibrationSpec> {
-        toml_edit::de::from_str(text).map_err(|e| {
+        let spec: CalibrationSpec = toml_edit::de::from_str(text).map_err(|e| {
             let line = e
                 .span()
                 .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
@@ -253,7 +277,8 @@ impl CalibrationSpec {
                 field: None,
             };
             Error::input(loc, e.message().trim().to_string())
-        })
+        })?;
+        spec.finite(file)
     }
 
     /// Reads a spec file; its relative paths are made relative to the working folder (joined
@@ -276,14 +301,15 @@ impl CalibrationSpec {
 
     /// A spec read from JSON `text` (the same document as the TOML file).
     pub fn from_json(text: &str, file: &str) -> Result<CalibrationSpec> {
-        serde_json::from_str(text).map_err(|e| {
+        let spec: CalibrationSpec = serde_json::from_str(text).map_err(|e| {
             let loc = Location {
                 file: file.to_string(),
                 line: Some(e.line()),
                 field: None,
             };
             Error::input(loc, e.to_string())
-        })
+        })?;
+        spec.finite(file)
     }
 
     /// The same spec with every relative path taken relative to `base` (the folder of the
@@ -733,6 +759,13 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("estimat") && e.contains("estimate"), "{e}");
+        let e = CalibrationSpec::from_toml("robot = \"r\"\n[validation]\nholdout = nan\n", "j")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("validation.holdout") && e.contains("finite"),
+            "{e}"
+        );
         let e = CalibrationSpec::from_toml("[solver]\n", "j")
             .unwrap_err()
             .to_string();

@@ -419,6 +419,43 @@ fn report_json() {
     });
 }
 
+/// The calibration spec reader: a spec file, mutated, is read or refused with the file named;
+/// what is read writes back to a spec that reads the same.
+#[test]
+fn spec_toml() {
+    let seed = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/fleet/a4-0042.toml"),
+    )
+    .unwrap();
+    let full = kinecal::spec::CalibrationSpec {
+        robot: "ge-a4".into(),
+        observations: vec![kinecal::files::ObservationFile::new("d.csv")],
+        validation: kinecal::spec::ValidationSpec {
+            folds: Some(3),
+            choose: Some(vec!["identifiable".into()]),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let seeds = vec![seed, full.to_toml().into_bytes()];
+    fuzz("spec_toml", "job.toml", &seeds, &|b| {
+        let t = match read_text(b, "job.toml") {
+            Ok(t) => t,
+            Err(o) => return o,
+        };
+        match kinecal::spec::CalibrationSpec::from_toml(&t, "job.toml") {
+            Ok(spec) => Outcome::Accepted(
+                match kinecal::spec::CalibrationSpec::from_toml(&spec.to_toml(), "again") {
+                    Ok(again) if again == spec => Ok(()),
+                    Ok(_) => Err("written back, it reads differently".into()),
+                    Err(e) => Err(format!("written back, it is refused: {e}")),
+                },
+            ),
+            Err(e) => Outcome::Refused(e.to_string()),
+        }
+    });
+}
+
 /// Property: any random robot (1-7 joints of random kinds, couplings, sites, planes, joint
 /// ranges, every unit combination) is written and read back with the same parameters, to 8
 /// ulps (the writer rounds to 15 significant digits when that is within 4 ulps of the file
