@@ -205,7 +205,8 @@ pub struct FkArgs {
     /// Robot file (TOML) or built-in robot name.
     #[arg(long)]
     pub robot: String,
-    /// Postures file: CSV `posture,v1,...,vn` (a measurement file also works).
+    /// Postures file: CSV `posture,v1,...,vn` (a measurement file, or what `kinecal compensate`
+    /// writes, also works).
     #[arg(long)]
     pub postures: PathBuf,
     /// Write the poses here instead of standard output.
@@ -889,9 +890,37 @@ pub struct CompensateArgs {
     /// default 0.5 rad).
     #[arg(long, value_name = "ANGLE")]
     pub branch: Option<f64>,
+    /// The configuration Cartesian targets must be in: `shoulder=front|back`, `elbow=up|down`,
+    /// `wrist=noflip|flip` (any of them, comma-separated; an arm of six revolute joints), or a
+    /// sign pattern of the joint values, one of `+`, `-`, `*` per joint (`+,*,-,*,+,*`).
+    #[arg(long, value_name = "SPEC")]
+    pub configuration: Option<String>,
+    /// What to write: `table` (the readings with each row's remaining errors and flags),
+    /// `urscript` (a UR program of movej), or a controller's joint targets: `joints-ur` (rad),
+    /// `joints-abb`, `joints-kuka`, `joints-fanuc` (deg). A controller program is written only
+    /// when no row is flagged.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    pub format: OutputFormat,
     /// The file to write.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+}
+
+/// What `kinecal compensate` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OutputFormat {
+    /// The readings with each row's remaining errors and flags.
+    Table,
+    /// A URScript program: one movej per row.
+    Urscript,
+    /// Joint targets in UR's convention (rad).
+    JointsUr,
+    /// Joint targets in ABB's convention (deg).
+    JointsAbb,
+    /// Joint targets in KUKA's convention (deg).
+    JointsKuka,
+    /// Joint targets in FANUC's convention (deg).
+    JointsFanuc,
 }
 
 /// `kinecal batch`.

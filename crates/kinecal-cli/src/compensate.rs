@@ -1,25 +1,40 @@
 //! `kinecal compensate`: programs and targets through the calibrated model, row by row.
 
-use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
-use kinecal::compensate::{Compensator, Goal, NominalSeeds, Options, Solved};
+use kinecal::compensate::{Compensator, Configuration, Goal, Options, Solved, TargetSearch};
+use kinecal::files::controller::{joint_field, urscript_begin, urscript_end, urscript_move, Brand};
 use kinecal::identifiability::fmt_sig;
 use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::units::Quantity;
 use nalgebra::Vector3;
 
-use crate::args::CompensateArgs;
+use crate::args::{CompensateArgs, OutputFormat};
 use crate::stream::{cell, Rows};
 use crate::{load_robot, output, parse_spec, spec_value, EXIT_IMPLAUSIBLE};
+
+/// Columns of a measurement file that do not say where to go (read past when one is the
+/// targets).
+const MEASUREMENT_EXTRAS: [&str; 6] = [
+    "sigma_position",
+    "sigma_angle",
+    "sigma_x",
+    "sigma_y",
+    "sigma_z",
+    "session",
+];
 
 /// What the input file holds.
 enum Kind {
     /// `posture,v1..vn`.
     Program { readings: Vec<usize> },
-    /// `target,x,y,z[,alpha,beta,gamma][,v1..vn]`.
+    /// `target[,site],x,y,z[,alpha,beta,gamma][,v1..vn]`, or a measurement file
+    /// (`posture[,site],v1..vn,x,y,z[,alpha,beta,gamma]`, its standard deviations and session
+    /// ignored).
     Targets {
+        label: usize,
+        site: Option<usize>,
         xyz: [usize; 3],
         euler: Option<[usize; 3]>,
         seed: Option<Vec<usize>>,
@@ -39,12 +54,15 @@ fn kind(rows: &Rows, dof: usize) -> Result<Kind> {
             .iter()
             .find(|h| !(extra.contains(&h.as_str()) || reading(h)))
     };
-    if let Some(label) = rows.column("target") {
-        let _ = label;
+    let label = rows.column("target").or_else(|| rows.column("posture"));
+    if let (Some(label), true) = (
+        label,
+        rows.column("x").is_some() || rows.column("target").is_some(),
+    ) {
         let (Some(x), Some(y), Some(z)) = (rows.column("x"), rows.column("y"), rows.column("z"))
         else {
             bail!(
-                "{}:1: a targets file needs the columns target,x,y,z (and optionally \
+                "{}:1: a targets file needs the columns target,x,y,z (and optionally site, \
                  alpha,beta,gamma and seed readings v1..v{dof})",
                 rows.file
             );
@@ -58,7 +76,19 @@ fn kind(rows: &Rows, dof: usize) -> Result<Kind> {
             (None, None, None) => None,
             _ => bail!("{}:1: give all of alpha,beta,gamma or none", rows.file),
         };
-        if let Some(h) = known(&["target", "x", "y", "z", "alpha", "beta", "gamma"]) {
+        let measured = rows.header[label] == "posture";
+        if measured && readings.is_none() {
+            bail!(
+                "{}:1: a measurement file as targets needs its readings v1..v{dof} (the seeds)",
+                rows.file
+            );
+        }
+        let ignored: &[&str] = if measured { &MEASUREMENT_EXTRAS } else { &[] };
+        let mut allowed = vec![
+            "target", "posture", "site", "x", "y", "z", "alpha", "beta", "gamma",
+        ];
+        allowed.extend(ignored);
+        if let Some(h) = known(&allowed) {
             bail!("{}:1: unexpected column `{h}` in a targets file", rows.file);
         }
         let any_v = rows.header.iter().any(|h| h.starts_with('v'));
@@ -69,6 +99,8 @@ fn kind(rows: &Rows, dof: usize) -> Result<Kind> {
             );
         }
         return Ok(Kind::Targets {
+            label,
+            site: rows.column("site"),
             xyz: [x, y, z],
             euler,
             seed: readings,
@@ -102,25 +134,30 @@ struct Tally {
     out_of_range: usize,
     singular: usize,
     branch: usize,
+    configuration: usize,
     worst_position: f64,
     worst_attitude: f64,
+    /// The first flagged row's label and flags.
+    first_flagged: (String, String),
 }
 
 impl Tally {
-    fn add(&mut self, s: &Solved, reached_only: bool) {
+    fn add(&mut self, s: &Solved, label: &str) {
         self.rows += 1;
         let f = &s.flags;
         if f.any() {
+            if self.flagged == 0 {
+                self.first_flagged = (label.to_string(), f.describe());
+            }
             self.flagged += 1;
         }
+        self.configuration += f.configuration as usize;
         self.unreachable += f.unreachable as usize;
         self.out_of_range += (f.out_of_range != 0) as usize;
         self.singular += f.singular as usize;
         self.branch += f.branch as usize;
-        if !reached_only || !f.unreachable {
-            self.worst_position = self.worst_position.max(s.position_error);
-            self.worst_attitude = self.worst_attitude.max(s.attitude_error.unwrap_or(0.0));
-        }
+        self.worst_position = self.worst_position.max(s.position_error);
+        self.worst_attitude = self.worst_attitude.max(s.attitude_error.unwrap_or(0.0));
     }
 }
 
@@ -153,7 +190,7 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
         }
         options.branch = units.to_si(Quantity::Angle, b);
     }
-    let target = crate::target_named(&nominal, &a.site, "--site")?;
+    let default_target = crate::target_named(&nominal, &a.site, "--site")?;
     let mut comp = Compensator::new(&calibrated, &nominal, options)
         .map_err(|e| anyhow!("--robot {} and --nominal {}: {e}", a.robot, a.nominal))?;
     let dof = nominal.dof();
@@ -162,29 +199,37 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
     if a.position_only && matches!(kind, Kind::Targets { .. }) {
         bail!("--position-only is for programs; a target without alpha,beta,gamma is a position");
     }
-    let mut seeds = NominalSeeds::new(&nominal, options)
-        .map_err(|e| anyhow!("--nominal {}: {e}", a.nominal))?;
+    let mut search = TargetSearch::new(&calibrated, &nominal, options)
+        .map_err(|e| anyhow!("--robot {}: {e}", a.robot))?;
+    if let Some(c) = &a.configuration {
+        if matches!(kind, Kind::Program { .. }) {
+            bail!("--configuration is for Cartesian targets; a program's readings keep their own");
+        }
+        let c = Configuration::parse(c)?;
+        search = search.with_configuration(c)?;
+    }
+    let mut program = ProgramFormat::new(a.format, &nominal, &a.input)?;
     let mut tally = Tally::default();
     let mut staged = output::Staged::new();
     let l = |v: f64| units.from_si(Quantity::Length, v);
     let an = |v: f64| units.from_si(Quantity::Angle, v);
+    // A target farther than this from the base is a length-unit mistake, not a flag.
+    let far = 10.0 * nominal.reach().max(1e-3)
+        + Vector3::new(nominal.links[0].x, nominal.links[0].y, nominal.links[0].z).norm();
     staged.by_path(&a.out, |tmp| {
-        let file = std::fs::File::create(tmp)?;
-        let mut w = csv::Writer::from_writer(std::io::BufWriter::new(file));
-        let first = match kind {
-            Kind::Program { .. } => "posture",
-            Kind::Targets { .. } => "target",
+        let file = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+        let mut w = program.sink(file);
+        let (first, site_column) = match &kind {
+            Kind::Program { .. } => ("posture", false),
+            Kind::Targets { label, site, .. } => (rows.header[*label].as_str(), site.is_some()),
         };
-        let mut header = vec![first.to_string()];
-        header.extend((1..=dof).map(|j| format!("v{j}")));
-        header
-            .extend(["position_error", "attitude_error", "iterations", "flags"].map(String::from));
-        w.write_record(&header)?;
+        let first = first.to_string();
+        program.begin(&mut w, &first, site_column)?;
         let mut out = vec![0.0; dof];
         let mut seed = vec![0.0; dof];
-        let mut fields: Vec<String> = Vec::with_capacity(dof + 5);
+        let mut fields: Vec<String> = Vec::with_capacity(dof + 6);
         while let Some(line) = rows.advance()? {
-            let (label, solved) = match &kind {
+            let (label, site, solved) = match &kind {
                 Kind::Program { readings } => {
                     for (s, &c) in seed.iter_mut().zip(readings) {
                         *s = cell(&rows, line, c)?;
@@ -192,25 +237,61 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                     let col = rows.column("posture").expect("checked");
                     (
                         rows.field(col).to_string(),
-                        comp.program(&seed, target, a.position_only, &mut out),
+                        None,
+                        comp.program(&seed, default_target, a.position_only, &mut out),
                     )
                 }
                 Kind::Targets {
+                    label,
+                    site,
                     xyz,
                     euler,
                     seed: cols,
                 } => {
-                    let col = rows.column("target").expect("checked");
+                    let target = match site {
+                        Some(c) => crate::target_named(&nominal, rows.field(*c), "site")
+                            .map_err(|e| anyhow!("{}:{line}: {e}", rows.file))?,
+                        None => default_target,
+                    };
                     let mut v = [0.0; 3];
                     for (k, &c) in xyz.iter().enumerate() {
                         v[k] = units.to_si(Quantity::Length, cell(&rows, line, c)?);
                     }
                     let p = Vector3::from(v);
+                    let base =
+                        Vector3::new(nominal.links[0].x, nominal.links[0].y, nominal.links[0].z);
+                    if (p - base).norm() > far {
+                        bail!(
+                            "{}:{line}: target {} lies {} {} from the robot's base, more than 10 \
+                             times its reach ({} {}): are the positions in {} (the robot file's \
+                             length unit)?",
+                            rows.file,
+                            rows.field(*label),
+                            fmt_sig(l((p - base).norm())),
+                            units.length.as_str(),
+                            fmt_sig(l(nominal.reach())),
+                            units.length.as_str(),
+                            units.length.as_str()
+                        );
+                    }
+                    // A measurement file's position rows leave the three angles empty.
+                    let euler = euler.filter(|e| e.iter().any(|&c| !rows.field(c).is_empty()));
                     let goal = match euler {
                         Some(e) => {
                             let mut r = [0.0; 3];
                             for (k, &c) in e.iter().enumerate() {
-                                r[k] = units.to_si(Quantity::Angle, cell(&rows, line, c)?);
+                                let x = cell(&rows, line, c)?;
+                                r[k] = units.to_si(Quantity::Angle, x);
+                                if r[k].abs() > std::f64::consts::TAU + 1e-9 {
+                                    bail!(
+                                        "{}:{line}: {} = {x} {} is more than a turn: are the \
+                                         attitudes in {} (the robot file's angle unit)?",
+                                        rows.file,
+                                        rows.header[c],
+                                        units.angle.as_str(),
+                                        units.angle.as_str()
+                                    );
+                                }
                             }
                             Goal::Pose(Frame {
                                 rotation: rot_zyx(r[0], r[1], r[2]),
@@ -219,56 +300,46 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                         }
                         None => Goal::Position(p),
                     };
-                    match cols {
+                    let given = match cols {
                         Some(cols) => {
                             for (s, &c) in seed.iter_mut().zip(cols) {
                                 *s = cell(&rows, line, c)?;
                             }
+                            Some(seed.as_slice())
                         }
-                        // The nominal model's solution nearest the previous row's (the middle
-                        // of the ranges for the first): what the controller would command.
-                        None => seeds.seed(&goal, target, &mut seed),
-                    }
-                    let s = comp.solve(&goal, target, &seed, &mut out);
-                    if !s.flags.unreachable {
-                        seeds.accept(&out);
-                    }
-                    (rows.field(col).to_string(), s)
+                        None => None,
+                    };
+                    let s = search.solve(&goal, target, given, &mut out);
+                    (
+                        rows.field(*label).to_string(),
+                        site.map(|c| rows.field(c).to_string()),
+                        s,
+                    )
                 }
             };
-            tally.add(&solved, false);
-            fields.clear();
-            fields.push(label);
-            fields.extend(out.iter().map(|v| v.to_string()));
-            fields.push(format!("{:.6e}", l(solved.position_error)));
-            fields.push(
-                solved
-                    .attitude_error
-                    .map_or(String::new(), |e| format!("{:.6e}", an(e))),
-            );
-            fields.push(solved.iterations.to_string());
-            fields.push(solved.flags.describe());
-            w.write_record(&fields)?;
+            tally.add(&solved, &label);
+            program.row(&mut w, &mut fields, &label, site, &out, &solved, l, an)?;
         }
-        w.flush()?;
-        let mut inner = w.into_inner().map_err(|e| anyhow!("{e}"))?;
-        inner.flush()?;
-        Ok(())
+        program.end(&mut w)?;
+        w.finish()
     })?;
     if tally.rows == 0 {
         bail!("{}: no rows", rows.file);
     }
-    staged.commit()?;
-    eprintln!(
-        "compensated {} rows into {}: {} flagged ({} unreachable, {} outside a joint range, {} \
-         near a singularity, {} changing configuration); largest remaining error {} {}{}",
+    let summary = format!(
+        "{} rows: {} flagged ({} unreachable, {} outside a joint range, {} near a singularity, \
+         {} changing configuration{}); largest remaining error {} {}{}",
         tally.rows,
-        a.out.display(),
         tally.flagged,
         tally.unreachable,
         tally.out_of_range,
         tally.singular,
         tally.branch,
+        if search.configuration().is_some() {
+            format!(", {} not in the configuration", tally.configuration)
+        } else {
+            String::new()
+        },
         fmt_sig(l(tally.worst_position)),
         units.length.as_str(),
         if tally.worst_attitude > 0.0 {
@@ -281,9 +352,183 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
             String::new()
         }
     );
+    if program.is_controller() && tally.flagged > 0 {
+        // A controller program with a row left out or wrong moves the robot somewhere else.
+        drop(staged);
+        eprintln!(
+            "compensated {summary}\nnothing written to {}: a controller program needs every row \
+             usable (first flagged: {} {}: {}); --format table writes every row with its flags",
+            a.out.display(),
+            if matches!(kind, Kind::Program { .. }) {
+                "posture"
+            } else {
+                "target"
+            },
+            tally.first_flagged.0,
+            tally.first_flagged.1
+        );
+        return Ok(EXIT_IMPLAUSIBLE);
+    }
+    staged.commit()?;
+    eprintln!("compensated {summary} into {}", a.out.display());
     Ok(if tally.flagged > 0 {
         EXIT_IMPLAUSIBLE
     } else {
         0
     })
+}
+
+/// Where the rows go: a CSV table or a program's text.
+enum Sink<W: std::io::Write> {
+    Csv(csv::Writer<W>),
+    Text(W),
+}
+
+impl<W: std::io::Write> Sink<W> {
+    fn record(&mut self, fields: &[String]) -> Result<()> {
+        match self {
+            Sink::Csv(w) => w.write_record(fields)?,
+            Sink::Text(_) => unreachable!("a program is text"),
+        }
+        Ok(())
+    }
+
+    fn text(&mut self, text: &str) -> Result<()> {
+        match self {
+            Sink::Text(w) => w.write_all(text.as_bytes())?,
+            Sink::Csv(_) => unreachable!("a table is CSV"),
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<()> {
+        let mut inner = match self {
+            Sink::Csv(w) => w.into_inner().map_err(|e| anyhow!("{e}"))?,
+            Sink::Text(w) => w,
+        };
+        inner.flush()?;
+        Ok(())
+    }
+}
+
+/// How the rows are written.
+struct ProgramFormat<'r> {
+    format: OutputFormat,
+    robot: &'r kinecal::Robot,
+    source: String,
+    brand: Option<Brand>,
+    joints: Vec<f64>,
+}
+
+impl<'r> ProgramFormat<'r> {
+    fn new(format: OutputFormat, robot: &'r kinecal::Robot, input: &Path) -> Result<Self> {
+        let brand = match format {
+            OutputFormat::Table => None,
+            OutputFormat::Urscript | OutputFormat::JointsUr => Some(Brand::Ur),
+            OutputFormat::JointsAbb => Some(Brand::Abb),
+            OutputFormat::JointsKuka => Some(Brand::Kuka),
+            OutputFormat::JointsFanuc => Some(Brand::Fanuc),
+        };
+        if let Some(b) = brand {
+            b.columns(robot)?;
+        }
+        Ok(ProgramFormat {
+            format,
+            robot,
+            source: input.display().to_string(),
+            brand,
+            joints: vec![0.0; robot.dof()],
+        })
+    }
+
+    fn sink<W: std::io::Write>(&self, w: W) -> Sink<W> {
+        if self.format == OutputFormat::Urscript {
+            Sink::Text(w)
+        } else {
+            Sink::Csv(csv::Writer::from_writer(w))
+        }
+    }
+
+    fn is_controller(&self) -> bool {
+        self.format != OutputFormat::Table
+    }
+
+    fn begin<W: std::io::Write>(&self, w: &mut Sink<W>, first: &str, site: bool) -> Result<()> {
+        let dof = self.robot.dof();
+        let mut header = vec![first.to_string()];
+        match (self.format, self.brand) {
+            (OutputFormat::Table, _) => {
+                if site {
+                    header.push("site".into());
+                }
+                header.extend((1..=dof).map(|j| format!("v{j}")));
+                header.extend(
+                    ["position_error", "attitude_error", "iterations", "flags"].map(String::from),
+                );
+            }
+            (OutputFormat::Urscript, _) => {
+                return w.text(&urscript_begin(self.robot, &self.source));
+            }
+            (_, Some(brand)) => {
+                if site {
+                    header.push("site".into());
+                }
+                header.extend(brand.columns(self.robot)?);
+            }
+            (_, None) => unreachable!("every controller format has a brand"),
+        }
+        w.record(&header)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn row<W: std::io::Write>(
+        &mut self,
+        w: &mut Sink<W>,
+        fields: &mut Vec<String>,
+        label: &str,
+        site: Option<String>,
+        out: &[f64],
+        solved: &Solved,
+        l: impl Fn(f64) -> f64,
+        an: impl Fn(f64) -> f64,
+    ) -> Result<()> {
+        fields.clear();
+        fields.push(label.to_string());
+        match (self.format, self.brand) {
+            (OutputFormat::Table, _) => {
+                fields.extend(site);
+                fields.extend(out.iter().map(|v| v.to_string()));
+                fields.push(format!("{:.6e}", l(solved.position_error)));
+                fields.push(
+                    solved
+                        .attitude_error
+                        .map_or(String::new(), |e| format!("{:.6e}", an(e))),
+                );
+                fields.push(solved.iterations.to_string());
+                fields.push(solved.flags.describe());
+            }
+            (OutputFormat::Urscript, _) => {
+                Brand::Ur.values(self.robot, out, &mut self.joints);
+                let text = match site {
+                    Some(s) => format!("{label} ({s})"),
+                    None => label.to_string(),
+                };
+                return w.text(&urscript_move(&text, &self.joints));
+            }
+            (_, Some(brand)) => {
+                brand.values(self.robot, out, &mut self.joints);
+                fields.extend(site);
+                fields.extend(self.joints.iter().map(|&v| joint_field(v)));
+            }
+            (_, None) => unreachable!("every controller format has a brand"),
+        }
+        w.record(fields)
+    }
+
+    fn end<W: std::io::Write>(&self, w: &mut Sink<W>) -> Result<()> {
+        if self.format == OutputFormat::Urscript {
+            w.text(urscript_end())?;
+        }
+        Ok(())
+    }
 }

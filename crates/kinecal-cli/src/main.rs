@@ -145,6 +145,8 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::Weights => "--weights",
         Setting::MaxIterations => "--max-iter",
         Setting::Validation => "--validate/--holdout/--folds",
+        Setting::Configuration => "--configuration",
+        Setting::OutputFormat => "--format",
     }
 }
 
@@ -531,15 +533,33 @@ fn fk(a: FkArgs) -> Result<()> {
             w.write_all(write_measurements(robot, &data).as_bytes())?;
             return Ok(());
         }
-        let expected = kinecal::files::postures_header(robot);
-        if rows.header != expected {
+        // A postures file, or what `kinecal compensate` writes (its label `target` or
+        // `posture`, a `site`, and the remaining errors and flags, read past).
+        let dof = robot.dof();
+        let label = rows.column("posture").or_else(|| rows.column("target"));
+        let readings: Option<Vec<usize>> =
+            (1..=dof).map(|j| rows.column(&format!("v{j}"))).collect();
+        let compensated = [
+            "site",
+            "position_error",
+            "attitude_error",
+            "iterations",
+            "flags",
+        ];
+        let unknown = rows.header.iter().enumerate().find(|(i, h)| {
+            Some(*i) != label
+                && !readings.as_ref().is_some_and(|r| r.contains(i))
+                && !compensated.contains(&h.as_str())
+        });
+        let (Some(label), Some(readings), None) = (label, readings, unknown) else {
             bail!(
-                "{}:1: unexpected header `{}`: expected `{}`",
+                "{}:1: unexpected header `{}`: expected `{}` (or what `kinecal compensate` \
+                 writes)",
                 rows.file,
                 rows.header.join(","),
-                expected.join(",")
+                kinecal::files::postures_header(robot).join(",")
             );
-        }
+        };
         let mut first = true;
         let mut posture = kinecal::Posture {
             label: String::new(),
@@ -548,9 +568,9 @@ fn fk(a: FkArgs) -> Result<()> {
         };
         while let Some(line) = rows.advance()? {
             posture.label.clear();
-            posture.label.push_str(rows.field(0));
-            for j in 0..robot.dof() {
-                posture.readings[j] = stream::cell(&rows, line, j + 1)?;
+            posture.label.push_str(rows.field(label));
+            for (j, &c) in readings.iter().enumerate() {
+                posture.readings[j] = stream::cell(&rows, line, c)?;
             }
             let data = simulate::measure(robot, std::slice::from_ref(&posture), false);
             poses += data.observations.len();

@@ -2579,7 +2579,7 @@ fn compensate_programs_and_targets() {
         let f: Vec<&str> = l.split(',').collect();
         targets += &format!("t{},{},{}\n", f[0], f[6..9].join(","), f[2..6].join(","));
     }
-    targets += "far,1000,0,0,-10,10,2,0\n";
+    targets += "far,100,0,0,-10,10,2,0\n";
     std::fs::write(d.join("targets.csv"), &targets).unwrap();
     let out = kinecal()
         .current_dir(d)

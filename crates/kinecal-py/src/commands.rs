@@ -3,7 +3,7 @@
 //! the result classes). Values are in the robot's units; results come back as dicts of numpy
 //! arrays and Python values, one key per field of the result class.
 
-use kinecal::compensate::{Compensator, Goal, NominalSeeds, Options};
+use kinecal::compensate::{Compensator, Configuration, Goal, Options, TargetSearch};
 use kinecal::identifiability::AnalysisOptions;
 use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::observe::{Dataset, Observation};
@@ -117,7 +117,7 @@ fn non_negative(v: Option<f64>, keyword: &str, key: &str) -> PyResult<Option<f64
 /// Compensation (see the Python package's `kinecal.compensate`): the readings at which
 /// `calibrated` reaches what `nominal` meant (`program`) or the Cartesian `targets`.
 #[pyfunction]
-#[pyo3(signature = (calibrated, nominal, *, program=None, targets=None, seeds=None, site=None, position_only=false, tolerance=None, singular=1e-3, branch=None))]
+#[pyo3(signature = (calibrated, nominal, *, program=None, targets=None, seeds=None, site=None, position_only=false, tolerance=None, singular=1e-3, branch=None, configuration=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn compensate<'py>(
     py: Python<'py>,
@@ -131,6 +131,7 @@ pub fn compensate<'py>(
     tolerance: Option<(Option<f64>, Option<f64>)>,
     singular: f64,
     branch: Option<f64>,
+    configuration: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (cal, nom) = (&calibrated.robot, &nominal.robot);
     let units = nom.units;
@@ -192,20 +193,35 @@ pub fn compensate<'py>(
             let cols = v.len() / rows;
             let goals = v
                 .chunks(cols)
-                .map(|r| {
+                .enumerate()
+                .map(|(i, r)| {
                     let p =
                         Vector3::new(r[0], r[1], r[2]).map(|x| units.to_si(Quantity::Length, x));
                     if cols == 6 {
                         let e = [r[3], r[4], r[5]].map(|x| units.to_si(Quantity::Angle, x));
-                        Goal::Pose(Frame {
+                        if let Some(k) = e
+                            .iter()
+                            .position(|a| a.abs() > std::f64::consts::TAU + 1e-9)
+                        {
+                            return Err(bad(format!(
+                                "targets: row {}: {} = {} {} is more than a turn: are the \
+                                 attitudes in {} (the robot's angle unit)?",
+                                i + 1,
+                                ["alpha", "beta", "gamma"][k],
+                                r[3 + k],
+                                units.angle.as_str(),
+                                units.angle.as_str()
+                            )));
+                        }
+                        Ok(Goal::Pose(Frame {
                             rotation: rot_zyx(e[0], e[1], e[2]),
                             translation: p,
-                        })
+                        }))
                     } else {
-                        Goal::Position(p)
+                        Ok(Goal::Position(p))
                     }
                 })
-                .collect();
+                .collect::<PyResult<Vec<Goal>>>()?;
             let seeds = match seeds {
                 Some(s) => {
                     let (sv, srows) =
@@ -235,10 +251,18 @@ pub fn compensate<'py>(
     };
     // Built as the command line builds them, with its errors (`nominal: ...`).
     let mut comp = Compensator::new(cal, nom, options).map_err(|e| error(py, e))?;
-    let mut nominal_seeds = NominalSeeds::new(nom, options).map_err(|e| error(py, e))?;
+    let mut search = TargetSearch::new(cal, nom, options).map_err(|e| error(py, e))?;
+    if let Some(c) = configuration {
+        if matches!(work, Work::Program(_)) {
+            return Err(bad(
+                "configuration: is for Cartesian targets; a program's readings keep their own",
+            ));
+        }
+        let c = Configuration::parse(c).map_err(|e| error(py, e))?;
+        search = search.with_configuration(c).map_err(|e| error(py, e))?;
+    }
     let solved = py.detach(|| {
         let mut out = vec![0.0; dof];
-        let mut seed = vec![0.0; dof];
         let mut rows = Vec::new();
         match &work {
             Work::Program(v) => {
@@ -249,14 +273,8 @@ pub fn compensate<'py>(
             }
             Work::Targets { goals, seeds } => {
                 for (i, goal) in goals.iter().enumerate() {
-                    match seeds {
-                        Some(sv) => seed.copy_from_slice(&sv[i * dof..(i + 1) * dof]),
-                        None => nominal_seeds.seed(goal, target, &mut seed),
-                    }
-                    let s = comp.solve(goal, target, &seed, &mut out);
-                    if !s.flags.unreachable {
-                        nominal_seeds.accept(&out);
-                    }
+                    let given = seeds.as_ref().map(|sv| &sv[i * dof..(i + 1) * dof]);
+                    let s = search.solve(goal, target, given, &mut out);
                     rows.push((out.clone(), s));
                 }
             }
@@ -310,6 +328,7 @@ pub fn compensate<'py>(
     )?;
     d.set_item("singular", flag(&|f| f.singular).into_pyarray(py))?;
     d.set_item("branch", flag(&|f| f.branch).into_pyarray(py))?;
+    d.set_item("configuration", flag(&|f| f.configuration).into_pyarray(py))?;
     d.set_item(
         "flags",
         solved

@@ -145,6 +145,8 @@ fn keyword(setting: kinecal::Setting) -> &'static str {
         Setting::Weights => "weights",
         Setting::MaxIterations => "max_iterations",
         Setting::Validation => "validate/holdout/folds",
+        Setting::Configuration => "configuration",
+        Setting::OutputFormat => "format",
     }
 }
 

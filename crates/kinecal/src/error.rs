@@ -61,11 +61,15 @@ pub enum Setting {
     MaxIterations,
     /// How a calibration is checked (held-out files, a hold-out fraction or folds).
     Validation,
+    /// The configuration (branch) compensated Cartesian targets must be in.
+    Configuration,
+    /// The form an output is written in.
+    OutputFormat,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 27] = [
+    pub const ALL: [Setting; 29] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -93,6 +97,8 @@ impl Setting {
         Setting::Weights,
         Setting::MaxIterations,
         Setting::Validation,
+        Setting::Configuration,
+        Setting::OutputFormat,
     ];
 
     /// The library's words for it.
@@ -125,6 +131,8 @@ impl Setting {
             Setting::Weights => "weights",
             Setting::MaxIterations => "iteration cap",
             Setting::Validation => "validation",
+            Setting::Configuration => "configuration",
+            Setting::OutputFormat => "output format",
         }
     }
 }

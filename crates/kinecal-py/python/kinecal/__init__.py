@@ -419,7 +419,8 @@ class Compensation:
     ``unreachable`` (the goal is not reached within the tolerances), ``out_of_range``
     ``(n, joints)`` (a reading outside the robot file's range), ``singular`` (conditioning
     below ``singular``), ``branch`` (a revolute joint turned more than ``branch`` from the
-    seed: a change of configuration); ``flags``: the same in words, as ``kinecal
+    seed: a change of configuration), ``configuration`` (no solution in the configuration
+    asked for was found); ``flags``: the same in words, as ``kinecal
     compensate`` writes them (empty when none).
     """
 
@@ -433,13 +434,18 @@ class Compensation:
         self.out_of_range: Bools = fields["out_of_range"]
         self.singular: Bools = fields["singular"]
         self.branch: Bools = fields["branch"]
+        self.configuration: Bools = fields["configuration"]
         self.flags: list[str] = fields["flags"]
 
     @property
     def flagged(self) -> Bools:
         """Rows with any flag: not to be used as they are."""
         flagged: Bools = (
-            self.unreachable | self.out_of_range.any(axis=1) | self.singular | self.branch
+            self.unreachable
+            | self.out_of_range.any(axis=1)
+            | self.singular
+            | self.branch
+            | self.configuration
         )
         return flagged
 
@@ -468,6 +474,7 @@ def compensate(
     tolerance: Spec = None,
     singular: float = 1e-3,
     branch: float | None = None,
+    configuration: str | None = None,
 ) -> Compensation:
     """The readings that make the real (``calibrated``) robot reach what was meant: the
     same as ``kinecal compensate``, in the robot's units.
@@ -476,9 +483,13 @@ def compensate(
     model, which the controller uses: each row's goal is the pose the nominal model gives
     it, its position only with ``position_only``) or ``targets`` (``(n, 3)`` positions or
     ``(n, 6)`` poses ``x, y, z, alpha, beta, gamma``, ZYX Euler angles), optionally with
-    ``seeds`` (``(n, joints)`` readings to start each target from; without them each target
-    starts from the nominal model's solution nearest the previous row's, as a controller
-    would command it). ``site``: the frame that must reach the goal (None or ``"ee"``: the
+    ``seeds`` (``(n, joints)`` readings to start each target from: the usable solution nearest
+    the seed wins). Without seeds the solutions are searched from the previous row's and from
+    postures sampled within the joint ranges whose frames lie near the goal, and the first
+    usable one (reached, inside the joint ranges, in the configuration, not singular) is
+    taken. ``configuration``: the configuration targets must be in, as ``kinecal compensate
+    --configuration`` takes it (``"shoulder=front,elbow=up,wrist=noflip"``, any of them, for an
+    arm of six revolute joints; or a sign pattern of the joint values ``"+,*,-,*,+,*"``). ``site``: the frame that must reach the goal (None or ``"ee"``: the
     end effector). ``tolerance``: the largest acceptable remaining error, ``(length,
     angle)`` or a dict of either (default 1 um and 1 urad). ``singular``: flag solutions
     whose conditioning is below it. ``branch``: flag a revolute joint turning more than this
@@ -496,6 +507,7 @@ def compensate(
             tolerance=_spec("tolerance", tolerance, ("length", "angle")),
             singular=singular,
             branch=branch,
+            configuration=configuration,
         )
     )
 

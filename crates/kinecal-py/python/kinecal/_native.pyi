@@ -231,6 +231,7 @@ def compensate(
     tolerance: tuple[float | None, ...] | None = None,
     singular: float = 1e-3,
     branch: float | None = None,
+    configuration: str | None = None,
 ) -> dict[str, Any]:
     """The fields of ``kinecal.Compensation``."""
 

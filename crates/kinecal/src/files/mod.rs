@@ -34,6 +34,7 @@
 //!   left out when the robot has only one.
 
 mod contacts;
+pub mod controller;
 mod distances;
 mod measurements;
 mod read;

@@ -24,6 +24,12 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
+mod configuration;
+mod search;
+
+pub use configuration::{Configuration, Side};
+pub use search::TargetSearch;
+
 use crate::error::{Error, Result};
 use crate::kinematics::{log_so3, Chain, Frame, Target, Workspace};
 use crate::robot::{JointKind, Robot};
@@ -68,16 +74,22 @@ pub struct Flags {
     pub singular: bool,
     /// A revolute joint moved more than [`Options::branch`] from the seed.
     pub branch: bool,
+    /// No solution was found in the configuration asked for ([`TargetSearch::with_configuration`]).
+    pub configuration: bool,
 }
 
 impl Flags {
     /// Whether any flag is set.
     pub fn any(&self) -> bool {
-        self.unreachable || self.out_of_range != 0 || self.singular || self.branch
+        self.unreachable
+            || self.out_of_range != 0
+            || self.singular
+            || self.branch
+            || self.configuration
     }
 
     /// The flags in words, `;`-separated (empty when none): `unreachable`, `outside range:
-    /// joint 2`, `near singularity`, `configuration change`.
+    /// joint 2`, `near singularity`, `configuration change`, `not in the configuration`.
     pub fn describe(&self) -> String {
         let mut out = Vec::new();
         if self.unreachable {
@@ -95,6 +107,9 @@ impl Flags {
         }
         if self.branch {
             out.push("configuration change".to_string());
+        }
+        if self.configuration {
+            out.push("not in the configuration".to_string());
         }
         out.join("; ")
     }
@@ -134,6 +149,7 @@ pub struct Compensator<'r> {
     jac: Vec<f64>,
     step: Vec<f64>,
     trial: Vec<f64>,
+    kept: Vec<f64>,
     /// Weight of attitude rows (m per rad): the reach.
     reach: f64,
     options: Options,
@@ -167,6 +183,7 @@ impl<'r> Compensator<'r> {
             jac: vec![0.0; 6 * n],
             step: vec![0.0; n],
             trial: vec![0.0; n],
+            kept: vec![0.0; n],
             reach,
             options,
         })
@@ -198,8 +215,39 @@ impl<'r> Compensator<'r> {
     }
 
     /// Writes into `out` the readings, nearest `seed`, at which the calibrated model puts
-    /// `target` at `goal`.
+    /// `target` at `goal`; the flags judge the solution against the seed (a change of
+    /// configuration) and the robot file's ranges.
     pub fn solve(&mut self, goal: &Goal, target: Target, seed: &[f64], out: &mut [f64]) -> Solved {
+        let mut solved = self.local(goal, target, seed, true, out);
+        let robot = self.calibrated.robot();
+        for (j, joint) in robot.joints.iter().enumerate() {
+            if let Some((lo, hi)) = joint.range {
+                if out[j] < lo || out[j] > hi {
+                    solved.flags.out_of_range |= 1 << j;
+                }
+            }
+            if joint.kind == JointKind::Revolute {
+                let moved = joint.value(out, j) - joint.value(seed, j);
+                if moved.abs() > self.options.branch {
+                    solved.flags.branch = true;
+                }
+            }
+        }
+        solved
+    }
+
+    /// Damped least squares from `start` to `goal`, into `out`; with `nearest`, a redundant
+    /// arm's solution is then moved along the self-motion to the one nearest `start`. Flags
+    /// only what the solution itself shows (unreachable, singular); the forward kinematics of
+    /// the solution is left in `self.ws`.
+    fn local(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seed: &[f64],
+        nearest: bool,
+        out: &mut [f64],
+    ) -> Solved {
         let n = self.calibrated.robot().dof();
         assert_eq!(seed.len(), n);
         assert_eq!(out.len(), n);
@@ -214,7 +262,7 @@ impl<'r> Compensator<'r> {
         // re-reach the goal, until the change is orthogonal to the self-motion: the first-order
         // condition of the minimum change.
         let n = out.len();
-        if n > rows && self.reached(&err) {
+        if nearest && n > rows && self.reached(&err) {
             let distance = |v: &[f64]| -> f64 {
                 v.iter()
                     .zip(seed)
@@ -226,7 +274,8 @@ impl<'r> Compensator<'r> {
             // The null-space step is exact only to first order: halve it when the re-reached
             // solution is not nearer the seed, double it back when it is.
             let mut alpha: f64 = 1.0;
-            let mut kept = vec![0.0; n];
+            let mut kept = std::mem::take(&mut self.kept);
+            kept.resize(n, 0.0);
             for _ in 0..100 {
                 self.calibrated.forward(out, &mut self.ws);
                 self.calibrated
@@ -272,6 +321,7 @@ impl<'r> Compensator<'r> {
                     alpha /= 2.0;
                 }
             }
+            self.kept = kept;
         }
         // Residuals, conditioning and flags at the solution.
         let (position_error, attitude_error) = (
@@ -282,26 +332,12 @@ impl<'r> Compensator<'r> {
         self.calibrated
             .reading_jacobian(&self.ws, target, &mut self.jac);
         let conditioning = self.conditioning(rows);
-        let robot = self.calibrated.robot();
-        let mut flags = Flags {
+        let flags = Flags {
             unreachable: position_error > self.options.position_tolerance
                 || attitude_error.is_some_and(|a| a > self.options.attitude_tolerance),
             singular: conditioning < self.options.singular,
             ..Flags::default()
         };
-        for (j, joint) in robot.joints.iter().enumerate() {
-            if let Some((lo, hi)) = joint.range {
-                if out[j] < lo || out[j] > hi {
-                    flags.out_of_range |= 1 << j;
-                }
-            }
-            if joint.kind == JointKind::Revolute {
-                let moved = joint.value(out, j) - joint.value(seed, j);
-                if moved.abs() > self.options.branch {
-                    flags.branch = true;
-                }
-            }
-        }
         Solved {
             position_error,
             attitude_error,
@@ -436,91 +472,6 @@ impl<'r> Compensator<'r> {
         } else {
             0.0
         }
-    }
-}
-
-/// Seeds for Cartesian goals given without readings to start from, as a controller would
-/// command them: the nominal model's solution nearest the last accepted solution (the middle of
-/// the joints' reading ranges before the first). A goal the nominal model cannot reach from
-/// there is tried from 32 postures drawn within the ranges, and the reachable solution nearest
-/// wins (unreachable by the nominal model too: the nearest start, and the calibrated model
-/// says how far it stays). Whole turns of a revolute joint give the same pose: each reading is
-/// brought into its range when a turn does. What `kinecal compensate` does for a targets file
-/// without seed readings.
-pub struct NominalSeeds<'r> {
-    nominal: &'r Robot,
-    ik: Compensator<'r>,
-    middle: Vec<f64>,
-    starts: Vec<crate::observe::Posture>,
-    previous: Option<Vec<f64>>,
-    trial: Vec<f64>,
-}
-
-impl<'r> NominalSeeds<'r> {
-    /// Seeds by `nominal`'s inverse kinematics with `options`.
-    pub fn new(nominal: &'r Robot, options: Options) -> Result<Self> {
-        let dof = nominal.dof();
-        let middle = (0..dof)
-            .map(|j| {
-                let (lo, hi) = crate::simulate::reading_range(nominal, j);
-                0.5 * (lo + hi)
-            })
-            .collect();
-        Ok(NominalSeeds {
-            nominal,
-            ik: Compensator::new(nominal, nominal, options)?,
-            middle,
-            starts: crate::simulate::sample_postures(nominal, 32, 1),
-            previous: None,
-            trial: vec![0.0; dof],
-        })
-    }
-
-    /// Writes into `seed` the readings to start the calibrated model's solution of `goal` from.
-    pub fn seed(&mut self, goal: &Goal, target: Target, seed: &mut [f64]) {
-        let near = self.previous.as_deref().unwrap_or(&self.middle).to_vec();
-        let first = self.ik.solve(goal, target, &near, &mut self.trial);
-        if first.flags.unreachable {
-            let mut best: Option<(f64, Vec<f64>)> = None;
-            for start in &self.starts {
-                let t = self
-                    .ik
-                    .solve(goal, target, &start.readings, &mut self.trial);
-                if t.flags.unreachable {
-                    continue;
-                }
-                let d: f64 = self
-                    .trial
-                    .iter()
-                    .zip(&near)
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum();
-                if best.as_ref().is_none_or(|b| d < b.0) {
-                    best = Some((d, self.trial.clone()));
-                }
-            }
-            self.trial
-                .copy_from_slice(best.as_ref().map_or(&near, |b| &b.1));
-        }
-        for (v, j) in self.trial.iter_mut().zip(&self.nominal.joints) {
-            if let (JointKind::Revolute, Some((lo, hi))) = (j.kind, j.range) {
-                let turn = std::f64::consts::TAU / j.slope.abs();
-                let k = ((lo - *v) / turn).ceil();
-                let moved = *v + k * turn;
-                if (lo..=hi).contains(&moved) {
-                    *v = moved;
-                }
-            }
-        }
-        seed.copy_from_slice(&self.trial);
-    }
-
-    /// Records the calibrated model's solution of a goal it reached: the next goal is seeded
-    /// nearest it.
-    pub fn accept(&mut self, readings: &[f64]) {
-        self.previous
-            .get_or_insert_with(|| vec![0.0; readings.len()])
-            .copy_from_slice(readings);
     }
 }
 
