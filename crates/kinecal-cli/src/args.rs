@@ -74,16 +74,19 @@ Examples:
   kinecal compensate --robot calibrated.toml --nominal nominal.toml --in program.csv \\
       --out compensated.csv
   kinecal compensate --robot calibrated.toml --nominal nominal.toml --in targets.csv \\
-      --out readings.csv --site tcp
+      --configuration elbow=up,wrist=noflip --format urscript --out program.script
 
 --in is a program (posture,v1,...,vn: readings taught or planned with the nominal model; the
-pose each was meant to reach is the nominal model's) or Cartesian targets
-(target,x,y,z[,alpha,beta,gamma][,v1,...,vn]: positions and optional ZYX attitudes in the robot
-file's units, optional seed readings; without them, each target is seeded by the nominal
-model's solution nearest the previous row's). The output has the compensated readings and, per row, the
-remaining position and attitude error, the iterations and the flags (unreachable, outside
-range, near singularity, configuration change). Files of any length stream through. Exit code
-3 when any row is flagged.")]
+pose each was meant to reach is the nominal model's), Cartesian targets
+(target[,site],x,y,z[,alpha,beta,gamma][,v1,...,vn]: positions and optional ZYX attitudes in the
+robot file's units, optional seed readings), or a measurement file (its poses the targets, its
+readings the seeds). Targets without seeds are searched for a usable solution: reached, inside
+the joint ranges, in --configuration, not near a singularity. The table written has the
+compensated readings and, per row, the remaining position and attitude error, the iterations and
+the flags (unreachable, outside range, near singularity, configuration change, not in the
+configuration); for a measurement file it is a measurement file of where the robot must be, with
+the compensated readings (`kinecal check --robot true.toml --data it` measures where they land).
+Files of any length stream through. Exit code 3 when any row is flagged.")]
     Compensate(CompensateArgs),
     /// Calibrate a fleet: every robot of a manifest, in parallel, with a summary table.
     #[command(after_help = "\
@@ -874,8 +877,8 @@ pub struct CompensateArgs {
     /// The frame that must reach the goal: `ee` (default) or a site of the robot.
     #[arg(long, default_value = "ee")]
     pub site: String,
-    /// For a program: reach the meant positions only (the attitude then changes as little as
-    /// it can).
+    /// Reach the positions only: a program's meant positions, or the targets' positions with
+    /// their attitudes left out (the attitude then changes as little as it can).
     #[arg(long)]
     pub position_only: bool,
     /// Largest acceptable remaining error: `length=L,angle=A` (file units; default 1 um and 1

@@ -3,8 +3,11 @@
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
-use kinecal::compensate::{Compensator, Configuration, Goal, Options, Solved, TargetSearch};
+use kinecal::compensate::{
+    more_than_a_turn, reaches_away, Compensator, Configuration, Goal, Options, Solved, TargetSearch,
+};
 use kinecal::files::controller::{joint_field, urscript_begin, urscript_end, urscript_move, Brand};
+use kinecal::files::COMPENSATED_COLUMNS;
 use kinecal::identifiability::fmt_sig;
 use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::units::Quantity;
@@ -34,6 +37,9 @@ enum Kind {
     /// ignored).
     Targets {
         label: usize,
+        /// A measurement file: its goal columns are written back with the solution (so that
+        /// the output is a measurement file of where the robot must be).
+        goal: Option<Vec<usize>>,
         site: Option<usize>,
         xyz: [usize; 3],
         euler: Option<[usize; 3]>,
@@ -98,8 +104,15 @@ fn kind(rows: &Rows, dof: usize) -> Result<Kind> {
                 rows.file
             );
         }
+        let goal = measured.then(|| {
+            ["x", "y", "z", "alpha", "beta", "gamma"]
+                .iter()
+                .filter_map(|c| rows.column(c))
+                .collect()
+        });
         return Ok(Kind::Targets {
             label,
+            goal,
             site: rows.column("site"),
             xyz: [x, y, z],
             euler,
@@ -196,9 +209,6 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
     let dof = nominal.dof();
     let mut rows = Rows::open(&a.input)?;
     let kind = kind(&rows, dof)?;
-    if a.position_only && matches!(kind, Kind::Targets { .. }) {
-        bail!("--position-only is for programs; a target without alpha,beta,gamma is a position");
-    }
     let mut search = TargetSearch::new(&calibrated, &nominal, options)
         .map_err(|e| anyhow!("--robot {}: {e}", a.robot))?;
     if let Some(c) = &a.configuration {
@@ -213,18 +223,25 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
     let mut staged = output::Staged::new();
     let l = |v: f64| units.from_si(Quantity::Length, v);
     let an = |v: f64| units.from_si(Quantity::Angle, v);
-    // A target farther than this from the base is a length-unit mistake, not a flag.
-    let far = 10.0 * nominal.reach().max(1e-3)
-        + Vector3::new(nominal.links[0].x, nominal.links[0].y, nominal.links[0].z).norm();
     staged.by_path(&a.out, |tmp| {
         let file = std::io::BufWriter::new(std::fs::File::create(tmp)?);
         let mut w = program.sink(file);
-        let (first, site_column) = match &kind {
-            Kind::Program { .. } => ("posture", false),
-            Kind::Targets { label, site, .. } => (rows.header[*label].as_str(), site.is_some()),
+        let (first, site_column, goal_columns) = match &kind {
+            Kind::Program { .. } => ("posture", false, Vec::new()),
+            Kind::Targets {
+                label, site, goal, ..
+            } => (
+                rows.header[*label].as_str(),
+                site.is_some(),
+                goal.iter()
+                    .flatten()
+                    .map(|&c| rows.header[c].clone())
+                    .collect(),
+            ),
         };
         let first = first.to_string();
-        program.begin(&mut w, &first, site_column)?;
+        program.begin(&mut w, &first, site_column, &goal_columns)?;
+        let mut goal_fields: Vec<String> = Vec::new();
         let mut out = vec![0.0; dof];
         let mut seed = vec![0.0; dof];
         let mut fields: Vec<String> = Vec::with_capacity(dof + 6);
@@ -243,6 +260,7 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                 }
                 Kind::Targets {
                     label,
+                    goal: goal_cols,
                     site,
                     xyz,
                     euler,
@@ -258,31 +276,30 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                         v[k] = units.to_si(Quantity::Length, cell(&rows, line, c)?);
                     }
                     let p = Vector3::from(v);
-                    let base =
-                        Vector3::new(nominal.links[0].x, nominal.links[0].y, nominal.links[0].z);
-                    if (p - base).norm() > far {
+                    if let Some(k) = reaches_away(&nominal, &p) {
                         bail!(
-                            "{}:{line}: target {} lies {} {} from the robot's base, more than 10 \
-                             times its reach ({} {}): are the positions in {} (the robot file's \
-                             length unit)?",
+                            "{}:{line}: target {} lies {} reaches ({} {}) from the robot's base: \
+                             are the positions in {} (the robot file's length unit)?",
                             rows.file,
                             rows.field(*label),
-                            fmt_sig(l((p - base).norm())),
-                            units.length.as_str(),
-                            fmt_sig(l(nominal.reach())),
+                            fmt_sig(k),
+                            fmt_sig(l(k * nominal.reach())),
                             units.length.as_str(),
                             units.length.as_str()
                         );
                     }
-                    // A measurement file's position rows leave the three angles empty.
-                    let euler = euler.filter(|e| e.iter().any(|&c| !rows.field(c).is_empty()));
+                    // A measurement file's position rows leave the three angles empty; with
+                    // --position-only the attitudes are not goals.
+                    let euler = euler.filter(|e| {
+                        !a.position_only && e.iter().any(|&c| !rows.field(c).is_empty())
+                    });
                     let goal = match euler {
                         Some(e) => {
                             let mut r = [0.0; 3];
                             for (k, &c) in e.iter().enumerate() {
                                 let x = cell(&rows, line, c)?;
                                 r[k] = units.to_si(Quantity::Angle, x);
-                                if r[k].abs() > std::f64::consts::TAU + 1e-9 {
+                                if more_than_a_turn(r[k]) {
                                     bail!(
                                         "{}:{line}: {} = {x} {} is more than a turn: are the \
                                          attitudes in {} (the robot file's angle unit)?",
@@ -310,6 +327,13 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                         None => None,
                     };
                     let s = search.solve(&goal, target, given, &mut out);
+                    goal_fields.clear();
+                    goal_fields.extend(
+                        goal_cols
+                            .iter()
+                            .flatten()
+                            .map(|&c| rows.field(c).to_string()),
+                    );
                     (
                         rows.field(*label).to_string(),
                         site.map(|c| rows.field(c).to_string()),
@@ -318,7 +342,17 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                 }
             };
             tally.add(&solved, &label);
-            program.row(&mut w, &mut fields, &label, site, &out, &solved, l, an)?;
+            program.row(
+                &mut w,
+                &mut fields,
+                &label,
+                site,
+                &out,
+                &goal_fields,
+                &solved,
+                l,
+                an,
+            )?;
         }
         program.end(&mut w)?;
         w.finish()
@@ -380,7 +414,7 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
 
 /// Where the rows go: a CSV table or a program's text.
 enum Sink<W: std::io::Write> {
-    Csv(csv::Writer<W>),
+    Csv(Box<csv::Writer<W>>),
     Text(W),
 }
 
@@ -445,7 +479,7 @@ impl<'r> ProgramFormat<'r> {
         if self.format == OutputFormat::Urscript {
             Sink::Text(w)
         } else {
-            Sink::Csv(csv::Writer::from_writer(w))
+            Sink::Csv(Box::new(csv::Writer::from_writer(w)))
         }
     }
 
@@ -453,7 +487,13 @@ impl<'r> ProgramFormat<'r> {
         self.format != OutputFormat::Table
     }
 
-    fn begin<W: std::io::Write>(&self, w: &mut Sink<W>, first: &str, site: bool) -> Result<()> {
+    fn begin<W: std::io::Write>(
+        &self,
+        w: &mut Sink<W>,
+        first: &str,
+        site: bool,
+        goal: &[String],
+    ) -> Result<()> {
         let dof = self.robot.dof();
         let mut header = vec![first.to_string()];
         match (self.format, self.brand) {
@@ -462,9 +502,8 @@ impl<'r> ProgramFormat<'r> {
                     header.push("site".into());
                 }
                 header.extend((1..=dof).map(|j| format!("v{j}")));
-                header.extend(
-                    ["position_error", "attitude_error", "iterations", "flags"].map(String::from),
-                );
+                header.extend(goal.iter().cloned());
+                header.extend(COMPENSATED_COLUMNS.map(String::from));
             }
             (OutputFormat::Urscript, _) => {
                 return w.text(&urscript_begin(self.robot, &self.source));
@@ -488,6 +527,7 @@ impl<'r> ProgramFormat<'r> {
         label: &str,
         site: Option<String>,
         out: &[f64],
+        goal: &[String],
         solved: &Solved,
         l: impl Fn(f64) -> f64,
         an: impl Fn(f64) -> f64,
@@ -498,6 +538,7 @@ impl<'r> ProgramFormat<'r> {
             (OutputFormat::Table, _) => {
                 fields.extend(site);
                 fields.extend(out.iter().map(|v| v.to_string()));
+                fields.extend(goal.iter().cloned());
                 fields.push(format!("{:.6e}", l(solved.position_error)));
                 fields.push(
                     solved

@@ -2679,6 +2679,304 @@ fn compensate_programs_and_targets() {
     assert!(err.contains("over an input"), "{err}");
 }
 
+/// An ABB IRB 120 from its data sheet (standard DH, metres, radians) with its joint ranges,
+/// as a robot file.
+fn irb120_toml() -> String {
+    use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
+    let d = |x: f64| x.to_radians();
+    let r = kinecal::JointKind::Revolute;
+    let rows = [
+        DhRow::new(r, 0.0, d(-90.0), 0.29, 0.0),
+        DhRow::new(r, 0.27, 0.0, 0.0, d(-90.0)),
+        DhRow::new(r, 0.07, d(-90.0), 0.0, 0.0),
+        DhRow::new(r, 0.0, d(90.0), 0.302, 0.0),
+        DhRow::new(r, 0.0, d(-90.0), 0.0, 0.0),
+        DhRow::new(r, 0.0, 0.0, 0.072, 0.0),
+    ];
+    let mut robot = robot_from_dh("IRB 120", Default::default(), &rows, Convention::Standard);
+    let ranges = [
+        (-165.0, 165.0),
+        (-110.0, 110.0),
+        (-110.0, 70.0),
+        (-160.0, 160.0),
+        (-120.0, 120.0),
+        (-400.0, 400.0),
+    ];
+    for (j, (lo, hi)) in robot.joints.iter_mut().zip(ranges) {
+        j.range = Some((d(lo), d(hi)));
+    }
+    kinecal::robot_file::write_robot_toml(&robot, None)
+}
+
+/// `kinecal compensate` on Cartesian targets as a controller needs them: targets without seeds
+/// all land inside the joint ranges (checked through `fk` reading compensate's own output),
+/// in the configuration asked for; a measurement file is taken as targets with its sites and
+/// readings as seeds; URScript and joint targets are written only when no row is flagged;
+/// attitudes in degrees in a radian file and positions in mm in a metre file are refused with
+/// the line.
+#[test]
+fn compensate_targets_for_a_controller() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("irb120.toml"), irb120_toml()).unwrap();
+    // The "real" robot and postures inside its ranges; the targets are where it goes.
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "irb120.toml",
+            "--postures",
+            "300",
+            "--seed",
+            "4",
+            "--perturb-std",
+            "length=0.001,angle=0.005",
+            "--out",
+            "m.csv",
+            "--truth",
+            "true.toml",
+        ],
+    );
+    let m = std::fs::read_to_string(d.join("m.csv")).unwrap();
+    let mut targets = String::from("target,x,y,z\n");
+    let mut poses = String::from("target,x,y,z,alpha,beta,gamma\n");
+    for l in m.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        targets += &format!("{},{}\n", f[0], f[8..11].join(","));
+        poses += &format!("{},{}\n", f[0], f[8..14].join(","));
+    }
+    std::fs::write(d.join("targets.csv"), &targets).unwrap();
+    std::fs::write(d.join("poses.csv"), &poses).unwrap();
+    let comp = |input: &str, extra: &[&str], out: &str| {
+        let mut args = vec![
+            "compensate",
+            "--robot",
+            "true.toml",
+            "--nominal",
+            "irb120.toml",
+            "--in",
+            input,
+            "--out",
+            out,
+        ];
+        args.extend(extra);
+        let o = kinecal().current_dir(d).args(&args).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert!(!err.contains("panicked"), "{err}");
+        (o.status.code(), err)
+    };
+    let nums = |p: &str, skip: usize, take: usize| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(d.join(p))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| {
+                l.split(',')
+                    .skip(skip)
+                    .take(take)
+                    .map(|v| v.parse().unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let ranges: Vec<(f64, f64)> = [
+        (-165.0f64, 165.0f64),
+        (-110.0, 110.0),
+        (-110.0, 70.0),
+        (-160.0, 160.0),
+        (-120.0, 120.0),
+        (-400.0, 400.0),
+    ]
+    .iter()
+    .map(|(a, b)| (a.to_radians(), b.to_radians()))
+    .collect();
+    for (input, cols) in [("targets.csv", 3), ("poses.csv", 6)] {
+        let (code, err) = comp(input, &[], "c.csv");
+        // A target drawn next to a singularity may be flagged so; nothing else.
+        let c = std::fs::read_to_string(d.join("c.csv")).unwrap();
+        for l in c.lines().skip(1) {
+            let flags = l.rsplit(',').next().unwrap();
+            assert!(
+                flags.is_empty() || flags == "near singularity",
+                "{input}: {l}"
+            );
+        }
+        assert!(err.contains("compensated 300 rows"), "{err}");
+        assert!(code == Some(0) || code == Some(3), "{err}");
+        for r in nums("c.csv", 1, 6) {
+            for (v, (lo, hi)) in r.iter().zip(&ranges) {
+                assert!(v >= lo && v <= hi, "{input}: {r:?}");
+            }
+        }
+        // Through the real robot, the compensated readings land on the targets.
+        run_ok(
+            d,
+            &[
+                "fk",
+                "--robot",
+                "true.toml",
+                "--postures",
+                "c.csv",
+                "--out",
+                "landed.csv",
+            ],
+        );
+        let (landed, meant) = (nums("landed.csv", 8, cols), nums(input, 1, cols));
+        assert_eq!(landed.len(), 300);
+        for (a, b) in landed.iter().zip(&meant) {
+            for k in 0..cols {
+                assert!((a[k] - b[k]).abs() < 1e-9, "{input}: {a:?} {b:?}");
+            }
+        }
+    }
+    // In a configuration: every row of the solution is in it or flagged.
+    let (_, err) = comp(
+        "poses.csv",
+        &["--configuration", "shoulder=front,elbow=up,wrist=noflip"],
+        "c.csv",
+    );
+    assert!(err.contains("not in the configuration"), "{err}");
+    let c = std::fs::read_to_string(d.join("c.csv")).unwrap();
+    let kept = c.lines().skip(1).filter(|l| l.ends_with(',')).count();
+    assert!(kept > 0, "{c}");
+    // The measurement file itself: its readings are the seeds, its sites the frames.
+    let (code, err) = comp("m.csv", &[], "back.csv");
+    assert!(code == Some(0) || code == Some(3), "{err}");
+    let back = std::fs::read_to_string(d.join("back.csv")).unwrap();
+    for l in back.lines().skip(1) {
+        let flags = l.rsplit(',').next().unwrap();
+        assert!(flags.is_empty() || flags == "near singularity", "{l}");
+    }
+    assert!(
+        back.starts_with("posture,site,v1,v2,v3,v4,v5,v6,x,y,z,alpha,beta,gamma,position_error"),
+        "{back}"
+    );
+    for (a, b) in nums("back.csv", 2, 6).iter().zip(nums("m.csv", 2, 6)) {
+        for k in 0..6 {
+            assert!((a[k] - b[k]).abs() < 1e-9, "{a:?} {b:?}");
+        }
+    }
+    // And it is a measurement file: through the real robot, its readings land on its poses.
+    let out = run_ok(
+        d,
+        &[
+            "check",
+            "--robot",
+            "true.toml",
+            "--data",
+            "back.csv",
+            "--threshold",
+            "1e-9",
+        ],
+    );
+    assert!(out.contains("OK: the robot meets its accuracy"), "{out}");
+
+    // Controller programs: the first 3 targets, with the same readings as the table.
+    let three: String = targets.lines().take(4).map(|l| format!("{l}\n")).collect();
+    std::fs::write(d.join("three.csv"), &three).unwrap();
+    let (code, err) = comp("three.csv", &[], "three_table.csv");
+    assert_eq!(code, Some(0), "{err}");
+    let table = nums("three_table.csv", 1, 6);
+    let (code, err) = comp("three.csv", &["--format", "urscript"], "p.script");
+    assert_eq!(code, Some(0), "{err}");
+    let script = std::fs::read_to_string(d.join("p.script")).unwrap();
+    assert!(script.contains("def kinecal_program():\n"), "{script}");
+    assert!(script.ends_with("end\nkinecal_program()\n"), "{script}");
+    let moves: Vec<Vec<f64>> = script
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("movej(["))
+        .map(|l| {
+            l.split(']')
+                .next()
+                .unwrap()
+                .split(',')
+                .map(|v| v.trim().parse().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(moves.len(), 3, "{script}");
+    for (a, b) in moves.iter().zip(&table) {
+        for k in 0..6 {
+            assert!((a[k] - b[k]).abs() < 1e-9, "{a:?} {b:?}");
+        }
+    }
+    for (format, header, scale) in [
+        (
+            "joints-abb",
+            "target,rax_1,rax_2,rax_3,rax_4,rax_5,rax_6",
+            180.0 / std::f64::consts::PI,
+        ),
+        (
+            "joints-kuka",
+            "target,A1,A2,A3,A4,A5,A6",
+            180.0 / std::f64::consts::PI,
+        ),
+        (
+            "joints-fanuc",
+            "target,J1,J2,J3,J4,J5,J6",
+            180.0 / std::f64::consts::PI,
+        ),
+        (
+            "joints-ur",
+            "target,base,shoulder,elbow,wrist1,wrist2,wrist3",
+            1.0,
+        ),
+    ] {
+        let (code, err) = comp("three.csv", &["--format", format], "j.csv");
+        assert_eq!(code, Some(0), "{err}");
+        let j = std::fs::read_to_string(d.join("j.csv")).unwrap();
+        assert!(j.starts_with(&format!("{header}\n")), "{j}");
+        for (a, b) in nums("j.csv", 1, 6).iter().zip(&table) {
+            for k in 0..6 {
+                assert!((a[k] - b[k] * scale).abs() < 1e-7, "{format}: {a:?} {b:?}");
+            }
+        }
+    }
+    // A flagged row: no controller program, exit 3, the row named.
+    std::fs::write(d.join("far.csv"), format!("{three}far,2,0,0.5\n")).unwrap();
+    std::fs::remove_file(d.join("p.script")).unwrap();
+    let (code, err) = comp("far.csv", &["--format", "urscript"], "p.script");
+    assert_eq!(code, Some(3), "{err}");
+    assert!(err.contains("nothing written to p.script"), "{err}");
+    assert!(err.contains("far: unreachable"), "{err}");
+    assert!(!d.join("p.script").exists());
+
+    // Unit mistakes: degrees in a radian file, millimetres in a metre file.
+    std::fs::write(
+        d.join("deg.csv"),
+        "target,x,y,z,alpha,beta,gamma\n1,0.3,0,0.5,0,90,0\n",
+    )
+    .unwrap();
+    let (code, err) = comp("deg.csv", &[], "o.csv");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("deg.csv:2: beta = 90 rad is more than a turn"),
+        "{err}"
+    );
+    std::fs::write(d.join("mm.csv"), "target,x,y,z\n1,300,0,500\n").unwrap();
+    let (code, err) = comp("mm.csv", &[], "o.csv");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("mm.csv:2: target 1 lies"), "{err}");
+    assert!(
+        err.contains("reaches (583.095189 m) from the robot's base"),
+        "{err}"
+    );
+    assert!(err.contains("are the positions in m"), "{err}");
+    // A configuration that cannot be told, or for a program.
+    let (code, err) = comp(
+        "targets.csv",
+        &["--configuration", "elbow=sideways"],
+        "o.csv",
+    );
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("--configuration: elbow=sideways: expected up or down"),
+        "{err}"
+    );
+    assert!(!d.join("o.csv").exists(), "a refused run writes nothing");
+}
+
 /// `kinecal import ur` and `kinecal export ur` on a real UR3e factory calibration: the round
 /// trip is exact (and read back, said so), and a slope the file cannot hold is refused, or
 /// under a looser tolerance named with its deviation.

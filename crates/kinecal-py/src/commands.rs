@@ -3,7 +3,9 @@
 //! the result classes). Values are in the robot's units; results come back as dicts of numpy
 //! arrays and Python values, one key per field of the result class.
 
-use kinecal::compensate::{Compensator, Configuration, Goal, Options, TargetSearch};
+use kinecal::compensate::{
+    more_than_a_turn, reaches_away, Compensator, Configuration, Goal, Options, TargetSearch,
+};
 use kinecal::identifiability::AnalysisOptions;
 use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::observe::{Dataset, Observation};
@@ -177,12 +179,6 @@ pub fn compensate<'py>(
             Work::Program(v)
         }
         (None, Some(t)) => {
-            if position_only {
-                return Err(bad(
-                    "position_only: is for programs; a target of 3 columns (x, y, z) is a \
-                     position",
-                ));
-            }
             let (v, rows) = table(
                 py,
                 t,
@@ -197,12 +193,18 @@ pub fn compensate<'py>(
                 .map(|(i, r)| {
                     let p =
                         Vector3::new(r[0], r[1], r[2]).map(|x| units.to_si(Quantity::Length, x));
-                    if cols == 6 {
+                    if let Some(k) = reaches_away(nom, &p) {
+                        return Err(bad(format!(
+                            "targets: row {}: the position lies {} reaches from the robot's \
+                             base: are the positions in {} (the robot's length unit)?",
+                            i + 1,
+                            kinecal::identifiability::fmt_sig(k),
+                            units.length.as_str()
+                        )));
+                    }
+                    if cols == 6 && !position_only {
                         let e = [r[3], r[4], r[5]].map(|x| units.to_si(Quantity::Angle, x));
-                        if let Some(k) = e
-                            .iter()
-                            .position(|a| a.abs() > std::f64::consts::TAU + 1e-9)
-                        {
+                        if let Some(k) = e.iter().position(|&a| more_than_a_turn(a)) {
                             return Err(bad(format!(
                                 "targets: row {}: {} = {} {} is more than a turn: are the \
                                  attitudes in {} (the robot's angle unit)?",

@@ -715,7 +715,7 @@ def test_compensated_programs_reach_the_nominal_poses_as_the_cli_computes_them(c
 def test_compensated_targets_with_and_without_seeds(cli, puma):
     d, nominal, truth = puma
     q = puma_postures(12, 25)
-    targets = np.vstack([nominal.fk(q), [[100.0, 0, 0, 0, 0, 0]]])  # and one out of reach
+    targets = np.vstack([nominal.fk(q), [[3.0, 0, 0, 0, 0, 0]]])  # and one out of reach
     result = kinecal.compensate(truth, nominal, targets=targets)
     assert result.unreachable[-1] and "unreachable" in result.flags[-1]
     reached = ~result.unreachable
@@ -743,6 +743,22 @@ def test_compensated_targets_with_and_without_seeds(cli, puma):
     assert_same_as_cli(positions, compensate_cli(cli, d, "positions.csv")[1])
     np.testing.assert_allclose(truth.fk(positions.readings)[~positions.unreachable, :3],
                                targets[:-1, :3][~positions.unreachable], atol=1e-9)
+    # position_only leaves the targets' attitudes out: the same as positions.
+    np.testing.assert_array_equal(
+        kinecal.compensate(truth, nominal, targets=targets[:-1], position_only=True).readings,
+        positions.readings)
+    # In a configuration: each row in it (checked against the command line's), or flagged so.
+    front_up = kinecal.compensate(truth, nominal, targets=targets[:-1],
+                                  configuration="shoulder=front,elbow=up,wrist=noflip")
+    ok = ~front_up.flagged
+    assert ok.sum() >= 20, front_up.flags
+    np.testing.assert_allclose(truth.fk(front_up.readings, matrix=True)[ok, :3, 3],
+                               targets[:-1, :3][ok], atol=1e-9)
+    assert_same_as_cli(
+        kinecal.compensate(truth, nominal, targets=targets,
+                           configuration="shoulder=front,elbow=up,wrist=noflip"),
+        compensate_cli(cli, d, "targets.csv", "--configuration",
+                       "shoulder=front,elbow=up,wrist=noflip")[1])
 
 
 def test_compensation_flags_and_its_settings():
@@ -760,9 +776,9 @@ def test_compensation_flags_and_its_settings():
     assert kinecal.compensate(moved, ge, program=q[:1], position_only=True,
                               branch=1e-9).branch.all()
     # A target out of reach is unreachable, unless the tolerance allows for that much.
-    far = [[1000.0, 0.0, 0.0]]
+    far = [[100.0, 0.0, 0.0]]
     assert kinecal.compensate(ge, ge, targets=far).unreachable.all()
-    assert not kinecal.compensate(ge, ge, targets=far, tolerance={"length": 2000}).unreachable[0]
+    assert not kinecal.compensate(ge, ge, targets=far, tolerance={"length": 200}).unreachable[0]
 
 
 @pytest.mark.parametrize(
@@ -781,8 +797,16 @@ def test_compensation_flags_and_its_settings():
          "seeds: 3 rows for 2 targets"),
         ({"program": np.zeros((2, 4)), "seeds": np.zeros((2, 4))}, kinecal.KinecalError,
          "seeds: a program's readings are its own seeds"),
-        ({"targets": np.zeros((2, 3)), "position_only": True}, kinecal.KinecalError,
-         "position_only: is for programs"),
+        ({"targets": [[0.3, 0.0, 0.5, 0.0, 400.0, 0.0]]}, kinecal.KinecalError,
+         "targets: row 1: beta = 400 deg is more than a turn"),
+        ({"targets": [[0.3, 0.0, 0.5], [300.0, 0.0, 500.0]]}, kinecal.KinecalError,
+         "targets: row 2: the position lies"),
+        ({"targets": np.zeros((2, 3)), "configuration": "elbow=sideways"},
+         kinecal.KinecalError, "configuration: elbow=sideways: expected up or down"),
+        ({"targets": np.zeros((2, 3)), "configuration": "elbow=up"}, kinecal.KinecalError,
+         "configuration: shoulder, elbow and wrist name the configurations of an arm of six"),
+        ({"program": np.zeros((2, 4)), "configuration": "+,+,+,+"}, kinecal.KinecalError,
+         "configuration: is for Cartesian targets"),
         ({"program": np.zeros((1, 4)), "site": "tcp"}, kinecal.KinecalError,
          "site: `tcp` is not a site of GE A4"),
         ({"program": np.zeros((1, 4)), "singular": 1.5}, kinecal.KinecalError,

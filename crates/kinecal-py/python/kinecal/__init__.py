@@ -458,7 +458,10 @@ class Compensation:
             f"({int(self.unreachable.sum())} unreachable, "
             f"{int(self.out_of_range.any(axis=1).sum())} outside a joint range, "
             f"{int(self.singular.sum())} near a singularity, "
-            f"{int(self.branch.sum())} changing configuration))"
+            f"{int(self.branch.sum())} changing configuration"
+            + (f", {int(self.configuration.sum())} not in the configuration"
+               if self.configuration.any() else "")
+            + "))"
         )
 
 
@@ -481,7 +484,8 @@ def compensate(
 
     Give one of ``program`` (``(n, joints)`` readings taught or planned with the ``nominal``
     model, which the controller uses: each row's goal is the pose the nominal model gives
-    it, its position only with ``position_only``) or ``targets`` (``(n, 3)`` positions or
+    it, its position only with ``position_only``, which also leaves out the attitudes of
+    targets) or ``targets`` (``(n, 3)`` positions or
     ``(n, 6)`` poses ``x, y, z, alpha, beta, gamma``, ZYX Euler angles), optionally with
     ``seeds`` (``(n, joints)`` readings to start each target from: the usable solution nearest
     the seed wins). Without seeds the solutions are searched from the previous row's and from

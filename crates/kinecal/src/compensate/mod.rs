@@ -475,6 +475,22 @@ impl<'r> Compensator<'r> {
     }
 }
 
+/// How far a Cartesian goal's position lies from the robot's base (the origin of joint 1's
+/// frame at the zero posture), in reaches, when that is more than ten of them: at that distance
+/// a target is not out of reach but in another length unit. `None` when it is nearer.
+pub fn reaches_away(robot: &Robot, position: &Vector3<f64>) -> Option<f64> {
+    let l = &robot.links[0];
+    let reach = robot.reach().max(1e-3);
+    let d = (position - Vector3::new(l.x, l.y, l.z)).norm() / reach;
+    (d > 10.0).then_some(d)
+}
+
+/// Whether a ZYX attitude angle (rad) of a Cartesian goal is more than a turn: degrees read
+/// as radians.
+pub fn more_than_a_turn(angle: f64) -> bool {
+    angle.abs() > std::f64::consts::TAU + 1e-9
+}
+
 /// `out = (W J)^T y` over the first `rows` rows: a vector of the row space back in readings
 /// (`W` weighs attitude rows by `reach`).
 fn back_project(jac: &[f64], reach: f64, y: &Vector6<f64>, rows: usize, out: &mut [f64]) {

@@ -4,7 +4,8 @@
 //! joints); the damped least squares of [`Compensator`] finds the one nearest where it starts.
 //! [`TargetSearch`] starts it from several places and keeps a solution that is *usable*:
 //! reached within the tolerances, inside the robot file's joint ranges, in the configuration
-//! asked for (if any) and away from singularities. In this order:
+//! asked for (if any), with a seed in the seed's configuration (no revolute joint turned more
+//! than [`Options::branch`] from it), and away from singularities. In this order:
 //!
 //! 1. From the *reference*: the seed readings given with the target, else the previous
 //!    target's solution (when it lies nearer the goal than any start below: a path). With a
@@ -24,7 +25,8 @@
 //! the first usable solution is taken (from step 1 when it is usable: the previous solution's
 //! neighbour); with a seed, every usable solution of the attempts made counts and the one
 //! nearest the seed wins. When none is usable, the least bad is returned with its flags, in
-//! the order: unreachable, outside a range, not in the configuration, near a singularity; so
+//! the order: unreachable, outside a range, not in the configuration, a change of
+//! configuration from the seed given, near a singularity; so
 //! `unreachable` means that no start reached the goal, and `outside range` that every solution
 //! found needs a joint beyond its range.
 
@@ -50,6 +52,8 @@ pub struct TargetSearch<'r> {
     classifier: Option<Classifier>,
     previous: Option<Vec<f64>>,
     reference: Vec<f64>,
+    /// Whether the goal being solved came with a seed (the reference).
+    seeded: bool,
     candidate: Vec<f64>,
     start: Vec<f64>,
     nearest: Vec<(f64, u32)>,
@@ -57,8 +61,9 @@ pub struct TargetSearch<'r> {
 }
 
 /// How good a solution is, best first: `(unreachable, outside a range, not in the
-/// configuration, singular)`, then the distance to the reference.
-type Rank = ([bool; 4], f64);
+/// configuration, a change of configuration from the seed, singular)`, then the distance to the
+/// reference.
+type Rank = ([bool; 5], f64);
 
 impl<'r> TargetSearch<'r> {
     /// Start postures in the table.
@@ -113,6 +118,7 @@ impl<'r> TargetSearch<'r> {
             classifier: None,
             previous: None,
             reference: vec![0.0; dof],
+            seeded: false,
             candidate: vec![0.0; dof],
             start: vec![0.0; dof],
             nearest: Vec::with_capacity(Self::ATTEMPTS + 1),
@@ -170,6 +176,7 @@ impl<'r> TargetSearch<'r> {
         assert_eq!(out.len(), dof);
         self.ensure_table(target);
         self.find_nearest(goal, target);
+        self.seeded = seed.is_some();
         // Step 1: the reference, when it is one.
         let from_reference = match (seed, &self.previous) {
             (Some(s), _) => {
@@ -195,14 +202,14 @@ impl<'r> TargetSearch<'r> {
             let s = self.attempt(goal, target, &start, true);
             self.start = start;
             if self.consider(s, seed.is_some(), &mut best, out) {
-                return self.finish(best.expect("considered").1, seed, out);
+                return self.finish(best.expect("considered").1, out);
             }
         }
         // Step 2: the nearest starts of the table.
         let mut usable = false;
         for k in 0..self.nearest.len() {
             let i = self.nearest[k].1 as usize;
-            usable |= self.from_table(i, goal, target, seed, &mut best, out);
+            usable |= self.attempt_start(i, goal, target, seed, &mut best, out);
             if usable && seed.is_none() {
                 break;
             }
@@ -211,7 +218,7 @@ impl<'r> TargetSearch<'r> {
             if k >= 8
                 && best
                     .as_ref()
-                    .is_some_and(|b| b.0 .0 == [false, false, false, true])
+                    .is_some_and(|b| b.0 .0 == [false, false, false, false, true])
             {
                 break;
             }
@@ -221,7 +228,7 @@ impl<'r> TargetSearch<'r> {
         if !usable && rows > 0 {
             for k in 0..Self::SPREAD {
                 let i = (k * rows / Self::SPREAD + rows / (2 * Self::SPREAD)) % rows;
-                usable |= self.from_table(i, goal, target, seed, &mut best, out);
+                usable |= self.attempt_start(i, goal, target, seed, &mut best, out);
                 if usable && seed.is_none() {
                     break;
                 }
@@ -239,12 +246,12 @@ impl<'r> TargetSearch<'r> {
             out.copy_from_slice(&self.candidate);
             solved = s;
         }
-        self.finish(solved, seed, out)
+        self.finish(solved, out)
     }
 
     /// One attempt from start `i` of the table, within the search's iteration cap; whether its
     /// solution is usable (kept in `out` when it ranks before `best`).
-    fn from_table(
+    fn attempt_start(
         &mut self,
         i: usize,
         goal: &Goal,
@@ -273,7 +280,7 @@ impl<'r> TargetSearch<'r> {
         out: &mut [f64],
     ) -> bool {
         let rank = self.rank(&solved, seeded);
-        let usable = rank.0 == [false; 4];
+        let usable = rank.0 == [false; 5];
         if best.as_ref().is_none_or(|(b, _)| rank < *b) {
             out.copy_from_slice(&self.candidate);
             *best = Some((rank, solved));
@@ -281,19 +288,8 @@ impl<'r> TargetSearch<'r> {
         usable
     }
 
-    /// Records the solution of a reached goal as the next reference and sets the seed's
-    /// `branch` flag.
-    fn finish(&mut self, mut solved: Solved, seed: Option<&[f64]>, out: &[f64]) -> Solved {
-        if let Some(seed) = seed {
-            for (j, joint) in self.robot.joints.iter().enumerate() {
-                if joint.kind == JointKind::Revolute {
-                    let moved = joint.value(out, j) - joint.value(seed, j);
-                    if moved.abs() > self.options.branch {
-                        solved.flags.branch = true;
-                    }
-                }
-            }
-        }
+    /// Records the solution of a reached goal as the next reference.
+    fn finish(&mut self, solved: Solved, out: &[f64]) -> Solved {
         if !solved.flags.unreachable {
             self.previous
                 .get_or_insert_with(|| vec![0.0; out.len()])
@@ -303,7 +299,7 @@ impl<'r> TargetSearch<'r> {
     }
 
     /// One local solution from `start` into `self.candidate`, its turns moved and its flags
-    /// set (all but `branch`).
+    /// set (`branch` against a seed given).
     fn attempt(&mut self, goal: &Goal, target: Target, start: &[f64], nearest: bool) -> Solved {
         let mut candidate = std::mem::take(&mut self.candidate);
         let mut s = self
@@ -316,15 +312,30 @@ impl<'r> TargetSearch<'r> {
                 let (lo, hi) = joint
                     .range
                     .unwrap_or((self.middle[j] - 0.5 * t, self.middle[j] + 0.5 * t));
-                if *v < lo {
-                    *v += t * ((lo - *v) / t).ceil();
+                // Into the range when a whole turn gets it there; else the reference's turn.
+                let moved = if *v < lo {
+                    *v + t * ((lo - *v) / t).ceil()
                 } else if *v > hi {
-                    *v -= t * ((*v - hi) / t).ceil();
+                    *v - t * ((*v - hi) / t).ceil()
+                } else {
+                    *v
+                };
+                if (lo..=hi).contains(&moved) {
+                    *v = moved;
                 }
             }
             if let Some((lo, hi)) = joint.range {
                 if *v < lo || *v > hi {
                     s.flags.out_of_range |= 1 << j;
+                }
+            }
+        }
+        if self.seeded {
+            // A change of configuration from the seed given (the reference).
+            for (j, joint) in self.robot.joints.iter().enumerate() {
+                if joint.kind == JointKind::Revolute {
+                    let moved = joint.value(&candidate, j) - joint.value(&self.reference, j);
+                    s.flags.branch |= moved.abs() > self.options.branch;
                 }
             }
         }
@@ -353,6 +364,7 @@ impl<'r> TargetSearch<'r> {
                 f.unreachable,
                 f.out_of_range != 0,
                 f.configuration,
+                f.branch,
                 f.singular,
             ],
             distance,

@@ -26,6 +26,10 @@ pub(super) const FORMAT: Format = Format {
     parse: parse_measurements,
 };
 
+/// The columns `kinecal compensate` adds to a measurement file it solved.
+pub const COMPENSATED_COLUMNS: [&str; 4] =
+    ["position_error", "attitude_error", "iterations", "flags"];
+
 /// Names of the columns of one measured target.
 const MARKER_COLUMNS: [&str; 11] = [
     "x",
@@ -348,12 +352,13 @@ pub fn parse_measurements_mapped(
             .collect::<Result<Vec<_>>>()?
     };
     if map.is_identity() {
-        // A plain file: every column must be one of kinecal's.
-        if let Some(h) = t
-            .header
-            .iter()
-            .find(|h| !h.is_empty() && !canonical.iter().any(|c| c.eq_ignore_ascii_case(h)))
-        {
+        // A plain file: every column must be one of kinecal's (what `kinecal compensate`
+        // adds to a measurement file, its solutions' remaining errors and flags, is read past).
+        if let Some(h) = t.header.iter().find(|h| {
+            !h.is_empty()
+                && !canonical.iter().any(|c| c.eq_ignore_ascii_case(h))
+                && !COMPENSATED_COLUMNS.contains(&h.as_str())
+        }) {
             let hint = if h.len() > 1
                 && h.starts_with(['v', 'V'])
                 && h[1..].parse::<usize>().is_ok_and(|j| j > n)
