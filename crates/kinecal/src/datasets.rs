@@ -221,7 +221,7 @@ fn transform(source: &Source) -> Result<(Matrix3<f64>, Vector3<f64>)> {
     let r = Matrix3::from_fn(|i, j| rows[i][j]);
     let t = Vector3::new(rows[0][3], rows[1][3], rows[2][3]);
     let off = (r.transpose() * r - Matrix3::identity()).amax();
-    if !(off <= 1e-6) || r.determinant() <= 0.0 {
+    if off.is_nan() || off > 1e-6 || r.determinant() <= 0.0 {
         return Err(Error::input(
             Location::file(&source.name).at_line(1),
             format!(
@@ -337,7 +337,7 @@ pub mod qkm_hl6 {
                 session: None,
             });
             let smr = match a[6] {
-                v if v == 1.0 || v == 2.0 || v == 3.0 => v as usize - 1,
+                v if [1.0, 2.0, 3.0].contains(&v) => v as usize - 1,
                 v => {
                     return Err(Error::input(
                         Location::file(&angle_source.name)
