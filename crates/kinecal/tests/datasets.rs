@@ -26,7 +26,11 @@ fn refused(name: &str, files: Files) -> String {
 
 fn lines(text: &[u8], n: usize) -> Vec<u8> {
     let s = String::from_utf8(text.to_vec()).unwrap();
-    s.lines().take(n).map(|l| format!("{l}\n")).collect::<String>().into_bytes()
+    s.lines()
+        .take(n)
+        .map(|l| format!("{l}\n"))
+        .collect::<String>()
+        .into_bytes()
 }
 
 #[test]
@@ -39,7 +43,8 @@ fn synthetic_folders_convert_and_read_back_from_memory_and_disk() {
         let data = kinecal::files::parse_measurements(data_text, "d.csv", &robot).unwrap();
         assert!(!data.observations.is_empty());
         // The same files on disk convert to the same output.
-        let dir = std::env::temp_dir().join(format!("kinecal-ds-{}-{}", a.name, std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("kinecal-ds-{}-{}", a.name, std::process::id()));
         for (name, bytes) in folder(a.name) {
             let p = dir.join(name);
             std::fs::create_dir_all(p.parent().unwrap()).unwrap();
@@ -54,7 +59,12 @@ fn synthetic_folders_convert_and_read_back_from_memory_and_disk() {
 #[test]
 fn a_transform_shorter_than_three_rows_is_refused_with_the_count() {
     let f = folder("fanuc-r2000ic");
-    let t = f.iter().find(|x| x.0 == "TransTractoWorld0.csv").unwrap().1.clone();
+    let t = f
+        .iter()
+        .find(|x| x.0 == "TransTractoWorld0.csv")
+        .unwrap()
+        .1
+        .clone();
     for n in 0..3 {
         let msg = refused(
             "fanuc-r2000ic",
@@ -68,30 +78,49 @@ fn a_transform_shorter_than_three_rows_is_refused_with_the_count() {
     }
     // A row with a field missing.
     let short = String::from_utf8(t).unwrap().replacen(" ", "", 1);
-    let short = short.split_once(' ').map(|(a, b)| format!("{a}{b}")).unwrap();
+    let short = short
+        .split_once(' ')
+        .map(|(a, b)| format!("{a}{b}"))
+        .unwrap();
     let msg = refused(
         "fanuc-r2000ic",
         with(f.clone(), "TransTractoWorld0.csv", short.as_bytes()),
     );
-    assert!(msg.starts_with("d/TransTractoWorld0.csv:1: expected 4 numbers, found"), "{msg}");
+    assert!(
+        msg.starts_with("d/TransTractoWorld0.csv:1: expected 4 numbers, found"),
+        "{msg}"
+    );
     // Not a rotation.
     let msg = refused(
         "fanuc-r2000ic",
         with(f, "TransFlangtoNest0.csv", b"1 0 0 5\n0 2 0 6\n0 0 1 7\n"),
     );
-    assert!(msg.starts_with("d/TransFlangtoNest0.csv:1: ") && msg.contains("not a rotation"), "{msg}");
+    assert!(
+        msg.starts_with("d/TransFlangtoNest0.csv:1: ") && msg.contains("not a rotation"),
+        "{msg}"
+    );
 }
 
 #[test]
 fn an_out_of_range_reflector_index_is_refused_by_line_and_field() {
     let f = folder("qkm-hl6");
-    let angles = String::from_utf8(f.iter().find(|x| x.0.ends_with("c_angles.txt")).unwrap().1.clone()).unwrap();
+    let angles = String::from_utf8(
+        f.iter()
+            .find(|x| x.0.ends_with("c_angles.txt"))
+            .unwrap()
+            .1
+            .clone(),
+    )
+    .unwrap();
     for bad in ["0", "4", "2.5", "-1", "1000000"] {
         let mut l: Vec<String> = angles.lines().map(str::to_string).collect();
         let (head, _) = l[4].rsplit_once('\t').unwrap();
         l[4] = format!("{head}\t{bad}");
         let text = l.join("\n") + "\n";
-        let msg = refused("qkm-hl6", with(f.clone(), "position_dataset/c_angles.txt", text.as_bytes()));
+        let msg = refused(
+            "qkm-hl6",
+            with(f.clone(), "position_dataset/c_angles.txt", text.as_bytes()),
+        );
         assert!(
             msg.starts_with("d/position_dataset/c_angles.txt:5: field `column 7`: expected the reflector (SMR) index 1, 2 or 3"),
             "{bad}: {msg}"
@@ -115,7 +144,11 @@ fn truncated_files_are_refused_with_the_rows_expected_and_found() {
         let keep = n - 2;
         let msg = refused(set, with(f.clone(), file, &lines(&text, keep)));
         let rows = if set == "ur10e-camera" { n - 1 } else { n };
-        let found = if set == "ur10e-camera" { keep - 1 } else { keep };
+        let found = if set == "ur10e-camera" {
+            keep - 1
+        } else {
+            keep
+        };
         assert!(
             msg.starts_with(&format!("d/{file}:{}: ", keep + 1))
                 && msg.contains(&format!("expected {rows} rows"))
@@ -145,9 +178,14 @@ fn truncated_files_are_refused_with_the_rows_expected_and_found() {
         );
         // A row too many.
         let mut more = text.clone();
-        more.extend_from_slice(&lines(&text, n)[String::from_utf8(lines(&text, n - 1)).unwrap().len()..]);
+        more.extend_from_slice(
+            &lines(&text, n)[String::from_utf8(lines(&text, n - 1)).unwrap().len()..],
+        );
         let msg = refused(set, with(f, file, &more));
-        assert!(msg.starts_with(&format!("d/{file}:{}: ", n + 1)) && msg.contains("found more"), "{msg}");
+        assert!(
+            msg.starts_with(&format!("d/{file}:{}: ", n + 1)) && msg.contains("found more"),
+            "{msg}"
+        );
     }
 }
 
@@ -156,9 +194,16 @@ fn degenerate_geometry_and_missing_files_are_refused_naming_the_file() {
     let f = folder("qkm-hl6");
     let msg = refused(
         "qkm-hl6",
-        with(f.clone(), "position_dataset/re_ref.txt", b"1 2 3\n1 2 3\n1 2 3\n"),
+        with(
+            f.clone(),
+            "position_dataset/re_ref.txt",
+            b"1 2 3\n1 2 3\n1 2 3\n",
+        ),
     );
-    assert!(msg.starts_with("d/position_dataset/re_ref.txt: ") && msg.contains("no frame"), "{msg}");
+    assert!(
+        msg.starts_with("d/position_dataset/re_ref.txt: ") && msg.contains("no frame"),
+        "{msg}"
+    );
     let mut missing = f;
     missing.retain(|x| !x.0.ends_with("re_test.txt"));
     let msg = refused("qkm-hl6", missing);
@@ -170,6 +215,12 @@ fn degenerate_geometry_and_missing_files_are_refused_naming_the_file() {
     let same: Vec<&str> = v[3..6].to_vec();
     v[..3].copy_from_slice(&same);
     l[2] = v.join(" ");
-    let msg = refused("fanuc-r2000ic", with(f, "N1N2N3Jval.csv", (l.join("\n") + "\n").as_bytes()));
-    assert!(msg.starts_with("d/N1N2N3Jval.csv:3: ") && msg.contains("no nest frame"), "{msg}");
+    let msg = refused(
+        "fanuc-r2000ic",
+        with(f, "N1N2N3Jval.csv", (l.join("\n") + "\n").as_bytes()),
+    );
+    assert!(
+        msg.starts_with("d/N1N2N3Jval.csv:3: ") && msg.contains("no nest frame"),
+        "{msg}"
+    );
 }

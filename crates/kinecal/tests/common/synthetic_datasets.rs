@@ -139,12 +139,48 @@ pub fn ur10e() -> Files {
              <child link=\"base_link\"/>\n    <origin xyz=\"0 0 0.9\" rpy=\"0 0 -1.5707963267948966\"/>\n  \
              </joint>\n";
     let pi2 = "1.570796327";
-    urdf += &joint("shoulder_pan_joint", "base_link", "shoulder_link", "0 0 0.1807", "0 0 0");
-    urdf += &joint("shoulder_lift_joint", "shoulder_link", "upper_arm_link", "0 0 0", &format!("{pi2} 0 0"));
-    urdf += &joint("elbow_joint", "upper_arm_link", "forearm_link", "-0.6127 0 0", "0 0 0");
-    urdf += &joint("wrist_1_joint", "forearm_link", "wrist_1_link", "-0.57155 0 0.17415", "0 0 0");
-    urdf += &joint("wrist_2_joint", "wrist_1_link", "wrist_2_link", "0 -0.11985 0", &format!("{pi2} 0 0"));
-    urdf += &joint("wrist_3_joint", "wrist_2_link", "wrist_3_link", "0 0.11655 0", &format!("-{pi2} 0 0"));
+    urdf += &joint(
+        "shoulder_pan_joint",
+        "base_link",
+        "shoulder_link",
+        "0 0 0.1807",
+        "0 0 0",
+    );
+    urdf += &joint(
+        "shoulder_lift_joint",
+        "shoulder_link",
+        "upper_arm_link",
+        "0 0 0",
+        &format!("{pi2} 0 0"),
+    );
+    urdf += &joint(
+        "elbow_joint",
+        "upper_arm_link",
+        "forearm_link",
+        "-0.6127 0 0",
+        "0 0 0",
+    );
+    urdf += &joint(
+        "wrist_1_joint",
+        "forearm_link",
+        "wrist_1_link",
+        "-0.57155 0 0.17415",
+        "0 0 0",
+    );
+    urdf += &joint(
+        "wrist_2_joint",
+        "wrist_1_link",
+        "wrist_2_link",
+        "0 -0.11985 0",
+        &format!("{pi2} 0 0"),
+    );
+    urdf += &joint(
+        "wrist_3_joint",
+        "wrist_2_link",
+        "wrist_3_link",
+        "0 0.11655 0",
+        &format!("-{pi2} 0 0"),
+    );
     urdf += "</robot>\n";
     let mut csv = String::from(
         "x1,y1,z1,phix1,phiy1,phiz1,shoulder_pan_joint,shoulder_lift_joint,elbow_joint,\
