@@ -695,8 +695,9 @@ pub mod ur10e_camera {
         load_folder(&Folder::disk(dir))
     }
 
-    /// Loads the data set from its files: `calibration.csv` must have the header and 23 rows of
-    /// 12 numbers, each finite and within +-1e9.
+    /// Loads the data set from its files: the URDF's chain from `world` to `wrist_3_link` must
+    /// have 6 joints, `calibration.csv` the header and 23 rows of 12 numbers, each finite and
+    /// within +-1e9.
     pub fn load_folder(folder: &Folder) -> Result<Ur10eData> {
         let urdf = folder.read("ur10_robot.urdf")?;
         let robot = crate::import::urdf::import_urdf(
@@ -706,6 +707,16 @@ pub mod ur10e_camera {
             Some("wrist_3_link"),
         )?
         .robot;
+        if robot.dof() != 6 {
+            return Err(Error::input(
+                Location::file(&urdf.name),
+                format!(
+                    "the chain from `world` to `wrist_3_link` has {} joints: expected the 6 of \
+                     calibration.csv's joint columns",
+                    robot.dof()
+                ),
+            ));
+        }
         let csv = folder.read("calibration.csv")?;
         let mut lines = csv.text.lines().enumerate();
         let expected = "x1,y1,z1,phix1,phiy1,phiz1,shoulder_pan_joint,shoulder_lift_joint,\

@@ -224,3 +224,25 @@ fn degenerate_geometry_and_missing_files_are_refused_naming_the_file() {
         "{msg}"
     );
 }
+
+/// Found by the fuzzer: a URDF whose chain to `wrist_3_link` lost joints was read, and the
+/// adapter wrote six readings per row for a robot of four, a file kinecal refused.
+#[test]
+fn a_urdf_chain_without_six_joints_is_refused() {
+    let f = folder("ur10e-camera");
+    let urdf = String::from_utf8(f[0].1.clone()).unwrap();
+    let short = urdf.replace(
+        "<parent link=\"shoulder_link\"/>\n    <child link=\"upper_arm_link\"/>",
+        "<parent link=\"shoulder_link\"/>\n    <child link=\"wrist_1_link\"/>",
+    );
+    let short = short.replace(
+        "<parent link=\"forearm_link\"/>\n    <child link=\"wrist_1_link\"/>",
+        "<parent link=\"forearm_link\"/>\n    <child link=\"upper_arm_link\"/>",
+    );
+    assert_ne!(short, urdf);
+    let msg = refused("ur10e-camera", with(f, "ur10_robot.urdf", short.as_bytes()));
+    assert!(
+        msg.starts_with("d/ur10_robot.urdf: the chain from `world` to `wrist_3_link` has 4 joints"),
+        "{msg}"
+    );
+}

@@ -413,3 +413,43 @@ fn compensated_readings_land_on_the_held_out_points() {
     );
     assert!(mean <= held_out.mean_position && max <= held_out.max_position);
 }
+
+/// Without the data, this binary says so in a line `cargo test` shows (not captured), and
+/// fails on CI: run on itself with `KINECAL_SHARED_DATA` pointing nowhere.
+#[test]
+fn missing_shared_data_is_said_and_fails_on_ci() {
+    let run = |ci: Option<&str>| {
+        let mut c = std::process::Command::new(std::env::current_exe().unwrap());
+        c.args([
+            "--exact",
+            "qkm_hl6_held_out_accuracy",
+            "fanuc_r2000ic_with_the_coupling_in_the_robot",
+        ])
+        .env("KINECAL_SHARED_DATA", "/nonexistent/kinecal-shared-data")
+        .env_remove("CI");
+        if let Some(v) = ci {
+            c.env("CI", v);
+        }
+        let out = c.output().unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).to_string()
+                + &String::from_utf8_lossy(&out.stderr),
+        )
+    };
+    for ci in [None, Some("")] {
+        let (ok, out) = run(ci);
+        assert!(ok, "{out}");
+        assert!(
+            out.contains("\nskipped: 2 tests need ../shared/data ("),
+            "{out}"
+        );
+    }
+    let (ok, out) = run(Some("1"));
+    assert!(!ok, "{out}");
+    assert!(
+        out.contains("/nonexistent/kinecal-shared-data/qkm_hl6_faro is missing, and CI is set"),
+        "{out}"
+    );
+    assert!(!out.contains("skipped:"), "{out}");
+}
