@@ -2,7 +2,7 @@
 //! memory (`fk`, `compensate`).
 
 use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
@@ -10,7 +10,7 @@ use anyhow::{anyhow, bail, Result};
 /// A CSV table read one row at a time: `,`, `;` or tab delimited (told by the header line),
 /// `#` comment lines, fields trimmed, a byte-order mark ignored.
 pub struct Rows {
-    reader: csv::Reader<BufReader<File>>,
+    reader: csv::Reader<Box<dyn Read>>,
     /// The header, lower case.
     pub header: Vec<String>,
     /// The file's name, for messages.
@@ -21,15 +21,41 @@ pub struct Rows {
 }
 
 impl Rows {
-    /// Opens `path` and reads its header.
+    /// Opens `path` (`-`: standard input) and reads its header. The file is opened once and
+    /// read as a stream: the lines up to the header are kept and read again by the CSV reader,
+    /// so `/dev/stdin` and pipes work as files do.
     pub fn open(path: &Path) -> Result<Rows> {
         let file = path.display().to_string();
-        let open = || File::open(path).map_err(|e| anyhow!("{file}: {e}"));
-        // The delimiter from the first line that is not blank or a comment.
+        let source: Box<dyn Read> = if path.as_os_str() == "-" {
+            Box::new(std::io::stdin())
+        } else {
+            Box::new(File::open(path).map_err(|e| anyhow!("{file}: {e}"))?)
+        };
+        let mut input = BufReader::new(source);
+        // Skip a byte-order mark.
+        if input
+            .fill_buf()
+            .map_err(|e| anyhow!("{file}: {e}"))?
+            .starts_with(&[0xef, 0xbb, 0xbf])
+        {
+            input.consume(3);
+        }
+        // The delimiter from the first line that is not blank or a comment; the lines read to
+        // find it are read again by the CSV reader.
+        let mut head = Vec::new();
         let mut first = String::new();
-        for line in BufReader::new(open()?).lines() {
-            let line = line.map_err(|e| anyhow!("{file}: {e}"))?;
-            let t = line.trim().trim_start_matches('\u{feff}');
+        loop {
+            let mut line = Vec::new();
+            if input
+                .read_until(b'\n', &mut line)
+                .map_err(|e| anyhow!("{file}: {e}"))?
+                == 0
+            {
+                break;
+            }
+            head.extend_from_slice(&line);
+            let text = String::from_utf8_lossy(&line);
+            let t = text.trim();
             if !t.is_empty() && !t.starts_with('#') {
                 first = t.to_string();
                 break;
@@ -43,15 +69,7 @@ impl Rows {
         } else {
             b','
         };
-        let mut reader = BufReader::new(open()?);
-        // Skip a byte-order mark.
-        if reader
-            .fill_buf()
-            .map_err(|e| anyhow!("{file}: {e}"))?
-            .starts_with(&[0xef, 0xbb, 0xbf])
-        {
-            reader.consume(3);
-        }
+        let reader: Box<dyn Read> = Box::new(std::io::Cursor::new(head).chain(input));
         let mut reader = csv::ReaderBuilder::new()
             .delimiter(delimiter)
             .comment(Some(b'#'))

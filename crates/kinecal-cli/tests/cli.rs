@@ -5,6 +5,10 @@ use std::path::Path;
 use assert_cmd::Command;
 
 mod common;
+#[path = "../../kinecal/tests/common/shared_data.rs"]
+mod shared_data;
+#[path = "../../kinecal/tests/common/synthetic_datasets.rs"]
+mod synthetic;
 
 fn kinecal() -> Command {
     Command::cargo_bin("kinecal").unwrap()
@@ -2982,12 +2986,10 @@ fn compensate_targets_for_a_controller() {
 /// under a looser tolerance named with its deviation.
 #[test]
 fn ur_kinematics_round_trip_and_what_is_not_written() {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/urdf/universal_robots/real_factory_calibration_ur3e");
-    if !d.exists() {
-        assert!(std::env::var_os("CI").is_none());
+    let Some(d) = shared_data::shared_data("urdf/universal_robots/real_factory_calibration_ur3e")
+    else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let t = dir.path();
     std::fs::copy(d.join("ur3e_calibration_1.yaml"), t.join("cal.yaml")).unwrap();
@@ -3083,12 +3085,9 @@ fn ur_kinematics_round_trip_and_what_is_not_written() {
 #[test]
 fn ur_export_leaves_the_tracker_out_and_prints_the_tcp() {
     use kinecal::{Frame, Link};
-    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/urdf/universal_robots/config/ur10");
-    if !d.exists() {
-        assert!(std::env::var_os("CI").is_none());
+    let Some(d) = shared_data::shared_data("urdf/universal_robots/config/ur10") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let t = dir.path();
     std::fs::copy(d.join("default_kinematics.yaml"), t.join("ur10.yaml")).unwrap();
@@ -3169,12 +3168,9 @@ fn ur_export_leaves_the_tracker_out_and_prints_the_tcp() {
 /// loosened.
 #[test]
 fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/urdf/universal_robots/urdf_plain");
-    if !d.exists() {
-        assert!(std::env::var_os("CI").is_none());
+    let Some(d) = shared_data::shared_data("urdf/universal_robots/urdf_plain") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let t = dir.path();
     std::fs::copy(d.join("ur5_robot.urdf"), t.join("ur5.urdf")).unwrap();
@@ -3617,4 +3613,113 @@ fn reports_are_checked_against_the_shipped_schema() {
         let caught = std::panic::catch_unwind(|| common::check_reports(bad_dir.path()));
         assert!(caught.is_err(), "{path}: a broken report passed");
     }
+}
+
+/// Input files can be streams: `/dev/stdin` and `-` as a postures file (`fk`) and as an
+/// observation file (`calibrate --data`) are read once, to their end, as the file would be.
+#[test]
+fn inputs_read_from_standard_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path();
+    run_ok(
+        t,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "8",
+            "--perturb",
+            "p3=+0.1",
+            "--out",
+            "data.csv",
+        ],
+    );
+    let data = std::fs::read_to_string(t.join("data.csv")).unwrap();
+    // A postures file with a comment and a blank line before its header.
+    let postures = format!(
+        "# postures\n\nposture,v1,v2,v3,v4\n{}",
+        data.lines()
+            .skip(1)
+            .map(|l| l
+                .split(',')
+                .take(6)
+                .filter(|f| *f != "ee")
+                .collect::<Vec<_>>()
+                .join(",")
+                + "\n")
+            .collect::<String>()
+    );
+    std::fs::write(t.join("p.csv"), &postures).unwrap();
+    let from_file = run_ok(t, &["fk", "--robot", "ge-a4", "--postures", "p.csv"]);
+    for input in ["/dev/stdin", "-"] {
+        let out = kinecal()
+            .current_dir(t)
+            .args(["fk", "--robot", "ge-a4", "--postures", input])
+            .write_stdin(postures.clone())
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{input}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(String::from_utf8(out.stdout).unwrap(), from_file, "{input}");
+        let out = kinecal()
+            .current_dir(t)
+            .args([
+                "calibrate",
+                "--robot",
+                "ge-a4",
+                "--data",
+                input,
+                "--estimate",
+                "p3",
+            ])
+            .write_stdin(data.clone())
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{input}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(stdout.contains("8 postures"), "{stdout}");
+    }
+    // An empty stream is an empty file, said as such.
+    let out = kinecal()
+        .current_dir(t)
+        .args(["fk", "--robot", "ge-a4", "--postures", "/dev/stdin"])
+        .write_stdin("")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/dev/stdin:1: empty file"));
+}
+
+/// `kinecal dataset` on a damaged folder: refused with the file, line and count (exit 1), never
+/// a panic (exit 101).
+#[test]
+fn dataset_refuses_a_damaged_folder_without_panicking() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path();
+    let folder = synthetic::with(
+        synthetic::fanuc(),
+        "TransTractoWorld0.csv",
+        b"1 0 0 5\n0 1 0 6\n",
+    );
+    for (name, bytes) in &folder {
+        std::fs::write(t.join(name), bytes).unwrap();
+    }
+    let err = run_err(t, &["dataset", "fanuc-r2000ic", ".", "--out", "out"]);
+    assert!(
+        err.contains("./TransTractoWorld0.csv:3: expected 3 rows of 4 numbers, found 2"),
+        "{err}"
+    );
+    let folder = synthetic::fanuc();
+    for (name, bytes) in &folder {
+        std::fs::write(t.join(name), bytes).unwrap();
+    }
+    run_ok(t, &["dataset", "fanuc-r2000ic", ".", "--out", "out"]);
 }

@@ -9,6 +9,9 @@
 //! `# exit N`. Run with `SNAPSHOTS=overwrite` to rewrite the help snapshots and to print the
 //! actual output of any README command that does not match.
 
+#[path = "../../kinecal/tests/common/shared_data.rs"]
+mod shared_data;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -129,19 +132,16 @@ fn sessions(readme: &str) -> Vec<Session> {
 #[test]
 fn readme_sessions_run_as_shown() {
     let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
-    let shared = repo().join("../shared");
-    if !shared.exists() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "../shared is missing on CI"
-        );
-        eprintln!("skipped: {} not found", shared.display());
+    let Some(data) = shared_data::shared_data(".") else {
         return;
-    }
+    };
     let tmp = tempfile::tempdir().unwrap();
     let work = tmp.path().join("work");
     std::fs::create_dir(&work).unwrap();
-    std::os::unix::fs::symlink(shared.canonicalize().unwrap(), tmp.path().join("shared")).unwrap();
+    // The sessions' `../shared/data`.
+    std::fs::create_dir(tmp.path().join("shared")).unwrap();
+    std::os::unix::fs::symlink(data.canonicalize().unwrap(), tmp.path().join("shared/data"))
+        .unwrap();
     std::os::unix::fs::symlink(
         repo().join("examples").canonicalize().unwrap(),
         work.join("examples"),

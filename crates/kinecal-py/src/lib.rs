@@ -16,7 +16,7 @@ mod outcome;
 use std::ffi::CString;
 use std::path::PathBuf;
 
-use kinecal::files::{detect_format, write_measurements, FORMATS};
+use kinecal::files::{detect_format, FORMATS};
 use kinecal::identifiability::{analyze as analyze_ids, AnalysisOptions};
 use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
 use kinecal::observe::point::{Pose, Position};
@@ -785,11 +785,10 @@ impl Measurements {
             None => None,
         };
         let positive = |name: &str, v: &[f64]| {
-            if let Some(i) = v.iter().position(|s| *s <= 0.0) {
-                return Err(bad(format!(
-                    "{name}: row {i}: a standard deviation must be positive, got {}",
-                    v[i]
-                )));
+            for (i, s) in v.iter().enumerate() {
+                if let Some(why) = kinecal::units::sigma_problem(*s) {
+                    return Err(bad(format!("{name}: row {i}: {why}")));
+                }
             }
             Ok(())
         };
@@ -964,10 +963,12 @@ impl Measurements {
         })
     }
 
-    /// The measurement rows (poses and positions) as kinecal's CSV text.
-    fn to_csv(&self, robot: &Robot) -> PyResult<String> {
+    /// The observations as the CSV text of kinecal's file for their kind (`read_csv` reads it
+    /// back to the same numbers): a measurement file for poses and positions, a distance file,
+    /// or a contact file. Observations of two of these are refused (one file holds one).
+    fn to_csv(&self, py: Python<'_>, robot: &Robot) -> PyResult<String> {
         self.check(&robot.robot, "to_csv")?;
-        Ok(write_measurements(&robot.robot, &self.data))
+        kinecal::files::write_observations(&robot.robot, &self.data).map_err(|e| error(py, e))
     }
 
     /// The readings of every posture, `(postures, joints)`.
@@ -1341,7 +1342,14 @@ fn dataset(
 /// The native part of the `kinecal` Python package.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("KinecalError", m.py().get_type::<KinecalError>())?;
+    let error_type = m.py().get_type::<KinecalError>();
+    // Every KinecalError has `file`, `line` and `field`: None unless set on the instance (an
+    // error read from a file; see `error`), also for errors raised without a kinecal::Error
+    // behind them (a bad keyword) and by the Python package itself.
+    for attribute in ["file", "line", "field"] {
+        error_type.setattr(attribute, m.py().None())?;
+    }
+    m.add("KinecalError", error_type)?;
     m.add("ExportWarning", m.py().get_type::<ExportWarning>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Robot>()?;

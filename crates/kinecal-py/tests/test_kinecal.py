@@ -41,8 +41,22 @@ def _reports_follow_the_schema(monkeypatch):
 
     monkeypatch.setattr(kinecal, "calibrate", checked)
 
-SHARED = os.path.join(ROOT, "..", "shared", "data")
-QKM = os.path.join(SHARED, "qkm_hl6_faro")
+SHARED = os.environ.get("KINECAL_SHARED_DATA") or os.path.join(ROOT, "..", "shared", "data")
+SKIP_REASON = "needs ../shared/data"
+
+
+def shared_data(*parts):
+    """A path in ../shared/data (or $KINECAL_SHARED_DATA), the public data sets the real-data
+    tests need. When it is missing: with ``CI`` set (non-empty) the test fails naming it;
+    otherwise it is skipped, and ``conftest.py`` counts the skips in a line of the summary
+    (``skipped: N tests need ../shared/data``)."""
+    path = os.path.join(SHARED, *parts)
+    if not os.path.exists(path):
+        if os.environ.get("CI"):
+            pytest.fail(f"{path} is missing, and CI is set: the real-data tests need "
+                        "../shared/data (or KINECAL_SHARED_DATA)", pytrace=False)
+        pytest.skip(f"{SKIP_REASON} ({path} not found)")
+    return path
 
 
 @pytest.fixture(scope="session")
@@ -59,8 +73,9 @@ def cli():
 def qkm_files(cli, tmp_path_factory):
     """The QKM data set converted by the command line: qkm.toml, identification.csv,
     validation.csv."""
+    qkm = shared_data("qkm_hl6_faro")
     d = tmp_path_factory.mktemp("qkm")
-    subprocess.run([cli, "dataset", "qkm-hl6", QKM, "--out", str(d)], check=True,
+    subprocess.run([cli, "dataset", "qkm-hl6", qkm, "--out", str(d)], check=True,
                    capture_output=True)
     return d
 
@@ -222,7 +237,7 @@ def test_reading_the_files_and_building_from_arrays_are_the_same_data(qkm_files)
 
 
 def test_the_dataset_adapter_and_its_suggestion(qkm_files):
-    ds = kinecal.dataset("qkm-hl6", QKM)
+    ds = kinecal.dataset("qkm-hl6", shared_data("qkm_hl6_faro"))
     assert ds.suggested == {"estimate": "all,identifiable"}
     result = kinecal.calibrate(ds.robot, ds.identification, validate=ds.validation,
                                **ds.suggested)
@@ -483,7 +498,7 @@ def test_robot_round_trips_and_urdf_export(tmp_path):
     assert again.parameter_ids[:2] == ["p1", "p2"] and len(again.parameter_names) == 38
     assert robot.units == ("in", "deg")
     # A real URDF with comments and several leaves: the tip is named.
-    path = os.path.join(SHARED, "urdf", "franka_panda", "panda.urdf")
+    path = shared_data("urdf", "franka_panda", "panda.urdf")
     with pytest.raises(kinecal.KinecalError, match="several leaf links.*give tip=LINK"):
         kinecal.Robot.from_urdf(path)
     with pytest.raises(kinecal.KinecalError, match="no link named `nowhere`.*give base=LINK"):
@@ -502,6 +517,7 @@ def test_robot_round_trips_and_urdf_export(tmp_path):
 
 def test_the_readme_session_runs_as_shown(monkeypatch):
     # From the repository root, where the README's paths (../shared/data) hold.
+    shared_data("qkm_hl6_faro")
     monkeypatch.chdir(ROOT)
     result = doctest.testfile(os.path.join(ROOT, "README.md"), module_relative=False,
                               optionflags=doctest.NORMALIZE_WHITESPACE)
@@ -576,9 +592,8 @@ def test_tracker_series_from_another_lab(cli, tmp_path):
     """The UR10 tracker data as another lab wrote it (';', decimal commas, mm, its own column
     names): read with its units and a session per series, identified on series A and checked
     on series C, a session identification never saw (its frame re-estimated on it)."""
-    ur10 = os.path.join(SHARED, "ipa_ur10_tracker")
-    yaml = os.path.join(SHARED, "urdf", "universal_robots", "config", "ur10",
-                        "default_kinematics.yaml")
+    ur10 = shared_data("ipa_ur10_tracker")
+    yaml = shared_data("urdf", "universal_robots", "config", "ur10", "default_kinematics.yaml")
     subprocess.run([cli, "import", "ur", yaml, "--out", str(tmp_path / "ur10.toml")],
                    check=True, capture_output=True)
     robot = kinecal.Robot.from_toml(tmp_path / "ur10.toml")
@@ -1078,8 +1093,8 @@ def test_dh_export_reads_back_and_is_the_cli_table(cli, puma, tmp_path):
 
 
 def test_ur_export_round_trips_and_names_what_it_cannot_hold(cli, tmp_path):
-    yaml = os.path.join(SHARED, "urdf", "universal_robots", "real_factory_calibration_ur3e",
-                        "ur3e_calibration_1.yaml")
+    yaml = shared_data("urdf", "universal_robots", "real_factory_calibration_ur3e",
+                       "ur3e_calibration_1.yaml")
     subprocess.run([cli, "import", "ur", yaml, "--out", "ur3e.toml"], cwd=tmp_path, check=True,
                    capture_output=True)
     robot = kinecal.Robot.from_toml(tmp_path / "ur3e.toml")
@@ -1161,7 +1176,7 @@ def test_joint_table_export_is_the_robots_offsets_and_slopes(cli, puma, tmp_path
 
 
 def test_urdf_export_names_what_urdf_cannot_express():
-    path = os.path.join(SHARED, "urdf", "franka_panda", "panda.urdf")
+    path = shared_data("urdf", "franka_panda", "panda.urdf")
     r = kinecal.Robot.from_urdf(path, tip="panda_hand_tcp")
     with pytest.raises(kinecal.KinecalError, match="panda_joint2`\\) slope 1.001"):
         r.with_value("joint2.slope", 1.001).to_urdf(path, tip="panda_hand_tcp")
@@ -1301,3 +1316,114 @@ def test_a_model_choice_from_python_is_the_command_lines(cli, qkm_files, monkeyp
     assert result.report["model_choice"] == expected["model_choice"], done.stdout
     assert result.estimates == {p["name"]: p["estimated"] for p in expected["parameters"]
                                 if p["estimated_flag"]}
+
+
+NO_TRACKER = os.path.join(ROOT, "examples", "no-tracker")
+
+
+def _error_paths(tmp_path):
+    """Ways to get a KinecalError: from files (file, line, field set), from arguments (None),
+    from the Python package itself (None)."""
+    ge = kinecal.Robot.builtin("ge-a4")
+    bad_toml = tmp_path / "bad.toml"
+    bad_toml.write_text("name = 'x'\nlength_unit = 'furlong'\n")
+    bad_csv = tmp_path / "bad.csv"
+    bad_csv.write_text("posture,site,v1,v2,v3,v4,x,y,z\n1,ee,0,0,zero,0,1,2,3\n")
+    q = np.zeros((3, 4))
+    return [
+        lambda: kinecal.Robot.from_toml(bad_toml),
+        lambda: kinecal.Robot.from_toml(tmp_path / "missing.toml"),
+        lambda: kinecal.Measurements.read_csv(bad_csv, ge),
+        lambda: kinecal.Measurements.read_csv(tmp_path / "missing.csv", ge),
+        lambda: kinecal.Robot.builtin("nothing"),
+        lambda: kinecal.Measurements(ge, q, np.zeros((3, 3)), sigma_position=[1, -1, 1]),
+        lambda: kinecal.Measurements(ge, q, np.zeros((2, 3))),
+        lambda: kinecal.dataset("nothing", tmp_path),
+        lambda: kinecal.dataset("qkm-hl6", tmp_path),
+        lambda: kinecal.calibrate(ge, kinecal.simulate(ge, postures=q).measurements,
+                                  weights=(1, 2, 3)),
+        lambda: kinecal.calibrate(ge, kinecal.simulate(ge, postures=q).measurements,
+                                  method="nothing"),
+        lambda: kinecal.calibrate(ge, kinecal.simulate(ge, postures=q).measurements,
+                                  holdout=2.0),
+        lambda: kinecal.simulate(ge, postures=np.zeros((3, 5))),
+        lambda: kinecal.plan(ge, count=0, sample=10),
+        lambda: ge.with_value("nothing", 1.0),
+        lambda: ge.get("p999"),
+        lambda: ge.to_dh(convention="sideways"),
+    ]
+
+
+def test_every_kinecal_error_has_file_line_and_field(tmp_path):
+    """Whatever raised it (a file, an argument, the package), a KinecalError has ``file``,
+    ``line`` and ``field``: set when it came from a file, else None."""
+    raised = 0
+    for k, call in enumerate(_error_paths(tmp_path)):
+        with pytest.raises(kinecal.KinecalError) as e:
+            call()
+        raised += 1
+        err = e.value
+        for attribute in ("file", "line", "field"):
+            assert hasattr(err, attribute), (k, attribute, str(err))
+        assert err.file is None or isinstance(err.file, str), k
+        assert err.line is None or isinstance(err.line, int), k
+        assert err.field is None or isinstance(err.field, str), k
+    assert raised >= 15
+    # From files: named.
+    with pytest.raises(kinecal.KinecalError) as e:
+        kinecal.Robot.builtin("nothing")
+    assert (e.value.file, e.value.line, e.value.field) == (None, None, None)
+    # Raised by the package's own Python code.
+    assert kinecal.KinecalError("x").file is None
+
+
+def test_a_sigma_below_1e_140_is_refused_naming_the_file(tmp_path):
+    ge = kinecal.Robot.builtin("ge-a4")
+    sim = kinecal.simulate(ge, postures=np.zeros((3, 4)))
+    lines = sim.measurements.to_csv(ge).splitlines()
+    text = lines[0] + ",sigma_position\n" + "".join(f"{row},1e-160\n" for row in lines[1:])
+    path = tmp_path / "s.csv"
+    path.write_text(text)
+    with pytest.raises(kinecal.KinecalError, match="below 1e-140") as e:
+        kinecal.Measurements.read_csv(path, ge)
+    assert (e.value.file, e.value.line, e.value.field) == (str(path), 2, "sigma_position")
+    with pytest.raises(kinecal.KinecalError, match="sigma_position: row 0: .*below 1e-140"):
+        kinecal.Measurements(ge, np.zeros((1, 4)), np.zeros((1, 3)), sigma_position=[1e-160])
+
+
+def _round_trip(robot, m, tmp_path, name):
+    """``to_csv``, read back by kinecal's reader, gives the same observations: the same text
+    again, the same readings and kinds."""
+    text = m.to_csv(robot)
+    path = tmp_path / name
+    path.write_text(text)
+    back = kinecal.Measurements.read_csv(path, robot)
+    assert back.kinds == m.kinds
+    np.testing.assert_array_equal(back.readings, m.readings)
+    assert back.to_csv(robot) == text
+    return text
+
+
+def test_to_csv_writes_every_observation_kind_or_refuses(tmp_path):
+    table = kinecal.Robot.from_toml(os.path.join(NO_TRACKER, "a4_table.toml"))
+    distances = kinecal.Measurements.read_csv(os.path.join(NO_TRACKER, "ballbar.csv"), table)
+    contacts = kinecal.Measurements.read_csv(os.path.join(NO_TRACKER, "contacts.csv"), table)
+    assert set(distances.kinds) == {"distance"} and set(contacts.kinds) == {"contact"}
+    text = _round_trip(table, distances, tmp_path, "d.csv")
+    assert text.startswith("pair,site,a1,a2,a3,a4,b1,b2,b3,b4,distance\n1,ee,")
+    text = _round_trip(table, contacts, tmp_path, "c.csv")
+    assert text.startswith("posture,site,plane,v1,v2,v3,v4,gap\nt1,ee,table,")
+    # Poses and positions, with sigmas of 1e-15 kept (not written as 0).
+    ge = kinecal.Robot.builtin("ge-a4")
+    q = np.random.default_rng(3).uniform(-20, 20, size=(5, 4))
+    poses = kinecal.simulate(ge, postures=q).measurements
+    fk = ge.fk(q)
+    tiny = kinecal.Measurements(ge, q, fk[:, :3], fk[:, 3:], sigma_position=[1e-15] * 5,
+                                sigma_angle=[1e-15] * 5)
+    for k, m in enumerate([poses, tiny]):
+        text = _round_trip(ge, m, tmp_path, f"m{k}.csv")
+    assert text.splitlines()[1].endswith(",1e-15,1e-15")
+    # Two kinds in one: refused, naming them.
+    with pytest.raises(kinecal.KinecalError, match="one file holds.*distance.*contact") as e:
+        distances.merge(contacts).to_csv(table)
+    assert e.value.file is None

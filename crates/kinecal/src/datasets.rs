@@ -8,11 +8,14 @@
 //!   3 reflectors; the controller's joint values as read, with the J2/J3 coupling in the robot.
 //! - [`ur10e_camera`]: UR10e with a wrist camera: 23 camera-measured poses.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{Error, Location, Result};
 use crate::files::write_measurements;
 use crate::robot_file::write_robot_toml;
+use crate::source::Source;
 
 /// A data set converted into kinecal's files.
 #[derive(Debug, Clone)]
@@ -52,8 +55,10 @@ pub struct Adapter {
     pub name: &'static str,
     /// What it reads.
     pub about: &'static str,
-    /// Converts the folder.
+    /// Converts the folder on disk.
     pub convert: fn(&Path) -> Result<Converted>,
+    /// Converts the folder's files (on disk or in memory).
+    pub read: fn(&Folder) -> Result<Converted>,
 }
 
 impl std::fmt::Debug for Adapter {
@@ -68,55 +73,188 @@ pub const DATASETS: &[Adapter] = &[
         name: "qkm-hl6",
         about: "QKM HL6 + FARO laser tracker (qkm_hl6_faro): 46 reflector positions, 9 held-out",
         convert: qkm_hl6::convert,
+        read: qkm_hl6::convert_folder,
     },
     Adapter {
         name: "fanuc-r2000ic",
         about: "FANUC R-2000iC + laser tracker (fanuc_r2000ic_lasertracker): 36 postures x 3 \
                 reflectors, controller joint values with the J2/J3 coupling",
         convert: fanuc_r2000ic::convert,
+        read: fanuc_r2000ic::convert_folder,
     },
     Adapter {
         name: "ur10e-camera",
         about: "UR10e + wrist camera (ur10e_camera): 23 camera-measured poses",
         convert: ur10e_camera::convert,
+        read: ur10e_camera::convert_folder,
     },
 ];
 
-/// Reads whitespace- or comma-separated rows of `cols` numbers (blank lines skipped).
-fn read_rows(path: &Path, cols: usize) -> Result<Vec<Vec<f64>>> {
-    let source = crate::source::Source::read(path)?;
-    let file = source.name;
-    let mut rows = Vec::new();
+/// A data set's folder: its files read from disk, or (for tests and fuzzing) held in memory
+/// under the names they would have in the folder. Either way a file is named in messages as
+/// the folder joined with its name (`data/qkm_hl6_faro/position_dataset/c_angles.txt`).
+#[derive(Debug, Clone)]
+pub struct Folder {
+    dir: PathBuf,
+    memory: Option<Vec<(String, Vec<u8>)>>,
+}
+
+impl Folder {
+    /// The folder `dir` on disk.
+    pub fn disk(dir: &Path) -> Folder {
+        Folder {
+            dir: dir.to_path_buf(),
+            memory: None,
+        }
+    }
+
+    /// Files in memory, as `(name in the folder, bytes)` (`position_dataset/c_angles.txt`),
+    /// named in messages as if in the folder `dir`. A name not among them reads as a missing
+    /// file.
+    pub fn memory(dir: &Path, files: Vec<(String, Vec<u8>)>) -> Folder {
+        Folder {
+            dir: dir.to_path_buf(),
+            memory: Some(files),
+        }
+    }
+
+    /// The folder as named in messages.
+    pub fn name(&self) -> String {
+        self.dir.display().to_string()
+    }
+
+    /// Reads the file `name` of the folder (a `/`-separated path inside it).
+    pub fn read(&self, name: &str) -> Result<Source> {
+        let path = self.dir.join(name);
+        match &self.memory {
+            None => Source::read(&path),
+            Some(files) => match files.iter().find(|(n, _)| n == name) {
+                Some((_, bytes)) => Source::from_bytes(path.display().to_string(), bytes.clone()),
+                None => Err(Error::Io {
+                    path: path.display().to_string(),
+                    cause: std::io::Error::from(std::io::ErrorKind::NotFound),
+                }),
+            },
+        }
+    }
+}
+
+/// Reads whitespace- or comma-separated rows of `cols` numbers (blank lines skipped), exactly
+/// `rows` of them (the count the data set's README gives): a file with rows missing (truncated)
+/// or extra is refused with the count, at the line where the next row was expected or the extra
+/// row stands. Every number must be finite and within +-1e9 ([`crate::units::plausible`]).
+/// Returns the rows and their line numbers.
+fn read_rows(source: &Source, cols: usize, rows: usize) -> Result<(Vec<Vec<f64>>, Vec<usize>)> {
+    let file = &source.name;
+    let mut out = Vec::new();
+    let mut lines = Vec::new();
+    let mut last = 0;
     for (i, line) in source.text.lines().enumerate() {
+        let line = line.trim_start_matches('\u{feff}');
         if line.trim().is_empty() {
             continue;
         }
-        let vals: Vec<f64> = line
+        let at = Location::file(file).at_line(i + 1);
+        if out.len() == rows {
+            return Err(Error::input(
+                at,
+                format!("expected {rows} rows of {cols} numbers, found more"),
+            ));
+        }
+        let fields: Vec<&str> = line
             .split(|c: char| c == ',' || c.is_whitespace())
             .filter(|s| !s.is_empty())
-            .map(|s| s.parse::<f64>())
-            .collect::<std::result::Result<_, _>>()
-            .map_err(|e| {
-                Error::input(
-                    Location::file(&file).at_line(i + 1),
-                    format!("not a number: {e}"),
-                )
-            })?;
-        if vals.len() != cols {
+            .collect();
+        if fields.len() != cols {
             return Err(Error::input(
-                Location::file(&file).at_line(i + 1),
-                format!("expected {cols} numbers, found {}", vals.len()),
+                at,
+                format!("expected {cols} numbers, found {}", fields.len()),
             ));
         }
-        if let Some(k) = vals.iter().position(|v| !v.is_finite()) {
-            return Err(Error::input(
-                Location::file(&file).at_line(i + 1),
-                format!("number {} is not finite", k + 1),
-            ));
+        let mut vals = Vec::with_capacity(cols);
+        for (k, s) in fields.iter().enumerate() {
+            let at = at.with_field(format!("column {}", k + 1));
+            let v: f64 = s
+                .parse()
+                .map_err(|_| Error::input(at.clone(), format!("expected a number, found `{s}`")))?;
+            if !crate::units::plausible(v) {
+                return Err(Error::input(
+                    at,
+                    format!("expected a finite number within +-1e9, found `{s}`"),
+                ));
+            }
+            vals.push(v);
         }
-        rows.push(vals);
+        out.push(vals);
+        lines.push(i + 1);
+        last = i + 1;
     }
-    Ok(rows)
+    if out.len() < rows {
+        return Err(Error::input(
+            Location::file(file).at_line(last + 1),
+            format!(
+                "expected {rows} rows of {cols} numbers, found {} (the file ends here: truncated?)",
+                out.len()
+            ),
+        ));
+    }
+    Ok((out, lines))
+}
+
+/// A point of a file, in the file's units, refused when (after a change of frame) it is beyond
+/// +-1e9: kinecal would refuse the file it writes.
+fn plausible_point(p: Vector3<f64>, at: &Location, what: &str) -> Result<Vector3<f64>> {
+    if p.iter().all(|v| crate::units::plausible(*v)) {
+        Ok(p)
+    } else {
+        Err(Error::input(
+            at.clone(),
+            format!("{what} ({}, {}, {}) is beyond +-1e9", p.x, p.y, p.z),
+        ))
+    }
+}
+
+/// The rigid transform `[R | t]` of three rows of four numbers: `R` must be a rotation (its
+/// columns orthonormal to 1e-6, determinant +1).
+fn transform(source: &Source) -> Result<(Matrix3<f64>, Vector3<f64>)> {
+    let (rows, _) = read_rows(source, 4, 3)?;
+    let r = Matrix3::from_fn(|i, j| rows[i][j]);
+    let t = Vector3::new(rows[0][3], rows[1][3], rows[2][3]);
+    let off = (r.transpose() * r - Matrix3::identity()).amax();
+    if off.is_nan() || off > 1e-6 || r.determinant() <= 0.0 {
+        return Err(Error::input(
+            Location::file(&source.name).at_line(1),
+            format!(
+                "columns 1-3 of the 3 rows are not a rotation (R^T R differs from the identity by \
+                 {off:.1e}, det {:.3e})",
+                r.determinant()
+            ),
+        ));
+    }
+    Ok((r, t))
+}
+
+/// The orthonormal frame with x along `x` and `y` from `y` made orthogonal to x, or `None` when
+/// the two are (nearly) parallel or zero (relative to their lengths).
+fn frame(x: Vector3<f64>, y: Vector3<f64>) -> Option<Matrix3<f64>> {
+    let (nx, ny) = (x.norm(), y.norm());
+    if !(nx > 0.0 && ny > 0.0) || x.cross(&y).norm() <= 1e-9 * nx * ny {
+        return None;
+    }
+    let x = x / nx;
+    let y = (y / ny - x * (y / ny).dot(&x)).normalize();
+    Some(Matrix3::from_columns(&[x, y, x.cross(&y)]))
+}
+
+/// The nominal robot of a POE text built from the data (`name` for it), refused naming
+/// `data_file` (the file whose values it holds) when it cannot be read.
+fn nominal(poe: &str, name: &str, data_file: &str) -> Result<crate::robot::Robot> {
+    crate::import::poe::parse_poe_toml(poe, name).map_err(|e| {
+        Error::input(
+            Location::file(data_file),
+            format!("the nominal robot built with this file's values is refused: {e}"),
+        )
+    })
 }
 
 /// The QKM HL6 data set.
@@ -126,13 +264,24 @@ pub mod qkm_hl6 {
 
     use nalgebra::{Matrix3, Vector3};
 
-    use super::{read_rows, write_measurements, write_robot_toml, Converted};
-    use crate::error::Result;
-    use crate::import::poe::parse_poe_toml;
+    use super::{
+        frame, nominal, plausible_point, read_rows, write_measurements, write_robot_toml,
+        Converted, Folder,
+    };
+    use crate::error::{Error, Location, Result};
     use crate::kinematics::Target;
     use crate::observe::point::Position;
     use crate::observe::{Dataset, Posture};
     use crate::robot::Robot;
+    use crate::source::Source;
+
+    /// The files of the data set read, with the rows each must have (its README's counts).
+    const REF: (&str, usize) = ("position_dataset/re_ref.txt", 3);
+    const SMR: (&str, usize) = ("position_dataset/re_smr.txt", 3);
+    const ANGLES: (&str, usize) = ("position_dataset/c_angles.txt", 46);
+    const POINTS: (&str, usize) = ("position_dataset/c_poses.txt", 46);
+    const TEST_ANGLES: (&str, usize) = ("position_dataset/test_points.txt", 9);
+    const TEST_POINTS: (&str, usize) = ("position_dataset/re_test.txt", 9);
 
     /// The data set converted to kinecal's model and measurements.
     #[derive(Debug, Clone)]
@@ -153,50 +302,76 @@ pub mod qkm_hl6 {
     /// `(R, origin)`, mapping reference coordinates to tracker coordinates. (The original script
     /// does not re-normalise y; a rigid frame needs it, and the first link absorbs the base
     /// placement either way.)
-    fn reference_frame(p: &[Vec<f64>]) -> (Matrix3<f64>, Vector3<f64>) {
+    fn reference_frame(source: &Source) -> Result<(Matrix3<f64>, Vector3<f64>)> {
+        let (p, _) = read_rows(source, 3, REF.1)?;
         let v = |r: &Vec<f64>| Vector3::new(r[0], r[1], r[2]);
         let (p1, p2, p3) = (v(&p[0]), v(&p[1]), v(&p[2]));
-        let x = (p1 - p3).normalize();
-        let y0 = (p2 - p1).normalize();
-        let y = (y0 - x * y0.dot(&x)).normalize();
-        (Matrix3::from_columns(&[x, y, x.cross(&y)]), p1)
+        let r = frame(p1 - p3, p2 - p1).ok_or_else(|| {
+            Error::input(
+                Location::file(&source.name),
+                "the three reference points coincide or lie on a line: they define no frame",
+            )
+        })?;
+        Ok((r, p1))
     }
 
+    /// The postures of `angles` (six joint values and the reflector's index, 1 to 3, per row)
+    /// and the positions of `points` (mm, tracker frame), in the reference frame.
     fn dataset(
-        angles: &[Vec<f64>],
-        points: &[Vec<f64>],
+        folder: &Folder,
+        (angle_file, points_file): (&str, &str),
+        rows: usize,
         to_ref: &dyn Fn(Vector3<f64>) -> Vector3<f64>,
         prefix: &str,
-    ) -> Dataset {
+    ) -> Result<Dataset> {
+        let angle_source = folder.read(angle_file)?;
+        let (angles, angle_lines) = read_rows(&angle_source, 7, rows)?;
+        let point_source = folder.read(points_file)?;
+        let (points, point_lines) = read_rows(&point_source, 3, rows)?;
         let mut postures = Vec::new();
         let mut measurements = Vec::new();
-        for (i, (a, p)) in angles.iter().zip(points).enumerate() {
+        for (i, (a, p)) in angles.iter().zip(&points).enumerate() {
             postures.push(Posture {
                 label: format!("{prefix}{}", i + 1),
                 readings: a[..6].to_vec(),
                 session: None,
             });
-            let mut m = Position::new(
-                i,
-                Target::Site(a[6] as usize - 1),
-                to_ref(Vector3::new(p[0], p[1], p[2])) * 1e-3,
-            );
+            let smr = match a[6] {
+                v if [1.0, 2.0, 3.0].contains(&v) => v as usize - 1,
+                v => {
+                    return Err(Error::input(
+                        Location::file(&angle_source.name)
+                            .at_line(angle_lines[i])
+                            .with_field("column 7"),
+                        format!("expected the reflector (SMR) index 1, 2 or 3, found {v}"),
+                    ))
+                }
+            };
+            let at = Location::file(&point_source.name).at_line(point_lines[i]);
+            let q = plausible_point(
+                to_ref(Vector3::new(p[0], p[1], p[2])),
+                &at,
+                "in the reference frame, the point",
+            )?;
+            let mut m = Position::new(i, Target::Site(smr), q * 1e-3);
             m.line = i + 1;
             measurements.push(m.into());
         }
-        Dataset::new(postures, measurements)
+        Ok(Dataset::new(postures, measurements))
     }
 
     /// Loads the data set from its folder (`../shared/data/qkm_hl6_faro`).
     pub fn load(dir: &Path) -> Result<QkmData> {
-        let pos = dir.join("position_dataset");
-        let refp = read_rows(&pos.join("re_ref.txt"), 3)?;
-        let smr = read_rows(&pos.join("re_smr.txt"), 3)?;
-        let angles = read_rows(&pos.join("c_angles.txt"), 7)?;
-        let points = read_rows(&pos.join("c_poses.txt"), 3)?;
-        let test_angles = read_rows(&pos.join("test_points.txt"), 7)?;
-        let test_points = read_rows(&pos.join("re_test.txt"), 3)?;
-        let (r, o) = reference_frame(&refp);
+        load_folder(&Folder::disk(dir))
+    }
+
+    /// Loads the data set from its files: each must have the rows its README gives (46
+    /// identification rows, 9 test rows, 3 reference and 3 reflector points), every number
+    /// finite and within +-1e9, the reflector indices 1 to 3.
+    pub fn load_folder(folder: &Folder) -> Result<QkmData> {
+        let (r, o) = reference_frame(&folder.read(REF.0)?)?;
+        let smr_source = folder.read(SMR.0)?;
+        let (smr, smr_lines) = read_rows(&smr_source, 3, SMR.1)?;
         let to_ref = move |p: Vector3<f64>| r.transpose() * (p - o);
         // Nominal product-of-exponentials model (nominal_model.yaml), mm and degrees, with the
         // file's joint-3 convention theta3 = file value - 90 deg.
@@ -222,7 +397,11 @@ pub mod qkm_hl6 {
         poe.push_str("\n# Flange: 84 mm beyond the wrist centre along x.\n[tool]\nposition = [-156, 410, 841]\n");
         for (k, s) in smr.iter().enumerate() {
             // Measured at controller angles (0, 0, 90, 0, 0, 0) = model zero.
-            let p = to_ref(Vector3::new(s[0], s[1], s[2]));
+            let p = plausible_point(
+                to_ref(Vector3::new(s[0], s[1], s[2])),
+                &Location::file(&smr_source.name).at_line(smr_lines[k]),
+                "in the reference frame, the reflector",
+            )?;
             let _ = write!(
                 poe,
                 "\n[[sites]]\nname = \"smr{}\"\njoint = 6\nposition = [{}, {}, {}]\n",
@@ -232,11 +411,17 @@ pub mod qkm_hl6 {
                 p.z
             );
         }
-        let robot = parse_poe_toml(&poe, "<qkm_hl6 nominal>")?;
+        let robot = nominal(&poe, "<qkm_hl6 nominal>", &smr_source.name)?;
         Ok(QkmData {
             robot,
-            identification: dataset(&angles, &points, &to_ref, "c"),
-            validation: dataset(&test_angles, &test_points, &to_ref, "t"),
+            identification: dataset(folder, (ANGLES.0, POINTS.0), ANGLES.1, &to_ref, "c")?,
+            validation: dataset(
+                folder,
+                (TEST_ANGLES.0, TEST_POINTS.0),
+                TEST_ANGLES.1,
+                &to_ref,
+                "t",
+            )?,
             poe_toml: poe,
         })
     }
@@ -244,7 +429,12 @@ pub mod qkm_hl6 {
     /// Reads and converts the folder: `qkm_poe.toml`, `qkm.toml`, `identification.csv`,
     /// `validation.csv`.
     pub fn convert(dir: &Path) -> Result<Converted> {
-        let d = load(dir)?;
+        convert_folder(&Folder::disk(dir))
+    }
+
+    /// [`convert`] of the folder's files.
+    pub fn convert_folder(folder: &Folder) -> Result<Converted> {
+        let d = load_folder(folder)?;
         Ok(Converted {
             files: vec![
                 ("qkm_poe.toml".into(), d.poe_toml.clone()),
@@ -293,9 +483,11 @@ pub mod fanuc_r2000ic {
 
     use nalgebra::{Matrix3, Vector3};
 
-    use super::{read_rows, write_measurements, write_robot_toml, Converted};
-    use crate::error::Result;
-    use crate::import::poe::parse_poe_toml;
+    use super::{
+        nominal, plausible_point, read_rows, transform, write_measurements, write_robot_toml,
+        Converted, Folder,
+    };
+    use crate::error::{Error, Location, Result};
     use crate::kinematics::{rot_zyx, Target};
     use crate::observe::point::Position;
     use crate::observe::{Dataset, Observation, Posture};
@@ -312,28 +504,41 @@ pub mod fanuc_r2000ic {
         pub data: Dataset,
     }
 
-    fn transform(rows: &[Vec<f64>]) -> (Matrix3<f64>, Vector3<f64>) {
-        (
-            Matrix3::from_fn(|i, j| rows[i][j]),
-            Vector3::new(rows[0][3], rows[1][3], rows[2][3]),
-        )
-    }
+    /// The postures in `N1N2N3Jval.csv` (its README: 36 rows of 21 numbers).
+    const POSTURES: usize = 36;
 
     /// Loads the data set from its folder.
     pub fn load(dir: &Path) -> Result<FanucData> {
-        let rows = read_rows(&dir.join("N1N2N3Jval.csv"), 21)?;
-        let (rw, tw) = transform(&read_rows(&dir.join("TransTractoWorld0.csv"), 4)?);
-        let (rn, tn) = transform(&read_rows(&dir.join("TransFlangtoNest0.csv"), 4)?);
+        load_folder(&Folder::disk(dir))
+    }
+
+    /// Loads the data set from its files: `N1N2N3Jval.csv` must have 36 rows of 21 numbers with
+    /// three distinct reflector positions not on a line in each, the two transforms 3 rows of
+    /// `[R | t]` with `R` a rotation; every number finite and within +-1e9.
+    pub fn load_folder(folder: &Folder) -> Result<FanucData> {
+        let source = folder.read("N1N2N3Jval.csv")?;
+        let (rows, lines) = read_rows(&source, 21, POSTURES)?;
+        let (rw, tw) = transform(&folder.read("TransTractoWorld0.csv")?)?;
+        let nest_source = folder.read("TransFlangtoNest0.csv")?;
+        let (rn, tn) = transform(&nest_source)?;
         // p_tracker = R p_world + t.
         let to_world = |p: Vector3<f64>| rw.transpose() * (p - tw);
         let point = |r: &[f64], k: usize| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]);
         // The reflectors in the nest frame (origin N2, x towards N1, N3 in the xy-plane),
         // averaged over the postures.
         let (mut n1, mut n3) = (Vector3::zeros(), Vector3::zeros());
-        for r in &rows {
+        for (r, &line) in rows.iter().zip(&lines) {
             let (p1, p2, p3) = (point(r, 0), point(r, 1), point(r, 2));
-            let x = (p1 - p2).normalize();
-            let z = x.cross(&(p3 - p2)).normalize();
+            let (a, b) = (p1 - p2, p3 - p2);
+            if a.cross(&b).norm() <= 1e-9 * a.norm() * b.norm() || a.norm() == 0.0 {
+                return Err(Error::input(
+                    Location::file(&source.name).at_line(line),
+                    "the three reflector positions (columns 1-9) coincide or lie on a line: \
+                     they define no nest frame",
+                ));
+            }
+            let x = a.normalize();
+            let z = x.cross(&b).normalize();
             let m = Matrix3::from_columns(&[x, z.cross(&x), z]);
             n1 += m.transpose() * (p1 - p2);
             n3 += m.transpose() * (p3 - p2);
@@ -378,7 +583,11 @@ pub mod fanuc_r2000ic {
         }
         poe.push_str("\n# The flange (link_6) frame.\n[tool]\nposition = [1807, 0, 1300]\n");
         for (k, n) in nest.iter().enumerate() {
-            let p = wrist + tool0 * (rn * n + tn);
+            let p = plausible_point(
+                wrist + tool0 * (rn * n + tn),
+                &Location::file(&nest_source.name),
+                &format!("reflector {} on the flange", k + 1),
+            )?;
             let _ = write!(
                 poe,
                 "\n[[sites]]\nname = \"smr{}\"\njoint = 6\nposition = [{}, {}, {}]\n",
@@ -388,7 +597,7 @@ pub mod fanuc_r2000ic {
                 p.z
             );
         }
-        let robot = parse_poe_toml(&poe, "<fanuc_r2000ic nominal>")?;
+        let robot = nominal(&poe, "<fanuc_r2000ic nominal>", &nest_source.name)?;
         let mut postures = Vec::new();
         let mut observations: Vec<Observation> = Vec::new();
         for (i, r) in rows.iter().enumerate() {
@@ -398,7 +607,12 @@ pub mod fanuc_r2000ic {
                 session: None,
             });
             for k in 0..3 {
-                let mut m = Position::new(i, Target::Site(k), to_world(point(r, k)) * 1e-3);
+                let p = plausible_point(
+                    to_world(point(r, k)),
+                    &Location::file(&source.name).at_line(lines[i]),
+                    &format!("in the World frame, reflector {}", k + 1),
+                )?;
+                let mut m = Position::new(i, Target::Site(k), p * 1e-3);
                 m.line = i + 1;
                 observations.push(m.into());
             }
@@ -412,7 +626,12 @@ pub mod fanuc_r2000ic {
 
     /// Reads and converts the folder: `fanuc_poe.toml`, `fanuc.toml`, `measurements.csv`.
     pub fn convert(dir: &Path) -> Result<Converted> {
-        let d = load(dir)?;
+        convert_folder(&Folder::disk(dir))
+    }
+
+    /// [`convert`] of the folder's files.
+    pub fn convert_folder(folder: &Folder) -> Result<Converted> {
+        let d = load_folder(folder)?;
         Ok(Converted {
             files: vec![
                 ("fanuc_poe.toml".into(), d.poe_toml.clone()),
@@ -452,7 +671,7 @@ pub mod ur10e_camera {
 
     use nalgebra::Vector3;
 
-    use super::{write_measurements, write_robot_toml, Converted};
+    use super::{write_measurements, write_robot_toml, Converted, Folder};
     use crate::error::{Error, Location, Result};
     use crate::kinematics::Target;
     use crate::observe::point::Pose;
@@ -468,9 +687,19 @@ pub mod ur10e_camera {
         pub data: Dataset,
     }
 
+    /// The poses in `calibration.csv` (its README: 23 rows after the header).
+    const POSES: usize = 23;
+
     /// Loads the data set from its folder.
     pub fn load(dir: &Path) -> Result<Ur10eData> {
-        let urdf = crate::source::Source::read(&dir.join("ur10_robot.urdf"))?;
+        load_folder(&Folder::disk(dir))
+    }
+
+    /// Loads the data set from its files: the URDF's chain from `world` to `wrist_3_link` must
+    /// have 6 joints, `calibration.csv` the header and 23 rows of 12 numbers, each finite and
+    /// within +-1e9.
+    pub fn load_folder(folder: &Folder) -> Result<Ur10eData> {
+        let urdf = folder.read("ur10_robot.urdf")?;
         let robot = crate::import::urdf::import_urdf(
             &urdf.text,
             &urdf.name,
@@ -478,12 +707,22 @@ pub mod ur10e_camera {
             Some("wrist_3_link"),
         )?
         .robot;
-        let csv = crate::source::Source::read(&dir.join("calibration.csv"))?;
+        if robot.dof() != 6 {
+            return Err(Error::input(
+                Location::file(&urdf.name),
+                format!(
+                    "the chain from `world` to `wrist_3_link` has {} joints: expected the 6 of \
+                     calibration.csv's joint columns",
+                    robot.dof()
+                ),
+            ));
+        }
+        let csv = folder.read("calibration.csv")?;
         let mut lines = csv.text.lines().enumerate();
         let expected = "x1,y1,z1,phix1,phiy1,phiz1,shoulder_pan_joint,shoulder_lift_joint,\
                         elbow_joint,wrist_1_joint,wrist_2_joint,wrist_3_joint";
         match lines.next() {
-            Some((_, h)) if h.trim() == expected => {}
+            Some((_, h)) if h.trim().trim_start_matches('\u{feff}') == expected => {}
             _ => {
                 return Err(Error::input(
                     Location::file(&csv.name).at_line(1),
@@ -493,19 +732,39 @@ pub mod ur10e_camera {
         }
         let mut postures = Vec::new();
         let mut observations: Vec<Observation> = Vec::new();
+        let mut last = 1;
         for (i, line) in lines {
             if line.trim().is_empty() {
                 continue;
             }
             let at = Location::file(&csv.name).at_line(i + 1);
-            let v: Vec<f64> = line
-                .split(',')
-                .map(|s| s.trim().parse::<f64>())
-                .collect::<std::result::Result<_, _>>()
-                .map_err(|e| Error::input(at.clone(), format!("not a number: {e}")))?;
-            if v.len() != 12 || v.iter().any(|x| !x.is_finite()) {
-                return Err(Error::input(at, "expected 12 finite numbers"));
+            if postures.len() == POSES {
+                return Err(Error::input(
+                    at,
+                    format!("expected {POSES} rows after the header, found more"),
+                ));
             }
+            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+            if fields.len() != 12 {
+                return Err(Error::input(
+                    at,
+                    format!("expected 12 numbers, found {} fields", fields.len()),
+                ));
+            }
+            let mut v = Vec::with_capacity(12);
+            for (k, s) in fields.iter().enumerate() {
+                let at = at.with_field(expected.split(',').nth(k).expect("12 columns"));
+                match s.parse::<f64>() {
+                    Ok(x) if crate::units::plausible(x) => v.push(x),
+                    _ => {
+                        return Err(Error::input(
+                            at,
+                            format!("expected a finite number within +-1e9, found `{s}`"),
+                        ))
+                    }
+                }
+            }
+            last = i + 1;
             let k = postures.len();
             postures.push(Posture {
                 label: (k + 1).to_string(),
@@ -521,6 +780,16 @@ pub mod ur10e_camera {
             p.line = i + 1;
             observations.push(p.into());
         }
+        if postures.len() < POSES {
+            return Err(Error::input(
+                Location::file(&csv.name).at_line(last + 1),
+                format!(
+                    "expected {POSES} rows after the header, found {} (the file ends here: \
+                     truncated?)",
+                    postures.len()
+                ),
+            ));
+        }
         Ok(Ur10eData {
             robot,
             data: Dataset::new(postures, observations),
@@ -529,7 +798,12 @@ pub mod ur10e_camera {
 
     /// Reads and converts the folder: `ur10e.toml`, `poses.csv`.
     pub fn convert(dir: &Path) -> Result<Converted> {
-        let d = load(dir)?;
+        convert_folder(&Folder::disk(dir))
+    }
+
+    /// [`convert`] of the folder's files.
+    pub fn convert_folder(folder: &Folder) -> Result<Converted> {
+        let d = load_folder(folder)?;
         Ok(Converted {
             files: vec![
                 ("ur10e.toml".into(), write_robot_toml(&d.robot, None)),

@@ -38,6 +38,7 @@ use toml_edit::{DocumentMut, Item, Table, Value};
 use crate::error::{Error, Location, Result};
 use crate::params::LinkComponent;
 use crate::robot::{Coupling, Joint, JointKind, Link, Plane, Robot, Session, Site};
+use crate::units::number::Scale;
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 pub(crate) fn line_of(text: &str, span: Option<Range<usize>>) -> Option<usize> {
@@ -510,8 +511,78 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     Ok(robot)
 }
 
-fn set_number(table: &mut Table, key: &str, v: f64) {
-    let mut new = Value::from(crate::units::tidy(v));
+/// The scales of a robot file's kinds of numbers (see [`crate::units::number`]), in the file's
+/// units: lengths (link, site and session positions, plane offsets, prismatic offsets), angles
+/// (their attitudes, revolute offsets) and slopes (slopes and coupling factors). A plane's normal
+/// is a unit vector (scale 1); a joint range is its own scale (its larger bound).
+struct Scales {
+    length: Scale,
+    angle: Scale,
+    slope: Scale,
+}
+
+impl Scales {
+    fn of(robot: &Robot) -> Scales {
+        let units = robot.units;
+        let mut s = Scales {
+            length: Scale::default(),
+            angle: Scale::default(),
+            slope: Scale::default(),
+        };
+        let frames = robot
+            .links
+            .iter()
+            .chain(robot.sites.iter().map(|x| &x.frame))
+            .chain(robot.sessions.iter().map(|x| &x.frame));
+        for l in frames {
+            for c in LinkComponent::ALL {
+                let q = c.quantity();
+                s.of_mut(q).include(units.from_si(q, l.get(c)));
+            }
+        }
+        for p in &robot.planes {
+            s.length.include(units.from_si(Quantity::Length, p.offset));
+        }
+        for j in &robot.joints {
+            let q = j.kind.variable();
+            s.of_mut(q).include(units.from_si(q, j.offset));
+            s.slope.include(units.from_si(j.kind.slope(), j.slope));
+            if let Some(c) = j.coupling {
+                s.slope.include(units.from_si(j.kind.slope(), c.factor));
+            }
+        }
+        s
+    }
+
+    fn of_mut(&mut self, q: Quantity) -> &mut Scale {
+        match q {
+            Quantity::Length => &mut self.length,
+            Quantity::Angle => &mut self.angle,
+            Quantity::LengthPerReading | Quantity::AnglePerReading => &mut self.slope,
+        }
+    }
+
+    fn of_quantity(&self, q: Quantity) -> Scale {
+        match q {
+            Quantity::Length => self.length,
+            Quantity::Angle => self.angle,
+            Quantity::LengthPerReading | Quantity::AnglePerReading => self.slope,
+        }
+    }
+}
+
+/// A number as a TOML value, through [`crate::units::number::format_number`] (with `.0` added to
+/// a whole number, so that it stays a float).
+fn toml_number(v: f64) -> Value {
+    let mut text = crate::units::number::format_number(v);
+    if !text.contains(['.', 'e', 'n']) {
+        text.push_str(".0");
+    }
+    text.parse().unwrap_or_else(|_| Value::from(v))
+}
+
+fn set_number(table: &mut Table, key: &str, v: f64, scale: Scale) {
+    let mut new = toml_number(crate::units::tidy(v, scale));
     if let Some(old) = table.get(key).and_then(Item::as_value) {
         *new.decor_mut() = old.decor().clone();
     }
@@ -550,9 +621,15 @@ fn array_of_tables<'d>(
     arr
 }
 
-fn write_link(t: &mut Table, l: &Link, units: &Units) {
+fn write_link(t: &mut Table, l: &Link, units: &Units, scales: &Scales) {
     for c in LinkComponent::ALL {
-        set_number(t, c.as_str(), units.from_si(c.quantity(), l.get(c)));
+        let q = c.quantity();
+        set_number(
+            t,
+            c.as_str(),
+            units.from_si(q, l.get(c)),
+            scales.of_quantity(q),
+        );
     }
 }
 
@@ -569,30 +646,41 @@ pub fn write_robot_toml_checked(robot: &Robot, original: Option<&str>) -> Result
 
 /// Writes `robot` as a robot file. With `original` (the text of the file the robot was read
 /// from), only the model's numbers and names change: comments, layout and any other keys are
-/// kept. Without it, a fresh file is written.
+/// kept. Without it, a fresh file is written. Numbers are written as
+/// [`crate::units::number`] says, each kind with the file's scale of it (see `Scales`): float
+/// noise as 0, the rest to 15 significant digits when that is within 4 ulps
+/// ([`crate::units::tidy`]), in the shortest text that reads back the same.
 pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
     let mut doc: DocumentMut = original.and_then(|t| t.parse().ok()).unwrap_or_default();
     let units = robot.units;
+    let scales = Scales::of(robot);
     let root = doc.as_table_mut();
     set_string(root, "name", &robot.name);
     set_string(root, "length_unit", units.length.as_str());
     set_string(root, "angle_unit", units.angle.as_str());
     let links = array_of_tables(root, "links", robot.links.len());
     for (t, l) in links.iter_mut().zip(&robot.links) {
-        write_link(t, l, &units);
+        write_link(t, l, &units, &scales);
     }
     let joints = array_of_tables(root, "joints", robot.joints.len());
     for (t, j) in joints.iter_mut().zip(&robot.joints) {
         set_string(t, "kind", j.kind.as_str());
-        set_number(t, "offset", units.from_si(j.kind.variable(), j.offset));
-        set_number(t, "slope", units.from_si(j.kind.slope(), j.slope));
+        let (variable, slope) = (j.kind.variable(), j.kind.slope());
+        set_number(
+            t,
+            "offset",
+            units.from_si(variable, j.offset),
+            scales.of_quantity(variable),
+        );
+        set_number(t, "slope", units.from_si(slope, j.slope), scales.slope);
         if let Some((a, b)) = j.range {
-            set_number(t, "min", a);
-            set_number(t, "max", b);
+            let own = Scale::of([a, b]);
+            set_number(t, "min", a, own);
+            set_number(t, "max", b, own);
         }
         match j.coupling {
             Some(c) => {
-                let factor = crate::units::tidy(units.from_si(j.kind.slope(), c.factor));
+                let factor = crate::units::tidy(units.from_si(slope, c.factor), scales.slope);
                 match t.get_mut("coupling").and_then(Item::as_table_like_mut) {
                     Some(ct) => {
                         let mut joint = Value::from(c.joint as i64 + 1);
@@ -600,7 +688,7 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
                             *joint.decor_mut() = old.decor().clone();
                         }
                         ct.insert("joint", Item::Value(joint));
-                        let mut f = Value::from(factor);
+                        let mut f = toml_number(factor);
                         if let Some(old) = ct.get("factor").and_then(Item::as_value) {
                             *f.decor_mut() = old.decor().clone();
                         }
@@ -609,7 +697,7 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
                     None => {
                         let mut it = toml_edit::InlineTable::new();
                         it.insert("joint", Value::from(c.joint as i64 + 1));
-                        it.insert("factor", Value::from(factor));
+                        it.insert("factor", toml_number(factor));
                         t.insert("coupling", Item::Value(Value::InlineTable(it)));
                     }
                 }
@@ -628,7 +716,7 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
                 *joint.decor_mut() = old.decor().clone();
             }
             t.insert("joint", Item::Value(joint));
-            write_link(t, &s.frame, &units);
+            write_link(t, &s.frame, &units, &scales);
         }
     }
     if !robot.planes.is_empty() || root.contains_key("planes") {
@@ -638,21 +726,26 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
             let n = p.normal();
             let mut arr = toml_edit::Array::new();
             for k in 0..3 {
-                arr.push(crate::units::tidy(n[k]));
+                arr.push(toml_number(crate::units::tidy(n[k], Scale(1.0))));
             }
             let mut v = Value::Array(arr);
             if let Some(old) = t.get("normal").and_then(Item::as_value) {
                 *v.decor_mut() = old.decor().clone();
             }
             t.insert("normal", Item::Value(v));
-            set_number(t, "offset", units.from_si(Quantity::Length, p.offset));
+            set_number(
+                t,
+                "offset",
+                units.from_si(Quantity::Length, p.offset),
+                scales.length,
+            );
         }
     }
     if !robot.sessions.is_empty() || root.contains_key("sessions") {
         let sessions = array_of_tables(root, "sessions", robot.sessions.len());
         for (t, s) in sessions.iter_mut().zip(&robot.sessions) {
             set_string(t, "name", &s.name);
-            write_link(t, &s.frame, &units);
+            write_link(t, &s.frame, &units, &scales);
         }
     }
     doc.to_string()

@@ -35,13 +35,27 @@ impl Source {
         }
     }
 
-    /// Reads a UTF-8 text file; invalid UTF-8 is an error naming the line where it occurs.
+    /// Reads a UTF-8 text file; invalid UTF-8 is an error naming the line where it occurs. `-`
+    /// is standard input (named `-` in messages); any path is read as a stream, once, to its end,
+    /// so `/dev/stdin`, pipes and process substitutions work as files do.
     pub fn read(path: &std::path::Path) -> Result<Source> {
+        use std::io::Read as _;
         let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|cause| Error::Io {
+        let io = |cause| Error::Io {
             path: name.clone(),
             cause,
-        })?;
+        };
+        let mut bytes = Vec::new();
+        if path.as_os_str() == "-" {
+            std::io::stdin()
+                .lock()
+                .read_to_end(&mut bytes)
+                .map_err(io)?;
+        } else {
+            std::fs::File::open(path)
+                .and_then(|mut f| f.read_to_end(&mut bytes))
+                .map_err(io)?;
+        }
         Source::from_bytes(name, bytes)
     }
 

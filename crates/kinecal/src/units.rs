@@ -177,33 +177,116 @@ impl Units {
 /// refused as unit mix-ups or corrupt data: their squares would overflow the objective.
 pub const MAX_MAGNITUDE: f64 = 1e9;
 
+/// The smallest standard deviation (`sigma_position`, `sigma_angle`) kinecal accepts, in a
+/// file's units: 1e-140. A residual is weighed by 1 / sigma and squared: below about 1e-154 one
+/// weight squared overflows, and residuals up to the 2e9 that plausible numbers allow, over
+/// millions of rows, need the margin down to 1e-140 to keep the objective finite.
+pub const MIN_SIGMA: f64 = 1e-140;
+
+/// Why `v` cannot be a standard deviation (not finite, not positive, or below [`MIN_SIGMA`]).
+pub fn sigma_problem(v: f64) -> Option<String> {
+    if v.is_nan() || v <= 0.0 || !v.is_finite() {
+        Some(format!("a standard deviation must be positive, found {v}"))
+    } else if v < MIN_SIGMA {
+        Some(format!(
+            "a standard deviation below {MIN_SIGMA:e} would overflow its residual's weight \
+             (1/sigma squared), found {v:e}"
+        ))
+    } else {
+        None
+    }
+}
+
 /// Whether `v` is finite and within [`MAX_MAGNITUDE`].
 pub fn plausible(v: f64) -> bool {
     v.is_finite() && v.abs() <= MAX_MAGNITUDE
 }
 
-/// A number as kinecal writes it into files (in the file's units): 0 for float noise below
-/// 1e-12 (a computed `beta` of 1e-34), the value to 15 significant digits when that is within 4
-/// units in the last place of it (an estimate of 15.28 that came out as 15.279999999999998
-/// after unit conversions), else the value itself, written in the shortest form that reads back
-/// exactly. A robot written and read back is the same to 1e-15.
-pub fn tidy(v: f64) -> f64 {
-    if v.abs() < 1e-12 || !v.is_finite() {
-        return if v.is_finite() { 0.0 } else { v };
+/// How kinecal writes numbers into its files (robot files, measurement and posture files, the
+/// exports), in one place.
+///
+/// - **Noise.** A value below [`NOISE`] (1e-12) times *the file's scale* of its kind is float
+///   noise (a computed `z` of -2.458e-11 mm on a robot whose lengths reach 1807 mm) and is
+///   written as 0. The scale of a kind is the largest magnitude of the numbers of that kind the
+///   file holds, kinds being separate: lengths, angles and slopes of a robot file; positions,
+///   angles, joint readings of each quantity of a measurement or postures file; a joint range by its own larger bound (so that a range never collapses). So a value is
+///   only noise next to larger values of its own kind: an attitude of 1e-13 rad in a robot file
+///   whose angles are all that small, or a 1e-300 joint limit that is its range's only bound,
+///   is kept. Standard deviations are stated, never noise (and 0 is none): written exactly, a
+///   sigma of 1e-15 included.
+/// - **Text.** Every other value is written in the shortest form that reads back to the same
+///   `f64` ([`format_number`]): plain digits from 1e-5 to 1e16, else with an exponent
+///   (`1e-300`, `5e-324` for subnormals), so a file written and read back gives the same
+///   numbers, and writing it again the same text.
+pub mod number {
+    /// The relative size below which a value is noise next to its file's scale.
+    pub const NOISE: f64 = 1e-12;
+
+    /// The largest magnitude among numbers of one kind: the scale [`denoise`] compares with.
+    #[derive(Debug, Clone, Copy, Default, PartialEq)]
+    pub struct Scale(pub f64);
+
+    impl Scale {
+        /// The scale of `values` (non-finite ones ignored; 0 when there are none).
+        pub fn of(values: impl IntoIterator<Item = f64>) -> Scale {
+            let mut s = Scale(0.0);
+            for v in values {
+                s.include(v);
+            }
+            s
+        }
+
+        /// Widens the scale to `v`.
+        pub fn include(&mut self, v: f64) {
+            if v.is_finite() {
+                self.0 = self.0.max(v.abs());
+            }
+        }
+    }
+
+    /// `v` with float noise (below [`NOISE`] times `scale`) as 0, and -0 as 0; any other value
+    /// unchanged (subnormals included).
+    pub fn denoise(v: f64, scale: Scale) -> f64 {
+        if v == 0.0 || v.abs() < NOISE * scale.0 {
+            0.0
+        } else {
+            v
+        }
+    }
+
+    /// The shortest text that reads back (with Rust's or any correctly rounding parser) to
+    /// exactly `v`: Rust's `{}` from 1e-5 to 1e16 in magnitude (`0.25`, `1807`, `-3`), `{:e}`
+    /// outside (`1e-300`, `4.9e-324`, `1.5e20`), `0` for either zero.
+    pub fn format_number(v: f64) -> String {
+        let a = v.abs();
+        if v == 0.0 {
+            "0".into()
+        } else if !v.is_finite() || (1e-5..1e16).contains(&a) {
+            format!("{v}")
+        } else {
+            format!("{v:e}")
+        }
+    }
+
+    /// [`format_number`] of [`denoise`].
+    pub fn write(v: f64, scale: Scale) -> String {
+        format_number(denoise(v, scale))
+    }
+}
+
+/// A model parameter as kinecal writes it into robot files (in the file's units), given the
+/// file's scale of its kind (see [`number`]): 0 for float noise, the value to 15 significant
+/// digits when that is within 4 units in the last place of it (an estimate of 15.28 that came
+/// out as 15.279999999999998 after unit conversions), else the value itself. A robot written and
+/// read back is the same to 1e-15, and writing it again gives the same file.
+pub fn tidy(v: f64, scale: number::Scale) -> f64 {
+    let v = number::denoise(v, scale);
+    if v == 0.0 || !v.is_finite() {
+        return v;
     }
     let short: f64 = format!("{v:.14e}").parse().unwrap_or(v);
     if (short - v).abs() <= 4.0 * f64::EPSILON * v.abs() {
         short
-    } else {
-        v
-    }
-}
-
-/// A measured or computed value as kinecal writes it into data files: float noise below 1e-12
-/// (in the file's unit) as 0, any other value exactly (shortest form that reads back the same).
-pub fn snap(v: f64) -> f64 {
-    if v.abs() < 1e-12 {
-        0.0
     } else {
         v
     }

@@ -84,18 +84,11 @@ use kinecal::{Chain, Frame, Robot, Target};
 
 /// `../shared/data/urdf`: on CI it must be there, elsewhere a test without it says so.
 fn shared() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/urdf");
-    if !d.exists() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is missing on CI",
-            d.display()
-        );
-        eprintln!("skipped: {} not found", d.display());
-        return None;
-    }
-    Some(d)
+    shared_data::shared_data("urdf")
 }
+
+#[path = "common/shared_data.rs"]
+mod shared_data;
 
 /// Where a calibrated robot came from, and so which exports it has.
 #[derive(Clone)]

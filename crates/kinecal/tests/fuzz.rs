@@ -21,6 +21,8 @@
 //! Inputs that once failed are kept in `tests/fuzz-corpus/` and replayed first.
 
 mod fuzz_driver;
+#[path = "common/synthetic_datasets.rs"]
+mod synthetic;
 
 use fuzz_driver::{fuzz, repo, Outcome};
 use kinecal::files::{
@@ -454,6 +456,50 @@ fn spec_toml() {
             Err(e) => Outcome::Refused(e.to_string()),
         }
     });
+}
+
+/// What a data set adapter converted: its robot files read back (the robot validated and
+/// rewritten identically), its measurement files read with the robot, every number finite.
+fn check_converted(c: &kinecal::datasets::Converted) -> Result<(), String> {
+    let text = |n: &str| {
+        c.files
+            .iter()
+            .find(|(f, _)| f == n)
+            .map(|(_, t)| t.as_str())
+            .ok_or(format!("no {n} written"))
+    };
+    let robot = parse_robot_toml(text(c.suggested.robot)?, c.suggested.robot)
+        .map_err(|e| format!("its robot is refused: {e}"))?;
+    check_robot(&robot)?;
+    for (name, t) in &c.files {
+        if name.ends_with("_poe.toml") {
+            let poe = kinecal::import::poe::parse_poe_toml(t, name)
+                .map_err(|e| format!("its POE file is refused: {e}"))?;
+            check_robot(&poe)?;
+        } else if name.ends_with(".csv") {
+            let d = parse_measurements(t, name, &robot)
+                .map_err(|e| format!("its own {name} is refused: {e}"))?;
+            check_data(&d)?;
+        }
+    }
+    Ok(())
+}
+
+/// Every `kinecal dataset` adapter, on a synthetic folder shaped like its data set (see
+/// `common/synthetic_datasets.rs`) packed into one byte string: the mutations damage the files
+/// (rows cut, fields lost, numbers replaced) and the marks between them (files lost, renamed).
+/// A refusal names the folder (`d/...`).
+#[test]
+fn dataset_folders() {
+    for adapter in kinecal::datasets::DATASETS {
+        let seeds = vec![synthetic::pack(&synthetic::folder(adapter.name))];
+        let target = format!("dataset_{}", adapter.name.replace('-', "_"));
+        fuzz(&target, "d", &seeds, &|b| {
+            let folder =
+                kinecal::datasets::Folder::memory(std::path::Path::new("d"), synthetic::unpack(b));
+            outcome((adapter.read)(&folder), check_converted)
+        });
+    }
 }
 
 /// Property: any random robot (1-7 joints of random kinds, couplings, sites, planes, joint

@@ -10,19 +10,11 @@ use kinecal::kinematics::log_so3;
 use kinecal::{Chain, Robot, Target};
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
+#[path = "common/shared_data.rs"]
+mod shared_data;
+
 fn dir() -> Option<PathBuf> {
-    let d =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/urdf/universal_robots");
-    if !d.exists() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is missing on CI",
-            d.display()
-        );
-        eprintln!("skipped: {} not found", d.display());
-        return None;
-    }
-    Some(d)
+    shared_data::shared_data("urdf/universal_robots")
 }
 
 fn files(d: &Path) -> Vec<PathBuf> {

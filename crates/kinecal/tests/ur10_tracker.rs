@@ -20,18 +20,13 @@ use kinecal::units::LengthUnit;
 use kinecal::workflow::{self, Request, Selection, Validation};
 use kinecal::{parse_param_list, Dataset, Robot};
 
+#[path = "common/shared_data.rs"]
+mod shared_data;
+
+/// The shared data folder, when it holds the tracker series.
 fn shared() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if !dir.join("ipa_ur10_tracker").exists() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} is missing on CI",
-            dir.display()
-        );
-        eprintln!("skipped: {} not found", dir.display());
-        return None;
-    }
-    Some(dir)
+    shared_data::shared_data("ipa_ur10_tracker")?;
+    Some(shared_data::root())
 }
 
 fn robot(shared: &Path) -> Robot {

@@ -1,6 +1,6 @@
 //! URDF import and export against an independent URDF forward kinematics, on real robot files.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::import::urdf::{export_urdf, import_urdf};
@@ -9,20 +9,11 @@ use kinecal::{simulate, ParamId};
 use nalgebra::{Matrix4, Rotation3, Unit, Vector3};
 use rand::{RngExt, SeedableRng};
 
+#[path = "common/shared_data.rs"]
+mod shared_data;
+
 fn shared(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/urdf")
-        .join(rel);
-    if p.exists() {
-        return Some(p);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "{} is missing on CI",
-        p.display()
-    );
-    eprintln!("skipped: {} not found", p.display());
-    None
+    shared_data::shared_data(&format!("urdf/{rel}"))
 }
 
 /// Forward kinematics straight from the URDF: the product of `origin * motion(axis, q)` along

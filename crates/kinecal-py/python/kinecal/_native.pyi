@@ -163,7 +163,10 @@ class Measurements:
         """A measurement, distance or contact file (told by its header); ``columns`` maps
         another tool's measurement columns (``["v1=J1", "x=X", ...]``)."""
     def merge(self, other: Measurements) -> Measurements: ...
-    def to_csv(self, robot: Robot) -> str: ...
+    def to_csv(self, robot: Robot) -> str:
+        """The CSV text of kinecal's file for the observations' kind (a measurement, distance
+        or contact file), read back by ``read_csv`` to the same numbers; observations of two
+        of these kinds are refused."""
     @property
     def readings(self) -> npt.NDArray[np.float64]:
         """``(postures, joints)``."""

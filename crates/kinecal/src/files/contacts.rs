@@ -132,3 +132,50 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
     }
     Ok(Dataset::new(postures.postures, observations))
 }
+
+/// Writes the contacts of `data` as a contact file in `robot`'s units, read back by
+/// [`parse_contacts`] to the same numbers (readings and gaps as [`crate::units::number`] says,
+/// with the file's scale of each; sigmas exactly). Observations of other kinds are not written.
+pub fn write_contacts(robot: &Robot, data: &Dataset) -> String {
+    use crate::units::number::{format_number, write, Scale};
+    use std::fmt::Write as _;
+    let contacts: Vec<&Contact> = data
+        .observations
+        .iter()
+        .filter_map(|o| match o {
+            Observation::Contact(c) => Some(c),
+            _ => None,
+        })
+        .collect();
+    let with_sigma = contacts.iter().any(|c| c.sigma.is_some());
+    let mut out = String::from("posture,site,plane");
+    for j in 1..=robot.dof() {
+        let _ = write!(out, ",v{j}");
+    }
+    out.push_str(if with_sigma {
+        ",gap,sigma_position\n"
+    } else {
+        ",gap\n"
+    });
+    let len = |v: f64| robot.units.from_si(Quantity::Length, v);
+    let scale = Scale::of(contacts.iter().map(|c| len(c.gap)));
+    let readings = super::measurements::reading_scales(robot, &data.postures);
+    for c in contacts {
+        let p = &data.postures[c.view[0].posture];
+        let _ = write!(
+            out,
+            "{},{},{}",
+            p.label,
+            target_name(robot, c.view[0].target),
+            robot.planes[c.plane].name
+        );
+        super::measurements::write_readings(&mut out, &p.readings, &readings);
+        let _ = write!(out, ",{}", write(len(c.gap), scale));
+        if with_sigma {
+            let s = c.sigma.map_or(String::new(), |s| format_number(len(s)));
+            let _ = write!(out, ",{s}");
+        }
+        out.push('\n');
+    }
+    out
+}

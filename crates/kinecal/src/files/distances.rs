@@ -103,3 +103,57 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
     }
     Ok(Dataset::new(postures.postures, observations))
 }
+
+/// Writes the distances of `data` as a distance file in `robot`'s units, read back by
+/// [`parse_distances`] to the same numbers (readings and distances as
+/// [`crate::units::number`] says, with the file's scale of each; sigmas exactly). A pair is
+/// named after its postures when they were read from a distance file (`P/a` and `P/b`: pair
+/// `P`), else numbered. Observations of other kinds are not written.
+pub fn write_distances(robot: &Robot, data: &Dataset) -> String {
+    use crate::units::number::{format_number, write, Scale};
+    use std::fmt::Write as _;
+    let n = robot.dof();
+    let mut out = String::from("pair,site");
+    for tag in ["a", "b"] {
+        for j in 1..=n {
+            let _ = write!(out, ",{tag}{j}");
+        }
+    }
+    let distances: Vec<&Distance> = data
+        .observations
+        .iter()
+        .filter_map(|o| match o {
+            Observation::Distance(d) => Some(d),
+            _ => None,
+        })
+        .collect();
+    let with_sigma = distances.iter().any(|d| d.sigma.is_some());
+    out.push_str(if with_sigma {
+        ",distance,sigma_position\n"
+    } else {
+        ",distance\n"
+    });
+    let len = |v: f64| robot.units.from_si(Quantity::Length, v);
+    let scale = Scale::of(distances.iter().map(|d| len(d.distance)));
+    let readings = super::measurements::reading_scales(robot, &data.postures);
+    for (k, d) in distances.iter().enumerate() {
+        let (a, b) = (
+            &data.postures[d.views[0].posture],
+            &data.postures[d.views[1].posture],
+        );
+        let pair = match (a.label.strip_suffix("/a"), b.label.strip_suffix("/b")) {
+            (Some(p), Some(q)) if p == q => p.to_string(),
+            _ => format!("{}", k + 1),
+        };
+        let _ = write!(out, "{pair},{}", target_name(robot, d.views[0].target));
+        super::measurements::write_readings(&mut out, &a.readings, &readings);
+        super::measurements::write_readings(&mut out, &b.readings, &readings);
+        let _ = write!(out, ",{}", write(len(d.distance), scale));
+        if with_sigma {
+            let s = d.sigma.map_or(String::new(), |s| format_number(len(s)));
+            let _ = write!(out, ",{s}");
+        }
+        out.push('\n');
+    }
+    out
+}

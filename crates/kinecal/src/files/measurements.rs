@@ -13,8 +13,9 @@ use crate::error::{Error, Location, Result};
 use crate::kinematics::Target;
 use crate::observe::point::{Pose, Position};
 use crate::observe::{target_name, Dataset, Observation, Posture, View};
-use crate::robot::Robot;
-use crate::units::{snap, Quantity};
+use crate::robot::{JointKind, Robot};
+use crate::units::number::{self, Scale};
+use crate::units::Quantity;
 
 /// The measurement file format.
 pub(super) const FORMAT: Format = Format {
@@ -622,8 +623,35 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
     Ok(table.postures)
 }
 
-/// Writes the poses and positions of `data` as a measurement file in `robot`'s units, with full
-/// precision (observations of other kinds are not written). The optional `sigma_position` and
+/// The scales of a file's joint readings (see [`crate::units::number`]): one for the readings of
+/// revolute joints, one for prismatic ones.
+pub(crate) fn reading_scales(robot: &Robot, postures: &[Posture]) -> Vec<Scale> {
+    let mut by_kind = [Scale::default(); 2];
+    let kind =
+        |j: usize| usize::from(robot.joints.get(j).map(|j| j.kind) == Some(JointKind::Prismatic));
+    for p in postures {
+        for (j, v) in p.readings.iter().enumerate() {
+            by_kind[kind(j)].include(*v);
+        }
+    }
+    (0..robot.dof()).map(|j| by_kind[kind(j)]).collect()
+}
+
+/// A posture's readings, each `,value` ([`number::write`] with its scale).
+pub(crate) fn write_readings(out: &mut String, readings: &[f64], scales: &[Scale]) {
+    for (j, v) in readings.iter().enumerate() {
+        let scale = scales.get(j).copied().unwrap_or(Scale(v.abs()));
+        out.push(',');
+        out.push_str(&number::write(*v, scale));
+    }
+}
+
+/// Writes the poses and positions of `data` as a measurement file in `robot`'s units, each
+/// number as [`crate::units::number`] says, with the file's scale of its kind (positions,
+/// angles, readings of revolute and of prismatic joints): float noise as 0, every other value
+/// exactly, so that the file reads back to the same numbers. Standard deviations are stated,
+/// never noise (and 0 is none): they are written exactly, however small.
+/// Observations of other kinds are not written (see [`super::write_observations`]). The optional `sigma_position` and
 /// `sigma_angle` columns are written when some row has them (`sigma_x, sigma_y, sigma_z`
 /// instead of `sigma_position` when some row's axes differ).
 pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
@@ -656,10 +684,23 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
         });
     }
     out.push('\n');
-    let len = |v: f64| snap(units.from_si(Quantity::Length, v));
-    let ang = |v: f64| snap(units.from_si(Quantity::Angle, v));
-    let opt =
-        |v: Option<f64>, f: &dyn Fn(f64) -> f64| v.map_or(String::new(), |v| f(v).to_string());
+    // The scales of the file's kinds of numbers.
+    let len = |v: f64| units.from_si(Quantity::Length, v);
+    let ang = |v: f64| units.from_si(Quantity::Angle, v);
+    let (mut positions, mut angles) = (Scale::default(), Scale::default());
+    for o in &data.observations {
+        let (position, euler) = match o {
+            Observation::Pose(p) => (p.position, Some(p.euler)),
+            Observation::Position(p) => (p.position, None),
+            _ => continue,
+        };
+        position.iter().for_each(|v| positions.include(len(*v)));
+        euler.iter().flatten().for_each(|v| angles.include(ang(*v)));
+    }
+    let readings = reading_scales(robot, &data.postures);
+    let opt = |v: Option<f64>, f: &dyn Fn(f64) -> f64| {
+        v.map_or(String::new(), |v| number::format_number(f(v)))
+    };
     for o in &data.observations {
         let (view, position, euler, sp, sa) = match o {
             Observation::Pose(p) => (
@@ -678,24 +719,23 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
             let _ = write!(out, ",{}", p.session.as_deref().unwrap_or(""));
         }
         let _ = write!(out, ",{}", target_name(robot, view.target));
-        for v in &p.readings {
-            let _ = write!(out, ",{v}");
-        }
+        write_readings(&mut out, &p.readings, &readings);
         for k in 0..3 {
-            let _ = write!(out, ",{}", len(position[k]));
+            let _ = write!(out, ",{}", number::write(len(position[k]), positions));
         }
         match euler {
             Some(e) => {
                 for k in 0..3 {
-                    let _ = write!(out, ",{}", ang(e[k]));
+                    let _ = write!(out, ",{}", number::write(ang(e[k]), angles));
                 }
             }
             None => out.push_str(",,,"),
         }
         if with_sigma {
+            let sigma = |v: f64| number::format_number(len(v));
             match (per_axis, sp) {
                 (true, Some(s)) => {
-                    let _ = write!(out, ",{},{},{}", len(s.x), len(s.y), len(s.z));
+                    let _ = write!(out, ",{},{},{}", sigma(s.x), sigma(s.y), sigma(s.z));
                 }
                 (true, None) => out.push_str(",,,"),
                 (false, s) => {
@@ -709,15 +749,15 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
     out
 }
 
-/// Writes a postures file.
+/// Writes a postures file, the readings as [`crate::units::number`] says (the file's scale of
+/// the readings of revolute joints, and of prismatic ones).
 pub fn write_postures(robot: &Robot, postures: &[Posture]) -> String {
     let mut out = postures_header(robot).join(",");
     out.push('\n');
+    let scales = reading_scales(robot, postures);
     for p in postures {
         out.push_str(&p.label);
-        for v in &p.readings {
-            let _ = write!(out, ",{v}");
-        }
+        write_readings(&mut out, &p.readings, &scales);
         out.push('\n');
     }
     out

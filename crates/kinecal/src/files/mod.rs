@@ -47,8 +47,8 @@ use crate::kinematics::Target;
 use crate::observe::{Dataset, Observation};
 use crate::robot::Robot;
 
-pub use contacts::parse_contacts;
-pub use distances::parse_distances;
+pub use contacts::{parse_contacts, write_contacts};
+pub use distances::{parse_distances, write_distances};
 pub use measurements::{
     parse_measurements, parse_measurements_mapped, parse_postures, postures_header,
     write_measurements, write_postures, ColumnMap, COMPENSATED_COLUMNS, NOT_READ,
@@ -57,6 +57,37 @@ pub use read::{
     kind_index, read_files, read_observation_file, read_options, session_name, ObservationFile,
     ReadSettings,
 };
+
+/// The observations of `data` as one file of kinecal's, read back to the same numbers: a
+/// measurement file for poses and positions ([`write_measurements`]), a distance file for
+/// distances ([`write_distances`]), a contact file for contacts ([`write_contacts`]). A file
+/// holds one of these three; observations of two of them are refused, naming the kinds found.
+pub fn write_observations(robot: &Robot, data: &Dataset) -> Result<String> {
+    let kinds = data.kinds();
+    let family = |k: &str| match k {
+        "pose" | "position" => 0,
+        "distance" => 1,
+        _ => 2,
+    };
+    let families: std::collections::BTreeSet<usize> =
+        kinds.iter().map(|(k, _)| family(k)).collect();
+    if families.len() > 1 {
+        return Err(Error::Problem(format!(
+            "one file holds poses and positions, or distances, or contacts; these observations \
+             hold {}: write each kind from its own measurements (before merging them)",
+            kinds
+                .iter()
+                .map(|(k, n)| format!("{n} {k}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    Ok(match families.first() {
+        Some(1) => write_distances(robot, data),
+        Some(2) => write_contacts(robot, data),
+        _ => write_measurements(robot, data),
+    })
+}
 
 /// A file format of observations, for the command line and other front ends.
 #[derive(Clone, Copy)]

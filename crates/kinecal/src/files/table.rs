@@ -455,17 +455,15 @@ impl Table<'_> {
         Ok(v)
     }
 
-    /// Parses an optional standard deviation: empty is `None`; otherwise a positive number.
+    /// Parses an optional standard deviation: empty is `None`; otherwise a positive number, at
+    /// least [`crate::units::MIN_SIGMA`].
     pub fn sigma(&self, line: usize, field: &str, s: &str) -> Result<Option<f64>> {
         if s.is_empty() {
             return Ok(None);
         }
         let v = self.number(line, field, s)?;
-        if v <= 0.0 {
-            return Err(Error::input(
-                self.at(line, field),
-                format!("a standard deviation must be positive, found `{s}`"),
-            ));
+        if let Some(why) = crate::units::sigma_problem(v) {
+            return Err(Error::input(self.at(line, field), why));
         }
         Ok(Some(v))
     }

@@ -277,7 +277,10 @@ pub fn gains_lost(
             what: format!(
                 "{} slope {} {}{}",
                 names(j),
-                crate::units::tidy(robot.units.from_si(joint.kind.slope(), joint.slope)),
+                {
+                    let v = robot.units.from_si(joint.kind.slope(), joint.slope);
+                    crate::units::tidy(v, crate::units::number::Scale::of([v]))
+                },
                 robot.units.label(joint.kind.slope()),
                 if coupled { " and its coupling" } else { "" },
             ),
