@@ -202,20 +202,22 @@ pub fn plausible(v: f64) -> bool {
     v.is_finite() && v.abs() <= MAX_MAGNITUDE
 }
 
-/// How kinecal writes numbers into its files (robot files, measurement and posture files, the
-/// exports), in one place.
+/// How kinecal writes numbers into its files (robot files; measurement, postures, distance and
+/// contact files), in one place. (The exports keep their own formats, each read back and
+/// checked against a tolerance before it is written.)
 ///
-/// - **Noise.** A value below [`NOISE`] (1e-12) times *the file's scale* of its kind is float
+/// - **Noise.** A value below [`NOISE`](number::NOISE) (1e-12) times *the file's scale* of its kind is float
 ///   noise (a computed `z` of -2.458e-11 mm on a robot whose lengths reach 1807 mm) and is
 ///   written as 0. The scale of a kind is the largest magnitude of the numbers of that kind the
 ///   file holds, kinds being separate: lengths, angles and slopes of a robot file; positions,
-///   angles, joint readings of each quantity of a measurement or postures file; a joint range by its own larger bound (so that a range never collapses). So a value is
+///   angles, joint readings of each quantity of a measurement or postures file; a joint range
+///   by its own larger bound (so that a range never collapses). So a value is
 ///   only noise next to larger values of its own kind: an attitude of 1e-13 rad in a robot file
 ///   whose angles are all that small, or a 1e-300 joint limit that is its range's only bound,
 ///   is kept. Standard deviations are stated, never noise (and 0 is none): written exactly, a
 ///   sigma of 1e-15 included.
 /// - **Text.** Every other value is written in the shortest form that reads back to the same
-///   `f64` ([`format_number`]): plain digits from 1e-5 to 1e16, else with an exponent
+///   `f64` ([`format_number`](number::format_number)): plain digits from 1e-5 to 1e16, else with an exponent
 ///   (`1e-300`, `5e-324` for subnormals), so a file written and read back gives the same
 ///   numbers, and writing it again the same text.
 pub mod number {
