@@ -203,8 +203,9 @@ pub fn plausible(v: f64) -> bool {
 }
 
 /// How kinecal writes numbers into its files (robot files; measurement, postures, distance and
-/// contact files), in one place. (The exports keep their own formats, each read back and
-/// checked against a tolerance before it is written.)
+/// contact files; the URDF export, with a scale of 1 m and 1 rad), in one place. (The DH table
+/// writes 15 significant digits and the UR calibration file floats PyYAML reads; every export is
+/// read back and checked against a tolerance before it is written.)
 ///
 /// - **Noise.** A value below [`NOISE`](number::NOISE) (1e-12) times *the file's scale* of its kind is float
 ///   noise (a computed `z` of -2.458e-11 mm on a robot whose lengths reach 1807 mm) and is

@@ -434,14 +434,11 @@ pub struct Exported {
     pub warnings: Vec<Warning>,
 }
 
+/// A URDF number (metres, radians): below a picometre or picoradian, the rounding of the
+/// chain's products, written as 0; else the shortest text that reads back to exactly `v`.
 fn fmt_num(v: f64) -> String {
-    let r = format!("{v:.12}");
-    let r = r.trim_end_matches('0').trim_end_matches('.').to_string();
-    if r == "-0" {
-        "0".into()
-    } else {
-        r
-    }
+    use crate::units::number;
+    number::write(v, number::Scale(1.0))
 }
 
 /// The URDF `rpy` of a rotation: of the two equivalent ZYX solutions, the one closer to `near`
