@@ -135,7 +135,8 @@ impl Rows {
 pub fn number(file: &str, line: u64, field: &str, s: &str) -> Result<f64> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v.abs() <= 1e9 => Ok(v),
-        Ok(v) => bail!("{file}:{line}: field `{field}`: {v} is not a finite number within +-1e9"),
+        // Named as written: `1e308`, not its 309 digits.
+        Ok(_) => bail!("{file}:{line}: field `{field}`: {s} is not a finite number within +-1e9"),
         Err(_) => bail!("{file}:{line}: field `{field}`: expected a number, found `{s}`"),
     }
 }

@@ -2967,6 +2967,14 @@ fn compensate_targets_for_a_controller() {
         "{err}"
     );
     assert!(err.contains("are the positions in m"), "{err}");
+    // A number beyond any length, named as written.
+    std::fs::write(d.join("huge.csv"), "target,x,y,z\n1,1e308,0,0\n").unwrap();
+    let (code, err) = comp("huge.csv", &[], "o.csv");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("huge.csv:2: field `x`: 1e308 is not a finite number within +-1e9"),
+        "{err}"
+    );
     // A configuration that cannot be told, or for a program.
     let (code, err) = comp(
         "targets.csv",
