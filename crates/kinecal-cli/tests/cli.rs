@@ -2683,35 +2683,6 @@ fn compensate_programs_and_targets() {
     assert!(err.contains("over an input"), "{err}");
 }
 
-/// An ABB IRB 120 from its data sheet (standard DH, metres, radians) with its joint ranges,
-/// as a robot file.
-fn irb120_toml() -> String {
-    use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
-    let d = |x: f64| x.to_radians();
-    let r = kinecal::JointKind::Revolute;
-    let rows = [
-        DhRow::new(r, 0.0, d(-90.0), 0.29, 0.0),
-        DhRow::new(r, 0.27, 0.0, 0.0, d(-90.0)),
-        DhRow::new(r, 0.07, d(-90.0), 0.0, 0.0),
-        DhRow::new(r, 0.0, d(90.0), 0.302, 0.0),
-        DhRow::new(r, 0.0, d(-90.0), 0.0, 0.0),
-        DhRow::new(r, 0.0, 0.0, 0.072, 0.0),
-    ];
-    let mut robot = robot_from_dh("IRB 120", Default::default(), &rows, Convention::Standard);
-    let ranges = [
-        (-165.0, 165.0),
-        (-110.0, 110.0),
-        (-110.0, 70.0),
-        (-160.0, 160.0),
-        (-120.0, 120.0),
-        (-400.0, 400.0),
-    ];
-    for (j, (lo, hi)) in robot.joints.iter_mut().zip(ranges) {
-        j.range = Some((d(lo), d(hi)));
-    }
-    kinecal::robot_file::write_robot_toml(&robot, None)
-}
-
 /// `kinecal compensate` on Cartesian targets as a controller needs them: targets without seeds
 /// all land inside the joint ranges (checked through `fk` reading compensate's own output),
 /// in the configuration asked for; a measurement file is taken as targets with its sites and
@@ -2722,7 +2693,11 @@ fn irb120_toml() -> String {
 fn compensate_targets_for_a_controller() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("irb120.toml"), irb120_toml()).unwrap();
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/robots/abb_irb120.toml"),
+        d.join("irb120.toml"),
+    )
+    .unwrap();
     // The "real" robot and postures inside its ranges; the targets are where it goes.
     run_ok(
         d,

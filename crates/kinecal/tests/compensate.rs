@@ -209,33 +209,14 @@ fn a_redundant_arm_keeps_the_seeds_null_space_posture() {
     );
 }
 
-/// An ABB IRB 120 from its data sheet (standard DH, metres) with its joint ranges: an arm whose
-/// ranges cut through its solutions.
+/// An ABB IRB 120 from its data sheet with its joint ranges (`examples/robots/abb_irb120.toml`):
+/// an arm whose ranges cut through its solutions.
 fn irb120() -> Robot {
-    use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
-    let d = |x: f64| x.to_radians();
-    let r = JointKind::Revolute;
-    let rows = [
-        DhRow::new(r, 0.0, d(-90.0), 0.29, 0.0),
-        DhRow::new(r, 0.27, 0.0, 0.0, d(-90.0)),
-        DhRow::new(r, 0.07, d(-90.0), 0.0, 0.0),
-        DhRow::new(r, 0.0, d(90.0), 0.302, 0.0),
-        DhRow::new(r, 0.0, d(-90.0), 0.0, 0.0),
-        DhRow::new(r, 0.0, 0.0, 0.072, 0.0),
-    ];
-    let mut robot = robot_from_dh("irb120", Default::default(), &rows, Convention::Standard);
-    let ranges = [
-        (-165.0, 165.0),
-        (-110.0, 110.0),
-        (-110.0, 70.0),
-        (-160.0, 160.0),
-        (-120.0, 120.0),
-        (-400.0, 400.0),
-    ];
-    for (j, (lo, hi)) in robot.joints.iter_mut().zip(ranges) {
-        j.range = Some((d(lo), d(hi)));
-    }
-    robot
+    kinecal::robot_file::parse_robot_toml(
+        include_str!("../../../examples/robots/abb_irb120.toml"),
+        "abb_irb120.toml",
+    )
+    .unwrap()
 }
 
 /// A calibrated twin of `nominal` (1 mm, 0.3 deg) and goals it reaches at postures drawn

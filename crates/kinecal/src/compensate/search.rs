@@ -33,7 +33,7 @@
 use super::configuration::Classifier;
 use super::{Compensator, Configuration, Flags, Goal, Options, Solved};
 use crate::error::Result;
-use crate::kinematics::{Chain, Target, Workspace};
+use crate::kinematics::{Target, Workspace};
 use crate::robot::{JointKind, Robot};
 
 /// Starts, targets' frames and the search's work space for one calibrated robot.
@@ -132,12 +132,11 @@ impl<'r> TargetSearch<'r> {
         let c = Classifier::new(self.robot, configuration)?;
         // Starts in the configuration only (the solver tends to stay in its start's): drawn
         // within the ranges until the table is full, or 64 tables' worth were drawn.
-        let chain = Chain::new(self.robot);
         let dof = self.robot.dof();
         let mut starts = Vec::with_capacity(Self::STARTS * dof);
         for batch in 0..64 {
             for p in crate::simulate::sample_postures(self.robot, Self::STARTS, 7919 + batch) {
-                chain.forward(&p.readings, &mut self.ws);
+                self.comp.calibrated.forward(&p.readings, &mut self.ws);
                 if c.matches(self.robot, &p.readings, &self.ws) {
                     starts.extend_from_slice(&p.readings);
                     if starts.len() == Self::STARTS * dof {
@@ -377,19 +376,12 @@ impl<'r> TargetSearch<'r> {
             return;
         }
         let dof = self.robot.dof();
-        let chain = Chain::new(self.robot);
-        let table = self
-            .starts
+        let starts = std::mem::take(&mut self.starts);
+        let table = starts
             .chunks_exact(dof)
-            .map(|r| {
-                chain.forward(r, &mut self.ws);
-                let f = chain.target_frame(&self.ws, target);
-                let mut k = [0.0; 12];
-                k[..3].copy_from_slice(f.translation.as_slice());
-                k[3..].copy_from_slice(f.rotation.as_slice());
-                k
-            })
+            .map(|r| self.frame_key(r, target))
             .collect();
+        self.starts = starts;
         self.tables.push((target, table));
     }
 
@@ -418,13 +410,20 @@ impl<'r> TargetSearch<'r> {
 
     /// The squared task distance from the frame `target` has at `readings` to `goal`.
     fn distance_of(&mut self, goal: &Goal, target: Target, readings: &[f64]) -> f64 {
-        let chain = Chain::new(self.robot);
+        let k = self.frame_key(readings, target);
+        key_distance(goal, &k, self.comp.reach * self.comp.reach)
+    }
+
+    /// The frame `target` has at `readings` through the calibrated model, as a table key:
+    /// position, then the rotation's columns.
+    fn frame_key(&mut self, readings: &[f64], target: Target) -> [f64; 12] {
+        let chain = &self.comp.calibrated;
         chain.forward(readings, &mut self.ws);
         let f = chain.target_frame(&self.ws, target);
         let mut k = [0.0; 12];
         k[..3].copy_from_slice(f.translation.as_slice());
         k[3..].copy_from_slice(f.rotation.as_slice());
-        key_distance(goal, &k, self.comp.reach * self.comp.reach)
+        k
     }
 }
 

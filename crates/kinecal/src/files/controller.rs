@@ -92,7 +92,7 @@ impl Brand {
     /// Writes the readings in the brand's unit into `out`.
     pub fn values(self, robot: &Robot, readings: &[f64], out: &mut [f64]) {
         let unit = self.angle_unit();
-        for ((o, &r), _) in out.iter_mut().zip(readings).zip(&robot.joints) {
+        for (o, &r) in out.iter_mut().zip(readings) {
             // Readings are in the robot file's angle unit.
             let si = robot.units.to_si(Quantity::Angle, r);
             *o = match unit {
