@@ -5,6 +5,17 @@ use kinecal::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 /// The quantity of a unit label and the SI value of one unit, e.g. `mm` -> (length, 0.001).
 pub(crate) fn parse_label(label: &str) -> Option<(Quantity, f64)> {
+    // A compliance: `ANGLE/(N LENGTH)`.
+    if let Some(inner) = label
+        .split_once("/(N ")
+        .and_then(|(a, rest)| Some((a, rest.strip_suffix(')')?)))
+    {
+        let (a, l) = (
+            inner.0.parse::<AngleUnit>().ok()?,
+            inner.1.parse::<LengthUnit>().ok()?,
+        );
+        return Some((Quantity::Compliance, a.radians() / l.metres()));
+    }
     let (base, per_reading) = match label.strip_suffix("/unit") {
         Some(b) => (b, true),
         None => (label, false),
@@ -50,6 +61,7 @@ pub(crate) fn quantity_words(q: Quantity) -> &'static str {
         Quantity::Angle => "an angle",
         Quantity::LengthPerReading => "a length per reading (prismatic slope)",
         Quantity::AnglePerReading => "an angle per reading (revolute slope)",
+        Quantity::Compliance => "an angle per torque (joint compliance)",
     }
 }
 
@@ -68,5 +80,9 @@ mod tests {
         let (f, l) = conversion("deg/unit", &mm).unwrap();
         assert!((f - std::f64::consts::PI / 180.0).abs() < 1e-15 && l == "rad/unit");
         assert!(conversion("furlong", &mm).is_none());
+        // deg/(N in) into rad/(N mm): (pi/180) / 25.4.
+        let (f, l) = conversion("deg/(N in)", &mm).unwrap();
+        assert!((f - std::f64::consts::PI / 180.0 / 25.4).abs() < 1e-15 && l == "rad/(N mm)");
+        assert!(conversion("deg/(N furlong)", &mm).is_none());
     }
 }

@@ -1428,6 +1428,7 @@ fn default_tier(robot: &Robot, id: ParamId) -> usize {
         ParamKind::Site { .. } => 6,
         ParamKind::Plane { .. } => 7,
         ParamKind::Session { .. } => 8,
+        ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => 9,
     }
 }
 

@@ -11,8 +11,17 @@
 //! `(u, 0)` for a translation along `u`, or `(u x (e - c), u)` for a rotation about `u` through
 //! `c`, with `e` the target origin. Slopes are the offset column times the reading.
 //! [`euler_rates`] turns the angular rows into derivatives of the ZYX angles.
+//!
+//! A robot with a mass model ([`crate::robot::Elastic`]) is elastic: its joints yield to the
+//! gravity torques, [`Chain::forward`] solves the static equilibrium and the Jacobian is that of
+//! the deflected robot with the deflections' response included (see the `elastic` module's
+//! documentation for the model and its derivatives).
+
+mod elastic;
 
 use nalgebra::{Matrix3, Vector3};
+
+pub use elastic::{gravity_free_joints, Equilibrium, GravityFree};
 
 use crate::params::{ParamId, ParamKind};
 use crate::robot::{JointKind, Link, Robot};
@@ -241,6 +250,8 @@ pub struct Workspace {
     /// `dist[i]`: global frame at the distal end of link i (before joint i; `dist[n]` is the EECF).
     dist: Vec<Frame>,
     readings: Vec<f64>,
+    /// The deflections and their response, for an elastic robot.
+    elastic: Option<Box<elastic::ElasticState>>,
 }
 
 impl Workspace {
@@ -251,7 +262,28 @@ impl Workspace {
             prox: vec![Frame::identity(); n + 1],
             dist: vec![Frame::identity(); n + 1],
             readings: vec![0.0; n],
+            elastic: robot
+                .elastic
+                .as_ref()
+                .map(|_| Box::new(elastic::ElasticState::new(robot))),
         }
+    }
+
+    /// How the equilibrium of the last [`Chain::forward`] went (an elastic robot only).
+    pub fn equilibrium(&self) -> Option<Equilibrium> {
+        self.elastic.as_deref().map(|e| e.last)
+    }
+
+    /// The deflections of the last [`Chain::forward`] (an elastic robot only): `[2i]` the tilt
+    /// of joint `i + 1` about its lateral axis, `[2i + 1]` its turn about its own axis (rad).
+    pub fn deflections(&self) -> Option<&[f64]> {
+        self.elastic.as_deref().map(|e| e.delta.as_slice())
+    }
+
+    /// The gravity torques of the last [`Chain::forward`] (an elastic robot only), in the
+    /// order of [`Workspace::deflections`] (N m).
+    pub fn gravity_torques(&self) -> Option<&[f64]> {
+        self.elastic.as_deref().map(|e| e.tau.as_slice())
     }
 
     /// The global frame right after joint `k` (1-based; 0 is the global frame itself) of the
@@ -280,6 +312,11 @@ pub struct ColumnPlan {
     joints: Vec<JointColumns>,
     /// Wanted columns of parameters that cannot move the target.
     zero: Vec<usize>,
+    /// For an elastic robot: the wanted compliances, `(deflection, column)` (deflection `2i`
+    /// the tilt of joint i, `2i + 1` its turn).
+    elastic: Vec<(usize, usize)>,
+    /// The joints upstream of the target (all for the end effector).
+    joints_upto: usize,
 }
 
 /// The wanted columns of one link transform: its translations along and rotations about its
@@ -293,6 +330,9 @@ struct LinkColumns {
     translation: [Option<usize>; 3],
     /// Columns of `alpha, beta, gamma`.
     rotation: [Option<usize>; 3],
+    /// Whether the transform is upstream of the target (an elastic robot plans the others too:
+    /// they move the target through the gravity torques only).
+    upstream: bool,
 }
 
 /// Whose transform: link `i` or site `s`.
@@ -310,6 +350,8 @@ struct JointColumns {
     slope: Option<usize>,
     /// The coupling factor's column and the joint whose reading it multiplies.
     coupling: Option<(usize, usize)>,
+    /// Whether the joint is upstream of the target (see [`LinkColumns::upstream`]).
+    upstream: bool,
 }
 
 impl ColumnPlan {
@@ -335,30 +377,39 @@ impl ColumnPlan {
             covered[p] = true;
             columns[p]
         };
+        // An elastic robot's links and joints past the target move it through the torques.
+        let elastic = robot.elastic.is_some();
+        let (links_planned, joints_planned) = if elastic {
+            (nl, nj)
+        } else {
+            (links_upto, joints_upto)
+        };
         let mut links = Vec::new();
-        let mut link = |first: usize, frame: usize, cache: LinkOf| {
+        let mut link = |first: usize, frame: usize, cache: LinkOf, upstream: bool| {
             let l = LinkColumns {
                 frame,
                 cache,
                 translation: [take(first), take(first + 1), take(first + 2)],
                 rotation: [take(first + 3), take(first + 4), take(first + 5)],
+                upstream,
             };
             if l.translation.iter().chain(&l.rotation).any(Option::is_some) {
                 links.push(l);
             }
         };
-        for i in 0..links_upto {
-            link(6 * i, i, LinkOf::Link(i));
+        for i in 0..links_planned {
+            link(6 * i, i, LinkOf::Link(i), i < links_upto);
         }
         if let Target::Site(s) = target {
             link(
                 6 * nl + 2 * nj + 6 * s,
                 robot.sites[s].joint,
                 LinkOf::Site(s),
+                true,
             );
         }
         let mut joints = Vec::new();
-        for j in 0..joints_upto {
+        for j in 0..joints_planned {
             let coupling = robot.joints[j].coupling.and_then(|c| {
                 let p = robot.param_id(ParamKind::Coupling { joint: j }).0;
                 take(p).map(|col| (col, c.joint))
@@ -368,9 +419,21 @@ impl ColumnPlan {
                 offset: take(6 * nl + j),
                 slope: take(6 * nl + nj + j),
                 coupling,
+                upstream: j < joints_upto,
             };
             if jc.offset.is_some() || jc.slope.is_some() || jc.coupling.is_some() {
                 joints.push(jc);
+            }
+        }
+        let mut compliances = Vec::new();
+        for j in robot.compliant_joints() {
+            for (kind, deflection) in [
+                (ParamKind::Compliance { joint: j }, 2 * j + 1),
+                (ParamKind::Lateral { joint: j }, 2 * j),
+            ] {
+                if let Some(col) = take(robot.param_id(kind).0) {
+                    compliances.push((deflection, col));
+                }
             }
         }
         let zero = columns
@@ -384,6 +447,8 @@ impl ColumnPlan {
             links,
             joints,
             zero,
+            elastic: compliances,
+            joints_upto,
         }
     }
 
@@ -449,6 +514,23 @@ impl<'r> Chain<'r> {
         reading_trig: Option<&[(f64, f64)]>,
         ws: &mut Workspace,
     ) {
+        match &self.robot.elastic {
+            Some(model) if ws.elastic.is_some() => self.forward_elastic(model, readings, ws),
+            _ => self.forward_rigid(readings, reading_trig, None, ws),
+        }
+    }
+
+    /// The rigid chain at `readings`, with the deflections `delta` (see [`Workspace::deflections`])
+    /// added when given.
+    #[inline]
+    #[allow(clippy::needless_range_loop)] // i indexes links, frames and joints together
+    fn forward_rigid(
+        &self,
+        readings: &[f64],
+        reading_trig: Option<&[(f64, f64)]>,
+        delta: Option<&[f64]>,
+        ws: &mut Workspace,
+    ) {
         let n = self.robot.dof();
         debug_assert_eq!(readings.len(), n);
         ws.readings.copy_from_slice(readings);
@@ -456,10 +538,20 @@ impl<'r> Chain<'r> {
         for i in 0..=n {
             ws.prox[i] = current;
             current = current.then(&self.links[i].frame);
-            ws.dist[i] = current;
             if i < n {
                 let joint = &self.robot.joints[i];
-                let q = joint.value(readings, i);
+                let mut q = joint.value(readings, i);
+                if let (Some(d), Some(model)) = (delta, &self.robot.elastic) {
+                    if joint.kind == JointKind::Revolute {
+                        current.rotation = elastic::turn_about_local(
+                            &current.rotation,
+                            &model.joints[i].lateral_axis,
+                            d[2 * i],
+                        );
+                        q += d[2 * i + 1];
+                    }
+                }
+                ws.dist[i] = current;
                 match joint.kind {
                     JointKind::Revolute => {
                         let (s, c) = match reading_trig {
@@ -481,6 +573,8 @@ impl<'r> Chain<'r> {
                         current.translation += current.rotation.column(2) * q;
                     }
                 }
+            } else {
+                ws.dist[i] = current;
             }
         }
     }
@@ -526,22 +620,26 @@ impl<'r> Chain<'r> {
     pub fn jacobian_columns(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
         assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
         let e = self.target_frame(ws, plan.target).translation;
-        let mut put = |col: usize, dp: &Vector3<f64>, w: &Vector3<f64>| {
-            let c = &mut out[6 * col..6 * col + 6];
-            c[0] = dp.x;
-            c[1] = dp.y;
-            c[2] = dp.z;
-            c[3] = w.x;
-            c[4] = w.y;
-            c[5] = w.z;
-        };
         let zero = Vector3::zeros();
+        let elastic = ws.elastic.is_some() && self.robot.elastic.is_some();
+        let upto = plan.joints_upto;
         for l in &plan.links {
             let prox = &ws.prox[l.frame];
             let r = &prox.rotation;
+            // Where the link sits in the chain, for the torques (a site carries no body).
+            let at = match l.cache {
+                LinkOf::Link(i) if elastic => Some(3 * i),
+                _ => None,
+            };
             for (k, col) in l.translation.iter().enumerate() {
                 if let Some(col) = *col {
-                    put(col, &r.column(k).into_owned(), &zero);
+                    let u = r.column(k).into_owned();
+                    put(out, col, if l.upstream { &u } else { &zero }, &zero);
+                    if let Some(at) = at {
+                        let twist = elastic::Twist::Translation { u, at };
+                        let c = &mut out[6 * col..6 * col + 6];
+                        self.elastic_column(ws, elastic::Cause::Twist(&twist, 1.0), &e, upto, c);
+                    }
                 }
             }
             if l.rotation.iter().all(Option::is_none) {
@@ -559,28 +657,64 @@ impl<'r> Chain<'r> {
             {
                 if let Some(col) = l.rotation[k] {
                     let u = r * axis_local;
-                    put(col, &u.cross(&lever), &u);
+                    if l.upstream {
+                        put(out, col, &u.cross(&lever), &u);
+                    } else {
+                        put(out, col, &zero, &zero);
+                    }
+                    if let Some(at) = at {
+                        let twist = elastic::Twist::Rotation { u, c, at };
+                        let o = &mut out[6 * col..6 * col + 6];
+                        self.elastic_column(ws, elastic::Cause::Twist(&twist, 1.0), &e, upto, o);
+                    }
                 }
             }
         }
         for j in &plan.joints {
-            let (dp, w) = self.joint_motion(ws, j.joint, &e);
+            let (dp, w) = if j.upstream {
+                self.joint_motion(ws, j.joint, &e)
+            } else {
+                (zero, zero)
+            };
+            let twist = elastic.then(|| self.joint_twist(ws, j.joint));
+            let mut column = |col: usize, scale: f64| {
+                put(out, col, &(dp * scale), &(w * scale));
+                if let Some(t) = &twist {
+                    let o = &mut out[6 * col..6 * col + 6];
+                    self.elastic_column(ws, elastic::Cause::Twist(t, scale), &e, upto, o);
+                }
+            };
             if let Some(col) = j.offset {
-                put(col, &dp, &w);
+                column(col, 1.0);
             }
             if let Some(col) = j.slope {
-                let v = ws.readings[j.joint];
-                put(col, &(dp * v), &(w * v));
+                column(col, ws.readings[j.joint]);
             }
             if let Some((col, k)) = j.coupling {
-                let vk = ws.readings[k];
-                put(col, &(dp * vk), &(w * vk));
+                column(col, ws.readings[k]);
             }
         }
+        for &(deflection, col) in &plan.elastic {
+            put(out, col, &zero, &zero);
+            let o = &mut out[6 * col..6 * col + 6];
+            self.elastic_column(ws, elastic::Cause::Compliance(deflection), &e, upto, o);
+        }
         for &col in &plan.zero {
-            put(col, &zero, &zero);
+            put(out, col, &zero, &zero);
         }
     }
+}
+
+/// Writes one Jacobian column: `dp` in rows 0-2, `w` in rows 3-5.
+#[inline]
+fn put(out: &mut [f64], col: usize, dp: &Vector3<f64>, w: &Vector3<f64>) {
+    let c = &mut out[6 * col..6 * col + 6];
+    c[0] = dp.x;
+    c[1] = dp.y;
+    c[2] = dp.z;
+    c[3] = w.x;
+    c[4] = w.y;
+    c[5] = w.z;
 }
 
 impl Chain<'_> {
@@ -622,8 +756,16 @@ impl Chain<'_> {
             Target::EndEffector => nj,
             Target::Site(s) => robot.sites[s].joint,
         };
-        for j in 0..joints_upto {
-            let (dp, w) = self.joint_motion(ws, j, &e);
+        // An elastic robot's joints past the target move it through the torques.
+        let elastic = ws.elastic.is_some() && robot.elastic.is_some();
+        let planned = if elastic { nj } else { joints_upto };
+        for j in 0..planned {
+            let (dp, w) = if j < joints_upto {
+                self.joint_motion(ws, j, &e)
+            } else {
+                (Vector3::zeros(), Vector3::zeros())
+            };
+            let twist = elastic.then(|| self.joint_twist(ws, j));
             // dq_j/dV_j = slope_j; dq_j/dV_k = factor for the reading it is coupled to.
             let joint = &robot.joints[j];
             let mut add = |col: usize, scale: f64| {
@@ -631,6 +773,10 @@ impl Chain<'_> {
                 for k in 0..3 {
                     c[k] += dp[k] * scale;
                     c[3 + k] += w[k] * scale;
+                }
+                if let Some(t) = &twist {
+                    let cause = elastic::Cause::Twist(t, scale);
+                    self.elastic_column(ws, cause, &e, joints_upto, c);
                 }
             };
             add(j, joint.slope);

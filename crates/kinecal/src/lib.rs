@@ -8,7 +8,8 @@
 //! SVD.
 //!
 //! The data flows through the modules in this order, with no cycle: [`robot`] (the model,
-//! [`params`] its numbering, [`param_list`] lists of them, [`units`]) -> [`kinematics`] (frames, analytic Jacobian) ->
+//! [`params`] its numbering, [`units`]) -> [`kinematics`] (frames, analytic Jacobian, the elastic
+//! equilibrium of a robot with a mass model) -> [`param_list`] (lists of parameters) ->
 //! [`observe`] (the measurement model: one type per kind of observation, owning its residuals)
 //! -> [`problem`] (weighted residuals and Jacobian of a dataset) ->
 //! [`estimation`] (one solver driver, four step rules, robust loss) -> [`identifiability`]

@@ -1,9 +1,11 @@
 //! Parameter lists as users write them: comma-separated ids (`p3`), ranges (`p1-p30`), names
 //! (`link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`, `site.NAME.x`,
-//! `plane.NAME.offset`, `session.NAME.x`), whole links, joints, sites, planes or sessions
-//! (`link2`, `joint3` = its offset, slope and coupling, `site.NAME`, `plane.NAME`,
-//! `session.NAME`) and the groups `all`, `links`, `offsets`, `slopes`, `couplings`, `sites`,
-//! `planes`, `sessions`.
+//! `plane.NAME.offset`, `session.NAME.x`, `joint2.compliance`, `joint2.lateral`), whole links,
+//! joints, sites, planes or sessions (`link2`, `joint3` = its offset, slope and coupling,
+//! `site.NAME`, `plane.NAME`, `session.NAME`) and the groups `all`, `links`, `offsets`, `slopes`,
+//! `couplings`, `sites`, `planes`, `sessions`, `compliance` and `lateral`. The two compliance
+//! groups leave out the joints gravity cannot load ([`crate::kinematics::gravity_free_joints`]:
+//! a vertical first axis): name such a joint's compliance to ask for it anyway.
 
 use crate::error::{Error, Result};
 use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
@@ -61,6 +63,21 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         "couplings" => return Ok(pick(&|k| matches!(k, ParamKind::Coupling { .. }))),
         "planes" => return Ok(pick(&|k| matches!(k, ParamKind::Plane { .. }))),
         "sessions" => return Ok(pick(&|k| matches!(k, ParamKind::Session { .. }))),
+        "compliance" | "lateral" => {
+            if robot.elastic.is_none() {
+                return Err(format!(
+                    "`{token}`: the robot has no mass model (add `[[bodies]]` with masses and \
+                     centres of mass to the robot file, or import a URDF with <inertial>)"
+                ));
+            }
+            let free = crate::kinematics::gravity_free_joints(robot);
+            let lateral = token == "lateral";
+            return Ok(pick(&|k| match k {
+                ParamKind::Compliance { joint } => !lateral && !free.joint.contains(&joint),
+                ParamKind::Lateral { joint } => lateral && !free.lateral.contains(&joint),
+                _ => false,
+            }));
+        }
         _ => {}
     }
     let p_number = |s: &str| -> Option<std::result::Result<ParamId, String>> {
@@ -94,8 +111,8 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         format!(
             "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
              link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
-             plane.NAME.offset or session.NAME.x, or one of all, links, offsets, slopes, couplings, \
-             sites, planes, sessions)"
+             plane.NAME.offset, session.NAME.x or joint2.compliance, or one of all, links, offsets, \
+             slopes, couplings, sites, planes, sessions, compliance, lateral)"
         )
     };
     if let Some(rest) = token.strip_prefix("site.") {
@@ -191,8 +208,28 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
                  factor = F }}` to it in the robot file)",
                 joint + 1
             )),
+            Some(c @ ("compliance" | "lateral")) => {
+                if robot.compliant_joints().any(|j| j == joint) {
+                    Ok(vec![id(if c == "compliance" {
+                        ParamKind::Compliance { joint }
+                    } else {
+                        ParamKind::Lateral { joint }
+                    })])
+                } else if robot.elastic.is_none() {
+                    Err(format!(
+                        "`{token}`: the robot has no mass model (add `[[bodies]]` to the robot \
+                         file)"
+                    ))
+                } else {
+                    Err(format!(
+                        "`{token}`: joint {} is prismatic: only revolute joints have compliances",
+                        joint + 1
+                    ))
+                }
+            }
             Some(c) => Err(format!(
-                "`{token}`: unknown joint parameter `{c}` (expected offset, slope or coupling)"
+                "`{token}`: unknown joint parameter `{c}` (expected offset, slope, coupling, \
+                 compliance or lateral)"
             )),
         };
     }

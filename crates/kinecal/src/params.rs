@@ -2,7 +2,9 @@
 //!
 //! Order: the 6 parameters of each link (`x, y, z, alpha, beta, gamma`, links 1..n+1), then the n
 //! joint offsets, then the n slopes, then 6 per extra site; then, beyond the thesis, one coupling
-//! factor per coupled joint and 3 per plane (`tilt_x, tilt_y, offset`), so that a robot without
+//! factor per coupled joint and 3 per plane (`tilt_x, tilt_y, offset`), 6 per measurement session,
+//! and, for a robot with a mass model ([`crate::robot::Elastic`]), one joint compliance per
+//! revolute joint followed by one lateral compliance per revolute joint, so that a robot without
 //! couplings and planes keeps the thesis's numbering. `ParamId(0)` is the thesis's `p1`.
 //! Lists of parameters are read by [`crate::param_list`].
 
@@ -162,5 +164,18 @@ pub enum ParamKind {
         session: usize,
         /// Which component.
         component: LinkComponent,
+    },
+    /// The compliance of revolute joint `joint` about its own axis: the joint turns by
+    /// `compliance * tau` under the gravity torque `tau` about its axis (rad/(N m) internally).
+    Compliance {
+        /// 0-based joint index.
+        joint: usize,
+    },
+    /// The lateral compliance of revolute joint `joint`: the joint tilts about its lateral axis
+    /// ([`crate::robot::JointElasticity::lateral_axis`]) by `lateral * tau_lateral`, the gravity
+    /// torque about that axis (rad/(N m) internally).
+    Lateral {
+        /// 0-based joint index.
+        joint: usize,
     },
 }

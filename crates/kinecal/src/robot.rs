@@ -15,6 +15,9 @@
 //! - a plane (for contact measurements) is the set of points `p` with `n . p = offset` in the
 //!   global frame, `n` its unit normal. Its three parameters are the offset and two tilts of the
 //!   normal about the axes of the plane's reference frame (see [`Plane`]).
+//! - a robot may carry a mass model ([`Elastic`]): bodies, gravity and joint compliances, so that
+//!   its joints yield to the gravity torques (the elastic equilibrium that the kinematics
+//!   module's `Chain::forward` solves).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -286,6 +289,165 @@ pub struct Session {
     pub frame: Link,
 }
 
+/// A rigid body of the robot's mass model: a point mass at its centre of mass, carried by the
+/// frame right after joint `joint` (the frame link `joint + 1` starts from, as for sites).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Body {
+    /// The joint (1-based) right after which the body is attached.
+    pub joint: usize,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Centre of mass in the frame after that joint (m).
+    pub com: Vector3<f64>,
+}
+
+/// How one joint yields under gravity: about its own axis, and about a lateral axis
+/// perpendicular to it (the bending of the joint's bearing and the link before it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointElasticity {
+    /// Compliance about the joint axis (rad/(N m)): the joint turns by `compliance * tau`, `tau`
+    /// the gravity torque about its axis (positive by the right-hand rule about the axis).
+    pub compliance: f64,
+    /// Compliance about the lateral axis (rad/(N m)).
+    pub lateral: f64,
+    /// The lateral axis, a unit vector perpendicular to the joint axis in the joint's frame
+    /// (the frame at the distal end of the link before the joint, whose z is the joint axis).
+    /// The joint first tilts about this axis by `lateral * tau_lateral`, then turns about its
+    /// (tilted) z axis. Fixed data, not a parameter: see [`Elastic::lateral_axis`] for how it
+    /// is chosen.
+    pub lateral_axis: Vector3<f64>,
+}
+
+/// A robot's mass model: bodies, gravity and joint compliances (beyond the thesis; Tenhumberg
+/// and Bauml, Humanoids 2021, for the model). With it, every revolute joint has two parameters
+/// more, its compliance and its lateral compliance ([`ParamKind::Compliance`],
+/// [`ParamKind::Lateral`]), and forward kinematics solves the static equilibrium: the deflected
+/// posture gives the gravity torques, the torques give the deflection.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Elastic {
+    /// Gravitational acceleration in the global (base) frame (m/s^2); default 9.81 along -z.
+    pub gravity: Vector3<f64>,
+    /// A fixed number of fixed-point iterations of the equilibrium (as in the paper); `None`
+    /// (the default) iterates until the deflection changes by less than
+    /// [`Elastic::TOLERANCE`].
+    pub iterations: Option<usize>,
+    /// The bodies.
+    pub bodies: Vec<Body>,
+    /// One per joint (prismatic joints' entries are unused: they have no compliance).
+    pub joints: Vec<JointElasticity>,
+}
+
+impl Elastic {
+    fn validate(&self, robot: &Robot) -> Result<(), String> {
+        let g = &self.gravity;
+        if !g.iter().all(|v| crate::units::plausible(*v)) {
+            return Err(format!(
+                "gravity [{}, {}, {}] is not three finite numbers within +-1e9",
+                g.x, g.y, g.z
+            ));
+        }
+        if self.iterations == Some(0) {
+            return Err("gravity.iterations must be at least 1 (or left out to converge)".into());
+        }
+        if self.joints.len() != robot.dof() {
+            return Err(format!(
+                "the mass model has {} joints, the robot {}",
+                self.joints.len(),
+                robot.dof()
+            ));
+        }
+        for (i, b) in self.bodies.iter().enumerate() {
+            if b.joint == 0 || b.joint > robot.dof() {
+                return Err(format!(
+                    "body {}: joint = {} but the robot has joints 1..{} (a body on the base \
+                     feels no joint)",
+                    i + 1,
+                    b.joint,
+                    robot.dof()
+                ));
+            }
+            if !(b.mass.is_finite() && b.mass >= 0.0 && b.mass <= 1e9) {
+                return Err(format!(
+                    "body {}: mass {} is not a finite number of kg in [0, 1e9]",
+                    i + 1,
+                    b.mass
+                ));
+            }
+            if !b.com.iter().all(|v| v.is_finite()) {
+                return Err(format!("body {}: com is not finite", i + 1));
+            }
+        }
+        for (i, j) in self.joints.iter().enumerate() {
+            let a = &j.lateral_axis;
+            if !((a.norm() - 1.0).abs() < 1e-6 && a.z.abs() < 1e-6) {
+                return Err(format!(
+                    "joint {}: lateral_axis [{}, {}, {}] must be a unit vector perpendicular to \
+                     the joint axis (its z component 0)",
+                    i + 1,
+                    a.x,
+                    a.y,
+                    a.z
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The equilibrium's convergence tolerance: the largest change of any deflection in the last
+    /// iteration (rad).
+    pub const TOLERANCE: f64 = 1e-10;
+
+    /// The iteration limit when converging: an equilibrium that takes more is reported as not
+    /// converged (the deflections then grow: the compliances are implausibly large).
+    pub const MAX_ITERATIONS: usize = 200;
+
+    /// Standard gravity, 9.81 m/s^2 along -z of the global frame.
+    pub fn standard_gravity() -> Vector3<f64> {
+        Vector3::new(0.0, 0.0, -9.81)
+    }
+
+    /// A mass model with `bodies`, standard gravity and zero compliances, the lateral axes
+    /// chosen from `robot`'s geometry ([`Elastic::lateral_axis`]).
+    pub fn new(robot: &Robot, bodies: Vec<Body>) -> Elastic {
+        Elastic {
+            gravity: Elastic::standard_gravity(),
+            iterations: None,
+            bodies,
+            joints: (0..robot.dof())
+                .map(|j| JointElasticity {
+                    compliance: 0.0,
+                    lateral: 0.0,
+                    lateral_axis: Elastic::lateral_axis(robot, j),
+                })
+                .collect(),
+        }
+    }
+
+    /// The default lateral axis of joint `j` (0-based), in the joint's frame: the direction of
+    /// the common normal from the parent joint's axis to this one at the zero posture (`z_parent
+    /// x z`; the parent of joint 1 is the global z axis). When the two axes are parallel (within
+    /// 1e-6 rad), the direction from the parent axis to this one, perpendicular to both; when
+    /// they coincide as well, the joint frame's x axis.
+    pub fn lateral_axis(robot: &Robot, j: usize) -> Vector3<f64> {
+        let link = &robot.links[j];
+        // The parent joint's frame and axis, expressed in joint j's frame: link j maps joint
+        // j's frame into the parent's, the parent's axis is the parent frame's z.
+        // Rz(alpha) Ry(beta) Rx(gamma).
+        let r = *nalgebra::Rotation3::from_euler_angles(link.gamma, link.beta, link.alpha).matrix();
+        let parent_axis = r.transpose() * Vector3::z();
+        let parent_origin = -(r.transpose() * Vector3::new(link.x, link.y, link.z));
+        let normal = parent_axis.cross(&Vector3::z());
+        if normal.norm() > 1e-6 {
+            return normal.normalize();
+        }
+        let offset = -Vector3::new(parent_origin.x, parent_origin.y, 0.0);
+        if offset.norm() > 1e-9 {
+            return offset.normalize();
+        }
+        Vector3::x()
+    }
+}
+
 /// A serial robot: the thesis model plus the units its files are written in.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
@@ -305,6 +467,8 @@ pub struct Robot {
     pub sessions: Vec<Session>,
     /// Expected deviations from nominal, the metric of minimum-change solutions.
     pub tolerances: Tolerances,
+    /// The mass model, for a robot whose joints yield under gravity.
+    pub elastic: Option<Elastic>,
 }
 
 /// How far each parameter is expected to deviate from its nominal value (internal units): the
@@ -372,8 +536,17 @@ impl Robot {
         (0..self.joints.len()).filter(|&j| self.joints[j].coupling.is_some())
     }
 
-    /// Number of parameters: `6(n+1) + 2n + 6 * sites + couplings + 3 * planes + 6 * sessions`.
-    /// Robots without couplings, planes and sessions have the thesis's numbering and count.
+    /// The revolute joints of a robot with a mass model: the joints with a compliance and a
+    /// lateral compliance (0-based, ascending; none for a rigid robot).
+    pub fn compliant_joints(&self) -> impl Iterator<Item = usize> + '_ {
+        let elastic = self.elastic.is_some();
+        (0..self.joints.len())
+            .filter(move |&j| elastic && self.joints[j].kind == JointKind::Revolute)
+    }
+
+    /// Number of parameters: `6(n+1) + 2n + 6 * sites + couplings + 3 * planes + 6 * sessions +
+    /// 2 * compliant joints`. Robots without couplings, planes, sessions and a mass model have
+    /// the thesis's numbering and count.
     pub fn param_count(&self) -> usize {
         6 * self.links.len()
             + 2 * self.joints.len()
@@ -381,6 +554,7 @@ impl Robot {
             + self.coupled_joints().count()
             + 3 * self.planes.len()
             + 6 * self.sessions.len()
+            + 2 * self.compliant_joints().count()
     }
 
     /// All parameter ids, in the thesis's order.
@@ -441,6 +615,17 @@ impl Robot {
                 component: LinkComponent::ALL[i % 6],
             });
         }
+        i -= 6 * self.sessions.len();
+        let ne = self.compliant_joints().count();
+        if i < ne {
+            let joint = self.compliant_joints().nth(i).expect("counted");
+            return Some(ParamKind::Compliance { joint });
+        }
+        i -= ne;
+        if i < ne {
+            let joint = self.compliant_joints().nth(i).expect("counted");
+            return Some(ParamKind::Lateral { joint });
+        }
         None
     }
 
@@ -472,13 +657,31 @@ impl Robot {
                     + 6 * session
                     + component as usize
             }
+            ParamKind::Compliance { joint } | ParamKind::Lateral { joint } => {
+                let ne = self.compliant_joints().count();
+                let first = couplings
+                    + self.coupled_joints().count()
+                    + 3 * self.planes.len()
+                    + 6 * self.sessions.len()
+                    + if matches!(kind, ParamKind::Lateral { .. }) {
+                        ne
+                    } else {
+                        0
+                    };
+                first
+                    + self
+                        .compliant_joints()
+                        .position(|j| j == joint)
+                        .expect("the joint is compliant")
+            }
         };
         assert!(id < self.param_count(), "parameter out of range");
         ParamId(id)
     }
 
     /// The parameter's name: `link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`,
-    /// `site.NAME.gamma`, `plane.NAME.offset`, `session.NAME.x`.
+    /// `site.NAME.gamma`, `plane.NAME.offset`, `session.NAME.x`, `joint2.compliance`,
+    /// `joint2.lateral`.
     pub fn param_name(&self, id: ParamId) -> String {
         match self.param_kind(id) {
             ParamKind::Link { link, component } => {
@@ -487,6 +690,8 @@ impl Robot {
             ParamKind::Offset { joint } => format!("joint{}.offset", joint + 1),
             ParamKind::Slope { joint } => format!("joint{}.slope", joint + 1),
             ParamKind::Coupling { joint } => format!("joint{}.coupling", joint + 1),
+            ParamKind::Compliance { joint } => format!("joint{}.compliance", joint + 1),
+            ParamKind::Lateral { joint } => format!("joint{}.lateral", joint + 1),
             ParamKind::Site { site, component } => {
                 format!("site.{}.{}", self.sites[site].name, component.as_str())
             }
@@ -514,6 +719,7 @@ impl Robot {
                 self.joints[joint].kind.slope()
             }
             ParamKind::Plane { component, .. } => component.quantity(),
+            ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => Quantity::Compliance,
         }
     }
 
@@ -529,7 +735,14 @@ impl Robot {
             ParamKind::Session { session, component } => {
                 self.sessions[session].frame.get(component)
             }
+            ParamKind::Compliance { joint } => self.elasticity(joint).compliance,
+            ParamKind::Lateral { joint } => self.elasticity(joint).lateral,
         }
+    }
+
+    #[track_caller]
+    fn elasticity(&self, joint: usize) -> &JointElasticity {
+        &self.elastic.as_ref().expect("a mass model").joints[joint]
     }
 
     /// Sets parameter `id`, internal units.
@@ -549,6 +762,12 @@ impl Robot {
             ParamKind::Plane { plane, component } => *self.planes[plane].get_mut(component) = value,
             ParamKind::Session { session, component } => {
                 *self.sessions[session].frame.get_mut(component) = value
+            }
+            ParamKind::Compliance { joint } => {
+                self.elastic.as_mut().expect("a mass model").joints[joint].compliance = value
+            }
+            ParamKind::Lateral { joint } => {
+                self.elastic.as_mut().expect("a mass model").joints[joint].lateral = value
             }
         }
     }
@@ -596,6 +815,7 @@ impl Robot {
                 .iter()
                 .map(|p| &p.name)
                 .eq(other.planes.iter().map(|p| &p.name))
+            && self.elastic.is_some() == other.elastic.is_some()
     }
 
     /// A characteristic length of the robot (m): the sum of its link offsets' lengths, at least
@@ -684,6 +904,9 @@ impl Robot {
                     p.name
                 ));
             }
+        }
+        if let Some(e) = &self.elastic {
+            e.validate(self)?;
         }
         if let Some(id) = self
             .param_ids()

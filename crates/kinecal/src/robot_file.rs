@@ -28,6 +28,25 @@
 //! gamma = 1.5             # x, y, z, alpha, beta, gamma as for links
 //! ```
 //!
+//! A mass model ([`crate::robot::Elastic`]) makes the robot elastic: its joints yield to the
+//! gravity torques of its bodies. It is there when the file has `[[bodies]]` or `[gravity]`:
+//!
+//! ```toml
+//! [gravity]               # optional
+//! vector = [0, 0, -9.81]  # length_unit/s^2 in the global (base) frame; this is the default
+//! iterations = 5          # optional: a fixed number of fixed-point iterations of the
+//!                         # equilibrium; default: to convergence (1e-10 rad)
+//! [[bodies]]              # point masses
+//! joint = 2               # carried by the frame right after joint 2 (as for sites)
+//! mass = 7.8              # kg
+//! com = [0.3, 0, 0.1]     # length_unit, centre of mass in that frame
+//! [[joints]]
+//! compliance = 2e-4       # angle_unit/(N length_unit): the joint turns by compliance * torque
+//! lateral = 5e-5          # the same about the lateral axis
+//! lateral_axis = [1, 0, 0]   # unit, perpendicular to the joint axis, in the joint's frame;
+//!                            # default: the common normal with the parent axis (written back)
+//! ```
+//!
 //! Writing goes through [`write_robot_toml`], which updates the numbers of an existing document
 //! and keeps everything else in it (comments, layout, keys kinecal does not know).
 
@@ -37,7 +56,7 @@ use toml_edit::{DocumentMut, Item, Table, Value};
 
 use crate::error::{Error, Location, Result};
 use crate::params::LinkComponent;
-use crate::robot::{Coupling, Joint, JointKind, Link, Plane, Robot, Session, Site};
+use crate::robot::{Body, Coupling, Elastic, Joint, JointKind, Link, Plane, Robot, Session, Site};
 use crate::units::number::Scale;
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
@@ -294,6 +313,125 @@ impl<'t> Reader<'t> {
         })
     }
 
+    /// The mass model: `[gravity]`, `[[bodies]]` and the joints' compliances.
+    fn elastic(&self, root: &Table, robot: &Robot) -> Result<Option<Elastic>> {
+        let units = robot.units;
+        let gravity = self.table(root, "gravity")?;
+        let body_tables = self.tables(root, "bodies")?;
+        let joint_tables = self.tables(root, "joints")?;
+        let compliance_keys = ["compliance", "lateral", "lateral_axis"];
+        if gravity.is_none() && body_tables.is_empty() {
+            for (i, t) in joint_tables.iter().enumerate() {
+                if let Some(key) = compliance_keys.iter().find(|k| t.contains_key(k)) {
+                    return Err(self.err(
+                        t.get(key).and_then(Item::span),
+                        &format!("joints[{i}].{key}"),
+                        "a compliance needs a mass model: add [[bodies]] (joint, mass, com) to \
+                         the robot file",
+                    ));
+                }
+            }
+            return Ok(None);
+        }
+        let mut bodies = Vec::new();
+        for (i, t) in body_tables.iter().enumerate() {
+            let t: &Table = t;
+            let what = format!("bodies[{i}]");
+            self.check_keys(t, &["joint", "mass", "com"], &what)?;
+            let joint_field = format!("{what}.joint");
+            let joint = match t.get("joint").and_then(Item::as_integer) {
+                Some(j) if j >= 1 && (j as usize) <= robot.dof() => j as usize,
+                _ => {
+                    return Err(self.err(
+                        t.get("joint").and_then(Item::span).or(t.span()),
+                        &joint_field,
+                        format!(
+                            "expected `joint = K`, the joint (1..{}) right after which the body \
+                             is carried",
+                            robot.dof()
+                        ),
+                    ))
+                }
+            };
+            let mass_field = format!("{what}.mass");
+            let mass = self
+                .number(t, "mass", &mass_field)?
+                .ok_or_else(|| self.err(t.span(), &mass_field, "missing `mass` (kg)"))?;
+            if mass < 0.0 {
+                return Err(self.err(
+                    t.get("mass").and_then(Item::span),
+                    &mass_field,
+                    "a mass cannot be negative",
+                ));
+            }
+            let com = self
+                .vec3(t, "com", &format!("{what}.com"))?
+                .unwrap_or([0.0; 3]);
+            bodies.push(Body {
+                joint,
+                mass,
+                com: nalgebra::Vector3::from(com) * units.length.metres(),
+            });
+        }
+        let mut model = Elastic::new(robot, bodies);
+        if let Some(g) = &gravity {
+            self.check_keys(g, &["vector", "iterations"], "gravity")?;
+            if let Some(v) = self.vec3(g, "vector", "gravity.vector")? {
+                model.gravity = nalgebra::Vector3::from(v) * units.length.metres();
+            }
+            if let Some(item) = g.get("iterations") {
+                match item.as_integer() {
+                    Some(n) if (1..=1000).contains(&n) => model.iterations = Some(n as usize),
+                    _ => {
+                        return Err(self.err(
+                            item.span(),
+                            "gravity.iterations",
+                            "expected a whole number of iterations in 1..1000 (leave it out to \
+                             iterate to convergence)",
+                        ))
+                    }
+                }
+            }
+        }
+        for (i, t) in joint_tables.iter().enumerate() {
+            let what = format!("joints[{i}]");
+            let revolute = robot.joints[i].kind == JointKind::Revolute;
+            if !revolute {
+                if let Some(key) = compliance_keys.iter().find(|k| t.contains_key(k)) {
+                    return Err(self.err(
+                        t.get(key).and_then(Item::span),
+                        &format!("{what}.{key}"),
+                        "only revolute joints have compliances",
+                    ));
+                }
+                continue;
+            }
+            let j = &mut model.joints[i];
+            for (key, slot) in [
+                ("compliance", &mut j.compliance),
+                ("lateral", &mut j.lateral),
+            ] {
+                if let Some(v) = self.number(t, key, &format!("{what}.{key}"))? {
+                    *slot = units.to_si(Quantity::Compliance, v);
+                }
+            }
+            let axis_field = format!("{what}.lateral_axis");
+            if let Some(a) = self.vec3(t, "lateral_axis", &axis_field)? {
+                let a = nalgebra::Vector3::from(a);
+                if !(a.norm() > 1e-9 && a.z.abs() <= 1e-6 * a.norm()) {
+                    return Err(self.err(
+                        t.get("lateral_axis").and_then(Item::span),
+                        &axis_field,
+                        "the lateral axis must be a non-zero vector perpendicular to the joint \
+                         axis (z component 0), in the joint's frame",
+                    ));
+                }
+                j.lateral_axis = nalgebra::Vector3::new(a.x, a.y, 0.0).normalize();
+            }
+        }
+        Ok(Some(model))
+    }
+
     fn link(&self, t: &Table, what: &str, units: &Units, extra: &[&str]) -> Result<Link> {
         let mut allowed = vec!["x", "y", "z", "alpha", "beta", "gamma"];
         allowed.extend_from_slice(extra);
@@ -332,7 +470,17 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         let what = format!("joints[{i}]");
         r.check_keys(
             t,
-            &["kind", "offset", "slope", "min", "max", "coupling"],
+            &[
+                "kind",
+                "offset",
+                "slope",
+                "min",
+                "max",
+                "coupling",
+                "compliance",
+                "lateral",
+                "lateral_axis",
+            ],
             &what,
         )?;
         let kind_field = format!("{what}.kind");
@@ -476,7 +624,12 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         planes,
         sessions,
         tolerances: Default::default(),
+        elastic: None,
     };
+    robot
+        .validate()
+        .map_err(|m| Error::input(Location::file(file), m))?;
+    robot.elastic = r.elastic(root, &robot)?;
     robot
         .validate()
         .map_err(|m| Error::input(Location::file(file), m))?;
@@ -519,6 +672,7 @@ struct Scales {
     length: Scale,
     angle: Scale,
     slope: Scale,
+    compliance: Scale,
 }
 
 impl Scales {
@@ -528,6 +682,7 @@ impl Scales {
             length: Scale::default(),
             angle: Scale::default(),
             slope: Scale::default(),
+            compliance: Scale::default(),
         };
         let frames = robot
             .links
@@ -542,6 +697,13 @@ impl Scales {
         }
         for p in &robot.planes {
             s.length.include(units.from_si(Quantity::Length, p.offset));
+        }
+        if let Some(e) = &robot.elastic {
+            for j in &e.joints {
+                for v in [j.compliance, j.lateral] {
+                    s.compliance.include(units.from_si(Quantity::Compliance, v));
+                }
+            }
         }
         for j in &robot.joints {
             let q = j.kind.variable();
@@ -559,6 +721,7 @@ impl Scales {
             Quantity::Length => &mut self.length,
             Quantity::Angle => &mut self.angle,
             Quantity::LengthPerReading | Quantity::AnglePerReading => &mut self.slope,
+            Quantity::Compliance => &mut self.compliance,
         }
     }
 
@@ -567,6 +730,7 @@ impl Scales {
             Quantity::Length => self.length,
             Quantity::Angle => self.angle,
             Quantity::LengthPerReading | Quantity::AnglePerReading => self.slope,
+            Quantity::Compliance => self.compliance,
         }
     }
 }
@@ -630,6 +794,67 @@ fn write_link(t: &mut Table, l: &Link, units: &Units, scales: &Scales) {
             units.from_si(q, l.get(c)),
             scales.of_quantity(q),
         );
+    }
+}
+
+fn set_vec3(table: &mut Table, key: &str, v: &nalgebra::Vector3<f64>, scale: Scale) {
+    let mut arr = toml_edit::Array::new();
+    for k in 0..3 {
+        arr.push(toml_number(crate::units::tidy(v[k], scale)));
+    }
+    let mut new = Value::Array(arr);
+    if let Some(old) = table.get(key).and_then(Item::as_value) {
+        *new.decor_mut() = old.decor().clone();
+    }
+    table.insert(key, Item::Value(new));
+}
+
+/// The mass model: `[gravity]`, `[[bodies]]`, and each revolute joint's compliances and lateral
+/// axis (written out, so that the axis stays the one the compliances were estimated with).
+fn write_elastic(root: &mut Table, robot: &Robot, scales: &Scales) {
+    let Some(e) = &robot.elastic else {
+        return;
+    };
+    let units = robot.units;
+    let metres = units.length.metres();
+    if !root.contains_key("gravity") {
+        root.insert("gravity", Item::Table(Table::new()));
+    }
+    if let Some(g) = root.get_mut("gravity").and_then(Item::as_table_mut) {
+        let v = e.gravity / metres;
+        set_vec3(g, "vector", &v, Scale::of([v.x, v.y, v.z]));
+        match e.iterations {
+            Some(n) => {
+                g.insert("iterations", Item::Value(Value::from(n as i64)));
+            }
+            None => {
+                g.remove("iterations");
+            }
+        }
+    }
+    let bodies = array_of_tables(root, "bodies", e.bodies.len());
+    for (t, b) in bodies.iter_mut().zip(&e.bodies) {
+        t.insert("joint", Item::Value(Value::from(b.joint as i64)));
+        set_number(t, "mass", b.mass, Scale::of([b.mass]));
+        set_vec3(t, "com", &(b.com / metres), scales.length);
+    }
+    let joints = root
+        .get_mut("joints")
+        .and_then(Item::as_array_of_tables_mut)
+        .expect("joints written");
+    for ((t, j), el) in joints.iter_mut().zip(&robot.joints).zip(&e.joints) {
+        if j.kind != JointKind::Revolute {
+            continue;
+        }
+        for (key, v) in [("compliance", el.compliance), ("lateral", el.lateral)] {
+            set_number(
+                t,
+                key,
+                units.from_si(Quantity::Compliance, v),
+                scales.compliance,
+            );
+        }
+        set_vec3(t, "lateral_axis", &el.lateral_axis, Scale(1.0));
     }
 }
 
@@ -707,6 +932,7 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
             }
         }
     }
+    write_elastic(root, robot, &scales);
     if !robot.sites.is_empty() || root.contains_key("sites") {
         let sites = array_of_tables(root, "sites", robot.sites.len());
         for (t, s) in sites.iter_mut().zip(&robot.sites) {

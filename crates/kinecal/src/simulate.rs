@@ -68,8 +68,9 @@ pub struct PerturbStd {
     pub slope_fraction: f64,
 }
 
-/// Adds independent Gaussian perturbations to every parameter of `robot` (coupling factors like
-/// slopes, by a fraction of their magnitude or of 1, whichever is larger).
+/// Adds independent Gaussian perturbations to every geometric parameter of `robot` (coupling
+/// factors like slopes, by a fraction of their magnitude or of 1, whichever is larger);
+/// compliances are kept.
 pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
     let mut r = rng(seed, 2);
     let mut out = robot.clone();
@@ -79,6 +80,7 @@ pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
         let s = match (robot.param_kind(id), robot.param_quantity(id)) {
             (ParamKind::Slope { .. }, _) => std.slope_fraction * v.abs(),
             (ParamKind::Coupling { .. }, _) => std.slope_fraction * v.abs().max(1.0),
+            (ParamKind::Compliance { .. } | ParamKind::Lateral { .. }, _) => 0.0,
             (_, Quantity::Length) => std.length,
             (_, _) => std.angle,
         };
@@ -210,5 +212,6 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
         planes: Vec::new(),
         sessions: Vec::new(),
         tolerances: Default::default(),
+        elastic: None,
     }
 }

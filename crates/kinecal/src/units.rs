@@ -122,6 +122,9 @@ pub enum Quantity {
     LengthPerReading,
     /// Angle per transducer unit (revolute slope; rad per unit internally).
     AnglePerReading,
+    /// Angle per torque (a joint's compliance; rad/(N m) internally, the file's angle unit per
+    /// newton times its length unit in files: `deg/(N mm)` for a millimetre-degree robot).
+    Compliance,
 }
 
 /// A pair of units: the ones a robot file (and its measurement files) is written in.
@@ -148,6 +151,7 @@ impl Units {
         match q {
             Quantity::Length | Quantity::LengthPerReading => self.length.metres(),
             Quantity::Angle | Quantity::AnglePerReading => self.angle.radians(),
+            Quantity::Compliance => self.angle.radians() / self.length.metres(),
         }
     }
 
@@ -168,6 +172,7 @@ impl Units {
             Quantity::Angle => self.angle.to_string(),
             Quantity::LengthPerReading => format!("{}/unit", self.length),
             Quantity::AnglePerReading => format!("{}/unit", self.angle),
+            Quantity::Compliance => format!("{}/(N {})", self.angle, self.length),
         }
     }
 }

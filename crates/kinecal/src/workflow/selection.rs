@@ -202,7 +202,12 @@ pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<P
             }
             ParamKind::Offset { .. } => true,
             ParamKind::Slope { .. } => !unit_slopes,
-            ParamKind::Coupling { .. } | ParamKind::Plane { .. } => false,
+            // Compliances are asked for (`compliance`, `lateral`): the default is the rigid
+            // geometry, with the robot file's compliances held.
+            ParamKind::Coupling { .. }
+            | ParamKind::Plane { .. }
+            | ParamKind::Compliance { .. }
+            | ParamKind::Lateral { .. } => false,
             // A session's frame is estimated wherever its observations are.
             ParamKind::Session { session, .. } => {
                 let name = robot.sessions[session].name.as_str();

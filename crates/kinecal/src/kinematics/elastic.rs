@@ -1,0 +1,488 @@
+//! The elastic layer over the rigid chain: gravity torques, the static equilibrium and its
+//! derivatives (a robot with a mass model, [`crate::robot::Elastic`]).
+//!
+//! Each revolute joint `i` has two deflections: a tilt `phi_i` about its lateral axis `l_i`
+//! (fixed in the joint's frame, perpendicular to the joint axis), applied at the joint's origin
+//! right after link `i`, then the turn `dq_i` added to the joint's angle. They answer the
+//! gravity torques about the two axes through the joint's origin `o_i`, from every body distal
+//! to the joint: with `S_i = sum_b m_b (c_b - o_i)` over those bodies (centres `c_b`, global)
+//! and `g` the gravitational acceleration,
+//!
+//! ```text
+//! tau_i = g . (a_i x S_i)        (a_i the joint axis, after the tilt)
+//! lam_i = g . (w_i x S_i)        (w_i = R l_i the lateral axis, global)
+//! dq_i  = k_i tau_i,   phi_i = k_lat_i lam_i
+//! ```
+//!
+//! The deflections change the posture and so the torques: [`Chain::forward`] iterates
+//! `delta <- K tau(delta)` from `delta = 0` until no deflection changes by more than
+//! [`Elastic::TOLERANCE`] (or a fixed number of times, [`Elastic::iterations`]).
+//!
+//! Derivatives are those of the converged equilibrium (implicit function theorem): with `T` the
+//! derivative of the torques by the deflections and `d` that of the torques by a parameter at
+//! fixed deflections, the deflections move by `x = (I - K T)^-1 (K d + e_p tau_p)` (the last
+//! term for the compliance `p` itself), and the target by the deflections' own motions times
+//! `x`, added to the rigid column. Every parameter of the chain is a unit translation along, or
+//! rotation about, a known axis at a known place of the chain, so `d` and `T` come from one
+//! formula: a rotation `u` through `c` that moves a torque's axis and origin (it is proximal to
+//! them) changes the torque by `g . (u x (v x S))`; one that does not moves only the bodies past
+//! it, by `g . (v x (u x (MC - M c)))` with `M`, `MC` the mass and first moment of those bodies;
+//! a translation `u` past the axis by `g . (v x u) M`, before it not at all.
+
+use std::cell::RefCell;
+
+use nalgebra::{Matrix3, Vector3};
+use rand::{RngExt, SeedableRng};
+
+use super::{Chain, Workspace};
+use crate::robot::{Elastic, JointKind, Robot};
+
+/// How the last equilibrium went ([`Workspace::equilibrium`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Equilibrium {
+    /// Fixed-point iterations taken.
+    pub iterations: usize,
+    /// The largest change of a deflection in the last iteration (rad).
+    pub change: f64,
+    /// Whether the change fell below [`Elastic::TOLERANCE`] (always true for a fixed count).
+    pub converged: bool,
+    /// The largest deflection (rad).
+    pub largest: f64,
+}
+
+/// A twist of the chain, for the torques' derivatives: a unit rotation about `u` through `c`, or
+/// a unit translation along `u`, at chain position `at` (link `i`: `3i`; tilt of joint `i`:
+/// `3i + 1`; turn of joint `i`: `3i + 2`). Everything past the position moves with it.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Twist {
+    Rotation {
+        u: Vector3<f64>,
+        c: Vector3<f64>,
+        at: usize,
+    },
+    Translation {
+        u: Vector3<f64>,
+        at: usize,
+    },
+}
+
+/// What moves the deflections, for [`Chain::elastic_column`].
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Cause<'t> {
+    /// The chain moving by a twist times a scale.
+    Twist(&'t Twist, f64),
+    /// The compliance of deflection `.0` (its own torque turns it).
+    Compliance(usize),
+}
+
+/// The elastic part of a [`Workspace`]: deflections, torques and their derivatives at the last
+/// posture. Allocated once with the workspace.
+#[derive(Debug, Clone)]
+pub(super) struct ElasticState {
+    /// `2n` deflections: `[2i]` the tilt of joint i, `[2i + 1]` its turn (rad).
+    pub delta: Vec<f64>,
+    /// Compliance of each deflection (0 for prismatic joints).
+    k: Vec<f64>,
+    /// Axis of each deflection (global; 0 for prismatic joints).
+    axis: Vec<Vector3<f64>>,
+    /// Origin of each joint (global).
+    origin: Vec<Vector3<f64>>,
+    /// `mass[i]`: total mass of the bodies past joint i (`n + 1` entries, the last 0).
+    mass: Vec<f64>,
+    /// `moment[i]`: their first moment `sum m c` (global).
+    moment: Vec<Vector3<f64>>,
+    /// Gravity torque about each deflection's axis (N m).
+    pub tau: Vec<f64>,
+    /// `(I - K T)^-1`, row-major `2n x 2n`.
+    response: Vec<f64>,
+    /// Scratch for the response's computation and use.
+    scratch: RefCell<Scratch>,
+    pub last: Equilibrium,
+}
+
+#[derive(Debug, Clone)]
+struct Scratch {
+    matrix: Vec<f64>,
+    rhs: Vec<f64>,
+    x: Vec<f64>,
+}
+
+impl ElasticState {
+    pub fn new(robot: &Robot) -> ElasticState {
+        let n = robot.dof();
+        let m = 2 * n;
+        ElasticState {
+            delta: vec![0.0; m],
+            k: vec![0.0; m],
+            axis: vec![Vector3::zeros(); m],
+            origin: vec![Vector3::zeros(); n],
+            mass: vec![0.0; n + 1],
+            moment: vec![Vector3::zeros(); n + 1],
+            tau: vec![0.0; m],
+            response: vec![0.0; m * m],
+            scratch: RefCell::new(Scratch {
+                matrix: vec![0.0; m * m],
+                rhs: vec![0.0; m],
+                x: vec![0.0; m],
+            }),
+            last: Equilibrium {
+                iterations: 0,
+                change: 0.0,
+                converged: true,
+                largest: 0.0,
+            },
+        }
+    }
+
+    /// Position in the chain of deflection `e`.
+    #[inline]
+    fn position(e: usize) -> usize {
+        3 * (e / 2) + 1 + e % 2
+    }
+
+    /// `S_i = MC_i - M_i o_i` of joint `i`.
+    #[inline]
+    fn lever(&self, i: usize) -> Vector3<f64> {
+        self.moment[i] - self.origin[i] * self.mass[i]
+    }
+
+    /// Fills axes, origins, body sums and torques from the frames of the last rigid pass.
+    fn torques(&mut self, model: &Elastic, robot: &Robot, ws: &Workspace) {
+        let n = robot.dof();
+        self.mass.fill(0.0);
+        self.moment.fill(Vector3::zeros());
+        for b in &model.bodies {
+            let f = &ws.prox[b.joint];
+            let c = f.translation + f.rotation * b.com;
+            self.mass[b.joint - 1] += b.mass;
+            self.moment[b.joint - 1] += c * b.mass;
+        }
+        for i in (0..n).rev() {
+            self.mass[i] += self.mass[i + 1];
+            let next = self.moment[i + 1];
+            self.moment[i] += next;
+        }
+        let g = model.gravity;
+        for i in 0..n {
+            let f = &ws.dist[i];
+            self.origin[i] = f.translation;
+            let revolute = robot.joints[i].kind == JointKind::Revolute;
+            let (w, a) = if revolute {
+                (
+                    f.rotation * model.joints[i].lateral_axis,
+                    f.rotation.column(2).into_owned(),
+                )
+            } else {
+                (Vector3::zeros(), Vector3::zeros())
+            };
+            self.axis[2 * i] = w;
+            self.axis[2 * i + 1] = a;
+            let s = self.lever(i);
+            self.tau[2 * i] = g.dot(&w.cross(&s));
+            self.tau[2 * i + 1] = g.dot(&a.cross(&s));
+            let j = &model.joints[i];
+            self.k[2 * i] = if revolute { j.lateral } else { 0.0 };
+            self.k[2 * i + 1] = if revolute { j.compliance } else { 0.0 };
+        }
+    }
+
+    /// The change of deflection `e`'s torque per unit `twist`, at fixed deflections.
+    #[inline]
+    fn torque_rate(&self, g: &Vector3<f64>, e: usize, twist: &Twist) -> f64 {
+        let v = &self.axis[e];
+        let i = e / 2;
+        let t = ElasticState::position(e);
+        match *twist {
+            Twist::Rotation { u, c, at } => {
+                if at < t {
+                    g.dot(&u.cross(&v.cross(&self.lever(i))))
+                } else {
+                    let b = at / 3;
+                    let moved = self.moment[b] - c * self.mass[b];
+                    g.dot(&v.cross(&u.cross(&moved)))
+                }
+            }
+            Twist::Translation { u, at } => {
+                if at < t {
+                    0.0
+                } else {
+                    g.dot(&v.cross(&u)) * self.mass[at / 3]
+                }
+            }
+        }
+    }
+
+    /// The twist of deflection `f` (a rotation about its axis through its joint's origin).
+    #[inline]
+    fn twist(&self, f: usize) -> Twist {
+        Twist::Rotation {
+            u: self.axis[f],
+            c: self.origin[f / 2],
+            at: ElasticState::position(f),
+        }
+    }
+
+    /// Computes `(I - K T)^-1` into `response` (Gauss-Jordan with partial pivoting, no
+    /// allocation). `false` when the matrix is singular (the equilibrium is unstable).
+    fn respond(&mut self, g: &Vector3<f64>) -> bool {
+        let m = self.delta.len();
+        let mut sc = self.scratch.borrow_mut();
+        let a = &mut sc.matrix;
+        for e in 0..m {
+            for f in 0..m {
+                let t = if self.k[e] == 0.0 {
+                    0.0
+                } else {
+                    self.k[e] * self.torque_rate(g, e, &self.twist(f))
+                };
+                a[e * m + f] = if e == f { 1.0 } else { 0.0 } - t;
+            }
+        }
+        let inv = &mut self.response;
+        inv.fill(0.0);
+        for e in 0..m {
+            inv[e * m + e] = 1.0;
+        }
+        for col in 0..m {
+            let pivot = (col..m)
+                .max_by(|&x, &y| a[x * m + col].abs().total_cmp(&a[y * m + col].abs()))
+                .expect("rows left");
+            let p = a[pivot * m + col];
+            if p.abs() < 1e-12 {
+                return false;
+            }
+            if pivot != col {
+                for f in 0..m {
+                    a.swap(pivot * m + f, col * m + f);
+                    inv.swap(pivot * m + f, col * m + f);
+                }
+            }
+            for f in 0..m {
+                a[col * m + f] /= p;
+                inv[col * m + f] /= p;
+            }
+            for r in 0..m {
+                if r == col {
+                    continue;
+                }
+                let factor = a[r * m + col];
+                if factor == 0.0 {
+                    continue;
+                }
+                for f in 0..m {
+                    a[r * m + f] -= factor * a[col * m + f];
+                    inv[r * m + f] -= factor * inv[col * m + f];
+                }
+            }
+        }
+        true
+    }
+
+    /// Adds to the 6-vector `out` the motion of point `e` caused by the deflections' response
+    /// to `rates` (the torques' change, set by `fill`, plus `own` torque injected into deflection
+    /// `own.0`), for deflections of joints below `joints_upto`.
+    fn add_response(
+        &self,
+        e: &Vector3<f64>,
+        joints_upto: usize,
+        out: &mut [f64],
+        fill: impl Fn(usize) -> f64,
+        own: Option<(usize, f64)>,
+    ) {
+        let m = self.delta.len();
+        let mut sc = self.scratch.borrow_mut();
+        let Scratch { rhs, x, .. } = &mut *sc;
+        let mut any = false;
+        for (r, (rhs, k)) in rhs.iter_mut().zip(&self.k).enumerate() {
+            *rhs = if *k == 0.0 { 0.0 } else { k * fill(r) };
+            any |= *rhs != 0.0;
+        }
+        if let Some((f, t)) = own {
+            rhs[f] += t;
+            any |= t != 0.0;
+        }
+        if !any {
+            return;
+        }
+        for (f, x) in x.iter_mut().enumerate() {
+            *x = self.response[f * m..(f + 1) * m]
+                .iter()
+                .zip(rhs.iter())
+                .map(|(a, b)| a * b)
+                .sum();
+        }
+        for (f, &xf) in x.iter().enumerate().take(2 * joints_upto) {
+            if xf == 0.0 {
+                continue;
+            }
+            let u = &self.axis[f];
+            let dp = u.cross(&(e - self.origin[f / 2]));
+            for k in 0..3 {
+                out[k] += dp[k] * xf;
+                out[3 + k] += u[k] * xf;
+            }
+        }
+    }
+}
+
+/// `R * Rot(l, phi)`: `r` turned by `phi` about its own local axis `l` (unit).
+#[inline]
+pub(super) fn turn_about_local(r: &Matrix3<f64>, l: &Vector3<f64>, phi: f64) -> Matrix3<f64> {
+    if phi == 0.0 {
+        return *r;
+    }
+    let (s, c) = phi.sin_cos();
+    let k = l.cross_matrix();
+    r * (Matrix3::identity() + k * s + k * k * (1.0 - c))
+}
+
+impl Chain<'_> {
+    /// The equilibrium at `readings` (see the module docs), leaving the deflected frames in
+    /// `ws` and the response for the Jacobian.
+    pub(super) fn forward_elastic(&self, model: &Elastic, readings: &[f64], ws: &mut Workspace) {
+        let mut st = ws.elastic.take().expect("an elastic workspace");
+        st.delta.fill(0.0);
+        let fixed = model.iterations;
+        let limit = fixed.unwrap_or(Elastic::MAX_ITERATIONS);
+        let mut change = 0.0;
+        let mut iterations = 0;
+        let mut converged = false;
+        while iterations < limit {
+            self.forward_rigid(readings, None, Some(&st.delta), ws);
+            st.torques(model, self.robot, ws);
+            change = 0.0f64;
+            for ((d, k), t) in st.delta.iter_mut().zip(&st.k).zip(&st.tau) {
+                let new = k * t;
+                change = change.max((new - *d).abs());
+                *d = new;
+            }
+            iterations += 1;
+            if fixed.is_none() && change < Elastic::TOLERANCE {
+                converged = true;
+                break;
+            }
+        }
+        if !change.is_finite() {
+            st.delta.fill(f64::NAN);
+        }
+        self.forward_rigid(readings, None, Some(&st.delta), ws);
+        st.torques(model, self.robot, ws);
+        let stable = st.respond(&model.gravity);
+        st.last = Equilibrium {
+            iterations,
+            change,
+            converged: (converged || fixed.is_some()) && stable,
+            largest: st.delta.iter().fold(0.0, |a, d| a.max(d.abs())),
+        };
+        ws.elastic = Some(st);
+    }
+
+    /// The twist of joint `j`'s variable (a rotation about its axis through its origin, or a
+    /// translation along it), after [`Chain::forward`].
+    pub(super) fn joint_twist(&self, ws: &Workspace, j: usize) -> Twist {
+        let f = &ws.dist[j];
+        let u = f.rotation.column(2).into_owned();
+        match self.robot.joints[j].kind {
+            JointKind::Revolute => Twist::Rotation {
+                u,
+                c: f.translation,
+                at: 3 * j + 2,
+            },
+            JointKind::Prismatic => Twist::Translation { u, at: 3 * j + 2 },
+        }
+    }
+
+    /// Adds to the Jacobian column `out` (6 entries) what the deflections add when the chain
+    /// moves by `twist` times `scale`, for point `e` and the deflections of the joints below
+    /// `joints_upto`; `own` injects a compliance's own torque (`(deflection, tau)`).
+    pub(super) fn elastic_column(
+        &self,
+        ws: &Workspace,
+        cause: Cause<'_>,
+        e: &Vector3<f64>,
+        joints_upto: usize,
+        out: &mut [f64],
+    ) {
+        let (Some(model), Some(st)) = (&self.robot.elastic, ws.elastic.as_deref()) else {
+            return;
+        };
+        let g = model.gravity;
+        match cause {
+            Cause::Twist(t, scale) => st.add_response(
+                e,
+                joints_upto,
+                out,
+                |r| scale * st.torque_rate(&g, r, t),
+                None,
+            ),
+            Cause::Compliance(deflection) => st.add_response(
+                e,
+                joints_upto,
+                out,
+                |_| 0.0,
+                Some((deflection, st.tau[deflection])),
+            ),
+        }
+    }
+}
+
+/// The compliant joints whose gravity torque is always zero, so that their compliance cannot
+/// be estimated (a vertical first axis: its torque is 0 in every posture): those with no torque
+/// above 1e-9 of the robot's largest in 256 postures drawn uniformly over the joint ranges
+/// (`[-pi, pi]` or `[-1, 1]` m for a joint without a range; seed fixed), at zero compliance.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct GravityFree {
+    /// Joints (0-based) without a torque about their axis.
+    pub joint: Vec<usize>,
+    /// Joints (0-based) without a torque about their lateral axis.
+    pub lateral: Vec<usize>,
+}
+
+/// See [`GravityFree`]; empty for a rigid robot.
+pub fn gravity_free_joints(robot: &Robot) -> GravityFree {
+    if robot.elastic.is_none() {
+        return GravityFree::default();
+    }
+    let mut rigid = robot.clone();
+    if let Some(e) = rigid.elastic.as_mut() {
+        for j in &mut e.joints {
+            j.compliance = 0.0;
+            j.lateral = 0.0;
+        }
+    }
+    let chain = Chain::new(&rigid);
+    let mut ws = Workspace::new(&rigid);
+    let n = robot.dof();
+    let mut largest = vec![0.0f64; 2 * n];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x6772_6176);
+    let mut readings = vec![0.0; n];
+    for _ in 0..256 {
+        for (v, j) in readings.iter_mut().zip(&robot.joints) {
+            let (lo, hi) = j.range.unwrap_or(match j.kind {
+                JointKind::Revolute => {
+                    let turn = std::f64::consts::PI / j.slope.abs().max(1e-12);
+                    (-turn, turn)
+                }
+                JointKind::Prismatic => {
+                    let metre = 1.0 / j.slope.abs().max(1e-12);
+                    (-metre, metre)
+                }
+            });
+            *v = rng.random_range(lo..=hi);
+        }
+        chain.forward(&readings, &mut ws);
+        let st = ws.elastic.as_deref().expect("elastic workspace");
+        for (l, t) in largest.iter_mut().zip(&st.tau) {
+            *l = l.max(t.abs());
+        }
+    }
+    let top = largest.iter().fold(0.0f64, |a, b| a.max(*b));
+    let free = |r: usize| largest[r] <= 1e-9 * top;
+    GravityFree {
+        joint: robot
+            .compliant_joints()
+            .filter(|&j| free(2 * j + 1))
+            .collect(),
+        lateral: robot.compliant_joints().filter(|&j| free(2 * j)).collect(),
+    }
+}
