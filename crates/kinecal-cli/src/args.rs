@@ -271,7 +271,10 @@ Example:
 
 Revolute, continuous and prismatic joints become joints; fixed joints merge into the links; axes
 other than +z are folded exactly into the neighbouring links. Readings are the URDF joint values
-(rad, m) and joint limits become reading ranges. The model is written in metres and radians.")]
+(rad, m) and joint limits become reading ranges. The model is written in metres and radians.
+With --masses, the links' <inertial> masses become [[bodies]] of a mass model (gravity 9.81 m/s^2
+along -z of the base, compliances 0): the robot is then elastic and each revolute joint gains a
+compliance and a lateral compliance to estimate.")]
     Urdf(ImportUrdfArgs),
     /// A Denavit-Hartenberg table.
     #[command(after_help = "\
@@ -614,6 +617,10 @@ pub struct ImportUrdfArgs {
     /// Last link of the chain (default: the only leaf link).
     #[arg(long)]
     pub tip: Option<String>,
+    /// Take the links' <inertial> masses and centres of mass as the robot's mass model, so that
+    /// its joint compliances can be estimated (`--estimate identifiable,compliance`).
+    #[arg(long)]
+    pub masses: bool,
     /// The robot file to write.
     #[arg(long)]
     pub out: PathBuf,

@@ -343,12 +343,24 @@ fn import(c: ImportCommand) -> Result<()> {
         }
         ImportCommand::Urdf(a) => {
             let s = Source::read(&a.file)?;
-            let imp = kinecal::import::urdf::import_urdf(
+            let imp = kinecal::import::urdf::import_urdf_with(
                 &s.text,
                 &s.name,
                 a.base.as_deref(),
                 a.tip.as_deref(),
+                a.masses,
             )?;
+            if let Some(e) = &imp.robot.elastic {
+                eprintln!(
+                    "mass model: {} bodies, {} kg in all, gravity {} m/s^2 along -z",
+                    e.bodies.len(),
+                    // To the gram: the sum of the file's masses without float noise.
+                    kinecal::units::number::format_number(
+                        (e.bodies.iter().map(|b| b.mass).sum::<f64>() * 1e3).round() / 1e3
+                    ),
+                    kinecal::units::number::format_number(e.gravity.norm())
+                );
+            }
             (imp.robot, a.out)
         }
         ImportCommand::Dh(a) => {
@@ -528,6 +540,14 @@ fn fk(a: FkArgs) -> Result<()> {
         if rows.column("x").is_some() {
             let s = Source::read(&a.postures)?;
             let postures = parse_postures(&s.text, &s.name, robot)?;
+            let readings = postures.iter().map(|p| p.readings.as_slice());
+            if let Some((i, eq)) = kinecal::kinematics::unconverged_posture(robot, readings) {
+                bail!(
+                    "{}: posture `{}`: the gravity equilibrium {eq}",
+                    s.name,
+                    postures[i].label
+                );
+            }
             let data = simulate::measure(robot, &postures, false);
             poses = data.observations.len();
             w.write_all(write_measurements(robot, &data).as_bytes())?;
@@ -571,6 +591,11 @@ fn fk(a: FkArgs) -> Result<()> {
             posture.label.push_str(rows.field(label));
             for (j, &c) in readings.iter().enumerate() {
                 posture.readings[j] = stream::cell(&rows, line, c)?;
+            }
+            if let Some((_, eq)) =
+                kinecal::kinematics::unconverged_posture(robot, [posture.readings.as_slice()])
+            {
+                bail!("{}:{line}: the gravity equilibrium {eq}", rows.file);
             }
             let data = simulate::measure(robot, std::slice::from_ref(&posture), false);
             poses += data.observations.len();
@@ -658,6 +683,13 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         truth = simulate::changed(&truth, &changes).map_err(|e| anyhow!("--perturb: {e}"))?;
     }
     let postures = simulate::sample_postures(nominal, a.postures, a.seed);
+    let readings = postures.iter().map(|p| p.readings.as_slice());
+    if let Some((i, eq)) = kinecal::kinematics::unconverged_posture(&truth, readings) {
+        bail!(
+            "the true robot's gravity equilibrium at posture {} {eq}",
+            postures[i].label
+        );
+    }
     let mut data = simulate::measure(&truth, &postures, a.position_only);
     if let Some(spec) = &a.noise {
         let s = parse_spec("--noise", spec, &["length", "angle"])?;

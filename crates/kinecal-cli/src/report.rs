@@ -398,16 +398,52 @@ pub fn summary(r: &CalibrationReport) -> String {
             (_, _, Some(false)) => (format!("{:>11}", "-"), "  not determined alone".to_string()),
             _ => (String::new(), String::new()),
         };
+        // Compliances (angle per torque, 1e-6..1e-3) in four significant digits.
+        let compliance = p.unit.contains("/(N ");
+        let value = |v: f64| match (compliance, v == 0.0) {
+            (true, true) => "0".to_string(),
+            (true, false) => format!("{v:.4e}"),
+            (false, _) => num(v),
+        };
+        let change = match (compliance, p.change == 0.0) {
+            (true, true) => "0".to_string(),
+            (true, false) => format!("{:+.4e}", p.change),
+            (false, _) => signed(p.change),
+        };
         let _ = writeln!(
             s,
             "{:<5} {:<20} {:<9} {:>14} {:>14} {:>13} {sigma} {sig}",
             p.id,
             p.name,
             p.unit,
-            num(p.initial),
-            num(p.estimated),
-            signed(p.change)
+            value(p.initial),
+            value(p.estimated),
+            change
         );
+    }
+    if let Some(e) = &r.elastic {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "Mass model: {} bodies, {} kg; equilibrium {} at {} of {} postures (at most {} \
+             iterations); largest deflection {} {a} under torques up to {:.1} N m",
+            e.bodies,
+            kinecal::units::number::format_number((e.total_mass * 1e3).round() / 1e3),
+            e.equilibrium,
+            r.postures - e.unconverged_postures,
+            r.postures,
+            e.iterations_max,
+            num(e.largest_deflection),
+            e.largest_torque
+        );
+        for j in e.joints.iter().filter(|j| j.estimated) {
+            let stiffness = match (j.stiffness, j.stiffness_sigma) {
+                (Some(k), Some(sd)) => format!("{k:.4e} +- {sd:.2e} {}", j.stiffness_unit),
+                (Some(k), None) => format!("{k:.4e} {}", j.stiffness_unit),
+                (None, _) => "none: the compliance is not positive".to_string(),
+            };
+            let _ = writeln!(s, "  {:<20} stiffness {stiffness}", j.name);
+        }
     }
     if !r.combinations.is_empty() {
         let _ = writeln!(s);

@@ -282,17 +282,19 @@ impl Robot {
     }
 
     /// Reads the chain from `base` to `tip` of a URDF file (metres, radians); `base` defaults
-    /// to the root link, `tip` to the only leaf.
+    /// to the root link, `tip` to the only leaf. `masses=True` takes the links' `<inertial>`
+    /// masses as the robot's mass model (an elastic robot whose compliances can be estimated).
     #[staticmethod]
-    #[pyo3(signature = (path, base=None, tip=None))]
+    #[pyo3(signature = (path, base=None, tip=None, masses=false))]
     fn from_urdf(
         py: Python<'_>,
         path: PathBuf,
         base: Option<&str>,
         tip: Option<&str>,
+        masses: bool,
     ) -> PyResult<Robot> {
         let s = Source::read(&path).map_err(|e| error(py, e))?;
-        let imported = kinecal::import::urdf::import_urdf(&s.text, &s.name, base, tip)
+        let imported = kinecal::import::urdf::import_urdf_with(&s.text, &s.name, base, tip, masses)
             .map_err(|e| error(py, e))?;
         Ok(Robot {
             robot: imported.robot,
@@ -611,29 +613,34 @@ impl Robot {
         let rows = shape[0];
         let robot = &self.robot;
         let (l, a) = (robot.units.length.metres(), robot.units.angle.radians());
-        let out = py.detach(|| {
-            let chain = Chain::new(robot);
-            let mut ws = Workspace::new(robot);
-            let mut out = Vec::with_capacity(rows * if matrix { 16 } else { 6 });
-            for r in v.chunks(n) {
-                chain.forward(r, &mut ws);
-                let f = chain.target_frame(&ws, target);
-                if matrix {
-                    for i in 0..3 {
-                        for j in 0..3 {
-                            out.push(f.rotation[(i, j)]);
-                        }
-                        out.push(f.translation[i] / l);
+        let out = py
+            .detach(|| {
+                let chain = Chain::new(robot);
+                let mut ws = Workspace::new(robot);
+                let mut out = Vec::with_capacity(rows * if matrix { 16 } else { 6 });
+                for (row, r) in v.chunks(n).enumerate() {
+                    chain.forward(r, &mut ws);
+                    if let Some(eq) = ws.equilibrium().filter(|e| !e.converged) {
+                        return Err(format!("readings: row {row}: the gravity equilibrium {eq}"));
                     }
-                    out.extend([0.0, 0.0, 0.0, 1.0]);
-                } else {
-                    let p = f.pose();
-                    out.extend(p.position.iter().map(|x| x / l));
-                    out.extend(p.euler.iter().map(|x| x / a));
+                    let f = chain.target_frame(&ws, target);
+                    if matrix {
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                out.push(f.rotation[(i, j)]);
+                            }
+                            out.push(f.translation[i] / l);
+                        }
+                        out.extend([0.0, 0.0, 0.0, 1.0]);
+                    } else {
+                        let p = f.pose();
+                        out.extend(p.position.iter().map(|x| x / l));
+                        out.extend(p.euler.iter().map(|x| x / a));
+                    }
                 }
-            }
-            out
-        });
+                Ok(out)
+            })
+            .map_err(bad)?;
         if let Some(bad_row) = out
             .chunks(if matrix { 16 } else { 6 })
             .position(|r| r.iter().any(|x| !x.is_finite()))

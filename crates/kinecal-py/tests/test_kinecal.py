@@ -515,6 +515,26 @@ def test_robot_round_trips_and_urdf_export(tmp_path):
     assert np.abs(back.fk(q)[:, :3] - r.fk(q)[:, :3]).max() > 1e-4
 
 
+def test_urdf_masses_make_an_elastic_robot():
+    path = shared_data("urdf", "universal_robots", "urdf_plain", "ur10_robot.urdf")
+    rigid = kinecal.Robot.from_urdf(path, base="base_link", tip="tool0")
+    elastic = kinecal.Robot.from_urdf(path, base="base_link", tip="tool0", masses=True)
+    assert len(elastic.parameter_names) == len(rigid.parameter_names) + 12
+    assert "joint2.compliance" in elastic.parameter_names
+    unit = elastic.parameter_units[elastic.parameter_names.index("joint2.lateral")]
+    assert unit == "rad/(N m)"
+    q = np.random.default_rng(3).uniform(-3, 3, size=(10, 6))
+    # Zero compliance: the same poses as the rigid robot.
+    np.testing.assert_allclose(elastic.fk(q), rigid.fk(q), atol=1e-12)
+    # Joint 2 yields: the arm sags, by millimetres at the tool (2e-5 rad/(N m) under ~100 N m).
+    soft = elastic.with_value("joint2.compliance", 2e-5)
+    sag = np.linalg.norm(soft.fk(q)[:, :3] - rigid.fk(q)[:, :3], axis=1)
+    assert 1e-4 < sag.max() < 1e-2, sag
+    # Compliances that cannot converge are refused, not turned into poses.
+    with pytest.raises(kinecal.KinecalError, match="gravity equilibrium did not converge"):
+        elastic.with_value("joint2.compliance", 1.0).fk(q)
+
+
 def test_the_readme_session_runs_as_shown(monkeypatch):
     # From the repository root, where the README's paths (../shared/data) hold.
     shared_data("qkm_hl6_faro")

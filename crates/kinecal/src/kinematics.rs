@@ -21,7 +21,7 @@ mod elastic;
 
 use nalgebra::{Matrix3, Vector3};
 
-pub use elastic::{gravity_free_joints, Equilibrium, GravityFree};
+pub use elastic::{gravity_free_joints, unconverged_posture, Equilibrium, GravityFree};
 
 use crate::params::{ParamId, ParamKind};
 use crate::robot::{JointKind, Link, Robot};

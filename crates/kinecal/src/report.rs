@@ -724,6 +724,115 @@ pub struct CalibrationReport {
     /// The singular-value spectrum (absent when the uncertainty could not be computed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spectrum: Option<SpectrumReport>,
+    /// The mass model of an elastic robot: its equilibrium at the identification postures and
+    /// the joints' stiffnesses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub elastic: Option<ElasticReport>,
+}
+
+/// The mass model of an elastic robot (see [`crate::robot::Elastic`]), after calibration.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+pub struct ElasticReport {
+    /// Bodies of the model.
+    pub bodies: usize,
+    /// Their total mass (kg).
+    pub total_mass: f64,
+    /// Magnitude of gravity (length unit / s^2).
+    pub gravity: f64,
+    /// `converged` (to 1e-10 rad) or `N fixed iterations`.
+    pub equilibrium: String,
+    /// The most fixed-point iterations any identification posture took.
+    pub iterations_max: usize,
+    /// Postures whose equilibrium did not converge (0 when it is sound).
+    pub unconverged_postures: usize,
+    /// The largest deflection at any identification posture (angle unit).
+    pub largest_deflection: f64,
+    /// The largest gravity torque about any joint axis there (N m).
+    pub largest_torque: f64,
+    /// Each revolute joint's compliances, as compliance and as stiffness.
+    pub joints: Vec<StiffnessReport>,
+}
+
+/// One compliance of one joint.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+pub struct StiffnessReport {
+    /// The parameter, `joint2.compliance` or `joint2.lateral`.
+    pub name: String,
+    /// Its compliance (angle unit / (N length unit)).
+    pub compliance: f64,
+    /// Its standard deviation, when estimated and determined.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compliance_sigma: Option<f64>,
+    /// The stiffness `1 / compliance` (N length unit / angle unit), when the compliance is
+    /// positive.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<f64>,
+    /// Its standard deviation, `sigma / compliance^2` (first order), when both exist.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness_sigma: Option<f64>,
+    /// The stiffness's unit, `N m/rad`.
+    pub stiffness_unit: String,
+    /// Whether it was estimated.
+    pub estimated: bool,
+}
+
+impl ElasticReport {
+    /// The report of `robot`'s mass model at the postures of `data` (`None` for a rigid robot).
+    pub fn new(robot: &Robot, data: &Dataset, estimated: &[ParamId]) -> Option<ElasticReport> {
+        let model = robot.elastic.as_ref()?;
+        let u = robot.units;
+        let chain = crate::kinematics::Chain::new(robot);
+        let mut ws = crate::kinematics::Workspace::new(robot);
+        let (mut iterations_max, mut unconverged) = (0, 0);
+        let (mut largest, mut torque) = (0.0f64, 0.0f64);
+        for p in &data.postures {
+            chain.forward(&p.readings, &mut ws);
+            let eq = ws.equilibrium()?;
+            iterations_max = iterations_max.max(eq.iterations);
+            unconverged += usize::from(!eq.converged);
+            largest = largest.max(eq.largest);
+            for t in ws.gravity_torques()?.iter() {
+                torque = torque.max(t.abs());
+            }
+        }
+        let stiffness_unit = format!("N {}/{}", u.length, u.angle);
+        let joints = robot
+            .param_ids()
+            .filter(|&id| {
+                matches!(
+                    robot.param_kind(id),
+                    crate::params::ParamKind::Compliance { .. }
+                        | crate::params::ParamKind::Lateral { .. }
+                )
+            })
+            .map(|id| {
+                let compliance = robot.get_user(id);
+                StiffnessReport {
+                    name: robot.param_name(id),
+                    compliance,
+                    compliance_sigma: None,
+                    stiffness: (compliance > 0.0).then(|| 1.0 / compliance),
+                    stiffness_sigma: None,
+                    stiffness_unit: stiffness_unit.clone(),
+                    estimated: estimated.contains(&id),
+                }
+            })
+            .collect();
+        Some(ElasticReport {
+            bodies: model.bodies.len(),
+            total_mass: model.bodies.iter().map(|b| b.mass).sum(),
+            gravity: u.from_si(Quantity::Length, model.gravity.norm()),
+            equilibrium: match model.iterations {
+                Some(n) => format!("{n} fixed iterations"),
+                None => "converged".into(),
+            },
+            iterations_max,
+            unconverged_postures: unconverged,
+            largest_deflection: u.from_si(Quantity::Angle, largest),
+            largest_torque: torque,
+            joints,
+        })
+    }
 }
 
 impl CalibrationReport {
@@ -834,6 +943,7 @@ impl CalibrationReport {
             sources: Vec::new(),
             observation_errors: Some(observation_errors(cal, data)),
             spectrum: None,
+            elastic: ElasticReport::new(robot, data, &cal.estimated),
         }
     }
 
@@ -948,6 +1058,13 @@ impl CalibrationReport {
                 .collect(),
         });
         for pu in &u.parameters {
+            if let (Some(e), Some(sigma)) = (self.elastic.as_mut(), pu.sigma) {
+                let name = robot.param_name(pu.id);
+                if let Some(j) = e.joints.iter_mut().find(|j| j.name == name) {
+                    j.compliance_sigma = Some(sigma);
+                    j.stiffness_sigma = j.stiffness.map(|s| sigma * s * s);
+                }
+            }
             let p = &mut self.parameters[pu.id.0];
             p.determined = Some(pu.determined);
             p.sigma = pu.sigma;

@@ -526,6 +526,14 @@ impl Robot {
         }
     }
 
+    /// The same robot without its mass model: the rigid geometry an export writes.
+    pub fn rigid(&self) -> Robot {
+        Robot {
+            elastic: None,
+            ..self.clone()
+        }
+    }
+
     /// Number of joints n.
     pub fn dof(&self) -> usize {
         self.joints.len()

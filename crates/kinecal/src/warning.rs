@@ -63,6 +63,14 @@ pub enum Warning {
         /// Iterations run.
         iterations: usize,
     },
+    /// The gravity equilibrium of an elastic robot did not converge at some postures (its
+    /// compliances are too large for the fixed-point iteration, or the robot would buckle).
+    EquilibriumNotConverged {
+        /// Postures where it did not.
+        postures: usize,
+        /// Postures in all.
+        of: usize,
+    },
     /// The method stalled where Levenberg-Marquardt still reduces the objective.
     Stalled {
         /// The method (`gn`, `sd`, `svd`).
@@ -390,6 +398,12 @@ impl std::fmt::Display for Warning {
             Warning::NotConverged { iterations } => write!(
                 f,
                 "the solver stopped at the iteration cap ({iterations}) before converging"
+            ),
+            Warning::EquilibriumNotConverged { postures, of } => write!(
+                f,
+                "the gravity equilibrium did not converge to 1e-10 rad at {postures} of {of} \
+                 postures: the compliances are implausibly large (or the robot would buckle); \
+                 the deflections there are unreliable"
             ),
             Warning::Stalled { method } => write!(
                 f,

@@ -394,3 +394,85 @@ fn impossible_urdfs_are_refused_with_their_line() {
         assert!(e.contains(expect), "expected `{expect}` in {e}");
     }
 }
+
+/// Gravity torques straight from the URDF: for each movable joint of the chain, the torque about
+/// its axis of every chain link after it (their `<inertial>` mass at its origin), computed with
+/// 4x4 matrices along the chain; gravity 9.81 m/s^2 along -z of the base.
+fn urdf_gravity_torques(text: &str, base: &str, tip: &str, q: &[f64]) -> Vec<f64> {
+    let robot = urdf_rs::read_from_string(text).unwrap();
+    let mut chain = Vec::new();
+    let mut at = tip.to_string();
+    while at != base {
+        let j = robot.joints.iter().find(|j| j.child.link == at).unwrap();
+        chain.push(j.clone());
+        at = j.parent.link.clone();
+    }
+    chain.reverse();
+    let g = Vector3::new(0.0, 0.0, -9.81);
+    let mut t = Matrix4::identity();
+    let mut k = 0;
+    // (axis, origin) of each movable joint so far; the torques.
+    let mut axes: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
+    let mut tau = vec![0.0; q.len()];
+    for j in chain {
+        let [x, y, z] = j.origin.xyz.0;
+        let [r, p, yw] = j.origin.rpy.0;
+        let rot = Rotation3::from_euler_angles(r, p, yw);
+        t *= Matrix4::new_translation(&Vector3::new(x, y, z)) * rot.to_homogeneous();
+        let axis = Vector3::from(j.axis.xyz.0).normalize();
+        if matches!(
+            j.joint_type,
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous
+        ) {
+            let r3 = t.fixed_view::<3, 3>(0, 0).into_owned();
+            axes.push((r3 * axis, t.fixed_view::<3, 1>(0, 3).into_owned()));
+            t *= Rotation3::from_axis_angle(&Unit::new_normalize(axis), q[k]).to_homogeneous();
+            k += 1;
+        }
+        let link = robot.links.iter().find(|l| l.name == j.child.link).unwrap();
+        let m = link.inertial.mass.value;
+        let c = t * Vector3::from(link.inertial.origin.xyz.0).push(1.0);
+        let c = Vector3::new(c.x, c.y, c.z);
+        for (i, (a, o)) in axes.iter().enumerate() {
+            tau[i] += a.dot(&(c - o).cross(&(g * m)));
+        }
+    }
+    tau
+}
+
+#[test]
+fn urdf_masses_give_the_gravity_torques_of_the_urdf() {
+    let Some(path) = shared("universal_robots/urdf_plain/ur10_robot.urdf") else {
+        return;
+    };
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut imp = import_urdf(&text, "ur10", Some("base_link"), Some("tool0")).unwrap();
+    let bodies = kinecal::import::urdf::urdf_bodies(&text, "ur10", &imp).unwrap();
+    // The six moving links of the UR10 description (the base's 4 kg does not move).
+    assert_eq!(bodies.len(), 6, "{bodies:?}");
+    let total: f64 = bodies.iter().map(|b| b.mass).sum();
+    assert!(
+        (total - (7.778 + 12.93 + 3.87 + 1.96 + 1.96 + 0.202)).abs() < 1e-9,
+        "{total}"
+    );
+    imp.robot.elastic = Some(kinecal::robot::Elastic::new(&imp.robot, bodies));
+    let robot = imp.robot;
+    let chain = kinecal::Chain::new(&robot);
+    let mut ws = kinecal::Workspace::new(&robot);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    for _ in 0..50 {
+        let q: Vec<f64> = (0..6).map(|_| rng.random_range(-3.0..3.0)).collect();
+        chain.forward(&q, &mut ws);
+        let ours = ws.gravity_torques().unwrap();
+        let theirs = urdf_gravity_torques(&text, "base_link", "tool0", &q);
+        for i in 0..6 {
+            assert!(
+                (ours[2 * i + 1] - theirs[i]).abs() < 1e-9,
+                "joint {}: {} vs {} N m",
+                i + 1,
+                ours[2 * i + 1],
+                theirs[i]
+            );
+        }
+    }
+}

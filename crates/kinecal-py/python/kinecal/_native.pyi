@@ -57,8 +57,11 @@ class Robot:
     def builtin(name: str) -> Robot:
         """A built-in robot: ``"ge-a4"`` (the GE A4 of the thesis)."""
     @staticmethod
-    def from_urdf(path: _PathLike, base: str | None = None, tip: str | None = None) -> Robot:
-        """The chain from ``base`` (default: the root) to ``tip`` (default: the only leaf)."""
+    def from_urdf(
+        path: _PathLike, base: str | None = None, tip: str | None = None, masses: bool = False
+    ) -> Robot:
+        """The chain from ``base`` (default: the root) to ``tip`` (default: the only leaf);
+        ``masses=True`` takes the links' ``<inertial>`` masses as a mass model."""
     @staticmethod
     def from_dh(
         table: npt.ArrayLike | _PathLike,

@@ -9,6 +9,9 @@
 //! the export's (a DH table in radians of a robot in degrees takes the readings times pi/180): a
 //! transducer slope other than 1 in the robot file's units, or a coupling, is not a unit and is
 //! not converted away.
+//!
+//! No export form holds a mass model: an elastic robot's export is its rigid geometry, read back
+//! against that, and the gravity deflection it leaves out is said as lost ([`gains_lost`]).
 
 use nalgebra::Vector3;
 
@@ -209,6 +212,18 @@ pub fn compare(
     map: &dyn Fn(&[f64], &mut [f64]),
     tool: Option<&Frame>,
 ) -> ReadBack {
+    if robot.elastic.is_some() {
+        return deviation(&robot.rigid(), back, map, tool);
+    }
+    deviation(robot, back, map, tool)
+}
+
+fn deviation(
+    robot: &Robot,
+    back: &Robot,
+    map: &dyn Fn(&[f64], &mut [f64]),
+    tool: Option<&Frame>,
+) -> ReadBack {
     let (ca, cb) = (Chain::new(robot), Chain::new(back));
     let (mut wa, mut wb) = (Workspace::new(robot), Workspace::new(back));
     let (mut p, mut r): (f64, f64) = (0.0, 0.0);
@@ -256,12 +271,23 @@ pub fn gains_lost(
     skip_coupling: &dyn Fn(usize) -> bool,
 ) -> Vec<Lost> {
     let mut lost = Vec::new();
+    if robot.elastic.is_some() {
+        let rigid = robot.rigid();
+        let d = deviation(robot, &rigid, &|v, out| out.copy_from_slice(v), None);
+        lost.push(Lost {
+            what: "the mass model and joint compliances (the gravity deflection; `kinecal fk` \
+                   and `kinecal compensate` apply it)"
+                .into(),
+            position: d.position,
+            attitude: d.attitude,
+        });
+    }
     for (j, joint) in robot.joints.iter().enumerate() {
         let coupled = joint.coupling.is_some() && !skip_coupling(j);
         if unit_gain(robot, j) && !coupled {
             continue;
         }
-        let mut without = robot.clone();
+        let mut without = robot.rigid();
         let unit = robot.units.factor(joint.kind.slope());
         without.joints[j].slope = unit;
         if let Some(c) = without.joints[j].coupling.as_mut() {

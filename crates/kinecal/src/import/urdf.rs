@@ -6,7 +6,8 @@
 //! +z is handled exactly by a constant rotation `R_a` (with `R_a e_z = axis`) folded into the
 //! link before the joint, and its inverse into the link after it. Readings are the URDF joint
 //! values (rad, m; slope 1) and joint limits become reading ranges. Mimic joints, closed chains
-//! and floating or planar joints in the chain are refused with the element named.
+//! and floating or planar joints in the chain are refused with the element named. The links'
+//! `<inertial>` masses and centres of mass give the bodies of a mass model ([`urdf_bodies`]).
 //!
 //! Export: each movable joint's `<origin>` is rewritten so that the URDF's forward kinematics is
 //! the calibrated one (joint offsets folded in); the first fixed joint after the last movable one
@@ -22,7 +23,7 @@ use super::readback::{self, ReadBack, Tolerance};
 use super::{chain_from_frames, inverse, rotation_from_xz, ImportedJoint, Lost};
 use crate::error::{Error, Location, Result, Setting};
 use crate::kinematics::{euler_zyx, rot_zyx, Frame};
-use crate::robot::{JointKind, Robot};
+use crate::robot::{Body, JointKind, Robot};
 use crate::units::Units;
 use crate::warning::Warning;
 
@@ -303,6 +304,109 @@ pub fn import_urdf(
             tip: tip.to_string(),
         },
     })
+}
+
+/// The bodies of a mass model ([`crate::robot::Elastic`]) for an imported chain, from the
+/// `<inertial>` (`mass`, `origin xyz`) of the links it moves: each chain link after the first
+/// movable joint, and every link hanging off one outside the chain (a gripper's fingers, a
+/// camera: taken at their joints' zero values), becomes a body carried by the last movable
+/// joint before it, its centre of mass in that joint's frame. The inertia tensors are not needed
+/// for statics. Links without mass are left out; a mass or centre that is not finite and
+/// plausible is refused with the link named.
+pub fn urdf_bodies(text: &str, file: &str, import: &UrdfImport) -> Result<Vec<Body>> {
+    let urdf = urdf_rs::read_from_string(text.strip_prefix('\u{feff}').unwrap_or(text))
+        .map_err(|e| err(file, format!("not a valid URDF: {e}")))?;
+    let link = |name: &str| urdf.links.iter().find(|l| l.name == name);
+    let chain = &import.chain;
+    let mut bodies = Vec::new();
+    // The frame of the last movable joint at the zero configuration, and its number (1-based).
+    let mut carrier: Option<(Frame, usize)> = None;
+    let mut acc = Frame::identity();
+    let mut movable = 0;
+    for (c, name) in chain.joints.iter().enumerate() {
+        let Some(j) = urdf.joints.iter().find(|j| &j.name == name) else {
+            continue;
+        };
+        acc = acc.then(&chain.origins[c]);
+        if chain.movable.get(movable) == Some(name) {
+            carrier = Some((
+                acc.then(&Frame {
+                    rotation: chain.axis_frames[movable],
+                    translation: Vector3::zeros(),
+                }),
+                movable + 1,
+            ));
+            movable += 1;
+        }
+        let Some((frame, joint)) = &carrier else {
+            continue;
+        };
+        // The child link and everything below it that is not the chain.
+        let mut stack = vec![(j.child.link.as_str(), acc)];
+        while let Some((name, at)) = stack.pop() {
+            if let Some(l) = link(name) {
+                let mass = l.inertial.mass.value;
+                let xyz = l.inertial.origin.xyz.0;
+                let bad = |what: String| {
+                    Error::input(
+                        Location::file(file).with_field(format!("link `{name}` inertial")),
+                        what,
+                    )
+                };
+                if !(mass.is_finite() && (0.0..=1e6).contains(&mass)) {
+                    return Err(bad(format!(
+                        "mass {mass} is not a finite number of kg in [0, 1e6]"
+                    )));
+                }
+                if let Some(x) = xyz.iter().find(|x| !x.is_finite() || x.abs() > 1e6) {
+                    return Err(bad(format!(
+                        "origin {x} is not a finite number within +-1e6 m"
+                    )));
+                }
+                if mass > 0.0 {
+                    let global = at.translation + at.rotation * Vector3::from(xyz);
+                    let local = frame.rotation.transpose() * (global - frame.translation);
+                    bodies.push(Body {
+                        joint: *joint,
+                        mass,
+                        com: local,
+                    });
+                }
+            }
+            for k in urdf.joints.iter().filter(|k| k.parent.link == name) {
+                if chain.joints.contains(&k.name) {
+                    continue;
+                }
+                let o = origin_frame(k.origin.xyz.0, k.origin.rpy.0);
+                stack.push((k.child.link.as_str(), at.then(&o)));
+            }
+        }
+    }
+    Ok(bodies)
+}
+
+/// [`import_urdf`], with the mass model of [`urdf_bodies`] when `masses` (an error when the
+/// chain's links carry no mass).
+pub fn import_urdf_with(
+    text: &str,
+    file: &str,
+    base: Option<&str>,
+    tip: Option<&str>,
+    masses: bool,
+) -> Result<UrdfImport> {
+    let mut imported = import_urdf(text, file, base, tip)?;
+    if masses {
+        let bodies = urdf_bodies(text, file, &imported)?;
+        if bodies.is_empty() {
+            return Err(err(
+                file,
+                "no link after the first movable joint has an <inertial> mass: there is no mass \
+                 model to take",
+            ));
+        }
+        imported.robot.elastic = Some(crate::robot::Elastic::new(&imported.robot, bodies));
+    }
+    Ok(imported)
 }
 
 /// The new origins (by joint name) that make `chain`'s URDF reproduce `robot`'s forward

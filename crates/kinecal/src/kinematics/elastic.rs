@@ -428,8 +428,10 @@ impl Chain<'_> {
 
 /// The compliant joints whose gravity torque is always zero, so that their compliance cannot
 /// be estimated (a vertical first axis: its torque is 0 in every posture): those with no torque
-/// above 1e-9 of the robot's largest in 256 postures drawn uniformly over the joint ranges
-/// (`[-pi, pi]` or `[-1, 1]` m for a joint without a range; seed fixed), at zero compliance.
+/// above 1e-3 of the robot's largest in 256 postures drawn uniformly over the joint ranges
+/// (`[-pi, pi]` or `[-1, 1]` m for a joint without a range; seed fixed), at zero compliance. The
+/// threshold counts an axis within about 0.06 deg of vertical as vertical: a calibrated base
+/// tilts by a fraction of that, and the torque it leaves cannot determine a compliance.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct GravityFree {
     /// Joints (0-based) without a torque about their axis.
@@ -477,12 +479,46 @@ pub fn gravity_free_joints(robot: &Robot) -> GravityFree {
         }
     }
     let top = largest.iter().fold(0.0f64, |a, b| a.max(*b));
-    let free = |r: usize| largest[r] <= 1e-9 * top;
+    let free = |r: usize| largest[r] <= 1e-3 * top;
     GravityFree {
         joint: robot
             .compliant_joints()
             .filter(|&j| free(2 * j + 1))
             .collect(),
         lateral: robot.compliant_joints().filter(|&j| free(2 * j)).collect(),
+    }
+}
+
+/// The first of `postures` (readings) at which `robot`'s gravity equilibrium does not converge,
+/// with how it went; `None` when it converges at all of them, or for a rigid robot. Front ends
+/// refuse such a posture rather than report deflections that mean nothing.
+pub fn unconverged_posture<'a>(
+    robot: &Robot,
+    postures: impl IntoIterator<Item = &'a [f64]>,
+) -> Option<(usize, Equilibrium)> {
+    robot.elastic.as_ref()?;
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    postures.into_iter().enumerate().find_map(|(i, readings)| {
+        chain.forward(readings, &mut ws);
+        ws.equilibrium().filter(|e| !e.converged).map(|e| (i, e))
+    })
+}
+
+impl std::fmt::Display for Equilibrium {
+    /// `did not converge: the deflections still changed by 3.2e-2 rad after 200 iterations
+    /// (largest 1.7 rad)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.converged {
+            write!(f, "converged in {} iterations", self.iterations)
+        } else {
+            write!(
+                f,
+                "did not converge: the deflections still changed by {:.1e} rad after {} \
+                 iterations (largest {:.3} rad); the compliances are implausibly large, or the \
+                 robot would buckle",
+                self.change, self.iterations, self.largest
+            )
+        }
     }
 }

@@ -261,6 +261,16 @@ pub(super) fn finish(
         .as_ref()
         .map(|v| Checked::new(&cal, v, &data, &nominal));
     let mut report = CalibrationReport::new(&cal, &data);
+    if let Some(e) = report
+        .elastic
+        .as_ref()
+        .filter(|e| e.unconverged_postures > 0)
+    {
+        warnings.push(Warning::EquilibriumNotConverged {
+            postures: e.unconverged_postures,
+            of: data.postures.len(),
+        });
+    }
     // The solver started elsewhere than the nominal robot (frames placed in closed form, an
     // initial guess): "before" is the nominal robot, the start is said apart.
     let nominal_figures = (cal.initial != nominal).then(|| {

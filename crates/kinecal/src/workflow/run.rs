@@ -292,6 +292,18 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         }
         None => req,
     };
+    // An elastic robot whose equilibrium does not converge at a posture gives no answer there.
+    for (robot, what) in std::iter::once((&req.robot, "nominal robot"))
+        .chain(req.initial.as_ref().map(|r| (r, "initial guess")))
+    {
+        let readings = data.postures.iter().map(|p| p.readings.as_slice());
+        if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
+            return Err(Error::Problem(format!(
+                "the {what}'s gravity equilibrium at posture `{}` {eq}",
+                data.postures[i].label
+            )));
+        }
+    }
     let start = match &req.initial {
         None => req.robot.clone(),
         Some(guess) => {
