@@ -677,6 +677,29 @@ table is read back and compared with the robot over the joint ranges (the larges
 printed); what DH cannot hold (transducer slopes other than 1, couplings: the table's joint
 variables are the readings) is named, and beyond --tolerance nothing is written.")]
     Dh(ExportDhArgs),
+    /// Write the joint compliances and stiffnesses of an elastic robot's calibration, with
+    /// their standard deviations, as a table.
+    #[command(after_help = "\
+Example:
+  kinecal export stiffness --report report.json --out stiffness.csv
+
+Reads the report of a calibration of a robot with a mass model (kinecal calibrate --report) and
+writes parameter,joint,axis,compliance,compliance_sigma,stiffness,stiffness_sigma,stiffness_unit,
+estimated: one row per compliance (axis `joint` or `lateral`), compliance in the robot file's
+angle unit per newton and length unit, stiffness its inverse (empty when the compliance is not
+positive), sigmas empty where the data does not determine them.")]
+    Stiffness(ExportStiffnessArgs),
+}
+
+/// `kinecal export stiffness`.
+#[derive(Debug, Args)]
+pub struct ExportStiffnessArgs {
+    /// The calibration report (JSON) of an elastic robot.
+    #[arg(long)]
+    pub report: PathBuf,
+    /// The table to write (CSV).
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `kinecal export dh`.

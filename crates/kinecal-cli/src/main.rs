@@ -68,6 +68,7 @@ fn main() -> ExitCode {
         Command::Export(ExportCommand::Ur(a)) => export_ur(a).map(|()| 0),
         Command::Export(ExportCommand::Joints(a)) => export_joints(a).map(|()| 0),
         Command::Export(ExportCommand::Dh(a)) => export_dh(a).map(|()| 0),
+        Command::Export(ExportCommand::Stiffness(a)) => export_stiffness(a).map(|()| 0),
         Command::History(c) => history::run(c),
         Command::Plan(a) => plan::run(a).map(|()| 0),
         Command::Batch(a) => batch::run(a),
@@ -505,6 +506,29 @@ fn export_joints(a: args::ExportJointsArgs) -> Result<()> {
     eprintln!("{}", e.read_back.line(cal.units));
     write_file(&a.out, &e.text)?;
     eprintln!("wrote the joint table to {}", a.out.display());
+    Ok(())
+}
+
+fn export_stiffness(a: args::ExportStiffnessArgs) -> Result<()> {
+    output::check_distinct(&[&a.out], &[&a.report])?;
+    let s = Source::read(&a.report)?;
+    let report = kinecal::report::CalibrationReport::from_json(&s.text)
+        .map_err(|e| anyhow!("{}: not a kinecal calibration report: {e}", s.name))?;
+    let Some(elastic) = &report.elastic else {
+        bail!(
+            "{}: the calibrated robot `{}` has no mass model, so no compliances (add [[bodies]] \
+             to its robot file, or import its URDF with --masses)",
+            s.name,
+            report.robot
+        );
+    };
+    write_file(&a.out, &elastic.table())?;
+    eprintln!(
+        "wrote {} compliances ({} estimated) to {}",
+        elastic.joints.len(),
+        elastic.joints.iter().filter(|j| j.estimated).count(),
+        a.out.display()
+    );
     Ok(())
 }
 

@@ -51,9 +51,10 @@ fn demo_shows_returning_and_redundant_parameters() {
 
 #[test]
 fn every_command_has_help_with_an_example() {
-    let commands: [&[&str]; 27] = [
+    let commands: [&[&str]; 28] = [
         &["demo"],
         &["export", "dh"],
+        &["export", "stiffness"],
         &["export", "joints"],
         &["import", "ur"],
         &["export", "ur"],
@@ -3705,4 +3706,159 @@ fn dataset_refuses_a_damaged_folder_without_panicking() {
         std::fs::write(t.join(name), bytes).unwrap();
     }
     run_ok(t, &["dataset", "fanuc-r2000ic", ".", "--out", "out"]);
+}
+
+/// An arm that sags: a 3R with a horizontal shoulder and elbow, 2 kg bodies, metres.
+const ELASTIC_ARM: &str = r#"name = "sagging arm"
+length_unit = "m"
+angle_unit = "rad"
+[[links]]
+z = 0.3
+[[links]]
+gamma = 1.5707963267948966
+[[links]]
+x = 0.6
+[[links]]
+x = 0.5
+[[joints]]
+kind = "revolute"
+min = -3.0
+max = 3.0
+[[joints]]
+kind = "revolute"
+min = -3.0
+max = 3.0
+[[joints]]
+kind = "revolute"
+min = -3.0
+max = 3.0
+[[bodies]]
+joint = 2
+mass = 3.0
+com = [0.3, 0.0, 0.0]
+[[bodies]]
+joint = 3
+mass = 2.0
+com = [0.3, 0.0, 0.05]
+"#;
+
+#[test]
+fn an_elastic_calibration_recovers_stiffness_and_exports_its_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("arm.toml"), ELASTIC_ARM).unwrap();
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "arm.toml",
+            "--postures",
+            "40",
+            "--seed",
+            "2",
+            "--perturb",
+            "joint2.compliance=+4e-5,joint3.compliance=+1e-4",
+            "--noise",
+            "length=0.000005,angle=0.000005",
+            "--out",
+            "data.csv",
+        ],
+    );
+    let out = run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "arm.toml",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "offsets,compliance",
+            "--weights",
+            "length=0.000005,angle=0.000005",
+            "--report",
+            "r.json",
+        ],
+    );
+    assert!(out.contains("stiffness"), "{out}");
+    run_ok(
+        d,
+        &[
+            "export",
+            "stiffness",
+            "--report",
+            "r.json",
+            "--out",
+            "k.csv",
+        ],
+    );
+    // Read back with the csv crate, as another program would.
+    let mut rows = csv::Reader::from_path(d.join("k.csv")).unwrap();
+    let header: Vec<String> = rows.headers().unwrap().iter().map(String::from).collect();
+    assert_eq!(header, kinecal::report::STIFFNESS_COLUMNS);
+    let mut seen = 0;
+    for row in rows.records() {
+        let row = row.unwrap();
+        let (name, estimated) = (&row[0], &row[8]);
+        let truth = match name {
+            "joint2.compliance" => 4e-5,
+            "joint3.compliance" => 1e-4,
+            _ => continue,
+        };
+        assert_eq!(estimated, "1", "{row:?}");
+        let c: f64 = row[3].parse().unwrap();
+        let sc: f64 = row[4].parse().unwrap();
+        let k: f64 = row[5].parse().unwrap();
+        assert!(
+            (c - truth).abs() < 3.0 * sc,
+            "{name}: {c} +- {sc}, true {truth}"
+        );
+        assert!(
+            (k * c - 1.0).abs() < 1e-12,
+            "stiffness is 1/compliance: {row:?}"
+        );
+        assert_eq!(&row[7], "N m/rad");
+        seen += 1;
+    }
+    // Joint 1 is vertical: gravity never loads it, and `compliance` leaves it out.
+    assert_eq!(seen, 2);
+    // A rigid robot's report has no compliances to export.
+    run_ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "10",
+            "--out",
+            "g.csv",
+        ],
+    );
+    run_ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "g.csv",
+            "--report",
+            "g.json",
+        ],
+    );
+    let err = run_err(
+        d,
+        &[
+            "export",
+            "stiffness",
+            "--report",
+            "g.json",
+            "--out",
+            "x.csv",
+        ],
+    );
+    assert!(err.contains("has no mass model"), "{err}");
+    assert!(!d.join("x.csv").exists());
 }

@@ -776,7 +776,55 @@ pub struct StiffnessReport {
     pub estimated: bool,
 }
 
+/// The header of [`ElasticReport::table`].
+pub const STIFFNESS_COLUMNS: [&str; 9] = [
+    "parameter",
+    "joint",
+    "axis",
+    "compliance",
+    "compliance_sigma",
+    "stiffness",
+    "stiffness_sigma",
+    "stiffness_unit",
+    "estimated",
+];
+
 impl ElasticReport {
+    /// The compliance table as CSV ([`STIFFNESS_COLUMNS`]): one row per compliance, `joint` its
+    /// number, `axis` `joint` or `lateral`, compliance and stiffness in the report's units with
+    /// their sigmas (empty when not determined or not positive), `estimated` 1 or 0. Numbers are
+    /// written as [`crate::units::number`] says: the shortest text that reads back to the same
+    /// value.
+    pub fn table(&self) -> String {
+        use crate::units::number::{write, Scale};
+        let mut out = STIFFNESS_COLUMNS.join(",");
+        out.push('\n');
+        let num = |v: Option<f64>| v.map_or(String::new(), |v| write(v, Scale::of([v])));
+        for j in &self.joints {
+            let (joint, axis) = j
+                .name
+                .strip_prefix("joint")
+                .and_then(|r| r.split_once('.'))
+                .unwrap_or(("", ""));
+            let axis = if axis == "lateral" {
+                "lateral"
+            } else {
+                "joint"
+            };
+            out.push_str(&format!(
+                "{},{joint},{axis},{},{},{},{},{},{}\n",
+                j.name,
+                num(Some(j.compliance)),
+                num(j.compliance_sigma),
+                num(j.stiffness),
+                num(j.stiffness_sigma),
+                j.stiffness_unit,
+                u8::from(j.estimated)
+            ));
+        }
+        out
+    }
+
     /// The report of `robot`'s mass model at the postures of `data` (`None` for a rigid robot).
     pub fn new(robot: &Robot, data: &Dataset, estimated: &[ParamId]) -> Option<ElasticReport> {
         let model = robot.elastic.as_ref()?;
