@@ -564,7 +564,9 @@ fn fk(a: FkArgs) -> Result<()> {
         if rows.column("x").is_some() {
             let s = Source::read(&a.postures)?;
             let postures = parse_postures(&s.text, &s.name, robot)?;
-            let readings = postures.iter().map(|p| p.readings.as_slice());
+            let readings = postures
+                .iter()
+                .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
             if let Some((i, eq)) = kinecal::kinematics::unconverged_posture(robot, readings) {
                 bail!(
                     "{}: posture `{}`: the gravity equilibrium {eq}",
@@ -609,6 +611,7 @@ fn fk(a: FkArgs) -> Result<()> {
             label: String::new(),
             readings: vec![0.0; robot.dof()],
             session: None,
+            payload: None,
         };
         while let Some(line) = rows.advance()? {
             posture.label.clear();
@@ -616,9 +619,10 @@ fn fk(a: FkArgs) -> Result<()> {
             for (j, &c) in readings.iter().enumerate() {
                 posture.readings[j] = stream::cell(&rows, line, c)?;
             }
-            if let Some((_, eq)) =
-                kinecal::kinematics::unconverged_posture(robot, [posture.readings.as_slice()])
-            {
+            if let Some((_, eq)) = kinecal::kinematics::unconverged_posture(
+                robot,
+                [(posture.readings.as_slice(), None)],
+            ) {
                 bail!("{}:{line}: the gravity equilibrium {eq}", rows.file);
             }
             let data = simulate::measure(robot, std::slice::from_ref(&posture), false);
@@ -707,7 +711,9 @@ fn simulate(a: SimulateArgs) -> Result<()> {
         truth = simulate::changed(&truth, &changes).map_err(|e| anyhow!("--perturb: {e}"))?;
     }
     let postures = simulate::sample_postures(nominal, a.postures, a.seed);
-    let readings = postures.iter().map(|p| p.readings.as_slice());
+    let readings = postures
+        .iter()
+        .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
     if let Some((i, eq)) = kinecal::kinematics::unconverged_posture(&truth, readings) {
         bail!(
             "the true robot's gravity equilibrium at posture {} {eq}",

@@ -102,6 +102,7 @@ fn postures_of(
             label: (i + 1).to_string(),
             readings: v[i * n..(i + 1) * n].to_vec(),
             session: None,
+            payload: None,
         })
         .collect())
 }

@@ -881,6 +881,7 @@ impl Measurements {
                         label: labels[i].clone(),
                         readings: reading.to_vec(),
                         session: None,
+                        payload: None,
                     });
                     index.insert(labels[i].as_str(), posture_list.len() - 1);
                     posture_list.len() - 1

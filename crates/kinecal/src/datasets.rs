@@ -335,6 +335,7 @@ pub mod qkm_hl6 {
                 label: format!("{prefix}{}", i + 1),
                 readings: a[..6].to_vec(),
                 session: None,
+                payload: None,
             });
             let smr = match a[6] {
                 v if [1.0, 2.0, 3.0].contains(&v) => v as usize - 1,
@@ -605,6 +606,7 @@ pub mod fanuc_r2000ic {
                 label: (i + 1).to_string(),
                 readings: r[15..21].to_vec(),
                 session: None,
+                payload: None,
             });
             for k in 0..3 {
                 let p = plausible_point(
@@ -770,6 +772,7 @@ pub mod ur10e_camera {
                 label: (k + 1).to_string(),
                 readings: v[6..12].to_vec(),
                 session: None,
+                payload: None,
             });
             let mut p = Pose::new(
                 k,

@@ -514,8 +514,23 @@ impl<'r> Chain<'r> {
         reading_trig: Option<&[(f64, f64)]>,
         ws: &mut Workspace,
     ) {
+        self.forward_loaded(readings, reading_trig, None, ws);
+    }
+
+    /// [`Chain::forward_with`] with the tool carrying `payload` (an elastic robot's joints yield
+    /// to its weight too; a rigid robot ignores it).
+    #[inline]
+    pub fn forward_loaded(
+        &self,
+        readings: &[f64],
+        reading_trig: Option<&[(f64, f64)]>,
+        payload: Option<&crate::robot::Payload>,
+        ws: &mut Workspace,
+    ) {
         match &self.robot.elastic {
-            Some(model) if ws.elastic.is_some() => self.forward_elastic(model, readings, ws),
+            Some(model) if ws.elastic.is_some() => {
+                self.forward_elastic(model, readings, payload, ws)
+            }
             _ => self.forward_rigid(readings, reading_trig, None, ws),
         }
     }

@@ -459,6 +459,7 @@ impl Plan {
                 label: q.label.clone(),
                 readings: q.readings.clone(),
                 session: None,
+                payload: None,
             })
             .collect();
         (crate::files::write_postures(robot, &chosen), "postures")

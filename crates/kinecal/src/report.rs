@@ -834,7 +834,7 @@ impl ElasticReport {
         let (mut iterations_max, mut unconverged) = (0, 0);
         let (mut largest, mut torque) = (0.0f64, 0.0f64);
         for p in &data.postures {
-            chain.forward(&p.readings, &mut ws);
+            chain.forward_loaded(&p.readings, None, p.payload.as_ref(), &mut ws);
             let eq = ws.equilibrium()?;
             iterations_max = iterations_max.max(eq.iterations);
             unconverged += usize::from(!eq.converged);

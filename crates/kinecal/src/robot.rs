@@ -301,6 +301,17 @@ pub struct Body {
     pub com: Vector3<f64>,
 }
 
+/// What the tool carries at a posture (a workpiece, a gripper's load): a point mass at its
+/// centre of mass in the end-effector frame. It loads an elastic robot's joints like a body
+/// carried by the last joint; a rigid robot does not feel it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Payload {
+    /// Mass (kg).
+    pub mass: f64,
+    /// Centre of mass in the end-effector frame (m).
+    pub com: Vector3<f64>,
+}
+
 /// How one joint yields under gravity: about its own axis, and about a lateral axis
 /// perpendicular to it (the bending of the joint's bearing and the link before it).
 #[derive(Debug, Clone, PartialEq)]

@@ -53,6 +53,7 @@ pub fn sample_postures(robot: &Robot, count: usize, seed: u64) -> Vec<Posture> {
             label: i.to_string(),
             readings: ranges.iter().map(|&(a, b)| r.random_range(a..=b)).collect(),
             session: None,
+            payload: None,
         })
         .collect()
 }
@@ -125,7 +126,7 @@ pub fn measure(robot: &Robot, postures: &[Posture], position_only: bool) -> Data
         .collect();
     let mut observations: Vec<Observation> = Vec::with_capacity(postures.len() * targets.len());
     for (i, p) in postures.iter().enumerate() {
-        chain.forward(&p.readings, &mut ws);
+        chain.forward_loaded(&p.readings, None, p.payload.as_ref(), &mut ws);
         let session = crate::observe::session_frame(robot, p);
         for &t in &targets {
             let f = chain.target_frame(&ws, t);

@@ -86,6 +86,7 @@ fn p38_objective_valleys_fig_4_11() {
                 label: label.into(),
                 readings: v.to_vec(),
                 session: None,
+                payload: None,
             }],
             false,
         )
@@ -98,11 +99,13 @@ fn p38_objective_valleys_fig_4_11() {
                 label: "1".into(),
                 readings: P1.to_vec(),
                 session: None,
+                payload: None,
             },
             Posture {
                 label: "2".into(),
                 readings: P2.to_vec(),
                 session: None,
+                payload: None,
             },
         ],
         false,

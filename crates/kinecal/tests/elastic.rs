@@ -436,3 +436,146 @@ fn compliances_are_recovered_where_a_rigid_fit_leaves_millimetres() {
     eprintln!("held-out: {error:.4} mm elastic, {rigid_error:.2} mm rigid, {held_error:.4} mm with redundant errors");
     assert!(held_error < 0.1 * rigid_error, "{held_error} mm");
 }
+
+#[test]
+fn a_payload_loads_the_joints_and_its_jacobian_matches_finite_differences() {
+    let robot = tight(elastic_arm(31));
+    let chain = Chain::new(&robot);
+    let mut ws = Workspace::new(&robot);
+    let payload = kinecal::robot::Payload {
+        mass: 4.0,
+        com: Vector3::new(0.02, -0.03, 0.15),
+    };
+    let np = robot.param_count();
+    let plan = ColumnPlan::all(&robot, Target::EndEffector);
+    let mut jac = vec![0.0; 6 * np];
+    for p in simulate::sample_postures(&robot, 3, 37) {
+        // The payload is a body past every joint: the deflected robot is the one a test body
+        // of that mass at the tool would give.
+        let mut with_body = robot.clone();
+        let tool = with_body.links[6];
+        let at_tool = Frame::from_link(&tool);
+        with_body.elastic.as_mut().unwrap().bodies.push(Body {
+            joint: 6,
+            mass: payload.mass,
+            com: at_tool.translation + at_tool.rotation * payload.com,
+        });
+        chain.forward_loaded(&p.readings, None, Some(&payload), &mut ws);
+        let loaded = chain.target_frame(&ws, Target::EndEffector);
+        let body = Chain::new(&with_body).frame_at(&p.readings, Target::EndEffector);
+        assert!((loaded.translation - body.translation).norm() < 1e-12);
+        let free = chain.frame_at(&p.readings, Target::EndEffector);
+        assert!(
+            (loaded.translation - free.translation).norm() > 1e-4,
+            "4 kg sags the arm"
+        );
+        chain.jacobian_columns(&ws, &plan, &mut jac);
+        for id in robot.param_ids() {
+            let h = match robot.param_kind(id) {
+                ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => 1e-7,
+                _ => 1e-6,
+            };
+            let at = |v: f64| {
+                let mut r = robot.clone();
+                r.set(id, v);
+                let c = Chain::new(&r);
+                let mut w = Workspace::new(&r);
+                c.forward_loaded(&p.readings, None, Some(&payload), &mut w);
+                c.target_frame(&w, Target::EndEffector)
+            };
+            let v = robot.get(id);
+            let fd = rate(&at(v - h), &at(v + h), h);
+            let col = &jac[6 * id.0..6 * id.0 + 6];
+            let scale = fd.iter().chain(col).fold(1.0f64, |a, x| a.max(x.abs()));
+            for k in 0..6 {
+                assert!(
+                    (fd[k] - col[k]).abs() < 1e-7 * scale,
+                    "{} row {k}: {} vs {}",
+                    robot.param_name(id),
+                    col[k],
+                    fd[k]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn payload_columns_round_trip_and_bad_ones_are_refused() {
+    let mut robot = elastic_arm(9);
+    robot.sites.clear();
+    robot.units = kinecal::Units {
+        length: kinecal::LengthUnit::Mm,
+        angle: kinecal::AngleUnit::Deg,
+    };
+    let mut postures = simulate::sample_postures(&robot, 6, 3);
+    for (i, p) in postures.iter_mut().enumerate().skip(1) {
+        p.payload = Some(kinecal::robot::Payload {
+            mass: i as f64 * 1.5,
+            com: Vector3::new(0.01 * i as f64, 0.0, 0.12),
+        });
+    }
+    let data = simulate::measure(&robot, &postures, false);
+    let text = kinecal::files::write_measurements(&robot, &data);
+    assert!(text
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with("payload_mass,payload_cx,payload_cy,payload_cz"));
+    let back = kinecal::files::parse_measurements(&text, "m.csv", &robot).expect("reads back");
+    for (a, b) in postures.iter().zip(&back.postures) {
+        match (a.payload, b.payload) {
+            (None, None) => {}
+            (Some(x), Some(y)) => {
+                assert_eq!(x.mass.to_bits(), y.mass.to_bits(), "mass written exactly");
+                // Written in mm and read back: within a rounding of the conversion.
+                assert!((x.com - y.com).norm() < 1e-15, "{x:?} {y:?}");
+            }
+            other => panic!("payload lost: {other:?}"),
+        }
+    }
+    // The robot explains the data read back with its payloads (to the file's digits), and not
+    // without them: the payloads are applied where the fit evaluates the data.
+    let largest = |d: &kinecal::Dataset| {
+        kinecal::observe::errors(&robot, d)
+            .iter()
+            .fold(0.0f64, |a, e| a.max(e.length))
+    };
+    assert!(largest(&back) < 1e-12, "{}", largest(&back));
+    let mut unloaded = back.clone();
+    unloaded.postures.iter_mut().for_each(|p| p.payload = None);
+    assert!(largest(&unloaded) > 1e-4, "{}", largest(&unloaded));
+    let header = text.lines().next().unwrap().to_string();
+    let row = |tail: &str| {
+        let first = text.lines().nth(1).unwrap();
+        let cut: Vec<&str> = first.split(',').collect();
+        let keep = cut.len() - 4;
+        format!("{header}\n{},{tail}\n", cut[..keep].join(","))
+    };
+    for (tail, says) in [
+        ("-1,0,0,0", "payload mass is 0 to 1e6 kg"),
+        ("nan,0,0,0", "payload_mass"),
+        ("2,abc,0,0", "payload_cx"),
+    ] {
+        let err = kinecal::files::parse_measurements(&row(tail), "m.csv", &robot)
+            .expect_err(tail)
+            .to_string();
+        assert!(err.contains(says) && err.contains("m.csv"), "{tail}: {err}");
+    }
+    // One posture, two payloads.
+    let first = text.lines().nth(1).unwrap();
+    let cut: Vec<&str> = first.split(',').collect();
+    let keep = cut.len() - 4;
+    let two = format!(
+        "{header}\n{},1,0,0,0\n{},2,0,0,0\n",
+        cut[..keep].join(","),
+        cut[..keep].join(",")
+    );
+    let err = kinecal::files::parse_measurements(&two, "m.csv", &robot)
+        .expect_err("two payloads")
+        .to_string();
+    assert!(
+        err.contains("share its payload") && err.contains(":3"),
+        "{err}"
+    );
+}

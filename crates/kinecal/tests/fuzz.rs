@@ -57,6 +57,14 @@ fn check_data(d: &Dataset) -> Result<(), String> {
         if p.readings.iter().any(|v| !v.is_finite()) {
             return Err(format!("posture {} has a non-finite reading", p.label));
         }
+        if let Some(load) = &p.payload {
+            if !(load.mass.is_finite()
+                && load.mass >= 0.0
+                && load.com.iter().all(|v| v.is_finite()))
+            {
+                return Err(format!("posture {} has a payload {load:?}", p.label));
+            }
+        }
     }
     for o in &d.observations {
         let finite = match o {
@@ -140,6 +148,12 @@ fn measurement_and_posture_files() {
           1,ee,1,2,3,4,5,6,7,,,,0.001,\n2,ee,1,2,3,4,5,6,7,1,2,3,,0.01\n"
             .to_vec(),
     ];
+    // Payload columns (what the tool carried at each posture).
+    seeds.push(
+        b"posture,site,v1,v2,v3,v4,x,y,z,payload_mass,payload_cx,payload_cy,payload_cz\n\
+          1,ee,1,2,3,4,5,6,7,2.5,0,0,1.5\n2,ee,1,2,3,4,5,6,7,,,,\n1,ee,1,2,3,4,5,6,7,2.5,0,0,1.5\n"
+            .to_vec(),
+    );
     seeds.push(
         b"# exported\n\"posture\";\"v1\";\"v2\";\"v3\";\"v4\";\"x\";\"y\";\"z\"\r\n1;1,5;2;3;4;5;6;7\r\n"
             .to_vec(),

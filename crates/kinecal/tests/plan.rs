@@ -56,6 +56,7 @@ fn postures_of(p: &kinecal::plan::Plan) -> Vec<Posture> {
             label: q.label.clone(),
             readings: q.readings.clone(),
             session: None,
+            payload: None,
         })
         .collect()
 }

@@ -330,6 +330,7 @@ fn tool_points_anchored_by_one_precise_row_match_points_fixed_exactly() {
         label: "zero".into(),
         readings: vec![0.0; 6],
         session: None,
+        payload: None,
     }];
     let mut anchors = simulate::measure(&truth, &zero, true);
     anchors

@@ -130,6 +130,7 @@ fn dataset(robot: &Robot, rng: &mut rand_chacha::ChaCha8Rng, exp: std::ops::Rang
             label: format!("{}", i + 1),
             readings: (0..robot.dof()).map(|_| num(rng)).collect(),
             session: None,
+            payload: None,
         })
         .collect();
     let mut observations: Vec<Observation> = Vec::new();

@@ -23,13 +23,17 @@ pub(super) const FORMAT: Format = Format {
     kinds: &["pose", "position"],
     marks: &[],
     help: "Measurement file: poses or positions of the end effector or sites",
-    header: "posture,site,v1..vn,x,y,z[,alpha,beta,gamma][,sigma_position|sigma_x,sigma_y,sigma_z][,sigma_angle]",
+    header: "posture,site,v1..vn,x,y,z[,alpha,beta,gamma][,sigma_position|sigma_x,sigma_y,sigma_z][,sigma_angle][,payload_mass,payload_cx,payload_cy,payload_cz]",
     parse: parse_measurements,
 };
 
 /// The columns `kinecal compensate` adds to a measurement file it solved.
 pub const COMPENSATED_COLUMNS: [&str; 4] =
     ["position_error", "attitude_error", "iterations", "flags"];
+
+/// The columns of the payload a posture's tool carries (kg; centre of mass in the end-effector
+/// frame, in the file's length unit): an elastic robot's joints yield to its weight.
+pub const PAYLOAD_COLUMNS: [&str; 4] = ["payload_mass", "payload_cx", "payload_cy", "payload_cz"];
 
 /// Names of the columns of one measured target.
 const MARKER_COLUMNS: [&str; 11] = [
@@ -214,6 +218,41 @@ struct Marker {
     names: [String; 11],
 }
 
+/// The payload of one row: none when its `payload_mass` cell is empty; else the mass (kg,
+/// finite, 0 to 1e6) and the centre of mass (file length unit, 0 where a column is absent or
+/// empty).
+fn payload_of(
+    t: &table::Table<'_>,
+    line: usize,
+    f: &table::Fields<'_>,
+    cols: &[(Option<usize>, String)],
+    units: &crate::units::Units,
+) -> Result<Option<crate::robot::Payload>> {
+    let Some(mass_col) = cols[0].0 else {
+        return Ok(None);
+    };
+    if f.get(mass_col).trim().is_empty() {
+        return Ok(None);
+    }
+    let mass = t.number(line, &cols[0].1, f.get(mass_col))?;
+    if !(0.0..=1e6).contains(&mass) {
+        return Err(Error::input(
+            t.at(line, &cols[0].1),
+            format!("a payload mass is 0 to 1e6 kg, found {mass}"),
+        ));
+    }
+    let mut com = Vector3::zeros();
+    for (k, (col, name)) in cols[1..].iter().enumerate() {
+        if let Some(i) = col {
+            let text = f.get(*i);
+            if !text.trim().is_empty() {
+                com[k] = units.to_si(Quantity::Length, t.number(line, name, text)?);
+            }
+        }
+    }
+    Ok(Some(crate::robot::Payload { mass, com }))
+}
+
 /// Parses a measurement file whose columns `map` maps to kinecal's (see [`ColumnMap`]).
 pub fn parse_measurements_mapped(
     text: &str,
@@ -225,6 +264,7 @@ pub fn parse_measurements_mapped(
     let n = robot.dof();
     let readings = reading_columns(n);
     let mut canonical: Vec<String> = vec!["posture".into(), "site".into(), "session".into()];
+    canonical.extend(PAYLOAD_COLUMNS.iter().map(|s| s.to_string()));
     canonical.extend(readings.iter().cloned());
     canonical.extend(MARKER_COLUMNS.iter().map(|s| s.to_string()));
     for (ours, _) in &map.shared {
@@ -287,6 +327,18 @@ pub fn parse_measurements_mapped(
     let (site_col, _) = find(&map.shared, "site", false)?;
     let (session_col, session_name) = find(&map.shared, "session", false)?;
     let mut session_names: Vec<std::sync::Arc<str>> = Vec::new();
+    let payload_cols = PAYLOAD_COLUMNS
+        .iter()
+        .map(|c| find(&map.shared, c, false))
+        .collect::<Result<Vec<_>>>()?;
+    if payload_cols[0].0.is_none() {
+        if let Some((_, name)) = payload_cols[1..].iter().find(|(i, _)| i.is_some()) {
+            return Err(Error::input(
+                t.header_at().with_field(name.clone()),
+                "a payload's centre of mass without `payload_mass` (kg)",
+            ));
+        }
+    }
     let reading_cols = readings
         .iter()
         .map(|r| find(&map.shared, r, true).map(|(i, name)| (i.expect("required"), name)))
@@ -417,6 +469,27 @@ pub fn parse_measurements_mapped(
         let field_of = |j: usize| reading_cols[j].1.clone();
         let known = postures.postures.len();
         let posture = postures.get_or_insert(&t, line, label, values, &field_of)?;
+        if let Some(i) = payload_cols[0].0 {
+            let payload = payload_of(&t, line, &f, &payload_cols, &units)?;
+            let p = &mut postures.postures[posture];
+            if posture == known {
+                p.payload = payload;
+            } else if p.payload != payload {
+                let say = |p: Option<crate::robot::Payload>| {
+                    p.map_or("no payload".to_string(), |p| format!("{} kg", p.mass))
+                };
+                return Err(Error::input(
+                    t.at(line, &payload_cols[0].1),
+                    format!(
+                        "posture `{label}` carries {} on an earlier line and {} here (field {}): \
+                         rows of one posture share its payload",
+                        say(p.payload),
+                        say(payload),
+                        f.get(i)
+                    ),
+                ));
+            }
+        }
         if let Some(i) = session_col {
             let name = f.get(i).trim();
             let name = match session_names.iter().find(|s| &***s == name) {
@@ -671,6 +744,7 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
         s.is_some_and(|s| s.x.to_bits() != s.y.to_bits() || s.x.to_bits() != s.z.to_bits())
     });
     let with_session = data.postures.iter().any(|p| p.session.is_some());
+    let with_payload = data.postures.iter().any(|p| p.payload.is_some());
     let mut header = measurement_header(robot);
     if with_session {
         header.insert(1, "session".into());
@@ -682,6 +756,10 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
         } else {
             ",sigma_position,sigma_angle"
         });
+    }
+    if with_payload {
+        out.push(',');
+        out.push_str(&PAYLOAD_COLUMNS.join(","));
     }
     out.push('\n');
     // The scales of the file's kinds of numbers.
@@ -743,6 +821,17 @@ pub fn write_measurements(robot: &Robot, data: &Dataset) -> String {
                 }
             }
             let _ = write!(out, ",{}", opt(sa, &ang));
+        }
+        if with_payload {
+            match &p.payload {
+                Some(load) => {
+                    let _ = write!(out, ",{}", number::format_number(load.mass));
+                    for k in 0..3 {
+                        let _ = write!(out, ",{}", number::format_number(len(load.com[k])));
+                    }
+                }
+                None => out.push_str(",,,,"),
+            }
         }
         out.push('\n');
     }

@@ -546,6 +546,7 @@ impl PostureTable {
             label: label.to_string(),
             readings,
             session: None,
+            payload: None,
         });
         Ok(self.postures.len() - 1)
     }

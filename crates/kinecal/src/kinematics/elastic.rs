@@ -35,7 +35,7 @@ use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 
 use super::{Chain, Workspace};
-use crate::robot::{Elastic, JointKind, Robot};
+use crate::robot::{Elastic, JointKind, Payload, Robot};
 
 /// How the last equilibrium went ([`Workspace::equilibrium`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -147,10 +147,23 @@ impl ElasticState {
     }
 
     /// Fills axes, origins, body sums and torques from the frames of the last rigid pass.
-    fn torques(&mut self, model: &Elastic, robot: &Robot, ws: &Workspace) {
+    fn torques(
+        &mut self,
+        model: &Elastic,
+        robot: &Robot,
+        payload: Option<&Payload>,
+        ws: &Workspace,
+    ) {
         let n = robot.dof();
         self.mass.fill(0.0);
         self.moment.fill(Vector3::zeros());
+        // The payload hangs off the end-effector frame: past every joint and the tool link
+        // (chain position 3n), so it sits in the last entry.
+        if let Some(p) = payload {
+            let f = &ws.dist[n];
+            self.mass[n] = p.mass;
+            self.moment[n] = (f.translation + f.rotation * p.com) * p.mass;
+        }
         for b in &model.bodies {
             let f = &ws.prox[b.joint];
             let c = f.translation + f.rotation * b.com;
@@ -339,7 +352,13 @@ pub(super) fn turn_about_local(r: &Matrix3<f64>, l: &Vector3<f64>, phi: f64) -> 
 impl Chain<'_> {
     /// The equilibrium at `readings` (see the module docs), leaving the deflected frames in
     /// `ws` and the response for the Jacobian.
-    pub(super) fn forward_elastic(&self, model: &Elastic, readings: &[f64], ws: &mut Workspace) {
+    pub(super) fn forward_elastic(
+        &self,
+        model: &Elastic,
+        readings: &[f64],
+        payload: Option<&Payload>,
+        ws: &mut Workspace,
+    ) {
         let mut st = ws.elastic.take().expect("an elastic workspace");
         st.delta.fill(0.0);
         let fixed = model.iterations;
@@ -349,7 +368,7 @@ impl Chain<'_> {
         let mut converged = false;
         while iterations < limit {
             self.forward_rigid(readings, None, Some(&st.delta), ws);
-            st.torques(model, self.robot, ws);
+            st.torques(model, self.robot, payload, ws);
             change = 0.0f64;
             for ((d, k), t) in st.delta.iter_mut().zip(&st.k).zip(&st.tau) {
                 let new = k * t;
@@ -366,7 +385,7 @@ impl Chain<'_> {
             st.delta.fill(f64::NAN);
         }
         self.forward_rigid(readings, None, Some(&st.delta), ws);
-        st.torques(model, self.robot, ws);
+        st.torques(model, self.robot, payload, ws);
         let stable = st.respond(&model.gravity);
         st.last = Equilibrium {
             iterations,
@@ -489,20 +508,24 @@ pub fn gravity_free_joints(robot: &Robot) -> GravityFree {
     }
 }
 
-/// The first of `postures` (readings) at which `robot`'s gravity equilibrium does not converge,
-/// with how it went; `None` when it converges at all of them, or for a rigid robot. Front ends
-/// refuse such a posture rather than report deflections that mean nothing.
+/// The first of `postures` (readings, and the payload when there is one) at which `robot`'s
+/// gravity equilibrium does not converge, with how it went; `None` when it converges at all of
+/// them, or for a rigid robot. Front ends refuse such a posture rather than report deflections
+/// that mean nothing.
 pub fn unconverged_posture<'a>(
     robot: &Robot,
-    postures: impl IntoIterator<Item = &'a [f64]>,
+    postures: impl IntoIterator<Item = (&'a [f64], Option<&'a Payload>)>,
 ) -> Option<(usize, Equilibrium)> {
     robot.elastic.as_ref()?;
     let chain = Chain::new(robot);
     let mut ws = Workspace::new(robot);
-    postures.into_iter().enumerate().find_map(|(i, readings)| {
-        chain.forward(readings, &mut ws);
-        ws.equilibrium().filter(|e| !e.converged).map(|e| (i, e))
-    })
+    postures
+        .into_iter()
+        .enumerate()
+        .find_map(|(i, (readings, payload))| {
+            chain.forward_loaded(readings, None, payload, &mut ws);
+            ws.equilibrium().filter(|e| !e.converged).map(|e| (i, e))
+        })
 }
 
 impl std::fmt::Display for Equilibrium {

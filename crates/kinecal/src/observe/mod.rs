@@ -43,6 +43,9 @@ pub struct Posture {
     /// file), when the data has sessions: its poses and positions are in that session's
     /// measurement frame ([`crate::robot::Session`]).
     pub session: Option<std::sync::Arc<str>>,
+    /// What the tool carried (`payload_mass`, `payload_cx`, ... columns), when the data says:
+    /// an elastic robot's joints yield to its weight too.
+    pub payload: Option<crate::robot::Payload>,
 }
 
 /// A frame an observation looks at: a target in a posture.
@@ -743,9 +746,11 @@ impl FrameCache {
             None => {
                 let s = self.next;
                 self.next = 1 - s;
-                chain.forward_with(
-                    &data.postures[posture].readings,
+                let p = &data.postures[posture];
+                chain.forward_loaded(
+                    &p.readings,
                     trig.map(|t| t.posture(posture)),
+                    p.payload.as_ref(),
                     &mut self.ws[s],
                 );
                 self.at[s] = posture;

@@ -296,7 +296,10 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     for (robot, what) in std::iter::once((&req.robot, "nominal robot"))
         .chain(req.initial.as_ref().map(|r| (r, "initial guess")))
     {
-        let readings = data.postures.iter().map(|p| p.readings.as_slice());
+        let readings = data
+            .postures
+            .iter()
+            .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
         if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
             return Err(Error::Problem(format!(
                 "the {what}'s gravity equilibrium at posture `{}` {eq}",
