@@ -41,8 +41,8 @@ fn numbers<const N: usize>(option: &str, s: &str, what: &str) -> Result<[f64; N]
     Ok(out)
 }
 
-/// A number as a person reads it: four significant digits, plain decimals for ordinary
-/// magnitudes.
+/// A number as a person reads it: four significant digits, plain decimals from 0.001 to 1e9
+/// (an exponent outside: `6.493e-5`, so columns stay narrow).
 fn sig(v: f64) -> String {
     if v == 0.0 {
         return "0".into();
@@ -51,7 +51,7 @@ fn sig(v: f64) -> String {
         return "n/a".into();
     }
     let e = v.abs().log10().floor() as i32;
-    if !(-9..9).contains(&e) {
+    if !(-3..9).contains(&e) {
         return format!("{v:.3e}");
     }
     let decimals = (3 - e).max(0) as usize;
