@@ -221,7 +221,12 @@ fn text(e: &Evaluation) -> String {
     let cell = |name: &str, v: String| format!("{name:<4} {v:<12}");
     for f in &e.poses {
         let _ = writeln!(s);
-        let mut commanded = format!("x {}, y {}, z {}", sig(f.commanded[0]), sig(f.commanded[1]), sig(f.commanded[2]));
+        let mut commanded = format!(
+            "x {}, y {}, z {}",
+            sig(f.commanded[0]),
+            sig(f.commanded[1]),
+            sig(f.commanded[2])
+        );
         if let Some(c) = f.commanded_attitude {
             commanded += &format!("; a {}, b {}, c {}", sig(c[0]), sig(c[1]), sig(c[2]));
         }
@@ -265,7 +270,12 @@ fn text(e: &Evaluation) -> String {
                 m.directions.join(", ")
             );
             if let Some(v) = m.vap_abc {
-                line += &format!("; vAPa {}, vAPb {}, vAPc {}", sig(v[0]), sig(v[1]), sig(v[2]));
+                line += &format!(
+                    "; vAPa {}, vAPb {}, vAPc {}",
+                    sig(v[0]),
+                    sig(v[1]),
+                    sig(v[2])
+                );
             }
             let _ = writeln!(s, "{line}");
         }
@@ -296,7 +306,12 @@ fn text(e: &Evaluation) -> String {
 }
 
 fn run_evaluate(a: Iso9283EvaluateArgs) -> Result<()> {
-    let outputs: Vec<&Path> = a.json.iter().chain(a.html.iter()).map(|p| p.as_path()).collect();
+    let outputs: Vec<&Path> = a
+        .json
+        .iter()
+        .chain(a.html.iter())
+        .map(|p| p.as_path())
+        .collect();
     output::check_distinct(&outputs, &[&a.data])?;
     let units = LogUnits {
         length: a

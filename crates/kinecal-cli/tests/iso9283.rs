@@ -54,8 +54,14 @@ fn planned_log(dir: &Path, cycles: &str) {
             "poses.csv",
         ],
     );
-    assert!(out.contains("cube: centre (0.3500, 0, 0.3500) m, side 0.2000 m"), "{out}");
-    assert!(out.contains("each cycle visits P1, P5, P4, P3, P2"), "{out}");
+    assert!(
+        out.contains("cube: centre (0.3500, 0, 0.3500) m, side 0.2000 m"),
+        "{out}"
+    );
+    assert!(
+        out.contains("each cycle visits P1, P5, P4, P3, P2"),
+        "{out}"
+    );
     assert!(err.contains("wrote the test poses to poses.csv"), "{err}");
     run_ok(
         dir,
@@ -92,7 +98,10 @@ fn planned_log(dir: &Path, cycles: &str) {
             "log.csv",
         ],
     );
-    assert!(err.contains("wrote a simulated log (not a measurement)"), "{err}");
+    assert!(
+        err.contains("wrote a simulated log (not a measurement)"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -103,19 +112,18 @@ fn plan_simulate_evaluate_end_to_end() {
     let (out, err) = run_ok(
         d,
         &[
-            "iso9283",
-            "evaluate",
-            "--data",
-            "log.csv",
-            "--json",
-            "iso.json",
-            "--html",
-            "iso.html",
+            "iso9283", "evaluate", "--data", "log.csv", "--json", "iso.json", "--html", "iso.html",
         ],
     );
-    assert!(out.starts_with("ISO 9283 pose characteristics of log.csv (simulated): 5 poses"), "{out}");
+    assert!(
+        out.starts_with("ISO 9283 pose characteristics of log.csv (simulated): 5 poses"),
+        "{out}"
+    );
     for p in 1..=5 {
-        assert!(out.contains(&format!("P{p}: 30 cycles, commanded")), "{out}");
+        assert!(
+            out.contains(&format!("P{p}: 30 cycles, commanded")),
+            "{out}"
+        );
     }
     assert!(out.contains("RPa  +-"), "{out}");
     assert!(out.contains("P2-P4"), "{out}");
@@ -138,7 +146,10 @@ fn plan_simulate_evaluate_end_to_end() {
     assert_eq!(json["length_unit"], "m");
     assert_eq!(json["simulated"], true);
     let html = std::fs::read_to_string(d.join("iso.html")).unwrap();
-    assert!(html.starts_with("<!DOCTYPE html>") && html.contains("<svg"), "{html}");
+    assert!(
+        html.starts_with("<!DOCTYPE html>") && html.contains("<svg"),
+        "{html}"
+    );
     assert!(!html.contains("http"), "the page links to nothing");
     assert_eq!(html.matches("<h2>P").count(), 5);
 }
@@ -158,7 +169,10 @@ fn fewer_cycles_than_the_standard_are_computed_with_a_warning() {
     planned_log(d, "1");
     let err = run_err(d, &["iso9283", "evaluate", "--data", "log.csv"]);
     assert!(err.contains("error: log.csv:"), "{err}");
-    assert!(err.contains("measured in 1 cycle: repeatability needs at least 2"), "{err}");
+    assert!(
+        err.contains("measured in 1 cycle: repeatability needs at least 2"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -190,23 +204,51 @@ fn bad_logs_are_refused_with_file_line_and_field() {
     ];
     for (text, want) in cases {
         std::fs::write(d.join("log.csv"), text).unwrap();
-        let err = run_err(d, &["iso9283", "evaluate", "--data", "log.csv", "--json", "out.json"]);
+        let err = run_err(
+            d,
+            &[
+                "iso9283", "evaluate", "--data", "log.csv", "--json", "out.json",
+            ],
+        );
         assert!(err.contains(want), "{text:?}: {err}");
         assert!(!d.join("out.json").exists(), "nothing written on an error");
     }
     std::fs::write(d.join("log.csv"), good).unwrap();
     // An output over the input is refused.
-    let err = run_err(d, &["iso9283", "evaluate", "--data", "log.csv", "--json", "log.csv"]);
-    assert!(err.contains("refusing to write an output over an input"), "{err}");
+    let err = run_err(
+        d,
+        &[
+            "iso9283", "evaluate", "--data", "log.csv", "--json", "log.csv",
+        ],
+    );
+    assert!(
+        err.contains("refusing to write an output over an input"),
+        "{err}"
+    );
     // The flags: a cube of no side, an attitude of two angles.
     let robot = irb120();
     let robot = robot.to_str().unwrap();
-    let err = run_err(d, &["iso9283", "plan", "--robot", robot, "--cube", "0,0,0,-1"]);
-    assert!(err.contains("--cube `0,0,0,-1`: the side must be positive"), "{err}");
-    let err = run_err(d, &["iso9283", "plan", "--robot", robot, "--attitude", "1,2"]);
+    let err = run_err(
+        d,
+        &["iso9283", "plan", "--robot", robot, "--cube", "0,0,0,-1"],
+    );
+    assert!(
+        err.contains("--cube `0,0,0,-1`: the side must be positive"),
+        "{err}"
+    );
+    let err = run_err(
+        d,
+        &["iso9283", "plan", "--robot", robot, "--attitude", "1,2"],
+    );
     assert!(err.contains("--attitude `1,2`: expected A,B,C"), "{err}");
-    let err = run_err(d, &["iso9283", "plan", "--robot", robot, "--cube", "3,0,0,0.1"]);
-    assert!(err.contains("P1 (3, 0, 0 m) of the cube is out of reach"), "{err}");
+    let err = run_err(
+        d,
+        &["iso9283", "plan", "--robot", robot, "--cube", "3,0,0,0.1"],
+    );
+    assert!(
+        err.contains("P1 (3, 0, 0 m) of the cube is out of reach"),
+        "{err}"
+    );
 }
 
 #[cfg(unix)]
@@ -224,7 +266,17 @@ fn outputs_go_through_the_safe_writer() {
     std::fs::write(d.join("real.json"), "old").unwrap();
     std::fs::set_permissions(d.join("real.json"), std::fs::Permissions::from_mode(0o640)).unwrap();
     std::os::unix::fs::symlink("real.json", d.join("link.json")).unwrap();
-    run_ok(d, &["iso9283", "evaluate", "--data", "log.csv", "--json", "link.json"]);
+    run_ok(
+        d,
+        &[
+            "iso9283",
+            "evaluate",
+            "--data",
+            "log.csv",
+            "--json",
+            "link.json",
+        ],
+    );
     assert!(std::fs::symlink_metadata(d.join("link.json"))
         .unwrap()
         .file_type()
@@ -232,15 +284,24 @@ fn outputs_go_through_the_safe_writer() {
     let json = std::fs::read_to_string(d.join("real.json")).unwrap();
     assert!(json.contains("\"ap\""), "{json}");
     // Its mode is kept.
-    let mode = std::fs::metadata(d.join("real.json")).unwrap().permissions().mode();
+    let mode = std::fs::metadata(d.join("real.json"))
+        .unwrap()
+        .permissions()
+        .mode();
     assert_eq!(mode & 0o777, 0o640);
     // Standard output as a file name.
-    let (out, _) = run_ok(d, &["iso9283", "evaluate", "--data", "log.csv", "--json", "-"]);
+    let (out, _) = run_ok(
+        d,
+        &["iso9283", "evaluate", "--data", "log.csv", "--json", "-"],
+    );
     assert!(out.contains("\"rp\""), "{out}");
     // No temporary file left behind.
     for e in std::fs::read_dir(d).unwrap() {
         let name = e.unwrap().file_name();
-        assert!(!name.to_string_lossy().starts_with(".kinecal-tmp"), "{name:?}");
+        assert!(
+            !name.to_string_lossy().starts_with(".kinecal-tmp"),
+            "{name:?}"
+        );
     }
 }
 
@@ -259,7 +320,12 @@ fn ap_and_rp_agree_with_python() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
     planned_log(d, "30");
-    run_ok(d, &["iso9283", "evaluate", "--data", "log.csv", "--json", "iso.json"]);
+    run_ok(
+        d,
+        &[
+            "iso9283", "evaluate", "--data", "log.csv", "--json", "iso.json",
+        ],
+    );
     let script = r##"
 import csv, json, math, statistics
 rows = [r for r in csv.reader(l for l in open("log.csv") if not l.startswith("#"))]
@@ -281,7 +347,11 @@ print(json.dumps(out))
         .args(["-c", script])
         .output()
         .unwrap();
-    assert!(py.status.success(), "{}", String::from_utf8_lossy(&py.stderr));
+    assert!(
+        py.status.success(),
+        "{}",
+        String::from_utf8_lossy(&py.stderr)
+    );
     let theirs: serde_json::Value = serde_json::from_slice(&py.stdout).unwrap();
     let ours: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("iso.json")).unwrap()).unwrap();
@@ -289,7 +359,13 @@ print(json.dumps(out))
         let k = p["pose"].to_string();
         let (ap, rp) = (p["ap"].as_f64().unwrap(), p["rp"].as_f64().unwrap());
         let t = &theirs[&k];
-        assert!((ap - t[0].as_f64().unwrap()).abs() < 1e-12, "P{k}: {ap} vs {t}");
-        assert!((rp - t[1].as_f64().unwrap()).abs() < 1e-12, "P{k}: {rp} vs {t}");
+        assert!(
+            (ap - t[0].as_f64().unwrap()).abs() < 1e-12,
+            "P{k}: {ap} vs {t}"
+        );
+        assert!(
+            (rp - t[1].as_f64().unwrap()).abs() < 1e-12,
+            "P{k}: {rp} vs {t}"
+        );
     }
 }

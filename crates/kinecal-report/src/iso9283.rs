@@ -31,7 +31,12 @@ fn view(svg: &mut String, f: &PoseFigures, v: &View<'_>, x0: f64, w: f64, unit: 
     let top = 22.0;
     let c = (x0 + w / 2.0, top + w / 2.0);
     let scale = (w / 2.0) / v.range;
-    let rel = |p: [f64; 3]| (c.0 + (p[h] - v.origin[h]) * scale, c.1 - (p[vv] - v.origin[vv]) * scale);
+    let rel = |p: [f64; 3]| {
+        (
+            c.0 + (p[h] - v.origin[h]) * scale,
+            c.1 - (p[vv] - v.origin[vv]) * scale,
+        )
+    };
     let _ = write!(
         svg,
         "<text x=\"{:.1}\" y=\"14\" text-anchor=\"middle\" class=\"t\">{}</text>",
@@ -221,7 +226,12 @@ pub fn html_iso9283(e: &Evaluation) -> String {
             &l,
         );
         row(&mut h, "<b>RP</b> pose repeatability", num(f.rp), &l);
-        row(&mut h, "l&#772;, S<sub>l</sub>", format!("{}, {}", num(f.l_mean), num(f.s_l)), &l);
+        row(
+            &mut h,
+            "l&#772;, S<sub>l</sub>",
+            format!("{}, {}", num(f.l_mean), num(f.s_l)),
+            &l,
+        );
         if let (Some(ap), Some(rp)) = (f.ap_abc, f.rp_abc) {
             row(
                 &mut h,

@@ -103,9 +103,9 @@ pub const CORNER_FRACTION: f64 = 0.1;
 /// The corner of the measuring plane each of `P2..P5` is near, as signs of `x, y, z` from the
 /// centre.
 const NEAR: [[f64; 3]; 4] = [
-    [-1.0, 1.0, 1.0],  // P2: C8
-    [1.0, 1.0, 1.0],   // P3: C7
-    [1.0, -1.0, -1.0], // P4: C2
+    [-1.0, 1.0, 1.0],   // P2: C8
+    [1.0, 1.0, 1.0],    // P3: C7
+    [1.0, -1.0, -1.0],  // P4: C2
     [-1.0, -1.0, -1.0], // P5: C1
 ];
 
@@ -256,11 +256,17 @@ impl<'r> Reacher<'r> {
         let attitude_error = self
             .rotation
             .map(|r| log_so3(&(r * f.rotation.transpose())).norm());
-        let within = self.chain.robot().joints.iter().enumerate().all(|(j, joint)| {
-            joint
-                .range
-                .is_none_or(|(lo, hi)| (lo..=hi).contains(&self.out[j]))
-        });
+        let within = self
+            .chain
+            .robot()
+            .joints
+            .iter()
+            .enumerate()
+            .all(|(j, joint)| {
+                joint
+                    .range
+                    .is_none_or(|(lo, hi)| (lo..=hi).contains(&self.out[j]))
+            });
         (within
             && position_error <= self.tolerance
             && attitude_error.is_none_or(|a| a <= self.tolerance))
@@ -509,13 +515,7 @@ fn fit(
 ) -> Option<(Cube, Vec<TestPose>)> {
     let mut check = |s: f64| {
         reacher
-            .cube(
-                &Cube {
-                    centre,
-                    side: s,
-                },
-                true,
-            )
+            .cube(&Cube { centre, side: s }, true)
             .map(|p| (Cube { centre, side: s }, p))
     };
     let (mut good, mut bad) = match (side > 0.0).then(|| check(side)).flatten() {
@@ -572,7 +572,11 @@ pub fn write_plan(robot: &Robot, plan: &TestPlan) -> String {
     let l = |v: f64| u.from_si(Quantity::Length, v);
     let a = |v: f64| u.from_si(Quantity::Angle, v);
     let ls = number::Scale::of(plan.poses.iter().flat_map(|p| p.position.map(l)));
-    let as_ = number::Scale::of(plan.poses.iter().flat_map(|p| p.attitude.unwrap_or_default().map(a)));
+    let as_ = number::Scale::of(
+        plan.poses
+            .iter()
+            .flat_map(|p| p.attitude.unwrap_or_default().map(a)),
+    );
     let mut out = String::new();
     let c = plan.cube;
     out += &format!(
@@ -613,13 +617,19 @@ pub fn read_plan(text: &str, file: &str, robot: &Robot) -> Result<Vec<TestPose>>
     if let Some((s, line)) = stated.length.filter(|(s, _)| *s != u.length) {
         return Err(Error::input(
             Location::file(file).at_line(line).with_field("length_unit"),
-            format!("the plan is in {s}, the robot file in {}: plan with this robot", u.length),
+            format!(
+                "the plan is in {s}, the robot file in {}: plan with this robot",
+                u.length
+            ),
         ));
     }
     if let Some((s, line)) = stated.angle.filter(|(s, _)| *s != u.angle) {
         return Err(Error::input(
             Location::file(file).at_line(line).with_field("angle_unit"),
-            format!("the plan is in {s}, the robot file in {}: plan with this robot", u.angle),
+            format!(
+                "the plan is in {s}, the robot file in {}: plan with this robot",
+                u.angle
+            ),
         ));
     }
     let t = table::read(text, file)?;

@@ -2,6 +2,7 @@
 //! synthetic logs (known offsets, Gaussian noise), exact small cases worked by hand, the test
 //! poses of a plan where the standard puts them and reached by the robot, and bad logs refused
 //! with their file, line and field.
+#![allow(clippy::needless_range_loop)] // coordinates are indexed by axis, as in the formulas
 
 use kinecal::iso9283::{
     evaluate, plan, read_log, read_plan, simulate, write_log, write_plan, Cube, Log, LogRow,
@@ -84,8 +85,8 @@ fn by_hand(rows: &[&LogRow]) -> (f64, f64, [f64; 3], [f64; 3]) {
         }
     }
     let c = rows[0].commanded;
-    let ap = ((bary[0] - c[0]).powi(2) + (bary[1] - c[1]).powi(2) + (bary[2] - c[2]).powi(2))
-        .sqrt();
+    let ap =
+        ((bary[0] - c[0]).powi(2) + (bary[1] - c[1]).powi(2) + (bary[2] - c[2]).powi(2)).sqrt();
     let l: Vec<f64> = rows
         .iter()
         .map(|r| {
@@ -138,17 +139,38 @@ fn thirty_cycles_match_a_plain_computation() {
         assert_eq!(f.cycles, 30);
         let rows: Vec<&LogRow> = log.rows.iter().filter(|r| r.pose == f.pose).collect();
         let (ap, rp, apa, rpa) = by_hand(&rows);
-        assert!((f.ap - ap).abs() < 1e-12, "P{}: AP {} vs {ap}", f.pose, f.ap);
-        assert!((f.rp - rp).abs() < 1e-12, "P{}: RP {} vs {rp}", f.pose, f.rp);
+        assert!(
+            (f.ap - ap).abs() < 1e-12,
+            "P{}: AP {} vs {ap}",
+            f.pose,
+            f.ap
+        );
+        assert!(
+            (f.rp - rp).abs() < 1e-12,
+            "P{}: RP {} vs {rp}",
+            f.pose,
+            f.rp
+        );
         let (fa, fr) = (f.ap_abc.unwrap(), f.rp_abc.unwrap());
         for k in 0..3 {
-            assert!((fa[k] - apa[k]).abs() < 1e-10, "P{} APabc {fa:?} vs {apa:?}", f.pose);
-            assert!((fr[k] - rpa[k]).abs() < 1e-10, "P{} RPabc {fr:?} vs {rpa:?}", f.pose);
+            assert!(
+                (fa[k] - apa[k]).abs() < 1e-10,
+                "P{} APabc {fa:?} vs {apa:?}",
+                f.pose
+            );
+            assert!(
+                (fr[k] - rpa[k]).abs() < 1e-10,
+                "P{} RPabc {fr:?} vs {rpa:?}",
+                f.pose
+            );
         }
         // The offset is found to within the noise of a mean of 30 (3 sigma / sqrt(30) per axis).
         let o = offsets[f.pose - 1];
         for k in 0..3 {
-            assert!((f.ap_xyz[k] - o[k]).abs() < 3.0 * 0.02 / 30f64.sqrt() * 1.5, "{f:?}");
+            assert!(
+                (f.ap_xyz[k] - o[k]).abs() < 3.0 * 0.02 / 30f64.sqrt() * 1.5,
+                "{f:?}"
+            );
         }
         // RP of isotropic noise: l follows a Maxwell distribution of scale sigma, mean 1.596
         // sigma and deviation 0.673 sigma: RP near 3.6 sigma.
@@ -168,7 +190,12 @@ fn thirty_cycles_match_a_plain_computation() {
         };
         let ds: Vec<f64> = a
             .iter()
-            .map(|r| dist(r.attained, b.iter().find(|s| s.cycle == r.cycle).unwrap().attained))
+            .map(|r| {
+                dist(
+                    r.attained,
+                    b.iter().find(|s| s.cycle == r.cycle).unwrap().attained,
+                )
+            })
             .collect();
         let n = ds.len() as f64;
         let m = ds.iter().sum::<f64>() / n;
@@ -277,7 +304,10 @@ pose,cycle,xc,yc,zc,x,y,z,direction
     let m = e.poses[0].multidirectional.as_ref().unwrap();
     assert_eq!(m.directions.len(), 3);
     assert!((m.vap - 11f64.sqrt()).abs() < 1e-15);
-    assert!(e.warnings.iter().any(|w| w.contains("pool 3 approach directions")));
+    assert!(e
+        .warnings
+        .iter()
+        .any(|w| w.contains("pool 3 approach directions")));
 }
 
 #[test]
@@ -294,19 +324,31 @@ fn fewer_than_two_cycles_is_refused() {
 #[test]
 fn bad_logs_name_file_line_and_field() {
     let cases = [
-        ("pose,cycle,xc,yc,zc,x,y\n1,1,0,0,0,1,0\n", "log.csv:1", "no column `z`"),
+        (
+            "pose,cycle,xc,yc,zc,x,y\n1,1,0,0,0,1,0\n",
+            "log.csv:1",
+            "no column `z`",
+        ),
         (
             "pose,cycle,xc,yc,zc,x,y,z\n1,1,0,0,0,1,zero,0\n",
             "log.csv:2",
             "`y`",
         ),
-        ("pose,cycle,xc,yc,zc,x,y,z\n1,1,0,0,0,1,NaN,0\n", "log.csv:2", "finite"),
+        (
+            "pose,cycle,xc,yc,zc,x,y,z\n1,1,0,0,0,1,NaN,0\n",
+            "log.csv:2",
+            "finite",
+        ),
         (
             "pose,cycle,xc,yc,zc,x,y,z\n1,1,0,0,0,1,0,0\n6,1,0,0,0,1,0,0\n",
             "log.csv:3",
             "pose index 6 is out of 1..5",
         ),
-        ("pose,cycle,xc,yc,zc,x,y,z\n0,1,0,0,0,1,0,0\n", "log.csv:2", "out of 1..5"),
+        (
+            "pose,cycle,xc,yc,zc,x,y,z\n0,1,0,0,0,1,0,0\n",
+            "log.csv:2",
+            "out of 1..5",
+        ),
         (
             "pose,cycle,xc,yc,zc,x,y,z\n1,1.5,0,0,0,1,0,0\n",
             "log.csv:2",
@@ -387,7 +429,10 @@ fn a_log_written_reads_back_the_same() {
             (b.pose, b.cycle, b.attained, b.attained_attitude)
         );
     }
-    assert_eq!(evaluate(&back).unwrap().poses, evaluate(&log).unwrap().poses);
+    assert_eq!(
+        evaluate(&back).unwrap().poses,
+        evaluate(&log).unwrap().poses
+    );
 }
 
 #[test]
@@ -397,12 +442,12 @@ fn test_positions_are_where_the_standard_puts_them() {
         side: 0.4,
     };
     let p = cube.test_positions();
-    assert_eq!(p[0], cube.centre);
+    assert!(p[0].iter().zip(cube.centre).all(|(a, b)| (a - b).abs() < 1e-15));
     let corners = cube.corners();
     // The measuring plane's diagonals C1-C7 and C2-C8 (C1 = (-,-,-), C2 = (+,-,-),
     // C7 = (+,+,+), C8 = (-,+,+)).
     let (c1, c2, c7, c8) = (corners[0], corners[1], corners[7], corners[6]);
-    assert_eq!(c8, [0.8, 2.2, 3.2]);
+    assert!(c8.iter().zip([0.8, 2.2, 3.2]).all(|(a, b)| (a - b).abs() < 1e-12));
     let diagonal = 0.4 * 3f64.sqrt();
     let dist = |a: [f64; 3], b: [f64; 3]| {
         ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
@@ -437,7 +482,12 @@ fn check_reached(robot: &Robot, plan: &kinecal::iso9283::TestPlan) {
         }
         for (j, joint) in robot.joints.iter().enumerate() {
             if let Some((lo, hi)) = joint.range {
-                assert!((lo..=hi).contains(&p.readings[j]), "P{} joint {}", p.pose, j + 1);
+                assert!(
+                    (lo..=hi).contains(&p.readings[j]),
+                    "P{} joint {}",
+                    p.pose,
+                    j + 1
+                );
             }
         }
     }
@@ -492,7 +542,10 @@ fn a_given_cube_is_checked_and_written() {
     assert!(text.contains("# length_unit = m\n"), "{text}");
     let back = read_plan(&text, "poses.csv", &robot).unwrap();
     for (a, b) in back.iter().zip(&p.poses) {
-        assert_eq!((a.pose, a.position, a.readings.clone()), (b.pose, b.position, b.readings.clone()));
+        assert_eq!(
+            (a.pose, a.position, a.readings.clone()),
+            (b.pose, b.position, b.readings.clone())
+        );
         assert_eq!(a.attitude, p.attitude);
     }
     // Out of reach: an error naming the pose.
@@ -504,7 +557,10 @@ fn a_given_cube_is_checked_and_written() {
         ..request
     };
     let e = plan(&robot, &far).unwrap_err().to_string();
-    assert!(e.contains("P1 (2, 0, 0.3 m)") && e.contains("out of reach"), "{e}");
+    assert!(
+        e.contains("P1 (2, 0, 0.3 m)") && e.contains("out of reach"),
+        "{e}"
+    );
     // The simulated log of the plan on its own robot: AP within the noise, 30 cycles.
     let log = simulate(
         &robot,
