@@ -32,7 +32,8 @@
 //! kinematics compared with the goal; unreachable, outside a joint range or near a singularity
 //! counts as not reached); the largest axis-aligned cube of reached grid points is then grown or
 //! shrunk, by bisection of its side about its centre, until its five test poses *and its eight
-//! corners* are reached. This is a search on a grid: it finds a large cube, not a proof of the
+//! corners* are reached, and its centre moved by half a grid step, then a quarter, along each
+//! axis where that lets it grow. This is a search on a grid: it finds a large cube, not a proof of the
 //! largest.
 //!
 //! # The figures (ISO 9283:1998, 7.2 and 7.3)
@@ -482,7 +483,7 @@ fn search(
                     let side = (m - 1) as f64 * h;
                     let top = at(i, j, k);
                     let centre = std::array::from_fn(|a| top[a] - 0.5 * side);
-                    if let Some(found) = fit(reacher, centre, side, h) {
+                    if let Some(found) = fit(reacher, centre, side, h, true) {
                         if best.as_ref().is_none_or(|b| found.0.side > b.0.side) {
                             best = Some(found);
                         }
@@ -497,6 +498,26 @@ fn search(
             }
         }
     }
+    // The grid puts the centre within half a step of the best one: move it half a step, then a
+    // quarter step, along each axis either way, keeping what grows the cube.
+    if let Some((cube, _)) = &best {
+        let mut centre = cube.centre;
+        for shift in [0.5 * h, 0.25 * h] {
+            for axis in 0..3 {
+                for sign in [-1.0, 1.0] {
+                    let mut c = centre;
+                    c[axis] += sign * shift;
+                    let side = best.as_ref().map_or(0.0, |b| b.0.side);
+                    if let Some(found) = fit(reacher, c, side, 0.25 * h, false) {
+                        if found.0.side > side * (1.0 + 1e-9) {
+                            centre = c;
+                            best = Some(found);
+                        }
+                    }
+                }
+            }
+        }
+    }
     match best {
         Some((cube, poses)) => Ok((cube, poses, info)),
         None => Err(Error::Problem(
@@ -505,13 +526,15 @@ fn search(
     }
 }
 
-/// The largest side, about `centre`, found by bisection from `side` (grid step `h`), whose test
-/// poses and corners are all reached; `None` when not even a tiny one is.
+/// The largest side, about `centre`, found from `side` by steps of `h` and bisection, whose test
+/// poses and corners are all reached; `None` when not even a tiny one is, or (without `shrink`)
+/// when `side` is not.
 fn fit(
     reacher: &mut Reacher<'_>,
     centre: [f64; 3],
     side: f64,
     h: f64,
+    shrink: bool,
 ) -> Option<(Cube, Vec<TestPose>)> {
     let mut check = |s: f64| {
         reacher
@@ -535,6 +558,7 @@ fn fit(
             }
             (Some(good), bad.unwrap_or(f64::NAN))
         }
+        None if !shrink => return None,
         None => (None, if side > 0.0 { side } else { h }),
     };
     if bad.is_nan() {
