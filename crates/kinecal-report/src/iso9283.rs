@@ -136,7 +136,7 @@ fn scatter(f: &PoseFigures, unit: &str) -> String {
             range: range(near),
         },
     ];
-    let w = 190.0;
+    let w = 170.0;
     let width = 3.0 * (w + 20.0) + 5.0;
     let mut svg = format!(
         "<svg width=\"{width:.0}\" height=\"{:.0}\" viewBox=\"0 0 {width:.0} {:.0}\" role=\"img\">",
