@@ -147,6 +147,19 @@ Exit code 0: within the threshold; 3: recalibrate; 1: bad input. Usable from cro
     /// Characteristic curves: the pose or the objective against one parameter at a time.
     #[command(subcommand)]
     Curves(CurvesCommand),
+    /// ISO 9283 pose accuracy and repeatability: the test poses, and the figures of a log.
+    #[command(
+        subcommand,
+        after_help = "\
+Examples:
+  kinecal iso9283 plan --robot arm.toml --attitude 3.141592653589793,0,0 --out poses.csv
+  kinecal iso9283 evaluate --data tracker-log.csv --json iso.json --html iso.html
+
+plan: the five test poses P1..P5 in a cube the robot reaches; evaluate: AP, RP, their attitude
+parts, AD, RD and vAP of a log of attained poses; simulate: a log of a robot sent round the poses
+(no measurement)."
+    )]
+    Iso9283(Iso9283Command),
     /// A self-contained HTML report of a calibration (inline SVG; opens offline).
     #[command(after_help = "\
 Example:
@@ -336,6 +349,119 @@ parameters (360 deg for angles, 360/V for a revolute slope at reading V). --out 
 .png or .csv (columns param,value,objective). Default span, either side: a fifth of the robot's
 reach for lengths, 10 deg for angles, a tenth of the value for slopes. At most 100000 points.")]
     Objective(CurvesObjectiveArgs),
+}
+
+/// `kinecal iso9283 ...`.
+#[derive(Debug, Subcommand)]
+pub enum Iso9283Command {
+    /// The five test poses P1..P5 of ISO 9283 in a cube the robot reaches, with their readings.
+    #[command(after_help = "\
+Examples:
+  kinecal iso9283 plan --robot arm.toml --attitude 3.141592653589793,0,0 --out poses.csv
+  kinecal iso9283 plan --robot arm.toml --cube 400,0,500,300 --attitude 180,0,0 --out poses.csv
+
+P1 is the cube's centre; P2..P5 lie on the diagonals of its diagonal plane through the edges at
+low y, low z and high y, high z, at 10 % of the diagonal from the corners (ISO 9283:1998, 6.8).
+Each cycle visits P1, P5, P4, P3, P2 (7.2), 30 cycles. The attitude a,b,c (rotations about the
+base frame's x, y, z: R = Rz(c) Ry(b) Rx(a), the robot file's alpha = c, beta = b, gamma = a) is
+the same at every pose; without it the poses are positions. Without --cube, a grid over the
+working space is tested with the inverse kinematics and the largest cube of reached points is
+grown or shrunk until its test poses and its eight corners are reached inside the joint ranges,
+away from singularities: a search, not a proof of the largest cube. --out gets
+pose,x,y,z[,a,b,c],v1..vn in the robot file's units.")]
+    Plan(Iso9283PlanArgs),
+    /// A simulated log: a robot sent round the test poses, plus noise (no measurement).
+    #[command(after_help = "\
+Example:
+  kinecal iso9283 simulate --robot truth.toml --poses poses.csv --cycles 30 \\
+      --noise length=0.00002,angle=0.00005 --seed 1 --out log.csv
+
+The commanded poses are the plan's (the model it was planned with); the attained ones are --robot's
+forward kinematics at the plan's readings (a \"true\" robot, e.g. from kinecal simulate --truth),
+plus Gaussian noise of the given standard deviations (robot file units) on every coordinate and
+angle. The log says it is simulated, and so do the figures of kinecal iso9283 evaluate.")]
+    Simulate(Iso9283SimulateArgs),
+    /// Pose accuracy and repeatability (AP, RP, AD, RD, vAP) from a log of attained poses.
+    #[command(after_help = "\
+Examples:
+  kinecal iso9283 evaluate --data log.csv
+  kinecal iso9283 evaluate --data tracker.csv --length-unit mm --angle-unit deg --json iso.json \\
+      --html iso.html
+
+The log is CSV: pose,cycle,xc,yc,zc[,ac,bc,cc],x,y,z[,a,b,c][,direction]: the pose index (1..5 or
+P1..P5), the cycle, the commanded and the attained (measured) pose, optionally the approach
+direction (a label) for the multi-directional test. Per pose: AP = |barycentre - commanded|
+(APx, APy, APz), RP = lbar + 3 S_l (l the distances from the barycentre, S with n - 1), APa, APb,
+APc (mean angle differences, wrapped) and RPa, RPb, RPc = +-3 S; vAP, the largest distance
+between the barycentres of different directions; per pair of poses, AD = Dbar - Dc and RD = +-3
+S_D. The figures are in the log's units, stated before its header (# length_unit = mm,
+# angle_unit = deg) or given. Fewer than 30 cycles: computed, with a warning; fewer than 2: an
+error.")]
+    Evaluate(Iso9283EvaluateArgs),
+}
+
+/// `kinecal iso9283 plan`.
+#[derive(Debug, Args)]
+pub struct Iso9283PlanArgs {
+    /// Robot file (TOML) or built-in robot name.
+    #[arg(long)]
+    pub robot: String,
+    /// The cube: centre and side `CX,CY,CZ,SIDE` (the robot file's length unit, base frame).
+    /// Default: search for a large cube the robot reaches.
+    #[arg(long, value_name = "CX,CY,CZ,SIDE", allow_hyphen_values = true)]
+    pub cube: Option<String>,
+    /// The tool attitude `A,B,C` at every pose (the robot file's angle unit; see below).
+    #[arg(long, value_name = "A,B,C", allow_hyphen_values = true)]
+    pub attitude: Option<String>,
+    /// Grid points along the longest side of the working space searched.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    pub resolution: usize,
+    /// Write the poses here (CSV).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `kinecal iso9283 simulate`.
+#[derive(Debug, Args)]
+pub struct Iso9283SimulateArgs {
+    /// The robot that moves (file or built-in name): a "true" robot, same units as the plan.
+    #[arg(long)]
+    pub robot: String,
+    /// The test poses (what `kinecal iso9283 plan --out` writes).
+    #[arg(long, value_name = "POSES.csv")]
+    pub poses: PathBuf,
+    /// Cycles.
+    #[arg(long, value_name = "N", default_value_t = 30)]
+    pub cycles: usize,
+    /// Gaussian noise on the attained poses: `length=L,angle=A` (robot file units).
+    #[arg(long, value_name = "SPEC")]
+    pub noise: Option<String>,
+    /// Random seed (the same seed gives the same log on every machine).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The log to write (CSV).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `kinecal iso9283 evaluate`.
+#[derive(Debug, Args)]
+pub struct Iso9283EvaluateArgs {
+    /// The log (CSV).
+    #[arg(long, value_name = "LOG.csv")]
+    pub data: PathBuf,
+    /// The log's length unit, when it states none (a label: nothing is converted).
+    #[arg(long, value_name = "UNIT", value_parser = ["m", "mm", "in"])]
+    pub length_unit: Option<String>,
+    /// The log's angle unit, when it states none (needed with attitudes).
+    #[arg(long, value_name = "UNIT", value_parser = ["deg", "rad"])]
+    pub angle_unit: Option<String>,
+    /// Write the figures as JSON here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write a self-contained HTML page here.
+    #[arg(long, value_name = "FILE")]
+    pub html: Option<PathBuf>,
 }
 
 /// The sweep of a curve.

@@ -9,6 +9,7 @@ mod compensate;
 mod curves;
 mod demo;
 mod history;
+mod iso9283;
 mod output;
 mod plan;
 mod report;
@@ -75,6 +76,7 @@ fn main() -> ExitCode {
         Command::Compensate(a) => compensate::run(a),
         Command::Check(a) => history::check(a),
         Command::Curves(c) => curves::run(c).map(|()| 0),
+        Command::Iso9283(c) => iso9283::run(c).map(|()| 0),
         Command::Report(a) => curves::report(a).map(|()| 0),
         Command::Dataset(a) => dataset(a).map(|()| 0),
         Command::Completions(a) => {

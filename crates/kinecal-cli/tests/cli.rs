@@ -51,8 +51,12 @@ fn demo_shows_returning_and_redundant_parameters() {
 
 #[test]
 fn every_command_has_help_with_an_example() {
-    let commands: [&[&str]; 28] = [
+    let commands: [&[&str]; 32] = [
         &["demo"],
+        &["iso9283"],
+        &["iso9283", "plan"],
+        &["iso9283", "simulate"],
+        &["iso9283", "evaluate"],
         &["export", "dh"],
         &["export", "stiffness"],
         &["export", "joints"],

@@ -7,6 +7,7 @@
 
 mod chart;
 mod html;
+pub mod iso9283;
 pub mod plan;
 
 pub use chart::{render_png, render_svg, Line, Panel};

@@ -17,7 +17,8 @@
 //! [`outliers`] -> [`workflow`] (request to outcome: the calibration procedure) -> [`report`]
 //! (the outcome as a document). Before a calibration, [`plan`] chooses the postures to
 //! measure; after it, [`compensate`] puts it to work (readings that make the real robot reach
-//! what was meant). Around them: [`robot_file`] (robot TOML), [`files`] (the observation files:
+//! what was meant), and [`iso9283`] states its pose accuracy and repeatability as ISO 9283 does
+//! (test poses in a cube, figures from a measurement log). Around them: [`robot_file`] (robot TOML), [`files`] (the observation files:
 //! CSV readers and writers), [`import`] (URDF, DH, POE and UR kinematics in, URDF, DH, UR
 //! kinematics and joint tables out), [`datasets`] (public data sets), [`simulate`], [`curves`],
 //! [`source`] (files with their fingerprints), [`warning`] and [`error`].
@@ -34,6 +35,7 @@ pub mod examples;
 pub mod files;
 pub mod identifiability;
 pub mod import;
+pub mod iso9283;
 pub mod kinematics;
 pub mod linalg;
 pub mod observe;

@@ -77,6 +77,8 @@ fn modules_import_in_one_direction() {
         "simulate",
         "plan",
         "compensate",
+        // ISO 9283 test poses (through compensate's inverse kinematics) and figures.
+        "iso9283",
         "curves",
         "datasets",
     ];

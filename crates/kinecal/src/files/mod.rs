@@ -38,7 +38,7 @@ pub mod controller;
 mod distances;
 mod measurements;
 mod read;
-mod table;
+pub(crate) mod table;
 
 use std::fmt;
 
