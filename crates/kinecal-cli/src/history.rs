@@ -384,10 +384,15 @@ fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
                 (Some(t), Some(s)) => format!("{t:+.3e} +- {s:.1e}"),
                 _ => "-".into(),
             };
+            // Compliances (1e-6..1e-3 rad/(N m)) in significant digits, not 6 decimals.
+            let change = if q.unit.contains("/(N ") {
+                format!("{:>+13.4e}", q.change)
+            } else {
+                format!("{:>+13.6}", q.change)
+            };
             println!(
-                "{:<50} {:>+13.6} {:>11.3e} {:>8.1} {:>22}  {}",
+                "{:<50} {change} {:>11.3e} {:>8.1} {:>22}  {}",
                 format!("{} [{}]", printable(&q.quantity), q.unit),
-                q.change,
                 q.sigma,
                 q.significance,
                 trend,
@@ -418,11 +423,15 @@ fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
             println!("nothing flagged");
         } else {
             for q in &r.flags {
+                let change = if q.unit.contains("/(N ") {
+                    format!("{:+.4e}", q.change)
+                } else {
+                    format!("{:+.6}", q.change)
+                };
                 println!(
-                    "FLAG: {} ({}) changed by {:+.6} {} ({})",
+                    "FLAG: {} ({}) changed by {change} {} ({})",
                     printable(&q.quantity),
                     printable(&q.parameters.join(", ")),
-                    q.change,
                     q.unit,
                     q.reason.clone().unwrap_or_default()
                 );

@@ -3866,3 +3866,67 @@ fn an_elastic_calibration_recovers_stiffness_and_exports_its_table() {
     assert!(err.contains("has no mass model"), "{err}");
     assert!(!d.join("x.csv").exists());
 }
+
+#[test]
+fn a_stiffness_that_drifts_is_flagged_by_the_history() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("arm.toml"), ELASTIC_ARM).unwrap();
+    // The same arm, its elbow 30 % softer three months later.
+    for (data, compliance, at) in [
+        ("jan.csv", "+4e-5", "2026-01-05T08:00:00Z"),
+        ("apr.csv", "+5.2e-5", "2026-04-05T08:00:00Z"),
+    ] {
+        run_ok(
+            d,
+            &[
+                "simulate",
+                "--robot",
+                "arm.toml",
+                "--postures",
+                "40",
+                "--seed",
+                "2",
+                "--perturb",
+                &format!("joint3.compliance={compliance}"),
+                "--noise",
+                "length=0.000005,angle=0.000005",
+                "--out",
+                data,
+            ],
+        );
+        run_ok(
+            d,
+            &[
+                "calibrate",
+                "--robot",
+                "arm.toml",
+                "--data",
+                data,
+                "--estimate",
+                "offsets,compliance",
+                "--weights",
+                "length=0.000005,angle=0.000005",
+                "--record",
+                "ARM-7",
+                "--db",
+                "h.db",
+                "--at",
+                at,
+            ],
+        );
+    }
+    let out = kinecal()
+        .current_dir(d)
+        .args(["history", "drift", "--robot-id", "ARM-7", "--db", "h.db"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert_ne!(out.status.code(), Some(0), "{text}");
+    let flagged: Vec<&str> = text.lines().filter(|l| l.starts_with("FLAG:")).collect();
+    assert_eq!(flagged.len(), 1, "{text}");
+    assert!(
+        flagged[0].contains("joint 3 compliance") && flagged[0].contains("rad/(N m)"),
+        "{text}"
+    );
+}

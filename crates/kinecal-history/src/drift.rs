@@ -231,6 +231,9 @@ pub fn words(name: &str) -> String {
             return match c {
                 "offset" => format!("joint {n} zero offset"),
                 "slope" => format!("joint {n} transducer slope"),
+                "coupling" => format!("joint {n} coupling factor"),
+                "compliance" => format!("joint {n} compliance (1 / stiffness)"),
+                "lateral" => format!("joint {n} lateral compliance"),
                 _ => name.to_string(),
             };
         }
