@@ -35,8 +35,9 @@ pub enum Command {
 Example:
   kinecal fk --robot ge-a4 --postures postures.csv --out poses.csv
 
-The postures file is CSV with the header posture,v1,...,vn (one transducer reading per joint).
-The output is in the measurement format, in the robot file's units.")]
+The postures file is CSV with the header posture,v1,...,vn (one transducer reading per joint),
+and optionally payload_mass,payload_cx,payload_cy,payload_cz (what the tool carries: an elastic
+robot sags under it). The output is in the measurement format, in the robot file's units.")]
     Fk(FkArgs),
     /// Synthesize measurements from a perturbed ("true") copy of a robot.
     #[command(after_help = "\
@@ -86,7 +87,10 @@ compensated readings and, per row, the remaining position and attitude error, th
 the flags (unreachable, outside range, near singularity, configuration change, not in the
 configuration); for a measurement file it is a measurement file of where the robot must be, with
 the compensated readings (`kinecal check --robot true.toml --data it` measures where they land).
-Files of any length stream through. Exit code 3 when any row is flagged.")]
+Payload columns (payload_mass, payload_cx, payload_cy, payload_cz: kg, and the centre of mass in
+the end-effector frame) give what the tool carries at each row: an elastic robot (one with a mass
+model) is solved sagging under it, and the table keeps them. Files of any length stream through.
+Exit code 3 when any row is flagged.")]
     Compensate(CompensateArgs),
     /// Calibrate a fleet: every robot of a manifest, in parallel, with a summary table.
     #[command(after_help = "\

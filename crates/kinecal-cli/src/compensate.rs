@@ -94,6 +94,7 @@ fn kind(rows: &Rows, dof: usize) -> Result<Kind> {
             "target", "posture", "site", "x", "y", "z", "alpha", "beta", "gamma",
         ];
         allowed.extend(ignored);
+        allowed.extend(kinecal::files::PAYLOAD_COLUMNS);
         if let Some(h) = known(&allowed) {
             bail!("{}:1: unexpected column `{h}` in a targets file", rows.file);
         }
@@ -121,7 +122,9 @@ fn kind(rows: &Rows, dof: usize) -> Result<Kind> {
     }
     match (rows.column("posture"), readings) {
         (Some(_), Some(readings)) => {
-            if let Some(h) = known(&["posture"]) {
+            let mut allowed = vec!["posture"];
+            allowed.extend(kinecal::files::PAYLOAD_COLUMNS);
+            if let Some(h) = known(&allowed) {
                 bail!(
                     "{}:1: unexpected column `{h}` in a program (posture,v1..v{dof})",
                     rows.file
@@ -209,6 +212,9 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
     let dof = nominal.dof();
     let mut rows = Rows::open(&a.input)?;
     let kind = kind(&rows, dof)?;
+    // What the tool carries at each row: the elastic robot yields to it, and the output keeps
+    // the columns so that `fk` and `check` see the same load.
+    let payload_cols = crate::stream::payload_columns(&rows)?;
     let mut search = TargetSearch::new(&calibrated, &nominal, options)
         .map_err(|e| anyhow!("--robot {}: {e}", a.robot))?;
     if let Some(c) = &a.configuration {
@@ -226,7 +232,7 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
     staged.by_path(&a.out, |tmp| {
         let file = std::io::BufWriter::new(std::fs::File::create(tmp)?);
         let mut w = program.sink(file);
-        let (first, site_column, goal_columns) = match &kind {
+        let (first, site_column, mut goal_columns) = match &kind {
             Kind::Program { .. } => ("posture", false, Vec::new()),
             Kind::Targets {
                 label, site, goal, ..
@@ -236,9 +242,15 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                 goal.iter()
                     .flatten()
                     .map(|&c| rows.header[c].clone())
-                    .collect(),
+                    .collect::<Vec<_>>(),
             ),
         };
+        goal_columns.extend(
+            payload_cols
+                .iter()
+                .flatten()
+                .map(|&c| rows.header[c].clone()),
+        );
         let first = first.to_string();
         program.begin(&mut w, &first, site_column, &goal_columns)?;
         let mut goal_fields: Vec<String> = Vec::new();
@@ -246,6 +258,10 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
         let mut seed = vec![0.0; dof];
         let mut fields: Vec<String> = Vec::with_capacity(dof + 6);
         while let Some(line) = rows.advance()? {
+            let payload = crate::stream::payload_at(&rows, line, &payload_cols, &units)?;
+            comp.set_payload(payload);
+            search.set_payload(payload);
+            goal_fields.clear();
             let (label, site, solved) = match &kind {
                 Kind::Program { readings } => {
                     for (s, &c) in seed.iter_mut().zip(readings) {
@@ -327,7 +343,6 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                         None => None,
                     };
                     let s = search.solve(&goal, target, given, &mut out);
-                    goal_fields.clear();
                     goal_fields.extend(
                         goal_cols
                             .iter()
@@ -341,6 +356,12 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                     )
                 }
             };
+            goal_fields.extend(
+                payload_cols
+                    .iter()
+                    .flatten()
+                    .map(|&c| rows.field(c).to_string()),
+            );
             tally.add(&solved, &label);
             program.row(
                 &mut w,

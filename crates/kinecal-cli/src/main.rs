@@ -594,10 +594,12 @@ fn fk(a: FkArgs) -> Result<()> {
             "iterations",
             "flags",
         ];
+        let payload_cols = stream::payload_columns(&rows)?;
         let unknown = rows.header.iter().enumerate().find(|(i, h)| {
             Some(*i) != label
                 && !readings.as_ref().is_some_and(|r| r.contains(i))
                 && !compensated.contains(&h.as_str())
+                && !payload_cols.contains(&Some(*i))
         });
         let (Some(label), Some(readings), None) = (label, readings, unknown) else {
             bail!(
@@ -621,9 +623,17 @@ fn fk(a: FkArgs) -> Result<()> {
             for (j, &c) in readings.iter().enumerate() {
                 posture.readings[j] = stream::cell(&rows, line, c)?;
             }
+            // With payload columns every row writes them: an empty one is no load, 0 kg.
+            posture.payload = stream::payload_at(&rows, line, &payload_cols, &robot.units)?
+                .or_else(|| {
+                    payload_cols[0].map(|_| kinecal::robot::Payload {
+                        mass: 0.0,
+                        com: nalgebra::Vector3::zeros(),
+                    })
+                });
             if let Some((_, eq)) = kinecal::kinematics::unconverged_posture(
                 robot,
-                [(posture.readings.as_slice(), None)],
+                [(posture.readings.as_slice(), posture.payload.as_ref())],
             ) {
                 bail!("{}:{line}: the gravity equilibrium {eq}", rows.file);
             }

@@ -149,3 +149,52 @@ pub fn cell(rows: &Rows, line: u64, c: usize) -> Result<f64> {
     }
     number(&rows.file, line, &rows.header[c], s)
 }
+
+/// Where a file's payload columns are ([`kinecal::files::PAYLOAD_COLUMNS`]); an error when a
+/// centre of mass comes without `payload_mass`.
+pub fn payload_columns(rows: &Rows) -> Result<[Option<usize>; 4]> {
+    let cols = kinecal::files::PAYLOAD_COLUMNS.map(|c| rows.column(c));
+    if cols[0].is_none() {
+        if let Some(i) = cols[1..].iter().flatten().next() {
+            anyhow::bail!(
+                "{}:1: column `{}`: a payload's centre of mass without `payload_mass` (kg)",
+                rows.file,
+                rows.header[*i]
+            );
+        }
+    }
+    Ok(cols)
+}
+
+/// The payload of the current row: none without a `payload_mass` column or with its cell
+/// empty; else the mass (kg, 0 to 1e6) and the centre of mass in the end-effector frame (the
+/// robot file's length unit, converted; 0 where a column is absent or empty).
+pub fn payload_at(
+    rows: &Rows,
+    line: u64,
+    cols: &[Option<usize>; 4],
+    units: &kinecal::Units,
+) -> Result<Option<kinecal::robot::Payload>> {
+    let Some(m) = cols[0] else {
+        return Ok(None);
+    };
+    if rows.field(m).trim().is_empty() {
+        return Ok(None);
+    }
+    let mass = cell(rows, line, m)?;
+    if !(0.0..=1e6).contains(&mass) {
+        anyhow::bail!(
+            "{}:{line}: field `payload_mass`: a payload mass is 0 to 1e6 kg, found {mass}",
+            rows.file
+        );
+    }
+    let mut com = nalgebra::Vector3::zeros();
+    for (k, c) in cols[1..].iter().enumerate() {
+        if let Some(c) = c {
+            if !rows.field(*c).trim().is_empty() {
+                com[k] = units.to_si(kinecal::units::Quantity::Length, cell(rows, line, *c)?);
+            }
+        }
+    }
+    Ok(Some(kinecal::robot::Payload { mass, com }))
+}

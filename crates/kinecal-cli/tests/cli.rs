@@ -3930,3 +3930,110 @@ fn a_stiffness_that_drifts_is_flagged_by_the_history() {
         "{text}"
     );
 }
+
+#[test]
+fn compensation_and_fk_carry_each_rows_payload() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("nominal.toml"), ELASTIC_ARM).unwrap();
+    // The calibrated arm: its shoulder and elbow yield.
+    let soft = ELASTIC_ARM.replacen(
+        "[[joints]]\nkind = \"revolute\"\nmin = -3.0\nmax = 3.0\n[[joints]]\nkind = \"revolute\"\nmin = -3.0\nmax = 3.0\n",
+        "[[joints]]\nkind = \"revolute\"\nmin = -3.0\nmax = 3.0\n[[joints]]\nkind = \"revolute\"\nmin = -3.0\nmax = 3.0\ncompliance = 2e-4\n",
+        1,
+    );
+    assert_ne!(soft, ELASTIC_ARM);
+    std::fs::write(d.join("cal.toml"), &soft).unwrap();
+    // The same point, empty-handed and with 8 kg in the gripper.
+    std::fs::write(
+        d.join("targets.csv"),
+        "target,x,y,z,payload_mass,payload_cx,payload_cy,payload_cz\n\
+         free,0.6,0.2,0.6,,,,\nloaded,0.6,0.2,0.6,8,0,0,0.05\n",
+    )
+    .unwrap();
+    run_ok(
+        d,
+        &[
+            "compensate",
+            "--robot",
+            "cal.toml",
+            "--nominal",
+            "nominal.toml",
+            "--in",
+            "targets.csv",
+            "--out",
+            "out.csv",
+        ],
+    );
+    let text = std::fs::read_to_string(d.join("out.csv")).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert!(
+        header.starts_with("target,v1,v2,v3,payload_mass,payload_cx,payload_cy,payload_cz,"),
+        "{header}"
+    );
+    let readings: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .skip(1)
+                .take(3)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    // The load needs other readings (the arm sags under 8 kg)...
+    let moved: f64 = (0..3)
+        .map(|j| (readings[0][j] - readings[1][j]).abs())
+        .sum();
+    assert!(moved > 1e-4, "{readings:?}");
+    // ... and fk, reading the same file with its payloads, puts both on the target.
+    run_ok(
+        d,
+        &[
+            "fk",
+            "--robot",
+            "cal.toml",
+            "--postures",
+            "out.csv",
+            "--out",
+            "poses.csv",
+        ],
+    );
+    let poses = std::fs::read_to_string(d.join("poses.csv")).unwrap();
+    let mut rows = csv::Reader::from_reader(poses.as_bytes());
+    let h = rows.headers().unwrap().clone();
+    let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+    for row in rows.records() {
+        let row = row.unwrap();
+        let p: Vec<f64> = ["x", "y", "z"]
+            .iter()
+            .map(|c| row[col(c)].parse().unwrap())
+            .collect();
+        let miss = ((p[0] - 0.6).powi(2) + (p[1] - 0.2).powi(2) + (p[2] - 0.6).powi(2)).sqrt();
+        assert!(miss < 1e-6, "{row:?}: {miss} m from the target");
+    }
+    // A bad payload is refused with its line.
+    std::fs::write(
+        d.join("bad.csv"),
+        "target,x,y,z,payload_mass\nfree,0.6,0.2,0.6,-3\n",
+    )
+    .unwrap();
+    let err = run_err(
+        d,
+        &[
+            "compensate",
+            "--robot",
+            "cal.toml",
+            "--nominal",
+            "nominal.toml",
+            "--in",
+            "bad.csv",
+            "--out",
+            "bad_out.csv",
+        ],
+    );
+    assert!(
+        err.contains("bad.csv:2") && err.contains("payload_mass"),
+        "{err}"
+    );
+}

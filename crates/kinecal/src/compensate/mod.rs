@@ -153,6 +153,8 @@ pub struct Compensator<'r> {
     /// Weight of attitude rows (m per rad): the reach.
     reach: f64,
     options: Options,
+    /// What the tool carries (an elastic robot yields to it): [`Compensator::set_payload`].
+    payload: Option<crate::robot::Payload>,
 }
 
 impl<'r> Compensator<'r> {
@@ -186,12 +188,21 @@ impl<'r> Compensator<'r> {
             kept: vec![0.0; n],
             reach,
             options,
+            payload: None,
         })
+    }
+
+    /// What the tool carries for the goals that follow (`None`: nothing). An elastic robot's
+    /// joints yield to it: the solution is the readings at which the deflected robot reaches
+    /// the goal, and a program's intended pose is the nominal robot's under the same load.
+    pub fn set_payload(&mut self, payload: Option<crate::robot::Payload>) {
+        self.payload = payload;
     }
 
     /// The pose the nominal model gives `target` at `readings`: what a program means.
     pub fn intended(&mut self, readings: &[f64], target: Target) -> Frame {
-        self.nominal.forward(readings, &mut self.ws_nominal);
+        self.nominal
+            .forward_loaded(readings, None, self.payload.as_ref(), &mut self.ws_nominal);
         self.nominal.target_frame(&self.ws_nominal, target)
     }
 
@@ -277,7 +288,8 @@ impl<'r> Compensator<'r> {
             let mut kept = std::mem::take(&mut self.kept);
             kept.resize(n, 0.0);
             for _ in 0..100 {
-                self.calibrated.forward(out, &mut self.ws);
+                self.calibrated
+                    .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
                 self.calibrated
                     .reading_jacobian(&self.ws, target, &mut self.jac);
                 let jjt = self.normal(rows);
@@ -328,7 +340,8 @@ impl<'r> Compensator<'r> {
             Vector3::new(err[0], err[1], err[2]).norm(),
             (rows == 6).then(|| Vector3::new(err[3], err[4], err[5]).norm() / self.reach),
         );
-        self.calibrated.forward(out, &mut self.ws);
+        self.calibrated
+            .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
         self.calibrated
             .reading_jacobian(&self.ws, target, &mut self.jac);
         let conditioning = self.conditioning(rows);
@@ -362,7 +375,8 @@ impl<'r> Compensator<'r> {
         let mut mu = 1e-12;
         while iterations < self.options.max_iterations && !self.reached(&err) {
             iterations += 1;
-            self.calibrated.forward(out, &mut self.ws);
+            self.calibrated
+                .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
             self.calibrated
                 .reading_jacobian(&self.ws, target, &mut self.jac);
             let jjt = self.normal(rows);
@@ -410,7 +424,8 @@ impl<'r> Compensator<'r> {
 
     /// The weighted error `goal - F_cal(readings)`: position (m), then attitude times reach.
     fn error(&mut self, goal: &Goal, target: Target, readings: &[f64]) -> Vector6<f64> {
-        self.calibrated.forward(readings, &mut self.ws);
+        self.calibrated
+            .forward_loaded(readings, None, self.payload.as_ref(), &mut self.ws);
         let f = self.calibrated.target_frame(&self.ws, target);
         match goal {
             Goal::Position(p) => {

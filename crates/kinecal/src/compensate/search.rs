@@ -156,6 +156,12 @@ impl<'r> TargetSearch<'r> {
         Ok(self)
     }
 
+    /// What the tool carries for the goals that follow ([`Compensator::set_payload`]). The
+    /// table of starts stays the unloaded robot's: it only chooses where to start.
+    pub fn set_payload(&mut self, payload: Option<crate::robot::Payload>) {
+        self.comp.set_payload(payload);
+    }
+
     /// The configuration asked for, if any.
     pub fn configuration(&self) -> Option<&Configuration> {
         self.classifier.as_ref().map(|c| c.configuration())

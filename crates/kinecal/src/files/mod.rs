@@ -51,7 +51,7 @@ pub use contacts::{parse_contacts, write_contacts};
 pub use distances::{parse_distances, write_distances};
 pub use measurements::{
     parse_measurements, parse_measurements_mapped, parse_postures, postures_header,
-    write_measurements, write_postures, ColumnMap, COMPENSATED_COLUMNS, NOT_READ,
+    write_measurements, write_postures, ColumnMap, COMPENSATED_COLUMNS, NOT_READ, PAYLOAD_COLUMNS,
 };
 pub use read::{
     kind_index, read_files, read_observation_file, read_options, session_name, ObservationFile,
