@@ -5,6 +5,9 @@ use kinecal::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 /// The quantity of a unit label and the SI value of one unit, e.g. `mm` -> (length, 0.001).
 pub(crate) fn parse_label(label: &str) -> Option<(Quantity, f64)> {
+    if label == "kg" {
+        return Some((Quantity::Mass, 1.0));
+    }
     // A compliance: `ANGLE/(N LENGTH)`.
     if let Some(inner) = label
         .split_once("/(N ")
@@ -62,6 +65,7 @@ pub(crate) fn quantity_words(q: Quantity) -> &'static str {
         Quantity::LengthPerReading => "a length per reading (prismatic slope)",
         Quantity::AnglePerReading => "an angle per reading (revolute slope)",
         Quantity::Compliance => "an angle per torque (joint compliance)",
+        Quantity::Mass => "a mass",
     }
 }
 

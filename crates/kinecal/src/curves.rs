@@ -188,7 +188,7 @@ pub fn period(robot: &Robot, id: ParamId, readings: Option<&[f64]>) -> Option<f6
             let v = readings?.get(other).copied()?;
             (robot.joints[joint].kind == JointKind::Revolute && v != 0.0).then(|| turn / v.abs())
         }
-        ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => None,
+        ParamKind::Compliance { .. } | ParamKind::Lateral { .. } | ParamKind::Body { .. } => None,
         ParamKind::Plane { component, .. } => {
             (component.quantity() == Quantity::Angle).then_some(turn)
         }

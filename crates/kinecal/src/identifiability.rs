@@ -1429,6 +1429,7 @@ fn default_tier(robot: &Robot, id: ParamId) -> usize {
         ParamKind::Plane { .. } => 7,
         ParamKind::Session { .. } => 8,
         ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => 9,
+        ParamKind::Body { .. } => 10,
     }
 }
 

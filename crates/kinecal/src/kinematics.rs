@@ -315,6 +315,8 @@ pub struct ColumnPlan {
     /// For an elastic robot: the wanted compliances, `(deflection, column)` (deflection `2i`
     /// the tilt of joint i, `2i + 1` its turn).
     elastic: Vec<(usize, usize)>,
+    /// The wanted components of the mass model's bodies, `(body, component, column)`.
+    bodies: Vec<(usize, crate::params::BodyComponent, usize)>,
     /// The joints upstream of the target (all for the end effector).
     joints_upto: usize,
 }
@@ -436,6 +438,14 @@ impl ColumnPlan {
                 }
             }
         }
+        let mut bodies = Vec::new();
+        for body in 0..robot.body_count() {
+            for component in crate::params::BodyComponent::ALL {
+                if let Some(col) = take(robot.param_id(ParamKind::Body { body, component }).0) {
+                    bodies.push((body, component, col));
+                }
+            }
+        }
         let zero = columns
             .iter()
             .zip(&covered)
@@ -448,6 +458,7 @@ impl ColumnPlan {
             joints,
             zero,
             elastic: compliances,
+            bodies,
             joints_upto,
         }
     }
@@ -713,6 +724,11 @@ impl<'r> Chain<'r> {
             put(out, col, &zero, &zero);
             let o = &mut out[6 * col..6 * col + 6];
             self.elastic_column(ws, elastic::Cause::Compliance(deflection), &e, upto, o);
+        }
+        for &(body, component, col) in &plan.bodies {
+            put(out, col, &zero, &zero);
+            let o = &mut out[6 * col..6 * col + 6];
+            self.elastic_column(ws, elastic::Cause::Body(body, component), &e, upto, o);
         }
         for &col in &plan.zero {
             put(out, col, &zero, &zero);

@@ -3,7 +3,8 @@
 //! `plane.NAME.offset`, `session.NAME.x`, `joint2.compliance`, `joint2.lateral`), whole links,
 //! joints, sites, planes or sessions (`link2`, `joint3` = its offset, slope and coupling,
 //! `site.NAME`, `plane.NAME`, `session.NAME`) and the groups `all`, `links`, `offsets`, `slopes`,
-//! `couplings`, `sites`, `planes`, `sessions`, `compliance` and `lateral`. The two compliance
+//! `couplings`, `sites`, `planes`, `sessions`, `compliance`, `lateral` and `masses` (every
+//! body's mass and centre, `body2.mass`, `body2.x`, `body2` its four). The two compliance
 //! groups leave out the joints gravity cannot load ([`crate::kinematics::gravity_free_joints`]:
 //! a vertical first axis): name such a joint's compliance to ask for it anyway.
 
@@ -63,6 +64,14 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         "couplings" => return Ok(pick(&|k| matches!(k, ParamKind::Coupling { .. }))),
         "planes" => return Ok(pick(&|k| matches!(k, ParamKind::Plane { .. }))),
         "sessions" => return Ok(pick(&|k| matches!(k, ParamKind::Session { .. }))),
+        "masses" => {
+            if robot.elastic.is_none() {
+                return Err(format!(
+                    "`{token}`: the robot has no mass model (add `[[bodies]]` to the robot file)"
+                ));
+            }
+            return Ok(pick(&|k| matches!(k, ParamKind::Body { .. })));
+        }
         "compliance" | "lateral" => {
             if robot.elastic.is_none() {
                 return Err(format!(
@@ -112,7 +121,7 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
             "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
              link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
              plane.NAME.offset, session.NAME.x or joint2.compliance, or one of all, links, offsets, \
-             slopes, couplings, sites, planes, sessions, compliance, lateral)"
+             slopes, couplings, sites, planes, sessions, compliance, lateral, masses)"
         )
     };
     if let Some(rest) = token.strip_prefix("site.") {
@@ -164,6 +173,25 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         Some((h, c)) => (h, Some(c)),
         None => (token, None),
     };
+    if let Some(num) = head.strip_prefix("body") {
+        let nb = robot.body_count();
+        let body = num.parse::<usize>().map_err(|_| unknown())?;
+        if body == 0 || body > nb {
+            return Err(bad_index("body", num, nb));
+        }
+        let body = body - 1;
+        return match comp {
+            None => Ok(crate::params::BodyComponent::ALL
+                .map(|component| id(ParamKind::Body { body, component }))
+                .to_vec()),
+            Some(c) => {
+                let component = crate::params::BodyComponent::parse(c).ok_or_else(|| {
+                    format!("`{token}`: unknown body component `{c}` (expected mass, x, y or z)")
+                })?;
+                Ok(vec![id(ParamKind::Body { body, component })])
+            }
+        };
+    }
     if let Some(num) = head.strip_prefix("link") {
         let link = num.parse::<usize>().map_err(|_| unknown())?;
         if link == 0 || link > nl {

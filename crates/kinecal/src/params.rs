@@ -4,7 +4,8 @@
 //! joint offsets, then the n slopes, then 6 per extra site; then, beyond the thesis, one coupling
 //! factor per coupled joint and 3 per plane (`tilt_x, tilt_y, offset`), 6 per measurement session,
 //! and, for a robot with a mass model ([`crate::robot::Elastic`]), one joint compliance per
-//! revolute joint followed by one lateral compliance per revolute joint, so that a robot without
+//! revolute joint followed by one lateral compliance per revolute joint and 4 per body (mass and
+//! centre of mass), so that a robot without
 //! couplings and planes keeps the thesis's numbering. `ParamId(0)` is the thesis's `p1`.
 //! Lists of parameters are read by [`crate::param_list`].
 
@@ -67,6 +68,52 @@ impl LinkComponent {
         match self {
             LinkComponent::X | LinkComponent::Y | LinkComponent::Z => Quantity::Length,
             _ => Quantity::Angle,
+        }
+    }
+
+    /// The component called `s`.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.as_str() == s)
+    }
+}
+
+/// One of the four parameters of a body of the mass model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BodyComponent {
+    /// The mass (kg).
+    Mass,
+    /// The centre of mass along x of its frame (m).
+    X,
+    /// Along y.
+    Y,
+    /// Along z.
+    Z,
+}
+
+impl BodyComponent {
+    /// The four in parameter order.
+    pub const ALL: [BodyComponent; 4] = [
+        BodyComponent::Mass,
+        BodyComponent::X,
+        BodyComponent::Y,
+        BodyComponent::Z,
+    ];
+
+    /// Name as used in parameter names (`body2.mass`, `body2.x`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            BodyComponent::Mass => "mass",
+            BodyComponent::X => "x",
+            BodyComponent::Y => "y",
+            BodyComponent::Z => "z",
+        }
+    }
+
+    /// Mass or length.
+    pub fn quantity(self) -> Quantity {
+        match self {
+            BodyComponent::Mass => Quantity::Mass,
+            _ => Quantity::Length,
         }
     }
 
@@ -170,6 +217,14 @@ pub enum ParamKind {
     Compliance {
         /// 0-based joint index.
         joint: usize,
+    },
+    /// A component of body `body`'s mass model: its mass (kg) or a coordinate of its centre of
+    /// mass in the frame that carries it (m).
+    Body {
+        /// 0-based index into the mass model's bodies.
+        body: usize,
+        /// Which component.
+        component: BodyComponent,
     },
     /// The lateral compliance of revolute joint `joint`: the joint tilts about its lateral axis
     /// ([`crate::robot::JointElasticity::lateral_axis`]) by `lateral * tau_lateral`, the gravity

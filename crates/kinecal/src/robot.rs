@@ -21,7 +21,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
+use crate::params::{BodyComponent, LinkComponent, ParamId, ParamKind, PlaneComponent};
 use crate::units::{Quantity, Units};
 
 /// The six parameters of a link (or of a site's attachment), internal units.
@@ -434,6 +434,26 @@ impl Elastic {
         }
     }
 
+    /// A lumped mass model for a robot whose masses are not known: one point mass per joint,
+    /// `total / n` each, halfway along the link that joint moves (the midpoint of the next
+    /// link's offset, in the frame after the joint). Positions alone cannot tell the masses'
+    /// scale from the compliances' (twice the masses and half the compliances deflect the same):
+    /// estimate the shares with `masses` and the compliances with one mass held (`--fix
+    /// body1.mass`), and the compliances are then relative to that mass.
+    pub fn lumped(robot: &Robot, total: f64) -> Vec<Body> {
+        let n = robot.dof();
+        (1..=n)
+            .map(|joint| {
+                let next = &robot.links[joint];
+                Body {
+                    joint,
+                    mass: total / n as f64,
+                    com: Vector3::new(next.x, next.y, next.z) * 0.5,
+                }
+            })
+            .collect()
+    }
+
     /// The default lateral axis of joint `j` (0-based), in the joint's frame: the direction of
     /// the common normal from the parent joint's axis to this one at the zero posture (`z_parent
     /// x z`; the parent of joint 1 is the global z axis). When the two axes are parallel (within
@@ -574,6 +594,12 @@ impl Robot {
             + 3 * self.planes.len()
             + 6 * self.sessions.len()
             + 2 * self.compliant_joints().count()
+            + 4 * self.body_count()
+    }
+
+    /// The bodies of the mass model (0 for a rigid robot).
+    pub fn body_count(&self) -> usize {
+        self.elastic.as_ref().map_or(0, |e| e.bodies.len())
     }
 
     /// All parameter ids, in the thesis's order.
@@ -645,6 +671,13 @@ impl Robot {
             let joint = self.compliant_joints().nth(i).expect("counted");
             return Some(ParamKind::Lateral { joint });
         }
+        i -= ne;
+        if i < 4 * self.body_count() {
+            return Some(ParamKind::Body {
+                body: i / 4,
+                component: BodyComponent::ALL[i % 4],
+            });
+        }
         None
     }
 
@@ -693,6 +726,15 @@ impl Robot {
                         .position(|j| j == joint)
                         .expect("the joint is compliant")
             }
+            ParamKind::Body { body, component } => {
+                couplings
+                    + self.coupled_joints().count()
+                    + 3 * self.planes.len()
+                    + 6 * self.sessions.len()
+                    + 2 * self.compliant_joints().count()
+                    + 4 * body
+                    + component as usize
+            }
         };
         assert!(id < self.param_count(), "parameter out of range");
         ParamId(id)
@@ -700,7 +742,7 @@ impl Robot {
 
     /// The parameter's name: `link1.x`, `joint3.offset`, `joint4.slope`, `joint3.coupling`,
     /// `site.NAME.gamma`, `plane.NAME.offset`, `session.NAME.x`, `joint2.compliance`,
-    /// `joint2.lateral`.
+    /// `joint2.lateral`, `body3.mass`, `body3.x`.
     pub fn param_name(&self, id: ParamId) -> String {
         match self.param_kind(id) {
             ParamKind::Link { link, component } => {
@@ -711,6 +753,9 @@ impl Robot {
             ParamKind::Coupling { joint } => format!("joint{}.coupling", joint + 1),
             ParamKind::Compliance { joint } => format!("joint{}.compliance", joint + 1),
             ParamKind::Lateral { joint } => format!("joint{}.lateral", joint + 1),
+            ParamKind::Body { body, component } => {
+                format!("body{}.{}", body + 1, component.as_str())
+            }
             ParamKind::Site { site, component } => {
                 format!("site.{}.{}", self.sites[site].name, component.as_str())
             }
@@ -739,6 +784,7 @@ impl Robot {
             }
             ParamKind::Plane { component, .. } => component.quantity(),
             ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => Quantity::Compliance,
+            ParamKind::Body { component, .. } => component.quantity(),
         }
     }
 
@@ -756,6 +802,15 @@ impl Robot {
             }
             ParamKind::Compliance { joint } => self.elasticity(joint).compliance,
             ParamKind::Lateral { joint } => self.elasticity(joint).lateral,
+            ParamKind::Body { body, component } => {
+                let b = &self.elastic.as_ref().expect("a mass model").bodies[body];
+                match component {
+                    BodyComponent::Mass => b.mass,
+                    BodyComponent::X => b.com.x,
+                    BodyComponent::Y => b.com.y,
+                    BodyComponent::Z => b.com.z,
+                }
+            }
         }
     }
 
@@ -787,6 +842,15 @@ impl Robot {
             }
             ParamKind::Lateral { joint } => {
                 self.elastic.as_mut().expect("a mass model").joints[joint].lateral = value
+            }
+            ParamKind::Body { body, component } => {
+                let b = &mut self.elastic.as_mut().expect("a mass model").bodies[body];
+                match component {
+                    BodyComponent::Mass => b.mass = value,
+                    BodyComponent::X => b.com.x = value,
+                    BodyComponent::Y => b.com.y = value,
+                    BodyComponent::Z => b.com.z = value,
+                }
             }
         }
     }
@@ -835,6 +899,7 @@ impl Robot {
                 .map(|p| &p.name)
                 .eq(other.planes.iter().map(|p| &p.name))
             && self.elastic.is_some() == other.elastic.is_some()
+            && self.body_count() == other.body_count()
     }
 
     /// A characteristic length of the robot (m): the sum of its link offsets' lengths, at least

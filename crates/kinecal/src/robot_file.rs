@@ -36,6 +36,9 @@
 //! vector = [0, 0, -9.81]  # length_unit/s^2 in the global (base) frame; this is the default
 //! iterations = 5          # optional: a fixed number of fixed-point iterations of the
 //!                         # equilibrium; default: to convergence (1e-10 rad)
+//! lumped_mass = 28.0      # optional, without [[bodies]]: a lumped model of that total mass
+//!                         # (kg), one equal point mass halfway along each moving link
+//!                         # (written back as [[bodies]])
 //! [[bodies]]              # point masses
 //! joint = 2               # carried by the frame right after joint 2 (as for sites)
 //! mass = 7.8              # kg
@@ -375,7 +378,18 @@ impl<'t> Reader<'t> {
         }
         let mut model = Elastic::new(robot, bodies);
         if let Some(g) = &gravity {
-            self.check_keys(g, &["vector", "iterations"], "gravity")?;
+            self.check_keys(g, &["vector", "iterations", "lumped_mass"], "gravity")?;
+            if let Some(total) = self.number(g, "lumped_mass", "gravity.lumped_mass")? {
+                if !model.bodies.is_empty() || !(total > 0.0) {
+                    return Err(self.err(
+                        g.get("lumped_mass").and_then(Item::span),
+                        "gravity.lumped_mass",
+                        "a lumped model is a positive total mass (kg) for a robot without \
+                         [[bodies]]",
+                    ));
+                }
+                model.bodies = Elastic::lumped(robot, total);
+            }
             if let Some(v) = self.vec3(g, "vector", "gravity.vector")? {
                 model.gravity = nalgebra::Vector3::from(v) * units.length.metres();
             }
@@ -673,6 +687,7 @@ struct Scales {
     angle: Scale,
     slope: Scale,
     compliance: Scale,
+    mass: Scale,
 }
 
 impl Scales {
@@ -683,6 +698,7 @@ impl Scales {
             angle: Scale::default(),
             slope: Scale::default(),
             compliance: Scale::default(),
+            mass: Scale::default(),
         };
         let frames = robot
             .links
@@ -704,6 +720,12 @@ impl Scales {
                     s.compliance.include(units.from_si(Quantity::Compliance, v));
                 }
             }
+            for b in &e.bodies {
+                s.mass.include(b.mass);
+                for v in b.com.iter() {
+                    s.length.include(units.from_si(Quantity::Length, *v));
+                }
+            }
         }
         for j in &robot.joints {
             let q = j.kind.variable();
@@ -722,6 +744,7 @@ impl Scales {
             Quantity::Angle => &mut self.angle,
             Quantity::LengthPerReading | Quantity::AnglePerReading => &mut self.slope,
             Quantity::Compliance => &mut self.compliance,
+            Quantity::Mass => &mut self.mass,
         }
     }
 
@@ -731,6 +754,7 @@ impl Scales {
             Quantity::Angle => self.angle,
             Quantity::LengthPerReading | Quantity::AnglePerReading => self.slope,
             Quantity::Compliance => self.compliance,
+            Quantity::Mass => self.mass,
         }
     }
 }
@@ -823,6 +847,8 @@ fn write_elastic(root: &mut Table, robot: &Robot, scales: &Scales) {
     if let Some(g) = root.get_mut("gravity").and_then(Item::as_table_mut) {
         let v = e.gravity / metres;
         set_vec3(g, "vector", &v, Scale::of([v.x, v.y, v.z]));
+        // A lumped model is written out as its bodies.
+        g.remove("lumped_mass");
         match e.iterations {
             Some(n) => {
                 g.insert("iterations", Item::Value(Value::from(n as i64)));
@@ -835,7 +861,7 @@ fn write_elastic(root: &mut Table, robot: &Robot, scales: &Scales) {
     let bodies = array_of_tables(root, "bodies", e.bodies.len());
     for (t, b) in bodies.iter_mut().zip(&e.bodies) {
         t.insert("joint", Item::Value(Value::from(b.joint as i64)));
-        set_number(t, "mass", b.mass, Scale::of([b.mass]));
+        set_number(t, "mass", b.mass, scales.mass);
         set_vec3(t, "com", &(b.com / metres), scales.length);
     }
     let joints = root

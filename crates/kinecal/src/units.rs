@@ -125,6 +125,8 @@ pub enum Quantity {
     /// Angle per torque (a joint's compliance; rad/(N m) internally, the file's angle unit per
     /// newton times its length unit in files: `deg/(N mm)` for a millimetre-degree robot).
     Compliance,
+    /// A mass (kg, in files too).
+    Mass,
 }
 
 /// A pair of units: the ones a robot file (and its measurement files) is written in.
@@ -152,6 +154,7 @@ impl Units {
             Quantity::Length | Quantity::LengthPerReading => self.length.metres(),
             Quantity::Angle | Quantity::AnglePerReading => self.angle.radians(),
             Quantity::Compliance => self.angle.radians() / self.length.metres(),
+            Quantity::Mass => 1.0,
         }
     }
 
@@ -173,6 +176,7 @@ impl Units {
             Quantity::LengthPerReading => format!("{}/unit", self.length),
             Quantity::AnglePerReading => format!("{}/unit", self.angle),
             Quantity::Compliance => format!("{}/(N {})", self.angle, self.length),
+            Quantity::Mass => "kg".into(),
         }
     }
 }

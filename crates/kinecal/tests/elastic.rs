@@ -172,8 +172,8 @@ fn the_parameter_jacobian_matches_finite_differences() {
     let np = robot.param_count();
     assert_eq!(
         np,
-        6 * 7 + 12 + 6 + 12,
-        "geometry, a site, 2 compliances per joint"
+        6 * 7 + 12 + 6 + 12 + 24,
+        "geometry, a site, 2 compliances per joint, mass and centre of 6 bodies"
     );
     for target in [Target::EndEffector, Target::Site(0)] {
         let plan = ColumnPlan::all(&robot, target);
@@ -184,6 +184,7 @@ fn the_parameter_jacobian_matches_finite_differences() {
             for id in robot.param_ids() {
                 let h = match robot.param_kind(id) {
                     ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => 1e-7,
+                    ParamKind::Body { .. } => 1e-4,
                     _ => 1e-6,
                 };
                 let at = |v: f64| {
@@ -578,4 +579,86 @@ fn payload_columns_round_trip_and_bad_ones_are_refused() {
         err.contains("share its payload") && err.contains(":3"),
         "{err}"
     );
+}
+
+#[test]
+fn body_masses_are_recovered_and_their_scale_is_not_confused_with_the_compliances() {
+    let mut truth = elastic_arm(53);
+    truth.sites.clear();
+    let mut nominal = truth.clone();
+    // The masses are known to 30 %.
+    for (i, b) in nominal
+        .elastic
+        .as_mut()
+        .unwrap()
+        .bodies
+        .iter_mut()
+        .enumerate()
+    {
+        b.mass *= if i % 2 == 0 { 1.3 } else { 0.75 };
+    }
+    let postures = simulate::sample_postures(&truth, 80, 21);
+    let mut data = simulate::measure(&truth, &postures, false);
+    simulate::add_noise(&mut data, 1e-6, 1e-6, 5);
+    let fit = |estimate: &str| {
+        let mut req = Request::new(nominal.clone(), data.clone());
+        req.selection = Selection::parse(estimate, None, &nominal).unwrap();
+        req.weights = kinecal::observe::Weights {
+            length: 1e-6,
+            angle: 1e-6,
+        };
+        run(&req, &mut ()).expect("calibration runs")
+    };
+    let masses: Vec<String> = (1..=6).map(|b| format!("body{b}.mass")).collect();
+    let out = fit(&masses.join(","));
+    let cal = &out.calibration.calibrated;
+    let unc = out.uncertainty.as_ref().unwrap();
+    for b in 0..6 {
+        let id = cal.param_id(ParamKind::Body {
+            body: b,
+            component: kinecal::params::BodyComponent::Mass,
+        });
+        let sigma = unc.parameter(id).and_then(|u| u.sigma).expect("determined");
+        let (est, t) = (cal.get(id), truth.get(id));
+        assert!(
+            (est - t).abs() < 3.0 * sigma && sigma < 0.05 * t,
+            "body{}: {est} kg, true {t} kg, sigma {sigma}",
+            b + 1
+        );
+    }
+    // Masses and compliances together: twice the masses and half the compliances deflect the
+    // same, so the identifiable set cannot keep all of them.
+    let both = fit("identifiable,compliance,lateral,masses");
+    let chosen = &both.calibration.estimated;
+    let wanted = kinecal::parse_param_list("compliance,lateral,masses", &nominal).unwrap();
+    let kept = wanted.iter().filter(|id| chosen.contains(id)).count();
+    assert!(kept < wanted.len(), "{kept} of {} kept", wanted.len());
+}
+
+#[test]
+fn a_lumped_model_stands_in_for_unknown_masses() {
+    let text = "length_unit = \"m\"\nangle_unit = \"rad\"\n[[links]]\nz = 0.3\n[[links]]\n\
+                gamma = 1.5707963267948966\n[[links]]\nx = 0.6\n[[links]]\nx = 0.5\n\
+                [[joints]]\nkind = \"revolute\"\n[[joints]]\nkind = \"revolute\"\n\
+                [[joints]]\nkind = \"revolute\"\n[gravity]\nlumped_mass = 12.0\n";
+    let robot = kinecal::robot_file::parse_robot_toml(text, "lumped.toml").unwrap();
+    let bodies = &robot.elastic.as_ref().unwrap().bodies;
+    assert_eq!(bodies.len(), 3);
+    assert!(bodies.iter().all(|b| (b.mass - 4.0).abs() < 1e-15));
+    // Halfway along the link each joint moves: joint 2 carries the 0.6 m upper arm.
+    assert!((bodies[1].com - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-15);
+    // Written back as its bodies, which read back the same.
+    let written = kinecal::robot_file::write_robot_toml(&robot, Some(text));
+    assert_eq!(written.matches("[[bodies]]").count(), 3, "{written}");
+    assert!(!written.contains("lumped_mass"), "{written}");
+    let back = kinecal::robot_file::parse_robot_toml(&written, "w.toml").unwrap();
+    assert_eq!(back.elastic, robot.elastic);
+    // Bodies and a lumped mass at once are refused.
+    let both = written.replacen("[gravity]\n", "[gravity]\nlumped_mass = 5.0\n", 1);
+    assert_ne!(both, written);
+    let err = kinecal::robot_file::parse_robot_toml(&both, "w.toml")
+        .map(|_| ())
+        .expect_err("bodies and a lumped mass")
+        .to_string();
+    assert!(err.contains("gravity.lumped_mass"), "{err}");
 }

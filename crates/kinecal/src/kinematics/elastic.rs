@@ -73,6 +73,8 @@ pub(super) enum Cause<'t> {
     Twist(&'t Twist, f64),
     /// The compliance of deflection `.0` (its own torque turns it).
     Compliance(usize),
+    /// A component of body `.0`'s mass model (its mass, or a coordinate of its centre).
+    Body(usize, crate::params::BodyComponent),
 }
 
 /// The elastic part of a [`Workspace`]: deflections, torques and their derivatives at the last
@@ -441,6 +443,36 @@ impl Chain<'_> {
                 |_| 0.0,
                 Some((deflection, st.tau[deflection])),
             ),
+            Cause::Body(body, component) => {
+                use crate::params::BodyComponent;
+                let b = &model.bodies[body];
+                let frame = &ws.prox[b.joint];
+                let carried = b.joint - 1;
+                // The body's force moves (mass) or its point of application (centre).
+                let lever_rate = |r: usize| -> Vector3<f64> {
+                    match component {
+                        BodyComponent::Mass => {
+                            frame.translation + frame.rotation * b.com - st.origin[r / 2]
+                        }
+                        BodyComponent::X => frame.rotation.column(0) * b.mass,
+                        BodyComponent::Y => frame.rotation.column(1) * b.mass,
+                        BodyComponent::Z => frame.rotation.column(2) * b.mass,
+                    }
+                };
+                st.add_response(
+                    e,
+                    joints_upto,
+                    out,
+                    |r| {
+                        if carried >= r / 2 {
+                            g.dot(&st.axis[r].cross(&lever_rate(r)))
+                        } else {
+                            0.0
+                        }
+                    },
+                    None,
+                )
+            }
         }
     }
 }

@@ -207,7 +207,8 @@ pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<P
             ParamKind::Coupling { .. }
             | ParamKind::Plane { .. }
             | ParamKind::Compliance { .. }
-            | ParamKind::Lateral { .. } => false,
+            | ParamKind::Lateral { .. }
+            | ParamKind::Body { .. } => false,
             // A session's frame is estimated wherever its observations are.
             ParamKind::Session { session, .. } => {
                 let name = robot.sessions[session].name.as_str();
