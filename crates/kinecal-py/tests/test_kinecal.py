@@ -519,7 +519,8 @@ def test_urdf_masses_make_an_elastic_robot():
     path = shared_data("urdf", "universal_robots", "urdf_plain", "ur10_robot.urdf")
     rigid = kinecal.Robot.from_urdf(path, base="base_link", tip="tool0")
     elastic = kinecal.Robot.from_urdf(path, base="base_link", tip="tool0", masses=True)
-    assert len(elastic.parameter_names) == len(rigid.parameter_names) + 12
+    # A compliance and a lateral compliance per joint, mass and centre of each of 6 bodies.
+    assert len(elastic.parameter_names) == len(rigid.parameter_names) + 12 + 24
     assert "joint2.compliance" in elastic.parameter_names
     unit = elastic.parameter_units[elastic.parameter_names.index("joint2.lateral")]
     assert unit == "rad/(N m)"

@@ -380,7 +380,7 @@ impl<'t> Reader<'t> {
         if let Some(g) = &gravity {
             self.check_keys(g, &["vector", "iterations", "lumped_mass"], "gravity")?;
             if let Some(total) = self.number(g, "lumped_mass", "gravity.lumped_mass")? {
-                if !model.bodies.is_empty() || !(total > 0.0) {
+                if !model.bodies.is_empty() || total <= 0.0 {
                     return Err(self.err(
                         g.get("lumped_mass").and_then(Item::span),
                         "gravity.lumped_mass",

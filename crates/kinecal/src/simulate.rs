@@ -70,8 +70,8 @@ pub struct PerturbStd {
 }
 
 /// Adds independent Gaussian perturbations to every geometric parameter of `robot` (coupling
-/// factors like slopes, by a fraction of their magnitude or of 1, whichever is larger);
-/// compliances are kept.
+/// factors like slopes, by a fraction of their magnitude or of 1, whichever is larger); the
+/// mass model (compliances, masses) is kept.
 pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
     let mut r = rng(seed, 2);
     let mut out = robot.clone();
@@ -81,7 +81,10 @@ pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
         let s = match (robot.param_kind(id), robot.param_quantity(id)) {
             (ParamKind::Slope { .. }, _) => std.slope_fraction * v.abs(),
             (ParamKind::Coupling { .. }, _) => std.slope_fraction * v.abs().max(1.0),
-            (ParamKind::Compliance { .. } | ParamKind::Lateral { .. }, _) => 0.0,
+            (
+                ParamKind::Compliance { .. } | ParamKind::Lateral { .. } | ParamKind::Body { .. },
+                _,
+            ) => 0.0,
             (_, Quantity::Length) => std.length,
             (_, _) => std.angle,
         };
