@@ -1,6 +1,7 @@
 //! Hot-path benchmarks on a 6-joint all-revolute robot with all 54 parameters:
 //! forward kinematics and the analytic Jacobian per posture, and a full Levenberg-Marquardt
-//! calibration from 1,000 full-pose postures.
+//! calibration from 1,000 full-pose postures; and the same arm made elastic (a body per joint,
+//! compliances about both axes): its equilibrium, and its Jacobian with the compliances.
 //!
 //! Run: `cargo bench -p kinecal --bench kinematics`
 
@@ -47,6 +48,59 @@ fn kinematics(c: &mut Criterion) {
     });
 }
 
+/// The benchmark arm with a mass model: 2 kg per joint, compliances 2e-4 rad/(N m).
+fn elastic_robot() -> kinecal::Robot {
+    let mut robot = robot();
+    let bodies = (1..=6)
+        .map(|joint| kinecal::robot::Body {
+            joint,
+            mass: 2.0,
+            com: nalgebra::Vector3::new(0.1, 0.0, 0.05),
+        })
+        .collect();
+    let mut model = kinecal::robot::Elastic::new(&robot, bodies);
+    for j in &mut model.joints {
+        j.compliance = 2e-4;
+        j.lateral = 1e-4;
+    }
+    robot.elastic = Some(model);
+    robot
+}
+
+fn elastic(c: &mut Criterion) {
+    let robot = elastic_robot();
+    let postures = simulate::sample_postures(&robot, 1000, 1);
+    let chain = Chain::new(&robot);
+    let mut ws = Workspace::new(&robot);
+    let mut i = 0;
+    c.bench_function("elastic_fk_equilibrium_per_posture_6R", |b| {
+        b.iter(|| {
+            i = (i + 1) % postures.len();
+            chain.forward(black_box(&postures[i].readings), &mut ws);
+            black_box(ws.end_effector().translation.x)
+        })
+    });
+    // The geometry and the 12 compliances (not the bodies): what a compliance calibration
+    // estimates.
+    let columns: Vec<Option<usize>> = robot
+        .param_ids()
+        .map(|id| match robot.param_kind(id) {
+            kinecal::ParamKind::Body { .. } => None,
+            _ => Some(id.0),
+        })
+        .collect();
+    let plan = kinecal::kinematics::ColumnPlan::new(&robot, Target::EndEffector, &columns);
+    let mut block = vec![0.0; 6 * plan.width()];
+    c.bench_function("elastic_fk_plus_jacobian_66_per_posture_6R", |b| {
+        b.iter(|| {
+            i = (i + 1) % postures.len();
+            chain.forward(black_box(&postures[i].readings), &mut ws);
+            chain.jacobian_columns(&ws, &plan, &mut block);
+            black_box(block[17])
+        })
+    });
+}
+
 fn calibration(c: &mut Criterion) {
     let nominal = robot();
     let std = PerturbStd {
@@ -72,5 +126,5 @@ fn calibration(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, kinematics, calibration);
+criterion_group!(benches, kinematics, elastic, calibration);
 criterion_main!(benches);
