@@ -662,3 +662,33 @@ fn a_lumped_model_stands_in_for_unknown_masses() {
         .to_string();
     assert!(err.contains("gravity.lumped_mass"), "{err}");
 }
+
+#[test]
+fn the_default_lateral_axis_is_the_common_normal_with_the_parent_axis() {
+    let robot = elastic_arm(61);
+    let model = robot.elastic.as_ref().unwrap();
+    let rigid = robot.rigid();
+    let chain = Chain::new(&rigid);
+    let mut ws = Workspace::new(&rigid);
+    chain.forward(&[0.0; 6], &mut ws);
+    for (j, e) in model.joints.iter().enumerate() {
+        // At the zero posture the readings are 0 but the offsets are not: the joint's frame
+        // before it turns is the frame after it turned back by its angle.
+        let after = ws.after_joint(j + 1);
+        let q = robot.joints[j].value(&[0.0; 6], j);
+        let before = after.rotation * Matrix3::new_rotation(-q);
+        let axis = before.column(2).into_owned();
+        let parent = if j == 0 {
+            Vector3::z()
+        } else {
+            ws.after_joint(j).rotation.column(2).into_owned()
+        };
+        let w = before * e.lateral_axis;
+        assert!((w.norm() - 1.0).abs() < 1e-12 && w.dot(&axis).abs() < 1e-12);
+        if parent.cross(&axis).norm() > 1e-6 {
+            // Perpendicular to both axes, and along parent x axis (right-handed).
+            assert!(w.dot(&parent).abs() < 1e-12, "joint {}", j + 1);
+            assert!((w - parent.cross(&axis).normalize()).norm() < 1e-12);
+        }
+    }
+}
