@@ -1136,6 +1136,14 @@ pub struct CalibrateArgs {
     /// Parameters to hold at their nominal values (removed from --estimate).
     #[arg(long, value_name = "LIST")]
     pub fix: Option<String>,
+    /// A Gaussian prior on each estimated parameter's change from its start:
+    /// `length=L,angle=A[,slope=F][,compliance=C]` standard deviations in the robot file's units
+    /// (slopes as a fraction), with per-parameter entries `NAME=V`; `tolerances` takes the robot
+    /// file's [tolerances], `none` none. One residual row per parameter: what the data cannot
+    /// determine the prior holds, so any selection (`--estimate all`) can be solved [default:
+    /// the robot file's [priors], else none].
+    #[arg(long, value_name = "PRIOR")]
+    pub prior: Option<String>,
     /// Iteration cap (default 100; 5000 for sd).
     #[arg(long, value_name = "N")]
     pub max_iter: Option<usize>,
@@ -1152,10 +1160,11 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
-    /// Choose the model by cross-validation: fit each candidate (`LIST [fix=LIST] [prune=K]`,
-    /// listed from the simplest up) under the same --folds (default 5) and keep the first whose
-    /// held-out mean is within one standard error of the best. Without candidates: the
-    /// identifiable geometric set (slopes held), + slopes, + pruning at 2 and 3 sigma.
+    /// Choose the model by cross-validation: fit each candidate (`LIST [fix=LIST] [prune=K]
+    /// [prior=PRIOR]`, listed from the simplest up: the strongest prior first) under the same
+    /// --folds (default 5) and keep the first whose held-out mean is within one standard error
+    /// of the best. Without candidates: the identifiable geometric set (slopes held), + slopes,
+    /// + pruning at 2 and 3 sigma.
     #[arg(
         long,
         num_args = 0..,

@@ -147,6 +147,7 @@ fn keyword(setting: kinecal::Setting) -> &'static str {
         Setting::Validation => "validate/holdout/folds",
         Setting::Configuration => "configuration",
         Setting::OutputFormat => "format",
+        Setting::Prior => "prior",
     }
 }
 
@@ -1253,6 +1254,7 @@ fn analyze(
         orientation,
         priority: Vec::new(),
         noise_scale: 1.0,
+        prior: Default::default(),
     };
     let estimate = param_list(estimate, "estimate")?.unwrap_or_else(|| "identifiable".into());
     let fix = param_list(fix, "fix")?;

@@ -624,6 +624,7 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         planes,
         sessions,
         tolerances: Default::default(),
+        priors: Default::default(),
         elastic: None,
     };
     robot
@@ -660,6 +661,17 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 }
             }
         }
+    }
+    // The prior on the parameters' changes (standard deviations), keyed as [tolerances] is.
+    if let Some(t) = r.table(root, "priors")? {
+        let mut prior = crate::robot::Prior::default();
+        for (key, item) in t.iter() {
+            let field = format!("priors.{key}");
+            let v = r.number(&t, key, &field)?.expect("key exists");
+            crate::prior::set_key(&mut prior, key, v, &robot)
+                .map_err(|m| r.err(item.span(), &field, m))?;
+        }
+        robot.priors = prior;
     }
     Ok(robot)
 }
