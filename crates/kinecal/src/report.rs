@@ -47,8 +47,8 @@ pub struct ParameterReport {
     /// The standard deviation of its prior (same unit), when the calibration had a prior on it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior_sigma: Option<f64>,
-    /// With a prior: the data's share in its estimate, `1 - var_post / var_prior` (1: the data
-    /// determine it; 0: the prior alone does; see [`crate::uncertainty`]).
+    /// With a prior: the data's share in its estimate, `1 - var_post / var_prior` on the
+    /// information (1: the data determine it; 0: the prior alone does).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub data_share: Option<f64>,
     /// With a prior, what determines it: `data` (the data alone determine it individually),
@@ -698,8 +698,8 @@ pub struct CalibrationReport {
     pub warning_details: Vec<Warning>,
     /// `solver` or `min-change`.
     pub solution: String,
-    /// Variance factor `SSR / (m - rank)` (with a prior, `SSR / (m - tr H_data)`: see
-    /// [`crate::uncertainty`]): about 1 when the weights match the noise.
+    /// Variance factor `SSR / (m - rank)` (with a prior, `SSR / (m - tr H_data)`, the data's rows
+    /// less their leverage): about 1 when the weights match the noise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub variance_factor: Option<f64>,
     /// Numerical rank of the estimated parameters (with a prior, of the data and the prior
