@@ -37,59 +37,81 @@ const PRIOR: &str = "length=0.001,angle=0.001,slope=0.001";
 
 /// A random 6R (metres, radians), a true robot 1 mm / 1 mrad off it, 10 postures of poses with
 /// 0.1 mm / 0.1 mrad of noise, and 200 fresh postures of the truth.
-fn six_r(dir: &Path) {
-    let robot = kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 3);
+fn six_r(dir: &Path, seed: u64) {
+    let robot = kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], seed);
     std::fs::write(
         dir.join("r6.toml"),
         kinecal::robot_file::write_robot_toml(&robot, None),
     )
     .unwrap();
-    run_ok(
-        dir,
-        &[
-            "simulate",
-            "--robot",
-            "r6.toml",
-            "--postures",
-            "10",
-            "--seed",
-            "3",
-            "--perturb-std",
-            PRIOR,
-            "--noise",
-            "length=0.0001,angle=0.0001",
-            "--out",
-            "data.csv",
-            "--truth",
-            "truth.toml",
-        ],
-    );
-    run_ok(
-        dir,
-        &[
-            "simulate",
-            "--robot",
-            "truth.toml",
-            "--postures",
-            "200",
-            "--seed",
-            "99",
-            "--out",
-            "fresh.csv",
-        ],
-    );
+    let seed = seed.to_string();
+    let noise = "length=0.0001,angle=0.0001";
+    let perturbed = [
+        "simulate",
+        "--robot",
+        "r6.toml",
+        "--postures",
+        "10",
+        "--seed",
+        &seed,
+        "--perturb-std",
+        PRIOR,
+        "--noise",
+        noise,
+        "--out",
+        "data.csv",
+        "--truth",
+        "truth.toml",
+    ];
+    run_ok(dir, &perturbed);
+    let fresh = [
+        "simulate",
+        "--robot",
+        "truth.toml",
+        "--postures",
+        "200",
+        "--seed",
+        "99",
+        "--out",
+        "fresh.csv",
+    ];
+    run_ok(dir, &fresh);
 }
 
-/// The done-when on the command line: `--estimate all` with a prior of the perturbation's size
-/// exits 0, says what the prior determined, and predicts the held-out postures at least as
-/// well as the identifiable-only fit (measured on this robot: 2.884e-4 m with the prior against
-/// 2.790e-4 m identifiable-only is the library test's seed 3; here through the files, within
-/// 5 %).
+/// The done-when on the command line, on 12 random 6Rs: `--estimate all` with a prior of the
+/// perturbation's size exits 0, says what the prior determined, and predicts the held-out
+/// postures at least as well as the identifiable-only fit on average, no robot more than 5 %
+/// worse: the two determine the same 36 combinations from the data, and the prior only shrinks
+/// them towards the drawing, which helps or costs a few per cent per draw (measured: mean
+/// 2.157e-4 m identifiable, 2.147e-4 m with the prior; per robot from 6.3 % better to 3.9 %
+/// worse).
 #[test]
 fn every_parameter_of_a_6r_from_10_postures_with_a_prior() {
+    let (mut sum_a, mut sum_b) = (0.0, 0.0);
+    for seed in 1..=12 {
+        let (ea, eb) = compare(seed);
+        println!(
+            "seed {seed}: held-out RMS position identifiable {ea:.4e} m, all with the prior \
+             {eb:.4e} m"
+        );
+        assert!(eb <= 1.05 * ea, "seed {seed}: {eb} vs {ea}");
+        sum_a += ea;
+        sum_b += eb;
+    }
+    println!(
+        "mean: identifiable {:.4e} m, with the prior {:.4e} m",
+        sum_a / 12.0,
+        sum_b / 12.0
+    );
+    assert!(sum_b <= sum_a, "{sum_b} vs {sum_a}");
+}
+
+/// The held-out RMS position errors of the identifiable-only fit and of `--estimate all
+/// --prior` on the 6R of `seed`; on the first, what the output and the files say too.
+fn compare(seed: u64) -> (f64, f64) {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    six_r(dir);
+    six_r(dir, seed);
     let common = [
         "calibrate",
         "--robot",
@@ -116,6 +138,12 @@ fn every_parameter_of_a_6r_from_10_postures_with_a_prior() {
         "job.toml",
     ]);
     let out = run_ok(dir, &b);
+    let (ra, rb) = (report(dir, "a.json"), report(dir, "b.json"));
+    assert_eq!(rb["converged"], true);
+    let (ea, eb) = (held_out_rms(&ra), held_out_rms(&rb));
+    if seed > 1 {
+        return (ea, eb);
+    }
     assert!(
         out.contains(&format!("prior {PRIOR} on 54 parameters: objective ")),
         "{out}"
@@ -126,15 +154,10 @@ fn every_parameter_of_a_6r_from_10_postures_with_a_prior() {
         "{out}"
     );
     assert!(out.contains("rank 54 of 54 estimated parameters"), "{out}");
-    let (ra, rb) = (report(dir, "a.json"), report(dir, "b.json"));
-    assert_eq!(rb["converged"], true);
     assert_eq!(rb["prior"]["rows"], 54);
     assert_eq!(rb["prior"]["data_rank"], 36);
     assert!(rb["undetermined"].as_array().unwrap().is_empty());
-    let (ea, eb) = (held_out_rms(&ra), held_out_rms(&rb));
-    println!("held-out RMS position: identifiable {ea:.4e} m, all with the prior {eb:.4e} m");
-    assert!(eb <= 1.05 * ea, "{eb} vs {ea}");
-    // The spec written holds the prior, and runs the same job.
+    // The spec written holds the prior.
     let spec = std::fs::read_to_string(dir.join("job.toml")).unwrap();
     assert!(spec.contains(&format!("prior = \"{PRIOR}\"")), "{spec}");
     // Without the prior, Gauss-Newton refuses the rank-deficient system; with it, it solves.
@@ -144,6 +167,7 @@ fn every_parameter_of_a_6r_from_10_postures_with_a_prior() {
     assert_ne!(refused.status.code(), Some(0));
     gn.extend(["--prior", PRIOR]);
     run_ok(dir, &gn);
+    (ea, eb)
 }
 
 /// `--choose` compares prior strengths by cross-validation; bad priors are refused naming the
@@ -152,7 +176,7 @@ fn every_parameter_of_a_6r_from_10_postures_with_a_prior() {
 fn choose_compares_prior_strengths_and_bad_priors_are_named() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    six_r(dir);
+    six_r(dir, 3);
     let out = run_ok(
         dir,
         &[
@@ -191,19 +215,16 @@ fn choose_compares_prior_strengths_and_bad_priors_are_named() {
         ("lenght=0.1", "--prior: `lenght`"),
         ("angle=nan", "--prior: `angle`"),
     ] {
-        let out = kinecal()
-            .current_dir(dir)
-            .args([
-                "calibrate",
-                "--robot",
-                "r6.toml",
-                "--data",
-                "data.csv",
-                "--prior",
-                prior,
-            ])
-            .output()
-            .unwrap();
+        let args = [
+            "calibrate",
+            "--robot",
+            "r6.toml",
+            "--data",
+            "data.csv",
+            "--prior",
+            prior,
+        ];
+        let out = kinecal().current_dir(dir).args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(1));
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(words), "{prior}: {err}");
