@@ -191,6 +191,7 @@ Examples:
       --estimate identifiable
   kinecal calibrate --robot ge-a4 --data data.csv --folds 5 --write-spec job.toml
   kinecal calibrate --spec job.toml --method svd     # the job again, one setting changed
+  kinecal calibrate --robot ge-a4 --data data.csv --estimate all --prior length=0.004,angle=0.02
 
 Parameter lists take ids (p3), ranges (p1-p30), names (link1.x, joint2.offset, joint4.slope,
 joint3.coupling, site.NAME.x, plane.NAME.offset), whole links, joints, sites or planes (link2,
@@ -198,7 +199,9 @@ joint3, site.NAME, plane.NAME) and the groups all, links, offsets, slopes, coupl
 planes, separated by commas. `--estimate identifiable` estimates the identifiable (base) set
 that `kinecal analyze` reports; `--solution min-change` estimates everything and returns, of the
 equally good answers, the one closest to the --robot file (tolerances from its [tolerances]
-table). Observation files combine; rows may carry their own sigma_position and sigma_angle.")]
+table); with `--prior`, what the data cannot determine is held by a Gaussian prior on each
+parameter's change. Observation files combine; rows may carry their own sigma_position and
+sigma_angle.")]
     Calibrate(CalibrateArgs),
 }
 
