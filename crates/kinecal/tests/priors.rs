@@ -483,3 +483,31 @@ fn bad_priors_are_refused_with_the_key_named() {
     let c = Candidate::parse("all prior=length=0.01,angle=0.05", &robot).unwrap();
     assert_eq!(c.prior.unwrap().angle, Some(0.05f64.to_radians()));
 }
+
+/// Under a Huber loss the prior's rows keep weight 1 (the row scale is the data's), and with a
+/// prior on every parameter there are no equally good answers left for `min-change` to choose
+/// among: it returns the solver's.
+#[test]
+fn the_prior_under_huber_and_min_change() {
+    let s = setup(8, NOISE);
+    let mut req = request(&s, NOISE);
+    req.selection = Selection::List(all(&s.nominal));
+    req.prior = prior_of_size(CHANGE);
+    let plain = run(&req, &mut ()).unwrap();
+    let mut huber = req.clone();
+    huber.loss = kinecal::estimation::Loss::huber(1.345);
+    let h = run(&huber, &mut ()).unwrap();
+    assert!(h.calibration.converged());
+    assert_eq!(h.calibration.row_scale.len(), s.data.rows());
+    assert!(h.calibration.prior_objective > 0.0);
+    let mut min_change = req.clone();
+    min_change.solution = kinecal::workflow::SolutionRule::MinChange;
+    let m = run(&min_change, &mut ()).unwrap();
+    for id in all(&s.nominal) {
+        let (a, b) = (
+            plain.calibration.calibrated.get(id),
+            m.calibration.calibrated.get(id),
+        );
+        assert!((a - b).abs() < 1e-9, "{id}: {a} vs {b}");
+    }
+}
