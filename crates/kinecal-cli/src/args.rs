@@ -620,7 +620,7 @@ pub struct ImportUrdfArgs {
     /// Last link of the chain (default: the only leaf link).
     #[arg(long)]
     pub tip: Option<String>,
-    /// Take the links' <inertial> masses and centres of mass as the robot's mass model, so that
+    /// Take the links' `<inertial>` masses and centres of mass as the robot's mass model, so that
     /// its joint compliances can be estimated (`--estimate identifiable,compliance`).
     #[arg(long)]
     pub masses: bool,
