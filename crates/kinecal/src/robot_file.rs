@@ -26,6 +26,10 @@
 //! name = "C"              # the observations' `session`
 //! x = 508.0               # the robot's global frame in the session's measurement frame:
 //! gamma = 1.5             # x, y, z, alpha, beta, gamma as for links
+//! [tolerances]            # optional: expected deviations, the metric of minimum-change answers
+//! length = 0.04           # length, angle (file units), slope (a fraction), any parameter
+//! [priors]                # optional: a calibration's Gaussian prior on the changes (the same
+//! angle = 0.02            # keys as [tolerances], and compliance); `--prior` overrides it
 //! ```
 //!
 //! A mass model ([`crate::robot::Elastic`]) makes the robot elastic: its joints yield to the
