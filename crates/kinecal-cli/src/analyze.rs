@@ -40,6 +40,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         orientation,
         priority,
         noise_scale: 1.0,
+        prior: Default::default(),
     };
     let selection = Selection::parse(&a.estimate, a.fix.as_deref(), robot)?;
     let (params, unseen) = resolve(&selection, robot, &data, &opts)?;

@@ -208,6 +208,7 @@ Examples:
       --estimate identifiable
   kinecal calibrate --robot ge-a4 --data data.csv --folds 5 --write-spec job.toml
   kinecal calibrate --spec job.toml --method svd     # the job again, one setting changed
+  kinecal calibrate --robot ge-a4 --data data.csv --estimate all --prior length=0.004,angle=0.02
 
 Parameter lists take ids (p3), ranges (p1-p30), names (link1.x, joint2.offset, joint4.slope,
 joint3.coupling, site.NAME.x, plane.NAME.offset), whole links, joints, sites or planes (link2,
@@ -215,7 +216,9 @@ joint3, site.NAME, plane.NAME) and the groups all, links, offsets, slopes, coupl
 planes, separated by commas. `--estimate identifiable` estimates the identifiable (base) set
 that `kinecal analyze` reports; `--solution min-change` estimates everything and returns, of the
 equally good answers, the one closest to the --robot file (tolerances from its [tolerances]
-table). Observation files combine; rows may carry their own sigma_position and sigma_angle.")]
+table); with `--prior`, what the data cannot determine is held by a Gaussian prior on each
+parameter's change. Observation files combine; rows may carry their own sigma_position and
+sigma_angle.")]
     Calibrate(CalibrateArgs),
 }
 
@@ -1289,6 +1292,14 @@ pub struct CalibrateArgs {
     /// Parameters to hold at their nominal values (removed from --estimate).
     #[arg(long, value_name = "LIST")]
     pub fix: Option<String>,
+    /// A Gaussian prior on each estimated parameter's change from its start:
+    /// `length=L,angle=A[,slope=F][,compliance=C]` standard deviations in the robot file's units
+    /// (slopes as a fraction), with per-parameter entries `NAME=V`; `tolerances` takes the robot
+    /// file's [tolerances], `none` none. One residual row per parameter: what the data cannot
+    /// determine the prior holds, so any selection (`--estimate all`) can be solved [default:
+    /// the robot file's [priors], else none].
+    #[arg(long, value_name = "PRIOR")]
+    pub prior: Option<String>,
     /// Iteration cap (default 100; 5000 for sd).
     #[arg(long, value_name = "N")]
     pub max_iter: Option<usize>,
@@ -1305,10 +1316,11 @@ pub struct CalibrateArgs {
     /// standard deviations; both fits are reported.
     #[arg(long, value_name = "K")]
     pub prune: Option<f64>,
-    /// Choose the model by cross-validation: fit each candidate (`LIST [fix=LIST] [prune=K]`,
-    /// listed from the simplest up) under the same --folds (default 5) and keep the first whose
-    /// held-out mean is within one standard error of the best. Without candidates: the
-    /// identifiable geometric set (slopes held), + slopes, + pruning at 2 and 3 sigma.
+    /// Choose the model by cross-validation: fit each candidate (`LIST [fix=LIST] [prune=K]
+    /// [prior=PRIOR]`, listed from the simplest up: the strongest prior first) under the same
+    /// --folds (default 5) and keep the first whose held-out mean is within one standard error
+    /// of the best. Without candidates: the identifiable geometric set (slopes held), + slopes,
+    /// + pruning at 2 and 3 sigma.
     #[arg(
         long,
         num_args = 0..,

@@ -150,6 +150,7 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::Validation => "--validate/--holdout/--folds",
         Setting::Configuration => "--configuration",
         Setting::OutputFormat => "--format",
+        Setting::Prior => "--prior",
     }
 }
 
@@ -160,9 +161,10 @@ fn hint(e: &kinecal::Error) -> Option<&'static str> {
         kinecal::Error::SingularNormalEquations { .. } => {
             Some("use --method lm or --method svd, or --estimate identifiable")
         }
-        kinecal::Error::TooFewResiduals { .. } => {
-            Some("--estimate identifiable estimates only what the data determines")
-        }
+        kinecal::Error::TooFewResiduals { .. } => Some(
+            "--estimate identifiable estimates only what the data determines; --prior holds the \
+             rest",
+        ),
         kinecal::Error::ExportMisses { .. } => {
             Some("--tolerance length=L,angle=A (the robot file's units) accepts a larger deviation")
         }

@@ -376,6 +376,45 @@ pub fn summary(r: &CalibrationReport) -> String {
             sig4(vf)
         );
     }
+    if let Some(p) = &r.prior {
+        let _ = writeln!(
+            s,
+            "prior {} on {} parameters: objective {:.6e} (data) + {:.6e} (prior){}",
+            p.prior,
+            p.rows,
+            p.data_objective_after,
+            p.prior_objective_after,
+            p.data_rank
+                .map_or(String::new(), |k| format!("; rank {k} on the data alone"))
+        );
+        let names = |ids: &[String]| -> String {
+            ids.iter()
+                .map(|id| {
+                    r.parameters
+                        .iter()
+                        .find(|q| &q.id == id)
+                        .map_or(id.as_str(), |q| q.name.as_str())
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if !p.split_by_prior.is_empty() {
+            let _ = writeln!(
+                s,
+                "determined by the data only in combinations the prior splits ({}): {}",
+                p.split_by_prior.len(),
+                names(&p.split_by_prior)
+            );
+        }
+        if !p.determined_by_prior_alone.is_empty() {
+            let _ = writeln!(
+                s,
+                "determined by the prior alone ({}): {}",
+                p.determined_by_prior_alone.len(),
+                names(&p.determined_by_prior_alone)
+            );
+        }
+    }
     let _ = writeln!(s);
     let _ = writeln!(
         s,
@@ -397,6 +436,10 @@ pub fn summary(r: &CalibrationReport) -> String {
             ),
             (_, _, Some(false)) => (format!("{:>11}", "-"), "  not determined alone".to_string()),
             _ => (String::new(), String::new()),
+        };
+        let sig = match p.determined_by.as_deref() {
+            Some("prior") => format!("{sig}  prior alone"),
+            _ => sig,
         };
         // Compliances (angle per torque, 1e-6..1e-3) in four significant digits.
         let compliance = p.unit.contains("/(N ");

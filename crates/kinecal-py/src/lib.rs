@@ -147,6 +147,7 @@ fn keyword(setting: kinecal::Setting) -> &'static str {
         Setting::Validation => "validate/holdout/folds",
         Setting::Configuration => "configuration",
         Setting::OutputFormat => "format",
+        Setting::Prior => "prior",
     }
 }
 
@@ -1090,7 +1091,7 @@ fn choice<T: serde::de::DeserializeOwned>(keyword: &str, value: &str) -> PyResul
 /// made a calibration spec, run as every front end runs one. Returns the calibrated robot, the
 /// report as JSON text and the outcome's arrays ([`outcome::details`]).
 #[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None))]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None, prior=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate(
     py: Python<'_>,
@@ -1115,6 +1116,7 @@ fn calibrate(
     outlier_sigma: Option<f64>,
     choose: Option<Vec<String>>,
     repeats: Option<usize>,
+    prior: Option<String>,
 ) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>)> {
     use kinecal::spec::{ResidualSpec, SelectionSpec, SolverSpec, ValidationSpec, WeightsSpec};
     let r = &robot.robot;
@@ -1128,6 +1130,7 @@ fn calibrate(
             estimate: param_list(estimate, "estimate")?,
             fix: param_list(fix, "fix")?,
             prune,
+            prior,
         },
         solver: SolverSpec {
             method: choice("method", method)?,
@@ -1254,6 +1257,7 @@ fn analyze(
         orientation,
         priority: Vec::new(),
         noise_scale: 1.0,
+        prior: Default::default(),
     };
     let estimate = param_list(estimate, "estimate")?.unwrap_or_else(|| "identifiable".into());
     let fix = param_list(fix, "fix")?;

@@ -308,6 +308,27 @@ def test_a_perturbed_robot_is_recovered_from_its_simulated_measurements():
     np.testing.assert_allclose(result.robot.fk(q), measured, atol=1e-9)
 
 
+def test_a_prior_makes_every_parameter_solvable():
+    nominal = kinecal.Robot.builtin("ge-a4")
+    truth = nominal.with_value("link2.x", nominal.get("link2.x") + 0.05)
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-40, 40, size=(8, 4))
+    measured = truth.fk(q)
+    data = kinecal.Measurements(nominal, q, measured[:, :3], orientations=measured[:, 3:])
+    result = kinecal.calibrate(nominal, data, estimate="all", method="gn",
+                               prior="length=0.01,angle=0.05,slope=0.01")
+    assert result.converged
+    prior = result.report["prior"]
+    assert prior["prior"] == "length=0.01,angle=0.05,slope=0.01"
+    assert prior["rows"] == 38
+    assert prior["data_rank"] < 38 and result.report["rank"] == 38
+    assert prior["split_by_prior"]
+    assert result.undetermined == []
+    # Without it, Gauss-Newton refuses the rank-deficient system.
+    with pytest.raises(kinecal.KinecalError):
+        kinecal.calibrate(nominal, data, estimate="all", method="gn")
+
+
 def test_weights_as_a_pair_or_a_dict(qkm_files):
     d = qkm_files
     robot = kinecal.Robot.from_toml(d / "qkm.toml")
@@ -345,6 +366,8 @@ def test_per_row_sigmas_and_validation_options(qkm_files):
         ({"huber_scale": -1.0, "loss": "huber"}, "huber_scale"),
         ({"outlier_sigma": 0.0}, "outlier_sigma"),
         ({"prune": -2.0}, "prune"),
+        ({"prior": "length=-1"}, "prior"),
+        ({"prior": "lenght=1"}, "prior"),
     ]:
         with pytest.raises(kinecal.KinecalError, match=f"^{keyword}: "):
             kinecal.calibrate(robot, data, **bad)

@@ -65,11 +65,13 @@ pub enum Setting {
     Configuration,
     /// The form an output is written in.
     OutputFormat,
+    /// The Gaussian prior on the parameters' changes.
+    Prior,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 29] = [
+    pub const ALL: [Setting; 30] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -99,6 +101,7 @@ impl Setting {
         Setting::Validation,
         Setting::Configuration,
         Setting::OutputFormat,
+        Setting::Prior,
     ];
 
     /// The library's words for it.
@@ -133,6 +136,7 @@ impl Setting {
             Setting::Validation => "validation",
             Setting::Configuration => "configuration",
             Setting::OutputFormat => "output format",
+            Setting::Prior => "prior",
         }
     }
 }

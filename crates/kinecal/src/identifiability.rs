@@ -47,6 +47,11 @@ pub struct AnalysisOptions {
     /// under a model error): the rule judged at `k` times them leaves out what only the
     /// stated precision made look determined.
     pub noise_scale: f64,
+    /// A Gaussian prior on the parameters' changes (empty: none). Its rows (see
+    /// [`crate::problem`]) count as information: the rank, the null space, what is determined
+    /// and the covariance are those of the data and the prior together, and
+    /// [`Analysis::determined_by_data`] says what the data alone determines.
+    pub prior: crate::robot::Prior,
 }
 
 /// Default relative singular-value tolerance for the numerical rank.
@@ -60,6 +65,7 @@ impl Default for AnalysisOptions {
             orientation: OrientationError::RotVec,
             priority: Vec::new(),
             noise_scale: 1.0,
+            prior: crate::robot::Prior::default(),
         }
     }
 }
@@ -140,8 +146,11 @@ impl NoiseDependent {
 pub struct Analysis {
     /// The analysed parameters, in order.
     pub parameters: Vec<ParamId>,
-    /// Number of residuals.
+    /// Number of residuals: the data's, and the prior's ([`Analysis::prior_rows`]).
     pub residuals: usize,
+    /// Number of residual rows of the prior: one per analysed parameter it covers (0 without
+    /// one).
+    pub prior_rows: usize,
     /// Singular values of the scaled Jacobian (non-increasing).
     pub singular_values_scaled: Vec<f64>,
     /// Singular values of the Jacobian in file units.
@@ -183,8 +192,14 @@ pub struct Analysis {
     /// rows of tiny sigma (anchors) from making every other parameter look negligible.
     pub typical_row: Vec<f64>,
     /// For each analysed parameter: whether the data determines it individually (it has no
-    /// component in the null space).
+    /// component in the null space); with a prior, the data and the prior together.
     pub determined: Vec<bool>,
+    /// For each analysed parameter: whether the data alone, without the prior, determines it
+    /// individually (the same as [`Analysis::determined`] without a prior). A parameter
+    /// determined but not by the data needs the prior ([`Analysis::prior_dependent`]).
+    pub determined_by_data: Vec<bool>,
+    /// The numerical rank of the data alone (the same as [`Analysis::rank`] without a prior).
+    pub data_rank: usize,
     /// Links or sites whose beta is near +-90 deg: alpha and gamma then act alike, a singularity
     /// of the Euler parameterisation rather than a physical redundancy.
     pub euler_singular: Vec<String>,
@@ -214,6 +229,16 @@ impl Analysis {
             .iter()
             .position(|&p| p == id)
             .is_some_and(|k| self.determined[k])
+    }
+
+    /// The analysed parameters determined with the prior but not by the data alone (none
+    /// without a prior): the data leave them free, or fix only combinations of them with others,
+    /// which the prior splits.
+    pub fn prior_dependent(&self) -> Vec<ParamId> {
+        (0..self.parameters.len())
+            .filter(|&k| self.determined[k] && !self.determined_by_data[k])
+            .map(|k| self.parameters[k])
+            .collect()
     }
 }
 
@@ -529,8 +554,14 @@ fn analyze_with(
             acc.r_into(&mut raug);
         }
     }
+    // With a prior, its rows folded in: the analysis is of the data and the prior together,
+    // and what the data alone determines is decided on the data's R.
+    let with_prior = problem.clone().with_prior(&opts.prior);
+    let prior_rows = with_prior.prior_rows();
+    let data_only = (prior_rows > 0).then(|| data_determined(&raug, n, opts.rcond));
+    let raug_all = with_prior.with_prior_rows(&raug);
     // R of [W J | W r]: its leading n x n block is the R of W J alone.
-    let rw = Matrix::from_fn(n, n, |i, j| raug[(i, j)]);
+    let rw = Matrix::from_fn(n, n, |i, j| raug_all[(i, j)]);
 
     let units = robot.units;
     let col_factor: Vec<f64> = params
@@ -611,6 +642,7 @@ fn analyze_with(
     let determined: Vec<bool> = (0..n)
         .map(|j| null.iter().map(|v| v[j] * v[j]).sum::<f64>().sqrt() < 1e-6)
         .collect();
+    let (data_rank, determined_by_data) = data_only.unwrap_or_else(|| (rank, determined.clone()));
 
     // Identical redundancies: equal or opposite unit columns.
     let mut group_of: Vec<Option<usize>> = vec![None; n];
@@ -912,7 +944,8 @@ fn analyze_with(
     let analysis = Analysis {
         expected: expected_rank(robot, data, &params),
         parameters: params,
-        residuals: m,
+        residuals: m + prior_rows,
+        prior_rows,
         singular_values_scaled: s.clone(),
         singular_values_file: sv_file,
         rank,
@@ -928,12 +961,40 @@ fn analyze_with(
         noise_rule,
         typical_row: typical,
         determined,
+        determined_by_data,
+        data_rank,
         euler_singular,
         warnings,
         column_norms,
         right_singular_vectors: v_scaled,
     };
     Ok((analysis, lin))
+}
+
+/// The rank of the data alone and, per parameter, whether it determines it individually, from
+/// the `R` (`(n + 1)` square, the residual last) of the data's weighted `[J | r]`: the same rule
+/// as the analysis's (scaled columns, rank at `rcond`, no component in the null space).
+fn data_determined(raug: &Matrix, n: usize, rcond: f64) -> (usize, Vec<bool>) {
+    let mut rs = Matrix::from_fn(n, n, |i, j| raug[(i, j)]);
+    let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&rs, j)).collect();
+    let max = norms.iter().copied().fold(0.0, f64::max);
+    for (j, &c) in norms.iter().enumerate() {
+        let s = if c <= 1e-12 * max.max(1e-300) {
+            0.0
+        } else {
+            1.0 / c
+        };
+        linalg::scale_col(&mut rs, j, s);
+    }
+    let Some((sv, v, _)) = linalg::right_svd(&rs) else {
+        return (0, vec![false; n]);
+    };
+    let smax = sv.first().copied().unwrap_or(0.0);
+    let rank = sv.iter().filter(|&&x| x > rcond * smax).count();
+    let determined = (0..n)
+        .map(|j| (rank..n).map(|k| v[(j, k)] * v[(j, k)]).sum::<f64>().sqrt() < 1e-6)
+        .collect();
+    (rank, determined)
 }
 
 /// Per row of `problem`, the factor from its weighted residual to file units (its sigma in

@@ -5,6 +5,16 @@
 //! own (`sigma_position`, `sigma_angle` columns) when given, else the default [`Weights`] of its
 //! quantity; times the robust-loss weight of the row when one is set. The objective is the sum
 //! of the squared weighted residuals: dimensionless, and independent of the files' units.
+//!
+//! **Priors.** A problem with a Gaussian prior ([`Problem::with_prior`], a [`Prior`]) has one
+//! more row per estimated parameter `p` with a prior standard deviation `s_p`, after the data's
+//! rows: `(p - p0) / s_p`, `p0` its value in the problem's base robot (the solver's start; an
+//! angle's difference wrapped to +-180 deg), whose Jacobian is `1 / s_p` in the parameter's
+//! column and 0 elsewhere. They are rows like any other: every solver, the linearisation
+//! (`R` of the QR, Gram matrix), the identifiability analysis and the covariance see them, so
+//! the objective is the data's plus the prior's, the information `J^T W J + diag(1 / s_p^2)`,
+//! and a parameter the data cannot separate from others is held by its prior instead of
+//! drifting. The robust loss leaves the prior rows at weight 1.
 
 use crate::kinematics::{Chain, ColumnPlan, Frame, ReadingTrig, Target};
 use crate::linalg::{Matrix, QrAccumulator, RowSink};
@@ -13,7 +23,8 @@ use crate::observe::{
     OrientationError, Weights,
 };
 use crate::params::{LinkComponent, ParamId, ParamKind};
-use crate::robot::Robot;
+use crate::robot::{Prior, Robot};
+use crate::units::{wrap_angle, Quantity};
 use nalgebra::Vector3;
 
 /// A function shown each observation with its frames.
@@ -88,6 +99,19 @@ pub struct Problem<'a> {
     posture_session: Vec<Option<usize>>,
     /// Per robot session, the estimated column of each of its six parameters.
     session_cols: Vec<[Option<usize>; 6]>,
+    /// The prior's rows, after the data's: per row, the estimated column it holds, the
+    /// parameter's value in `base` (the prior's centre), `1 / s_p`, and whether it is an angle
+    /// (its difference wrapped).
+    prior: Vec<PriorRow>,
+}
+
+/// One row of a prior: `(p - center) * weight`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PriorRow {
+    column: usize,
+    center: f64,
+    weight: f64,
+    angle: bool,
 }
 
 impl<'a> Problem<'a> {
@@ -145,7 +169,29 @@ impl<'a> Problem<'a> {
             trig: None,
             posture_session,
             session_cols,
+            prior: Vec::new(),
         }
+    }
+
+    /// The same problem with a row `(p - p0) / s_p` after the data's for each estimated
+    /// parameter `p` the prior gives a standard deviation `s_p` (see the module documentation),
+    /// `p0` its value in the base robot. An empty prior adds none.
+    pub fn with_prior(mut self, prior: &Prior) -> Self {
+        self.prior = self
+            .estimated
+            .iter()
+            .enumerate()
+            .filter_map(|(column, &id)| {
+                let s = prior.sigma(self.base, id)?;
+                Some(PriorRow {
+                    column,
+                    center: self.base.get(id),
+                    weight: 1.0 / s,
+                    angle: self.base.param_quantity(id) == Quantity::Angle,
+                })
+            })
+            .collect();
+        self
     }
 
     /// The same problem, computing the sines and cosines of the reading parts of the joint
@@ -173,9 +219,55 @@ impl<'a> Problem<'a> {
         self
     }
 
-    /// Number of residuals.
+    /// Number of residuals: the data's, then the prior's.
     pub fn rows(&self) -> usize {
+        self.sigma.len() + self.prior.len()
+    }
+
+    /// Number of residuals of the data (the first [`Problem::rows`]; the prior's follow).
+    pub fn data_rows(&self) -> usize {
         self.sigma.len()
+    }
+
+    /// Number of residuals of the prior: one per estimated parameter with a prior.
+    pub fn prior_rows(&self) -> usize {
+        self.prior.len()
+    }
+
+    /// The `R` of the weighted `[J | r]` of this problem with its prior's rows, from `r_data`,
+    /// the `R` (`(cols + 1)` square) of the data's rows alone at the base robot: the prior's
+    /// rows (residual 0 there, where they are centred) folded in by a QR of a few rows.
+    /// `r_data` itself when there is no prior.
+    pub(crate) fn with_prior_rows(&self, r_data: &Matrix) -> Matrix {
+        let k = self.cols();
+        if self.prior.is_empty() || r_data.nrows() != k + 1 || r_data.ncols() != k + 1 {
+            return r_data.clone();
+        }
+        let mut acc = QrAccumulator::new(k + 1, k + 1 + self.prior.len());
+        let mut row = vec![0.0; k + 1];
+        for i in 0..=k {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = r_data[(i, j)];
+            }
+            acc.push(&row);
+        }
+        for p in &self.prior {
+            row.fill(0.0);
+            row[p.column] = p.weight;
+            acc.push(&row);
+        }
+        let mut out = Matrix::zeros(0, 0);
+        acc.r_into(&mut out);
+        out
+    }
+
+    /// The estimated parameters with a prior (in [`Problem::estimated`]'s order) and the
+    /// standard deviation of each (internal units).
+    pub fn prior_sigmas(&self) -> Vec<(ParamId, f64)> {
+        self.prior
+            .iter()
+            .map(|p| (self.estimated[p.column], 1.0 / p.weight))
+            .collect()
     }
 
     /// Number of estimated parameters.
@@ -193,7 +285,7 @@ impl<'a> Problem<'a> {
         self.data
     }
 
-    /// The standard deviation of each row (internal units).
+    /// The standard deviation of each row of the data (internal units).
     pub fn row_sigma(&self) -> &[f64] {
         &self.sigma
     }
@@ -435,6 +527,27 @@ impl<'a> Problem<'a> {
                 }
             }
             row += nrows;
+        }
+        for p in &self.prior {
+            let v = robot.get(self.estimated[p.column]) - p.center;
+            let r = p.weight * if p.angle { wrap_angle(v) } else { v };
+            res[row] = r;
+            match jac.as_mut() {
+                Some(Sink::Full(j)) => {
+                    for c in 0..k {
+                        j[(row, c)] = 0.0;
+                    }
+                    j[(row, p.column)] = p.weight;
+                }
+                Some(Sink::Rows(acc)) => {
+                    qr_row.fill(0.0);
+                    qr_row[p.column] = p.weight;
+                    qr_row[k] = r;
+                    acc.push(&qr_row);
+                }
+                None => {}
+            }
+            row += 1;
         }
         res.iter().map(|r| r * r).sum()
     }

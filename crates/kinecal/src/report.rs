@@ -44,6 +44,43 @@ pub struct ParameterReport {
     /// Whether the change is within the noise (below 2 sigma).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub within_noise: Option<bool>,
+    /// The standard deviation of its prior (same unit), when the calibration had a prior on it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_sigma: Option<f64>,
+    /// With a prior: the data's share in its estimate, `1 - var_post / var_prior` on the
+    /// information (1: the data determine it; 0: the prior alone does).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_share: Option<f64>,
+    /// With a prior, what determines it: `data` (the data alone determine it individually),
+    /// `data and prior` (the data determine only combinations of it with others, the prior
+    /// splits them) or `prior` (the prior alone: the data give under 1 % of its information).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub determined_by: Option<String>,
+}
+
+/// The Gaussian prior of a calibration and its part in the result.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+pub struct PriorReport {
+    /// The prior as written (the robot file's units): `length=0.1,angle=0.01,link3.y=0.5`.
+    pub prior: String,
+    /// Its residual rows: one per estimated parameter it covers.
+    pub rows: usize,
+    /// The data's part of the objective after (the report's `objective_after`).
+    pub data_objective_after: f64,
+    /// The prior's part of the objective after: `sum ((p - p0) / s_p)^2` (dimensionless).
+    pub prior_objective_after: f64,
+    /// The numerical rank of the estimated parameters on the data alone (the report's `rank`
+    /// is that of the data and the prior together).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data_rank: Option<usize>,
+    /// Estimated parameters the prior alone determines: the data give under 1 % of their
+    /// information (ids).
+    #[serde(default)]
+    pub determined_by_prior_alone: Vec<String>,
+    /// Estimated parameters the data determine only in combination with others, which the
+    /// prior splits (ids).
+    #[serde(default)]
+    pub split_by_prior: Vec<String>,
 }
 
 /// A member of a determined combination.
@@ -661,13 +698,19 @@ pub struct CalibrationReport {
     pub warning_details: Vec<Warning>,
     /// `solver` or `min-change`.
     pub solution: String,
-    /// Variance factor `SSR / (m - rank)`: about 1 when the weights match the noise.
+    /// Variance factor `SSR / (m - rank)` (with a prior, `SSR / (m - tr H_data)`, the data's rows
+    /// less their leverage): about 1 when the weights match the noise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub variance_factor: Option<f64>,
-    /// Numerical rank of the estimated parameters.
+    /// Numerical rank of the estimated parameters (with a prior, of the data and the prior
+    /// together).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rank: Option<usize>,
-    /// Estimated parameters the data does not determine individually.
+    /// The Gaussian prior on the parameters' changes, when the calibration had one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<PriorReport>,
+    /// Estimated parameters the data does not determine individually (with a prior, the data
+    /// and the prior together).
     pub undetermined: Vec<String>,
     /// Determined combinations of identically redundant groups.
     pub combinations: Vec<CombinationReport>,
@@ -909,10 +952,26 @@ impl CalibrationReport {
                     sigma: None,
                     significance: None,
                     within_noise: None,
+                    prior_sigma: None,
+                    data_share: None,
+                    determined_by: None,
                 }
             })
             .collect();
         let (b, a) = (&cal.accuracy_before, &cal.accuracy_after);
+        let prior = (!cal.options.prior.is_empty()).then(|| PriorReport {
+            prior: crate::prior::describe(&cal.options.prior, robot),
+            rows: cal
+                .estimated
+                .iter()
+                .filter(|&&id| cal.options.prior.sigma(&cal.initial, id).is_some())
+                .count(),
+            data_objective_after: cal.objective_after,
+            prior_objective_after: cal.prior_objective,
+            data_rank: None,
+            determined_by_prior_alone: Vec::new(),
+            split_by_prior: Vec::new(),
+        });
         let poses = b.orientations > 0;
         CalibrationReport {
             schema_version: SCHEMA_VERSION,
@@ -966,6 +1025,7 @@ impl CalibrationReport {
             solution: "solver".to_string(),
             variance_factor: None,
             rank: None,
+            prior,
             undetermined: Vec::new(),
             combinations: Vec::new(),
             correlations: Vec::new(),
@@ -1118,9 +1178,27 @@ impl CalibrationReport {
             p.sigma = pu.sigma;
             p.significance = pu.significance;
             p.within_noise = pu.significance.map(|s| s < NOISE_SIGMAS);
+            p.prior_sigma = pu.prior_sigma;
+            p.data_share = pu.data_share;
+            p.determined_by = pu.determined_by.map(|d| d.as_str().to_string());
+            if let Some(prior) = self.prior.as_mut() {
+                use crate::uncertainty::DeterminedBy;
+                match pu.determined_by {
+                    Some(DeterminedBy::Prior) => {
+                        prior.determined_by_prior_alone.push(pu.id.to_string())
+                    }
+                    Some(DeterminedBy::DataAndPrior) => {
+                        prior.split_by_prior.push(pu.id.to_string())
+                    }
+                    _ => {}
+                }
+            }
             if !pu.determined {
                 self.undetermined.push(pu.id.to_string());
             }
+        }
+        if let Some(prior) = self.prior.as_mut() {
+            prior.data_rank = Some(an.data_rank);
         }
         self.combinations = u
             .combinations

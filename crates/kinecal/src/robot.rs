@@ -498,6 +498,9 @@ pub struct Robot {
     pub sessions: Vec<Session>,
     /// Expected deviations from nominal, the metric of minimum-change solutions.
     pub tolerances: Tolerances,
+    /// The robot file's `[priors]`: the Gaussian prior a calibration puts on each parameter's
+    /// change unless told otherwise (empty when the file has none).
+    pub priors: Prior,
     /// The mass model, for a robot whose joints yield under gravity.
     pub elastic: Option<Elastic>,
 }
@@ -533,6 +536,70 @@ impl Default for Tolerances {
             slope_fraction: 0.01,
             overrides: Vec::new(),
         }
+    }
+}
+
+/// A Gaussian prior on the parameters' changes from their starting values: per parameter, the
+/// standard deviation (internal units) of its change, by group and per parameter. A calibration
+/// with a prior minimises the data's weighted squared residuals plus `sum ((p - p0) / s_p)^2`
+/// over the estimated parameters with a standard deviation `s_p` (see [`crate::problem`]).
+/// Written as `length=L,angle=A,slope=F,compliance=C,NAME=V` (the robot file's units; slopes as
+/// a fraction, as in [`Tolerances`]) on the command line and in a robot file's `[priors]` table
+/// (read by `crate::prior`). Groups not given leave their parameters without a prior; an empty
+/// prior is none.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Prior {
+    /// For link, site and session positions, plane offsets and prismatic offsets (m).
+    pub length: Option<f64>,
+    /// For link, site and session angles, plane tilts and revolute offsets (rad).
+    pub angle: Option<f64>,
+    /// For slopes and coupling factors, as a fraction of the value (of at least 1 for a
+    /// coupling factor), as for [`Tolerances::slope_fraction`].
+    pub slope: Option<f64>,
+    /// For joint and lateral compliances (rad/(N m)).
+    pub compliance: Option<f64>,
+    /// Per-parameter standard deviations (internal units), overriding the groups.
+    pub overrides: Vec<(ParamId, f64)>,
+}
+
+impl Prior {
+    /// No prior at all: no group and no parameter has a standard deviation.
+    pub fn is_empty(&self) -> bool {
+        self.length.is_none()
+            && self.angle.is_none()
+            && self.slope.is_none()
+            && self.compliance.is_none()
+            && self.overrides.is_empty()
+    }
+
+    /// The prior the tolerances make: the same expected deviations (`[tolerances]` read as
+    /// standard deviations), compliances without one.
+    pub fn from_tolerances(t: &Tolerances) -> Prior {
+        Prior {
+            length: Some(t.length),
+            angle: Some(t.angle),
+            slope: Some(t.slope_fraction),
+            compliance: None,
+            overrides: t.overrides.clone(),
+        }
+    }
+
+    /// The standard deviation (internal units) of parameter `id`'s change, when it has a
+    /// prior; `robot` gives the parameter's kind and, for slopes and couplings, the value the
+    /// fraction is of.
+    pub fn sigma(&self, robot: &Robot, id: ParamId) -> Option<f64> {
+        if let Some(&(_, s)) = self.overrides.iter().find(|(p, _)| *p == id) {
+            return Some(s);
+        }
+        let s = match (robot.param_kind(id), robot.param_quantity(id)) {
+            (ParamKind::Slope { .. }, _) => self.slope? * robot.get(id).abs(),
+            (ParamKind::Coupling { .. }, _) => self.slope? * robot.get(id).abs().max(1.0),
+            (_, Quantity::Length) => self.length?,
+            (_, Quantity::Compliance) => self.compliance?,
+            _ => self.angle?,
+        };
+        // A slope of 0 (never a valid one) has no scale to take a fraction of.
+        (s > 0.0 && s.is_finite()).then_some(s)
     }
 }
 

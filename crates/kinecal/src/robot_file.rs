@@ -26,6 +26,10 @@
 //! name = "C"              # the observations' `session`
 //! x = 508.0               # the robot's global frame in the session's measurement frame:
 //! gamma = 1.5             # x, y, z, alpha, beta, gamma as for links
+//! [tolerances]            # optional: expected deviations, the metric of minimum-change answers
+//! length = 0.04           # length, angle (file units), slope (a fraction), any parameter
+//! [priors]                # optional: a calibration's Gaussian prior on the changes (the same
+//! angle = 0.02            # keys as [tolerances], and compliance); `--prior` overrides it
 //! ```
 //!
 //! A mass model ([`crate::robot::Elastic`]) makes the robot elastic: its joints yield to the
@@ -638,6 +642,7 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         planes,
         sessions,
         tolerances: Default::default(),
+        priors: Default::default(),
         elastic: None,
     };
     robot
@@ -674,6 +679,17 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 }
             }
         }
+    }
+    // The prior on the parameters' changes (standard deviations), keyed as [tolerances] is.
+    if let Some(t) = r.table(root, "priors")? {
+        let mut prior = crate::robot::Prior::default();
+        for (key, item) in t.iter() {
+            let field = format!("priors.{key}");
+            let v = r.number(&t, key, &field)?.expect("key exists");
+            crate::prior::set_key(&mut prior, key, v, &robot)
+                .map_err(|m| r.err(item.span(), &field, m))?;
+        }
+        robot.priors = prior;
     }
     Ok(robot)
 }

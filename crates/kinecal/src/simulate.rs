@@ -216,6 +216,7 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
         planes: Vec::new(),
         sessions: Vec::new(),
         tolerances: Default::default(),
+        priors: Default::default(),
         elastic: None,
     }
 }

@@ -97,6 +97,12 @@ pub struct SelectionSpec {
     /// Remove, one at a time, changes below this many standard deviations.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prune: Option<f64>,
+    /// A Gaussian prior on the parameters' changes from the start
+    /// ([`crate::prior::parse_prior`]): `length=L,angle=A[,slope=F][,compliance=C]` and
+    /// parameters `NAME=V` in the robot file's units, `tolerances` or `none`; the robot file's
+    /// `[priors]` when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior: Option<String>,
 }
 
 /// The method and its stopping rules (`[solver]`).
@@ -443,6 +449,10 @@ impl CalibrationSpec {
                 Selection::parse(s.estimate.as_deref().unwrap_or(""), s.fix.as_deref(), robot)?;
         }
         req.prune = s.prune;
+        req.prior = match &s.prior {
+            Some(text) => crate::prior::parse_prior(text, robot)?,
+            None => robot.priors.clone(),
+        };
         if let Some(guess) = &initial {
             if !robot.same_structure(guess) {
                 return Err(invalid(
@@ -698,6 +708,7 @@ mod tests {
                 estimate: Some("identifiable,slopes".into()),
                 fix: Some("base".into()),
                 prune: Some(2.0),
+                prior: Some("length=0.1,angle=0.01".into()),
             },
             solver: SolverSpec {
                 method: Method::Svd,

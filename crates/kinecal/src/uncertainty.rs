@@ -15,6 +15,24 @@
 //! parallelism by a little, which would turn each exact redundancy into a barely determined
 //! direction with an enormous standard deviation. To first order in the (small) parameter
 //! changes the covariance is the same.
+//!
+//! **With a prior** (see [`crate::problem`]) its `k` rows are rows like the data's `m`: the
+//! rank `r` and the determined directions are those of the two together, the covariance is the
+//! posterior one, `s0^2 (J^T W J + P)^+` with `P = diag(1 / s_p^2)` (scaled and truncated as
+//! above), and [`Uncertainty::dof`] counts `m + k - r`. The variance factor, though, is the
+//! data's: `s0^2 = SSR / (m - tr H_data)`, the data's squared residuals over the data's rows less
+//! their leverage, `tr H_data = tr((J^T W J + P)^+ J^T W J) = r - sum_p C_pp / s_p^2` (`C` the
+//! unscaled inverse information; the prior rows' leverage is `C_pp / s_p^2`). Why not `(SSR +
+//! SSP) / (m + k - r)`, the prior's rows counted as observations: both are unbiased when the
+//! prior's sigmas are the real spread of the changes, but the prior's residuals measure how far
+//! the data pulled each parameter, not the measurement noise. A prior far wider than the
+//! changes would add `k` degrees of freedom and nothing to the sum (shrinking `s0^2` by up to
+//! `(m - n) / m`), where this one tends to `SSR / (m - r)`, as without a prior; a prior that holds
+//! parameters tightly takes their degrees of freedom from the count, not the data's. The
+//! prior's sigmas are scaled by `s0` with the data's (stated on the same footing as the
+//! weights). Each parameter's [`ParameterUncertainty::data_share`] is the diagonal of the
+//! resolution matrix `(J^T W J + P)^-1 J^T W J`, `1 - C_pp / s_p^2`: 1 when the data determine
+//! it alone, 0 when the prior does.
 
 use crate::error::{Error, Result};
 use crate::estimation::Calibration;
@@ -41,7 +59,45 @@ pub struct ParameterUncertainty {
     pub change: f64,
     /// `|change| / sigma`, when determined.
     pub significance: Option<f64>,
+    /// The standard deviation of its prior (file units), when it has one.
+    pub prior_sigma: Option<f64>,
+    /// With a prior: the share of the data in its estimate, `1 - var_post / var_prior` on the
+    /// unscaled information (the resolution matrix's diagonal): 1 when the data determine it,
+    /// near 0 when only the prior does.
+    pub data_share: Option<f64>,
+    /// With a prior, what determines it (absent without a prior, or when it is not
+    /// determined).
+    pub determined_by: Option<DeterminedBy>,
 }
+
+/// What determines an estimate when the calibration has a prior.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DeterminedBy {
+    /// The data alone determine it individually (the prior only tightens it, giving at most
+    /// 99 % of its information).
+    Data,
+    /// The data determine only combinations of it with others; the prior splits them.
+    DataAndPrior,
+    /// The prior alone: the data give less than [`PRIOR_ALONE_SHARE`] of its information (its
+    /// [`ParameterUncertainty::data_share`]): none when no observation feels it, next to
+    /// nothing when its prior is far tighter than what the data tell.
+    Prior,
+}
+
+impl DeterminedBy {
+    /// `data`, `data and prior`, `prior`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DeterminedBy::Data => "data",
+            DeterminedBy::DataAndPrior => "data and prior",
+            DeterminedBy::Prior => "prior",
+        }
+    }
+}
+
+/// A parameter whose data share is below this (1 %) is determined by the prior alone: its
+/// posterior variance is within 1 % of its prior variance.
+pub const PRIOR_ALONE_SHARE: f64 = 0.01;
 
 /// A combination the data determines although its members are not (an identical group).
 #[derive(Debug, Clone, PartialEq)]
@@ -61,10 +117,15 @@ pub struct CombinationUncertainty {
 /// The uncertainty of a calibration.
 #[derive(Debug, Clone)]
 pub struct Uncertainty {
-    /// Variance factor `s0^2 = SSR / (m - r)`.
+    /// Variance factor `s0^2 = SSR / (m - r)` (with a prior, `SSR / (m - tr H_data)`: see the
+    /// module documentation).
     pub variance_factor: f64,
-    /// Degrees of freedom `m - r`.
+    /// Degrees of freedom `m - r` (with a prior, the rows of the data and the prior less the
+    /// rank: `m + k - r`).
     pub dof: usize,
+    /// The data's redundancy the variance factor divides by: `m - r` without a prior, `m -
+    /// tr H_data` with one (see the module documentation).
+    pub redundancy: f64,
     /// Per estimated parameter.
     pub parameters: Vec<ParameterUncertainty>,
     /// Determined combinations of identically redundant groups (groups whose members also take
@@ -139,6 +200,7 @@ pub fn uncertainty(
     let opts = AnalysisOptions {
         weights: cal.options.weights,
         orientation: cal.options.orientation,
+        prior: cal.options.prior.clone(),
         ..Default::default()
     };
     let analysis = analyze_core(nominal, data, &cal.estimated, &opts)?;
@@ -160,6 +222,7 @@ pub fn uncertainty_of_fit(
             let opts = AnalysisOptions {
                 weights: cal.options.weights,
                 orientation: cal.options.orientation,
+                prior: cal.options.prior.clone(),
                 ..Default::default()
             };
             from_analysis(
@@ -181,11 +244,11 @@ fn from_analysis(cal: &Calibration, analysis: Analysis) -> Result<Uncertainty> {
         });
     }
     let dof = m - r;
-    let variance_factor = cal.objective_after / dof as f64;
     // Covariance in internal units: s0^2 D^-1 V_r S_r^-2 V_r^T D^-1.
     let v = &analysis.right_singular_vectors;
     let s = &analysis.singular_values_scaled;
     let d = analysis.column_norms.clone();
+    // The inverse information first (the resolution needs it unscaled), then times s0^2.
     let mut covariance = vec![vec![0.0; n]; n];
     for (a, row) in covariance.iter_mut().enumerate() {
         for (b, c) in row.iter_mut().enumerate() {
@@ -193,12 +256,38 @@ fn from_analysis(cal: &Calibration, analysis: Analysis) -> Result<Uncertainty> {
                 continue;
             }
             let sum: f64 = (0..r).map(|k| v[(a, k)] * v[(b, k)] / (s[k] * s[k])).sum();
-            *c = variance_factor * sum / (d[a] * d[b]);
+            *c = sum / (d[a] * d[b]);
         }
     }
+    let inverse_information: Vec<f64> = (0..n).map(|a| covariance[a][a]).collect();
+    // The prior's sigmas (internal units) and the leverage of its rows, `C_kk / s_k^2`.
+    let prior_sigma: Vec<Option<f64>> = analysis
+        .parameters
+        .iter()
+        .map(|&id| cal.options.prior.sigma(&cal.initial, id))
+        .collect();
+    let prior_leverage: f64 = prior_sigma
+        .iter()
+        .zip(&inverse_information)
+        .filter_map(|(s, c)| s.map(|s| (c / (s * s)).min(1.0)))
+        .sum();
+    // The data's redundancy: its rows less their leverage (the rank less the prior rows').
+    let redundancy = (m - analysis.prior_rows) as f64 - (r as f64 - prior_leverage);
+    if redundancy <= 0.5 {
+        return Err(Error::NoDegreesOfFreedom {
+            residuals: m - analysis.prior_rows,
+            rank: r,
+        });
+    }
+    let variance_factor = cal.objective_after / redundancy;
+    for c in covariance.iter_mut().flatten() {
+        *c *= variance_factor;
+    }
+    let with_prior = !cal.options.prior.is_empty();
     let mut u = Uncertainty {
         variance_factor,
         dof,
+        redundancy,
         parameters: Vec::new(),
         combinations: Vec::new(),
         correlations: Vec::new(),
@@ -217,12 +306,28 @@ fn from_analysis(cal: &Calibration, analysis: Analysis) -> Result<Uncertainty> {
                 f64::INFINITY
             }
         });
+        let prior = prior_sigma[k];
+        let data_share = prior
+            .filter(|_| determined)
+            .map(|p| (1.0 - inverse_information[k] / (p * p)).clamp(0.0, 1.0));
+        let determined_by = (with_prior && determined).then(|| {
+            if data_share.is_some_and(|s| s < PRIOR_ALONE_SHARE) {
+                DeterminedBy::Prior
+            } else if u.analysis.determined_by_data[k] {
+                DeterminedBy::Data
+            } else {
+                DeterminedBy::DataAndPrior
+            }
+        });
         u.parameters.push(ParameterUncertainty {
             id,
             determined,
             sigma,
             change,
             significance,
+            prior_sigma: prior.map(|p| p / f),
+            data_share,
+            determined_by,
         });
     }
     for g in u

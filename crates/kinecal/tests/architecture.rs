@@ -56,6 +56,8 @@ fn modules_import_in_one_direction() {
         "kinematics",
         // The compliance groups leave out the joints gravity cannot load.
         "param_list",
+        // Priors are written as keyed parameter lists; robot files have them.
+        "prior",
         "source",
         "warning",
         "robot_file",

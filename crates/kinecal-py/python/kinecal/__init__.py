@@ -327,6 +327,7 @@ def calibrate(
     outlier_sigma: float | None = None,
     choose: Sequence[str] | None = None,
     repeats: int | None = None,
+    prior: str | None = None,
 ) -> Calibration:
     """Calibrates ``robot`` on ``data``: the same workflow as ``kinecal calibrate``.
 
@@ -340,7 +341,10 @@ def calibrate(
     ``seed``) or ``folds`` (k-fold cross-validation) checks the result. ``prune``: drop
     changes below this many standard deviations. ``solution``: ``"solver"`` or
     ``"min-change"``. ``choose``: model candidates (as ``--choose`` takes them; ``[]`` for the
-    defaults) chosen among by ``folds`` (default 5) repeated ``repeats`` times.
+    defaults) chosen among by ``folds`` (default 5) repeated ``repeats`` times. ``prior``: a
+    Gaussian prior on each parameter's change, as ``--prior`` takes it
+    (``"length=0.1,angle=0.05"`` in file units, slopes as a fraction, per-parameter entries
+    ``"link3.y=0.5"``; ``"tolerances"``; ``"none"``); by default the robot file's ``[priors]``.
 
     ``calibrate(spec)`` runs a whole job instead: ``spec`` is a calibration spec, the document
     ``kinecal calibrate --spec`` reads, as a dict (``{"robot": "arm.toml", "observations":
@@ -376,6 +380,7 @@ def calibrate(
         outlier_sigma=outlier_sigma,
         choose=None if choose is None else list(choose),
         repeats=repeats,
+        prior=prior,
     )
     return Calibration(robot_out, report, details)
 

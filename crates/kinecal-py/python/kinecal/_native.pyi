@@ -204,6 +204,7 @@ def calibrate(
     outlier_sigma: float | None = None,
     choose: list[str] | None = None,
     repeats: int | None = None,
+    prior: str | None = None,
 ) -> tuple[Robot, str, dict[str, Any]]:
     """The calibrated robot, the report as JSON text and the outcome's arrays
     (``covariance``, ``covariance_names``, ``residuals``, ``residual_rows``)."""

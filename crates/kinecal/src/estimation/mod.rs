@@ -32,7 +32,7 @@ use crate::linalg::{Matrix, QrAccumulator, QR_BLOCK};
 use crate::observe::{Accuracy, Dataset, OrientationError, Weights};
 use crate::params::ParamId;
 use crate::problem::{Linearized, Problem};
-use crate::robot::Robot;
+use crate::robot::{Prior, Robot};
 use crate::units::{wrap_angle, Quantity};
 
 /// Everything that decides an estimation.
@@ -48,6 +48,9 @@ pub struct CalibrationOptions {
     pub orientation: OrientationError,
     /// The loss applied to the weighted residuals.
     pub loss: Loss,
+    /// A Gaussian prior on the estimated parameters' changes from the start (empty: none):
+    /// one residual row per parameter it covers (see [`crate::problem`]).
+    pub prior: Prior,
 }
 
 /// The loss applied to each weighted residual `r` (in standard deviations).
@@ -117,6 +120,7 @@ impl CalibrationOptions {
             weights: Weights::default(),
             orientation: OrientationError::RotVec,
             loss: Loss::Squared,
+            prior: Prior::default(),
         }
     }
 }
@@ -138,10 +142,15 @@ pub struct Calibration {
     pub stationarity: Stationarity,
     /// Iterations run.
     pub iterations: usize,
-    /// Weighted sum of squared residuals before.
+    /// Weighted sum of squared residuals of the data before (the prior's are 0 at the start).
     pub objective_before: f64,
-    /// Weighted sum of squared residuals after (with the robust loss's final row weights).
+    /// Weighted sum of squared residuals of the data after (with the robust loss's final row
+    /// weights); the prior's are [`Calibration::prior_objective`], and the solver minimised
+    /// their sum.
     pub objective_after: f64,
+    /// The prior's part of the objective after: `sum ((p - p0) / s_p)^2` over the estimated
+    /// parameters with a prior (0 without one).
+    pub prior_objective: f64,
     /// Unweighted errors before.
     pub accuracy_before: Accuracy,
     /// Unweighted errors after.
@@ -149,12 +158,12 @@ pub struct Calibration {
     /// Estimated parameters no residual felt at the start: they keep their initial values.
     pub unfelt: Vec<ParamId>,
     /// The robust loss's final row scale (square roots of its weights; all 1 for least
-    /// squares), one per residual row.
+    /// squares), one per residual row of the data.
     pub row_scale: Vec<f64>,
     /// Per-iteration log.
     pub log: Vec<Iteration>,
     /// The weighted residuals of `calibrated` (without the robust loss's row scale), one per
-    /// row of the problem.
+    /// row of the data (the prior's rows left out).
     pub residuals: Vec<f64>,
     /// The linearisation at `initial`: the `R` of the QR of the weighted `[J | r]` over
     /// `estimated` (see [`solver::Solution::start_r`]), when the solver computed it there;
@@ -168,7 +177,7 @@ impl Calibration {
         self.termination.converged()
     }
 
-    /// The problem the calibration solved, as its loss weighted it.
+    /// The problem the calibration solved, as its loss weighted it (with its prior's rows).
     pub fn problem<'a>(&'a self, data: &'a Dataset) -> Problem<'a> {
         Problem::new(
             &self.initial,
@@ -178,29 +187,39 @@ impl Calibration {
             self.options.orientation,
         )
         .with_row_scale(&self.row_scale)
+        .with_prior(&self.options.prior)
+    }
+
+    /// The whole objective the solver minimised: the data's and the prior's.
+    pub fn total_objective(&self) -> f64 {
+        self.objective_after + self.prior_objective
     }
 }
 
-/// The weighted residuals of `robot` (without the row scale) into `residuals`, the objective
-/// under `loss` (with the robust loss's row scale `row_scale`), and the accuracy: one pass of
-/// forward kinematics.
+/// The weighted residuals of the data at `robot` (without the row scale) into `residuals`
+/// (one per row of the data), the data's objective under `loss` (with the robust loss's row
+/// scale `row_scale`), the prior's, and the accuracy: one pass of forward kinematics.
 pub(crate) fn settle(
     problem: &Problem<'_>,
     robot: &Robot,
     loss: Loss,
     row_scale: &[f64],
     residuals: &mut [f64],
-) -> (f64, Accuracy) {
-    let (plain, accuracy) = problem.evaluate_checked(robot, residuals);
-    if matches!(loss, Loss::Squared) {
-        return (plain, accuracy);
-    }
-    let objective = residuals
-        .iter()
-        .zip(row_scale)
-        .map(|(r, s)| (r * s) * (r * s))
-        .sum();
-    (objective, accuracy)
+) -> (f64, f64, Accuracy) {
+    let mut all = vec![0.0; problem.rows()];
+    let (_, accuracy) = problem.evaluate_checked(robot, &mut all);
+    let nd = problem.data_rows();
+    residuals.copy_from_slice(&all[..nd]);
+    let prior = all[nd..].iter().map(|r| r * r).sum();
+    let data = match loss {
+        Loss::Squared => residuals.iter().map(|r| r * r).sum(),
+        Loss::Huber { .. } => residuals
+            .iter()
+            .zip(row_scale)
+            .map(|(r, s)| (r * s) * (r * s))
+            .sum(),
+    };
+    (data, prior, accuracy)
 }
 
 /// Estimates `opts.estimate` of `initial` from `data`, keeping the other parameters.
@@ -245,7 +264,8 @@ pub(crate) fn calibrate_from(
         opts.weights,
         opts.orientation,
     )
-    .with_reading_trig();
+    .with_reading_trig()
+    .with_prior(&opts.prior);
     if problem.rows() < problem.cols() {
         return Err(Error::TooFewResiduals {
             residuals: problem.rows(),
@@ -271,10 +291,13 @@ pub(crate) fn calibrate_from(
         match start.and_then(|l| Some((l.restricted(&opts.estimate)?, l.accuracy.clone()))) {
             Some(given) => given,
             None => {
+                // The data's rows only: the prior's are added below (the uncertainty at the
+                // start wants the data's R).
+                let data_only = problem.clone().with_prior(&Prior::default());
                 let n = problem.cols();
                 let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
-                let mut r = vec![0.0; problem.rows()];
-                let (f, accuracy) = problem.evaluate_qr_checked(initial, &mut r, &mut acc);
+                let mut r = vec![0.0; data_only.rows()];
+                let (f, accuracy) = data_only.evaluate_qr_checked(initial, &mut r, &mut acc);
                 if !f.is_finite() {
                     return Err(non_finite_start(&problem, &r));
                 }
@@ -283,6 +306,8 @@ pub(crate) fn calibrate_from(
                 (r0, accuracy)
             }
         };
+    // The solver's start: the data's R with the prior's rows folded in (they are 0 there).
+    let solver_start = problem.with_prior_rows(&start_r);
     let mut sol = solver::drive(
         &problem,
         &x0,
@@ -292,17 +317,19 @@ pub(crate) fn calibrate_from(
             log.push(*it);
             observer(it);
         },
-        Some(&start_r),
+        Some(&solver_start),
     )?;
     let unfelt: Vec<ParamId> = sol.unfelt.iter().map(|&j| opts.estimate[j]).collect();
     // Huber loss: iteratively reweighted least squares, weights min(1, k/|r|) per residual.
-    let mut row_scale = vec![1.0; problem.rows()];
+    let mut row_scale = vec![1.0; problem.data_rows()];
     if let Loss::Huber { k, spread } = opts.loss {
-        let mut r = vec![0.0; problem.rows()];
+        let mut all = vec![0.0; problem.rows()];
         for _ in 0..50 {
-            problem.evaluate(&problem.robot_at(&sol.x), &mut r, None);
+            problem.evaluate(&problem.robot_at(&sol.x), &mut all, None);
+            // The data's rows: the prior's keep weight 1.
+            let r = &all[..problem.data_rows()];
             let s = match spread {
-                Spread::Robust => crate::observe::RobustSpread::of(data, &r).per_row,
+                Spread::Robust => crate::observe::RobustSpread::of(data, r).per_row,
                 Spread::Stated => vec![1.0; r.len()],
             };
             let new: Vec<f64> = r
@@ -337,8 +364,8 @@ pub(crate) fn calibrate_from(
             calibrated.set(id, v0 + wrap_angle(calibrated.get(id) - v0));
         }
     }
-    let mut residuals = vec![0.0; problem.rows()];
-    let (objective_after, accuracy_after) =
+    let mut residuals = vec![0.0; problem.data_rows()];
+    let (objective_after, prior_objective, accuracy_after) =
         settle(&problem, &calibrated, opts.loss, &row_scale, &mut residuals);
     Ok(Calibration {
         accuracy_before,
@@ -352,6 +379,7 @@ pub(crate) fn calibrate_from(
         iterations: sol.iterations,
         objective_before: sol.objective_before,
         objective_after,
+        prior_objective,
         unfelt,
         row_scale,
         log,

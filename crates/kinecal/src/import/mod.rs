@@ -98,6 +98,7 @@ pub fn chain_from_frames(
         planes: Vec::new(),
         sessions: Vec::new(),
         tolerances: Tolerances::default(),
+        priors: Default::default(),
         elastic: None,
     }
 }

@@ -59,6 +59,7 @@ pub fn assess(
     let cal = Calibration {
         objective_before,
         objective_after,
+        prior_objective: 0.0,
         accuracy_before,
         accuracy_after,
         initial: nominal.clone(),

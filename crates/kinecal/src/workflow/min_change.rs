@@ -51,9 +51,12 @@ pub(super) fn project_min_change(
     for &id in problem.estimated() {
         robot.set(id, reference.get(id));
     }
+    // With a prior, the answers equally good for the data and the prior together: none where
+    // the prior covers every estimated parameter.
     let aopts = AnalysisOptions {
         weights: opts.weights,
         orientation: opts.orientation,
+        prior: opts.prior.clone(),
         ..Default::default()
     };
     let a = identifiability::analyze_core(&robot, data, problem.estimated(), &aopts)?;

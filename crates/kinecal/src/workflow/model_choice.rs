@@ -2,7 +2,7 @@
 //! simplest within one standard error of the best chosen.
 
 use crate::error::{Error, Result};
-use crate::robot::Robot;
+use crate::robot::{Prior, Robot};
 use crate::units::Quantity;
 
 use super::cross_validation::cross_validate;
@@ -10,26 +10,42 @@ use super::outcome::Outcome;
 use super::run::{run, Request, Validation};
 use super::selection::Selection;
 
-/// A candidate model for [`choose`]: what to estimate, and whether to prune.
+/// A candidate model for [`choose`]: what to estimate, whether to prune, and under which
+/// prior.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
-    /// How it is written (`identifiable,slopes prune=3`).
+    /// How it is written (`identifiable,slopes prune=3`, `all prior=length=0.1,angle=0.01`).
     pub label: String,
     /// What to estimate.
     pub selection: Selection,
     /// Pruning threshold, if any.
     pub prune: Option<f64>,
+    /// The prior of this candidate ([`crate::prior::parse_prior`]; `none` for none); `None`:
+    /// the request's.
+    pub prior: Option<Prior>,
 }
 
 impl Candidate {
-    /// Parses `LIST [fix=LIST] [prune=K]` (a parameter list as for [`Selection::parse`]).
+    /// Parses `LIST [fix=LIST] [prune=K] [prior=PRIOR]` (a parameter list as for
+    /// [`Selection::parse`], a prior as for [`crate::prior::parse_prior`], without spaces).
+    /// Candidates that differ only in the strength of their prior compare it: list the
+    /// strongest prior (the most constrained model) first, as the one-standard-error rule takes
+    /// the first candidate within reach of the best.
     pub fn parse(text: &str, robot: &Robot) -> Result<Candidate> {
         let mut words = text.split_whitespace();
         let list = words.next().unwrap_or("");
-        let (mut fix, mut prune) = (None, None);
+        let (mut fix, mut prune, mut prior) = (None, None, None);
         for w in words {
             match w.split_once('=') {
                 Some(("fix", f)) => fix = Some(f),
+                Some(("prior", p)) => {
+                    prior = Some(crate::prior::parse_prior(p, robot).map_err(|e| {
+                        Error::InvalidOption {
+                            setting: crate::error::Setting::ModelCandidate,
+                            message: format!("`{text}`: prior: {}", inner_message(e)),
+                        }
+                    })?)
+                }
                 Some(("prune", k)) => {
                     prune = Some(
                         k.parse::<f64>()
@@ -45,7 +61,8 @@ impl Candidate {
                     return Err(Error::InvalidOption {
                         setting: crate::error::Setting::ModelCandidate,
                         message: format!(
-                            "`{text}`: expected `LIST [fix=LIST] [prune=K]`, found `{w}`"
+                            "`{text}`: expected `LIST [fix=LIST] [prune=K] [prior=PRIOR]`, found \
+                             `{w}`"
                         ),
                     })
                 }
@@ -55,6 +72,7 @@ impl Candidate {
             label: text.split_whitespace().collect::<Vec<_>>().join(" "),
             selection: Selection::parse(list, fix, robot)?,
             prune,
+            prior,
         })
     }
 
@@ -80,6 +98,14 @@ impl Candidate {
             ]);
         }
         texts.iter().map(|t| Candidate::parse(t, robot)).collect()
+    }
+}
+
+/// The message of an invalid setting (without the setting's name), else the error's words.
+fn inner_message(e: Error) -> String {
+    match e {
+        Error::InvalidOption { message, .. } => message,
+        e => e.to_string(),
     }
 }
 
@@ -140,6 +166,9 @@ pub fn choose(
         let mut sub = req.clone();
         sub.selection = c.selection.clone();
         sub.prune = c.prune;
+        if let Some(p) = &c.prior {
+            sub.prior = p.clone();
+        }
         sub.validation = Validation::Folds { k, seed };
         let out = run(&sub, &mut ())?;
         let cv = out.cross_validation.as_ref().expect("folds asked for");
@@ -176,6 +205,9 @@ pub fn choose(
         let mut sub = req.clone();
         sub.selection = candidates[chosen].selection.clone();
         sub.prune = candidates[chosen].prune;
+        if let Some(p) = &candidates[chosen].prior {
+            sub.prior = p.clone();
+        }
         let mut checked = run(&sub, &mut ())?;
         checked.report.cross_validation = outcome.report.cross_validation.take();
         checked.cross_validation = outcome.cross_validation.take();

@@ -83,6 +83,10 @@ pub struct Request {
     pub priority: Vec<ParamId>,
     /// Relative singular-value tolerance of the identifiability analysis.
     pub rank_rcond: f64,
+    /// A Gaussian prior on the estimated parameters' changes from the solver's start (empty:
+    /// none; see [`crate::problem`]). It enters the fit, the uncertainty and the minimum-change
+    /// answer; the identifiable set of a [`Selection::Identifiable`] is the data's alone.
+    pub prior: crate::robot::Prior,
     /// The files read (for the report's fingerprints): the robot file first, then the data.
     pub sources: Vec<Source>,
 }
@@ -106,6 +110,7 @@ impl Request {
             outlier_sigmas: outliers::DEFAULT_SIGMAS,
             priority: Vec::new(),
             rank_rcond: identifiability::DEFAULT_RANK_RCOND,
+            prior: crate::robot::Prior::default(),
             sources: Vec::new(),
         }
     }
@@ -117,6 +122,7 @@ impl Request {
             orientation: self.orientation,
             priority: self.priority.clone(),
             noise_scale: 1.0,
+            prior: crate::robot::Prior::default(),
         }
     }
 }
@@ -405,6 +411,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         weights: req.weights,
         orientation: req.orientation,
         loss: req.loss,
+        prior: req.prior.clone(),
     };
     progress.phase(Phase::Estimation);
     let mut opts = opts;
@@ -567,6 +574,7 @@ fn rigid_fit(robot: &Robot, data: &Dataset, candidates: &[ParamId], req: &Reques
         weights: req.weights,
         orientation: req.orientation,
         loss: Loss::Squared,
+        prior: crate::robot::Prior::default(),
     };
     match estimation::calibrate(robot, data, &opts, &mut |_| {}) {
         Ok(c) if c.objective_after < c.objective_before && c.calibrated.validate().is_ok() => {
@@ -589,7 +597,9 @@ fn fit(
         estimation::calibrate_from(start, data, opts, &mut |it| progress.iteration(it), lin)?;
     if req.solution == SolutionRule::MinChange {
         let problem = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
-        let problem = problem.with_row_scale(&cal.row_scale);
+        let problem = problem
+            .with_row_scale(&cal.row_scale)
+            .with_prior(&opts.prior);
         let mut x = problem.values(&cal.calibrated);
         for _round in 0..10 {
             let (projected, size) = project_min_change(&problem, &x, &req.robot, data, opts)?;
@@ -611,8 +621,9 @@ fn fit(
                 calibrated.set(id, v0 + wrap_angle(calibrated.get(id) - v0));
             }
         }
-        let plain = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation);
-        (cal.objective_after, cal.accuracy_after) = estimation::settle(
+        let plain = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation)
+            .with_prior(&opts.prior);
+        (cal.objective_after, cal.prior_objective, cal.accuracy_after) = estimation::settle(
             &plain,
             &calibrated,
             opts.loss,

@@ -254,6 +254,7 @@ pub fn refit_sessions(
         weights: opts.weights,
         orientation: opts.orientation,
         loss: Loss::Squared,
+        prior: crate::robot::Prior::default(),
     };
     match estimation::calibrate(&r, data, &fit, &mut |_| {}) {
         Ok(c) => c.calibrated,
