@@ -473,7 +473,7 @@ pub fn summary(r: &CalibrationReport) -> String {
             e.bodies,
             kinecal::units::number::format_number((e.total_mass * 1e3).round() / 1e3),
             e.equilibrium,
-            r.postures - e.unconverged_postures,
+            r.postures.saturating_sub(e.unconverged_postures),
             r.postures,
             e.iterations_max,
             num(e.largest_deflection),

@@ -179,6 +179,18 @@ pub fn payload_at(
         return Ok(None);
     };
     if rows.field(m).trim().is_empty() {
+        if let Some(c) = cols[1..]
+            .iter()
+            .flatten()
+            .find(|&&c| !rows.field(c).trim().is_empty())
+        {
+            anyhow::bail!(
+                "{}:{line}: field `{}`: a payload's centre of mass without its mass \
+                 (`payload_mass` is empty)",
+                rows.file,
+                rows.header[*c]
+            );
+        }
         return Ok(None);
     }
     let mass = cell(rows, line, m)?;

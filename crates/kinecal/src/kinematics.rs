@@ -247,7 +247,8 @@ impl ReadingTrig {
 pub struct Workspace {
     /// `prox[i]`: global frame at the proximal end of link i (`prox[0]` is the global frame).
     prox: Vec<Frame>,
-    /// `dist[i]`: global frame at the distal end of link i (before joint i; `dist[n]` is the EECF).
+    /// `dist[i]`: global frame at the distal end of link i (before joint i turns, after an
+    /// elastic robot's joint tilted; `dist[n]` is the EECF).
     dist: Vec<Frame>,
     readings: Vec<f64>,
     /// The deflections and their response, for an elastic robot.
@@ -644,18 +645,82 @@ impl<'r> Chain<'r> {
     /// planned columns are touched, and each is written (zero for a parameter that cannot move
     /// the target); nothing is allocated and no parameter is looked at that is not wanted.
     pub fn jacobian_columns(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
+        if ws.elastic.is_some() && self.robot.elastic.is_some() {
+            return self.jacobian_columns_elastic(ws, plan, out);
+        }
+        assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
+        let e = self.target_frame(ws, plan.target).translation;
+        let mut put = |col: usize, dp: &Vector3<f64>, w: &Vector3<f64>| {
+            let c = &mut out[6 * col..6 * col + 6];
+            c[0] = dp.x;
+            c[1] = dp.y;
+            c[2] = dp.z;
+            c[3] = w.x;
+            c[4] = w.y;
+            c[5] = w.z;
+        };
+        let zero = Vector3::zeros();
+        for l in &plan.links {
+            let prox = &ws.prox[l.frame];
+            let r = &prox.rotation;
+            for (k, col) in l.translation.iter().enumerate() {
+                if let Some(col) = *col {
+                    put(col, &r.column(k).into_owned(), &zero);
+                }
+            }
+            if l.rotation.iter().all(Option::is_none) {
+                continue;
+            }
+            let cache = match l.cache {
+                LinkOf::Link(i) => &self.links[i],
+                LinkOf::Site(s) => &self.sites[s],
+            };
+            let c = prox.translation + r * cache.frame.translation;
+            let lever = e - c;
+            for (k, axis_local) in [Vector3::z(), cache.beta_axis, cache.gamma_axis]
+                .iter()
+                .enumerate()
+            {
+                if let Some(col) = l.rotation[k] {
+                    let u = r * axis_local;
+                    put(col, &u.cross(&lever), &u);
+                }
+            }
+        }
+        for j in &plan.joints {
+            let (dp, w) = self.joint_motion(ws, j.joint, &e);
+            if let Some(col) = j.offset {
+                put(col, &dp, &w);
+            }
+            if let Some(col) = j.slope {
+                let v = ws.readings[j.joint];
+                put(col, &(dp * v), &(w * v));
+            }
+            if let Some((col, k)) = j.coupling {
+                let vk = ws.readings[k];
+                put(col, &(dp * vk), &(w * vk));
+            }
+        }
+        for &col in &plan.zero {
+            put(col, &zero, &zero);
+        }
+    }
+
+    /// [`Chain::jacobian_columns`] of an elastic robot: the rigid columns of the transforms
+    /// upstream of the target, plus, for every planned parameter, the motion of the target
+    /// that the deflections' response to it causes (see the `elastic` module).
+    fn jacobian_columns_elastic(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
         assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
         let e = self.target_frame(ws, plan.target).translation;
         let zero = Vector3::zeros();
-        let elastic = ws.elastic.is_some() && self.robot.elastic.is_some();
         let upto = plan.joints_upto;
         for l in &plan.links {
             let prox = &ws.prox[l.frame];
             let r = &prox.rotation;
             // Where the link sits in the chain, for the torques (a site carries no body).
             let at = match l.cache {
-                LinkOf::Link(i) if elastic => Some(3 * i),
-                _ => None,
+                LinkOf::Link(i) => Some(3 * i),
+                LinkOf::Site(_) => None,
             };
             for (k, col) in l.translation.iter().enumerate() {
                 if let Some(col) = *col {
@@ -702,13 +767,11 @@ impl<'r> Chain<'r> {
             } else {
                 (zero, zero)
             };
-            let twist = elastic.then(|| self.joint_twist(ws, j.joint));
+            let twist = self.joint_twist(ws, j.joint);
             let mut column = |col: usize, scale: f64| {
                 put(out, col, &(dp * scale), &(w * scale));
-                if let Some(t) = &twist {
-                    let o = &mut out[6 * col..6 * col + 6];
-                    self.elastic_column(ws, elastic::Cause::Twist(t, scale), &e, upto, o);
-                }
+                let o = &mut out[6 * col..6 * col + 6];
+                self.elastic_column(ws, elastic::Cause::Twist(&twist, scale), &e, upto, o);
             };
             if let Some(col) = j.offset {
                 column(col, 1.0);

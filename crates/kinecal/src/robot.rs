@@ -336,7 +336,9 @@ pub struct JointElasticity {
 /// posture gives the gravity torques, the torques give the deflection.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Elastic {
-    /// Gravitational acceleration in the global (base) frame (m/s^2); default 9.81 along -z.
+    /// Gravitational acceleration in the robot's global frame, the one link 1 starts from
+    /// (m/s^2); default 9.81 along -z. When that frame is an instrument's (a tracker that is not
+    /// levelled), give gravity in it.
     pub gravity: Vector3<f64>,
     /// A fixed number of fixed-point iterations of the equilibrium (as in the paper); `None`
     /// (the default) iterates until the deflection changes by less than
@@ -409,7 +411,8 @@ impl Elastic {
     pub const TOLERANCE: f64 = 1e-10;
 
     /// The iteration limit when converging: an equilibrium that takes more is reported as not
-    /// converged (the deflections then grow: the compliances are implausibly large).
+    /// converged (the deflections then oscillate or creep instead of settling: the compliances
+    /// are implausibly large).
     pub const MAX_ITERATIONS: usize = 200;
 
     /// Standard gravity, 9.81 m/s^2 along -z of the global frame.

@@ -692,3 +692,90 @@ fn the_default_lateral_axis_is_the_common_normal_with_the_parent_axis() {
         }
     }
 }
+
+/// Every column of `robot`'s parameter Jacobian at `target` against central differences.
+fn check_jacobian(robot: &Robot, target: Target, seed: u64) {
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    let plan = ColumnPlan::all(robot, target);
+    let mut jac = vec![0.0; 6 * robot.param_count()];
+    for p in simulate::sample_postures(robot, 3, seed) {
+        chain.forward(&p.readings, &mut ws);
+        chain.jacobian_columns(&ws, &plan, &mut jac);
+        for id in robot.param_ids() {
+            let h = match robot.param_kind(id) {
+                ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => 1e-7,
+                ParamKind::Body { .. } => 1e-4,
+                _ => 1e-6,
+            };
+            let at = |v: f64| {
+                let mut r = robot.clone();
+                r.set(id, v);
+                Chain::new(&r).frame_at(&p.readings, target)
+            };
+            let v = robot.get(id);
+            let fd = rate(&at(v - h), &at(v + h), h);
+            let col = &jac[6 * id.0..6 * id.0 + 6];
+            let scale = fd.iter().chain(col).fold(1.0f64, |a, x| a.max(x.abs()));
+            for k in 0..6 {
+                assert!(
+                    (fd[k] - col[k]).abs() < 1e-7 * scale,
+                    "{target:?} {} row {k}: {} vs {}",
+                    robot.param_name(id),
+                    col[k],
+                    fd[k]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_prismatic_joint_a_coupled_joint_and_two_bodies_on_one_joint_differentiate_too() {
+    let kinds = [
+        JointKind::Prismatic,
+        JointKind::Revolute,
+        JointKind::Revolute,
+        JointKind::Revolute,
+        JointKind::Prismatic,
+        JointKind::Revolute,
+    ];
+    let mut robot = simulate::random_robot(&kinds, 71);
+    robot.joints[2].coupling = Some(kinecal::robot::Coupling {
+        joint: 1,
+        factor: 0.8,
+    });
+    robot.sites.push(Site {
+        name: "wrist".into(),
+        joint: 4,
+        frame: kinecal::Link {
+            x: 0.1,
+            ..Default::default()
+        },
+    });
+    let body = |joint, mass, x| Body {
+        joint,
+        mass,
+        com: Vector3::new(x, 0.05, -0.02),
+    };
+    let mut model = Elastic::new(
+        &robot,
+        vec![
+            body(1, 4.0, 0.1),
+            body(3, 2.0, 0.2),
+            body(3, 1.5, -0.1),
+            body(6, 1.0, 0.05),
+        ],
+    );
+    for j in &mut model.joints {
+        j.compliance = 3e-4;
+        j.lateral = 1e-4;
+    }
+    robot.elastic = Some(model);
+    robot.validate().unwrap();
+    let robot = tight(robot);
+    // Prismatic joints have no compliances: 4 revolute joints, 2 each.
+    assert_eq!(robot.compliant_joints().count(), 4);
+    check_jacobian(&robot, Target::EndEffector, 73);
+    check_jacobian(&robot, Target::Site(0), 79);
+}

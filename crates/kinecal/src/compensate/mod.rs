@@ -345,9 +345,14 @@ impl<'r> Compensator<'r> {
         self.calibrated
             .reading_jacobian(&self.ws, target, &mut self.jac);
         let conditioning = self.conditioning(rows);
+        // An elastic robot whose equilibrium does not settle there has no pose to reach with.
+        let unsettled = self.ws.equilibrium().is_some_and(|e| !e.converged);
         let flags = Flags {
-            unreachable: position_error > self.options.position_tolerance
-                || attitude_error.is_some_and(|a| a > self.options.attitude_tolerance),
+            unreachable: unsettled
+                || position_error.is_nan()
+                || position_error > self.options.position_tolerance
+                || attitude_error
+                    .is_some_and(|a| a.is_nan() || a > self.options.attitude_tolerance),
             singular: conditioning < self.options.singular,
             ..Flags::default()
         };

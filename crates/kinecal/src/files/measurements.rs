@@ -232,6 +232,15 @@ fn payload_of(
         return Ok(None);
     };
     if f.get(mass_col).trim().is_empty() {
+        if let Some((_, name)) = cols[1..]
+            .iter()
+            .find(|(c, _)| c.is_some_and(|i| !f.get(i).trim().is_empty()))
+        {
+            return Err(Error::input(
+                t.at(line, name),
+                "a payload's centre of mass without its mass (`payload_mass` is empty)",
+            ));
+        }
         return Ok(None);
     }
     let mass = t.number(line, &cols[0].1, f.get(mass_col))?;
@@ -469,23 +478,25 @@ pub fn parse_measurements_mapped(
         let field_of = |j: usize| reading_cols[j].1.clone();
         let known = postures.postures.len();
         let posture = postures.get_or_insert(&t, line, label, values, &field_of)?;
-        if let Some(i) = payload_cols[0].0 {
+        if payload_cols[0].0.is_some() {
             let payload = payload_of(&t, line, &f, &payload_cols, &units)?;
             let p = &mut postures.postures[posture];
             if posture == known {
                 p.payload = payload;
             } else if p.payload != payload {
                 let say = |p: Option<crate::robot::Payload>| {
-                    p.map_or("no payload".to_string(), |p| format!("{} kg", p.mass))
+                    p.map_or("no payload".to_string(), |p| {
+                        let c = p.com.map(|v| units.from_si(Quantity::Length, v));
+                        format!("{} kg at [{}, {}, {}]", p.mass, c.x, c.y, c.z)
+                    })
                 };
                 return Err(Error::input(
                     t.at(line, &payload_cols[0].1),
                     format!(
-                        "posture `{label}` carries {} on an earlier line and {} here (field {}): \
-                         rows of one posture share its payload",
+                        "posture `{label}` carries {} on an earlier line and {} here: rows of one \
+                         posture share its payload",
                         say(p.payload),
-                        say(payload),
-                        f.get(i)
+                        say(payload)
                     ),
                 ));
             }

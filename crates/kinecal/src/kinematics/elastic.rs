@@ -44,7 +44,8 @@ pub struct Equilibrium {
     pub iterations: usize,
     /// The largest change of a deflection in the last iteration (rad).
     pub change: f64,
-    /// Whether the change fell below [`Elastic::TOLERANCE`] (always true for a fixed count).
+    /// Whether the change fell below [`Elastic::TOLERANCE`]; with a fixed count
+    /// ([`Elastic::iterations`]), whether the deflections are numbers.
     pub converged: bool,
     /// The largest deflection (rad).
     pub largest: f64,
@@ -89,21 +90,27 @@ pub(super) struct ElasticState {
     axis: Vec<Vector3<f64>>,
     /// Origin of each joint (global).
     origin: Vec<Vector3<f64>>,
-    /// `mass[i]`: total mass of the bodies past joint i (`n + 1` entries, the last 0).
+    /// `mass[i]`: total mass of the bodies past joint i (`n + 1` entries, the last the
+    /// payload's).
     mass: Vec<f64>,
     /// `moment[i]`: their first moment `sum m c` (global).
     moment: Vec<Vector3<f64>>,
     /// Gravity torque about each deflection's axis (N m).
     pub tau: Vec<f64>,
-    /// `(I - K T)^-1`, row-major `2n x 2n`.
-    response: Vec<f64>,
-    /// Scratch for the response's computation and use.
+    /// Gravity of the last equilibrium (m/s^2, global).
+    gravity: Vector3<f64>,
+    /// The response and its scratch: worked out when a Jacobian first asks after a
+    /// [`Chain::forward`] (residual-only passes do without it).
     scratch: RefCell<Scratch>,
     pub last: Equilibrium,
 }
 
 #[derive(Debug, Clone)]
 struct Scratch {
+    /// `(I - K T)^-1`, row-major `2n x 2n`, when `fresh`.
+    response: Vec<f64>,
+    /// Whether `response` is the current posture's.
+    fresh: bool,
     matrix: Vec<f64>,
     rhs: Vec<f64>,
     x: Vec<f64>,
@@ -121,8 +128,10 @@ impl ElasticState {
             mass: vec![0.0; n + 1],
             moment: vec![Vector3::zeros(); n + 1],
             tau: vec![0.0; m],
-            response: vec![0.0; m * m],
+            gravity: Vector3::zeros(),
             scratch: RefCell::new(Scratch {
+                response: vec![0.0; m * m],
+                fresh: false,
                 matrix: vec![0.0; m * m],
                 rhs: vec![0.0; m],
                 x: vec![0.0; m],
@@ -237,12 +246,20 @@ impl ElasticState {
         }
     }
 
-    /// Computes `(I - K T)^-1` into `response` (Gauss-Jordan with partial pivoting, no
-    /// allocation). `false` when the matrix is singular (the equilibrium is unstable).
-    fn respond(&mut self, g: &Vector3<f64>) -> bool {
+    /// Computes `(I - K T)^-1` into `sc.response` (Gauss-Jordan with partial pivoting, no
+    /// allocation). A singular matrix (an equilibrium at the point of buckling, which the
+    /// fixed-point iteration does not converge to either) gives NaN, so that no Jacobian made
+    /// from it passes for a number.
+    fn respond(&self, sc: &mut Scratch) {
         let m = self.delta.len();
-        let mut sc = self.scratch.borrow_mut();
-        let a = &mut sc.matrix;
+        let g = &self.gravity;
+        let Scratch {
+            response: inv,
+            matrix: a,
+            fresh,
+            ..
+        } = sc;
+        *fresh = true;
         for e in 0..m {
             for f in 0..m {
                 let t = if self.k[e] == 0.0 {
@@ -253,7 +270,6 @@ impl ElasticState {
                 a[e * m + f] = if e == f { 1.0 } else { 0.0 } - t;
             }
         }
-        let inv = &mut self.response;
         inv.fill(0.0);
         for e in 0..m {
             inv[e * m + e] = 1.0;
@@ -263,8 +279,9 @@ impl ElasticState {
                 .max_by(|&x, &y| a[x * m + col].abs().total_cmp(&a[y * m + col].abs()))
                 .expect("rows left");
             let p = a[pivot * m + col];
-            if p.abs() < 1e-12 {
-                return false;
+            if p.is_nan() || p.abs() < 1e-12 {
+                inv.fill(f64::NAN);
+                return;
             }
             if pivot != col {
                 for f in 0..m {
@@ -290,7 +307,6 @@ impl ElasticState {
                 }
             }
         }
-        true
     }
 
     /// Adds to the 6-vector `out` the motion of point `e` caused by the deflections' response
@@ -306,7 +322,12 @@ impl ElasticState {
     ) {
         let m = self.delta.len();
         let mut sc = self.scratch.borrow_mut();
-        let Scratch { rhs, x, .. } = &mut *sc;
+        if !sc.fresh {
+            self.respond(&mut sc);
+        }
+        let Scratch {
+            rhs, x, response, ..
+        } = &mut *sc;
         let mut any = false;
         for (r, (rhs, k)) in rhs.iter_mut().zip(&self.k).enumerate() {
             *rhs = if *k == 0.0 { 0.0 } else { k * fill(r) };
@@ -320,7 +341,7 @@ impl ElasticState {
             return;
         }
         for (f, x) in x.iter_mut().enumerate() {
-            *x = self.response[f * m..(f + 1) * m]
+            *x = response[f * m..(f + 1) * m]
                 .iter()
                 .zip(rhs.iter())
                 .map(|(a, b)| a * b)
@@ -374,26 +395,40 @@ impl Chain<'_> {
             change = 0.0f64;
             for ((d, k), t) in st.delta.iter_mut().zip(&st.k).zip(&st.tau) {
                 let new = k * t;
-                change = change.max((new - *d).abs());
+                // A parameter that is not a number makes the deflections NaN: not converged.
+                let step = (new - *d).abs();
+                change = if step.is_nan() {
+                    f64::INFINITY
+                } else {
+                    change.max(step)
+                };
                 *d = new;
             }
             iterations += 1;
+            if !change.is_finite() {
+                break;
+            }
             if fixed.is_none() && change < Elastic::TOLERANCE {
                 converged = true;
                 break;
             }
         }
-        if !change.is_finite() {
-            st.delta.fill(f64::NAN);
-        }
         self.forward_rigid(readings, None, Some(&st.delta), ws);
         st.torques(model, self.robot, payload, ws);
-        let stable = st.respond(&model.gravity);
+        st.gravity = model.gravity;
+        st.scratch.get_mut().fresh = false;
         st.last = Equilibrium {
             iterations,
             change,
-            converged: (converged || fixed.is_some()) && stable,
-            largest: st.delta.iter().fold(0.0, |a, d| a.max(d.abs())),
+            // A fixed count is what the model asks for, converged or not, but never NaN.
+            converged: change.is_finite() && (converged || fixed.is_some()),
+            largest: st.delta.iter().fold(0.0, |a: f64, d| {
+                if a.is_nan() || d.is_nan() {
+                    f64::NAN
+                } else {
+                    a.max(d.abs())
+                }
+            }),
         };
         ws.elastic = Some(st);
     }
@@ -530,7 +565,8 @@ pub fn gravity_free_joints(robot: &Robot) -> GravityFree {
         }
     }
     let top = largest.iter().fold(0.0f64, |a, b| a.max(*b));
-    let free = |r: usize| largest[r] <= 1e-3 * top;
+    // No body at all (a payload the only load): nothing to tell apart.
+    let free = |r: usize| top > 0.0 && largest[r] <= 1e-3 * top;
     GravityFree {
         joint: robot
             .compliant_joints()
