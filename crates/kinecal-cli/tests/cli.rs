@@ -3783,9 +3783,16 @@ fn an_elastic_calibration_recovers_stiffness_and_exports_its_table() {
             "length=0.000005,angle=0.000005",
             "--report",
             "r.json",
+            "--html",
+            "r.html",
         ],
     );
     assert!(out.contains("stiffness"), "{out}");
+    let html = std::fs::read_to_string(d.join("r.html")).unwrap();
+    assert!(
+        html.contains("<h2 id=\"mass-model\">Mass model</h2>") && html.contains("N m/rad"),
+        "the HTML report shows the stiffnesses"
+    );
     run_ok(
         d,
         &[

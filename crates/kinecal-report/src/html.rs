@@ -484,18 +484,57 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     for p in rep.parameters.iter().filter(|p| p.estimated_flag) {
         let _ = writeln!(
             h,
-            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{:.6}</td><td>{:.6}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             p.id,
             esc(&p.name),
             esc(&p.unit),
-            p.initial,
-            p.estimated,
+            // Six decimals for lengths and angles; a compliance (1e-6..1e-3) in significant
+            // digits.
+            if p.unit.contains("/(N ") { num(p.initial) } else { format!("{:.6}", p.initial) },
+            if p.unit.contains("/(N ") { num(p.estimated) } else { format!("{:.6}", p.estimated) },
             signed(p.change),
             p.sigma.map_or("not determined alone".into(), num),
             p.significance.map_or(String::new(), |z| format!("{z:.1}{}", if p.within_noise == Some(true) { " (within noise)" } else { "" }))
         );
     }
     let _ = writeln!(h, "</table>");
+
+    // The mass model of an elastic robot: its equilibrium and the joints' stiffnesses.
+    if let Some(e) = &rep.elastic {
+        let _ = writeln!(
+            h,
+            "<h2 id=\"mass-model\">Mass model</h2>\n<p>{} bodies, {} kg, gravity {} {}/s&sup2;; \
+             equilibrium {} at {} of {} postures (at most {} iterations); largest deflection {} \
+             {} under gravity torques up to {} N m.</p>",
+            e.bodies,
+            num(e.total_mass),
+            num(e.gravity),
+            esc(&rep.length_unit.to_string()),
+            esc(&e.equilibrium),
+            rep.postures.saturating_sub(e.unconverged_postures),
+            rep.postures,
+            e.iterations_max,
+            num(e.largest_deflection),
+            esc(&rep.angle_unit.to_string()),
+            num(e.largest_torque)
+        );
+        let _ = writeln!(h, "<table><tr><th class=\"l\">compliance</th><th>value</th><th>sigma</th><th>stiffness</th><th>sigma</th><th class=\"l\">unit</th><th class=\"l\">estimated</th></tr>");
+        for j in &e.joints {
+            let opt = |v: Option<f64>| v.map_or(String::new(), num);
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td></tr>",
+                esc(&j.name),
+                num(j.compliance),
+                opt(j.compliance_sigma),
+                opt(j.stiffness),
+                opt(j.stiffness_sigma),
+                esc(&j.stiffness_unit),
+                if j.estimated { "yes" } else { "no" }
+            );
+        }
+        let _ = writeln!(h, "</table>");
+    }
 
     // Singular values.
     if let Some(an) = &rep.spectrum {
