@@ -811,13 +811,38 @@ fn dataset(a: DatasetArgs) -> Result<()> {
         a.out.display(),
         suggested_command(&converted.suggested)
     );
+    // The held-out figures the data set's README gives, per validation file, and pooled as
+    // `kinecal calibrate` reports several --validate files.
+    let held_out = converted.suggested.held_out;
+    if !held_out.is_empty() {
+        let each: Vec<String> = held_out
+            .iter()
+            .map(|(f, m)| format!("{:.2} mm on {f}", m * 1e3))
+            .collect();
+        let each = match each.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+            _ => each.join(""),
+        };
+        let pooled = match converted.held_out_pooled() {
+            Some(p) if held_out.len() > 1 => format!(
+                " (each alone; about {:.2} mm pooled over the --validate files, as kinecal \
+                 reports it)",
+                p * 1e3
+            ),
+            _ => String::new(),
+        };
+        println!(
+            "held out, the data set's README gives for a correct calibration a mean position \
+             error of about {each}{pooled}"
+        );
+    }
     Ok(())
 }
 
 /// The command line of a data set's suggested calibration.
 fn suggested_command(s: &kinecal::datasets::Suggested) -> String {
     let mut c = format!("kinecal calibrate --robot {} --data {}", s.robot, s.data);
-    if let Some(v) = s.validate {
+    for v in s.validate {
         c += &format!(" --validate {v}");
     }
     c += &format!(" --estimate {}", s.estimate);

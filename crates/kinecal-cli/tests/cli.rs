@@ -3712,6 +3712,76 @@ fn dataset_refuses_a_damaged_folder_without_panicking() {
     run_ok(t, &["dataset", "fanuc-r2000ic", ".", "--out", "out"]);
 }
 
+/// `kinecal dataset ipa-ur10` on a folder shaped like the data set (made-up values, the
+/// README's row counts): the robot, the four series and the temperatures written, the suggested
+/// calibration and the README's held-out figures printed; a series missing is refused naming
+/// its file, with the hint.
+#[test]
+fn dataset_ipa_ur10_writes_the_series_and_prints_the_suggested_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path();
+    let folder = synthetic::folder("ipa-ur10");
+    for (name, bytes) in &folder {
+        let p = t.join("ipa_ur10_tracker").join(name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, bytes).unwrap();
+    }
+    let out = run_ok(
+        t,
+        &["dataset", "ipa-ur10", "ipa_ur10_tracker", "--out", "ipa"],
+    );
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(
+        lines[0].starts_with("UR10 + Leica laser tracker: "),
+        "{out}"
+    );
+    assert!(
+        lines[0].contains("A 11911 (a grid, overnight runs)"),
+        "{out}"
+    );
+    assert_eq!(
+        lines[1],
+        "wrote ur10.toml, series_A.csv, series_B.csv, series_C.csv, series_D.csv, \
+         temperatures.csv to ipa"
+    );
+    assert_eq!(
+        lines[2],
+        "next, in ipa: kinecal calibrate --robot ur10.toml --data series_A.csv --validate \
+         series_C.csv --validate series_D.csv --estimate identifiable"
+    );
+    assert_eq!(
+        lines[3],
+        "held out, the data set's README gives for a correct calibration a mean position error \
+         of about 0.52 mm on series_C.csv and 0.43 mm on series_D.csv (each alone; about 0.50 mm pooled over the \
+         --validate files, as kinecal reports it)"
+    );
+    for f in [
+        "ur10.toml",
+        "series_A.csv",
+        "series_D.csv",
+        "temperatures.csv",
+    ] {
+        assert!(t.join("ipa").join(f).is_file(), "{f}");
+    }
+    let temperatures = std::fs::read_to_string(t.join("ipa/temperatures.csv")).unwrap();
+    assert_eq!(
+        temperatures.lines().count(),
+        1 + 11_911 + 1_495 + 2_773 + 632
+    );
+    std::fs::remove_file(t.join("ipa_ur10_tracker/Series_C/measurements_random_poses.csv"))
+        .unwrap();
+    let err = run_err(
+        t,
+        &["dataset", "ipa-ur10", "ipa_ur10_tracker", "--out", "ipa2"],
+    );
+    assert!(
+        err.contains("ipa_ur10_tracker/Series_C/measurements_random_poses.csv")
+            && err.contains("hint: is ipa_ur10_tracker the folder of the data set"),
+        "{err}"
+    );
+    assert!(!t.join("ipa2/ur10.toml").exists());
+}
+
 /// An arm that sags: a 3R with a horizontal shoulder and elbow, 2 kg bodies, metres.
 const ELASTIC_ARM: &str = r#"name = "sagging arm"
 length_unit = "m"

@@ -1274,7 +1274,7 @@ fn analyze(
 }
 
 /// The data sets kinecal can read as they are published (`qkm-hl6`, `fanuc-r2000ic`,
-/// `ur10e-camera`): `(name, about)` pairs.
+/// `ur10e-camera`, `ipa-ur10`): `(name, about)` pairs.
 #[pyfunction]
 fn datasets() -> Vec<(String, String)> {
     kinecal::datasets::DATASETS
@@ -1331,7 +1331,17 @@ fn dataset(
         })
     };
     let identification = read(s.data)?;
-    let validation = s.validate.map(read).transpose()?;
+    let mut validation: Option<Measurements> = None;
+    for v in s.validate {
+        let m = read(v)?;
+        validation = Some(match validation {
+            None => m,
+            Some(mut all) => {
+                all.data = all.data.merge(m.data);
+                all
+            }
+        });
+    }
     let mut kw = serde_json::Map::new();
     kw.insert("estimate".into(), s.estimate.into());
     if let Some(h) = s.holdout {

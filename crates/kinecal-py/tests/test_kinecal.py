@@ -242,7 +242,8 @@ def test_the_dataset_adapter_and_its_suggestion(qkm_files):
     result = kinecal.calibrate(ds.robot, ds.identification, validate=ds.validation,
                                **ds.suggested)
     assert round(result.validation["after"]["mean_position"], 3) == 0.210
-    assert [n for n, _ in kinecal.datasets()] == ["qkm-hl6", "fanuc-r2000ic", "ur10e-camera"]
+    assert [n for n, _ in kinecal.datasets()] == ["qkm-hl6", "fanuc-r2000ic", "ur10e-camera",
+                                                  "ipa-ur10"]
 
 
 def test_analyze_gives_the_cli_document(cli, qkm_files):

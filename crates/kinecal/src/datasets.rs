@@ -7,6 +7,9 @@
 //! - [`fanuc_r2000ic`]: FANUC R-2000iC/165F + laser tracker: 36 postures (single-joint sweeps) x
 //!   3 reflectors; the controller's joint values as read, with the J2/J3 coupling in the robot.
 //! - [`ur10e_camera`]: UR10e with a wrist camera: 23 camera-measured poses.
+//! - [`ipa_ur10`]: UR10 + Leica laser tracker: 16,811 probe positions in four series (one
+//!   measurement session each), with the tracker's per-axis standard deviations and the
+//!   temperatures.
 
 use std::path::{Path, PathBuf};
 
@@ -28,6 +31,33 @@ pub struct Converted {
     pub suggested: Suggested,
 }
 
+impl Converted {
+    /// The mean held-out position error (m) a correct calibration reaches on the suggested
+    /// validation files together, as `kinecal calibrate` pools them: the README's figure of each
+    /// file ([`Suggested::held_out`]) weighted by its observation rows. `None` when the README
+    /// gives no figure for some validation file.
+    pub fn held_out_pooled(&self) -> Option<f64> {
+        let s = &self.suggested;
+        if s.validate.is_empty() {
+            return None;
+        }
+        let (mut sum, mut rows) = (0.0, 0usize);
+        for v in s.validate {
+            let (_, m) = s.held_out.iter().find(|(f, _)| f == v)?;
+            let (_, text) = self.files.iter().find(|(f, _)| f == v)?;
+            // A measurement file kinecal writes: a header, then one observation per line.
+            let n = text
+                .lines()
+                .skip(1)
+                .filter(|l| !l.trim().is_empty())
+                .count();
+            sum += m * n as f64;
+            rows += n;
+        }
+        (rows > 0).then(|| sum / rows as f64)
+    }
+}
+
 /// The calibration a data set's README suggests: which files, what to estimate, how to weigh
 /// and validate. Front ends turn it into their own form (a command line, a call).
 #[derive(Debug, Clone, PartialEq)]
@@ -36,8 +66,9 @@ pub struct Suggested {
     pub robot: &'static str,
     /// The measurement file.
     pub data: &'static str,
-    /// A separate validation file, when the data set has one.
-    pub validate: Option<&'static str>,
+    /// Separate validation files, when the data set has them (checked together: one
+    /// `--validate` each).
+    pub validate: &'static [&'static str],
     /// The parameters to estimate, as a parameter list (`identifiable`, `link1,link7,offsets`).
     pub estimate: &'static str,
     /// The fraction of postures to hold out, when there is no validation file.
@@ -46,6 +77,10 @@ pub struct Suggested {
     pub weights: Option<(f64, f64)>,
     /// The attitude residual, when not the default (the rotation vector).
     pub orientation: Option<crate::observe::OrientationError>,
+    /// What a correct calibration reaches on each validation file, per the data set's README:
+    /// `(file, mean position error in m)`, each file checked alone (its session frames
+    /// re-estimated on it). Empty when the README gives no such figure.
+    pub held_out: &'static [(&'static str, f64)],
 }
 
 /// A data set adapter: its name, a line about it, and the conversion of its folder.
@@ -87,6 +122,13 @@ pub const DATASETS: &[Adapter] = &[
         about: "UR10e + wrist camera (ur10e_camera): 23 camera-measured poses",
         convert: ur10e_camera::convert,
         read: ur10e_camera::convert_folder,
+    },
+    Adapter {
+        name: "ipa-ur10",
+        about: "UR10 + Leica laser tracker (ipa_ur10_tracker): 16,811 probe positions in four \
+                series A-D, one session each, per-axis tracker sigmas, temperatures",
+        convert: ipa_ur10::convert,
+        read: ipa_ur10::convert_folder,
     },
 ];
 
@@ -458,11 +500,12 @@ pub mod qkm_hl6 {
             suggested: super::Suggested {
                 robot: "qkm.toml",
                 data: "identification.csv",
-                validate: Some("validation.csv"),
+                validate: &["validation.csv"],
                 estimate: "all,identifiable",
                 holdout: None,
                 weights: None,
                 orientation: None,
+                held_out: &[],
             },
         })
     }
@@ -652,11 +695,12 @@ pub mod fanuc_r2000ic {
             suggested: super::Suggested {
                 robot: "fanuc.toml",
                 data: "measurements.csv",
-                validate: None,
+                validate: &[],
                 estimate: "identifiable",
                 holdout: Some(0.17),
                 weights: None,
                 orientation: None,
+                held_out: &[],
             },
         })
     }
@@ -820,11 +864,482 @@ pub mod ur10e_camera {
             suggested: super::Suggested {
                 robot: "ur10e.toml",
                 data: "poses.csv",
-                validate: None,
+                validate: &[],
                 estimate: "link1,link7,offsets",
                 holdout: Some(0.3),
                 weights: Some((0.001, 0.01)),
                 orientation: None,
+                held_out: &[],
+            },
+        })
+    }
+}
+
+/// The UR10 laser-tracker data set of Fraunhofer IPA (Landgraf et al., IEEE CASE 2021; MIT; see
+/// `../shared/data/ipa_ur10_tracker/README.txt`): 16,811 positions of a Leica T-Mac probe on a
+/// UR10, in four series from three tracker placements, as the lab wrote them (`;`-separated,
+/// decimal commas, millimetres, its own column names).
+///
+/// - The robot is the nominal UR10 of the UR description (`default_kinematics.yaml`, hash
+///   `calib_17227329492635474227`, built in: [`ipa_ur10::UR10_KINEMATICS`]), from `base_link`
+///   to `tool0`. The probe sits about 93 mm along the flange's z axis: the last link absorbs it, as the
+///   first absorbs the tracker's placement (the calibration places both in closed form first).
+/// - Each series is a measurement file of its own (`series_A.csv` .. `series_D.csv`), every row
+///   in the measurement session named after the series (`session` column): the tracker was moved
+///   between series, so a calibration made on one series is checked on another with that
+///   session's frame re-estimated on it. Postures are labelled with the series and the data row
+///   (`C17`: the 17th row of series C, line 18 of the lab's file). Positions only, in metres:
+///   the attitudes (intrinsic X-Y'-Z'' Euler angles, many near a gimbal lock) are not read.
+/// - Series B-D give the tracker's standard deviation per axis and row: written as `sigma_x`,
+///   `sigma_y`, `sigma_z` (m). (About 0.01 mm: far below the robot's model error; kinecal judges
+///   them against the residuals.)
+/// - The temperature of every row (deg C) is kept in `temperatures.csv` (`posture,session,
+///   temperature`), beside the measurement files: kinecal's measurement reader refuses columns
+///   it does not know, and the temperature does not enter a calibration (0.75 K over series A).
+///
+/// The row counts are checked: 11,911 rows in series A (the data set's README says 11,910; the
+/// file has 11,911), 1,495 in B, 2,773 in C, 632 in D.
+pub mod ipa_ur10 {
+    use std::fmt::Write as _;
+    use std::path::Path;
+
+    use nalgebra::Vector3;
+
+    use super::{write_measurements, write_robot_toml, Converted, Folder};
+    use crate::error::{Error, Location, Result};
+    use crate::kinematics::Target;
+    use crate::observe::point::Position;
+    use crate::observe::{Dataset, Observation, Posture};
+    use crate::robot::Robot;
+    use crate::source::Source;
+
+    /// The nominal UR10 kinematics of the UR description (`ur_description/config/ur10/
+    /// default_kinematics.yaml` of github.com/ros-industrial/universal_robot, BSD-3-Clause; as in
+    /// `../shared/data/urdf/universal_robots/config/ur10/`): the standard DH lengths of the data
+    /// set's README (d1 0.1273, a2 -0.612, a3 -0.5723, d4 0.163941, d5 0.1157, d6 0.0922 m).
+    pub const UR10_KINEMATICS: &str = "\
+kinematics:
+  shoulder:
+    x: 0
+    y: 0
+    z: 0.1273
+    roll: 0
+    pitch: 0
+    yaw: 0
+  upper_arm:
+    x: 0
+    y: 0
+    z: 0
+    roll: 1.570796327
+    pitch: 0
+    yaw: 0
+  forearm:
+    x: -0.612
+    y: 0
+    z: 0
+    roll: 0
+    pitch: 0
+    yaw: 0
+  wrist_1:
+    x: -0.5723
+    y: 0
+    z: 0.163941
+    roll: 0
+    pitch: 0
+    yaw: 0
+  wrist_2:
+    x: 0
+    y: -0.1157
+    z: -2.373046667922381e-11
+    roll: 1.570796327
+    pitch: 0
+    yaw: 0
+  wrist_3:
+    x: 0
+    y: 0.0922
+    z: -1.891053610911353e-11
+    roll: 1.570796326589793
+    pitch: 3.141592653589793
+    yaw: 3.141592653589793
+  hash: calib_17227329492635474227
+";
+
+    /// A series of the data set.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct Series {
+        /// Its name, the session of its rows (`A`).
+        pub name: &'static str,
+        /// Its measurement file in the folder.
+        pub file: &'static str,
+        /// What it measured.
+        pub about: &'static str,
+        /// Its rows after the header.
+        pub rows: usize,
+        /// Whether it has the tracker's standard deviation columns.
+        pub sigmas: bool,
+    }
+
+    /// The four series, A to D.
+    pub const SERIES: [Series; 4] = [
+        Series {
+            name: "A",
+            file: "Series_A/measurements_grid.csv",
+            about: "a grid, overnight runs",
+            rows: 11_911,
+            sigmas: false,
+        },
+        Series {
+            name: "B",
+            file: "Series_B/measurements_joint_configurations.csv",
+            about: "varied joint configurations",
+            rows: 1_495,
+            sigmas: true,
+        },
+        Series {
+            name: "C",
+            file: "Series_C/measurements_random_poses.csv",
+            about: "random poses",
+            rows: 2_773,
+            sigmas: true,
+        },
+        Series {
+            name: "D",
+            file: "Series_D/measurements_iso_cubes.csv",
+            about: "70 ISO 9283 cubes of 9 poses, and 2",
+            rows: 632,
+            sigmas: true,
+        },
+    ];
+
+    /// The columns of a measurement file without the standard deviations (series A).
+    const COLUMNS: [&str; 20] = [
+        "Timestamp",
+        "Goal x",
+        "Goal y",
+        "Goal z",
+        "Goal roll",
+        "Goal pitch",
+        "Goal yaw",
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+        "measurement_temperature",
+        "measurement_x",
+        "measurement_y",
+        "measurement_z",
+        "measurement_rx",
+        "measurement_ry",
+        "measurement_rz",
+    ];
+
+    /// The columns of a measurement file with the standard deviations (series B-D).
+    const COLUMNS_SIGMA: [&str; 26] = [
+        "Timestamp",
+        "Goal x",
+        "Goal y",
+        "Goal z",
+        "Goal roll",
+        "Goal pitch",
+        "Goal yaw",
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+        "measurement_temperature",
+        "measurement_x",
+        "measurement_std_x",
+        "measurement_y",
+        "measurement_std_y",
+        "measurement_z",
+        "measurement_std_z",
+        "measurement_rx",
+        "measurement_std_rx",
+        "measurement_ry",
+        "measurement_std_ry",
+        "measurement_rz",
+        "measurement_std_rz",
+    ];
+
+    /// The data set converted to kinecal's model and measurements.
+    #[derive(Debug, Clone)]
+    pub struct IpaData {
+        /// The nominal UR10 (m, rad), without session frames.
+        pub robot: Robot,
+        /// The series A to D, each in its session (named after it); positions of the probe (m,
+        /// in that series' tracker frame) at the end effector.
+        pub series: Vec<Dataset>,
+        /// The temperature of each series' postures (deg C), in posture order.
+        pub temperatures: Vec<Vec<f64>>,
+    }
+
+    /// The nominal UR10 ([`UR10_KINEMATICS`] imported).
+    pub fn nominal_robot() -> Robot {
+        let mut robot = crate::import::ur::import_ur(UR10_KINEMATICS, "<ur10 default_kinematics>")
+            .expect("the built-in UR10 kinematics import")
+            .robot;
+        robot.name = "UR10 (calib_17227329492635474227)".into();
+        robot
+    }
+
+    /// A number as the lab wrote it: a decimal comma (a dot is refused: it would be a thousands
+    /// separator in that format), finite and within +-1e9.
+    fn number(s: &str, at: &Location) -> Result<f64> {
+        let s = s.trim();
+        let v = if s.contains('.') {
+            None
+        } else {
+            s.replace(',', ".").parse::<f64>().ok()
+        };
+        match v {
+            Some(v) if crate::units::plausible(v) => Ok(v),
+            _ => Err(Error::input(
+                at.clone(),
+                format!(
+                    "expected a finite number within +-1e9 with a decimal comma (`-0,5`), found \
+                     `{s}`"
+                ),
+            )),
+        }
+    }
+
+    /// Reads one series' file: the header, then exactly `rows` rows (blank lines skipped).
+    fn read_series(source: &Source, series: &Series, rows: usize) -> Result<(Dataset, Vec<f64>)> {
+        let file = &source.name;
+        let columns: &[&str] = if series.sigmas {
+            &COLUMNS_SIGMA
+        } else {
+            &COLUMNS
+        };
+        let col = |name: &str| {
+            columns
+                .iter()
+                .position(|c| *c == name)
+                .expect("a column of the table")
+        };
+        let mut lines = source.text.lines().enumerate();
+        let header = lines
+            .next()
+            .map(|(_, h)| h.trim_start_matches('\u{feff}'))
+            .unwrap_or_default();
+        let names: Vec<&str> = header.split(';').map(str::trim).collect();
+        let at_header = Location::file(file).at_line(1);
+        if names.len() != columns.len() {
+            return Err(Error::input(
+                at_header,
+                format!(
+                    "expected the header of {} `;`-separated columns (`{}` .. `{}`{}), found {} \
+                     fields",
+                    columns.len(),
+                    columns[0],
+                    columns[columns.len() - 1],
+                    if series.sigmas {
+                        ", with the tracker's standard deviations"
+                    } else {
+                        ""
+                    },
+                    names.len()
+                ),
+            ));
+        }
+        if let Some(k) = (0..columns.len()).find(|&k| names[k] != columns[k]) {
+            return Err(Error::input(
+                at_header.with_field(format!("column {}", k + 1)),
+                format!("expected the column `{}`, found `{}`", columns[k], names[k]),
+            ));
+        }
+        let joints: Vec<usize> = crate::import::ur::JOINTS.iter().map(|j| col(j.1)).collect();
+        let (temperature, xyz) = (
+            col("measurement_temperature"),
+            [
+                col("measurement_x"),
+                col("measurement_y"),
+                col("measurement_z"),
+            ],
+        );
+        let std = series.sigmas.then(|| {
+            [
+                col("measurement_std_x"),
+                col("measurement_std_y"),
+                col("measurement_std_z"),
+            ]
+        });
+        let session: std::sync::Arc<str> = series.name.into();
+        let mut postures = Vec::with_capacity(rows);
+        let mut observations: Vec<Observation> = Vec::with_capacity(rows);
+        let mut temperatures = Vec::with_capacity(rows);
+        let mut last = 1;
+        for (i, line) in lines {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let at = Location::file(file).at_line(i + 1);
+            if postures.len() == rows {
+                return Err(Error::input(
+                    at,
+                    format!("expected {rows} rows after the header, found more"),
+                ));
+            }
+            let fields: Vec<&str> = line.split(';').collect();
+            if fields.len() != columns.len() {
+                return Err(Error::input(
+                    at,
+                    format!(
+                        "expected {} `;`-separated fields, found {}",
+                        columns.len(),
+                        fields.len()
+                    ),
+                ));
+            }
+            let value = |k: usize| number(fields[k], &at.with_field(columns[k]));
+            let readings = joints
+                .iter()
+                .map(|&k| value(k))
+                .collect::<Result<Vec<_>>>()?;
+            let t = value(temperature)?;
+            let p = Vector3::new(value(xyz[0])?, value(xyz[1])?, value(xyz[2])?);
+            let sigma = match std {
+                Some(cols) => {
+                    let mut s = Vector3::zeros();
+                    for (a, &k) in cols.iter().enumerate() {
+                        s[a] = value(k)?;
+                        let problem = if s[a] <= 0.0 {
+                            Some("expected a positive standard deviation".to_string())
+                        } else {
+                            // As kinecal reads it back, in m.
+                            crate::units::sigma_problem(s[a] * 1e-3).map(|p| format!("in m, {p}"))
+                        };
+                        if let Some(p) = problem {
+                            return Err(Error::input(
+                                at.with_field(columns[k]),
+                                format!("{p}, found `{}`", fields[k].trim()),
+                            ));
+                        }
+                    }
+                    Some(s * 1e-3)
+                }
+                None => None,
+            };
+            last = i + 1;
+            let k = postures.len();
+            postures.push(Posture {
+                label: format!("{}{}", series.name, k + 1),
+                readings,
+                session: Some(session.clone()),
+                payload: None,
+            });
+            let mut m = Position::new(k, Target::EndEffector, p * 1e-3);
+            m.sigma_position = sigma;
+            m.line = i + 1;
+            observations.push(m.into());
+            temperatures.push(t);
+        }
+        if postures.len() < rows {
+            return Err(Error::input(
+                Location::file(file).at_line(last + 1),
+                format!(
+                    "expected {rows} rows after the header, found {} (the file ends here: \
+                     truncated?)",
+                    postures.len()
+                ),
+            ));
+        }
+        Ok((Dataset::new(postures, observations), temperatures))
+    }
+
+    /// Loads the data set from its folder (`../shared/data/ipa_ur10_tracker`).
+    pub fn load(dir: &Path) -> Result<IpaData> {
+        load_folder(&Folder::disk(dir))
+    }
+
+    /// Loads the data set from its files: each series' file must have its header (the columns
+    /// of its README, the standard deviations in B-D) and the rows of [`SERIES`]; every field
+    /// read (the joints, the temperature, the position and its standard deviations) a finite
+    /// number within +-1e9 with a decimal comma, the standard deviations positive.
+    pub fn load_folder(folder: &Folder) -> Result<IpaData> {
+        load_trimmed(folder, SERIES.map(|s| s.rows))
+    }
+
+    /// [`load_folder`] of a copy of the data set cut to `rows` rows per series, A to D (a quick
+    /// look, tests): the row counts checked are these.
+    pub fn load_trimmed(folder: &Folder, rows: [usize; 4]) -> Result<IpaData> {
+        let mut series = Vec::with_capacity(4);
+        let mut temperatures = Vec::with_capacity(4);
+        for (s, n) in SERIES.iter().zip(rows) {
+            let (d, t) = read_series(&folder.read(s.file)?, s, n)?;
+            series.push(d);
+            temperatures.push(t);
+        }
+        Ok(IpaData {
+            robot: nominal_robot(),
+            series,
+            temperatures,
+        })
+    }
+
+    /// The name of a series' measurement file in the converted folder (`series_A.csv`).
+    pub fn file_of(series: &str) -> String {
+        format!("series_{series}.csv")
+    }
+
+    /// The temperatures of every series as a CSV: `posture,session,temperature` (deg C).
+    fn temperature_file(d: &IpaData) -> String {
+        let mut out = String::from("posture,session,temperature\n");
+        for ((s, data), t) in SERIES.iter().zip(&d.series).zip(&d.temperatures) {
+            for (p, t) in data.postures.iter().zip(t) {
+                let _ = writeln!(out, "{},{},{t}", p.label, s.name);
+            }
+        }
+        out
+    }
+
+    /// Reads and converts the folder: `ur10.toml`, `series_A.csv` .. `series_D.csv`,
+    /// `temperatures.csv`.
+    pub fn convert(dir: &Path) -> Result<Converted> {
+        convert_folder(&Folder::disk(dir))
+    }
+
+    /// [`convert`] of the folder's files.
+    pub fn convert_folder(folder: &Folder) -> Result<Converted> {
+        convert_trimmed(folder, SERIES.map(|s| s.rows))
+    }
+
+    /// [`convert`] of a copy cut to `rows` rows per series ([`load_trimmed`]).
+    pub fn convert_trimmed(folder: &Folder, rows: [usize; 4]) -> Result<Converted> {
+        let d = load_trimmed(folder, rows)?;
+        let mut files = vec![("ur10.toml".to_string(), write_robot_toml(&d.robot, None))];
+        for (s, data) in SERIES.iter().zip(&d.series) {
+            files.push((file_of(s.name), write_measurements(&d.robot, data)));
+        }
+        files.push(("temperatures.csv".into(), temperature_file(&d)));
+        let counts: Vec<String> = SERIES
+            .iter()
+            .zip(&d.series)
+            .map(|(s, data)| format!("{} {} ({})", s.name, data.postures.len(), s.about))
+            .collect();
+        Ok(Converted {
+            files,
+            summary: format!(
+                "UR10 + Leica laser tracker: positions of the T-Mac probe in four series, each a \
+                 measurement session of its own (the tracker moved between them): {}; the \
+                 tracker's per-axis standard deviations in B-D (sigma_x, sigma_y, sigma_z), the \
+                 temperatures (deg C) in temperatures.csv (m, rad; the UR description's nominal \
+                 UR10)",
+                counts.join(", ")
+            ),
+            suggested: super::Suggested {
+                robot: "ur10.toml",
+                data: "series_A.csv",
+                validate: &["series_C.csv", "series_D.csv"],
+                estimate: "identifiable",
+                holdout: None,
+                weights: None,
+                orientation: None,
+                held_out: &[("series_C.csv", 0.52e-3), ("series_D.csv", 0.43e-3)],
             },
         })
     }

@@ -246,3 +246,160 @@ fn a_urdf_chain_without_six_joints_is_refused() {
         "{msg}"
     );
 }
+
+/// `ipa-ur10` on a synthetic copy cut to a few rows per series (in memory): converted with
+/// those counts, and broken copies refused with the file, the line and the field.
+mod ipa_ur10 {
+    use std::path::Path;
+
+    use kinecal::datasets::{ipa_ur10, Folder};
+
+    use super::synthetic::{ipa, with, Files, IPA_FEW};
+
+    const A: &str = "Series_A/measurements_grid.csv";
+    const B: &str = "Series_B/measurements_joint_configurations.csv";
+    const D: &str = "Series_D/measurements_iso_cubes.csv";
+
+    fn refused(files: Files) -> String {
+        match std::panic::catch_unwind(|| {
+            ipa_ur10::convert_trimmed(&Folder::memory(Path::new("d"), files), IPA_FEW)
+        }) {
+            Ok(Ok(_)) => panic!("accepted"),
+            Ok(Err(e)) => e.to_string(),
+            Err(_) => panic!("panicked"),
+        }
+    }
+
+    /// `file` of `files` with line `line` (1-based) changed by `f`.
+    fn edit(files: &Files, file: &str, line: usize, f: impl Fn(&str) -> String) -> Files {
+        let text =
+            String::from_utf8(files.iter().find(|x| x.0 == file).unwrap().1.clone()).unwrap();
+        let mut l: Vec<String> = text.lines().map(str::to_string).collect();
+        l[line - 1] = f(&l[line - 1]);
+        with(files.clone(), file, (l.join("\r\n") + "\r\n").as_bytes())
+    }
+
+    /// The row with field `k` (0-based) replaced by `v`.
+    fn field(row: &str, k: usize, v: &str) -> String {
+        let mut f: Vec<&str> = row.split(';').collect();
+        f[k] = v;
+        f.join(";")
+    }
+
+    #[test]
+    fn a_copy_converts_with_its_counts_and_the_files_read_back() {
+        let c = ipa_ur10::convert_trimmed(&Folder::memory(Path::new("d"), ipa(IPA_FEW)), IPA_FEW)
+            .unwrap();
+        let robot = kinecal::robot_file::parse_robot_toml(&c.files[0].1, "ur10.toml").unwrap();
+        for (k, s) in ipa_ur10::SERIES.iter().enumerate() {
+            let (name, text) = &c.files[k + 1];
+            assert_eq!(name, &format!("series_{}.csv", s.name));
+            let d = kinecal::files::parse_measurements(text, name, &robot).unwrap();
+            assert_eq!(d.postures.len(), IPA_FEW[k]);
+            assert!(d
+                .postures
+                .iter()
+                .all(|p| p.session.as_deref() == Some(s.name)));
+            assert_eq!(text.lines().next().unwrap().contains("sigma_x"), s.sigmas);
+        }
+        let t = &c.files[5];
+        assert_eq!(t.0, "temperatures.csv");
+        assert_eq!(t.1.lines().count(), 1 + IPA_FEW.iter().sum::<usize>());
+        assert!(
+            t.1.starts_with("posture,session,temperature\nA1,A,23.0000003051758\n"),
+            "{}",
+            t.1
+        );
+        // The README's counts refuse the copy, naming series A's count.
+        let msg = (kinecal::datasets::ipa_ur10::convert_folder)(&Folder::memory(
+            Path::new("d"),
+            ipa(IPA_FEW),
+        ))
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            msg,
+            "d/Series_A/measurements_grid.csv:9: expected 11911 rows after the header, found 7 \
+             (the file ends here: truncated?)"
+        );
+    }
+
+    #[test]
+    fn a_missing_series_a_bad_number_and_a_short_row_are_refused_where_they_are() {
+        let f = ipa(IPA_FEW);
+        // A series missing.
+        let mut missing = f.clone();
+        missing.retain(|x| x.0 != B);
+        let msg = refused(missing);
+        assert!(msg.starts_with(&format!("d/{B}: ")), "{msg}");
+        // A bad number (line 4 of series B, the 3rd row; its field measurement_y).
+        for bad in ["12.5", "1,2,3", "x", "", "nan", "inf", "1e10"] {
+            let msg = refused(edit(&f, B, 4, |r| field(r, 16, bad)));
+            assert_eq!(
+                msg,
+                format!(
+                    "d/{B}:4: field `measurement_y`: expected a finite number within +-1e9 with a \
+                     decimal comma (`-0,5`), found `{bad}`"
+                )
+            );
+        }
+        // A joint value.
+        let msg = refused(edit(&f, A, 3, |r| field(r, 9, "0,1x")));
+        assert!(
+            msg.starts_with(&format!("d/{A}:3: field `elbow_joint`: ")),
+            "{msg}"
+        );
+        // A standard deviation that is not positive.
+        let msg = refused(edit(&f, D, 2, |r| field(r, 19, "0")));
+        assert_eq!(
+            msg,
+            format!("d/{D}:2: field `measurement_std_z`: expected a positive standard deviation, found `0`")
+        );
+        // A short row, a long row.
+        let msg = refused(edit(&f, D, 3, |r| {
+            r.rsplit_once(';').unwrap().0.to_string()
+        }));
+        assert_eq!(
+            msg,
+            format!("d/{D}:3: expected 26 `;`-separated fields, found 25")
+        );
+        let msg = refused(edit(&f, A, 5, |r| format!("{r};1")));
+        assert_eq!(
+            msg,
+            format!("d/{A}:5: expected 20 `;`-separated fields, found 21")
+        );
+        // A row too many, a row too few.
+        let msg = refused(edit(&f, D, 4, |r| format!("{r}\r\n{r}")));
+        assert_eq!(
+            msg,
+            format!("d/{D}:5: expected 3 rows after the header, found more")
+        );
+        let msg = refused(edit(&f, D, 4, |_| String::new()));
+        assert_eq!(
+            msg,
+            format!("d/{D}:4: expected 3 rows after the header, found 2 (the file ends here: truncated?)")
+        );
+        // A header without the standard deviations where the series has them, a column renamed.
+        let msg = refused(edit(&f, B, 1, |_| {
+            String::from_utf8(f[0].1.clone())
+                .unwrap()
+                .lines()
+                .next()
+                .unwrap()
+                .to_string()
+        }));
+        assert!(
+            msg.starts_with(&format!(
+                "d/{B}:1: expected the header of 26 `;`-separated columns"
+            )),
+            "{msg}"
+        );
+        let msg = refused(edit(&f, A, 1, |r| {
+            r.replace("measurement_y", "measurement_Y")
+        }));
+        assert_eq!(
+            msg,
+            format!("d/{A}:1: field `column 16`: expected the column `measurement_y`, found `measurement_Y`")
+        );
+    }
+}

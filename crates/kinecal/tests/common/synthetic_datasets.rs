@@ -201,12 +201,80 @@ pub fn ur10e() -> Files {
     ]
 }
 
+/// A number with a decimal comma, as the IPA lab writes them.
+fn comma(v: f64) -> String {
+    format!("{v}").replace('.', ",")
+}
+
+/// Shaped like `ipa_ur10_tracker`, with `rows` rows per series A-D: the four measurement files
+/// (`;`-separated, decimal commas, CRLF; A without the standard deviation columns, B-D with
+/// them; timestamps as the spreadsheet export left them in B-D).
+pub fn ipa(rows: [usize; 4]) -> Files {
+    let mut out = Vec::new();
+    for (s, n) in ["A", "B", "C", "D"].iter().zip(rows) {
+        let sigmas = *s != "A";
+        let file = match *s {
+            "A" => "Series_A/measurements_grid.csv",
+            "B" => "Series_B/measurements_joint_configurations.csv",
+            "C" => "Series_C/measurements_random_poses.csv",
+            _ => "Series_D/measurements_iso_cubes.csv",
+        };
+        let mut text = String::from(
+            "Timestamp;Goal x;Goal y;Goal z;Goal roll;Goal pitch;Goal yaw;shoulder_pan_joint;\
+             shoulder_lift_joint;elbow_joint;wrist_1_joint;wrist_2_joint;wrist_3_joint;\
+             measurement_temperature;",
+        );
+        text += if sigmas {
+            "measurement_x;measurement_std_x;measurement_y;measurement_std_y;measurement_z;\
+             measurement_std_z;measurement_rx;measurement_std_rx;measurement_ry;\
+             measurement_std_ry;measurement_rz;measurement_std_rz\r\n"
+        } else {
+            "measurement_x;measurement_y;measurement_z;measurement_rx;measurement_ry;\
+             measurement_rz\r\n"
+        };
+        for i in 0..n {
+            let mut f: Vec<String> = vec![if sigmas {
+                "2,02011E+13".into()
+            } else {
+                format!("{}", 20200714163904u64 + 20 * i as u64)
+            }];
+            f.extend((0..6).map(|j| comma(angle(i, j) / 100.0)));
+            f.extend((0..6).map(|j| comma(angle(i, j + 6).to_radians())));
+            f.push(comma(23.0 + 0.125 * (i % 7) as f64 + 0.0000003051758));
+            let p = [
+                2000.0 + 3.25 * (i % 97) as f64,
+                -1500.0 - 2.5 * (i % 31) as f64,
+                100.0 + 1.125 * (i % 53) as f64,
+            ];
+            let r = [-90.5 + 0.01 * (i % 11) as f64, -59.25, -90.875];
+            let std = |k: usize| comma(0.0005 + 0.0001 * ((i + k) % 700) as f64);
+            for (a, v) in p.iter().chain(&r).enumerate() {
+                f.push(comma(*v));
+                if sigmas {
+                    f.push(std(a));
+                }
+            }
+            text += &(f.join(";") + "\r\n");
+        }
+        out.push((file.to_string(), text.into_bytes()));
+    }
+    out
+}
+
+/// The row counts of the IPA series A-D in the data set.
+pub const IPA_ROWS: [usize; 4] = [11_911, 1_495, 2_773, 632];
+
+/// A few rows per IPA series, for the mutation driver (the adapter's
+/// `ipa_ur10::convert_trimmed` with these counts).
+pub const IPA_FEW: [usize; 4] = [7, 4, 5, 3];
+
 /// The synthetic folder of the adapter `name`.
 pub fn folder(name: &str) -> Files {
     match name {
         "qkm-hl6" => qkm(),
         "fanuc-r2000ic" => fanuc(),
         "ur10e-camera" => ur10e(),
+        "ipa-ur10" => ipa(IPA_ROWS),
         other => panic!("no synthetic folder for {other}"),
     }
 }
