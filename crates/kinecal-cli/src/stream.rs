@@ -194,11 +194,8 @@ pub fn payload_at(
         return Ok(None);
     }
     let mass = cell(rows, line, m)?;
-    if !(0.0..=1e6).contains(&mass) {
-        anyhow::bail!(
-            "{}:{line}: field `payload_mass`: a payload mass is 0 to 1e6 kg, found {mass}",
-            rows.file
-        );
+    if let Some(problem) = kinecal::robot::Payload::mass_problem(mass) {
+        anyhow::bail!("{}:{line}: field `payload_mass`: {problem}", rows.file);
     }
     let mut com = nalgebra::Vector3::zeros();
     for (k, c) in cols[1..].iter().enumerate() {

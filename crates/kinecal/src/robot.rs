@@ -312,6 +312,14 @@ pub struct Payload {
     pub com: Vector3<f64>,
 }
 
+impl Payload {
+    /// Why `mass` (kg) cannot be a payload's: not a number from 0 to 1e6 kg.
+    pub fn mass_problem(mass: f64) -> Option<String> {
+        (!(0.0..=1e6).contains(&mass))
+            .then(|| format!("a payload mass is 0 to 1e6 kg, found {mass}"))
+    }
+}
+
 /// How one joint yields under gravity: about its own axis, and about a lateral axis
 /// perpendicular to it (the bending of the joint's bearing and the link before it).
 #[derive(Debug, Clone, PartialEq)]

@@ -16,10 +16,8 @@ fn shared(rel: &str) -> Option<PathBuf> {
     shared_data::shared_data(&format!("urdf/{rel}"))
 }
 
-/// Forward kinematics straight from the URDF: the product of `origin * motion(axis, q)` along
-/// the chain from `base` to `tip`, with 4x4 matrices. Returns also the movable joint count.
-fn urdf_fk(text: &str, base: &str, tip: &str, q: &[f64]) -> Matrix4<f64> {
-    let robot = urdf_rs::read_from_string(text).unwrap();
+/// The joints from `base` to `tip`, in order.
+fn chain_joints(robot: &urdf_rs::Robot, base: &str, tip: &str) -> Vec<urdf_rs::Joint> {
     let mut chain = Vec::new();
     let mut at = tip.to_string();
     while at != base {
@@ -28,6 +26,14 @@ fn urdf_fk(text: &str, base: &str, tip: &str, q: &[f64]) -> Matrix4<f64> {
         at = j.parent.link.clone();
     }
     chain.reverse();
+    chain
+}
+
+/// Forward kinematics straight from the URDF: the product of `origin * motion(axis, q)` along
+/// the chain from `base` to `tip`, with 4x4 matrices. Returns also the movable joint count.
+fn urdf_fk(text: &str, base: &str, tip: &str, q: &[f64]) -> Matrix4<f64> {
+    let robot = urdf_rs::read_from_string(text).unwrap();
+    let chain = chain_joints(&robot, base, tip);
     let mut t = Matrix4::identity();
     let mut k = 0;
     for j in chain {
@@ -400,14 +406,7 @@ fn impossible_urdfs_are_refused_with_their_line() {
 /// 4x4 matrices along the chain; gravity 9.81 m/s^2 along -z of the base.
 fn urdf_gravity_torques(text: &str, base: &str, tip: &str, q: &[f64]) -> Vec<f64> {
     let robot = urdf_rs::read_from_string(text).unwrap();
-    let mut chain = Vec::new();
-    let mut at = tip.to_string();
-    while at != base {
-        let j = robot.joints.iter().find(|j| j.child.link == at).unwrap();
-        chain.push(j.clone());
-        at = j.parent.link.clone();
-    }
-    chain.reverse();
+    let chain = chain_joints(&robot, base, tip);
     let g = Vector3::new(0.0, 0.0, -9.81);
     let mut t = Matrix4::identity();
     let mut k = 0;

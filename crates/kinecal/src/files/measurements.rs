@@ -244,11 +244,8 @@ fn payload_of(
         return Ok(None);
     }
     let mass = t.number(line, &cols[0].1, f.get(mass_col))?;
-    if !(0.0..=1e6).contains(&mass) {
-        return Err(Error::input(
-            t.at(line, &cols[0].1),
-            format!("a payload mass is 0 to 1e6 kg, found {mass}"),
-        ));
+    if let Some(problem) = crate::robot::Payload::mass_problem(mass) {
+        return Err(Error::input(t.at(line, &cols[0].1), problem));
     }
     let mut com = Vector3::zeros();
     for (k, (col, name)) in cols[1..].iter().enumerate() {
