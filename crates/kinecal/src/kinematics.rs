@@ -245,8 +245,9 @@ impl ReadingTrig {
 /// path does not allocate.
 #[derive(Debug, Clone)]
 pub struct Workspace {
-    /// `prox[i]`: global frame at the proximal end of link i (`prox[0]` is the global frame).
-    prox: Vec<Frame>,
+    /// `after[k]`: global frame right after joint k (1-based; `after[0]` is the global frame),
+    /// where the links of k's children, its sites and its bodies start.
+    after: Vec<Frame>,
     /// `dist[i]`: global frame at the distal end of link i (before joint i turns, after an
     /// elastic robot's joint tilted; `dist[n]` is the EECF).
     dist: Vec<Frame>,
@@ -260,7 +261,7 @@ impl Workspace {
     pub fn new(robot: &Robot) -> Self {
         let n = robot.dof();
         Workspace {
-            prox: vec![Frame::identity(); n + 1],
+            after: vec![Frame::identity(); n + 1],
             dist: vec![Frame::identity(); n + 1],
             readings: vec![0.0; n],
             elastic: robot
@@ -290,7 +291,7 @@ impl Workspace {
     /// The global frame right after joint `k` (1-based; 0 is the global frame itself) of the
     /// last [`Chain::forward`]: the frame link `k + 1` and the sites of joint `k` hang off.
     pub fn after_joint(&self, k: usize) -> &Frame {
-        &self.prox[k]
+        &self.after[k]
     }
 
     /// The end-effector frame of the last [`Chain::forward`].
@@ -318,15 +319,16 @@ pub struct ColumnPlan {
     elastic: Vec<(usize, usize)>,
     /// The wanted components of the mass model's bodies, `(body, component, column)`.
     bodies: Vec<(usize, crate::params::BodyComponent, usize)>,
-    /// The joints upstream of the target (all for the end effector).
-    joints_upto: usize,
+    /// The node the target hangs off (0-based joint a site follows; `n` for the end
+    /// effector), for an elastic robot's response.
+    node: usize,
 }
 
 /// The wanted columns of one link transform: its translations along and rotations about its
 /// proximal frame's axes.
 #[derive(Debug, Clone, PartialEq)]
 struct LinkColumns {
-    /// The proximal frame (`Workspace::prox` index).
+    /// The proximal frame (`Workspace::after` index: the joint it starts after, 1-based).
     frame: usize,
     cache: LinkOf,
     /// Columns of `x, y, z`.
@@ -368,12 +370,13 @@ impl ColumnPlan {
             "one entry per parameter"
         );
         let (nl, nj) = (robot.links.len(), robot.dof());
-        let (links_upto, joints_upto) = match target {
-            Target::EndEffector => (nl, nj),
-            Target::Site(s) => {
-                let k = robot.sites[s].joint;
-                (k, k)
-            }
+        // The joints on the path to the target (in a serial chain, those before it); the links
+        // before them, and the tool link for the end effector.
+        let attach = target_joint(robot, target);
+        let path = robot.path_to(attach);
+        let link_upstream = |i: usize| match path.get(i) {
+            Some(&on) => on,
+            None => target == Target::EndEffector,
         };
         let mut covered = vec![false; columns.len()];
         let mut take = |p: usize| {
@@ -382,11 +385,6 @@ impl ColumnPlan {
         };
         // An elastic robot's links and joints past the target move it through the torques.
         let elastic = robot.elastic.is_some();
-        let (links_planned, joints_planned) = if elastic {
-            (nl, nj)
-        } else {
-            (links_upto, joints_upto)
-        };
         let mut links = Vec::new();
         let mut link = |first: usize, frame: usize, cache: LinkOf, upstream: bool| {
             let l = LinkColumns {
@@ -400,8 +398,13 @@ impl ColumnPlan {
                 links.push(l);
             }
         };
-        for i in 0..links_planned {
-            link(6 * i, i, LinkOf::Link(i), i < links_upto);
+        for i in (0..nl).filter(|&i| elastic || link_upstream(i)) {
+            link(
+                6 * i,
+                robot.link_parent(i),
+                LinkOf::Link(i),
+                link_upstream(i),
+            );
         }
         if let Target::Site(s) = target {
             link(
@@ -412,7 +415,7 @@ impl ColumnPlan {
             );
         }
         let mut joints = Vec::new();
-        for j in 0..joints_planned {
+        for j in (0..nj).filter(|&j| elastic || path[j]) {
             let coupling = robot.joints[j].coupling.and_then(|c| {
                 let p = robot.param_id(ParamKind::Coupling { joint: j }).0;
                 take(p).map(|col| (col, c.joint))
@@ -422,7 +425,7 @@ impl ColumnPlan {
                 offset: take(6 * nl + j),
                 slope: take(6 * nl + nj + j),
                 coupling,
-                upstream: j < joints_upto,
+                upstream: path[j],
             };
             if jc.offset.is_some() || jc.slope.is_some() || jc.coupling.is_some() {
                 joints.push(jc);
@@ -460,7 +463,10 @@ impl ColumnPlan {
             zero,
             elastic: compliances,
             bodies,
-            joints_upto,
+            node: match target {
+                Target::EndEffector => nj,
+                Target::Site(_) => attach - 1,
+            },
         }
     }
 
@@ -485,6 +491,8 @@ pub struct Chain<'r> {
     sites: Vec<LinkCache>,
     /// `(sin, cos)` of each joint's offset (for [`Chain::forward_with`]).
     offset_trig: Vec<(f64, f64)>,
+    /// [`Robot::link_parent`] of each link.
+    parents: Vec<usize>,
 }
 
 impl<'r> Chain<'r> {
@@ -499,6 +507,7 @@ impl<'r> Chain<'r> {
                 .map(|s| LinkCache::new(&s.frame))
                 .collect(),
             offset_trig: robot.joints.iter().map(|j| j.offset.sin_cos()).collect(),
+            parents: (0..=robot.dof()).map(|i| robot.link_parent(i)).collect(),
         }
     }
 
@@ -561,9 +570,14 @@ impl<'r> Chain<'r> {
         let n = self.robot.dof();
         debug_assert_eq!(readings.len(), n);
         ws.readings.copy_from_slice(readings);
+        ws.after[0] = Frame::identity();
         let mut current = Frame::identity();
         for i in 0..=n {
-            ws.prox[i] = current;
+            // A serial chain goes on from the last frame; a tree's branch from its parent's.
+            let parent = self.parents[i];
+            if parent != i {
+                current = ws.after[parent];
+            }
             current = current.then(&self.links[i].frame);
             if i < n {
                 let joint = &self.robot.joints[i];
@@ -600,6 +614,7 @@ impl<'r> Chain<'r> {
                         current.translation += current.rotation.column(2) * q;
                     }
                 }
+                ws.after[i + 1] = current;
             } else {
                 ws.dist[i] = current;
             }
@@ -614,7 +629,7 @@ impl<'r> Chain<'r> {
             Target::Site(s) => {
                 // The frame right after joint k is the proximal frame of link k+1.
                 let k = self.robot.sites[s].joint;
-                ws.prox[k].then(&self.sites[s].frame)
+                ws.after[k].then(&self.sites[s].frame)
             }
         }
     }
@@ -661,7 +676,7 @@ impl<'r> Chain<'r> {
         };
         let zero = Vector3::zeros();
         for l in &plan.links {
-            let prox = &ws.prox[l.frame];
+            let prox = &ws.after[l.frame];
             let r = &prox.rotation;
             for (k, col) in l.translation.iter().enumerate() {
                 if let Some(col) = *col {
@@ -713,9 +728,9 @@ impl<'r> Chain<'r> {
         assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
         let e = self.target_frame(ws, plan.target).translation;
         let zero = Vector3::zeros();
-        let upto = plan.joints_upto;
+        let upto = plan.node;
         for l in &plan.links {
-            let prox = &ws.prox[l.frame];
+            let prox = &ws.after[l.frame];
             let r = &prox.rotation;
             // Where the link sits in the chain, for the torques (a site carries no body).
             let at = match l.cache {
@@ -846,15 +861,19 @@ impl Chain<'_> {
         );
         out.fill(0.0);
         let e = self.target_frame(ws, target).translation;
-        let joints_upto = match target {
+        let attach = target_joint(robot, target);
+        let node = match target {
             Target::EndEffector => nj,
-            Target::Site(s) => robot.sites[s].joint,
+            Target::Site(_) => attach - 1,
         };
         // An elastic robot's joints past the target move it through the torques.
         let elastic = ws.elastic.is_some() && robot.elastic.is_some();
-        let planned = if elastic { nj } else { joints_upto };
-        for j in 0..planned {
-            let (dp, w) = if j < joints_upto {
+        for j in 0..nj {
+            let upstream = robot.joint_moves(j, attach);
+            if !(elastic || upstream) {
+                continue;
+            }
+            let (dp, w) = if upstream {
                 self.joint_motion(ws, j, &e)
             } else {
                 (Vector3::zeros(), Vector3::zeros())
@@ -870,7 +889,7 @@ impl Chain<'_> {
                 }
                 if let Some(t) = &twist {
                     let cause = elastic::Cause::Twist(t, scale);
-                    self.elastic_column(ws, cause, &e, joints_upto, c);
+                    self.elastic_column(ws, cause, &e, node, c);
                 }
             };
             add(j, joint.slope);
@@ -878,6 +897,15 @@ impl Chain<'_> {
                 add(c.joint, c.factor);
             }
         }
+    }
+}
+
+/// The joint (1-based) right after which `target`'s frame hangs: the last joint for the end
+/// effector (the tool link starts there), a site's own joint.
+pub fn target_joint(robot: &Robot, target: Target) -> usize {
+    match target {
+        Target::EndEffector => robot.dof(),
+        Target::Site(s) => robot.sites[s].joint,
     }
 }
 

@@ -15,6 +15,12 @@
 //! - a plane (for contact measurements) is the set of points `p` with `n . p = offset` in the
 //!   global frame, `n` its unit normal. Its three parameters are the offset and two tilts of the
 //!   normal about the axes of the plane's reference frame (see [`Plane`]).
+//! - a robot may branch (a *tree*: two arms on one torso, a second robot measured in the same
+//!   frame): each joint's link starts from the frame right after its *parent* joint (the
+//!   previous joint unless [`Joint::parent`] says otherwise; 0 is the global frame), parents
+//!   come before their children, and the end effector ends the last joint's branch; the other
+//!   branches end in sites (their tool frames). A parameter moves only the frames of its own
+//!   subtree, so the shared links are estimated once from every branch's data;
 //! - a robot may carry a mass model ([`Elastic`]): bodies, gravity and joint compliances, so that
 //!   its joints yield to the gravity torques (the elastic equilibrium that the kinematics
 //!   module's `Chain::forward` solves).
@@ -125,6 +131,12 @@ pub struct Joint {
     pub coupling: Option<Coupling>,
     /// Range of transducer readings `(min, max)` the robot can take, in transducer units.
     pub range: Option<(f64, f64)>,
+    /// The joint's name (a URDF joint name, say): measurement and postures files may head its
+    /// reading column with it instead of `vK`.
+    pub name: Option<String>,
+    /// The joint (1-based; 0 the global frame) after which this joint's link starts, when it is
+    /// not the previous joint: a tree's branch. `None` is the serial chain's previous joint.
+    pub parent: Option<usize>,
 }
 
 impl Joint {
@@ -136,6 +148,8 @@ impl Joint {
             slope,
             coupling: None,
             range: None,
+            name: None,
+            parent: None,
         }
     }
 
@@ -455,11 +469,19 @@ impl Elastic {
         let n = robot.dof();
         (1..=n)
             .map(|joint| {
-                let next = &robot.links[joint];
+                // The link that starts after the joint (a tree's first branch, the tool link
+                // after the last joint).
+                let next = (0..=n).find(|&i| robot.link_parent(i) == joint).map_or(
+                    Vector3::zeros(),
+                    |i| {
+                        let l = &robot.links[i];
+                        Vector3::new(l.x, l.y, l.z)
+                    },
+                );
                 Body {
                     joint,
                     mass: total / n as f64,
-                    com: Vector3::new(next.x, next.y, next.z) * 0.5,
+                    com: next * 0.5,
                 }
             })
             .collect()
@@ -514,6 +536,9 @@ pub struct Robot {
     pub priors: Prior,
     /// The mass model, for a robot whose joints yield under gravity.
     pub elastic: Option<Elastic>,
+    /// The end-effector frame's name, when it has one: measurement files' `site` column may
+    /// name it (besides `ee`). A tree's other tool frames are sites.
+    pub end_effector: Option<String>,
 }
 
 /// How far each parameter is expected to deviate from its nominal value (internal units): the
@@ -646,6 +671,51 @@ impl Robot {
     /// Number of joints n.
     pub fn dof(&self) -> usize {
         self.joints.len()
+    }
+
+    /// The joint (1-based; 0 the global frame) right after which link `i` (0-based, `0..=n`)
+    /// starts: the joint's parent for a link before a joint, the last joint for the tool link.
+    #[inline]
+    pub fn link_parent(&self, i: usize) -> usize {
+        match self.joints.get(i) {
+            Some(j) => j.parent.unwrap_or(i),
+            None => self.joints.len(),
+        }
+    }
+
+    /// Whether the robot branches (some joint's link starts elsewhere than after the previous
+    /// joint).
+    pub fn is_tree(&self) -> bool {
+        (0..self.joints.len()).any(|i| self.link_parent(i) != i)
+    }
+
+    /// Whether joint `j` (0-based) moves the frame right after joint `k` (1-based; 0 the
+    /// global frame): whether `j` is on the path from the base to that frame.
+    pub fn joint_moves(&self, j: usize, k: usize) -> bool {
+        let mut a = k;
+        while a > j + 1 {
+            a = self.link_parent(a - 1);
+        }
+        a == j + 1
+    }
+
+    /// The joints (0-based) on the path from the base to the frame right after joint `k`
+    /// (1-based), one flag per joint.
+    pub fn path_to(&self, k: usize) -> Vec<bool> {
+        let mut on = vec![false; self.joints.len()];
+        let mut a = k;
+        while a > 0 {
+            on[a - 1] = true;
+            a = self.link_parent(a - 1);
+        }
+        on
+    }
+
+    /// Index of the joint called `name`.
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joints
+            .iter()
+            .position(|j| j.name.as_deref() == Some(name))
     }
 
     /// The joints that are coupled to another joint's reading (0-based, ascending).
@@ -964,7 +1034,9 @@ impl Robot {
         self.links.len() == other.links.len()
             && self.joints.len() == other.joints.len()
             && self.joints.iter().zip(&other.joints).all(|(a, b)| {
-                a.kind == b.kind && a.coupling.map(|c| c.joint) == b.coupling.map(|c| c.joint)
+                a.kind == b.kind
+                    && a.coupling.map(|c| c.joint) == b.coupling.map(|c| c.joint)
+                    && a.parent == b.parent
             })
             && self
                 .sites
@@ -1028,6 +1100,29 @@ impl Robot {
             }
         }
         for (i, j) in self.joints.iter().enumerate() {
+            if let Some(p) = j.parent {
+                if p > i {
+                    return Err(format!(
+                        "joint {}: parent = {p}, but a joint's parent must come before it (0, the \
+                         global frame, to {i})",
+                        i + 1
+                    ));
+                }
+            }
+            if let Some(name) = &j.name {
+                if name.trim().is_empty()
+                    || self.joints[..i]
+                        .iter()
+                        .any(|o| o.name.as_deref() == Some(name))
+                    || name.starts_with('v') && name[1..].parse::<usize>().is_ok()
+                {
+                    return Err(format!(
+                        "joint {}: name `{name}` is empty, used twice or looks like a reading \
+                         column (`vK`)",
+                        i + 1
+                    ));
+                }
+            }
             if let Some((lo, hi)) = j.range {
                 if !(crate::units::plausible(lo) && crate::units::plausible(hi) && lo < hi) {
                     return Err(format!(
@@ -1047,6 +1142,13 @@ impl Robot {
                         self.joints.len()
                     ));
                 }
+            }
+        }
+        if let Some(name) = &self.end_effector {
+            if name.trim().is_empty() || name == "ee" || self.site_index(name).is_some() {
+                return Err(format!(
+                    "end effector: name `{name}` is empty, reserved (`ee`) or a site's name"
+                ));
             }
         }
         for (i, s) in self.sessions.iter().enumerate() {

@@ -4,6 +4,7 @@
 //! name = "GE A4"
 //! length_unit = "in"      # "m", "mm" or "in"
 //! angle_unit = "deg"      # "deg" or "rad"
+//! end_effector = "right"  # optional: a name for the end-effector frame in `site` columns
 //! [[links]]               # n+1 of them
 //! x = 15.08               # missing components are 0
 //! beta = 180.0
@@ -14,9 +15,12 @@
 //! min = -14.0             # optional reading range (both or neither)
 //! max = -6.0
 //! coupling = { joint = 2, factor = 1.0 }   # optional: q += factor * V2 (angle_unit per unit)
-//! [[sites]]               # optional
+//! name = "elbow_joint"    # optional: files may head this joint's reading column so
+//! parent = 1              # optional, a tree: the link starts after joint 1 (a number, 0 the
+//!                         # global frame, or an earlier joint's name), not the previous joint
+//! [[sites]]               # optional (a tree's other tool frames are sites)
 //! name = "elbow"
-//! joint = 2               # attached right after joint 2
+//! joint = 2               # attached right after joint 2 (or the joint's name)
 //! x = 0.0                 # y, z, alpha, beta, gamma as for links
 //! [[planes]]              # optional: planes touched in contact measurements
 //! name = "table"
@@ -106,6 +110,38 @@ impl<'t> Reader<'t> {
             ));
         }
         Ok(Some(v))
+    }
+
+    /// A joint named by number (1-based; 0 the global frame) or by its `name` among `joints`
+    /// (the ones read so far).
+    fn joint_number(&self, item: &Item, field: &str, joints: &[Joint], key: &str) -> Result<usize> {
+        if let Some(name) = item.as_str() {
+            return match joints.iter().position(|j| j.name.as_deref() == Some(name)) {
+                Some(j) => Ok(j + 1),
+                None => Err(self.err(
+                    item.span(),
+                    field,
+                    format!(
+                        "no joint named `{name}` before this one (named joints: {})",
+                        joints
+                            .iter()
+                            .filter_map(|j| j.name.as_deref())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )),
+            };
+        }
+        match item.as_integer() {
+            Some(k) if k >= 0 => Ok(k as usize),
+            _ => Err(self.err(
+                item.span(),
+                field,
+                format!(
+                    "expected `{key} = K` (a joint number, 0 the global frame) or a joint's name"
+                ),
+            )),
+        }
     }
 
     pub(crate) fn string<'a>(
@@ -498,6 +534,8 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
                 "compliance",
                 "lateral",
                 "lateral_axis",
+                "name",
+                "parent",
             ],
             &what,
         )?;
@@ -545,14 +583,42 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
             }
         };
         let coupling = r.coupling(t, &what, kind, &units, (i, joint_count))?;
+        let name = r
+            .string(t, "name", &format!("{what}.name"))?
+            .map(str::to_string);
+        let parent = match t.get("parent") {
+            None => None,
+            Some(item) => {
+                let field = format!("{what}.parent");
+                let p = r.joint_number(item, &field, &joints, "parent")?;
+                if p > i {
+                    return Err(r.err(
+                        item.span(),
+                        &field,
+                        format!(
+                            "joint {} cannot hang off joint {p}: a parent comes before its \
+                             children (0, the global frame, to {i})",
+                            i + 1
+                        ),
+                    ));
+                }
+                // The previous joint is the serial default: one way to say it.
+                (p != i).then_some(p)
+            }
+        };
         joints.push(Joint {
             kind,
             offset: units.to_si(kind.variable(), offset),
             slope: units.to_si(kind.slope(), slope),
             coupling,
             range,
+            name,
+            parent,
         });
     }
+    let end_effector = r
+        .string(root, "end_effector", "end_effector")?
+        .map(str::to_string);
 
     let mut sites = Vec::new();
     for (i, t) in r.tables(root, "sites")?.iter().enumerate() {
@@ -565,14 +631,18 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
             .ok_or_else(|| r.err(t.span(), &name_field, "missing `name`"))?
             .to_string();
         let joint_field = format!("{what}.joint");
-        let joint = match t.get("joint").and_then(Item::as_integer) {
-            Some(j) if j >= 1 => j as usize,
-            _ => {
-                return Err(r.err(
-                    t.get("joint").and_then(Item::span).or(t.span()),
-                    &joint_field,
-                    "expected `joint = K`, the number (1..n) of the joint the site follows",
-                ))
+        let joint = match t.get("joint") {
+            Some(item) if item.is_str() => r.joint_number(item, &joint_field, &joints, "joint")?,
+            item => {
+                match item.and_then(Item::as_integer) {
+                    Some(j) if j >= 1 => j as usize,
+                    _ => return Err(r.err(
+                        item.and_then(Item::span).or(t.span()),
+                        &joint_field,
+                        "expected `joint = K`, the number (1..n) or name of the joint the site \
+                         follows",
+                    )),
+                }
             }
         };
         sites.push(Site { name, joint, frame });
@@ -644,6 +714,7 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         tolerances: Default::default(),
         priors: Default::default(),
         elastic: None,
+        end_effector,
     };
     robot
         .validate()
@@ -929,8 +1000,38 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
     for (t, l) in links.iter_mut().zip(&robot.links) {
         write_link(t, l, &units, &scales);
     }
+    match &robot.end_effector {
+        Some(name) => set_string(root, "end_effector", name),
+        None => {
+            root.remove("end_effector");
+        }
+    }
+    let names: Vec<Option<String>> = robot.joints.iter().map(|j| j.name.clone()).collect();
     let joints = array_of_tables(root, "joints", robot.joints.len());
     for (t, j) in joints.iter_mut().zip(&robot.joints) {
+        match &j.name {
+            Some(name) => set_string(t, "name", name),
+            None => {
+                t.remove("name");
+            }
+        }
+        match j.parent {
+            Some(p) => {
+                // By name when the file said it so and the parent has one.
+                let by_name = t.get("parent").is_some_and(Item::is_str);
+                let mut v = match names.get(p.wrapping_sub(1)).cloned().flatten() {
+                    Some(name) if by_name => Value::from(name),
+                    _ => Value::from(p as i64),
+                };
+                if let Some(old) = t.get("parent").and_then(Item::as_value) {
+                    *v.decor_mut() = old.decor().clone();
+                }
+                t.insert("parent", Item::Value(v));
+            }
+            None => {
+                t.remove("parent");
+            }
+        }
         set_string(t, "kind", j.kind.as_str());
         let (variable, slope) = (j.kind.variable(), j.kind.slope());
         set_number(
@@ -979,7 +1080,11 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
         let sites = array_of_tables(root, "sites", robot.sites.len());
         for (t, s) in sites.iter_mut().zip(&robot.sites) {
             set_string(t, "name", &s.name);
-            let mut joint = Value::from(s.joint as i64);
+            let by_name = t.get("joint").is_some_and(Item::is_str);
+            let mut joint = match names.get(s.joint.wrapping_sub(1)).cloned().flatten() {
+                Some(name) if by_name => Value::from(name),
+                _ => Value::from(s.joint as i64),
+            };
             if let Some(old) = t.get("joint").and_then(Item::as_value) {
                 *joint.decor_mut() = old.decor().clone();
             }

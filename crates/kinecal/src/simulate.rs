@@ -204,6 +204,8 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
                 slope: sign * r.random_range(0.5..2.0),
                 coupling: None,
                 range: None,
+                name: None,
+                parent: None,
             }
         })
         .collect();
@@ -218,5 +220,51 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
         tolerances: Default::default(),
         priors: Default::default(),
         elastic: None,
+        end_effector: None,
     }
+}
+
+/// A random tree of revolute joints (see [`random_robot`] for the geometry): a torso of `torso`
+/// joints (`torso1..`) carrying one arm per entry of `arms` (`arm1_1..`, each its given number
+/// of joints), every arm starting from the torso's last joint. Each arm ends in a tool frame
+/// named `arm<k>`: the last arm's is the end effector, the others are sites. For tests and
+/// benchmarks of branched robots (two arms on one torso).
+pub fn random_tree(torso: usize, arms: &[usize], seed: u64) -> Robot {
+    use crate::robot::{Link, Site};
+    let n = torso + arms.iter().sum::<usize>();
+    let mut robot = random_robot(&vec![JointKind::Revolute; n], seed);
+    robot.name = format!("random-tree-{seed}");
+    for (j, joint) in robot.joints.iter_mut().enumerate().take(torso) {
+        joint.name = Some(format!("torso{}", j + 1));
+    }
+    let mut r = rng(seed, 5);
+    let mut first = torso;
+    for (a, &count) in arms.iter().enumerate() {
+        for k in 0..count {
+            let joint = &mut robot.joints[first + k];
+            joint.name = Some(format!("arm{}_{}", a + 1, k + 1));
+            if k == 0 && first != torso {
+                joint.parent = Some(torso);
+            }
+        }
+        first += count;
+        let tool = format!("arm{}", a + 1);
+        if a + 1 < arms.len() {
+            robot.sites.push(Site {
+                name: tool,
+                joint: first,
+                frame: Link {
+                    x: r.random_range(-0.2..0.2),
+                    y: r.random_range(-0.2..0.2),
+                    z: r.random_range(-0.2..0.2),
+                    alpha: r.random_range(-3.1..3.1),
+                    beta: r.random_range(-1.2..1.2),
+                    gamma: r.random_range(-3.1..3.1),
+                },
+            });
+        } else {
+            robot.end_effector = Some(tool);
+        }
+    }
+    robot
 }

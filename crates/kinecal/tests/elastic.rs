@@ -83,7 +83,12 @@ fn torques_directly(robot: &Robot, readings: &[f64], delta: &[f64]) -> Vec<f64> 
         let before = after.rotation * Matrix3::new_rotation(-q);
         let w = before * model.joints[i].lateral_axis;
         let mut moment = Vector3::zeros();
-        for b in model.bodies.iter().filter(|b| b.joint > i) {
+        // The bodies joint i carries: those past it on its branches.
+        for b in model
+            .bodies
+            .iter()
+            .filter(|b| robot.joint_moves(i, b.joint))
+        {
             let f = ws.after_joint(b.joint);
             let c = f.translation + f.rotation * b.com;
             moment += (c - after.translation).cross(&(model.gravity * b.mass));
@@ -94,18 +99,49 @@ fn torques_directly(robot: &Robot, readings: &[f64], delta: &[f64]) -> Vec<f64> 
     tau
 }
 
+/// A torso of 2 joints carrying two arms of 3 (a tree), one body past every joint, compliances
+/// 1e-4-1e-3 rad/(N m): the elastic model where a torque gathers the bodies of two branches.
+fn elastic_tree(seed: u64) -> Robot {
+    let mut robot = simulate::random_tree(2, &[3, 3], seed);
+    let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 200);
+    let bodies = (1..=robot.dof())
+        .map(|joint| Body {
+            joint,
+            mass: r.random_range(0.5..3.0),
+            com: Vector3::new(
+                r.random_range(-0.2..0.2),
+                r.random_range(-0.2..0.2),
+                r.random_range(-0.2..0.2),
+            ),
+        })
+        .collect();
+    let mut model = Elastic::new(&robot, bodies);
+    for j in &mut model.joints {
+        j.compliance = r.random_range(1e-4..1e-3);
+        j.lateral = r.random_range(1e-4..1e-3);
+    }
+    robot.elastic = Some(model);
+    robot.validate().expect("valid tree");
+    robot
+}
+
 #[test]
 fn the_equilibrium_is_the_root_a_direct_newton_solve_finds() {
-    let robot = elastic_arm(3);
+    for robot in [elastic_arm(3), elastic_tree(5)] {
+        equilibrium_against_newton(&robot);
+    }
+}
+
+fn equilibrium_against_newton(robot: &Robot) {
     let model = robot.elastic.as_ref().unwrap();
     let k: Vec<f64> = model
         .joints
         .iter()
         .flat_map(|j| [j.lateral, j.compliance])
         .collect();
-    let chain = Chain::new(&robot);
-    let mut ws = Workspace::new(&robot);
-    for p in simulate::sample_postures(&robot, 10, 5) {
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    for p in simulate::sample_postures(robot, 10, 5) {
         chain.forward(&p.readings, &mut ws);
         let eq = ws.equilibrium().unwrap();
         assert!(eq.converged && eq.change < 1e-10, "{eq:?}");
@@ -113,7 +149,7 @@ fn the_equilibrium_is_the_root_a_direct_newton_solve_finds() {
         // Newton on F(d) = d - K tau(d) with a finite-difference Jacobian, from d = 0.
         let m = k.len();
         let f = |d: &[f64]| -> DVector<f64> {
-            let t = torques_directly(&robot, &p.readings, d);
+            let t = torques_directly(robot, &p.readings, d);
             DVector::from_iterator(m, (0..m).map(|e| d[e] - k[e] * t[e]))
         };
         let mut d = vec![0.0; m];
@@ -143,10 +179,14 @@ fn the_equilibrium_is_the_root_a_direct_newton_solve_finds() {
             );
         }
         // And the frames are those of the deflected rigid robot.
-        let rigid = deflected_rigid(&robot, ours);
-        let a = chain.target_frame(&ws, Target::EndEffector);
-        let b = Chain::new(&rigid).frame_at(&p.readings, Target::EndEffector);
-        assert!((a.translation - b.translation).norm() < 1e-12);
+        let rigid = deflected_rigid(robot, ours);
+        for target in
+            std::iter::once(Target::EndEffector).chain((0..robot.sites.len()).map(Target::Site))
+        {
+            let a = chain.target_frame(&ws, target);
+            let b = Chain::new(&rigid).frame_at(&p.readings, target);
+            assert!((a.translation - b.translation).norm() < 1e-12);
+        }
     }
 }
 
@@ -231,14 +271,35 @@ fn the_parameter_jacobian_matches_finite_differences() {
 }
 
 #[test]
+fn a_tree_differentiates_too() {
+    // Two arms on one torso: each arm's parameters move its own tool only (rigid), or the other
+    // tool too through the torso's torques (elastic).
+    let elastic = tight(elastic_tree(13));
+    for robot in [elastic.rigid(), elastic] {
+        for target in [Target::EndEffector, Target::Site(0)] {
+            check_jacobian(&robot, target, None, 3, 19);
+            check_reading_jacobian(&robot, target, 3, 37);
+        }
+    }
+}
+
+#[test]
 fn the_reading_jacobian_matches_finite_differences() {
     let robot = tight(elastic_arm(23));
-    let chain = Chain::new(&robot);
-    let mut ws = Workspace::new(&robot);
+    for target in [Target::EndEffector, Target::Site(0)] {
+        check_reading_jacobian(&robot, target, 4, 29);
+    }
+}
+
+/// The reading Jacobian of `robot` at `target` against central differences at `count`
+/// postures (the same error bound as [`check_jacobian`]'s: readings move by 1e-6).
+fn check_reading_jacobian(robot: &Robot, target: Target, count: usize, seed: u64) {
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
     let n = robot.dof();
     let mut jac = vec![0.0; 6 * n];
-    for target in [Target::EndEffector, Target::Site(0)] {
-        for p in simulate::sample_postures(&robot, 4, 29) {
+    {
+        for p in simulate::sample_postures(robot, count, seed) {
             chain.forward(&p.readings, &mut ws);
             chain.reading_jacobian(&ws, target, &mut jac);
             for j in 0..n {

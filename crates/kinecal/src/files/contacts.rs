@@ -33,7 +33,9 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
     }
     let n = robot.dof();
     let header = FORMAT.header.replace("v1..vn", &format!("v1..v{n}"));
-    let readings: Vec<String> = (1..=n).map(|i| format!("v{i}")).collect();
+    let readings: Vec<String> = (0..n)
+        .map(|j| super::reading_column(robot, &t.header, j))
+        .collect();
     let mut known: Vec<String> = ["posture", "site", "plane", "gap", "sigma_position"]
         .map(String::from)
         .to_vec();

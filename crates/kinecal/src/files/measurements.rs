@@ -269,6 +269,15 @@ pub fn parse_measurements_mapped(
     let t = table::read(text, file)?;
     let n = robot.dof();
     let readings = reading_columns(n);
+    // Readings headed by the joints' names instead of `vK`: an implicit mapping.
+    let mut named = map.clone();
+    for (j, v) in readings.iter().enumerate() {
+        let column = super::reading_column(robot, &t.header, j);
+        if column != *v && !named.shared.iter().any(|(o, _)| o == v) {
+            named.shared.push((v.clone(), column));
+        }
+    }
+    let map = &named;
     let mut canonical: Vec<String> = vec!["posture".into(), "site".into(), "session".into()];
     canonical.extend(PAYLOAD_COLUMNS.iter().map(|s| s.to_string()));
     canonical.extend(readings.iter().cloned());
@@ -669,31 +678,38 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
     if t.column("x").is_some() {
         return Ok(parse_measurements(text, file, robot)?.postures);
     }
-    let expected = postures_header(robot);
-    let got: Vec<String> = t.header.iter().map(|h| h.to_ascii_lowercase()).collect();
-    if got != expected {
-        return Err(Error::input(
-            t.header_at(),
-            format!(
-                "unexpected header `{}`: expected `{}`",
-                t.header.join(","),
-                expected.join(",")
-            ),
-        ));
-    }
+    // `posture` and one column per joint (`vK` or the joint's name), in any order.
+    let mut expected = vec!["posture".to_string()];
+    expected.extend((0..robot.dof()).map(|j| super::reading_column(robot, &t.header, j)));
+    let cols: Option<Vec<usize>> = expected.iter().map(|c| t.column(c)).collect();
+    let cols = match cols {
+        Some(cols) if t.header.len() == expected.len() => cols,
+        _ => {
+            return Err(Error::input(
+                t.header_at(),
+                format!(
+                    "unexpected header `{}`: expected `{}` (joint columns may carry the \
+                     joints' names, in any order)",
+                    t.header.join(","),
+                    postures_header(robot).join(",")
+                ),
+            ))
+        }
+    };
     t.check_rows()?;
     let mut table = PostureTable::new();
     for (line, f) in t.rows() {
         let readings = (0..robot.dof())
-            .map(|j| t.number(line, &format!("v{}", j + 1), &f[1 + j]))
+            .map(|j| t.number(line, &expected[1 + j], &f[cols[1 + j]]))
             .collect::<Result<Vec<_>>>()?;
-        if table.contains(&f[0]) {
+        let label = &f[cols[0]];
+        if table.contains(label) {
             return Err(Error::input(
                 t.at(line, "posture"),
-                format!("posture `{}` listed twice", &f[0]),
+                format!("posture `{label}` listed twice"),
             ));
         }
-        table.get_or_insert(&t, line, &f[0], readings, &|j| format!("v{}", j + 1))?;
+        table.get_or_insert(&t, line, label, readings, &|j| expected[1 + j].clone())?;
     }
     if table.postures.is_empty() {
         return Err(Error::input(

@@ -92,6 +92,8 @@ pub fn chain_from_frames(
                 slope: units.factor(j.kind.slope()),
                 coupling: None,
                 range: j.range,
+                name: None,
+                parent: None,
             })
             .collect(),
         sites: Vec::new(),
@@ -100,6 +102,7 @@ pub fn chain_from_frames(
         tolerances: Tolerances::default(),
         priors: Default::default(),
         elastic: None,
+        end_effector: None,
     }
 }
 

@@ -53,7 +53,8 @@ pub struct Equilibrium {
 
 /// A twist of the chain, for the torques' derivatives: a unit rotation about `u` through `c`, or
 /// a unit translation along `u`, at chain position `at` (link `i`: `3i`; tilt of joint `i`:
-/// `3i + 1`; turn of joint `i`: `3i + 2`). Everything past the position moves with it.
+/// `3i + 1`; turn of joint `i`: `3i + 2`). Everything past the position moves with it: in a
+/// tree, the subtree of node `at / 3` (joint `i`'s node is `i`, the tool link's `n`).
 #[derive(Debug, Clone, Copy)]
 pub(super) enum Twist {
     Rotation {
@@ -90,8 +91,8 @@ pub(super) struct ElasticState {
     axis: Vec<Vector3<f64>>,
     /// Origin of each joint (global).
     origin: Vec<Vector3<f64>>,
-    /// `mass[i]`: total mass of the bodies past joint i (`n + 1` entries, the last the
-    /// payload's).
+    /// `mass[i]`: total mass of the bodies past joint i, its whole subtree in a tree (`n + 1`
+    /// entries, the last the payload's).
     mass: Vec<f64>,
     /// `moment[i]`: their first moment `sum m c` (global).
     moment: Vec<Vector3<f64>>,
@@ -99,6 +100,11 @@ pub(super) struct ElasticState {
     pub tau: Vec<f64>,
     /// Gravity of the last equilibrium (m/s^2, global).
     gravity: Vector3<f64>,
+    /// The parent node of each node (joint `i`'s node is `i`, the tool link's `n`), `None` at
+    /// the base.
+    parent: Vec<Option<usize>>,
+    /// `below[a * (n + 1) + b]`: node `b` is node `a` or in its subtree.
+    below: Vec<bool>,
     /// The response and its scratch: worked out when a Jacobian first asks after a
     /// [`Chain::forward`] (residual-only passes do without it).
     scratch: RefCell<Scratch>,
@@ -120,7 +126,20 @@ impl ElasticState {
     pub fn new(robot: &Robot) -> ElasticState {
         let n = robot.dof();
         let m = 2 * n;
+        let parent: Vec<Option<usize>> = (0..=n)
+            .map(|b| robot.link_parent(b).checked_sub(1))
+            .collect();
+        let mut below = vec![false; (n + 1) * (n + 1)];
+        for b in 0..=n {
+            let mut a = Some(b);
+            while let Some(x) = a {
+                below[x * (n + 1) + b] = true;
+                a = parent[x];
+            }
+        }
         ElasticState {
+            parent,
+            below,
             delta: vec![0.0; m],
             k: vec![0.0; m],
             axis: vec![Vector3::zeros(); m],
@@ -142,6 +161,32 @@ impl ElasticState {
                 converged: true,
                 largest: 0.0,
             },
+        }
+    }
+
+    /// Whether node `b` is node `a` or in its subtree.
+    #[inline]
+    fn below(&self, a: usize, b: usize) -> bool {
+        self.below[a * self.mass.len() + b]
+    }
+
+    /// Whether chain position `at` is proximal to position `t` (on the path to it), or past it
+    /// (in its subtree); neither for another branch.
+    #[inline]
+    fn relation(&self, at: usize, t: usize) -> Relation {
+        let (a, b) = (at / 3, t / 3);
+        if a == b {
+            if at < t {
+                Relation::Proximal
+            } else {
+                Relation::Past
+            }
+        } else if self.below(a, b) {
+            Relation::Proximal
+        } else if self.below(b, a) {
+            Relation::Past
+        } else {
+            Relation::Apart
         }
     }
 
@@ -176,15 +221,18 @@ impl ElasticState {
             self.moment[n] = (f.translation + f.rotation * p.com) * p.mass;
         }
         for b in &model.bodies {
-            let f = &ws.prox[b.joint];
+            let f = &ws.after[b.joint];
             let c = f.translation + f.rotation * b.com;
             self.mass[b.joint - 1] += b.mass;
             self.moment[b.joint - 1] += c * b.mass;
         }
-        for i in (0..n).rev() {
-            self.mass[i] += self.mass[i + 1];
-            let next = self.moment[i + 1];
-            self.moment[i] += next;
+        // Children before parents (a parent comes first), each into its parent.
+        for b in (1..=n).rev() {
+            if let Some(p) = self.parent[b] {
+                self.mass[p] += self.mass[b];
+                let next = self.moment[b];
+                self.moment[p] += next;
+            }
         }
         let g = model.gravity;
         for i in 0..n {
@@ -217,22 +265,19 @@ impl ElasticState {
         let i = e / 2;
         let t = ElasticState::position(e);
         match *twist {
-            Twist::Rotation { u, c, at } => {
-                if at < t {
-                    g.dot(&u.cross(&v.cross(&self.lever(i))))
-                } else {
+            Twist::Rotation { u, c, at } => match self.relation(at, t) {
+                Relation::Proximal => g.dot(&u.cross(&v.cross(&self.lever(i)))),
+                Relation::Past => {
                     let b = at / 3;
                     let moved = self.moment[b] - c * self.mass[b];
                     g.dot(&v.cross(&u.cross(&moved)))
                 }
-            }
-            Twist::Translation { u, at } => {
-                if at < t {
-                    0.0
-                } else {
-                    g.dot(&v.cross(&u)) * self.mass[at / 3]
-                }
-            }
+                Relation::Apart => 0.0,
+            },
+            Twist::Translation { u, at } => match self.relation(at, t) {
+                Relation::Past => g.dot(&v.cross(&u)) * self.mass[at / 3],
+                Relation::Proximal | Relation::Apart => 0.0,
+            },
         }
     }
 
@@ -311,11 +356,12 @@ impl ElasticState {
 
     /// Adds to the 6-vector `out` the motion of point `e` caused by the deflections' response
     /// to `rates` (the torques' change, set by `fill`, plus `own` torque injected into deflection
-    /// `own.0`), for deflections of joints below `joints_upto`.
+    /// `own.0`), for the deflections of the joints on the path to node `target` (the target's
+    /// frame hangs off it: the joint a site follows, `n` for the end effector).
     fn add_response(
         &self,
         e: &Vector3<f64>,
-        joints_upto: usize,
+        target: usize,
         out: &mut [f64],
         fill: impl Fn(usize) -> f64,
         own: Option<(usize, f64)>,
@@ -347,8 +393,8 @@ impl ElasticState {
                 .map(|(a, b)| a * b)
                 .sum();
         }
-        for (f, &xf) in x.iter().enumerate().take(2 * joints_upto) {
-            if xf == 0.0 {
+        for (f, &xf) in x.iter().enumerate() {
+            if xf == 0.0 || !self.below(f / 2, target) {
                 continue;
             }
             let u = &self.axis[f];
@@ -359,6 +405,17 @@ impl ElasticState {
             }
         }
     }
+}
+
+/// Where one chain position lies from another.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Relation {
+    /// On the path to it: moves it.
+    Proximal,
+    /// In its subtree: moved by it.
+    Past,
+    /// In another branch.
+    Apart,
 }
 
 /// `R * Rot(l, phi)`: `r` turned by `phi` about its own local axis `l` (unit).
@@ -449,14 +506,14 @@ impl Chain<'_> {
     }
 
     /// Adds to the Jacobian column `out` (6 entries) what the deflections add when the chain
-    /// moves by `twist` times `scale`, for point `e` and the deflections of the joints below
-    /// `joints_upto`; `own` injects a compliance's own torque (`(deflection, tau)`).
+    /// moves by `cause`, for point `e` of a target hanging off node `target` (the joint a site
+    /// follows, 0-based; `n` for the end effector).
     pub(super) fn elastic_column(
         &self,
         ws: &Workspace,
         cause: Cause<'_>,
         e: &Vector3<f64>,
-        joints_upto: usize,
+        target: usize,
         out: &mut [f64],
     ) {
         let (Some(model), Some(st)) = (&self.robot.elastic, ws.elastic.as_deref()) else {
@@ -464,16 +521,12 @@ impl Chain<'_> {
         };
         let g = model.gravity;
         match cause {
-            Cause::Twist(t, scale) => st.add_response(
-                e,
-                joints_upto,
-                out,
-                |r| scale * st.torque_rate(&g, r, t),
-                None,
-            ),
+            Cause::Twist(t, scale) => {
+                st.add_response(e, target, out, |r| scale * st.torque_rate(&g, r, t), None)
+            }
             Cause::Compliance(deflection) => st.add_response(
                 e,
-                joints_upto,
+                target,
                 out,
                 |_| 0.0,
                 Some((deflection, st.tau[deflection])),
@@ -481,7 +534,7 @@ impl Chain<'_> {
             Cause::Body(body, component) => {
                 use crate::params::BodyComponent;
                 let b = &model.bodies[body];
-                let frame = &ws.prox[b.joint];
+                let frame = &ws.after[b.joint];
                 let carried = b.joint - 1;
                 // The body's force moves (mass) or its point of application (centre).
                 let lever_rate = |r: usize| -> Vector3<f64> {
@@ -496,10 +549,10 @@ impl Chain<'_> {
                 };
                 st.add_response(
                     e,
-                    joints_upto,
+                    target,
                     out,
                     |r| {
-                        if carried >= r / 2 {
+                        if st.below(r / 2, carried) {
                             g.dot(&st.axis[r].cross(&lever_rate(r)))
                         } else {
                             0.0

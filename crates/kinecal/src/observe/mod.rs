@@ -271,10 +271,11 @@ pub trait Observe: fmt::Debug {
     }
 }
 
-/// The name of a target as files write it: `ee` or the site's name.
+/// The name of a target as files write it: the end effector's name (`ee` unless the robot file
+/// names it) or the site's name.
 pub fn target_name(robot: &Robot, t: Target) -> &str {
     match t {
-        Target::EndEffector => "ee",
+        Target::EndEffector => robot.end_effector.as_deref().unwrap_or("ee"),
         Target::Site(s) => &robot.sites[s].name,
     }
 }
