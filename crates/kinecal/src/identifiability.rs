@@ -263,10 +263,13 @@ pub fn default_priority(robot: &Robot) -> Vec<ParamId> {
 /// planes and observations that do not fix the robot's placement; `None` when its assumptions
 /// fail.
 ///
-/// Assumptions: every link parameter and joint offset estimated, the end effector observed, the
-/// six parameters of every observed site estimated (of a frame observed only as a point, its
-/// position parameters suffice), and each plane touched either fully estimated or fully fixed. Then each revolute joint contributes 4, each prismatic 2 (eq. 4.3),
-/// each estimated slope or coupling factor 1 (eq. 4.2), each observed frame 6 when a pose of it
+/// Assumptions: every link parameter and joint offset on the way to an observed frame estimated,
+/// the six parameters of every observed site estimated (of a frame observed only as a point,
+/// its position parameters suffice), and each plane touched either fully estimated or fully
+/// fixed. Then each revolute joint that some observed frame hangs past contributes 4, each such
+/// prismatic one 2 (eq. 4.3; in a tree, a branch no observation sees contributes nothing, and
+/// the shared joints count once), each estimated slope or coupling factor 1 (eq. 4.2), each
+/// observed frame 6 when a pose of it
 /// is measured or 3 when only its origin is (positions, distances, contacts; eq. 4.5), and each
 /// estimated plane 3. From this, the motions of the whole world that change no observation are
 /// subtracted: none when some observation is in the global frame (poses, positions); otherwise
@@ -288,24 +291,41 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     // A frame observed as a point needs only its position parameters: its angles change nothing.
     let needed = |dof: usize, c: LinkComponent| dof == 6 || c.quantity() == Quantity::Length;
     let ee = seen(Target::EndEffector);
-    let all_links = (0..6 * nl)
-        .all(|i| has(ParamId(i)) || (i / 6 == nl - 1 && !needed(ee, LinkComponent::ALL[i % 6])));
-    let all_offsets = (0..nj).all(|j| has(robot.param_id(ParamKind::Offset { joint: j })));
-    if !(all_links && all_offsets && ee > 0) {
+    // The joints some observed frame hangs past (all of them for a serial robot whose end
+    // effector is observed): in a tree, a branch no observation sees adds nothing.
+    let mut observed = vec![false; nj];
+    let mut any = false;
+    for t in std::iter::once(Target::EndEffector).chain((0..robot.sites.len()).map(Target::Site)) {
+        if seen(t) > 0 {
+            any = true;
+            let path = robot.path_to(crate::kinematics::target_joint(robot, t));
+            for (o, p) in observed.iter_mut().zip(path) {
+                *o |= p;
+            }
+        }
+    }
+    let link_observed = |i: usize| observed.get(i).copied().unwrap_or(ee > 0);
+    let all_links = (0..6 * nl).all(|i| {
+        has(ParamId(i))
+            || !link_observed(i / 6)
+            || (i / 6 == nl - 1 && !needed(ee, LinkComponent::ALL[i % 6]))
+    });
+    let all_offsets = (0..nj)
+        .filter(|&j| observed[j])
+        .all(|j| has(robot.param_id(ParamKind::Offset { joint: j })));
+    if !(all_links && all_offsets && any) {
         return None;
     }
-    let nr = robot
-        .joints
-        .iter()
-        .filter(|j| j.kind == JointKind::Revolute)
+    let nr = (0..nj)
+        .filter(|&j| observed[j] && robot.joints[j].kind == JointKind::Revolute)
         .count();
-    let np = nj - nr;
+    let np = (0..nj).filter(|&j| observed[j]).count() - nr;
     let slopes = (0..nj)
-        .filter(|&j| has(robot.param_id(ParamKind::Slope { joint: j })))
+        .filter(|&j| observed[j] && has(robot.param_id(ParamKind::Slope { joint: j })))
         .count();
     let couplings = robot
         .coupled_joints()
-        .filter(|&j| has(robot.param_id(ParamKind::Coupling { joint: j })))
+        .filter(|&j| observed[j] && has(robot.param_id(ParamKind::Coupling { joint: j })))
         .count();
     let mut frames = Vec::new();
     let mut targets: Vec<Target> = vec![Target::EndEffector];
