@@ -295,6 +295,7 @@ normal, which keeps every link's beta at 0. Readings are joint values (slope 1).
     #[command(after_help = "\
 Example:
   kinecal import urdf ur5_robot.urdf --base base_link --tip tool0 --out ur5.toml
+  kinecal import urdf humanoid.urdf --tip left_marker --tip right_marker --out upper_body.toml
 
 Revolute, continuous and prismatic joints become joints; fixed joints merge into the links; axes
 other than +z are folded exactly into the neighbouring links. Readings are the URDF joint values
@@ -754,9 +755,11 @@ pub struct ImportUrdfArgs {
     /// First link of the chain (default: the root link).
     #[arg(long)]
     pub base: Option<String>,
-    /// Last link of the chain (default: the only leaf link).
+    /// Last link of the chain (default: the only leaf link). Given more than once, a tree: every
+    /// tip's chain, the joints they share once; the last tip is the end effector, the others
+    /// become sites named after their links.
     #[arg(long)]
-    pub tip: Option<String>,
+    pub tip: Vec<String>,
     /// Take the links' `<inertial>` masses and centres of mass as the robot's mass model, so that
     /// its joint compliances can be estimated (`--estimate identifiable,compliance`).
     #[arg(long)]
@@ -918,9 +921,9 @@ pub struct ExportUrdfArgs {
     /// First link of the chain, as at import.
     #[arg(long)]
     pub base: Option<String>,
-    /// Last link of the chain, as at import.
+    /// Last link of the chain, as at import (each tip of a tree, in the order of the import).
     #[arg(long)]
-    pub tip: Option<String>,
+    pub tip: Vec<String>,
     /// How far the export, read back, may miss the robot at the tool over the joint ranges:
     /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
     /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).

@@ -352,7 +352,7 @@ fn import(c: ImportCommand) -> Result<()> {
                 &s.text,
                 &s.name,
                 a.base.as_deref(),
-                a.tip.as_deref(),
+                &a.tip.iter().map(String::as_str).collect::<Vec<_>>(),
                 a.masses,
             )?;
             if let Some(e) = &imp.robot.elastic {
@@ -455,7 +455,7 @@ fn export_urdf(a: ExportUrdfArgs) -> Result<()> {
         &template.text,
         &template.name,
         a.base.as_deref(),
-        a.tip.as_deref(),
+        &a.tip.iter().map(String::as_str).collect::<Vec<_>>(),
     )?;
     e.check(&r.robot, &tolerance)?;
     // A slope is said with its deviation, as what the URDF cannot hold.

@@ -207,6 +207,23 @@ struct Robot {
     text: Option<String>,
 }
 
+/// A URDF tip, or a tree's tips: `tip="tool0"` or `tip=["left_marker", "right_marker"]`.
+#[derive(FromPyObject)]
+enum Tips {
+    One(String),
+    Many(Vec<String>),
+}
+
+impl Tips {
+    fn list(tips: &Option<Tips>) -> Vec<&str> {
+        match tips {
+            None => Vec::new(),
+            Some(Tips::One(t)) => vec![t.as_str()],
+            Some(Tips::Many(ts)) => ts.iter().map(String::as_str).collect(),
+        }
+    }
+}
+
 impl Robot {
     fn from_source(py: Python<'_>, s: &Source) -> PyResult<Robot> {
         let robot = parse_robot_toml(&s.text, &s.name).map_err(|e| error(py, e))?;
@@ -283,20 +300,24 @@ impl Robot {
     }
 
     /// Reads the chain from `base` to `tip` of a URDF file (metres, radians); `base` defaults
-    /// to the root link, `tip` to the only leaf. `masses=True` takes the links' `<inertial>`
-    /// masses as the robot's mass model (an elastic robot whose compliances can be estimated).
+    /// to the root link, `tip` to the only leaf. A list of tips reads a tree (two arms on one
+    /// torso): the last tip is the end effector, the others sites named after their links.
+    /// `masses=True` takes the links' `<inertial>` masses as the robot's mass model (an elastic
+    /// robot whose compliances can be estimated).
     #[staticmethod]
     #[pyo3(signature = (path, base=None, tip=None, masses=false))]
     fn from_urdf(
         py: Python<'_>,
         path: PathBuf,
         base: Option<&str>,
-        tip: Option<&str>,
+        tip: Option<Tips>,
         masses: bool,
     ) -> PyResult<Robot> {
         let s = Source::read(&path).map_err(|e| error(py, e))?;
-        let imported = kinecal::import::urdf::import_urdf_with(&s.text, &s.name, base, tip, masses)
-            .map_err(|e| error(py, e))?;
+        let tips = Tips::list(&tip);
+        let imported =
+            kinecal::import::urdf::import_urdf_with(&s.text, &s.name, base, &tips, masses)
+                .map_err(|e| error(py, e))?;
         Ok(Robot {
             robot: imported.robot,
             text: None,
@@ -401,14 +422,15 @@ impl Robot {
         py: Python<'_>,
         template: PathBuf,
         base: Option<&str>,
-        tip: Option<&str>,
+        tip: Option<Tips>,
         tolerance: Option<(f64, f64)>,
     ) -> PyResult<String> {
         let tolerance = tolerance_of(&self.robot, tolerance)?;
         let s = Source::read(&template).map_err(|e| error(py, e))?;
         let robot = &self.robot;
+        let tips = Tips::list(&tip);
         let e = py
-            .detach(|| kinecal::import::urdf::export_urdf(robot, &s.text, &s.name, base, tip))
+            .detach(|| kinecal::import::urdf::export_urdf(robot, &s.text, &s.name, base, &tips))
             .map_err(|e| error(py, e))?;
         e.check(robot, &tolerance).map_err(|e| error(py, e))?;
         for w in &e.warnings {

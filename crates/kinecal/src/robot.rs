@@ -711,6 +711,64 @@ impl Robot {
         on
     }
 
+    /// The rigid serial robot through this tree to one tool frame (`site`, or the end effector
+    /// when `None`), and the joints (0-based, ascending) it keeps: the links and joints on the
+    /// path, the tool frame as its last link; readings are those of the kept joints. What a
+    /// serial-only format (a URDF chain, DH) and a per-arm comparison work with. An error when a
+    /// kept joint is coupled to a reading off the path.
+    pub fn branch(&self, site: Option<usize>) -> Result<(Robot, Vec<usize>), String> {
+        let (last, tool) = match site {
+            None => (self.dof(), *self.links.last().expect("links")),
+            Some(s) => (self.sites[s].joint, self.sites[s].frame),
+        };
+        let path: Vec<usize> = self
+            .path_to(last)
+            .iter()
+            .enumerate()
+            .filter_map(|(j, &on)| on.then_some(j))
+            .collect();
+        let mut links: Vec<Link> = path.iter().map(|&j| self.links[j]).collect();
+        links.push(tool);
+        let joints = path
+            .iter()
+            .map(|&j| {
+                let joint = &self.joints[j];
+                let coupling = match joint.coupling {
+                    None => None,
+                    Some(c) => Some(Coupling {
+                        joint: path.iter().position(|&k| k == c.joint).ok_or_else(|| {
+                            format!(
+                                "joint {} is coupled to joint {}, which is not on the way to \
+                                 this tool frame",
+                                j + 1,
+                                c.joint + 1
+                            )
+                        })?,
+                        factor: c.factor,
+                    }),
+                };
+                Ok(Joint {
+                    parent: None,
+                    coupling,
+                    ..joint.clone()
+                })
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        let serial = Robot {
+            links,
+            joints,
+            sites: Vec::new(),
+            planes: Vec::new(),
+            sessions: Vec::new(),
+            elastic: None,
+            end_effector: None,
+            tolerances: Tolerances::default(),
+            priors: Prior::default(),
+            ..self.clone()
+        };
+        Ok((serial, path))
+    }
+
     /// Index of the joint called `name`.
     pub fn joint_index(&self, name: &str) -> Option<usize> {
         self.joints

@@ -38,7 +38,7 @@ fn a_urdf_template_with_a_bom_and_joints_without_origin_round_trips() {
             l.gamma += 0.4 * s;
         }
         cal.joints[1].offset += 0.01;
-        let e = export_urdf(&cal, template, "bom.urdf", None, None).unwrap();
+        let e = export_urdf(&cal, template, "bom.urdf", None, &[]).unwrap();
         // Well-formed, by the XML scanner and by the URDF reader; the mark kept, and the two
         // joints without <origin> given one.
         kinecal::import::xml::scan(&e.text, "out.urdf").unwrap();
@@ -288,7 +288,14 @@ fn random_calibrated_robots_export_exactly_or_are_refused_with_the_reason() {
             Origin::Builtin => {}
             Origin::Urdf(text, file, b, t) => {
                 let what = format!("{name} #{i} URDF");
-                let e = export_urdf(&robot, text, file, *b, *t).unwrap();
+                let e = export_urdf(
+                    &robot,
+                    text,
+                    file,
+                    *b,
+                    &t.iter().copied().collect::<Vec<_>>(),
+                )
+                .unwrap();
                 if exact {
                     e.check(&robot, &tol)
                         .unwrap_or_else(|err| panic!("{what}: {err}"));

@@ -10,34 +10,14 @@ use kinecal::simulate::{self, PerturbStd};
 use kinecal::workflow::{run, Request, Selection};
 use kinecal::{Chain, Dataset, Observation, ParamId, Posture, Robot, Target, Workspace};
 
-/// The serial robot through `robot`'s tree to `target`, and the joints (0-based) it keeps: the
-/// links and joints on the path, the target's frame as the tool link. Built from the robot's
-/// fields by walking the parents, not by the kinematics code.
+/// The serial robot through `robot`'s tree to `target` ([`Robot::branch`]: built from the
+/// robot's fields by walking the parents, not by the kinematics code).
 fn branch(robot: &Robot, target: Target) -> (Robot, Vec<usize>) {
-    let (mut last, tool) = match target {
-        Target::EndEffector => (robot.dof(), *robot.links.last().unwrap()),
-        Target::Site(s) => (robot.sites[s].joint, robot.sites[s].frame),
+    let site = match target {
+        Target::EndEffector => None,
+        Target::Site(s) => Some(s),
     };
-    let mut path = Vec::new();
-    while last > 0 {
-        path.push(last - 1);
-        last = robot.joints[last - 1].parent.unwrap_or(last - 1);
-    }
-    path.reverse();
-    let mut serial = robot.clone();
-    serial.links = path.iter().map(|&j| robot.links[j]).collect();
-    serial.links.push(tool);
-    serial.joints = path
-        .iter()
-        .map(|&j| kinecal::Joint {
-            parent: None,
-            ..robot.joints[j].clone()
-        })
-        .collect();
-    serial.sites.clear();
-    serial.end_effector = None;
-    serial.validate().expect("a serial robot");
-    (serial, path)
+    robot.branch(site).expect("no couplings")
 }
 
 fn tips() -> [Target; 2] {

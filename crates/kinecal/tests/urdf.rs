@@ -164,14 +164,7 @@ fn export_after_calibration_then_import_gives_the_calibrated_fk() {
     est.sort();
     let cal = calibrate(&nominal, &data, &CalibrationOptions::new(est), &mut |_| {}).unwrap();
     assert!(cal.accuracy_after.rms_position < 1e-9);
-    let e = export_urdf(
-        &cal.calibrated,
-        &text,
-        "ur5",
-        Some("base_link"),
-        Some("tool0"),
-    )
-    .unwrap();
+    let e = export_urdf(&cal.calibrated, &text, "ur5", Some("base_link"), &["tool0"]).unwrap();
     let (new_text, warnings) = (e.text, e.warnings);
     assert!(warnings.is_empty(), "{warnings:?}");
     // Read back by the library, as the command line does before writing: exact, to the
@@ -270,7 +263,7 @@ fn coupled_joints_export_where_exact_and_are_refused_otherwise() {
         joint: 1,
         factor: robot.joints[2].slope,
     });
-    let e = export_urdf(&robot, &text, "ur5", Some("base_link"), Some("tool0")).unwrap();
+    let e = export_urdf(&robot, &text, "ur5", Some("base_link"), &["tool0"]).unwrap();
     // The read-back takes the URDF's joint 3 as the sum of the two readings: exact.
     assert!(e.read_back.position < 1e-9, "{:?}", e.read_back);
     assert!(e.lost.is_empty(), "{:?}", e.lost);
@@ -295,7 +288,7 @@ fn coupled_joints_export_where_exact_and_are_refused_otherwise() {
         assert!((f.translation - Vector3::new(e[(0, 3)], e[(1, 3)], e[(2, 3)])).norm() < 1e-9);
     }
     robot.joints[2].coupling.as_mut().unwrap().factor *= 1.001;
-    let e = export_urdf(&robot, &text, "ur5", Some("base_link"), Some("tool0"))
+    let e = export_urdf(&robot, &text, "ur5", Some("base_link"), &["tool0"])
         .unwrap_err()
         .to_string();
     assert!(
@@ -338,7 +331,7 @@ fn export_finds_real_elements_and_adds_the_tool_joint() {
     cal.links[1].y -= 0.001;
     cal.links[2].z += 0.05; // a tool 5 cm beyond the last joint: the URDF has no place for it
     cal.links[2].alpha += 0.1;
-    let e = export_urdf(&cal, template, "arm.urdf", Some("base"), Some("l2")).unwrap();
+    let e = export_urdf(&cal, template, "arm.urdf", Some("base"), &["l2"]).unwrap();
     // Read back to the added tool link: exact.
     assert!(e.read_back.position < 1e-9, "{:?}", e.read_back);
     let (text, warnings) = (e.text, e.warnings);
@@ -473,5 +466,185 @@ fn urdf_masses_give_the_gravity_torques_of_the_urdf() {
                 theirs[i]
             );
         }
+    }
+}
+
+/// An upper body as a URDF: a torso of two joints (axes not along z), a fixed chest and a
+/// fixed chest marker, and two arms of three joints, each ending in a fixed marker link. Origins
+/// and axes drawn at random.
+fn two_arm_urdf(seed: u64) -> String {
+    let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut joint = |name: &str, kind: &str, parent: &str, child: &str| {
+        let mut v = || r.random_range(-0.3..0.3);
+        let (xyz, rpy) = ([v(), v(), v()], [v() * 3.0, v() * 3.0, v() * 3.0]);
+        let axis = [v(), v(), 1.0];
+        format!(
+            "  <link name=\"{child}\"/>\n  <joint name=\"{name}\" type=\"{kind}\">\n    <parent \
+             link=\"{parent}\"/>\n    <child link=\"{child}\"/>\n    <origin xyz=\"{} {} {}\" \
+             rpy=\"{} {} {}\"/>\n    <axis xyz=\"{} {} {}\"/>\n    <limit lower=\"-2\" \
+             upper=\"2\" effort=\"1\" velocity=\"1\"/>\n  </joint>\n",
+            xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2], axis[0], axis[1], axis[2]
+        )
+    };
+    let mut text = String::from("<robot name=\"upper_body\">\n  <link name=\"base\"/>\n");
+    text += &joint("torso_1", "revolute", "base", "torso_link1");
+    text += &joint("torso_2", "revolute", "torso_link1", "torso_link2");
+    text += &joint("chest_joint", "fixed", "torso_link2", "chest");
+    text += &joint("chest_marker_joint", "fixed", "chest", "chest_marker");
+    for side in ["left", "right"] {
+        let mut parent = "chest".to_string();
+        for k in 1..=3 {
+            let child = format!("{side}_link{k}");
+            text += &joint(&format!("{side}_{k}"), "revolute", &parent, &child);
+            parent = child;
+        }
+        text += &joint(
+            &format!("{side}_tool"),
+            "fixed",
+            &parent,
+            &format!("{side}_marker"),
+        );
+    }
+    text + "</robot>\n"
+}
+
+#[test]
+fn a_two_arm_urdf_imports_as_a_tree_and_exports_back() {
+    use kinecal::import::urdf::import_urdf_tree;
+    let text = two_arm_urdf(3);
+    let tips = ["chest_marker", "left_marker", "right_marker"];
+    let robot = import_urdf_tree(&text, "arms.urdf", None, &tips)
+        .unwrap()
+        .robot;
+    assert_eq!(robot.dof(), 8);
+    assert!(robot.is_tree());
+    let names: Vec<&str> = robot
+        .joints
+        .iter()
+        .map(|j| j.name.as_deref().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["torso_1", "torso_2", "left_1", "left_2", "left_3", "right_1", "right_2", "right_3"]
+    );
+    assert_eq!(
+        robot.joints[5].parent,
+        Some(2),
+        "the right arm starts at the torso"
+    );
+    let sites: Vec<(&str, usize)> = robot
+        .sites
+        .iter()
+        .map(|s| (s.name.as_str(), s.joint))
+        .collect();
+    assert_eq!(sites, [("chest_marker", 2), ("left_marker", 5)]);
+    assert_eq!(robot.end_effector.as_deref(), Some("right_marker"));
+
+    // Each marker where the URDF's own product of transforms puts it, readings by joint name.
+    let urdf = urdf_rs::read_from_string(&text).unwrap();
+    let check = |robot: &kinecal::Robot, text: &str, tolerance: f64| {
+        let chain = kinecal::Chain::new(robot);
+        for p in simulate::sample_postures(robot, 10, 9) {
+            for (k, tip) in tips.iter().enumerate() {
+                let target = if k < 2 {
+                    Target::Site(k)
+                } else {
+                    Target::EndEffector
+                };
+                let q: Vec<f64> = chain_joints(&urdf, "base", tip)
+                    .iter()
+                    .filter(|j| j.joint_type != urdf_rs::JointType::Fixed)
+                    .map(|j| p.readings[robot.joint_index(&j.name).unwrap()])
+                    .collect();
+                let t = urdf_fk(text, "base", tip, &q);
+                let f = chain.frame_at(&p.readings, target);
+                let d = (f.translation - t.fixed_view::<3, 1>(0, 3)).norm()
+                    + (f.rotation - t.fixed_view::<3, 3>(0, 0)).norm();
+                assert!(d < tolerance, "{tip}: {d}");
+            }
+        }
+    };
+    check(&robot, &text, 1e-12);
+
+    // A calibrated tree written back into the file: every chain reads back, and the shared
+    // torso joints get one origin.
+    let calibrated = simulate::perturb(
+        &robot,
+        simulate::PerturbStd {
+            length: 1e-3,
+            angle: 0.2f64.to_radians(),
+            slope_fraction: 0.0,
+        },
+        5,
+    );
+    let e = export_urdf(&calibrated, &text, "arms.urdf", None, &tips).unwrap();
+    assert!(
+        e.read_back.position < 1e-9 && e.read_back.attitude < 1e-9,
+        "{:?}",
+        e.read_back
+    );
+    // The chest marker's correction goes into its own fixed joint, not into the chest joint
+    // that the arms go through too.
+    let written = urdf_rs::read_from_string(&e.text).unwrap();
+    let origin = |r: &urdf_rs::Robot, name: &str| {
+        let j = r.joints.iter().find(|j| j.name == name).unwrap();
+        (j.origin.xyz.0, j.origin.rpy.0)
+    };
+    assert_eq!(
+        origin(&written, "chest_joint"),
+        origin(&urdf, "chest_joint")
+    );
+    assert_ne!(
+        origin(&written, "chest_marker_joint"),
+        origin(&urdf, "chest_marker_joint")
+    );
+    let back = import_urdf_tree(&e.text, "back.urdf", None, &tips).unwrap();
+    let chain_a = kinecal::Chain::new(&calibrated);
+    let chain_b = kinecal::Chain::new(&back.robot);
+    for p in simulate::sample_postures(&robot, 10, 4) {
+        for target in [Target::Site(0), Target::Site(1), Target::EndEffector] {
+            let (a, b) = (
+                chain_a.frame_at(&p.readings, target),
+                chain_b.frame_at(&p.readings, target),
+            );
+            assert!((a.translation - b.translation).norm() < 1e-9, "{target:?}");
+        }
+    }
+
+    // A tip right after a fixed joint the arms share: its correction is an added link.
+    let tips = ["chest", "left_marker", "right_marker"];
+    let robot = import_urdf_tree(&text, "arms.urdf", None, &tips)
+        .unwrap()
+        .robot;
+    let calibrated = simulate::perturb(
+        &robot,
+        simulate::PerturbStd {
+            length: 1e-3,
+            angle: 0.2f64.to_radians(),
+            slope_fraction: 0.0,
+        },
+        6,
+    );
+    let e = export_urdf(&calibrated, &text, "arms.urdf", None, &tips).unwrap();
+    assert!(e.read_back.position < 1e-9 && e.read_back.attitude < 1e-9);
+    assert!(e.text.contains("<link name=\"chest_calibrated\"/>"));
+    let written = urdf_rs::read_from_string(&e.text).unwrap();
+    assert_eq!(
+        origin(&written, "chest_joint"),
+        origin(&urdf, "chest_joint")
+    );
+
+    // The end effector must end the last branch; a tip is named once.
+    for bad in [
+        &["right_marker", "chest_marker"][..],
+        &["left_marker", "left_marker"],
+    ] {
+        let e = import_urdf_tree(&text, "arms.urdf", None, bad)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("must end the last branch") || e.contains("named twice"),
+            "{e}"
+        );
     }
 }

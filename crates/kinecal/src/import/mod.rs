@@ -72,13 +72,29 @@ pub fn chain_from_frames(
     joints: &[ImportedJoint],
     tool: &Frame,
 ) -> Robot {
+    let parents: Vec<usize> = (0..joints.len()).collect();
+    tree_from_frames(name, units, joints, &parents, tool)
+}
+
+/// [`chain_from_frames`] for a tree: joint `i`'s link starts from joint `parents[i]`'s frame
+/// (1-based; 0 the global frame; each parent before its children), the tool from the last
+/// joint's.
+pub fn tree_from_frames(
+    name: &str,
+    units: Units,
+    joints: &[ImportedJoint],
+    parents: &[usize],
+    tool: &Frame,
+) -> Robot {
+    let frame_of = |k: usize| {
+        k.checked_sub(1)
+            .map_or(Frame::identity(), |i| joints[i].frame)
+    };
     let mut links = Vec::with_capacity(joints.len() + 1);
-    let mut prev = Frame::identity();
-    for j in joints {
-        links.push(link_of(&inverse(&prev).then(&j.frame)));
-        prev = j.frame;
+    for (j, &p) in joints.iter().zip(parents) {
+        links.push(link_of(&inverse(&frame_of(p)).then(&j.frame)));
     }
-    links.push(link_of(&inverse(&prev).then(tool)));
+    links.push(link_of(&inverse(&frame_of(joints.len())).then(tool)));
     Robot {
         name: name.to_string(),
         units,
@@ -94,6 +110,11 @@ pub fn chain_from_frames(
                 range: j.range,
                 name: None,
                 parent: None,
+            })
+            .enumerate()
+            .map(|(i, mut j)| {
+                j.parent = (parents[i] != i).then_some(parents[i]);
+                j
             })
             .collect(),
         sites: Vec::new(),

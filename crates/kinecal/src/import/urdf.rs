@@ -20,7 +20,7 @@ use std::collections::HashMap;
 use nalgebra::{Matrix3, Vector3};
 
 use super::readback::{self, ReadBack, Tolerance};
-use super::{chain_from_frames, inverse, rotation_from_xz, ImportedJoint, Lost};
+use super::{inverse, rotation_from_xz, ImportedJoint, Lost};
 use crate::error::{Error, Location, Result, Setting};
 use crate::kinematics::{euler_zyx, rot_zyx, Frame};
 use crate::robot::{Body, JointKind, Robot};
@@ -62,8 +62,10 @@ pub type NewOrigin = (String, Frame, Frame);
 pub struct UrdfImport {
     /// The robot (metres and radians).
     pub robot: Robot,
-    /// The chain it came from.
+    /// The chain it came from: the one to the end effector.
     pub chain: UrdfChain,
+    /// A tree's other chains, one per site (in the order of the robot's sites).
+    pub branches: Vec<UrdfChain>,
 }
 
 /// A chain end that is not in `file` or not unique.
@@ -86,6 +88,22 @@ pub fn import_urdf(
     file: &str,
     base: Option<&str>,
     tip: Option<&str>,
+) -> Result<UrdfImport> {
+    import_urdf_tree(text, file, base, &tip.into_iter().collect::<Vec<_>>())
+}
+
+/// Reads the tree from `base` to each of `tips` (a robot with several tool frames: two arms on
+/// one torso, a tool and a marker). The movable joints of every chain become the robot's joints,
+/// each once, named as in the URDF, in the order the chains first reach them (parents before
+/// children); the last tip is the end effector (named after its link) and ends the last joint's
+/// branch, each other tip is a site named after its link, hanging off the last movable joint on
+/// its chain (fixed joints to marker or tool links become these estimated tool frames). With
+/// one tip or none, this is [`import_urdf`]'s chain.
+pub fn import_urdf_tree(
+    text: &str,
+    file: &str,
+    base: Option<&str>,
+    tips: &[&str],
 ) -> Result<UrdfImport> {
     let index = super::xml::scan(text, file)?;
     let urdf = urdf_rs::read_from_string(text.strip_prefix('\u{feff}').unwrap_or(text))
@@ -172,16 +190,26 @@ pub fn import_urdf(
         },
     };
     let has_children: Vec<&str> = urdf.joints.iter().map(|j| j.parent.link.as_str()).collect();
-    let tip = match tip {
-        Some(t) if links.contains(&t) => t,
-        Some(t) => {
+    let mut tip_names: Vec<&str> = Vec::new();
+    for &t in tips {
+        if !links.contains(&t) {
             return Err(chain(
                 Setting::ChainTip,
                 file,
                 format!("no link named `{t}` (the chain's tip)"),
-            ))
+            ));
         }
-        None => {
+        if tip_names.contains(&t) {
+            return Err(chain(
+                Setting::ChainTip,
+                file,
+                format!("tip `{t}` named twice"),
+            ));
+        }
+        tip_names.push(t);
+    }
+    if tip_names.is_empty() {
+        tip_names.push({
             let leaves: Vec<&str> = links
                 .iter()
                 .copied()
@@ -200,8 +228,90 @@ pub fn import_urdf(
                     ))
                 }
             }
+        });
+    }
+    // Each tip's chain, then the tree they make.
+    let mut tree: Vec<ImportedJoint> = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    let mut parents: Vec<usize> = Vec::new();
+    let mut chains: Vec<UrdfChain> = Vec::new();
+    // Per tip: the last movable joint on its chain (1-based) and the tip's frame.
+    let mut ends: Vec<(usize, Frame)> = Vec::new();
+    for &tip in &tip_names {
+        let (c, movables, tip_frame) = tip_chain(&urdf, &parent_of, file, base, tip)?;
+        let mut last = 0;
+        for (name, joint) in movables {
+            match names.iter().position(|n| *n == name) {
+                Some(k) => last = k + 1,
+                None => {
+                    names.push(name);
+                    tree.push(joint);
+                    parents.push(last);
+                    last = tree.len();
+                }
+            }
         }
-    };
+        chains.push(c);
+        ends.push((last, tip_frame));
+    }
+    let (ee_joint, ee_frame) = *ends.last().expect("a tip");
+    if ee_joint != tree.len() {
+        return Err(chain(
+            Setting::ChainTip,
+            file,
+            format!(
+                "the last tip, `{}`, is the end effector and must end the last branch: name it \
+                 before the tips whose chains go on past it",
+                tip_names.last().expect("a tip")
+            ),
+        ));
+    }
+    let mut robot =
+        super::tree_from_frames(&urdf.name, Units::default(), &tree, &parents, &ee_frame);
+    for (joint, name) in robot.joints.iter_mut().zip(&names) {
+        // A URDF joint name heads its reading column (unless it reads like `vK`).
+        let reads_like_v = name.starts_with('v') && name[1..].parse::<usize>().is_ok();
+        joint.name = (!reads_like_v && !name.trim().is_empty()).then(|| name.clone());
+    }
+    let ee_chain = chains.pop().expect("a tip");
+    if !chains.is_empty() {
+        robot.end_effector = Some(ee_chain.tip.clone());
+        for (c, &(joint, frame)) in chains.iter().zip(&ends) {
+            if joint == 0 {
+                return Err(chain(
+                    Setting::ChainTip,
+                    file,
+                    format!("no movable joint between `{base}` and tip `{}`", c.tip),
+                ));
+            }
+            let carrier = tree[joint - 1].frame;
+            robot.sites.push(crate::robot::Site {
+                name: c.tip.clone(),
+                joint,
+                frame: super::link_of(&inverse(&carrier).then(&frame)),
+            });
+        }
+    }
+    robot.validate().map_err(|m| err(file, m))?;
+    Ok(UrdfImport {
+        robot,
+        chain: ee_chain,
+        branches: chains,
+    })
+}
+
+/// The movable joints of one chain: (name, joint), each joint's frame global at the zero
+/// configuration.
+type Movables = Vec<(String, ImportedJoint)>;
+
+/// The chain from `base` to `tip`, its movable joints and the tip's frame (global, at zero).
+fn tip_chain(
+    urdf: &urdf_rs::Robot,
+    parent_of: &HashMap<&str, &urdf_rs::Joint>,
+    file: &str,
+    base: &str,
+    tip: &str,
+) -> Result<(UrdfChain, Movables, Frame)> {
     // Walk from the tip up to the base.
     let mut chain: Vec<&urdf_rs::Joint> = Vec::new();
     let mut at = tip;
@@ -273,15 +383,18 @@ pub fn import_urdf(
         let range = (j.limit.lower < j.limit.upper
             && j.joint_type != urdf_rs::JointType::Continuous)
             .then_some((j.limit.lower, j.limit.upper));
-        joints.push(ImportedJoint {
-            kind,
-            frame: acc.then(&Frame {
-                rotation: ra,
-                translation: Vector3::zeros(),
-            }),
-            offset: 0.0,
-            range,
-        });
+        joints.push((
+            j.name.clone(),
+            ImportedJoint {
+                kind,
+                frame: acc.then(&Frame {
+                    rotation: ra,
+                    translation: Vector3::zeros(),
+                }),
+                offset: 0.0,
+                range,
+            },
+        ));
         movable.push(j.name.clone());
         axis_frames.push(ra);
     }
@@ -291,19 +404,15 @@ pub fn import_urdf(
             format!("no movable joint between `{base}` and `{tip}`"),
         ));
     }
-    let robot = chain_from_frames(&urdf.name, Units::default(), &joints, &acc);
-    robot.validate().map_err(|m| err(file, m))?;
-    Ok(UrdfImport {
-        robot,
-        chain: UrdfChain {
-            joints: chain.iter().map(|j| j.name.clone()).collect(),
-            movable,
-            axis_frames,
-            origins,
-            base: base.to_string(),
-            tip: tip.to_string(),
-        },
-    })
+    let c = UrdfChain {
+        joints: chain.iter().map(|j| j.name.clone()).collect(),
+        movable,
+        axis_frames,
+        origins,
+        base: base.to_string(),
+        tip: tip.to_string(),
+    };
+    Ok((c, joints, acc))
 }
 
 /// The bodies of a mass model ([`crate::robot::Elastic`]) for an imported chain, from the
@@ -317,84 +426,99 @@ pub fn urdf_bodies(text: &str, file: &str, import: &UrdfImport) -> Result<Vec<Bo
     let urdf = urdf_rs::read_from_string(text.strip_prefix('\u{feff}').unwrap_or(text))
         .map_err(|e| err(file, format!("not a valid URDF: {e}")))?;
     let link = |name: &str| urdf.links.iter().find(|l| l.name == name);
-    let chain = &import.chain;
     let mut bodies = Vec::new();
-    // The frame of the last movable joint at the zero configuration, and its number (1-based).
-    let mut carrier: Option<(Frame, usize)> = None;
-    let mut acc = Frame::identity();
-    let mut movable = 0;
-    for (c, name) in chain.joints.iter().enumerate() {
-        let Some(j) = urdf.joints.iter().find(|j| &j.name == name) else {
-            continue;
-        };
-        acc = acc.then(&chain.origins[c]);
-        if chain.movable.get(movable) == Some(name) {
-            carrier = Some((
-                acc.then(&Frame {
-                    rotation: chain.axis_frames[movable],
-                    translation: Vector3::zeros(),
-                }),
-                movable + 1,
-            ));
-            movable += 1;
-        }
-        let Some((frame, joint)) = &carrier else {
-            continue;
-        };
-        // The child link and everything below it that is not the chain.
-        let mut stack = vec![(j.child.link.as_str(), acc)];
-        while let Some((name, at)) = stack.pop() {
-            if let Some(l) = link(name) {
-                let mass = l.inertial.mass.value;
-                let xyz = l.inertial.origin.xyz.0;
-                let bad = |what: String| {
-                    Error::input(
-                        Location::file(file).with_field(format!("link `{name}` inertial")),
-                        what,
-                    )
-                };
-                if !(mass.is_finite() && (0.0..=1e6).contains(&mass)) {
-                    return Err(bad(format!(
-                        "mass {mass} is not a finite number of kg in [0, 1e6]"
-                    )));
-                }
-                if let Some(x) = xyz.iter().find(|x| !x.is_finite() || x.abs() > 1e6) {
-                    return Err(bad(format!(
-                        "origin {x} is not a finite number within +-1e6 m"
-                    )));
-                }
-                if mass > 0.0 {
-                    let global = at.translation + at.rotation * Vector3::from(xyz);
-                    let local = frame.rotation.transpose() * (global - frame.translation);
-                    bodies.push(Body {
-                        joint: *joint,
-                        mass,
-                        com: local,
-                    });
-                }
+    // Every chain of a tree; a joint two chains share is visited once.
+    let chains: Vec<&UrdfChain> = import.branches.iter().chain([&import.chain]).collect();
+    let in_a_chain = |name: &str| chains.iter().any(|c| c.joints.iter().any(|j| j == name));
+    let mut visited: Vec<&str> = Vec::new();
+    for chain in &chains {
+        // The frame of the last movable joint at the zero configuration, and its number (1-based).
+        let mut carrier: Option<(Frame, usize)> = None;
+        let mut acc = Frame::identity();
+        let mut movable = 0;
+        for (c, name) in chain.joints.iter().enumerate() {
+            let Some(j) = urdf.joints.iter().find(|j| &j.name == name) else {
+                continue;
+            };
+            acc = acc.then(&chain.origins[c]);
+            if chain.movable.get(movable) == Some(name) {
+                // The robot's number of this joint (a tree numbers a branch's joints after the
+                // chains before it).
+                let number = import
+                    .robot
+                    .joint_index(name)
+                    .map_or(movable + 1, |k| k + 1);
+                carrier = Some((
+                    acc.then(&Frame {
+                        rotation: chain.axis_frames[movable],
+                        translation: Vector3::zeros(),
+                    }),
+                    number,
+                ));
+                movable += 1;
             }
-            for k in urdf.joints.iter().filter(|k| k.parent.link == name) {
-                if chain.joints.contains(&k.name) {
-                    continue;
+            let Some((frame, joint)) = &carrier else {
+                continue;
+            };
+            if visited.contains(&name.as_str()) {
+                continue;
+            }
+            visited.push(name);
+            // The child link and everything below it that is not the chain.
+            let mut stack = vec![(j.child.link.as_str(), acc)];
+            while let Some((name, at)) = stack.pop() {
+                if let Some(l) = link(name) {
+                    let mass = l.inertial.mass.value;
+                    let xyz = l.inertial.origin.xyz.0;
+                    let bad = |what: String| {
+                        Error::input(
+                            Location::file(file).with_field(format!("link `{name}` inertial")),
+                            what,
+                        )
+                    };
+                    if !(mass.is_finite() && (0.0..=1e6).contains(&mass)) {
+                        return Err(bad(format!(
+                            "mass {mass} is not a finite number of kg in [0, 1e6]"
+                        )));
+                    }
+                    if let Some(x) = xyz.iter().find(|x| !x.is_finite() || x.abs() > 1e6) {
+                        return Err(bad(format!(
+                            "origin {x} is not a finite number within +-1e6 m"
+                        )));
+                    }
+                    if mass > 0.0 {
+                        let global = at.translation + at.rotation * Vector3::from(xyz);
+                        let local = frame.rotation.transpose() * (global - frame.translation);
+                        bodies.push(Body {
+                            joint: *joint,
+                            mass,
+                            com: local,
+                        });
+                    }
                 }
-                let o = origin_frame(k.origin.xyz.0, k.origin.rpy.0);
-                stack.push((k.child.link.as_str(), at.then(&o)));
+                for k in urdf.joints.iter().filter(|k| k.parent.link == name) {
+                    if in_a_chain(&k.name) {
+                        continue;
+                    }
+                    let o = origin_frame(k.origin.xyz.0, k.origin.rpy.0);
+                    stack.push((k.child.link.as_str(), at.then(&o)));
+                }
             }
         }
     }
     Ok(bodies)
 }
 
-/// [`import_urdf`], with the mass model of [`urdf_bodies`] when `masses` (an error when the
+/// [`import_urdf_tree`], with the mass model of [`urdf_bodies`] when `masses` (an error when the
 /// chain's links carry no mass).
 pub fn import_urdf_with(
     text: &str,
     file: &str,
     base: Option<&str>,
-    tip: Option<&str>,
+    tips: &[&str],
     masses: bool,
 ) -> Result<UrdfImport> {
-    let mut imported = import_urdf(text, file, base, tip)?;
+    let mut imported = import_urdf_tree(text, file, base, tips)?;
     if masses {
         let bodies = urdf_bodies(text, file, &imported)?;
         if bodies.is_empty() {
@@ -413,6 +537,16 @@ pub fn import_urdf_with(
 /// kinematics, the tool joint to add when the tip hangs off the last movable joint, and
 /// warnings for what a URDF cannot express (slopes other than 1).
 pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
+    export_origins_keeping(robot, chain, &|_| false)
+}
+
+/// [`export_origins`], leaving the fixed joints `shared` names (ones other chains of a tree go
+/// through) as they are: a tool correction then goes into an added link.
+fn export_origins_keeping(
+    robot: &Robot,
+    chain: &UrdfChain,
+    shared: &dyn Fn(&str) -> bool,
+) -> Result<Exported> {
     if robot.dof() != chain.movable.len() {
         return Err(Error::Problem(format!(
             "the robot has {} joints but the URDF chain has {} movable joints",
@@ -494,8 +628,8 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
             fixed_before = Frame::identity();
             k += 1;
         } else {
-            if k == chain.movable.len() && tool_joint.is_none() {
-                tool_joint = Some(out.len());
+            if k == chain.movable.len() && tool_joint.is_none() && !shared(name) {
+                tool_joint = Some((out.len(), fixed_before));
                 out.push((name.clone(), *origin, *origin));
             }
             fixed_before = fixed_before.then(origin);
@@ -505,13 +639,16 @@ pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
     let needed = inverse(&prev_w).then(&ee);
     let mut tool = None;
     match tool_joint {
-        Some(t) => {
-            // F_after = O_t * rest; replace O_t so that O_t' * rest = needed.
-            let rest = inverse(&out[t].1).then(&fixed_before);
-            out[t].1 = needed.then(&inverse(&rest));
+        Some((t, before)) => {
+            // F_after = A * O_t * rest (A the fixed joints kept before it); replace O_t so that
+            // A * O_t' * rest = needed.
+            let rest = inverse(&before.then(&out[t].1)).then(&fixed_before);
+            out[t].1 = inverse(&before).then(&needed).then(&inverse(&rest));
         }
         None => {
-            // The tip hangs off the last movable joint: a fixed joint carries the correction.
+            // The tip hangs off the last movable joint (through fixed joints left as they are):
+            // an added fixed joint after the tip carries the correction.
+            let needed = inverse(&fixed_before).then(&needed);
             let d = needed.translation.norm() + crate::kinematics::log_so3(&needed.rotation).norm();
             if d > 1e-12 {
                 tool = Some(needed);
@@ -632,73 +769,166 @@ impl UrdfExport {
 /// and a link `<tip>_calibrated` are added after the tip, and that new link is the calibrated
 /// tool frame (a warning names it). A joint without an `<origin>` gets one; a byte-order mark
 /// is kept. The text is read back and compared with the robot ([`UrdfExport::read_back`]).
+///
+/// A tree (several `tips`, as [`import_urdf_tree`] imported it) is written chain by chain: each
+/// tip's chain takes the robot's branch to that tool frame ([`Robot::branch`]), the joints two
+/// chains share get the same origin from both, and each chain is read back.
 pub fn export_urdf(
     robot: &Robot,
     template: &str,
     file: &str,
     base: Option<&str>,
-    tip: Option<&str>,
+    tips: &[&str],
 ) -> Result<UrdfExport> {
-    let imported = import_urdf(template, file, base, tip)?;
-    let mut e = export_origins(robot, &imported.chain)?;
-    let mut text = rewrite_origins(template, file, &e.origins)?;
-    let mut read_tip = imported.chain.tip.clone();
-    if let Some(tool) = e.tool {
-        let tip = &imported.chain.tip;
-        let link = format!("{tip}_calibrated");
-        let [roll, pitch, yaw] = rpy_near(&tool.rotation, &Matrix3::identity());
-        let block = format!(
-            "  <!-- Added by kinecal export: the calibrated tool frame. -->\n  <link name=\"{link}\"/>\n  \
-             <joint name=\"{link}_joint\" type=\"fixed\">\n    <parent link=\"{tip}\"/>\n    \
-             <child link=\"{link}\"/>\n    <origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>\n  </joint>\n",
-            fmt_num(tool.translation.x),
-            fmt_num(tool.translation.y),
-            fmt_num(tool.translation.z),
-            fmt_num(roll),
-            fmt_num(pitch),
-            fmt_num(yaw)
-        );
-        let end = super::xml::scan(&text, file)?
-            .robot_end
-            .ok_or_else(|| err(file, "no </robot> to add the tool joint before"))?;
-        text.insert_str(end, &block);
-        e.warnings
-            .push(Warning::UrdfToolAdded { link: link.clone() });
-        read_tip = link;
+    let imported = import_urdf_tree(template, file, base, tips)?;
+    if imported.robot.dof() != robot.dof() || imported.robot.sites.len() > robot.sites.len() {
+        return Err(Error::Problem(format!(
+            "the robot has {} joints and {} sites, but the URDF's tree to {} has {} movable \
+             joints and {} other tips",
+            robot.dof(),
+            robot.sites.len(),
+            tips.join(", "),
+            imported.robot.dof(),
+            imported.robot.sites.len()
+        )));
     }
-    let back = import_urdf(
-        &text,
-        &format!("{file} (as written)"),
-        Some(&imported.chain.base),
-        Some(&read_tip),
-    )?
-    .robot;
-    // The URDF's joint values: the readings in radians and metres, plus the other joint's for a
-    // joint coupled by the sum convention (the only coupling written).
-    let scale = readback::unit_scale(robot, Units::default());
-    let couplings: Vec<Option<usize>> = robot
+    // Each chain with the robot's branch to its tool frame: the sites first, as imported.
+    let chains: Vec<(&UrdfChain, Option<usize>)> = imported
+        .branches
+        .iter()
+        .enumerate()
+        .map(|(s, c)| (c, Some(s)))
+        .chain([(&imported.chain, None)])
+        .collect();
+    let mut origins: Vec<NewOrigin> = Vec::new();
+    let mut warnings: Vec<Warning> = Vec::new();
+    let mut tools = Vec::new();
+    let mut branches = Vec::new();
+    for &(chain, site) in &chains {
+        let (serial, path) = robot.branch(site).map_err(Error::Problem)?;
+        let others = |name: &str| {
+            chains
+                .iter()
+                .any(|(c, _)| c.tip != chain.tip && c.joints.iter().any(|j| j == name))
+        };
+        let mut e = export_origins_keeping(&serial, chain, &others)?;
+        for (name, o, old) in e.origins.drain(..) {
+            match origins.iter().find(|(n, _, _)| *n == name) {
+                None => origins.push((name, o, old)),
+                Some((_, first, _)) => {
+                    let apart = (first.translation - o.translation).norm()
+                        + crate::kinematics::log_so3(&(first.rotation.transpose() * o.rotation))
+                            .norm();
+                    if apart > 1e-9 {
+                        return Err(Error::Problem(format!(
+                            "joint `{name}` is shared by two chains of the tree but their \
+                             calibrations give it different origins"
+                        )));
+                    }
+                }
+            }
+        }
+        for mut w in e.warnings {
+            // Numbered as the robot numbers its joints, not as the branch does.
+            match &mut w {
+                Warning::UrdfSlope { joint, .. } => *joint = path[*joint - 1] + 1,
+                Warning::UrdfCoupled { joint, other, .. } => {
+                    *joint = path[*joint - 1] + 1;
+                    *other = path[*other - 1] + 1;
+                }
+                _ => {}
+            }
+            if !warnings.contains(&w) {
+                warnings.push(w);
+            }
+        }
+        tools.push(e.tool);
+        branches.push((serial, path));
+    }
+    let mut text = rewrite_origins(template, file, &origins)?;
+    let mut read_tips = Vec::new();
+    for (&(chain, _), tool) in chains.iter().zip(&tools) {
+        let mut read_tip = chain.tip.clone();
+        if let Some(tool) = tool {
+            let tip = &chain.tip;
+            let link = format!("{tip}_calibrated");
+            let [roll, pitch, yaw] = rpy_near(&tool.rotation, &Matrix3::identity());
+            let block = format!(
+                "  <!-- Added by kinecal export: the calibrated tool frame. -->\n  <link name=\"{link}\"/>\n  \
+                 <joint name=\"{link}_joint\" type=\"fixed\">\n    <parent link=\"{tip}\"/>\n    \
+                 <child link=\"{link}\"/>\n    <origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/>\n  </joint>\n",
+                fmt_num(tool.translation.x),
+                fmt_num(tool.translation.y),
+                fmt_num(tool.translation.z),
+                fmt_num(roll),
+                fmt_num(pitch),
+                fmt_num(yaw)
+            );
+            let end = super::xml::scan(&text, file)?
+                .robot_end
+                .ok_or_else(|| err(file, "no </robot> to add the tool joint before"))?;
+            text.insert_str(end, &block);
+            warnings.push(Warning::UrdfToolAdded { link: link.clone() });
+            read_tip = link;
+        }
+        read_tips.push(read_tip);
+    }
+    // Each chain read back from the text as written, against the robot's branch to it.
+    let mut read_back = ReadBack {
+        position: 0.0,
+        attitude: 0.0,
+        postures: 0,
+    };
+    for ((&(chain, _), read_tip), (serial, _)) in chains.iter().zip(&read_tips).zip(&branches) {
+        let back = import_urdf(
+            &text,
+            &format!("{file} (as written)"),
+            Some(&chain.base),
+            Some(read_tip),
+        )?
+        .robot;
+        // The URDF's joint values: the readings in radians and metres, plus the other joint's
+        // for a joint coupled by the sum convention (the only coupling written).
+        let scale = readback::unit_scale(serial, Units::default());
+        let couplings: Vec<Option<usize>> = serial
+            .joints
+            .iter()
+            .map(|j| j.coupling.map(|c| c.joint))
+            .collect();
+        let r = readback::compare(
+            serial,
+            &back,
+            &|v, out| {
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = v[j] * scale[j] + couplings[j].map_or(0.0, |k| v[k] * scale[j]);
+                }
+            },
+            None,
+        );
+        read_back.position = read_back.position.max(r.position);
+        read_back.attitude = read_back.attitude.max(r.attitude);
+        read_back.postures += r.postures;
+    }
+    let names: Vec<String> = imported
+        .robot
         .joints
         .iter()
-        .map(|j| j.coupling.map(|c| c.joint))
+        .enumerate()
+        .map(|(j, joint)| {
+            joint
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("joint{}", j + 1))
+        })
         .collect();
-    let read_back = readback::compare(
-        robot,
-        &back,
-        &|v, out| {
-            for (j, o) in out.iter_mut().enumerate() {
-                *o = v[j] * scale[j] + couplings[j].map_or(0.0, |k| v[k] * scale[j]);
-            }
-        },
-        None,
-    );
     let lost = readback::gains_lost(
         robot,
-        &|j| format!("joint {} (`{}`)", j + 1, imported.chain.movable[j]),
+        &|j| format!("joint {} (`{}`)", j + 1, names[j]),
         &|_| true,
     );
     Ok(UrdfExport {
         text,
-        warnings: e.warnings,
+        warnings,
         read_back,
         lost,
     })
