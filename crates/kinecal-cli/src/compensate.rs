@@ -48,13 +48,14 @@ enum Kind {
 }
 
 /// Tells the layout from the header.
-fn kind(rows: &Rows, dof: usize) -> Result<Kind> {
-    let readings: Option<Vec<usize>> = (1..=dof).map(|j| rows.column(&format!("v{j}"))).collect();
-    let reading = |h: &str| {
-        h.strip_prefix('v')
-            .and_then(|j| j.parse::<usize>().ok())
-            .is_some_and(|j| (1..=dof).contains(&j))
-    };
+fn kind(rows: &Rows, robot: &kinecal::Robot) -> Result<Kind> {
+    let dof = robot.dof();
+    // `vK`, or the joint's name (a tree's, a URDF's).
+    let columns: Vec<String> = (0..dof)
+        .map(|j| kinecal::files::reading_column(robot, &rows.header, j))
+        .collect();
+    let readings: Option<Vec<usize>> = columns.iter().map(|c| rows.column(c)).collect();
+    let reading = |h: &str| columns.iter().any(|c| c.eq_ignore_ascii_case(h));
     let known = |extra: &[&str]| {
         rows.header
             .iter()
@@ -211,7 +212,7 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
         .map_err(|e| anyhow!("--robot {} and --nominal {}: {e}", a.robot, a.nominal))?;
     let dof = nominal.dof();
     let mut rows = Rows::open(&a.input)?;
-    let kind = kind(&rows, dof)?;
+    let kind = kind(&rows, &nominal)?;
     // What the tool carries at each row: the elastic robot yields to it, and the output keeps
     // the columns so that `fk` and `check` see the same load.
     let payload_cols = crate::stream::payload_columns(&rows)?;

@@ -202,28 +202,10 @@ pub struct LoadedRobot {
     pub source: Source,
 }
 
-/// The target a command-line name stands for: `ee` for the end effector, else a site of
-/// `robot`; an error naming `option` and the valid names otherwise.
+/// The target a command-line name stands for: `ee` (or the end effector's name) for the end
+/// effector, else a site of `robot`; an error naming `option` and the valid names otherwise.
 pub fn target_named(robot: &Robot, name: &str, option: &str) -> Result<kinecal::Target> {
-    if name == "ee" {
-        return Ok(kinecal::Target::EndEffector);
-    }
-    robot
-        .sites
-        .iter()
-        .position(|s| s.name == name)
-        .map(kinecal::Target::Site)
-        .ok_or_else(|| {
-            anyhow!(
-                "{option}: `{name}` is not a site of {}; expected `ee`{}",
-                robot.name,
-                robot
-                    .sites
-                    .iter()
-                    .map(|s| format!(", `{}`", s.name))
-                    .collect::<String>()
-            )
-        })
+    kinecal::files::site_target(robot, name).map_err(|m| anyhow!("{option}: {m}"))
 }
 
 /// Reads a text file, naming it in errors.
@@ -587,8 +569,9 @@ fn fk(a: FkArgs) -> Result<()> {
         // `posture`, a `site`, and the remaining errors and flags, read past).
         let dof = robot.dof();
         let label = rows.column("posture").or_else(|| rows.column("target"));
-        let readings: Option<Vec<usize>> =
-            (1..=dof).map(|j| rows.column(&format!("v{j}"))).collect();
+        let readings: Option<Vec<usize>> = (0..dof)
+            .map(|j| rows.column(&kinecal::files::reading_column(robot, &rows.header, j)))
+            .collect();
         let compensated = [
             "site",
             "position_error",

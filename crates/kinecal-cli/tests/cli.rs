@@ -2267,7 +2267,7 @@ fn plan_chooses_postures_and_refuses_mistakes() {
             "--out", "p.csv",
         ],
     );
-    assert!(err.contains("`nope` is not a site"), "{err}");
+    assert!(err.contains("unknown site `nope`"), "{err}");
     let err = run_err(
         d,
         &[
@@ -2670,7 +2670,7 @@ fn compensate_programs_and_targets() {
             "tcp",
         ],
     );
-    assert!(err.contains("`tcp` is not a site"), "{err}");
+    assert!(err.contains("--site: unknown site `tcp`"), "{err}");
     let err = run_err(
         d,
         &[

@@ -56,6 +56,8 @@ pub struct TargetSearch<'r> {
     seeded: bool,
     candidate: Vec<f64>,
     start: Vec<f64>,
+    /// An attempt's start, with the joints that do not move the target at the reference.
+    from: Vec<f64>,
     nearest: Vec<(f64, u32)>,
     ws: Workspace,
 }
@@ -121,6 +123,7 @@ impl<'r> TargetSearch<'r> {
             seeded: false,
             candidate: vec![0.0; dof],
             start: vec![0.0; dof],
+            from: vec![0.0; dof],
             nearest: Vec::with_capacity(Self::ATTEMPTS + 1),
             ws: Workspace::new(calibrated),
         })
@@ -307,9 +310,22 @@ impl<'r> TargetSearch<'r> {
     /// set (`branch` against a seed given).
     fn attempt(&mut self, goal: &Goal, target: Target, start: &[f64], nearest: bool) -> Solved {
         let mut candidate = std::mem::take(&mut self.candidate);
+        // A tree's joints on other branches cannot move the target: they start, and so stay,
+        // at the reference (the seed, the previous row's solution, or mid-range).
+        let mut from = std::mem::take(&mut self.from);
+        from.copy_from_slice(start);
+        if self.robot.is_tree() {
+            let attach = crate::kinematics::target_joint(self.robot, target);
+            for (j, v) in from.iter_mut().enumerate() {
+                if !self.robot.joint_moves(j, attach) {
+                    *v = self.reference[j];
+                }
+            }
+        }
         let mut s = self
             .comp
-            .local(goal, target, start, nearest, &mut candidate);
+            .local(goal, target, &from, nearest, &mut candidate);
+        self.from = from;
         for (j, joint) in self.robot.joints.iter().enumerate() {
             let v = &mut candidate[j];
             if let Some(t) = self.turn[j] {

@@ -245,7 +245,7 @@ pub fn read_observations_as(
 /// The column that heads joint `j`'s (0-based) readings in a file of `header`: `vK` (K = j + 1),
 /// or the joint's name (robot file `[[joints]] name`) when the file has that column and not `vK`.
 /// Names are compared as the header's other columns are, ignoring ASCII case.
-pub(crate) fn reading_column(robot: &Robot, header: &[String], j: usize) -> String {
+pub fn reading_column(robot: &Robot, header: &[String], j: usize) -> String {
     let v = format!("v{}", j + 1);
     let has = |c: &str| header.iter().any(|h| h.eq_ignore_ascii_case(c));
     match &robot.joints[j].name {
@@ -256,7 +256,7 @@ pub(crate) fn reading_column(robot: &Robot, header: &[String], j: usize) -> Stri
 
 /// The target a `site` field names: the end effector when it is empty or `ee`, else the site of
 /// `robot` so called; otherwise the message of the error, which lists the robot's targets.
-fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
+pub fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
     match name {
         "" | "ee" => Ok(Target::EndEffector),
         name if robot.end_effector.as_deref() == Some(name) => Ok(Target::EndEffector),

@@ -947,6 +947,13 @@ impl DhExport {
 /// robot over the joint ranges ([`readback`]): the table's joint variables are the readings,
 /// converted from the robot file's units to the table's.
 pub fn export_dh(robot: &Robot, convention: Convention, units: Units) -> Result<DhExport> {
+    if robot.is_tree() {
+        return Err(Error::Problem(format!(
+            "{} is a tree (its joints branch): a DH table describes one serial chain; write the \
+             tree into its URDF (`kinecal export urdf` with each --tip)",
+            robot.name
+        )));
+    }
     let rows = dh_rows(robot, convention)?;
     let text = write_dh_table(&rows, units, convention);
     let back = import_dh(
