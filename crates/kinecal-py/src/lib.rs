@@ -247,7 +247,8 @@ impl Robot {
 
     fn target(&self, site: Option<&str>) -> PyResult<Target> {
         match site {
-            None => Ok(Target::EndEffector),
+            None | Some("ee") => Ok(Target::EndEffector),
+            Some(s) if self.robot.end_effector.as_deref() == Some(s) => Ok(Target::EndEffector),
             Some(s) => self.robot.site_index(s).map(Target::Site).ok_or_else(|| {
                 bad(format!(
                     "site `{s}`: not a site of this robot (sites: {})",
@@ -858,6 +859,9 @@ impl Measurements {
                 .enumerate()
                 .map(|(i, name)| match name {
                     None => Ok(Target::EndEffector),
+                    Some(name) if r.end_effector.as_deref() == Some(name.as_str()) => {
+                        Ok(Target::EndEffector)
+                    }
                     Some(name) => r.site_index(name).map(Target::Site).ok_or_else(|| {
                         bad(format!(
                             "sites: row {i}: `{name}` is not a site of this robot (sites: {})",

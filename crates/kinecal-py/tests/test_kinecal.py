@@ -539,6 +539,27 @@ def test_robot_round_trips_and_urdf_export(tmp_path):
     assert np.abs(back.fk(q)[:, :3] - r.fk(q)[:, :3]).max() > 1e-4
 
 
+def test_a_urdf_tree_imports_with_its_tips_and_exports_back(tmp_path):
+    path = os.path.join(ROOT, "examples", "trees", "upper_body.urdf")
+    tips = ["left_marker", "right_marker"]
+    r = kinecal.Robot.from_urdf(path, tip=tips)
+    assert r.dof == 14
+    q = np.random.default_rng(2).uniform(-1, 1, size=(10, r.dof))
+    left, right = r.fk(q, site="left_marker"), r.fk(q, site="right_marker")
+    np.testing.assert_array_equal(right, r.fk(q))
+    # The left arm's joints (3-8) do not move the right marker; the torso's move both.
+    q2 = q.copy()
+    q2[:, 2:8] += 0.3
+    np.testing.assert_allclose(r.fk(q2, site="right_marker"), right, atol=1e-15)
+    assert np.abs(r.fk(q2, site="left_marker") - left).max() > 1e-3
+    moved = r.with_value("link1.z", r.get("link1.z") + 0.001)
+    back_path = tmp_path / "back.urdf"
+    back_path.write_text(moved.to_urdf(path, tip=tips))
+    back = kinecal.Robot.from_urdf(back_path, tip=tips)
+    for site in tips:
+        np.testing.assert_allclose(back.fk(q, site=site), moved.fk(q, site=site), atol=1e-9)
+
+
 def test_urdf_masses_make_an_elastic_robot():
     path = shared_data("urdf", "universal_robots", "urdf_plain", "ur10_robot.urdf")
     rigid = kinecal.Robot.from_urdf(path, base="base_link", tip="tool0")

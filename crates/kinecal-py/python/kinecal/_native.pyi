@@ -58,9 +58,13 @@ class Robot:
         """A built-in robot: ``"ge-a4"`` (the GE A4 of the thesis)."""
     @staticmethod
     def from_urdf(
-        path: _PathLike, base: str | None = None, tip: str | None = None, masses: bool = False
+        path: _PathLike,
+        base: str | None = None,
+        tip: str | list[str] | None = None,
+        masses: bool = False,
     ) -> Robot:
-        """The chain from ``base`` (default: the root) to ``tip`` (default: the only leaf);
+        """The chain from ``base`` (default: the root) to ``tip`` (default: the only leaf); a
+        list of tips reads a tree (the last the end effector, the others sites);
         ``masses=True`` takes the links' ``<inertial>`` masses as a mass model."""
     @staticmethod
     def from_dh(
@@ -80,7 +84,7 @@ class Robot:
         self,
         template: _PathLike,
         base: str | None = None,
-        tip: str | None = None,
+        tip: str | list[str] | None = None,
         tolerance: tuple[float, float] | None = None,
     ) -> str:
         """The robot written into a URDF template's joint origins (``kinecal export urdf``),
