@@ -1310,6 +1310,11 @@ pub struct CalibrateArgs {
     /// the robot file's [priors], else none].
     #[arg(long, value_name = "PRIOR")]
     pub prior: Option<String>,
+    /// The bodies' total mass (kg) of an elastic robot, held while their masses are estimated
+    /// (`--estimate ...,masses`): it fixes their scale, which positions alone cannot tell from
+    /// the compliances' (without it, one mass is held and the rest are relative to it).
+    #[arg(long, value_name = "KG")]
+    pub total_mass: Option<f64>,
     /// Iteration cap (default 100; 5000 for sd).
     #[arg(long, value_name = "N")]
     pub max_iter: Option<usize>,

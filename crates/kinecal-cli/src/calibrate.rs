@@ -103,6 +103,7 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
     sel.estimate = a.estimate.clone().or(sel.estimate.take());
     sel.fix = a.fix.clone().or(sel.fix.take());
     sel.prior = a.prior.clone().or(sel.prior.take());
+    sel.total_mass = a.total_mass.or(sel.total_mass);
     sel.prune = a.prune.or(sel.prune);
     let sol = &mut s.solver;
     if let Some(m) = a.method {

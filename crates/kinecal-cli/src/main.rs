@@ -151,6 +151,7 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::Configuration => "--configuration",
         Setting::OutputFormat => "--format",
         Setting::Prior => "--prior",
+        Setting::TotalMass => "--total-mass",
     }
 }
 

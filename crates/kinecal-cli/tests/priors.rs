@@ -229,6 +229,25 @@ fn choose_compares_prior_strengths_and_bad_priors_are_named() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(words), "{prior}: {err}");
     }
+    // A total mass needs a mass model, and a mass.
+    for (total, words) in [
+        ("28", "--total-mass: the robot has no bodies"),
+        ("-3", "--total-mass: expected a mass in kg"),
+    ] {
+        let flag = format!("--total-mass={total}");
+        let args = [
+            "calibrate",
+            "--robot",
+            "r6.toml",
+            "--data",
+            "data.csv",
+            &flag,
+        ];
+        let out = kinecal().current_dir(dir).args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(words), "{total}: {err}");
+    }
     std::fs::write(
         dir.join("bad.toml"),
         std::fs::read_to_string(dir.join("r6.toml")).unwrap() + "\n[priors]\nangle = -1\n",

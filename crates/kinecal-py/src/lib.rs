@@ -148,6 +148,7 @@ fn keyword(setting: kinecal::Setting) -> &'static str {
         Setting::Configuration => "configuration",
         Setting::OutputFormat => "format",
         Setting::Prior => "prior",
+        Setting::TotalMass => "total_mass",
     }
 }
 
@@ -1117,7 +1118,7 @@ fn choice<T: serde::de::DeserializeOwned>(keyword: &str, value: &str) -> PyResul
 /// made a calibration spec, run as every front end runs one. Returns the calibrated robot, the
 /// report as JSON text and the outcome's arrays ([`outcome::details`]).
 #[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None, prior=None))]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None, prior=None, total_mass=None))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate(
     py: Python<'_>,
@@ -1143,6 +1144,7 @@ fn calibrate(
     choose: Option<Vec<String>>,
     repeats: Option<usize>,
     prior: Option<String>,
+    total_mass: Option<f64>,
 ) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>)> {
     use kinecal::spec::{ResidualSpec, SelectionSpec, SolverSpec, ValidationSpec, WeightsSpec};
     let r = &robot.robot;
@@ -1157,6 +1159,7 @@ fn calibrate(
             fix: param_list(fix, "fix")?,
             prune,
             prior,
+            total_mass,
         },
         solver: SolverSpec {
             method: choice("method", method)?,

@@ -67,11 +67,13 @@ pub enum Setting {
     OutputFormat,
     /// The Gaussian prior on the parameters' changes.
     Prior,
+    /// The bodies' total mass, which fixes the scale of estimated masses.
+    TotalMass,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 30] = [
+    pub const ALL: [Setting; 31] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -102,6 +104,7 @@ impl Setting {
         Setting::Configuration,
         Setting::OutputFormat,
         Setting::Prior,
+        Setting::TotalMass,
     ];
 
     /// The library's words for it.
@@ -137,6 +140,7 @@ impl Setting {
             Setting::Configuration => "configuration",
             Setting::OutputFormat => "output format",
             Setting::Prior => "prior",
+            Setting::TotalMass => "total mass",
         }
     }
 }

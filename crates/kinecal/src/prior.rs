@@ -85,8 +85,20 @@ pub fn parse_prior(text: &str, robot: &Robot) -> Result<Prior> {
 }
 
 /// The prior as [`parse_prior`] reads it back, in the robot file's units (`none` for an empty
-/// one): groups first, then parameters by name.
+/// one): groups first, then parameters by name; a total mass (`--total-mass`, not a prior key)
+/// follows in parentheses, `none (total mass 28 kg)`.
 pub fn describe(prior: &Prior, robot: &Robot) -> String {
+    if let Some(total) = prior.total_mass {
+        let rest = Prior {
+            total_mass: None,
+            ..prior.clone()
+        };
+        return format!(
+            "{} (total mass {} kg)",
+            describe(&rest, robot),
+            format_number(total)
+        );
+    }
     if prior.is_empty() {
         return "none".into();
     }

@@ -105,10 +105,11 @@ pub struct Problem<'a> {
     prior: Vec<PriorRow>,
 }
 
-/// One row of a prior: `(p - center) * weight`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One row of a prior: `(sum of the columns' parameters - center) * weight` (one column for a
+/// parameter's prior, the masses for the total mass).
+#[derive(Debug, Clone, PartialEq)]
 struct PriorRow {
-    column: usize,
+    columns: Vec<usize>,
     center: f64,
     weight: f64,
     angle: bool,
@@ -176,6 +177,10 @@ impl<'a> Problem<'a> {
     /// The same problem with a row `(p - p0) / s_p` after the data's for each estimated
     /// parameter `p` the prior gives a standard deviation `s_p` (see the module documentation),
     /// `p0` its value in the base robot. An empty prior adds none.
+    ///
+    /// With a total mass `M`, one more row: `(sum of the bodies' masses - M) / (f M)`, `f`
+    /// [`Prior::TOTAL_MASS_FRACTION`], over the estimated masses (the others held), when some
+    /// mass is estimated.
     pub fn with_prior(mut self, prior: &Prior) -> Self {
         self.prior = self
             .estimated
@@ -184,13 +189,45 @@ impl<'a> Problem<'a> {
             .filter_map(|(column, &id)| {
                 let s = prior.sigma(self.base, id)?;
                 Some(PriorRow {
-                    column,
+                    columns: vec![column],
                     center: self.base.get(id),
                     weight: 1.0 / s,
                     angle: self.base.param_quantity(id) == Quantity::Angle,
                 })
             })
             .collect();
+        if let Some(total) = prior.total_mass {
+            let mass = |id: ParamId| {
+                matches!(
+                    self.base.try_param_kind(id),
+                    Some(ParamKind::Body {
+                        component: crate::params::BodyComponent::Mass,
+                        ..
+                    })
+                )
+            };
+            let columns: Vec<usize> = (0..self.estimated.len())
+                .filter(|&c| mass(self.estimated[c]))
+                .collect();
+            if !columns.is_empty() {
+                let held: f64 = (0..self.base.body_count())
+                    .map(|body| {
+                        self.base.param_id(ParamKind::Body {
+                            body,
+                            component: crate::params::BodyComponent::Mass,
+                        })
+                    })
+                    .filter(|id| !self.estimated.contains(id))
+                    .map(|id| self.base.get(id))
+                    .sum();
+                self.prior.push(PriorRow {
+                    columns,
+                    center: total - held,
+                    weight: 1.0 / (Prior::TOTAL_MASS_FRACTION * total),
+                    angle: false,
+                });
+            }
+        }
         self
     }
 
@@ -236,7 +273,8 @@ impl<'a> Problem<'a> {
 
     /// The `R` of the weighted `[J | r]` of this problem with its prior's rows, from `r_data`,
     /// the `R` (`(cols + 1)` square) of the data's rows alone at the base robot: the prior's
-    /// rows (residual 0 there, where they are centred) folded in by a QR of a few rows.
+    /// rows (residual 0 there, where a parameter's is centred; the total mass's distance)
+    /// folded in by a QR of a few rows.
     /// `r_data` itself when there is no prior.
     pub(crate) fn with_prior_rows(&self, r_data: &Matrix) -> Matrix {
         let k = self.cols();
@@ -251,9 +289,19 @@ impl<'a> Problem<'a> {
             }
             acc.push(&row);
         }
+        // The rows' residuals at the base robot: 0 for a parameter's (centred there), the
+        // distance from the total for the masses'.
         for p in &self.prior {
             row.fill(0.0);
-            row[p.column] = p.weight;
+            for &c in &p.columns {
+                row[c] = p.weight;
+            }
+            let at: f64 = p
+                .columns
+                .iter()
+                .map(|&c| self.base.get(self.estimated[c]))
+                .sum();
+            row[k] = p.weight * (at - p.center);
             acc.push(&row);
         }
         let mut out = Matrix::zeros(0, 0);
@@ -266,7 +314,10 @@ impl<'a> Problem<'a> {
     pub fn prior_sigmas(&self) -> Vec<(ParamId, f64)> {
         self.prior
             .iter()
-            .map(|p| (self.estimated[p.column], 1.0 / p.weight))
+            .filter_map(|p| match p.columns.as_slice() {
+                [c] => Some((self.estimated[*c], 1.0 / p.weight)),
+                _ => None,
+            })
             .collect()
     }
 
@@ -529,7 +580,12 @@ impl<'a> Problem<'a> {
             row += nrows;
         }
         for p in &self.prior {
-            let v = robot.get(self.estimated[p.column]) - p.center;
+            let v = p
+                .columns
+                .iter()
+                .map(|&c| robot.get(self.estimated[c]))
+                .sum::<f64>()
+                - p.center;
             let r = p.weight * if p.angle { wrap_angle(v) } else { v };
             res[row] = r;
             match jac.as_mut() {
@@ -537,11 +593,15 @@ impl<'a> Problem<'a> {
                     for c in 0..k {
                         j[(row, c)] = 0.0;
                     }
-                    j[(row, p.column)] = p.weight;
+                    for &c in &p.columns {
+                        j[(row, c)] = p.weight;
+                    }
                 }
                 Some(Sink::Rows(acc)) => {
                     qr_row.fill(0.0);
-                    qr_row[p.column] = p.weight;
+                    for &c in &p.columns {
+                        qr_row[c] = p.weight;
+                    }
                     qr_row[k] = r;
                     acc.push(&qr_row);
                 }

@@ -596,9 +596,17 @@ pub struct Prior {
     pub compliance: Option<f64>,
     /// Per-parameter standard deviations (internal units), overriding the groups.
     pub overrides: Vec<(ParamId, f64)>,
+    /// The bodies' total mass (kg), held by one row on the sum of their masses with a standard
+    /// deviation of [`Prior::TOTAL_MASS_FRACTION`] of it: what fixes the masses' scale when they
+    /// are estimated, which positions alone cannot (`--total-mass`).
+    pub total_mass: Option<f64>,
 }
 
 impl Prior {
+    /// The standard deviation of the total-mass row, as a fraction of the total: the sum is
+    /// held, not merely suggested.
+    pub const TOTAL_MASS_FRACTION: f64 = 1e-6;
+
     /// No prior at all: no group and no parameter has a standard deviation.
     pub fn is_empty(&self) -> bool {
         self.length.is_none()
@@ -606,6 +614,7 @@ impl Prior {
             && self.slope.is_none()
             && self.compliance.is_none()
             && self.overrides.is_empty()
+            && self.total_mass.is_none()
     }
 
     /// The prior the tolerances make: the same expected deviations (`[tolerances]` read as
@@ -617,6 +626,7 @@ impl Prior {
             slope: Some(t.slope_fraction),
             compliance: None,
             overrides: t.overrides.clone(),
+            total_mass: None,
         }
     }
 

@@ -103,6 +103,10 @@ pub struct SelectionSpec {
     /// `[priors]` when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior: Option<String>,
+    /// The bodies' total mass (kg), held while their masses are estimated: it fixes their
+    /// scale, which positions cannot (twice the masses and half the compliances sag the same).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub total_mass: Option<f64>,
 }
 
 /// The method and its stopping rules (`[solver]`).
@@ -453,6 +457,22 @@ impl CalibrationSpec {
             Some(text) => crate::prior::parse_prior(text, robot)?,
             None => robot.priors.clone(),
         };
+        if let Some(total) = s.total_mass {
+            if !(total.is_finite() && total > 0.0 && total <= 1e6) {
+                return Err(invalid(
+                    Setting::TotalMass,
+                    format!("expected a mass in kg, above 0 and at most 1e6, not {total}"),
+                ));
+            }
+            if robot.body_count() == 0 {
+                return Err(invalid(
+                    Setting::TotalMass,
+                    "the robot has no bodies to hold the total of (a mass model: [[bodies]] or \
+                     [gravity] lumped_mass in the robot file)",
+                ));
+            }
+            req.prior.total_mass = Some(total);
+        }
         if let Some(guess) = &initial {
             if !robot.same_structure(guess) {
                 return Err(invalid(
@@ -709,6 +729,7 @@ mod tests {
                 fix: Some("base".into()),
                 prune: Some(2.0),
                 prior: Some("length=0.1,angle=0.01".into()),
+                total_mass: Some(28.5),
             },
             solver: SolverSpec {
                 method: Method::Svd,

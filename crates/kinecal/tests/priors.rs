@@ -73,6 +73,7 @@ fn prior_of_size(sigma: f64) -> Prior {
         slope: Some(sigma),
         compliance: None,
         overrides: Vec::new(),
+        total_mass: None,
     }
 }
 

@@ -209,6 +209,7 @@ def calibrate(
     choose: list[str] | None = None,
     repeats: int | None = None,
     prior: str | None = None,
+    total_mass: float | None = None,
 ) -> tuple[Robot, str, dict[str, Any]]:
     """The calibrated robot, the report as JSON text and the outcome's arrays
     (``covariance``, ``covariance_names``, ``residuals``, ``residual_rows``)."""
