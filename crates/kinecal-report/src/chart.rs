@@ -160,7 +160,10 @@ fn bounds(p: &Panel) -> (f64, f64, f64, f64) {
     }
     // A flat series (one value, or all equal): a span around it that ticks can divide.
     let span = (y1 - y0).max(1e-9 * y1.abs().max(y0.abs())).max(1e-300);
-    let span = if y1 - y0 <= 1e-9 * y1.abs().max(y0.abs()) {
+    let span = if y0 == 0.0 && y1 == 0.0 {
+        // Exactly 0 throughout: a unit span, not one of 1e-13.
+        1.0
+    } else if y1 - y0 <= 1e-9 * y1.abs().max(y0.abs()) {
         y1.abs().max(1e-12) * 0.1
     } else {
         span

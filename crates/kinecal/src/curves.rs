@@ -79,13 +79,16 @@ pub fn pose_curve(
         let chain = Chain::new(&r);
         chain.forward(readings, &mut ws);
         let p = chain.target_frame(&ws, target).pose();
+        // Rounding noise (below 1e-12 m or rad, a picometre) is 0: a constant angle of 0 is
+        // drawn flat at 0, not as a curve across 1e-16.
+        let snap = |v: f64| if v.abs() < 1e-12 { 0.0 } else { v };
         let mut row = [
-            u.from_si(Quantity::Length, p.position.x),
-            u.from_si(Quantity::Length, p.position.y),
-            u.from_si(Quantity::Length, p.position.z),
-            u.from_si(Quantity::Angle, p.euler.x),
-            u.from_si(Quantity::Angle, p.euler.y),
-            u.from_si(Quantity::Angle, p.euler.z),
+            u.from_si(Quantity::Length, snap(p.position.x)),
+            u.from_si(Quantity::Length, snap(p.position.y)),
+            u.from_si(Quantity::Length, snap(p.position.z)),
+            u.from_si(Quantity::Angle, snap(p.euler.x)),
+            u.from_si(Quantity::Angle, snap(p.euler.y)),
+            u.from_si(Quantity::Angle, snap(p.euler.z)),
         ];
         if let Some(prev) = out.last() {
             for k in 3..6 {
