@@ -116,6 +116,8 @@ fn robot_seeds() -> Vec<Vec<u8>> {
         factor: 1.0,
     });
     seeds.push(write_robot_toml(&r, None).into_bytes());
+    // A tree: named joints, parents, a named end effector and a site on the other branch.
+    seeds.push(write_robot_toml(&simulate::random_tree(2, &[3, 2], 5), None).into_bytes());
     seeds
 }
 
@@ -165,6 +167,23 @@ fn measurement_and_posture_files() {
         };
         outcome(parse_measurements(&t, "f.csv", &robot), check_data)
     });
+    // A tree's rows, readings headed by the joints' names in another order, tools by name.
+    let tree = simulate::random_tree(1, &[2, 2], 9);
+    let tree_postures = simulate::sample_postures(&tree, 4, 2);
+    let written = write_measurements(&tree, &simulate::measure(&tree, &tree_postures, false));
+    let named = written.replacen("v1,v2,v3,v4,v5", "torso1,arm1_1,arm1_2,arm2_1,arm2_2", 1);
+    fuzz(
+        "tree_measurements",
+        "f.csv",
+        &[written.into_bytes(), named.into_bytes()],
+        &|b| {
+            let t = match read_text(b, "f.csv") {
+                Ok(t) => t,
+                Err(o) => return o,
+            };
+            outcome(parse_measurements(&t, "f.csv", &tree), check_data)
+        },
+    );
     let posture_seeds = vec![write_postures(&robot, &postures).into_bytes()];
     fuzz("postures", "f.csv", &posture_seeds, &|b| {
         let t = match read_text(b, "f.csv") {
@@ -250,6 +269,7 @@ fn urdf_files() {
             seeds.push(b);
         }
     }
+    let tree_seed = std::fs::read(repo().join("examples/trees/upper_body.urdf")).unwrap();
     if seeds.is_empty() {
         assert!(
             std::env::var_os("CI").is_none(),
@@ -269,6 +289,7 @@ fn urdf_files() {
             .to_vec(),
         );
     }
+    seeds.push(tree_seed);
     fuzz("urdf", "f.urdf", &seeds, &|b| {
         let t = match read_text(b, "f.urdf") {
             Ok(t) => t,
@@ -284,6 +305,10 @@ fn urdf_files() {
             if let Ok(u) = kinecal::import::urdf::import_urdf(&t, "f.urdf", base, tip) {
                 return Outcome::Accepted(check_robot(&u.robot));
             }
+        }
+        let tips = ["left_marker", "right_marker"];
+        if let Ok(u) = kinecal::import::urdf::import_urdf_tree(&t, "f.urdf", None, &tips) {
+            return Outcome::Accepted(check_robot(&u.robot));
         }
         outcome(
             kinecal::import::urdf::import_urdf(&t, "f.urdf", None, None),
