@@ -34,13 +34,21 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         Some(list) => ordered_list(list, robot)?,
         None => Vec::new(),
     };
+    let mut prior = match &a.prior {
+        Some(text) => kinecal::prior::parse_prior(text, robot)?,
+        None => robot.priors.clone(),
+    };
+    if let Some(total) = a.total_mass {
+        kinecal::prior::set_total_mass(&mut prior, total, robot)
+            .map_err(|m| anyhow::anyhow!("--total-mass: {m}"))?;
+    }
     let opts = AnalysisOptions {
         rcond: a.rcond,
         weights,
         orientation,
         priority,
         noise_scale: 1.0,
-        prior: Default::default(),
+        prior,
     };
     let selection = Selection::parse(&a.estimate, a.fix.as_deref(), robot)?;
     let (params, unseen) = resolve(&selection, robot, &data, &opts)?;
@@ -114,6 +122,28 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
         an.residuals
     );
     let _ = writeln!(s);
+    if an.prior_rows > 0 {
+        let needs = an.prior_dependent();
+        let _ = writeln!(
+            s,
+            "With the prior: {} of its rows after the data's; the rank is of both together. {}",
+            an.prior_rows,
+            if needs.is_empty() {
+                "The data alone determines every parameter it determines.".to_string()
+            } else {
+                format!(
+                    "Determined only with the prior ({}): {}.",
+                    needs.len(),
+                    needs
+                        .iter()
+                        .map(|&id| robot.param_name(id))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        );
+        let _ = writeln!(s);
+    }
     let gap = if an.gap_ratio.is_finite() {
         format!("{:.2e}", an.gap_ratio)
     } else {
@@ -132,6 +162,7 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
         Some(e) => {
             let _ = writeln!(s, "Thesis count (eqs. 4.2, 4.3, 4.5): {}.", e.formula);
             let verdict = match an.rank.cmp(&e.rank) {
+                _ if an.prior_rows > 0 => "It counts what the data alone determines; the rank above is of the data and the prior together.".to_string(),
                 std::cmp::Ordering::Equal => "The measured rank matches: every loss of rank is the model's inherent redundancy.".to_string(),
                 std::cmp::Ordering::Less => format!(
                     "The measured rank is {} below it: the postures do not excite every direction (too few, too alike, or a joint \
@@ -148,15 +179,17 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
         None => {
             let _ = writeln!(
                 s,
-                "Thesis count: not applicable (it assumes every link parameter and joint offset estimated, the end effector \
-                 measured, and every measured site's parameters estimated)."
+                "Thesis count: not applicable (it assumes every link parameter and joint offset on the way to a measured \
+                 frame estimated, and every measured site's parameters estimated)."
             );
         }
     }
-    let _ = writeln!(
+    let _ =
+        writeln!(
         s,
-        "{} redundant parameter(s): the data determines {} independent combinations of the {n}.",
+        "{} redundant parameter(s): the data{} determines {} independent combinations of the {n}.",
         n - an.rank,
+        if an.prior_rows > 0 { " with the prior" } else { "" },
         an.rank
     );
     let _ = writeln!(s);

@@ -1022,6 +1022,15 @@ pub struct AnalyzeArgs {
     /// Relative singular-value tolerance for the numerical rank.
     #[arg(long, value_name = "X", default_value_t = kinecal::identifiability::DEFAULT_RANK_RCOND)]
     pub rcond: f64,
+    /// Analyse the data with a Gaussian prior on the changes, as `calibrate --prior` fits it
+    /// (`length=L,angle=A[,slope=F][,compliance=C]`, `tolerances`, `none`): the rank of both
+    /// together, and which parameters the prior alone determines [default: the robot file's
+    /// [priors], else none].
+    #[arg(long, value_name = "PRIOR")]
+    pub prior: Option<String>,
+    /// The bodies' total mass (kg), held as `calibrate --total-mass` holds it.
+    #[arg(long, value_name = "KG")]
+    pub total_mass: Option<f64>,
     #[command(flatten)]
     pub residuals: ResidualArgs,
     /// Print a matrix as well.

@@ -262,3 +262,42 @@ fn choose_compares_prior_strengths_and_bad_priors_are_named() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("priors.angle"), "{err}");
 }
+
+#[test]
+fn analyze_with_a_prior_says_what_the_prior_alone_determines() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    six_r(dir, 5);
+    let base = [
+        "analyze",
+        "--robot",
+        "r6.toml",
+        "--data",
+        "data.csv",
+        "--estimate",
+        "all",
+    ];
+    let without = run_ok(dir, &base);
+    assert!(without.contains("Numerical rank 36 of 54"), "{without}");
+    assert!(!without.contains("With the prior"));
+    let mut args = base.to_vec();
+    args.extend(["--prior", PRIOR]);
+    let with = run_ok(dir, &args);
+    assert!(with.contains("Numerical rank 54 of 54"), "{with}");
+    assert!(with.contains("With the prior: 54 of its rows"), "{with}");
+    // Individually, the data determines only the slopes and two tool angles here: every other
+    // parameter is in a combination the data cannot split.
+    assert!(
+        with.contains("Determined only with the prior (46): ") && with.contains("joint1.offset"),
+        "{with}"
+    );
+    assert!(with.contains("It counts what the data alone determines"));
+    let out = kinecal()
+        .current_dir(dir)
+        .args(base)
+        .arg("--total-mass=10")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--total-mass: the robot has no bodies"));
+}

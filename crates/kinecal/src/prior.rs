@@ -47,6 +47,29 @@ pub(crate) fn set_key(
     Ok(())
 }
 
+/// Holds the bodies' total mass at `total` kg ([`Prior::total_mass`]), or says why it cannot:
+/// not a mass, or a robot without bodies.
+pub fn set_total_mass(
+    prior: &mut Prior,
+    total: f64,
+    robot: &Robot,
+) -> std::result::Result<(), String> {
+    if !(total.is_finite() && total > 0.0 && total <= 1e6) {
+        return Err(format!(
+            "expected a mass in kg, above 0 and at most 1e6, not {total}"
+        ));
+    }
+    if robot.body_count() == 0 {
+        return Err(
+            "the robot has no bodies to hold the total of (a mass model: [[bodies]] or \
+                    [gravity] lumped_mass in the robot file)"
+                .into(),
+        );
+    }
+    prior.total_mass = Some(total);
+    Ok(())
+}
+
 /// Parses a prior as written on the command line or in a spec: `none`, `tolerances`, or
 /// comma-separated `KEY=VALUE` entries (groups and parameters, see the module
 /// documentation). Errors name the entry, under [`Setting::Prior`].

@@ -458,20 +458,8 @@ impl CalibrationSpec {
             None => robot.priors.clone(),
         };
         if let Some(total) = s.total_mass {
-            if !(total.is_finite() && total > 0.0 && total <= 1e6) {
-                return Err(invalid(
-                    Setting::TotalMass,
-                    format!("expected a mass in kg, above 0 and at most 1e6, not {total}"),
-                ));
-            }
-            if robot.body_count() == 0 {
-                return Err(invalid(
-                    Setting::TotalMass,
-                    "the robot has no bodies to hold the total of (a mass model: [[bodies]] or \
-                     [gravity] lumped_mass in the robot file)",
-                ));
-            }
-            req.prior.total_mass = Some(total);
+            crate::prior::set_total_mass(&mut req.prior, total, robot)
+                .map_err(|m| invalid(Setting::TotalMass, m))?;
         }
         if let Some(guess) = &initial {
             if !robot.same_structure(guess) {
