@@ -157,6 +157,25 @@ fn compare(seed: u64) -> (f64, f64) {
     assert_eq!(rb["prior"]["rows"], 54);
     assert_eq!(rb["prior"]["data_rank"], 36);
     assert!(rb["undetermined"].as_array().unwrap().is_empty());
+    // The HTML report shows the prior: its rows, and per parameter what determines it.
+    run_ok(dir, &["report", "--from", "b.json", "--out", "b.html"]);
+    let html = std::fs::read_to_string(dir.join("b.html")).unwrap();
+    assert!(
+        html.contains("<h2 id=\"prior\">Prior</h2>"),
+        "no prior section"
+    );
+    assert!(
+        html.contains(&format!("<code>{PRIOR}</code>: 54 rows")),
+        "prior line"
+    );
+    assert!(
+        html.contains("Rank 54 (36 on the data alone) of 54"),
+        "ranks"
+    );
+    let rows = html.matches("<td class=\"l\">data and prior</td>").count()
+        + html.matches("<td class=\"l\">data</td>").count()
+        + html.matches("<td class=\"l\">prior</td>").count();
+    assert_eq!(rows, 54, "one row per parameter with a prior");
     // The spec written holds the prior.
     let spec = std::fs::read_to_string(dir.join("job.toml")).unwrap();
     assert!(spec.contains(&format!("prior = \"{PRIOR}\"")), "{spec}");

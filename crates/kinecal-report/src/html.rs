@@ -499,6 +499,48 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     }
     let _ = writeln!(h, "</table>");
 
+    // The prior: what it added to the objective, and what it (not the data) determines.
+    if let Some(pr) = &rep.prior {
+        let estimated = rep.parameters.iter().filter(|p| p.estimated_flag).count();
+        let _ = writeln!(
+            h,
+            "<h2 id=\"prior\">Prior</h2>\n<p>A Gaussian prior on the changes, <code>{}</code>: {} \
+             rows after the data's. Objective after: data {}, prior {}. Rank {}{} of {} \
+             estimated parameters with the prior. The prior alone determines {} of them and \
+             splits {} from the combinations the data determines (the last column).</p>",
+            esc(&pr.prior),
+            pr.rows,
+            num(pr.data_objective_after),
+            num(pr.prior_objective_after),
+            rep.rank.map_or("?".into(), |r| r.to_string()),
+            pr.data_rank
+                .map_or(String::new(), |r| format!(" ({r} on the data alone)")),
+            estimated,
+            pr.determined_by_prior_alone.len(),
+            pr.split_by_prior.len()
+        );
+        let _ = writeln!(h, "<table><tr><th class=\"l\">id</th><th class=\"l\">name</th><th class=\"l\">unit</th><th>prior sigma</th><th>sigma</th><th>data share</th><th class=\"l\">determined by</th></tr>");
+        for p in rep
+            .parameters
+            .iter()
+            .filter(|p| p.estimated_flag && p.prior_sigma.is_some())
+        {
+            let opt = |v: Option<f64>| v.map_or(String::new(), num);
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+                p.id,
+                esc(&p.name),
+                esc(&p.unit),
+                opt(p.prior_sigma),
+                opt(p.sigma),
+                p.data_share.map_or(String::new(), |f| format!("{:.0} %", 100.0 * f)),
+                esc(p.determined_by.as_deref().unwrap_or(""))
+            );
+        }
+        let _ = writeln!(h, "</table>");
+    }
+
     // The mass model of an elastic robot: its equilibrium and the joints' stiffnesses.
     if let Some(e) = &rep.elastic {
         let _ = writeln!(
