@@ -26,7 +26,20 @@ fn tips() -> [Target; 2] {
 
 #[test]
 fn each_branch_is_the_serial_chain_through_it() {
-    let robot = simulate::random_tree(3, &[4, 5], 7);
+    // Two arms on a torso; and two robots measured in one frame (a tree with a fixed root:
+    // the second robot's first joint hangs off the global frame).
+    for (robot, lengths) in [
+        (simulate::random_tree(3, &[4, 5], 7), [7, 8]),
+        (simulate::random_tree(0, &[6, 6], 8), [6, 6]),
+    ] {
+        branches_match(&robot, lengths);
+    }
+    let two = simulate::random_tree(0, &[6, 6], 8);
+    assert_eq!(two.joints[6].parent, Some(0));
+}
+
+fn branches_match(robot: &Robot, lengths: [usize; 2]) {
+    let robot = robot.clone();
     assert!(robot.is_tree());
     let chain = Chain::new(&robot);
     let mut ws = Workspace::new(&robot);
@@ -36,7 +49,11 @@ fn each_branch_is_the_serial_chain_through_it() {
         let (serial, path) = branch(&robot, target);
         assert_eq!(
             path.len(),
-            if target == Target::EndEffector { 8 } else { 7 }
+            if target == Target::EndEffector {
+                lengths[1]
+            } else {
+                lengths[0]
+            }
         );
         let sc = Chain::new(&serial);
         let mut sws = Workspace::new(&serial);
