@@ -1,7 +1,8 @@
 //! Hot-path benchmarks on a 6-joint all-revolute robot with all 54 parameters:
 //! forward kinematics and the analytic Jacobian per posture, and a full Levenberg-Marquardt
 //! calibration from 1,000 full-pose postures; and the same arm made elastic (a body per joint,
-//! compliances about both axes): its equilibrium, and its Jacobian with the compliances.
+//! compliances about both axes): its equilibrium, and its Jacobian with the compliances; and a
+//! tree, a 2-joint torso carrying two 6-joint arms, both tools per posture.
 //!
 //! Run: `cargo bench -p kinecal --bench kinematics`
 
@@ -126,5 +127,28 @@ fn calibration(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, kinematics, elastic, calibration);
+/// Two 6-joint arms on a 2-joint torso: one forward pass, then both tools' frames and Jacobians
+/// (each arm's columns and the torso's).
+fn tree(c: &mut Criterion) {
+    let robot = simulate::random_tree(2, &[6, 6], 42);
+    let postures = simulate::sample_postures(&robot, 1000, 1);
+    let chain = Chain::new(&robot);
+    let mut ws = Workspace::new(&robot);
+    let mut block = vec![0.0; 6 * robot.param_count()];
+    let plans = [Target::Site(0), Target::EndEffector]
+        .map(|t| kinecal::kinematics::ColumnPlan::all(&robot, t));
+    let mut i = 0;
+    c.bench_function("tree_fk_plus_both_jacobians_per_posture_2+6+6R", |b| {
+        b.iter(|| {
+            i = (i + 1) % postures.len();
+            chain.forward(black_box(&postures[i].readings), &mut ws);
+            for plan in &plans {
+                chain.jacobian_columns(&ws, plan, &mut block);
+            }
+            black_box(block[17])
+        })
+    });
+}
+
+criterion_group!(benches, kinematics, elastic, tree, calibration);
 criterion_main!(benches);
