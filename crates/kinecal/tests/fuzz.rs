@@ -43,9 +43,18 @@ fn check_robot(r: &Robot) -> Result<(), String> {
     }
     let written = write_robot_toml(r, None);
     let back = parse_robot_toml(&written, "w.toml").map_err(|e| format!("rewrite: {e}"))?;
+    // The writer's contract: float noise, below `NOISE` times the file's largest number of the
+    // same kind, is written as 0 (an Euler angle of -1.8e-12 rad at gimbal lock, next to angles
+    // of pi); everything else reads back to 1e-12 of itself.
+    let scale = |q: kinecal::units::Quantity| {
+        r.param_ids()
+            .filter(|&i| r.param_quantity(i) == q)
+            .fold(0.0f64, |m, i| m.max(r.get_user(i).abs()))
+    };
     for id in r.param_ids() {
-        let (a, b) = (r.get(id), back.get(id));
-        if (a - b).abs() > 1e-12 * a.abs().max(1.0) {
+        let (a, b) = (r.get_user(id), back.get_user(id));
+        let noise = kinecal::units::number::NOISE * scale(r.param_quantity(id));
+        if (a - b).abs() > (1e-12 * a.abs().max(1.0)).max(noise) {
             return Err(format!("{} reads back {b} for {a}", r.param_name(id)));
         }
     }
