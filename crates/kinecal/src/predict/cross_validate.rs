@@ -3,7 +3,9 @@
 //! likelihood.
 //!
 //! **Folds.** The measured postures (whole posture groups: postures an observation links stay
-//! together) are split into `k` blocks by k-means in the embedding of the joint-space metric
+//! together) are split into `k` blocks, at two scales (10 blocks, then 3: the second holds out
+//! a third of the measured region at a time, so that the held-out postures reach the distances
+//! of an extrapolation), by k-means in the embedding of the joint-space metric
 //! ([`super::nearest`]; seeded by farthest points from the first posture, then 20 Lloyd
 //! rounds: deterministic). Holding out a block leaves its postures at distances from the
 //! fitted ones ranging from a neighbour's spacing (at the block's edge) to the block's radius
@@ -17,7 +19,10 @@
 //! the fold's fit, and the distance to the nearest posture the fold fitted.
 //!
 //! **The fit.** `s0` and `c` maximise `sum_i log N(e_i; 0, P_i + (s0^2 + c^2 d_i^2) I)` (a grid
-//! over `log s0^2, log c^2`, refined ten times by halving; `c = 0` is a candidate).
+//! over `log s0^2, log c^2`, refined by halving; `c = 0` is a candidate). The held-out errors,
+//! each divided by its predicted standard deviation, then give the shape
+//! ([`Growth::shape`]): how unevenly they spread over the axes (on the UR10, mostly along one
+//! direction of the tracker's frame), which widens the bound of `|e|`.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -113,14 +118,37 @@ pub fn blocks(data: &Dataset, metric: &JointMetric, k: usize) -> Vec<usize> {
     fold
 }
 
-/// Refits `cal` on `k` blocks of `data` (see the module) and collects the held-out errors.
+/// Refits `cal` on blocks of `data` (see the module), `k` blocks for each `k` of `scales`,
+/// and collects the held-out errors of every scale together.
 pub fn cross_validate(
     cal: &Calibration,
     data: &Dataset,
     reference: &Robot,
     metric: &JointMetric,
-    k: usize,
+    scales: &[usize],
 ) -> Result<CrossValidated> {
+    let mut out = CrossValidated::default();
+    for &k in scales {
+        cross_validate_at(cal, data, reference, metric, k, &mut out)?;
+    }
+    if out.position.is_empty() {
+        return Err(Error::Problem(
+            "the cross-validation of the model error held out no position (every fold's fit \
+             failed)"
+                .into(),
+        ));
+    }
+    Ok(out)
+}
+
+fn cross_validate_at(
+    cal: &Calibration,
+    data: &Dataset,
+    reference: &Robot,
+    metric: &JointMetric,
+    k: usize,
+    out: &mut CrossValidated,
+) -> Result<()> {
     let fold_of = blocks(data, metric, k);
     let start = if cal.options.prior.is_empty() {
         &cal.calibrated
@@ -128,7 +156,6 @@ pub fn cross_validate(
         &cal.initial
     };
     let (_, pose) = super::predictable(data);
-    let mut out = CrossValidated::default();
     for f in 0..k {
         let held: Vec<bool> = fold_of.iter().map(|&x| x == f).collect();
         if !held.iter().any(|&h| h) {
@@ -197,14 +224,7 @@ pub fn cross_validate(
         };
         for_each_observation(robot, &test, |_, o, frames| collect(o, &frames[0]));
     }
-    if out.position.is_empty() {
-        return Err(Error::Problem(
-            "the cross-validation of the model error held out no position (every fold's fit \
-             failed)"
-                .into(),
-        ));
-    }
-    Ok(out)
+    Ok(())
 }
 
 /// The model-error term fitted to held-out errors, and how it and the alternatives cover them.
@@ -330,21 +350,37 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
             }
         }
     }
-    let growth = Growth {
+    let mut growth = Growth {
         s0: (0.5 * best.1).exp(),
         c: if best.2.is_finite() {
             (0.5 * best.2).exp()
         } else {
             0.0
         },
+        shape: 3.0,
     };
+    // The shape: the second-moment matrix of the errors, each in its own predicted standard
+    // deviations, `tr M^2` with `tr M = 3`.
+    let mut m = Matrix3::zeros();
+    for h in samples {
+        let p = h.parameters[0][0] + h.parameters[1][1] + h.parameters[2][2];
+        let v = growth.variance(h.distance) + p / 3.0;
+        if v > 0.0 {
+            let e = Vector3::from(h.error);
+            m += e * e.transpose() / v;
+        }
+    }
+    let tr = m.trace();
+    if tr > 0.0 {
+        growth.shape = (9.0 * (m * m).trace() / (tr * tr)).clamp(3.0, 9.0);
+    }
     let s0_constant = (0.5 * constant.1).exp();
     let cover = |g: Growth| {
         let inside = samples
             .iter()
             .filter(|h| {
                 let e = Vector3::from(h.error).norm();
-                e <= Bound::of(&h.parameters, g.variance(h.distance)).bound
+                e <= Bound::of(&h.parameters, g.variance(h.distance), g.shape).bound
             })
             .count();
         inside as f64 / n
@@ -356,6 +392,7 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
         coverage_constant: cover(Growth {
             s0: s0_constant,
             c: 0.0,
+            shape: 3.0,
         }),
         s0_constant,
         coverage_parameters_only: cover(Growth::ZERO),

@@ -49,19 +49,29 @@ use crate::params::ParamId;
 use crate::robot::Robot;
 use crate::units::Quantity;
 
-/// A model-error term: per-axis standard deviation `sqrt(s0^2 + (c d)^2)` at distance `d`
-/// (internal units: `s0` in m or rad, `c` in m or rad per m of distance).
+/// A model-error term: mean per-axis variance `v(d) = s0^2 + (c d)^2` at distance `d`
+/// (internal units: `s0` in m or rad, `c` in m or rad per m of distance), spread over the axes
+/// as unevenly as `shape` says.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Growth {
     /// At the measured postures.
     pub s0: f64,
     /// Growth per unit of distance.
     pub c: f64,
+    /// How unevenly the error spreads over the three axes: `tr L^2` of its covariance's shape
+    /// `L` normalised to `tr L = 3` (3: evenly, isotropic; 9: along one axis), in no assumed
+    /// orientation. The 95 % bound of an uneven error is wider than an even one of the same
+    /// variance (up to 1.96 / 1.61 = 1.21 times).
+    pub shape: f64,
 }
 
 impl Growth {
     /// No model error.
-    pub const ZERO: Growth = Growth { s0: 0.0, c: 0.0 };
+    pub const ZERO: Growth = Growth {
+        s0: 0.0,
+        c: 0.0,
+        shape: 3.0,
+    };
 
     /// The variance per axis at distance `d`.
     #[inline]
@@ -103,14 +113,17 @@ pub struct Bound {
 }
 
 impl Bound {
-    /// The bound of `p` (the parameters' 3x3 covariance) plus `v I`.
+    /// The bound of `p` (the parameters' 3x3 covariance) plus a model error `M` of mean
+    /// per-axis variance `v` and [`Growth::shape`] `shape`: `tr S = tr P + 3 v`, `tr S^2 =
+    /// tr P^2 + 2 v tr P + shape v^2` (the cross term `2 tr(P M)` averaged over the
+    /// orientations of `M`, which is not assumed; exact when either part is isotropic).
     #[inline]
-    pub fn of(p: &[[f64; 3]; 3], v: f64) -> Bound {
+    pub fn of(p: &[[f64; 3]; 3], v: f64, shape: f64) -> Bound {
         let (t, t2) = quantile::traces(p);
         Bound {
             parameters: t.max(0.0).sqrt(),
             model: (3.0 * v).sqrt(),
-            bound: quantile::bound_95(t + 3.0 * v, t2 + 2.0 * v * t + 3.0 * v * v),
+            bound: quantile::bound_95(t + 3.0 * v, t2 + 2.0 * v * t + shape * v * v),
             parameters_bound: quantile::bound_95(t, t2),
         }
     }
@@ -257,8 +270,15 @@ impl<'r> Predictor<'r> {
         Prediction {
             position,
             distance,
-            position_error: Bound::of(&p, self.model.position.variance(distance)),
-            attitude_error: self.model.attitude.map(|g| Bound::of(&a, g.variance(distance))),
+            position_error: Bound::of(
+                &p,
+                self.model.position.variance(distance),
+                self.model.position.shape,
+            ),
+            attitude_error: self
+                .model
+                .attitude
+                .map(|g| Bound::of(&a, g.variance(distance), g.shape)),
         }
     }
 
@@ -333,7 +353,10 @@ fn symmetric_factor(c: &[Vec<f64>]) -> (Vec<f64>, usize) {
 
 /// The levers of `robot`'s joints on the targets `data` measures (positions and poses): the
 /// root mean square over those observations of the norm of the position rows of the reading
-/// Jacobian, m per reading unit (see [`nearest`]).
+/// Jacobian, m per reading unit (see [`nearest`]). A revolute first joint gets none: it turns
+/// the whole arm, and the model's errors with it, so the size of the error does not depend on
+/// its reading (what the model misses downstream of it is `R1(q1) e(q2..qn)`, of a length
+/// independent of `q1`).
 pub fn levers(robot: &Robot, data: &Dataset) -> Vec<f64> {
     let dof = robot.dof();
     let chain = Chain::new(robot);
@@ -354,8 +377,16 @@ pub fn levers(robot: &Robot, data: &Dataset) -> Vec<f64> {
         }
         count += 1;
     }
+    let first_turns = robot.joints[0].kind == crate::robot::JointKind::Revolute;
     sum.iter()
-        .map(|s| (s / count.max(1) as f64).sqrt())
+        .enumerate()
+        .map(|(j, s)| {
+            if j == 0 && first_turns {
+                0.0
+            } else {
+                (s / count.max(1) as f64).sqrt()
+            }
+        })
         .collect()
 }
 
@@ -436,6 +467,9 @@ pub struct GrowthReport {
     /// Its growth per length unit of distance from them (length unit per length unit, or angle
     /// unit per length unit).
     pub c: f64,
+    /// How unevenly the error spreads over the axes (3: evenly; 9: along one axis; see
+    /// [`Growth::shape`]).
+    pub shape: f64,
     /// The held-out observations of the cross-validation it was estimated from.
     pub points: usize,
     /// The share of them within their 95 % bound, with this term.
@@ -485,8 +519,8 @@ pub struct PredictionReport {
     /// The attitude model-error term, when attitudes were measured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub attitude: Option<GrowthReport>,
-    /// Folds of the cross-validation (blocks of nearby postures).
-    pub folds: usize,
+    /// The blocks of nearby postures of each scale of the cross-validation.
+    pub folds: Vec<usize>,
     /// Postures drawn in the joint ranges for the summary (seed 0).
     pub samples: usize,
     /// The predicted 95 % position bound over them.
@@ -522,8 +556,11 @@ pub const MAP_SAMPLES: usize = 12_000;
 /// needs blocks of several).
 pub const MIN_POSTURES: usize = 20;
 
-/// The folds of the cross-validation.
+/// The folds of the cross-validation's fine scale (fewer with fewer than 40 postures).
 pub const FOLDS: usize = 10;
+
+/// The folds of its coarse scale (a third of the measured region held out at a time).
+pub const COARSE_FOLDS: usize = 3;
 
 /// Everything a calibration predicts (see the module): the model-error term by
 /// cross-validation (refitting `cal` on folds of `data`, linearised at `reference`), the
@@ -548,8 +585,9 @@ pub fn assess(
         )));
     }
     let metric = JointMetric::new(robot, &levers(robot, data));
-    let folds = FOLDS.min(measured.len() / 4).max(2);
-    let cv = cross_validate(cal, data, reference, &metric, folds)?;
+    let mut folds = vec![FOLDS.min(measured.len() / 4).max(2), COARSE_FOLDS];
+    folds.dedup();
+    let cv = cross_validate(cal, data, reference, &metric, &folds)?;
     let position = fit_growth(&cv.position);
     let attitude = if pose && !cv.attitude.is_empty() {
         Some(fit_growth(&cv.attitude))
@@ -613,6 +651,7 @@ pub fn assess(
             s0: q(g.growth.s0),
             // Per length unit of distance.
             c: q(g.growth.c) / len(1.0),
+            shape: g.growth.shape,
             points: g.points,
             coverage: g.coverage,
             coverage_constant: g.coverage_constant,
@@ -725,11 +764,19 @@ pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Pr
         let out = Growth {
             s0: q(g.s0),
             c: q(g.c) / si(1.0),
+            shape: g.shape,
         };
         if !(out.s0.is_finite() && out.c.is_finite() && out.s0 >= 0.0 && out.c >= 0.0) {
             return Err(Error::Problem(
                 "the report's model-error term is not finite and non-negative".into(),
             ));
+        }
+        if !(3.0..=9.0).contains(&out.shape) {
+            return Err(Error::Problem(format!(
+                "the report's model-error shape is {}: it must be between 3 (even) and 9 (along \
+                 one axis)",
+                g.shape
+            )));
         }
         Ok(out)
     };

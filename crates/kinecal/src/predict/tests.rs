@@ -73,9 +73,9 @@ fn the_parameter_part_is_the_covariance_through_a_finite_difference_jacobian() {
     }
     // And the bound: the parameters alone, then with a model error that dominates (isotropic:
     // 2.7955 times its per-axis sigma).
-    let b = Bound::of(&p, 0.0);
+    let b = Bound::of(&p, 0.0, 3.0);
     assert!((b.parameters - (p[0][0] + p[1][1] + p[2][2]).sqrt()).abs() < 1e-15);
-    let big = Bound::of(&p, 1e6 * (p[0][0] + p[1][1] + p[2][2]));
+    let big = Bound::of(&p, 1e6 * (p[0][0] + p[1][1] + p[2][2]), 3.0);
     assert!((big.bound / big.model * 3f64.sqrt() - 2.795_483).abs() < 1e-3);
 }
 
@@ -84,7 +84,11 @@ fn maximum_likelihood_recovers_a_known_growing_term() {
     // Held-out errors drawn from the model itself: s0 = 0.3 mm, c = 2e-3 (0.2 mm more per 10 cm
     // of distance), parameter parts of varied shape, distances 0..0.5 m.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
-    let truth = Growth { s0: 3e-4, c: 2e-3 };
+    let truth = Growth {
+        s0: 3e-4,
+        c: 2e-3,
+        shape: 3.0,
+    };
     let samples: Vec<HeldOut> = (0..4000)
         .map(|_| {
             let d: f64 = rng.random_range(0.0..0.5);
@@ -142,6 +146,7 @@ fn a_report_of_another_robot_or_a_broken_one_is_refused() {
         position: GrowthReport {
             s0: 0.001,
             c: 0.01,
+            shape: 3.0,
             points: 10,
             coverage: 0.95,
             coverage_constant: 0.9,
@@ -151,7 +156,7 @@ fn a_report_of_another_robot_or_a_broken_one_is_refused() {
             distance_max: 2.0,
         },
         attitude: None,
-        folds: 5,
+        folds: vec![5, 3],
         samples: 10,
         position_summary: BoundSummary {
             median: 0.0,
