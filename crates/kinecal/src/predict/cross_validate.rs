@@ -19,7 +19,7 @@
 //! the fold's fit, and the distance to the nearest posture the fold fitted.
 //!
 //! **The fit.** `s0` and `c` maximise `sum_i log N(e_i; 0, P_i + (s0^2 + c^2 d_i^2) I)` (a grid
-//! over `log s0^2, log c^2`, refined by halving; `c = 0` is a candidate). The held-out errors,
+//! over `log s0^2, log c^2` in steps of 1 (a factor 1.65 in `s0` or `c`), refined by 20 halvings; `c = 0` is a candidate). The held-out errors,
 //! each divided by its predicted standard deviation, then give the shape
 //! ([`Growth::shape`]): how unevenly they spread over the axes (on the UR10, mostly along one
 //! direction of the tracker's frame), which widens the bound of `|e|`.
@@ -304,15 +304,15 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
     // The constant fit: log s0^2 on a grid, refined.
     let constant = {
         let mut best = (f64::INFINITY, a0);
-        let mut step = 0.5;
-        for i in -28..=4 {
+        let mut step = 1.0;
+        for i in -14..=2 {
             let a = a0 + i as f64 * step;
             let f = nll(a.exp(), 0.0);
             if f < best.0 {
                 best = (f, a);
             }
         }
-        for _ in 0..30 {
+        for _ in 0..20 {
             step *= 0.5;
             for a in [best.1 - step, best.1 + step] {
                 let f = nll(a.exp(), 0.0);
@@ -325,9 +325,9 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
     };
     // The growing term: a grid over (log s0^2, log c^2), refined by halving.
     let mut best = (constant.0, constant.1, f64::NEG_INFINITY);
-    let mut step = 0.5;
-    for i in -28..=4 {
-        for j in -28..=8 {
+    let mut step = 1.0;
+    for i in -14..=2 {
+        for j in -14..=4 {
             let (a, b) = (a0 + i as f64 * step, b0 + j as f64 * step);
             let f = nll(a.exp(), b.exp());
             if f < best.0 {
@@ -336,7 +336,7 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
         }
     }
     if best.2.is_finite() {
-        for _ in 0..30 {
+        for _ in 0..20 {
             step *= 0.5;
             let centre = best;
             for i in -1..=1 {

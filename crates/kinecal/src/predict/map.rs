@@ -110,11 +110,6 @@ pub fn accuracy_map(
             to_map(&p)
         })
         .collect();
-    let reach = drawn
-        .iter()
-        .map(|(p, _)| p.x.hypot(p.y))
-        .fold(0.0, f64::max)
-        .max(1e-9);
     let (zmin, zmax) = drawn.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, (p, _)| {
         (a.0.min(p.z), a.1.max(p.z))
     });
@@ -137,7 +132,7 @@ pub fn accuracy_map(
     let (q1, q3) = (super::percentile(&mut zd, 0.25), super::percentile(&mut zd, 0.75));
     let z2 = if (q3 - z1).abs() >= (q1 - z1).abs() { q3 } else { q1 };
     for z in [z1, z2] {
-        let mut cells = Grid::new([-reach, reach, -reach, reach], CELLS, CELLS);
+        let mut cells = Grid::default();
         for (p, b) in &drawn {
             if (p.z - z).abs() <= slab {
                 cells.add(p.x, p.y, *b);
@@ -149,36 +144,57 @@ pub fn accuracy_map(
             .map(|p| [len(p.x), len(p.y)])
             .collect();
         slices.push(cells.slice(
-            format!("horizontal slice at z = {:.4} (+-{:.4})", len(z), len(slab)),
+            format!("horizontal slice at z = {:.3} (+-{:.3})", len(z), len(slab)),
             ["x", "y"].map(String::from),
             stride(measured),
             &len,
         ));
     }
-    // Vertical slices through joint 1's axis, along the map's x and y axes.
+    // Vertical slices through joint 1's axis: through the measured targets' mean azimuth, and
+    // a quarter turn from it (or less, as far as joint 1's range turns most drawn postures).
     let j1 = &robot.joints[0];
     let turnable = j1.kind == JointKind::Revolute && j1.slope != 0.0;
     let range = super::reading_range(robot, 0);
-    for (k, phi) in [0.0f64, std::f64::consts::FRAC_PI_2].into_iter().enumerate() {
+    let turn = 2.0 * std::f64::consts::PI / j1.slope.abs().max(1e-300);
+    // Joint 1's reading that puts drawn posture `i` at azimuth `phi` (`side`: pi for the far
+    // side), when within its range.
+    let turned = |i: usize, phi: f64, side: f64| -> Option<f64> {
+        let p = drawn[i].0;
+        let v = readings[i * dof] + (phi + side - p.y.atan2(p.x)) / j1.slope;
+        let v = range.0 + (v - range.0).rem_euclid(turn);
+        (v <= range.1).then_some(v)
+    };
+    let (sx, sy) = marks.iter().fold((0.0, 0.0), |a, p| {
+        let r = p.x.hypot(p.y).max(1e-300);
+        (a.0 + p.x / r, a.1 + p.y / r)
+    });
+    let phi1 = if sx == 0.0 && sy == 0.0 { 0.0 } else { sy.atan2(sx) };
+    let usable = |phi: f64| {
+        (0..drawn.len())
+            .filter(|&i| turned(i, phi, if i % 2 == 0 { 0.0 } else { std::f64::consts::PI }).is_some())
+            .count()
+            * 3
+            >= drawn.len()
+    };
+    let phi2 = [90.0f64, -90.0, 60.0, -60.0, 45.0, -45.0, 30.0, -30.0, 15.0, -15.0]
+        .iter()
+        .map(|d| phi1 + d.to_radians())
+        .find(|&p| !turnable || usable(p))
+        .unwrap_or(phi1 + std::f64::consts::FRAC_PI_2);
+    for phi in [phi1, phi2] {
         let dir = nalgebra::Vector3::new(phi.cos(), phi.sin(), 0.0);
         let normal = nalgebra::Vector3::new(-phi.sin(), phi.cos(), 0.0);
-        let mut cells = Grid::new([-reach, reach, zmin, zmax], CELLS, CELLS * 2 / 3);
+        let mut cells = Grid::default();
         if turnable {
-            let mut turned = readings.clone();
-            for (i, r) in turned.chunks_mut(dof).enumerate() {
-                let (p, _) = drawn[i];
-                let psi = p.y.atan2(p.x);
+            let mut r = vec![0.0; dof];
+            for i in 0..drawn.len() {
                 let side = if i % 2 == 0 { 0.0 } else { std::f64::consts::PI };
-                let turn = 2.0 * std::f64::consts::PI / j1.slope.abs();
-                let mut v = r[0] + (phi + side - psi) / j1.slope;
-                // Into the range by whole turns, when it can be.
-                v = range.0 + (v - range.0).rem_euclid(turn);
-                if v > range.1 {
-                    r[0] = f64::NAN;
+                let Some(v) = turned(i, phi, side) else {
                     continue;
-                }
+                };
+                r.copy_from_slice(&readings[i * dof..(i + 1) * dof]);
                 r[0] = v;
-                let q = predictor.predict(r, target, &mut s);
+                let q = predictor.predict(&r, target, &mut s);
                 let m = to_map(&q.position);
                 cells.add(m.dot(&dir), m.z, q.position_error.bound);
             }
@@ -194,14 +210,13 @@ pub fn accuracy_map(
             .filter(|p| p.dot(&normal).abs() <= slab)
             .map(|p| [len(p.dot(&dir)), len(p.z)])
             .collect();
-        let axis = if k == 0 { "x" } else { "y" };
+        let deg = phi.to_degrees().rem_euclid(360.0);
         slices.push(cells.slice(
             format!(
-                "vertical slice through joint 1's axis along {axis} (measured postures within \
-                 +-{:.4})",
+                "vertical slice through joint 1's axis at {deg:.0} deg (measured within +-{:.3})",
                 len(slab)
             ),
-            [axis.to_string(), "z".to_string()],
+            ["from the axis (signed)".to_string(), "z".to_string()],
             stride(measured),
             &len,
         ));
@@ -257,48 +272,59 @@ pub fn accuracy_map(
     }
 }
 
-/// Bounds collected per cell.
+/// Bounds at points of a slice, gridded over the points' extent (the measured ones included).
+#[derive(Default)]
 struct Grid {
-    extent: [f64; 4],
-    nu: usize,
-    nv: usize,
-    cells: Vec<Vec<f64>>,
+    points: Vec<(f64, f64, f64)>,
 }
 
 impl Grid {
-    fn new(extent: [f64; 4], nu: usize, nv: usize) -> Grid {
-        Grid {
-            extent,
-            nu,
-            nv,
-            cells: vec![Vec::new(); nu * nv],
-        }
-    }
-
     fn add(&mut self, u: f64, v: f64, bound: f64) {
-        let [u0, u1, v0, v1] = self.extent;
-        let iu = ((u - u0) / (u1 - u0) * self.nu as f64).floor();
-        let iv = ((v - v0) / (v1 - v0) * self.nv as f64).floor();
-        if iu >= 0.0 && iv >= 0.0 && (iu as usize) < self.nu && (iv as usize) < self.nv {
-            self.cells[iv as usize * self.nu + iu as usize].push(bound);
+        if u.is_finite() && v.is_finite() && bound.is_finite() {
+            self.points.push((u, v, bound));
         }
     }
 
+    /// The slice: `CELLS` cells along the longer side, square cells.
     fn slice(
-        mut self,
+        self,
         title: String,
         axes: [String; 2],
         measured: Vec<[f64; 2]>,
         len: &dyn Fn(f64) -> f64,
     ) -> Slice {
+        let mut e = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+        for &(u, v, _) in &self.points {
+            e = [e[0].min(u), e[1].max(u), e[2].min(v), e[3].max(v)];
+        }
+        if !e[0].is_finite() {
+            e = [-1.0, 1.0, -1.0, 1.0];
+        }
+        let side = (e[1] - e[0]).max(e[3] - e[2]).max(1e-9);
+        let cell = side / CELLS as f64;
+        let nu = (((e[1] - e[0]) / cell).ceil() as usize).clamp(1, CELLS);
+        let nv = (((e[3] - e[2]) / cell).ceil() as usize).clamp(1, CELLS);
+        // Centred on the points, whole cells.
+        let (cu, cv) = (0.5 * (e[0] + e[1]), 0.5 * (e[2] + e[3]));
+        let extent = [
+            cu - 0.5 * nu as f64 * cell,
+            cu + 0.5 * nu as f64 * cell,
+            cv - 0.5 * nv as f64 * cell,
+            cv + 0.5 * nv as f64 * cell,
+        ];
+        let mut cells = vec![Vec::new(); nu * nv];
+        for &(u, v, b) in &self.points {
+            let iu = (((u - extent[0]) / cell).floor().max(0.0) as usize).min(nu - 1);
+            let iv = (((v - extent[2]) / cell).floor().max(0.0) as usize).min(nv - 1);
+            cells[iv * nu + iu].push(b);
+        }
         Slice {
             title,
             axes,
-            extent: self.extent.map(len),
-            nu: self.nu,
-            nv: self.nv,
-            values: self
-                .cells
+            extent: extent.map(len),
+            nu,
+            nv,
+            values: cells
                 .iter_mut()
                 .map(|c| (!c.is_empty()).then(|| len(super::percentile(c, 0.5))))
                 .collect(),

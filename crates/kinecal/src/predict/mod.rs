@@ -712,6 +712,57 @@ pub(crate) fn percentile(v: &mut [f64], q: f64) -> f64 {
     v[rank - 1]
 }
 
+/// The header of the predictions table `kinecal predict` writes: the posture and its readings,
+/// where the target is (`x, y, z`), the distance to the nearest measured posture, and per
+/// quantity the RMS lengths of the parameters' and the model error's parts, the 95 % bound, and
+/// the 95 % bound of the parameters alone (the robot file's units).
+pub fn csv_header(robot: &Robot, attitude: bool) -> String {
+    let mut h = String::from("posture");
+    for j in 1..=robot.dof() {
+        h += &format!(",v{j}");
+    }
+    h += ",x,y,z,distance,position_parameters,position_model,position_bound95,position_bound95_parameters";
+    if attitude {
+        h += ",attitude_parameters,attitude_model,attitude_bound95,attitude_bound95_parameters";
+    }
+    h
+}
+
+/// One row of the predictions table ([`csv_header`]), appended to `out` with its line end.
+pub fn csv_row(robot: &Robot, label: &str, readings: &[f64], p: &Prediction, out: &mut String) {
+    use std::fmt::Write as _;
+    let units = &robot.units;
+    let len = |v: f64| units.from_si(Quantity::Length, v);
+    let ang = |v: f64| units.from_si(Quantity::Angle, v);
+    out.push_str(label);
+    for v in readings {
+        let _ = write!(out, ",{v}");
+    }
+    let _ = write!(
+        out,
+        ",{},{},{},{},{},{},{},{}",
+        len(p.position.x),
+        len(p.position.y),
+        len(p.position.z),
+        len(p.distance),
+        len(p.position_error.parameters),
+        len(p.position_error.model),
+        len(p.position_error.bound),
+        len(p.position_error.parameters_bound)
+    );
+    if let Some(a) = &p.attitude_error {
+        let _ = write!(
+            out,
+            ",{},{},{},{}",
+            ang(a.parameters),
+            ang(a.model),
+            ang(a.bound),
+            ang(a.parameters_bound)
+        );
+    }
+    out.push('\n');
+}
+
 /// A predictor from a calibrated robot and its report's prediction (file units converted).
 /// Refuses a report whose parameters are not this robot's.
 pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Predictor<'r>> {
