@@ -350,13 +350,18 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
             }
         }
     }
-    let mut growth = Growth {
-        s0: (0.5 * best.1).exp(),
-        c: if best.2.is_finite() {
-            (0.5 * best.2).exp()
+    // At the grid's lower end a term is not told from none (the parameters' part covers the
+    // held-out errors): none.
+    let floor = |log_sq: f64, log_ref: f64| {
+        if log_sq.is_finite() && log_sq > log_ref - 13.5 {
+            (0.5 * log_sq).exp()
         } else {
             0.0
-        },
+        }
+    };
+    let mut growth = Growth {
+        s0: floor(best.1, a0),
+        c: floor(best.2, b0),
         shape: 3.0,
     };
     // The shape: the second-moment matrix of the errors, each in its own predicted standard
@@ -374,7 +379,7 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
     if tr > 0.0 {
         growth.shape = (9.0 * (m * m).trace() / (tr * tr)).clamp(3.0, 9.0);
     }
-    let s0_constant = (0.5 * constant.1).exp();
+    let s0_constant = floor(constant.1, a0);
     let cover = |g: Growth| {
         let inside = samples
             .iter()
