@@ -63,7 +63,7 @@ fn slice_svg(s: &Slice, scale: [f64; 2], unit: &str) -> String {
     let mut o = String::new();
     let _ = write!(
         o,
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.0} {h:.0}\" font-family=\"sans-serif\" font-size=\"12\">\
+        "<svg width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.0} {h:.0}\" font-family=\"sans-serif\" font-size=\"12\">\
          <text x=\"{:.0}\" y=\"18\" text-anchor=\"middle\" font-size=\"13\">{}</text>\
          <rect x=\"{left}\" y=\"{top}\" width=\"{plot_w}\" height=\"{plot_h:.1}\" fill=\"#f4f4f4\" stroke=\"#888\"/>",
         left + plot_w / 2.0,
@@ -145,7 +145,7 @@ fn colour_bar(scale: [f64; 2], unit: &str) -> String {
     let (w, h, left) = (520.0, 58.0, 20.0);
     let bar_w = 440.0;
     let mut o = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"12\">"
+        "<svg width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"12\">"
     );
     for k in 0..110 {
         let t = k as f64 / 110.0;
@@ -180,7 +180,7 @@ fn sweep_svg(j: &JointSweep, unit: &str, hi: f64) -> String {
     let x = |v: f64| left + (v - a) / (b - a).max(1e-300) * pw;
     let y = |v: f64| top + ph - (v / hi).clamp(0.0, 1.05) * ph;
     let mut o = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.0} {h:.0}\" font-family=\"sans-serif\" font-size=\"12\">\
+        "<svg width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.0} {h:.0}\" font-family=\"sans-serif\" font-size=\"12\">\
          <text x=\"{:.0}\" y=\"16\" text-anchor=\"middle\" font-size=\"13\">joint {}</text>\
          <rect x=\"{left}\" y=\"{top}\" width=\"{pw}\" height=\"{ph}\" fill=\"none\" stroke=\"#888\"/>",
         left + pw / 2.0,
