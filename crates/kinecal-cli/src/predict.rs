@@ -14,7 +14,12 @@ use crate::output;
 
 /// Runs `kinecal predict`.
 pub fn run(a: PredictArgs) -> Result<()> {
-    let outputs: Vec<&Path> = a.out.iter().chain(a.html.iter()).map(|p| p.as_path()).collect();
+    let outputs: Vec<&Path> = a
+        .out
+        .iter()
+        .chain(a.html.iter())
+        .map(|p| p.as_path())
+        .collect();
     let mut inputs: Vec<&Path> = vec![a.report.as_path(), Path::new(&a.robot)];
     inputs.extend(a.postures.as_deref());
     output::check_distinct(&outputs, &inputs)?;
@@ -114,7 +119,8 @@ pub fn run(a: PredictArgs) -> Result<()> {
     }
     if let Some(path) = &a.html {
         let measured: Vec<&[f64]> = pr.measured.iter().map(Vec::as_slice).collect();
-        let map = predict::accuracy_map(&predictor, target, &measured, predict::MAP_SAMPLES, a.seed);
+        let map =
+            predict::accuracy_map(&predictor, target, &measured, predict::MAP_SAMPLES, a.seed);
         let mut with_map = pr.clone();
         with_map.map = Some(map);
         staged.text(

@@ -25,16 +25,46 @@ fn run(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
 fn calibrated(dir: &Path) {
     for args in [
         &[
-            "simulate", "--robot", "ge-a4", "--postures", "30", "--seed", "7", "--perturb",
-            "p1=+0.05,p14=-0.02,joint2.offset=-0.5", "--noise", "length=0.0005,angle=0.005",
-            "--out", "data.csv",
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--seed",
+            "7",
+            "--perturb",
+            "p1=+0.05,p14=-0.02,joint2.offset=-0.5",
+            "--noise",
+            "length=0.0005,angle=0.005",
+            "--out",
+            "data.csv",
         ][..],
         &[
-            "calibrate", "--robot", "ge-a4", "--data", "data.csv", "--estimate",
-            "p1,p2,p8,p14,offsets,slopes", "--weights", "length=0.0005,angle=0.005", "--out",
-            "cal.toml", "--report", "report.json",
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "p1,p2,p8,p14,offsets,slopes",
+            "--weights",
+            "length=0.0005,angle=0.005",
+            "--out",
+            "cal.toml",
+            "--report",
+            "report.json",
         ],
-        &["simulate", "--robot", "ge-a4", "--postures", "12", "--seed", "9", "--out", "some.csv"],
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "12",
+            "--seed",
+            "9",
+            "--out",
+            "some.csv",
+        ],
     ] {
         let (code, _, e) = run(dir, args);
         assert_eq!(code, Some(0), "{args:?}: {e}");
@@ -49,8 +79,17 @@ fn the_table_is_the_library_prediction_and_the_map_is_drawn() {
     let (code, _, e) = run(
         d,
         &[
-            "predict", "--robot", "cal.toml", "--report", "report.json", "--postures", "some.csv",
-            "--out", "pred.csv", "--html", "map.html",
+            "predict",
+            "--robot",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "--postures",
+            "some.csv",
+            "--out",
+            "pred.csv",
+            "--html",
+            "map.html",
         ],
     );
     assert_eq!(code, Some(0), "{e}");
@@ -112,38 +151,79 @@ fn bad_input_is_refused_with_the_file_named() {
     };
     // Not the calibrated robot of the report.
     let e = err(vec![
-        "predict".into(), "--robot".into(), "ge-a4".into(), "--report".into(),
-        "report.json".into(), "--sample".into(), "5".into(),
+        "predict".into(),
+        "--robot".into(),
+        "ge-a4".into(),
+        "--report".into(),
+        "report.json".into(),
+        "--sample".into(),
+        "5".into(),
     ]);
-    assert!(e.contains("is not the calibrated robot of report.json"), "{e}");
+    assert!(
+        e.contains("is not the calibrated robot of report.json"),
+        "{e}"
+    );
     // A report that is not one.
     std::fs::write(d.join("bad.json"), "{\"robot\": 3").unwrap();
     let e = err(vec![
-        "predict".into(), "--robot".into(), "cal.toml".into(), "--report".into(),
-        "bad.json".into(), "--sample".into(), "5".into(),
+        "predict".into(),
+        "--robot".into(),
+        "cal.toml".into(),
+        "--report".into(),
+        "bad.json".into(),
+        "--sample".into(),
+        "5".into(),
     ]);
     assert!(e.contains("bad.json: not a calibration report"), "{e}");
     // A report without a prediction (8 postures are too few).
     let (code, _, e) = run(
         d,
-        &["simulate", "--robot", "ge-a4", "--postures", "8", "--seed", "3", "--out", "few.csv"],
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            "few.csv",
+        ],
     );
     assert_eq!(code, Some(0), "{e}");
     let (code, _, e) = run(
         d,
         &[
-            "calibrate", "--robot", "ge-a4", "--data", "few.csv", "--estimate", "p1,offsets",
-            "--out", "few.toml", "--report", "few.json",
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "few.csv",
+            "--estimate",
+            "p1,offsets",
+            "--out",
+            "few.toml",
+            "--report",
+            "few.json",
         ],
     );
     assert_eq!(code, Some(0), "{e}");
     let e = err(vec![
-        "predict".into(), "--robot".into(), "few.toml".into(), "--report".into(),
-        "few.json".into(), "--sample".into(), "5".into(),
+        "predict".into(),
+        "--robot".into(),
+        "few.toml".into(),
+        "--report".into(),
+        "few.json".into(),
+        "--sample".into(),
+        "5".into(),
     ]);
     assert!(e.contains("few.json: the report has no prediction"), "{e}");
     // A posture whose reading is not a number: its file and line.
-    std::fs::write(d.join("p.csv"), "posture,v1,v2,v3,v4\n1,0,0,0,0\n2,0,nan,0,0\n").unwrap();
+    std::fs::write(
+        d.join("p.csv"),
+        "posture,v1,v2,v3,v4\n1,0,0,0,0\n2,0,nan,0,0\n",
+    )
+    .unwrap();
     let e = err(with(&["--postures", "p.csv"]));
     assert!(e.contains("p.csv:3"), "{e}");
     // An unknown target, a sample of nothing.
@@ -161,8 +241,16 @@ fn bad_input_is_refused_with_the_file_named() {
     v["prediction"]["position"]["c"] = serde_json::json!(-1.0);
     std::fs::write(d.join("edited.json"), v.to_string()).unwrap();
     let e = err(vec![
-        "predict".into(), "--robot".into(), "cal.toml".into(), "--report".into(),
-        "edited.json".into(), "--sample".into(), "5".into(),
+        "predict".into(),
+        "--robot".into(),
+        "cal.toml".into(),
+        "--report".into(),
+        "edited.json".into(),
+        "--sample".into(),
+        "5".into(),
     ]);
-    assert!(e.contains("edited.json: the report's model-error term is not finite and non-negative"), "{e}");
+    assert!(
+        e.contains("edited.json: the report's model-error term is not finite and non-negative"),
+        "{e}"
+    );
 }

@@ -21,8 +21,16 @@ const STOPS: [(f64, [u8; 3]); 6] = [
 
 /// The colour of `v` on the scale `[lo, hi]` (clamped).
 fn colour(v: f64, lo: f64, hi: f64) -> String {
-    let t = if hi > lo { ((v - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.0 };
-    let k = STOPS.iter().position(|s| s.0 >= t).unwrap_or(STOPS.len() - 1).max(1);
+    let t = if hi > lo {
+        ((v - lo) / (hi - lo)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let k = STOPS
+        .iter()
+        .position(|s| s.0 >= t)
+        .unwrap_or(STOPS.len() - 1)
+        .max(1);
     let (a, b) = (STOPS[k - 1], STOPS[k]);
     let f = (t - a.0) / (b.0 - a.0);
     let c: Vec<u8> = (0..3)
@@ -212,7 +220,11 @@ fn sweep_svg(j: &JointSweep, unit: &str, hi: f64) -> String {
                     let _ = write!(
                         path,
                         "{}{:.1},{:.1} ",
-                        if path.is_empty() || vals[k - 1].is_none() { "M" } else { "L" },
+                        if path.is_empty() || vals[k - 1].is_none() {
+                            "M"
+                        } else {
+                            "L"
+                        },
                         x(c),
                         y(*v)
                     );
@@ -220,7 +232,10 @@ fn sweep_svg(j: &JointSweep, unit: &str, hi: f64) -> String {
                 None => {}
             }
         }
-        let _ = write!(o, "<path d=\"{path}\" fill=\"none\" stroke-width=\"2\" {style}/>");
+        let _ = write!(
+            o,
+            "<path d=\"{path}\" fill=\"none\" stroke-width=\"2\" {style}/>"
+        );
     }
     for t in ticks(a, b) {
         let _ = write!(

@@ -60,12 +60,18 @@ fn prediction(c: &mut Criterion) {
     group.sample_size(10);
     group.throughput(Throughput::Elements(100_000));
     group.bench_function(
-        format!("100000_postures_{}_parameters_12000_measured", u.analysis.parameters.len()),
+        format!(
+            "100000_postures_{}_parameters_12000_measured",
+            u.analysis.parameters.len()
+        ),
         |b| {
             b.iter(|| {
                 let mut sum = 0.0;
                 for r in postures.chunks(6) {
-                    sum += p.predict(r, Target::EndEffector, &mut s).position_error.bound;
+                    sum += p
+                        .predict(r, Target::EndEffector, &mut s)
+                        .position_error
+                        .bound;
                 }
                 black_box(sum)
             })

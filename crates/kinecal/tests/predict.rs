@@ -56,7 +56,12 @@ fn coverage(robot: &Robot, report: &PredictionReport, data: &Dataset) -> (f64, f
         constant += usize::from(err.length <= prc.position_error.bound);
     }
     let n = e.len() as f64;
-    (with as f64 / n, alone as f64 / n, constant as f64 / n, e.len())
+    (
+        with as f64 / n,
+        alone as f64 / n,
+        constant as f64 / n,
+        e.len(),
+    )
 }
 
 #[test]
@@ -152,11 +157,7 @@ fn qkm_held_out_points_fall_within_their_bounds() {
     eprintln!(
         "QKM: s0 {:.4} mm, c {:.5}, shape {:.2}; CV coverage {:.3} ({} points); held out {n}: \
          within {with:.3} (parameters alone {alone:.3}, a single variance {constant:.3})",
-        pr.position.s0,
-        pr.position.c,
-        pr.position.shape,
-        pr.position.coverage,
-        pr.position.points
+        pr.position.s0, pr.position.c, pr.position.shape, pr.position.coverage, pr.position.points
     );
     assert_eq!(n, 9);
     assert!(with * 9.0 >= 7.0 - 1e-9, "{with}");
@@ -215,11 +216,7 @@ fn the_covariance_propagated_through_the_jacobian_is_the_spread_of_calibrated_po
         for (k, r) in test.iter().enumerate() {
             let q = p.predict(r, Target::EndEffector, &mut s);
             let t = forward_pose(&truth, r, Target::EndEffector).position;
-            errors_at[k].push([
-                q.position.x - t.x,
-                q.position.y - t.y,
-                q.position.z - t.z,
-            ]);
+            errors_at[k].push([q.position.x - t.x, q.position.y - t.y, q.position.z - t.z]);
             predicted[k] += q.position_error.parameters.powi(2) / runs as f64;
         }
     }

@@ -199,10 +199,9 @@ fn cross_validate_at(
                 .map_or(Matrix3::identity(), |t| t.rotation);
             let (position, attitude) = match o {
                 Observation::Position(m) => (m.position, None),
-                Observation::Pose(m) => (
-                    m.position,
-                    Some(rot_zyx(m.euler.x, m.euler.y, m.euler.z)),
-                ),
+                Observation::Pose(m) => {
+                    (m.position, Some(rot_zyx(m.euler.x, m.euler.y, m.euler.z)))
+                }
                 _ => return,
             };
             let d = predictor.distance(&posture.readings, &mut s);

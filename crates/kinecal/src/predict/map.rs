@@ -110,9 +110,11 @@ pub fn accuracy_map(
             to_map(&p)
         })
         .collect();
-    let (zmin, zmax) = drawn.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, (p, _)| {
-        (a.0.min(p.z), a.1.max(p.z))
-    });
+    let (zmin, zmax) = drawn
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |a, (p, _)| {
+            (a.0.min(p.z), a.1.max(p.z))
+        });
     let zspan = (zmax - zmin).max(1e-9);
     let slab = 0.04 * zspan;
     let stride = |v: Vec<[f64; 2]>| -> Vec<[f64; 2]> {
@@ -129,8 +131,15 @@ pub fn accuracy_map(
         super::percentile(&mut zm, 0.5)
     };
     let mut zd: Vec<f64> = drawn.iter().map(|(p, _)| p.z).collect();
-    let (q1, q3) = (super::percentile(&mut zd, 0.25), super::percentile(&mut zd, 0.75));
-    let z2 = if (q3 - z1).abs() >= (q1 - z1).abs() { q3 } else { q1 };
+    let (q1, q3) = (
+        super::percentile(&mut zd, 0.25),
+        super::percentile(&mut zd, 0.75),
+    );
+    let z2 = if (q3 - z1).abs() >= (q1 - z1).abs() {
+        q3
+    } else {
+        q1
+    };
     for z in [z1, z2] {
         let mut cells = Grid::default();
         for (p, b) in &drawn {
@@ -168,19 +177,36 @@ pub fn accuracy_map(
         let r = p.x.hypot(p.y).max(1e-300);
         (a.0 + p.x / r, a.1 + p.y / r)
     });
-    let phi1 = if sx == 0.0 && sy == 0.0 { 0.0 } else { sy.atan2(sx) };
+    let phi1 = if sx == 0.0 && sy == 0.0 {
+        0.0
+    } else {
+        sy.atan2(sx)
+    };
     let usable = |phi: f64| {
         (0..drawn.len())
-            .filter(|&i| turned(i, phi, if i % 2 == 0 { 0.0 } else { std::f64::consts::PI }).is_some())
+            .filter(|&i| {
+                turned(
+                    i,
+                    phi,
+                    if i % 2 == 0 {
+                        0.0
+                    } else {
+                        std::f64::consts::PI
+                    },
+                )
+                .is_some()
+            })
             .count()
             * 3
             >= drawn.len()
     };
-    let phi2 = [90.0f64, -90.0, 60.0, -60.0, 45.0, -45.0, 30.0, -30.0, 15.0, -15.0]
-        .iter()
-        .map(|d| phi1 + d.to_radians())
-        .find(|&p| !turnable || usable(p))
-        .unwrap_or(phi1 + std::f64::consts::FRAC_PI_2);
+    let phi2 = [
+        90.0f64, -90.0, 60.0, -60.0, 45.0, -45.0, 30.0, -30.0, 15.0, -15.0,
+    ]
+    .iter()
+    .map(|d| phi1 + d.to_radians())
+    .find(|&p| !turnable || usable(p))
+    .unwrap_or(phi1 + std::f64::consts::FRAC_PI_2);
     for phi in [phi1, phi2] {
         let dir = nalgebra::Vector3::new(phi.cos(), phi.sin(), 0.0);
         let normal = nalgebra::Vector3::new(-phi.sin(), phi.cos(), 0.0);
@@ -188,7 +214,11 @@ pub fn accuracy_map(
         if turnable {
             let mut r = vec![0.0; dof];
             for i in 0..drawn.len() {
-                let side = if i % 2 == 0 { 0.0 } else { std::f64::consts::PI };
+                let side = if i % 2 == 0 {
+                    0.0
+                } else {
+                    std::f64::consts::PI
+                };
                 let Some(v) = turned(i, phi, side) else {
                     continue;
                 };
@@ -293,7 +323,12 @@ impl Grid {
         measured: Vec<[f64; 2]>,
         len: &dyn Fn(f64) -> f64,
     ) -> Slice {
-        let mut e = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+        let mut e = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
         for &(u, v, _) in &self.points {
             e = [e[0].min(u), e[1].max(u), e[2].min(v), e[3].max(v)];
         }

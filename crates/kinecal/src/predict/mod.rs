@@ -185,10 +185,14 @@ impl<'r> Predictor<'r> {
             )));
         }
         if covariance.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(Error::Problem("the covariance has a value that is not finite".into()));
+            return Err(Error::Problem(
+                "the covariance has a value that is not finite".into(),
+            ));
         }
         if let Some(id) = estimated.iter().find(|id| id.0 >= robot.param_count()) {
-            return Err(Error::Problem(format!("parameter {id} is not one of this robot's")));
+            return Err(Error::Problem(format!(
+                "parameter {id} is not one of this robot's"
+            )));
         }
         let (factor, r) = symmetric_factor(covariance);
         let mut columns = vec![None; robot.param_count()];
@@ -214,11 +218,15 @@ impl<'r> Predictor<'r> {
             points.extend_from_slice(&e);
         }
         if points.iter().any(|v| !v.is_finite()) {
-            return Err(Error::Problem("a measured posture's reading is not finite".into()));
+            return Err(Error::Problem(
+                "a measured posture's reading is not finite".into(),
+            ));
         }
         let tree = NearestIndex::new(dims.max(1), &points);
         if tree.is_empty() {
-            return Err(Error::Problem("no measured posture to measure distances from".into()));
+            return Err(Error::Problem(
+                "no measured posture to measure distances from".into(),
+            ));
         }
         Ok(Predictor {
             chain: Chain::new(robot),
@@ -299,7 +307,8 @@ impl<'r> Predictor<'r> {
         let (n, r) = (self.n, self.r);
         let (mut p, mut a) = ([[0.0; 3]; 3], [[0.0; 3]; 3]);
         if n > 0 && r > 0 {
-            self.chain.jacobian_columns(&s.ws, plan, &mut s.jac[..6 * n]);
+            self.chain
+                .jacobian_columns(&s.ws, plan, &mut s.jac[..6 * n]);
             // JF (6 x r, column-major).
             for k in 0..r {
                 let f = &self.factor[k * n..(k + 1) * n];
@@ -420,7 +429,9 @@ pub fn default_target(robot: &Robot, data: &Dataset) -> Target {
             }
         }
     }
-    let best = (0..counts.len()).max_by_key(|&k| (counts[k], usize::MAX - k)).unwrap_or(0);
+    let best = (0..counts.len())
+        .max_by_key(|&k| (counts[k], usize::MAX - k))
+        .unwrap_or(0);
     if best == 0 {
         Target::EndEffector
     } else {
@@ -440,7 +451,11 @@ pub fn reading_range(robot: &Robot, joint: usize) -> (f64, f64) {
         crate::robot::JointKind::Revolute => 150f64.to_radians(),
         crate::robot::JointKind::Prismatic => 0.1,
     };
-    let half = if j.slope != 0.0 { span / j.slope.abs() } else { 1.0 };
+    let half = if j.slope != 0.0 {
+        span / j.slope.abs()
+    } else {
+        1.0
+    };
     (-half, half)
 }
 
@@ -661,7 +676,8 @@ pub fn assess(
             distance_max: len(g.distance_max),
         }
     };
-    let map = (level == Level::Map).then(|| accuracy_map(&predictor, target, &measured, MAP_SAMPLES, 0));
+    let map =
+        (level == Level::Map).then(|| accuracy_map(&predictor, target, &measured, MAP_SAMPLES, 0));
     let f: Vec<f64> = estimated
         .iter()
         .map(|&id| units.factor(robot.param_quantity(id)))
@@ -803,7 +819,10 @@ pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Pr
         )));
     }
     let si = |v: f64| units.to_si(Quantity::Length, v);
-    let metric = JointMetric::new(robot, &report.levers.iter().map(|&l| si(l)).collect::<Vec<_>>());
+    let metric = JointMetric::new(
+        robot,
+        &report.levers.iter().map(|&l| si(l)).collect::<Vec<_>>(),
+    );
     let growth = |g: &GrowthReport, angle: bool| -> Result<Growth> {
         let q = |v: f64| {
             if angle {
@@ -833,7 +852,11 @@ pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Pr
     };
     let model = ModelError {
         position: growth(&report.position, false)?,
-        attitude: report.attitude.as_ref().map(|a| growth(a, true)).transpose()?,
+        attitude: report
+            .attitude
+            .as_ref()
+            .map(|a| growth(a, true))
+            .transpose()?,
     };
     Predictor::new(
         robot,

@@ -45,7 +45,10 @@ impl JointMetric {
 
     /// Coordinates of the embedding.
     pub fn dims(&self) -> usize {
-        self.joints.iter().map(|j| if j.1 > 0.0 { 2 } else { 1 }).sum()
+        self.joints
+            .iter()
+            .map(|j| if j.1 > 0.0 { 2 } else { 1 })
+            .sum()
     }
 
     /// Writes the embedding of `readings` into `out` ([`JointMetric::dims`] long).
@@ -230,12 +233,14 @@ mod tests {
                     .unwrap();
                 let (i, d) = tree.nearest(&q).unwrap();
                 assert!((d - brute.1).abs() < 1e-12, "n {n}: {d} for {}", brute.1);
-                assert!((d - {
-                    let s: f64 = (0..dims).map(|k| (pts[i * dims + k] - q[k]).powi(2)).sum();
-                    s.sqrt()
-                })
-                .abs()
-                    < 1e-12);
+                assert!(
+                    (d - {
+                        let s: f64 = (0..dims).map(|k| (pts[i * dims + k] - q[k]).powi(2)).sum();
+                        s.sqrt()
+                    })
+                    .abs()
+                        < 1e-12
+                );
             }
         }
         assert!(NearestIndex::new(3, &[]).nearest(&[0.0; 3]).is_none());
@@ -249,11 +254,20 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         let (mut ea, mut eb) = (vec![0.0; m.dims()], vec![0.0; m.dims()]);
         for _ in 0..200 {
-            let a: Vec<f64> = (0..robot.dof()).map(|_| rng.random_range(-20.0..20.0)).collect();
-            let b: Vec<f64> = (0..robot.dof()).map(|_| rng.random_range(-20.0..20.0)).collect();
+            let a: Vec<f64> = (0..robot.dof())
+                .map(|_| rng.random_range(-20.0..20.0))
+                .collect();
+            let b: Vec<f64> = (0..robot.dof())
+                .map(|_| rng.random_range(-20.0..20.0))
+                .collect();
             m.embed(&a, &mut ea);
             m.embed(&b, &mut eb);
-            let e: f64 = ea.iter().zip(&eb).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
+            let e: f64 = ea
+                .iter()
+                .zip(&eb)
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>()
+                .sqrt();
             assert!((e - m.distance(&a, &b)).abs() < 1e-9 * (1.0 + e));
         }
         // Small differences: the lever times the reading difference.

@@ -159,7 +159,11 @@ mod tests {
         for k in 0..57 {
             let nu = 1.0 + 2.0 * k as f64 / 56.3;
             let direct = chi2_quantile(nu, 0.95).sqrt();
-            assert!((chi_95(nu) - direct).abs() < 1e-7, "nu {nu}: {}", chi_95(nu) - direct);
+            assert!(
+                (chi_95(nu) - direct).abs() < 1e-7,
+                "nu {nu}: {}",
+                chi_95(nu) - direct
+            );
         }
     }
 
@@ -181,7 +185,8 @@ mod tests {
         for l in shapes {
             // A rotated covariance: R diag(l) R^T.
             let r = nalgebra::Rotation3::from_euler_angles(0.3, -1.1, 2.0);
-            let s = r.matrix() * nalgebra::Matrix3::from_diagonal(&l.into()) * r.matrix().transpose();
+            let s =
+                r.matrix() * nalgebra::Matrix3::from_diagonal(&l.into()) * r.matrix().transpose();
             let sm = [
                 [s[(0, 0)], s[(0, 1)], s[(0, 2)]],
                 [s[(1, 0)], s[(1, 1)], s[(1, 2)]],
@@ -198,7 +203,10 @@ mod tests {
             norms.sort_by(f64::total_cmp);
             let q = norms[190_000];
             worst = worst.max((b / q - 1.0).abs());
-            assert!((b / q - 1.0).abs() < 0.015, "{l:?}: bound {b}, Monte Carlo {q}");
+            assert!(
+                (b / q - 1.0).abs() < 0.015,
+                "{l:?}: bound {b}, Monte Carlo {q}"
+            );
         }
         eprintln!("largest relative error of the 95 % bound: {worst:.4}");
         assert_eq!(bound_95(0.0, 0.0), 0.0);

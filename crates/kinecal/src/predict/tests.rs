@@ -12,7 +12,9 @@ fn some_covariance(n: usize, seed: u64) -> Vec<Vec<f64>> {
     (0..n)
         .map(|i| {
             (0..n)
-                .map(|j| (0..n).map(|k| a[i][k] * a[j][k]).sum::<f64>() + if i == j { 1e-8 } else { 0.0 })
+                .map(|j| {
+                    (0..n).map(|k| a[i][k] * a[j][k]).sum::<f64>() + if i == j { 1e-8 } else { 0.0 }
+                })
                 .collect()
         })
         .collect()
@@ -63,12 +65,24 @@ fn the_parameter_part_is_the_covariance_through_a_finite_difference_jacobian() {
         for j in 0..3 {
             let sum = |oi: usize, oj: usize| -> f64 {
                 (0..ids.len())
-                    .map(|a| (0..ids.len()).map(|b| jfd[a][oi] * cov[a][b] * jfd[b][oj]).sum::<f64>())
+                    .map(|a| {
+                        (0..ids.len())
+                            .map(|b| jfd[a][oi] * cov[a][b] * jfd[b][oj])
+                            .sum::<f64>()
+                    })
                     .sum()
             };
             let (ep, ea) = (sum(i, j), sum(3 + i, 3 + j));
-            assert!((p[i][j] - ep).abs() <= 1e-6 * (ep.abs() + p[0][0].abs()), "{i}{j}: {} {ep}", p[i][j]);
-            assert!((a[i][j] - ea).abs() <= 1e-6 * (ea.abs() + a[0][0].abs()), "{i}{j}: {} {ea}", a[i][j]);
+            assert!(
+                (p[i][j] - ep).abs() <= 1e-6 * (ep.abs() + p[0][0].abs()),
+                "{i}{j}: {} {ep}",
+                p[i][j]
+            );
+            assert!(
+                (a[i][j] - ea).abs() <= 1e-6 * (ea.abs() + a[0][0].abs()),
+                "{i}{j}: {} {ea}",
+                a[i][j]
+            );
         }
     }
     // And the bound: the parameters alone, then with a model error that dominates (isotropic:
@@ -111,8 +125,16 @@ fn maximum_likelihood_recovers_a_known_growing_term() {
         .collect();
     let fit = fit_growth(&samples);
     // 4000 points of 3 components: the estimates' relative standard errors are a few percent.
-    assert!((fit.growth.s0 / truth.s0 - 1.0).abs() < 0.08, "{:?}", fit.growth);
-    assert!((fit.growth.c / truth.c - 1.0).abs() < 0.08, "{:?}", fit.growth);
+    assert!(
+        (fit.growth.s0 / truth.s0 - 1.0).abs() < 0.08,
+        "{:?}",
+        fit.growth
+    );
+    assert!(
+        (fit.growth.c / truth.c - 1.0).abs() < 0.08,
+        "{:?}",
+        fit.growth
+    );
     // Drawn from the model, the 95 % bounds cover 95 % (binomial sd 0.34 %).
     assert!((fit.coverage - 0.95).abs() < 0.012, "{}", fit.coverage);
     // A single variance covers the near postures too much and the far ones too little; the
@@ -169,17 +191,29 @@ fn a_report_of_another_robot_or_a_broken_one_is_refused() {
     assert!(from_report(&robot, &report).is_ok());
     let mut r = report.clone();
     r.levers = vec![1.0; 6];
-    assert!(from_report(&robot, &r).unwrap_err().to_string().contains("6 joint levers"));
+    assert!(from_report(&robot, &r)
+        .unwrap_err()
+        .to_string()
+        .contains("6 joint levers"));
     let mut r = report.clone();
     r.covariance[1][0] = f64::NAN;
-    assert!(from_report(&robot, &r).unwrap_err().to_string().contains("not finite"));
+    assert!(from_report(&robot, &r)
+        .unwrap_err()
+        .to_string()
+        .contains("not finite"));
     let mut r = report.clone();
     r.estimated[1] = "p99".into();
     assert!(from_report(&robot, &r).is_err());
     let mut r = report.clone();
     r.position.c = -1.0;
-    assert!(from_report(&robot, &r).unwrap_err().to_string().contains("non-negative"));
+    assert!(from_report(&robot, &r)
+        .unwrap_err()
+        .to_string()
+        .contains("non-negative"));
     let mut r = report;
     r.measured = vec![vec![0.0; 3]];
-    assert!(from_report(&robot, &r).unwrap_err().to_string().contains("3 readings"));
+    assert!(from_report(&robot, &r)
+        .unwrap_err()
+        .to_string()
+        .contains("3 readings"));
 }
