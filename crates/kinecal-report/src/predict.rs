@@ -41,7 +41,7 @@ fn colour(v: f64, lo: f64, hi: f64) -> String {
 
 /// About five round ticks over `[lo, hi]`.
 fn ticks(lo: f64, hi: f64) -> Vec<f64> {
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return vec![lo];
     }
     let raw = (hi - lo) / 5.0;
@@ -214,22 +214,19 @@ fn sweep_svg(j: &JointSweep, unit: &str, hi: f64) -> String {
     ] {
         let mut path = String::new();
         for (k, v) in vals.iter().enumerate() {
-            match v {
-                Some(v) => {
-                    let c = 0.5 * (j.edges[k] + j.edges[k + 1]);
-                    let _ = write!(
-                        path,
-                        "{}{:.1},{:.1} ",
-                        if path.is_empty() || vals[k - 1].is_none() {
-                            "M"
-                        } else {
-                            "L"
-                        },
-                        x(c),
-                        y(*v)
-                    );
-                }
-                None => {}
+            if let Some(v) = v {
+                let c = 0.5 * (j.edges[k] + j.edges[k + 1]);
+                let _ = write!(
+                    path,
+                    "{}{:.1},{:.1} ",
+                    if path.is_empty() || vals[k - 1].is_none() {
+                        "M"
+                    } else {
+                        "L"
+                    },
+                    x(c),
+                    y(*v)
+                );
             }
         }
         let _ = write!(
