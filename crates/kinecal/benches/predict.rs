@@ -77,6 +77,25 @@ fn prediction(c: &mut Criterion) {
             })
         },
     );
+    // The same without the search (one measured posture): what the k-d tree costs.
+    let one = Predictor::new(
+        robot,
+        &u.analysis.parameters,
+        u.covariance_internal(),
+        model,
+        metric.clone(),
+        std::iter::once(measured[0].readings.as_slice()),
+    )
+    .unwrap();
+    group.bench_function("100000_postures_1_measured", |b| {
+        b.iter(|| {
+            let mut sum = 0.0;
+            for r in postures.chunks(6) {
+                sum += one.predict(r, Target::EndEffector, &mut s).position_error.bound;
+            }
+            black_box(sum)
+        })
+    });
     group.finish();
     let mut group = c.benchmark_group("predict_model_error");
     group.sample_size(10);

@@ -216,6 +216,10 @@ impl<'r> Predictor<'r> {
             }
             metric.embed(readings, &mut e);
             points.extend_from_slice(&e);
+            if dims == 0 {
+                // No joint moves the target but joint 1: every posture is at distance 0.
+                points.push(0.0);
+            }
         }
         if points.iter().any(|v| !v.is_finite()) {
             return Err(Error::Problem(

@@ -56,6 +56,9 @@ impl JointMetric {
     pub fn embed(&self, readings: &[f64], out: &mut [f64]) {
         let mut k = 0;
         for (&(l, w), &v) in self.joints.iter().zip(readings) {
+            if l <= 0.0 {
+                continue;
+            }
             if w > 0.0 {
                 let (s, c) = (w * v).sin_cos();
                 out[k] = l / w * c;
