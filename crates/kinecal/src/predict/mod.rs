@@ -16,15 +16,22 @@
 //!   `d` a length ([`nearest`]: each joint's reading difference times its mean lever on the
 //!   target, in quadrature). `s0` is the model error at the measured postures, `c` how fast it
 //!   grows away from them (length per length). Both are estimated by cross-validation
-//!   ([`cross_validate`]): the calibration is fitted again with blocks of nearby postures held
+//!   ([`cross_validate()`]): the calibration is fitted again with blocks of nearby postures held
 //!   out (so that held-out postures lie at distances from the fitted ones that range from a
 //!   neighbour's to a block's radius), and `s0, c` maximise the Gaussian likelihood of the
 //!   held-out errors, each with its own parameter part from its fold's covariance. A single
 //!   variance (`c = 0`) is what the held-out errors near the measured postures show and is too
 //!   small away from them.
 //!
+//!   The held-out errors also give the model error's shape ([`Growth::shape`]): how unevenly
+//!   it spreads over the three axes, in no assumed orientation.
+//!
 //! The 95 % bound is the 95th percentile of `|e|` ([`quantile`]); the report also gives the
 //! bound without the model error (the parameters alone), to show what the term adds.
+//!
+//! On the UR10 tracker data (identified on series A), 90.4 % and 91.6 % of the held-out errors
+//! of series C and D fall within their bounds, 0.3 % with the parameters' part alone
+//! (`tests/predict.rs`).
 //!
 //! Per posture nothing is allocated: a [`Scratch`] holds the frames, the Jacobian and the
 //! embedding.

@@ -219,6 +219,14 @@ mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
 
+    fn ge_a4() -> Robot {
+        crate::robot_file::parse_robot_toml(
+            include_str!("../../../../examples/robots/ge_a4.toml"),
+            "ge_a4.toml",
+        )
+        .unwrap()
+    }
+
     #[test]
     fn the_tree_finds_what_a_search_of_every_point_finds() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
@@ -251,7 +259,7 @@ mod tests {
 
     #[test]
     fn the_embedding_gives_the_chord_distance_and_readings_a_turn_apart_coincide() {
-        let robot = crate::examples::ge_a4();
+        let robot = ge_a4();
         let levers: Vec<f64> = (0..robot.dof()).map(|j| 0.3 + 0.1 * j as f64).collect();
         let m = JointMetric::new(&robot, &levers);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
