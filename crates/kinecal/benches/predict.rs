@@ -91,7 +91,10 @@ fn prediction(c: &mut Criterion) {
         b.iter(|| {
             let mut sum = 0.0;
             for r in postures.chunks(6) {
-                sum += one.predict(r, Target::EndEffector, &mut s).position_error.bound;
+                sum += one
+                    .predict(r, Target::EndEffector, &mut s)
+                    .position_error
+                    .bound;
             }
             black_box(sum)
         })
