@@ -227,6 +227,54 @@ table); with `--prior`, what the data cannot determine is held by a Gaussian pri
 parameter's change. Observation files combine; rows may carry their own sigma_position and
 sigma_angle.")]
     Calibrate(CalibrateArgs),
+    /// Predicted accuracy of a calibrated robot: the 95 % bound on its position (and attitude)
+    /// error at postures, and the accuracy map.
+    #[command(after_help = "\
+Examples:
+  kinecal predict --robot calibrated.toml --report report.json --postures postures.csv \\
+      --out predicted.csv
+  kinecal predict --robot calibrated.toml --report report.json --sample 10000 --seed 1 \\
+      --html map.html
+
+The report is the calibration's (`kinecal calibrate --report`): it holds the parameters'
+covariance, the model-error term and the measured postures. The bound at a posture combines the
+covariance through the Jacobian with a model error of per-axis variance s0^2 + (c d)^2, d the
+joint-space distance to the nearest measured posture. The table has the readings, the target's
+x,y,z, d, and per quantity the parameters' and the model error's parts (RMS), the 95 % bound, and
+the 95 % bound of the parameters alone, in the robot file's units. --html draws the accuracy map
+(colour maps of the bound on slices of the workspace and along each joint's range).")]
+    Predict(PredictArgs),
+}
+
+/// `kinecal predict`.
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("where").required(true).args(["postures", "sample"])))]
+pub struct PredictArgs {
+    /// The calibrated robot file (TOML), as `kinecal calibrate --out` wrote it.
+    #[arg(long)]
+    pub robot: String,
+    /// The calibration's report (JSON), as `kinecal calibrate --report` wrote it.
+    #[arg(long)]
+    pub report: PathBuf,
+    /// Postures file: CSV `posture,v1,...,vn` (a measurement file also works).
+    #[arg(long)]
+    pub postures: Option<PathBuf>,
+    /// Draw N postures uniformly in the joint ranges instead.
+    #[arg(long, value_name = "N")]
+    pub sample: Option<usize>,
+    /// Seed of --sample (and of the map's postures).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The target predicted: `ee` or a site's name (default: the report's, the target its data
+    /// measured most).
+    #[arg(long)]
+    pub target: Option<String>,
+    /// Write the predictions here instead of standard output.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write the accuracy map as an HTML page here.
+    #[arg(long)]
+    pub html: Option<PathBuf>,
 }
 
 /// `kinecal fk`.

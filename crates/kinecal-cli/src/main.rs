@@ -12,6 +12,7 @@ mod history;
 mod iso9283;
 mod output;
 mod plan;
+mod predict;
 mod report;
 mod stream;
 
@@ -72,6 +73,7 @@ fn main() -> ExitCode {
         Command::Export(ExportCommand::Stiffness(a)) => export_stiffness(a).map(|()| 0),
         Command::History(c) => history::run(c),
         Command::Plan(a) => plan::run(a).map(|()| 0),
+        Command::Predict(a) => predict::run(a).map(|()| 0),
         Command::Batch(a) => batch::run(a),
         Command::Compensate(a) => compensate::run(a),
         Command::Check(a) => history::check(a),

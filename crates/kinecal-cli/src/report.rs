@@ -565,6 +565,9 @@ pub fn summary(r: &CalibrationReport) -> String {
                 .map_or(String::new(), |v| format!(", RMS attitude {} {a}", num(v)))
         );
     }
+    if let Some(p) = &r.prediction {
+        s += &prediction_lines(p, l.as_str(), a.as_str());
+    }
     if !r.timings.is_empty() {
         let _ = writeln!(
             s,
@@ -576,6 +579,49 @@ pub fn summary(r: &CalibrationReport) -> String {
                 .collect::<Vec<_>>()
                 .join(", ")
         );
+    }
+    s
+}
+
+/// The summary's lines on the predicted accuracy (see `kinecal::predict`).
+pub fn prediction_lines(p: &kinecal::predict::PredictionReport, l: &str, a: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\npredicted 95 % position bound ({l}): median {}, 95th percentile {} over {} postures in the \
+         joint ranges ({} at the measured postures)",
+        num(p.position_summary.median),
+        num(p.position_summary.p95),
+        p.samples,
+        num(p.position_summary.median_measured)
+    );
+    if let Some(at) = &p.attitude_summary {
+        let _ = writeln!(
+            s,
+            "predicted 95 % attitude bound ({a}): median {}, 95th percentile {} ({} at the measured \
+             postures)",
+            num(at.median),
+            num(at.p95),
+            num(at.median_measured)
+        );
+    }
+    let term = |g: &kinecal::predict::GrowthReport, unit: &str| {
+        format!(
+            "s0 {} {unit}, c {} {unit} per {l} of joint-space distance, shape {:.2}; \
+             cross-validated, {:.1} % of {} held-out points within their bound (a single variance \
+             {:.1} %, the parameters alone {:.1} %)",
+            num(g.s0),
+            num(g.c),
+            g.shape,
+            100.0 * g.coverage,
+            g.points,
+            100.0 * g.coverage_constant,
+            100.0 * g.coverage_parameters_only
+        )
+    };
+    let _ = writeln!(s, "model error (position): {}", term(&p.position, l));
+    if let Some(at) = &p.attitude {
+        let _ = writeln!(s, "model error (attitude): {}", term(at, a));
     }
     s
 }

@@ -896,9 +896,21 @@ impl Database {
         check_finite(report)?;
         let at = at.unwrap_or_else(now);
         // The history keeps the figures, not the chart of every observation (up to 2,000
-        // points before and after: the bulk of a report, of no use for drift).
+        // points before and after: the bulk of a report, of no use for drift), nor the measured
+        // postures, the covariance and the accuracy map of the prediction (its model-error terms
+        // and summary stay; `kinecal predict` reads the report file).
         let json = CalibrationReport {
             observation_errors: None,
+            prediction: report
+                .prediction
+                .clone()
+                .map(|p| kinecal::predict::PredictionReport {
+                    measured: Vec::new(),
+                    covariance: Vec::new(),
+                    estimated: Vec::new(),
+                    map: None,
+                    ..p
+                }),
             ..report.clone()
         }
         .to_json();

@@ -666,6 +666,9 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
             );
         }
     }
+    if let Some(p) = &rep.prediction {
+        h += &crate::predict::section(p, l, a);
+    }
     let _ = writeln!(h, "<h2 id=\"warnings\">Warnings</h2>");
     if rep.warnings.is_empty() && rep.outliers.is_empty() {
         let _ = writeln!(h, "<p>None.</p>");

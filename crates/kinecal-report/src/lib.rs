@@ -9,6 +9,7 @@ mod chart;
 mod html;
 pub mod iso9283;
 pub mod plan;
+pub mod predict;
 
 pub use chart::{render_png, render_svg, Line, Panel};
 pub use html::html_report;

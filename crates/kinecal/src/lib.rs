@@ -43,6 +43,7 @@ pub mod outliers;
 pub mod param_list;
 pub mod params;
 pub mod plan;
+pub mod predict;
 pub mod prior;
 pub mod problem;
 pub mod registration;

@@ -771,6 +771,13 @@ pub struct CalibrationReport {
     /// the joints' stiffnesses.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub elastic: Option<ElasticReport>,
+    /// The predicted accuracy over the workspace (see [`crate::predict`]): the model-error term
+    /// estimated by cross-validation, the covariance and measured postures `kinecal predict`
+    /// needs, the predicted 95 % bound over the joint ranges and, when an HTML report was asked
+    /// for, the accuracy map. Absent when the data cannot give one (fewer than 20 postures
+    /// measured by position or pose, no uncertainty).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction: Option<crate::predict::PredictionReport>,
 }
 
 /// The mass model of an elastic robot (see [`crate::robot::Elastic`]), after calibration.
@@ -1052,6 +1059,7 @@ impl CalibrationReport {
             observation_errors: Some(observation_errors(cal, data)),
             spectrum: None,
             elastic: ElasticReport::new(robot, data, &cal.estimated),
+            prediction: None,
         }
     }
 

@@ -447,6 +447,10 @@ impl CalibrationSpec {
             ));
         }
         let mut req = Request::new(robot.clone(), data);
+        // The HTML report shows the accuracy map, which the report must then hold.
+        if self.outputs.html.is_some() {
+            req.prediction = crate::predict::Level::Map;
+        }
         let s = &self.selection;
         if s.estimate.is_some() || s.fix.is_some() {
             req.selection =

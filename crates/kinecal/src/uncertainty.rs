@@ -183,6 +183,13 @@ impl Uncertainty {
             .collect()
     }
 
+    /// The covariance of the estimated parameters in internal units (metres, radians, ...), in
+    /// the order of [`Analysis::parameters`]: [`Uncertainty::covariance_file`] before its
+    /// conversion to the file's units.
+    pub fn covariance_internal(&self) -> &[Vec<f64>] {
+        &self.covariance
+    }
+
     /// The uncertainty of parameter `id`, if it was estimated.
     pub fn parameter(&self, id: ParamId) -> Option<&ParameterUncertainty> {
         self.parameters.iter().find(|p| p.id == id)

@@ -71,6 +71,9 @@ fn modules_import_in_one_direction() {
         "identifiability",
         "uncertainty",
         "outliers",
+        // Predicted accuracy: the covariance through the Jacobian, the model error by
+        // cross-validation (refits), the accuracy map; the report carries it.
+        "predict",
         "report",
         "workflow",
         "import",

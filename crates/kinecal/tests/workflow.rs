@@ -377,7 +377,8 @@ fn the_report_gives_the_time_of_each_phase() {
             "estimation",
             "uncertainty",
             "report",
-            "cross-validation"
+            "cross-validation",
+            "prediction"
         ]
     );
     let told: Vec<&str> = seen.0.iter().map(|p| p.as_str()).collect();

@@ -90,6 +90,7 @@ pub(super) fn cross_validate(
         let mut sub = req.clone();
         sub.data = Arc::new(train);
         sub.validation = Validation::None;
+        sub.prediction = crate::predict::Level::Off;
         sub.sources = Vec::new();
         let o = run(&sub, &mut ())?;
         let mut worst: Option<(String, f64)> = None;

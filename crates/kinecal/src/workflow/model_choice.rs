@@ -165,6 +165,7 @@ pub fn choose(
     for c in candidates {
         let mut sub = req.clone();
         sub.selection = c.selection.clone();
+        sub.prediction = crate::predict::Level::Off;
         sub.prune = c.prune;
         if let Some(p) = &c.prior {
             sub.prior = p.clone();

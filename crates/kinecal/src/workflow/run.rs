@@ -89,6 +89,10 @@ pub struct Request {
     pub prior: crate::robot::Prior,
     /// The files read (for the report's fingerprints): the robot file first, then the data.
     pub sources: Vec<Source>,
+    /// How much of the predicted accuracy to work out ([`crate::predict`]): by default the
+    /// model-error term and the summary over the joint ranges; the accuracy map too for an HTML
+    /// report. The refits of cross-validation and model choice make none.
+    pub prediction: crate::predict::Level,
 }
 
 impl Request {
@@ -112,6 +116,7 @@ impl Request {
             rank_rcond: identifiability::DEFAULT_RANK_RCOND,
             prior: crate::robot::Prior::default(),
             sources: Vec::new(),
+            prediction: crate::predict::Level::default(),
         }
     }
 
@@ -144,6 +149,8 @@ pub enum Phase {
     Report,
     /// Cross-validation (a calibration per fold).
     CrossValidation,
+    /// The predicted accuracy (the model error's cross-validation, the summary, the map).
+    Prediction,
 }
 
 impl Phase {
@@ -157,6 +164,7 @@ impl Phase {
             Phase::Pruning => "pruning",
             Phase::Report => "report",
             Phase::CrossValidation => "cross-validation",
+            Phase::Prediction => "prediction",
         }
     }
 }
@@ -531,6 +539,22 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         let cv = cross_validate(req, k, seed)?;
         outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot));
         outcome.cross_validation = Some(cv);
+    }
+    if req.prediction != crate::predict::Level::Off {
+        if let Some(u) = &outcome.uncertainty {
+            progress.phase(Phase::Prediction);
+            // Not every calibration can give one (too few postures measured by position or
+            // pose): the report then has none.
+            outcome.report.prediction = crate::predict::assess(
+                &outcome.calibration,
+                &outcome.data,
+                reference,
+                &u.analysis.parameters,
+                u.covariance_internal(),
+                req.prediction,
+            )
+            .ok();
+        }
     }
     Ok(outcome)
 }

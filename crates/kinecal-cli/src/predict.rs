@@ -1,0 +1,161 @@
+//! `kinecal predict`: the predicted accuracy of a calibrated robot at postures (a thin layer
+//! over `kinecal::predict`).
+
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Result};
+use kinecal::kinematics::Target;
+use kinecal::predict;
+use kinecal::report::CalibrationReport;
+use kinecal::source::Source;
+
+use crate::args::PredictArgs;
+use crate::output;
+
+/// Runs `kinecal predict`.
+pub fn run(a: PredictArgs) -> Result<()> {
+    let outputs: Vec<&Path> = a
+        .out
+        .iter()
+        .chain(a.html.iter())
+        .map(|p| p.as_path())
+        .collect();
+    let mut inputs: Vec<&Path> = vec![a.report.as_path(), Path::new(&a.robot)];
+    inputs.extend(a.postures.as_deref());
+    output::check_distinct(&outputs, &inputs)?;
+    let loaded = crate::load_robot(&a.robot)?;
+    let robot = &loaded.robot;
+    let source = Source::read(&a.report)?;
+    let report = CalibrationReport::from_json(&source.text)
+        .map_err(|e| anyhow!("{}: not a calibration report: {e}", source.name))?;
+    let Some(pr) = &report.prediction else {
+        bail!(
+            "{}: the report has no prediction (its calibration had fewer than {} postures \
+             measured by position or pose, or its kinecal made none): calibrate again with this \
+             kinecal",
+            source.name,
+            predict::MIN_POSTURES
+        );
+    };
+    // The robot must be the report's calibrated robot.
+    for p in report.parameters.iter().filter(|p| p.estimated_flag) {
+        let id = kinecal::parse_param_list(&p.id, robot)
+            .ok()
+            .and_then(|v| v.first().copied())
+            .ok_or_else(|| {
+                anyhow!(
+                    "{}: the report's parameter {} ({}) is not one of {}'s: not the robot of \
+                     this report",
+                    source.name,
+                    p.id,
+                    p.name,
+                    a.robot
+                )
+            })?;
+        let v = robot.get_user(id);
+        if (v - p.estimated).abs() > 1e-9 * p.estimated.abs().max(1.0) {
+            bail!(
+                "{} is not the calibrated robot of {}: {} ({}) is {v} in the robot file, {} in \
+                 the report",
+                a.robot,
+                source.name,
+                p.id,
+                p.name,
+                p.estimated
+            );
+        }
+    }
+    let predictor = predict::from_report(robot, pr).map_err(|e| anyhow!("{}: {e}", source.name))?;
+    let target_name = a.target.as_deref().unwrap_or(&pr.target);
+    let target = if target_name == "ee" {
+        Target::EndEffector
+    } else {
+        Target::Site(robot.site_index(target_name).ok_or_else(|| {
+            anyhow!(
+                "--target `{target_name}`: no such site (expected ee or one of: {})",
+                robot
+                    .sites
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?)
+    };
+    let postures: Vec<(String, Vec<f64>)> = match (&a.postures, a.sample) {
+        (Some(path), _) => {
+            let s = Source::read(path)?;
+            kinecal::files::parse_postures(&s.text, &s.name, robot)?
+                .into_iter()
+                .map(|p| (p.label, p.readings))
+                .collect()
+        }
+        (None, Some(n)) => {
+            if n == 0 || n > 10_000_000 {
+                bail!("--sample {n}: expected between 1 and 10,000,000 postures");
+            }
+            predict::sample_readings(robot, n, a.seed)
+                .chunks(robot.dof())
+                .enumerate()
+                .map(|(i, r)| ((i + 1).to_string(), r.to_vec()))
+                .collect()
+        }
+        (None, None) => bail!("give --postures or --sample"),
+    };
+    let attitude = pr.attitude.is_some();
+    let mut csv = predict::csv_header(robot, attitude);
+    csv.push('\n');
+    let mut s = predictor.scratch();
+    let mut bounds = Vec::with_capacity(postures.len());
+    for (label, readings) in &postures {
+        let p = predictor.predict(readings, target, &mut s);
+        bounds.push(p.position_error.bound);
+        predict::csv_row(robot, label, readings, &p, &mut csv);
+    }
+    let mut staged = output::Staged::new();
+    match &a.out {
+        Some(path) => staged.text(path, &csv)?,
+        None => print!("{csv}"),
+    }
+    if let Some(path) = &a.html {
+        let measured: Vec<&[f64]> = pr.measured.iter().map(Vec::as_slice).collect();
+        let map =
+            predict::accuracy_map(&predictor, target, &measured, predict::MAP_SAMPLES, a.seed);
+        let mut with_map = pr.clone();
+        with_map.map = Some(map);
+        staged.text(
+            path,
+            &kinecal_report::predict::page(
+                &with_map,
+                &report.robot,
+                report.length_unit.as_str(),
+                report.angle_unit.as_str(),
+            ),
+        )?;
+    }
+    staged.commit()?;
+    bounds.sort_by(f64::total_cmp);
+    let pick = |q: f64| {
+        let rank = ((q * bounds.len() as f64).ceil() as usize).clamp(1, bounds.len());
+        robot
+            .units
+            .from_si(kinecal::units::Quantity::Length, bounds[rank - 1])
+    };
+    eprintln!(
+        "predicted {} postures of {} ({}): 95 % position bound median {}, 95th percentile {}, \
+         largest {} {}",
+        postures.len(),
+        report.robot,
+        target_name,
+        crate::report::num(pick(0.5)),
+        crate::report::num(pick(0.95)),
+        crate::report::num(pick(1.0)),
+        robot.units.length
+    );
+    for (path, what) in [(&a.out, "the predictions"), (&a.html, "the accuracy map")] {
+        if let Some(p) = path {
+            eprintln!("wrote {what} to {}", p.display());
+        }
+    }
+    Ok(())
+}

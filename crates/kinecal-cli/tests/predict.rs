@@ -1,0 +1,256 @@
+//! `kinecal predict` as a user runs it: the table it writes is the library's prediction, the
+//! accuracy map is drawn, and bad input is refused with the file (and line) named, exit 1.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+
+mod common;
+
+fn kinecal() -> Command {
+    Command::cargo_bin("kinecal").unwrap()
+}
+
+fn run(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
+    let out = kinecal().current_dir(dir).args(args).output().unwrap();
+    let (o, e) = (
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    );
+    assert!(!e.contains("panicked"), "{e}");
+    (out.status.code(), o, e)
+}
+
+/// A calibrated GE A4 (30 poses) with its report, in `dir`.
+fn calibrated(dir: &Path) {
+    for args in [
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--seed",
+            "7",
+            "--perturb",
+            "p1=+0.05,p14=-0.02,joint2.offset=-0.5",
+            "--noise",
+            "length=0.0005,angle=0.005",
+            "--out",
+            "data.csv",
+        ][..],
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "p1,p2,p8,p14,offsets,slopes",
+            "--weights",
+            "length=0.0005,angle=0.005",
+            "--out",
+            "cal.toml",
+            "--report",
+            "report.json",
+        ],
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "12",
+            "--seed",
+            "9",
+            "--out",
+            "some.csv",
+        ],
+    ] {
+        let (code, _, e) = run(dir, args);
+        assert_eq!(code, Some(0), "{args:?}: {e}");
+    }
+}
+
+#[test]
+fn the_table_is_the_library_prediction_and_the_map_is_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    calibrated(d);
+    let (code, _, e) = run(
+        d,
+        &[
+            "predict",
+            "--robot",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "--postures",
+            "some.csv",
+            "--out",
+            "pred.csv",
+            "--html",
+            "map.html",
+        ],
+    );
+    assert_eq!(code, Some(0), "{e}");
+    assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
+    common::check_reports(d);
+    // The library's prediction, posture by posture, in the file's units.
+    let robot = kinecal::robot_file::parse_robot_toml(
+        &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
+        "cal.toml",
+    )
+    .unwrap();
+    let report = kinecal::report::CalibrationReport::from_json(
+        &std::fs::read_to_string(d.join("report.json")).unwrap(),
+    )
+    .unwrap();
+    let pr = report.prediction.as_ref().unwrap();
+    let p = kinecal::predict::from_report(&robot, pr).unwrap();
+    let mut s = p.scratch();
+    let postures = kinecal::files::parse_postures(
+        &std::fs::read_to_string(d.join("some.csv")).unwrap(),
+        "some.csv",
+        &robot,
+    )
+    .unwrap();
+    let table = std::fs::read_to_string(d.join("pred.csv")).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.len(), 1 + 4 + 4 + 4 + 4);
+    let col = |h: &str| header.iter().position(|x| *x == h).unwrap();
+    for (line, posture) in lines.zip(&postures) {
+        let f: Vec<&str> = line.split(',').collect();
+        let v = |h: &str| f[col(h)].parse::<f64>().unwrap();
+        let q = p.predict(&posture.readings, kinecal::Target::EndEffector, &mut s);
+        let inch = 0.0254;
+        assert!((v("position_bound95") - q.position_error.bound / inch).abs() < 1e-12);
+        assert!((v("x") - q.position.x / inch).abs() < 1e-9);
+        assert!(v("position_bound95") >= v("position_bound95_parameters"));
+        assert!(v("attitude_bound95").is_finite() && v("distance") >= 0.0);
+    }
+    let page = std::fs::read_to_string(d.join("map.html")).unwrap();
+    assert!(page.contains("Accuracy map") && page.matches("<svg").count() >= 1 + 4 + 4);
+    assert!(!page.contains("NaN") && !page.contains("inf"));
+}
+
+#[test]
+fn bad_input_is_refused_with_the_file_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    calibrated(d);
+    let base = ["predict", "--robot", "cal.toml", "--report", "report.json"];
+    let with = |extra: &[&str]| -> Vec<String> {
+        base.iter().chain(extra).map(|s| s.to_string()).collect()
+    };
+    let err = |args: Vec<String>| {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, _, e) = run(d, &a);
+        assert_eq!(code, Some(1), "{a:?}: {e}");
+        e
+    };
+    // Not the calibrated robot of the report.
+    let e = err(vec![
+        "predict".into(),
+        "--robot".into(),
+        "ge-a4".into(),
+        "--report".into(),
+        "report.json".into(),
+        "--sample".into(),
+        "5".into(),
+    ]);
+    assert!(
+        e.contains("is not the calibrated robot of report.json"),
+        "{e}"
+    );
+    // A report that is not one.
+    std::fs::write(d.join("bad.json"), "{\"robot\": 3").unwrap();
+    let e = err(vec![
+        "predict".into(),
+        "--robot".into(),
+        "cal.toml".into(),
+        "--report".into(),
+        "bad.json".into(),
+        "--sample".into(),
+        "5".into(),
+    ]);
+    assert!(e.contains("bad.json: not a calibration report"), "{e}");
+    // A report without a prediction (8 postures are too few).
+    let (code, _, e) = run(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            "few.csv",
+        ],
+    );
+    assert_eq!(code, Some(0), "{e}");
+    let (code, _, e) = run(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "few.csv",
+            "--estimate",
+            "p1,offsets",
+            "--out",
+            "few.toml",
+            "--report",
+            "few.json",
+        ],
+    );
+    assert_eq!(code, Some(0), "{e}");
+    let e = err(vec![
+        "predict".into(),
+        "--robot".into(),
+        "few.toml".into(),
+        "--report".into(),
+        "few.json".into(),
+        "--sample".into(),
+        "5".into(),
+    ]);
+    assert!(e.contains("few.json: the report has no prediction"), "{e}");
+    // A posture whose reading is not a number: its file and line.
+    std::fs::write(
+        d.join("p.csv"),
+        "posture,v1,v2,v3,v4\n1,0,0,0,0\n2,0,nan,0,0\n",
+    )
+    .unwrap();
+    let e = err(with(&["--postures", "p.csv"]));
+    assert!(e.contains("p.csv:3"), "{e}");
+    // An unknown target, a sample of nothing.
+    let e = err(with(&["--sample", "3", "--target", "smr9"]));
+    assert!(e.contains("--target `smr9`: no such site"), "{e}");
+    let e = err(with(&["--sample", "0"]));
+    assert!(e.contains("--sample 0"), "{e}");
+    // Neither postures nor a sample: a usage error.
+    let a: Vec<&str> = base.to_vec();
+    let (code, _, _) = run(d, &a);
+    assert_eq!(code, Some(2));
+    // A report edited into nonsense (a negative model error) is refused, not predicted from.
+    let text = std::fs::read_to_string(d.join("report.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["prediction"]["position"]["c"] = serde_json::json!(-1.0);
+    std::fs::write(d.join("edited.json"), v.to_string()).unwrap();
+    let e = err(vec![
+        "predict".into(),
+        "--robot".into(),
+        "cal.toml".into(),
+        "--report".into(),
+        "edited.json".into(),
+        "--sample".into(),
+        "5".into(),
+    ]);
+    assert!(
+        e.contains("edited.json: the report's model-error term is not finite and non-negative"),
+        "{e}"
+    );
+}
