@@ -1422,6 +1422,12 @@ pub struct CalibrateArgs {
     /// hang on one split [default: 5].
     #[arg(long, value_name = "N")]
     pub repeats: Option<usize>,
+    /// Predict the calibrated robot's accuracy over the workspace: a model-error term fitted by
+    /// cross-validation, the predicted 95 % bound's median and 95th percentile over the joint
+    /// ranges in the summary and the report (what `kinecal predict` needs; `--html` asks for it
+    /// too). Costs several fits.
+    #[arg(long)]
+    pub predict: bool,
     /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows)
     /// [default: squared].
     #[arg(long, value_enum)]

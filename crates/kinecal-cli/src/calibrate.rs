@@ -163,6 +163,7 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
         v.choose = a.choose.clone();
     }
     v.repeats = a.repeats.or(v.repeats);
+    v.predict |= a.predict;
     let out = &mut s.outputs;
     for (flag, slot) in [
         (&a.out, &mut out.robot),

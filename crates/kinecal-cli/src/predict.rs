@@ -30,9 +30,9 @@ pub fn run(a: PredictArgs) -> Result<()> {
         .map_err(|e| anyhow!("{}: not a calibration report: {e}", source.name))?;
     let Some(pr) = &report.prediction else {
         bail!(
-            "{}: the report has no prediction (its calibration had fewer than {} postures \
-             measured by position or pose, or its kinecal made none): calibrate again with this \
-             kinecal",
+            "{}: the report has no prediction (its calibration was not asked for one, had fewer \
+             than {} postures measured by position or pose, or its kinecal made none): calibrate \
+             again with --predict",
             source.name,
             predict::MIN_POSTURES
         );

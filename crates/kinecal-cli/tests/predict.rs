@@ -53,6 +53,7 @@ fn calibrated(dir: &Path) {
             "cal.toml",
             "--report",
             "report.json",
+            "--predict",
         ],
         &[
             "simulate",
@@ -205,6 +206,7 @@ fn bad_input_is_refused_with_the_file_named() {
             "few.toml",
             "--report",
             "few.json",
+            "--predict",
         ],
     );
     assert_eq!(code, Some(0), "{e}");

@@ -1118,7 +1118,7 @@ fn choice<T: serde::de::DeserializeOwned>(keyword: &str, value: &str) -> PyResul
 /// made a calibration spec, run as every front end runs one. Returns the calibrated robot, the
 /// report as JSON text and the outcome's arrays ([`outcome::details`]).
 #[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None, prior=None, total_mass=None))]
+#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None, prior=None, total_mass=None, predict=false))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate(
     py: Python<'_>,
@@ -1145,6 +1145,7 @@ fn calibrate(
     repeats: Option<usize>,
     prior: Option<String>,
     total_mass: Option<f64>,
+    predict: bool,
 ) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>)> {
     use kinecal::spec::{ResidualSpec, SelectionSpec, SolverSpec, ValidationSpec, WeightsSpec};
     let r = &robot.robot;
@@ -1184,6 +1185,7 @@ fn calibrate(
             seed,
             choose,
             repeats,
+            predict,
             ..ValidationSpec::default()
         },
         ..CalibrationSpec::default()

@@ -205,6 +205,11 @@ pub struct ValidationSpec {
     /// [`workflow::CHOICE_REPEATS`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub repeats: Option<usize>,
+    /// Predict the calibrated robot's accuracy over the workspace: the model-error term by
+    /// cross-validation and the summary over the joint ranges ([`crate::predict`]; what
+    /// `kinecal predict` needs). An HTML report asks for it too.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub predict: bool,
 }
 
 /// What is written (`[outputs]`).
@@ -450,6 +455,8 @@ impl CalibrationSpec {
         // The HTML report shows the accuracy map, which the report must then hold.
         if self.outputs.html.is_some() {
             req.prediction = crate::predict::Level::Map;
+        } else if self.validation.predict {
+            req.prediction = crate::predict::Level::Summary;
         }
         let s = &self.selection;
         if s.estimate.is_some() || s.fix.is_some() {
@@ -748,6 +755,7 @@ mod tests {
                 seed: Some(3),
                 choose: Some(vec![]),
                 repeats: Some(2),
+                predict: true,
             },
             outputs: OutputSpec {
                 robot: Some("out.toml".into()),

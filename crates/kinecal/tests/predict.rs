@@ -73,6 +73,7 @@ fn ur10_identified_on_a_predicts_c_and_d_within_their_bounds() {
     let read = |n: &str| parse_measurements(file(n), n, &robot).unwrap();
     let mut req = Request::new(robot.clone(), read("series_A.csv"));
     req.selection = Selection::parse("identifiable", None, &robot).unwrap();
+    req.prediction = predict::Level::Summary;
     let t = std::time::Instant::now();
     let out = workflow::run(&req, &mut ()).unwrap();
     let pr = out.report.prediction.as_ref().expect("a prediction");
@@ -132,6 +133,7 @@ fn qkm_held_out_points_fall_within_their_bounds() {
     let d = kinecal::datasets::qkm_hl6::load(&dir).unwrap();
     let mut req = Request::new(d.robot.clone(), d.identification.clone());
     req.selection = Selection::parse("all,identifiable", None, &d.robot).unwrap();
+    req.prediction = predict::Level::Summary;
     let out = workflow::run(&req, &mut ()).unwrap();
     let pr = out.report.prediction.as_ref().expect("a prediction");
     let (with, alone, constant, n) = coverage(&out.calibration.calibrated, pr, &d.validation);

@@ -210,6 +210,7 @@ def calibrate(
     repeats: int | None = None,
     prior: str | None = None,
     total_mass: float | None = None,
+    predict: bool = False,
 ) -> tuple[Robot, str, dict[str, Any]]:
     """The calibrated robot, the report as JSON text and the outcome's arrays
     (``covariance``, ``covariance_names``, ``residuals``, ``residual_rows``)."""

@@ -559,13 +559,14 @@ pub struct PredictionReport {
     pub map: Option<AccuracyMap>,
 }
 
-/// How much of the prediction a calibration makes.
+/// How much of the prediction a calibration makes. Off unless asked for (`--predict`, an HTML
+/// report): its cross-validation costs many times a fit of a thousand postures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Level {
     /// None.
+    #[default]
     Off,
     /// The model-error term and the summary over the joint ranges.
-    #[default]
     Summary,
     /// And the accuracy map (for the HTML report).
     Map,
