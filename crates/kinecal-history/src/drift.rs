@@ -199,6 +199,10 @@ pub struct DriftReport {
     pub left_out: Vec<LeftOut>,
     /// Tolerance keys that match no compared quantity, with the reason.
     pub unused_tolerances: Vec<UnusedTolerance>,
+    /// The maintenance event the compared calibrations follow, when the caller analysed the
+    /// segment since one ([`crate::current_segment`]); `drift` itself leaves it empty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub since_event: Option<crate::Event>,
 }
 
 /// A value with its sigma, words and members, keyed for matching across calibrations; in the
@@ -579,6 +583,7 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
         quantities,
         left_out,
         unused_tolerances,
+        since_event: None,
     })
 }
 
