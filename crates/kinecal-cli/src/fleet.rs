@@ -58,13 +58,18 @@ fn why(r: &RobotState) -> String {
     }
 }
 
-/// A number in 4 significant digits.
+/// A number in 4 significant digits, without trailing zeros.
 fn g(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if (1e-3..1e5).contains(&v.abs()) {
         let decimals = (3 - v.abs().log10().floor() as i32).max(0) as usize;
-        format!("{v:.decimals$}")
+        let s = format!("{v:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
     } else {
         format!("{v:.3e}")
     }
@@ -131,7 +136,7 @@ fn chart(r: &RobotState, history: &[Calibration], events: &[Event]) -> Option<Fl
     // The crossing drawn when it is no further than the history is long.
     if let Some(c) = t.crossing {
         let last = x.last().copied().unwrap_or(0.0);
-        if day(c) > last && day(c) - last <= span.max(30.0) {
+        if day(c) > last && day(c) - last <= 2.0 * span.max(30.0) {
             x.push(day(c));
             y.push(f64::NAN);
             e.push(0.0);
@@ -154,7 +159,10 @@ fn chart(r: &RobotState, history: &[Calibration], events: &[Event]) -> Option<Fl
                 }
             })
             .collect();
-        lines.push(Line::new("trend since the latest event", trend));
+        lines.push(Line {
+            color: Some(2),
+            ..Line::new("trend (this segment)", trend)
+        });
     }
     let mut h_lines = Vec::new();
     if let Some(tol) = t.tolerance {

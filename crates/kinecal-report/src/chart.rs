@@ -16,6 +16,8 @@ pub struct Line {
     pub points: bool,
     /// Optional +- error bars.
     pub error: Option<Vec<f64>>,
+    /// The palette colour (an index; default: the line's position in the panel).
+    pub color: Option<usize>,
 }
 
 impl Line {
@@ -26,6 +28,7 @@ impl Line {
             y,
             points: false,
             error: None,
+            color: None,
         }
     }
 }
@@ -349,7 +352,7 @@ where
                     .map_err(|e| err(&e))?;
             }
             for (k, l) in p.lines.iter().enumerate() {
-                let color = COLORS[k % COLORS.len()];
+                let color = COLORS[l.color.unwrap_or(k) % COLORS.len()];
                 let pts: Vec<(f64, f64)> =
                     p.x.iter()
                         .zip(&l.y)

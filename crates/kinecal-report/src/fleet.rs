@@ -47,7 +47,7 @@ pub fn html_fleet(p: &FleetPage) -> Result<String, DrawError> {
     h.push_str(
         "<style>tr.flagged td{background:#fbe3e3}tr.serviced td{background:#ece4f7}\
          tr.due td{background:#fff4d6}td.v{font-weight:bold;text-align:left}\
-         .robots{display:grid;grid-template-columns:repeat(auto-fill,minmax(360px,1fr));gap:12px}\
+         .robots{display:grid;grid-template-columns:repeat(auto-fill,minmax(480px,1fr));gap:12px}\
          .robot{border:1px solid #ccc;padding:6px}.robot h3{margin:2px 0;font-size:15px}\
          .robot p{margin:2px 0;font-size:12px}.robot svg{width:100%;height:auto}</style>\n",
     );
