@@ -90,15 +90,17 @@ pub struct Trend {
     pub rate_per_month: Option<f64>,
     /// Its standard error.
     pub rate_sigma: Option<f64>,
-    /// When the trend line leaves the tolerance band around the segment's first value (Unix
-    /// seconds): only for a tolerance and a trend beyond 2 of its sigmas.
+    /// When the trend line leaves the tolerance band (Unix seconds): only for a tolerance and a
+    /// trend beyond 2 of its sigmas. The band is centred on the trend line's value at the
+    /// segment's first calibration.
     pub crossing: Option<i64>,
     /// The same as RFC 3339.
     pub crossing_at: Option<String>,
     /// The calibrations' values of this quantity in the segment (for charts).
     #[serde(skip)]
     pub samples: Vec<Sample>,
-    /// The segment's first value (the tolerance band's centre).
+    /// The tolerance band's centre: the trend line's value at the segment's first calibration
+    /// (its value, without a trend).
     pub reference: f64,
     /// The trend line's value at `t0` (Unix seconds) and its slope per second.
     #[serde(skip)]
@@ -233,7 +235,13 @@ fn robot_state(history: &[Calibration], events: &[Event], opts: &FleetOptions) -
     for q in &report.quantities {
         let pts = samples(segment, &q.key)?;
         let fit = line_fit(&pts);
-        let reference = pts.first().map_or(q.baseline, |s| s.value);
+        // The band's centre: the trend line at the segment's first calibration (one noisy
+        // value would move every prediction), else that calibration's value.
+        let reference = match (fit, pts.first()) {
+            (Some((t0, v0, slope, _)), Some(first)) => v0 + slope * (first.at - t0) as f64,
+            (_, Some(first)) => first.value,
+            _ => q.baseline,
+        };
         let crossing = match (fit, q.tolerance) {
             (Some((t0, v0, slope, slope_sigma)), Some(tol))
                 if slope != 0.0 && slope.abs() > 2.0 * slope_sigma =>
