@@ -330,6 +330,7 @@ fn concurrent_writers_killed_and_retried_leave_every_record_once(loc: &str) {
         children = again;
         assert!(round < 50, "writers keep failing");
     }
+    assert!(kills > 0, "no writer was killed: the retry was not tested");
     let db = Database::connect_read_only(loc).unwrap();
     let records = db.records(None).unwrap();
     assert!(records.damaged.is_empty());
