@@ -35,7 +35,7 @@ fn why(r: &RobotState) -> String {
         Verdict::Single => parts.push("one calibration since its latest event".into()),
         _ => {}
     }
-    if let Some((at, key)) = &r.earliest_crossing {
+    if let (Some((at, key)), false) = (&r.earliest_crossing, r.verdict == Verdict::Flagged) {
         parts.push(format!(
             "{} crosses its tolerance {}",
             printable(key),
@@ -96,8 +96,12 @@ fn details(r: &RobotState) -> Vec<String> {
             if let Some(tol) = t.tolerance {
                 let _ = write!(s, ", tolerance {}", g(tol));
             }
-            if let Some(c) = &t.crossing_at {
-                let _ = write!(s, ", crosses it {}", &c[..10]);
+            if let (Some(c), Some(at)) = (&t.crossing_at, t.crossing) {
+                if t.samples.last().is_some_and(|l| at <= l.at) {
+                    let _ = write!(s, ", its trend beyond it since {}", &c[..10]);
+                } else {
+                    let _ = write!(s, ", crosses it {}", &c[..10]);
+                }
             }
             if t.flagged {
                 let _ = write!(
