@@ -623,8 +623,10 @@ file has `key = value` lines, keys being parameter names or ids (link3.y, p14) o
 expressions (\"p14 + p20\"), values in the quantity's unit.")]
     Drift(HistoryDriftArgs),
     /// Plot the history of each quantity with sigma bands and tolerance lines (SVG or PNG).
-    #[command(after_help = "Example:\n  kinecal history plot --robot-id A4-0042 --out a4.svg\n\n\
-Maintenance events are drawn as vertical lines; drift is computed since the latest one.")]
+    #[command(
+        after_help = "Example:\n  kinecal history plot --robot-id A4-0042 --out a4.svg\n\n\
+Maintenance events are drawn as vertical lines; drift is computed since the latest one."
+    )]
     Plot(HistoryPlotArgs),
     /// Every robot: last calibration, drift flags, trends, predicted tolerance crossings.
     #[command(after_help = "\

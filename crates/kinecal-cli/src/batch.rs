@@ -620,9 +620,8 @@ fn summary_csv(rows: &[Row]) -> Result<String> {
 
 /// Parses `--shard K/N`.
 fn parse_shard(s: &str) -> Result<(usize, usize)> {
-    let bad = || {
-        anyhow!("--shard `{s}`: expected K/N with 1 <= K <= N (the K-th of N shares), e.g. 3/8")
-    };
+    let bad =
+        || anyhow!("--shard `{s}`: expected K/N with 1 <= K <= N (the K-th of N shares), e.g. 3/8");
     let (k, n) = s.split_once('/').ok_or_else(bad)?;
     let (k, n): (usize, usize) = (
         k.trim().parse().map_err(|_| bad())?,

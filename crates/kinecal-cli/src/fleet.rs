@@ -372,8 +372,11 @@ pub fn run(a: HistoryFleetArgs) -> Result<u8> {
     for p in a.json.iter().chain(&a.html) {
         eprintln!("wrote {}", p.display());
     }
-    let attention = robots
-        .iter()
-        .any(|r| matches!(r.verdict, Verdict::Flagged | Verdict::Serviced | Verdict::Due));
+    let attention = robots.iter().any(|r| {
+        matches!(
+            r.verdict,
+            Verdict::Flagged | Verdict::Serviced | Verdict::Due
+        )
+    });
     Ok(if attention { EXIT_FLAGGED } else { 0 })
 }

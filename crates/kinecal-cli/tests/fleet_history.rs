@@ -63,12 +63,27 @@ fn outputs(dir: &Path, db: &str) -> Vec<(String, i32, String)> {
         cmd(s(&["history", "show", "--id", &id.to_string(), "--json"]));
     }
     for r in ["A4-0101", "A4-0102", "A4-0103", "A4-0104"] {
-        cmd(s(&["history", "drift", "--robot-id", r, "--tolerance", tol]));
+        cmd(s(&[
+            "history",
+            "drift",
+            "--robot-id",
+            r,
+            "--tolerance",
+            tol,
+        ]));
         cmd(s(&["history", "drift", "--robot-id", r, "--json"]));
     }
     cmd(s(&[
-        "history", "fleet", "--tolerance", tol, "--now", "2026-12-15", "--horizon", "180",
-        "--json", "fleet.json",
+        "history",
+        "fleet",
+        "--tolerance",
+        tol,
+        "--now",
+        "2026-12-15",
+        "--horizon",
+        "180",
+        "--json",
+        "fleet.json",
     ]));
     let mut json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("fleet.json")).unwrap()).unwrap();
@@ -85,13 +100,37 @@ fn a_history_moved_sqlite_postgres_sqlite_prints_the_same() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let example = repo().join("examples/fleet/history.json");
-    ok(d, &["history", "import", example.to_str().unwrap(), "--db", "a.sqlite"]);
-    ok(d, &["history", "export", "--format", "dump", "--db", "a.sqlite", "--out", "a.json"]);
+    ok(
+        d,
+        &[
+            "history",
+            "import",
+            example.to_str().unwrap(),
+            "--db",
+            "a.sqlite",
+        ],
+    );
+    ok(
+        d,
+        &[
+            "history", "export", "--format", "dump", "--db", "a.sqlite", "--out", "a.json",
+        ],
+    );
     let (_, _, e) = run(d, &["history", "import", "a.json", "--db", &t.url]);
     assert!(e.contains("16 calibrations written"), "{e}");
-    ok(d, &["history", "export", "--format", "dump", "--db", &t.url, "--out", "p.json"]);
+    ok(
+        d,
+        &[
+            "history", "export", "--format", "dump", "--db", &t.url, "--out", "p.json",
+        ],
+    );
     ok(d, &["history", "import", "p.json", "--db", "b.sqlite"]);
-    ok(d, &["history", "export", "--format", "dump", "--db", "b.sqlite", "--out", "b.json"]);
+    ok(
+        d,
+        &[
+            "history", "export", "--format", "dump", "--db", "b.sqlite", "--out", "b.json",
+        ],
+    );
     let read = |f: &str| std::fs::read_to_string(d.join(f)).unwrap();
     assert_eq!(read("a.json"), read("p.json"));
     assert_eq!(read("a.json"), read("b.json"));
@@ -104,12 +143,17 @@ fn a_history_moved_sqlite_postgres_sqlite_prints_the_same() {
     }
     assert_eq!((a.len(), p.len(), b.len()), (44, 44, 44));
     // Something was compared: the drifting robot is flagged.
-    assert!(a.iter().any(|(c, code, o)| c.starts_with("history drift --robot-id A4-0101")
-        && *code == 3
-        && o.contains("FLAG")));
+    assert!(a.iter().any(
+        |(c, code, o)| c.starts_with("history drift --robot-id A4-0101")
+            && *code == 3
+            && o.contains("FLAG")
+    ));
     // Importing again adds nothing.
     let (_, _, e) = run(d, &["history", "import", "a.json", "--db", &t.url]);
-    assert!(e.contains("0 calibrations written, 16 already there"), "{e}");
+    assert!(
+        e.contains("0 calibrations written, 16 already there"),
+        "{e}"
+    );
 }
 
 /// 200 simulated robots in a manifest, run as 4 shards at once, each recording into the one
@@ -128,9 +172,19 @@ fn batch_shards_killed_and_retried_record_every_robot_once() {
         ok(
             d,
             &[
-                "simulate", "--robot", "ge-a4", "--postures", "20", "--seed", &k.to_string(),
-                "--perturb", "p1=+0.05,p14=-0.02", "--noise", "length=0.0005,angle=0.005",
-                "--out", &f,
+                "simulate",
+                "--robot",
+                "ge-a4",
+                "--postures",
+                "20",
+                "--seed",
+                &k.to_string(),
+                "--perturb",
+                "p1=+0.05,p14=-0.02",
+                "--noise",
+                "length=0.0005,angle=0.005",
+                "--out",
+                &f,
             ],
         );
         manifest += &format!(
@@ -180,10 +234,16 @@ fn batch_shards_killed_and_retried_record_every_robot_once() {
     assert!(kills > 0, "no shard was killed: the retry was not tested");
     let mut c = t.client();
     let rows = c
-        .query("SELECT robot_id, count(*) FROM kinecal.calibrations GROUP BY robot_id", &[])
+        .query(
+            "SELECT robot_id, count(*) FROM kinecal.calibrations GROUP BY robot_id",
+            &[],
+        )
         .unwrap();
     assert_eq!(rows.len(), 200, "robots recorded");
-    assert!(rows.iter().all(|r| r.get::<_, i64>(1) == 1), "a robot recorded twice");
+    assert!(
+        rows.iter().all(|r| r.get::<_, i64>(1) == 1),
+        "a robot recorded twice"
+    );
     let params: i64 = c
         .query_one("SELECT count(*) FROM kinecal.parameters", &[])
         .unwrap()
@@ -244,7 +304,10 @@ fn passwords_are_never_printed() {
     ] {
         let (code, out, err) = run(d, &args);
         assert_eq!(code, 1, "{args:?}");
-        assert!(err.contains("postgres://alice@127.0.0.1:1/kinecal"), "{err}");
+        assert!(
+            err.contains("postgres://alice@127.0.0.1:1/kinecal"),
+            "{err}"
+        );
         assert!(!out.contains(secret) && !err.contains(secret), "{err}");
     }
     // Through $KINECAL_DB too.
@@ -255,7 +318,10 @@ fn passwords_are_never_printed() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && !err.contains(secret) && err.contains("cannot connect"), "{err}");
+    assert!(
+        !out.status.success() && !err.contains(secret) && err.contains("cannot connect"),
+        "{err}"
+    );
     // A wrong password on a real server.
     if let Some(t) = pg::TestDb::new("cli_password") {
         let wrong = pg::with_user(&t.url, "postgres", secret);

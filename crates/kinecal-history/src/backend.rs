@@ -217,8 +217,7 @@ impl Database {
         }
         if note.trim().is_empty() {
             return Err(Error::Input(
-                "an event needs a note saying what was done (e.g. \"gearbox J2 replaced\")"
-                    .into(),
+                "an event needs a note saying what was done (e.g. \"gearbox J2 replaced\")".into(),
             ));
         }
         self.store.insert_event(

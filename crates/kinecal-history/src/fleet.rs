@@ -194,7 +194,11 @@ pub fn fleet(
     Ok(out)
 }
 
-fn robot_state(history: &[Calibration], events: &[Event], opts: &FleetOptions) -> Result<RobotState> {
+fn robot_state(
+    history: &[Calibration],
+    events: &[Event],
+    opts: &FleetOptions,
+) -> Result<RobotState> {
     let last = history.last().expect("a robot has a calibration");
     let (segment, event) = current_segment(history, events);
     let mut state = RobotState {
@@ -305,7 +309,11 @@ fn line_fit(pts: &[Sample]) -> Option<(i64, f64, f64, f64)> {
     let t = |p: &Sample| (p.at - origin) as f64;
     let tm = pts.iter().zip(&w).map(|(p, w)| t(p) * w).sum::<f64>() / sw;
     let vm = pts.iter().zip(&w).map(|(p, w)| p.value * w).sum::<f64>() / sw;
-    let stt: f64 = pts.iter().zip(&w).map(|(p, w)| w * (t(p) - tm).powi(2)).sum();
+    let stt: f64 = pts
+        .iter()
+        .zip(&w)
+        .map(|(p, w)| w * (t(p) - tm).powi(2))
+        .sum();
     if stt <= 0.0 {
         return None;
     }

@@ -39,13 +39,13 @@ mod text;
 mod timefmt;
 mod units;
 
+pub use backend::{is_postgres_url, Backend, Database, Store, Write};
 pub use drift::{
     drift, samples, Baseline, DriftOptions, DriftReport, LeftOut, Quantity, Sample, Tolerances,
     UnusedTolerance,
 };
 pub use fleet::{current_segment, fleet, FleetOptions, RobotState, Trend, Verdict};
 pub use kinecal::source::fingerprint;
-pub use backend::{is_postgres_url, Backend, Database, Store, Write};
 pub use record::{
     idempotency_key, Added, Dump, Event, ImportSummary, StoredCombination, StoredParameter,
     StoredRecord, DUMP_FORMAT,

@@ -215,13 +215,16 @@ impl PgStore {
     /// version it is at ([`Error::NewerSchema`]).
     pub fn connect(url: &str, read_only: bool) -> Result<PgStore> {
         let shown = redact(url);
-        let mut config: postgres::Config = url.trim().parse().map_err(|e: postgres::Error| Error::Database {
-            path: shown.clone(),
-            message: format!(
-                "not a PostgreSQL URL ({}); expected postgres://USER@HOST:PORT/DBNAME",
-                words(&e)
-            ),
-        })?;
+        let mut config: postgres::Config =
+            url.trim()
+                .parse()
+                .map_err(|e: postgres::Error| Error::Database {
+                    path: shown.clone(),
+                    message: format!(
+                        "not a PostgreSQL URL ({}); expected postgres://USER@HOST:PORT/DBNAME",
+                        words(&e)
+                    ),
+                })?;
         let env = |k: &str| std::env::var(k).ok().filter(|v| !v.is_empty());
         if config.get_user().is_none() {
             let user = env("PGUSER")
@@ -229,7 +232,9 @@ impl PgStore {
                 .or_else(|| env("LOGNAME"))
                 .ok_or_else(|| Error::Database {
                     path: shown.clone(),
-                    message: "no user name: put it in the URL (postgres://USER@HOST/DBNAME) or PGUSER".into(),
+                    message:
+                        "no user name: put it in the URL (postgres://USER@HOST/DBNAME) or PGUSER"
+                            .into(),
                 })?;
             config.user(&user);
         }
@@ -874,16 +879,17 @@ mod tests {
             redact("postgresql://db.plant/kinecal"),
             "postgresql://db.plant/kinecal"
         );
+        assert_eq!(redact("postgres://a:b@h/d?password=x"), "postgres://a@h/d");
         assert_eq!(
-            redact("postgres://a:b@h/d?password=x"),
-            "postgres://a@h/d"
+            scrub("bad s3cr@t and s3cr%40t", Some("s3cr@t")),
+            "bad *** and ***"
         );
-        assert_eq!(scrub("bad s3cr@t and s3cr%40t", Some("s3cr@t")), "bad *** and ***");
     }
 
     #[test]
     fn password_file_lines_match_as_libpq_matches_them() {
-        let file = "# comment\nother:5432:*:alice:no\ndb.plant:*:kinecal:alice:pa\\:ss\n*:*:*:*:any\n";
+        let file =
+            "# comment\nother:5432:*:alice:no\ndb.plant:*:kinecal:alice:pa\\:ss\n*:*:*:*:any\n";
         assert_eq!(
             pgpass_lookup(file, "db.plant", 5433, "kinecal", "alice").as_deref(),
             Some("pa:ss")

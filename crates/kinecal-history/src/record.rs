@@ -393,10 +393,7 @@ pub(crate) fn to_calibration(r: StoredRecord) -> std::result::Result<Calibration
         angle_unit: r.angle_unit,
         rms_position_before: finite(r.rms_position_before, "its RMS position error before")?,
         rms_position_after: finite(r.rms_position_after, "its RMS position error after")?,
-        rms_orientation_before: finite(
-            r.rms_orientation_before,
-            "its RMS attitude error before",
-        )?,
+        rms_orientation_before: finite(r.rms_orientation_before, "its RMS attitude error before")?,
         rms_orientation_after: finite(r.rms_orientation_after, "its RMS attitude error after")?,
         note: r.note,
         parameters,

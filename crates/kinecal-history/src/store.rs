@@ -183,7 +183,11 @@ pub struct RmsError {
 /// The RMS errors a stored report gives, one per kind of observation present. Reports written
 /// before distances and contacts existed have no observation counts: their position errors are
 /// taken as present.
-pub(crate) fn rms_errors(report: &serde_json::Value, length_unit: &str, angle_unit: &str) -> Vec<RmsError> {
+pub(crate) fn rms_errors(
+    report: &serde_json::Value,
+    length_unit: &str,
+    angle_unit: &str,
+) -> Vec<RmsError> {
     let mut out = Vec::new();
     let num = |v: &serde_json::Value| v.as_f64();
     let ident = &report["identification"];
@@ -471,7 +475,11 @@ impl Model {
 
     /// Refuses this model unless it is the model of one of `robot_id`'s `earlier` records (by
     /// id), or there are none.
-    pub(crate) fn check_against(&self, robot_id: &str, earlier: &BTreeMap<i64, Model>) -> Result<()> {
+    pub(crate) fn check_against(
+        &self,
+        robot_id: &str,
+        earlier: &BTreeMap<i64, Model>,
+    ) -> Result<()> {
         if earlier.is_empty() || earlier.values().any(|m| m == self) {
             return Ok(());
         }

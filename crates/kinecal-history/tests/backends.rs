@@ -118,7 +118,10 @@ fn records_round_trip(loc: &str) {
     );
     assert_eq!(c.parameters.len(), 38);
     for (p, r) in c.parameters.iter().zip(&rep.parameters) {
-        assert_eq!((&p.id, &p.name, p.estimated), (&r.id, &r.name, r.estimated_flag));
+        assert_eq!(
+            (&p.id, &p.name, p.estimated),
+            (&r.id, &r.name, r.estimated_flag)
+        );
         assert_eq!(p.value.to_bits(), r.estimated.to_bits(), "{}", p.id);
         assert_eq!(p.sigma.map(f64::to_bits), r.sigma.map(f64::to_bits));
     }
@@ -148,13 +151,29 @@ fn the_same_calibration_is_recorded_once(loc: &str) {
         .unwrap();
     assert_eq!((b.id, b.new), (a.id, false));
     // Without a time: keyed by the report alone, so a retry is found too.
-    let c = db.record("R1", None, &rep, "", AddOptions::default()).unwrap();
-    let d = db.record("R1", None, &rep, "", AddOptions::default()).unwrap();
+    let c = db
+        .record("R1", None, &rep, "", AddOptions::default())
+        .unwrap();
+    let d = db
+        .record("R1", None, &rep, "", AddOptions::default())
+        .unwrap();
     assert!(c.new && !d.new && c.id == d.id);
     // Another time, another robot, another calibration: new records.
-    assert!(db.record("R1", Some(T0 + DAY), &rep, "", AddOptions::default()).unwrap().new);
-    assert!(db.record("R2", Some(T0), &rep, "", AddOptions::default()).unwrap().new);
-    assert!(db.record("R1", Some(T0), &report(2, 0.0), "", AddOptions::default()).unwrap().new);
+    assert!(
+        db.record("R1", Some(T0 + DAY), &rep, "", AddOptions::default())
+            .unwrap()
+            .new
+    );
+    assert!(
+        db.record("R2", Some(T0), &rep, "", AddOptions::default())
+            .unwrap()
+            .new
+    );
+    assert!(
+        db.record("R1", Some(T0), &report(2, 0.0), "", AddOptions::default())
+            .unwrap()
+            .new
+    );
     assert_eq!(db.calibrations(None).unwrap().len(), 5);
     // Events too.
     let e = db.add_event("R1", T0, "gearbox J2 replaced").unwrap();
@@ -184,10 +203,7 @@ fn reads_never_create_a_history(loc: &str) {
     }
     // Nothing was created: a writer then creates the schema at the current version.
     let db = Database::connect(loc).unwrap();
-    assert_eq!(
-        db.store().schema_version(),
-        kinecal_history::SCHEMA_VERSION
-    );
+    assert_eq!(db.store().schema_version(), kinecal_history::SCHEMA_VERSION);
     assert!(db.calibrations(None).unwrap().is_empty());
 }
 
@@ -197,15 +213,21 @@ fn events_cut_drift_into_segments(loc: &str) {
     let db = Database::connect(loc).unwrap();
     let shifts = [0.0, 0.01, 0.02, 0.03, 0.0, 0.0, 0.0];
     for (k, s) in shifts.iter().enumerate() {
-        db.add("R1", Some(T0 + 30 * DAY * k as i64), &report(10 + k as u64, *s), "")
-            .unwrap();
+        db.add(
+            "R1",
+            Some(T0 + 30 * DAY * k as i64),
+            &report(10 + k as u64, *s),
+            "",
+        )
+        .unwrap();
     }
     let history = db.calibrations(Some("R1")).unwrap();
     let opts = DriftOptions::default();
     // Over the whole history (no event): the repair looks like no change, but the run of
     // months 1-3 does not.
     assert!(drift(&history[..4], &opts).unwrap().flags.len() == 1);
-    db.add_event("R1", T0 + 95 * DAY, "gearbox J2 replaced").unwrap();
+    db.add_event("R1", T0 + 95 * DAY, "gearbox J2 replaced")
+        .unwrap();
     let events = db.events(Some("R1")).unwrap();
     assert_eq!(events.len(), 1);
     let (seg, ev) = current_segment(&history, &events);
@@ -214,7 +236,8 @@ fn events_cut_drift_into_segments(loc: &str) {
     assert_eq!(ev.unwrap().note, "gearbox J2 replaced");
     assert!(drift(seg, &opts).unwrap().flags.is_empty());
     // An event after the latest calibration: nothing in the segment.
-    db.add_event("R1", T0 + 400 * DAY, "motor 3 replaced").unwrap();
+    db.add_event("R1", T0 + 400 * DAY, "motor 3 replaced")
+        .unwrap();
     let events = db.events(None).unwrap();
     assert!(current_segment(&history, &events).0.is_empty());
 }
@@ -226,9 +249,12 @@ fn the_fleet_is_sorted_by_urgency(loc: &str) {
     let db = Database::connect(loc).unwrap();
     for k in 0..5i64 {
         let at = Some(T0 + 30 * DAY * k);
-        db.add("C-steady", at, &report(30 + k as u64, 0.0), "").unwrap();
-        db.add("A-fast", at, &report(40 + k as u64, 0.01 * k as f64), "").unwrap();
-        db.add("B-slow", at, &report(50 + k as u64, 0.002 * k as f64), "").unwrap();
+        db.add("C-steady", at, &report(30 + k as u64, 0.0), "")
+            .unwrap();
+        db.add("A-fast", at, &report(40 + k as u64, 0.01 * k as f64), "")
+            .unwrap();
+        db.add("B-slow", at, &report(50 + k as u64, 0.002 * k as f64), "")
+            .unwrap();
     }
     let records = db.records(None).unwrap();
     let key = drift(&records.calibrations[..5], &DriftOptions::default())
@@ -263,7 +289,10 @@ fn the_fleet_is_sorted_by_urgency(loc: &str) {
     // the first calibration.
     let t = f[1].trends.iter().find(|t| t.key == key).unwrap();
     let rate = t.rate_per_month.unwrap();
-    assert!((rate.abs() - 0.002).abs() < 4.0 * t.rate_sigma.unwrap(), "{rate}");
+    assert!(
+        (rate.abs() - 0.002).abs() < 4.0 * t.rate_sigma.unwrap(),
+        "{rate}"
+    );
     let months = (t.crossing.unwrap() - T0) as f64 / (30.0 * DAY as f64);
     assert!((7.0..14.0).contains(&months), "{months}");
     assert_eq!(f[0].flags, vec![key]);
@@ -346,7 +375,11 @@ fn concurrent_writers_killed_and_retried_leave_every_record_once(loc: &str) {
     let rep = shared_report();
     for c in &records.calibrations {
         assert_eq!(c.parameters.len(), rep.parameters.len(), "a partial record");
-        assert_eq!(c.combinations.len(), rep.combinations.len(), "a partial record");
+        assert_eq!(
+            c.combinations.len(),
+            rep.combinations.len(),
+            "a partial record"
+        );
     }
     eprintln!(
         "20 writers x 50 records, {kills} killed and rerun: 1000 records in {:.1} s",
@@ -385,7 +418,13 @@ fn a_version_1_file_migrates() {
     let dump = db.dump().unwrap();
     assert!(dump.calibrations.iter().all(|r| r.key.is_none()));
     let added = db
-        .record("A4-0042", Some(T0), &shared_report(), "", AddOptions::default())
+        .record(
+            "A4-0042",
+            Some(T0),
+            &shared_report(),
+            "",
+            AddOptions::default(),
+        )
         .unwrap();
     assert!(added.new && added.id == 3);
     assert!(db.dump().unwrap().calibrations[2].key.is_some());
@@ -403,7 +442,10 @@ fn a_newer_schema_is_refused_with_its_version() {
     t.client()
         .batch_execute("UPDATE kinecal.schema_version SET version = 7")
         .unwrap();
-    for r in [Database::connect(&t.url), Database::connect_read_only(&t.url)] {
+    for r in [
+        Database::connect(&t.url),
+        Database::connect_read_only(&t.url),
+    ] {
         match r {
             Err(e @ Error::NewerSchema { found: 7, .. }) => {
                 assert!(e.to_string().contains("schema version 7"), "{e}")
@@ -424,8 +466,13 @@ fn a_history_moves_between_back_ends_losslessly() {
     let dir = tempfile::tempdir().unwrap();
     let a = Database::open(&dir.path().join("a.sqlite")).unwrap();
     for k in 0..4i64 {
-        a.add("R1", Some(T0 + k * DAY), &report(60 + k as u64, 0.003 * k as f64), "n\u{e9}e\n")
-            .unwrap();
+        a.add(
+            "R1",
+            Some(T0 + k * DAY),
+            &report(60 + k as u64, 0.003 * k as f64),
+            "n\u{e9}e\n",
+        )
+        .unwrap();
         a.add("R2", None, &report(70 + k as u64, 0.0), "").unwrap();
     }
     a.add_event("R1", T0 + DAY, "gearbox J2 replaced").unwrap();
@@ -458,8 +505,8 @@ fn roles_as_the_readme_creates_them() {
     let owner = Database::connect(&t.url).unwrap();
     owner.add("R1", Some(T0), &shared_report(), "").unwrap();
     drop(owner);
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md"))
-        .unwrap();
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
     let sql = readme
         .split("```sql\n")
         .nth(1)
@@ -472,7 +519,10 @@ fn roles_as_the_readme_creates_them() {
         .replace("kinecal_writer", &format!("kinecal_writer{suffix}"))
         .replace("maint ", &format!("maint{suffix} "))
         .replace("cell07 ", &format!("cell07{suffix} "))
-        .replace("DATABASE kinecal", &format!("DATABASE {}", t.url.rsplit('/').next().unwrap()));
+        .replace(
+            "DATABASE kinecal",
+            &format!("DATABASE {}", t.url.rsplit('/').next().unwrap()),
+        );
     let mut admin = t.client();
     admin.batch_execute(&sql).unwrap();
     let (reader_pw, writer_pw) = ("maint-secret-5af3", "cell07-secret-91bd");
@@ -490,20 +540,45 @@ fn roles_as_the_readme_creates_them() {
     assert!(!r.path().contains(reader_pw));
     // ... and cannot write, even opened for writing: a clear error, no password in it.
     let w = Database::connect(&reader_url).unwrap();
-    let e = w.add("R1", Some(T0 + 1), &shared_report(), "").unwrap_err().to_string();
-    assert!(e.contains("permission denied") && e.contains("writer"), "{e}");
+    let e = w
+        .add("R1", Some(T0 + 1), &shared_report(), "")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("permission denied") && e.contains("writer"),
+        "{e}"
+    );
     assert!(!e.contains(reader_pw), "{e}");
     let e = w.add_event("R1", T0, "x").unwrap_err().to_string();
     assert!(e.contains("permission denied"), "{e}");
     // The writer writes, retries without duplicates.
     let w = Database::connect(&writer_url).unwrap();
-    let a = w.record("R1", Some(T0 + 1), &shared_report(), "", AddOptions::default()).unwrap();
-    let b = w.record("R1", Some(T0 + 1), &shared_report(), "", AddOptions::default()).unwrap();
+    let a = w
+        .record(
+            "R1",
+            Some(T0 + 1),
+            &shared_report(),
+            "",
+            AddOptions::default(),
+        )
+        .unwrap();
+    let b = w
+        .record(
+            "R1",
+            Some(T0 + 1),
+            &shared_report(),
+            "",
+            AddOptions::default(),
+        )
+        .unwrap();
     assert!(a.new && !b.new);
     w.add_event("R1", T0, "gearbox J2 replaced").unwrap();
     // A wrong password: refused, the password not shown.
     let wrong = pg::with_user(&t.url, &format!("maint{suffix}"), "Wr0ng-pa55word");
-    let e = Database::connect_read_only(&wrong).err().unwrap().to_string();
+    let e = Database::connect_read_only(&wrong)
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("password authentication failed"), "{e}");
     assert!(!e.contains("Wr0ng-pa55word"), "{e}");
     // The roles go with the test.
@@ -523,7 +598,10 @@ fn a_server_that_is_not_there_is_named_without_the_password() {
         .err()
         .unwrap()
         .to_string();
-    assert!(e.contains("postgres://alice@127.0.0.1:1/kinecal") && e.contains("cannot connect"), "{e}");
+    assert!(
+        e.contains("postgres://alice@127.0.0.1:1/kinecal") && e.contains("cannot connect"),
+        "{e}"
+    );
     assert!(!e.contains("Sup3r-s3cret"), "{e}");
     let e = Database::connect("postgres://alice:Sup3r-s3cret@127.0.0.1:notaport/kinecal")
         .err()
