@@ -641,8 +641,8 @@ maintenance event), SERVICED (a maintenance event after its latest calibration),
 crosses a tolerance within --horizon days of --now), ok, or single (one calibration since its
 latest event). The rate of each quantity is a weighted regression over that segment, per month
 of 30 days with its standard error; a crossing is predicted when a tolerance applies and the
-rate exceeds twice its standard error. --html writes a page with one chart per robot that is not
-ok. Exit code 0 when every robot is ok, 3 when any is flagged, serviced or due.")]
+rate exceeds twice its standard error. --html writes a page with one chart per flagged or due
+robot. Exit code 0 when every robot is ok, 3 when any is flagged, serviced or due.")]
     Fleet(HistoryFleetArgs),
     /// Record a maintenance event: drift is computed within the segments between events.
     #[command(after_help = "\
@@ -696,7 +696,7 @@ pub struct HistoryFleetArgs {
     /// Also write the fleet as JSON here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    /// Also write an HTML page here (one chart per robot that is not ok).
+    /// Also write an HTML page here (one chart per flagged or due robot).
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
 }

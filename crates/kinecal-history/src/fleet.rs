@@ -7,7 +7,7 @@
 
 use serde::Serialize;
 
-use crate::drift::{drift, samples, DriftOptions, Sample};
+use crate::drift::{all_samples, drift, DriftOptions, Sample};
 use crate::record::Event;
 use crate::store::Calibration;
 use crate::timefmt::format_time;
@@ -236,8 +236,9 @@ fn robot_state(
             return Ok(state);
         }
     };
+    let mut series = all_samples(segment)?;
     for q in &report.quantities {
-        let pts = samples(segment, &q.key)?;
+        let pts = series.remove(&q.key).unwrap_or_default();
         let fit = line_fit(&pts);
         // The band's centre: the trend line at the segment's first calibration (one noisy
         // value would move every prediction), else that calibration's value.

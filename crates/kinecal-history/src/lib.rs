@@ -41,8 +41,8 @@ mod units;
 
 pub use backend::{is_postgres_url, Backend, Database, Store, Write};
 pub use drift::{
-    drift, samples, Baseline, DriftOptions, DriftReport, LeftOut, Quantity, Sample, Tolerances,
-    UnusedTolerance,
+    all_samples, drift, samples, Baseline, DriftOptions, DriftReport, LeftOut, Quantity, Sample,
+    Tolerances, UnusedTolerance,
 };
 pub use fleet::{current_segment, fleet, FleetOptions, RobotState, Trend, Verdict};
 pub use kinecal::source::fingerprint;

@@ -340,10 +340,42 @@ pub(crate) fn param_number(id: &str) -> i64 {
         .unwrap_or(0)
 }
 
+/// The fields of a stored report that [`rms_errors`] reads (the rest is skipped unparsed: a
+/// fleet reads thousands of reports).
+#[derive(Deserialize)]
+struct ReportFigures {
+    #[serde(default)]
+    rms_position_before: serde_json::Value,
+    #[serde(default)]
+    rms_position_after: serde_json::Value,
+    #[serde(default)]
+    rms_orientation_before: serde_json::Value,
+    #[serde(default)]
+    rms_orientation_after: serde_json::Value,
+    #[serde(default)]
+    identification: serde_json::Value,
+}
+
+/// The figures of a stored report as JSON (only what [`rms_errors`] reads), or why it is not
+/// valid JSON.
+pub(crate) fn report_figures(text: &str) -> std::result::Result<serde_json::Value, String> {
+    match serde_json::from_str::<ReportFigures>(text) {
+        Ok(f) => Ok(serde_json::json!({
+            "rms_position_before": f.rms_position_before,
+            "rms_position_after": f.rms_position_after,
+            "rms_orientation_before": f.rms_orientation_before,
+            "rms_orientation_after": f.rms_orientation_after,
+            "identification": f.identification,
+        })),
+        // Valid JSON of another shape reads as before (no figures); invalid JSON is named.
+        Err(_) => serde_json::from_str::<serde_json::Value>(text)
+            .map_err(|e| format!("its stored report is not valid JSON ({e})")),
+    }
+}
+
 /// A stored record read as a [`Calibration`], or the sentence naming its damaged field.
 pub(crate) fn to_calibration(r: StoredRecord) -> std::result::Result<Calibration, String> {
-    let report: serde_json::Value = serde_json::from_str(&r.report)
-        .map_err(|e| format!("its stored report is not valid JSON ({e})"))?;
+    let report = report_figures(&r.report)?;
     let finite = |v: f64, what: &str| {
         if v.is_finite() {
             Ok(v)

@@ -1289,8 +1289,7 @@ impl SqliteStore {
                     Ok((|| -> field::Decoded<Calibration> {
                         let at = integer(r, 1, "its time")?;
                         let report = text(r, 14, "its stored report")?;
-                        let report: serde_json::Value = serde_json::from_str(&report)
-                            .map_err(|e| format!("its stored report is not valid JSON ({e})"))?;
+                        let report = crate::record::report_figures(&report)?;
                         let length_unit = text(r, 7, "its length unit")?;
                         let angle_unit = text(r, 8, "its angle unit")?;
                         Ok(Calibration {
