@@ -43,7 +43,7 @@ fn ok(dir: &Path, args: &[&str]) -> String {
 }
 
 /// What the read commands print for a history: list, events, show (every record, text and
-/// JSON), drift (every robot), fleet (text and JSON without the location).
+/// JSON), drift (every robot), plot (the SVG), fleet (text and JSON without the location).
 fn outputs(dir: &Path, db: &str) -> Vec<(String, i32, String)> {
     let tol = repo().join("examples/fleet/tolerances.toml");
     let tol = tol.to_str().unwrap();
@@ -85,6 +85,19 @@ fn outputs(dir: &Path, db: &str) -> Vec<(String, i32, String)> {
         "--json",
         "fleet.json",
     ]));
+    cmd(s(&[
+        "history",
+        "plot",
+        "--robot-id",
+        "A4-0103",
+        "--out",
+        "plot.svg",
+    ]));
+    out.push((
+        "plot.svg".into(),
+        0,
+        std::fs::read_to_string(dir.join("plot.svg")).unwrap(),
+    ));
     let mut json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("fleet.json")).unwrap()).unwrap();
     json["history"] = serde_json::Value::Null;
@@ -141,7 +154,7 @@ fn a_history_moved_sqlite_postgres_sqlite_prints_the_same() {
         assert_eq!(x, y, "SQLite and PostgreSQL differ");
         assert_eq!(x, z, "the SQLite histories differ");
     }
-    assert_eq!((a.len(), p.len(), b.len()), (44, 44, 44));
+    assert_eq!((a.len(), p.len(), b.len()), (46, 46, 46));
     // Something was compared: the drifting robot is flagged.
     assert!(a.iter().any(
         |(c, code, o)| c.starts_with("history drift --robot-id A4-0101")
