@@ -64,7 +64,7 @@ pub enum Error {
     /// The database could not be opened, read or written.
     #[error("{path}: {message}")]
     Database {
-        /// The database file.
+        /// The database file, or the server's URL without its password.
         path: String,
         /// What went wrong.
         message: String,
