@@ -344,3 +344,51 @@ fn passwords_are_never_printed() {
         assert!(!out.contains(secret) && !err.contains(secret), "{err}");
     }
 }
+
+/// A history of schema version 1 (written by kinecal before version 2; see
+/// crates/kinecal-history/tests/data/README.md) prints what that kinecal printed, read as it
+/// is and after its migration.
+#[test]
+fn a_version_1_history_prints_the_same_before_and_after_its_migration() {
+    let data = repo().join("crates/kinecal-history/tests/data");
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(data.join("v1-history.sqlite"), d.join("v1.sqlite")).unwrap();
+    let show = std::fs::read_to_string(data.join("v1-history.show.txt")).unwrap();
+    let drift = std::fs::read_to_string(data.join("v1-history.drift.txt")).unwrap();
+    let check = |when: &str| {
+        let (code, out, e) = run(
+            d,
+            &[
+                "history",
+                "show",
+                "--robot-id",
+                "A4-0042",
+                "--db",
+                "v1.sqlite",
+            ],
+        );
+        assert_eq!((code, out.as_str()), (0, show.as_str()), "show {when}: {e}");
+        let (code, out, e) = run(
+            d,
+            &[
+                "history",
+                "drift",
+                "--robot-id",
+                "A4-0042",
+                "--db",
+                "v1.sqlite",
+            ],
+        );
+        assert_eq!(
+            (code, out.as_str()),
+            (3, drift.as_str()),
+            "drift {when}: {e}"
+        );
+    };
+    check("before the migration");
+    let (code, _, e) = run(d, &["history", "init", "--db", "v1.sqlite"]);
+    assert_eq!(code, 0, "{e}");
+    assert!(e.contains("schema version 2"), "{e}");
+    check("after the migration");
+}
