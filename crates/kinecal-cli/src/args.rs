@@ -116,7 +116,11 @@ its serial (and strict = true for --strict), over an optional [defaults] spec th
   observations = [{ file = \"a4-0042.csv\" }]
   validation = { holdout = 0.2 }
 
-Paths are relative to the manifest's folder. One robot's failure never stops the others. Exit code 0: every robot
+Paths are relative to the manifest's folder. One robot's failure never stops the others.
+--shard K/N runs the K-th of N shares (robots K, K+N, K+2N, ... of the manifest), e.g. one per
+task of a Kubernetes indexed Job or a Slurm array, every shard recording into one PostgreSQL
+history: kinecal batch fleet.csv --shard 3/8 --record --db postgres://writer@db/kinecal
+Exit code 0: every robot
 calibrated and converged; 1: some failed (the summary says why); 3: some flagged by --strict;
 4: some did not converge.")]
     Batch(BatchArgs),
@@ -652,9 +656,9 @@ pub enum HistoryCommand {
         after_help = "Example:\n  kinecal history show --robot-id A4-0042\n  kinecal history show --id 17"
     )]
     Show(HistoryShowArgs),
-    /// Export the history as CSV (one row per parameter) or JSON.
+    /// Export the history as CSV (one row per parameter), JSON, or a dump for `history import`.
     #[command(
-        after_help = "Example:\n  kinecal history export --robot-id A4-0042 --format csv --out a4.csv"
+        after_help = "Examples:\n  kinecal history export --robot-id A4-0042 --format csv --out a4.csv\n  kinecal history export --format dump --out history.json   # every field, for history import"
     )]
     Export(HistoryExportArgs),
     /// Flag determined quantities that changed since the baseline (exit 0 none, 3 some).
@@ -668,15 +672,132 @@ file has `key = value` lines, keys being parameter names or ids (link3.y, p14) o
 expressions (\"p14 + p20\"), values in the quantity's unit.")]
     Drift(HistoryDriftArgs),
     /// Plot the history of each quantity with sigma bands and tolerance lines (SVG or PNG).
-    #[command(after_help = "Example:\n  kinecal history plot --robot-id A4-0042 --out a4.svg")]
+    #[command(
+        after_help = "Example:\n  kinecal history plot --robot-id A4-0042 --out a4.svg\n\n\
+Maintenance events are drawn as vertical lines; drift is computed since the latest one."
+    )]
     Plot(HistoryPlotArgs),
+    /// Every robot: last calibration, drift flags, trends, predicted tolerance crossings.
+    #[command(after_help = "\
+Examples:
+  kinecal history fleet --tolerance tolerances.toml
+  kinecal history fleet --db postgres://maint@db.plant/kinecal --tolerance tolerances.toml \\
+      --html fleet.html --json fleet.json
+
+One line per robot, most urgent first: FLAGGED (a determined quantity changed beyond its
+tolerance or --sigma K standard deviations since the first calibration after the robot's latest
+maintenance event), SERVICED (a maintenance event after its latest calibration), DUE (a trend
+crosses a tolerance within --horizon days of --now), ok, or single (one calibration since its
+latest event). The rate of each quantity is a weighted regression over that segment, per month
+of 30 days with its standard error; a crossing is predicted when a tolerance applies and the
+rate exceeds twice its standard error. --html writes a page with one chart per flagged or due
+robot. Exit code 0 when every robot is ok, 3 when any is flagged, serviced or due.")]
+    Fleet(HistoryFleetArgs),
+    /// Record a maintenance event: drift is computed within the segments between events.
+    #[command(after_help = "\
+Example:
+  kinecal history event A4-0042 --at 2026-11-15 --note \"gearbox J2 replaced\"
+
+The calibrations at or after the event's time start a new segment: drift, trends and the fleet's
+verdicts compare only calibrations of the same segment. The same event twice is recorded once.")]
+    Event(HistoryEventArgs),
+    /// List maintenance events.
+    #[command(after_help = "Example:\n  kinecal history events --robot-id A4-0042")]
+    Events(HistoryEventsArgs),
+    /// Read a history dump (`history export --format dump`) into this history.
+    #[command(after_help = "\
+Example:
+  kinecal history export --format dump --db history.sqlite --out history.json
+  kinecal history import history.json --db postgres://maint@db.plant/kinecal
+
+Every record and event is written verbatim (ids kept where free), each in its own transaction;
+what is already there (the same idempotency key, or the same id and contents) is skipped, so an
+interrupted import is finished by running it again.")]
+    Import(HistoryImportArgs),
+    /// Create the history's schema, or migrate it to this kinecal's version.
+    #[command(after_help = "\
+Example:
+  kinecal history init --db postgres://owner@db.plant/kinecal
+
+Any write creates or migrates the schema when it may; on a PostgreSQL server that takes the
+database owner, so the owner runs this once (and after upgrading kinecal), then writers and
+readers use their own roles.")]
+    Init(HistoryInitArgs),
+}
+
+/// `kinecal history fleet`.
+#[derive(Debug, Args)]
+pub struct HistoryFleetArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// Flag changes beyond K standard deviations.
+    #[arg(long, value_name = "K", default_value_t = 3.0)]
+    pub sigma: f64,
+    /// Tolerance file (TOML `key = value`), the same for every robot.
+    #[arg(long, value_name = "FILE")]
+    pub tolerance: Option<PathBuf>,
+    /// A robot is due when a trend crosses a tolerance within this many days of --now.
+    #[arg(long, value_name = "DAYS", default_value_t = 90.0)]
+    pub horizon: f64,
+    /// "Now" for --horizon (RFC 3339 or YYYY-MM-DD; default: the current time).
+    #[arg(long, value_name = "TIME")]
+    pub now: Option<String>,
+    /// Also write the fleet as JSON here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Also write an HTML page here (one chart per flagged or due robot).
+    #[arg(long, value_name = "FILE")]
+    pub html: Option<PathBuf>,
+}
+
+/// `kinecal history event`.
+#[derive(Debug, Args)]
+pub struct HistoryEventArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// The robot's serial number.
+    pub robot_id: String,
+    /// When (RFC 3339 or YYYY-MM-DD; default now).
+    #[arg(long)]
+    pub at: Option<String>,
+    /// What was done (e.g. "gearbox J2 replaced").
+    #[arg(long)]
+    pub note: String,
+}
+
+/// `kinecal history events`.
+#[derive(Debug, Args)]
+pub struct HistoryEventsArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// Only this robot.
+    #[arg(long)]
+    pub robot_id: Option<String>,
+}
+
+/// `kinecal history import`.
+#[derive(Debug, Args)]
+pub struct HistoryImportArgs {
+    #[command(flatten)]
+    pub db: DbArg,
+    /// The dump (`kinecal history export --format dump`).
+    pub dump: PathBuf,
+}
+
+/// `kinecal history init`.
+#[derive(Debug, Args)]
+pub struct HistoryInitArgs {
+    #[command(flatten)]
+    pub db: DbArg,
 }
 
 /// The database option shared by history commands.
 #[derive(Debug, Args)]
 pub struct DbArg {
-    /// History database (default: the user's data folder, kinecal/history.sqlite).
-    #[arg(long, value_name = "PATH")]
+    /// The history: a SQLite file, or a PostgreSQL server as postgres://USER@HOST:PORT/DBNAME
+    /// (password from PGPASSWORD or ~/.pgpass; never printed). Default: $KINECAL_DB, else
+    /// kinecal/history.sqlite in the user's data folder.
+    #[arg(long, value_name = "PATH|URL")]
     pub db: Option<PathBuf>,
 }
 
@@ -736,6 +857,8 @@ pub enum FormatArg {
     Csv,
     /// Every calibration with its parameters and combinations.
     Json,
+    /// Every stored field of every record and event, for `history import` (lossless).
+    Dump,
 }
 
 /// `kinecal history export`.
@@ -1168,9 +1291,14 @@ pub struct BatchArgs {
     /// Record every calibration in the history under its serial (see --db).
     #[arg(long)]
     pub record: bool,
-    /// History database for --record (default: the user's data folder).
-    #[arg(long, value_name = "PATH", requires = "record")]
+    /// The history for --record: a SQLite file or a postgres:// URL (default: $KINECAL_DB,
+    /// else the user's data folder).
+    #[arg(long, value_name = "PATH|URL", requires = "record")]
     pub db: Option<PathBuf>,
+    /// Run only the K-th of N shares of the manifest (1 <= K <= N): its robots K, K+N, K+2N,
+    /// ... in manifest order, so N machines with K = 1..N run every robot exactly once.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
     /// Also write the summary as CSV.
     #[arg(long, value_name = "FILE")]
     pub summary: Option<PathBuf>,
@@ -1460,8 +1588,9 @@ pub struct CalibrateArgs {
     /// Record the calibration in the history database under this robot serial.
     #[arg(long, value_name = "SERIAL")]
     pub record: Option<String>,
-    /// History database (default: the user's data folder, kinecal/history.sqlite).
-    #[arg(long, value_name = "PATH")]
+    /// The history for --record: a SQLite file or a postgres:// URL (default: $KINECAL_DB,
+    /// else kinecal/history.sqlite in the user's data folder).
+    #[arg(long, value_name = "PATH|URL")]
     pub db: Option<PathBuf>,
     /// Time of the calibration for --record (RFC 3339 or YYYY-MM-DD; default now).
     #[arg(long, value_name = "TIME")]

@@ -618,15 +618,54 @@ fn summary_csv(rows: &[Row]) -> Result<String> {
     )?)
 }
 
+/// Parses `--shard K/N`.
+fn parse_shard(s: &str) -> Result<(usize, usize)> {
+    let bad =
+        || anyhow!("--shard `{s}`: expected K/N with 1 <= K <= N (the K-th of N shares), e.g. 3/8");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (
+        k.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if k == 0 || n == 0 || k > n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+/// The K-th of N shares of the manifest's robots: rows K, K+N, K+2N, ... (1-based), so the N
+/// shares are disjoint, cover the manifest, and differ in size by one at most.
+fn shard<T>(entries: Vec<T>, k: usize, n: usize) -> Vec<T> {
+    entries
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| i % n == k - 1)
+        .map(|(_, e)| e)
+        .collect()
+}
+
 /// Runs `kinecal batch`.
 pub fn run(a: BatchArgs) -> Result<u8> {
-    let entries = read_manifest(&a.manifest)?;
+    let shard_of = a.shard.as_deref().map(parse_shard).transpose()?;
+    let mut entries = read_manifest(&a.manifest)?;
+    let db_file = history::db_file(a.db.as_deref()).filter(|_| a.record);
     check_files(
         &entries,
         &a.manifest,
         a.summary.as_deref(),
-        a.db.as_deref().filter(|_| a.record),
+        db_file.as_deref(),
     )?;
+    if let Some((k, n)) = shard_of {
+        let total = entries.len();
+        entries = shard(entries, k, n);
+        eprintln!(
+            "shard {k}/{n}: {} of the manifest's {total} robots",
+            entries.len()
+        );
+        if entries.is_empty() {
+            bail!("shard {k}/{n} of {total} robots is empty: nothing to do");
+        }
+    }
     let db = if a.record {
         Some(history::open_db(a.db.as_deref())?)
     } else {
@@ -677,9 +716,11 @@ pub fn run(a: BatchArgs) -> Result<u8> {
             staged,
             report,
         } = d;
+        // One transaction per record; a record already there (a rerun after an interrupted
+        // batch, another shard's retry) is found by its key and not written twice.
         let recorded = match (&db, &report) {
             (Some(db), Some(rep)) => db
-                .add_with(&row.serial, None, rep, "", Default::default())
+                .record(&row.serial, None, rep, "", Default::default())
                 .map(|_| ())
                 .map_err(|e| format!("not recorded: {e}")),
             _ => Ok(()),

@@ -304,7 +304,12 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     let mut display = Display::new(&a);
     display.say("reading");
     let spec = spec_of(&a)?;
-    let p = prepare(&spec, a.db.as_deref())?;
+    let p = prepare(
+        &spec,
+        history::db_file(a.db.as_deref())
+            .filter(|_| a.record.is_some())
+            .as_deref(),
+    )?;
     // Written once the job has been read and checked, before it runs.
     if let Some(path) = &a.write_spec {
         output::check_distinct(
@@ -378,8 +383,17 @@ fn finish(
     if let (Some(serial), Some(db)) = (&a.record, record_db) {
         display.say("recording in the history");
         let options = kinecal_history::AddOptions { force: a.force };
-        let id = db.add_with(serial, record_at, &outcome.report, &a.note, options)?;
-        display.suspend(|| eprintln!("recorded as calibration {id} of robot {serial}"));
+        let added = db.record(serial, record_at, &outcome.report, &a.note, options)?;
+        let id = added.id;
+        if added.new {
+            display.suspend(|| eprintln!("recorded as calibration {id} of robot {serial}"));
+        } else {
+            display.suspend(|| {
+                eprintln!(
+                    "already recorded as calibration {id} of robot {serial} (the same calibration: not recorded twice)"
+                )
+            });
+        }
     }
     staged.commit()?;
     display.done();

@@ -12,7 +12,8 @@ use kinecal_history::{
 
 use crate::args::{
     CheckArgs, DbArg, FormatArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs,
-    HistoryExportArgs, HistoryListArgs, HistoryPlotArgs, HistoryShowArgs,
+    HistoryEventArgs, HistoryEventsArgs, HistoryExportArgs, HistoryImportArgs, HistoryInitArgs,
+    HistoryListArgs, HistoryPlotArgs, HistoryShowArgs,
 };
 use crate::{load_observations, load_robot, read_text, write_file};
 use kinecal::units::Quantity;
@@ -21,27 +22,55 @@ use kinecal_report::{Line, Panel};
 /// Exit code when drift or a check finds something: usable from cron and monitoring.
 pub const EXIT_FLAGGED: u8 = 3;
 
-/// The database named by `--db`, or the default one.
-fn db_path(db: Option<&Path>) -> Result<PathBuf> {
-    match db {
-        Some(p) => Ok(p.to_path_buf()),
-        None => kinecal_history::default_db_path().ok_or_else(|| {
-            anyhow!("no home or data folder to keep the history in: give --db PATH")
-        }),
+/// Where a history is.
+pub enum Location {
+    /// A SQLite file.
+    File(PathBuf),
+    /// A PostgreSQL server (`postgres://...`).
+    Server(String),
+}
+
+/// The history named by `--db`, else by `$KINECAL_DB`, else the default file.
+pub fn location(db: Option<&Path>) -> Result<Location> {
+    let given = db
+        .map(|p| p.as_os_str().to_owned())
+        .or_else(|| std::env::var_os("KINECAL_DB").filter(|v| !v.is_empty()));
+    Ok(match given {
+        Some(v) => match v.to_str() {
+            Some(s) if kinecal_history::is_postgres_url(s) => Location::Server(s.to_string()),
+            _ => Location::File(PathBuf::from(v)),
+        },
+        None => Location::File(kinecal_history::default_db_path().ok_or_else(|| {
+            anyhow!("no home or data folder to keep the history in: give --db PATH or URL")
+        })?),
+    })
+}
+
+/// The history's file, when it is a file (for the checks that no output overwrites it).
+pub fn db_file(db: Option<&Path>) -> Option<PathBuf> {
+    match location(db).ok()? {
+        Location::File(p) => Some(p),
+        Location::Server(_) => None,
     }
 }
 
-/// Opens the database named by `--db`, or the default one, for writing (creating it if
-/// needed). An existing file is inspected read-only first and refused, untouched, unless it
-/// is a sound kinecal history.
+/// Opens the history named by `--db` (or `$KINECAL_DB`, or the default file) for writing,
+/// creating or migrating it if needed. An existing file is inspected read-only first and
+/// refused, untouched, unless it is a sound kinecal history.
 pub fn open_db(db: Option<&Path>) -> Result<Database> {
-    Ok(Database::open(&db_path(db)?)?)
+    Ok(match location(db)? {
+        Location::File(p) => Database::open(&p)?,
+        Location::Server(url) => Database::connect(&url)?,
+    })
 }
 
-/// Opens an existing database for reading only: never creates one (a mistyped `--db` is an
-/// error), and works on read-only files and folders.
-fn open_db_read(d: &DbArg) -> Result<Database> {
-    let db = Database::open_read_only(&db_path(d.db.as_deref())?)?;
+/// Opens an existing history for reading only: never creates one (a mistyped `--db` is an
+/// error), works on read-only files and folders, and on a server in a read-only session.
+pub fn open_db_read(d: &DbArg) -> Result<Database> {
+    let db = match location(d.db.as_deref())? {
+        Location::File(p) => Database::open_read_only(&p)?,
+        Location::Server(url) => Database::connect_read_only(&url)?,
+    };
     if let Some(problem) = db.integrity_problem() {
         eprintln!(
             "warning: {}: the database fails its integrity check ({}); showing what can be read",
@@ -80,6 +109,11 @@ pub fn run(c: HistoryCommand) -> Result<u8> {
         HistoryCommand::Export(a) => export(a),
         HistoryCommand::Drift(a) => drift_cmd(a),
         HistoryCommand::Plot(a) => plot(a),
+        HistoryCommand::Fleet(a) => crate::fleet::run(a),
+        HistoryCommand::Event(a) => event(a),
+        HistoryCommand::Events(a) => events(a),
+        HistoryCommand::Import(a) => import(a),
+        HistoryCommand::Init(a) => init(a),
     }
 }
 
@@ -89,10 +123,100 @@ fn add(a: HistoryAddArgs, options: AddOptions) -> Result<u8> {
         .with_context(|| format!("{}: not a kinecal calibration report", a.report.display()))?;
     let at = parse_at(a.at.as_deref())?;
     let db = open_db(a.db.db.as_deref())?;
-    let id = db.add_with(&a.robot_id, at, &report, &a.note, options)?;
+    let added = db.record(&a.robot_id, at, &report, &a.note, options)?;
+    if added.new {
+        eprintln!(
+            "recorded calibration {} of robot {}",
+            added.id,
+            printable(&a.robot_id)
+        );
+    } else {
+        eprintln!(
+            "already recorded as calibration {} of robot {} (the same calibration: nothing written)",
+            added.id,
+            printable(&a.robot_id)
+        );
+    }
+    Ok(0)
+}
+
+fn event(a: HistoryEventArgs) -> Result<u8> {
+    let at = parse_at(a.at.as_deref())?.unwrap_or_else(|| {
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs() as i64)
+    });
+    let db = open_db(a.db.db.as_deref())?;
+    let added = db.add_event(&a.robot_id, at, &a.note)?;
     eprintln!(
-        "recorded calibration {id} of robot {}",
-        printable(&a.robot_id)
+        "{} event {} of robot {} at {}: {}",
+        if added.new {
+            "recorded"
+        } else {
+            "already recorded:"
+        },
+        added.id,
+        printable(&a.robot_id),
+        kinecal_history::format_time(at),
+        printable(&a.note)
+    );
+    Ok(0)
+}
+
+fn events(a: HistoryEventsArgs) -> Result<u8> {
+    let db = open_db_read(&a.db)?;
+    let events = db.events(a.robot_id.as_deref())?;
+    if events.is_empty() {
+        println!("(no maintenance events recorded)");
+        return Ok(0);
+    }
+    println!("{:>5}  {:<14} {:<21} note", "id", "robot", "at");
+    for e in events {
+        println!(
+            "{:>5}  {:<14} {:<21} {}",
+            e.id,
+            printable(&e.robot_id),
+            e.at_text(),
+            printable(&e.note)
+        );
+    }
+    Ok(0)
+}
+
+fn import(a: HistoryImportArgs) -> Result<u8> {
+    let text = read_text(&a.dump)?;
+    let dump = kinecal_history::Dump::from_json(&text, &a.dump.display().to_string())?;
+    let db = open_db(a.db.db.as_deref())?;
+    let s = db.import(&dump)?;
+    eprintln!(
+        "imported into {}: {} calibrations written, {} already there; {} events written, {} already there",
+        db.path(),
+        s.added,
+        s.present,
+        s.events_added,
+        s.events_present
+    );
+    if !s.renumbered.is_empty() {
+        let pairs: Vec<String> = s
+            .renumbered
+            .iter()
+            .map(|(a, b)| format!("{a} -> {b}"))
+            .collect();
+        eprintln!(
+            "ids taken by other records, so renumbered: {}",
+            pairs.join(", ")
+        );
+    }
+    Ok(0)
+}
+
+fn init(a: HistoryInitArgs) -> Result<u8> {
+    let db = open_db(a.db.db.as_deref())?;
+    eprintln!(
+        "{}: a kinecal history ({}), schema version {}",
+        db.path(),
+        db.backend().name(),
+        db.store().schema_version()
     );
     Ok(0)
 }
@@ -239,8 +363,20 @@ fn csv_field(s: &str) -> String {
 
 fn export(a: HistoryExportArgs) -> Result<u8> {
     let db = open_db_read(&a.db)?;
+    if let FormatArg::Dump = a.format {
+        if a.robot_id.is_some() {
+            bail!("--format dump exports the whole history: leave out --robot-id");
+        }
+        let text = db.dump()?.to_json();
+        match a.out {
+            Some(p) => write_file(&p, &text)?,
+            None => print!("{text}"),
+        }
+        return Ok(0);
+    }
     let cals = read_calibrations(&db, a.robot_id.as_deref())?;
     let text = match a.format {
+        FormatArg::Dump => unreachable!("written above"),
         FormatArg::Json => serde_json::to_string_pretty(&cals)? + "\n",
         FormatArg::Csv => {
             let mut s = String::from("calibration,robot_id,at,method,solution,kind,id,name,unit,value,sigma,estimated,determined\n");
@@ -334,13 +470,36 @@ fn drift_report(
     Ok(drift(history, &opts)?)
 }
 
+/// The calibrations of a robot's history since its latest maintenance event (drift is computed
+/// within segments), and that event; an error when it has none since.
+fn segment<'a>(
+    all: &'a [Calibration],
+    events: &'a [kinecal_history::Event],
+    robot_id: &str,
+) -> Result<(&'a [Calibration], Option<&'a kinecal_history::Event>)> {
+    let (seg, event) = kinecal_history::current_segment(all, events);
+    if let (true, Some(e)) = (seg.is_empty() && !all.is_empty(), event) {
+        bail!(
+            "robot `{}`: no calibration since its maintenance event of {} ({}): drift is computed \
+             within the segments between events; calibrate it",
+            printable(robot_id),
+            e.at_text(),
+            printable(&e.note)
+        );
+    }
+    Ok((seg, event))
+}
+
 fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
     // Arguments first: nothing is opened for a command that cannot run.
     check_sigma(a.sigma)?;
     let tol = tolerances(a.tolerance.as_deref())?;
     let db = open_db_read(&a.db)?;
-    let history = read_calibrations(&db, Some(&a.robot_id))?;
-    let r = drift_report(&history, &a.robot_id, &a.baseline, a.sigma, tol)?;
+    let all = read_calibrations(&db, Some(&a.robot_id))?;
+    let events = db.events(Some(&a.robot_id))?;
+    let (history, event) = segment(&all, &events, &a.robot_id)?;
+    let mut r = drift_report(history, &a.robot_id, &a.baseline, a.sigma, tol)?;
+    r.since_event = event.cloned();
     if a.json {
         println!("{}", serde_json::to_string_pretty(&r)?);
     } else {
@@ -354,6 +513,14 @@ fn drift_cmd(a: HistoryDriftArgs) -> Result<u8> {
             r.baseline_at,
             r.sigma_threshold
         );
+        if let Some(e) = event {
+            println!(
+                "since the maintenance event of {} ({}): the {} earlier calibrations are not compared",
+                e.at_text(),
+                printable(&e.note),
+                all.len() - history.len()
+            );
+        }
         let converted: Vec<String> = history
             .iter()
             .filter(|c| c.length_unit != r.length_unit || c.angle_unit != r.angle_unit)
@@ -474,8 +641,10 @@ fn plot(a: HistoryPlotArgs) -> Result<u8> {
             printable(&a.robot_id)
         );
     }
+    let events = db.events(Some(&a.robot_id))?;
+    let (seg, _) = segment(&history, &events, &a.robot_id)?;
     let r = drift(
-        &history,
+        seg,
         &DriftOptions {
             tolerances: tol,
             ..Default::default()
@@ -568,6 +737,15 @@ fn plot(a: HistoryPlotArgs) -> Result<u8> {
                     ..Line::new("value +-1 sigma", pts.iter().map(|p| p.value).collect())
                 }],
                 h_lines,
+                v_lines: events
+                    .iter()
+                    .map(|e| {
+                        (
+                            (e.at - t0) as f64 / 86400.0,
+                            format!("event: {}", printable(&e.note)),
+                        )
+                    })
+                    .collect(),
                 ..Default::default()
             }
         })

@@ -8,6 +8,7 @@ mod calibrate;
 mod compensate;
 mod curves;
 mod demo;
+mod fleet;
 mod history;
 mod iso9283;
 mod output;

@@ -1281,6 +1281,10 @@ fn concurrent_processes_recording_all_succeed() {
                     "r.json",
                     "--db",
                     "h.sqlite",
+                    // Each its own time: 12 calibrations. (The same report at the same time
+                    // again is the same calibration, recorded once: checked below.)
+                    "--at",
+                    &format!("2026-11-{:02}", k + 1),
                 ])
                 .stderr(std::process::Stdio::piped())
                 .spawn()
@@ -1295,6 +1299,28 @@ fn concurrent_processes_recording_all_succeed() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
+    let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
+    assert_eq!(list.lines().count(), 13, "{list}");
+    // Retried: nothing recorded twice.
+    let out = kinecal()
+        .current_dir(d)
+        .args([
+            "history",
+            "add",
+            "--robot-id",
+            "R0",
+            "--report",
+            "r.json",
+            "--db",
+            "h.sqlite",
+            "--at",
+            "2026-11-01",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("already recorded as calibration"), "{err}");
     let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
     assert_eq!(list.lines().count(), 13, "{list}");
 }

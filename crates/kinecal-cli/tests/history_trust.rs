@@ -465,7 +465,11 @@ fn control_characters_in_serials_and_notes_are_escaped() {
     let dir = history(0);
     let d = dir.path();
     let serial = "A4\u{1b}[31m-RED";
-    for note in ["line one\nline two\u{1b}[0m", "tab\there\r"] {
+    // Two calibrations (a time each: the same report at the same time is recorded once).
+    for (note, at) in [
+        ("line one\nline two\u{1b}[0m", "2026-10-01"),
+        ("tab\there\r", "2026-11-01"),
+    ] {
         run_ok(
             d,
             &[
@@ -479,6 +483,8 @@ fn control_characters_in_serials_and_notes_are_escaped() {
                 "h.sqlite",
                 "--note",
                 note,
+                "--at",
+                at,
             ],
         );
     }

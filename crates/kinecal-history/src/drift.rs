@@ -14,6 +14,8 @@
 //! ([`DriftReport::left_out`]) and tolerance keys that match no tracked quantity
 //! ([`DriftReport::unused_tolerances`]).
 
+use std::collections::BTreeMap;
+
 use kinecal::units::Units;
 use serde::Serialize;
 
@@ -199,6 +201,10 @@ pub struct DriftReport {
     pub left_out: Vec<LeftOut>,
     /// Tolerance keys that match no compared quantity, with the reason.
     pub unused_tolerances: Vec<UnusedTolerance>,
+    /// The maintenance event the compared calibrations follow, when the caller analysed the
+    /// segment since one ([`crate::current_segment`]); `drift` itself leaves it empty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub since_event: Option<crate::Event>,
 }
 
 /// A value with its sigma, words and members, keyed for matching across calibrations; in the
@@ -373,7 +379,7 @@ fn history_units(history: &[Calibration]) -> Result<Units> {
 }
 
 fn compare(
-    history: &[Calibration],
+    series: &BTreeMap<String, Vec<Sample>>,
     units: &Units,
     base: &Calibration,
     latest: &Calibration,
@@ -415,8 +421,10 @@ fn compare(
             f64::INFINITY
         };
         // Trend over every calibration that tracks this quantity.
-        let pts: Vec<(f64, f64, f64)> = samples_in(history, units, &l.key)
+        let pts: Vec<(f64, f64, f64)> = series
+            .get(&l.key)
             .into_iter()
+            .flatten()
             .map(|s| (s.at as f64 / 86400.0, s.value, s.sigma))
             .filter(|p| p.2 > 0.0)
             .collect();
@@ -489,6 +497,28 @@ pub struct Sample {
     pub sigma: f64,
 }
 
+/// Every tracked quantity's samples over `history`, by key (one pass over the records).
+fn series_in(history: &[Calibration], units: &Units) -> BTreeMap<String, Vec<Sample>> {
+    let mut out: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
+    for c in history {
+        for q in tracked(c, units).0 {
+            out.entry(q.key).or_default().push(Sample {
+                id: c.id,
+                at: c.at,
+                value: q.value,
+                sigma: q.sigma,
+            });
+        }
+    }
+    out
+}
+
+/// Every tracked quantity's values in a robot's `history` (oldest first), by key, converted to
+/// the units of its first record: [`samples`] for every key at once.
+pub fn all_samples(history: &[Calibration]) -> Result<BTreeMap<String, Vec<Sample>>> {
+    Ok(series_in(history, &history_units(history)?))
+}
+
 fn samples_in(history: &[Calibration], units: &Units, key: &str) -> Vec<Sample> {
     history
         .iter()
@@ -523,6 +553,7 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
         return Err(Error::Input("empty history".into()));
     };
     let units = history_units(history)?;
+    let series = series_in(history, &units);
     let base = match opts.baseline {
         Baseline::First => first,
         Baseline::Id(id) => history.iter().find(|c| c.id == id).ok_or_else(|| {
@@ -535,14 +566,14 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
             .iter()
             .rev()
             .find(|c| {
-                compare(history, &units, first, c, opts)
+                compare(&series, &units, first, c, opts)
                     .0
                     .iter()
                     .all(|q| !q.flagged)
             })
             .unwrap_or(first),
     };
-    let (quantities, left_out) = compare(history, &units, base, latest, opts);
+    let (quantities, left_out) = compare(&series, &units, base, latest, opts);
     let unused_tolerances = opts
         .tolerances
         .keys()
@@ -579,6 +610,7 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
         quantities,
         left_out,
         unused_tolerances,
+        since_event: None,
     })
 }
 

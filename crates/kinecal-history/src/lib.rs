@@ -6,9 +6,16 @@
 //! from run to run with no physical change; so this crate tracks only *determined* quantities:
 //! individually determined parameters and the combinations of identically redundant groups.
 //!
-//! Storage is SQLite (bundled, nothing to install): a versioned schema migrated on open, WAL
-//! journal, every write in one transaction, a busy timeout so that concurrent writers wait for
-//! each other instead of failing.
+//! One store, two back ends behind the [`Store`] trait, chosen by the location
+//! ([`Database::connect`]): a SQLite file (bundled, nothing to install; the default, for one
+//! engineer and one cell) or a PostgreSQL server (`postgres://...`, for a fleet: many writers on
+//! many machines, roles, backups; see [`pg`]). On both: a versioned schema migrated on open (a
+//! newer one refused with the version it needs), every write in one transaction, an
+//! idempotency key per calibration so that a retried write never records it twice
+//! ([`idempotency_key`]), maintenance events ([`Event`]) that split a robot's history into
+//! segments, and a lossless [`Dump`] that moves a history between back ends. SQLite uses the
+//! WAL journal and a busy timeout, so that concurrent writers wait for each other instead of
+//! failing.
 //!
 //! Nothing is written to a file until it is known to be a kinecal history: an existing file is
 //! first opened read-only and inspected (schema version, tables and columns, `PRAGMA
@@ -22,20 +29,30 @@
 //! differs from the robot's earlier records is refused unless forced ([`AddOptions`]). Its unit
 //! system may change: [`drift()`] converts every value to the units of the robot's first record.
 
+mod backend;
 pub mod drift;
+pub mod fleet;
+pub mod pg;
+mod record;
 mod store;
 mod text;
 mod timefmt;
 mod units;
 
+pub use backend::{is_postgres_url, Backend, Database, Store, Write};
 pub use drift::{
-    drift, samples, Baseline, DriftOptions, DriftReport, LeftOut, Quantity, Sample, Tolerances,
-    UnusedTolerance,
+    all_samples, drift, samples, Baseline, DriftOptions, DriftReport, LeftOut, Quantity, Sample,
+    Tolerances, UnusedTolerance,
 };
+pub use fleet::{current_segment, fleet, FleetOptions, RobotState, Trend, Verdict};
 pub use kinecal::source::fingerprint;
+pub use record::{
+    idempotency_key, Added, Dump, Event, ImportSummary, StoredCombination, StoredParameter,
+    StoredRecord, DUMP_FORMAT,
+};
 pub use store::{
-    default_db_path, AddOptions, Calibration, Combination, DamagedRecord, Database, Parameter,
-    Records, RmsError, SCHEMA_VERSION,
+    default_db_path, AddOptions, Calibration, Combination, DamagedRecord, Parameter, Records,
+    RmsError, SqliteStore, SCHEMA_VERSION,
 };
 pub use text::printable;
 pub use timefmt::{format_time, parse_time};
@@ -47,7 +64,7 @@ pub enum Error {
     /// The database could not be opened, read or written.
     #[error("{path}: {message}")]
     Database {
-        /// The database file.
+        /// The database file, or the server's URL without its password.
         path: String,
         /// What went wrong.
         message: String,

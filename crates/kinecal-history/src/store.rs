@@ -1,22 +1,23 @@
-//! The SQLite store.
+//! The SQLite store: one file, bundled SQLite (nothing to install), the embedded default.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use kinecal::report::CalibrationReport;
 use rusqlite::types::ValueRef;
 use rusqlite::{params, Connection, ErrorCode, OpenFlags, OptionalExtension, Row, Transaction};
 use serde::Serialize;
 
+use crate::backend::{Backend, Store, Write};
+use crate::record::{Added, Event, StoredCombination, StoredParameter, StoredRecord};
 use crate::text::printable;
-use crate::timefmt::{format_time, now};
+use crate::timefmt::format_time;
 use crate::units::{parse_label, quantity_words};
 use crate::{Error, Result};
 
 /// The schema version this build writes. Each entry of `MIGRATIONS` brings a database from
 /// version `i` to `i + 1`.
-pub const SCHEMA_VERSION: i64 = 1;
+pub const SCHEMA_VERSION: i64 = 2;
 
 const MIGRATIONS: &[&str] = &[
     // 0 -> 1
@@ -58,6 +59,17 @@ const MIGRATIONS: &[&str] = &[
         sigma REAL NOT NULL,
         PRIMARY KEY (calibration_id, expression)
     );",
+    // 1 -> 2: the idempotency key of each calibration (none on the records of version 1), and
+    // the maintenance events.
+    "ALTER TABLE calibrations ADD COLUMN idempotency_key TEXT;
+    CREATE UNIQUE INDEX calibrations_key ON calibrations (idempotency_key);
+    CREATE TABLE events (
+        id INTEGER PRIMARY KEY,
+        robot_id TEXT NOT NULL,
+        at INTEGER NOT NULL,
+        note TEXT NOT NULL
+    );
+    CREATE UNIQUE INDEX events_robot_at_note ON events (robot_id, at, note);",
 ];
 
 /// One parameter of a recorded calibration (robot file's units).
@@ -147,7 +159,7 @@ pub fn default_db_path() -> Option<PathBuf> {
     Some(base.join("kinecal").join("history.sqlite"))
 }
 
-/// Options of [`Database::add_with`].
+/// Options of [`crate::Database::add_with`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct AddOptions {
     /// Record the calibration even when its robot model (joints, joint kinds, parameter names)
@@ -171,7 +183,11 @@ pub struct RmsError {
 /// The RMS errors a stored report gives, one per kind of observation present. Reports written
 /// before distances and contacts existed have no observation counts: their position errors are
 /// taken as present.
-fn rms_errors(report: &serde_json::Value, length_unit: &str, angle_unit: &str) -> Vec<RmsError> {
+pub(crate) fn rms_errors(
+    report: &serde_json::Value,
+    length_unit: &str,
+    angle_unit: &str,
+) -> Vec<RmsError> {
     let mut out = Vec::new();
     let num = |v: &serde_json::Value| v.as_f64();
     let ident = &report["identification"];
@@ -250,8 +266,8 @@ pub struct Records {
     pub damaged: Vec<DamagedRecord>,
 }
 
-/// An open history database.
-pub struct Database {
+/// An open SQLite history (see [`crate::Database`], which opens one by path).
+pub struct SqliteStore {
     conn: Connection,
     path: String,
     read_only: bool,
@@ -418,16 +434,16 @@ fn immutable_uri(path: &Path) -> std::io::Result<String> {
 
 /// A robot model as far as a history can tell it from the parameters: name -> quantity.
 #[derive(Debug, Default, PartialEq)]
-struct Model(BTreeMap<String, Kind>);
+pub(crate) struct Model(pub(crate) BTreeMap<String, Kind>);
 
 #[derive(Debug, Clone, PartialEq)]
-enum Kind {
+pub(crate) enum Kind {
     Known(kinecal::units::Quantity),
     Unknown(String),
 }
 
 impl Kind {
-    fn of(unit: &str) -> Kind {
+    pub(crate) fn of(unit: &str) -> Kind {
         match parse_label(unit) {
             Some((q, _)) => Kind::Known(q),
             None => Kind::Unknown(unit.to_string()),
@@ -448,14 +464,31 @@ fn joint_of(name: &str) -> Option<usize> {
 }
 
 impl Model {
-    fn of_report(report: &CalibrationReport) -> Model {
+    pub(crate) fn of_parameters(parameters: &[StoredParameter]) -> Model {
         Model(
-            report
-                .parameters
+            parameters
                 .iter()
                 .map(|p| (p.name.clone(), Kind::of(&p.unit)))
                 .collect(),
         )
+    }
+
+    /// Refuses this model unless it is the model of one of `robot_id`'s `earlier` records (by
+    /// id), or there are none.
+    pub(crate) fn check_against(
+        &self,
+        robot_id: &str,
+        earlier: &BTreeMap<i64, Model>,
+    ) -> Result<()> {
+        if earlier.is_empty() || earlier.values().any(|m| m == self) {
+            return Ok(());
+        }
+        let (&earlier_id, latest) = earlier.iter().next_back().expect("not empty");
+        Err(Error::ModelMismatch {
+            robot_id: printable(robot_id).into_owned(),
+            earlier_id,
+            difference: self.difference(latest),
+        })
     }
 
     fn joints(&self) -> BTreeSet<usize> {
@@ -654,7 +687,7 @@ fn inspect(conn: &Connection, path: &str) -> Result<i64> {
     Ok(version)
 }
 
-impl Database {
+impl SqliteStore {
     fn err(&self, e: impl std::fmt::Display) -> Error {
         Error::Database {
             path: self.path.clone(),
@@ -666,7 +699,7 @@ impl Database {
     /// migrates it. An existing file is first opened read-only and inspected: a file that is
     /// not a kinecal history (another schema, a negative or newer schema version, not SQLite
     /// at all) or that fails `PRAGMA quick_check` is refused, and nothing is written to it.
-    pub fn open(path: &Path) -> Result<Database> {
+    pub fn open(path: &Path) -> Result<SqliteStore> {
         let shown = path.display().to_string();
         let fail = |m: String| Error::Database {
             path: shown.clone(),
@@ -715,7 +748,7 @@ impl Database {
         // have created or migrated the file meanwhile. Version and tables are read in one read
         // transaction, so that a migration is seen either before or after, never half.
         let version = inspect(&conn, &shown)?;
-        let db = Database {
+        let db = SqliteStore {
             conn,
             path: shown,
             read_only: false,
@@ -766,9 +799,9 @@ impl Database {
 
     /// Opens an existing database for reading only (`SQLITE_OPEN_READ_ONLY`): never creates a
     /// file, never writes, and works on a read-only file in a read-only folder. The file is
-    /// inspected as by [`Database::open`]; a failed `quick_check` does not stop the reading
-    /// (see [`Database::integrity_problem`]).
-    pub fn open_read_only(path: &Path) -> Result<Database> {
+    /// inspected as by [`SqliteStore::open`]; a failed `quick_check` does not stop the reading
+    /// (see [`SqliteStore::integrity_problem`]).
+    pub fn open_read_only(path: &Path) -> Result<SqliteStore> {
         let shown = path.display().to_string();
         let fail = |m: String| Error::Database {
             path: shown.clone(),
@@ -802,7 +835,7 @@ impl Database {
         }
         let version = inspect(&conn, &shown)?;
         let integrity = quick_check(&conn);
-        Ok(Database {
+        Ok(SqliteStore {
             conn,
             path: shown,
             read_only: true,
@@ -851,69 +884,13 @@ impl Database {
             .map_err(|e| self.err(e))
     }
 
-    /// Records a calibration report for robot `robot_id` at `at` (Unix seconds; now if `None`);
-    /// refuses a report of another robot model than the robot's earlier records (see
-    /// [`Database::add_with`]).
-    pub fn add(
-        &self,
-        robot_id: &str,
-        at: Option<i64>,
-        report: &CalibrationReport,
-        note: &str,
-    ) -> Result<i64> {
-        self.add_with(robot_id, at, report, note, AddOptions::default())
-    }
-
-    /// Records a calibration report for robot `robot_id` at `at` (Unix seconds; now if `None`).
-    /// The model and data fingerprints are the report's (SHA-256 of the robot and measurement
-    /// files, see [`crate::fingerprint`]), empty when it has none.
-    ///
-    /// In the write transaction, before anything is written: the database must pass `PRAGMA
-    /// quick_check` ([`Error::Corrupt`] otherwise), and the report's robot model (joint count,
-    /// joint kinds, parameter names) must be the model of one of the robot's earlier records
-    /// ([`Error::ModelMismatch`] otherwise, unless `options.force`). Its units may differ.
-    pub fn add_with(
-        &self,
-        robot_id: &str,
-        at: Option<i64>,
-        report: &CalibrationReport,
-        note: &str,
-        options: AddOptions,
-    ) -> Result<i64> {
+    /// Writes `rec` in one IMMEDIATE transaction (see [`Store::insert`]). Before anything is
+    /// written, inside the transaction: the database must pass `PRAGMA quick_check`
+    /// ([`Error::Corrupt`] otherwise).
+    fn insert_record(&self, rec: &StoredRecord, write: Write) -> Result<Added> {
         if self.read_only {
             return Err(self.err("opened for reading only; nothing was written"));
         }
-        if robot_id.trim().is_empty() {
-            return Err(Error::Input(
-                "the robot id (serial) must not be empty".into(),
-            ));
-        }
-        if report.rank.is_none() {
-            return Err(Error::Input(
-                "the report has no uncertainty (no rank or sigmas): recalibrate with a kinecal that writes them".into(),
-            ));
-        }
-        check_finite(report)?;
-        let at = at.unwrap_or_else(now);
-        // The history keeps the figures, not the chart of every observation (up to 2,000
-        // points before and after: the bulk of a report, of no use for drift), nor the measured
-        // postures, the covariance and the accuracy map of the prediction (its model-error terms
-        // and summary stay; `kinecal predict` reads the report file).
-        let json = CalibrationReport {
-            observation_errors: None,
-            prediction: report
-                .prediction
-                .clone()
-                .map(|p| kinecal::predict::PredictionReport {
-                    measured: Vec::new(),
-                    covariance: Vec::new(),
-                    estimated: Vec::new(),
-                    map: None,
-                    ..p
-                }),
-            ..report.clone()
-        }
-        .to_json();
         let tx = self.begin()?;
         if let Some(problem) = quick_check(&tx) {
             return Err(Error::Corrupt {
@@ -921,57 +898,91 @@ impl Database {
                 problem,
             });
         }
-        if !options.force {
-            self.check_model(&tx, robot_id, &Model::of_report(report))?;
+        if let Some(key) = &rec.key {
+            let existing: Option<i64> = tx
+                .query_row(
+                    "SELECT id FROM calibrations WHERE idempotency_key = ?1",
+                    [key],
+                    |r| r.get(0),
+                )
+                .optional()
+                .map_err(|e| self.err(e))?;
+            if let Some(id) = existing {
+                return Ok(Added { id, new: false });
+            }
+        }
+        let mut id = None;
+        match write {
+            Write::New { force } => {
+                if !force {
+                    self.check_model(&tx, &rec.robot_id, &Model::of_parameters(&rec.parameters))?;
+                }
+            }
+            Write::Import => {
+                let same: Option<(String, i64, String)> = tx
+                    .query_row(
+                        "SELECT robot_id, at, report FROM calibrations WHERE id = ?1",
+                        [rec.id],
+                        |r| Ok((lossy(r, 0)?, r.get(1)?, lossy(r, 2)?)),
+                    )
+                    .optional()
+                    .map_err(|e| self.err(e))?;
+                match same {
+                    Some(s) if s == (rec.robot_id.clone(), rec.at, rec.report.clone()) => {
+                        return Ok(Added {
+                            id: rec.id,
+                            new: false,
+                        })
+                    }
+                    Some(_) => {}
+                    None => id = Some(rec.id),
+                }
+            }
         }
         tx.execute(
-            "INSERT INTO calibrations (robot_id, at, robot_name, model_fingerprint, data_fingerprint, method, solution,
+            "INSERT INTO calibrations (id, robot_id, at, robot_name, model_fingerprint, data_fingerprint, method, solution,
                 length_unit, angle_unit, rms_position_before, rms_position_after, rms_orientation_before,
-                rms_orientation_after, note, report)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)",
+                rms_orientation_after, note, report, idempotency_key)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
             params![
-                robot_id,
-                at,
-                report.robot,
-                report.robot_file_sha256.clone().unwrap_or_default(),
-                report.data_file_sha256.clone().unwrap_or_default(),
-                report.method.as_str(),
-                report.solution,
-                report.length_unit.as_str(),
-                report.angle_unit.as_str(),
-                report.rms_position_before,
-                report.rms_position_after,
-                report.rms_orientation_before.unwrap_or(0.0),
-                report.rms_orientation_after.unwrap_or(0.0),
-                note,
-                json
+                id,
+                rec.robot_id,
+                rec.at,
+                rec.robot_name,
+                rec.model_fingerprint,
+                rec.data_fingerprint,
+                rec.method,
+                rec.solution,
+                rec.length_unit,
+                rec.angle_unit,
+                rec.rms_position_before,
+                rec.rms_position_after,
+                rec.rms_orientation_before,
+                rec.rms_orientation_after,
+                rec.note,
+                rec.report,
+                rec.key,
             ],
         )
         .map_err(|e| self.err(e))?;
         let id = tx.last_insert_rowid();
-        for p in &report.parameters {
+        for p in &rec.parameters {
             tx.execute(
                 "INSERT INTO parameters (calibration_id, param_id, name, unit, value, sigma, estimated, determined)
                  VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                params![id, p.id, p.name, p.unit, p.estimated, p.sigma, p.estimated_flag, p.determined.unwrap_or(false)],
+                params![id, p.id, p.name, p.unit, p.value, p.sigma, p.estimated, p.determined],
             )
             .map_err(|e| self.err(e))?;
         }
-        for c in &report.combinations {
-            let terms: Vec<(String, String, f64)> = c
-                .terms
-                .iter()
-                .map(|t| (t.id.clone(), t.name.clone(), t.coefficient))
-                .collect();
-            let terms = serde_json::to_string(&terms).map_err(|e| self.err(e))?;
+        for c in &rec.combinations {
             tx.execute(
                 "INSERT INTO combinations (calibration_id, expression, terms, value, sigma) VALUES (?1, ?2, ?3, ?4, ?5)",
-                params![id, c.expression, terms, c.value, c.sigma],
+                params![id, c.expression, c.terms, c.value, c.sigma],
             )
             .map_err(|e| self.err(e))?;
         }
         tx.commit().map_err(|e| self.err(e))?;
-        Ok(id)
+        Ok(Added { id, new: true })
     }
 
     /// Refuses `model` unless it is the model of one of `robot_id`'s earlier records (or the
@@ -997,15 +1008,192 @@ impl Database {
                 .0
                 .insert(name, Kind::of(&unit));
         }
-        if earlier.is_empty() || earlier.values().any(|m| m == model) {
-            return Ok(());
+        model.check_against(robot_id, &earlier)
+    }
+
+    fn insert_event_row(&self, e: &Event, write: Write) -> Result<Added> {
+        if self.read_only {
+            return Err(self.err("opened for reading only; nothing was written"));
         }
-        let (&earlier_id, latest) = earlier.iter().next_back().expect("not empty");
-        Err(Error::ModelMismatch {
-            robot_id: printable(robot_id).into_owned(),
-            earlier_id,
-            difference: model.difference(latest),
-        })
+        let tx = self.begin()?;
+        let existing: Option<i64> = tx
+            .query_row(
+                "SELECT id FROM events WHERE robot_id = ?1 AND at = ?2 AND note = ?3",
+                params![e.robot_id, e.at, e.note],
+                |r| r.get(0),
+            )
+            .optional()
+            .map_err(|x| self.err(x))?;
+        if let Some(id) = existing {
+            return Ok(Added { id, new: false });
+        }
+        let id = match write {
+            Write::Import => {
+                let taken: Option<i64> = tx
+                    .query_row("SELECT id FROM events WHERE id = ?1", [e.id], |r| r.get(0))
+                    .optional()
+                    .map_err(|x| self.err(x))?;
+                taken.is_none().then_some(e.id)
+            }
+            Write::New { .. } => None,
+        };
+        tx.execute(
+            "INSERT INTO events (id, robot_id, at, note) VALUES (?1, ?2, ?3, ?4)",
+            params![id, e.robot_id, e.at, e.note],
+        )
+        .map_err(|x| self.err(x))?;
+        let id = tx.last_insert_rowid();
+        tx.commit().map_err(|x| self.err(x))?;
+        Ok(Added { id, new: true })
+    }
+
+    fn event_rows(&self, robot_id: Option<&str>) -> Result<Vec<Event>> {
+        if self.version < 2 {
+            return Ok(Vec::new());
+        }
+        let mut st = self
+            .conn
+            .prepare("SELECT id, robot_id, at, note FROM events ORDER BY at, id")
+            .map_err(|e| self.err(e))?;
+        let rows = st
+            .query_map([], |r| {
+                Ok(Event {
+                    id: r.get(0)?,
+                    robot_id: lossy(r, 1)?,
+                    at: r.get(2)?,
+                    note: lossy(r, 3)?,
+                })
+            })
+            .map_err(|e| self.err(e))?;
+        let mut out = Vec::new();
+        for e in rows {
+            let e = e.map_err(|e| self.err(e))?;
+            if robot_id.is_none_or(|r| r == e.robot_id) {
+                out.push(e);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Every record with every stored field, by id; an error naming the first record that
+    /// cannot be read exactly (a dump must be lossless).
+    fn all_stored(&self) -> Result<Vec<StoredRecord>> {
+        if self.version == 0 {
+            return Ok(Vec::new());
+        }
+        let _tx = self.conn.unchecked_transaction().map_err(|e| self.err(e))?;
+        let ids: Vec<i64> = {
+            let mut st = self
+                .conn
+                .prepare("SELECT id FROM calibrations ORDER BY id")
+                .map_err(|e| self.err(e))?;
+            let rows = st.query_map([], |r| r.get(0)).map_err(|e| self.err(e))?;
+            rows.collect::<rusqlite::Result<_>>()
+                .map_err(|e| self.err(e))?
+        };
+        let damaged = |id: i64, problem: String| Error::DamagedRecord {
+            path: self.path.clone(),
+            id,
+            problem,
+        };
+        let key_column = if self.version >= 2 {
+            "idempotency_key"
+        } else {
+            "NULL"
+        };
+        let mut out = Vec::with_capacity(ids.len());
+        for id in ids {
+            use field::{flag, integer, number, optional_number, text};
+            let mut rec = self
+                .conn
+                .query_row(
+                    &format!(
+                        "SELECT robot_id, at, robot_name, model_fingerprint, data_fingerprint, method, solution,
+                                length_unit, angle_unit, rms_position_before, rms_position_after,
+                                rms_orientation_before, rms_orientation_after, note, report, {key_column}
+                         FROM calibrations WHERE id = ?1"
+                    ),
+                    [id],
+                    |r| {
+                        Ok((|| -> field::Decoded<StoredRecord> {
+                            Ok(StoredRecord {
+                                id,
+                                key: match r.get_ref(15) {
+                                    Ok(ValueRef::Null) => None,
+                                    _ => Some(text(r, 15, "its key")?),
+                                },
+                                robot_id: text(r, 0, "its robot serial")?,
+                                at: integer(r, 1, "its time")?,
+                                robot_name: text(r, 2, "its robot model name")?,
+                                model_fingerprint: text(r, 3, "its model fingerprint")?,
+                                data_fingerprint: text(r, 4, "its data fingerprint")?,
+                                method: text(r, 5, "its method")?,
+                                solution: text(r, 6, "its solution rule")?,
+                                length_unit: text(r, 7, "its length unit")?,
+                                angle_unit: text(r, 8, "its angle unit")?,
+                                rms_position_before: number(r, 9, "its RMS position error before")?,
+                                rms_position_after: number(r, 10, "its RMS position error after")?,
+                                rms_orientation_before: number(r, 11, "its RMS attitude error before")?,
+                                rms_orientation_after: number(r, 12, "its RMS attitude error after")?,
+                                note: text(r, 13, "its note")?,
+                                report: text(r, 14, "its stored report")?,
+                                parameters: Vec::new(),
+                                combinations: Vec::new(),
+                            })
+                        })())
+                    },
+                )
+                .map_err(|e| self.err(e))?
+                .map_err(|p| damaged(id, p))?;
+            let mut st = self
+                .conn
+                .prepare(
+                    "SELECT param_id, name, unit, value, sigma, estimated, determined FROM parameters
+                     WHERE calibration_id = ?1 ORDER BY CAST(substr(param_id, 2) AS INTEGER)",
+                )
+                .map_err(|e| self.err(e))?;
+            let rows = st
+                .query_map([id], |r| {
+                    Ok((|| -> field::Decoded<StoredParameter> {
+                        Ok(StoredParameter {
+                            id: text(r, 0, "a parameter id")?,
+                            name: text(r, 1, "a parameter name")?,
+                            unit: text(r, 2, "a parameter unit")?,
+                            value: number(r, 3, "a parameter value")?,
+                            sigma: optional_number(r, 4, "a parameter sigma")?,
+                            estimated: flag(r, 5, "a parameter's estimated flag")?,
+                            determined: flag(r, 6, "a parameter's determined flag")?,
+                        })
+                    })())
+                })
+                .map_err(|e| self.err(e))?;
+            for p in rows {
+                rec.parameters
+                    .push(p.map_err(|e| self.err(e))?.map_err(|p| damaged(id, p))?);
+            }
+            let mut st = self
+                .conn
+                .prepare("SELECT expression, terms, value, sigma FROM combinations WHERE calibration_id = ?1 ORDER BY expression")
+                .map_err(|e| self.err(e))?;
+            let rows = st
+                .query_map([id], |r| {
+                    Ok((|| -> field::Decoded<StoredCombination> {
+                        Ok(StoredCombination {
+                            expression: text(r, 0, "a combination's expression")?,
+                            terms: text(r, 1, "a combination's terms")?,
+                            value: number(r, 2, "a combination's value")?,
+                            sigma: number(r, 3, "a combination's sigma")?,
+                        })
+                    })())
+                })
+                .map_err(|e| self.err(e))?;
+            for c in rows {
+                rec.combinations
+                    .push(c.map_err(|e| self.err(e))?.map_err(|p| damaged(id, p))?);
+            }
+            out.push(rec);
+        }
+        Ok(out)
     }
 
     /// The robots with a history, with their number of calibrations.
@@ -1072,21 +1260,6 @@ impl Database {
         Ok(out)
     }
 
-    /// Every calibration of `robot_id` (all robots when `None`), oldest first; an error
-    /// ([`Error::DamagedRecord`]) when one cannot be read ([`Database::records`] serves the
-    /// others).
-    pub fn calibrations(&self, robot_id: Option<&str>) -> Result<Vec<Calibration>> {
-        let r = self.records(robot_id)?;
-        match r.damaged.into_iter().next() {
-            Some(d) => Err(Error::DamagedRecord {
-                path: self.path.clone(),
-                id: d.id,
-                problem: d.problem,
-            }),
-            None => Ok(r.calibrations),
-        }
-    }
-
     /// One calibration by id ([`Error::DamagedRecord`] when it cannot be read).
     pub fn calibration(&self, id: i64) -> Result<Option<Calibration>> {
         if self.version == 0 {
@@ -1116,8 +1289,7 @@ impl Database {
                     Ok((|| -> field::Decoded<Calibration> {
                         let at = integer(r, 1, "its time")?;
                         let report = text(r, 14, "its stored report")?;
-                        let report: serde_json::Value = serde_json::from_str(&report)
-                            .map_err(|e| format!("its stored report is not valid JSON ({e})"))?;
+                        let report = crate::record::report_figures(&report)?;
                         let length_unit = text(r, 7, "its length unit")?;
                         let angle_unit = text(r, 8, "its angle unit")?;
                         Ok(Calibration {
@@ -1204,41 +1376,48 @@ impl Database {
     }
 }
 
-/// Refuses a report with a number SQLite could not store (NaN and infinities would be stored
-/// as NULL, or refused with an unhelpful message).
-fn check_finite(report: &CalibrationReport) -> Result<()> {
-    let bad = |what: String| {
-        Error::Input(format!(
-            "the report's {what} is not a finite number; not recorded"
-        ))
-    };
-    for (what, v) in [
-        (
-            "RMS position error before",
-            Some(report.rms_position_before),
-        ),
-        ("RMS position error after", Some(report.rms_position_after)),
-        ("RMS attitude error before", report.rms_orientation_before),
-        ("RMS attitude error after", report.rms_orientation_after),
-    ] {
-        if v.is_some_and(|v| !v.is_finite()) {
-            return Err(bad(what.to_string()));
-        }
+impl Store for SqliteStore {
+    fn location(&self) -> &str {
+        &self.path
     }
-    for p in &report.parameters {
-        if !p.estimated.is_finite() {
-            return Err(bad(format!("value of {} ({})", p.id, printable(&p.name))));
-        }
-        if p.sigma.is_some_and(|s| !s.is_finite()) {
-            return Err(bad(format!("sigma of {} ({})", p.id, printable(&p.name))));
-        }
+
+    fn backend(&self) -> Backend {
+        Backend::Sqlite
     }
-    for c in &report.combinations {
-        if !(c.value.is_finite() && c.sigma.is_finite())
-            || c.terms.iter().any(|t| !t.coefficient.is_finite())
-        {
-            return Err(bad(format!("combination `{}`", printable(&c.expression))));
-        }
+
+    fn schema_version(&self) -> i64 {
+        self.version
     }
-    Ok(())
+
+    fn integrity_problem(&self) -> Option<&str> {
+        SqliteStore::integrity_problem(self)
+    }
+
+    fn insert(&self, record: &StoredRecord, write: Write) -> Result<Added> {
+        self.insert_record(record, write)
+    }
+
+    fn robots(&self) -> Result<Vec<(String, i64)>> {
+        SqliteStore::robots(self)
+    }
+
+    fn records(&self, robot_id: Option<&str>) -> Result<Records> {
+        SqliteStore::records(self, robot_id)
+    }
+
+    fn calibration(&self, id: i64) -> Result<Option<Calibration>> {
+        SqliteStore::calibration(self, id)
+    }
+
+    fn insert_event(&self, event: &Event, write: Write) -> Result<Added> {
+        self.insert_event_row(event, write)
+    }
+
+    fn events(&self, robot_id: Option<&str>) -> Result<Vec<Event>> {
+        self.event_rows(robot_id)
+    }
+
+    fn stored_records(&self) -> Result<Vec<StoredRecord>> {
+        self.all_stored()
+    }
 }

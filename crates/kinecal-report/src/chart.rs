@@ -16,6 +16,8 @@ pub struct Line {
     pub points: bool,
     /// Optional +- error bars.
     pub error: Option<Vec<f64>>,
+    /// The palette colour (an index; default: the line's position in the panel).
+    pub color: Option<usize>,
 }
 
 impl Line {
@@ -26,6 +28,7 @@ impl Line {
             y,
             points: false,
             error: None,
+            color: None,
         }
     }
 }
@@ -48,6 +51,8 @@ pub struct Panel {
     pub mark_x: Option<f64>,
     /// Horizontal reference lines (value, label).
     pub h_lines: Vec<(f64, String)>,
+    /// Vertical marks (x, label): events, drawn dash-dotted, each with its legend entry.
+    pub v_lines: Vec<(f64, String)>,
     /// Logarithmic y axis.
     pub log_y: bool,
     /// A categorical x axis: `x` holds indices 0..n and these are their labels (parameter ids).
@@ -116,8 +121,14 @@ fn bounds(p: &Panel) -> (f64, f64, f64, f64) {
     }
     let (mut x0, mut x1) = if p.x_names.is_empty() {
         (
-            p.x.iter().copied().fold(f64::INFINITY, f64::min),
-            p.x.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            p.x.iter()
+                .chain(p.v_lines.iter().map(|v| &v.0))
+                .copied()
+                .fold(f64::INFINITY, f64::min),
+            p.x.iter()
+                .chain(p.v_lines.iter().map(|v| &v.0))
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max),
         )
     } else {
         (-0.5, p.x_names.len() as f64 - 0.5)
@@ -233,7 +244,12 @@ fn legend_position(p: &Panel, (x0, x1, y0, y1): (f64, f64, f64, f64)) -> (f64, f
             pts.push((fx(a + (b - a) * k as f64 / 4.0), fy(c)));
         }
     }
-    let entries = p.lines.len() + p.h_lines.len();
+    for (v, _) in &p.v_lines {
+        for k in 0..=20 {
+            pts.push((fx(*v), k as f64 / 20.0));
+        }
+    }
+    let entries = p.lines.len() + p.h_lines.len() + p.v_lines.len();
     let (w, h) = (0.32, 0.08 + 0.06 * entries as f64);
     let covered = |bx: f64, by: f64| {
         pts.iter()
@@ -339,7 +355,7 @@ where
                     .map_err(|e| err(&e))?;
             }
             for (k, l) in p.lines.iter().enumerate() {
-                let color = COLORS[k % COLORS.len()];
+                let color = COLORS[l.color.unwrap_or(k) % COLORS.len()];
                 let pts: Vec<(f64, f64)> =
                     p.x.iter()
                         .zip(&l.y)
@@ -366,9 +382,18 @@ where
                 }
                 if let Some(e) = &l.error {
                     $chart
-                        .draw_series(p.x.iter().zip(&l.y).zip(e).map(|((&x, &y), &e)| {
-                            PathElement::new(vec![(x, y - e), (x, y + e)], color.stroke_width(1))
-                        }))
+                        .draw_series(
+                            p.x.iter()
+                                .zip(&l.y)
+                                .zip(e)
+                                .filter(|((_, y), e)| y.is_finite() && e.is_finite())
+                                .map(|((&x, &y), &e)| {
+                                    PathElement::new(
+                                        vec![(x, y - e), (x, y + e)],
+                                        color.stroke_width(1),
+                                    )
+                                }),
+                        )
                         .map_err(|e| err(&e))?;
                 }
                 if let Some(m) = p.mark_x {
@@ -412,9 +437,25 @@ where
                         PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(1))
                     });
             }
-            if p.lines.len() + p.h_lines.len() > 0 {
+            for (v, label) in &p.v_lines {
+                let ink = RGBColor(90, 60, 160);
+                $chart
+                    .draw_series(DashedLineSeries::new(
+                        vec![(*v, y0), (*v, y1)],
+                        8,
+                        3,
+                        ink.stroke_width(2),
+                    ))
+                    .map_err(|e| err(&e))?
+                    .label(label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], ink.stroke_width(2))
+                    });
+            }
+            let entries = p.lines.len() + p.h_lines.len() + p.v_lines.len();
+            if entries > 0 {
                 let (pw, ph) = $chart.plotting_area().dim_in_pixel();
-                let entries = (p.lines.len() + p.h_lines.len()) as f64;
+                let entries = entries as f64;
                 let top = legend_at.1 + 0.08 + 0.06 * entries;
                 let at = SeriesLabelPosition::Coordinate(
                     (legend_at.0 * pw as f64) as i32,

@@ -50,7 +50,7 @@ pub(crate) fn esc(s: &str) -> String {
 
 /// Inline SVG: the namespace declaration is dropped (HTML5 knows inline SVG), so the file holds
 /// no URL at all.
-fn inline(svg: String) -> String {
+pub(crate) fn inline(svg: String) -> String {
     svg.replace(" xmlns=\"http://www.w3.org/2000/svg\"", "")
         .replace(" xmlns:xlink=\"http://www.w3.org/1999/xlink\"", "")
 }

@@ -6,6 +6,7 @@
 //! the system (no fontconfig, no freetype).
 
 mod chart;
+pub mod fleet;
 mod html;
 pub mod iso9283;
 pub mod plan;

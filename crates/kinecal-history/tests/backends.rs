@@ -1,0 +1,611 @@
+//! The history's promises on both back ends: every test here runs on a SQLite file and on a
+//! PostgreSQL database (`KINECAL_TEST_PG`, see `common/pg.rs`; skipped without one, unless `CI`
+//! is set). Then what only a server has: roles, passwords; and moving a history between back
+//! ends losslessly.
+
+mod common;
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::pg::{self, TestDb};
+use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::report::CalibrationReport;
+use kinecal::{examples, simulate, ParamId};
+use kinecal_history::{
+    current_segment, drift, fleet, AddOptions, Database, DriftOptions, Error, FleetOptions,
+    Tolerances, Verdict,
+};
+use rand::{RngExt, SeedableRng};
+
+/// A calibration of the GE A4 (link 1's x and y, link 3's y) on simulated data; `shift` moves
+/// link 3's y (inches, the robot file's unit).
+fn report(seed: u64, shift: f64) -> CalibrationReport {
+    let mut robot = examples::ge_a4();
+    robot.set(ParamId(13), robot.get(ParamId(13)) + shift * 0.0254);
+    let nominal = examples::ge_a4();
+    let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 10, seed), false);
+    simulate::add_noise(&mut data, 1e-5, 1e-5, seed + 1);
+    let cal = calibrate(
+        &nominal,
+        &data,
+        &CalibrationOptions::new(vec![ParamId(0), ParamId(1), ParamId(13)]),
+        &mut |_| {},
+    )
+    .unwrap();
+    let u = kinecal::uncertainty::uncertainty(&cal, &data, &nominal).unwrap();
+    let mut rep = CalibrationReport::new(&cal, &data);
+    rep.set_uncertainty(&cal, &u);
+    // As `kinecal calibrate` keys them: by the files read (here, what they would hold).
+    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(b"ge-a4"));
+    rep.data_file_sha256 = Some(kinecal_history::fingerprint(
+        format!("seed {seed}, shift {shift}").as_bytes(),
+    ));
+    rep
+}
+
+fn shared_report() -> CalibrationReport {
+    static R: std::sync::OnceLock<CalibrationReport> = std::sync::OnceLock::new();
+    R.get_or_init(|| report(1, 0.0)).clone()
+}
+
+const T0: i64 = 1_790_000_000;
+const DAY: i64 = 86_400;
+
+/// A location of each back end for one test: a SQLite file in a fresh folder, or a fresh
+/// PostgreSQL database. Kept alive for the test.
+enum Place {
+    File(tempfile::TempDir),
+    Server(TestDb),
+}
+
+impl Place {
+    fn location(&self) -> String {
+        match self {
+            Place::File(d) => d.path().join("h.sqlite").display().to_string(),
+            Place::Server(db) => db.url.clone(),
+        }
+    }
+}
+
+fn sqlite() -> Option<Place> {
+    Some(Place::File(tempfile::tempdir().unwrap()))
+}
+
+fn postgres(tag: &str) -> Option<Place> {
+    TestDb::new(tag).map(Place::Server)
+}
+
+/// Each test once per back end: `mod sqlite { fn name() }` and `mod postgres { fn name() }`.
+macro_rules! on_both_backends {
+    ($($name:ident),* $(,)?) => {
+        mod on_sqlite {
+            $(#[test]
+            fn $name() {
+                let place = super::sqlite().unwrap();
+                super::$name(&place.location());
+            })*
+        }
+        mod on_postgres {
+            $(#[test]
+            fn $name() {
+                if let Some(place) = super::postgres(stringify!($name)) {
+                    super::$name(&place.location());
+                }
+            })*
+        }
+    };
+}
+
+on_both_backends!(
+    records_round_trip,
+    the_same_calibration_is_recorded_once,
+    a_calibration_of_another_model_is_refused_unless_forced,
+    reads_never_create_a_history,
+    events_cut_drift_into_segments,
+    the_fleet_is_sorted_by_urgency,
+    concurrent_writers_killed_and_retried_leave_every_record_once,
+);
+
+fn records_round_trip(loc: &str) {
+    let db = Database::connect(loc).unwrap();
+    let rep = shared_report();
+    let id = db.add("R1", Some(T0), &rep, "first").unwrap();
+    let c = db.calibration(id).unwrap().unwrap();
+    assert_eq!(
+        (c.robot_id.as_str(), c.note.as_str(), c.at),
+        ("R1", "first", T0)
+    );
+    assert_eq!(c.parameters.len(), 38);
+    for (p, r) in c.parameters.iter().zip(&rep.parameters) {
+        assert_eq!(
+            (&p.id, &p.name, p.estimated),
+            (&r.id, &r.name, r.estimated_flag)
+        );
+        assert_eq!(p.value.to_bits(), r.estimated.to_bits(), "{}", p.id);
+        assert_eq!(p.sigma.map(f64::to_bits), r.sigma.map(f64::to_bits));
+    }
+    assert_eq!(db.robots().unwrap(), vec![("R1".to_string(), 1)]);
+    assert!(db.add(" ", None, &rep, "").is_err());
+    // Oldest first, by robot; a reader sees the same.
+    db.add("R0", Some(T0 + 5), &rep, "").unwrap();
+    db.add("R1", Some(T0 - 5), &rep, "earlier").unwrap();
+    let reader = Database::connect_read_only(loc).unwrap();
+    let all = reader.calibrations(None).unwrap();
+    let order: Vec<(&str, i64)> = all.iter().map(|c| (c.robot_id.as_str(), c.at)).collect();
+    assert_eq!(order, [("R0", T0 + 5), ("R1", T0 - 5), ("R1", T0)]);
+    assert_eq!(all, db.calibrations(None).unwrap());
+    assert!(reader.add("R9", None, &rep, "").is_err(), "a reader wrote");
+}
+
+fn the_same_calibration_is_recorded_once(loc: &str) {
+    let db = Database::connect(loc).unwrap();
+    let rep = shared_report();
+    let a = db
+        .record("R1", Some(T0), &rep, "", AddOptions::default())
+        .unwrap();
+    assert!(a.new);
+    // A retry (same robot, report and time): the same record, nothing written.
+    let b = db
+        .record("R1", Some(T0), &rep, "retry", AddOptions::default())
+        .unwrap();
+    assert_eq!((b.id, b.new), (a.id, false));
+    // Without a time: keyed by the report alone, so a retry is found too.
+    let c = db
+        .record("R1", None, &rep, "", AddOptions::default())
+        .unwrap();
+    let d = db
+        .record("R1", None, &rep, "", AddOptions::default())
+        .unwrap();
+    assert!(c.new && !d.new && c.id == d.id);
+    // Another time, another robot, another calibration: new records.
+    assert!(
+        db.record("R1", Some(T0 + DAY), &rep, "", AddOptions::default())
+            .unwrap()
+            .new
+    );
+    assert!(
+        db.record("R2", Some(T0), &rep, "", AddOptions::default())
+            .unwrap()
+            .new
+    );
+    assert!(
+        db.record("R1", Some(T0), &report(2, 0.0), "", AddOptions::default())
+            .unwrap()
+            .new
+    );
+    assert_eq!(db.calibrations(None).unwrap().len(), 5);
+    // Events too.
+    let e = db.add_event("R1", T0, "gearbox J2 replaced").unwrap();
+    let f = db.add_event("R1", T0, "gearbox J2 replaced").unwrap();
+    assert!(e.new && !f.new && e.id == f.id);
+    assert!(db.add_event("R1", T0, " ").is_err());
+}
+
+fn a_calibration_of_another_model_is_refused_unless_forced(loc: &str) {
+    let db = Database::connect(loc).unwrap();
+    db.add("R1", Some(T0), &shared_report(), "").unwrap();
+    let mut other = shared_report();
+    other.parameters.pop();
+    let e = db.add("R1", Some(T0 + 1), &other, "").unwrap_err();
+    assert!(matches!(e, Error::ModelMismatch { .. }), "{e}");
+    assert_eq!(db.calibrations(None).unwrap().len(), 1);
+    db.add_with("R1", Some(T0 + 1), &other, "", AddOptions { force: true })
+        .unwrap();
+    assert_eq!(db.calibrations(None).unwrap().len(), 2);
+}
+
+fn reads_never_create_a_history(loc: &str) {
+    match Database::connect_read_only(loc) {
+        Err(Error::NoDatabase { .. }) => {}
+        Err(e) => panic!("unexpected error {e}"),
+        Ok(_) => panic!("a reader found a history where none was"),
+    }
+    // Nothing was created: a writer then creates the schema at the current version.
+    let db = Database::connect(loc).unwrap();
+    assert_eq!(db.store().schema_version(), kinecal_history::SCHEMA_VERSION);
+    assert!(db.calibrations(None).unwrap().is_empty());
+}
+
+/// Link 3 drifts by 0.01 a month; a repair on day 95 resets it; after it, drift is computed
+/// from the repair on, and nothing is flagged.
+fn events_cut_drift_into_segments(loc: &str) {
+    let db = Database::connect(loc).unwrap();
+    let shifts = [0.0, 0.01, 0.02, 0.03, 0.0, 0.0, 0.0];
+    for (k, s) in shifts.iter().enumerate() {
+        db.add(
+            "R1",
+            Some(T0 + 30 * DAY * k as i64),
+            &report(10 + k as u64, *s),
+            "",
+        )
+        .unwrap();
+    }
+    let history = db.calibrations(Some("R1")).unwrap();
+    let opts = DriftOptions::default();
+    // Over the whole history (no event): the repair looks like no change, but the run of
+    // months 1-3 does not.
+    assert!(drift(&history[..4], &opts).unwrap().flags.len() == 1);
+    db.add_event("R1", T0 + 95 * DAY, "gearbox J2 replaced")
+        .unwrap();
+    let events = db.events(Some("R1")).unwrap();
+    assert_eq!(events.len(), 1);
+    let (seg, ev) = current_segment(&history, &events);
+    assert_eq!(seg.len(), 3);
+    assert_eq!(seg[0].at, T0 + 120 * DAY);
+    assert_eq!(ev.unwrap().note, "gearbox J2 replaced");
+    assert!(drift(seg, &opts).unwrap().flags.is_empty());
+    // An event after the latest calibration: nothing in the segment.
+    db.add_event("R1", T0 + 400 * DAY, "motor 3 replaced")
+        .unwrap();
+    let events = db.events(None).unwrap();
+    assert!(current_segment(&history, &events).0.is_empty());
+}
+
+/// Three robots: one drifting past its tolerance (flagged), one drifting slowly (due within the
+/// horizon), one steady (ok); sorted flagged, due, ok; the due robot's crossing is where its
+/// trend line meets the tolerance.
+fn the_fleet_is_sorted_by_urgency(loc: &str) {
+    let db = Database::connect(loc).unwrap();
+    for k in 0..5i64 {
+        let at = Some(T0 + 30 * DAY * k);
+        db.add("C-steady", at, &report(30 + k as u64, 0.0), "")
+            .unwrap();
+        db.add("A-fast", at, &report(40 + k as u64, 0.01 * k as f64), "")
+            .unwrap();
+        db.add("B-slow", at, &report(50 + k as u64, 0.002 * k as f64), "")
+            .unwrap();
+    }
+    let records = db.records(None).unwrap();
+    let key = drift(&records.calibrations[..5], &DriftOptions::default())
+        .unwrap()
+        .quantities
+        .iter()
+        .find(|q| q.parameters.contains(&"p14".to_string()))
+        .expect("link 3's y is tracked")
+        .key
+        .clone();
+    // Flags by the tolerance alone (K so large that no change reaches it).
+    let opts = FleetOptions {
+        drift: DriftOptions {
+            tolerances: Tolerances::from_entries(vec![(key.clone(), 0.02)]),
+            sigma: 1e6,
+            ..Default::default()
+        },
+        now: T0 + 120 * DAY,
+        horizon: 365 * DAY,
+    };
+    let f = fleet(&records.calibrations, &db.events(None).unwrap(), &opts).unwrap();
+    let order: Vec<(&str, Verdict)> = f.iter().map(|r| (r.robot_id.as_str(), r.verdict)).collect();
+    assert_eq!(
+        order,
+        [
+            ("A-fast", Verdict::Flagged),
+            ("B-slow", Verdict::Due),
+            ("C-steady", Verdict::Ok)
+        ]
+    );
+    // B drifts 0.002 a month (link 3's y shrinks the sum): 0.02 is crossed ~10 months after
+    // the first calibration.
+    let t = f[1].trends.iter().find(|t| t.key == key).unwrap();
+    let rate = t.rate_per_month.unwrap();
+    assert!(
+        (rate.abs() - 0.002).abs() < 4.0 * t.rate_sigma.unwrap(),
+        "{rate}"
+    );
+    let months = (t.crossing.unwrap() - T0) as f64 / (30.0 * DAY as f64);
+    assert!((7.0..14.0).contains(&months), "{months}");
+    assert_eq!(f[0].flags, vec![key]);
+}
+
+/// One writer process (run by the test below in children): 50 calibrations of 5 robots,
+/// each with its time.
+#[test]
+fn writer_child() {
+    let (Ok(loc), Ok(id)) = (
+        std::env::var("KINECAL_TEST_WRITER_DB"),
+        std::env::var("KINECAL_TEST_WRITER_ID"),
+    ) else {
+        return;
+    };
+    let rep = shared_report();
+    let db = Database::connect(&loc).unwrap();
+    for k in 0..50i64 {
+        db.add(&format!("W{id}-{}", k % 5), Some(T0 + k * DAY), &rep, "")
+            .unwrap();
+    }
+}
+
+/// 20 processes write 50 records each at once; some are killed at random moments (SIGKILL, mid
+/// transaction or not) and run again, as a job system retries a failed task. In the end: 1,000
+/// records, each once, each whole (every parameter and combination).
+fn concurrent_writers_killed_and_retried_leave_every_record_once(loc: &str) {
+    // The schema first, as `kinecal history init` would: then the children only write.
+    Database::connect(loc).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(28);
+    let spawn = |w: usize| {
+        Command::new(std::env::current_exe().unwrap())
+            .args(["--exact", "writer_child", "--nocapture"])
+            .env("KINECAL_TEST_WRITER_DB", loc)
+            .env("KINECAL_TEST_WRITER_ID", w.to_string())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let t = Instant::now();
+    let mut children: Vec<_> = (0..20).map(|w| (w, spawn(w))).collect();
+    let mut kills = 0;
+    let mut round = 0;
+    while !children.is_empty() {
+        round += 1;
+        // Kill a random third of the running writers after a random delay (the first rounds).
+        if round <= 3 {
+            std::thread::sleep(Duration::from_millis(rng.random_range(20..200)));
+            for (_, c) in children.iter_mut() {
+                if rng.random_range(0..3) == 0 && c.try_wait().unwrap().is_none() {
+                    let _ = c.kill();
+                    kills += 1;
+                }
+            }
+        }
+        let mut again = Vec::new();
+        for (w, mut c) in children {
+            let status = c.wait().unwrap();
+            if !status.success() {
+                again.push((w, spawn(w)));
+            }
+        }
+        children = again;
+        assert!(round < 50, "writers keep failing");
+    }
+    assert!(kills > 0, "no writer was killed: the retry was not tested");
+    let db = Database::connect_read_only(loc).unwrap();
+    let records = db.records(None).unwrap();
+    assert!(records.damaged.is_empty());
+    assert_eq!(records.calibrations.len(), 1000);
+    let mut seen: Vec<(String, i64)> = records
+        .calibrations
+        .iter()
+        .map(|c| (c.robot_id.clone(), c.at))
+        .collect();
+    seen.sort();
+    seen.dedup();
+    assert_eq!(seen.len(), 1000, "duplicates");
+    let rep = shared_report();
+    for c in &records.calibrations {
+        assert_eq!(c.parameters.len(), rep.parameters.len(), "a partial record");
+        assert_eq!(
+            c.combinations.len(),
+            rep.combinations.len(),
+            "a partial record"
+        );
+    }
+    eprintln!(
+        "20 writers x 50 records, {kills} killed and rerun: 1000 records in {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+}
+
+/// A history written by kinecal before schema version 2 (tests/data/README.md) opens for
+/// reading as it is, migrates on the first write, and reads the same after.
+#[test]
+fn a_version_1_file_migrates() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("v1.sqlite");
+    std::fs::copy(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/v1-history.sqlite"),
+        &path,
+    )
+    .unwrap();
+    let version = |p: &std::path::Path| -> i64 {
+        rusqlite::Connection::open(p)
+            .unwrap()
+            .query_row("PRAGMA user_version", [], |r| r.get(0))
+            .unwrap()
+    };
+    assert_eq!(version(&path), 1);
+    let before = Database::open_read_only(&path)
+        .unwrap()
+        .calibrations(None)
+        .unwrap();
+    assert_eq!(before.len(), 2);
+    assert_eq!(version(&path), 1, "a reader migrated");
+    let db = Database::open(&path).unwrap();
+    assert_eq!(version(&path), 2);
+    assert_eq!(db.calibrations(None).unwrap(), before);
+    // The old records have no key; new ones do, and events work.
+    let dump = db.dump().unwrap();
+    assert!(dump.calibrations.iter().all(|r| r.key.is_none()));
+    let added = db
+        .record(
+            "A4-0042",
+            Some(T0),
+            &shared_report(),
+            "",
+            AddOptions::default(),
+        )
+        .unwrap();
+    assert!(added.new && added.id == 3);
+    assert!(db.dump().unwrap().calibrations[2].key.is_some());
+    db.add_event("A4-0042", T0, "gearbox J2 replaced").unwrap();
+    assert_eq!(db.events(None).unwrap().len(), 1);
+}
+
+#[test]
+fn a_newer_schema_is_refused_with_its_version() {
+    // SQLite: covered for the file in tests/store.rs; here the server.
+    let Some(t) = TestDb::new("newer") else {
+        return;
+    };
+    Database::connect(&t.url).unwrap();
+    t.client()
+        .batch_execute("UPDATE kinecal.schema_version SET version = 7")
+        .unwrap();
+    for r in [
+        Database::connect(&t.url),
+        Database::connect_read_only(&t.url),
+    ] {
+        match r {
+            Err(e @ Error::NewerSchema { found: 7, .. }) => {
+                assert!(e.to_string().contains("schema version 7"), "{e}")
+            }
+            Err(e) => panic!("unexpected error {e}"),
+            Ok(_) => panic!("opened a newer schema"),
+        }
+    }
+}
+
+/// SQLite -> PostgreSQL -> SQLite: every stored field identical, ids included; importing again
+/// adds nothing.
+#[test]
+fn a_history_moves_between_back_ends_losslessly() {
+    let Some(t) = TestDb::new("moves") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let a = Database::open(&dir.path().join("a.sqlite")).unwrap();
+    for k in 0..4i64 {
+        a.add(
+            "R1",
+            Some(T0 + k * DAY),
+            &report(60 + k as u64, 0.003 * k as f64),
+            "n\u{e9}e\n",
+        )
+        .unwrap();
+        a.add("R2", None, &report(70 + k as u64, 0.0), "").unwrap();
+    }
+    a.add_event("R1", T0 + DAY, "gearbox J2 replaced").unwrap();
+    let dump = a.dump().unwrap();
+    let pg = Database::connect(&t.url).unwrap();
+    let s = pg.import(&dump).unwrap();
+    assert_eq!((s.added, s.present, s.events_added), (8, 0, 1));
+    assert_eq!(pg.dump().unwrap(), dump);
+    assert_eq!(pg.import(&dump).unwrap().added, 0);
+    let b = Database::open(&dir.path().join("b.sqlite")).unwrap();
+    b.import(&Dump::from_json(&pg.dump().unwrap().to_json(), "dump").unwrap())
+        .unwrap();
+    assert_eq!(b.dump().unwrap(), dump);
+    assert_eq!(b.calibrations(None).unwrap(), a.calibrations(None).unwrap());
+    // New records after an import get new ids.
+    let id = pg.add("R3", Some(T0), &shared_report(), "").unwrap();
+    assert!(id > dump.calibrations.iter().map(|r| r.id).max().unwrap());
+}
+
+use kinecal_history::Dump;
+
+/// The roles of the README, created by its SQL: a reader reads and cannot write (a clear
+/// error), a writer writes; passwords never appear in a message.
+#[test]
+fn roles_as_the_readme_creates_them() {
+    let Some(t) = TestDb::new("roles") else {
+        return;
+    };
+    // The schema, by its owner.
+    let owner = Database::connect(&t.url).unwrap();
+    owner.add("R1", Some(T0), &shared_report(), "").unwrap();
+    drop(owner);
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
+    let sql = readme
+        .split("```sql\n")
+        .nth(1)
+        .and_then(|s| s.split("```").next())
+        .expect("the README's roles SQL");
+    // Roles belong to the server, not the database: suffixed, so tests never collide.
+    let suffix = format!("_{}", std::process::id());
+    let sql = sql
+        .replace("kinecal_reader", &format!("kinecal_reader{suffix}"))
+        .replace("kinecal_writer", &format!("kinecal_writer{suffix}"))
+        .replace("maint ", &format!("maint{suffix} "))
+        .replace("cell07 ", &format!("cell07{suffix} "))
+        .replace(
+            "DATABASE kinecal",
+            &format!("DATABASE {}", t.url.rsplit('/').next().unwrap()),
+        );
+    let mut admin = t.client();
+    admin.batch_execute(&sql).unwrap();
+    let (reader_pw, writer_pw) = ("maint-secret-5af3", "cell07-secret-91bd");
+    let reader_url = pg::with_user(&t.url, &format!("maint{suffix}"), reader_pw);
+    let writer_url = pg::with_user(&t.url, &format!("cell07{suffix}"), writer_pw);
+    admin
+        .batch_execute(&format!(
+            "ALTER ROLE maint{suffix} PASSWORD '{reader_pw}'; ALTER ROLE cell07{suffix} PASSWORD '{writer_pw}';"
+        ))
+        .unwrap();
+    // The reader reads...
+    let r = Database::connect_read_only(&reader_url).unwrap();
+    assert_eq!(r.calibrations(None).unwrap().len(), 1);
+    assert!(r.events(None).unwrap().is_empty());
+    assert!(!r.path().contains(reader_pw));
+    // ... and cannot write, even opened for writing: a clear error, no password in it.
+    let w = Database::connect(&reader_url).unwrap();
+    let e = w
+        .add("R1", Some(T0 + 1), &shared_report(), "")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("permission denied") && e.contains("writer"),
+        "{e}"
+    );
+    assert!(!e.contains(reader_pw), "{e}");
+    let e = w.add_event("R1", T0, "x").unwrap_err().to_string();
+    assert!(e.contains("permission denied"), "{e}");
+    // The writer writes, retries without duplicates.
+    let w = Database::connect(&writer_url).unwrap();
+    let a = w
+        .record(
+            "R1",
+            Some(T0 + 1),
+            &shared_report(),
+            "",
+            AddOptions::default(),
+        )
+        .unwrap();
+    let b = w
+        .record(
+            "R1",
+            Some(T0 + 1),
+            &shared_report(),
+            "",
+            AddOptions::default(),
+        )
+        .unwrap();
+    assert!(a.new && !b.new);
+    w.add_event("R1", T0, "gearbox J2 replaced").unwrap();
+    // A wrong password: refused, the password not shown.
+    let wrong = pg::with_user(&t.url, &format!("maint{suffix}"), "Wr0ng-pa55word");
+    let e = Database::connect_read_only(&wrong)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("password authentication failed"), "{e}");
+    assert!(!e.contains("Wr0ng-pa55word"), "{e}");
+    // The roles go with the test.
+    drop((r, w));
+    let _ = admin.batch_execute(&format!(
+        "REVOKE ALL ON ALL TABLES IN SCHEMA kinecal FROM kinecal_reader{suffix}, kinecal_writer{suffix};
+         REVOKE ALL ON ALL SEQUENCES IN SCHEMA kinecal FROM kinecal_writer{suffix};
+         DROP OWNED BY maint{suffix}, cell07{suffix}, kinecal_reader{suffix}, kinecal_writer{suffix};
+         DROP ROLE maint{suffix}; DROP ROLE cell07{suffix}; DROP ROLE kinecal_writer{suffix}; DROP ROLE kinecal_reader{suffix};"
+    ));
+}
+
+#[test]
+fn a_server_that_is_not_there_is_named_without_the_password() {
+    // Port 1 on loopback: nothing listens.
+    let e = Database::connect("postgres://alice:Sup3r-s3cret@127.0.0.1:1/kinecal")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("postgres://alice@127.0.0.1:1/kinecal") && e.contains("cannot connect"),
+        "{e}"
+    );
+    assert!(!e.contains("Sup3r-s3cret"), "{e}");
+    let e = Database::connect("postgres://alice:Sup3r-s3cret@127.0.0.1:notaport/kinecal")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(!e.contains("Sup3r-s3cret"), "{e}");
+}

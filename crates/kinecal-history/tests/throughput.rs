@@ -1,0 +1,185 @@
+//! Measured, not asserted (ignored by default; the figures are in the README):
+//!
+//! ```sh
+//! eval "$(bash scripts/pg-test-server.sh start)"   # for the PostgreSQL figures
+//! cargo test -p kinecal-history --test throughput -- --ignored --nocapture --test-threads 1
+//! ```
+//!
+//! Write throughput (records per second) of one writer and of 20 writers at once (each its own
+//! connection, as 20 processes would have), on SQLite and PostgreSQL; and the time of the fleet
+//! analysis (read every record, drift, trends, crossings) for 1,000 robots x 20 calibrations.
+
+mod common;
+
+use std::time::Instant;
+
+use common::pg::TestDb;
+use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::report::CalibrationReport;
+use kinecal::{examples, simulate, ParamId};
+use kinecal_history::{fleet, Database, DriftOptions, FleetOptions, Tolerances};
+
+const T0: i64 = 1_790_000_000;
+const DAY: i64 = 86_400;
+
+/// A calibration of the GE A4 on 30 simulated postures (every parameter but the z lengths).
+fn report() -> CalibrationReport {
+    let robot = examples::ge_a4();
+    let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 1), false);
+    simulate::add_noise(&mut data, 1e-5, 1e-5, 2);
+    let params: Vec<ParamId> = (0..38)
+        .filter(|i| ![2, 8].contains(i))
+        .map(ParamId)
+        .collect();
+    let cal = calibrate(&robot, &data, &CalibrationOptions::new(params), &mut |_| {}).unwrap();
+    let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
+    let mut rep = CalibrationReport::new(&cal, &data);
+    rep.set_uncertainty(&cal, &u);
+    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(b"ge-a4"));
+    rep.data_file_sha256 = Some(kinecal_history::fingerprint(b"data"));
+    rep
+}
+
+/// Records/s of `writers` threads writing `per_writer` records each into `loc`.
+fn throughput(loc: &str, writers: usize, per_writer: usize, rep: &CalibrationReport) -> f64 {
+    Database::connect(loc).unwrap();
+    let t = Instant::now();
+    std::thread::scope(|s| {
+        for w in 0..writers {
+            s.spawn(move || {
+                let db = Database::connect(loc).unwrap();
+                for k in 0..per_writer {
+                    let robot = format!("T{w}-{}", k % 20);
+                    db.add(&robot, Some(T0 + (k as i64) * DAY), rep, "")
+                        .unwrap();
+                }
+            });
+        }
+    });
+    (writers * per_writer) as f64 / t.elapsed().as_secs_f64()
+}
+
+fn places(tag: &str) -> Vec<(String, String, Option<TestDb>, Option<tempfile::TempDir>)> {
+    let mut v = Vec::new();
+    let dir = tempfile::tempdir().unwrap();
+    v.push((
+        "sqlite".to_string(),
+        dir.path().join("h.sqlite").display().to_string(),
+        None,
+        Some(dir),
+    ));
+    if let Some(db) = TestDb::new(tag) {
+        v.push(("postgres".to_string(), db.url.clone(), Some(db), None));
+    }
+    v
+}
+
+#[test]
+#[ignore = "a measurement: run with --ignored --nocapture"]
+fn write_throughput() {
+    let rep = report();
+    eprintln!("report stored: {} bytes of JSON", rep.to_json().len());
+    for (name, loc, _db, _dir) in places("throughput1") {
+        let one = throughput(&loc, 1, 500, &rep);
+        eprintln!("{name}: 1 writer: {one:.0} records/s (500 records)");
+    }
+    for (name, loc, _db, _dir) in places("throughput20") {
+        let many = throughput(&loc, 20, 50, &rep);
+        eprintln!("{name}: 20 writers: {many:.0} records/s (1000 records)");
+    }
+}
+
+#[test]
+#[ignore = "a measurement: run with --ignored --nocapture"]
+fn fleet_of_1000_robots_with_20_calibrations_each() {
+    let rep = report();
+    for (name, loc, _db, _dir) in places("fleet1000") {
+        let t = Instant::now();
+        let db = Database::connect(&loc).unwrap();
+        if name == "postgres" {
+            // As a fleet writes it: 20 writers at once.
+            std::thread::scope(|s| {
+                for w in 0..20 {
+                    let (loc, rep) = (&loc, &rep);
+                    s.spawn(move || {
+                        let db = Database::connect(loc).unwrap();
+                        for r in (w..1000).step_by(20) {
+                            for k in 0..20i64 {
+                                db.add(&format!("R{r:04}"), Some(T0 + k * 30 * DAY), rep, "")
+                                    .unwrap();
+                            }
+                        }
+                    });
+                }
+            });
+            eprintln!(
+                "{name}: 20,000 records written by 20 writers in {:.1} s",
+                t.elapsed().as_secs_f64()
+            );
+        } else {
+            // SQLite checks the whole file (`PRAGMA quick_check`) in every write transaction,
+            // so 20,000 single writes cost O(n^2): the file is built from one record, its rows
+            // copied in one transaction.
+            db.add("R0000", Some(T0), &rep, "").unwrap();
+            drop(db);
+            let mut c = rusqlite::Connection::open(&loc).unwrap();
+            let tx = c.transaction().unwrap();
+            for r in 0..1000 {
+                for k in 0..20i64 {
+                    if r == 0 && k == 0 {
+                        continue;
+                    }
+                    tx.execute(
+                        "INSERT INTO calibrations (robot_id, at, robot_name, model_fingerprint, data_fingerprint,
+                           method, solution, length_unit, angle_unit, rms_position_before, rms_position_after,
+                           rms_orientation_before, rms_orientation_after, note, report, idempotency_key)
+                         SELECT ?1, ?2, robot_name, model_fingerprint, data_fingerprint, method, solution,
+                           length_unit, angle_unit, rms_position_before, rms_position_after,
+                           rms_orientation_before, rms_orientation_after, note, report, ?3
+                         FROM calibrations WHERE id = 1",
+                        rusqlite::params![format!("R{r:04}"), T0 + k * 30 * DAY, format!("{r}-{k}")],
+                    )
+                    .unwrap();
+                    let id = tx.last_insert_rowid();
+                    tx.execute(
+                        "INSERT INTO parameters SELECT ?1, param_id, name, unit, value, sigma, estimated, determined FROM parameters WHERE calibration_id = 1",
+                        [id],
+                    )
+                    .unwrap();
+                    tx.execute(
+                        "INSERT INTO combinations SELECT ?1, expression, terms, value, sigma FROM combinations WHERE calibration_id = 1",
+                        [id],
+                    )
+                    .unwrap();
+                }
+            }
+            tx.commit().unwrap();
+        }
+        if let (Some(keep), "sqlite") = (std::env::var_os("KINECAL_BENCH_KEEP"), name.as_str()) {
+            // To time the command itself: kinecal history fleet --db KEEP.
+            std::fs::copy(&loc, keep).unwrap();
+        }
+        let db = Database::connect_read_only(&loc).unwrap();
+        let t = Instant::now();
+        let records = db.records(None).unwrap();
+        let read = t.elapsed().as_secs_f64();
+        let events = db.events(None).unwrap();
+        let key = rep.combinations[0].expression.clone();
+        let opts = FleetOptions {
+            drift: DriftOptions {
+                tolerances: Tolerances::from_entries(vec![(key, 0.01)]),
+                ..Default::default()
+            },
+            now: T0 + 600 * DAY,
+            horizon: 90 * DAY,
+        };
+        let f = fleet(&records.calibrations, &events, &opts).unwrap();
+        assert_eq!(f.len(), 1000);
+        eprintln!(
+            "{name}: history fleet of 1,000 robots x 20 calibrations: {:.2} s (reading {:.2} s, analysis {:.2} s)",
+            t.elapsed().as_secs_f64(),
+            read,
+            t.elapsed().as_secs_f64() - read
+        );
+    }
+}
