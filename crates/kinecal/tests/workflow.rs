@@ -361,6 +361,7 @@ fn the_report_gives_the_time_of_each_phase() {
     let mut req = Request::new(robot, data);
     req.selection = Selection::parse("identifiable", None, &req.robot).unwrap();
     req.validation = Validation::Folds { k: 3, seed: None };
+    req.prediction = kinecal::predict::Level::Summary;
     let mut seen = Seen(Vec::new());
     let out = workflow::run(&req, &mut seen).unwrap();
     let names: Vec<&str> = out
