@@ -462,9 +462,49 @@ direction (a label) for the multi-directional test. Per pose: AP = |barycentre -
 APc (mean angle differences, wrapped) and RPa, RPb, RPc = +-3 S; vAP, the largest distance
 between the barycentres of different directions; per pair of poses, AD = Dbar - Dc and RD = +-3
 S_D. The figures are in the log's units, stated before its header (# length_unit = mm,
-# angle_unit = deg) or given. Fewer than 30 cycles: computed, with a warning; fewer than 2: an
-error.")]
+# angle_unit = deg) or given. Fewer than 30 cycles: computed, with a warning; one cycle: accuracy
+(AP, AD) only, no repeatability. A log may also name the cube's corners (C1..C8), hold several
+tests (a test column: the figures test by test and a summary across them), and carry the
+readings v1..vn.
+
+With --robot and --report (a calibrated robot and its report, calibrated with --predict), each
+pose also gets the AP the calibration predicts once the program is compensated: the predicted
+RMS and 95 % bound of the calibrated model's error at the pose's readings (the log's, or the
+calibrated model's inverse kinematics of the commanded pose). The log must then be in the robot's
+base frame.")]
     Evaluate(Iso9283EvaluateArgs),
+    /// An ISO 9283 log from a measurement file: commanded and attained poses in the base frame.
+    #[command(after_help = "\
+Example:
+  kinecal iso9283 log --robot ur10_A.toml --data ipa/series_D.csv --roles ipa/series_D_iso.csv \\
+      --out D_after.csv
+
+--roles says which test, pose and cycle each posture is (posture,test,pose,cycle; pose P1..P5 or
+a corner C1..C8; kinecal dataset ipa-ur10 writes one for its cube series). The attained pose of a
+row is the measurement taken into the robot's base frame through its session's measurement frame;
+a session the robot has no frame for is placed first (6 parameters estimated on the file, the
+robot held, as a validation does). The commanded pose is where --robot puts the target at the
+mean readings of the pose's cycles. So the figures are those of the robot driven by --robot's
+model: the nominal one before calibration, a calibrated one for the compensated robot. Postures
+without a role are left out, and counted. The log is in the robot file's units.")]
+    Log(Iso9283LogArgs),
+}
+
+/// `kinecal iso9283 log`.
+#[derive(Debug, Args)]
+pub struct Iso9283LogArgs {
+    /// The robot model (file or built-in name) that drives the robot.
+    #[arg(long)]
+    pub robot: String,
+    /// The measurement file (positions or poses).
+    #[arg(long, value_name = "MEASUREMENTS.csv")]
+    pub data: PathBuf,
+    /// Which test, pose and cycle each posture is (CSV: posture,test,pose,cycle).
+    #[arg(long, value_name = "ROLES.csv")]
+    pub roles: PathBuf,
+    /// The log to write (CSV).
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// `kinecal iso9283 plan`.
@@ -529,6 +569,15 @@ pub struct Iso9283EvaluateArgs {
     /// Write a self-contained HTML page here.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
+    /// A calibrated robot (with --report): predict each pose's AP once compensated.
+    #[arg(long, requires = "report")]
+    pub robot: Option<String>,
+    /// The calibrated robot's report (calibrated with --predict).
+    #[arg(long, value_name = "REPORT.json", requires = "robot")]
+    pub report: Option<PathBuf>,
+    /// The target the log measured: ee (default: the report's) or a site.
+    #[arg(long, requires = "report")]
+    pub target: Option<String>,
 }
 
 /// The sweep of a curve.

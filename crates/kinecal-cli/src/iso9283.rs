@@ -6,13 +6,16 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Result};
 use kinecal::identifiability::fmt_sig;
 use kinecal::iso9283::{
-    evaluate, plan, read_log, read_plan, simulate, write_log, write_plan, Cube, Evaluation,
-    LogUnits, PlanRequest, SimulateRequest,
+    evaluate, log_from_measurements, plan, pose_name, predict_compensated, read_log, read_plan,
+    read_roles, simulate, write_log, write_plan, Cube, Evaluation, LogUnits, PlanRequest,
+    SimulateRequest, Spread,
 };
 use kinecal::source::Source;
 use kinecal::units::Quantity;
 
-use crate::args::{Iso9283Command, Iso9283EvaluateArgs, Iso9283PlanArgs, Iso9283SimulateArgs};
+use crate::args::{
+    Iso9283Command, Iso9283EvaluateArgs, Iso9283LogArgs, Iso9283PlanArgs, Iso9283SimulateArgs,
+};
 use crate::{load_robot, output, parse_spec, spec_value};
 
 /// Runs an `iso9283` command.
@@ -21,6 +24,7 @@ pub fn run(c: Iso9283Command) -> Result<()> {
         Iso9283Command::Plan(a) => run_plan(a),
         Iso9283Command::Simulate(a) => run_simulate(a),
         Iso9283Command::Evaluate(a) => run_evaluate(a),
+        Iso9283Command::Log(a) => run_log(a),
     }
 }
 
@@ -200,8 +204,105 @@ fn run_simulate(a: Iso9283SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-/// The figures as text: a table per pose, then the distances.
+/// The figures as text: for one test, a table per pose, then the distances; for a series of
+/// tests, the summary across them (the figures of each test are in the JSON).
 fn text(e: &Evaluation) -> String {
+    match &e.summary {
+        Some(_) => summary_text(e),
+        None => test_text(e),
+    }
+}
+
+/// `count, mean, p95, max` of a spread, in columns.
+fn spread_cells(v: Option<&Spread>) -> String {
+    match v {
+        Some(v) => format!(
+            "{:>5} {:>10} {:>10} {:>10}",
+            v.count,
+            sig(v.mean),
+            sig(v.p95),
+            sig(v.max)
+        ),
+        None => format!("{:>5} {:>10} {:>10} {:>10}", 0, "-", "-", "-"),
+    }
+}
+
+/// The summary of a series of tests.
+fn summary_text(e: &Evaluation) -> String {
+    use std::fmt::Write as _;
+    let Some(sum) = &e.summary else {
+        return String::new();
+    };
+    let l = e
+        .length_unit
+        .map_or_else(|| "the log's length unit".to_string(), |u| u.to_string());
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "ISO 9283 pose characteristics of {}{}: {} tests, {} poses; lengths in {l}",
+        e.file,
+        if e.simulated { " (simulated)" } else { "" },
+        sum.tests,
+        e.poses.len()
+    );
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "AP over the tests        count       mean        p95        max"
+    );
+    let name = |pose: usize| {
+        if pose == 0 {
+            "every pose".to_string()
+        } else {
+            pose_name(pose)
+        }
+    };
+    for p in &sum.poses {
+        let _ = writeln!(s, "{:<20} {}", name(p.pose), spread_cells(Some(&p.ap)));
+    }
+    if sum.poses.iter().any(|p| p.rp.is_some()) {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "RP (2 cycles or more)    count       mean        p95        max"
+        );
+        for p in &sum.poses {
+            let _ = writeln!(s, "{:<20} {}", name(p.pose), spread_cells(p.rp.as_ref()));
+        }
+    }
+    if sum.poses.iter().any(|p| p.compensated_95.is_some()) {
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "compensated AP, predicted RMS / 95 % bound (mean over the tests); measured AP within"
+        );
+        for p in &sum.poses {
+            if let (Some(rms), Some(b)) = (&p.compensated_rms, &p.compensated_95) {
+                let _ = writeln!(
+                    s,
+                    "{:<20} {:>10} {:>10}   {:.1} %",
+                    name(p.pose),
+                    sig(rms.mean),
+                    sig(b.mean),
+                    100.0 * p.within_compensated_95.unwrap_or(0.0)
+                );
+            }
+        }
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "distances                count       mean        p95        max"
+    );
+    let _ = writeln!(s, "{:<20} {}", "|AD|", spread_cells(sum.ad.as_ref()));
+    if sum.rd.is_some() {
+        let _ = writeln!(s, "{:<20} {}", "RD", spread_cells(sum.rd.as_ref()));
+    }
+    s.lines().map(str::trim_end).collect::<Vec<_>>().join("\n") + "\n"
+}
+
+/// The figures of one test as text: a table per pose, then the distances.
+fn test_text(e: &Evaluation) -> String {
     use std::fmt::Write as _;
     let l = e
         .length_unit
@@ -230,7 +331,17 @@ fn text(e: &Evaluation) -> String {
         if let Some(c) = f.commanded_attitude {
             commanded += &format!("; a {}, b {}, c {}", sig(c[0]), sig(c[1]), sig(c[2]));
         }
-        let _ = writeln!(s, "P{}: {} cycles, commanded {commanded}", f.pose, f.cycles);
+        let _ = writeln!(
+            s,
+            "{}{}: {} cycle{}, commanded {commanded}",
+            f.test
+                .as_deref()
+                .map(|t| format!("{t}, "))
+                .unwrap_or_default(),
+            pose_name(f.pose),
+            f.cycles,
+            if f.cycles == 1 { "" } else { "s" }
+        );
         let _ = writeln!(
             s,
             "  {} {} {} {}",
@@ -239,14 +350,18 @@ fn text(e: &Evaluation) -> String {
             cell("APy", signed(f.ap_xyz[1])),
             cell("APz", signed(f.ap_xyz[2]))
         );
-        let _ = writeln!(
-            s,
-            "  {} {} {}",
-            cell("RP", sig(f.rp)),
-            cell("lbar", sig(f.l_mean)),
-            cell("S_l", sig(f.s_l))
-        );
-        if let (Some(ap), Some(rp)) = (f.ap_abc, f.rp_abc) {
+        if let (Some(rp), Some(l_mean), Some(s_l)) = (f.rp, f.l_mean, f.s_l) {
+            let _ = writeln!(
+                s,
+                "  {} {} {}",
+                cell("RP", sig(rp)),
+                cell("lbar", sig(l_mean)),
+                cell("S_l", sig(s_l))
+            );
+        } else {
+            let _ = writeln!(s, "  RP   n/a (1 cycle)");
+        }
+        if let Some(ap) = f.ap_abc {
             let _ = writeln!(
                 s,
                 "  {} {} {}",
@@ -254,6 +369,8 @@ fn text(e: &Evaluation) -> String {
                 cell("APb", signed(ap[1])),
                 cell("APc", signed(ap[2]))
             );
+        }
+        if let Some(rp) = f.rp_abc {
             let _ = writeln!(
                 s,
                 "  {} {} {}",
@@ -279,6 +396,15 @@ fn text(e: &Evaluation) -> String {
             }
             let _ = writeln!(s, "{line}");
         }
+        if let Some(c) = &f.compensated {
+            let _ = writeln!(
+                s,
+                "  compensated (predicted): AP {} RMS, 95 % bound {} (readings from the {})",
+                sig(c.ap_rms),
+                sig(c.ap_95),
+                c.readings_from
+            );
+        }
     }
     if !e.distances.is_empty() {
         let _ = writeln!(s);
@@ -290,14 +416,13 @@ fn text(e: &Evaluation) -> String {
         for d in &e.distances {
             let _ = writeln!(
                 s,
-                "P{}-P{}      {:>6} {:>12} {:>12} {:>12} {:>12}",
-                d.from,
-                d.to,
+                "{:<10} {:>6} {:>12} {:>12} {:>12} {:>12}",
+                format!("{}-{}", pose_name(d.from), pose_name(d.to)),
                 d.cycles,
                 sig(d.commanded),
                 sig(d.mean),
                 signed(d.ad),
-                sig(d.rd)
+                d.rd.map_or_else(|| "n/a".to_string(), sig)
             );
         }
     }
@@ -312,7 +437,10 @@ fn run_evaluate(a: Iso9283EvaluateArgs) -> Result<()> {
         .chain(a.html.iter())
         .map(|p| p.as_path())
         .collect();
-    output::check_distinct(&outputs, &[&a.data])?;
+    let mut inputs: Vec<&Path> = vec![&a.data];
+    inputs.extend(a.report.as_deref());
+    inputs.extend(a.robot.as_deref().map(Path::new));
+    output::check_distinct(&outputs, &inputs)?;
     let units = LogUnits {
         length: a
             .length_unit
@@ -329,7 +457,15 @@ fn run_evaluate(a: Iso9283EvaluateArgs) -> Result<()> {
     };
     let s = Source::read(&a.data)?;
     let log = read_log(&s.text, &s.name, units)?;
-    let e = evaluate(&log)?;
+    let mut e = evaluate(&log)?;
+    if let (Some(robot), Some(report)) = (&a.robot, &a.report) {
+        let (loaded, _, pr, target) =
+            crate::predict::calibrated(robot, report, a.target.as_deref())?;
+        let predictor = kinecal::predict::from_report(&loaded.robot, &pr)
+            .map_err(|e| anyhow!("{}: {e}", report.display()))?;
+        let target = crate::predict::site_target(&loaded.robot, &target)?;
+        predict_compensated(&mut e, &log, &predictor, target)?;
+    }
     print!("{}", text(&e));
     for w in &e.warnings {
         eprintln!("warning: {w}");
@@ -347,5 +483,71 @@ fn run_evaluate(a: Iso9283EvaluateArgs) -> Result<()> {
     for p in outputs {
         eprintln!("wrote {}", p.display());
     }
+    Ok(())
+}
+
+fn run_log(a: Iso9283LogArgs) -> Result<()> {
+    output::check_distinct(&[&a.out], &[Path::new(&a.robot), &a.data, &a.roles])?;
+    let robot = load_robot(&a.robot)?.robot;
+    let d = Source::read(&a.data)?;
+    let data = kinecal::files::parse_measurements(&d.text, &d.name, &robot)?;
+    let r = Source::read(&a.roles)?;
+    let roles = read_roles(&r.text, &r.name)?;
+    // Place the sessions the robot has no frame for, as a validation does.
+    let missing: Vec<String> = data
+        .sessions()
+        .iter()
+        .filter(|s| !robot.sessions.iter().any(|r| r.name == ***s))
+        .map(|s| s.to_string())
+        .collect();
+    let placed = if missing.is_empty() {
+        robot.clone()
+    } else {
+        kinecal::workflow::refit_sessions(
+            &robot,
+            &data,
+            &missing,
+            &kinecal::CalibrationOptions::new(Vec::new()),
+        )
+    };
+    let (log, left_out) = log_from_measurements(&placed, &data, &roles)?;
+    let tests = {
+        let mut t: Vec<&str> = log.rows.iter().filter_map(|r| r.test.as_deref()).collect();
+        t.sort_unstable();
+        t.dedup();
+        t.len()
+    };
+    if !missing.is_empty() {
+        eprintln!(
+            "placed the measurement frame of session{} {} on {} (6 parameters each, the robot \
+             held)",
+            if missing.len() == 1 { "" } else { "s" },
+            missing.join(", "),
+            d.name
+        );
+    }
+    if !left_out.is_empty() {
+        eprintln!(
+            "left out {} measured posture{} without a role in {} ({})",
+            left_out.len(),
+            if left_out.len() == 1 { "" } else { "s" },
+            r.name,
+            left_out
+                .iter()
+                .take(5)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ")
+                + if left_out.len() > 5 { ", ..." } else { "" }
+        );
+    }
+    output::write_file(&a.out, &write_log(&log))?;
+    eprintln!(
+        "wrote the ISO 9283 log of {} rows ({tests} tests; commanded: {}'s model at the readings; \
+         attained: measured, in its base frame) to {}",
+        log.rows.len(),
+        robot.name,
+        a.out.display()
+    );
     Ok(())
 }

@@ -23,65 +23,12 @@ pub fn run(a: PredictArgs) -> Result<()> {
     let mut inputs: Vec<&Path> = vec![a.report.as_path(), Path::new(&a.robot)];
     inputs.extend(a.postures.as_deref());
     output::check_distinct(&outputs, &inputs)?;
-    let loaded = crate::load_robot(&a.robot)?;
+    let (loaded, report, pr, target_name) = calibrated(&a.robot, &a.report, a.target.as_deref())?;
     let robot = &loaded.robot;
-    let source = Source::read(&a.report)?;
-    let report = CalibrationReport::from_json(&source.text)
-        .map_err(|e| anyhow!("{}: not a calibration report: {e}", source.name))?;
-    let Some(pr) = &report.prediction else {
-        bail!(
-            "{}: the report has no prediction (its calibration was not asked for one, had fewer \
-             than {} postures measured by position or pose, or its kinecal made none): calibrate \
-             again with --predict",
-            source.name,
-            predict::MIN_POSTURES
-        );
-    };
-    // The robot must be the report's calibrated robot.
-    for p in report.parameters.iter().filter(|p| p.estimated_flag) {
-        let id = kinecal::parse_param_list(&p.id, robot)
-            .ok()
-            .and_then(|v| v.first().copied())
-            .ok_or_else(|| {
-                anyhow!(
-                    "{}: the report's parameter {} ({}) is not one of {}'s: not the robot of \
-                     this report",
-                    source.name,
-                    p.id,
-                    p.name,
-                    a.robot
-                )
-            })?;
-        let v = robot.get_user(id);
-        if (v - p.estimated).abs() > 1e-9 * p.estimated.abs().max(1.0) {
-            bail!(
-                "{} is not the calibrated robot of {}: {} ({}) is {v} in the robot file, {} in \
-                 the report",
-                a.robot,
-                source.name,
-                p.id,
-                p.name,
-                p.estimated
-            );
-        }
-    }
-    let predictor = predict::from_report(robot, pr).map_err(|e| anyhow!("{}: {e}", source.name))?;
-    let target_name = a.target.as_deref().unwrap_or(&pr.target);
-    let target = if target_name == "ee" {
-        Target::EndEffector
-    } else {
-        Target::Site(robot.site_index(target_name).ok_or_else(|| {
-            anyhow!(
-                "--target `{target_name}`: no such site (expected ee or one of: {})",
-                robot
-                    .sites
-                    .iter()
-                    .map(|s| s.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })?)
-    };
+    let predictor =
+        predict::from_report(robot, &pr).map_err(|e| anyhow!("{}: {e}", a.report.display()))?;
+    let target = site_target(robot, &target_name)?;
+    let pr = &pr;
     let postures: Vec<(String, Vec<f64>)> = match (&a.postures, a.sample) {
         (Some(path), _) => {
             let s = Source::read(path)?;
@@ -158,4 +105,78 @@ pub fn run(a: PredictArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The calibrated robot `robot` (a file or built-in name) and the prediction of its calibration
+/// report `report`, checked to be that robot's, and the target to predict (`target`, or the
+/// report's). An error when the report has no prediction or is another robot's.
+pub fn calibrated(
+    robot: &str,
+    report: &Path,
+    target: Option<&str>,
+) -> Result<(
+    crate::LoadedRobot,
+    CalibrationReport,
+    predict::PredictionReport,
+    String,
+)> {
+    let loaded = crate::load_robot(robot)?;
+    let source = Source::read(report)?;
+    let parsed = CalibrationReport::from_json(&source.text)
+        .map_err(|e| anyhow!("{}: not a calibration report: {e}", source.name))?;
+    let Some(pr) = parsed.prediction.clone() else {
+        bail!(
+            "{}: the report has no prediction (its calibration was not asked for one, had fewer \
+             than {} postures measured by position or pose, or its kinecal made none): calibrate \
+             again with --predict",
+            source.name,
+            predict::MIN_POSTURES
+        );
+    };
+    // The robot must be the report's calibrated robot.
+    for p in parsed.parameters.iter().filter(|p| p.estimated_flag) {
+        let id = kinecal::parse_param_list(&p.id, &loaded.robot)
+            .ok()
+            .and_then(|v| v.first().copied())
+            .ok_or_else(|| {
+                anyhow!(
+                    "{}: the report's parameter {} ({}) is not one of {robot}'s: not the robot \
+                     of this report",
+                    source.name,
+                    p.id,
+                    p.name,
+                )
+            })?;
+        let v = loaded.robot.get_user(id);
+        if (v - p.estimated).abs() > 1e-9 * p.estimated.abs().max(1.0) {
+            bail!(
+                "{robot} is not the calibrated robot of {}: {} ({}) is {v} in the robot file, {} \
+                 in the report",
+                source.name,
+                p.id,
+                p.name,
+                p.estimated
+            );
+        }
+    }
+    let target = target.unwrap_or(&pr.target).to_string();
+    Ok((loaded, parsed, pr, target))
+}
+
+/// The target `name` of `robot`: `ee` or a site.
+pub fn site_target(robot: &kinecal::Robot, name: &str) -> Result<Target> {
+    if name == "ee" {
+        return Ok(Target::EndEffector);
+    }
+    Ok(Target::Site(robot.site_index(name).ok_or_else(|| {
+        anyhow!(
+            "--target `{name}`: no such site (expected ee or one of: {})",
+            robot
+                .sites
+                .iter()
+                .map(|s| s.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })?))
 }

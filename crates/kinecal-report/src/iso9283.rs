@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use kinecal::iso9283::{Evaluation, PoseFigures};
+use kinecal::iso9283::{pose_name, Evaluation, PoseFigures, Spread};
 
 use crate::html::{esc, num, page_head};
 
@@ -67,13 +67,15 @@ fn view(svg: &mut String, f: &PoseFigures, v: &View<'_>, x0: f64, w: f64, unit: 
     );
     // RP about the barycentre, the attained positions, the barycentre, the commanded position.
     let b = rel(f.barycentre);
-    let _ = write!(
-        svg,
-        "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" class=\"rp\"/>",
-        b.0,
-        b.1,
-        f.rp * scale
-    );
+    if let Some(rp) = f.rp {
+        let _ = write!(
+            svg,
+            "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" class=\"rp\"/>",
+            b.0,
+            b.1,
+            rp * scale
+        );
+    }
     for p in &f.attained {
         let q = rel(*p);
         let _ = write!(
@@ -108,13 +110,13 @@ fn scatter(f: &PoseFigures, unit: &str) -> String {
         .iter()
         .flat_map(|p| (0..3).map(move |k| (p[k] - f.commanded[k]).abs()))
         .fold(0.0, f64::max)
-        .max(f.ap + f.rp);
+        .max(f.ap + f.rp.unwrap_or(0.0));
     let near = f
         .attained
         .iter()
         .flat_map(|p| (0..3).map(move |k| (p[k] - f.barycentre[k]).abs()))
         .fold(0.0, f64::max)
-        .max(f.rp);
+        .max(f.rp.unwrap_or(0.0));
     let range = |r: f64| if r > 0.0 { 1.15 * r } else { 1.0 };
     let views = [
         View {
@@ -190,11 +192,16 @@ pub fn html_iso9283(e: &Evaluation) -> String {
          (<span style=\"color:#c0392b\">&times;</span>), closer; the dashed circle has the radius \
          RP about the barycentre.</p>"
     );
+    if e.summary.is_some() {
+        h += &series(e, &l);
+        h += SYMBOLS;
+        return h;
+    }
     for f in &e.poses {
         let _ = writeln!(
             h,
-            "<h2>P{}</h2><div class=\"pose\"><table><tr><th class=\"l\">figure</th><th>value</th><th class=\"l\">unit</th></tr>",
-            f.pose
+            "<h2>{}</h2><div class=\"pose\"><table><tr><th class=\"l\">figure</th><th>value</th><th class=\"l\">unit</th></tr>",
+            pose_name(f.pose)
         );
         let row = |h: &mut String, name: &str, value: String, unit: &str| {
             let _ = writeln!(
@@ -225,20 +232,40 @@ pub fn html_iso9283(e: &Evaluation) -> String {
             f.ap_xyz.map(signed).join(", "),
             &l,
         );
-        row(&mut h, "<b>RP</b> pose repeatability", num(f.rp), &l);
-        row(
-            &mut h,
-            "l&#772;, S<sub>l</sub>",
-            format!("{}, {}", num(f.l_mean), num(f.s_l)),
-            &l,
-        );
-        if let (Some(ap), Some(rp)) = (f.ap_abc, f.rp_abc) {
+        match (f.rp, f.l_mean, f.s_l) {
+            (Some(rp), Some(l_mean), Some(s_l)) => {
+                row(&mut h, "<b>RP</b> pose repeatability", num(rp), &l);
+                row(
+                    &mut h,
+                    "l&#772;, S<sub>l</sub>",
+                    format!("{}, {}", num(l_mean), num(s_l)),
+                    &l,
+                );
+            }
+            _ => row(
+                &mut h,
+                "<b>RP</b> pose repeatability",
+                "n/a (1 cycle)".into(),
+                "",
+            ),
+        }
+        if let Some(c) = &f.compensated {
+            row(
+                &mut h,
+                "AP once compensated (predicted): RMS, 95 % bound",
+                format!("{}, {}", num(c.ap_rms), num(c.ap_95)),
+                &l,
+            );
+        }
+        if let Some(ap) = f.ap_abc {
             row(
                 &mut h,
                 "AP<sub>a</sub>, AP<sub>b</sub>, AP<sub>c</sub>",
                 ap.map(signed).join(", "),
                 &a,
             );
+        }
+        if let Some(rp) = f.rp_abc {
             row(
                 &mut h,
                 "RP<sub>a</sub>, RP<sub>b</sub>, RP<sub>c</sub> (&plusmn;)",
@@ -276,9 +303,9 @@ pub fn html_iso9283(e: &Evaluation) -> String {
         for d in &e.distances {
             let _ = writeln!(
                 h,
-                "<tr><td class=\"l\">P{}-P{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                d.from,
-                d.to,
+                "<tr><td class=\"l\">{}-{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                pose_name(d.from),
+                pose_name(d.to),
                 d.cycles,
                 num(d.commanded),
                 num(d.mean),
@@ -286,17 +313,116 @@ pub fn html_iso9283(e: &Evaluation) -> String {
                 signed(d.ad_xyz[0]),
                 signed(d.ad_xyz[1]),
                 signed(d.ad_xyz[2]),
-                num(d.rd)
+                d.rd.map_or_else(|| "n/a".to_string(), num)
             );
         }
         let _ = writeln!(h, "</table><p class=\"key\">Lengths in {}.</p>", esc(&l));
     }
-    h += "<h2>Symbols (ISO 9283:1998, 7.2 and 7.3)</h2><table class=\"key\">\
+    h += SYMBOLS;
+    h
+}
+
+/// The symbols' table, and the page's end.
+const SYMBOLS: &str = "<h2>Symbols (ISO 9283:1998, 7.2 and 7.3)</h2><table class=\"key\">\
           <tr><td class=\"l\">AP</td><td class=\"l\">&radic;((x&#772; &minus; x<sub>c</sub>)&sup2; + (y&#772; &minus; y<sub>c</sub>)&sup2; + (z&#772; &minus; z<sub>c</sub>)&sup2;): the barycentre of the attained positions from the commanded one</td></tr>\
           <tr><td class=\"l\">RP</td><td class=\"l\">l&#772; + 3 S<sub>l</sub>: l<sub>j</sub> the distance of attained position j from the barycentre, S<sub>l</sub> their standard deviation (n &minus; 1)</td></tr>\
           <tr><td class=\"l\">AP<sub>a</sub>, RP<sub>a</sub></td><td class=\"l\">the mean of a<sub>j</sub> &minus; a<sub>c</sub> (wrapped to half a turn), &plusmn;3 S<sub>a</sub> (n &minus; 1); likewise b, c</td></tr>\
           <tr><td class=\"l\">AD, RD</td><td class=\"l\">D&#772; &minus; D<sub>c</sub> and &plusmn;3 S<sub>D</sub>: D<sub>j</sub> the distance between two poses attained in cycle j</td></tr>\
           <tr><td class=\"l\">vAP</td><td class=\"l\">the largest distance between the barycentres reached from different approach directions</td></tr>\
           </table></body></html>\n";
+
+/// `count, mean, p95, max` cells of a spread.
+fn cells(v: Option<&Spread>) -> String {
+    match v {
+        Some(v) => format!(
+            "<td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+            v.count,
+            num(v.mean),
+            num(v.p95),
+            num(v.max)
+        ),
+        None => "<td>0</td><td>-</td><td>-</td><td>-</td>".into(),
+    }
+}
+
+/// A series of tests: the summary across them, then every test's poses in one table.
+fn series(e: &Evaluation, l: &str) -> String {
+    let Some(sum) = &e.summary else {
+        return String::new();
+    };
+    let mut h = String::new();
+    let name = |pose: usize| {
+        if pose == 0 {
+            "every pose".to_string()
+        } else {
+            pose_name(pose)
+        }
+    };
+    let compensated = sum.poses.iter().any(|p| p.compensated_95.is_some());
+    let _ = writeln!(
+        h,
+        "<h2>Across the {} tests</h2><table><tr><th class=\"l\">pose</th><th>n</th><th>AP mean</th>\
+         <th>AP p95</th><th>AP max</th><th>RP n</th><th>RP mean</th><th>RP p95</th><th>RP max</th>{}</tr>",
+        sum.tests,
+        if compensated {
+            "<th>compensated AP RMS (predicted, mean)</th><th>95 % bound (mean)</th><th>AP within it</th>"
+        } else {
+            ""
+        }
+    );
+    for p in &sum.poses {
+        let mut extra = String::new();
+        if let (Some(r), Some(b)) = (&p.compensated_rms, &p.compensated_95) {
+            extra = format!(
+                "<td>{}</td><td>{}</td><td>{:.1} %</td>",
+                num(r.mean),
+                num(b.mean),
+                100.0 * p.within_compensated_95.unwrap_or(0.0)
+            );
+        }
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td>{}{}{extra}</tr>",
+            name(p.pose),
+            cells(Some(&p.ap)),
+            cells(p.rp.as_ref())
+        );
+    }
+    let _ = writeln!(
+        h,
+        "</table><table><tr><th class=\"l\">distances</th><th>n</th><th>mean</th><th>p95</th><th>max</th></tr>\
+         <tr><td class=\"l\">|AD|</td>{}</tr><tr><td class=\"l\">RD</td>{}</tr></table>\
+         <p class=\"key\">Lengths in {}. RP and RD over the poses and pairs measured in 2 cycles or more.</p>",
+        cells(sum.ad.as_ref()),
+        cells(sum.rd.as_ref()),
+        esc(l)
+    );
+    let _ = writeln!(
+        h,
+        "<h2>Every test</h2><table><tr><th class=\"l\">test</th><th class=\"l\">pose</th><th>n</th>\
+         <th>AP</th><th>AP<sub>x</sub>, AP<sub>y</sub>, AP<sub>z</sub></th><th>RP</th>{}</tr>",
+        if compensated {
+            "<th>compensated AP, predicted 95 % bound</th>"
+        } else {
+            ""
+        }
+    );
+    for f in &e.poses {
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>{}</tr>",
+            esc(f.test.as_deref().unwrap_or("")),
+            pose_name(f.pose),
+            f.cycles,
+            num(f.ap),
+            f.ap_xyz.map(signed).join(", "),
+            f.rp.map_or_else(|| "n/a".to_string(), num),
+            f.compensated
+                .as_ref()
+                .map(|c| format!("<td>{}</td>", num(c.ap_95)))
+                .unwrap_or_default()
+        );
+    }
+    h += "</table>\n";
     h
 }

@@ -1075,6 +1075,9 @@ kinematics:
         pub series: Vec<Dataset>,
         /// The temperature of each series' postures (deg C), in posture order.
         pub temperatures: Vec<Vec<f64>>,
+        /// The commanded ("Goal") position of the probe of each series' postures (m, the ROS
+        /// `base` frame), in posture order.
+        pub goals: Vec<Vec<[f64; 3]>>,
     }
 
     /// The nominal UR10 ([`UR10_KINEMATICS`] imported).
@@ -1108,7 +1111,11 @@ kinematics:
     }
 
     /// Reads one series' file: the header, then exactly `rows` rows (blank lines skipped).
-    fn read_series(source: &Source, series: &Series, rows: usize) -> Result<(Dataset, Vec<f64>)> {
+    fn read_series(
+        source: &Source,
+        series: &Series,
+        rows: usize,
+    ) -> Result<(Dataset, Vec<f64>, Vec<[f64; 3]>)> {
         let file = &source.name;
         let columns: &[&str] = if series.sigmas {
             &COLUMNS_SIGMA
@@ -1153,6 +1160,7 @@ kinematics:
             ));
         }
         let joints: Vec<usize> = crate::import::ur::JOINTS.iter().map(|j| col(j.1)).collect();
+        let goal = [col("Goal x"), col("Goal y"), col("Goal z")];
         let (temperature, xyz) = (
             col("measurement_temperature"),
             [
@@ -1172,6 +1180,7 @@ kinematics:
         let mut postures = Vec::with_capacity(rows);
         let mut observations: Vec<Observation> = Vec::with_capacity(rows);
         let mut temperatures = Vec::with_capacity(rows);
+        let mut goals = Vec::with_capacity(rows);
         let mut last = 1;
         for (i, line) in lines {
             if line.trim().is_empty() {
@@ -1201,6 +1210,7 @@ kinematics:
                 .map(|&k| value(k))
                 .collect::<Result<Vec<_>>>()?;
             let t = value(temperature)?;
+            goals.push([value(goal[0])?, value(goal[1])?, value(goal[2])?]);
             let p = Vector3::new(value(xyz[0])?, value(xyz[1])?, value(xyz[2])?);
             let sigma = match std {
                 Some(cols) => {
@@ -1248,7 +1258,7 @@ kinematics:
                 ),
             ));
         }
-        Ok((Dataset::new(postures, observations), temperatures))
+        Ok((Dataset::new(postures, observations), temperatures, goals))
     }
 
     /// Loads the data set from its folder (`../shared/data/ipa_ur10_tracker`).
@@ -1269,21 +1279,49 @@ kinematics:
     pub fn load_trimmed(folder: &Folder, rows: [usize; 4]) -> Result<IpaData> {
         let mut series = Vec::with_capacity(4);
         let mut temperatures = Vec::with_capacity(4);
+        let mut goals = Vec::with_capacity(4);
         for (s, n) in SERIES.iter().zip(rows) {
-            let (d, t) = read_series(&folder.read(s.file)?, s, n)?;
+            let (d, t, g) = read_series(&folder.read(s.file)?, s, n)?;
             series.push(d);
             temperatures.push(t);
+            goals.push(g);
         }
         Ok(IpaData {
             robot: nominal_robot(),
             series,
             temperatures,
+            goals,
         })
     }
 
     /// The name of a series' measurement file in the converted folder (`series_A.csv`).
     pub fn file_of(series: &str) -> String {
         format!("series_{series}.csv")
+    }
+
+    /// The file of the ISO 9283 roles of series D's postures ([`crate::iso9283::read_roles`]).
+    pub const ISO_ROLES: &str = "series_D_iso.csv";
+
+    /// Series D's cubes as ISO 9283 roles (`posture,test,pose,cycle`): blocks of nine postures,
+    /// the centre and the eight corners of a cube, read from the commanded ("Goal") positions; a
+    /// cube measured again is a further cycle of its test (the first, 400 mm cube was measured
+    /// three times). The 2 postures after the 70th block have no role.
+    fn cube_roles_file(d: &IpaData) -> Result<String> {
+        let (k, s) = SERIES
+            .iter()
+            .enumerate()
+            .find(|(_, s)| s.name == "D")
+            .expect("series D");
+        // The goals of one cube's cycles agree to 1e-6 m; distinct cubes differ by 1 mm or more.
+        let roles = crate::iso9283::cube_roles(&d.goals[k], 1e-4)
+            .map_err(|e| Error::input(Location::file(s.file), format!("{e} (the Goal columns)")))?;
+        let labelled: Vec<(String, crate::iso9283::Role)> = d.series[k]
+            .postures
+            .iter()
+            .map(|p| p.label.clone())
+            .zip(roles)
+            .collect();
+        Ok(crate::iso9283::write_roles(&labelled))
     }
 
     /// The temperatures of every series as a CSV: `posture,session,temperature` (deg C).
@@ -1316,6 +1354,7 @@ kinematics:
             files.push((file_of(s.name), write_measurements(&d.robot, data)));
         }
         files.push(("temperatures.csv".into(), temperature_file(&d)));
+        files.push((ISO_ROLES.into(), cube_roles_file(&d)?));
         let counts: Vec<String> = SERIES
             .iter()
             .zip(&d.series)

@@ -57,12 +57,20 @@
 //! | `AD` | distance accuracy: `Dbar - D_c` (`ADx = mean(x1_i - x2_i) - (x1_c - x2_c)`, likewise `y`, `z`) |
 //! | `RD` | distance repeatability: `+-3 S_D`, `S_D` the standard deviation (`n - 1`) of the `D_i` |
 //!
-//! The standard asks for 30 cycles; with fewer (at least 2) the figures are computed and the
-//! result carries a warning; a pose of fewer than 2 cycles is refused (no repeatability).
-//! Distances are reported for every pair of poses attained in the same cycles (rows paired by
-//! cycle number and direction). With approach directions, `AP` and `RP` pool every direction
-//! (the standard's are unidirectional: log the multi-directional test apart), and a warning says
-//! so.
+//! The standard asks for 30 cycles; with fewer the figures are computed and the result carries a
+//! warning. A pose measured in one cycle has its accuracy (`AP`, and `AD` to the poses of the
+//! same cycle) but no repeatability (`RP`, `RD` need 2 cycles): a series that measures each pose
+//! once still states its accuracy. Distances are reported for every pair of poses attained in
+//! the same cycles (rows paired by cycle number and direction). With approach directions, `AP`
+//! and `RP` pool every direction (the standard's are unidirectional: log the multi-directional
+//! test apart), and a warning says so.
+//!
+//! A log may hold several tests (a `test` column: a series of cubes); the figures are computed
+//! test by test, distances within a test, and [`Summary`] gives them across the tests. Besides
+//! `P1..P5`, a log may name the cube's corners `C1..C8` (a series that measured the corners).
+//! [`log_from_measurements`] makes a log from a measurement file and a robot model, and
+//! [`predict_compensated`] adds the `AP` a calibration predicts once the program is compensated
+//! (see [`measured`]).
 //!
 //! # Units and frames
 //!
@@ -75,7 +83,19 @@
 //! agree. The commanded and attained poses must be in one frame (the robot's base frame, the
 //! tracker registered to it).
 
+mod figures;
+pub mod measured;
+
 use std::collections::BTreeMap;
+
+pub use figures::{
+    evaluate, Compensated, DistanceFigures, Evaluation, Multidirectional, PoseFigures, PoseSummary,
+    Spread, Summary,
+};
+pub use measured::{
+    cube_roles, log_from_measurements, predict_compensated, read_roles, write_roles, Role, Roles,
+    ROLES_HEADER,
+};
 
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
@@ -668,7 +688,7 @@ pub fn read_plan(text: &str, file: &str, robot: &Robot) -> Result<Vec<TestPose>>
     t.check_rows()?;
     let mut out: Vec<TestPose> = Vec::new();
     for (line, f) in t.rows() {
-        let pose = pose_index(&t, line, &f[cols[0]])?;
+        let pose = pose_index(&t, line, &f[cols[0]], false)?;
         if out.iter().any(|p| p.pose == pose) {
             return Err(Error::input(
                 t.at(line, "pose"),
@@ -715,8 +735,37 @@ pub fn read_plan(text: &str, file: &str, robot: &Robot) -> Result<Vec<TestPose>>
     Ok(out)
 }
 
-/// A pose index: `1..5`, or `P1..P5`.
-fn pose_index(t: &table::Table<'_>, line: usize, s: &str) -> Result<usize> {
+/// The first pose number of the cube's corners: `C1..C8` are poses `CORNERS + 1 ..= CORNERS + 8`
+/// (after `P1..P5`, 1 to 5).
+pub const CORNERS: usize = 5;
+
+/// The name of pose number `pose`: `P1..P5` for 1 to 5, `C1..C8` (the cube's corners, for a log
+/// that measured them: [`CORNERS`]) for 6 to 13.
+pub fn pose_name(pose: usize) -> String {
+    if pose > CORNERS {
+        format!("C{}", pose - CORNERS)
+    } else {
+        format!("P{pose}")
+    }
+}
+
+/// A pose: `1..5` or `P1..P5`, and with `corners` also `C1..C8` (the cube's corners, numbered
+/// from [`CORNERS`] + 1).
+fn pose_index(t: &table::Table<'_>, line: usize, s: &str, corners: bool) -> Result<usize> {
+    let expected = if corners {
+        "1..5, P1..P5 or the cube's corners C1..C8"
+    } else {
+        "1..5 (or P1..P5)"
+    };
+    if let Some(c) = s.strip_prefix(['C', 'c']).filter(|_| corners) {
+        return match c.parse::<usize>() {
+            Ok(i) if (1..=8).contains(&i) => Ok(CORNERS + i),
+            _ => Err(Error::input(
+                t.at(line, "pose"),
+                format!("expected a pose {expected}, found `{s}`"),
+            )),
+        };
+    }
     let digits = s.strip_prefix(['P', 'p']).unwrap_or(s);
     match digits.parse::<usize>() {
         Ok(i) if (1..=5).contains(&i) => Ok(i),
@@ -726,7 +775,7 @@ fn pose_index(t: &table::Table<'_>, line: usize, s: &str) -> Result<usize> {
         )),
         Err(_) => Err(Error::input(
             t.at(line, "pose"),
-            format!("expected a pose index 1..5 (or P1..P5), found `{s}`"),
+            format!("expected a pose {expected}, found `{s}`"),
         )),
     }
 }
@@ -736,7 +785,10 @@ fn pose_index(t: &table::Table<'_>, line: usize, s: &str) -> Result<usize> {
 pub struct LogRow {
     /// The row's line in its file (0 when it has none).
     pub line: usize,
-    /// The pose index, 1 to 5.
+    /// The test the row belongs to, when the log holds several (a label: one cube of a series
+    /// of cubes); the figures are computed test by test.
+    pub test: Option<String>,
+    /// The pose: 1 to 5 for `P1..P5`, 6 to 13 for the cube's corners `C1..C8` ([`pose_name`]).
     pub pose: usize,
     /// The cycle.
     pub cycle: u64,
@@ -750,6 +802,8 @@ pub struct LogRow {
     pub attained_attitude: Option<[f64; 3]>,
     /// The approach direction (a label), for the multi-directional test.
     pub direction: Option<String>,
+    /// The joint readings the robot attained the pose at (`v1..vn`), when logged.
+    pub readings: Option<Vec<f64>>,
 }
 
 /// A measurement log: the attained poses of a pose test.
@@ -777,7 +831,8 @@ pub struct LogUnits {
 }
 
 /// The columns of a log, in the order [`write_log`] writes them.
-pub const LOG_COLUMNS: [&str; 15] = [
+pub const LOG_COLUMNS: [&str; 16] = [
+    "test",
     "pose",
     "cycle",
     "xc",
@@ -796,11 +851,13 @@ pub const LOG_COLUMNS: [&str; 15] = [
 ];
 
 /// The header a log needs, for error messages.
-const LOG_EXPECTED: &str = "pose,cycle,xc,yc,zc[,ac,bc,cc],x,y,z[,a,b,c][,direction]";
+const LOG_EXPECTED: &str =
+    "[test,]pose,cycle,xc,yc,zc[,ac,bc,cc],x,y,z[,a,b,c][,direction][,v1..vn]";
 
 /// Reads a measurement log (CSV, see the module's documentation): columns `pose` (1..5 or
-/// P1..P5), `cycle` (a whole number), `xc,yc,zc` and `x,y,z`, optionally `ac,bc,cc` with
-/// `a,b,c`, and `direction`. Units as the file states them in comment lines before its header,
+/// P1..P5, or a corner C1..C8), `cycle` (a whole number), `xc,yc,zc` and `x,y,z`, optionally
+/// `ac,bc,cc` with `a,b,c`, `direction`, `test` (a label: the log holds several tests) and the
+/// joint readings `v1..vn`. Units as the file states them in comment lines before its header,
 /// or as `given` (both: they must agree). Every error names the file, line and field.
 pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
     let stated = crate::import::dh::stated(text, file)?;
@@ -832,8 +889,16 @@ pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
     let length_unit = stated.length.map(|s| s.0).or(given.length);
     let angle_unit = stated.angle.map(|s| s.0).or(given.angle);
     let t = table::read(text, file)?;
-    let known: Vec<String> = LOG_COLUMNS.map(String::from).to_vec();
+    let readings_count = (1..)
+        .take_while(|k| t.column(&format!("v{k}")).is_some())
+        .count();
+    let mut known: Vec<String> = LOG_COLUMNS.map(String::from).to_vec();
+    known.extend((1..=readings_count).map(|k| format!("v{k}")));
     t.refuse_unknown(&known, LOG_EXPECTED)?;
+    let readings_c: Vec<usize> = (1..=readings_count)
+        .map(|k| t.column(&format!("v{k}")).unwrap_or(0))
+        .collect();
+    let test_c = t.column("test");
     let col = |name: &str| t.require(name, LOG_EXPECTED);
     let pose_c = col("pose")?;
     let cycle_c = col("cycle")?;
@@ -872,9 +937,10 @@ pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
     let direction_c = t.column("direction");
     t.check_rows()?;
     let mut rows = Vec::new();
-    let mut seen: BTreeMap<(usize, u64, Option<String>), usize> = BTreeMap::new();
+    let mut seen: BTreeMap<(Option<String>, usize, u64, Option<String>), usize> = BTreeMap::new();
     for (line, f) in t.rows() {
-        let pose = pose_index(&t, line, &f[pose_c])?;
+        let pose = pose_index(&t, line, &f[pose_c], true)?;
+        let test = test_c.map(|c| f[c].to_string()).filter(|d| !d.is_empty());
         let cs = &f[cycle_c];
         let cycle: u64 = cs.parse().map_err(|_| {
             Error::input(
@@ -898,11 +964,25 @@ pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
         let direction = direction_c
             .map(|c| f[c].to_string())
             .filter(|d| !d.is_empty());
-        if let Some(first) = seen.insert((pose, cycle, direction.clone()), line) {
+        let readings = if readings_c.is_empty() {
+            None
+        } else {
+            Some(
+                readings_c
+                    .iter()
+                    .map(|&c| t.number(line, &t.header[c], &f[c]))
+                    .collect::<Result<Vec<f64>>>()?,
+            )
+        };
+        if let Some(first) = seen.insert((test.clone(), pose, cycle, direction.clone()), line) {
             return Err(Error::input(
                 t.at(line, "cycle"),
                 format!(
-                    "P{pose} in cycle {cycle}{} appears twice (also on line {first})",
+                    "{}{} in cycle {cycle}{} appears twice (also on line {first})",
+                    test.as_deref()
+                        .map(|t| format!("test `{t}`: "))
+                        .unwrap_or_default(),
+                    pose_name(pose),
                     direction
                         .as_deref()
                         .map(|d| format!(" from direction `{d}`"))
@@ -912,6 +992,7 @@ pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
         }
         rows.push(LogRow {
             line,
+            test,
             pose,
             cycle,
             commanded,
@@ -919,6 +1000,7 @@ pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
             attained,
             attained_attitude,
             direction,
+            readings,
         });
     }
     if rows.is_empty() {
@@ -956,19 +1038,40 @@ pub fn write_log(log: &Log) -> String {
     }
     let attitude = log.rows.iter().any(|r| r.attained_attitude.is_some());
     let direction = log.rows.iter().any(|r| r.direction.is_some());
-    let header: Vec<&str> = LOG_COLUMNS
+    let test = log.rows.iter().any(|r| r.test.is_some());
+    // Readings only when every row has them, as many.
+    let readings = log
+        .rows
+        .first()
+        .and_then(|r| r.readings.as_ref())
+        .map(Vec::len)
+        .filter(|&k| {
+            log.rows
+                .iter()
+                .all(|r| r.readings.as_ref().map(Vec::len) == Some(k))
+        })
+        .unwrap_or(0);
+    let mut header: Vec<String> = LOG_COLUMNS
         .iter()
         .copied()
         .filter(|c| {
             (attitude || !["ac", "bc", "cc", "a", "b", "c"].contains(c))
                 && (direction || *c != "direction")
+                && (test || *c != "test")
         })
+        .map(String::from)
         .collect();
+    header.extend((1..=readings).map(|k| format!("v{k}")));
     out += &header.join(",");
     out.push('\n');
     let n = number::format_number;
     for r in &log.rows {
-        let mut row = vec![r.pose.to_string(), r.cycle.to_string()];
+        let mut row = Vec::with_capacity(header.len());
+        if test {
+            row.push(csv_field(r.test.as_deref().unwrap_or_default()));
+        }
+        row.push(pose_name(r.pose));
+        row.push(r.cycle.to_string());
         row.extend(r.commanded.map(n));
         if attitude {
             row.extend(r.commanded_attitude.unwrap_or_default().map(n));
@@ -978,12 +1081,25 @@ pub fn write_log(log: &Log) -> String {
             row.extend(r.attained_attitude.unwrap_or_default().map(n));
         }
         if direction {
-            row.push(r.direction.clone().unwrap_or_default());
+            row.push(csv_field(r.direction.as_deref().unwrap_or_default()));
+        }
+        if readings > 0 {
+            row.extend(r.readings.iter().flatten().map(|&v| n(v)));
         }
         out += &row.join(",");
         out.push('\n');
     }
     out
+}
+
+/// A label as one CSV field: quoted (quotes doubled) when it holds a comma, a quote or a line
+/// break.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 /// What [`simulate`] is asked.
@@ -1043,6 +1159,7 @@ pub fn simulate(robot: &Robot, poses: &[TestPose], request: &SimulateRequest) ->
             });
             rows.push(LogRow {
                 line: 0,
+                test: None,
                 pose: index,
                 cycle,
                 commanded: p.position.map(l),
@@ -1050,6 +1167,7 @@ pub fn simulate(robot: &Robot, poses: &[TestPose], request: &SimulateRequest) ->
                 attained,
                 attained_attitude,
                 direction: None,
+                readings: Some(p.readings.clone()),
             });
         }
     }
@@ -1059,335 +1177,5 @@ pub fn simulate(robot: &Robot, poses: &[TestPose], request: &SimulateRequest) ->
         angle_unit: Some(u.angle),
         simulated: true,
         rows,
-    })
-}
-
-/// The figures of one pose (see the module's documentation for the symbols), in the log's
-/// units.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PoseFigures {
-    /// The pose index, 1 to 5.
-    pub pose: usize,
-    /// `n`: the cycles (attained poses) it was measured in.
-    pub cycles: usize,
-    /// The commanded position `x_c, y_c, z_c`.
-    pub commanded: [f64; 3],
-    /// The commanded attitude `a_c, b_c, c_c`.
-    pub commanded_attitude: Option<[f64; 3]>,
-    /// The barycentre `xbar, ybar, zbar`.
-    pub barycentre: [f64; 3],
-    /// Pose accuracy `AP`.
-    pub ap: f64,
-    /// `APx, APy, APz`.
-    pub ap_xyz: [f64; 3],
-    /// `lbar`: the mean distance of the attained positions from the barycentre.
-    pub l_mean: f64,
-    /// `S_l`: their standard deviation (`n - 1`).
-    pub s_l: f64,
-    /// Pose repeatability `RP = lbar + 3 S_l`.
-    pub rp: f64,
-    /// Attitude accuracy `APa, APb, APc`.
-    pub ap_abc: Option<[f64; 3]>,
-    /// Attitude repeatability `RPa, RPb, RPc` (`3 S`, read `+-`).
-    pub rp_abc: Option<[f64; 3]>,
-    /// The multi-directional figures, when the pose was approached from several directions.
-    pub multidirectional: Option<Multidirectional>,
-    /// The attained positions, in the log's order.
-    pub attained: Vec<[f64; 3]>,
-}
-
-/// Multi-directional pose accuracy variation of one pose.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Multidirectional {
-    /// The approach directions, as the log names them.
-    pub directions: Vec<String>,
-    /// The barycentre of the positions reached from each direction.
-    pub barycentres: Vec<[f64; 3]>,
-    /// `vAP`: the largest distance between two of the barycentres.
-    pub vap: f64,
-    /// `vAPa, vAPb, vAPc`: the largest difference between two directions' mean angles.
-    pub vap_abc: Option<[f64; 3]>,
-}
-
-/// Distance accuracy and repeatability of a pair of poses.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DistanceFigures {
-    /// The first pose's index.
-    pub from: usize,
-    /// The second pose's index.
-    pub to: usize,
-    /// `n`: the cycles in which both were attained.
-    pub cycles: usize,
-    /// `D_c`: the commanded distance.
-    pub commanded: f64,
-    /// `Dbar`: the mean attained distance.
-    pub mean: f64,
-    /// Distance accuracy `AD = Dbar - D_c`.
-    pub ad: f64,
-    /// `ADx, ADy, ADz`.
-    pub ad_xyz: [f64; 3],
-    /// `S_D`: the standard deviation of the attained distances (`n - 1`).
-    pub s_d: f64,
-    /// Distance repeatability `RD = 3 S_D` (read `+-`).
-    pub rd: f64,
-}
-
-/// The ISO 9283 figures of a log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Evaluation {
-    /// The log's file.
-    pub file: String,
-    /// The log's length unit, when known (the figures' lengths are in it).
-    pub length_unit: Option<LengthUnit>,
-    /// The log's angle unit, when known (the figures' angles are in it).
-    pub angle_unit: Option<AngleUnit>,
-    /// Whether the log was simulated.
-    pub simulated: bool,
-    /// The cycles the standard asks for.
-    pub standard_cycles: usize,
-    /// Per pose, in index order.
-    pub poses: Vec<PoseFigures>,
-    /// Per pair of poses.
-    pub distances: Vec<DistanceFigures>,
-    /// What makes the figures differ from a standard test (fewer cycles than the standard's,
-    /// pooled directions, a pair of poses without common cycles).
-    pub warnings: Vec<String>,
-}
-
-/// The mean of `v`.
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len() as f64
-}
-
-/// The standard deviation of `v` with `n - 1` in the denominator (`v` has at least 2 values).
-fn std_dev(v: &[f64]) -> f64 {
-    let m = mean(v);
-    (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
-}
-
-/// The ISO 9283 figures of `log` (see the module's documentation). An error when a pose has
-/// fewer than 2 cycles (no repeatability), or rows of one pose disagree on its commanded pose.
-pub fn evaluate(log: &Log) -> Result<Evaluation> {
-    let turn = match log.angle_unit {
-        Some(AngleUnit::Deg) => 360.0,
-        _ => std::f64::consts::TAU,
-    };
-    let wrap = |d: f64| d - turn * (d / turn).round();
-    let at = |r: &LogRow, field: &str| Location::file(&log.file).at_line(r.line).with_field(field);
-    let mut by_pose: BTreeMap<usize, Vec<&LogRow>> = BTreeMap::new();
-    for r in &log.rows {
-        by_pose.entry(r.pose).or_default().push(r);
-    }
-    let mut warnings = Vec::new();
-    let mut poses = Vec::new();
-    for (&pose, rows) in &by_pose {
-        let first = rows[0];
-        let n = rows.len();
-        // One commanded pose per pose index.
-        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
-        for r in &rows[1..] {
-            let xyz = ["xc", "yc", "zc"];
-            if let Some(k) = (0..3).find(|&k| !close(r.commanded[k], first.commanded[k])) {
-                return Err(Error::input(
-                    at(r, xyz[k]),
-                    format!(
-                        "P{pose} is commanded at {} = {} here but {} on line {}: one pose, one \
-                         commanded pose",
-                        xyz[k], r.commanded[k], first.commanded[k], first.line
-                    ),
-                ));
-            }
-            if let (Some(a), Some(b)) = (r.commanded_attitude, first.commanded_attitude) {
-                let abc = ["ac", "bc", "cc"];
-                if let Some(k) = (0..3).find(|&k| !close(wrap(a[k] - b[k]) + b[k], b[k])) {
-                    return Err(Error::input(
-                        at(r, abc[k]),
-                        format!(
-                            "P{pose} is commanded at {} = {} here but {} on line {}: one pose, \
-                             one commanded pose",
-                            abc[k], a[k], b[k], first.line
-                        ),
-                    ));
-                }
-            }
-        }
-        if n < 2 {
-            return Err(Error::input(
-                Location::file(&log.file).at_line(first.line),
-                format!(
-                    "P{pose} was measured in 1 cycle: repeatability needs at least 2 cycles per \
-                     pose (ISO 9283 asks for {STANDARD_CYCLES})"
-                ),
-            ));
-        }
-        if n < STANDARD_CYCLES {
-            warnings.push(format!(
-                "P{pose}: {n} cycles, fewer than the {STANDARD_CYCLES} ISO 9283 asks for: the \
-                 figures are computed, but they are not those of a standard test"
-            ));
-        }
-        let axis = |k: usize| rows.iter().map(|r| r.attained[k]).collect::<Vec<f64>>();
-        let bary: [f64; 3] = std::array::from_fn(|k| mean(&axis(k)));
-        let ap_xyz: [f64; 3] = std::array::from_fn(|k| bary[k] - first.commanded[k]);
-        let ap = ap_xyz.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let l: Vec<f64> = rows
-            .iter()
-            .map(|r| {
-                (0..3)
-                    .map(|k| (r.attained[k] - bary[k]).powi(2))
-                    .sum::<f64>()
-                    .sqrt()
-            })
-            .collect();
-        let (l_mean, s_l) = (mean(&l), std_dev(&l));
-        // Attitudes: each attained angle's difference from the commanded one, wrapped.
-        let deviations = |rows: &[&LogRow], k: usize| -> Option<Vec<f64>> {
-            rows.iter()
-                .map(|r| Some(wrap(r.attained_attitude?[k] - r.commanded_attitude?[k])))
-                .collect()
-        };
-        let (ap_abc, rp_abc) = match (0..3)
-            .map(|k| deviations(rows, k))
-            .collect::<Option<Vec<_>>>()
-        {
-            Some(d) => (
-                Some(std::array::from_fn(|k| mean(&d[k]))),
-                Some(std::array::from_fn(|k| 3.0 * std_dev(&d[k]))),
-            ),
-            None => (None, None),
-        };
-        // Approach directions.
-        let mut by_direction: BTreeMap<&str, Vec<&LogRow>> = BTreeMap::new();
-        for r in rows {
-            if let Some(d) = &r.direction {
-                by_direction.entry(d.as_str()).or_default().push(r);
-            }
-        }
-        let multidirectional = (by_direction.len() >= 2).then(|| {
-            let barycentres: Vec<[f64; 3]> = by_direction
-                .values()
-                .map(|rs| {
-                    std::array::from_fn(|k| {
-                        mean(&rs.iter().map(|r| r.attained[k]).collect::<Vec<_>>())
-                    })
-                })
-                .collect();
-            let means: Option<Vec<[f64; 3]>> = by_direction
-                .values()
-                .map(|rs| {
-                    let d = (0..3)
-                        .map(|k| deviations(rs, k))
-                        .collect::<Option<Vec<_>>>()?;
-                    Some(std::array::from_fn(|k| mean(&d[k])))
-                })
-                .collect();
-            let mut vap: f64 = 0.0;
-            let mut vap_abc = means.as_ref().map(|_| [0.0f64; 3]);
-            for h in 0..barycentres.len() {
-                for k in h + 1..barycentres.len() {
-                    let d = (0..3)
-                        .map(|c| (barycentres[h][c] - barycentres[k][c]).powi(2))
-                        .sum::<f64>()
-                        .sqrt();
-                    vap = vap.max(d);
-                    if let (Some(m), Some(v)) = (&means, &mut vap_abc) {
-                        for c in 0..3 {
-                            v[c] = v[c].max(wrap(m[h][c] - m[k][c]).abs());
-                        }
-                    }
-                }
-            }
-            Multidirectional {
-                directions: by_direction.keys().map(|d| d.to_string()).collect(),
-                barycentres,
-                vap,
-                vap_abc,
-            }
-        });
-        if multidirectional.is_some() {
-            warnings.push(format!(
-                "P{pose}: AP and RP pool {} approach directions (the standard's AP and RP are \
-                 unidirectional: log the multi-directional test apart)",
-                by_direction.len()
-            ));
-        }
-        poses.push(PoseFigures {
-            pose,
-            cycles: n,
-            commanded: first.commanded,
-            commanded_attitude: first.commanded_attitude,
-            barycentre: bary,
-            ap,
-            ap_xyz,
-            l_mean,
-            s_l,
-            rp: l_mean + 3.0 * s_l,
-            ap_abc,
-            rp_abc,
-            multidirectional,
-            attained: rows.iter().map(|r| r.attained).collect(),
-        });
-    }
-    // Distances between every pair of poses, cycle by cycle.
-    let mut distances = Vec::new();
-    let keyed = |rows: &[&LogRow]| -> BTreeMap<(u64, Option<String>), [f64; 3]> {
-        rows.iter()
-            .map(|r| ((r.cycle, r.direction.clone()), r.attained))
-            .collect()
-    };
-    let indices: Vec<usize> = by_pose.keys().copied().collect();
-    for (i, &p) in indices.iter().enumerate() {
-        for &q in &indices[i + 1..] {
-            let (a, b) = (keyed(&by_pose[&p]), keyed(&by_pose[&q]));
-            let pairs: Vec<([f64; 3], [f64; 3])> = a
-                .iter()
-                .filter_map(|(key, x)| b.get(key).map(|y| (*x, *y)))
-                .collect();
-            if pairs.len() < 2 {
-                warnings.push(format!(
-                    "P{p} and P{q} were attained together in {} cycle{}: no distance figures \
-                     (they need 2)",
-                    pairs.len(),
-                    if pairs.len() == 1 { "" } else { "s" }
-                ));
-                continue;
-            }
-            let (cp, cq) = (by_pose[&p][0].commanded, by_pose[&q][0].commanded);
-            let dc: [f64; 3] = std::array::from_fn(|k| cp[k] - cq[k]);
-            let commanded = dc.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let d: Vec<f64> = pairs
-                .iter()
-                .map(|(x, y)| (0..3).map(|k| (x[k] - y[k]).powi(2)).sum::<f64>().sqrt())
-                .collect();
-            let ad_xyz: [f64; 3] = std::array::from_fn(|k| {
-                mean(&pairs.iter().map(|(x, y)| x[k] - y[k]).collect::<Vec<_>>()) - dc[k]
-            });
-            let m = mean(&d);
-            let s_d = std_dev(&d);
-            distances.push(DistanceFigures {
-                from: p,
-                to: q,
-                cycles: pairs.len(),
-                commanded,
-                mean: m,
-                ad: m - commanded,
-                ad_xyz,
-                s_d,
-                rd: 3.0 * s_d,
-            });
-        }
-    }
-    if log.simulated {
-        warnings.push("the log is simulated (kinecal iso9283 simulate), not measured".into());
-    }
-    Ok(Evaluation {
-        file: log.file.clone(),
-        length_unit: log.length_unit,
-        angle_unit: log.angle_unit,
-        simulated: log.simulated,
-        standard_cycles: STANDARD_CYCLES,
-        poses,
-        distances,
-        warnings,
     })
 }
