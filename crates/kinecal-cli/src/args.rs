@@ -486,7 +486,8 @@ a session the robot has no frame for is placed first (6 parameters estimated on 
 robot held, as a validation does). The commanded pose is where --robot puts the target at the
 mean readings of the pose's cycles. So the figures are those of the robot driven by --robot's
 model: the nominal one before calibration, a calibrated one for the compensated robot. Postures
-without a role are left out, and counted. The log is in the robot file's units.")]
+without a role are left out, and counted. The log is in the robot file's units, or its lengths in
+--length-unit.")]
     Log(Iso9283LogArgs),
 }
 
@@ -502,6 +503,9 @@ pub struct Iso9283LogArgs {
     /// Which test, pose and cycle each posture is (CSV: posture,test,pose,cycle).
     #[arg(long, value_name = "ROLES.csv")]
     pub roles: PathBuf,
+    /// Write the log's lengths in this unit (default: the robot file's).
+    #[arg(long, value_name = "UNIT", value_parser = ["m", "mm", "in"])]
+    pub length_unit: Option<String>,
     /// The log to write (CSV).
     #[arg(long)]
     pub out: PathBuf,

@@ -510,7 +510,13 @@ fn run_log(a: Iso9283LogArgs) -> Result<()> {
             &kinecal::CalibrationOptions::new(Vec::new()),
         )
     };
-    let (log, left_out) = log_from_measurements(&placed, &data, &roles)?;
+    let (mut log, left_out) = log_from_measurements(&placed, &data, &roles)?;
+    if let Some(u) = &a.length_unit {
+        let u = u
+            .parse()
+            .map_err(|e: String| anyhow!("--length-unit: {e}"))?;
+        log = log.with_length_unit(u)?;
+    }
     let tests = {
         let mut t: Vec<&str> = log.rows.iter().filter_map(|r| r.test.as_deref()).collect();
         t.sort_unstable();
@@ -519,11 +525,11 @@ fn run_log(a: Iso9283LogArgs) -> Result<()> {
     };
     if !missing.is_empty() {
         eprintln!(
-            "placed the measurement frame of session{} {} on {} (6 parameters each, the robot \
-             held)",
+            "placed the measurement frame of session{} {} on {} (6 parameters{}, the robot held)",
             if missing.len() == 1 { "" } else { "s" },
             missing.join(", "),
-            d.name
+            d.name,
+            if missing.len() == 1 { "" } else { " each" }
         );
     }
     if !left_out.is_empty() {
@@ -543,10 +549,11 @@ fn run_log(a: Iso9283LogArgs) -> Result<()> {
     }
     output::write_file(&a.out, &write_log(&log))?;
     eprintln!(
-        "wrote the ISO 9283 log of {} rows ({tests} tests; commanded: {}'s model at the readings; \
+        "wrote the ISO 9283 log of {} rows ({tests} test{}; commanded: {}'s model at the readings; \
          attained: measured, in its base frame) to {}",
         log.rows.len(),
-        robot.name,
+        if tests == 1 { "" } else { "s" },
+        a.robot,
         a.out.display()
     );
     Ok(())

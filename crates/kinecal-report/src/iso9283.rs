@@ -185,6 +185,11 @@ pub fn html_iso9283(e: &Evaluation) -> String {
     for w in &e.warnings {
         let _ = writeln!(h, "<p class=\"warn\">Warning: {}</p>", esc(w));
     }
+    if e.summary.is_some() {
+        h += &series(e, &l);
+        h += SYMBOLS;
+        return h;
+    }
     let _ = writeln!(
         h,
         "<p class=\"key\">Per pose, the attained positions (blue dots) from above and from the \
@@ -192,11 +197,6 @@ pub fn html_iso9283(e: &Evaluation) -> String {
          (<span style=\"color:#c0392b\">&times;</span>), closer; the dashed circle has the radius \
          RP about the barycentre.</p>"
     );
-    if e.summary.is_some() {
-        h += &series(e, &l);
-        h += SYMBOLS;
-        return h;
-    }
     for f in &e.poses {
         let _ = writeln!(
             h,
@@ -365,7 +365,7 @@ fn series(e: &Evaluation, l: &str) -> String {
          <th>AP p95</th><th>AP max</th><th>RP n</th><th>RP mean</th><th>RP p95</th><th>RP max</th>{}</tr>",
         sum.tests,
         if compensated {
-            "<th>compensated AP RMS (predicted, mean)</th><th>95 % bound (mean)</th><th>AP within it</th>"
+            "<th>compensated AP RMS (predicted, mean)</th><th>95 % bound (mean)</th><th>measured AP within the bound</th>"
         } else {
             ""
         }

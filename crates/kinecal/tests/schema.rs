@@ -1,5 +1,5 @@
 //! The JSON Schemas shipped in `schemas/` are the ones the code describes: the calibration
-//! report, and the analysis, plan and check documents (regenerate with
+//! report, and the analysis, plan, check and ISO 9283 documents (regenerate with
 //! `SNAPSHOTS=overwrite cargo test -p kinecal --test schema`).
 
 use std::path::Path;
@@ -37,6 +37,18 @@ fn the_shipped_schemas_are_the_code_s() {
             kinecal::workflow::check_schema(),
             "CheckReport",
             &["schema_version", "ok", "threshold_length"][..],
+        ),
+        (
+            "iso9283.schema.json",
+            kinecal::iso9283::evaluation_schema(),
+            "Evaluation",
+            &[
+                "schema_version",
+                "poses",
+                "distances",
+                "summary",
+                "warnings",
+            ][..],
         ),
     ] {
         let path = dir.join(file);

@@ -12,7 +12,7 @@ use crate::units::{AngleUnit, LengthUnit};
 
 /// The figures of one pose (see the module's documentation for the symbols), in the log's
 /// units.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct PoseFigures {
     /// The test it belongs to, when the log holds several.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -58,7 +58,7 @@ pub struct PoseFigures {
 /// unit. The remaining systematic error is what the calibration does not know: the parameters'
 /// uncertainty and the model error at that posture ([`crate::predict`]); the repeatability is
 /// the robot's and does not change.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Compensated {
     /// The predicted RMS of `AP`: `sqrt(tr S)`, `S` the predicted covariance of the position
     /// error.
@@ -71,7 +71,7 @@ pub struct Compensated {
 }
 
 /// Multi-directional pose accuracy variation of one pose.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Multidirectional {
     /// The approach directions, as the log names them.
     pub directions: Vec<String>,
@@ -84,7 +84,7 @@ pub struct Multidirectional {
 }
 
 /// Distance accuracy and repeatability of a pair of poses.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct DistanceFigures {
     /// The test the poses belong to, when the log holds several.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -110,7 +110,7 @@ pub struct DistanceFigures {
 }
 
 /// One figure over the poses (or pairs) of a series of tests.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Spread {
     /// How many values.
     pub count: usize,
@@ -139,7 +139,7 @@ impl Spread {
 }
 
 /// The figures of one pose over the tests of a series (or of every pose: `pose` 0).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct PoseSummary {
     /// The pose (0: every pose together).
     pub pose: usize,
@@ -157,7 +157,7 @@ pub struct PoseSummary {
 }
 
 /// The figures across the tests of a log that holds several (a series of cubes).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Summary {
     /// The tests.
     pub tests: usize,
@@ -169,9 +169,23 @@ pub struct Summary {
     pub rd: Option<Spread>,
 }
 
+/// The version of the ISO 9283 document ([`Evaluation`] as JSON); its schema is
+/// [`evaluation_schema`].
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The JSON Schema of [`Evaluation`] (what `kinecal iso9283 evaluate --json` writes), as shipped
+/// in `schemas/iso9283.schema.json`.
+pub fn evaluation_schema() -> String {
+    let schema = schemars::schema_for!(Evaluation);
+    serde_json::to_string_pretty(&schema).expect("a schema is JSON") + "\n"
+}
+
 /// The ISO 9283 figures of a log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Evaluation {
+    /// [`SCHEMA_VERSION`] of the document.
+    #[serde(default)]
+    pub schema_version: u32,
     /// The log's file.
     pub file: String,
     /// The log's length unit, when known (the figures' lengths are in it).
@@ -547,6 +561,7 @@ pub fn evaluate(log: &Log) -> Result<Evaluation> {
         warnings.push("the log is simulated (kinecal iso9283 simulate), not measured".into());
     }
     let mut e = Evaluation {
+        schema_version: SCHEMA_VERSION,
         file: log.file.clone(),
         length_unit: log.length_unit,
         angle_unit: log.angle_unit,

@@ -89,8 +89,8 @@ pub mod measured;
 use std::collections::BTreeMap;
 
 pub use figures::{
-    evaluate, Compensated, DistanceFigures, Evaluation, Multidirectional, PoseFigures, PoseSummary,
-    Spread, Summary,
+    evaluate, evaluation_schema, Compensated, DistanceFigures, Evaluation, Multidirectional,
+    PoseFigures, PoseSummary, Spread, Summary,
 };
 pub use measured::{
     cube_roles, log_from_measurements, predict_compensated, read_roles, write_roles, Role, Roles,
@@ -821,6 +821,26 @@ pub struct Log {
     pub rows: Vec<LogRow>,
 }
 
+impl Log {
+    /// The log with its lengths (commanded and attained positions) in `unit`; an error when it
+    /// states no length unit to convert from.
+    pub fn with_length_unit(mut self, unit: LengthUnit) -> Result<Log> {
+        let Some(from) = self.length_unit else {
+            return Err(Error::Problem(format!(
+                "{} states no length unit to convert from",
+                self.file
+            )));
+        };
+        let f = from.metres() / unit.metres();
+        for r in &mut self.rows {
+            r.commanded = r.commanded.map(|v| v * f);
+            r.attained = r.attained.map(|v| v * f);
+        }
+        self.length_unit = Some(unit);
+        Ok(self)
+    }
+}
+
 /// Units given for a log that may not state its own.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct LogUnits {
@@ -1070,7 +1090,12 @@ pub fn write_log(log: &Log) -> String {
         if test {
             row.push(csv_field(r.test.as_deref().unwrap_or_default()));
         }
-        row.push(pose_name(r.pose));
+        // P1..P5 as their numbers (as logs have always been written), corners by name.
+        row.push(if r.pose > CORNERS {
+            pose_name(r.pose)
+        } else {
+            r.pose.to_string()
+        });
         row.push(r.cycle.to_string());
         row.extend(r.commanded.map(n));
         if attitude {
