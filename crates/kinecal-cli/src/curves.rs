@@ -308,8 +308,10 @@ pub fn report(a: ReportArgs) -> Result<()> {
         _ => bail!("give --calibrated or --calibration"),
     };
     let sources: Vec<_> = std::iter::once(r.source.clone()).chain(sources).collect();
-    let outcome =
+    let mut outcome =
         kinecal::workflow::assess(nominal, &calibrated, &data, weights, orientation, &sources)?;
+    // The predicted accuracy and its map, as `calibrate --html` gives them.
+    kinecal::workflow::add_prediction(&mut outcome, nominal, kinecal::predict::Level::Map);
     write_file(&a.out, &kinecal_report::html_report(&outcome.report)?)?;
     eprintln!("wrote {}", a.out.display());
     Ok(())

@@ -1544,6 +1544,8 @@ fn curves_and_html_report() {
         assert_eq!(h.matches("<svg").count(), h.matches("</svg>").count());
         assert!(h.matches("<svg").count() >= 4);
         assert!(h.contains("p3 - p9 - p15 - p21 - p27 - p33"), "{f}");
+        // The predicted accuracy and its map, whether calibrated here or given (30 postures).
+        assert!(h.contains("id=\"prediction\""), "{f} lacks the prediction");
     }
     // The page rebuilt from the JSON report alone is the one calibrate wrote.
     run_ok(d, &["report", "--from", "r.json", "--html", "d.html"]);

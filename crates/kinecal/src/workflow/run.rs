@@ -540,23 +540,32 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot));
         outcome.cross_validation = Some(cv);
     }
-    if req.prediction != crate::predict::Level::Off {
-        if let Some(u) = &outcome.uncertainty {
-            progress.phase(Phase::Prediction);
-            // Not every calibration can give one (too few postures measured by position or
-            // pose): the report then has none.
-            outcome.report.prediction = crate::predict::assess(
-                &outcome.calibration,
-                &outcome.data,
-                reference,
-                &u.analysis.parameters,
-                u.covariance_internal(),
-                req.prediction,
-            )
-            .ok();
-        }
+    if req.prediction != crate::predict::Level::Off && outcome.uncertainty.is_some() {
+        progress.phase(Phase::Prediction);
+        add_prediction(&mut outcome, reference, req.prediction);
     }
     Ok(outcome)
+}
+
+/// Adds to `outcome`'s report the predicted accuracy of its calibrated robot
+/// ([`crate::predict::assess`] at `level`; `reference` is the robot the solver started from).
+/// Not every calibration can give one (no uncertainty, or too few postures measured by position
+/// or pose): the report then has none.
+pub fn add_prediction(outcome: &mut Outcome, reference: &Robot, level: crate::predict::Level) {
+    if level == crate::predict::Level::Off {
+        return;
+    }
+    if let Some(u) = &outcome.uncertainty {
+        outcome.report.prediction = crate::predict::assess(
+            &outcome.calibration,
+            &outcome.data,
+            reference,
+            &u.analysis.parameters,
+            u.covariance_internal(),
+            level,
+        )
+        .ok();
+    }
 }
 
 /// A variance factor above this says the stated sigmas are more than 10 times too small
