@@ -239,6 +239,7 @@ Examples:
       --out predicted.csv
   kinecal predict --robot calibrated.toml --report report.json --sample 10000 --seed 1 \\
       --html map.html
+  kinecal predict --robot calibrated.toml --report report.json --targets targets.csv
 
 The report is the calibration's (`kinecal calibrate --report`): it holds the parameters'
 covariance, the model-error term and the measured postures. The bound at a posture combines the
@@ -246,13 +247,20 @@ covariance through the Jacobian with a model error of per-axis variance s0^2 + (
 joint-space distance to the nearest measured posture. The table has the readings, the target's
 x,y,z, d, and per quantity the parameters' and the model error's parts (RMS), the 95 % bound, and
 the 95 % bound of the parameters alone, in the robot file's units. --html draws the accuracy map
-(colour maps of the bound on slices of the workspace and along each joint's range).")]
+(colour maps of the bound on slices of the workspace and along each joint's range). --targets
+takes Cartesian goals instead (positions, or poses with ZYX Euler angles), each reached by the
+calibrated robot's inverse kinematics (what a compensated program commands); a goal out of reach
+or outside a joint range is refused with its line.")]
     Predict(PredictArgs),
 }
 
 /// `kinecal predict`.
 #[derive(Debug, Args)]
-#[command(group(clap::ArgGroup::new("where").required(true).args(["postures", "sample"])))]
+#[command(group(
+    clap::ArgGroup::new("where")
+        .required(true)
+        .args(["postures", "sample", "targets"])
+))]
 pub struct PredictArgs {
     /// The calibrated robot file (TOML), as `kinecal calibrate --out` wrote it.
     #[arg(long)]
@@ -266,6 +274,10 @@ pub struct PredictArgs {
     /// Draw N postures uniformly in the joint ranges instead.
     #[arg(long, value_name = "N")]
     pub sample: Option<usize>,
+    /// Cartesian targets instead: CSV `target,x,y,z[,alpha,beta,gamma]` (the robot file's units
+    /// and global frame), reached through the calibrated robot's inverse kinematics.
+    #[arg(long, value_name = "TARGETS.csv")]
+    pub targets: Option<PathBuf>,
     /// Seed of --sample (and of the map's postures).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

@@ -22,6 +22,7 @@ pub fn run(a: PredictArgs) -> Result<()> {
         .collect();
     let mut inputs: Vec<&Path> = vec![a.report.as_path(), Path::new(&a.robot)];
     inputs.extend(a.postures.as_deref());
+    inputs.extend(a.targets.as_deref());
     output::check_distinct(&outputs, &inputs)?;
     let (loaded, report, pr, target_name) = calibrated(&a.robot, &a.report, a.target.as_deref())?;
     let robot = &loaded.robot;
@@ -47,7 +48,10 @@ pub fn run(a: PredictArgs) -> Result<()> {
                 .map(|(i, r)| ((i + 1).to_string(), r.to_vec()))
                 .collect()
         }
-        (None, None) => bail!("give --postures or --sample"),
+        (None, None) => match &a.targets {
+            Some(path) => reach_targets(robot, path, target)?,
+            None => bail!("give --postures, --sample or --targets"),
+        },
     };
     let attitude = pr.attitude.is_some();
     let mut csv = predict::csv_header(robot, attitude);
@@ -179,4 +183,93 @@ pub fn site_target(robot: &kinecal::Robot, name: &str) -> Result<Target> {
                 .join(", ")
         )
     })?))
+}
+
+/// The readings that reach each Cartesian goal of `path` (`target,x,y,z[,alpha,beta,gamma]`,
+/// `robot`'s file units and global frame) through `robot`'s inverse kinematics, labelled by
+/// the goals' names. A goal out of reach or outside a joint range is an error naming its line.
+fn reach_targets(
+    robot: &kinecal::Robot,
+    path: &Path,
+    target: Target,
+) -> Result<Vec<(String, Vec<f64>)>> {
+    use kinecal::compensate::{Goal, Options, TargetSearch};
+    use kinecal::kinematics::{rot_zyx, Frame};
+    use kinecal::units::Quantity;
+    let mut rows = crate::stream::Rows::open(path)?;
+    let expected = "target,x,y,z[,alpha,beta,gamma]";
+    let col = |rows: &crate::stream::Rows, name: &str| {
+        rows.column(name).ok_or_else(|| {
+            anyhow!(
+                "{}:1: no column `{name}` in the header (expected {expected})",
+                rows.file
+            )
+        })
+    };
+    let label = col(&rows, "target")?;
+    let xyz = [col(&rows, "x")?, col(&rows, "y")?, col(&rows, "z")?];
+    let euler: Option<Vec<usize>> = ["alpha", "beta", "gamma"]
+        .iter()
+        .map(|n| rows.column(n))
+        .collect();
+    if let Some(h) = rows.header.iter().find(|h| {
+        !["target", "x", "y", "z", "alpha", "beta", "gamma"]
+            .iter()
+            .any(|k| h.eq_ignore_ascii_case(k))
+    }) {
+        bail!(
+            "{}:1: unknown column `{h}` (expected {expected})",
+            rows.file
+        );
+    }
+    let u = robot.units;
+    let mut search = TargetSearch::new(robot, robot, Options::default())
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    let mut out = vec![0.0; robot.dof()];
+    let mut reached = Vec::new();
+    while let Some(line) = rows.advance()? {
+        let mut p = [0.0; 3];
+        for (k, &c) in xyz.iter().enumerate() {
+            p[k] = u.to_si(Quantity::Length, crate::stream::cell(&rows, line, c)?);
+        }
+        let p = nalgebra::Vector3::from(p);
+        let goal = match &euler {
+            Some(e) if e.iter().any(|&c| !rows.field(c).is_empty()) => {
+                let mut r = [0.0; 3];
+                for (k, &c) in e.iter().enumerate() {
+                    r[k] = u.to_si(Quantity::Angle, crate::stream::cell(&rows, line, c)?);
+                }
+                Goal::Pose(Frame {
+                    rotation: rot_zyx(r[0], r[1], r[2]),
+                    translation: p,
+                })
+            }
+            _ => Goal::Position(p),
+        };
+        let s = search.solve(&goal, target, None, &mut out);
+        let name = rows.field(label).to_string();
+        if s.flags.unreachable || s.flags.out_of_range != 0 {
+            bail!(
+                "{}:{line}: target `{name}`: the calibrated robot does not reach it ({}): is it \
+                 in the robot's global frame and length unit ({})?",
+                rows.file,
+                s.flags.describe(),
+                u.length
+            );
+        }
+        if s.flags.singular {
+            eprintln!(
+                "warning: {}:{line}: target `{name}` is reached near a singularity",
+                rows.file
+            );
+        }
+        reached.push((name, out.clone()));
+    }
+    if reached.is_empty() {
+        bail!(
+            "{}: no targets: the file has a header but no rows",
+            rows.file
+        );
+    }
+    Ok(reached)
 }

@@ -256,3 +256,125 @@ fn bad_input_is_refused_with_the_file_named() {
         "{e}"
     );
 }
+
+/// Cartesian targets: each reached by the calibrated robot's inverse kinematics, then predicted;
+/// where the calibrated model puts the tool at the readings found is the target, and the
+/// prediction is the library's at those readings. A target out of reach names its line.
+#[test]
+fn cartesian_targets_are_reached_then_predicted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    calibrated(d);
+    let (code, table, e) = run(
+        d,
+        &[
+            "predict",
+            "--robot",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "--postures",
+            "some.csv",
+        ],
+    );
+    assert_eq!(code, Some(0), "{e}");
+    // The positions the calibrated model gives at the 12 postures, as targets.
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |h: &str| header.iter().position(|x| *x == h).unwrap();
+    let mut targets = String::from("target,x,y,z\n");
+    let mut goals = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let f: Vec<f64> = line
+            .split(',')
+            .skip(1)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let xyz = [f[col("x") - 1], f[col("y") - 1], f[col("z") - 1]];
+        targets += &format!("T{},{},{},{}\n", k + 1, xyz[0], xyz[1], xyz[2]);
+        goals.push(xyz);
+    }
+    std::fs::write(d.join("targets.csv"), &targets).unwrap();
+    let (code, out, e) = run(
+        d,
+        &[
+            "predict",
+            "--robot",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "--targets",
+            "targets.csv",
+        ],
+    );
+    assert_eq!(code, Some(0), "{e}");
+    assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
+    let robot = kinecal::robot_file::parse_robot_toml(
+        &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
+        "cal.toml",
+    )
+    .unwrap();
+    let report = kinecal::report::CalibrationReport::from_json(
+        &std::fs::read_to_string(d.join("report.json")).unwrap(),
+    )
+    .unwrap();
+    let p = kinecal::predict::from_report(&robot, report.prediction.as_ref().unwrap()).unwrap();
+    let mut s = p.scratch();
+    let inch = 0.0254;
+    let mut rows = out.lines();
+    rows.next();
+    for (k, (line, goal)) in rows.zip(&goals).enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[0], format!("T{}", k + 1));
+        let v = |h: &str| f[col(h)].parse::<f64>().unwrap();
+        // Reached: the inverse kinematics' tolerance is 1 um.
+        for (a, g) in ["x", "y", "z"].iter().zip(goal) {
+            assert!((v(a) - g).abs() * inch < 2e-6, "{line}");
+        }
+        let readings: Vec<f64> = (1..=4).map(|j| v(&format!("v{j}"))).collect();
+        let q = p.predict(&readings, kinecal::Target::EndEffector, &mut s);
+        assert!((v("position_bound95") - q.position_error.bound / inch).abs() < 1e-12);
+    }
+    // Out of reach, and a column that is not a target's.
+    let g = goals[0];
+    std::fs::write(
+        d.join("far.csv"),
+        format!(
+            "target,x,y,z\nnear,{},{},{}\nfar,900,0,0\n",
+            g[0], g[1], g[2]
+        ),
+    )
+    .unwrap();
+    let (code, _, e) = run(
+        d,
+        &[
+            "predict",
+            "--robot",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "--targets",
+            "far.csv",
+        ],
+    );
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("far.csv:3: target `far`: the calibrated robot does not reach it (unreachable"),
+        "{e}"
+    );
+    std::fs::write(d.join("odd.csv"), "target,x,y,z,w\nA,1,2,3,4\n").unwrap();
+    let (code, _, e) = run(
+        d,
+        &[
+            "predict",
+            "--robot",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "--targets",
+            "odd.csv",
+        ],
+    );
+    assert_eq!(code, Some(1), "{e}");
+    assert!(e.contains("odd.csv:1: unknown column `w`"), "{e}");
+}
