@@ -6,8 +6,8 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Result};
 use kinecal::identifiability::fmt_sig;
 use kinecal::iso9283::{
-    evaluate, log_from_measurements, plan, pose_name, predict_compensated, read_log, read_plan,
-    read_roles, simulate, write_log, write_plan, Cube, Evaluation, LogUnits, PlanRequest,
+    evaluate, log_placed, plan, pose_name, predict_compensated, read_log, read_plan, read_roles,
+    simulate, write_log, write_plan, Cube, Evaluation, LogUnits, PlacedLog, PlanRequest,
     SimulateRequest, Spread,
 };
 use kinecal::source::Source;
@@ -493,24 +493,11 @@ fn run_log(a: Iso9283LogArgs) -> Result<()> {
     let data = kinecal::files::parse_measurements(&d.text, &d.name, &robot)?;
     let r = Source::read(&a.roles)?;
     let roles = read_roles(&r.text, &r.name)?;
-    // Place the sessions the robot has no frame for, as a validation does.
-    let missing: Vec<String> = data
-        .sessions()
-        .iter()
-        .filter(|s| !robot.sessions.iter().any(|r| r.name == ***s))
-        .map(|s| s.to_string())
-        .collect();
-    let placed = if missing.is_empty() {
-        robot.clone()
-    } else {
-        kinecal::workflow::refit_sessions(
-            &robot,
-            &data,
-            &missing,
-            &kinecal::CalibrationOptions::new(Vec::new()),
-        )
-    };
-    let (mut log, left_out) = log_from_measurements(&placed, &data, &roles)?;
+    let PlacedLog {
+        mut log,
+        left_out,
+        placed: missing,
+    } = log_placed(&robot, &data, &roles)?;
     if let Some(u) = &a.length_unit {
         let u = u
             .parse()

@@ -138,31 +138,9 @@ pub fn calibrated(
         );
     };
     // The robot must be the report's calibrated robot.
-    for p in parsed.parameters.iter().filter(|p| p.estimated_flag) {
-        let id = kinecal::parse_param_list(&p.id, &loaded.robot)
-            .ok()
-            .and_then(|v| v.first().copied())
-            .ok_or_else(|| {
-                anyhow!(
-                    "{}: the report's parameter {} ({}) is not one of {robot}'s: not the robot \
-                     of this report",
-                    source.name,
-                    p.id,
-                    p.name,
-                )
-            })?;
-        let v = loaded.robot.get_user(id);
-        if (v - p.estimated).abs() > 1e-9 * p.estimated.abs().max(1.0) {
-            bail!(
-                "{robot} is not the calibrated robot of {}: {} ({}) is {v} in the robot file, {} \
-                 in the report",
-                source.name,
-                p.id,
-                p.name,
-                p.estimated
-            );
-        }
-    }
+    parsed
+        .check_calibrated(&loaded.robot, robot)
+        .map_err(|e| anyhow!("{}: {e}", source.name))?;
     let target = target.unwrap_or(&pr.target).to_string();
     Ok((loaded, parsed, pr, target))
 }

@@ -333,7 +333,7 @@ fn a_measurement_series_gives_iso_figures_before_and_after_calibration() {
         ],
     );
     assert!(
-        err.contains("is not the calibrated robot of cal.json"),
+        err.contains("cal.json: ") && err.contains("is not the calibrated robot of this report"),
         "{err}"
     );
     // A roles file naming a posture twice.

@@ -161,7 +161,7 @@ fn bad_input_is_refused_with_the_file_named() {
         "5".into(),
     ]);
     assert!(
-        e.contains("is not the calibrated robot of report.json"),
+        e.contains("report.json: ") && e.contains("is not the calibrated robot of this report"),
         "{e}"
     );
     // A report that is not one.

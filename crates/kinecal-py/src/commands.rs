@@ -25,7 +25,7 @@ use crate::{bad, error, numbers, param_list, residual_settings, site_names, Meas
 
 /// The frame named by `site`: None or `"ee"` (or the end effector's name) for the end
 /// effector, else a site of `robot`.
-fn target_of(robot: &kinecal::Robot, site: Option<&str>, keyword: &str) -> PyResult<Target> {
+pub fn target_of(robot: &kinecal::Robot, site: Option<&str>, keyword: &str) -> PyResult<Target> {
     match site {
         None | Some("ee") => Ok(Target::EndEffector),
         Some(s) if robot.end_effector.as_deref() == Some(s) => Ok(Target::EndEffector),

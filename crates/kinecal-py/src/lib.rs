@@ -10,6 +10,7 @@
 //! (calibration, analysis, planning, compensation, DH and UR exports) runs with the GIL
 //! released.
 
+mod accuracy;
 mod commands;
 mod outcome;
 
@@ -1415,5 +1416,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(commands::compensate, m)?)?;
     m.add_function(wrap_pyfunction!(commands::plan, m)?)?;
     m.add_function(wrap_pyfunction!(commands::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(accuracy::predict, m)?)?;
+    m.add_function(wrap_pyfunction!(accuracy::iso9283_log, m)?)?;
+    m.add_function(wrap_pyfunction!(accuracy::iso9283_evaluate, m)?)?;
     Ok(())
 }

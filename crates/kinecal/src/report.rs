@@ -1294,6 +1294,33 @@ impl CalibrationReport {
         }
         Ok(report)
     }
+
+    /// Whether `robot` (named `name` in messages) is this report's calibrated robot: every
+    /// estimated parameter of the report is one of `robot`'s, at the estimated value (to 1e-9,
+    /// relative). An error names the first that is not.
+    pub fn check_calibrated(&self, robot: &Robot, name: &str) -> crate::error::Result<()> {
+        for p in self.parameters.iter().filter(|p| p.estimated_flag) {
+            let id = crate::param_list::parse_param_list(&p.id, robot)
+                .ok()
+                .and_then(|v| v.first().copied())
+                .ok_or_else(|| {
+                    crate::error::Error::Problem(format!(
+                        "the report's parameter {} ({}) is not one of {name}'s: not the robot of \
+                         this report",
+                        p.id, p.name
+                    ))
+                })?;
+            let v = robot.get_user(id);
+            if (v - p.estimated).abs() > 1e-9 * p.estimated.abs().max(1.0) {
+                return Err(crate::error::Error::Problem(format!(
+                    "{name} is not the calibrated robot of this report: {} ({}) is {v} in the \
+                     robot, {} in the report",
+                    p.id, p.name, p.estimated
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 fn ids(list: &[ParamId]) -> Vec<String> {

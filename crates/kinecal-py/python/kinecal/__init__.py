@@ -33,6 +33,7 @@ __all__ = [
     "Compensation",
     "Dataset",
     "ExportWarning",
+    "IsoLog",
     "KinecalError",
     "Measurements",
     "Plan",
@@ -46,7 +47,10 @@ __all__ = [
     "compensate",
     "dataset",
     "datasets",
+    "iso9283",
+    "iso9283_log",
     "plan",
+    "predict",
     "simulate",
 ]
 
@@ -209,6 +213,17 @@ class Calibration:
         """The report as JSON text (what ``kinecal calibrate --report`` writes)."""
         return self._json
 
+    def predict(
+        self,
+        postures: npt.ArrayLike | None = None,
+        *,
+        targets: npt.ArrayLike | None = None,
+        site: str | None = None,
+    ) -> dict[str, Floats]:
+        """The predicted accuracy of the calibrated robot (see :func:`predict`); the
+        calibration must have been asked for it (``calibrate(..., predict=True)``)."""
+        return predict(self.robot, self, postures=postures, targets=targets, site=site)
+
     def __repr__(self) -> str:
         # From the solver's start when the robot was placed (or rigidly fitted) first: the
         # nominal robot's error in a tracker's frame says nothing about the fit.
@@ -328,6 +343,8 @@ def calibrate(
     choose: Sequence[str] | None = None,
     repeats: int | None = None,
     prior: str | None = None,
+    total_mass: float | None = None,
+    predict: bool = False,
 ) -> Calibration:
     """Calibrates ``robot`` on ``data``: the same workflow as ``kinecal calibrate``.
 
@@ -345,6 +362,9 @@ def calibrate(
     Gaussian prior on each parameter's change, as ``--prior`` takes it
     (``"length=0.1,angle=0.05"`` in file units, slopes as a fraction, per-parameter entries
     ``"link3.y=0.5"``; ``"tolerances"``; ``"none"``); by default the robot file's ``[priors]``.
+    ``total_mass``: the robot's known total mass (kg) for an elastic robot's masses, as
+    ``--total-mass``. ``predict``: also work out the predicted accuracy (``--predict``; the
+    report's ``prediction``, and :meth:`Calibration.predict`).
 
     ``calibrate(spec)`` runs a whole job instead: ``spec`` is a calibration spec, the document
     ``kinecal calibrate --spec`` reads, as a dict (``{"robot": "arm.toml", "observations":
@@ -381,6 +401,8 @@ def calibrate(
         choose=None if choose is None else list(choose),
         repeats=repeats,
         prior=prior,
+        total_mass=total_mass,
+        predict=predict,
     )
     return Calibration(robot_out, report, details)
 
@@ -700,6 +722,116 @@ def simulate(
         position_only=position_only,
     )
     return Simulation(measurements, truth)
+
+
+def _report_json(report: Calibration | Mapping[str, Any] | str | os.PathLike[str]) -> str:
+    """A calibration report as JSON text: a :class:`Calibration`, the report as a dict, JSON
+    text, or the path of a report file (``kinecal calibrate --report``)."""
+    if isinstance(report, Calibration):
+        return report.to_json()
+    if isinstance(report, Mapping):
+        return json.dumps(report)
+    if isinstance(report, os.PathLike) or (isinstance(report, str) and "{" not in report):
+        with open(report, encoding="utf-8") as f:
+            return f.read()
+    if isinstance(report, str):
+        return report
+    raise TypeError(f"report: expected a Calibration, a dict, JSON text or a path, not {report!r}")
+
+
+def _text(value: str | os.PathLike[str], keyword: str) -> tuple[str, str]:
+    """``(text, name)`` of a CSV given as text (it has a line break) or as a path."""
+    if isinstance(value, os.PathLike) or (isinstance(value, str) and "\n" not in value):
+        with open(value, encoding="utf-8") as f:
+            return f.read(), os.fspath(value)
+    if isinstance(value, str):
+        return value, keyword
+    raise TypeError(f"{keyword}: expected CSV text or a path, not {value!r}")
+
+
+def predict(
+    robot: Robot,
+    report: Calibration | Mapping[str, Any] | str | os.PathLike[str],
+    *,
+    postures: npt.ArrayLike | None = None,
+    targets: npt.ArrayLike | None = None,
+    site: str | None = None,
+) -> dict[str, Floats]:
+    """The predicted accuracy of a calibrated ``robot`` (what ``kinecal predict`` writes),
+    from its calibration ``report`` (a :class:`Calibration` made with ``predict=True``, the
+    report as a dict or JSON text, or a report file's path).
+
+    At ``postures`` (readings ``(n, joints)``) or at Cartesian ``targets`` (``(n, 3)``
+    positions or ``(n, 6)`` poses with ZYX Euler angles, the robot's units and global frame,
+    each reached through the calibrated robot's inverse kinematics; a target out of reach
+    raises). ``site`` names the target frame (default: the report's). Returns arrays in the
+    robot's units: ``readings``, ``position`` ``(n, 3)`` (where the calibrated model puts the
+    target), ``distance`` (to the nearest measured posture), and ``position_parameters``,
+    ``position_model`` (the RMS lengths of the two parts), ``position_bound95``,
+    ``position_bound95_parameters``, and the same for ``attitude_`` when poses were
+    measured."""
+    return _native.predict(
+        robot, _report_json(report), postures=postures, targets=targets, site=site
+    )
+
+
+class IsoLog(NamedTuple):
+    """What :func:`iso9283_log` made: the log as CSV ``text`` (what ``kinecal iso9283 log``
+    writes), the measured postures ``left_out`` (no role) and the sessions whose measurement
+    frame was ``placed`` on the data first."""
+
+    text: str
+    left_out: list[str]
+    placed: list[str]
+
+
+def iso9283_log(
+    robot: Robot,
+    measurements: Measurements,
+    roles: str | os.PathLike[str],
+    *,
+    length_unit: str | None = None,
+) -> IsoLog:
+    """An ISO 9283 log of ``measurements`` for the robot model ``robot`` (what ``kinecal
+    iso9283 log`` writes): ``roles`` (CSV text or a path, ``posture,test,pose,cycle``) gives
+    each posture its test, pose (``P1..P5``, ``C1..C8``) and cycle; the attained pose is the
+    measurement in the base frame, the commanded pose the model's at the pose's mean
+    readings."""
+    text, name = _text(roles, "roles")
+    log, left_out, placed = _native.iso9283_log(
+        robot, measurements, text, roles_file=name, length_unit=length_unit
+    )
+    return IsoLog(log, list(left_out), list(placed))
+
+
+def iso9283(
+    log: str | os.PathLike[str],
+    *,
+    length_unit: str | None = None,
+    angle_unit: str | None = None,
+    robot: Robot | None = None,
+    report: Calibration | Mapping[str, Any] | str | os.PathLike[str] | None = None,
+    site: str | None = None,
+) -> dict[str, Any]:
+    """The ISO 9283 figures of a log (CSV text or a path), as the document ``kinecal iso9283
+    evaluate --json`` writes (``poses``, ``distances``, ``summary`` for a log of several
+    tests, ``warnings``). With ``robot`` and ``report`` (a calibrated robot and its
+    calibration, made with ``predict=True``), each pose gets ``compensated``: the ``AP``
+    predicted once the program is compensated."""
+    text, name = _text(log, "log")
+    if (robot is None) != (report is None):
+        raise KinecalError("iso9283: give robot and report together")
+    doc = _native.iso9283_evaluate(
+        text,
+        file=name,
+        length_unit=length_unit,
+        angle_unit=angle_unit,
+        robot=robot,
+        report_json=None if report is None else _report_json(report),
+        site=site,
+    )
+    figures: dict[str, Any] = json.loads(doc)
+    return figures
 
 
 class Dataset(NamedTuple):

@@ -26,7 +26,10 @@ __all__ = [
     "compensate",
     "dataset",
     "datasets",
+    "iso9283_evaluate",
+    "iso9283_log",
     "plan",
+    "predict",
     "simulate",
 ]
 
@@ -286,3 +289,35 @@ def dataset(
 ) -> tuple[Robot, Measurements, Measurements | None, str]:
     """The robot, identification and validation data, and the suggested calibration as
     JSON text (``calibrate`` keywords)."""
+
+def predict(
+    robot: Robot,
+    report_json: str,
+    *,
+    postures: npt.ArrayLike | None = None,
+    targets: npt.ArrayLike | None = None,
+    site: str | None = None,
+) -> dict[str, npt.NDArray[np.float64]]:
+    """The arrays of ``kinecal.predict``."""
+
+def iso9283_log(
+    robot: Robot,
+    measurements: Measurements,
+    roles: str,
+    *,
+    roles_file: str = "roles",
+    length_unit: str | None = None,
+) -> tuple[str, list[str], list[str]]:
+    """``(log CSV, postures left out, sessions placed)``."""
+
+def iso9283_evaluate(
+    log: str,
+    *,
+    file: str = "log",
+    length_unit: str | None = None,
+    angle_unit: str | None = None,
+    robot: Robot | None = None,
+    report_json: str | None = None,
+    site: str | None = None,
+) -> str:
+    """The ISO 9283 document as JSON text."""

@@ -390,6 +390,46 @@ pub fn log_from_measurements(
     Ok((log, left_out))
 }
 
+/// What [`log_placed`] made: the log, the measured postures left out (no role), and the sessions
+/// whose measurement frame was placed on the data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlacedLog {
+    /// The log ([`log_from_measurements`]).
+    pub log: Log,
+    /// The labels of the measured postures without a role.
+    pub left_out: Vec<String>,
+    /// The sessions of the data the robot had no frame for, placed first.
+    pub placed: Vec<String>,
+}
+
+/// [`log_from_measurements`] after placing the measurement frame of every session of `data`
+/// that `robot` has none for (6 parameters each, estimated on `data`, the robot held: as a
+/// validation on another session does, [`crate::workflow::refit_sessions`]).
+pub fn log_placed(robot: &Robot, data: &Dataset, roles: &Roles) -> Result<PlacedLog> {
+    let placed: Vec<String> = data
+        .sessions()
+        .iter()
+        .filter(|s| !robot.sessions.iter().any(|r| r.name == ***s))
+        .map(|s| s.to_string())
+        .collect();
+    let model = if placed.is_empty() {
+        robot.clone()
+    } else {
+        crate::workflow::refit_sessions(
+            robot,
+            data,
+            &placed,
+            &crate::estimation::CalibrationOptions::new(Vec::new()),
+        )
+    };
+    let (log, left_out) = log_from_measurements(&model, data, roles)?;
+    Ok(PlacedLog {
+        log,
+        left_out,
+        placed,
+    })
+}
+
 /// Adds to every pose of `evaluation` (of `log`) the accuracy `predictor`'s calibration
 /// predicts once the program is compensated (see the module's documentation), and summarizes
 /// again. The log must be in the robot's global frame and state its length unit (the

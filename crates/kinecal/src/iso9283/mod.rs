@@ -93,8 +93,8 @@ pub use figures::{
     PoseFigures, PoseSummary, Spread, Summary,
 };
 pub use measured::{
-    cube_roles, log_from_measurements, predict_compensated, read_roles, write_roles, Role, Roles,
-    ROLES_HEADER,
+    cube_roles, log_from_measurements, log_placed, predict_compensated, read_roles, write_roles,
+    PlacedLog, Role, Roles, ROLES_HEADER,
 };
 
 use nalgebra::{Matrix3, Vector3};
