@@ -896,6 +896,9 @@ pub mod ur10e_camera {
 /// - The temperature of every row (deg C) is kept in `temperatures.csv` (`posture,session,
 ///   temperature`), beside the measurement files: kinecal's measurement reader refuses columns
 ///   it does not know, and the temperature does not enter a calibration (0.75 K over series A).
+/// - Series D's ISO 9283 cubes are `series_D_iso.csv`, the roles of its postures
+///   (`posture,test,pose,cycle`, [`crate::iso9283::read_roles`]) read from the commanded
+///   ("Goal") positions: `kinecal iso9283 log` makes a log of them.
 ///
 /// The row counts are checked: 11,911 rows in series A (the data set's README says 11,910; the
 /// file has 11,911), 1,495 in B, 2,773 in C, 632 in D.
@@ -1305,13 +1308,18 @@ kinematics:
     /// Series D's cubes as ISO 9283 roles (`posture,test,pose,cycle`): blocks of nine postures,
     /// the centre and the eight corners of a cube, read from the commanded ("Goal") positions; a
     /// cube measured again is a further cycle of its test (the first, 400 mm cube was measured
-    /// three times). The 2 postures after the 70th block have no role.
-    fn cube_roles_file(d: &IpaData) -> Result<String> {
+    /// three times). The 2 postures after the 70th block have no role. `None` for a copy cut
+    /// to fewer than nine rows of D (no whole cube). An error names series D's file when a
+    /// block is not a cube's centre and corners.
+    fn cube_roles_file(d: &IpaData) -> Result<Option<String>> {
         let (k, s) = SERIES
             .iter()
             .enumerate()
             .find(|(_, s)| s.name == "D")
             .expect("series D");
+        if d.goals[k].len() < 9 {
+            return Ok(None);
+        }
         // The goals of one cube's cycles agree to 1e-6 m; distinct cubes differ by 1 mm or more.
         let roles = crate::iso9283::cube_roles(&d.goals[k], 1e-4)
             .map_err(|e| Error::input(Location::file(s.file), format!("{e} (the Goal columns)")))?;
@@ -1321,7 +1329,7 @@ kinematics:
             .map(|p| p.label.clone())
             .zip(roles)
             .collect();
-        Ok(crate::iso9283::write_roles(&labelled))
+        Ok(Some(crate::iso9283::write_roles(&labelled)))
     }
 
     /// The temperatures of every series as a CSV: `posture,session,temperature` (deg C).
@@ -1354,7 +1362,9 @@ kinematics:
             files.push((file_of(s.name), write_measurements(&d.robot, data)));
         }
         files.push(("temperatures.csv".into(), temperature_file(&d)));
-        files.push((ISO_ROLES.into(), cube_roles_file(&d)?));
+        if let Some(roles) = cube_roles_file(&d)? {
+            files.push((ISO_ROLES.into(), roles));
+        }
         let counts: Vec<String> = SERIES
             .iter()
             .zip(&d.series)

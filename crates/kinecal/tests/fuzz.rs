@@ -526,6 +526,9 @@ fn check_converted(c: &kinecal::datasets::Converted) -> Result<(), String> {
             check_robot(&poe)?;
         } else if name == "temperatures.csv" {
             check_temperatures(t)?;
+        } else if name.ends_with("_iso.csv") {
+            kinecal::iso9283::read_roles(t, name)
+                .map_err(|e| format!("its own {name} is refused: {e}"))?;
         } else if name.ends_with(".csv") {
             let d = parse_measurements(t, name, &robot)
                 .map_err(|e| format!("its own {name} is refused: {e}"))?;

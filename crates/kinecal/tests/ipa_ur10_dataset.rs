@@ -68,7 +68,8 @@ fn the_four_series_read_back_with_their_rows_units_sigmas_and_temperatures() {
             "series_B.csv",
             "series_C.csv",
             "series_D.csv",
-            "temperatures.csv"
+            "temperatures.csv",
+            "series_D_iso.csv"
         ]
     );
     let robot = parse_robot_toml(file(&c, "ur10.toml"), "ur10.toml").unwrap();
@@ -94,6 +95,28 @@ fn the_four_series_read_back_with_their_rows_units_sigmas_and_temperatures() {
             );
         }
     }
+    // Series D's cubes: 630 postures in 68 tests; the first cube measured three times (its
+    // goals repeat), every other cube once; D631 and D632 (after the 70th block) without a role.
+    let roles = kinecal::iso9283::read_roles(file(&c, ipa_ur10::ISO_ROLES), "roles").unwrap();
+    assert_eq!(roles.by_posture.len(), 630);
+    let tests: std::collections::BTreeSet<&str> =
+        roles.by_posture.values().map(|r| r.test.as_str()).collect();
+    assert_eq!(tests.len(), 68);
+    let cycles = |t: &str| {
+        roles
+            .by_posture
+            .values()
+            .filter(|r| r.test == t)
+            .map(|r| r.cycle)
+            .max()
+    };
+    assert_eq!(cycles("cube 1"), Some(3));
+    assert!(tests
+        .iter()
+        .filter(|t| **t != "cube 1")
+        .all(|t| cycles(t) == Some(1)));
+    assert!(!roles.by_posture.contains_key("D631") && !roles.by_posture.contains_key("D632"));
+    assert_eq!(roles.by_posture["D10"].pose, 1);
     let temperatures = file(&c, "temperatures.csv");
     let mut t_lines = temperatures.lines();
     assert_eq!(t_lines.next(), Some("posture,session,temperature"));

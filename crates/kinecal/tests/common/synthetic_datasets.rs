@@ -238,7 +238,30 @@ pub fn ipa(rows: [usize; 4]) -> Files {
             } else {
                 format!("{}", 20200714163904u64 + 20 * i as u64)
             }];
-            f.extend((0..6).map(|j| comma(angle(i, j) / 100.0)));
+            if *s == "D" {
+                // Series D's goals: blocks of nine, a cube's centre and its eight corners (the
+                // third block the first cube again, as in the data set).
+                let (b, k) = ((i / 9) % 5, i % 9);
+                let b = if b == 2 { 0 } else { b };
+                let centre = [0.1 * b as f64, 0.6, 0.7];
+                let half = 0.05 + 0.025 * b as f64;
+                let goal: Vec<f64> = (0..3)
+                    .map(|a| {
+                        let sign = if k == 0 {
+                            0.0
+                        } else if (k - 1) & (1 << a) != 0 {
+                            1.0
+                        } else {
+                            -1.0
+                        };
+                        centre[a] + sign * half
+                    })
+                    .collect();
+                f.extend(goal.iter().map(|v| comma(*v)));
+                f.extend((3..6).map(|j| comma(angle(i, j) / 100.0)));
+            } else {
+                f.extend((0..6).map(|j| comma(angle(i, j) / 100.0)));
+            }
             f.extend((0..6).map(|j| comma(angle(i, j + 6).to_radians())));
             f.push(comma(23.0 + 0.125 * (i % 7) as f64 + 0.0000003051758));
             let p = [
