@@ -3770,7 +3770,7 @@ fn dataset_ipa_ur10_writes_the_series_and_prints_the_suggested_calibration() {
     assert_eq!(
         lines[1],
         "wrote ur10.toml, series_A.csv, series_B.csv, series_C.csv, series_D.csv, \
-         temperatures.csv to ipa"
+         temperatures.csv, series_D_iso.csv to ipa"
     );
     assert_eq!(
         lines[2],

@@ -388,7 +388,7 @@ fn bad_logs_are_refused_with_file_line_and_field() {
         ),
         (
             "pose,cycle,xc,yc,zc,ac,bc,cc,x,y,z,a,b,c\n1,1,0,0,0,0,0,0,1,0,0,0,0,0\n",
-            "error: --angle-unit: log.csv has attitudes but states no angle unit",
+            "error: log.csv: the log has attitudes but states no angle unit",
         ),
     ];
     for (text, want) in cases {

@@ -677,3 +677,88 @@ fn random_robots_read_back_identically_and_have_finite_kinematics() {
         }
     }
 }
+
+/// ISO 9283 logs (read, figured, written back and read again to the same figures) and roles
+/// files: every figure of an accepted log finite (a one-cycle pose has no repeatability: `None`,
+/// never NaN), its JSON document free of `null` where a number is due.
+#[test]
+fn iso9283_logs_and_roles() {
+    use kinecal::iso9283::{evaluate, read_log, read_roles, write_log, LogUnits};
+    let thirty: String = {
+        let mut s = String::from("# length_unit = mm\n# angle_unit = deg\npose,cycle,xc,yc,zc,ac,bc,cc,x,y,z,a,b,c,direction\n");
+        for c in 1..=4 {
+            for p in 1..=5 {
+                s += &format!(
+                    "{p},{c},{},{},{},180,0,45,{},{},{},179.9{c},0.0{p},45.{c},+x\n",
+                    100 * p,
+                    -20 * p,
+                    500,
+                    100.0 * p as f64 + 0.01 * c as f64,
+                    -20.0 * p as f64 - 0.02,
+                    500.003
+                );
+            }
+        }
+        s
+    };
+    let seeds = vec![
+        thirty.into_bytes(),
+        b"# length_unit = m\ntest,pose,cycle,xc,yc,zc,x,y,z,v1,v2\n\"cube 1\",P1,1,0,0,0,0,0,0.001,0.1,0.2\n\"cube 1\",C8,1,1,1,1,1,1.001,1,0.3,0.4\ncube 2,1,1,0,0,0,0,0,-0.001,0.5,0.6\ncube 2,1,2,0,0,0,0,0,0.001,0.5,0.6\n"
+            .to_vec(),
+    ];
+    fuzz("iso9283_log", "log.csv", &seeds, &|b| {
+        let t = match read_text(b, "log.csv") {
+            Ok(t) => t,
+            Err(o) => return o,
+        };
+        let log = match read_log(&t, "log.csv", LogUnits::default()) {
+            Ok(l) => l,
+            Err(e) => return Outcome::Refused(e.to_string()),
+        };
+        match evaluate(&log) {
+            Err(e) => Outcome::Refused(e.to_string()),
+            Ok(e) => Outcome::Accepted((|| {
+                let json = serde_json::to_value(&e).map_err(|x| x.to_string())?;
+                fn finite(v: &serde_json::Value) -> bool {
+                    match v {
+                        serde_json::Value::Number(n) => n.as_f64().is_some_and(f64::is_finite),
+                        serde_json::Value::Array(a) => a.iter().all(finite),
+                        serde_json::Value::Object(o) => o.values().all(finite),
+                        _ => true,
+                    }
+                }
+                if !finite(&json) || e.poses.iter().any(|p| !p.ap.is_finite()) {
+                    return Err("a figure is not finite".into());
+                }
+                let again = read_log(&write_log(&log), "log.csv", LogUnits::default())
+                    .map_err(|x| format!("written back, it is refused: {x}"))?;
+                let e2 = evaluate(&again).map_err(|x| format!("written back: {x}"))?;
+                if e2.poses.len() != e.poses.len() || e2.distances.len() != e.distances.len() {
+                    return Err("written back, it has other figures".into());
+                }
+                for (a, b) in e.poses.iter().zip(&e2.poses) {
+                    if (a.ap - b.ap).abs() > 1e-9 * a.ap.abs().max(1.0) {
+                        return Err(format!("written back, AP {} for {}", b.ap, a.ap));
+                    }
+                }
+                Ok(())
+            })()),
+        }
+    });
+    let roles = vec![
+        b"posture,test,pose,cycle\nD1,cube 1,P1,1\nD2,cube 1,C7,1\nD3,\"cube, 2\",c1,2\n".to_vec(),
+    ];
+    fuzz("iso9283_roles", "roles.csv", &roles, &|b| {
+        let t = match read_text(b, "roles.csv") {
+            Ok(t) => t,
+            Err(o) => return o,
+        };
+        outcome(read_roles(&t, "roles.csv"), |r| {
+            if r.by_posture.values().all(|x| (1..=13).contains(&x.pose)) {
+                Ok(())
+            } else {
+                Err("a pose out of 1..13".into())
+            }
+        })
+    });
+}

@@ -946,13 +946,11 @@ pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
         None
     };
     if attitude.is_some() && angle_unit.is_none() {
-        return Err(Error::InvalidOption {
-            setting: Setting::AngleUnit,
-            message: format!(
-                "{file} has attitudes but states no angle unit: give it, or write \
-                 `# angle_unit = deg` (or rad) before the header"
-            ),
-        });
+        return Err(Error::input(
+            Location::file(file),
+            "the log has attitudes but states no angle unit: give it (--angle-unit), or write \
+             `# angle_unit = deg` (or rad) before the header",
+        ));
     }
     let direction_c = t.column("direction");
     t.check_rows()?;
