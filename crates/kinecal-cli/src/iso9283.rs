@@ -463,7 +463,7 @@ fn run_evaluate(a: Iso9283EvaluateArgs) -> Result<()> {
             crate::predict::calibrated(robot, report, a.target.as_deref())?;
         let predictor = kinecal::predict::from_report(&loaded.robot, &pr)
             .map_err(|e| anyhow!("{}: {e}", report.display()))?;
-        let target = crate::predict::site_target(&loaded.robot, &target)?;
+        let target = crate::target_named(&loaded.robot, &target, "--target")?;
         predict_compensated(&mut e, &log, &predictor, target)?;
     }
     print!("{}", text(&e));

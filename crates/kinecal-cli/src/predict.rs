@@ -28,7 +28,7 @@ pub fn run(a: PredictArgs) -> Result<()> {
     let robot = &loaded.robot;
     let predictor =
         predict::from_report(robot, &pr).map_err(|e| anyhow!("{}: {e}", a.report.display()))?;
-    let target = site_target(robot, &target_name)?;
+    let target = crate::target_named(robot, &target_name, "--target")?;
     let pr = &pr;
     let postures: Vec<(String, Vec<f64>)> = match (&a.postures, a.sample) {
         (Some(path), _) => {
@@ -143,24 +143,6 @@ pub fn calibrated(
         .map_err(|e| anyhow!("{}: {e}", source.name))?;
     let target = target.unwrap_or(&pr.target).to_string();
     Ok((loaded, parsed, pr, target))
-}
-
-/// The target `name` of `robot`: `ee` or a site.
-pub fn site_target(robot: &kinecal::Robot, name: &str) -> Result<Target> {
-    if name == "ee" {
-        return Ok(Target::EndEffector);
-    }
-    Ok(Target::Site(robot.site_index(name).ok_or_else(|| {
-        anyhow!(
-            "--target `{name}`: no such site (expected ee or one of: {})",
-            robot
-                .sites
-                .iter()
-                .map(|s| s.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    })?))
 }
 
 /// The readings that reach each Cartesian goal of `path` (`target,x,y,z[,alpha,beta,gamma]`,

@@ -230,7 +230,7 @@ fn bad_input_is_refused_with_the_file_named() {
     assert!(e.contains("p.csv:3"), "{e}");
     // An unknown target, a sample of nothing.
     let e = err(with(&["--sample", "3", "--target", "smr9"]));
-    assert!(e.contains("--target `smr9`: no such site"), "{e}");
+    assert!(e.contains("--target: unknown site `smr9`"), "{e}");
     let e = err(with(&["--sample", "0"]));
     assert!(e.contains("--sample 0"), "{e}");
     // Neither postures nor a sample: a usage error.

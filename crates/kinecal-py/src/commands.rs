@@ -24,17 +24,15 @@ use pyo3::types::{PyBool, PyDict};
 use crate::{bad, error, numbers, param_list, residual_settings, site_names, Measurements, Robot};
 
 /// The frame named by `site`: None or `"ee"` (or the end effector's name) for the end
-/// effector, else a site of `robot`.
+/// effector, else a site of `robot` ([`kinecal::files::site_target`]); an error naming
+/// `keyword` and the robot's targets otherwise.
 pub fn target_of(robot: &kinecal::Robot, site: Option<&str>, keyword: &str) -> PyResult<Target> {
     match site {
-        None | Some("ee") => Ok(Target::EndEffector),
-        Some(s) if robot.end_effector.as_deref() == Some(s) => Ok(Target::EndEffector),
-        Some(s) => robot.site_index(s).map(Target::Site).ok_or_else(|| {
+        None => Ok(Target::EndEffector),
+        Some(s) => kinecal::files::site_target(robot, s).map_err(|m| {
             bad(format!(
-                "{keyword}: `{s}` is not a site of {} (None or \"ee\" is the end effector; \
-                 sites: [{}])",
-                robot.name,
-                site_names(robot).join(", ")
+                "{keyword}: `{s}` is not a site of {}: {m}",
+                robot.name
             ))
         }),
     }

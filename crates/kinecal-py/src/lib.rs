@@ -248,16 +248,7 @@ impl Robot {
     }
 
     fn target(&self, site: Option<&str>) -> PyResult<Target> {
-        match site {
-            None | Some("ee") => Ok(Target::EndEffector),
-            Some(s) if self.robot.end_effector.as_deref() == Some(s) => Ok(Target::EndEffector),
-            Some(s) => self.robot.site_index(s).map(Target::Site).ok_or_else(|| {
-                bad(format!(
-                    "site `{s}`: not a site of this robot (sites: {})",
-                    site_names(&self.robot).join(", ")
-                ))
-            }),
-        }
+        commands::target_of(&self.robot, site, "site")
     }
 }
 
@@ -859,17 +850,8 @@ impl Measurements {
             Some(s) if s.len() == rows => s
                 .iter()
                 .enumerate()
-                .map(|(i, name)| match name {
-                    None => Ok(Target::EndEffector),
-                    Some(name) if r.end_effector.as_deref() == Some(name.as_str()) => {
-                        Ok(Target::EndEffector)
-                    }
-                    Some(name) => r.site_index(name).map(Target::Site).ok_or_else(|| {
-                        bad(format!(
-                            "sites: row {i}: `{name}` is not a site of this robot (sites: {})",
-                            site_names(r).join(", ")
-                        ))
-                    }),
+                .map(|(i, name)| {
+                    commands::target_of(r, name.as_deref(), &format!("sites: row {i}"))
                 })
                 .collect::<PyResult<_>>()?,
             Some(s) => {

@@ -1118,10 +1118,7 @@ pub fn write_log(log: &Log) -> String {
 /// A label as one CSV field: quoted (quotes doubled) when it holds a comma, a quote or a line
 /// break, starts with `#` (a comment line unquoted) or with or ends in white space.
 fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r', ';', '\t'])
-        || s.starts_with('#')
-        || s.trim() != s
-    {
+    if s.contains([',', '"', '\n', '\r', ';', '\t']) || s.starts_with('#') || s.trim() != s {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
