@@ -168,13 +168,18 @@ impl NearestIndex {
     }
 
     /// The nearest point to `q` (embedded): its original index and distance; `None` for an
-    /// empty tree.
+    /// empty tree. The search descends to `q`'s cell first and visits another cell only when
+    /// the distance from `q` to that cell's box (accumulated axis by axis as the search
+    /// crosses splitting planes: Arya and Mount's incremental distance) is below the best
+    /// found: a far query, whose nearest point is far away too, still prunes most of the tree.
     pub fn nearest(&self, q: &[f64]) -> Option<(usize, f64)> {
         if self.is_empty() {
             return None;
         }
         let mut best = (usize::MAX, f64::INFINITY);
-        self.search(0, self.len(), q, &mut best);
+        // Per axis, how far `q` lies outside the current cell along it (0 inside).
+        let mut off = [0.0f64; 256];
+        self.search(0, self.len(), q, 0.0, &mut off[..self.dims], &mut best);
         Some((self.index[best.0], best.1.sqrt()))
     }
 
@@ -184,7 +189,17 @@ impl NearestIndex {
         p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum()
     }
 
-    fn search(&self, lo: usize, hi: usize, q: &[f64], best: &mut (usize, f64)) {
+    /// Searches the cell of points `lo..hi`, `q` at squared distance `rd` from its box
+    /// (`off` per axis).
+    fn search(
+        &self,
+        lo: usize,
+        hi: usize,
+        q: &[f64],
+        rd: f64,
+        off: &mut [f64],
+        best: &mut (usize, f64),
+    ) {
         let n = hi - lo;
         if n <= LEAF {
             for i in lo..hi {
@@ -207,9 +222,15 @@ impl NearestIndex {
         } else {
             ((mid + 1, hi), (lo, mid))
         };
-        self.search(near.0, near.1, q, best);
-        if diff * diff < best.1 {
-            self.search(far.0, far.1, q, best);
+        self.search(near.0, near.1, q, rd, off, best);
+        // The far cell lies beyond the splitting plane along `d`: `q`'s offset along `d`
+        // becomes its distance to the plane.
+        let old = off[d];
+        let far_rd = rd - old * old + diff * diff;
+        if far_rd < best.1 {
+            off[d] = diff;
+            self.search(far.0, far.1, q, far_rd, off, best);
+            off[d] = old;
         }
     }
 }
@@ -230,8 +251,21 @@ mod tests {
     #[test]
     fn the_tree_finds_what_a_search_of_every_point_finds() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        for (n, dims) in [(1, 3), (7, 2), (100, 12), (3000, 12), (2000, 5)] {
-            let pts: Vec<f64> = (0..n * dims).map(|_| rng.random_range(-1.0..1.0)).collect();
+        // Spread over the queries' box, and clustered in a corner of it (every query far from
+        // every point: the pruning by the distance to a cell's box must not lose the nearest).
+        for (n, dims, spread) in [
+            (1, 3, 1.0),
+            (7, 2, 1.0),
+            (100, 12, 1.0),
+            (3000, 12, 1.0),
+            (2000, 5, 1.0),
+            (3000, 12, 0.1),
+            (2000, 5, 0.05),
+        ] {
+            let pts: Vec<f64> = (0..n * dims)
+                .map(|_| 0.9 + spread * rng.random_range(-1.0..1.0))
+                .map(|v| if spread < 1.0 { v } else { v - 0.9 })
+                .collect();
             let tree = NearestIndex::new(dims, &pts);
             for _ in 0..300 {
                 let q: Vec<f64> = (0..dims).map(|_| rng.random_range(-1.3..1.3)).collect();
