@@ -101,7 +101,7 @@ pub struct NearestIndex {
     split: Vec<u8>,
 }
 
-const LEAF: usize = 8;
+const LEAF: usize = 32;
 
 impl NearestIndex {
     /// The tree of `points` (`dims` coordinates each, concatenated).
