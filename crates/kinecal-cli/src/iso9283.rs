@@ -399,7 +399,7 @@ fn test_text(e: &Evaluation) -> String {
         if let Some(c) = &f.compensated {
             let _ = writeln!(
                 s,
-                "  compensated (predicted): AP {} RMS, 95 % bound {} (readings from the {})",
+                "  compensated (predicted): AP RMS {}, 95 % bound {} (readings from the {})",
                 sig(c.ap_rms),
                 sig(c.ap_95),
                 c.readings_from

@@ -166,7 +166,7 @@ fn fewer_cycles_than_the_standard_are_computed_with_a_warning() {
     let (out, err) = run_ok(d, &["iso9283", "evaluate", "--data", "log.csv"]);
     assert!(out.contains("P3: 5 cycles"), "{out}");
     assert!(
-        err.contains("warning: P3: 5 cycles, fewer than the 30 ISO 9283 asks for"),
+        err.contains("warning: P1, P2, P3, P4, P5: 5 cycles, fewer than the 30 ISO 9283 asks for"),
         "{err}"
     );
     // One cycle: the accuracy, no repeatability, and a warning that says so.
@@ -175,7 +175,10 @@ fn fewer_cycles_than_the_standard_are_computed_with_a_warning() {
     assert!(out.contains("P3: 1 cycle, commanded"), "{out}");
     assert!(out.contains("RP   n/a (1 cycle)"), "{out}");
     assert!(
-        err.contains("warning: P3: 1 cycle: its accuracy (AP, AD) is computed; its repeatability"),
+        err.contains(
+            "warning: P1, P2, P3, P4, P5: 1 cycle: its accuracy (AP, AD) is computed; its \
+             repeatability"
+        ),
         "{err}"
     );
 }

@@ -200,7 +200,8 @@ pub fn html_iso9283(e: &Evaluation) -> String {
     for f in &e.poses {
         let _ = writeln!(
             h,
-            "<h2>{}</h2><div class=\"pose\"><table><tr><th class=\"l\">figure</th><th>value</th><th class=\"l\">unit</th></tr>",
+            "<h2>{}{}</h2><div class=\"pose\"><table><tr><th class=\"l\">figure</th><th>value</th><th class=\"l\">unit</th></tr>",
+            f.test.as_deref().map(|t| format!("{}, ", esc(t))).unwrap_or_default(),
             pose_name(f.pose)
         );
         let row = |h: &mut String, name: &str, value: String, unit: &str| {

@@ -321,7 +321,8 @@ pub fn evaluate(log: &Log) -> Result<Evaluation> {
         by_pose.entry((t, r.pose)).or_default().push(r);
     }
     let mut warnings = Vec::new();
-    let mut short: Vec<String> = Vec::new();
+    // The poses measured in fewer cycles than the standard's, and their cycles.
+    let mut short: Vec<(String, usize)> = Vec::new();
     let mut single = 0usize;
     let mut poses = Vec::new();
     for (&(t, pose), rows) in &by_pose {
@@ -367,11 +368,7 @@ pub fn evaluate(log: &Log) -> Result<Evaluation> {
         }
         if n < STANDARD_CYCLES {
             single += usize::from(n == 1);
-            short.push(format!(
-                "{}{name}: {n} cycle{}",
-                in_test(test),
-                if n == 1 { "" } else { "s" }
-            ));
+            short.push((name.clone(), n));
         }
         let axis = |k: usize| rows.iter().map(|r| r.attained[k]).collect::<Vec<f64>>();
         let bary: [f64; 3] = std::array::from_fn(|k| mean(&axis(k)));
@@ -479,18 +476,28 @@ pub fn evaluate(log: &Log) -> Result<Evaluation> {
             attained: rows.iter().map(|r| r.attained).collect(),
         });
     }
-    // The cycles warning: pose by pose for one test, in one line for a series.
+    // The cycles warning: for one test, a line per number of cycles naming its poses; for a
+    // series, one line.
     if tests.len() == 1 {
-        for s in &short {
-            if s.ends_with(": 1 cycle") {
+        let mut counts: Vec<usize> = short.iter().map(|s| s.1).collect();
+        counts.sort_unstable();
+        counts.dedup();
+        for n in counts {
+            let names: Vec<&str> = short
+                .iter()
+                .filter(|s| s.1 == n)
+                .map(|s| s.0.as_str())
+                .collect();
+            let which = format!("{}{}", in_test(tests[0]), names.join(", "));
+            if n == 1 {
                 warnings.push(format!(
-                    "{s}: its accuracy (AP, AD) is computed; its repeatability (RP, RD) needs at \
-                     least 2 cycles (ISO 9283 asks for {STANDARD_CYCLES})"
+                    "{which}: 1 cycle: its accuracy (AP, AD) is computed; its repeatability (RP, \
+                     RD) needs at least 2 cycles (ISO 9283 asks for {STANDARD_CYCLES})"
                 ));
             } else {
                 warnings.push(format!(
-                    "{s}, fewer than the {STANDARD_CYCLES} ISO 9283 asks for: the figures are \
-                     computed, but they are not those of a standard test"
+                    "{which}: {n} cycles, fewer than the {STANDARD_CYCLES} ISO 9283 asks for: the \
+                     figures are computed, but they are not those of a standard test"
                 ));
             }
         }
