@@ -134,7 +134,7 @@ pub fn predict<'py>(
     let a = |v: f64| u.from_si(Quantity::Angle, v);
     let attitude = pr.attitude.is_some();
     let mut position = Vec::with_capacity(3 * n);
-    let mut cols: Vec<Vec<f64>> = vec![Vec::with_capacity(n); 9];
+    let mut cols: Vec<Vec<f64>> = (0..9).map(|_| Vec::with_capacity(n)).collect();
     py.detach(|| {
         let mut s = predictor.scratch();
         for q in readings.chunks_exact(dof) {

@@ -183,7 +183,7 @@ pub fn evaluation_schema() -> String {
 /// The ISO 9283 figures of a log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Evaluation {
-    /// [`SCHEMA_VERSION`] of the document.
+    /// [`crate::iso9283::SCHEMA_VERSION`] of the document.
     #[serde(default)]
     pub schema_version: u32,
     /// The log's file.

@@ -90,7 +90,7 @@ use std::collections::BTreeMap;
 
 pub use figures::{
     evaluate, evaluation_schema, Compensated, DistanceFigures, Evaluation, Multidirectional,
-    PoseFigures, PoseSummary, Spread, Summary,
+    PoseFigures, PoseSummary, Spread, Summary, SCHEMA_VERSION,
 };
 pub use measured::{
     cube_roles, log_from_measurements, log_placed, predict_compensated, read_roles, write_roles,
@@ -771,7 +771,14 @@ fn pose_index(t: &table::Table<'_>, line: usize, s: &str, corners: bool) -> Resu
         Ok(i) if (1..=5).contains(&i) => Ok(i),
         Ok(i) => Err(Error::input(
             t.at(line, "pose"),
-            format!("pose index {i} is out of 1..5 (ISO 9283's P1..P5)"),
+            format!(
+                "pose index {i} is out of 1..5 (ISO 9283's P1..P5{})",
+                if corners {
+                    "; the cube's corners are C1..C8"
+                } else {
+                    ""
+                }
+            ),
         )),
         Err(_) => Err(Error::input(
             t.at(line, "pose"),
