@@ -659,73 +659,13 @@ impl<'r> Chain<'r> {
     /// column-major), after [`Chain::forward`]: each as in [`Chain::jacobian`]. Only the
     /// planned columns are touched, and each is written (zero for a parameter that cannot move
     /// the target); nothing is allocated and no parameter is looked at that is not wanted.
+    ///
+    /// Of an elastic robot (solved by [`Chain::forward`] with its equilibrium), each column
+    /// also carries the motion of the target that the deflections' response to the parameter
+    /// causes (see the `elastic` module), and the compliance and body columns are only that.
     pub fn jacobian_columns(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
-        if ws.elastic.is_some() && self.robot.elastic.is_some() {
-            return self.jacobian_columns_elastic(ws, plan, out);
-        }
         assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
-        let e = self.target_frame(ws, plan.target).translation;
-        let mut put = |col: usize, dp: &Vector3<f64>, w: &Vector3<f64>| {
-            let c = &mut out[6 * col..6 * col + 6];
-            c[0] = dp.x;
-            c[1] = dp.y;
-            c[2] = dp.z;
-            c[3] = w.x;
-            c[4] = w.y;
-            c[5] = w.z;
-        };
-        let zero = Vector3::zeros();
-        for l in &plan.links {
-            let prox = &ws.after[l.frame];
-            let r = &prox.rotation;
-            for (k, col) in l.translation.iter().enumerate() {
-                if let Some(col) = *col {
-                    put(col, &r.column(k).into_owned(), &zero);
-                }
-            }
-            if l.rotation.iter().all(Option::is_none) {
-                continue;
-            }
-            let cache = match l.cache {
-                LinkOf::Link(i) => &self.links[i],
-                LinkOf::Site(s) => &self.sites[s],
-            };
-            let c = prox.translation + r * cache.frame.translation;
-            let lever = e - c;
-            for (k, axis_local) in [Vector3::z(), cache.beta_axis, cache.gamma_axis]
-                .iter()
-                .enumerate()
-            {
-                if let Some(col) = l.rotation[k] {
-                    let u = r * axis_local;
-                    put(col, &u.cross(&lever), &u);
-                }
-            }
-        }
-        for j in &plan.joints {
-            let (dp, w) = self.joint_motion(ws, j.joint, &e);
-            if let Some(col) = j.offset {
-                put(col, &dp, &w);
-            }
-            if let Some(col) = j.slope {
-                let v = ws.readings[j.joint];
-                put(col, &(dp * v), &(w * v));
-            }
-            if let Some((col, k)) = j.coupling {
-                let vk = ws.readings[k];
-                put(col, &(dp * vk), &(w * vk));
-            }
-        }
-        for &col in &plan.zero {
-            put(col, &zero, &zero);
-        }
-    }
-
-    /// [`Chain::jacobian_columns`] of an elastic robot: the rigid columns of the transforms
-    /// upstream of the target, plus, for every planned parameter, the motion of the target
-    /// that the deflections' response to it causes (see the `elastic` module).
-    fn jacobian_columns_elastic(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
-        assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
+        let elastic = ws.elastic.is_some() && self.robot.elastic.is_some();
         let e = self.target_frame(ws, plan.target).translation;
         let zero = Vector3::zeros();
         let upto = plan.node;
@@ -734,8 +674,8 @@ impl<'r> Chain<'r> {
             let r = &prox.rotation;
             // Where the link sits in the chain, for the torques (a site carries no body).
             let at = match l.cache {
-                LinkOf::Link(i) => Some(3 * i),
-                LinkOf::Site(_) => None,
+                LinkOf::Link(i) if elastic => Some(3 * i),
+                _ => None,
             };
             for (k, col) in l.translation.iter().enumerate() {
                 if let Some(col) = *col {
@@ -782,11 +722,13 @@ impl<'r> Chain<'r> {
             } else {
                 (zero, zero)
             };
-            let twist = self.joint_twist(ws, j.joint);
+            let twist = elastic.then(|| self.joint_twist(ws, j.joint));
             let mut column = |col: usize, scale: f64| {
                 put(out, col, &(dp * scale), &(w * scale));
-                let o = &mut out[6 * col..6 * col + 6];
-                self.elastic_column(ws, elastic::Cause::Twist(&twist, scale), &e, upto, o);
+                if let Some(twist) = &twist {
+                    let o = &mut out[6 * col..6 * col + 6];
+                    self.elastic_column(ws, elastic::Cause::Twist(twist, scale), &e, upto, o);
+                }
             };
             if let Some(col) = j.offset {
                 column(col, 1.0);
@@ -800,13 +742,17 @@ impl<'r> Chain<'r> {
         }
         for &(deflection, col) in &plan.elastic {
             put(out, col, &zero, &zero);
-            let o = &mut out[6 * col..6 * col + 6];
-            self.elastic_column(ws, elastic::Cause::Compliance(deflection), &e, upto, o);
+            if elastic {
+                let o = &mut out[6 * col..6 * col + 6];
+                self.elastic_column(ws, elastic::Cause::Compliance(deflection), &e, upto, o);
+            }
         }
         for &(body, component, col) in &plan.bodies {
             put(out, col, &zero, &zero);
-            let o = &mut out[6 * col..6 * col + 6];
-            self.elastic_column(ws, elastic::Cause::Body(body, component), &e, upto, o);
+            if elastic {
+                let o = &mut out[6 * col..6 * col + 6];
+                self.elastic_column(ws, elastic::Cause::Body(body, component), &e, upto, o);
+            }
         }
         for &col in &plan.zero {
             put(out, col, &zero, &zero);
