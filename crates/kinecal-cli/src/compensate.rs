@@ -4,14 +4,12 @@ use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
 use kinecal::compensate::{
-    more_than_a_turn, reaches_away, Compensator, Configuration, Goal, Options, Solved, TargetSearch,
+    goal_in_file_units, Compensator, Configuration, Options, Solved, TargetSearch,
 };
 use kinecal::files::controller::{joint_field, urscript_begin, urscript_end, urscript_move, Brand};
 use kinecal::files::COMPENSATED_COLUMNS;
 use kinecal::identifiability::fmt_sig;
-use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::units::Quantity;
-use nalgebra::Vector3;
 
 use crate::args::{CompensateArgs, OutputFormat};
 use crate::stream::{cell, Rows};
@@ -290,50 +288,29 @@ pub fn run(a: CompensateArgs) -> Result<u8> {
                     };
                     let mut v = [0.0; 3];
                     for (k, &c) in xyz.iter().enumerate() {
-                        v[k] = units.to_si(Quantity::Length, cell(&rows, line, c)?);
-                    }
-                    let p = Vector3::from(v);
-                    if let Some(k) = reaches_away(&nominal, &p) {
-                        bail!(
-                            "{}:{line}: target {} lies {} reaches ({} {}) from the robot's base: \
-                             are the positions in {} (the robot file's length unit)?",
-                            rows.file,
-                            rows.field(*label),
-                            fmt_sig(k),
-                            fmt_sig(l(k * nominal.reach())),
-                            units.length.as_str(),
-                            units.length.as_str()
-                        );
+                        v[k] = cell(&rows, line, c)?;
                     }
                     // A measurement file's position rows leave the three angles empty; with
                     // --position-only the attitudes are not goals.
-                    let euler = euler.filter(|e| {
+                    let euler = match euler.filter(|e| {
                         !a.position_only && e.iter().any(|&c| !rows.field(c).is_empty())
-                    });
-                    let goal = match euler {
+                    }) {
                         Some(e) => {
                             let mut r = [0.0; 3];
                             for (k, &c) in e.iter().enumerate() {
-                                let x = cell(&rows, line, c)?;
-                                r[k] = units.to_si(Quantity::Angle, x);
-                                if more_than_a_turn(r[k]) {
-                                    bail!(
-                                        "{}:{line}: {} = {x} {} is more than a turn: are the \
-                                         attitudes in {} (the robot file's angle unit)?",
-                                        rows.file,
-                                        rows.header[c],
-                                        units.angle.as_str(),
-                                        units.angle.as_str()
-                                    );
-                                }
+                                r[k] = cell(&rows, line, c)?;
                             }
-                            Goal::Pose(Frame {
-                                rotation: rot_zyx(r[0], r[1], r[2]),
-                                translation: p,
-                            })
+                            Some(r)
                         }
-                        None => Goal::Position(p),
+                        None => None,
                     };
+                    let goal = goal_in_file_units(&nominal, v, euler).map_err(|p| {
+                        crate::goal_problem(
+                            &p,
+                            &format!("{}:{line}", rows.file),
+                            &format!("target {}", rows.field(*label)),
+                        )
+                    })?;
                     let given = match cols {
                         Some(cols) => {
                             for (s, &c) in seed.iter_mut().zip(cols) {

@@ -212,6 +212,19 @@ pub fn target_named(robot: &Robot, name: &str, option: &str) -> Result<kinecal::
     kinecal::files::site_target(robot, name).map_err(|m| anyhow!("{option}: {m}"))
 }
 
+/// The error of a Cartesian goal whose numbers look like another unit's, at `place` (file and
+/// line): "place: target 7 lies ..." or "place: beta = 90 rad is more than a turn ...".
+pub fn goal_problem(
+    p: &kinecal::compensate::GoalProblem,
+    place: &str,
+    target: &str,
+) -> anyhow::Error {
+    match p {
+        kinecal::compensate::GoalProblem::Far(m) => anyhow!("{place}: {target} {m}"),
+        kinecal::compensate::GoalProblem::Turn(m) => anyhow!("{place}: {m}"),
+    }
+}
+
 /// Reads a text file, naming it in errors.
 pub fn read_text(path: &Path) -> Result<String> {
     Ok(Source::read(path)?.text)

@@ -153,9 +153,7 @@ fn reach_targets(
     path: &Path,
     target: Target,
 ) -> Result<Vec<(String, Vec<f64>)>> {
-    use kinecal::compensate::{Goal, Options, TargetSearch};
-    use kinecal::kinematics::{rot_zyx, Frame};
-    use kinecal::units::Quantity;
+    use kinecal::compensate::{goal_in_file_units, Options, TargetSearch};
     let mut rows = crate::stream::Rows::open(path)?;
     let expected = "target,x,y,z[,alpha,beta,gamma]";
     let col = |rows: &crate::stream::Rows, name: &str| {
@@ -190,22 +188,25 @@ fn reach_targets(
     while let Some(line) = rows.advance()? {
         let mut p = [0.0; 3];
         for (k, &c) in xyz.iter().enumerate() {
-            p[k] = u.to_si(Quantity::Length, crate::stream::cell(&rows, line, c)?);
+            p[k] = crate::stream::cell(&rows, line, c)?;
         }
-        let p = nalgebra::Vector3::from(p);
-        let goal = match &euler {
+        let euler = match &euler {
             Some(e) if e.iter().any(|&c| !rows.field(c).is_empty()) => {
                 let mut r = [0.0; 3];
                 for (k, &c) in e.iter().enumerate() {
-                    r[k] = u.to_si(Quantity::Angle, crate::stream::cell(&rows, line, c)?);
+                    r[k] = crate::stream::cell(&rows, line, c)?;
                 }
-                Goal::Pose(Frame {
-                    rotation: rot_zyx(r[0], r[1], r[2]),
-                    translation: p,
-                })
+                Some(r)
             }
-            _ => Goal::Position(p),
+            _ => None,
         };
+        let goal = goal_in_file_units(robot, p, euler).map_err(|p| {
+            crate::goal_problem(
+                &p,
+                &format!("{}:{line}", rows.file),
+                &format!("target `{}`", rows.field(label)),
+            )
+        })?;
         let s = search.solve(&goal, target, None, &mut out);
         let name = rows.field(label).to_string();
         if s.flags.unreachable || s.flags.out_of_range != 0 {

@@ -340,7 +340,7 @@ fn cartesian_targets_are_reached_then_predicted() {
     std::fs::write(
         d.join("far.csv"),
         format!(
-            "target,x,y,z\nnear,{},{},{}\nfar,900,0,0\n",
+            "target,x,y,z\nnear,{},{},{}\nfar,150,0,0\n",
             g[0], g[1], g[2]
         ),
     )
@@ -360,6 +360,25 @@ fn cartesian_targets_are_reached_then_predicted() {
     assert_eq!(code, Some(1), "{e}");
     assert!(
         e.contains("far.csv:3: target `far`: the calibrated robot does not reach it (unreachable"),
+        "{e}"
+    );
+    // Millimetres in an inch file: the unit is named, not "unreachable".
+    std::fs::write(d.join("mm.csv"), "target,x,y,z\nA,900,0,0\n").unwrap();
+    let (code, _, e) = run(
+        d,
+        &[
+            "predict",
+            "--robot",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "--targets",
+            "mm.csv",
+        ],
+    );
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("mm.csv:2: target `A` lies 16.") && e.contains("are the positions in in"),
         "{e}"
     );
     std::fs::write(d.join("odd.csv"), "target,x,y,z,w\nA,1,2,3,4\n").unwrap();

@@ -3,14 +3,12 @@
 //! `kinecal.iso9283`). Values are in the robot's units (a log's in its own); results come back as
 //! dicts of numpy arrays, or the JSON document the command line writes.
 
-use kinecal::compensate::{Goal, Options, TargetSearch};
+use kinecal::compensate::{goal_in_file_units, Options, TargetSearch};
 use kinecal::iso9283::{self, LogUnits, PlacedLog};
-use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::predict::{self as prediction, PredictionReport};
 use kinecal::report::CalibrationReport;
 use kinecal::units::Quantity;
 use kinecal::Target;
-use nalgebra::Vector3;
 use numpy::ndarray::{Array1, Array2};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -73,20 +71,9 @@ fn reach(
     let mut out = vec![0.0; dof];
     let mut readings = Vec::with_capacity(v.len() / cols * dof);
     for (i, row) in v.chunks_exact(cols).enumerate() {
-        let p = Vector3::new(
-            u.to_si(Quantity::Length, row[0]),
-            u.to_si(Quantity::Length, row[1]),
-            u.to_si(Quantity::Length, row[2]),
-        );
-        let goal = if cols == 6 {
-            let a = |k: usize| u.to_si(Quantity::Angle, row[k]);
-            Goal::Pose(Frame {
-                rotation: rot_zyx(a(3), a(4), a(5)),
-                translation: p,
-            })
-        } else {
-            Goal::Position(p)
-        };
+        let euler = (cols == 6).then(|| [row[3], row[4], row[5]]);
+        let goal = goal_in_file_units(robot, [row[0], row[1], row[2]], euler)
+            .map_err(|p| crate::commands::goal_problem(&p, i))?;
         let s = py.detach(|| search.solve(&goal, target, None, &mut out));
         if s.flags.unreachable || s.flags.out_of_range != 0 {
             return Err(bad(format!(

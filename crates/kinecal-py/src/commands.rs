@@ -4,17 +4,15 @@
 //! arrays and Python values, one key per field of the result class.
 
 use kinecal::compensate::{
-    more_than_a_turn, reaches_away, Compensator, Configuration, Goal, Options, TargetSearch,
+    goal_in_file_units, Compensator, Configuration, Goal, Options, TargetSearch,
 };
 use kinecal::identifiability::AnalysisOptions;
-use kinecal::kinematics::{rot_zyx, Frame};
 use kinecal::observe::{Dataset, Observation};
 use kinecal::plan::{candidates as candidate_pool, plan as choose, Criterion, PlanRequest};
 use kinecal::simulate::{self as sim, PerturbStd};
 use kinecal::units::Quantity;
 use kinecal::workflow::Selection;
 use kinecal::{Posture, Target};
-use nalgebra::Vector3;
 use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
 use pyo3::exceptions::PyTypeError;
@@ -35,6 +33,16 @@ pub fn target_of(robot: &kinecal::Robot, site: Option<&str>, keyword: &str) -> P
                 robot.name
             ))
         }),
+    }
+}
+
+/// The error of row `row` of `targets` whose numbers look like another unit's.
+pub fn goal_problem(p: &kinecal::compensate::GoalProblem, row: usize) -> PyErr {
+    match p {
+        kinecal::compensate::GoalProblem::Far(m) => {
+            bad(format!("targets: row {row}: the position {m}"))
+        }
+        kinecal::compensate::GoalProblem::Turn(m) => bad(format!("targets: row {row}: {m}")),
     }
 }
 
@@ -192,37 +200,9 @@ pub fn compensate<'py>(
                 .chunks(cols)
                 .enumerate()
                 .map(|(i, r)| {
-                    let p =
-                        Vector3::new(r[0], r[1], r[2]).map(|x| units.to_si(Quantity::Length, x));
-                    if let Some(k) = reaches_away(nom, &p) {
-                        return Err(bad(format!(
-                            "targets: row {}: the position lies {} reaches from the robot's \
-                             base: are the positions in {} (the robot's length unit)?",
-                            i + 1,
-                            kinecal::identifiability::fmt_sig(k),
-                            units.length.as_str()
-                        )));
-                    }
-                    if cols == 6 && !position_only {
-                        let e = [r[3], r[4], r[5]].map(|x| units.to_si(Quantity::Angle, x));
-                        if let Some(k) = e.iter().position(|&a| more_than_a_turn(a)) {
-                            return Err(bad(format!(
-                                "targets: row {}: {} = {} {} is more than a turn: are the \
-                                 attitudes in {} (the robot's angle unit)?",
-                                i + 1,
-                                ["alpha", "beta", "gamma"][k],
-                                r[3 + k],
-                                units.angle.as_str(),
-                                units.angle.as_str()
-                            )));
-                        }
-                        Ok(Goal::Pose(Frame {
-                            rotation: rot_zyx(e[0], e[1], e[2]),
-                            translation: p,
-                        }))
-                    } else {
-                        Ok(Goal::Position(p))
-                    }
+                    let euler = (cols == 6 && !position_only).then(|| [r[3], r[4], r[5]]);
+                    goal_in_file_units(nom, [r[0], r[1], r[2]], euler)
+                        .map_err(|p| goal_problem(&p, i + 1))
                 })
                 .collect::<PyResult<Vec<Goal>>>()?;
             let seeds = match seeds {

@@ -70,6 +70,8 @@ def test_cartesian_targets_are_reached_then_predicted(calibrated, tmp_path):
     again = cal.predict(p["readings"])
     np.testing.assert_allclose(again["position_bound95"], p["position_bound95"], rtol=1e-12)
     with pytest.raises(kinecal.KinecalError, match="row 0: the calibrated robot does not reach"):
+        cal.predict(targets=[[150.0, 0.0, 0.0]])
+    with pytest.raises(kinecal.KinecalError, match="row 0: the position lies 16.* reaches"):
         cal.predict(targets=[[900.0, 0.0, 0.0]])
     with pytest.raises(kinecal.KinecalError, match=r"shape \(n, 3\)"):
         cal.predict(targets=[[1.0, 2.0]])

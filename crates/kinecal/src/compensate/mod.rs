@@ -505,6 +505,61 @@ pub fn reaches_away(robot: &Robot, position: &Vector3<f64>) -> Option<f64> {
     (d > 10.0).then_some(d)
 }
 
+/// Why numbers given as a Cartesian goal look like another unit's ([`goal_in_file_units`]):
+/// each holds the end of a sentence whose subject the caller names (`target 7`, `the
+/// position`, or where the angle came from).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum GoalProblem {
+    /// The position lies more than ten reaches from the base: "lies K reaches (D m) from the
+    /// robot's base: are the positions in m ...?".
+    Far(String),
+    /// An attitude angle is more than a turn: "beta = 90 rad is more than a turn: ...?".
+    Turn(String),
+}
+
+/// A Cartesian goal for `robot` from a position `xyz` and, for a pose, ZYX Euler angles
+/// `alpha, beta, gamma`, in the robot file's units and global frame; an error when the numbers
+/// look like another unit's (a position more than ten reaches from the base, an angle of more
+/// than a turn).
+pub fn goal_in_file_units(
+    robot: &Robot,
+    xyz: [f64; 3],
+    euler: Option<[f64; 3]>,
+) -> std::result::Result<Goal, GoalProblem> {
+    let u = robot.units;
+    let p = Vector3::from(xyz.map(|v| u.to_si(crate::units::Quantity::Length, v)));
+    if let Some(k) = reaches_away(robot, &p) {
+        return Err(GoalProblem::Far(format!(
+            "lies {} reaches ({} {}) from the robot's base: are the positions in {} (the robot \
+             file's length unit)?",
+            crate::identifiability::fmt_sig(k),
+            crate::identifiability::fmt_sig(
+                u.from_si(crate::units::Quantity::Length, k * robot.reach())
+            ),
+            u.length,
+            u.length
+        )));
+    }
+    let Some(e) = euler else {
+        return Ok(Goal::Position(p));
+    };
+    let r = e.map(|v| u.to_si(crate::units::Quantity::Angle, v));
+    if let Some(k) = r.iter().position(|&a| more_than_a_turn(a)) {
+        return Err(GoalProblem::Turn(format!(
+            "{} = {} {} is more than a turn: are the attitudes in {} (the robot file's angle \
+             unit)?",
+            ["alpha", "beta", "gamma"][k],
+            e[k],
+            u.angle,
+            u.angle
+        )));
+    }
+    Ok(Goal::Pose(Frame {
+        rotation: crate::kinematics::rot_zyx(r[0], r[1], r[2]),
+        translation: p,
+    }))
+}
+
 /// Whether a ZYX attitude angle (rad) of a Cartesian goal is more than a turn: degrees read
 /// as radians.
 pub fn more_than_a_turn(angle: f64) -> bool {
