@@ -1,91 +1,26 @@
-//! `kinecal analyze`: what the data can and cannot determine.
+//! `kinecal analyze`: the analysis as text.
 
 use std::fmt::Write as _;
 
-use anyhow::{bail, Result};
-use kinecal::files::parse_postures;
-use kinecal::identifiability::{analyze, fmt_sig, format_combination, Analysis, AnalysisOptions};
-use kinecal::workflow::{resolve, Selection};
-use kinecal::{parse_param_list, simulate, Robot};
+use kinecal::identifiability::{fmt_sig, format_combination};
+use kinecal::spec::{AnalyzeOutcome, Document, MatrixKind, MatrixUnits};
+use kinecal::Robot;
 
-use crate::args::{AnalyzeArgs, MatrixArg, UnitsArg};
-use crate::{load_observations, load_robot, residual_settings, word};
+use crate::args::AnalyzeArgs;
+use crate::word;
 
-/// Runs `kinecal analyze`.
-pub fn run(a: AnalyzeArgs) -> Result<()> {
-    let r = load_robot(&a.robot)?;
-    let robot = &r.robot;
-    let data = match &a.postures {
-        Some(path) => {
-            if !a.observations.files.is_empty() {
-                bail!("give observation files or --postures, not both");
-            }
-            let s = kinecal::source::Source::read(path)?;
-            let postures = parse_postures(&s.text, &s.name, robot)?;
-            simulate::measure(robot, &postures, a.observations.position_only)
-        }
-        None => load_observations(&a.observations, robot)?.0,
-    };
-    let (weights, orientation) = residual_settings(&a.residuals, robot)?;
-    if !(a.rcond > 0.0 && a.rcond < 1.0) {
-        bail!("--rcond must be between 0 and 1, got {}", a.rcond);
-    }
-    let priority = match &a.priority {
-        Some(list) => ordered_list(list, robot)?,
-        None => Vec::new(),
-    };
-    let mut prior = match &a.prior {
-        Some(text) => kinecal::prior::parse_prior(text, robot)?,
-        None => robot.priors.clone(),
-    };
-    if let Some(total) = a.total_mass {
-        kinecal::prior::set_total_mass(&mut prior, total, robot)
-            .map_err(|m| anyhow::anyhow!("--total-mass: {m}"))?;
-    }
-    let opts = AnalysisOptions {
-        rcond: a.rcond,
-        weights,
-        orientation,
-        priority,
-        noise_scale: 1.0,
-        prior,
-    };
-    let selection = Selection::parse(&a.estimate, a.fix.as_deref(), robot)?;
-    let (params, unseen) = resolve(&selection, robot, &data, &opts)?;
-    if !unseen.is_empty() {
-        eprintln!(
-            "note: {}",
-            word(&kinecal::Warning::Unseen {
-                parameters: unseen.iter().map(|&id| robot.param_name(id)).collect()
-            })
-        );
-    }
-    let an = analyze(robot, &data, &params, &opts)?;
+/// Prints an analysis: its JSON document with `--json`, else as text; the matrix asked for
+/// after it.
+pub fn show(d: &Document, a: &AnalyzeArgs) {
+    let Document::Analysis(o) = d else { return };
     if a.json {
-        println!(
-            "{}",
-            kinecal::report::AnalysisReport::new(&an, robot, &unseen).to_json()
-        );
+        println!("{}", o.report.to_json());
     } else {
-        print!("{}", text(&an, robot, &data));
+        print!("{}", text(o));
     }
-    if let Some(which) = a.print {
-        print!("{}", matrix(&an, robot, &data, &opts, which, a.units));
+    if let Some((kind, units, table)) = &o.matrix {
+        print!("{}", matrix(o, *kind, *units, table));
     }
-    Ok(())
-}
-
-/// A parameter list in the order given (for priorities).
-fn ordered_list(list: &str, robot: &Robot) -> Result<Vec<kinecal::ParamId>> {
-    let mut out = Vec::new();
-    for token in list.split(',') {
-        for id in parse_param_list(token.trim(), robot)? {
-            if !out.contains(&id) {
-                out.push(id);
-            }
-        }
-    }
-    Ok(out)
 }
 
 fn ids(list: &[kinecal::ParamId]) -> Vec<String> {
@@ -99,11 +34,12 @@ fn names(robot: &Robot, list: &[kinecal::ParamId]) -> String {
         .join(", ")
 }
 
-fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
+fn text(o: &AnalyzeOutcome) -> String {
+    let (an, robot) = (&o.analysis, &o.robot);
     let mut s = String::new();
     let n = an.parameters.len();
-    let kinds: Vec<String> = data
-        .kinds()
+    let kinds: Vec<String> = o
+        .kinds
         .iter()
         .map(|(k, c)| format!("{c} {k}{}", if *c == 1 { "" } else { "s" }))
         .collect();
@@ -116,8 +52,8 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
             &robot.name
         },
         n,
-        data.postures.len(),
-        data.observations.len(),
+        o.postures,
+        o.observations,
         kinds.join(", "),
         an.residuals
     );
@@ -333,22 +269,20 @@ fn text(an: &Analysis, robot: &Robot, data: &kinecal::Dataset) -> String {
 }
 
 fn matrix(
-    an: &Analysis,
-    robot: &Robot,
-    data: &kinecal::Dataset,
-    opts: &AnalysisOptions,
-    which: MatrixArg,
-    units: UnitsArg,
+    o: &AnalyzeOutcome,
+    which: MatrixKind,
+    units: MatrixUnits,
+    table: &kinecal::identifiability::JacobianTable,
 ) -> String {
+    let (an, robot) = (&o.analysis, &o.robot);
     let mut s = String::new();
-    let table = kinecal::identifiability::jacobian_table(robot, data, an, opts);
     let m = match units {
-        UnitsArg::File => &table.file,
-        UnitsArg::Scaled => &table.scaled,
+        MatrixUnits::File => &table.file,
+        MatrixUnits::Scaled => &table.scaled,
     };
     let unit_label = match units {
-        UnitsArg::File => format!("{}, {}", robot.units.length, robot.units.angle),
-        UnitsArg::Scaled => "scaled".to_string(),
+        MatrixUnits::File => format!("{}, {}", robot.units.length, robot.units.angle),
+        MatrixUnits::Scaled => "scaled".to_string(),
     };
     let _ = writeln!(s);
     let head: String = an
@@ -357,7 +291,7 @@ fn matrix(
         .map(|id| format!("{:>11}", id.to_string()))
         .collect();
     match which {
-        MatrixArg::Jacobian => {
+        MatrixKind::Jacobian => {
             let _ = writeln!(s, "Jacobian ({unit_label}):");
             let _ = writeln!(s, "{:<22}{head}", "posture site comp");
             for (i, (p, site, c)) in table.row_labels.iter().enumerate() {
@@ -367,7 +301,7 @@ fn matrix(
                 let _ = writeln!(s, "{:<22}{row}", format!("{p} {site} {c}"));
             }
         }
-        MatrixArg::Hessian => {
+        MatrixKind::Hessian => {
             let _ = writeln!(s, "J^T J ({unit_label}):");
             let _ = writeln!(s, "{:<8}{head}", "");
             for a in 0..m.ncols() {

@@ -6,6 +6,12 @@
 use std::path::PathBuf;
 
 use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand, ValueEnum};
+use kinecal::estimation::{Damping, Method, Spread};
+use kinecal::import::dh::Convention;
+use kinecal::observe::OrientationError;
+use kinecal::plan::Criterion;
+use kinecal::spec::{LossKind, MatrixKind, MatrixUnits, ProgramFormat};
+use kinecal::workflow::SolutionRule;
 
 /// Robot kinematic calibration (Goswami 1988 model: 6 parameters per link, 2 per joint).
 #[derive(Debug, Parser)]
@@ -254,20 +260,35 @@ or outside a joint range is refused with its line.")]
     Predict(PredictArgs),
 }
 
+/// The job as a spec file, and the spec of this command line written down: every job command
+/// has them.
+#[derive(Debug, Args, Clone, Default)]
+pub struct SpecArgs {
+    /// The job as a spec file (TOML, its `job` key this command's; see docs/spec.md). Flags
+    /// given with it override its values; files given replace its lists.
+    #[arg(long, value_name = "JOB.toml")]
+    pub spec: Option<PathBuf>,
+    /// Write the job of this command line (with --spec's, flags overriding) as a spec file
+    /// here, then run it (`-` prints it and runs nothing).
+    #[arg(long, value_name = "JOB.toml")]
+    pub write_spec: Option<PathBuf>,
+}
+
 /// `kinecal predict`.
 #[derive(Debug, Args)]
 #[command(group(
     clap::ArgGroup::new("where")
-        .required(true)
         .args(["postures", "sample", "targets"])
 ))]
 pub struct PredictArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The calibrated robot file (TOML), as `kinecal calibrate --out` wrote it.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The calibration's report (JSON), as `kinecal calibrate --report` wrote it.
-    #[arg(long)]
-    pub report: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub report: Option<PathBuf>,
     /// Postures file: CSV `posture,v1,...,vn` (a measurement file also works).
     #[arg(long)]
     pub postures: Option<PathBuf>,
@@ -278,9 +299,9 @@ pub struct PredictArgs {
     /// and global frame), reached through the calibrated robot's inverse kinematics.
     #[arg(long, value_name = "TARGETS.csv")]
     pub targets: Option<PathBuf>,
-    /// Seed of --sample (and of the map's postures).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    /// Seed of --sample (and of the map's postures) [default: 1].
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// The target predicted: `ee` or a site's name (default: the report's, the target its data
     /// measured most).
     #[arg(long)]
@@ -296,13 +317,15 @@ pub struct PredictArgs {
 /// `kinecal fk`.
 #[derive(Debug, Args)]
 pub struct FkArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Robot file (TOML) or built-in robot name.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// Postures file: CSV `posture,v1,...,vn` (a measurement file, or what `kinecal compensate`
     /// writes, also works).
-    #[arg(long)]
-    pub postures: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub postures: Option<PathBuf>,
     /// Write the poses here instead of standard output.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -311,15 +334,17 @@ pub struct FkArgs {
 /// `kinecal simulate`.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Nominal robot file (TOML) or built-in robot name.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// Number of postures to draw.
-    #[arg(long, value_name = "N")]
-    pub postures: usize,
+    #[arg(long, value_name = "N", required_unless_present = "spec")]
+    pub postures: Option<usize>,
     /// Random seed (the same seed gives the same data on every machine).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Additive changes to named parameters, e.g. `p3=+0.1,joint2.offset=-0.5` (file units).
     #[arg(long, value_name = "LIST")]
     pub perturb: Option<String>,
@@ -334,8 +359,8 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub position_only: bool,
     /// Measurement file to write.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
     /// Also write the perturbed ("true") robot file here.
     #[arg(long)]
     pub truth: Option<PathBuf>,
@@ -397,11 +422,14 @@ UR description's, from base_link to tool0. Readings are the joint values (rad, s
 /// `kinecal import ur`.
 #[derive(Debug, Args)]
 pub struct ImportUrArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The kinematics file (YAML).
-    pub file: PathBuf,
+    #[arg(required_unless_present = "spec")]
+    pub file: Option<PathBuf>,
     /// The robot file to write.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal curves ...`.
@@ -506,29 +534,33 @@ without a role are left out, and counted. The log is in the robot file's units, 
 /// `kinecal iso9283 log`.
 #[derive(Debug, Args)]
 pub struct Iso9283LogArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The robot model (file or built-in name) that drives the robot.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The measurement file (positions or poses).
-    #[arg(long, value_name = "MEASUREMENTS.csv")]
-    pub data: PathBuf,
+    #[arg(long, value_name = "MEASUREMENTS.csv", required_unless_present = "spec")]
+    pub data: Option<PathBuf>,
     /// Which test, pose and cycle each posture is (CSV: posture,test,pose,cycle).
-    #[arg(long, value_name = "ROLES.csv")]
-    pub roles: PathBuf,
+    #[arg(long, value_name = "ROLES.csv", required_unless_present = "spec")]
+    pub roles: Option<PathBuf>,
     /// Write the log's lengths in this unit (default: the robot file's).
     #[arg(long, value_name = "UNIT", value_parser = ["m", "mm", "in"])]
     pub length_unit: Option<String>,
     /// The log to write (CSV).
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal iso9283 plan`.
 #[derive(Debug, Args)]
 pub struct Iso9283PlanArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Robot file (TOML) or built-in robot name.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The cube: centre and side `CX,CY,CZ,SIDE` (the robot file's length unit, base frame).
     /// Default: search for a large cube the robot reaches.
     #[arg(long, value_name = "CX,CY,CZ,SIDE", allow_hyphen_values = true)]
@@ -537,8 +569,8 @@ pub struct Iso9283PlanArgs {
     #[arg(long, value_name = "A,B,C", allow_hyphen_values = true)]
     pub attitude: Option<String>,
     /// Grid points along the longest side of the working space searched.
-    #[arg(long, value_name = "N", default_value_t = 10)]
-    pub resolution: usize,
+    #[arg(long, value_name = "N")]
+    pub resolution: Option<usize>,
     /// Write the poses here (CSV).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -547,32 +579,36 @@ pub struct Iso9283PlanArgs {
 /// `kinecal iso9283 simulate`.
 #[derive(Debug, Args)]
 pub struct Iso9283SimulateArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The robot that moves (file or built-in name): a "true" robot, same units as the plan.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The test poses (what `kinecal iso9283 plan --out` writes).
-    #[arg(long, value_name = "POSES.csv")]
-    pub poses: PathBuf,
+    #[arg(long, value_name = "POSES.csv", required_unless_present = "spec")]
+    pub poses: Option<PathBuf>,
     /// Cycles.
-    #[arg(long, value_name = "N", default_value_t = 30)]
-    pub cycles: usize,
+    #[arg(long, value_name = "N")]
+    pub cycles: Option<usize>,
     /// Gaussian noise on the attained poses: `length=L,angle=A` (robot file units).
     #[arg(long, value_name = "SPEC")]
     pub noise: Option<String>,
     /// Random seed (the same seed gives the same log on every machine).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// The log to write (CSV).
     #[arg(long)]
-    pub out: PathBuf,
+    pub seed: Option<u64>,
+    /// The log to write (CSV).
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal iso9283 evaluate`.
 #[derive(Debug, Args)]
 pub struct Iso9283EvaluateArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The log (CSV).
-    #[arg(long, value_name = "LOG.csv")]
-    pub data: PathBuf,
+    #[arg(long, value_name = "LOG.csv", required_unless_present = "spec")]
+    pub data: Option<PathBuf>,
     /// The log's length unit, when it states none (a label: nothing is converted).
     #[arg(long, value_name = "UNIT", value_parser = ["m", "mm", "in"])]
     pub length_unit: Option<String>,
@@ -600,8 +636,8 @@ pub struct Iso9283EvaluateArgs {
 #[derive(Debug, Args)]
 pub struct SweepArgs {
     /// Parameters to sweep.
-    #[arg(long, value_name = "LIST")]
-    pub param: String,
+    #[arg(long, value_name = "LIST", required_unless_present = "spec")]
+    pub param: Option<String>,
     /// Total width of the sweep, centred on the nominal value (file units).
     #[arg(long, conflicts_with_all = ["from", "to"])]
     pub span: Option<f64>,
@@ -612,25 +648,26 @@ pub struct SweepArgs {
     #[arg(long, requires = "from", allow_hyphen_values = true)]
     pub to: Option<f64>,
     /// Samples per curve.
-    #[arg(long, default_value_t = 201)]
-    pub points: usize,
-    /// Output: .svg, .png or .csv.
     #[arg(long)]
-    pub out: PathBuf,
+    pub points: Option<usize>,
+    /// Output: .svg, .png or .csv.
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal curves pose`.
 #[derive(Debug, Args)]
 pub struct CurvesPoseArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Robot file or built-in name.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// Transducer readings, comma-separated.
     #[arg(
         long,
         allow_hyphen_values = true,
-        conflicts_with = "postures",
-        required_unless_present = "postures"
+        conflicts_with = "postures"
     )]
     pub readings: Option<String>,
     /// A postures (or measurement) file, with --posture.
@@ -640,8 +677,8 @@ pub struct CurvesPoseArgs {
     #[arg(long)]
     pub posture: Option<String>,
     /// The frame: ee or a site name.
-    #[arg(long, default_value = "ee")]
-    pub site: String,
+    #[arg(long)]
+    pub site: Option<String>,
     #[command(flatten)]
     pub sweep: SweepArgs,
 }
@@ -649,9 +686,11 @@ pub struct CurvesPoseArgs {
 /// `kinecal curves objective`.
 #[derive(Debug, Args)]
 pub struct CurvesObjectiveArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Robot file or built-in name.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     #[command(flatten)]
     pub observations: ObservationFiles,
     #[command(flatten)]
@@ -663,20 +702,21 @@ pub struct CurvesObjectiveArgs {
 /// `kinecal report`.
 #[derive(Debug, Args)]
 pub struct ReportArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Rebuild the HTML report of a calibration from its JSON report alone (`kinecal calibrate
     /// --report`): the page `calibrate --html` writes, nothing recomputed.
     #[arg(long, value_name = "REPORT.json", conflicts_with_all = ["robot", "calibrated", "calibration"])]
     pub from: Option<PathBuf>,
     /// The nominal robot (before calibration).
-    #[arg(long, required_unless_present = "from")]
+    #[arg(long)]
     pub robot: Option<String>,
     #[command(flatten)]
     pub observations: ObservationFiles,
     /// The calibrated robot file.
     #[arg(
         long,
-        conflicts_with = "calibration",
-        required_unless_present_any = ["calibration", "from"]
+        conflicts_with = "calibration"
     )]
     pub calibrated: Option<String>,
     /// Or a calibration report (JSON from `kinecal calibrate --report`).
@@ -685,21 +725,23 @@ pub struct ReportArgs {
     #[command(flatten)]
     pub residuals: ResidualArgs,
     /// The HTML file to write.
-    #[arg(long, visible_alias = "html")]
-    pub out: PathBuf,
+    #[arg(long, visible_alias = "html", required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal check`.
 #[derive(Debug, Args)]
 pub struct CheckArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The calibrated robot file.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     #[command(flatten)]
     pub observations: ObservationFiles,
     /// LENGTH[,ANGLE]: largest acceptable errors, in the robot file's units.
-    #[arg(long)]
-    pub threshold: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub threshold: Option<String>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -986,8 +1028,11 @@ pub struct HistoryPlotArgs {
 /// `kinecal import urdf`.
 #[derive(Debug, Args)]
 pub struct ImportUrdfArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The URDF file (plain URDF; expand xacro first).
-    pub file: PathBuf,
+    #[arg(required_unless_present = "spec")]
+    pub file: Option<PathBuf>,
     /// First link of the chain (default: the root link).
     #[arg(long)]
     pub base: Option<String>,
@@ -1001,8 +1046,8 @@ pub struct ImportUrdfArgs {
     #[arg(long)]
     pub masses: bool,
     /// The robot file to write.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal export`.
@@ -1073,23 +1118,27 @@ positive), sigmas empty where the data does not determine them.")]
 /// `kinecal export stiffness`.
 #[derive(Debug, Args)]
 pub struct ExportStiffnessArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The calibration report (JSON) of an elastic robot.
-    #[arg(long)]
-    pub report: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub report: Option<PathBuf>,
     /// The table to write (CSV).
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal export dh`.
 #[derive(Debug, Args)]
 pub struct ExportDhArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The robot file (TOML) or built-in robot name.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// DH convention of the table.
-    #[arg(long, value_enum)]
-    pub convention: ConventionArg,
+    #[arg(long, value_enum, required_unless_present = "spec")]
+    pub convention: Option<Convention>,
     /// Length unit of the table (default: the robot file's); written into it.
     #[arg(long)]
     pub length_unit: Option<String>,
@@ -1103,57 +1152,63 @@ pub struct ExportDhArgs {
     #[arg(long, value_name = "length=L,angle=A")]
     pub tolerance: Option<String>,
     /// The table to write (CSV).
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal export joints`.
 #[derive(Debug, Args)]
 pub struct ExportJointsArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The calibrated robot.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The nominal robot (what the controller uses).
-    #[arg(long)]
-    pub nominal: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub nominal: Option<String>,
     /// How far the export, read back, may miss the robot at the tool over the joint ranges:
     /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
     /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
     #[arg(long, value_name = "length=L,angle=A")]
     pub tolerance: Option<String>,
     /// The table to write (CSV).
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal export ur`.
 #[derive(Debug, Args)]
 pub struct ExportUrArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The calibrated robot file (imported from the template).
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The kinematics file the robot was imported from.
-    #[arg(long)]
-    pub template: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub template: Option<PathBuf>,
     /// How far the export, read back, may miss the robot at the tool over the joint ranges:
     /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
     /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
     #[arg(long, value_name = "length=L,angle=A")]
     pub tolerance: Option<String>,
     /// The kinematics file to write.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal export urdf`.
 #[derive(Debug, Args)]
 pub struct ExportUrdfArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The calibrated robot file (imported from the template).
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The original URDF.
-    #[arg(long)]
-    pub template: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub template: Option<PathBuf>,
     /// First link of the chain, as at import.
     #[arg(long)]
     pub base: Option<String>,
@@ -1166,37 +1221,35 @@ pub struct ExportUrdfArgs {
     #[arg(long, value_name = "length=L,angle=A")]
     pub tolerance: Option<String>,
     /// The URDF to write.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal import poe`.
 #[derive(Debug, Args)]
 pub struct ImportPoeArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The product-of-exponentials file (TOML).
-    pub file: PathBuf,
+    #[arg(required_unless_present = "spec")]
+    pub file: Option<PathBuf>,
     /// The robot file to write.
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
-/// DH convention.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum ConventionArg {
-    /// Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta).
-    Standard,
-    /// Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d) (Craig).
-    Modified,
-}
 
 /// `kinecal import dh`.
 #[derive(Debug, Args)]
 pub struct ImportDhArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The table (CSV `kind,a,alpha,d,theta[,beta]`).
-    pub file: PathBuf,
+    #[arg(required_unless_present = "spec")]
+    pub file: Option<PathBuf>,
     /// Which convention the table uses (required when the table does not state it).
     #[arg(long, value_enum)]
-    pub convention: Option<ConventionArg>,
+    pub convention: Option<Convention>,
     /// Length unit of the table (and of the robot file written); required when the table does
     /// not state it.
     #[arg(long)]
@@ -1206,37 +1259,23 @@ pub struct ImportDhArgs {
     #[arg(long)]
     pub angle_unit: Option<String>,
     /// Robot name.
-    #[arg(long, default_value = "")]
-    pub name: String,
-    /// The robot file to write.
     #[arg(long)]
-    pub out: PathBuf,
+    pub name: Option<String>,
+    /// The robot file to write.
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
-/// Units of printed matrices.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum UnitsArg {
-    /// The robot file's units (thesis Tables 4.3-4.7 style).
-    File,
-    /// The solver's scaled units (weighted residuals, unit-norm columns).
-    Scaled,
-}
 
-/// A matrix to print.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum MatrixArg {
-    /// The Jacobian, rows labelled by posture, site and pose component.
-    Jacobian,
-    /// J^T J (the thesis's "Hessian").
-    Hessian,
-}
 
 /// `kinecal analyze`.
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Robot file (TOML) or built-in robot name: the model, analysed at its parameter values.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     #[command(flatten)]
     pub observations: ObservationFiles,
     /// Postures file instead of observations: full poses of the end effector and every site are
@@ -1245,8 +1284,8 @@ pub struct AnalyzeArgs {
     pub postures: Option<PathBuf>,
     /// Parameters to analyse (default: the default set of `calibrate`, so that the identifiable
     /// set shown is the one `calibrate --estimate identifiable` estimates; `all` for every one).
-    #[arg(long, value_name = "LIST", default_value = "")]
-    pub estimate: String,
+    #[arg(long, value_name = "LIST")]
+    pub estimate: Option<String>,
     /// Parameters to leave out.
     #[arg(long, value_name = "LIST")]
     pub fix: Option<String>,
@@ -1255,9 +1294,9 @@ pub struct AnalyzeArgs {
     /// sites).
     #[arg(long, value_name = "LIST")]
     pub priority: Option<String>,
-    /// Relative singular-value tolerance for the numerical rank.
-    #[arg(long, value_name = "X", default_value_t = kinecal::identifiability::DEFAULT_RANK_RCOND)]
-    pub rcond: f64,
+    /// Relative singular-value tolerance for the numerical rank [default: 1e-6].
+    #[arg(long, value_name = "X")]
+    pub rcond: Option<f64>,
     /// Analyse the data with a Gaussian prior on the changes, as `calibrate --prior` fits it
     /// (`length=L,angle=A[,slope=F][,compliance=C]`, `tolerances`, `none`): the rank of both
     /// together, and which parameters the prior alone determines [default: the robot file's
@@ -1271,10 +1310,10 @@ pub struct AnalyzeArgs {
     pub residuals: ResidualArgs,
     /// Print a matrix as well.
     #[arg(long, value_enum)]
-    pub print: Option<MatrixArg>,
+    pub print: Option<MatrixKind>,
     /// Units of the printed matrix.
-    #[arg(long, value_enum, default_value = "file")]
-    pub units: UnitsArg,
+    #[arg(long, value_enum)]
+    pub units: Option<MatrixUnits>,
     /// Print a JSON document instead of text.
     #[arg(long)]
     pub json: bool,
@@ -1283,18 +1322,20 @@ pub struct AnalyzeArgs {
 /// `kinecal compensate`.
 #[derive(Debug, Args)]
 pub struct CompensateArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// The calibrated robot (TOML) or built-in robot name: how the robot really moves.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// The nominal robot the controller uses (and the program was made with).
-    #[arg(long)]
-    pub nominal: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub nominal: Option<String>,
     /// The program (posture,v1,...,vn) or the targets (target,x,y,z[,alpha,beta,gamma]...).
-    #[arg(long = "in", value_name = "FILE")]
-    pub input: PathBuf,
+    #[arg(long = "in", value_name = "FILE", required_unless_present = "spec")]
+    pub input: Option<PathBuf>,
     /// The frame that must reach the goal: `ee` (default) or a site of the robot.
-    #[arg(long, default_value = "ee")]
-    pub site: String,
+    #[arg(long)]
+    pub site: Option<String>,
     /// Reach the positions only: a program's meant positions, or the targets' positions with
     /// their attitudes left out (the attitude then changes as little as it can).
     #[arg(long)]
@@ -1304,9 +1345,9 @@ pub struct CompensateArgs {
     #[arg(long, value_name = "SPEC")]
     pub tolerance: Option<String>,
     /// Flag solutions whose weighted reading Jacobian has a smallest singular value below this
-    /// fraction of its largest.
-    #[arg(long, value_name = "X", default_value_t = 1e-3)]
-    pub singular: f64,
+    /// fraction of its largest [default: 1e-3].
+    #[arg(long, value_name = "X")]
+    pub singular: Option<f64>,
     /// Flag a revolute joint that turns more than this from the seed (the file's angle unit;
     /// default 0.5 rad).
     #[arg(long, value_name = "ANGLE")]
@@ -1320,29 +1361,13 @@ pub struct CompensateArgs {
     /// `urscript` (a UR program of movej), or a controller's joint targets: `joints-ur` (rad),
     /// `joints-abb`, `joints-kuka`, `joints-fanuc` (deg). A controller program is written only
     /// when no row is flagged.
-    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
-    pub format: OutputFormat,
+    #[arg(long, value_enum)]
+    pub format: Option<ProgramFormat>,
     /// The file to write.
-    #[arg(long, value_name = "FILE")]
-    pub out: PathBuf,
+    #[arg(long, value_name = "FILE", required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
-/// What `kinecal compensate` writes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum OutputFormat {
-    /// The readings with each row's remaining errors and flags.
-    Table,
-    /// A URScript program: one movej per row.
-    Urscript,
-    /// Joint targets in UR's convention (rad).
-    JointsUr,
-    /// Joint targets in ABB's convention (deg).
-    JointsAbb,
-    /// Joint targets in KUKA's convention (deg).
-    JointsKuka,
-    /// Joint targets in FANUC's convention (deg).
-    JointsFanuc,
-}
 
 /// `kinecal batch`.
 #[derive(Debug, Args)]
@@ -1372,56 +1397,35 @@ pub struct BatchArgs {
     pub quiet: bool,
 }
 
-/// Criterion of a measurement plan.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum CriterionArg {
-    /// Log det of the information (D-optimal).
-    D,
-    /// Trace of the inverse information (A-optimal).
-    A,
-    /// Mean prediction variance over the candidates (I-optimal).
-    I,
-    /// Smallest eigenvalue of the information (E-optimal).
-    E,
-    /// Geometric mean of the singular values over sqrt(rows) (Borm & Menq).
-    O1,
-    /// Inverse condition number (Driels & Pathre).
-    O2,
-    /// Smallest singular value (Nahvi, Hollerbach & Hayward).
-    O3,
-    /// Noise amplification index (Nahvi & Hollerbach).
-    O4,
-    /// 1 / sum of inverse singular values (Sun & Hollerbach).
-    O5,
-}
 
 /// `kinecal plan`.
 #[derive(Debug, Args)]
 pub struct PlanArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Robot file (TOML) or built-in robot name: the nominal model the plan is made for.
-    #[arg(long)]
-    pub robot: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
     /// Candidate postures: a postures file (posture,v1,...,vn) or an observation file (what
     /// each row measures is what the plan assumes).
     #[arg(
         long,
         value_name = "FILE",
-        conflicts_with = "sample",
-        required_unless_present = "sample"
+        conflicts_with = "sample"
     )]
     pub candidates: Option<PathBuf>,
     /// Sample this many candidate postures uniformly within the joint ranges instead.
     #[arg(long, value_name = "N")]
     pub sample: Option<usize>,
     /// Random seed of the sample and of the random plans compared with.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// How many postures to choose (besides the kept ones).
-    #[arg(long, value_name = "K")]
-    pub count: usize,
+    #[arg(long, value_name = "K", required_unless_present = "spec")]
+    pub count: Option<usize>,
     /// What the plan maximises.
-    #[arg(long, value_enum, default_value = "d")]
-    pub criterion: CriterionArg,
+    #[arg(long, value_enum)]
+    pub criterion: Option<Criterion>,
     /// The targets measure positions only (a laser tracker) rather than full poses: for
     /// postures (sampled or a postures file), and for an observation file whose poses are then
     /// read as positions.
@@ -1432,8 +1436,8 @@ pub struct PlanArgs {
     #[arg(long, value_name = "LIST")]
     pub sites: Option<String>,
     /// Parameters to determine (as calibrate's --estimate; default `identifiable`).
-    #[arg(long, value_name = "LIST", default_value = "identifiable")]
-    pub estimate: String,
+    #[arg(long, value_name = "LIST")]
+    pub estimate: Option<String>,
     /// Parameters to leave out.
     #[arg(long, value_name = "LIST")]
     pub fix: Option<String>,
@@ -1450,8 +1454,8 @@ pub struct PlanArgs {
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
     /// The file to write the chosen postures to.
-    #[arg(long, value_name = "FILE")]
-    pub out: PathBuf,
+    #[arg(long, value_name = "FILE", required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// How residuals are formed (shared by analyze and calibrate).
@@ -1459,84 +1463,24 @@ pub struct PlanArgs {
 pub struct ResidualArgs {
     /// Orientation residual [default: rotvec].
     #[arg(long, value_enum)]
-    pub orientation_error: Option<OrientationArg>,
+    pub orientation_error: Option<OrientationError>,
     /// Measurement standard deviations weighting the residuals: `length=L,angle=A` (file units;
     /// default 1 mm and 1 mrad).
     #[arg(long, value_name = "SPEC")]
     pub weights: Option<String>,
 }
 
-/// Least-squares method.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum MethodArg {
-    /// Levenberg-Marquardt (thesis 3.3.4).
-    Lm,
-    /// Gauss-Newton (3.3.2); refuses singular systems.
-    Gn,
-    /// Steepest descent with a line search (3.3.1).
-    Sd,
-    /// Truncated SVD pseudo-inverse steps (3.4).
-    Svd,
-}
 
-/// Orientation residual.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum OrientationArg {
-    /// Rotation vector of R_measured^T R_model (defined everywhere, gimbal lock included).
-    Rotvec,
-    /// Differences of ZYX Euler angles, wrapped to (-180, 180] deg (thesis eq. 3.1); refused
-    /// when a measured attitude is within 1 deg of gimbal lock (beta = +-90 deg).
-    Euler,
-}
 
-/// Loss function.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum LossArg {
-    /// Least squares (thesis eq. 3.1).
-    Squared,
-    /// Huber: quadratic up to --huber-scale spreads of the residuals, linear beyond.
-    Huber,
-}
 
-/// The unit of the Huber threshold.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum SpreadArg {
-    /// The residuals' own robust spread (1.4826 x median |r| of the rows alike).
-    Robust,
-    /// The stated standard deviations (--weights, or each row's sigma columns).
-    Stated,
-}
 
-/// Which of several equally good answers.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum SolutionArg {
-    /// Wherever the solver stops (depends on the start in undetermined directions).
-    Solver,
-    /// Closest to the nominal robot in the tolerance-scaled metric; independent of the start.
-    MinChange,
-}
 
-/// Levenberg-Marquardt damping.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum DampingArg {
-    /// Marquardt's diagonal scaling (eq. 3.15).
-    Marquardt,
-    /// Plain lambda I in internal units (eq. 3.14).
-    Identity,
-}
 
 /// `kinecal calibrate`.
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// The job as a spec file (TOML: robot, observation files, settings, outputs; see the
-    /// README's "The calibration spec"). Flags given with it override its values; observation
-    /// or --validate files given replace its lists.
-    #[arg(long, value_name = "JOB.toml")]
-    pub spec: Option<PathBuf>,
-    /// Write the job of this command line (with --spec's, flags overriding) as a spec file
-    /// here, then run it.
-    #[arg(long, value_name = "JOB.toml")]
-    pub write_spec: Option<PathBuf>,
+    #[command(flatten)]
+    pub door: SpecArgs,
     /// Nominal robot file (TOML) or built-in robot name: the model and the starting point.
     #[arg(long, required_unless_present = "spec")]
     pub robot: Option<String>,
@@ -1544,7 +1488,7 @@ pub struct CalibrateArgs {
     pub observations: ObservationFiles,
     /// Least-squares method [default: lm].
     #[arg(long, value_enum)]
-    pub method: Option<MethodArg>,
+    pub method: Option<Method>,
     /// Parameters to estimate. Default: links, offsets, sites and, unless every slope is 1
     /// (readings that are already joint values), slopes; couplings and planes only when named.
     #[arg(long, value_name = "LIST")]
@@ -1573,7 +1517,7 @@ pub struct CalibrateArgs {
     /// Which answer to return when some parameters are undetermined: the solver's, or the one
     /// closest to the --robot file [default: solver].
     #[arg(long, value_enum)]
-    pub solution: Option<SolutionArg>,
+    pub solution: Option<SolutionRule>,
     /// Start the solver from this robot file instead of --robot (which stays the nominal model).
     #[arg(long, value_name = "GUESS.toml")]
     pub initial: Option<String>,
@@ -1624,7 +1568,7 @@ pub struct CalibrateArgs {
     /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows)
     /// [default: squared].
     #[arg(long, value_enum)]
-    pub loss: Option<LossArg>,
+    pub loss: Option<LossKind>,
     /// Huber threshold, in spreads of the residuals (see --huber-spread) [default: 1.345].
     #[arg(long, value_name = "K")]
     pub huber_scale: Option<f64>,
@@ -1632,7 +1576,7 @@ pub struct CalibrateArgs {
     /// per kind of row at every reweighting, or the stated standard deviations [default:
     /// robust].
     #[arg(long, value_enum, value_name = "SPREAD")]
-    pub huber_spread: Option<SpreadArg>,
+    pub huber_spread: Option<Spread>,
     /// List observations with a residual beyond K robust standard deviations of the rows like
     /// them (never dropped). K is raised for large data so that clean Gaussian noise is expected
     /// to show no outlier (4.15 for 3,000 residual rows, 4.8 for 60,000) [default: 4].
@@ -1640,7 +1584,7 @@ pub struct CalibrateArgs {
     pub outlier_sigma: Option<f64>,
     /// Levenberg-Marquardt damping [default: marquardt].
     #[arg(long, value_enum)]
-    pub damping: Option<DampingArg>,
+    pub damping: Option<Damping>,
     /// Relative singular-value threshold for svd (dropped) and gn (refused) [default: 1e-9].
     #[arg(long, value_name = "X")]
     pub rcond: Option<f64>,
@@ -1702,47 +1646,6 @@ pub struct ObservationFiles {
     pub session_per_file: bool,
     /// The command's `--validate` files, when it has them (to name sessions apart).
     pub validate: Vec<PathBuf>,
-}
-
-impl ObservationFiles {
-    /// Every observation file of the command (those of `--validate` too, for commands that
-    /// have it: they are added by the caller), for naming sessions.
-    pub fn all_paths(&self) -> Vec<&std::path::Path> {
-        let mut v: Vec<&std::path::Path> = self.files.iter().map(|(_, p)| p.as_path()).collect();
-        v.extend(self.validate.iter().map(|p| p.as_path()));
-        v
-    }
-
-    /// The files as a calibration spec says them: how they are read, and the list (each of the
-    /// kind of its option).
-    pub fn spec(
-        &self,
-    ) -> anyhow::Result<(
-        kinecal::files::ReadSettings,
-        Vec<kinecal::files::ObservationFile>,
-    )> {
-        let read = kinecal::files::ReadSettings {
-            columns: self.columns.clone(),
-            length_unit: self.length_unit.clone(),
-            angle_unit: self.angle_unit.clone(),
-            position_only: self.position_only,
-            session_per_file: self.session_per_file,
-        };
-        let list = self
-            .files
-            .iter()
-            .map(|(k, p)| {
-                let file = p.to_str().ok_or_else(|| {
-                    anyhow::anyhow!("{}: the path is not valid UTF-8", p.display())
-                })?;
-                Ok(kinecal::files::ObservationFile {
-                    kind: Some(kinecal::files::FORMATS[*k].option.to_string()),
-                    ..kinecal::files::ObservationFile::new(file)
-                })
-            })
-            .collect::<anyhow::Result<_>>()?;
-        Ok((read, list))
-    }
 }
 
 impl FromArgMatches for ObservationFiles {

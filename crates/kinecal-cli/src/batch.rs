@@ -1,44 +1,45 @@
-//! `kinecal batch`: calibrate every robot of a manifest, in parallel (the fleet case).
+//! `kinecal batch`: run every job of a manifest, in parallel (the fleet case).
 //!
-//! Each robot is a calibration spec: a TOML `[[robots]]` table over the `[defaults]` one, or a
-//! CSV row's arguments read as `kinecal calibrate` reads them ([`crate::calibrate::spec_of`]).
-//! It runs as `calibrate` runs it; its outputs are written when it succeeds, whatever the others
-//! do. The calibrations run on a thread pool (`rayon`); recording in the history is done
-//! afterwards, in manifest order, by one writer. Before any robot runs, an output that another
-//! robot reads or writes, or that is the manifest, the summary or the database, is refused
-//! ([`check_files`], paths compared as [`output::identity`] resolves them).
+//! Each entry is a library spec: a TOML `[[jobs]]` table of any kind (`job = "analyze"`, ...),
+//! a `[[robots]]` table (a calibration spec with its serial) over the `[defaults]` one, or a
+//! CSV row's options, read as a calibration spec by [`CALIBRATE_FLAGS`] (no command-line parser
+//! involved). Every job runs as its command runs it ([`kinecal::spec::run`]); its outputs are
+//! written when it succeeds, whatever the others do. The jobs run on a thread pool (`rayon`);
+//! calibrations hold their outputs until they are recorded in the history, afterwards, in
+//! manifest order, by one writer. Before any job runs, an output that another job reads or
+//! writes, or that is the manifest, the summary or the database, is refused ([`check_files`],
+//! paths compared as [`output::identity`] resolves them).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{anyhow, bail, Context as _, Result};
-use clap::Parser as _;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use kinecal::files::output;
+use kinecal::spec::{Document, Env, Job, Pending};
 use kinecal::units::Quantity;
 use kinecal::workflow::Outcome;
 use rayon::prelude::*;
 
-use crate::args::{BatchArgs, Cli, Command};
-use crate::calibrate::{prepare, stage_outputs, Prepared};
-use crate::{history, output, EXIT_IMPLAUSIBLE, EXIT_NOT_CONVERGED};
-use kinecal::spec::CalibrationSpec;
+use crate::args::BatchArgs;
+use crate::{history, EXIT_FLAGGED, EXIT_NOT_CONVERGED};
 
-/// One robot of the manifest.
+/// One job of the manifest.
 struct Entry {
+    /// The robot's serial (a calibration), or the job's name.
     serial: String,
-    /// Where the row is (`fleet.csv:3`), for messages.
+    /// Where the entry is (`fleet.csv:3`), for messages.
     at: String,
-    /// The job (paths relative to the working folder), or why the row cannot be run.
-    job: std::result::Result<CalibrationSpec, String>,
-    /// `--strict` for this robot.
-    strict: bool,
+    /// The job (paths relative to the working folder), or why the entry cannot be run.
+    job: std::result::Result<Job, String>,
 }
 
-/// How one robot's calibration ended.
+/// How one job ended.
 enum Status {
     Ok,
     NotConverged,
-    /// `--strict` and a warning that the result is most likely wrong: nothing written.
+    /// A strict calibration and a warning that the result is most likely wrong (nothing
+    /// written), or a job that flagged what needs a person.
     Flagged,
     Failed(String),
 }
@@ -69,6 +70,82 @@ struct Row {
     /// The warnings that say the result is most likely wrong.
     implausible: Vec<String>,
 }
+
+/// What a calibrate option of a CSV row sets in the spec.
+#[derive(Clone, Copy)]
+pub enum Sets {
+    /// A value at this key path.
+    Value(&'static str),
+    /// `true` at this key path.
+    Flag(&'static str),
+    /// An observation file of this kind (`data`, `distances`, `contacts`).
+    File(&'static str),
+    /// A held-out file.
+    Validate,
+    /// One more column mapping.
+    Column,
+    /// `length=L,angle=A` as a table at this key path.
+    LengthAngle(&'static str),
+    /// The model candidates (any number of values, up to the next option).
+    Candidates,
+}
+
+/// The options of `kinecal calibrate` a CSV manifest's row may give, and where each goes in a
+/// calibration spec: the command line's flags, read without its parser (a test checks every
+/// one is a flag of `kinecal calibrate`, and every such flag is here or refused).
+pub const CALIBRATE_FLAGS: &[(&str, Sets)] = &[
+    ("--spec", Sets::Value("")),
+    ("--initial", Sets::Value("initial")),
+    ("--data", Sets::File("data")),
+    ("--distances", Sets::File("distances")),
+    ("--contacts", Sets::File("contacts")),
+    ("--columns", Sets::Column),
+    ("--length-unit", Sets::Value("read.length_unit")),
+    ("--angle-unit", Sets::Value("read.angle_unit")),
+    ("--position-only", Sets::Flag("read.position_only")),
+    ("--session-per-file", Sets::Flag("read.session_per_file")),
+    ("--method", Sets::Value("solver.method")),
+    ("--estimate", Sets::Value("selection.estimate")),
+    ("--fix", Sets::Value("selection.fix")),
+    ("--prior", Sets::Value("selection.prior")),
+    ("--total-mass", Sets::Value("selection.total_mass")),
+    ("--prune", Sets::Value("selection.prune")),
+    ("--max-iter", Sets::Value("solver.max_iterations")),
+    ("--damping", Sets::Value("solver.damping")),
+    ("--rcond", Sets::Value("solver.rcond")),
+    ("--solution", Sets::Value("solver.solution")),
+    ("--weights", Sets::LengthAngle("residuals.weights")),
+    ("--orientation-error", Sets::Value("residuals.orientation_error")),
+    ("--loss", Sets::Value("residuals.loss")),
+    ("--huber-scale", Sets::Value("residuals.huber_scale")),
+    ("--huber-spread", Sets::Value("residuals.huber_spread")),
+    ("--outlier-sigma", Sets::Value("residuals.outlier_sigma")),
+    ("--validate", Sets::Validate),
+    ("--holdout", Sets::Value("validation.holdout")),
+    ("--folds", Sets::Value("validation.folds")),
+    ("--seed", Sets::Value("validation.seed")),
+    ("--choose", Sets::Candidates),
+    ("--repeats", Sets::Value("validation.repeats")),
+    ("--predict", Sets::Flag("validation.predict")),
+    ("--out", Sets::Value("outputs.robot")),
+    ("--report", Sets::Value("outputs.report")),
+    ("--html", Sets::Value("outputs.html")),
+    ("--strict", Sets::Flag("strict")),
+];
+
+/// Options of `kinecal calibrate` that are not a robot's in a batch.
+pub const NOT_PER_ROBOT: &[&str] = &[
+    "--robot",
+    "--record",
+    "--db",
+    "--at",
+    "--note",
+    "--force",
+    "--verbose",
+    "--quiet",
+    "--write-spec",
+    "--help",
+];
 
 /// Splits an options string as a shell would: whitespace separates, single and double quotes
 /// group, a backslash escapes the next character.
@@ -108,81 +185,185 @@ fn split_options(s: &str) -> std::result::Result<Vec<String>, String> {
     Ok(out)
 }
 
-/// A path of the manifest, relative to its folder.
-fn rebase(dir: &Path, p: &Path) -> PathBuf {
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        dir.join(p)
+/// A value of an option as a spec's: a whole number, a number, or text.
+fn value_of(v: &str) -> serde_json::Value {
+    if let Ok(i) = v.parse::<i64>() {
+        return i.into();
+    }
+    match v.parse::<f64>() {
+        Ok(x) if x.is_finite() => x.into(),
+        _ => v.into(),
     }
 }
 
-/// A robot argument: a built-in name stays, a file is taken relative to the manifest.
-fn rebase_robot(dir: &Path, spec: &str) -> String {
-    if kinecal::examples::builtin(spec).is_some() {
-        spec.to_string()
-    } else {
-        rebase(dir, Path::new(spec)).to_string_lossy().into_owned()
+/// Sets `value` at the dotted `path` of the JSON object `root`.
+fn put(root: &mut serde_json::Value, path: &str, value: serde_json::Value) {
+    let mut at = root;
+    let parts: Vec<&str> = path.split('.').collect();
+    for (i, k) in parts.iter().enumerate() {
+        let map = at.as_object_mut().expect("spec tables are objects");
+        if i + 1 == parts.len() {
+            map.insert((*k).to_string(), value);
+            return;
+        }
+        at = map
+            .entry((*k).to_string())
+            .or_insert_with(|| serde_json::json!({}));
     }
 }
 
-/// The job of one CSV row: `--robot`, `--data` and the options, parsed by the same definitions
-/// as `kinecal calibrate`, with every path taken relative to the manifest; and `--strict`.
-fn row_job(
-    dir: &Path,
-    robot: &str,
-    data: &str,
-    options: &[String],
-) -> std::result::Result<(CalibrationSpec, bool), String> {
-    let mut argv: Vec<String> = vec!["kinecal".into(), "calibrate".into(), "--robot".into()];
-    argv.push(robot.to_string());
+/// Appends `value` to the list at the dotted `path` of `root`.
+fn push(root: &mut serde_json::Value, path: &str, value: serde_json::Value) {
+    let mut list = root
+        .pointer(&format!("/{}", path.replace('.', "/")))
+        .cloned()
+        .unwrap_or_else(|| serde_json::json!([]));
+    if let Some(l) = list.as_array_mut() {
+        l.push(value);
+    }
+    put(root, path, list);
+}
+
+/// The calibration spec of one CSV row: `robot`, `data` and the options (calibrate's flags, see
+/// [`CALIBRATE_FLAGS`]), every path taken relative to the manifest's folder `dir`. An error
+/// names the option.
+fn row_job(dir: &Path, robot: &str, data: &str, options: &[String]) -> std::result::Result<Job, String> {
+    let mut spec = serde_json::json!({ "robot": robot });
+    let mut base: Option<String> = None;
+    let mut files = 0usize;
     if !data.is_empty() {
-        argv.push("--data".into());
-        argv.push(data.to_string());
+        push(&mut spec, "observations", serde_json::json!({ "file": data, "kind": "data" }));
+        files += 1;
     }
-    argv.extend(options.iter().cloned());
-    let cli = Cli::try_parse_from(&argv).map_err(|e| {
-        e.to_string()
-            .lines()
-            .next()
-            .unwrap_or("invalid options")
-            .trim_start_matches("error: ")
-            .to_string()
-    })?;
-    let Command::Calibrate(mut a) = cli.command else {
-        unreachable!("the arguments name calibrate")
-    };
-    for (flag, given) in [
-        ("--record", a.record.is_some()),
-        ("--db", a.db.is_some()),
-        ("--at", a.at.is_some()),
-        ("--verbose", a.verbose),
-        ("--write-spec", a.write_spec.is_some()),
-    ] {
-        if given {
+    let mut i = 0;
+    while i < options.len() {
+        let opt = options[i].as_str();
+        let (flag, inline) = match opt.split_once('=') {
+            Some((f, v)) if f.starts_with("--") => (f, Some(v.to_string())),
+            _ => (opt, None),
+        };
+        let flag = match flag {
+            "-v" => "--verbose",
+            "-q" => "--quiet",
+            f => f,
+        };
+        if NOT_PER_ROBOT.contains(&flag) {
             return Err(format!(
-                "{flag} is not a per-robot option here: `kinecal batch --record` records every \
-                 robot under its serial"
+                "{flag} is not a per-robot option here (the robot is the row's; `kinecal batch \
+                 --record` records every robot under its serial)"
             ));
         }
+        let Some(&(_, sets)) = CALIBRATE_FLAGS.iter().find(|(f, _)| *f == flag) else {
+            return Err(format!("unknown option `{opt}` (calibrate's options: see kinecal calibrate --help)"));
+        };
+        i += 1;
+        let mut value = || -> std::result::Result<String, String> {
+            if let Some(v) = &inline {
+                return Ok(v.clone());
+            }
+            let v = options
+                .get(i)
+                .ok_or_else(|| format!("{flag}: a value is expected"))?
+                .clone();
+            i += 1;
+            Ok(v)
+        };
+        match sets {
+            Sets::Value("") => base = Some(value()?),
+            Sets::Value(path) => put(&mut spec, path, value_of(&value()?)),
+            Sets::Flag(path) => put(&mut spec, path, true.into()),
+            Sets::File(kind) => {
+                if files == 0 || !spec["observations"].is_array() {
+                    put(&mut spec, "observations", serde_json::json!([]));
+                }
+                push(&mut spec, "observations", serde_json::json!({ "file": value()?, "kind": kind }));
+                files += 1;
+            }
+            Sets::Validate => push(&mut spec, "validation.files", serde_json::json!({ "file": value()? })),
+            Sets::Column => push(&mut spec, "read.columns", value()?.into()),
+            Sets::LengthAngle(path) => {
+                let text = value()?;
+                let la = kinecal::spec::LengthAngle::parse(&text, kinecal::Setting::Weights)
+                    .map_err(|e| format!("{flag}: {}", message_of(&e)))?;
+                put(&mut spec, path, serde_json::to_value(la).expect("plain data"));
+            }
+            Sets::Candidates => {
+                let mut list = Vec::new();
+                if let Some(v) = &inline {
+                    list.push(serde_json::Value::from(v.as_str()));
+                }
+                while let Some(v) = options.get(i).filter(|v| !v.starts_with("--")) {
+                    list.push(v.as_str().into());
+                    i += 1;
+                }
+                put(&mut spec, "validation.choose", list.into());
+            }
+        }
     }
-    a.robot = a.robot.map(|r| rebase_robot(dir, &r));
-    a.initial = a.initial.map(|r| rebase_robot(dir, &r));
-    for (_, p) in &mut a.observations.files {
-        *p = rebase(dir, p);
+    let row = Job::from_value(spec, "options")
+        .map_err(|e| word_row_error(&e))?
+        .rebased(dir);
+    let Some(path) = base else {
+        return Ok(row);
+    };
+    // The row's options over its spec file's, as `calibrate --spec` reads them (each file's
+    // paths taken from its own folder).
+    let file = dir.join(&path);
+    let over = Job::read(&file).map_err(|e| format!("--spec {path}: {e}"))?;
+    if !matches!(over, Job::Calibrate(_)) {
+        return Err(format!("--spec {path}: not a calibration spec"));
     }
-    for p in a
-        .validate
-        .iter_mut()
-        .chain(&mut a.out)
-        .chain(&mut a.report)
-        .chain(&mut a.html)
-        .chain(&mut a.spec)
-    {
-        *p = rebase(dir, p);
+    let value = |j: &Job| -> serde_json::Value {
+        serde_json::from_str(&j.to_json()).expect("a spec's JSON reads back")
+    };
+    let mut merged = value(&over);
+    merge_json(&mut merged, &value(&row));
+    Job::from_value(merged, "options").map_err(|e| word_row_error(&e))
+}
+
+/// Deep-merges `over` into `base` (objects key by key, other values replaced).
+fn merge_json(base: &mut serde_json::Value, over: &serde_json::Value) {
+    match (base, over) {
+        (serde_json::Value::Object(b), serde_json::Value::Object(o)) => {
+            for (k, v) in o {
+                merge_json(b.entry(k.clone()).or_insert(serde_json::Value::Null), v);
+            }
+        }
+        (b, o) => *b = o.clone(),
     }
-    let spec = crate::calibrate::spec_of(&a).map_err(|e| crate::in_flags(&e))?;
-    Ok((spec, a.strict))
+}
+
+/// An error's message without its place (the row is named by the caller).
+fn message_of(e: &kinecal::Error) -> String {
+    match e {
+        kinecal::Error::InvalidOption { message, .. } | kinecal::Error::Input { message, .. } => {
+            message.clone()
+        }
+        e => e.to_string(),
+    }
+}
+
+/// A spec error of a row's options, the key named as the option that set it.
+fn word_row_error(e: &kinecal::Error) -> String {
+    if let kinecal::Error::Input { at, message } = e {
+        if let Some(field) = &at.field {
+            let flag = CALIBRATE_FLAGS
+                .iter()
+                .find(|(_, s)| match s {
+                    Sets::Value(p) | Sets::Flag(p) | Sets::LengthAngle(p) => {
+                        !p.is_empty() && field.starts_with(p)
+                    }
+                    _ => false,
+                })
+                .map(|(f, _)| *f);
+            return match flag {
+                Some(f) => format!("{f}: {message}"),
+                None => format!("{field}: {message}"),
+            };
+        }
+        return message.clone();
+    }
+    e.to_string()
 }
 
 /// Deep-merges `over` into `base` (tables merged key by key, other values replaced).
@@ -197,20 +378,47 @@ fn merge_tables(base: &mut toml_edit::Table, over: &toml_edit::Table) {
     }
 }
 
-/// The jobs of a TOML manifest: a `[[robots]]` table per robot, a calibration spec with its
-/// `serial` (and `strict = true` to refuse a result most likely wrong), over the `[defaults]`
-/// table every robot shares.
+/// Takes a string key out of `table`, for an entry at `at`.
+fn take_string(table: &mut toml_edit::Table, key: &str, at: &str) -> Result<Option<String>> {
+    match table.remove(key) {
+        Some(v) => Ok(Some(v.as_str().map(str::to_string).ok_or_else(|| {
+            anyhow!("{at}: `{key}` must be a string")
+        })?)),
+        None => Ok(None),
+    }
+}
+
+/// The job of one table: its spec read (paths from the manifest's folder), or why not.
+fn table_job(table: toml_edit::Table, dir: &Path, at: &str) -> std::result::Result<Job, String> {
+    let text = toml_edit::DocumentMut::from(table).to_string();
+    // The failure is said after `at` (the manifest and the entry): the message only (a line
+    // would count in the merged table, not in the manifest).
+    Job::from_toml(&text, at)
+        .map(|j| j.rebased(dir))
+        .map_err(|e| match e {
+            kinecal::Error::Input { message, at } => match at.field {
+                Some(f) => format!("{f}: {message}"),
+                None => message,
+            },
+            e => e.to_string(),
+        })
+}
+
+/// The jobs of a TOML manifest: a `[[robots]]` table per robot (a calibration spec with its
+/// `serial`, over the `[defaults]` table every robot shares), and `[[jobs]]` tables, each a
+/// spec of any job (`job = "analyze"`, ...; a calibration when absent) with an optional `name`
+/// (a calibration's `serial` records it with `--record`).
 fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec<Entry>> {
     if doc.get("robot").is_some() {
         bail!(
             "{name}: `[[robot]]` tables with `options` are no longer read: write each robot as a \
-             `[[robots]]` table holding its calibration spec and `serial` (see the README's \
-             \"The calibration spec\"), or use a CSV manifest"
+             `[[robots]]` table holding its calibration spec and `serial` (see docs/batch.md), \
+             or use a CSV manifest"
         );
     }
     for key in doc.iter().map(|(k, _)| k) {
-        if !["defaults", "robots"].contains(&key) {
-            bail!("{name}: unknown key `{key}` (expected [defaults] and [[robots]])");
+        if !["defaults", "robots", "jobs"].contains(&key) {
+            bail!("{name}: unknown key `{key}` (expected [defaults], [[robots]] and [[jobs]])");
         }
     }
     let defaults = match doc.get("defaults") {
@@ -220,46 +428,58 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
             .cloned()
             .ok_or_else(|| anyhow!("{name}: `defaults` must be a table"))?,
     };
-    let robots = doc
-        .get("robots")
-        .and_then(|r| r.as_array_of_tables())
-        .ok_or_else(|| anyhow!("{name}: no [[robots]] tables"))?;
+    let tables = |key: &str| -> Result<Vec<toml_edit::Table>> {
+        match doc.get(key) {
+            None => Ok(Vec::new()),
+            Some(item) => Ok(item
+                .as_array_of_tables()
+                .ok_or_else(|| anyhow!("{name}: `{key}` must be [[{key}]] tables"))?
+                .iter()
+                .cloned()
+                .collect()),
+        }
+    };
+    let (robots, jobs) = (tables("robots")?, tables("jobs")?);
+    if robots.is_empty() && jobs.is_empty() {
+        bail!("{name}: no [[robots]] or [[jobs]] tables");
+    }
     let mut entries = Vec::new();
     for (k, t) in robots.iter().enumerate() {
         let mut at = format!("{name}: robot {}", k + 1);
         let mut table = defaults.clone();
         merge_tables(&mut table, t);
-        let serial = match table.remove("serial") {
-            Some(v) => v
-                .as_str()
-                .map(str::to_string)
-                .ok_or_else(|| anyhow!("{at}: `serial` must be a string"))?,
-            None => bail!("{at}: `serial` is required"),
+        if table.contains_key("job") {
+            bail!("{at}: a [[robots]] table is a calibration: write other jobs as [[jobs]]");
+        }
+        let Some(serial) = take_string(&mut table, "serial", &at)? else {
+            bail!("{at}: `serial` is required");
         };
         if serial.is_empty() {
             bail!("{at}: the serial is empty");
         }
         at = format!("{at} ({serial})");
-        let strict = match table.remove("strict") {
-            Some(v) => v
-                .as_bool()
-                .ok_or_else(|| anyhow!("{at}: `strict` must be true or false"))?,
-            None => false,
-        };
-        let text = toml_edit::DocumentMut::from(table).to_string();
-        // The row's failure is said after `at` (the manifest and the robot): the message only
-        // (a line would count in the merged table, not in the manifest).
-        let job = CalibrationSpec::from_toml(&text, &at)
-            .map(|s| s.rebased(dir))
-            .map_err(|e| match e {
-                kinecal::Error::Input { message, .. } => message,
-                e => e.to_string(),
-            });
+        let job = table_job(table, dir, &at);
+        entries.push(Entry { serial, at, job });
+    }
+    for (k, t) in jobs.iter().enumerate() {
+        let mut at = format!("{name}: job {}", k + 1);
+        let mut table = t.clone();
+        let serial = take_string(&mut table, "serial", &at)?;
+        let label = take_string(&mut table, "name", &at)?;
+        let kind = table.get("job").and_then(|j| j.as_str()).unwrap_or("calibrate").to_string();
+        if serial.is_some() && kind != "calibrate" {
+            bail!("{at}: a serial names a robot whose calibration is recorded: give other jobs a `name`");
+        }
+        let label = serial.or(label).unwrap_or_else(|| format!("{kind} {}", k + 1));
+        if label.is_empty() {
+            bail!("{at}: the name is empty");
+        }
+        at = format!("{at} ({label})");
+        let job = table_job(table, dir, &at);
         entries.push(Entry {
-            serial,
+            serial: label,
             at,
             job,
-            strict,
         });
     }
     Ok(entries)
@@ -317,22 +537,16 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
             }
             let job =
                 split_options(&get(o)).and_then(|opts| row_job(dir, &get(Some(r)), &get(d), &opts));
-            let strict = job.as_ref().is_ok_and(|j| j.1);
-            entries.push(Entry {
-                serial,
-                at,
-                job: job.map(|j| j.0),
-                strict,
-            });
+            entries.push(Entry { serial, at, job });
         }
     }
     if entries.is_empty() {
-        bail!("{name}: no robots listed");
+        bail!("{name}: no robots or jobs listed");
     }
     let mut serials: Vec<&str> = entries.iter().map(|e| e.serial.as_str()).collect();
     serials.sort_unstable();
     if let Some(w) = serials.windows(2).find(|w| w[0] == w[1]) {
-        bail!("{name}: serial `{}` listed twice", w[0]);
+        bail!("{name}: `{}` listed twice (each robot's serial, each job's name once)", w[0]);
     }
     Ok(entries)
 }
@@ -426,8 +640,8 @@ fn check_files(
 }
 
 /// The summary figures of one calibration.
-fn figures(serial: &str, status: Status, p: &Prepared, o: &Outcome) -> Row {
-    let robot = &p.job.request.robot;
+fn figures(serial: &str, status: Status, o: &Outcome) -> Row {
+    let robot = &o.nominal;
     let l = |v: f64| robot.units.from_si(Quantity::Length, v);
     let (b, a) = (&o.identification.before, &o.identification.after);
     let rms = if b.positions > 0 {
@@ -483,52 +697,55 @@ fn failed(serial: &str, e: String) -> Row {
     }
 }
 
-/// A calibrated robot waiting to be recorded and have its outputs put in place.
-struct Done {
+/// A finished job: a calibration waiting to be recorded and have its outputs put in place.
+struct Finished {
     row: Row,
-    staged: Option<output::Staged>,
+    pending: Option<Pending>,
     report: Option<kinecal::report::CalibrationReport>,
 }
 
-/// Calibrates one robot and stages its outputs.
-fn calibrate_one(e: &Entry) -> Done {
-    let spec = match &e.job {
-        Ok(s) => s,
+/// Runs one job (a calibration's outputs held).
+fn run_one(e: &Entry) -> Finished {
+    let job = match &e.job {
+        Ok(j) => j,
         Err(msg) => {
-            return Done {
+            return Finished {
                 row: failed(&e.serial, format!("{}: {msg}", e.at)),
-                staged: None,
+                pending: None,
                 report: None,
             }
         }
     };
-    let run = || -> Result<Done> {
-        let p = prepare(spec, None)?;
-        let o = p.job.run(&mut ())?;
-        let implausible = o.warnings.iter().any(|w| w.implausible());
-        if e.strict && implausible {
-            return Ok(Done {
-                row: figures(&e.serial, Status::Flagged, &p, &o),
-                staged: None,
-                report: None,
-            });
-        }
-        let mut staged = output::Staged::new();
-        stage_outputs(&p, &o, &mut staged)?;
-        let status = if o.calibration.converged() {
-            Status::Ok
-        } else {
-            Status::NotConverged
+    let run = || -> Result<Finished> {
+        let artist = kinecal_report::Artist;
+        let mut quiet = ();
+        let mut env = Env::new(&mut quiet, Some(&artist));
+        env.hold = true;
+        let done = kinecal::spec::run(job, &mut env)?;
+        let status = match done.status {
+            kinecal::spec::Status::NotConverged => Status::NotConverged,
+            kinecal::spec::Status::Implausible | kinecal::spec::Status::Flagged => Status::Flagged,
+            _ => Status::Ok,
         };
-        Ok(Done {
-            row: figures(&e.serial, status, &p, &o),
-            staged: Some(staged),
-            report: Some(o.report),
+        Ok(match done.document {
+            Document::Calibration(o) => Finished {
+                row: figures(&e.serial, status, &o),
+                pending: done.pending,
+                report: Some(o.report),
+            },
+            _ => Finished {
+                row: Row {
+                    status,
+                    ..failed(&e.serial, String::new())
+                },
+                pending: done.pending,
+                report: None,
+            },
         })
     };
-    run().unwrap_or_else(|err| Done {
-        row: failed(&e.serial, format!("{err:#}")),
-        staged: None,
+    run().unwrap_or_else(|err| Finished {
+        row: failed(&e.serial, crate::in_flags(&err)),
+        pending: None,
         report: None,
     })
 }
@@ -666,6 +883,9 @@ pub fn run(a: BatchArgs) -> Result<u8> {
             bail!("shard {k}/{n} of {total} robots is empty: nothing to do");
         }
     }
+    let calibrations_only = entries
+        .iter()
+        .all(|e| matches!(e.job, Ok(Job::Calibrate(_)) | Err(_)));
     let db = if a.record {
         Some(history::open_db(a.db.as_deref())?)
     } else {
@@ -693,11 +913,11 @@ pub fn run(a: BatchArgs) -> Result<u8> {
             .expect("a valid template"),
     );
     let failures = AtomicUsize::new(0);
-    let done: Vec<Done> = pool.install(|| {
+    let done: Vec<Finished> = pool.install(|| {
         entries
             .par_iter()
             .map(|e| {
-                let d = calibrate_one(e);
+                let d = run_one(e);
                 if matches!(d.row.status, Status::Failed(_)) {
                     failures.fetch_add(1, Ordering::Relaxed);
                 }
@@ -711,9 +931,9 @@ pub fn run(a: BatchArgs) -> Result<u8> {
     // One writer: record in manifest order, then put each robot's outputs in place.
     let mut rows = Vec::with_capacity(done.len());
     for d in done {
-        let Done {
+        let Finished {
             mut row,
-            staged,
+            pending,
             report,
         } = d;
         // One transaction per record; a record already there (a rerun after an interrupted
@@ -725,11 +945,11 @@ pub fn run(a: BatchArgs) -> Result<u8> {
                 .map_err(|e| format!("not recorded: {e}")),
             _ => Ok(()),
         };
-        match (recorded, staged) {
+        match (recorded, pending) {
             (Err(e), _) => row.status = Status::Failed(e),
             (Ok(()), Some(s)) => {
                 if let Err(e) = s.commit() {
-                    row.status = Status::Failed(format!("{e:#}"));
+                    row.status = Status::Failed(e.to_string());
                 }
             }
             (Ok(()), None) => {}
@@ -743,7 +963,7 @@ pub fn run(a: BatchArgs) -> Result<u8> {
         }
     }
     if let Some(path) = &a.summary {
-        crate::write_file(path, &summary_csv(&rows)?)?;
+        output::write_file(path, &summary_csv(&rows)?)?;
         eprintln!("wrote the summary to {}", path.display());
     }
     let count = |f: fn(&Status) -> bool| rows.iter().filter(|r| f(&r.status)).count();
@@ -752,15 +972,20 @@ pub fn run(a: BatchArgs) -> Result<u8> {
         count(|s| matches!(s, Status::Flagged)),
         count(|s| matches!(s, Status::NotConverged)),
     );
+    let (what, done) = if calibrations_only {
+        ("robots", "calibrated")
+    } else {
+        ("jobs", "done")
+    };
     eprintln!(
-        "{} robots: {} calibrated, {failed} failed, {flagged} flagged, {unconverged} not converged",
+        "{} {what}: {} {done}, {failed} failed, {flagged} flagged, {unconverged} not converged",
         rows.len(),
         rows.len() - failed - flagged
     );
     Ok(if failed > 0 {
         1
     } else if flagged > 0 {
-        EXIT_IMPLAUSIBLE
+        EXIT_FLAGGED
     } else if unconverged > 0 {
         EXIT_NOT_CONVERGED
     } else {

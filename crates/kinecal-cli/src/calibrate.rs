@@ -1,26 +1,18 @@
-//! `kinecal calibrate`: arguments to a library calibration spec, the outcome rendered and
-//! written.
+//! `kinecal calibrate`: arguments to a library calibration spec, the outcome rendered.
 //!
-//! [`spec_of`] turns the flags (over `--spec`'s file) into a [`CalibrationSpec`]; [`prepare`]
-//! has the library read it into a job, which runs; [`finish`] prints, writes the outputs and
-//! records in the history. `kinecal batch` runs the same steps for every robot of a manifest.
+//! [`spec_of`] turns the flags (over `--spec`'s file) into a [`CalibrationSpec`]; the library
+//! runs it (reading, calibrating, writing the outputs) with this module's progress display, and
+//! records it in the history through [`Record`] before its outputs are put in place.
+//! `kinecal batch` runs the same spec for every robot of a manifest.
 
-use std::path::Path;
-
-use std::path::PathBuf;
-
-use anyhow::{anyhow, Result};
-use kinecal::estimation::{Damping, Method, Spread};
+use anyhow::Result;
 use kinecal::files::ObservationFile;
-use kinecal::files::FORMATS;
-use kinecal::robot_file::write_robot_toml_checked;
-use kinecal::spec::{CalibrationSpec, Job, LossKind};
-use kinecal::workflow::{self, Outcome, SolutionRule};
+use kinecal::spec::{CalibrationSpec, Document, Job, Message, Status};
+use kinecal::workflow::{self, Outcome};
 
-use crate::args::{CalibrateArgs, DampingArg, LossArg, MethodArg, SolutionArg, SpreadArg};
-use crate::{
-    history, orientation_of, output, report, weights_of, word, EXIT_IMPLAUSIBLE, EXIT_NOT_CONVERGED,
-};
+use crate::args::CalibrateArgs;
+use crate::door::{base, observations, over, path_text, set, length_angle};
+use crate::{history, report, word};
 
 /// Progress for `-v`: one line per iteration.
 pub struct Verbose(pub bool);
@@ -45,54 +37,17 @@ impl workflow::Progress for Verbose {
     }
 }
 
-/// A calibration ready to run: the library's job (spec, request, robot file).
-pub struct Prepared {
-    /// The job.
-    pub job: Job,
-}
-
-/// A path of the command line as a spec's string.
-fn path_text(p: &Path) -> Result<String> {
-    p.to_str()
-        .map(str::to_string)
-        .ok_or_else(|| anyhow!("{}: the path is not valid UTF-8", p.display()))
-}
-
 /// The job of a command line: `--spec`'s, with the flags given overriding it (observation or
 /// validation files given replace the spec's lists; a way of checking given replaces the
 /// spec's).
 pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
-    let mut s = match &a.spec {
-        Some(path) => CalibrationSpec::read(path)?,
-        None => CalibrationSpec::default(),
-    };
-    if let Some(r) = &a.robot {
-        s.robot = r.clone();
-    }
-    if let Some(i) = &a.initial {
-        s.initial = Some(i.clone());
-    }
-    let o = &a.observations;
-    if !o.files.is_empty() {
-        s.observations = o
-            .files
-            .iter()
-            .map(|(k, p)| {
-                Ok(ObservationFile {
-                    kind: Some(FORMATS[*k].option.to_string()),
-                    ..ObservationFile::new(path_text(p)?)
-                })
-            })
-            .collect::<Result<_>>()?;
-    }
-    let read = &mut s.read;
-    if !o.columns.is_empty() {
-        read.columns = o.columns.clone();
-    }
-    read.length_unit = o.length_unit.clone().or(read.length_unit.take());
-    read.angle_unit = o.angle_unit.clone().or(read.angle_unit.take());
-    read.position_only |= o.position_only;
-    read.session_per_file |= o.session_per_file;
+    let mut s = base(&a.door, |j| match j {
+        Job::Calibrate(s) => Some(s),
+        _ => None,
+    })?;
+    set(&mut s.robot, a.robot.clone());
+    over(&mut s.initial, a.initial.clone());
+    observations(&a.observations, &mut s.read, &mut s.observations)?;
     let sel = &mut s.selection;
     if a.choose.is_some() {
         (sel.estimate, sel.prune) = (None, None);
@@ -100,55 +55,27 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
     if a.estimate.is_some() || a.prune.is_some() {
         s.validation.choose = None;
     }
-    sel.estimate = a.estimate.clone().or(sel.estimate.take());
-    sel.fix = a.fix.clone().or(sel.fix.take());
-    sel.prior = a.prior.clone().or(sel.prior.take());
-    sel.total_mass = a.total_mass.or(sel.total_mass);
-    sel.prune = a.prune.or(sel.prune);
+    over(&mut sel.estimate, a.estimate.clone());
+    over(&mut sel.fix, a.fix.clone());
+    over(&mut sel.prior, a.prior.clone());
+    over(&mut sel.total_mass, a.total_mass);
+    over(&mut sel.prune, a.prune);
     let sol = &mut s.solver;
-    if let Some(m) = a.method {
-        sol.method = match m {
-            MethodArg::Lm => Method::LevenbergMarquardt,
-            MethodArg::Gn => Method::GaussNewton,
-            MethodArg::Sd => Method::SteepestDescent,
-            MethodArg::Svd => Method::Svd,
-        };
-    }
-    sol.max_iterations = a.max_iter.or(sol.max_iterations);
-    if let Some(d) = a.damping {
-        sol.damping = match d {
-            DampingArg::Marquardt => Damping::Marquardt,
-            DampingArg::Identity => Damping::Identity,
-        };
-    }
-    sol.rcond = a.rcond.or(sol.rcond);
-    if let Some(r) = a.solution {
-        sol.solution = match r {
-            SolutionArg::Solver => SolutionRule::Solver,
-            SolutionArg::MinChange => SolutionRule::MinChange,
-        };
-    }
+    set(&mut sol.method, a.method);
+    over(&mut sol.max_iterations, a.max_iter);
+    set(&mut sol.damping, a.damping);
+    over(&mut sol.rcond, a.rcond);
+    set(&mut sol.solution, a.solution);
     let res = &mut s.residuals;
-    if let Some(l) = a.loss {
-        res.loss = match l {
-            LossArg::Squared => LossKind::Squared,
-            LossArg::Huber => LossKind::Huber,
-        };
-    }
-    res.huber_scale = a.huber_scale.or(res.huber_scale);
-    if let Some(h) = a.huber_spread {
-        res.huber_spread = match h {
-            SpreadArg::Robust => Spread::Robust,
-            SpreadArg::Stated => Spread::Stated,
-        };
-    }
-    if let Some(w) = weights_of(&a.residuals)? {
-        res.weights = w;
-    }
-    if let Some(e) = orientation_of(&a.residuals) {
-        res.orientation_error = e;
-    }
-    res.outlier_sigma = a.outlier_sigma.or(res.outlier_sigma);
+    set(&mut res.loss, a.loss);
+    over(&mut res.huber_scale, a.huber_scale);
+    set(&mut res.huber_spread, a.huber_spread);
+    set(
+        &mut res.weights,
+        length_angle(a.residuals.weights.as_deref(), kinecal::Setting::Weights)?,
+    );
+    set(&mut res.orientation_error, a.residuals.orientation_error);
+    over(&mut res.outlier_sigma, a.outlier_sigma);
     let v = &mut s.validation;
     if !a.validate.is_empty() || a.holdout.is_some() || a.folds.is_some() {
         v.files = a
@@ -158,11 +85,9 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
             .collect::<Result<_>>()?;
         (v.holdout, v.folds) = (a.holdout, a.folds);
     }
-    v.seed = a.seed.or(v.seed);
-    if a.choose.is_some() {
-        v.choose = a.choose.clone();
-    }
-    v.repeats = a.repeats.or(v.repeats);
+    over(&mut v.seed, a.seed);
+    over(&mut v.choose, a.choose.clone());
+    over(&mut v.repeats, a.repeats);
     v.predict |= a.predict;
     let out = &mut s.outputs;
     for (flag, slot) in [
@@ -174,43 +99,41 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
             *slot = Some(path_text(p)?);
         }
     }
+    s.strict |= a.strict;
     Ok(s)
 }
 
-/// Reads the files and builds the job; refuses outputs over inputs.
-pub fn prepare(spec: &CalibrationSpec, db: Option<&Path>) -> Result<Prepared> {
-    let outputs = spec.outputs();
-    let mut inputs = spec.inputs();
-    inputs.extend(db.map(Path::to_path_buf));
-    output::check_distinct(
-        &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
-        &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
-    )?;
-    Ok(Prepared { job: spec.load()? })
+/// Records calibrations in a history under a serial.
+pub struct Record<'a> {
+    /// The history.
+    pub db: &'a kinecal_history::Database,
+    /// The robot's serial.
+    pub serial: String,
+    /// When (seconds since the epoch; now when absent).
+    pub at: Option<i64>,
+    /// The note stored with it.
+    pub note: String,
+    /// Record even over a different robot model.
+    pub force: bool,
 }
 
-/// Stages the job's outputs (the calibrated robot, the report, the HTML report) for `outcome`.
-pub fn stage_outputs(p: &Prepared, outcome: &Outcome, staged: &mut output::Staged) -> Result<()> {
-    let o = &p.job.spec.outputs;
-    if let Some(path) = &o.robot {
-        staged.text(
-            Path::new(path),
-            &write_robot_toml_checked(
-                &outcome.calibration.calibrated,
-                Some(&p.job.robot_source.text),
-            )?,
-        )?;
+impl kinecal::spec::Recorder for Record<'_> {
+    fn record(&mut self, report: &kinecal::report::CalibrationReport) -> kinecal::Result<String> {
+        let options = kinecal_history::AddOptions { force: self.force };
+        let added = self
+            .db
+            .record(&self.serial, self.at, report, &self.note, options)
+            .map_err(|e| kinecal::Error::Record(e.to_string()))?;
+        let (id, serial) = (added.id, &self.serial);
+        Ok(if added.new {
+            format!("recorded as calibration {id} of robot {serial}")
+        } else {
+            format!(
+                "already recorded as calibration {id} of robot {serial} (the same calibration: \
+                 not recorded twice)"
+            )
+        })
     }
-    if let Some(path) = &o.report {
-        staged.text(Path::new(path), &(outcome.report.to_json() + "\n"))?;
-    }
-    if let Some(path) = &o.html {
-        staged.text(
-            Path::new(path),
-            &kinecal_report::html_report(&outcome.report)?,
-        )?;
-    }
-    Ok(())
 }
 
 /// The progress of a calibration on standard error: a spinner naming the phase (and the
@@ -218,12 +141,8 @@ pub fn stage_outputs(p: &Prepared, outcome: &Outcome, staged: &mut output::Stage
 pub struct Display {
     bar: indicatif::ProgressBar,
     verbose: Verbose,
-    /// `--strict`: a warning that the result would be wrong stops the run.
-    strict: bool,
     /// The warnings printed before the solve (not printed again after it).
     shown: Vec<kinecal::Warning>,
-    /// Whether the data checks stopped the run.
-    stopped: bool,
 }
 
 impl Display {
@@ -246,9 +165,7 @@ impl Display {
         Display {
             bar,
             verbose: Verbose(a.verbose),
-            strict: a.strict,
             shown: Vec::new(),
-            stopped: false,
         }
     }
 
@@ -290,12 +207,11 @@ impl workflow::Progress for Display {
             }
         });
         self.shown.extend(warnings.iter().cloned());
-        let implausible = warnings.iter().filter(|w| w.implausible()).count();
-        if self.strict && implausible > 0 {
-            self.stopped = true;
-            return false;
-        }
         true
+    }
+
+    fn say(&mut self, what: &str) {
+        Display::say(self, what);
     }
 }
 
@@ -304,119 +220,82 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     let mut display = Display::new(&a);
     display.say("reading");
     let spec = spec_of(&a)?;
-    let p = prepare(
-        &spec,
-        history::db_file(a.db.as_deref())
-            .filter(|_| a.record.is_some())
-            .as_deref(),
-    )?;
-    // Written once the job has been read and checked, before it runs.
-    if let Some(path) = &a.write_spec {
-        output::check_distinct(
-            &[path.as_path()],
-            &spec
-                .inputs()
-                .iter()
-                .map(PathBuf::as_path)
-                .collect::<Vec<_>>(),
-        )?;
-        crate::write_file(path, &spec.written_to(path)?.to_toml())?;
-        display.suspend(|| eprintln!("wrote the spec to {}", path.display()));
-    }
+    let choice = spec.validation.choose.is_some();
     // Open the history first, so that an unwritable database fails before the work.
     let record_at = history::parse_at(a.at.as_deref())?;
-    let record_db = match &a.record {
+    let db = match &a.record {
         Some(_) => Some(history::open_db(a.db.as_deref())?),
         None => None,
     };
-    let solved = p.job.run(&mut display);
-    if solved.is_err() {
-        display.done();
-    }
-    if display.stopped {
-        eprintln!(
-            "STRICT: the warning(s) above say the result would most likely be wrong (units, \
-             attitudes or readings that do not fit this robot); nothing solved, written or recorded"
-        );
-        return Ok(EXIT_IMPLAUSIBLE);
-    }
-    let outcome = solved?;
-    if p.job.choice.is_some() {
-        display.suspend(|| print!("{}", report::choice_table(&outcome.report)));
-    }
-    let code = finish(&a, &p, &outcome, record_at, record_db.as_ref(), &display);
+    let also: Vec<std::path::PathBuf> = history::db_file(a.db.as_deref())
+        .filter(|_| a.record.is_some())
+        .into_iter()
+        .collect();
+    let mut record = match (&a.record, &db) {
+        (Some(serial), Some(db)) => Some(Record {
+            db,
+            serial: serial.clone(),
+            at: record_at,
+            note: a.note.clone(),
+            force: a.force,
+        }),
+        _ => None,
+    };
+    let job = Job::Calibrate(spec);
+    let solved = crate::door::run_with(
+        job,
+        &a.door,
+        &mut display,
+        &also,
+        record.as_mut().map(|r| r as &mut dyn kinecal::spec::Recorder),
+    );
     display.done();
-    // The process ends here: the operating system takes the memory back at once, where freeing
-    // the datasets' hundreds of thousands of small allocations one by one would cost several
-    // milliseconds per 10,000 postures.
-    std::mem::forget(outcome);
-    std::mem::forget(p);
-    code
-}
-
-/// Prints the outcome, writes the outputs and records the calibration; the exit code.
-fn finish(
-    a: &CalibrateArgs,
-    p: &Prepared,
-    outcome: &Outcome,
-    record_at: Option<i64>,
-    record_db: Option<&kinecal_history::Database>,
-    display: &Display,
-) -> Result<u8> {
-    display.suspend(|| print_outcome(outcome, &display.shown));
-    let implausible = outcome.warnings.iter().filter(|w| w.implausible()).count();
-    if a.strict && implausible > 0 {
-        display.suspend(|| {
+    let Some(done) = solved? else {
+        return Ok(0);
+    };
+    if let Document::Calibration(outcome) = &done.document {
+        if choice {
+            print!("{}", report::choice_table(&outcome.report));
+        }
+        print_outcome(outcome);
+    }
+    let shown = &display.shown;
+    let fresh: Vec<Message> = done
+        .messages
+        .iter()
+        .filter(|m| !matches!(m, Message::Warning(w) if shown.contains(w)))
+        .cloned()
+        .collect();
+    crate::door::say(&fresh);
+    if done.status == Status::Implausible {
+        let implausible = match &done.document {
+            Document::Calibration(o) => o.warnings.iter().filter(|w| w.implausible()).count(),
+            _ => 0,
+        };
+        if implausible == 0 {
+            eprintln!(
+                "STRICT: the warning(s) above say the result would most likely be wrong (units, \
+                 attitudes or readings that do not fit this robot); nothing solved, written or \
+                 recorded"
+            );
+        } else {
             eprintln!(
                 "STRICT: {implausible} warning(s) above say the result is most likely wrong \
                  (units, readings or a model that does not fit this robot); nothing written or \
                  recorded"
-            )
-        });
-        return Ok(EXIT_IMPLAUSIBLE);
-    }
-    // Everything is computed, and every output written beside its target, before anything is
-    // replaced; the history record is the last step that can fail.
-    display.say("writing");
-    let mut staged = output::Staged::new();
-    stage_outputs(p, outcome, &mut staged)?;
-    if let (Some(serial), Some(db)) = (&a.record, record_db) {
-        display.say("recording in the history");
-        let options = kinecal_history::AddOptions { force: a.force };
-        let added = db.record(serial, record_at, &outcome.report, &a.note, options)?;
-        let id = added.id;
-        if added.new {
-            display.suspend(|| eprintln!("recorded as calibration {id} of robot {serial}"));
-        } else {
-            display.suspend(|| {
-                eprintln!(
-                    "already recorded as calibration {id} of robot {serial} (the same calibration: not recorded twice)"
-                )
-            });
+            );
         }
     }
-    staged.commit()?;
-    display.done();
-    let o = &p.job.spec.outputs;
-    for (path, what) in [
-        (&o.robot, "the calibrated robot"),
-        (&o.report, "the report"),
-        (&o.html, "the HTML report"),
-    ] {
-        if let Some(p) = path {
-            eprintln!("wrote {what} to {p}");
-        }
-    }
-    Ok(if outcome.calibration.converged() {
-        0
-    } else {
-        EXIT_NOT_CONVERGED
-    })
+    let code = crate::door::exit_code(done.status);
+    // The process ends here: the operating system takes the memory back at once, where freeing
+    // the datasets' hundreds of thousands of small allocations one by one would cost several
+    // milliseconds per 10,000 postures.
+    std::mem::forget(done);
+    Ok(code)
 }
 
-/// Prints the summary (of the full fit too, when pruned) and the warnings (but those in
-/// `shown`, printed before the solve).
-fn print_outcome(outcome: &Outcome, shown: &[kinecal::Warning]) {
+/// Prints the summary (of the full fit too, when pruned).
+fn print_outcome(outcome: &Outcome) {
     if let Some(p) = &outcome.pruning {
         println!("== full fit ==");
         print!("{}", report::summary(&p.full_report));
@@ -436,7 +315,4 @@ fn print_outcome(outcome: &Outcome, shown: &[kinecal::Warning]) {
         );
     }
     print!("{}", report::summary(&outcome.report));
-    for w in outcome.warnings.iter().filter(|w| !shown.contains(w)) {
-        eprintln!("warning: {}", word(w));
-    }
 }

@@ -13,7 +13,12 @@ use kinecal_report::{Line, Panel};
 
 use crate::args::HistoryFleetArgs;
 use crate::history::{db_file, parse_at, EXIT_FLAGGED};
-use crate::{output, read_text};
+use kinecal::files::output;
+
+/// Reads a text file, naming it in errors.
+fn read_text(path: &std::path::Path) -> Result<String> {
+    Ok(kinecal::source::Source::read(path)?.text)
+}
 
 /// Why a robot is listed where it is, in words.
 fn why(r: &RobotState) -> String {

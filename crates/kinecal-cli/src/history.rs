@@ -1,4 +1,4 @@
-//! `kinecal history ...` and `kinecal check`.
+//! `kinecal history ...`.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -11,12 +11,16 @@ use kinecal_history::{
 };
 
 use crate::args::{
-    CheckArgs, DbArg, FormatArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs,
+    DbArg, FormatArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs,
     HistoryEventArgs, HistoryEventsArgs, HistoryExportArgs, HistoryImportArgs, HistoryInitArgs,
     HistoryListArgs, HistoryPlotArgs, HistoryShowArgs,
 };
-use crate::{load_observations, load_robot, read_text, write_file};
-use kinecal::units::Quantity;
+use kinecal::files::output::{self, write_file};
+
+/// Reads a text file, naming it in errors.
+fn read_text(path: &Path) -> Result<String> {
+    Ok(kinecal::source::Source::read(path)?.text)
+}
 use kinecal_report::{Line, Panel};
 
 /// Exit code when drift or a check finds something: usable from cron and monitoring.
@@ -753,87 +757,13 @@ fn plot(a: HistoryPlotArgs) -> Result<u8> {
     match format {
         PlotFormat::Svg => write_file(&a.out, &kinecal_report::render_svg(&panels, 1)?)?,
         PlotFormat::Png => {
-            let mut staged = crate::output::Staged::new();
+            let mut staged = output::Staged::new();
             staged.by_path(&a.out, |tmp| {
-                Ok(kinecal_report::render_png(&panels, 1, tmp)?)
+                std::fs::write(tmp, kinecal_report::render_png(&panels, 1)?).context("cannot write the picture")
             })?;
             staged.commit()?;
         }
     }
     eprintln!("wrote {} panels to {}", panels.len(), a.out.display());
     Ok(0)
-}
-
-/// `kinecal check`.
-pub fn check(a: CheckArgs) -> Result<u8> {
-    let r = load_robot(&a.robot)?;
-    let (data, _) = load_observations(&a.observations, &r.robot)?;
-    let u = r.robot.units;
-    let parts: Vec<&str> = a.threshold.split(',').map(str::trim).collect();
-    if parts.is_empty() || parts.len() > 2 {
-        bail!(
-            "--threshold `{}`: give LENGTH or LENGTH,ANGLE (in the robot file's units)",
-            a.threshold
-        );
-    }
-    let num = |v: &str, what: &str| -> Result<f64> {
-        v.parse::<f64>()
-            .ok()
-            .filter(|x| *x > 0.0 && x.is_finite())
-            .ok_or_else(|| anyhow!("--threshold: {what} `{v}` is not a positive number"))
-    };
-    let thresholds = kinecal::workflow::Thresholds {
-        length: u.to_si(Quantity::Length, num(parts[0], "length")?),
-        angle: parts
-            .get(1)
-            .map(|v| num(v, "angle").map(|t| u.to_si(Quantity::Angle, t)))
-            .transpose()?,
-    };
-    let verdict = kinecal::workflow::check(&r.robot, &data, thresholds)?;
-    let acc = &verdict.accuracy;
-    let len = |v: f64| u.from_si(Quantity::Length, v);
-    let ang = |v: f64| u.from_si(Quantity::Angle, v);
-    let has_orientation = acc.orientations > 0;
-    let (lmax, amax) = (len(thresholds.length), thresholds.angle.map(ang));
-    if a.json {
-        let v = kinecal::workflow::CheckReport::new(&verdict, &r.robot, data.observations.len());
-        println!("{}", v.to_json());
-    } else {
-        if acc.positions > 0 {
-            println!(
-                "{} check measurements: max position error {:.6} {} (threshold {lmax}), RMS {:.6}",
-                acc.positions,
-                len(acc.max_position),
-                u.length,
-                len(acc.rms_position)
-            );
-        }
-        for m in &acc.other {
-            println!(
-                "{} check {}s: max error {:.6} {} (threshold {lmax}), RMS {:.6}",
-                m.count,
-                m.metric,
-                len(m.max),
-                u.length,
-                len(m.rms)
-            );
-        }
-        if has_orientation {
-            println!(
-                "max attitude error {:.6} {}{}",
-                ang(acc.max_orientation),
-                u.angle,
-                amax.map_or(String::new(), |t| format!(" (threshold {t})"))
-            );
-        }
-        println!(
-            "{}",
-            if verdict.ok {
-                "OK: the robot meets its accuracy"
-            } else {
-                "RECALIBRATE: the robot no longer meets its accuracy"
-            }
-        );
-    }
-    Ok(if verdict.ok { 0 } else { EXIT_FLAGGED })
 }

@@ -520,12 +520,19 @@ pub fn render_svg(panels: &[Panel], cols: usize) -> Result<String, DrawError> {
     Ok(s)
 }
 
-/// Renders `panels` as a PNG file.
-pub fn render_png(panels: &[Panel], cols: usize, path: &std::path::Path) -> Result<(), DrawError> {
+/// Renders `panels` in a grid of `cols` columns as a PNG file's bytes.
+pub fn render_png(panels: &[Panel], cols: usize) -> Result<Vec<u8>, DrawError> {
     register_fonts();
     let rows = panels.len().div_ceil(cols.max(1)) as u32;
-    let root = BitMapBackend::new(path, (W * cols as u32, H * rows.max(1))).into_drawing_area();
-    draw_all(root, panels, cols)
+    // The encoder writes a file: a private temporary one, read back.
+    let dir = tempfile::tempdir().map_err(|e| DrawError(e.to_string()))?;
+    let path = dir.path().join("chart.png");
+    {
+        let root =
+            BitMapBackend::new(&path, (W * cols as u32, H * rows.max(1))).into_drawing_area();
+        draw_all(root, panels, cols)?;
+    }
+    std::fs::read(&path).map_err(|e| DrawError(e.to_string()))
 }
 
 #[cfg(test)]

@@ -15,6 +15,60 @@ pub mod predict;
 pub use chart::{render_png, render_svg, Line, Panel};
 pub use html::html_report;
 
+/// The pages and pictures of kinecal's jobs, drawn by this crate: what a front end hands to
+/// [`kinecal::spec::run`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Artist;
+
+impl kinecal::spec::Artist for Artist {
+    fn draw(&self, page: kinecal::spec::Page<'_>) -> kinecal::Result<Vec<u8>> {
+        use kinecal::spec::{Image, Page};
+        let failed = |e: DrawError| kinecal::Error::Numerical(e.to_string());
+        Ok(match page {
+            Page::Calibration(report) => html_report(report).map_err(failed)?.into_bytes(),
+            Page::Plan {
+                plan,
+                robot,
+                pool,
+                described,
+            } => plan::html_plan(plan, robot, pool, described)
+                .map_err(failed)?
+                .into_bytes(),
+            Page::Prediction {
+                prediction,
+                robot,
+                length_unit,
+                angle_unit,
+            } => predict::page(prediction, robot, length_unit, angle_unit).into_bytes(),
+            Page::Iso9283(e) => iso9283::html_iso9283(e).into_bytes(),
+            Page::Curves { curves, image } => {
+                let panels: Vec<Panel> = curves
+                    .charts
+                    .iter()
+                    .map(|c| Panel {
+                        title: c.title.clone(),
+                        x_label: c.x_label.clone(),
+                        y_label: c.y_label.clone(),
+                        x: c.x.clone(),
+                        lines: c
+                            .lines
+                            .iter()
+                            .map(|(name, y)| Line::new(name.clone(), y.clone()))
+                            .collect(),
+                        mark_x: Some(c.mark_x),
+                        ..Default::default()
+                    })
+                    .collect();
+                match image {
+                    Image::Svg => render_svg(&panels, curves.columns).map_err(failed)?.into_bytes(),
+                    Image::Png => render_png(&panels, curves.columns).map_err(failed)?,
+                }
+            }
+            _ => unreachable!("every page is drawn"),
+        })
+    }
+}
+
 /// Errors of drawing.
 #[derive(Debug)]
 pub struct DrawError(pub String);

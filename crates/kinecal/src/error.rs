@@ -6,6 +6,7 @@ use std::fmt;
 /// in its own terms through one table (the command line's flag, the Python keyword), which a
 /// test checks covers every setting; the library's own wording is [`Setting::name`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Setting {
     /// How many robust standard deviations make a residual an outlier.
     OutlierThreshold,
@@ -69,11 +70,61 @@ pub enum Setting {
     Prior,
     /// The bodies' total mass, which fixes the scale of estimated masses.
     TotalMass,
+    /// The parameters an analysis prefers in the identifiable set.
+    Priority,
+    /// The number of candidate postures a plan samples.
+    PlanSample,
+    /// The postures a plan keeps.
+    PlanKeep,
+    /// The frames measured at each planned posture.
+    Sites,
+    /// The frame a prediction is for.
+    Target,
+    /// The frame that must reach a goal.
+    Site,
+    /// The postures of a job (a file, a count, readings).
+    Postures,
+    /// The number of postures sampled.
+    Sample,
+    /// A calibration report a job reads.
+    Report,
+    /// The largest acceptable error (of an export's read-back, of a compensation).
+    Tolerance,
+    /// The singularity threshold of a compensation.
+    Singular,
+    /// The largest joint turn of a compensation from its seed.
+    Branch,
+    /// A file a job writes.
+    Output,
+    /// The file a job reads (a program, targets, a file to import).
+    Input,
+    /// The cube of ISO 9283 test poses.
+    Cube,
+    /// The grid of an ISO 9283 cube search.
+    Resolution,
+    /// The cycles of a simulated ISO 9283 log.
+    Cycles,
+    /// The noise of simulated measurements.
+    Noise,
+    /// The random changes of a simulated true robot.
+    PerturbStd,
+    /// The roles of measured postures in an ISO 9283 log.
+    Roles,
+    /// The file a robot was imported from, for its export.
+    Template,
+    /// A DH convention.
+    Convention,
+    /// The calibrated robot a report assesses.
+    Calibrated,
+    /// The parameters to estimate.
+    Estimate,
+    /// The parameters held.
+    Fix,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 31] = [
+    pub const ALL: [Setting; 56] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -105,6 +156,31 @@ impl Setting {
         Setting::OutputFormat,
         Setting::Prior,
         Setting::TotalMass,
+        Setting::Priority,
+        Setting::PlanSample,
+        Setting::PlanKeep,
+        Setting::Sites,
+        Setting::Target,
+        Setting::Site,
+        Setting::Postures,
+        Setting::Sample,
+        Setting::Report,
+        Setting::Tolerance,
+        Setting::Singular,
+        Setting::Branch,
+        Setting::Output,
+        Setting::Input,
+        Setting::Cube,
+        Setting::Resolution,
+        Setting::Cycles,
+        Setting::Noise,
+        Setting::PerturbStd,
+        Setting::Roles,
+        Setting::Template,
+        Setting::Convention,
+        Setting::Calibrated,
+        Setting::Estimate,
+        Setting::Fix,
     ];
 
     /// The library's words for it.
@@ -141,6 +217,94 @@ impl Setting {
             Setting::OutputFormat => "output format",
             Setting::Prior => "prior",
             Setting::TotalMass => "total mass",
+            Setting::Priority => "priority",
+            Setting::PlanSample => "plan sample",
+            Setting::PlanKeep => "kept postures",
+            Setting::Sites => "sites",
+            Setting::Target => "target",
+            Setting::Site => "site",
+            Setting::Postures => "postures",
+            Setting::Sample => "sample",
+            Setting::Report => "report",
+            Setting::Tolerance => "tolerance",
+            Setting::Singular => "singularity threshold",
+            Setting::Branch => "branch angle",
+            Setting::Output => "output",
+            Setting::Input => "input",
+            Setting::Cube => "cube",
+            Setting::Resolution => "resolution",
+            Setting::Cycles => "cycles",
+            Setting::Noise => "noise",
+            Setting::PerturbStd => "perturbation spread",
+            Setting::Roles => "roles",
+            Setting::Template => "template",
+            Setting::Convention => "convention",
+            Setting::Calibrated => "calibrated robot",
+            Setting::Estimate => "parameters to estimate",
+            Setting::Fix => "parameters held",
+        }
+    }
+
+    /// The key of a spec that holds it (the last part of its path: `rcond` for `solver.rcond`),
+    /// which is also Python's keyword.
+    pub fn key(self) -> &'static str {
+        match self {
+            Setting::OutlierThreshold => "outlier_sigma",
+            Setting::PruningThreshold => "prune",
+            Setting::Rcond => "rcond",
+            Setting::HoldoutFraction => "holdout",
+            Setting::Folds => "folds",
+            Setting::ModelCandidate => "choose",
+            Setting::PlanCandidates => "candidates",
+            Setting::PlanCount => "count",
+            Setting::PlanCriterion => "criterion",
+            Setting::HuberScale => "huber_scale",
+            Setting::NoiseScale => "noise_scale",
+            Setting::CheckThreshold => "threshold",
+            Setting::ParameterChange => "perturb",
+            Setting::Sweep => "sweep",
+            Setting::NominalRobot => "nominal",
+            Setting::ChainBase => "base",
+            Setting::ChainTip => "tip",
+            Setting::Robot => "robot",
+            Setting::InitialRobot => "initial",
+            Setting::Observations => "observations",
+            Setting::ObservationKind => "kind",
+            Setting::Columns => "columns",
+            Setting::LengthUnit => "length_unit",
+            Setting::AngleUnit => "angle_unit",
+            Setting::Weights => "weights",
+            Setting::MaxIterations => "max_iterations",
+            Setting::Validation => "validation",
+            Setting::Configuration => "configuration",
+            Setting::OutputFormat => "format",
+            Setting::Prior => "prior",
+            Setting::TotalMass => "total_mass",
+            Setting::Priority => "priority",
+            Setting::PlanSample => "sample",
+            Setting::PlanKeep => "keep",
+            Setting::Sites => "sites",
+            Setting::Target => "target",
+            Setting::Site => "site",
+            Setting::Postures => "postures",
+            Setting::Sample => "sample",
+            Setting::Report => "report",
+            Setting::Tolerance => "tolerance",
+            Setting::Singular => "singular",
+            Setting::Branch => "branch",
+            Setting::Output => "out",
+            Setting::Input => "in",
+            Setting::Cube => "cube",
+            Setting::Resolution => "resolution",
+            Setting::Cycles => "cycles",
+            Setting::Noise => "noise",
+            Setting::PerturbStd => "perturb_std",
+            Setting::Roles => "roles",
+            Setting::Template => "template",
+            Setting::Convention => "convention",
+            Setting::Calibrated => "calibrated",
+            Setting::Estimate => "estimate",
+            Setting::Fix => "fix",
         }
     }
 }
@@ -338,6 +502,19 @@ pub enum Error {
         /// The whole sentence, in the robot file's units.
         message: String,
     },
+    /// An output cannot be written where it was asked for: it would replace an input of the
+    /// run or another output, or its path names a folder or no folder
+    /// ([`crate::files::output`]).
+    #[error("{path}: {message}")]
+    Output {
+        /// The output as given.
+        path: String,
+        /// Why not.
+        message: String,
+    },
+    /// A calibration could not be recorded in its history (what the store said).
+    #[error("{0}")]
+    Record(String),
     /// Reading or writing a file failed.
     #[error("{path}: {cause}")]
     Io {

@@ -66,7 +66,9 @@ const MAX_PASSES: usize = 100;
 pub const RANDOM_PLANS: usize = 100;
 
 /// What a plan maximises (see the [module documentation](self) for the formulas).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Criterion {
     /// `log det M`: the volume of the confidence ellipsoid of the parameters.
     #[default]

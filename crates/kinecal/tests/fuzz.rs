@@ -469,15 +469,16 @@ fn report_json() {
     });
 }
 
-/// The calibration spec reader: a spec file, mutated, is read or refused with the file named;
+/// The spec reader of every job: a spec file, mutated, is read or refused with the file named;
 /// what is read writes back to a spec that reads the same.
 #[test]
 fn spec_toml() {
+    use kinecal::spec::Job;
     let seed = std::fs::read(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/fleet/a4-0042.toml"),
     )
     .unwrap();
-    let full = kinecal::spec::CalibrationSpec {
+    let full = Job::Calibrate(kinecal::spec::CalibrationSpec {
         robot: "ge-a4".into(),
         observations: vec![kinecal::files::ObservationFile::new("d.csv")],
         validation: kinecal::spec::ValidationSpec {
@@ -486,21 +487,33 @@ fn spec_toml() {
             ..Default::default()
         },
         ..Default::default()
-    };
-    let seeds = vec![seed, full.to_toml().into_bytes()];
+    });
+    let mut seeds = vec![seed, full.to_toml().into_bytes()];
+    for text in [
+        "job = \"analyze\"\nrobot = \"ge-a4\"\nrcond = 1e-9\n[[observations]]\nfile = \"d.csv\"\n[selection]\nestimate = \"all\"\n",
+        "job = \"plan\"\nrobot = \"ge-a4\"\nsample = 200\ncount = 5\ncriterion = \"o3\"\n[outputs]\npostures = \"p.csv\"\n",
+        "job = \"simulate\"\nrobot = \"ge-a4\"\npostures = 3\nperturb = { p1 = 0.05 }\nnoise = { length = 0.1 }\n",
+        "job = \"export\"\nformat = \"dh\"\nrobot = \"ge-a4\"\nconvention = \"modified\"\ntolerance = { length = 1e-6 }\n",
+        "job = \"curves\"\ncurve = \"pose\"\nrobot = \"ge-a4\"\nreadings = [1.0, 2.0, 3.0, 4.0]\nsweep = { param = \"p4\", span = 360.0 }\n",
+        "job = \"iso9283-plan\"\nrobot = \"ge-a4\"\ncube = [10.0, 0.0, 5.0, 4.0]\n",
+    ] {
+        seeds.push(text.as_bytes().to_vec());
+    }
     fuzz("spec_toml", "job.toml", &seeds, &|b| {
         let t = match read_text(b, "job.toml") {
             Ok(t) => t,
             Err(o) => return o,
         };
-        match kinecal::spec::CalibrationSpec::from_toml(&t, "job.toml") {
-            Ok(spec) => Outcome::Accepted(
-                match kinecal::spec::CalibrationSpec::from_toml(&spec.to_toml(), "again") {
-                    Ok(again) if again == spec => Ok(()),
-                    Ok(_) => Err("written back, it reads differently".into()),
-                    Err(e) => Err(format!("written back, it is refused: {e}")),
+        match Job::from_toml(&t, "job.toml") {
+            Ok(job) => Outcome::Accepted(match Job::from_toml(&job.to_toml(), "again") {
+                Ok(again) if again == job => match Job::from_json(&job.to_json(), "again.json") {
+                    Ok(j) if j == job => Ok(()),
+                    Ok(_) => Err("as JSON, it reads differently".into()),
+                    Err(e) => Err(format!("as JSON, it is refused: {e}")),
                 },
-            ),
+                Ok(_) => Err("written back, it reads differently".into()),
+                Err(e) => Err(format!("written back, it is refused: {e}")),
+            }),
             Err(e) => Outcome::Refused(e.to_string()),
         }
     });

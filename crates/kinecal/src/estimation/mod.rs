@@ -73,6 +73,7 @@ pub enum Loss {
 /// The unit of a Huber threshold (in a calibration spec: `robust`, `stated`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Spread {
     /// The residuals' own robust spread, re-estimated at every reweighting: 1.4826 times the
     /// median absolute weighted residual of the rows alike (same kind and quantity; see

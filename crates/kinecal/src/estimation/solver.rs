@@ -74,19 +74,24 @@ use crate::linalg::{self, GramAccumulator, Matrix, PivotedQr, QrAccumulator, QR_
     serde::Deserialize,
     schemars::JsonSchema,
 )]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Method {
     /// Levenberg-Marquardt (thesis 3.3.4), as a scaled trust region.
     #[default]
     #[serde(rename = "lm")]
+    #[cfg_attr(feature = "clap", value(name = "lm"))]
     LevenbergMarquardt,
-    /// Gauss-Newton (3.3.2).
+    /// Gauss-Newton (3.3.2); refuses singular systems.
     #[serde(rename = "gn")]
+    #[cfg_attr(feature = "clap", value(name = "gn"))]
     GaussNewton,
     /// Steepest descent with a line search (3.3.1).
     #[serde(rename = "sd")]
+    #[cfg_attr(feature = "clap", value(name = "sd"))]
     SteepestDescent,
     /// Truncated SVD pseudo-inverse steps (3.4).
     #[serde(rename = "svd")]
+    #[cfg_attr(feature = "clap", value(name = "svd"))]
     Svd,
 }
 
@@ -137,6 +142,7 @@ impl std::str::FromStr for Method {
 /// The damping matrix of Levenberg-Marquardt (in a calibration spec: `marquardt`, `identity`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Damping {
     /// Marquardt's diagonal scaling `B^2`, `B_ii = sqrt(H_ii)` (eq. 3.15): the trust region is
     /// measured in the column norms (their running maximum, as MINPACK does).

@@ -37,7 +37,9 @@ mod contacts;
 pub mod controller;
 mod distances;
 mod measurements;
+pub mod output;
 mod read;
+pub mod stream;
 pub(crate) mod table;
 
 use std::fmt;

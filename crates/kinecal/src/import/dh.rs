@@ -33,7 +33,9 @@ use crate::robot::{JointKind, Robot};
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 /// Which DH convention a table uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Convention {
     /// `Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)` per row.
     Standard,

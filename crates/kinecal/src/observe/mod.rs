@@ -123,6 +123,7 @@ impl Weights {
     schemars::JsonSchema,
 )]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum OrientationError {
     /// Differences of the ZYX Euler angles, each wrapped to (-180, 180] deg (thesis eq. 3.1).
     /// Undefined at gimbal lock: refused when a measured attitude is within 1 deg of it.
@@ -130,6 +131,7 @@ pub enum OrientationError {
     /// The rotation vector of `R_measured^T R_model` (its three components, in rad): defined
     /// everywhere, including at beta = +-90 deg where Euler angles lock. The default.
     #[default]
+    #[cfg_attr(feature = "clap", value(name = "rotvec"))]
     RotVec,
 }
 

@@ -13,6 +13,7 @@ use crate::units::{wrap_angle, Quantity};
 /// parameters undetermined (in a calibration spec: `solver`, `min-change`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SolutionRule {
     /// Wherever the solver stops: in the undetermined directions this depends on the starting
     /// point and the solver's path (thesis Table 4.8).

@@ -151,6 +151,8 @@ pub enum Phase {
     CrossValidation,
     /// The predicted accuracy (the model error's cross-validation, the summary, the map).
     Prediction,
+    /// Writing the outputs (after the calibration: not among the report's timings).
+    Writing,
 }
 
 impl Phase {
@@ -165,6 +167,7 @@ impl Phase {
             Phase::Report => "report",
             Phase::CrossValidation => "cross-validation",
             Phase::Prediction => "prediction",
+            Phase::Writing => "writing",
         }
     }
 }
@@ -199,6 +202,9 @@ impl Progress for Clock<'_> {
     fn data_checked(&mut self, warnings: &[Warning]) -> bool {
         self.inner.data_checked(warnings)
     }
+    fn say(&mut self, what: &str) {
+        self.inner.say(what);
+    }
 }
 
 /// Receives the progress of a calibration. Every method does nothing by default.
@@ -215,6 +221,9 @@ pub trait Progress {
     fn data_checked(&mut self, _warnings: &[Warning]) -> bool {
         true
     }
+    /// What is being done now, in words, for a job without phases (`planning: 2000
+    /// candidates`, `predicting 100000 postures`).
+    fn say(&mut self, _what: &str) {}
 }
 
 /// No progress display.

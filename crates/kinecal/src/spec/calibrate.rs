@@ -3,14 +3,15 @@
 //!
 //! Every front end says a job in its own syntax and turns it into a [`CalibrationSpec`]: the
 //! command line's flags (`kinecal calibrate`, and `--write-spec` writes them down), a spec file
-//! (`kinecal calibrate --spec job.toml`, with flags overriding it), a `[[robots]]` table of a
-//! fleet manifest (`kinecal batch fleet.toml`) and Python (`kinecal.calibrate(spec)`). From
-//! there one path reads the files ([`crate::files::read_files`]) and builds the
-//! [`Request`]: the same job gives the same calibration whichever way it was said.
+//! (`kinecal calibrate --spec job.toml`, with flags overriding it), a `[[robots]]` or `[[jobs]]`
+//! table of a manifest (`kinecal batch fleet.toml`) and Python (`kinecal.calibrate`,
+//! `kinecal.run`). From there one path reads the files ([`crate::files::read_files`]) and builds
+//! the [`Request`]: the same job gives the same calibration whichever way it was said.
 //!
 //! On disk a spec is TOML (every key optional but `robot`; a missing key takes the default):
 //!
 //! ```toml
+//! job = "calibrate"               # the default
 //! robot = "qkm_hl6.toml"          # a robot file, or a built-in robot's name
 //!
 //! [[observations]]
@@ -32,7 +33,7 @@
 //! for a spec built in memory); lengths and angles (`residuals.weights`) are in the robot
 //! file's units.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
@@ -46,9 +47,8 @@ use crate::source::Source;
 use crate::units::Quantity;
 use crate::workflow::{self, Candidate, Outcome, Request, Selection, SolutionRule, Validation};
 
-fn is_default<T: Default + PartialEq>(t: &T) -> bool {
-    *t == T::default()
-}
+use super::common::{invalid, is_default, visit_opt, LengthAngle};
+use super::{Document, Done, Env, JobKind, Message, PathRole, Spec, Status};
 
 /// One calibration job. See the [module documentation](self) for the file.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -81,6 +81,11 @@ pub struct CalibrationSpec {
     /// What is written.
     #[serde(default, skip_serializing_if = "is_default")]
     pub outputs: OutputSpec,
+    /// Treat warnings that say the result is most likely wrong (data in another unit than the
+    /// robot file, readings outside the joint ranges, lengths moved beyond the robot's reach)
+    /// as failures: nothing is written ([`Status::Implausible`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub strict: bool,
 }
 
 /// What to estimate (`[selection]`).
@@ -134,24 +139,13 @@ pub struct SolverSpec {
 /// The loss of a calibration: least squares or Huber.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum LossKind {
     /// Least squares.
     #[default]
     Squared,
     /// Huber ([`Loss::Huber`]).
     Huber,
-}
-
-/// Residual standard deviations, in the robot file's units (`[residuals.weights]`).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct WeightsSpec {
-    /// Of a length residual (default 1 mm).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub length: Option<f64>,
-    /// Of an angle residual (default 1 mrad).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub angle: Option<f64>,
 }
 
 /// The loss, the weights and the outlier rule (`[residuals]`).
@@ -169,7 +163,7 @@ pub struct ResidualSpec {
     pub huber_spread: Spread,
     /// Default residual standard deviations.
     #[serde(default, skip_serializing_if = "is_default")]
-    pub weights: WeightsSpec,
+    pub weights: LengthAngle,
     /// Orientation residuals: `rotvec` (default) or `euler`.
     #[serde(default, skip_serializing_if = "is_default")]
     pub orientation_error: OrientationError,
@@ -227,170 +221,30 @@ pub struct OutputSpec {
     pub html: Option<String>,
 }
 
-fn invalid(setting: Setting, message: impl Into<String>) -> Error {
-    Error::InvalidOption {
-        setting,
-        message: message.into(),
-    }
-}
+impl Spec for CalibrationSpec {
+    const KIND: JobKind = JobKind::Calibrate;
 
-/// `p` taken relative to `base` (absolute paths and an empty base leave it as it is).
-fn rebase(base: &Path, p: &str) -> String {
-    if base.as_os_str().is_empty() || Path::new(p).is_absolute() {
-        p.to_string()
-    } else {
-        base.join(p).to_string_lossy().into_owned()
-    }
-}
-
-/// A robot name relative to `base`: a built-in robot's name stays as it is unless a file of
-/// that name is there.
-fn rebase_robot(base: &Path, name: &str) -> String {
-    let file = rebase(base, name);
-    if crate::examples::builtin(name).is_some() && !Path::new(&file).exists() {
-        name.to_string()
-    } else {
-        file
-    }
-}
-
-impl CalibrationSpec {
-    /// Refuses a number that is not finite (TOML and JSON readers accept `nan` and `inf`),
-    /// naming its key.
-    fn finite(self, file: &str) -> Result<CalibrationSpec> {
-        let v = &self.validation;
-        let r = &self.residuals;
-        for (key, value) in [
-            ("selection.prune", self.selection.prune),
-            ("solver.rcond", self.solver.rcond),
-            ("residuals.huber_scale", r.huber_scale),
-            ("residuals.weights.length", r.weights.length),
-            ("residuals.weights.angle", r.weights.angle),
-            ("residuals.outlier_sigma", r.outlier_sigma),
-            ("validation.holdout", v.holdout),
-        ] {
-            if let Some(x) = value.filter(|x| !x.is_finite()) {
-                return Err(Error::input(
-                    Location::file(file).with_field(key),
-                    format!("expected a finite number, not {x}"),
-                ));
-            }
-        }
-        Ok(self)
-    }
-
-    /// A spec read from TOML `text` (named `file` in errors): unknown keys, wrong types and
-    /// numbers that are not finite are errors with the line or the key.
-    pub fn from_toml(text: &str, file: &str) -> Result<CalibrationSpec> {
-        let spec: CalibrationSpec = toml_edit::de::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-            let loc = Location {
-                file: file.to_string(),
-                line,
-                field: None,
-            };
-            Error::input(loc, e.message().trim().to_string())
-        })?;
-        spec.finite(file)
-    }
-
-    /// Reads a spec file; its relative paths are made relative to the working folder (joined
-    /// to the spec's folder).
-    pub fn read(path: &Path) -> Result<CalibrationSpec> {
-        let source = Source::read(path)?;
-        let spec = CalibrationSpec::from_toml(&source.text, &source.name)?;
-        Ok(spec.rebased(path.parent().unwrap_or(Path::new(""))))
-    }
-
-    /// The spec as TOML (the keys that differ from the defaults).
-    pub fn to_toml(&self) -> String {
-        toml_edit::ser::to_string_pretty(self).expect("a spec is plain data TOML can hold")
-    }
-
-    /// The spec as JSON (the keys that differ from the defaults).
-    pub fn to_json(&self) -> String {
-        serde_json::to_string(self).expect("a spec is plain data JSON can hold")
-    }
-
-    /// A spec read from JSON `text` (the same document as the TOML file).
-    pub fn from_json(text: &str, file: &str) -> Result<CalibrationSpec> {
-        let spec: CalibrationSpec = serde_json::from_str(text).map_err(|e| {
-            let loc = Location {
-                file: file.to_string(),
-                line: Some(e.line()),
-                field: None,
-            };
-            Error::input(loc, e.to_string())
-        })?;
-        spec.finite(file)
-    }
-
-    /// The same spec with every relative path taken relative to `base` (the folder of the
-    /// file it was read from).
-    pub fn rebased(mut self, base: &Path) -> CalibrationSpec {
-        self.robot = rebase_robot(base, &self.robot);
-        if let Some(i) = &mut self.initial {
-            *i = rebase_robot(base, i);
-        }
-        for f in self
+    fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+        f(PathRole::Robot, &mut self.robot);
+        visit_opt(f, PathRole::Robot, &mut self.initial);
+        for o in self
             .observations
             .iter_mut()
             .chain(self.validation.files.iter_mut())
         {
-            f.file = rebase(base, &f.file);
+            f(PathRole::Input, &mut o.file);
         }
         let o = &mut self.outputs;
-        for p in [&mut o.robot, &mut o.report, &mut o.html]
-            .into_iter()
-            .flatten()
-        {
-            *p = rebase(base, p);
+        for p in [&mut o.robot, &mut o.report, &mut o.html] {
+            visit_opt(f, PathRole::Output, p);
         }
-        self
     }
+}
 
-    /// The spec to write in the file `path`, its paths (relative to the working folder) made
-    /// to work from there: kept when the file is in the working folder, else made absolute.
-    pub fn written_to(&self, path: &Path) -> Result<CalibrationSpec> {
-        let folder = path.parent().unwrap_or(Path::new(""));
-        if folder.as_os_str().is_empty() || folder == Path::new(".") {
-            return Ok(self.clone());
-        }
-        let cwd = std::env::current_dir().map_err(|cause| Error::Io {
-            path: ".".into(),
-            cause,
-        })?;
-        Ok(self.clone().rebased(&cwd))
-    }
-
-    /// The files the job reads: the robot (unless built in), the initial robot, the
-    /// observation and validation files.
-    pub fn inputs(&self) -> Vec<PathBuf> {
-        let mut v: Vec<PathBuf> = Vec::new();
-        for r in std::iter::once(&self.robot).chain(&self.initial) {
-            if Path::new(r).exists() || crate::examples::builtin(r).is_none() {
-                v.push(r.into());
-            }
-        }
-        v.extend(
-            self.observations
-                .iter()
-                .chain(&self.validation.files)
-                .map(|f| PathBuf::from(&f.file)),
-        );
-        v
-    }
-
-    /// The files the job writes.
-    pub fn outputs(&self) -> Vec<PathBuf> {
-        let o = &self.outputs;
-        [&o.robot, &o.report, &o.html]
-            .into_iter()
-            .flatten()
-            .map(PathBuf::from)
-            .collect()
+impl CalibrationSpec {
+    /// Reads the files, calibrates and writes the outputs.
+    pub(crate) fn run(&self, env: &mut Env<'_>) -> Result<Done> {
+        self.load()?.run(env)
     }
 
     /// Reads the observation files of `list` for `robot` into one dataset, and their sources.
@@ -521,7 +375,7 @@ impl CalibrationSpec {
 
     /// Reads the robot and the files and builds the job (paths as they are: relative to the
     /// working folder).
-    pub fn load(&self) -> Result<Job> {
+    pub fn load(&self) -> Result<CalibrationJob> {
         let started = std::time::Instant::now();
         let (robot, robot_source) = load_robot(&self.robot)?;
         let initial = match &self.initial {
@@ -545,7 +399,7 @@ impl CalibrationSpec {
             .chain(sources)
             .collect();
         let choice = candidates(self, &robot)?;
-        Ok(Job {
+        Ok(CalibrationJob {
             spec: self.clone(),
             request,
             robot_source,
@@ -572,7 +426,7 @@ fn candidates(spec: &CalibrationSpec, robot: &Robot) -> Result<Option<Vec<Candid
 pub const HUBER_SCALE: f64 = 1.345;
 
 /// The residual weights of `w` (robot units) in SI, the defaults where absent.
-pub fn weights(robot: &Robot, w: &WeightsSpec) -> Result<Weights> {
+pub fn weights(robot: &Robot, w: &LengthAngle) -> Result<Weights> {
     let mut out = Weights::default();
     for (value, quantity, slot) in [
         (w.length, Quantity::Length, &mut out.length),
@@ -612,9 +466,10 @@ pub fn load_robot(name: &str) -> Result<(Robot, Source)> {
     Ok((robot, source))
 }
 
-/// A job ready to run: the spec, the request it gives, and what writing its outputs needs.
+/// A calibration ready to run: the spec, the request it gives, and what writing its outputs
+/// needs.
 #[derive(Debug, Clone)]
-pub struct Job {
+pub struct CalibrationJob {
     /// The spec (paths relative to the working folder).
     pub spec: CalibrationSpec,
     /// The library request.
@@ -627,12 +482,47 @@ pub struct Job {
     pub reading: f64,
 }
 
-impl Job {
+/// The progress of a strict calibration: the data checks' warnings that say the result would
+/// most likely be wrong stop it.
+struct Strict<'a> {
+    inner: &'a mut dyn workflow::Progress,
+    strict: bool,
+    stopped: bool,
+}
+
+impl workflow::Progress for Strict<'_> {
+    fn phase(&mut self, phase: workflow::Phase) {
+        self.inner.phase(phase);
+    }
+
+    fn iteration(&mut self, it: &crate::estimation::Iteration) {
+        self.inner.iteration(it);
+    }
+
+    fn say(&mut self, what: &str) {
+        self.inner.say(what);
+    }
+
+    fn data_checked(&mut self, warnings: &[crate::Warning]) -> bool {
+        let go_on = self.inner.data_checked(warnings);
+        if self.strict && warnings.iter().any(crate::Warning::implausible) {
+            self.stopped = true;
+            return false;
+        }
+        go_on
+    }
+}
+
+impl CalibrationJob {
     /// The job of `spec` with its request built (and its data read) by the caller, as Python
     /// does for data given in memory; the model candidates of `spec`'s choice are read here.
-    pub fn new(spec: CalibrationSpec, request: Request, robot_source: Source) -> Result<Job> {
+    pub fn new(
+        spec: CalibrationSpec,
+        request: Request,
+        robot_source: Source,
+    ) -> Result<CalibrationJob> {
         let choice = candidates(&spec, &request.robot)?;
-        Ok(Job {
+        Ok(CalibrationJob {
             spec,
             request,
             robot_source,
@@ -642,8 +532,8 @@ impl Job {
     }
 
     /// Runs the calibration (or the model choice); an observation whose residual cannot be
-    /// computed is named with its file.
-    pub fn run(&self, progress: &mut dyn workflow::Progress) -> Result<Outcome> {
+    /// computed is named with its file. Writes nothing.
+    pub fn calibrate(&self, progress: &mut dyn workflow::Progress) -> Result<Outcome> {
         let v = &self.spec.validation;
         let result = match &self.choice {
             None => workflow::run(&self.request, progress),
@@ -696,11 +586,89 @@ impl Job {
                 e => e,
             })
     }
+
+    /// Runs the calibration and writes its outputs (none when the spec is strict and a warning
+    /// says the result is most likely wrong): the job's [`Done`].
+    pub fn run(&self, env: &mut Env<'_>) -> Result<Done> {
+        let mut strict = Strict {
+            inner: &mut *env.progress,
+            strict: self.spec.strict,
+            stopped: false,
+        };
+        let solved = self.calibrate(&mut strict);
+        if strict.stopped {
+            return Ok(Done {
+                document: Document::Stopped,
+                messages: Vec::new(),
+                status: Status::Implausible,
+                pending: None,
+            });
+        }
+        let outcome = solved?;
+        let mut messages: Vec<Message> =
+            outcome.warnings.iter().cloned().map(Message::Warning).collect();
+        if self.spec.strict && outcome.warnings.iter().any(crate::Warning::implausible) {
+            return Ok(Done {
+                document: Document::Calibration(Box::new(outcome)),
+                messages,
+                status: Status::Implausible,
+                pending: None,
+            });
+        }
+        env.progress.phase(workflow::Phase::Writing);
+        let o = &self.spec.outputs;
+        let mut staged = crate::files::output::Staged::new();
+        if let Some(path) = &o.robot {
+            let text = crate::robot_file::write_robot_toml_checked(
+                &outcome.calibration.calibrated,
+                Some(&self.robot_source.text),
+            )?;
+            staged.text(Path::new(path), &text)?;
+        }
+        if let Some(path) = &o.report {
+            staged.text(Path::new(path), &(outcome.report.to_json() + "\n"))?;
+        }
+        if let Some(path) = &o.html {
+            let page = env.draw(super::Page::Calibration(&outcome.report), path)?;
+            staged.bytes(Path::new(path), &page)?;
+        }
+        if let Some(r) = env.recorder.as_deref_mut() {
+            env.progress.say("recording in the history");
+            messages.push(Message::Note(r.record(&outcome.report)?));
+        }
+        let pending = if env.hold {
+            Some(super::Pending(staged))
+        } else {
+            staged.commit()?;
+            None
+        };
+        for (path, what) in [
+            (&o.robot, "the calibrated robot"),
+            (&o.report, "the report"),
+            (&o.html, "the HTML report"),
+        ] {
+            if let Some(p) = path {
+                messages.push(Message::Note(format!("wrote {what} to {p}")));
+            }
+        }
+        let status = if outcome.calibration.converged() {
+            Status::Ok
+        } else {
+            Status::NotConverged
+        };
+        Ok(Done {
+            document: Document::Calibration(Box::new(outcome)),
+            messages,
+            status,
+            pending,
+        })
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spec::Job;
 
     #[test]
     fn toml_round_trip_keeps_every_setting() {
@@ -741,7 +709,7 @@ mod tests {
                 loss: LossKind::Huber,
                 huber_scale: Some(2.0),
                 huber_spread: Spread::Stated,
-                weights: WeightsSpec {
+                weights: LengthAngle {
                     length: Some(0.05),
                     angle: None,
                 },
@@ -762,43 +730,44 @@ mod tests {
                 report: Some("r.json".into()),
                 html: None,
             },
+            strict: true,
         };
-        let text = spec.to_toml();
-        assert_eq!(
-            CalibrationSpec::from_toml(&text, "t").unwrap(),
-            spec,
-            "{text}"
-        );
-        let json = spec.to_json();
-        assert_eq!(CalibrationSpec::from_json(&json, "j").unwrap(), spec);
+        let job = Job::Calibrate(spec);
+        let text = job.to_toml();
+        assert_eq!(Job::from_toml(&text, "t").unwrap(), job, "{text}");
+        let json = job.to_json();
+        assert_eq!(Job::from_json(&json, "j").unwrap(), job);
         // Defaults are left out.
-        let bare = CalibrationSpec {
+        let bare = Job::Calibrate(CalibrationSpec {
             robot: "ge-a4".into(),
             ..CalibrationSpec::default()
-        };
-        assert_eq!(bare.to_toml().trim(), "robot = \"ge-a4\"");
+        });
+        assert_eq!(
+            bare.to_toml().trim(),
+            "job = \"calibrate\"\nrobot = \"ge-a4\""
+        );
     }
 
     #[test]
     fn unknown_keys_and_values_are_refused_with_the_line() {
         let e =
-            CalibrationSpec::from_toml("robot = \"r\"\n\n[solver]\nmethod = \"xx\"\n", "j.toml")
+            Job::from_toml("robot = \"r\"\n\n[solver]\nmethod = \"xx\"\n", "j.toml")
                 .unwrap_err()
                 .to_string();
         assert!(e.starts_with("j.toml:4"), "{e}");
         assert!(e.contains("lm") && e.contains("svd"), "{e}");
-        let e = CalibrationSpec::from_toml("robot = \"r\"\n[selection]\nestimat = \"all\"\n", "j")
+        let e = Job::from_toml("robot = \"r\"\n[selection]\nestimat = \"all\"\n", "j")
             .unwrap_err()
             .to_string();
         assert!(e.contains("estimat") && e.contains("estimate"), "{e}");
-        let e = CalibrationSpec::from_toml("robot = \"r\"\n[validation]\nholdout = nan\n", "j")
+        let e = Job::from_toml("robot = \"r\"\n[validation]\nholdout = nan\n", "j")
             .unwrap_err()
             .to_string();
         assert!(
             e.contains("validation.holdout") && e.contains("finite"),
             "{e}"
         );
-        let e = CalibrationSpec::from_toml("[solver]\n", "j")
+        let e = Job::from_toml("[solver]\n", "j")
             .unwrap_err()
             .to_string();
         assert!(e.contains("robot"), "{e}");
@@ -806,7 +775,7 @@ mod tests {
 
     #[test]
     fn paths_are_taken_from_the_spec_folder_and_built_in_robots_stay() {
-        let spec = CalibrationSpec {
+        let Job::Calibrate(spec) = Job::Calibrate(CalibrationSpec {
             robot: "ge-a4".into(),
             initial: Some("guess.toml".into()),
             observations: vec![
@@ -818,8 +787,10 @@ mod tests {
                 ..OutputSpec::default()
             },
             ..CalibrationSpec::default()
-        }
-        .rebased(Path::new("jobs"));
+        })
+        .rebased(Path::new("jobs")) else {
+            unreachable!()
+        };
         assert_eq!(spec.robot, "ge-a4");
         assert_eq!(spec.initial.as_deref(), Some("jobs/guess.toml"));
         assert_eq!(spec.observations[0].file, "jobs/a.csv");

@@ -20,9 +20,11 @@
 //!   replaced. A FIFO's writer waits, as any writer does, for a reader.
 //!
 //! Temporary files are removed on every way out: an error or a panic (the temporary file's
-//! owner removes it when dropped), and SIGINT, SIGTERM and SIGHUP (a thread, started with the
-//! first temporary file, removes them and then ends the process as the signal would; a signal
-//! the process was started ignoring, as under `nohup`, stays ignored). A write into a pipe whose
+//! owner removes it when dropped), and, in a program that asked for it with
+//! [`remove_temporaries_on_signals`] (the `kinecal` command does; a Python process keeps its
+//! own handlers), SIGINT, SIGTERM and SIGHUP (a thread, started with the first temporary file,
+//! removes them and then ends the process as the signal would; a signal the process was started
+//! ignoring, as under `nohup`, stays ignored). A write into a pipe whose
 //! reader is gone fails with an error rather than ending the process on SIGPIPE. Only a process
 //! killed outright (SIGKILL, a power cut) leaves its temporary files; the next run that writes
 //! into the same folder removes those whose process id names no running process and that are
@@ -44,8 +46,37 @@ use std::path::{Component, Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 
-use anyhow::{anyhow, bail, Context as _, Result};
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use tempfile::NamedTempFile;
+
+use crate::error::{Error, Result};
+
+/// An output that cannot be written, and why.
+fn refuse(path: &Path, message: impl Into<String>) -> Error {
+    Error::Output {
+        path: path.display().to_string(),
+        message: message.into(),
+    }
+}
+
+/// An I/O failure writing the output `path`.
+fn failed(path: &Path, cause: io::Error) -> Error {
+    Error::Io {
+        path: path.display().to_string(),
+        cause,
+    }
+}
+
+/// Whether the program asked for temporary files to be removed on SIGINT, SIGTERM and SIGHUP.
+static ON_SIGNALS: AtomicBool = AtomicBool::new(false);
+
+/// Asks that temporary files be removed on SIGINT, SIGTERM and SIGHUP (then the process ends as
+/// the signal would): for a program that owns its signals, such as the `kinecal` command. A
+/// library host (Python) keeps its own handlers and does not call it.
+pub fn remove_temporaries_on_signals() {
+    ON_SIGNALS.store(true, Ordering::Relaxed);
+}
 
 /// The start of the name of every temporary file kinecal writes.
 pub const TEMP_PREFIX: &str = ".kinecal-tmp-";
@@ -91,7 +122,7 @@ pub enum Target {
 fn split(path: &Path) -> Result<(PathBuf, OsString)> {
     let name = match path.components().next_back() {
         Some(Component::Normal(n)) => n.to_os_string(),
-        _ => bail!("{}: not a file path", path.display()),
+        _ => return Err(refuse(path, "not a file path")),
     };
     let dir = match path.parent().filter(|d| !d.as_os_str().is_empty()) {
         Some(d) => d.to_path_buf(),
@@ -125,13 +156,9 @@ pub fn target(path: &Path) -> Result<Target> {
     let mut current = path.to_path_buf();
     for _ in 0..=MAX_LINKS {
         let (dir, name) = split(&current)?;
-        let dir = dir.canonicalize().with_context(|| {
-            format!(
-                "cannot write {}: no folder {}",
-                path.display(),
-                dir.display()
-            )
-        })?;
+        let dir = dir
+            .canonicalize()
+            .map_err(|_| refuse(path, format!("cannot write it: no folder {}", dir.display())))?;
         if let Some((own, fd)) = descriptor_link(&dir, &name) {
             return Ok(Target::InPlace(match (own, fd) {
                 (true, Some(1)) => Sink::Stdout,
@@ -149,15 +176,14 @@ pub fn target(path: &Path) -> Result<Target> {
                     existing: None,
                 })
             }
-            Err(e) => return Err(anyhow!("cannot write {}: {e}", path.display())),
+            Err(e) => return Err(failed(path, e)),
         };
         let kind = meta.file_type();
         if kind.is_symlink() {
-            let link =
-                fs::read_link(&full).with_context(|| format!("cannot write {}", path.display()))?;
+            let link = fs::read_link(&full).map_err(|e| failed(path, e))?;
             current = dir.join(link);
         } else if kind.is_dir() {
-            bail!("{}: is a folder, not a file", path.display());
+            return Err(refuse(path, "is a folder, not a file"));
         } else if kind.is_file() {
             return Ok(Target::Replace {
                 path: full,
@@ -167,7 +193,7 @@ pub fn target(path: &Path) -> Result<Target> {
             return Ok(Target::InPlace(Sink::Path(full)));
         }
     }
-    bail!("cannot write {}: too many levels of links", path.display())
+    Err(refuse(path, "cannot write it: too many levels of links"))
 }
 
 /// What makes two paths one file: the resolved path and, on Unix, the device and inode.
@@ -218,13 +244,13 @@ pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
         };
         let id = Identity::of(path, existing.as_ref());
         if inputs.contains(&id) {
-            bail!(
-                "{}: refusing to write an output over an input of this run",
-                out.display()
-            );
+            return Err(refuse(
+                out,
+                "refusing to write an output over an input of this run",
+            ));
         }
         if seen.contains(&id) {
-            bail!("{}: named as two outputs of this run", out.display());
+            return Err(refuse(out, "named as two outputs of this run"));
         }
         seen.push(id);
     }
@@ -242,6 +268,9 @@ fn live() -> MutexGuard<'static, Vec<PathBuf>> {
 /// SIGHUP and then ends the process as the signal would have.
 #[cfg(unix)]
 fn watch_signals() {
+    if !ON_SIGNALS.load(Ordering::Relaxed) {
+        return;
+    }
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
         use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
@@ -451,21 +480,26 @@ impl Staged {
 
     /// Stages `contents` for `path`.
     pub fn text(&mut self, path: &Path, contents: &str) -> Result<()> {
+        self.bytes(path, contents.as_bytes())
+    }
+
+    /// Stages `contents` for `path`.
+    pub fn bytes(&mut self, path: &Path, contents: &[u8]) -> Result<()> {
         match target(path)? {
             Target::InPlace(sink) => {
                 self.in_place.push(InPlace {
                     shown: path.to_path_buf(),
                     sink,
-                    bytes: contents.as_bytes().to_vec(),
+                    bytes: contents.to_vec(),
                 });
                 Ok(())
             }
             Target::Replace { path: to, existing } => {
                 let temp = self.temp(path, &to, existing.as_ref())?;
                 let mut file = temp.file().as_file();
-                file.write_all(contents.as_bytes())
+                file.write_all(contents)
                     .and_then(|()| file.sync_all())
-                    .with_context(|| format!("cannot write {}", path.display()))?;
+                    .map_err(|e| failed(path, e))?;
                 self.replace.push(Replacement {
                     shown: path.to_path_buf(),
                     target: to,
@@ -479,18 +513,22 @@ impl Staged {
     /// Creates a fresh temporary file for `path` and lets `write` fill it by its path (for
     /// writers that open files themselves). For an output written in place, the temporary file
     /// is in the system's temporary folder and its bytes are kept for the commit.
-    pub fn by_path(&mut self, path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    pub fn by_path<E: From<Error>>(
+        &mut self,
+        path: &Path,
+        write: impl FnOnce(&Path) -> std::result::Result<(), E>,
+    ) -> std::result::Result<(), E> {
         match target(path)? {
             Target::InPlace(sink) => {
                 let (_, name) = split(path)?;
                 let temp = Temp::create(&std::env::temp_dir(), &name, 0o600)
-                    .with_context(|| format!("cannot write {}", path.display()))?;
+                    .map_err(|e| failed(path, e))?;
                 write(temp.file().path())?;
                 let mut bytes = Vec::new();
                 temp.file()
                     .reopen()
                     .and_then(|mut f| f.read_to_end(&mut bytes))
-                    .with_context(|| format!("cannot write {}", path.display()))?;
+                    .map_err(|e| failed(path, e))?;
                 self.in_place.push(InPlace {
                     shown: path.to_path_buf(),
                     sink,
@@ -504,7 +542,7 @@ impl Staged {
                 temp.file()
                     .as_file()
                     .sync_all()
-                    .with_context(|| format!("cannot write {}", path.display()))?;
+                    .map_err(|e| failed(path, e))?;
                 self.replace.push(Replacement {
                     shown: path.to_path_buf(),
                     target: to,
@@ -522,11 +560,9 @@ impl Staged {
         // A new file as any program creates one (the umask applies); an existing one's mode is
         // set below, once the file is private to its owner.
         let mode = if existing.is_some() { 0o600 } else { 0o666 };
-        let temp = Temp::create(dir, name, mode)
-            .with_context(|| format!("cannot write {}", shown.display()))?;
+        let temp = Temp::create(dir, name, mode).map_err(|e| failed(shown, e))?;
         if let Some(m) = existing {
-            keep_mode(temp.file().as_file(), m)
-                .with_context(|| format!("cannot write {}", shown.display()))?;
+            keep_mode(temp.file().as_file(), m).map_err(|e| failed(shown, e))?;
         }
         Ok(temp)
     }
@@ -536,11 +572,10 @@ impl Staged {
     /// files not yet renamed are removed.
     pub fn commit(self) -> Result<()> {
         if let Some(r) = self.replace.iter().find(|r| r.target.is_dir()) {
-            bail!("cannot write {}: it is a folder", r.shown.display());
+            return Err(refuse(&r.shown, "cannot write it: it is a folder"));
         }
         for o in &self.in_place {
-            write_in_place(&o.sink, &o.bytes)
-                .with_context(|| format!("cannot write {}", o.shown.display()))?;
+            write_in_place(&o.sink, &o.bytes).map_err(|e| failed(&o.shown, e))?;
         }
         let mut pending = self.replace.into_iter();
         let result = {
@@ -553,7 +588,7 @@ impl Staged {
                 live.retain(|p| p != &temp);
                 if let Err(e) = done {
                     drop(e.file);
-                    result = Err(anyhow!("cannot write {}: {}", r.shown.display(), e.error));
+                    result = Err(failed(&r.shown, e.error));
                     break;
                 }
             }

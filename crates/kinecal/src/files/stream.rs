@@ -5,7 +5,22 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
-use anyhow::{anyhow, bail, Result};
+use crate::error::{Error, Location, Result};
+use crate::robot::Payload;
+use crate::units::{Quantity, Units};
+
+/// An error at `line` of `file`.
+fn at(file: &str, line: u64, message: impl Into<String>) -> Error {
+    Error::input(Location::file(file).at_line(line as usize), message)
+}
+
+/// An I/O error reading `file`.
+fn io(file: &str, cause: std::io::Error) -> Error {
+    Error::Io {
+        path: file.to_string(),
+        cause,
+    }
+}
 
 /// A CSV table read one row at a time: `,`, `;` or tab delimited (told by the header line),
 /// `#` comment lines, fields trimmed, a byte-order mark ignored.
@@ -29,13 +44,13 @@ impl Rows {
         let source: Box<dyn Read> = if path.as_os_str() == "-" {
             Box::new(std::io::stdin())
         } else {
-            Box::new(File::open(path).map_err(|e| anyhow!("{file}: {e}"))?)
+            Box::new(File::open(path).map_err(|e| io(&file, e))?)
         };
         let mut input = BufReader::new(source);
         // Skip a byte-order mark.
         if input
             .fill_buf()
-            .map_err(|e| anyhow!("{file}: {e}"))?
+            .map_err(|e| io(&file, e))?
             .starts_with(&[0xef, 0xbb, 0xbf])
         {
             input.consume(3);
@@ -48,7 +63,7 @@ impl Rows {
             let mut line = Vec::new();
             if input
                 .read_until(b'\n', &mut line)
-                .map_err(|e| anyhow!("{file}: {e}"))?
+                .map_err(|e| io(&file, e))?
                 == 0
             {
                 break;
@@ -78,12 +93,12 @@ impl Rows {
             .from_reader(reader);
         let header: Vec<String> = reader
             .headers()
-            .map_err(|e| anyhow!("{file}: {e}"))?
+            .map_err(|e| Error::input(Location::file(&file), e.to_string()))?
             .iter()
             .map(str::to_ascii_lowercase)
             .collect();
         if header.iter().all(String::is_empty) {
-            bail!("{file}:1: empty file: a header line is required");
+            return Err(at(&file, 1, "empty file: a header line is required"));
         }
         Ok(Rows {
             reader,
@@ -110,7 +125,7 @@ impl Rows {
             if !self
                 .reader
                 .read_record(&mut self.record)
-                .map_err(|e| anyhow!("{}: {e}", self.file))?
+                .map_err(|e| Error::input(Location::file(&self.file), e.to_string()))?
             {
                 return Ok(None);
             }
@@ -119,12 +134,15 @@ impl Rows {
             }
             let line = self.record.position().map_or(0, |p| p.line());
             if self.record.len() != self.header.len() {
-                bail!(
-                    "{}:{line}: {} fields, the header has {}",
-                    self.file,
-                    self.record.len(),
-                    self.header.len()
-                );
+                return Err(at(
+                    &self.file,
+                    line,
+                    format!(
+                        "{} fields, the header has {}",
+                        self.record.len(),
+                        self.header.len()
+                    ),
+                ));
             }
             return Ok(Some(line));
         }
@@ -136,8 +154,14 @@ pub fn number(file: &str, line: u64, field: &str, s: &str) -> Result<f64> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v.abs() <= 1e9 => Ok(v),
         // Named as written: `1e308`, not its 309 digits.
-        Ok(_) => bail!("{file}:{line}: field `{field}`: {s} is not a finite number within +-1e9"),
-        Err(_) => bail!("{file}:{line}: field `{field}`: expected a number, found `{s}`"),
+        Ok(_) => Err(Error::input(
+            Location::file(file).at_line(line as usize).with_field(field),
+            format!("{s} is not a finite number within +-1e9"),
+        )),
+        Err(_) => Err(Error::input(
+            Location::file(file).at_line(line as usize).with_field(field),
+            format!("expected a number, found `{s}`"),
+        )),
     }
 }
 
@@ -150,17 +174,16 @@ pub fn cell(rows: &Rows, line: u64, c: usize) -> Result<f64> {
     number(&rows.file, line, &rows.header[c], s)
 }
 
-/// Where a file's payload columns are ([`kinecal::files::PAYLOAD_COLUMNS`]); an error when a
-/// centre of mass comes without `payload_mass`.
+/// Where a file's payload columns are ([`super::PAYLOAD_COLUMNS`]); an error when a centre of
+/// mass comes without `payload_mass`.
 pub fn payload_columns(rows: &Rows) -> Result<[Option<usize>; 4]> {
-    let cols = kinecal::files::PAYLOAD_COLUMNS.map(|c| rows.column(c));
+    let cols = super::PAYLOAD_COLUMNS.map(|c| rows.column(c));
     if cols[0].is_none() {
         if let Some(i) = cols[1..].iter().flatten().next() {
-            anyhow::bail!(
-                "{}:1: column `{}`: a payload's centre of mass without `payload_mass` (kg)",
-                rows.file,
-                rows.header[*i]
-            );
+            return Err(Error::input(
+                Location::file(&rows.file).at_line(1).with_field(&rows.header[*i]),
+                "a payload's centre of mass without `payload_mass` (kg)",
+            ));
         }
     }
     Ok(cols)
@@ -173,8 +196,8 @@ pub fn payload_at(
     rows: &Rows,
     line: u64,
     cols: &[Option<usize>; 4],
-    units: &kinecal::Units,
-) -> Result<Option<kinecal::robot::Payload>> {
+    units: &Units,
+) -> Result<Option<Payload>> {
     let Some(m) = cols[0] else {
         return Ok(None);
     };
@@ -184,26 +207,31 @@ pub fn payload_at(
             .flatten()
             .find(|&&c| !rows.field(c).trim().is_empty())
         {
-            anyhow::bail!(
-                "{}:{line}: field `{}`: a payload's centre of mass without its mass \
-                 (`payload_mass` is empty)",
-                rows.file,
-                rows.header[*c]
-            );
+            return Err(Error::input(
+                Location::file(&rows.file)
+                    .at_line(line as usize)
+                    .with_field(&rows.header[*c]),
+                "a payload's centre of mass without its mass (`payload_mass` is empty)",
+            ));
         }
         return Ok(None);
     }
     let mass = cell(rows, line, m)?;
-    if let Some(problem) = kinecal::robot::Payload::mass_problem(mass) {
-        anyhow::bail!("{}:{line}: field `payload_mass`: {problem}", rows.file);
+    if let Some(problem) = Payload::mass_problem(mass) {
+        return Err(Error::input(
+            Location::file(&rows.file)
+                .at_line(line as usize)
+                .with_field("payload_mass"),
+            problem,
+        ));
     }
     let mut com = nalgebra::Vector3::zeros();
     for (k, c) in cols[1..].iter().enumerate() {
         if let Some(c) = c {
             if !rows.field(*c).trim().is_empty() {
-                com[k] = units.to_si(kinecal::units::Quantity::Length, cell(rows, line, *c)?);
+                com[k] = units.to_si(Quantity::Length, cell(rows, line, *c)?);
             }
         }
     }
-    Ok(Some(kinecal::robot::Payload { mass, com }))
+    Ok(Some(Payload { mass, com }))
 }

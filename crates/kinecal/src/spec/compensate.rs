@@ -1,0 +1,763 @@
+//! `compensate`: a program or Cartesian targets through the calibrated model, row by row, into
+//! a table or a controller's program. The input streams through in flat memory.
+//!
+//! ```toml
+//! job = "compensate"
+//! robot = "calibrated.toml"       # how the robot really moves
+//! nominal = "nominal.toml"        # what the controller uses
+//! in = "program.csv"              # posture,v1..vn, or target,x,y,z[,alpha,beta,gamma]
+//! format = "table"                # table, urscript, joints-ur|abb|kuka|fanuc
+//! out = "compensated.csv"
+//! ```
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::compensate::{
+    goal_in_file_units, Compensator, Configuration, Options, Solved, TargetSearch,
+};
+use crate::error::{Error, Location, Result, Setting};
+use crate::files::controller::{joint_field, urscript_begin, urscript_end, urscript_move, Brand};
+use crate::files::stream::{cell, payload_at, payload_columns, Rows};
+use crate::files::COMPENSATED_COLUMNS;
+use crate::identifiability::fmt_sig;
+use crate::robot::Robot;
+use crate::units::Quantity;
+
+use super::common::{invalid, is_default, robot_as, visit_opt, LengthAngle};
+use super::{Document, Done, Env, JobKind, Message, PathRole, Spec, Status};
+
+/// What a compensation writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum ProgramFormat {
+    /// The readings with each row's remaining errors and flags.
+    #[default]
+    Table,
+    /// A URScript program: one movej per row.
+    Urscript,
+    /// Joint targets in UR's convention (rad).
+    JointsUr,
+    /// Joint targets in ABB's convention (deg).
+    JointsAbb,
+    /// Joint targets in KUKA's convention (deg).
+    JointsKuka,
+    /// Joint targets in FANUC's convention (deg).
+    JointsFanuc,
+}
+
+impl ProgramFormat {
+    /// The controller brand whose joint convention the format uses (none for the table).
+    fn brand(self) -> Option<Brand> {
+        match self {
+            ProgramFormat::Table => None,
+            ProgramFormat::Urscript | ProgramFormat::JointsUr => Some(Brand::Ur),
+            ProgramFormat::JointsAbb => Some(Brand::Abb),
+            ProgramFormat::JointsKuka => Some(Brand::Kuka),
+            ProgramFormat::JointsFanuc => Some(Brand::Fanuc),
+        }
+    }
+}
+
+/// A compensation. See the [module documentation](self).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CompensateSpec {
+    /// The calibrated robot: how the robot really moves.
+    pub robot: String,
+    /// The nominal robot the controller uses (and the program was made with).
+    pub nominal: String,
+    /// The program (`posture,v1..vn`) or the targets (`target,x,y,z[,alpha,beta,gamma]...`;
+    /// `-` for standard input).
+    #[serde(rename = "in")]
+    pub input: String,
+    /// The frame that must reach the goal: `ee` (default) or a site.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub site: Option<String>,
+    /// Reach the positions only.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub position_only: bool,
+    /// Largest acceptable remaining error (robot file's units; default 1 um and 1 urad).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub tolerance: LengthAngle,
+    /// Flag solutions whose weighted reading Jacobian has a smallest singular value below this
+    /// fraction of its largest (default 1e-3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub singular: Option<f64>,
+    /// Flag a revolute joint that turns more than this from the seed (robot file's angle unit;
+    /// default 0.5 rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub branch: Option<f64>,
+    /// The configuration Cartesian targets must be in ([`Configuration::parse`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub configuration: Option<String>,
+    /// What to write (default `table`).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub format: ProgramFormat,
+    /// The file to write (`-` for standard output).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub out: Option<String>,
+}
+
+impl Spec for CompensateSpec {
+    const KIND: JobKind = JobKind::Compensate;
+
+    fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+        f(PathRole::Robot, &mut self.robot);
+        f(PathRole::Robot, &mut self.nominal);
+        f(PathRole::Input, &mut self.input);
+        visit_opt(f, PathRole::Output, &mut self.out);
+    }
+}
+
+/// The counts of a compensation's rows and flags (the document), in the robot file's units.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct CompensationSummary {
+    /// Rows compensated.
+    pub rows: usize,
+    /// Rows with a flag.
+    pub flagged: usize,
+    /// Rows out of reach.
+    pub unreachable: usize,
+    /// Rows outside a joint range.
+    pub out_of_range: usize,
+    /// Rows near a singularity.
+    pub singular: usize,
+    /// Rows that change configuration.
+    pub branch: usize,
+    /// Rows not in the configuration asked for (with one).
+    pub configuration: Option<usize>,
+    /// The largest remaining position error.
+    pub worst_position: f64,
+    /// The largest remaining attitude error.
+    pub worst_attitude: f64,
+    /// The robot file's length unit.
+    pub length_unit: String,
+    /// Its angle unit.
+    pub angle_unit: String,
+    /// The first flagged row's label and flags.
+    pub first_flagged: Option<(String, String)>,
+    /// Whether the output was written (a controller program is not when a row is flagged).
+    pub written: bool,
+}
+
+impl CompensationSummary {
+    fn add(&mut self, s: &Solved, label: &str) {
+        self.rows += 1;
+        let f = &s.flags;
+        if f.any() {
+            if self.flagged == 0 {
+                self.first_flagged = Some((label.to_string(), f.describe()));
+            }
+            self.flagged += 1;
+        }
+        if let Some(c) = &mut self.configuration {
+            *c += f.configuration as usize;
+        }
+        self.unreachable += f.unreachable as usize;
+        self.out_of_range += (f.out_of_range != 0) as usize;
+        self.singular += f.singular as usize;
+        self.branch += f.branch as usize;
+        self.worst_position = self.worst_position.max(s.position_error);
+        self.worst_attitude = self.worst_attitude.max(s.attitude_error.unwrap_or(0.0));
+    }
+
+    /// `12 rows: 0 flagged (...); largest remaining error 3.1e-7 mm`.
+    pub fn sentence(&self) -> String {
+        format!(
+            "{} rows: {} flagged ({} unreachable, {} outside a joint range, {} near a \
+             singularity, {} changing configuration{}); largest remaining error {} {}{}",
+            self.rows,
+            self.flagged,
+            self.unreachable,
+            self.out_of_range,
+            self.singular,
+            self.branch,
+            self.configuration
+                .map(|c| format!(", {c} not in the configuration"))
+                .unwrap_or_default(),
+            fmt_sig(self.worst_position),
+            self.length_unit,
+            if self.worst_attitude > 0.0 {
+                format!(", {} {}", fmt_sig(self.worst_attitude), self.angle_unit)
+            } else {
+                String::new()
+            }
+        )
+    }
+}
+
+/// A finished compensation.
+#[derive(Debug)]
+pub struct CompensateOutcome {
+    /// The document.
+    pub summary: CompensationSummary,
+}
+
+/// Columns of a measurement file that do not say where to go (read past when one is the
+/// targets).
+const MEASUREMENT_EXTRAS: [&str; 6] = [
+    "sigma_position",
+    "sigma_angle",
+    "sigma_x",
+    "sigma_y",
+    "sigma_z",
+    "session",
+];
+
+/// What the input file holds.
+enum Kind {
+    /// `posture,v1..vn`.
+    Program { readings: Vec<usize> },
+    /// `target[,site],x,y,z[,alpha,beta,gamma][,v1..vn]`, or a measurement file
+    /// (`posture[,site],v1..vn,x,y,z[,alpha,beta,gamma]`, its standard deviations and session
+    /// ignored).
+    Targets {
+        label: usize,
+        /// A measurement file: its goal columns are written back with the solution (so that
+        /// the output is a measurement file of where the robot must be).
+        goal: Option<Vec<usize>>,
+        site: Option<usize>,
+        xyz: [usize; 3],
+        euler: Option<[usize; 3]>,
+        seed: Option<Vec<usize>>,
+    },
+}
+
+/// An error in the header of `rows`.
+fn header_error(rows: &Rows, message: impl Into<String>) -> Error {
+    Error::input(Location::file(&rows.file).at_line(1), message)
+}
+
+/// Tells the layout from the header.
+fn kind(rows: &Rows, robot: &Robot) -> Result<Kind> {
+    let dof = robot.dof();
+    // `vK`, or the joint's name (a tree's, a URDF's).
+    let columns: Vec<String> = (0..dof)
+        .map(|j| crate::files::reading_column(robot, &rows.header, j))
+        .collect();
+    let readings: Option<Vec<usize>> = columns.iter().map(|c| rows.column(c)).collect();
+    let reading = |h: &str| columns.iter().any(|c| c.eq_ignore_ascii_case(h));
+    let known = |extra: &[&str]| {
+        rows.header
+            .iter()
+            .find(|h| !(extra.contains(&h.as_str()) || reading(h)))
+            .cloned()
+    };
+    let label = rows.column("target").or_else(|| rows.column("posture"));
+    if let (Some(label), true) = (
+        label,
+        rows.column("x").is_some() || rows.column("target").is_some(),
+    ) {
+        let (Some(x), Some(y), Some(z)) = (rows.column("x"), rows.column("y"), rows.column("z"))
+        else {
+            return Err(header_error(
+                rows,
+                format!(
+                    "a targets file needs the columns target,x,y,z (and optionally site, \
+                     alpha,beta,gamma and seed readings v1..v{dof})"
+                ),
+            ));
+        };
+        let euler = match (
+            rows.column("alpha"),
+            rows.column("beta"),
+            rows.column("gamma"),
+        ) {
+            (Some(a), Some(b), Some(g)) => Some([a, b, g]),
+            (None, None, None) => None,
+            _ => return Err(header_error(rows, "give all of alpha,beta,gamma or none")),
+        };
+        let measured = rows.header[label] == "posture";
+        if measured && readings.is_none() {
+            return Err(header_error(
+                rows,
+                format!("a measurement file as targets needs its readings v1..v{dof} (the seeds)"),
+            ));
+        }
+        let ignored: &[&str] = if measured { &MEASUREMENT_EXTRAS } else { &[] };
+        let mut allowed = vec![
+            "target", "posture", "site", "x", "y", "z", "alpha", "beta", "gamma",
+        ];
+        allowed.extend(ignored);
+        allowed.extend(crate::files::PAYLOAD_COLUMNS);
+        if let Some(h) = known(&allowed) {
+            return Err(header_error(
+                rows,
+                format!("unexpected column `{h}` in a targets file"),
+            ));
+        }
+        let any_v = rows.header.iter().any(|h| h.starts_with('v'));
+        if any_v && readings.is_none() {
+            return Err(header_error(
+                rows,
+                format!("seed readings need every column v1..v{dof}"),
+            ));
+        }
+        let goal = measured.then(|| {
+            ["x", "y", "z", "alpha", "beta", "gamma"]
+                .iter()
+                .filter_map(|c| rows.column(c))
+                .collect()
+        });
+        return Ok(Kind::Targets {
+            label,
+            goal,
+            site: rows.column("site"),
+            xyz: [x, y, z],
+            euler,
+            seed: readings,
+        });
+    }
+    match (rows.column("posture"), readings) {
+        (Some(_), Some(readings)) => {
+            let mut allowed = vec!["posture"];
+            allowed.extend(crate::files::PAYLOAD_COLUMNS);
+            if let Some(h) = known(&allowed) {
+                return Err(header_error(
+                    rows,
+                    format!("unexpected column `{h}` in a program (posture,v1..v{dof})"),
+                ));
+            }
+            Ok(Kind::Program { readings })
+        }
+        _ => Err(header_error(
+            rows,
+            format!(
+                "expected a program (posture,v1,...,v{dof}) or targets (target,x,y,z[,alpha,\
+                 beta,gamma][,v1..v{dof}]), found `{}`",
+                rows.header.join(",")
+            ),
+        )),
+    }
+}
+
+/// A write error of the output `path`.
+fn write_error(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::Io {
+        path: path.display().to_string(),
+        cause: std::io::Error::other(e.to_string()),
+    }
+}
+
+/// Where the rows go: a CSV table or a program's text.
+enum Sink<W: std::io::Write> {
+    Csv(Box<csv::Writer<W>>),
+    Text(W),
+}
+
+impl<W: std::io::Write> Sink<W> {
+    fn record(&mut self, fields: &[String]) -> std::io::Result<()> {
+        match self {
+            Sink::Csv(w) => w.write_record(fields).map_err(std::io::Error::other),
+            Sink::Text(_) => unreachable!("a program is text"),
+        }
+    }
+
+    fn text(&mut self, text: &str) -> std::io::Result<()> {
+        match self {
+            Sink::Text(w) => w.write_all(text.as_bytes()),
+            Sink::Csv(_) => unreachable!("a table is CSV"),
+        }
+    }
+
+    fn finish(self) -> std::io::Result<()> {
+        let mut inner = match self {
+            Sink::Csv(w) => w
+                .into_inner()
+                .map_err(|e| std::io::Error::other(e.to_string()))?,
+            Sink::Text(w) => w,
+        };
+        inner.flush()
+    }
+}
+
+/// How the rows are written.
+struct Writer<'r> {
+    format: ProgramFormat,
+    robot: &'r Robot,
+    source: String,
+    brand: Option<Brand>,
+    joints: Vec<f64>,
+}
+
+impl<'r> Writer<'r> {
+    fn new(format: ProgramFormat, robot: &'r Robot, input: &str) -> Result<Self> {
+        let brand = format.brand();
+        if let Some(b) = brand {
+            b.columns(robot)?;
+        }
+        Ok(Writer {
+            format,
+            robot,
+            source: input.to_string(),
+            brand,
+            joints: vec![0.0; robot.dof()],
+        })
+    }
+
+    fn sink<W: std::io::Write>(&self, w: W) -> Sink<W> {
+        if self.format == ProgramFormat::Urscript {
+            Sink::Text(w)
+        } else {
+            Sink::Csv(Box::new(csv::Writer::from_writer(w)))
+        }
+    }
+
+    fn is_controller(&self) -> bool {
+        self.format != ProgramFormat::Table
+    }
+
+    fn begin<W: std::io::Write>(
+        &self,
+        w: &mut Sink<W>,
+        first: &str,
+        site: bool,
+        goal: &[String],
+    ) -> Result<std::io::Result<()>> {
+        let dof = self.robot.dof();
+        let mut header = vec![first.to_string()];
+        match (self.format, self.brand) {
+            (ProgramFormat::Table, _) => {
+                if site {
+                    header.push("site".into());
+                }
+                header.extend((1..=dof).map(|j| format!("v{j}")));
+                header.extend(goal.iter().cloned());
+                header.extend(COMPENSATED_COLUMNS.map(String::from));
+            }
+            (ProgramFormat::Urscript, _) => {
+                return Ok(w.text(&urscript_begin(self.robot, &self.source)));
+            }
+            (_, Some(brand)) => {
+                if site {
+                    header.push("site".into());
+                }
+                header.extend(brand.columns(self.robot)?);
+            }
+            (_, None) => unreachable!("every controller format has a brand"),
+        }
+        Ok(w.record(&header))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn row<W: std::io::Write>(
+        &mut self,
+        w: &mut Sink<W>,
+        fields: &mut Vec<String>,
+        label: &str,
+        site: Option<String>,
+        out: &[f64],
+        goal: &[String],
+        solved: &Solved,
+    ) -> std::io::Result<()> {
+        let units = self.robot.units;
+        fields.clear();
+        fields.push(label.to_string());
+        match (self.format, self.brand) {
+            (ProgramFormat::Table, _) => {
+                fields.extend(site);
+                fields.extend(out.iter().map(|v| v.to_string()));
+                fields.extend(goal.iter().cloned());
+                fields.push(format!(
+                    "{:.6e}",
+                    units.from_si(Quantity::Length, solved.position_error)
+                ));
+                fields.push(solved.attitude_error.map_or(String::new(), |e| {
+                    format!("{:.6e}", units.from_si(Quantity::Angle, e))
+                }));
+                fields.push(solved.iterations.to_string());
+                fields.push(solved.flags.describe());
+            }
+            (ProgramFormat::Urscript, _) => {
+                Brand::Ur.values(self.robot, out, &mut self.joints);
+                let text = match site {
+                    Some(s) => format!("{label} ({s})"),
+                    None => label.to_string(),
+                };
+                return w.text(&urscript_move(&text, &self.joints));
+            }
+            (_, Some(brand)) => {
+                brand.values(self.robot, out, &mut self.joints);
+                fields.extend(site);
+                fields.extend(self.joints.iter().map(|&v| joint_field(v)));
+            }
+            (_, None) => unreachable!("every controller format has a brand"),
+        }
+        w.record(fields)
+    }
+
+    fn end<W: std::io::Write>(&self, w: &mut Sink<W>) -> std::io::Result<()> {
+        if self.format == ProgramFormat::Urscript {
+            w.text(urscript_end())?;
+        }
+        Ok(())
+    }
+}
+
+impl CompensateSpec {
+    /// The solver options of the spec for `nominal` (file units converted): the one
+    /// translation, for files and for Python's arrays.
+    pub fn options(&self, nominal: &Robot) -> Result<Options> {
+        let mut options = Options::default();
+        self.tolerance.check(Setting::Tolerance, true)?;
+        let (l, a) = self.tolerance.si(nominal);
+        if let Some(l) = l {
+            options.position_tolerance = l;
+        }
+        if let Some(a) = a {
+            options.attitude_tolerance = a;
+        }
+        if let Some(s) = self.singular {
+            if !(s >= 0.0 && s < 1.0) {
+                return Err(invalid(
+                    Setting::Singular,
+                    format!("expected a fraction from 0 to below 1, not {s}"),
+                ));
+            }
+            options.singular = s;
+        }
+        if let Some(b) = self.branch {
+            if !(b.is_finite() && b > 0.0) {
+                return Err(invalid(
+                    Setting::Branch,
+                    format!("expected a positive angle, not {b}"),
+                ));
+            }
+            options.branch = nominal.units.to_si(Quantity::Angle, b);
+        }
+        Ok(options)
+    }
+
+    /// The configuration Cartesian targets must be in, when the spec gives one.
+    pub fn configuration(&self) -> Result<Option<Configuration>> {
+        self.configuration
+            .as_deref()
+            .map(Configuration::parse)
+            .transpose()
+    }
+
+    /// Reads the robots and the input, compensates row by row and writes the output.
+    pub(crate) fn run(&self, env: &mut Env<'_>) -> Result<Done> {
+        let (calibrated, _) = robot_as(&self.robot, Setting::Robot)?;
+        let (nominal, _) = robot_as(&self.nominal, Setting::NominalRobot)?;
+        let out = self
+            .out
+            .as_deref()
+            .ok_or_else(|| invalid(Setting::Output, "no output file given"))?;
+        let options = self.options(&nominal)?;
+        let default_target = crate::files::site_target(&nominal, self.site.as_deref().unwrap_or("ee"))
+            .map_err(|m| invalid(Setting::Site, m))?;
+        let mut comp = Compensator::new(&calibrated, &nominal, options).map_err(|e| {
+            invalid(
+                Setting::NominalRobot,
+                format!("robot {} and nominal {}: {e}", self.robot, self.nominal),
+            )
+        })?;
+        let dof = nominal.dof();
+        if self.input.is_empty() {
+            return Err(invalid(Setting::Input, "no program or targets given"));
+        }
+        let mut rows = Rows::open(Path::new(&self.input))?;
+        let kind = kind(&rows, &nominal)?;
+        // What the tool carries at each row: the elastic robot yields to it, and the output
+        // keeps the columns so that `fk` and `check` see the same load.
+        let payload_cols = payload_columns(&rows)?;
+        let mut search = TargetSearch::new(&calibrated, &nominal, options)
+            .map_err(|e| invalid(Setting::Robot, format!("{}: {e}", self.robot)))?;
+        if let Some(c) = self.configuration()? {
+            if matches!(kind, Kind::Program { .. }) {
+                return Err(invalid(
+                    Setting::Configuration,
+                    "the configuration is for Cartesian targets; a program's readings keep their \
+                     own",
+                ));
+            }
+            search = search.with_configuration(c)?;
+        }
+        let mut writer = Writer::new(self.format, &nominal, &self.input)?;
+        let units = nominal.units;
+        let mut tally = CompensationSummary {
+            length_unit: units.length.to_string(),
+            angle_unit: units.angle.to_string(),
+            configuration: search.configuration().map(|_| 0),
+            ..CompensationSummary::default()
+        };
+        env.progress.say("compensating");
+        let mut staged = crate::files::output::Staged::new();
+        staged.by_path(Path::new(out), |tmp| -> Result<()> {
+            let file = std::io::BufWriter::new(
+                std::fs::File::create(tmp).map_err(|e| write_error(Path::new(out), e))?,
+            );
+            let mut w = writer.sink(file);
+            let (first, site_column, mut goal_columns) = match &kind {
+                Kind::Program { .. } => ("posture", false, Vec::new()),
+                Kind::Targets {
+                    label, site, goal, ..
+                } => (
+                    rows.header[*label].as_str(),
+                    site.is_some(),
+                    goal.iter()
+                        .flatten()
+                        .map(|&c| rows.header[c].clone())
+                        .collect::<Vec<_>>(),
+                ),
+            };
+            goal_columns.extend(
+                payload_cols
+                    .iter()
+                    .flatten()
+                    .map(|&c| rows.header[c].clone()),
+            );
+            let first = first.to_string();
+            writer
+                .begin(&mut w, &first, site_column, &goal_columns)?
+                .map_err(|e| write_error(Path::new(out), e))?;
+            let mut goal_fields: Vec<String> = Vec::new();
+            let mut solution = vec![0.0; dof];
+            let mut seed = vec![0.0; dof];
+            let mut fields: Vec<String> = Vec::with_capacity(dof + 6);
+            while let Some(line) = rows.advance()? {
+                let payload = payload_at(&rows, line, &payload_cols, &units)?;
+                comp.set_payload(payload);
+                search.set_payload(payload);
+                goal_fields.clear();
+                let (label, site, solved) = match &kind {
+                    Kind::Program { readings } => {
+                        for (s, &c) in seed.iter_mut().zip(readings) {
+                            *s = cell(&rows, line, c)?;
+                        }
+                        let col = rows.column("posture").expect("checked");
+                        (
+                            rows.field(col).to_string(),
+                            None,
+                            comp.program(&seed, default_target, self.position_only, &mut solution),
+                        )
+                    }
+                    Kind::Targets {
+                        label,
+                        goal: goal_cols,
+                        site,
+                        xyz,
+                        euler,
+                        seed: cols,
+                    } => {
+                        let target = match site {
+                            Some(c) => crate::files::site_target(&nominal, rows.field(*c))
+                                .map_err(|m| {
+                                    Error::input(
+                                        Location::file(&rows.file)
+                                            .at_line(line as usize)
+                                            .with_field("site"),
+                                        m,
+                                    )
+                                })?,
+                            None => default_target,
+                        };
+                        let mut v = [0.0; 3];
+                        for (k, &c) in xyz.iter().enumerate() {
+                            v[k] = cell(&rows, line, c)?;
+                        }
+                        // A measurement file's position rows leave the three angles empty;
+                        // with `position_only` the attitudes are not goals.
+                        let euler = match euler.filter(|e| {
+                            !self.position_only && e.iter().any(|&c| !rows.field(c).is_empty())
+                        }) {
+                            Some(e) => {
+                                let mut r = [0.0; 3];
+                                for (k, &c) in e.iter().enumerate() {
+                                    r[k] = cell(&rows, line, c)?;
+                                }
+                                Some(r)
+                            }
+                            None => None,
+                        };
+                        let goal = goal_in_file_units(&nominal, v, euler).map_err(|p| {
+                            super::predict::goal_error(
+                                &p,
+                                &rows.file,
+                                line,
+                                &format!("target {}", rows.field(*label)),
+                            )
+                        })?;
+                        let given = match cols {
+                            Some(cols) => {
+                                for (s, &c) in seed.iter_mut().zip(cols) {
+                                    *s = cell(&rows, line, c)?;
+                                }
+                                Some(seed.as_slice())
+                            }
+                            None => None,
+                        };
+                        let s = search.solve(&goal, target, given, &mut solution);
+                        goal_fields.extend(
+                            goal_cols
+                                .iter()
+                                .flatten()
+                                .map(|&c| rows.field(c).to_string()),
+                        );
+                        (
+                            rows.field(*label).to_string(),
+                            site.map(|c| rows.field(c).to_string()),
+                            s,
+                        )
+                    }
+                };
+                goal_fields.extend(
+                    payload_cols
+                        .iter()
+                        .flatten()
+                        .map(|&c| rows.field(c).to_string()),
+                );
+                tally.add(&solved, &label);
+                writer
+                    .row(&mut w, &mut fields, &label, site, &solution, &goal_fields, &solved)
+                    .map_err(|e| write_error(Path::new(out), e))?;
+            }
+            writer
+                .end(&mut w)
+                .and_then(|()| w.finish())
+                .map_err(|e| write_error(Path::new(out), e))
+        })?;
+        if tally.rows == 0 {
+            return Err(Error::input(Location::file(&rows.file), "no rows"));
+        }
+        tally.worst_position = units.from_si(Quantity::Length, tally.worst_position);
+        tally.worst_attitude = units.from_si(Quantity::Angle, tally.worst_attitude);
+        let summary = tally.sentence();
+        let mut messages = Vec::new();
+        let status = if writer.is_controller() && tally.flagged > 0 {
+            // A controller program with a row left out or wrong moves the robot somewhere else.
+            drop(staged);
+            let (label, flags) = tally.first_flagged.clone().unwrap_or_default();
+            messages.push(Message::Caution(format!(
+                "compensated {summary}\nnothing written to {out}: a controller program needs \
+                 every row usable (first flagged: {} {label}: {flags}); format table writes \
+                 every row with its flags",
+                if matches!(kind, Kind::Program { .. }) {
+                    "posture"
+                } else {
+                    "target"
+                },
+            )));
+            Status::Flagged
+        } else {
+            staged.commit()?;
+            tally.written = true;
+            messages.push(Message::Note(format!("compensated {summary} into {out}")));
+            if tally.flagged > 0 {
+                Status::Flagged
+            } else {
+                Status::Ok
+            }
+        };
+        Ok(Done {
+            document: Document::Compensation(Box::new(CompensateOutcome { summary: tally })),
+            messages,
+            status,
+            pending: None,
+        })
+    }
+}

@@ -1,0 +1,488 @@
+//! `export` (a calibrated robot into the form a controller or a tool reads: URDF, UR kinematics,
+//! DH table, joint table, stiffness table; every export read back and compared before it is
+//! written) and `import` (a robot file from URDF, DH, product of exponentials or UR kinematics).
+//!
+//! ```toml
+//! job = "export"
+//! format = "urdf"
+//! robot = "calibrated.toml"
+//! template = "ur5_robot.urdf"
+//! out = "ur5_calibrated.urdf"
+//! ```
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Location, Result, Setting};
+use crate::import::dh::Convention;
+use crate::import::readback::Tolerance;
+use crate::report::CalibrationReport;
+use crate::robot::Robot;
+
+use super::common::{invalid, is_default, read_source, robot_as, visit_opt, LengthAngle};
+use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
+
+/// What an export writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum ExportFormat {
+    /// The calibrated robot written into the URDF it was imported from.
+    #[default]
+    Urdf,
+    /// A Universal Robots kinematics file for the ROS driver.
+    Ur,
+    /// A Denavit-Hartenberg table.
+    Dh,
+    /// The joint offsets and slopes, for controllers that take only those.
+    Joints,
+    /// The joint compliances and stiffnesses of an elastic robot's calibration report.
+    Stiffness,
+}
+
+impl ExportFormat {
+    /// The name in a spec.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ExportFormat::Urdf => "urdf",
+            ExportFormat::Ur => "ur",
+            ExportFormat::Dh => "dh",
+            ExportFormat::Joints => "joints",
+            ExportFormat::Stiffness => "stiffness",
+        }
+    }
+}
+
+/// An export. Which keys a format takes: `urdf`: robot, template, base, tip; `ur`: robot,
+/// template; `dh`: robot, convention, length_unit, angle_unit; `joints`: robot, nominal;
+/// `stiffness`: report. All but stiffness take a tolerance.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExportSpec {
+    /// What to write.
+    pub format: ExportFormat,
+    /// The calibrated robot.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot: Option<String>,
+    /// The file the robot was imported from (URDF, UR kinematics).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub template: Option<String>,
+    /// The first link of the chain, as at import (URDF).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base: Option<String>,
+    /// The last link of the chain, as at import (each tip of a tree, in the import's order).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tip: Vec<String>,
+    /// The nominal robot (joint table: what the controller uses).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nominal: Option<String>,
+    /// The DH convention.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub convention: Option<Convention>,
+    /// The DH table's length unit (default: the robot file's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length_unit: Option<String>,
+    /// The DH table's angle unit (default: the robot file's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle_unit: Option<String>,
+    /// How far the export, read back, may miss the robot at the tool over the joint ranges
+    /// (robot file's units; default a millionth of the reach and 1e-9 rad).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub tolerance: LengthAngle,
+    /// The calibration report of an elastic robot (stiffness).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub report: Option<String>,
+    /// The file to write.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub out: Option<String>,
+}
+
+impl Spec for ExportSpec {
+    const KIND: JobKind = JobKind::Export;
+
+    fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+        visit_opt(f, PathRole::Robot, &mut self.robot);
+        visit_opt(f, PathRole::Input, &mut self.template);
+        visit_opt(f, PathRole::Robot, &mut self.nominal);
+        visit_opt(f, PathRole::Input, &mut self.report);
+        visit_opt(f, PathRole::Output, &mut self.out);
+    }
+}
+
+/// What an import reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum ImportFormat {
+    /// A URDF file (plain URDF; expand xacro first).
+    #[default]
+    Urdf,
+    /// A Denavit-Hartenberg table (`kind,a,alpha,d,theta[,beta]`).
+    Dh,
+    /// A product-of-exponentials file (TOML).
+    Poe,
+    /// A Universal Robots kinematics file (the ROS driver's calibration YAML).
+    Ur,
+}
+
+/// An import. `urdf` takes base, tip and masses; `dh` takes convention, units and name.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImportSpec {
+    /// What the file is.
+    pub format: ImportFormat,
+    /// The file.
+    pub file: String,
+    /// The first link of the chain (URDF; default the root link).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base: Option<String>,
+    /// The last link of the chain (URDF; default the only leaf); several make a tree.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tip: Vec<String>,
+    /// Take the links' `<inertial>` masses as the robot's mass model (URDF).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub masses: bool,
+    /// The DH convention, when the table does not state it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub convention: Option<Convention>,
+    /// The DH table's length unit, when it does not state it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length_unit: Option<String>,
+    /// The DH table's angle unit, when it does not state it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle_unit: Option<String>,
+    /// The robot's name (DH).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// The robot file to write.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub out: Option<String>,
+}
+
+impl Spec for ImportSpec {
+    const KIND: JobKind = JobKind::Import;
+
+    fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+        f(PathRole::Input, &mut self.file);
+        visit_opt(f, PathRole::Output, &mut self.out);
+    }
+}
+
+/// The document of an export or an import.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ExportOutcome {
+    /// The read-back line (`read back: largest deviation ... over N postures`).
+    pub read_back: Option<String>,
+    /// What the export cannot hold, each with its deviation.
+    pub lost: Vec<String>,
+    /// What a user must know or do (left out frames, the TCP to enter, units).
+    pub notes: Vec<String>,
+    /// The tool correction to enter on the controller (UR).
+    pub tcp: Option<String>,
+    /// The text written.
+    pub text: String,
+}
+
+/// A unit named by `setting`.
+fn unit<U: std::str::FromStr<Err = String>>(u: Option<&str>, setting: Setting) -> Result<Option<U>> {
+    u.map(str::parse)
+        .transpose()
+        .map_err(|m: String| invalid(setting, m))
+}
+
+/// The tolerance of an export of `robot`: the spec's over the default.
+fn tolerance(t: &LengthAngle, robot: &Robot) -> Result<Tolerance> {
+    t.check(Setting::Tolerance, false)?;
+    let mut out = Tolerance::default_for(robot);
+    let (l, a) = t.si(robot);
+    if let Some(l) = l {
+        out.position = l;
+    }
+    if let Some(a) = a {
+        out.attitude = a;
+    }
+    Ok(out)
+}
+
+impl ExportSpec {
+    /// Refuses keys the format does not take.
+    fn check_keys(&self) -> Result<()> {
+        let f = self.format;
+        let takes = |formats: &[ExportFormat]| formats.contains(&f);
+        use ExportFormat::*;
+        for (key, given, formats) in [
+            ("robot", self.robot.is_some(), &[Urdf, Ur, Dh, Joints][..]),
+            ("template", self.template.is_some(), &[Urdf, Ur]),
+            ("base", self.base.is_some(), &[Urdf]),
+            ("tip", !self.tip.is_empty(), &[Urdf]),
+            ("nominal", self.nominal.is_some(), &[Joints]),
+            ("convention", self.convention.is_some(), &[Dh]),
+            ("length_unit", self.length_unit.is_some(), &[Dh]),
+            ("angle_unit", self.angle_unit.is_some(), &[Dh]),
+            ("tolerance", !is_default(&self.tolerance), &[Urdf, Ur, Dh, Joints]),
+            ("report", self.report.is_some(), &[Stiffness]),
+        ] {
+            if given && !takes(formats) {
+                return Err(invalid(
+                    Setting::OutputFormat,
+                    format!("a {} export takes no {key}", f.as_str()),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// A required key of the format.
+    fn needs<'a>(&self, v: &'a Option<String>, setting: Setting, what: &str) -> Result<&'a str> {
+        v.as_deref().ok_or_else(|| {
+            invalid(
+                setting,
+                format!("a {} export needs {what}", self.format.as_str()),
+            )
+        })
+    }
+
+    /// The exported text and what the export says.
+    pub fn export(&self) -> Result<ExportOutcome> {
+        self.check_keys()?;
+        let mut out = ExportOutcome {
+            read_back: None,
+            lost: Vec::new(),
+            notes: Vec::new(),
+            tcp: None,
+            text: String::new(),
+        };
+        if self.format == ExportFormat::Stiffness {
+            let path = self.needs(&self.report, Setting::Report, "a calibration report")?;
+            let s = read_source(path, Setting::Report)?;
+            let report = CalibrationReport::from_json(&s.text).map_err(|e| {
+                Error::input(
+                    Location::file(&s.name),
+                    format!("not a kinecal calibration report: {e}"),
+                )
+            })?;
+            let Some(elastic) = &report.elastic else {
+                return Err(Error::input(
+                    Location::file(&s.name),
+                    format!(
+                        "the calibrated robot `{}` has no mass model, so no compliances (add \
+                         [[bodies]] to its robot file, or import its URDF with masses)",
+                        report.robot
+                    ),
+                ));
+            };
+            out.text = elastic.table();
+            out.notes.push(format!(
+                "{} compliances ({} estimated)",
+                elastic.joints.len(),
+                elastic.joints.iter().filter(|j| j.estimated).count()
+            ));
+            return Ok(out);
+        }
+        let name = self.needs(&self.robot, Setting::Robot, "the calibrated robot")?;
+        let (robot, _) = robot_as(name, Setting::Robot)?;
+        let tol = tolerance(&self.tolerance, &robot)?;
+        let units = robot.units;
+        match self.format {
+            ExportFormat::Urdf => {
+                let t = read_source(
+                    self.needs(&self.template, Setting::Template, "the URDF it was imported from")?,
+                    Setting::Template,
+                )?;
+                let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
+                let e = crate::import::urdf::export_urdf(
+                    &robot,
+                    &t.text,
+                    &t.name,
+                    self.base.as_deref(),
+                    &tips,
+                )?;
+                e.check(&robot, &tol)?;
+                // A slope is said with its deviation, as what the URDF cannot hold.
+                out.notes.extend(
+                    e.warnings
+                        .iter()
+                        .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
+                        .map(|w| format!("warning: {w}")),
+                );
+                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+                out.read_back = Some(e.read_back.line(units));
+                out.text = e.text;
+            }
+            ExportFormat::Ur => {
+                let t = read_source(
+                    self.needs(&self.template, Setting::Template, "the kinematics file it was imported from")?,
+                    Setting::Template,
+                )?;
+                let e = crate::import::ur::export_ur(&robot, &t.text, &t.name)?;
+                e.check(&tol)?;
+                out.notes.extend(e.left_out());
+                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+                out.read_back = Some(e.read_back.line(units));
+                out.tcp = Some(e.tcp_line());
+                out.text = e.text;
+            }
+            ExportFormat::Dh => {
+                let convention = self.convention.ok_or_else(|| {
+                    invalid(Setting::Convention, "a dh export needs the convention")
+                })?;
+                let dh_units = crate::Units {
+                    length: unit(self.length_unit.as_deref(), Setting::LengthUnit)?
+                        .unwrap_or(units.length),
+                    angle: unit(self.angle_unit.as_deref(), Setting::AngleUnit)?
+                        .unwrap_or(units.angle),
+                };
+                let e = crate::import::dh::export_dh(&robot, convention, dh_units)?;
+                e.check(&robot, &tol)?;
+                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+                out.read_back = Some(e.read_back.line(units));
+                out.notes.extend(e.notes());
+                out.notes.push(format!(
+                    "the {} DH table ({}, {})",
+                    convention.as_str(),
+                    dh_units.length,
+                    dh_units.angle
+                ));
+                out.text = e.text;
+            }
+            ExportFormat::Joints => {
+                let n = self.needs(&self.nominal, Setting::NominalRobot, "the nominal robot")?;
+                let (nominal, _) = robot_as(n, Setting::NominalRobot)?;
+                let e = crate::import::joints::joint_table(&robot, &nominal)?;
+                e.check(&robot, &tol)?;
+                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+                out.read_back = Some(e.read_back.line(units));
+                out.text = e.text;
+            }
+            ExportFormat::Stiffness => unreachable!("handled above"),
+        }
+        Ok(out)
+    }
+
+    /// Exports and writes the file.
+    pub(crate) fn run(&self, _env: &mut Env<'_>) -> Result<Done> {
+        let out = self.export()?;
+        let mut messages: Vec<Message> = Vec::new();
+        let written = |path: &str| match self.format {
+            ExportFormat::Urdf => format!("wrote the calibrated URDF to {path}"),
+            ExportFormat::Ur => format!("wrote the calibrated kinematics to {path}"),
+            ExportFormat::Dh => format!("wrote {} to {path}", out.notes.last().map_or("", String::as_str)),
+            ExportFormat::Joints => format!("wrote the joint table to {path}"),
+            ExportFormat::Stiffness => format!("wrote {} to {path}", out.notes.last().map_or("", String::as_str)),
+        };
+        let shown_notes = match self.format {
+            // The last note names what is written.
+            ExportFormat::Dh | ExportFormat::Stiffness => &out.notes[..out.notes.len().saturating_sub(1)],
+            _ => &out.notes[..],
+        };
+        let (before, after): (Vec<&String>, Vec<&String>) = match self.format {
+            // UR: what is left out first; DH: its notes after the read-back.
+            ExportFormat::Ur | ExportFormat::Urdf => (shown_notes.iter().collect(), Vec::new()),
+            _ => (Vec::new(), shown_notes.iter().collect()),
+        };
+        messages.extend(before.into_iter().map(|n| Message::Note(n.clone())));
+        messages.extend(out.lost.iter().map(|l| Message::Note(l.clone())));
+        messages.extend(out.read_back.iter().map(|l| Message::Note(l.clone())));
+        messages.extend(after.into_iter().map(|n| Message::Note(n.clone())));
+        if let Some(p) = &self.out {
+            crate::files::output::write_file(Path::new(p), &out.text)?;
+            messages.push(Message::Note(written(p)));
+        }
+        Ok(Done {
+            document: Document::Export(out),
+            messages,
+            status: super::Status::Ok,
+            pending: None,
+        })
+    }
+}
+
+impl ImportSpec {
+    /// The robot the file describes, and what the import says.
+    pub fn import(&self) -> Result<(Robot, Vec<String>)> {
+        let s = read_source(&self.file, Setting::Input)?;
+        let urdf_only = self.base.is_some() || !self.tip.is_empty() || self.masses;
+        let dh_only = self.convention.is_some()
+            || self.length_unit.is_some()
+            || self.angle_unit.is_some()
+            || self.name.is_some();
+        if (urdf_only && self.format != ImportFormat::Urdf)
+            || (dh_only && self.format != ImportFormat::Dh)
+        {
+            return Err(invalid(
+                Setting::OutputFormat,
+                "base, tip and masses are for URDF files; convention, units and name for DH \
+                 tables",
+            ));
+        }
+        let mut notes = Vec::new();
+        let robot = match self.format {
+            ImportFormat::Ur => crate::import::ur::import_ur(&s.text, &s.name)?.robot,
+            ImportFormat::Poe => crate::import::poe::parse_poe_toml(&s.text, &s.name)?,
+            ImportFormat::Urdf => {
+                let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
+                let imp = crate::import::urdf::import_urdf_with(
+                    &s.text,
+                    &s.name,
+                    self.base.as_deref(),
+                    &tips,
+                    self.masses,
+                )?;
+                if let Some(e) = &imp.robot.elastic {
+                    notes.push(format!(
+                        "mass model: {} bodies, {} kg in all, gravity {} m/s^2 along -z",
+                        e.bodies.len(),
+                        // To the gram: the sum of the file's masses without float noise.
+                        crate::units::number::format_number(
+                            (e.bodies.iter().map(|b| b.mass).sum::<f64>() * 1e3).round() / 1e3
+                        ),
+                        crate::units::number::format_number(e.gravity.norm())
+                    ));
+                }
+                imp.robot
+            }
+            ImportFormat::Dh => crate::import::dh::import_dh(
+                &s.text,
+                &s.name,
+                self.name.as_deref().unwrap_or(""),
+                unit(self.length_unit.as_deref(), Setting::LengthUnit)?,
+                unit(self.angle_unit.as_deref(), Setting::AngleUnit)?,
+                self.convention,
+            )?,
+        };
+        Ok((robot, notes))
+    }
+
+    /// Imports and writes the robot file.
+    pub(crate) fn run(&self, _env: &mut Env<'_>) -> Result<Done> {
+        let (robot, notes) = self.import()?;
+        let text = crate::robot_file::write_robot_toml_checked(&robot, None)?;
+        let mut messages: Vec<Message> = notes.iter().cloned().map(Message::Note).collect();
+        if let Some(p) = &self.out {
+            crate::files::output::write_file(Path::new(p), &text)?;
+            messages.push(Message::Note(format!(
+                "wrote {} ({} joints, {} parameters) to {p}",
+                if robot.name.is_empty() {
+                    "the robot"
+                } else {
+                    &robot.name
+                },
+                robot.dof(),
+                robot.param_count(),
+            )));
+        }
+        Ok(Done {
+            document: Document::Export(ExportOutcome {
+                read_back: None,
+                lost: Vec::new(),
+                notes,
+                tcp: None,
+                text,
+            }),
+            messages,
+            status: super::Status::Ok,
+            pending: None,
+        })
+    }
+}

@@ -1,0 +1,421 @@
+//! `predict`: the predicted accuracy of a calibrated robot at postures or Cartesian targets,
+//! from its calibration report ([`crate::predict`]).
+//!
+//! ```toml
+//! job = "predict"
+//! robot = "calibrated.toml"
+//! report = "report.json"          # calibrated with `validation.predict = true`
+//! sample = 1000                   # or `postures = "p.csv"` or `targets = "t.csv"`
+//!
+//! [outputs]
+//! predictions = "predicted.csv"
+//! html = "map.html"
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::compensate::{goal_in_file_units, GoalProblem, Options, TargetSearch};
+use crate::error::{Error, Location, Result, Setting};
+use crate::files::stream::{cell, Rows};
+use crate::kinematics::Target;
+use crate::predict::{self, PredictionReport, Predictor};
+use crate::report::CalibrationReport;
+use crate::robot::Robot;
+use crate::units::Quantity;
+
+use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt};
+use super::{Document, Done, Env, JobKind, Message, Page, PathRole, Spec};
+
+/// The most postures a prediction samples.
+pub const MAX_SAMPLE: usize = 10_000_000;
+
+/// What a prediction writes (`[outputs]`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PredictOutputs {
+    /// The predictions (CSV: a row per posture; `-` for standard output).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predictions: Option<String>,
+    /// The accuracy map over the workspace (HTML).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub html: Option<String>,
+}
+
+/// A prediction. See the [module documentation](self).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PredictSpec {
+    /// The calibrated robot (the report's).
+    pub robot: String,
+    /// Its calibration report (JSON), with a prediction.
+    pub report: String,
+    /// Postures to predict at (`posture,v1..vn`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub postures: Option<String>,
+    /// Instead, this many postures sampled within the joint ranges.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample: Option<usize>,
+    /// Instead, Cartesian goals (`target,x,y,z[,alpha,beta,gamma]`, robot file units, global
+    /// frame), reached through the calibrated robot's inverse kinematics.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub targets: Option<String>,
+    /// The seed of the sample and of the map (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// The frame predicted: `ee` or a site (default: the report's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<String>,
+    /// What is written.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub outputs: PredictOutputs,
+}
+
+impl Spec for PredictSpec {
+    const KIND: JobKind = JobKind::Predict;
+
+    fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+        f(PathRole::Robot, &mut self.robot);
+        f(PathRole::Input, &mut self.report);
+        visit_opt(f, PathRole::Input, &mut self.postures);
+        visit_opt(f, PathRole::Input, &mut self.targets);
+        visit_opt(f, PathRole::Output, &mut self.outputs.predictions);
+        visit_opt(f, PathRole::Output, &mut self.outputs.html);
+    }
+}
+
+/// The median, 95th percentile and largest of the predicted 95 % position bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BoundSpread {
+    /// Median.
+    pub median: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+/// The document of a prediction: the predictions by column, in the robot file's units.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PredictionTable {
+    /// The calibrated robot's name.
+    pub robot: String,
+    /// The frame predicted.
+    pub target: String,
+    /// The robot file's length unit.
+    pub length_unit: String,
+    /// Its angle unit.
+    pub angle_unit: String,
+    /// The postures' labels.
+    pub postures: Vec<String>,
+    /// The spread of the 95 % position bound.
+    pub position_bound95: BoundSpread,
+    /// Every column of the CSV but `posture`, by its name (`v1`, ..., `x`, `y`, `z`,
+    /// `distance`, `position_bound95`, ...).
+    pub columns: BTreeMap<String, Vec<f64>>,
+}
+
+/// A finished prediction.
+#[derive(Debug)]
+pub struct PredictOutcome {
+    /// The document.
+    pub summary: PredictionTable,
+    /// The predictions as CSV (what `outputs.predictions` holds).
+    pub csv: String,
+}
+
+/// The calibrated robot `robot` (a file or built-in name), its calibration report `report` and
+/// the prediction it holds, checked to be that robot's, with the frame to predict (`target`, or
+/// the report's).
+pub fn calibrated(
+    robot: &str,
+    report: &str,
+    target: Option<&str>,
+) -> Result<(Robot, CalibrationReport, PredictionReport, String)> {
+    let (loaded, _) = robot_as(robot, Setting::Robot)?;
+    let source = read_source(report, Setting::Report)?;
+    let parsed = CalibrationReport::from_json(&source.text).map_err(|e| {
+        Error::input(
+            Location::file(&source.name),
+            format!("not a calibration report: {e}"),
+        )
+    })?;
+    let Some(pr) = parsed.prediction.clone() else {
+        return Err(Error::input(
+            Location::file(&source.name),
+            format!(
+                "the report has no prediction (its calibration was not asked for one, had fewer \
+                 than {} postures measured by position or pose, or its kinecal made none): \
+                 calibrate again with a prediction (--predict, predict=True)",
+                predict::MIN_POSTURES
+            ),
+        ));
+    };
+    parsed
+        .check_calibrated(&loaded, robot)
+        .map_err(|e| Error::input(Location::file(&source.name), e.to_string()))?;
+    let target = target.unwrap_or(&pr.target).to_string();
+    Ok((loaded, parsed, pr, target))
+}
+
+/// The error of a Cartesian goal whose numbers look like another unit's, at `place` (file and
+/// line).
+pub(crate) fn goal_error(p: &GoalProblem, file: &str, line: u64, target: &str) -> Error {
+    let at = Location::file(file).at_line(line as usize);
+    match p {
+        GoalProblem::Far(m) => Error::input(at, format!("{target} {m}")),
+        GoalProblem::Turn(m) => Error::input(at, m.clone()),
+    }
+}
+
+/// The readings that reach each Cartesian goal of `path` (`target,x,y,z[,alpha,beta,gamma]`,
+/// `robot`'s file units and global frame) through `robot`'s inverse kinematics, labelled by the
+/// goals' names. A goal out of reach or outside a joint range is an error naming its line.
+fn reach_targets(
+    robot: &Robot,
+    path: &str,
+    target: Target,
+    messages: &mut Vec<Message>,
+) -> Result<Vec<(String, Vec<f64>)>> {
+    let mut rows = Rows::open(Path::new(path))?;
+    let expected = "target,x,y,z[,alpha,beta,gamma]";
+    let col = |rows: &Rows, name: &str| {
+        rows.column(name).ok_or_else(|| {
+            Error::input(
+                Location::file(&rows.file).at_line(1),
+                format!("no column `{name}` in the header (expected {expected})"),
+            )
+        })
+    };
+    let label = col(&rows, "target")?;
+    let xyz = [col(&rows, "x")?, col(&rows, "y")?, col(&rows, "z")?];
+    let euler: Option<Vec<usize>> = ["alpha", "beta", "gamma"]
+        .iter()
+        .map(|n| rows.column(n))
+        .collect();
+    if let Some(h) = rows.header.iter().find(|h| {
+        !["target", "x", "y", "z", "alpha", "beta", "gamma"]
+            .iter()
+            .any(|k| h.eq_ignore_ascii_case(k))
+    }) {
+        return Err(Error::input(
+            Location::file(&rows.file).at_line(1),
+            format!("unknown column `{h}` (expected {expected})"),
+        ));
+    }
+    let u = robot.units;
+    let mut search = TargetSearch::new(robot, robot, Options::default())
+        .map_err(|e| Error::input(Location::file(path), e.to_string()))?;
+    let mut out = vec![0.0; robot.dof()];
+    let mut reached = Vec::new();
+    while let Some(line) = rows.advance()? {
+        let mut p = [0.0; 3];
+        for (k, &c) in xyz.iter().enumerate() {
+            p[k] = cell(&rows, line, c)?;
+        }
+        let euler = match &euler {
+            Some(e) if e.iter().any(|&c| !rows.field(c).is_empty()) => {
+                let mut r = [0.0; 3];
+                for (k, &c) in e.iter().enumerate() {
+                    r[k] = cell(&rows, line, c)?;
+                }
+                Some(r)
+            }
+            _ => None,
+        };
+        let name = rows.field(label).to_string();
+        let goal = goal_in_file_units(robot, p, euler)
+            .map_err(|p| goal_error(&p, &rows.file, line, &format!("target `{name}`")))?;
+        let s = search.solve(&goal, target, None, &mut out);
+        if s.flags.unreachable || s.flags.out_of_range != 0 {
+            return Err(Error::input(
+                Location::file(&rows.file).at_line(line as usize),
+                format!(
+                    "target `{name}`: the calibrated robot does not reach it ({}): is it in the \
+                     robot's global frame and length unit ({})?",
+                    s.flags.describe(),
+                    u.length
+                ),
+            ));
+        }
+        if s.flags.singular {
+            messages.push(Message::Caution(format!(
+                "{}:{line}: target `{name}` is reached near a singularity",
+                rows.file
+            )));
+        }
+        reached.push((name, out.clone()));
+    }
+    if reached.is_empty() {
+        return Err(Error::input(
+            Location::file(&rows.file),
+            "no targets: the file has a header but no rows",
+        ));
+    }
+    Ok(reached)
+}
+
+impl PredictSpec {
+    /// The predictor of `robot` from the prediction `pr` of its report, and the frame
+    /// `target` names: the one translation, for files and for Python's arrays.
+    pub fn predictor<'r>(
+        robot: &'r Robot,
+        pr: &PredictionReport,
+        target: &str,
+    ) -> Result<(Predictor<'r>, Target)> {
+        let predictor = predict::from_report(robot, pr)?;
+        let target =
+            crate::files::site_target(robot, target).map_err(|m| invalid(Setting::Target, m))?;
+        Ok((predictor, target))
+    }
+
+    /// The postures the spec names, labelled.
+    fn postures(
+        &self,
+        robot: &Robot,
+        target: Target,
+        messages: &mut Vec<Message>,
+    ) -> Result<Vec<(String, Vec<f64>)>> {
+        let given = [
+            self.postures.is_some(),
+            self.sample.is_some(),
+            self.targets.is_some(),
+        ];
+        if given.iter().filter(|g| **g).count() != 1 {
+            return Err(invalid(
+                Setting::Postures,
+                "give one of postures (a file), a sample size or targets (a file)",
+            ));
+        }
+        if let Some(path) = &self.postures {
+            let s = read_source(path, Setting::Postures)?;
+            return Ok(crate::files::parse_postures(&s.text, &s.name, robot)?
+                .into_iter()
+                .map(|p| (p.label, p.readings))
+                .collect());
+        }
+        if let Some(n) = self.sample {
+            let n = count(Setting::Sample, n, MAX_SAMPLE, "postures")?;
+            return Ok(predict::sample_readings(robot, n, self.seed.unwrap_or(1))
+                .chunks(robot.dof())
+                .enumerate()
+                .map(|(i, r)| ((i + 1).to_string(), r.to_vec()))
+                .collect());
+        }
+        let path = self.targets.as_deref().unwrap_or_default();
+        reach_targets(robot, path, target, messages)
+    }
+
+    /// Reads the files, predicts and writes the outputs.
+    pub(crate) fn run(&self, env: &mut Env<'_>) -> Result<Done> {
+        let (robot, report, pr, target_name) =
+            calibrated(&self.robot, &self.report, self.target.as_deref())?;
+        let (predictor, target) = PredictSpec::predictor(&robot, &pr, &target_name)?;
+        let mut messages = Vec::new();
+        let postures = self.postures(&robot, target, &mut messages)?;
+        env.progress.say(&format!("predicting {} postures", postures.len()));
+        let attitude = pr.attitude.is_some();
+        let header = predict::csv_header(&robot, attitude);
+        let mut csv = header.clone();
+        csv.push('\n');
+        let names: Vec<String> = header.split(',').skip(1).map(str::to_string).collect();
+        let mut columns: Vec<Vec<f64>> = names.iter().map(|_| Vec::with_capacity(postures.len())).collect();
+        let u = robot.units;
+        let (l, a) = (
+            |v: f64| u.from_si(Quantity::Length, v),
+            |v: f64| u.from_si(Quantity::Angle, v),
+        );
+        let mut s = predictor.scratch();
+        let mut bounds = Vec::with_capacity(postures.len());
+        for (label, readings) in &postures {
+            let p = predictor.predict(readings, target, &mut s);
+            bounds.push(l(p.position_error.bound));
+            predict::csv_row(&robot, label, readings, &p, &mut csv);
+            let b = p.position_error;
+            let mut values: Vec<f64> = readings.clone();
+            values.extend([
+                l(p.position.x),
+                l(p.position.y),
+                l(p.position.z),
+                l(p.distance),
+                l(b.parameters),
+                l(b.model),
+                l(b.bound),
+                l(b.parameters_bound),
+            ]);
+            if let Some(b) = p.attitude_error {
+                values.extend([
+                    a(b.parameters),
+                    a(b.model),
+                    a(b.bound),
+                    a(b.parameters_bound),
+                ]);
+            }
+            for (c, v) in columns.iter_mut().zip(values) {
+                c.push(v);
+            }
+        }
+        let mut staged = crate::files::output::Staged::new();
+        if let Some(path) = &self.outputs.predictions {
+            staged.text(Path::new(path), &csv)?;
+        }
+        if let Some(path) = &self.outputs.html {
+            let measured: Vec<&[f64]> = pr.measured.iter().map(Vec::as_slice).collect();
+            let map = predict::accuracy_map(
+                &predictor,
+                target,
+                &measured,
+                predict::MAP_SAMPLES,
+                self.seed.unwrap_or(1),
+            );
+            let mut with_map = pr.clone();
+            with_map.map = Some(map);
+            let page = env.draw(
+                Page::Prediction {
+                    prediction: &with_map,
+                    robot: &report.robot,
+                    length_unit: report.length_unit.as_str(),
+                    angle_unit: report.angle_unit.as_str(),
+                },
+                path,
+            )?;
+            staged.bytes(Path::new(path), &page)?;
+        }
+        staged.commit()?;
+        let mut sorted = bounds;
+        sorted.sort_by(f64::total_cmp);
+        let pick = |q: f64| {
+            let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+            sorted[rank - 1]
+        };
+        let summary = PredictionTable {
+            robot: report.robot.clone(),
+            target: target_name.clone(),
+            length_unit: u.length.to_string(),
+            angle_unit: u.angle.to_string(),
+            postures: postures.iter().map(|(l, _)| l.clone()).collect(),
+            position_bound95: BoundSpread {
+                median: pick(0.5),
+                p95: pick(0.95),
+                max: pick(1.0),
+            },
+            columns: names.into_iter().zip(columns).collect(),
+        };
+        for (path, what) in [
+            (&self.outputs.predictions, "the predictions"),
+            (&self.outputs.html, "the accuracy map"),
+        ] {
+            if let Some(p) = path.as_deref().filter(|p| *p != "-") {
+                messages.push(Message::Note(format!("wrote {what} to {p}")));
+            }
+        }
+        Ok(Done {
+            document: Document::Prediction(Box::new(PredictOutcome { summary, csv })),
+            messages,
+            status: super::Status::Ok,
+            pending: None,
+        })
+    }
+}

@@ -1,0 +1,403 @@
+//! `simulate` (measurements of a robot made on purpose: a changed "true" robot, noise) and `fk`
+//! (the forward kinematics of a robot at postures, streamed in flat memory).
+//!
+//! ```toml
+//! job = "simulate"
+//! robot = "ge-a4"
+//! postures = 30
+//! seed = 7
+//! perturb = { p1 = 0.05, "joint2.offset" = -0.5 }
+//! noise = { length = 0.0005, angle = 0.005 }
+//! out = "data.csv"
+//! truth = "truth.toml"
+//! ```
+
+use std::collections::BTreeMap;
+use std::io::Write as _;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Location, Result, Setting};
+use crate::files::stream::{cell, payload_at, payload_columns, Rows};
+use crate::files::{parse_postures, write_measurements};
+use crate::observe::Dataset;
+use crate::robot::Robot;
+use crate::simulate::{self, PerturbStd};
+use crate::units::Quantity;
+
+use super::common::{count, invalid, is_default, robot_as, visit_opt, LengthAngle};
+use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
+
+/// The most postures a simulation makes.
+pub const MAX_POSTURES: usize = 10_000_000;
+
+/// Random changes of every parameter (standard deviations; `[perturb_std]`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerturbSpread {
+    /// Of lengths (robot file's length unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+    /// Of angles (robot file's angle unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle: Option<f64>,
+    /// Of slopes, as a fraction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slope: Option<f64>,
+}
+
+/// A simulation. See the [module documentation](self).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulateSpec {
+    /// The nominal robot.
+    pub robot: String,
+    /// How many postures, sampled within the joint ranges.
+    pub postures: usize,
+    /// The random seed (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Changes of named parameters (robot file's units): the true robot.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub perturb: BTreeMap<String, f64>,
+    /// Random changes of every parameter.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub perturb_std: PerturbSpread,
+    /// Gaussian noise on the measurements (robot file's units).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub noise: LengthAngle,
+    /// Measure positions only.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub position_only: bool,
+    /// The measurements to write.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub out: Option<String>,
+    /// The true robot to write.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<String>,
+}
+
+impl Spec for SimulateSpec {
+    const KIND: JobKind = JobKind::Simulate;
+
+    fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+        f(PathRole::Robot, &mut self.robot);
+        visit_opt(f, PathRole::Output, &mut self.out);
+        visit_opt(f, PathRole::Output, &mut self.truth);
+    }
+}
+
+/// The forward kinematics of a robot at postures. See the [module documentation](self).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FkSpec {
+    /// The robot.
+    pub robot: String,
+    /// The postures (`posture,v1..vn`, what `compensate` writes, or a measurement file; `-` for
+    /// standard input).
+    pub postures: String,
+    /// The poses to write (a measurement file; standard output when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub out: Option<String>,
+}
+
+impl Spec for FkSpec {
+    const KIND: JobKind = JobKind::Fk;
+
+    fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+        f(PathRole::Robot, &mut self.robot);
+        f(PathRole::Input, &mut self.postures);
+        visit_opt(f, PathRole::Output, &mut self.out);
+    }
+}
+
+/// The document of a simulation or of forward kinematics.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SimulateOutcome {
+    /// Postures.
+    pub postures: usize,
+    /// Measurements (poses or positions).
+    pub measurements: usize,
+    /// The measurement file (what `out` holds; empty when it streamed into a file).
+    pub data: String,
+    /// The true robot file (a simulation's).
+    pub truth: Option<String>,
+    /// The parameters of the true robot that differ from the nominal's: `(name, nominal,
+    /// true)` in the robot file's units.
+    pub changed: Vec<(String, f64, f64)>,
+}
+
+impl SimulateSpec {
+    /// The true robot of the spec: `nominal` changed as `perturb_std` and `perturb` say.
+    pub fn truth(&self, nominal: &Robot) -> Result<Robot> {
+        let units = nominal.units;
+        let seed = self.seed.unwrap_or(1);
+        let mut truth = nominal.clone();
+        let s = self.perturb_std;
+        for (name, v) in [("length", s.length), ("angle", s.angle), ("slope", s.slope)] {
+            if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+                return Err(invalid(
+                    Setting::PerturbStd,
+                    format!("the {name} spread must be finite and not negative, not {v}"),
+                ));
+            }
+        }
+        if s != PerturbSpread::default() {
+            truth = simulate::perturb(
+                &truth,
+                PerturbStd {
+                    length: units.to_si(Quantity::Length, s.length.unwrap_or(0.0)),
+                    angle: units.to_si(Quantity::Angle, s.angle.unwrap_or(0.0)),
+                    slope_fraction: s.slope.unwrap_or(0.0),
+                },
+                seed,
+            );
+        }
+        let mut changes = Vec::new();
+        for (name, &delta) in &self.perturb {
+            if !delta.is_finite() {
+                return Err(invalid(
+                    Setting::ParameterChange,
+                    format!("{name}: {delta} is not a finite number"),
+                ));
+            }
+            let ids = crate::parse_param_list(name.trim(), nominal)
+                .map_err(|e| invalid(Setting::ParameterChange, e.to_string()))?;
+            for id in ids {
+                changes.push((id, delta));
+            }
+        }
+        simulate::changed(&truth, &changes).map_err(|e| invalid(Setting::ParameterChange, e.to_string()))
+    }
+
+    /// Simulates the measurements of `truth` at the spec's postures, on `nominal`'s file.
+    pub fn measurements(&self, nominal: &Robot, truth: &Robot) -> Result<Dataset> {
+        let n = count(Setting::Postures, self.postures, MAX_POSTURES, "postures")?;
+        let seed = self.seed.unwrap_or(1);
+        let postures = simulate::sample_postures(nominal, n, seed);
+        let readings = postures
+            .iter()
+            .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
+        if let Some((i, eq)) = crate::kinematics::unconverged_posture(truth, readings) {
+            return Err(invalid(
+                Setting::ParameterChange,
+                format!(
+                    "the true robot's gravity equilibrium at posture {} {eq}",
+                    postures[i].label
+                ),
+            ));
+        }
+        let mut data = simulate::measure(truth, &postures, self.position_only);
+        self.noise.check(Setting::Noise, false)?;
+        let (l, a) = self.noise.si(nominal);
+        if l.is_some() || a.is_some() {
+            simulate::add_noise(&mut data, l.unwrap_or(0.0), a.unwrap_or(0.0), seed);
+        }
+        Ok(data)
+    }
+
+    /// Simulates and writes the files.
+    pub(crate) fn run(&self, _env: &mut Env<'_>) -> Result<Done> {
+        let (nominal, source) = robot_as(&self.robot, Setting::Robot)?;
+        let truth = self.truth(&nominal)?;
+        let data = self.measurements(&nominal, &truth)?;
+        let text = write_measurements(&nominal, &data);
+        let truth_text =
+            crate::robot_file::write_robot_toml_checked(&truth, Some(&source.text))?;
+        let mut staged = crate::files::output::Staged::new();
+        if let Some(p) = &self.out {
+            staged.text(Path::new(p), &text)?;
+        }
+        if let Some(p) = &self.truth {
+            staged.text(Path::new(p), &truth_text)?;
+        }
+        staged.commit()?;
+        let mut messages = Vec::new();
+        if let Some(p) = &self.out {
+            messages.push(Message::Note(format!(
+                "wrote {} measurements ({} postures) to {p}",
+                data.observations.len(),
+                data.postures.len()
+            )));
+        }
+        if let Some(p) = &self.truth {
+            messages.push(Message::Note(format!("wrote the true robot to {p}")));
+        }
+        let changed = nominal
+            .param_ids()
+            .filter(|&id| nominal.get(id) != truth.get(id))
+            .map(|id| (nominal.param_name(id), nominal.get_user(id), truth.get_user(id)))
+            .collect();
+        Ok(Done {
+            document: Document::Simulation(SimulateOutcome {
+                postures: data.postures.len(),
+                measurements: data.observations.len(),
+                data: text,
+                truth: Some(truth_text),
+                changed,
+            }),
+            messages,
+            status: super::Status::Ok,
+            pending: None,
+        })
+    }
+}
+
+impl FkSpec {
+    /// Writes the poses of the postures' file: a postures file streams through row by row
+    /// (flat memory, any length); a measurement file is read whole.
+    fn emit(&self, robot: &Robot, w: &mut dyn std::io::Write, poses: &mut usize) -> Result<()> {
+        let io = |e: std::io::Error| Error::Io {
+            path: self.out.clone().unwrap_or_else(|| "-".into()),
+            cause: e,
+        };
+        let mut rows = Rows::open(Path::new(&self.postures))?;
+        if rows.column("x").is_some() {
+            let s = crate::source::Source::read(Path::new(&self.postures))?;
+            let postures = parse_postures(&s.text, &s.name, robot)?;
+            let readings = postures
+                .iter()
+                .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
+            if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
+                return Err(Error::input(
+                    Location::file(&s.name),
+                    format!("posture `{}`: the gravity equilibrium {eq}", postures[i].label),
+                ));
+            }
+            let data = simulate::measure(robot, &postures, false);
+            *poses = data.observations.len();
+            return w.write_all(write_measurements(robot, &data).as_bytes()).map_err(io);
+        }
+        // A postures file, or what `compensate` writes (its label `target` or `posture`, a
+        // `site`, and the remaining errors and flags, read past).
+        let dof = robot.dof();
+        let label = rows.column("posture").or_else(|| rows.column("target"));
+        let readings: Option<Vec<usize>> = (0..dof)
+            .map(|j| rows.column(&crate::files::reading_column(robot, &rows.header, j)))
+            .collect();
+        let compensated = [
+            "site",
+            "position_error",
+            "attitude_error",
+            "iterations",
+            "flags",
+        ];
+        let payload_cols = payload_columns(&rows)?;
+        let unknown = rows.header.iter().enumerate().find(|(i, h)| {
+            Some(*i) != label
+                && !readings.as_ref().is_some_and(|r| r.contains(i))
+                && !compensated.contains(&h.as_str())
+                && !payload_cols.contains(&Some(*i))
+        });
+        let (Some(label), Some(readings), None) = (label, readings, unknown) else {
+            return Err(Error::input(
+                Location::file(&rows.file).at_line(1),
+                format!(
+                    "unexpected header `{}`: expected `{}` (or what `kinecal compensate` writes)",
+                    rows.header.join(","),
+                    crate::files::postures_header(robot).join(",")
+                ),
+            ));
+        };
+        let mut first = true;
+        let mut posture = crate::Posture {
+            label: String::new(),
+            readings: vec![0.0; robot.dof()],
+            session: None,
+            payload: None,
+        };
+        while let Some(line) = rows.advance()? {
+            posture.label.clear();
+            posture.label.push_str(rows.field(label));
+            for (j, &c) in readings.iter().enumerate() {
+                posture.readings[j] = cell(&rows, line, c)?;
+            }
+            // With payload columns every row writes them: an empty one is no load, 0 kg.
+            posture.payload = payload_at(&rows, line, &payload_cols, &robot.units)?.or_else(|| {
+                payload_cols[0].map(|_| crate::robot::Payload {
+                    mass: 0.0,
+                    com: nalgebra::Vector3::zeros(),
+                })
+            });
+            if let Some((_, eq)) = crate::kinematics::unconverged_posture(
+                robot,
+                [(posture.readings.as_slice(), posture.payload.as_ref())],
+            ) {
+                return Err(Error::input(
+                    Location::file(&rows.file).at_line(line as usize),
+                    format!("the gravity equilibrium {eq}"),
+                ));
+            }
+            let data = simulate::measure(robot, std::slice::from_ref(&posture), false);
+            *poses += data.observations.len();
+            let text = write_measurements(robot, &data);
+            let body = if first {
+                text.as_str()
+            } else {
+                text.split_once('\n').map_or("", |(_, rest)| rest)
+            };
+            w.write_all(body.as_bytes()).map_err(io)?;
+            first = false;
+        }
+        if first {
+            return Err(Error::input(
+                Location::file(&rows.file),
+                "no postures: the file has a header but no rows",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Computes and writes the poses.
+    pub(crate) fn run(&self, _env: &mut Env<'_>) -> Result<Done> {
+        let (robot, _) = robot_as(&self.robot, Setting::Robot)?;
+        if self.postures.is_empty() {
+            return Err(invalid(Setting::Postures, "no postures file given"));
+        }
+        let mut poses = 0;
+        let path = self.out.as_deref().unwrap_or("-");
+        if path == "-" {
+            // Streamed as it is made: flat memory for any number of postures.
+            let stdout = std::io::stdout();
+            let mut w = std::io::BufWriter::new(stdout.lock());
+            self.emit(&robot, &mut w, &mut poses)?;
+            w.flush().map_err(|cause| Error::Io {
+                path: path.to_string(),
+                cause,
+            })?;
+            return Ok(Done::ok(Document::Simulation(SimulateOutcome {
+                postures: poses,
+                measurements: poses,
+                data: String::new(),
+                truth: None,
+                changed: Vec::new(),
+            })));
+        }
+        let mut staged = crate::files::output::Staged::new();
+        staged.by_path(Path::new(path), |tmp| -> Result<()> {
+            let file = std::fs::File::create(tmp).map_err(|cause| Error::Io {
+                path: path.to_string(),
+                cause,
+            })?;
+            let mut w = std::io::BufWriter::new(file);
+            self.emit(&robot, &mut w, &mut poses)?;
+            w.flush().map_err(|cause| Error::Io {
+                path: path.to_string(),
+                cause,
+            })
+        })?;
+        staged.commit()?;
+        let mut done = Done::ok(Document::Simulation(SimulateOutcome {
+            postures: poses,
+            measurements: poses,
+            data: String::new(),
+            truth: None,
+            changed: Vec::new(),
+        }));
+        if let Some(p) = &self.out {
+            done.note(format!("wrote {poses} poses to {p}"));
+        }
+        Ok(done)
+    }
+}
