@@ -104,8 +104,9 @@ pub fn predict<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let r = &robot.robot;
     let pr = calibrated_prediction(py, r, report_json)?;
-    let target = predicted_target(r, &pr, site)?;
-    let predictor = prediction::from_report(r, &pr).map_err(|e| error(py, e))?;
+    let (predictor, target) =
+        kinecal::spec::PredictSpec::predictor(r, &pr, site.unwrap_or(&pr.target))
+            .map_err(|e| error(py, e))?;
     let dof = r.dof();
     let readings = match (postures, targets) {
         (Some(p), None) => readings_array(py, p, dof)?.0,

@@ -3,23 +3,19 @@
 //! the result classes). Values are in the robot's units; results come back as dicts of numpy
 //! arrays and Python values, one key per field of the result class.
 
-use kinecal::compensate::{
-    goal_in_file_units, Compensator, Configuration, Goal, Options, TargetSearch,
-};
-use kinecal::identifiability::AnalysisOptions;
+use kinecal::compensate::{goal_in_file_units, Compensator, Goal, TargetSearch};
 use kinecal::observe::{Dataset, Observation};
-use kinecal::plan::{candidates as candidate_pool, plan as choose, Criterion, PlanRequest};
-use kinecal::simulate::{self as sim, PerturbStd};
+use kinecal::plan::{candidates as candidate_pool, plan as choose};
+use kinecal::simulate as sim;
+use kinecal::spec::{CompensateSpec, PlanSpec, SimulateSpec};
 use kinecal::units::Quantity;
-use kinecal::workflow::Selection;
 use kinecal::{Posture, Target};
 use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
-use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict};
+use pyo3::types::PyDict;
 
-use crate::{bad, error, numbers, param_list, residual_settings, site_names, Measurements, Robot};
+use crate::{bad, error, numbers, site_names, Measurements, Robot};
 
 /// The frame named by `site`: None or `"ee"` (or the end effector's name) for the end
 /// effector, else a site of `robot` ([`kinecal::files::site_target`]); an error naming
@@ -46,36 +42,7 @@ pub fn goal_problem(p: &kinecal::compensate::GoalProblem, row: usize) -> PyErr {
     }
 }
 
-/// A whole number of at least `min` given as `keyword` (an integer, not a float or a bool).
-fn whole(value: &Bound<'_, PyAny>, keyword: &str, min: u64) -> PyResult<u64> {
-    let not_whole = || {
-        let kind = value.get_type().name().map(|n| n.to_string());
-        PyTypeError::new_err(format!(
-            "{keyword}: expected an integer, got {}",
-            kind.unwrap_or_else(|_| "something else".into())
-        ))
-    };
-    if value.is_instance_of::<PyBool>() {
-        return Err(not_whole());
-    }
-    match value.extract::<u64>() {
-        Ok(v) if v >= min => Ok(v),
-        Ok(v) => Err(bad(format!(
-            "{keyword}: expected an integer of at least {min}, got {v}"
-        ))),
-        Err(_) => match value.extract::<i64>() {
-            Ok(v) => Err(bad(format!(
-                "{keyword}: expected an integer of at least {min}, got {v}"
-            ))),
-            Err(_) => Err(not_whole()),
-        },
-    }
-}
 
-/// Whether `value` is an integer (a count rather than an array).
-fn is_whole(value: &Bound<'_, PyAny>) -> bool {
-    !value.is_instance_of::<PyBool>() && value.extract::<i64>().is_ok()
-}
 
 /// A `(rows, cols)` array argument; returns the values and the row count.
 fn table(
@@ -115,58 +82,29 @@ fn postures_of(
         .collect())
 }
 
-/// A non-negative finite number given as part of `keyword`.
-fn non_negative(v: Option<f64>, keyword: &str, key: &str) -> PyResult<Option<f64>> {
-    match v {
-        Some(x) if !(x.is_finite() && x >= 0.0) => Err(bad(format!(
-            "{keyword}: {key} must be a non-negative finite number, got {x}"
-        ))),
-        _ => Ok(v),
-    }
-}
 
 /// Compensation (see the Python package's `kinecal.compensate`): the readings at which
-/// `calibrated` reaches what `nominal` meant (`program`) or the Cartesian `targets`.
+/// `calibrated` reaches what `nominal` meant (`program`) or the Cartesian `targets`; `spec` is
+/// the compensation spec of the keywords (site, position_only, tolerance, singular, branch,
+/// configuration), translated as the command line's.
 #[pyfunction]
-#[pyo3(signature = (calibrated, nominal, *, program=None, targets=None, seeds=None, site=None, position_only=false, tolerance=None, singular=1e-3, branch=None, configuration=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (calibrated, nominal, spec, *, program=None, targets=None, seeds=None))]
 pub fn compensate<'py>(
     py: Python<'py>,
     calibrated: &Robot,
     nominal: &Robot,
+    spec: &str,
     program: Option<&Bound<'py, PyAny>>,
     targets: Option<&Bound<'py, PyAny>>,
     seeds: Option<&Bound<'py, PyAny>>,
-    site: Option<&str>,
-    position_only: bool,
-    tolerance: Option<(Option<f64>, Option<f64>)>,
-    singular: f64,
-    branch: Option<f64>,
-    configuration: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (cal, nom) = (&calibrated.robot, &nominal.robot);
     let units = nom.units;
-    let mut options = Options::default();
-    if let Some((l, a)) = tolerance {
-        if let Some(l) = non_negative(l, "tolerance", "length")? {
-            options.position_tolerance = units.to_si(Quantity::Length, l);
-        }
-        if let Some(a) = non_negative(a, "tolerance", "angle")? {
-            options.attitude_tolerance = units.to_si(Quantity::Angle, a);
-        }
-    }
-    if !(0.0..1.0).contains(&singular) {
-        return Err(bad(format!(
-            "singular: must be between 0 and 1, got {singular}"
-        )));
-    }
-    options.singular = singular;
-    if let Some(b) = branch {
-        if !(b.is_finite() && b > 0.0) {
-            return Err(bad(format!("branch: must be a positive angle, got {b}")));
-        }
-        options.branch = units.to_si(Quantity::Angle, b);
-    }
+    let spec: CompensateSpec = crate::jobs::settings(py, spec)?;
+    let options = spec.options(nom).map_err(|e| error(py, e))?;
+    let position_only = spec.position_only;
+    let configuration = spec.configuration().map_err(|e| error(py, e))?;
+    let site = spec.site.as_deref();
     let target = target_of(nom, site, "site")?;
     let dof = nom.dof();
     // The goals: a program's readings, or targets with their seeds.
@@ -241,7 +179,6 @@ pub fn compensate<'py>(
                 "configuration: is for Cartesian targets; a program's readings keep their own",
             ));
         }
-        let c = Configuration::parse(c).map_err(|e| error(py, e))?;
         search = search.with_configuration(c).map_err(|e| error(py, e))?;
     }
     let solved = py.detach(|| {
@@ -352,90 +289,49 @@ fn pool_of(
     ))
 }
 
-/// A measurement plan (see the Python package's `kinecal.plan`).
+/// A measurement plan (see the Python package's `kinecal.plan`): `spec` is the plan spec of
+/// the keywords (count, sample, seed, criterion, position_only, sites, estimate, fix, weights,
+/// orientation_error), translated as the command line's; `candidates` and `keep` in memory.
 #[pyfunction]
-#[pyo3(signature = (robot, candidates=None, *, count, sample=None, seed=None, criterion="d", position_only=false, sites=None, estimate=None, fix=None, keep=None, weights=None, orientation_error="rotvec"))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (robot, spec, candidates=None, keep=None))]
 pub fn plan<'py>(
     py: Python<'py>,
     robot: &Robot,
+    spec: &str,
     candidates: Option<&Bound<'py, PyAny>>,
-    count: &Bound<'py, PyAny>,
-    sample: Option<&Bound<'py, PyAny>>,
-    seed: Option<&Bound<'py, PyAny>>,
-    criterion: &str,
-    position_only: bool,
-    sites: Option<Vec<Option<String>>>,
-    estimate: Option<&Bound<'py, PyAny>>,
-    fix: Option<&Bound<'py, PyAny>>,
     keep: Option<&Bound<'py, PyAny>>,
-    weights: Option<(f64, f64)>,
-    orientation_error: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
     let r = &robot.robot;
-    let count = whole(count, "count", 1)? as usize;
-    let seed = seed.map(|s| whole(s, "seed", 0)).transpose()?.unwrap_or(1);
-    let criterion: Criterion = criterion.parse().map_err(|e| error(py, e))?;
-    let targets: Vec<Target> = match &sites {
-        None if r.sites.is_empty() => vec![Target::EndEffector],
-        None => (0..r.sites.len()).map(Target::Site).collect(),
-        Some(list) => {
-            if list.is_empty() {
-                return Err(bad(
-                    "sites: an empty list: name the frames measured at each posture",
-                ));
+    let spec: PlanSpec = crate::jobs::settings(py, spec)?;
+    let targets = spec.targets(r).map_err(|e| error(py, e))?;
+    let pool = match (candidates, spec.sample) {
+        (Some(c), None) => {
+            let (data, observed) = pool_of(py, c, "candidates", r, &targets, spec.position_only)?;
+            if observed {
+                spec.pool_of_observations(data, String::new(), kinecal::Setting::PlanCandidates)
+            } else {
+                Ok(kinecal::spec::Pool {
+                    data,
+                    observed: false,
+                    described: String::new(),
+                })
             }
-            let mut out = Vec::new();
-            for s in list {
-                let t = target_of(r, s.as_deref(), "sites")?;
-                if !out.contains(&t) {
-                    out.push(t);
-                }
-            }
-            out
+            .map_err(|e| error(py, e))?
         }
-    };
-    let (pool, observed) =
-        match (candidates, sample) {
-            (Some(c), None) => pool_of(py, c, "candidates", r, &targets, position_only)?,
-            (None, Some(n)) => {
-                let n = whole(n, "sample", 1)? as usize;
-                let postures = sim::sample_postures(r, n, seed);
-                (candidate_pool(r, postures, &targets, position_only), false)
-            }
-            _ => return Err(bad(
+        (None, Some(_)) => spec.pool(r).map_err(|e| error(py, e))?,
+        _ => {
+            return Err(bad(
                 "candidates, sample: give one (candidate postures or Measurements, or a number \
                  of postures to sample)",
-            )),
-        };
-    if observed && sites.is_some() {
-        return Err(bad(
-            "sites: describes postures; the candidates are Measurements, whose observations say \
-             what is measured",
-        ));
-    }
+            ))
+        }
+    };
+    let observed = pool.observed;
     let keep = match keep {
-        Some(k) => pool_of(py, k, "keep", r, &targets, position_only)?.0,
+        Some(k) => pool_of(py, k, "keep", r, &targets, spec.position_only)?.0,
         None => Dataset::default(),
     };
-    let (weights, orientation) = residual_settings(r, weights, orientation_error)?;
-    let estimate = param_list(estimate, "estimate")?.unwrap_or_else(|| "identifiable".into());
-    let fix = param_list(fix, "fix")?;
-    let selection = Selection::parse(&estimate, fix.as_deref(), r).map_err(|e| error(py, e))?;
-    let req = PlanRequest {
-        robot: r.clone(),
-        pool,
-        keep,
-        count,
-        criterion,
-        selection,
-        analysis: AnalysisOptions {
-            weights,
-            orientation,
-            ..AnalysisOptions::default()
-        },
-        seed,
-    };
+    let req = spec.request(r, pool.data, keep).map_err(|e| error(py, e))?;
     let p = py.detach(|| choose(&req)).map_err(|e| error(py, e))?;
     // What `kinecal plan --out` writes.
     let (csv, _) = p.chosen_file(r, observed);
@@ -523,70 +419,30 @@ pub fn plan<'py>(
     Ok(d)
 }
 
-/// Synthesized measurements (see the Python package's `kinecal.simulate`): returns them and
-/// the true robot.
+/// Synthesized measurements (see the Python package's `kinecal.simulate`): `spec` is the
+/// simulation spec of the keywords (seed, perturb, perturb_std, noise, position_only; `postures`
+/// its count when sampled), translated as the command line's; or readings in memory. Returns
+/// the measurements and the true robot.
 #[pyfunction]
-#[pyo3(signature = (robot, postures, *, seed=None, perturb=None, perturb_std=None, noise=None, position_only=false))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (robot, spec, postures=None))]
 pub fn simulate<'py>(
     py: Python<'py>,
     robot: &Robot,
-    postures: &Bound<'py, PyAny>,
-    seed: Option<&Bound<'py, PyAny>>,
-    perturb: Option<Vec<(String, f64)>>,
-    perturb_std: Option<(Option<f64>, Option<f64>, Option<f64>)>,
-    noise: Option<(Option<f64>, Option<f64>)>,
-    position_only: bool,
+    spec: &str,
+    postures: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Measurements, Robot)> {
     let nominal = &robot.robot;
-    let units = nominal.units;
-    let seed = seed.map(|s| whole(s, "seed", 0)).transpose()?.unwrap_or(1);
-    let postures = if is_whole(postures) {
-        let n = whole(postures, "postures", 1)? as usize;
-        sim::sample_postures(nominal, n, seed)
-    } else {
-        postures_of(py, postures, "postures", nominal)?
-    };
-    let mut truth = nominal.clone();
-    if let Some((l, a, s)) = perturb_std {
-        let std = PerturbStd {
-            length: units.to_si(
-                Quantity::Length,
-                non_negative(l, "perturb_std", "length")?.unwrap_or(0.0),
-            ),
-            angle: units.to_si(
-                Quantity::Angle,
-                non_negative(a, "perturb_std", "angle")?.unwrap_or(0.0),
-            ),
-            slope_fraction: non_negative(s, "perturb_std", "slope")?.unwrap_or(0.0),
-        };
-        truth = sim::perturb(&truth, std, seed);
-    }
-    if let Some(list) = perturb {
-        let mut changes = Vec::new();
-        for (name, delta) in &list {
-            if !delta.is_finite() {
-                return Err(bad(format!(
-                    "perturb: {name}: {delta} is not a finite number"
-                )));
-            }
-            let ids = kinecal::parse_param_list(name, nominal)
-                .map_err(|e| bad(format!("perturb: {e}")))?;
-            changes.extend(ids.into_iter().map(|id| (id, *delta)));
+    let spec: SimulateSpec = crate::jobs::settings(py, spec)?;
+    let truth = spec.truth(nominal).map_err(|e| error(py, e))?;
+    let data = match postures {
+        None => spec.measurements(nominal, &truth).map_err(|e| error(py, e))?,
+        Some(p) => {
+            let postures = postures_of(py, p, "postures", nominal)?;
+            let mut data = sim::measure(&truth, &postures, spec.position_only);
+            spec.add_noise(nominal, &mut data).map_err(|e| error(py, e))?;
+            data
         }
-        truth = sim::changed(&truth, &changes).map_err(|e| error(py, e))?;
-    }
-    let mut data = sim::measure(&truth, &postures, position_only);
-    if let Some((l, a)) = noise {
-        let l = non_negative(l, "noise", "length")?.unwrap_or(0.0);
-        let a = non_negative(a, "noise", "angle")?.unwrap_or(0.0);
-        sim::add_noise(
-            &mut data,
-            units.to_si(Quantity::Length, l),
-            units.to_si(Quantity::Angle, a),
-            seed,
-        );
-    }
+    };
     Ok((
         Measurements {
             data,

@@ -12,22 +12,21 @@
 
 mod accuracy;
 mod commands;
+mod jobs;
 mod outcome;
 
 use std::ffi::CString;
 use std::path::PathBuf;
 
 use kinecal::files::{detect_format, FORMATS};
-use kinecal::identifiability::{analyze as analyze_ids, AnalysisOptions};
 use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
 use kinecal::observe::point::{Pose, Position};
-use kinecal::observe::{Dataset, OrientationError, Weights};
+use kinecal::observe::Dataset;
 use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::source::Source;
-use kinecal::spec::{CalibrationSpec, Job};
+use kinecal::spec::{AnalyzeSpec, CalibrationJob, CalibrationSpec};
 use kinecal::units::plausible;
 use kinecal::units::Quantity;
-use kinecal::workflow::{self, Selection};
 use kinecal::{Chain, JointKind, Posture, Target, Units, Workspace};
 use nalgebra::Vector3;
 use numpy::ndarray::{Array2, Array3, ArrayViewD};
@@ -89,8 +88,17 @@ fn convention_of(convention: &str) -> PyResult<Convention> {
     }
 }
 
-/// A kinecal error as a Python exception, carrying `file`, `line` and `field` (or None).
+/// A kinecal error as a Python exception, carrying `file`, `line` and `field` (or None). An
+/// error of a function's keywords ([`jobs::KEYWORDS`]) carries its key path in `field`, with
+/// `file` None: the Python package words it with the keyword.
 fn error(py: Python<'_>, e: kinecal::Error) -> PyErr {
+    if let kinecal::Error::Input { at, message } = &e {
+        if at.file == jobs::KEYWORDS {
+            let err = KinecalError::new_err(message.clone());
+            let _ = err.value(py).setattr("field", at.field.clone());
+            return err;
+        }
+    }
     let (file, line, field) = match &e {
         kinecal::Error::Input { at, .. } | kinecal::Error::ChainEnd { at, .. } => {
             (Some(at.file.clone()), at.line, at.field.clone())
@@ -115,41 +123,12 @@ fn error(py: Python<'_>, e: kinecal::Error) -> PyErr {
     err
 }
 
-/// The Python keyword behind a library setting: the one table.
+/// The Python keyword behind a library setting: its spec key, which the named functions'
+/// keywords are (`validate/holdout/folds` for the way a calibration is checked).
 fn keyword(setting: kinecal::Setting) -> &'static str {
-    use kinecal::Setting;
     match setting {
-        Setting::OutlierThreshold => "outlier_sigma",
-        Setting::PruningThreshold => "prune",
-        Setting::Rcond => "rcond",
-        Setting::HoldoutFraction => "holdout",
-        Setting::Folds => "folds",
-        Setting::ModelCandidate => "choose",
-        Setting::PlanCandidates => "candidates",
-        Setting::PlanCount => "count",
-        Setting::PlanCriterion => "criterion",
-        Setting::HuberScale => "huber_scale",
-        Setting::NoiseScale => "noise_scale",
-        Setting::CheckThreshold => "threshold",
-        Setting::ParameterChange => "perturb",
-        Setting::Sweep => "sweep",
-        Setting::NominalRobot => "nominal",
-        Setting::ChainBase => "base",
-        Setting::ChainTip => "tip",
-        Setting::Robot => "robot",
-        Setting::InitialRobot => "initial",
-        Setting::Observations => "observations",
-        Setting::ObservationKind => "kind",
-        Setting::Columns => "columns",
-        Setting::LengthUnit => "length_unit",
-        Setting::AngleUnit => "angle_unit",
-        Setting::Weights => "weights",
-        Setting::MaxIterations => "max_iterations",
-        Setting::Validation => "validate/holdout/folds",
-        Setting::Configuration => "configuration",
-        Setting::OutputFormat => "format",
-        Setting::Prior => "prior",
-        Setting::TotalMass => "total_mass",
+        kinecal::Setting::Validation => "validate/holdout/folds",
+        s => s.key(),
     }
 }
 
@@ -1046,133 +1025,27 @@ impl Measurements {
     }
 }
 
-/// Residual weights `(length, angle)` in file units, and the orientation error.
-fn residual_settings(
-    robot: &kinecal::Robot,
-    weights: Option<(f64, f64)>,
-    orientation_error: &str,
-) -> PyResult<(Weights, OrientationError)> {
-    let mut w = Weights::default();
-    if let Some((l, a)) = weights {
-        if !(l > 0.0 && a > 0.0 && l.is_finite() && a.is_finite()) {
-            return Err(bad(format!(
-                "weights: standard deviations must be positive and finite, got ({l}, {a})"
-            )));
-        }
-        w.length = robot.units.to_si(Quantity::Length, l);
-        w.angle = robot.units.to_si(Quantity::Angle, a);
-    }
-    let o = match orientation_error {
-        "euler" => OrientationError::Euler,
-        "rotvec" => OrientationError::RotVec,
-        other => {
-            return Err(bad(format!(
-                "orientation_error `{other}`: expected \"euler\" or \"rotvec\""
-            )))
-        }
-    };
-    Ok((w, o))
-}
-
-/// A parameter list: a string (`"identifiable,slopes"`) or a list of strings.
-fn param_list(obj: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<String>> {
-    let Some(obj) = obj else { return Ok(None) };
-    if obj.is_none() {
-        return Ok(None);
-    }
-    if let Ok(s) = obj.extract::<String>() {
-        return Ok(Some(s));
-    }
-    let v: Vec<String> = obj.extract().map_err(|_| {
-        PyTypeError::new_err(format!(
-            "{name}: expected a parameter list, as a string (\"identifiable,slopes\") or a list of strings"
-        ))
-    })?;
-    Ok(Some(v.join(",")))
-}
-
-/// A keyword's string value as the spec's enum `T` (serde's names: `lm`, `huber`, ...).
-fn choice<T: serde::de::DeserializeOwned>(keyword: &str, value: &str) -> PyResult<T> {
-    serde_json::from_value(serde_json::Value::String(value.to_string()))
-        .map_err(|e| bad(format!("{keyword}: {e}")))
-}
-
-/// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`): the keywords
-/// made a calibration spec, run as every front end runs one. Returns the calibrated robot, the
-/// report as JSON text and the outcome's arrays ([`outcome::details`]).
+/// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`): `spec` is the
+/// calibration spec of the keywords, which the library translates as every front end's
+/// (`validate` and `initial` given in memory). Returns the calibrated robot, the report as JSON
+/// text and the outcome's arrays ([`outcome::details`]).
 #[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, method="lm", loss="squared", huber_scale=None, huber_spread="robust", weights=None, orientation_error="rotvec", validate=None, holdout=None, folds=None, seed=None, prune=None, solution="solver", initial=None, max_iterations=None, outlier_sigma=None, choose=None, repeats=None, prior=None, total_mass=None, predict=false))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (robot, data, spec, validate=None, initial=None))]
 fn calibrate(
     py: Python<'_>,
     robot: &Robot,
     data: &Measurements,
-    estimate: Option<&Bound<'_, PyAny>>,
-    fix: Option<&Bound<'_, PyAny>>,
-    method: &str,
-    loss: &str,
-    huber_scale: Option<f64>,
-    huber_spread: &str,
-    weights: Option<(f64, f64)>,
-    orientation_error: &str,
+    spec: &str,
     validate: Option<&Measurements>,
-    holdout: Option<f64>,
-    folds: Option<usize>,
-    seed: Option<u64>,
-    prune: Option<f64>,
-    solution: &str,
     initial: Option<&Robot>,
-    max_iterations: Option<usize>,
-    outlier_sigma: Option<f64>,
-    choose: Option<Vec<String>>,
-    repeats: Option<usize>,
-    prior: Option<String>,
-    total_mass: Option<f64>,
-    predict: bool,
 ) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>)> {
-    use kinecal::spec::{ResidualSpec, SelectionSpec, SolverSpec, ValidationSpec, WeightsSpec};
     let r = &robot.robot;
     data.check(r, "data")?;
     if let Some(v) = validate {
         v.check(r, "validate")?;
     }
-    let spec = CalibrationSpec {
-        robot: r.name.clone(),
-        selection: SelectionSpec {
-            estimate: param_list(estimate, "estimate")?,
-            fix: param_list(fix, "fix")?,
-            prune,
-            prior,
-            total_mass,
-        },
-        solver: SolverSpec {
-            method: choice("method", method)?,
-            max_iterations,
-            solution: choice("solution", &solution.replace('_', "-"))?,
-            ..SolverSpec::default()
-        },
-        residuals: ResidualSpec {
-            loss: choice("loss", loss)?,
-            huber_scale,
-            huber_spread: choice("huber_spread", huber_spread)?,
-            weights: WeightsSpec {
-                length: weights.map(|w| w.0),
-                angle: weights.map(|w| w.1),
-            },
-            orientation_error: choice("orientation_error", orientation_error)?,
-            outlier_sigma,
-        },
-        validation: ValidationSpec {
-            holdout,
-            folds,
-            seed,
-            choose,
-            repeats,
-            predict,
-            ..ValidationSpec::default()
-        },
-        ..CalibrationSpec::default()
-    };
+    let mut spec: CalibrationSpec = jobs::settings(py, spec)?;
+    spec.robot = r.name.clone();
     let request = spec
         .request(
             r,
@@ -1182,9 +1055,11 @@ fn calibrate(
         )
         .map_err(|e| error(py, e))?;
     let text = robot.text.clone().unwrap_or_default();
-    let job =
-        Job::new(spec, request, Source::text(r.name.clone(), text)).map_err(|e| error(py, e))?;
-    let outcome = py.detach(|| job.run(&mut ())).map_err(|e| error(py, e))?;
+    let job = CalibrationJob::new(spec, request, Source::text(r.name.clone(), text))
+        .map_err(|e| error(py, e))?;
+    let outcome = py
+        .detach(|| job.calibrate(&mut ()))
+        .map_err(|e| error(py, e))?;
     let calibrated = Robot {
         robot: outcome.calibration.calibrated.clone(),
         text: robot.text.clone(),
@@ -1193,98 +1068,20 @@ fn calibrate(
     Ok((calibrated, outcome.report.to_json(), details))
 }
 
-/// The outputs of a job: (path, text) of each.
-type Outputs = Vec<(String, String)>;
-
-/// Runs the calibration job `spec`: a spec file's path (`path`, its paths relative to its
-/// folder) or the spec as JSON (`json`, paths relative to the working folder). Returns the
-/// calibrated robot, the report as JSON, the outcome's arrays ([`outcome::details`]) and the
-/// texts of the outputs the spec names
-/// (`[(path, text)]`: the robot file, the report, the HTML report), for the caller to write.
+/// What `data` determines about `robot`'s parameters (see the Python package's
+/// `kinecal.analyze`): `spec` is the analysis spec of the keywords. Returns the analysis as
+/// JSON text (what `kinecal analyze --json` prints).
 #[pyfunction]
-#[pyo3(signature = (path=None, json=None))]
-fn calibrate_spec(
-    py: Python<'_>,
-    path: Option<PathBuf>,
-    json: Option<&str>,
-) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>, Outputs)> {
-    let spec = match (path, json) {
-        (Some(p), None) => CalibrationSpec::read(&p),
-        (None, Some(j)) => CalibrationSpec::from_json(j, "spec"),
-        _ => return Err(bad("calibrate_spec: give a path or a JSON text")),
-    }
-    .map_err(|e| error(py, e))?;
-    let job = py.detach(|| spec.load()).map_err(|e| error(py, e))?;
-    let outcome = py.detach(|| job.run(&mut ())).map_err(|e| error(py, e))?;
-    let report = outcome.report.to_json();
-    let o = &job.spec.outputs;
-    let mut outputs = Vec::new();
-    if let Some(p) = &o.robot {
-        let text = kinecal::robot_file::write_robot_toml_checked(
-            &outcome.calibration.calibrated,
-            Some(&job.robot_source.text),
-        )
-        .map_err(|e| error(py, e))?;
-        outputs.push((p.clone(), text));
-    }
-    if let Some(p) = &o.report {
-        outputs.push((p.clone(), report.clone() + "\n"));
-    }
-    if let Some(p) = &o.html {
-        let html = kinecal_report::html_report(&outcome.report)
-            .map_err(|e| bad(format!("the HTML report cannot be drawn: {e}")))?;
-        outputs.push((p.clone(), html));
-    }
-    let calibrated = Robot {
-        robot: outcome.calibration.calibrated.clone(),
-        text: Some(job.robot_source.text.clone()),
-    };
-    let details = outcome::details(py, &outcome)?.unbind();
-    Ok((calibrated, report, details, outputs))
-}
-
-/// What `data` determines about the parameters of `estimate` (see the Python package's
-/// `kinecal.analyze`). Returns the analysis as JSON text.
-#[pyfunction]
-#[pyo3(signature = (robot, data, estimate=None, fix=None, weights=None, orientation_error="rotvec", rcond=None))]
-#[allow(clippy::too_many_arguments)]
-fn analyze(
-    py: Python<'_>,
-    robot: &Robot,
-    data: &Measurements,
-    estimate: Option<&Bound<'_, PyAny>>,
-    fix: Option<&Bound<'_, PyAny>>,
-    weights: Option<(f64, f64)>,
-    orientation_error: &str,
-    rcond: Option<f64>,
-) -> PyResult<String> {
+fn analyze(py: Python<'_>, robot: &Robot, data: &Measurements, spec: &str) -> PyResult<String> {
     let r = &robot.robot;
     data.check(r, "data")?;
-    let (weights, orientation) = residual_settings(r, weights, orientation_error)?;
-    let rcond = rcond.unwrap_or(kinecal::identifiability::DEFAULT_RANK_RCOND);
-    if !(rcond > 0.0 && rcond < 1.0) {
-        return Err(bad(format!("rcond: must be between 0 and 1, got {rcond}")));
-    }
-    let opts = AnalysisOptions {
-        rcond,
-        weights,
-        orientation,
-        priority: Vec::new(),
-        noise_scale: 1.0,
-        prior: Default::default(),
-    };
-    let estimate = param_list(estimate, "estimate")?.unwrap_or_else(|| "identifiable".into());
-    let fix = param_list(fix, "fix")?;
-    let selection = Selection::parse(&estimate, fix.as_deref(), r).map_err(|e| error(py, e))?;
+    let mut spec: AnalyzeSpec = jobs::settings(py, spec)?;
+    spec.robot = r.name.clone();
     let d = &data.data;
-    let json = py
-        .detach(|| -> kinecal::Result<String> {
-            let (params, unseen) = workflow::resolve(&selection, r, d, &opts)?;
-            let an = analyze_ids(r, d, &params, &opts)?;
-            Ok(kinecal::report::AnalysisReport::new(&an, r, &unseen).to_json())
-        })
+    let (outcome, _) = py
+        .detach(|| spec.analyze(r, d))
         .map_err(|e| error(py, e))?;
-    Ok(json)
+    Ok(outcome.report.to_json())
 }
 
 /// The data sets kinecal can read as they are published (`qkm-hl6`, `fanuc-r2000ic`,
@@ -1390,8 +1187,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Robot>()?;
     m.add_class::<Measurements>()?;
+    m.add_function(wrap_pyfunction!(jobs::run, m)?)?;
+    m.add_function(wrap_pyfunction!(jobs::calibrate_job, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
-    m.add_function(wrap_pyfunction!(calibrate_spec, m)?)?;
     m.add_function(wrap_pyfunction!(analyze, m)?)?;
     m.add_function(wrap_pyfunction!(datasets, m)?)?;
     m.add_function(wrap_pyfunction!(dataset, m)?)?;

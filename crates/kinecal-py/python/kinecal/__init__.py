@@ -51,6 +51,7 @@ __all__ = [
     "iso9283_log",
     "plan",
     "predict",
+    "run",
     "simulate",
 ]
 
@@ -239,84 +240,126 @@ class Calibration:
         )
 
 
-def _weights(weights: Weights) -> tuple[float, float] | None:
-    """Standard deviations ``(length, angle)`` from a pair or a ``{"length", "angle"}`` dict."""
-    if weights is None:
-        return None
-    if isinstance(weights, dict):
-        unknown = sorted(set(weights) - {"length", "angle"})
-        if unknown or len(weights) != 2:
-            raise KinecalError(
-                "weights: expected the keys length and angle"
-                + (f", not {', '.join(map(repr, unknown))}" if unknown else "")
-            )
-        pair = [weights["length"], weights["angle"]]
-    elif isinstance(weights, (str, bytes)):
-        raise KinecalError("weights: expected (length, angle) or {'length': .., 'angle': ..}")
-    else:
-        pair = list(weights)
-    if len(pair) != 2:
-        raise KinecalError("weights: expected (length, angle) standard deviations")
-    out = []
-    for name, w in zip(("length", "angle"), pair):
-        try:
-            out.append(float(w))
-        except (TypeError, ValueError):
-            raise KinecalError(f"weights: {name} {w!r} is not a number") from None
-    return out[0], out[1]
-
-
-def _spec(keyword: str, value: Spec, keys: Sequence[str]) -> tuple[float | None, ...] | None:
-    """Numbers named ``keys``, from a sequence of all of them in that order or a dict of some
-    of them (the others None)."""
-    if value is None:
-        return None
-    expected = f"({', '.join(keys)}) or a dict of some of {', '.join(map(repr, keys))}"
-    if isinstance(value, Mapping):
-        unknown = sorted(map(str, set(value) - set(keys)))
-        if unknown or not value:
-            raise KinecalError(
-                f"{keyword}: expected {expected}"
-                + (f", not {', '.join(map(repr, unknown))}" if unknown else "")
-            )
-        given: list[Any] = [value.get(k) for k in keys]
-    elif isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
-        raise TypeError(f"{keyword}: expected {expected}, got {type(value).__name__}")
-    else:
+def _pair(keyword: str, value: Any, keys: Sequence[str]) -> Any:
+    """Named numbers as a spec holds them (a table of some of ``keys``), from a sequence of all of
+    them in that order or a mapping of some of them; anything else is passed on for the
+    library to refuse, naming ``keyword``."""
+    if value is None or isinstance(value, (str, bytes, Mapping)):
+        return value
+    if isinstance(value, Sequence) or isinstance(value, np.ndarray):
         given = list(value)
         if len(given) != len(keys):
-            raise KinecalError(f"{keyword}: expected {expected}, got {len(given)} numbers")
-    out: list[float | None] = []
-    for name, v in zip(keys, given):
-        if v is None:
-            out.append(None)
-            continue
-        try:
-            out.append(float(v))
-        except (TypeError, ValueError):
-            raise KinecalError(f"{keyword}: {name} {v!r} is not a number") from None
-    return tuple(out)
+            raise KinecalError(
+                f"{keyword}: expected ({', '.join(keys)}) or a dict of some of "
+                f"{', '.join(map(repr, keys))}, got {len(given)} numbers"
+            )
+        return {k: v for k, v in zip(keys, given) if v is not None}
+    return value
+
+
+def _list(value: Any) -> Any:
+    """A parameter (or site) list as a spec holds it: comma-separated text."""
+    if isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
+        return ",".join(value)
+    return value
+
+
+def _plain(keyword: str, value: Any) -> Any:
+    """A keyword's value as JSON holds it: numpy scalars as numbers, paths as text; a number
+    that is not finite, or a value of no spec type, is refused naming the keyword."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        raise KinecalError(f"{keyword}: expected a finite number, not {value}")
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, Mapping):
+        return {str(k): _plain(keyword, v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(keyword, v) for v in value]
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    raise KinecalError(f"{keyword}: {type(value).__name__} is not a value a setting takes")
+
+
+class _Keywords:
+    """A named function's keywords as a spec of ``job``: each keyword's value at its key path.
+    Errors the library finds in them are raised naming the keyword."""
+
+    def __init__(self, job: str, given: Mapping[str, tuple[str, Any]]) -> None:
+        self.paths = {path: keyword for keyword, (path, _) in given.items()}
+        spec: dict[str, Any] = {"job": job}
+        for keyword, (path, value) in given.items():
+            if value is None:
+                continue
+            at = spec
+            parts = path.split(".")
+            for part in parts[:-1]:
+                at = at.setdefault(part, {})
+            at[parts[-1]] = _plain(keyword, value)
+        self.json = json.dumps(spec)
+
+    def __enter__(self) -> str:
+        return self.json
+
+    def __exit__(self, kind: Any, error: Any, trace: Any) -> None:
+        if not isinstance(error, KinecalError) or error.file is not None or not error.field:
+            return
+        field = str(error.field)
+        keyword = next(
+            (k for p, k in sorted(self.paths.items(), key=lambda x: -len(x[0]))
+             if field == p or field.startswith(p + ".") or field.startswith(p + "[")),
+            field.split(".")[-1],
+        )
+        wrapped = KinecalError(f"{keyword}: {error}")
+        wrapped.field = keyword
+        raise wrapped from None
 
 
 JobSpec = Union[Mapping[str, Any], str, "os.PathLike[str]"]
 
 
-def _calibrate_spec(spec: JobSpec) -> Calibration:
-    """Runs a calibration spec (a dict, or a spec file's path) and writes its outputs."""
+def run(spec: JobSpec) -> dict[str, Any]:
+    """Runs a job of any kind, as ``kinecal <job> --spec`` runs it: ``spec`` is a spec file's
+    path (its paths relative to its folder), a spec's TOML text, or a dict of its keys (paths
+    relative to the working folder), with its kind in ``job`` (``"calibrate"`` when absent).
+    The outputs the spec names are written (never over an input). Returns the job's document,
+    as the command line's ``--json`` or report gives it; its warnings are issued as
+    ``UserWarning``\ s (and a calibration that did not converge, a check that failed or a
+    compensation with flagged rows warns too)."""
+    import warnings
+
+    form, text = _spec_form(spec)
+    kind, document, messages, status = _native.run(text, form)
+    _warn(messages)
+    if status != "ok":
+        warnings.warn(f"{kind}: {status.replace('-', ' ')}", UserWarning, stacklevel=2)
+    result: dict[str, Any] = json.loads(document)
+    return result
+
+
+def _spec_form(spec: JobSpec) -> tuple[str, str]:
+    """How a spec is given (``path``, ``toml`` or ``json``) and its text."""
     if isinstance(spec, Mapping):
-        robot_out, report, details, outputs = _native.calibrate_spec(json=json.dumps(spec))
-    elif isinstance(spec, (str, os.PathLike)):
-        robot_out, report, details, outputs = _native.calibrate_spec(path=os.fspath(spec))
-    else:
-        raise TypeError(
-            f"calibrate: expected a Robot (with data) or a spec (a dict or a spec file's path), "
-            f"not {type(spec).__name__}"
-        )
-    for path, text in outputs:
-        # Written into what is there (a symlink's target, a device), with the umask's mode.
-        with open(path, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-    return Calibration(robot_out, report, details)
+        return "json", json.dumps(_plain("spec", spec))
+    if isinstance(spec, os.PathLike) or (
+        isinstance(spec, str) and "\n" not in spec and "=" not in spec
+    ):
+        return "path", os.fspath(spec)
+    if isinstance(spec, str):
+        return "toml", spec
+    raise TypeError(
+        f"expected a spec (a dict, TOML text or a spec file's path), not {type(spec).__name__}"
+    )
+
+
+def _warn(messages: Sequence[tuple[str, str]]) -> None:
+    """Issues a job's warnings as ``UserWarning``\\ s."""
+    import warnings
+
+    for level, message in messages:
+        if level == "warning":
+            warnings.warn(message, UserWarning, stacklevel=3)
 
 
 def calibrate(
@@ -325,20 +368,22 @@ def calibrate(
     *,
     estimate: ParamList = None,
     fix: ParamList = None,
-    method: str = "lm",
-    loss: str = "squared",
+    method: str | None = None,
+    loss: str | None = None,
     huber_scale: float | None = None,
-    huber_spread: str = "robust",
+    huber_spread: str | None = None,
     weights: Weights = None,
-    orientation_error: str = "rotvec",
+    orientation_error: str | None = None,
     validate: Measurements | None = None,
     holdout: float | None = None,
     folds: int | None = None,
     seed: int | None = None,
     prune: float | None = None,
-    solution: str = "solver",
+    solution: str | None = None,
     initial: Robot | None = None,
     max_iterations: int | None = None,
+    damping: str | None = None,
+    rcond: float | None = None,
     outlier_sigma: float | None = None,
     choose: Sequence[str] | None = None,
     repeats: int | None = None,
@@ -364,7 +409,12 @@ def calibrate(
     ``"link3.y=0.5"``; ``"tolerances"``; ``"none"``); by default the robot file's ``[priors]``.
     ``total_mass``: the robot's known total mass (kg) for an elastic robot's masses, as
     ``--total-mass``. ``predict``: also work out the predicted accuracy (``--predict``; the
-    report's ``prediction``, and :meth:`Calibration.predict`).
+    report's ``prediction``, and :meth:`Calibration.predict`). ``max_iterations``,
+    ``damping`` (``"marquardt"`` or ``"identity"``) and ``rcond`` (the singular-value
+    threshold of ``svd`` and ``gn``) as ``--max-iter``, ``--damping`` and ``--rcond``. None
+    leaves a setting at the library's default. Every keyword is a key of the calibration spec
+    (``kinecal calibrate --write-spec`` writes one): a bad value raises :class:`KinecalError`
+    naming the keyword.
 
     ``calibrate(spec)`` runs a whole job instead: ``spec`` is a calibration spec, the document
     ``kinecal calibrate --spec`` reads, as a dict (``{"robot": "arm.toml", "observations":
@@ -375,35 +425,41 @@ def calibrate(
     if not isinstance(robot, Robot):
         if data is not None:
             raise TypeError("calibrate(spec): the spec names its data; give no data")
-        return _calibrate_spec(robot)
+        form, text = _spec_form(robot)
+        robot_out, report, details, messages = _native.calibrate_job(text, form)
+        _warn(messages)
+        return Calibration(robot_out, report, details)
     if data is None:
         raise TypeError("calibrate: data is needed with a Robot (or give a spec)")
-    robot_out, report, details = _native.calibrate(
-        robot,
-        data,
-        estimate=estimate,
-        fix=fix,
-        method=method,
-        loss=loss,
-        huber_scale=huber_scale,
-        huber_spread=huber_spread,
-        weights=_weights(weights),
-        orientation_error=orientation_error,
-        validate=validate,
-        holdout=holdout,
-        folds=folds,
-        seed=seed,
-        prune=prune,
-        solution=solution,
-        initial=initial,
-        max_iterations=max_iterations,
-        outlier_sigma=outlier_sigma,
-        choose=None if choose is None else list(choose),
-        repeats=repeats,
-        prior=prior,
-        total_mass=total_mass,
-        predict=predict,
+    keywords = _Keywords(
+        "calibrate",
+        {
+            "estimate": ("selection.estimate", _list(estimate)),
+            "fix": ("selection.fix", _list(fix)),
+            "prune": ("selection.prune", prune),
+            "prior": ("selection.prior", prior),
+            "total_mass": ("selection.total_mass", total_mass),
+            "method": ("solver.method", method),
+            "max_iterations": ("solver.max_iterations", max_iterations),
+            "damping": ("solver.damping", damping),
+            "rcond": ("solver.rcond", rcond),
+            "solution": ("solver.solution", solution),
+            "loss": ("residuals.loss", loss),
+            "huber_scale": ("residuals.huber_scale", huber_scale),
+            "huber_spread": ("residuals.huber_spread", huber_spread),
+            "weights": ("residuals.weights", _pair("weights", weights, ("length", "angle"))),
+            "orientation_error": ("residuals.orientation_error", orientation_error),
+            "outlier_sigma": ("residuals.outlier_sigma", outlier_sigma),
+            "holdout": ("validation.holdout", holdout),
+            "folds": ("validation.folds", folds),
+            "seed": ("validation.seed", seed),
+            "choose": ("validation.choose", None if choose is None else list(choose)),
+            "repeats": ("validation.repeats", repeats),
+            "predict": ("validation.predict", predict or None),
+        },
     )
+    with keywords as spec:
+        robot_out, report, details = _native.calibrate(robot, data, spec, validate, initial)
     return Calibration(robot_out, report, details)
 
 
@@ -411,27 +467,39 @@ def analyze(
     robot: Robot,
     data: Measurements,
     *,
-    estimate: ParamList = "identifiable",
+    estimate: ParamList = None,
     fix: ParamList = None,
+    priority: ParamList = None,
+    prior: str | None = None,
+    total_mass: float | None = None,
     weights: Weights = None,
-    orientation_error: str = "rotvec",
+    orientation_error: str | None = None,
     rcond: float | None = None,
 ) -> dict[str, Any]:
     """What ``data`` determines about the parameters of ``estimate``: the same document as
     ``kinecal analyze --json`` (rank, singular values, the identifiable set, identically
     redundant combinations, null space, warnings), plus ``unseen``: parameters left out of
-    the default set because no measurement sees them."""
-    document: dict[str, Any] = json.loads(
-        _native.analyze(
-            robot,
-            data,
-            estimate=estimate,
-            fix=fix,
-            weights=_weights(weights),
-            orientation_error=orientation_error,
-            rcond=rcond,
-        )
+    the default set because no measurement sees them. ``estimate``: by default
+    :func:`calibrate`'s default parameters (so that the identifiable set is the one
+    ``estimate="identifiable"`` estimates; ``"all"`` for every one). ``priority``: parameters
+    to prefer in the identifiable set. ``prior`` (default: the robot file's ``[priors]``) and
+    ``total_mass`` as for :func:`calibrate`: the rank is then of the data and the prior
+    together."""
+    keywords = _Keywords(
+        "analyze",
+        {
+            "estimate": ("selection.estimate", _list(estimate)),
+            "fix": ("selection.fix", _list(fix)),
+            "priority": ("selection.priority", _list(priority)),
+            "prior": ("selection.prior", prior),
+            "total_mass": ("selection.total_mass", total_mass),
+            "weights": ("residuals.weights", _pair("weights", weights, ("length", "angle"))),
+            "orientation_error": ("residuals.orientation_error", orientation_error),
+            "rcond": ("rcond", rcond),
+        },
     )
+    with keywords as spec:
+        document: dict[str, Any] = json.loads(_native.analyze(robot, data, spec))
     return document
 
 
@@ -502,7 +570,7 @@ def compensate(
     site: str | None = None,
     position_only: bool = False,
     tolerance: Spec = None,
-    singular: float = 1e-3,
+    singular: float | None = None,
     branch: float | None = None,
     configuration: str | None = None,
 ) -> Compensation:
@@ -526,21 +594,22 @@ def compensate(
     whose conditioning is below it. ``branch``: flag a revolute joint turning more than this
     angle from the seed (default 0.5 rad).
     """
-    return Compensation(
-        _native.compensate(
-            calibrated,
-            nominal,
-            program=program,
-            targets=targets,
-            seeds=seeds,
-            site=site,
-            position_only=position_only,
-            tolerance=_spec("tolerance", tolerance, ("length", "angle")),
-            singular=singular,
-            branch=branch,
-            configuration=configuration,
-        )
+    keywords = _Keywords(
+        "compensate",
+        {
+            "site": ("site", site),
+            "position_only": ("position_only", position_only or None),
+            "tolerance": ("tolerance", _pair("tolerance", tolerance, ("length", "angle"))),
+            "singular": ("singular", singular),
+            "branch": ("branch", branch),
+            "configuration": ("configuration", configuration),
+        },
     )
+    with keywords as spec:
+        fields = _native.compensate(
+            calibrated, nominal, spec, program=program, targets=targets, seeds=seeds
+        )
+    return Compensation(fields)
 
 
 class RandomPlans(NamedTuple):
@@ -620,15 +689,15 @@ def plan(
     *,
     count: int,
     sample: int | None = None,
-    seed: int = 1,
-    criterion: str = "d",
+    seed: int | None = None,
+    criterion: str | None = None,
     position_only: bool = False,
     sites: Sequence[str | None] | None = None,
-    estimate: ParamList = "identifiable",
+    estimate: ParamList = None,
     fix: ParamList = None,
     keep: Candidates = None,
     weights: Weights = None,
-    orientation_error: str = "rotvec",
+    orientation_error: str | None = None,
 ) -> Plan:
     """Which postures to measure: ``count`` of the ``candidates`` chosen to determine the
     parameters of ``estimate`` best, as ``kinecal plan`` chooses them.
@@ -644,23 +713,24 @@ def plan(
     Measurements), always in the plan. ``weights`` and ``orientation_error`` as for
     :func:`calibrate`. ``seed`` also draws the random plans the result is compared with.
     """
-    return Plan(
-        _native.plan(
-            robot,
-            candidates,
-            count=count,
-            sample=sample,
-            seed=seed,
-            criterion=criterion,
-            position_only=position_only,
-            sites=sites,
-            estimate=estimate,
-            fix=fix,
-            keep=keep,
-            weights=_weights(weights),
-            orientation_error=orientation_error,
-        )
+    keywords = _Keywords(
+        "plan",
+        {
+            "count": ("count", count),
+            "sample": ("sample", sample),
+            "seed": ("seed", seed),
+            "criterion": ("criterion", criterion),
+            "position_only": ("position_only", position_only or None),
+            "sites": ("sites", None if sites is None else ",".join(s or "ee" for s in sites)),
+            "estimate": ("estimate", _list(estimate)),
+            "fix": ("fix", _list(fix)),
+            "weights": ("residuals.weights", _pair("weights", weights, ("length", "angle"))),
+            "orientation_error": ("residuals.orientation_error", orientation_error),
+        },
     )
+    with keywords as spec:
+        fields = _native.plan(robot, spec, candidates=candidates, keep=keep)
+    return Plan(fields)
 
 
 class Simulation(NamedTuple):
@@ -671,30 +741,11 @@ class Simulation(NamedTuple):
     truth: Robot
 
 
-def _changes(perturb: Mapping[str, float] | None) -> list[tuple[str, float]] | None:
-    if perturb is None:
-        return None
-    if not isinstance(perturb, Mapping):
-        raise TypeError(
-            "perturb: expected a dict of additive changes {parameter: change}, e.g. "
-            f"{{'p3': 0.1, 'joint2.offset': -0.5}}, got {type(perturb).__name__}"
-        )
-    out = []
-    for name, delta in perturb.items():
-        if not isinstance(name, str):
-            raise TypeError(f"perturb: {name!r}: expected a parameter name or list (a string)")
-        try:
-            out.append((name, float(delta)))
-        except (TypeError, ValueError):
-            raise KinecalError(f"perturb: {name}: {delta!r} is not a number") from None
-    return out
-
-
 def simulate(
     robot: Robot,
     postures: int | npt.ArrayLike,
     *,
-    seed: int = 1,
+    seed: int | None = None,
     perturb: Mapping[str, float] | None = None,
     perturb_std: Spec = None,
     noise: Spec = None,
@@ -712,15 +763,25 @@ def simulate(
     positions only (a laser tracker). The end effector and every site are measured at each
     posture.
     """
-    measurements, truth = _native.simulate(
-        robot,
-        postures,
-        seed=seed,
-        perturb=_changes(perturb),
-        perturb_std=_spec("perturb_std", perturb_std, ("length", "angle", "slope")),
-        noise=_spec("noise", noise, ("length", "angle")),
-        position_only=position_only,
+    count = postures if isinstance(postures, (int, np.integer)) and not isinstance(
+        postures, bool) else None
+    keywords = _Keywords(
+        "simulate",
+        {
+            "postures": ("postures", count),
+            "seed": ("seed", seed),
+            "perturb": ("perturb", perturb),
+            "perturb_std": (
+                "perturb_std", _pair("perturb_std", perturb_std, ("length", "angle", "slope"))
+            ),
+            "noise": ("noise", _pair("noise", noise, ("length", "angle"))),
+            "position_only": ("position_only", position_only or None),
+        },
     )
+    with keywords as spec:
+        measurements, truth = _native.simulate(
+            robot, spec, postures=None if count is not None else postures
+        )
     return Simulation(measurements, truth)
 
 

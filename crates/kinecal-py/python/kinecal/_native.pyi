@@ -189,95 +189,50 @@ class Measurements:
     def kinds(self) -> dict[str, int]: ...
     def __len__(self) -> int: ...
 
+def run(spec: str, form: str) -> tuple[str, str, list[tuple[str, str]], str]:
+    """Runs a spec (``form``: ``path``, ``toml`` or ``json``): the job's kind, its document as
+    JSON text, what it said (``(note|warning, text)``) and its status."""
+
+def calibrate_job(
+    spec: str, form: str
+) -> tuple[Robot, str, dict[str, Any], list[tuple[str, str]]]:
+    """Runs a calibration spec, its outputs written: the calibrated robot, the report as JSON
+    text, the outcome's arrays and what it said."""
+
 def calibrate(
     robot: Robot,
     data: Measurements,
-    estimate: _ParamList = None,
-    fix: _ParamList = None,
-    method: str = "lm",
-    loss: str = "squared",
-    huber_scale: float | None = None,
-    huber_spread: str = "robust",
-    weights: tuple[float, float] | None = None,
-    orientation_error: str = "rotvec",
+    spec: str,
     validate: Measurements | None = None,
-    holdout: float | None = None,
-    folds: int | None = None,
-    seed: int | None = None,
-    prune: float | None = None,
-    solution: str = "solver",
     initial: Robot | None = None,
-    max_iterations: int | None = None,
-    outlier_sigma: float | None = None,
-    choose: list[str] | None = None,
-    repeats: int | None = None,
-    prior: str | None = None,
-    total_mass: float | None = None,
-    predict: bool = False,
 ) -> tuple[Robot, str, dict[str, Any]]:
     """The calibrated robot, the report as JSON text and the outcome's arrays
     (``covariance``, ``covariance_names``, ``residuals``, ``residual_rows``)."""
 
-def calibrate_spec(
-    path: str | None = None, json: str | None = None
-) -> tuple[Robot, str, dict[str, Any], list[tuple[str, str]]]:
-    """Runs a calibration spec (a file's path or JSON text): the calibrated robot, the report
-    as JSON text, the outcome's arrays and the outputs the spec names, ``[(path, text)]``."""
-
-def analyze(
-    robot: Robot,
-    data: Measurements,
-    estimate: _ParamList = None,
-    fix: _ParamList = None,
-    weights: tuple[float, float] | None = None,
-    orientation_error: str = "rotvec",
-    rcond: float | None = None,
-) -> str:
+def analyze(robot: Robot, data: Measurements, spec: str) -> str:
     """The document of ``kinecal analyze --json`` as JSON text, plus ``unseen``."""
 
 def compensate(
     calibrated: Robot,
     nominal: Robot,
+    spec: str,
     *,
     program: npt.ArrayLike | None = None,
     targets: npt.ArrayLike | None = None,
     seeds: npt.ArrayLike | None = None,
-    site: str | None = None,
-    position_only: bool = False,
-    tolerance: tuple[float | None, ...] | None = None,
-    singular: float = 1e-3,
-    branch: float | None = None,
-    configuration: str | None = None,
 ) -> dict[str, Any]:
-    """The fields of ``kinecal.Compensation``."""
+    """The fields of a :class:`kinecal.Compensation`."""
 
 def plan(
     robot: Robot,
+    spec: str,
     candidates: npt.ArrayLike | Measurements | None = None,
-    *,
-    count: int,
-    sample: int | None = None,
-    seed: int | None = None,
-    criterion: str = "d",
-    position_only: bool = False,
-    sites: Sequence[str | None] | None = None,
-    estimate: _ParamList = None,
-    fix: _ParamList = None,
     keep: npt.ArrayLike | Measurements | None = None,
-    weights: tuple[float, float] | None = None,
-    orientation_error: str = "rotvec",
 ) -> dict[str, Any]:
-    """The fields of ``kinecal.Plan``, and ``csv``: what ``kinecal plan --out`` writes."""
+    """The fields of a :class:`kinecal.Plan`."""
 
 def simulate(
-    robot: Robot,
-    postures: int | npt.ArrayLike,
-    *,
-    seed: int | None = None,
-    perturb: Sequence[tuple[str, float]] | None = None,
-    perturb_std: tuple[float | None, ...] | None = None,
-    noise: tuple[float | None, ...] | None = None,
-    position_only: bool = False,
+    robot: Robot, spec: str, postures: npt.ArrayLike | None = None
 ) -> tuple[Measurements, Robot]:
     """The measurements and the true robot."""
 

@@ -80,6 +80,7 @@ pub enum MatrixUnits {
 #[serde(deny_unknown_fields)]
 pub struct AnalyzeSpec {
     /// The robot file (or a built-in robot's name): the model, analysed at its values.
+    #[serde(default)]
     pub robot: String,
     /// How the observation files are read.
     #[serde(default, skip_serializing_if = "is_default")]

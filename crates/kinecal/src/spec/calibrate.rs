@@ -56,6 +56,7 @@ use super::{Document, Done, Env, JobKind, Message, PathRole, Spec, Status};
 pub struct CalibrationSpec {
     /// The nominal robot: a robot file, or a built-in robot's name (`ge-a4`) when no such file
     /// exists.
+    #[serde(default)]
     pub robot: String,
     /// A robot file to start the solver from (same structure as `robot`).
     #[serde(default, skip_serializing_if = "Option::is_none")]

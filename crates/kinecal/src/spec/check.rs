@@ -25,6 +25,7 @@ use super::{Document, Done, Env, JobKind, PathRole, Spec, Status};
 #[serde(deny_unknown_fields)]
 pub struct CheckSpec {
     /// The robot (as calibrated).
+    #[serde(default)]
     pub robot: String,
     /// How the observation files are read.
     #[serde(default, skip_serializing_if = "is_default")]
@@ -33,6 +34,7 @@ pub struct CheckSpec {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub observations: Vec<ObservationFile>,
     /// The largest acceptable errors: a length (required) and an angle (robot file's units).
+    #[serde(default)]
     pub threshold: LengthAngle,
 }
 

@@ -66,12 +66,14 @@ impl ProgramFormat {
 #[serde(deny_unknown_fields)]
 pub struct CompensateSpec {
     /// The calibrated robot: how the robot really moves.
+    #[serde(default)]
     pub robot: String,
     /// The nominal robot the controller uses (and the program was made with).
+    #[serde(default)]
     pub nominal: String,
     /// The program (`posture,v1..vn`) or the targets (`target,x,y,z[,alpha,beta,gamma]...`;
     /// `-` for standard input).
-    #[serde(rename = "in")]
+    #[serde(default, rename = "in")]
     pub input: String,
     /// The frame that must reach the goal: `ee` (default) or a site.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -116,16 +118,22 @@ impl Spec for CompensateSpec {
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct CompensationSummary {
     /// Rows compensated.
+    #[serde(default)]
     pub rows: usize,
     /// Rows with a flag.
+    #[serde(default)]
     pub flagged: usize,
     /// Rows out of reach.
+    #[serde(default)]
     pub unreachable: usize,
     /// Rows outside a joint range.
+    #[serde(default)]
     pub out_of_range: usize,
     /// Rows near a singularity.
+    #[serde(default)]
     pub singular: usize,
     /// Rows that change configuration.
+    #[serde(default)]
     pub branch: usize,
     /// Rows not in the configuration asked for (with one).
     pub configuration: Option<usize>,
@@ -134,8 +142,10 @@ pub struct CompensationSummary {
     /// The largest remaining attitude error.
     pub worst_attitude: f64,
     /// The robot file's length unit.
+    #[serde(default)]
     pub length_unit: String,
     /// Its angle unit.
+    #[serde(default)]
     pub angle_unit: String,
     /// The first flagged row's label and flags.
     pub first_flagged: Option<(String, String)>,

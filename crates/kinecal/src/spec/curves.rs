@@ -41,6 +41,7 @@ pub enum CurveKind {
 #[serde(deny_unknown_fields)]
 pub struct Sweep {
     /// The parameters, each on its own curve (a parameter list).
+    #[serde(default)]
     pub param: String,
     /// The width of the sweep around each value (robot file's units).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -61,8 +62,10 @@ pub struct Sweep {
 #[serde(deny_unknown_fields)]
 pub struct CurvesSpec {
     /// Which curve.
+    #[serde(default)]
     pub curve: CurveKind,
     /// The robot, at its values.
+    #[serde(default)]
     pub robot: String,
     /// The posture's readings (pose).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -86,6 +89,7 @@ pub struct CurvesSpec {
     #[serde(default, skip_serializing_if = "is_default")]
     pub residuals: Residuals,
     /// The sweep.
+    #[serde(default)]
     pub sweep: Sweep,
     /// The file to write: `.svg`, `.png` or `.csv` by its extension.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -109,10 +113,13 @@ impl Spec for CurvesSpec {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SweptParameter {
     /// Its title.
+    #[serde(default)]
     pub title: String,
     /// The x axis's label (with unit).
+    #[serde(default)]
     pub x_label: String,
     /// The y axis's label (with unit).
+    #[serde(default)]
     pub y_label: String,
     /// The parameter's values.
     pub x: Vec<f64>,
@@ -126,14 +133,18 @@ pub struct SweptParameter {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Curves {
     /// Which curve.
+    #[serde(default)]
     pub curve: CurveKind,
     /// The charts, in order.
     pub charts: Vec<SweptParameter>,
     /// Charts per row in a picture.
+    #[serde(default)]
     pub columns: usize,
     /// The table (what a `.csv` output holds).
+    #[serde(default)]
     pub csv: String,
     /// What the curves show: periods, minima, convexity.
+    #[serde(default)]
     pub findings: Vec<String>,
 }
 

@@ -61,6 +61,7 @@ impl ExportFormat {
 #[serde(deny_unknown_fields)]
 pub struct ExportSpec {
     /// What to write.
+    #[serde(default)]
     pub format: ExportFormat,
     /// The calibrated robot.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -131,8 +132,10 @@ pub enum ImportFormat {
 #[serde(deny_unknown_fields)]
 pub struct ImportSpec {
     /// What the file is.
+    #[serde(default)]
     pub format: ImportFormat,
     /// The file.
+    #[serde(default)]
     pub file: String,
     /// The first link of the chain (URDF; default the root link).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -175,12 +178,15 @@ pub struct ExportOutcome {
     /// The read-back line (`read back: largest deviation ... over N postures`).
     pub read_back: Option<String>,
     /// What the export cannot hold, each with its deviation.
+    #[serde(default)]
     pub lost: Vec<String>,
     /// What a user must know or do (left out frames, the TCP to enter, units).
+    #[serde(default)]
     pub notes: Vec<String>,
     /// The tool correction to enter on the controller (UR).
     pub tcp: Option<String>,
     /// The text written.
+    #[serde(default)]
     pub text: String,
 }
 

@@ -36,6 +36,7 @@ pub const MAX_RESOLUTION: usize = 200;
 #[serde(deny_unknown_fields)]
 pub struct Iso9283PlanSpec {
     /// The robot (its model reaches the poses).
+    #[serde(default)]
     pub robot: String,
     /// The cube: `[cx, cy, cz, side]` in the global frame (default: searched for, as large as
     /// the robot reaches with its test poses and corners).
@@ -58,8 +59,10 @@ pub struct Iso9283PlanSpec {
 #[serde(deny_unknown_fields)]
 pub struct Iso9283SimulateSpec {
     /// The robot that moves (a "true" robot).
+    #[serde(default)]
     pub robot: String,
     /// The plan's poses (`iso9283-plan`'s file).
+    #[serde(default)]
     pub poses: String,
     /// Cycles round the poses (default 30, as ISO 9283 asks).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -81,10 +84,13 @@ pub struct Iso9283SimulateSpec {
 #[serde(deny_unknown_fields)]
 pub struct Iso9283LogSpec {
     /// The robot whose model commands the poses.
+    #[serde(default)]
     pub robot: String,
     /// The measurements (a measurement file).
+    #[serde(default)]
     pub data: String,
     /// The postures' roles (`posture,test,pose,cycle`).
+    #[serde(default)]
     pub roles: String,
     /// The log's length unit (default: the robot file's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -100,6 +106,7 @@ pub struct Iso9283LogSpec {
 #[serde(deny_unknown_fields)]
 pub struct Iso9283EvaluateSpec {
     /// The log.
+    #[serde(default)]
     pub data: String,
     /// Its length unit, when it does not state it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -170,6 +177,7 @@ impl Spec for Iso9283EvaluateSpec {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PlannedPose {
     /// `P1` .. `P5`.
+    #[serde(default)]
     pub pose: String,
     /// Its position (length unit, global frame).
     pub position: [f64; 3],
@@ -183,8 +191,10 @@ pub struct PlannedPose {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Iso9283PlanDocument {
     /// The robot file's length unit.
+    #[serde(default)]
     pub length_unit: String,
     /// Its angle unit.
+    #[serde(default)]
     pub angle_unit: String,
     /// The cube's centre.
     pub centre: [f64; 3],
@@ -210,12 +220,16 @@ pub struct Iso9283PlanOutcome {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SimulatedLog {
     /// Cycles.
+    #[serde(default)]
     pub cycles: usize,
     /// Poses per cycle.
+    #[serde(default)]
     pub poses: usize,
     /// Rows of the log.
+    #[serde(default)]
     pub rows: usize,
     /// The log as written.
+    #[serde(default)]
     pub log: String,
 }
 
@@ -223,14 +237,19 @@ pub struct SimulatedLog {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Iso9283LogOutcome {
     /// Rows of the log.
+    #[serde(default)]
     pub rows: usize,
     /// Tests in it.
+    #[serde(default)]
     pub tests: usize,
     /// Measured postures without a role (left out).
+    #[serde(default)]
     pub left_out: Vec<String>,
     /// Sessions whose measurement frame was placed on the data.
+    #[serde(default)]
     pub placed: Vec<String>,
     /// The log as written.
+    #[serde(default)]
     pub log: String,
 }
 

@@ -415,6 +415,22 @@ impl Job {
     }
 }
 
+/// The spec `S` from a JSON value (its keys, with or without a `job` key naming `S`'s kind), as
+/// the named functions of Python send their keywords: errors name the key path.
+pub fn spec_from_value<S: Spec>(mut value: serde_json::Value, file: &str) -> Result<S> {
+    if let serde_json::Value::Object(m) = &mut value {
+        if let Some(job) = m.remove("job") {
+            if job.as_str() != Some(S::KIND.name()) {
+                return Err(Error::input(
+                    Location::file(file).with_field("job"),
+                    format!("expected `{}`, not {job}", S::KIND.name()),
+                ));
+            }
+        }
+    }
+    common::from_value(value, file)
+}
+
 /// What a job's run reports as it goes, and asks of its host. Every method has a default that
 /// does nothing.
 pub use crate::workflow::Progress;

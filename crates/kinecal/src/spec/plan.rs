@@ -47,6 +47,7 @@ pub struct PlanOutputs {
 #[serde(deny_unknown_fields)]
 pub struct PlanSpec {
     /// The robot file (or a built-in robot's name): the nominal model the plan is made for.
+    #[serde(default)]
     pub robot: String,
     /// Candidate postures: a postures file, or an observation file (what each row measures is
     /// what the plan assumes).
@@ -59,6 +60,7 @@ pub struct PlanSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
     /// How many postures to choose (besides the kept ones).
+    #[serde(default)]
     pub count: usize,
     /// What the plan maximises (default `d`).
     #[serde(default, skip_serializing_if = "is_default")]

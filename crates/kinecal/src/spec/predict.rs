@@ -49,8 +49,10 @@ pub struct PredictOutputs {
 #[serde(deny_unknown_fields)]
 pub struct PredictSpec {
     /// The calibrated robot (the report's).
+    #[serde(default)]
     pub robot: String,
     /// Its calibration report (JSON), with a prediction.
+    #[serde(default)]
     pub report: String,
     /// Postures to predict at (`posture,v1..vn`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -101,14 +103,19 @@ pub struct BoundSpread {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PredictionTable {
     /// The calibrated robot's name.
+    #[serde(default)]
     pub robot: String,
     /// The frame predicted.
+    #[serde(default)]
     pub target: String,
     /// The robot file's length unit.
+    #[serde(default)]
     pub length_unit: String,
     /// Its angle unit.
+    #[serde(default)]
     pub angle_unit: String,
     /// The postures' labels.
+    #[serde(default)]
     pub postures: Vec<String>,
     /// The spread of the 95 % position bound.
     pub position_bound95: BoundSpread,

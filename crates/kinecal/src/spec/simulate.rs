@@ -52,8 +52,10 @@ pub struct PerturbSpread {
 #[serde(deny_unknown_fields)]
 pub struct SimulateSpec {
     /// The nominal robot.
+    #[serde(default)]
     pub robot: String,
     /// How many postures, sampled within the joint ranges.
+    #[serde(default)]
     pub postures: usize,
     /// The random seed (default 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -93,9 +95,11 @@ impl Spec for SimulateSpec {
 #[serde(deny_unknown_fields)]
 pub struct FkSpec {
     /// The robot.
+    #[serde(default)]
     pub robot: String,
     /// The postures (`posture,v1..vn`, what `compensate` writes, or a measurement file; `-` for
     /// standard input).
+    #[serde(default)]
     pub postures: String,
     /// The poses to write (a measurement file; standard output when absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -116,10 +120,13 @@ impl Spec for FkSpec {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SimulateOutcome {
     /// Postures.
+    #[serde(default)]
     pub postures: usize,
     /// Measurements (poses or positions).
+    #[serde(default)]
     pub measurements: usize,
     /// The measurement file (what `out` holds; empty when it streamed into a file).
+    #[serde(default)]
     pub data: String,
     /// The true robot file (a simulation's).
     pub truth: Option<String>,
@@ -189,12 +196,19 @@ impl SimulateSpec {
             ));
         }
         let mut data = simulate::measure(truth, &postures, self.position_only);
+        self.add_noise(nominal, &mut data)?;
+        Ok(data)
+    }
+
+    /// Adds the spec's noise (in `nominal`'s file units) to `data`.
+    pub fn add_noise(&self, nominal: &Robot, data: &mut Dataset) -> Result<()> {
         self.noise.check(Setting::Noise, false)?;
         let (l, a) = self.noise.si(nominal);
         if l.is_some() || a.is_some() {
-            simulate::add_noise(&mut data, l.unwrap_or(0.0), a.unwrap_or(0.0), seed);
+            let seed = self.seed.unwrap_or(1);
+            simulate::add_noise(data, l.unwrap_or(0.0), a.unwrap_or(0.0), seed);
         }
-        Ok(data)
+        Ok(())
     }
 
     /// Simulates and writes the files.
