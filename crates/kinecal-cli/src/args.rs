@@ -540,7 +540,11 @@ pub struct Iso9283LogArgs {
     #[arg(long, required_unless_present = "spec")]
     pub robot: Option<String>,
     /// The measurement file (positions or poses).
-    #[arg(long, value_name = "MEASUREMENTS.csv", required_unless_present = "spec")]
+    #[arg(
+        long,
+        value_name = "MEASUREMENTS.csv",
+        required_unless_present = "spec"
+    )]
     pub data: Option<PathBuf>,
     /// Which test, pose and cycle each posture is (CSV: posture,test,pose,cycle).
     #[arg(long, value_name = "ROLES.csv", required_unless_present = "spec")]
@@ -664,11 +668,7 @@ pub struct CurvesPoseArgs {
     #[arg(long, required_unless_present = "spec")]
     pub robot: Option<String>,
     /// Transducer readings, comma-separated.
-    #[arg(
-        long,
-        allow_hyphen_values = true,
-        conflicts_with = "postures"
-    )]
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "postures")]
     pub readings: Option<String>,
     /// A postures (or measurement) file, with --posture.
     #[arg(long, requires = "posture")]
@@ -714,10 +714,7 @@ pub struct ReportArgs {
     #[command(flatten)]
     pub observations: ObservationFiles,
     /// The calibrated robot file.
-    #[arg(
-        long,
-        conflicts_with = "calibration"
-    )]
+    #[arg(long, conflicts_with = "calibration")]
     pub calibrated: Option<String>,
     /// Or a calibration report (JSON from `kinecal calibrate --report`).
     #[arg(long)]
@@ -1238,7 +1235,6 @@ pub struct ImportPoeArgs {
     pub out: Option<PathBuf>,
 }
 
-
 /// `kinecal import dh`.
 #[derive(Debug, Args)]
 pub struct ImportDhArgs {
@@ -1266,8 +1262,6 @@ pub struct ImportDhArgs {
     pub out: Option<PathBuf>,
 }
 
-
-
 /// `kinecal analyze`.
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
@@ -1294,7 +1288,7 @@ pub struct AnalyzeArgs {
     /// sites).
     #[arg(long, value_name = "LIST")]
     pub priority: Option<String>,
-    /// Relative singular-value tolerance for the numerical rank [default: 1e-6].
+    /// Relative singular-value tolerance for the numerical rank [default: 1e-9].
     #[arg(long, value_name = "X")]
     pub rcond: Option<f64>,
     /// Analyse the data with a Gaussian prior on the changes, as `calibrate --prior` fits it
@@ -1368,7 +1362,6 @@ pub struct CompensateArgs {
     pub out: Option<PathBuf>,
 }
 
-
 /// `kinecal batch`.
 #[derive(Debug, Args)]
 pub struct BatchArgs {
@@ -1392,11 +1385,15 @@ pub struct BatchArgs {
     /// Also write the summary as CSV.
     #[arg(long, value_name = "FILE")]
     pub summary: Option<PathBuf>,
+    /// Also write each job's document (what its command's `--json` or report gives) into this
+    /// folder, as NAME.json (the robot's serial or the job's name; characters other than
+    /// letters, digits, `.`, `_` and `-` written `_`).
+    #[arg(long, value_name = "DIR")]
+    pub documents: Option<PathBuf>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
 }
-
 
 /// `kinecal plan`.
 #[derive(Debug, Args)]
@@ -1408,11 +1405,7 @@ pub struct PlanArgs {
     pub robot: Option<String>,
     /// Candidate postures: a postures file (posture,v1,...,vn) or an observation file (what
     /// each row measures is what the plan assumes).
-    #[arg(
-        long,
-        value_name = "FILE",
-        conflicts_with = "sample"
-    )]
+    #[arg(long, value_name = "FILE", conflicts_with = "sample")]
     pub candidates: Option<PathBuf>,
     /// Sample this many candidate postures uniformly within the joint ranges instead.
     #[arg(long, value_name = "N")]
@@ -1469,12 +1462,6 @@ pub struct ResidualArgs {
     #[arg(long, value_name = "SPEC")]
     pub weights: Option<String>,
 }
-
-
-
-
-
-
 
 /// `kinecal calibrate`.
 #[derive(Debug, Args)]

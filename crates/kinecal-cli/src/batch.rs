@@ -115,7 +115,10 @@ pub const CALIBRATE_FLAGS: &[(&str, Sets)] = &[
     ("--rcond", Sets::Value("solver.rcond")),
     ("--solution", Sets::Value("solver.solution")),
     ("--weights", Sets::LengthAngle("residuals.weights")),
-    ("--orientation-error", Sets::Value("residuals.orientation_error")),
+    (
+        "--orientation-error",
+        Sets::Value("residuals.orientation_error"),
+    ),
     ("--loss", Sets::Value("residuals.loss")),
     ("--huber-scale", Sets::Value("residuals.huber_scale")),
     ("--huber-spread", Sets::Value("residuals.huber_spread")),
@@ -227,12 +230,21 @@ fn push(root: &mut serde_json::Value, path: &str, value: serde_json::Value) {
 /// The calibration spec of one CSV row: `robot`, `data` and the options (calibrate's flags, see
 /// [`CALIBRATE_FLAGS`]), every path taken relative to the manifest's folder `dir`. An error
 /// names the option.
-fn row_job(dir: &Path, robot: &str, data: &str, options: &[String]) -> std::result::Result<Job, String> {
+fn row_job(
+    dir: &Path,
+    robot: &str,
+    data: &str,
+    options: &[String],
+) -> std::result::Result<Job, String> {
     let mut spec = serde_json::json!({ "robot": robot });
     let mut base: Option<String> = None;
     let mut files = 0usize;
     if !data.is_empty() {
-        push(&mut spec, "observations", serde_json::json!({ "file": data, "kind": "data" }));
+        push(
+            &mut spec,
+            "observations",
+            serde_json::json!({ "file": data, "kind": "data" }),
+        );
         files += 1;
     }
     let mut i = 0;
@@ -254,7 +266,9 @@ fn row_job(dir: &Path, robot: &str, data: &str, options: &[String]) -> std::resu
             ));
         }
         let Some(&(_, sets)) = CALIBRATE_FLAGS.iter().find(|(f, _)| *f == flag) else {
-            return Err(format!("unknown option `{opt}` (calibrate's options: see kinecal calibrate --help)"));
+            return Err(format!(
+                "unknown option `{opt}` (calibrate's options: see kinecal calibrate --help)"
+            ));
         };
         i += 1;
         let mut value = || -> std::result::Result<String, String> {
@@ -276,16 +290,28 @@ fn row_job(dir: &Path, robot: &str, data: &str, options: &[String]) -> std::resu
                 if files == 0 || !spec["observations"].is_array() {
                     put(&mut spec, "observations", serde_json::json!([]));
                 }
-                push(&mut spec, "observations", serde_json::json!({ "file": value()?, "kind": kind }));
+                push(
+                    &mut spec,
+                    "observations",
+                    serde_json::json!({ "file": value()?, "kind": kind }),
+                );
                 files += 1;
             }
-            Sets::Validate => push(&mut spec, "validation.files", serde_json::json!({ "file": value()? })),
+            Sets::Validate => push(
+                &mut spec,
+                "validation.files",
+                serde_json::json!({ "file": value()? }),
+            ),
             Sets::Column => push(&mut spec, "read.columns", value()?.into()),
             Sets::LengthAngle(path) => {
                 let text = value()?;
                 let la = kinecal::spec::LengthAngle::parse(&text, kinecal::Setting::Weights)
                     .map_err(|e| format!("{flag}: {}", message_of(&e)))?;
-                put(&mut spec, path, serde_json::to_value(la).expect("plain data"));
+                put(
+                    &mut spec,
+                    path,
+                    serde_json::to_value(la).expect("plain data"),
+                );
             }
             Sets::Candidates => {
                 let mut list = Vec::new();
@@ -381,9 +407,11 @@ fn merge_tables(base: &mut toml_edit::Table, over: &toml_edit::Table) {
 /// Takes a string key out of `table`, for an entry at `at`.
 fn take_string(table: &mut toml_edit::Table, key: &str, at: &str) -> Result<Option<String>> {
     match table.remove(key) {
-        Some(v) => Ok(Some(v.as_str().map(str::to_string).ok_or_else(|| {
-            anyhow!("{at}: `{key}` must be a string")
-        })?)),
+        Some(v) => {
+            Ok(Some(v.as_str().map(str::to_string).ok_or_else(|| {
+                anyhow!("{at}: `{key}` must be a string")
+            })?))
+        }
         None => Ok(None),
     }
 }
@@ -466,11 +494,17 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
         let mut table = t.clone();
         let serial = take_string(&mut table, "serial", &at)?;
         let label = take_string(&mut table, "name", &at)?;
-        let kind = table.get("job").and_then(|j| j.as_str()).unwrap_or("calibrate").to_string();
+        let kind = table
+            .get("job")
+            .and_then(|j| j.as_str())
+            .unwrap_or("calibrate")
+            .to_string();
         if serial.is_some() && kind != "calibrate" {
             bail!("{at}: a serial names a robot whose calibration is recorded: give other jobs a `name`");
         }
-        let label = serial.or(label).unwrap_or_else(|| format!("{kind} {}", k + 1));
+        let label = serial
+            .or(label)
+            .unwrap_or_else(|| format!("{kind} {}", k + 1));
         if label.is_empty() {
             bail!("{at}: the name is empty");
         }
@@ -546,7 +580,10 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
     let mut serials: Vec<&str> = entries.iter().map(|e| e.serial.as_str()).collect();
     serials.sort_unstable();
     if let Some(w) = serials.windows(2).find(|w| w[0] == w[1]) {
-        bail!("{name}: `{}` listed twice (each robot's serial, each job's name once)", w[0]);
+        bail!(
+            "{name}: `{}` listed twice (each robot's serial, each job's name once)",
+            w[0]
+        );
     }
     Ok(entries)
 }
@@ -702,6 +739,8 @@ struct Finished {
     row: Row,
     pending: Option<Pending>,
     report: Option<kinecal::report::CalibrationReport>,
+    /// The job's document (JSON).
+    document: Option<String>,
 }
 
 /// Runs one job (a calibration's outputs held).
@@ -713,6 +752,7 @@ fn run_one(e: &Entry) -> Finished {
                 row: failed(&e.serial, format!("{}: {msg}", e.at)),
                 pending: None,
                 report: None,
+                document: None,
             }
         }
     };
@@ -727,11 +767,13 @@ fn run_one(e: &Entry) -> Finished {
             kinecal::spec::Status::Implausible | kinecal::spec::Status::Flagged => Status::Flagged,
             _ => Status::Ok,
         };
+        let document = Some(done.document.to_json());
         Ok(match done.document {
             Document::Calibration(o) => Finished {
                 row: figures(&e.serial, status, &o),
                 pending: done.pending,
                 report: Some(o.report),
+                document,
             },
             _ => Finished {
                 row: Row {
@@ -740,6 +782,7 @@ fn run_one(e: &Entry) -> Finished {
                 },
                 pending: done.pending,
                 report: None,
+                document,
             },
         })
     };
@@ -747,6 +790,7 @@ fn run_one(e: &Entry) -> Finished {
         row: failed(&e.serial, crate::in_flags(&err)),
         pending: None,
         report: None,
+        document: None,
     })
 }
 
@@ -835,6 +879,20 @@ fn summary_csv(rows: &[Row]) -> Result<String> {
     )?)
 }
 
+/// A serial or a job's name as a file name: letters, digits, `.`, `_` and `-` kept, the rest
+/// written `_`.
+fn file_name(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
 /// Parses `--shard K/N`.
 fn parse_shard(s: &str) -> Result<(usize, usize)> {
     let bad =
@@ -886,6 +944,9 @@ pub fn run(a: BatchArgs) -> Result<u8> {
     let calibrations_only = entries
         .iter()
         .all(|e| matches!(e.job, Ok(Job::Calibrate(_)) | Err(_)));
+    if let Some(dir) = &a.documents {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
     let db = if a.record {
         Some(history::open_db(a.db.as_deref())?)
     } else {
@@ -930,12 +991,20 @@ pub fn run(a: BatchArgs) -> Result<u8> {
     bar.finish_and_clear();
     // One writer: record in manifest order, then put each robot's outputs in place.
     let mut rows = Vec::with_capacity(done.len());
+    let mut documents = output::Staged::new();
     for d in done {
         let Finished {
             mut row,
             pending,
             report,
+            document,
         } = d;
+        if let (Some(dir), Some(doc)) = (&a.documents, &document) {
+            documents.text(
+                &dir.join(file_name(&row.serial) + ".json"),
+                &(doc.clone() + "\n"),
+            )?;
+        }
         // One transaction per record; a record already there (a rerun after an interrupted
         // batch, another shard's retry) is found by its key and not written twice.
         let recorded = match (&db, &report) {
@@ -955,6 +1024,10 @@ pub fn run(a: BatchArgs) -> Result<u8> {
             (Ok(()), None) => {}
         }
         rows.push(row);
+    }
+    documents.commit()?;
+    if let Some(dir) = &a.documents {
+        eprintln!("wrote the documents to {}", dir.display());
     }
     print!("{}", table(&rows));
     for r in &rows {

@@ -11,7 +11,7 @@ use kinecal::spec::{CalibrationSpec, Document, Job, Message, Status};
 use kinecal::workflow::{self, Outcome};
 
 use crate::args::CalibrateArgs;
-use crate::door::{base, observations, over, path_text, set, length_angle};
+use crate::door::{base, length_angle, observations, over, path_text, set};
 use crate::{history, report, word};
 
 /// Progress for `-v`: one line per iteration.
@@ -141,6 +141,8 @@ impl kinecal::spec::Recorder for Record<'_> {
 pub struct Display {
     bar: indicatif::ProgressBar,
     verbose: Verbose,
+    /// `--strict` (or the spec's): a warning that the result would be wrong stops the run.
+    strict: bool,
     /// The warnings printed before the solve (not printed again after it).
     shown: Vec<kinecal::Warning>,
 }
@@ -165,6 +167,7 @@ impl Display {
         Display {
             bar,
             verbose: Verbose(a.verbose),
+            strict: a.strict,
             shown: Vec::new(),
         }
     }
@@ -207,7 +210,7 @@ impl workflow::Progress for Display {
             }
         });
         self.shown.extend(warnings.iter().cloned());
-        true
+        !(self.strict && warnings.iter().any(kinecal::Warning::implausible))
     }
 
     fn say(&mut self, what: &str) {
@@ -220,6 +223,7 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     let mut display = Display::new(&a);
     display.say("reading");
     let spec = spec_of(&a)?;
+    display.strict = spec.strict;
     let choice = spec.validation.choose.is_some();
     // Open the history first, so that an unwritable database fails before the work.
     let record_at = history::parse_at(a.at.as_deref())?;
@@ -247,7 +251,9 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
         &a.door,
         &mut display,
         &also,
-        record.as_mut().map(|r| r as &mut dyn kinecal::spec::Recorder),
+        record
+            .as_mut()
+            .map(|r| r as &mut dyn kinecal::spec::Recorder),
     );
     display.done();
     let Some(done) = solved? else {

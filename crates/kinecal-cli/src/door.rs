@@ -82,9 +82,7 @@ pub fn over<T>(slot: &mut Option<T>, flag: Option<T>) {
 
 /// `length=L,angle=A` of `setting`, when given.
 pub fn length_angle(text: Option<&str>, setting: Setting) -> Result<Option<LengthAngle>> {
-    Ok(text
-        .map(|t| LengthAngle::parse(t, setting))
-        .transpose()?)
+    Ok(text.map(|t| LengthAngle::parse(t, setting)).transpose()?)
 }
 
 /// The observation files of the command line over the spec's: files given replace its list;
@@ -118,7 +116,10 @@ pub fn observations(
 
 /// The residual settings of the command line over the spec's.
 pub fn residuals(a: &ResidualArgs, r: &mut Residuals) -> Result<()> {
-    set(&mut r.weights, length_angle(a.weights.as_deref(), Setting::Weights)?);
+    set(
+        &mut r.weights,
+        length_angle(a.weights.as_deref(), Setting::Weights)?,
+    );
     set(&mut r.orientation_error, a.orientation_error);
     Ok(())
 }
@@ -172,7 +173,12 @@ pub fn run_with<'a>(
     inputs.extend(door.spec.iter().cloned());
     inputs.extend(also.iter().cloned());
     let mut outputs = job.outputs();
-    outputs.extend(door.write_spec.iter().filter(|p| p.as_os_str() != "-").cloned());
+    outputs.extend(
+        door.write_spec
+            .iter()
+            .filter(|p| p.as_os_str() != "-")
+            .cloned(),
+    );
     kinecal::files::output::check_distinct(
         &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
         &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
@@ -191,9 +197,6 @@ pub fn say(messages: &[Message]) {
     for m in messages {
         match m {
             Message::Note(t) => eprintln!("{t}"),
-            Message::Warning(w @ kinecal::Warning::Unseen { .. }) => {
-                eprintln!("note: {}", crate::word(w))
-            }
             Message::Warning(w) => eprintln!("warning: {}", crate::word(w)),
             Message::Caution(t) => eprintln!("warning: {t}"),
             _ => {}
@@ -340,7 +343,10 @@ pub fn iso9283_simulate(a: &Iso9283SimulateArgs) -> Result<Iso9283SimulateSpec> 
     set(&mut s.robot, a.robot.clone());
     set(&mut s.poses, opt_path(&a.poses)?);
     over(&mut s.cycles, a.cycles);
-    set(&mut s.noise, length_angle(a.noise.as_deref(), Setting::Noise)?);
+    set(
+        &mut s.noise,
+        length_angle(a.noise.as_deref(), Setting::Noise)?,
+    );
     over(&mut s.seed, a.seed);
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
@@ -389,9 +395,9 @@ pub fn simulate(a: &SimulateArgs) -> Result<SimulateSpec> {
     if let Some(list) = &a.perturb {
         s.perturb.clear();
         for part in list.split(',').map(str::trim) {
-            let (name, delta) = part.split_once('=').ok_or_else(|| {
-                anyhow!("--perturb `{part}`: expected NAME=DELTA, e.g. p3=+0.1")
-            })?;
+            let (name, delta) = part
+                .split_once('=')
+                .ok_or_else(|| anyhow!("--perturb `{part}`: expected NAME=DELTA, e.g. p3=+0.1"))?;
             let delta: f64 = delta
                 .trim()
                 .parse()
@@ -412,9 +418,10 @@ pub fn simulate(a: &SimulateArgs) -> Result<SimulateSpec> {
             let (k, v) = part.split_once('=').ok_or_else(|| {
                 anyhow!("--perturb-std `{text}`: expected length=L,angle=A,slope=F")
             })?;
-            let v: f64 = v.trim().parse().map_err(|_| {
-                anyhow!("--perturb-std `{text}`: `{}` is not a number", v.trim())
-            })?;
+            let v: f64 = v
+                .trim()
+                .parse()
+                .map_err(|_| anyhow!("--perturb-std `{text}`: `{}` is not a number", v.trim()))?;
             match k.trim() {
                 "length" => p.length = Some(v),
                 "angle" => p.angle = Some(v),
@@ -426,7 +433,10 @@ pub fn simulate(a: &SimulateArgs) -> Result<SimulateSpec> {
         }
         s.perturb_std = p;
     }
-    set(&mut s.noise, length_angle(a.noise.as_deref(), Setting::Noise)?);
+    set(
+        &mut s.noise,
+        length_angle(a.noise.as_deref(), Setting::Noise)?,
+    );
     s.position_only |= a.position_only;
     over(&mut s.out, opt_path(&a.out)?);
     over(&mut s.truth, opt_path(&a.truth)?);
@@ -470,7 +480,9 @@ pub fn check(a: &CheckArgs) -> Result<CheckSpec> {
                 length: Some(num(l)?),
                 angle: Some(num(a)?),
             },
-            _ => bail!("--threshold `{t}`: give LENGTH or LENGTH,ANGLE (in the robot file's units)"),
+            _ => {
+                bail!("--threshold `{t}`: give LENGTH or LENGTH,ANGLE (in the robot file's units)")
+            }
         };
     }
     Ok(s)
@@ -503,7 +515,10 @@ pub fn export_urdf(a: &ExportUrdfArgs) -> Result<ExportSpec> {
     if !a.tip.is_empty() {
         s.tip = a.tip.clone();
     }
-    set(&mut s.tolerance, length_angle(a.tolerance.as_deref(), Setting::Tolerance)?);
+    set(
+        &mut s.tolerance,
+        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
+    );
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -513,7 +528,10 @@ pub fn export_ur(a: &ExportUrArgs) -> Result<ExportSpec> {
     let mut s = export_base(&a.door, ExportFormat::Ur)?;
     over(&mut s.robot, a.robot.clone());
     over(&mut s.template, opt_path(&a.template)?);
-    set(&mut s.tolerance, length_angle(a.tolerance.as_deref(), Setting::Tolerance)?);
+    set(
+        &mut s.tolerance,
+        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
+    );
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -525,7 +543,10 @@ pub fn export_dh(a: &ExportDhArgs) -> Result<ExportSpec> {
     over(&mut s.convention, a.convention);
     over(&mut s.length_unit, a.length_unit.clone());
     over(&mut s.angle_unit, a.angle_unit.clone());
-    set(&mut s.tolerance, length_angle(a.tolerance.as_deref(), Setting::Tolerance)?);
+    set(
+        &mut s.tolerance,
+        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
+    );
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -535,7 +556,10 @@ pub fn export_joints(a: &ExportJointsArgs) -> Result<ExportSpec> {
     let mut s = export_base(&a.door, ExportFormat::Joints)?;
     over(&mut s.robot, a.robot.clone());
     over(&mut s.nominal, a.nominal.clone());
-    set(&mut s.tolerance, length_angle(a.tolerance.as_deref(), Setting::Tolerance)?);
+    set(
+        &mut s.tolerance,
+        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
+    );
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -549,7 +573,11 @@ pub fn export_stiffness(a: &ExportStiffnessArgs) -> Result<ExportSpec> {
 }
 
 /// The spec of an import command over `--spec`'s (which must be an import of `format`).
-fn import_base(door: &SpecArgs, format: ImportFormat, file: &Option<PathBuf>) -> Result<ImportSpec> {
+fn import_base(
+    door: &SpecArgs,
+    format: ImportFormat,
+    file: &Option<PathBuf>,
+) -> Result<ImportSpec> {
     let mut s = base(door, |j| match j {
         Job::Import(s) => Some(s),
         _ => None,
@@ -583,7 +611,7 @@ pub fn import_dh(a: &ImportDhArgs) -> Result<ImportSpec> {
     over(&mut s.convention, a.convention);
     over(&mut s.length_unit, a.length_unit.clone());
     over(&mut s.angle_unit, a.angle_unit.clone());
-    over(&mut s.name, a.name.clone());
+    over(&mut s.robot_name, a.name.clone());
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }

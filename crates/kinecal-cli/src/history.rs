@@ -11,9 +11,9 @@ use kinecal_history::{
 };
 
 use crate::args::{
-    DbArg, FormatArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs,
-    HistoryEventArgs, HistoryEventsArgs, HistoryExportArgs, HistoryImportArgs, HistoryInitArgs,
-    HistoryListArgs, HistoryPlotArgs, HistoryShowArgs,
+    DbArg, FormatArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs, HistoryEventArgs,
+    HistoryEventsArgs, HistoryExportArgs, HistoryImportArgs, HistoryInitArgs, HistoryListArgs,
+    HistoryPlotArgs, HistoryShowArgs,
 };
 use kinecal::files::output::{self, write_file};
 
@@ -759,7 +759,8 @@ fn plot(a: HistoryPlotArgs) -> Result<u8> {
         PlotFormat::Png => {
             let mut staged = output::Staged::new();
             staged.by_path(&a.out, |tmp| {
-                std::fs::write(tmp, kinecal_report::render_png(&panels, 1)?).context("cannot write the picture")
+                std::fs::write(tmp, kinecal_report::render_png(&panels, 1)?)
+                    .context("cannot write the picture")
             })?;
             staged.commit()?;
         }

@@ -60,7 +60,10 @@ fn plan_text(p: &kinecal::spec::Iso9283PlanDocument) -> String {
              proof of the largest cube)",
             sig(step),
         ),
-        None => writeln!(s, "given: its test poses are reached inside the joint ranges"),
+        None => writeln!(
+            s,
+            "given: its test poses are reached inside the joint ranges"
+        ),
     };
     let mut header = format!("pose  {:>10} {:>10} {:>10}", "x", "y", "z");
     if p.poses.iter().any(|t| t.attitude.is_some()) {

@@ -20,7 +20,9 @@ use std::process::ExitCode;
 use anyhow::{anyhow, bail, Context as _, Result};
 use clap::{CommandFactory as _, FromArgMatches as _};
 
-use args::{Cli, Command, CurvesCommand, DatasetArgs, ExportCommand, ImportCommand, Iso9283Command};
+use args::{
+    Cli, Command, CurvesCommand, DatasetArgs, ExportCommand, ImportCommand, Iso9283Command,
+};
 use kinecal::spec::{Document, Job};
 use kinecal::{Setting, Warning};
 
@@ -51,36 +53,73 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo => demo::run().map(|()| 0),
         Command::Calibrate(a) => calibrate::run(a),
-        Command::Analyze(a) => door::analyze(&a)
-            .and_then(|s| job(s.into(), &a.door, |d| analyze::show(d, &a))),
-        Command::Plan(a) => door::plan(&a).and_then(|s| job(s.into(), &a.door, |d| plan::show(d, a.json))),
-        Command::Predict(a) => door::predict(&a).and_then(|s| job(s.into(), &a.door, render::prediction)),
+        Command::Analyze(a) => {
+            door::analyze(&a).and_then(|s| job(s.into(), &a.door, |d| analyze::show(d, &a)))
+        }
+        Command::Plan(a) => {
+            door::plan(&a).and_then(|s| job(s.into(), &a.door, |d| plan::show(d, a.json)))
+        }
+        Command::Predict(a) => {
+            door::predict(&a).and_then(|s| job(s.into(), &a.door, render::prediction))
+        }
         Command::Compensate(a) => door::compensate(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
-        Command::Check(a) => door::check(&a).and_then(|s| job(s.into(), &a.door, |d| render::check(d, a.json))),
+        Command::Check(a) => {
+            door::check(&a).and_then(|s| job(s.into(), &a.door, |d| render::check(d, a.json)))
+        }
         Command::Fk(a) => door::fk(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
         Command::Simulate(a) => door::simulate(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
         Command::Import(c) => match c {
-            ImportCommand::Urdf(a) => door::import_urdf(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
-            ImportCommand::Dh(a) => door::import_dh(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
-            ImportCommand::Poe(a) => door::import_poe(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
-            ImportCommand::Ur(a) => door::import_ur(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
+            ImportCommand::Urdf(a) => {
+                door::import_urdf(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+            }
+            ImportCommand::Dh(a) => {
+                door::import_dh(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+            }
+            ImportCommand::Poe(a) => {
+                door::import_poe(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+            }
+            ImportCommand::Ur(a) => {
+                door::import_ur(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+            }
         },
         Command::Export(c) => match c {
-            ExportCommand::Urdf(a) => door::export_urdf(&a).and_then(|s| job(s.into(), &a.door, render::export)),
-            ExportCommand::Ur(a) => door::export_ur(&a).and_then(|s| job(s.into(), &a.door, render::export)),
-            ExportCommand::Dh(a) => door::export_dh(&a).and_then(|s| job(s.into(), &a.door, render::export)),
-            ExportCommand::Joints(a) => door::export_joints(&a).and_then(|s| job(s.into(), &a.door, render::export)),
-            ExportCommand::Stiffness(a) => door::export_stiffness(&a).and_then(|s| job(s.into(), &a.door, render::export)),
+            ExportCommand::Urdf(a) => {
+                door::export_urdf(&a).and_then(|s| job(s.into(), &a.door, render::export))
+            }
+            ExportCommand::Ur(a) => {
+                door::export_ur(&a).and_then(|s| job(s.into(), &a.door, render::export))
+            }
+            ExportCommand::Dh(a) => {
+                door::export_dh(&a).and_then(|s| job(s.into(), &a.door, render::export))
+            }
+            ExportCommand::Joints(a) => {
+                door::export_joints(&a).and_then(|s| job(s.into(), &a.door, render::export))
+            }
+            ExportCommand::Stiffness(a) => {
+                door::export_stiffness(&a).and_then(|s| job(s.into(), &a.door, render::export))
+            }
         },
         Command::Curves(c) => match c {
-            CurvesCommand::Pose(a) => door::curves_pose(&a).and_then(|s| job(s.into(), &a.door, render::curves)),
-            CurvesCommand::Objective(a) => door::curves_objective(&a).and_then(|s| job(s.into(), &a.door, render::curves)),
+            CurvesCommand::Pose(a) => {
+                door::curves_pose(&a).and_then(|s| job(s.into(), &a.door, render::curves))
+            }
+            CurvesCommand::Objective(a) => {
+                door::curves_objective(&a).and_then(|s| job(s.into(), &a.door, render::curves))
+            }
         },
         Command::Iso9283(c) => match c {
-            Iso9283Command::Plan(a) => door::iso9283_plan(&a).and_then(|s| job(s.into(), &a.door, iso9283::show)),
-            Iso9283Command::Simulate(a) => door::iso9283_simulate(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
-            Iso9283Command::Log(a) => door::iso9283_log(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
-            Iso9283Command::Evaluate(a) => door::iso9283_evaluate(&a).and_then(|s| job(s.into(), &a.door, iso9283::show)),
+            Iso9283Command::Plan(a) => {
+                door::iso9283_plan(&a).and_then(|s| job(s.into(), &a.door, iso9283::show))
+            }
+            Iso9283Command::Simulate(a) => {
+                door::iso9283_simulate(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+            }
+            Iso9283Command::Log(a) => {
+                door::iso9283_log(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+            }
+            Iso9283Command::Evaluate(a) => {
+                door::iso9283_evaluate(&a).and_then(|s| job(s.into(), &a.door, iso9283::show))
+            }
         },
         Command::Report(a) => door::report(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
         Command::History(c) => history::run(c),
@@ -131,12 +170,37 @@ fn in_flags(e: &anyhow::Error) -> String {
     e.chain()
         .map(|cause| match cause.downcast_ref::<kinecal::Error>() {
             Some(kinecal::Error::InvalidOption { setting, message }) => {
-                format!("{}: {message}", flag_of(*setting))
+                format!("{}: {message}", named(*setting))
             }
             _ => cause.to_string(),
         })
         .collect::<Vec<_>>()
         .join(": ")
+}
+
+/// A setting as this command line gave it: its flag when the flag was given, else its key in
+/// the `--spec` file when there is one.
+fn named(setting: Setting) -> String {
+    let flag = flag_of(setting);
+    let args: Vec<String> = std::env::args().collect();
+    let given = flag.split('/').any(|f| {
+        args.iter()
+            .any(|a| a == f || a.strip_prefix(f).is_some_and(|rest| rest.starts_with('=')))
+    });
+    let spec = args
+        .iter()
+        .position(|a| a == "--spec")
+        .and_then(|i| args.get(i + 1))
+        .or_else(|| {
+            args.iter()
+                .find_map(|a| a.strip_prefix("--spec=").map(|_| a))
+        });
+    match spec {
+        Some(file) if !given => {
+            format!("{}: {}", file.trim_start_matches("--spec="), setting.key())
+        }
+        _ => flag.to_string(),
+    }
 }
 
 /// The command-line flag behind a library setting: the one table.

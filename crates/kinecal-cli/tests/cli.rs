@@ -2287,7 +2287,7 @@ fn plan_chooses_postures_and_refuses_mistakes() {
             "plan", "--robot", "ge-a4", "--sample", "5", "--count", "0", "--out", "p.csv",
         ],
     );
-    assert!(err.contains("--count must be at least 1"), "{err}");
+    assert!(err.contains("--count: must be at least 1"), "{err}");
     let err = run_err(
         d,
         &[
@@ -2408,7 +2408,7 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
     }
     assert!(text.contains("nope.csv"), "{text}");
     assert!(
-        text.contains("fleet.csv:9: unexpected argument '--estimat'"),
+        text.contains("fleet.csv:9: unknown option `--estimat`"),
         "{text}"
     );
     // Outputs of a row are written relative to the manifest.

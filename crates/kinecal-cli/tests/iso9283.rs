@@ -425,7 +425,7 @@ fn bad_logs_are_refused_with_file_line_and_field() {
         &["iso9283", "plan", "--robot", robot, "--cube", "0,0,0,-1"],
     );
     assert!(
-        err.contains("--cube `0,0,0,-1`: the side must be positive"),
+        err.contains("--cube: the side must be positive, not -1"),
         "{err}"
     );
     let err = run_err(

@@ -232,7 +232,7 @@ fn bad_input_is_refused_with_the_file_named() {
     let e = err(with(&["--sample", "3", "--target", "smr9"]));
     assert!(e.contains("--target: unknown site `smr9`"), "{e}");
     let e = err(with(&["--sample", "0"]));
-    assert!(e.contains("--sample 0"), "{e}");
+    assert!(e.contains("--sample: expected between 1 and"), "{e}");
     // Neither postures nor a sample: a usage error.
     let a: Vec<&str> = base.to_vec();
     let (code, _, _) = run(d, &a);

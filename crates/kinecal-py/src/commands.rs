@@ -42,8 +42,6 @@ pub fn goal_problem(p: &kinecal::compensate::GoalProblem, row: usize) -> PyErr {
     }
 }
 
-
-
 /// A `(rows, cols)` array argument; returns the values and the row count.
 fn table(
     py: Python<'_>,
@@ -81,7 +79,6 @@ fn postures_of(
         })
         .collect())
 }
-
 
 /// Compensation (see the Python package's `kinecal.compensate`): the readings at which
 /// `calibrated` reaches what `nominal` meant (`program`) or the Cartesian `targets`; `spec` is
@@ -435,11 +432,14 @@ pub fn simulate<'py>(
     let spec: SimulateSpec = crate::jobs::settings(py, spec)?;
     let truth = spec.truth(nominal).map_err(|e| error(py, e))?;
     let data = match postures {
-        None => spec.measurements(nominal, &truth).map_err(|e| error(py, e))?,
+        None => spec
+            .measurements(nominal, &truth)
+            .map_err(|e| error(py, e))?,
         Some(p) => {
             let postures = postures_of(py, p, "postures", nominal)?;
             let mut data = sim::measure(&truth, &postures, spec.position_only);
-            spec.add_noise(nominal, &mut data).map_err(|e| error(py, e))?;
+            spec.add_noise(nominal, &mut data)
+                .map_err(|e| error(py, e))?;
             data
         }
     };

@@ -1078,9 +1078,7 @@ fn analyze(py: Python<'_>, robot: &Robot, data: &Measurements, spec: &str) -> Py
     let mut spec: AnalyzeSpec = jobs::settings(py, spec)?;
     spec.robot = r.name.clone();
     let d = &data.data;
-    let (outcome, _) = py
-        .detach(|| spec.analyze(r, d))
-        .map_err(|e| error(py, e))?;
+    let (outcome, _) = py.detach(|| spec.analyze(r, d)).map_err(|e| error(py, e))?;
     Ok(outcome.report.to_json())
 }
 

@@ -60,7 +60,9 @@ impl kinecal::spec::Artist for Artist {
                     })
                     .collect();
                 match image {
-                    Image::Svg => render_svg(&panels, curves.columns).map_err(failed)?.into_bytes(),
+                    Image::Svg => render_svg(&panels, curves.columns)
+                        .map_err(failed)?
+                        .into_bytes(),
                     Image::Png => render_png(&panels, curves.columns).map_err(failed)?,
                 }
             }

@@ -156,9 +156,12 @@ pub fn target(path: &Path) -> Result<Target> {
     let mut current = path.to_path_buf();
     for _ in 0..=MAX_LINKS {
         let (dir, name) = split(&current)?;
-        let dir = dir
-            .canonicalize()
-            .map_err(|_| refuse(path, format!("cannot write it: no folder {}", dir.display())))?;
+        let dir = dir.canonicalize().map_err(|_| {
+            refuse(
+                path,
+                format!("cannot write it: no folder {}", dir.display()),
+            )
+        })?;
         if let Some((own, fd)) = descriptor_link(&dir, &name) {
             return Ok(Target::InPlace(match (own, fd) {
                 (true, Some(1)) => Sink::Stdout,

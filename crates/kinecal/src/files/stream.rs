@@ -155,11 +155,15 @@ pub fn number(file: &str, line: u64, field: &str, s: &str) -> Result<f64> {
         Ok(v) if v.is_finite() && v.abs() <= 1e9 => Ok(v),
         // Named as written: `1e308`, not its 309 digits.
         Ok(_) => Err(Error::input(
-            Location::file(file).at_line(line as usize).with_field(field),
+            Location::file(file)
+                .at_line(line as usize)
+                .with_field(field),
             format!("{s} is not a finite number within +-1e9"),
         )),
         Err(_) => Err(Error::input(
-            Location::file(file).at_line(line as usize).with_field(field),
+            Location::file(file)
+                .at_line(line as usize)
+                .with_field(field),
             format!("expected a number, found `{s}`"),
         )),
     }
@@ -181,7 +185,9 @@ pub fn payload_columns(rows: &Rows) -> Result<[Option<usize>; 4]> {
     if cols[0].is_none() {
         if let Some(i) = cols[1..].iter().flatten().next() {
             return Err(Error::input(
-                Location::file(&rows.file).at_line(1).with_field(&rows.header[*i]),
+                Location::file(&rows.file)
+                    .at_line(1)
+                    .with_field(&rows.header[*i]),
                 "a payload's centre of mass without `payload_mass` (kg)",
             ));
         }

@@ -152,9 +152,9 @@ impl AnalyzeOutcome {
 fn ordered_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
     let mut out = Vec::new();
     for token in list.split(',') {
-        for id in crate::parse_param_list(token.trim(), robot).map_err(|e| {
-            invalid(Setting::Priority, e.to_string())
-        })? {
+        for id in crate::parse_param_list(token.trim(), robot)
+            .map_err(|e| invalid(Setting::Priority, e.to_string()))?
+        {
             if !out.contains(&id) {
                 out.push(id);
             }
@@ -190,11 +190,8 @@ impl AnalyzeSpec {
                 .map_err(|m| invalid(Setting::TotalMass, m))?;
         }
         let (weights, orientation) = self.residuals.resolve(robot)?;
-        let selection = Selection::parse(
-            s.estimate.as_deref().unwrap_or(""),
-            s.fix.as_deref(),
-            robot,
-        )?;
+        let selection =
+            Selection::parse(s.estimate.as_deref().unwrap_or(""), s.fix.as_deref(), robot)?;
         Ok((
             selection,
             AnalysisOptions {
@@ -214,9 +211,11 @@ impl AnalyzeSpec {
         let (params, unseen) = crate::workflow::resolve(&selection, robot, data, &opts)?;
         let mut messages = Vec::new();
         if !unseen.is_empty() {
-            messages.push(Message::Warning(crate::Warning::Unseen {
+            // A note here: the analysis shows what the data sees (a calibration warns).
+            let w = crate::Warning::Unseen {
                 parameters: unseen.iter().map(|&id| robot.param_name(id)).collect(),
-            }));
+            };
+            messages.push(Message::Note(format!("note: {w}")));
         }
         let analysis = crate::identifiability::analyze(robot, data, &params, &opts)?;
         let report = AnalysisReport::new(&analysis, robot, &unseen);

@@ -350,6 +350,21 @@ impl CalibrationSpec {
         req.solver = solver;
         req.solution = self.solver.solution;
         let r = &self.residuals;
+        if let Some(k) = r.huber_scale {
+            if !(k > 0.0 && k.is_finite()) {
+                return Err(invalid(
+                    Setting::HuberScale,
+                    format!("expected a positive number of spreads, not {k}"),
+                ));
+            }
+            if r.loss != LossKind::Huber {
+                return Err(invalid(
+                    Setting::HuberScale,
+                    "the threshold of the Huber loss, and the loss is least squares (give loss \
+                     huber)",
+                ));
+            }
+        }
         req.loss = match r.loss {
             LossKind::Squared => Loss::Squared,
             LossKind::Huber => Loss::Huber {
@@ -483,37 +498,6 @@ pub struct CalibrationJob {
     pub reading: f64,
 }
 
-/// The progress of a strict calibration: the data checks' warnings that say the result would
-/// most likely be wrong stop it.
-struct Strict<'a> {
-    inner: &'a mut dyn workflow::Progress,
-    strict: bool,
-    stopped: bool,
-}
-
-impl workflow::Progress for Strict<'_> {
-    fn phase(&mut self, phase: workflow::Phase) {
-        self.inner.phase(phase);
-    }
-
-    fn iteration(&mut self, it: &crate::estimation::Iteration) {
-        self.inner.iteration(it);
-    }
-
-    fn say(&mut self, what: &str) {
-        self.inner.say(what);
-    }
-
-    fn data_checked(&mut self, warnings: &[crate::Warning]) -> bool {
-        let go_on = self.inner.data_checked(warnings);
-        if self.strict && warnings.iter().any(crate::Warning::implausible) {
-            self.stopped = true;
-            return false;
-        }
-        go_on
-    }
-}
-
 impl CalibrationJob {
     /// The job of `spec` with its request built (and its data read) by the caller, as Python
     /// does for data given in memory; the model candidates of `spec`'s choice are read here.
@@ -589,25 +573,29 @@ impl CalibrationJob {
     }
 
     /// Runs the calibration and writes its outputs (none when the spec is strict and a warning
-    /// says the result is most likely wrong): the job's [`Done`].
+    /// says the result is most likely wrong): the job's [`Done`]. A progress that stops the run
+    /// at the data checks ([`workflow::Progress::data_checked`]) of a strict spec ends it with
+    /// [`Document::Stopped`].
     pub fn run(&self, env: &mut Env<'_>) -> Result<Done> {
-        let mut strict = Strict {
-            inner: &mut *env.progress,
-            strict: self.spec.strict,
-            stopped: false,
+        let outcome = match self.calibrate(&mut *env.progress) {
+            // The host stopped the run at the data checks (a strict front end that met a
+            // warning saying the result would be wrong): nothing solved or written.
+            Err(Error::Stopped { .. }) if self.spec.strict => {
+                return Ok(Done {
+                    document: Document::Stopped,
+                    messages: Vec::new(),
+                    status: Status::Implausible,
+                    pending: None,
+                })
+            }
+            solved => solved?,
         };
-        let solved = self.calibrate(&mut strict);
-        if strict.stopped {
-            return Ok(Done {
-                document: Document::Stopped,
-                messages: Vec::new(),
-                status: Status::Implausible,
-                pending: None,
-            });
-        }
-        let outcome = solved?;
-        let mut messages: Vec<Message> =
-            outcome.warnings.iter().cloned().map(Message::Warning).collect();
+        let mut messages: Vec<Message> = outcome
+            .warnings
+            .iter()
+            .cloned()
+            .map(Message::Warning)
+            .collect();
         if self.spec.strict && outcome.warnings.iter().any(crate::Warning::implausible) {
             return Ok(Done {
                 document: Document::Calibration(Box::new(outcome)),
@@ -751,10 +739,9 @@ mod tests {
 
     #[test]
     fn unknown_keys_and_values_are_refused_with_the_line() {
-        let e =
-            Job::from_toml("robot = \"r\"\n\n[solver]\nmethod = \"xx\"\n", "j.toml")
-                .unwrap_err()
-                .to_string();
+        let e = Job::from_toml("robot = \"r\"\n\n[solver]\nmethod = \"xx\"\n", "j.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("j.toml:4"), "{e}");
         assert!(e.contains("lm") && e.contains("svd"), "{e}");
         let e = Job::from_toml("robot = \"r\"\n[selection]\nestimat = \"all\"\n", "j")
@@ -768,9 +755,7 @@ mod tests {
             e.contains("validation.holdout") && e.contains("finite"),
             "{e}"
         );
-        let e = Job::from_toml("[solver]\n", "j")
-            .unwrap_err()
-            .to_string();
+        let e = Job::from_toml("[solver]\n", "j").unwrap_err().to_string();
         assert!(e.contains("robot"), "{e}");
     }
 

@@ -104,9 +104,9 @@ fn check_finite(table: &toml_edit::Table, text: &str, file: &str, prefix: &str) 
                 format!("expected a finite number, not {}", f.value()),
             )),
             toml_edit::Value::Array(a) => a.iter().try_for_each(|v| value(v, key, text, file)),
-            toml_edit::Value::InlineTable(t) => t.iter().try_for_each(|(k, v)| {
-                value(v, &format!("{key}.{k}"), text, file)
-            }),
+            toml_edit::Value::InlineTable(t) => t
+                .iter()
+                .try_for_each(|(k, v)| value(v, &format!("{key}.{k}"), text, file)),
             _ => Ok(()),
         }
     }

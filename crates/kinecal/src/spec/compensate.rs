@@ -558,8 +558,9 @@ impl CompensateSpec {
             .as_deref()
             .ok_or_else(|| invalid(Setting::Output, "no output file given"))?;
         let options = self.options(&nominal)?;
-        let default_target = crate::files::site_target(&nominal, self.site.as_deref().unwrap_or("ee"))
-            .map_err(|m| invalid(Setting::Site, m))?;
+        let default_target =
+            crate::files::site_target(&nominal, self.site.as_deref().unwrap_or("ee"))
+                .map_err(|m| invalid(Setting::Site, m))?;
         let mut comp = Compensator::new(&calibrated, &nominal, options).map_err(|e| {
             invalid(
                 Setting::NominalRobot,
@@ -723,7 +724,15 @@ impl CompensateSpec {
                 );
                 tally.add(&solved, &label);
                 writer
-                    .row(&mut w, &mut fields, &label, site, &solution, &goal_fields, &solved)
+                    .row(
+                        &mut w,
+                        &mut fields,
+                        &label,
+                        site,
+                        &solution,
+                        &goal_fields,
+                        &solved,
+                    )
                     .map_err(|e| write_error(Path::new(out), e))?;
             }
             writer

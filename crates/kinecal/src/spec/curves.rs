@@ -21,7 +21,9 @@ use crate::files::{parse_postures, ObservationFile, ReadSettings};
 use crate::robot::Robot;
 use crate::{JointKind, ParamId, ParamKind};
 
-use super::common::{invalid, is_default, read_observations, read_source, robot_as, visit_opt, Residuals};
+use super::common::{
+    invalid, is_default, read_observations, read_source, robot_as, visit_opt, Residuals,
+};
 use super::{Document, Done, Env, Image, JobKind, Page, PathRole, Spec};
 
 /// Which curve.
@@ -214,7 +216,10 @@ impl CurvesSpec {
                     .into_iter()
                     .find(|p| &p.label == label)
                     .ok_or_else(|| {
-                        Error::input(Location::file(path.as_str()), format!("no posture `{label}`"))
+                        Error::input(
+                            Location::file(path.as_str()),
+                            format!("no posture `{label}`"),
+                        )
                     })?
                     .readings
             }
@@ -236,7 +241,10 @@ impl CurvesSpec {
             ));
         }
         if let Some(v) = readings.iter().find(|v| !v.is_finite()) {
-            return Err(invalid(Setting::Postures, format!("{v} is not a finite reading")));
+            return Err(invalid(
+                Setting::Postures,
+                format!("{v} is not a finite reading"),
+            ));
         }
         Ok(readings)
     }
@@ -253,7 +261,10 @@ impl CurvesSpec {
         let target = crate::files::site_target(robot, self.site.as_deref().unwrap_or("ee"))
             .map_err(|m| invalid(Setting::Site, m))?;
         let ids = crate::parse_param_list(&self.sweep.param, robot)?;
-        let (l, an) = (robot.units.length.to_string(), robot.units.angle.to_string());
+        let (l, an) = (
+            robot.units.length.to_string(),
+            robot.units.angle.to_string(),
+        );
         let mut charts = Vec::new();
         let mut findings = Vec::new();
         let mut csv = String::from("param,value,x,y,z,alpha,beta,gamma\n");
@@ -276,7 +287,11 @@ impl CurvesSpec {
                 x_label: format!("{name} ({unit})"),
                 y_label: format!("position ({l})"),
                 x: x.clone(),
-                lines: vec![("x".into(), col(0)), ("y".into(), col(1)), ("z".into(), col(2))],
+                lines: vec![
+                    ("x".into(), col(0)),
+                    ("y".into(), col(1)),
+                    ("z".into(), col(2)),
+                ],
                 mark_x,
             });
             charts.push(SweptParameter {
@@ -330,13 +345,20 @@ impl CurvesSpec {
                 let _ = writeln!(csv, "{id},{v},{o}");
             }
             let minima = local_minima(&x, &f);
-            findings.push(format!("{id} ({name}), {} .. {} {unit}:", x[0], x[x.len() - 1]));
+            findings.push(format!(
+                "{id} ({name}), {} .. {} {unit}:",
+                x[0],
+                x[x.len() - 1]
+            ));
             if minima.is_empty() {
-                findings
-                    .push("  no interior local minimum (the minimum is at an end of the span)".into());
+                findings.push(
+                    "  no interior local minimum (the minimum is at an end of the span)".into(),
+                );
             }
             for (v, o) in &minima {
-                findings.push(format!("  local minimum at {v:.6} {unit}: objective {o:.6e}"));
+                findings.push(format!(
+                    "  local minimum at {v:.6} {unit}: objective {o:.6e}"
+                ));
             }
             if !is_convex(&f) {
                 findings.push(format!(

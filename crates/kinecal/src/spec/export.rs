@@ -157,7 +157,7 @@ pub struct ImportSpec {
     pub angle_unit: Option<String>,
     /// The robot's name (DH).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub name: Option<String>,
+    pub robot_name: Option<String>,
     /// The robot file to write.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
@@ -191,7 +191,10 @@ pub struct ExportOutcome {
 }
 
 /// A unit named by `setting`.
-fn unit<U: std::str::FromStr<Err = String>>(u: Option<&str>, setting: Setting) -> Result<Option<U>> {
+fn unit<U: std::str::FromStr<Err = String>>(
+    u: Option<&str>,
+    setting: Setting,
+) -> Result<Option<U>> {
     u.map(str::parse)
         .transpose()
         .map_err(|m: String| invalid(setting, m))
@@ -226,7 +229,11 @@ impl ExportSpec {
             ("convention", self.convention.is_some(), &[Dh]),
             ("length_unit", self.length_unit.is_some(), &[Dh]),
             ("angle_unit", self.angle_unit.is_some(), &[Dh]),
-            ("tolerance", !is_default(&self.tolerance), &[Urdf, Ur, Dh, Joints]),
+            (
+                "tolerance",
+                !is_default(&self.tolerance),
+                &[Urdf, Ur, Dh, Joints],
+            ),
             ("report", self.report.is_some(), &[Stiffness]),
         ] {
             if given && !takes(formats) {
@@ -293,7 +300,11 @@ impl ExportSpec {
         match self.format {
             ExportFormat::Urdf => {
                 let t = read_source(
-                    self.needs(&self.template, Setting::Template, "the URDF it was imported from")?,
+                    self.needs(
+                        &self.template,
+                        Setting::Template,
+                        "the URDF it was imported from",
+                    )?,
                     Setting::Template,
                 )?;
                 let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
@@ -318,7 +329,11 @@ impl ExportSpec {
             }
             ExportFormat::Ur => {
                 let t = read_source(
-                    self.needs(&self.template, Setting::Template, "the kinematics file it was imported from")?,
+                    self.needs(
+                        &self.template,
+                        Setting::Template,
+                        "the kinematics file it was imported from",
+                    )?,
                     Setting::Template,
                 )?;
                 let e = crate::import::ur::export_ur(&robot, &t.text, &t.name)?;
@@ -373,13 +388,21 @@ impl ExportSpec {
         let written = |path: &str| match self.format {
             ExportFormat::Urdf => format!("wrote the calibrated URDF to {path}"),
             ExportFormat::Ur => format!("wrote the calibrated kinematics to {path}"),
-            ExportFormat::Dh => format!("wrote {} to {path}", out.notes.last().map_or("", String::as_str)),
+            ExportFormat::Dh => format!(
+                "wrote {} to {path}",
+                out.notes.last().map_or("", String::as_str)
+            ),
             ExportFormat::Joints => format!("wrote the joint table to {path}"),
-            ExportFormat::Stiffness => format!("wrote {} to {path}", out.notes.last().map_or("", String::as_str)),
+            ExportFormat::Stiffness => format!(
+                "wrote {} to {path}",
+                out.notes.last().map_or("", String::as_str)
+            ),
         };
         let shown_notes = match self.format {
             // The last note names what is written.
-            ExportFormat::Dh | ExportFormat::Stiffness => &out.notes[..out.notes.len().saturating_sub(1)],
+            ExportFormat::Dh | ExportFormat::Stiffness => {
+                &out.notes[..out.notes.len().saturating_sub(1)]
+            }
             _ => &out.notes[..],
         };
         let (before, after): (Vec<&String>, Vec<&String>) = match self.format {
@@ -412,13 +435,13 @@ impl ImportSpec {
         let dh_only = self.convention.is_some()
             || self.length_unit.is_some()
             || self.angle_unit.is_some()
-            || self.name.is_some();
+            || self.robot_name.is_some();
         if (urdf_only && self.format != ImportFormat::Urdf)
             || (dh_only && self.format != ImportFormat::Dh)
         {
             return Err(invalid(
                 Setting::OutputFormat,
-                "base, tip and masses are for URDF files; convention, units and name for DH \
+                "base, tip and masses are for URDF files; convention, units and robot_name for DH \
                  tables",
             ));
         }
@@ -451,7 +474,7 @@ impl ImportSpec {
             ImportFormat::Dh => crate::import::dh::import_dh(
                 &s.text,
                 &s.name,
-                self.name.as_deref().unwrap_or(""),
+                self.robot_name.as_deref().unwrap_or(""),
                 unit(self.length_unit.as_deref(), Setting::LengthUnit)?,
                 unit(self.angle_unit.as_deref(), Setting::AngleUnit)?,
                 self.convention,

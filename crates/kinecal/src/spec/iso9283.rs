@@ -254,14 +254,21 @@ pub struct Iso9283LogOutcome {
 }
 
 /// A unit of a log, parsed, named by `setting`.
-fn unit<U: std::str::FromStr<Err = String>>(u: Option<&str>, setting: Setting) -> Result<Option<U>> {
+fn unit<U: std::str::FromStr<Err = String>>(
+    u: Option<&str>,
+    setting: Setting,
+) -> Result<Option<U>> {
     u.map(str::parse)
         .transpose()
         .map_err(|m: String| invalid(setting, m))
 }
 
 /// Stages `text` for `path` (when given) and commits, with a note.
-fn write_one(path: Option<&str>, text: &str, what: impl FnOnce(&str) -> String) -> Result<Vec<Message>> {
+fn write_one(
+    path: Option<&str>,
+    text: &str,
+    what: impl FnOnce(&str) -> String,
+) -> Result<Vec<Message>> {
     let Some(p) = path else {
         return Ok(Vec::new());
     };
@@ -297,7 +304,9 @@ impl Iso9283PlanSpec {
         }
         Ok(PlanRequest {
             cube,
-            attitude: self.attitude.map(|a| a.map(|x| u.to_si(Quantity::Angle, x))),
+            attitude: self
+                .attitude
+                .map(|a| a.map(|x| u.to_si(Quantity::Angle, x))),
             resolution,
         })
     }
@@ -345,7 +354,12 @@ impl Iso9283SimulateSpec {
         let (robot, _) = robot_as(&self.robot, Setting::Robot)?;
         let s = read_source(&self.poses, Setting::Postures)?;
         let poses = read_plan(&s.text, &s.name, &robot)?;
-        let cycles = count(Setting::Cycles, self.cycles.unwrap_or(30), MAX_CYCLES, "cycles")?;
+        let cycles = count(
+            Setting::Cycles,
+            self.cycles.unwrap_or(30),
+            MAX_CYCLES,
+            "cycles",
+        )?;
         self.noise.check(Setting::Noise, false)?;
         let (length, angle) = self.noise.si(&robot);
         let log = simulate(
@@ -420,7 +434,12 @@ impl Iso9283LogSpec {
                 left_out.len(),
                 if left_out.len() == 1 { "" } else { "s" },
                 r.name,
-                left_out.iter().take(5).cloned().collect::<Vec<_>>().join(", ")
+                left_out
+                    .iter()
+                    .take(5)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join(", ")
                     + if left_out.len() > 5 { ", ..." } else { "" }
             )));
         }
@@ -464,8 +483,7 @@ impl Iso9283EvaluateSpec {
             (Some(robot), Some(report)) => {
                 let (robot, _, pr, target) =
                     super::predict::calibrated(robot, report, self.target.as_deref())?;
-                let (predictor, target) =
-                    super::PredictSpec::predictor(&robot, &pr, &target)?;
+                let (predictor, target) = super::PredictSpec::predictor(&robot, &pr, &target)?;
                 predict_compensated(&mut e, &log, &predictor, target)?;
             }
             (None, None) if self.target.is_none() => {}
@@ -496,8 +514,11 @@ impl Iso9283EvaluateSpec {
             staged.bytes(Path::new(path), &page)?;
         }
         staged.commit()?;
-        let mut messages: Vec<Message> =
-            e.warnings.iter().map(|w| Message::Caution(w.clone())).collect();
+        let mut messages: Vec<Message> = e
+            .warnings
+            .iter()
+            .map(|w| Message::Caution(w.clone()))
+            .collect();
         for p in self.json.iter().chain(&self.html) {
             messages.push(Message::Note(format!("wrote {p}")));
         }

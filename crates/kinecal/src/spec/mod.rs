@@ -53,8 +53,8 @@ mod predict;
 mod report;
 mod simulate;
 
-pub use analyze::{AnalyzeOutcome, AnalyzeSpec, MatrixKind, MatrixUnits};
 pub use analyze::AnalysisSelection;
+pub use analyze::{AnalyzeOutcome, AnalyzeSpec, MatrixKind, MatrixUnits};
 pub use calibrate::{
     load_robot, weights, CalibrationJob, CalibrationSpec, LossKind, OutputSpec, ResidualSpec,
     SelectionSpec, SolverSpec, ValidationSpec, HUBER_SCALE,
@@ -69,7 +69,9 @@ pub use iso9283::{
     Iso9283PlanOutcome, Iso9283PlanSpec, Iso9283SimulateSpec, PlannedPose, SimulatedLog,
 };
 pub use plan::{PlanOutcome, PlanOutputs, PlanSpec, Pool};
-pub use predict::{calibrated, BoundSpread, PredictOutcome, PredictOutputs, PredictSpec, PredictionTable};
+pub use predict::{
+    calibrated, BoundSpread, PredictOutcome, PredictOutputs, PredictSpec, PredictionTable,
+};
 pub use report::ReportSpec;
 pub use simulate::{FkSpec, PerturbSpread, SimulateOutcome, SimulateSpec};
 
@@ -728,9 +730,12 @@ mod tests {
         assert!(e.starts_with("j.toml:2"), "{e}");
         assert!(e.contains("calibrat") && e.contains("analyze"), "{e}");
         // The key's line kept: the error of a later key names its own line.
-        let e = Job::from_toml("job = \"analyze\"\nrobot = \"r\"\nrcond = \"x\"\n", "j.toml")
-            .unwrap_err()
-            .to_string();
+        let e = Job::from_toml(
+            "job = \"analyze\"\nrobot = \"r\"\nrcond = \"x\"\n",
+            "j.toml",
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.starts_with("j.toml:3"), "{e}");
     }
 }

@@ -166,13 +166,17 @@ impl PlanSpec {
         };
         let mut out = Vec::new();
         for name in list.split(',').map(str::trim) {
-            let t = crate::files::site_target(robot, name).map_err(|m| invalid(Setting::Sites, m))?;
+            let t =
+                crate::files::site_target(robot, name).map_err(|m| invalid(Setting::Sites, m))?;
             if !out.contains(&t) {
                 out.push(t);
             }
         }
         if out.is_empty() {
-            return Err(invalid(Setting::Sites, "name the frames measured at each posture"));
+            return Err(invalid(
+                Setting::Sites,
+                "name the frames measured at each posture",
+            ));
         }
         Ok(out)
     }
@@ -202,7 +206,8 @@ impl PlanSpec {
         if self.sites.is_some() {
             return Err(invalid(
                 setting,
-                "the sites describe postures; observations say what is measured at each posture",
+                "the sites describe postures; the candidates are observations (an observation file, \
+                 Measurements), whose rows say what is measured",
             ));
         }
         if self.position_only {
@@ -225,7 +230,11 @@ impl PlanSpec {
         if is_postures_file(&s.text) {
             let postures = parse_postures(&s.text, &s.name, robot)?;
             let n = postures.len();
-            return self.pool_of_postures(robot, postures, format!("{n} candidate postures from {path}"));
+            return self.pool_of_postures(
+                robot,
+                postures,
+                format!("{n} candidate postures from {path}"),
+            );
         }
         let opts = crate::files::ReadOptions {
             position_only: self.position_only,
@@ -298,8 +307,15 @@ impl PlanSpec {
     }
 
     /// Plans on `pool` (and `keep`) for `robot`.
-    pub fn plan(&self, robot: &Robot, pool: Pool, keep: Dataset, env: &mut Env<'_>) -> Result<(PlanOutcome, Dataset)> {
-        env.progress.say(&format!("planning: {} ...", pool.described));
+    pub fn plan(
+        &self,
+        robot: &Robot,
+        pool: Pool,
+        keep: Dataset,
+        env: &mut Env<'_>,
+    ) -> Result<(PlanOutcome, Dataset)> {
+        env.progress
+            .say(&format!("planning: {} ...", pool.described));
         let req = self.request(robot, pool.data, keep)?;
         let plan = crate::plan::plan(&req)?;
         let (file, written) = plan.chosen_file(robot, pool.observed);
@@ -351,7 +367,10 @@ impl PlanSpec {
                 "wrote the {chosen} chosen {} to {p} and the plan to {h}",
                 outcome.written
             )),
-            (Some(p), None) => Some(format!("wrote the {chosen} chosen {} to {p}", outcome.written)),
+            (Some(p), None) => Some(format!(
+                "wrote the {chosen} chosen {} to {p}",
+                outcome.written
+            )),
             (None, Some(h)) => Some(format!("wrote the plan to {h}")),
             (None, None) => None,
         };

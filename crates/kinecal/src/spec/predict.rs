@@ -322,13 +322,17 @@ impl PredictSpec {
         let (predictor, target) = PredictSpec::predictor(&robot, &pr, &target_name)?;
         let mut messages = Vec::new();
         let postures = self.postures(&robot, target, &mut messages)?;
-        env.progress.say(&format!("predicting {} postures", postures.len()));
+        env.progress
+            .say(&format!("predicting {} postures", postures.len()));
         let attitude = pr.attitude.is_some();
         let header = predict::csv_header(&robot, attitude);
         let mut csv = header.clone();
         csv.push('\n');
         let names: Vec<String> = header.split(',').skip(1).map(str::to_string).collect();
-        let mut columns: Vec<Vec<f64>> = names.iter().map(|_| Vec::with_capacity(postures.len())).collect();
+        let mut columns: Vec<Vec<f64>> = names
+            .iter()
+            .map(|_| Vec::with_capacity(postures.len()))
+            .collect();
         let u = robot.units;
         let (l, a) = (
             |v: f64| u.from_si(Quantity::Length, v),

@@ -16,7 +16,9 @@ use crate::files::{ObservationFile, ReadSettings};
 use crate::report::CalibrationReport;
 use crate::robot::Robot;
 
-use super::common::{invalid, is_default, read_observations, read_source, robot_as, visit_opt, Residuals};
+use super::common::{
+    invalid, is_default, read_observations, read_source, robot_as, visit_opt, Residuals,
+};
 use super::{Document, Done, Env, JobKind, Page, PathRole, Spec};
 
 /// A report page. See the [module documentation](self).
@@ -94,7 +96,10 @@ impl ReportSpec {
                 }
                 let mut c = nominal.clone();
                 for (id, p) in nominal.param_ids().zip(&rep.parameters) {
-                    c.set(id, nominal.units.to_si(nominal.param_quantity(id), p.estimated));
+                    c.set(
+                        id,
+                        nominal.units.to_si(nominal.param_quantity(id), p.estimated),
+                    );
                 }
                 Ok(c)
             }
@@ -131,14 +136,8 @@ impl ReportSpec {
         let (weights, orientation) = self.residuals.resolve(&nominal)?;
         let calibrated = self.calibrated_robot(&nominal)?;
         let sources: Vec<_> = std::iter::once(source).chain(sources).collect();
-        let mut outcome = crate::workflow::assess(
-            &nominal,
-            &calibrated,
-            &data,
-            weights,
-            orientation,
-            &sources,
-        )?;
+        let mut outcome =
+            crate::workflow::assess(&nominal, &calibrated, &data, weights, orientation, &sources)?;
         // The predicted accuracy and its map, as a calibration's HTML report gives them.
         crate::workflow::add_prediction(&mut outcome, &nominal, crate::predict::Level::Map);
         Ok(outcome.report)

@@ -175,7 +175,8 @@ impl SimulateSpec {
                 changes.push((id, delta));
             }
         }
-        simulate::changed(&truth, &changes).map_err(|e| invalid(Setting::ParameterChange, e.to_string()))
+        simulate::changed(&truth, &changes)
+            .map_err(|e| invalid(Setting::ParameterChange, e.to_string()))
     }
 
     /// Simulates the measurements of `truth` at the spec's postures, on `nominal`'s file.
@@ -217,8 +218,7 @@ impl SimulateSpec {
         let truth = self.truth(&nominal)?;
         let data = self.measurements(&nominal, &truth)?;
         let text = write_measurements(&nominal, &data);
-        let truth_text =
-            crate::robot_file::write_robot_toml_checked(&truth, Some(&source.text))?;
+        let truth_text = crate::robot_file::write_robot_toml_checked(&truth, Some(&source.text))?;
         let mut staged = crate::files::output::Staged::new();
         if let Some(p) = &self.out {
             staged.text(Path::new(p), &text)?;
@@ -241,7 +241,13 @@ impl SimulateSpec {
         let changed = nominal
             .param_ids()
             .filter(|&id| nominal.get(id) != truth.get(id))
-            .map(|id| (nominal.param_name(id), nominal.get_user(id), truth.get_user(id)))
+            .map(|id| {
+                (
+                    nominal.param_name(id),
+                    nominal.get_user(id),
+                    truth.get_user(id),
+                )
+            })
             .collect();
         Ok(Done {
             document: Document::Simulation(SimulateOutcome {
@@ -276,12 +282,17 @@ impl FkSpec {
             if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
                 return Err(Error::input(
                     Location::file(&s.name),
-                    format!("posture `{}`: the gravity equilibrium {eq}", postures[i].label),
+                    format!(
+                        "posture `{}`: the gravity equilibrium {eq}",
+                        postures[i].label
+                    ),
                 ));
             }
             let data = simulate::measure(robot, &postures, false);
             *poses = data.observations.len();
-            return w.write_all(write_measurements(robot, &data).as_bytes()).map_err(io);
+            return w
+                .write_all(write_measurements(robot, &data).as_bytes())
+                .map_err(io);
         }
         // A postures file, or what `compensate` writes (its label `target` or `posture`, a
         // `site`, and the remaining errors and flags, read past).

@@ -1,0 +1,724 @@
+//! One door for every job: the same job said by flags, by `--spec` (the spec `--write-spec`
+//! wrote), and as a `[[jobs]]` entry of a batch manifest gives the same outputs and the same
+//! document (up to a report's `created` and `timings`). Python's `kinecal.run` and named
+//! functions are checked against the specs written here by `crates/kinecal-py/tests`.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+
+fn kinecal(dir: &Path, args: &[&str]) -> (i32, String, String) {
+    let out = Command::cargo_bin("kinecal")
+        .unwrap()
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8(out.stdout).unwrap(),
+        err,
+    )
+}
+
+fn ok(dir: &Path, args: &[&str]) -> String {
+    let (code, out, err) = kinecal(dir, args);
+    assert!(code == 0 || code == 4, "{args:?} exited {code}: {err}");
+    out
+}
+
+/// A document or output as compared: JSON without the keys that differ between any two runs
+/// (`created`, `timings`); other text as it is.
+fn normal(text: &str) -> String {
+    match serde_json::from_str::<serde_json::Value>(text) {
+        Ok(mut v) => {
+            fn strip(v: &mut serde_json::Value) {
+                match v {
+                    serde_json::Value::Object(m) => {
+                        m.remove("created");
+                        m.remove("timings");
+                        m.values_mut().for_each(strip);
+                    }
+                    serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
+                    _ => {}
+                }
+            }
+            strip(&mut v);
+            v.to_string()
+        }
+        Err(_) => text.to_string(),
+    }
+}
+
+/// One job: the command line (outputs named `a_*`), whether it prints its document as JSON
+/// (`--json`), and its outputs (`a_*` names).
+struct Case {
+    name: &'static str,
+    args: Vec<&'static str>,
+    json: bool,
+    outputs: Vec<&'static str>,
+}
+
+fn case(name: &'static str, args: &[&'static str], json: bool, outputs: &[&'static str]) -> Case {
+    Case {
+        name,
+        args: args.to_vec(),
+        json,
+        outputs: outputs.to_vec(),
+    }
+}
+
+/// A spec's TOML as a `[[jobs]]` table of a manifest, named `name`.
+fn as_job(spec: &str, name: &str) -> String {
+    let doc: toml_edit::DocumentMut = spec.parse().unwrap();
+    let mut table = doc.as_table().clone();
+    table.insert("name", toml_edit::value(name));
+    let mut jobs = toml_edit::ArrayOfTables::new();
+    jobs.push(table);
+    let mut manifest = toml_edit::DocumentMut::new();
+    manifest.insert("jobs", toml_edit::Item::ArrayOfTables(jobs));
+    manifest.to_string()
+}
+
+#[test]
+fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The data every job works on: the README's GE A4 session.
+    ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "30",
+            "--seed",
+            "7",
+            "--perturb",
+            "p1=+0.05,p14=-0.02,joint2.offset=-0.5,joint4.slope=+0.02",
+            "--noise",
+            "length=0.0005,angle=0.005",
+            "--out",
+            "data.csv",
+            "--truth",
+            "truth.toml",
+        ],
+    );
+    ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "p1,p2,p8,p14,offsets,slopes",
+            "--predict",
+            "--out",
+            "cal.toml",
+            "--report",
+            "report.json",
+            "-q",
+        ],
+    );
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/robots/abb_irb120.toml"),
+        d.join("irb.toml"),
+    )
+    .unwrap();
+    ok(
+        d,
+        &[
+            "iso9283",
+            "plan",
+            "--robot",
+            "irb.toml",
+            "--attitude",
+            "3.141592653589793,0,0",
+            "--resolution",
+            "4",
+            "--out",
+            "poses.csv",
+        ],
+    );
+    let cases = [
+        case(
+            "simulate",
+            &[
+                "simulate",
+                "--robot",
+                "ge-a4",
+                "--postures",
+                "12",
+                "--seed",
+                "3",
+                "--perturb",
+                "p1=+0.05",
+                "--noise",
+                "length=0.001",
+                "--out",
+                "a_data.csv",
+                "--truth",
+                "a_truth.toml",
+            ],
+            false,
+            &["a_data.csv", "a_truth.toml"],
+        ),
+        case(
+            "calibrate",
+            &[
+                "calibrate",
+                "--robot",
+                "ge-a4",
+                "--data",
+                "data.csv",
+                "--estimate",
+                "identifiable",
+                "--huber-spread",
+                "stated",
+                "--loss",
+                "huber",
+                "--folds",
+                "3",
+                "--out",
+                "a_cal.toml",
+                "--report",
+                "a_report.json",
+                "-q",
+            ],
+            false,
+            &["a_cal.toml", "a_report.json"],
+        ),
+        case(
+            "analyze",
+            &[
+                "analyze",
+                "--robot",
+                "ge-a4",
+                "--data",
+                "data.csv",
+                "--estimate",
+                "all",
+                "--rcond",
+                "1e-8",
+                "--json",
+            ],
+            true,
+            &[],
+        ),
+        case(
+            "plan",
+            &[
+                "plan",
+                "--robot",
+                "ge-a4",
+                "--sample",
+                "150",
+                "--seed",
+                "3",
+                "--count",
+                "6",
+                "--criterion",
+                "i",
+                "--out",
+                "a_plan.csv",
+                "--json",
+            ],
+            true,
+            &["a_plan.csv"],
+        ),
+        case(
+            "predict",
+            &[
+                "predict",
+                "--robot",
+                "cal.toml",
+                "--report",
+                "report.json",
+                "--sample",
+                "40",
+                "--seed",
+                "2",
+                "--out",
+                "a_predicted.csv",
+            ],
+            false,
+            &["a_predicted.csv"],
+        ),
+        case(
+            "compensate",
+            &[
+                "compensate",
+                "--robot",
+                "cal.toml",
+                "--nominal",
+                "ge-a4",
+                "--in",
+                "data.csv",
+                "--position-only",
+                "--tolerance",
+                "length=1e-6",
+                "--out",
+                "a_compensated.csv",
+            ],
+            false,
+            &["a_compensated.csv"],
+        ),
+        case(
+            "check",
+            &[
+                "check",
+                "--robot",
+                "cal.toml",
+                "--data",
+                "data.csv",
+                "--threshold",
+                "0.01,0.05",
+                "--json",
+            ],
+            true,
+            &[],
+        ),
+        case(
+            "fk",
+            &[
+                "fk",
+                "--robot",
+                "truth.toml",
+                "--postures",
+                "data.csv",
+                "--out",
+                "a_poses.csv",
+            ],
+            false,
+            &["a_poses.csv"],
+        ),
+        case(
+            "export",
+            &[
+                "export",
+                "dh",
+                "--robot",
+                "irb.toml",
+                "--convention",
+                "modified",
+                "--out",
+                "a_dh.csv",
+            ],
+            false,
+            &["a_dh.csv"],
+        ),
+        case(
+            "export-joints",
+            &[
+                "export",
+                "joints",
+                "--robot",
+                "cal.toml",
+                "--nominal",
+                "ge-a4",
+                "--tolerance",
+                "length=1,angle=1",
+                "--out",
+                "a_joints.csv",
+            ],
+            false,
+            &["a_joints.csv"],
+        ),
+        case(
+            "import",
+            &[
+                "import",
+                "dh",
+                "../dh.csv",
+                "--name",
+                "from dh",
+                "--out",
+                "a_imported.toml",
+            ],
+            false,
+            &["a_imported.toml"],
+        ),
+        case(
+            "report",
+            &["report", "--from", "report.json", "--out", "a_page.html"],
+            false,
+            &["a_page.html"],
+        ),
+        case(
+            "curves",
+            &[
+                "curves",
+                "pose",
+                "--robot",
+                "ge-a4",
+                "--readings",
+                "12.5,-16.25,1,10",
+                "--param",
+                "p4",
+                "--span",
+                "360",
+                "--points",
+                "21",
+                "--out",
+                "a_p4.csv",
+            ],
+            false,
+            &["a_p4.csv"],
+        ),
+        case(
+            "curves-objective",
+            &[
+                "curves",
+                "objective",
+                "--robot",
+                "ge-a4",
+                "--data",
+                "data.csv",
+                "--param",
+                "p1",
+                "--points",
+                "11",
+                "--out",
+                "a_objective.csv",
+            ],
+            false,
+            &["a_objective.csv"],
+        ),
+        case(
+            "iso9283-simulate",
+            &[
+                "iso9283",
+                "simulate",
+                "--robot",
+                "irb.toml",
+                "--poses",
+                "poses.csv",
+                "--cycles",
+                "3",
+                "--noise",
+                "length=0.001",
+                "--out",
+                "a_log.csv",
+            ],
+            false,
+            &["a_log.csv"],
+        ),
+        case(
+            "iso9283-evaluate",
+            &[
+                "iso9283",
+                "evaluate",
+                "--data",
+                "log.csv",
+                "--json",
+                "a_iso.json",
+            ],
+            false,
+            &["a_iso.json"],
+        ),
+    ];
+    // What two of the cases read.
+    std::fs::create_dir(d.join("sub")).unwrap();
+    ok(
+        d,
+        &[
+            "export",
+            "dh",
+            "--robot",
+            "irb.toml",
+            "--convention",
+            "standard",
+            "--out",
+            "dh.csv",
+        ],
+    );
+    ok(
+        d,
+        &[
+            "iso9283",
+            "simulate",
+            "--robot",
+            "irb.toml",
+            "--poses",
+            "poses.csv",
+            "--cycles",
+            "3",
+            "--noise",
+            "length=0.01",
+            "--out",
+            "log.csv",
+        ],
+    );
+    let mut manifest = String::new();
+    for c in &cases {
+        // The import reads `../dh.csv`: it runs from the sub folder.
+        let here = if c.name == "import" {
+            d.join("sub")
+        } else {
+            d.to_path_buf()
+        };
+        let spec = format!("{}.toml", c.name);
+        let mut args = c.args.clone();
+        args.extend(["--write-spec", spec.as_str()]);
+        let by_flags = ok(&here, &args);
+        let text = std::fs::read_to_string(here.join(&spec)).unwrap();
+        assert!(
+            text.starts_with("job = "),
+            "{}: the spec names its job:\n{text}",
+            c.name
+        );
+        // The spec, its outputs renamed, run by --spec.
+        let b = text.replace("a_", "b_");
+        std::fs::write(here.join(format!("b_{spec}")), &b).unwrap();
+        let mut args = vec![c.args[0]];
+        if ["export", "import", "curves", "iso9283"].contains(&c.args[0]) {
+            args.push(c.args[1]);
+        }
+        let b_spec = format!("b_{spec}");
+        args.extend(["--spec", b_spec.as_str()]);
+        if c.json {
+            args.push("--json");
+        }
+        let by_spec = ok(&here, &args);
+        if c.json {
+            assert_eq!(normal(&by_flags), normal(&by_spec), "{}: --spec", c.name);
+        }
+        for o in &c.outputs {
+            let a = std::fs::read_to_string(here.join(o)).unwrap();
+            let b = std::fs::read_to_string(here.join(o.replace("a_", "b_"))).unwrap();
+            assert_eq!(normal(&a), normal(&b), "{}: {o} by --spec", c.name);
+        }
+        // The same job in a batch, as the sub folder's manifest reads it when it runs there.
+        let c_spec = text.replace("a_", "c_");
+        if here == d {
+            manifest += &as_job(&c_spec, c.name);
+        } else {
+            std::fs::write(here.join("jobs.toml"), as_job(&c_spec, c.name)).unwrap();
+            let (code, _, err) = kinecal(&here, &["batch", "jobs.toml", "--quiet"]);
+            assert_eq!(code, 0, "{err}");
+        }
+        if c.json {
+            std::fs::write(d.join(format!("{}.flags.json", c.name)), &by_flags).unwrap();
+        }
+    }
+    std::fs::write(d.join("jobs.toml"), &manifest).unwrap();
+    let (code, table, err) = kinecal(
+        d,
+        &[
+            "batch",
+            "jobs.toml",
+            "--documents",
+            "docs",
+            "--quiet",
+            "--jobs",
+            "2",
+        ],
+    );
+    assert_eq!(code, 0, "{table}\n{err}");
+    assert!(err.contains("jobs: 15 done, 0 failed"), "{err}");
+    for c in &cases {
+        let here = if c.name == "import" {
+            d.join("sub")
+        } else {
+            d.to_path_buf()
+        };
+        for o in &c.outputs {
+            let a = std::fs::read_to_string(here.join(o)).unwrap();
+            let c_out = std::fs::read_to_string(here.join(o.replace("a_", "c_"))).unwrap();
+            assert_eq!(normal(&a), normal(&c_out), "{}: {o} in a batch", c.name);
+        }
+        if c.json {
+            let flags = std::fs::read_to_string(d.join(format!("{}.flags.json", c.name))).unwrap();
+            let doc =
+                std::fs::read_to_string(d.join("docs").join(format!("{}.json", c.name))).unwrap();
+            assert_eq!(
+                normal(&flags),
+                normal(&doc),
+                "{}: its document in a batch",
+                c.name
+            );
+        }
+        if c.name == "calibrate" {
+            let report = std::fs::read_to_string(d.join("a_report.json")).unwrap();
+            let doc = std::fs::read_to_string(d.join("docs/calibrate.json")).unwrap();
+            assert_eq!(normal(&report), normal(&doc), "the calibration's document");
+        }
+    }
+}
+
+/// `--write-spec -` prints the spec and runs nothing; a spec of another job is refused naming
+/// both; a spec never replaces an input or an output of its job.
+#[test]
+fn specs_are_written_checked_and_refused_as_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = ok(
+        d,
+        &[
+            "plan",
+            "--robot",
+            "ge-a4",
+            "--sample",
+            "50",
+            "--count",
+            "5",
+            "--out",
+            "p.csv",
+            "--write-spec",
+            "-",
+        ],
+    );
+    assert!(out.starts_with("job = \"plan\"\n"), "{out}");
+    assert!(out.contains("count = 5"), "{out}");
+    assert!(!d.join("p.csv").exists(), "nothing run");
+    std::fs::write(d.join("plan.toml"), &out).unwrap();
+    let (code, _, err) = kinecal(d, &["analyze", "--spec", "plan.toml"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("a spec of the job `plan`, not of `analyze`"),
+        "{err}"
+    );
+    // The spec over its own output, or over the spec it was read from.
+    let (code, _, err) = kinecal(d, &["plan", "--spec", "plan.toml", "--write-spec", "p.csv"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("p.csv"), "{err}");
+    let (code, _, err) = kinecal(d, &["plan", "--spec", "plan.toml", "--out", "plan.toml"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("refusing to write an output over an input"),
+        "{err}"
+    );
+    assert!(std::fs::read_to_string(d.join("plan.toml"))
+        .unwrap()
+        .starts_with("job"));
+}
+
+/// A bad value names its flag on the command line, its key in a spec file, and negative numbers
+/// are values.
+#[test]
+fn a_bad_value_names_the_flag_or_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "10",
+            "--out",
+            "data.csv",
+        ],
+    );
+    for (args, expected) in [
+        (
+            &[
+                "calibrate",
+                "--robot",
+                "ge-a4",
+                "--data",
+                "data.csv",
+                "--huber-scale",
+                "-1",
+            ][..],
+            "--huber-scale",
+        ),
+        (
+            &[
+                "calibrate",
+                "--robot",
+                "ge-a4",
+                "--data",
+                "data.csv",
+                "--holdout",
+                "-0.5",
+            ][..],
+            "--holdout",
+        ),
+        (
+            &[
+                "analyze", "--robot", "ge-a4", "--data", "data.csv", "--rcond", "-1",
+            ][..],
+            "--rcond: expected a tolerance between 0 and 1, not -1",
+        ),
+        (
+            &["plan", "--robot", "ge-a4", "--sample", "-3", "--count", "2"][..],
+            "invalid value '-3' for '--sample <N>'",
+        ),
+        (
+            &[
+                "compensate",
+                "--robot",
+                "ge-a4",
+                "--nominal",
+                "ge-a4",
+                "--in",
+                "data.csv",
+                "--singular",
+                "-0.1",
+                "--out",
+                "c.csv",
+            ][..],
+            "--singular: expected a fraction from 0 to below 1, not -0.1",
+        ),
+        (
+            &[
+                "check",
+                "--robot",
+                "ge-a4",
+                "--data",
+                "data.csv",
+                "--threshold",
+                "-1",
+            ][..],
+            "--threshold: the length must be positive and finite, not -1",
+        ),
+        (
+            &[
+                "iso9283", "simulate", "--robot", "ge-a4", "--poses", "data.csv", "--cycles", "0",
+                "--out", "l.csv",
+            ][..],
+            "data.csv",
+        ),
+    ] {
+        let (code, _, err) = kinecal(d, args);
+        assert_ne!(code, 0, "{args:?}");
+        assert!(err.contains(expected), "{args:?}: {err}");
+        assert!(!err.contains("unexpected argument"), "{args:?}: {err}");
+    }
+    // A spec file names the key, with its line.
+    std::fs::write(
+        d.join("a.toml"),
+        "job = \"analyze\"\nrobot = \"ge-a4\"\n[[observations]]\nfile = \"data.csv\"\n\
+         [residuals]\norientation_error = \"quaternion\"\n",
+    )
+    .unwrap();
+    let (code, _, err) = kinecal(d, &["analyze", "--spec", "a.toml"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("a.toml:6") && err.contains("quaternion"),
+        "{err}"
+    );
+    std::fs::write(
+        d.join("r.toml"),
+        "job = \"analyze\"\nrobot = \"ge-a4\"\nrcond = 2.0\n[[observations]]\nfile = \"data.csv\"\n",
+    )
+    .unwrap();
+    let (_, _, err) = kinecal(d, &["analyze", "--spec", "r.toml"]);
+    assert!(
+        err.contains("r.toml: rcond: expected a tolerance between 0 and 1, not 2"),
+        "{err}"
+    );
+    // Given on the command line over the spec, the flag is named.
+    let (_, _, err) = kinecal(d, &["analyze", "--spec", "r.toml", "--rcond", "3"]);
+    assert!(
+        err.contains("--rcond: expected a tolerance between 0 and 1, not 3"),
+        "{err}"
+    );
+}
