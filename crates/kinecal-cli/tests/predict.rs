@@ -233,10 +233,11 @@ fn bad_input_is_refused_with_the_file_named() {
     assert!(e.contains("--target: unknown site `smr9`"), "{e}");
     let e = err(with(&["--sample", "0"]));
     assert!(e.contains("--sample: expected between 1 and"), "{e}");
-    // Neither postures nor a sample: a usage error.
+    // Neither postures nor a sample nor targets: refused, naming the choice.
     let a: Vec<&str> = base.to_vec();
-    let (code, _, _) = run(d, &a);
-    assert_eq!(code, Some(2));
+    let (code, _, e) = run(d, &a);
+    assert_eq!(code, Some(1));
+    assert!(e.contains("--postures: give one of postures"), "{e}");
     // A report edited into nonsense (a negative model error) is refused, not predicted from.
     let text = std::fs::read_to_string(d.join("report.json")).unwrap();
     let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();

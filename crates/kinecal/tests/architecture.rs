@@ -78,7 +78,6 @@ fn modules_import_in_one_direction() {
         "workflow",
         "import",
         "examples",
-        "spec",
         "simulate",
         "plan",
         "compensate",
@@ -86,6 +85,8 @@ fn modules_import_in_one_direction() {
         "iso9283",
         "curves",
         "datasets",
+        // The door: one spec per job, run through the modules above.
+        "spec",
     ];
     let rank = |m: &str| order.iter().position(|o| *o == m);
     let graph = imports();

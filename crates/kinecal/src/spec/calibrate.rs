@@ -755,8 +755,21 @@ mod tests {
             e.contains("validation.holdout") && e.contains("finite"),
             "{e}"
         );
-        let e = Job::from_toml("[solver]\n", "j").unwrap_err().to_string();
-        assert!(e.contains("robot"), "{e}");
+        // A spec without its robot reads, and is refused naming the robot when loaded.
+        let Job::Calibrate(spec) = Job::from_toml("[solver]\n", "j").unwrap() else {
+            unreachable!()
+        };
+        let e = spec.load().unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::InvalidOption {
+                    setting: Setting::Robot,
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 
     #[test]

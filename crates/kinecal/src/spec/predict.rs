@@ -319,7 +319,11 @@ impl PredictSpec {
     pub(crate) fn run(&self, env: &mut Env<'_>) -> Result<Done> {
         let (robot, report, pr, target_name) =
             calibrated(&self.robot, &self.report, self.target.as_deref())?;
-        let (predictor, target) = PredictSpec::predictor(&robot, &pr, &target_name)?;
+        let (predictor, target) =
+            PredictSpec::predictor(&robot, &pr, &target_name).map_err(|e| match e {
+                Error::InvalidOption { .. } => e,
+                e => Error::input(Location::file(&self.report), e.to_string()),
+            })?;
         let mut messages = Vec::new();
         let postures = self.postures(&robot, target, &mut messages)?;
         env.progress
