@@ -476,7 +476,10 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
         let mut at = format!("{name}: robot {}", k + 1);
         let mut table = defaults.clone();
         merge_tables(&mut table, t);
-        if table.contains_key("job") {
+        if table
+            .get("job")
+            .is_some_and(|j| j.as_str() != Some("calibrate"))
+        {
             bail!("{at}: a [[robots]] table is a calibration: write other jobs as [[jobs]]");
         }
         let Some(serial) = take_string(&mut table, "serial", &at)? else {

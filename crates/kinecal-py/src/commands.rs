@@ -305,7 +305,7 @@ pub fn plan<'py>(
         (Some(c), None) => {
             let (data, observed) = pool_of(py, c, "candidates", r, &targets, spec.position_only)?;
             if observed {
-                spec.pool_of_observations(data, String::new(), kinecal::Setting::PlanCandidates)
+                spec.pool_of_observations(data, String::new())
             } else {
                 Ok(kinecal::spec::Pool {
                     data,

@@ -246,7 +246,7 @@ def _pair(keyword: str, value: Any, keys: Sequence[str]) -> Any:
     library to refuse, naming ``keyword``."""
     if value is None or isinstance(value, (str, bytes, Mapping)):
         return value
-    if isinstance(value, Sequence) or isinstance(value, np.ndarray):
+    if isinstance(value, (Sequence, np.ndarray)):
         given = list(value)
         if len(given) != len(keys):
             raise KinecalError(
@@ -302,13 +302,15 @@ class _Keywords:
     def __enter__(self) -> str:
         return self.json
 
-    def __exit__(self, kind: Any, error: Any, trace: Any) -> None:
+    def __exit__(
+        self, kind: object, error: BaseException | None, trace: object
+    ) -> None:
         if not isinstance(error, KinecalError) or error.file is not None or not error.field:
             return
         field = str(error.field)
         keyword = next(
             (k for p, k in sorted(self.paths.items(), key=lambda x: -len(x[0]))
-             if field == p or field.startswith(p + ".") or field.startswith(p + "[")),
+             if field == p or field.startswith((p + ".", p + "["))),
             field.split(".")[-1],
         )
         wrapped = KinecalError(f"{keyword}: {error}")
@@ -325,7 +327,7 @@ def run(spec: JobSpec) -> dict[str, Any]:
     relative to the working folder), with its kind in ``job`` (``"calibrate"`` when absent).
     The outputs the spec names are written (never over an input). Returns the job's document,
     as the command line's ``--json`` or report gives it; its warnings are issued as
-    ``UserWarning``\ s (and a calibration that did not converge, a check that failed or a
+    ``UserWarning`` (and a calibration that did not converge, a check that failed or a
     compensation with flagged rows warns too)."""
     import warnings
 
@@ -354,7 +356,7 @@ def _spec_form(spec: JobSpec) -> tuple[str, str]:
 
 
 def _warn(messages: Sequence[tuple[str, str]]) -> None:
-    """Issues a job's warnings as ``UserWarning``\\ s."""
+    """Issues a job's warnings as ``UserWarning``."""
     import warnings
 
     for level, message in messages:

@@ -22,7 +22,7 @@ __all__ = [
     "__version__",
     "analyze",
     "calibrate",
-    "calibrate_spec",
+    "calibrate_job",
     "compensate",
     "dataset",
     "datasets",
@@ -30,13 +30,13 @@ __all__ = [
     "iso9283_log",
     "plan",
     "predict",
+    "run",
     "simulate",
 ]
 
 __version__: str
 
 _PathLike: TypeAlias = str | os.PathLike[str]
-_ParamList: TypeAlias = str | Sequence[str] | None
 
 class KinecalError(ValueError):
     """Bad input or a calibration that cannot be made. ``file``, ``line`` and ``field`` locate

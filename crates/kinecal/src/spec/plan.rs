@@ -164,6 +164,12 @@ impl PlanSpec {
                 (0..robot.sites.len()).map(Target::Site).collect()
             });
         };
+        if list.trim().is_empty() {
+            return Err(invalid(
+                Setting::Sites,
+                "an empty list: name the frames measured at each posture",
+            ));
+        }
         let mut out = Vec::new();
         for name in list.split(',').map(str::trim) {
             let t =
@@ -197,16 +203,11 @@ impl PlanSpec {
     }
 
     /// The candidates of observations (their rows say what is measured): refused with `sites`.
-    pub fn pool_of_observations(
-        &self,
-        mut data: Dataset,
-        described: String,
-        setting: Setting,
-    ) -> Result<Pool> {
+    pub fn pool_of_observations(&self, mut data: Dataset, described: String) -> Result<Pool> {
         if self.sites.is_some() {
             return Err(invalid(
-                setting,
-                "the sites describe postures; the candidates are observations (an observation file, \
+                Setting::Sites,
+                "describes postures; the candidates are observations (an observation file, \
                  Measurements), whose rows say what is measured",
             ));
         }
@@ -242,7 +243,7 @@ impl PlanSpec {
         };
         let data = crate::files::read_observations(&s.text, &s.name, robot, &opts)?;
         let n = data.postures.len();
-        self.pool_of_observations(data, format!("{n} candidate postures from {path}"), setting)
+        self.pool_of_observations(data, format!("{n} candidate postures from {path}"))
     }
 
     /// The candidates the spec names: its file, or its sample.

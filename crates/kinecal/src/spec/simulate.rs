@@ -175,8 +175,10 @@ impl SimulateSpec {
                 changes.push((id, delta));
             }
         }
-        simulate::changed(&truth, &changes)
-            .map_err(|e| invalid(Setting::ParameterChange, e.to_string()))
+        simulate::changed(&truth, &changes).map_err(|e| match e {
+            crate::Error::InvalidOption { .. } => e,
+            e => invalid(Setting::ParameterChange, e.to_string()),
+        })
     }
 
     /// Simulates the measurements of `truth` at the spec's postures, on `nominal`'s file.
