@@ -345,6 +345,12 @@ impl CalibrationSpec {
         }
         solver.damping = self.solver.damping;
         if let Some(r) = self.solver.rcond {
+            if !(r > 0.0 && r < 1.0) {
+                return Err(invalid(
+                    Setting::Rcond,
+                    format!("expected a tolerance between 0 and 1, not {r}"),
+                ));
+            }
             solver.rcond = r;
         }
         req.solver = solver;

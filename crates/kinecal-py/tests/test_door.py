@@ -1,0 +1,219 @@
+"""One door for every job, from Python: ``kinecal.run`` of the spec the command line writes
+(``--write-spec``) gives the command line's outputs and document, and the named functions give
+the same document as ``run`` of the same job. The command line's own four ways (flags, spec,
+batch) are checked by ``crates/kinecal-cli/tests/door.rs``."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import kinecal
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
+
+
+@pytest.fixture(scope="module")
+def cli() -> str:
+    path = os.environ.get("KINECAL_BIN")
+    if not path:
+        subprocess.run(["cargo", "build", "-q", "-p", "kinecal-cli"], cwd=ROOT, check=True)
+        path = os.path.join(ROOT, "target", "debug", "kinecal")
+    return path
+
+
+def normal(text: str) -> Any:
+    """A document or output as compared: JSON without ``created`` and ``timings``; other text
+    as it is."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+    def strip(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: strip(x) for k, x in v.items() if k not in ("created", "timings")}
+        if isinstance(v, list):
+            return [strip(x) for x in v]
+        return v
+
+    return strip(value)
+
+
+@pytest.fixture(scope="module")
+def lab(cli: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The README's GE A4 session: data, a calibration with a prediction, a robot with
+    [priors], the IRB 120's ISO 9283 poses and a log."""
+    d = tmp_path_factory.mktemp("door")
+
+    def run(*args: str) -> None:
+        subprocess.run([cli, *args], cwd=d, check=True, capture_output=True)
+
+    run("simulate", "--robot", "ge-a4", "--postures", "30", "--seed", "7", "--perturb",
+        "p1=+0.05,p14=-0.02,joint2.offset=-0.5,joint4.slope=+0.02", "--noise",
+        "length=0.0005,angle=0.005", "--out", "data.csv", "--truth", "truth.toml")
+    run("calibrate", "--robot", "ge-a4", "--data", "data.csv", "--estimate",
+        "p1,p2,p8,p14,offsets,slopes", "--predict", "--out", "cal.toml", "--report",
+        "report.json", "-q")
+    ge = (Path(ROOT) / "examples" / "robots" / "ge_a4.toml").read_text()
+    (d / "priors.toml").write_text(ge + '\n[priors]\nlength = 0.004\nangle = 0.02\n')
+    irb = Path(ROOT) / "examples" / "robots" / "abb_irb120.toml"
+    (d / "irb.toml").write_text(irb.read_text())
+    run("iso9283", "plan", "--robot", "irb.toml", "--attitude", "3.141592653589793,0,0",
+        "--resolution", "4", "--out", "poses.csv")
+    run("iso9283", "simulate", "--robot", "irb.toml", "--poses", "poses.csv", "--cycles", "3",
+        "--noise", "length=0.01", "--out", "log.csv")
+    return d
+
+
+# Each job: its command line (outputs named a_*), whether it prints its document (--json).
+CASES: list[tuple[str, list[str], bool]] = [
+    ("simulate", ["simulate", "--robot", "ge-a4", "--postures", "12", "--seed", "3",
+                  "--perturb", "p1=+0.05", "--noise", "length=0.001", "--out", "a_data.csv",
+                  "--truth", "a_truth.toml"], False),
+    ("calibrate", ["calibrate", "--robot", "ge-a4", "--data", "data.csv", "--estimate",
+                   "identifiable", "--folds", "3", "--out", "a_cal.toml", "--report",
+                   "a_report.json", "-q"], False),
+    ("analyze", ["analyze", "--robot", "priors.toml", "--data", "data.csv", "--estimate", "all",
+                 "--json"], True),
+    ("plan", ["plan", "--robot", "ge-a4", "--sample", "150", "--seed", "3", "--count", "6",
+              "--criterion", "i", "--out", "a_plan.csv", "--json"], True),
+    ("predict", ["predict", "--robot", "cal.toml", "--report", "report.json", "--sample",
+                 "40", "--seed", "2", "--out", "a_predicted.csv"], False),
+    ("compensate", ["compensate", "--robot", "cal.toml", "--nominal", "ge-a4", "--in",
+                    "data.csv", "--position-only", "--out", "a_compensated.csv"], False),
+    ("check", ["check", "--robot", "cal.toml", "--data", "data.csv", "--threshold", "0.01,0.05",
+               "--json"], True),
+    ("fk", ["fk", "--robot", "truth.toml", "--postures", "data.csv", "--out", "a_poses.csv"],
+     False),
+    ("export", ["export", "dh", "--robot", "irb.toml", "--convention", "modified", "--out",
+                "a_dh.csv"], False),
+    ("report", ["report", "--from", "report.json", "--out", "a_page.html"], False),
+    ("curves", ["curves", "objective", "--robot", "ge-a4", "--data", "data.csv", "--param",
+                "p1", "--points", "11", "--out", "a_objective.csv"], False),
+    ("iso9283-evaluate", ["iso9283", "evaluate", "--data", "log.csv", "--json", "a_iso.json"],
+     False),
+]
+
+
+@pytest.mark.parametrize("name, args, prints", CASES, ids=[c[0] for c in CASES])
+def test_run_gives_the_command_line_s_outputs_and_document(
+    cli: str, lab: Path, name: str, args: list[str], prints: bool
+) -> None:
+    flags = subprocess.run([cli, *args, "--write-spec", f"{name}.toml"], cwd=lab,
+                           check=False, capture_output=True, text=True)
+    assert flags.returncode in (0, 4), flags.stderr
+    spec = (lab / f"{name}.toml").read_text()
+    (lab / f"p_{name}.toml").write_text(spec.replace("a_", "p_"))
+    outputs = [a for a in args if a.startswith("a_")]
+    cwd = os.getcwd()
+    os.chdir(lab)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            # By the spec file's path, and as its TOML text (paths as the command line's).
+            document = kinecal.run(f"p_{name}.toml")
+            again = kinecal.run(spec.replace("a_", "t_"))
+    finally:
+        os.chdir(cwd)
+    if name == "report":
+        assert document == {"written": "p_page.html"} and again == {"written": "t_page.html"}
+        document = again = {}
+    assert normal(json.dumps(document)) == normal(json.dumps(again)), name
+    for out in outputs:
+        want = normal((lab / out).read_text())
+        assert normal((lab / out.replace("a_", "p_")).read_text()) == want, f"{name}: {out}"
+        assert normal((lab / out.replace("a_", "t_")).read_text()) == want, f"{name}: {out}"
+    if prints:
+        assert normal(json.dumps(document)) == normal(flags.stdout), f"{name}: the document"
+    if name == "calibrate":
+        assert normal(json.dumps(document)) == normal((lab / "a_report.json").read_text())
+
+
+def test_named_functions_are_spellings_of_the_same_specs(lab: Path) -> None:
+    """Each named function with data in memory gives the document ``run`` gives of the same job
+    from files; the robot file's [priors] are used by both (Python's analyze once dropped
+    them)."""
+    priors = kinecal.Robot.from_toml(lab / "priors.toml")
+    nominal = kinecal.Robot.builtin("ge-a4")
+    data = kinecal.Measurements.read_csv(lab / "data.csv", priors)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        by_run = kinecal.run({"job": "analyze", "robot": str(lab / "priors.toml"),
+                              "observations": [{"file": str(lab / "data.csv")}],
+                              "selection": {"estimate": "all"}})
+        named = kinecal.analyze(priors, data, estimate="all")
+    assert named == by_run
+    assert named["rank"] == len(named["parameter_ids"]), "the prior determines every parameter"
+    without = kinecal.analyze(priors, data, estimate="all", prior="none")
+    assert without["rank"] < named["rank"]
+    # A calibration: the same numbers (the in-memory one has no files to fingerprint).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from_files = kinecal.calibrate({"robot": "ge-a4",
+                                        "observations": [{"file": str(lab / "data.csv")}],
+                                        "selection": {"estimate": "identifiable"},
+                                        "residuals": {"loss": "huber"}})
+        in_memory = kinecal.calibrate(nominal, kinecal.Measurements.read_csv(
+            lab / "data.csv", nominal), estimate="identifiable", loss="huber")
+    assert from_files.robot.to_toml() == in_memory.robot.to_toml()
+    for key in ("parameters", "rank", "variance_factor", "identification"):
+        assert from_files.report[key] == in_memory.report[key], key
+    # A plan from the same sample, and a simulation.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plan_doc = kinecal.run({"job": "plan", "robot": "ge-a4", "sample": 150, "seed": 3,
+                                "count": 6, "criterion": "i"})
+    plan = kinecal.plan(nominal, sample=150, seed=3, count=6, criterion="i")
+    assert plan.criterion == plan_doc["criterion"] and plan.value == plan_doc["value"]
+    assert plan.labels == [p["label"] for p in plan_doc["postures"]]
+    sim_doc = kinecal.run({"job": "simulate", "robot": "ge-a4", "postures": 12, "seed": 3,
+                           "perturb": {"p1": 0.05}, "noise": {"length": 0.001}})
+    sim = kinecal.simulate(nominal, 12, seed=3, perturb={"p1": 0.05}, noise={"length": 0.001})
+    assert sim.measurements.to_csv(nominal) == sim_doc["data"]
+    assert sim.truth.to_toml() == sim_doc["truth"]
+
+
+@pytest.mark.parametrize(
+    "call, keyword",
+    [
+        (lambda r, d: kinecal.calibrate(r, d, huber_spread=-1), "huber_spread"),
+        (lambda r, d: kinecal.calibrate(r, d, max_iterations="many"), "max_iterations"),
+        (lambda r, d: kinecal.calibrate(r, d, rcond=2.0, method="svd"), "rcond"),
+        (lambda r, d: kinecal.calibrate(r, d, folds=np.int64(0)), "folds"),
+        (lambda r, d: kinecal.analyze(r, d, rcond=-1), "rcond"),
+        (lambda r, d: kinecal.analyze(r, d, priority=7), "priority"),
+        (lambda r, d: kinecal.plan(r, sample=10, count=-1), "count"),
+        (lambda r, d: kinecal.plan(r, sample=10, count=3, criterion=1), "criterion"),
+        (lambda r, d: kinecal.simulate(r, 5, noise={"length": "x"}), "noise"),
+        (lambda r, d: kinecal.compensate(r, r, program=np.zeros((1, 4)), singular=[1]),
+         "singular"),
+        (lambda r, d: kinecal.calibrate(r, d, weights={"length": float("nan")}), "weights"),
+        (lambda r, d: kinecal.calibrate(r, d, estimate=object()), "estimate"),
+    ],
+)
+def test_a_bad_value_names_its_keyword_never_a_type_error(call: Any, keyword: str) -> None:
+    robot = kinecal.Robot.builtin("ge-a4")
+    q = np.random.default_rng(1).uniform(-30, 30, size=(12, 4))
+    data = kinecal.Measurements(robot, q, robot.fk(q)[:, :3])
+    with pytest.raises(kinecal.KinecalError) as e:
+        call(robot, data)
+    assert str(e.value).startswith(f"{keyword}: "), str(e.value)
+    assert e.value.field == keyword or keyword in str(e.value)
+
+
+def test_run_refuses_a_spec_of_no_job_and_writes_no_input(lab: Path) -> None:
+    with pytest.raises(kinecal.KinecalError, match="unknown job `calibrat`"):
+        kinecal.run({"job": "calibrat", "robot": "ge-a4"})
+    with pytest.raises(kinecal.KinecalError, match="refusing to write an output over an input"):
+        kinecal.run({"job": "simulate", "robot": str(lab / "priors.toml"), "postures": 3,
+                     "out": str(lab / "priors.toml")})
+    with pytest.raises(TypeError, match="expected a spec"):
+        kinecal.run(42)  # type: ignore[arg-type]
