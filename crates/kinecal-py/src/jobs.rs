@@ -46,7 +46,7 @@ fn run_job(py: Python<'_>, job: &Job, spec_file: Option<&str>) -> PyResult<kinec
 }
 
 /// What a job said, as `(kind, text)` pairs: `note` or `warning`.
-fn said(done: &kinecal::spec::Done) -> Vec<(String, String)> {
+fn said(done: &kinecal::spec::Done) -> Said {
     done.messages
         .iter()
         .filter_map(|m| match m {
@@ -58,20 +58,21 @@ fn said(done: &kinecal::spec::Done) -> Vec<(String, String)> {
         .collect()
 }
 
+/// What a job said: `(kind, text)` pairs, `note` or `warning`.
+type Said = Vec<(String, String)>;
+
+/// A calibration job's result for Python: the calibrated robot, the report (JSON), the
+/// outcome's arrays and what it said.
+type Calibrated = (crate::Robot, String, Py<pyo3::types::PyDict>, Said);
+
+/// A job's result for Python: its kind, its document (JSON), what it said and its status.
+type Ran = (String, String, Said, String);
+
 /// Runs a calibration spec (`form` as for [`run`]) as `kinecal calibrate --spec` runs it, its
 /// outputs written: the calibrated robot, the report (JSON), the outcome's arrays and what it
 /// said (an error when the spec is not a calibration's).
 #[pyfunction]
-pub fn calibrate_job(
-    py: Python<'_>,
-    spec: &str,
-    form: &str,
-) -> PyResult<(
-    crate::Robot,
-    String,
-    Py<pyo3::types::PyDict>,
-    Vec<(String, String)>,
-)> {
+pub fn calibrate_job(py: Python<'_>, spec: &str, form: &str) -> PyResult<Calibrated> {
     let job = job_of(py, spec, form)?;
     if !matches!(job, Job::Calibrate(_)) {
         return Err(bad(format!(
@@ -105,11 +106,7 @@ pub fn calibrate_job(
 /// Returns the job's kind, its document (JSON), what it said (`(kind, text)`: `note` or
 /// `warning`) and its status (`ok`, `not-converged`, `implausible`, `flagged`).
 #[pyfunction]
-pub fn run(
-    py: Python<'_>,
-    spec: &str,
-    form: &str,
-) -> PyResult<(String, String, Vec<(String, String)>, String)> {
+pub fn run(py: Python<'_>, spec: &str, form: &str) -> PyResult<Ran> {
     let job = job_of(py, spec, form)?;
     let done = run_job(py, &job, (form == "path").then_some(spec))?;
     let messages = said(&done);

@@ -521,7 +521,7 @@ impl CompensateSpec {
             options.attitude_tolerance = a;
         }
         if let Some(s) = self.singular {
-            if !(s >= 0.0 && s < 1.0) {
+            if !(0.0..1.0).contains(&s) {
                 return Err(invalid(
                     Setting::Singular,
                     format!("expected a fraction from 0 to below 1, not {s}"),

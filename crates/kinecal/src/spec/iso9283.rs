@@ -282,7 +282,7 @@ impl Iso9283PlanSpec {
         let u = robot.units;
         let cube = match self.cube {
             Some([x, y, z, side]) => {
-                if !(side > 0.0) {
+                if side.is_nan() || side <= 0.0 {
                     return Err(invalid(
                         Setting::Cube,
                         format!("the side must be positive, not {side}"),

@@ -15,7 +15,7 @@
 //! So the same job gives the same document whichever way it was said. Each spec turns its
 //! settings into the library's typed request in one function (`request` of each spec module),
 //! where every range and consistency check is made: a bad value is an
-//! [`Error::InvalidOption`] naming the [`Setting`], which each front end words as its flag, key
+//! [`Error::InvalidOption`] naming the [`crate::Setting`], which each front end words as its flag, key
 //! or keyword.
 //!
 //! On disk a spec is TOML with the kind of job in `job` (`calibrate` when absent):
@@ -40,18 +40,18 @@ use crate::error::{Error, Location, Result};
 use crate::source::Source;
 use crate::warning::Warning;
 
-mod analyze;
-mod calibrate;
-mod check;
+pub mod analyze;
+pub mod calibrate;
+pub mod check;
 mod common;
-mod compensate;
-mod curves;
-mod export;
-mod iso9283;
-mod plan;
-mod predict;
-mod report;
-mod simulate;
+pub mod compensate;
+pub mod curves;
+pub mod export;
+pub mod iso9283;
+pub mod plan;
+pub mod predict;
+pub mod report;
+pub mod simulate;
 
 pub use analyze::AnalysisSelection;
 pub use analyze::{AnalyzeOutcome, AnalyzeSpec, MatrixKind, MatrixUnits};

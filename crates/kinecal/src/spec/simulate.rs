@@ -242,7 +242,7 @@ impl SimulateSpec {
         }
         let changed = nominal
             .param_ids()
-            .filter(|&id| nominal.get(id) != truth.get(id))
+            .filter(|&id| nominal.get(id).to_bits() != truth.get(id).to_bits())
             .map(|id| {
                 (
                     nominal.param_name(id),
