@@ -1,7 +1,7 @@
-//! The README cannot drift from the program: every ```console block in it runs here, in order,
-//! in one scratch folder (with `examples/` and `../shared` reachable as from the repository
-//! root), and its output must match what the README shows; and every command's `--help` is a
-//! snapshot under `tests/snapshots/help/`.
+//! The README and the pages of `docs/` cannot drift from the program: every ```console block in
+//! them runs here, page after page in the order of [`PAGES`], in one scratch folder (with
+//! `examples/` and `../shared` reachable as from the repository root), and its output must match
+//! what the page shows; and every command's `--help` is a snapshot under `tests/snapshots/help/`.
 //!
 //! In the README, `$ ` starts a command (a trailing `\` continues it), the lines after it are
 //! its expected output (standard output, then standard error): a line `...` stands for any
@@ -17,6 +17,40 @@ use std::process::Command;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The pages whose sessions run, in this order (later pages use what earlier ones wrote).
+const PAGES: &[&str] = &[
+    "README.md",
+    "docs/your-robot.md",
+    "docs/calibrate.md",
+    "docs/analyze.md",
+    "docs/real-robots.md",
+    "docs/observations.md",
+    "docs/spec.md",
+    "docs/compensate.md",
+    "docs/accuracy.md",
+    "docs/reports.md",
+    "docs/history.md",
+    "docs/commands.md",
+    "docs/files.md",
+    "docs/library.md",
+    "docs/python.md",
+    "docs/verification.md",
+];
+
+/// Every page of `docs/` is in [`PAGES`], and every page of it exists.
+#[test]
+fn every_page_runs() {
+    for p in PAGES {
+        assert!(repo().join(p).exists(), "{p}");
+    }
+    for e in std::fs::read_dir(repo().join("docs")).unwrap() {
+        let name = format!("docs/{}", e.unwrap().file_name().to_string_lossy());
+        if name.ends_with(".md") {
+            assert!(PAGES.contains(&name.as_str()), "{name} is not in PAGES");
+        }
+    }
 }
 
 fn overwrite() -> bool {
@@ -85,13 +119,14 @@ fn words(line: &str) -> Vec<String> {
 }
 
 struct Session {
+    page: &'static str,
     line: usize,
     command: String,
     expected: Vec<String>,
 }
 
 /// The commands of the README's console blocks, with their expected output.
-fn sessions(readme: &str) -> Vec<Session> {
+fn sessions(page: &'static str, readme: &str) -> Vec<Session> {
     let mut out: Vec<Session> = Vec::new();
     let mut in_block = false;
     let mut continuing = false;
@@ -113,6 +148,7 @@ fn sessions(readme: &str) -> Vec<Session> {
         } else if let Some(cmd) = line.strip_prefix("$ ") {
             continuing = cmd.trim_end().ends_with('\\');
             out.push(Session {
+                page,
                 line: i + 1,
                 command: cmd.trim_end().trim_end_matches('\\').trim().to_string(),
                 expected: Vec::new(),
@@ -131,7 +167,6 @@ fn sessions(readme: &str) -> Vec<Session> {
 
 #[test]
 fn readme_sessions_run_as_shown() {
-    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
     let Some(data) = shared_data::shared_data(".") else {
         return;
     };
@@ -147,7 +182,11 @@ fn readme_sessions_run_as_shown() {
         work.join("examples"),
     )
     .unwrap();
-    let sessions = sessions(&readme);
+    let mut sessions = Vec::new();
+    for page in PAGES {
+        let text = std::fs::read_to_string(repo().join(page)).unwrap();
+        sessions.extend(self::sessions(page, &text));
+    }
     assert!(sessions.len() >= 10, "{} sessions", sessions.len());
     let mut failures = Vec::new();
     for s in &sessions {
@@ -156,7 +195,7 @@ fn readme_sessions_run_as_shown() {
             None => (s.command.clone(), 0),
         };
         let w = words(&command);
-        assert_eq!(w[0], "kinecal", "README line {}: {command}", s.line);
+        assert_eq!(w[0], "kinecal", "{} line {}: {command}", s.page, s.line);
         let out = Command::new(env!("CARGO_BIN_EXE_kinecal"))
             .args(&w[1..])
             .env("COLUMNS", "100")
@@ -170,8 +209,8 @@ fn readme_sessions_run_as_shown() {
         let code = out.status.code().unwrap_or(-1);
         if code != exit || !text_matches(&expected, &actual) {
             failures.push(format!(
-                "README line {}: `{command}` exited {code} (expected {exit}); its output:\n{text}",
-                s.line
+                "{} line {}: `{command}` exited {code} (expected {exit}); its output:\n{text}",
+                s.page, s.line
             ));
             if !overwrite() {
                 break;
@@ -257,36 +296,39 @@ fn matching_rules() {
     );
 }
 
-/// A TOML block the README introduces with a link to an example file (the line before the block
-/// ends with `(examples/....toml):`) shows that file as it is.
+/// A TOML block a page introduces with a link to an example file (the line before the block
+/// ends with `(examples/....toml):` or `(../examples/....toml):`) shows that file as it is.
 #[test]
 fn readme_toml_blocks_show_their_example_files() {
-    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
-    let lines: Vec<&str> = readme.lines().collect();
     let mut checked = 0;
-    for (i, line) in lines.iter().enumerate() {
-        if line.trim() != "```toml" || i < 2 {
-            continue;
+    for page in PAGES {
+        let readme = std::fs::read_to_string(repo().join(page)).unwrap();
+        let lines: Vec<&str> = readme.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            if line.trim() != "```toml" || i < 2 {
+                continue;
+            }
+            let intro = lines[..i]
+                .iter()
+                .rev()
+                .find(|l| !l.trim().is_empty())
+                .expect("text before");
+            let Some(file) = intro
+                .rsplit_once("](")
+                .and_then(|(_, rest)| rest.strip_suffix("):"))
+            else {
+                continue;
+            };
+            let end = lines[i + 1..]
+                .iter()
+                .position(|l| l.trim() == "```")
+                .expect("a closed block");
+            let shown = lines[i + 1..i + 1 + end].join("\n") + "\n";
+            let file = file.trim_start_matches("../");
+            let actual = std::fs::read_to_string(repo().join(file)).unwrap();
+            assert_eq!(shown, actual, "{page} line {}: {file} differs", i + 1);
+            checked += 1;
         }
-        let intro = lines[..i]
-            .iter()
-            .rev()
-            .find(|l| !l.trim().is_empty())
-            .expect("text before");
-        let Some(file) = intro
-            .rsplit_once("](")
-            .and_then(|(_, rest)| rest.strip_suffix("):"))
-        else {
-            continue;
-        };
-        let end = lines[i + 1..]
-            .iter()
-            .position(|l| l.trim() == "```")
-            .expect("a closed block");
-        let shown = lines[i + 1..i + 1 + end].join("\n") + "\n";
-        let actual = std::fs::read_to_string(repo().join(file)).unwrap();
-        assert_eq!(shown, actual, "README line {}: {file} differs", i + 1);
-        checked += 1;
     }
     assert!(checked >= 1, "no example file shown");
 }

@@ -576,14 +576,21 @@ def test_urdf_masses_make_an_elastic_robot():
         elastic.with_value("joint2.compliance", 1.0).fk(q)
 
 
-def test_the_readme_session_runs_as_shown(monkeypatch):
-    # From the repository root, where the README's paths (../shared/data) hold.
+def test_the_python_pages_run_as_shown(monkeypatch):
+    # From the repository root, where the pages' paths (../shared/data) hold: every Python
+    # block of the README and of docs/ is a doctest.
     shared_data("qkm_hl6_faro")
     monkeypatch.chdir(ROOT)
-    result = doctest.testfile(os.path.join(ROOT, "README.md"), module_relative=False,
-                              optionflags=doctest.NORMALIZE_WHITESPACE)
-    assert result.attempted >= 10
-    assert result.failed == 0
+    attempted = 0
+    pages = ["README.md"] + sorted(
+        os.path.join("docs", p) for p in os.listdir(os.path.join(ROOT, "docs"))
+        if p.endswith(".md"))
+    for page in pages:
+        result = doctest.testfile(os.path.join(ROOT, page), module_relative=False,
+                                  optionflags=doctest.NORMALIZE_WHITESPACE)
+        assert result.failed == 0, page
+        attempted += result.attempted
+    assert attempted >= 10
 
 
 def test_the_type_stubs_name_what_the_package_has():

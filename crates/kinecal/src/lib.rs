@@ -69,7 +69,7 @@ pub use robot::{Joint, JointKind, Link, Robot, Site};
 pub use units::{AngleUnit, LengthUnit, Units};
 pub use warning::Warning;
 
-/// The README's library example compiles (`cargo test --doc`).
+/// The library page's examples compile (`cargo test --doc`).
 #[cfg(doctest)]
-#[doc = include_str!("../../../README.md")]
-pub struct ReadmeDoctests;
+#[doc = include_str!("../../../docs/library.md")]
+pub struct LibraryDoctests;
