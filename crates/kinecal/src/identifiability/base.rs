@@ -1,0 +1,633 @@
+//! The identifiable (base) set: a QR with column pivoting by priority, which leaves out what only
+//! the noise determines.
+
+use crate::linalg::{self, Matrix, QrAccumulator, RowSink};
+use crate::observe::{Dataset, RowQuantity};
+use crate::params::{ParamId, ParamKind};
+use crate::problem::Problem;
+use crate::robot::Robot;
+use crate::units::Quantity;
+
+use super::groups::tidy_coef;
+use super::spectrum::{dot, Scaled, Spectrum};
+use super::{fmt_sig, AnalysisOptions, NoiseDependent};
+
+/// The default preference for the identifiable set (thesis 4.4.3 and 4.4.7: keep parameters
+/// that carry physical meaning): joint offsets, then slopes, then link lengths and angles that
+/// are non-zero in the nominal model, then zero-valued link components (redundant copies), then
+/// site parameters. Earlier is preferred.
+pub fn default_priority(robot: &Robot) -> Vec<ParamId> {
+    let mut ids: Vec<ParamId> = robot.param_ids().collect();
+    ids.sort_by_key(|&id| (default_tier(robot, id), id));
+    ids
+}
+
+/// What [`identifiable_set`] chose: the set, what it left out within the noise and why, and the
+/// `e_j` it judged with.
+pub(super) struct IdentifiableSet {
+    /// The identifiable parameters, ascending.
+    pub identifiable: Vec<ParamId>,
+    /// The parameters left out as dependent within the noise.
+    pub noise_dependent: Vec<NoiseDependent>,
+    /// The noise rule in words.
+    pub noise_rule: String,
+    /// `e_j` per parameter.
+    pub typical: Vec<f64>,
+    /// The columns by preference.
+    pub order: Vec<usize>,
+}
+
+/// The identifiable set of `params` by priority (column pivoting within each priority tier on
+/// the noise-scaled columns), then without the loosest parameter given the whole set while one
+/// is loose; `typical` the `e_j` from the rows, when they were at hand.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn identifiable_set(
+    robot: &Robot,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+    scaled: &Scaled,
+    spectrum: &Spectrum,
+    clamp: &[f64],
+    typical: Option<Vec<f64>>,
+    col_factor: &[f64],
+    m: usize,
+) -> IdentifiableSet {
+    let n = params.len();
+    let column_norms = &scaled.column_norms;
+    let (order, tiers) = priority_order(robot, params, &opts.priority);
+    // e_j: from the rows when they were at hand, else its lower bound from the column norms
+    // (exact when no row's weight is clamped).
+    let least_clamp = clamp.iter().copied().fold(1.0, f64::min);
+    let exact_typical = typical.is_some() || least_clamp >= 1.0;
+    let typical = typical.unwrap_or_else(|| {
+        let root_m = (m.max(1) as f64).sqrt();
+        column_norms
+            .iter()
+            .map(|c| least_clamp * c / root_m)
+            .collect()
+    });
+    // The noise-scaled columns a_j / e_j are the unit columns times |a_j| / e_j.
+    let gain: Vec<f64> = (0..n)
+        .map(|j| {
+            let g = column_norms[j] / typical[j];
+            if scaled.unfelt[j] || !g.is_finite() {
+                0.0
+            } else {
+                g
+            }
+        })
+        .collect();
+    let mut threshold = noise_thresholds(robot, params, opts.noise_scale, &typical);
+    // On R's columns (n long, the same inner products as the scaled Jacobian's m-long ones).
+    // A parameter chosen early (a high tier) is judged given only the columns before it: given
+    // the whole set, it may be as loose as the rule forbids (a joint offset and a link length
+    // one the same lever at the noise). Then the loosest of those goes, and the set is chosen
+    // again without it. Of the loose ones, the least preferred goes (its partner in the
+    // near-dependence, if any, is then judged again without it): priorities decide, as they do
+    // in the pivoting.
+    let rank_of: Vec<usize> = {
+        let mut r = vec![usize::MAX; n];
+        for (k, &j) in order.iter().enumerate() {
+            r[j] = r[j].min(k);
+        }
+        r
+    };
+    let loose_given_all = |chosen: &[usize], threshold: &[f64]| -> Option<(usize, f64)> {
+        let sigma = linalg::marginal_sigmas(&scaled.r, chosen);
+        chosen
+            .iter()
+            .zip(&sigma)
+            .filter(|&(&j, &s)| {
+                // Given all the others, a unit column's remaining norm is 1 / s (s its
+                // standard deviation on unit columns): gain[j] / s in the gained metric.
+                gain[j] / s < threshold[j]
+            })
+            .max_by_key(|&(&j, _)| (tiers[j], rank_of[j]))
+            .map(|(&j, &s)| (j, s / column_norms[j]))
+    };
+    let tol = opts.rcond * spectrum.largest;
+    let select = |threshold: &[f64]| {
+        select_base(
+            &scaled.r,
+            &gain,
+            &order,
+            &tiers,
+            spectrum.rank,
+            tol,
+            threshold,
+        )
+    };
+    let mut base = select(&threshold);
+    // The standard deviation (internal units) of those left out given the whole set.
+    let mut loose_sigma: Vec<Option<f64>> = vec![None; n];
+    for _ in 0..n {
+        let Some((j, sigma)) = loose_given_all(&base.chosen, &threshold) else {
+            break;
+        };
+        threshold[j] = f64::INFINITY;
+        loose_sigma[j] = Some(sigma);
+        base = select(&threshold);
+    }
+    let mut identifiable: Vec<ParamId> = base.chosen.iter().map(|&j| params[j]).collect();
+    identifiable.sort();
+    let noise_dependent = base
+        .noise
+        .iter()
+        .map(|d| {
+            noise_dependent(
+                robot,
+                params,
+                opts.noise_scale,
+                d,
+                &base.chosen,
+                &typical,
+                col_factor,
+                column_norms,
+                gain[d.column],
+                loose_sigma[d.column],
+            )
+        })
+        .collect();
+    IdentifiableSet {
+        identifiable,
+        noise_dependent,
+        noise_rule: noise_rule_words(m, exact_typical, opts.noise_scale),
+        typical,
+        order,
+    }
+}
+
+/// The noise threshold of each column, in the gained metric: below one typical row's worth
+/// (r_jj < e_j) and so loosely determined that its standard deviation given the columns chosen
+/// before it, 1 / r_jj = 1 / (ratio e_j), exceeds [`LOOSE`] of its scale.
+fn noise_thresholds(
+    robot: &Robot,
+    params: &[ParamId],
+    noise_scale: f64,
+    typical: &[f64],
+) -> Vec<f64> {
+    params
+        .iter()
+        .zip(typical)
+        .map(|(&id, &e)| {
+            let scale = match robot.param_kind(id) {
+                ParamKind::Slope { .. } | ParamKind::Coupling { .. } => robot.get(id).abs(),
+                _ => match robot.param_quantity(id) {
+                    Quantity::Length => robot.reach(),
+                    _ => 1.0,
+                },
+            };
+            let loose = noise_scale / (LOOSE * e * scale);
+            if loose.is_finite() {
+                loose
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// A parameter left out within the noise, with its near-combination of the chosen ones.
+///
+/// `a_j / e_j ~= sum c_l a_k / e_k`: per file unit, `c_l (e_j / e_k) (f_j / f_k)`; on unit
+/// columns, `c_l (e_j / e_k) (|a_k| / |a_j|)`.
+#[allow(clippy::too_many_arguments)]
+fn noise_dependent(
+    robot: &Robot,
+    params: &[ParamId],
+    noise_scale: f64,
+    d: &NoiseColumn,
+    chosen: &[usize],
+    typical: &[f64],
+    col_factor: &[f64],
+    column_norms: &[f64],
+    gain: f64,
+    loose_sigma: Option<f64>,
+) -> NoiseDependent {
+    let j = d.column;
+    let mut terms: Vec<(usize, f64, f64)> = chosen
+        .iter()
+        .zip(&d.coef)
+        .map(|(&k, &c)| {
+            let raw = c * typical[j] / typical[k];
+            (
+                k,
+                raw * col_factor[j] / col_factor[k],
+                raw * column_norms[k] / column_norms[j],
+            )
+        })
+        .filter(|t| t.2 != 0.0)
+        .collect();
+    terms.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()).then(a.0.cmp(&b.0)));
+    let big = terms.first().map_or(0.0, |t| t.2.abs());
+    let shown = terms
+        .iter()
+        .take(COMBINATION_TERMS)
+        .take_while(|t| t.2.abs() >= COMBINATION_SHARE * big)
+        .count();
+    NoiseDependent {
+        id: params[j],
+        ratio: d.ratio,
+        sigma: robot.units.from_si(
+            robot.param_quantity(params[j]),
+            noise_scale * loose_sigma.unwrap_or(1.0 / (d.ratio * typical[j])),
+        ),
+        sine: d.ratio / gain,
+        terms: terms[..shown]
+            .iter()
+            .map(|&(k, c, _)| (params[k], tidy_coef(c)))
+            .collect(),
+        omitted: terms.len() - shown,
+    }
+}
+
+/// A candidate is left out when its standard deviation given the columns chosen before it (at
+/// the stated weights) exceeds this share of its scale: 0.02 rad (1.1 deg) for an angle, 2 % of the
+/// robot's reach for a length, 2 % of its value for a slope or a coupling factor. Estimates
+/// that loose are meaningless, and the solver crawls along their valleys (a probe 0.3 mm off
+/// the last joint's axis leaves that joint's offset and the last link's attitude determined to
+/// 0.05-0.1 rad only); parameters near-dependent but determined to well under a degree (a
+/// FANUC R-2000iC's base tilt against its first offset, 0.009 rad) still help held out.
+const LOOSE: f64 = 0.02;
+
+/// Near-combinations show at most this many terms...
+const COMBINATION_TERMS: usize = 4;
+/// ...each at least this share of the largest (on unit-norm columns).
+const COMBINATION_SHARE: f64 = 0.05;
+
+/// Remaining norms within this relative distance of the largest are a tie, won by the column
+/// earliest in the priority order: far above the rounding of norms computed afresh
+/// (identical columns of `R` differ by a few ulps of their original norm), far below any
+/// difference that means something.
+const TIE: f64 = 1e-9;
+
+/// Downdated norms within this relative distance of the largest are computed afresh before a
+/// pivot is chosen: downdating keeps a norm to about `sqrt(eps)` ~ 1.5e-8 relative (it is
+/// recomputed when cancellation would cost more), so a tie at [`TIE`] must be decided on
+/// norms computed afresh, and 1e-6 leaves a margin of about 70.
+const NEAR: f64 = 1e-6;
+
+/// Per row of `problem` (in row order), `min(1, w_med / w_i)`: the factor that clamps the
+/// row's weight `w_i = 1 / sigma_i` at `w_med`, the (lower) median weight of the rows of the
+/// same quantity. Per quantity, because comparing a length row's weight (1/m) with an angle
+/// row's (1/rad) would depend on the internal units; the lower median, so that of two equally
+/// common weights the larger is the one clamped.
+pub(super) fn row_clamp(data: &Dataset, problem: &Problem<'_>) -> Vec<f64> {
+    let sigma = problem.row_sigma();
+    let mut quantity = Vec::with_capacity(sigma.len());
+    for o in &data.observations {
+        for row in o.rows() {
+            quantity.push(row.quantity);
+        }
+    }
+    let weight = |i: usize| 1.0 / sigma[i];
+    let median = |q: RowQuantity| -> f64 {
+        let mut w: Vec<f64> = (0..sigma.len())
+            .filter(|&i| quantity.get(i) == Some(&q))
+            .map(weight)
+            .collect();
+        if w.is_empty() {
+            return f64::INFINITY;
+        }
+        let k = (w.len() - 1) / 2;
+        *w.select_nth_unstable_by(k, f64::total_cmp).1
+    };
+    let (length, angle) = (median(RowQuantity::Length), median(RowQuantity::Angle));
+    (0..sigma.len())
+        .map(|i| {
+            let med = match quantity.get(i) {
+                Some(RowQuantity::Angle) => angle,
+                _ => length,
+            };
+            let w = weight(i);
+            // Written so that no pair of infinities or NaN makes a NaN: such a row counts 1.
+            if w > med {
+                med / w
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+/// A [`RowSink`] that passes each row `[J_i | r_i]` on to a QR accumulator and adds up, per
+/// parameter column, the squares of the row's entries times its clamp factor: the sums
+/// behind `e_j` ([`Analysis::typical_row`]), from the same pass that builds `R`.
+pub(super) struct TypicalRowTally<'a> {
+    /// The QR the rows go into.
+    pub acc: &'a mut QrAccumulator,
+    /// Each row's clamp factor.
+    pub clamp: &'a [f64],
+    /// The rows passed so far.
+    pub row: usize,
+    /// Per column, the sum of the clamped squares.
+    pub sums: Vec<f64>,
+}
+
+impl RowSink for TypicalRowTally<'_> {
+    fn push(&mut self, row: &[f64]) {
+        self.acc.push(row);
+        let f = self.clamp.get(self.row).copied().unwrap_or(1.0);
+        self.row += 1;
+        for (s, &c) in self.sums.iter_mut().zip(row) {
+            let v = c * f;
+            *s += v * v;
+        }
+    }
+}
+
+/// The noise-level rule in words, for `m` rows; `exact` when `e_j` came from the rows.
+fn noise_rule_words(m: usize, exact: bool, noise_scale: f64) -> String {
+    let root = (m.max(1) as f64).sqrt();
+    let mut s = format!(
+        "a parameter is not determined at the noise level when, given the parameters chosen before \
+         it (in priority order, then given the whole set), its standard deviation at the stated \
+         weights, 1 / r_jj, exceeds 0.02 rad for an angle, 2 % of the robot's reach for a length, \
+         2 % of its value for a slope or coupling factor; r_jj is its remaining weighted column \
+         norm; columns are pivoted on a_j / e_j, e_j the RMS of the weighted column over the {m} \
+         rows (each row's weight clamped at the median of its quantity; with uniform weights \
+         r_jj / e_j = sqrt({m}) sin(angle to the chosen columns), sqrt({m}) = {})",
+        fmt_sig(root)
+    );
+    if (noise_scale - 1.0).abs() > f64::EPSILON {
+        s.push_str(&format!(
+            "; judged at {} times the stated sigmas (the noise a fit's residuals showed)",
+            fmt_sig(noise_scale)
+        ));
+    }
+    if !exact {
+        s.push_str(
+            "; e_j bounded below from the column norms (the rows were not at hand): a lower \
+             threshold, erring towards keeping parameters",
+        );
+    }
+    s
+}
+
+/// A column left out as dependent within the noise by [`select_base`].
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct NoiseColumn {
+    /// The column.
+    pub column: usize,
+    /// Its remaining norm at its pivot step, noise-scaled: `r_jj / e_j`.
+    pub ratio: f64,
+    /// Its regression on the chosen columns (in their pivot order), noise-scaled:
+    /// `a_j / e_j ~= sum_l coef[l] a_chosen[l] / e_chosen[l]`.
+    pub coef: Vec<f64>,
+}
+
+/// What [`select_base`] chose.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct BaseSelection {
+    /// The chosen columns, in pivot order.
+    pub chosen: Vec<usize>,
+    /// The columns left out as dependent within the noise (not those dependent at the
+    /// rounding level), in the order they were found.
+    pub noise: Vec<NoiseColumn>,
+}
+
+/// The identifiable (base) set by a QR with column pivoting, in tiers: `units` holds the
+/// unit-norm columns (or the `R` of their QR: the same inner products, fewer rows), `gain[j]`
+/// the factor to the metric the pivots are chosen in (`|a_j| / e_j`, the noise-scaled column
+/// `a_j / e_j`; 0 for a column not to consider), `order` the columns by preference (columns
+/// not listed are not considered) and `tier[j]` each column's tier (lower first).
+///
+/// At each step the candidates are the columns of the lowest tier left; the pivot is the one
+/// of largest remaining norm in the gained metric, ties (within [`TIE`], on norms computed
+/// afresh) to the earliest in `order`. It is
+/// - chosen when its remaining norm is at least `noise` and its remaining norm on the unit
+///   columns (the sine of its angle to the chosen columns) exceeds the rounding tolerance
+///   `tol` (and 1e-12);
+/// - left out alone when it is within the rounding tolerance (dependent);
+/// - below `noise`: then so is every candidate of the tier (the threshold is the same for all
+///   in this metric) and the tier ends; those within the rounding tolerance are dependent,
+///   the others dependent within the noise (reported, with their remaining norm and their
+///   regression on the finally chosen columns).
+///
+/// It stops at `rank` chosen columns. Householder reflections, the remaining norms downdated
+/// and computed afresh when cancellation has eaten half their digits (LAPACK's `dgeqp3`):
+/// `O(rows n rank)`, `O(n^3)` on an n x n `R`. With `noise = 0` it is the greedy selection
+/// of the rounding rule alone.
+pub(super) fn select_base(
+    units: &Matrix,
+    gain: &[f64],
+    order: &[usize],
+    tier: &[usize],
+    rank: usize,
+    tol: f64,
+    noise: &[f64],
+) -> BaseSelection {
+    #[derive(Clone, Copy, PartialEq)]
+    enum State {
+        Candidate,
+        Chosen,
+        /// Left out as dependent within the noise: its column is still transformed, for its
+        /// regression on the chosen ones at the end.
+        Noise,
+        /// Left out (dependent at the rounding level) or not considered.
+        Out,
+    }
+    let (rows, n) = (units.nrows(), units.ncols());
+    let tol = tol.max(1e-12);
+    let mut state = vec![State::Out; n];
+    let mut pref = vec![usize::MAX; n];
+    for (k, &j) in order.iter().enumerate() {
+        if j < n && pref[j] == usize::MAX && gain[j] > 0.0 && gain[j].is_finite() {
+            pref[j] = k;
+            state[j] = State::Candidate;
+        }
+    }
+    // The working matrix: the gained columns, transformed step by step.
+    let mut w = Matrix::from_fn(rows, n, |i, j| {
+        if state[j] == State::Candidate {
+            units[(i, j)] * gain[j]
+        } else {
+            0.0
+        }
+    });
+    let norm_from = |w: &Matrix, j: usize, k: usize| {
+        let c = &w.col(j)[k..];
+        dot(c, c).sqrt()
+    };
+    let mut norms: Vec<f64> = (0..n).map(|j| norm_from(&w, j, 0)).collect();
+    let mut exact = norms.clone();
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut noisy: Vec<(usize, f64)> = Vec::new();
+    let mut v = vec![0.0; rows];
+    let tol3z = f64::EPSILON.sqrt();
+    let mut tier_cands: Vec<usize> = Vec::with_capacity(n);
+    while chosen.len() < rank && chosen.len() < rows {
+        let k = chosen.len();
+        let Some(t) = (0..n)
+            .filter(|&j| state[j] == State::Candidate)
+            .map(|j| tier[j])
+            .min()
+        else {
+            break;
+        };
+        tier_cands.clear();
+        tier_cands.extend((0..n).filter(|&j| state[j] == State::Candidate && tier[j] == t));
+        // Near the largest, downdated norms are not accurate enough for ties: afresh.
+        let big = tier_cands.iter().map(|&j| norms[j]).fold(0.0, f64::max);
+        for &j in &tier_cands {
+            if norms[j] >= big * (1.0 - NEAR) {
+                norms[j] = norm_from(&w, j, k);
+                exact[j] = norms[j];
+            }
+        }
+        let big = tier_cands.iter().map(|&j| norms[j]).fold(0.0, f64::max);
+        let Some(p) = tier_cands
+            .iter()
+            .copied()
+            .filter(|&j| norms[j] >= big * (1.0 - TIE))
+            .min_by_key(|&j| pref[j])
+        else {
+            // Only NaN norms (a column of NaN): nothing in this tier can be chosen.
+            for &j in &tier_cands {
+                state[j] = State::Out;
+            }
+            continue;
+        };
+        let (ratio, sine) = (norms[p], norms[p] / gain[p]);
+        if ratio < noise[p] {
+            // Dependent within the noise (or, within the rounding tolerance, dependent).
+            let r = norm_from(&w, p, k);
+            if r / gain[p] > tol {
+                state[p] = State::Noise;
+                noisy.push((p, r));
+            } else {
+                state[p] = State::Out;
+            }
+            continue;
+        }
+        if sine <= tol {
+            state[p] = State::Out;
+            continue;
+        }
+        // Householder reflection H = I - tau v v^T (v_k = 1) with H w[k.., p] = (mu, 0, ...).
+        let alpha = w[(k, p)];
+        let sigma: f64 = {
+            let c = &w.col(p)[k + 1..];
+            dot(c, c)
+        };
+        state[p] = State::Chosen;
+        chosen.push(p);
+        if sigma == 0.0 {
+            // Already zero below row k: nothing to reflect.
+        } else {
+            let mu = (alpha * alpha + sigma).sqrt();
+            let beta = if alpha <= 0.0 {
+                alpha - mu
+            } else {
+                -sigma / (alpha + mu)
+            };
+            let tau = 2.0 * beta * beta / (sigma + beta * beta);
+            v[k] = 1.0;
+            for i in k + 1..rows {
+                v[i] = w[(i, p)] / beta;
+            }
+            {
+                let col = w.col_mut(p);
+                col[k] = mu;
+                col[k + 1..].fill(0.0);
+            }
+            let vk = &v[k..rows];
+            for (j, st) in state.iter().enumerate() {
+                if !matches!(st, State::Candidate | State::Noise) {
+                    continue;
+                }
+                let col = &mut w.col_mut(j)[k..];
+                let s = tau * dot(vk, col);
+                if s != 0.0 {
+                    for (x, &y) in col.iter_mut().zip(vk) {
+                        *x -= s * y;
+                    }
+                }
+            }
+        }
+        // Downdate the candidates' norms by their entry in row k; afresh on cancellation.
+        for j in 0..n {
+            if state[j] != State::Candidate || norms[j] == 0.0 {
+                continue;
+            }
+            let q = w[(k, j)].abs() / norms[j];
+            let left = (1.0 - q * q).max(0.0);
+            let since = norms[j] / exact[j];
+            if left * since * since <= tol3z {
+                norms[j] = norm_from(&w, j, k + 1);
+                exact[j] = norms[j];
+            } else {
+                norms[j] *= left.sqrt();
+            }
+        }
+    }
+    // Each noise-dependent column on the chosen ones: T_SS c = (its first K entries).
+    let kk = chosen.len();
+    let noise = noisy
+        .into_iter()
+        .map(|(j, ratio)| {
+            let mut c: Vec<f64> = w.col(j)[..kk].to_vec();
+            for l in (0..kk).rev() {
+                let mut s = c[l];
+                for (m, &cm) in c.iter().enumerate().skip(l + 1) {
+                    s -= w[(l, chosen[m])] * cm;
+                }
+                let d = w[(l, chosen[l])];
+                c[l] = if d != 0.0 { s / d } else { 0.0 };
+            }
+            NoiseColumn {
+                column: j,
+                ratio,
+                coef: c,
+            }
+        })
+        .collect();
+    BaseSelection { chosen, noise }
+}
+
+/// The analysed columns (`params`, by position) in order of preference, and each one's tier:
+/// the user's `priority` first, each parameter its own tier, then [`default_priority`] in its
+/// tiers.
+fn priority_order(
+    robot: &Robot,
+    params: &[ParamId],
+    priority: &[ParamId],
+) -> (Vec<usize>, Vec<usize>) {
+    let mut order = priority.to_vec();
+    for id in default_priority(robot) {
+        if !order.contains(&id) {
+            order.push(id);
+        }
+    }
+    let order: Vec<usize> = order
+        .iter()
+        .filter_map(|id| params.iter().position(|p| p == id))
+        .collect();
+    let tiers: Vec<usize> = params
+        .iter()
+        .map(|&id| match priority.iter().position(|&p| p == id) {
+            Some(k) => k,
+            None => priority.len() + default_tier(robot, id),
+        })
+        .collect();
+    (order, tiers)
+}
+
+fn default_tier(robot: &Robot, id: ParamId) -> usize {
+    let nonzero = robot.get(id).abs() > 1e-12;
+    match robot.param_kind(id) {
+        ParamKind::Offset { .. } => 0,
+        ParamKind::Slope { .. } | ParamKind::Coupling { .. } => 1,
+        ParamKind::Link { component, .. } => match (component.quantity(), nonzero) {
+            (Quantity::Length, true) => 2,
+            (_, true) => 3,
+            (Quantity::Length, false) => 4,
+            _ => 5,
+        },
+        ParamKind::Site { .. } => 6,
+        ParamKind::Plane { .. } => 7,
+        ParamKind::Session { .. } => 8,
+        ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => 9,
+        ParamKind::Body { .. } => 10,
+    }
+}
