@@ -7,7 +7,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use kinecal::report::CalibrationReport;
 use kinecal_history::{
     drift, parse_time, printable, samples, AddOptions, Baseline, Calibration, Database,
-    DriftOptions, DriftReport, Tolerances,
+    DriftOptions, DriftReport, Location, Tolerances,
 };
 
 use crate::args::{
@@ -26,24 +26,14 @@ use kinecal_report::{Line, Panel};
 /// Exit code when drift or a check finds something: usable from cron and monitoring.
 pub const EXIT_FLAGGED: u8 = 3;
 
-/// Where a history is.
-pub enum Location {
-    /// A SQLite file.
-    File(PathBuf),
-    /// A PostgreSQL server (`postgres://...`).
-    Server(String),
-}
-
-/// The history named by `--db`, else by `$KINECAL_DB`, else the default file.
+/// The history named by `--db` (a file path or a `postgres://` URL), else by `$KINECAL_DB`,
+/// else the default file.
 pub fn location(db: Option<&Path>) -> Result<Location> {
     let given = db
         .map(|p| p.as_os_str().to_owned())
         .or_else(|| std::env::var_os("KINECAL_DB").filter(|v| !v.is_empty()));
     Ok(match given {
-        Some(v) => match v.to_str() {
-            Some(s) if kinecal_history::is_postgres_url(s) => Location::Server(s.to_string()),
-            _ => Location::File(PathBuf::from(v)),
-        },
+        Some(v) => Location::parse(&v),
         None => Location::File(kinecal_history::default_db_path().ok_or_else(|| {
             anyhow!("no home or data folder to keep the history in: give --db PATH or URL")
         })?),
@@ -52,29 +42,20 @@ pub fn location(db: Option<&Path>) -> Result<Location> {
 
 /// The history's file, when it is a file (for the checks that no output overwrites it).
 pub fn db_file(db: Option<&Path>) -> Option<PathBuf> {
-    match location(db).ok()? {
-        Location::File(p) => Some(p),
-        Location::Server(_) => None,
-    }
+    location(db).ok()?.file().map(Path::to_path_buf)
 }
 
 /// Opens the history named by `--db` (or `$KINECAL_DB`, or the default file) for writing,
 /// creating or migrating it if needed. An existing file is inspected read-only first and
 /// refused, untouched, unless it is a sound kinecal history.
 pub fn open_db(db: Option<&Path>) -> Result<Database> {
-    Ok(match location(db)? {
-        Location::File(p) => Database::open(&p)?,
-        Location::Server(url) => Database::connect(&url)?,
-    })
+    Ok(Database::open(location(db)?)?)
 }
 
 /// Opens an existing history for reading only: never creates one (a mistyped `--db` is an
 /// error), works on read-only files and folders, and on a server in a read-only session.
 pub fn open_db_read(d: &DbArg) -> Result<Database> {
-    let db = match location(d.db.as_deref())? {
-        Location::File(p) => Database::open_read_only(&p)?,
-        Location::Server(url) => Database::connect_read_only(&url)?,
-    };
+    let db = Database::open_read_only(location(d.db.as_deref())?)?;
     if let Some(problem) = db.integrity_problem() {
         eprintln!(
             "warning: {}: the database fails its integrity check ({}); showing what can be read",

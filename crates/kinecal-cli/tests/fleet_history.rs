@@ -1,8 +1,10 @@
+#![cfg_attr(not(feature = "postgres"), allow(unused))]
 //! The fleet's history through the command line, on SQLite and PostgreSQL (`KINECAL_TEST_PG`;
 //! skipped without one unless `CI` is set): a history moved SQLite -> PostgreSQL -> SQLite prints
 //! the same; `batch --record` in shards from many processes, killed and retried, records every
 //! robot once; passwords are never printed.
 
+#[cfg(feature = "postgres")]
 #[path = "../../kinecal-history/tests/common/pg.rs"]
 mod pg;
 
@@ -106,6 +108,7 @@ fn outputs(dir: &Path, db: &str) -> Vec<(String, i32, String)> {
 }
 
 #[test]
+#[cfg(feature = "postgres")]
 fn a_history_moved_sqlite_postgres_sqlite_prints_the_same() {
     let Some(t) = pg::TestDb::new("cli_moves") else {
         return;
@@ -173,6 +176,7 @@ fn a_history_moved_sqlite_postgres_sqlite_prints_the_same() {
 /// server; shards are killed at random moments and rerun, as a job system retries a task: in
 /// the end every robot is recorded exactly once.
 #[test]
+#[cfg(feature = "postgres")]
 fn batch_shards_killed_and_retried_record_every_robot_once() {
     let Some(t) = pg::TestDb::new("cli_shards") else {
         return;
@@ -336,6 +340,7 @@ fn passwords_are_never_printed() {
         "{err}"
     );
     // A wrong password on a real server.
+    #[cfg(feature = "postgres")]
     if let Some(t) = pg::TestDb::new("cli_password") {
         let wrong = pg::with_user(&t.url, "postgres", secret);
         let (code, out, err) = run(d, &["history", "list", "--db", &wrong]);

@@ -19,13 +19,14 @@ use std::collections::BTreeMap;
 use kinecal::units::Units;
 use serde::Serialize;
 
-use crate::store::Calibration;
+use crate::error::{Error, Result};
+use crate::model::{Calibration, Event};
 use crate::text::printable;
 use crate::units::{conversion, parse_units};
-use crate::{Error, Result};
 
 /// Which calibration the latest one is compared with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Baseline {
     /// The first recorded calibration.
     First,
@@ -118,6 +119,7 @@ impl Default for DriftOptions {
 
 /// One tracked quantity.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Quantity {
     /// The physical quantity in words, e.g. "link 3 length along y".
     pub quantity: String,
@@ -151,6 +153,7 @@ pub struct Quantity {
 
 /// A quantity one of the two compared runs tracks and the other does not: not compared.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct LeftOut {
     /// The physical quantity in words.
     pub quantity: String,
@@ -165,6 +168,7 @@ pub struct LeftOut {
 
 /// A tolerance that applies to no compared quantity.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct UnusedTolerance {
     /// The key as written in the file.
     pub key: String,
@@ -174,6 +178,7 @@ pub struct UnusedTolerance {
 
 /// The result of [`drift`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct DriftReport {
     /// The robot.
     pub robot_id: String,
@@ -204,7 +209,7 @@ pub struct DriftReport {
     /// The maintenance event the compared calibrations follow, when the caller analysed the
     /// segment since one ([`crate::current_segment`]); `drift` itself leaves it empty.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub since_event: Option<crate::Event>,
+    pub since_event: Option<Event>,
 }
 
 /// A value with its sigma, words and members, keyed for matching across calibrations; in the
@@ -219,7 +224,7 @@ struct Tracked {
 }
 
 /// Describes a parameter name in words: `link3.y` -> "link 3 length along y".
-pub fn words(name: &str) -> String {
+pub(crate) fn words(name: &str) -> String {
     let axis_word = |c: &str| match c {
         "x" | "y" | "z" => format!("length along {c}"),
         "alpha" => "rotation about z (alpha)".to_string(),
@@ -486,6 +491,7 @@ fn regression(pts: &[(f64, f64, f64)]) -> (Option<f64>, Option<f64>) {
 
 /// One calibration's value of a tracked quantity.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Sample {
     /// The calibration's id.
     pub id: i64,
@@ -619,9 +625,9 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
 mod tolerance_file {
     use toml_edit::{Item, TableLike};
 
-    pub type Table = Vec<(String, f64)>;
+    pub(super) type Table = Vec<(String, f64)>;
 
-    pub fn parse(text: &str) -> Result<Table, String> {
+    pub(super) fn parse(text: &str) -> Result<Table, String> {
         let doc: toml_edit::DocumentMut = text
             .parse()
             .map_err(|e: toml_edit::TomlError| e.to_string())?;

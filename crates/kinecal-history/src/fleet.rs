@@ -7,14 +7,13 @@
 
 use serde::Serialize;
 
-use crate::drift::{all_samples, drift, DriftOptions, Sample};
-use crate::record::Event;
-use crate::store::Calibration;
+use crate::drift::{all_samples, drift, Baseline, DriftOptions, Sample};
+use crate::error::Result;
+use crate::model::{Calibration, Event};
 use crate::timefmt::format_time;
-use crate::Result;
 
 /// Seconds in the month of the rates (30 days).
-pub const MONTH: f64 = 30.0 * 86_400.0;
+pub(crate) const MONTH: f64 = 30.0 * 86_400.0;
 
 /// The calibrations of a robot's `history` (oldest first) since its latest maintenance event
 /// in `events` (a calibration at the event's time belongs to the new segment), and that event.
@@ -41,6 +40,7 @@ pub fn current_segment<'a>(
 /// How a robot stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum Verdict {
     /// A quantity changed beyond its tolerance or K sigma: recalibrate and inspect.
     Flagged,
@@ -69,6 +69,7 @@ impl Verdict {
 
 /// The trend of one determined quantity of a robot, within its current segment.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Trend {
     /// The quantity in words.
     pub quantity: String,
@@ -109,6 +110,7 @@ pub struct Trend {
 
 /// One robot of the fleet.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct RobotState {
     /// Serial.
     pub robot_id: String,
@@ -226,7 +228,7 @@ fn robot_state(
     let report = match drift(
         segment,
         &DriftOptions {
-            baseline: crate::Baseline::First,
+            baseline: Baseline::First,
             ..opts.drift.clone()
         },
     ) {

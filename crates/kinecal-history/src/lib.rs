@@ -6,10 +6,11 @@
 //! from run to run with no physical change; so this crate tracks only *determined* quantities:
 //! individually determined parameters and the combinations of identically redundant groups.
 //!
-//! One store, two back ends behind the [`Store`] trait, chosen by the location
-//! ([`Database::connect`]): a SQLite file (bundled, nothing to install; the default, for one
-//! engineer and one cell) or a PostgreSQL server (`postgres://...`, for a fleet: many writers on
-//! many machines, roles, backups; see [`pg`]). On both: a versioned schema migrated on open (a
+//! One history, two back ends behind the [`Store`] trait, chosen by the [`Location`] given to
+//! [`Database::open`] (or [`Database::open_read_only`]): a SQLite file (bundled, nothing to
+//! install; the default, for one engineer and one cell) or a PostgreSQL server
+//! (`postgres://...`, for a fleet: many writers on many machines, roles, backups; built with the
+//! `postgres` cargo feature, on by default). On both: a versioned schema migrated on open (a
 //! newer one refused with the version it needs), every write in one transaction, an
 //! idempotency key per calibration so that a retried write never records it twice
 //! ([`idempotency_key`]), maintenance events ([`Event`]) that split a robot's history into
@@ -28,133 +29,60 @@
 //! A history is one robot model: a record whose model (joints, joint kinds, parameter names)
 //! differs from the robot's earlier records is refused unless forced ([`AddOptions`]). Its unit
 //! system may change: [`drift()`] converts every value to the units of the robot's first record.
+//!
+//! ## Layout
+//!
+//! The data flows from the model to the stores and back to the analyses; each module uses only
+//! those above it in this list:
+//!
+//! - `error`: [`Error`], naming the database and what was or was not written.
+//! - `text`, `timefmt`, `units`: printable text, RFC 3339 times, unit labels.
+//! - `model`: the records every store reads and writes ([`Calibration`], [`StoredRecord`],
+//!   [`Event`], [`Records`], [`Dump`], ...), knowing nothing of any store.
+//! - `record`: a calibration report made into a stored record (its [`idempotency_key`]), and a
+//!   stored record read back as a [`Calibration`].
+//! - `robot_model`: the check that a history is one robot model, run by every store.
+//! - `store`: the [`Store`] trait every back end implements, and the [`SCHEMA_VERSION`] they
+//!   share.
+//! - `sqlite` and `postgres`: the two stores (the second with the `postgres` feature only); each
+//!   depends on the model and the store trait, never on the other.
+//! - `location`: where a history is ([`Location`]: a file or a server URL; the
+//!   [`default_db_path`]).
+//! - `database`: [`Database`], the handle front ends use: the one way to open a location, and
+//!   what is the same on every back end (validation, keys, dumps and imports).
+//! - `drift` and `fleet`: the analyses of what was read: [`drift()`] of a robot's determined
+//!   quantities, the state of a whole [`fleet()`].
 
-mod backend;
-pub mod drift;
-pub mod fleet;
-pub mod pg;
+mod database;
+mod drift;
+mod error;
+mod fleet;
+mod location;
+mod model;
+#[cfg(feature = "postgres")]
+mod postgres;
 mod record;
+mod robot_model;
+mod sqlite;
 mod store;
 mod text;
 mod timefmt;
 mod units;
 
-pub use backend::{is_postgres_url, Backend, Database, Store, Write};
+pub use database::Database;
 pub use drift::{
     all_samples, drift, samples, Baseline, DriftOptions, DriftReport, LeftOut, Quantity, Sample,
     Tolerances, UnusedTolerance,
 };
+pub use error::{Error, Result};
 pub use fleet::{current_segment, fleet, FleetOptions, RobotState, Trend, Verdict};
 pub use kinecal::source::fingerprint;
-pub use record::{
-    idempotency_key, Added, Dump, Event, ImportSummary, StoredCombination, StoredParameter,
-    StoredRecord, DUMP_FORMAT,
+pub use location::{default_db_path, Location};
+pub use model::{
+    AddOptions, Added, Calibration, Combination, DamagedRecord, Dump, Event, ImportSummary,
+    Parameter, Records, RmsError, StoredCombination, StoredParameter, StoredRecord, DUMP_FORMAT,
 };
-pub use store::{
-    default_db_path, AddOptions, Calibration, Combination, DamagedRecord, Parameter, Records,
-    RmsError, SqliteStore, SCHEMA_VERSION,
-};
+pub use record::idempotency_key;
+pub use store::{Backend, Store, Write, SCHEMA_VERSION};
 pub use text::printable;
 pub use timefmt::{format_time, parse_time};
-
-/// Errors of the history store.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum Error {
-    /// The database could not be opened, read or written.
-    #[error("{path}: {message}")]
-    Database {
-        /// The database file, or the server's URL without its password.
-        path: String,
-        /// What went wrong.
-        message: String,
-    },
-    /// A read found no database at the path (reads never create one).
-    #[error("{path}: no such history database (nothing was created)")]
-    NoDatabase {
-        /// The path given.
-        path: String,
-    },
-    /// The database was written by a newer kinecal.
-    #[error(
-        "{path}: the database has schema version {found}, newer than this kinecal understands ({supported}); \
-         upgrade kinecal (the file was not modified)"
-    )]
-    NewerSchema {
-        /// The database file.
-        path: String,
-        /// Its schema version.
-        found: i64,
-        /// The newest this build knows.
-        supported: i64,
-    },
-    /// The file is not a kinecal history (another application's database, or no database).
-    #[error("{path}: not a kinecal history database ({reason}); the file was not modified")]
-    Foreign {
-        /// The file.
-        path: String,
-        /// What gave it away.
-        reason: String,
-    },
-    /// The database fails `PRAGMA quick_check`: nothing is written to it.
-    #[error(
-        "{path}: the database fails its integrity check ({problem}); nothing was written and the \
-         file was not modified: restore it from a backup, or recover what can be read with \
-         `sqlite3 {path} .recover`"
-    )]
-    Corrupt {
-        /// The file.
-        path: String,
-        /// The first problems `quick_check` reported.
-        problem: String,
-    },
-    /// A record could not be read (a damaged field).
-    #[error("{path}: calibration {id} cannot be read: {problem}")]
-    DamagedRecord {
-        /// The database file.
-        path: String,
-        /// The record's id.
-        id: i64,
-        /// Which field is damaged, and how.
-        problem: String,
-    },
-    /// A calibration of another robot model than the robot's earlier records.
-    #[error(
-        "robot `{robot_id}`: this calibration is of another robot model than its earlier ones \
-         ({difference}; compared with calibration {earlier_id}); not recorded: a history is one \
-         robot model (use another serial; if the robot really was rebuilt, record it with the force option)"
-    )]
-    ModelMismatch {
-        /// The robot (escaped for printing).
-        robot_id: String,
-        /// The most recent earlier calibration compared with.
-        earlier_id: i64,
-        /// The differences, in words.
-        difference: String,
-    },
-    /// The drift threshold is not a positive, finite number.
-    #[error(
-        "the drift threshold must be a positive, finite number of standard deviations, not {value}"
-    )]
-    InvalidSigma {
-        /// The value given.
-        value: f64,
-    },
-    /// A tolerance file that cannot be used.
-    #[error("{file}: {message}")]
-    Tolerance {
-        /// The file.
-        file: String,
-        /// What is wrong (naming the key).
-        message: String,
-    },
-    /// Bad input (a report, a time).
-    #[error("{0}")]
-    Input(String),
-    /// Nothing recorded for a robot.
-    #[error("no calibration recorded for robot `{0}`")]
-    NoHistory(String),
-}
-
-/// Result with this crate's [`Error`].
-pub type Result<T, E = Error> = std::result::Result<T, E>;

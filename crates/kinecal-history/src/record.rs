@@ -1,180 +1,16 @@
-//! A record as the stores keep it (the rows of one calibration), the idempotency key, maintenance
-//! events, and the dump that moves a history between back ends.
+//! From a calibration report to the record a store writes, and from a stored report back to
+//! its figures: what every store shares.
+//!
+//! [`new_record`] checks a report (a robot serial, uncertainty, finite numbers) and turns it into
+//! the [`StoredRecord`] every store writes, keyed by its [`idempotency_key`]; [`report_figures`]
+//! and [`rms_errors`] read the RMS errors of a stored report when a store reads a calibration.
 
 use kinecal::report::CalibrationReport;
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 
-use crate::store::{rms_errors, Calibration, Combination, Parameter};
+use crate::error::{Error, Result};
+use crate::model::{RmsError, StoredCombination, StoredParameter, StoredRecord};
 use crate::text::printable;
-use crate::timefmt::format_time;
-use crate::{Error, Result};
-
-/// One parameter row of a stored calibration.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StoredParameter {
-    /// `p1`, ...
-    pub id: String,
-    /// `link1.x`, ...
-    pub name: String,
-    /// Unit.
-    pub unit: String,
-    /// Value after calibration.
-    pub value: f64,
-    /// Standard deviation, when determined.
-    pub sigma: Option<f64>,
-    /// Whether it was estimated.
-    pub estimated: bool,
-    /// Whether the data determined it individually.
-    pub determined: bool,
-}
-
-/// One determined-combination row of a stored calibration.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StoredCombination {
-    /// `p3 - p9 - ...`.
-    pub expression: String,
-    /// Its members as stored: JSON `[[id, name, coefficient], ...]`.
-    pub terms: String,
-    /// Value.
-    pub value: f64,
-    /// Standard deviation.
-    pub sigma: f64,
-}
-
-/// Every stored field of one calibration, as a back end keeps it: what [`crate::Dump`] carries
-/// between back ends, field for field.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StoredRecord {
-    /// The record's id.
-    pub id: i64,
-    /// Its idempotency key (absent on records written before schema version 2).
-    pub key: Option<String>,
-    /// The robot's serial.
-    pub robot_id: String,
-    /// Unix seconds.
-    pub at: i64,
-    /// The robot model's name.
-    pub robot_name: String,
-    /// SHA-256 of the nominal robot file (empty when unknown).
-    pub model_fingerprint: String,
-    /// SHA-256 of the measurement files (empty when unknown).
-    pub data_fingerprint: String,
-    /// Method.
-    pub method: String,
-    /// Solution rule.
-    pub solution: String,
-    /// Length unit.
-    pub length_unit: String,
-    /// Angle unit.
-    pub angle_unit: String,
-    /// RMS position error before.
-    pub rms_position_before: f64,
-    /// RMS position error after.
-    pub rms_position_after: f64,
-    /// RMS attitude error before.
-    pub rms_orientation_before: f64,
-    /// RMS attitude error after.
-    pub rms_orientation_after: f64,
-    /// Note.
-    pub note: String,
-    /// The stored report (JSON text, byte for byte).
-    pub report: String,
-    /// Parameter rows.
-    pub parameters: Vec<StoredParameter>,
-    /// Combination rows.
-    pub combinations: Vec<StoredCombination>,
-}
-
-/// A maintenance event of a robot (a gearbox replaced, a crash, a motor changed): drift is
-/// computed within the segments between a robot's events.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Event {
-    /// The event's id.
-    pub id: i64,
-    /// The robot's serial.
-    pub robot_id: String,
-    /// When (Unix seconds).
-    pub at: i64,
-    /// What was done.
-    pub note: String,
-}
-
-impl Event {
-    /// The time as RFC 3339.
-    pub fn at_text(&self) -> String {
-        format_time(self.at)
-    }
-}
-
-/// What a write did: the record's id, and whether it was new (not an earlier write of the same
-/// record, found by its key).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Added {
-    /// The id of the record (the existing one when it was already there).
-    pub id: i64,
-    /// `false` when the record was already there (a retry).
-    pub new: bool,
-}
-
-/// The format name of a dump.
-pub const DUMP_FORMAT: &str = "kinecal-history-dump";
-
-/// A whole history, every stored field of every record and event: `kinecal history export
-/// --format dump` writes it, `kinecal history import` reads it into any back end.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Dump {
-    /// [`DUMP_FORMAT`].
-    pub format: String,
-    /// The version of this layout (1).
-    pub version: u32,
-    /// Every calibration, by id.
-    pub calibrations: Vec<StoredRecord>,
-    /// Every maintenance event, by id.
-    pub events: Vec<Event>,
-}
-
-impl Dump {
-    /// Reads a dump, refusing another document or a newer layout.
-    pub fn from_json(text: &str, file: &str) -> Result<Dump> {
-        let v: serde_json::Value = serde_json::from_str(text)
-            .map_err(|e| Error::Input(format!("{file}: not JSON ({e})")))?;
-        if v.get("format").and_then(|f| f.as_str()) != Some(DUMP_FORMAT) {
-            return Err(Error::Input(format!(
-                "{file}: not a kinecal history dump (no \"format\": \"{DUMP_FORMAT}\"; write one with `kinecal history export --format dump`)"
-            )));
-        }
-        match v.get("version").and_then(|f| f.as_u64()) {
-            Some(1) => {}
-            other => {
-                return Err(Error::Input(format!(
-                    "{file}: dump version {} is not one this kinecal reads (1)",
-                    other.map_or("(none)".to_string(), |v| v.to_string())
-                )))
-            }
-        }
-        serde_json::from_value(v).map_err(|e| Error::Input(format!("{file}: {e}")))
-    }
-
-    /// The dump as JSON.
-    pub fn to_json(&self) -> String {
-        serde_json::to_string_pretty(self).expect("a dump serializes") + "\n"
-    }
-}
-
-/// What an import did.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
-pub struct ImportSummary {
-    /// Records written.
-    pub added: usize,
-    /// Records already there (same key, or same id and contents): skipped.
-    pub present: usize,
-    /// Records written under another id than in the dump (theirs was taken), as (dump id, new id).
-    pub renumbered: Vec<(i64, i64)>,
-    /// Events written.
-    pub events_added: usize,
-    /// Events already there.
-    pub events_present: usize,
-}
 
 /// The idempotency key of a calibration of `robot_id`: SHA-256 over the serial, the time when
 /// one was given, the fingerprints of the robot and measurement files, and what was estimated
@@ -345,13 +181,6 @@ pub(crate) fn new_record(
     })
 }
 
-/// The number of a parameter id (`p14` -> 14), for ordering.
-pub(crate) fn param_number(id: &str) -> i64 {
-    id.strip_prefix('p')
-        .and_then(|n| n.parse().ok())
-        .unwrap_or(0)
-}
-
 /// The fields of a stored report that [`rms_errors`] reads (the rest is skipped unparsed: a
 /// fleet reads thousands of reports).
 #[derive(Deserialize)]
@@ -385,62 +214,60 @@ pub(crate) fn report_figures(text: &str) -> std::result::Result<serde_json::Valu
     }
 }
 
-/// A stored record read as a [`Calibration`], or the sentence naming its damaged field.
-pub(crate) fn to_calibration(r: StoredRecord) -> std::result::Result<Calibration, String> {
-    let report = report_figures(&r.report)?;
-    let finite = |v: f64, what: &str| {
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(format!("{what} is not a finite number"))
+/// The RMS errors a stored report gives, one per kind of observation present. Reports written
+/// before distances and contacts existed have no observation counts: their position errors are
+/// taken as present.
+pub(crate) fn rms_errors(
+    report: &serde_json::Value,
+    length_unit: &str,
+    angle_unit: &str,
+) -> Vec<RmsError> {
+    let mut out = Vec::new();
+    let num = |v: &serde_json::Value| v.as_f64();
+    let ident = &report["identification"];
+    let positions = ident["before"]["positions"].as_u64();
+    if positions != Some(0) {
+        if let (Some(b), Some(a)) = (
+            num(&report["rms_position_before"]),
+            num(&report["rms_position_after"]),
+        ) {
+            out.push(RmsError {
+                metric: "position".into(),
+                unit: length_unit.into(),
+                before: b,
+                after: a,
+            });
         }
-    };
-    let mut parameters: Vec<Parameter> = Vec::with_capacity(r.parameters.len());
-    for p in r.parameters {
-        let f = |what: &str| format!("parameter {}'s {what}", printable(&p.id));
-        parameters.push(Parameter {
-            value: finite(p.value, &f("value"))?,
-            sigma: p.sigma.map(|s| finite(s, &f("sigma"))).transpose()?,
-            id: p.id,
-            name: p.name,
-            unit: p.unit,
-            estimated: p.estimated,
-            determined: p.determined,
+    }
+    if let (Some(b), Some(a)) = (
+        num(&report["rms_orientation_before"]),
+        num(&report["rms_orientation_after"]),
+    ) {
+        out.push(RmsError {
+            metric: "attitude".into(),
+            unit: angle_unit.into(),
+            before: b,
+            after: a,
         });
     }
-    parameters.sort_by_key(|p| param_number(&p.id));
-    let mut combinations = Vec::with_capacity(r.combinations.len());
-    for c in r.combinations {
-        let f = |what: &str| format!("combination `{}`'s {what}", printable(&c.expression));
-        let terms: Vec<(String, String, f64)> = serde_json::from_str(&c.terms)
-            .map_err(|e| format!("{} are not valid JSON ({e})", f("terms")))?;
-        combinations.push(Combination {
-            terms,
-            value: finite(c.value, &f("value"))?,
-            sigma: finite(c.sigma, &f("sigma"))?,
-            expression: c.expression,
-        });
+    if let (Some(before), Some(after)) = (
+        ident["before"]["other"].as_array(),
+        ident["after"]["other"].as_array(),
+    ) {
+        for m in before {
+            let Some(metric) = m["metric"].as_str() else {
+                continue;
+            };
+            let a = after.iter().find(|x| x["metric"].as_str() == Some(metric));
+            if let (Some(b), Some(a)) = (num(&m["rms"]), a.and_then(|a| num(&a["rms"]))) {
+                out.push(RmsError {
+                    metric: metric.into(),
+                    unit: length_unit.into(),
+                    before: b,
+                    after: a,
+                });
+            }
+        }
     }
-    combinations.sort_by(|a, b| a.expression.as_bytes().cmp(b.expression.as_bytes()));
-    Ok(Calibration {
-        errors: rms_errors(&report, &r.length_unit, &r.angle_unit),
-        id: r.id,
-        robot_id: r.robot_id,
-        at: r.at,
-        at_text: format_time(r.at),
-        robot_name: r.robot_name,
-        model_fingerprint: r.model_fingerprint,
-        data_fingerprint: r.data_fingerprint,
-        method: r.method,
-        solution: r.solution,
-        length_unit: r.length_unit,
-        angle_unit: r.angle_unit,
-        rms_position_before: finite(r.rms_position_before, "its RMS position error before")?,
-        rms_position_after: finite(r.rms_position_after, "its RMS position error after")?,
-        rms_orientation_before: finite(r.rms_orientation_before, "its RMS attitude error before")?,
-        rms_orientation_after: finite(r.rms_orientation_after, "its RMS attitude error after")?,
-        note: r.note,
-        parameters,
-        combinations,
-    })
+    out
 }

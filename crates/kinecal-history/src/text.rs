@@ -1,4 +1,4 @@
-//! Text from the database, made safe to print on a terminal.
+//! Text from the database, made safe to print on a terminal, and lists of names in messages.
 
 use std::borrow::Cow;
 use std::fmt::Write as _;
@@ -30,6 +30,20 @@ pub fn printable(s: &str) -> Cow<'_, str> {
         }
     }
     Cow::Owned(out)
+}
+
+/// Names (of tables, parameters) for a message: quoted, made printable, at most six and a
+/// count of the others.
+pub(crate) fn names<'a>(v: impl IntoIterator<Item = &'a String>) -> String {
+    let v: Vec<String> = v
+        .into_iter()
+        .map(|s| format!("`{}`", printable(s)))
+        .collect();
+    if v.len() > 6 {
+        format!("{} and {} more", v[..6].join(", "), v.len() - 6)
+    } else {
+        v.join(", ")
+    }
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 use time::format_description::well_known::Rfc3339;
 use time::{Date, OffsetDateTime, PrimitiveDateTime, Time};
 
-use crate::{Error, Result};
+use crate::error::{Error, Result};
 
 /// Parses `2026-11-22T08:00:00Z`, `2026-11-22T08:00:00+01:00` or `2026-11-22` (midnight UTC)
 /// into Unix seconds.
@@ -32,6 +32,6 @@ pub fn format_time(unix: i64) -> String {
 }
 
 /// The current time, Unix seconds.
-pub fn now() -> i64 {
+pub(crate) fn now() -> i64 {
     OffsetDateTime::now_utc().unix_timestamp()
 }

@@ -1,13 +1,15 @@
 //! The history's promises on both back ends: every test here runs on a SQLite file and on a
 //! PostgreSQL database (`KINECAL_TEST_PG`, see `common/pg.rs`; skipped without one, unless `CI`
 //! is set). Then what only a server has: roles, passwords; and moving a history between back
-//! ends losslessly.
+//! ends losslessly. The PostgreSQL tests need the `postgres` feature (on by default); without
+//! it, a server location is refused with a clear error.
 
 mod common;
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+#[cfg(feature = "postgres")]
 use common::pg::{self, TestDb};
 use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::report::CalibrationReport;
@@ -56,6 +58,7 @@ const DAY: i64 = 86_400;
 /// PostgreSQL database. Kept alive for the test.
 enum Place {
     File(tempfile::TempDir),
+    #[cfg(feature = "postgres")]
     Server(TestDb),
 }
 
@@ -63,6 +66,7 @@ impl Place {
     fn location(&self) -> String {
         match self {
             Place::File(d) => d.path().join("h.sqlite").display().to_string(),
+            #[cfg(feature = "postgres")]
             Place::Server(db) => db.url.clone(),
         }
     }
@@ -72,6 +76,7 @@ fn sqlite() -> Option<Place> {
     Some(Place::File(tempfile::tempdir().unwrap()))
 }
 
+#[cfg(feature = "postgres")]
 fn postgres(tag: &str) -> Option<Place> {
     TestDb::new(tag).map(Place::Server)
 }
@@ -86,6 +91,7 @@ macro_rules! on_both_backends {
                 super::$name(&place.location());
             })*
         }
+        #[cfg(feature = "postgres")]
         mod on_postgres {
             $(#[test]
             fn $name() {
@@ -108,7 +114,7 @@ on_both_backends!(
 );
 
 fn records_round_trip(loc: &str) {
-    let db = Database::connect(loc).unwrap();
+    let db = Database::open(loc).unwrap();
     let rep = shared_report();
     let id = db.add("R1", Some(T0), &rep, "first").unwrap();
     let c = db.calibration(id).unwrap().unwrap();
@@ -130,7 +136,7 @@ fn records_round_trip(loc: &str) {
     // Oldest first, by robot; a reader sees the same.
     db.add("R0", Some(T0 + 5), &rep, "").unwrap();
     db.add("R1", Some(T0 - 5), &rep, "earlier").unwrap();
-    let reader = Database::connect_read_only(loc).unwrap();
+    let reader = Database::open_read_only(loc).unwrap();
     let all = reader.calibrations(None).unwrap();
     let order: Vec<(&str, i64)> = all.iter().map(|c| (c.robot_id.as_str(), c.at)).collect();
     assert_eq!(order, [("R0", T0 + 5), ("R1", T0 - 5), ("R1", T0)]);
@@ -139,7 +145,7 @@ fn records_round_trip(loc: &str) {
 }
 
 fn the_same_calibration_is_recorded_once(loc: &str) {
-    let db = Database::connect(loc).unwrap();
+    let db = Database::open(loc).unwrap();
     let rep = shared_report();
     let a = db
         .record("R1", Some(T0), &rep, "", AddOptions::default())
@@ -183,7 +189,7 @@ fn the_same_calibration_is_recorded_once(loc: &str) {
 }
 
 fn a_calibration_of_another_model_is_refused_unless_forced(loc: &str) {
-    let db = Database::connect(loc).unwrap();
+    let db = Database::open(loc).unwrap();
     db.add("R1", Some(T0), &shared_report(), "").unwrap();
     let mut other = shared_report();
     other.parameters.pop();
@@ -196,13 +202,13 @@ fn a_calibration_of_another_model_is_refused_unless_forced(loc: &str) {
 }
 
 fn reads_never_create_a_history(loc: &str) {
-    match Database::connect_read_only(loc) {
+    match Database::open_read_only(loc) {
         Err(Error::NoDatabase { .. }) => {}
         Err(e) => panic!("unexpected error {e}"),
         Ok(_) => panic!("a reader found a history where none was"),
     }
     // Nothing was created: a writer then creates the schema at the current version.
-    let db = Database::connect(loc).unwrap();
+    let db = Database::open(loc).unwrap();
     assert_eq!(db.store().schema_version(), kinecal_history::SCHEMA_VERSION);
     assert!(db.calibrations(None).unwrap().is_empty());
 }
@@ -210,7 +216,7 @@ fn reads_never_create_a_history(loc: &str) {
 /// Link 3 drifts by 0.01 a month; a repair on day 95 resets it; after it, drift is computed
 /// from the repair on, and nothing is flagged.
 fn events_cut_drift_into_segments(loc: &str) {
-    let db = Database::connect(loc).unwrap();
+    let db = Database::open(loc).unwrap();
     let shifts = [0.0, 0.01, 0.02, 0.03, 0.0, 0.0, 0.0];
     for (k, s) in shifts.iter().enumerate() {
         db.add(
@@ -246,7 +252,7 @@ fn events_cut_drift_into_segments(loc: &str) {
 /// horizon), one steady (ok); sorted flagged, due, ok; the due robot's crossing is where its
 /// trend line meets the tolerance.
 fn the_fleet_is_sorted_by_urgency(loc: &str) {
-    let db = Database::connect(loc).unwrap();
+    let db = Database::open(loc).unwrap();
     for k in 0..5i64 {
         let at = Some(T0 + 30 * DAY * k);
         db.add("C-steady", at, &report(30 + k as u64, 0.0), "")
@@ -309,7 +315,7 @@ fn writer_child() {
         return;
     };
     let rep = shared_report();
-    let db = Database::connect(&loc).unwrap();
+    let db = Database::open(&loc).unwrap();
     for k in 0..50i64 {
         db.add(&format!("W{id}-{}", k % 5), Some(T0 + k * DAY), &rep, "")
             .unwrap();
@@ -321,7 +327,7 @@ fn writer_child() {
 /// records, each once, each whole (every parameter and combination).
 fn concurrent_writers_killed_and_retried_leave_every_record_once(loc: &str) {
     // The schema first, as `kinecal history init` would: then the children only write.
-    Database::connect(loc).unwrap();
+    Database::open(loc).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(28);
     let spawn = |w: usize| {
         Command::new(std::env::current_exe().unwrap())
@@ -360,7 +366,7 @@ fn concurrent_writers_killed_and_retried_leave_every_record_once(loc: &str) {
         assert!(round < 50, "writers keep failing");
     }
     assert!(kills > 0, "no writer was killed: the retry was not tested");
-    let db = Database::connect_read_only(loc).unwrap();
+    let db = Database::open_read_only(loc).unwrap();
     let records = db.records(None).unwrap();
     assert!(records.damaged.is_empty());
     assert_eq!(records.calibrations.len(), 1000);
@@ -432,20 +438,18 @@ fn a_version_1_file_migrates() {
     assert_eq!(db.events(None).unwrap().len(), 1);
 }
 
+#[cfg(feature = "postgres")]
 #[test]
 fn a_newer_schema_is_refused_with_its_version() {
     // SQLite: covered for the file in tests/store.rs; here the server.
     let Some(t) = TestDb::new("newer") else {
         return;
     };
-    Database::connect(&t.url).unwrap();
+    Database::open(&t.url).unwrap();
     t.client()
         .batch_execute("UPDATE kinecal.schema_version SET version = 7")
         .unwrap();
-    for r in [
-        Database::connect(&t.url),
-        Database::connect_read_only(&t.url),
-    ] {
+    for r in [Database::open(&t.url), Database::open_read_only(&t.url)] {
         match r {
             Err(e @ Error::NewerSchema { found: 7, .. }) => {
                 assert!(e.to_string().contains("schema version 7"), "{e}")
@@ -458,13 +462,14 @@ fn a_newer_schema_is_refused_with_its_version() {
 
 /// SQLite -> PostgreSQL -> SQLite: every stored field identical, ids included; importing again
 /// adds nothing.
+#[cfg(feature = "postgres")]
 #[test]
 fn a_history_moves_between_back_ends_losslessly() {
     let Some(t) = TestDb::new("moves") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let a = Database::open(&dir.path().join("a.sqlite")).unwrap();
+    let a = Database::open(dir.path().join("a.sqlite")).unwrap();
     for k in 0..4i64 {
         a.add(
             "R1",
@@ -477,13 +482,13 @@ fn a_history_moves_between_back_ends_losslessly() {
     }
     a.add_event("R1", T0 + DAY, "gearbox J2 replaced").unwrap();
     let dump = a.dump().unwrap();
-    let pg = Database::connect(&t.url).unwrap();
+    let pg = Database::open(&t.url).unwrap();
     let s = pg.import(&dump).unwrap();
     assert_eq!((s.added, s.present, s.events_added), (8, 0, 1));
     assert_eq!(pg.dump().unwrap(), dump);
     assert_eq!(pg.import(&dump).unwrap().added, 0);
-    let b = Database::open(&dir.path().join("b.sqlite")).unwrap();
-    b.import(&Dump::from_json(&pg.dump().unwrap().to_json(), "dump").unwrap())
+    let b = Database::open(dir.path().join("b.sqlite")).unwrap();
+    b.import(&kinecal_history::Dump::from_json(&pg.dump().unwrap().to_json(), "dump").unwrap())
         .unwrap();
     assert_eq!(b.dump().unwrap(), dump);
     assert_eq!(b.calibrations(None).unwrap(), a.calibrations(None).unwrap());
@@ -492,26 +497,37 @@ fn a_history_moves_between_back_ends_losslessly() {
     assert!(id > dump.calibrations.iter().map(|r| r.id).max().unwrap());
 }
 
-use kinecal_history::Dump;
-
 /// The roles of the README, created by its SQL: a reader reads and cannot write (a clear
 /// error), a writer writes; passwords never appear in a message.
+#[cfg(feature = "postgres")]
 #[test]
 fn roles_as_the_readme_creates_them() {
     let Some(t) = TestDb::new("roles") else {
         return;
     };
     // The schema, by its owner.
-    let owner = Database::connect(&t.url).unwrap();
+    let owner = Database::open(&t.url).unwrap();
     owner.add("R1", Some(T0), &shared_report(), "").unwrap();
     drop(owner);
-    let readme =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
-    let sql = readme
-        .split("```sql\n")
-        .nth(1)
-        .and_then(|s| s.split("```").next())
-        .expect("the README's roles SQL");
+    // The roles' SQL as the documentation gives it.
+    let sql = ["docs/history.md"]
+        .iter()
+        .find_map(|doc| {
+            let text = std::fs::read_to_string(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../..")
+                    .join(doc),
+            )
+            .ok()?;
+            Some(
+                text.split("```sql\n")
+                    .nth(1)?
+                    .split("```")
+                    .next()?
+                    .to_string(),
+            )
+        })
+        .expect("the documentation's roles SQL");
     // Roles belong to the server, not the database: suffixed, so tests never collide.
     let suffix = format!("_{}", std::process::id());
     let sql = sql
@@ -534,12 +550,12 @@ fn roles_as_the_readme_creates_them() {
         ))
         .unwrap();
     // The reader reads...
-    let r = Database::connect_read_only(&reader_url).unwrap();
+    let r = Database::open_read_only(&reader_url).unwrap();
     assert_eq!(r.calibrations(None).unwrap().len(), 1);
     assert!(r.events(None).unwrap().is_empty());
     assert!(!r.path().contains(reader_pw));
     // ... and cannot write, even opened for writing: a clear error, no password in it.
-    let w = Database::connect(&reader_url).unwrap();
+    let w = Database::open(&reader_url).unwrap();
     let e = w
         .add("R1", Some(T0 + 1), &shared_report(), "")
         .unwrap_err()
@@ -552,7 +568,7 @@ fn roles_as_the_readme_creates_them() {
     let e = w.add_event("R1", T0, "x").unwrap_err().to_string();
     assert!(e.contains("permission denied"), "{e}");
     // The writer writes, retries without duplicates.
-    let w = Database::connect(&writer_url).unwrap();
+    let w = Database::open(&writer_url).unwrap();
     let a = w
         .record(
             "R1",
@@ -575,10 +591,7 @@ fn roles_as_the_readme_creates_them() {
     w.add_event("R1", T0, "gearbox J2 replaced").unwrap();
     // A wrong password: refused, the password not shown.
     let wrong = pg::with_user(&t.url, &format!("maint{suffix}"), "Wr0ng-pa55word");
-    let e = Database::connect_read_only(&wrong)
-        .err()
-        .unwrap()
-        .to_string();
+    let e = Database::open_read_only(&wrong).err().unwrap().to_string();
     assert!(e.contains("password authentication failed"), "{e}");
     assert!(!e.contains("Wr0ng-pa55word"), "{e}");
     // The roles go with the test.
@@ -591,10 +604,11 @@ fn roles_as_the_readme_creates_them() {
     ));
 }
 
+#[cfg(feature = "postgres")]
 #[test]
 fn a_server_that_is_not_there_is_named_without_the_password() {
     // Port 1 on loopback: nothing listens.
-    let e = Database::connect("postgres://alice:Sup3r-s3cret@127.0.0.1:1/kinecal")
+    let e = Database::open("postgres://alice:Sup3r-s3cret@127.0.0.1:1/kinecal")
         .err()
         .unwrap()
         .to_string();
@@ -603,9 +617,35 @@ fn a_server_that_is_not_there_is_named_without_the_password() {
         "{e}"
     );
     assert!(!e.contains("Sup3r-s3cret"), "{e}");
-    let e = Database::connect("postgres://alice:Sup3r-s3cret@127.0.0.1:notaport/kinecal")
+    let e = Database::open("postgres://alice:Sup3r-s3cret@127.0.0.1:notaport/kinecal")
         .err()
         .unwrap()
         .to_string();
     assert!(!e.contains("Sup3r-s3cret"), "{e}");
+}
+
+/// A build without PostgreSQL refuses a server location, naming the feature, the password not
+/// shown; nothing is created (no file named like the URL).
+#[cfg(not(feature = "postgres"))]
+#[test]
+fn a_server_location_needs_the_postgres_feature() {
+    for url in [
+        "postgres://alice:Sup3r-s3cret@127.0.0.1:1/kinecal",
+        "postgresql://alice@db.plant/kinecal",
+    ] {
+        for r in [Database::open(url), Database::open_read_only(url)] {
+            let e = r.err().expect("refused");
+            assert!(matches!(e, Error::NoPostgres { .. }), "{e}");
+            let e = e.to_string();
+            assert!(
+                e.contains("built without PostgreSQL")
+                    && e.contains("rebuild with the `postgres` feature"),
+                "{e}"
+            );
+            assert!(!e.contains("Sup3r-s3cret"), "{e}");
+        }
+    }
+    for made in ["postgres:", "postgresql:"] {
+        assert!(!std::path::Path::new(made).exists(), "{made} was created");
+    }
 }

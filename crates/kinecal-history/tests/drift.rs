@@ -60,7 +60,7 @@ fn guess(nominal: &kinecal::Robot, seed: u64) -> kinecal::Robot {
 #[test]
 fn wear_of_link_3_is_flagged_and_nothing_else() {
     let dir = tempfile::tempdir().unwrap();
-    let db = Database::open(&dir.path().join("h.sqlite")).unwrap();
+    let db = Database::open(dir.path().join("h.sqlite")).unwrap();
     let nominal = examples::ge_a4();
     let p14 = ParamId(13);
     let wear = |month: f64| 0.02 * 0.0254 * (month - 6.0).clamp(0.0, 1.0);
@@ -134,7 +134,7 @@ fn no_false_alarms_on_an_unchanging_robot() {
     let (mut flagged, mut total, mut wandering) = (0usize, 0usize, 0usize);
     for h in 0..50u64 {
         let dir = tempfile::tempdir().unwrap();
-        let db = Database::open(&dir.path().join("h.sqlite")).unwrap();
+        let db = Database::open(dir.path().join("h.sqlite")).unwrap();
         let mut wandered = 0.0f64;
         let mut first_p3 = None;
         for k in 0..3u64 {

@@ -39,7 +39,7 @@ fn count(path: &Path) -> i64 {
 #[test]
 fn records_round_trip() {
     let dir = tempfile::tempdir().unwrap();
-    let db = Database::open(&dir.path().join("sub/folder/h.sqlite")).unwrap();
+    let db = Database::open(dir.path().join("sub/folder/h.sqlite")).unwrap();
     let rep = report();
     let id = db.add("R1", Some(1_790_000_000), &rep, "first").unwrap();
     let c = db.calibration(id).unwrap().unwrap();
@@ -216,7 +216,7 @@ fn read_only_location_gives_a_clear_error() {
     // A file standing where the folder should be.
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("file"), "x").unwrap();
-    let e = Database::open(&dir.path().join("file/h.sqlite"))
+    let e = Database::open(dir.path().join("file/h.sqlite"))
         .err()
         .expect("refused")
         .to_string();

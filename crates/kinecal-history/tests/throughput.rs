@@ -13,6 +13,7 @@ mod common;
 
 use std::time::Instant;
 
+#[cfg(feature = "postgres")]
 use common::pg::TestDb;
 use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::report::CalibrationReport;
@@ -42,12 +43,12 @@ fn report() -> CalibrationReport {
 
 /// Records/s of `writers` threads writing `per_writer` records each into `loc`.
 fn throughput(loc: &str, writers: usize, per_writer: usize, rep: &CalibrationReport) -> f64 {
-    Database::connect(loc).unwrap();
+    Database::open(loc).unwrap();
     let t = Instant::now();
     std::thread::scope(|s| {
         for w in 0..writers {
             s.spawn(move || {
-                let db = Database::connect(loc).unwrap();
+                let db = Database::open(loc).unwrap();
                 for k in 0..per_writer {
                     let robot = format!("T{w}-{}", k % 20);
                     db.add(&robot, Some(T0 + (k as i64) * DAY), rep, "")
@@ -59,18 +60,30 @@ fn throughput(loc: &str, writers: usize, per_writer: usize, rep: &CalibrationRep
     (writers * per_writer) as f64 / t.elapsed().as_secs_f64()
 }
 
-fn places(tag: &str) -> Vec<(String, String, Option<TestDb>, Option<tempfile::TempDir>)> {
+/// What keeps a place alive for the measurement: its folder, or its database on the server.
+#[allow(dead_code)]
+enum Keep {
+    Folder(tempfile::TempDir),
+    #[cfg(feature = "postgres")]
+    Server(TestDb),
+}
+
+/// The places measured: a SQLite file, and a database on the test server (with the `postgres`
+/// feature, when there is one), as (back end, location, what keeps it).
+fn places(tag: &str) -> Vec<(String, String, Keep)> {
     let mut v = Vec::new();
     let dir = tempfile::tempdir().unwrap();
     v.push((
         "sqlite".to_string(),
         dir.path().join("h.sqlite").display().to_string(),
-        None,
-        Some(dir),
+        Keep::Folder(dir),
     ));
+    #[cfg(feature = "postgres")]
     if let Some(db) = TestDb::new(tag) {
-        v.push(("postgres".to_string(), db.url.clone(), Some(db), None));
+        v.push(("postgres".to_string(), db.url.clone(), Keep::Server(db)));
     }
+    #[cfg(not(feature = "postgres"))]
+    let _ = tag;
     v
 }
 
@@ -79,11 +92,11 @@ fn places(tag: &str) -> Vec<(String, String, Option<TestDb>, Option<tempfile::Te
 fn write_throughput() {
     let rep = report();
     eprintln!("report stored: {} bytes of JSON", rep.to_json().len());
-    for (name, loc, _db, _dir) in places("throughput1") {
+    for (name, loc, _keep) in places("throughput1") {
         let one = throughput(&loc, 1, 500, &rep);
         eprintln!("{name}: 1 writer: {one:.0} records/s (500 records)");
     }
-    for (name, loc, _db, _dir) in places("throughput20") {
+    for (name, loc, _keep) in places("throughput20") {
         let many = throughput(&loc, 20, 50, &rep);
         eprintln!("{name}: 20 writers: {many:.0} records/s (1000 records)");
     }
@@ -93,16 +106,16 @@ fn write_throughput() {
 #[ignore = "a measurement: run with --ignored --nocapture"]
 fn fleet_of_1000_robots_with_20_calibrations_each() {
     let rep = report();
-    for (name, loc, _db, _dir) in places("fleet1000") {
+    for (name, loc, _keep) in places("fleet1000") {
         let t = Instant::now();
-        let db = Database::connect(&loc).unwrap();
+        let db = Database::open(&loc).unwrap();
         if name == "postgres" {
             // As a fleet writes it: 20 writers at once.
             std::thread::scope(|s| {
                 for w in 0..20 {
                     let (loc, rep) = (&loc, &rep);
                     s.spawn(move || {
-                        let db = Database::connect(loc).unwrap();
+                        let db = Database::open(loc).unwrap();
                         for r in (w..1000).step_by(20) {
                             for k in 0..20i64 {
                                 db.add(&format!("R{r:04}"), Some(T0 + k * 30 * DAY), rep, "")
@@ -159,7 +172,7 @@ fn fleet_of_1000_robots_with_20_calibrations_each() {
             // To time the command itself: kinecal history fleet --db KEEP.
             std::fs::copy(&loc, keep).unwrap();
         }
-        let db = Database::connect_read_only(&loc).unwrap();
+        let db = Database::open_read_only(&loc).unwrap();
         let t = Instant::now();
         let records = db.records(None).unwrap();
         let read = t.elapsed().as_secs_f64();

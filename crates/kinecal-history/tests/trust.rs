@@ -391,7 +391,7 @@ fn drift_converts_units_before_comparing() {
         angle: kinecal::units::AngleUnit::Rad,
     };
     let dir = tempfile::tempdir().unwrap();
-    let db = Database::open(&dir.path().join("h.sqlite")).unwrap();
+    let db = Database::open(dir.path().join("h.sqlite")).unwrap();
     let (r_in, r_mm) = (calibrate(&inch, 7), calibrate(&mm, 7));
     assert_eq!(
         (r_mm.length_unit.as_str(), r_mm.angle_unit.as_str()),
@@ -428,7 +428,7 @@ fn drift_converts_units_before_comparing() {
     let link1x = r.quantities.iter().find(|q| q.key == "link1.x").unwrap();
     assert!((link1x.latest - 15.08).abs() < 0.01, "{}", link1x.latest);
     // The other way round: millimetres first.
-    let db2 = Database::open(&dir.path().join("h2.sqlite")).unwrap();
+    let db2 = Database::open(dir.path().join("h2.sqlite")).unwrap();
     db2.add("A4", Some(1_790_000_000), &r_mm, "").unwrap();
     db2.add("A4", Some(1_792_000_000), &r_in, "").unwrap();
     let r = drift(
@@ -467,7 +467,7 @@ fn drift_threshold_must_be_positive_and_finite() {
 #[test]
 fn drift_says_what_it_left_out() {
     let dir = tempfile::tempdir().unwrap();
-    let db = Database::open(&dir.path().join("h.sqlite")).unwrap();
+    let db = Database::open(dir.path().join("h.sqlite")).unwrap();
     let first = report();
     let mut second = calibrate(&examples::ge_a4(), 2);
     let p = second

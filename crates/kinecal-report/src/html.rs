@@ -8,30 +8,14 @@ use kinecal::report::CalibrationReport;
 use crate::chart::{render_svg, Line, Panel};
 use crate::DrawError;
 
-/// A number as a person reads it: plain decimals with four significant digits (`0.08043`,
-/// `3478.1`), never an exponent for ordinary magnitudes (1e-9 to 1e9), `0` for zero.
+/// A number as a person reads it: four significant digits ([`crate::number::sig`]).
 pub fn num(v: f64) -> String {
-    if v == 0.0 {
-        return "0".into();
-    }
-    if !v.is_finite() {
-        return "n/a".into();
-    }
-    let e = v.abs().log10().floor() as i32;
-    if !(-9..9).contains(&e) {
-        return format!("{v:.3e}");
-    }
-    let decimals = (3 - e).max(0) as usize;
-    format!("{v:.decimals$}")
+    crate::number::sig(v, 4)
 }
 
 /// [`num`] with a sign.
 fn signed(v: f64) -> String {
-    if v > 0.0 {
-        format!("+{}", num(v))
-    } else {
-        num(v)
-    }
+    crate::number::signed(v, 4)
 }
 
 fn cap(s: &str) -> String {
@@ -160,7 +144,9 @@ pub(crate) fn page_head(title: &str) -> String {
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title>\n\
          <style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}\
          table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}\
-         th{{background:#eee}}td.l,th.l{{text-align:left}}.warn{{color:#a33}}svg{{max-width:100%;height:auto}}.charts{{display:flex;flex-wrap:wrap;gap:0}}.charts svg{{max-width:50%}}</style></head><body>\n",
+         th{{background:#eee}}td.l,th.l{{text-align:left}}.warn{{color:#a33}}svg{{max-width:100%;height:auto}}.charts{{display:flex;flex-wrap:wrap;gap:0}}.charts svg{{max-width:50%}}\
+         .verdict{{border-left:8px solid #4a4;background:#f2f8f2;padding:0.6em 1em;margin:1em 0}}.verdict.caution{{border-color:#c90;background:#fbf6ea}}.verdict.failed{{border-color:#c33;background:#fbeeee}}.verdict p.head{{font-size:1.15em;font-weight:bold;margin:0.2em 0}}\
+         .error{{color:#a22;font-weight:bold}}.caution{{color:#8a5a00}}.note{{color:#555}}dl.facts{{display:grid;grid-template-columns:max-content auto;gap:2px 1em;font-size:0.9em}}dl.facts dt{{color:#555}}dl.facts dd{{margin:0}}</style></head><body>\n",
         esc(title)
     )
 }
@@ -187,6 +173,8 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     };
     let mut h = page_head(&format!("kinecal calibration report{named}"));
     let _ = writeln!(h, "<h1>Calibration report{}</h1>", esc(&named));
+    h += &verdict_section(rep);
+    h += &facts_section(rep);
     let kinds = rep
         .observations
         .iter()
@@ -673,8 +661,13 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     if rep.warnings.is_empty() && rep.outliers.is_empty() {
         let _ = writeln!(h, "<p>None.</p>");
     }
-    for w in &rep.warnings {
-        let _ = writeln!(h, "<p class=\"warn\">{}</p>", esc(w));
+    for w in crate::verdict::ranked_warnings(rep) {
+        let class = w.severity.as_str();
+        let _ = writeln!(
+            h,
+            "<p class=\"{class}\"><b>{class}:</b> {}</p>",
+            esc(&w.text)
+        );
     }
     for o in &rep.outliers {
         let _ = writeln!(
@@ -696,6 +689,64 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     Ok(h)
 }
 
+/// The verdict, first on the page: a banner of its level, what happened, the accuracy reached,
+/// and what to do next.
+fn verdict_section(rep: &CalibrationReport) -> String {
+    let v = crate::verdict::verdict(rep);
+    let mut h = format!(
+        "<div class=\"verdict {}\" id=\"verdict\"><p class=\"head\">{}</p>\n",
+        v.level.as_str(),
+        esc(&v.headline)
+    );
+    if !v.figures.is_empty() {
+        h += "<table>";
+        for (label, value) in &v.figures {
+            let _ = write!(
+                h,
+                "<tr><td class=\"l\">{}</td><td class=\"l\"><b>{}</b></td></tr>",
+                esc(label),
+                esc(value)
+            );
+        }
+        h += "</table>\n";
+    }
+    h += "<p>Next:</p><ul>";
+    for n in &v.next {
+        let _ = write!(h, "<li>{}</li>", esc(n));
+    }
+    h += "</ul></div>\n";
+    h
+}
+
+/// When the calibration was made, by which kinecal, from what (the files read, with their
+/// fingerprints), and the job itself (its spec, which runs it again).
+fn facts_section(rep: &CalibrationReport) -> String {
+    let mut h = String::from("<dl class=\"facts\">");
+    let _ = write!(
+        h,
+        "<dt>made</dt><dd>{} by kinecal {}</dd>",
+        esc(&rep.created),
+        esc(&rep.kinecal_version)
+    );
+    for s in &rep.sources {
+        let _ = write!(
+            h,
+            "<dt>read</dt><dd>{} <small>(SHA-256 {})</small></dd>",
+            esc(&s.name),
+            esc(s.sha256.get(..16).unwrap_or(&s.sha256))
+        );
+    }
+    if let Some(spec) = &rep.spec {
+        let _ = write!(
+            h,
+            "<dt>job</dt><dd><code>{}</code></dd>",
+            esc(&spec.to_string())
+        );
+    }
+    h += "</dl>\n";
+    h
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -708,6 +759,7 @@ mod tests {
         assert_eq!(num(0.0), "0");
         assert_eq!(num(-0.4995), "-0.4995");
         assert_eq!(num(1e-12), "1.000e-12");
+        assert_eq!(num(4.394e-6), "4.394e-6");
         assert_eq!(signed(0.05031), "+0.05031");
     }
 }

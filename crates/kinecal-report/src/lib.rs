@@ -9,8 +9,10 @@ mod chart;
 pub mod fleet;
 mod html;
 pub mod iso9283;
+pub mod number;
 pub mod plan;
 pub mod predict;
+pub mod verdict;
 
 pub use chart::{render_png, render_svg, Line, Panel};
 pub use html::html_report;

@@ -202,7 +202,48 @@ pub enum Warning {
     },
 }
 
+/// How much a warning matters, for ranking them: errors first, then cautions, then notes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Severity {
+    /// The result is most likely wrong ([`Warning::implausible`]).
+    Error,
+    /// The result may not be what it seems: look before using it.
+    Caution,
+    /// Worth knowing; the result stands.
+    Note,
+}
+
+impl Severity {
+    /// `error`, `caution` or `note`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Severity::Error => "error",
+            Severity::Caution => "caution",
+            Severity::Note => "note",
+        }
+    }
+}
+
 impl Warning {
+    /// How much the warning matters.
+    pub fn severity(&self) -> Severity {
+        if self.implausible() {
+            return Severity::Error;
+        }
+        match self {
+            Warning::Unseen { .. }
+            | Warning::Unfelt { .. }
+            | Warning::Correlated { .. }
+            | Warning::EulerSingular { .. }
+            | Warning::ExactFit
+            | Warning::BarelyDetermined { .. }
+            | Warning::UrdfSlope { .. }
+            | Warning::UrdfCoupled { .. }
+            | Warning::UrdfToolAdded { .. } => Severity::Note,
+            _ => Severity::Caution,
+        }
+    }
+
     /// True for the warnings that say the result is most likely wrong, whatever the fit's
     /// figures (units mixed up, readings impossible for the robot, lengths moved beyond its
     /// size): a strict caller stops there.

@@ -1,1 +1,5 @@
+//! What the integration tests share.
+
+/// The PostgreSQL test server (the store exists with the `postgres` feature only).
+#[cfg(feature = "postgres")]
 pub mod pg;

@@ -152,7 +152,7 @@ impl AnalyzeOutcome {
 fn ordered_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
     let mut out = Vec::new();
     for token in list.split(',') {
-        for id in crate::parse_param_list(token.trim(), robot)
+        for id in crate::param_list::parse_param_list(token.trim(), robot)
             .map_err(|e| invalid(Setting::Priority, e.to_string()))?
         {
             if !out.contains(&id) {

@@ -260,7 +260,7 @@ impl CurvesSpec {
         let readings = self.readings(robot)?;
         let target = crate::files::site_target(robot, self.site.as_deref().unwrap_or("ee"))
             .map_err(|m| invalid(Setting::Site, m))?;
-        let ids = crate::parse_param_list(&self.sweep.param, robot)?;
+        let ids = crate::param_list::parse_param_list(&self.sweep.param, robot)?;
         let (l, an) = (
             robot.units.length.to_string(),
             robot.units.angle.to_string(),
@@ -331,7 +331,7 @@ impl CurvesSpec {
         }
         let (data, _) = read_observations(&self.read, &self.observations, robot)?;
         let (weights, orientation) = self.residuals.resolve(robot)?;
-        let ids = crate::parse_param_list(&self.sweep.param, robot)?;
+        let ids = crate::param_list::parse_param_list(&self.sweep.param, robot)?;
         let mut charts = Vec::new();
         let mut findings = Vec::new();
         let mut csv = String::from("param,value,objective\n");

@@ -169,7 +169,7 @@ impl SimulateSpec {
                     format!("{name}: {delta} is not a finite number"),
                 ));
             }
-            let ids = crate::parse_param_list(name.trim(), nominal)
+            let ids = crate::param_list::parse_param_list(name.trim(), nominal)
                 .map_err(|e| invalid(Setting::ParameterChange, e.to_string()))?;
             for id in ids {
                 changes.push((id, delta));

@@ -1,138 +1,72 @@
-//! One store, two back ends: the [`Store`] trait, and [`Database`], which opens the back end a
-//! location names (a file path: SQLite; a `postgres://` URL: PostgreSQL) and adds what is the
-//! same on both (validation, keys, segments).
-
-use std::path::Path;
+//! The handle front ends use: [`Database`] opens the store a [`Location`] names (a SQLite file,
+//! or a PostgreSQL server with the `postgres` feature) and does, once for every back end, what
+//! is the same on all of them: checking what is recorded, keying it, dumps and imports.
 
 use kinecal::report::CalibrationReport;
 
-use crate::record::{new_record, Added, Dump, Event, ImportSummary, StoredRecord, DUMP_FORMAT};
-use crate::store::{AddOptions, Calibration, Records, SqliteStore};
+use crate::error::{Error, Result};
+#[cfg(not(feature = "postgres"))]
+use crate::location::redact;
+use crate::location::Location;
+use crate::model::{
+    AddOptions, Added, Calibration, Dump, Event, ImportSummary, Records, DUMP_FORMAT,
+};
+#[cfg(feature = "postgres")]
+use crate::postgres::PgStore;
+use crate::record::new_record;
+use crate::sqlite::SqliteStore;
+use crate::store::{Access, Backend, Store, Write};
 use crate::text::printable;
 use crate::timefmt::now;
-use crate::{Error, Result};
 
-/// The kind of store.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Backend {
-    /// A SQLite file.
-    Sqlite,
-    /// A PostgreSQL server.
-    Postgres,
+/// The PostgreSQL store at `url`.
+#[cfg(feature = "postgres")]
+fn open_server(url: &str, access: Access) -> Result<Box<dyn Store>> {
+    Ok(Box::new(PgStore::open(url, access)?))
 }
 
-impl Backend {
-    /// `sqlite` or `postgres`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Backend::Sqlite => "sqlite",
-            Backend::Postgres => "postgres",
-        }
-    }
+/// A build without PostgreSQL: a server location is refused, naming the feature.
+#[cfg(not(feature = "postgres"))]
+fn open_server(url: &str, _access: Access) -> Result<Box<dyn Store>> {
+    Err(Error::NoPostgres {
+        location: redact(url),
+    })
 }
 
-/// How a record is written.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Write {
-    /// A new calibration: a record with the same idempotency key already there is not written
-    /// again (its id is returned); the robot model must match the robot's earlier records
-    /// unless `force`.
-    New {
-        /// Record even when the robot model differs from the robot's earlier records.
-        force: bool,
-    },
-    /// A record of a dump, verbatim: skipped when already there (same key, or same id and
-    /// contents); its id kept when free.
-    Import,
-}
-
-/// A history store: what each back end implements. Every write is one transaction: a killed
-/// writer leaves the store as it was. Reads see one consistent snapshot.
-pub trait Store: Send {
-    /// Where the store is, as shown to the user (a path; a URL without its password).
-    fn location(&self) -> &str;
-    /// Which back end.
-    fn backend(&self) -> Backend;
-    /// The schema version of the store (0: nothing created yet).
-    fn schema_version(&self) -> i64;
-    /// What an integrity check found wrong when the store was opened for reading, if anything.
-    fn integrity_problem(&self) -> Option<&str> {
-        None
-    }
-    /// Writes one calibration record (one transaction).
-    fn insert(&self, record: &StoredRecord, write: Write) -> Result<Added>;
-    /// The robots with a history, with their number of calibrations, by serial.
-    fn robots(&self) -> Result<Vec<(String, i64)>>;
-    /// Every calibration of `robot_id` (all when `None`), by robot then oldest first; records
-    /// with a damaged field apart.
-    fn records(&self, robot_id: Option<&str>) -> Result<Records>;
-    /// One calibration by id.
-    fn calibration(&self, id: i64) -> Result<Option<Calibration>>;
-    /// Writes a maintenance event (one transaction); the same robot, time and note again is
-    /// not written twice.
-    fn insert_event(&self, event: &Event, write: Write) -> Result<Added>;
-    /// The events of `robot_id` (all when `None`), oldest first.
-    fn events(&self, robot_id: Option<&str>) -> Result<Vec<Event>>;
-    /// Every record with every stored field, by id (for a dump).
-    fn stored_records(&self) -> Result<Vec<StoredRecord>>;
-}
-
-/// Whether `location` names a PostgreSQL server (`postgres://` or `postgresql://`).
-pub fn is_postgres_url(location: &str) -> bool {
-    let l = location.trim_start().to_ascii_lowercase();
-    l.starts_with("postgres://") || l.starts_with("postgresql://")
-}
-
-/// An open history, on either back end.
+/// An open history, on either back end: what front ends use.
 pub struct Database {
     store: Box<dyn Store>,
 }
 
 impl Database {
-    /// A history kept by `store`.
-    pub fn from_store(store: Box<dyn Store>) -> Database {
-        Database { store }
+    /// Opens the history at `location` for writing, creating it if needed and migrating its
+    /// schema: a SQLite file path, or a `postgres://USER@HOST:PORT/DBNAME` URL (see
+    /// [`Location`]).
+    ///
+    /// An existing SQLite file is first opened read-only and inspected: a file that is not a
+    /// kinecal history (another schema, a negative or newer schema version, not SQLite at all)
+    /// or that fails `PRAGMA quick_check` is refused, and nothing is written to it. On a
+    /// server, the schema `kinecal` is created or migrated (which takes the database owner).
+    /// A kinecal built without the `postgres` feature refuses a URL ([`Error::NoPostgres`]).
+    pub fn open(location: impl Into<Location>) -> Result<Database> {
+        Database::open_as(location.into(), Access::ReadWrite)
     }
 
-    /// Opens (creating if needed, and migrating) the SQLite history at `path` for writing. An
-    /// existing file is first opened read-only and inspected: a file that is not a kinecal
-    /// history (another schema, a negative or newer schema version, not SQLite at all) or that
-    /// fails `PRAGMA quick_check` is refused, and nothing is written to it.
-    pub fn open(path: &Path) -> Result<Database> {
-        Ok(Database::from_store(Box::new(SqliteStore::open(path)?)))
+    /// Opens the existing history at `location` for reading only (see [`Database::open`] for
+    /// the locations): nothing is created or written, and a missing history is an error
+    /// ([`Error::NoDatabase`]). A SQLite file may be read-only, in a read-only folder; on a
+    /// server, the session is read-only.
+    pub fn open_read_only(location: impl Into<Location>) -> Result<Database> {
+        Database::open_as(location.into(), Access::ReadOnly)
     }
 
-    /// Opens an existing SQLite history for reading only: never creates a file, never writes,
-    /// and works on a read-only file in a read-only folder.
-    pub fn open_read_only(path: &Path) -> Result<Database> {
-        Ok(Database::from_store(Box::new(SqliteStore::open_read_only(
-            path,
-        )?)))
-    }
-
-    /// Opens the history at `location` for writing: a `postgres://user@host:port/dbname` URL
-    /// (the server's schema created or migrated; see [`crate::pg`]) or a SQLite file path (as
-    /// [`Database::open`]).
-    pub fn connect(location: &str) -> Result<Database> {
-        if is_postgres_url(location) {
-            Ok(Database::from_store(Box::new(crate::pg::PgStore::connect(
-                location, false,
-            )?)))
-        } else {
-            Database::open(Path::new(location))
-        }
-    }
-
-    /// Opens the history at `location` for reading only: nothing is created or written (on
-    /// PostgreSQL, the session is read-only).
-    pub fn connect_read_only(location: &str) -> Result<Database> {
-        if is_postgres_url(location) {
-            Ok(Database::from_store(Box::new(crate::pg::PgStore::connect(
-                location, true,
-            )?)))
-        } else {
-            Database::open_read_only(Path::new(location))
-        }
+    /// The one place where a location becomes a store.
+    fn open_as(location: Location, access: Access) -> Result<Database> {
+        let store: Box<dyn Store> = match location {
+            Location::File(path) => Box::new(SqliteStore::open(&path, access)?),
+            Location::Server(url) => open_server(&url, access)?,
+        };
+        Ok(Database { store })
     }
 
     /// The store.

@@ -1,5 +1,9 @@
 //! The PostgreSQL store: one history for a fleet, on the server a maintenance team already runs.
 //!
+//! Built with the `postgres` cargo feature (on by default); without it, a `postgres://`
+//! location is refused with [`Error::NoPostgres`] and no PostgreSQL client (nor tokio) is
+//! compiled.
+//!
 //! The client is the synchronous `postgres` crate (rust-postgres): pure Rust, no libpq and no
 //! system library at build time, well kept (the most used PostgreSQL client in Rust). It is used
 //! without TLS: connect over a trusted network, a VPN, or an SSH tunnel (`ssh -L`); a server that
@@ -16,7 +20,8 @@
 //! `parameters`, `combinations`, `events`), so that access is granted per schema: a read-only
 //! role needs `USAGE` on the schema and `SELECT` on its tables; a writer role also `INSERT` on
 //! the tables and `USAGE, SELECT, UPDATE` on the sequences. Creating and migrating the schema
-//! takes the database owner (or a role with `CREATE` on the database). The README gives the SQL.
+//! takes the database owner (or a role with `CREATE` on the database). `docs/history.md` gives
+//! the SQL of the roles.
 //!
 //! Every write is one transaction. A calibration's idempotency key is `UNIQUE`: concurrent
 //! writers of the same record (a retried job) leave one row. The model check of a robot's
@@ -31,12 +36,17 @@ use std::time::Duration;
 use postgres::error::SqlState;
 use postgres::{Client, NoTls, Transaction};
 
-use crate::backend::{Backend, Store, Write};
-use crate::record::{
-    param_number, to_calibration, Added, Event, StoredCombination, StoredParameter, StoredRecord,
+use crate::error::{Error, Result};
+use crate::location::redact;
+use crate::model::{
+    Added, Calibration, Combination, DamagedRecord, Event, Parameter, Records, StoredCombination,
+    StoredParameter, StoredRecord,
 };
-use crate::store::{Calibration, DamagedRecord, Kind, Model, Records, SCHEMA_VERSION};
-use crate::{Error, Result};
+use crate::record::{report_figures, rms_errors};
+use crate::robot_model::RobotModel;
+use crate::store::{sealed, Access, Backend, Store, Write, SCHEMA_VERSION};
+use crate::text::printable;
+use crate::timefmt::format_time;
 
 /// The schema migrations: entry `i` brings the schema from version `i` to `i + 1` (the same
 /// versions as the SQLite file's).
@@ -97,40 +107,6 @@ const MIGRATIONS: &[&str] = &[
 /// The advisory lock taken while the schema is created or migrated (any number, fixed).
 const MIGRATION_LOCK: i64 = 0x6b69_6e65_6361_6c01;
 
-/// The location as shown: the URL without its password (in the user part or a `password=`
-/// parameter).
-pub fn redact(url: &str) -> String {
-    let (scheme, rest) = match url.find("://") {
-        Some(i) => (&url[..i + 3], &url[i + 3..]),
-        None => ("", url),
-    };
-    let authority_end = rest.find(['/', '?']).unwrap_or(rest.len());
-    let (authority, tail) = rest.split_at(authority_end);
-    let authority = match authority.rfind('@') {
-        Some(at) => {
-            let user = &authority[..at];
-            let user = user.split_once(':').map_or(user, |(u, _)| u);
-            format!("{user}@{}", &authority[at + 1..])
-        }
-        None => authority.to_string(),
-    };
-    let tail = match tail.split_once('?') {
-        Some((path, query)) => {
-            let kept: Vec<&str> = query
-                .split('&')
-                .filter(|kv| !kv.to_ascii_lowercase().starts_with("password="))
-                .collect();
-            if kept.is_empty() {
-                path.to_string()
-            } else {
-                format!("{path}?{}", kept.join("&"))
-            }
-        }
-        None => tail.to_string(),
-    };
-    format!("{scheme}{authority}{tail}")
-}
-
 /// `text` with every occurrence of `secret` (and its percent-encoded form) replaced by `***`.
 fn scrub(text: &str, secret: Option<&str>) -> String {
     match secret.filter(|s| !s.is_empty()) {
@@ -184,7 +160,7 @@ fn pgpass_lookup(text: &str, host: &str, port: u16, dbname: &str, user: &str) ->
 }
 
 /// An open PostgreSQL history.
-pub struct PgStore {
+pub(crate) struct PgStore {
     client: Mutex<Client>,
     shown: String,
     secret: Option<String>,
@@ -209,11 +185,12 @@ fn words(e: &postgres::Error) -> String {
 }
 
 impl PgStore {
-    /// Connects to the server named by `url`. For writing (`read_only` false), creates the
-    /// schema or migrates it; for reading, sets the session read-only and refuses a database
-    /// without a kinecal history ([`Error::NoDatabase`]). A newer schema is refused with the
-    /// version it is at ([`Error::NewerSchema`]).
-    pub fn connect(url: &str, read_only: bool) -> Result<PgStore> {
+    /// Connects to the server named by `url`. For writing, creates the schema or migrates it;
+    /// for reading only, sets the session read-only and refuses a database without a kinecal
+    /// history ([`Error::NoDatabase`]). A newer schema is refused with the version it is at
+    /// ([`Error::NewerSchema`]).
+    pub(crate) fn open(url: &str, access: Access) -> Result<PgStore> {
+        let read_only = access == Access::ReadOnly;
         let shown = redact(url);
         let mut config: postgres::Config =
             url.trim()
@@ -329,7 +306,7 @@ impl PgStore {
             Some(c) if *c == SqlState::INSUFFICIENT_PRIVILEGE => {
                 m = format!(
                     "permission denied: this role may not do that ({m}); writes need the writer \
-                     role (kinecal_writer in the README's \"A history on a PostgreSQL server\"); \
+                     role (kinecal_writer in docs/history.md, \"A fleet's history on a PostgreSQL server\"); \
                      nothing was written"
                 );
             }
@@ -570,15 +547,14 @@ impl PgStore {
                 &[&rec.robot_id],
             )
             .map_err(|e| self.err(e))?;
-        let mut earlier: BTreeMap<i64, Model> = BTreeMap::new();
+        let mut earlier: BTreeMap<i64, RobotModel> = BTreeMap::new();
         for r in rows {
             earlier
                 .entry(r.get(0))
                 .or_default()
-                .0
-                .insert(r.get(1), Kind::of(r.get(2)));
+                .add_parameter(r.get(1), r.get(2));
         }
-        Model::of_parameters(&rec.parameters).check_against(&rec.robot_id, &earlier)
+        RobotModel::of_parameters(&rec.parameters).check_against(&rec.robot_id, &earlier)
     }
 
     fn refuse_if_read_only(&self) -> Result<()> {
@@ -591,6 +567,8 @@ impl PgStore {
         Ok(())
     }
 }
+
+impl sealed::Sealed for PgStore {}
 
 impl Store for PgStore {
     fn location(&self) -> &str {
@@ -865,21 +843,79 @@ impl Store for PgStore {
     }
 }
 
+/// The number of a parameter id (`p14` -> 14), for ordering.
+fn param_number(id: &str) -> i64 {
+    id.strip_prefix('p')
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0)
+}
+
+/// A stored record read as a [`Calibration`], or the sentence naming its damaged field.
+fn to_calibration(r: StoredRecord) -> std::result::Result<Calibration, String> {
+    let report = report_figures(&r.report)?;
+    let finite = |v: f64, what: &str| {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(format!("{what} is not a finite number"))
+        }
+    };
+    let mut parameters: Vec<Parameter> = Vec::with_capacity(r.parameters.len());
+    for p in r.parameters {
+        let f = |what: &str| format!("parameter {}'s {what}", printable(&p.id));
+        parameters.push(Parameter {
+            value: finite(p.value, &f("value"))?,
+            sigma: p.sigma.map(|s| finite(s, &f("sigma"))).transpose()?,
+            id: p.id,
+            name: p.name,
+            unit: p.unit,
+            estimated: p.estimated,
+            determined: p.determined,
+        });
+    }
+    parameters.sort_by_key(|p| param_number(&p.id));
+    let mut combinations = Vec::with_capacity(r.combinations.len());
+    for c in r.combinations {
+        let f = |what: &str| format!("combination `{}`'s {what}", printable(&c.expression));
+        let terms: Vec<(String, String, f64)> = serde_json::from_str(&c.terms)
+            .map_err(|e| format!("{} are not valid JSON ({e})", f("terms")))?;
+        combinations.push(Combination {
+            terms,
+            value: finite(c.value, &f("value"))?,
+            sigma: finite(c.sigma, &f("sigma"))?,
+            expression: c.expression,
+        });
+    }
+    combinations.sort_by(|a, b| a.expression.as_bytes().cmp(b.expression.as_bytes()));
+    Ok(Calibration {
+        errors: rms_errors(&report, &r.length_unit, &r.angle_unit),
+        id: r.id,
+        robot_id: r.robot_id,
+        at: r.at,
+        at_text: format_time(r.at),
+        robot_name: r.robot_name,
+        model_fingerprint: r.model_fingerprint,
+        data_fingerprint: r.data_fingerprint,
+        method: r.method,
+        solution: r.solution,
+        length_unit: r.length_unit,
+        angle_unit: r.angle_unit,
+        rms_position_before: finite(r.rms_position_before, "its RMS position error before")?,
+        rms_position_after: finite(r.rms_position_after, "its RMS position error after")?,
+        rms_orientation_before: finite(r.rms_orientation_before, "its RMS attitude error before")?,
+        rms_orientation_after: finite(r.rms_orientation_after, "its RMS attitude error after")?,
+        note: r.note,
+        parameters,
+        combinations,
+    })
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{pgpass_lookup, redact, scrub};
+    use super::{pgpass_lookup, scrub};
 
     #[test]
-    fn passwords_are_never_shown() {
-        assert_eq!(
-            redact("postgres://alice:s3cr%40t@db.plant:5432/kinecal?sslmode=disable&password=x"),
-            "postgres://alice@db.plant:5432/kinecal?sslmode=disable"
-        );
-        assert_eq!(
-            redact("postgresql://db.plant/kinecal"),
-            "postgresql://db.plant/kinecal"
-        );
-        assert_eq!(redact("postgres://a:b@h/d?password=x"), "postgres://a@h/d");
+    fn passwords_are_scrubbed_from_messages() {
         assert_eq!(
             scrub("bad s3cr@t and s3cr%40t", Some("s3cr@t")),
             "bad *** and ***"

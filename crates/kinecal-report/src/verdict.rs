@@ -1,0 +1,245 @@
+//! What a calibration's page opens with: the verdict (converged or not, suspect or not), the
+//! accuracy reached, held out and predicted, and what to do next; then the facts of the run
+//! (when, what was read, the job, the kinecal that ran it) and the warnings ranked, errors
+//! first. A view of the report: built once from it, rendered as HTML and as text alike.
+
+use kinecal::report::CalibrationReport;
+use kinecal::warning::Severity;
+
+use crate::number::sig;
+
+/// How a calibration ended, for the banner.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Level {
+    /// Converged, nothing says the result is wrong.
+    Good,
+    /// Converged, with cautions worth reading before the result is used.
+    Caution,
+    /// Not converged, or a warning says the result is most likely wrong.
+    Failed,
+}
+
+impl Level {
+    /// `good`, `caution` or `failed` (the page's CSS class).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Level::Good => "good",
+            Level::Caution => "caution",
+            Level::Failed => "failed",
+        }
+    }
+}
+
+/// The verdict on a calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// The banner's level.
+    pub level: Level,
+    /// One sentence: what happened.
+    pub headline: String,
+    /// The figures that say how good it is: label and value with its unit.
+    pub figures: Vec<(String, String)>,
+    /// What to do next, most important first.
+    pub next: Vec<String>,
+}
+
+/// One warning of a report, with its rank.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ranked {
+    /// Error, caution or note.
+    pub severity: Severity,
+    /// The sentence.
+    pub text: String,
+}
+
+/// The report's warnings ranked: errors, then cautions, then notes, each in the report's order.
+pub fn ranked_warnings(rep: &CalibrationReport) -> Vec<Ranked> {
+    let mut out: Vec<Ranked> = if rep.warning_details.len() == rep.warnings.len() {
+        rep.warning_details
+            .iter()
+            .zip(&rep.warnings)
+            .map(|(w, text)| Ranked {
+                severity: w.severity(),
+                text: text.clone(),
+            })
+            .collect()
+    } else {
+        // A report of an older kinecal: its words only.
+        rep.warnings
+            .iter()
+            .map(|text| Ranked {
+                severity: Severity::Caution,
+                text: text.clone(),
+            })
+            .collect()
+    };
+    out.sort_by_key(|r| r.severity);
+    out
+}
+
+/// The verdict on `rep`.
+pub fn verdict(rep: &CalibrationReport) -> Verdict {
+    let ranked = ranked_warnings(rep);
+    let errors = ranked
+        .iter()
+        .filter(|r| r.severity == Severity::Error)
+        .count();
+    let cautions = ranked
+        .iter()
+        .filter(|r| r.severity == Severity::Caution)
+        .count();
+    let l = rep.length_unit.as_str();
+    let level = if (!rep.converged && !rep.given) || errors > 0 {
+        Level::Failed
+    } else if cautions > 0 {
+        Level::Caution
+    } else {
+        Level::Good
+    };
+    let headline = if rep.given {
+        "A given calibration, assessed on these data (not solved here).".to_string()
+    } else if !rep.converged {
+        format!(
+            "NOT CONVERGED after {} iterations ({}): the numbers below are not a calibration's.",
+            rep.iterations,
+            rep.termination.describe()
+        )
+    } else if errors > 0 {
+        format!(
+            "SUSPECT: converged after {} iterations, but {errors} warning{} below say{} the result \
+             is most likely wrong.",
+            rep.iterations,
+            if errors == 1 { "" } else { "s" },
+            if errors == 1 { "s" } else { "" }
+        )
+    } else {
+        format!(
+            "Converged after {} iteration{}{}.",
+            rep.iterations,
+            if rep.iterations == 1 { "" } else { "s" },
+            if cautions > 0 {
+                format!(
+                    "; {cautions} caution{} below",
+                    if cautions == 1 { "" } else { "s" }
+                )
+            } else {
+                String::new()
+            }
+        )
+    };
+    let mut figures = Vec::new();
+    let (b, a) = (&rep.identification.before, &rep.identification.after);
+    if b.positions > 0 {
+        figures.push((
+            "identification, mean position error".to_string(),
+            format!(
+                "{} {l} (from {})",
+                sig(a.mean_position, 4),
+                sig(b.mean_position, 4)
+            ),
+        ));
+    } else if let (Some(mb), Some(ma)) = (b.other.first(), a.other.first()) {
+        figures.push((
+            format!("identification, mean {} error", mb.metric),
+            format!("{} {l} (from {})", sig(ma.mean, 4), sig(mb.mean, 4)),
+        ));
+    }
+    let held_out = rep
+        .validation
+        .as_ref()
+        .filter(|v| v.after.positions > 0)
+        .map(|v| {
+            (
+                format!("held out ({} postures), mean position error", v.postures),
+                v.after.mean_position,
+            )
+        })
+        .or_else(|| {
+            rep.cross_validation.as_ref().map(|c| {
+                (
+                    format!(
+                        "cross-validated ({} folds), mean held-out {} error",
+                        c.folds.len(),
+                        c.metric
+                    ),
+                    c.overall.mean,
+                )
+            })
+        });
+    if let Some((label, v)) = &held_out {
+        figures.push((label.clone(), format!("{} {l}", sig(*v, 4))));
+    }
+    if let Some(p) = &rep.prediction {
+        figures.push((
+            "predicted 95 % position bound over the joint ranges".to_string(),
+            format!(
+                "median {} {l}, 95th percentile {} {l}",
+                sig(p.position_summary.median, 4),
+                sig(p.position_summary.p95, 4)
+            ),
+        ));
+    }
+    let mut next = Vec::new();
+    if !rep.converged && !rep.given {
+        next.push(
+            "Raise the iteration cap, or start nearer (an initial robot), and calibrate again."
+                .to_string(),
+        );
+    }
+    if errors > 0 {
+        next.push(
+            "Read the errors below first: units, readings or a model that does not fit this \
+             robot; fix the data or the robot file before using this result."
+                .to_string(),
+        );
+    }
+    if held_out.is_none() && !rep.given {
+        next.push(
+            "Check it on data it did not see: held-out files, a hold-out fraction or folds."
+                .to_string(),
+        );
+    }
+    if rep.prediction.is_none() && !rep.given {
+        next.push(
+            "Ask for the predicted accuracy (a prediction) to state a 95 % bound anywhere in the \
+             workspace."
+                .to_string(),
+        );
+    }
+    if let Some(vf) = rep.variance_factor {
+        if !(0.1..=10.0).contains(&vf) {
+            next.push(format!(
+                "The residuals are {} times the stated standard deviations: state the \
+                 instrument's noise (weights, sigma columns) so that the uncertainties mean \
+                 what they say.",
+                sig(vf.sqrt(), 2)
+            ));
+        }
+    }
+    if next.is_empty() {
+        next.push(
+            "Write it to the robot (an export, or compensated programs) and record it in the \
+             history to watch it drift."
+                .to_string(),
+        );
+    }
+    Verdict {
+        level,
+        headline,
+        figures,
+        next,
+    }
+}
+
+/// The verdict as text: the headline, the figures, what to do next.
+pub fn text(v: &Verdict) -> String {
+    use std::fmt::Write as _;
+    let mut s = format!("verdict: {}\n", v.headline);
+    for (label, value) in &v.figures {
+        let _ = writeln!(s, "  {label}: {value}");
+    }
+    for n in &v.next {
+        let _ = writeln!(s, "  next: {n}");
+    }
+    s
+}
