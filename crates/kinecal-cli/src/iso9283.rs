@@ -3,6 +3,7 @@
 use kinecal::identifiability::fmt_sig;
 use kinecal::iso9283::{pose_name, Evaluation, Spread};
 use kinecal::spec::Document;
+use kinecal_report::number::{num, signed};
 
 /// Prints the test poses of a plan, or the figures of a log.
 pub fn show(d: &Document) {
@@ -10,32 +11,6 @@ pub fn show(d: &Document) {
         Document::Iso9283Plan(p) => print!("{}", plan_text(&p.document)),
         Document::Iso9283(e) => print!("{}", text(e)),
         _ => {}
-    }
-}
-
-/// A number as a person reads it: four significant digits, plain decimals from 0.001 to 1e9
-/// (an exponent outside: `6.493e-5`, so columns stay narrow).
-fn sig(v: f64) -> String {
-    if v == 0.0 {
-        return "0".into();
-    }
-    if !v.is_finite() {
-        return "n/a".into();
-    }
-    let e = v.abs().log10().floor() as i32;
-    if !(-3..9).contains(&e) {
-        return format!("{v:.3e}");
-    }
-    let decimals = (3 - e).max(0) as usize;
-    format!("{v:.decimals$}")
-}
-
-/// [`sig`] with a sign.
-fn signed(v: f64) -> String {
-    if v > 0.0 {
-        format!("+{}", sig(v))
-    } else {
-        sig(v)
     }
 }
 
@@ -47,10 +22,10 @@ fn plan_text(p: &kinecal::spec::Iso9283PlanDocument) -> String {
     let _ = writeln!(
         s,
         "cube: centre ({}, {}, {}) {len}, side {} {len}",
-        sig(p.centre[0]),
-        sig(p.centre[1]),
-        sig(p.centre[2]),
-        sig(p.side)
+        num(p.centre[0]),
+        num(p.centre[1]),
+        num(p.centre[2]),
+        num(p.side)
     );
     let _ = match p.search {
         Some((tested, step, reached)) => writeln!(
@@ -58,7 +33,7 @@ fn plan_text(p: &kinecal::spec::Iso9283PlanDocument) -> String {
             "searched: {tested} grid points tested (step {} {len}), {reached} reached; the cube's \
              test poses and its 8 corners are reached inside the joint ranges (a search, not a \
              proof of the largest cube)",
-            sig(step),
+            num(step),
         ),
         None => writeln!(
             s,
@@ -75,13 +50,13 @@ fn plan_text(p: &kinecal::spec::Iso9283PlanDocument) -> String {
         let mut line = format!(
             "{}    {:>10} {:>10} {:>10}",
             t.pose,
-            sig(t.position[0]),
-            sig(t.position[1]),
-            sig(t.position[2])
+            num(t.position[0]),
+            num(t.position[1]),
+            num(t.position[2])
         );
         if let Some(att) = t.attitude {
             for v in att {
-                line += &format!(" {:>9}", sig(v));
+                line += &format!(" {:>9}", num(v));
             }
         }
         line += "  ";
@@ -116,9 +91,9 @@ fn spread_cells(v: Option<&Spread>) -> String {
         Some(v) => format!(
             "{:>5} {:>10} {:>10} {:>10}",
             v.count,
-            sig(v.mean),
-            sig(v.p95),
-            sig(v.max)
+            num(v.mean),
+            num(v.p95),
+            num(v.max)
         ),
         None => format!("{:>5} {:>10} {:>10} {:>10}", 0, "-", "-", "-"),
     }
@@ -179,8 +154,8 @@ fn summary_text(e: &Evaluation) -> String {
                     s,
                     "{:<20} {:>10} {:>10}   {:.1} %",
                     name(p.pose),
-                    sig(rms.mean),
-                    sig(b.mean),
+                    num(rms.mean),
+                    num(b.mean),
                     100.0 * p.within_compensated_95.unwrap_or(0.0)
                 );
             }
@@ -221,12 +196,12 @@ fn test_text(e: &Evaluation) -> String {
         let _ = writeln!(s);
         let mut commanded = format!(
             "x {}, y {}, z {}",
-            sig(f.commanded[0]),
-            sig(f.commanded[1]),
-            sig(f.commanded[2])
+            num(f.commanded[0]),
+            num(f.commanded[1]),
+            num(f.commanded[2])
         );
         if let Some(c) = f.commanded_attitude {
-            commanded += &format!("; a {}, b {}, c {}", sig(c[0]), sig(c[1]), sig(c[2]));
+            commanded += &format!("; a {}, b {}, c {}", num(c[0]), num(c[1]), num(c[2]));
         }
         let _ = writeln!(
             s,
@@ -242,18 +217,18 @@ fn test_text(e: &Evaluation) -> String {
         let _ = writeln!(
             s,
             "  {} {} {} {}",
-            cell("AP", sig(f.ap)),
-            cell("APx", signed(f.ap_xyz[0])),
-            cell("APy", signed(f.ap_xyz[1])),
-            cell("APz", signed(f.ap_xyz[2]))
+            cell("AP", num(f.ap)),
+            cell("APx", signed(f.ap_xyz[0], 4)),
+            cell("APy", signed(f.ap_xyz[1], 4)),
+            cell("APz", signed(f.ap_xyz[2], 4))
         );
         if let (Some(rp), Some(l_mean), Some(s_l)) = (f.rp, f.l_mean, f.s_l) {
             let _ = writeln!(
                 s,
                 "  {} {} {}",
-                cell("RP", sig(rp)),
-                cell("lbar", sig(l_mean)),
-                cell("S_l", sig(s_l))
+                cell("RP", num(rp)),
+                cell("lbar", num(l_mean)),
+                cell("S_l", num(s_l))
             );
         } else {
             let _ = writeln!(s, "  RP   n/a (1 cycle)");
@@ -262,33 +237,33 @@ fn test_text(e: &Evaluation) -> String {
             let _ = writeln!(
                 s,
                 "  {} {} {}",
-                cell("APa", signed(ap[0])),
-                cell("APb", signed(ap[1])),
-                cell("APc", signed(ap[2]))
+                cell("APa", signed(ap[0], 4)),
+                cell("APb", signed(ap[1], 4)),
+                cell("APc", signed(ap[2], 4))
             );
         }
         if let Some(rp) = f.rp_abc {
             let _ = writeln!(
                 s,
                 "  {} {} {}",
-                cell("RPa", format!("+-{}", sig(rp[0]))),
-                cell("RPb", format!("+-{}", sig(rp[1]))),
-                cell("RPc", format!("+-{}", sig(rp[2])))
+                cell("RPa", format!("+-{}", num(rp[0]))),
+                cell("RPb", format!("+-{}", num(rp[1]))),
+                cell("RPc", format!("+-{}", num(rp[2])))
             );
         }
         if let Some(m) = &f.multidirectional {
             let mut line = format!(
                 "  {} from {} directions ({})",
-                cell("vAP", sig(m.vap)),
+                cell("vAP", num(m.vap)),
                 m.directions.len(),
                 m.directions.join(", ")
             );
             if let Some(v) = m.vap_abc {
                 line += &format!(
                     "; vAPa {}, vAPb {}, vAPc {}",
-                    sig(v[0]),
-                    sig(v[1]),
-                    sig(v[2])
+                    num(v[0]),
+                    num(v[1]),
+                    num(v[2])
                 );
             }
             let _ = writeln!(s, "{line}");
@@ -297,8 +272,8 @@ fn test_text(e: &Evaluation) -> String {
             let _ = writeln!(
                 s,
                 "  compensated (predicted): AP RMS {}, 95 % bound {} (readings from the {})",
-                sig(c.ap_rms),
-                sig(c.ap_95),
+                num(c.ap_rms),
+                num(c.ap_95),
                 c.readings_from
             );
         }
@@ -316,10 +291,10 @@ fn test_text(e: &Evaluation) -> String {
                 "{:<10} {:>6} {:>12} {:>12} {:>12} {:>12}",
                 format!("{}-{}", pose_name(d.from), pose_name(d.to)),
                 d.cycles,
-                sig(d.commanded),
-                sig(d.mean),
-                signed(d.ad),
-                d.rd.map_or_else(|| "n/a".to_string(), sig)
+                num(d.commanded),
+                num(d.mean),
+                signed(d.ad, 4),
+                d.rd.map_or_else(|| "n/a".to_string(), num)
             );
         }
     }

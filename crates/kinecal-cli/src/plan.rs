@@ -6,6 +6,7 @@ use kinecal::identifiability::fmt_sig;
 use kinecal::plan::Plan;
 use kinecal::spec::Document;
 use kinecal::Robot;
+use kinecal_report::number::opt;
 
 /// Prints a plan: its JSON document with `--json`, else as text.
 pub fn show(d: &Document, json: bool) {
@@ -15,10 +16,6 @@ pub fn show(d: &Document, json: bool) {
     } else {
         print!("{}", text(&o.plan, &o.robot, &o.described));
     }
-}
-
-fn opt(v: Option<f64>) -> String {
-    v.map(fmt_sig).unwrap_or_else(|| "n/a".into())
 }
 
 /// The plan as text.

@@ -4,39 +4,13 @@ use std::fmt::Write as _;
 
 use kinecal::report::CalibrationReport;
 
-/// A number as a person reads it: six decimals, or four significant digits below 1e-5, where six
-/// decimals would keep fewer than two (a small error is not printed as 0.000000).
+use kinecal_report::number::{fixed, fixed_signed, ratio};
+
+/// A number in the summary's columns: six decimals, or four significant digits where six
+/// decimals would keep fewer than two ([`kinecal_report::number::fixed`]; the history's and the
+/// fleet's tables call it too).
 pub fn num(v: f64) -> String {
-    if v != 0.0 && v.abs() < 1e-5 {
-        format!("{v:.3e}")
-    } else {
-        format!("{v:.6}")
-    }
-}
-
-/// A dimensionless figure: four decimals from 1 to 1e5, four significant digits down to 1e-3,
-/// else scientific (never `0.0000` for a small nonzero value).
-pub fn sig4(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let e = v.abs().log10().floor() as i32;
-    if (0..5).contains(&e) {
-        format!("{v:.4}")
-    } else if (-3..0).contains(&e) {
-        format!("{v:.*}", (3 - e) as usize)
-    } else {
-        format!("{v:.3e}")
-    }
-}
-
-/// [`num`] with a sign.
-fn signed(v: f64) -> String {
-    if v >= 0.0 {
-        format!("+{}", num(v))
-    } else {
-        num(v)
-    }
+    fixed(v, 6)
 }
 
 /// The text summary `kinecal calibrate` prints.
@@ -300,7 +274,7 @@ pub fn summary(r: &CalibrationReport) -> String {
             let _ = writeln!(
                 s,
                 "residuals in their standard deviations (RMS): identification {} -> {}, validation {} -> {}",
-                sig4(ni[0]), sig4(ni[1]), sig4(nv[0]), sig4(nv[1])
+                ratio(ni[0]), ratio(ni[1]), ratio(nv[0]), ratio(nv[1])
             );
         }
         if !v.sessions_refitted.is_empty() {
@@ -373,7 +347,7 @@ pub fn summary(r: &CalibrationReport) -> String {
         let _ = writeln!(
             s,
             "rank {rank} of {estimated} estimated parameters; variance factor {} (about 1 when --weights match the noise)",
-            sig4(vf)
+            ratio(vf)
         );
     }
     if let Some(p) = &r.prior {
@@ -451,7 +425,7 @@ pub fn summary(r: &CalibrationReport) -> String {
         let change = match (compliance, p.change == 0.0) {
             (true, true) => "0".to_string(),
             (true, false) => format!("{:+.4e}", p.change),
-            (false, _) => signed(p.change),
+            (false, _) => fixed_signed(p.change, 6),
         };
         let _ = writeln!(
             s,

@@ -6,17 +6,8 @@ use std::fmt::Write as _;
 use kinecal::report::CalibrationReport;
 
 use crate::chart::{render_svg, Line, Panel};
+use crate::number::num;
 use crate::DrawError;
-
-/// A number as a person reads it: four significant digits ([`crate::number::sig`]).
-pub fn num(v: f64) -> String {
-    crate::number::sig(v, 4)
-}
-
-/// [`num`] with a sign.
-fn signed(v: f64) -> String {
-    crate::number::signed(v, 4)
-}
 
 fn cap(s: &str) -> String {
     let mut c = s.chars();
@@ -480,7 +471,7 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
             // digits.
             if p.unit.contains("/(N ") { num(p.initial) } else { format!("{:.6}", p.initial) },
             if p.unit.contains("/(N ") { num(p.estimated) } else { format!("{:.6}", p.estimated) },
-            signed(p.change),
+            crate::number::signed(p.change, 4),
             p.sigma.map_or("not determined alone".into(), num),
             p.significance.map_or(String::new(), |z| format!("{z:.1}{}", if p.within_noise == Some(true) { " (within noise)" } else { "" }))
         );
@@ -745,21 +736,4 @@ fn facts_section(rep: &CalibrationReport) -> String {
     }
     h += "</dl>\n";
     h
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn numbers_in_tables_are_plain_with_four_significant_digits() {
-        assert_eq!(num(8.04273e-2), "0.08043");
-        assert_eq!(num(3478.053673), "3478");
-        assert_eq!(num(0.000864), "0.0008640");
-        assert_eq!(num(0.0), "0");
-        assert_eq!(num(-0.4995), "-0.4995");
-        assert_eq!(num(1e-12), "1.000e-12");
-        assert_eq!(num(4.394e-6), "4.394e-6");
-        assert_eq!(signed(0.05031), "+0.05031");
-    }
 }

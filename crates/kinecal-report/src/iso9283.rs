@@ -6,16 +6,8 @@ use std::fmt::Write as _;
 
 use kinecal::iso9283::{pose_name, Evaluation, PoseFigures, Spread};
 
-use crate::html::{esc, num, page_head};
-
-/// [`num`] with a sign.
-fn signed(v: f64) -> String {
-    if v > 0.0 {
-        format!("+{}", num(v))
-    } else {
-        num(v)
-    }
-}
+use crate::html::{esc, page_head};
+use crate::number::{num, signed};
 
 /// One view of the attained positions: a `w` x `w` panel at `x0`, positions relative to
 /// `origin` along axes `(h, v)` (0 = x, 1 = y, 2 = z), `range` either side.
@@ -230,7 +222,7 @@ pub fn html_iso9283(e: &Evaluation) -> String {
         row(
             &mut h,
             "AP<sub>x</sub>, AP<sub>y</sub>, AP<sub>z</sub>",
-            f.ap_xyz.map(signed).join(", "),
+            f.ap_xyz.map(|v| signed(v, 4)).join(", "),
             &l,
         );
         match (f.rp, f.l_mean, f.s_l) {
@@ -262,7 +254,7 @@ pub fn html_iso9283(e: &Evaluation) -> String {
             row(
                 &mut h,
                 "AP<sub>a</sub>, AP<sub>b</sub>, AP<sub>c</sub>",
-                ap.map(signed).join(", "),
+                ap.map(|v| signed(v, 4)).join(", "),
                 &a,
             );
         }
@@ -310,10 +302,10 @@ pub fn html_iso9283(e: &Evaluation) -> String {
                 d.cycles,
                 num(d.commanded),
                 num(d.mean),
-                signed(d.ad),
-                signed(d.ad_xyz[0]),
-                signed(d.ad_xyz[1]),
-                signed(d.ad_xyz[2]),
+                signed(d.ad, 4),
+                signed(d.ad_xyz[0], 4),
+                signed(d.ad_xyz[1], 4),
+                signed(d.ad_xyz[2], 4),
                 d.rd.map_or_else(|| "n/a".to_string(), num)
             );
         }
@@ -416,7 +408,7 @@ fn series(e: &Evaluation, l: &str) -> String {
             pose_name(f.pose),
             f.cycles,
             num(f.ap),
-            f.ap_xyz.map(signed).join(", "),
+            f.ap_xyz.map(|v| signed(v, 4)).join(", "),
             f.rp.map_or_else(|| "n/a".to_string(), num),
             f.compensated
                 .as_ref()

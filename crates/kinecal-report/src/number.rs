@@ -26,6 +26,11 @@ pub fn sig(v: f64, digits: usize) -> String {
     s
 }
 
+/// [`sig`] to four significant digits: a number in a page's tables and sentences.
+pub fn num(v: f64) -> String {
+    sig(v, 4)
+}
+
 /// [`sig`] with a sign: `+0.0120`, `-3.5`.
 pub fn signed(v: f64, digits: usize) -> String {
     if v > 0.0 {
@@ -42,6 +47,8 @@ pub fn fixed(v: f64, decimals: usize) -> String {
     if !v.is_finite() {
         return "n/a".into();
     }
+    // No `-0.000000` for a negative zero.
+    let v = if v == 0.0 { 0.0 } else { v };
     if v != 0.0 && v.abs() < 10f64.powi(1 - decimals as i32) {
         format!("{v:.3e}")
     } else {
@@ -96,6 +103,18 @@ mod tests {
         assert_eq!(sig(f64::NAN, 4), "n/a");
         assert_eq!(signed(0.012, 3), "+0.0120");
         assert_eq!(signed(-3.5, 2), "-3.5");
+    }
+
+    #[test]
+    fn numbers_in_tables_are_plain_with_four_significant_digits() {
+        assert_eq!(num(8.04273e-2), "0.08043");
+        assert_eq!(num(3478.053673), "3478");
+        assert_eq!(num(0.000864), "0.0008640");
+        assert_eq!(num(0.0), "0");
+        assert_eq!(num(-0.4995), "-0.4995");
+        assert_eq!(num(1e-12), "1.000e-12");
+        assert_eq!(num(4.394e-6), "4.394e-6");
+        assert_eq!(signed(0.05031, 4), "+0.05031");
     }
 
     #[test]

@@ -9,7 +9,8 @@ use kinecal::plan::Plan;
 use kinecal::Robot;
 
 use crate::chart::{Line, Panel};
-use crate::html::{charts, esc, num, page_head};
+use crate::html::{charts, esc, page_head};
+use crate::number::{num, opt};
 use crate::DrawError;
 use kinecal::report::nice_width;
 
@@ -141,7 +142,6 @@ pub fn html_plan(
             plan.rank
         );
     }
-    let opt = |v: Option<f64>| v.map(num).unwrap_or_else(|| "n/a".into());
     let pct = |v: Option<f64>| {
         v.map(|e| format!("{:.0} %", 100.0 * e))
             .unwrap_or_else(|| "n/a".into())
