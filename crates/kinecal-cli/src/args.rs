@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand, ValueEnum};
+use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand};
 use kinecal::estimation::{Damping, Method, Spread};
 use kinecal::import::dh::Convention;
 use kinecal::observe::OrientationError;
@@ -833,16 +833,19 @@ readers use their own roles.")]
 #[derive(Debug, Args)]
 pub struct HistoryFleetArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
-    /// Flag changes beyond K standard deviations.
-    #[arg(long, value_name = "K", default_value_t = 3.0)]
-    pub sigma: f64,
+    /// Flag changes beyond K standard deviations [default: 3].
+    #[arg(long, value_name = "K")]
+    pub sigma: Option<f64>,
     /// Tolerance file (TOML `key = value`), the same for every robot.
     #[arg(long, value_name = "FILE")]
     pub tolerance: Option<PathBuf>,
-    /// A robot is due when a trend crosses a tolerance within this many days of --now.
-    #[arg(long, value_name = "DAYS", default_value_t = 90.0)]
-    pub horizon: f64,
+    /// A robot is due when a trend crosses a tolerance within this many days of --now
+    /// [default: 90].
+    #[arg(long, value_name = "DAYS")]
+    pub horizon: Option<f64>,
     /// "Now" for --horizon (RFC 3339 or YYYY-MM-DD; default: the current time).
     #[arg(long, value_name = "TIME")]
     pub now: Option<String>,
@@ -858,39 +861,52 @@ pub struct HistoryFleetArgs {
 #[derive(Debug, Args)]
 pub struct HistoryEventArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// The robot's serial number.
-    pub robot_id: String,
+    #[arg(required_unless_present = "spec")]
+    pub robot_id: Option<String>,
     /// When (RFC 3339 or YYYY-MM-DD; default now).
     #[arg(long)]
     pub at: Option<String>,
     /// What was done (e.g. "gearbox J2 replaced").
-    #[arg(long)]
-    pub note: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub note: Option<String>,
 }
 
 /// `kinecal history events`.
 #[derive(Debug, Args)]
 pub struct HistoryEventsArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// Only this robot.
     #[arg(long)]
     pub robot_id: Option<String>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `kinecal history import`.
 #[derive(Debug, Args)]
 pub struct HistoryImportArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// The dump (`kinecal history export --format dump`).
-    pub dump: PathBuf,
+    #[arg(required_unless_present = "spec")]
+    pub dump: Option<PathBuf>,
 }
 
 /// `kinecal history init`.
 #[derive(Debug, Args)]
 pub struct HistoryInitArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     #[command(flatten)]
     pub db: DbArg,
 }
@@ -909,19 +925,21 @@ pub struct DbArg {
 #[derive(Debug, Args)]
 pub struct HistoryAddArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// The robot's serial number.
-    #[arg(long)]
-    pub robot_id: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot_id: Option<String>,
     /// A report written by `kinecal calibrate --report`.
-    #[arg(long)]
-    pub report: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub report: Option<PathBuf>,
     /// When (RFC 3339 or YYYY-MM-DD; default now).
     #[arg(long)]
     pub at: Option<String>,
     /// A note.
-    #[arg(long, default_value = "")]
-    pub note: String,
+    #[arg(long)]
+    pub note: Option<String>,
     /// Record it even if the robot model differs from the earlier records of this serial
     /// (the robot was rebuilt: other joints, other parameters).
     #[arg(long)]
@@ -932,19 +950,26 @@ pub struct HistoryAddArgs {
 #[derive(Debug, Args)]
 pub struct HistoryListArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// Only this robot.
     #[arg(long)]
     pub robot_id: Option<String>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `kinecal history show`.
 #[derive(Debug, Args)]
 pub struct HistoryShowArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// The latest calibration of this robot.
-    #[arg(long, required_unless_present = "id")]
+    #[arg(long, required_unless_present_any = ["id", "spec"])]
     pub robot_id: Option<String>,
     /// A calibration by id.
     #[arg(long)]
@@ -954,28 +979,21 @@ pub struct HistoryShowArgs {
     pub json: bool,
 }
 
-/// Export format.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum FormatArg {
-    /// One row per calibration and parameter.
-    Csv,
-    /// Every calibration with its parameters and combinations.
-    Json,
-    /// Every stored field of every record and event, for `history import` (lossless).
-    Dump,
-}
-
 /// `kinecal history export`.
 #[derive(Debug, Args)]
 pub struct HistoryExportArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
     #[command(flatten)]
     pub db: DbArg,
     /// Only this robot.
     #[arg(long)]
     pub robot_id: Option<String>,
-    /// Format.
-    #[arg(long, value_enum, default_value = "csv")]
-    pub format: FormatArg,
+    /// Format: csv (one row per calibration and parameter), json (every calibration with its
+    /// parameters and combinations) or dump (every stored field, for `history import`)
+    /// [default: csv].
+    #[arg(long, value_enum)]
+    pub format: Option<kinecal::spec::HistoryFormat>,
     /// Write here instead of standard output.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -985,16 +1003,18 @@ pub struct HistoryExportArgs {
 #[derive(Debug, Args)]
 pub struct HistoryDriftArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// The robot.
+    #[arg(long, required_unless_present = "spec")]
+    pub robot_id: Option<String>,
+    /// first, latest-ok, or a calibration id [default: first].
     #[arg(long)]
-    pub robot_id: String,
-    /// first, latest-ok, or a calibration id.
-    #[arg(long, default_value = "first")]
-    pub baseline: String,
-    /// Flag changes beyond K standard deviations.
-    #[arg(long, value_name = "K", default_value_t = 3.0)]
-    pub sigma: f64,
+    pub baseline: Option<String>,
+    /// Flag changes beyond K standard deviations [default: 3].
+    #[arg(long, value_name = "K")]
+    pub sigma: Option<f64>,
     /// Tolerance file (TOML `key = value`).
     #[arg(long, value_name = "FILE")]
     pub tolerance: Option<PathBuf>,
@@ -1007,10 +1027,12 @@ pub struct HistoryDriftArgs {
 #[derive(Debug, Args)]
 pub struct HistoryPlotArgs {
     #[command(flatten)]
+    pub door: SpecArgs,
+    #[command(flatten)]
     pub db: DbArg,
     /// The robot.
-    #[arg(long)]
-    pub robot_id: String,
+    #[arg(long, required_unless_present = "spec")]
+    pub robot_id: Option<String>,
     /// Only these quantities (parameter names or ids, or combination expressions), comma-separated.
     #[arg(long, value_name = "LIST")]
     pub param: Option<String>,
@@ -1018,8 +1040,8 @@ pub struct HistoryPlotArgs {
     #[arg(long, value_name = "FILE")]
     pub tolerance: Option<PathBuf>,
     /// The file to write: .svg or .png (by its extension).
-    #[arg(long)]
-    pub out: PathBuf,
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal import urdf`.

@@ -764,6 +764,7 @@ fn run_one(e: &Entry) -> Finished {
         let mut quiet = ();
         let mut env = Env::new(&mut quiet, Some(&artist));
         env.hold = true;
+        env.historian = Some(&crate::door::HISTORIAN);
         let done = kinecal::spec::run(job, &mut env)?;
         let status = match done.status {
             kinecal::spec::Status::NotConverged => Status::NotConverged,

@@ -160,6 +160,10 @@ pub fn run(
 /// What draws the jobs' pages.
 static ARTIST: kinecal_report::Artist = kinecal_report::Artist;
 
+/// What runs the history jobs (drawing through [`ARTIST`]).
+pub static HISTORIAN: kinecal_history::jobs::Historian<'static> =
+    kinecal_history::jobs::Historian::new(Some(&ARTIST));
+
 /// [`run`], recording a calibration in a history with `recorder`.
 pub fn run_with<'a>(
     job: Job,
@@ -189,6 +193,7 @@ pub fn run_with<'a>(
     let mut env = Env::new(progress, Some(&ARTIST));
     env.also_inputs = door.spec.iter().chain(also).cloned().collect();
     env.recorder = recorder;
+    env.historian = Some(&HISTORIAN);
     Ok(Some(kinecal::spec::run(&job, &mut env)?))
 }
 

@@ -8,7 +8,6 @@ mod batch;
 mod calibrate;
 mod demo;
 mod door;
-mod fleet;
 mod history;
 mod iso9283;
 mod plan;
@@ -264,6 +263,17 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::Calibrated => "--calibrated/--calibration",
         Setting::Estimate => "--estimate",
         Setting::Fix => "--fix",
+        Setting::History => "--db",
+        Setting::RobotId => "--robot-id",
+        Setting::At => "--at",
+        Setting::Now => "--now",
+        Setting::DriftSigma => "--sigma",
+        Setting::Horizon => "--horizon",
+        Setting::Baseline => "--baseline",
+        Setting::CalibrationId => "--id",
+        Setting::Quantities => "--param",
+        Setting::Dump => "DUMP",
+        Setting::Note => "--note",
         // A setting of a later kinecal: named in the library's words.
         _ => setting.name(),
     }
@@ -410,8 +420,9 @@ mod tests {
     use super::*;
 
     /// Every library setting has a flag, and the flag is one the command line has (the noise
-    /// scale excepted: the library sets it from a fit's residuals; and a spec file's `kind`:
-    /// on the command line, the options are the kinds).
+    /// scale excepted: the library sets it from a fit's residuals; a spec file's `kind`: on the
+    /// command line, the options are the kinds; and a history dump, the positional `DUMP` of
+    /// `history import`).
     #[test]
     fn every_setting_names_a_flag_of_the_command_line() {
         use clap::CommandFactory;
@@ -428,7 +439,10 @@ mod tests {
         let mut known = Vec::new();
         longs(&Cli::command(), &mut known);
         for s in Setting::ALL {
-            if matches!(s, Setting::NoiseScale | Setting::ObservationKind) {
+            if matches!(
+                s,
+                Setting::NoiseScale | Setting::ObservationKind | Setting::Dump
+            ) {
                 continue;
             }
             for flag in flag_of(s).split('/') {

@@ -722,3 +722,348 @@ fn a_bad_value_names_the_flag_or_the_key() {
         "{err}"
     );
 }
+
+/// The history jobs through the same door: each said by flags, by `--spec` (the spec
+/// `--write-spec` wrote) and as a `[[jobs]]` entry gives the same document and outputs. Each way
+/// writes its own history (`a_h.sqlite`, `b_h.sqlite`, `c_h.sqlite`), which end up equal.
+#[test]
+fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/fleet");
+    std::fs::copy(examples.join("history.json"), d.join("fleet.json")).unwrap();
+    std::fs::copy(examples.join("tolerances.toml"), d.join("tol.toml")).unwrap();
+    ok(
+        d,
+        &[
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "20",
+            "--seed",
+            "3",
+            "--out",
+            "data.csv",
+        ],
+    );
+    ok(
+        d,
+        &[
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--report",
+            "report.json",
+            "-q",
+        ],
+    );
+    let cases = [
+        case(
+            "history-import",
+            &["history", "import", "fleet.json", "--db", "a_h.sqlite"],
+            false,
+            &[],
+        ),
+        case(
+            "history-event",
+            &[
+                "history",
+                "event",
+                "A4-0104",
+                "--at",
+                "2026-12-10",
+                "--note",
+                "cable",
+                "--db",
+                "a_h.sqlite",
+            ],
+            false,
+            &[],
+        ),
+        case(
+            "history-add",
+            &[
+                "history",
+                "add",
+                "--robot-id",
+                "A4-0105",
+                "--report",
+                "report.json",
+                "--at",
+                "2026-12-12",
+                "--db",
+                "a_h.sqlite",
+            ],
+            false,
+            &[],
+        ),
+        case(
+            "history-list",
+            &[
+                "history",
+                "list",
+                "--robot-id",
+                "A4-0101",
+                "--db",
+                "a_h.sqlite",
+            ],
+            true,
+            &[],
+        ),
+        case(
+            "history-show",
+            &["history", "show", "--id", "3", "--db", "a_h.sqlite"],
+            true,
+            &[],
+        ),
+        case(
+            "history-drift",
+            &[
+                "history",
+                "drift",
+                "--robot-id",
+                "A4-0101",
+                "--tolerance",
+                "tol.toml",
+                "--sigma",
+                "2.5",
+                "--db",
+                "a_h.sqlite",
+            ],
+            true,
+            &[],
+        ),
+        case(
+            "history-events",
+            &["history", "events", "--db", "a_h.sqlite"],
+            true,
+            &[],
+        ),
+        case(
+            "history-export",
+            &[
+                "history",
+                "export",
+                "--format",
+                "csv",
+                "--out",
+                "a_export.csv",
+                "--db",
+                "a_h.sqlite",
+            ],
+            false,
+            &["a_export.csv"],
+        ),
+        case(
+            "history-plot",
+            &[
+                "history",
+                "plot",
+                "--robot-id",
+                "A4-0101",
+                "--param",
+                "p14 + p20",
+                "--out",
+                "a_plot.svg",
+                "--db",
+                "a_h.sqlite",
+            ],
+            false,
+            &["a_plot.svg"],
+        ),
+        case(
+            "history-fleet",
+            &[
+                "history",
+                "fleet",
+                "--now",
+                "2026-12-15",
+                "--tolerance",
+                "tol.toml",
+                "--json",
+                "a_fleet.json",
+                "--html",
+                "a_fleet.html",
+                "--db",
+                "a_h.sqlite",
+            ],
+            false,
+            &["a_fleet.json", "a_fleet.html"],
+        ),
+    ];
+    // The histories' names aside, the documents are the same.
+    let same = |text: &str| {
+        normal(
+            &text
+                .replace("b_h.sqlite", "a_h.sqlite")
+                .replace("c_h.sqlite", "a_h.sqlite"),
+        )
+    };
+    let mut manifest = String::new();
+    for c in &cases {
+        let spec = format!("{}.toml", c.name);
+        let mut args = c.args.clone();
+        args.extend(["--write-spec", spec.as_str()]);
+        if c.json {
+            args.push("--json");
+        }
+        let (code, by_flags, err) = kinecal(d, &args);
+        assert!(code == 0 || code == 3, "{args:?} exited {code}: {err}");
+        let text = std::fs::read_to_string(d.join(&spec)).unwrap();
+        assert!(text.starts_with(&format!("job = \"{}\"", c.name)), "{text}");
+        let b_spec = format!("b_{spec}");
+        std::fs::write(d.join(&b_spec), text.replace("a_", "b_")).unwrap();
+        let mut args = vec![c.args[0], c.args[1], "--spec", b_spec.as_str()];
+        if c.json {
+            args.push("--json");
+        }
+        let (code_b, by_spec, err) = kinecal(d, &args);
+        assert_eq!(code, code_b, "{}: {err}", c.name);
+        if c.json {
+            assert_eq!(same(&by_flags), same(&by_spec), "{}: --spec", c.name);
+            std::fs::write(d.join(format!("{}.flags.json", c.name)), &by_flags).unwrap();
+        }
+        for o in &c.outputs {
+            let a = std::fs::read_to_string(d.join(o)).unwrap();
+            let b = std::fs::read_to_string(d.join(o.replace("a_", "b_"))).unwrap();
+            assert_eq!(same(&a), same(&b), "{}: {o} by --spec", c.name);
+        }
+        manifest += &as_job(&text.replace("a_", "c_"), c.name);
+    }
+    std::fs::write(d.join("jobs.toml"), &manifest).unwrap();
+    let (code, table, err) = kinecal(
+        d,
+        &[
+            "batch",
+            "jobs.toml",
+            "--documents",
+            "docs",
+            "--quiet",
+            "--jobs",
+            "1",
+        ],
+    );
+    // A robot drifted: its drift and the fleet are flagged, and the exit code says so.
+    assert!(code == 0 || code == 3, "{table}\n{err}");
+    assert!(
+        err.contains("10 jobs: 8 done, 0 failed, 2 flagged"),
+        "{err}"
+    );
+    for c in &cases {
+        for o in &c.outputs {
+            let a = std::fs::read_to_string(d.join(o)).unwrap();
+            let c_out = std::fs::read_to_string(d.join(o.replace("a_", "c_"))).unwrap();
+            assert_eq!(same(&a), same(&c_out), "{}: {o} in a batch", c.name);
+        }
+        if c.json {
+            let flags = std::fs::read_to_string(d.join(format!("{}.flags.json", c.name))).unwrap();
+            let doc =
+                std::fs::read_to_string(d.join("docs").join(format!("{}.json", c.name))).unwrap();
+            assert_eq!(
+                same(&flags),
+                same(&doc),
+                "{}: its document in a batch",
+                c.name
+            );
+        }
+    }
+    // The three histories hold the same records and events.
+    let dump = |db: &str| ok(d, &["history", "export", "--format", "dump", "--db", db]);
+    let a = dump("a_h.sqlite");
+    assert!(a.contains("A4-0105") && a.contains("cable"), "{a}");
+    assert_eq!(a, dump("b_h.sqlite"));
+    assert_eq!(a, dump("c_h.sqlite"));
+}
+
+/// A bad value of a history job names its flag, or its key in a spec file.
+#[test]
+fn a_bad_history_value_names_the_flag_or_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (args, expected) in [
+        (
+            &[
+                "history",
+                "drift",
+                "--robot-id",
+                "A",
+                "--sigma",
+                "-1",
+                "--db",
+                "h.sqlite",
+            ][..],
+            "--sigma: -1: expected a positive, finite number of standard deviations",
+        ),
+        (
+            &["history", "fleet", "--horizon", "-3", "--db", "h.sqlite"][..],
+            "--horizon: -3: expected a number of days, 0 or more",
+        ),
+        (
+            &[
+                "history",
+                "drift",
+                "--robot-id",
+                "A",
+                "--baseline",
+                "last",
+                "--db",
+                "h.sqlite",
+            ][..],
+            "--baseline: `last`: expected first, latest-ok or a calibration id",
+        ),
+        (
+            &[
+                "history",
+                "event",
+                "A",
+                "--note",
+                "x",
+                "--at",
+                "yesterday",
+                "--db",
+                "h.sqlite",
+            ][..],
+            "--at: ",
+        ),
+        (
+            &[
+                "history",
+                "plot",
+                "--robot-id",
+                "A",
+                "--out",
+                "p.jpg",
+                "--db",
+                "h.sqlite",
+            ][..],
+            "--out: `p.jpg`: the name must end in .svg or .png",
+        ),
+    ] {
+        let (code, _, err) = kinecal(d, args);
+        assert_ne!(code, 0, "{args:?}");
+        assert!(err.contains(expected), "{args:?}: {err}");
+    }
+    // Nothing was created by the refused jobs.
+    assert!(!d.join("h.sqlite").exists());
+    std::fs::write(
+        d.join("drift.toml"),
+        "job = \"history-drift\"\ndb = \"h.sqlite\"\nrobot_id = \"A\"\nsigma = -1\n",
+    )
+    .unwrap();
+    let (code, _, err) = kinecal(d, &["history", "drift", "--spec", "drift.toml"]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("drift.toml: sigma: -1: expected a positive"),
+        "{err}"
+    );
+    // A spec of another job is refused naming both.
+    let (code, _, err) = kinecal(d, &["history", "fleet", "--spec", "drift.toml"]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("`history-drift`, not of `history-fleet`"),
+        "{err}"
+    );
+}

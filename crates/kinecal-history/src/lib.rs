@@ -52,11 +52,15 @@
 //!   what is the same on every back end (validation, keys, dumps and imports).
 //! - `drift` and `fleet`: the analyses of what was read: [`drift()`] of a robot's determined
 //!   quantities, the state of a whole [`fleet()`].
+//! - [`jobs`]: the history jobs of the library's door (`kinecal::spec::history`) run: the
+//!   [`Historian`](jobs::Historian) front ends hand to `kinecal::spec::run`, and the typed
+//!   [`Document`](jobs::Document) of each job.
 
 mod database;
 mod drift;
 mod error;
 mod fleet;
+pub mod jobs;
 mod location;
 mod model;
 #[cfg(feature = "postgres")]

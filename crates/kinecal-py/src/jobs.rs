@@ -28,6 +28,9 @@ fn job_of(py: Python<'_>, spec: &str, form: &str) -> PyResult<Job> {
         "path" => Job::read(Path::new(spec)),
         "toml" => Job::from_toml(spec, "spec"),
         "json" => Job::from_json(spec, "spec"),
+        // A named function's keywords: errors name the key path, which Python words as the
+        // keyword.
+        "keywords" => Job::from_json(spec, KEYWORDS),
         other => return Err(bad(format!("run: unknown form `{other}`"))),
     }
     .map_err(|e| error(py, e))
@@ -37,8 +40,10 @@ fn job_of(py: Python<'_>, spec: &str, form: &str) -> PyResult<Job> {
 fn run_job(py: Python<'_>, job: &Job, spec_file: Option<&str>) -> PyResult<kinecal::spec::Done> {
     py.detach(|| {
         let artist = kinecal_report::Artist;
+        let historian = kinecal_history::jobs::Historian::new(Some(&artist));
         let mut quiet = ();
         let mut env = Env::new(&mut quiet, Some(&artist));
+        env.historian = Some(&historian);
         env.also_inputs.extend(spec_file.map(Into::into));
         kinecal::spec::run(job, &mut env)
     })

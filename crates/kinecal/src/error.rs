@@ -120,11 +120,33 @@ pub enum Setting {
     Estimate,
     /// The parameters held.
     Fix,
+    /// The history a job reads or writes (a SQLite file or a PostgreSQL URL).
+    History,
+    /// A robot's serial number in a history.
+    RobotId,
+    /// When a calibration or a maintenance event happened.
+    At,
+    /// The time a fleet's horizon is counted from.
+    Now,
+    /// How many standard deviations of change flag a quantity.
+    DriftSigma,
+    /// How many days ahead a trend's crossing makes a robot due.
+    Horizon,
+    /// The calibration drift is measured from.
+    Baseline,
+    /// A recorded calibration's id.
+    CalibrationId,
+    /// The tracked quantities a job shows.
+    Quantities,
+    /// A history dump a job reads.
+    Dump,
+    /// A note recorded with a calibration or an event.
+    Note,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 56] = [
+    pub const ALL: [Setting; 67] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -181,6 +203,17 @@ impl Setting {
         Setting::Calibrated,
         Setting::Estimate,
         Setting::Fix,
+        Setting::History,
+        Setting::RobotId,
+        Setting::At,
+        Setting::Now,
+        Setting::DriftSigma,
+        Setting::Horizon,
+        Setting::Baseline,
+        Setting::CalibrationId,
+        Setting::Quantities,
+        Setting::Dump,
+        Setting::Note,
     ];
 
     /// The library's words for it.
@@ -242,6 +275,17 @@ impl Setting {
             Setting::Calibrated => "calibrated robot",
             Setting::Estimate => "parameters to estimate",
             Setting::Fix => "parameters held",
+            Setting::History => "history",
+            Setting::RobotId => "robot serial",
+            Setting::At => "time",
+            Setting::Now => "now",
+            Setting::DriftSigma => "drift threshold",
+            Setting::Horizon => "horizon",
+            Setting::Baseline => "baseline",
+            Setting::CalibrationId => "calibration id",
+            Setting::Quantities => "quantities",
+            Setting::Dump => "dump",
+            Setting::Note => "note",
         }
     }
 
@@ -305,6 +349,17 @@ impl Setting {
             Setting::Calibrated => "calibrated",
             Setting::Estimate => "estimate",
             Setting::Fix => "fix",
+            Setting::History => "db",
+            Setting::RobotId => "robot_id",
+            Setting::At => "at",
+            Setting::Now => "now",
+            Setting::DriftSigma => "sigma",
+            Setting::Horizon => "horizon",
+            Setting::Baseline => "baseline",
+            Setting::CalibrationId => "id",
+            Setting::Quantities => "param",
+            Setting::Dump => "dump",
+            Setting::Note => "note",
         }
     }
 }
@@ -515,6 +570,10 @@ pub enum Error {
     /// A calibration could not be recorded in its history (what the store said).
     #[error("{0}")]
     Record(String),
+    /// A history job failed in its store (`kinecal-history`'s error, which the host may
+    /// downcast).
+    #[error("{0}")]
+    History(Box<dyn std::error::Error + Send + Sync>),
     /// Reading or writing a file failed.
     #[error("{path}: {cause}")]
     Io {

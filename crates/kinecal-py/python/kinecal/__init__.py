@@ -47,6 +47,7 @@ __all__ = [
     "compensate",
     "dataset",
     "datasets",
+    "history",
     "iso9283",
     "iso9283_log",
     "plan",
@@ -920,3 +921,7 @@ def dataset(name: str, folder: str | os.PathLike[str]) -> Dataset:
     if "weights" in kw:
         kw["weights"] = tuple(kw["weights"])
     return Dataset(robot, ident, valid, kw)
+
+
+# The history jobs (`kinecal.history.add`, ...): after the helpers they use.
+from . import history

@@ -177,6 +177,11 @@ pub(crate) fn rebase(base: &Path, p: &str) -> String {
     }
 }
 
+/// Whether a history's location is a server's URL (`postgres://...`), not a file.
+pub(crate) fn is_url(p: &str) -> bool {
+    p.contains("://")
+}
+
 /// A robot name relative to `base`: a built-in robot's name stays as it is unless a file of
 /// that name is there.
 pub(crate) fn rebase_robot(base: &Path, name: &str) -> String {

@@ -47,6 +47,7 @@ mod common;
 pub mod compensate;
 pub mod curves;
 pub mod export;
+pub mod history;
 pub mod iso9283;
 pub mod plan;
 pub mod predict;
@@ -64,6 +65,11 @@ pub use common::{LengthAngle, Residuals};
 pub use compensate::{CompensateOutcome, CompensateSpec, CompensationSummary, ProgramFormat};
 pub use curves::{CurveKind, Curves, CurvesSpec, Sweep, SweptParameter};
 pub use export::{ExportFormat, ExportOutcome, ExportSpec, ImportFormat, ImportSpec};
+pub use history::{
+    BaselineSpec, Historian, HistoryAddSpec, HistoryDocument, HistoryDriftSpec, HistoryEventSpec,
+    HistoryEventsSpec, HistoryExportSpec, HistoryFleetSpec, HistoryFormat, HistoryImportSpec,
+    HistoryInitSpec, HistoryListSpec, HistoryPlotSpec, HistoryShowSpec,
+};
 pub use iso9283::{
     Iso9283EvaluateSpec, Iso9283LogOutcome, Iso9283LogSpec, Iso9283PlanDocument,
     Iso9283PlanOutcome, Iso9283PlanSpec, Iso9283SimulateSpec, PlannedPose, SimulatedLog,
@@ -111,11 +117,33 @@ pub enum JobKind {
     Report,
     /// [`CurvesSpec`].
     Curves,
+    /// [`HistoryAddSpec`].
+    HistoryAdd,
+    /// [`HistoryListSpec`].
+    HistoryList,
+    /// [`HistoryShowSpec`].
+    HistoryShow,
+    /// [`HistoryExportSpec`].
+    HistoryExport,
+    /// [`HistoryDriftSpec`].
+    HistoryDrift,
+    /// [`HistoryPlotSpec`].
+    HistoryPlot,
+    /// [`HistoryFleetSpec`].
+    HistoryFleet,
+    /// [`HistoryEventSpec`].
+    HistoryEvent,
+    /// [`HistoryEventsSpec`].
+    HistoryEvents,
+    /// [`HistoryImportSpec`].
+    HistoryImport,
+    /// [`HistoryInitSpec`].
+    HistoryInit,
 }
 
 impl JobKind {
     /// Every kind.
-    pub const ALL: [JobKind; 16] = [
+    pub const ALL: [JobKind; 27] = [
         JobKind::Calibrate,
         JobKind::Analyze,
         JobKind::Plan,
@@ -132,6 +160,17 @@ impl JobKind {
         JobKind::Import,
         JobKind::Report,
         JobKind::Curves,
+        JobKind::HistoryAdd,
+        JobKind::HistoryList,
+        JobKind::HistoryShow,
+        JobKind::HistoryExport,
+        JobKind::HistoryDrift,
+        JobKind::HistoryPlot,
+        JobKind::HistoryFleet,
+        JobKind::HistoryEvent,
+        JobKind::HistoryEvents,
+        JobKind::HistoryImport,
+        JobKind::HistoryInit,
     ];
 
     /// The name in a spec's `job` key (the command's name; `iso9283-plan` for
@@ -154,6 +193,17 @@ impl JobKind {
             JobKind::Import => "import",
             JobKind::Report => "report",
             JobKind::Curves => "curves",
+            JobKind::HistoryAdd => "history-add",
+            JobKind::HistoryList => "history-list",
+            JobKind::HistoryShow => "history-show",
+            JobKind::HistoryExport => "history-export",
+            JobKind::HistoryDrift => "history-drift",
+            JobKind::HistoryPlot => "history-plot",
+            JobKind::HistoryFleet => "history-fleet",
+            JobKind::HistoryEvent => "history-event",
+            JobKind::HistoryEvents => "history-events",
+            JobKind::HistoryImport => "history-import",
+            JobKind::HistoryInit => "history-init",
         }
     }
 
@@ -178,6 +228,9 @@ pub enum PathRole {
     Input,
     /// A file the job writes.
     Output,
+    /// A history: a SQLite file (read, and written by the jobs that record), or a PostgreSQL
+    /// server's URL (never rebased, never a file).
+    History,
 }
 
 /// What every spec is: a serde document that names its files.
@@ -296,6 +349,17 @@ jobs! {
     Import(ImportSpec),
     Report(ReportSpec),
     Curves(CurvesSpec),
+    HistoryAdd(HistoryAddSpec),
+    HistoryList(HistoryListSpec),
+    HistoryShow(HistoryShowSpec),
+    HistoryExport(HistoryExportSpec),
+    HistoryDrift(HistoryDriftSpec),
+    HistoryPlot(HistoryPlotSpec),
+    HistoryFleet(HistoryFleetSpec),
+    HistoryEvent(HistoryEventSpec),
+    HistoryEvents(HistoryEventsSpec),
+    HistoryImport(HistoryImportSpec),
+    HistoryInit(HistoryInitSpec),
 }
 
 impl Job {
@@ -375,6 +439,8 @@ impl Job {
             *p = match role {
                 PathRole::Robot => common::rebase_robot(base, p),
                 PathRole::Input | PathRole::Output => common::rebase(base, p),
+                PathRole::History if common::is_url(p) => p.clone(),
+                PathRole::History => common::rebase(base, p),
             }
         });
         self
@@ -400,6 +466,7 @@ impl Job {
         self.clone().visit_paths(&mut |role, p| match role {
             PathRole::Robot if common::is_robot_file(p) => v.push(PathBuf::from(p.as_str())),
             PathRole::Input => v.push(PathBuf::from(p.as_str())),
+            PathRole::History if !common::is_url(p) => v.push(PathBuf::from(p.as_str())),
             _ => {}
         });
         v
@@ -511,6 +578,9 @@ pub struct Env<'a> {
     pub also_inputs: Vec<PathBuf>,
     /// Records a calibration in a history, when asked.
     pub recorder: Option<&'a mut dyn Recorder>,
+    /// Runs the history jobs: `kinecal-history`'s `Historian` (a history job without one is
+    /// an error).
+    pub historian: Option<&'a dyn Historian>,
     /// Hold a calibration's outputs: staged beside their targets, returned in
     /// [`Done::pending`] for the caller to put in place (a batch records its robots in order,
     /// then commits each). Other jobs write as they finish.
@@ -525,6 +595,7 @@ impl<'a> Env<'a> {
             artist,
             also_inputs: Vec::new(),
             recorder: None,
+            historian: None,
             hold: false,
         }
     }
@@ -654,6 +725,8 @@ pub enum Document {
     },
     /// Characteristic curves.
     Curves(Box<Curves>),
+    /// A history job's document (made by the [`Historian`]).
+    History(Box<dyn HistoryDocument>),
 }
 
 impl Document {
@@ -675,6 +748,7 @@ impl Document {
             Document::Export(e) => serde_json::to_value(e),
             Document::Page { path } => Ok(serde_json::json!({ "written": path })),
             Document::Curves(c) => serde_json::to_value(c),
+            Document::History(h) => Ok(h.to_json_value()),
         };
         v.expect("a document is plain data JSON can hold")
     }
