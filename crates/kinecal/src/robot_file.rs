@@ -508,19 +508,63 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     let root = doc.as_table();
     let name = r.string(root, "name", "name")?.unwrap_or("").to_string();
     let units = r.units(root)?;
-
     let links = r
         .tables(root, "links")?
         .iter()
         .enumerate()
         .map(|(i, t)| r.link(t, &format!("links[{i}]"), &units, &[]))
         .collect::<Result<Vec<_>>>()?;
-
-    let mut joints = Vec::new();
     let joint_tables = r.tables(root, "joints")?;
-    let joint_count = joint_tables.len();
+    let mut joints = Vec::new();
     for (i, t) in joint_tables.iter().enumerate() {
-        let t: &Table = t;
+        let joint = r.joint(t, i, joint_tables.len(), &joints, &units)?;
+        joints.push(joint);
+    }
+    let end_effector = r
+        .string(root, "end_effector", "end_effector")?
+        .map(str::to_string);
+    let sites = (r.tables(root, "sites")?.iter().enumerate())
+        .map(|(i, t)| r.site(t, i, &joints, &units))
+        .collect::<Result<Vec<_>>>()?;
+    let planes = (r.tables(root, "planes")?.iter().enumerate())
+        .map(|(i, t)| r.plane(t, i, &units))
+        .collect::<Result<Vec<_>>>()?;
+    let sessions = (r.tables(root, "sessions")?.iter().enumerate())
+        .map(|(i, t)| r.session(t, i, &units))
+        .collect::<Result<Vec<_>>>()?;
+    let mut robot = Robot {
+        name,
+        units,
+        links,
+        joints,
+        sites,
+        planes,
+        sessions,
+        tolerances: Default::default(),
+        priors: Default::default(),
+        elastic: None,
+        end_effector,
+    };
+    let invalid = |m| Error::input(Location::file(file), m);
+    robot.validate().map_err(invalid)?;
+    robot.elastic = r.elastic(root, &robot)?;
+    robot.validate().map_err(invalid)?;
+    r.tolerances(root, &mut robot)?;
+    r.priors(root, &mut robot)?;
+    Ok(robot)
+}
+
+impl Reader<'_> {
+    /// Joint `i` (0-based) of `count`, after the `earlier` ones.
+    fn joint(
+        &self,
+        t: &Table,
+        i: usize,
+        count: usize,
+        earlier: &[Joint],
+        units: &Units,
+    ) -> Result<Joint> {
+        let r = self;
         let what = format!("joints[{i}]");
         r.check_keys(
             t,
@@ -566,203 +610,188 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         let slope = r
             .number(t, "slope", &format!("{what}.slope"))?
             .unwrap_or(1.0);
-        let min = r.number(t, "min", &format!("{what}.min"))?;
-        let max = r.number(t, "max", &format!("{what}.max"))?;
-        let range = match (min, max) {
-            (None, None) => None,
-            (Some(a), Some(b)) if a < b => Some((a, b)),
-            (Some(_), Some(_)) => {
-                return Err(r.err(
-                    t.get("min").and_then(Item::span),
-                    &format!("{what}.min"),
-                    "min must be below max",
-                ))
-            }
-            _ => {
-                return Err(r.err(t.span(), &what, "give both `min` and `max`, or neither"));
-            }
-        };
-        let coupling = r.coupling(t, &what, kind, &units, (i, joint_count))?;
-        let name = r
-            .string(t, "name", &format!("{what}.name"))?
-            .map(str::to_string);
-        let parent = match t.get("parent") {
-            None => None,
-            Some(item) => {
-                let field = format!("{what}.parent");
-                let p = r.joint_number(item, &field, &joints, "parent")?;
-                if p > i {
-                    return Err(r.err(
-                        item.span(),
-                        &field,
-                        format!(
-                            "joint {} cannot hang off joint {p}: a parent comes before its \
-                             children (0, the global frame, to {i})",
-                            i + 1
-                        ),
-                    ));
-                }
-                // The previous joint is the serial default: one way to say it.
-                (p != i).then_some(p)
-            }
-        };
-        joints.push(Joint {
+        Ok(Joint {
             kind,
             offset: units.to_si(kind.variable(), offset),
             slope: units.to_si(kind.slope(), slope),
-            coupling,
-            range,
-            name,
-            parent,
-        });
+            coupling: r.coupling(t, &what, kind, units, (i, count))?,
+            range: r.range(t, &what)?,
+            name: r
+                .string(t, "name", &format!("{what}.name"))?
+                .map(str::to_string),
+            parent: r.parent(t, i, &what, earlier)?,
+        })
     }
-    let end_effector = r
-        .string(root, "end_effector", "end_effector")?
-        .map(str::to_string);
 
-    let mut sites = Vec::new();
-    for (i, t) in r.tables(root, "sites")?.iter().enumerate() {
-        let t: &Table = t;
+    /// A joint's range: `min` below `max`, both or neither.
+    fn range(&self, t: &Table, what: &str) -> Result<Option<(f64, f64)>> {
+        let min = self.number(t, "min", &format!("{what}.min"))?;
+        let max = self.number(t, "max", &format!("{what}.max"))?;
+        match (min, max) {
+            (None, None) => Ok(None),
+            (Some(a), Some(b)) if a < b => Ok(Some((a, b))),
+            (Some(_), Some(_)) => Err(self.err(
+                t.get("min").and_then(Item::span),
+                &format!("{what}.min"),
+                "min must be below max",
+            )),
+            _ => Err(self.err(t.span(), what, "give both `min` and `max`, or neither")),
+        }
+    }
+
+    /// The joint joint `i` hangs off (`None`: the previous one, the serial default).
+    fn parent(&self, t: &Table, i: usize, what: &str, earlier: &[Joint]) -> Result<Option<usize>> {
+        let Some(item) = t.get("parent") else {
+            return Ok(None);
+        };
+        let field = format!("{what}.parent");
+        let p = self.joint_number(item, &field, earlier, "parent")?;
+        if p > i {
+            return Err(self.err(
+                item.span(),
+                &field,
+                format!(
+                    "joint {} cannot hang off joint {p}: a parent comes before its children (0, \
+                     the global frame, to {i})",
+                    i + 1
+                ),
+            ));
+        }
+        // The previous joint is the serial default: one way to say it.
+        Ok((p != i).then_some(p))
+    }
+
+    /// The `name` a table must have.
+    fn name(&self, t: &Table, what: &str) -> Result<String> {
+        let field = format!("{what}.name");
+        Ok(self
+            .string(t, "name", &field)?
+            .ok_or_else(|| self.err(t.span(), &field, "missing `name`"))?
+            .to_string())
+    }
+
+    /// Site `i`: a frame on a joint.
+    fn site(&self, t: &Table, i: usize, joints: &[Joint], units: &Units) -> Result<Site> {
         let what = format!("sites[{i}]");
-        let frame = r.link(t, &what, &units, &["name", "joint"])?;
-        let name_field = format!("{what}.name");
-        let name = r
-            .string(t, "name", &name_field)?
-            .ok_or_else(|| r.err(t.span(), &name_field, "missing `name`"))?
-            .to_string();
+        let frame = self.link(t, &what, units, &["name", "joint"])?;
+        let name = self.name(t, &what)?;
         let joint_field = format!("{what}.joint");
-        let joint = match t.get("joint") {
-            Some(item) if item.is_str() => r.joint_number(item, &joint_field, &joints, "joint")?,
-            item => {
-                match item.and_then(Item::as_integer) {
+        let joint =
+            match t.get("joint") {
+                Some(item) if item.is_str() => {
+                    self.joint_number(item, &joint_field, joints, "joint")?
+                }
+                item => match item.and_then(Item::as_integer) {
                     Some(j) if j >= 1 => j as usize,
-                    _ => return Err(r.err(
+                    _ => return Err(self.err(
                         item.and_then(Item::span).or(t.span()),
                         &joint_field,
                         "expected `joint = K`, the number (1..n) or name of the joint the site \
                          follows",
                     )),
-                }
-            }
-        };
-        sites.push(Site { name, joint, frame });
+                },
+            };
+        Ok(Site { name, joint, frame })
     }
 
-    let mut planes = Vec::new();
-    for (i, t) in r.tables(root, "planes")?.iter().enumerate() {
-        let t: &Table = t;
+    /// Plane `i`: a normal and an offset in the global frame.
+    fn plane(&self, t: &Table, i: usize, units: &Units) -> Result<Plane> {
         let what = format!("planes[{i}]");
-        r.check_keys(t, &["name", "normal", "offset"], &what)?;
-        let name_field = format!("{what}.name");
-        let name = r
-            .string(t, "name", &name_field)?
-            .ok_or_else(|| r.err(t.span(), &name_field, "missing `name`"))?
-            .to_string();
+        self.check_keys(t, &["name", "normal", "offset"], &what)?;
+        let name = self.name(t, &what)?;
         let normal_field = format!("{what}.normal");
-        let normal = r.vec3(t, "normal", &normal_field)?.ok_or_else(|| {
-            r.err(
+        let normal = self.vec3(t, "normal", &normal_field)?.ok_or_else(|| {
+            self.err(
                 t.span(),
                 &normal_field,
                 "missing `normal = [nx, ny, nz]` (the plane's normal in the global frame)",
             )
         })?;
         let offset_field = format!("{what}.offset");
-        let offset = r.number(t, "offset", &offset_field)?.ok_or_else(|| {
-            r.err(
+        let offset = self.number(t, "offset", &offset_field)?.ok_or_else(|| {
+            self.err(
                 t.span(),
                 &offset_field,
                 "missing `offset` (the plane's signed distance from the global origin along its \
                  normal, in length_unit)",
             )
         })?;
-        let plane = Plane::new(
+        Plane::new(
             name,
             nalgebra::Vector3::from(normal),
             units.to_si(Quantity::Length, offset),
         )
         .ok_or_else(|| {
-            r.err(
+            self.err(
                 t.get("normal").and_then(Item::span),
                 &normal_field,
                 "the normal must not be zero",
             )
-        })?;
-        planes.push(plane);
+        })
     }
 
-    let mut sessions = Vec::new();
-    for (i, t) in r.tables(root, "sessions")?.iter().enumerate() {
-        let t: &Table = t;
+    /// Session `i`: a name and the frame its instrument stood in.
+    fn session(&self, t: &Table, i: usize, units: &Units) -> Result<Session> {
         let what = format!("sessions[{i}]");
-        let frame = r.link(t, &what, &units, &["name"])?;
-        let name_field = format!("{what}.name");
-        let name = r
-            .string(t, "name", &name_field)?
-            .ok_or_else(|| r.err(t.span(), &name_field, "missing `name`"))?
-            .to_string();
-        sessions.push(Session { name, frame });
+        let frame = self.link(t, &what, units, &["name"])?;
+        Ok(Session {
+            name: self.name(t, &what)?,
+            frame,
+        })
     }
 
-    let mut robot = Robot {
-        name,
-        units,
-        links,
-        joints,
-        sites,
-        planes,
-        sessions,
-        tolerances: Default::default(),
-        priors: Default::default(),
-        elastic: None,
-        end_effector,
-    };
-    robot
-        .validate()
-        .map_err(|m| Error::input(Location::file(file), m))?;
-    robot.elastic = r.elastic(root, &robot)?;
-    robot
-        .validate()
-        .map_err(|m| Error::input(Location::file(file), m))?;
-    match r.table(root, "tolerances")? {
-        None => {}
-        Some(t) => {
-            for (key, item) in t.iter() {
-                let field = format!("tolerances.{key}");
-                let v = r.number(&t, key, &field)?.expect("key exists");
-                if v <= 0.0 {
-                    return Err(r.err(item.span(), &field, "a tolerance must be positive"));
-                }
-                match key {
-                    "length" => robot.tolerances.length = units.to_si(Quantity::Length, v),
-                    "angle" => robot.tolerances.angle = units.to_si(Quantity::Angle, v),
-                    "slope" => robot.tolerances.slope_fraction = v,
-                    name => {
-                        let id = crate::param_list::parse_param(name, &robot).map_err(|e| {
-                            r.err(
-                                item.span(),
-                                &field,
-                                format!("{e} (expected length, angle, slope or a parameter)"),
-                            )
-                        })?;
-                        let si = units.to_si(robot.param_quantity(id), v);
-                        robot.tolerances.overrides.push((id, si));
-                    }
+    /// `[tolerances]`: `length`, `angle`, `slope` and parameters' own, positive.
+    fn tolerances(&self, root: &Table, robot: &mut Robot) -> Result<()> {
+        let Some(t) = self.table(root, "tolerances")? else {
+            return Ok(());
+        };
+        let units = robot.units;
+        for (key, item) in t.iter() {
+            let field = format!("tolerances.{key}");
+            let Some(v) = self.number(&t, key, &field)? else {
+                continue;
+            };
+            if v <= 0.0 {
+                return Err(self.err(item.span(), &field, "a tolerance must be positive"));
+            }
+            match key {
+                "length" => robot.tolerances.length = units.to_si(Quantity::Length, v),
+                "angle" => robot.tolerances.angle = units.to_si(Quantity::Angle, v),
+                "slope" => robot.tolerances.slope_fraction = v,
+                name => {
+                    let id = crate::param_list::parse_param(name, robot).map_err(|e| {
+                        self.err(
+                            item.span(),
+                            &field,
+                            format!("{e} (expected length, angle, slope or a parameter)"),
+                        )
+                    })?;
+                    let si = units.to_si(robot.param_quantity(id), v);
+                    robot.tolerances.overrides.push((id, si));
                 }
             }
         }
+        Ok(())
     }
-    // The prior on the parameters' changes (standard deviations), keyed as [tolerances] is.
-    if let Some(t) = r.table(root, "priors")? {
+
+    /// `[priors]`: the prior on the parameters' changes (standard deviations), keyed as
+    /// `[tolerances]` is.
+    fn priors(&self, root: &Table, robot: &mut Robot) -> Result<()> {
+        let Some(t) = self.table(root, "priors")? else {
+            return Ok(());
+        };
         let mut prior = crate::robot::Prior::default();
         for (key, item) in t.iter() {
             let field = format!("priors.{key}");
-            let v = r.number(&t, key, &field)?.expect("key exists");
-            crate::prior::set_key(&mut prior, key, v, &robot)
-                .map_err(|m| r.err(item.span(), &field, m))?;
+            let Some(v) = self.number(&t, key, &field)? else {
+                continue;
+            };
+            crate::prior::set_key(&mut prior, key, v, robot)
+                .map_err(|m| self.err(item.span(), &field, m))?;
         }
         robot.priors = prior;
+        Ok(())
     }
-    Ok(robot)
 }
 
 /// The scales of a robot file's kinds of numbers (see [`crate::units::number`]), in the file's

@@ -267,41 +267,106 @@ pub fn parse_measurements_mapped(
     map: &ColumnMap,
 ) -> Result<Dataset> {
     let t = table::read(text, file)?;
-    let n = robot.dof();
-    let readings = reading_columns(n);
-    // Readings headed by the joints' names instead of `vK`: an implicit mapping.
+    let map = with_named_readings(&t, robot, map);
+    let layout = Layout::of(&t, robot, &map)?;
+    t.check_rows()?;
+    layout.check_sigma_columns(&t)?;
+    let mut rows = Rows {
+        t: &t,
+        robot,
+        layout: &layout,
+        units: map.units(robot),
+        postures: PostureTable::with_capacity(t.rows().count()),
+        observations: Vec::with_capacity(t.rows().count() * layout.markers.len()),
+        seen: TargetsSeen::default(),
+        sessions: Vec::new(),
+    };
+    let mut numbered = String::new();
+    for (row_number, (line, f)) in t.rows().enumerate() {
+        let label = match layout.posture {
+            Some(i) => f.get(i),
+            None => {
+                numbered.clear();
+                numbered.push_str(&(row_number + 1).to_string());
+                &numbered
+            }
+        };
+        rows.row(line, label, &f)?;
+    }
+    if rows.observations.is_empty() {
+        return Err(Error::input(
+            Location::file(file),
+            "no measurements: the file has a header but no rows",
+        ));
+    }
+    Ok(Dataset::new(rows.postures.postures, rows.observations))
+}
+
+/// `map` with the readings headed by the joints' names instead of `vK` mapped (an implicit
+/// mapping).
+fn with_named_readings(t: &table::Table<'_>, robot: &Robot, map: &ColumnMap) -> ColumnMap {
     let mut named = map.clone();
-    for (j, v) in readings.iter().enumerate() {
+    for (j, v) in reading_columns(robot.dof()).iter().enumerate() {
         let column = super::reading_column(robot, &t.header, j);
         if column != *v && !named.shared.iter().any(|(o, _)| o == v) {
             named.shared.push((v.clone(), column));
         }
     }
-    let map = &named;
+    named
+}
+
+/// kinecal's own columns, in the order of the format's header.
+fn canonical_columns(n: usize) -> Vec<String> {
     let mut canonical: Vec<String> = vec!["posture".into(), "site".into(), "session".into()];
     canonical.extend(PAYLOAD_COLUMNS.iter().map(|s| s.to_string()));
-    canonical.extend(readings.iter().cloned());
+    canonical.extend(reading_columns(n));
     canonical.extend(MARKER_COLUMNS.iter().map(|s| s.to_string()));
-    for (ours, _) in &map.shared {
-        if !canonical.contains(ours) {
-            return Err(Error::input(
-                t.header_at(),
-                format!(
-                    "column mapping: `{ours}` is not a kinecal column (expected one of {})",
-                    canonical.join(", ")
-                ),
-            ));
-        }
-    }
-    let theirs = |mapping: &[(String, String)], ours: &str| -> String {
+    canonical
+}
+
+/// Where each of kinecal's columns is in a file, as its header and the column mapping say.
+struct Layout {
+    /// The posture labels (numbered by row without).
+    posture: Option<usize>,
+    /// The site of each row (the end effector without).
+    site: Option<usize>,
+    /// The session of each row, and the file's name of that column.
+    session: (Option<usize>, String),
+    /// The payload columns ([`PAYLOAD_COLUMNS`]).
+    payload: Vec<(Option<usize>, String)>,
+    /// The joint readings.
+    readings: Vec<(usize, String)>,
+    /// The measured targets' columns: one for a long layout, one per marker for a wide one.
+    markers: Vec<Marker>,
+    /// A wide layout: a row may leave a marker out.
+    wide: bool,
+}
+
+/// Finds kinecal's columns in a table's header, through a column mapping.
+struct Finder<'a, 't> {
+    t: &'a table::Table<'t>,
+    n: usize,
+}
+
+impl Finder<'_, '_> {
+    /// The file's name for kinecal's column `ours` in `mapping`.
+    fn theirs(mapping: &[(String, String)], ours: &str) -> String {
         mapping
             .iter()
             .find(|(o, _)| o == ours)
             .map_or(ours.to_string(), |(_, t)| t.clone())
-    };
-    // Where each of kinecal's columns is: (index, the file's name for it).
-    let find = |mapping: &[(String, String)], ours: &str, required: bool| {
-        let name = theirs(mapping, ours);
+    }
+
+    /// Where kinecal's column `ours` is (its index, the file's name for it); an error when a
+    /// `required` one, or one the mapping names, is not there.
+    fn find(
+        &self,
+        mapping: &[(String, String)],
+        ours: &str,
+        required: bool,
+    ) -> Result<(Option<usize>, String)> {
+        let t = self.t;
+        let name = Self::theirs(mapping, ours);
         let explicit = mapping.iter().any(|(o, _)| o == ours);
         if name == NOT_READ {
             return if required {
@@ -333,36 +398,18 @@ pub fn parse_measurements_mapped(
                         format!(" (for kinecal's `{ours}`)")
                     },
                     t.header.join(","),
-                    FORMAT.header.replace("v1..vn", &format!("v1..v{n}"))
+                    FORMAT.header.replace("v1..vn", &format!("v1..v{}", self.n))
                 ),
             )),
         }
-    };
-    let (posture_col, _) = find(&map.shared, "posture", false)?;
-    let (site_col, _) = find(&map.shared, "site", false)?;
-    let (session_col, session_name) = find(&map.shared, "session", false)?;
-    let mut session_names: Vec<std::sync::Arc<str>> = Vec::new();
-    let payload_cols = PAYLOAD_COLUMNS
-        .iter()
-        .map(|c| find(&map.shared, c, false))
-        .collect::<Result<Vec<_>>>()?;
-    if payload_cols[0].0.is_none() {
-        if let Some((_, name)) = payload_cols[1..].iter().find(|(i, _)| i.is_some()) {
-            return Err(Error::input(
-                t.header_at().with_field(name.clone()),
-                "a payload's centre of mass without `payload_mass` (kg)",
-            ));
-        }
     }
-    let reading_cols = readings
-        .iter()
-        .map(|r| find(&map.shared, r, true).map(|(i, name)| (i.expect("required"), name)))
-        .collect::<Result<Vec<_>>>()?;
-    let marker_of = |mapping: &[(String, String)], target: Option<Target>| -> Result<Marker> {
+
+    /// The columns of one measured target.
+    fn marker(&self, mapping: &[(String, String)], target: Option<Target>) -> Result<Marker> {
         let mut cols = [None; 11];
         let mut names: [String; 11] = Default::default();
         for (k, c) in MARKER_COLUMNS.iter().enumerate() {
-            let (i, name) = find(mapping, c, k < 3)?;
+            let (i, name) = self.find(mapping, c, k < 3)?;
             cols[k] = i;
             names[k] = name;
         }
@@ -371,279 +418,415 @@ pub fn parse_measurements_mapped(
             cols,
             names,
         })
-    };
-    let markers: Vec<Marker> = if map.markers.is_empty() {
-        vec![marker_of(&map.shared, None)?]
-    } else {
-        if let Some((o, th)) = map
-            .shared
-            .iter()
-            .find(|(o, _)| MARKER_COLUMNS.contains(&o.as_str()))
-        {
+    }
+}
+
+impl Layout {
+    /// The layout of table `t` for `robot` through `map`.
+    fn of(t: &table::Table<'_>, robot: &Robot, map: &ColumnMap) -> Result<Layout> {
+        let n = robot.dof();
+        let canonical = canonical_columns(n);
+        if let Some((ours, _)) = map.shared.iter().find(|(o, _)| !canonical.contains(o)) {
             return Err(Error::input(
                 t.header_at(),
                 format!(
-                    "column mapping: `{o}={th}` in the shared mapping is not used when markers \
-                     are given: map it in each marker (`SITE:{o}={th}`)"
+                    "column mapping: `{ours}` is not a kinecal column (expected one of {})",
+                    canonical.join(", ")
                 ),
             ));
         }
-        let mut used: HashMap<&str, &str> = HashMap::new();
-        for (site, mapping) in &map.markers {
-            for (_, th) in mapping {
-                if let Some(other) = used.insert(th.as_str(), site.as_str()) {
-                    if other != site {
-                        return Err(Error::input(
-                            t.header_at().with_field(th.clone()),
-                            format!(
-                                "column mapping: file column `{th}` is mapped for both markers \
-                                 `{other}` and `{site}`"
-                            ),
-                        ));
-                    }
-                }
-            }
-        }
-        if site_col.is_some() && map.shared.iter().any(|(o, _)| o == "site") {
-            return Err(Error::input(
-                t.header_at(),
-                "column mapping: a `site` column cannot be mapped when markers name their sites",
-            ));
-        }
-        map.markers
+        let finder = Finder { t, n };
+        let find = |ours: &str| finder.find(&map.shared, ours, false);
+        let posture = find("posture")?.0;
+        let site = find("site")?.0;
+        let session = find("session")?;
+        let payload = PAYLOAD_COLUMNS
             .iter()
-            .map(|(site, mapping)| {
-                let target = site_target(robot, site)
-                    .map_err(|m| Error::input(t.header_at(), format!("column mapping: {m}")))?;
-                marker_of(mapping, Some(target))
-            })
-            .collect::<Result<Vec<_>>>()?
-    };
-    if map.is_identity() {
-        // A plain file: every column must be one of kinecal's (what `kinecal compensate`
-        // adds to a measurement file, its solutions' remaining errors and flags, is read past).
-        if let Some(h) = t.header.iter().find(|h| {
-            !h.is_empty()
-                && !canonical.iter().any(|c| c.eq_ignore_ascii_case(h))
-                && !COMPENSATED_COLUMNS.contains(&h.as_str())
-        }) {
-            let hint = if h.len() > 1
-                && h.starts_with(['v', 'V'])
-                && h[1..].parse::<usize>().is_ok_and(|j| j > n)
-            {
-                format!(" (the robot has {n} joints)")
-            } else {
-                String::new()
-            };
-            return Err(Error::input(
-                t.header_at().with_field(h.clone()),
-                format!(
-                    "unknown column `{h}`{hint}: expected {} (other layouts can be read through a \
-                     column mapping)",
-                    FORMAT.header.replace("v1..vn", &format!("v1..v{n}"))
-                ),
-            ));
-        }
-    }
-    t.check_rows()?;
-    for m in &markers {
-        let axes = m.cols[8..11].iter().filter(|c| c.is_some()).count();
-        if axes > 0 && axes < 3 {
-            return Err(Error::input(
-                t.header_at(),
-                "per-axis standard deviations: give all of sigma_x, sigma_y, sigma_z",
-            ));
-        }
-        if axes == 3 && m.cols[6].is_some() {
-            return Err(Error::input(
-                t.header_at().with_field(m.names[6].clone()),
-                "give sigma_position (every axis) or sigma_x, sigma_y, sigma_z (each axis), not \
-                 both",
-            ));
-        }
-    }
-    let units = map.units(robot);
-    let mut postures = PostureTable::with_capacity(t.rows().count());
-    let mut observations: Vec<Observation> = Vec::with_capacity(t.rows().count() * markers.len());
-    let mut seen = TargetsSeen::default();
-    let wide = !map.markers.is_empty();
-    let mut numbered = String::new();
-    for (row_number, (line, f)) in t.rows().enumerate() {
-        let label = match posture_col {
-            Some(i) => f.get(i),
-            None => {
-                numbered.clear();
-                numbered.push_str(&(row_number + 1).to_string());
-                &numbered
-            }
-        };
-        let mut values = Vec::with_capacity(reading_cols.len());
-        for (i, name) in &reading_cols {
-            values.push(t.number(line, name, &f[*i])?);
-        }
-        let field_of = |j: usize| reading_cols[j].1.clone();
-        let known = postures.postures.len();
-        let posture = postures.get_or_insert(&t, line, label, values, &field_of)?;
-        if payload_cols[0].0.is_some() {
-            let payload = payload_of(&t, line, &f, &payload_cols, &units)?;
-            let p = &mut postures.postures[posture];
-            if posture == known {
-                p.payload = payload;
-            } else if p.payload != payload {
-                let say = |p: Option<crate::robot::Payload>| {
-                    p.map_or("no payload".to_string(), |p| {
-                        let c = p.com.map(|v| units.from_si(Quantity::Length, v));
-                        format!("{} kg at [{}, {}, {}]", p.mass, c.x, c.y, c.z)
-                    })
-                };
+            .map(|c| find(c))
+            .collect::<Result<Vec<_>>>()?;
+        if payload[0].0.is_none() {
+            if let Some((_, name)) = payload[1..].iter().find(|(i, _)| i.is_some()) {
                 return Err(Error::input(
-                    t.at(line, &payload_cols[0].1),
-                    format!(
-                        "posture `{label}` carries {} on an earlier line and {} here: rows of one \
-                         posture share its payload",
-                        say(p.payload),
-                        say(payload)
-                    ),
+                    t.header_at().with_field(name.clone()),
+                    "a payload's centre of mass without `payload_mass` (kg)",
                 ));
             }
         }
-        if let Some(i) = session_col {
-            let name = f.get(i).trim();
-            let name = match session_names.iter().find(|s| &***s == name) {
-                Some(s) => s.clone(),
-                None => {
-                    session_names.push(name.into());
-                    session_names.last().expect("pushed").clone()
-                }
-            };
-            let p = &mut postures.postures[posture];
-            let name = (!name.is_empty()).then_some(name);
-            match &p.session {
-                _ if posture == known => p.session = name,
-                Some(s) if Some(s) == name.as_ref() => {}
-                None if name.is_none() => {}
-                was => {
-                    let say = |s: Option<&std::sync::Arc<str>>| {
-                        s.map_or("no session".to_string(), |s| format!("session `{s}`"))
-                    };
+        let readings = reading_columns(n)
+            .iter()
+            .map(|r| {
+                let (i, name) = finder.find(&map.shared, r, true)?;
+                // A required column is found or refused.
+                Ok((i.unwrap_or_default(), name))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let layout = Layout {
+            posture,
+            site,
+            session,
+            payload,
+            readings,
+            markers: markers(&finder, robot, map, site.is_some())?,
+            wide: !map.markers.is_empty(),
+        };
+        if map.is_identity() {
+            check_plain_header(t, n, &canonical)?;
+        }
+        Ok(layout)
+    }
+
+    /// Each target's standard deviations: all three axes or none, and not with a
+    /// `sigma_position` as well.
+    fn check_sigma_columns(&self, t: &table::Table<'_>) -> Result<()> {
+        for m in &self.markers {
+            let axes = m.cols[8..11].iter().filter(|c| c.is_some()).count();
+            if axes > 0 && axes < 3 {
+                return Err(Error::input(
+                    t.header_at(),
+                    "per-axis standard deviations: give all of sigma_x, sigma_y, sigma_z",
+                ));
+            }
+            if axes == 3 && m.cols[6].is_some() {
+                return Err(Error::input(
+                    t.header_at().with_field(m.names[6].clone()),
+                    "give sigma_position (every axis) or sigma_x, sigma_y, sigma_z (each axis), \
+                     not both",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The measured targets' columns: the shared mapping's one target (its site from the `site`
+/// column), or one per marker of a wide layout (each mapped to its own columns, none twice).
+fn markers(
+    finder: &Finder<'_, '_>,
+    robot: &Robot,
+    map: &ColumnMap,
+    has_site: bool,
+) -> Result<Vec<Marker>> {
+    let t = finder.t;
+    if map.markers.is_empty() {
+        return Ok(vec![finder.marker(&map.shared, None)?]);
+    }
+    if let Some((o, th)) = map
+        .shared
+        .iter()
+        .find(|(o, _)| MARKER_COLUMNS.contains(&o.as_str()))
+    {
+        return Err(Error::input(
+            t.header_at(),
+            format!(
+                "column mapping: `{o}={th}` in the shared mapping is not used when markers are \
+                 given: map it in each marker (`SITE:{o}={th}`)"
+            ),
+        ));
+    }
+    let mut used: HashMap<&str, &str> = HashMap::new();
+    for (site, mapping) in &map.markers {
+        for (_, th) in mapping {
+            match used.insert(th.as_str(), site.as_str()) {
+                Some(other) if other != site => {
                     return Err(Error::input(
-                        t.at(line, &session_name),
+                        t.header_at().with_field(th.clone()),
                         format!(
-                            "posture `{label}` is in {} on an earlier line and in {} here",
-                            say(was.as_ref()),
-                            say(name.as_ref())
+                            "column mapping: file column `{th}` is mapped for both markers \
+                             `{other}` and `{site}`"
                         ),
                     ));
                 }
+                _ => {}
             }
         }
-        for m in &markers {
-            let target = match m.target {
-                Some(t) => t,
-                None => match site_col {
-                    Some(i) => site_target(robot, &f[i])
-                        .map_err(|msg| Error::input(t.at(line, "site"), msg))?,
-                    None => Target::EndEffector,
-                },
-            };
-            let field = |k: usize| m.cols[k].map_or("", |i| f.get(i));
-            if wide && (0..3).all(|k| field(k).is_empty()) {
-                continue; // this marker was not measured in this row
+    }
+    if has_site && map.shared.iter().any(|(o, _)| o == "site") {
+        return Err(Error::input(
+            t.header_at(),
+            "column mapping: a `site` column cannot be mapped when markers name their sites",
+        ));
+    }
+    map.markers
+        .iter()
+        .map(|(site, mapping)| {
+            let target = site_target(robot, site)
+                .map_err(|m| Error::input(t.header_at(), format!("column mapping: {m}")))?;
+            finder.marker(mapping, Some(target))
+        })
+        .collect()
+}
+
+/// A plain file (no column mapping): every column must be one of kinecal's (what `kinecal
+/// compensate` adds to a measurement file, its solutions' remaining errors and flags, is read
+/// past).
+fn check_plain_header(t: &table::Table<'_>, n: usize, canonical: &[String]) -> Result<()> {
+    let Some(h) = t.header.iter().find(|h| {
+        !h.is_empty()
+            && !canonical.iter().any(|c| c.eq_ignore_ascii_case(h))
+            && !COMPENSATED_COLUMNS.contains(&h.as_str())
+    }) else {
+        return Ok(());
+    };
+    let hint =
+        if h.len() > 1 && h.starts_with(['v', 'V']) && h[1..].parse::<usize>().is_ok_and(|j| j > n)
+        {
+            format!(" (the robot has {n} joints)")
+        } else {
+            String::new()
+        };
+    Err(Error::input(
+        t.header_at().with_field(h.clone()),
+        format!(
+            "unknown column `{h}`{hint}: expected {} (other layouts can be read through a column \
+             mapping)",
+            FORMAT.header.replace("v1..vn", &format!("v1..v{n}"))
+        ),
+    ))
+}
+
+/// The rows of a measurement file read into postures and observations.
+struct Rows<'a, 't> {
+    t: &'a table::Table<'t>,
+    robot: &'a Robot,
+    layout: &'a Layout,
+    units: crate::units::Units,
+    postures: PostureTable,
+    observations: Vec<Observation>,
+    seen: TargetsSeen,
+    /// The sessions named so far (each name shared by its postures).
+    sessions: Vec<std::sync::Arc<str>>,
+}
+
+impl Rows<'_, '_> {
+    /// Reads the row on `line` (its posture labelled `label`).
+    fn row(&mut self, line: usize, label: &str, f: &table::Fields<'_>) -> Result<()> {
+        let t = self.t;
+        let mut values = Vec::with_capacity(self.layout.readings.len());
+        for (i, name) in &self.layout.readings {
+            values.push(t.number(line, name, &f[*i])?);
+        }
+        let field_of = |j: usize| self.layout.readings[j].1.clone();
+        let known = self.postures.postures.len();
+        let posture = self
+            .postures
+            .get_or_insert(t, line, label, values, &field_of)?;
+        let new = posture == known;
+        if self.layout.payload[0].0.is_some() {
+            self.payload(line, label, f, posture, new)?;
+        }
+        if let Some(i) = self.layout.session.0 {
+            self.session(line, label, f.get(i).trim(), posture, new)?;
+        }
+        for m in &self.layout.markers {
+            self.marker(line, label, f, m, posture)?;
+        }
+        Ok(())
+    }
+
+    /// The row's payload: a posture's rows share it.
+    fn payload(
+        &mut self,
+        line: usize,
+        label: &str,
+        f: &table::Fields<'_>,
+        posture: usize,
+        new: bool,
+    ) -> Result<()> {
+        let payload = payload_of(self.t, line, f, &self.layout.payload, &self.units)?;
+        let p = &mut self.postures.postures[posture];
+        if new {
+            p.payload = payload;
+            return Ok(());
+        }
+        if p.payload == payload {
+            return Ok(());
+        }
+        let units = &self.units;
+        let say = |p: Option<crate::robot::Payload>| {
+            p.map_or("no payload".to_string(), |p| {
+                let c = p.com.map(|v| units.from_si(Quantity::Length, v));
+                format!("{} kg at [{}, {}, {}]", p.mass, c.x, c.y, c.z)
+            })
+        };
+        Err(Error::input(
+            self.t.at(line, &self.layout.payload[0].1),
+            format!(
+                "posture `{label}` carries {} on an earlier line and {} here: rows of one posture \
+                 share its payload",
+                say(p.payload),
+                say(payload)
+            ),
+        ))
+    }
+
+    /// The row's session: a posture's rows share it.
+    fn session(
+        &mut self,
+        line: usize,
+        label: &str,
+        name: &str,
+        posture: usize,
+        new: bool,
+    ) -> Result<()> {
+        let name = match self.sessions.iter().find(|s| &***s == name) {
+            Some(s) => s.clone(),
+            None => {
+                self.sessions.push(name.into());
+                self.sessions.last().expect("pushed").clone()
             }
-            let mut pos = [0.0; 3];
-            for (k, p) in pos.iter_mut().enumerate() {
-                *p = units.to_si(Quantity::Length, t.number(line, &m.names[k], field(k))?);
-            }
-            let angles = [field(3), field(4), field(5)];
-            let euler = if angles.iter().all(|a| a.is_empty()) {
-                None
-            } else {
-                let mut e = [0.0; 3];
-                for k in 0..3 {
-                    if angles[k].is_empty() {
-                        return Err(Error::input(
-                            t.at(line, &m.names[3 + k]),
-                            "empty angle: give all of alpha, beta, gamma (a full pose) or none (a \
-                             position)",
-                        ));
-                    }
-                    e[k] =
-                        units.to_si(Quantity::Angle, t.number(line, &m.names[3 + k], angles[k])?);
-                }
-                Some(Vector3::from(e))
-            };
-            let sigma_position = match m.cols[8] {
-                Some(_) => {
-                    let mut axes = [None; 3];
-                    for (k, a) in axes.iter_mut().enumerate() {
-                        *a = t.sigma(line, &m.names[8 + k], field(8 + k))?;
-                    }
-                    match axes {
-                        [Some(x), Some(y), Some(z)] => Some(Vector3::new(x, y, z)),
-                        [None, None, None] => None,
-                        _ => {
-                            return Err(Error::input(
-                                t.at(line, &m.names[8]),
-                                "give all of sigma_x, sigma_y, sigma_z in a row, or none",
-                            ))
-                        }
-                    }
-                }
-                None => t.sigma(line, &m.names[6], field(6))?.map(Vector3::repeat),
-            }
-            .map(|s| s.map(|v| units.to_si(Quantity::Length, v)));
-            let sigma_angle = t
-                .sigma(line, &m.names[7], field(7))?
-                .map(|s| units.to_si(Quantity::Angle, s));
-            if euler.is_none() && sigma_angle.is_some() {
+        };
+        let p = &mut self.postures.postures[posture];
+        let name = (!name.is_empty()).then_some(name);
+        match &p.session {
+            _ if new => p.session = name,
+            Some(s) if Some(s) == name.as_ref() => {}
+            None if name.is_none() => {}
+            was => {
+                let say = |s: Option<&std::sync::Arc<str>>| {
+                    s.map_or("no session".to_string(), |s| format!("session `{s}`"))
+                };
                 return Err(Error::input(
-                    t.at(line, &m.names[7]),
-                    "sigma_angle on a position-only row (no alpha, beta, gamma)",
-                ));
-            }
-            if !seen.insert(posture, target) {
-                // The first measurement of the same target in the same posture.
-                let first = observations
-                    .iter()
-                    .find(|o| o.views()[0] == View { posture, target })
-                    .map_or(0, |o| o.line());
-                return Err(Error::input(
-                    Location::file(file).at_line(line),
+                    self.t.at(line, &self.layout.session.1),
                     format!(
-                        "posture `{label}` measures {} twice (first on line {first})",
-                        target_name(robot, target)
+                        "posture `{label}` is in {} on an earlier line and in {} here",
+                        say(was.as_ref()),
+                        say(name.as_ref())
                     ),
                 ));
             }
-            let view = [View { posture, target }];
-            let position = Vector3::from(pos);
-            observations.push(match euler {
-                Some(euler) => Pose {
-                    view,
-                    position,
-                    euler,
-                    sigma_position,
-                    sigma_angle,
-                    line,
-                }
-                .into(),
-                None => Position {
-                    view,
-                    position,
-                    sigma_position,
-                    line,
-                }
-                .into(),
-            });
         }
+        Ok(())
     }
-    if observations.is_empty() {
-        return Err(Error::input(
-            Location::file(file),
-            "no measurements: the file has a header but no rows",
-        ));
+
+    /// The row's measurement of the target of marker `m` (none when a wide layout's row left
+    /// it out).
+    fn marker(
+        &mut self,
+        line: usize,
+        label: &str,
+        f: &table::Fields<'_>,
+        m: &Marker,
+        posture: usize,
+    ) -> Result<()> {
+        let (t, units) = (self.t, &self.units);
+        let target = match (m.target, self.layout.site) {
+            (Some(target), _) => target,
+            (None, Some(i)) => site_target(self.robot, &f[i])
+                .map_err(|msg| Error::input(t.at(line, "site"), msg))?,
+            (None, None) => Target::EndEffector,
+        };
+        let field = |k: usize| m.cols[k].map_or("", |i| f.get(i));
+        if self.layout.wide && (0..3).all(|k| field(k).is_empty()) {
+            return Ok(());
+        }
+        let mut pos = [0.0; 3];
+        for (k, p) in pos.iter_mut().enumerate() {
+            *p = units.to_si(Quantity::Length, t.number(line, &m.names[k], field(k))?);
+        }
+        let euler = self.angles(line, m, &field)?;
+        let sigma_position = self.sigma_position(line, m, &field)?;
+        let sigma_angle = t
+            .sigma(line, &m.names[7], field(7))?
+            .map(|s| units.to_si(Quantity::Angle, s));
+        if euler.is_none() && sigma_angle.is_some() {
+            return Err(Error::input(
+                t.at(line, &m.names[7]),
+                "sigma_angle on a position-only row (no alpha, beta, gamma)",
+            ));
+        }
+        if !self.seen.insert(posture, target) {
+            // The first measurement of the same target in the same posture.
+            let first = self
+                .observations
+                .iter()
+                .find(|o| o.views()[0] == View { posture, target })
+                .map_or(0, |o| o.line());
+            return Err(Error::input(
+                Location::file(&t.file).at_line(line),
+                format!(
+                    "posture `{label}` measures {} twice (first on line {first})",
+                    target_name(self.robot, target)
+                ),
+            ));
+        }
+        let view = [View { posture, target }];
+        let position = Vector3::from(pos);
+        self.observations.push(match euler {
+            Some(euler) => Pose {
+                view,
+                position,
+                euler,
+                sigma_position,
+                sigma_angle,
+                line,
+            }
+            .into(),
+            None => Position {
+                view,
+                position,
+                sigma_position,
+                line,
+            }
+            .into(),
+        });
+        Ok(())
     }
-    Ok(Dataset::new(postures.postures, observations))
+
+    /// A row's ZYX angles (SI): all three or none (a position).
+    fn angles<'f>(
+        &self,
+        line: usize,
+        m: &Marker,
+        field: &impl Fn(usize) -> &'f str,
+    ) -> Result<Option<Vector3<f64>>> {
+        let angles = [field(3), field(4), field(5)];
+        if angles.iter().all(|a| a.is_empty()) {
+            return Ok(None);
+        }
+        let mut e = [0.0; 3];
+        for k in 0..3 {
+            if angles[k].is_empty() {
+                return Err(Error::input(
+                    self.t.at(line, &m.names[3 + k]),
+                    "empty angle: give all of alpha, beta, gamma (a full pose) or none (a \
+                     position)",
+                ));
+            }
+            let v = self.t.number(line, &m.names[3 + k], angles[k])?;
+            e[k] = self.units.to_si(Quantity::Angle, v);
+        }
+        Ok(Some(Vector3::from(e)))
+    }
+
+    /// A row's position standard deviations (SI): one for every axis, or one per axis.
+    fn sigma_position<'f>(
+        &self,
+        line: usize,
+        m: &Marker,
+        field: &impl Fn(usize) -> &'f str,
+    ) -> Result<Option<Vector3<f64>>> {
+        let t = self.t;
+        let sigma = match m.cols[8] {
+            Some(_) => {
+                let mut axes = [None; 3];
+                for (k, a) in axes.iter_mut().enumerate() {
+                    *a = t.sigma(line, &m.names[8 + k], field(8 + k))?;
+                }
+                match axes {
+                    [Some(x), Some(y), Some(z)] => Some(Vector3::new(x, y, z)),
+                    [None, None, None] => None,
+                    _ => {
+                        return Err(Error::input(
+                            t.at(line, &m.names[8]),
+                            "give all of sigma_x, sigma_y, sigma_z in a row, or none",
+                        ))
+                    }
+                }
+            }
+            None => t.sigma(line, &m.names[6], field(6))?.map(Vector3::repeat),
+        };
+        Ok(sigma.map(|s| s.map(|v| self.units.to_si(Quantity::Length, v))))
+    }
 }
 
 /// Which targets each posture has a measurement of: a bit per target (the end effector and the
