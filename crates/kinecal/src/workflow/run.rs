@@ -251,57 +251,12 @@ pub fn run(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     Ok(outcome)
 }
 
+/// A calibration, step by step: the settings checked, the data split, the start placed, the
+/// parameters chosen and fitted (chosen again at the residuals' noise, pruned), then the
+/// uncertainty, the report, cross-validation and the predicted accuracy.
 fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
-    if !(req.outlier_sigmas.is_finite() && req.outlier_sigmas > 0.0) {
-        return Err(Error::InvalidOption {
-            setting: crate::error::Setting::OutlierThreshold,
-            message: format!(
-                "expected a positive number of standard deviations, got {}",
-                req.outlier_sigmas
-            ),
-        });
-    }
-    if let Some(k) = req.prune {
-        if !(k.is_finite() && k > 0.0) {
-            return Err(Error::InvalidOption {
-                setting: crate::error::Setting::PruningThreshold,
-                message: format!("expected a positive number of standard deviations, got {k}"),
-            });
-        }
-    }
-    if !(req.solver.rcond > 0.0 && req.solver.rcond < 1.0) {
-        return Err(Error::InvalidOption {
-            setting: crate::error::Setting::Rcond,
-            message: format!(
-                "expected a number between 0 and 1, got {}",
-                req.solver.rcond
-            ),
-        });
-    }
-    if req.data.is_empty() {
-        return Err(Error::Problem("no observations to calibrate from".into()));
-    }
-    let (data, validation_data) = match &req.validation {
-        Validation::None => (req.data.clone(), None),
-        Validation::Data(v) => (req.data.clone(), Some(v.clone())),
-        Validation::Holdout { fraction, seed } => {
-            if !(*fraction > 0.0 && *fraction < 1.0) {
-                return Err(Error::InvalidOption {
-                    setting: crate::error::Setting::HoldoutFraction,
-                    message: format!("expected a fraction between 0 and 1, got {fraction}"),
-                });
-            }
-            let (ident, held) = req.data.split(*fraction, *seed);
-            if held.is_empty() || ident.is_empty() {
-                return Err(Error::InvalidOption {
-                    setting: crate::error::Setting::HoldoutFraction,
-                    message: format!("{fraction} leaves an empty identification or validation set"),
-                });
-            }
-            (Arc::new(ident), Some(Arc::new(held)))
-        }
-        Validation::Folds { .. } => (req.data.clone(), None),
-    };
+    check_settings(req)?;
+    let (data, validation_data) = split_validation(req)?;
     // Sessions of the data with a measurement frame of their own: added to the model (the first
     // session, or the postures without one, are in the global frame).
     let with_frames;
@@ -315,46 +270,8 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         }
         None => req,
     };
-    // An elastic robot whose equilibrium does not converge at a posture gives no answer there.
-    for (robot, what) in std::iter::once((&req.robot, "nominal robot"))
-        .chain(req.initial.as_ref().map(|r| (r, "initial guess")))
-    {
-        let readings = data
-            .postures
-            .iter()
-            .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
-        if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
-            return Err(Error::Problem(format!(
-                "the {what}'s gravity equilibrium at posture `{}` {eq}",
-                data.postures[i].label
-            )));
-        }
-    }
-    let start = match &req.initial {
-        None => req.robot.clone(),
-        Some(guess) => {
-            if !req.robot.same_structure(guess) {
-                return Err(Error::Problem(
-                    "the initial guess does not have the nominal robot's structure (joints, \
-                     couplings, sites, planes)"
-                        .into(),
-                ));
-            }
-            let mut start = req.robot.clone();
-            for id in req
-                .robot
-                .param_ids()
-                .filter(|id| id.0 < guess.param_count())
-            {
-                start.set(id, guess.get(id));
-            }
-            for (p, g) in start.planes.iter_mut().zip(&guess.planes) {
-                // Tilts are relative to each file's own reference normal.
-                p.set_normal(&g.normal());
-            }
-            start
-        }
-    };
+    check_equilibria(req, &data)?;
+    let start = starting_robot(req)?;
     // Where the nominal robot puts the observed points: one pass, for the checks of the data
     // against it (scale) and, when the start is the nominal robot, of the start's distance.
     let nominal_points = crate::sanity::predicted(&req.robot, &data);
@@ -366,50 +283,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             after: "the checks of the data against the nominal robot",
         });
     }
-    let start_points = if start == req.robot {
-        None
-    } else {
-        Some(crate::sanity::predicted(&start, &data))
-    };
-    let start_points = start_points.as_deref().unwrap_or(&nominal_points);
-    // A far start (a measurement frame placed roughly or not at all): place the measurement
-    // frame and the measured frames in closed form first, among the parameters that may move.
-    let candidates: Vec<ParamId> = match &req.selection {
-        Selection::List(ids) => ids.clone(),
-        Selection::Default { fix } | Selection::Identifiable { fix, .. } => {
-            let (mut ids, _) = default_parameters(&start, &data);
-            if let Selection::Identifiable { with, .. } = &req.selection {
-                ids.extend(with.iter().copied());
-            }
-            ids.retain(|id| !fix.contains(id));
-            ids
-        }
-    };
-    let registration =
-        crate::registration::register_far_start_with(&start, &data, &candidates, start_points);
-    let start = match &registration {
-        Some(r) => r.robot.clone(),
-        None => start,
-    };
-    // Each session's frame placed in closed form (they start unknown).
-    let session_ids: Vec<ParamId> = start
-        .param_ids()
-        .filter(|&id| matches!(start.param_kind(id), ParamKind::Session { .. }))
-        .collect();
-    let sessions_placed = crate::registration::place_sessions(&start, &data, &session_ids);
-    let placed = registration.is_some() || sessions_placed.is_some();
-    let start = match sessions_placed {
-        Some((placed, _, _)) => placed,
-        None => start,
-    };
-    // Placed in closed form, the frames are then fitted by least squares with the robot held
-    // (a rigid fit of the nominal robot: the measurement frames, the measured targets' frames),
-    // so that the solver starts, and "start" is reported, at the nominal robot's best placement.
-    let start = if placed {
-        rigid_fit(&start, &data, &candidates, req)
-    } else {
-        start
-    };
+    let (start, registration) = place_frames(req, start, &data, &nominal_points);
     let reference = match req.solution {
         SolutionRule::MinChange => &req.robot,
         SolutionRule::Solver => &start,
@@ -431,85 +305,23 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         prior: req.prior.clone(),
     };
     progress.phase(Phase::Estimation);
-    let mut opts = opts;
-    let mut cal = fit(req, &start, &data, &opts, lin.as_ref(), progress)?;
-    // The noise-level rule judged the set at the stated sigmas. Residuals far beyond them (a
-    // tracker's own sigmas under a model error ten times larger) show the rows' real noise:
-    // the set is chosen again at it, and fitted again when that leaves parameters out (those
-    // only the stated precision made look determined, along whose valley the solver crawls).
-    let mut rechosen = None;
-    if matches!(req.selection, Selection::Identifiable { .. }) {
-        let (m, n) = (cal.residuals.len(), opts.estimate.len());
-        let vf = if m > n {
-            cal.objective_after / (m - n) as f64
-        } else {
-            f64::NAN
-        };
-        if vf > SIGMAS_TOO_SMALL {
-            let aopts = AnalysisOptions {
-                noise_scale: vf.sqrt(),
-                ..req.analysis_options()
-            };
-            progress.phase(Phase::Selection);
-            let (estimate, _, lin) = resolve_linearized(&req.selection, reference, &data, &aopts)?;
-            if estimate != opts.estimate {
-                let left_out = opts
-                    .estimate
-                    .iter()
-                    .filter(|id| !estimate.contains(id))
-                    .map(|&id| req.robot.param_name(id))
-                    .collect();
-                let lin = lin.filter(|_| *reference == start);
-                opts.estimate = estimate;
-                progress.phase(Phase::Estimation);
-                cal = fit(req, &start, &data, &opts, lin.as_ref(), progress)?;
-                rechosen = Some(Warning::ChosenAtResidualNoise {
-                    scale: vf.sqrt(),
-                    left_out,
-                });
-            }
+    let fitted = Fitted {
+        req,
+        start: &start,
+        data: &data,
+        reference,
+    };
+    let cal = fitted.fit(&opts, lin.as_ref(), progress)?;
+    let (cal, rechosen) = fitted.rechoose_at_residual_noise(cal, progress)?;
+    // Pruning refits with the first analysis's linearisation, as the first fit did.
+    let (cal, pruning) = match req.prune {
+        Some(k) => {
+            progress.phase(Phase::Pruning);
+            let (cal, p) = fitted.prune(cal, k, lin.as_ref(), &validation_data, &data_warns)?;
+            (cal, Some(p))
         }
-    }
-    let mut pruning = None;
-    if let Some(k) = req.prune {
-        progress.phase(Phase::Pruning);
-        let full = cal.clone();
-        let mut removed = Vec::new();
-        while let Ok(u) = uncertainty::uncertainty_of_fit(&cal, &data, reference) {
-            let weakest = u
-                .parameters
-                .iter()
-                .filter_map(|p| p.significance.map(|s| (p.id, s)))
-                .filter(|&(_, s)| s < k)
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            let Some((id, _)) = weakest else { break };
-            let mut o = cal.options.clone();
-            o.estimate.retain(|&p| p != id);
-            if o.estimate.is_empty() {
-                break;
-            }
-            removed.push(id);
-            cal = fit(req, &start, &data, &o, lin.as_ref(), &mut ())?;
-        }
-        let full_outcome = finish(
-            req.robot.clone(),
-            data.clone(),
-            validation_data.clone(),
-            full.clone(),
-            uncertainty::uncertainty_of_fit(&full, &data, reference),
-            None,
-            req.outlier_sigmas,
-            req.solution,
-            &req.sources,
-            &mut data_warns.clone(),
-        );
-        pruning = Some(Pruning {
-            k,
-            full,
-            full_report: Box::new(full_outcome.report),
-            removed,
-        });
-    }
+        None => (cal, None),
+    };
     progress.phase(Phase::Uncertainty);
     let mut warnings = data_warns;
     warnings.extend(rechosen);
@@ -554,6 +366,284 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         add_prediction(&mut outcome, reference, req.prediction);
     }
     Ok(outcome)
+}
+
+/// The settings a calibration checks before it reads anything.
+fn check_settings(req: &Request) -> Result<()> {
+    use crate::error::Setting;
+    let invalid = |setting, message| Err(Error::InvalidOption { setting, message });
+    if !(req.outlier_sigmas.is_finite() && req.outlier_sigmas > 0.0) {
+        return invalid(
+            Setting::OutlierThreshold,
+            format!(
+                "expected a positive number of standard deviations, got {}",
+                req.outlier_sigmas
+            ),
+        );
+    }
+    if let Some(k) = req.prune.filter(|k| !(k.is_finite() && *k > 0.0)) {
+        return invalid(
+            Setting::PruningThreshold,
+            format!("expected a positive number of standard deviations, got {k}"),
+        );
+    }
+    if !(req.solver.rcond > 0.0 && req.solver.rcond < 1.0) {
+        return invalid(
+            Setting::Rcond,
+            format!(
+                "expected a number between 0 and 1, got {}",
+                req.solver.rcond
+            ),
+        );
+    }
+    if req.data.is_empty() {
+        return Err(Error::Problem("no observations to calibrate from".into()));
+    }
+    Ok(())
+}
+
+/// The identification data and the validation data (held-out files, or a fraction held out).
+fn split_validation(req: &Request) -> Result<(Arc<Dataset>, Option<Arc<Dataset>>)> {
+    Ok(match &req.validation {
+        Validation::None | Validation::Folds { .. } => (req.data.clone(), None),
+        Validation::Data(v) => (req.data.clone(), Some(v.clone())),
+        Validation::Holdout { fraction, seed } => {
+            let invalid = |message| Error::InvalidOption {
+                setting: crate::error::Setting::HoldoutFraction,
+                message,
+            };
+            if !(*fraction > 0.0 && *fraction < 1.0) {
+                return Err(invalid(format!(
+                    "expected a fraction between 0 and 1, got {fraction}"
+                )));
+            }
+            let (ident, held) = req.data.split(*fraction, *seed);
+            if held.is_empty() || ident.is_empty() {
+                return Err(invalid(format!(
+                    "{fraction} leaves an empty identification or validation set"
+                )));
+            }
+            (Arc::new(ident), Some(Arc::new(held)))
+        }
+    })
+}
+
+/// An elastic robot whose gravity equilibrium does not converge at a posture gives no answer
+/// there: refused, for the nominal robot and the initial guess.
+fn check_equilibria(req: &Request, data: &Dataset) -> Result<()> {
+    for (robot, what) in std::iter::once((&req.robot, "nominal robot"))
+        .chain(req.initial.as_ref().map(|r| (r, "initial guess")))
+    {
+        let readings = data
+            .postures
+            .iter()
+            .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
+        if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
+            return Err(Error::Problem(format!(
+                "the {what}'s gravity equilibrium at posture `{}` {eq}",
+                data.postures[i].label
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The robot the solver starts from: the nominal robot, with the initial guess's values when
+/// there is one (of the same structure).
+fn starting_robot(req: &Request) -> Result<Robot> {
+    let Some(guess) = &req.initial else {
+        return Ok(req.robot.clone());
+    };
+    if !req.robot.same_structure(guess) {
+        return Err(Error::Problem(
+            "the initial guess does not have the nominal robot's structure (joints, couplings, \
+             sites, planes)"
+                .into(),
+        ));
+    }
+    let mut start = req.robot.clone();
+    for id in req
+        .robot
+        .param_ids()
+        .filter(|id| id.0 < guess.param_count())
+    {
+        start.set(id, guess.get(id));
+    }
+    for (p, g) in start.planes.iter_mut().zip(&guess.planes) {
+        // Tilts are relative to each file's own reference normal.
+        p.set_normal(&g.normal());
+    }
+    Ok(start)
+}
+
+/// A far start (a measurement frame placed roughly or not at all): the measurement frame, the
+/// measured frames and each session's frame placed in closed form among the parameters that may
+/// move, then fitted by least squares with the robot held (a rigid fit of the nominal robot),
+/// so that the solver starts, and "start" is reported, at the nominal robot's best placement.
+fn place_frames(
+    req: &Request,
+    start: Robot,
+    data: &Dataset,
+    nominal_points: &[[nalgebra::Vector3<f64>; 2]],
+) -> (Robot, Option<crate::registration::Registration>) {
+    let start_points = (start != req.robot).then(|| crate::sanity::predicted(&start, data));
+    let start_points = start_points.as_deref().unwrap_or(nominal_points);
+    let candidates: Vec<ParamId> = match &req.selection {
+        Selection::List(ids) => ids.clone(),
+        Selection::Default { fix } | Selection::Identifiable { fix, .. } => {
+            let (mut ids, _) = default_parameters(&start, data);
+            if let Selection::Identifiable { with, .. } = &req.selection {
+                ids.extend(with.iter().copied());
+            }
+            ids.retain(|id| !fix.contains(id));
+            ids
+        }
+    };
+    let registration =
+        crate::registration::register_far_start_with(&start, data, &candidates, start_points);
+    let start = match &registration {
+        Some(r) => r.robot.clone(),
+        None => start,
+    };
+    let session_ids: Vec<ParamId> = start
+        .param_ids()
+        .filter(|&id| matches!(start.param_kind(id), ParamKind::Session { .. }))
+        .collect();
+    let sessions_placed = crate::registration::place_sessions(&start, data, &session_ids);
+    let placed = registration.is_some() || sessions_placed.is_some();
+    let start = match sessions_placed {
+        Some((placed, _, _)) => placed,
+        None => start,
+    };
+    let start = if placed {
+        rigid_fit(&start, data, &candidates, req)
+    } else {
+        start
+    };
+    (start, registration)
+}
+
+/// What every fit of one calibration shares: the request, the start, the data and the robot the
+/// solution rule measures changes from.
+struct Fitted<'a> {
+    req: &'a Request,
+    start: &'a Robot,
+    data: &'a Arc<Dataset>,
+    reference: &'a Robot,
+}
+
+impl Fitted<'_> {
+    /// A fit with `opts`.
+    fn fit(
+        &self,
+        opts: &CalibrationOptions,
+        lin: Option<&Linearized>,
+        progress: &mut dyn Progress,
+    ) -> Result<Calibration> {
+        fit(self.req, self.start, self.data, opts, lin, progress)
+    }
+
+    /// The noise-level rule judged the set at the stated sigmas. Residuals far beyond them (a
+    /// tracker's own sigmas under a model error ten times larger) show the rows' real noise: the
+    /// set is chosen again at it, and fitted again when that leaves parameters out (those only
+    /// the stated precision made look determined, along whose valley the solver crawls).
+    fn rechoose_at_residual_noise(
+        &self,
+        cal: Calibration,
+        progress: &mut dyn Progress,
+    ) -> Result<(Calibration, Option<Warning>)> {
+        let req = self.req;
+        if !matches!(req.selection, Selection::Identifiable { .. }) {
+            return Ok((cal, None));
+        }
+        let (m, n) = (cal.residuals.len(), cal.options.estimate.len());
+        let vf = if m > n {
+            cal.objective_after / (m - n) as f64
+        } else {
+            f64::NAN
+        };
+        if vf.is_nan() || vf <= SIGMAS_TOO_SMALL {
+            return Ok((cal, None));
+        }
+        let aopts = AnalysisOptions {
+            noise_scale: vf.sqrt(),
+            ..req.analysis_options()
+        };
+        progress.phase(Phase::Selection);
+        let (estimate, _, new_lin) =
+            resolve_linearized(&req.selection, self.reference, self.data, &aopts)?;
+        if estimate == cal.options.estimate {
+            return Ok((cal, None));
+        }
+        let left_out = cal
+            .options
+            .estimate
+            .iter()
+            .filter(|id| !estimate.contains(id))
+            .map(|&id| req.robot.param_name(id))
+            .collect();
+        let new_lin = new_lin.filter(|_| self.reference == self.start);
+        let mut opts = cal.options.clone();
+        opts.estimate = estimate;
+        progress.phase(Phase::Estimation);
+        let cal = self.fit(&opts, new_lin.as_ref(), progress)?;
+        let warning = Warning::ChosenAtResidualNoise {
+            scale: vf.sqrt(),
+            left_out,
+        };
+        Ok((cal, Some(warning)))
+    }
+
+    /// Pruning: the least significant parameter below `k` standard deviations left out and the
+    /// rest fitted again, until none is; the full fit's outcome kept for the report.
+    fn prune(
+        &self,
+        cal: Calibration,
+        k: f64,
+        lin: Option<&Linearized>,
+        validation_data: &Option<Arc<Dataset>>,
+        data_warns: &[Warning],
+    ) -> Result<(Calibration, Pruning)> {
+        let (req, data, reference) = (self.req, self.data, self.reference);
+        let full = cal.clone();
+        let mut cal = cal;
+        let mut removed = Vec::new();
+        while let Ok(u) = uncertainty::uncertainty_of_fit(&cal, data, reference) {
+            let weakest = u
+                .parameters
+                .iter()
+                .filter_map(|p| p.significance.map(|s| (p.id, s)))
+                .filter(|&(_, s)| s < k)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((id, _)) = weakest else { break };
+            let mut o = cal.options.clone();
+            o.estimate.retain(|&p| p != id);
+            if o.estimate.is_empty() {
+                break;
+            }
+            removed.push(id);
+            cal = self.fit(&o, lin, &mut ())?;
+        }
+        let full_outcome = finish(
+            req.robot.clone(),
+            data.clone(),
+            validation_data.clone(),
+            full.clone(),
+            uncertainty::uncertainty_of_fit(&full, data, reference),
+            None,
+            req.outlier_sigmas,
+            req.solution,
+            &req.sources,
+            &mut data_warns.to_vec(),
+        );
+        let pruning = Pruning {
+            k,
+            full,
+            full_report: Box::new(full_outcome.report),
+            removed,
+        };
+        Ok((cal, pruning))
+    }
 }
 
 /// Adds to `outcome`'s report the predicted accuracy of its calibrated robot
