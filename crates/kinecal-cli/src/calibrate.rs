@@ -225,6 +225,7 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     let spec = spec_of(&a)?;
     display.strict = spec.strict;
     let choice = spec.validation.choose.is_some();
+    let shown = spec.outputs.display_units;
     // Open the history first, so that an unwritable database fails before the work.
     let record_at = history::parse_at(a.at.as_deref())?;
     let db = match &a.record {
@@ -260,10 +261,12 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
         return Ok(0);
     };
     if let Document::Calibration(outcome) = &done.document {
+        let r = &outcome.report;
+        let units = shown.resolve(r.length_unit, r.angle_unit);
         if choice {
-            print!("{}", report::choice_table(&outcome.report));
+            print!("{}", report::choice_table(r, units));
         }
-        print_outcome(outcome);
+        print_outcome(outcome, units);
     }
     let shown = &display.shown;
     let fresh: Vec<Message> = done
@@ -300,11 +303,11 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     Ok(code)
 }
 
-/// Prints the summary (of the full fit too, when pruned).
-fn print_outcome(outcome: &Outcome) {
+/// Prints the summary (of the full fit too, when pruned), in `units`.
+fn print_outcome(outcome: &Outcome, units: kinecal::DisplayUnits) {
     if let Some(p) = &outcome.pruning {
         println!("== full fit ==");
-        print!("{}", report::summary(&p.full_report));
+        print!("{}", report::summary(&p.full_report, units));
         println!();
         println!(
             "== pruned fit: removed {} (changes below {} sigma, one at a time) ==",
@@ -320,5 +323,5 @@ fn print_outcome(outcome: &Outcome) {
             p.k
         );
     }
-    print!("{}", report::summary(&outcome.report));
+    print!("{}", report::summary(&outcome.report, units));
 }

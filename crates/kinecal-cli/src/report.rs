@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 
 use kinecal::report::CalibrationReport;
 
+use kinecal_report::display::{self, combination_unit, Convert, DisplayUnits};
 use kinecal_report::number::{fixed, fixed_signed, ratio};
 
 /// A number in the summary's columns: six decimals, or four significant digits where six
@@ -13,10 +14,13 @@ pub fn num(v: f64) -> String {
     fixed(v, 6)
 }
 
-/// The text summary `kinecal calibrate` prints.
-pub fn summary(r: &CalibrationReport) -> String {
+/// The text summary `kinecal calibrate` prints, its lengths and angles in `units`.
+pub fn summary(r: &CalibrationReport, units: DisplayUnits) -> String {
     let mut s = String::new();
-    let (l, a) = (&r.length_unit, &r.angle_unit);
+    let c = Convert::of(r, units);
+    // Every number below is in display units, every unit from `c`.
+    let r = &display::calibration(r, &c);
+    let (l, a) = (c.l(), c.a());
     let kinds: Vec<String> = r
         .observations
         .iter()
@@ -71,7 +75,7 @@ pub fn summary(r: &CalibrationReport) -> String {
              closed form (RMS position error {} -> {} {})",
             num(p.rms_before),
             num(p.rms_after),
-            r.length_unit
+            l
         );
     }
     if let Some(n) = r.down_weighted_rows {
@@ -471,10 +475,11 @@ pub fn summary(r: &CalibrationReport) -> String {
         for c in &r.combinations {
             let _ = writeln!(
                 s,
-                "  {} = {:.6} (was {:.6}, sigma {:.3e}, change {:.1} sigma{})",
+                "  {} = {} {} (was {}, sigma {:.3e}, change {:.1} sigma{})",
                 c.expression,
-                c.value,
-                c.initial,
+                num(c.value),
+                combination_unit(r, &c.expression),
+                num(c.initial),
                 c.sigma,
                 c.significance,
                 if c.within_noise { ", within noise" } else { "" }
@@ -497,7 +502,7 @@ pub fn summary(r: &CalibrationReport) -> String {
         for o in &r.outliers {
             let _ = writeln!(
                 s,
-                "  {:<9} line {:<5} posture {:<10} site {:<8} {} error {:.6} {l}{}  ({:.1} sigma)",
+                "  {:<9} line {:<5} posture {:<10} site {:<8} {} error {} {l}{}  ({:.1} sigma)",
                 o.kind,
                 o.line,
                 o.posture,
@@ -507,9 +512,11 @@ pub fn summary(r: &CalibrationReport) -> String {
                 } else {
                     &o.metric
                 },
-                o.position_error,
-                o.orientation_error
-                    .map_or(String::new(), |e| format!(", attitude error {e:.6} {a}")),
+                num(o.position_error),
+                o.orientation_error.map_or(String::new(), |e| format!(
+                    ", attitude error {} {a}",
+                    num(e)
+                )),
                 o.sigmas
             );
         }
@@ -540,7 +547,7 @@ pub fn summary(r: &CalibrationReport) -> String {
         );
     }
     if let Some(p) = &r.prediction {
-        s += &prediction_lines(p, l.as_str(), a.as_str());
+        s += &prediction_lines(p, l, a);
     }
     if !r.timings.is_empty() {
         let _ = writeln!(
@@ -600,9 +607,10 @@ pub fn prediction_lines(p: &kinecal::predict::PredictionReport, l: &str, a: &str
     s
 }
 
-/// The table of a model choice (`calibrate --choose`).
-pub fn choice_table(r: &CalibrationReport) -> String {
+/// The table of a model choice (`calibrate --choose`), its errors in `units`.
+pub fn choice_table(r: &CalibrationReport, units: DisplayUnits) -> String {
     let mut s = String::new();
+    let c = Convert::of(r, units);
     let folds = r.cross_validation.as_ref().map_or(0, |c| c.folds.len());
     let metric = r
         .cross_validation
@@ -617,22 +625,22 @@ pub fn choice_table(r: &CalibrationReport) -> String {
         } else {
             String::new()
         },
-        r.length_unit
+        c.l()
     );
     let _ = writeln!(
         s,
         "{:<36} {:>10} {:>11} {:>11}",
         "candidate", "parameters", "mean", "std. error"
     );
-    for c in &r.model_choice {
+    for m in &r.model_choice {
         let _ = writeln!(
             s,
             "{:<36} {:>10} {:>11} {:>11}{}",
-            c.candidate,
-            c.parameters,
-            num(c.mean),
-            num(c.standard_error),
-            if c.chosen {
+            m.candidate,
+            m.parameters,
+            num(c.length(m.mean)),
+            num(c.length(m.standard_error)),
+            if m.chosen {
                 "  <- chosen: the first (simplest) within one std. error of the best"
             } else {
                 ""

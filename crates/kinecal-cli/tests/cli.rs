@@ -3888,8 +3888,8 @@ fn an_elastic_calibration_recovers_stiffness_and_exports_its_table() {
     assert!(out.contains("stiffness"), "{out}");
     let html = std::fs::read_to_string(d.join("r.html")).unwrap();
     assert!(
-        html.contains("<h2 id=\"mass-model\">Mass model</h2>") && html.contains("N m/rad"),
-        "the HTML report shows the stiffnesses"
+        html.contains("<h2 id=\"mass-model\">Mass model</h2>") && html.contains("N m/deg"),
+        "the HTML report shows the stiffnesses (in degrees, as every angle of the page)"
     );
     run_ok(
         d,

@@ -84,8 +84,9 @@ pub fn tick_label(v: f64, step: f64) -> String {
     format!("{v:.decimals$}")
 }
 
-/// A tick label on a logarithmic axis: powers of ten as `1e-5` (`1`, `10` and `100` plain),
-/// other key points with two significant digits.
+/// A tick label on a logarithmic axis: powers of ten as `1e-5` (`0.001` to `1000` plain), other
+/// ticks with up to two significant digits, plain from 0.001 to 10,000 (`0.2`, `30`), else as
+/// `2e-5`.
 pub fn log_tick_label(v: f64) -> String {
     if !(v.is_finite() && v > 0.0) {
         return String::new();
@@ -99,8 +100,58 @@ pub fn log_tick_label(v: f64) -> String {
             _ => format!("1e{e}"),
         };
     }
+    if (1e-3..1e4).contains(&v) {
+        let decimals = (1 - e.floor() as i32).max(0) as usize;
+        let s = format!("{v:.decimals$}");
+        return if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        };
+    }
     let s = format!("{v:.1e}");
     s.replace(".0e", "e")
+}
+
+/// The most tick labels a logarithmic axis gets.
+pub const MAX_LOG_TICKS: usize = 8;
+
+/// The ticks of a logarithmic axis over `[lo, hi]`: 1, 2 and 5 (1, 2, 3 and 5 over about a
+/// decade) times the powers of ten when the span is short; the powers of ten over a few decades;
+/// every second, third, ... power beyond, so that never more than [`MAX_LOG_TICKS`] labels
+/// crowd the axis, and always at least two.
+pub fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo) {
+        return Vec::new();
+    }
+    let (e0, e1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let inside = |v: &f64| *v >= lo * (1.0 - 1e-9) && *v <= hi * (1.0 + 1e-9);
+    let with = |mantissas: &[f64], every: i32| -> Vec<f64> {
+        (e0..=e1)
+            .filter(|e| e.rem_euclid(every) == 0)
+            .flat_map(|e| mantissas.iter().map(move |m| m * 10f64.powi(e)))
+            .filter(inside)
+            .collect()
+    };
+    let sets: [&[f64]; 4] = [&[1.0, 2.0, 3.0, 5.0], &[1.0, 2.0, 5.0], &[1.0, 3.0], &[1.0]];
+    for set in sets {
+        let t = with(set, 1);
+        if t.len() <= MAX_LOG_TICKS {
+            if t.len() >= 2 {
+                return t;
+            }
+            // A very short span: finer steps.
+            let fine: Vec<f64> = (e0..=e1)
+                .flat_map(|e| (10..100).map(move |k| k as f64 / 10.0 * 10f64.powi(e)))
+                .filter(inside)
+                .collect();
+            let step = fine.len().div_ceil(MAX_LOG_TICKS).max(1);
+            return fine.into_iter().step_by(step).collect();
+        }
+    }
+    let decades = (e1 - e0).max(1);
+    let every = (decades as usize).div_ceil(MAX_LOG_TICKS - 1).max(1) as i32;
+    with(&[1.0], every)
 }
 
 const COLORS: [RGBColor; 6] = [
@@ -146,7 +197,9 @@ fn bounds(p: &Panel) -> (f64, f64, f64, f64) {
     let mut y1 = f64::NEG_INFINITY;
     for l in &p.lines {
         for (i, &v) in l.y.iter().enumerate() {
-            let e = l.error.as_ref().map_or(0.0, |e| e[i]);
+            // A bar not drawn (a sigma not determined: NaN) widens nothing.
+            let e = l.error.as_ref().map_or(0.0, |e| e[i]).abs();
+            let e = if e.is_finite() { e } else { 0.0 };
             if v.is_finite() && (!p.log_y || v - e > 0.0) {
                 y0 = y0.min(v - e);
                 y1 = y1.max(v + e);
@@ -249,7 +302,7 @@ fn legend_position(p: &Panel, (x0, x1, y0, y1): (f64, f64, f64, f64)) -> (f64, f
             pts.push((fx(*v), k as f64 / 20.0));
         }
     }
-    let entries = p.lines.len() + p.h_lines.len() + p.v_lines.len();
+    let entries = legend_entries(p);
     let (w, h) = (0.32, 0.08 + 0.06 * entries as f64);
     let covered = |bx: f64, by: f64| {
         pts.iter()
@@ -273,6 +326,49 @@ fn legend_position(p: &Panel, (x0, x1, y0, y1): (f64, f64, f64, f64)) -> (f64, f
     best.1
 }
 
+/// The labels of a panel's legend: each distinct non-empty label once.
+pub(crate) fn legend_entries(p: &Panel) -> usize {
+    let mut seen: Vec<&str> = Vec::new();
+    for label in p
+        .lines
+        .iter()
+        .map(|l| l.label.as_str())
+        .chain(p.h_lines.iter().map(|h| h.1.as_str()))
+        .chain(p.v_lines.iter().map(|v| v.1.as_str()))
+    {
+        if !label.is_empty() && !seen.contains(&label) {
+            seen.push(label);
+        }
+    }
+    seen.len()
+}
+
+/// The smallest height of an error bar, in pixels: taller than the point (radius 3) it crosses.
+pub const MIN_BAR_PX: f64 = 10.0;
+
+/// Half the width of an error bar's caps, in pixels.
+const CAP_PX: f64 = 4.0;
+
+/// The ends of the error bar `y +- e` on a y axis over `[y0, y1]` (logarithmic or not) of `px`
+/// pixels: at least [`MIN_BAR_PX`] tall about `y`. On a logarithmic axis a lower end at or
+/// below zero is the axis' bottom.
+pub(crate) fn error_bar(y: f64, e: f64, log: bool, (y0, y1): (f64, f64), px: u32) -> (f64, f64) {
+    let e = e.abs();
+    let half = MIN_BAR_PX / 2.0 / px.max(1) as f64;
+    if log {
+        let k = half * (y1 / y0).ln();
+        let lo = if y - e > 0.0 {
+            (y - e).min(y * (-k).exp())
+        } else {
+            y0
+        };
+        (lo, (y + e).max(y * k.exp()))
+    } else {
+        let m = e.max(half * (y1 - y0));
+        (y - m, y + m)
+    }
+}
+
 fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> Result<(), DrawError>
 where
     DB::ErrorType: 'static,
@@ -280,6 +376,16 @@ where
     let err = |e: &dyn std::fmt::Display| DrawError(e.to_string());
     let (x0, x1, y0, y1) = bounds(p);
     let legend_at = legend_position(p, (x0, x1, y0, y1));
+    // Each label once in the legend, at its first series.
+    let mut seen: Vec<String> = Vec::new();
+    let mut first = |label: &str| -> bool {
+        if label.is_empty() || seen.iter().any(|s| s == label) {
+            false
+        } else {
+            seen.push(label.to_string());
+            true
+        }
+    };
     let mut builder = ChartBuilder::on(area);
     builder
         .caption(&p.title, ("sans-serif", 16))
@@ -363,37 +469,64 @@ where
                         .map(|(x, y)| (*x, *y))
                         .collect();
                 if l.points {
-                    $chart
+                    let anno = $chart
                         .draw_series(
                             pts.iter()
                                 .map(|&(x, y)| Circle::new((x, y), 3, color.filled())),
                         )
-                        .map_err(|e| err(&e))?
-                        .label(l.label.clone())
-                        .legend(move |(x, y)| Circle::new((x + 10, y), 3, color.filled()));
+                        .map_err(|e| err(&e))?;
+                    if first(&l.label) {
+                        let bars = l.error.is_some();
+                        anno.label(l.label.clone()).legend(move |(x, y)| {
+                            let dot = Circle::new((x + 10, y), 3, color.filled());
+                            let bar = PathElement::new(
+                                if bars {
+                                    vec![(x + 10, y - 6), (x + 10, y + 6)]
+                                } else {
+                                    vec![]
+                                },
+                                color.stroke_width(1),
+                            );
+                            EmptyElement::at((0, 0)) + dot + bar
+                        });
+                    }
                 } else {
-                    $chart
+                    let anno = $chart
                         .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                        .map_err(|e| err(&e))?
-                        .label(l.label.clone())
-                        .legend(move |(x, y)| {
+                        .map_err(|e| err(&e))?;
+                    if first(&l.label) {
+                        anno.label(l.label.clone()).legend(move |(x, y)| {
                             PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                         });
+                    }
                 }
                 if let Some(e) = &l.error {
+                    // Every bar at least MIN_BAR_PX tall, with caps: a sigma smaller than its
+                    // point, on an axis scaled by larger values, still shows.
+                    let (pw, ph) = $chart.plotting_area().dim_in_pixel();
+                    let cap = CAP_PX * (x1 - x0) / pw.max(1) as f64;
+                    let bars: Vec<(f64, f64, f64)> = p
+                        .x
+                        .iter()
+                        .zip(&l.y)
+                        .zip(e)
+                        .filter(|((_, y), e)| {
+                            y.is_finite() && (!p.log_y || **y > 0.0) && e.is_finite() && **e != 0.0
+                        })
+                        .map(|((&x, &y), &e)| {
+                            let (lo, hi) = error_bar(y, e, p.log_y, (y0, y1), ph);
+                            (x, lo, hi)
+                        })
+                        .collect();
+                    let ink = color.stroke_width(1);
                     $chart
-                        .draw_series(
-                            p.x.iter()
-                                .zip(&l.y)
-                                .zip(e)
-                                .filter(|((_, y), e)| y.is_finite() && e.is_finite())
-                                .map(|((&x, &y), &e)| {
-                                    PathElement::new(
-                                        vec![(x, y - e), (x, y + e)],
-                                        color.stroke_width(1),
-                                    )
-                                }),
-                        )
+                        .draw_series(bars.iter().flat_map(|&(x, lo, hi)| {
+                            [
+                                PathElement::new(vec![(x, lo), (x, hi)], ink),
+                                PathElement::new(vec![(x - cap, lo), (x + cap, lo)], ink),
+                                PathElement::new(vec![(x - cap, hi), (x + cap, hi)], ink),
+                            ]
+                        }))
                         .map_err(|e| err(&e))?;
                 }
                 if let Some(m) = p.mark_x {
@@ -424,35 +557,38 @@ where
                     .map_err(|e| err(&e))?;
             }
             for (v, label) in &p.h_lines {
-                $chart
+                let anno = $chart
                     .draw_series(DashedLineSeries::new(
                         vec![(x0, *v), (x1, *v)],
                         6,
                         4,
                         RED.stroke_width(1),
                     ))
-                    .map_err(|e| err(&e))?
-                    .label(label.clone())
-                    .legend(|(x, y)| {
+                    .map_err(|e| err(&e))?;
+                // Two lines of one label (a tolerance's two sides): one legend entry.
+                if first(label) {
+                    anno.label(label.clone()).legend(|(x, y)| {
                         PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(1))
                     });
+                }
             }
             for (v, label) in &p.v_lines {
                 let ink = RGBColor(90, 60, 160);
-                $chart
+                let anno = $chart
                     .draw_series(DashedLineSeries::new(
                         vec![(*v, y0), (*v, y1)],
                         8,
                         3,
                         ink.stroke_width(2),
                     ))
-                    .map_err(|e| err(&e))?
-                    .label(label.clone())
-                    .legend(move |(x, y)| {
+                    .map_err(|e| err(&e))?;
+                if first(label) {
+                    anno.label(label.clone()).legend(move |(x, y)| {
                         PathElement::new(vec![(x, y), (x + 20, y)], ink.stroke_width(2))
                     });
+                }
             }
-            let entries = p.lines.len() + p.h_lines.len() + p.v_lines.len();
+            let entries = legend_entries(p);
             if entries > 0 {
                 let (pw, ph) = $chart.plotting_area().dim_in_pixel();
                 let entries = entries as f64;
@@ -473,8 +609,13 @@ where
         }};
     }
     if p.log_y {
+        // Our own ticks: plotters' crowd a short span's upper end (6, 7, 8, 9 next to each
+        // other), leave a partial decade unlabelled, or stop short of a long span's end.
         let mut chart = builder
-            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+            .build_cartesian_2d(
+                x0..x1,
+                (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
+            )
             .map_err(|e| err(&e))?;
         body!(chart);
     } else {
@@ -528,8 +669,12 @@ pub fn render_png(panels: &[Panel], cols: usize) -> Result<Vec<u8>, DrawError> {
     let dir = tempfile::tempdir().map_err(|e| DrawError(e.to_string()))?;
     let path = dir.path().join("chart.png");
     {
-        let root =
-            BitMapBackend::new(&path, (W * cols as u32, H * rows.max(1))).into_drawing_area();
+        // The bitmap backend with its text laid out by `kerned` (plotters' drifts).
+        let root = crate::kerned::Kerned(BitMapBackend::new(
+            &path,
+            (W * cols as u32, H * rows.max(1)),
+        ))
+        .into_drawing_area();
         draw_all(root, panels, cols)?;
     }
     std::fs::read(&path).map_err(|e| DrawError(e.to_string()))
@@ -556,5 +701,126 @@ mod tests {
         assert_eq!(log_tick_label(2e-5), "2e-5");
         assert!((nice_step(0.0075) - 0.01).abs() < 1e-15);
         assert!((nice_step(0.3) - 0.5).abs() < 1e-15);
+    }
+
+    /// The texts of an SVG (tick labels, titles, legend entries).
+    fn texts(svg: &str) -> Vec<String> {
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| {
+                let open = t.find('>')?;
+                let close = t.find("</text>")?;
+                Some(t[open + 1..close].trim().to_string())
+            })
+            .collect()
+    }
+
+    /// Vertical two-point polylines of `svg` in the first line colour (error bars, and the
+    /// legend's glyph of one): their heights in pixels.
+    fn vertical_segments(svg: &str) -> Vec<f64> {
+        svg.split("<polyline")
+            .skip(1)
+            .filter(|t| t[..t.find('>').unwrap_or(0)].contains("#1F5FA8"))
+            .filter_map(|t| {
+                let pts = t.split("points=\"").nth(1)?.split('"').next()?;
+                let p: Vec<(f64, f64)> = pts
+                    .split_whitespace()
+                    .filter_map(|xy| {
+                        let (x, y) = xy.split_once(',')?;
+                        Some((x.parse().ok()?, y.parse().ok()?))
+                    })
+                    .collect();
+                (p.len() == 2 && (p[0].0 - p[1].0).abs() < 1e-9 && (p[0].1 - p[1].1).abs() > 1e-9)
+                    .then(|| (p[0].1 - p[1].1).abs())
+            })
+            .collect()
+    }
+
+    fn history_like() -> Panel {
+        Panel {
+            title: "link1.x".into(),
+            x_label: "days".into(),
+            y_label: "p1 (mm)".into(),
+            x: vec![0.0, 30.0, 60.0, 90.0],
+            lines: vec![Line {
+                points: true,
+                error: Some(vec![0.002, 0.002, 0.003, 0.002]),
+                ..Line::new("value +-1 sigma", vec![612.7, 612.701, 612.703, 612.71])
+            }],
+            h_lines: vec![(612.2, "tolerance".into()), (613.2, "tolerance".into())],
+            v_lines: vec![(45.0, "event: gearbox".into())],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_label_is_in_the_legend_once() {
+        let p = history_like();
+        assert_eq!(legend_entries(&p), 3);
+        let svg = render_svg(&[p], 1).unwrap();
+        let t = texts(&svg);
+        assert_eq!(t.iter().filter(|t| *t == "tolerance").count(), 1, "{t:?}");
+        assert_eq!(t.iter().filter(|t| *t == "value +-1 sigma").count(), 1);
+    }
+
+    #[test]
+    fn error_bars_show_however_small_the_sigma() {
+        // Sigmas of 0.002 on an axis spanning a whole millimetre: under a pixel at scale.
+        let svg = render_svg(&[history_like()], 1).unwrap();
+        let bars = vertical_segments(&svg);
+        // Four bars and the legend's.
+        assert_eq!(bars.len(), 5, "{bars:?}");
+        assert!(bars.iter().all(|h| *h >= MIN_BAR_PX - 0.5), "{bars:?}");
+        // A large sigma keeps its true length.
+        let (lo, hi) = error_bar(0.0, 3.0, false, (-10.0, 10.0), 200);
+        assert_eq!((lo, hi), (-3.0, 3.0));
+        let (lo, hi) = error_bar(0.0, 1e-6, false, (-10.0, 10.0), 200);
+        assert!((hi - lo - MIN_BAR_PX * 20.0 / 200.0).abs() < 1e-12);
+        // On a log axis, about the point.
+        let (lo, hi) = error_bar(1e-3, 1e-9, true, (1e-5, 1e-1), 400);
+        assert!(lo < 1e-3 && hi > 1e-3 && ((hi / 1e-3).ln() + (lo / 1e-3).ln()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn log_axes_have_a_few_labels_over_any_span() {
+        for (lo, hi) in [
+            (0.105, 1.75),
+            (0.45, 18.0),
+            (1e-31, 2.0),
+            (5e-19, 8.0),
+            (1.05e-5, 2.1e-4),
+            (0.21, 0.25),
+            (3.0, 3000.0),
+        ] {
+            let t = log_ticks(lo, hi);
+            assert!((2..=MAX_LOG_TICKS).contains(&t.len()), "{lo}..{hi}: {t:?}");
+            assert!(t.iter().all(|v| *v >= lo * 0.999 && *v <= hi * 1.001));
+            // Spread over the span: the first in its lower half, the last in its upper half
+            // (log scale).
+            let mid = (lo.ln() + hi.ln()) / 2.0;
+            assert!(
+                t[0].ln() <= mid && t[t.len() - 1].ln() >= mid,
+                "{lo}..{hi}: {t:?}"
+            );
+        }
+        // Within a decade: 1, 2, 3, 5 times powers of ten; never 6, 7, 8, 9 side by side.
+        assert_eq!(log_ticks(0.45, 18.0), [0.5, 1.0, 2.0, 3.0, 5.0, 10.0]);
+        assert_eq!(log_tick_label(0.2), "0.2");
+        assert_eq!(log_tick_label(3000.0 * 5.0 / 3.0), "5000");
+        assert_eq!(log_tick_label(3e-5), "3e-5");
+        // Drawn: a thirty-decade axis labelled to its end, with few labels.
+        let p = Panel {
+            log_y: true,
+            x: (0..31).map(f64::from).collect(),
+            lines: vec![Line::new("s", (0..31).map(|i| 10f64.powi(-i)).collect())],
+            ..Default::default()
+        };
+        let svg = render_svg(&[p], 1).unwrap();
+        let labels: Vec<String> = texts(&svg)
+            .into_iter()
+            .filter(|t| t.starts_with("1e") || t == "1")
+            .collect();
+        assert!(labels.len() <= MAX_LOG_TICKS, "{labels:?}");
+        assert!(labels.iter().any(|t| t == "1e-30"), "{labels:?}");
     }
 }

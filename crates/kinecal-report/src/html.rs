@@ -6,7 +6,8 @@ use std::fmt::Write as _;
 use kinecal::report::CalibrationReport;
 
 use crate::chart::{render_svg, Line, Panel};
-use crate::number::num;
+use crate::display::{combination_unit, Convert, DisplayUnits};
+use crate::number::{fixed, num};
 use crate::DrawError;
 
 fn cap(s: &str) -> String {
@@ -153,9 +154,22 @@ pub(crate) fn charts(panels: &[Panel]) -> Result<String, DrawError> {
 }
 
 /// The HTML report of a calibration, drawn from its report alone (`kinecal report --from`
-/// rebuilds the same page from the JSON).
+/// rebuilds the same page from the JSON), in the default display units of its robot
+/// ([`DisplayUnits::for_robot`]: millimetres and degrees for a metre-radian robot).
 pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
-    let (l, a) = (rep.length_unit.as_str(), rep.angle_unit.as_str());
+    html_report_in(
+        rep,
+        DisplayUnits::for_robot(rep.length_unit, rep.angle_unit),
+    )
+}
+
+/// [`html_report`] with its lengths and angles shown in `units`.
+pub fn html_report_in(rep: &CalibrationReport, units: DisplayUnits) -> Result<String, DrawError> {
+    let c = Convert::of(rep, units);
+    let verdict = verdict_section(rep, units);
+    // Every number below is in display units, every unit from `c`.
+    let rep = &crate::display::calibration(rep, &c);
+    let (l, a) = (c.l(), c.a());
     // A robot without a name (an imported DH table) gets none, not a dangling colon.
     let named = if rep.robot.trim().is_empty() {
         String::new()
@@ -164,7 +178,7 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     };
     let mut h = page_head(&format!("kinecal calibration report{named}"));
     let _ = writeln!(h, "<h1>Calibration report{}</h1>", esc(&named));
-    h += &verdict_section(rep);
+    h += &verdict;
     h += &facts_section(rep);
     let kinds = rep
         .observations
@@ -213,7 +227,7 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
             "<p>Far start: the measurement frame and the measured frames were first placed in closed form (RMS position error {} &rarr; {} {}).</p>",
             num(p.rms_before),
             num(p.rms_after),
-            esc(rep.length_unit.as_str())
+            esc(l)
         );
     }
     if let Some(n) = rep.down_weighted_rows {
@@ -422,7 +436,6 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
     }
 
     // Parameter changes with +-sigma bars, one chart per unit.
-    // (unit, [(parameter number, change, sigma)])
     // (unit, [(parameter id, change, sigma)])
     type Group = (String, Vec<(String, f64, f64)>);
     let mut groups: Vec<Group> = Vec::new();
@@ -436,7 +449,8 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
         };
         entry
             .1
-            .push((p.id.clone(), p.change, p.sigma.unwrap_or(0.0)));
+            // No bar for a sigma not determined.
+            .push((p.id.clone(), p.change, p.sigma.unwrap_or(f64::NAN)));
     }
     let panels: Vec<Panel> = groups
         .iter()
@@ -469,8 +483,8 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
             esc(&p.unit),
             // Six decimals for lengths and angles; a compliance (1e-6..1e-3) in significant
             // digits.
-            if p.unit.contains("/(N ") { num(p.initial) } else { format!("{:.6}", p.initial) },
-            if p.unit.contains("/(N ") { num(p.estimated) } else { format!("{:.6}", p.estimated) },
+            if p.unit.contains("/(N ") { num(p.initial) } else { fixed(p.initial, 6) },
+            if p.unit.contains("/(N ") { num(p.estimated) } else { fixed(p.estimated, 6) },
             crate::number::signed(p.change, 4),
             p.sigma.map_or("not determined alone".into(), num),
             p.significance.map_or(String::new(), |z| format!("{z:.1}{}", if p.within_noise == Some(true) { " (within noise)" } else { "" }))
@@ -530,13 +544,13 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
             e.bodies,
             num(e.total_mass),
             num(e.gravity),
-            esc(&rep.length_unit.to_string()),
+            esc(l),
             esc(&e.equilibrium),
             rep.postures.saturating_sub(e.unconverged_postures),
             rep.postures,
             e.iterations_max,
             num(e.largest_deflection),
-            esc(&rep.angle_unit.to_string()),
+            esc(a),
             num(e.largest_torque)
         );
         let _ = writeln!(h, "<table><tr><th class=\"l\">compliance</th><th>value</th><th>sigma</th><th>stiffness</th><th>sigma</th><th class=\"l\">unit</th><th class=\"l\">estimated</th></tr>");
@@ -610,13 +624,14 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
                 "<p>No identical redundancy among the estimated parameters.</p>"
             );
         } else {
-            let _ = writeln!(h, "<table><tr><th class=\"l\">combination</th><th>value</th><th class=\"l\">determined</th></tr>");
+            let _ = writeln!(h, "<table><tr><th class=\"l\">combination</th><th>value</th><th class=\"l\">unit</th><th class=\"l\">determined</th></tr>");
             for g in &an.identical_groups {
                 let _ = writeln!(
                     h,
-                    "<tr><td class=\"l\">{}</td><td>{:.6}</td><td class=\"l\">{}</td></tr>",
+                    "<tr><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td></tr>",
                     esc(&g.expression),
-                    g.value,
+                    fixed(g.value, 6),
+                    esc(&combination_unit(rep, &g.expression)),
                     if g.determined {
                         "yes"
                     } else {
@@ -629,12 +644,13 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
         for c in &rep.combinations {
             let _ = writeln!(
                 h,
-                "<p>{} = {:.6} (was {:.6}, sigma {:.3e}, change {:.1} sigma)</p>",
+                "<p>{} = {} {unit} (was {}, sigma {}, change {:.1} sigma)</p>",
                 esc(&c.expression),
-                c.value,
-                c.initial,
-                c.sigma,
-                c.significance
+                fixed(c.value, 6),
+                fixed(c.initial, 6),
+                num(c.sigma),
+                c.significance,
+                unit = esc(&combination_unit(rep, &c.expression))
             );
         }
         if !rep.undetermined.is_empty() {
@@ -682,8 +698,8 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
 
 /// The verdict, first on the page: a banner of its level, what happened, the accuracy reached,
 /// and what to do next.
-fn verdict_section(rep: &CalibrationReport) -> String {
-    let v = crate::verdict::verdict(rep);
+fn verdict_section(rep: &CalibrationReport, units: DisplayUnits) -> String {
+    let v = crate::verdict::verdict(rep, units);
     let mut h = format!(
         "<div class=\"verdict {}\" id=\"verdict\"><p class=\"head\">{}</p>\n",
         v.level.as_str(),

@@ -6,16 +6,19 @@
 //! the system (no fontconfig, no freetype).
 
 mod chart;
+pub mod display;
 pub mod fleet;
 mod html;
 pub mod iso9283;
+mod kerned;
 pub mod number;
 pub mod plan;
 pub mod predict;
 pub mod verdict;
 
 pub use chart::{render_png, render_svg, Line, Panel};
-pub use html::html_report;
+pub use display::{DisplayChoice, DisplayUnits};
+pub use html::{html_report, html_report_in};
 
 /// The pages and pictures of kinecal's jobs, drawn by this crate: what a front end hands to
 /// [`kinecal::spec::run`].
@@ -27,7 +30,9 @@ impl kinecal::spec::Artist for Artist {
         use kinecal::spec::{Image, Page};
         let failed = |e: DrawError| kinecal::Error::Numerical(e.to_string());
         Ok(match page {
-            Page::Calibration(report) => html_report(report).map_err(failed)?.into_bytes(),
+            Page::Calibration { report, units } => {
+                html_report_in(report, units).map_err(failed)?.into_bytes()
+            }
             Page::Plan {
                 plan,
                 robot,
@@ -41,7 +46,12 @@ impl kinecal::spec::Artist for Artist {
                 robot,
                 length_unit,
                 angle_unit,
-            } => predict::page(prediction, robot, length_unit, angle_unit).into_bytes(),
+                units,
+            } => {
+                let c = display::Convert::new(units, length_unit, angle_unit);
+                let shown = display::prediction(prediction, &c);
+                predict::page(&shown, robot, c.l(), c.a()).into_bytes()
+            }
             Page::Iso9283(e) => iso9283::html_iso9283(e).into_bytes(),
             Page::Curves { curves, image } => {
                 let panels: Vec<Panel> = curves

@@ -17,6 +17,18 @@ use kinecal::report::nice_width;
 /// Bins of the joint-space histograms.
 const BINS: usize = 12;
 
+/// The unit of joint `j`'s readings: the joint's own (`deg`, `mm`) when its transducer reads
+/// the joint variable (a slope of 1 in the robot file's units), else transducer units.
+pub(crate) fn reading_unit(robot: &Robot, j: usize) -> String {
+    let joint = &robot.joints[j];
+    let slope = robot.units.from_si(joint.kind.slope(), joint.slope);
+    if (slope - 1.0).abs() <= 1e-12 && joint.coupling.is_none() {
+        robot.units.label(joint.kind.variable())
+    } else {
+        "transducer units".into()
+    }
+}
+
 /// One panel per joint: how the chosen postures' readings spread over the joint's range
 /// (bars), against the candidates' spread scaled to the plan's size (line).
 fn joint_panels(plan: &Plan, robot: &Robot, pool: &Dataset) -> Vec<Panel> {
@@ -46,7 +58,7 @@ fn joint_panels(plan: &Plan, robot: &Robot, pool: &Dataset) -> Vec<Panel> {
             let scale = chosen / pool.postures.len().max(1) as f64;
             Panel {
                 title: format!("Joint {}: readings of the plan", j + 1),
-                x_label: format!("reading v{} (transducer units)", j + 1),
+                x_label: format!("reading v{} ({})", j + 1, reading_unit(robot, j)),
                 y_label: "postures".into(),
                 x: (0..bins)
                     .map(|b| start + (b as f64 + 0.5) * width)
@@ -236,4 +248,27 @@ pub fn html_plan(
             .join(", "))
     );
     Ok(h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn readings_are_labelled_in_the_joints_unit_when_they_are_its_values() {
+        // The GE A4's transducers read 7.2 deg per unit: transducer units.
+        let a4 = kinecal::examples::ge_a4();
+        assert_eq!(reading_unit(&a4, 0), "transducer units");
+        // A robot whose readings are its joint angles (slope 1): degrees, or its own unit.
+        let mut deg = a4.clone();
+        for j in &mut deg.joints {
+            j.slope = deg.units.to_si(j.kind.slope(), 1.0);
+        }
+        assert_eq!(reading_unit(&deg, 0), "deg");
+        deg.units.angle = kinecal::AngleUnit::Rad;
+        for j in &mut deg.joints {
+            j.slope = 1.0;
+        }
+        assert_eq!(reading_unit(&deg, 0), "rad");
+    }
 }

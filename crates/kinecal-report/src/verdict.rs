@@ -6,6 +6,7 @@
 use kinecal::report::CalibrationReport;
 use kinecal::warning::Severity;
 
+use crate::display::{Convert, DisplayUnits};
 use crate::number::sig;
 
 /// How a calibration ended, for the banner.
@@ -77,8 +78,8 @@ pub fn ranked_warnings(rep: &CalibrationReport) -> Vec<Ranked> {
     out
 }
 
-/// The verdict on `rep`.
-pub fn verdict(rep: &CalibrationReport) -> Verdict {
+/// The verdict on `rep`, its figures in `units`.
+pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
     let ranked = ranked_warnings(rep);
     let errors = ranked
         .iter()
@@ -88,7 +89,10 @@ pub fn verdict(rep: &CalibrationReport) -> Verdict {
         .iter()
         .filter(|r| r.severity == Severity::Caution)
         .count();
-    let l = rep.length_unit.as_str();
+    let c = Convert::of(rep, units);
+    let l = c.l();
+    // A length shown.
+    let len = |v: f64| sig(c.length(v), 4);
     let level = if (!rep.converged && !rep.given) || errors > 0 {
         Level::Failed
     } else if cautions > 0 {
@@ -134,14 +138,14 @@ pub fn verdict(rep: &CalibrationReport) -> Verdict {
             "identification, mean position error".to_string(),
             format!(
                 "{} {l} (from {})",
-                sig(a.mean_position, 4),
-                sig(b.mean_position, 4)
+                len(a.mean_position),
+                len(b.mean_position)
             ),
         ));
     } else if let (Some(mb), Some(ma)) = (b.other.first(), a.other.first()) {
         figures.push((
             format!("identification, mean {} error", mb.metric),
-            format!("{} {l} (from {})", sig(ma.mean, 4), sig(mb.mean, 4)),
+            format!("{} {l} (from {})", len(ma.mean), len(mb.mean)),
         ));
     }
     let held_out = rep
@@ -167,15 +171,15 @@ pub fn verdict(rep: &CalibrationReport) -> Verdict {
             })
         });
     if let Some((label, v)) = &held_out {
-        figures.push((label.clone(), format!("{} {l}", sig(*v, 4))));
+        figures.push((label.clone(), format!("{} {l}", len(*v))));
     }
     if let Some(p) = &rep.prediction {
         figures.push((
             "predicted 95 % position bound over the joint ranges".to_string(),
             format!(
                 "median {} {l}, 95th percentile {} {l}",
-                sig(p.position_summary.median, 4),
-                sig(p.position_summary.p95, 4)
+                len(p.position_summary.median),
+                len(p.position_summary.p95)
             ),
         ));
     }

@@ -187,3 +187,77 @@ fn tracker_free_data_shows_its_own_errors_and_an_assessed_calibration_says_so() 
     );
     assert!(!html.contains("after 0 iterations"));
 }
+
+/// A robot in metres and radians: its page shows millimetres and degrees, every number
+/// converted and labelled so; asked for, its own units.
+#[test]
+fn a_metre_radian_calibration_is_shown_in_millimetres_and_degrees() {
+    let (mut nominal, data) = session();
+    nominal.units = kinecal::Units {
+        length: kinecal::LengthUnit::M,
+        angle: kinecal::AngleUnit::Rad,
+    };
+    let mut req = Request::new(nominal.clone(), data);
+    req.selection = Selection::parse("p1,p2,p8,p14,offsets,slopes", None, &nominal).unwrap();
+    req.validation = Validation::Holdout {
+        fraction: 0.2,
+        seed: 1,
+    };
+    let rep = workflow::run(&req, &mut ()).unwrap().report;
+    assert_eq!(rep.length_unit.as_str(), "m");
+    let html = html_report(&rep).unwrap();
+    let summary = section(&html, "summary");
+    assert!(
+        summary.contains("RMS position error (mm)") && summary.contains("RMS attitude error (deg)"),
+        "{summary}"
+    );
+    let mm = kinecal_report::number::num(rep.rms_position_after * 1000.0);
+    let deg = kinecal_report::number::num(rep.rms_orientation_after.unwrap().to_degrees());
+    assert!(
+        summary.contains(&format!("<td>{mm}</td>")),
+        "{mm}: {summary}"
+    );
+    assert!(
+        summary.contains(&format!("<td>{deg}</td>")),
+        "{deg}: {summary}"
+    );
+    let validation = section(&html, "validation");
+    assert!(
+        validation.contains("Position error (mm)") && validation.contains("Attitude error (deg)")
+    );
+    // Parameters: lengths in mm, angles in deg, slopes in deg/unit; the change and sigma too.
+    let changes = section(&html, "changes");
+    for unit in ["mm", "deg", "deg/unit"] {
+        assert!(
+            changes.contains(&format!("<td class=\"l\">{unit}</td>")),
+            "{unit}: {changes}"
+        );
+        assert!(
+            changes.contains(&format!("change ({unit})")),
+            "{unit} chart"
+        );
+    }
+    let p1 = rep.parameters.iter().find(|p| p.id == "p1").unwrap();
+    let row = changes
+        .lines()
+        .find(|l| l.starts_with("<tr><td class=\"l\">p1<"))
+        .unwrap();
+    assert!(
+        row.contains(&kinecal_report::number::signed(p1.change * 1000.0, 4))
+            && row.contains(&kinecal_report::number::num(p1.sigma.unwrap() * 1000.0)),
+        "{row}"
+    );
+    // No number labelled in the robot's units is left.
+    for stale in ["(m)", "(rad)", " m</", " rad<", "rad/unit", ">m<", ">rad<"] {
+        assert!(!html.contains(stale), "`{stale}` on the page");
+    }
+    // The verdict speaks millimetres too.
+    assert!(section(&html, "verdict").contains(" mm"));
+    // Its own units when asked for.
+    let own = kinecal_report::html_report_in(&rep, "m-rad".parse().unwrap()).unwrap();
+    assert!(section(&own, "summary").contains("RMS position error (m)"));
+    assert!(section(&own, "summary").contains(&format!(
+        "<td>{}</td>",
+        kinecal_report::number::num(rep.rms_position_after)
+    )));
+}

@@ -66,7 +66,7 @@ pub use observe::{Dataset, Observation, Posture};
 pub use param_list::parse_param_list;
 pub use params::{ParamId, ParamKind};
 pub use robot::{Joint, JointKind, Link, Robot, Site};
-pub use units::{AngleUnit, LengthUnit, Units};
+pub use units::{AngleUnit, DisplayChoice, DisplayUnits, LengthUnit, Units};
 pub use warning::Warning;
 
 /// The library page's examples compile (`cargo test --doc`).

@@ -181,6 +181,193 @@ impl Units {
     }
 }
 
+/// A unit of length a number is shown in to a person: the robot files' units and the
+/// micrometre.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum DisplayLength {
+    /// Metre.
+    M,
+    /// Millimetre.
+    Mm,
+    /// Micrometre (`um`).
+    Um,
+    /// Inch (25.4 mm).
+    In,
+}
+
+impl DisplayLength {
+    /// Metres in one of this unit.
+    pub fn metres(self) -> f64 {
+        match self {
+            DisplayLength::M => 1.0,
+            DisplayLength::Mm => 1e-3,
+            DisplayLength::Um => 1e-6,
+            DisplayLength::In => 0.0254,
+        }
+    }
+
+    /// Its label: `m`, `mm`, `um`, `in`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DisplayLength::M => "m",
+            DisplayLength::Mm => "mm",
+            DisplayLength::Um => "um",
+            DisplayLength::In => "in",
+        }
+    }
+}
+
+impl From<LengthUnit> for DisplayLength {
+    fn from(u: LengthUnit) -> Self {
+        match u {
+            LengthUnit::M => DisplayLength::M,
+            LengthUnit::Mm => DisplayLength::Mm,
+            LengthUnit::In => DisplayLength::In,
+        }
+    }
+}
+
+/// The units numbers are shown in to a person: the pages and summaries kinecal draws and
+/// prints. Files for programs (reports, robot files) keep the robot file's units.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DisplayUnits {
+    /// Unit of lengths shown.
+    pub length: DisplayLength,
+    /// Unit of angles shown.
+    pub angle: AngleUnit,
+}
+
+impl DisplayUnits {
+    /// The default for a robot whose files are in `length` and `angle`: millimetres for a
+    /// metre robot, degrees for a radian one; a robot in millimetres, inches or degrees as it is
+    /// (never micrometres by default).
+    pub fn for_robot(length: LengthUnit, _angle: AngleUnit) -> DisplayUnits {
+        DisplayUnits {
+            length: match length {
+                LengthUnit::M | LengthUnit::Mm => DisplayLength::Mm,
+                LengthUnit::In => DisplayLength::In,
+            },
+            angle: AngleUnit::Deg,
+        }
+    }
+
+    /// The robot file's own units.
+    pub fn robot(length: LengthUnit, angle: AngleUnit) -> DisplayUnits {
+        DisplayUnits {
+            length: length.into(),
+            angle,
+        }
+    }
+
+    /// What a length in `from` is multiplied by to be shown.
+    pub fn length_factor(self, from: LengthUnit) -> f64 {
+        from.metres() / self.length.metres()
+    }
+
+    /// What an angle in `from` is multiplied by to be shown.
+    pub fn angle_factor(self, from: AngleUnit) -> f64 {
+        from.radians() / self.angle.radians()
+    }
+}
+
+impl fmt::Display for DisplayUnits {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}-{}", self.length.as_str(), self.angle)
+    }
+}
+
+impl FromStr for DisplayUnits {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let wrong = || {
+            format!(
+                "unknown display units `{s}` (expected a length unit m, mm, um or in, a dash and \
+                 an angle unit deg or rad: `mm-deg`)"
+            )
+        };
+        let (l, a) = s.split_once('-').ok_or_else(wrong)?;
+        let length = match l {
+            "m" => DisplayLength::M,
+            "mm" => DisplayLength::Mm,
+            "um" => DisplayLength::Um,
+            "in" => DisplayLength::In,
+            _ => return Err(wrong()),
+        };
+        let angle = a.parse().map_err(|_| wrong())?;
+        Ok(DisplayUnits { length, angle })
+    }
+}
+
+/// Which units a page or a summary shows numbers in (a spec's `display_units`): `default`
+/// ([`DisplayUnits::for_robot`]: millimetres and degrees for a metre-radian robot), `robot`
+/// (the robot file's units), or given units such as `mm-deg`, `um-deg`, `m-rad`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub enum DisplayChoice {
+    /// [`DisplayUnits::for_robot`].
+    #[default]
+    Default,
+    /// The robot file's units.
+    Robot,
+    /// These units.
+    Units(DisplayUnits),
+}
+
+impl DisplayChoice {
+    /// The units shown for a robot in `length` and `angle`.
+    pub fn resolve(self, length: LengthUnit, angle: AngleUnit) -> DisplayUnits {
+        match self {
+            DisplayChoice::Default => DisplayUnits::for_robot(length, angle),
+            DisplayChoice::Robot => DisplayUnits::robot(length, angle),
+            DisplayChoice::Units(u) => u,
+        }
+    }
+
+    /// Whether it is the default (left out of a spec written down).
+    pub fn is_default(&self) -> bool {
+        *self == DisplayChoice::Default
+    }
+}
+
+impl fmt::Display for DisplayChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DisplayChoice::Default => f.write_str("default"),
+            DisplayChoice::Robot => f.write_str("robot"),
+            DisplayChoice::Units(u) => u.fmt(f),
+        }
+    }
+}
+
+impl FromStr for DisplayChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "default" => Ok(DisplayChoice::Default),
+            "robot" => Ok(DisplayChoice::Robot),
+            _ => s.parse().map(DisplayChoice::Units).map_err(|_| {
+                format!(
+                    "unknown display units `{s}` (expected `default`, `robot`, or a length unit \
+                     m, mm, um or in, a dash and an angle unit deg or rad: `mm-deg`)"
+                )
+            }),
+        }
+    }
+}
+
+impl TryFrom<String> for DisplayChoice {
+    type Error = String;
+    fn try_from(s: String) -> Result<Self, String> {
+        s.parse()
+    }
+}
+
+impl From<DisplayChoice> for String {
+    fn from(c: DisplayChoice) -> String {
+        c.to_string()
+    }
+}
+
 /// The largest magnitude any number in an input file may have, in the file's own units (1e9:
 /// a million kilometres in metres, a thousand kilometres in millimetres). Larger values are
 /// refused as unit mix-ups or corrupt data: their squares would overflow the objective.
@@ -317,6 +504,29 @@ pub fn wrap_angle(a: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn display_units_default_to_millimetres_and_degrees_for_a_metre_radian_robot() {
+        use LengthUnit::{In, Mm, M};
+        let d = |l, a| DisplayUnits::for_robot(l, a).to_string();
+        assert_eq!(d(M, AngleUnit::Rad), "mm-deg");
+        assert_eq!(d(Mm, AngleUnit::Deg), "mm-deg");
+        assert_eq!(d(In, AngleUnit::Deg), "in-deg");
+        assert_eq!(d(M, AngleUnit::Deg), "mm-deg");
+        let u = DisplayUnits::for_robot(M, AngleUnit::Rad);
+        assert!((u.length_factor(M) - 1000.0).abs() < 1e-12);
+        assert!((u.angle_factor(AngleUnit::Rad) - 180.0 / std::f64::consts::PI).abs() < 1e-12);
+        let robot = DisplayChoice::Robot.resolve(M, AngleUnit::Rad);
+        assert_eq!(robot.to_string(), "m-rad");
+        let um: DisplayChoice = "um-deg".parse().unwrap();
+        assert!((um.resolve(M, AngleUnit::Rad).length_factor(Mm) - 1000.0).abs() < 1e-9);
+        for bad in ["mm", "km-deg", "mm-grad", ""] {
+            assert!(bad.parse::<DisplayChoice>().is_err(), "{bad}");
+        }
+        for good in ["default", "robot", "mm-deg", "m-rad", "um-deg", "in-rad"] {
+            assert_eq!(good.parse::<DisplayChoice>().unwrap().to_string(), good);
+        }
+    }
 
     #[test]
     fn wrap_is_half_open() {

@@ -44,7 +44,7 @@ use crate::files::{detect_format, kind_index, read_files, ObservationFile, ReadS
 use crate::observe::{Dataset, OrientationError, Weights};
 use crate::robot::Robot;
 use crate::source::Source;
-use crate::units::Quantity;
+use crate::units::{DisplayChoice, Quantity};
 use crate::workflow::{self, Candidate, Outcome, Request, Selection, SolutionRule, Validation};
 
 use super::common::{invalid, is_default, visit_opt, LengthAngle};
@@ -220,6 +220,11 @@ pub struct OutputSpec {
     /// The HTML report.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub html: Option<String>,
+    /// The units the HTML report and the summary show lengths and angles in (`default`:
+    /// millimetres and degrees for a metre-radian robot; `robot`; or `mm-deg`, `um-deg`, ...).
+    /// The report and the robot file keep the robot file's units.
+    #[serde(default, skip_serializing_if = "DisplayChoice::is_default")]
+    pub display_units: DisplayChoice,
 }
 
 impl Spec for CalibrationSpec {
@@ -624,7 +629,16 @@ impl CalibrationJob {
             staged.text(Path::new(path), &(outcome.report.to_json() + "\n"))?;
         }
         if let Some(path) = &o.html {
-            let page = env.draw(super::Page::Calibration(&outcome.report), path)?;
+            let units = o
+                .display_units
+                .resolve(outcome.report.length_unit, outcome.report.angle_unit);
+            let page = env.draw(
+                super::Page::Calibration {
+                    report: &outcome.report,
+                    units,
+                },
+                path,
+            )?;
             staged.bytes(Path::new(path), &page)?;
         }
         if let Some(r) = env.recorder.as_deref_mut() {
@@ -724,6 +738,7 @@ mod tests {
                 robot: Some("out.toml".into()),
                 report: Some("r.json".into()),
                 html: None,
+                display_units: "um-deg".parse().unwrap(),
             },
             strict: true,
         };

@@ -515,7 +515,12 @@ pub trait Artist {
 #[non_exhaustive]
 pub enum Page<'a> {
     /// The HTML page of a calibration report.
-    Calibration(&'a crate::report::CalibrationReport),
+    Calibration {
+        /// The report.
+        report: &'a crate::report::CalibrationReport,
+        /// The units the page shows lengths and angles in.
+        units: crate::units::DisplayUnits,
+    },
     /// The HTML page of a measurement plan.
     Plan {
         /// The plan.
@@ -534,9 +539,11 @@ pub enum Page<'a> {
         /// The robot's name.
         robot: &'a str,
         /// Its length unit.
-        length_unit: &'a str,
+        length_unit: crate::units::LengthUnit,
         /// Its angle unit.
-        angle_unit: &'a str,
+        angle_unit: crate::units::AngleUnit,
+        /// The units the page shows lengths and angles in.
+        units: crate::units::DisplayUnits,
     },
     /// The HTML page of ISO 9283 figures.
     Iso9283(&'a crate::iso9283::Evaluation),

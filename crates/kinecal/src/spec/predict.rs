@@ -24,7 +24,7 @@ use crate::kinematics::Target;
 use crate::predict::{self, PredictionReport, Predictor};
 use crate::report::CalibrationReport;
 use crate::robot::Robot;
-use crate::units::Quantity;
+use crate::units::{DisplayChoice, Quantity};
 
 use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt};
 use super::{Document, Done, Env, JobKind, Message, Page, PathRole, Spec};
@@ -42,6 +42,10 @@ pub struct PredictOutputs {
     /// The accuracy map over the workspace (HTML).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub html: Option<String>,
+    /// The units the page shows lengths and angles in (`default`: millimetres and degrees for
+    /// a metre-radian robot; `robot`; or `mm-deg`, `um-deg`, ...).
+    #[serde(default, skip_serializing_if = "DisplayChoice::is_default")]
+    pub display_units: DisplayChoice,
 }
 
 /// A prediction. See the [module documentation](self).
@@ -391,8 +395,12 @@ impl PredictSpec {
                 Page::Prediction {
                     prediction: &with_map,
                     robot: &report.robot,
-                    length_unit: report.length_unit.as_str(),
-                    angle_unit: report.angle_unit.as_str(),
+                    length_unit: report.length_unit,
+                    angle_unit: report.angle_unit,
+                    units: self
+                        .outputs
+                        .display_units
+                        .resolve(report.length_unit, report.angle_unit),
                 },
                 path,
             )?;

@@ -5,6 +5,7 @@
 //! job = "report"
 //! from = "report.json"            # or robot, observations and calibrated (or calibration)
 //! out = "report.html"
+//! display_units = "mm-deg"        # default: mm and deg for a metre-radian robot; or "robot"
 //! ```
 
 use std::path::Path;
@@ -15,6 +16,7 @@ use crate::error::{Error, Location, Result, Setting};
 use crate::files::{ObservationFile, ReadSettings};
 use crate::report::CalibrationReport;
 use crate::robot::Robot;
+use crate::units::DisplayChoice;
 
 use super::common::{
     invalid, is_default, read_observations, read_source, robot_as, visit_opt, Residuals,
@@ -49,6 +51,10 @@ pub struct ReportSpec {
     /// The page to write.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
+    /// The units the page shows lengths and angles in (`default`: millimetres and degrees for
+    /// a metre-radian robot; `robot`; or `mm-deg`, `um-deg`, ...).
+    #[serde(default, skip_serializing_if = "DisplayChoice::is_default")]
+    pub display_units: DisplayChoice,
 }
 
 impl Spec for ReportSpec {
@@ -150,7 +156,16 @@ impl ReportSpec {
             .as_deref()
             .ok_or_else(|| invalid(Setting::Output, "no page to write given"))?;
         let report = self.report()?;
-        let page = env.draw(Page::Calibration(&report), out)?;
+        let units = self
+            .display_units
+            .resolve(report.length_unit, report.angle_unit);
+        let page = env.draw(
+            Page::Calibration {
+                report: &report,
+                units,
+            },
+            out,
+        )?;
         let mut staged = crate::files::output::Staged::new();
         staged.bytes(Path::new(out), &page)?;
         staged.commit()?;
