@@ -312,6 +312,11 @@ pub struct PredictArgs {
     /// Write the accuracy map as an HTML page here.
     #[arg(long)]
     pub html: Option<PathBuf>,
+    /// The units numbers are shown in on pages and summaries: `default` (mm and deg for a
+    /// metre-radian robot, else its own), `robot`, or LENGTH-ANGLE (`mm-deg`, `um-deg`, `m-rad`).
+    /// Files for programs keep the robot's units.
+    #[arg(long, value_name = "UNITS", value_parser = display_units)]
+    pub display_units: Option<kinecal::units::DisplayChoice>,
 }
 
 /// `kinecal fk`.
@@ -724,6 +729,11 @@ pub struct ReportArgs {
     /// The HTML file to write.
     #[arg(long, visible_alias = "html", required_unless_present = "spec")]
     pub out: Option<PathBuf>,
+    /// The units numbers are shown in on pages and summaries: `default` (mm and deg for a
+    /// metre-radian robot, else its own), `robot`, or LENGTH-ANGLE (`mm-deg`, `um-deg`, `m-rad`).
+    /// Files for programs keep the robot's units.
+    #[arg(long, value_name = "UNITS", value_parser = display_units)]
+    pub display_units: Option<kinecal::units::DisplayChoice>,
 }
 
 /// `kinecal check`.
@@ -1623,6 +1633,11 @@ pub struct CalibrateArgs {
     /// Also write a self-contained HTML report here.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
+    /// The units numbers are shown in on pages and summaries: `default` (mm and deg for a
+    /// metre-radian robot, else its own), `robot`, or LENGTH-ANGLE (`mm-deg`, `um-deg`, `m-rad`).
+    /// Files for programs keep the robot's units.
+    #[arg(long, value_name = "UNITS", value_parser = display_units)]
+    pub display_units: Option<kinecal::units::DisplayChoice>,
     /// Treat warnings that say the result is most likely wrong (data in another unit than the
     /// robot file, readings outside the joint ranges or in the other angle unit, lengths moved
     /// beyond the robot's reach) as failures: exit 3, write and record nothing.
@@ -1793,4 +1808,9 @@ pub struct CompletionsArgs {
 /// The names of the data set adapters, for `kinecal dataset NAME` (checked and completed).
 fn dataset_names() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(kinecal::datasets::DATASETS.iter().map(|d| d.name))
+}
+
+/// `--display-units`.
+fn display_units(s: &str) -> Result<kinecal::units::DisplayChoice, String> {
+    s.parse()
 }

@@ -133,6 +133,7 @@ pub const CALIBRATE_FLAGS: &[(&str, Sets)] = &[
     ("--out", Sets::Value("outputs.robot")),
     ("--report", Sets::Value("outputs.report")),
     ("--html", Sets::Value("outputs.html")),
+    ("--display-units", Sets::Value("outputs.display_units")),
     ("--strict", Sets::Flag("strict")),
 ];
 

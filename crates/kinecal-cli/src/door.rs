@@ -275,6 +275,7 @@ pub fn predict(a: &PredictArgs) -> Result<PredictSpec> {
     over(&mut s.target, a.target.clone());
     over(&mut s.outputs.predictions, opt_path(&a.out)?);
     over(&mut s.outputs.html, opt_path(&a.html)?);
+    set(&mut s.outputs.display_units, a.display_units);
     if s.outputs.predictions.is_none() {
         s.outputs.predictions = Some("-".into());
     }
@@ -648,6 +649,7 @@ pub fn report(a: &ReportArgs) -> Result<ReportSpec> {
     over(&mut s.calibration, opt_path(&a.calibration)?);
     residuals(&a.residuals, &mut s.residuals)?;
     over(&mut s.out, opt_path(&a.out)?);
+    set(&mut s.display_units, a.display_units);
     Ok(s)
 }
 

@@ -1067,3 +1067,29 @@ fn a_bad_history_value_names_the_flag_or_the_key() {
         "{err}"
     );
 }
+
+/// `--display-units` is the spec's `display_units` for the jobs that draw pages.
+#[test]
+fn display_units_is_a_flag_of_the_jobs_that_draw_pages() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for args in [
+        &["calibrate", "--robot", "ge-a4", "--data", "d.csv"][..],
+        &[
+            "predict", "--robot", "ge-a4", "--report", "r.json", "--sample", "3",
+        ][..],
+        &["report", "--from", "r.json", "--out", "p.html"][..],
+    ] {
+        let mut args = args.to_vec();
+        args.extend(["--display-units", "m-rad", "--write-spec", "-"]);
+        let (code, out, err) = kinecal(d, &args);
+        assert_eq!(code, 0, "{args:?}: {err}");
+        assert!(out.contains("display_units = \"m-rad\""), "{args:?}: {out}");
+    }
+    let (code, _, err) = kinecal(
+        d,
+        &["report", "--from", "r.json", "--display-units", "ft-deg"],
+    );
+    assert_ne!(code, 0);
+    assert!(err.contains("--display-units"), "{err}");
+}
