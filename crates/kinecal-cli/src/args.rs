@@ -6,10 +6,10 @@
 use std::path::PathBuf;
 
 use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand};
-use kinecal::estimation::{Damping, Method, Spread};
+use kinecal::apps::plan::Criterion;
 use kinecal::import::dh::Convention;
 use kinecal::observe::OrientationError;
-use kinecal::plan::Criterion;
+use kinecal::solve::estimation::{Damping, Method, Spread};
 use kinecal::spec::{LossKind, MatrixKind, MatrixUnits, ProgramFormat};
 use kinecal::workflow::SolutionRule;
 
@@ -1807,7 +1807,9 @@ pub struct CompletionsArgs {
 
 /// The names of the data set adapters, for `kinecal dataset NAME` (checked and completed).
 fn dataset_names() -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(kinecal::datasets::DATASETS.iter().map(|d| d.name))
+    clap::builder::PossibleValuesParser::new(
+        kinecal::apps::datasets::DATASETS.iter().map(|d| d.name),
+    )
 }
 
 /// `--display-units`.

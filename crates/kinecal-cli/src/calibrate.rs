@@ -27,7 +27,7 @@ impl workflow::Progress for Verbose {
         }
     }
 
-    fn iteration(&mut self, it: &kinecal::estimation::Iteration) {
+    fn iteration(&mut self, it: &kinecal::solve::estimation::Iteration) {
         if self.0 {
             eprintln!(
                 "{:>5} {:>14.6e} {:>11.3e} {:>10.1e} {:>5}",
@@ -197,7 +197,7 @@ impl workflow::Progress for Display {
         self.verbose.phase(phase);
     }
 
-    fn iteration(&mut self, it: &kinecal::estimation::Iteration) {
+    fn iteration(&mut self, it: &kinecal::solve::estimation::Iteration) {
         self.bar.set_message(format!(
             "estimation: iteration {}, objective {:.6e}",
             it.iteration, it.objective

@@ -3,8 +3,8 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use kinecal::estimation::{calibrate, CalibrationOptions};
-use kinecal::{examples, parse_param_list, simulate, ParamId, Robot};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::{apps::simulate, model::examples, parse_param_list, ParamId, Robot};
 
 /// The six identically redundant z-direction parameters of the GE A4 (thesis eq. 4.1).
 const Z_GROUP: [usize; 6] = [3, 9, 15, 21, 27, 33];

@@ -1,7 +1,7 @@
 //! `kinecal iso9283`: the test poses and the pose figures as text.
 
+use kinecal::apps::iso9283::{pose_name, Evaluation, Spread};
 use kinecal::identifiability::fmt_sig;
-use kinecal::iso9283::{pose_name, Evaluation, Spread};
 use kinecal::spec::Document;
 use kinecal_report::number::{num, signed};
 

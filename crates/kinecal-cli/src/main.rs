@@ -320,14 +320,14 @@ pub fn word(w: &Warning) -> String {
 }
 
 fn dataset(a: DatasetArgs) -> Result<()> {
-    let adapter = kinecal::datasets::DATASETS
+    let adapter = kinecal::apps::datasets::DATASETS
         .iter()
         .find(|d| d.name == a.name)
         .ok_or_else(|| {
             anyhow!(
                 "unknown data set `{}` (known: {})",
                 a.name,
-                kinecal::datasets::DATASETS
+                kinecal::apps::datasets::DATASETS
                     .iter()
                     .map(|d| d.name)
                     .collect::<Vec<_>>()
@@ -397,7 +397,7 @@ fn dataset(a: DatasetArgs) -> Result<()> {
 }
 
 /// The command line of a data set's suggested calibration.
-fn suggested_command(s: &kinecal::datasets::Suggested) -> String {
+fn suggested_command(s: &kinecal::apps::datasets::Suggested) -> String {
     let mut c = format!("kinecal calibrate --robot {} --data {}", s.robot, s.data);
     for v in s.validate {
         c += &format!(" --validate {v}");

@@ -2,8 +2,8 @@
 
 use std::fmt::Write as _;
 
+use kinecal::apps::plan::Plan;
 use kinecal::identifiability::fmt_sig;
-use kinecal::plan::Plan;
 use kinecal::spec::Document;
 use kinecal::Robot;
 use kinecal_report::number::opt;

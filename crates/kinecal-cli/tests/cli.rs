@@ -1573,10 +1573,10 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     use std::fmt::Write as _;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let text = kinecal::examples::GE_A4_TOML.to_string()
+    let text = kinecal::model::examples::GE_A4_TOML.to_string()
         + "\n# The table the probe touches.\n[[planes]]\nname = \"table\"\nnormal = [0, 0, 1]\noffset = -1.5\n";
     std::fs::write(d.join("a4.toml"), &text).unwrap();
-    let nominal = kinecal::robot_file::parse_robot_toml(&text, "a4.toml").unwrap();
+    let nominal = kinecal::model::robot_file::parse_robot_toml(&text, "a4.toml").unwrap();
     let mut truth = nominal.clone();
     for (name, delta) in [
         ("link3.y", -0.02),
@@ -1587,7 +1587,7 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
         let q = nominal.param_quantity(id);
         truth.set(id, truth.get(id) + nominal.units.to_si(q, delta));
     }
-    let postures = kinecal::simulate::sample_postures(&nominal, 120, 4);
+    let postures = kinecal::apps::simulate::sample_postures(&nominal, 120, 4);
     let (mut contacts, mut distances) = (
         String::from("posture,site,plane,v1,v2,v3,v4,gap\n"),
         String::from("pair,a1,a2,a3,a4,b1,b2,b3,b4,distance,sigma_position\n"),
@@ -2009,7 +2009,7 @@ fn impossible_numbers_are_refused_by_file_line_and_field() {
         err.contains("big.csv:4: field `y`") && err.contains("within +-1e9"),
         "{err}"
     );
-    let robot = kinecal::examples::GE_A4_TOML.replacen("y = -8.5", "y = -1e308", 1);
+    let robot = kinecal::model::examples::GE_A4_TOML.replacen("y = -8.5", "y = -1e308", 1);
     std::fs::write(d.join("r.toml"), robot).unwrap();
     let err = run_err(d, &["calibrate", "--robot", "r.toml", "--data", "d.csv"]);
     assert!(err.contains("r.toml:10: field `links[0].y`"), "{err}");
@@ -2080,7 +2080,9 @@ fn curve_sweeps_are_bounded_and_sized_to_the_parameter() {
         .collect();
     // p1 (15.08 in) +- the GE A4's reach (about 52 in); p4 (0 deg) +- 50 deg.
     let p1: Vec<f64> = values.iter().filter(|v| v.0 == "p1").map(|v| v.1).collect();
-    assert!((p1[2] - p1[0] - 2.0 * kinecal::examples::ge_a4().reach() / 0.0254).abs() < 1e-9);
+    assert!(
+        (p1[2] - p1[0] - 2.0 * kinecal::model::examples::ge_a4().reach() / 0.0254).abs() < 1e-9
+    );
     let p4: Vec<f64> = values.iter().filter(|v| v.0 == "p4").map(|v| v.1).collect();
     assert_eq!(p4, [-50.0, 0.0, 50.0]);
 }
@@ -3113,13 +3115,13 @@ fn ur_export_leaves_the_tracker_out_and_prints_the_tcp() {
         .robot;
     let mut cal = nominal.clone();
     let placement = Frame {
-        rotation: kinecal::kinematics::rot_zyx(0.7, 0.0, 0.0),
+        rotation: kinecal::model::kinematics::rot_zyx(0.7, 0.0, 0.0),
         translation: nalgebra::Vector3::new(3.2, -2.0, 0.5),
     };
     cal.links[0] = kinecal::import::link_of(&placement.then(&Frame::from_link(&nominal.links[0])));
     cal.links[2].x += 0.0004;
     cal.links[6].z += 0.15;
-    cal.sessions.push(kinecal::robot::Session {
+    cal.sessions.push(kinecal::model::robot::Session {
         name: "B".into(),
         frame: Link {
             x: 0.4,
@@ -3128,7 +3130,7 @@ fn ur_export_leaves_the_tracker_out_and_prints_the_tcp() {
     });
     std::fs::write(
         t.join("cal.toml"),
-        kinecal::robot_file::write_robot_toml(&cal, None),
+        kinecal::model::robot_file::write_robot_toml(&cal, None),
     )
     .unwrap();
     let out = kinecal()
@@ -3397,18 +3399,18 @@ fn urdf_export_of_a_template_with_a_bom_and_no_origins() {
 /// mix-up is named before any solving and `--strict` stops there (exit 3).
 #[test]
 fn tracker_series_from_moved_placements() {
-    use kinecal::robot::{Link, Session};
+    use kinecal::model::robot::{Link, Session};
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let nominal = kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 77);
+    let nominal = kinecal::apps::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 77);
     std::fs::write(
         d.join("r.toml"),
-        kinecal::robot_file::write_robot_toml(&nominal, None),
+        kinecal::model::robot_file::write_robot_toml(&nominal, None),
     )
     .unwrap();
-    let mut truth = kinecal::simulate::perturb(
+    let mut truth = kinecal::apps::simulate::perturb(
         &nominal,
-        kinecal::simulate::PerturbStd {
+        kinecal::apps::simulate::PerturbStd {
             length: 0.001,
             angle: 0.002,
             slope_fraction: 0.0,
@@ -3434,12 +3436,12 @@ fn tracker_series_from_moved_placements() {
         },
     ];
     let export = |session: &str, seed: u64, path: &str| {
-        let mut ps = kinecal::simulate::sample_postures(&nominal, 50, seed);
+        let mut ps = kinecal::apps::simulate::sample_postures(&nominal, 50, seed);
         for p in &mut ps {
             p.session = Some(session.into());
         }
-        let mut data = kinecal::simulate::measure(&truth, &ps, false);
-        kinecal::simulate::add_noise(&mut data, 2e-5, 1e-4, seed + 1);
+        let mut data = kinecal::apps::simulate::measure(&truth, &ps, false);
+        kinecal::apps::simulate::add_noise(&mut data, 2e-5, 1e-4, seed + 1);
         let mut out = String::from("J1;J2;J3;J4;J5;J6;X;sX;Y;sY;Z;sZ;RX;RY;RZ\n");
         for o in &data.observations {
             let kinecal::Observation::Pose(p) = o else {

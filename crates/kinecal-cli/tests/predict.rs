@@ -97,7 +97,7 @@ fn the_table_is_the_library_prediction_and_the_map_is_drawn() {
     assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
     common::check_reports(d);
     // The library's prediction, posture by posture, in the file's units.
-    let robot = kinecal::robot_file::parse_robot_toml(
+    let robot = kinecal::model::robot_file::parse_robot_toml(
         &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
         "cal.toml",
     )
@@ -310,7 +310,7 @@ fn cartesian_targets_are_reached_then_predicted() {
     );
     assert_eq!(code, Some(0), "{e}");
     assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
-    let robot = kinecal::robot_file::parse_robot_toml(
+    let robot = kinecal::model::robot_file::parse_robot_toml(
         &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
         "cal.toml",
     )

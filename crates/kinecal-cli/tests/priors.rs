@@ -38,10 +38,10 @@ const PRIOR: &str = "length=0.001,angle=0.001,slope=0.001";
 /// A random 6R (metres, radians), a true robot 1 mm / 1 mrad off it, 10 postures of poses with
 /// 0.1 mm / 0.1 mrad of noise, and 200 fresh postures of the truth.
 fn six_r(dir: &Path, seed: u64) {
-    let robot = kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], seed);
+    let robot = kinecal::apps::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], seed);
     std::fs::write(
         dir.join("r6.toml"),
-        kinecal::robot_file::write_robot_toml(&robot, None),
+        kinecal::model::robot_file::write_robot_toml(&robot, None),
     )
     .unwrap();
     let seed = seed.to_string();

@@ -11,9 +11,9 @@ use std::time::{Duration, Instant};
 
 #[cfg(feature = "postgres")]
 use common::pg::{self, TestDb};
-use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::report::CalibrationReport;
-use kinecal::{examples, simulate, ParamId};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::{apps::simulate, model::examples, ParamId};
 use kinecal_history::{
     current_segment, drift, fleet, AddOptions, Database, DriftOptions, Error, FleetOptions,
     Tolerances, Verdict,

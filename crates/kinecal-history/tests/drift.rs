@@ -1,10 +1,10 @@
 //! Drift detection on simulated maintenance histories.
 
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::observe::Weights;
 use kinecal::report::CalibrationReport;
-use kinecal::simulate::{self, PerturbStd};
 use kinecal::workflow::{self, Request, Selection, SolutionRule};
-use kinecal::{examples, ParamId};
+use kinecal::{model::examples, ParamId};
 use kinecal_history::{drift, Database, DriftOptions};
 
 const DAY: i64 = 86_400;

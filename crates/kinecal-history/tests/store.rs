@@ -4,9 +4,9 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::report::CalibrationReport;
-use kinecal::{examples, simulate, ParamId};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::{apps::simulate, model::examples, ParamId};
 use kinecal_history::{Database, Error};
 
 fn report() -> CalibrationReport {

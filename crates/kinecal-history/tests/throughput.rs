@@ -15,9 +15,9 @@ use std::time::Instant;
 
 #[cfg(feature = "postgres")]
 use common::pg::TestDb;
-use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::report::CalibrationReport;
-use kinecal::{examples, simulate, ParamId};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::{apps::simulate, model::examples, ParamId};
 use kinecal_history::{fleet, Database, DriftOptions, FleetOptions, Tolerances};
 
 const T0: i64 = 1_790_000_000;

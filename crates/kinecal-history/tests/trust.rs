@@ -3,12 +3,12 @@
 
 use std::path::Path;
 
+use kinecal::apps::simulate;
 use kinecal::observe::Weights;
 use kinecal::report::CalibrationReport;
-use kinecal::simulate;
 use kinecal::units::{LengthUnit, Units};
 use kinecal::workflow::{self, Request, Selection, SolutionRule};
-use kinecal::{examples, Robot};
+use kinecal::{model::examples, Robot};
 use kinecal_history::{drift, AddOptions, Database, DriftOptions, Error, Tolerances};
 use rand::{RngExt, SeedableRng};
 

@@ -3,8 +3,8 @@
 //! `kinecal.iso9283`). Values are in the robot's units (a log's in its own); results come back as
 //! dicts of numpy arrays, or the JSON document the command line writes.
 
-use kinecal::compensate::{goal_in_file_units, Options, TargetSearch};
-use kinecal::iso9283::{self, LogUnits, PlacedLog};
+use kinecal::apps::compensate::{goal_in_file_units, Options, TargetSearch};
+use kinecal::apps::iso9283::{self, LogUnits, PlacedLog};
 use kinecal::predict::{self as prediction, PredictionReport};
 use kinecal::report::CalibrationReport;
 use kinecal::units::Quantity;

@@ -3,10 +3,10 @@
 //! the result classes). Values are in the robot's units; results come back as dicts of numpy
 //! arrays and Python values, one key per field of the result class.
 
-use kinecal::compensate::{goal_in_file_units, Compensator, Goal, TargetSearch};
+use kinecal::apps::compensate::{goal_in_file_units, Compensator, Goal, TargetSearch};
+use kinecal::apps::plan::{candidates as candidate_pool, plan as choose};
+use kinecal::apps::simulate as sim;
 use kinecal::observe::{Dataset, Observation};
-use kinecal::plan::{candidates as candidate_pool, plan as choose};
-use kinecal::simulate as sim;
 use kinecal::spec::{CompensateSpec, PlanSpec, SimulateSpec};
 use kinecal::units::Quantity;
 use kinecal::{Posture, Target};
@@ -33,12 +33,12 @@ pub fn target_of(robot: &kinecal::Robot, site: Option<&str>, keyword: &str) -> P
 }
 
 /// The error of row `row` of `targets` whose numbers look like another unit's.
-pub fn goal_problem(p: &kinecal::compensate::GoalProblem, row: usize) -> PyErr {
+pub fn goal_problem(p: &kinecal::apps::compensate::GoalProblem, row: usize) -> PyErr {
     match p {
-        kinecal::compensate::GoalProblem::Far(m) => {
+        kinecal::apps::compensate::GoalProblem::Far(m) => {
             bad(format!("targets: row {row}: the position {m}"))
         }
-        kinecal::compensate::GoalProblem::Turn(m) => bad(format!("targets: row {row}: {m}")),
+        kinecal::apps::compensate::GoalProblem::Turn(m) => bad(format!("targets: row {row}: {m}")),
     }
 }
 
@@ -213,7 +213,7 @@ pub fn compensate<'py>(
             .expect("shape")
             .into_pyarray(py),
     )?;
-    let column = |f: &dyn Fn(&kinecal::compensate::Solved) -> f64| -> Vec<f64> {
+    let column = |f: &dyn Fn(&kinecal::apps::compensate::Solved) -> f64| -> Vec<f64> {
         solved.iter().map(|(_, s)| f(s)).collect()
     };
     d.set_item(
@@ -233,7 +233,7 @@ pub fn compensate<'py>(
             .into_pyarray(py),
     )?;
     d.set_item("conditioning", column(&|s| s.conditioning).into_pyarray(py))?;
-    let flag = |f: &dyn Fn(&kinecal::compensate::Flags) -> bool| -> Vec<bool> {
+    let flag = |f: &dyn Fn(&kinecal::apps::compensate::Flags) -> bool| -> Vec<bool> {
         solved.iter().map(|(_, s)| f(&s.flags)).collect()
     };
     d.set_item("unreachable", flag(&|f| f.unreachable).into_pyarray(py))?;

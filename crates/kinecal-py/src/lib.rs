@@ -20,9 +20,9 @@ use std::path::PathBuf;
 
 use kinecal::files::{detect_format, FORMATS};
 use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
+use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::observe::point::{Pose, Position};
 use kinecal::observe::Dataset;
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml_checked};
 use kinecal::source::Source;
 use kinecal::spec::{AnalyzeSpec, CalibrationJob, CalibrationSpec};
 use kinecal::units::plausible;
@@ -263,10 +263,10 @@ impl Robot {
     /// A robot built into kinecal, by name (`ge-a4`: the GE A4 of the thesis, Table 4.1).
     #[staticmethod]
     fn builtin(py: Python<'_>, name: &str) -> PyResult<Robot> {
-        let text = kinecal::examples::builtin(name).ok_or_else(|| {
+        let text = kinecal::model::examples::builtin(name).ok_or_else(|| {
             bad(format!(
                 "{name}: not a built-in robot (built-in: {})",
-                kinecal::examples::BUILTIN_NAMES.join(", ")
+                kinecal::model::examples::BUILTIN_NAMES.join(", ")
             ))
         })?;
         Robot::from_source(py, &Source::text(format!("<built-in {name}>"), text))
@@ -1086,7 +1086,7 @@ fn analyze(py: Python<'_>, robot: &Robot, data: &Measurements, spec: &str) -> Py
 /// `ur10e-camera`, `ipa-ur10`): `(name, about)` pairs.
 #[pyfunction]
 fn datasets() -> Vec<(String, String)> {
-    kinecal::datasets::DATASETS
+    kinecal::apps::datasets::DATASETS
         .iter()
         .map(|a| (a.name.to_string(), a.about.to_string()))
         .collect()
@@ -1100,13 +1100,13 @@ fn dataset(
     name: &str,
     folder: PathBuf,
 ) -> PyResult<(Robot, Measurements, Option<Measurements>, String)> {
-    let adapter = kinecal::datasets::DATASETS
+    let adapter = kinecal::apps::datasets::DATASETS
         .iter()
         .find(|a| a.name == name)
         .ok_or_else(|| {
             bad(format!(
                 "{name}: not a data set kinecal reads (known: {})",
-                kinecal::datasets::DATASETS
+                kinecal::apps::datasets::DATASETS
                     .iter()
                     .map(|a| a.name)
                     .collect::<Vec<_>>()

@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use kinecal::iso9283::{pose_name, Evaluation, PoseFigures, Spread};
+use kinecal::apps::iso9283::{pose_name, Evaluation, PoseFigures, Spread};
 
 use crate::html::{esc, page_head};
 use crate::number::{num, signed};

@@ -3,9 +3,9 @@
 
 use std::fmt::Write as _;
 
+use kinecal::apps::plan::Plan;
 use kinecal::identifiability::fmt_sig;
 use kinecal::observe::Dataset;
-use kinecal::plan::Plan;
 use kinecal::Robot;
 
 use crate::chart::{Line, Panel};
@@ -257,7 +257,7 @@ mod tests {
     #[test]
     fn readings_are_labelled_in_the_joints_unit_when_they_are_its_values() {
         // The GE A4's transducers read 7.2 deg per unit: transducer units.
-        let a4 = kinecal::examples::ge_a4();
+        let a4 = kinecal::model::examples::ge_a4();
         assert_eq!(reading_unit(&a4, 0), "transducer units");
         // A robot whose readings are its joint angles (slope 1): degrees, or its own unit.
         let mut deg = a4.clone();

@@ -3,7 +3,7 @@
 
 use kinecal::observe::Weights;
 use kinecal::workflow::{self, Request, Selection, Validation};
-use kinecal::{examples, simulate, Robot};
+use kinecal::{apps::simulate, model::examples, Robot};
 use kinecal_report::html_report;
 
 /// The README's GE A4 session: 30 noisy poses of a changed arm, 20 % held out.
@@ -144,7 +144,7 @@ fn tracker_free_data_shows_its_own_errors_and_an_assessed_calibration_says_so() 
             .join("../../examples/no-tracker/a4_table.toml"),
     )
     .unwrap();
-    let robot = kinecal::robot_file::parse_robot_toml(&text, "a4_table.toml").unwrap();
+    let robot = kinecal::model::robot_file::parse_robot_toml(&text, "a4_table.toml").unwrap();
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/no-tracker");
     let read = |f: &str, parse: fn(&str, &str, &Robot) -> kinecal::Result<kinecal::Dataset>| {
         parse(&std::fs::read_to_string(dir.join(f)).unwrap(), f, &robot).unwrap()

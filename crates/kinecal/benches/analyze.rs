@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use kinecal::identifiability::{analyze, AnalysisOptions};
-use kinecal::{simulate, JointKind, ParamId};
+use kinecal::{apps::simulate, JointKind, ParamId};
 
 fn analyze_all(c: &mut Criterion) {
     let mut group = c.benchmark_group("analyze");

@@ -7,8 +7,8 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use kinecal::compensate::{Compensator, Goal, Options, TargetSearch};
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::apps::compensate::{Compensator, Goal, Options, TargetSearch};
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::{Chain, JointKind, Target, Workspace};
 
 fn compensation(c: &mut Criterion) {

@@ -9,8 +9,8 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use kinecal::estimation::{calibrate, CalibrationOptions};
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::apps::simulate::{self, PerturbStd};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
 use kinecal::{Chain, JointKind, ParamId, Target, Workspace};
 
 fn robot() -> kinecal::Robot {
@@ -38,7 +38,7 @@ fn kinematics(c: &mut Criterion) {
             black_box(ws.end_effector().translation.x)
         })
     });
-    let plan = kinecal::kinematics::ColumnPlan::all(&robot, Target::EndEffector);
+    let plan = kinecal::model::kinematics::ColumnPlan::all(&robot, Target::EndEffector);
     c.bench_function("fk_plus_jacobian_54_per_posture_6R", |b| {
         b.iter(|| {
             i = (i + 1) % postures.len();
@@ -53,13 +53,13 @@ fn kinematics(c: &mut Criterion) {
 fn elastic_robot() -> kinecal::Robot {
     let mut robot = robot();
     let bodies = (1..=6)
-        .map(|joint| kinecal::robot::Body {
+        .map(|joint| kinecal::model::robot::Body {
             joint,
             mass: 2.0,
             com: nalgebra::Vector3::new(0.1, 0.0, 0.05),
         })
         .collect();
-    let mut model = kinecal::robot::Elastic::new(&robot, bodies);
+    let mut model = kinecal::model::robot::Elastic::new(&robot, bodies);
     for j in &mut model.joints {
         j.compliance = 2e-4;
         j.lateral = 1e-4;
@@ -90,7 +90,7 @@ fn elastic(c: &mut Criterion) {
             _ => Some(id.0),
         })
         .collect();
-    let plan = kinecal::kinematics::ColumnPlan::new(&robot, Target::EndEffector, &columns);
+    let plan = kinecal::model::kinematics::ColumnPlan::new(&robot, Target::EndEffector, &columns);
     let mut block = vec![0.0; 6 * plan.width()];
     c.bench_function("elastic_fk_plus_jacobian_66_per_posture_6R", |b| {
         b.iter(|| {
@@ -136,7 +136,7 @@ fn tree(c: &mut Criterion) {
     let mut ws = Workspace::new(&robot);
     let mut block = vec![0.0; 6 * robot.param_count()];
     let plans = [Target::Site(0), Target::EndEffector]
-        .map(|t| kinecal::kinematics::ColumnPlan::all(&robot, t));
+        .map(|t| kinecal::model::kinematics::ColumnPlan::all(&robot, t));
     let mut i = 0;
     c.bench_function("tree_fk_plus_both_jacobians_per_posture_2+6+6R", |b| {
         b.iter(|| {

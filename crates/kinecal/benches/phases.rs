@@ -19,11 +19,11 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::linalg::Matrix;
-use kinecal::problem::Problem;
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::solve::problem::Problem;
 use kinecal::uncertainty::uncertainty_of_fit;
 use kinecal::workflow::{resolve, Selection};
 use kinecal::{Dataset, JointKind, Robot};

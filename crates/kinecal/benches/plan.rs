@@ -9,8 +9,8 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use kinecal::plan::{candidates, plan, Criterion as Optimality, PlanRequest};
-use kinecal::{simulate, JointKind, Target};
+use kinecal::apps::plan::{candidates, plan, Criterion as Optimality, PlanRequest};
+use kinecal::{apps::simulate, JointKind, Target};
 
 fn planning(c: &mut Criterion) {
     let robot = simulate::random_robot(&[JointKind::Revolute; 6], 31);

@@ -8,8 +8,8 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::predict::{self, Growth, JointMetric, ModelError, Predictor};
-use kinecal::simulate::{self, PerturbStd};
 use kinecal::workflow::{self, Request, Selection};
 use kinecal::{JointKind, Target};
 

@@ -7,7 +7,7 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use kinecal::files::{parse_measurements, write_measurements};
-use kinecal::{simulate, JointKind};
+use kinecal::{apps::simulate, JointKind};
 
 fn reading(c: &mut Criterion) {
     let robot = simulate::random_robot(&[JointKind::Revolute; 6], 3);

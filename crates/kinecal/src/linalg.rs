@@ -410,7 +410,7 @@ impl GramAccumulator {
 
 /// Something rows of a tall matrix are pushed into, one at a time: the `R` of a QR being
 /// accumulated, a Gram matrix `A^T A`, or a test's dense matrix. A least-squares problem
-/// hands its Jacobian to a solver this way ([`crate::estimation::LeastSquares`]), so that no
+/// hands its Jacobian to a solver this way ([`crate::solve::estimation::LeastSquares`]), so that no
 /// m x n matrix need exist.
 pub trait RowSink {
     /// Appends one row (its length is the sink's number of columns).

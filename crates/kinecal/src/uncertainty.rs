@@ -16,7 +16,7 @@
 //! direction with an enormous standard deviation. To first order in the (small) parameter
 //! changes the covariance is the same.
 //!
-//! **With a prior** (see [`crate::problem`]) its `k` rows are rows like the data's `m`: the
+//! **With a prior** (see [`crate::solve::problem`]) its `k` rows are rows like the data's `m`: the
 //! rank `r` and the determined directions are those of the two together, the covariance is the
 //! posterior one, `s0^2 (J^T W J + P)^+` with `P = diag(1 / s_p^2)` (scaled and truncated as
 //! above), and [`Uncertainty::dof`] counts `m + k - r`. The variance factor, though, is the
@@ -35,10 +35,10 @@
 //! it alone, 0 when the prior does.
 
 use crate::error::{Error, Result};
-use crate::estimation::Calibration;
 use crate::identifiability::{analyze_core, analyze_from_r, Analysis, AnalysisOptions};
+use crate::model::params::ParamId;
 use crate::observe::Dataset;
-use crate::params::ParamId;
+use crate::solve::estimation::Calibration;
 
 /// Changes below this many standard deviations are reported as within the noise.
 pub const NOISE_SIGMAS: f64 = 2.0;
@@ -169,7 +169,7 @@ impl Uncertainty {
     /// parameters determined only in combination mean something only in the combinations the
     /// data determines (`c^T C c` is the variance of `sum c_j p_j`, as for
     /// [`CombinationUncertainty::sigma`]).
-    pub fn covariance_file(&self, robot: &crate::robot::Robot) -> Vec<Vec<f64>> {
+    pub fn covariance_file(&self, robot: &crate::model::robot::Robot) -> Vec<Vec<f64>> {
         let f: Vec<f64> = self
             .analysis
             .parameters
@@ -202,7 +202,7 @@ impl Uncertainty {
 pub fn uncertainty(
     cal: &Calibration,
     data: &Dataset,
-    nominal: &crate::robot::Robot,
+    nominal: &crate::model::robot::Robot,
 ) -> Result<Uncertainty> {
     let opts = AnalysisOptions {
         weights: cal.options.weights,
@@ -221,7 +221,7 @@ pub fn uncertainty(
 pub fn uncertainty_of_fit(
     cal: &Calibration,
     data: &Dataset,
-    nominal: &crate::robot::Robot,
+    nominal: &crate::model::robot::Robot,
 ) -> Result<Uncertainty> {
     let ascending = cal.estimated.windows(2).all(|w| w[0] < w[1]);
     match &cal.start_r {

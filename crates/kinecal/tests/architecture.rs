@@ -4,44 +4,76 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-/// Top-level modules and the `crate::` modules each one's files name.
-fn imports() -> BTreeMap<String, BTreeSet<String>> {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    let mut visit = |module: &str, text: &str| {
-        let entry = out.entry(module.to_string()).or_default();
-        // Code only: documentation may point anywhere.
-        let code: String = text
-            .lines()
-            .filter(|l| !l.trim_start().starts_with("//"))
-            .collect::<Vec<_>>()
-            .join("\n");
-        let text = code.as_str();
-        for (i, _) in text.match_indices("crate::") {
-            let rest = &text[i + "crate::".len()..];
-            let name: String = rest
-                .chars()
-                .take_while(|c| c.is_alphanumeric() || *c == '_')
-                .collect();
-            // Modules only (lower case); items re-exported at the root are not layers.
-            if !name.is_empty() && name != module && name.starts_with(|c: char| c.is_lowercase()) {
-                entry.insert(name);
+/// The modules of `dir` (files and folders, `mod.rs` and `lib.rs` left out) and, for each, the
+/// modules of that level its files name (`prefix` followed by the name), over every file of a
+/// folder module, however deep.
+fn imports(dir: &Path, prefix: &str) -> BTreeMap<String, BTreeSet<String>> {
+    fn files(p: &Path, out: &mut Vec<std::path::PathBuf>) {
+        if p.is_dir() {
+            for e in std::fs::read_dir(p).unwrap() {
+                files(&e.unwrap().path(), out);
             }
+        } else if p.extension().is_some_and(|e| e == "rs") {
+            out.push(p.to_path_buf());
         }
-    };
-    for e in std::fs::read_dir(&src).unwrap() {
+    }
+    let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for e in std::fs::read_dir(dir).unwrap() {
         let p = e.unwrap().path();
         let name = p.file_stem().unwrap().to_string_lossy().to_string();
-        if p.is_dir() {
-            for f in std::fs::read_dir(&p).unwrap() {
-                let f = f.unwrap().path();
-                visit(&name, &std::fs::read_to_string(&f).unwrap());
+        if name == "lib" || name == "mod" {
+            continue;
+        }
+        let entry = out.entry(name.clone()).or_default();
+        let mut all = Vec::new();
+        files(&p, &mut all);
+        // `kinematics.rs` and its folder `kinematics/` share a name: one module, one entry.
+        for f in &all {
+            let text = std::fs::read_to_string(f).unwrap();
+            // Code only: documentation may point anywhere.
+            let code: String = text
+                .lines()
+                .filter(|l| !l.trim_start().starts_with("//"))
+                .collect::<Vec<_>>()
+                .join("\n");
+            for (i, _) in code.match_indices(prefix) {
+                let rest = &code[i + prefix.len()..];
+                let used: String = rest
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                // Modules only (lower case); items re-exported at the root are not layers.
+                if !used.is_empty() && used != name && used.starts_with(|c: char| c.is_lowercase())
+                {
+                    entry.insert(used);
+                }
             }
-        } else if name != "lib" {
-            visit(&name, &std::fs::read_to_string(&p).unwrap());
         }
     }
     out
+}
+
+/// Every module of `dir` is in `order`, and uses only modules before it there.
+fn check_order(dir: &Path, prefix: &str, order: &[&str]) {
+    let rank = |m: &str| order.iter().position(|o| *o == m);
+    for (module, uses) in &imports(dir, prefix) {
+        let r = rank(module).unwrap_or_else(|| panic!("{prefix}{module} is not in the order"));
+        for u in uses {
+            // Only this level's modules are ranked: deeper paths are the level's own business.
+            let Some(ru) = rank(u) else {
+                continue;
+            };
+            assert!(
+                ru < r,
+                "{prefix}{module} uses {prefix}{u}, which comes after it: an import cycle or a \
+                 layer inversion"
+            );
+        }
+    }
+}
+
+fn src() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
 }
 
 #[test]
@@ -50,57 +82,66 @@ fn modules_import_in_one_direction() {
     let order = [
         "error",
         "units",
-        "params",
-        "robot",
-        "linalg",
-        "kinematics",
-        // The compliance groups leave out the joints gravity cannot load.
-        "param_list",
-        // Priors are written as keyed parameter lists; robot files have them.
-        "prior",
-        "source",
         "warning",
-        "robot_file",
+        "source",
+        "linalg",
+        // The robot and its kinematics.
+        "model",
+        "import",
+        // The measurement model, then its files.
         "observe",
-        // The observation files: their readers build the measurement model's types.
         "files",
-        "sanity",
-        "registration",
-        "problem",
-        "estimation",
+        "solve",
         "identifiability",
         "uncertainty",
-        "outliers",
         // Predicted accuracy: the covariance through the Jacobian, the model error by
         // cross-validation (refits), the accuracy map; the report carries it.
         "predict",
         "report",
         "workflow",
-        "import",
-        "examples",
-        "simulate",
-        "plan",
-        "compensate",
-        // ISO 9283 test poses (through compensate's inverse kinematics) and figures.
-        "iso9283",
-        "curves",
-        "datasets",
+        "apps",
         // The door: one spec per job, run through the modules above.
         "spec",
     ];
-    let rank = |m: &str| order.iter().position(|o| *o == m);
-    let graph = imports();
-    for (module, uses) in &graph {
-        let r = rank(module).unwrap_or_else(|| panic!("module `{module}` is not in the order"));
-        for u in uses {
-            let ru = rank(u).unwrap_or_else(|| panic!("`{module}` uses unknown `{u}`"));
-            assert!(
-                ru < r,
-                "`{module}` uses `{u}`, which comes after it: an import cycle or a layer \
-                 inversion"
-            );
-        }
+    let top = imports(&src(), "crate::");
+    for m in top.keys() {
+        assert!(
+            order.contains(&m.as_str()),
+            "module `{m}` is not in the order"
+        );
     }
+    check_order(&src(), "crate::", &order);
+    // Within the groups too.
+    check_order(
+        &src().join("model"),
+        "crate::model::",
+        &[
+            "params",
+            "robot",
+            "kinematics",
+            "param_list",
+            "prior",
+            "robot_file",
+            "examples",
+        ],
+    );
+    check_order(
+        &src().join("solve"),
+        "crate::solve::",
+        &["problem", "estimation", "registration", "outliers"],
+    );
+    check_order(
+        &src().join("apps"),
+        "crate::apps::",
+        &[
+            "simulate",
+            "plan",
+            "compensate",
+            "iso9283",
+            "curves",
+            "datasets",
+        ],
+    );
 }
 
 #[test]

@@ -2,9 +2,9 @@
 //! reach what the nominal model meant, a redundant arm changes as little as it can, and nothing
 //! that cannot be done is passed off as done.
 
-use kinecal::compensate::{Compensator, Configuration, Goal, Options, TargetSearch};
-use kinecal::kinematics::log_so3;
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::apps::compensate::{Compensator, Configuration, Goal, Options, TargetSearch};
+use kinecal::apps::simulate::{self, PerturbStd};
+use kinecal::model::kinematics::log_so3;
 use kinecal::{Chain, JointKind, Robot, Target, Workspace};
 use nalgebra::{DMatrix, Vector3};
 
@@ -30,7 +30,7 @@ fn the_reading_jacobian_is_the_derivative_of_the_kinematics() {
         JointKind::Revolute,
     ];
     let mut robot = simulate::random_robot(&kinds, 9);
-    robot.joints[3].coupling = Some(kinecal::robot::Coupling {
+    robot.joints[3].coupling = Some(kinecal::model::robot::Coupling {
         joint: 1,
         factor: -0.8,
     });
@@ -212,7 +212,7 @@ fn a_redundant_arm_keeps_the_seeds_null_space_posture() {
 /// An ABB IRB 120 from its data sheet with its joint ranges (`examples/robots/abb_irb120.toml`):
 /// an arm whose ranges cut through its solutions.
 fn irb120() -> Robot {
-    kinecal::robot_file::parse_robot_toml(
+    kinecal::model::robot_file::parse_robot_toml(
         include_str!("../../../examples/robots/abb_irb120.toml"),
         "abb_irb120.toml",
     )

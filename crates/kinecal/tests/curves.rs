@@ -1,11 +1,13 @@
 //! Characteristic curves against the thesis's figures (4.2-4.11) and known invariants.
 #![allow(clippy::needless_range_loop)] // pose components are indexed by number, as in the thesis
 
-use kinecal::curves::{is_convex, local_minima, objective_curve, period, pose_curve, samples};
-use kinecal::kinematics::Target;
+use kinecal::apps::curves::{
+    is_convex, local_minima, objective_curve, period, pose_curve, samples,
+};
+use kinecal::model::kinematics::Target;
 use kinecal::observe::Posture;
 use kinecal::observe::{OrientationError, Weights};
-use kinecal::{examples, simulate, ParamId};
+use kinecal::{apps::simulate, model::examples, ParamId};
 
 const P1: [f64; 4] = [-11.053, 12.369, 4.009, -11.583];
 const P2: [f64; 4] = [-12.696, 9.037, 1.493, 5.156];

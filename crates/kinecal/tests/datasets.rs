@@ -7,10 +7,10 @@ mod synthetic;
 
 use std::path::Path;
 
-use kinecal::datasets::{Folder, DATASETS};
+use kinecal::apps::datasets::{Folder, DATASETS};
 use synthetic::{folder, with, Files};
 
-fn convert(name: &str, files: Files) -> kinecal::Result<kinecal::datasets::Converted> {
+fn convert(name: &str, files: Files) -> kinecal::Result<kinecal::apps::datasets::Converted> {
     let adapter = DATASETS.iter().find(|a| a.name == name).unwrap();
     (adapter.read)(&Folder::memory(Path::new("d"), files))
 }
@@ -38,7 +38,7 @@ fn synthetic_folders_convert_and_read_back_from_memory_and_disk() {
     for a in DATASETS {
         let c = convert(a.name, folder(a.name)).unwrap_or_else(|e| panic!("{}: {e}", a.name));
         let robot_text = &c.files.iter().find(|f| f.0 == c.suggested.robot).unwrap().1;
-        let robot = kinecal::robot_file::parse_robot_toml(robot_text, "r.toml").unwrap();
+        let robot = kinecal::model::robot_file::parse_robot_toml(robot_text, "r.toml").unwrap();
         let data_text = &c.files.iter().find(|f| f.0 == c.suggested.data).unwrap().1;
         let data = kinecal::files::parse_measurements(data_text, "d.csv", &robot).unwrap();
         assert!(!data.observations.is_empty());
@@ -252,7 +252,7 @@ fn a_urdf_chain_without_six_joints_is_refused() {
 mod ipa_ur10 {
     use std::path::Path;
 
-    use kinecal::datasets::{ipa_ur10, Folder};
+    use kinecal::apps::datasets::{ipa_ur10, Folder};
 
     use super::synthetic::{ipa, with, Files, IPA_FEW};
 
@@ -290,7 +290,8 @@ mod ipa_ur10 {
     fn a_copy_converts_with_its_counts_and_the_files_read_back() {
         let c = ipa_ur10::convert_trimmed(&Folder::memory(Path::new("d"), ipa(IPA_FEW)), IPA_FEW)
             .unwrap();
-        let robot = kinecal::robot_file::parse_robot_toml(&c.files[0].1, "ur10.toml").unwrap();
+        let robot =
+            kinecal::model::robot_file::parse_robot_toml(&c.files[0].1, "ur10.toml").unwrap();
         for (k, s) in ipa_ur10::SERIES.iter().enumerate() {
             let (name, text) = &c.files[k + 1];
             assert_eq!(name, &format!("series_{}.csv", s.name));
@@ -311,7 +312,7 @@ mod ipa_ur10 {
             t.1
         );
         // The README's counts refuse the copy, naming series A's count.
-        let msg = (kinecal::datasets::ipa_ur10::convert_folder)(&Folder::memory(
+        let msg = (kinecal::apps::datasets::ipa_ur10::convert_folder)(&Folder::memory(
             Path::new("d"),
             ipa(IPA_FEW),
         ))

@@ -6,7 +6,7 @@ use kinecal::import::dh::{
 };
 use kinecal::import::readback::Tolerance;
 use kinecal::units::{AngleUnit, LengthUnit};
-use kinecal::{simulate, JointKind, Units};
+use kinecal::{apps::simulate, JointKind, Units};
 
 const PUMA_STANDARD: &str = "kind,a,alpha,d,theta\n\
 revolute,0,90,0.6718,0\n\

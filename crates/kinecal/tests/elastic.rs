@@ -2,9 +2,9 @@
 //! against an independent direct solve, its Jacobians against finite differences, the robot
 //! file round trip, and the recovery of compliances from simulated data.
 
-use kinecal::kinematics::{euler_zyx, log_so3, rot_zyx, ColumnPlan};
-use kinecal::robot::{Body, Elastic};
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::apps::simulate::{self, PerturbStd};
+use kinecal::model::kinematics::{euler_zyx, log_so3, rot_zyx, ColumnPlan};
+use kinecal::model::robot::{Body, Elastic};
 use kinecal::workflow::{run, Request, Selection};
 use kinecal::{Chain, Frame, JointKind, ParamKind, Robot, Site, Target, Workspace};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
@@ -211,7 +211,7 @@ fn tight(mut robot: Robot) -> Robot {
 fn check_jacobian(
     robot: &Robot,
     target: Target,
-    payload: Option<&kinecal::robot::Payload>,
+    payload: Option<&kinecal::model::robot::Payload>,
     count: usize,
     seed: u64,
 ) {
@@ -330,12 +330,12 @@ fn a_robot_file_keeps_the_mass_model() {
         length: kinecal::LengthUnit::Mm,
         angle: kinecal::AngleUnit::Deg,
     };
-    let text = kinecal::robot_file::write_robot_toml(&robot, None);
+    let text = kinecal::model::robot_file::write_robot_toml(&robot, None);
     assert!(
         text.contains("[[bodies]]") && text.contains("compliance = "),
         "{text}"
     );
-    let back = kinecal::robot_file::parse_robot_toml(&text, "arm.toml").expect("reads back");
+    let back = kinecal::model::robot_file::parse_robot_toml(&text, "arm.toml").expect("reads back");
     assert!(back.same_structure(&robot));
     for id in robot.param_ids() {
         let (a, b) = (robot.get(id), back.get(id));
@@ -369,9 +369,10 @@ fn a_robot_file_keeps_the_mass_model() {
         ),
         ("[gravity]\niterations = 0\n", "gravity.iterations"),
     ] {
-        let err = kinecal::robot_file::parse_robot_toml(&format!("{kinematic}{extra}"), "r.toml")
-            .expect_err(extra)
-            .to_string();
+        let err =
+            kinecal::model::robot_file::parse_robot_toml(&format!("{kinematic}{extra}"), "r.toml")
+                .expect_err(extra)
+                .to_string();
         assert!(err.contains(field), "{extra}: {err}");
     }
 }
@@ -379,7 +380,7 @@ fn a_robot_file_keeps_the_mass_model() {
 #[test]
 fn the_compliance_groups_leave_out_a_vertical_first_axis() {
     // An IRB 120: joint 1 vertical at the base, so gravity never loads it about its axis.
-    let mut robot = kinecal::robot_file::parse_robot_toml(
+    let mut robot = kinecal::model::robot_file::parse_robot_toml(
         include_str!("../../../examples/robots/abb_irb120.toml"),
         "abb_irb120.toml",
     )
@@ -392,7 +393,7 @@ fn the_compliance_groups_leave_out_a_vertical_first_axis() {
         })
         .collect();
     robot.elastic = Some(Elastic::new(&robot, bodies));
-    let free = kinecal::kinematics::gravity_free_joints(&robot);
+    let free = kinecal::model::kinematics::gravity_free_joints(&robot);
     assert_eq!(free.joint, vec![0], "{free:?}");
     let ids = kinecal::parse_param_list("compliance", &robot).unwrap();
     let names: Vec<String> = ids.iter().map(|&id| robot.param_name(id)).collect();
@@ -521,7 +522,7 @@ fn a_payload_loads_the_joints_and_its_jacobian_matches_finite_differences() {
     let robot = tight(elastic_arm(31));
     let chain = Chain::new(&robot);
     let mut ws = Workspace::new(&robot);
-    let payload = kinecal::robot::Payload {
+    let payload = kinecal::model::robot::Payload {
         mass: 4.0,
         com: Vector3::new(0.02, -0.03, 0.15),
     };
@@ -559,7 +560,7 @@ fn payload_columns_round_trip_and_bad_ones_are_refused() {
     };
     let mut postures = simulate::sample_postures(&robot, 6, 3);
     for (i, p) in postures.iter_mut().enumerate().skip(1) {
-        p.payload = Some(kinecal::robot::Payload {
+        p.payload = Some(kinecal::model::robot::Payload {
             mass: i as f64 * 1.5,
             com: Vector3::new(0.01 * i as f64, 0.0, 0.12),
         });
@@ -664,7 +665,7 @@ fn body_masses_are_recovered_and_their_scale_is_not_confused_with_the_compliance
     for b in 0..6 {
         let id = cal.param_id(ParamKind::Body {
             body: b,
-            component: kinecal::params::BodyComponent::Mass,
+            component: kinecal::model::params::BodyComponent::Mass,
         });
         let sigma = unc.parameter(id).and_then(|u| u.sigma).expect("determined");
         let (est, t) = (cal.get(id), truth.get(id));
@@ -749,22 +750,22 @@ fn a_lumped_model_stands_in_for_unknown_masses() {
                 gamma = 1.5707963267948966\n[[links]]\nx = 0.6\n[[links]]\nx = 0.5\n\
                 [[joints]]\nkind = \"revolute\"\n[[joints]]\nkind = \"revolute\"\n\
                 [[joints]]\nkind = \"revolute\"\n[gravity]\nlumped_mass = 12.0\n";
-    let robot = kinecal::robot_file::parse_robot_toml(text, "lumped.toml").unwrap();
+    let robot = kinecal::model::robot_file::parse_robot_toml(text, "lumped.toml").unwrap();
     let bodies = &robot.elastic.as_ref().unwrap().bodies;
     assert_eq!(bodies.len(), 3);
     assert!(bodies.iter().all(|b| (b.mass - 4.0).abs() < 1e-15));
     // Halfway along the link each joint moves: joint 2 carries the 0.6 m upper arm.
     assert!((bodies[1].com - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-15);
     // Written back as its bodies, which read back the same.
-    let written = kinecal::robot_file::write_robot_toml(&robot, Some(text));
+    let written = kinecal::model::robot_file::write_robot_toml(&robot, Some(text));
     assert_eq!(written.matches("[[bodies]]").count(), 3, "{written}");
     assert!(!written.contains("lumped_mass"), "{written}");
-    let back = kinecal::robot_file::parse_robot_toml(&written, "w.toml").unwrap();
+    let back = kinecal::model::robot_file::parse_robot_toml(&written, "w.toml").unwrap();
     assert_eq!(back.elastic, robot.elastic);
     // Bodies and a lumped mass at once are refused.
     let both = written.replacen("[gravity]\n", "[gravity]\nlumped_mass = 5.0\n", 1);
     assert_ne!(both, written);
-    let err = kinecal::robot_file::parse_robot_toml(&both, "w.toml")
+    let err = kinecal::model::robot_file::parse_robot_toml(&both, "w.toml")
         .map(|_| ())
         .expect_err("bodies and a lumped mass")
         .to_string();
@@ -812,7 +813,7 @@ fn a_prismatic_joint_a_coupled_joint_and_two_bodies_on_one_joint_differentiate_t
         JointKind::Revolute,
     ];
     let mut robot = simulate::random_robot(&kinds, 71);
-    robot.joints[2].coupling = Some(kinecal::robot::Coupling {
+    robot.joints[2].coupling = Some(kinecal::model::robot::Coupling {
         joint: 1,
         factor: 0.8,
     });

@@ -76,10 +76,10 @@ fn a_urdf_template_with_a_bom_and_joints_without_origin_round_trips() {
 
 use std::path::{Path, PathBuf};
 
+use kinecal::apps::simulate::{perturb, PerturbStd};
 use kinecal::import::dh::{export_dh, import_dh, Convention};
 use kinecal::import::ur::{export_ur, import_ur};
-use kinecal::kinematics::log_so3;
-use kinecal::simulate::{perturb, PerturbStd};
+use kinecal::model::kinematics::log_so3;
 use kinecal::{Chain, Frame, Robot, Target};
 
 /// `../shared/data/urdf`: on CI it must be there, elsewhere a test without it says so.
@@ -146,7 +146,7 @@ fn fk_gap(
 /// under ../shared/data/urdf (UR5 and UR10 with three parallel axes, KUKA iiwa14, Franka Panda
 /// to its hand and to its prismatic finger; the UR5, UR10 and UR3e kinematics files).
 fn nominal_robots(dir: &Path) -> Vec<(String, Robot, Origin)> {
-    let ge = kinecal::examples::ge_a4();
+    let ge = kinecal::model::examples::ge_a4();
     let mut ge_unit = ge.clone();
     for j in &mut ge_unit.joints {
         j.slope = ge_unit.units.factor(j.kind.slope());
@@ -508,11 +508,11 @@ fn ur_export_leaves_the_measurement_frame_out_and_gives_the_tcp() {
     );
     // The tracker: 3.8 m away and turned.
     let placement = Frame {
-        rotation: kinecal::kinematics::rot_zyx(0.7, 0.01, -0.02),
+        rotation: kinecal::model::kinematics::rot_zyx(0.7, 0.01, -0.02),
         translation: nalgebra::Vector3::new(3.2, -2.0, 0.5),
     };
     cal.links[0] = kinecal::import::link_of(&placement.then(&Frame::from_link(&nominal.links[0])));
-    cal.sessions.push(kinecal::robot::Session {
+    cal.sessions.push(kinecal::model::robot::Session {
         name: "B".into(),
         frame: kinecal::Link {
             x: 0.4,
@@ -522,7 +522,7 @@ fn ur_export_leaves_the_measurement_frame_out_and_gives_the_tcp() {
     });
     // A 150 mm tool, 2 mm off the flange axis, tilted.
     let tool = Frame {
-        rotation: kinecal::kinematics::rot_zyx(0.0, 0.03, 0.0),
+        rotation: kinecal::model::kinematics::rot_zyx(0.0, 0.03, 0.0),
         translation: nalgebra::Vector3::new(0.002, 0.0, 0.15),
     };
     cal.links[6] = kinecal::import::link_of(&Frame::from_link(&cal.links[6]).then(&tool));

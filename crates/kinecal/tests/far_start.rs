@@ -1,11 +1,11 @@
 //! A measurement frame placed roughly or not at all: the closed-form placement of the base and
 //! tool frames before the solver makes a far start converge as a near one does.
 
+use kinecal::model::robot::JointKind;
 use kinecal::observe::Observation;
-use kinecal::registration::{register, register_far_start};
-use kinecal::robot::JointKind;
+use kinecal::solve::registration::{register, register_far_start};
 use kinecal::workflow::{self, Request, Selection, Validation};
-use kinecal::{simulate, Robot};
+use kinecal::{apps::simulate, Robot};
 
 fn far_truth(nominal: &Robot, dx: f64, rot: f64) -> Robot {
     let mut truth = nominal.clone();
@@ -37,7 +37,7 @@ fn the_placement_alone_fits_a_robot_that_differs_only_in_base_and_tool() {
             if let Observation::Pose(p) = o {
                 let f =
                     chain.frame_at(&data.postures[p.view[0].posture].readings, p.view[0].target);
-                let m = kinecal::kinematics::rot_zyx(p.euler.x, p.euler.y, p.euler.z);
+                let m = kinecal::model::kinematics::rot_zyx(p.euler.x, p.euler.y, p.euler.z);
                 assert!((f.rotation - m).norm() < 1e-9);
             }
         }

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use kinecal::files::parse_measurements;
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
+use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml};
 
 fn fixture(name: &str) -> String {
     std::fs::read_to_string(
@@ -17,7 +17,7 @@ fn fixture(name: &str) -> String {
 
 #[test]
 fn robot_files_from_python_toml_writers_load() {
-    let reference = kinecal::examples::ge_a4();
+    let reference = kinecal::model::examples::ge_a4();
     for name in ["ge_a4_tomli_w.toml", "ge_a4_toml.toml", "ge_a4_inline.toml"] {
         let text = fixture(name);
         let r = parse_robot_toml(&text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -40,7 +40,7 @@ fn robot_files_from_python_toml_writers_load() {
 
 #[test]
 fn measurement_files_from_python_csv_writers_load() {
-    let robot = kinecal::examples::ge_a4();
+    let robot = kinecal::model::examples::ge_a4();
     let plain = parse_measurements(&fixture("data_python_csv.csv"), "a.csv", &robot).unwrap();
     let quoted =
         parse_measurements(&fixture("data_python_csv_quoted.csv"), "b.csv", &robot).unwrap();
@@ -53,7 +53,7 @@ fn measurement_files_from_python_csv_writers_load() {
 /// same robot (to 1e-15), whatever the units.
 #[test]
 fn written_robots_read_back_the_same_without_float_noise() {
-    use kinecal::simulate;
+    use kinecal::apps::simulate;
     let kinds = [kinecal::JointKind::Revolute; 6];
     for (k, (length, angle)) in [
         (kinecal::LengthUnit::M, kinecal::AngleUnit::Rad),
@@ -84,7 +84,7 @@ fn written_robots_read_back_the_same_without_float_noise() {
         );
     }
     // The poses `fk` writes: an exact 0 angle is 0, not 6.6e-15.
-    let a4 = kinecal::examples::ge_a4();
+    let a4 = kinecal::model::examples::ge_a4();
     let data = simulate::measure(&a4, &simulate::sample_postures(&a4, 5, 1), false);
     let csv = kinecal::files::write_measurements(&a4, &data);
     let noise = csv
@@ -99,7 +99,7 @@ fn written_robots_read_back_the_same_without_float_noise() {
 /// sites in other postures, or other sites in the same posture, are accepted.
 #[test]
 fn a_target_measured_twice_in_one_posture_is_refused_with_both_lines() {
-    let mut robot = kinecal::examples::ge_a4();
+    let mut robot = kinecal::model::examples::ge_a4();
     for s in 0..70 {
         robot.sites.push(kinecal::Site {
             name: format!("s{s}"),

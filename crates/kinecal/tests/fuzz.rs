@@ -29,10 +29,10 @@ use kinecal::files::{
     parse_contacts, parse_distances, parse_measurements, parse_measurements_mapped, parse_postures,
     write_measurements, write_postures, ColumnMap,
 };
+use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::observe::{Dataset, Observation};
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::units::Units;
-use kinecal::{examples, simulate, Robot};
+use kinecal::{apps::simulate, model::examples, Robot};
 
 /// A robot's every parameter finite, its structure valid, and what kinecal writes of it read
 /// back to the same values.
@@ -119,8 +119,8 @@ fn robot_seeds() -> Vec<Vec<u8>> {
     ] {
         seeds.push(std::fs::read(repo().join(f)).unwrap());
     }
-    let mut r = simulate::random_robot(&[kinecal::robot::JointKind::Revolute; 6], 3);
-    r.joints[2].coupling = Some(kinecal::robot::Coupling {
+    let mut r = simulate::random_robot(&[kinecal::model::robot::JointKind::Revolute; 6], 3);
+    r.joints[2].coupling = Some(kinecal::model::robot::Coupling {
         joint: 1,
         factor: 1.0,
     });
@@ -391,7 +391,7 @@ x = 100
     .to_vec();
     // A POE file kinecal's own data set adapter writes, when the data is here.
     let mut seeds = vec![seed];
-    if let Some(d) = kinecal::datasets::DATASETS
+    if let Some(d) = kinecal::apps::datasets::DATASETS
         .iter()
         .find(|d| d.name == "qkm-hl6")
     {
@@ -521,7 +521,7 @@ fn spec_toml() {
 
 /// What a data set adapter converted: its robot files read back (the robot validated and
 /// rewritten identically), its measurement files read with the robot, every number finite.
-fn check_converted(c: &kinecal::datasets::Converted) -> Result<(), String> {
+fn check_converted(c: &kinecal::apps::datasets::Converted) -> Result<(), String> {
     let text = |n: &str| {
         c.files
             .iter()
@@ -540,7 +540,7 @@ fn check_converted(c: &kinecal::datasets::Converted) -> Result<(), String> {
         } else if name == "temperatures.csv" {
             check_temperatures(t)?;
         } else if name.ends_with("_iso.csv") {
-            kinecal::iso9283::read_roles(t, name)
+            kinecal::apps::iso9283::read_roles(t, name)
                 .map_err(|e| format!("its own {name} is refused: {e}"))?;
         } else if name.ends_with(".csv") {
             let d = parse_measurements(t, name, &robot)
@@ -575,15 +575,17 @@ fn check_temperatures(t: &str) -> Result<(), String> {
 #[test]
 fn dataset_folders() {
     // `ipa-ur10`'s folder has 16,811 rows: its own target fuzzes a copy cut to a few rows.
-    for adapter in kinecal::datasets::DATASETS
+    for adapter in kinecal::apps::datasets::DATASETS
         .iter()
         .filter(|a| a.name != "ipa-ur10")
     {
         let seeds = vec![synthetic::pack(&synthetic::folder(adapter.name))];
         let target = format!("dataset_{}", adapter.name.replace('-', "_"));
         fuzz(&target, "d", &seeds, &|b| {
-            let folder =
-                kinecal::datasets::Folder::memory(std::path::Path::new("d"), synthetic::unpack(b));
+            let folder = kinecal::apps::datasets::Folder::memory(
+                std::path::Path::new("d"),
+                synthetic::unpack(b),
+            );
             outcome((adapter.read)(&folder), check_converted)
         });
     }
@@ -596,10 +598,12 @@ fn dataset_folders() {
 fn dataset_ipa_ur10() {
     let seeds = vec![synthetic::pack(&synthetic::ipa(synthetic::IPA_FEW))];
     fuzz("dataset_ipa_ur10", "d", &seeds, &|b| {
-        let folder =
-            kinecal::datasets::Folder::memory(std::path::Path::new("d"), synthetic::unpack(b));
+        let folder = kinecal::apps::datasets::Folder::memory(
+            std::path::Path::new("d"),
+            synthetic::unpack(b),
+        );
         outcome(
-            kinecal::datasets::ipa_ur10::convert_trimmed(&folder, synthetic::IPA_FEW),
+            kinecal::apps::datasets::ipa_ur10::convert_trimmed(&folder, synthetic::IPA_FEW),
             check_converted,
         )
     });
@@ -612,7 +616,7 @@ fn dataset_ipa_ur10() {
 /// read gives the same file, byte for byte; and its forward kinematics is finite.
 #[test]
 fn random_robots_read_back_identically_and_have_finite_kinematics() {
-    use kinecal::robot::{Coupling, JointKind, Plane};
+    use kinecal::model::robot::{Coupling, JointKind, Plane};
     use kinecal::units::{AngleUnit, LengthUnit};
     use rand::{RngExt, SeedableRng};
     let n = (fuzz_driver::iterations() / 3).max(50);
@@ -696,7 +700,7 @@ fn random_robots_read_back_identically_and_have_finite_kinematics() {
 /// never NaN), its JSON document free of `null` where a number is due.
 #[test]
 fn iso9283_logs_and_roles() {
-    use kinecal::iso9283::{evaluate, read_log, read_roles, write_log, LogUnits};
+    use kinecal::apps::iso9283::{evaluate, read_log, read_roles, write_log, LogUnits};
     let thirty: String = {
         let mut s = String::from("# length_unit = mm\n# angle_unit = deg\npose,cycle,xc,yc,zc,ac,bc,cc,x,y,z,a,b,c,direction\n");
         for c in 1..=4 {

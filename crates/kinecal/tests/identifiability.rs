@@ -3,7 +3,7 @@
 mod common;
 
 use kinecal::identifiability::{analyze, AnalysisOptions};
-use kinecal::{examples, parse_param_list, simulate, JointKind, Link, ParamId, Site};
+use kinecal::{apps::simulate, model::examples, parse_param_list, JointKind, Link, ParamId, Site};
 use rand::{RngExt, SeedableRng};
 
 fn ids(list: &str, robot: &kinecal::Robot) -> Vec<ParamId> {
@@ -139,8 +139,8 @@ fn random_robots_follow_the_formula() {
     }
 }
 
-use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::observe::Weights;
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
 use kinecal::workflow::{self, Request, Selection, SolutionRule};
 
 /// Table 4.8 with the minimum-change rule: the same answer from every printed guess, and that
@@ -363,9 +363,9 @@ fn priority_and_tolerances_are_the_users_to_set() {
 
     let text = format!(
         "{}\n[tolerances]\nlength = 0.04\nangle = 0.2\nslope = 0.02\n\"link3.y\" = 0.5\np31 = 1.0\n",
-        kinecal::examples::GE_A4_TOML
+        kinecal::model::examples::GE_A4_TOML
     );
-    let r = kinecal::robot_file::parse_robot_toml(&text, "t.toml").unwrap();
+    let r = kinecal::model::robot_file::parse_robot_toml(&text, "t.toml").unwrap();
     assert!((r.tolerance(ParamId(0)) - 0.04 * 0.0254).abs() < 1e-15);
     assert!((r.tolerance(ParamId(3)) - 0.2f64.to_radians()).abs() < 1e-15);
     assert!((r.tolerance(ParamId(13)) - 0.5 * 0.0254).abs() < 1e-15);
@@ -373,9 +373,9 @@ fn priority_and_tolerances_are_the_users_to_set() {
     assert!((r.tolerance(ParamId(34)) - 0.02 * 7.2f64.to_radians()).abs() < 1e-15);
     let bad = format!(
         "{}\n[tolerances]\nlink9.x = 1\n",
-        kinecal::examples::GE_A4_TOML
+        kinecal::model::examples::GE_A4_TOML
     );
-    let err = kinecal::robot_file::parse_robot_toml(&bad, "t.toml")
+    let err = kinecal::model::robot_file::parse_robot_toml(&bad, "t.toml")
         .unwrap_err()
         .to_string();
     assert!(
@@ -383,7 +383,7 @@ fn priority_and_tolerances_are_the_users_to_set() {
         "{err}"
     );
     // The file keeps its [tolerances] table when written back.
-    let out = kinecal::robot_file::write_robot_toml(&r, Some(&text));
+    let out = kinecal::model::robot_file::write_robot_toml(&r, Some(&text));
     assert!(out.contains("\"link3.y\" = 0.5"));
 }
 
@@ -529,7 +529,8 @@ fn weighted_jacobian(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> (nalgebra::DMatrix<f64>, Vec<f64>) {
-    let p = kinecal::problem::Problem::new(robot, data, params, opts.weights, opts.orientation);
+    let p =
+        kinecal::solve::problem::Problem::new(robot, data, params, opts.weights, opts.orientation);
     let mut r = vec![0.0; p.rows()];
     let mut j = kinecal::linalg::Matrix::zeros(0, 0);
     p.evaluate(robot, &mut r, Some(&mut j));
@@ -580,7 +581,7 @@ fn a_probe_point_near_the_last_axis_leaves_link6_terms_out_within_the_noise() {
         if off < 1e-3 {
             let gamma = robot.param_id(kinecal::ParamKind::Link {
                 link: 5,
-                component: kinecal::params::LinkComponent::Gamma,
+                component: kinecal::model::params::LinkComponent::Gamma,
             });
             assert!(a.noise_dependent.iter().any(|d| d.id == gamma));
         }
@@ -860,7 +861,7 @@ fn preference(
     params: &[ParamId],
     priority: &[ParamId],
 ) -> (Vec<usize>, Vec<usize>) {
-    use kinecal::params::ParamKind;
+    use kinecal::model::params::ParamKind;
     use kinecal::units::Quantity;
     let tier = |id: ParamId| -> usize {
         if let Some(k) = priority.iter().position(|&p| p == id) {

@@ -3,7 +3,7 @@
 
 use kinecal::import::dh::{parse_dh_csv, robot_from_dh, Convention, RowKind};
 use kinecal::import::poe::parse_poe_toml;
-use kinecal::kinematics::Target;
+use kinecal::model::kinematics::Target;
 use kinecal::{AngleUnit, LengthUnit, Units};
 use nalgebra::{Matrix4, Rotation3, Unit, Vector3};
 use rand::{RngExt, SeedableRng};
@@ -266,11 +266,15 @@ euler = [0, 90, 0]
         ),
     ];
     let tool = trans(-0.156, 0.410, 0.841)
-        * kinecal::kinematics::rot_zyx(10f64.to_radians(), 20f64.to_radians(), -30f64.to_radians())
-            .to_homogeneous();
+        * kinecal::model::kinematics::rot_zyx(
+            10f64.to_radians(),
+            20f64.to_radians(),
+            -30f64.to_radians(),
+        )
+        .to_homogeneous();
     let site = |pos: [f64; 3], beta: f64| {
         trans(pos[0] * mm, pos[1] * mm, pos[2] * mm)
-            * kinecal::kinematics::rot_zyx(0.0, beta, 0.0).to_homogeneous()
+            * kinecal::model::kinematics::rot_zyx(0.0, beta, 0.0).to_homogeneous()
     };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
     for _ in 0..100 {

@@ -1,5 +1,5 @@
 //! `kinecal dataset ipa-ur10`: the UR10 laser-tracker data set (`../shared/data/ipa_ur10_tracker`)
-//! converted into kinecal's files by `kinecal::datasets::ipa_ur10`, checked against the lab's
+//! converted into kinecal's files by `kinecal::apps::datasets::ipa_ur10`, checked against the lab's
 //! files read independently here (row counts per series, millimetres to metres, the tracker's
 //! standard deviations, the temperatures), and the calibration it suggests run through the
 //! library: identified on series A, validated on C and D with their tracker placements
@@ -11,10 +11,10 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use kinecal::datasets::{ipa_ur10, Converted, Folder, DATASETS};
+use kinecal::apps::datasets::{ipa_ur10, Converted, Folder, DATASETS};
 use kinecal::files::parse_measurements;
+use kinecal::model::robot_file::parse_robot_toml;
 use kinecal::observe::accuracy;
-use kinecal::robot_file::parse_robot_toml;
 use kinecal::workflow::{self, refit_sessions, Request, Selection, Validation};
 use kinecal::{Dataset, Observation, Robot};
 
@@ -97,7 +97,7 @@ fn the_four_series_read_back_with_their_rows_units_sigmas_and_temperatures() {
     }
     // Series D's cubes: 630 postures in 68 tests; the first cube measured three times (its
     // goals repeat), every other cube once; D631 and D632 (after the 70th block) without a role.
-    let roles = kinecal::iso9283::read_roles(file(&c, ipa_ur10::ISO_ROLES), "roles").unwrap();
+    let roles = kinecal::apps::iso9283::read_roles(file(&c, ipa_ur10::ISO_ROLES), "roles").unwrap();
     assert_eq!(roles.by_posture.len(), 630);
     let tests: std::collections::BTreeSet<&str> =
         roles.by_posture.values().map(|r| r.test.as_str()).collect();

@@ -4,12 +4,12 @@
 //! with their file, line and field.
 #![allow(clippy::needless_range_loop)] // coordinates are indexed by axis, as in the formulas
 
-use kinecal::iso9283::{
+use kinecal::apps::iso9283::{
     evaluate, plan, read_log, read_plan, simulate, write_log, write_plan, Cube, Log, LogRow,
     LogUnits, PlanRequest, SimulateRequest, CYCLE, STANDARD_CYCLES,
 };
-use kinecal::kinematics::{rot_zyx, Chain, Target};
-use kinecal::robot_file::parse_robot_toml;
+use kinecal::model::kinematics::{rot_zyx, Chain, Target};
+use kinecal::model::robot_file::parse_robot_toml;
 use kinecal::{AngleUnit, LengthUnit, Robot};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -496,7 +496,7 @@ fn test_positions_are_where_the_standard_puts_them() {
 
 /// The poses' readings reach them on the robot: the forward kinematics at the readings is the
 /// pose, within the joint ranges.
-fn check_reached(robot: &Robot, plan: &kinecal::iso9283::TestPlan) {
+fn check_reached(robot: &Robot, plan: &kinecal::apps::iso9283::TestPlan) {
     let chain = Chain::new(robot);
     let positions = plan.cube.test_positions();
     assert_eq!(plan.poses.len(), 5);

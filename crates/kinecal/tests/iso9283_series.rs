@@ -1,16 +1,16 @@
 //! ISO 9283 figures of a series of tests (several cubes, corners, one cycle per pose), logs made
-//! from measurement files ([`kinecal::iso9283::log_from_measurements`]) and the accuracy
-//! predicted once a program is compensated ([`kinecal::iso9283::predict_compensated`]), each
+//! from measurement files ([`kinecal::apps::iso9283::log_from_measurements`]) and the accuracy
+//! predicted once a program is compensated ([`kinecal::apps::iso9283::predict_compensated`]), each
 //! against an independent computation: hand-worked numbers, the true robot's forward kinematics,
 //! the predictor called directly.
 
-use kinecal::iso9283::{
+use kinecal::apps::iso9283::{
     cube_roles, evaluate, log_from_measurements, pose_name, predict_compensated, read_log,
     read_roles, write_log, write_roles, LogUnits, Role, CORNERS,
 };
-use kinecal::kinematics::{forward_pose, rot_zyx, Target};
-use kinecal::robot::{Link, Session};
-use kinecal::simulate;
+use kinecal::apps::simulate;
+use kinecal::model::kinematics::{forward_pose, rot_zyx, Target};
+use kinecal::model::robot::{Link, Session};
 use kinecal::workflow::{self, Request, Selection};
 use kinecal::{predict, Dataset};
 
@@ -38,7 +38,7 @@ b,C1,2,-1,-1,-1,-1,-1,-1,1.1,1.2
     assert_eq!(log.rows[3].readings.as_deref(), Some(&[0.7, 0.8][..]));
     // Written and read back: the same log (the label with a comma quoted).
     let again = read_log(&write_log(&log), "series.csv", LogUnits::default()).unwrap();
-    let strip = |l: &kinecal::iso9283::Log| {
+    let strip = |l: &kinecal::apps::iso9283::Log| {
         l.rows
             .iter()
             .map(|r| {
@@ -198,7 +198,7 @@ fn cube_roles_name_the_corners_and_count_the_cycles() {
 
 /// A UR-like 6R, a "true" one 1 mm / 0.1 deg off, and the tracker placement of a session.
 fn robots() -> (kinecal::Robot, kinecal::Robot, Link) {
-    let nominal = simulate::random_robot(&[kinecal::robot::JointKind::Revolute; 6], 11);
+    let nominal = simulate::random_robot(&[kinecal::model::robot::JointKind::Revolute; 6], 11);
     let truth = simulate::perturb(
         &nominal,
         simulate::PerturbStd {
@@ -242,7 +242,7 @@ fn a_log_from_measurements_puts_the_tracker_data_in_the_base_frame() {
         "posture,test,pose,cycle\nD1,t,P1,1\nD2,t,P1,2\nD3,t,C1,1\nD4,t,C2,1\nD5,u,P1,1\n";
     let roles = read_roles(roles_text, "roles.csv").unwrap();
     // Measured by a tracker placed at `tracker` (the global frame's pose in the tracker frame).
-    let t = kinecal::kinematics::Frame::from_link(&tracker);
+    let t = kinecal::model::kinematics::Frame::from_link(&tracker);
     let truth_frame = |r: &[f64]| forward_pose(&truth, r, Target::EndEffector);
     for position_only in [true, false] {
         let mut data: Dataset = simulate::measure(&truth, &postures, position_only);
@@ -254,7 +254,7 @@ fn a_log_from_measurements_puts_the_tracker_data_in_the_base_frame() {
                 kinecal::observe::Observation::Pose(p) => {
                     p.position = t.rotation * p.position + t.translation;
                     let r = t.rotation * rot_zyx(p.euler.x, p.euler.y, p.euler.z);
-                    p.euler = kinecal::kinematics::euler_zyx(&r);
+                    p.euler = kinecal::model::kinematics::euler_zyx(&r);
                 }
                 _ => unreachable!(),
             }

@@ -3,12 +3,12 @@
 //! frame of its own, full poses, positions, distances and plane contacts, rows with their own
 //! standard deviations (per axis too), and both orientation residuals.
 
-use kinecal::kinematics::{euler_zyx, forward_pose, rot_zyx, Target};
+use kinecal::model::kinematics::{euler_zyx, forward_pose, rot_zyx, Target};
 use kinecal::observe::contact::Contact;
 use kinecal::observe::distance::Distance;
 use kinecal::observe::{Observation, OrientationError, Weights};
-use kinecal::problem::Problem;
-use kinecal::{simulate, JointKind, Link, ParamId, Robot, Site};
+use kinecal::solve::problem::Problem;
+use kinecal::{apps::simulate, JointKind, Link, ParamId, Robot, Site};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 
@@ -40,13 +40,13 @@ fn robot_with_sites(dof: usize, seed: u64) -> Robot {
         });
     }
     // A tilted plane for contacts, away from the origin.
-    robot
-        .planes
-        .push(kinecal::robot::Plane::new("table", Vector3::new(0.2, -0.3, 1.0), 0.4).unwrap());
+    robot.planes.push(
+        kinecal::model::robot::Plane::new("table", Vector3::new(0.2, -0.3, 1.0), 0.4).unwrap(),
+    );
     robot.planes[0].tilt_x = 0.05;
     robot.planes[0].tilt_y = -0.1;
     // A session measured from elsewhere: its poses and positions seen through its frame.
-    robot.sessions.push(kinecal::robot::Session {
+    robot.sessions.push(kinecal::model::robot::Session {
         name: "far".into(),
         frame: Link {
             x: 1.5,
@@ -60,7 +60,7 @@ fn robot_with_sites(dof: usize, seed: u64) -> Robot {
     // Most robots of two joints or more get a coupled joint (like the FANUC J2/J3 coupling).
     if dof >= 2 && seed % 3 != 0 {
         let last = dof - 1;
-        robot.joints[last].coupling = Some(kinecal::robot::Coupling {
+        robot.joints[last].coupling = Some(kinecal::model::robot::Coupling {
             joint: seed as usize % last,
             factor: 0.6,
         });
@@ -231,7 +231,7 @@ fn the_packed_jacobian_of_some_parameters_is_the_full_ones_columns() {
         let mut ws = kinecal::Workspace::new(&robot);
         let np = robot.param_count();
         let mut full = vec![0.0; 6 * np];
-        for p in kinecal::simulate::sample_postures(&robot, 10, seed) {
+        for p in kinecal::apps::simulate::sample_postures(&robot, 10, seed) {
             chain.forward(&p.readings, &mut ws);
             // A random subset, in a random order.
             let mut chosen: Vec<usize> = (0..np).filter(|_| rng.random_range(0..3) == 0).collect();
@@ -245,7 +245,7 @@ fn the_packed_jacobian_of_some_parameters_is_the_full_ones_columns() {
             for target in [kinecal::Target::EndEffector, kinecal::Target::Site(0)] {
                 chain.jacobian(&ws, target, &mut full);
                 let mut some = vec![f64::NAN; 6 * chosen.len()];
-                let plan = kinecal::kinematics::ColumnPlan::new(&robot, target, &columns);
+                let plan = kinecal::model::kinematics::ColumnPlan::new(&robot, target, &columns);
                 chain.jacobian_columns(&ws, &plan, &mut some);
                 for (c, &p) in chosen.iter().enumerate() {
                     for k in 0..6 {
@@ -266,7 +266,7 @@ fn precomputed_reading_sines_give_the_same_kinematics_and_only_for_their_robot()
     // The addition formula sin(offset + b) = sin(offset) cos b + cos(offset) sin b against a
     // direct sine: equal to rounding (a few ulps of 1), on random robots with prismatic and
     // coupled joints, offsets far from zero, and readings of either sign.
-    use kinecal::kinematics::{Chain, ReadingTrig, Workspace};
+    use kinecal::model::kinematics::{Chain, ReadingTrig, Workspace};
     for seed in 0..60u64 {
         let dof = 1 + (seed % 7) as usize;
         let mut robot = robot_with_sites(dof, seed);

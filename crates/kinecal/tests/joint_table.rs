@@ -1,9 +1,9 @@
 //! Joint offset and gain tables: exact when a calibration changed only the transducers, and
 //! otherwise saying how much the table cannot carry.
 
-use kinecal::examples;
 use kinecal::import::joints::joint_table;
 use kinecal::import::readback::Tolerance;
+use kinecal::model::examples;
 
 #[test]
 fn a_joint_table_carries_the_transducers_and_says_what_it_cannot() {

@@ -1,7 +1,7 @@
 //! The model beyond the thesis: coupled joints and planes, in robot files and parameter lists.
 
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
-use kinecal::{examples, parse_param_list, ParamId};
+use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml};
+use kinecal::{model::examples, parse_param_list, ParamId};
 use nalgebra::Vector3;
 
 /// The GE A4 with joint 3 coupled to joint 2 and a table plane.
@@ -83,7 +83,7 @@ fn plane_normal_parameterisation_is_regular_and_invertible() {
         Vector3::new(0.3, -0.5, 0.8),
         Vector3::x(),
     ] {
-        let mut p = kinecal::robot::Plane::new("p", n * 3.0, 0.2).unwrap();
+        let mut p = kinecal::model::robot::Plane::new("p", n * 3.0, 0.2).unwrap();
         assert!((p.normal() - n.normalize()).norm() < 1e-15);
         // The reference frame is right-handed and orthonormal.
         let r = p.reference();
@@ -108,13 +108,13 @@ fn plane_normal_parameterisation_is_regular_and_invertible() {
         }
         // set_normal inverts normal().
         let target = p.normal();
-        let mut q = kinecal::robot::Plane::new("q", n, 0.0).unwrap();
+        let mut q = kinecal::model::robot::Plane::new("q", n, 0.0).unwrap();
         assert!(q.set_normal(&target));
         assert!((q.tilt_x - 0.2).abs() < 1e-12 && (q.tilt_y + 0.3).abs() < 1e-12);
         assert!(!q.set_normal(&-n));
     }
     // A horizontal table tilts about the global axes.
-    let p = kinecal::robot::Plane::new("t", Vector3::z(), 0.0).unwrap();
+    let p = kinecal::model::robot::Plane::new("t", Vector3::z(), 0.0).unwrap();
     assert_eq!(p.reference().column(0), Vector3::x());
     assert_eq!(p.reference().column(1), Vector3::y());
 }
@@ -182,10 +182,10 @@ fn bad_couplings_and_planes_are_refused_with_their_field() {
 /// A perturbed coupling factor is recovered, and counts one in the rank like a slope.
 #[test]
 fn a_perturbed_coupling_factor_is_recovered() {
-    use kinecal::estimation::{calibrate, CalibrationOptions};
+    use kinecal::apps::simulate;
     use kinecal::identifiability::{analyze, AnalysisOptions};
-    use kinecal::robot::Coupling;
-    use kinecal::simulate;
+    use kinecal::model::robot::Coupling;
+    use kinecal::solve::estimation::{calibrate, CalibrationOptions};
     let mut nominal = simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 41);
     nominal.joints[2].coupling = Some(Coupling {
         joint: 1,

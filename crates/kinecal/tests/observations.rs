@@ -2,13 +2,13 @@
 //! read from their files, counted by the documented rank formula, and enough to recover a
 //! perturbed 6-joint robot.
 
-use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::files::parse_distances;
 use kinecal::identifiability::{analyze, AnalysisOptions};
-use kinecal::kinematics::Target;
+use kinecal::model::kinematics::Target;
 use kinecal::observe::distance::Distance;
 use kinecal::observe::{accuracy, Dataset, Observation, Posture};
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
 use kinecal::{parse_param_list, JointKind, ParamId, Robot};
 
 fn six_joint() -> Robot {
@@ -123,7 +123,7 @@ fn distances_with_slopes_and_positions_follow_the_count() {
 
 #[test]
 fn distance_files_read_with_their_lines_and_refuse_mistakes() {
-    let robot = kinecal::examples::ge_a4();
+    let robot = kinecal::model::examples::ge_a4();
     let text = "# ballbar run\npair,a1,a2,a3,a4,b1,b2,b3,b4,distance,sigma_position\n\
                 1,-11,12,4,-11,-12,9,1.5,5,6.0,0.0004\n\
                 2;x\n";
@@ -198,7 +198,7 @@ fn contacts(truth: &Robot, per_plane: usize, seed: u64) -> Dataset {
 fn with_planes(mut robot: Robot, normals: &[[f64; 3]]) -> Robot {
     for (k, n) in normals.iter().enumerate() {
         robot.planes.push(
-            kinecal::robot::Plane::new(
+            kinecal::model::robot::Plane::new(
                 format!("p{k}"),
                 nalgebra::Vector3::from(*n),
                 0.1 * k as f64,
@@ -314,9 +314,9 @@ fn estimated_planes_join_the_count_and_are_recovered() {
 #[test]
 fn contact_files_read_and_refuse_mistakes() {
     use kinecal::files::parse_contacts;
-    let text = kinecal::examples::GE_A4_TOML.to_string()
+    let text = kinecal::model::examples::GE_A4_TOML.to_string()
         + "\n[[planes]]\nname = \"table\"\nnormal = [0, 0, 1]\noffset = -2\n";
-    let robot = kinecal::robot_file::parse_robot_toml(&text, "a4.toml").unwrap();
+    let robot = kinecal::model::robot_file::parse_robot_toml(&text, "a4.toml").unwrap();
     let ok = "posture,site,plane,v1,v2,v3,v4,gap,sigma_position\n\
               1,ee,table,-11,12,4,-11,0.25,0.001\n\
               2,,table,-12,9,1.5,5,,\n";
@@ -356,7 +356,7 @@ fn contact_files_read_and_refuse_mistakes() {
             .to_string();
         assert!(e.contains(expect), "expected `{expect}` in {e}");
     }
-    let e = parse_contacts(short, "c.csv", &kinecal::examples::ge_a4())
+    let e = parse_contacts(short, "c.csv", &kinecal::model::examples::ge_a4())
         .unwrap_err()
         .to_string();
     assert!(e.contains("no [[planes]]"), "{e}");
@@ -372,7 +372,7 @@ fn euler_residuals_are_refused_near_gimbal_lock() {
         CalibrationOptions::new(vec![]).orientation,
         OrientationError::RotVec
     );
-    let robot = kinecal::examples::ge_a4();
+    let robot = kinecal::model::examples::ge_a4();
     let postures = simulate::sample_postures(&robot, 12, 5);
     for (beta_deg, refused) in [(89.5, true), (-89.2, true), (88.0, false)] {
         let mut data = simulate::measure(&robot, &postures, false);

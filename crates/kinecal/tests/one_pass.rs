@@ -2,8 +2,8 @@
 //! comes from the solver's first evaluation at the start, the outliers from the fit's final
 //! residuals. What it reports must be what fresh passes give.
 
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::observe::Observation;
-use kinecal::simulate::{self, PerturbStd};
 use kinecal::workflow::{self, Request, Selection};
 use kinecal::{JointKind, ParamId};
 
@@ -85,7 +85,7 @@ fn the_outliers_from_the_fits_residuals_are_a_fresh_passs() {
     }
     let req = Request::new(nominal.clone(), data.clone());
     let out = workflow::run(&req, &mut ()).unwrap();
-    let fresh = kinecal::outliers::outliers(&out.calibration, &data, req.outlier_sigmas);
+    let fresh = kinecal::solve::outliers::outliers(&out.calibration, &data, req.outlier_sigmas);
     let found: Vec<usize> = out.outliers.iter().map(|o| o.observation).collect();
     // The gross errors, and whatever least squares smeared them into.
     assert!([5, 40, 77].iter().all(|i| found.contains(i)), "{found:?}");
@@ -112,10 +112,10 @@ fn the_identifiable_fit_starts_from_the_analysis_linearisation() {
     let out = workflow::run(&req, &mut ()).unwrap();
     let chosen = out.calibration.estimated.clone();
     assert!(chosen.len() < 54);
-    let direct = kinecal::estimation::calibrate(
+    let direct = kinecal::solve::estimation::calibrate(
         &nominal,
         &data,
-        &kinecal::estimation::CalibrationOptions::new(chosen.clone()),
+        &kinecal::solve::estimation::CalibrationOptions::new(chosen.clone()),
         &mut |_| {},
     )
     .unwrap();
@@ -156,7 +156,7 @@ fn the_identifiable_fit_starts_from_the_analysis_linearisation() {
 /// large value among a few hundred rows and an ordinary one among a million.
 #[test]
 fn the_outlier_threshold_grows_with_the_rows_tested() {
-    use kinecal::outliers::threshold;
+    use kinecal::solve::outliers::threshold;
     // Without a floor: the two-sided normal quantile with rows * P(|z| > t) = 0.1 (values of
     // scipy.stats.norm.isf: 1.6449 at 10 %, 2.5758 at 1 %, 4.8916 at 1e-6).
     for (rows, t) in [
@@ -187,16 +187,16 @@ fn the_outlier_threshold_grows_with_the_rows_tested() {
 /// about 2.5 rows would be flagged); a gross error among them is still found.
 #[test]
 fn clean_data_of_many_rows_shows_no_outlier_and_a_gross_error_still_shows() {
-    let nominal = kinecal::simulate::random_robot(&[JointKind::Revolute; 6], 31);
+    let nominal = kinecal::apps::simulate::random_robot(&[JointKind::Revolute; 6], 31);
     let std = PerturbStd {
         length: 1e-3,
         angle: 0.2f64.to_radians(),
         slope_fraction: 0.0,
     };
-    let truth = kinecal::simulate::perturb(&nominal, std, 32);
-    let postures = kinecal::simulate::sample_postures(&nominal, 13_334, 33);
-    let mut data = kinecal::simulate::measure(&truth, &postures, true);
-    kinecal::simulate::add_noise(&mut data, 2e-5, 0.0, 34);
+    let truth = kinecal::apps::simulate::perturb(&nominal, std, 32);
+    let postures = kinecal::apps::simulate::sample_postures(&nominal, 13_334, 33);
+    let mut data = kinecal::apps::simulate::measure(&truth, &postures, true);
+    kinecal::apps::simulate::add_noise(&mut data, 2e-5, 0.0, 34);
     let req = Request::new(nominal.clone(), data.clone());
     let out = workflow::run(&req, &mut ()).unwrap();
     assert!(out.outliers.is_empty(), "{} flagged", out.outliers.len());

@@ -2,10 +2,10 @@
 //! improves the plan, a plan retains the pool's information, and it calibrates better than
 //! random postures.
 
-use kinecal::kinematics::Target;
+use kinecal::apps::plan::{candidates, plan, Criterion, PlanRequest};
+use kinecal::apps::simulate::{self, PerturbStd};
+use kinecal::model::kinematics::Target;
 use kinecal::observe::accuracy;
-use kinecal::plan::{candidates, plan, Criterion, PlanRequest};
-use kinecal::simulate::{self, PerturbStd};
 use kinecal::workflow::{self, Request, Selection};
 use kinecal::{Dataset, JointKind, Posture, Robot};
 use nalgebra::DMatrix;
@@ -49,7 +49,7 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-fn postures_of(p: &kinecal::plan::Plan) -> Vec<Posture> {
+fn postures_of(p: &kinecal::apps::plan::Plan) -> Vec<Posture> {
     p.postures
         .iter()
         .map(|q| Posture {
@@ -144,7 +144,7 @@ fn the_criteria_are_their_definitions() {
     assert_eq!(p.rank, n);
     // The scaled Jacobian, rebuilt: weighted rows, columns divided by their RMS per candidate.
     let jac = |data: &Dataset| -> DMatrix<f64> {
-        let pr = kinecal::problem::Problem::new(
+        let pr = kinecal::solve::problem::Problem::new(
             &nominal,
             data,
             &p.parameters,
@@ -256,8 +256,13 @@ fn rate_fixed(
     set: &[usize],
     criterion: Criterion,
 ) -> f64 {
-    let pr =
-        kinecal::problem::Problem::new(robot, pool, params, Default::default(), Default::default());
+    let pr = kinecal::solve::problem::Problem::new(
+        robot,
+        pool,
+        params,
+        Default::default(),
+        Default::default(),
+    );
     let mut res = vec![0.0; pr.rows()];
     let mut j = kinecal::linalg::Matrix::zeros(0, 0);
     pr.evaluate(robot, &mut res, Some(&mut j));

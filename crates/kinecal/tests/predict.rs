@@ -13,11 +13,11 @@
 
 use std::path::PathBuf;
 
-use kinecal::datasets::ipa_ur10;
+use kinecal::apps::datasets::ipa_ur10;
 use kinecal::files::parse_measurements;
+use kinecal::model::robot_file::parse_robot_toml;
 use kinecal::observe::errors;
 use kinecal::predict::{self, PredictionReport};
-use kinecal::robot_file::parse_robot_toml;
 use kinecal::workflow::{self, refit_sessions, Request, Selection};
 use kinecal::{Dataset, Robot};
 
@@ -127,12 +127,14 @@ fn ur10_identified_on_a_predicts_c_and_d_within_their_bounds() {
 /// itself: the nominal's best) and after (calibrated on A, D's tracker placement re-estimated:
 /// the program compensated with the calibration), with the AP predicted once compensated.
 fn iso_table_of_the_cube_series(
-    c: &kinecal::datasets::Converted,
+    c: &kinecal::apps::datasets::Converted,
     robot: &Robot,
     cal: &kinecal::Calibration,
     pr: &PredictionReport,
 ) {
-    use kinecal::iso9283::{evaluate, log_from_measurements, predict_compensated, read_roles};
+    use kinecal::apps::iso9283::{
+        evaluate, log_from_measurements, predict_compensated, read_roles,
+    };
     let file = |n: &str| &c.files.iter().find(|f| f.0 == n).unwrap().1;
     let data = parse_measurements(file("series_D.csv"), "series_D.csv", robot).unwrap();
     let roles = read_roles(file(ipa_ur10::ISO_ROLES), ipa_ur10::ISO_ROLES).unwrap();
@@ -152,7 +154,7 @@ fn iso_table_of_the_cube_series(
             &mut e,
             &log,
             &predictor,
-            kinecal::kinematics::Target::EndEffector,
+            kinecal::model::kinematics::Target::EndEffector,
         )
         .unwrap();
         let s = e.summary.clone().unwrap();
@@ -200,7 +202,7 @@ fn iso_table_of_the_cube_series(
 #[test]
 fn qkm_held_out_points_fall_within_their_bounds() {
     let dir = required("qkm_hl6_faro");
-    let d = kinecal::datasets::qkm_hl6::load(&dir).unwrap();
+    let d = kinecal::apps::datasets::qkm_hl6::load(&dir).unwrap();
     let mut req = Request::new(d.robot.clone(), d.identification.clone());
     req.selection = Selection::parse("all,identifiable", None, &d.robot).unwrap();
     req.prediction = predict::Level::Summary;
@@ -243,9 +245,9 @@ fn qkm_held_out_points_fall_within_their_bounds() {
 /// estimated to about 10 %, so 15 % is the tolerance; seen: within 5 %).
 #[test]
 fn the_covariance_propagated_through_the_jacobian_is_the_spread_of_calibrated_positions() {
-    use kinecal::kinematics::{forward_pose, Target};
-    use kinecal::simulate;
-    let nominal = kinecal::examples::ge_a4();
+    use kinecal::apps::simulate;
+    use kinecal::model::kinematics::{forward_pose, Target};
+    let nominal = kinecal::model::examples::ge_a4();
     let changes: Vec<_> = [("p1", 0.05), ("p14", -0.02), ("joint2.offset", -0.5)]
         .iter()
         .map(|&(name, dv)| (kinecal::parse_param_list(name, &nominal).unwrap()[0], dv))

@@ -3,10 +3,10 @@
 
 use std::sync::Arc;
 
+use kinecal::apps::simulate::{self, PerturbStd};
+use kinecal::model::robot::Prior;
 use kinecal::observe::{Dataset, OrientationError, Weights};
-use kinecal::problem::Problem;
-use kinecal::robot::Prior;
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::solve::problem::Problem;
 use kinecal::uncertainty::{DeterminedBy, PRIOR_ALONE_SHARE};
 use kinecal::workflow::{run, Candidate, Outcome, Request, Selection};
 use kinecal::{Error, JointKind, ParamId, Robot, Setting};
@@ -384,7 +384,7 @@ fn gauss_newton_solves_a_rank_deficient_selection_with_a_prior() {
     let s = setup(7, NOISE);
     let mut req = request(&s, NOISE);
     req.selection = Selection::List(all(&s.nominal));
-    req.solver = kinecal::estimation::SolverOptions::new(kinecal::Method::GaussNewton);
+    req.solver = kinecal::solve::estimation::SolverOptions::new(kinecal::Method::GaussNewton);
     assert!(run(&req, &mut ()).is_err(), "singular without a prior");
     req.prior = prior_of_size(CHANGE);
     let out = run(&req, &mut ()).unwrap();
@@ -395,8 +395,8 @@ fn gauss_newton_solves_a_rank_deficient_selection_with_a_prior() {
 /// file's `[priors]`, in a spec and in a model candidate.
 #[test]
 fn bad_priors_are_refused_with_the_key_named() {
-    use kinecal::prior::{describe, parse_prior};
-    let robot = kinecal::examples::ge_a4();
+    use kinecal::model::prior::{describe, parse_prior};
+    let robot = kinecal::model::examples::ge_a4();
     for (text, words) in [
         ("length=0", "length"),
         ("length=-1", "length"),
@@ -435,9 +435,9 @@ fn bad_priors_are_refused_with_the_key_named() {
     // A robot file's [priors].
     let good = format!(
         "{}\n[priors]\nlength = 0.01\nangle = 0.05\n\"link3.y\" = 0.5\n",
-        kinecal::examples::GE_A4_TOML
+        kinecal::model::examples::GE_A4_TOML
     );
-    let r = kinecal::robot_file::parse_robot_toml(&good, "r.toml").unwrap();
+    let r = kinecal::model::robot_file::parse_robot_toml(&good, "r.toml").unwrap();
     assert_eq!(
         describe(&r.priors, &r),
         "length=0.01,angle=0.05,link3.y=0.5"
@@ -449,8 +449,11 @@ fn bad_priors_are_refused_with_the_key_named() {
         ("\"link9.x\" = 1", "priors.link9.x"),
         ("length = nan", "priors.length"),
     ] {
-        let bad = format!("{}\n[priors]\n{table}\n", kinecal::examples::GE_A4_TOML);
-        let e = kinecal::robot_file::parse_robot_toml(&bad, "r.toml")
+        let bad = format!(
+            "{}\n[priors]\n{table}\n",
+            kinecal::model::examples::GE_A4_TOML
+        );
+        let e = kinecal::model::robot_file::parse_robot_toml(&bad, "r.toml")
             .unwrap_err()
             .to_string();
         assert!(e.contains(field), "{table}: {e}");
@@ -502,7 +505,7 @@ fn the_prior_under_huber_and_min_change() {
     req.prior = prior_of_size(CHANGE);
     let plain = run(&req, &mut ()).unwrap();
     let mut huber = req.clone();
-    huber.loss = kinecal::estimation::Loss::huber(1.345);
+    huber.loss = kinecal::solve::estimation::Loss::huber(1.345);
     let h = run(&huber, &mut ()).unwrap();
     assert!(h.calibration.converged());
     assert_eq!(h.calibration.row_scale.len(), s.data.rows());

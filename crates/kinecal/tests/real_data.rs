@@ -8,10 +8,10 @@
 #[path = "common/shared_data.rs"]
 mod shared_data;
 
-use kinecal::datasets::qkm_hl6;
-use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::apps::datasets::qkm_hl6;
 use kinecal::identifiability::{analyze, AnalysisOptions};
 use kinecal::observe::accuracy;
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
 use kinecal::{parse_param_list, ParamId};
 
 fn data() -> Option<qkm_hl6::QkmData> {
@@ -99,9 +99,9 @@ fn qkm_hl6_held_out_accuracy() {
     );
 }
 
-fn fanuc() -> Option<kinecal::datasets::fanuc_r2000ic::FanucData> {
+fn fanuc() -> Option<kinecal::apps::datasets::fanuc_r2000ic::FanucData> {
     let dir = shared_data::shared_data("fanuc_r2000ic_lasertracker")?;
-    Some(kinecal::datasets::fanuc_r2000ic::load(&dir).expect("the data set loads"))
+    Some(kinecal::apps::datasets::fanuc_r2000ic::load(&dir).expect("the data set loads"))
 }
 
 /// Held-out mean position error (m) of `K`-fold cross-validation by posture (posture i in fold
@@ -186,7 +186,7 @@ fn ur10e_camera_poses_reach_the_camera_floor() {
     let Some(dir) = shared_data::shared_data("ur10e_camera") else {
         return;
     };
-    let d = kinecal::datasets::ur10e_camera::load(&dir).unwrap();
+    let d = kinecal::apps::datasets::ur10e_camera::load(&dir).unwrap();
     assert_eq!(d.data.observations.len(), 23);
     let ids = parse_param_list("link1,link7", &d.robot).unwrap();
     let mut opts = CalibrationOptions::new(ids);
@@ -312,7 +312,7 @@ fn cross_validation_and_model_choice_on_real_data() {
 /// than the median of 100 random choices of 20.
 #[test]
 fn a_plan_of_20_qkm_postures_is_no_worse_than_the_median_random_20() {
-    use kinecal::plan::{plan, PlanRequest};
+    use kinecal::apps::plan::{plan, PlanRequest};
     use kinecal::workflow::{run, Request, Selection};
     use rand::{seq::SliceRandom, SeedableRng};
     let Some(d) = data() else { return };
@@ -373,7 +373,7 @@ fn a_plan_of_20_qkm_postures_is_no_worse_than_the_median_random_20() {
 /// calibration reported.
 #[test]
 fn compensated_readings_land_on_the_held_out_points() {
-    use kinecal::compensate::{Compensator, Goal, Options};
+    use kinecal::apps::compensate::{Compensator, Goal, Options};
     use kinecal::workflow::{run, Request, Selection};
     use kinecal::Observation;
     let Some(d) = data() else { return };

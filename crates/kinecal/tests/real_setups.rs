@@ -1,13 +1,13 @@
 //! Measurements as real setups produce them: several reflectors per posture measured by
 //! position only, outliers, robust loss, and files laid out differently.
 
-use kinecal::estimation::{calibrate, CalibrationOptions, Loss};
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::files::{parse_measurements, parse_measurements_mapped, ColumnMap};
 use kinecal::identifiability::{analyze, AnalysisOptions};
-use kinecal::kinematics::Target;
+use kinecal::model::kinematics::Target;
 use kinecal::observe::{accuracy, Observation, Weights};
-use kinecal::outliers::outliers;
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions, Loss};
+use kinecal::solve::outliers::outliers;
 use kinecal::{JointKind, Link, ParamId, Site};
 use nalgebra::Vector3;
 
@@ -85,7 +85,7 @@ fn position_only_reflectors_recover_the_truth_to_the_noise_level() {
 
 #[test]
 fn outliers_are_listed_and_huber_resists_them() {
-    let nominal = kinecal::examples::ge_a4();
+    let nominal = kinecal::model::examples::ge_a4();
     let mut truth = nominal.clone();
     truth.set(ParamId(0), truth.get(ParamId(0)) + 0.002);
     let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 40, 2), false);
@@ -145,7 +145,7 @@ fn map(specs: &[&str]) -> ColumnMap {
 
 #[test]
 fn column_mapping_reads_a_tracker_export() {
-    let robot = kinecal::examples::ge_a4();
+    let robot = kinecal::model::examples::ge_a4();
     let text =
         "Point,J1,J2,J3,J4,X,Y,Z,Quality\nA,-11.053,12.369,4.009,-11.583,14.071,19.083,0.177,ok\n\
                 B,-12.696,9.037,1.493,5.156,6.098,14.220,3.700,ok\n";
@@ -168,7 +168,7 @@ fn column_mapping_reads_a_tracker_export() {
 
 #[test]
 fn other_layouts_load_as_they_are() {
-    let robot = kinecal::examples::ge_a4();
+    let robot = kinecal::model::examples::ge_a4();
     // No posture column: rows number the postures. Comment lines before the header, `;` as
     // the delimiter (as tracker software exports).
     let text = "# Tracker export 2026-11-22\n# units: in, deg\nJ1;J2;J3;J4;X;Y;Z\n\
@@ -434,7 +434,7 @@ fn tool_points_anchored_by_one_precise_row_match_points_fixed_exactly() {
 /// observations are flagged at the default threshold, for 30 and for 1,000 postures.
 #[test]
 fn clean_gaussian_data_flags_at_most_one_percent() {
-    let nominal = kinecal::examples::ge_a4();
+    let nominal = kinecal::model::examples::ge_a4();
     let mut truth = nominal.clone();
     truth.set(ParamId(0), truth.get(ParamId(0)) + 0.05 * 0.0254);
     for (postures, seed) in [(30, 7), (1000, 8)] {
@@ -446,7 +446,7 @@ fn clean_gaussian_data_flags_at_most_one_percent() {
         simulate::add_noise(&mut data, 0.0005 * 0.0254, 0.005f64.to_radians(), seed);
         let ids = kinecal::parse_param_list("p1,p2,p8,p14,offsets,slopes", &nominal).unwrap();
         let cal = calibrate(&nominal, &data, &CalibrationOptions::new(ids), &mut |_| {}).unwrap();
-        let flagged = outliers(&cal, &data, kinecal::outliers::DEFAULT_SIGMAS).len();
+        let flagged = outliers(&cal, &data, kinecal::solve::outliers::DEFAULT_SIGMAS).len();
         assert!(
             flagged as f64 <= 0.01 * postures as f64,
             "{flagged} of {postures} flagged"

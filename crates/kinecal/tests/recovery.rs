@@ -1,11 +1,11 @@
 //! Calibration recovers a perturbed robot from noise-free data; solvers behave on singular
 //! problems; results do not depend on the file's units.
 
-use kinecal::estimation::{calibrate, CalibrationOptions, Method, SolverOptions};
-use kinecal::kinematics::{forward_pose, Target};
+use kinecal::apps::simulate::{self, PerturbStd};
+use kinecal::model::kinematics::{forward_pose, Target};
 use kinecal::observe::OrientationError;
-use kinecal::simulate::{self, PerturbStd};
-use kinecal::{examples, parse_param_list, Error, JointKind, ParamId, Robot};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions, Method, SolverOptions};
+use kinecal::{model::examples, parse_param_list, Error, JointKind, ParamId, Robot};
 
 fn truth_and_nominal() -> (Robot, Robot) {
     let kinds = [
@@ -34,7 +34,7 @@ fn held_out_error(a: &Robot, b: &Robot) -> (f64, f64) {
         let fb = kinecal::Chain::new(b).frame_at(&p.readings, Target::EndEffector);
         dp = dp.max((fa.translation - fb.translation).norm() * 1e3);
         let r = fa.rotation.transpose() * fb.rotation;
-        da = da.max(kinecal::kinematics::log_so3(&r).norm().to_degrees());
+        da = da.max(kinecal::model::kinematics::log_so3(&r).norm().to_degrees());
     }
     let _ = forward_pose;
     (dp, da)
@@ -162,7 +162,7 @@ fn to_units(robot: &Robot, length: kinecal::LengthUnit, angle: kinecal::AngleUni
 #[test]
 fn results_do_not_depend_on_units() {
     use kinecal::files::{parse_measurements, write_measurements};
-    use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
+    use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml};
     let nominal = examples::ge_a4();
     let std = PerturbStd {
         length: 0.02 * 0.0254,
@@ -260,7 +260,10 @@ fn a_method_that_stops_where_lm_still_descends_is_stalled_not_converged() {
     opts.solver = SolverOptions::new(Method::Svd);
     opts.solver.rcond = 0.5;
     let cal = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
-    assert_eq!(cal.termination, kinecal::estimation::Termination::Stalled);
+    assert_eq!(
+        cal.termination,
+        kinecal::solve::estimation::Termination::Stalled
+    );
     assert!(!cal.converged());
     // Levenberg-Marquardt on the same problem converges to the truth.
     let lm = run(Method::LevenbergMarquardt, ids, &nominal, &data);

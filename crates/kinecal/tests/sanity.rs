@@ -1,10 +1,10 @@
 //! Units and readings that do not match the robot file are said, never fitted silently.
 
 use kinecal::files::{parse_measurements, write_measurements};
-use kinecal::robot::JointKind;
+use kinecal::model::robot::JointKind;
 use kinecal::units::{AngleUnit, LengthUnit};
 use kinecal::workflow::{self, Request, Selection};
-use kinecal::{simulate, Robot, Warning};
+use kinecal::{apps::simulate, Robot, Warning};
 
 /// A 6R robot in metres and degrees whose readings are the joint angles (slope 1).
 fn robot() -> Robot {

@@ -28,7 +28,7 @@ fn the_shipped_schemas_are_the_code_s() {
         ),
         (
             "plan.schema.json",
-            kinecal::plan::plan_schema(),
+            kinecal::apps::plan::plan_schema(),
             "PlanReport",
             &["schema_version", "criterion", "postures"][..],
         ),
@@ -40,7 +40,7 @@ fn the_shipped_schemas_are_the_code_s() {
         ),
         (
             "iso9283.schema.json",
-            kinecal::iso9283::evaluation_schema(),
+            kinecal::apps::iso9283::evaluation_schema(),
             "Evaluation",
             &[
                 "schema_version",

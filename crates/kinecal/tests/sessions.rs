@@ -5,10 +5,10 @@
 
 use std::sync::Arc;
 
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::files::{parse_measurements, write_measurements};
-use kinecal::robot::{Link, Session};
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::model::robot::{Link, Session};
+use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::workflow::{self, Request, Selection, Validation};
 use kinecal::{parse_param_list, Dataset, JointKind, Robot};
 

@@ -3,11 +3,11 @@
 //! answer. Convergence is a claim about the point reached: it must be the lowest any start
 //! finds.
 
-use kinecal::estimation::{calibrate, CalibrationOptions};
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::identifiability::{analyze, AnalysisOptions};
+use kinecal::model::robot::JointKind;
 use kinecal::observe::{Dataset, Observation};
-use kinecal::robot::JointKind;
-use kinecal::simulate::{self, PerturbStd};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
 use kinecal::{ParamId, Robot};
 
 /// Position data of `truth` (noise `noise` m on every row), the rows `anchors` measured exactly

@@ -4,7 +4,7 @@
 
 mod textbook;
 
-use kinecal::estimation::{solve, Method, SolverOptions};
+use kinecal::solve::estimation::{solve, Method, SolverOptions};
 use textbook::{mgh, nist, MghProblem, NistProblem};
 
 /// The log relative error (digits in agreement) of `got` against `want`.

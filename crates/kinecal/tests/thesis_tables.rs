@@ -2,9 +2,9 @@
 
 mod common;
 
-use kinecal::estimation::{calibrate, CalibrationOptions};
-use kinecal::kinematics::{forward_pose, Chain, Target, Workspace};
-use kinecal::{examples, parse_param_list, simulate, ParamId, Robot};
+use kinecal::model::kinematics::{forward_pose, Chain, Target, Workspace};
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::{apps::simulate, model::examples, parse_param_list, ParamId, Robot};
 
 /// Table 4.2: joint voltages and EECF poses (in, deg) of ten postures.
 const TABLE_4_2: [([f64; 4], [f64; 6]); 10] = [
@@ -142,11 +142,11 @@ fn table_4_3_jacobian_of_posture_1() {
     let mut analytic_matches = 0;
     for (c, &p) in cols.iter().enumerate() {
         let id = ParamId(p - 1);
-        let col = kinecal::kinematics::block_column(&block, id);
+        let col = kinecal::model::kinematics::block_column(&block, id);
         let is_length = robot.param_quantity(id) == kinecal::units::Quantity::Length;
         let per = if is_length { inch } else { 1.0 };
         let w = nalgebra::Vector3::new(col[3], col[4], col[5]);
-        let e = kinecal::kinematics::euler_rates(pose.euler.x, pose.euler.y, &w);
+        let e = kinecal::model::kinematics::euler_rates(pose.euler.x, pose.euler.y, &w);
         let analytic = [
             col[0] / inch * per,
             col[1] / inch * per,

@@ -3,10 +3,10 @@
 //! files carry the tree, the thesis's count holds for it, and one fit of the tree determines
 //! both arms where two separate chains, each from its own few postures, cannot.
 
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::identifiability::{analyze, AnalysisOptions};
+use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::observe::point::Pose;
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
-use kinecal::simulate::{self, PerturbStd};
 use kinecal::workflow::{run, Request, Selection};
 use kinecal::{Chain, Dataset, Observation, ParamId, Posture, Robot, Target, Workspace};
 

@@ -6,7 +6,7 @@ use kinecal::files::{read_observations, write_measurements, ColumnMap, ReadOptio
 use kinecal::observe::Observation;
 use kinecal::units::{AngleUnit, LengthUnit, Units};
 use kinecal::workflow::{self, Request};
-use kinecal::{simulate, Dataset, Error, JointKind, Robot, Warning};
+use kinecal::{apps::simulate, Dataset, Error, JointKind, Robot, Warning};
 
 fn robot_in(length: LengthUnit, angle: AngleUnit) -> Robot {
     let mut r = simulate::random_robot(&[JointKind::Revolute; 5], 41);

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use kinecal::import::ur::{export_ur, import_ur, parse_ur_kinematics};
-use kinecal::kinematics::log_so3;
+use kinecal::model::kinematics::log_so3;
 use kinecal::{Chain, Robot, Target};
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
@@ -57,8 +57,8 @@ fn reference_fk(origins: &[[f64; 6]; 6], q: &[f64]) -> Matrix4<f64> {
 }
 
 fn postures(n: usize) -> Vec<Vec<f64>> {
-    kinecal::simulate::sample_postures(
-        &kinecal::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 1),
+    kinecal::apps::simulate::sample_postures(
+        &kinecal::apps::simulate::random_robot(&[kinecal::JointKind::Revolute; 6], 1),
         n,
         3,
     )

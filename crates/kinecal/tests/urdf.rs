@@ -2,10 +2,10 @@
 
 use std::path::PathBuf;
 
-use kinecal::estimation::{calibrate, CalibrationOptions};
 use kinecal::import::urdf::{export_urdf, import_urdf};
-use kinecal::kinematics::Target;
-use kinecal::{simulate, ParamId};
+use kinecal::model::kinematics::Target;
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::{apps::simulate, ParamId};
 use nalgebra::{Matrix4, Rotation3, Unit, Vector3};
 use rand::{RngExt, SeedableRng};
 
@@ -259,7 +259,7 @@ fn coupled_joints_export_where_exact_and_are_refused_otherwise() {
     let mut robot = import_urdf(&text, "ur5", Some("base_link"), Some("tool0"))
         .unwrap()
         .robot;
-    robot.joints[2].coupling = Some(kinecal::robot::Coupling {
+    robot.joints[2].coupling = Some(kinecal::model::robot::Coupling {
         joint: 1,
         factor: robot.joints[2].slope,
     });
@@ -447,7 +447,7 @@ fn urdf_masses_give_the_gravity_torques_of_the_urdf() {
         (total - (7.778 + 12.93 + 3.87 + 1.96 + 1.96 + 0.202)).abs() < 1e-9,
         "{total}"
     );
-    imp.robot.elastic = Some(kinecal::robot::Elastic::new(&imp.robot, bodies));
+    imp.robot.elastic = Some(kinecal::model::robot::Elastic::new(&imp.robot, bodies));
     let robot = imp.robot;
     let chain = kinecal::Chain::new(&robot);
     let mut ws = kinecal::Workspace::new(&robot);

@@ -1,10 +1,10 @@
 //! The calibration workflow as a library capability: one request, one outcome, one
 //! linearisation rule for the identifiable set, the uncertainty and pruning.
 
+use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::observe::Weights;
-use kinecal::simulate::{self, PerturbStd};
 use kinecal::workflow::{self, Request, Selection, SolutionRule, Validation};
-use kinecal::{examples, parse_param_list, ParamId, Warning};
+use kinecal::{model::examples, parse_param_list, ParamId, Warning};
 
 fn session() -> (kinecal::Robot, kinecal::Dataset) {
     let nominal = examples::ge_a4();
@@ -120,7 +120,7 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
         assert_eq!(worst.posture, "5");
         // The robust loss leaves it alone.
         let mut huber = req.clone();
-        huber.loss = kinecal::estimation::Loss::huber(1.345);
+        huber.loss = kinecal::solve::estimation::Loss::huber(1.345);
         let out = workflow::run(&huber, &mut ()).unwrap();
         let flagged: Vec<&str> = out
             .report
@@ -162,7 +162,7 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
             kinecal::Setting::HoldoutFraction,
         ),
         (
-            Box::new(|r: &mut Request| r.loss = kinecal::estimation::Loss::huber(1e-320)),
+            Box::new(|r: &mut Request| r.loss = kinecal::solve::estimation::Loss::huber(1e-320)),
             kinecal::Setting::HuberScale,
         ),
     ] {
@@ -182,7 +182,7 @@ fn the_outcome_carries_validation_outliers_warnings_and_the_report() {
 /// the report says how many rows it down-weighted.
 #[test]
 fn huber_takes_its_scale_from_the_residuals_unless_told_to_trust_the_weights() {
-    use kinecal::estimation::{Loss, Spread};
+    use kinecal::solve::estimation::{Loss, Spread};
     let (nominal, mut data) = session();
     for k in [4, 11, 23] {
         if let kinecal::Observation::Pose(p) = &mut data.observations[k] {

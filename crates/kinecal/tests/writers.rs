@@ -4,13 +4,13 @@
 //! (see `kinecal::units::number`).
 
 use kinecal::files::{parse_measurements, parse_postures, write_measurements, write_postures};
+use kinecal::model::robot::JointKind;
+use kinecal::model::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::observe::point::{Pose, Position};
 use kinecal::observe::{Dataset, Observation, Posture};
-use kinecal::robot::JointKind;
-use kinecal::robot_file::{parse_robot_toml, write_robot_toml};
 use kinecal::units::number::{denoise, format_number, Scale};
 use kinecal::units::{AngleUnit, LengthUnit, Quantity};
-use kinecal::{examples, simulate, Robot, Target};
+use kinecal::{apps::simulate, model::examples, Robot, Target};
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 

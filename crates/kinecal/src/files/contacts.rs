@@ -6,10 +6,10 @@ use std::collections::HashMap;
 use super::table::{self, PostureTable};
 use super::{site_target, Format};
 use crate::error::{Error, Location, Result};
-use crate::kinematics::Target;
+use crate::model::kinematics::Target;
+use crate::model::robot::Robot;
 use crate::observe::contact::Contact;
 use crate::observe::{target_name, Dataset, Observation};
-use crate::robot::Robot;
 use crate::units::Quantity;
 
 /// The contact file format.

@@ -18,7 +18,7 @@
 //! ten decimals (1e-10 rad, 1e-8 deg): far below any controller's resolution.
 
 use crate::error::{Error, Result, Setting};
-use crate::robot::{JointKind, Robot};
+use crate::model::robot::{JointKind, Robot};
 use crate::units::{AngleUnit, Quantity};
 
 /// A robot brand's joint-target convention.

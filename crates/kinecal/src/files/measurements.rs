@@ -10,10 +10,10 @@ use nalgebra::Vector3;
 use super::table::{self, PostureTable};
 use super::{site_target, Format};
 use crate::error::{Error, Location, Result};
-use crate::kinematics::Target;
+use crate::model::kinematics::Target;
+use crate::model::robot::{JointKind, Robot};
 use crate::observe::point::{Pose, Position};
 use crate::observe::{target_name, Dataset, Observation, Posture, View};
-use crate::robot::{JointKind, Robot};
 use crate::units::number::{self, Scale};
 use crate::units::Quantity;
 
@@ -227,7 +227,7 @@ fn payload_of(
     f: &table::Fields<'_>,
     cols: &[(Option<usize>, String)],
     units: &crate::units::Units,
-) -> Result<Option<crate::robot::Payload>> {
+) -> Result<Option<crate::model::robot::Payload>> {
     let Some(mass_col) = cols[0].0 else {
         return Ok(None);
     };
@@ -244,7 +244,7 @@ fn payload_of(
         return Ok(None);
     }
     let mass = t.number(line, &cols[0].1, f.get(mass_col))?;
-    if let Some(problem) = crate::robot::Payload::mass_problem(mass) {
+    if let Some(problem) = crate::model::robot::Payload::mass_problem(mass) {
         return Err(Error::input(t.at(line, &cols[0].1), problem));
     }
     let mut com = Vector3::zeros();
@@ -256,7 +256,7 @@ fn payload_of(
             }
         }
     }
-    Ok(Some(crate::robot::Payload { mass, com }))
+    Ok(Some(crate::model::robot::Payload { mass, com }))
 }
 
 /// Parses a measurement file whose columns `map` maps to kinecal's (see [`ColumnMap`]).
@@ -642,7 +642,7 @@ impl Rows<'_, '_> {
             return Ok(());
         }
         let units = &self.units;
-        let say = |p: Option<crate::robot::Payload>| {
+        let say = |p: Option<crate::model::robot::Payload>| {
             p.map_or("no payload".to_string(), |p| {
                 let c = p.com.map(|v| units.from_si(Quantity::Length, v));
                 format!("{} kg at [{}, {}, {}]", p.mass, c.x, c.y, c.z)

@@ -10,7 +10,7 @@
 //! [`ColumnMap`]'s `length_unit` and `angle_unit`, or [`ReadOptions`]); readers return metres and
 //! radians, writers write the robot file's units with full precision. Frames: poses and
 //! positions are in the measurement frame, the global frame or that of the posture's session
-//! (`session` column; [`crate::robot::Session`]).
+//! (`session` column; [`crate::model::robot::Session`]).
 //!
 //! The formats:
 //! - Measurement file ([`parse_measurements`], [`write_measurements`]): columns `posture, site,
@@ -45,9 +45,9 @@ pub(crate) mod table;
 use std::fmt;
 
 use crate::error::{Error, Result};
-use crate::kinematics::Target;
+use crate::model::kinematics::Target;
+use crate::model::robot::Robot;
 use crate::observe::{Dataset, Observation};
-use crate::robot::Robot;
 
 pub use contacts::{parse_contacts, write_contacts};
 pub use distances::{parse_distances, write_distances};

@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 
 use super::{detect_format, read_observations_as, ColumnMap, ReadOptions, FORMATS};
 use crate::error::{Error, Result, Setting};
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::robot::Robot;
 use crate::source::Source;
 
 fn is_default<T: Default + PartialEq>(t: &T) -> bool {

@@ -6,7 +6,7 @@ use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use crate::error::{Error, Location, Result};
-use crate::robot::Payload;
+use crate::model::robot::Payload;
 use crate::units::{Quantity, Units};
 
 /// An error at `line` of `file`.

@@ -2,10 +2,10 @@
 //! the noise determines.
 
 use crate::linalg::{self, Matrix, QrAccumulator, RowSink};
+use crate::model::params::{ParamId, ParamKind};
+use crate::model::robot::Robot;
 use crate::observe::{Dataset, RowQuantity};
-use crate::params::{ParamId, ParamKind};
-use crate::problem::Problem;
-use crate::robot::Robot;
+use crate::solve::problem::Problem;
 use crate::units::Quantity;
 
 use super::groups::tidy_coef;

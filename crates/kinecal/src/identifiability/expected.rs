@@ -1,10 +1,10 @@
 //! The rank the thesis's formulas predict (eqs. 4.2, 4.3, 4.5), generalised to trees, couplings
 //! and planes.
 
-use crate::kinematics::Target;
+use crate::model::kinematics::Target;
+use crate::model::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
+use crate::model::robot::{JointKind, Robot};
 use crate::observe::{Anchoring, Dataset};
-use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
-use crate::robot::{JointKind, Robot};
 use crate::units::Quantity;
 
 use super::ExpectedRank;
@@ -48,7 +48,7 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     for t in std::iter::once(Target::EndEffector).chain((0..robot.sites.len()).map(Target::Site)) {
         if seen(t) > 0 {
             any = true;
-            let path = robot.path_to(crate::kinematics::target_joint(robot, t));
+            let path = robot.path_to(crate::model::kinematics::target_joint(robot, t));
             for (o, p) in observed.iter_mut().zip(path) {
                 *o |= p;
             }

@@ -1,8 +1,8 @@
 //! Identically redundant parameters (thesis 4.4.3: equal or opposite Jacobian columns at every
 //! posture) and directions written in reduced form.
 
-use crate::params::ParamId;
-use crate::robot::Robot;
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 
 use super::spectrum::{dot, NullSpace, Scaled};
 use super::{fmt_sig, IdenticalGroup};

@@ -3,13 +3,13 @@
 //! Everything here works on the Jacobian of the estimated parameters over a dataset, in two
 //! unit systems:
 //! - *scaled*: residuals weighted by the measurement standard deviations and every column divided
-//!   by its norm, the space the solvers work in (see [`crate::estimation`]); ranks, gaps and
+//!   by its norm, the space the solvers work in (see [`crate::solve::estimation`]); ranks, gaps and
 //!   dependencies are decided here, where units cannot distort them;
 //! - *file*: rows in the robot file's length and angle units, columns per unit of each parameter,
 //!   as the thesis prints its Tables 4.3-4.7.
 //!
 //! ```
-//! use kinecal::{examples, simulate, identifiability::{analyze, AnalysisOptions}};
+//! use kinecal::{model::examples, apps::simulate, identifiability::{analyze, AnalysisOptions}};
 //! let robot = examples::ge_a4();
 //! let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 1), false);
 //! let all: Vec<_> = robot.param_ids().collect();
@@ -36,10 +36,10 @@ mod tests;
 
 use crate::error::{Error, Result};
 use crate::linalg::Matrix;
+use crate::model::params::{LinkComponent, ParamId, ParamKind};
+use crate::model::robot::Robot;
 use crate::observe::{Dataset, OrientationError, Weights};
-use crate::params::{LinkComponent, ParamId, ParamKind};
-use crate::problem::{Linearized, Problem};
-use crate::robot::Robot;
+use crate::solve::problem::{Linearized, Problem};
 use crate::warning::Warning;
 
 pub use base::default_priority;
@@ -67,10 +67,10 @@ pub struct AnalysisOptions {
     /// stated precision made look determined.
     pub noise_scale: f64,
     /// A Gaussian prior on the parameters' changes (empty: none). Its rows (see
-    /// [`crate::problem`]) count as information: the rank, the null space, what is determined
+    /// [`crate::solve::problem`]) count as information: the rank, the null space, what is determined
     /// and the covariance are those of the data and the prior together, and
     /// [`Analysis::determined_by_data`] says what the data alone determines.
-    pub prior: crate::robot::Prior,
+    pub prior: crate::model::robot::Prior,
 }
 
 /// Default relative singular-value tolerance for the numerical rank.
@@ -84,7 +84,7 @@ impl Default for AnalysisOptions {
             orientation: OrientationError::RotVec,
             priority: Vec::new(),
             noise_scale: 1.0,
-            prior: crate::robot::Prior::default(),
+            prior: crate::model::robot::Prior::default(),
         }
     }
 }

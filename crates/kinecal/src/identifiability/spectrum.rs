@@ -4,10 +4,10 @@
 
 use crate::error::{Error, Result};
 use crate::linalg::{self, Matrix, QrAccumulator, QR_BLOCK};
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::observe::{Accuracy, Dataset, RowQuantity};
-use crate::params::ParamId;
-use crate::problem::Problem;
-use crate::robot::Robot;
+use crate::solve::problem::Problem;
 use crate::warning::Warning;
 
 use super::base::TypicalRowTally;

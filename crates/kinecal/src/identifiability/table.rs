@@ -1,9 +1,9 @@
 //! The Jacobian of an analysis for display (`kinecal analyze --print`).
 
 use crate::linalg::Matrix;
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::problem::Problem;
-use crate::robot::Robot;
+use crate::solve::problem::Problem;
 
 use super::spectrum::file_row_scale;
 use super::{Analysis, AnalysisOptions};

@@ -233,9 +233,9 @@ fn arm_positions(count: usize, anchors: usize, tiny: f64, sigma: f64) -> (Robot,
             1.0 + 0.1 * k as f64
         ));
     }
-    let robot = crate::robot_file::parse_robot_toml(&toml, "arm.toml").unwrap();
-    let chain = crate::kinematics::Chain::new(&robot);
-    let mut ws = crate::kinematics::Workspace::new(&robot);
+    let robot = crate::model::robot_file::parse_robot_toml(&toml, "arm.toml").unwrap();
+    let chain = crate::model::kinematics::Chain::new(&robot);
+    let mut ws = crate::model::kinematics::Workspace::new(&robot);
     let mut csv = String::from("posture,v1,v2,v3,v4,v5,x,y,z,sigma_position\n");
     for i in 0..count {
         let v: Vec<f64> = (0..5)
@@ -243,7 +243,7 @@ fn arm_positions(count: usize, anchors: usize, tiny: f64, sigma: f64) -> (Robot,
             .collect();
         chain.forward(&v, &mut ws);
         let p = chain
-            .target_frame(&ws, crate::kinematics::Target::EndEffector)
+            .target_frame(&ws, crate::model::kinematics::Target::EndEffector)
             .pose()
             .position;
         let s = if i < anchors { tiny } else { sigma };

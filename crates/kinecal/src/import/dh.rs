@@ -28,8 +28,8 @@ use nalgebra::{Matrix3, Vector3};
 use super::readback::{self, ReadBack, Tolerance};
 use super::{chain_from_frames, ImportedJoint, Lost};
 use crate::error::{Error, Location, Result, Setting};
-use crate::kinematics::Frame;
-use crate::robot::{JointKind, Robot};
+use crate::model::kinematics::Frame;
+use crate::model::robot::{JointKind, Robot};
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 /// Which DH convention a table uses.
@@ -608,7 +608,7 @@ fn is_zero(r: &DhRow) -> bool {
 /// (modified), after the last one for the tool. Every value is finite; an error names the
 /// joint otherwise.
 pub fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow>> {
-    use crate::kinematics::{Chain, Target, Workspace};
+    use crate::model::kinematics::{Chain, Target, Workspace};
     let n = robot.dof();
     let chain = Chain::new(robot);
     let mut ws = Workspace::new(robot);

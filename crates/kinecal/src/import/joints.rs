@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 use super::readback::{self, ReadBack, Tolerance};
 use super::Lost;
 use crate::error::{Error, Location, Result};
-use crate::robot::Robot;
+use crate::model::robot::Robot;
 
 /// A joint-table export: the text, and what the nominal robot with it applied reproduces of the
 /// calibrated one.

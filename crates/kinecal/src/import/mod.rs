@@ -15,8 +15,8 @@ pub mod xml;
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::kinematics::{euler_zyx, Frame};
-use crate::robot::{Joint, JointKind, Link, Robot, Tolerances};
+use crate::model::kinematics::{euler_zyx, Frame};
+use crate::model::robot::{Joint, JointKind, Link, Robot, Tolerances};
 use crate::units::Units;
 
 /// The inverse of a rigid transform.
@@ -160,7 +160,7 @@ impl Lost {
 /// postures drawn within the first one's joint ranges (where it has none, a whole turn of a
 /// revolute joint, +-0.1 m of a prismatic one).
 pub fn deviation(a: &Robot, b: &Robot) -> (f64, f64) {
-    use crate::kinematics::{log_so3, Chain, Target, Workspace};
+    use crate::model::kinematics::{log_so3, Chain, Target, Workspace};
     let (ca, cb) = (Chain::new(a), Chain::new(b));
     let (mut wa, mut wb) = (Workspace::new(a), Workspace::new(b));
     let (mut p, mut r): (f64, f64) = (0.0, 0.0);
@@ -173,8 +173,8 @@ pub fn deviation(a: &Robot, b: &Robot) -> (f64, f64) {
             // Without a range: the readings that turn a revolute joint a whole turn (a
             // prismatic one +-0.1 m) about its offset.
             let span = match j.kind {
-                crate::robot::JointKind::Revolute => std::f64::consts::PI,
-                crate::robot::JointKind::Prismatic => 0.1,
+                crate::model::robot::JointKind::Revolute => std::f64::consts::PI,
+                crate::model::robot::JointKind::Prismatic => 0.1,
             } / j.slope.abs().max(1e-12);
             j.range.unwrap_or((-span, span))
         })

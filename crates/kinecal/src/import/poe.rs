@@ -37,9 +37,9 @@ use toml_edit::Table;
 
 use super::{chain_from_frames, inverse, link_of, rotation_from_xz, ImportedJoint};
 use crate::error::{Error, Location, Result};
-use crate::kinematics::{rot_zyx, Frame};
-use crate::robot::{JointKind, Robot, Site};
-use crate::robot_file::Reader;
+use crate::model::kinematics::{rot_zyx, Frame};
+use crate::model::robot::{JointKind, Robot, Site};
+use crate::model::robot_file::Reader;
 use crate::units::{Quantity, Units};
 
 /// Places joint frames on the given axes (global frame, zero configuration), as described in the

@@ -17,8 +17,8 @@ use nalgebra::Vector3;
 
 use super::Lost;
 use crate::error::{Error, Result};
-use crate::kinematics::{log_so3, Chain, Frame, Target, Workspace};
-use crate::robot::{JointKind, Robot};
+use crate::model::kinematics::{log_so3, Chain, Frame, Target, Workspace};
+use crate::model::robot::{JointKind, Robot};
 use crate::units::{Quantity, Units};
 
 /// Postures drawn within the joint ranges (the zero posture comes on top).

@@ -25,8 +25,8 @@ use super::readback::{self, ReadBack, Tolerance};
 use super::urdf::{export_origins, import_urdf, UrdfImport};
 use super::Lost;
 use crate::error::{Error, Location, Result};
-use crate::kinematics::{Chain, Frame, Target};
-use crate::robot::Robot;
+use crate::model::kinematics::{Chain, Frame, Target};
+use crate::model::robot::Robot;
 
 /// The joints of a UR kinematics file, in chain order: (file name, URDF joint name, link).
 pub const JOINTS: [(&str, &str, &str); 6] = [
@@ -359,7 +359,7 @@ impl UrExport {
 
 /// A frame as a UR controller takes a pose: position (m) and rotation vector (rad).
 pub fn pose_vector(f: &Frame) -> [f64; 6] {
-    let r = crate::kinematics::log_so3(&f.rotation);
+    let r = crate::model::kinematics::log_so3(&f.rotation);
     [
         f.translation.x,
         f.translation.y,
@@ -397,7 +397,7 @@ pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<UrExport> 
     let placement = Frame::from_link(&robot.links[0])
         .then(&super::inverse(&Frame::from_link(&imported.robot.links[0])));
     let base = (placement.translation.norm() > 1e-12
-        || crate::kinematics::log_so3(&placement.rotation).norm() > 1e-12)
+        || crate::model::kinematics::log_so3(&placement.rotation).norm() > 1e-12)
         .then_some(placement);
     let e = export_origins(&own, &imported.chain)?;
     let mut k = k0.clone();
@@ -432,7 +432,7 @@ pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<UrExport> 
     let tcp = super::inverse(&Chain::new(&written).frame_at(&zero, Target::EndEffector))
         .then(&Chain::new(&own).frame_at(&zero, Target::EndEffector));
     let tcp = (tcp.translation.norm() > 1e-12
-        || crate::kinematics::log_so3(&tcp.rotation).norm() > 1e-12)
+        || crate::model::kinematics::log_so3(&tcp.rotation).norm() > 1e-12)
         .then_some(tcp);
     let scale = readback::unit_scale(&own, crate::units::Units::default());
     let read_back = readback::compare(
@@ -466,7 +466,7 @@ pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<UrExport> 
 fn rpy_near_literal(r: &nalgebra::Matrix3<f64>, o: &[f64; 6]) -> [f64; 3] {
     use crate::units::wrap_angle;
     use std::f64::consts::PI;
-    let e = crate::kinematics::euler_zyx(r);
+    let e = crate::model::kinematics::euler_zyx(r);
     let alt = nalgebra::Vector3::new(
         wrap_angle(e.x + PI),
         wrap_angle(PI - e.y),

@@ -22,8 +22,8 @@ use nalgebra::{Matrix3, Vector3};
 use super::readback::{self, ReadBack, Tolerance};
 use super::{inverse, rotation_from_xz, ImportedJoint, Lost};
 use crate::error::{Error, Location, Result, Setting};
-use crate::kinematics::{euler_zyx, rot_zyx, Frame};
-use crate::robot::{Body, JointKind, Robot};
+use crate::model::kinematics::{euler_zyx, rot_zyx, Frame};
+use crate::model::robot::{Body, JointKind, Robot};
 use crate::units::Units;
 use crate::warning::Warning;
 
@@ -285,7 +285,7 @@ pub fn import_urdf_tree(
                 ));
             }
             let carrier = tree[joint - 1].frame;
-            robot.sites.push(crate::robot::Site {
+            robot.sites.push(crate::model::robot::Site {
                 name: c.tip.clone(),
                 joint,
                 frame: super::link_of(&inverse(&carrier).then(&frame)),
@@ -415,7 +415,7 @@ fn tip_chain(
     Ok((c, joints, acc))
 }
 
-/// The bodies of a mass model ([`crate::robot::Elastic`]) for an imported chain, from the
+/// The bodies of a mass model ([`crate::model::robot::Elastic`]) for an imported chain, from the
 /// `<inertial>` (`mass`, `origin xyz`) of the links it moves: each chain link after the first
 /// movable joint, and every link hanging off one outside the chain (a gripper's fingers, a
 /// camera: taken at their joints' zero values), becomes a body carried by the last movable
@@ -528,7 +528,7 @@ pub fn import_urdf_with(
                  model to take",
             ));
         }
-        imported.robot.elastic = Some(crate::robot::Elastic::new(&imported.robot, bodies));
+        imported.robot.elastic = Some(crate::model::robot::Elastic::new(&imported.robot, bodies));
     }
     Ok(imported)
 }
@@ -649,7 +649,8 @@ fn export_origins_keeping(
             // The tip hangs off the last movable joint (through fixed joints left as they are):
             // an added fixed joint after the tip carries the correction.
             let needed = inverse(&fixed_before).then(&needed);
-            let d = needed.translation.norm() + crate::kinematics::log_so3(&needed.rotation).norm();
+            let d = needed.translation.norm()
+                + crate::model::kinematics::log_so3(&needed.rotation).norm();
             if d > 1e-12 {
                 tool = Some(needed);
             }
@@ -817,8 +818,10 @@ pub fn export_urdf(
                 None => origins.push((name, o, old)),
                 Some((_, first, _)) => {
                     let apart = (first.translation - o.translation).norm()
-                        + crate::kinematics::log_so3(&(first.rotation.transpose() * o.rotation))
-                            .norm();
+                        + crate::model::kinematics::log_so3(
+                            &(first.rotation.transpose() * o.rotation),
+                        )
+                        .norm();
                     if apart > 1e-9 {
                         return Err(Error::Problem(format!(
                             "joint `{name}` is shared by two chains of the tree but their \

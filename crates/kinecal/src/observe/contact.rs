@@ -8,9 +8,9 @@ use super::{
     target_name, Anchoring, Context, Derivatives, ErrorSample, Observe, Posture, Row, RowQuantity,
     View,
 };
-use crate::kinematics::{Frame, Target};
-use crate::params::{ParamKind, PlaneComponent};
-use crate::robot::Robot;
+use crate::model::kinematics::{Frame, Target};
+use crate::model::params::{ParamKind, PlaneComponent};
+use crate::model::robot::Robot;
 
 const ROWS: &[Row] = &[Row {
     label: "contact",

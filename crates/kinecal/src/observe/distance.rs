@@ -10,8 +10,8 @@ use super::{
     target_name, Anchoring, Context, Derivatives, ErrorSample, Observe, Posture, Row, RowQuantity,
     View,
 };
-use crate::kinematics::{Frame, Target};
-use crate::robot::Robot;
+use crate::model::kinematics::{Frame, Target};
+use crate::model::robot::Robot;
 
 const ROWS: &[Row] = &[Row {
     label: "distance",

@@ -24,13 +24,14 @@
 pub mod contact;
 pub mod distance;
 pub mod point;
+pub mod sanity;
 
 use std::fmt;
 
 use crate::error::{Error, Result};
-use crate::kinematics::{Frame, Target};
-use crate::params::ParamId;
-use crate::robot::Robot;
+use crate::model::kinematics::{Frame, Target};
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 
 /// One posture: a label and one transducer reading per joint.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,11 +42,11 @@ pub struct Posture {
     pub readings: Vec<f64>,
     /// The measurement session the posture was measured in (`session` column, or one per
     /// file), when the data has sessions: its poses and positions are in that session's
-    /// measurement frame ([`crate::robot::Session`]).
+    /// measurement frame ([`crate::model::robot::Session`]).
     pub session: Option<std::sync::Arc<str>>,
     /// What the tool carried (`payload_mass`, `payload_cx`, ... columns), when the data says:
     /// an elastic robot's joints yield to its weight too.
-    pub payload: Option<crate::robot::Payload>,
+    pub payload: Option<crate::model::robot::Payload>,
 }
 
 /// A frame an observation looks at: a target in a posture.
@@ -660,7 +661,7 @@ pub fn stats(mut e: Vec<f64>) -> (f64, f64, f64, f64) {
 }
 
 /// The measurement frame `posture`'s poses and positions are in, when its session has a frame
-/// of its own in `robot` ([`crate::robot::Session`]): the pose of the global frame there.
+/// of its own in `robot` ([`crate::model::robot::Session`]): the pose of the global frame there.
 pub fn session_frame(robot: &Robot, posture: &Posture) -> Option<Frame> {
     let name = posture.session.as_deref()?;
     let s = robot.sessions.iter().find(|s| s.name == name)?;
@@ -692,7 +693,7 @@ pub fn for_each_observation(
     data: &Dataset,
     mut f: impl FnMut(usize, &Observation, &[Frame]),
 ) {
-    let chain = crate::kinematics::Chain::new(robot);
+    let chain = crate::model::kinematics::Chain::new(robot);
     let mut cache = FrameCache::new(robot);
     let mut frames = [Frame::identity(); 2];
     for (i, o) in data.observations.iter().enumerate() {
@@ -708,7 +709,7 @@ pub fn for_each_observation(
 /// Two workspaces holding the frames of the last two postures visited: observations sorted by
 /// posture reuse them, and a distance's second posture does not evict its first.
 pub(crate) struct FrameCache {
-    ws: [crate::kinematics::Workspace; 2],
+    ws: [crate::model::kinematics::Workspace; 2],
     at: [usize; 2],
     next: usize,
 }
@@ -717,8 +718,8 @@ impl FrameCache {
     pub fn new(robot: &Robot) -> Self {
         FrameCache {
             ws: [
-                crate::kinematics::Workspace::new(robot),
-                crate::kinematics::Workspace::new(robot),
+                crate::model::kinematics::Workspace::new(robot),
+                crate::model::kinematics::Workspace::new(robot),
             ],
             at: [usize::MAX; 2],
             next: 0,
@@ -728,10 +729,10 @@ impl FrameCache {
     /// The workspace holding `posture`'s frames, computing them if needed.
     pub fn posture(
         &mut self,
-        chain: &crate::kinematics::Chain<'_>,
+        chain: &crate::model::kinematics::Chain<'_>,
         data: &Dataset,
         posture: usize,
-    ) -> &crate::kinematics::Workspace {
+    ) -> &crate::model::kinematics::Workspace {
         self.posture_with(chain, data, posture, None)
     }
 
@@ -739,11 +740,11 @@ impl FrameCache {
     /// known (a table that fits the chain's robot).
     pub fn posture_with(
         &mut self,
-        chain: &crate::kinematics::Chain<'_>,
+        chain: &crate::model::kinematics::Chain<'_>,
         data: &Dataset,
         posture: usize,
-        trig: Option<&crate::kinematics::ReadingTrig>,
-    ) -> &crate::kinematics::Workspace {
+        trig: Option<&crate::model::kinematics::ReadingTrig>,
+    ) -> &crate::model::kinematics::Workspace {
         let slot = match self.at.iter().position(|&p| p == posture) {
             Some(s) => s,
             None => {

@@ -8,10 +8,10 @@ use super::{
     target_name, Anchoring, Context, Derivatives, ErrorSample, Observe, OrientationError, Posture,
     Row, RowQuantity, View,
 };
-use crate::kinematics::{
+use crate::model::kinematics::{
     euler_rates, euler_zyx, log_so3, rot_zyx, so3_right_jacobian_inverse, Frame, Target,
 };
-use crate::robot::Robot;
+use crate::model::robot::Robot;
 use crate::units::wrap_angle;
 
 const POSE_ROWS: &[Row] = &[

@@ -29,10 +29,10 @@ use nalgebra::{Matrix3, Vector3};
 use super::nearest::JointMetric;
 use super::{Bound, Growth, ModelError, Predictor};
 use crate::error::{Error, Result};
-use crate::estimation::{self, Calibration};
-use crate::kinematics::{log_so3, rot_zyx};
+use crate::model::kinematics::{log_so3, rot_zyx};
+use crate::model::robot::Robot;
 use crate::observe::{for_each_observation, session_frame, Dataset, Observation};
-use crate::robot::Robot;
+use crate::solve::estimation::{self, Calibration};
 
 /// One held-out observation's error and what the fold predicted of it (internal units).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -192,7 +192,7 @@ fn cross_validate_at(
             fitted.iter().copied(),
         )?;
         let mut s = predictor.scratch();
-        let mut collect = |o: &Observation, frame: &crate::kinematics::Frame| {
+        let mut collect = |o: &Observation, frame: &crate::model::kinematics::Frame| {
             let posture = &test.postures[o.posture()];
             let rs = session_frame(robot, posture)
                 .filter(|_| !robot.sessions.is_empty())

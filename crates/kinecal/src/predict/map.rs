@@ -18,8 +18,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::Predictor;
-use crate::kinematics::{Frame, Target};
-use crate::robot::JointKind;
+use crate::model::kinematics::{Frame, Target};
+use crate::model::robot::JointKind;
 use crate::units::Quantity;
 
 /// One slice of the map (the robot file's length unit).

@@ -50,10 +50,10 @@ pub use map::{accuracy_map, AccuracyMap, JointSweep, Slice};
 pub use nearest::{JointMetric, NearestIndex};
 
 use crate::error::{Error, Result};
-use crate::kinematics::{Chain, ColumnPlan, Target, Workspace};
+use crate::model::kinematics::{Chain, ColumnPlan, Target, Workspace};
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::observe::{Dataset, Observation};
-use crate::params::ParamId;
-use crate::robot::Robot;
 use crate::units::Quantity;
 
 /// A model-error term: mean per-axis variance `v(d) = s0^2 + (c d)^2` at distance `d`
@@ -397,7 +397,7 @@ pub fn levers(robot: &Robot, data: &Dataset) -> Vec<f64> {
         }
         count += 1;
     }
-    let first_turns = robot.joints[0].kind == crate::robot::JointKind::Revolute;
+    let first_turns = robot.joints[0].kind == crate::model::robot::JointKind::Revolute;
     sum.iter()
         .enumerate()
         .map(|(j, s)| {
@@ -459,8 +459,8 @@ pub fn reading_range(robot: &Robot, joint: usize) -> (f64, f64) {
         return r;
     }
     let span = match j.kind {
-        crate::robot::JointKind::Revolute => 150f64.to_radians(),
-        crate::robot::JointKind::Prismatic => 0.1,
+        crate::model::robot::JointKind::Revolute => 150f64.to_radians(),
+        crate::model::robot::JointKind::Prismatic => 0.1,
     };
     let half = if j.slope != 0.0 {
         span / j.slope.abs()
@@ -594,7 +594,7 @@ pub const COARSE_FOLDS: usize = 3;
 /// summary over the joint ranges and, at [`Level::Map`], the accuracy map. `covariance` is the
 /// calibration's (internal units, in the order of `estimated`).
 pub fn assess(
-    cal: &crate::estimation::Calibration,
+    cal: &crate::solve::estimation::Calibration,
     data: &Dataset,
     reference: &Robot,
     estimated: &[ParamId],
@@ -797,7 +797,7 @@ pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Pr
     let units = &robot.units;
     let mut estimated = Vec::with_capacity(report.estimated.len());
     for s in &report.estimated {
-        let id = crate::param_list::parse_param_list(s, robot)?;
+        let id = crate::model::param_list::parse_param_list(s, robot)?;
         match id.as_slice() {
             [id] => estimated.push(*id),
             _ => {

@@ -12,7 +12,7 @@
 //! `l V` per prismatic one, where the distance is Euclidean, and the nearest measured posture is
 //! found in a k-d tree of the embedded postures (exact; no allocation per query).
 
-use crate::robot::{JointKind, Robot};
+use crate::model::robot::{JointKind, Robot};
 
 /// The joint-space metric of a calibration (see the module).
 #[derive(Debug, Clone, PartialEq)]
@@ -241,7 +241,7 @@ mod tests {
     use rand::{RngExt, SeedableRng};
 
     fn ge_a4() -> Robot {
-        crate::robot_file::parse_robot_toml(
+        crate::model::robot_file::parse_robot_toml(
             include_str!("../../../../examples/robots/ge_a4.toml"),
             "ge_a4.toml",
         )

@@ -3,13 +3,13 @@ use super::*;
 /// The GE A4 of the thesis, read from the example file (the `examples` module comes after this
 /// one in the library's layers).
 fn ge_a4() -> Robot {
-    crate::robot_file::parse_robot_toml(
+    crate::model::robot_file::parse_robot_toml(
         include_str!("../../../../examples/robots/ge_a4.toml"),
         "ge_a4.toml",
     )
     .unwrap()
 }
-use crate::kinematics::Target;
+use crate::model::kinematics::Target;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 
@@ -54,19 +54,19 @@ fn the_parameter_part_is_the_covariance_through_a_finite_difference_jacobian() {
     let (p, a, _) = pr.parameter_part(&readings, Target::EndEffector, &mut s);
     // Central differences of the position and of the attitude (rotation vector of R R0^T).
     let h = 1e-6;
-    let f0 = crate::kinematics::Chain::new(&robot).frame_at(&readings, Target::EndEffector);
+    let f0 = crate::model::kinematics::Chain::new(&robot).frame_at(&readings, Target::EndEffector);
     let jfd: Vec<[f64; 6]> = ids
         .iter()
         .map(|&id| {
             let at = |step: f64| {
                 let mut r = robot.clone();
                 r.set(id, robot.get(id) + step);
-                crate::kinematics::Chain::new(&r).frame_at(&readings, Target::EndEffector)
+                crate::model::kinematics::Chain::new(&r).frame_at(&readings, Target::EndEffector)
             };
             let (fp, fm) = (at(h), at(-h));
             let dp = (fp.translation - fm.translation) / (2.0 * h);
-            let w = (crate::kinematics::log_so3(&(fp.rotation * f0.rotation.transpose()))
-                - crate::kinematics::log_so3(&(fm.rotation * f0.rotation.transpose())))
+            let w = (crate::model::kinematics::log_so3(&(fp.rotation * f0.rotation.transpose()))
+                - crate::model::kinematics::log_so3(&(fm.rotation * f0.rotation.transpose())))
                 / (2.0 * h);
             [dp.x, dp.y, dp.z, w.x, w.y, w.z]
         })

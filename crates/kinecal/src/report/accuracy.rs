@@ -4,9 +4,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::estimation::Calibration;
+use crate::model::robot::Robot;
 use crate::observe::{Accuracy, Dataset};
-use crate::robot::Robot;
+use crate::solve::estimation::Calibration;
 use crate::units::{Quantity, Units};
 
 /// Error statistics on one dataset, in the robot file's units.
@@ -201,7 +201,7 @@ pub struct FoldReport {
     pub rank: Option<usize>,
 }
 
-/// The closed-form placement of a far start ([`crate::registration`]): RMS position error of
+/// The closed-form placement of a far start ([`crate::solve::registration`]): RMS position error of
 /// the start before and after it (length unit).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct StartPlacement {
@@ -229,7 +229,7 @@ pub struct StartFigures {
     pub max_orientation: Option<f64>,
 }
 
-/// The solver's stationarity measures at its last point ([`crate::estimation::Stationarity`]).
+/// The solver's stationarity measures at its last point ([`crate::solve::estimation::Stationarity`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct StationarityReport {
     /// The relative reduction of the objective a Gauss-Newton step would bring by the local
@@ -409,7 +409,7 @@ mod observation_error_tests {
 
     #[test]
     fn typed_fields_read_back_as_written() {
-        use crate::estimation::Termination;
+        use crate::solve::estimation::Termination;
         for t in Termination::ALL {
             let text = serde_json::to_string(&t).unwrap();
             assert_eq!(text, format!("\"{}\"", t.describe()));

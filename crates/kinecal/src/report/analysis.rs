@@ -4,8 +4,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::identifiability::{format_combination, Analysis};
-use crate::params::ParamId;
-use crate::robot::Robot;
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::warning::Warning;
 
 use super::SCHEMA_VERSION;

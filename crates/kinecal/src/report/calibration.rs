@@ -3,12 +3,12 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::estimation::Calibration;
 use crate::identifiability::format_combination;
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::observe::{target_name, Accuracy, Dataset};
-use crate::outliers::Outlier;
-use crate::params::ParamId;
-use crate::robot::Robot;
+use crate::solve::estimation::Calibration;
+use crate::solve::outliers::Outlier;
 use crate::source::Source;
 use crate::uncertainty::{Uncertainty, NOISE_SIGMAS};
 use crate::units::{Quantity, Units};
@@ -42,13 +42,13 @@ pub struct CalibrationReport {
     /// Angle unit of every angle below.
     pub angle_unit: crate::units::AngleUnit,
     /// `lm`, `gn`, `sd` or `svd`.
-    pub method: crate::estimation::Method,
+    pub method: crate::solve::estimation::Method,
     /// `euler` or `rotvec`.
     pub orientation_error: crate::observe::OrientationError,
     /// False only when the iteration cap stopped the solver.
     pub converged: bool,
     /// Why the solver stopped.
-    pub termination: crate::estimation::Termination,
+    pub termination: crate::solve::estimation::Termination,
     /// How stationary the solver's last point is (absent for a calibration assessed, not
     /// solved).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -158,7 +158,7 @@ pub struct CalibrationReport {
     /// Measurements beyond the outlier threshold (listed, not dropped).
     pub outliers: Vec<OutlierReport>,
     /// The threshold used, in robust standard deviations: the one asked for, raised for the
-    /// number of rows tested ([`crate::outliers::threshold`]).
+    /// number of rows tested ([`crate::solve::outliers::threshold`]).
     pub outlier_sigmas: f64,
     /// SHA-256 of the robot file, when the caller provides it (history fingerprints).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -222,7 +222,7 @@ impl CalibrationReport {
             .collect();
         let (b, a) = (&cal.accuracy_before, &cal.accuracy_after);
         let prior = (!cal.options.prior.is_empty()).then(|| PriorReport {
-            prior: crate::prior::describe(&cal.options.prior, robot),
+            prior: crate::model::prior::describe(&cal.options.prior, robot),
             rows: cal
                 .estimated
                 .iter()
@@ -240,7 +240,7 @@ impl CalibrationReport {
             kinecal_version: env!("CARGO_PKG_VERSION").to_string(),
             created: now_utc(),
             spec: None,
-            given: cal.termination == crate::estimation::Termination::Given,
+            given: cal.termination == crate::solve::estimation::Termination::Given,
             robot: robot.name.clone(),
             length_unit: u.length,
             angle_unit: u.angle,
@@ -248,14 +248,14 @@ impl CalibrationReport {
             orientation_error: cal.options.orientation,
             converged: cal.converged(),
             termination: cal.termination,
-            stationarity: (cal.termination != crate::estimation::Termination::Given).then(|| {
-                StationarityReport {
+            stationarity: (cal.termination != crate::solve::estimation::Termination::Given).then(
+                || StationarityReport {
                     predicted_reduction: cal.stationarity.predicted_reduction,
                     step: finite_or_none(cal.stationarity.step),
                     gradient: cal.stationarity.gradient,
                     rank: cal.stationarity.rank,
-                }
-            }),
+                },
+            ),
             iterations: cal.iterations,
             postures,
             measurements,
@@ -300,14 +300,14 @@ impl CalibrationReport {
             model_choice: Vec::new(),
             model_choice_repeats: None,
             down_weighted_rows: match cal.options.loss {
-                crate::estimation::Loss::Squared => None,
-                crate::estimation::Loss::Huber { .. } => {
+                crate::solve::estimation::Loss::Squared => None,
+                crate::solve::estimation::Loss::Huber { .. } => {
                     Some(cal.row_scale.iter().filter(|&&w| w < 1.0 - 1e-9).count())
                 }
             },
             timings: Vec::new(),
             outliers: Vec::new(),
-            outlier_sigmas: crate::outliers::DEFAULT_SIGMAS,
+            outlier_sigmas: crate::solve::outliers::DEFAULT_SIGMAS,
             robot_file_sha256: None,
             data_file_sha256: None,
             sources: Vec::new(),
@@ -318,7 +318,7 @@ impl CalibrationReport {
         }
     }
 
-    /// Lists the outliers (see [`crate::outliers`]) found at threshold `k`.
+    /// Lists the outliers (see [`crate::solve::outliers`]) found at threshold `k`.
     pub fn set_outliers(&mut self, outliers: &[Outlier], data: &Dataset, robot: &Robot, k: f64) {
         let u = robot.units;
         self.outlier_sigmas = k;
@@ -555,7 +555,7 @@ impl CalibrationReport {
     /// relative). An error names the first that is not.
     pub fn check_calibrated(&self, robot: &Robot, name: &str) -> crate::error::Result<()> {
         for p in self.parameters.iter().filter(|p| p.estimated_flag) {
-            let id = crate::param_list::parse_param_list(&p.id, robot)
+            let id = crate::model::param_list::parse_param_list(&p.id, robot)
                 .ok()
                 .and_then(|v| v.first().copied())
                 .ok_or_else(|| {

@@ -3,12 +3,12 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::params::ParamId;
-use crate::robot::Robot;
 use crate::units::Quantity;
 
-/// The mass model of an elastic robot (see [`crate::robot::Elastic`]), after calibration.
+/// The mass model of an elastic robot (see [`crate::model::robot::Elastic`]), after calibration.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 pub struct ElasticReport {
     /// Bodies of the model.
@@ -107,8 +107,8 @@ impl ElasticReport {
     pub fn new(robot: &Robot, data: &Dataset, estimated: &[ParamId]) -> Option<ElasticReport> {
         let model = robot.elastic.as_ref()?;
         let u = robot.units;
-        let chain = crate::kinematics::Chain::new(robot);
-        let mut ws = crate::kinematics::Workspace::new(robot);
+        let chain = crate::model::kinematics::Chain::new(robot);
+        let mut ws = crate::model::kinematics::Workspace::new(robot);
         let (mut iterations_max, mut unconverged) = (0, 0);
         let (mut largest, mut torque) = (0.0f64, 0.0f64);
         for p in &data.postures {
@@ -127,8 +127,8 @@ impl ElasticReport {
             .filter(|&id| {
                 matches!(
                     robot.param_kind(id),
-                    crate::params::ParamKind::Compliance { .. }
-                        | crate::params::ParamKind::Lateral { .. }
+                    crate::model::params::ParamKind::Compliance { .. }
+                        | crate::model::params::ParamKind::Lateral { .. }
                 )
             })
             .map(|id| {

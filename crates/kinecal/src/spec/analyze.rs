@@ -17,9 +17,9 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, Setting};
 use crate::files::{ObservationFile, ReadSettings};
 use crate::identifiability::{Analysis, AnalysisOptions, JacobianTable};
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
 use crate::report::AnalysisReport;
-use crate::robot::Robot;
 use crate::workflow::Selection;
 use crate::ParamId;
 
@@ -44,7 +44,7 @@ pub struct AnalysisSelection {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub priority: Option<String>,
     /// A Gaussian prior on the changes, as a calibration fits it
-    /// ([`crate::prior::parse_prior`]); the robot file's `[priors]` when absent.
+    /// ([`crate::model::prior::parse_prior`]); the robot file's `[priors]` when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior: Option<String>,
     /// The bodies' total mass (kg), held as a calibration holds it.
@@ -152,7 +152,7 @@ impl AnalyzeOutcome {
 fn ordered_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
     let mut out = Vec::new();
     for token in list.split(',') {
-        for id in crate::param_list::parse_param_list(token.trim(), robot)
+        for id in crate::model::param_list::parse_param_list(token.trim(), robot)
             .map_err(|e| invalid(Setting::Priority, e.to_string()))?
         {
             if !out.contains(&id) {
@@ -182,11 +182,11 @@ impl AnalyzeSpec {
             None => Vec::new(),
         };
         let mut prior = match &s.prior {
-            Some(text) => crate::prior::parse_prior(text, robot)?,
+            Some(text) => crate::model::prior::parse_prior(text, robot)?,
             None => robot.priors.clone(),
         };
         if let Some(total) = s.total_mass {
-            crate::prior::set_total_mass(&mut prior, total, robot)
+            crate::model::prior::set_total_mass(&mut prior, total, robot)
                 .map_err(|m| invalid(Setting::TotalMass, m))?;
         }
         let (weights, orientation) = self.residuals.resolve(robot)?;
@@ -258,7 +258,7 @@ impl AnalyzeSpec {
                 }
                 let s = super::common::read_source(path, Setting::Observations)?;
                 let postures = crate::files::parse_postures(&s.text, &s.name, &robot)?;
-                crate::simulate::measure(&robot, &postures, self.read.position_only)
+                crate::apps::simulate::measure(&robot, &postures, self.read.position_only)
             }
             None => read_observations(&self.read, &self.observations, &robot)?.0,
         };

@@ -39,10 +39,10 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Location, Result, Setting};
-use crate::estimation::{Damping, Loss, Method, SolverOptions, Spread};
 use crate::files::{detect_format, kind_index, read_files, ObservationFile, ReadSettings, FORMATS};
+use crate::model::robot::Robot;
 use crate::observe::{Dataset, OrientationError, Weights};
-use crate::robot::Robot;
+use crate::solve::estimation::{Damping, Loss, Method, SolverOptions, Spread};
 use crate::source::Source;
 use crate::units::{DisplayChoice, Quantity};
 use crate::workflow::{self, Candidate, Outcome, Request, Selection, SolutionRule, Validation};
@@ -104,7 +104,7 @@ pub struct SelectionSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prune: Option<f64>,
     /// A Gaussian prior on the parameters' changes from the start
-    /// ([`crate::prior::parse_prior`]): `length=L,angle=A[,slope=F][,compliance=C]` and
+    /// ([`crate::model::prior::parse_prior`]): `length=L,angle=A[,slope=F][,compliance=C]` and
     /// parameters `NAME=V` in the robot file's units, `tolerances` or `none`; the robot file's
     /// `[priors]` when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -129,7 +129,7 @@ pub struct SolverSpec {
     #[serde(default, skip_serializing_if = "is_default")]
     pub damping: Damping,
     /// The relative singular-value tolerance of the SVD method (default
-    /// [`crate::estimation::DEFAULT_RCOND`]).
+    /// [`crate::solve::estimation::DEFAULT_RCOND`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rcond: Option<f64>,
     /// Which of equally good answers: `solver` (default) or `min-change`.
@@ -169,7 +169,7 @@ pub struct ResidualSpec {
     #[serde(default, skip_serializing_if = "is_default")]
     pub orientation_error: OrientationError,
     /// The outlier threshold, in robust standard deviations (default
-    /// [`crate::outliers::DEFAULT_SIGMAS`]).
+    /// [`crate::solve::outliers::DEFAULT_SIGMAS`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outlier_sigma: Option<f64>,
 }
@@ -325,11 +325,11 @@ impl CalibrationSpec {
         }
         req.prune = s.prune;
         req.prior = match &s.prior {
-            Some(text) => crate::prior::parse_prior(text, robot)?,
+            Some(text) => crate::model::prior::parse_prior(text, robot)?,
             None => robot.priors.clone(),
         };
         if let Some(total) = s.total_mass {
-            crate::prior::set_total_mass(&mut req.prior, total, robot)
+            crate::model::prior::set_total_mass(&mut req.prior, total, robot)
                 .map_err(|m| invalid(Setting::TotalMass, m))?;
         }
         if let Some(guess) = &initial {
@@ -478,18 +478,18 @@ pub fn load_robot(name: &str) -> Result<(Robot, Source)> {
     let path = Path::new(name);
     let source = if path.exists() {
         Source::read(path)?
-    } else if let Some(text) = crate::examples::builtin(name) {
+    } else if let Some(text) = crate::model::examples::builtin(name) {
         Source::text(format!("<built-in {name}>"), text)
     } else {
         return Err(invalid(
             Setting::Robot,
             format!(
                 "{name}: no such robot file, and not a built-in robot (built-in: {})",
-                crate::examples::BUILTIN_NAMES.join(", ")
+                crate::model::examples::BUILTIN_NAMES.join(", ")
             ),
         ));
     };
-    let robot = crate::robot_file::parse_robot_toml(&source.text, &source.name)?;
+    let robot = crate::model::robot_file::parse_robot_toml(&source.text, &source.name)?;
     Ok((robot, source))
 }
 
@@ -619,7 +619,7 @@ impl CalibrationJob {
         let o = &self.spec.outputs;
         let mut staged = crate::files::output::Staged::new();
         if let Some(path) = &o.robot {
-            let text = crate::robot_file::write_robot_toml_checked(
+            let text = crate::model::robot_file::write_robot_toml_checked(
                 &outcome.calibration.calibrated,
                 Some(&self.robot_source.text),
             )?;
@@ -820,7 +820,7 @@ mod tests {
 
     #[test]
     fn settings_errors_name_the_setting() {
-        let robot = crate::examples::ge_a4();
+        let robot = crate::model::examples::ge_a4();
         let mut spec = CalibrationSpec::default();
         let data = Dataset::default();
         spec.validation.holdout = Some(0.2);

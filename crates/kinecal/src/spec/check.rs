@@ -13,8 +13,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, Setting};
 use crate::files::{ObservationFile, ReadSettings};
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::robot::Robot;
 use crate::workflow::{CheckReport, Thresholds, Verdict};
 
 use super::common::{invalid, is_default, read_observations, robot_as, LengthAngle};

@@ -7,8 +7,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Location, Result, Setting};
+use crate::model::robot::Robot;
 use crate::observe::{OrientationError, Weights};
-use crate::robot::Robot;
 use crate::units::Quantity;
 
 use super::JobKind;
@@ -186,7 +186,7 @@ pub(crate) fn is_url(p: &str) -> bool {
 /// that name is there.
 pub(crate) fn rebase_robot(base: &Path, name: &str) -> String {
     let file = rebase(base, name);
-    if crate::examples::builtin(name).is_some() && !Path::new(&file).exists() {
+    if crate::model::examples::builtin(name).is_some() && !Path::new(&file).exists() {
         name.to_string()
     } else {
         file
@@ -195,7 +195,7 @@ pub(crate) fn rebase_robot(base: &Path, name: &str) -> String {
 
 /// Whether the robot `name` is a file (or will be read as one), not a built-in robot.
 pub(crate) fn is_robot_file(name: &str) -> bool {
-    Path::new(name).exists() || crate::examples::builtin(name).is_none()
+    Path::new(name).exists() || crate::model::examples::builtin(name).is_none()
 }
 
 /// Calls `f` on an optional path.

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::compensate::{
+use crate::apps::compensate::{
     goal_in_file_units, Compensator, Configuration, Options, Solved, TargetSearch,
 };
 use crate::error::{Error, Location, Result, Setting};
@@ -22,7 +22,7 @@ use crate::files::controller::{joint_field, urscript_begin, urscript_end, urscri
 use crate::files::stream::{cell, payload_at, payload_columns, Rows};
 use crate::files::COMPENSATED_COLUMNS;
 use crate::identifiability::fmt_sig;
-use crate::robot::Robot;
+use crate::model::robot::Robot;
 use crate::units::Quantity;
 
 use super::common::{invalid, is_default, robot_as, visit_opt, LengthAngle};

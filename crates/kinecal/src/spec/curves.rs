@@ -15,10 +15,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::curves::{is_convex, local_minima, objective_curve, period, pose_curve};
+use crate::apps::curves::{is_convex, local_minima, objective_curve, period, pose_curve};
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::{parse_postures, ObservationFile, ReadSettings};
-use crate::robot::Robot;
+use crate::model::robot::Robot;
 use crate::{JointKind, ParamId, ParamKind};
 
 use super::common::{
@@ -189,7 +189,7 @@ impl CurvesSpec {
             (Some(a), Some(b), None) => (a, b),
             (None, None, Some(w)) => (v - w / 2.0, v + w / 2.0),
             (None, None, None) => {
-                let half = crate::curves::default_half_width(
+                let half = crate::apps::curves::default_half_width(
                     robot,
                     id,
                     self.curve == CurveKind::Objective,
@@ -203,7 +203,7 @@ impl CurvesSpec {
                 ))
             }
         };
-        crate::curves::sweep(a, b, s.points.unwrap_or(201))
+        crate::apps::curves::sweep(a, b, s.points.unwrap_or(201))
     }
 
     /// The readings of the pose curve's posture.
@@ -260,7 +260,7 @@ impl CurvesSpec {
         let readings = self.readings(robot)?;
         let target = crate::files::site_target(robot, self.site.as_deref().unwrap_or("ee"))
             .map_err(|m| invalid(Setting::Site, m))?;
-        let ids = crate::param_list::parse_param_list(&self.sweep.param, robot)?;
+        let ids = crate::model::param_list::parse_param_list(&self.sweep.param, robot)?;
         let (l, an) = (
             robot.units.length.to_string(),
             robot.units.angle.to_string(),
@@ -331,7 +331,7 @@ impl CurvesSpec {
         }
         let (data, _) = read_observations(&self.read, &self.observations, robot)?;
         let (weights, orientation) = self.residuals.resolve(robot)?;
-        let ids = crate::param_list::parse_param_list(&self.sweep.param, robot)?;
+        let ids = crate::model::param_list::parse_param_list(&self.sweep.param, robot)?;
         let mut charts = Vec::new();
         let mut findings = Vec::new();
         let mut csv = String::from("param,value,objective\n");

@@ -17,8 +17,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Location, Result, Setting};
 use crate::import::dh::Convention;
 use crate::import::readback::Tolerance;
+use crate::model::robot::Robot;
 use crate::report::CalibrationReport;
-use crate::robot::Robot;
 
 use super::common::{invalid, is_default, read_source, robot_as, visit_opt, LengthAngle};
 use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
@@ -486,7 +486,7 @@ impl ImportSpec {
     /// Imports and writes the robot file.
     pub(crate) fn run(&self, _env: &mut Env<'_>) -> Result<Done> {
         let (robot, notes) = self.import()?;
-        let text = crate::robot_file::write_robot_toml_checked(&robot, None)?;
+        let text = crate::model::robot_file::write_robot_toml_checked(&robot, None)?;
         let mut messages: Vec<Message> = notes.iter().cloned().map(Message::Note).collect();
         if let Some(p) = &self.out {
             crate::files::output::write_file(Path::new(p), &text)?;

@@ -1,6 +1,6 @@
 //! The ISO 9283 jobs: the test poses of a robot (`iso9283-plan`), a simulated log
 //! (`iso9283-simulate`), a log made from measurements (`iso9283-log`) and the pose figures of a
-//! log (`iso9283-evaluate`). The arithmetic is [`crate::iso9283`]'s.
+//! log (`iso9283-evaluate`). The arithmetic is [`crate::apps::iso9283`]'s.
 //!
 //! ```toml
 //! job = "iso9283-evaluate"
@@ -13,13 +13,13 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result, Setting};
-use crate::iso9283::{
+use crate::apps::iso9283::{
     evaluate, log_placed, plan, predict_compensated, read_log, read_plan, read_roles, simulate,
     write_log, write_plan, Cube, Evaluation, LogUnits, PlacedLog, PlanRequest, SimulateRequest,
     TestPlan,
 };
-use crate::robot::Robot;
+use crate::error::{Error, Result, Setting};
+use crate::model::robot::Robot;
 use crate::units::Quantity;
 
 use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt, LengthAngle};

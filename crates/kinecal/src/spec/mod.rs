@@ -524,7 +524,7 @@ pub enum Page<'a> {
     /// The HTML page of a measurement plan.
     Plan {
         /// The plan.
-        plan: &'a crate::plan::Plan,
+        plan: &'a crate::apps::plan::Plan,
         /// Its robot.
         robot: &'a crate::Robot,
         /// The candidates it chose from.
@@ -546,7 +546,7 @@ pub enum Page<'a> {
         units: crate::units::DisplayUnits,
     },
     /// The HTML page of ISO 9283 figures.
-    Iso9283(&'a crate::iso9283::Evaluation),
+    Iso9283(&'a crate::apps::iso9283::Evaluation),
     /// Characteristic curves as a picture.
     Curves {
         /// The curves.
@@ -718,7 +718,7 @@ pub enum Document {
     /// An ISO 9283 log made from measurements.
     Iso9283Log(Iso9283LogOutcome),
     /// ISO 9283 figures.
-    Iso9283(Box<crate::iso9283::Evaluation>),
+    Iso9283(Box<crate::apps::iso9283::Evaluation>),
     /// Simulated measurements (or forward kinematics).
     Simulation(SimulateOutcome),
     /// A check of a robot against fresh measurements.

@@ -14,13 +14,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::apps::plan::{Criterion, Plan, PlanReport, PlanRequest};
 use crate::error::{Result, Setting};
 use crate::files::{detect_format, parse_postures};
 use crate::identifiability::AnalysisOptions;
-use crate::kinematics::Target;
+use crate::model::kinematics::Target;
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::plan::{Criterion, Plan, PlanReport, PlanRequest};
-use crate::robot::Robot;
 use crate::source::Source;
 use crate::workflow::Selection;
 
@@ -196,7 +196,7 @@ impl PlanSpec {
     ) -> Result<Pool> {
         let targets = self.targets(robot)?;
         Ok(Pool {
-            data: crate::plan::candidates(robot, postures, &targets, self.position_only),
+            data: crate::apps::plan::candidates(robot, postures, &targets, self.position_only),
             observed: false,
             described,
         })
@@ -253,7 +253,7 @@ impl PlanSpec {
             (None, Some(n)) => {
                 let n = count(Setting::PlanSample, n, MAX_SAMPLE, "sampled postures")?;
                 let seed = self.seed.unwrap_or(1);
-                let postures = crate::simulate::sample_postures(robot, n, seed);
+                let postures = crate::apps::simulate::sample_postures(robot, n, seed);
                 self.pool_of_postures(
                     robot,
                     postures,
@@ -318,7 +318,7 @@ impl PlanSpec {
         env.progress
             .say(&format!("planning: {} ...", pool.described));
         let req = self.request(robot, pool.data, keep)?;
-        let plan = crate::plan::plan(&req)?;
+        let plan = crate::apps::plan::plan(&req)?;
         let (file, written) = plan.chosen_file(robot, pool.observed);
         let report = PlanReport::new(&plan, robot);
         Ok((

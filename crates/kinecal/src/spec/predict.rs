@@ -17,13 +17,13 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::compensate::{goal_in_file_units, GoalProblem, Options, TargetSearch};
+use crate::apps::compensate::{goal_in_file_units, GoalProblem, Options, TargetSearch};
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::stream::{cell, Rows};
-use crate::kinematics::Target;
+use crate::model::kinematics::Target;
+use crate::model::robot::Robot;
 use crate::predict::{self, PredictionReport, Predictor};
 use crate::report::CalibrationReport;
-use crate::robot::Robot;
 use crate::units::{DisplayChoice, Quantity};
 
 use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt};

@@ -14,8 +14,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::{ObservationFile, ReadSettings};
+use crate::model::robot::Robot;
 use crate::report::CalibrationReport;
-use crate::robot::Robot;
 use crate::units::DisplayChoice;
 
 use super::common::{

@@ -18,12 +18,12 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::apps::simulate::{self, PerturbStd};
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::stream::{cell, payload_at, payload_columns, Rows};
 use crate::files::{parse_postures, write_measurements};
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::robot::Robot;
-use crate::simulate::{self, PerturbStd};
 use crate::units::Quantity;
 
 use super::common::{count, invalid, is_default, robot_as, visit_opt, LengthAngle};
@@ -169,7 +169,7 @@ impl SimulateSpec {
                     format!("{name}: {delta} is not a finite number"),
                 ));
             }
-            let ids = crate::param_list::parse_param_list(name.trim(), nominal)
+            let ids = crate::model::param_list::parse_param_list(name.trim(), nominal)
                 .map_err(|e| invalid(Setting::ParameterChange, e.to_string()))?;
             for id in ids {
                 changes.push((id, delta));
@@ -189,7 +189,7 @@ impl SimulateSpec {
         let readings = postures
             .iter()
             .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
-        if let Some((i, eq)) = crate::kinematics::unconverged_posture(truth, readings) {
+        if let Some((i, eq)) = crate::model::kinematics::unconverged_posture(truth, readings) {
             return Err(invalid(
                 Setting::ParameterChange,
                 format!(
@@ -220,7 +220,8 @@ impl SimulateSpec {
         let truth = self.truth(&nominal)?;
         let data = self.measurements(&nominal, &truth)?;
         let text = write_measurements(&nominal, &data);
-        let truth_text = crate::robot_file::write_robot_toml_checked(&truth, Some(&source.text))?;
+        let truth_text =
+            crate::model::robot_file::write_robot_toml_checked(&truth, Some(&source.text))?;
         let mut staged = crate::files::output::Staged::new();
         if let Some(p) = &self.out {
             staged.text(Path::new(p), &text)?;
@@ -281,7 +282,7 @@ impl FkSpec {
             let readings = postures
                 .iter()
                 .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
-            if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
+            if let Some((i, eq)) = crate::model::kinematics::unconverged_posture(robot, readings) {
                 return Err(Error::input(
                     Location::file(&s.name),
                     format!(
@@ -342,12 +343,12 @@ impl FkSpec {
             }
             // With payload columns every row writes them: an empty one is no load, 0 kg.
             posture.payload = payload_at(&rows, line, &payload_cols, &robot.units)?.or_else(|| {
-                payload_cols[0].map(|_| crate::robot::Payload {
+                payload_cols[0].map(|_| crate::model::robot::Payload {
                     mass: 0.0,
                     com: nalgebra::Vector3::zeros(),
                 })
             });
-            if let Some((_, eq)) = crate::kinematics::unconverged_posture(
+            if let Some((_, eq)) = crate::model::kinematics::unconverged_posture(
                 robot,
                 [(posture.readings.as_slice(), posture.payload.as_ref())],
             ) {

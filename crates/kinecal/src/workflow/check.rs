@@ -5,12 +5,12 @@
 use std::sync::Arc;
 
 use crate::error::{Error, Result};
-use crate::estimation::{self, Calibration, CalibrationOptions};
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::observe::{accuracy, Accuracy, Dataset, OrientationError, Weights};
-use crate::outliers;
-use crate::params::ParamId;
-use crate::problem::Problem;
-use crate::robot::Robot;
+use crate::solve::estimation::{self, Calibration, CalibrationOptions};
+use crate::solve::outliers;
+use crate::solve::problem::Problem;
 use crate::source::Source;
 use crate::uncertainty;
 
@@ -75,7 +75,11 @@ pub fn assess(
         residuals,
         start_r: None,
     };
-    let mut warnings = data_warnings(nominal, data, &crate::sanity::predicted(nominal, data));
+    let mut warnings = data_warnings(
+        nominal,
+        data,
+        &crate::observe::sanity::predicted(nominal, data),
+    );
     let unc = uncertainty::uncertainty(&cal, data, nominal);
     Ok(finish(
         nominal.clone(),

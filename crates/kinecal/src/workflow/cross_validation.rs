@@ -4,8 +4,8 @@
 use std::sync::Arc;
 
 use crate::error::{Error, Result};
-use crate::params::ParamId;
-use crate::robot::Robot;
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::units::Quantity;
 
 use super::run::{run, Request, Validation};

@@ -2,11 +2,11 @@
 //! undetermined, the one closest to the nominal robot in tolerance units.
 
 use crate::error::{Error, Result};
-use crate::estimation::CalibrationOptions;
 use crate::identifiability::{self, AnalysisOptions};
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::problem::Problem;
-use crate::robot::Robot;
+use crate::solve::estimation::CalibrationOptions;
+use crate::solve::problem::Problem;
 use crate::units::{wrap_angle, Quantity};
 
 /// Which of several equally good answers a calibration returns when the data leaves some
@@ -20,8 +20,8 @@ pub enum SolutionRule {
     #[default]
     Solver,
     /// Among the equally good answers, the one closest to the nominal robot in the metric
-    /// `sum ((p - p_nominal) / tolerance)^2`, tolerances from the nominal's
-    /// [`Tolerances`](crate::robot::Tolerances). It does not depend on the starting point.
+    /// `sum ((p - p_nominal) / tolerance)^2`, tolerances from the nominal robot file's
+    /// `[tolerances]`. It does not depend on the starting point.
     MinChange,
 }
 

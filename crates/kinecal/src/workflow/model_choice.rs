@@ -2,7 +2,7 @@
 //! simplest within one standard error of the best chosen.
 
 use crate::error::{Error, Result};
-use crate::robot::{Prior, Robot};
+use crate::model::robot::{Prior, Robot};
 use crate::units::Quantity;
 
 use super::cross_validation::cross_validate;
@@ -20,14 +20,14 @@ pub struct Candidate {
     pub selection: Selection,
     /// Pruning threshold, if any.
     pub prune: Option<f64>,
-    /// The prior of this candidate ([`crate::prior::parse_prior`]; `none` for none); `None`:
+    /// The prior of this candidate ([`crate::model::prior::parse_prior`]; `none` for none); `None`:
     /// the request's.
     pub prior: Option<Prior>,
 }
 
 impl Candidate {
     /// Parses `LIST [fix=LIST] [prune=K] [prior=PRIOR]` (a parameter list as for
-    /// [`Selection::parse`], a prior as for [`crate::prior::parse_prior`], without spaces).
+    /// [`Selection::parse`], a prior as for [`crate::model::prior::parse_prior`], without spaces).
     /// Candidates that differ only in the strength of their prior compare it: list the
     /// strongest prior (the most constrained model) first, as the one-standard-error rule takes
     /// the first candidate within reach of the best.
@@ -39,7 +39,7 @@ impl Candidate {
             match w.split_once('=') {
                 Some(("fix", f)) => fix = Some(f),
                 Some(("prior", p)) => {
-                    prior = Some(crate::prior::parse_prior(p, robot).map_err(|e| {
+                    prior = Some(crate::model::prior::parse_prior(p, robot).map_err(|e| {
                         Error::InvalidOption {
                             setting: crate::error::Setting::ModelCandidate,
                             message: format!("`{text}`: prior: {}", inner_message(e)),

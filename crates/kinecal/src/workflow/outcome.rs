@@ -6,13 +6,13 @@
 use std::sync::Arc;
 
 use crate::error::Result;
-use crate::estimation::{self, Calibration, Loss};
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::observe::{Accuracy, Dataset};
-use crate::outliers::{self, Outlier};
-use crate::params::ParamId;
-use crate::problem::Problem;
 use crate::report::CalibrationReport;
-use crate::robot::Robot;
+use crate::solve::estimation::{self, Calibration, Loss};
+use crate::solve::outliers::{self, Outlier};
+use crate::solve::problem::Problem;
 use crate::source::Source;
 use crate::uncertainty::Uncertainty;
 use crate::units::Quantity;
@@ -175,8 +175,8 @@ pub struct Outcome {
     /// Everything the user should know.
     pub warnings: Vec<Warning>,
     /// The closed-form placement of the measurement and target frames done first, when the
-    /// start was far ([`crate::registration`]).
-    pub registration: Option<crate::registration::Registration>,
+    /// start was far ([`crate::solve::registration`]).
+    pub registration: Option<crate::solve::registration::Registration>,
     /// The cross-validation, when asked for ([`Validation::Folds`](super::Validation::Folds)).
     pub cross_validation: Option<CrossValidation>,
     /// The report document.
@@ -197,13 +197,13 @@ pub(super) fn finish(
     sources: &[Source],
     warnings: &mut Vec<Warning>,
 ) -> Outcome {
-    warnings.extend(crate::sanity::check_result(
+    warnings.extend(crate::observe::sanity::check_result(
         &nominal,
         &cal.calibrated,
         &cal.estimated,
     ));
     if cal.accuracy_after.orientations > 0
-        && cal.accuracy_after.rms_orientation > crate::sanity::ATTITUDE_LIMIT
+        && cal.accuracy_after.rms_orientation > crate::observe::sanity::ATTITUDE_LIMIT
     {
         warnings.push(Warning::AttitudesUnfit {
             rms_deg: cal.accuracy_after.rms_orientation.to_degrees(),
@@ -367,12 +367,12 @@ pub(super) fn finish(
 }
 
 /// Warnings about the data itself: units that do not match the robot file's, readings the
-/// robot cannot take ([`crate::sanity`]; `predicted`: `robot`'s points,
-/// [`crate::sanity::predicted`]).
+/// robot cannot take ([`crate::observe::sanity`]; `predicted`: `robot`'s points,
+/// [`crate::observe::sanity::predicted`]).
 pub(super) fn data_warnings(
     robot: &Robot,
     data: &Dataset,
     predicted: &[[nalgebra::Vector3<f64>; 2]],
 ) -> Vec<Warning> {
-    crate::sanity::check_data_with(robot, data, predicted)
+    crate::observe::sanity::check_data_with(robot, data, predicted)
 }

@@ -4,13 +4,15 @@
 use std::sync::Arc;
 
 use crate::error::{Error, Result};
-use crate::estimation::{self, Calibration, CalibrationOptions, Iteration, Loss, SolverOptions};
 use crate::identifiability::{self, AnalysisOptions};
+use crate::model::params::{ParamId, ParamKind};
+use crate::model::robot::Robot;
 use crate::observe::{Dataset, OrientationError, Weights};
-use crate::outliers;
-use crate::params::{ParamId, ParamKind};
-use crate::problem::{Linearized, Problem};
-use crate::robot::Robot;
+use crate::solve::estimation::{
+    self, Calibration, CalibrationOptions, Iteration, Loss, SolverOptions,
+};
+use crate::solve::outliers;
+use crate::solve::problem::{Linearized, Problem};
 use crate::source::Source;
 use crate::uncertainty;
 use crate::units::{wrap_angle, Quantity};
@@ -84,9 +86,9 @@ pub struct Request {
     /// Relative singular-value tolerance of the identifiability analysis.
     pub rank_rcond: f64,
     /// A Gaussian prior on the estimated parameters' changes from the solver's start (empty:
-    /// none; see [`crate::problem`]). It enters the fit, the uncertainty and the minimum-change
+    /// none; see [`crate::solve::problem`]). It enters the fit, the uncertainty and the minimum-change
     /// answer; the identifiable set of a [`Selection::Identifiable`] is the data's alone.
-    pub prior: crate::robot::Prior,
+    pub prior: crate::model::robot::Prior,
     /// The files read (for the report's fingerprints): the robot file first, then the data.
     pub sources: Vec<Source>,
     /// How much of the predicted accuracy to work out ([`crate::predict`]): by default the
@@ -114,7 +116,7 @@ impl Request {
             outlier_sigmas: outliers::DEFAULT_SIGMAS,
             priority: Vec::new(),
             rank_rcond: identifiability::DEFAULT_RANK_RCOND,
-            prior: crate::robot::Prior::default(),
+            prior: crate::model::robot::Prior::default(),
             sources: Vec::new(),
             prediction: crate::predict::Level::default(),
         }
@@ -127,7 +129,7 @@ impl Request {
             orientation: self.orientation,
             priority: self.priority.clone(),
             noise_scale: 1.0,
-            prior: crate::robot::Prior::default(),
+            prior: crate::model::robot::Prior::default(),
         }
     }
 }
@@ -214,7 +216,7 @@ pub trait Progress {
     /// An iteration of the solver ended.
     fn iteration(&mut self, _it: &Iteration) {}
     /// The data was checked against the nominal robot before any solving (units, attitudes,
-    /// readings; [`crate::sanity::check_data`]): `warnings` are what was found, empty when all
+    /// readings; [`crate::observe::sanity::check_data`]): `warnings` are what was found, empty when all
     /// is well. Returning false stops the run there ([`Error::Stopped`]), e.g. for a caller
     /// that treats a warning saying the result would be wrong ([`Warning::implausible`]) as
     /// fatal.
@@ -274,7 +276,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     let start = starting_robot(req)?;
     // Where the nominal robot puts the observed points: one pass, for the checks of the data
     // against it (scale) and, when the start is the nominal robot, of the start's distance.
-    let nominal_points = crate::sanity::predicted(&req.robot, &data);
+    let nominal_points = crate::observe::sanity::predicted(&req.robot, &data);
     // The data against the nominal robot, before any solving: a unit mix-up is named now, not
     // after a solve that could not have made sense of it.
     let data_warns = data_warnings(&req.robot, &data, &nominal_points);
@@ -438,7 +440,7 @@ fn check_equilibria(req: &Request, data: &Dataset) -> Result<()> {
             .postures
             .iter()
             .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
-        if let Some((i, eq)) = crate::kinematics::unconverged_posture(robot, readings) {
+        if let Some((i, eq)) = crate::model::kinematics::unconverged_posture(robot, readings) {
             return Err(Error::Problem(format!(
                 "the {what}'s gravity equilibrium at posture `{}` {eq}",
                 data.postures[i].label
@@ -485,8 +487,9 @@ fn place_frames(
     start: Robot,
     data: &Dataset,
     nominal_points: &[[nalgebra::Vector3<f64>; 2]],
-) -> (Robot, Option<crate::registration::Registration>) {
-    let start_points = (start != req.robot).then(|| crate::sanity::predicted(&start, data));
+) -> (Robot, Option<crate::solve::registration::Registration>) {
+    let start_points =
+        (start != req.robot).then(|| crate::observe::sanity::predicted(&start, data));
     let start_points = start_points.as_deref().unwrap_or(nominal_points);
     let candidates: Vec<ParamId> = match &req.selection {
         Selection::List(ids) => ids.clone(),
@@ -499,8 +502,12 @@ fn place_frames(
             ids
         }
     };
-    let registration =
-        crate::registration::register_far_start_with(&start, data, &candidates, start_points);
+    let registration = crate::solve::registration::register_far_start_with(
+        &start,
+        data,
+        &candidates,
+        start_points,
+    );
     let start = match &registration {
         Some(r) => r.robot.clone(),
         None => start,
@@ -509,7 +516,7 @@ fn place_frames(
         .param_ids()
         .filter(|&id| matches!(start.param_kind(id), ParamKind::Session { .. }))
         .collect();
-    let sessions_placed = crate::registration::place_sessions(&start, data, &session_ids);
+    let sessions_placed = crate::solve::registration::place_sessions(&start, data, &session_ids);
     let placed = registration.is_some() || sessions_placed.is_some();
     let start = match sessions_placed {
         Some((placed, _, _)) => placed,
@@ -706,7 +713,7 @@ fn rigid_fit(robot: &Robot, data: &Dataset, candidates: &[ParamId], req: &Reques
         weights: req.weights,
         orientation: req.orientation,
         loss: Loss::Squared,
-        prior: crate::robot::Prior::default(),
+        prior: crate::model::robot::Prior::default(),
     };
     match estimation::calibrate(robot, data, &opts, &mut |_| {}) {
         Ok(c) if c.objective_after < c.objective_before && c.calibrated.validate().is_ok() => {

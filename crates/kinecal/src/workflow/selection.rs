@@ -3,13 +3,13 @@
 //! sessions.
 
 use crate::error::{Error, Result};
-use crate::estimation::{self, CalibrationOptions, Loss};
 use crate::identifiability::{self, AnalysisOptions};
+use crate::model::param_list::parse_param_list;
+use crate::model::params::{ParamId, ParamKind};
+use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::param_list::parse_param_list;
-use crate::params::{ParamId, ParamKind};
-use crate::problem::Linearized;
-use crate::robot::Robot;
+use crate::solve::estimation::{self, CalibrationOptions, Loss};
+use crate::solve::problem::Linearized;
 
 /// Which parameters to estimate.
 #[derive(Debug, Clone, PartialEq)]
@@ -38,7 +38,7 @@ impl Default for Selection {
 }
 
 impl Selection {
-    /// Parses a parameter list (see [`crate::param_list`]) and the parameters to hold. An empty
+    /// Parses a parameter list (see [`crate::model::param_list`]) and the parameters to hold. An empty
     /// list is the default set. The keyword `identifiable` asks for the identifiable set of the
     /// union of the default set and the other entries: `identifiable` alone is that of the
     /// default set, `identifiable,slopes` adds the slopes first, `all,identifiable` is that of
@@ -161,8 +161,8 @@ pub(super) fn resolve_linearized(
 /// parameters of frames no observation sees: a site or the end effector never observed (their
 /// link's six), or observed by position only (its three angles).
 pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<ParamId>) {
-    use crate::kinematics::Target;
-    use crate::params::LinkComponent;
+    use crate::model::kinematics::Target;
+    use crate::model::params::LinkComponent;
     let unit_slopes = robot
         .joints
         .iter()
@@ -236,16 +236,16 @@ pub fn refit_sessions(
     let mut r = robot.clone();
     let first = r.sessions.len();
     for name in names {
-        r.sessions.push(crate::robot::Session {
+        r.sessions.push(crate::model::robot::Session {
             name: name.clone(),
-            frame: crate::robot::Link::default(),
+            frame: crate::model::robot::Link::default(),
         });
     }
     let ids: Vec<ParamId> = r
         .param_ids()
         .filter(|&id| matches!(r.param_kind(id), ParamKind::Session { session, .. } if session >= first))
         .collect();
-    if let Some((placed, _, _)) = crate::registration::place_sessions(&r, data, &ids) {
+    if let Some((placed, _, _)) = crate::solve::registration::place_sessions(&r, data, &ids) {
         r = placed;
     }
     let fit = CalibrationOptions {
@@ -254,7 +254,7 @@ pub fn refit_sessions(
         weights: opts.weights,
         orientation: opts.orientation,
         loss: Loss::Squared,
-        prior: crate::robot::Prior::default(),
+        prior: crate::model::robot::Prior::default(),
     };
     match estimation::calibrate(&r, data, &fit, &mut |_| {}) {
         Ok(c) => c.calibrated,
@@ -282,9 +282,9 @@ pub fn session_frames_for(robot: &Robot, data: &Dataset) -> Option<Robot> {
     }
     let mut r = robot.clone();
     for name in new {
-        r.sessions.push(crate::robot::Session {
+        r.sessions.push(crate::model::robot::Session {
             name: name.to_string(),
-            frame: crate::robot::Link::default(),
+            frame: crate::model::robot::Link::default(),
         });
     }
     Some(r)

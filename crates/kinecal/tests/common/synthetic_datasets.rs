@@ -1,5 +1,5 @@
 //! Small synthetic folders shaped like the public data sets the adapters of
-//! `kinecal::datasets` read (the row counts, columns, separators and number formats their
+//! `kinecal::apps::datasets` read (the row counts, columns, separators and number formats their
 //! READMEs describe; made-up values, no data copied), and a folder packed into one byte string
 //! for the mutation driver.
 #![allow(dead_code)] // each test binary uses what it needs

@@ -1,11 +1,11 @@
 //! Textbook least-squares problems, written down from their published tables: the NIST StRD
 //! nonlinear regression problems ([`nist`]) and the Moré-Garbow-Hillstrom test set ([`mgh`]),
-//! each as a [`kinecal::estimation::LeastSquares`] problem.
+//! each as a [`kinecal::solve::estimation::LeastSquares`] problem.
 
 pub mod mgh;
 pub mod nist;
 
-use kinecal::estimation::{LeastSquares, RowSink};
+use kinecal::solve::estimation::{LeastSquares, RowSink};
 
 /// A NIST problem as a least-squares problem: residuals `model(x_i; b) - target_i`.
 pub struct NistProblem(pub &'static nist::Nist);

@@ -9,13 +9,13 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::error::{Error, Result};
-use crate::kinematics::{Chain, Target, Workspace};
+use crate::model::kinematics::{Chain, Target, Workspace};
+use crate::model::params::ParamKind;
+use crate::model::robot::{JointKind, Robot};
 use crate::observe::point::{Pose, Position};
 use crate::observe::{
     for_each_observation, Context, Dataset, Observation, OrientationError, Posture,
 };
-use crate::params::ParamKind;
-use crate::robot::{JointKind, Robot};
 use crate::units::Quantity;
 
 fn rng(seed: u64, stream: u64) -> ChaCha8Rng {
@@ -96,7 +96,7 @@ pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
 
 /// `robot` with parameters changed by deltas in the robot file's units, e.g. a "true" robot for
 /// synthesized data; an error when a value becomes infinite or not a number.
-pub fn changed(robot: &Robot, changes: &[(crate::params::ParamId, f64)]) -> Result<Robot> {
+pub fn changed(robot: &Robot, changes: &[(crate::model::params::ParamId, f64)]) -> Result<Robot> {
     let mut out = robot.clone();
     for &(id, delta) in changes {
         let q = robot.param_quantity(id);
@@ -176,7 +176,7 @@ pub fn add_noise(data: &mut Dataset, length: f64, angle: f64, seed: u64) {
 /// axis, Euler angles anywhere (beta within +-70 deg), offsets anywhere, slopes of either sign
 /// between 0.5 and 2. For tests and benchmarks of arbitrary geometry.
 pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
-    use crate::robot::{Joint, Link};
+    use crate::model::robot::{Joint, Link};
     let mut r = rng(seed, 4);
     let link = |r: &mut ChaCha8Rng| Link {
         x: r.random_range(-0.4..0.4),
@@ -230,7 +230,7 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
 /// named `arm<k>`: the last arm's is the end effector, the others are sites. For tests and
 /// benchmarks of branched robots (two arms on one torso).
 pub fn random_tree(torso: usize, arms: &[usize], seed: u64) -> Robot {
-    use crate::robot::{Link, Site};
+    use crate::model::robot::{Link, Site};
     let n = torso + arms.iter().sum::<usize>();
     let mut robot = random_robot(&vec![JointKind::Revolute; n], seed);
     robot.name = format!("random-tree-{seed}");

@@ -17,7 +17,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{Error, Location, Result};
 use crate::files::write_measurements;
-use crate::robot_file::write_robot_toml;
+use crate::model::robot_file::write_robot_toml;
 use crate::source::Source;
 
 /// A data set converted into kinecal's files.
@@ -290,7 +290,7 @@ fn frame(x: Vector3<f64>, y: Vector3<f64>) -> Option<Matrix3<f64>> {
 
 /// The nominal robot of a POE text built from the data (`name` for it), refused naming
 /// `data_file` (the file whose values it holds) when it cannot be read.
-fn nominal(poe: &str, name: &str, data_file: &str) -> Result<crate::robot::Robot> {
+fn nominal(poe: &str, name: &str, data_file: &str) -> Result<crate::model::robot::Robot> {
     crate::import::poe::parse_poe_toml(poe, name).map_err(|e| {
         Error::input(
             Location::file(data_file),
@@ -311,10 +311,10 @@ pub mod qkm_hl6 {
         Converted, Folder,
     };
     use crate::error::{Error, Location, Result};
-    use crate::kinematics::Target;
+    use crate::model::kinematics::Target;
+    use crate::model::robot::Robot;
     use crate::observe::point::Position;
     use crate::observe::{Dataset, Posture};
-    use crate::robot::Robot;
     use crate::source::Source;
 
     /// The files of the data set read, with the rows each must have (its README's counts).
@@ -532,10 +532,10 @@ pub mod fanuc_r2000ic {
         Converted, Folder,
     };
     use crate::error::{Error, Location, Result};
-    use crate::kinematics::{rot_zyx, Target};
+    use crate::model::kinematics::{rot_zyx, Target};
+    use crate::model::robot::Robot;
     use crate::observe::point::Position;
     use crate::observe::{Dataset, Observation, Posture};
-    use crate::robot::Robot;
 
     /// The data set converted to kinecal's model and measurements.
     #[derive(Debug, Clone)]
@@ -719,10 +719,10 @@ pub mod ur10e_camera {
 
     use super::{write_measurements, write_robot_toml, Converted, Folder};
     use crate::error::{Error, Location, Result};
-    use crate::kinematics::Target;
+    use crate::model::kinematics::Target;
+    use crate::model::robot::Robot;
     use crate::observe::point::Pose;
     use crate::observe::{Dataset, Observation, Posture};
-    use crate::robot::Robot;
 
     /// The data set converted to kinecal's model and measurements.
     #[derive(Debug, Clone)]
@@ -897,7 +897,7 @@ pub mod ur10e_camera {
 ///   temperature`), beside the measurement files: kinecal's measurement reader refuses columns
 ///   it does not know, and the temperature does not enter a calibration (0.75 K over series A).
 /// - Series D's ISO 9283 cubes are `series_D_iso.csv`, the roles of its postures
-///   (`posture,test,pose,cycle`, [`crate::iso9283::read_roles`]) read from the commanded
+///   (`posture,test,pose,cycle`, [`crate::apps::iso9283::read_roles`]) read from the commanded
 ///   ("Goal") positions: `kinecal iso9283 log` makes a log of them.
 ///
 /// The row counts are checked: 11,911 rows in series A (the data set's README says 11,910; the
@@ -910,10 +910,10 @@ pub mod ipa_ur10 {
 
     use super::{write_measurements, write_robot_toml, Converted, Folder};
     use crate::error::{Error, Location, Result};
-    use crate::kinematics::Target;
+    use crate::model::kinematics::Target;
+    use crate::model::robot::Robot;
     use crate::observe::point::Position;
     use crate::observe::{Dataset, Observation, Posture};
-    use crate::robot::Robot;
     use crate::source::Source;
 
     /// The nominal UR10 kinematics of the UR description (`ur_description/config/ur10/
@@ -1302,7 +1302,7 @@ kinematics:
         format!("series_{series}.csv")
     }
 
-    /// The file of the ISO 9283 roles of series D's postures ([`crate::iso9283::read_roles`]).
+    /// The file of the ISO 9283 roles of series D's postures ([`crate::apps::iso9283::read_roles`]).
     pub const ISO_ROLES: &str = "series_D_iso.csv";
 
     /// Series D's cubes as ISO 9283 roles (`posture,test,pose,cycle`): blocks of nine postures,
@@ -1321,15 +1321,15 @@ kinematics:
             return Ok(None);
         }
         // The goals of one cube's cycles agree to 1e-6 m; distinct cubes differ by 1 mm or more.
-        let roles = crate::iso9283::cube_roles(&d.goals[k], 1e-4)
+        let roles = crate::apps::iso9283::cube_roles(&d.goals[k], 1e-4)
             .map_err(|e| Error::input(Location::file(s.file), format!("{e} (the Goal columns)")))?;
-        let labelled: Vec<(String, crate::iso9283::Role)> = d.series[k]
+        let labelled: Vec<(String, crate::apps::iso9283::Role)> = d.series[k]
             .postures
             .iter()
             .map(|p| p.label.clone())
             .zip(roles)
             .collect();
-        Ok(Some(crate::iso9283::write_roles(&labelled)))
+        Ok(Some(crate::apps::iso9283::write_roles(&labelled)))
     }
 
     /// The temperatures of every series as a CSV: `posture,session,temperature` (deg C).

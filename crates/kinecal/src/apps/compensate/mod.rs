@@ -31,8 +31,8 @@ pub use configuration::{Configuration, Side};
 pub use search::TargetSearch;
 
 use crate::error::{Error, Result};
-use crate::kinematics::{log_so3, Chain, Frame, Target, Workspace};
-use crate::robot::{JointKind, Robot};
+use crate::model::kinematics::{log_so3, Chain, Frame, Target, Workspace};
+use crate::model::robot::{JointKind, Robot};
 
 /// Settings of the inverse kinematics and of the flags.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -154,7 +154,7 @@ pub struct Compensator<'r> {
     reach: f64,
     options: Options,
     /// What the tool carries (an elastic robot yields to it): [`Compensator::set_payload`].
-    payload: Option<crate::robot::Payload>,
+    payload: Option<crate::model::robot::Payload>,
 }
 
 impl<'r> Compensator<'r> {
@@ -195,7 +195,7 @@ impl<'r> Compensator<'r> {
     /// What the tool carries for the goals that follow (`None`: nothing). An elastic robot's
     /// joints yield to it: the solution is the readings at which the deflected robot reaches
     /// the goal, and a program's intended pose is the nominal robot's under the same load.
-    pub fn set_payload(&mut self, payload: Option<crate::robot::Payload>) {
+    pub fn set_payload(&mut self, payload: Option<crate::model::robot::Payload>) {
         self.payload = payload;
     }
 
@@ -555,7 +555,7 @@ pub fn goal_in_file_units(
         )));
     }
     Ok(Goal::Pose(Frame {
-        rotation: crate::kinematics::rot_zyx(r[0], r[1], r[2]),
+        rotation: crate::model::kinematics::rot_zyx(r[0], r[1], r[2]),
         translation: p,
     }))
 }

@@ -36,10 +36,10 @@ use super::figures::{Compensated, Evaluation};
 use super::{pose_index, pose_name, Log, LogRow, Reacher, CORNERS};
 use crate::error::{Error, Location, Result};
 use crate::files::table;
-use crate::kinematics::{euler_zyx, Chain, Target};
+use crate::model::kinematics::{euler_zyx, Chain, Target};
+use crate::model::robot::Robot;
 use crate::observe::{session_frame, Dataset, Observation};
 use crate::predict::Predictor;
-use crate::robot::Robot;
 use crate::units::{AngleUnit, Quantity};
 
 /// The role of one posture in a series of ISO 9283 tests.
@@ -248,7 +248,9 @@ pub fn log_from_measurements(
             Observation::Pose(p) => (
                 p.view[0],
                 p.position,
-                Some(crate::kinematics::rot_zyx(p.euler.x, p.euler.y, p.euler.z)),
+                Some(crate::model::kinematics::rot_zyx(
+                    p.euler.x, p.euler.y, p.euler.z,
+                )),
                 p.line,
             ),
             _ => {
@@ -419,7 +421,7 @@ pub fn log_placed(robot: &Robot, data: &Dataset, roles: &Roles) -> Result<Placed
             robot,
             data,
             &placed,
-            &crate::estimation::CalibrationOptions::new(Vec::new()),
+            &crate::solve::estimation::CalibrationOptions::new(Vec::new()),
         )
     };
     let (log, left_out) = log_from_measurements(&model, data, roles)?;

@@ -3,11 +3,11 @@
 //! Order: the 6 parameters of each link (`x, y, z, alpha, beta, gamma`, links 1..n+1), then the n
 //! joint offsets, then the n slopes, then 6 per extra site; then, beyond the thesis, one coupling
 //! factor per coupled joint and 3 per plane (`tilt_x, tilt_y, offset`), 6 per measurement session,
-//! and, for a robot with a mass model ([`crate::robot::Elastic`]), one joint compliance per
+//! and, for a robot with a mass model ([`crate::model::robot::Elastic`]), one joint compliance per
 //! revolute joint followed by one lateral compliance per revolute joint and 4 per body (mass and
 //! centre of mass), so that a robot without
 //! couplings and planes keeps the thesis's numbering. `ParamId(0)` is the thesis's `p1`.
-//! Lists of parameters are read by [`crate::param_list`].
+//! Lists of parameters are read by [`crate::model::param_list`].
 
 use std::fmt;
 
@@ -207,7 +207,7 @@ pub enum ParamKind {
     /// A component of measurement session `session`'s frame: the pose of the robot's global
     /// frame in that session's measurement frame (an instrument moved between series).
     Session {
-        /// 0-based session index ([`crate::robot::Robot::sessions`]).
+        /// 0-based session index ([`crate::model::robot::Robot::sessions`]).
         session: usize,
         /// Which component.
         component: LinkComponent,
@@ -227,7 +227,7 @@ pub enum ParamKind {
         component: BodyComponent,
     },
     /// The lateral compliance of revolute joint `joint`: the joint tilts about its lateral axis
-    /// ([`crate::robot::JointElasticity::lateral_axis`]) by `lateral * tau_lateral`, the gravity
+    /// ([`crate::model::robot::JointElasticity::lateral_axis`]) by `lateral * tau_lateral`, the gravity
     /// torque about that axis (rad/(N m) internally).
     Lateral {
         /// 0-based joint index.

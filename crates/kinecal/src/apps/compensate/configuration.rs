@@ -26,8 +26,8 @@ use std::fmt;
 use nalgebra::Vector3;
 
 use crate::error::{Error, Result, Setting};
-use crate::kinematics::{Chain, Workspace};
-use crate::robot::{JointKind, Robot};
+use crate::model::kinematics::{Chain, Workspace};
+use crate::model::robot::{JointKind, Robot};
 
 /// A side of a named configuration; `None` in [`Configuration::Arm`] means either.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -26,11 +26,11 @@
 
 use nalgebra::Vector3;
 
-use crate::kinematics::Chain;
-use crate::kinematics::Target;
+use crate::model::kinematics::Chain;
+use crate::model::kinematics::Target;
+use crate::model::params::{ParamId, ParamKind};
+use crate::model::robot::{JointKind, Robot};
 use crate::observe::{Dataset, Observation};
-use crate::params::{ParamId, ParamKind};
-use crate::robot::{JointKind, Robot};
 use crate::units::{AngleUnit, Quantity};
 use crate::warning::Warning;
 
@@ -67,7 +67,7 @@ const ATTITUDE_PAIRS: usize = 200;
 /// every tool frame, so it needs neither placed. Read in the wrong angle unit (or another Euler
 /// convention), the measured attitudes give other angles than the model's.
 fn attitudes(robot: &Robot, data: &Dataset) -> Option<Warning> {
-    use crate::kinematics::rot_zyx;
+    use crate::model::kinematics::rot_zyx;
     let poses: Vec<(usize, Target, Vector3<f64>)> = data
         .observations
         .iter()

@@ -1,6 +1,6 @@
 //! The ISO 9283 figures of a log ([`evaluate`]): test by test, pose by pose and pair by pair,
 //! and across the tests of a series ([`Summary`]). The symbols are the module's
-//! ([`crate::iso9283`]).
+//! ([`crate::apps::iso9283`]).
 
 use std::collections::BTreeMap;
 
@@ -183,7 +183,7 @@ pub fn evaluation_schema() -> String {
 /// The ISO 9283 figures of a log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Evaluation {
-    /// [`crate::iso9283::SCHEMA_VERSION`] of the document.
+    /// [`crate::apps::iso9283::SCHEMA_VERSION`] of the document.
     #[serde(default)]
     pub schema_version: u32,
     /// The log's file.

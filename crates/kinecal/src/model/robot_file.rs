@@ -36,7 +36,7 @@
 //! angle = 0.02            # keys as [tolerances], and compliance); `--prior` overrides it
 //! ```
 //!
-//! A mass model ([`crate::robot::Elastic`]) makes the robot elastic: its joints yield to the
+//! A mass model ([`crate::model::robot::Elastic`]) makes the robot elastic: its joints yield to the
 //! gravity torques of its bodies. It is there when the file has `[[bodies]]` or `[gravity]`:
 //!
 //! ```toml
@@ -66,8 +66,10 @@ use std::ops::Range;
 use toml_edit::{DocumentMut, Item, Table, Value};
 
 use crate::error::{Error, Location, Result};
-use crate::params::LinkComponent;
-use crate::robot::{Body, Coupling, Elastic, Joint, JointKind, Link, Plane, Robot, Session, Site};
+use crate::model::params::LinkComponent;
+use crate::model::robot::{
+    Body, Coupling, Elastic, Joint, JointKind, Link, Plane, Robot, Session, Site,
+};
 use crate::units::number::Scale;
 use crate::units::{AngleUnit, LengthUnit, Quantity, Units};
 
@@ -759,7 +761,7 @@ impl Reader<'_> {
                 "angle" => robot.tolerances.angle = units.to_si(Quantity::Angle, v),
                 "slope" => robot.tolerances.slope_fraction = v,
                 name => {
-                    let id = crate::param_list::parse_param(name, robot).map_err(|e| {
+                    let id = crate::model::param_list::parse_param(name, robot).map_err(|e| {
                         self.err(
                             item.span(),
                             &field,
@@ -780,13 +782,13 @@ impl Reader<'_> {
         let Some(t) = self.table(root, "priors")? else {
             return Ok(());
         };
-        let mut prior = crate::robot::Prior::default();
+        let mut prior = crate::model::robot::Prior::default();
         for (key, item) in t.iter() {
             let field = format!("priors.{key}");
             let Some(v) = self.number(&t, key, &field)? else {
                 continue;
             };
-            crate::prior::set_key(&mut prior, key, v, robot)
+            crate::model::prior::set_key(&mut prior, key, v, robot)
                 .map_err(|m| self.err(item.span(), &field, m))?;
         }
         robot.priors = prior;

@@ -42,13 +42,13 @@ use rand::SeedableRng;
 
 use crate::error::{Error, Result};
 use crate::identifiability::AnalysisOptions;
-use crate::kinematics::{Chain, Target, Workspace};
 use crate::linalg::{self, Matrix};
+use crate::model::kinematics::{Chain, Target, Workspace};
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
 use crate::observe::point::{Pose, Position};
 use crate::observe::{Dataset, Observation, Posture};
-use crate::params::ParamId;
-use crate::problem::Problem;
-use crate::robot::Robot;
+use crate::solve::problem::Problem;
 use crate::workflow::{self, Selection};
 
 /// For criteria other than D, the number of candidates tried in place of each chosen posture in

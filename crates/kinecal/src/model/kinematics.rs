@@ -12,7 +12,7 @@
 //! `c`, with `e` the target origin. Slopes are the offset column times the reading.
 //! [`euler_rates`] turns the angular rows into derivatives of the ZYX angles.
 //!
-//! A robot with a mass model ([`crate::robot::Elastic`]) is elastic: its joints yield to the
+//! A robot with a mass model ([`crate::model::robot::Elastic`]) is elastic: its joints yield to the
 //! gravity torques, [`Chain::forward`] solves the static equilibrium and the Jacobian is that of
 //! the deflected robot with the deflections' response included (see the `elastic` module's
 //! documentation for the model and its derivatives).
@@ -23,8 +23,8 @@ use nalgebra::{Matrix3, Vector3};
 
 pub use elastic::{gravity_free_joints, unconverged_posture, Equilibrium, GravityFree};
 
-use crate::params::{ParamId, ParamKind};
-use crate::robot::{JointKind, Link, Robot};
+use crate::model::params::{ParamId, ParamKind};
+use crate::model::robot::{JointKind, Link, Robot};
 
 /// A rigid transform: a point `v` in this frame is `rotation * v + translation` in the parent.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -318,7 +318,7 @@ pub struct ColumnPlan {
     /// the tilt of joint i, `2i + 1` its turn).
     elastic: Vec<(usize, usize)>,
     /// The wanted components of the mass model's bodies, `(body, component, column)`.
-    bodies: Vec<(usize, crate::params::BodyComponent, usize)>,
+    bodies: Vec<(usize, crate::model::params::BodyComponent, usize)>,
     /// The node the target hangs off (0-based joint a site follows; `n` for the end
     /// effector), for an elastic robot's response.
     node: usize,
@@ -444,7 +444,7 @@ impl ColumnPlan {
         }
         let mut bodies = Vec::new();
         for body in 0..robot.body_count() {
-            for component in crate::params::BodyComponent::ALL {
+            for component in crate::model::params::BodyComponent::ALL {
                 if let Some(col) = take(robot.param_id(ParamKind::Body { body, component }).0) {
                     bodies.push((body, component, col));
                 }
@@ -545,7 +545,7 @@ impl<'r> Chain<'r> {
         &self,
         readings: &[f64],
         reading_trig: Option<&[(f64, f64)]>,
-        payload: Option<&crate::robot::Payload>,
+        payload: Option<&crate::model::robot::Payload>,
         ws: &mut Workspace,
     ) {
         match &self.robot.elastic {

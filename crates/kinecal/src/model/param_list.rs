@@ -5,12 +5,12 @@
 //! `site.NAME`, `plane.NAME`, `session.NAME`) and the groups `all`, `links`, `offsets`, `slopes`,
 //! `couplings`, `sites`, `planes`, `sessions`, `compliance`, `lateral` and `masses` (every
 //! body's mass and centre, `body2.mass`, `body2.x`, `body2` its four). The two compliance
-//! groups leave out the joints gravity cannot load ([`crate::kinematics::gravity_free_joints`]:
+//! groups leave out the joints gravity cannot load ([`crate::model::kinematics::gravity_free_joints`]:
 //! a vertical first axis): name such a joint's compliance to ask for it anyway.
 
 use crate::error::{Error, Result};
-use crate::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
-use crate::robot::Robot;
+use crate::model::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
+use crate::model::robot::Robot;
 
 /// Parses a comma-separated parameter list (see the module docs) into sorted, distinct ids.
 pub fn parse_param_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
@@ -79,7 +79,7 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
                      centres of mass to the robot file, or import a URDF with <inertial>)"
                 ));
             }
-            let free = crate::kinematics::gravity_free_joints(robot);
+            let free = crate::model::kinematics::gravity_free_joints(robot);
             let lateral = token == "lateral";
             return Ok(pick(&|k| match k {
                 ParamKind::Compliance { joint } => !lateral && !free.joint.contains(&joint),
@@ -181,11 +181,11 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         }
         let body = body - 1;
         return match comp {
-            None => Ok(crate::params::BodyComponent::ALL
+            None => Ok(crate::model::params::BodyComponent::ALL
                 .map(|component| id(ParamKind::Body { body, component }))
                 .to_vec()),
             Some(c) => {
-                let component = crate::params::BodyComponent::parse(c).ok_or_else(|| {
+                let component = crate::model::params::BodyComponent::parse(c).ok_or_else(|| {
                     format!("`{token}`: unknown body component `{c}` (expected mass, x, y or z)")
                 })?;
                 Ok(vec![id(ParamKind::Body { body, component })])

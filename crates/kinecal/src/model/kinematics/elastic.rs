@@ -1,5 +1,5 @@
 //! The elastic layer over the rigid chain: gravity torques, the static equilibrium and its
-//! derivatives (a robot with a mass model, [`crate::robot::Elastic`]).
+//! derivatives (a robot with a mass model, [`crate::model::robot::Elastic`]).
 //!
 //! Each revolute joint `i` has two deflections: a tilt `phi_i` about its lateral axis `l_i`
 //! (fixed in the joint's frame, perpendicular to the joint axis), applied at the joint's origin
@@ -35,7 +35,7 @@ use nalgebra::{Matrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 
 use super::{Chain, Workspace};
-use crate::robot::{Elastic, JointKind, Payload, Robot};
+use crate::model::robot::{Elastic, JointKind, Payload, Robot};
 
 /// How the last equilibrium went ([`Workspace::equilibrium`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,7 +76,7 @@ pub(super) enum Cause<'t> {
     /// The compliance of deflection `.0` (its own torque turns it).
     Compliance(usize),
     /// A component of body `.0`'s mass model (its mass, or a coordinate of its centre).
-    Body(usize, crate::params::BodyComponent),
+    Body(usize, crate::model::params::BodyComponent),
 }
 
 /// The elastic part of a [`Workspace`]: deflections, torques and their derivatives at the last
@@ -532,7 +532,7 @@ impl Chain<'_> {
                 Some((deflection, st.tau[deflection])),
             ),
             Cause::Body(body, component) => {
-                use crate::params::BodyComponent;
+                use crate::model::params::BodyComponent;
                 let b = &model.bodies[body];
                 let frame = &ws.after[b.joint];
                 let carried = b.joint - 1;

@@ -20,7 +20,7 @@
 //! Every solution has its revolute readings moved by whole turns (which leave the pose as it
 //! is) to the turn nearest the reference, then into the joint's range when that turn is
 //! outside it; a joint without a range in the robot file stays within half a turn of its
-//! reading range's middle (see [`crate::simulate::reading_range`]), so that no reading comes
+//! reading range's middle (see [`crate::apps::simulate::reading_range`]), so that no reading comes
 //! back several turns away. Without a seed
 //! the first usable solution is taken (from step 1 when it is usable: the previous solution's
 //! neighbour); with a seed, every usable solution of the attempts made counts and the one
@@ -33,15 +33,15 @@
 use super::configuration::Classifier;
 use super::{Compensator, Configuration, Flags, Goal, Options, Solved};
 use crate::error::Result;
-use crate::kinematics::{Target, Workspace};
-use crate::robot::{JointKind, Robot};
+use crate::model::kinematics::{Target, Workspace};
+use crate::model::robot::{JointKind, Robot};
 
 /// Starts, targets' frames and the search's work space for one calibrated robot.
 pub struct TargetSearch<'r> {
     comp: Compensator<'r>,
     robot: &'r Robot,
     options: Options,
-    /// Reading ranges starts are drawn from (the file's, else [`crate::simulate::reading_range`]).
+    /// Reading ranges starts are drawn from (the file's, else [`crate::apps::simulate::reading_range`]).
     middle: Vec<f64>,
     /// Readings per whole turn of each revolute joint whose reading no other joint couples to.
     turn: Vec<Option<f64>>,
@@ -84,7 +84,7 @@ impl<'r> TargetSearch<'r> {
         let dof = calibrated.dof();
         let middle = (0..dof)
             .map(|j| {
-                let (lo, hi) = crate::simulate::reading_range(calibrated, j);
+                let (lo, hi) = crate::apps::simulate::reading_range(calibrated, j);
                 0.5 * (lo + hi)
             })
             .collect();
@@ -105,7 +105,7 @@ impl<'r> TargetSearch<'r> {
                     .then(|| std::f64::consts::TAU / j.slope.abs())
             })
             .collect();
-        let starts = crate::simulate::sample_postures(calibrated, Self::STARTS, 7919)
+        let starts = crate::apps::simulate::sample_postures(calibrated, Self::STARTS, 7919)
             .into_iter()
             .flat_map(|p| p.readings)
             .collect();
@@ -138,7 +138,8 @@ impl<'r> TargetSearch<'r> {
         let dof = self.robot.dof();
         let mut starts = Vec::with_capacity(Self::STARTS * dof);
         for batch in 0..64 {
-            for p in crate::simulate::sample_postures(self.robot, Self::STARTS, 7919 + batch) {
+            for p in crate::apps::simulate::sample_postures(self.robot, Self::STARTS, 7919 + batch)
+            {
                 self.comp.calibrated.forward(&p.readings, &mut self.ws);
                 if c.matches(self.robot, &p.readings, &self.ws) {
                     starts.extend_from_slice(&p.readings);
@@ -161,7 +162,7 @@ impl<'r> TargetSearch<'r> {
 
     /// What the tool carries for the goals that follow ([`Compensator::set_payload`]). The
     /// table of starts stays the unloaded robot's: it only chooses where to start.
-    pub fn set_payload(&mut self, payload: Option<crate::robot::Payload>) {
+    pub fn set_payload(&mut self, payload: Option<crate::model::robot::Payload>) {
         self.comp.set_payload(payload);
     }
 
@@ -315,7 +316,7 @@ impl<'r> TargetSearch<'r> {
         let mut from = std::mem::take(&mut self.from);
         from.copy_from_slice(start);
         if self.robot.is_tree() {
-            let attach = crate::kinematics::target_joint(self.robot, target);
+            let attach = crate::model::kinematics::target_joint(self.robot, target);
             for (j, v) in from.iter_mut().enumerate() {
                 if !self.robot.joint_moves(j, attach) {
                     *v = self.reference[j];

@@ -4,11 +4,11 @@
 //! Values are in the robot file's units. Euler angles along a pose curve are unwrapped (made
 //! continuous by whole turns), so a curve shows no false jump at +-180 deg.
 
-use crate::kinematics::{Chain, Target, Workspace};
+use crate::model::kinematics::{Chain, Target, Workspace};
+use crate::model::params::{ParamId, ParamKind};
+use crate::model::robot::{JointKind, Robot};
 use crate::observe::{Dataset, OrientationError, Weights};
-use crate::params::{ParamId, ParamKind};
-use crate::problem::Problem;
-use crate::robot::{JointKind, Robot};
+use crate::solve::problem::Problem;
 use crate::units::Quantity;
 
 /// Most samples a curve may have.

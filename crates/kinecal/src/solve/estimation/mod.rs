@@ -1,12 +1,12 @@
 //! Estimation: from a starting robot and observations to estimated parameters.
 //!
-//! [`calibrate`] minimises the weighted objective of a [`Problem`](crate::problem)
+//! [`calibrate`] minimises the weighted objective of a [`Problem`](crate::solve::problem)
 //! over the chosen parameters with one of the thesis's methods (see [`solver`]), under least
 //! squares or a robust Huber loss. What to estimate, which of several equally good answers to
 //! return, pruning, validation and reporting are the [`workflow`](crate::workflow)'s.
 //!
 //! ```
-//! use kinecal::{examples, estimation::{calibrate, CalibrationOptions}, simulate};
+//! use kinecal::{model::examples, solve::estimation::{calibrate, CalibrationOptions}, apps::simulate};
 //! let nominal = examples::ge_a4();
 //! let mut truth = nominal.clone();
 //! let p1 = kinecal::ParamId(0);
@@ -29,10 +29,10 @@ pub use solver::{
 
 use crate::error::{Error, Result};
 use crate::linalg::{Matrix, QrAccumulator, QR_BLOCK};
+use crate::model::params::ParamId;
+use crate::model::robot::{Prior, Robot};
 use crate::observe::{Accuracy, Dataset, OrientationError, Weights};
-use crate::params::ParamId;
-use crate::problem::{Linearized, Problem};
-use crate::robot::{Prior, Robot};
+use crate::solve::problem::{Linearized, Problem};
 use crate::units::{wrap_angle, Quantity};
 
 /// Everything that decides an estimation.
@@ -49,7 +49,7 @@ pub struct CalibrationOptions {
     /// The loss applied to the weighted residuals.
     pub loss: Loss,
     /// A Gaussian prior on the estimated parameters' changes from the start (empty: none):
-    /// one residual row per parameter it covers (see [`crate::problem`]).
+    /// one residual row per parameter it covers (see [`crate::solve::problem`]).
     pub prior: Prior,
 }
 

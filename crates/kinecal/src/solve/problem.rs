@@ -16,14 +16,14 @@
 //! and a parameter the data cannot separate from others is held by its prior instead of
 //! drifting. The robust loss leaves the prior rows at weight 1.
 
-use crate::kinematics::{Chain, ColumnPlan, Frame, ReadingTrig, Target};
 use crate::linalg::{Matrix, QrAccumulator, RowSink};
+use crate::model::kinematics::{Chain, ColumnPlan, Frame, ReadingTrig, Target};
+use crate::model::params::{LinkComponent, ParamId, ParamKind};
+use crate::model::robot::{Prior, Robot};
 use crate::observe::{
     Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
     OrientationError, Weights,
 };
-use crate::params::{LinkComponent, ParamId, ParamKind};
-use crate::robot::{Prior, Robot};
 use crate::units::{wrap_angle, Quantity};
 use nalgebra::Vector3;
 
@@ -201,7 +201,7 @@ impl<'a> Problem<'a> {
                 matches!(
                     self.base.try_param_kind(id),
                     Some(ParamKind::Body {
-                        component: crate::params::BodyComponent::Mass,
+                        component: crate::model::params::BodyComponent::Mass,
                         ..
                     })
                 )
@@ -214,7 +214,7 @@ impl<'a> Problem<'a> {
                     .map(|body| {
                         self.base.param_id(ParamKind::Body {
                             body,
-                            component: crate::params::BodyComponent::Mass,
+                            component: crate::model::params::BodyComponent::Mass,
                         })
                     })
                     .filter(|id| !self.estimated.contains(id))
@@ -634,8 +634,8 @@ impl SessionFrames {
             .iter()
             .map(|s| {
                 let l = &s.frame;
-                let rz = crate::kinematics::rot_zyx(l.alpha, 0.0, 0.0);
-                let rzy = crate::kinematics::rot_zyx(l.alpha, l.beta, 0.0);
+                let rz = crate::model::kinematics::rot_zyx(l.alpha, 0.0, 0.0);
+                let rzy = crate::model::kinematics::rot_zyx(l.alpha, l.beta, 0.0);
                 [Vector3::z(), rz * Vector3::y(), rzy * Vector3::x()]
             })
             .collect();

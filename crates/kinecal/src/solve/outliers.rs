@@ -14,9 +14,9 @@
 //! [`FALSE_ROWS`] of a row on average (4.15 for 3,000 rows, 4.8 for 60,000, 5.6 for 6,000,000;
 //! below about 1,600 rows, `k = 4` stands).
 
-use crate::estimation::Calibration;
 use crate::observe::{Context, Dataset, ErrorSample, RobustSpread};
-use crate::problem::Problem;
+use crate::solve::estimation::Calibration;
+use crate::solve::problem::Problem;
 
 /// Default threshold, in robust standard deviations.
 pub const DEFAULT_SIGMAS: f64 = 4.0;
@@ -93,7 +93,7 @@ fn flag(cal: &Calibration, data: &Dataset, r: &[f64], k: f64) -> Vec<Outlier> {
     };
     // The residuals tell which observations are outliers; forward kinematics runs again only
     // for those, to give their errors.
-    let chain = crate::kinematics::Chain::new(robot);
+    let chain = crate::model::kinematics::Chain::new(robot);
     let mut out = Vec::new();
     let mut row = 0;
     for (i, o) in data.observations.iter().enumerate() {
@@ -103,7 +103,7 @@ fn flag(cal: &Calibration, data: &Dataset, r: &[f64], k: f64) -> Vec<Outlier> {
             .fold(0.0f64, f64::max);
         if worst > k {
             let views = o.views();
-            let mut frames = [crate::kinematics::Frame::identity(); 2];
+            let mut frames = [crate::model::kinematics::Frame::identity(); 2];
             for (f, v) in frames.iter_mut().zip(views) {
                 let at = chain.frame_at(&data.postures[v.posture].readings, v.target);
                 *f = crate::observe::observed_frame(robot, data, o, *v, at);

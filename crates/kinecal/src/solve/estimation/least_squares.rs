@@ -8,7 +8,7 @@
 //! a row at a time ([`RowSink`]), so the solver never needs an `m x n` matrix.
 
 pub use crate::linalg::RowSink;
-use crate::problem::Problem;
+use crate::solve::problem::Problem;
 
 /// A nonlinear least-squares problem: `m` residuals `r_i(x)` of `n` unknowns.
 pub trait LeastSquares {

@@ -21,10 +21,10 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::kinematics::{euler_zyx, Chain, Frame, Target, Workspace};
+use crate::model::kinematics::{euler_zyx, Chain, Frame, Target, Workspace};
+use crate::model::params::{LinkComponent, ParamId, ParamKind};
+use crate::model::robot::{Link, Robot};
 use crate::observe::{Dataset, Observation};
-use crate::params::{LinkComponent, ParamId, ParamKind};
-use crate::robot::{Link, Robot};
 
 /// The start is re-placed when its RMS position error exceeds this fraction of the robot's
 /// reach: a measurement frame placed roughly or not at all. Nearer starts are left as given
@@ -63,7 +63,9 @@ fn samples(robot: &Robot, data: &Dataset) -> Vec<Sample> {
                 posture: p.view[0].posture,
                 target: p.view[0].target,
                 position: p.position,
-                rotation: Some(crate::kinematics::rot_zyx(p.euler.x, p.euler.y, p.euler.z)),
+                rotation: Some(crate::model::kinematics::rot_zyx(
+                    p.euler.x, p.euler.y, p.euler.z,
+                )),
             }),
             Observation::Position(p) => Some(Sample {
                 posture: p.view[0].posture,
@@ -306,7 +308,7 @@ pub fn register(robot: &Robot, data: &Dataset, estimated: &[ParamId]) -> Option<
         let l = link_mut(&mut r, f);
         let mut new = tool[k];
         if !attitude {
-            new.rotation = crate::kinematics::rot_zyx(l.alpha, l.beta, l.gamma);
+            new.rotation = crate::model::kinematics::rot_zyx(l.alpha, l.beta, l.gamma);
         }
         if !origin {
             new.translation = Vector3::new(l.x, l.y, l.z);
@@ -335,11 +337,11 @@ pub fn register_far_start(
         robot,
         data,
         estimated,
-        &crate::sanity::predicted(robot, data),
+        &crate::observe::sanity::predicted(robot, data),
     )
 }
 
-/// [`register_far_start`] with `robot`'s predicted points at hand ([`crate::sanity::predicted`]).
+/// [`register_far_start`] with `robot`'s predicted points at hand ([`crate::observe::sanity::predicted`]).
 pub(crate) fn register_far_start_with(
     robot: &Robot,
     data: &Dataset,

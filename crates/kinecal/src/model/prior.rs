@@ -6,11 +6,11 @@
 //! `tolerances` (the robot file's `[tolerances]`, read as standard deviations) and `none`.
 //!
 //! What a prior does to a calibration (one residual row per estimated parameter with a prior)
-//! is said in [`crate::problem`]; the type is [`Prior`].
+//! is said in [`crate::solve::problem`]; the type is [`Prior`].
 
 use crate::error::{Error, Result, Setting};
-use crate::params::ParamId;
-use crate::robot::{Prior, Robot};
+use crate::model::params::ParamId;
+use crate::model::robot::{Prior, Robot};
 use crate::units::{number::format_number, Quantity};
 
 /// The group keys of a prior, in the order [`describe`] writes them.
@@ -36,7 +36,7 @@ pub(crate) fn set_key(
         "slope" => prior.slope = Some(value),
         "compliance" => prior.compliance = Some(u.to_si(Quantity::Compliance, value)),
         name => {
-            let id = crate::param_list::parse_param(name, robot).map_err(|e| {
+            let id = crate::model::param_list::parse_param(name, robot).map_err(|e| {
                 format!("{e} (expected length, angle, slope, compliance or a parameter)")
             })?;
             let si = u.to_si(robot.param_quantity(id), value);

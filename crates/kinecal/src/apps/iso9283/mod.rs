@@ -28,7 +28,7 @@
 //!
 //! The cube is given ([`Cube`]) or searched for ([`PlanRequest::cube`] `None`): a grid over the
 //! box of positions the end effector reaches within the joint ranges is tested point by point
-//! (inverse kinematics through [`crate::compensate::TargetSearch`], the solution's forward
+//! (inverse kinematics through [`crate::apps::compensate::TargetSearch`], the solution's forward
 //! kinematics compared with the goal; unreachable, outside a joint range or near a singularity
 //! counts as not reached); the largest axis-aligned cube of reached grid points is then grown or
 //! shrunk, by bisection of its side about its centre, until its five test poses *and its eight
@@ -103,11 +103,11 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
-use crate::compensate::{Goal, Options, TargetSearch};
+use crate::apps::compensate::{Goal, Options, TargetSearch};
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::table;
-use crate::kinematics::{euler_zyx, log_so3, rot_zyx, Chain, Frame, Target};
-use crate::robot::Robot;
+use crate::model::kinematics::{euler_zyx, log_so3, rot_zyx, Chain, Frame, Target};
+use crate::model::robot::Robot;
 use crate::units::{number, AngleUnit, LengthUnit, Quantity};
 
 /// The order in which one cycle visits the poses (ISO 9283:1998, 7.2): `P1, P5, P4, P3, P2`,
@@ -389,7 +389,7 @@ fn search(
 ) -> Result<(Cube, Vec<TestPose>, SearchInfo)> {
     // The box of positions the end effector reaches within the joint ranges, at any attitude.
     let chain = Chain::new(robot);
-    let samples: Vec<Vector3<f64>> = crate::simulate::sample_postures(robot, 2000, 9283)
+    let samples: Vec<Vector3<f64>> = crate::apps::simulate::sample_postures(robot, 2000, 9283)
         .iter()
         .map(|p| chain.frame_at(&p.readings, Target::EndEffector).translation)
         .collect();

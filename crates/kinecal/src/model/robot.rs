@@ -27,7 +27,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::params::{BodyComponent, LinkComponent, ParamId, ParamKind, PlaneComponent};
+use crate::model::params::{BodyComponent, LinkComponent, ParamId, ParamKind, PlaneComponent};
 use crate::units::{Quantity, Units};
 
 /// The six parameters of a link (or of a site's attachment), internal units.
@@ -578,10 +578,10 @@ impl Default for Tolerances {
 /// A Gaussian prior on the parameters' changes from their starting values: per parameter, the
 /// standard deviation (internal units) of its change, by group and per parameter. A calibration
 /// with a prior minimises the data's weighted squared residuals plus `sum ((p - p0) / s_p)^2`
-/// over the estimated parameters with a standard deviation `s_p` (see [`crate::problem`]).
+/// over the estimated parameters with a standard deviation `s_p` (see [`crate::solve::problem`]).
 /// Written as `length=L,angle=A,slope=F,compliance=C,NAME=V` (the robot file's units; slopes as
 /// a fraction, as in [`Tolerances`]) on the command line and in a robot file's `[priors]` table
-/// (read by `crate::prior`). Groups not given leave their parameters without a prior; an empty
+/// (read by `crate::model::prior`). Groups not given leave their parameters without a prior; an empty
 /// prior is none.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Prior {

@@ -1,0 +1,12 @@
+//! Solving for the parameters: in the order each uses the ones before it, [`problem`] (the
+//! weighted residuals and Jacobian of a dataset), [`estimation`] (one solver driver, four step
+//! rules, a robust loss), [`registration`] (the closed-form placement of a far start: the
+//! measurement frame, the measured frames, each session's frame) and [`outliers`].
+
+pub mod problem;
+
+pub mod estimation;
+
+pub mod registration;
+
+pub mod outliers;
