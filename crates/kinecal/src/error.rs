@@ -392,7 +392,7 @@ impl Location {
     }
 
     /// The same file, at `line`.
-    pub fn at_line(&self, line: usize) -> Self {
+    pub(crate) fn at_line(&self, line: usize) -> Self {
         Self {
             line: Some(line),
             ..self.clone()
@@ -400,7 +400,7 @@ impl Location {
     }
 
     /// The same place, naming `field`.
-    pub fn with_field(&self, field: impl Into<String>) -> Self {
+    pub(crate) fn with_field(&self, field: impl Into<String>) -> Self {
         Self {
             field: Some(field.into()),
             ..self.clone()

@@ -58,12 +58,12 @@ impl Matrix {
     }
 
     /// Column `j`, mutable.
-    pub fn col_mut(&mut self, j: usize) -> &mut [f64] {
+    pub(crate) fn col_mut(&mut self, j: usize) -> &mut [f64] {
         &mut self.data[j * self.rows..(j + 1) * self.rows]
     }
 
     /// Resizes to `rows x cols` (contents unspecified afterwards), reusing the allocation.
-    pub fn resize(&mut self, rows: usize, cols: usize) {
+    pub(crate) fn resize(&mut self, rows: usize, cols: usize) {
         self.rows = rows;
         self.cols = cols;
         self.data.resize(rows * cols, 0.0);
@@ -444,7 +444,7 @@ const TIE: f64 = 1e-10;
 /// Ties (norms within 1e-10 relative of the largest) go to the column listed first in the
 /// `order` given to [`PivotedQr::with_order`] (by default, the lowest index).
 #[derive(Debug, Clone)]
-pub struct PivotedQr {
+pub(crate) struct PivotedQr {
     /// `T` (upper triangular, `min(m, n) x n`, column `k` is column `perm[k]` of `A`).
     t: Matrix,
     /// The Householder vectors (below the diagonal, column `k` for step `k`; `v_k = 1` at
@@ -463,7 +463,7 @@ impl PivotedQr {
     }
 
     /// `A P = Q T`, ties to the column listed first in `order` (a permutation of the columns).
-    pub fn with_order(a: &Matrix, order: &[usize]) -> Self {
+    pub(crate) fn with_order(a: &Matrix, order: &[usize]) -> Self {
         let (m, n) = (a.nrows(), a.ncols());
         assert_eq!(order.len(), n, "order must list every column");
         let steps = m.min(n);
@@ -562,7 +562,7 @@ impl PivotedQr {
     }
 
     /// The permutation: `perm()[k]` is the column of `A` in position `k`.
-    pub fn perm(&self) -> &[usize] {
+    pub(crate) fn perm(&self) -> &[usize] {
         &self.perm
     }
 
@@ -581,7 +581,7 @@ impl PivotedQr {
     }
 
     /// `Q b` in place (`b` has `m` entries).
-    pub fn apply_q(&self, b: &mut [f64]) {
+    pub(crate) fn apply_q(&self, b: &mut [f64]) {
         let m = self.v.nrows();
         assert_eq!(b.len(), m);
         for k in (0..self.tau.len()).rev() {
@@ -594,7 +594,7 @@ impl PivotedQr {
     }
 
     /// `Q^T b` in place (`b` has `m` entries).
-    pub fn apply_qt(&self, b: &mut [f64]) {
+    pub(crate) fn apply_qt(&self, b: &mut [f64]) {
         let m = self.v.nrows();
         assert_eq!(b.len(), m);
         for k in 0..self.tau.len() {

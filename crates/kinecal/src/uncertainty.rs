@@ -41,10 +41,10 @@ use crate::observe::Dataset;
 use crate::solve::estimation::Calibration;
 
 /// Changes below this many standard deviations are reported as within the noise.
-pub const NOISE_SIGMAS: f64 = 2.0;
+pub(crate) const NOISE_SIGMAS: f64 = 2.0;
 
 /// Correlations above this (in magnitude) are reported.
-pub const HIGH_CORRELATION: f64 = 0.95;
+pub(crate) const HIGH_CORRELATION: f64 = 0.95;
 
 /// One estimated parameter's uncertainty (file units).
 #[derive(Debug, Clone, PartialEq)]
@@ -132,7 +132,7 @@ pub struct Uncertainty {
     /// part in other dependencies have no determined combination of their own and are left out).
     pub combinations: Vec<CombinationUncertainty>,
     /// Pairs of determined parameters correlated above [`HIGH_CORRELATION`].
-    pub correlations: Vec<(ParamId, ParamId, f64)>,
+    pub(crate) correlations: Vec<(ParamId, ParamId, f64)>,
     /// The identifiability analysis behind it (without the display-only parts: row labels,
     /// file-unit Jacobian and its singular values are empty; `identifiability::analyze` gives
     /// them).

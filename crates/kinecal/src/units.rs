@@ -324,7 +324,7 @@ impl DisplayChoice {
     }
 
     /// Whether it is the default (left out of a spec written down).
-    pub fn is_default(&self) -> bool {
+    pub(crate) fn is_default(&self) -> bool {
         *self == DisplayChoice::Default
     }
 }
@@ -478,7 +478,7 @@ pub mod number {
 /// digits when that is within 4 units in the last place of it (an estimate of 15.28 that came
 /// out as 15.279999999999998 after unit conversions), else the value itself. A robot written and
 /// read back is the same to 1e-15, and writing it again gives the same file.
-pub fn tidy(v: f64, scale: number::Scale) -> f64 {
+pub(crate) fn tidy(v: f64, scale: number::Scale) -> f64 {
     let v = number::denoise(v, scale);
     if v == 0.0 || !v.is_finite() {
         return v;

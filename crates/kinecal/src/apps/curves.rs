@@ -40,7 +40,7 @@ pub fn sweep(from: f64, to: f64, points: usize) -> crate::Result<Vec<f64>> {
 /// The default half-width of a sweep of parameter `id` (file units), by its kind and the
 /// robot's size: lengths the robot's reach (a fifth of it for the objective), angles 50 deg
 /// (10 deg), slopes and coupling factors half their value (a tenth), at least 1 unit.
-pub fn default_half_width(robot: &Robot, id: ParamId, objective: bool) -> f64 {
+pub(crate) fn default_half_width(robot: &Robot, id: ParamId, objective: bool) -> f64 {
     let u = robot.units;
     let scale = if objective { 0.2 } else { 1.0 };
     match robot.param_quantity(id) {

@@ -329,7 +329,7 @@ pub mod qkm_hl6 {
     #[derive(Debug, Clone)]
     pub struct QkmData {
         /// The nominal robot as a product-of-exponentials file (mm, deg; reference frame).
-        pub poe_toml: String,
+        pub(crate) poe_toml: String,
         /// The nominal robot: joints from the POE model, the three reflectors as sites on joint 6
         /// at their measured zero-configuration positions.
         pub robot: Robot,
@@ -411,7 +411,7 @@ pub mod qkm_hl6 {
     /// Loads the data set from its files: each must have the rows its README gives (46
     /// identification rows, 9 test rows, 3 reference and 3 reflector points), every number
     /// finite and within +-1e9, the reflector indices 1 to 3.
-    pub fn load_folder(folder: &Folder) -> Result<QkmData> {
+    pub(crate) fn load_folder(folder: &Folder) -> Result<QkmData> {
         let (r, o) = reference_frame(&folder.read(REF.0)?)?;
         let smr_source = folder.read(SMR.0)?;
         let (smr, smr_lines) = read_rows(&smr_source, 3, SMR.1)?;
@@ -541,7 +541,7 @@ pub mod fanuc_r2000ic {
     #[derive(Debug, Clone)]
     pub struct FanucData {
         /// The nominal robot as a product-of-exponentials file (mm, deg; robot World frame).
-        pub poe_toml: String,
+        pub(crate) poe_toml: String,
         /// The nominal robot, joint 3 coupled to joint 2.
         pub robot: Robot,
         /// 36 postures x 3 reflector positions (mm in files; the World frame).
@@ -559,7 +559,7 @@ pub mod fanuc_r2000ic {
     /// Loads the data set from its files: `N1N2N3Jval.csv` must have 36 rows of 21 numbers with
     /// three distinct reflector positions not on a line in each, the two transforms 3 rows of
     /// `[R | t]` with `R` a rotation; every number finite and within +-1e9.
-    pub fn load_folder(folder: &Folder) -> Result<FanucData> {
+    pub(crate) fn load_folder(folder: &Folder) -> Result<FanucData> {
         let source = folder.read("N1N2N3Jval.csv")?;
         let (rows, lines) = read_rows(&source, 21, POSTURES)?;
         let (rw, tw) = transform(&folder.read("TransTractoWorld0.csv")?)?;
@@ -744,7 +744,7 @@ pub mod ur10e_camera {
     /// Loads the data set from its files: the URDF's chain from `world` to `wrist_3_link` must
     /// have 6 joints, `calibration.csv` the header and 23 rows of 12 numbers, each finite and
     /// within +-1e9.
-    pub fn load_folder(folder: &Folder) -> Result<Ur10eData> {
+    pub(crate) fn load_folder(folder: &Folder) -> Result<Ur10eData> {
         let urdf = folder.read("ur10_robot.urdf")?;
         let robot = crate::import::urdf::import_urdf(
             &urdf.text,
@@ -1084,7 +1084,7 @@ kinematics:
     }
 
     /// The nominal UR10 ([`UR10_KINEMATICS`] imported).
-    pub fn nominal_robot() -> Robot {
+    pub(crate) fn nominal_robot() -> Robot {
         let mut robot = crate::import::ur::import_ur(UR10_KINEMATICS, "<ur10 default_kinematics>")
             .expect("the built-in UR10 kinematics import")
             .robot;
@@ -1273,13 +1273,13 @@ kinematics:
     /// of its README, the standard deviations in B-D) and the rows of [`SERIES`]; every field
     /// read (the joints, the temperature, the position and its standard deviations) a finite
     /// number within +-1e9 with a decimal comma, the standard deviations positive.
-    pub fn load_folder(folder: &Folder) -> Result<IpaData> {
+    pub(crate) fn load_folder(folder: &Folder) -> Result<IpaData> {
         load_trimmed(folder, SERIES.map(|s| s.rows))
     }
 
     /// [`load_folder`] of a copy of the data set cut to `rows` rows per series, A to D (a quick
     /// look, tests): the row counts checked are these.
-    pub fn load_trimmed(folder: &Folder, rows: [usize; 4]) -> Result<IpaData> {
+    pub(crate) fn load_trimmed(folder: &Folder, rows: [usize; 4]) -> Result<IpaData> {
         let mut series = Vec::with_capacity(4);
         let mut temperatures = Vec::with_capacity(4);
         let mut goals = Vec::with_capacity(4);
@@ -1354,7 +1354,7 @@ kinematics:
         convert_trimmed(folder, SERIES.map(|s| s.rows))
     }
 
-    /// [`convert`] of a copy cut to `rows` rows per series ([`load_trimmed`]).
+    /// [`convert`] of a copy cut to `rows` rows per series (`load_trimmed`).
     pub fn convert_trimmed(folder: &Folder, rows: [usize; 4]) -> Result<Converted> {
         let d = load_trimmed(folder, rows)?;
         let mut files = vec![("ur10.toml".to_string(), write_robot_toml(&d.robot, None))];

@@ -34,7 +34,7 @@
 //! candidates adding most `log det` are tried. Everything is deterministic: ties go to the lower
 //! candidate index, and the random plans the result is compared with are drawn from the given seed.
 //!
-//! A candidate is a group of postures the pool's observations link ([`Dataset::posture_groups`]):
+//! A candidate is a group of postures the pool's observations link (`Dataset::posture_groups`):
 //! a posture with all its targets (tool, reflectors), or the two ends of a distance.
 
 use rand::seq::SliceRandom;
@@ -63,7 +63,7 @@ const RIDGE: f64 = 1e-8;
 const MAX_PASSES: usize = 100;
 
 /// How many random plans the result is compared with.
-pub const RANDOM_PLANS: usize = 100;
+pub(crate) const RANDOM_PLANS: usize = 100;
 
 /// What a plan maximises (see the [module documentation](self) for the formulas).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]

@@ -138,7 +138,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
 /// Writes the contacts of `data` as a contact file in `robot`'s units, read back by
 /// [`parse_contacts`] to the same numbers (readings and gaps as [`crate::units::number`] says,
 /// with the file's scale of each; sigmas exactly). Observations of other kinds are not written.
-pub fn write_contacts(robot: &Robot, data: &Dataset) -> String {
+pub(crate) fn write_contacts(robot: &Robot, data: &Dataset) -> String {
     use crate::units::number::{format_number, write, Scale};
     use std::fmt::Write as _;
     let contacts: Vec<&Contact> = data

@@ -23,7 +23,7 @@ use crate::units::{AngleUnit, Quantity};
 
 /// A robot brand's joint-target convention.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Brand {
+pub(crate) enum Brand {
     /// Universal Robots: radians, joints named base to wrist 3.
     Ur,
     /// ABB: degrees, `rax_1..rax_n`.
@@ -104,7 +104,7 @@ impl Brand {
 }
 
 /// The opening of a URScript program.
-pub fn urscript_begin(robot: &Robot, source: &str) -> String {
+pub(crate) fn urscript_begin(robot: &Robot, source: &str) -> String {
     format!(
         "# compensated joint targets for {} from {source}, written by kinecal {}\n\
          def kinecal_program():\n",
@@ -114,7 +114,7 @@ pub fn urscript_begin(robot: &Robot, source: &str) -> String {
 }
 
 /// One `movej` of a URScript program (`joints` in rad), with the row's label as a comment.
-pub fn urscript_move(label: &str, joints: &[f64]) -> String {
+pub(crate) fn urscript_move(label: &str, joints: &[f64]) -> String {
     let q: Vec<String> = joints.iter().map(|v| format!("{:.10}", v)).collect();
     format!(
         "  # {}\n  movej([{}], a=1.4, v=1.05)\n",
@@ -124,12 +124,12 @@ pub fn urscript_move(label: &str, joints: &[f64]) -> String {
 }
 
 /// The end of a URScript program, and its call.
-pub fn urscript_end() -> &'static str {
+pub(crate) fn urscript_end() -> &'static str {
     "end\nkinecal_program()\n"
 }
 
 /// A joint value for a joint-target table (ten decimals, no `-0`).
-pub fn joint_field(v: f64) -> String {
+pub(crate) fn joint_field(v: f64) -> String {
     let s = format!("{v:.10}");
     if s.trim_start_matches('-')
         .bytes()

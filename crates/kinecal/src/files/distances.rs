@@ -109,7 +109,7 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
 /// [`crate::units::number`] says, with the file's scale of each; sigmas exactly). A pair is
 /// named after its postures when they were read from a distance file (`P/a` and `P/b`: pair
 /// `P`), else numbered. Observations of other kinds are not written.
-pub fn write_distances(robot: &Robot, data: &Dataset) -> String {
+pub(crate) fn write_distances(robot: &Robot, data: &Dataset) -> String {
     use crate::units::number::{format_number, write, Scale};
     use std::fmt::Write as _;
     let n = robot.dof();

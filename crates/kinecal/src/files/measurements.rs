@@ -28,12 +28,13 @@ pub(super) const FORMAT: Format = Format {
 };
 
 /// The columns `kinecal compensate` adds to a measurement file it solved.
-pub const COMPENSATED_COLUMNS: [&str; 4] =
+pub(crate) const COMPENSATED_COLUMNS: [&str; 4] =
     ["position_error", "attitude_error", "iterations", "flags"];
 
 /// The columns of the payload a posture's tool carries (kg; centre of mass in the end-effector
 /// frame, in the file's length unit): an elastic robot's joints yield to its weight.
-pub const PAYLOAD_COLUMNS: [&str; 4] = ["payload_mass", "payload_cx", "payload_cy", "payload_cz"];
+pub(crate) const PAYLOAD_COLUMNS: [&str; 4] =
+    ["payload_mass", "payload_cx", "payload_cy", "payload_cz"];
 
 /// Names of the columns of one measured target.
 const MARKER_COLUMNS: [&str; 11] = [
@@ -67,7 +68,7 @@ fn measurement_header(robot: &Robot) -> Vec<String> {
 }
 
 /// The postures-file header for `robot`.
-pub fn postures_header(robot: &Robot) -> Vec<String> {
+pub(crate) fn postures_header(robot: &Robot) -> Vec<String> {
     let mut h = vec!["posture".to_string()];
     h.extend(reading_columns(robot.dof()));
     h

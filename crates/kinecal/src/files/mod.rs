@@ -49,20 +49,22 @@ use crate::model::kinematics::Target;
 use crate::model::robot::Robot;
 use crate::observe::{Dataset, Observation};
 
-pub use contacts::{parse_contacts, write_contacts};
-pub use distances::{parse_distances, write_distances};
+pub use contacts::parse_contacts;
+pub use distances::parse_distances;
 pub use measurements::{
-    parse_measurements, parse_measurements_mapped, parse_postures, postures_header,
-    write_measurements, write_postures, ColumnMap, COMPENSATED_COLUMNS, NOT_READ, PAYLOAD_COLUMNS,
+    parse_measurements, parse_measurements_mapped, parse_postures, write_measurements,
+    write_postures, ColumnMap, NOT_READ,
 };
-pub use read::{
-    kind_index, read_files, read_observation_file, read_options, session_name, ObservationFile,
-    ReadSettings,
-};
+pub use read::{read_files, ObservationFile, ReadSettings};
+
+pub(crate) use contacts::write_contacts;
+pub(crate) use distances::write_distances;
+pub(crate) use measurements::{postures_header, COMPENSATED_COLUMNS, PAYLOAD_COLUMNS};
+pub(crate) use read::kind_index;
 
 /// The observations of `data` as one file of kinecal's, read back to the same numbers: a
 /// measurement file for poses and positions ([`write_measurements`]), a distance file for
-/// distances ([`write_distances`]), a contact file for contacts ([`write_contacts`]). A file
+/// distances (`write_distances`), a contact file for contacts (`write_contacts`). A file
 /// holds one of these three; observations of two of them are refused, naming the kinds found.
 pub fn write_observations(robot: &Robot, data: &Dataset) -> Result<String> {
     let kinds = data.kinds();
@@ -205,7 +207,7 @@ pub fn read_observations(
 
 /// [`read_observations`] as a file of the format `FORMATS[format]`, whatever its header (which
 /// that format's reader then checks).
-pub fn read_observations_as(
+pub(crate) fn read_observations_as(
     text: &str,
     file: &str,
     robot: &Robot,
@@ -247,7 +249,7 @@ pub fn read_observations_as(
 /// The column that heads joint `j`'s (0-based) readings in a file of `header`: `vK` (K = j + 1),
 /// or the joint's name (robot file `[[joints]] name`) when the file has that column and not `vK`.
 /// Names are compared as the header's other columns are, ignoring ASCII case.
-pub fn reading_column(robot: &Robot, header: &[String], j: usize) -> String {
+pub(crate) fn reading_column(robot: &Robot, header: &[String], j: usize) -> String {
     let v = format!("v{}", j + 1);
     let has = |c: &str| header.iter().any(|h| h.eq_ignore_ascii_case(c));
     match &robot.joints[j].name {

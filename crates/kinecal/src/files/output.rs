@@ -79,7 +79,7 @@ pub fn remove_temporaries_on_signals() {
 }
 
 /// The start of the name of every temporary file kinecal writes.
-pub const TEMP_PREFIX: &str = ".kinecal-tmp-";
+pub(crate) const TEMP_PREFIX: &str = ".kinecal-tmp-";
 
 /// How old a temporary file of a dead process must be before it is removed.
 const STALE_AFTER: Duration = Duration::from_secs(60);
@@ -516,7 +516,7 @@ impl Staged {
     /// Creates a fresh temporary file for `path` and lets `write` fill it by its path (for
     /// writers that open files themselves). For an output written in place, the temporary file
     /// is in the system's temporary folder and its bytes are kept for the commit.
-    pub fn by_path<E: From<Error>>(
+    pub(crate) fn by_path<E: From<Error>>(
         &mut self,
         path: &Path,
         write: impl FnOnce(&Path) -> std::result::Result<(), E>,

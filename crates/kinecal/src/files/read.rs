@@ -42,7 +42,7 @@ pub struct ReadSettings {
     #[serde(default, skip_serializing_if = "is_default")]
     pub position_only: bool,
     /// Each file a measurement session of its own (an instrument moved between files),
-    /// named after the file ([`session_name`]).
+    /// named after the file (`session_name`).
     #[serde(default, skip_serializing_if = "is_default")]
     pub session_per_file: bool,
 }
@@ -95,7 +95,7 @@ fn unit<U: std::str::FromStr<Err = String>>(
 
 /// How `file` is read: its own mapping and units, else `read`'s (the shared mapping applies to
 /// measurement files only).
-pub fn read_options(
+pub(crate) fn read_options(
     read: &ReadSettings,
     file: &ObservationFile,
     kind: usize,
@@ -127,7 +127,7 @@ pub fn read_options(
 
 /// Reads the observation files `list` for `robot`, as `read` says, into one dataset, and
 /// their sources; with `read.session_per_file`, each file's session is named to tell it from
-/// the files `all` ([`session_name`]).
+/// the files `all` (`session_name`).
 pub fn read_files(
     read: &ReadSettings,
     list: &[ObservationFile],
@@ -156,7 +156,7 @@ pub fn read_files(
 }
 
 /// The index into [`FORMATS`] of an observation file kind named `name`.
-pub fn kind_index(name: &str) -> Result<usize> {
+pub(crate) fn kind_index(name: &str) -> Result<usize> {
     FORMATS
         .iter()
         .position(|f| f.option == name)
@@ -178,7 +178,7 @@ pub fn kind_index(name: &str) -> Result<usize> {
 /// Reads one observation file, `source`, as a file of the kind `FORMATS[kind]` for `robot`,
 /// through `opts`; its postures without a session of their own go in `session`. The one reader
 /// of observation files behind every front end.
-pub fn read_observation_file(
+pub(crate) fn read_observation_file(
     source: &Source,
     kind: usize,
     opts: &ReadOptions,
@@ -194,7 +194,7 @@ pub fn read_observation_file(
 
 /// The session of a file read one session per file: its name without the extension, with as
 /// many parent folders as it takes to tell it from the other files `all`.
-pub fn session_name(path: &Path, all: &[&Path]) -> String {
+pub(crate) fn session_name(path: &Path, all: &[&Path]) -> String {
     let parts = |p: &Path| -> Vec<String> {
         let mut v: Vec<String> = p
             .with_extension("")

@@ -180,7 +180,7 @@ pub fn cell(rows: &Rows, line: u64, c: usize) -> Result<f64> {
 
 /// Where a file's payload columns are ([`super::PAYLOAD_COLUMNS`]); an error when a centre of
 /// mass comes without `payload_mass`.
-pub fn payload_columns(rows: &Rows) -> Result<[Option<usize>; 4]> {
+pub(crate) fn payload_columns(rows: &Rows) -> Result<[Option<usize>; 4]> {
     let cols = super::PAYLOAD_COLUMNS.map(|c| rows.column(c));
     if cols[0].is_none() {
         if let Some(i) = cols[1..].iter().flatten().next() {
@@ -198,7 +198,7 @@ pub fn payload_columns(rows: &Rows) -> Result<[Option<usize>; 4]> {
 /// The payload of the current row: none without a `payload_mass` column or with its cell
 /// empty; else the mass (kg, 0 to 1e6) and the centre of mass in the end-effector frame (the
 /// robot file's length unit, converted; 0 where a column is absent or empty).
-pub fn payload_at(
+pub(crate) fn payload_at(
     rows: &Rows,
     line: u64,
     cols: &[Option<usize>; 4],

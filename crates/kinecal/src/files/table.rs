@@ -22,7 +22,7 @@ pub(crate) struct Table<'a> {
     pub file: String,
     pub header: Vec<String>,
     /// The header's line.
-    pub header_line: usize,
+    pub(crate) header_line: usize,
     /// The text the fields are spans of.
     text: Cow<'a, str>,
     /// Each field's byte range in `text`, trimmed, row after row.
@@ -363,7 +363,7 @@ impl Table<'_> {
     }
 
     /// Every row must have as many fields as the header.
-    pub fn check_rows(&self) -> Result<()> {
+    pub(crate) fn check_rows(&self) -> Result<()> {
         for (line, f) in self.rows() {
             if f.len() != self.header.len() {
                 return Err(Error::input(
@@ -389,7 +389,7 @@ impl Table<'_> {
 
     /// Refuses a column of the header that is not among `known` (ASCII case-insensitive): the
     /// error names the `expected` header.
-    pub fn refuse_unknown(&self, known: &[String], expected: &str) -> Result<()> {
+    pub(crate) fn refuse_unknown(&self, known: &[String], expected: &str) -> Result<()> {
         match self
             .header
             .iter()
@@ -405,7 +405,7 @@ impl Table<'_> {
 
     /// The index of the required column `name` (ASCII case-insensitive); an error naming the
     /// `expected` header when there is none.
-    pub fn require(&self, name: &str, expected: &str) -> Result<usize> {
+    pub(crate) fn require(&self, name: &str, expected: &str) -> Result<usize> {
         self.column(name).ok_or_else(|| {
             Error::input(
                 self.header_at().with_field(name),
@@ -420,7 +420,7 @@ impl Table<'_> {
     }
 
     /// The header's location.
-    pub fn header_at(&self) -> Location {
+    pub(crate) fn header_at(&self) -> Location {
         Location::file(&self.file).at_line(self.header_line)
     }
 

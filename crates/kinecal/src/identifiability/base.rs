@@ -373,7 +373,7 @@ pub(super) struct NoiseColumn {
     pub ratio: f64,
     /// Its regression on the chosen columns (in their pivot order), noise-scaled:
     /// `a_j / e_j ~= sum_l coef[l] a_chosen[l] / e_chosen[l]`.
-    pub coef: Vec<f64>,
+    pub(crate) coef: Vec<f64>,
 }
 
 /// What [`select_base`] chose.

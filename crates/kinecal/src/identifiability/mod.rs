@@ -141,7 +141,7 @@ pub struct NoiseDependent {
     /// does, which is why the data cannot tell them apart.
     pub terms: Vec<(ParamId, f64)>,
     /// The number of smaller terms of the regression left out of `terms`.
-    pub omitted: usize,
+    pub(crate) omitted: usize,
 }
 
 impl NoiseDependent {
@@ -225,10 +225,10 @@ pub struct Analysis {
     /// Warnings (unclear gap, ...).
     pub warnings: Vec<Warning>,
     /// Column scale factors (norms of the weighted SI columns).
-    pub column_norms: Vec<f64>,
+    pub(crate) column_norms: Vec<f64>,
     /// Right singular vectors of the scaled Jacobian (n x n), in the order of the singular
     /// values: columns `rank..` span the null space.
-    pub right_singular_vectors: Matrix,
+    pub(crate) right_singular_vectors: Matrix,
 }
 
 impl Analysis {
@@ -240,14 +240,6 @@ impl Analysis {
     /// The same in file units.
     pub fn condition_number_file(&self) -> f64 {
         cond(&self.singular_values_file, self.rank)
-    }
-
-    /// Whether parameter `id` (one of the analysed) is individually determined.
-    pub fn is_determined(&self, id: ParamId) -> bool {
-        self.parameters
-            .iter()
-            .position(|&p| p == id)
-            .is_some_and(|k| self.determined[k])
     }
 
     /// The analysed parameters determined with the prior but not by the data alone (none

@@ -16,7 +16,7 @@ use super::base::TypicalRowTally;
 /// last), and when the rows were at hand, the typical-row information `e_j` and the accuracy.
 pub(super) struct Rows {
     /// `R` of the weighted `[J | r]`.
-    pub raug: Matrix,
+    pub(crate) raug: Matrix,
     /// `e_j` per parameter ([`super::Analysis::typical_row`]), when the rows were at hand.
     pub typical: Option<Vec<f64>>,
     /// The accuracy at the rows, when they were evaluated.
@@ -85,7 +85,7 @@ pub(super) fn rows(
 /// its singular values and right vectors.
 pub(super) struct Scaled {
     /// The norms of the weighted SI columns.
-    pub column_norms: Vec<f64>,
+    pub(crate) column_norms: Vec<f64>,
     /// Per column, whether no measurement feels it (a zero column).
     pub unfelt: Vec<bool>,
     /// The parameters of the unfelt columns.
@@ -95,7 +95,7 @@ pub(super) struct Scaled {
     /// Its singular values, non-increasing.
     pub values: Vec<f64>,
     /// Its right singular vectors, in the order of the values.
-    pub vectors: Matrix,
+    pub(crate) vectors: Matrix,
 }
 
 impl Scaled {

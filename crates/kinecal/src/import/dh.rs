@@ -331,7 +331,7 @@ fn settle<T: PartialEq + Copy + std::fmt::Display>(
 
 /// Reads a DH table: the units and convention it states, or those given (which must agree with
 /// what it states; for a table that states none they must be given), and its rows.
-pub fn read_dh_table(
+pub(crate) fn read_dh_table(
     text: &str,
     file: &str,
     length: Option<LengthUnit>,
@@ -372,7 +372,7 @@ pub fn read_dh_table(
 }
 
 /// Reads a DH table file (`text`, named `file` in errors), in the units and convention it
-/// states or is given ([`read_dh_table`]), and builds the robot ([`robot_from_dh`]) in those
+/// states or is given (`read_dh_table`), and builds the robot ([`robot_from_dh`]) in those
 /// units, refusing a table whose robot is not usable (values beyond +-1e9 once converted).
 pub fn import_dh(
     text: &str,
@@ -482,7 +482,7 @@ pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> 
 /// Consecutive axes within this angle of parallel (or anti-parallel) take the Hayati/Mooring
 /// form: where their classical common normal would lie more than `1/sin(1 deg)`, 57 times their
 /// distance, away.
-pub const NEAR_PARALLEL: f64 = 1.0 * std::f64::consts::PI / 180.0;
+pub(crate) const NEAR_PARALLEL: f64 = 1.0 * std::f64::consts::PI / 180.0;
 
 /// A joint axis (or the tool's z axis) at zero readings: a point on it and its unit direction.
 #[derive(Debug, Clone, Copy)]
@@ -607,7 +607,7 @@ fn is_zero(r: &DhRow) -> bool {
 /// not the base z axis (standard) or when the base x is not the first common normal
 /// (modified), after the last one for the tool. Every value is finite; an error names the
 /// joint otherwise.
-pub fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow>> {
+pub(crate) fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow>> {
     use crate::model::kinematics::{Chain, Target, Workspace};
     let n = robot.dof();
     let chain = Chain::new(robot);
@@ -797,7 +797,7 @@ fn num(v: f64) -> String {
     format!("{r}")
 }
 
-/// A DH table as text, read back by [`read_dh_table`]: comment lines stating the convention
+/// A DH table as text, read back by `read_dh_table`: comment lines stating the convention
 /// (with its formula) and the units, then `kind,a,alpha,d,theta`, with a `beta` column when a
 /// row has one.
 pub fn write_dh_table(rows: &[DhRow], units: Units, convention: Convention) -> String {
@@ -944,7 +944,7 @@ impl DhExport {
     }
 }
 
-/// `robot` as a DH table in `convention` and `units` ([`dh_rows`], [`write_dh_table`]), read
+/// `robot` as a DH table in `convention` and `units` (`dh_rows`, [`write_dh_table`]), read
 /// back with [`import_dh`] (the units and convention the text states) and compared with the
 /// robot over the joint ranges ([`readback`]): the table's joint variables are the readings,
 /// converted from the robot file's units to the table's.

@@ -20,7 +20,7 @@ use crate::model::robot::Robot;
 pub struct JointTableExport {
     /// The table.
     pub text: String,
-    /// The table read back ([`apply_joint_table`]) onto the nominal robot, compared with the
+    /// The table read back (`apply_joint_table`) onto the nominal robot, compared with the
     /// calibrated one at the same readings.
     pub read_back: ReadBack,
     /// What the table cannot carry (link and tool changes, couplings), when anything.
@@ -84,7 +84,7 @@ pub fn joint_table(calibrated: &Robot, nominal: &Robot) -> Result<JointTableExpo
 
 /// `nominal` with the offsets and slopes of a joint table (`joint,offset,slope,...` in `units`)
 /// applied, as a controller that takes only those would.
-pub fn apply_joint_table(
+pub(crate) fn apply_joint_table(
     nominal: &Robot,
     text: &str,
     file: &str,

@@ -1,7 +1,7 @@
 //! Robots described in other conventions, converted exactly into the thesis model.
 //!
 //! Each importer produces joint frames (global pose of each joint's frame at the zero
-//! configuration, local z along the joint axis) and a tool frame; [`chain_from_frames`] turns
+//! configuration, local z along the joint axis) and a tool frame; `chain_from_frames` turns
 //! them into links: `L1 = F1`, `L(i+1) = Fi^-1 F(i+1)`, `L(n+1) = Fn^-1 Tool`. With readings equal
 //! to the joint values (slope 1), the imported model has the same forward kinematics.
 
@@ -44,7 +44,7 @@ pub fn link_of(f: &Frame) -> Link {
 }
 
 /// A rotation taking local axes to `x` and `z` (orthonormalised; `z` kept).
-pub fn rotation_from_xz(x: &Vector3<f64>, z: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn rotation_from_xz(x: &Vector3<f64>, z: &Vector3<f64>) -> Matrix3<f64> {
     let z = z.normalize();
     let x = (x - z * x.dot(&z)).normalize();
     let y = z.cross(&x);
@@ -53,7 +53,7 @@ pub fn rotation_from_xz(x: &Vector3<f64>, z: &Vector3<f64>) -> Matrix3<f64> {
 
 /// One joint of an imported chain.
 #[derive(Debug, Clone)]
-pub struct ImportedJoint {
+pub(crate) struct ImportedJoint {
     /// Revolute or prismatic.
     pub kind: JointKind,
     /// Global frame of the joint at the zero configuration; the joint moves about/along its z.
@@ -66,7 +66,7 @@ pub struct ImportedJoint {
 
 /// Builds a robot from joint frames and a tool frame (internal units). Readings are the joint
 /// values minus `offset` (slope 1).
-pub fn chain_from_frames(
+pub(crate) fn chain_from_frames(
     name: &str,
     units: Units,
     joints: &[ImportedJoint],
@@ -76,10 +76,10 @@ pub fn chain_from_frames(
     tree_from_frames(name, units, joints, &parents, tool)
 }
 
-/// [`chain_from_frames`] for a tree: joint `i`'s link starts from joint `parents[i]`'s frame
+/// `chain_from_frames` for a tree: joint `i`'s link starts from joint `parents[i]`'s frame
 /// (1-based; 0 the global frame; each parent before its children), the tool from the last
 /// joint's.
-pub fn tree_from_frames(
+pub(crate) fn tree_from_frames(
     name: &str,
     units: Units,
     joints: &[ImportedJoint],

@@ -44,7 +44,7 @@ use crate::units::{Quantity, Units};
 
 /// Places joint frames on the given axes (global frame, zero configuration), as described in the
 /// module docs. `axes[i] = (kind, direction, point)`.
-pub fn joint_frames(axes: &[(JointKind, Vector3<f64>, Vector3<f64>)]) -> Vec<Frame> {
+pub(crate) fn joint_frames(axes: &[(JointKind, Vector3<f64>, Vector3<f64>)]) -> Vec<Frame> {
     let mut prev = Frame::identity();
     let mut out = Vec::with_capacity(axes.len());
     for (kind, dir, point) in axes {

@@ -11,7 +11,7 @@
 //! not converted away.
 //!
 //! No export form holds a mass model: an elastic robot's export is its rigid geometry, read back
-//! against that, and the gravity deflection it leaves out is said as lost ([`gains_lost`]).
+//! against that, and the gravity deflection it leaves out is said as lost (`gains_lost`).
 
 use nalgebra::Vector3;
 
@@ -61,7 +61,7 @@ pub struct ReadBack {
 }
 
 /// A small or large number as the read-back line writes it: `0`, `3.2e-10`, `0.3501`, `2.5e4`.
-pub fn fmt_deviation(v: f64) -> String {
+pub(crate) fn fmt_deviation(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if (1e-3..1e4).contains(&v.abs()) {
@@ -186,7 +186,7 @@ pub fn postures(robot: &Robot) -> Vec<Vec<f64>> {
 
 /// The scale of each joint's readings from `robot`'s file units to `to` (the export's): the
 /// joint value an export takes for a reading of 1.
-pub fn unit_scale(robot: &Robot, to: Units) -> Vec<f64> {
+pub(crate) fn unit_scale(robot: &Robot, to: Units) -> Vec<f64> {
     robot
         .joints
         .iter()
@@ -196,7 +196,7 @@ pub fn unit_scale(robot: &Robot, to: Units) -> Vec<f64> {
 
 /// Whether `robot`'s joint `j` has the gain an export takes for granted: slope 1 in the robot
 /// file's units.
-pub fn unit_gain(robot: &Robot, j: usize) -> bool {
+pub(crate) fn unit_gain(robot: &Robot, j: usize) -> bool {
     let joint = &robot.joints[j];
     let unit = robot.units.factor(joint.kind.slope());
     (joint.slope - unit).abs() <= 1e-12 * unit
@@ -265,7 +265,7 @@ fn deviation(
 /// (`joint 2 slope 1.001 deg/unit`, the joint named by `names`), with the deviation at the tool
 /// that joint alone causes over the same postures ([`postures`]). `skip_coupling(j)` says a
 /// joint's coupling is written (a URDF's sum convention).
-pub fn gains_lost(
+pub(crate) fn gains_lost(
     robot: &Robot,
     names: &dyn Fn(usize) -> String,
     skip_coupling: &dyn Fn(usize) -> bool,

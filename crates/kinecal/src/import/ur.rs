@@ -191,7 +191,7 @@ fn num(v: f64) -> String {
 }
 
 /// The URDF the UR description's macro builds from `k` (kinematic elements only).
-pub fn ur_urdf(k: &UrKinematics) -> String {
+pub(crate) fn ur_urdf(k: &UrKinematics) -> String {
     let pi = std::f64::consts::PI;
     let mut u = String::from("<?xml version=\"1.0\"?>\n<robot name=\"ur\">\n");
     let mut links = vec!["base_link", "base_link_inertia"];

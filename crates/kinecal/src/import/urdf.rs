@@ -28,7 +28,7 @@ use crate::units::Units;
 use crate::warning::Warning;
 
 /// A URDF joint origin as a frame: `Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)`.
-pub fn origin_frame(xyz: [f64; 3], rpy: [f64; 3]) -> Frame {
+pub(crate) fn origin_frame(xyz: [f64; 3], rpy: [f64; 3]) -> Frame {
     Frame {
         rotation: rot_zyx(rpy[2], rpy[1], rpy[0]),
         translation: Vector3::from(xyz),
@@ -45,7 +45,7 @@ pub struct UrdfChain {
     /// For each movable joint, the constant rotation `R_a` (in its child frame) whose z is the
     /// joint axis; its x is chosen along the common normal with the previous joint's axis, which
     /// keeps the links' beta at 0, away from the Euler singularity.
-    pub axis_frames: Vec<Matrix3<f64>>,
+    pub(crate) axis_frames: Vec<Matrix3<f64>>,
     /// Origin of every chain joint as in the file.
     pub origins: Vec<Frame>,
     /// The base link.
@@ -55,7 +55,7 @@ pub struct UrdfChain {
 }
 
 /// A joint whose origin export rewrites: (joint name, new origin, origin in the template).
-pub type NewOrigin = (String, Frame, Frame);
+pub(crate) type NewOrigin = (String, Frame, Frame);
 
 /// The result of [`import_urdf`].
 #[derive(Debug, Clone)]
@@ -536,7 +536,7 @@ pub fn import_urdf_with(
 /// The new origins (by joint name) that make `chain`'s URDF reproduce `robot`'s forward
 /// kinematics, the tool joint to add when the tip hangs off the last movable joint, and
 /// warnings for what a URDF cannot express (slopes other than 1).
-pub fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
+pub(crate) fn export_origins(robot: &Robot, chain: &UrdfChain) -> Result<Exported> {
     export_origins_keeping(robot, chain, &|_| false)
 }
 
@@ -702,7 +702,7 @@ pub(crate) fn rpy_near(r: &Matrix3<f64>, near: &Matrix3<f64>) -> [f64; 3] {
 
 /// Rewrites the `<origin>` of the named joints in URDF `text`, keeping everything else. Each
 /// entry is (joint name, new origin, old origin).
-pub fn rewrite_origins(text: &str, file: &str, origins: &[NewOrigin]) -> Result<String> {
+pub(crate) fn rewrite_origins(text: &str, file: &str, origins: &[NewOrigin]) -> Result<String> {
     let index = super::xml::scan(text, file)?;
     // (start, end, replacement), applied from the end of the text so spans stay valid.
     let mut edits: Vec<(usize, usize, String)> = Vec::new();

@@ -9,10 +9,10 @@ use quick_xml::Reader;
 use crate::error::{Error, Location, Result};
 
 /// Largest URDF read (bytes).
-pub const MAX_BYTES: usize = 64 << 20;
+pub(crate) const MAX_BYTES: usize = 64 << 20;
 
 /// Deepest element nesting read (a URDF needs 4 or 5).
-pub const MAX_DEPTH: usize = 256;
+pub(crate) const MAX_DEPTH: usize = 256;
 
 /// A `<joint>` element that is a child of `<robot>`.
 #[derive(Debug, Clone, PartialEq)]
@@ -22,7 +22,7 @@ pub struct JointSpan {
     /// Bytes of the whole element (`<joint ...>` to `</joint>`, or the empty tag).
     pub span: (usize, usize),
     /// Byte right after the opening tag (where a child can be inserted).
-    pub after_open: usize,
+    pub(crate) after_open: usize,
     /// Bytes of its `<origin>` child, if it has one.
     pub origin: Option<(usize, usize)>,
     /// Line of the opening tag.
@@ -35,7 +35,7 @@ pub struct Index {
     /// The robot's joints.
     pub joints: Vec<JointSpan>,
     /// Where the `</robot>` closing tag starts.
-    pub robot_end: Option<usize>,
+    pub(crate) robot_end: Option<usize>,
 }
 
 impl Index {
@@ -46,7 +46,7 @@ impl Index {
 }
 
 /// The line of byte `pos` in `text`.
-pub fn line_at(text: &str, pos: usize) -> usize {
+pub(crate) fn line_at(text: &str, pos: usize) -> usize {
     text.as_bytes()[..pos.min(text.len())]
         .iter()
         .filter(|&&b| b == b'\n')

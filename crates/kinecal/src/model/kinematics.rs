@@ -21,7 +21,9 @@ mod elastic;
 
 use nalgebra::{Matrix3, Vector3};
 
-pub use elastic::{gravity_free_joints, unconverged_posture, Equilibrium, GravityFree};
+pub use elastic::{gravity_free_joints, Equilibrium, GravityFree};
+
+pub(crate) use elastic::unconverged_posture;
 
 use crate::model::params::{ParamId, ParamKind};
 use crate::model::robot::{JointKind, Link, Robot};
@@ -848,7 +850,7 @@ impl Chain<'_> {
 
 /// The joint (1-based) right after which `target`'s frame hangs: the last joint for the end
 /// effector (the tool link starts there), a site's own joint.
-pub fn target_joint(robot: &Robot, target: Target) -> usize {
+pub(crate) fn target_joint(robot: &Robot, target: Target) -> usize {
     match target {
         Target::EndEffector => robot.dof(),
         Target::Site(s) => robot.sites[s].joint,
@@ -897,7 +899,7 @@ pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
 
 /// Inverse of the right Jacobian of SO(3) at `phi`: maps a body-frame angular velocity to the
 /// rate of the rotation vector `phi` of `E` when `dE = E [w]x`.
-pub fn so3_right_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn so3_right_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let k = phi.cross_matrix();
     let coef = if theta < 1e-6 {

@@ -31,7 +31,7 @@ pub fn parse_param_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
 }
 
 /// Parses one parameter reference (an id or a name) to exactly one parameter.
-pub fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
+pub(crate) fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
     let ids = parse_token(token, robot).map_err(|message| Error::ParamList {
         list: token.to_string(),
         message,

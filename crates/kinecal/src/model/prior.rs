@@ -14,7 +14,7 @@ use crate::model::robot::{Prior, Robot};
 use crate::units::{number::format_number, Quantity};
 
 /// The group keys of a prior, in the order [`describe`] writes them.
-pub const GROUPS: [&str; 4] = ["length", "angle", "slope", "compliance"];
+pub(crate) const GROUPS: [&str; 4] = ["length", "angle", "slope", "compliance"];
 
 /// Sets one key of `prior` (a group or a parameter, `value` in the robot file's units), or says
 /// what is wrong with it (the caller names the key).
@@ -49,7 +49,7 @@ pub(crate) fn set_key(
 
 /// Holds the bodies' total mass at `total` kg ([`Prior::total_mass`]), or says why it cannot:
 /// not a mass, or a robot without bodies.
-pub fn set_total_mass(
+pub(crate) fn set_total_mass(
     prior: &mut Prior,
     total: f64,
     robot: &Robot,

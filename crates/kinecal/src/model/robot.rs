@@ -328,7 +328,7 @@ pub struct Payload {
 
 impl Payload {
     /// Why `mass` (kg) cannot be a payload's: not a number from 0 to 1e6 kg.
-    pub fn mass_problem(mass: f64) -> Option<String> {
+    pub(crate) fn mass_problem(mass: f64) -> Option<String> {
         (!(0.0..=1e6).contains(&mass))
             .then(|| format!("a payload mass is 0 to 1e6 kg, found {mass}"))
     }
@@ -438,7 +438,7 @@ impl Elastic {
     pub const MAX_ITERATIONS: usize = 200;
 
     /// Standard gravity, 9.81 m/s^2 along -z of the global frame.
-    pub fn standard_gravity() -> Vector3<f64> {
+    pub(crate) fn standard_gravity() -> Vector3<f64> {
         Vector3::new(0.0, 0.0, -9.81)
     }
 
@@ -619,7 +619,7 @@ impl Prior {
 
     /// The prior the tolerances make: the same expected deviations (`[tolerances]` read as
     /// standard deviations), compliances without one.
-    pub fn from_tolerances(t: &Tolerances) -> Prior {
+    pub(crate) fn from_tolerances(t: &Tolerances) -> Prior {
         Prior {
             length: Some(t.length),
             angle: Some(t.angle),
@@ -686,7 +686,7 @@ impl Robot {
     /// The joint (1-based; 0 the global frame) right after which link `i` (0-based, `0..=n`)
     /// starts: the joint's parent for a link before a joint, the last joint for the tool link.
     #[inline]
-    pub fn link_parent(&self, i: usize) -> usize {
+    pub(crate) fn link_parent(&self, i: usize) -> usize {
         match self.joints.get(i) {
             Some(j) => j.parent.unwrap_or(i),
             None => self.joints.len(),
@@ -711,7 +711,7 @@ impl Robot {
 
     /// The joints (0-based) on the path from the base to the frame right after joint `k`
     /// (1-based), one flag per joint.
-    pub fn path_to(&self, k: usize) -> Vec<bool> {
+    pub(crate) fn path_to(&self, k: usize) -> Vec<bool> {
         let mut on = vec![false; self.joints.len()];
         let mut a = k;
         while a > 0 {
@@ -787,7 +787,7 @@ impl Robot {
     }
 
     /// The joints that are coupled to another joint's reading (0-based, ascending).
-    pub fn coupled_joints(&self) -> impl Iterator<Item = usize> + '_ {
+    pub(crate) fn coupled_joints(&self) -> impl Iterator<Item = usize> + '_ {
         (0..self.joints.len()).filter(|&j| self.joints[j].coupling.is_some())
     }
 
@@ -814,7 +814,7 @@ impl Robot {
     }
 
     /// The bodies of the mass model (0 for a rigid robot).
-    pub fn body_count(&self) -> usize {
+    pub(crate) fn body_count(&self) -> usize {
         self.elastic.as_ref().map_or(0, |e| e.bodies.len())
     }
 
@@ -832,7 +832,7 @@ impl Robot {
     /// What parameter `id` is, `None` when out of range. Order: the 6 of each link, the n
     /// offsets, the n slopes, the 6 of each site, one coupling factor per coupled joint (in
     /// joint order), the 3 of each plane, the 6 of each session.
-    pub fn try_param_kind(&self, id: ParamId) -> Option<ParamKind> {
+    pub(crate) fn try_param_kind(&self, id: ParamId) -> Option<ParamKind> {
         let (nl, nj, ns) = (self.links.len(), self.joints.len(), self.sites.len());
         let mut i = id.0;
         if i < 6 * nl {
@@ -1082,7 +1082,7 @@ impl Robot {
     }
 
     /// Index of the site called `name`.
-    pub fn site_index(&self, name: &str) -> Option<usize> {
+    pub(crate) fn site_index(&self, name: &str) -> Option<usize> {
         self.sites.iter().position(|s| s.name == name)
     }
 
@@ -1092,7 +1092,7 @@ impl Robot {
     }
 
     /// Index of the plane called `name`.
-    pub fn plane_index(&self, name: &str) -> Option<usize> {
+    pub(crate) fn plane_index(&self, name: &str) -> Option<usize> {
         self.planes.iter().position(|p| p.name == name)
     }
 

@@ -1018,7 +1018,7 @@ pub fn write_robot_toml_checked(robot: &Robot, original: Option<&str>) -> Result
 /// kept. Without it, a fresh file is written. Numbers are written as
 /// [`crate::units::number`] says, each kind with the file's scale of it (see `Scales`): float
 /// noise as 0, the rest to 15 significant digits when that is within 4 ulps
-/// ([`crate::units::tidy`]), in the shortest text that reads back the same.
+/// (`tidy`), in the shortest text that reads back the same.
 pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
     let mut doc: DocumentMut = original.and_then(|t| t.parse().ok()).unwrap_or_default();
     let units = robot.units;

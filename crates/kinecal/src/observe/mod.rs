@@ -24,7 +24,7 @@
 pub mod contact;
 pub mod distance;
 pub mod point;
-pub mod sanity;
+pub(crate) mod sanity;
 
 use std::fmt;
 
@@ -345,9 +345,9 @@ pub struct Dataset {
 /// deviations); the spread is in the same units, floored at 1e-6 so that noise-free data has a
 /// positive one.
 #[derive(Debug, Clone, PartialEq)]
-pub struct RobustSpread {
+pub(crate) struct RobustSpread {
     /// The spread of each row's group, per row.
-    pub per_row: Vec<f64>,
+    pub(crate) per_row: Vec<f64>,
     /// Each group (observation kind, quantity) with its spread and row count, in order of first
     /// appearance.
     pub groups: Vec<(&'static str, RowQuantity, f64, usize)>,
@@ -467,7 +467,7 @@ impl Dataset {
 
     /// Groups of postures that must stay together when data is split (postures linked by an
     /// observation, such as the two ends of a distance), in order of their first posture.
-    pub fn posture_groups(&self) -> Vec<Vec<usize>> {
+    pub(crate) fn posture_groups(&self) -> Vec<Vec<usize>> {
         let n = self.postures.len();
         let mut parent: Vec<usize> = (0..n).collect();
         fn root(parent: &mut [usize], mut i: usize) -> usize {
@@ -582,7 +582,7 @@ impl Dataset {
 
     /// The observations whose residual metric is degenerate (poses near gimbal lock under Euler
     /// residuals).
-    pub fn degenerate(&self, ctx: &Context<'_>) -> Vec<&Observation> {
+    pub(crate) fn degenerate(&self, ctx: &Context<'_>) -> Vec<&Observation> {
         self.observations
             .iter()
             .filter(|o| o.degenerate(ctx))
@@ -591,7 +591,11 @@ impl Dataset {
 
     /// Refuses `orientation` when it is undefined at some measured attitude
     /// ([`Error::EulerNearGimbalLock`]: Euler residuals within 1 deg of gimbal lock).
-    pub fn check_orientation(&self, robot: &Robot, orientation: OrientationError) -> Result<()> {
+    pub(crate) fn check_orientation(
+        &self,
+        robot: &Robot,
+        orientation: OrientationError,
+    ) -> Result<()> {
         let near = self.degenerate(&Context { robot, orientation });
         if near.is_empty() {
             return Ok(());
@@ -662,7 +666,7 @@ pub fn stats(mut e: Vec<f64>) -> (f64, f64, f64, f64) {
 
 /// The measurement frame `posture`'s poses and positions are in, when its session has a frame
 /// of its own in `robot` ([`crate::model::robot::Session`]): the pose of the global frame there.
-pub fn session_frame(robot: &Robot, posture: &Posture) -> Option<Frame> {
+pub(crate) fn session_frame(robot: &Robot, posture: &Posture) -> Option<Frame> {
     let name = posture.session.as_deref()?;
     let s = robot.sessions.iter().find(|s| s.name == name)?;
     Some(Frame::from_link(&s.frame))
@@ -670,7 +674,7 @@ pub fn session_frame(robot: &Robot, posture: &Posture) -> Option<Frame> {
 
 /// The frames of `o`'s views for `robot` as its instrument sees them: each view's target frame,
 /// seen through the view's session frame when `o` is measured in one (a pose or a position).
-pub fn observed_frame(
+pub(crate) fn observed_frame(
     robot: &Robot,
     data: &Dataset,
     o: &Observation,
@@ -688,7 +692,7 @@ pub fn observed_frame(
 
 /// Evaluates `f` on every observation of `data` with the frames of its views for `robot` (as
 /// [`observed_frame`] gives them), running forward kinematics once per posture.
-pub fn for_each_observation(
+pub(crate) fn for_each_observation(
     robot: &Robot,
     data: &Dataset,
     mut f: impl FnMut(usize, &Observation, &[Frame]),
@@ -738,7 +742,7 @@ impl FrameCache {
 
     /// [`FrameCache::posture`] with the reading parts of the joint angles' sines and cosines
     /// known (a table that fits the chain's robot).
-    pub fn posture_with(
+    pub(crate) fn posture_with(
         &mut self,
         chain: &crate::model::kinematics::Chain<'_>,
         data: &Dataset,

@@ -35,14 +35,10 @@ use crate::units::{AngleUnit, Quantity};
 use crate::warning::Warning;
 
 /// Beyond this factor between measured and predicted spreads, the scale is implausible.
-pub const SCALE_FACTOR_LIMIT: f64 = 3.0;
+pub(crate) const SCALE_FACTOR_LIMIT: f64 = 3.0;
 
-/// The warnings about `data` against the nominal `robot`: scale and readings.
-pub fn check_data(robot: &Robot, data: &Dataset) -> Vec<Warning> {
-    check_data_with(robot, data, &predicted(robot, data))
-}
-
-/// [`check_data`] with the nominal robot's [`predicted`] points at hand.
+/// The warnings about `data` against the nominal `robot` (scale, attitudes and readings), with
+/// the nominal robot's [`predicted`] points at hand.
 pub(crate) fn check_data_with(
     robot: &Robot,
     data: &Dataset,
@@ -57,7 +53,7 @@ pub(crate) fn check_data_with(
 
 /// Beyond this disagreement (rad; 5.7 deg) of attitudes, the measured attitudes are not the
 /// model's: a calibration moves them by well under a degree.
-pub const ATTITUDE_LIMIT: f64 = 0.1;
+pub(crate) const ATTITUDE_LIMIT: f64 = 0.1;
 
 /// At most this many pairs of poses are compared (spread over the file).
 const ATTITUDE_PAIRS: usize = 200;
@@ -156,7 +152,11 @@ pub(crate) fn predicted(robot: &Robot, data: &Dataset) -> Vec<[Vector3<f64>; 2]>
 
 /// The warning when an estimated length moved by more than the robot's reach from `initial`
 /// to `calibrated`.
-pub fn check_result(initial: &Robot, calibrated: &Robot, estimated: &[ParamId]) -> Vec<Warning> {
+pub(crate) fn check_result(
+    initial: &Robot,
+    calibrated: &Robot,
+    estimated: &[ParamId],
+) -> Vec<Warning> {
     let reach = initial.reach();
     let moved: Vec<String> = estimated
         .iter()

@@ -46,8 +46,10 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 pub use cross_validate::{cross_validate, fit_growth, CrossValidated, GrowthFit, HeldOut};
+
 pub use map::{accuracy_map, AccuracyMap, JointSweep, Slice};
-pub use nearest::{JointMetric, NearestIndex};
+pub use nearest::JointMetric;
+pub(crate) use nearest::NearestIndex;
 
 use crate::error::{Error, Result};
 use crate::model::kinematics::{Chain, ColumnPlan, Target, Workspace};
@@ -256,11 +258,6 @@ impl<'r> Predictor<'r> {
         self.chain.robot()
     }
 
-    /// The model error.
-    pub fn model_error(&self) -> ModelError {
-        self.model
-    }
-
     /// The metric.
     pub fn metric(&self) -> &JointMetric {
         &self.metric
@@ -303,7 +300,7 @@ impl<'r> Predictor<'r> {
 
     /// The covariances of the target's position and attitude (global frame) from the
     /// parameters' uncertainty alone, and the target's position.
-    pub fn parameter_part(
+    pub(crate) fn parameter_part(
         &self,
         readings: &[f64],
         target: Target,
@@ -412,7 +409,7 @@ pub fn levers(robot: &Robot, data: &Dataset) -> Vec<f64> {
 
 /// Whether `data` has observations a prediction is made for (positions or poses), and whether
 /// any of them is a pose (then attitudes are predicted too).
-pub fn predictable(data: &Dataset) -> (bool, bool) {
+pub(crate) fn predictable(data: &Dataset) -> (bool, bool) {
     let mut any = false;
     let mut pose = false;
     for o in &data.observations {
@@ -430,7 +427,7 @@ pub fn predictable(data: &Dataset) -> (bool, bool) {
 
 /// The target a calibration's predictions are made for by default: the one its data measures
 /// most often (the end effector on a tie).
-pub fn default_target(robot: &Robot, data: &Dataset) -> Target {
+pub(crate) fn default_target(robot: &Robot, data: &Dataset) -> Target {
     let mut counts = vec![0usize; robot.sites.len() + 1];
     for o in &data.observations {
         if matches!(o, Observation::Position(_) | Observation::Pose(_)) {
@@ -573,21 +570,21 @@ pub enum Level {
 }
 
 /// Postures drawn for the summary.
-pub const SUMMARY_SAMPLES: usize = 2000;
+pub(crate) const SUMMARY_SAMPLES: usize = 2000;
 
 /// Postures drawn for the accuracy map (each vertical slice predicts them again, turned into
 /// its plane).
-pub const MAP_SAMPLES: usize = 12_000;
+pub(crate) const MAP_SAMPLES: usize = 12_000;
 
 /// The fewest postures measured by position or pose for a prediction (the cross-validation
 /// needs blocks of several).
 pub const MIN_POSTURES: usize = 20;
 
 /// The folds of the cross-validation's fine scale (fewer with fewer than 40 postures).
-pub const FOLDS: usize = 10;
+pub(crate) const FOLDS: usize = 10;
 
 /// The folds of its coarse scale (a third of the measured region held out at a time).
-pub const COARSE_FOLDS: usize = 3;
+pub(crate) const COARSE_FOLDS: usize = 3;
 
 /// Everything a calibration predicts (see the module): the model-error term by
 /// cross-validation (refitting `cal` on folds of `data`, linearised at `reference`), the
@@ -715,7 +712,7 @@ pub fn assess(
 }
 
 /// The readings of the postures `data` measures by position or pose, in posture order.
-pub fn measured_postures(data: &Dataset) -> Vec<&[f64]> {
+pub(crate) fn measured_postures(data: &Dataset) -> Vec<&[f64]> {
     let mut seen = vec![false; data.postures.len()];
     for o in &data.observations {
         if matches!(o, Observation::Position(_) | Observation::Pose(_)) {
@@ -744,7 +741,7 @@ pub(crate) fn percentile(v: &mut [f64], q: f64) -> f64 {
 /// where the target is (`x, y, z`), the distance to the nearest measured posture, and per
 /// quantity the RMS lengths of the parameters' and the model error's parts, the 95 % bound, and
 /// the 95 % bound of the parameters alone (the robot file's units).
-pub fn csv_header(robot: &Robot, attitude: bool) -> String {
+pub(crate) fn csv_header(robot: &Robot, attitude: bool) -> String {
     let mut h = String::from("posture");
     for j in 1..=robot.dof() {
         h += &format!(",v{j}");
@@ -757,7 +754,13 @@ pub fn csv_header(robot: &Robot, attitude: bool) -> String {
 }
 
 /// One row of the predictions table ([`csv_header`]), appended to `out` with its line end.
-pub fn csv_row(robot: &Robot, label: &str, readings: &[f64], p: &Prediction, out: &mut String) {
+pub(crate) fn csv_row(
+    robot: &Robot,
+    label: &str,
+    readings: &[f64],
+    p: &Prediction,
+    out: &mut String,
+) {
     use std::fmt::Write as _;
     let units = &robot.units;
     let len = |v: f64| units.from_si(Quantity::Length, v);

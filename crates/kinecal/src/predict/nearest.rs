@@ -44,7 +44,7 @@ impl JointMetric {
     }
 
     /// Coordinates of the embedding.
-    pub fn dims(&self) -> usize {
+    pub(crate) fn dims(&self) -> usize {
         self.joints
             .iter()
             .map(|j| if j.1 > 0.0 { 2 } else { 1 })
@@ -53,7 +53,7 @@ impl JointMetric {
 
     /// Writes the embedding of `readings` into `out` ([`JointMetric::dims`] long).
     #[inline]
-    pub fn embed(&self, readings: &[f64], out: &mut [f64]) {
+    pub(crate) fn embed(&self, readings: &[f64], out: &mut [f64]) {
         let mut k = 0;
         for (&(l, w), &v) in self.joints.iter().zip(readings) {
             if l <= 0.0 {
@@ -91,7 +91,7 @@ impl JointMetric {
 
 /// A k-d tree of embedded postures: the nearest one to a query, exactly.
 #[derive(Debug, Clone, PartialEq)]
-pub struct NearestIndex {
+pub(crate) struct NearestIndex {
     dims: usize,
     /// The points, reordered into the tree (point `i` at `[i * dims..]`).
     points: Vec<f64>,

@@ -13,7 +13,7 @@
 use std::sync::OnceLock;
 
 /// The probability of the bounds.
-pub const LEVEL: f64 = 0.95;
+pub(crate) const LEVEL: f64 = 0.95;
 
 const TABLE: usize = 401;
 
@@ -32,7 +32,7 @@ fn table() -> &'static [f64; TABLE] {
 
 /// The regularized lower incomplete gamma function `P(a, x)` (series below `a + 1`, Lentz's
 /// continued fraction above).
-pub fn gamma_p(a: f64, x: f64) -> f64 {
+pub(crate) fn gamma_p(a: f64, x: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
@@ -78,7 +78,7 @@ pub fn gamma_p(a: f64, x: f64) -> f64 {
 
 /// The quantile `p` of the chi-square distribution with `nu` degrees of freedom (bisection on
 /// [`gamma_p`], to 1e-13 relative).
-pub fn chi2_quantile(nu: f64, p: f64) -> f64 {
+pub(crate) fn chi2_quantile(nu: f64, p: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, 1.0);
     while gamma_p(nu / 2.0, hi / 2.0) < p {
         hi *= 2.0;
@@ -99,7 +99,7 @@ pub fn chi2_quantile(nu: f64, p: f64) -> f64 {
 
 /// `sqrt(chi2_nu^-1(0.95))` for `1 <= nu <= 3` (clamped), from the table (cubic Hermite
 /// between its entries, to 1e-7).
-pub fn chi_95(nu: f64) -> f64 {
+pub(crate) fn chi_95(nu: f64) -> f64 {
     let t = table();
     let x = ((nu.clamp(1.0, 3.0) - 1.0) / 2.0) * (TABLE - 1) as f64;
     let i = (x.floor() as usize).min(TABLE - 2);
@@ -119,7 +119,7 @@ pub fn chi_95(nu: f64) -> f64 {
 
 /// The 95 % bound on `|e|`, `e ~ N(0, S)`, from `tr S` and `tr S^2` (see the module).
 #[inline]
-pub fn bound_95(trace: f64, trace_sq: f64) -> f64 {
+pub(crate) fn bound_95(trace: f64, trace_sq: f64) -> f64 {
     if !(trace > 0.0 && trace_sq > 0.0) {
         return 0.0;
     }
@@ -130,7 +130,7 @@ pub fn bound_95(trace: f64, trace_sq: f64) -> f64 {
 
 /// `tr S` and `tr S^2` of a symmetric 3x3 matrix (row-major, full storage).
 #[inline]
-pub fn traces(s: &[[f64; 3]; 3]) -> (f64, f64) {
+pub(crate) fn traces(s: &[[f64; 3]; 3]) -> (f64, f64) {
     let mut t2 = 0.0;
     for row in s {
         for v in row {

@@ -319,7 +319,13 @@ impl CalibrationReport {
     }
 
     /// Lists the outliers (see [`crate::solve::outliers`]) found at threshold `k`.
-    pub fn set_outliers(&mut self, outliers: &[Outlier], data: &Dataset, robot: &Robot, k: f64) {
+    pub(crate) fn set_outliers(
+        &mut self,
+        outliers: &[Outlier],
+        data: &Dataset,
+        robot: &Robot,
+        k: f64,
+    ) {
         let u = robot.units;
         self.outlier_sigmas = k;
         self.outliers = outliers
@@ -346,7 +352,7 @@ impl CalibrationReport {
     }
 
     /// Sets the accuracy on held-out validation data, with its normalized RMS (before, after).
-    pub fn set_validation(
+    pub(crate) fn set_validation(
         &mut self,
         postures: usize,
         observations: usize,
@@ -363,7 +369,7 @@ impl CalibrationReport {
     /// Makes the nominal robot's figures (its weighted objective and accuracy on the
     /// identification data) the `before` ones, keeping the solver's start's as `start`: for a
     /// start that is not the nominal robot (frames placed in closed form, an initial guess).
-    pub fn set_nominal(&mut self, objective: f64, accuracy: &Accuracy, units: &Units) {
+    pub(crate) fn set_nominal(&mut self, objective: f64, accuracy: &Accuracy, units: &Units) {
         let len = |v: f64| units.from_si(Quantity::Length, v);
         let ang = |v: f64| units.from_si(Quantity::Angle, v);
         self.start = Some(StartFigures {
@@ -388,21 +394,21 @@ impl CalibrationReport {
 
     /// Sets the validation data's accuracy with the solver's start, when it is not the
     /// nominal robot.
-    pub fn set_validation_start(&mut self, start: &Accuracy, units: &Units) {
+    pub(crate) fn set_validation_start(&mut self, start: &Accuracy, units: &Units) {
         if let Some(v) = &mut self.validation {
             v.start = Some(ErrorStats::new(start, units));
         }
     }
 
     /// Names the validation data's sessions whose frames were re-estimated.
-    pub fn set_validation_sessions(&mut self, refitted: Vec<String>) {
+    pub(crate) fn set_validation_sessions(&mut self, refitted: Vec<String>) {
         if let Some(v) = &mut self.validation {
             v.sessions_refitted = refitted;
         }
     }
 
     /// Sets the normalized RMS (before, after) of the identification data.
-    pub fn set_normalized(&mut self, before_after: [f64; 2]) {
+    pub(crate) fn set_normalized(&mut self, before_after: [f64; 2]) {
         self.identification.normalized_rms = Some(before_after);
     }
 
@@ -496,7 +502,7 @@ impl CalibrationReport {
     }
 
     /// Records that this report is the pruned refit of `full`.
-    pub fn set_pruning(&mut self, k: f64, removed: &[ParamId], full: &Calibration) {
+    pub(crate) fn set_pruning(&mut self, k: f64, removed: &[ParamId], full: &Calibration) {
         let u = full.calibrated.units;
         self.pruning = Some(PruneReport {
             k,
@@ -509,18 +515,18 @@ impl CalibrationReport {
     }
 
     /// Sets the solution rule's name (`solver`, `min-change`).
-    pub fn set_solution(&mut self, rule: &str) {
+    pub(crate) fn set_solution(&mut self, rule: &str) {
         self.solution = rule.to_string();
     }
 
     /// Sets the warnings.
-    pub fn set_warnings(&mut self, warnings: &[Warning]) {
+    pub(crate) fn set_warnings(&mut self, warnings: &[Warning]) {
         self.warnings = warnings.iter().map(ToString::to_string).collect();
         self.warning_details = warnings.to_vec();
     }
 
     /// Records the files read: the first is the robot file, the second the (first) data file.
-    pub fn set_sources(&mut self, sources: &[Source]) {
+    pub(crate) fn set_sources(&mut self, sources: &[Source]) {
         self.robot_file_sha256 = sources.first().map(|s| s.sha256.clone());
         self.data_file_sha256 = sources.get(1).map(|s| s.sha256.clone());
         self.sources = sources

@@ -235,7 +235,7 @@ impl<'a> Problem<'a> {
     /// angles once for all evaluations (worth it for a solver's many passes), unless slopes or
     /// couplings are estimated. Evaluations at a robot with other slopes or couplings do
     /// without the table.
-    pub fn with_reading_trig(mut self) -> Self {
+    pub(crate) fn with_reading_trig(mut self) -> Self {
         let moves_readings = self.estimated.iter().any(|&id| {
             matches!(
                 self.base.try_param_kind(id),
@@ -251,7 +251,7 @@ impl<'a> Problem<'a> {
 
     /// Multiplies residual row `i` (and its Jacobian row) by `scale[i]`: the square roots of
     /// robust-loss weights.
-    pub fn with_row_scale(mut self, scale: &'a [f64]) -> Self {
+    pub(crate) fn with_row_scale(mut self, scale: &'a [f64]) -> Self {
         self.row_scale = Some(scale);
         self
     }
@@ -262,7 +262,7 @@ impl<'a> Problem<'a> {
     }
 
     /// Number of residuals of the data (the first [`Problem::rows`]; the prior's follow).
-    pub fn data_rows(&self) -> usize {
+    pub(crate) fn data_rows(&self) -> usize {
         self.sigma.len()
     }
 
@@ -444,7 +444,7 @@ impl<'a> Problem<'a> {
     /// [`Problem::evaluate`] without derivatives, and with the errors of every observation
     /// summarised (the [`crate::observe::accuracy`] of `robot`) from the same pass of forward
     /// kinematics.
-    pub fn evaluate_checked(&self, robot: &Robot, res: &mut [f64]) -> (f64, Accuracy) {
+    pub(crate) fn evaluate_checked(&self, robot: &Robot, res: &mut [f64]) -> (f64, Accuracy) {
         let ctx = Context {
             robot,
             orientation: OrientationError::default(),

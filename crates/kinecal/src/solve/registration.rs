@@ -381,7 +381,7 @@ fn inverse(f: &Frame) -> Frame {
 /// that lowers its RMS position error. Returns the robot and the RMS position errors (m) of the
 /// placed sessions before and after (over their observations together), or `None` when no
 /// session was placed.
-pub fn place_sessions(
+pub(crate) fn place_sessions(
     robot: &Robot,
     data: &Dataset,
     estimated: &[ParamId],

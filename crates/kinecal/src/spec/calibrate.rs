@@ -450,7 +450,7 @@ fn candidates(spec: &CalibrationSpec, robot: &Robot) -> Result<Option<Vec<Candid
 }
 
 /// Huber's threshold by default, in spreads (95 % efficiency under normal noise).
-pub const HUBER_SCALE: f64 = 1.345;
+pub(crate) const HUBER_SCALE: f64 = 1.345;
 
 /// The residual weights of `w` (robot units) in SI, the defaults where absent.
 pub fn weights(robot: &Robot, w: &LengthAngle) -> Result<Weights> {
@@ -502,7 +502,7 @@ pub struct CalibrationJob {
     /// The library request.
     pub request: Request,
     /// The robot file as read (the template of the calibrated robot file).
-    pub robot_source: Source,
+    pub(crate) robot_source: Source,
     /// The model candidates to choose among, when the spec asks for a choice.
     pub choice: Option<Vec<Candidate>>,
     /// The time reading the files took (s): the report's first phase, `reading`.

@@ -197,10 +197,10 @@ impl Default for BaselineSpec {
 }
 
 /// The default drift threshold, in standard deviations.
-pub const DRIFT_SIGMA: f64 = 3.0;
+pub(crate) const DRIFT_SIGMA: f64 = 3.0;
 
 /// The default horizon of a fleet's crossings, in days.
-pub const HORIZON_DAYS: f64 = 90.0;
+pub(crate) const HORIZON_DAYS: f64 = 90.0;
 
 fn default_sigma() -> f64 {
     DRIFT_SIGMA

@@ -26,10 +26,10 @@ use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt
 use super::{Document, Done, Env, JobKind, Message, Page, PathRole, Spec};
 
 /// The most cycles a simulated log runs.
-pub const MAX_CYCLES: usize = 100_000;
+pub(crate) const MAX_CYCLES: usize = 100_000;
 
 /// The finest grid a cube is searched on (points per axis).
-pub const MAX_RESOLUTION: usize = 200;
+pub(crate) const MAX_RESOLUTION: usize = 200;
 
 /// The test poses of a robot. Lengths and angles in the robot file's units.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]

@@ -54,11 +54,10 @@ pub mod predict;
 pub mod report;
 pub mod simulate;
 
-pub use analyze::AnalysisSelection;
-pub use analyze::{AnalyzeOutcome, AnalyzeSpec, MatrixKind, MatrixUnits};
+pub use analyze::{AnalysisSelection, AnalyzeOutcome, AnalyzeSpec, MatrixKind, MatrixUnits};
 pub use calibrate::{
     load_robot, weights, CalibrationJob, CalibrationSpec, LossKind, OutputSpec, ResidualSpec,
-    SelectionSpec, SolverSpec, ValidationSpec, HUBER_SCALE,
+    SelectionSpec, SolverSpec, ValidationSpec,
 };
 pub use check::{CheckOutcome, CheckSpec};
 pub use common::{LengthAngle, Residuals};
@@ -266,7 +265,7 @@ macro_rules! jobs {
             }
 
             /// Calls `f` on every path of the spec, with its role.
-            pub fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
+            pub(crate) fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
                 match self {
                     $(Job::$kind(s) => s.visit_paths(f),)*
                 }

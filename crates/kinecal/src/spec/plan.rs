@@ -28,7 +28,7 @@ use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt
 use super::{Document, Done, Env, JobKind, Page, PathRole, Spec};
 
 /// The most candidate postures a plan samples (its information matrices are held at once).
-pub const MAX_SAMPLE: usize = 1_000_000;
+pub(crate) const MAX_SAMPLE: usize = 1_000_000;
 
 /// What a plan writes (`[outputs]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -188,7 +188,7 @@ impl PlanSpec {
     }
 
     /// The candidates of postures: what `targets` measure at each.
-    pub fn pool_of_postures(
+    pub(crate) fn pool_of_postures(
         &self,
         robot: &Robot,
         postures: Vec<crate::Posture>,

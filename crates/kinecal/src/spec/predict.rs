@@ -30,7 +30,7 @@ use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt
 use super::{Document, Done, Env, JobKind, Message, Page, PathRole, Spec};
 
 /// The most postures a prediction samples.
-pub const MAX_SAMPLE: usize = 10_000_000;
+pub(crate) const MAX_SAMPLE: usize = 10_000_000;
 
 /// What a prediction writes (`[outputs]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]

@@ -30,7 +30,7 @@ use super::common::{count, invalid, is_default, robot_as, visit_opt, LengthAngle
 use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
 
 /// The most postures a simulation makes.
-pub const MAX_POSTURES: usize = 10_000_000;
+pub(crate) const MAX_POSTURES: usize = 10_000_000;
 
 /// Random changes of every parameter (standard deviations; `[perturb_std]`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]

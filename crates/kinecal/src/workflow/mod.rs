@@ -35,7 +35,7 @@ pub use cross_validation::{CrossValidation, Fold};
 pub use min_change::SolutionRule;
 pub use model_choice::{choose, Candidate, Choice, Scored, CHOICE_REPEATS};
 pub use outcome::{Checked, Outcome, Pruning};
-pub use run::{
-    add_prediction, run, Phase, Progress, Request, Validation, SIGMAS_TOO_LARGE, SIGMAS_TOO_SMALL,
-};
-pub use selection::{default_parameters, refit_sessions, resolve, session_frames_for, Selection};
+pub use run::{run, Phase, Progress, Request, Validation};
+pub use selection::{default_parameters, refit_sessions, resolve, Selection};
+
+pub(crate) use run::add_prediction;

@@ -53,9 +53,9 @@ pub struct Checked {
     /// The RMS of the residuals in their own standard deviations (each row's `sigma_*`, else
     /// the weights), with the nominal robot: how far the errors are from what the stated
     /// uncertainties allow (about 1 when they are right).
-    pub normalized_before: f64,
+    pub(crate) normalized_before: f64,
     /// The same with the calibrated robot.
-    pub normalized_after: f64,
+    pub(crate) normalized_after: f64,
 }
 
 impl Checked {

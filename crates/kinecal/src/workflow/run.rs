@@ -216,7 +216,7 @@ pub trait Progress {
     /// An iteration of the solver ended.
     fn iteration(&mut self, _it: &Iteration) {}
     /// The data was checked against the nominal robot before any solving (units, attitudes,
-    /// readings; [`crate::observe::sanity::check_data`]): `warnings` are what was found, empty when all
+    /// readings): `warnings` are what was found, empty when all
     /// is well. Returning false stops the run there ([`Error::Stopped`]), e.g. for a caller
     /// that treats a warning saying the result would be wrong ([`Warning::implausible`]) as
     /// fatal.
@@ -657,7 +657,11 @@ impl Fitted<'_> {
 /// ([`crate::predict::assess`] at `level`; `reference` is the robot the solver started from).
 /// Not every calibration can give one (no uncertainty, or too few postures measured by position
 /// or pose): the report then has none.
-pub fn add_prediction(outcome: &mut Outcome, reference: &Robot, level: crate::predict::Level) {
+pub(crate) fn add_prediction(
+    outcome: &mut Outcome,
+    reference: &Robot,
+    level: crate::predict::Level,
+) {
     if level == crate::predict::Level::Off {
         return;
     }
@@ -676,12 +680,12 @@ pub fn add_prediction(outcome: &mut Outcome, reference: &Robot, level: crate::pr
 
 /// A variance factor above this says the stated sigmas are more than 10 times too small
 /// ([`Warning::SigmasOff`]); the identifiable set is then chosen again at the residuals' noise.
-pub const SIGMAS_TOO_SMALL: f64 = 100.0;
+pub(crate) const SIGMAS_TOO_SMALL: f64 = 100.0;
 
 /// A variance factor below this says the stated sigmas are more than 10 times too large
 /// ([`Warning::SigmasOff`]). The set is not chosen again then: the rule at overstated noise
 /// errs towards fewer parameters, which the warning names.
-pub const SIGMAS_TOO_LARGE: f64 = 0.01;
+pub(crate) const SIGMAS_TOO_LARGE: f64 = 0.01;
 
 /// `robot` with its rigid frames fitted to `data` by least squares, the rest held: the first
 /// link (the measurement frame), the last link and the sites (the measured targets' frames) and

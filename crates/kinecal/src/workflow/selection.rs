@@ -266,7 +266,7 @@ pub fn refit_sessions(
 /// every session but the first (in data order) when every posture has a session, every session
 /// otherwise (the postures without one are in the global frame); `None` when none is missing.
 /// A frame starts at the identity, to be placed in closed form and estimated.
-pub fn session_frames_for(robot: &Robot, data: &Dataset) -> Option<Robot> {
+pub(crate) fn session_frames_for(robot: &Robot, data: &Dataset) -> Option<Robot> {
     let sessions = data.sessions();
     let unframed: Vec<&std::sync::Arc<str>> = sessions
         .iter()

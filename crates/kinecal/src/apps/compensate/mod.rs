@@ -28,6 +28,7 @@ mod configuration;
 mod search;
 
 pub use configuration::{Configuration, Side};
+
 pub use search::TargetSearch;
 
 use crate::error::{Error, Result};
@@ -195,7 +196,7 @@ impl<'r> Compensator<'r> {
     /// What the tool carries for the goals that follow (`None`: nothing). An elastic robot's
     /// joints yield to it: the solution is the readings at which the deflected robot reaches
     /// the goal, and a program's intended pose is the nominal robot's under the same load.
-    pub fn set_payload(&mut self, payload: Option<crate::model::robot::Payload>) {
+    pub(crate) fn set_payload(&mut self, payload: Option<crate::model::robot::Payload>) {
         self.payload = payload;
     }
 
@@ -498,7 +499,7 @@ impl<'r> Compensator<'r> {
 /// How far a Cartesian goal's position lies from the robot's base (the origin of joint 1's
 /// frame at the zero posture), in reaches, when that is more than ten of them: at that distance
 /// a target is not out of reach but in another length unit. `None` when it is nearer.
-pub fn reaches_away(robot: &Robot, position: &Vector3<f64>) -> Option<f64> {
+pub(crate) fn reaches_away(robot: &Robot, position: &Vector3<f64>) -> Option<f64> {
     let l = &robot.links[0];
     let reach = robot.reach().max(1e-3);
     let d = (position - Vector3::new(l.x, l.y, l.z)).norm() / reach;
@@ -562,7 +563,7 @@ pub fn goal_in_file_units(
 
 /// Whether a ZYX attitude angle (rad) of a Cartesian goal is more than a turn: degrees read
 /// as radians.
-pub fn more_than_a_turn(angle: f64) -> bool {
+pub(crate) fn more_than_a_turn(angle: f64) -> bool {
     angle.abs() > std::f64::consts::TAU + 1e-9
 }
 

@@ -69,13 +69,13 @@ type Rank = ([bool; 5], f64);
 
 impl<'r> TargetSearch<'r> {
     /// Start postures in the table.
-    pub const STARTS: usize = 4096;
+    pub(crate) const STARTS: usize = 4096;
     /// Starts from the table tried at most per goal.
-    pub const ATTEMPTS: usize = 32;
+    pub(crate) const ATTEMPTS: usize = 32;
     /// Starts spread over the table tried after the nearest ones found nothing usable.
     pub const SPREAD: usize = 32;
     /// Iteration cap of the damped least squares from a start of the table.
-    pub const CAP: usize = 30;
+    pub(crate) const CAP: usize = 30;
 
     /// A search for `calibrated`; `nominal` is the model the targets' programs were made with
     /// (same structure).
@@ -162,7 +162,7 @@ impl<'r> TargetSearch<'r> {
 
     /// What the tool carries for the goals that follow ([`Compensator::set_payload`]). The
     /// table of starts stays the unloaded robot's: it only chooses where to start.
-    pub fn set_payload(&mut self, payload: Option<crate::model::robot::Payload>) {
+    pub(crate) fn set_payload(&mut self, payload: Option<crate::model::robot::Payload>) {
         self.comp.set_payload(payload);
     }
 

@@ -222,7 +222,7 @@ impl Evaluation {
 
     /// Computes [`Evaluation::summary`] again (after [`super::predict_compensated`] added the
     /// predictions): `None` for a log of one test.
-    pub fn summarize(&mut self) {
+    pub(crate) fn summarize(&mut self) {
         let tests = self.tests().len();
         if tests < 2 {
             self.summary = None;

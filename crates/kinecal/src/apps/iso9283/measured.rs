@@ -63,7 +63,7 @@ pub struct Roles {
 }
 
 /// The header of a roles file.
-pub const ROLES_HEADER: &str = "posture,test,pose,cycle";
+pub(crate) const ROLES_HEADER: &str = "posture,test,pose,cycle";
 
 /// Reads a roles file: `posture,test,pose,cycle`, one row per posture of a measurement file
 /// (its label), `pose` as in a log (`P1..P5`, `C1..C8`). A posture named twice, or one test's

@@ -92,9 +92,10 @@ pub use figures::{
     evaluate, evaluation_schema, Compensated, DistanceFigures, Evaluation, Multidirectional,
     PoseFigures, PoseSummary, Spread, Summary, SCHEMA_VERSION,
 };
+
 pub use measured::{
     cube_roles, log_from_measurements, log_placed, predict_compensated, read_roles, write_roles,
-    PlacedLog, Role, Roles, ROLES_HEADER,
+    PlacedLog, Role, Roles,
 };
 
 use nalgebra::{Matrix3, Vector3};
@@ -119,7 +120,7 @@ pub const STANDARD_CYCLES: usize = 30;
 
 /// Where `P2` to `P5` lie on the diagonals: this fraction of the diagonal's length from its
 /// corner (the standard's 10 %).
-pub const CORNER_FRACTION: f64 = 0.1;
+pub(crate) const CORNER_FRACTION: f64 = 0.1;
 
 /// The corner of the measuring plane each of `P2..P5` is near, as signs of `x, y, z` from the
 /// centre.

@@ -633,7 +633,7 @@ pub fn gravity_free_joints(robot: &Robot) -> GravityFree {
 /// gravity equilibrium does not converge, with how it went; `None` when it converges at all of
 /// them, or for a rigid robot. Front ends refuse such a posture rather than report deflections
 /// that mean nothing.
-pub fn unconverged_posture<'a>(
+pub(crate) fn unconverged_posture<'a>(
     robot: &Robot,
     postures: impl IntoIterator<Item = (&'a [f64], Option<&'a Payload>)>,
 ) -> Option<(usize, Equilibrium)> {

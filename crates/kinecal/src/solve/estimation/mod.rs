@@ -18,7 +18,7 @@
 //! assert!((cal.calibrated.get(p1) - truth.get(p1)).abs() < 1e-9);
 //! ```
 
-pub mod least_squares;
+pub(crate) mod least_squares;
 pub mod solver;
 
 pub use least_squares::{LeastSquares, RowSink};
@@ -77,7 +77,7 @@ pub enum Loss {
 pub enum Spread {
     /// The residuals' own robust spread, re-estimated at every reweighting: 1.4826 times the
     /// median absolute weighted residual of the rows alike (same kind and quantity; see
-    /// [`crate::observe::RobustSpread`]). Right whatever the weights: stated standard
+    /// `RobustSpread`). Right whatever the weights: stated standard
     /// deviations far above the real noise (the default weights on sub-millimetre data) would
     /// otherwise leave every row below the threshold and the loss would change nothing.
     #[default]

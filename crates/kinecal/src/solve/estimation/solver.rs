@@ -2,7 +2,7 @@
 //!
 //! The driver ([`solve`]) owns everything the methods share: the linearisation of the problem
 //! ([`LeastSquares`]) at each point, the stationarity test, the iteration log and the observer. A
-//! method is a [`StepRule`]: given the linearisation, it proposes steps until one lowers the
+//! method is a `StepRule`: given the linearisation, it proposes steps until one lowers the
 //! objective `f = |r|^2`.
 //!
 //! **The linearisation.** The Jacobian is never held: each evaluation pushes its rows
@@ -107,7 +107,7 @@ impl Method {
     }
 
     /// A sensible iteration cap: steepest descent needs many more iterations.
-    pub fn default_max_iterations(self) -> usize {
+    pub(crate) fn default_max_iterations(self) -> usize {
         match self {
             Method::SteepestDescent => 5000,
             _ => 100,
@@ -309,13 +309,13 @@ pub struct Solution {
     pub unfelt: Vec<usize>,
     /// The linearisation at the start: the `(cols + 1) x (cols + 1)` upper-triangular `R` of the
     /// QR of `[J | r]` at `x0` (the residual last), as the first evaluation left it.
-    pub start_r: Matrix,
+    pub(crate) start_r: Matrix,
 }
 
 /// The linearisation a step rule works on, at the current point: with `J = Q R` (the thin QR
 /// of the Jacobian) and `z = Q^T r`, `|r + J p|^2 = |z + R p|^2 + (|r|^2 - |z|^2)`, so `R` and
 /// `z` are all a step needs; no `m`-row matrix exists.
-pub struct System<'s> {
+pub(crate) struct System<'s> {
     /// `R`, `n x n` upper triangular (unscaled; dead columns zeroed).
     pub r: &'s Matrix,
     /// `z = Q^T r`.
@@ -329,7 +329,7 @@ pub struct System<'s> {
     /// Columns no residual feels (below 1e-12 of the largest norm).
     pub dead: &'s [bool],
     /// The Gauss-Newton step from the point (unscaled; rank-truncated at `rcond`).
-    pub gauss_newton: &'s [f64],
+    pub(crate) gauss_newton: &'s [f64],
     /// The numerical rank of the scaled `R` (at `rcond`).
     pub rank: usize,
 }
@@ -365,11 +365,9 @@ impl System<'_> {
 }
 
 /// A step a rule had accepted.
-pub struct Step {
+pub(crate) struct Step {
     /// The step in the problem's parameters.
     pub p: Vec<f64>,
-    /// Objective after the step.
-    pub f: f64,
     /// LM damping, or line-search factor.
     pub lambda: f64,
     /// Objective evaluations spent.
@@ -377,13 +375,13 @@ pub struct Step {
 }
 
 /// What a step rule may ask of the problem at the current point `x`.
-pub trait Trials {
+pub(crate) trait Trials {
     /// The objective at `x + p` (infinite where it is not finite).
     fn objective(&mut self, p: &[f64]) -> f64;
 }
 
 /// What a step rule found.
-pub enum Proposal {
+pub(crate) enum Proposal {
     /// A step that lowers the objective.
     Step(Step),
     /// No step lowers the objective. `at_rounding`: the last steps tried were so short that
@@ -398,7 +396,7 @@ pub enum Proposal {
 
 /// A least-squares method: proposes steps `p` (the parameters move to `x + p`) and evaluates
 /// them with `trials`, until one lowers the objective.
-pub trait StepRule {
+pub(crate) trait StepRule {
     /// Proposes steps until one lowers `sys.f`.
     fn step(&mut self, sys: &System<'_>, trials: &mut dyn Trials) -> Result<Proposal>;
 }
@@ -524,7 +522,6 @@ impl StepRule for LevenbergMarquardt {
             if ratio >= 1e-4 && f1 < sys.f {
                 return Ok(Proposal::Step(Step {
                     p,
-                    f: f1,
                     lambda: par,
                     evaluations,
                 }));
@@ -696,7 +693,7 @@ impl StepRule for SteepestDescent {
 }
 
 /// Truncated-SVD pseudo-inverse steps (eq. 3.20).
-pub struct TruncatedSvd {
+pub(crate) struct TruncatedSvd {
     /// Singular values below `rcond * s_max` are dropped.
     pub rcond: f64,
 }
@@ -734,7 +731,6 @@ fn halving(p: Vec<f64>, f: f64, trials: &mut dyn Trials) -> Proposal {
         if fv < f {
             return Proposal::Step(Step {
                 p: ps,
-                f: fv,
                 lambda: t,
                 evaluations,
             });
