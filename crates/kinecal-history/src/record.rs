@@ -114,21 +114,15 @@ pub(crate) fn new_record(
     // before and after: the bulk of a report, of no use for drift), nor the measured postures,
     // the covariance and the accuracy map of the prediction (its model-error terms and summary
     // stay; `kinecal predict` reads the report file).
-    let json = CalibrationReport {
-        observation_errors: None,
-        prediction: report
-            .prediction
-            .clone()
-            .map(|p| kinecal::predict::PredictionReport {
-                measured: Vec::new(),
-                covariance: Vec::new(),
-                estimated: Vec::new(),
-                map: None,
-                ..p
-            }),
-        ..report.clone()
+    let mut kept = report.clone();
+    kept.observation_errors = None;
+    if let Some(p) = &mut kept.prediction {
+        p.measured = Vec::new();
+        p.covariance = Vec::new();
+        p.estimated = Vec::new();
+        p.map = None;
     }
-    .to_json();
+    let json = kept.to_json();
     let combinations = report
         .combinations
         .iter()

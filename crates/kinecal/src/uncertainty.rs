@@ -48,6 +48,7 @@ pub(crate) const HIGH_CORRELATION: f64 = 0.95;
 
 /// One estimated parameter's uncertainty (file units).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct ParameterUncertainty {
     /// The parameter.
     pub id: ParamId,
@@ -72,6 +73,7 @@ pub struct ParameterUncertainty {
 
 /// What determines an estimate when the calibration has a prior.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum DeterminedBy {
     /// The data alone determine it individually (the prior only tightens it, giving at most
     /// 99 % of its information).
@@ -101,6 +103,7 @@ pub const PRIOR_ALONE_SHARE: f64 = 0.01;
 
 /// A combination the data determines although its members are not (an identical group).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CombinationUncertainty {
     /// Members and coefficients (file units).
     pub terms: Vec<(ParamId, f64)>,
@@ -116,6 +119,7 @@ pub struct CombinationUncertainty {
 
 /// The uncertainty of a calibration.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Uncertainty {
     /// Variance factor `s0^2 = SSR / (m - r)` (with a prior, `SSR / (m - tr H_data)`: see the
     /// module documentation).

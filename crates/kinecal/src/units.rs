@@ -303,6 +303,7 @@ impl FromStr for DisplayUnits {
 /// (the robot file's units), or given units such as `mm-deg`, `um-deg`, `m-rad`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "String", into = "String")]
+#[non_exhaustive]
 pub enum DisplayChoice {
     /// [`DisplayUnits::for_robot`].
     #[default]

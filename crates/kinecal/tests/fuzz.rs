@@ -478,16 +478,12 @@ fn spec_toml() {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/fleet/a4-0042.toml"),
     )
     .unwrap();
-    let full = Job::Calibrate(kinecal::spec::CalibrationSpec {
-        robot: "ge-a4".into(),
-        observations: vec![kinecal::files::ObservationFile::new("d.csv")],
-        validation: kinecal::spec::ValidationSpec {
-            folds: Some(3),
-            choose: Some(vec!["identifiable".into()]),
-            ..Default::default()
-        },
-        ..Default::default()
-    });
+    let mut spec = kinecal::spec::CalibrationSpec::default();
+    spec.robot = "ge-a4".into();
+    spec.observations = vec![kinecal::files::ObservationFile::new("d.csv")];
+    spec.validation.folds = Some(3);
+    spec.validation.choose = Some(vec!["identifiable".into()]);
+    let full = Job::Calibrate(spec);
     let mut seeds = vec![seed, full.to_toml().into_bytes()];
     for text in [
         "job = \"analyze\"\nrobot = \"ge-a4\"\nrcond = 1e-9\n[[observations]]\nfile = \"d.csv\"\n[selection]\nestimate = \"all\"\n",

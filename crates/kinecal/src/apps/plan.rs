@@ -69,6 +69,7 @@ pub(crate) const RANDOM_PLANS: usize = 100;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[non_exhaustive]
 pub enum Criterion {
     /// `log det M`: the volume of the confidence ellipsoid of the parameters.
     #[default]
@@ -202,6 +203,7 @@ impl std::str::FromStr for Criterion {
 
 /// A planning problem.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct PlanRequest {
     /// The nominal robot (the plan is evaluated at it).
     pub robot: Robot,
@@ -244,6 +246,7 @@ impl PlanRequest {
 
 /// One posture of a plan and what it contributes.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct PlannedPosture {
     /// Index into the pool's postures, or `None` for a kept posture.
     pub candidate: Option<usize>,
@@ -260,6 +263,7 @@ pub struct PlannedPosture {
 
 /// Random plans of the same size, for comparison.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct RandomPlans {
     /// How many were drawn.
     pub draws: usize,
@@ -274,6 +278,7 @@ pub struct RandomPlans {
 
 /// A measurement plan.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Plan {
     /// The parameters it is designed to determine (sorted).
     pub parameters: Vec<ParamId>,
@@ -315,6 +320,7 @@ pub struct Plan {
 /// A plan as a document: what `kinecal plan --json` prints (values in the robot file's units:
 /// readings as its transducer values).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct PlanReport {
     /// The version of this document's schema ([`crate::report::SCHEMA_VERSION`]).
     pub schema_version: u32,
@@ -352,6 +358,7 @@ pub struct PlanReport {
 
 /// Random plans of a plan's size (in a [`PlanReport`]).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct RandomPlansReport {
     /// How many were drawn.
     pub draws: usize,
@@ -365,6 +372,7 @@ pub struct RandomPlansReport {
 
 /// A posture of a plan (in a [`PlanReport`]).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct PlannedPostureReport {
     /// Its label.
     pub label: String,

@@ -91,6 +91,7 @@ impl Default for AnalysisOptions {
 
 /// The rank the thesis's formulas predict (eqs. 4.2, 4.3, 4.5).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct ExpectedRank {
     /// The predicted number of independent parameters.
     pub rank: usize,
@@ -101,6 +102,7 @@ pub struct ExpectedRank {
 /// A set of parameters whose Jacobian columns are equal or opposite at every posture (thesis
 /// 4.4.3): the data determines only one combination of them.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct IdenticalGroup {
     /// Members and the coefficients of the determined combination (file units, first member 1).
     pub terms: Vec<(ParamId, f64)>,
@@ -118,6 +120,7 @@ pub struct IdenticalGroup {
 /// a combination of the chosen ones, or barely felt at all; an estimate of it would be
 /// meaningless, and would slow a solver down along its valley.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct NoiseDependent {
     /// The parameter.
     pub id: ParamId,
@@ -162,6 +165,7 @@ impl NoiseDependent {
 
 /// The result of [`analyze`].
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Analysis {
     /// The analysed parameters, in order.
     pub parameters: Vec<ParamId>,

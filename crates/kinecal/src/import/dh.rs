@@ -843,6 +843,7 @@ pub fn write_dh_table(rows: &[DhRow], units: Units, convention: Convention) -> S
 
 /// A DH export: the table, its text, and what it reproduces of the robot.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct DhExport {
     /// The table.
     pub table: DhTable,

@@ -17,6 +17,7 @@ use crate::model::robot::Robot;
 /// A joint-table export: the text, and what the nominal robot with it applied reproduces of the
 /// calibrated one.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct JointTableExport {
     /// The table.
     pub text: String,

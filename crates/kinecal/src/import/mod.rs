@@ -130,6 +130,7 @@ pub(crate) fn tree_from_frames(
 /// What an export could not write: the largest deviation over the joint ranges between the
 /// robot and what the file holds.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Lost {
     /// What it is (`joint 2 slope 1.0003`, `tool correction`, ...).
     pub what: String,

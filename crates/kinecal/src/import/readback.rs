@@ -51,6 +51,7 @@ impl Tolerance {
 
 /// What an export reproduces of the robot, read back.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct ReadBack {
     /// Largest position deviation at the tool (m).
     pub position: f64,

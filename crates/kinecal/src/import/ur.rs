@@ -247,6 +247,7 @@ pub fn import_ur(text: &str, file: &str) -> Result<UrdfImport> {
 /// A UR export: the kinematics file's text, what it reproduces of the robot, and what the user
 /// must know.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct UrExport {
     /// The kinematics file.
     pub text: String,

@@ -59,6 +59,7 @@ pub(crate) type NewOrigin = (String, Frame, Frame);
 
 /// The result of [`import_urdf`].
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct UrdfImport {
     /// The robot (metres and radians).
     pub robot: Robot,
@@ -665,6 +666,7 @@ fn export_origins_keeping(
 
 /// What a calibrated robot changes in its URDF.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Exported {
     /// Joints whose origin is rewritten.
     pub origins: Vec<NewOrigin>,
@@ -738,6 +740,7 @@ pub(crate) fn rewrite_origins(text: &str, file: &str, origins: &[NewOrigin]) -> 
 
 /// A URDF export: the text, its warnings, and what it reproduces of the robot.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct UrdfExport {
     /// The URDF.
     pub text: String,

@@ -167,6 +167,7 @@ impl PlaneComponent {
 
 /// What a parameter is (0-based link, joint, site and plane indices).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum ParamKind {
     /// A component of link `link`.
     Link {

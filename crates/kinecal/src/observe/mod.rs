@@ -125,6 +125,7 @@ impl Weights {
 )]
 #[serde(rename_all = "lowercase")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[non_exhaustive]
 pub enum OrientationError {
     /// Differences of the ZYX Euler angles, each wrapped to (-180, 180] deg (thesis eq. 3.1).
     /// Undefined at gimbal lock: refused when a measured attitude is within 1 deg of it.

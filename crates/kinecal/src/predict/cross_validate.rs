@@ -36,6 +36,7 @@ use crate::solve::estimation::{self, Calibration};
 
 /// One held-out observation's error and what the fold predicted of it (internal units).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct HeldOut {
     /// Distance to the nearest fitted posture (m).
     pub distance: f64,
@@ -47,6 +48,7 @@ pub struct HeldOut {
 
 /// The held-out errors of a cross-validation.
 #[derive(Debug, Clone, PartialEq, Default)]
+#[non_exhaustive]
 pub struct CrossValidated {
     /// Positions (m).
     pub position: Vec<HeldOut>,
@@ -228,6 +230,7 @@ fn cross_validate_at(
 
 /// The model-error term fitted to held-out errors, and how it and the alternatives cover them.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct GrowthFit {
     /// The term (maximum likelihood).
     pub growth: Growth,

@@ -24,6 +24,7 @@ use crate::units::Quantity;
 
 /// One slice of the map (the robot file's length unit).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct Slice {
     /// What it is, e.g. `horizontal slice at z = 0.512`.
     pub title: String,
@@ -44,6 +45,7 @@ pub struct Slice {
 
 /// The predicted bound along one joint's reading range.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct JointSweep {
     /// The joint (1-based).
     pub joint: usize,
@@ -59,6 +61,7 @@ pub struct JointSweep {
 
 /// The accuracy map (see the module).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct AccuracyMap {
     /// The length unit of every figure.
     pub unit: String,

@@ -140,6 +140,7 @@ impl Bound {
 
 /// The prediction at one posture (internal units).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Prediction {
     /// Where the calibrated model puts the target (global frame, m).
     pub position: Vector3<f64>,
@@ -484,6 +485,7 @@ pub fn sample_readings(robot: &Robot, count: usize, seed: u64) -> Vec<f64> {
 
 /// The model-error term of one quantity in a report (the robot file's units).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct GrowthReport {
     /// Per-axis standard deviation at the measured postures (length or angle unit).
     pub s0: f64,
@@ -513,6 +515,7 @@ pub struct GrowthReport {
 /// The median and 95th percentile of the predicted 95 % bound over postures drawn in the joint
 /// ranges (the robot file's units).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct BoundSummary {
     /// Median (length or angle unit).
     pub median: f64,
@@ -525,6 +528,7 @@ pub struct BoundSummary {
 /// What a calibration predicts of its accuracy: everything `kinecal predict` needs (with the
 /// calibrated robot) and the figures the report shows. The robot file's units throughout.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct PredictionReport {
     /// The target predicted by default (`ee` or a site's name).
     pub target: String,
@@ -559,6 +563,7 @@ pub struct PredictionReport {
 /// How much of the prediction a calibration makes. Off unless asked for (`--predict`, an HTML
 /// report): its cross-validation costs many times a fit of a thousand postures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum Level {
     /// None.
     #[default]

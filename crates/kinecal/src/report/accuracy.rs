@@ -11,6 +11,7 @@ use crate::units::{Quantity, Units};
 
 /// Error statistics on one dataset, in the robot file's units.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct ErrorStats {
     /// Observations with a position error (poses and positions).
     #[serde(default)]
@@ -73,6 +74,7 @@ impl ErrorStats {
 
 /// Length errors of one metric other than positions (length unit).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct MetricStats {
     /// `distance` (error of a measured distance), `contact` (distance from the plane), ...
     pub metric: String,
@@ -90,6 +92,7 @@ pub struct MetricStats {
 
 /// Accuracy before and after calibration on one dataset.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct DatasetAccuracy {
     /// Postures in the dataset.
     pub postures: usize,
@@ -137,6 +140,7 @@ impl DatasetAccuracy {
 
 /// How many observations of one kind.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct KindCount {
     /// `pose`, `position`, `distance`, `contact`.
     pub kind: String,
@@ -147,6 +151,7 @@ pub struct KindCount {
 /// Cross-validation by posture folds (length unit): the same calibration run on each training
 /// fold and checked on the postures it left out.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct CrossValidationReport {
     /// The folds' shuffle seed (absent: interleaved in posture order).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -165,6 +170,7 @@ pub struct CrossValidationReport {
 
 /// One candidate of a model choice (length unit).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct ChoiceReport {
     /// The candidate as written.
     pub candidate: String,
@@ -180,6 +186,7 @@ pub struct ChoiceReport {
 
 /// One fold of a cross-validation (length unit).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct FoldReport {
     /// Postures held out.
     pub postures: usize,
@@ -204,6 +211,7 @@ pub struct FoldReport {
 /// The closed-form placement of a far start ([`crate::solve::registration`]): RMS position error of
 /// the start before and after it (length unit).
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct StartPlacement {
     /// Before.
     pub rms_before: f64,
@@ -214,6 +222,7 @@ pub struct StartPlacement {
 /// The figures of the solver's start on the identification data (robot file's units), when it
 /// is not the nominal robot.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct StartFigures {
     /// Weighted sum of squared residuals.
     pub objective: f64,
@@ -231,6 +240,7 @@ pub struct StartFigures {
 
 /// The solver's stationarity measures at its last point ([`crate::solve::estimation::Stationarity`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[non_exhaustive]
 pub struct StationarityReport {
     /// The relative reduction of the objective a Gauss-Newton step would bring by the local
     /// linear model (converged at or below `ftol`, 1e-15 by default).
@@ -246,6 +256,7 @@ pub struct StationarityReport {
 
 /// An observation the calibrated model misses by far more than the rest.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct OutlierReport {
     /// Line in its file (0 when synthesized).
     pub line: usize,
@@ -303,6 +314,7 @@ pub(crate) fn observation_errors(cal: &Calibration, data: &Dataset) -> Observati
 /// `run` consecutive observations (so that no large error disappears); and the histogram of
 /// all the errors after.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct ObservationErrors {
     /// What the length errors are: `position`, a metric (`distance`, `contact`) when the data
     /// has only that, or `length` for a mix.

@@ -19,6 +19,7 @@ fn ids(list: &[ParamId]) -> Vec<String> {
 /// in file units), the identifiable set, identically redundant groups and their combinations,
 /// the null space, the parameters dependent within the noise, and warnings.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct AnalysisReport {
     /// The version of this document's schema ([`SCHEMA_VERSION`]).
     pub schema_version: u32,
@@ -84,6 +85,7 @@ pub struct AnalysisReport {
 
 /// An identically redundant group's combination.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct IdenticalCombination {
     /// `p3 + p9`.
     pub expression: String,
@@ -97,6 +99,7 @@ pub struct IdenticalCombination {
 
 /// A parameter dependent on the identifiable set within the noise.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct NoiseDependentReport {
     /// Its id.
     pub id: String,

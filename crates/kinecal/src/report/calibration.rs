@@ -19,6 +19,7 @@ use super::*;
 
 /// The calibration report written by `kinecal calibrate --report`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct CalibrationReport {
     /// The version of this document's schema ([`SCHEMA_VERSION`]).
     #[serde(default = "version_one")]

@@ -10,6 +10,7 @@ use crate::units::Quantity;
 
 /// The mass model of an elastic robot (see [`crate::model::robot::Elastic`]), after calibration.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct ElasticReport {
     /// Bodies of the model.
     pub bodies: usize,
@@ -33,6 +34,7 @@ pub struct ElasticReport {
 
 /// One compliance of one joint.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct StiffnessReport {
     /// The parameter, `joint2.compliance` or `joint2.lateral`.
     pub name: String,

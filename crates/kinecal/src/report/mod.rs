@@ -32,6 +32,7 @@ pub use parameters::{
 
 /// A file the calibration read, with the SHA-256 of the bytes read.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct SourceReport {
     /// The file name as given.
     pub name: String,
@@ -41,6 +42,7 @@ pub struct SourceReport {
 
 /// The wall time of one phase.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct PhaseTime {
     /// The phase (`reading`, `preparation`, `selection`, `estimation`, `pruning`,
     /// `uncertainty`, `report`, `cross-validation`, `writing`).

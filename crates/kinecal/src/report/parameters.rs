@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 /// One parameter's line in the report.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct ParameterReport {
     /// `p1`, `p2`, ...
     pub id: String,
@@ -49,6 +50,7 @@ pub struct ParameterReport {
 
 /// The Gaussian prior of a calibration and its part in the result.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct PriorReport {
     /// The prior as written (the robot file's units): `length=0.1,angle=0.01,link3.y=0.5`.
     pub prior: String,
@@ -74,6 +76,7 @@ pub struct PriorReport {
 
 /// A member of a determined combination.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct TermReport {
     /// Parameter id.
     pub id: String,
@@ -85,6 +88,7 @@ pub struct TermReport {
 
 /// A combination of parameters the data determines although its members are not.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct CombinationReport {
     /// Readable form, e.g. `p3 - p9 - p15 - p21 - p27 - p33`.
     pub expression: String,
@@ -104,6 +108,7 @@ pub struct CombinationReport {
 
 /// A pair of strongly correlated estimates.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct CorrelationReport {
     /// First parameter id.
     pub a: String,
@@ -115,6 +120,7 @@ pub struct CorrelationReport {
 
 /// The fit before pruning, when `--prune` was used.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct PruneReport {
     /// The significance threshold K.
     pub k: f64,
@@ -131,6 +137,7 @@ pub struct PruneReport {
 
 /// The singular-value spectrum of the scaled Jacobian at the solution, and what it says.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct SpectrumReport {
     /// Singular values of the scaled Jacobian, largest first.
     pub singular_values_scaled: Vec<f64>,
@@ -148,6 +155,7 @@ pub struct SpectrumReport {
 
 /// An identically redundant group of parameters.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
 pub struct GroupReport {
     /// The combination, e.g. `p3 + p9`.
     pub expression: String,

@@ -46,6 +46,7 @@ pub fn threshold(k: f64, rows: usize) -> f64 {
 
 /// An observation the calibrated model misses by far more than the rest.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Outlier {
     /// Index into the dataset's observations.
     pub observation: usize,

@@ -33,6 +33,7 @@ pub const FAR_START: f64 = 0.05;
 
 /// What [`register`] did.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Registration {
     /// The re-placed robot.
     pub robot: Robot,

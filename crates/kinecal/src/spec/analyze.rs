@@ -29,6 +29,7 @@ use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
 /// What to analyse (`[selection]` of an analysis).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct AnalysisSelection {
     /// The parameters to analyse ([`Selection::parse`]); calibrate's default parameters when
     /// absent, so that the identifiable set shown is the one `estimate = "identifiable"`
@@ -78,6 +79,7 @@ pub enum MatrixUnits {
 /// An identifiability analysis. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct AnalyzeSpec {
     /// The robot file (or a built-in robot's name): the model, analysed at its values.
     #[serde(default)]
@@ -124,6 +126,7 @@ impl Spec for AnalyzeSpec {
 
 /// A finished analysis: the library's analysis and its document.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct AnalyzeOutcome {
     /// The analysis.
     pub analysis: Analysis,

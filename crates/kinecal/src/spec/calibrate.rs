@@ -53,6 +53,7 @@ use super::{Document, Done, Env, JobKind, Message, PathRole, Spec, Status};
 /// One calibration job. See the [module documentation](self) for the file.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct CalibrationSpec {
     /// The nominal robot: a robot file, or a built-in robot's name (`ge-a4`) when no such file
     /// exists.
@@ -92,6 +93,7 @@ pub struct CalibrationSpec {
 /// What to estimate (`[selection]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct SelectionSpec {
     /// The parameter list to estimate ([`Selection::parse`]); the default parameters when
     /// absent.
@@ -118,6 +120,7 @@ pub struct SelectionSpec {
 /// The method and its stopping rules (`[solver]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct SolverSpec {
     /// `lm` (default), `gn`, `sd` or `svd`.
     #[serde(default, skip_serializing_if = "is_default")]
@@ -141,6 +144,7 @@ pub struct SolverSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[non_exhaustive]
 pub enum LossKind {
     /// Least squares.
     #[default]
@@ -152,6 +156,7 @@ pub enum LossKind {
 /// The loss, the weights and the outlier rule (`[residuals]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct ResidualSpec {
     /// `squared` (default) or `huber`.
     #[serde(default, skip_serializing_if = "is_default")]
@@ -178,6 +183,7 @@ pub struct ResidualSpec {
 /// folds; with `choose`, the folds choose the model (and held-out files check it).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct ValidationSpec {
     /// Held-out observation files.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -210,6 +216,7 @@ pub struct ValidationSpec {
 /// What is written (`[outputs]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct OutputSpec {
     /// The calibrated robot file.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -23,6 +23,7 @@ use super::{Document, Done, Env, JobKind, PathRole, Spec, Status};
 /// A check. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct CheckSpec {
     /// The robot (as calibrated).
     #[serde(default)]
@@ -51,6 +52,7 @@ impl Spec for CheckSpec {
 
 /// A finished check.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct CheckOutcome {
     /// The verdict (SI).
     pub verdict: Verdict,

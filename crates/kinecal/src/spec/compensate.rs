@@ -32,6 +32,7 @@ use super::{Document, Done, Env, JobKind, Message, PathRole, Spec, Status};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum ProgramFormat {
     /// The readings with each row's remaining errors and flags.
     #[default]
@@ -64,6 +65,7 @@ impl ProgramFormat {
 /// A compensation. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct CompensateSpec {
     /// The calibrated robot: how the robot really moves.
     #[serde(default)]
@@ -116,6 +118,7 @@ impl Spec for CompensateSpec {
 
 /// The counts of a compensation's rows and flags (the document), in the robot file's units.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct CompensationSummary {
     /// Rows compensated.
     #[serde(default)]
@@ -201,6 +204,7 @@ impl CompensationSummary {
 
 /// A finished compensation.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct CompensateOutcome {
     /// The document.
     pub summary: CompensationSummary,

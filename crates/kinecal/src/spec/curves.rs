@@ -29,6 +29,7 @@ use super::{Document, Done, Env, Image, JobKind, Page, PathRole, Spec};
 /// Which curve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum CurveKind {
     /// The pose at one posture.
     #[default]
@@ -41,6 +42,7 @@ pub enum CurveKind {
 /// default over a span that depends on the parameter.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct Sweep {
     /// The parameters, each on its own curve (a parameter list).
     #[serde(default)]
@@ -62,6 +64,7 @@ pub struct Sweep {
 /// Characteristic curves. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct CurvesSpec {
     /// Which curve.
     #[serde(default)]
@@ -113,6 +116,7 @@ impl Spec for CurvesSpec {
 
 /// One chart of curves.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SweptParameter {
     /// Its title.
     #[serde(default)]
@@ -133,6 +137,7 @@ pub struct SweptParameter {
 
 /// The document of curves: the charts, their table and what they show in words.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Curves {
     /// Which curve.
     #[serde(default)]

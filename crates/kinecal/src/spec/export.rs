@@ -27,6 +27,7 @@ use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum ExportFormat {
     /// The calibrated robot written into the URDF it was imported from.
     #[default]
@@ -59,6 +60,7 @@ impl ExportFormat {
 /// `stiffness`: report. All but stiffness take a tolerance.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct ExportSpec {
     /// What to write.
     #[serde(default)]
@@ -115,6 +117,7 @@ impl Spec for ExportSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
 pub enum ImportFormat {
     /// A URDF file (plain URDF; expand xacro first).
     #[default]
@@ -130,6 +133,7 @@ pub enum ImportFormat {
 /// An import. `urdf` takes base, tip and masses; `dh` takes convention, units and name.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct ImportSpec {
     /// What the file is.
     #[serde(default)]
@@ -174,6 +178,7 @@ impl Spec for ImportSpec {
 
 /// The document of an export or an import.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct ExportOutcome {
     /// The read-back line (`read back: largest deviation ... over N postures`).
     pub read_back: Option<String>,

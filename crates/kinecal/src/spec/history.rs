@@ -83,6 +83,7 @@ macro_rules! history_spec {
 /// `history-add`: record a calibration report of a robot.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryAddSpec {
     /// The history (a SQLite file or a `postgres://` URL); default `$KINECAL_DB`, else
     /// `kinecal/history.sqlite` in the user's data folder.
@@ -113,6 +114,7 @@ history_spec!(HistoryAddSpec, HistoryAdd, |s, f| {
 /// `history-list`: the recorded calibrations, of one robot or all.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryListSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -127,6 +129,7 @@ history_spec!(HistoryListSpec, HistoryList, |_s, _f| {});
 /// `history-show`: one calibration, by id or the latest of a robot.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryShowSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -159,6 +162,7 @@ pub enum HistoryFormat {
 /// `history-export`: the history as CSV, JSON or a lossless dump.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryExportSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -221,6 +225,7 @@ fn is_default_horizon(v: &f64) -> bool {
 /// `history-drift`: the determined quantities of a robot that changed since a baseline.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryDriftSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -260,6 +265,7 @@ history_spec!(HistoryDriftSpec, HistoryDrift, |s, f| {
 /// value's 3-sigma band, tolerances and maintenance events (SVG or PNG, by `out`'s extension).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryPlotSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -288,6 +294,7 @@ history_spec!(HistoryPlotSpec, HistoryPlot, |s, f| {
 /// crosses a tolerance within the horizon), ok, or single.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryFleetSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -339,6 +346,7 @@ history_spec!(HistoryFleetSpec, HistoryFleet, |s, f| {
 /// events.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryEventSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -359,6 +367,7 @@ history_spec!(HistoryEventSpec, HistoryEvent, |_s, _f| {});
 /// `history-events`: the maintenance events, of one robot or all.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryEventsSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -374,6 +383,7 @@ history_spec!(HistoryEventsSpec, HistoryEvents, |_s, _f| {});
 /// what is already there is skipped.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryImportSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -390,6 +400,7 @@ history_spec!(HistoryImportSpec, HistoryImport, |s, f| {
 /// `history-init`: create the history's schema, or migrate it to this kinecal's version.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct HistoryInitSpec {
     /// The history (see [`HistoryAddSpec::db`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -34,6 +34,7 @@ pub(crate) const MAX_RESOLUTION: usize = 200;
 /// The test poses of a robot. Lengths and angles in the robot file's units.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct Iso9283PlanSpec {
     /// The robot (its model reaches the poses).
     #[serde(default)]
@@ -57,6 +58,7 @@ pub struct Iso9283PlanSpec {
 /// A log simulated at a plan's poses (no measurement).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct Iso9283SimulateSpec {
     /// The robot that moves (a "true" robot).
     #[serde(default)]
@@ -82,6 +84,7 @@ pub struct Iso9283SimulateSpec {
 /// attained ones measured.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct Iso9283LogSpec {
     /// The robot whose model commands the poses.
     #[serde(default)]
@@ -104,6 +107,7 @@ pub struct Iso9283LogSpec {
 /// compensated program is predicted to reach.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct Iso9283EvaluateSpec {
     /// The log.
     #[serde(default)]
@@ -175,6 +179,7 @@ impl Spec for Iso9283EvaluateSpec {
 
 /// A test pose in the robot file's units.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct PlannedPose {
     /// `P1` .. `P5`.
     #[serde(default)]
@@ -189,6 +194,7 @@ pub struct PlannedPose {
 
 /// The document of ISO 9283 test poses, in the robot file's units.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Iso9283PlanDocument {
     /// The robot file's length unit.
     #[serde(default)]
@@ -209,6 +215,7 @@ pub struct Iso9283PlanDocument {
 
 /// A finished ISO 9283 plan.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct Iso9283PlanOutcome {
     /// The plan (SI).
     pub plan: TestPlan,
@@ -218,6 +225,7 @@ pub struct Iso9283PlanOutcome {
 
 /// The document of a simulated log.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SimulatedLog {
     /// Cycles.
     #[serde(default)]
@@ -235,6 +243,7 @@ pub struct SimulatedLog {
 
 /// The document of a log made from measurements.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct Iso9283LogOutcome {
     /// Rows of the log.
     #[serde(default)]

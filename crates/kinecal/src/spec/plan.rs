@@ -33,6 +33,7 @@ pub(crate) const MAX_SAMPLE: usize = 1_000_000;
 /// What a plan writes (`[outputs]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct PlanOutputs {
     /// The chosen postures (a postures file, or the chosen rows of an observation file).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -45,6 +46,7 @@ pub struct PlanOutputs {
 /// A measurement plan. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct PlanSpec {
     /// The robot file (or a built-in robot's name): the nominal model the plan is made for.
     #[serde(default)]
@@ -115,6 +117,7 @@ pub struct Pool {
 
 /// A finished plan.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct PlanOutcome {
     /// The plan.
     pub plan: Plan,

@@ -35,6 +35,7 @@ pub(crate) const MAX_SAMPLE: usize = 10_000_000;
 /// What a prediction writes (`[outputs]`).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct PredictOutputs {
     /// The predictions (CSV: a row per posture; `-` for standard output).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -51,6 +52,7 @@ pub struct PredictOutputs {
 /// A prediction. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct PredictSpec {
     /// The calibrated robot (the report's).
     #[serde(default)]
@@ -94,6 +96,7 @@ impl Spec for PredictSpec {
 
 /// The median, 95th percentile and largest of the predicted 95 % position bounds.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct BoundSpread {
     /// Median.
     pub median: f64,
@@ -105,6 +108,7 @@ pub struct BoundSpread {
 
 /// The document of a prediction: the predictions by column, in the robot file's units.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct PredictionTable {
     /// The calibrated robot's name.
     #[serde(default)]
@@ -130,6 +134,7 @@ pub struct PredictionTable {
 
 /// A finished prediction.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct PredictOutcome {
     /// The document.
     pub summary: PredictionTable,

@@ -26,6 +26,7 @@ use super::{Document, Done, Env, JobKind, Page, PathRole, Spec};
 /// A report page. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct ReportSpec {
     /// A calibration report (JSON) to draw as it is.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -35,6 +35,7 @@ pub(crate) const MAX_POSTURES: usize = 10_000_000;
 /// Random changes of every parameter (standard deviations; `[perturb_std]`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct PerturbSpread {
     /// Of lengths (robot file's length unit).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -50,6 +51,7 @@ pub struct PerturbSpread {
 /// A simulation. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct SimulateSpec {
     /// The nominal robot.
     #[serde(default)]
@@ -93,6 +95,7 @@ impl Spec for SimulateSpec {
 /// The forward kinematics of a robot at postures. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct FkSpec {
     /// The robot.
     #[serde(default)]
@@ -118,6 +121,7 @@ impl Spec for FkSpec {
 
 /// The document of a simulation or of forward kinematics.
 #[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct SimulateOutcome {
     /// Postures.
     #[serde(default)]

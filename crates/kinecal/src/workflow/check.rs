@@ -97,6 +97,7 @@ pub fn assess(
 
 /// The largest acceptable errors of a robot in service.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Thresholds {
     /// Largest acceptable length error (m): position errors, and the errors of other length
     /// metrics (distances, contacts).
@@ -140,6 +141,7 @@ pub fn check(robot: &Robot, data: &Dataset, thresholds: Thresholds) -> Result<Ve
 
 /// A check's verdict as a document: what `kinecal check --json` prints (robot file's units).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct CheckReport {
     /// The version of this document's schema ([`crate::report::SCHEMA_VERSION`]).
     pub schema_version: u32,
@@ -163,6 +165,7 @@ pub struct CheckReport {
 
 /// A length metric of a check (in a [`CheckReport`]).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct CheckMetric {
     /// `distance`, `contact`.
     pub metric: String,

@@ -13,6 +13,7 @@ use super::run::{run, Request, Validation};
 /// The result of cross-validation ([`Validation::Folds`]), in the metric that judges the
 /// model: positions when the data has them, else the first other length metric.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CrossValidation {
     /// The folds' shuffle seed (`None`: interleaved).
     pub seed: Option<u64>,
@@ -28,6 +29,7 @@ pub struct CrossValidation {
 /// One fold of a cross-validation: what was held out, what the fit on the rest estimated and
 /// could determine, and how it did on the held-out postures.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Fold {
     /// Postures held out.
     pub postures: usize,

@@ -14,6 +14,7 @@ use crate::units::{wrap_angle, Quantity};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[non_exhaustive]
 pub enum SolutionRule {
     /// Wherever the solver stops: in the undetermined directions this depends on the starting
     /// point and the solver's path (thesis Table 4.8).

@@ -111,6 +111,7 @@ fn inner_message(e: Error) -> String {
 
 /// One candidate of a model choice, cross-validated.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Scored {
     /// The candidate.
     pub candidate: Candidate,
@@ -125,6 +126,7 @@ pub struct Scored {
 
 /// The result of [`choose`].
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct Choice {
     /// Every candidate, in the order given.
     pub scored: Vec<Scored>,

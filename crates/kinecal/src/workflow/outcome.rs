@@ -25,6 +25,7 @@ use super::selection::refit_sessions;
 
 /// The pruned refit and what it removed.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Pruning {
     /// The significance threshold, in standard deviations.
     pub k: f64,
@@ -38,6 +39,7 @@ pub struct Pruning {
 
 /// Accuracy before and after calibration on a dataset.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Checked {
     /// Postures in the dataset.
     pub postures: usize,
@@ -151,6 +153,7 @@ impl Checked {
 
 /// What a calibration produced.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Outcome {
     /// The nominal robot of the request.
     pub nominal: Robot,

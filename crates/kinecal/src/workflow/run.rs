@@ -25,6 +25,7 @@ use super::selection::{default_parameters, resolve_linearized, session_frames_fo
 
 /// Held-out data to check the calibration on.
 #[derive(Debug, Clone, PartialEq, Default)]
+#[non_exhaustive]
 pub enum Validation {
     /// None.
     #[default]
@@ -52,6 +53,7 @@ pub enum Validation {
 
 /// Everything that decides a calibration.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Request {
     /// The nominal robot: the model, the starting point unless `initial` is given, and the
     /// reference of minimum-change answers. The uncertainty is linearised at the reference of
@@ -136,6 +138,7 @@ impl Request {
 
 /// The phases of a calibration, for progress displays and the report's timings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Phase {
     /// Checking the data and placing the measurement frame (before the first other phase).
     Preparation,

@@ -13,6 +13,7 @@ use crate::solve::problem::Linearized;
 
 /// Which parameters to estimate.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum Selection {
     /// The default set (see [`default_parameters`]) minus `fix`.
     Default {

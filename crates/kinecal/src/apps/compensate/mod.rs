@@ -37,6 +37,7 @@ use crate::model::robot::{JointKind, Robot};
 
 /// Settings of the inverse kinematics and of the flags.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Options {
     /// Iteration cap of the damped least squares.
     pub max_iterations: usize,

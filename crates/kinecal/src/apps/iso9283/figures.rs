@@ -13,6 +13,7 @@ use crate::units::{AngleUnit, LengthUnit};
 /// The figures of one pose (see the module's documentation for the symbols), in the log's
 /// units.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct PoseFigures {
     /// The test it belongs to, when the log holds several.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -59,6 +60,7 @@ pub struct PoseFigures {
 /// uncertainty and the model error at that posture ([`crate::predict`]); the repeatability is
 /// the robot's and does not change.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct Compensated {
     /// The predicted RMS of `AP`: `sqrt(tr S)`, `S` the predicted covariance of the position
     /// error.
@@ -72,6 +74,7 @@ pub struct Compensated {
 
 /// Multi-directional pose accuracy variation of one pose.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct Multidirectional {
     /// The approach directions, as the log names them.
     pub directions: Vec<String>,
@@ -85,6 +88,7 @@ pub struct Multidirectional {
 
 /// Distance accuracy and repeatability of a pair of poses.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct DistanceFigures {
     /// The test the poses belong to, when the log holds several.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -111,6 +115,7 @@ pub struct DistanceFigures {
 
 /// One figure over the poses (or pairs) of a series of tests.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct Spread {
     /// How many values.
     pub count: usize,
@@ -140,6 +145,7 @@ impl Spread {
 
 /// The figures of one pose over the tests of a series (or of every pose: `pose` 0).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct PoseSummary {
     /// The pose (0: every pose together).
     pub pose: usize,
@@ -158,6 +164,7 @@ pub struct PoseSummary {
 
 /// The figures across the tests of a log that holds several (a series of cubes).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct Summary {
     /// The tests.
     pub tests: usize,
@@ -182,6 +189,7 @@ pub fn evaluation_schema() -> String {
 
 /// The ISO 9283 figures of a log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[non_exhaustive]
 pub struct Evaluation {
     /// [`crate::apps::iso9283::SCHEMA_VERSION`] of the document.
     #[serde(default)]

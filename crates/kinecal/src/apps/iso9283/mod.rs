@@ -198,6 +198,7 @@ impl Default for PlanRequest {
 
 /// One test pose of a plan, reached by the robot's inverse kinematics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct TestPose {
     /// Its index: 1 to 5 for `P1..P5`.
     pub pose: usize,
@@ -215,6 +216,7 @@ pub struct TestPose {
 
 /// How a cube was searched for.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct SearchInfo {
     /// The grid's step (m).
     pub step: f64,
@@ -226,6 +228,7 @@ pub struct SearchInfo {
 
 /// The test poses of ISO 9283 for one robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
 pub struct TestPlan {
     /// The cube (m).
     pub cube: Cube,

@@ -39,6 +39,7 @@ use crate::model::robot::{Elastic, JointKind, Payload, Robot};
 
 /// How the last equilibrium went ([`Workspace::equilibrium`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Equilibrium {
     /// Fixed-point iterations taken.
     pub iterations: usize,

@@ -37,6 +37,7 @@ use crate::units::{wrap_angle, Quantity};
 
 /// Everything that decides an estimation.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CalibrationOptions {
     /// The parameters to estimate (sorted, distinct); the others keep their values.
     pub estimate: Vec<ParamId>,
@@ -55,6 +56,7 @@ pub struct CalibrationOptions {
 
 /// The loss applied to each weighted residual `r` (in standard deviations).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[non_exhaustive]
 pub enum Loss {
     /// Least squares, `r^2` (the thesis's objective).
     #[default]
@@ -74,6 +76,7 @@ pub enum Loss {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[non_exhaustive]
 pub enum Spread {
     /// The residuals' own robust spread, re-estimated at every reweighting: 1.4826 times the
     /// median absolute weighted residual of the rows alike (same kind and quantity; see
@@ -128,6 +131,7 @@ impl CalibrationOptions {
 
 /// The outcome of an estimation.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Calibration {
     /// The robot the solver started from.
     pub initial: Robot,

@@ -75,6 +75,7 @@ use crate::linalg::{self, GramAccumulator, Matrix, PivotedQr, QrAccumulator, QR_
     schemars::JsonSchema,
 )]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[non_exhaustive]
 pub enum Method {
     /// Levenberg-Marquardt (thesis 3.3.4), as a scaled trust region.
     #[default]
@@ -143,6 +144,7 @@ impl std::str::FromStr for Method {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[non_exhaustive]
 pub enum Damping {
     /// Marquardt's diagonal scaling `B^2`, `B_ii = sqrt(H_ii)` (eq. 3.15): the trust region is
     /// measured in the column norms (their running maximum, as MINPACK does).
@@ -154,6 +156,7 @@ pub enum Damping {
 
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct SolverOptions {
     /// The method.
     pub method: Method,
@@ -200,6 +203,7 @@ impl SolverOptions {
 
 /// Why a solver stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Termination {
     /// Converged: the objective is zero, or below what rounding the parameters alone makes
     /// (`(16 eps sqrt(n) |D x|)^2`).
@@ -258,6 +262,7 @@ impl Termination {
 
 /// How stationary the solver's last point is: the three measures its tests use.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[non_exhaustive]
 pub struct Stationarity {
     /// The relative reduction of the objective the local linear model predicts for a
     /// Gauss-Newton step, `|P_J r|^2 / |r|^2` (0 at a stationary point; compared with
@@ -275,6 +280,7 @@ pub struct Stationarity {
 
 /// One line of the per-iteration log.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Iteration {
     /// 1-based iteration number.
     pub iteration: usize,
@@ -291,6 +297,7 @@ pub struct Iteration {
 
 /// What a solver returns.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Solution {
     /// Estimated values, in the problem's order.
     pub x: Vec<f64>,
