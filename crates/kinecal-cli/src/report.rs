@@ -4,8 +4,9 @@ use std::fmt::Write as _;
 
 use kinecal::report::CalibrationReport;
 
-use kinecal_report::display::{self, combination_unit, Convert, DisplayUnits};
+use kinecal_report::display::{Convert, DisplayUnits};
 use kinecal_report::number::{fixed, fixed_signed, ratio};
+use kinecal_report::view::CalibrationView;
 
 /// A number in the summary's columns: six decimals, or four significant digits where six
 /// decimals would keep fewer than two ([`kinecal_report::number::fixed`]; the history's and the
@@ -14,68 +15,77 @@ pub fn num(v: f64) -> String {
     fixed(v, 6)
 }
 
-/// The text summary `kinecal calibrate` prints, its lengths and angles in `units`.
+/// The text summary `kinecal calibrate` prints, its lengths and angles in `units`: the
+/// calibration's view ([`CalibrationView`], which the HTML page renders too), section after
+/// section ([`SECTIONS`]).
 pub fn summary(r: &CalibrationReport, units: DisplayUnits) -> String {
+    let v = CalibrationView::new(r, units);
+    SECTIONS.iter().map(|section| section(&v)).collect()
+}
+
+/// A section of the summary: its lines, from the view.
+type Section = fn(&CalibrationView) -> String;
+
+/// The summary's sections, in order: the verdict, what was solved, the accuracy, the
+/// parameters, what the data cannot separate, then the prediction and the time taken.
+const SECTIONS: [Section; 15] = [
+    verdict,
+    run,
+    errors,
+    validation,
+    cross_validation,
+    rank,
+    prior,
+    parameters,
+    mass_model,
+    combinations,
+    outliers,
+    undetermined,
+    pruning,
+    prediction,
+    timings,
+];
+
+/// The verdict ([`kinecal_report::verdict::text`]): converged or not, the accuracy reached,
+/// what to do next.
+fn verdict(v: &CalibrationView) -> String {
+    kinecal_report::verdict::text(&v.verdict) + "\n"
+}
+
+/// What was solved and how it ended; a far start's placement; a robust loss's down-weighting.
+fn run(v: &CalibrationView) -> String {
+    let r = &v.run;
     let mut s = String::new();
-    let c = Convert::of(r, units);
-    // Every number below is in display units, every unit from `c`.
-    let r = &display::calibration(r, &c);
-    let (l, a) = (c.l(), c.a());
-    let kinds: Vec<String> = r
-        .observations
-        .iter()
-        .map(|k| {
-            format!(
-                "{} {}{}",
-                k.count,
-                k.kind,
-                if k.count == 1 { "" } else { "s" }
-            )
-        })
-        .collect();
     let _ = writeln!(
         s,
         "{}: {} postures, {} observations ({}), {} residuals; method {}, {} orientation residuals, {} solution",
         if r.robot.is_empty() { "robot" } else { &r.robot },
         r.postures,
         r.measurements,
-        kinds.join(", "),
+        r.observations,
         r.residuals,
-        r.method.as_str(),
-        r.orientation_error.as_str(),
+        r.method,
+        r.orientation_error,
         r.solution
     );
-    let measures = r
-        .stationarity
-        .as_ref()
-        .map(|st| {
-            format!(
-                " (reduction {:.1e}, step {}, gradient {:.1e})",
-                st.predicted_reduction,
-                st.step.map_or("-".to_string(), |v| format!("{v:.1e}")),
-                st.gradient
-            )
-        })
-        .unwrap_or_default();
     let _ = writeln!(
         s,
-        "{} after {} iterations: {}{measures}",
-        if r.converged {
-            "converged"
-        } else {
-            "NOT converged"
-        },
+        "{} after {} iterations: {}{}",
+        r.convergence(),
         r.iterations,
-        r.termination.describe()
+        r.termination,
+        r.stationarity
+            .as_ref()
+            .map_or(String::new(), |m| format!(" ({m})"))
     );
-    if let Some(p) = &r.start_placement {
+    if let Some([before, after]) = r.start_placement {
         let _ = writeln!(
             s,
             "far start: the measurement frame and the measured frames were first placed in \
              closed form (RMS position error {} -> {} {})",
-            num(p.rms_before),
-            num(p.rms_after),
-            l
+            num(before),
+            num(after),
+            v.l()
         );
     }
     if let Some(n) = r.down_weighted_rows {
@@ -85,348 +95,217 @@ pub fn summary(r: &CalibrationReport, units: DisplayUnits) -> String {
             r.loss, r.residuals
         );
     }
-    let _ = writeln!(s);
-    // Columns: before (the nominal robot), the solver's start when it is elsewhere, after.
-    let start = r.start.as_ref();
-    let row = |s: &mut String, label: String, cells: [String; 3]| {
-        let _ = match start {
-            Some(_) => writeln!(
+    s + "\n"
+}
+
+/// The objective and the errors on the identification data: before (the nominal robot), at
+/// the solver's start when it is elsewhere, after.
+fn errors(v: &CalibrationView) -> String {
+    let t = &v.errors;
+    let mut s = String::new();
+    let mut row = |label: &str, cells: [String; 3]| {
+        let _ = if t.start {
+            writeln!(
                 s,
                 "{label:<28} {:>14} {:>14} {:>14}",
                 cells[0], cells[1], cells[2]
-            ),
-            None => writeln!(s, "{label:<28} {:>14} {:>14}", cells[0], cells[2]),
+            )
+        } else {
+            writeln!(s, "{label:<28} {:>14} {:>14}", cells[0], cells[2])
         };
     };
+    row("", ["before".into(), "start".into(), "after".into()]);
+    let o = &t.objective;
+    let objective = |x: f64| format!("{x:.6e}");
     row(
-        &mut s,
-        String::new(),
-        ["before".into(), "start".into(), "after".into()],
-    );
-    row(
-        &mut s,
-        "objective (weighted)".into(),
+        &o.label,
         [
-            format!("{:.6e}", r.objective_before),
-            start.map_or(String::new(), |st| format!("{:.6e}", st.objective)),
-            format!("{:.6e}", r.objective_after),
+            objective(o.before),
+            o.start.map_or(String::new(), objective),
+            objective(o.after),
         ],
     );
-    let (ib, ia) = (&r.identification.before, &r.identification.after);
-    let is = r.identification.start.as_ref();
-    if ib.positions > 0 {
+    for e in &t.rows {
         row(
-            &mut s,
-            format!("RMS position error ({l})"),
+            &e.label,
             [
-                num(r.rms_position_before),
-                start.map_or(String::new(), |st| num(st.rms_position)),
-                num(r.rms_position_after),
-            ],
-        );
-        row(
-            &mut s,
-            format!("max position error ({l})"),
-            [
-                num(r.max_position_before),
-                start.map_or(String::new(), |st| num(st.max_position)),
-                num(r.max_position_after),
+                num(e.before),
+                e.start.map_or(String::new(), num),
+                num(e.after),
             ],
         );
     }
-    for (k, (b, a)) in ib.other.iter().zip(&ia.other).enumerate() {
-        let st = is.and_then(|st| st.other.get(k));
-        row(
-            &mut s,
-            format!("RMS {} error ({l})", b.metric),
-            [
-                num(b.rms),
-                st.map_or(String::new(), |m| num(m.rms)),
-                num(a.rms),
-            ],
+    s
+}
+
+/// One table per kind of error on the identification and the validation data (rms, mean,
+/// p95, max, or n/a), and the notes on them.
+fn validation(v: &CalibrationView) -> String {
+    let Some(val) = &v.validation else {
+        return String::new();
+    };
+    let mut s = String::from("\n");
+    for t in &val.tables {
+        let _ = writeln!(
+            s,
+            "{:<34} {:>11} {:>11} {:>11} {:>11}",
+            t.title, "rms", "mean", "p95", "max"
         );
-        row(
-            &mut s,
-            format!("max {} error ({l})", b.metric),
-            [
-                num(b.max),
-                st.map_or(String::new(), |m| num(m.max)),
-                num(a.max),
-            ],
-        );
-    }
-    if let (Some(rb), Some(ra), Some(mb), Some(ma)) = (
-        r.rms_orientation_before,
-        r.rms_orientation_after,
-        r.max_orientation_before,
-        r.max_orientation_after,
-    ) {
-        row(
-            &mut s,
-            format!("RMS attitude error ({a})"),
-            [
-                num(rb),
-                start
-                    .and_then(|st| st.rms_orientation)
-                    .map_or(String::new(), num),
-                num(ra),
-            ],
-        );
-        row(
-            &mut s,
-            format!("max attitude error ({a})"),
-            [
-                num(mb),
-                start
-                    .and_then(|st| st.max_orientation)
-                    .map_or(String::new(), num),
-                num(ma),
-            ],
-        );
-    }
-    if let Some(v) = &r.validation {
-        let _ = writeln!(s);
-        let mut rows = vec![(
-            format!(
-                "identification ({} postures) before",
-                r.identification.postures
-            ),
-            &r.identification.before,
-        )];
-        if let Some(st) = &r.identification.start {
-            rows.push(("identification start".to_string(), st));
-        }
-        rows.push(("identification after".to_string(), &r.identification.after));
-        rows.push((
-            format!("validation ({} postures) before", v.postures),
-            &v.before,
-        ));
-        if let Some(st) = &v.start {
-            rows.push(("validation start".to_string(), st));
-        }
-        rows.push(("validation after".to_string(), &v.after));
-        // One table per error metric present in the data: positions, attitudes, then the
-        // other metrics (distances, contacts), each row [rms, mean, p95, max] or n/a.
-        type Pick = Box<dyn Fn(&kinecal::report::ErrorStats) -> Option<[f64; 4]>>;
-        let mut tables: Vec<(String, Pick)> = Vec::new();
-        let any = |f: &dyn Fn(&kinecal::report::ErrorStats) -> bool| rows.iter().any(|(_, e)| f(e));
-        if any(&|e| e.positions > 0) {
-            tables.push((
-                format!("position error ({l})"),
-                Box::new(|e| {
-                    (e.positions > 0).then_some([
-                        e.rms_position,
-                        e.mean_position,
-                        e.p95_position,
-                        e.max_position,
-                    ])
-                }),
-            ));
-        }
-        if any(&|e| e.rms_orientation.is_some()) {
-            tables.push((
-                format!("attitude error ({a})"),
-                Box::new(|e| {
-                    Some([
-                        e.rms_orientation?,
-                        e.mean_orientation?,
-                        e.p95_orientation?,
-                        e.max_orientation?,
-                    ])
-                }),
-            ));
-        }
-        let mut metrics: Vec<String> = Vec::new();
-        for (_, e) in &rows {
-            for m in &e.other {
-                if !metrics.contains(&m.metric) {
-                    metrics.push(m.metric.clone());
-                }
-            }
-        }
-        for metric in metrics {
-            let title = format!("{metric} error ({l})");
-            tables.push((
-                title,
-                Box::new(move |e| {
-                    e.other
-                        .iter()
-                        .find(|m| m.metric == metric)
-                        .map(|m| [m.rms, m.mean, m.p95, m.max])
-                }),
-            ));
-        }
-        for (title, pick) in &tables {
+        for row in &t.rows {
+            let cells: Vec<String> = match row.stats {
+                Some(v) => v.iter().map(|&x| num(x)).collect(),
+                None => vec!["n/a".to_string(); 4],
+            };
             let _ = writeln!(
                 s,
-                "{title:<34} {:>11} {:>11} {:>11} {:>11}",
-                "rms", "mean", "p95", "max"
-            );
-            for (name, e) in &rows {
-                let cells: Vec<String> = match pick(e) {
-                    Some(v) => v.iter().map(|&x| num(x)).collect(),
-                    None => vec!["n/a".to_string(); 4],
-                };
-                let _ = writeln!(
-                    s,
-                    "{name:<34} {:>11} {:>11} {:>11} {:>11}",
-                    cells[0], cells[1], cells[2], cells[3]
-                );
-            }
-        }
-        if let (Some(ni), Some(nv)) = (r.identification.normalized_rms, v.normalized_rms) {
-            let _ = writeln!(
-                s,
-                "residuals in their standard deviations (RMS): identification {} -> {}, validation {} -> {}",
-                ratio(ni[0]), ratio(ni[1]), ratio(nv[0]), ratio(nv[1])
-            );
-        }
-        if !v.sessions_refitted.is_empty() {
-            let _ = writeln!(
-                s,
-                "validation sessions identification never saw ({}): their measurement frames \
-                 re-estimated on the validation data first (6 parameters each, the robot held), \
-                 for both robots",
-                v.sessions_refitted.join(", ")
+                "{:<34} {:>11} {:>11} {:>11} {:>11}",
+                row.label, cells[0], cells[1], cells[2], cells[3]
             );
         }
     }
-    if let Some(cv) = &r.cross_validation {
-        let _ = writeln!(s);
+    for note in &val.notes {
+        let _ = writeln!(s, "{note}");
+    }
+    s
+}
+
+/// The held-out errors of each fold (with its worst posture and its fit's rank), all folds
+/// together, and the held-out mean's interval.
+fn cross_validation(v: &CalibrationView) -> String {
+    let Some(cv) = &v.cross_validation else {
+        return String::new();
+    };
+    let mut s = String::new();
+    let _ = writeln!(s, "\ncross-validation, {}: {}", cv.folds_by, cv.measure);
+    let _ = writeln!(
+        s,
+        "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}  {:<14} rank/estimated",
+        "fold", "postures", "observations", "mean", "rms", "p95", "max", "worst posture",
+    );
+    for (i, f) in cv.folds.iter().enumerate() {
+        let [mean, rms, p95, max] = f.stats.map(num);
         let _ = writeln!(
             s,
-            "cross-validation, {} folds by posture ({}): held-out {} error ({l})",
-            cv.folds.len(),
-            match cv.seed {
-                Some(seed) => format!("shuffled with seed {seed}"),
-                None => "interleaved in file order".to_string(),
-            },
-            cv.metric
-        );
-        let _ = writeln!(
-            s,
-            "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}  {:<14} rank/estimated",
-            "fold", "postures", "observations", "mean", "rms", "p95", "max", "worst posture",
-        );
-        for (i, f) in cv.folds.iter().enumerate() {
-            let e = &f.errors;
-            let _ = writeln!(
-                s,
-                "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}  {:<14} {}/{}{}",
-                i + 1,
-                f.postures,
-                e.count,
-                num(e.mean),
-                num(e.rms),
-                num(e.p95),
-                num(e.max),
-                f.worst_posture.as_deref().unwrap_or("-"),
-                f.rank.map_or("-".to_string(), |r| r.to_string()),
-                f.estimated.len(),
-                if f.converged { "" } else { "  NOT converged" }
-            );
-        }
-        let o = &cv.overall;
-        let _ = writeln!(
-            s,
-            "{:<8} {:>8} {:>12} {:>11} {:>11} {:>11} {:>11}",
-            "all",
-            cv.folds.iter().map(|f| f.postures).sum::<usize>(),
-            o.count,
-            num(o.mean),
-            num(o.rms),
-            num(o.p95),
-            num(o.max)
-        );
-        let _ = writeln!(
-            s,
-            "held-out mean {} {l}, bootstrap 95 % interval {} .. {}",
-            num(o.mean),
-            num(cv.mean_low),
-            num(cv.mean_high)
+            "{:<8} {:>8} {:>12} {mean:>11} {rms:>11} {p95:>11} {max:>11}  {:<14} {}/{}{}",
+            i + 1,
+            f.postures,
+            f.observations,
+            f.worst_posture.as_deref().unwrap_or("-"),
+            f.rank.map_or("-".to_string(), |r| r.to_string()),
+            f.estimated,
+            if f.converged { "" } else { "  NOT converged" }
         );
     }
-    if let (Some(vf), Some(rank)) = (r.variance_factor, r.rank) {
-        let estimated = r.parameters.iter().filter(|p| p.estimated_flag).count();
-        let _ = writeln!(
-            s,
-            "rank {rank} of {estimated} estimated parameters; variance factor {} (about 1 when --weights match the noise)",
+    let o = &cv.all;
+    let [mean, rms, p95, max] = o.stats.map(num);
+    let _ = writeln!(
+        s,
+        "{:<8} {:>8} {:>12} {mean:>11} {rms:>11} {p95:>11} {max:>11}",
+        "all", o.postures, o.observations,
+    );
+    let _ = writeln!(
+        s,
+        "held-out mean {mean} {}, bootstrap 95 % interval {} .. {}",
+        v.l(),
+        num(cv.mean_interval[0]),
+        num(cv.mean_interval[1])
+    );
+    s
+}
+
+/// The rank of the estimated parameters and the variance factor.
+fn rank(v: &CalibrationView) -> String {
+    let r = &v.shown;
+    match (r.variance_factor, r.rank) {
+        (Some(vf), Some(rank)) => format!(
+            "rank {rank} of {} estimated parameters; variance factor {} (about 1 when --weights \
+             match the noise)\n",
+            v.parameters.len(),
             ratio(vf)
-        );
+        ),
+        _ => String::new(),
     }
-    if let Some(p) = &r.prior {
+}
+
+/// The prior: its share of the objective, and what it (not the data) determines.
+fn prior(v: &CalibrationView) -> String {
+    let r = &v.shown;
+    let Some(p) = &r.prior else {
+        return String::new();
+    };
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "prior {} on {} parameters: objective {:.6e} (data) + {:.6e} (prior){}",
+        p.prior,
+        p.rows,
+        p.data_objective_after,
+        p.prior_objective_after,
+        p.data_rank
+            .map_or(String::new(), |k| format!("; rank {k} on the data alone"))
+    );
+    let names = |ids: &[String]| -> String {
+        ids.iter()
+            .map(|id| {
+                r.parameters
+                    .iter()
+                    .find(|q| &q.id == id)
+                    .map_or(id.as_str(), |q| q.name.as_str())
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if !p.split_by_prior.is_empty() {
         let _ = writeln!(
             s,
-            "prior {} on {} parameters: objective {:.6e} (data) + {:.6e} (prior){}",
-            p.prior,
-            p.rows,
-            p.data_objective_after,
-            p.prior_objective_after,
-            p.data_rank
-                .map_or(String::new(), |k| format!("; rank {k} on the data alone"))
+            "determined by the data only in combinations the prior splits ({}): {}",
+            p.split_by_prior.len(),
+            names(&p.split_by_prior)
         );
-        let names = |ids: &[String]| -> String {
-            ids.iter()
-                .map(|id| {
-                    r.parameters
-                        .iter()
-                        .find(|q| &q.id == id)
-                        .map_or(id.as_str(), |q| q.name.as_str())
-                })
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        if !p.split_by_prior.is_empty() {
-            let _ = writeln!(
-                s,
-                "determined by the data only in combinations the prior splits ({}): {}",
-                p.split_by_prior.len(),
-                names(&p.split_by_prior)
-            );
-        }
-        if !p.determined_by_prior_alone.is_empty() {
-            let _ = writeln!(
-                s,
-                "determined by the prior alone ({}): {}",
-                p.determined_by_prior_alone.len(),
-                names(&p.determined_by_prior_alone)
-            );
-        }
     }
-    let _ = writeln!(s);
+    if !p.determined_by_prior_alone.is_empty() {
+        let _ = writeln!(
+            s,
+            "determined by the prior alone ({}): {}",
+            p.determined_by_prior_alone.len(),
+            names(&p.determined_by_prior_alone)
+        );
+    }
+    s
+}
+
+/// The estimated parameters: initial, estimated, change, sigma and change in sigmas.
+fn parameters(v: &CalibrationView) -> String {
+    let mut s = String::from("\n");
     let _ = writeln!(
         s,
         "{:<5} {:<20} {:<9} {:>14} {:>14} {:>13} {:>11} {:>7}",
         "id", "name", "unit", "initial", "estimated", "change", "sigma", "change/sigma"
     );
-    for p in r.parameters.iter().filter(|p| p.estimated_flag) {
+    for p in &v.parameters {
         let (sigma, sig) = match (p.sigma, p.significance, p.determined) {
             (Some(sd), Some(z), _) => (
                 format!("{sd:>11.3e}"),
                 format!(
                     "{z:>7.1}{}",
-                    if p.within_noise == Some(true) {
-                        "  within noise"
-                    } else {
-                        ""
-                    }
+                    if p.within_noise { "  within noise" } else { "" }
                 ),
             ),
             (_, _, Some(false)) => (format!("{:>11}", "-"), "  not determined alone".to_string()),
             _ => (String::new(), String::new()),
         };
-        let sig = match p.determined_by.as_deref() {
-            Some("prior") => format!("{sig}  prior alone"),
-            _ => sig,
+        let sig = if p.by_prior_alone {
+            format!("{sig}  prior alone")
+        } else {
+            sig
         };
         // Compliances (angle per torque, 1e-6..1e-3) in four significant digits.
-        let compliance = p.unit.contains("/(N ");
-        let value = |v: f64| match (compliance, v == 0.0) {
+        let value = |v: f64| match (p.compliance, v == 0.0) {
             (true, true) => "0".to_string(),
             (true, false) => format!("{v:.4e}"),
             (false, _) => num(v),
         };
-        let change = match (compliance, p.change == 0.0) {
+        let change = match (p.compliance, p.change == 0.0) {
             (true, true) => "0".to_string(),
             (true, false) => format!("{:+.4e}", p.change),
             (false, _) => fixed_signed(p.change, 6),
@@ -442,126 +321,165 @@ pub fn summary(r: &CalibrationReport, units: DisplayUnits) -> String {
             change
         );
     }
-    if let Some(e) = &r.elastic {
-        let _ = writeln!(s);
+    s
+}
+
+/// The mass model of an elastic robot: its equilibrium, and the estimated joints' stiffnesses.
+fn mass_model(v: &CalibrationView) -> String {
+    let r = &v.shown;
+    let Some(e) = &r.elastic else {
+        return String::new();
+    };
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\nMass model: {} bodies, {} kg; equilibrium {} at {} of {} postures (at most {} \
+         iterations); largest deflection {} {} under torques up to {:.1} N m",
+        e.bodies,
+        kinecal::units::number::format_number((e.total_mass * 1e3).round() / 1e3),
+        e.equilibrium,
+        r.postures.saturating_sub(e.unconverged_postures),
+        r.postures,
+        e.iterations_max,
+        num(e.largest_deflection),
+        v.a(),
+        e.largest_torque
+    );
+    for j in e.joints.iter().filter(|j| j.estimated) {
+        let stiffness = match (j.stiffness, j.stiffness_sigma) {
+            (Some(k), Some(sd)) => format!("{k:.4e} +- {sd:.2e} {}", j.stiffness_unit),
+            (Some(k), None) => format!("{k:.4e} {}", j.stiffness_unit),
+            (None, _) => "none: the compliance is not positive".to_string(),
+        };
+        let _ = writeln!(s, "  {:<20} stiffness {stiffness}", j.name);
+    }
+    s
+}
+
+/// The combinations of parameters the data determines but cannot separate.
+fn combinations(v: &CalibrationView) -> String {
+    if v.combinations.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from("\nDetermined combinations of parameters the data cannot separate:\n");
+    for c in &v.combinations {
         let _ = writeln!(
             s,
-            "Mass model: {} bodies, {} kg; equilibrium {} at {} of {} postures (at most {} \
-             iterations); largest deflection {} {a} under torques up to {:.1} N m",
-            e.bodies,
-            kinecal::units::number::format_number((e.total_mass * 1e3).round() / 1e3),
-            e.equilibrium,
-            r.postures.saturating_sub(e.unconverged_postures),
-            r.postures,
-            e.iterations_max,
-            num(e.largest_deflection),
-            e.largest_torque
-        );
-        for j in e.joints.iter().filter(|j| j.estimated) {
-            let stiffness = match (j.stiffness, j.stiffness_sigma) {
-                (Some(k), Some(sd)) => format!("{k:.4e} +- {sd:.2e} {}", j.stiffness_unit),
-                (Some(k), None) => format!("{k:.4e} {}", j.stiffness_unit),
-                (None, _) => "none: the compliance is not positive".to_string(),
-            };
-            let _ = writeln!(s, "  {:<20} stiffness {stiffness}", j.name);
-        }
-    }
-    if !r.combinations.is_empty() {
-        let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "Determined combinations of parameters the data cannot separate:"
-        );
-        for c in &r.combinations {
-            let _ = writeln!(
-                s,
-                "  {} = {} {} (was {}, sigma {:.3e}, change {:.1} sigma{})",
-                c.expression,
-                num(c.value),
-                combination_unit(r, &c.expression),
-                num(c.initial),
-                c.sigma,
-                c.significance,
-                if c.within_noise { ", within noise" } else { "" }
-            );
-        }
-    }
-    if !r.outliers.is_empty() {
-        let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "Outliers ({}; a residual beyond {} robust sigmas; kept in the fit{}):",
-            r.outliers.len(),
-            (r.outlier_sigmas * 100.0).round() / 100.0,
-            if r.loss == "squared" {
-                ", consider --loss huber"
-            } else {
-                ""
-            }
-        );
-        for o in &r.outliers {
-            let _ = writeln!(
-                s,
-                "  {:<9} line {:<5} posture {:<10} site {:<8} {} error {} {l}{}  ({:.1} sigma)",
-                o.kind,
-                o.line,
-                o.posture,
-                o.site,
-                if o.metric.is_empty() {
-                    "position"
-                } else {
-                    &o.metric
-                },
-                num(o.position_error),
-                o.orientation_error.map_or(String::new(), |e| format!(
-                    ", attitude error {} {a}",
-                    num(e)
-                )),
-                o.sigmas
-            );
-        }
-    }
-    if !r.undetermined.is_empty() {
-        let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "Not individually determined ({}): {}. Their changes mean nothing one by one (see the combinations \
-             above); --estimate identifiable estimates only a determined set, --solution min-change picks the \
-             answer closest to nominal.",
-            r.undetermined.len(),
-            r.undetermined.join(", ")
-        );
-    }
-    if let Some(p) = &r.pruning {
-        let _ = writeln!(s);
-        let _ =
-            writeln!(
-            s,
-            "Pruned at {} sigma: removed {}; full fit had objective {:.6e}, RMS position {} {l}{}",
-            p.k,
-            if p.removed.is_empty() { "nothing".to_string() } else { p.removed.join(", ") },
-            p.full_objective_after,
-            num(p.full_rms_position_after),
-            p.full_rms_orientation_after
-                .map_or(String::new(), |v| format!(", RMS attitude {} {a}", num(v)))
-        );
-    }
-    if let Some(p) = &r.prediction {
-        s += &prediction_lines(p, l, a);
-    }
-    if !r.timings.is_empty() {
-        let _ = writeln!(
-            s,
-            "\ntime: {:.3} s ({})",
-            r.timings.iter().map(|t| t.seconds).sum::<f64>(),
-            r.timings
-                .iter()
-                .map(|t| format!("{} {:.3}", t.phase, t.seconds))
-                .collect::<Vec<_>>()
-                .join(", ")
+            "  {} = {} {} (was {}, sigma {:.3e}, change {:.1} sigma{})",
+            c.expression,
+            num(c.value),
+            c.unit,
+            num(c.initial),
+            c.sigma,
+            c.significance,
+            if c.within_noise { ", within noise" } else { "" }
         );
     }
     s
+}
+
+/// The observations beyond the outlier threshold (kept in the fit).
+fn outliers(v: &CalibrationView) -> String {
+    if v.outliers.is_empty() {
+        return String::new();
+    }
+    let r = &v.shown;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\nOutliers ({}; a residual beyond {} robust sigmas; kept in the fit{}):",
+        v.outliers.len(),
+        (r.outlier_sigmas * 100.0).round() / 100.0,
+        if r.loss == "squared" {
+            ", consider --loss huber"
+        } else {
+            ""
+        }
+    );
+    for o in &v.outliers {
+        let _ = writeln!(
+            s,
+            "  {:<9} line {:<5} posture {:<10} site {:<8} {} error {} {}{}  ({:.1} sigma)",
+            o.kind,
+            o.line,
+            o.posture,
+            o.site,
+            o.metric,
+            num(o.error),
+            v.l(),
+            o.attitude.map_or(String::new(), |e| format!(
+                ", attitude error {} {}",
+                num(e),
+                v.a()
+            )),
+            o.sigmas
+        );
+    }
+    s
+}
+
+/// The estimated parameters the data does not determine one by one, and what to do about it.
+fn undetermined(v: &CalibrationView) -> String {
+    let u = &v.shown.undetermined;
+    if u.is_empty() {
+        return String::new();
+    }
+    format!(
+        "\nNot individually determined ({}): {}. Their changes mean nothing one by one (see the \
+         combinations above); --estimate identifiable estimates only a determined set, \
+         --solution min-change picks the answer closest to nominal.\n",
+        u.len(),
+        u.join(", ")
+    )
+}
+
+/// What pruning removed, and the full fit's figures.
+fn pruning(v: &CalibrationView) -> String {
+    let Some(p) = &v.shown.pruning else {
+        return String::new();
+    };
+    format!(
+        "\nPruned at {} sigma: removed {}; full fit had objective {:.6e}, RMS position {} {}{}\n",
+        p.k,
+        if p.removed.is_empty() {
+            "nothing".to_string()
+        } else {
+            p.removed.join(", ")
+        },
+        p.full_objective_after,
+        num(p.full_rms_position_after),
+        v.l(),
+        p.full_rms_orientation_after
+            .map_or(String::new(), |x| format!(
+                ", RMS attitude {} {}",
+                num(x),
+                v.a()
+            ))
+    )
+}
+
+/// The predicted accuracy ([`prediction_lines`]).
+fn prediction(v: &CalibrationView) -> String {
+    v.shown
+        .prediction
+        .as_ref()
+        .map_or(String::new(), |p| prediction_lines(p, v.l(), v.a()))
+}
+
+/// The wall time of each phase.
+fn timings(v: &CalibrationView) -> String {
+    let t = &v.shown.timings;
+    if t.is_empty() {
+        return String::new();
+    }
+    format!(
+        "\ntime: {:.3} s ({})\n",
+        t.iter().map(|t| t.seconds).sum::<f64>(),
+        t.iter()
+            .map(|t| format!("{} {:.3}", t.phase, t.seconds))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 /// The summary's lines on the predicted accuracy (see `kinecal::predict`).

@@ -1,21 +1,16 @@
 //! The self-contained HTML calibration report: inline SVG, inline CSS, no script, no link to
-//! anything outside the file.
+//! anything outside the file. The page renders the calibration's view
+//! ([`crate::view::CalibrationView`]), section after section ([`SECTIONS`]).
 
 use std::fmt::Write as _;
 
 use kinecal::report::CalibrationReport;
 
-use crate::chart::{render_svg, Line, Panel};
-use crate::display::{combination_unit, Convert, DisplayUnits};
+use crate::chart::{render_svg, Panel};
+use crate::display::{combination_unit, DisplayUnits};
 use crate::number::{fixed, num};
+use crate::view::{cap, CalibrationView, ErrorRow};
 use crate::DrawError;
-
-fn cap(s: &str) -> String {
-    let mut c = s.chars();
-    c.next()
-        .map(|f| f.to_uppercase().chain(c).collect())
-        .unwrap_or_default()
-}
 
 pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -29,104 +24,6 @@ pub(crate) fn esc(s: &str) -> String {
 pub(crate) fn inline(svg: String) -> String {
     svg.replace(" xmlns=\"http://www.w3.org/2000/svg\"", "")
         .replace(" xmlns:xlink=\"http://www.w3.org/1999/xlink\"", "")
-}
-
-/// One table per kind of error present (positions, attitudes, distances, contacts): RMS, mean,
-/// p95 and max on the identification and validation data, before and after; `n/a` where a set
-/// has none of that kind.
-fn validation_tables(
-    h: &mut String,
-    rep: &kinecal::report::CalibrationReport,
-    v: &kinecal::report::DatasetAccuracy,
-    l: &str,
-    a: &str,
-) {
-    use kinecal::report::ErrorStats;
-    let rows: [(String, &ErrorStats); 4] = [
-        (
-            format!(
-                "identification ({} postures) before",
-                rep.identification.postures
-            ),
-            &rep.identification.before,
-        ),
-        ("identification after".into(), &rep.identification.after),
-        (
-            format!("validation ({} postures) before", v.postures),
-            &v.before,
-        ),
-        ("validation after".into(), &v.after),
-    ];
-    type Pick<'a> = Box<dyn Fn(&ErrorStats) -> Option<[f64; 4]> + 'a>;
-    let mut tables: Vec<(String, Pick<'_>)> = Vec::new();
-    if rows.iter().any(|(_, e)| e.positions > 0) {
-        tables.push((
-            format!("Position error ({l})"),
-            Box::new(|e: &ErrorStats| {
-                (e.positions > 0).then_some([
-                    e.rms_position,
-                    e.mean_position,
-                    e.p95_position,
-                    e.max_position,
-                ])
-            }),
-        ));
-    }
-    if rows.iter().any(|(_, e)| e.rms_orientation.is_some()) {
-        tables.push((
-            format!("Attitude error ({a})"),
-            Box::new(|e: &ErrorStats| {
-                Some([
-                    e.rms_orientation?,
-                    e.mean_orientation?,
-                    e.p95_orientation?,
-                    e.max_orientation?,
-                ])
-            }),
-        ));
-    }
-    let mut metrics: Vec<String> = Vec::new();
-    for (_, e) in &rows {
-        for m in &e.other {
-            if !metrics.contains(&m.metric) {
-                metrics.push(m.metric.clone());
-            }
-        }
-    }
-    for metric in metrics {
-        tables.push((
-            format!("{} error ({l})", cap(&metric)),
-            Box::new(move |e: &ErrorStats| {
-                e.other
-                    .iter()
-                    .find(|m| m.metric == metric)
-                    .map(|m| [m.rms, m.mean, m.p95, m.max])
-            }),
-        ));
-    }
-    for (title, pick) in &tables {
-        let _ = writeln!(
-            h,
-            "<table><tr><th class=\"l\">{}</th><th>RMS</th><th>mean</th><th>p95</th><th>max</th></tr>",
-            esc(title)
-        );
-        for (name, e) in &rows {
-            let cells: Vec<String> = match pick(e) {
-                Some(v) => v.iter().map(|&x| num(x)).collect(),
-                None => vec!["n/a".into(); 4],
-            };
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                esc(name),
-                cells[0],
-                cells[1],
-                cells[2],
-                cells[3]
-            );
-        }
-        let _ = writeln!(h, "</table>");
-    }
 }
 
 /// The start of a self-contained page titled `title` (escaped here): the shared inline style,
@@ -165,541 +62,56 @@ pub fn html_report(rep: &CalibrationReport) -> Result<String, DrawError> {
 
 /// [`html_report`] with its lengths and angles shown in `units`.
 pub fn html_report_in(rep: &CalibrationReport, units: DisplayUnits) -> Result<String, DrawError> {
-    let c = Convert::of(rep, units);
-    let verdict = verdict_section(rep, units);
-    // Every number below is in display units, every unit from `c`.
-    let rep = &crate::display::calibration(rep, &c);
-    let (l, a) = (c.l(), c.a());
-    // A robot without a name (an imported DH table) gets none, not a dangling colon.
-    let named = if rep.robot.trim().is_empty() {
+    let v = CalibrationView::new(rep, units);
+    let mut h = page_head(&format!("kinecal calibration report{}", named(&v)));
+    for section in SECTIONS {
+        h += &section(&v)?;
+    }
+    Ok(h)
+}
+
+/// A section of the page: its HTML, from the view.
+type Section = fn(&CalibrationView) -> Result<String, DrawError>;
+
+/// The page's sections, in order: what a reader needs first (the verdict, the facts of the run,
+/// the accuracy), then how it was reached (the parameters, the spectrum), then the warnings.
+const SECTIONS: [Section; 17] = [
+    title,
+    verdict,
+    facts,
+    run,
+    summary,
+    validation,
+    model_choice,
+    cross_validation,
+    per_observation,
+    parameter_changes,
+    prior,
+    mass_model,
+    spectrum,
+    redundancy,
+    prediction,
+    warnings,
+    footer,
+];
+
+/// `: ROBOT`, or nothing for a robot without a name (an imported DH table): no dangling colon.
+fn named(v: &CalibrationView) -> String {
+    if v.run.robot.trim().is_empty() {
         String::new()
     } else {
-        format!(": {}", rep.robot)
-    };
-    let mut h = page_head(&format!("kinecal calibration report{named}"));
-    let _ = writeln!(h, "<h1>Calibration report{}</h1>", esc(&named));
-    h += &verdict;
-    h += &facts_section(rep);
-    let kinds = rep
-        .observations
-        .iter()
-        .map(|k| {
-            format!(
-                "{} {}{}",
-                k.count,
-                k.kind,
-                if k.count == 1 { "" } else { "s" }
-            )
-        })
-        .collect::<Vec<_>>()
-        .join(", ");
-    let how = if rep.given {
-        format!(
-            "{} orientation residuals; a given calibration, assessed on these data (not solved here)",
-            esc(rep.orientation_error.as_str())
-        )
-    } else {
-        format!(
-            "method <b>{}</b>, {} orientation residuals, {} solution; {} after {} iterations ({})",
-            esc(rep.method.as_str()),
-            esc(rep.orientation_error.as_str()),
-            esc(&rep.solution),
-            if rep.converged {
-                "converged"
-            } else {
-                "NOT converged"
-            },
-            rep.iterations,
-            esc(rep.termination.describe())
-        )
-    };
-    let _ = writeln!(
-        h,
-        "<p>{} postures, {} observations ({}), {} residuals; {how}.</p>",
-        rep.postures,
-        rep.measurements,
-        esc(&kinds),
-        rep.residuals
-    );
-    if let Some(p) = &rep.start_placement {
-        let _ = writeln!(
-            h,
-            "<p>Far start: the measurement frame and the measured frames were first placed in closed form (RMS position error {} &rarr; {} {}).</p>",
-            num(p.rms_before),
-            num(p.rms_after),
-            esc(l)
-        );
+        format!(": {}", v.run.robot)
     }
-    if let Some(n) = rep.down_weighted_rows {
-        let _ = writeln!(
-            h,
-            "<p>Loss {}: {n} of {} residual rows down-weighted.</p>",
-            esc(&rep.loss),
-            rep.residuals
-        );
-    }
-    let _ = writeln!(h, "<h2 id=\"summary\">Summary</h2><table><tr><th class=\"l\"></th><th>before</th><th>after</th></tr>");
-    let (ib, ia) = (&rep.identification.before, &rep.identification.after);
-    let mut rows = vec![(
-        "objective (weighted)".to_string(),
-        rep.objective_before,
-        rep.objective_after,
-    )];
-    if ib.positions > 0 {
-        rows.push((
-            format!("RMS position error ({l})"),
-            rep.rms_position_before,
-            rep.rms_position_after,
-        ));
-        rows.push((
-            format!("max position error ({l})"),
-            rep.max_position_before,
-            rep.max_position_after,
-        ));
-    }
-    for (b, af) in ib.other.iter().zip(&ia.other) {
-        rows.push((format!("RMS {} error ({l})", b.metric), b.rms, af.rms));
-        rows.push((format!("max {} error ({l})", b.metric), b.max, af.max));
-    }
-    if let (Some(rb), Some(ra), Some(mb), Some(ma)) = (
-        rep.rms_orientation_before,
-        rep.rms_orientation_after,
-        rep.max_orientation_before,
-        rep.max_orientation_after,
-    ) {
-        rows.push((format!("RMS attitude error ({a})"), rb, ra));
-        rows.push((format!("max attitude error ({a})"), mb, ma));
-    }
-    for (name, b, af) in rows {
-        let _ = writeln!(
-            h,
-            "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td></tr>",
-            esc(&name),
-            num(b),
-            num(af)
-        );
-    }
-    let _ = writeln!(h, "</table>");
-    if let Some(v) = &rep.validation {
-        let _ = writeln!(h, "<h2 id=\"validation\">Validation</h2>");
-        validation_tables(&mut h, rep, v, l, a);
-    }
-    if !rep.model_choice.is_empty() {
-        let _ = writeln!(
-            h,
-            "<h2 id=\"model-choice\">Model choice</h2><p>Candidates from the simplest up, cross-validated on the same folds; chosen: the first within one standard error of the best held-out mean ({l}).</p>"
-        );
-        let _ = writeln!(h, "<table><tr><th class=\"l\">candidate</th><th>parameters</th><th>held-out mean</th><th>std. error</th><th class=\"l\"></th></tr>");
-        for c in &rep.model_choice {
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
-                esc(&c.candidate),
-                c.parameters,
-                num(c.mean),
-                num(c.standard_error),
-                if c.chosen { "<b>chosen</b>" } else { "" }
-            );
-        }
-        let _ = writeln!(h, "</table>");
-    }
-    if let Some(cv) = &rep.cross_validation {
-        let _ = writeln!(
-            h,
-            "<h2 id=\"cross-validation\">Cross-validation</h2><p>{} folds by posture ({}): each fold's calibration checked on the postures it left out; held-out {} error ({l}).</p>",
-            cv.folds.len(),
-            match cv.seed {
-                Some(seed) => format!("shuffled with seed {seed}"),
-                None => "interleaved in file order".to_string(),
-            },
-            esc(&cv.metric)
-        );
-        let _ = writeln!(h, "<table><tr><th class=\"l\">fold</th><th>postures</th><th>observations</th><th>mean</th><th>RMS</th><th>p95</th><th>max</th></tr>");
-        for (i, f) in cv.folds.iter().enumerate() {
-            let e = &f.errors;
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{}{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                i + 1,
-                if f.converged { "" } else { " (NOT converged)" },
-                f.postures,
-                e.count,
-                num(e.mean),
-                num(e.rms),
-                num(e.p95),
-                num(e.max)
-            );
-        }
-        let o = &cv.overall;
-        let _ = writeln!(
-            h,
-            "<tr><th class=\"l\">all</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th></tr></table>",
-            cv.folds.iter().map(|f| f.postures).sum::<usize>(),
-            o.count,
-            num(o.mean),
-            num(o.rms),
-            num(o.p95),
-            num(o.max)
-        );
-        let _ = writeln!(
-            h,
-            "<p>Held-out mean {} {l}; bootstrap 95 % interval {} to {} {l}.</p>",
-            num(o.mean),
-            num(cv.mean_low),
-            num(cv.mean_high)
-        );
-    }
+}
 
-    // Errors per observation, before and after: positions, or lengths of several metrics.
-    if let Some(oe) = &rep.observation_errors {
-        let kind_of_error = oe.metric.as_str();
-        let note = if oe.run == 1 {
-            String::new()
-        } else {
-            format!(" (largest of each {} consecutive)", oe.run)
-        };
-        let x: Vec<f64> = (0..oe.before.len())
-            .map(|i| (i * oe.run + 1) as f64)
-            .collect();
-        let nan = |v: &[Option<f64>]| v.iter().map(|a| a.unwrap_or(f64::NAN)).collect();
-        // Log axes: the errors after calibration are 10-1000 times smaller than before, and
-        // both must be readable.
-        let mut panels = vec![Panel {
-            title: format!("{} error per observation{note}", cap(kind_of_error)),
-            x_label: "observation (file order by posture)".into(),
-            y_label: format!("{kind_of_error} error ({l}, log scale)"),
-            log_y: true,
-            x: x.clone(),
-            lines: vec![
-                Line {
-                    points: true,
-                    ..Line::new("before", oe.before.clone())
-                },
-                Line {
-                    points: true,
-                    ..Line::new("after", oe.after.clone())
-                },
-            ],
-            ..Default::default()
-        }];
-        if let (Some(ab), Some(aa)) = (&oe.attitude_before, &oe.attitude_after) {
-            panels.push(Panel {
-                title: format!("Attitude error per observation{note}"),
-                x_label: "observation (file order by posture)".into(),
-                y_label: format!("attitude error ({a}, log scale)"),
-                log_y: true,
-                x,
-                lines: vec![
-                    Line {
-                        points: true,
-                        ..Line::new("before", nan(ab))
-                    },
-                    Line {
-                        points: true,
-                        ..Line::new("after", nan(aa))
-                    },
-                ],
-                ..Default::default()
-            });
-        }
-        let _ = writeln!(
-            h,
-            "<h2 id=\"residuals\">Errors per observation</h2>\n{}",
-            charts(&panels)?
-        );
-
-        // Histogram of the errors after calibration: bars of a round width, integer counts.
-        let width = oe.histogram_width;
-        let hist = Panel {
-            title: format!(
-                "Histogram of {kind_of_error} errors after calibration ({} observations)",
-                oe.observations
-            ),
-            x_label: format!(
-                "{kind_of_error} error ({l}; bins of {})",
-                crate::chart::tick_label(width, width)
-            ),
-            y_label: "observations".into(),
-            bars: oe
-                .histogram
-                .iter()
-                .enumerate()
-                .map(|(i, &c)| (i as f64 * width, (i + 1) as f64 * width, c as f64))
-                .collect(),
-            ..Default::default()
-        };
-        let _ = writeln!(
-            h,
-            "<h2 id=\"histogram\">Error histogram</h2>\n{}",
-            inline(render_svg(&[hist], 1)?)
-        );
-    }
-
-    // Parameter changes with +-sigma bars, one chart per unit.
-    // (unit, [(parameter id, change, sigma)])
-    type Group = (String, Vec<(String, f64, f64)>);
-    let mut groups: Vec<Group> = Vec::new();
-    for p in rep.parameters.iter().filter(|p| p.estimated_flag) {
-        let entry = match groups.iter_mut().find(|g| g.0 == p.unit) {
-            Some(g) => g,
-            None => {
-                groups.push((p.unit.clone(), Vec::new()));
-                groups.last_mut().expect("just pushed")
-            }
-        };
-        entry
-            .1
-            // No bar for a sigma not determined.
-            .push((p.id.clone(), p.change, p.sigma.unwrap_or(f64::NAN)));
-    }
-    let panels: Vec<Panel> = groups
-        .iter()
-        .map(|(unit, pts)| Panel {
-            title: format!("Parameter changes ({unit}), +-1 sigma"),
-            x_label: "parameter".into(),
-            y_label: format!("change ({unit})"),
-            x: (0..pts.len()).map(|i| i as f64).collect(),
-            x_names: pts.iter().map(|p| p.0.clone()).collect(),
-            lines: vec![Line {
-                points: true,
-                error: Some(pts.iter().map(|p| p.2).collect()),
-                ..Line::new("change", pts.iter().map(|p| p.1).collect())
-            }],
-            h_lines: vec![(0.0, "no change".into())],
-            ..Default::default()
-        })
-        .collect();
-    let _ = writeln!(h, "<h2 id=\"changes\">Parameter changes</h2>");
-    if !panels.is_empty() {
-        let _ = writeln!(h, "{}", charts(&panels)?);
-    }
-    let _ = writeln!(h, "<table><tr><th class=\"l\">id</th><th class=\"l\">name</th><th class=\"l\">unit</th><th>initial</th><th>estimated</th><th>change</th><th>sigma</th><th>change/sigma</th></tr>");
-    for p in rep.parameters.iter().filter(|p| p.estimated_flag) {
-        let _ = writeln!(
-            h,
-            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            p.id,
-            esc(&p.name),
-            esc(&p.unit),
-            // Six decimals for lengths and angles; a compliance (1e-6..1e-3) in significant
-            // digits.
-            if p.unit.contains("/(N ") { num(p.initial) } else { fixed(p.initial, 6) },
-            if p.unit.contains("/(N ") { num(p.estimated) } else { fixed(p.estimated, 6) },
-            crate::number::signed(p.change, 4),
-            p.sigma.map_or("not determined alone".into(), num),
-            p.significance.map_or(String::new(), |z| format!("{z:.1}{}", if p.within_noise == Some(true) { " (within noise)" } else { "" }))
-        );
-    }
-    let _ = writeln!(h, "</table>");
-
-    // The prior: what it added to the objective, and what it (not the data) determines.
-    if let Some(pr) = &rep.prior {
-        let estimated = rep.parameters.iter().filter(|p| p.estimated_flag).count();
-        let _ = writeln!(
-            h,
-            "<h2 id=\"prior\">Prior</h2>\n<p>A Gaussian prior on the changes, <code>{}</code>: {} \
-             rows after the data's. Objective after: data {}, prior {}. Rank {}{} of {} \
-             estimated parameters with the prior. The prior alone determines {} of them and \
-             splits {} from the combinations the data determines (the last column).</p>",
-            esc(&pr.prior),
-            pr.rows,
-            num(pr.data_objective_after),
-            num(pr.prior_objective_after),
-            rep.rank.map_or("?".into(), |r| r.to_string()),
-            pr.data_rank
-                .map_or(String::new(), |r| format!(" ({r} on the data alone)")),
-            estimated,
-            pr.determined_by_prior_alone.len(),
-            pr.split_by_prior.len()
-        );
-        let _ = writeln!(h, "<table><tr><th class=\"l\">id</th><th class=\"l\">name</th><th class=\"l\">unit</th><th>prior sigma</th><th>sigma</th><th>data share</th><th class=\"l\">determined by</th></tr>");
-        for p in rep
-            .parameters
-            .iter()
-            .filter(|p| p.estimated_flag && p.prior_sigma.is_some())
-        {
-            let opt = |v: Option<f64>| v.map_or(String::new(), num);
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
-                p.id,
-                esc(&p.name),
-                esc(&p.unit),
-                opt(p.prior_sigma),
-                opt(p.sigma),
-                p.data_share.map_or(String::new(), |f| format!("{:.0} %", 100.0 * f)),
-                esc(p.determined_by.as_deref().unwrap_or(""))
-            );
-        }
-        let _ = writeln!(h, "</table>");
-    }
-
-    // The mass model of an elastic robot: its equilibrium and the joints' stiffnesses.
-    if let Some(e) = &rep.elastic {
-        let _ = writeln!(
-            h,
-            "<h2 id=\"mass-model\">Mass model</h2>\n<p>{} bodies, {} kg, gravity {} {}/s&sup2;; \
-             equilibrium {} at {} of {} postures (at most {} iterations); largest deflection {} \
-             {} under gravity torques up to {} N m.</p>",
-            e.bodies,
-            num(e.total_mass),
-            num(e.gravity),
-            esc(l),
-            esc(&e.equilibrium),
-            rep.postures.saturating_sub(e.unconverged_postures),
-            rep.postures,
-            e.iterations_max,
-            num(e.largest_deflection),
-            esc(a),
-            num(e.largest_torque)
-        );
-        let _ = writeln!(h, "<table><tr><th class=\"l\">compliance</th><th>value</th><th>sigma</th><th>stiffness</th><th>sigma</th><th class=\"l\">unit</th><th class=\"l\">estimated</th></tr>");
-        for j in &e.joints {
-            let opt = |v: Option<f64>| v.map_or(String::new(), num);
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td></tr>",
-                esc(&j.name),
-                num(j.compliance),
-                opt(j.compliance_sigma),
-                opt(j.stiffness),
-                opt(j.stiffness_sigma),
-                esc(&j.stiffness_unit),
-                if j.estimated { "yes" } else { "no" }
-            );
-        }
-        let _ = writeln!(h, "</table>");
-    }
-
-    // Singular values.
-    if let Some(an) = &rep.spectrum {
-        let n = an.singular_values_scaled.len();
-        let smax = an.singular_values_scaled.first().copied().unwrap_or(1.0);
-        let floor = smax * 1e-18;
-        let spectrum = Panel {
-            title: format!(
-                "Singular values of the scaled Jacobian: rank {} of {n}",
-                an.rank
-            ),
-            x_label: "index".into(),
-            y_label: "singular value (scaled)".into(),
-            x: (1..=n).map(|i| i as f64).collect(),
-            lines: vec![Line {
-                points: true,
-                ..Line::new(
-                    "singular value",
-                    an.singular_values_scaled
-                        .iter()
-                        .map(|s| s.max(floor))
-                        .collect(),
-                )
-            }],
-            h_lines: vec![(
-                an.rcond * smax,
-                format!("rank cut ({:e} x largest)", an.rcond),
-            )],
-            log_y: true,
-            ..Default::default()
-        };
-        let _ = writeln!(
-            h,
-            "<h2 id=\"spectrum\">Singular-value spectrum</h2>\n{}",
-            inline(render_svg(&[spectrum], 1)?)
-        );
-        if let Some(formula) = &an.expected {
-            let _ = writeln!(
-                h,
-                "<p>Thesis count: {}; measured rank {}.</p>",
-                esc(formula),
-                an.rank
-            );
-        }
-        let _ = writeln!(
-            h,
-            "<h2 id=\"redundancy\">Redundant groups and determined combinations</h2>"
-        );
-        if an.identical_groups.is_empty() {
-            let _ = writeln!(
-                h,
-                "<p>No identical redundancy among the estimated parameters.</p>"
-            );
-        } else {
-            let _ = writeln!(h, "<table><tr><th class=\"l\">combination</th><th>value</th><th class=\"l\">unit</th><th class=\"l\">determined</th></tr>");
-            for g in &an.identical_groups {
-                let _ = writeln!(
-                    h,
-                    "<tr><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td></tr>",
-                    esc(&g.expression),
-                    fixed(g.value, 6),
-                    esc(&combination_unit(rep, &g.expression)),
-                    if g.determined {
-                        "yes"
-                    } else {
-                        "no: members also enter other dependencies"
-                    }
-                );
-            }
-            let _ = writeln!(h, "</table>");
-        }
-        for c in &rep.combinations {
-            let _ = writeln!(
-                h,
-                "<p>{} = {} {unit} (was {}, sigma {}, change {:.1} sigma)</p>",
-                esc(&c.expression),
-                fixed(c.value, 6),
-                fixed(c.initial, 6),
-                num(c.sigma),
-                c.significance,
-                unit = esc(&combination_unit(rep, &c.expression))
-            );
-        }
-        if !rep.undetermined.is_empty() {
-            let _ = writeln!(
-                h,
-                "<p>Not individually determined: {}.</p>",
-                esc(&rep.undetermined.join(", "))
-            );
-        }
-    }
-    if let Some(p) = &rep.prediction {
-        h += &crate::predict::section(p, l, a);
-    }
-    let _ = writeln!(h, "<h2 id=\"warnings\">Warnings</h2>");
-    if rep.warnings.is_empty() && rep.outliers.is_empty() {
-        let _ = writeln!(h, "<p>None.</p>");
-    }
-    for w in crate::verdict::ranked_warnings(rep) {
-        let class = w.severity.as_str();
-        let _ = writeln!(
-            h,
-            "<p class=\"{class}\"><b>{class}:</b> {}</p>",
-            esc(&w.text)
-        );
-    }
-    for o in &rep.outliers {
-        let _ = writeln!(
-            h,
-            "<p class=\"warn\">Outlier: line {} posture {} site {}: {} error {} {l} ({:.1} sigma)</p>",
-            o.line,
-            esc(&o.posture),
-            esc(&o.site),
-            esc(&o.metric),
-            num(o.position_error),
-            o.sigmas
-        );
-    }
-    let _ = writeln!(
-        h,
-        "<p><small>Written by kinecal {}.</small></p></body></html>",
-        env!("CARGO_PKG_VERSION")
-    );
-    Ok(h)
+fn title(v: &CalibrationView) -> Result<String, DrawError> {
+    Ok(format!("<h1>Calibration report{}</h1>\n", esc(&named(v))))
 }
 
 /// The verdict, first on the page: a banner of its level, what happened, the accuracy reached,
 /// and what to do next.
-fn verdict_section(rep: &CalibrationReport, units: DisplayUnits) -> String {
-    let v = crate::verdict::verdict(rep, units);
+fn verdict(v: &CalibrationView) -> Result<String, DrawError> {
+    let v = &v.verdict;
     let mut h = format!(
         "<div class=\"verdict {}\" id=\"verdict\"><p class=\"head\">{}</p>\n",
         v.level.as_str(),
@@ -722,12 +134,13 @@ fn verdict_section(rep: &CalibrationReport, units: DisplayUnits) -> String {
         let _ = write!(h, "<li>{}</li>", esc(n));
     }
     h += "</ul></div>\n";
-    h
+    Ok(h)
 }
 
 /// When the calibration was made, by which kinecal, from what (the files read, with their
 /// fingerprints), and the job itself (its spec, which runs it again).
-fn facts_section(rep: &CalibrationReport) -> String {
+fn facts(v: &CalibrationView) -> Result<String, DrawError> {
+    let rep = &v.shown;
     let mut h = String::from("<dl class=\"facts\">");
     let _ = write!(
         h,
@@ -751,5 +164,455 @@ fn facts_section(rep: &CalibrationReport) -> String {
         );
     }
     h += "</dl>\n";
-    h
+    Ok(h)
+}
+
+/// What was solved and how it ended; a far start's placement; a robust loss's down-weighting.
+fn run(v: &CalibrationView) -> Result<String, DrawError> {
+    let r = &v.run;
+    let mut h = String::new();
+    let how = if r.given {
+        format!(
+            "{} orientation residuals; a given calibration, assessed on these data (not solved here)",
+            esc(&r.orientation_error)
+        )
+    } else {
+        format!(
+            "method <b>{}</b>, {} orientation residuals, {} solution; {} after {} iterations ({})",
+            esc(&r.method),
+            esc(&r.orientation_error),
+            esc(&r.solution),
+            r.convergence(),
+            r.iterations,
+            esc(&r.termination)
+        )
+    };
+    let _ = writeln!(
+        h,
+        "<p>{} postures, {} observations ({}), {} residuals; {how}.</p>",
+        r.postures,
+        r.measurements,
+        esc(&r.observations),
+        r.residuals
+    );
+    if let Some([before, after]) = r.start_placement {
+        let _ = writeln!(
+            h,
+            "<p>Far start: the measurement frame and the measured frames were first placed in closed form (RMS position error {} &rarr; {} {}).</p>",
+            num(before),
+            num(after),
+            esc(v.l())
+        );
+    }
+    if let Some(n) = r.down_weighted_rows {
+        let _ = writeln!(
+            h,
+            "<p>Loss {}: {n} of {} residual rows down-weighted.</p>",
+            esc(&r.loss),
+            r.residuals
+        );
+    }
+    Ok(h)
+}
+
+/// The objective and the errors on the identification data: before, at the solver's start
+/// (when it started elsewhere), after.
+fn summary(v: &CalibrationView) -> Result<String, DrawError> {
+    let t = &v.errors;
+    let mut h = format!(
+        "<h2 id=\"summary\">Summary</h2><table><tr><th class=\"l\"></th><th>before</th>{}<th>after</th></tr>\n",
+        if t.start { "<th>start</th>" } else { "" }
+    );
+    for row in std::iter::once(&t.objective).chain(&t.rows) {
+        let ErrorRow {
+            label,
+            before,
+            start,
+            after,
+        } = row;
+        let start = match (t.start, start) {
+            (false, _) => String::new(),
+            (true, s) => format!("<td>{}</td>", s.map_or(String::new(), num)),
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td><td>{}</td>{start}<td>{}</td></tr>",
+            esc(label),
+            num(*before),
+            num(*after)
+        );
+    }
+    h += "</table>\n";
+    Ok(h)
+}
+
+/// One table per kind of error present (positions, attitudes, distances, contacts): RMS, mean,
+/// p95 and max on the identification and validation data, before (at the start) and after;
+/// `n/a` where a set has none of that kind.
+fn validation(v: &CalibrationView) -> Result<String, DrawError> {
+    let Some(val) = &v.validation else {
+        return Ok(String::new());
+    };
+    let mut h = String::from("<h2 id=\"validation\">Validation</h2>\n");
+    for t in &val.tables {
+        let _ = writeln!(
+            h,
+            "<table><tr><th class=\"l\">{}</th><th>RMS</th><th>mean</th><th>p95</th><th>max</th></tr>",
+            esc(&cap(&t.title))
+        );
+        for row in &t.rows {
+            let cells: Vec<String> = match row.stats {
+                Some(s) => s.iter().map(|&x| num(x)).collect(),
+                None => vec!["n/a".into(); 4],
+            };
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                esc(&row.label),
+                cells[0],
+                cells[1],
+                cells[2],
+                cells[3]
+            );
+        }
+        h += "</table>\n";
+    }
+    for note in &val.notes {
+        let note = esc(&cap(note)).replace(" -&gt; ", " &rarr; ");
+        let _ = writeln!(h, "<p>{note}.</p>");
+    }
+    Ok(h)
+}
+
+/// The candidates of a model choice, the chosen one marked.
+fn model_choice(v: &CalibrationView) -> Result<String, DrawError> {
+    let rep = &v.shown;
+    if rep.model_choice.is_empty() {
+        return Ok(String::new());
+    }
+    let mut h = format!(
+        "<h2 id=\"model-choice\">Model choice</h2><p>Candidates from the simplest up, cross-validated on the same folds; chosen: the first within one standard error of the best held-out mean ({}).</p>\n",
+        v.l()
+    );
+    h += "<table><tr><th class=\"l\">candidate</th><th>parameters</th><th>held-out mean</th><th>std. error</th><th class=\"l\"></th></tr>\n";
+    for c in &rep.model_choice {
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            esc(&c.candidate),
+            c.parameters,
+            num(c.mean),
+            num(c.standard_error),
+            if c.chosen { "<b>chosen</b>" } else { "" }
+        );
+    }
+    h += "</table>\n";
+    Ok(h)
+}
+
+/// The held-out errors of each fold, all folds together, and the held-out mean's interval.
+fn cross_validation(v: &CalibrationView) -> Result<String, DrawError> {
+    let Some(cv) = &v.cross_validation else {
+        return Ok(String::new());
+    };
+    let mut h = format!(
+        "<h2 id=\"cross-validation\">Cross-validation</h2><p>{}: each fold's calibration checked on the postures it left out; {}.</p>\n",
+        cv.folds_by,
+        esc(&cv.measure)
+    );
+    h += "<table><tr><th class=\"l\">fold</th><th>postures</th><th>observations</th><th>mean</th><th>RMS</th><th>p95</th><th>max</th></tr>\n";
+    for (i, f) in cv.folds.iter().enumerate() {
+        let [mean, rms, p95, max] = f.stats;
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            i + 1,
+            if f.converged { "" } else { " (NOT converged)" },
+            f.postures,
+            f.observations,
+            num(mean),
+            num(rms),
+            num(p95),
+            num(max)
+        );
+    }
+    let o = &cv.all;
+    let [mean, rms, p95, max] = o.stats;
+    let _ = writeln!(
+        h,
+        "<tr><th class=\"l\">all</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th><th>{}</th></tr></table>",
+        o.postures,
+        o.observations,
+        num(mean),
+        num(rms),
+        num(p95),
+        num(max)
+    );
+    let l = v.l();
+    let _ = writeln!(
+        h,
+        "<p>Held-out mean {} {l}; bootstrap 95 % interval {} to {} {l}.</p>",
+        num(mean),
+        num(cv.mean_interval[0]),
+        num(cv.mean_interval[1])
+    );
+    Ok(h)
+}
+
+/// The errors of each observation before and after, and their histogram after.
+fn per_observation(v: &CalibrationView) -> Result<String, DrawError> {
+    let f = &v.figures;
+    let mut h = String::new();
+    if !f.per_observation.is_empty() {
+        let _ = writeln!(
+            h,
+            "<h2 id=\"residuals\">Errors per observation</h2>\n{}",
+            charts(&f.per_observation)?
+        );
+    }
+    if let Some(hist) = &f.histogram {
+        let _ = writeln!(
+            h,
+            "<h2 id=\"histogram\">Error histogram</h2>\n{}",
+            inline(render_svg(std::slice::from_ref(hist), 1)?)
+        );
+    }
+    Ok(h)
+}
+
+/// The estimated parameters: their changes charted with +-1 sigma bars, and their table.
+fn parameter_changes(v: &CalibrationView) -> Result<String, DrawError> {
+    let mut h = String::from("<h2 id=\"changes\">Parameter changes</h2>\n");
+    if !v.figures.changes.is_empty() {
+        let _ = writeln!(h, "{}", charts(&v.figures.changes)?);
+    }
+    h += "<table><tr><th class=\"l\">id</th><th class=\"l\">name</th><th class=\"l\">unit</th><th>initial</th><th>estimated</th><th>change</th><th>sigma</th><th>change/sigma</th></tr>\n";
+    for p in &v.parameters {
+        // Six decimals for lengths and angles; a compliance (1e-6..1e-3) in significant digits.
+        let value = |x: f64| if p.compliance { num(x) } else { fixed(x, 6) };
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            p.id,
+            esc(&p.name),
+            esc(&p.unit),
+            value(p.initial),
+            value(p.estimated),
+            crate::number::signed(p.change, 4),
+            p.sigma.map_or("not determined alone".into(), num),
+            p.significance.map_or(String::new(), |z| format!(
+                "{z:.1}{}",
+                if p.within_noise { " (within noise)" } else { "" }
+            ))
+        );
+    }
+    h += "</table>\n";
+    Ok(h)
+}
+
+/// The prior: what it added to the objective, and what it (not the data) determines.
+fn prior(v: &CalibrationView) -> Result<String, DrawError> {
+    let rep = &v.shown;
+    let Some(pr) = &rep.prior else {
+        return Ok(String::new());
+    };
+    let mut h = String::new();
+    let _ = writeln!(
+        h,
+        "<h2 id=\"prior\">Prior</h2>\n<p>A Gaussian prior on the changes, <code>{}</code>: {} \
+         rows after the data's. Objective after: data {}, prior {}. Rank {}{} of {} \
+         estimated parameters with the prior. The prior alone determines {} of them and \
+         splits {} from the combinations the data determines (the last column).</p>",
+        esc(&pr.prior),
+        pr.rows,
+        num(pr.data_objective_after),
+        num(pr.prior_objective_after),
+        rep.rank.map_or("?".into(), |r| r.to_string()),
+        pr.data_rank
+            .map_or(String::new(), |r| format!(" ({r} on the data alone)")),
+        v.parameters.len(),
+        pr.determined_by_prior_alone.len(),
+        pr.split_by_prior.len()
+    );
+    h += "<table><tr><th class=\"l\">id</th><th class=\"l\">name</th><th class=\"l\">unit</th><th>prior sigma</th><th>sigma</th><th>data share</th><th class=\"l\">determined by</th></tr>\n";
+    let opt = |v: Option<f64>| v.map_or(String::new(), num);
+    for p in rep
+        .parameters
+        .iter()
+        .filter(|p| p.estimated_flag && p.prior_sigma.is_some())
+    {
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            p.id,
+            esc(&p.name),
+            esc(&p.unit),
+            opt(p.prior_sigma),
+            opt(p.sigma),
+            p.data_share.map_or(String::new(), |f| format!("{:.0} %", 100.0 * f)),
+            esc(p.determined_by.as_deref().unwrap_or(""))
+        );
+    }
+    h += "</table>\n";
+    Ok(h)
+}
+
+/// The mass model of an elastic robot: its equilibrium and the joints' stiffnesses.
+fn mass_model(v: &CalibrationView) -> Result<String, DrawError> {
+    let rep = &v.shown;
+    let Some(e) = &rep.elastic else {
+        return Ok(String::new());
+    };
+    let mut h = String::new();
+    let _ = writeln!(
+        h,
+        "<h2 id=\"mass-model\">Mass model</h2>\n<p>{} bodies, {} kg, gravity {} {}/s&sup2;; \
+         equilibrium {} at {} of {} postures (at most {} iterations); largest deflection {} \
+         {} under gravity torques up to {} N m.</p>",
+        e.bodies,
+        num(e.total_mass),
+        num(e.gravity),
+        esc(v.l()),
+        esc(&e.equilibrium),
+        rep.postures.saturating_sub(e.unconverged_postures),
+        rep.postures,
+        e.iterations_max,
+        num(e.largest_deflection),
+        esc(v.a()),
+        num(e.largest_torque)
+    );
+    h += "<table><tr><th class=\"l\">compliance</th><th>value</th><th>sigma</th><th>stiffness</th><th>sigma</th><th class=\"l\">unit</th><th class=\"l\">estimated</th></tr>\n";
+    let opt = |v: Option<f64>| v.map_or(String::new(), num);
+    for j in &e.joints {
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td></tr>",
+            esc(&j.name),
+            num(j.compliance),
+            opt(j.compliance_sigma),
+            opt(j.stiffness),
+            opt(j.stiffness_sigma),
+            esc(&j.stiffness_unit),
+            if j.estimated { "yes" } else { "no" }
+        );
+    }
+    h += "</table>\n";
+    Ok(h)
+}
+
+/// The singular values of the scaled Jacobian, and the thesis's count of the rank.
+fn spectrum(v: &CalibrationView) -> Result<String, DrawError> {
+    let (Some(an), Some(chart)) = (&v.shown.spectrum, &v.figures.spectrum) else {
+        return Ok(String::new());
+    };
+    let mut h = format!(
+        "<h2 id=\"spectrum\">Singular-value spectrum</h2>\n{}\n",
+        inline(render_svg(std::slice::from_ref(chart), 1)?)
+    );
+    if let Some(formula) = &an.expected {
+        let _ = writeln!(
+            h,
+            "<p>Thesis count: {}; measured rank {}.</p>",
+            esc(formula),
+            an.rank
+        );
+    }
+    Ok(h)
+}
+
+/// The redundant groups, the determined combinations, the parameters not determined alone
+/// (with the spectrum: they come from its analysis).
+fn redundancy(v: &CalibrationView) -> Result<String, DrawError> {
+    let rep = &v.shown;
+    let Some(an) = &rep.spectrum else {
+        return Ok(String::new());
+    };
+    let mut h =
+        String::from("<h2 id=\"redundancy\">Redundant groups and determined combinations</h2>\n");
+    if an.identical_groups.is_empty() {
+        h += "<p>No identical redundancy among the estimated parameters.</p>\n";
+    } else {
+        h += "<table><tr><th class=\"l\">combination</th><th>value</th><th class=\"l\">unit</th><th class=\"l\">determined</th></tr>\n";
+        for g in &an.identical_groups {
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td></tr>",
+                esc(&g.expression),
+                fixed(g.value, 6),
+                esc(&combination_unit(rep, &g.expression)),
+                if g.determined {
+                    "yes"
+                } else {
+                    "no: members also enter other dependencies"
+                }
+            );
+        }
+        h += "</table>\n";
+    }
+    for c in &v.combinations {
+        let _ = writeln!(
+            h,
+            "<p>{} = {} {unit} (was {}, sigma {}, change {:.1} sigma)</p>",
+            esc(&c.expression),
+            fixed(c.value, 6),
+            fixed(c.initial, 6),
+            num(c.sigma),
+            c.significance,
+            unit = esc(&c.unit)
+        );
+    }
+    if !rep.undetermined.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p>Not individually determined: {}.</p>",
+            esc(&rep.undetermined.join(", "))
+        );
+    }
+    Ok(h)
+}
+
+/// The predicted accuracy and its map ([`crate::predict::section`]).
+fn prediction(v: &CalibrationView) -> Result<String, DrawError> {
+    Ok(v.shown
+        .prediction
+        .as_ref()
+        .map_or(String::new(), |p| crate::predict::section(p, v.l(), v.a())))
+}
+
+/// The warnings ranked (errors, then cautions, then notes), then the outliers.
+fn warnings(v: &CalibrationView) -> Result<String, DrawError> {
+    let mut h = String::from("<h2 id=\"warnings\">Warnings</h2>\n");
+    if v.warnings.is_empty() && v.outliers.is_empty() {
+        h += "<p>None.</p>\n";
+    }
+    for w in &v.warnings {
+        let class = w.severity.as_str();
+        let _ = writeln!(
+            h,
+            "<p class=\"{class}\"><b>{class}:</b> {}</p>",
+            esc(&w.text)
+        );
+    }
+    for o in &v.outliers {
+        let _ = writeln!(
+            h,
+            "<p class=\"warn\">Outlier: line {} posture {} site {}: {} error {} {} ({:.1} sigma)</p>",
+            o.line,
+            esc(&o.posture),
+            esc(&o.site),
+            esc(&o.metric),
+            num(o.error),
+            v.l(),
+            o.sigmas
+        );
+    }
+    Ok(h)
+}
+
+/// Which kinecal wrote the page.
+fn footer(_: &CalibrationView) -> Result<String, DrawError> {
+    Ok(format!(
+        "<p><small>Written by kinecal {}.</small></p></body></html>\n",
+        env!("CARGO_PKG_VERSION")
+    ))
 }

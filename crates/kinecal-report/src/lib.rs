@@ -15,6 +15,7 @@ pub mod number;
 pub mod plan;
 pub mod predict;
 pub mod verdict;
+pub mod view;
 
 pub use chart::{render_png, render_svg, Line, Panel};
 pub use display::{DisplayChoice, DisplayUnits};

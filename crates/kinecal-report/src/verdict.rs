@@ -78,29 +78,42 @@ pub fn ranked_warnings(rep: &CalibrationReport) -> Vec<Ranked> {
     out
 }
 
-/// The verdict on `rep`, its figures in `units`.
+/// The verdict on `rep`, its figures in `units`: its level, the sentence that says what
+/// happened, the figures of the accuracy reached, and what to do next.
 pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
     let ranked = ranked_warnings(rep);
-    let errors = ranked
-        .iter()
-        .filter(|r| r.severity == Severity::Error)
-        .count();
-    let cautions = ranked
-        .iter()
-        .filter(|r| r.severity == Severity::Caution)
-        .count();
+    let count = |s: Severity| ranked.iter().filter(|r| r.severity == s).count();
+    let (errors, cautions) = (count(Severity::Error), count(Severity::Caution));
     let c = Convert::of(rep, units);
-    let l = c.l();
-    // A length shown.
-    let len = |v: f64| sig(c.length(v), 4);
-    let level = if (!rep.converged && !rep.given) || errors > 0 {
+    let held_out = held_out(rep);
+    Verdict {
+        level: level(rep, errors, cautions),
+        headline: headline(rep, errors, cautions),
+        figures: figures(rep, &c, held_out.as_ref()),
+        next: next_steps(rep, errors, held_out.is_some()),
+    }
+}
+
+/// Failed when not converged or when an error says the result is wrong; a caution otherwise
+/// when any caution was raised.
+fn level(rep: &CalibrationReport, errors: usize, cautions: usize) -> Level {
+    if (!rep.converged && !rep.given) || errors > 0 {
         Level::Failed
     } else if cautions > 0 {
         Level::Caution
     } else {
         Level::Good
-    };
-    let headline = if rep.given {
+    }
+}
+
+/// `n thing` or `n things`.
+fn plural(n: usize, thing: &str) -> String {
+    format!("{n} {thing}{}", if n == 1 { "" } else { "s" })
+}
+
+/// One sentence: given, not converged, suspect, or converged (with its cautions).
+fn headline(rep: &CalibrationReport, errors: usize, cautions: usize) -> String {
+    if rep.given {
         "A given calibration, assessed on these data (not solved here).".to_string()
     } else if !rep.converged {
         format!(
@@ -110,46 +123,29 @@ pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
         )
     } else if errors > 0 {
         format!(
-            "SUSPECT: converged after {} iterations, but {errors} warning{} below say{} the result \
-             is most likely wrong.",
+            "SUSPECT: converged after {} iterations, but {} say{} the result is most likely \
+             wrong.",
             rep.iterations,
-            if errors == 1 { "" } else { "s" },
+            plural(errors, "warning"),
             if errors == 1 { "s" } else { "" }
         )
     } else {
         format!(
-            "Converged after {} iteration{}{}.",
-            rep.iterations,
-            if rep.iterations == 1 { "" } else { "s" },
+            "Converged after {}{}.",
+            plural(rep.iterations, "iteration"),
             if cautions > 0 {
-                format!(
-                    "; {cautions} caution{} below",
-                    if cautions == 1 { "" } else { "s" }
-                )
+                format!(", with {} (see the warnings)", plural(cautions, "caution"))
             } else {
                 String::new()
             }
         )
-    };
-    let mut figures = Vec::new();
-    let (b, a) = (&rep.identification.before, &rep.identification.after);
-    if b.positions > 0 {
-        figures.push((
-            "identification, mean position error".to_string(),
-            format!(
-                "{} {l} (from {})",
-                len(a.mean_position),
-                len(b.mean_position)
-            ),
-        ));
-    } else if let (Some(mb), Some(ma)) = (b.other.first(), a.other.first()) {
-        figures.push((
-            format!("identification, mean {} error", mb.metric),
-            format!("{} {l} (from {})", len(ma.mean), len(mb.mean)),
-        ));
     }
-    let held_out = rep
-        .validation
+}
+
+/// The accuracy on data the calibration did not see: the validation data's mean position
+/// error, else the cross-validated held-out mean; its label and value in the robot's unit.
+fn held_out(rep: &CalibrationReport) -> Option<(String, f64)> {
+    rep.validation
         .as_ref()
         .filter(|v| v.after.positions > 0)
         .map(|v| {
@@ -169,8 +165,37 @@ pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
                     c.overall.mean,
                 )
             })
-        });
-    if let Some((label, v)) = &held_out {
+        })
+}
+
+/// The accuracy reached: on the identification data (from the nominal's), held out, and
+/// predicted over the joint ranges.
+fn figures(
+    rep: &CalibrationReport,
+    c: &Convert,
+    held_out: Option<&(String, f64)>,
+) -> Vec<(String, String)> {
+    let l = c.l();
+    // A length shown.
+    let len = |v: f64| sig(c.length(v), 4);
+    let mut figures = Vec::new();
+    let (b, a) = (&rep.identification.before, &rep.identification.after);
+    if b.positions > 0 {
+        figures.push((
+            "identification, mean position error".to_string(),
+            format!(
+                "{} {l} (from {})",
+                len(a.mean_position),
+                len(b.mean_position)
+            ),
+        ));
+    } else if let (Some(mb), Some(ma)) = (b.other.first(), a.other.first()) {
+        figures.push((
+            format!("identification, mean {} error", mb.metric),
+            format!("{} {l} (from {})", len(ma.mean), len(mb.mean)),
+        ));
+    }
+    if let Some((label, v)) = held_out {
         figures.push((label.clone(), format!("{} {l}", len(*v))));
     }
     if let Some(p) = &rep.prediction {
@@ -183,6 +208,12 @@ pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
             ),
         ));
     }
+    figures
+}
+
+/// What to do next, most important first: converge, fix what the errors name, check on
+/// unseen data, predict the accuracy, state the noise; or, when nothing is missing, use it.
+fn next_steps(rep: &CalibrationReport, errors: usize, held_out: bool) -> Vec<String> {
     let mut next = Vec::new();
     if !rep.converged && !rep.given {
         next.push(
@@ -192,12 +223,12 @@ pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
     }
     if errors > 0 {
         next.push(
-            "Read the errors below first: units, readings or a model that does not fit this \
-             robot; fix the data or the robot file before using this result."
+            "Read the errors among the warnings first: units, readings or a model that does not \
+             fit this robot; fix the data or the robot file before using this result."
                 .to_string(),
         );
     }
-    if held_out.is_none() && !rep.given {
+    if !held_out && !rep.given {
         next.push(
             "Check it on data it did not see: held-out files, a hold-out fraction or folds."
                 .to_string(),
@@ -227,12 +258,7 @@ pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
                 .to_string(),
         );
     }
-    Verdict {
-        level,
-        headline,
-        figures,
-        next,
-    }
+    next
 }
 
 /// The verdict as text: the headline, the figures, what to do next.
