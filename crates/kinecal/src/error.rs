@@ -455,6 +455,56 @@ pub enum Error {
     /// The problem cannot be solved as posed.
     #[error("{0}")]
     Problem(String),
+    /// A calibration was asked of data without observations.
+    #[error("no observations to calibrate from")]
+    NoObservations,
+    /// A robot given beside the nominal robot (the initial guess of a calibration, the
+    /// calibrated robot of a check) does not have its structure: give one with the same joints,
+    /// couplings, sites and planes.
+    #[error(
+        "{robot} does not have the nominal robot's structure (joints, couplings, sites, planes)"
+    )]
+    OtherStructure {
+        /// Which robot: `the initial guess` or `the calibrated robot`.
+        robot: &'static str,
+    },
+    /// An elastic robot's gravity equilibrium does not converge at a measured posture, so the
+    /// robot gives no answer there: its compliances are implausibly large, or it would buckle.
+    #[error("the {robot}'s gravity equilibrium at posture `{posture}` {equilibrium}")]
+    EquilibriumNotConverged {
+        /// Which robot: `nominal robot` or `initial guess`.
+        robot: &'static str,
+        /// The posture's label.
+        posture: String,
+        /// Where the iteration stopped, as [`crate::model::kinematics::Equilibrium`] says it
+        /// (`did not converge: the deflections still changed by ...`).
+        equilibrium: String,
+        /// The largest change of a deflection in the last iteration (rad).
+        change: f64,
+        /// Fixed-point iterations taken.
+        iterations: usize,
+    },
+    /// Too few postures measured by position or pose for a prediction: measure more.
+    #[error(
+        "a prediction needs at least {needed} postures measured by position or pose; the data \
+         has {found}"
+    )]
+    TooFewPostures {
+        /// The least the prediction needs ([`crate::predict::MIN_POSTURES`]).
+        needed: usize,
+        /// Postures measured by position or pose in the data (0 when it measures none that
+        /// way).
+        found: usize,
+    },
+    /// A test pose of an ISO 9283 cube is out of the robot's reach (inside its joint ranges,
+    /// away from singularities): a smaller cube, or another centre or attitude.
+    #[error("{message}")]
+    CubeOutOfReach {
+        /// The test pose, 1 to 5 (`P1` to `P5`).
+        pose: usize,
+        /// The whole sentence, in the robot file's units.
+        message: String,
+    },
     /// Nothing was left to estimate.
     #[error("no parameters to estimate")]
     NothingToEstimate,
@@ -542,6 +592,13 @@ pub enum Error {
     /// A numerical routine failed (should not happen on finite input).
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// The objective (the weighted sum of squared residuals) is not finite where the solver
+    /// evaluates it: numbers too large for the model (a unit mix-up?), or a start far off.
+    #[error("numerical failure: the objective is not finite at {at}")]
+    NonFiniteObjective {
+        /// Where: `the starting point` or `an accepted point`.
+        at: &'static str,
+    },
     /// An export, read back with the matching importer, misses the robot by more than the
     /// tolerance: nothing may be written ([`crate::import::readback`]).
     #[error("{message}")]

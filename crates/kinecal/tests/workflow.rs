@@ -392,3 +392,31 @@ fn the_report_gives_the_time_of_each_phase() {
     // The JSON report carries them.
     assert!(out.report.to_json().contains("\"timings\""));
 }
+
+/// The refusals a caller can act on are variants, with the message the command line prints.
+#[test]
+fn refusals_a_caller_can_act_on_are_typed() {
+    let (nominal, data) = session();
+    let empty = Request::new(nominal.clone(), kinecal::Dataset::default());
+    let e = workflow::run(&empty, &mut ()).unwrap_err();
+    assert!(matches!(e, kinecal::Error::NoObservations), "{e:?}");
+    assert_eq!(e.to_string(), "no observations to calibrate from");
+
+    let mut other = Request::new(nominal.clone(), data);
+    let mut guess = nominal.clone();
+    guess.joints[0].kind = match guess.joints[0].kind {
+        kinecal::JointKind::Revolute => kinecal::JointKind::Prismatic,
+        kinecal::JointKind::Prismatic => kinecal::JointKind::Revolute,
+    };
+    other.initial = Some(guess);
+    let e = workflow::run(&other, &mut ()).unwrap_err();
+    assert!(
+        matches!(e, kinecal::Error::OtherStructure { robot } if robot == "the initial guess"),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "the initial guess does not have the nominal robot's structure (joints, couplings, sites, \
+         planes)"
+    );
+}

@@ -607,11 +607,10 @@ pub fn assess(
     let (any, pose) = predictable(data);
     let measured: Vec<&[f64]> = measured_postures(data);
     if !any || measured.len() < MIN_POSTURES {
-        return Err(Error::Problem(format!(
-            "a prediction needs at least {MIN_POSTURES} postures measured by position or pose; \
-             the data has {}",
-            measured.len()
-        )));
+        return Err(Error::TooFewPostures {
+            needed: MIN_POSTURES,
+            found: measured.len(),
+        });
     }
     let metric = JointMetric::new(robot, &levers(robot, data));
     let mut folds = vec![FOLDS.min(measured.len() / 4).max(2), COARSE_FOLDS];

@@ -29,11 +29,9 @@ pub fn assess(
     sources: &[Source],
 ) -> Result<Outcome> {
     if !nominal.same_structure(calibrated) {
-        return Err(Error::Problem(
-            "the calibrated robot does not have the nominal robot's structure (joints, couplings, \
-             sites, planes)"
-                .into(),
-        ));
+        return Err(Error::OtherStructure {
+            robot: "the calibrated robot",
+        });
     }
     let mut calibrated = calibrated.clone();
     for (p, c) in nominal.planes.iter().zip(calibrated.planes.iter_mut()) {

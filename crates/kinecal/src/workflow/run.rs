@@ -402,7 +402,7 @@ fn check_settings(req: &Request) -> Result<()> {
         );
     }
     if req.data.is_empty() {
-        return Err(Error::Problem("no observations to calibrate from".into()));
+        return Err(Error::NoObservations);
     }
     Ok(())
 }
@@ -444,10 +444,13 @@ fn check_equilibria(req: &Request, data: &Dataset) -> Result<()> {
             .iter()
             .map(|p| (p.readings.as_slice(), p.payload.as_ref()));
         if let Some((i, eq)) = crate::model::kinematics::unconverged_posture(robot, readings) {
-            return Err(Error::Problem(format!(
-                "the {what}'s gravity equilibrium at posture `{}` {eq}",
-                data.postures[i].label
-            )));
+            return Err(Error::EquilibriumNotConverged {
+                robot: what,
+                posture: data.postures[i].label.clone(),
+                equilibrium: eq.to_string(),
+                change: eq.change,
+                iterations: eq.iterations,
+            });
         }
     }
     Ok(())
@@ -460,11 +463,9 @@ fn starting_robot(req: &Request) -> Result<Robot> {
         return Ok(req.robot.clone());
     };
     if !req.robot.same_structure(guess) {
-        return Err(Error::Problem(
-            "the initial guess does not have the nominal robot's structure (joints, couplings, \
-             sites, planes)"
-                .into(),
-        ));
+        return Err(Error::OtherStructure {
+            robot: "the initial guess",
+        });
     }
     let mut start = req.robot.clone();
     for id in req

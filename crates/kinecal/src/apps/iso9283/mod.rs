@@ -351,21 +351,24 @@ pub fn plan(robot: &Robot, request: &PlanRequest) -> Result<TestPlan> {
                 None => {
                     let u = robot.units;
                     let l = |v: f64| number::format_number(u.from_si(Quantity::Length, v));
-                    return Err(Error::Problem(format!(
-                        "P{} ({}, {}, {} {}) of the cube is out of reach{}: no solution inside \
-                         the joint ranges, away from singularities (a smaller cube, or another \
-                         centre or attitude)",
-                        i + 1,
-                        l(p[0]),
-                        l(p[1]),
-                        l(p[2]),
-                        u.length,
-                        if request.attitude.is_some() {
-                            " at the attitude"
-                        } else {
-                            ""
-                        }
-                    )));
+                    return Err(Error::CubeOutOfReach {
+                        pose: i + 1,
+                        message: format!(
+                            "P{} ({}, {}, {} {}) of the cube is out of reach{}: no solution \
+                             inside the joint ranges, away from singularities (a smaller cube, \
+                             or another centre or attitude)",
+                            i + 1,
+                            l(p[0]),
+                            l(p[1]),
+                            l(p[2]),
+                            u.length,
+                            if request.attitude.is_some() {
+                                " at the attitude"
+                            } else {
+                                ""
+                            }
+                        ),
+                    });
                 }
             }
         }

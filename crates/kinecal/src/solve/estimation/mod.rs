@@ -408,5 +408,7 @@ fn non_finite_start(problem: &Problem<'_>, r: &[f64]) -> Error {
         }
         row += n;
     }
-    Error::Numerical("the objective is not finite at the starting point".into())
+    Error::NonFiniteObjective {
+        at: "the starting point",
+    }
 }

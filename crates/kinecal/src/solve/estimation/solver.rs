@@ -1024,9 +1024,9 @@ pub(crate) fn drive(
         None => {
             let f = ev.linearize(&x, &mut lin);
             if !f.is_finite() {
-                return Err(Error::Numerical(
-                    "the objective is not finite at the starting point".into(),
-                ));
+                return Err(Error::NonFiniteObjective {
+                    at: "the starting point",
+                });
             }
             ev.raug.clone()
         }
@@ -1150,9 +1150,9 @@ pub(crate) fn drive(
             // The accepted point is the last one evaluated: its linearisation is at hand.
             std::mem::swap(&mut lin, &mut trial_lin);
         } else if !ev.linearize(&x_new, &mut lin).is_finite() {
-            return Err(Error::Numerical(
-                "the objective is not finite at an accepted point".into(),
-            ));
+            return Err(Error::NonFiniteObjective {
+                at: "an accepted point",
+            });
         }
         x = x_new;
         observer(&Iteration {
