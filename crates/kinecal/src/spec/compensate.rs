@@ -15,13 +15,14 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::apps::compensate::{
-    goal_in_file_units, Compensator, Configuration, Options, Solved, TargetSearch,
+    goal_in_file_units, Compensator, Configuration, Goal, Options, Solved, TargetSearch,
 };
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::controller::{joint_field, urscript_begin, urscript_end, urscript_move, Brand};
 use crate::files::stream::{cell, payload_at, payload_columns, Rows};
 use crate::files::COMPENSATED_COLUMNS;
 use crate::identifiability::fmt_sig;
+use crate::model::kinematics::Target;
 use crate::model::robot::Robot;
 use crate::units::Quantity;
 
@@ -228,16 +229,19 @@ enum Kind {
     /// `target[,site],x,y,z[,alpha,beta,gamma][,v1..vn]`, or a measurement file
     /// (`posture[,site],v1..vn,x,y,z[,alpha,beta,gamma]`, its standard deviations and session
     /// ignored).
-    Targets {
-        label: usize,
-        /// A measurement file: its goal columns are written back with the solution (so that
-        /// the output is a measurement file of where the robot must be).
-        goal: Option<Vec<usize>>,
-        site: Option<usize>,
-        xyz: [usize; 3],
-        euler: Option<[usize; 3]>,
-        seed: Option<Vec<usize>>,
-    },
+    Targets(TargetColumns),
+}
+
+/// The columns of a targets file.
+struct TargetColumns {
+    label: usize,
+    /// A measurement file: its goal columns are written back with the solution (so that the
+    /// output is a measurement file of where the robot must be).
+    goal: Option<Vec<usize>>,
+    site: Option<usize>,
+    xyz: [usize; 3],
+    euler: Option<[usize; 3]>,
+    seed: Option<Vec<usize>>,
 }
 
 /// An error in the header of `rows`.
@@ -316,14 +320,14 @@ fn kind(rows: &Rows, robot: &Robot) -> Result<Kind> {
                 .filter_map(|c| rows.column(c))
                 .collect()
         });
-        return Ok(Kind::Targets {
+        return Ok(Kind::Targets(TargetColumns {
             label,
             goal,
             site: rows.column("site"),
             xyz: [x, y, z],
             euler,
             seed: readings,
-        });
+        }));
     }
     match (rows.column("posture"), readings) {
         (Some(_), Some(readings)) => {
@@ -565,13 +569,12 @@ impl CompensateSpec {
         let default_target =
             crate::files::site_target(&nominal, self.site.as_deref().unwrap_or("ee"))
                 .map_err(|m| invalid(Setting::Site, m))?;
-        let mut comp = Compensator::new(&calibrated, &nominal, options).map_err(|e| {
+        let comp = Compensator::new(&calibrated, &nominal, options).map_err(|e| {
             invalid(
                 Setting::NominalRobot,
                 format!("robot {} and nominal {}: {e}", self.robot, self.nominal),
             )
         })?;
-        let dof = nominal.dof();
         if self.input.is_empty() {
             return Err(invalid(Setting::Input, "no program or targets given"));
         }
@@ -579,8 +582,72 @@ impl CompensateSpec {
         let kind = kind(&rows, &nominal)?;
         // What the tool carries at each row: the elastic robot yields to it, and the output
         // keeps the columns so that `fk` and `check` see the same load.
-        let payload_cols = payload_columns(&rows)?;
-        let mut search = TargetSearch::new(&calibrated, &nominal, options)
+        let payload = payload_columns(&rows)?;
+        let search = self.target_search(&calibrated, &nominal, options, &kind)?;
+        let mut writer = Writer::new(self.format, &nominal, &self.input)?;
+        let units = nominal.units;
+        let mut tally = CompensationSummary {
+            length_unit: units.length.to_string(),
+            angle_unit: units.angle.to_string(),
+            configuration: search.configuration().map(|_| 0),
+            ..CompensationSummary::default()
+        };
+        let mut solver = RowSolver {
+            nominal: &nominal,
+            payload,
+            default_target,
+            position_only: self.position_only,
+            comp,
+            search,
+            seed: vec![0.0; nominal.dof()],
+            solution: vec![0.0; nominal.dof()],
+            goal_fields: Vec::new(),
+        };
+        env.progress.say("compensating");
+        let mut staged = crate::files::output::Staged::new();
+        staged.by_path(Path::new(out), |tmp| -> Result<()> {
+            let file = std::io::BufWriter::new(
+                std::fs::File::create(tmp).map_err(|e| write_error(Path::new(out), e))?,
+            );
+            let mut w = writer.sink(file);
+            compensate_rows(
+                &mut w,
+                &mut writer,
+                &mut rows,
+                &kind,
+                &mut solver,
+                &mut tally,
+                Path::new(out),
+            )?;
+            writer
+                .end(&mut w)
+                .and_then(|()| w.finish())
+                .map_err(|e| write_error(Path::new(out), e))
+        })?;
+        if tally.rows == 0 {
+            return Err(Error::input(Location::file(&rows.file), "no rows"));
+        }
+        tally.worst_position = units.from_si(Quantity::Length, tally.worst_position);
+        tally.worst_attitude = units.from_si(Quantity::Angle, tally.worst_attitude);
+        let (messages, status) = conclude(&mut tally, writer.is_controller(), staged, &kind, out)?;
+        Ok(Done {
+            document: Document::Compensation(Box::new(CompensateOutcome { summary: tally })),
+            messages,
+            status,
+            pending: None,
+        })
+    }
+
+    /// The search of Cartesian targets, in the spec's configuration when it gives one (which a
+    /// program's readings refuse: they keep their own).
+    fn target_search<'r>(
+        &self,
+        calibrated: &'r Robot,
+        nominal: &'r Robot,
+        options: Options,
+        kind: &Kind,
+    ) -> Result<TargetSearch<'r>> {
+        let mut search = TargetSearch::new(calibrated, nominal, options)
             .map_err(|e| invalid(Setting::Robot, format!("{}: {e}", self.robot)))?;
         if let Some(c) = self.configuration()? {
             if matches!(kind, Kind::Program { .. }) {
@@ -592,195 +659,241 @@ impl CompensateSpec {
             }
             search = search.with_configuration(c)?;
         }
-        let mut writer = Writer::new(self.format, &nominal, &self.input)?;
-        let units = nominal.units;
-        let mut tally = CompensationSummary {
-            length_unit: units.length.to_string(),
-            angle_unit: units.angle.to_string(),
-            configuration: search.configuration().map(|_| 0),
-            ..CompensationSummary::default()
-        };
-        env.progress.say("compensating");
-        let mut staged = crate::files::output::Staged::new();
-        staged.by_path(Path::new(out), |tmp| -> Result<()> {
-            let file = std::io::BufWriter::new(
-                std::fs::File::create(tmp).map_err(|e| write_error(Path::new(out), e))?,
-            );
-            let mut w = writer.sink(file);
-            let (first, site_column, mut goal_columns) = match &kind {
-                Kind::Program { .. } => ("posture", false, Vec::new()),
-                Kind::Targets {
-                    label, site, goal, ..
-                } => (
-                    rows.header[*label].as_str(),
-                    site.is_some(),
-                    goal.iter()
-                        .flatten()
-                        .map(|&c| rows.header[c].clone())
-                        .collect::<Vec<_>>(),
-                ),
-            };
-            goal_columns.extend(
-                payload_cols
-                    .iter()
-                    .flatten()
-                    .map(|&c| rows.header[c].clone()),
-            );
-            let first = first.to_string();
-            writer
-                .begin(&mut w, &first, site_column, &goal_columns)?
-                .map_err(|e| write_error(Path::new(out), e))?;
-            let mut goal_fields: Vec<String> = Vec::new();
-            let mut solution = vec![0.0; dof];
-            let mut seed = vec![0.0; dof];
-            let mut fields: Vec<String> = Vec::with_capacity(dof + 6);
-            while let Some(line) = rows.advance()? {
-                let payload = payload_at(&rows, line, &payload_cols, &units)?;
-                comp.set_payload(payload);
-                search.set_payload(payload);
-                goal_fields.clear();
-                let (label, site, solved) = match &kind {
-                    Kind::Program { readings } => {
-                        for (s, &c) in seed.iter_mut().zip(readings) {
-                            *s = cell(&rows, line, c)?;
-                        }
-                        let col = rows.column("posture").expect("checked");
-                        (
-                            rows.field(col).to_string(),
-                            None,
-                            comp.program(&seed, default_target, self.position_only, &mut solution),
-                        )
-                    }
-                    Kind::Targets {
-                        label,
-                        goal: goal_cols,
-                        site,
-                        xyz,
-                        euler,
-                        seed: cols,
-                    } => {
-                        let target = match site {
-                            Some(c) => crate::files::site_target(&nominal, rows.field(*c))
-                                .map_err(|m| {
-                                    Error::input(
-                                        Location::file(&rows.file)
-                                            .at_line(line as usize)
-                                            .with_field("site"),
-                                        m,
-                                    )
-                                })?,
-                            None => default_target,
-                        };
-                        let mut v = [0.0; 3];
-                        for (k, &c) in xyz.iter().enumerate() {
-                            v[k] = cell(&rows, line, c)?;
-                        }
-                        // A measurement file's position rows leave the three angles empty;
-                        // with `position_only` the attitudes are not goals.
-                        let euler = match euler.filter(|e| {
-                            !self.position_only && e.iter().any(|&c| !rows.field(c).is_empty())
-                        }) {
-                            Some(e) => {
-                                let mut r = [0.0; 3];
-                                for (k, &c) in e.iter().enumerate() {
-                                    r[k] = cell(&rows, line, c)?;
-                                }
-                                Some(r)
-                            }
-                            None => None,
-                        };
-                        let goal = goal_in_file_units(&nominal, v, euler).map_err(|p| {
-                            super::predict::goal_error(
-                                &p,
-                                &rows.file,
-                                line,
-                                &format!("target {}", rows.field(*label)),
-                            )
-                        })?;
-                        let given = match cols {
-                            Some(cols) => {
-                                for (s, &c) in seed.iter_mut().zip(cols) {
-                                    *s = cell(&rows, line, c)?;
-                                }
-                                Some(seed.as_slice())
-                            }
-                            None => None,
-                        };
-                        let s = search.solve(&goal, target, given, &mut solution);
-                        goal_fields.extend(
-                            goal_cols
-                                .iter()
-                                .flatten()
-                                .map(|&c| rows.field(c).to_string()),
-                        );
-                        (
-                            rows.field(*label).to_string(),
-                            site.map(|c| rows.field(c).to_string()),
-                            s,
-                        )
-                    }
-                };
-                goal_fields.extend(
-                    payload_cols
-                        .iter()
-                        .flatten()
-                        .map(|&c| rows.field(c).to_string()),
-                );
-                tally.add(&solved, &label);
-                writer
-                    .row(
-                        &mut w,
-                        &mut fields,
-                        &label,
-                        site,
-                        &solution,
-                        &goal_fields,
-                        &solved,
-                    )
-                    .map_err(|e| write_error(Path::new(out), e))?;
-            }
-            writer
-                .end(&mut w)
-                .and_then(|()| w.finish())
-                .map_err(|e| write_error(Path::new(out), e))
-        })?;
-        if tally.rows == 0 {
-            return Err(Error::input(Location::file(&rows.file), "no rows"));
-        }
-        tally.worst_position = units.from_si(Quantity::Length, tally.worst_position);
-        tally.worst_attitude = units.from_si(Quantity::Angle, tally.worst_attitude);
-        let summary = tally.sentence();
-        let mut messages = Vec::new();
-        let status = if writer.is_controller() && tally.flagged > 0 {
-            // A controller program with a row left out or wrong moves the robot somewhere else.
-            drop(staged);
-            let (label, flags) = tally.first_flagged.clone().unwrap_or_default();
-            messages.push(Message::Caution(format!(
-                "compensated {summary}\nnothing written to {out}: a controller program needs \
-                 every row usable (first flagged: {} {label}: {flags}); format table writes \
-                 every row with its flags",
-                if matches!(kind, Kind::Program { .. }) {
-                    "posture"
-                } else {
-                    "target"
-                },
-            )));
+        Ok(search)
+    }
+}
+
+/// Writes the output's header, then compensates the input row by row into it (the output
+/// `out`), counting in `tally`.
+fn compensate_rows<W: std::io::Write>(
+    w: &mut Sink<W>,
+    writer: &mut Writer<'_>,
+    rows: &mut Rows,
+    kind: &Kind,
+    solver: &mut RowSolver<'_>,
+    tally: &mut CompensationSummary,
+    out: &Path,
+) -> Result<()> {
+    let (first, site_column, goal_columns) = output_columns(rows, kind, &solver.payload);
+    writer
+        .begin(w, &first, site_column, &goal_columns)?
+        .map_err(|e| write_error(out, e))?;
+    let mut fields: Vec<String> = Vec::with_capacity(solver.nominal.dof() + 6);
+    while let Some(line) = rows.advance()? {
+        let (label, site, solved) = solver.solve_row(rows, line, kind)?;
+        tally.add(&solved, &label);
+        writer
+            .row(
+                w,
+                &mut fields,
+                &label,
+                site,
+                &solver.solution,
+                &solver.goal_fields,
+                &solved,
+            )
+            .map_err(|e| write_error(out, e))?;
+    }
+    Ok(())
+}
+
+/// The output's first column (`posture`, or the targets' label), whether it has a site column,
+/// and the input's columns written back after the solution: a measurement file's goal, then
+/// the payload.
+fn output_columns(
+    rows: &Rows,
+    kind: &Kind,
+    payload: &[Option<usize>; 4],
+) -> (String, bool, Vec<String>) {
+    let (first, site_column, mut goal_columns) = match kind {
+        Kind::Program { .. } => ("posture", false, Vec::new()),
+        Kind::Targets(t) => (
+            rows.header[t.label].as_str(),
+            t.site.is_some(),
+            t.goal
+                .iter()
+                .flatten()
+                .map(|&c| rows.header[c].clone())
+                .collect::<Vec<_>>(),
+        ),
+    };
+    goal_columns.extend(payload.iter().flatten().map(|&c| rows.header[c].clone()));
+    (first.to_string(), site_column, goal_columns)
+}
+
+/// How the run ends: a controller program with a flagged row is not written (it would move
+/// the robot somewhere else), anything else is committed; with what to say of it.
+fn conclude(
+    tally: &mut CompensationSummary,
+    controller: bool,
+    staged: crate::files::output::Staged,
+    kind: &Kind,
+    out: &str,
+) -> Result<(Vec<Message>, Status)> {
+    let summary = tally.sentence();
+    let mut messages = Vec::new();
+    let status = if controller && tally.flagged > 0 {
+        // A controller program with a row left out or wrong moves the robot somewhere else.
+        drop(staged);
+        let (label, flags) = tally.first_flagged.clone().unwrap_or_default();
+        messages.push(Message::Caution(format!(
+            "compensated {summary}\nnothing written to {out}: a controller program needs \
+             every row usable (first flagged: {} {label}: {flags}); format table writes \
+             every row with its flags",
+            if matches!(kind, Kind::Program { .. }) {
+                "posture"
+            } else {
+                "target"
+            },
+        )));
+        Status::Flagged
+    } else {
+        staged.commit()?;
+        tally.written = true;
+        messages.push(Message::Note(format!("compensated {summary} into {out}")));
+        if tally.flagged > 0 {
             Status::Flagged
         } else {
-            staged.commit()?;
-            tally.written = true;
-            messages.push(Message::Note(format!("compensated {summary} into {out}")));
-            if tally.flagged > 0 {
-                Status::Flagged
-            } else {
-                Status::Ok
-            }
+            Status::Ok
+        }
+    };
+    Ok((messages, status))
+}
+
+/// What compensates one row after another: the solvers of programs and targets, the input's
+/// payload columns and the row's buffers.
+struct RowSolver<'r> {
+    nominal: &'r Robot,
+    payload: [Option<usize>; 4],
+    /// Where a row without a site column aims (the spec's site, else the end effector).
+    default_target: Target,
+    position_only: bool,
+    comp: Compensator<'r>,
+    search: TargetSearch<'r>,
+    seed: Vec<f64>,
+    /// The row's solution: the readings to command.
+    solution: Vec<f64>,
+    /// The input's fields written back with the row: a measurement file's goal, the payload.
+    goal_fields: Vec<String>,
+}
+
+impl RowSolver<'_> {
+    /// Compensates the row at `line` under its payload: its label, its site and how it was
+    /// solved, the readings in `self.solution`.
+    fn solve_row(
+        &mut self,
+        rows: &Rows,
+        line: u64,
+        kind: &Kind,
+    ) -> Result<(String, Option<String>, Solved)> {
+        let payload = payload_at(rows, line, &self.payload, &self.nominal.units)?;
+        self.comp.set_payload(payload);
+        self.search.set_payload(payload);
+        self.goal_fields.clear();
+        let solved = match kind {
+            Kind::Program { readings } => self.program_row(rows, line, readings)?,
+            Kind::Targets(t) => self.target_row(rows, line, t)?,
         };
-        Ok(Done {
-            document: Document::Compensation(Box::new(CompensateOutcome { summary: tally })),
-            messages,
-            status,
-            pending: None,
+        self.goal_fields.extend(
+            self.payload
+                .iter()
+                .flatten()
+                .map(|&c| rows.field(c).to_string()),
+        );
+        Ok(solved)
+    }
+
+    /// A program's row: its commanded readings, compensated.
+    fn program_row(
+        &mut self,
+        rows: &Rows,
+        line: u64,
+        readings: &[usize],
+    ) -> Result<(String, Option<String>, Solved)> {
+        for (s, &c) in self.seed.iter_mut().zip(readings) {
+            *s = cell(rows, line, c)?;
+        }
+        let col = rows.column("posture").expect("checked");
+        Ok((
+            rows.field(col).to_string(),
+            None,
+            self.comp.program(
+                &self.seed,
+                self.default_target,
+                self.position_only,
+                &mut self.solution,
+            ),
+        ))
+    }
+
+    /// A Cartesian target's row: the readings that put its site at its goal, from its seed
+    /// readings when it gives them.
+    fn target_row(
+        &mut self,
+        rows: &Rows,
+        line: u64,
+        t: &TargetColumns,
+    ) -> Result<(String, Option<String>, Solved)> {
+        let target = match t.site {
+            Some(c) => crate::files::site_target(self.nominal, rows.field(c)).map_err(|m| {
+                Error::input(
+                    Location::file(&rows.file)
+                        .at_line(line as usize)
+                        .with_field("site"),
+                    m,
+                )
+            })?,
+            None => self.default_target,
+        };
+        let goal = self.goal(rows, line, t)?;
+        let given = match &t.seed {
+            Some(cols) => {
+                for (s, &c) in self.seed.iter_mut().zip(cols) {
+                    *s = cell(rows, line, c)?;
+                }
+                Some(self.seed.as_slice())
+            }
+            None => None,
+        };
+        let s = self.search.solve(&goal, target, given, &mut self.solution);
+        self.goal_fields
+            .extend(t.goal.iter().flatten().map(|&c| rows.field(c).to_string()));
+        Ok((
+            rows.field(t.label).to_string(),
+            t.site.map(|c| rows.field(c).to_string()),
+            s,
+        ))
+    }
+
+    /// The row's goal: its position, with its attitude when it gives one and attitudes are
+    /// goals.
+    fn goal(&self, rows: &Rows, line: u64, t: &TargetColumns) -> Result<Goal> {
+        let mut v = [0.0; 3];
+        for (k, &c) in t.xyz.iter().enumerate() {
+            v[k] = cell(rows, line, c)?;
+        }
+        // A measurement file's position rows leave the three angles empty; with
+        // `position_only` the attitudes are not goals.
+        let euler = match t
+            .euler
+            .filter(|e| !self.position_only && e.iter().any(|&c| !rows.field(c).is_empty()))
+        {
+            Some(e) => {
+                let mut r = [0.0; 3];
+                for (k, &c) in e.iter().enumerate() {
+                    r[k] = cell(rows, line, c)?;
+                }
+                Some(r)
+            }
+            None => None,
+        };
+        goal_in_file_units(self.nominal, v, euler).map_err(|p| {
+            super::predict::goal_error(
+                &p,
+                &rows.file,
+                line,
+                &format!("target {}", rows.field(t.label)),
+            )
         })
     }
 }
