@@ -691,82 +691,17 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
 
     // Candidates: groups of linked postures; the groups holding kept postures are forced.
     let groups = all.posture_groups();
-    let mut group_of = vec![0; all.postures.len()];
-    for (g, ps) in groups.iter().enumerate() {
-        for &p in ps {
-            group_of[p] = g;
-        }
-    }
-    let problem = Problem::new(
-        robot,
-        &all,
-        &parameters,
-        req.analysis.weights,
-        req.analysis.orientation,
-    );
-    let mut res = vec![0.0; problem.rows()];
-    let mut jac = Matrix::zeros(0, 0);
-    problem.evaluate(robot, &mut res, Some(&mut jac));
-    drop(res);
-    // Rows of each group, in row order.
-    let mut group_rows: Vec<Vec<usize>> = vec![Vec::new(); groups.len()];
-    let mut row = 0;
-    for o in &all.observations {
-        let g = group_of[o.views()[0].posture];
-        for _ in 0..o.rows().len() {
-            group_rows[g].push(row);
-            row += 1;
-        }
-    }
+    let (jac, group_rows) = group_jacobian(req, &all, &parameters, &groups);
     let forced: Vec<bool> = groups.iter().map(|ps| ps[0] < kept_postures).collect();
     let pool_groups: Vec<usize> = (0..groups.len()).filter(|&g| !forced[g]).collect();
     let pool_candidates = pool_groups.len();
-    if req.count == 0 {
-        return Err(Error::InvalidOption {
-            setting: crate::error::Setting::PlanCount,
-            message: "a plan of 0 postures: ask for at least 1".into(),
-        });
-    }
-    if req.count > pool_candidates {
-        return Err(Error::InvalidOption {
-            setting: crate::error::Setting::PlanCount,
-            message: format!(
-                "{} postures asked for, but the pool has {pool_candidates} candidates",
-                req.count
-            ),
-        });
-    }
-    // Column scale: root-mean-square per candidate over the pool (kept ones included).
-    let scale: Vec<f64> = (0..n)
-        .map(|c| {
-            let ss: f64 = jac.col(c).iter().map(|v| v * v).sum();
-            let rms = (ss / groups.len() as f64).sqrt();
-            if rms > 0.0 {
-                1.0 / rms
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let mut design = Design {
-        n,
-        rows: Vec::with_capacity(jac.nrows() * n),
-        start: vec![0],
-    };
-    for rows in &group_rows {
-        for &i in rows {
-            design.rows.extend((0..n).map(|c| jac[(i, c)] * scale[c]));
-        }
-        design
-            .start
-            .push(design.start.last().copied().unwrap_or(0) + rows.len());
-    }
+    check_count(req.count, pool_candidates)?;
+    let design = Design::scaled(&jac, &group_rows, n);
     drop(jac);
 
     let kept: Vec<usize> = (0..groups.len()).filter(|&g| forced[g]).collect();
-    let all_groups: Vec<usize> = (0..groups.len()).collect();
     // The pool's average information per candidate (I-optimality's weight).
-    let mut average = design.information(all_groups.iter().copied(), 0.0);
+    let mut average = design.information(0..groups.len(), 0.0);
     average.iter_mut().for_each(|v| *v /= groups.len() as f64);
     let search = Search {
         design: &design,
@@ -778,23 +713,8 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
 
     let mut set: Vec<usize> = kept.iter().chain(&chosen).copied().collect();
     set.sort_unstable();
-    let rate = |set: &[usize]| -> Rating {
-        let rows: usize = set.iter().map(|&c| design.block_rows(c)).sum();
-        let s = cut(design.singular_values(set), req.analysis.rcond);
-        let rank = s.iter().filter(|&&v| v > 0.0).count();
-        let mean_variance = (rank == n)
-            .then(|| {
-                trace_weighted_inverse(&design.information(set.iter().copied(), 0.0), &average, n)
-            })
-            .flatten();
-        Rating {
-            rows,
-            rank,
-            s,
-            mean_variance,
-        }
-    };
-    let own = rate(&set);
+    let rater = Rater::new(&design, &average, req.analysis.rcond);
+    let own = rater.rate(&set);
     let values: Vec<(Criterion, Option<f64>)> =
         Criterion::ALL.iter().map(|&c| (c, own.value(c))).collect();
     let value = own.value(req.criterion);
@@ -803,85 +723,13 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
         let min = own.s.iter().copied().fold(f64::INFINITY, f64::min);
         max / min
     });
-
-    // D-efficiency against the pool (its information from the normal equations: an
-    // eigenvalue's relative accuracy, about 1e-16 of the largest, is plenty to tell a pool
-    // that determines every parameter).
-    let pool_logdet = {
-        let e = root_eigenvalues(&average, n);
-        let max = e.iter().copied().fold(0.0, f64::max);
-        e.iter()
-            .all(|&v| v > 1e-7 * max)
-            .then(|| e.iter().map(|v| 2.0 * v.ln()).sum::<f64>())
-    };
-    let efficiency_of = |r: &Rating, k: usize| -> Option<f64> {
-        let ld = r.value(Criterion::D)? - n as f64 * (k as f64).ln();
-        Some(((ld - pool_logdet?) / n as f64).exp())
-    };
-    let efficiency = efficiency_of(&own, set.len());
-
-    // Leverage of each posture group in the plan.
-    let m = design.information(set.iter().copied(), if own.rank == n { 0.0 } else { RIDGE });
-    let mut l = vec![0.0; n * n];
-    let leverage: Vec<f64> = match cholesky(&m, n, &mut l) {
-        Some(_) => {
-            let mut scratch = Scratch::default();
-            set.iter()
-                .map(|&c| gain(&l, n, design.block(c), &mut scratch).1)
-                .collect()
-        }
-        None => vec![0.0; set.len()],
-    };
-    let mut postures = Vec::new();
-    let mut chosen_postures = vec![false; all.postures.len()];
-    for (k, &g) in set.iter().enumerate() {
-        for &p in &groups[g] {
-            let candidate = (p >= kept_postures).then(|| p - kept_postures);
-            if candidate.is_some() {
-                chosen_postures[p] = true;
-            }
-            postures.push(PlannedPosture {
-                candidate,
-                label: all.postures[p].label.clone(),
-                readings: all.postures[p].readings.clone(),
-                leverage: leverage[k] / groups[g].len() as f64,
-            });
-        }
-    }
-    postures.sort_by_key(|p| p.candidate.map_or((0, 0), |c| (1, c)));
+    let efficiency = rater.efficiency(&own, set.len());
+    let leverage = leverages(&design, &set, own.rank == n);
+    let (postures, chosen_postures) =
+        planned_postures(&all, &groups, &set, &leverage, kept_postures);
     let chosen_data = req.pool.subset(&chosen_postures[kept_postures..]);
-
-    // Random plans of the same size.
-    let random = (pool_candidates > req.count).then(|| {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(req.seed);
-        let mut order = pool_groups.clone();
-        let sign = if req.criterion.larger_is_better() {
-            1.0
-        } else {
-            -1.0
-        };
-        let score = |v: Option<f64>| v.map_or(f64::NEG_INFINITY, |v| sign * v);
-        let mut draws: Vec<(f64, Option<f64>, Option<f64>)> = (0..RANDOM_PLANS)
-            .map(|_| {
-                order.shuffle(&mut rng);
-                let mut set: Vec<usize> = kept.iter().chain(&order[..req.count]).copied().collect();
-                set.sort_unstable();
-                let r = rate(&set);
-                let v = r.value(req.criterion);
-                (score(v), v, efficiency_of(&r, set.len()))
-            })
-            .collect();
-        let beaten = draws.iter().filter(|d| d.0 <= score(value)).count();
-        draws.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut eff: Vec<f64> = draws.iter().filter_map(|d| d.2).collect();
-        eff.sort_by(f64::total_cmp);
-        RandomPlans {
-            draws: draws.len(),
-            median_value: draws[draws.len() / 2].1,
-            median_efficiency: (eff.len() == draws.len()).then(|| eff[eff.len() / 2]),
-            beaten,
-        }
-    });
+    let random = (pool_candidates > req.count)
+        .then(|| random_plans(req, &rater, &kept, &pool_groups, value));
 
     Ok(Plan {
         parameters,
@@ -899,6 +747,242 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
         exchanges,
         passes,
     })
+}
+
+/// The weighted Jacobian of every candidate observation at the nominal robot, with the rows of
+/// each posture group, in row order.
+fn group_jacobian(
+    req: &PlanRequest,
+    all: &Dataset,
+    parameters: &[ParamId],
+    groups: &[Vec<usize>],
+) -> (Matrix, Vec<Vec<usize>>) {
+    let robot = &req.robot;
+    let mut group_of = vec![0; all.postures.len()];
+    for (g, ps) in groups.iter().enumerate() {
+        for &p in ps {
+            group_of[p] = g;
+        }
+    }
+    let problem = Problem::new(
+        robot,
+        all,
+        parameters,
+        req.analysis.weights,
+        req.analysis.orientation,
+    );
+    let mut res = vec![0.0; problem.rows()];
+    let mut jac = Matrix::zeros(0, 0);
+    problem.evaluate(robot, &mut res, Some(&mut jac));
+    drop(res);
+    let mut group_rows: Vec<Vec<usize>> = vec![Vec::new(); groups.len()];
+    let mut row = 0;
+    for o in &all.observations {
+        let g = group_of[o.views()[0].posture];
+        for _ in 0..o.rows().len() {
+            group_rows[g].push(row);
+            row += 1;
+        }
+    }
+    (jac, group_rows)
+}
+
+/// A plan of `count` postures out of `pool_candidates`: at least 1, at most all.
+fn check_count(count: usize, pool_candidates: usize) -> Result<()> {
+    if count == 0 {
+        return Err(Error::InvalidOption {
+            setting: crate::error::Setting::PlanCount,
+            message: "a plan of 0 postures: ask for at least 1".into(),
+        });
+    }
+    if count > pool_candidates {
+        return Err(Error::InvalidOption {
+            setting: crate::error::Setting::PlanCount,
+            message: format!(
+                "{count} postures asked for, but the pool has {pool_candidates} candidates"
+            ),
+        });
+    }
+    Ok(())
+}
+
+impl Design {
+    /// The design of the candidates whose rows of `jac` are `group_rows`, its columns scaled
+    /// by their root-mean-square per candidate over the pool (kept ones included).
+    fn scaled(jac: &Matrix, group_rows: &[Vec<usize>], n: usize) -> Design {
+        let scale: Vec<f64> = (0..n)
+            .map(|c| {
+                let ss: f64 = jac.col(c).iter().map(|v| v * v).sum();
+                let rms = (ss / group_rows.len() as f64).sqrt();
+                if rms > 0.0 {
+                    1.0 / rms
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let mut design = Design {
+            n,
+            rows: Vec::with_capacity(jac.nrows() * n),
+            start: vec![0],
+        };
+        for rows in group_rows {
+            for &i in rows {
+                design.rows.extend((0..n).map(|c| jac[(i, c)] * scale[c]));
+            }
+            design
+                .start
+                .push(design.start.last().copied().unwrap_or(0) + rows.len());
+        }
+        design
+    }
+}
+
+/// Rates sets of candidates: their criteria, and their D-efficiency against the pool.
+struct Rater<'a> {
+    design: &'a Design,
+    /// The pool's average information per candidate.
+    average: &'a [f64],
+    rcond: f64,
+    /// `log det` of the pool's average information; `None` when the pool leaves a parameter
+    /// undetermined.
+    pool_logdet: Option<f64>,
+}
+
+impl<'a> Rater<'a> {
+    fn new(design: &'a Design, average: &'a [f64], rcond: f64) -> Self {
+        // D-efficiency against the pool (its information from the normal equations: an
+        // eigenvalue's relative accuracy, about 1e-16 of the largest, is plenty to tell a pool
+        // that determines every parameter).
+        let pool_logdet = {
+            let e = root_eigenvalues(average, design.n);
+            let max = e.iter().copied().fold(0.0, f64::max);
+            e.iter()
+                .all(|&v| v > 1e-7 * max)
+                .then(|| e.iter().map(|v| 2.0 * v.ln()).sum::<f64>())
+        };
+        Rater {
+            design,
+            average,
+            rcond,
+            pool_logdet,
+        }
+    }
+
+    /// What the criteria of the candidates `set` are computed from.
+    fn rate(&self, set: &[usize]) -> Rating {
+        let (design, n) = (self.design, self.design.n);
+        let rows: usize = set.iter().map(|&c| design.block_rows(c)).sum();
+        let s = cut(design.singular_values(set), self.rcond);
+        let rank = s.iter().filter(|&&v| v > 0.0).count();
+        let mean_variance = (rank == n)
+            .then(|| {
+                trace_weighted_inverse(
+                    &design.information(set.iter().copied(), 0.0),
+                    self.average,
+                    n,
+                )
+            })
+            .flatten();
+        Rating {
+            rows,
+            rank,
+            s,
+            mean_variance,
+        }
+    }
+
+    /// The D-efficiency of a plan of `k` candidates rated `r`, against the pool.
+    fn efficiency(&self, r: &Rating, k: usize) -> Option<f64> {
+        let n = self.design.n;
+        let ld = r.value(Criterion::D)? - n as f64 * (k as f64).ln();
+        Some(((ld - self.pool_logdet?) / n as f64).exp())
+    }
+}
+
+/// The leverage of each posture group of the plan `set` (ridged when the plan leaves a
+/// parameter undetermined: `full_rank` false).
+fn leverages(design: &Design, set: &[usize], full_rank: bool) -> Vec<f64> {
+    let n = design.n;
+    let m = design.information(set.iter().copied(), if full_rank { 0.0 } else { RIDGE });
+    let mut l = vec![0.0; n * n];
+    match cholesky(&m, n, &mut l) {
+        Some(_) => {
+            let mut scratch = Scratch::default();
+            set.iter()
+                .map(|&c| gain(&l, n, design.block(c), &mut scratch).1)
+                .collect()
+        }
+        None => vec![0.0; set.len()],
+    }
+}
+
+/// The postures of the plan `set` (kept ones first, then the pool's in the pool's order), each
+/// with its share of its group's leverage; and which postures of `all` the pool gave to it.
+fn planned_postures(
+    all: &Dataset,
+    groups: &[Vec<usize>],
+    set: &[usize],
+    leverage: &[f64],
+    kept_postures: usize,
+) -> (Vec<PlannedPosture>, Vec<bool>) {
+    let mut postures = Vec::new();
+    let mut chosen_postures = vec![false; all.postures.len()];
+    for (k, &g) in set.iter().enumerate() {
+        for &p in &groups[g] {
+            let candidate = (p >= kept_postures).then(|| p - kept_postures);
+            if candidate.is_some() {
+                chosen_postures[p] = true;
+            }
+            postures.push(PlannedPosture {
+                candidate,
+                label: all.postures[p].label.clone(),
+                readings: all.postures[p].readings.clone(),
+                leverage: leverage[k] / groups[g].len() as f64,
+            });
+        }
+    }
+    postures.sort_by_key(|p| p.candidate.map_or((0, 0), |c| (1, c)));
+    (postures, chosen_postures)
+}
+
+/// Random plans of the plan's size, for comparison: how many the plan's `value` beats, and
+/// their median value and D-efficiency.
+fn random_plans(
+    req: &PlanRequest,
+    rater: &Rater<'_>,
+    kept: &[usize],
+    pool_groups: &[usize],
+    value: Option<f64>,
+) -> RandomPlans {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(req.seed);
+    let mut order = pool_groups.to_vec();
+    let sign = if req.criterion.larger_is_better() {
+        1.0
+    } else {
+        -1.0
+    };
+    let score = |v: Option<f64>| v.map_or(f64::NEG_INFINITY, |v| sign * v);
+    let mut draws: Vec<(f64, Option<f64>, Option<f64>)> = (0..RANDOM_PLANS)
+        .map(|_| {
+            order.shuffle(&mut rng);
+            let mut set: Vec<usize> = kept.iter().chain(&order[..req.count]).copied().collect();
+            set.sort_unstable();
+            let r = rater.rate(&set);
+            let v = r.value(req.criterion);
+            (score(v), v, rater.efficiency(&r, set.len()))
+        })
+        .collect();
+    let beaten = draws.iter().filter(|d| d.0 <= score(value)).count();
+    draws.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut eff: Vec<f64> = draws.iter().filter_map(|d| d.2).collect();
+    eff.sort_by(f64::total_cmp);
+    RandomPlans {
+        draws: draws.len(),
+        median_value: draws[draws.len() / 2].1,
+        median_efficiency: (eff.len() == draws.len()).then(|| eff[eff.len() / 2]),
+        beaten,
+    }
 }
 
 /// What a design's criteria are computed from.
