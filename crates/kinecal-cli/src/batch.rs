@@ -229,113 +229,151 @@ fn push(root: &mut serde_json::Value, path: &str, value: serde_json::Value) {
 }
 
 /// The calibration spec of one CSV row: `robot`, `data` and the options (calibrate's flags, see
-/// [`CALIBRATE_FLAGS`]), every path taken relative to the manifest's folder `dir`. An error
-/// names the option.
+/// [`CALIBRATE_FLAGS`]), every path taken relative to the manifest's folder `dir`; over the
+/// spec file its `--spec` names, if any. An error names the option.
 fn row_job(
     dir: &Path,
     robot: &str,
     data: &str,
     options: &[String],
 ) -> std::result::Result<Job, String> {
-    let mut spec = serde_json::json!({ "robot": robot });
-    let mut base: Option<String> = None;
-    let mut files = 0usize;
-    if !data.is_empty() {
-        push(
-            &mut spec,
-            "observations",
-            serde_json::json!({ "file": data, "kind": "data" }),
-        );
-        files += 1;
-    }
+    let mut row = RowSpec::new(robot, data);
     let mut i = 0;
     while i < options.len() {
         let opt = options[i].as_str();
-        let (flag, inline) = match opt.split_once('=') {
-            Some((f, v)) if f.starts_with("--") => (f, Some(v.to_string())),
-            _ => (opt, None),
-        };
-        let flag = match flag {
-            "-v" => "--verbose",
-            "-q" => "--quiet",
-            f => f,
-        };
-        if NOT_PER_ROBOT.contains(&flag) {
-            return Err(format!(
-                "{flag} is not a per-robot option here (the robot is the row's; `kinecal batch \
-                 --record` records every robot under its serial)"
-            ));
-        }
-        let Some(&(_, sets)) = CALIBRATE_FLAGS.iter().find(|(f, _)| *f == flag) else {
-            return Err(format!(
-                "unknown option `{opt}` (calibrate's options: see kinecal calibrate --help)"
-            ));
-        };
+        let (flag, inline, sets) = option(opt)?;
         i += 1;
-        let mut value = || -> std::result::Result<String, String> {
+        if let Sets::Candidates = sets {
+            // Every value up to the next option.
+            let mut list = Vec::new();
             if let Some(v) = &inline {
-                return Ok(v.clone());
+                list.push(serde_json::Value::from(v.as_str()));
             }
-            let v = options
-                .get(i)
-                .ok_or_else(|| format!("{flag}: a value is expected"))?
-                .clone();
-            i += 1;
-            Ok(v)
-        };
-        match sets {
-            Sets::Value("") => base = Some(value()?),
-            Sets::Value(path) => put(&mut spec, path, value_of(&value()?)),
-            Sets::Flag(path) => put(&mut spec, path, true.into()),
-            Sets::File(kind) => {
-                if files == 0 || !spec["observations"].is_array() {
-                    put(&mut spec, "observations", serde_json::json!([]));
-                }
-                push(
-                    &mut spec,
-                    "observations",
-                    serde_json::json!({ "file": value()?, "kind": kind }),
-                );
-                files += 1;
+            while let Some(v) = options.get(i).filter(|v| !v.starts_with("--")) {
+                list.push(v.as_str().into());
+                i += 1;
             }
-            Sets::Validate => push(
-                &mut spec,
-                "validation.files",
-                serde_json::json!({ "file": value()? }),
-            ),
-            Sets::Column => push(&mut spec, "read.columns", value()?.into()),
-            Sets::LengthAngle(path) => {
-                let text = value()?;
-                let la = kinecal::spec::LengthAngle::parse(&text, kinecal::Setting::Weights)
-                    .map_err(|e| format!("{flag}: {}", message_of(&e)))?;
-                put(
-                    &mut spec,
-                    path,
-                    serde_json::to_value(la).expect("plain data"),
-                );
-            }
-            Sets::Candidates => {
-                let mut list = Vec::new();
-                if let Some(v) = &inline {
-                    list.push(serde_json::Value::from(v.as_str()));
-                }
-                while let Some(v) = options.get(i).filter(|v| !v.starts_with("--")) {
-                    list.push(v.as_str().into());
-                    i += 1;
-                }
-                put(&mut spec, "validation.choose", list.into());
-            }
+            put(&mut row.spec, "validation.choose", list.into());
+            continue;
         }
+        let value = match (&sets, inline) {
+            (Sets::Flag(_), _) => String::new(),
+            (_, Some(v)) => v,
+            (_, None) => {
+                let v = options
+                    .get(i)
+                    .ok_or_else(|| format!("{flag}: a value is expected"))?
+                    .clone();
+                i += 1;
+                v
+            }
+        };
+        row.set(flag, sets, value)?;
     }
+    let RowSpec { spec, base, .. } = row;
     let row = Job::from_value(spec, "options")
         .map_err(|e| word_row_error(&e))?
         .rebased(dir);
-    let Some(path) = base else {
-        return Ok(row);
+    match base {
+        None => Ok(row),
+        Some(path) => over_spec_file(dir, &path, row),
+    }
+}
+
+/// An option of a row: its flag (`-v` and `-q` spelled out), its value when given inline
+/// (`--estimate=all`), and what it sets; an option that is not calibrate's, or not a robot's
+/// in a batch, is refused.
+fn option(opt: &str) -> std::result::Result<(&str, Option<String>, Sets), String> {
+    let (flag, inline) = match opt.split_once('=') {
+        Some((f, v)) if f.starts_with("--") => (f, Some(v.to_string())),
+        _ => (opt, None),
     };
-    // The row's options over its spec file's, as `calibrate --spec` reads them (each file's
-    // paths taken from its own folder).
-    let file = dir.join(&path);
+    let flag = match flag {
+        "-v" => "--verbose",
+        "-q" => "--quiet",
+        f => f,
+    };
+    if NOT_PER_ROBOT.contains(&flag) {
+        return Err(format!(
+            "{flag} is not a per-robot option here (the robot is the row's; `kinecal batch \
+             --record` records every robot under its serial)"
+        ));
+    }
+    let Some(&(_, sets)) = CALIBRATE_FLAGS.iter().find(|(f, _)| *f == flag) else {
+        return Err(format!(
+            "unknown option `{opt}` (calibrate's options: see kinecal calibrate --help)"
+        ));
+    };
+    Ok((flag, inline, sets))
+}
+
+/// A row's calibration spec as its options build it (JSON, a spec's keys).
+struct RowSpec {
+    spec: serde_json::Value,
+    /// The spec file `--spec` names, the row's options over it.
+    base: Option<String>,
+    /// Observation files so far.
+    files: usize,
+}
+
+impl RowSpec {
+    /// The spec of `robot` calibrated on `data` (none when empty).
+    fn new(robot: &str, data: &str) -> RowSpec {
+        let mut row = RowSpec {
+            spec: serde_json::json!({ "robot": robot }),
+            base: None,
+            files: 0,
+        };
+        if !data.is_empty() {
+            push(
+                &mut row.spec,
+                "observations",
+                serde_json::json!({ "file": data, "kind": "data" }),
+            );
+            row.files += 1;
+        }
+        row
+    }
+
+    /// What option `flag` sets, to `value` (empty for a flag without one).
+    fn set(&mut self, flag: &str, sets: Sets, value: String) -> std::result::Result<(), String> {
+        let spec = &mut self.spec;
+        match sets {
+            Sets::Value("") => self.base = Some(value),
+            Sets::Value(path) => put(spec, path, value_of(&value)),
+            Sets::Flag(path) => put(spec, path, true.into()),
+            Sets::File(kind) => {
+                if self.files == 0 || !spec["observations"].is_array() {
+                    put(spec, "observations", serde_json::json!([]));
+                }
+                push(
+                    spec,
+                    "observations",
+                    serde_json::json!({ "file": value, "kind": kind }),
+                );
+                self.files += 1;
+            }
+            Sets::Validate => push(
+                spec,
+                "validation.files",
+                serde_json::json!({ "file": value }),
+            ),
+            Sets::Column => push(spec, "read.columns", value.into()),
+            Sets::LengthAngle(path) => {
+                let la = kinecal::spec::LengthAngle::parse(&value, kinecal::Setting::Weights)
+                    .map_err(|e| format!("{flag}: {}", message_of(&e)))?;
+                put(spec, path, serde_json::to_value(la).expect("plain data"));
+            }
+            Sets::Candidates => unreachable!("the candidates are read with the options"),
+        }
+        Ok(())
+    }
+}
+
+/// The row's options over its spec file's (at `path` in `dir`), as `calibrate --spec` reads
+/// them (each file's paths taken from its own folder).
+fn over_spec_file(dir: &Path, path: &str, row: Job) -> std::result::Result<Job, String> {
+    let file = dir.join(path);
     let over = Job::read(&file).map_err(|e| format!("--spec {path}: {e}"))?;
     if !matches!(over, Job::Calibrate(_)) {
         return Err(format!("--spec {path}: not a calibration spec"));
@@ -924,28 +962,11 @@ fn shard<T>(entries: Vec<T>, k: usize, n: usize) -> Vec<T> {
         .collect()
 }
 
-/// Runs `kinecal batch`.
+/// Runs `kinecal batch`: the manifest's entries (this shard's), every job in parallel, then
+/// one writer records and puts outputs in place in manifest order; the table, the summary, the
+/// exit code.
 pub fn run(a: BatchArgs) -> Result<u8> {
-    let shard_of = a.shard.as_deref().map(parse_shard).transpose()?;
-    let mut entries = read_manifest(&a.manifest)?;
-    let db_file = history::db_file(a.db.as_deref()).filter(|_| a.record);
-    check_files(
-        &entries,
-        &a.manifest,
-        a.summary.as_deref(),
-        db_file.as_deref(),
-    )?;
-    if let Some((k, n)) = shard_of {
-        let total = entries.len();
-        entries = shard(entries, k, n);
-        eprintln!(
-            "shard {k}/{n}: {} of the manifest's {total} robots",
-            entries.len()
-        );
-        if entries.is_empty() {
-            bail!("shard {k}/{n} of {total} robots is empty: nothing to do");
-        }
-    }
+    let entries = entries(&a)?;
     let calibrations_only = entries
         .iter()
         .all(|e| matches!(e.job, Ok(Job::Calibrate(_)) | Err(_)));
@@ -957,7 +978,52 @@ pub fn run(a: BatchArgs) -> Result<u8> {
     } else {
         None
     };
-    let jobs = match a.jobs {
+    let done = run_all(&entries, a.jobs, a.quiet)?;
+    let rows = put_in_place(done, db.as_ref(), a.documents.as_deref())?;
+    print!("{}", table(&rows));
+    for r in &rows {
+        for w in &r.implausible {
+            println!("{}: {w}", r.serial);
+        }
+    }
+    if let Some(path) = &a.summary {
+        output::write_file(path, &summary_csv(&rows)?)?;
+        eprintln!("wrote the summary to {}", path.display());
+    }
+    Ok(exit_code(&rows, calibrations_only))
+}
+
+/// The manifest's entries, its files checked first (no output over an input, no two entries
+/// writing one file); with `--shard K/N`, the K-th share.
+fn entries(a: &BatchArgs) -> Result<Vec<Entry>> {
+    let shard_of = a.shard.as_deref().map(parse_shard).transpose()?;
+    let entries = read_manifest(&a.manifest)?;
+    let db_file = history::db_file(a.db.as_deref()).filter(|_| a.record);
+    check_files(
+        &entries,
+        &a.manifest,
+        a.summary.as_deref(),
+        db_file.as_deref(),
+    )?;
+    let Some((k, n)) = shard_of else {
+        return Ok(entries);
+    };
+    let total = entries.len();
+    let entries = shard(entries, k, n);
+    eprintln!(
+        "shard {k}/{n}: {} of the manifest's {total} robots",
+        entries.len()
+    );
+    if entries.is_empty() {
+        bail!("shard {k}/{n} of {total} robots is empty: nothing to do");
+    }
+    Ok(entries)
+}
+
+/// Runs every entry on `jobs` threads (default: one per core), a progress bar on standard
+/// error unless `quiet`; the finished jobs in manifest order.
+fn run_all(entries: &[Entry], jobs: Option<usize>, quiet: bool) -> Result<Vec<Finished>> {
+    let jobs = match jobs {
         Some(0) => bail!("--jobs must be at least 1"),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -968,7 +1034,7 @@ pub fn run(a: BatchArgs) -> Result<u8> {
         .context("cannot start the worker threads")?;
     let bar = ProgressBar::with_draw_target(
         Some(entries.len() as u64),
-        if a.quiet {
+        if quiet {
             ProgressDrawTarget::hidden()
         } else {
             ProgressDrawTarget::stderr()
@@ -994,9 +1060,20 @@ pub fn run(a: BatchArgs) -> Result<u8> {
             .collect()
     });
     bar.finish_and_clear();
-    // One writer: record in manifest order, then put each robot's outputs in place.
+    Ok(done)
+}
+
+/// One writer, in manifest order: each job's document in `documents`, its calibration
+/// recorded in `db` (one transaction per record; a record already there, from a rerun after an
+/// interrupted batch or another shard's retry, is found by its key and not written twice), then
+/// its outputs put in place. The summary's rows, a failure to record or write in its row.
+fn put_in_place(
+    done: Vec<Finished>,
+    db: Option<&kinecal_history::Database>,
+    documents: Option<&Path>,
+) -> Result<Vec<Row>> {
     let mut rows = Vec::with_capacity(done.len());
-    let mut documents = output::Staged::new();
+    let mut staged = output::Staged::new();
     for d in done {
         let Finished {
             mut row,
@@ -1004,15 +1081,13 @@ pub fn run(a: BatchArgs) -> Result<u8> {
             report,
             document,
         } = d;
-        if let (Some(dir), Some(doc)) = (&a.documents, &document) {
-            documents.text(
+        if let (Some(dir), Some(doc)) = (documents, &document) {
+            staged.text(
                 &dir.join(file_name(&row.serial) + ".json"),
                 &(doc.clone() + "\n"),
             )?;
         }
-        // One transaction per record; a record already there (a rerun after an interrupted
-        // batch, another shard's retry) is found by its key and not written twice.
-        let recorded = match (&db, &report) {
+        let recorded = match (db, &report) {
             (Some(db), Some(rep)) => db
                 .record(&row.serial, None, rep, "", Default::default())
                 .map(|_| ())
@@ -1030,20 +1105,17 @@ pub fn run(a: BatchArgs) -> Result<u8> {
         }
         rows.push(row);
     }
-    documents.commit()?;
-    if let Some(dir) = &a.documents {
+    staged.commit()?;
+    if let Some(dir) = documents {
         eprintln!("wrote the documents to {}", dir.display());
     }
-    print!("{}", table(&rows));
-    for r in &rows {
-        for w in &r.implausible {
-            println!("{}: {w}", r.serial);
-        }
-    }
-    if let Some(path) = &a.summary {
-        output::write_file(path, &summary_csv(&rows)?)?;
-        eprintln!("wrote the summary to {}", path.display());
-    }
+    Ok(rows)
+}
+
+/// The count of each ending (on standard error), and the exit code: 1 when any failed, else
+/// [`EXIT_FLAGGED`] when any was flagged, else [`EXIT_NOT_CONVERGED`] when any did not
+/// converge, else 0.
+fn exit_code(rows: &[Row], calibrations_only: bool) -> u8 {
     let count = |f: fn(&Status) -> bool| rows.iter().filter(|r| f(&r.status)).count();
     let (failed, flagged, unconverged) = (
         count(|s| matches!(s, Status::Failed(_))),
@@ -1060,7 +1132,7 @@ pub fn run(a: BatchArgs) -> Result<u8> {
         rows.len(),
         rows.len() - failed - flagged
     );
-    Ok(if failed > 0 {
+    if failed > 0 {
         1
     } else if flagged > 0 {
         EXIT_FLAGGED
@@ -1068,5 +1140,5 @@ pub fn run(a: BatchArgs) -> Result<u8> {
         EXIT_NOT_CONVERGED
     } else {
         0
-    })
+    }
 }

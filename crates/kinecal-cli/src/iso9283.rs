@@ -1,6 +1,6 @@
 //! `kinecal iso9283`: the test poses and the pose figures as text.
 
-use kinecal::apps::iso9283::{pose_name, Evaluation, Spread};
+use kinecal::apps::iso9283::{pose_name, Evaluation, PoseFigures, Spread};
 use kinecal::identifiability::fmt_sig;
 use kinecal::spec::Document;
 use kinecal_report::number::{num, signed};
@@ -173,7 +173,7 @@ fn summary_text(e: &Evaluation) -> String {
     s.lines().map(str::trim_end).collect::<Vec<_>>().join("\n") + "\n"
 }
 
-/// The figures of one test as text: a table per pose, then the distances.
+/// The figures of one test as text: the log, a table per pose, then the distances.
 fn test_text(e: &Evaluation) -> String {
     use std::fmt::Write as _;
     let l = e
@@ -191,113 +191,134 @@ fn test_text(e: &Evaluation) -> String {
         e.poses.len(),
         if e.poses.len() == 1 { "" } else { "s" }
     );
-    let cell = |name: &str, v: String| format!("{name:<4} {v:<12}");
     for f in &e.poses {
-        let _ = writeln!(s);
-        let mut commanded = format!(
-            "x {}, y {}, z {}",
-            num(f.commanded[0]),
-            num(f.commanded[1]),
-            num(f.commanded[2])
-        );
-        if let Some(c) = f.commanded_attitude {
-            commanded += &format!("; a {}, b {}, c {}", num(c[0]), num(c[1]), num(c[2]));
-        }
-        let _ = writeln!(
-            s,
-            "{}{}: {} cycle{}, commanded {commanded}",
-            f.test
-                .as_deref()
-                .map(|t| format!("{t}, "))
-                .unwrap_or_default(),
-            pose_name(f.pose),
-            f.cycles,
-            if f.cycles == 1 { "" } else { "s" }
-        );
-        let _ = writeln!(
-            s,
-            "  {} {} {} {}",
-            cell("AP", num(f.ap)),
-            cell("APx", signed(f.ap_xyz[0], 4)),
-            cell("APy", signed(f.ap_xyz[1], 4)),
-            cell("APz", signed(f.ap_xyz[2], 4))
-        );
-        if let (Some(rp), Some(l_mean), Some(s_l)) = (f.rp, f.l_mean, f.s_l) {
-            let _ = writeln!(
-                s,
-                "  {} {} {}",
-                cell("RP", num(rp)),
-                cell("lbar", num(l_mean)),
-                cell("S_l", num(s_l))
-            );
-        } else {
-            let _ = writeln!(s, "  RP   n/a (1 cycle)");
-        }
-        if let Some(ap) = f.ap_abc {
-            let _ = writeln!(
-                s,
-                "  {} {} {}",
-                cell("APa", signed(ap[0], 4)),
-                cell("APb", signed(ap[1], 4)),
-                cell("APc", signed(ap[2], 4))
-            );
-        }
-        if let Some(rp) = f.rp_abc {
-            let _ = writeln!(
-                s,
-                "  {} {} {}",
-                cell("RPa", format!("+-{}", num(rp[0]))),
-                cell("RPb", format!("+-{}", num(rp[1]))),
-                cell("RPc", format!("+-{}", num(rp[2])))
-            );
-        }
-        if let Some(m) = &f.multidirectional {
-            let mut line = format!(
-                "  {} from {} directions ({})",
-                cell("vAP", num(m.vap)),
-                m.directions.len(),
-                m.directions.join(", ")
-            );
-            if let Some(v) = m.vap_abc {
-                line += &format!(
-                    "; vAPa {}, vAPb {}, vAPc {}",
-                    num(v[0]),
-                    num(v[1]),
-                    num(v[2])
-                );
-            }
-            let _ = writeln!(s, "{line}");
-        }
-        if let Some(c) = &f.compensated {
-            let _ = writeln!(
-                s,
-                "  compensated (predicted): AP RMS {}, 95 % bound {} (readings from the {})",
-                num(c.ap_rms),
-                num(c.ap_95),
-                c.readings_from
-            );
-        }
+        s += "\n";
+        s += &pose_text(f);
     }
-    if !e.distances.is_empty() {
-        let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "distances  {:>6} {:>12} {:>12} {:>12} {:>12}",
-            "cycles", "Dc", "Dbar", "AD", "RD (+-)"
-        );
-        for d in &e.distances {
-            let _ = writeln!(
-                s,
-                "{:<10} {:>6} {:>12} {:>12} {:>12} {:>12}",
-                format!("{}-{}", pose_name(d.from), pose_name(d.to)),
-                d.cycles,
-                num(d.commanded),
-                num(d.mean),
-                signed(d.ad, 4),
-                d.rd.map_or_else(|| "n/a".to_string(), num)
-            );
-        }
-    }
+    s += &distances_text(e);
     // No padding left at the ends of lines.
     s.lines().map(str::trim_end).collect::<Vec<_>>().join("\n") + "\n"
+}
+
+/// A figure and its value, in columns.
+fn cell(name: &str, v: String) -> String {
+    format!("{name:<4} {v:<12}")
+}
+
+/// One pose's figures: the commanded pose, AP, RP, the attitude's AP and RP, vAP, and AP once
+/// compensated.
+fn pose_text(f: &PoseFigures) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let mut commanded = format!(
+        "x {}, y {}, z {}",
+        num(f.commanded[0]),
+        num(f.commanded[1]),
+        num(f.commanded[2])
+    );
+    if let Some(c) = f.commanded_attitude {
+        commanded += &format!("; a {}, b {}, c {}", num(c[0]), num(c[1]), num(c[2]));
+    }
+    let _ = writeln!(
+        s,
+        "{}{}: {} cycle{}, commanded {commanded}",
+        f.test
+            .as_deref()
+            .map(|t| format!("{t}, "))
+            .unwrap_or_default(),
+        pose_name(f.pose),
+        f.cycles,
+        if f.cycles == 1 { "" } else { "s" }
+    );
+    let _ = writeln!(
+        s,
+        "  {} {} {} {}",
+        cell("AP", num(f.ap)),
+        cell("APx", signed(f.ap_xyz[0], 4)),
+        cell("APy", signed(f.ap_xyz[1], 4)),
+        cell("APz", signed(f.ap_xyz[2], 4))
+    );
+    if let (Some(rp), Some(l_mean), Some(s_l)) = (f.rp, f.l_mean, f.s_l) {
+        let _ = writeln!(
+            s,
+            "  {} {} {}",
+            cell("RP", num(rp)),
+            cell("lbar", num(l_mean)),
+            cell("S_l", num(s_l))
+        );
+    } else {
+        let _ = writeln!(s, "  RP   n/a (1 cycle)");
+    }
+    if let Some(ap) = f.ap_abc {
+        let _ = writeln!(
+            s,
+            "  {} {} {}",
+            cell("APa", signed(ap[0], 4)),
+            cell("APb", signed(ap[1], 4)),
+            cell("APc", signed(ap[2], 4))
+        );
+    }
+    if let Some(rp) = f.rp_abc {
+        let _ = writeln!(
+            s,
+            "  {} {} {}",
+            cell("RPa", format!("+-{}", num(rp[0]))),
+            cell("RPb", format!("+-{}", num(rp[1]))),
+            cell("RPc", format!("+-{}", num(rp[2])))
+        );
+    }
+    if let Some(m) = &f.multidirectional {
+        let mut line = format!(
+            "  {} from {} directions ({})",
+            cell("vAP", num(m.vap)),
+            m.directions.len(),
+            m.directions.join(", ")
+        );
+        if let Some(v) = m.vap_abc {
+            line += &format!(
+                "; vAPa {}, vAPb {}, vAPc {}",
+                num(v[0]),
+                num(v[1]),
+                num(v[2])
+            );
+        }
+        let _ = writeln!(s, "{line}");
+    }
+    if let Some(c) = &f.compensated {
+        let _ = writeln!(
+            s,
+            "  compensated (predicted): AP RMS {}, 95 % bound {} (readings from the {})",
+            num(c.ap_rms),
+            num(c.ap_95),
+            c.readings_from
+        );
+    }
+    s
+}
+
+/// The distance accuracy and repeatability between pairs of poses.
+fn distances_text(e: &Evaluation) -> String {
+    use std::fmt::Write as _;
+    if e.distances.is_empty() {
+        return String::new();
+    }
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\ndistances  {:>6} {:>12} {:>12} {:>12} {:>12}",
+        "cycles", "Dc", "Dbar", "AD", "RD (+-)"
+    );
+    for d in &e.distances {
+        let _ = writeln!(
+            s,
+            "{:<10} {:>6} {:>12} {:>12} {:>12} {:>12}",
+            format!("{}-{}", pose_name(d.from), pose_name(d.to)),
+            d.cycles,
+            num(d.commanded),
+            num(d.mean),
+            signed(d.ad, 4),
+            d.rd.map_or_else(|| "n/a".to_string(), num)
+        );
+    }
+    s
 }

@@ -49,7 +49,22 @@ fn main() -> ExitCode {
     }
     kinecal::files::output::remove_temporaries_on_signals();
     let cli = Cli::from_arg_matches(&command().get_matches()).unwrap_or_else(|e| e.exit());
-    let result = match cli.command {
+    match run(cli.command) {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            eprintln!("error: {}", in_flags(&e));
+            if let Some(hint) = e.downcast_ref::<kinecal::Error>().and_then(hint) {
+                eprintln!("hint: {hint}");
+            }
+            ExitCode::from(EXIT_INPUT)
+        }
+    }
+}
+
+/// Runs a command: its job's spec from its flags ([`door`]), the job, its document shown;
+/// the exit code.
+fn run(cmd: Command) -> Result<u8> {
+    match cmd {
         Command::Demo => demo::run().map(|()| 0),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Analyze(a) => {
@@ -67,59 +82,10 @@ fn main() -> ExitCode {
         }
         Command::Fk(a) => door::fk(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
         Command::Simulate(a) => door::simulate(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
-        Command::Import(c) => match c {
-            ImportCommand::Urdf(a) => {
-                door::import_urdf(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
-            }
-            ImportCommand::Dh(a) => {
-                door::import_dh(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
-            }
-            ImportCommand::Poe(a) => {
-                door::import_poe(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
-            }
-            ImportCommand::Ur(a) => {
-                door::import_ur(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
-            }
-        },
-        Command::Export(c) => match c {
-            ExportCommand::Urdf(a) => {
-                door::export_urdf(&a).and_then(|s| job(s.into(), &a.door, render::export))
-            }
-            ExportCommand::Ur(a) => {
-                door::export_ur(&a).and_then(|s| job(s.into(), &a.door, render::export))
-            }
-            ExportCommand::Dh(a) => {
-                door::export_dh(&a).and_then(|s| job(s.into(), &a.door, render::export))
-            }
-            ExportCommand::Joints(a) => {
-                door::export_joints(&a).and_then(|s| job(s.into(), &a.door, render::export))
-            }
-            ExportCommand::Stiffness(a) => {
-                door::export_stiffness(&a).and_then(|s| job(s.into(), &a.door, render::export))
-            }
-        },
-        Command::Curves(c) => match c {
-            CurvesCommand::Pose(a) => {
-                door::curves_pose(&a).and_then(|s| job(s.into(), &a.door, render::curves))
-            }
-            CurvesCommand::Objective(a) => {
-                door::curves_objective(&a).and_then(|s| job(s.into(), &a.door, render::curves))
-            }
-        },
-        Command::Iso9283(c) => match c {
-            Iso9283Command::Plan(a) => {
-                door::iso9283_plan(&a).and_then(|s| job(s.into(), &a.door, iso9283::show))
-            }
-            Iso9283Command::Simulate(a) => {
-                door::iso9283_simulate(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
-            }
-            Iso9283Command::Log(a) => {
-                door::iso9283_log(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
-            }
-            Iso9283Command::Evaluate(a) => {
-                door::iso9283_evaluate(&a).and_then(|s| job(s.into(), &a.door, iso9283::show))
-            }
-        },
+        Command::Import(c) => import(c),
+        Command::Export(c) => export(c),
+        Command::Curves(c) => curves(c),
+        Command::Iso9283(c) => iso9283_job(c),
         Command::Report(a) => door::report(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
         Command::History(c) => history::run(c),
         Command::Batch(a) => batch::run(a),
@@ -128,15 +94,68 @@ fn main() -> ExitCode {
             clap_complete::generate(a.shell, &mut command(), "kinecal", &mut std::io::stdout());
             Ok(0)
         }
-    };
-    match result {
-        Ok(code) => ExitCode::from(code),
-        Err(e) => {
-            eprintln!("error: {}", in_flags(&e));
-            if let Some(hint) = e.downcast_ref::<kinecal::Error>().and_then(hint) {
-                eprintln!("hint: {hint}");
-            }
-            ExitCode::from(EXIT_INPUT)
+    }
+}
+
+/// `kinecal import`: a robot from another convention.
+fn import(c: ImportCommand) -> Result<u8> {
+    match c {
+        ImportCommand::Urdf(a) => {
+            door::import_urdf(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+        }
+        ImportCommand::Dh(a) => door::import_dh(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
+        ImportCommand::Poe(a) => door::import_poe(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
+        ImportCommand::Ur(a) => door::import_ur(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
+    }
+}
+
+/// `kinecal export`: a robot for a controller or another tool.
+fn export(c: ExportCommand) -> Result<u8> {
+    match c {
+        ExportCommand::Urdf(a) => {
+            door::export_urdf(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
+        ExportCommand::Ur(a) => {
+            door::export_ur(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
+        ExportCommand::Dh(a) => {
+            door::export_dh(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
+        ExportCommand::Joints(a) => {
+            door::export_joints(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
+        ExportCommand::Stiffness(a) => {
+            door::export_stiffness(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
+    }
+}
+
+/// `kinecal curves`: characteristic curves.
+fn curves(c: CurvesCommand) -> Result<u8> {
+    match c {
+        CurvesCommand::Pose(a) => {
+            door::curves_pose(&a).and_then(|s| job(s.into(), &a.door, render::curves))
+        }
+        CurvesCommand::Objective(a) => {
+            door::curves_objective(&a).and_then(|s| job(s.into(), &a.door, render::curves))
+        }
+    }
+}
+
+/// `kinecal iso9283`: the test poses, a simulated or measured log, and its figures.
+fn iso9283_job(c: Iso9283Command) -> Result<u8> {
+    match c {
+        Iso9283Command::Plan(a) => {
+            door::iso9283_plan(&a).and_then(|s| job(s.into(), &a.door, iso9283::show))
+        }
+        Iso9283Command::Simulate(a) => {
+            door::iso9283_simulate(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+        }
+        Iso9283Command::Log(a) => {
+            door::iso9283_log(&a).and_then(|s| job(s.into(), &a.door, |_| ()))
+        }
+        Iso9283Command::Evaluate(a) => {
+            door::iso9283_evaluate(&a).and_then(|s| job(s.into(), &a.door, iso9283::show))
         }
     }
 }

@@ -18,8 +18,13 @@ pub fn show(d: &Document, json: bool) {
     }
 }
 
-/// The plan as text.
+/// The plan as text: what was chosen, how good it is, and the postures.
 pub fn text(p: &Plan, robot: &Robot, described: &str) -> String {
+    chosen(p, robot, described) + &quality(p) + &postures(p, robot)
+}
+
+/// What was chosen from how many candidates, for which parameters.
+fn chosen(p: &Plan, robot: &Robot, described: &str) -> String {
     let mut s = String::new();
     let n = p.parameters.len();
     let kept = p.postures.iter().filter(|q| q.candidate.is_none()).count();
@@ -45,6 +50,14 @@ pub fn text(p: &Plan, robot: &Robot, described: &str) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    s
+}
+
+/// How good the plan is: its rank and condition, its criterion, its information per posture
+/// against random plans of its size, the search, every criterion.
+fn quality(p: &Plan) -> String {
+    let mut s = String::new();
+    let n = p.parameters.len();
     let _ = writeln!(
         s,
         "rank {} of {n}{}; condition number {}",
@@ -100,13 +113,19 @@ pub fn text(p: &Plan, robot: &Robot, described: &str) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    s
+}
+
+/// The postures (kept ones marked) with their leverage and readings.
+fn postures(p: &Plan, robot: &Robot) -> String {
+    let mut s = String::new();
     let _ = writeln!(
         s,
-        "\npostures (leverage: how many of the {n} parameters' worth of information each carries)"
+        "\npostures (leverage: how many of the {} parameters' worth of information each carries)",
+        p.parameters.len()
     );
-    let dof = robot.dof();
     let _ = write!(s, "  {:<10} {:>8}", "posture", "leverage");
-    for j in 0..dof {
+    for j in 0..robot.dof() {
         let _ = write!(s, " {:>10}", format!("v{}", j + 1));
     }
     let _ = writeln!(s);

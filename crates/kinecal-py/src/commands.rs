@@ -96,22 +96,11 @@ pub fn compensate<'py>(
     seeds: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (cal, nom) = (&calibrated.robot, &nominal.robot);
-    let units = nom.units;
     let spec: CompensateSpec = crate::jobs::settings(py, spec)?;
     let options = spec.options(nom).map_err(|e| error(py, e))?;
     let position_only = spec.position_only;
     let configuration = spec.configuration().map_err(|e| error(py, e))?;
-    let site = spec.site.as_deref();
-    let target = target_of(nom, site, "site")?;
-    let dof = nom.dof();
-    // The goals: a program's readings, or targets with their seeds.
-    enum Work {
-        Program(Vec<f64>),
-        Targets {
-            goals: Vec<Goal>,
-            seeds: Option<Vec<f64>>,
-        },
-    }
+    let target = target_of(nom, spec.site.as_deref(), "site")?;
     let work = match (program, targets) {
         (Some(p), None) => {
             if seeds.is_some() {
@@ -119,49 +108,17 @@ pub fn compensate<'py>(
                     "seeds: a program's readings are its own seeds; seeds go with targets",
                 ));
             }
-            let (v, _) = table(py, p, "program", &[dof], "readings, one column per joint")?;
+            let (v, _) = table(
+                py,
+                p,
+                "program",
+                &[nom.dof()],
+                "readings, one column per joint",
+            )?;
             Work::Program(v)
         }
-        (None, Some(t)) => {
-            let (v, rows) = table(
-                py,
-                t,
-                "targets",
-                &[3, 6],
-                "x, y, z and optionally alpha, beta, gamma",
-            )?;
-            let cols = v.len() / rows;
-            let goals = v
-                .chunks(cols)
-                .enumerate()
-                .map(|(i, r)| {
-                    let euler = (cols == 6 && !position_only).then(|| [r[3], r[4], r[5]]);
-                    goal_in_file_units(nom, [r[0], r[1], r[2]], euler)
-                        .map_err(|p| goal_problem(&p, i + 1))
-                })
-                .collect::<PyResult<Vec<Goal>>>()?;
-            let seeds = match seeds {
-                Some(s) => {
-                    let (sv, srows) =
-                        table(py, s, "seeds", &[dof], "readings, one column per joint")?;
-                    if srows != rows {
-                        return Err(bad(format!(
-                            "seeds: {srows} rows for {rows} targets: give one row of readings \
-                             per target"
-                        )));
-                    }
-                    Some(sv)
-                }
-                None => None,
-            };
-            Work::Targets { goals, seeds }
-        }
-        (Some(_), Some(_)) => {
-            return Err(bad(
-                "program, targets: give one (a program's readings or Cartesian targets)",
-            ))
-        }
-        (None, None) => {
+        (None, Some(t)) => targets_work(py, nom, t, seeds, position_only)?,
+        (Some(_), Some(_)) | (None, None) => {
             return Err(bad(
                 "program, targets: give one (a program's readings or Cartesian targets)",
             ))
@@ -178,6 +135,7 @@ pub fn compensate<'py>(
         }
         search = search.with_configuration(c).map_err(|e| error(py, e))?;
     }
+    let dof = nom.dof();
     let solved = py.detach(|| {
         let mut out = vec![0.0; dof];
         let mut rows = Vec::new();
@@ -198,7 +156,72 @@ pub fn compensate<'py>(
         }
         rows
     });
-    let n = solved.len();
+    compensated(py, &solved, nom)
+}
+
+/// What to compensate: a program's readings, or targets with their seeds.
+enum Work {
+    Program(Vec<f64>),
+    Targets {
+        goals: Vec<Goal>,
+        seeds: Option<Vec<f64>>,
+    },
+}
+
+/// The targets (`(rows, 3)` positions or `(rows, 6)` poses, in the robot file's units; the
+/// attitudes dropped when `position_only`) with their seeds, one row of readings per target.
+fn targets_work(
+    py: Python<'_>,
+    nom: &kinecal::Robot,
+    t: &Bound<'_, PyAny>,
+    seeds: Option<&Bound<'_, PyAny>>,
+    position_only: bool,
+) -> PyResult<Work> {
+    let (v, rows) = table(
+        py,
+        t,
+        "targets",
+        &[3, 6],
+        "x, y, z and optionally alpha, beta, gamma",
+    )?;
+    let cols = v.len() / rows;
+    let goals = v
+        .chunks(cols)
+        .enumerate()
+        .map(|(i, r)| {
+            let euler = (cols == 6 && !position_only).then(|| [r[3], r[4], r[5]]);
+            goal_in_file_units(nom, [r[0], r[1], r[2]], euler).map_err(|p| goal_problem(&p, i + 1))
+        })
+        .collect::<PyResult<Vec<Goal>>>()?;
+    let seeds = match seeds {
+        Some(s) => {
+            let (sv, srows) = table(
+                py,
+                s,
+                "seeds",
+                &[nom.dof()],
+                "readings, one column per joint",
+            )?;
+            if srows != rows {
+                return Err(bad(format!(
+                    "seeds: {srows} rows for {rows} targets: give one row of readings per target"
+                )));
+            }
+            Some(sv)
+        }
+        None => None,
+    };
+    Ok(Work::Targets { goals, seeds })
+}
+
+/// The compensated rows as the result class's fields: readings, remaining errors (in `nom`'s
+/// units), iterations, conditioning, and each flag.
+fn compensated<'py>(
+    py: Python<'py>,
+    solved: &[(Vec<f64>, kinecal::apps::compensate::Solved)],
+    nom: &kinecal::Robot,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (units, dof, n) = (nom.units, nom.dof(), solved.len());
     let length = |v: f64| units.from_si(Quantity::Length, v);
     let angle = |v: f64| units.from_si(Quantity::Angle, v);
     let readings: Vec<f64> = solved.iter().flat_map(|(r, _)| r.iter().copied()).collect();
@@ -301,9 +324,29 @@ pub fn plan<'py>(
     let r = &robot.robot;
     let spec: PlanSpec = crate::jobs::settings(py, spec)?;
     let targets = spec.targets(r).map_err(|e| error(py, e))?;
-    let pool = match (candidates, spec.sample) {
+    let pool = plan_pool(py, r, &spec, candidates, &targets)?;
+    let observed = pool.observed;
+    let keep = match keep {
+        Some(k) => pool_of(py, k, "keep", r, &targets, spec.position_only)?.0,
+        None => Dataset::default(),
+    };
+    let req = spec.request(r, pool.data, keep).map_err(|e| error(py, e))?;
+    let p = py.detach(|| choose(&req)).map_err(|e| error(py, e))?;
+    planned(py, &p, r, observed)
+}
+
+/// The candidates a plan chooses from: given (Measurements or readings), or `sample` postures
+/// drawn by the spec.
+fn plan_pool(
+    py: Python<'_>,
+    r: &kinecal::Robot,
+    spec: &PlanSpec,
+    candidates: Option<&Bound<'_, PyAny>>,
+    targets: &[Target],
+) -> PyResult<kinecal::spec::Pool> {
+    match (candidates, spec.sample) {
         (Some(c), None) => {
-            let (data, observed) = pool_of(py, c, "candidates", r, &targets, spec.position_only)?;
+            let (data, observed) = pool_of(py, c, "candidates", r, targets, spec.position_only)?;
             if observed {
                 spec.pool_of_observations(data, String::new())
             } else {
@@ -313,24 +356,25 @@ pub fn plan<'py>(
                     described: String::new(),
                 })
             }
-            .map_err(|e| error(py, e))?
+            .map_err(|e| error(py, e))
         }
-        (None, Some(_)) => spec.pool(r).map_err(|e| error(py, e))?,
-        _ => {
-            return Err(bad(
-                "candidates, sample: give one (candidate postures or Measurements, or a number \
-                 of postures to sample)",
-            ))
-        }
-    };
-    let observed = pool.observed;
-    let keep = match keep {
-        Some(k) => pool_of(py, k, "keep", r, &targets, spec.position_only)?.0,
-        None => Dataset::default(),
-    };
-    let req = spec.request(r, pool.data, keep).map_err(|e| error(py, e))?;
-    let p = py.detach(|| choose(&req)).map_err(|e| error(py, e))?;
-    // What `kinecal plan --out` writes.
+        (None, Some(_)) => spec.pool(r).map_err(|e| error(py, e)),
+        _ => Err(bad(
+            "candidates, sample: give one (candidate postures or Measurements, or a number \
+             of postures to sample)",
+        )),
+    }
+}
+
+/// A plan as the result class's fields: its criteria, rank and search, the postures chosen
+/// (labels, readings, leverage, kept or chosen), their observations, and the CSV
+/// `kinecal plan --out` writes.
+fn planned<'py>(
+    py: Python<'py>,
+    p: &kinecal::apps::plan::Plan,
+    r: &kinecal::Robot,
+    observed: bool,
+) -> PyResult<Bound<'py, PyDict>> {
     let (csv, _) = p.chosen_file(r, observed);
     let d = PyDict::new(py);
     d.set_item("criterion", p.criterion.as_str())?;

@@ -731,36 +731,25 @@ impl Measurements {
     }
 }
 
-#[pymethods]
-impl Measurements {
-    /// Measurements from arrays: `readings` `(n, joints)`; `positions` `(n, 3)` in the robot's
-    /// length unit; `orientations` `(n, 3)` ZYX Euler angles in its angle unit (full poses;
-    /// omit for position-only data); `sites`: one site name per row (None: the end effector);
-    /// `sigma_position`, `sigma_angle`: per-row standard deviations `(n,)` in file units;
-    /// `postures`: a label per row (rows with the same label share one posture).
-    #[new]
-    #[pyo3(signature = (robot, readings, positions, orientations=None, sites=None, sigma_position=None, sigma_angle=None, postures=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
+/// The measured columns of [`Measurements`]' rows, each checked against the rows' count:
+/// positions, orientations (ZYX Euler angles, for poses), and the rows' standard deviations
+/// (positive and finite).
+struct RowColumns {
+    positions: Vec<f64>,
+    orientations: Option<Vec<f64>>,
+    sigma_position: Option<Vec<f64>>,
+    sigma_angle: Option<Vec<f64>>,
+}
+
+impl RowColumns {
+    fn read(
         py: Python<'_>,
-        robot: &Robot,
-        readings: &Bound<'_, PyAny>,
+        rows: usize,
         positions: &Bound<'_, PyAny>,
         orientations: Option<&Bound<'_, PyAny>>,
-        sites: Option<Vec<Option<String>>>,
         sigma_position: Option<&Bound<'_, PyAny>>,
         sigma_angle: Option<&Bound<'_, PyAny>>,
-        postures: Option<Vec<String>>,
-    ) -> PyResult<Measurements> {
-        let r = &robot.robot;
-        let n = r.dof();
-        let (q, qs) = numbers(py, readings, "readings", 2)?;
-        if qs[1] != n || qs[0] == 0 {
-            return Err(bad(format!(
-                "readings: expected shape (rows, {n}) for a robot of {n} joints, got {qs:?}"
-            )));
-        }
-        let rows = qs[0];
+    ) -> PyResult<RowColumns> {
         let shaped = |name: &str, v: (Vec<f64>, Vec<usize>), cols: Option<usize>| {
             let want: Vec<usize> = match cols {
                 Some(c) => vec![rows, c],
@@ -824,80 +813,150 @@ impl Measurements {
         if let Some(s) = &sa {
             positive("sigma_angle", s)?;
         }
-        let targets: Vec<Target> = match sites {
-            None => vec![Target::EndEffector; rows],
-            Some(s) if s.len() == rows => s
-                .iter()
-                .enumerate()
-                .map(|(i, name)| {
-                    commands::target_of(r, name.as_deref(), &format!("sites: row {i}"))
-                })
-                .collect::<PyResult<_>>()?,
-            Some(s) => {
-                return Err(bad(format!(
-                    "sites: {} names for {rows} rows of readings",
-                    s.len()
-                )))
+        Ok(RowColumns {
+            positions: p,
+            orientations: o,
+            sigma_position: sp,
+            sigma_angle: sa,
+        })
+    }
+}
+
+/// The frame each row measures: `sites` (a name per row, None for the end effector), or the
+/// end effector throughout.
+fn row_targets(
+    r: &kinecal::Robot,
+    sites: Option<Vec<Option<String>>>,
+    rows: usize,
+) -> PyResult<Vec<Target>> {
+    match sites {
+        None => Ok(vec![Target::EndEffector; rows]),
+        Some(s) if s.len() == rows => s
+            .iter()
+            .enumerate()
+            .map(|(i, name)| commands::target_of(r, name.as_deref(), &format!("sites: row {i}")))
+            .collect(),
+        Some(s) => Err(bad(format!(
+            "sites: {} names for {rows} rows of readings",
+            s.len()
+        ))),
+    }
+}
+
+/// Each row's posture label: `postures`, or the rows numbered from 1.
+fn row_labels(postures: Option<Vec<String>>, rows: usize) -> PyResult<Vec<String>> {
+    match postures {
+        None => Ok((1..=rows).map(|i| i.to_string()).collect()),
+        Some(p) if p.len() == rows => Ok(p),
+        Some(p) => Err(bad(format!(
+            "postures: {} labels for {rows} rows of readings",
+            p.len()
+        ))),
+    }
+}
+
+/// The rows as a dataset: one posture per label (rows of one label must have its readings),
+/// a pose or a position observed in each row, in SI units.
+fn rows_dataset(
+    r: &kinecal::Robot,
+    q: &[f64],
+    c: &RowColumns,
+    targets: &[Target],
+    labels: &[String],
+) -> PyResult<Dataset> {
+    let n = r.dof();
+    let (p, sp, sa) = (&c.positions, &c.sigma_position, &c.sigma_angle);
+    let (l, a) = (r.units.length.metres(), r.units.angle.radians());
+    let mut posture_list: Vec<Posture> = Vec::new();
+    let mut index: std::collections::HashMap<&str, usize> = Default::default();
+    let mut observations = Vec::with_capacity(labels.len());
+    for i in 0..labels.len() {
+        let reading = &q[i * n..(i + 1) * n];
+        let k = match index.get(labels[i].as_str()) {
+            Some(&k) => {
+                if posture_list[k].readings != reading {
+                    return Err(bad(format!(
+                        "postures: row {i}: posture `{}` has other readings in an earlier row",
+                        labels[i]
+                    )));
+                }
+                k
+            }
+            None => {
+                posture_list.push(Posture {
+                    label: labels[i].clone(),
+                    readings: reading.to_vec(),
+                    session: None,
+                    payload: None,
+                });
+                index.insert(labels[i].as_str(), posture_list.len() - 1);
+                posture_list.len() - 1
             }
         };
-        let labels: Vec<String> = match postures {
-            None => (1..=rows).map(|i| i.to_string()).collect(),
-            Some(p) if p.len() == rows => p,
-            Some(p) => {
-                return Err(bad(format!(
-                    "postures: {} labels for {rows} rows of readings",
-                    p.len()
-                )))
+        let pos = Vector3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]) * l;
+        let obs: kinecal::Observation = match &c.orientations {
+            Some(o) => {
+                let e = Vector3::new(o[3 * i], o[3 * i + 1], o[3 * i + 2]) * a;
+                let mut m = Pose::new(k, targets[i], pos, e);
+                m.sigma_position = sp.as_ref().map(|s| Vector3::repeat(s[i] * l));
+                m.sigma_angle = sa.as_ref().map(|s| s[i] * a);
+                m.line = i + 1;
+                m.into()
+            }
+            None => {
+                let mut m = Position::new(k, targets[i], pos);
+                m.sigma_position = sp.as_ref().map(|s| Vector3::repeat(s[i] * l));
+                m.line = i + 1;
+                m.into()
             }
         };
-        let (l, a) = (r.units.length.metres(), r.units.angle.radians());
-        let mut posture_list: Vec<Posture> = Vec::new();
-        let mut index: std::collections::HashMap<&str, usize> = Default::default();
-        let mut observations = Vec::with_capacity(rows);
-        for i in 0..rows {
-            let reading = &q[i * n..(i + 1) * n];
-            let k = match index.get(labels[i].as_str()) {
-                Some(&k) => {
-                    if posture_list[k].readings != reading {
-                        return Err(bad(format!(
-                            "postures: row {i}: posture `{}` has other readings in an earlier row",
-                            labels[i]
-                        )));
-                    }
-                    k
-                }
-                None => {
-                    posture_list.push(Posture {
-                        label: labels[i].clone(),
-                        readings: reading.to_vec(),
-                        session: None,
-                        payload: None,
-                    });
-                    index.insert(labels[i].as_str(), posture_list.len() - 1);
-                    posture_list.len() - 1
-                }
-            };
-            let pos = Vector3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]) * l;
-            let obs: kinecal::Observation = match &o {
-                Some(o) => {
-                    let e = Vector3::new(o[3 * i], o[3 * i + 1], o[3 * i + 2]) * a;
-                    let mut m = Pose::new(k, targets[i], pos, e);
-                    m.sigma_position = sp.as_ref().map(|s| Vector3::repeat(s[i] * l));
-                    m.sigma_angle = sa.as_ref().map(|s| s[i] * a);
-                    m.line = i + 1;
-                    m.into()
-                }
-                None => {
-                    let mut m = Position::new(k, targets[i], pos);
-                    m.sigma_position = sp.as_ref().map(|s| Vector3::repeat(s[i] * l));
-                    m.line = i + 1;
-                    m.into()
-                }
-            };
-            observations.push(obs);
+        observations.push(obs);
+    }
+    Ok(Dataset::new(posture_list, observations))
+}
+
+#[pymethods]
+impl Measurements {
+    /// Measurements from arrays: `readings` `(n, joints)`; `positions` `(n, 3)` in the robot's
+    /// length unit; `orientations` `(n, 3)` ZYX Euler angles in its angle unit (full poses;
+    /// omit for position-only data); `sites`: one site name per row (None: the end effector);
+    /// `sigma_position`, `sigma_angle`: per-row standard deviations `(n,)` in file units;
+    /// `postures`: a label per row (rows with the same label share one posture).
+    #[new]
+    #[pyo3(signature = (robot, readings, positions, orientations=None, sites=None, sigma_position=None, sigma_angle=None, postures=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        robot: &Robot,
+        readings: &Bound<'_, PyAny>,
+        positions: &Bound<'_, PyAny>,
+        orientations: Option<&Bound<'_, PyAny>>,
+        sites: Option<Vec<Option<String>>>,
+        sigma_position: Option<&Bound<'_, PyAny>>,
+        sigma_angle: Option<&Bound<'_, PyAny>>,
+        postures: Option<Vec<String>>,
+    ) -> PyResult<Measurements> {
+        let r = &robot.robot;
+        let n = r.dof();
+        let (q, qs) = numbers(py, readings, "readings", 2)?;
+        if qs[1] != n || qs[0] == 0 {
+            return Err(bad(format!(
+                "readings: expected shape (rows, {n}) for a robot of {n} joints, got {qs:?}"
+            )));
         }
+        let rows = qs[0];
+        let columns = RowColumns::read(
+            py,
+            rows,
+            positions,
+            orientations,
+            sigma_position,
+            sigma_angle,
+        )?;
+        let targets = row_targets(r, sites, rows)?;
+        let labels = row_labels(postures, rows)?;
         Ok(Measurements {
-            data: Dataset::new(posture_list, observations),
+            data: rows_dataset(r, &q, &columns, &targets, &labels)?,
             dof: n,
             sites: site_names(r),
         })

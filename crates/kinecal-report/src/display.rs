@@ -182,6 +182,20 @@ pub fn calibration(rep: &CalibrationReport, c: &Convert) -> CalibrationReport {
     let mut r = rep.clone();
     r.weight_length = c.length(r.weight_length);
     r.weight_angle = c.angle(r.weight_angle);
+    fit_errors(&mut r, c);
+    parameters(&mut r, rep, c);
+    accuracy(&mut r, c);
+    observation_errors(&mut r, c);
+    if let Some(e) = &mut r.elastic {
+        elastic(e, rep, c);
+    }
+    r.prediction = r.prediction.as_ref().map(|p| prediction(p, c));
+    r
+}
+
+/// The errors of the fit: before, at the solver's start, after, and the full fit's before
+/// pruning.
+fn fit_errors(r: &mut CalibrationReport, c: &Convert) {
     if let Some(s) = &mut r.start {
         s.rms_position = c.length(s.rms_position);
         s.max_position = c.length(s.max_position);
@@ -207,6 +221,16 @@ pub fn calibration(rep: &CalibrationReport, c: &Convert) -> CalibrationReport {
     {
         *v = c.angle(*v);
     }
+    if let Some(p) = &mut r.pruning {
+        p.full_rms_position_after = c.length(p.full_rms_position_after);
+        p.full_rms_orientation_after = p.full_rms_orientation_after.map(|v| c.angle(v));
+    }
+}
+
+/// The parameters (relabelled, with their sigmas and changes), and the combinations and
+/// redundant groups of parameters of one unit (`rep`, the report as it came, knows their
+/// units).
+fn parameters(r: &mut CalibrationReport, rep: &CalibrationReport, c: &Convert) {
     for p in &mut r.parameters {
         let (f, label) = c.unit(&p.unit);
         p.unit = label;
@@ -231,10 +255,11 @@ pub fn calibration(rep: &CalibrationReport, c: &Convert) -> CalibrationReport {
             }
         }
     }
-    if let Some(p) = &mut r.pruning {
-        p.full_rms_position_after = c.length(p.full_rms_position_after);
-        p.full_rms_orientation_after = p.full_rms_orientation_after.map(|v| c.angle(v));
-    }
+}
+
+/// The accuracy on the identification and validation data, of the model choice's candidates
+/// and of the cross-validation's folds, and a far start's placement.
+fn accuracy(r: &mut CalibrationReport, c: &Convert) {
     dataset(&mut r.identification, c);
     if let Some(v) = &mut r.validation {
         dataset(v, c);
@@ -255,6 +280,10 @@ pub fn calibration(rep: &CalibrationReport, c: &Convert) -> CalibrationReport {
         p.rms_before = c.length(p.rms_before);
         p.rms_after = c.length(p.rms_after);
     }
+}
+
+/// The outliers' errors, and the errors of each observation with their histogram's width.
+fn observation_errors(r: &mut CalibrationReport, c: &Convert) {
     for o in &mut r.outliers {
         o.position_error = c.length(o.position_error);
         o.orientation_error = o.orientation_error.map(|v| c.angle(v));
@@ -273,22 +302,23 @@ pub fn calibration(rep: &CalibrationReport, c: &Convert) -> CalibrationReport {
         }
         e.histogram_width = c.length(e.histogram_width);
     }
-    if let Some(e) = &mut r.elastic {
-        e.gravity = c.length(e.gravity);
-        e.largest_deflection = c.angle(e.largest_deflection);
-        let (f, _) = c.unit(&format!("{}/(N {})", rep.angle_unit, rep.length_unit));
-        for j in &mut e.joints {
-            j.compliance *= f;
-            j.compliance_sigma = j.compliance_sigma.map(|v| v * f);
-            j.stiffness = j.stiffness.map(|v| v / f);
-            j.stiffness_sigma = j.stiffness_sigma.map(|v| v / f);
-            j.stiffness_unit = j
-                .stiffness_unit
-                .replace(&format!("/{}", rep.angle_unit), &format!("/{}", c.a()));
-        }
+}
+
+/// The mass model: gravity, the largest deflection, the joints' compliances and stiffnesses
+/// (a stiffness per angle shown: `N m/deg`).
+fn elastic(e: &mut kinecal::report::ElasticReport, rep: &CalibrationReport, c: &Convert) {
+    e.gravity = c.length(e.gravity);
+    e.largest_deflection = c.angle(e.largest_deflection);
+    let (f, _) = c.unit(&format!("{}/(N {})", rep.angle_unit, rep.length_unit));
+    for j in &mut e.joints {
+        j.compliance *= f;
+        j.compliance_sigma = j.compliance_sigma.map(|v| v * f);
+        j.stiffness = j.stiffness.map(|v| v / f);
+        j.stiffness_sigma = j.stiffness_sigma.map(|v| v / f);
+        j.stiffness_unit = j
+            .stiffness_unit
+            .replace(&format!("/{}", rep.angle_unit), &format!("/{}", c.a()));
     }
-    r.prediction = r.prediction.as_ref().map(|p| prediction(p, c));
-    r
 }
 
 fn growth(g: &mut GrowthReport, value: f64, c: &Convert) {

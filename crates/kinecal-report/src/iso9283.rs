@@ -144,7 +144,8 @@ fn scatter(f: &PoseFigures, unit: &str) -> String {
     svg
 }
 
-/// The HTML page of an evaluation.
+/// The HTML page of an evaluation: the log and its warnings; for a series of logs its table;
+/// else each pose's figures and scatter, then the distances; the symbols last.
 pub fn html_iso9283(e: &Evaluation) -> String {
     let l = e
         .length_unit
@@ -153,16 +154,41 @@ pub fn html_iso9283(e: &Evaluation) -> String {
         .angle_unit
         .map_or_else(|| "(log's angle unit)".to_string(), |u| u.to_string());
     let mut h = page_head(&format!("ISO 9283 pose characteristics: {}", e.file));
-    h += "<style>.pose{display:flex;flex-wrap:wrap;gap:1.5em;align-items:flex-start}\
+    h += STYLE;
+    h += &intro(e, &l, &a);
+    if e.summary.is_some() {
+        h += &series(e, &l);
+        h += SYMBOLS;
+        return h;
+    }
+    h += SCATTER_KEY;
+    for f in &e.poses {
+        h += &pose(f, &l, &a);
+    }
+    h += &distances(e, &l);
+    h += SYMBOLS;
+    h
+}
+
+/// The page's own style: poses side by side with their scatter, the scatter's marks.
+const STYLE: &str = "<style>.pose{display:flex;flex-wrap:wrap;gap:1.5em;align-items:flex-start}\
           .pose table{margin:0}svg .t{font-size:12px}svg .s{font-size:10px;fill:#555}\
           svg .frame{fill:#fafafa;stroke:#bbb}svg .axis{stroke:#bbb;stroke-dasharray:3 3}\
           svg .pt{fill:#1f6fb4;fill-opacity:0.7}svg .bary{stroke:#c0392b;stroke-width:2;fill:none}\
           svg .cmd{stroke:#222;stroke-width:1.5;fill:none}\
           svg .rp{fill:none;stroke:#c0392b;stroke-dasharray:4 3}\
           .key{font-size:90%;color:#444}</style>\n";
-    let _ = writeln!(
-        h,
-        "<h1>ISO 9283 pose characteristics</h1><p>Log <b>{}</b>{}: {} pose{}, lengths in {}, angles in {}.</p>",
+
+/// How to read the scatters.
+const SCATTER_KEY: &str = "<p class=\"key\">Per pose, the attained positions (blue dots) from \
+         above and from the side about the commanded one (<b>+</b>), and from above about their \
+         barycentre (<span style=\"color:#c0392b\">&times;</span>), closer; the dashed circle has \
+         the radius RP about the barycentre.</p>\n";
+
+/// The title, the log (simulated or measured), its poses and units, and its warnings.
+fn intro(e: &Evaluation, l: &str, a: &str) -> String {
+    let mut h = format!(
+        "<h1>ISO 9283 pose characteristics</h1><p>Log <b>{}</b>{}: {} pose{}, lengths in {}, angles in {}.</p>\n",
         esc(&e.file),
         if e.simulated {
             " (<b>simulated</b>, not measured)"
@@ -171,147 +197,137 @@ pub fn html_iso9283(e: &Evaluation) -> String {
         },
         e.poses.len(),
         if e.poses.len() == 1 { "" } else { "s" },
-        esc(&l),
-        esc(&a)
+        esc(l),
+        esc(a)
     );
     for w in &e.warnings {
         let _ = writeln!(h, "<p class=\"warn\">Warning: {}</p>", esc(w));
     }
-    if e.summary.is_some() {
-        h += &series(e, &l);
-        h += SYMBOLS;
-        return h;
-    }
-    let _ = writeln!(
-        h,
-        "<p class=\"key\">Per pose, the attained positions (blue dots) from above and from the \
-         side about the commanded one (<b>+</b>), and from above about their barycentre \
-         (<span style=\"color:#c0392b\">&times;</span>), closer; the dashed circle has the radius \
-         RP about the barycentre.</p>"
+    h
+}
+
+/// One pose: its figures' table beside its scatter.
+fn pose(f: &PoseFigures, l: &str, a: &str) -> String {
+    let mut h = format!(
+        "<h2>{}{}</h2><div class=\"pose\"><table><tr><th class=\"l\">figure</th><th>value</th><th class=\"l\">unit</th></tr>\n",
+        f.test.as_deref().map(|t| format!("{}, ", esc(t))).unwrap_or_default(),
+        pose_name(f.pose)
     );
-    for f in &e.poses {
+    for (name, value, unit) in pose_figures(f, l, a) {
         let _ = writeln!(
             h,
-            "<h2>{}{}</h2><div class=\"pose\"><table><tr><th class=\"l\">figure</th><th>value</th><th class=\"l\">unit</th></tr>",
-            f.test.as_deref().map(|t| format!("{}, ", esc(t))).unwrap_or_default(),
-            pose_name(f.pose)
+            "<tr><td class=\"l\">{name}</td><td>{value}</td><td class=\"l\">{}</td></tr>",
+            esc(unit)
         );
-        let row = |h: &mut String, name: &str, value: String, unit: &str| {
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{name}</td><td>{value}</td><td class=\"l\">{}</td></tr>",
-                esc(unit)
-            );
-        };
-        row(&mut h, "cycles n", f.cycles.to_string(), "");
-        row(
-            &mut h,
-            "commanded x<sub>c</sub>, y<sub>c</sub>, z<sub>c</sub>",
-            f.commanded.map(num).join(", "),
-            &l,
-        );
-        if let Some(c) = f.commanded_attitude {
-            row(
-                &mut h,
-                "commanded a<sub>c</sub>, b<sub>c</sub>, c<sub>c</sub>",
-                c.map(num).join(", "),
-                &a,
-            );
-        }
-        row(&mut h, "<b>AP</b> pose accuracy", num(f.ap), &l);
-        row(
-            &mut h,
-            "AP<sub>x</sub>, AP<sub>y</sub>, AP<sub>z</sub>",
-            f.ap_xyz.map(|v| signed(v, 4)).join(", "),
-            &l,
-        );
-        match (f.rp, f.l_mean, f.s_l) {
-            (Some(rp), Some(l_mean), Some(s_l)) => {
-                row(&mut h, "<b>RP</b> pose repeatability", num(rp), &l);
-                row(
-                    &mut h,
-                    "l&#772;, S<sub>l</sub>",
-                    format!("{}, {}", num(l_mean), num(s_l)),
-                    &l,
-                );
-            }
-            _ => row(
-                &mut h,
-                "<b>RP</b> pose repeatability",
-                "n/a (1 cycle)".into(),
-                "",
-            ),
-        }
-        if let Some(c) = &f.compensated {
-            row(
-                &mut h,
-                "AP once compensated (predicted): RMS, 95 % bound",
-                format!("{}, {}", num(c.ap_rms), num(c.ap_95)),
-                &l,
-            );
-        }
-        if let Some(ap) = f.ap_abc {
-            row(
-                &mut h,
-                "AP<sub>a</sub>, AP<sub>b</sub>, AP<sub>c</sub>",
-                ap.map(|v| signed(v, 4)).join(", "),
-                &a,
-            );
-        }
-        if let Some(rp) = f.rp_abc {
-            row(
-                &mut h,
-                "RP<sub>a</sub>, RP<sub>b</sub>, RP<sub>c</sub> (&plusmn;)",
-                rp.map(num).join(", "),
-                &a,
-            );
-        }
-        if let Some(m) = &f.multidirectional {
-            row(
-                &mut h,
-                &format!("<b>vAP</b> ({} directions)", m.directions.len()),
-                num(m.vap),
-                &l,
-            );
-            if let Some(v) = m.vap_abc {
-                row(
-                    &mut h,
-                    "vAP<sub>a</sub>, vAP<sub>b</sub>, vAP<sub>c</sub>",
-                    v.map(num).join(", "),
-                    &a,
-                );
-            }
-        }
-        h += "</table>";
-        h += &scatter(f, &l);
-        h += "</div>\n";
     }
-    if !e.distances.is_empty() {
+    h += "</table>";
+    h += &scatter(f, l);
+    h += "</div>\n";
+    h
+}
+
+/// A pose's figures as rows `(name, value, unit)`: cycles, commanded pose, AP (and its axes),
+/// RP (with l-bar and S_l), AP once compensated, the attitude's AP and RP, vAP.
+fn pose_figures<'a>(f: &PoseFigures, l: &'a str, a: &'a str) -> Vec<(String, String, &'a str)> {
+    let mut rows = Vec::new();
+    let mut row = |name: &str, value: String, unit: &'a str| {
+        rows.push((name.to_string(), value, unit));
+    };
+    row("cycles n", f.cycles.to_string(), "");
+    row(
+        "commanded x<sub>c</sub>, y<sub>c</sub>, z<sub>c</sub>",
+        f.commanded.map(num).join(", "),
+        l,
+    );
+    if let Some(c) = f.commanded_attitude {
+        row(
+            "commanded a<sub>c</sub>, b<sub>c</sub>, c<sub>c</sub>",
+            c.map(num).join(", "),
+            a,
+        );
+    }
+    row("<b>AP</b> pose accuracy", num(f.ap), l);
+    row(
+        "AP<sub>x</sub>, AP<sub>y</sub>, AP<sub>z</sub>",
+        f.ap_xyz.map(|v| signed(v, 4)).join(", "),
+        l,
+    );
+    match (f.rp, f.l_mean, f.s_l) {
+        (Some(rp), Some(l_mean), Some(s_l)) => {
+            row("<b>RP</b> pose repeatability", num(rp), l);
+            row(
+                "l&#772;, S<sub>l</sub>",
+                format!("{}, {}", num(l_mean), num(s_l)),
+                l,
+            );
+        }
+        _ => row("<b>RP</b> pose repeatability", "n/a (1 cycle)".into(), ""),
+    }
+    if let Some(c) = &f.compensated {
+        row(
+            "AP once compensated (predicted): RMS, 95 % bound",
+            format!("{}, {}", num(c.ap_rms), num(c.ap_95)),
+            l,
+        );
+    }
+    if let Some(ap) = f.ap_abc {
+        row(
+            "AP<sub>a</sub>, AP<sub>b</sub>, AP<sub>c</sub>",
+            ap.map(|v| signed(v, 4)).join(", "),
+            a,
+        );
+    }
+    if let Some(rp) = f.rp_abc {
+        row(
+            "RP<sub>a</sub>, RP<sub>b</sub>, RP<sub>c</sub> (&plusmn;)",
+            rp.map(num).join(", "),
+            a,
+        );
+    }
+    if let Some(m) = &f.multidirectional {
+        row(
+            &format!("<b>vAP</b> ({} directions)", m.directions.len()),
+            num(m.vap),
+            l,
+        );
+        if let Some(v) = m.vap_abc {
+            row(
+                "vAP<sub>a</sub>, vAP<sub>b</sub>, vAP<sub>c</sub>",
+                v.map(num).join(", "),
+                a,
+            );
+        }
+    }
+    rows
+}
+
+/// The distance accuracy and repeatability between pairs of poses.
+fn distances(e: &Evaluation, l: &str) -> String {
+    if e.distances.is_empty() {
+        return String::new();
+    }
+    let mut h = String::from(
+        "<h2>Distance accuracy and repeatability</h2><table><tr><th class=\"l\">poses</th><th>n</th>\
+         <th>D<sub>c</sub></th><th>D&#772;</th><th>AD</th><th>AD<sub>x</sub></th><th>AD<sub>y</sub></th>\
+         <th>AD<sub>z</sub></th><th>RD (&plusmn;)</th></tr>\n",
+    );
+    for d in &e.distances {
         let _ = writeln!(
             h,
-            "<h2>Distance accuracy and repeatability</h2><table><tr><th class=\"l\">poses</th><th>n</th>\
-             <th>D<sub>c</sub></th><th>D&#772;</th><th>AD</th><th>AD<sub>x</sub></th><th>AD<sub>y</sub></th>\
-             <th>AD<sub>z</sub></th><th>RD (&plusmn;)</th></tr>"
+            "<tr><td class=\"l\">{}-{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            pose_name(d.from),
+            pose_name(d.to),
+            d.cycles,
+            num(d.commanded),
+            num(d.mean),
+            signed(d.ad, 4),
+            signed(d.ad_xyz[0], 4),
+            signed(d.ad_xyz[1], 4),
+            signed(d.ad_xyz[2], 4),
+            d.rd.map_or_else(|| "n/a".to_string(), num)
         );
-        for d in &e.distances {
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{}-{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                pose_name(d.from),
-                pose_name(d.to),
-                d.cycles,
-                num(d.commanded),
-                num(d.mean),
-                signed(d.ad, 4),
-                signed(d.ad_xyz[0], 4),
-                signed(d.ad_xyz[1], 4),
-                signed(d.ad_xyz[2], 4),
-                d.rd.map_or_else(|| "n/a".to_string(), num)
-            );
-        }
-        let _ = writeln!(h, "</table><p class=\"key\">Lengths in {}.</p>", esc(&l));
     }
-    h += SYMBOLS;
+    let _ = writeln!(h, "</table><p class=\"key\">Lengths in {}.</p>", esc(l));
     h
 }
 

@@ -118,21 +118,53 @@ fn leverage_panel(plan: &Plan) -> Panel {
     }
 }
 
-/// The HTML page of `plan`, chosen for `robot` from `pool` (described in `source`).
+/// The HTML page of `plan`, chosen for `robot` from `pool` (described in `source`): what was
+/// chosen and how well, the postures in joint space, the information each carries, every
+/// criterion, the postures' table and the parameters.
 pub fn html_plan(
     plan: &Plan,
     robot: &Robot,
     pool: &Dataset,
     source: &str,
 ) -> Result<String, DrawError> {
+    let mut h = page_head(&format!("kinecal measurement plan: {}", robot.name));
+    h += &chosen(plan, robot, source);
+    h += &against_random_plans(plan);
+    h += "<h2>Postures in joint space</h2>\n";
+    h += "<p>Bars: the plan's readings per joint; points: the candidates' readings, scaled to the plan's size. An optimal plan leaves the candidates' average: it goes where the parameters show.</p>\n";
+    h += &charts(&joint_panels(plan, robot, pool))?;
+    let n = plan.parameters.len();
+    h += "<h2>Information per posture</h2>\n";
+    let _ = writeln!(
+        h,
+        "<p>The leverage of a posture is how many of the {n} parameters' worth of information it carries (they sum to {n} when the plan determines every parameter). A posture far above the average holds directions few others see: measure it with care.</p>"
+    );
+    h += &charts(&[leverage_panel(plan)])?;
+    h += &all_criteria(plan);
+    h += &postures_table(plan, robot);
+    let _ = writeln!(
+        h,
+        "<p>Parameters: {}.</p></body></html>",
+        esc(&plan
+            .parameters
+            .iter()
+            .map(|&id| robot.param_name(id))
+            .collect::<Vec<_>>()
+            .join(", "))
+    );
+    Ok(h)
+}
+
+/// The title, what was chosen from where by which criterion, and a warning when the plan does
+/// not reach full rank.
+fn chosen(plan: &Plan, robot: &Robot, source: &str) -> String {
     let n = plan.parameters.len();
     let kept = plan
         .postures
         .iter()
         .filter(|q| q.candidate.is_none())
         .count();
-    let mut h = page_head(&format!("kinecal measurement plan: {}", robot.name));
-    let _ = writeln!(h, "<h1>Measurement plan: {}</h1>", esc(&robot.name));
+    let mut h = format!("<h1>Measurement plan: {}</h1>\n", esc(&robot.name));
     let _ = writeln!(
         h,
         "<p>{} postures chosen from {}{}, criterion <b>{}</b> ({}); {} residual rows for {n} parameters.</p>",
@@ -154,13 +186,18 @@ pub fn html_plan(
             plan.rank
         );
     }
+    h
+}
+
+/// The plan's criterion, information per posture and rank beside the median random plan's,
+/// and how many random plans it beats.
+fn against_random_plans(plan: &Plan) -> String {
     let pct = |v: Option<f64>| {
         v.map(|e| format!("{:.0} %", 100.0 * e))
             .unwrap_or_else(|| "n/a".into())
     };
-    let _ = writeln!(
-        h,
-        "<table><tr><th class=\"l\"></th><th>this plan</th><th>median of random plans</th></tr>"
+    let mut h = String::from(
+        "<table><tr><th class=\"l\"></th><th>this plan</th><th>median of random plans</th></tr>\n",
     );
     let random = plan.random.as_ref();
     let _ = writeln!(
@@ -189,21 +226,13 @@ pub fn html_plan(
             r.beaten, r.draws
         );
     }
-    let _ = writeln!(h, "<h2>Postures in joint space</h2>");
-    let _ = writeln!(
-        h,
-        "<p>Bars: the plan's readings per joint; points: the candidates' readings, scaled to the plan's size. An optimal plan leaves the candidates' average: it goes where the parameters show.</p>"
-    );
-    h += &charts(&joint_panels(plan, robot, pool))?;
-    let _ = writeln!(h, "<h2>Information per posture</h2>");
-    let _ = writeln!(
-        h,
-        "<p>The leverage of a posture is how many of the {n} parameters' worth of information it carries (they sum to {n} when the plan determines every parameter). A posture far above the average holds directions few others see: measure it with care.</p>"
-    );
-    h += &charts(&[leverage_panel(plan)])?;
-    let _ = writeln!(
-        h,
-        "<h2>All criteria</h2><table><tr><th class=\"l\">criterion</th><th>value</th></tr>"
+    h
+}
+
+/// Every criterion's value for the plan.
+fn all_criteria(plan: &Plan) -> String {
+    let mut h = String::from(
+        "<h2>All criteria</h2><table><tr><th class=\"l\">criterion</th><th>value</th></tr>\n",
     );
     for (c, v) in &plan.values {
         let _ = writeln!(
@@ -214,15 +243,19 @@ pub fn html_plan(
             opt(*v)
         );
     }
-    let _ = writeln!(h, "</table>");
-    let _ = writeln!(
-        h,
-        "<h2>The postures</h2><table><tr><th class=\"l\">posture</th><th>leverage</th>"
+    h += "</table>\n";
+    h
+}
+
+/// Each posture (kept ones marked) with its leverage and readings.
+fn postures_table(plan: &Plan, robot: &Robot) -> String {
+    let mut h = String::from(
+        "<h2>The postures</h2><table><tr><th class=\"l\">posture</th><th>leverage</th>\n",
     );
     for j in 0..robot.dof() {
         let _ = write!(h, "<th>v{}</th>", j + 1);
     }
-    let _ = writeln!(h, "</tr>");
+    h += "</tr>\n";
     for q in &plan.postures {
         let _ = write!(
             h,
@@ -234,20 +267,10 @@ pub fn html_plan(
         for v in &q.readings {
             let _ = write!(h, "<td>{}</td>", fmt_sig(*v));
         }
-        let _ = writeln!(h, "</tr>");
+        h += "</tr>\n";
     }
-    let _ = writeln!(h, "</table>");
-    let _ = writeln!(
-        h,
-        "<p>Parameters: {}.</p></body></html>",
-        esc(&plan
-            .parameters
-            .iter()
-            .map(|&id| robot.param_name(id))
-            .collect::<Vec<_>>()
-            .join(", "))
-    );
-    Ok(h)
+    h += "</table>\n";
+    h
 }
 
 #[cfg(test)]
