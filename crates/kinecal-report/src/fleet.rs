@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 use kinecal_history::jobs::{FleetDocument, FleetView, Pages, PlotView};
 use kinecal_history::{format_time, printable, samples, Calibration, Event, RobotState, Verdict};
 
-use crate::html::{esc, inline, page_head};
 use crate::number::sig;
+use crate::page::{esc, inline, page_head};
 use crate::{render_png, render_svg, Artist, DrawError, Line, Panel};
 
 /// One row of the fleet table.

@@ -6,8 +6,8 @@ use std::fmt::Write as _;
 
 use kinecal::apps::iso9283::{pose_name, Evaluation, PoseFigures, Spread};
 
-use crate::html::{esc, page_head};
 use crate::number::{num, signed};
+use crate::page::{esc, page_head};
 
 /// One view of the attained positions: a `w` x `w` panel at `x0`, positions relative to
 /// `origin` along axes `(h, v)` (0 = x, 1 = y, 2 = z), `range` either side.

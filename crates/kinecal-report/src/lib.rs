@@ -12,6 +12,7 @@ mod html;
 pub mod iso9283;
 mod kerned;
 pub mod number;
+mod page;
 pub mod plan;
 pub mod predict;
 pub mod verdict;

@@ -9,8 +9,8 @@ use kinecal::observe::Dataset;
 use kinecal::Robot;
 
 use crate::chart::{Line, Panel};
-use crate::html::{charts, esc, page_head};
 use crate::number::{num, opt};
+use crate::page::{charts, esc, page_head};
 use crate::DrawError;
 use kinecal::report::nice_width;
 

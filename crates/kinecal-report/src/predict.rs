@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 
 use kinecal::predict::{AccuracyMap, JointSweep, PredictionReport, Slice};
 
-use crate::html::{esc, page_head};
 use crate::number::num;
+use crate::page::{esc, page_head};
 
 /// Colour stops of the scale (viridis, from low to high).
 const STOPS: [(f64, [u8; 3]); 6] = [

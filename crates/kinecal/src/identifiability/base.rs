@@ -1,7 +1,7 @@
 //! The identifiable (base) set: a QR with column pivoting by priority, which leaves out what only
 //! the noise determines.
 
-use crate::linalg::{self, Matrix, QrAccumulator, RowSink};
+use crate::linalg::{self, Matrix};
 use crate::model::params::{ParamId, ParamKind};
 use crate::model::robot::Robot;
 use crate::observe::{Dataset, RowQuantity};
@@ -308,32 +308,6 @@ pub(super) fn row_clamp(data: &Dataset, problem: &Problem<'_>) -> Vec<f64> {
             }
         })
         .collect()
-}
-
-/// A [`RowSink`] that passes each row `[J_i | r_i]` on to a QR accumulator and adds up, per
-/// parameter column, the squares of the row's entries times its clamp factor: the sums
-/// behind `e_j` ([`Analysis::typical_row`]), from the same pass that builds `R`.
-pub(super) struct TypicalRowTally<'a> {
-    /// The QR the rows go into.
-    pub acc: &'a mut QrAccumulator,
-    /// Each row's clamp factor.
-    pub clamp: &'a [f64],
-    /// The rows passed so far.
-    pub row: usize,
-    /// Per column, the sum of the clamped squares.
-    pub sums: Vec<f64>,
-}
-
-impl RowSink for TypicalRowTally<'_> {
-    fn push(&mut self, row: &[f64]) {
-        self.acc.push(row);
-        let f = self.clamp.get(self.row).copied().unwrap_or(1.0);
-        self.row += 1;
-        for (s, &c) in self.sums.iter_mut().zip(row) {
-            let v = c * f;
-            *s += v * v;
-        }
-    }
 }
 
 /// The noise-level rule in words, for `m` rows; `exact` when `e_j` came from the rows.

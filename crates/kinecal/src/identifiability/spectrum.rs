@@ -3,14 +3,12 @@
 //! determined.
 
 use crate::error::{Error, Result};
-use crate::linalg::{self, Matrix, QrAccumulator, QR_BLOCK};
+use crate::linalg::{self, Matrix, QrAccumulator, RowSink, QR_BLOCK};
 use crate::model::params::ParamId;
 use crate::model::robot::Robot;
 use crate::observe::{Accuracy, Dataset, RowQuantity};
 use crate::solve::problem::Problem;
 use crate::warning::Warning;
-
-use super::base::TypicalRowTally;
 
 /// What the rows give: the `R` of the weighted `[J | r]` (`(n + 1)` square, the residual
 /// last), and when the rows were at hand, the typical-row information `e_j` and the accuracy.
@@ -325,4 +323,30 @@ pub(super) fn dot(x: &[f64], y: &[f64]) -> f64 {
         .map(|(a, b)| a * b)
         .sum();
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// A [`RowSink`] that passes each row `[J_i | r_i]` on to a QR accumulator and adds up, per
+/// parameter column, the squares of the row's entries times its clamp factor: the sums
+/// behind `e_j` ([`Analysis::typical_row`]), from the same pass that builds `R`.
+struct TypicalRowTally<'a> {
+    /// The QR the rows go into.
+    pub acc: &'a mut QrAccumulator,
+    /// Each row's clamp factor.
+    pub clamp: &'a [f64],
+    /// The rows passed so far.
+    pub row: usize,
+    /// Per column, the sum of the clamped squares.
+    pub sums: Vec<f64>,
+}
+
+impl RowSink for TypicalRowTally<'_> {
+    fn push(&mut self, row: &[f64]) {
+        self.acc.push(row);
+        let f = self.clamp.get(self.row).copied().unwrap_or(1.0);
+        self.row += 1;
+        for (s, &c) in self.sums.iter_mut().zip(row) {
+            let v = c * f;
+            *s += v * v;
+        }
+    }
 }

@@ -41,13 +41,13 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::{detect_format, kind_index, read_files, ObservationFile, ReadSettings, FORMATS};
 use crate::model::robot::Robot;
-use crate::observe::{Dataset, OrientationError, Weights};
+use crate::observe::{Dataset, OrientationError};
 use crate::solve::estimation::{Damping, Loss, Method, SolverOptions, Spread};
 use crate::source::Source;
-use crate::units::{DisplayChoice, Quantity};
+use crate::units::DisplayChoice;
 use crate::workflow::{self, Candidate, Outcome, Request, Selection, SolutionRule, Validation};
 
-use super::common::{invalid, is_default, visit_opt, LengthAngle};
+use super::common::{invalid, is_default, load_robot, visit_opt, weights, LengthAngle};
 use super::{Document, Done, Env, JobKind, Message, PathRole, Spec, Status};
 
 /// One calibration job. See the [module documentation](self) for the file.
@@ -458,47 +458,6 @@ fn candidates(spec: &CalibrationSpec, robot: &Robot) -> Result<Option<Vec<Candid
 
 /// Huber's threshold by default, in spreads (95 % efficiency under normal noise).
 pub(crate) const HUBER_SCALE: f64 = 1.345;
-
-/// The residual weights of `w` (robot units) in SI, the defaults where absent.
-pub fn weights(robot: &Robot, w: &LengthAngle) -> Result<Weights> {
-    let mut out = Weights::default();
-    for (value, quantity, slot) in [
-        (w.length, Quantity::Length, &mut out.length),
-        (w.angle, Quantity::Angle, &mut out.angle),
-    ] {
-        if let Some(v) = value {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(invalid(
-                    Setting::Weights,
-                    format!("standard deviations must be positive and finite, not {v}"),
-                ));
-            }
-            *slot = robot.units.to_si(quantity, v);
-        }
-    }
-    Ok(out)
-}
-
-/// Loads a robot: the file `name`, or the built-in robot of that name when no such file
-/// exists.
-pub fn load_robot(name: &str) -> Result<(Robot, Source)> {
-    let path = Path::new(name);
-    let source = if path.exists() {
-        Source::read(path)?
-    } else if let Some(text) = crate::model::examples::builtin(name) {
-        Source::text(format!("<built-in {name}>"), text)
-    } else {
-        return Err(invalid(
-            Setting::Robot,
-            format!(
-                "{name}: no such robot file, and not a built-in robot (built-in: {})",
-                crate::model::examples::BUILTIN_NAMES.join(", ")
-            ),
-        ));
-    };
-    let robot = crate::model::robot_file::parse_robot_toml(&source.text, &source.name)?;
-    Ok((robot, source))
-}
 
 /// A calibration ready to run: the spec, the request it gives, and what writing its outputs
 /// needs.

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Location, Result, Setting};
 use crate::model::robot::Robot;
 use crate::observe::{OrientationError, Weights};
+use crate::source::Source;
 use crate::units::Quantity;
 
 use super::JobKind;
@@ -305,10 +306,7 @@ pub struct Residuals {
 impl Residuals {
     /// The weights (SI) and the orientation residual for `robot`.
     pub(crate) fn resolve(&self, robot: &Robot) -> Result<(Weights, OrientationError)> {
-        Ok((
-            super::calibrate::weights(robot, &self.weights)?,
-            self.orientation_error,
-        ))
+        Ok((weights(robot, &self.weights)?, self.orientation_error))
     }
 }
 
@@ -342,7 +340,7 @@ pub(crate) fn robot_as(name: &str, setting: Setting) -> Result<(Robot, crate::so
     if name.is_empty() {
         return Err(invalid(setting, "no robot given"));
     }
-    super::calibrate::load_robot(name).map_err(|e| match e {
+    load_robot(name).map_err(|e| match e {
         Error::InvalidOption { message, .. } => invalid(setting, message),
         e => e,
     })
@@ -354,4 +352,45 @@ pub(crate) fn read_source(path: &str, setting: Setting) -> Result<crate::source:
         return Err(invalid(setting, "no file given"));
     }
     crate::source::Source::read(Path::new(path))
+}
+
+/// The residual weights of `w` (robot units) in SI, the defaults where absent.
+pub fn weights(robot: &Robot, w: &LengthAngle) -> Result<Weights> {
+    let mut out = Weights::default();
+    for (value, quantity, slot) in [
+        (w.length, Quantity::Length, &mut out.length),
+        (w.angle, Quantity::Angle, &mut out.angle),
+    ] {
+        if let Some(v) = value {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(invalid(
+                    Setting::Weights,
+                    format!("standard deviations must be positive and finite, not {v}"),
+                ));
+            }
+            *slot = robot.units.to_si(quantity, v);
+        }
+    }
+    Ok(out)
+}
+
+/// Loads a robot: the file `name`, or the built-in robot of that name when no such file
+/// exists.
+pub fn load_robot(name: &str) -> Result<(Robot, Source)> {
+    let path = Path::new(name);
+    let source = if path.exists() {
+        Source::read(path)?
+    } else if let Some(text) = crate::model::examples::builtin(name) {
+        Source::text(format!("<built-in {name}>"), text)
+    } else {
+        return Err(invalid(
+            Setting::Robot,
+            format!(
+                "{name}: no such robot file, and not a built-in robot (built-in: {})",
+                crate::model::examples::BUILTIN_NAMES.join(", ")
+            ),
+        ));
+    };
+    let robot = crate::model::robot_file::parse_robot_toml(&source.text, &source.name)?;
+    Ok((robot, source))
 }

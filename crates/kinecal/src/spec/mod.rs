@@ -56,11 +56,11 @@ pub mod simulate;
 
 pub use analyze::{AnalysisSelection, AnalyzeOutcome, AnalyzeSpec, MatrixKind, MatrixUnits};
 pub use calibrate::{
-    load_robot, weights, CalibrationJob, CalibrationSpec, LossKind, OutputSpec, ResidualSpec,
-    SelectionSpec, SolverSpec, ValidationSpec,
+    CalibrationJob, CalibrationSpec, LossKind, OutputSpec, ResidualSpec, SelectionSpec, SolverSpec,
+    ValidationSpec,
 };
 pub use check::{CheckOutcome, CheckSpec};
-pub use common::{LengthAngle, Residuals};
+pub use common::{load_robot, weights, LengthAngle, Residuals};
 pub use compensate::{CompensateOutcome, CompensateSpec, CompensationSummary, ProgramFormat};
 pub use curves::{CurveKind, Curves, CurvesSpec, Sweep, SweptParameter};
 pub use export::{ExportFormat, ExportOutcome, ExportSpec, ImportFormat, ImportSpec};

@@ -8,7 +8,7 @@ use crate::model::params::ParamId;
 use crate::model::robot::Robot;
 use crate::units::Quantity;
 
-use super::run::{run, Request, Validation};
+use super::request::{Request, Validation};
 
 /// The result of cross-validation ([`Validation::Folds`]), in the metric that judges the
 /// model: positions when the data has them, else the first other length metric.
@@ -48,11 +48,26 @@ pub struct Fold {
     pub rank: Option<usize>,
 }
 
-/// Runs `req` on each training fold and checks it on the postures left out.
+/// What cross-validation keeps of a fold's fit.
+pub(super) struct FoldFit {
+    /// The robot the fold's fit calibrated.
+    pub calibrated: Robot,
+    /// Whether the fit converged.
+    pub converged: bool,
+    /// The parameters it estimated.
+    pub estimated: Vec<ParamId>,
+    /// The numerical rank of those parameters, when the uncertainty was computed.
+    pub rank: Option<usize>,
+}
+
+/// Runs `req` through `fit` on each training fold and checks it on the postures left out.
+/// `fit` is the calibration workflow itself ([`super::run()`](fn@super::run)), passed in so
+/// that the fold loop does not depend on it.
 pub(super) fn cross_validate(
     req: &Request,
     k: usize,
     seed: Option<u64>,
+    fit: &mut dyn FnMut(&Request) -> Result<FoldFit>,
 ) -> Result<CrossValidation> {
     use crate::observe::{stats, MetricAccuracy};
     let folds = req
@@ -94,13 +109,13 @@ pub(super) fn cross_validate(
         sub.validation = Validation::None;
         sub.prediction = crate::predict::Level::Off;
         sub.sources = Vec::new();
-        let o = run(&sub, &mut ())?;
+        let o = fit(&sub)?;
         let mut worst: Option<(String, f64)> = None;
         let mut e = Vec::new();
         for (o, err) in held
             .observations
             .iter()
-            .zip(crate::observe::errors(&o.calibration.calibrated, &held))
+            .zip(crate::observe::errors(&o.calibrated, &held))
         {
             if err.metric != metric {
                 continue;
@@ -116,9 +131,9 @@ pub(super) fn cross_validate(
             held_out: held.postures.iter().map(|p| p.label.clone()).collect(),
             errors: summary(e),
             worst,
-            converged: o.calibration.converged(),
-            estimated: o.calibration.estimated.clone(),
-            rank: o.uncertainty.as_ref().map(|u| u.analysis.rank),
+            converged: o.converged,
+            estimated: o.estimated,
+            rank: o.rank,
         });
     }
     let mean_interval = bootstrap_mean_interval(&all, seed.unwrap_or(0));

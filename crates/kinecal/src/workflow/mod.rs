@@ -27,6 +27,7 @@ mod cross_validation;
 mod min_change;
 mod model_choice;
 mod outcome;
+mod request;
 mod run;
 mod selection;
 
@@ -35,7 +36,8 @@ pub use cross_validation::{CrossValidation, Fold};
 pub use min_change::SolutionRule;
 pub use model_choice::{choose, Candidate, Choice, Scored, CHOICE_REPEATS};
 pub use outcome::{Checked, Outcome, Pruning};
-pub use run::{run, Phase, Progress, Request, Validation};
+pub use request::{Request, Validation};
+pub use run::{run, Phase, Progress};
 pub use selection::{default_parameters, refit_sessions, resolve, Selection};
 
 pub(crate) use run::add_prediction;

@@ -5,9 +5,9 @@ use crate::error::{Error, Result};
 use crate::model::robot::{Prior, Robot};
 use crate::units::Quantity;
 
-use super::cross_validation::cross_validate;
 use super::outcome::Outcome;
-use super::run::{run, Request, Validation};
+use super::request::{Request, Validation};
+use super::run::{cross_validate_runs, run};
 use super::selection::Selection;
 
 /// A candidate model for [`choose`]: what to estimate, whether to prune, and under which
@@ -179,7 +179,7 @@ pub fn choose(
         let (mut sum, mut count) = (cv.overall.mean * cv.overall.count as f64, cv.overall.count);
         for r in 1..repeats.max(1) {
             let shuffle = seed.unwrap_or(0).wrapping_add(r as u64);
-            let again = cross_validate(&sub, k, Some(shuffle))?;
+            let again = cross_validate_runs(&sub, k, Some(shuffle))?;
             means.extend(again.folds.iter().map(|f| f.errors.mean));
             sum += again.overall.mean * again.overall.count as f64;
             count += again.overall.count;

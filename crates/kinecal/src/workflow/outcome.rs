@@ -20,8 +20,16 @@ use crate::warning::Warning;
 
 use super::cross_validation::CrossValidation;
 use super::min_change::SolutionRule;
-use super::run::{SIGMAS_TOO_LARGE, SIGMAS_TOO_SMALL};
 use super::selection::refit_sessions;
+
+/// A variance factor above this says the stated sigmas are more than 10 times too small
+/// ([`Warning::SigmasOff`]); the identifiable set is then chosen again at the residuals' noise.
+pub(crate) const SIGMAS_TOO_SMALL: f64 = 100.0;
+
+/// A variance factor below this says the stated sigmas are more than 10 times too large
+/// ([`Warning::SigmasOff`]). The set is not chosen again then: the rule at overstated noise
+/// errs towards fewer parameters, which the warning names.
+pub(crate) const SIGMAS_TOO_LARGE: f64 = 0.01;
 
 /// The pruned refit and what it removed.
 #[derive(Debug, Clone)]

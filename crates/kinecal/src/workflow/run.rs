@@ -4,137 +4,23 @@
 use std::sync::Arc;
 
 use crate::error::{Error, Result};
-use crate::identifiability::{self, AnalysisOptions};
+use crate::identifiability::AnalysisOptions;
 use crate::model::params::{ParamId, ParamKind};
 use crate::model::robot::Robot;
-use crate::observe::{Dataset, OrientationError, Weights};
+use crate::observe::Dataset;
 use crate::solve::estimation::{
     self, Calibration, CalibrationOptions, Iteration, Loss, SolverOptions,
 };
-use crate::solve::outliers;
 use crate::solve::problem::{Linearized, Problem};
-use crate::source::Source;
 use crate::uncertainty;
 use crate::units::{wrap_angle, Quantity};
 use crate::warning::Warning;
 
-use super::cross_validation::{cross_validate, cross_validation_report};
+use super::cross_validation::{cross_validate, cross_validation_report, CrossValidation, FoldFit};
 use super::min_change::{project_min_change, SolutionRule};
-use super::outcome::{data_warnings, finish, Outcome, Pruning};
+use super::outcome::{data_warnings, finish, Outcome, Pruning, SIGMAS_TOO_SMALL};
+use super::request::{Request, Validation};
 use super::selection::{default_parameters, resolve_linearized, session_frames_for, Selection};
-
-/// Held-out data to check the calibration on.
-#[derive(Debug, Clone, PartialEq, Default)]
-#[non_exhaustive]
-pub enum Validation {
-    /// None.
-    #[default]
-    None,
-    /// A separate dataset (shared, not copied, into the outcome).
-    Data(Arc<Dataset>),
-    /// A fraction of the posture groups (postures an observation links stay together), drawn
-    /// with a seed.
-    Holdout {
-        /// Fraction, strictly between 0 and 1.
-        fraction: f64,
-        /// Seed of the draw.
-        seed: u64,
-    },
-    /// Cross-validation: the calibration is made on all the data, and the same request run
-    /// on `k` training folds, each checked on the postures it left out ([`Dataset::folds`]:
-    /// interleaved in posture order, or shuffled with `seed`).
-    Folds {
-        /// Number of folds, at least 2.
-        k: usize,
-        /// Shuffle seed; `None` interleaves in posture order.
-        seed: Option<u64>,
-    },
-}
-
-/// Everything that decides a calibration.
-#[derive(Debug, Clone)]
-#[non_exhaustive]
-pub struct Request {
-    /// The nominal robot: the model, the starting point unless `initial` is given, and the
-    /// reference of minimum-change answers. The uncertainty is linearised at the reference of
-    /// the solution rule (this robot, or `initial` under the solver rule: see the module's
-    /// linearisation rule).
-    pub robot: Robot,
-    /// The observations (shared, not copied, into the outcome).
-    pub data: Arc<Dataset>,
-    /// What to estimate.
-    pub selection: Selection,
-    /// Start the solver from this robot's parameter values instead (same structure).
-    pub initial: Option<Robot>,
-    /// Method and stopping rules.
-    pub solver: SolverOptions,
-    /// Least squares or Huber.
-    pub loss: Loss,
-    /// Default residual weights.
-    pub weights: Weights,
-    /// Orientation residuals.
-    pub orientation: OrientationError,
-    /// Which of equally good answers.
-    pub solution: SolutionRule,
-    /// Remove, one at a time, changes below this many standard deviations, refitting after
-    /// each.
-    pub prune: Option<f64>,
-    /// Held-out data.
-    pub validation: Validation,
-    /// Outlier threshold, in robust standard deviations.
-    pub outlier_sigmas: f64,
-    /// Parameters to prefer in an identifiable set, most preferred first.
-    pub priority: Vec<ParamId>,
-    /// Relative singular-value tolerance of the identifiability analysis.
-    pub rank_rcond: f64,
-    /// A Gaussian prior on the estimated parameters' changes from the solver's start (empty:
-    /// none; see [`crate::solve::problem`]). It enters the fit, the uncertainty and the minimum-change
-    /// answer; the identifiable set of a [`Selection::Identifiable`] is the data's alone.
-    pub prior: crate::model::robot::Prior,
-    /// The files read (for the report's fingerprints): the robot file first, then the data.
-    pub sources: Vec<Source>,
-    /// How much of the predicted accuracy to work out ([`crate::predict`]): by default the
-    /// model-error term and the summary over the joint ranges; the accuracy map too for an HTML
-    /// report. The refits of cross-validation and model choice make none.
-    pub prediction: crate::predict::Level,
-}
-
-impl Request {
-    /// Default settings: the default parameters by Levenberg-Marquardt, least squares, default
-    /// weights and rotation-vector residuals, the solver's answer, no pruning or validation.
-    pub fn new(robot: Robot, data: impl Into<Arc<Dataset>>) -> Request {
-        Request {
-            robot,
-            data: data.into(),
-            selection: Selection::default(),
-            initial: None,
-            solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
-            loss: Loss::Squared,
-            weights: Weights::default(),
-            orientation: OrientationError::RotVec,
-            solution: SolutionRule::Solver,
-            prune: None,
-            validation: Validation::None,
-            outlier_sigmas: outliers::DEFAULT_SIGMAS,
-            priority: Vec::new(),
-            rank_rcond: identifiability::DEFAULT_RANK_RCOND,
-            prior: crate::model::robot::Prior::default(),
-            sources: Vec::new(),
-            prediction: crate::predict::Level::default(),
-        }
-    }
-
-    fn analysis_options(&self) -> AnalysisOptions {
-        AnalysisOptions {
-            rcond: self.rank_rcond,
-            weights: self.weights,
-            orientation: self.orientation,
-            priority: self.priority.clone(),
-            noise_scale: 1.0,
-            prior: crate::model::robot::Prior::default(),
-        }
-    }
-}
 
 /// The phases of a calibration, for progress displays and the report's timings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -362,7 +248,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     outcome.registration = registration;
     if let Validation::Folds { k, seed } = req.validation {
         progress.phase(Phase::CrossValidation);
-        let cv = cross_validate(req, k, seed)?;
+        let cv = cross_validate_runs(req, k, seed)?;
         outcome.report.cross_validation = Some(cross_validation_report(&cv, &req.robot));
         outcome.cross_validation = Some(cv);
     }
@@ -682,14 +568,22 @@ pub(crate) fn add_prediction(
     }
 }
 
-/// A variance factor above this says the stated sigmas are more than 10 times too small
-/// ([`Warning::SigmasOff`]); the identifiable set is then chosen again at the residuals' noise.
-pub(crate) const SIGMAS_TOO_SMALL: f64 = 100.0;
-
-/// A variance factor below this says the stated sigmas are more than 10 times too large
-/// ([`Warning::SigmasOff`]). The set is not chosen again then: the rule at overstated noise
-/// errs towards fewer parameters, which the warning names.
-pub(crate) const SIGMAS_TOO_LARGE: f64 = 0.01;
+/// Cross-validation of `req` on `k` folds (shuffled with `seed`), each fold fitted by [`run`].
+pub(super) fn cross_validate_runs(
+    req: &Request,
+    k: usize,
+    seed: Option<u64>,
+) -> Result<CrossValidation> {
+    cross_validate(req, k, seed, &mut |sub| {
+        let o = run(sub, &mut ())?;
+        Ok(FoldFit {
+            converged: o.calibration.converged(),
+            estimated: o.calibration.estimated.clone(),
+            rank: o.uncertainty.as_ref().map(|u| u.analysis.rank),
+            calibrated: o.calibration.calibrated,
+        })
+    })
+}
 
 /// `robot` with its rigid frames fitted to `data` by least squares, the rest held: the first
 /// link (the measurement frame), the last link and the sites (the measured targets' frames) and
