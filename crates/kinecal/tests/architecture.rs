@@ -1,5 +1,6 @@
-//! The shape of the library, kept honest: modules import one another in one direction (no
-//! cycle), in the documented order, and the linear-algebra crate is used in one place only.
+//! The shape of the code, kept honest: the library's modules import one another in one
+//! direction (no cycle), in the documented order; no file of any crate imports, however far
+//! round, a file that imports it; and the linear-algebra crate is used in one place only.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -159,4 +160,143 @@ fn only_linalg_talks_to_faer() {
             }
         }
     }
+}
+
+/// The module path of `file` under `src` (`a/b.rs` and `a/b/mod.rs` are `[a, b]`).
+fn module_path(src: &Path, file: &Path) -> Vec<String> {
+    let rel = file.strip_prefix(src).unwrap().with_extension("");
+    let mut segs: Vec<String> = rel
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().to_string())
+        .collect();
+    if matches!(
+        segs.last().map(String::as_str),
+        Some("mod" | "lib" | "main")
+    ) {
+        segs.pop();
+    }
+    segs
+}
+
+/// The file of the longest prefix of `segs` that is a module file of `src`.
+fn module_file(
+    src: &Path,
+    segs: &[String],
+    files: &BTreeSet<std::path::PathBuf>,
+) -> Option<std::path::PathBuf> {
+    (1..=segs.len()).rev().find_map(|k| {
+        let base = segs[..k].iter().fold(src.to_path_buf(), |p, s| p.join(s));
+        [base.with_extension("rs"), base.join("mod.rs")]
+            .into_iter()
+            .find(|c| files.contains(c))
+    })
+}
+
+/// The lower-case path segments that follow position `at` of `code` (`a::b::c`).
+fn path_at(code: &str, at: usize) -> Vec<String> {
+    let mut segs = Vec::new();
+    let mut rest = &code[at..];
+    loop {
+        let seg: String = rest
+            .chars()
+            .take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || *c == '_')
+            .collect();
+        if seg.is_empty() {
+            break;
+        }
+        rest = &rest[seg.len()..];
+        segs.push(seg);
+        match rest.strip_prefix("::") {
+            Some(r) => rest = r,
+            None => break,
+        }
+    }
+    segs
+}
+
+#[test]
+fn no_file_imports_a_file_that_imports_it_back() {
+    // Over every crate of the workspace: file A names a path into file B (`crate::` or
+    // `super::`, outside its tests and comments), B into A, however long the way round.
+    let crates = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut circles = Vec::new();
+    for krate in std::fs::read_dir(&crates).unwrap() {
+        let src = krate.unwrap().path().join("src");
+        if !src.is_dir() {
+            continue;
+        }
+        let mut files = BTreeSet::new();
+        let mut stack = vec![src.clone()];
+        while let Some(dir) = stack.pop() {
+            for e in std::fs::read_dir(dir).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|e| e == "rs") {
+                    files.insert(p);
+                }
+            }
+        }
+        let mut edges: BTreeMap<std::path::PathBuf, BTreeSet<std::path::PathBuf>> = BTreeMap::new();
+        for f in &files {
+            let text = std::fs::read_to_string(f).unwrap();
+            let code: String = text
+                .lines()
+                .filter(|l| !l.trim_start().starts_with("//"))
+                .collect::<Vec<_>>()
+                .join("\n");
+            let code = code.split("#[cfg(test)]").next().unwrap();
+            let me = module_path(&src, f);
+            let mut targets = BTreeSet::new();
+            for (i, _) in code.match_indices("crate::") {
+                if code[..i].ends_with(|c: char| c.is_alphanumeric() || c == '_') {
+                    continue;
+                }
+                targets.insert(path_at(code, i + "crate::".len()));
+            }
+            for (i, _) in code.match_indices("super::") {
+                let before = &code[..i];
+                if before.ends_with("super::")
+                    || before.ends_with(|c: char| c.is_alphanumeric() || c == '_')
+                {
+                    continue;
+                }
+                let mut ups = 0;
+                let mut at = i;
+                while code[at..].starts_with("super::") {
+                    ups += 1;
+                    at += "super::".len();
+                }
+                let mut segs = me[..me.len().saturating_sub(ups)].to_vec();
+                segs.extend(path_at(code, at));
+                targets.insert(segs);
+            }
+            let out = edges.entry(f.clone()).or_default();
+            for t in targets {
+                if let Some(file) = module_file(&src, &t, &files) {
+                    if &file != f {
+                        out.insert(file);
+                    }
+                }
+            }
+        }
+        // A file on a circle reaches itself.
+        for start in &files {
+            let mut seen = BTreeSet::new();
+            let mut todo: Vec<_> = edges[start].iter().cloned().collect();
+            while let Some(f) = todo.pop() {
+                if &f == start {
+                    circles.push(start.strip_prefix(&crates).unwrap().display().to_string());
+                    break;
+                }
+                if seen.insert(f.clone()) {
+                    todo.extend(edges[&f].iter().cloned());
+                }
+            }
+        }
+    }
+    assert!(
+        circles.is_empty(),
+        "these files import, through others, a file that imports them: {circles:?}"
+    );
 }
