@@ -299,16 +299,41 @@ fn nominal(poe: &str, name: &str, data_file: &str) -> Result<crate::model::robot
     })
 }
 
+/// Appends a revolute joint to a product-of-exponentials text: its axis direction `w` and a
+/// point `q` on the axis (the text's units, zero configuration), then `extra`, more lines of
+/// the joint's table (each ending in a newline; empty for none).
+fn push_revolute_joint(poe: &mut String, w: [i32; 3], q: [i32; 3], extra: &str) {
+    use std::fmt::Write as _;
+    let _ = write!(
+        poe,
+        "\n[[joints]]\nkind = \"revolute\"\naxis = [{}, {}, {}]\npoint = [{}, {}, {}]\n{extra}",
+        w[0], w[1], w[2], q[0], q[1], q[2]
+    );
+}
+
+/// Appends reflector `k` (0-based, named `smr1`, `smr2`, ...) as a site on joint 6 to a
+/// product-of-exponentials text, at its zero-configuration position `p` (the text's units).
+fn push_reflector_site(poe: &mut String, k: usize, p: Vector3<f64>) {
+    use std::fmt::Write as _;
+    let _ = write!(
+        poe,
+        "\n[[sites]]\nname = \"smr{}\"\njoint = 6\nposition = [{}, {}, {}]\n",
+        k + 1,
+        p.x,
+        p.y,
+        p.z
+    );
+}
+
 /// The QKM HL6 data set.
 pub mod qkm_hl6 {
-    use std::fmt::Write as _;
     use std::path::Path;
 
     use nalgebra::{Matrix3, Vector3};
 
     use super::{
-        frame, nominal, plausible_point, read_rows, write_measurements, write_robot_toml,
-        Converted, Folder,
+        frame, nominal, plausible_point, push_reflector_site, push_revolute_joint, read_rows,
+        write_measurements, write_robot_toml, Converted, Folder,
     };
     use crate::error::{Error, Location, Result};
     use crate::model::kinematics::Target;
@@ -431,11 +456,7 @@ pub mod qkm_hl6 {
             ([1, 0, 0], [-240, 410, 841], 0),
         ];
         for (w, q, off) in axes {
-            let _ = write!(
-                poe,
-                "\n[[joints]]\nkind = \"revolute\"\naxis = [{}, {}, {}]\npoint = [{}, {}, {}]\noffset = {off}\n",
-                w[0], w[1], w[2], q[0], q[1], q[2]
-            );
+            push_revolute_joint(&mut poe, w, q, &format!("offset = {off}\n"));
         }
         poe.push_str("\n# Flange: 84 mm beyond the wrist centre along x.\n[tool]\nposition = [-156, 410, 841]\n");
         for (k, s) in smr.iter().enumerate() {
@@ -445,14 +466,7 @@ pub mod qkm_hl6 {
                 &Location::file(&smr_source.name).at_line(smr_lines[k]),
                 "in the reference frame, the reflector",
             )?;
-            let _ = write!(
-                poe,
-                "\n[[sites]]\nname = \"smr{}\"\njoint = 6\nposition = [{}, {}, {}]\n",
-                k + 1,
-                p.x,
-                p.y,
-                p.z
-            );
+            push_reflector_site(&mut poe, k, p);
         }
         let robot = nominal(&poe, "<qkm_hl6 nominal>", &smr_source.name)?;
         Ok(QkmData {
@@ -528,8 +542,8 @@ pub mod fanuc_r2000ic {
     use nalgebra::{Matrix3, Vector3};
 
     use super::{
-        nominal, plausible_point, read_rows, transform, write_measurements, write_robot_toml,
-        Converted, Folder,
+        nominal, plausible_point, push_reflector_site, push_revolute_joint, read_rows, transform,
+        write_measurements, write_robot_toml, Converted, Folder,
     };
     use crate::error::{Error, Location, Result};
     use crate::model::kinematics::{rot_zyx, Target};
@@ -616,11 +630,7 @@ pub mod fanuc_r2000ic {
             ([-1, 0, 0], [1807, 0, 1300], Some((-360, 360)), ""),
         ];
         for (w, q, range, extra) in joints {
-            let _ = write!(
-                poe,
-                "\n[[joints]]\nkind = \"revolute\"\naxis = [{}, {}, {}]\npoint = [{}, {}, {}]\n{extra}",
-                w[0], w[1], w[2], q[0], q[1], q[2]
-            );
+            push_revolute_joint(&mut poe, w, q, extra);
             if let Some((a, b)) = range {
                 let _ = writeln!(poe, "min = {a}\nmax = {b}");
             }
@@ -632,14 +642,7 @@ pub mod fanuc_r2000ic {
                 &Location::file(&nest_source.name),
                 &format!("reflector {} on the flange", k + 1),
             )?;
-            let _ = write!(
-                poe,
-                "\n[[sites]]\nname = \"smr{}\"\njoint = 6\nposition = [{}, {}, {}]\n",
-                k + 1,
-                p.x,
-                p.y,
-                p.z
-            );
+            push_reflector_site(&mut poe, k, p);
         }
         let robot = nominal(&poe, "<fanuc_r2000ic nominal>", &nest_source.name)?;
         let mut postures = Vec::new();
