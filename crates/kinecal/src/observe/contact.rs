@@ -48,23 +48,9 @@ impl Contact {
 }
 
 impl Observe for Contact {
-    fn kind(&self) -> &'static str {
-        "contact"
-    }
-    fn views(&self) -> &[View] {
-        &self.view
-    }
-    fn views_mut(&mut self) -> &mut [View] {
-        &mut self.view
-    }
-    fn rows(&self) -> &'static [Row] {
-        ROWS
-    }
+    observe_fields!(kind: "contact", views: view, rows: ROWS);
     fn sigma(&self, _row: usize) -> Option<f64> {
         self.sigma
-    }
-    fn line(&self) -> usize {
-        self.line
     }
 
     fn evaluate(

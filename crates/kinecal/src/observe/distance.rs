@@ -45,23 +45,9 @@ impl Distance {
 }
 
 impl Observe for Distance {
-    fn kind(&self) -> &'static str {
-        "distance"
-    }
-    fn views(&self) -> &[View] {
-        &self.views
-    }
-    fn views_mut(&mut self) -> &mut [View] {
-        &mut self.views
-    }
-    fn rows(&self) -> &'static [Row] {
-        ROWS
-    }
+    observe_fields!(kind: "distance", views: views, rows: ROWS);
     fn sigma(&self, _row: usize) -> Option<f64> {
         self.sigma
-    }
-    fn line(&self) -> usize {
-        self.line
     }
 
     fn evaluate(

@@ -21,6 +21,30 @@
 //! Values are internal (m, rad). A [`Dataset`] keeps its observations sorted by their first
 //! posture so that forward kinematics runs once per posture however many targets it measured.
 
+/// The [`Observe`] methods every kind answers from its fields alone, for a kind's `impl Observe`:
+/// `kind` (its name, a string literal), `views` and `views_mut` (its field of views, an array),
+/// `rows` (its residual rows, a `&'static [Row]`), and `line` (its `line` field). The residual,
+/// its derivatives and the standard deviations stay the kind's own.
+macro_rules! observe_fields {
+    (kind: $kind:literal, views: $views:ident, rows: $rows:expr) => {
+        fn kind(&self) -> &'static str {
+            $kind
+        }
+        fn views(&self) -> &[View] {
+            &self.$views
+        }
+        fn views_mut(&mut self) -> &mut [View] {
+            &mut self.$views
+        }
+        fn rows(&self) -> &'static [Row] {
+            $rows
+        }
+        fn line(&self) -> usize {
+            self.line
+        }
+    };
+}
+
 pub mod contact;
 pub mod distance;
 pub mod point;

@@ -125,27 +125,13 @@ fn describe_view(view: &View, postures: &[Posture], robot: &Robot) -> String {
 }
 
 impl Observe for Pose {
-    fn kind(&self) -> &'static str {
-        "pose"
-    }
-    fn views(&self) -> &[View] {
-        &self.view
-    }
-    fn views_mut(&mut self) -> &mut [View] {
-        &mut self.view
-    }
-    fn rows(&self) -> &'static [Row] {
-        POSE_ROWS
-    }
+    observe_fields!(kind: "pose", views: view, rows: POSE_ROWS);
     fn sigma(&self, row: usize) -> Option<f64> {
         if row < 3 {
             self.sigma_position.map(|s| s[row])
         } else {
             self.sigma_angle
         }
-    }
-    fn line(&self) -> usize {
-        self.line
     }
 
     fn evaluate(
@@ -238,23 +224,9 @@ impl Observe for Pose {
 }
 
 impl Observe for Position {
-    fn kind(&self) -> &'static str {
-        "position"
-    }
-    fn views(&self) -> &[View] {
-        &self.view
-    }
-    fn views_mut(&mut self) -> &mut [View] {
-        &mut self.view
-    }
-    fn rows(&self) -> &'static [Row] {
-        &POSE_ROWS[..3]
-    }
+    observe_fields!(kind: "position", views: view, rows: &POSE_ROWS[..3]);
     fn sigma(&self, row: usize) -> Option<f64> {
         self.sigma_position.map(|s| s[row])
-    }
-    fn line(&self) -> usize {
-        self.line
     }
 
     fn evaluate(
