@@ -103,12 +103,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
             None | Some("") => 0.0,
             Some(s) => units.to_si(Quantity::Length, t.number(line, "gap", s)?),
         };
-        let sigma = match sigma {
-            Some(i) => t
-                .sigma(line, "sigma_position", &f[i])?
-                .map(|s| units.to_si(Quantity::Length, s)),
-            None => None,
-        };
+        let sigma = t.sigma_length(line, sigma.map(|i| &f[i]), units)?;
         if let Some(first) = seen.insert((posture, target, plane), line) {
             return Err(Error::input(
                 Location::file(file).at_line(line),
@@ -126,13 +121,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
         o.line = line;
         observations.push(o.into());
     }
-    if observations.is_empty() {
-        return Err(Error::input(
-            Location::file(file),
-            "no contacts: the file has a header but no rows",
-        ));
-    }
-    Ok(Dataset::new(postures.postures, observations))
+    postures.into_dataset(observations, file, "contacts")
 }
 
 /// Writes the contacts of `data` as a contact file in `robot`'s units, read back by

@@ -75,12 +75,7 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
                 format!("a distance cannot be negative, found {d}"),
             ));
         }
-        let sigma = match sigma {
-            Some(i) => t
-                .sigma(line, "sigma_position", &f[i])?
-                .map(|s| units.to_si(Quantity::Length, s)),
-            None => None,
-        };
+        let sigma = t.sigma_length(line, sigma.map(|i| &f[i]), units)?;
         if let Some(first) = seen.insert((label.to_string(), target), line) {
             return Err(Error::input(
                 Location::file(file).at_line(line),
@@ -95,13 +90,7 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
         o.line = line;
         observations.push(o.into());
     }
-    if observations.is_empty() {
-        return Err(Error::input(
-            Location::file(file),
-            "no distances: the file has a header but no rows",
-        ));
-    }
-    Ok(Dataset::new(postures.postures, observations))
+    postures.into_dataset(observations, file, "distances")
 }
 
 /// Writes the distances of `data` as a distance file in `robot`'s units, read back by

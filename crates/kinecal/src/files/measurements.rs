@@ -294,13 +294,8 @@ pub fn parse_measurements_mapped(
         };
         rows.row(line, label, &f)?;
     }
-    if rows.observations.is_empty() {
-        return Err(Error::input(
-            Location::file(file),
-            "no measurements: the file has a header but no rows",
-        ));
-    }
-    Ok(Dataset::new(rows.postures.postures, rows.observations))
+    rows.postures
+        .into_dataset(rows.observations, file, "measurements")
 }
 
 /// `map` with the readings headed by the joints' names instead of `vK` mapped (an implicit

@@ -467,6 +467,23 @@ impl Table<'_> {
         }
         Ok(Some(v))
     }
+
+    /// Parses an optional length standard deviation (`sigma_position`) in the file's length
+    /// unit of `units`, as [`Table::sigma`] does, and converts it to metres: `None` when the
+    /// file has no such column (`s` is `None`) or the field is empty.
+    pub fn sigma_length(
+        &self,
+        line: usize,
+        s: Option<&str>,
+        units: crate::units::Units,
+    ) -> Result<Option<f64>> {
+        match s {
+            Some(s) => Ok(self
+                .sigma(line, "sigma_position", s)?
+                .map(|s| units.to_si(crate::units::Quantity::Length, s))),
+            None => Ok(None),
+        }
+    }
 }
 
 /// Keeps postures unique by label and checks that repeated labels carry the same readings.
@@ -490,6 +507,24 @@ impl PostureTable {
             index: HashTable::with_capacity(n),
             hasher: FxBuildHasher,
         }
+    }
+
+    /// The data set of an observation file: these postures and the file's `observations`,
+    /// refused when the file had no rows (`what` names them, as in `no contacts: the file has a
+    /// header but no rows`).
+    pub fn into_dataset(
+        self,
+        observations: Vec<crate::observe::Observation>,
+        file: &str,
+        what: &str,
+    ) -> Result<crate::observe::Dataset> {
+        if observations.is_empty() {
+            return Err(Error::input(
+                Location::file(file),
+                format!("no {what}: the file has a header but no rows"),
+            ));
+        }
+        Ok(crate::observe::Dataset::new(self.postures, observations))
     }
 
     /// The index of the posture called `label`, if there is one.
