@@ -404,18 +404,7 @@ impl<'a> Problem<'a> {
     ) -> (f64, Accuracy) {
         assert_eq!(acc.cols(), self.cols() + 1);
         acc.clear();
-        let ctx = Context {
-            robot,
-            orientation: OrientationError::default(),
-        };
-        let mut tally = AccuracyTally::default();
-        let f = self.evaluate_with(
-            robot,
-            res,
-            Some(Sink::Rows(acc)),
-            Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
-        );
-        (f, tally.finish())
+        self.evaluate_tallied(robot, res, Some(Sink::Rows(acc)))
     }
 
     /// [`Problem::evaluate_rows`] (each weighted row `[J_i | r_i]` pushed into `rows`, which is
@@ -427,24 +416,25 @@ impl<'a> Problem<'a> {
         res: &mut [f64],
         rows: &mut dyn RowSink,
     ) -> (f64, Accuracy) {
-        let ctx = Context {
-            robot,
-            orientation: OrientationError::default(),
-        };
-        let mut tally = AccuracyTally::default();
-        let f = self.evaluate_with(
-            robot,
-            res,
-            Some(Sink::Rows(rows)),
-            Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
-        );
-        (f, tally.finish())
+        self.evaluate_tallied(robot, res, Some(Sink::Rows(rows)))
     }
 
     /// [`Problem::evaluate`] without derivatives, and with the errors of every observation
     /// summarised (the [`crate::observe::accuracy`] of `robot`) from the same pass of forward
     /// kinematics.
     pub(crate) fn evaluate_checked(&self, robot: &Robot, res: &mut [f64]) -> (f64, Accuracy) {
+        self.evaluate_tallied(robot, res, None)
+    }
+
+    /// [`Problem::evaluate_with`] into `jac`, with the errors of every observation summarised
+    /// (the [`crate::observe::accuracy`] of `robot`, under the default orientation error) from
+    /// the same pass of forward kinematics.
+    fn evaluate_tallied(
+        &self,
+        robot: &Robot,
+        res: &mut [f64],
+        jac: Option<Sink<'_>>,
+    ) -> (f64, Accuracy) {
         let ctx = Context {
             robot,
             orientation: OrientationError::default(),
@@ -453,7 +443,7 @@ impl<'a> Problem<'a> {
         let f = self.evaluate_with(
             robot,
             res,
-            None,
+            jac,
             Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
         );
         (f, tally.finish())
