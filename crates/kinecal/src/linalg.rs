@@ -32,13 +32,9 @@ impl Matrix {
     }
 
     /// A matrix with entries `f(i, j)`.
-    pub fn from_fn(rows: usize, cols: usize, mut f: impl FnMut(usize, usize) -> f64) -> Self {
-        let mut m = Matrix::zeros(rows, cols);
-        for j in 0..cols {
-            for i in 0..rows {
-                m.data[j * rows + i] = f(i, j);
-            }
-        }
+    pub fn from_fn(rows: usize, cols: usize, f: impl FnMut(usize, usize) -> f64) -> Self {
+        let mut m = Matrix::zeros(0, 0);
+        m.refill(rows, cols, f);
         m
     }
 
@@ -67,6 +63,21 @@ impl Matrix {
         self.rows = rows;
         self.cols = cols;
         self.data.resize(rows * cols, 0.0);
+    }
+
+    /// Resizes to `rows x cols`, reusing the allocation, and sets every entry to `f(i, j)`.
+    pub(crate) fn refill(
+        &mut self,
+        rows: usize,
+        cols: usize,
+        mut f: impl FnMut(usize, usize) -> f64,
+    ) {
+        self.resize(rows, cols);
+        for j in 0..cols {
+            for i in 0..rows {
+                self.data[j * rows + i] = f(i, j);
+            }
+        }
     }
 
     fn faer(&self) -> MatRef<'_, f64> {
@@ -320,12 +331,7 @@ impl QrAccumulator {
     /// The `cols x cols` upper-triangular `R` of all the rows pushed so far, written to `out`.
     pub(crate) fn r_into(&mut self, out: &mut Matrix) {
         self.fold();
-        out.resize(self.cols, self.cols);
-        for j in 0..self.cols {
-            for i in 0..self.cols {
-                out[(i, j)] = self.stack[(i, j)];
-            }
-        }
+        out.refill(self.cols, self.cols, |i, j| self.stack[(i, j)]);
     }
 }
 
@@ -399,12 +405,7 @@ impl GramAccumulator {
     /// `A^T A` of all the rows pushed so far (`cols x cols`, symmetric), written to `out`.
     pub(crate) fn gram_into(&mut self, out: &mut Matrix) {
         self.fold();
-        out.resize(self.cols, self.cols);
-        for j in 0..self.cols {
-            for i in 0..self.cols {
-                out[(i, j)] = self.gram[(i, j)];
-            }
-        }
+        out.refill(self.cols, self.cols, |i, j| self.gram[(i, j)]);
     }
 }
 
