@@ -274,6 +274,26 @@ pub struct SpecArgs {
     pub write_spec: Option<PathBuf>,
 }
 
+/// The units of pages and summaries (shared by the commands that draw pages).
+#[derive(Debug, Args)]
+pub struct DisplayUnitsArgs {
+    /// The units numbers are shown in on pages and summaries: `default` (mm and deg for a
+    /// metre-radian robot, else its own), `robot`, or LENGTH-ANGLE (`mm-deg`, `um-deg`, `m-rad`).
+    /// Files for programs keep the robot's units.
+    #[arg(long, value_name = "UNITS", value_parser = display_units)]
+    pub display_units: Option<kinecal::units::DisplayChoice>,
+}
+
+/// How far an export, read back, may miss the robot (shared by the exports of a robot).
+#[derive(Debug, Args)]
+pub struct ReadBackArgs {
+    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
+    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
+    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
+    #[arg(long, value_name = "length=L,angle=A")]
+    pub tolerance: Option<String>,
+}
+
 /// `kinecal predict`.
 #[derive(Debug, Args)]
 #[command(group(
@@ -312,11 +332,8 @@ pub struct PredictArgs {
     /// Write the accuracy map as an HTML page here.
     #[arg(long)]
     pub html: Option<PathBuf>,
-    /// The units numbers are shown in on pages and summaries: `default` (mm and deg for a
-    /// metre-radian robot, else its own), `robot`, or LENGTH-ANGLE (`mm-deg`, `um-deg`, `m-rad`).
-    /// Files for programs keep the robot's units.
-    #[arg(long, value_name = "UNITS", value_parser = display_units)]
-    pub display_units: Option<kinecal::units::DisplayChoice>,
+    #[command(flatten)]
+    pub shown: DisplayUnitsArgs,
 }
 
 /// `kinecal fk`.
@@ -664,14 +681,21 @@ pub struct SweepArgs {
     pub out: Option<PathBuf>,
 }
 
-/// `kinecal curves pose`.
+/// The spec door and the robot, shared by curves commands.
 #[derive(Debug, Args)]
-pub struct CurvesPoseArgs {
+pub struct CurvesRobotArgs {
     #[command(flatten)]
     pub door: SpecArgs,
     /// Robot file or built-in name.
     #[arg(long, required_unless_present = "spec")]
     pub robot: Option<String>,
+}
+
+/// `kinecal curves pose`.
+#[derive(Debug, Args)]
+pub struct CurvesPoseArgs {
+    #[command(flatten)]
+    pub job: CurvesRobotArgs,
     /// Transducer readings, comma-separated.
     #[arg(long, allow_hyphen_values = true, conflicts_with = "postures")]
     pub readings: Option<String>,
@@ -692,10 +716,7 @@ pub struct CurvesPoseArgs {
 #[derive(Debug, Args)]
 pub struct CurvesObjectiveArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    /// Robot file or built-in name.
-    #[arg(long, required_unless_present = "spec")]
-    pub robot: Option<String>,
+    pub job: CurvesRobotArgs,
     #[command(flatten)]
     pub observations: ObservationFiles,
     #[command(flatten)]
@@ -729,11 +750,8 @@ pub struct ReportArgs {
     /// The HTML file to write.
     #[arg(long, visible_alias = "html", required_unless_present = "spec")]
     pub out: Option<PathBuf>,
-    /// The units numbers are shown in on pages and summaries: `default` (mm and deg for a
-    /// metre-radian robot, else its own), `robot`, or LENGTH-ANGLE (`mm-deg`, `um-deg`, `m-rad`).
-    /// Files for programs keep the robot's units.
-    #[arg(long, value_name = "UNITS", value_parser = display_units)]
-    pub display_units: Option<kinecal::units::DisplayChoice>,
+    #[command(flatten)]
+    pub shown: DisplayUnitsArgs,
 }
 
 /// `kinecal check`.
@@ -817,7 +835,7 @@ verdicts compare only calibrations of the same segment. The same event twice is 
     Event(HistoryEventArgs),
     /// List maintenance events.
     #[command(after_help = "Example:\n  kinecal history events --robot-id A4-0042")]
-    Events(HistoryEventsArgs),
+    Events(HistoryListArgs),
     /// Read a history dump (`history export --format dump`) into this history.
     #[command(after_help = "\
 Example:
@@ -836,16 +854,14 @@ Example:
 Any write creates or migrates the schema when it may; on a PostgreSQL server that takes the
 database owner, so the owner runs this once (and after upgrading kinecal), then writers and
 readers use their own roles.")]
-    Init(HistoryInitArgs),
+    Init(HistoryArgs),
 }
 
 /// `kinecal history fleet`.
 #[derive(Debug, Args)]
 pub struct HistoryFleetArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// Flag changes beyond K standard deviations [default: 3].
     #[arg(long, value_name = "K")]
     pub sigma: Option<f64>,
@@ -871,9 +887,7 @@ pub struct HistoryFleetArgs {
 #[derive(Debug, Args)]
 pub struct HistoryEventArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// The robot's serial number.
     #[arg(required_unless_present = "spec")]
     pub robot_id: Option<String>,
@@ -885,45 +899,21 @@ pub struct HistoryEventArgs {
     pub note: Option<String>,
 }
 
-/// `kinecal history events`.
-#[derive(Debug, Args)]
-pub struct HistoryEventsArgs {
-    #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
-    /// Only this robot.
-    #[arg(long)]
-    pub robot_id: Option<String>,
-    /// Print JSON.
-    #[arg(long)]
-    pub json: bool,
-}
-
 /// `kinecal history import`.
 #[derive(Debug, Args)]
 pub struct HistoryImportArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// The dump (`kinecal history export --format dump`).
     #[arg(required_unless_present = "spec")]
     pub dump: Option<PathBuf>,
 }
 
-/// `kinecal history init`.
+/// The spec door and the history, shared by history commands.
 #[derive(Debug, Args)]
-pub struct HistoryInitArgs {
+pub struct HistoryArgs {
     #[command(flatten)]
     pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
-}
-
-/// The database option shared by history commands.
-#[derive(Debug, Args)]
-pub struct DbArg {
     /// The history: a SQLite file, or a PostgreSQL server as postgres://USER@HOST:PORT/DBNAME
     /// (password from PGPASSWORD or ~/.pgpass; never printed). Default: $KINECAL_DB, else
     /// kinecal/history.sqlite in the user's data folder.
@@ -935,9 +925,7 @@ pub struct DbArg {
 #[derive(Debug, Args)]
 pub struct HistoryAddArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// The robot's serial number.
     #[arg(long, required_unless_present = "spec")]
     pub robot_id: Option<String>,
@@ -956,13 +944,12 @@ pub struct HistoryAddArgs {
     pub force: bool,
 }
 
-/// `kinecal history list`.
+/// `kinecal history list` and `kinecal history events`: the calibrations or the events of one
+/// robot or all.
 #[derive(Debug, Args)]
 pub struct HistoryListArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// Only this robot.
     #[arg(long)]
     pub robot_id: Option<String>,
@@ -975,9 +962,7 @@ pub struct HistoryListArgs {
 #[derive(Debug, Args)]
 pub struct HistoryShowArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// The latest calibration of this robot.
     #[arg(long, required_unless_present_any = ["id", "spec"])]
     pub robot_id: Option<String>,
@@ -993,9 +978,7 @@ pub struct HistoryShowArgs {
 #[derive(Debug, Args)]
 pub struct HistoryExportArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// Only this robot.
     #[arg(long)]
     pub robot_id: Option<String>,
@@ -1013,9 +996,7 @@ pub struct HistoryExportArgs {
 #[derive(Debug, Args)]
 pub struct HistoryDriftArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// The robot.
     #[arg(long, required_unless_present = "spec")]
     pub robot_id: Option<String>,
@@ -1037,9 +1018,7 @@ pub struct HistoryDriftArgs {
 #[derive(Debug, Args)]
 pub struct HistoryPlotArgs {
     #[command(flatten)]
-    pub door: SpecArgs,
-    #[command(flatten)]
-    pub db: DbArg,
+    pub history: HistoryArgs,
     /// The robot.
     #[arg(long, required_unless_present = "spec")]
     pub robot_id: Option<String>,
@@ -1175,11 +1154,8 @@ pub struct ExportDhArgs {
     /// into it.
     #[arg(long)]
     pub angle_unit: Option<String>,
-    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
-    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
-    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
-    #[arg(long, value_name = "length=L,angle=A")]
-    pub tolerance: Option<String>,
+    #[command(flatten)]
+    pub read_back: ReadBackArgs,
     /// The table to write (CSV).
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
@@ -1196,11 +1172,8 @@ pub struct ExportJointsArgs {
     /// The nominal robot (what the controller uses).
     #[arg(long, required_unless_present = "spec")]
     pub nominal: Option<String>,
-    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
-    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
-    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
-    #[arg(long, value_name = "length=L,angle=A")]
-    pub tolerance: Option<String>,
+    #[command(flatten)]
+    pub read_back: ReadBackArgs,
     /// The table to write (CSV).
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
@@ -1217,11 +1190,8 @@ pub struct ExportUrArgs {
     /// The kinematics file the robot was imported from.
     #[arg(long, required_unless_present = "spec")]
     pub template: Option<PathBuf>,
-    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
-    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
-    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
-    #[arg(long, value_name = "length=L,angle=A")]
-    pub tolerance: Option<String>,
+    #[command(flatten)]
+    pub read_back: ReadBackArgs,
     /// The kinematics file to write.
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
@@ -1244,11 +1214,8 @@ pub struct ExportUrdfArgs {
     /// Last link of the chain, as at import (each tip of a tree, in the order of the import).
     #[arg(long)]
     pub tip: Vec<String>,
-    /// How far the export, read back, may miss the robot at the tool over the joint ranges:
-    /// `length=L,angle=A` in the robot file's units, either or both (default: a millionth of the
-    /// robot's reach and 1e-9 rad). Beyond it nothing is written (exit 1).
-    #[arg(long, value_name = "length=L,angle=A")]
-    pub tolerance: Option<String>,
+    #[command(flatten)]
+    pub read_back: ReadBackArgs,
     /// The URDF to write.
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
@@ -1633,11 +1600,8 @@ pub struct CalibrateArgs {
     /// Also write a self-contained HTML report here.
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
-    /// The units numbers are shown in on pages and summaries: `default` (mm and deg for a
-    /// metre-radian robot, else its own), `robot`, or LENGTH-ANGLE (`mm-deg`, `um-deg`, `m-rad`).
-    /// Files for programs keep the robot's units.
-    #[arg(long, value_name = "UNITS", value_parser = display_units)]
-    pub display_units: Option<kinecal::units::DisplayChoice>,
+    #[command(flatten)]
+    pub shown: DisplayUnitsArgs,
     /// Treat warnings that say the result is most likely wrong (data in another unit than the
     /// robot file, readings outside the joint ranges or in the other angle unit, lengths moved
     /// beyond the robot's reach) as failures: exit 3, write and record nothing.

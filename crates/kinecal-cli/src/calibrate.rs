@@ -90,7 +90,7 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
     over(&mut v.repeats, a.repeats);
     v.predict |= a.predict;
     let out = &mut s.outputs;
-    if let Some(d) = a.display_units {
+    if let Some(d) = a.shown.display_units {
         out.display_units = d;
     }
     for (flag, slot) in [

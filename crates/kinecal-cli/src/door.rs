@@ -15,11 +15,11 @@ use kinecal::spec::{
 use kinecal::Setting;
 
 use crate::args::{
-    AnalyzeArgs, CheckArgs, CompensateArgs, CurvesObjectiveArgs, CurvesPoseArgs, ExportDhArgs,
-    ExportJointsArgs, ExportStiffnessArgs, ExportUrArgs, ExportUrdfArgs, FkArgs, ImportDhArgs,
-    ImportPoeArgs, ImportUrArgs, ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs,
-    Iso9283PlanArgs, Iso9283SimulateArgs, ObservationFiles, PlanArgs, PredictArgs, ReportArgs,
-    ResidualArgs, SimulateArgs, SpecArgs, SweepArgs,
+    AnalyzeArgs, CheckArgs, CompensateArgs, CurvesObjectiveArgs, CurvesPoseArgs, CurvesRobotArgs,
+    ExportDhArgs, ExportJointsArgs, ExportStiffnessArgs, ExportUrArgs, ExportUrdfArgs, FkArgs,
+    ImportDhArgs, ImportPoeArgs, ImportUrArgs, ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs,
+    Iso9283PlanArgs, Iso9283SimulateArgs, ObservationFiles, PlanArgs, PredictArgs, ReadBackArgs,
+    ReportArgs, ResidualArgs, SimulateArgs, SpecArgs, SweepArgs,
 };
 
 /// Exit code when a check or a compensation flags what needs a person, or a strict calibration
@@ -275,7 +275,7 @@ pub fn predict(a: &PredictArgs) -> Result<PredictSpec> {
     over(&mut s.target, a.target.clone());
     over(&mut s.outputs.predictions, opt_path(&a.out)?);
     over(&mut s.outputs.html, opt_path(&a.html)?);
-    set(&mut s.outputs.display_units, a.display_units);
+    set(&mut s.outputs.display_units, a.shown.display_units);
     if s.outputs.predictions.is_none() {
         s.outputs.predictions = Some("-".into());
     }
@@ -512,6 +512,15 @@ fn export_base(door: &SpecArgs, format: ExportFormat) -> Result<ExportSpec> {
     Ok(s)
 }
 
+/// The read-back tolerance of an export over the spec's.
+fn read_back(a: &ReadBackArgs, s: &mut ExportSpec) -> Result<()> {
+    set(
+        &mut s.tolerance,
+        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
+    );
+    Ok(())
+}
+
 /// `kinecal export urdf`'s spec.
 pub fn export_urdf(a: &ExportUrdfArgs) -> Result<ExportSpec> {
     let mut s = export_base(&a.door, ExportFormat::Urdf)?;
@@ -521,10 +530,7 @@ pub fn export_urdf(a: &ExportUrdfArgs) -> Result<ExportSpec> {
     if !a.tip.is_empty() {
         s.tip = a.tip.clone();
     }
-    set(
-        &mut s.tolerance,
-        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
-    );
+    read_back(&a.read_back, &mut s)?;
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -534,10 +540,7 @@ pub fn export_ur(a: &ExportUrArgs) -> Result<ExportSpec> {
     let mut s = export_base(&a.door, ExportFormat::Ur)?;
     over(&mut s.robot, a.robot.clone());
     over(&mut s.template, opt_path(&a.template)?);
-    set(
-        &mut s.tolerance,
-        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
-    );
+    read_back(&a.read_back, &mut s)?;
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -549,10 +552,7 @@ pub fn export_dh(a: &ExportDhArgs) -> Result<ExportSpec> {
     over(&mut s.convention, a.convention);
     over(&mut s.length_unit, a.length_unit.clone());
     over(&mut s.angle_unit, a.angle_unit.clone());
-    set(
-        &mut s.tolerance,
-        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
-    );
+    read_back(&a.read_back, &mut s)?;
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -562,10 +562,7 @@ pub fn export_joints(a: &ExportJointsArgs) -> Result<ExportSpec> {
     let mut s = export_base(&a.door, ExportFormat::Joints)?;
     over(&mut s.robot, a.robot.clone());
     over(&mut s.nominal, a.nominal.clone());
-    set(
-        &mut s.tolerance,
-        length_angle(a.tolerance.as_deref(), Setting::Tolerance)?,
-    );
+    read_back(&a.read_back, &mut s)?;
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
@@ -649,7 +646,7 @@ pub fn report(a: &ReportArgs) -> Result<ReportSpec> {
     over(&mut s.calibration, opt_path(&a.calibration)?);
     residuals(&a.residuals, &mut s.residuals)?;
     over(&mut s.out, opt_path(&a.out)?);
-    set(&mut s.display_units, a.display_units);
+    set(&mut s.display_units, a.shown.display_units);
     Ok(s)
 }
 
@@ -666,8 +663,9 @@ fn sweep(a: &SweepArgs, s: &mut CurvesSpec) -> Result<()> {
     Ok(())
 }
 
-/// The spec of a curves command over `--spec`'s (which must be of `curve`).
-fn curves_base(door: &SpecArgs, curve: CurveKind) -> Result<CurvesSpec> {
+/// The spec of a curves command over `--spec`'s (which must be of `curve`), with its robot.
+fn curves_base(job: &CurvesRobotArgs, curve: CurveKind) -> Result<CurvesSpec> {
+    let door = &job.door;
     let mut s = base(door, |j| match j {
         Job::Curves(s) => Some(s),
         _ => None,
@@ -679,13 +677,13 @@ fn curves_base(door: &SpecArgs, curve: CurveKind) -> Result<CurvesSpec> {
         );
     }
     s.curve = curve;
+    set(&mut s.robot, job.robot.clone());
     Ok(s)
 }
 
 /// `kinecal curves pose`'s spec.
 pub fn curves_pose(a: &CurvesPoseArgs) -> Result<CurvesSpec> {
-    let mut s = curves_base(&a.door, CurveKind::Pose)?;
-    set(&mut s.robot, a.robot.clone());
+    let mut s = curves_base(&a.job, CurveKind::Pose)?;
     if let Some(list) = &a.readings {
         s.readings = Some(
             list.split(',')
@@ -712,8 +710,7 @@ pub fn curves_pose(a: &CurvesPoseArgs) -> Result<CurvesSpec> {
 
 /// `kinecal curves objective`'s spec.
 pub fn curves_objective(a: &CurvesObjectiveArgs) -> Result<CurvesSpec> {
-    let mut s = curves_base(&a.door, CurveKind::Objective)?;
-    set(&mut s.robot, a.robot.clone());
+    let mut s = curves_base(&a.job, CurveKind::Objective)?;
     observations(&a.observations, &mut s.read, &mut s.observations)?;
     residuals(&a.residuals, &mut s.residuals)?;
     sweep(&a.sweep, &mut s)?;

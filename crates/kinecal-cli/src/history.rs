@@ -14,9 +14,9 @@ use kinecal_history::{parse_time, printable, Calibration, Database, Event, Locat
 use kinecal_report::number::sig;
 
 use crate::args::{
-    DbArg, HistoryAddArgs, HistoryCommand, HistoryDriftArgs, HistoryEventArgs, HistoryEventsArgs,
-    HistoryExportArgs, HistoryFleetArgs, HistoryImportArgs, HistoryInitArgs, HistoryListArgs,
-    HistoryPlotArgs, HistoryShowArgs, SpecArgs,
+    HistoryAddArgs, HistoryArgs, HistoryCommand, HistoryDriftArgs, HistoryEventArgs,
+    HistoryExportArgs, HistoryFleetArgs, HistoryImportArgs, HistoryListArgs, HistoryPlotArgs,
+    HistoryShowArgs, SpecArgs,
 };
 use crate::door::{base, over, path_text, set};
 
@@ -44,7 +44,7 @@ pub fn parse_at(at: Option<&str>) -> Result<Option<i64>> {
 }
 
 /// `--db` as a spec's `db`.
-fn db(d: &DbArg) -> Result<Option<String>> {
+fn db(d: &HistoryArgs) -> Result<Option<String>> {
     d.db.as_deref().map(path_text).transpose()
 }
 
@@ -85,52 +85,52 @@ fn spec(c: &HistoryCommand) -> Result<Said<'_>> {
     Ok(match c {
         HistoryCommand::Add(a) => Said {
             job: Job::HistoryAdd(add(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: false,
         },
         HistoryCommand::List(a) => Said {
             job: Job::HistoryList(list(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: a.json,
         },
         HistoryCommand::Show(a) => Said {
             job: Job::HistoryShow(show_spec(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: a.json,
         },
         HistoryCommand::Export(a) => Said {
             job: Job::HistoryExport(export(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: false,
         },
         HistoryCommand::Drift(a) => Said {
             job: Job::HistoryDrift(drift(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: a.json,
         },
         HistoryCommand::Plot(a) => Said {
             job: Job::HistoryPlot(plot(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: false,
         },
         HistoryCommand::Fleet(a) => Said {
             job: Job::HistoryFleet(fleet(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: false,
         },
         HistoryCommand::Event(a) => Said {
             job: Job::HistoryEvent(event(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: false,
         },
         HistoryCommand::Events(a) => Said {
             job: Job::HistoryEvents(events(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: a.json,
         },
         HistoryCommand::Import(a) => Said {
             job: Job::HistoryImport(import(a)?),
-            door: &a.door,
+            door: &a.history.door,
             json: false,
         },
         HistoryCommand::Init(a) => Said {
@@ -143,11 +143,11 @@ fn spec(c: &HistoryCommand) -> Result<Said<'_>> {
 
 /// `kinecal history add`'s spec.
 pub fn add(a: &HistoryAddArgs) -> Result<HistoryAddSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryAdd(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     set(&mut s.report, opt_path(a.report.as_deref())?);
     over(&mut s.at, a.at.clone());
@@ -158,22 +158,22 @@ pub fn add(a: &HistoryAddArgs) -> Result<HistoryAddSpec> {
 
 /// `kinecal history list`'s spec.
 pub fn list(a: &HistoryListArgs) -> Result<HistoryListSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryList(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     Ok(s)
 }
 
 /// `kinecal history show`'s spec.
 pub fn show_spec(a: &HistoryShowArgs) -> Result<HistoryShowSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryShow(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     over(&mut s.id, a.id);
     Ok(s)
@@ -181,11 +181,11 @@ pub fn show_spec(a: &HistoryShowArgs) -> Result<HistoryShowSpec> {
 
 /// `kinecal history export`'s spec.
 pub fn export(a: &HistoryExportArgs) -> Result<HistoryExportSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryExport(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     set(&mut s.format, a.format);
     over(&mut s.out, opt_path(a.out.as_deref())?);
@@ -194,11 +194,11 @@ pub fn export(a: &HistoryExportArgs) -> Result<HistoryExportSpec> {
 
 /// `kinecal history drift`'s spec.
 pub fn drift(a: &HistoryDriftArgs) -> Result<HistoryDriftSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryDrift(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     set(&mut s.baseline, a.baseline.clone().map(BaselineSpec::Named));
     set(&mut s.sigma, a.sigma);
@@ -208,11 +208,11 @@ pub fn drift(a: &HistoryDriftArgs) -> Result<HistoryDriftSpec> {
 
 /// `kinecal history plot`'s spec.
 pub fn plot(a: &HistoryPlotArgs) -> Result<HistoryPlotSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryPlot(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     if let Some(list) = &a.param {
         s.param = list
@@ -228,11 +228,11 @@ pub fn plot(a: &HistoryPlotArgs) -> Result<HistoryPlotSpec> {
 
 /// `kinecal history fleet`'s spec.
 pub fn fleet(a: &HistoryFleetArgs) -> Result<HistoryFleetSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryFleet(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     set(&mut s.sigma, a.sigma);
     over(&mut s.tolerance, opt_path(a.tolerance.as_deref())?);
     set(&mut s.horizon, a.horizon);
@@ -244,11 +244,11 @@ pub fn fleet(a: &HistoryFleetArgs) -> Result<HistoryFleetSpec> {
 
 /// `kinecal history event`'s spec.
 pub fn event(a: &HistoryEventArgs) -> Result<HistoryEventSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryEvent(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     over(&mut s.at, a.at.clone());
     set(&mut s.note, a.note.clone());
@@ -256,34 +256,34 @@ pub fn event(a: &HistoryEventArgs) -> Result<HistoryEventSpec> {
 }
 
 /// `kinecal history events`'s spec.
-pub fn events(a: &HistoryEventsArgs) -> Result<HistoryEventsSpec> {
-    let mut s = base(&a.door, |j| match j {
+pub fn events(a: &HistoryListArgs) -> Result<HistoryEventsSpec> {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryEvents(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     Ok(s)
 }
 
 /// `kinecal history import`'s spec.
 pub fn import(a: &HistoryImportArgs) -> Result<HistoryImportSpec> {
-    let mut s = base(&a.door, |j| match j {
+    let mut s = base(&a.history.door, |j| match j {
         Job::HistoryImport(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(&a.history)?);
     set(&mut s.dump, opt_path(a.dump.as_deref())?);
     Ok(s)
 }
 
 /// `kinecal history init`'s spec.
-pub fn init(a: &HistoryInitArgs) -> Result<HistoryInitSpec> {
+pub fn init(a: &HistoryArgs) -> Result<HistoryInitSpec> {
     let mut s = base(&a.door, |j| match j {
         Job::HistoryInit(s) => Some(s),
         _ => None,
     })?;
-    over(&mut s.db, db(&a.db)?);
+    over(&mut s.db, db(a)?);
     Ok(s)
 }
 

@@ -134,10 +134,10 @@ fn export(c: ExportCommand) -> Result<u8> {
 fn curves(c: CurvesCommand) -> Result<u8> {
     match c {
         CurvesCommand::Pose(a) => {
-            door::curves_pose(&a).and_then(|s| job(s.into(), &a.door, render::curves))
+            door::curves_pose(&a).and_then(|s| job(s.into(), &a.job.door, render::curves))
         }
         CurvesCommand::Objective(a) => {
-            door::curves_objective(&a).and_then(|s| job(s.into(), &a.door, render::curves))
+            door::curves_objective(&a).and_then(|s| job(s.into(), &a.job.door, render::curves))
         }
     }
 }
