@@ -2,44 +2,13 @@
 
 use std::path::Path;
 
-use assert_cmd::Command;
-
 mod common;
 #[path = "../../kinecal/tests/common/shared_data.rs"]
 mod shared_data;
 #[path = "../../kinecal/tests/common/synthetic_datasets.rs"]
 mod synthetic;
 
-fn kinecal() -> Command {
-    Command::cargo_bin("kinecal").unwrap()
-}
-
-/// Runs a command expected to succeed; returns its standard output. Every report in `dir`
-/// then follows the shipped schema.
-fn run_ok(dir: &Path, args: &[&str]) -> String {
-    let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    common::check_reports(dir);
-    String::from_utf8(out.stdout).unwrap()
-}
-
-/// Runs a command expected to fail with exit code 1; returns its standard error.
-fn run_err(dir: &Path, args: &[&str]) -> String {
-    let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(1),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stdout)
-    );
-    let err = String::from_utf8(out.stderr).unwrap();
-    assert!(!err.contains("panicked"), "{err}");
-    err
-}
+use common::{argv, kinecal, run_err, run_ok};
 
 #[test]
 fn demo_shows_returning_and_redundant_parameters() {
@@ -142,37 +111,17 @@ fn simulate_then_calibrate_recovers_the_truth_and_keeps_the_file() {
     .unwrap();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "a4.toml",
-            "--postures",
-            "30",
-            "--seed",
-            "3",
-            "--perturb",
-            "p1=+0.2,joint2.offset=-0.5,p38=+0.05",
-            "--out",
-            "data.csv",
-            "--truth",
-            "truth.toml",
-        ],
+        &argv(
+            "simulate --robot a4.toml --postures 30 --seed 3
+             --perturb p1=+0.2,joint2.offset=-0.5,p38=+0.05 --out data.csv --truth truth.toml",
+        ),
     );
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "a4.toml",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "p1,p32,p38",
-            "--out",
-            "cal.toml",
-            "--report",
-            "rep.json",
-        ],
+        &argv(
+            "calibrate --robot a4.toml --data data.csv --estimate p1,p32,p38 --out cal.toml
+             --report rep.json",
+        ),
     );
     assert!(out.contains("converged"), "{out}");
     let rep: serde_json::Value =
@@ -229,37 +178,20 @@ fn position_only_data_and_all_methods() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "25",
-            "--perturb",
-            "p31=+1,p2=-0.1",
-            "--position-only",
-            "--out",
-            "pos.csv",
-        ],
+        &argv(
+            "simulate --robot ge-a4 --postures 25 --perturb p31=+1,p2=-0.1 --position-only
+             --out pos.csv",
+        ),
     );
     let text = std::fs::read_to_string(d.join("pos.csv")).unwrap();
     assert!(text.lines().nth(1).unwrap().ends_with(",,,"));
     for method in ["lm", "gn", "svd", "sd"] {
         let out = run_ok(
             d,
-            &[
-                "calibrate",
-                "--robot",
-                "ge-a4",
-                "--data",
-                "pos.csv",
-                "--estimate",
-                "p2,p31",
-                "--method",
-                method,
-                "--report",
-                "r.json",
-            ],
+            &argv(&format!(
+                "calibrate --robot ge-a4 --data pos.csv --estimate p2,p31 --method {method}
+                 --report r.json"
+            )),
         );
         let rep: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
@@ -271,15 +203,7 @@ fn position_only_data_and_all_methods() {
     // Gauss-Newton on the full, singular model says so.
     let err = run_err(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "pos.csv",
-            "--method",
-            "gn",
-        ],
+        &argv("calibrate --robot ge-a4 --data pos.csv --method gn"),
     );
     assert!(err.contains("singular"), "{err}");
 }
@@ -297,31 +221,13 @@ fn euler_residuals_refused_at_gimbal_lock_rotvec_by_default() {
     .unwrap();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "r.toml",
-            "--postures",
-            "20",
-            "--perturb",
-            "link2.x=+1",
-            "--out",
-            "data.csv",
-        ],
+        &argv("simulate --robot r.toml --postures 20 --perturb link2.x=+1 --out data.csv"),
     );
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "calibrate",
-            "--robot",
-            "r.toml",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "link2.x",
-            "--orientation-error",
-            "euler",
-        ])
+        .args(argv(
+            "calibrate --robot r.toml --data data.csv --estimate link2.x --orientation-error euler",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -332,17 +238,7 @@ fn euler_residuals_refused_at_gimbal_lock_rotvec_by_default() {
     );
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "r.toml",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "link2.x",
-            "--report",
-            "rep.json",
-        ],
+        &argv("calibrate --robot r.toml --data data.csv --estimate link2.x --report rep.json"),
     );
     let rep: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
@@ -468,15 +364,7 @@ fn bad_input_names_file_line_and_field() {
     std::fs::write(d.join("keep.toml"), "precious").unwrap();
     run_err(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "num.csv",
-            "--out",
-            "keep.toml",
-        ],
+        &argv("calibrate --robot ge-a4 --data num.csv --out keep.toml"),
     );
     assert_eq!(
         std::fs::read_to_string(d.join("keep.toml")).unwrap(),
@@ -490,17 +378,7 @@ fn analyze_reports_the_thesis_structure_as_text_and_json() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "30",
-            "--seed",
-            "2",
-            "--out",
-            "data.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 30 --seed 2 --out data.csv"),
     );
     let text = run_ok(d, &["analyze", "--robot", "ge-a4", "--data", "data.csv"]);
     assert!(text.contains("Numerical rank 24 of 38"), "{text}");
@@ -511,12 +389,7 @@ fn analyze_reports_the_thesis_structure_as_text_and_json() {
     );
     let json = common::check_document(
         "analysis",
-        &run_ok(
-            d,
-            &[
-                "analyze", "--robot", "ge-a4", "--data", "data.csv", "--json",
-            ],
-        ),
+        &run_ok(d, &argv("analyze --robot ge-a4 --data data.csv --json")),
     );
     for key in [
         "parameters",
@@ -555,16 +428,7 @@ fn analyze_reports_the_thesis_structure_as_text_and_json() {
         "analysis",
         &run_ok(
             d,
-            &[
-                "analyze",
-                "--robot",
-                "ge-a4",
-                "--postures",
-                "p.csv",
-                "--fix",
-                "slopes",
-                "--json",
-            ],
+            &argv("analyze --robot ge-a4 --postures p.csv --fix slopes --json"),
         ),
     );
     assert_eq!(
@@ -574,34 +438,15 @@ fn analyze_reports_the_thesis_structure_as_text_and_json() {
     // The thesis's Table 4.5 layout: J^T J in file units.
     let out = run_ok(
         d,
-        &[
-            "analyze",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "p1-p6,p14,p29",
-            "--print",
-            "hessian",
-        ],
+        &argv("analyze --robot ge-a4 --data data.csv --estimate p1-p6,p14,p29 --print hessian"),
     );
     assert!(out.contains("J^T J (in, deg)"), "{out}");
     let out = run_ok(
         d,
-        &[
-            "analyze",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "p1,p2",
-            "--print",
-            "jacobian",
-            "--units",
-            "scaled",
-        ],
+        &argv(
+            "analyze --robot ge-a4 --data data.csv --estimate p1,p2 --print jacobian
+             --units scaled",
+        ),
     );
     assert!(out.contains("1 ee alpha"), "{out}");
 }
@@ -612,40 +457,19 @@ fn calibrate_identifiable_min_change_initial_and_prune() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "30",
-            "--seed",
-            "7",
-            "--perturb",
-            "p1=+0.05,p14=-0.02,joint2.offset=-0.5,joint4.slope=+0.02",
-            "--noise",
-            "length=0.0005,angle=0.005",
-            "--out",
-            "data.csv",
-        ],
+        &argv(
+            "simulate --robot ge-a4 --postures 30 --seed 7
+             --perturb p1=+0.05,p14=-0.02,joint2.offset=-0.5,joint4.slope=+0.02
+             --noise length=0.0005,angle=0.005 --out data.csv",
+        ),
     );
     // Only the identifiable set, then pruned to the real changes.
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "identifiable",
-            "--weights",
-            "length=0.0005,angle=0.005",
-            "--prune",
-            "3",
-            "--report",
-            "r.json",
-        ],
+        &argv(
+            "calibrate --robot ge-a4 --data data.csv --estimate identifiable
+             --weights length=0.0005,angle=0.005 --prune 3 --report r.json",
+        ),
     );
     let rep: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
@@ -663,17 +487,7 @@ fn calibrate_identifiable_min_change_initial_and_prune() {
     // Table 4.8 from the command line: the min-change answer from a far guess is Table 4.1.
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "30",
-            "--seed",
-            "1",
-            "--out",
-            "clean.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 30 --seed 1 --out clean.csv"),
     );
     let a4 = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -686,21 +500,10 @@ fn calibrate_identifiable_min_change_initial_and_prune() {
     std::fs::write(d.join("guess.toml"), guess).unwrap();
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "clean.csv",
-            "--initial",
-            "guess.toml",
-            "--estimate",
-            "p1,p3,p9,p10,p15,p21,p27,p33",
-            "--solution",
-            "min-change",
-            "--report",
-            "m.json",
-        ],
+        &argv(
+            "calibrate --robot ge-a4 --data clean.csv --initial guess.toml
+             --estimate p1,p3,p9,p10,p15,p21,p27,p33 --solution min-change --report m.json",
+        ),
     );
     let rep: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("m.json")).unwrap()).unwrap();
@@ -737,19 +540,10 @@ fn import_dh_and_poe_then_calibrate_with_validation() {
     .unwrap();
     run_ok(
         d,
-        &[
-            "import",
-            "dh",
-            "--convention",
-            "modified",
-            "puma.csv",
-            "--length-unit",
-            "m",
-            "--angle-unit",
-            "deg",
-            "--out",
-            "puma.toml",
-        ],
+        &argv(
+            "import dh --convention modified puma.csv --length-unit m --angle-unit deg
+             --out puma.toml",
+        ),
     );
     // Zero configuration of Craig's PUMA 560: the wrist centre at (a2 + a3, d3, -d4).
     std::fs::write(
@@ -773,31 +567,14 @@ fn import_dh_and_poe_then_calibrate_with_validation() {
     // Readings are joint values (slope 1): by default the slopes are not estimated.
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "puma.toml",
-            "--postures",
-            "60",
-            "--perturb",
-            "p8=+0.001,joint3.offset=+0.2",
-            "--out",
-            "all.csv",
-        ],
+        &argv(
+            "simulate --robot puma.toml --postures 60 --perturb p8=+0.001,joint3.offset=+0.2
+             --out all.csv",
+        ),
     );
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "puma.toml",
-            "--data",
-            "all.csv",
-            "--holdout",
-            "0.25",
-            "--report",
-            "r.json",
-        ],
+        &argv("calibrate --robot puma.toml --data all.csv --holdout 0.25 --report r.json"),
     );
     let rep: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
@@ -819,31 +596,14 @@ fn import_dh_and_poe_then_calibrate_with_validation() {
     // --validate with a separate file.
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "puma.toml",
-            "--postures",
-            "10",
-            "--seed",
-            "9",
-            "--perturb",
-            "p8=+0.001,joint3.offset=+0.2",
-            "--out",
-            "v.csv",
-        ],
+        &argv(
+            "simulate --robot puma.toml --postures 10 --seed 9
+             --perturb p8=+0.001,joint3.offset=+0.2 --out v.csv",
+        ),
     );
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "puma.toml",
-            "--data",
-            "all.csv",
-            "--validate",
-            "v.csv",
-        ],
+        &argv("calibrate --robot puma.toml --data all.csv --validate v.csv"),
     );
     assert!(out.contains("validation (10 postures) before"), "{out}");
 
@@ -901,44 +661,18 @@ fn urdf_import_calibrate_export_round_trip() {
     run_ok(d, &["import", "urdf", "arm.urdf", "--out", "arm.toml"]);
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "arm.toml",
-            "--postures",
-            "30",
-            "--perturb",
-            "link2.y=+0.002,joint2.offset=+0.01",
-            "--out",
-            "d.csv",
-            "--truth",
-            "t.toml",
-        ],
+        &argv(
+            "simulate --robot arm.toml --postures 30 --perturb link2.y=+0.002,joint2.offset=+0.01
+             --out d.csv --truth t.toml",
+        ),
     );
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "arm.toml",
-            "--data",
-            "d.csv",
-            "--out",
-            "c.toml",
-        ],
+        &argv("calibrate --robot arm.toml --data d.csv --out c.toml"),
     );
     run_ok(
         d,
-        &[
-            "export",
-            "urdf",
-            "--robot",
-            "c.toml",
-            "--template",
-            "arm.urdf",
-            "--out",
-            "c.urdf",
-        ],
+        &argv("export urdf --robot c.toml --template arm.urdf --out c.urdf"),
     );
     let out = std::fs::read_to_string(d.join("c.urdf")).unwrap();
     assert!(out.contains("<!-- a small arm: the comment must survive export -->"));
@@ -955,12 +689,7 @@ fn urdf_import_calibrate_export_round_trip() {
             );
         }
     }
-    let err = run_err(
-        d,
-        &[
-            "import", "urdf", "arm.urdf", "--tip", "nowhere", "--out", "x.toml",
-        ],
-    );
+    let err = run_err(d, &argv("import urdf arm.urdf --tip nowhere --out x.toml"));
     assert!(
         err.contains("no link named `nowhere` (the chain's tip)") && err.contains("--tip LINK"),
         "{err}"
@@ -1003,57 +732,25 @@ fn history_record_drift_plot_and_check() {
         if m < 3 {
             run_ok(
                 d,
-                &[
-                    "calibrate",
-                    "--robot",
-                    "ge-a4",
-                    "--data",
-                    &data,
-                    "--solution",
-                    "min-change",
-                    "--weights",
-                    "length=0.0005,angle=0.005",
-                    "--record",
-                    "A4-7",
-                    "--db",
-                    "h.sqlite",
-                    "--at",
-                    &at,
-                    "--note",
-                    "monthly",
-                ],
+                &argv(&format!(
+                    "calibrate --robot ge-a4 --data {data} --solution min-change
+                     --weights length=0.0005,angle=0.005 --record A4-7 --db h.sqlite --at {at}
+                     --note monthly"
+                )),
             );
         } else {
             run_ok(
                 d,
-                &[
-                    "calibrate",
-                    "--robot",
-                    "ge-a4",
-                    "--data",
-                    &data,
-                    "--solution",
-                    "min-change",
-                    "--weights",
-                    "length=0.0005,angle=0.005",
-                    "--report",
-                    "r3.json",
-                ],
+                &argv(&format!(
+                    "calibrate --robot ge-a4 --data {data} --solution min-change
+                     --weights length=0.0005,angle=0.005 --report r3.json"
+                )),
             );
             run_ok(
                 d,
-                &[
-                    "history",
-                    "add",
-                    "--robot-id",
-                    "A4-7",
-                    "--report",
-                    "r3.json",
-                    "--db",
-                    "h.sqlite",
-                    "--at",
-                    &at,
-                ],
+                &argv(&format!(
+                    "history add --robot-id A4-7 --report r3.json --db h.sqlite --at {at}"
+                )),
             );
         }
     }
@@ -1080,15 +777,7 @@ fn history_record_drift_plot_and_check() {
     .unwrap();
     assert_eq!(json.as_array().unwrap().len(), 3);
     // Drift: the wear of link 3 (with link 4, which the data cannot separate) is flagged; exit 3.
-    let (code, out, _) = run_code(&[
-        "history",
-        "drift",
-        "--robot-id",
-        "A4-7",
-        "--db",
-        "h.sqlite",
-        "--json",
-    ]);
+    let (code, out, _) = run_code(&argv("history drift --robot-id A4-7 --db h.sqlite --json"));
     assert_eq!(code, 3, "{out}");
     let r: serde_json::Value = serde_json::from_str(&out).unwrap();
     let flags = r["flags"].as_array().unwrap();
@@ -1105,31 +794,13 @@ fn history_record_drift_plot_and_check() {
     // Against the second calibration as baseline, month 2 vs month 1 would be clean; and a
     // tolerance wider than the change with a huge K: nothing flagged, exit 0.
     std::fs::write(d.join("tol.toml"), "[tolerances]\n\"p14 + p20\" = 0.5\n").unwrap();
-    let (code, out, _) = run_code(&[
-        "history",
-        "drift",
-        "--robot-id",
-        "A4-7",
-        "--db",
-        "h.sqlite",
-        "--sigma",
-        "1000",
-        "--tolerance",
-        "tol.toml",
-    ]);
+    let (code, out, _) = run_code(&argv(
+        "history drift --robot-id A4-7 --db h.sqlite --sigma 1000 --tolerance tol.toml",
+    ));
     assert_eq!(code, 0, "{out}");
-    let (code, out, _) = run_code(&[
-        "history",
-        "drift",
-        "--robot-id",
-        "A4-7",
-        "--db",
-        "h.sqlite",
-        "--sigma",
-        "1000",
-        "--baseline",
-        "latest-ok",
-    ]);
+    let (code, out, _) = run_code(&argv(
+        "history drift --robot-id A4-7 --db h.sqlite --sigma 1000 --baseline latest-ok",
+    ));
     assert_eq!(code, 0, "{out}");
     run_ok(
         d,
@@ -1176,63 +847,28 @@ fn history_record_drift_plot_and_check() {
     // check: the month-3 robot (link 3 grown) against the original calibration.
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "m1.csv",
-            "--out",
-            "cal1.toml",
-        ],
+        &argv("calibrate --robot ge-a4 --data m1.csv --out cal1.toml"),
     );
-    let (code, out, _) = run_code(&[
-        "check",
-        "--robot",
-        "cal1.toml",
-        "--data",
-        "m2.csv",
-        "--threshold",
-        "0.005,0.05",
-    ]);
+    let (code, out, _) = run_code(&argv(
+        "check --robot cal1.toml --data m2.csv --threshold 0.005,0.05",
+    ));
     assert_eq!(code, 0, "{out}");
-    let (code, out, _) = run_code(&[
-        "check",
-        "--robot",
-        "cal1.toml",
-        "--data",
-        "m3.csv",
-        "--threshold",
-        "0.005,0.05",
-    ]);
+    let (code, out, _) = run_code(&argv(
+        "check --robot cal1.toml --data m3.csv --threshold 0.005,0.05",
+    ));
     assert_eq!(code, 3, "{out}");
     assert!(out.contains("RECALIBRATE"));
     // The verdict as a document: the check's schema, the same verdict and exit code.
-    let (code, out, _) = run_code(&[
-        "check",
-        "--robot",
-        "cal1.toml",
-        "--data",
-        "m3.csv",
-        "--threshold",
-        "0.005,0.05",
-        "--json",
-    ]);
+    let (code, out, _) = run_code(&argv(
+        "check --robot cal1.toml --data m3.csv --threshold 0.005,0.05 --json",
+    ));
     assert_eq!(code, 3, "{out}");
     let v = common::check_document("check", &out);
     assert_eq!(v["ok"], false);
     assert_eq!(v["threshold_length"], 0.005);
     let err = run_err(
         d,
-        &[
-            "check",
-            "--robot",
-            "cal1.toml",
-            "--data",
-            "m3.csv",
-            "--threshold",
-            "abc",
-        ],
+        &argv("check --robot cal1.toml --data m3.csv --threshold abc"),
     );
     assert!(err.contains("--threshold"), "{err}");
 }
@@ -1241,31 +877,10 @@ fn history_record_drift_plot_and_check() {
 fn concurrent_processes_recording_all_succeed() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    run_ok(d, &argv("simulate --robot ge-a4 --postures 12 --out d.csv"));
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "12",
-            "--out",
-            "d.csv",
-        ],
-    );
-    run_ok(
-        d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "d.csv",
-            "--estimate",
-            "p1,p2",
-            "--report",
-            "r.json",
-        ],
+        &argv("calibrate --robot ge-a4 --data d.csv --estimate p1,p2 --report r.json"),
     );
     let bin = assert_cmd::cargo::cargo_bin("kinecal");
     let children: Vec<_> = (0..12)
@@ -1304,18 +919,9 @@ fn concurrent_processes_recording_all_succeed() {
     // Retried: nothing recorded twice.
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "history",
-            "add",
-            "--robot-id",
-            "R0",
-            "--report",
-            "r.json",
-            "--db",
-            "h.sqlite",
-            "--at",
-            "2026-11-01",
-        ])
+        .args(argv(
+            "history add --robot-id R0 --report r.json --db h.sqlite --at 2026-11-01",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -1333,18 +939,10 @@ fn curves_and_html_report() {
     for out in ["pose.svg", "pose.png", "pose.csv"] {
         let text = run_ok(
             d,
-            &[
-                "curves",
-                "pose",
-                "--robot",
-                "ge-a4",
-                "--readings",
-                "-6.883,13.301,4.122,-28.645",
-                "--param",
-                "p1,p4,p35",
-                "--out",
-                out,
-            ],
+            &argv(&format!(
+                "curves pose --robot ge-a4 --readings -6.883,13.301,4.122,-28.645
+                 --param p1,p4,p35 --out {out}"
+            )),
         );
         assert!(
             text.contains("p35 (joint1.slope): periodic, period 52.30"),
@@ -1379,36 +977,13 @@ fn curves_and_html_report() {
         "posture,v1,v2,v3,v4\n1,-11.053,12.369,4.009,-11.583\n2,-12.696,9.037,1.493,5.156\n",
     )
     .unwrap();
-    run_ok(
-        d,
-        &[
-            "fk",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "p.csv",
-            "--out",
-            "d.csv",
-        ],
-    );
+    run_ok(d, &argv("fk --robot ge-a4 --postures p.csv --out d.csv"));
     let text = run_ok(
         d,
-        &[
-            "curves",
-            "objective",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "d.csv",
-            "--param",
-            "p38",
-            "--span",
-            "100",
-            "--points",
-            "2001",
-            "--out",
-            "o.csv",
-        ],
+        &argv(
+            "curves objective --robot ge-a4 --data d.csv --param p38 --span 100 --points 2001
+             --out o.csv",
+        ),
     );
     // At the true value the objective is zero (to the rounding of the file's numbers).
     let at_9 = text
@@ -1426,96 +1001,33 @@ fn curves_and_html_report() {
     assert!(o.starts_with("param,value,objective\n") && o.lines().count() == 2002);
     run_ok(
         d,
-        &[
-            "curves",
-            "objective",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "d.csv",
-            "--param",
-            "p1,p38",
-            "--out",
-            "o.svg",
-        ],
+        &argv("curves objective --robot ge-a4 --data d.csv --param p1,p38 --out o.svg"),
     );
     let err = run_err(
         d,
-        &[
-            "curves",
-            "objective",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "d.csv",
-            "--param",
-            "p1",
-            "--out",
-            "o.txt",
-        ],
+        &argv("curves objective --robot ge-a4 --data d.csv --param p1 --out o.txt"),
     );
     assert!(err.contains(".svg, .png or .csv"), "{err}");
 
     // The HTML report, from calibrate --html and from files.
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "30",
-            "--perturb",
-            "p1=+0.05,joint2.offset=-0.5",
-            "--noise",
-            "length=0.0005,angle=0.005",
-            "--out",
-            "data.csv",
-        ],
+        &argv(
+            "simulate --robot ge-a4 --postures 30 --perturb p1=+0.05,joint2.offset=-0.5
+             --noise length=0.0005,angle=0.005 --out data.csv",
+        ),
     );
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--html",
-            "a.html",
-            "--report",
-            "r.json",
-            "--out",
-            "c.toml",
-        ],
+        &argv("calibrate --robot ge-a4 --data data.csv --html a.html --report r.json --out c.toml"),
     );
     run_ok(
         d,
-        &[
-            "report",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--calibrated",
-            "c.toml",
-            "--out",
-            "b.html",
-        ],
+        &argv("report --robot ge-a4 --data data.csv --calibrated c.toml --out b.html"),
     );
     run_ok(
         d,
-        &[
-            "report",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--calibration",
-            "r.json",
-            "--out",
-            "c.html",
-        ],
+        &argv("report --robot ge-a4 --data data.csv --calibration r.json --out c.html"),
     );
     for f in ["a.html", "b.html", "c.html"] {
         let h = std::fs::read_to_string(d.join(f)).unwrap();
@@ -1625,15 +1137,7 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     std::fs::write(d.join("ballbar.csv"), distances).unwrap();
     let out = run_ok(
         d,
-        &[
-            "analyze",
-            "--robot",
-            "a4.toml",
-            "--distances",
-            "ballbar.csv",
-            "--estimate",
-            "links,offsets",
-        ],
+        &argv("analyze --robot a4.toml --distances ballbar.csv --estimate links,offsets"),
     );
     assert!(out.contains("30 distances"), "{out}");
     assert!(
@@ -1643,21 +1147,10 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     assert!(out.contains("Numerical rank 11 of 34"), "{out}");
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "a4.toml",
-            "--contacts",
-            "contacts.csv",
-            "--distances",
-            "ballbar.csv",
-            "--estimate",
-            "identifiable",
-            "--report",
-            "rep.json",
-            "--out",
-            "cal.toml",
-        ],
+        &argv(
+            "calibrate --robot a4.toml --contacts contacts.csv --distances ballbar.csv
+             --estimate identifiable --report rep.json --out cal.toml",
+        ),
     );
     assert!(out.contains("30 distances, 60 contacts"), "{out}");
     assert!(out.contains("RMS contact error (in)"), "{out}");
@@ -1679,19 +1172,10 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     // such as the probe's attitude, stay at nominal), converging to the same fit.
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "a4.toml",
-            "--contacts",
-            "contacts.csv",
-            "--distances",
-            "ballbar.csv",
-            "--solution",
-            "min-change",
-            "--report",
-            "mc.json",
-        ],
+        &argv(
+            "calibrate --robot a4.toml --contacts contacts.csv --distances ballbar.csv
+             --solution min-change --report mc.json",
+        ),
     );
     assert!(out.contains("min-change solution"), "{out}");
     let mc: serde_json::Value =
@@ -1706,21 +1190,10 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     // Validation and the history show the errors of the kinds observed, not zero positions.
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "a4.toml",
-            "--contacts",
-            "contacts.csv",
-            "--distances",
-            "ballbar.csv",
-            "--holdout",
-            "0.3",
-            "--record",
-            "A4-9",
-            "--db",
-            "h.sqlite",
-        ],
+        &argv(
+            "calibrate --robot a4.toml --contacts contacts.csv --distances ballbar.csv
+             --holdout 0.3 --record A4-9 --db h.sqlite",
+        ),
     );
     assert!(out.contains("distance error (in)"), "{out}");
     assert!(out.contains("contact error (in)"), "{out}");
@@ -1742,17 +1215,10 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     // ballbar.
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "a4.toml",
-            "--contacts",
-            "contacts.csv",
-            "--validate",
-            "ballbar.csv",
-            "--estimate",
-            "link3.y,joint2.offset",
-        ],
+        &argv(
+            "calibrate --robot a4.toml --contacts contacts.csv --validate ballbar.csv
+             --estimate link3.y,joint2.offset",
+        ),
     );
     assert!(out.contains("distance error (in)"), "{out}");
     let after = out
@@ -1777,36 +1243,17 @@ fn exit_codes_and_absent_figures() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "20",
-            "--seed",
-            "3",
-            "--perturb",
-            "p1=0.1,joint2.offset=5",
-            "--position-only",
-            "--out",
-            "pos.csv",
-        ],
+        &argv(
+            "simulate --robot ge-a4 --postures 20 --seed 3 --perturb p1=0.1,joint2.offset=5
+             --position-only --out pos.csv",
+        ),
     );
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "pos.csv",
-            "--estimate",
-            "p1,p2,p8,joint2.offset",
-            "--max-iter",
-            "1",
-            "--report",
-            "r.json",
-        ])
+        .args(argv(
+            "calibrate --robot ge-a4 --data pos.csv --estimate p1,p2,p8,joint2.offset --max-iter 1
+             --report r.json",
+        ))
         .output()
         .unwrap();
     assert_eq!(
@@ -1829,9 +1276,9 @@ fn exit_codes_and_absent_figures() {
     // A closed pipe: no panic.
     let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("kinecal"))
         .current_dir(d)
-        .args([
-            "analyze", "--robot", "ge-a4", "--data", "pos.csv", "--print", "jacobian",
-        ])
+        .args(argv(
+            "analyze --robot ge-a4 --data pos.csv --print jacobian",
+        ))
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -1852,67 +1299,25 @@ fn outputs_are_written_only_when_the_whole_run_succeeds() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "20",
-            "--seed",
-            "3",
-            "--out",
-            "d.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 20 --seed 3 --out d.csv"),
     );
     let data = std::fs::read(d.join("d.csv")).unwrap();
-    let err = run_err(
-        d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "d.csv",
-            "--out",
-            "d.csv",
-        ],
-    );
+    let err = run_err(d, &argv("calibrate --robot ge-a4 --data d.csv --out d.csv"));
     assert!(
         err.contains("refusing to write an output over an input"),
         "{err}"
     );
     assert_eq!(std::fs::read(d.join("d.csv")).unwrap(), data);
-    let err = run_err(
-        d,
-        &[
-            "fk",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "d.csv",
-            "--out",
-            "./d.csv",
-        ],
-    );
+    let err = run_err(d, &argv("fk --robot ge-a4 --postures d.csv --out ./d.csv"));
     assert!(err.contains("over an input"), "{err}");
     // An existing output stays as it was when a later output cannot be written.
     std::fs::write(d.join("out.toml"), "keep me").unwrap();
     std::fs::create_dir(d.join("rep.json")).unwrap();
     let err = run_err(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "d.csv",
-            "--estimate",
-            "p1",
-            "--out",
-            "out.toml",
-            "--report",
-            "rep.json",
-        ],
+        &argv(
+            "calibrate --robot ge-a4 --data d.csv --estimate p1 --out out.toml --report rep.json",
+        ),
     );
     assert!(err.contains("rep.json"), "{err}");
     assert_eq!(
@@ -1934,17 +1339,7 @@ fn outputs_are_written_only_when_the_whole_run_succeeds() {
     }
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "d.csv",
-            "--estimate",
-            "p1",
-            "--out",
-            "out.toml",
-        ],
+        &argv("calibrate --robot ge-a4 --data d.csv --estimate p1 --out out.toml"),
     );
     assert_eq!(std::fs::read_to_string(&victim).unwrap(), "untouched");
     assert!(std::fs::read_to_string(d.join("out.toml"))
@@ -1967,35 +1362,14 @@ fn impossible_numbers_are_refused_by_file_line_and_field() {
     let d = dir.path();
     let err = run_err(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "3",
-            "--perturb",
-            "all=-1e308",
-            "--out",
-            "x.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 3 --perturb all=-1e308 --out x.csv"),
     );
     assert!(
         err.contains("--perturb") && err.contains("within +-1e9"),
         "{err}"
     );
     assert!(!d.join("x.csv").exists());
-    run_ok(
-        d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "10",
-            "--out",
-            "d.csv",
-        ],
-    );
+    run_ok(d, &argv("simulate --robot ge-a4 --postures 10 --out d.csv"));
     let data = std::fs::read_to_string(d.join("d.csv")).unwrap();
     let mut lines: Vec<&str> = data.lines().collect();
     let row = lines[3].to_string();
@@ -2020,19 +1394,9 @@ fn impossible_numbers_are_refused_by_file_line_and_field() {
     .unwrap();
     let err = run_err(
         d,
-        &[
-            "import",
-            "dh",
-            "--convention",
-            "standard",
-            "--length-unit",
-            "m",
-            "--angle-unit",
-            "deg",
-            "dh.csv",
-            "--out",
-            "dh.toml",
-        ],
+        &argv(
+            "import dh --convention standard --length-unit m --angle-unit deg dh.csv --out dh.toml",
+        ),
     );
     assert!(err.contains("dh.csv:2: field `a`"), "{err}");
     assert!(!d.join("dh.toml").exists());
@@ -2044,14 +1408,7 @@ fn impossible_numbers_are_refused_by_file_line_and_field() {
 fn curve_sweeps_are_bounded_and_sized_to_the_parameter() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let r = [
-        "curves",
-        "pose",
-        "--robot",
-        "ge-a4",
-        "--readings",
-        "-6.883,13.301,4.122,-28.645",
-    ];
+    let r = argv("curves pose --robot ge-a4 --readings -6.883,13.301,4.122,-28.645");
     for (extra, expect) in [
         (vec!["--from", "-1e308", "--to", "50"], "within +-1e9"),
         (vec!["--points", "100000000"], "between 3 and 100000"),
@@ -2095,17 +1452,7 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "30",
-            "--seed",
-            "2",
-            "--out",
-            "in.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 30 --seed 2 --out in.csv"),
     );
     // The same measurements in millimetres.
     let text = std::fs::read_to_string(d.join("in.csv")).unwrap();
@@ -2139,16 +1486,9 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
     // Stated, the same file calibrates without a word about units.
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "mm.csv",
-            "--length-unit",
-            "mm",
-            "--strict",
-        ])
+        .args(argv(
+            "calibrate --robot ge-a4 --data mm.csv --length-unit mm --strict",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -2156,18 +1496,9 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
     assert!(!err.contains("spread"), "{err}");
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "mm.csv",
-            "--strict",
-            "--out",
-            "cal.toml",
-            "--report",
-            "r.json",
-        ])
+        .args(argv(
+            "calibrate --robot ge-a4 --data mm.csv --strict --out cal.toml --report r.json",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -2177,16 +1508,7 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
     // The data in the right unit passes --strict.
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "in.csv",
-            "--strict",
-            "--out",
-            "cal.toml",
-        ],
+        &argv("calibrate --robot ge-a4 --data in.csv --strict --out cal.toml"),
     );
     assert!(d.join("cal.toml").exists());
 }
@@ -2200,21 +1522,9 @@ fn plan_chooses_postures_and_refuses_mistakes() {
     let d = dir.path();
     let out = run_ok(
         d,
-        &[
-            "plan",
-            "--robot",
-            "ge-a4",
-            "--sample",
-            "500",
-            "--seed",
-            "3",
-            "--count",
-            "12",
-            "--out",
-            "plan.csv",
-            "--html",
-            "plan.html",
-        ],
+        &argv(
+            "plan --robot ge-a4 --sample 500 --seed 3 --count 12 --out plan.csv --html plan.html",
+        ),
     );
     assert!(out.contains("chose 12 of 500 candidates"), "{out}");
     assert!(out.contains("rank 24 of 24"), "{out}");
@@ -2230,42 +1540,18 @@ fn plan_chooses_postures_and_refuses_mistakes() {
     // with the first 6 kept: the output is the chosen rows of the file.
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "60",
-            "--seed",
-            "4",
-            "--out",
-            "measured.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 60 --seed 4 --out measured.csv"),
     );
     run_ok(
         d,
-        &[
-            "plan", "--robot", "ge-a4", "--sample", "10", "--count", "6", "--out", "kept.csv",
-        ],
+        &argv("plan --robot ge-a4 --sample 10 --count 6 --out kept.csv"),
     );
     let json = run_ok(
         d,
-        &[
-            "plan",
-            "--robot",
-            "ge-a4",
-            "--candidates",
-            "measured.csv",
-            "--count",
-            "8",
-            "--keep",
-            "kept.csv",
-            "--criterion",
-            "i",
-            "--json",
-            "--out",
-            "chosen.csv",
-        ],
+        &argv(
+            "plan --robot ge-a4 --candidates measured.csv --count 8 --keep kept.csv --criterion i
+             --json --out chosen.csv",
+        ),
     );
     let v = common::check_document("plan", &json);
     assert_eq!(v["criterion"], "i");
@@ -2278,73 +1564,36 @@ fn plan_chooses_postures_and_refuses_mistakes() {
 
     let err = run_err(
         d,
-        &[
-            "plan", "--robot", "ge-a4", "--sample", "5", "--count", "6", "--out", "p.csv",
-        ],
+        &argv("plan --robot ge-a4 --sample 5 --count 6 --out p.csv"),
     );
     assert!(err.contains("the pool has 5 candidates"), "{err}");
     let err = run_err(
         d,
-        &[
-            "plan", "--robot", "ge-a4", "--sample", "5", "--count", "0", "--out", "p.csv",
-        ],
+        &argv("plan --robot ge-a4 --sample 5 --count 0 --out p.csv"),
     );
     assert!(err.contains("--count: must be at least 1"), "{err}");
     let err = run_err(
         d,
-        &[
-            "plan", "--robot", "ge-a4", "--sample", "50", "--count", "5", "--sites", "nope",
-            "--out", "p.csv",
-        ],
+        &argv("plan --robot ge-a4 --sample 50 --count 5 --sites nope --out p.csv"),
     );
     assert!(err.contains("unknown site `nope`"), "{err}");
     let err = run_err(
         d,
-        &[
-            "plan",
-            "--robot",
-            "ge-a4",
-            "--candidates",
-            "measured.csv",
-            "--count",
-            "5",
-            "--sites",
-            "ee",
-            "--out",
-            "p.csv",
-        ],
+        &argv("plan --robot ge-a4 --candidates measured.csv --count 5 --sites ee --out p.csv"),
     );
     assert!(err.contains("observation file"), "{err}");
     // Its poses may be read as positions (a tracker that measures positions only).
     let out = run_ok(
         d,
-        &[
-            "plan",
-            "--robot",
-            "ge-a4",
-            "--candidates",
-            "measured.csv",
-            "--count",
-            "10",
-            "--position-only",
-            "--out",
-            "positions.csv",
-        ],
+        &argv(
+            "plan --robot ge-a4 --candidates measured.csv --count 10 --position-only
+             --out positions.csv",
+        ),
     );
     assert!(out.contains("30 residual rows"), "{out}");
     let err = run_err(
         d,
-        &[
-            "plan",
-            "--robot",
-            "ge-a4",
-            "--candidates",
-            "measured.csv",
-            "--count",
-            "5",
-            "--out",
-            "measured.csv",
-        ],
+        &argv("plan --robot ge-a4 --candidates measured.csv --count 5 --out measured.csv"),
     );
     assert!(err.contains("over an input"), "{err}");
     assert!(!d.join("p.csv").exists(), "a refused run writes nothing");
@@ -2386,14 +1635,7 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
     std::fs::write(d.join("fleet/fleet.csv"), &csv).unwrap();
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "batch",
-            "fleet/fleet.csv",
-            "--summary",
-            "summary.csv",
-            "--jobs",
-            "2",
-        ])
+        .args(argv("batch fleet/fleet.csv --summary summary.csv --jobs 2"))
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(1), "some robots failed");
@@ -2436,14 +1678,7 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
     std::fs::write(d.join("fleet/fleet.toml"), toml).unwrap();
     let text = run_ok(
         d,
-        &[
-            "batch",
-            "fleet/fleet.toml",
-            "--record",
-            "--db",
-            "h.sqlite",
-            "--quiet",
-        ],
+        &argv("batch fleet/fleet.toml --record --db h.sqlite --quiet"),
     );
     assert_eq!(
         text.lines().filter(|l| l.ends_with("ok")).count(),
@@ -2511,21 +1746,10 @@ fn compensate_programs_and_targets() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "40",
-            "--seed",
-            "3",
-            "--perturb",
-            "p1=+0.05,p14=-0.02,joint2.offset=-0.5",
-            "--out",
-            "m.csv",
-            "--truth",
-            "true.toml",
-        ],
+        &argv(
+            "simulate --robot ge-a4 --postures 40 --seed 3
+             --perturb p1=+0.05,p14=-0.02,joint2.offset=-0.5 --out m.csv --truth true.toml",
+        ),
     );
     // The program: the readings of m.csv.
     let m = std::fs::read_to_string(d.join("m.csv")).unwrap();
@@ -2537,17 +1761,9 @@ fn compensate_programs_and_targets() {
     std::fs::write(d.join("program.csv"), &program).unwrap();
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "compensate",
-            "--robot",
-            "true.toml",
-            "--nominal",
-            "ge-a4",
-            "--in",
-            "program.csv",
-            "--out",
-            "comp.csv",
-        ])
+        .args(argv(
+            "compensate --robot true.toml --nominal ge-a4 --in program.csv --out comp.csv",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8(out.stderr).unwrap();
@@ -2565,27 +1781,11 @@ fn compensate_programs_and_targets() {
     std::fs::write(d.join("compensated.csv"), &readings).unwrap();
     run_ok(
         d,
-        &[
-            "fk",
-            "--robot",
-            "true.toml",
-            "--postures",
-            "compensated.csv",
-            "--out",
-            "reached.csv",
-        ],
+        &argv("fk --robot true.toml --postures compensated.csv --out reached.csv"),
     );
     run_ok(
         d,
-        &[
-            "fk",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "program.csv",
-            "--out",
-            "meant.csv",
-        ],
+        &argv("fk --robot ge-a4 --postures program.csv --out meant.csv"),
     );
     let nums = |p: &str| -> Vec<Vec<f64>> {
         std::fs::read_to_string(d.join(p))
@@ -2622,17 +1822,9 @@ fn compensate_programs_and_targets() {
     std::fs::write(d.join("targets.csv"), &targets).unwrap();
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "compensate",
-            "--robot",
-            "true.toml",
-            "--nominal",
-            "ge-a4",
-            "--in",
-            "targets.csv",
-            "--out",
-            "t.csv",
-        ])
+        .args(argv(
+            "compensate --robot true.toml --nominal ge-a4 --in targets.csv --out t.csv",
+        ))
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(3));
@@ -2648,17 +1840,7 @@ fn compensate_programs_and_targets() {
     std::fs::write(d.join("bad.csv"), "posture,v1,v2,v3,v4\n1,0,0,zero,0\n").unwrap();
     let err = run_err(
         d,
-        &[
-            "compensate",
-            "--robot",
-            "true.toml",
-            "--nominal",
-            "ge-a4",
-            "--in",
-            "bad.csv",
-            "--out",
-            "o.csv",
-        ],
+        &argv("compensate --robot true.toml --nominal ge-a4 --in bad.csv --out o.csv"),
     );
     assert!(
         err.contains("bad.csv:2: field `v3`: expected a number, found `zero`"),
@@ -2668,17 +1850,7 @@ fn compensate_programs_and_targets() {
     std::fs::write(d.join("odd.csv"), "id,a,b\n1,2,3\n").unwrap();
     let err = run_err(
         d,
-        &[
-            "compensate",
-            "--robot",
-            "true.toml",
-            "--nominal",
-            "ge-a4",
-            "--in",
-            "odd.csv",
-            "--out",
-            "o.csv",
-        ],
+        &argv("compensate --robot true.toml --nominal ge-a4 --in odd.csv --out o.csv"),
     );
     assert!(
         err.contains("expected a program (posture,v1,...,v4) or targets"),
@@ -2686,34 +1858,14 @@ fn compensate_programs_and_targets() {
     );
     let err = run_err(
         d,
-        &[
-            "compensate",
-            "--robot",
-            "true.toml",
-            "--nominal",
-            "ge-a4",
-            "--in",
-            "targets.csv",
-            "--out",
-            "o.csv",
-            "--site",
-            "tcp",
-        ],
+        &argv(
+            "compensate --robot true.toml --nominal ge-a4 --in targets.csv --out o.csv --site tcp",
+        ),
     );
     assert!(err.contains("--site: unknown site `tcp`"), "{err}");
     let err = run_err(
         d,
-        &[
-            "compensate",
-            "--robot",
-            "true.toml",
-            "--nominal",
-            "ge-a4",
-            "--in",
-            "targets.csv",
-            "--out",
-            "targets.csv",
-        ],
+        &argv("compensate --robot true.toml --nominal ge-a4 --in targets.csv --out targets.csv"),
     );
     assert!(err.contains("over an input"), "{err}");
 }
@@ -2736,21 +1888,10 @@ fn compensate_targets_for_a_controller() {
     // The "real" robot and postures inside its ranges; the targets are where it goes.
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "irb120.toml",
-            "--postures",
-            "300",
-            "--seed",
-            "4",
-            "--perturb-std",
-            "length=0.001,angle=0.005",
-            "--out",
-            "m.csv",
-            "--truth",
-            "true.toml",
-        ],
+        &argv(
+            "simulate --robot irb120.toml --postures 300 --seed 4
+             --perturb-std length=0.001,angle=0.005 --out m.csv --truth true.toml",
+        ),
     );
     let m = std::fs::read_to_string(d.join("m.csv")).unwrap();
     let mut targets = String::from("target,x,y,z\n");
@@ -2826,15 +1967,7 @@ fn compensate_targets_for_a_controller() {
         // Through the real robot, the compensated readings land on the targets.
         run_ok(
             d,
-            &[
-                "fk",
-                "--robot",
-                "true.toml",
-                "--postures",
-                "c.csv",
-                "--out",
-                "landed.csv",
-            ],
+            &argv("fk --robot true.toml --postures c.csv --out landed.csv"),
         );
         let (landed, meant) = (nums("landed.csv", 8, cols), nums(input, 1, cols));
         assert_eq!(landed.len(), 300);
@@ -2874,15 +2007,7 @@ fn compensate_targets_for_a_controller() {
     // And it is a measurement file: through the real robot, its readings land on its poses.
     let out = run_ok(
         d,
-        &[
-            "check",
-            "--robot",
-            "true.toml",
-            "--data",
-            "back.csv",
-            "--threshold",
-            "1e-9",
-        ],
+        &argv("check --robot true.toml --data back.csv --threshold 1e-9"),
     );
     assert!(out.contains("OK: the robot meets its accuracy"), "{out}");
 
@@ -3014,16 +2139,9 @@ fn ur_kinematics_round_trip_and_what_is_not_written() {
     run_ok(t, &["import", "ur", "cal.yaml", "--out", "ur3e.toml"]);
     let out = kinecal()
         .current_dir(t)
-        .args([
-            "export",
-            "ur",
-            "--robot",
-            "ur3e.toml",
-            "--template",
-            "cal.yaml",
-            "--out",
-            "back.yaml",
-        ])
+        .args(argv(
+            "export ur --robot ur3e.toml --template cal.yaml --out back.yaml",
+        ))
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -3062,16 +2180,7 @@ fn ur_kinematics_round_trip_and_what_is_not_written() {
     let changed = toml.replacen("slope = 1.0", "slope = 1.001", 1);
     assert_ne!(toml, changed, "the robot file has slopes");
     std::fs::write(t.join("sloped.toml"), changed).unwrap();
-    let args = [
-        "export",
-        "ur",
-        "--robot",
-        "sloped.toml",
-        "--template",
-        "cal.yaml",
-        "--out",
-        "s.yaml",
-    ];
+    let args = argv("export ur --robot sloped.toml --template cal.yaml --out s.yaml");
     let err = run_err(t, &args);
     assert!(
         err.contains("misses the robot by up to")
@@ -3135,16 +2244,9 @@ fn ur_export_leaves_the_tracker_out_and_prints_the_tcp() {
     .unwrap();
     let out = kinecal()
         .current_dir(t)
-        .args([
-            "export",
-            "ur",
-            "--robot",
-            "cal.toml",
-            "--template",
-            "ur10.yaml",
-            "--out",
-            "new.yaml",
-        ])
+        .args(argv(
+            "export ur --robot cal.toml --template ur10.yaml --out new.yaml",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -3194,17 +2296,7 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
     std::fs::copy(d.join("ur5_robot.urdf"), t.join("ur5.urdf")).unwrap();
     run_ok(
         t,
-        &[
-            "import",
-            "urdf",
-            "ur5.urdf",
-            "--base",
-            "base_link",
-            "--tip",
-            "tool0",
-            "--out",
-            "ur5.toml",
-        ],
+        &argv("import urdf ur5.urdf --base base_link --tip tool0 --out ur5.toml"),
     );
     std::fs::write(
         t.join("p.csv"),
@@ -3215,16 +2307,9 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
     for convention in ["standard", "modified"] {
         let out = kinecal()
             .current_dir(t)
-            .args([
-                "export",
-                "dh",
-                "--robot",
-                "ur5.toml",
-                "--convention",
-                convention,
-                "--out",
-                "ur5.csv",
-            ])
+            .args(argv(&format!(
+                "export dh --robot ur5.toml --convention {convention} --out ur5.csv"
+            )))
             .output()
             .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
@@ -3243,18 +2328,7 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
                 assert!((u - v).abs() < 1e-9, "{convention}:\n{x}\n{y}");
             }
         }
-        let err = run_err(
-            t,
-            &[
-                "import",
-                "dh",
-                "ur5.csv",
-                "--angle-unit",
-                "deg",
-                "--out",
-                "x.toml",
-            ],
-        );
+        let err = run_err(t, &argv("import dh ur5.csv --angle-unit deg --out x.toml"));
         assert!(
             err.contains("--angle-unit: ur5.csv:3 states `angle_unit = rad`, not deg"),
             "{err}"
@@ -3267,15 +2341,7 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
     .unwrap();
     let err = run_err(
         t,
-        &[
-            "import",
-            "dh",
-            "old.csv",
-            "--convention",
-            "standard",
-            "--out",
-            "x.toml",
-        ],
+        &argv("import dh old.csv --convention standard --out x.toml"),
     );
     assert!(
         err.contains("--length-unit: old.csv does not state its length unit"),
@@ -3285,16 +2351,7 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
     // The GE A4: readings are voltages, a DH table's joint variables are joint values.
     let err = run_err(
         t,
-        &[
-            "export",
-            "dh",
-            "--robot",
-            "ge-a4",
-            "--convention",
-            "standard",
-            "--out",
-            "ge.csv",
-        ],
+        &argv("export dh --robot ge-a4 --convention standard --out ge.csv"),
     );
     assert!(
         err.contains("it cannot hold joint 1 slope 7.2 deg/unit")
@@ -3304,18 +2361,10 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
     assert!(!t.join("ge.csv").exists());
     let out = kinecal()
         .current_dir(t)
-        .args([
-            "export",
-            "dh",
-            "--robot",
-            "ge-a4",
-            "--convention",
-            "standard",
-            "--tolerance",
-            "length=100,angle=360",
-            "--out",
-            "ge.csv",
-        ])
+        .args(argv(
+            "export dh --robot ge-a4 --convention standard --tolerance length=100,angle=360
+             --out ge.csv",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -3347,32 +2396,17 @@ fn urdf_export_of_a_template_with_a_bom_and_no_origins() {
     run_ok(d, &["import", "urdf", "arm.urdf", "--out", "arm.toml"]);
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "arm.toml",
-            "--postures",
-            "5",
-            "--perturb",
-            "link1.x=+0.002,link2.y=+0.001,link3.z=+0.003,joint2.offset=+0.01",
-            "--out",
-            "d.csv",
-            "--truth",
-            "t.toml",
-        ],
+        &argv(
+            "simulate --robot arm.toml --postures 5
+             --perturb link1.x=+0.002,link2.y=+0.001,link3.z=+0.003,joint2.offset=+0.01
+             --out d.csv --truth t.toml",
+        ),
     );
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "export",
-            "urdf",
-            "--robot",
-            "t.toml",
-            "--template",
-            "arm.urdf",
-            "--out",
-            "t.urdf",
-        ])
+        .args(argv(
+            "export urdf --robot t.toml --template arm.urdf --out t.urdf",
+        ))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -3468,16 +2502,9 @@ fn tracker_series_from_moved_placements() {
     // Unstated units: named before the solve; --strict stops there.
     let out = kinecal()
         .current_dir(d)
-        .args([
-            "calibrate",
-            "--robot",
-            "r.toml",
-            "--data",
-            "A.csv",
-            "--columns",
-            cols,
-            "--strict",
-        ])
+        .args(argv(&format!(
+            "calibrate --robot r.toml --data A.csv --columns {cols} --strict"
+        )))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
@@ -3491,29 +2518,11 @@ fn tracker_series_from_moved_placements() {
     // third series is validated after its placement is re-estimated on it.
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "r.toml",
-            "--data",
-            "A.csv",
-            "--data",
-            "B.csv",
-            "--validate",
-            "C.csv",
-            "--columns",
-            cols,
-            "--length-unit",
-            "mm",
-            "--position-only",
-            "--session-per-file",
-            "--estimate",
-            "identifiable",
-            "--report",
-            "rep.json",
-            "--out",
-            "cal.toml",
-        ],
+        &argv(&format!(
+            "calibrate --robot r.toml --data A.csv --data B.csv --validate C.csv --columns {cols}
+             --length-unit mm --position-only --session-per-file --estimate identifiable
+             --report rep.json --out cal.toml"
+        )),
     );
     assert!(out.contains("converged after"), "{out}");
     assert!(
@@ -3594,27 +2603,11 @@ fn reports_are_checked_against_the_shipped_schema() {
     let d = dir.path();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "20",
-            "--out",
-            "data.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 20 --out data.csv"),
     );
     run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--report",
-            "r.json",
-        ],
+        &argv("calibrate --robot ge-a4 --data data.csv --report r.json"),
     );
     assert_eq!(common::check_reports(d), 1);
     let good: serde_json::Value =
@@ -3641,17 +2634,7 @@ fn inputs_read_from_standard_input() {
     let t = dir.path();
     run_ok(
         t,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "8",
-            "--perturb",
-            "p3=+0.1",
-            "--out",
-            "data.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 8 --perturb p3=+0.1 --out data.csv"),
     );
     let data = std::fs::read_to_string(t.join("data.csv")).unwrap();
     // A postures file with a comment and a blank line before its header.
@@ -3685,15 +2668,9 @@ fn inputs_read_from_standard_input() {
         assert_eq!(String::from_utf8(out.stdout).unwrap(), from_file, "{input}");
         let out = kinecal()
             .current_dir(t)
-            .args([
-                "calibrate",
-                "--robot",
-                "ge-a4",
-                "--data",
-                input,
-                "--estimate",
-                "p3",
-            ])
+            .args(argv(&format!(
+                "calibrate --robot ge-a4 --data {input} --estimate p3"
+            )))
             .write_stdin(data.clone())
             .output()
             .unwrap();
@@ -3853,39 +2830,18 @@ fn an_elastic_calibration_recovers_stiffness_and_exports_its_table() {
     std::fs::write(d.join("arm.toml"), ELASTIC_ARM).unwrap();
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "arm.toml",
-            "--postures",
-            "40",
-            "--seed",
-            "2",
-            "--perturb",
-            "joint2.compliance=+4e-5,joint3.compliance=+1e-4",
-            "--noise",
-            "length=0.000005,angle=0.000005",
-            "--out",
-            "data.csv",
-        ],
+        &argv(
+            "simulate --robot arm.toml --postures 40 --seed 2
+             --perturb joint2.compliance=+4e-5,joint3.compliance=+1e-4
+             --noise length=0.000005,angle=0.000005 --out data.csv",
+        ),
     );
     let out = run_ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "arm.toml",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "offsets,compliance",
-            "--weights",
-            "length=0.000005,angle=0.000005",
-            "--report",
-            "r.json",
-            "--html",
-            "r.html",
-        ],
+        &argv(
+            "calibrate --robot arm.toml --data data.csv --estimate offsets,compliance
+             --weights length=0.000005,angle=0.000005 --report r.json --html r.html",
+        ),
     );
     assert!(out.contains("stiffness"), "{out}");
     let html = std::fs::read_to_string(d.join("r.html")).unwrap();
@@ -3893,17 +2849,7 @@ fn an_elastic_calibration_recovers_stiffness_and_exports_its_table() {
         html.contains("<h2 id=\"mass-model\">Mass model</h2>") && html.contains("N m/deg"),
         "the HTML report shows the stiffnesses (in degrees, as every angle of the page)"
     );
-    run_ok(
-        d,
-        &[
-            "export",
-            "stiffness",
-            "--report",
-            "r.json",
-            "--out",
-            "k.csv",
-        ],
-    );
+    run_ok(d, &argv("export stiffness --report r.json --out k.csv"));
     // Read back with the csv crate, as another program would.
     let mut rows = csv::Reader::from_path(d.join("k.csv")).unwrap();
     let header: Vec<String> = rows.headers().unwrap().iter().map(String::from).collect();
@@ -3935,41 +2881,12 @@ fn an_elastic_calibration_recovers_stiffness_and_exports_its_table() {
     // Joint 1 is vertical: gravity never loads it, and `compliance` leaves it out.
     assert_eq!(seen, 2);
     // A rigid robot's report has no compliances to export.
+    run_ok(d, &argv("simulate --robot ge-a4 --postures 10 --out g.csv"));
     run_ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "10",
-            "--out",
-            "g.csv",
-        ],
+        &argv("calibrate --robot ge-a4 --data g.csv --report g.json"),
     );
-    run_ok(
-        d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "g.csv",
-            "--report",
-            "g.json",
-        ],
-    );
-    let err = run_err(
-        d,
-        &[
-            "export",
-            "stiffness",
-            "--report",
-            "g.json",
-            "--out",
-            "x.csv",
-        ],
-    );
+    let err = run_err(d, &argv("export stiffness --report g.json --out x.csv"));
     assert!(err.contains("has no mass model"), "{err}");
     assert!(!d.join("x.csv").exists());
 }
@@ -4004,23 +2921,10 @@ fn a_stiffness_that_drifts_is_flagged_by_the_history() {
         );
         run_ok(
             d,
-            &[
-                "calibrate",
-                "--robot",
-                "arm.toml",
-                "--data",
-                data,
-                "--estimate",
-                "offsets,compliance",
-                "--weights",
-                "length=0.000005,angle=0.000005",
-                "--record",
-                "ARM-7",
-                "--db",
-                "h.db",
-                "--at",
-                at,
-            ],
+            &argv(&format!(
+                "calibrate --robot arm.toml --data {data} --estimate offsets,compliance
+                 --weights length=0.000005,angle=0.000005 --record ARM-7 --db h.db --at {at}"
+            )),
         );
     }
     let out = kinecal()
@@ -4060,17 +2964,7 @@ fn compensation_and_fk_carry_each_rows_payload() {
     .unwrap();
     run_ok(
         d,
-        &[
-            "compensate",
-            "--robot",
-            "cal.toml",
-            "--nominal",
-            "nominal.toml",
-            "--in",
-            "targets.csv",
-            "--out",
-            "out.csv",
-        ],
+        &argv("compensate --robot cal.toml --nominal nominal.toml --in targets.csv --out out.csv"),
     );
     let text = std::fs::read_to_string(d.join("out.csv")).unwrap();
     let mut lines = text.lines();
@@ -4096,15 +2990,7 @@ fn compensation_and_fk_carry_each_rows_payload() {
     // ... and fk, reading the same file with its payloads, puts both on the target.
     run_ok(
         d,
-        &[
-            "fk",
-            "--robot",
-            "cal.toml",
-            "--postures",
-            "out.csv",
-            "--out",
-            "poses.csv",
-        ],
+        &argv("fk --robot cal.toml --postures out.csv --out poses.csv"),
     );
     let poses = std::fs::read_to_string(d.join("poses.csv")).unwrap();
     let mut rows = csv::Reader::from_reader(poses.as_bytes());
@@ -4127,17 +3013,7 @@ fn compensation_and_fk_carry_each_rows_payload() {
     .unwrap();
     let err = run_err(
         d,
-        &[
-            "compensate",
-            "--robot",
-            "cal.toml",
-            "--nominal",
-            "nominal.toml",
-            "--in",
-            "bad.csv",
-            "--out",
-            "bad_out.csv",
-        ],
+        &argv("compensate --robot cal.toml --nominal nominal.toml --in bad.csv --out bad_out.csv"),
     );
     assert!(
         err.contains("bad.csv:2") && err.contains("payload_mass"),

@@ -5,26 +5,12 @@
 
 use std::path::Path;
 
-use assert_cmd::Command;
+mod common;
 
-fn kinecal(dir: &Path, args: &[&str]) -> (i32, String, String) {
-    let out = Command::cargo_bin("kinecal")
-        .unwrap()
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap();
-    let err = String::from_utf8(out.stderr).unwrap();
-    assert!(!err.contains("panicked"), "{args:?}: {err}");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8(out.stdout).unwrap(),
-        err,
-    )
-}
+use common::{argv, run};
 
 fn ok(dir: &Path, args: &[&str]) -> String {
-    let (code, out, err) = kinecal(dir, args);
+    let (code, out, err) = run(dir, args);
     assert!(code == 0 || code == 4, "{args:?} exited {code}: {err}");
     out
 }
@@ -89,41 +75,18 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
     // The data every job works on: the README's GE A4 session.
     ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "30",
-            "--seed",
-            "7",
-            "--perturb",
-            "p1=+0.05,p14=-0.02,joint2.offset=-0.5,joint4.slope=+0.02",
-            "--noise",
-            "length=0.0005,angle=0.005",
-            "--out",
-            "data.csv",
-            "--truth",
-            "truth.toml",
-        ],
+        &argv(
+            "simulate --robot ge-a4 --postures 30 --seed 7
+             --perturb p1=+0.05,p14=-0.02,joint2.offset=-0.5,joint4.slope=+0.02
+             --noise length=0.0005,angle=0.005 --out data.csv --truth truth.toml",
+        ),
     );
     ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "p1,p2,p8,p14,offsets,slopes",
-            "--predict",
-            "--out",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "-q",
-        ],
+        &argv(
+            "calibrate --robot ge-a4 --data data.csv --estimate p1,p2,p8,p14,offsets,slopes
+             --predict --out cal.toml --report report.json -q",
+        ),
     );
     std::fs::copy(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/robots/abb_irb120.toml"),
@@ -132,200 +95,88 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
     .unwrap();
     ok(
         d,
-        &[
-            "iso9283",
-            "plan",
-            "--robot",
-            "irb.toml",
-            "--attitude",
-            "3.141592653589793,0,0",
-            "--resolution",
-            "4",
-            "--out",
-            "poses.csv",
-        ],
+        &argv(
+            "iso9283 plan --robot irb.toml --attitude 3.141592653589793,0,0 --resolution 4
+             --out poses.csv",
+        ),
     );
     let cases = [
         case(
             "simulate",
-            &[
-                "simulate",
-                "--robot",
-                "ge-a4",
-                "--postures",
-                "12",
-                "--seed",
-                "3",
-                "--perturb",
-                "p1=+0.05",
-                "--noise",
-                "length=0.001",
-                "--out",
-                "a_data.csv",
-                "--truth",
-                "a_truth.toml",
-            ],
+            &argv(
+                "simulate --robot ge-a4 --postures 12 --seed 3 --perturb p1=+0.05
+                 --noise length=0.001 --out a_data.csv --truth a_truth.toml",
+            ),
             false,
             &["a_data.csv", "a_truth.toml"],
         ),
         case(
             "calibrate",
-            &[
-                "calibrate",
-                "--robot",
-                "ge-a4",
-                "--data",
-                "data.csv",
-                "--estimate",
-                "identifiable",
-                "--huber-spread",
-                "stated",
-                "--loss",
-                "huber",
-                "--folds",
-                "3",
-                "--out",
-                "a_cal.toml",
-                "--report",
-                "a_report.json",
-                "-q",
-            ],
+            &argv(
+                "calibrate --robot ge-a4 --data data.csv --estimate identifiable
+                 --huber-spread stated --loss huber --folds 3 --out a_cal.toml
+                 --report a_report.json -q",
+            ),
             false,
             &["a_cal.toml", "a_report.json"],
         ),
         case(
             "analyze",
-            &[
-                "analyze",
-                "--robot",
-                "ge-a4",
-                "--data",
-                "data.csv",
-                "--estimate",
-                "all",
-                "--rcond",
-                "1e-8",
-                "--json",
-            ],
+            &argv("analyze --robot ge-a4 --data data.csv --estimate all --rcond 1e-8 --json"),
             true,
             &[],
         ),
         case(
             "plan",
-            &[
-                "plan",
-                "--robot",
-                "ge-a4",
-                "--sample",
-                "150",
-                "--seed",
-                "3",
-                "--count",
-                "6",
-                "--criterion",
-                "i",
-                "--out",
-                "a_plan.csv",
-                "--json",
-            ],
+            &argv(
+                "plan --robot ge-a4 --sample 150 --seed 3 --count 6 --criterion i --out a_plan.csv
+                 --json",
+            ),
             true,
             &["a_plan.csv"],
         ),
         case(
             "predict",
-            &[
-                "predict",
-                "--robot",
-                "cal.toml",
-                "--report",
-                "report.json",
-                "--sample",
-                "40",
-                "--seed",
-                "2",
-                "--out",
-                "a_predicted.csv",
-            ],
+            &argv(
+                "predict --robot cal.toml --report report.json --sample 40 --seed 2
+                 --out a_predicted.csv",
+            ),
             false,
             &["a_predicted.csv"],
         ),
         case(
             "compensate",
-            &[
-                "compensate",
-                "--robot",
-                "cal.toml",
-                "--nominal",
-                "ge-a4",
-                "--in",
-                "data.csv",
-                "--position-only",
-                "--tolerance",
-                "length=1e-6",
-                "--out",
-                "a_compensated.csv",
-            ],
+            &argv(
+                "compensate --robot cal.toml --nominal ge-a4 --in data.csv --position-only
+                 --tolerance length=1e-6 --out a_compensated.csv",
+            ),
             false,
             &["a_compensated.csv"],
         ),
         case(
             "check",
-            &[
-                "check",
-                "--robot",
-                "cal.toml",
-                "--data",
-                "data.csv",
-                "--threshold",
-                "0.01,0.05",
-                "--json",
-            ],
+            &argv("check --robot cal.toml --data data.csv --threshold 0.01,0.05 --json"),
             true,
             &[],
         ),
         case(
             "fk",
-            &[
-                "fk",
-                "--robot",
-                "truth.toml",
-                "--postures",
-                "data.csv",
-                "--out",
-                "a_poses.csv",
-            ],
+            &argv("fk --robot truth.toml --postures data.csv --out a_poses.csv"),
             false,
             &["a_poses.csv"],
         ),
         case(
             "export",
-            &[
-                "export",
-                "dh",
-                "--robot",
-                "irb.toml",
-                "--convention",
-                "modified",
-                "--out",
-                "a_dh.csv",
-            ],
+            &argv("export dh --robot irb.toml --convention modified --out a_dh.csv"),
             false,
             &["a_dh.csv"],
         ),
         case(
             "export-joints",
-            &[
-                "export",
-                "joints",
-                "--robot",
-                "cal.toml",
-                "--nominal",
-                "ge-a4",
-                "--tolerance",
-                "length=1,angle=1",
-                "--out",
-                "a_joints.csv",
-            ],
+            &argv(
+                "export joints --robot cal.toml --nominal ge-a4 --tolerance length=1,angle=1
+                 --out a_joints.csv",
+            ),
             false,
             &["a_joints.csv"],
         ),
@@ -351,73 +202,34 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
         ),
         case(
             "curves",
-            &[
-                "curves",
-                "pose",
-                "--robot",
-                "ge-a4",
-                "--readings",
-                "12.5,-16.25,1,10",
-                "--param",
-                "p4",
-                "--span",
-                "360",
-                "--points",
-                "21",
-                "--out",
-                "a_p4.csv",
-            ],
+            &argv(
+                "curves pose --robot ge-a4 --readings 12.5,-16.25,1,10 --param p4 --span 360
+                 --points 21 --out a_p4.csv",
+            ),
             false,
             &["a_p4.csv"],
         ),
         case(
             "curves-objective",
-            &[
-                "curves",
-                "objective",
-                "--robot",
-                "ge-a4",
-                "--data",
-                "data.csv",
-                "--param",
-                "p1",
-                "--points",
-                "11",
-                "--out",
-                "a_objective.csv",
-            ],
+            &argv(
+                "curves objective --robot ge-a4 --data data.csv --param p1 --points 11
+                 --out a_objective.csv",
+            ),
             false,
             &["a_objective.csv"],
         ),
         case(
             "iso9283-simulate",
-            &[
-                "iso9283",
-                "simulate",
-                "--robot",
-                "irb.toml",
-                "--poses",
-                "poses.csv",
-                "--cycles",
-                "3",
-                "--noise",
-                "length=0.001",
-                "--out",
-                "a_log.csv",
-            ],
+            &argv(
+                "iso9283 simulate --robot irb.toml --poses poses.csv --cycles 3
+                 --noise length=0.001 --out a_log.csv",
+            ),
             false,
             &["a_log.csv"],
         ),
         case(
             "iso9283-evaluate",
-            &[
-                "iso9283",
-                "evaluate",
-                "--data",
-                "log.csv",
-                "--json",
-                "a_iso.json",
-            ],
+            &argv("iso9283 evaluate --data log.csv --json a_iso.json"),
             false,
             &["a_iso.json"],
         ),
@@ -426,33 +238,14 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
     std::fs::create_dir(d.join("sub")).unwrap();
     ok(
         d,
-        &[
-            "export",
-            "dh",
-            "--robot",
-            "irb.toml",
-            "--convention",
-            "standard",
-            "--out",
-            "dh.csv",
-        ],
+        &argv("export dh --robot irb.toml --convention standard --out dh.csv"),
     );
     ok(
         d,
-        &[
-            "iso9283",
-            "simulate",
-            "--robot",
-            "irb.toml",
-            "--poses",
-            "poses.csv",
-            "--cycles",
-            "3",
-            "--noise",
-            "length=0.01",
-            "--out",
-            "log.csv",
-        ],
+        &argv(
+            "iso9283 simulate --robot irb.toml --poses poses.csv --cycles 3 --noise length=0.01
+             --out log.csv",
+        ),
     );
     let mut manifest = String::new();
     for c in &cases {
@@ -499,7 +292,7 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
             manifest += &as_job(&c_spec, c.name);
         } else {
             std::fs::write(here.join("jobs.toml"), as_job(&c_spec, c.name)).unwrap();
-            let (code, _, err) = kinecal(&here, &["batch", "jobs.toml", "--quiet"]);
+            let (code, _, err) = run(&here, &["batch", "jobs.toml", "--quiet"]);
             assert_eq!(code, 0, "{err}");
         }
         if c.json {
@@ -507,17 +300,9 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
         }
     }
     std::fs::write(d.join("jobs.toml"), &manifest).unwrap();
-    let (code, table, err) = kinecal(
+    let (code, table, err) = run(
         d,
-        &[
-            "batch",
-            "jobs.toml",
-            "--documents",
-            "docs",
-            "--quiet",
-            "--jobs",
-            "2",
-        ],
+        &argv("batch jobs.toml --documents docs --quiet --jobs 2"),
     );
     assert_eq!(code, 0, "{table}\n{err}");
     assert!(err.contains("jobs: 15 done, 0 failed"), "{err}");
@@ -559,35 +344,23 @@ fn specs_are_written_checked_and_refused_as_inputs() {
     let d = dir.path();
     let out = ok(
         d,
-        &[
-            "plan",
-            "--robot",
-            "ge-a4",
-            "--sample",
-            "50",
-            "--count",
-            "5",
-            "--out",
-            "p.csv",
-            "--write-spec",
-            "-",
-        ],
+        &argv("plan --robot ge-a4 --sample 50 --count 5 --out p.csv --write-spec -"),
     );
     assert!(out.starts_with("job = \"plan\"\n"), "{out}");
     assert!(out.contains("count = 5"), "{out}");
     assert!(!d.join("p.csv").exists(), "nothing run");
     std::fs::write(d.join("plan.toml"), &out).unwrap();
-    let (code, _, err) = kinecal(d, &["analyze", "--spec", "plan.toml"]);
+    let (code, _, err) = run(d, &["analyze", "--spec", "plan.toml"]);
     assert_eq!(code, 1);
     assert!(
         err.contains("a spec of the job `plan`, not of `analyze`"),
         "{err}"
     );
     // The spec over its own output, or over the spec it was read from.
-    let (code, _, err) = kinecal(d, &["plan", "--spec", "plan.toml", "--write-spec", "p.csv"]);
+    let (code, _, err) = run(d, &["plan", "--spec", "plan.toml", "--write-spec", "p.csv"]);
     assert_eq!(code, 1);
     assert!(err.contains("p.csv"), "{err}");
-    let (code, _, err) = kinecal(d, &["plan", "--spec", "plan.toml", "--out", "plan.toml"]);
+    let (code, _, err) = run(d, &["plan", "--spec", "plan.toml", "--out", "plan.toml"]);
     assert_eq!(code, 1);
     assert!(
         err.contains("refusing to write an output over an input"),
@@ -606,45 +379,19 @@ fn a_bad_value_names_the_flag_or_the_key() {
     let d = dir.path();
     ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "10",
-            "--out",
-            "data.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 10 --out data.csv"),
     );
     for (args, expected) in [
         (
-            &[
-                "calibrate",
-                "--robot",
-                "ge-a4",
-                "--data",
-                "data.csv",
-                "--huber-scale",
-                "-1",
-            ][..],
+            &argv("calibrate --robot ge-a4 --data data.csv --huber-scale -1")[..],
             "--huber-scale",
         ),
         (
-            &[
-                "calibrate",
-                "--robot",
-                "ge-a4",
-                "--data",
-                "data.csv",
-                "--holdout",
-                "-0.5",
-            ][..],
+            &argv("calibrate --robot ge-a4 --data data.csv --holdout -0.5")[..],
             "--holdout",
         ),
         (
-            &[
-                "analyze", "--robot", "ge-a4", "--data", "data.csv", "--rcond", "-1",
-            ][..],
+            &argv("analyze --robot ge-a4 --data data.csv --rcond -1")[..],
             "--rcond: expected a tolerance between 0 and 1, not -1",
         ),
         (
@@ -652,42 +399,22 @@ fn a_bad_value_names_the_flag_or_the_key() {
             "invalid value '-3' for '--sample <N>'",
         ),
         (
-            &[
-                "compensate",
-                "--robot",
-                "ge-a4",
-                "--nominal",
-                "ge-a4",
-                "--in",
-                "data.csv",
-                "--singular",
-                "-0.1",
-                "--out",
-                "c.csv",
-            ][..],
+            &argv(
+                "compensate --robot ge-a4 --nominal ge-a4 --in data.csv --singular -0.1
+                 --out c.csv",
+            )[..],
             "--singular: expected a fraction from 0 to below 1, not -0.1",
         ),
         (
-            &[
-                "check",
-                "--robot",
-                "ge-a4",
-                "--data",
-                "data.csv",
-                "--threshold",
-                "-1",
-            ][..],
+            &argv("check --robot ge-a4 --data data.csv --threshold -1")[..],
             "--threshold: the length must be positive and finite, not -1",
         ),
         (
-            &[
-                "iso9283", "simulate", "--robot", "ge-a4", "--poses", "data.csv", "--cycles", "0",
-                "--out", "l.csv",
-            ][..],
+            &argv("iso9283 simulate --robot ge-a4 --poses data.csv --cycles 0 --out l.csv")[..],
             "data.csv",
         ),
     ] {
-        let (code, _, err) = kinecal(d, args);
+        let (code, _, err) = run(d, args);
         assert_ne!(code, 0, "{args:?}");
         assert!(err.contains(expected), "{args:?}: {err}");
         assert!(!err.contains("unexpected argument"), "{args:?}: {err}");
@@ -699,7 +426,7 @@ fn a_bad_value_names_the_flag_or_the_key() {
          [residuals]\norientation_error = \"quaternion\"\n",
     )
     .unwrap();
-    let (code, _, err) = kinecal(d, &["analyze", "--spec", "a.toml"]);
+    let (code, _, err) = run(d, &["analyze", "--spec", "a.toml"]);
     assert_eq!(code, 1);
     assert!(
         err.contains("a.toml:6") && err.contains("quaternion"),
@@ -710,13 +437,13 @@ fn a_bad_value_names_the_flag_or_the_key() {
         "job = \"analyze\"\nrobot = \"ge-a4\"\nrcond = 2.0\n[[observations]]\nfile = \"data.csv\"\n",
     )
     .unwrap();
-    let (_, _, err) = kinecal(d, &["analyze", "--spec", "r.toml"]);
+    let (_, _, err) = run(d, &["analyze", "--spec", "r.toml"]);
     assert!(
         err.contains("r.toml: rcond: expected a tolerance between 0 and 1, not 2"),
         "{err}"
     );
     // Given on the command line over the spec, the flag is named.
-    let (_, _, err) = kinecal(d, &["analyze", "--spec", "r.toml", "--rcond", "3"]);
+    let (_, _, err) = run(d, &["analyze", "--spec", "r.toml", "--rcond", "3"]);
     assert!(
         err.contains("--rcond: expected a tolerance between 0 and 1, not 3"),
         "{err}"
@@ -735,30 +462,11 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
     std::fs::copy(examples.join("tolerances.toml"), d.join("tol.toml")).unwrap();
     ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "20",
-            "--seed",
-            "3",
-            "--out",
-            "data.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 20 --seed 3 --out data.csv"),
     );
     ok(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--report",
-            "report.json",
-            "-q",
-        ],
+        &argv("calibrate --robot ge-a4 --data data.csv --report report.json -q"),
     );
     let cases = [
         case(
@@ -769,47 +477,22 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         ),
         case(
             "history-event",
-            &[
-                "history",
-                "event",
-                "A4-0104",
-                "--at",
-                "2026-12-10",
-                "--note",
-                "cable",
-                "--db",
-                "a_h.sqlite",
-            ],
+            &argv("history event A4-0104 --at 2026-12-10 --note cable --db a_h.sqlite"),
             false,
             &[],
         ),
         case(
             "history-add",
-            &[
-                "history",
-                "add",
-                "--robot-id",
-                "A4-0105",
-                "--report",
-                "report.json",
-                "--at",
-                "2026-12-12",
-                "--db",
-                "a_h.sqlite",
-            ],
+            &argv(
+                "history add --robot-id A4-0105 --report report.json --at 2026-12-12
+                 --db a_h.sqlite",
+            ),
             false,
             &[],
         ),
         case(
             "history-list",
-            &[
-                "history",
-                "list",
-                "--robot-id",
-                "A4-0101",
-                "--db",
-                "a_h.sqlite",
-            ],
+            &argv("history list --robot-id A4-0101 --db a_h.sqlite"),
             true,
             &[],
         ),
@@ -821,18 +504,9 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         ),
         case(
             "history-drift",
-            &[
-                "history",
-                "drift",
-                "--robot-id",
-                "A4-0101",
-                "--tolerance",
-                "tol.toml",
-                "--sigma",
-                "2.5",
-                "--db",
-                "a_h.sqlite",
-            ],
+            &argv(
+                "history drift --robot-id A4-0101 --tolerance tol.toml --sigma 2.5 --db a_h.sqlite",
+            ),
             true,
             &[],
         ),
@@ -844,16 +518,7 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         ),
         case(
             "history-export",
-            &[
-                "history",
-                "export",
-                "--format",
-                "csv",
-                "--out",
-                "a_export.csv",
-                "--db",
-                "a_h.sqlite",
-            ],
+            &argv("history export --format csv --out a_export.csv --db a_h.sqlite"),
             false,
             &["a_export.csv"],
         ),
@@ -876,20 +541,10 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         ),
         case(
             "history-fleet",
-            &[
-                "history",
-                "fleet",
-                "--now",
-                "2026-12-15",
-                "--tolerance",
-                "tol.toml",
-                "--json",
-                "a_fleet.json",
-                "--html",
-                "a_fleet.html",
-                "--db",
-                "a_h.sqlite",
-            ],
+            &argv(
+                "history fleet --now 2026-12-15 --tolerance tol.toml --json a_fleet.json
+                 --html a_fleet.html --db a_h.sqlite",
+            ),
             false,
             &["a_fleet.json", "a_fleet.html"],
         ),
@@ -910,7 +565,7 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         if c.json {
             args.push("--json");
         }
-        let (code, by_flags, err) = kinecal(d, &args);
+        let (code, by_flags, err) = run(d, &args);
         assert!(code == 0 || code == 3, "{args:?} exited {code}: {err}");
         let text = std::fs::read_to_string(d.join(&spec)).unwrap();
         assert!(text.starts_with(&format!("job = \"{}\"", c.name)), "{text}");
@@ -920,7 +575,7 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         if c.json {
             args.push("--json");
         }
-        let (code_b, by_spec, err) = kinecal(d, &args);
+        let (code_b, by_spec, err) = run(d, &args);
         assert_eq!(code, code_b, "{}: {err}", c.name);
         if c.json {
             assert_eq!(same(&by_flags), same(&by_spec), "{}: --spec", c.name);
@@ -934,17 +589,9 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         manifest += &as_job(&text.replace("a_", "c_"), c.name);
     }
     std::fs::write(d.join("jobs.toml"), &manifest).unwrap();
-    let (code, table, err) = kinecal(
+    let (code, table, err) = run(
         d,
-        &[
-            "batch",
-            "jobs.toml",
-            "--documents",
-            "docs",
-            "--quiet",
-            "--jobs",
-            "1",
-        ],
+        &argv("batch jobs.toml --documents docs --quiet --jobs 1"),
     );
     // A robot drifted: its drift and the fleet are flagged, and the exit code says so.
     assert!(code == 0 || code == 3, "{table}\n{err}");
@@ -985,16 +632,7 @@ fn a_bad_history_value_names_the_flag_or_the_key() {
     let d = dir.path();
     for (args, expected) in [
         (
-            &[
-                "history",
-                "drift",
-                "--robot-id",
-                "A",
-                "--sigma",
-                "-1",
-                "--db",
-                "h.sqlite",
-            ][..],
+            &argv("history drift --robot-id A --sigma -1 --db h.sqlite")[..],
             "--sigma: -1: expected a positive, finite number of standard deviations",
         ),
         (
@@ -1002,47 +640,19 @@ fn a_bad_history_value_names_the_flag_or_the_key() {
             "--horizon: -3: expected a number of days, 0 or more",
         ),
         (
-            &[
-                "history",
-                "drift",
-                "--robot-id",
-                "A",
-                "--baseline",
-                "last",
-                "--db",
-                "h.sqlite",
-            ][..],
+            &argv("history drift --robot-id A --baseline last --db h.sqlite")[..],
             "--baseline: `last`: expected first, latest-ok or a calibration id",
         ),
         (
-            &[
-                "history",
-                "event",
-                "A",
-                "--note",
-                "x",
-                "--at",
-                "yesterday",
-                "--db",
-                "h.sqlite",
-            ][..],
+            &argv("history event A --note x --at yesterday --db h.sqlite")[..],
             "--at: ",
         ),
         (
-            &[
-                "history",
-                "plot",
-                "--robot-id",
-                "A",
-                "--out",
-                "p.jpg",
-                "--db",
-                "h.sqlite",
-            ][..],
+            &argv("history plot --robot-id A --out p.jpg --db h.sqlite")[..],
             "--out: `p.jpg`: the name must end in .svg or .png",
         ),
     ] {
-        let (code, _, err) = kinecal(d, args);
+        let (code, _, err) = run(d, args);
         assert_ne!(code, 0, "{args:?}");
         assert!(err.contains(expected), "{args:?}: {err}");
     }
@@ -1053,14 +663,14 @@ fn a_bad_history_value_names_the_flag_or_the_key() {
         "job = \"history-drift\"\ndb = \"h.sqlite\"\nrobot_id = \"A\"\nsigma = -1\n",
     )
     .unwrap();
-    let (code, _, err) = kinecal(d, &["history", "drift", "--spec", "drift.toml"]);
+    let (code, _, err) = run(d, &["history", "drift", "--spec", "drift.toml"]);
     assert_ne!(code, 0);
     assert!(
         err.contains("drift.toml: sigma: -1: expected a positive"),
         "{err}"
     );
     // A spec of another job is refused naming both.
-    let (code, _, err) = kinecal(d, &["history", "fleet", "--spec", "drift.toml"]);
+    let (code, _, err) = run(d, &["history", "fleet", "--spec", "drift.toml"]);
     assert_ne!(code, 0);
     assert!(
         err.contains("`history-drift`, not of `history-fleet`"),
@@ -1075,18 +685,16 @@ fn display_units_is_a_flag_of_the_jobs_that_draw_pages() {
     let d = dir.path();
     for args in [
         &["calibrate", "--robot", "ge-a4", "--data", "d.csv"][..],
-        &[
-            "predict", "--robot", "ge-a4", "--report", "r.json", "--sample", "3",
-        ][..],
+        &argv("predict --robot ge-a4 --report r.json --sample 3")[..],
         &["report", "--from", "r.json", "--out", "p.html"][..],
     ] {
         let mut args = args.to_vec();
         args.extend(["--display-units", "m-rad", "--write-spec", "-"]);
-        let (code, out, err) = kinecal(d, &args);
+        let (code, out, err) = run(d, &args);
         assert_eq!(code, 0, "{args:?}: {err}");
         assert!(out.contains("display_units = \"m-rad\""), "{args:?}: {out}");
     }
-    let (code, _, err) = kinecal(
+    let (code, _, err) = run(
         d,
         &["report", "--from", "r.json", "--display-units", "ft-deg"],
     );

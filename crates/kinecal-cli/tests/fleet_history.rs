@@ -4,6 +4,7 @@
 //! the same; `batch --record` in shards from many processes, killed and retried, records every
 //! robot once; passwords are never printed.
 
+mod common;
 #[cfg(feature = "postgres")]
 #[path = "../../kinecal-history/tests/common/pg.rs"]
 mod pg;
@@ -12,6 +13,8 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use common::run_ok as ok;
+use common::{argv, run};
 use rand::{RngExt, SeedableRng};
 
 fn bin() -> &'static str {
@@ -20,28 +23,6 @@ fn bin() -> &'static str {
 
 fn repo() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// Runs `kinecal args` in `dir`: (exit code, stdout, stderr).
-fn run(dir: &Path, args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(bin())
-        .current_dir(dir)
-        .args(args)
-        .env_remove("KINECAL_DB")
-        .output()
-        .unwrap();
-    let (o, e) = (
-        String::from_utf8_lossy(&out.stdout).to_string(),
-        String::from_utf8_lossy(&out.stderr).to_string(),
-    );
-    assert!(!e.contains("panicked"), "{args:?}: {e}");
-    (out.status.code().unwrap_or(-1), o, e)
-}
-
-fn ok(dir: &Path, args: &[&str]) -> String {
-    let (code, out, err) = run(dir, args);
-    assert_eq!(code, 0, "{args:?}: {err}");
-    out
 }
 
 /// What the read commands print for a history: list, events, show (every record, text and
@@ -87,14 +68,7 @@ fn outputs(dir: &Path, db: &str) -> Vec<(String, i32, String)> {
         "--json",
         "fleet.json",
     ]));
-    cmd(s(&[
-        "history",
-        "plot",
-        "--robot-id",
-        "A4-0103",
-        "--out",
-        "plot.svg",
-    ]));
+    cmd(s(&argv("history plot --robot-id A4-0103 --out plot.svg")));
     out.push((
         "plot.svg".into(),
         0,
@@ -128,9 +102,7 @@ fn a_history_moved_sqlite_postgres_sqlite_prints_the_same() {
     );
     ok(
         d,
-        &[
-            "history", "export", "--format", "dump", "--db", "a.sqlite", "--out", "a.json",
-        ],
+        &argv("history export --format dump --db a.sqlite --out a.json"),
     );
     let (_, _, e) = run(d, &["history", "import", "a.json", "--db", &t.url]);
     assert!(e.contains("16 calibrations written"), "{e}");
@@ -143,9 +115,7 @@ fn a_history_moved_sqlite_postgres_sqlite_prints_the_same() {
     ok(d, &["history", "import", "p.json", "--db", "b.sqlite"]);
     ok(
         d,
-        &[
-            "history", "export", "--format", "dump", "--db", "b.sqlite", "--out", "b.json",
-        ],
+        &argv("history export --format dump --db b.sqlite --out b.json"),
     );
     let read = |f: &str| std::fs::read_to_string(d.join(f)).unwrap();
     assert_eq!(read("a.json"), read("p.json"));
@@ -188,21 +158,10 @@ fn batch_shards_killed_and_retried_record_every_robot_once() {
         let f = format!("r{k:03}.csv");
         ok(
             d,
-            &[
-                "simulate",
-                "--robot",
-                "ge-a4",
-                "--postures",
-                "20",
-                "--seed",
-                &k.to_string(),
-                "--perturb",
-                "p1=+0.05,p14=-0.02",
-                "--noise",
-                "length=0.0005,angle=0.005",
-                "--out",
-                &f,
-            ],
+            &argv(&format!(
+                "simulate --robot ge-a4 --postures 20 --seed {k} --perturb p1=+0.05,p14=-0.02
+                 --noise length=0.0005,angle=0.005 --out {f}"
+            )),
         );
         manifest += &format!(
             "FLEET-{k:03},ge-a4,{f},\"--estimate p1-p2,p14 --weights length=0.0005,angle=0.005\"\n"
@@ -362,29 +321,9 @@ fn a_version_1_history_prints_the_same_before_and_after_its_migration() {
     let show = std::fs::read_to_string(data.join("v1-history.show.txt")).unwrap();
     let drift = std::fs::read_to_string(data.join("v1-history.drift.txt")).unwrap();
     let check = |when: &str| {
-        let (code, out, e) = run(
-            d,
-            &[
-                "history",
-                "show",
-                "--robot-id",
-                "A4-0042",
-                "--db",
-                "v1.sqlite",
-            ],
-        );
+        let (code, out, e) = run(d, &argv("history show --robot-id A4-0042 --db v1.sqlite"));
         assert_eq!((code, out.as_str()), (0, show.as_str()), "show {when}: {e}");
-        let (code, out, e) = run(
-            d,
-            &[
-                "history",
-                "drift",
-                "--robot-id",
-                "A4-0042",
-                "--db",
-                "v1.sqlite",
-            ],
-        );
+        let (code, out, e) = run(d, &argv("history drift --robot-id A4-0042 --db v1.sqlite"));
         assert_eq!(
             (code, out.as_str()),
             (3, drift.as_str()),

@@ -5,39 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use assert_cmd::Command;
-
 mod common;
 
-fn kinecal() -> Command {
-    Command::cargo_bin("kinecal").unwrap()
-}
-
-/// Runs `kinecal args` in `dir`: (exit code, stdout, stderr).
-fn run(dir: &Path, args: &[&str]) -> (i32, String, String) {
-    let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    let (o, e) = (
-        String::from_utf8_lossy(&out.stdout).to_string(),
-        String::from_utf8_lossy(&out.stderr).to_string(),
-    );
-    assert!(!e.contains("panicked"), "{args:?}: {e}");
-    (out.status.code().unwrap_or(-1), o, e)
-}
-
-/// Runs a command expected to succeed; every report in `dir` then follows the shipped schema.
-fn run_ok(dir: &Path, args: &[&str]) -> String {
-    let (code, out, err) = run(dir, args);
-    assert_eq!(code, 0, "{args:?}: {err}");
-    common::check_reports(dir);
-    out
-}
-
-/// Runs a command expected to fail with exit code 1; returns its standard error.
-fn run_err(dir: &Path, args: &[&str]) -> String {
-    let (code, out, err) = run(dir, args);
-    assert_eq!(code, 1, "{args:?}: {out} {err}");
-    err
-}
+use common::{argv, run, run_err, run_ok};
 
 /// Two calibration reports of the built-in GE A4 (a month apart, different data), made once.
 fn reports() -> &'static (String, String) {
@@ -49,35 +19,17 @@ fn reports() -> &'static (String, String) {
         for seed in ["1", "2"] {
             run_ok(
                 d,
-                &[
-                    "simulate",
-                    "--robot",
-                    "ge-a4",
-                    "--postures",
-                    "30",
-                    "--seed",
-                    seed,
-                    "--noise",
-                    "length=0.0005,angle=0.005",
-                    "--out",
-                    "m.csv",
-                ],
+                &argv(&format!(
+                    "simulate --robot ge-a4 --postures 30 --seed {seed}
+                     --noise length=0.0005,angle=0.005 --out m.csv"
+                )),
             );
             run_ok(
                 d,
-                &[
-                    "calibrate",
-                    "--robot",
-                    "ge-a4",
-                    "--data",
-                    "m.csv",
-                    "--solution",
-                    "min-change",
-                    "--weights",
-                    "length=0.0005,angle=0.005",
-                    "--report",
-                    "r.json",
-                ],
+                &argv(
+                    "calibrate --robot ge-a4 --data m.csv --solution min-change
+                     --weights length=0.0005,angle=0.005 --report r.json",
+                ),
             );
             texts.push(std::fs::read_to_string(d.join("r.json")).unwrap());
         }
@@ -173,16 +125,7 @@ fn a_corrupt_database_is_refused_by_add_and_left_untouched() {
     std::fs::write(&path, &bytes).unwrap();
     let err = run_err(
         d,
-        &[
-            "history",
-            "add",
-            "--robot-id",
-            "A4-7",
-            "--report",
-            "r1.json",
-            "--db",
-            "h.sqlite",
-        ],
+        &argv("history add --robot-id A4-7 --report r1.json --db h.sqlite"),
     );
     assert!(
         err.contains("h.sqlite") && err.contains("integrity") && err.contains("not modified"),
@@ -276,16 +219,7 @@ fn a_damaged_record_is_named_and_the_others_served() {
     // And a new calibration can still be recorded beside them.
     run_ok(
         d,
-        &[
-            "history",
-            "add",
-            "--robot-id",
-            "A4-7",
-            "--report",
-            "r1.json",
-            "--db",
-            "h.sqlite",
-        ],
+        &argv("history add --robot-id A4-7 --report r1.json --db h.sqlite"),
     );
 }
 
@@ -369,16 +303,9 @@ fn a_read_only_database_in_a_read_only_folder_serves_the_read_commands() {
         .unwrap()
         .starts_with("<svg"));
     // A write is refused with a message, and the file is unchanged.
-    let (code, _, err) = read(&[
-        "history",
-        "add",
-        "--robot-id",
-        "A4-7",
-        "--report",
-        "r1.json",
-        "--db",
-        "h.sqlite",
-    ]);
+    let (code, _, err) = read(&argv(
+        "history add --robot-id A4-7 --report r1.json --db h.sqlite",
+    ));
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("h.sqlite"), "{err}");
     std::fs::set_permissions(d, std::fs::Permissions::from_mode(0o755)).unwrap();
@@ -404,16 +331,7 @@ fn a_report_of_another_robot_model_is_refused() {
     let before = std::fs::read(d.join("h.sqlite")).unwrap();
     let err = run_err(
         d,
-        &[
-            "history",
-            "add",
-            "--robot-id",
-            "A4-7",
-            "--report",
-            "other.json",
-            "--db",
-            "h.sqlite",
-        ],
+        &argv("history add --robot-id A4-7 --report other.json --db h.sqlite"),
     );
     assert!(
         err.contains("A4-7") && err.contains("joint 3") && err.contains("revolute"),
@@ -423,31 +341,12 @@ fn a_report_of_another_robot_model_is_refused() {
     // Under another serial it is a history of its own.
     run_ok(
         d,
-        &[
-            "history",
-            "add",
-            "--robot-id",
-            "OTHER-1",
-            "--report",
-            "other.json",
-            "--db",
-            "h.sqlite",
-        ],
+        &argv("history add --robot-id OTHER-1 --report other.json --db h.sqlite"),
     );
     // A rebuilt robot keeps its serial with --force.
     run_ok(
         d,
-        &[
-            "history",
-            "add",
-            "--robot-id",
-            "A4-7",
-            "--report",
-            "other.json",
-            "--db",
-            "h.sqlite",
-            "--force",
-        ],
+        &argv("history add --robot-id A4-7 --report other.json --db h.sqlite --force"),
     );
     let list = run_ok(
         d,
@@ -528,15 +427,9 @@ fn drift_refuses_a_threshold_that_is_not_a_positive_number() {
     for sigma in ["--sigma=inf", "--sigma=NaN", "--sigma=0", "--sigma=-1"] {
         let err = run_err(
             d,
-            &[
-                "history",
-                "drift",
-                "--db",
-                "h.sqlite",
-                "--robot-id",
-                "A4-7",
-                sigma,
-            ],
+            &argv(&format!(
+                "history drift --db h.sqlite --robot-id A4-7 {sigma}"
+            )),
         );
         assert!(
             err.contains("--sigma") && err.contains("positive") && err.contains("finite"),
@@ -567,18 +460,7 @@ fn drift_and_plot_say_what_they_left_out() {
     std::fs::write(d.join("r2b.json"), r.to_string()).unwrap();
     run_ok(
         d,
-        &[
-            "history",
-            "add",
-            "--robot-id",
-            "A4-7",
-            "--report",
-            "r2b.json",
-            "--db",
-            "h.sqlite",
-            "--at",
-            "2026-05-01",
-        ],
+        &argv("history add --robot-id A4-7 --report r2b.json --db h.sqlite --at 2026-05-01"),
     );
     // An unquoted dotted key is natural TOML; link9.x and p99 match nothing.
     std::fs::write(
@@ -588,16 +470,7 @@ fn drift_and_plot_say_what_they_left_out() {
     .unwrap();
     let (code, out, err) = run(
         d,
-        &[
-            "history",
-            "drift",
-            "--db",
-            "h.sqlite",
-            "--robot-id",
-            "A4-7",
-            "--tolerance",
-            "tol.toml",
-        ],
+        &argv("history drift --db h.sqlite --robot-id A4-7 --tolerance tol.toml"),
     );
     assert!(code == 0 || code == 3, "{err}");
     let text = format!("{out}{err}");
@@ -608,17 +481,7 @@ fn drift_and_plot_say_what_they_left_out() {
     assert!(text.contains("link9.x") && text.contains("p99"), "{text}");
     let (_, out, err) = run(
         d,
-        &[
-            "history",
-            "drift",
-            "--db",
-            "h.sqlite",
-            "--robot-id",
-            "A4-7",
-            "--tolerance",
-            "tol.toml",
-            "--json",
-        ],
+        &argv("history drift --db h.sqlite --robot-id A4-7 --tolerance tol.toml --json"),
     );
     let j: serde_json::Value = serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {err}"));
     let left = j["left_out"].as_array().unwrap();
@@ -645,18 +508,10 @@ fn drift_and_plot_say_what_they_left_out() {
     // plot: an entry that matches nothing is named.
     let (code, _, err) = run(
         d,
-        &[
-            "history",
-            "plot",
-            "--db",
-            "h.sqlite",
-            "--robot-id",
-            "A4-7",
-            "--param",
-            "link1.y,nothing.here,link1.x",
-            "--out",
-            "p.svg",
-        ],
+        &argv(
+            "history plot --db h.sqlite --robot-id A4-7 --param link1.y,nothing.here,link1.x
+             --out p.svg",
+        ),
     );
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("nothing.here"), "{err}");

@@ -4,13 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use assert_cmd::Command;
-
 mod common;
 
-fn kinecal() -> Command {
-    Command::cargo_bin("kinecal").unwrap()
-}
+use common::{argv, run, run_err};
 
 fn irb120() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -21,19 +17,9 @@ fn irb120() -> PathBuf {
 
 /// Runs a command expected to succeed; its standard output and error.
 fn run_ok(dir: &Path, args: &[&str]) -> (String, String) {
-    let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    let err = String::from_utf8(out.stderr).unwrap();
-    assert!(out.status.success(), "{args:?}: {err}");
-    (String::from_utf8(out.stdout).unwrap(), err)
-}
-
-/// Runs a command expected to fail with exit code 1; its standard error.
-fn run_err(dir: &Path, args: &[&str]) -> String {
-    let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    let err = String::from_utf8(out.stderr).unwrap();
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    err
+    let (code, out, err) = run(dir, args);
+    assert_eq!(code, 0, "{args:?}: {err}");
+    (out, err)
 }
 
 /// A plan in a given cube (no search: fast) and a simulated log of `cycles` cycles on the robot
@@ -83,22 +69,10 @@ fn planned_log(dir: &Path, cycles: &str) {
     );
     let (_, err) = run_ok(
         dir,
-        &[
-            "iso9283",
-            "simulate",
-            "--robot",
-            "truth.toml",
-            "--poses",
-            "poses.csv",
-            "--cycles",
-            cycles,
-            "--noise",
-            "length=0.00002,angle=0.00005",
-            "--seed",
-            "4",
-            "--out",
-            "log.csv",
-        ],
+        &argv(&format!(
+            "iso9283 simulate --robot truth.toml --poses poses.csv --cycles {cycles}
+             --noise length=0.00002,angle=0.00005 --seed 4 --out log.csv"
+        )),
     );
     assert!(
         err.contains("wrote a simulated log (not a measurement)"),
@@ -113,9 +87,7 @@ fn plan_simulate_evaluate_end_to_end() {
     planned_log(d, "30");
     let (out, err) = run_ok(
         d,
-        &[
-            "iso9283", "evaluate", "--data", "log.csv", "--json", "iso.json", "--html", "iso.html",
-        ],
+        &argv("iso9283 evaluate --data log.csv --json iso.json --html iso.html"),
     );
     assert!(
         out.starts_with("ISO 9283 pose characteristics of log.csv (simulated): 5 poses"),
@@ -269,27 +241,16 @@ fn a_measurement_series_gives_iso_figures_before_and_after_calibration() {
     );
     run_ok(
         d,
-        &[
-            "iso9283",
-            "log",
-            "--robot",
-            "cal.toml",
-            "--data",
-            "series.csv",
-            "--roles",
-            "roles.csv",
-            "--out",
-            "after.csv",
-        ],
+        &argv("iso9283 log --robot cal.toml --data series.csv --roles roles.csv --out after.csv"),
     );
     let mut ap = Vec::new();
     for log in ["before.csv", "after.csv"] {
         let (out, _) = run_ok(
             d,
-            &[
-                "iso9283", "evaluate", "--data", log, "--robot", "cal.toml", "--report",
-                "cal.json", "--json", "iso.json", "--html", "iso.html",
-            ],
+            &argv(&format!(
+                "iso9283 evaluate --data {log} --robot cal.toml --report cal.json --json iso.json
+                 --html iso.html"
+            )),
         );
         assert!(out.contains("2 tests, 18 poses; lengths in m"), "{out}");
         assert!(
@@ -396,23 +357,13 @@ fn bad_logs_are_refused_with_file_line_and_field() {
     ];
     for (text, want) in cases {
         std::fs::write(d.join("log.csv"), text).unwrap();
-        let err = run_err(
-            d,
-            &[
-                "iso9283", "evaluate", "--data", "log.csv", "--json", "out.json",
-            ],
-        );
+        let err = run_err(d, &argv("iso9283 evaluate --data log.csv --json out.json"));
         assert!(err.contains(want), "{text:?}: {err}");
         assert!(!d.join("out.json").exists(), "nothing written on an error");
     }
     std::fs::write(d.join("log.csv"), good).unwrap();
     // An output over the input is refused.
-    let err = run_err(
-        d,
-        &[
-            "iso9283", "evaluate", "--data", "log.csv", "--json", "log.csv",
-        ],
-    );
+    let err = run_err(d, &argv("iso9283 evaluate --data log.csv --json log.csv"));
     assert!(
         err.contains("refusing to write an output over an input"),
         "{err}"
@@ -458,17 +409,7 @@ fn outputs_go_through_the_safe_writer() {
     std::fs::write(d.join("real.json"), "old").unwrap();
     std::fs::set_permissions(d.join("real.json"), std::fs::Permissions::from_mode(0o640)).unwrap();
     std::os::unix::fs::symlink("real.json", d.join("link.json")).unwrap();
-    run_ok(
-        d,
-        &[
-            "iso9283",
-            "evaluate",
-            "--data",
-            "log.csv",
-            "--json",
-            "link.json",
-        ],
-    );
+    run_ok(d, &argv("iso9283 evaluate --data log.csv --json link.json"));
     assert!(std::fs::symlink_metadata(d.join("link.json"))
         .unwrap()
         .file_type()
@@ -512,12 +453,7 @@ fn ap_and_rp_agree_with_python() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
     planned_log(d, "30");
-    run_ok(
-        d,
-        &[
-            "iso9283", "evaluate", "--data", "log.csv", "--json", "iso.json",
-        ],
-    );
+    run_ok(d, &argv("iso9283 evaluate --data log.csv --json iso.json"));
     let script = r##"
 import csv, json, math, statistics
 rows = [r for r in csv.reader(l for l in open("log.csv") if not l.startswith("#"))]

@@ -16,6 +16,10 @@ use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant, SystemTime};
 
+mod common;
+
+use common::argv;
+
 const BIN: &str = env!("CARGO_BIN_EXE_kinecal");
 
 fn kinecal(dir: &Path, args: &[&str]) -> Output {
@@ -40,17 +44,9 @@ fn ok(dir: &Path, args: &[&str]) -> Output {
 fn data(dir: &Path, name: &str, seed: u32) {
     ok(
         dir,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "20",
-            "--seed",
-            &seed.to_string(),
-            "--out",
-            name,
-        ],
+        &argv(&format!(
+            "simulate --robot ge-a4 --postures 20 --seed {seed} --out {name}"
+        )),
     );
 }
 
@@ -411,15 +407,7 @@ fn temporary_files_of_killed_runs_are_removed_by_the_next_run() {
     plant(".notes.txt", true);
     let out = ok(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "5",
-            "--out",
-            "out.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 5 --out out.csv"),
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!d.join(&stale).exists(), "the stale file is still there");

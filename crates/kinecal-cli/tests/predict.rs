@@ -3,72 +3,26 @@
 
 use std::path::Path;
 
-use assert_cmd::Command;
-
 mod common;
 
-fn kinecal() -> Command {
-    Command::cargo_bin("kinecal").unwrap()
-}
-
-fn run(dir: &Path, args: &[&str]) -> (Option<i32>, String, String) {
-    let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    let (o, e) = (
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    );
-    assert!(!e.contains("panicked"), "{e}");
-    (out.status.code(), o, e)
-}
+use common::{argv, run};
 
 /// A calibrated GE A4 (30 poses) with its report, in `dir`.
 fn calibrated(dir: &Path) {
     for args in [
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "30",
-            "--seed",
-            "7",
-            "--perturb",
-            "p1=+0.05,p14=-0.02,joint2.offset=-0.5",
-            "--noise",
-            "length=0.0005,angle=0.005",
-            "--out",
-            "data.csv",
-        ][..],
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "data.csv",
-            "--estimate",
-            "p1,p2,p8,p14,offsets,slopes",
-            "--weights",
-            "length=0.0005,angle=0.005",
-            "--out",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "--predict",
-        ],
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "12",
-            "--seed",
-            "9",
-            "--out",
-            "some.csv",
-        ],
+        &argv(
+            "simulate --robot ge-a4 --postures 30 --seed 7
+             --perturb p1=+0.05,p14=-0.02,joint2.offset=-0.5 --noise length=0.0005,angle=0.005
+             --out data.csv",
+        )[..],
+        &argv(
+            "calibrate --robot ge-a4 --data data.csv --estimate p1,p2,p8,p14,offsets,slopes
+             --weights length=0.0005,angle=0.005 --out cal.toml --report report.json --predict",
+        ),
+        &argv("simulate --robot ge-a4 --postures 12 --seed 9 --out some.csv"),
     ] {
         let (code, _, e) = run(dir, args);
-        assert_eq!(code, Some(0), "{args:?}: {e}");
+        assert_eq!(code, 0, "{args:?}: {e}");
     }
 }
 
@@ -79,21 +33,12 @@ fn the_table_is_the_library_prediction_and_the_map_is_drawn() {
     calibrated(d);
     let (code, _, e) = run(
         d,
-        &[
-            "predict",
-            "--robot",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "--postures",
-            "some.csv",
-            "--out",
-            "pred.csv",
-            "--html",
-            "map.html",
-        ],
+        &argv(
+            "predict --robot cal.toml --report report.json --postures some.csv --out pred.csv
+             --html map.html",
+        ),
     );
-    assert_eq!(code, Some(0), "{e}");
+    assert_eq!(code, 0, "{e}");
     assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
     common::check_reports(d);
     // The library's prediction, posture by posture, in the file's units.
@@ -147,7 +92,7 @@ fn bad_input_is_refused_with_the_file_named() {
     let err = |args: Vec<String>| {
         let a: Vec<&str> = args.iter().map(String::as_str).collect();
         let (code, _, e) = run(d, &a);
-        assert_eq!(code, Some(1), "{a:?}: {e}");
+        assert_eq!(code, 1, "{a:?}: {e}");
         e
     };
     // Not the calibrated robot of the report.
@@ -179,37 +124,17 @@ fn bad_input_is_refused_with_the_file_named() {
     // A report without a prediction (8 postures are too few).
     let (code, _, e) = run(
         d,
-        &[
-            "simulate",
-            "--robot",
-            "ge-a4",
-            "--postures",
-            "8",
-            "--seed",
-            "3",
-            "--out",
-            "few.csv",
-        ],
+        &argv("simulate --robot ge-a4 --postures 8 --seed 3 --out few.csv"),
     );
-    assert_eq!(code, Some(0), "{e}");
+    assert_eq!(code, 0, "{e}");
     let (code, _, e) = run(
         d,
-        &[
-            "calibrate",
-            "--robot",
-            "ge-a4",
-            "--data",
-            "few.csv",
-            "--estimate",
-            "p1,offsets",
-            "--out",
-            "few.toml",
-            "--report",
-            "few.json",
-            "--predict",
-        ],
+        &argv(
+            "calibrate --robot ge-a4 --data few.csv --estimate p1,offsets --out few.toml
+             --report few.json --predict",
+        ),
     );
-    assert_eq!(code, Some(0), "{e}");
+    assert_eq!(code, 0, "{e}");
     let e = err(vec![
         "predict".into(),
         "--robot".into(),
@@ -236,7 +161,7 @@ fn bad_input_is_refused_with_the_file_named() {
     // Neither postures nor a sample nor targets: refused, naming the choice.
     let a: Vec<&str> = base.to_vec();
     let (code, _, e) = run(d, &a);
-    assert_eq!(code, Some(1));
+    assert_eq!(code, 1);
     assert!(e.contains("--postures: give one of postures"), "{e}");
     // A report edited into nonsense (a negative model error) is refused, not predicted from.
     let text = std::fs::read_to_string(d.join("report.json")).unwrap();
@@ -268,17 +193,9 @@ fn cartesian_targets_are_reached_then_predicted() {
     calibrated(d);
     let (code, table, e) = run(
         d,
-        &[
-            "predict",
-            "--robot",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "--postures",
-            "some.csv",
-        ],
+        &argv("predict --robot cal.toml --report report.json --postures some.csv"),
     );
-    assert_eq!(code, Some(0), "{e}");
+    assert_eq!(code, 0, "{e}");
     // The positions the calibrated model gives at the 12 postures, as targets.
     let mut lines = table.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -298,17 +215,9 @@ fn cartesian_targets_are_reached_then_predicted() {
     std::fs::write(d.join("targets.csv"), &targets).unwrap();
     let (code, out, e) = run(
         d,
-        &[
-            "predict",
-            "--robot",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "--targets",
-            "targets.csv",
-        ],
+        &argv("predict --robot cal.toml --report report.json --targets targets.csv"),
     );
-    assert_eq!(code, Some(0), "{e}");
+    assert_eq!(code, 0, "{e}");
     assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
     let robot = kinecal::model::robot_file::parse_robot_toml(
         &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
@@ -348,17 +257,9 @@ fn cartesian_targets_are_reached_then_predicted() {
     .unwrap();
     let (code, _, e) = run(
         d,
-        &[
-            "predict",
-            "--robot",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "--targets",
-            "far.csv",
-        ],
+        &argv("predict --robot cal.toml --report report.json --targets far.csv"),
     );
-    assert_eq!(code, Some(1), "{e}");
+    assert_eq!(code, 1, "{e}");
     assert!(
         e.contains("far.csv:3: target `far`: the calibrated robot does not reach it (unreachable"),
         "{e}"
@@ -367,17 +268,9 @@ fn cartesian_targets_are_reached_then_predicted() {
     std::fs::write(d.join("mm.csv"), "target,x,y,z\nA,900,0,0\n").unwrap();
     let (code, _, e) = run(
         d,
-        &[
-            "predict",
-            "--robot",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "--targets",
-            "mm.csv",
-        ],
+        &argv("predict --robot cal.toml --report report.json --targets mm.csv"),
     );
-    assert_eq!(code, Some(1), "{e}");
+    assert_eq!(code, 1, "{e}");
     assert!(
         e.contains("mm.csv:2: target `A` lies 16.") && e.contains("are the positions in in"),
         "{e}"
@@ -385,16 +278,8 @@ fn cartesian_targets_are_reached_then_predicted() {
     std::fs::write(d.join("odd.csv"), "target,x,y,z,w\nA,1,2,3,4\n").unwrap();
     let (code, _, e) = run(
         d,
-        &[
-            "predict",
-            "--robot",
-            "cal.toml",
-            "--report",
-            "report.json",
-            "--targets",
-            "odd.csv",
-        ],
+        &argv("predict --robot cal.toml --report report.json --targets odd.csv"),
     );
-    assert_eq!(code, Some(1), "{e}");
+    assert_eq!(code, 1, "{e}");
     assert!(e.contains("odd.csv:1: unknown column `w`"), "{e}");
 }

@@ -2,28 +2,9 @@
 
 use std::path::Path;
 
-use assert_cmd::Command;
-
 mod common;
 
-fn kinecal() -> Command {
-    Command::cargo_bin("kinecal").unwrap()
-}
-
-/// Runs a command expected to exit 0; returns its standard output. Every report in `dir` then
-/// follows the shipped schema.
-fn run_ok(dir: &Path, args: &[&str]) -> String {
-    let out = kinecal().current_dir(dir).args(args).output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{args:?}: {}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    common::check_reports(dir);
-    String::from_utf8(out.stdout).unwrap()
-}
+use common::{argv, kinecal, run_err, run_ok};
 
 fn report(dir: &Path, name: &str) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join(name)).unwrap()).unwrap()
@@ -32,6 +13,9 @@ fn report(dir: &Path, name: &str) -> serde_json::Value {
 fn held_out_rms(r: &serde_json::Value) -> f64 {
     r["validation"]["after"]["rms_position"].as_f64().unwrap()
 }
+
+/// A calibration of the 6R that the flags added to it make fail.
+const BAD: [&str; 5] = ["calibrate", "--robot", "r6.toml", "--data", "data.csv"];
 
 const PRIOR: &str = "length=0.001,angle=0.001,slope=0.001";
 
@@ -64,17 +48,7 @@ fn six_r(dir: &Path, seed: u64) {
         "truth.toml",
     ];
     run_ok(dir, &perturbed);
-    let fresh = [
-        "simulate",
-        "--robot",
-        "truth.toml",
-        "--postures",
-        "200",
-        "--seed",
-        "99",
-        "--out",
-        "fresh.csv",
-    ];
+    let fresh = argv("simulate --robot truth.toml --postures 200 --seed 99 --out fresh.csv");
     run_ok(dir, &fresh);
 }
 
@@ -112,17 +86,10 @@ fn compare(seed: u64) -> (f64, f64) {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     six_r(dir, seed);
-    let common = [
-        "calibrate",
-        "--robot",
-        "r6.toml",
-        "--data",
-        "data.csv",
-        "--weights",
-        "length=0.0001,angle=0.0001",
-        "--validate",
-        "fresh.csv",
-    ];
+    let common = argv(
+        "calibrate --robot r6.toml --data data.csv --weights length=0.0001,angle=0.0001
+         --validate fresh.csv",
+    );
     let mut a = common.to_vec();
     a.extend(["--estimate", "identifiable", "--report", "a.json"]);
     run_ok(dir, &a);
@@ -234,18 +201,7 @@ fn choose_compares_prior_strengths_and_bad_priors_are_named() {
         ("lenght=0.1", "--prior: `lenght`"),
         ("angle=nan", "--prior: `angle`"),
     ] {
-        let args = [
-            "calibrate",
-            "--robot",
-            "r6.toml",
-            "--data",
-            "data.csv",
-            "--prior",
-            prior,
-        ];
-        let out = kinecal().current_dir(dir).args(args).output().unwrap();
-        assert_eq!(out.status.code(), Some(1));
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = run_err(dir, &[&BAD[..], &["--prior", prior]].concat());
         assert!(err.contains(words), "{prior}: {err}");
     }
     // A total mass needs a mass model, and a mass.
@@ -254,17 +210,7 @@ fn choose_compares_prior_strengths_and_bad_priors_are_named() {
         ("-3", "--total-mass: expected a mass in kg"),
     ] {
         let flag = format!("--total-mass={total}");
-        let args = [
-            "calibrate",
-            "--robot",
-            "r6.toml",
-            "--data",
-            "data.csv",
-            &flag,
-        ];
-        let out = kinecal().current_dir(dir).args(args).output().unwrap();
-        assert_eq!(out.status.code(), Some(1));
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = run_err(dir, &[&BAD[..], &[&flag[..]]].concat());
         assert!(err.contains(words), "{total}: {err}");
     }
     std::fs::write(
@@ -287,15 +233,7 @@ fn analyze_with_a_prior_says_what_the_prior_alone_determines() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     six_r(dir, 5);
-    let base = [
-        "analyze",
-        "--robot",
-        "r6.toml",
-        "--data",
-        "data.csv",
-        "--estimate",
-        "all",
-    ];
+    let base = argv("analyze --robot r6.toml --data data.csv --estimate all");
     let without = run_ok(dir, &base);
     assert!(without.contains("Numerical rank 36 of 54"), "{without}");
     assert!(!without.contains("With the prior"));

@@ -1,10 +1,66 @@
-//! Shared by the command's tests (each test binary uses part of it): every calibration report
-//! and `--json` document a test writes is checked against its schema shipped in `schemas/`.
+//! Shared by the command's tests (each test binary uses part of it): running the binary, and
+//! every calibration report and `--json` document a test writes checked against its schema
+//! shipped in `schemas/`.
 #![allow(dead_code)]
 
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::{Mutex, OnceLock};
+
+use assert_cmd::Command;
+
+/// The `kinecal` binary under test, away from the history of whoever runs the tests
+/// (`$KINECAL_DB` unset).
+pub fn kinecal() -> Command {
+    let mut c = Command::cargo_bin("kinecal").unwrap();
+    c.env_remove("KINECAL_DB");
+    c
+}
+
+/// A command line written as one string: its words, split at whitespace (line breaks
+/// included), so that `argv("fk --robot ge-a4 --postures p.csv")` is the five arguments.
+pub fn argv(line: &str) -> Vec<&str> {
+    line.split_whitespace().collect()
+}
+
+/// Runs `kinecal args` in `dir`: (exit code, -1 when killed by a signal; standard output;
+/// standard error), both UTF-8. A panic fails the test.
+pub fn run(dir: &Path, args: &[&str]) -> (i32, String, String) {
+    let out = kinecal().current_dir(dir).args(args).output().unwrap();
+    let (o, e) = (
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    );
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    (out.status.code().unwrap_or(-1), o, e)
+}
+
+/// [`run`], bytes that are not UTF-8 (a damaged file's, quoted) replaced.
+pub fn run_lossy(dir: &Path, args: &[&str]) -> (i32, String, String) {
+    let out = kinecal().current_dir(dir).args(args).output().unwrap();
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).to_string(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    );
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    (out.status.code().unwrap_or(-1), o, e)
+}
+
+/// Runs a command expected to exit 0; returns its standard output. Every report in `dir` then
+/// follows the shipped schema.
+pub fn run_ok(dir: &Path, args: &[&str]) -> String {
+    let (code, out, err) = run(dir, args);
+    assert_eq!(code, 0, "{args:?}: {out}{err}");
+    check_reports(dir);
+    out
+}
+
+/// Runs a command expected to fail with exit code 1; returns its standard error.
+pub fn run_err(dir: &Path, args: &[&str]) -> String {
+    let (code, out, err) = run(dir, args);
+    assert_eq!(code, 1, "{args:?}: {out}{err}");
+    err
+}
 
 /// Asserts that `v` follows `schemas/{kind}.schema.json` (validators built once per schema),
 /// naming `what` and the first few violations otherwise.
