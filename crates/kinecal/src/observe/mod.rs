@@ -438,6 +438,18 @@ impl Dataset {
         self.observations.is_empty()
     }
 
+    /// The degrees of freedom of frame `t` its observations determine
+    /// ([`Observe::measured_frame`]): 6 when a pose of it is measured, 3 when only its origin
+    /// is (positions, distances, contacts), 0 when no observation sees it.
+    pub fn observed_dof(&self, t: Target) -> usize {
+        self.observations
+            .iter()
+            .filter(|o| o.measured_frame().0 == t)
+            .map(|o| o.measured_frame().1)
+            .max()
+            .unwrap_or(0)
+    }
+
     /// The observations of each kind: `(kind, count)` in order of first appearance.
     pub fn kinds(&self) -> Vec<(&'static str, usize)> {
         let mut out: Vec<(&'static str, usize)> = Vec::new();
@@ -676,6 +688,23 @@ pub struct MetricAccuracy {
     pub max: f64,
 }
 
+impl MetricAccuracy {
+    /// The figures of `metric` over its length errors `e` (m, non-negative), as [`stats`]
+    /// gives them.
+    pub fn of_errors(metric: &'static str, e: Vec<f64>) -> Self {
+        let count = e.len();
+        let (rms, mean, p95, max) = stats(e);
+        MetricAccuracy {
+            metric,
+            count,
+            rms,
+            mean,
+            p95,
+            max,
+        }
+    }
+}
+
 /// RMS, mean, 95th percentile (nearest rank) and max of non-negative errors.
 pub fn stats(mut e: Vec<f64>) -> (f64, f64, f64, f64) {
     if e.is_empty() {
@@ -859,18 +888,7 @@ impl AccuracyTally {
             other: self
                 .other
                 .into_iter()
-                .map(|(metric, e)| {
-                    let count = e.len();
-                    let (rms, mean, p95, max) = stats(e);
-                    MetricAccuracy {
-                        metric,
-                        count,
-                        rms,
-                        mean,
-                        p95,
-                        max,
-                    }
-                })
+                .map(|(metric, e)| MetricAccuracy::of_errors(metric, e))
                 .collect(),
         }
     }

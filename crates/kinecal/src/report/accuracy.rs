@@ -5,7 +5,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::model::robot::Robot;
-use crate::observe::{Accuracy, Dataset};
+use crate::observe::{Accuracy, Dataset, MetricAccuracy};
 use crate::solve::estimation::Calibration;
 use crate::units::{Quantity, Units};
 
@@ -56,18 +56,7 @@ impl ErrorStats {
             mean_orientation: ang(a.mean_orientation),
             p95_orientation: ang(a.p95_orientation),
             max_orientation: ang(a.max_orientation),
-            other: a
-                .other
-                .iter()
-                .map(|m| MetricStats {
-                    metric: m.metric.to_string(),
-                    count: m.count,
-                    rms: len(m.rms),
-                    mean: len(m.mean),
-                    p95: len(m.p95),
-                    max: len(m.max),
-                })
-                .collect(),
+            other: a.other.iter().map(|m| MetricStats::new(m, units)).collect(),
         }
     }
 }
@@ -88,6 +77,21 @@ pub struct MetricStats {
     pub p95: f64,
     /// Largest error.
     pub max: f64,
+}
+
+impl MetricStats {
+    /// Converts a [`MetricAccuracy`] to the length unit of `units`.
+    pub fn new(m: &MetricAccuracy, units: &Units) -> Self {
+        let len = |v: f64| units.from_si(Quantity::Length, v);
+        MetricStats {
+            metric: m.metric.to_string(),
+            count: m.count,
+            rms: len(m.rms),
+            mean: len(m.mean),
+            p95: len(m.p95),
+            max: len(m.max),
+        }
+    }
 }
 
 /// Accuracy before and after calibration on one dataset.

@@ -69,7 +69,7 @@ pub(super) fn cross_validate(
     seed: Option<u64>,
     fit: &mut dyn FnMut(&Request) -> Result<FoldFit>,
 ) -> Result<CrossValidation> {
-    use crate::observe::{stats, MetricAccuracy};
+    use crate::observe::MetricAccuracy;
     let folds = req
         .data
         .folds(k, seed)
@@ -89,18 +89,7 @@ pub(super) fn cross_validate(
     } else {
         metrics.first().copied().unwrap_or("position")
     };
-    let summary = |e: Vec<f64>| {
-        let count = e.len();
-        let (rms, mean, p95, max) = stats(e);
-        MetricAccuracy {
-            metric,
-            count,
-            rms,
-            mean,
-            p95,
-            max,
-        }
-    };
+    let summary = |e: Vec<f64>| MetricAccuracy::of_errors(metric, e);
     let mut all = Vec::new();
     let mut out = Vec::with_capacity(k);
     for (train, held) in folds {
@@ -153,14 +142,7 @@ pub(super) fn cross_validation_report(
     let units = &robot.units;
     use crate::report::{CrossValidationReport, FoldReport, MetricStats};
     let len = |v: f64| units.from_si(Quantity::Length, v);
-    let stats = |m: &crate::observe::MetricAccuracy| MetricStats {
-        metric: m.metric.to_string(),
-        count: m.count,
-        rms: len(m.rms),
-        mean: len(m.mean),
-        p95: len(m.p95),
-        max: len(m.max),
-    };
+    let stats = |m: &crate::observe::MetricAccuracy| MetricStats::new(m, units);
     CrossValidationReport {
         seed: cv.seed,
         metric: cv.overall.metric.to_string(),
