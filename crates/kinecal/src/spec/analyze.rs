@@ -23,7 +23,9 @@ use crate::report::AnalysisReport;
 use crate::workflow::Selection;
 use crate::ParamId;
 
-use super::common::{invalid, is_default, read_observations, robot_as, visit_opt, Residuals};
+use super::common::{
+    invalid, is_default, read_observations, robot_as, visit_observations, visit_opt, Residuals,
+};
 use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
 
 /// What to analyse (`[selection]` of an analysis).
@@ -117,9 +119,7 @@ impl Spec for AnalyzeSpec {
 
     fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
         f(PathRole::Robot, &mut self.robot);
-        for o in &mut self.observations {
-            f(PathRole::Input, &mut o.file);
-        }
+        visit_observations(f, &mut self.observations);
         visit_opt(f, PathRole::Input, &mut self.postures);
     }
 }

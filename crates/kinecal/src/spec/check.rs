@@ -17,7 +17,9 @@ use crate::model::robot::Robot;
 use crate::observe::Dataset;
 use crate::workflow::{CheckReport, Thresholds, Verdict};
 
-use super::common::{invalid, is_default, read_observations, robot_as, LengthAngle};
+use super::common::{
+    invalid, is_default, read_observations, robot_as, visit_observations, LengthAngle,
+};
 use super::{Document, Done, Env, JobKind, PathRole, Spec, Status};
 
 /// A check. See the [module documentation](self).
@@ -44,9 +46,7 @@ impl Spec for CheckSpec {
 
     fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
         f(PathRole::Robot, &mut self.robot);
-        for o in &mut self.observations {
-            f(PathRole::Input, &mut o.file);
-        }
+        visit_observations(f, &mut self.observations);
     }
 }
 

@@ -45,9 +45,9 @@ pub(crate) fn kind_named(name: &str, file: &str) -> Result<JobKind> {
     })
 }
 
-/// The kind of job a TOML spec names in its top-level `job` key, and the text with that key
-/// blanked out (every other line where it was, so that errors keep their lines).
-pub(crate) fn take_job_key(text: &str, file: &str) -> Result<(Option<JobKind>, String)> {
+/// TOML `text` (named `file` in errors) parsed, refused with the line of a syntax error or of a
+/// number that is not finite.
+fn parse_document<'t>(text: &'t str, file: &str) -> Result<toml_edit::Document<&'t str>> {
     let doc = toml_edit::Document::parse(text).map_err(|e| {
         let line = e.span().map(|s| line_of(text, s.start));
         Error::input(
@@ -60,6 +60,13 @@ pub(crate) fn take_job_key(text: &str, file: &str) -> Result<(Option<JobKind>, S
         )
     })?;
     check_finite(doc.as_table(), text, file, "")?;
+    Ok(doc)
+}
+
+/// The kind of job a TOML spec names in its top-level `job` key, and the text with that key
+/// blanked out (every other line where it was, so that errors keep their lines).
+pub(crate) fn take_job_key(text: &str, file: &str) -> Result<(Option<JobKind>, String)> {
+    let doc = parse_document(text, file)?;
     let Some((key, item)) = doc.get_key_value("job") else {
         return Ok((None, text.to_string()));
     };
@@ -134,18 +141,7 @@ fn check_finite(table: &toml_edit::Table, text: &str, file: &str, prefix: &str) 
 /// A spec read from TOML `text` (named `file` in errors; no `job` key): unknown keys, wrong
 /// types and numbers that are not finite are errors with the line and the key.
 pub(crate) fn from_toml<T: serde::de::DeserializeOwned>(text: &str, file: &str) -> Result<T> {
-    let doc = toml_edit::Document::parse(text).map_err(|e| {
-        let line = e.span().map(|s| line_of(text, s.start));
-        Error::input(
-            Location {
-                file: file.to_string(),
-                line,
-                field: None,
-            },
-            e.message().trim().to_string(),
-        )
-    })?;
-    check_finite(doc.as_table(), text, file, "")?;
+    parse_document(text, file)?;
     toml_edit::de::from_str(text).map_err(|e| {
         let loc = Location {
             file: file.to_string(),
@@ -207,6 +203,16 @@ pub(crate) fn visit_opt(
 ) {
     if let Some(p) = p {
         f(role, p);
+    }
+}
+
+/// Calls `f` on the path of every observation file, as input.
+pub(crate) fn visit_observations(
+    f: &mut dyn FnMut(super::PathRole, &mut String),
+    observations: &mut [crate::files::ObservationFile],
+) {
+    for o in observations {
+        f(super::PathRole::Input, &mut o.file);
     }
 }
 

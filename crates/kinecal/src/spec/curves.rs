@@ -22,7 +22,8 @@ use crate::model::robot::Robot;
 use crate::{JointKind, ParamId, ParamKind};
 
 use super::common::{
-    invalid, is_default, read_observations, read_source, robot_as, visit_opt, Residuals,
+    invalid, is_default, read_observations, read_source, robot_as, visit_observations, visit_opt,
+    Residuals,
 };
 use super::{Document, Done, Env, Image, JobKind, Page, PathRole, Spec};
 
@@ -107,9 +108,7 @@ impl Spec for CurvesSpec {
     fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
         f(PathRole::Robot, &mut self.robot);
         visit_opt(f, PathRole::Input, &mut self.postures);
-        for o in &mut self.observations {
-            f(PathRole::Input, &mut o.file);
-        }
+        visit_observations(f, &mut self.observations);
         visit_opt(f, PathRole::Output, &mut self.out);
     }
 }

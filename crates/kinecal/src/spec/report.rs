@@ -19,7 +19,8 @@ use crate::report::CalibrationReport;
 use crate::units::DisplayChoice;
 
 use super::common::{
-    invalid, is_default, read_observations, read_source, robot_as, visit_opt, Residuals,
+    invalid, is_default, read_observations, read_source, robot_as, visit_observations, visit_opt,
+    Residuals,
 };
 use super::{Document, Done, Env, JobKind, Page, PathRole, Spec};
 
@@ -64,9 +65,7 @@ impl Spec for ReportSpec {
     fn visit_paths(&mut self, f: &mut dyn FnMut(PathRole, &mut String)) {
         visit_opt(f, PathRole::Input, &mut self.from);
         visit_opt(f, PathRole::Robot, &mut self.robot);
-        for o in &mut self.observations {
-            f(PathRole::Input, &mut o.file);
-        }
+        visit_observations(f, &mut self.observations);
         visit_opt(f, PathRole::Robot, &mut self.calibrated);
         visit_opt(f, PathRole::Input, &mut self.calibration);
         visit_opt(f, PathRole::Output, &mut self.out);
