@@ -30,14 +30,7 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     let has = |id: ParamId| params.binary_search(&id).is_ok();
     let (nl, nj) = (robot.links.len(), robot.dof());
     // The degrees of freedom observed of a frame (0, 3 or 6).
-    let seen = |t: Target| {
-        data.observations
-            .iter()
-            .filter(|o| o.measured_frame().0 == t)
-            .map(|o| o.measured_frame().1)
-            .max()
-            .unwrap_or(0)
-    };
+    let seen = |t: Target| data.observed_dof(t);
     // A frame observed as a point needs only its position parameters: its angles change nothing.
     let needed = |dof: usize, c: LinkComponent| dof == 6 || c.quantity() == Quantity::Length;
     let ee = seen(Target::EndEffector);

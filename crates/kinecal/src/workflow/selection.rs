@@ -169,14 +169,7 @@ pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<P
         .iter()
         .all(|j| (robot.units.from_si(j.kind.slope(), j.slope) - 1.0).abs() < 1e-12);
     // The degrees of freedom observed of a frame (0, 3 or 6).
-    let seen = |t: Target| {
-        data.observations
-            .iter()
-            .filter(|o| o.measured_frame().0 == t)
-            .map(|o| o.measured_frame().1)
-            .max()
-            .unwrap_or(0)
-    };
+    let seen = |t: Target| data.observed_dof(t);
     let ee = seen(Target::EndEffector);
     let last = robot.links.len() - 1;
     let unseen_component = |dof: usize, c: LinkComponent| {
