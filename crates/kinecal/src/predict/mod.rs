@@ -641,28 +641,17 @@ pub fn assess(
     let summarise = |samples: &[f64], robot: &Robot, attitude: bool| -> BoundSummary {
         let mut s = predictor.scratch();
         let dof = robot.dof();
-        let mut bounds: Vec<f64> = samples
-            .chunks(dof)
-            .map(|r| {
-                let p = predictor.predict(r, target, &mut s);
-                if attitude {
-                    p.attitude_error.map_or(0.0, |b| b.bound)
-                } else {
-                    p.position_error.bound
-                }
-            })
-            .collect();
-        let mut at: Vec<f64> = measured
-            .iter()
-            .map(|r| {
-                let p = predictor.predict(r, target, &mut s);
-                if attitude {
-                    p.attitude_error.map_or(0.0, |b| b.bound)
-                } else {
-                    p.position_error.bound
-                }
-            })
-            .collect();
+        // The predicted 95 % bound at readings `r`: of the attitude or of the position.
+        let mut bound = |r: &[f64]| {
+            let p = predictor.predict(r, target, &mut s);
+            if attitude {
+                p.attitude_error.map_or(0.0, |b| b.bound)
+            } else {
+                p.position_error.bound
+            }
+        };
+        let mut bounds: Vec<f64> = samples.chunks(dof).map(&mut bound).collect();
+        let mut at: Vec<f64> = measured.iter().map(|r| bound(r)).collect();
         let conv = |v: f64| if attitude { ang(v) } else { len(v) };
         BoundSummary {
             median: conv(percentile(&mut bounds, 0.5)),
