@@ -290,12 +290,7 @@ impl<'r> Compensator<'r> {
             let mut kept = std::mem::take(&mut self.kept);
             kept.resize(n, 0.0);
             for _ in 0..100 {
-                self.calibrated
-                    .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
-                self.calibrated
-                    .reading_jacobian(&self.ws, target, &mut self.jac);
-                let jjt = self.normal(rows);
-                let scale = jjt.diagonal().max().max(f64::MIN_POSITIVE);
+                let (jjt, scale) = self.linearize(out, target, rows);
                 // z = seed - V; its null-space part N z = z - J^T (J J^T)^-1 J z.
                 for ((t, s), o) in self.trial.iter_mut().zip(seed).zip(out.iter()) {
                     *t = s - o;
@@ -382,12 +377,7 @@ impl<'r> Compensator<'r> {
         let mut mu = 1e-12;
         while iterations < self.options.max_iterations && !self.reached(&err) {
             iterations += 1;
-            self.calibrated
-                .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
-            self.calibrated
-                .reading_jacobian(&self.ws, target, &mut self.jac);
-            let jjt = self.normal(rows);
-            let scale = jjt.diagonal().max().max(f64::MIN_POSITIVE);
+            let (jjt, scale) = self.linearize(out, target, rows);
             let mut improved = false;
             for _ in 0..30 {
                 // Step = J^T (J J^T + mu I)^-1 e: the minimum-norm change.
@@ -452,6 +442,20 @@ impl<'r> Compensator<'r> {
         let p = Vector3::new(e[0], e[1], e[2]).norm();
         let a = Vector3::new(e[3], e[4], e[5]).norm() / self.reach;
         p <= 1e-6 * self.options.position_tolerance && a <= 1e-6 * self.options.attitude_tolerance
+    }
+
+    /// The calibrated robot linearised at readings `out`: forward kinematics and the reading
+    /// Jacobian of `target` (kept in the workspace), and the normal matrix `W J J^T W` over the
+    /// first `rows` rows with its largest diagonal entry (at least the smallest positive
+    /// number), the scale of the damping.
+    fn linearize(&mut self, out: &[f64], target: Target, rows: usize) -> (Matrix6<f64>, f64) {
+        self.calibrated
+            .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
+        self.calibrated
+            .reading_jacobian(&self.ws, target, &mut self.jac);
+        let jjt = self.normal(rows);
+        let scale = jjt.diagonal().max().max(f64::MIN_POSITIVE);
+        (jjt, scale)
     }
 
     /// `W J J^T W` over the first `rows` rows (the rest zero).
