@@ -423,356 +423,311 @@ where
                 (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
             )
             .map_err(failed)?;
-        draw_contents(&mut chart, p, frame)
+        Canvas::new(&mut chart, p, frame).contents()
     } else {
         let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1).map_err(failed)?;
-        draw_contents(&mut chart, p, frame)
+        Canvas::new(&mut chart, p, frame).contents()
     }
 }
 
-/// What a panel shows, in the order it is drawn: the mesh, the bars, each line (its points or
-/// its curve, its error bars, its guide to the nominal value), the nominal value's mark, the
-/// horizontal and vertical reference lines, and the legend where it hides the least.
-fn draw_contents<'a, DB, Y>(
-    chart: &mut Chart<'a, DB, Y>,
-    p: &Panel,
+/// A panel being drawn on its chart: the chart, the panel, and its axes' data ranges. Its
+/// methods draw the panel's parts.
+struct Canvas<'c, 'a, DB: DrawingBackend, Y: YAxis> {
+    chart: &'c mut Chart<'a, DB, Y>,
+    panel: &'c Panel,
     frame: Frame,
-) -> Result<(), DrawError>
+}
+
+impl<'c, 'a, DB, Y> Canvas<'c, 'a, DB, Y>
 where
     DB: DrawingBackend + 'a,
     DB::ErrorType: 'static,
     Y: YAxis,
 {
-    let mut legend = Legend::default();
-    draw_mesh(chart, p, frame)?;
-    draw_bars(chart, p)?;
-    for (k, l) in p.lines.iter().enumerate() {
-        let color = COLORS[l.color.unwrap_or(k) % COLORS.len()];
-        draw_line(chart, p, l, color, &mut legend)?;
-        if let Some(e) = &l.error {
-            draw_error_bars(chart, p, l, e, color, frame)?;
+    fn new(chart: &'c mut Chart<'a, DB, Y>, panel: &'c Panel, frame: Frame) -> Self {
+        Canvas {
+            chart,
+            panel,
+            frame,
+        }
+    }
+
+    /// What a panel shows, in the order it is drawn: the mesh, the bars, each line (its points or
+    /// its curve, its error bars, its guide to the nominal value), the nominal value's mark, the
+    /// horizontal and vertical reference lines, and the legend where it hides the least.
+    fn contents(&mut self) -> Result<(), DrawError> {
+        let (p, frame) = (self.panel, self.frame);
+        let mut legend = Legend::default();
+        self.mesh()?;
+        self.bars()?;
+        for (k, l) in p.lines.iter().enumerate() {
+            let color = COLORS[l.color.unwrap_or(k) % COLORS.len()];
+            self.line(l, color, &mut legend)?;
+            if let Some(e) = &l.error {
+                self.error_bars(l, e, color)?;
+            }
+            if let Some(m) = p.mark_x {
+                self.crossing(l, m, color)?;
+            }
         }
         if let Some(m) = p.mark_x {
-            draw_crossing(chart, p, l, m, color, frame)?;
+            let (_, _, y0, y1) = frame;
+            self.chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(m, y0), (m, y1)],
+                    4,
+                    4,
+                    BLACK.mix(0.6).stroke_width(1),
+                ))
+                .map_err(failed)?;
         }
+        self.reference_lines(&mut legend)?;
+        self.legend(legend_position(p, frame))
     }
-    if let Some(m) = p.mark_x {
-        let (_, _, y0, y1) = frame;
+
+    /// The axes, their ticks and labels: tick steps as plotters chooses them (about 10 per axis),
+    /// labels with just the decimals that step needs; parameter names on a categorical x axis;
+    /// integer counts on a histogram's y axis.
+    fn mesh(&mut self) -> Result<(), DrawError> {
+        let (chart, p, frame) = (&mut *self.chart, self.panel, self.frame);
+        let (x0, x1, y0, y1) = frame;
+        let x_step = nice_step((x1 - x0) / 10.0);
+        let y_step = nice_step((y1 - y0) / 10.0);
+        let x_fmt = |v: &f64| -> String {
+            if p.x_names.is_empty() {
+                tick_label(*v, x_step)
+            } else {
+                let i = v.round();
+                if (v - i).abs() < 1e-6 && i >= 0.0 {
+                    p.x_names.get(i as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            }
+        };
+        let integer_y = !p.bars.is_empty();
+        let y_fmt = |v: &f64| -> String {
+            if p.log_y {
+                log_tick_label(*v)
+            } else if integer_y {
+                if (v - v.round()).abs() < 1e-9 {
+                    format!("{:.0}", v)
+                } else {
+                    String::new()
+                }
+            } else {
+                tick_label(*v, y_step)
+            }
+        };
+        let x_labels = if p.x_names.is_empty() {
+            10
+        } else {
+            p.x_names.len().min(20)
+        };
+        let y_labels = if integer_y {
+            (y1.ceil() as usize + 1).min(11)
+        } else {
+            10
+        };
         chart
-            .draw_series(DashedLineSeries::new(
-                vec![(m, y0), (m, y1)],
-                4,
-                4,
-                BLACK.mix(0.6).stroke_width(1),
-            ))
-            .map_err(failed)?;
+            .configure_mesh()
+            .x_desc(&p.x_label)
+            .y_desc(&p.y_label)
+            .x_labels(x_labels)
+            .y_labels(y_labels)
+            .x_label_formatter(&x_fmt)
+            .y_label_formatter(&y_fmt)
+            .label_style(("sans-serif", 12))
+            .light_line_style(WHITE.mix(0.0))
+            .draw()
+            .map_err(failed)
     }
-    draw_reference_lines(chart, p, frame, &mut legend)?;
-    draw_legend(chart, p, legend_position(p, frame))
-}
 
-/// The axes, their ticks and labels: tick steps as plotters chooses them (about 10 per axis),
-/// labels with just the decimals that step needs; parameter names on a categorical x axis;
-/// integer counts on a histogram's y axis.
-fn draw_mesh<'a, DB, Y>(
-    chart: &mut Chart<'a, DB, Y>,
-    p: &Panel,
-    frame: Frame,
-) -> Result<(), DrawError>
-where
-    DB: DrawingBackend + 'a,
-    DB::ErrorType: 'static,
-    Y: YAxis,
-{
-    let (x0, x1, y0, y1) = frame;
-    let x_step = nice_step((x1 - x0) / 10.0);
-    let y_step = nice_step((y1 - y0) / 10.0);
-    let x_fmt = |v: &f64| -> String {
-        if p.x_names.is_empty() {
-            tick_label(*v, x_step)
-        } else {
-            let i = v.round();
-            if (v - i).abs() < 1e-6 && i >= 0.0 {
-                p.x_names.get(i as usize).cloned().unwrap_or_default()
-            } else {
-                String::new()
-            }
+    /// A histogram's bars, filled, with white edges between them.
+    fn bars(&mut self) -> Result<(), DrawError> {
+        let (chart, p) = (&mut *self.chart, self.panel);
+        if p.bars.is_empty() {
+            return Ok(());
         }
-    };
-    let integer_y = !p.bars.is_empty();
-    let y_fmt = |v: &f64| -> String {
-        if p.log_y {
-            log_tick_label(*v)
-        } else if integer_y {
-            if (v - v.round()).abs() < 1e-9 {
-                format!("{:.0}", v)
-            } else {
-                String::new()
-            }
-        } else {
-            tick_label(*v, y_step)
-        }
-    };
-    let x_labels = if p.x_names.is_empty() {
-        10
-    } else {
-        p.x_names.len().min(20)
-    };
-    let y_labels = if integer_y {
-        (y1.ceil() as usize + 1).min(11)
-    } else {
-        10
-    };
-    chart
-        .configure_mesh()
-        .x_desc(&p.x_label)
-        .y_desc(&p.y_label)
-        .x_labels(x_labels)
-        .y_labels(y_labels)
-        .x_label_formatter(&x_fmt)
-        .y_label_formatter(&y_fmt)
-        .label_style(("sans-serif", 12))
-        .light_line_style(WHITE.mix(0.0))
-        .draw()
-        .map_err(failed)
-}
-
-/// A histogram's bars, filled, with white edges between them.
-fn draw_bars<'a, DB, Y>(chart: &mut Chart<'a, DB, Y>, p: &Panel) -> Result<(), DrawError>
-where
-    DB: DrawingBackend + 'a,
-    DB::ErrorType: 'static,
-    Y: YAxis,
-{
-    if p.bars.is_empty() {
-        return Ok(());
-    }
-    let color = COLORS[0];
-    chart
-        .draw_series(
-            p.bars
-                .iter()
-                .filter(|b| b.2 > 0.0)
-                .map(|&(a, b, c)| Rectangle::new([(a, 0.0), (b, c)], color.mix(0.75).filled())),
-        )
-        .map_err(failed)?;
-    chart
-        .draw_series(
-            p.bars
-                .iter()
-                .filter(|b| b.2 > 0.0)
-                .map(|&(a, b, c)| Rectangle::new([(a, 0.0), (b, c)], WHITE.stroke_width(1))),
-        )
-        .map_err(failed)?;
-    Ok(())
-}
-
-/// A line's points (a dot, with a bar in the legend when it has error bars) or its curve,
-/// labelled in the legend the first time its label comes.
-fn draw_line<'a, DB, Y>(
-    chart: &mut Chart<'a, DB, Y>,
-    p: &Panel,
-    l: &Line,
-    color: RGBColor,
-    legend: &mut Legend,
-) -> Result<(), DrawError>
-where
-    DB: DrawingBackend + 'a,
-    DB::ErrorType: 'static,
-    Y: YAxis,
-{
-    let pts: Vec<(f64, f64)> =
-        p.x.iter()
-            .zip(&l.y)
-            .filter(|(_, y)| y.is_finite() && (!p.log_y || **y > 0.0))
-            .map(|(x, y)| (*x, *y))
-            .collect();
-    if l.points {
-        let anno = chart
+        let color = COLORS[0];
+        chart
             .draw_series(
-                pts.iter()
-                    .map(|&(x, y)| Circle::new((x, y), 3, color.filled())),
+                p.bars
+                    .iter()
+                    .filter(|b| b.2 > 0.0)
+                    .map(|&(a, b, c)| Rectangle::new([(a, 0.0), (b, c)], color.mix(0.75).filled())),
             )
             .map_err(failed)?;
-        if legend.first(&l.label) {
-            let bars = l.error.is_some();
-            anno.label(l.label.clone()).legend(move |(x, y)| {
-                let dot = Circle::new((x + 10, y), 3, color.filled());
-                let bar = PathElement::new(
-                    if bars {
-                        vec![(x + 10, y - 6), (x + 10, y + 6)]
-                    } else {
-                        vec![]
-                    },
-                    color.stroke_width(1),
-                );
-                EmptyElement::at((0, 0)) + dot + bar
-            });
-        }
-    } else {
-        let anno = chart
-            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-            .map_err(failed)?;
-        if legend.first(&l.label) {
-            anno.label(l.label.clone()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-            });
-        }
-    }
-    Ok(())
-}
-
-/// A line's error bars `y +- e`, every bar at least [`MIN_BAR_PX`] tall, with caps: a sigma
-/// smaller than its point, on an axis scaled by larger values, still shows.
-fn draw_error_bars<'a, DB, Y>(
-    chart: &mut Chart<'a, DB, Y>,
-    p: &Panel,
-    l: &Line,
-    e: &[f64],
-    color: RGBColor,
-    frame: Frame,
-) -> Result<(), DrawError>
-where
-    DB: DrawingBackend + 'a,
-    DB::ErrorType: 'static,
-    Y: YAxis,
-{
-    let (x0, x1, y0, y1) = frame;
-    let (pw, ph) = chart.plotting_area().dim_in_pixel();
-    let cap = CAP_PX * (x1 - x0) / pw.max(1) as f64;
-    let bars: Vec<(f64, f64, f64)> =
-        p.x.iter()
-            .zip(&l.y)
-            .zip(e)
-            .filter(|((_, y), e)| {
-                y.is_finite() && (!p.log_y || **y > 0.0) && e.is_finite() && **e != 0.0
-            })
-            .map(|((&x, &y), &e)| {
-                let (lo, hi) = error_bar(y, e, p.log_y, (y0, y1), ph);
-                (x, lo, hi)
-            })
-            .collect();
-    let ink = color.stroke_width(1);
-    chart
-        .draw_series(bars.iter().flat_map(|&(x, lo, hi)| {
-            [
-                PathElement::new(vec![(x, lo), (x, hi)], ink),
-                PathElement::new(vec![(x - cap, lo), (x + cap, lo)], ink),
-                PathElement::new(vec![(x - cap, hi), (x + cap, hi)], ink),
-            ]
-        }))
-        .map_err(failed)?;
-    Ok(())
-}
-
-/// Where a line crosses the nominal value `m`: a dotted guide to the y axis.
-fn draw_crossing<'a, DB, Y>(
-    chart: &mut Chart<'a, DB, Y>,
-    p: &Panel,
-    l: &Line,
-    m: f64,
-    color: RGBColor,
-    frame: Frame,
-) -> Result<(), DrawError>
-where
-    DB: DrawingBackend + 'a,
-    DB::ErrorType: 'static,
-    Y: YAxis,
-{
-    let Some(i) = p.x.iter().position(|&x| x >= m) else {
-        return Ok(());
-    };
-    let y = l.y[i];
-    if y.is_finite() && (!p.log_y || y > 0.0) {
         chart
-            .draw_series(DashedLineSeries::new(
-                vec![(frame.0, y), (m, y)],
-                4,
-                4,
-                color.mix(0.7).stroke_width(1),
-            ))
+            .draw_series(
+                p.bars
+                    .iter()
+                    .filter(|b| b.2 > 0.0)
+                    .map(|&(a, b, c)| Rectangle::new([(a, 0.0), (b, c)], WHITE.stroke_width(1))),
+            )
             .map_err(failed)?;
+        Ok(())
     }
-    Ok(())
-}
 
-/// The horizontal reference lines (red, dashed: a tolerance's two sides are one legend entry)
-/// and the vertical marks (events, dash-dotted).
-fn draw_reference_lines<'a, DB, Y>(
-    chart: &mut Chart<'a, DB, Y>,
-    p: &Panel,
-    frame: Frame,
-    legend: &mut Legend,
-) -> Result<(), DrawError>
-where
-    DB: DrawingBackend + 'a,
-    DB::ErrorType: 'static,
-    Y: YAxis,
-{
-    let (x0, x1, y0, y1) = frame;
-    for (v, label) in &p.h_lines {
-        let anno = chart
-            .draw_series(DashedLineSeries::new(
-                vec![(x0, *v), (x1, *v)],
-                6,
-                4,
-                RED.stroke_width(1),
-            ))
-            .map_err(failed)?;
-        if legend.first(label) {
-            anno.label(label.clone())
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(1)));
+    /// A line's points (a dot, with a bar in the legend when it has error bars) or its curve,
+    /// labelled in the legend the first time its label comes.
+    fn line(&mut self, l: &Line, color: RGBColor, legend: &mut Legend) -> Result<(), DrawError> {
+        let (chart, p) = (&mut *self.chart, self.panel);
+        let pts: Vec<(f64, f64)> =
+            p.x.iter()
+                .zip(&l.y)
+                .filter(|(_, y)| y.is_finite() && (!p.log_y || **y > 0.0))
+                .map(|(x, y)| (*x, *y))
+                .collect();
+        if l.points {
+            let anno = chart
+                .draw_series(
+                    pts.iter()
+                        .map(|&(x, y)| Circle::new((x, y), 3, color.filled())),
+                )
+                .map_err(failed)?;
+            if legend.first(&l.label) {
+                let bars = l.error.is_some();
+                anno.label(l.label.clone()).legend(move |(x, y)| {
+                    let dot = Circle::new((x + 10, y), 3, color.filled());
+                    let bar = PathElement::new(
+                        if bars {
+                            vec![(x + 10, y - 6), (x + 10, y + 6)]
+                        } else {
+                            vec![]
+                        },
+                        color.stroke_width(1),
+                    );
+                    EmptyElement::at((0, 0)) + dot + bar
+                });
+            }
+        } else {
+            let anno = chart
+                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .map_err(failed)?;
+            if legend.first(&l.label) {
+                anno.label(l.label.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+            }
         }
+        Ok(())
     }
-    for (v, label) in &p.v_lines {
-        let ink = RGBColor(90, 60, 160);
-        let anno = chart
-            .draw_series(DashedLineSeries::new(
-                vec![(*v, y0), (*v, y1)],
-                8,
-                3,
-                ink.stroke_width(2),
-            ))
-            .map_err(failed)?;
-        if legend.first(label) {
-            anno.label(label.clone()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], ink.stroke_width(2))
-            });
-        }
-    }
-    Ok(())
-}
 
-/// The legend, its lower-left corner at `at` (fractions of the plotting area from the lower
-/// left, [`legend_position`]), when the panel has any label.
-fn draw_legend<'a, DB, Y>(
-    chart: &mut Chart<'a, DB, Y>,
-    p: &Panel,
-    at: (f64, f64),
-) -> Result<(), DrawError>
-where
-    DB: DrawingBackend + 'a,
-    DB::ErrorType: 'static,
-    Y: YAxis,
-{
-    let entries = legend_entries(p);
-    if entries == 0 {
-        return Ok(());
+    /// A line's error bars `y +- e`, every bar at least [`MIN_BAR_PX`] tall, with caps: a sigma
+    /// smaller than its point, on an axis scaled by larger values, still shows.
+    fn error_bars(&mut self, l: &Line, e: &[f64], color: RGBColor) -> Result<(), DrawError> {
+        let (chart, p, frame) = (&mut *self.chart, self.panel, self.frame);
+        let (x0, x1, y0, y1) = frame;
+        let (pw, ph) = chart.plotting_area().dim_in_pixel();
+        let cap = CAP_PX * (x1 - x0) / pw.max(1) as f64;
+        let bars: Vec<(f64, f64, f64)> =
+            p.x.iter()
+                .zip(&l.y)
+                .zip(e)
+                .filter(|((_, y), e)| {
+                    y.is_finite() && (!p.log_y || **y > 0.0) && e.is_finite() && **e != 0.0
+                })
+                .map(|((&x, &y), &e)| {
+                    let (lo, hi) = error_bar(y, e, p.log_y, (y0, y1), ph);
+                    (x, lo, hi)
+                })
+                .collect();
+        let ink = color.stroke_width(1);
+        chart
+            .draw_series(bars.iter().flat_map(|&(x, lo, hi)| {
+                [
+                    PathElement::new(vec![(x, lo), (x, hi)], ink),
+                    PathElement::new(vec![(x - cap, lo), (x + cap, lo)], ink),
+                    PathElement::new(vec![(x - cap, hi), (x + cap, hi)], ink),
+                ]
+            }))
+            .map_err(failed)?;
+        Ok(())
     }
-    let (pw, ph) = chart.plotting_area().dim_in_pixel();
-    let top = at.1 + 0.08 + 0.06 * entries as f64;
-    let at = SeriesLabelPosition::Coordinate(
-        (at.0 * pw as f64) as i32,
-        ((1.0 - top) * ph as f64).max(0.0) as i32,
-    );
-    chart
-        .configure_series_labels()
-        .position(at)
-        .label_font(("sans-serif", 12))
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK.mix(0.3))
-        .draw()
-        .map_err(failed)
+
+    /// Where a line crosses the nominal value `m`: a dotted guide to the y axis.
+    fn crossing(&mut self, l: &Line, m: f64, color: RGBColor) -> Result<(), DrawError> {
+        let (chart, p, frame) = (&mut *self.chart, self.panel, self.frame);
+        let Some(i) = p.x.iter().position(|&x| x >= m) else {
+            return Ok(());
+        };
+        let y = l.y[i];
+        if y.is_finite() && (!p.log_y || y > 0.0) {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(frame.0, y), (m, y)],
+                    4,
+                    4,
+                    color.mix(0.7).stroke_width(1),
+                ))
+                .map_err(failed)?;
+        }
+        Ok(())
+    }
+
+    /// The horizontal reference lines (red, dashed: a tolerance's two sides are one legend entry)
+    /// and the vertical marks (events, dash-dotted).
+    fn reference_lines(&mut self, legend: &mut Legend) -> Result<(), DrawError> {
+        let (chart, p, frame) = (&mut *self.chart, self.panel, self.frame);
+        let (x0, x1, y0, y1) = frame;
+        for (v, label) in &p.h_lines {
+            let anno = chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(x0, *v), (x1, *v)],
+                    6,
+                    4,
+                    RED.stroke_width(1),
+                ))
+                .map_err(failed)?;
+            if legend.first(label) {
+                anno.label(label.clone()).legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(1))
+                });
+            }
+        }
+        for (v, label) in &p.v_lines {
+            let ink = RGBColor(90, 60, 160);
+            let anno = chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(*v, y0), (*v, y1)],
+                    8,
+                    3,
+                    ink.stroke_width(2),
+                ))
+                .map_err(failed)?;
+            if legend.first(label) {
+                anno.label(label.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], ink.stroke_width(2))
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The legend, its lower-left corner at `at` (fractions of the plotting area from the lower
+    /// left, [`legend_position`]), when the panel has any label.
+    fn legend(&mut self, at: (f64, f64)) -> Result<(), DrawError> {
+        let (chart, p) = (&mut *self.chart, self.panel);
+        let entries = legend_entries(p);
+        if entries == 0 {
+            return Ok(());
+        }
+        let (pw, ph) = chart.plotting_area().dim_in_pixel();
+        let top = at.1 + 0.08 + 0.06 * entries as f64;
+        let at = SeriesLabelPosition::Coordinate(
+            (at.0 * pw as f64) as i32,
+            ((1.0 - top) * ph as f64).max(0.0) as i32,
+        );
+        chart
+            .configure_series_labels()
+            .position(at)
+            .label_font(("sans-serif", 12))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK.mix(0.3))
+            .draw()
+            .map_err(failed)
+    }
 }
 
 fn draw_all<DB: DrawingBackend>(
