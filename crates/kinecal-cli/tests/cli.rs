@@ -8,7 +8,7 @@ mod shared_data;
 #[path = "../../kinecal/tests/common/synthetic_datasets.rs"]
 mod synthetic;
 
-use common::{argv, kinecal, run_err, run_ok};
+use common::{argv, kinecal, run, run_err, run_ok};
 
 #[test]
 fn demo_shows_returning_and_redundant_parameters() {
@@ -124,8 +124,7 @@ fn simulate_then_calibrate_recovers_the_truth_and_keeps_the_file() {
         ),
     );
     assert!(out.contains("converged"), "{out}");
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("rep.json"));
     for key in [
         "method",
         "converged",
@@ -193,8 +192,7 @@ fn position_only_data_and_all_methods() {
                  --report r.json"
             )),
         );
-        let rep: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+        let rep = common::read_json(&d.join("r.json"));
         assert!(
             rep["rms_position_after"].as_f64().unwrap() < 1e-6,
             "{method}: {out}"
@@ -223,15 +221,13 @@ fn euler_residuals_refused_at_gimbal_lock_rotvec_by_default() {
         d,
         &argv("simulate --robot r.toml --postures 20 --perturb link2.x=+1 --out data.csv"),
     );
-    let out = kinecal()
-        .current_dir(d)
-        .args(argv(
+    let (code, _, err) = run(
+        d,
+        &argv(
             "calibrate --robot r.toml --data data.csv --estimate link2.x --orientation-error euler",
-        ))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+        ),
+    );
+    assert_eq!(code, 1, "{err}");
     assert!(
         err.contains("gimbal lock") && err.contains("lines 2, 3, 4, 5, 6, ..."),
         "{err}"
@@ -240,8 +236,7 @@ fn euler_residuals_refused_at_gimbal_lock_rotvec_by_default() {
         d,
         &argv("calibrate --robot r.toml --data data.csv --estimate link2.x --report rep.json"),
     );
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("rep.json"));
     assert!(
         (rep["parameters"][6]["estimated"].as_f64().unwrap() - 301.0).abs() < 1e-6,
         "{out}"
@@ -471,8 +466,7 @@ fn calibrate_identifiable_min_change_initial_and_prune() {
              --weights length=0.0005,angle=0.005 --prune 3 --report r.json",
         ),
     );
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("r.json"));
     let kept: Vec<&str> = rep["parameters"]
         .as_array()
         .unwrap()
@@ -505,8 +499,7 @@ fn calibrate_identifiable_min_change_initial_and_prune() {
              --estimate p1,p3,p9,p10,p15,p21,p27,p33 --solution min-change --report m.json",
         ),
     );
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("m.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("m.json"));
     assert_eq!(rep["solution"], "min-change");
     let p = |i: usize| rep["parameters"][i]["estimated"].as_f64().unwrap();
     assert!(
@@ -576,8 +569,7 @@ fn import_dh_and_poe_then_calibrate_with_validation() {
         d,
         &argv("calibrate --robot puma.toml --data all.csv --holdout 0.25 --report r.json"),
     );
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("r.json"));
     assert!(rep["parameters"]
         .as_array()
         .unwrap()
@@ -917,15 +909,11 @@ fn concurrent_processes_recording_all_succeed() {
     let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
     assert_eq!(list.lines().count(), 13, "{list}");
     // Retried: nothing recorded twice.
-    let out = kinecal()
-        .current_dir(d)
-        .args(argv(
-            "history add --robot-id R0 --report r.json --db h.sqlite --at 2026-11-01",
-        ))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    let (code, _, err) = run(
+        d,
+        &argv("history add --robot-id R0 --report r.json --db h.sqlite --at 2026-11-01"),
+    );
+    assert_eq!(code, 0, "{err}");
     assert!(err.contains("already recorded as calibration"), "{err}");
     let list = run_ok(d, &["history", "list", "--db", "h.sqlite"]);
     assert_eq!(list.lines().count(), 13, "{list}");
@@ -1154,8 +1142,7 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
     );
     assert!(out.contains("30 distances, 60 contacts"), "{out}");
     assert!(out.contains("RMS contact error (in)"), "{out}");
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("rep.json"));
     assert_eq!(rep["converged"], true);
     assert_eq!(rep["observations"][0]["kind"], "distance");
     let other = &rep["identification"]["after"]["other"];
@@ -1178,8 +1165,7 @@ fn distances_and_contacts_calibrate_without_a_tracker() {
         ),
     );
     assert!(out.contains("min-change solution"), "{out}");
-    let mc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("mc.json")).unwrap()).unwrap();
+    let mc = common::read_json(&d.join("mc.json"));
     assert_eq!(mc["converged"], true);
     assert!(
         mc["identification"]["after"]["other"][0]["max"]
@@ -1264,8 +1250,7 @@ fn exit_codes_and_absent_figures() {
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("NOT converged"));
     assert!(String::from_utf8_lossy(&out.stderr).contains("iteration cap"));
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("r.json"));
     assert_eq!(rep["converged"], false);
     assert!(
         rep["rms_orientation_after"].is_null(),
@@ -1471,28 +1456,19 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
         mm += &(f.join(",") + "\n");
     }
     std::fs::write(d.join("mm.csv"), mm).unwrap();
-    let out = kinecal()
-        .current_dir(d)
-        .args(["calibrate", "--robot", "ge-a4", "--data", "mm.csv"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (code, _, err) = run(d, &["calibrate", "--robot", "ge-a4", "--data", "mm.csv"]);
     // Whether such a fit reaches a minimum or the iteration cap (exit 4), it runs, and says.
-    assert!(matches!(out.status.code(), Some(0 | 4)), "{err}");
+    assert!(matches!(code, 0 | 4), "{err}");
     assert!(
         err.contains("warning: the measured positions spread 25 times as widely as the nominal robot predicts for the same postures: are they in mm? the data is read in the robot file's length unit (in): state the file's unit when it is another (--length-unit)"),
         "{err}"
     );
     // Stated, the same file calibrates without a word about units.
-    let out = kinecal()
-        .current_dir(d)
-        .args(argv(
-            "calibrate --robot ge-a4 --data mm.csv --length-unit mm --strict",
-        ))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(0), "{err}");
+    let (code, _, err) = run(
+        d,
+        &argv("calibrate --robot ge-a4 --data mm.csv --length-unit mm --strict"),
+    );
+    assert_eq!(code, 0, "{err}");
     assert!(!err.contains("spread"), "{err}");
     let out = kinecal()
         .current_dir(d)
@@ -2359,16 +2335,14 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
         "{err}"
     );
     assert!(!t.join("ge.csv").exists());
-    let out = kinecal()
-        .current_dir(t)
-        .args(argv(
+    let (code, _, err) = run(
+        t,
+        &argv(
             "export dh --robot ge-a4 --convention standard --tolerance length=100,angle=360
              --out ge.csv",
-        ))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+        ),
+    );
+    assert_eq!(code, 0, "{err}");
     assert!(
         err.contains("not written: joint 1 slope 7.2 deg/unit; up to "),
         "{err}"
@@ -2529,8 +2503,7 @@ fn tracker_series_from_moved_placements() {
         out.contains("validation sessions identification never saw (C)"),
         "{out}"
     );
-    let rep: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("rep.json")).unwrap()).unwrap();
+    let rep = common::read_json(&d.join("rep.json"));
     assert_eq!(rep["validation"]["sessions_refitted"][0], "C");
     // 0.02 mm per axis: about 0.035 mm in 3D.
     let after = rep["validation"]["after"]["rms_position"].as_f64().unwrap();
@@ -2610,8 +2583,7 @@ fn reports_are_checked_against_the_shipped_schema() {
         &argv("calibrate --robot ge-a4 --data data.csv --report r.json"),
     );
     assert_eq!(common::check_reports(d), 1);
-    let good: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("r.json")).unwrap()).unwrap();
+    let good = common::read_json(&d.join("r.json"));
     for (path, value) in [
         ("/parameters/0/estimated", serde_json::Value::Null),
         ("/converged", serde_json::Value::from("yes")),

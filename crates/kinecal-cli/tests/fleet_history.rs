@@ -74,8 +74,7 @@ fn outputs(dir: &Path, db: &str) -> Vec<(String, i32, String)> {
         0,
         std::fs::read_to_string(dir.join("plot.svg")).unwrap(),
     ));
-    let mut json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("fleet.json")).unwrap()).unwrap();
+    let mut json = common::read_json(&dir.join("fleet.json"));
     json["history"] = serde_json::Value::Null;
     out.push(("fleet.json".into(), 0, json.to_string()));
     out

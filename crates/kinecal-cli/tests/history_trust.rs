@@ -318,8 +318,7 @@ fn a_report_of_another_robot_model_is_refused() {
     let dir = history(1);
     let d = dir.path();
     // The same report, but joint 3 revolute instead of prismatic.
-    let mut r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("r1.json")).unwrap()).unwrap();
+    let mut r = common::read_json(&d.join("r1.json"));
     for p in r["parameters"].as_array_mut().unwrap() {
         match p["name"].as_str().unwrap() {
             "joint3.offset" => p["unit"] = "deg".into(),
@@ -443,8 +442,7 @@ fn drift_and_plot_say_what_they_left_out() {
     let dir = history(1);
     let d = dir.path();
     // The second run did not determine link1.x (as if the data had not seen it).
-    let mut r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.join("r2.json")).unwrap()).unwrap();
+    let mut r = common::read_json(&d.join("r2.json"));
     let p = r["parameters"]
         .as_array_mut()
         .unwrap()

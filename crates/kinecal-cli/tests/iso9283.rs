@@ -105,10 +105,7 @@ fn plan_simulate_evaluate_end_to_end() {
     // 30 cycles: the only warning is that the log is simulated.
     assert!(!err.contains("fewer than"), "{err}");
     assert!(err.contains("warning: the log is simulated"), "{err}");
-    let json: serde_json::Value = common::check_document(
-        "iso9283",
-        &std::fs::read_to_string(d.join("iso.json")).unwrap(),
-    );
+    let json = common::check_document_file("iso9283", &d.join("iso.json"));
     let poses = json["poses"].as_array().unwrap();
     assert_eq!(poses.len(), 5);
     for p in poses {
@@ -257,10 +254,7 @@ fn a_measurement_series_gives_iso_figures_before_and_after_calibration() {
             out.contains("compensated AP, predicted RMS / 95 % bound"),
             "{out}"
         );
-        let e: serde_json::Value = common::check_document(
-            "iso9283",
-            &std::fs::read_to_string(d.join("iso.json")).unwrap(),
-        );
+        let e = common::check_document_file("iso9283", &d.join("iso.json"));
         let poses = e["poses"].as_array().unwrap();
         assert_eq!(poses.len(), 18);
         for p in poses {
@@ -481,10 +475,7 @@ print(json.dumps(out))
         String::from_utf8_lossy(&py.stderr)
     );
     let theirs: serde_json::Value = serde_json::from_slice(&py.stdout).unwrap();
-    let ours: serde_json::Value = common::check_document(
-        "iso9283",
-        &std::fs::read_to_string(d.join("iso.json")).unwrap(),
-    );
+    let ours = common::check_document_file("iso9283", &d.join("iso.json"));
     for p in ours["poses"].as_array().unwrap() {
         let k = p["pose"].to_string();
         let (ap, rp) = (p["ap"].as_f64().unwrap(), p["rp"].as_f64().unwrap());

@@ -26,6 +26,20 @@ fn calibrated(dir: &Path) {
     }
 }
 
+/// The calibrated robot and its report, as [`calibrated`] wrote them in `dir`.
+fn read_back(dir: &Path) -> (kinecal::Robot, kinecal::report::CalibrationReport) {
+    let robot = kinecal::model::robot_file::parse_robot_toml(
+        &std::fs::read_to_string(dir.join("cal.toml")).unwrap(),
+        "cal.toml",
+    )
+    .unwrap();
+    let report = kinecal::report::CalibrationReport::from_json(
+        &std::fs::read_to_string(dir.join("report.json")).unwrap(),
+    )
+    .unwrap();
+    (robot, report)
+}
+
 #[test]
 fn the_table_is_the_library_prediction_and_the_map_is_drawn() {
     let dir = tempfile::tempdir().unwrap();
@@ -42,15 +56,7 @@ fn the_table_is_the_library_prediction_and_the_map_is_drawn() {
     assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
     common::check_reports(d);
     // The library's prediction, posture by posture, in the file's units.
-    let robot = kinecal::model::robot_file::parse_robot_toml(
-        &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
-        "cal.toml",
-    )
-    .unwrap();
-    let report = kinecal::report::CalibrationReport::from_json(
-        &std::fs::read_to_string(d.join("report.json")).unwrap(),
-    )
-    .unwrap();
+    let (robot, report) = read_back(d);
     let pr = report.prediction.as_ref().unwrap();
     let p = kinecal::predict::from_report(&robot, pr).unwrap();
     let mut s = p.scratch();
@@ -219,15 +225,7 @@ fn cartesian_targets_are_reached_then_predicted() {
     );
     assert_eq!(code, 0, "{e}");
     assert!(e.contains("predicted 12 postures of GE A4 (ee)"), "{e}");
-    let robot = kinecal::model::robot_file::parse_robot_toml(
-        &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
-        "cal.toml",
-    )
-    .unwrap();
-    let report = kinecal::report::CalibrationReport::from_json(
-        &std::fs::read_to_string(d.join("report.json")).unwrap(),
-    )
-    .unwrap();
+    let (robot, report) = read_back(d);
     let p = kinecal::predict::from_report(&robot, report.prediction.as_ref().unwrap()).unwrap();
     let mut s = p.scratch();
     let inch = 0.0254;

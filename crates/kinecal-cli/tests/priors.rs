@@ -7,7 +7,7 @@ mod common;
 use common::{argv, kinecal, run_err, run_ok};
 
 fn report(dir: &Path, name: &str) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join(name)).unwrap()).unwrap()
+    common::read_json(&dir.join(name))
 }
 
 fn held_out_rms(r: &serde_json::Value) -> f64 {

@@ -121,6 +121,16 @@ pub fn check_reports(dir: &Path) -> usize {
     checked
 }
 
+/// The JSON file at `path`, parsed.
+pub fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// [`check_document`] of the file at `path`.
+pub fn check_document_file(kind: &'static str, path: &Path) -> serde_json::Value {
+    check_document(kind, &std::fs::read_to_string(path).unwrap())
+}
+
 /// Checks a document printed by `--json` (`analysis`, `plan` or `check`) against its shipped
 /// schema; returns it parsed.
 pub fn check_document(kind: &'static str, text: &str) -> serde_json::Value {
