@@ -9,7 +9,7 @@ use kinecal::predict::{self as prediction, PredictionReport};
 use kinecal::report::CalibrationReport;
 use kinecal::units::Quantity;
 use kinecal::Target;
-use numpy::ndarray::{Array1, Array2};
+use numpy::ndarray::Array1;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -151,18 +151,8 @@ pub fn predict<'py>(
         }
     });
     let d = PyDict::new(py);
-    d.set_item(
-        "readings",
-        Array2::from_shape_vec((n, dof), readings)
-            .expect("shape")
-            .into_pyarray(py),
-    )?;
-    d.set_item(
-        "position",
-        Array2::from_shape_vec((n, 3), position)
-            .expect("shape")
-            .into_pyarray(py),
-    )?;
+    d.set_item("readings", crate::row_major_array(py, (n, dof), readings))?;
+    d.set_item("position", crate::row_major_array(py, (n, 3), position))?;
     let names = [
         "distance",
         "position_parameters",

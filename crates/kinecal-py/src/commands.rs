@@ -10,7 +10,6 @@ use kinecal::observe::{Dataset, Observation};
 use kinecal::spec::{CompensateSpec, PlanSpec, SimulateSpec};
 use kinecal::units::Quantity;
 use kinecal::{Posture, Target};
-use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -230,12 +229,7 @@ fn compensated<'py>(
         .flat_map(|(_, s)| (0..dof).map(move |j| s.flags.out_of_range & (1 << j) != 0))
         .collect();
     let d = PyDict::new(py);
-    d.set_item(
-        "readings",
-        Array2::from_shape_vec((n, dof), readings)
-            .expect("shape")
-            .into_pyarray(py),
-    )?;
+    d.set_item("readings", crate::row_major_array(py, (n, dof), readings))?;
     let column = |f: &dyn Fn(&kinecal::apps::compensate::Solved) -> f64| -> Vec<f64> {
         solved.iter().map(|(_, s)| f(s)).collect()
     };
@@ -262,9 +256,7 @@ fn compensated<'py>(
     d.set_item("unreachable", flag(&|f| f.unreachable).into_pyarray(py))?;
     d.set_item(
         "out_of_range",
-        Array2::from_shape_vec((n, dof), out_of_range)
-            .expect("shape")
-            .into_pyarray(py),
+        crate::row_major_array(py, (n, dof), out_of_range),
     )?;
     d.set_item("singular", flag(&|f| f.singular).into_pyarray(py))?;
     d.set_item("branch", flag(&|f| f.branch).into_pyarray(py))?;
@@ -414,15 +406,14 @@ fn planned<'py>(
     )?;
     d.set_item(
         "readings",
-        Array2::from_shape_vec(
+        crate::row_major_array(
+            py,
             (k, r.dof()),
             p.postures
                 .iter()
                 .flat_map(|q| q.readings.iter().copied())
                 .collect(),
-        )
-        .expect("shape")
-        .into_pyarray(py),
+        ),
     )?;
     d.set_item(
         "leverage",

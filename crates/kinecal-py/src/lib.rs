@@ -680,6 +680,17 @@ impl Robot {
     }
 }
 
+/// A `(rows, cols)` NumPy array of `values`, given row after row (`rows * cols` of them).
+fn row_major_array<T: numpy::Element>(
+    py: Python<'_>,
+    (rows, cols): (usize, usize),
+    values: Vec<T>,
+) -> Bound<'_, PyArray2<T>> {
+    Array2::from_shape_vec((rows, cols), values)
+        .expect("shape")
+        .into_pyarray(py)
+}
+
 /// Readings as `(rows, joints)`, or one row of `joints`: returns the values and the shape
 /// `[rows]` for one row given flat, `[rows, joints]` otherwise.
 fn readings_array(
@@ -1037,9 +1048,7 @@ impl Measurements {
             .iter()
             .flat_map(|p| p.readings.iter().copied())
             .collect();
-        Array2::from_shape_vec((self.data.postures.len(), self.dof), v)
-            .expect("shape")
-            .into_pyarray(py)
+        row_major_array(py, (self.data.postures.len(), self.dof), v)
     }
 
     /// Number of postures.

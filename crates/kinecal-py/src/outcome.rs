@@ -5,7 +5,6 @@
 use kinecal::observe::{target_name, RowQuantity};
 use kinecal::units::Quantity;
 use kinecal::workflow::Outcome;
-use numpy::ndarray::Array2;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -43,12 +42,7 @@ pub fn details<'py>(py: Python<'py>, outcome: &Outcome) -> PyResult<Bound<'py, P
                 .iter()
                 .flat_map(|&a| order.iter().map(|&b| c[a][b]).collect::<Vec<_>>())
                 .collect();
-            d.set_item(
-                "covariance",
-                Array2::from_shape_vec((n, n), flat)
-                    .expect("shape")
-                    .into_pyarray(py),
-            )?;
+            d.set_item("covariance", crate::row_major_array(py, (n, n), flat))?;
         }
         None => d.set_item("covariance", py.None())?,
     }
