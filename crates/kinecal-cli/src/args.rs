@@ -449,9 +449,8 @@ pub struct ImportUrArgs {
     /// The kinematics file (YAML).
     #[arg(required_unless_present = "spec")]
     pub file: Option<PathBuf>,
-    /// The robot file to write.
-    #[arg(long, required_unless_present = "spec")]
-    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub written: ImportOutArgs,
 }
 
 /// `kinecal curves ...`.
@@ -1053,9 +1052,8 @@ pub struct ImportUrdfArgs {
     /// its joint compliances can be estimated (`--estimate identifiable,compliance`).
     #[arg(long)]
     pub masses: bool,
-    /// The robot file to write.
-    #[arg(long, required_unless_present = "spec")]
-    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub written: ImportOutArgs,
 }
 
 /// `kinecal export`.
@@ -1221,6 +1219,14 @@ pub struct ExportUrdfArgs {
     pub out: Option<PathBuf>,
 }
 
+/// The robot file an import writes (shared by the imports).
+#[derive(Debug, Args)]
+pub struct ImportOutArgs {
+    /// The robot file to write.
+    #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
+}
+
 /// `kinecal import poe`.
 #[derive(Debug, Args)]
 pub struct ImportPoeArgs {
@@ -1229,9 +1235,8 @@ pub struct ImportPoeArgs {
     /// The product-of-exponentials file (TOML).
     #[arg(required_unless_present = "spec")]
     pub file: Option<PathBuf>,
-    /// The robot file to write.
-    #[arg(long, required_unless_present = "spec")]
-    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub written: ImportOutArgs,
 }
 
 /// `kinecal import dh`.
@@ -1256,9 +1261,8 @@ pub struct ImportDhArgs {
     /// Robot name.
     #[arg(long)]
     pub name: Option<String>,
-    /// The robot file to write.
-    #[arg(long, required_unless_present = "spec")]
-    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub written: ImportOutArgs,
 }
 
 /// `kinecal analyze`.

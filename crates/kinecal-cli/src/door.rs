@@ -17,9 +17,9 @@ use kinecal::Setting;
 use crate::args::{
     AnalyzeArgs, CheckArgs, CompensateArgs, CurvesObjectiveArgs, CurvesPoseArgs, CurvesRobotArgs,
     ExportDhArgs, ExportJointsArgs, ExportStiffnessArgs, ExportUrArgs, ExportUrdfArgs, FkArgs,
-    ImportDhArgs, ImportPoeArgs, ImportUrArgs, ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs,
-    Iso9283PlanArgs, Iso9283SimulateArgs, ObservationFiles, PlanArgs, PredictArgs, ReadBackArgs,
-    ReportArgs, ResidualArgs, SimulateArgs, SpecArgs, SweepArgs,
+    ImportDhArgs, ImportOutArgs, ImportPoeArgs, ImportUrArgs, ImportUrdfArgs, Iso9283EvaluateArgs,
+    Iso9283LogArgs, Iso9283PlanArgs, Iso9283SimulateArgs, ObservationFiles, PlanArgs, PredictArgs,
+    ReadBackArgs, ReportArgs, ResidualArgs, SimulateArgs, SpecArgs, SweepArgs,
 };
 
 /// Exit code when a check or a compensation flags what needs a person, or a strict calibration
@@ -575,11 +575,13 @@ pub fn export_stiffness(a: &ExportStiffnessArgs) -> Result<ExportSpec> {
     Ok(s)
 }
 
-/// The spec of an import command over `--spec`'s (which must be an import of `format`).
+/// The spec of an import command over `--spec`'s (which must be an import of `format`), with
+/// its file and the robot file it writes.
 fn import_base(
     door: &SpecArgs,
     format: ImportFormat,
     file: &Option<PathBuf>,
+    written: &ImportOutArgs,
 ) -> Result<ImportSpec> {
     let mut s = base(door, |j| match j {
         Job::Import(s) => Some(s),
@@ -593,44 +595,39 @@ fn import_base(
     }
     s.format = format;
     set(&mut s.file, opt_path(file)?);
+    over(&mut s.out, opt_path(&written.out)?);
     Ok(s)
 }
 
 /// `kinecal import urdf`'s spec.
 pub fn import_urdf(a: &ImportUrdfArgs) -> Result<ImportSpec> {
-    let mut s = import_base(&a.door, ImportFormat::Urdf, &a.file)?;
+    let mut s = import_base(&a.door, ImportFormat::Urdf, &a.file, &a.written)?;
     over(&mut s.base, a.base.clone());
     if !a.tip.is_empty() {
         s.tip = a.tip.clone();
     }
     s.masses |= a.masses;
-    over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
 
 /// `kinecal import dh`'s spec.
 pub fn import_dh(a: &ImportDhArgs) -> Result<ImportSpec> {
-    let mut s = import_base(&a.door, ImportFormat::Dh, &a.file)?;
+    let mut s = import_base(&a.door, ImportFormat::Dh, &a.file, &a.written)?;
     over(&mut s.convention, a.convention);
     over(&mut s.length_unit, a.length_unit.clone());
     over(&mut s.angle_unit, a.angle_unit.clone());
     over(&mut s.robot_name, a.name.clone());
-    over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }
 
 /// `kinecal import poe`'s spec.
 pub fn import_poe(a: &ImportPoeArgs) -> Result<ImportSpec> {
-    let mut s = import_base(&a.door, ImportFormat::Poe, &a.file)?;
-    over(&mut s.out, opt_path(&a.out)?);
-    Ok(s)
+    import_base(&a.door, ImportFormat::Poe, &a.file, &a.written)
 }
 
 /// `kinecal import ur`'s spec.
 pub fn import_ur(a: &ImportUrArgs) -> Result<ImportSpec> {
-    let mut s = import_base(&a.door, ImportFormat::Ur, &a.file)?;
-    over(&mut s.out, opt_path(&a.out)?);
-    Ok(s)
+    import_base(&a.door, ImportFormat::Ur, &a.file, &a.written)
 }
 
 /// `kinecal report`'s spec.
