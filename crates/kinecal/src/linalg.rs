@@ -335,6 +335,21 @@ impl QrAccumulator {
     }
 }
 
+/// The Householder reflection `I - tau v v^T` that maps a column `x` (its leading entry
+/// `alpha`, `sigma > 0` the sum of squares of the entries below it) onto `mu e1`, `mu = |x|`
+/// (Golub and Van Loan's `house`, free of cancellation for either sign of `alpha`). Returns
+/// `(mu, beta, tau)`: `v` is 1, then the entries below the leading one divided by `beta`.
+pub(crate) fn householder(alpha: f64, sigma: f64) -> (f64, f64, f64) {
+    let mu = (alpha * alpha + sigma).sqrt();
+    let beta = if alpha <= 0.0 {
+        alpha - mu
+    } else {
+        -sigma / (alpha + mu)
+    };
+    let tau = 2.0 * beta * beta / (sigma + beta * beta);
+    (mu, beta, tau)
+}
+
 /// Accumulates `A^T A` of a tall matrix `A` pushed a row at a time, without holding `A`: rows
 /// are gathered in blocks of [`QR_BLOCK`] and each block's `B^T B` is added (a matrix product
 /// of the block, `cols^2` multiply-adds per row, against about `2 cols^2` for a QR update).
@@ -502,13 +517,8 @@ impl PivotedQr {
             if sigma == 0.0 {
                 tau[k] = 0.0;
             } else {
-                let mu = (alpha * alpha + sigma).sqrt();
-                let beta = if alpha <= 0.0 {
-                    alpha - mu
-                } else {
-                    -sigma / (alpha + mu)
-                };
-                tau[k] = 2.0 * beta * beta / (sigma + beta * beta);
+                let (mu, beta, t) = householder(alpha, sigma);
+                tau[k] = t;
                 for i in k + 1..m {
                     w[(i, k)] /= beta;
                 }

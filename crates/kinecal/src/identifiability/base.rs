@@ -489,13 +489,7 @@ pub(super) fn select_base(
         if sigma == 0.0 {
             // Already zero below row k: nothing to reflect.
         } else {
-            let mu = (alpha * alpha + sigma).sqrt();
-            let beta = if alpha <= 0.0 {
-                alpha - mu
-            } else {
-                -sigma / (alpha + mu)
-            };
-            let tau = 2.0 * beta * beta / (sigma + beta * beta);
+            let (mu, beta, tau) = linalg::householder(alpha, sigma);
             v[k] = 1.0;
             for i in k + 1..rows {
                 v[i] = w[(i, p)] / beta;
