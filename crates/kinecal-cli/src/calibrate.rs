@@ -41,10 +41,7 @@ impl workflow::Progress for Verbose {
 /// validation files given replace the spec's lists; a way of checking given replaces the
 /// spec's).
 pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Calibrate(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: CalibrationSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     over(&mut s.initial, a.initial.clone());
     observations(&a.observations, &mut s.read, &mut s.observations)?;

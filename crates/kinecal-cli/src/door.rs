@@ -50,14 +50,66 @@ fn opt_path(p: &Option<PathBuf>) -> Result<Option<String>> {
     p.as_deref().map(path_text).transpose()
 }
 
+/// A job's spec, taken out of a [`Job`] of its kind.
+pub trait OfJob: Spec {
+    /// The spec of `job`, when it is of this kind.
+    fn of(job: Job) -> Option<Self>;
+}
+
+/// [`OfJob`] for the spec of each kind of job.
+macro_rules! of_job {
+    ($($kind:ident($spec:ty)),* $(,)?) => {
+        $(
+            impl OfJob for $spec {
+                fn of(job: Job) -> Option<Self> {
+                    match job {
+                        Job::$kind(s) => Some(s),
+                        _ => None,
+                    }
+                }
+            }
+        )*
+    };
+}
+
+of_job! {
+    Calibrate(kinecal::spec::CalibrationSpec),
+    Analyze(AnalyzeSpec),
+    Plan(PlanSpec),
+    Predict(PredictSpec),
+    Compensate(CompensateSpec),
+    Iso9283Plan(Iso9283PlanSpec),
+    Iso9283Simulate(Iso9283SimulateSpec),
+    Iso9283Log(Iso9283LogSpec),
+    Iso9283Evaluate(Iso9283EvaluateSpec),
+    Simulate(SimulateSpec),
+    Fk(FkSpec),
+    Check(CheckSpec),
+    Export(ExportSpec),
+    Import(ImportSpec),
+    Report(ReportSpec),
+    Curves(CurvesSpec),
+    HistoryAdd(kinecal::spec::HistoryAddSpec),
+    HistoryList(kinecal::spec::HistoryListSpec),
+    HistoryShow(kinecal::spec::HistoryShowSpec),
+    HistoryExport(kinecal::spec::HistoryExportSpec),
+    HistoryDrift(kinecal::spec::HistoryDriftSpec),
+    HistoryPlot(kinecal::spec::HistoryPlotSpec),
+    HistoryFleet(kinecal::spec::HistoryFleetSpec),
+    HistoryEvent(kinecal::spec::HistoryEventSpec),
+    HistoryEvents(kinecal::spec::HistoryEventsSpec),
+    HistoryImport(kinecal::spec::HistoryImportSpec),
+    HistoryInit(kinecal::spec::HistoryInitSpec),
+}
+
 /// The spec `--spec` names, which must be of the job `S`; the default spec without it.
-pub fn base<S: Spec>(door: &SpecArgs, pick: impl FnOnce(Job) -> Option<S>) -> Result<S> {
+pub fn base<S: OfJob>(door: &SpecArgs) -> Result<S> {
     let Some(path) = &door.spec else {
         return Ok(S::default());
     };
     let job = Job::read(path)?;
     let kind = job.kind();
-    pick(job).ok_or_else(|| {
+    S::of(job).ok_or_else(|| {
         anyhow!(
             "{}: a spec of the job `{kind}`, not of `{}` (its `job` key)",
             path.display(),
@@ -211,10 +263,7 @@ pub fn say(messages: &[Message]) {
 
 /// `kinecal analyze`'s spec.
 pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Analyze(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: AnalyzeSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     observations(&a.observations, &mut s.read, &mut s.observations)?;
     if let Some(p) = &a.postures {
@@ -235,10 +284,7 @@ pub fn analyze(a: &AnalyzeArgs) -> Result<AnalyzeSpec> {
 
 /// `kinecal plan`'s spec.
 pub fn plan(a: &PlanArgs) -> Result<PlanSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Plan(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: PlanSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     if a.candidates.is_some() || a.sample.is_some() {
         s.candidates = opt_path(&a.candidates)?;
@@ -260,10 +306,7 @@ pub fn plan(a: &PlanArgs) -> Result<PlanSpec> {
 
 /// `kinecal predict`'s spec (predictions on standard output unless written to a file).
 pub fn predict(a: &PredictArgs) -> Result<PredictSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Predict(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: PredictSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     set(&mut s.report, opt_path(&a.report)?);
     if a.postures.is_some() || a.sample.is_some() || a.targets.is_some() {
@@ -284,10 +327,7 @@ pub fn predict(a: &PredictArgs) -> Result<PredictSpec> {
 
 /// `kinecal compensate`'s spec.
 pub fn compensate(a: &CompensateArgs) -> Result<CompensateSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Compensate(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: CompensateSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     set(&mut s.nominal, a.nominal.clone());
     set(&mut s.input, opt_path(&a.input)?);
@@ -307,10 +347,7 @@ pub fn compensate(a: &CompensateArgs) -> Result<CompensateSpec> {
 
 /// `kinecal iso9283 plan`'s spec.
 pub fn iso9283_plan(a: &Iso9283PlanArgs) -> Result<Iso9283PlanSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Iso9283Plan(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: Iso9283PlanSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     if let Some(c) = &a.cube {
         s.cube = Some(numbers::<4>("--cube", c, "CX,CY,CZ,SIDE: four numbers")?);
@@ -342,10 +379,7 @@ fn numbers<const N: usize>(option: &str, s: &str, what: &str) -> Result<[f64; N]
 
 /// `kinecal iso9283 simulate`'s spec.
 pub fn iso9283_simulate(a: &Iso9283SimulateArgs) -> Result<Iso9283SimulateSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Iso9283Simulate(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: Iso9283SimulateSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     set(&mut s.poses, opt_path(&a.poses)?);
     over(&mut s.cycles, a.cycles);
@@ -360,10 +394,7 @@ pub fn iso9283_simulate(a: &Iso9283SimulateArgs) -> Result<Iso9283SimulateSpec> 
 
 /// `kinecal iso9283 log`'s spec.
 pub fn iso9283_log(a: &Iso9283LogArgs) -> Result<Iso9283LogSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Iso9283Log(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: Iso9283LogSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     set(&mut s.data, opt_path(&a.data)?);
     set(&mut s.roles, opt_path(&a.roles)?);
@@ -374,10 +405,7 @@ pub fn iso9283_log(a: &Iso9283LogArgs) -> Result<Iso9283LogSpec> {
 
 /// `kinecal iso9283 evaluate`'s spec.
 pub fn iso9283_evaluate(a: &Iso9283EvaluateArgs) -> Result<Iso9283EvaluateSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Iso9283Evaluate(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: Iso9283EvaluateSpec = base(&a.door)?;
     set(&mut s.data, opt_path(&a.data)?);
     over(&mut s.length_unit, a.length_unit.clone());
     over(&mut s.angle_unit, a.angle_unit.clone());
@@ -391,10 +419,7 @@ pub fn iso9283_evaluate(a: &Iso9283EvaluateArgs) -> Result<Iso9283EvaluateSpec> 
 
 /// `kinecal simulate`'s spec.
 pub fn simulate(a: &SimulateArgs) -> Result<SimulateSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Simulate(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: SimulateSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     set(&mut s.postures, a.postures);
     over(&mut s.seed, a.seed);
@@ -451,10 +476,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<SimulateSpec> {
 
 /// `kinecal fk`'s spec.
 pub fn fk(a: &FkArgs) -> Result<FkSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Fk(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: FkSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     set(&mut s.postures, opt_path(&a.postures)?);
     over(&mut s.out, opt_path(&a.out)?);
@@ -463,10 +485,7 @@ pub fn fk(a: &FkArgs) -> Result<FkSpec> {
 
 /// `kinecal check`'s spec.
 pub fn check(a: &CheckArgs) -> Result<CheckSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Check(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: CheckSpec = base(&a.door)?;
     set(&mut s.robot, a.robot.clone());
     observations(&a.observations, &mut s.read, &mut s.observations)?;
     if let Some(t) = &a.threshold {
@@ -496,10 +515,7 @@ pub fn check(a: &CheckArgs) -> Result<CheckSpec> {
 
 /// The spec of an export command over `--spec`'s (which must be an export of `format`).
 fn export_base(door: &SpecArgs, format: ExportFormat) -> Result<ExportSpec> {
-    let mut s = base(door, |j| match j {
-        Job::Export(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: ExportSpec = base(door)?;
     if door.spec.is_some() && s.format != format {
         bail!(
             "{}: a spec of a {} export, not of {}",
@@ -583,10 +599,7 @@ fn import_base(
     file: &Option<PathBuf>,
     written: &ImportOutArgs,
 ) -> Result<ImportSpec> {
-    let mut s = base(door, |j| match j {
-        Job::Import(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: ImportSpec = base(door)?;
     if door.spec.is_some() && s.format != format {
         bail!(
             "{}: a spec of another import",
@@ -632,10 +645,7 @@ pub fn import_ur(a: &ImportUrArgs) -> Result<ImportSpec> {
 
 /// `kinecal report`'s spec.
 pub fn report(a: &ReportArgs) -> Result<ReportSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::Report(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: ReportSpec = base(&a.door)?;
     over(&mut s.from, opt_path(&a.from)?);
     over(&mut s.robot, a.robot.clone());
     observations(&a.observations, &mut s.read, &mut s.observations)?;
@@ -663,10 +673,7 @@ fn sweep(a: &SweepArgs, s: &mut CurvesSpec) -> Result<()> {
 /// The spec of a curves command over `--spec`'s (which must be of `curve`), with its robot.
 fn curves_base(job: &CurvesRobotArgs, curve: CurveKind) -> Result<CurvesSpec> {
     let door = &job.door;
-    let mut s = base(door, |j| match j {
-        Job::Curves(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: CurvesSpec = base(door)?;
     if door.spec.is_some() && s.curve != curve {
         bail!(
             "{}: a spec of the other curve",

@@ -143,10 +143,7 @@ fn spec(c: &HistoryCommand) -> Result<Said<'_>> {
 
 /// `kinecal history add`'s spec.
 pub fn add(a: &HistoryAddArgs) -> Result<HistoryAddSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryAdd(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryAddSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     set(&mut s.report, opt_path(a.report.as_deref())?);
@@ -158,10 +155,7 @@ pub fn add(a: &HistoryAddArgs) -> Result<HistoryAddSpec> {
 
 /// `kinecal history list`'s spec.
 pub fn list(a: &HistoryListArgs) -> Result<HistoryListSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryList(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryListSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     Ok(s)
@@ -169,10 +163,7 @@ pub fn list(a: &HistoryListArgs) -> Result<HistoryListSpec> {
 
 /// `kinecal history show`'s spec.
 pub fn show_spec(a: &HistoryShowArgs) -> Result<HistoryShowSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryShow(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryShowSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     over(&mut s.id, a.id);
@@ -181,10 +172,7 @@ pub fn show_spec(a: &HistoryShowArgs) -> Result<HistoryShowSpec> {
 
 /// `kinecal history export`'s spec.
 pub fn export(a: &HistoryExportArgs) -> Result<HistoryExportSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryExport(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryExportSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     set(&mut s.format, a.format);
@@ -194,10 +182,7 @@ pub fn export(a: &HistoryExportArgs) -> Result<HistoryExportSpec> {
 
 /// `kinecal history drift`'s spec.
 pub fn drift(a: &HistoryDriftArgs) -> Result<HistoryDriftSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryDrift(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryDriftSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     set(&mut s.baseline, a.baseline.clone().map(BaselineSpec::Named));
@@ -208,10 +193,7 @@ pub fn drift(a: &HistoryDriftArgs) -> Result<HistoryDriftSpec> {
 
 /// `kinecal history plot`'s spec.
 pub fn plot(a: &HistoryPlotArgs) -> Result<HistoryPlotSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryPlot(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryPlotSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     if let Some(list) = &a.param {
@@ -228,10 +210,7 @@ pub fn plot(a: &HistoryPlotArgs) -> Result<HistoryPlotSpec> {
 
 /// `kinecal history fleet`'s spec.
 pub fn fleet(a: &HistoryFleetArgs) -> Result<HistoryFleetSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryFleet(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryFleetSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     set(&mut s.sigma, a.sigma);
     over(&mut s.tolerance, opt_path(a.tolerance.as_deref())?);
@@ -244,10 +223,7 @@ pub fn fleet(a: &HistoryFleetArgs) -> Result<HistoryFleetSpec> {
 
 /// `kinecal history event`'s spec.
 pub fn event(a: &HistoryEventArgs) -> Result<HistoryEventSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryEvent(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryEventSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     set(&mut s.robot_id, a.robot_id.clone());
     over(&mut s.at, a.at.clone());
@@ -257,10 +233,7 @@ pub fn event(a: &HistoryEventArgs) -> Result<HistoryEventSpec> {
 
 /// `kinecal history events`'s spec.
 pub fn events(a: &HistoryListArgs) -> Result<HistoryEventsSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryEvents(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryEventsSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     over(&mut s.robot_id, a.robot_id.clone());
     Ok(s)
@@ -268,10 +241,7 @@ pub fn events(a: &HistoryListArgs) -> Result<HistoryEventsSpec> {
 
 /// `kinecal history import`'s spec.
 pub fn import(a: &HistoryImportArgs) -> Result<HistoryImportSpec> {
-    let mut s = base(&a.history.door, |j| match j {
-        Job::HistoryImport(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryImportSpec = base(&a.history.door)?;
     over(&mut s.db, db(&a.history)?);
     set(&mut s.dump, opt_path(a.dump.as_deref())?);
     Ok(s)
@@ -279,10 +249,7 @@ pub fn import(a: &HistoryImportArgs) -> Result<HistoryImportSpec> {
 
 /// `kinecal history init`'s spec.
 pub fn init(a: &HistoryArgs) -> Result<HistoryInitSpec> {
-    let mut s = base(&a.door, |j| match j {
-        Job::HistoryInit(s) => Some(s),
-        _ => None,
-    })?;
+    let mut s: HistoryInitSpec = base(&a.door)?;
     over(&mut s.db, db(a)?);
     Ok(s)
 }
