@@ -70,6 +70,12 @@ def lab(cli: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
         "--resolution", "4", "--out", "poses.csv")
     run("iso9283", "simulate", "--robot", "irb.toml", "--poses", "poses.csv", "--cycles", "3",
         "--noise", "length=0.01", "--out", "log.csv")
+    run("export", "dh", "--robot", "irb.toml", "--convention", "modified", "--out", "dh.csv")
+    # Roles of an ISO 9283 test in the GE A4's data: postures 1-27 as 3 cycles of 9 poses.
+    roles = ["posture,test,pose,cycle"] + [
+        f"{k + 1},cube 1,{'P1' if k % 9 == 0 else f'C{k % 9}'},{k // 9 + 1}" for k in range(27)
+    ]
+    (d / "roles.csv").write_text("\n".join(roles) + "\n")
     return d
 
 
@@ -98,6 +104,18 @@ CASES: list[tuple[str, list[str], bool]] = [
     ("report", ["report", "--from", "report.json", "--out", "a_page.html"], False),
     ("curves", ["curves", "objective", "--robot", "ge-a4", "--data", "data.csv", "--param",
                 "p1", "--points", "11", "--out", "a_objective.csv"], False),
+    ("export-joints", ["export", "joints", "--robot", "cal.toml", "--nominal", "ge-a4",
+                       "--tolerance", "length=1,angle=1", "--out", "a_joints.csv"], False),
+    ("import", ["import", "dh", "dh.csv", "--name", "from dh", "--out", "a_imported.toml"],
+     False),
+    ("iso9283-plan", ["iso9283", "plan", "--robot", "irb.toml", "--attitude",
+                      "3.141592653589793,0,0", "--resolution", "4", "--out", "a_iso_poses.csv"],
+     False),
+    ("iso9283-simulate", ["iso9283", "simulate", "--robot", "irb.toml", "--poses", "poses.csv",
+                          "--cycles", "3", "--noise", "length=0.001", "--out", "a_log.csv"],
+     False),
+    ("iso9283-log", ["iso9283", "log", "--robot", "ge-a4", "--data", "data.csv", "--roles",
+                     "roles.csv", "--out", "a_iso_log.csv"], False),
     ("iso9283-evaluate", ["iso9283", "evaluate", "--data", "log.csv", "--json", "a_iso.json"],
      False),
 ]
@@ -179,6 +197,54 @@ def test_named_functions_are_spellings_of_the_same_specs(lab: Path) -> None:
     sim = kinecal.simulate(nominal, 12, seed=3, perturb={"p1": 0.05}, noise={"length": 0.001})
     assert sim.measurements.to_csv(nominal) == sim_doc["data"]
     assert sim.truth.to_toml() == sim_doc["truth"]
+
+
+def test_named_functions_of_the_other_jobs_give_run_s_results(lab: Path) -> None:
+    """predict, compensate, iso9283_log and iso9283 with data in memory give what ``run`` of the
+    same job from files gives: the same numbers to the last bit, the same log, the same
+    figures."""
+    nominal = kinecal.Robot.builtin("ge-a4")
+    calibrated = kinecal.Robot.from_toml(lab / "cal.toml")
+    data = kinecal.Measurements.read_csv(lab / "data.csv", nominal)
+    readings = data.readings
+    # The data's readings as a program (a file with measured poses would make them targets).
+    program = ["posture," + ",".join(f"v{j + 1}" for j in range(readings.shape[1]))]
+    program += [f"{i + 1}," + ",".join(repr(float(v)) for v in row)
+                for i, row in enumerate(readings)]
+    (lab / "program.csv").write_text("\n".join(program) + "\n")
+    cwd = os.getcwd()
+    os.chdir(lab)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            kinecal.run({"job": "predict", "robot": "cal.toml", "report": "report.json",
+                         "postures": "data.csv", "outputs": {"predictions": "n_predict.csv"}})
+            kinecal.run({"job": "compensate", "robot": "cal.toml", "nominal": "ge-a4",
+                         "in": "program.csv", "position_only": True,
+                         "out": "n_compensated.csv"})
+            log_doc = kinecal.run({"job": "iso9283-log", "robot": "ge-a4", "data": "data.csv",
+                                   "roles": "roles.csv"})
+            iso_doc = kinecal.run({"job": "iso9283-evaluate", "data": "log.csv"})
+    finally:
+        os.chdir(cwd)
+    table = np.genfromtxt(lab / "n_predict.csv", delimiter=",", names=True)
+    predicted = kinecal.predict(calibrated, lab / "report.json", postures=readings)
+    for column in ("position_bound95", "position_parameters", "position_model",
+                   "attitude_bound95", "distance"):
+        assert np.array_equal(predicted[column], table[column]), column
+    compensated = np.genfromtxt(lab / "n_compensated.csv", delimiter=",", names=True)
+    named = kinecal.compensate(calibrated, nominal, program=readings, position_only=True)
+    for j in range(readings.shape[1]):
+        assert np.array_equal(named.readings[:, j], compensated[f"v{j + 1}"]), f"v{j + 1}"
+    assert np.array_equal(named.iterations, compensated["iterations"])
+    assert not named.flagged.any()
+    log = kinecal.iso9283_log(nominal, data, lab / "roles.csv")
+    assert log.text == log_doc["log"]
+    assert log.left_out == log_doc["left_out"] == ["28", "29", "30"]
+    figures = kinecal.iso9283(lab / "log.csv")
+    # The log's name as each was given it: a path, and a path relative to the working folder.
+    assert figures.pop("file") == str(lab / "log.csv") and iso_doc.pop("file") == "log.csv"
+    assert figures == iso_doc
 
 
 @pytest.mark.parametrize(
