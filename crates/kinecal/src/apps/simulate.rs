@@ -11,7 +11,7 @@ use rand_distr::{Distribution, Normal};
 use crate::error::{Error, Result};
 use crate::model::kinematics::{Chain, Target, Workspace};
 use crate::model::params::ParamKind;
-use crate::model::robot::{JointKind, Robot};
+use crate::model::robot::{JointKind, Link, Robot};
 use crate::observe::point::{Pose, Position};
 use crate::observe::{
     for_each_observation, Context, Dataset, Observation, OrientationError, Posture,
@@ -172,21 +172,29 @@ pub fn add_noise(data: &mut Dataset, length: f64, angle: f64, seed: u64) {
     }
 }
 
+/// A random link (metres and radians): offsets `x, y, z` up to `reach` per axis, Euler angles
+/// `alpha, gamma` anywhere and `beta` within +-70 deg (away from the gimbal lock), drawn in
+/// that order.
+fn random_link(r: &mut ChaCha8Rng, reach: f64) -> Link {
+    Link {
+        x: r.random_range(-reach..reach),
+        y: r.random_range(-reach..reach),
+        z: r.random_range(-reach..reach),
+        alpha: r.random_range(-3.1..3.1),
+        beta: r.random_range(-1.2..1.2),
+        gamma: r.random_range(-3.1..3.1),
+    }
+}
+
 /// A random robot with the given joint kinds (metres and radians): link offsets up to 0.4 m per
 /// axis, Euler angles anywhere (beta within +-70 deg), offsets anywhere, slopes of either sign
 /// between 0.5 and 2. For tests and benchmarks of arbitrary geometry.
 pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
-    use crate::model::robot::{Joint, Link};
+    use crate::model::robot::Joint;
     let mut r = rng(seed, 4);
-    let link = |r: &mut ChaCha8Rng| Link {
-        x: r.random_range(-0.4..0.4),
-        y: r.random_range(-0.4..0.4),
-        z: r.random_range(-0.4..0.4),
-        alpha: r.random_range(-3.1..3.1),
-        beta: r.random_range(-1.2..1.2),
-        gamma: r.random_range(-3.1..3.1),
-    };
-    let links = (0..=kinds.len()).map(|_| link(&mut r)).collect();
+    let links = (0..=kinds.len())
+        .map(|_| random_link(&mut r, 0.4))
+        .collect();
     let joints = kinds
         .iter()
         .map(|&kind| {
@@ -230,7 +238,7 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
 /// named `arm<k>`: the last arm's is the end effector, the others are sites. For tests and
 /// benchmarks of branched robots (two arms on one torso).
 pub fn random_tree(torso: usize, arms: &[usize], seed: u64) -> Robot {
-    use crate::model::robot::{Link, Site};
+    use crate::model::robot::Site;
     let n = torso + arms.iter().sum::<usize>();
     let mut robot = random_robot(&vec![JointKind::Revolute; n], seed);
     robot.name = format!("random-tree-{seed}");
@@ -253,14 +261,7 @@ pub fn random_tree(torso: usize, arms: &[usize], seed: u64) -> Robot {
             robot.sites.push(Site {
                 name: tool,
                 joint: first,
-                frame: Link {
-                    x: r.random_range(-0.2..0.2),
-                    y: r.random_range(-0.2..0.2),
-                    z: r.random_range(-0.2..0.2),
-                    alpha: r.random_range(-3.1..3.1),
-                    beta: r.random_range(-1.2..1.2),
-                    gamma: r.random_range(-3.1..3.1),
-                },
+                frame: random_link(&mut r, 0.2),
             });
         } else {
             robot.end_effector = Some(tool);
