@@ -704,21 +704,10 @@ fn history_record_drift_plot_and_check() {
         let data = format!("m{m}.csv");
         run_ok(
             d,
-            &[
-                "simulate",
-                "--robot",
-                "ge-a4",
-                "--postures",
-                "30",
-                "--seed",
-                &m.to_string(),
-                "--perturb",
-                &format!("p14=+{delta}"),
-                "--noise",
-                "length=0.0005,angle=0.005",
-                "--out",
-                &data,
-            ],
+            &argv(&format!(
+                "simulate --robot ge-a4 --postures 30 --seed {m} --perturb p14=+{delta}
+                 --noise length=0.0005,angle=0.005 --out {data}"
+            )),
         );
         let at = format!("2026-0{m}-01");
         if m < 3 {
@@ -1587,21 +1576,11 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
     for i in 1..=6 {
         run_ok(
             d,
-            &[
-                "simulate",
-                "--robot",
-                "ge-a4",
-                "--postures",
-                "40",
-                "--seed",
-                &i.to_string(),
-                "--perturb-std",
-                "length=0.01,angle=0.1",
-                "--noise",
-                "length=0.001,angle=0.01",
-                "--out",
-                &format!("fleet/d{i}.csv"),
-            ],
+            &argv(&format!(
+                "simulate --robot ge-a4 --postures 40 --seed {i}
+                 --perturb-std length=0.01,angle=0.1 --noise length=0.001,angle=0.01
+                 --out fleet/d{i}.csv"
+            )),
         );
         csv += &format!("A4-{i},ge-a4,d{i}.csv,--estimate identifiable --holdout 0.2\n");
     }
@@ -2875,21 +2854,11 @@ fn a_stiffness_that_drifts_is_flagged_by_the_history() {
     ] {
         run_ok(
             d,
-            &[
-                "simulate",
-                "--robot",
-                "arm.toml",
-                "--postures",
-                "40",
-                "--seed",
-                "2",
-                "--perturb",
-                &format!("joint3.compliance={compliance}"),
-                "--noise",
-                "length=0.000005,angle=0.000005",
-                "--out",
-                data,
-            ],
+            &argv(&format!(
+                "simulate --robot arm.toml --postures 40 --seed 2
+                 --perturb joint3.compliance={compliance} --noise length=0.000005,angle=0.000005
+                 --out {data}"
+            )),
         );
         run_ok(
             d,

@@ -30,24 +30,13 @@ fn six_r(dir: &Path, seed: u64) {
     .unwrap();
     let seed = seed.to_string();
     let noise = "length=0.0001,angle=0.0001";
-    let perturbed = [
-        "simulate",
-        "--robot",
-        "r6.toml",
-        "--postures",
-        "10",
-        "--seed",
-        &seed,
-        "--perturb-std",
-        PRIOR,
-        "--noise",
-        noise,
-        "--out",
-        "data.csv",
-        "--truth",
-        "truth.toml",
-    ];
-    run_ok(dir, &perturbed);
+    run_ok(
+        dir,
+        &argv(&format!(
+            "simulate --robot r6.toml --postures 10 --seed {seed} --perturb-std {PRIOR}
+             --noise {noise} --out data.csv --truth truth.toml"
+        )),
+    );
     let fresh = argv("simulate --robot truth.toml --postures 200 --seed 99 --out fresh.csv");
     run_ok(dir, &fresh);
 }
