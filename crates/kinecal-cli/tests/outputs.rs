@@ -52,15 +52,7 @@ fn data(dir: &Path, name: &str, seed: u32) {
 
 /// A short calibration of `d.csv` with `extra` outputs.
 fn calibrate<'a>(extra: &[&'a str]) -> Vec<&'a str> {
-    let mut v = vec![
-        "calibrate",
-        "--robot",
-        "ge-a4",
-        "--data",
-        "d.csv",
-        "--estimate",
-        "p1",
-    ];
+    let mut v = argv("calibrate --robot ge-a4 --data d.csv --estimate p1");
     v.extend_from_slice(extra);
     v
 }
