@@ -50,66 +50,14 @@ fn opt_path(p: &Option<PathBuf>) -> Result<Option<String>> {
     p.as_deref().map(path_text).transpose()
 }
 
-/// A job's spec, taken out of a [`Job`] of its kind.
-pub trait OfJob: Spec {
-    /// The spec of `job`, when it is of this kind.
-    fn of(job: Job) -> Option<Self>;
-}
-
-/// [`OfJob`] for the spec of each kind of job.
-macro_rules! of_job {
-    ($($kind:ident($spec:ty)),* $(,)?) => {
-        $(
-            impl OfJob for $spec {
-                fn of(job: Job) -> Option<Self> {
-                    match job {
-                        Job::$kind(s) => Some(s),
-                        _ => None,
-                    }
-                }
-            }
-        )*
-    };
-}
-
-of_job! {
-    Calibrate(kinecal::spec::CalibrationSpec),
-    Analyze(AnalyzeSpec),
-    Plan(PlanSpec),
-    Predict(PredictSpec),
-    Compensate(CompensateSpec),
-    Iso9283Plan(Iso9283PlanSpec),
-    Iso9283Simulate(Iso9283SimulateSpec),
-    Iso9283Log(Iso9283LogSpec),
-    Iso9283Evaluate(Iso9283EvaluateSpec),
-    Simulate(SimulateSpec),
-    Fk(FkSpec),
-    Check(CheckSpec),
-    Export(ExportSpec),
-    Import(ImportSpec),
-    Report(ReportSpec),
-    Curves(CurvesSpec),
-    HistoryAdd(kinecal::spec::HistoryAddSpec),
-    HistoryList(kinecal::spec::HistoryListSpec),
-    HistoryShow(kinecal::spec::HistoryShowSpec),
-    HistoryExport(kinecal::spec::HistoryExportSpec),
-    HistoryDrift(kinecal::spec::HistoryDriftSpec),
-    HistoryPlot(kinecal::spec::HistoryPlotSpec),
-    HistoryFleet(kinecal::spec::HistoryFleetSpec),
-    HistoryEvent(kinecal::spec::HistoryEventSpec),
-    HistoryEvents(kinecal::spec::HistoryEventsSpec),
-    HistoryImport(kinecal::spec::HistoryImportSpec),
-    HistoryInit(kinecal::spec::HistoryInitSpec),
-}
-
 /// The spec `--spec` names, which must be of the job `S`; the default spec without it.
-pub fn base<S: OfJob>(door: &SpecArgs) -> Result<S> {
+pub fn base<S: Spec + TryFrom<Job, Error = Job>>(door: &SpecArgs) -> Result<S> {
     let Some(path) = &door.spec else {
         return Ok(S::default());
     };
     let job = Job::read(path)?;
     let kind = job.kind();
-    S::of(job).ok_or_else(|| {
+    S::try_from(job).map_err(|_| {
         anyhow!(
             "{}: a spec of the job `{kind}`, not of `{}` (its `job` key)",
             path.display(),

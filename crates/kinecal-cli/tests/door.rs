@@ -228,14 +228,41 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
             &["a_log.csv"],
         ),
         case(
+            "iso9283-plan",
+            &argv(
+                "iso9283 plan --robot irb.toml --attitude 3.141592653589793,0,0 --resolution 4
+                 --out a_iso_poses.csv",
+            ),
+            false,
+            &["a_iso_poses.csv"],
+        ),
+        case(
+            "iso9283-log",
+            &argv(
+                "iso9283 log --robot ge-a4 --data data.csv --roles roles.csv --out a_iso_log.csv",
+            ),
+            false,
+            &["a_iso_log.csv"],
+        ),
+        case(
             "iso9283-evaluate",
             &argv("iso9283 evaluate --data log.csv --json a_iso.json"),
             false,
             &["a_iso.json"],
         ),
     ];
-    // What two of the cases read.
+    // What three of the cases read.
     std::fs::create_dir(d.join("sub")).unwrap();
+    // An ISO 9283 test in the GE A4's data: postures 1-27 as 3 cycles of 9 poses.
+    let mut roles = String::from("posture,test,pose,cycle\n");
+    for k in 0..27 {
+        let pose = match k % 9 {
+            0 => "P1".to_string(),
+            c => format!("C{c}"),
+        };
+        roles += &format!("{},cube 1,{pose},{}\n", k + 1, k / 9 + 1);
+    }
+    std::fs::write(d.join("roles.csv"), roles).unwrap();
     ok(
         d,
         &argv("export dh --robot irb.toml --convention standard --out dh.csv"),
@@ -305,7 +332,7 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
         &argv("batch jobs.toml --documents docs --quiet --jobs 2"),
     );
     assert_eq!(code, 0, "{table}\n{err}");
-    assert!(err.contains("jobs: 15 done, 0 failed"), "{err}");
+    assert!(err.contains("jobs: 17 done, 0 failed"), "{err}");
     for c in &cases {
         let here = if c.name == "import" {
             d.join("sub")

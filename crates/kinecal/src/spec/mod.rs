@@ -327,6 +327,18 @@ macro_rules! jobs {
                     Job::$kind(s)
                 }
             }
+
+            /// The spec of a job of this kind; the job itself when it is of another.
+            impl TryFrom<Job> for $spec {
+                type Error = Job;
+
+                fn try_from(job: Job) -> std::result::Result<$spec, Job> {
+                    match job {
+                        Job::$kind(s) => Ok(s),
+                        other => Err(other),
+                    }
+                }
+            }
         )*
     };
 }
