@@ -1327,7 +1327,8 @@ pub struct CompensateArgs {
     /// The nominal robot the controller uses (and the program was made with).
     #[arg(long, required_unless_present = "spec")]
     pub nominal: Option<String>,
-    /// The program (posture,v1,...,vn) or the targets (target,x,y,z[,alpha,beta,gamma]...).
+    /// The program (posture,v1,...,vn), the targets (target,x,y,z[,alpha,beta,gamma]...), or a
+    /// measurement file (its measured poses are the targets, its readings their seeds).
     #[arg(long = "in", value_name = "FILE", required_unless_present = "spec")]
     pub input: Option<PathBuf>,
     /// The frame that must reach the goal: `ee` (default) or a site of the robot.
