@@ -5,19 +5,36 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-/// The modules of `dir` (files and folders, `mod.rs` and `lib.rs` left out) and, for each, the
-/// modules of that level its files name (`prefix` followed by the name), over every file of a
-/// folder module, however deep.
-fn imports(dir: &Path, prefix: &str) -> BTreeMap<String, BTreeSet<String>> {
-    fn files(p: &Path, out: &mut Vec<std::path::PathBuf>) {
+/// Every `.rs` file under `p` (or `p` itself), however deep.
+fn rust_files(p: &Path) -> Vec<std::path::PathBuf> {
+    fn walk(p: &Path, out: &mut Vec<std::path::PathBuf>) {
         if p.is_dir() {
             for e in std::fs::read_dir(p).unwrap() {
-                files(&e.unwrap().path(), out);
+                walk(&e.unwrap().path(), out);
             }
         } else if p.extension().is_some_and(|e| e == "rs") {
             out.push(p.to_path_buf());
         }
     }
+    let mut out = Vec::new();
+    walk(p, &mut out);
+    out
+}
+
+/// The code of a file: its lines but comment lines (documentation may point anywhere).
+fn code_of(file: &Path) -> String {
+    std::fs::read_to_string(file)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The modules of `dir` (files and folders, `mod.rs` and `lib.rs` left out) and, for each, the
+/// modules of that level its files name (`prefix` followed by the name), over every file of a
+/// folder module, however deep.
+fn imports(dir: &Path, prefix: &str) -> BTreeMap<String, BTreeSet<String>> {
     let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     for e in std::fs::read_dir(dir).unwrap() {
         let p = e.unwrap().path();
@@ -26,17 +43,10 @@ fn imports(dir: &Path, prefix: &str) -> BTreeMap<String, BTreeSet<String>> {
             continue;
         }
         let entry = out.entry(name.clone()).or_default();
-        let mut all = Vec::new();
-        files(&p, &mut all);
+        let all = rust_files(&p);
         // `kinematics.rs` and its folder `kinematics/` share a name: one module, one entry.
         for f in &all {
-            let text = std::fs::read_to_string(f).unwrap();
-            // Code only: documentation may point anywhere.
-            let code: String = text
-                .lines()
-                .filter(|l| !l.trim_start().starts_with("//"))
-                .collect::<Vec<_>>()
-                .join("\n");
+            let code = code_of(f);
             for (i, _) in code.match_indices(prefix) {
                 let rest = &code[i + prefix.len()..];
                 let used: String = rest
@@ -147,17 +157,10 @@ fn modules_import_in_one_direction() {
 
 #[test]
 fn only_linalg_talks_to_faer() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut stack = vec![src];
-    while let Some(dir) = stack.pop() {
-        for e in std::fs::read_dir(dir).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.file_name().unwrap() != "linalg.rs" {
-                let text = std::fs::read_to_string(&p).unwrap();
-                assert!(!text.contains("faer::"), "{} uses faer", p.display());
-            }
+    for p in rust_files(&src()) {
+        if p.file_name().unwrap() != "linalg.rs" {
+            let text = std::fs::read_to_string(&p).unwrap();
+            assert!(!text.contains("faer::"), "{} uses faer", p.display());
         }
     }
 }
@@ -225,26 +228,10 @@ fn no_file_imports_a_file_that_imports_it_back() {
         if !src.is_dir() {
             continue;
         }
-        let mut files = BTreeSet::new();
-        let mut stack = vec![src.clone()];
-        while let Some(dir) = stack.pop() {
-            for e in std::fs::read_dir(dir).unwrap() {
-                let p = e.unwrap().path();
-                if p.is_dir() {
-                    stack.push(p);
-                } else if p.extension().is_some_and(|e| e == "rs") {
-                    files.insert(p);
-                }
-            }
-        }
+        let files: BTreeSet<_> = rust_files(&src).into_iter().collect();
         let mut edges: BTreeMap<std::path::PathBuf, BTreeSet<std::path::PathBuf>> = BTreeMap::new();
         for f in &files {
-            let text = std::fs::read_to_string(f).unwrap();
-            let code: String = text
-                .lines()
-                .filter(|l| !l.trim_start().starts_with("//"))
-                .collect::<Vec<_>>()
-                .join("\n");
+            let code = code_of(f);
             let code = code.split("#[cfg(test)]").next().unwrap();
             let me = module_path(&src, f);
             let mut targets = BTreeSet::new();
