@@ -1353,7 +1353,7 @@ pub struct CompensateArgs {
     /// The configuration Cartesian targets must be in: `shoulder=front|back`, `elbow=up|down`,
     /// `wrist=noflip|flip` (any of them, comma-separated; an arm of six revolute joints), or a
     /// sign pattern of the joint values, one of `+`, `-`, `*` per joint (`+,*,-,*,+,*`).
-    #[arg(long, value_name = "SPEC")]
+    #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
     pub configuration: Option<String>,
     /// What to write: `table` (the readings with each row's remaining errors and flags),
     /// `urscript` (a UR program of movej), or a controller's joint targets: `joints-ur` (rad),

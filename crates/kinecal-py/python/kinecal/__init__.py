@@ -795,6 +795,10 @@ def _report_json(report: Calibration | Mapping[str, Any] | str | os.PathLike[str
         return report.to_json()
     if isinstance(report, Mapping):
         return json.dumps(report)
+    if isinstance(report, str) and "{" not in report and not os.path.isfile(report):
+        raise KinecalError(
+            f"report: {report[:80]!r} is neither a report file nor a report's JSON text"
+        )
     if isinstance(report, os.PathLike) or (isinstance(report, str) and "{" not in report):
         with open(report, encoding="utf-8") as f:
             return f.read()
@@ -805,6 +809,11 @@ def _report_json(report: Calibration | Mapping[str, Any] | str | os.PathLike[str
 
 def _text(value: str | os.PathLike[str], keyword: str) -> tuple[str, str]:
     """``(text, name)`` of a CSV given as text (it has a line break) or as a path."""
+    if isinstance(value, str) and "\n" not in value and not os.path.isfile(value):
+        raise KinecalError(
+            f"{keyword}: {value[:80]!r} is neither a file nor CSV text (CSV text has a header "
+            "line and rows)"
+        )
     if isinstance(value, os.PathLike) or (isinstance(value, str) and "\n" not in value):
         with open(value, encoding="utf-8") as f:
             return f.read(), os.fspath(value)

@@ -194,7 +194,7 @@ impl AnalyzeSpec {
         }
         let (weights, orientation) = self.residuals.resolve(robot)?;
         let selection =
-            Selection::parse(s.estimate.as_deref().unwrap_or(""), s.fix.as_deref(), robot)?;
+            super::common::selection(s.estimate.as_deref(), "", s.fix.as_deref(), robot)?;
         Ok((
             selection,
             AnalysisOptions {

@@ -45,9 +45,9 @@ use crate::observe::{Dataset, OrientationError};
 use crate::solve::estimation::{Damping, Loss, Method, SolverOptions, Spread};
 use crate::source::Source;
 use crate::units::DisplayChoice;
-use crate::workflow::{self, Candidate, Outcome, Request, Selection, SolutionRule, Validation};
+use crate::workflow::{self, Candidate, Outcome, Request, SolutionRule, Validation};
 
-use super::common::{invalid, is_default, load_robot, visit_opt, weights, LengthAngle};
+use super::common::{invalid, is_default, load_robot, selection, visit_opt, weights, LengthAngle};
 use super::{Document, Done, Env, JobKind, Message, PathRole, Spec, Status};
 
 /// One calibration job. See the [module documentation](self) for the file.
@@ -327,8 +327,7 @@ impl CalibrationSpec {
         }
         let s = &self.selection;
         if s.estimate.is_some() || s.fix.is_some() {
-            req.selection =
-                Selection::parse(s.estimate.as_deref().unwrap_or(""), s.fix.as_deref(), robot)?;
+            req.selection = selection(s.estimate.as_deref(), "", s.fix.as_deref(), robot)?;
         }
         req.prune = s.prune;
         req.prior = match &s.prior {

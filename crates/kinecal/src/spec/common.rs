@@ -400,3 +400,22 @@ pub fn load_robot(name: &str) -> Result<(Robot, Source)> {
     let robot = crate::model::robot_file::parse_robot_toml(&source.text, &source.name)?;
     Ok((robot, source))
 }
+
+/// The parameters a job estimates, from its `estimate` and `fix` keys: `default_list` when
+/// `estimate` is absent ([`Selection::parse`]). An `estimate` given empty is refused: it reads
+/// as "nothing", and running the default set instead would answer a question nobody asked.
+pub(crate) fn selection(
+    estimate: Option<&str>,
+    default_list: &str,
+    fix: Option<&str>,
+    robot: &Robot,
+) -> Result<crate::workflow::Selection> {
+    if estimate.is_some_and(|e| e.trim().is_empty()) {
+        return Err(invalid(
+            Setting::Estimate,
+            "an empty parameter list: leave it out for the default parameters, or name them \
+             (for example `identifiable`)",
+        ));
+    }
+    crate::workflow::Selection::parse(estimate.unwrap_or(default_list), fix, robot)
+}

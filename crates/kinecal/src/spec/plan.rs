@@ -22,7 +22,6 @@ use crate::model::kinematics::Target;
 use crate::model::robot::Robot;
 use crate::observe::Dataset;
 use crate::source::Source;
-use crate::workflow::Selection;
 
 use super::common::{count, invalid, is_default, read_source, robot_as, visit_opt, Residuals};
 use super::{Document, Done, Env, JobKind, Page, PathRole, Spec};
@@ -296,8 +295,9 @@ impl PlanSpec {
             keep,
             count,
             criterion: self.criterion,
-            selection: Selection::parse(
-                self.estimate.as_deref().unwrap_or("identifiable"),
+            selection: super::common::selection(
+                self.estimate.as_deref(),
+                "identifiable",
                 self.fix.as_deref(),
                 robot,
             )?,

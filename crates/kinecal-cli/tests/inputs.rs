@@ -1,0 +1,121 @@
+//! Values a user gives, read as the user meant them or refused in the user's terms: an empty
+//! parameter list is not "the default parameters", and a sign pattern that starts with `-` is
+//! a value, not a flag.
+
+mod common;
+
+use common::{argv, run, run_err, run_ok};
+
+#[test]
+fn an_empty_parameter_list_is_refused_by_flag_by_key_and_in_a_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &argv("simulate --robot ge-a4 --postures 12 --seed 2 --out data.csv"),
+    );
+    let said = "an empty parameter list: leave it out for the default parameters";
+    for args in [
+        vec![
+            "calibrate",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            "",
+        ],
+        vec![
+            "analyze",
+            "--robot",
+            "ge-a4",
+            "--data",
+            "data.csv",
+            "--estimate",
+            " ",
+        ],
+        vec![
+            "plan",
+            "--robot",
+            "ge-a4",
+            "--sample",
+            "40",
+            "--count",
+            "4",
+            "--estimate",
+            "",
+            "--out",
+            "p.csv",
+        ],
+    ] {
+        let err = run_err(d, &args);
+        assert!(
+            err.contains(&format!("--estimate: {said}")),
+            "{args:?}: {err}"
+        );
+    }
+    // Given absent, the default set runs.
+    run_ok(d, &argv("calibrate --robot ge-a4 --data data.csv -q"));
+    std::fs::write(
+        d.join("job.toml"),
+        "job = \"calibrate\"\nrobot = \"ge-a4\"\n[[observations]]\nfile = \"data.csv\"\n\
+         [selection]\nestimate = \"\"\n",
+    )
+    .unwrap();
+    let err = run_err(d, &argv("calibrate --spec job.toml -q"));
+    assert!(
+        err.contains(&format!("job.toml: estimate: {said}")),
+        "{err}"
+    );
+    // The same spec as a batch job fails, and says why.
+    std::fs::write(
+        d.join("jobs.toml"),
+        "[[jobs]]\njob = \"calibrate\"\nname = \"empty\"\nrobot = \"ge-a4\"\n\
+         [[jobs.observations]]\nfile = \"data.csv\"\n[jobs.selection]\nestimate = \"\"\n",
+    )
+    .unwrap();
+    let (code, out, err) = run(d, &argv("batch jobs.toml --quiet"));
+    assert_ne!(code, 0, "{out}\n{err}");
+    assert!(
+        format!("{out}{err}").contains("an empty parameter list"),
+        "{out}\n{err}"
+    );
+}
+
+#[test]
+fn a_sign_pattern_that_starts_with_a_minus_is_a_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("targets.csv"), "target,x,y,z\nt1,18,15,1\n").unwrap();
+    // Read as the configuration: a pattern of the wrong length is refused as one.
+    let err = run_err(
+        d,
+        &argv(
+            "compensate --robot ge-a4 --nominal ge-a4 --in targets.csv --position-only
+             --configuration -,- --out c.csv",
+        ),
+    );
+    assert!(
+        err.contains("--configuration: 2 signs for a robot of 4 joints"),
+        "{err}"
+    );
+    // Joint 1 of this solution is positive (its value, not its reading): `+,*,*,*` holds,
+    // `-,*,*,*` flags the row (exit 3), so the pattern was read, sign by sign.
+    run_ok(
+        d,
+        &argv(
+            "compensate --robot ge-a4 --nominal ge-a4 --in targets.csv --position-only
+             --configuration +,*,*,* --out c.csv",
+        ),
+    );
+    let (code, _, err) = run(
+        d,
+        &argv(
+            "compensate --robot ge-a4 --nominal ge-a4 --in targets.csv --position-only
+             --configuration -,*,*,* --out c.csv",
+        ),
+    );
+    assert_eq!(code, 3, "{err}");
+    let table = std::fs::read_to_string(d.join("c.csv")).unwrap();
+    assert!(table.contains("not in the configuration"), "{table}");
+}
