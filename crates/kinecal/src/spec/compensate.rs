@@ -181,9 +181,10 @@ impl CompensationSummary {
     /// `12 rows: 0 flagged (...); largest remaining error 3.1e-7 mm`.
     pub fn sentence(&self) -> String {
         format!(
-            "{} rows: {} flagged ({} unreachable, {} outside a joint range, {} near a \
+            "{} row{}: {} flagged ({} unreachable, {} outside a joint range, {} near a \
              singularity, {} changing configuration{}); largest remaining error {} {}{}",
             self.rows,
+            if self.rows == 1 { "" } else { "s" },
             self.flagged,
             self.unreachable,
             self.out_of_range,
