@@ -312,14 +312,15 @@ pub struct PredictArgs {
     /// Postures file: CSV `posture,v1,...,vn` (a measurement file also works).
     #[arg(long)]
     pub postures: Option<PathBuf>,
-    /// Draw N postures uniformly in the joint ranges instead.
+    /// Draw N postures uniformly in the joint ranges instead (1 to 10,000,000).
     #[arg(long, value_name = "N")]
     pub sample: Option<usize>,
     /// Cartesian targets instead: CSV `target,x,y,z[,alpha,beta,gamma]` (the robot file's units
     /// and global frame), reached through the calibrated robot's inverse kinematics.
     #[arg(long, value_name = "TARGETS.csv")]
     pub targets: Option<PathBuf>,
-    /// Seed of --sample (and of the map's postures) [default: 1].
+    /// Seed of --sample (and of the map's postures; 0 to 2^63-1, what a spec file holds)
+    /// [default: 1].
     #[arg(long)]
     pub seed: Option<u64>,
     /// The target predicted: `ee` or a site's name (default: the report's, the target its data
@@ -361,10 +362,10 @@ pub struct SimulateArgs {
     /// Nominal robot file (TOML) or built-in robot name.
     #[arg(long, required_unless_present = "spec")]
     pub robot: Option<String>,
-    /// Number of postures to draw.
+    /// Number of postures to draw (1 to 10,000,000).
     #[arg(long, value_name = "N", required_unless_present = "spec")]
     pub postures: Option<usize>,
-    /// Random seed (the same seed gives the same data on every machine).
+    /// Random seed, 0 to 2^63-1 (the same seed gives the same data on every machine).
     #[arg(long)]
     pub seed: Option<u64>,
     /// Additive changes to named parameters, e.g. `p3=+0.1,joint2.offset=-0.5` (file units).
@@ -593,7 +594,7 @@ pub struct Iso9283PlanArgs {
     /// The tool attitude `A,B,C` at every pose (the robot file's angle unit; see below).
     #[arg(long, value_name = "A,B,C", allow_hyphen_values = true)]
     pub attitude: Option<String>,
-    /// Grid points along the longest side of the working space searched.
+    /// Grid points along the longest side of the working space searched (3 to 200).
     #[arg(long, value_name = "N")]
     pub resolution: Option<usize>,
     /// Write the poses here (CSV).
@@ -612,13 +613,13 @@ pub struct Iso9283SimulateArgs {
     /// The test poses (what `kinecal iso9283 plan --out` writes).
     #[arg(long, value_name = "POSES.csv", required_unless_present = "spec")]
     pub poses: Option<PathBuf>,
-    /// Cycles.
+    /// Cycles (1 to 100,000) [default: 30].
     #[arg(long, value_name = "N")]
     pub cycles: Option<usize>,
     /// Gaussian noise on the attained poses: `length=L,angle=A` (robot file units).
     #[arg(long, value_name = "SPEC")]
     pub noise: Option<String>,
-    /// Random seed (the same seed gives the same log on every machine).
+    /// Random seed, 0 to 2^63-1 (the same seed gives the same log on every machine).
     #[arg(long)]
     pub seed: Option<u64>,
     /// The log to write (CSV).
@@ -672,7 +673,7 @@ pub struct SweepArgs {
     /// End of the sweep (with --from).
     #[arg(long, requires = "from", allow_hyphen_values = true)]
     pub to: Option<f64>,
-    /// Samples per curve.
+    /// Samples per curve (3 to 100,000).
     #[arg(long)]
     pub points: Option<usize>,
     /// Output: .svg, .png or .csv.
@@ -887,13 +888,13 @@ pub struct HistoryFleetArgs {
 pub struct HistoryEventArgs {
     #[command(flatten)]
     pub history: HistoryArgs,
-    /// The robot's serial number.
+    /// The robot's serial number (at most 128 characters).
     #[arg(required_unless_present = "spec")]
     pub robot_id: Option<String>,
     /// When (RFC 3339 or YYYY-MM-DD; default now).
     #[arg(long)]
     pub at: Option<String>,
-    /// What was done (e.g. "gearbox J2 replaced").
+    /// What was done (e.g. "gearbox J2 replaced"; at most 1,000 characters).
     #[arg(long, required_unless_present = "spec")]
     pub note: Option<String>,
 }
@@ -925,7 +926,7 @@ pub struct HistoryArgs {
 pub struct HistoryAddArgs {
     #[command(flatten)]
     pub history: HistoryArgs,
-    /// The robot's serial number.
+    /// The robot's serial number (at most 128 characters).
     #[arg(long, required_unless_present = "spec")]
     pub robot_id: Option<String>,
     /// A report written by `kinecal calibrate --report`.
@@ -934,7 +935,7 @@ pub struct HistoryAddArgs {
     /// When (RFC 3339 or YYYY-MM-DD; default now).
     #[arg(long)]
     pub at: Option<String>,
-    /// A note.
+    /// A note (at most 1,000 characters).
     #[arg(long)]
     pub note: Option<String>,
     /// Record it even if the robot model differs from the earlier records of this serial
@@ -1372,7 +1373,8 @@ pub struct BatchArgs {
     /// The manifest: CSV (serial,robot,data[,options]) or TOML ([[robots]] tables, each a
     /// calibration spec with its serial, over a [defaults] table).
     pub manifest: PathBuf,
-    /// Robots calibrated at once (default: one per core).
+    /// Robots calibrated at once (default: one per core; more than two per core run two per
+    /// core, with a note).
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
     /// Record every calibration in the history under its serial (see --db).
@@ -1411,10 +1413,11 @@ pub struct PlanArgs {
     /// each row measures is what the plan assumes).
     #[arg(long, value_name = "FILE", conflicts_with = "sample")]
     pub candidates: Option<PathBuf>,
-    /// Sample this many candidate postures uniformly within the joint ranges instead.
+    /// Sample this many candidate postures uniformly within the joint ranges instead (1 to
+    /// 1,000,000).
     #[arg(long, value_name = "N")]
     pub sample: Option<usize>,
-    /// Random seed of the sample and of the random plans compared with.
+    /// Random seed of the sample and of the random plans compared with (0 to 2^63-1).
     #[arg(long)]
     pub seed: Option<u64>,
     /// How many postures to choose (besides the kept ones).
@@ -1500,7 +1503,7 @@ pub struct CalibrateArgs {
     /// the compliances' (without it, one mass is held and the rest are relative to it).
     #[arg(long, value_name = "KG")]
     pub total_mass: Option<f64>,
-    /// Iteration cap (default 100; 5000 for sd).
+    /// Iteration cap, 1 to 1,000,000 (default 100; 5000 for sd).
     #[arg(long, value_name = "N")]
     pub max_iter: Option<usize>,
     #[command(flatten)]
@@ -1542,12 +1545,13 @@ pub struct CalibrateArgs {
     /// errors, the overall ones and a bootstrap 95 % interval of the held-out mean.
     #[arg(long, value_name = "K")]
     pub folds: Option<usize>,
-    /// Seed for --holdout (default 1) or --folds (default: no shuffle).
+    /// Seed for --holdout (default 1) or --folds (default: no shuffle); 0 to 2^63-1, what a
+    /// spec file holds.
     #[arg(long)]
     pub seed: Option<u64>,
     /// With --choose: repeat the cross-validation over this many shuffles of the postures (the
     /// first as --seed says, the others with the seeds after it), so that the choice does not
-    /// hang on one split [default: 5].
+    /// hang on one split (1 to 100) [default: 5].
     #[arg(long, value_name = "N")]
     pub repeats: Option<usize>,
     /// Predict the calibrated robot's accuracy over the workspace: a model-error term fitted by
@@ -1585,7 +1589,8 @@ pub struct CalibrateArgs {
     /// Write a JSON report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Record the calibration in the history database under this robot serial.
+    /// Record the calibration in the history database under this robot serial (at most 128
+    /// characters).
     #[arg(long, value_name = "SERIAL")]
     pub record: Option<String>,
     /// The history for --record: a SQLite file or a postgres:// URL (default: $KINECAL_DB,
@@ -1595,7 +1600,7 @@ pub struct CalibrateArgs {
     /// Time of the calibration for --record (RFC 3339 or YYYY-MM-DD; default now).
     #[arg(long, value_name = "TIME")]
     pub at: Option<String>,
-    /// A note stored with --record.
+    /// A note stored with --record (at most 1,000 characters).
     #[arg(long, default_value = "")]
     pub note: String,
     /// With --record: record even if the robot model differs from the earlier records of

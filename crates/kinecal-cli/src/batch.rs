@@ -527,6 +527,7 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
         if serial.is_empty() {
             bail!("{at}: the serial is empty");
         }
+        bounded(&at, "serial", &serial)?;
         at = format!("{at} ({serial})");
         let job = table_job(table, dir, &at);
         entries.push(Entry { serial, at, job });
@@ -550,6 +551,7 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
         if label.is_empty() {
             bail!("{at}: the name is empty");
         }
+        bounded(&at, "serial or name", &label)?;
         at = format!("{at} ({label})");
         let job = table_job(table, dir, &at);
         entries.push(Entry {
@@ -559,6 +561,13 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
         });
     }
     Ok(entries)
+}
+
+/// Refuses a serial (or a job's name) longer than a history records and its tables draw
+/// ([`kinecal::spec::limits::MAX_SERIAL_CHARS`]), naming the manifest's row and `key`.
+fn bounded(at: &str, key: &str, serial: &str) -> Result<()> {
+    kinecal::spec::limits::serial(kinecal::Setting::RobotId, serial)
+        .map_err(|e| anyhow!("{at}: {key}: {}", message_of(&e)))
 }
 
 /// Reads the manifest (CSV, or TOML by its `.toml` extension).
@@ -611,6 +620,7 @@ fn read_manifest(path: &Path) -> Result<Vec<Entry>> {
             if serial.is_empty() {
                 bail!("{at}: the serial is empty");
             }
+            bounded(&at, "serial", &serial)?;
             let job =
                 split_options(&get(o)).and_then(|opts| row_job(dir, &get(Some(r)), &get(d), &opts));
             entries.push(Entry { serial, at, job });
@@ -844,23 +854,31 @@ fn fmt(v: Option<f64>) -> String {
 /// The summary as text.
 fn table(rows: &[Row]) -> String {
     use std::fmt::Write as _;
+    // Padded by hand: a format width is at most 65,535 (a longer serial panics in `{:<w$}`).
     let w = rows
         .iter()
-        .map(|r| r.serial.len())
+        .map(|r| r.serial.chars().count())
         .max()
         .unwrap_or(6)
         .max(6);
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{:<w$}  {:>6} {:>5} {:>12} {:>12} {:>12} {:>4} {:>8}  status",
-        "serial", "params", "iter", "rms before", "rms after", "held out", "unit", "warnings"
+        "{}  {:>6} {:>5} {:>12} {:>12} {:>12} {:>4} {:>8}  status",
+        crate::render::pad_right("serial", w),
+        "params",
+        "iter",
+        "rms before",
+        "rms after",
+        "held out",
+        "unit",
+        "warnings"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{:<w$}  {:>6} {:>5} {:>12} {:>12} {:>12} {:>4} {:>8}  {}{}",
-            r.serial,
+            "{}  {:>6} {:>5} {:>12} {:>12} {:>12} {:>4} {:>8}  {}{}",
+            crate::render::pad_right(&r.serial, w),
             r.parameters.map_or("-".into(), |v| v.to_string()),
             r.iterations.map_or("-".into(), |v| v.to_string()),
             fmt(r.rms.map(|x| x.0)),
@@ -1020,13 +1038,27 @@ fn entries(a: &BatchArgs) -> Result<Vec<Entry>> {
     Ok(entries)
 }
 
-/// Runs every entry on `jobs` threads (default: one per core), a progress bar on standard
-/// error unless `quiet`; the finished jobs in manifest order.
+/// The most robots calibrated at once, per core: a calibration keeps its core busy, so more
+/// only hold more data in memory (a larger `--jobs` runs this many, with a note).
+const JOBS_PER_CORE: usize = 2;
+
+/// Runs every entry on `jobs` threads (default: one per core; at most [`JOBS_PER_CORE`] per
+/// core), a progress bar on standard error unless `quiet`; the finished jobs in manifest
+/// order.
 fn run_all(entries: &[Entry], jobs: Option<usize>, quiet: bool) -> Result<Vec<Finished>> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let jobs = match jobs {
         Some(0) => bail!("--jobs must be at least 1"),
+        Some(n) if n > cores * JOBS_PER_CORE => {
+            eprintln!(
+                "--jobs {n}: running {} at once ({JOBS_PER_CORE} per core of this machine's \
+                 {cores}): more calibrations at once hold more memory and finish no sooner",
+                cores * JOBS_PER_CORE
+            );
+            cores * JOBS_PER_CORE
+        }
         Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        None => cores,
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)

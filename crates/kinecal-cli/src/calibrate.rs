@@ -226,6 +226,14 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     display.strict = spec.strict;
     let choice = spec.validation.choose.is_some();
     let shown = spec.outputs.display_units;
+    // A serial or note the history would refuse (too long to store and draw), refused now.
+    if let Some(serial) = &a.record {
+        kinecal::spec::limits::serial(kinecal::Setting::RobotId, serial).map_err(|e| match e {
+            kinecal::Error::InvalidOption { message, .. } => anyhow::anyhow!("--record: {message}"),
+            e => e.into(),
+        })?;
+        kinecal::spec::limits::note(&a.note)?;
+    }
     // Open the history first, so that an unwritable database fails before the work.
     let record_at = history::parse_at(a.at.as_deref())?;
     let db = match &a.record {

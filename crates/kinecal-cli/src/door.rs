@@ -131,9 +131,10 @@ pub fn write_spec(job: &Job, door: &SpecArgs) -> Result<bool> {
         return Ok(true);
     };
     if path.as_os_str() == "-" {
-        print!("{}", job.to_toml());
+        print!("{}", job.to_toml()?);
         return Ok(false);
     }
+    let text = job.written_to(path)?.to_toml()?;
     let mut inputs = job.inputs();
     inputs.extend(job.outputs());
     inputs.extend(door.spec.iter().cloned());
@@ -141,7 +142,7 @@ pub fn write_spec(job: &Job, door: &SpecArgs) -> Result<bool> {
         &[path.as_path()],
         &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
     )?;
-    kinecal::files::output::write_file(path, &job.written_to(path)?.to_toml())?;
+    kinecal::files::output::write_file(path, &text)?;
     eprintln!("wrote the spec to {}", path.display());
     Ok(true)
 }

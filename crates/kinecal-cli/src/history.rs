@@ -512,9 +512,13 @@ fn show_fleet(f: &FleetDocument) {
             if k == last {
                 s.push_str(c);
             } else if k == 2 || k == 4 {
-                s.push_str(&format!("{c:>w$}  ", w = widths[k]));
+                s.push_str(&crate::render::pad_left(c, widths[k]));
+                s.push_str("  ");
             } else {
-                s.push_str(&format!("{c:<w$}  ", w = widths[k]));
+                // By hand: a history written before serials were bounded may hold one longer
+                // than a format width can be.
+                s.push_str(&crate::render::pad_right(c, widths[k]));
+                s.push_str("  ");
             }
         }
         s.trim_end().to_string()

@@ -293,6 +293,8 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::Quantities => "--param",
         Setting::Dump => "DUMP",
         Setting::Note => "--note",
+        Setting::Seed => "--seed",
+        Setting::Repeats => "--repeats",
         // A setting of a later kinecal: named in the library's words.
         _ => setting.name(),
     }

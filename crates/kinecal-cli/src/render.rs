@@ -88,3 +88,36 @@ pub fn curves(d: &Document) {
         println!("{line}");
     }
 }
+
+/// `s` followed by spaces to `w` characters. Padded by hand, not with `{:<w$}`: a format
+/// width is at most 65,535 and panics beyond it (a table's column as wide as a long serial).
+pub fn pad_right(s: &str, w: usize) -> String {
+    let n = s.chars().count();
+    let mut out = String::with_capacity(s.len() + w.saturating_sub(n));
+    out.push_str(s);
+    out.extend(std::iter::repeat_n(' ', w.saturating_sub(n)));
+    out
+}
+
+/// Spaces to `w` characters, then `s` (see [`pad_right`]).
+pub fn pad_left(s: &str, w: usize) -> String {
+    let n = s.chars().count();
+    let mut out: String = std::iter::repeat_n(' ', w.saturating_sub(n)).collect();
+    out.push_str(s);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn padding_counts_characters_and_takes_any_width() {
+        assert_eq!(pad_right("ab", 4), "ab  ");
+        assert_eq!(pad_left("é", 3), "  é");
+        assert_eq!(pad_right("abc", 1), "abc");
+        let long = "S".repeat(70_000);
+        assert_eq!(pad_right("x", long.len()).len(), 70_000);
+        assert_eq!(pad_left(&long, 70_001).len(), 70_001);
+    }
+}

@@ -149,6 +149,7 @@ impl Database {
                 "the robot id (serial) must not be empty".into(),
             ));
         }
+        crate::record::bounded_texts(robot_id, note)?;
         if note.trim().is_empty() {
             return Err(Error::Input(
                 "an event needs a note saying what was done (e.g. \"gearbox J2 replaced\")".into(),

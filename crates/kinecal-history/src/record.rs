@@ -90,6 +90,19 @@ fn check_finite(report: &CalibrationReport) -> Result<()> {
     Ok(())
 }
 
+/// Refuses a serial or a note longer than the history keeps (every table and page of it
+/// draws them): [`kinecal::spec::limits`].
+pub(crate) fn bounded_texts(robot_id: &str, note: &str) -> Result<()> {
+    let word = |e: kinecal::Error| match e {
+        kinecal::Error::InvalidOption { setting, message } => {
+            Error::Input(format!("the {}: {message}", setting.name()))
+        }
+        e => Error::Input(e.to_string()),
+    };
+    kinecal::spec::limits::serial(kinecal::Setting::RobotId, robot_id).map_err(word)?;
+    kinecal::spec::limits::note(note).map_err(word)
+}
+
 /// The record of a calibration report, ready to store (its id 0: the store assigns one).
 /// `at_given` is the time the caller gave (part of the key); `at` the time stored.
 pub(crate) fn new_record(
@@ -104,6 +117,7 @@ pub(crate) fn new_record(
             "the robot id (serial) must not be empty".into(),
         ));
     }
+    bounded_texts(robot_id, note)?;
     if report.rank.is_none() {
         return Err(Error::Input(
             "the report has no uncertainty (no rank or sigmas): recalibrate with a kinecal that writes them".into(),

@@ -142,11 +142,15 @@ pub enum Setting {
     Dump,
     /// A note recorded with a calibration or an event.
     Note,
+    /// A random seed.
+    Seed,
+    /// How many shuffles a model choice's cross-validation repeats.
+    Repeats,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 67] = [
+    pub const ALL: [Setting; 69] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -214,6 +218,8 @@ impl Setting {
         Setting::Quantities,
         Setting::Dump,
         Setting::Note,
+        Setting::Seed,
+        Setting::Repeats,
     ];
 
     /// The library's words for it.
@@ -286,6 +292,8 @@ impl Setting {
             Setting::Quantities => "quantities",
             Setting::Dump => "dump",
             Setting::Note => "note",
+            Setting::Seed => "seed",
+            Setting::Repeats => "repeats",
         }
     }
 
@@ -360,6 +368,8 @@ impl Setting {
             Setting::Quantities => "param",
             Setting::Dump => "dump",
             Setting::Note => "note",
+            Setting::Seed => "seed",
+            Setting::Repeats => "repeats",
         }
     }
 }

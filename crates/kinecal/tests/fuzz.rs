@@ -484,7 +484,7 @@ fn spec_toml() {
     spec.validation.folds = Some(3);
     spec.validation.choose = Some(vec!["identifiable".into()]);
     let full = Job::Calibrate(spec);
-    let mut seeds = vec![seed, full.to_toml().into_bytes()];
+    let mut seeds = vec![seed, full.to_toml().unwrap().into_bytes()];
     for text in [
         "job = \"analyze\"\nrobot = \"ge-a4\"\nrcond = 1e-9\n[[observations]]\nfile = \"d.csv\"\n[selection]\nestimate = \"all\"\n",
         "job = \"plan\"\nrobot = \"ge-a4\"\nsample = 200\ncount = 5\ncriterion = \"o3\"\n[outputs]\npostures = \"p.csv\"\n",
@@ -501,15 +501,21 @@ fn spec_toml() {
             Err(o) => return o,
         };
         match Job::from_toml(&t, "job.toml") {
-            Ok(job) => Outcome::Accepted(match Job::from_toml(&job.to_toml(), "again") {
-                Ok(again) if again == job => match Job::from_json(&job.to_json(), "again.json") {
-                    Ok(j) if j == job => Ok(()),
-                    Ok(_) => Err("as JSON, it reads differently".into()),
-                    Err(e) => Err(format!("as JSON, it is refused: {e}")),
-                },
-                Ok(_) => Err("written back, it reads differently".into()),
-                Err(e) => Err(format!("written back, it is refused: {e}")),
-            }),
+            // A number beyond its bound is refused before it is written (and run).
+            Ok(job) => match job.to_toml() {
+                Err(e) => Outcome::Refused(e.to_string()),
+                Ok(text) => Outcome::Accepted(match Job::from_toml(&text, "again") {
+                    Ok(again) if again == job => {
+                        match Job::from_json(&job.to_json(), "again.json") {
+                            Ok(j) if j == job => Ok(()),
+                            Ok(_) => Err("as JSON, it reads differently".into()),
+                            Err(e) => Err(format!("as JSON, it is refused: {e}")),
+                        }
+                    }
+                    Ok(_) => Err("written back, it reads differently".into()),
+                    Err(e) => Err(format!("written back, it is refused: {e}")),
+                }),
+            },
             Err(e) => Outcome::Refused(e.to_string()),
         }
     });

@@ -708,7 +708,7 @@ mod tests {
             strict: true,
         };
         let job = Job::Calibrate(spec);
-        let text = job.to_toml();
+        let text = job.to_toml().unwrap();
         assert_eq!(Job::from_toml(&text, "t").unwrap(), job, "{text}");
         let json = job.to_json();
         assert_eq!(Job::from_json(&json, "j").unwrap(), job);
@@ -718,7 +718,7 @@ mod tests {
             ..CalibrationSpec::default()
         });
         assert_eq!(
-            bare.to_toml().trim(),
+            bare.to_toml().unwrap().trim(),
             "job = \"calibrate\"\nrobot = \"ge-a4\""
         );
     }

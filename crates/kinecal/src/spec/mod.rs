@@ -49,6 +49,7 @@ pub mod curves;
 pub mod export;
 pub mod history;
 pub mod iso9283;
+pub mod limits;
 pub mod plan;
 pub mod predict;
 pub mod report;
@@ -234,7 +235,7 @@ pub enum PathRole {
 
 /// What every spec is: a serde document that names its files.
 pub trait Spec:
-    Serialize + serde::de::DeserializeOwned + Default + Clone + PartialEq + std::fmt::Debug
+    Serialize + serde::de::DeserializeOwned + Default + Clone + PartialEq + std::fmt::Debug + Into<Job>
 {
     /// Its kind.
     const KIND: JobKind;
@@ -429,17 +430,19 @@ impl Job {
         Ok(job.rebased(path.parent().unwrap_or(Path::new(""))))
     }
 
-    /// The spec as TOML, its `job` key first.
-    pub fn to_toml(&self) -> String {
+    /// The spec as TOML, its `job` key first; refused when a number or text is beyond its
+    /// bound ([`limits`]: every accepted value is one a spec file holds and reads back).
+    pub fn to_toml(&self) -> Result<String> {
+        limits::check(self)?;
         let body = self.body_toml();
-        format!("job = \"{}\"\n{}{body}", self.kind().name(), {
+        Ok(format!("job = \"{}\"\n{}{body}", self.kind().name(), {
             // A blank line before the first table, none before the first key.
             if body.starts_with('[') {
                 "\n"
             } else {
                 ""
             }
-        })
+        }))
     }
 
     /// The same job with every relative path taken relative to `base` (the folder of the
@@ -508,7 +511,9 @@ pub fn spec_from_value<S: Spec>(mut value: serde_json::Value, file: &str) -> Res
             }
         }
     }
-    common::from_value(value, file)
+    let spec: S = common::from_value(value, file)?;
+    limits::check(&spec.clone().into())?;
+    Ok(spec)
 }
 
 /// What a job's run reports as it goes, and asks of its host. Every method has a default that
@@ -780,6 +785,7 @@ impl Document {
 /// Runs `job`: reads its inputs, computes, writes its outputs (all of them or none, through
 /// [`crate::files::output`], never over an input of the run) and returns its document.
 pub fn run(job: &Job, env: &mut Env<'_>) -> Result<Done> {
+    limits::check(job)?;
     let outputs = job.outputs();
     let mut inputs = job.inputs();
     inputs.extend(env.also_inputs.iter().cloned());
@@ -807,7 +813,7 @@ mod tests {
     fn a_spec_without_job_is_a_calibration_and_a_written_spec_reads_back() {
         let job = Job::from_toml("robot = \"ge-a4\"\n", "j.toml").unwrap();
         assert_eq!(job.kind(), JobKind::Calibrate);
-        let text = job.to_toml();
+        let text = job.to_toml().unwrap();
         assert!(text.starts_with("job = \"calibrate\"\n"), "{text}");
         assert_eq!(Job::from_toml(&text, "j.toml").unwrap(), job);
         let json = job.to_json();
