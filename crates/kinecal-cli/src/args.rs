@@ -362,7 +362,8 @@ pub struct SimulateArgs {
     /// Nominal robot file (TOML) or built-in robot name.
     #[arg(long, required_unless_present = "spec")]
     pub robot: Option<String>,
-    /// Number of postures to draw (1 to 10,000,000).
+    /// Number of postures to draw (1 to 10,000,000, and at most 10,000,000 measurements: the
+    /// postures times the frames measured at each).
     #[arg(long, value_name = "N", required_unless_present = "spec")]
     pub postures: Option<usize>,
     /// Random seed, 0 to 2^63-1 (the same seed gives the same data on every machine).

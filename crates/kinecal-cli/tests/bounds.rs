@@ -137,6 +137,20 @@ fn counts_of_postures_samples_and_cycles_are_refused_beyond_their_limits() {
         e.contains("--postures: expected between 1 and 10000000 postures, not 1000000000000"),
         "{e}"
     );
+    // A robot measured at three frames (its end effector and two sites): a third of the
+    // postures, as each makes three measurements held in memory.
+    let markers =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/layouts/a4_markers.toml");
+    let mut args = argv("simulate --postures 5000000 --out s.csv --robot");
+    args.push(markers.to_str().unwrap());
+    let e = run_err(d, &args);
+    assert!(
+        e.contains(
+            "--postures: expected at most 10000000 measurements (3 frames measured at each \
+             posture: at most 3333333 postures), not 15000000"
+        ),
+        "{e}"
+    );
     run_ok(d, &argv("iso9283 plan --robot ge-a4 --out poses.csv"));
     let e = run_err(
         d,

@@ -32,6 +32,11 @@ use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
 /// The most postures a simulation makes.
 pub(crate) const MAX_POSTURES: usize = 10_000_000;
 
+/// The most measurements (postures times the frames measured at each: the end effector and
+/// every site) a simulation makes: they are held in memory, about 0.6 GB a million with the
+/// file's text.
+pub(crate) const MAX_MEASUREMENTS: usize = 10_000_000;
+
 /// Random changes of every parameter (standard deviations; `[perturb_std]`).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -188,6 +193,18 @@ impl SimulateSpec {
     /// Simulates the measurements of `truth` at the spec's postures, on `nominal`'s file.
     pub fn measurements(&self, nominal: &Robot, truth: &Robot) -> Result<Dataset> {
         let n = count(Setting::Postures, self.postures, MAX_POSTURES, "postures")?;
+        let frames = 1 + nominal.sites.len();
+        if n.saturating_mul(frames) > MAX_MEASUREMENTS {
+            return Err(invalid(
+                Setting::Postures,
+                format!(
+                    "expected at most {MAX_MEASUREMENTS} measurements ({frames} frames measured \
+                     at each posture: at most {} postures), not {}",
+                    MAX_MEASUREMENTS / frames,
+                    n.saturating_mul(frames)
+                ),
+            ));
+        }
         let seed = self.seed.unwrap_or(1);
         let postures = simulate::sample_postures(nominal, n, seed);
         let readings = postures
