@@ -74,14 +74,17 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
     set(&mut res.orientation_error, a.residuals.orientation_error);
     over(&mut res.outlier_sigma, a.outlier_sigma);
     let v = &mut s.validation;
-    if !a.validate.is_empty() || a.holdout.is_some() || a.folds.is_some() {
+    // Each flag overrides its own key; a spec that checks the calibration another way keeps
+    // it, and the library refuses the two together rather than one silently dropping the other.
+    if !a.validate.is_empty() {
         v.files = a
             .validate
             .iter()
             .map(|p| Ok(ObservationFile::new(path_text(p)?)))
             .collect::<Result<_>>()?;
-        (v.holdout, v.folds) = (a.holdout, a.folds);
     }
+    over(&mut v.holdout, a.holdout);
+    over(&mut v.folds, a.folds);
     over(&mut v.seed, a.seed);
     over(&mut v.choose, a.choose.clone());
     over(&mut v.repeats, a.repeats);

@@ -119,3 +119,37 @@ fn a_sign_pattern_that_starts_with_a_minus_is_a_value() {
     let table = std::fs::read_to_string(d.join("c.csv")).unwrap();
     assert!(table.contains("not in the configuration"), "{table}");
 }
+
+#[test]
+fn a_validation_flag_does_not_silently_drop_the_spec_s_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &argv("simulate --robot ge-a4 --postures 20 --seed 2 --out data.csv"),
+    );
+    run_ok(
+        d,
+        &argv("simulate --robot ge-a4 --postures 5 --seed 3 --out other.csv"),
+    );
+    std::fs::write(
+        d.join("job.toml"),
+        "job = \"calibrate\"\nrobot = \"ge-a4\"\n[[observations]]\nfile = \"data.csv\"\n\
+         [validation]\nholdout = 0.2\n",
+    )
+    .unwrap();
+    // Held-out files over a spec that holds out postures: two ways to check, refused.
+    for extra in ["--validate other.csv", "--folds 3"] {
+        let err = run_err(d, &argv(&format!("calibrate --spec job.toml {extra} -q")));
+        assert!(
+            err.contains("three ways to check a calibration: give one"),
+            "{extra}: {err}"
+        );
+    }
+    // The same key given by a flag overrides the spec's.
+    let spec = run_ok(
+        d,
+        &argv("calibrate --spec job.toml --holdout 0.3 --write-spec -"),
+    );
+    assert!(spec.contains("holdout = 0.3"), "{spec}");
+}
