@@ -263,6 +263,15 @@ fn shards_are_checked_and_cover_the_manifest_once() {
     }
     seen.sort();
     assert_eq!(seen, ["A4-0042", "A4-0043", "A4-0044"]);
+    // More shares than robots (an indexed job with more completions): the extra shares have
+    // nothing to do, and succeed, so that the job does.
+    let (code, out, e) = run(d, &["batch", m, "--shard", "5/5", "--quiet"]);
+    assert_eq!(code, 0, "{out}\n{e}");
+    assert!(
+        e.contains("shard 5/5 of 3 robots is empty: nothing to do"),
+        "{e}"
+    );
+    assert!(!out.contains("A4-"), "{out}");
 }
 
 #[test]
