@@ -95,8 +95,9 @@ pub struct CalibrationSpec {
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct SelectionSpec {
-    /// The parameter list to estimate ([`Selection::parse`]); the default parameters when
-    /// absent.
+    /// The parameter list to estimate
+    /// ([`Selection::parse`](crate::workflow::Selection::parse)); the default parameters when
+    /// absent (an empty list is refused).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimate: Option<String>,
     /// Parameters to hold at their nominal values.

@@ -402,8 +402,9 @@ pub fn load_robot(name: &str) -> Result<(Robot, Source)> {
 }
 
 /// The parameters a job estimates, from its `estimate` and `fix` keys: `default_list` when
-/// `estimate` is absent ([`Selection::parse`]). An `estimate` given empty is refused: it reads
-/// as "nothing", and running the default set instead would answer a question nobody asked.
+/// `estimate` is absent ([`Selection::parse`](crate::workflow::Selection::parse)). An
+/// `estimate` given empty is refused: it reads as "nothing", and running the default set
+/// instead would answer a question nobody asked.
 pub(crate) fn selection(
     estimate: Option<&str>,
     default_list: &str,
