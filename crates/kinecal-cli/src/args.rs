@@ -1584,7 +1584,8 @@ pub struct CalibrateArgs {
     /// Relative singular-value threshold for svd (dropped) and gn (refused) [default: 1e-9].
     #[arg(long, value_name = "X")]
     pub rcond: Option<f64>,
-    /// Write the calibrated robot file here (same schema, other fields and comments kept).
+    /// Write the calibrated robot file here (same schema, other fields and comments kept; `-`:
+    /// standard output, the summary then on standard error).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write a JSON report here.

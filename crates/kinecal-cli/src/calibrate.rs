@@ -257,6 +257,15 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
         }),
         _ => None,
     };
+    // An output written to standard output (`--out -`) owns it: the summary goes to standard
+    // error then, so that `--out - > cal.toml` is a robot file and nothing else.
+    let summary_to_stderr = [
+        &spec.outputs.robot,
+        &spec.outputs.report,
+        &spec.outputs.html,
+    ]
+    .iter()
+    .any(|o| o.as_deref() == Some("-"));
     let job = Job::Calibrate(spec);
     let solved = crate::door::run_with(
         job,
@@ -274,10 +283,16 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     if let Document::Calibration(outcome) = &done.document {
         let r = &outcome.report;
         let units = shown.resolve(r.length_unit, r.angle_unit);
+        let mut text = String::new();
         if choice {
-            print!("{}", report::choice_table(r, units));
+            text += &report::choice_table(r, units);
         }
-        print_outcome(outcome, units);
+        text += &outcome_text(outcome, units);
+        if summary_to_stderr {
+            eprint!("{text}");
+        } else {
+            print!("{text}");
+        }
     }
     let shown = &display.shown;
     let fresh: Vec<Message> = done
@@ -314,14 +329,14 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     Ok(code)
 }
 
-/// Prints the summary (of the full fit too, when pruned), in `units`.
-fn print_outcome(outcome: &Outcome, units: kinecal::DisplayUnits) {
+/// The summary (of the full fit too, when pruned), in `units`.
+fn outcome_text(outcome: &Outcome, units: kinecal::DisplayUnits) -> String {
+    let mut text = String::new();
     if let Some(p) = &outcome.pruning {
-        println!("== full fit ==");
-        print!("{}", report::summary(&p.full_report, units));
-        println!();
-        println!(
-            "== pruned fit: removed {} (changes below {} sigma, one at a time) ==",
+        text += "== full fit ==\n";
+        text += &report::summary(&p.full_report, units);
+        text += &format!(
+            "\n== pruned fit: removed {} (changes below {} sigma, one at a time) ==\n",
             if p.removed.is_empty() {
                 "nothing".to_string()
             } else {
@@ -334,5 +349,5 @@ fn print_outcome(outcome: &Outcome, units: kinecal::DisplayUnits) {
             p.k
         );
     }
-    print!("{}", report::summary(&outcome.report, units));
+    text + &report::summary(&outcome.report, units)
 }

@@ -153,3 +153,32 @@ fn a_validation_flag_does_not_silently_drop_the_spec_s_own() {
     );
     assert!(spec.contains("holdout = 0.3"), "{spec}");
 }
+
+#[test]
+fn a_robot_written_to_standard_output_is_all_that_goes_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &argv("simulate --robot ge-a4 --postures 20 --seed 2 --perturb p1=+0.05 --out data.csv"),
+    );
+    let (code, out, err) = run(
+        d,
+        &argv("calibrate --robot ge-a4 --data data.csv --out - -q"),
+    );
+    assert_eq!(code, 0, "{err}");
+    // Standard output is the robot file: it reads back as one, and the summary is on stderr.
+    std::fs::write(d.join("cal.toml"), &out).unwrap();
+    run_ok(
+        d,
+        &argv("fk --robot cal.toml --postures data.csv --out poses.csv"),
+    );
+    assert!(!out.contains("verdict"), "{out}");
+    assert!(err.contains("verdict: Converged"), "{err}");
+    // Without `-`, the summary is the standard output, as before.
+    let (_, out, _) = run(
+        d,
+        &argv("calibrate --robot ge-a4 --data data.csv --out c.toml -q"),
+    );
+    assert!(out.contains("verdict: Converged"), "{out}");
+}
