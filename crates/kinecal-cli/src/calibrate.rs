@@ -303,23 +303,7 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
         .collect();
     crate::door::say(&fresh);
     if done.status == Status::Implausible {
-        let implausible = match &done.document {
-            Document::Calibration(o) => o.warnings.iter().filter(|w| w.implausible()).count(),
-            _ => 0,
-        };
-        if implausible == 0 {
-            eprintln!(
-                "STRICT: the warning(s) above say the result would most likely be wrong (units, \
-                 attitudes or readings that do not fit this robot); nothing solved, written or \
-                 recorded"
-            );
-        } else {
-            eprintln!(
-                "STRICT: {implausible} warning(s) above say the result is most likely wrong \
-                 (units, readings or a model that does not fit this robot); nothing written or \
-                 recorded"
-            );
-        }
+        say_strict(&done.document);
     }
     let code = crate::door::exit_code(done.status);
     // The process ends here: the operating system takes the memory back at once, where freeing
@@ -327,6 +311,28 @@ pub fn run(a: CalibrateArgs) -> Result<u8> {
     // milliseconds per 10,000 postures.
     std::mem::forget(done);
     Ok(code)
+}
+
+/// Why `--strict` wrote nothing: the implausible warnings of the outcome, or of the data when
+/// nothing was solved.
+fn say_strict(document: &Document) {
+    let implausible = match document {
+        Document::Calibration(o) => o.warnings.iter().filter(|w| w.implausible()).count(),
+        _ => 0,
+    };
+    if implausible == 0 {
+        eprintln!(
+            "STRICT: the warning(s) above say the result would most likely be wrong (units, \
+             attitudes or readings that do not fit this robot); nothing solved, written or \
+             recorded"
+        );
+    } else {
+        eprintln!(
+            "STRICT: {implausible} warning(s) above say the result is most likely wrong \
+             (units, readings or a model that does not fit this robot); nothing written or \
+             recorded"
+        );
+    }
 }
 
 /// The summary (of the full fit too, when pruned), in `units`.
