@@ -182,3 +182,29 @@ fn a_robot_written_to_standard_output_is_all_that_goes_there() {
     );
     assert!(out.contains("verdict: Converged"), "{out}");
 }
+
+#[test]
+fn a_standard_deviation_finer_than_any_instrument_is_refused_naming_weights() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &argv("simulate --robot ge-a4 --postures 12 --seed 2 --out data.csv"),
+    );
+    for args in [
+        "calibrate --robot ge-a4 --data data.csv --weights length=1e-300",
+        "analyze --robot ge-a4 --data data.csv --weights angle=1e-20",
+    ] {
+        let err = run_err(d, &argv(args));
+        assert!(
+            err.contains("--weights: a standard deviation of")
+                && err.contains("finer than any instrument resolves"),
+            "{args}: {err}"
+        );
+    }
+    // A nanometre (in inches) is fine.
+    run_ok(
+        d,
+        &argv("calibrate --robot ge-a4 --data data.csv --weights length=4e-8 -q"),
+    );
+}

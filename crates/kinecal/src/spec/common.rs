@@ -374,11 +374,28 @@ pub fn weights(robot: &Robot, w: &LengthAngle) -> Result<Weights> {
                     format!("standard deviations must be positive and finite, not {v}"),
                 ));
             }
-            *slot = robot.units.to_si(quantity, v);
+            let si = robot.units.to_si(quantity, v);
+            if si < SMALLEST_SIGMA {
+                return Err(invalid(
+                    Setting::Weights,
+                    format!(
+                        "a standard deviation of {v:e} {} is below {:.2e} {0}: finer than any \
+                         instrument resolves, and the squared residuals it divides overflow",
+                        robot.units.label(quantity),
+                        robot.units.from_si(quantity, SMALLEST_SIGMA),
+                    ),
+                ));
+            }
+            *slot = si;
         }
     }
     Ok(out)
 }
+
+/// The smallest standard deviation a weight may state, in SI (1e-15 m, a femtometre; 1e-15
+/// rad): a residual of the robot's size over it squared stays far from overflow (1e30), and no
+/// instrument resolves less.
+const SMALLEST_SIGMA: f64 = 1e-15;
 
 /// Loads a robot: the file `name`, or the built-in robot of that name when no such file
 /// exists.
