@@ -20,15 +20,6 @@ import kinecal
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
 
 
-@pytest.fixture(scope="module")
-def cli() -> str:
-    path = os.environ.get("KINECAL_BIN")
-    if not path:
-        subprocess.run(["cargo", "build", "-q", "-p", "kinecal-cli"], cwd=ROOT, check=True)
-        path = os.path.join(ROOT, "target", "debug", "kinecal")
-    return path
-
-
 def normal(text: str) -> Any:
     """A document or output as compared: JSON without ``created`` and ``timings``; other text
     as it is."""

@@ -19,15 +19,6 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", "..")
 FLEET = Path(ROOT) / "examples" / "fleet"
 
 
-@pytest.fixture(scope="module")
-def cli() -> str:
-    path = os.environ.get("KINECAL_BIN")
-    if not path:
-        subprocess.run(["cargo", "build", "-q", "-p", "kinecal-cli"], cwd=ROOT, check=True)
-        path = os.path.join(ROOT, "target", "debug", "kinecal")
-    return path
-
-
 @pytest.fixture()
 def histories(cli: str, tmp_path: Path) -> Path:
     """Two equal histories of the example fleet: ``cli.sqlite`` written by the command line,

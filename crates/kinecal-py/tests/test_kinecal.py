@@ -60,16 +60,6 @@ def shared_data(*parts):
 
 
 @pytest.fixture(scope="session")
-def cli():
-    """The kinecal command of this checkout."""
-    path = os.environ.get("KINECAL_BIN")
-    if not path:
-        subprocess.run(["cargo", "build", "-q", "-p", "kinecal-cli"], cwd=ROOT, check=True)
-        path = os.path.join(ROOT, "target", "debug", "kinecal")
-    return path
-
-
-@pytest.fixture(scope="session")
 def qkm_files(cli, tmp_path_factory):
     """The QKM data set converted by the command line: qkm.toml, identification.csv,
     validation.csv."""
