@@ -10,6 +10,10 @@
 set -euo pipefail
 [ -x /usr/bin/time ] || { echo "first-run: needs /usr/bin/time (Debian: apt-get install time)" >&2; exit 1; }
 repo=$(cd "$(dirname "$0")/.." && pwd)
+if [ ! -d "$repo/../shared" ]; then
+    echo "first-run: no ../shared beside the repository ($repo/../shared): the tests need its real data" >&2
+    exit 1
+fi
 shared=$(cd "$repo/../shared" && pwd)
 work=$(mktemp -d /tmp/kinecal-first-run.XXXXXX)
 [ "${KEEP:-0}" = 1 ] || trap 'rm -rf "$work"' EXIT
