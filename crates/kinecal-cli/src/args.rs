@@ -1072,6 +1072,23 @@ formatting and a byte-order mark are kept. Joint offsets are folded into the ori
 read back and compared with the robot over the joint ranges (the largest deviation is printed);
 beyond --tolerance nothing is written. A slope other than 1 cannot be expressed in URDF.")]
     Urdf(ExportUrdfArgs),
+    /// Write a calibrated robot as ROS 2 description files: a calibration YAML, the URDF as a
+    /// xacro that reads it, and static transforms of the measurement frames.
+    #[command(after_help = "\
+Example:
+  kinecal export ros --robot calibrated.toml --template ur10_robot.urdf --base base_link --tip tool0 --out ur10_description/
+
+Writes into the folder (it must exist): calibration.yaml (each joint of the chains from the base
+to the tips: its origin x, y, z, roll, pitch, yaw as calibrated, in metres and radians; the
+robot's name; a hash of the values), <robot>.urdf.xacro (the template, each of those origins
+read from calibration.yaml by xacro.load_yaml; the xacro argument calibration:=FILE names
+another, relative to the xacro's folder), static_transforms.yaml and
+static_transforms.launch.py (tf2_ros static_transform_publisher nodes): the frame the robot was
+measured in (--measurement-frame) below the base link, the sessions' frames below it. The URDF
+keeps the template's base: what the calibration put before it is that transform. The xacro,
+expanded with the YAML as written, is read back and compared with the robot over the joint
+ranges; beyond --tolerance nothing is written.")]
+    Ros(ExportRosArgs),
     /// Write a calibrated UR arm as a Universal Robots kinematics file for the ROS driver.
     #[command(after_help = "\
 Example:
@@ -1194,6 +1211,33 @@ pub struct ExportUrArgs {
     pub read_back: ReadBackArgs,
     /// The kinematics file to write.
     #[arg(long, required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
+}
+
+/// `kinecal export ros`.
+#[derive(Debug, Args)]
+pub struct ExportRosArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
+    /// The calibrated robot file (imported from the template).
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
+    /// The original URDF.
+    #[arg(long, required_unless_present = "spec")]
+    pub template: Option<PathBuf>,
+    /// First link of the chain, as at import.
+    #[arg(long)]
+    pub base: Option<String>,
+    /// Last link of the chain, as at import (each tip of a tree, in the order of the import).
+    #[arg(long)]
+    pub tip: Vec<String>,
+    /// Name of the frame the robot was measured in (default: measurement).
+    #[arg(long, value_name = "FRAME")]
+    pub measurement_frame: Option<String>,
+    #[command(flatten)]
+    pub read_back: ReadBackArgs,
+    /// The folder to write the files into.
+    #[arg(long, value_name = "DIR", required_unless_present = "spec")]
     pub out: Option<PathBuf>,
 }
 

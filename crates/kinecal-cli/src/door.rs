@@ -16,10 +16,11 @@ use kinecal::Setting;
 
 use crate::args::{
     AnalyzeArgs, CheckArgs, CompensateArgs, CurvesObjectiveArgs, CurvesPoseArgs, CurvesRobotArgs,
-    ExportDhArgs, ExportJointsArgs, ExportStiffnessArgs, ExportUrArgs, ExportUrdfArgs, FkArgs,
-    ImportDhArgs, ImportOutArgs, ImportPoeArgs, ImportUrArgs, ImportUrdfArgs, Iso9283EvaluateArgs,
-    Iso9283LogArgs, Iso9283PlanArgs, Iso9283SimulateArgs, ObservationFiles, PlanArgs, PredictArgs,
-    ReadBackArgs, ReportArgs, ResidualArgs, SimulateArgs, SpecArgs, SweepArgs,
+    ExportDhArgs, ExportJointsArgs, ExportRosArgs, ExportStiffnessArgs, ExportUrArgs,
+    ExportUrdfArgs, FkArgs, ImportDhArgs, ImportOutArgs, ImportPoeArgs, ImportUrArgs,
+    ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs, Iso9283PlanArgs, Iso9283SimulateArgs,
+    ObservationFiles, PlanArgs, PredictArgs, ReadBackArgs, ReportArgs, ResidualArgs, SimulateArgs,
+    SpecArgs, SweepArgs,
 };
 
 /// Exit code when a check or a compensation flags what needs a person, or a strict calibration
@@ -495,6 +496,21 @@ pub fn export_urdf(a: &ExportUrdfArgs) -> Result<ExportSpec> {
     if !a.tip.is_empty() {
         s.tip = a.tip.clone();
     }
+    read_back(&a.read_back, &mut s)?;
+    over(&mut s.out, opt_path(&a.out)?);
+    Ok(s)
+}
+
+/// `kinecal export ros`'s spec.
+pub fn export_ros(a: &ExportRosArgs) -> Result<ExportSpec> {
+    let mut s = export_base(&a.door, ExportFormat::Ros)?;
+    over(&mut s.robot, a.robot.clone());
+    over(&mut s.template, opt_path(&a.template)?);
+    over(&mut s.base, a.base.clone());
+    if !a.tip.is_empty() {
+        s.tip = a.tip.clone();
+    }
+    over(&mut s.measurement_frame, a.measurement_frame.clone());
     read_back(&a.read_back, &mut s)?;
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)

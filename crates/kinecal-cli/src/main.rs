@@ -115,6 +115,9 @@ fn export(c: ExportCommand) -> Result<u8> {
         ExportCommand::Urdf(a) => {
             door::export_urdf(&a).and_then(|s| job(s.into(), &a.door, render::export))
         }
+        ExportCommand::Ros(a) => {
+            door::export_ros(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
         ExportCommand::Ur(a) => {
             door::export_ur(&a).and_then(|s| job(s.into(), &a.door, render::export))
         }

@@ -9,6 +9,7 @@ pub mod dh;
 pub mod joints;
 pub mod poe;
 pub mod readback;
+pub mod ros;
 pub mod ur;
 pub mod urdf;
 pub mod xml;

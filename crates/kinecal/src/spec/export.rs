@@ -40,6 +40,9 @@ pub enum ExportFormat {
     Joints,
     /// The joint compliances and stiffnesses of an elastic robot's calibration report.
     Stiffness,
+    /// The files of a ROS 2 description: a calibration YAML, the URDF as a xacro that reads it,
+    /// and the static transforms of the frames outside the robot (`out` is a folder).
+    Ros,
 }
 
 impl ExportFormat {
@@ -51,13 +54,14 @@ impl ExportFormat {
             ExportFormat::Dh => "dh",
             ExportFormat::Joints => "joints",
             ExportFormat::Stiffness => "stiffness",
+            ExportFormat::Ros => "ros",
         }
     }
 }
 
-/// An export. Which keys a format takes: `urdf`: robot, template, base, tip; `ur`: robot,
-/// template; `dh`: robot, convention, length_unit, angle_unit; `joints`: robot, nominal;
-/// `stiffness`: report. All but stiffness take a tolerance.
+/// An export. Which keys a format takes: `urdf`: robot, template, base, tip; `ros`: those and
+/// measurement_frame; `ur`: robot, template; `dh`: robot, convention, length_unit, angle_unit; `joints`:
+/// robot, nominal; `stiffness`: report. All but stiffness take a tolerance.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
@@ -96,7 +100,11 @@ pub struct ExportSpec {
     /// The calibration report of an elastic robot (stiffness).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub report: Option<String>,
-    /// The file to write.
+    /// The name of the frame the robot was measured in, published below the base link (ros;
+    /// default `measurement`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measurement_frame: Option<String>,
+    /// The file to write (ros: the folder to write the files into).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
 }
@@ -109,7 +117,29 @@ impl Spec for ExportSpec {
         visit_opt(f, PathRole::Input, &mut self.template);
         visit_opt(f, PathRole::Robot, &mut self.nominal);
         visit_opt(f, PathRole::Input, &mut self.report);
-        visit_opt(f, PathRole::Output, &mut self.out);
+        match (&mut self.out, self.format) {
+            // A folder: its files with fixed names are the outputs (the xacro's, named after
+            // the robot, is checked when known); the folder follows what `f` does to them.
+            (Some(dir), ExportFormat::Ros) => {
+                use crate::import::ros::{CALIBRATION_FILE, LAUNCH_FILE, TRANSFORMS_FILE};
+                let mut files: Vec<String> = [CALIBRATION_FILE, TRANSFORMS_FILE, LAUNCH_FILE]
+                    .iter()
+                    .map(|n| {
+                        Path::new(dir.as_str())
+                            .join(n)
+                            .to_string_lossy()
+                            .into_owned()
+                    })
+                    .collect();
+                for p in &mut files {
+                    f(PathRole::Output, p);
+                }
+                if let Some(parent) = Path::new(&files[0]).parent() {
+                    *dir = parent.to_string_lossy().into_owned();
+                }
+            }
+            (out, _) => visit_opt(f, PathRole::Output, out),
+        }
     }
 }
 
@@ -193,6 +223,9 @@ pub struct ExportOutcome {
     /// The text written.
     #[serde(default)]
     pub text: String,
+    /// The files written into a folder (ros), by name.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub files: Vec<(String, String)>,
 }
 
 /// A unit named by `setting`.
@@ -226,10 +259,19 @@ impl ExportSpec {
         let takes = |formats: &[ExportFormat]| formats.contains(&f);
         use ExportFormat::*;
         for (key, given, formats) in [
-            ("robot", self.robot.is_some(), &[Urdf, Ur, Dh, Joints][..]),
-            ("template", self.template.is_some(), &[Urdf, Ur]),
-            ("base", self.base.is_some(), &[Urdf]),
-            ("tip", !self.tip.is_empty(), &[Urdf]),
+            (
+                "robot",
+                self.robot.is_some(),
+                &[Urdf, Ur, Dh, Joints, Ros][..],
+            ),
+            ("template", self.template.is_some(), &[Urdf, Ur, Ros]),
+            ("base", self.base.is_some(), &[Urdf, Ros]),
+            ("tip", !self.tip.is_empty(), &[Urdf, Ros]),
+            (
+                "measurement_frame",
+                self.measurement_frame.is_some(),
+                &[Ros],
+            ),
             ("nominal", self.nominal.is_some(), &[Joints]),
             ("convention", self.convention.is_some(), &[Dh]),
             ("length_unit", self.length_unit.is_some(), &[Dh]),
@@ -237,7 +279,7 @@ impl ExportSpec {
             (
                 "tolerance",
                 !is_default(&self.tolerance),
-                &[Urdf, Ur, Dh, Joints],
+                &[Urdf, Ur, Dh, Joints, Ros],
             ),
             ("report", self.report.is_some(), &[Stiffness]),
         ] {
@@ -270,6 +312,7 @@ impl ExportSpec {
             notes: Vec::new(),
             tcp: None,
             text: String::new(),
+            files: Vec::new(),
         };
         if self.format == ExportFormat::Stiffness {
             let path = self.needs(&self.report, Setting::Report, "a calibration report")?;
@@ -381,13 +424,48 @@ impl ExportSpec {
                 out.read_back = Some(e.read_back.line(units));
                 out.text = e.text;
             }
+            ExportFormat::Ros => {
+                let t = read_source(
+                    self.needs(
+                        &self.template,
+                        Setting::Template,
+                        "the URDF it was imported from",
+                    )?,
+                    Setting::Template,
+                )?;
+                let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
+                let e = crate::import::ros::export_ros(
+                    &robot,
+                    &t.text,
+                    &t.name,
+                    self.base.as_deref(),
+                    &tips,
+                    self.measurement_frame.as_deref(),
+                )?;
+                e.check(&robot, &tol)?;
+                out.notes.extend(
+                    e.warnings
+                        .iter()
+                        .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
+                        .map(|w| format!("warning: {w}")),
+                );
+                out.notes.extend(e.notes.iter().cloned());
+                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+                out.read_back = Some(e.read_back.line(units));
+                out.text = e.calibration.clone();
+                out.files = e
+                    .files()
+                    .iter()
+                    .map(|(n, t)| (n.to_string(), t.to_string()))
+                    .collect();
+            }
             ExportFormat::Stiffness => unreachable!("handled above"),
         }
         Ok(out)
     }
 
     /// Exports and writes the file.
-    pub(crate) fn run(&self, _env: &mut Env<'_>) -> Result<Done> {
+    pub(crate) fn run(&self, env: &mut Env<'_>) -> Result<Done> {
         let out = self.export()?;
         let mut messages: Vec<Message> = Vec::new();
         let written = |path: &str| match self.format {
@@ -402,6 +480,14 @@ impl ExportSpec {
                 "wrote {} to {path}",
                 out.notes.last().map_or("", String::as_str)
             ),
+            ExportFormat::Ros => format!(
+                "wrote {} into {path}",
+                out.files
+                    .iter()
+                    .map(|(n, _)| n.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
         };
         let shown_notes = match self.format {
             // The last note names what is written.
@@ -412,16 +498,25 @@ impl ExportSpec {
         };
         let (before, after): (Vec<&String>, Vec<&String>) = match self.format {
             // UR: what is left out first; DH: its notes after the read-back.
-            ExportFormat::Ur | ExportFormat::Urdf => (shown_notes.iter().collect(), Vec::new()),
+            ExportFormat::Ur | ExportFormat::Urdf | ExportFormat::Ros => {
+                (shown_notes.iter().collect(), Vec::new())
+            }
             _ => (Vec::new(), shown_notes.iter().collect()),
         };
         messages.extend(before.into_iter().map(|n| Message::Note(n.clone())));
         messages.extend(out.lost.iter().map(|l| Message::Note(l.clone())));
         messages.extend(out.read_back.iter().map(|l| Message::Note(l.clone())));
         messages.extend(after.into_iter().map(|n| Message::Note(n.clone())));
-        if let Some(p) = &self.out {
-            crate::files::output::write_file(Path::new(p), &out.text)?;
-            messages.push(Message::Note(written(p)));
+        match &self.out {
+            Some(p) if self.format == ExportFormat::Ros => {
+                self.write_folder(p, &out.files, env)?;
+                messages.push(Message::Note(written(p)));
+            }
+            Some(p) => {
+                crate::files::output::write_file(Path::new(p), &out.text)?;
+                messages.push(Message::Note(written(p)));
+            }
+            None => {}
         }
         Ok(Done {
             document: Document::Export(out),
@@ -429,6 +524,45 @@ impl ExportSpec {
             status: super::Status::Ok,
             pending: None,
         })
+    }
+}
+
+impl ExportSpec {
+    /// Writes `files` into the folder `dir`, each through the output writer, all or none:
+    /// refused when `dir` is not a folder or a file would replace an input of the run.
+    fn write_folder(&self, dir: &str, files: &[(String, String)], env: &Env<'_>) -> Result<()> {
+        let folder = Path::new(dir);
+        if !folder.is_dir() {
+            return Err(Error::Output {
+                path: dir.to_string(),
+                message: if folder.exists() {
+                    "is not a folder: a ros export writes its files into a folder".into()
+                } else {
+                    "no such folder: a ros export writes its files into a folder (create it                      first)"
+                        .into()
+                },
+            });
+        }
+        let paths: Vec<std::path::PathBuf> = files.iter().map(|(n, _)| folder.join(n)).collect();
+        let mut inputs: Vec<std::path::PathBuf> = Vec::new();
+        let mut spec = self.clone();
+        spec.visit_paths(&mut |role, p| {
+            if role == PathRole::Input
+                || (role == PathRole::Robot && super::common::is_robot_file(p))
+            {
+                inputs.push(std::path::PathBuf::from(p.as_str()));
+            }
+        });
+        inputs.extend(env.also_inputs.iter().cloned());
+        crate::files::output::check_distinct(
+            &paths.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
+            &inputs.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
+        )?;
+        let mut staged = crate::files::output::Staged::new();
+        for (path, (_, text)) in paths.iter().zip(files) {
+            staged.text(path, text)?;
+        }
+        staged.commit()
     }
 }
 
@@ -513,6 +647,7 @@ impl ImportSpec {
                 notes,
                 tcp: None,
                 text,
+                files: Vec::new(),
             }),
             messages,
             status: super::Status::Ok,
