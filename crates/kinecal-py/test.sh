@@ -11,9 +11,10 @@ venv="$root/target/py-venv"
 if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
-# mypy and ruff pinned to a major version (ruff's 0.x minors are its breaking releases).
+# mypy, ruff and xacro (the ROS export tests expand its xacro) pinned to a major version (ruff's
+# 0.x minors are its breaking releases).
 "$venv/bin/python" -m pip install -q --disable-pip-version-check "maturin>=1.7,<2" numpy pytest \
-    "mypy>=2,<3" "ruff>=0.17,<0.18" "jsonschema>=4.18,<5"
+    "mypy>=2,<3" "ruff>=0.17,<0.18" "jsonschema>=4.18,<5" "xacro>=2,<3"
 rm -rf "$root/target/wheels"
 # A debug build: the tests' problems are small, and it shares the test suite's artifacts.
 (cd "$here" && "$venv/bin/maturin" build -q -o "$root/target/wheels")

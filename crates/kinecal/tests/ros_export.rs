@@ -470,8 +470,8 @@ fn listing(dir: &Path) -> Vec<String> {
 fn the_spec_writes_the_four_files_into_the_folder() {
     let tmp = tempfile::tempdir().unwrap();
     let (template, robot) = setup(tmp.path());
+    // A folder that does not exist yet is made.
     let out = tmp.path().join("description");
-    std::fs::create_dir(&out).unwrap();
     let done = run(&spec(&robot, &template, &out)).unwrap();
     assert_eq!(
         listing(&out),
@@ -545,11 +545,17 @@ fn bad_inputs_are_refused_and_nothing_is_written() {
     let e = refused(&spec(&robot, &not, &out));
     assert!(e.contains("not.urdf") && e.contains("XML"), "{e}");
 
-    // The folder is a file; the folder is missing.
+    // The folder is a file: the robot file (an input), another file; a folder in a folder
+    // that does not exist.
     let e = refused(&spec(&robot, &template, &robot));
-    assert!(e.contains("cal.toml"), "{e}");
-    let e = refused(&spec(&robot, &template, &tmp.path().join("missing")));
-    assert!(e.contains("missing") && e.contains("folder"), "{e}");
+    assert!(e.contains("cal.toml") && e.contains("input"), "{e}");
+    let file = tmp.path().join("file");
+    std::fs::write(&file, "keep").unwrap();
+    let e = refused(&spec(&robot, &template, &file));
+    assert!(e.contains("file") && e.contains("is not a folder"), "{e}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep");
+    let e = refused(&spec(&robot, &template, &tmp.path().join("missing/deeper")));
+    assert!(e.contains("missing") && e.contains("no folder"), "{e}");
 
     // The template inside the folder under the name of an output: refused before writing.
     let inside = out.join("random_arm.urdf.xacro");

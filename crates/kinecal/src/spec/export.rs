@@ -118,9 +118,10 @@ impl Spec for ExportSpec {
         visit_opt(f, PathRole::Robot, &mut self.nominal);
         visit_opt(f, PathRole::Input, &mut self.report);
         match (&mut self.out, self.format) {
-            // A folder: its files with fixed names are the outputs (the xacro's, named after
-            // the robot, is checked when known); the folder follows what `f` does to them.
-            (Some(dir), ExportFormat::Ros) => {
+            // A folder: when it exists, its files with fixed names are the outputs (the
+            // xacro's, named after the robot, is checked when known), and the folder follows
+            // what `f` does to them; a folder yet to be made is the output itself.
+            (Some(dir), ExportFormat::Ros) if Path::new(dir.as_str()).is_dir() => {
                 use crate::import::ros::{CALIBRATION_FILE, LAUNCH_FILE, TRANSFORMS_FILE};
                 let mut files: Vec<String> = [CALIBRATION_FILE, TRANSFORMS_FILE, LAUNCH_FILE]
                     .iter()
@@ -528,19 +529,15 @@ impl ExportSpec {
 }
 
 impl ExportSpec {
-    /// Writes `files` into the folder `dir`, each through the output writer, all or none:
-    /// refused when `dir` is not a folder or a file would replace an input of the run.
+    /// Writes `files` into the folder `dir` (made when missing, as `kinecal dataset` does),
+    /// each through the output writer, all or none: refused when `dir` is not a folder or a
+    /// file would replace an input of the run.
     fn write_folder(&self, dir: &str, files: &[(String, String)], env: &Env<'_>) -> Result<()> {
         let folder = Path::new(dir);
-        if !folder.is_dir() {
+        if folder.exists() && !folder.is_dir() {
             return Err(Error::Output {
                 path: dir.to_string(),
-                message: if folder.exists() {
-                    "is not a folder: a ros export writes its files into a folder".into()
-                } else {
-                    "no such folder: a ros export writes its files into a folder (create it                      first)"
-                        .into()
-                },
+                message: "is not a folder: a ros export writes its files into a folder".into(),
             });
         }
         let paths: Vec<std::path::PathBuf> = files.iter().map(|(n, _)| folder.join(n)).collect();
@@ -554,6 +551,12 @@ impl ExportSpec {
             }
         });
         inputs.extend(env.also_inputs.iter().cloned());
+        if !folder.exists() {
+            std::fs::create_dir_all(folder).map_err(|cause| Error::Io {
+                path: dir.to_string(),
+                cause,
+            })?;
+        }
         crate::files::output::check_distinct(
             &paths.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
             &inputs.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
