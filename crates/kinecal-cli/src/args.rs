@@ -82,6 +82,8 @@ Examples:
       --out compensated.csv
   kinecal compensate --robot calibrated.toml --nominal nominal.toml --in targets.csv \\
       --configuration elbow=up,wrist=noflip --format urscript --out program.script
+  kinecal compensate --robot calibrated.toml --nominal nominal.toml --in program.csv \\
+      --format krl --speed 50 --zone 10 --out compensated.src
 
 --in is a program (posture,v1,...,vn: readings taught or planned with the nominal model; the
 pose each was meant to reach is the nominal model's), Cartesian targets
@@ -1402,11 +1404,29 @@ pub struct CompensateArgs {
     #[arg(long, value_name = "SPEC", allow_hyphen_values = true)]
     pub configuration: Option<String>,
     /// What to write: `table` (the readings with each row's remaining errors and flags),
-    /// `urscript` (a UR program of movej), or a controller's joint targets: `joints-ur` (rad),
-    /// `joints-abb`, `joints-kuka`, `joints-fanuc` (deg). A controller program is written only
-    /// when no row is flagged.
+    /// `urscript` (a UR program of movej), a controller's joint targets: `joints-ur` (rad),
+    /// `joints-abb`, `joints-kuka`, `joints-fanuc` (deg), or a controller's program of one joint
+    /// move per row (deg, six axes): `krl` (KUKA .src, PTP), `rapid` (ABB module, MoveAbsJ),
+    /// `tp` (FANUC TP in ASCII, .ls). A controller program is written only when no row is
+    /// flagged, and is read back before it is written.
     #[arg(long, value_enum)]
     pub format: Option<ProgramFormat>,
+    /// The name of a krl, rapid or tp program: letters, digits and _, a letter first, at most
+    /// 24 (KRL), 32 (RAPID) or 36 (TP, written in capitals) characters [default: the --out
+    /// file's name without its extension; a KRL module's DEF must name its file].
+    #[arg(long, value_name = "NAME")]
+    pub name: Option<String>,
+    /// The speed of a krl, rapid or tp program's moves: KRL percent of each axis's maximum
+    /// velocity ($VEL_AXIS, 1 to 100), RAPID the TCP speed of a predefined speeddata (v5 to
+    /// v7000, mm/s), TP percent (1 to 100) [default: 100].
+    #[arg(long, value_name = "N")]
+    pub speed: Option<f64>,
+    /// How a krl, rapid or tp program's moves end: `fine` (exactly at each point), or
+    /// approximated: KRL C_PTP with $APO.CPTP percent (1 to 100), RAPID zonedata zN (N mm: 0,
+    /// 1, 5, 10, 15, 20, 30, 40, 50, 60, 80, 100, 150, 200), TP CNTn (0 to 100); the last move
+    /// ends exactly [default: fine].
+    #[arg(long, value_name = "fine|N")]
+    pub zone: Option<String>,
     /// The file to write.
     #[arg(long, value_name = "FILE", required_unless_present = "spec")]
     pub out: Option<PathBuf>,

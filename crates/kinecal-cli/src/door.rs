@@ -10,7 +10,7 @@ use kinecal::spec::{
     AnalyzeSpec, CheckSpec, CompensateSpec, CurveKind, CurvesSpec, Done, Env, ExportFormat,
     ExportSpec, FkSpec, ImportFormat, ImportSpec, Iso9283EvaluateSpec, Iso9283LogSpec,
     Iso9283PlanSpec, Iso9283SimulateSpec, Job, LengthAngle, Message, PlanSpec, PredictSpec,
-    Progress, ReportSpec, Residuals, SimulateSpec, Spec, Status,
+    ProgramZone, Progress, ReportSpec, Residuals, SimulateSpec, Spec, Status,
 };
 use kinecal::Setting;
 
@@ -291,6 +291,9 @@ pub fn compensate(a: &CompensateArgs) -> Result<CompensateSpec> {
     over(&mut s.branch, a.branch);
     over(&mut s.configuration, a.configuration.clone());
     set(&mut s.format, a.format);
+    over(&mut s.name, a.name.clone());
+    over(&mut s.speed, a.speed);
+    over(&mut s.zone, a.zone.as_deref().map(ProgramZone::parse));
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }

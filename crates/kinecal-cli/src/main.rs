@@ -298,6 +298,9 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::Note => "--note",
         Setting::Seed => "--seed",
         Setting::Repeats => "--repeats",
+        Setting::ProgramName => "--name",
+        Setting::Speed => "--speed",
+        Setting::Zone => "--zone",
         // A setting of a later kinecal: named in the library's words.
         _ => setting.name(),
     }

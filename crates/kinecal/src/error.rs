@@ -146,11 +146,17 @@ pub enum Setting {
     Seed,
     /// How many shuffles a model choice's cross-validation repeats.
     Repeats,
+    /// The name of a controller program.
+    ProgramName,
+    /// The speed of a controller program's moves.
+    Speed,
+    /// How a controller program's moves end (exactly, or approximated).
+    Zone,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 69] = [
+    pub const ALL: [Setting; 72] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -220,6 +226,9 @@ impl Setting {
         Setting::Note,
         Setting::Seed,
         Setting::Repeats,
+        Setting::ProgramName,
+        Setting::Speed,
+        Setting::Zone,
     ];
 
     /// The library's words for it.
@@ -294,6 +303,9 @@ impl Setting {
             Setting::Note => "note",
             Setting::Seed => "seed",
             Setting::Repeats => "repeats",
+            Setting::ProgramName => "program name",
+            Setting::Speed => "speed",
+            Setting::Zone => "zone",
         }
     }
 
@@ -370,6 +382,9 @@ impl Setting {
             Setting::Note => "note",
             Setting::Seed => "seed",
             Setting::Repeats => "repeats",
+            Setting::ProgramName => "name",
+            Setting::Speed => "speed",
+            Setting::Zone => "zone",
         }
     }
 }

@@ -6,9 +6,24 @@
 //! robot = "calibrated.toml"       # how the robot really moves
 //! nominal = "nominal.toml"        # what the controller uses
 //! in = "program.csv"              # posture,v1..vn, or target,x,y,z[,alpha,beta,gamma]
-//! format = "table"                # table, urscript, joints-ur|abb|kuka|fanuc
+//! format = "table"                # table, urscript, joints-ur|abb|kuka|fanuc, krl, rapid, tp
 //! out = "compensated.csv"
 //! ```
+//!
+//! A KRL, RAPID or TP program ([`Language`]) takes three more keys, refused with any other
+//! format:
+//!
+//! ```toml
+//! format = "krl"
+//! out = "compensated.src"
+//! name = "compensated"             # default: the output file's name without its extension
+//! speed = 50                       # KRL, TP: percent (1..100); RAPID: speeddata vN (mm/s)
+//! zone = 10                        # "fine" (default); KRL C_PTP %, RAPID zN (mm), TP CNTn
+//! ```
+//!
+//! A program holds its moves in memory until the last row (a TP program's positions follow
+//! its moves, and every program is read back before it is written: 48 bytes and the label
+//! per row); tables and URScript stream through.
 
 use std::path::Path;
 
@@ -18,7 +33,10 @@ use crate::apps::compensate::{
     goal_in_file_units, Compensator, Configuration, Goal, Options, Solved, TargetSearch,
 };
 use crate::error::{Error, Location, Result, Setting};
-use crate::files::controller::{joint_field, urscript_begin, urscript_end, urscript_move, Brand};
+use crate::files::controller::{
+    joint_field, read_program, urscript_begin, urscript_end, urscript_move, Brand, Language,
+    Program, Zone,
+};
 use crate::files::stream::{cell, payload_at, payload_columns, Rows};
 use crate::files::COMPENSATED_COLUMNS;
 use crate::identifiability::fmt_sig;
@@ -48,6 +66,12 @@ pub enum ProgramFormat {
     JointsKuka,
     /// Joint targets in FANUC's convention (deg).
     JointsFanuc,
+    /// A KUKA KRL program (.src): one PTP per row (deg).
+    Krl,
+    /// An ABB RAPID module: one MoveAbsJ per row (deg).
+    Rapid,
+    /// A FANUC TP program in ASCII (.ls): one joint move per row (deg).
+    Tp,
 }
 
 impl ProgramFormat {
@@ -59,6 +83,56 @@ impl ProgramFormat {
             ProgramFormat::JointsAbb => Some(Brand::Abb),
             ProgramFormat::JointsKuka => Some(Brand::Kuka),
             ProgramFormat::JointsFanuc => Some(Brand::Fanuc),
+            ProgramFormat::Krl | ProgramFormat::Rapid | ProgramFormat::Tp => {
+                self.language().map(Language::brand)
+            }
+        }
+    }
+
+    /// The language of a controller program (KRL, RAPID, TP).
+    fn language(self) -> Option<Language> {
+        match self {
+            ProgramFormat::Krl => Some(Language::Krl),
+            ProgramFormat::Rapid => Some(Language::Rapid),
+            ProgramFormat::Tp => Some(Language::Tp),
+            _ => None,
+        }
+    }
+}
+
+/// How a KRL, RAPID or TP program's moves end: `"fine"` (exactly at each point), or a number
+/// ([`Language::zone`]: KRL `C_PTP` with `$APO.CPTP` percent, RAPID zonedata `zN` (mm), TP
+/// `CNTn`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ProgramZone {
+    /// A number: the approximation's size in the language's measure.
+    Size(f64),
+    /// A word: `fine`.
+    Named(String),
+}
+
+impl ProgramZone {
+    /// `fine`, or a number.
+    pub fn parse(text: &str) -> ProgramZone {
+        match text.trim().parse::<f64>() {
+            Ok(v) => ProgramZone::Size(v),
+            Err(_) => ProgramZone::Named(text.trim().to_string()),
+        }
+    }
+
+    /// The zone for `language`, or why it is not one.
+    fn check(&self, language: Language) -> Result<Zone> {
+        match self {
+            ProgramZone::Named(n) if n.eq_ignore_ascii_case("fine") => Ok(Zone::Fine),
+            ProgramZone::Named(n) => Err(invalid(
+                Setting::Zone,
+                format!(
+                    "expected `fine` or a number (the {} zone), not `{n}`",
+                    language.title()
+                ),
+            )),
+            ProgramZone::Size(v) => language.zone(*v).map_err(|m| invalid(Setting::Zone, m)),
         }
     }
 }
@@ -101,6 +175,17 @@ pub struct CompensateSpec {
     /// What to write (default `table`).
     #[serde(default, skip_serializing_if = "is_default")]
     pub format: ProgramFormat,
+    /// The name of a KRL, RAPID or TP program (default: the output file's name without its
+    /// extension, `kinecal_program` on standard output; [`Language::program_name`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// The speed of a KRL, RAPID or TP program's moves ([`Language::speed`]; default 100: KRL
+    /// and TP 100 %, RAPID `v100`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed: Option<f64>,
+    /// How a KRL, RAPID or TP program's moves end (default `fine`; the last always does).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zone: Option<ProgramZone>,
     /// The file to write (`-` for standard output).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
@@ -400,13 +485,25 @@ struct Writer<'r> {
     source: String,
     brand: Option<Brand>,
     joints: Vec<f64>,
+    /// A KRL, RAPID or TP program: its moves so far, and their labels.
+    program: Option<(Program, Vec<String>)>,
 }
 
 impl<'r> Writer<'r> {
-    fn new(format: ProgramFormat, robot: &'r Robot, input: &str) -> Result<Self> {
+    /// A writer of `format` for `robot`'s rows from `input`; `program`: the (empty) program
+    /// of a KRL, RAPID or TP format ([`CompensateSpec::program`]).
+    fn new(
+        format: ProgramFormat,
+        robot: &'r Robot,
+        input: &str,
+        program: Option<Program>,
+    ) -> Result<Self> {
         let brand = format.brand();
         if let Some(b) = brand {
             b.columns(robot)?;
+        }
+        if let Some(l) = format.language() {
+            l.check_robot(robot)?;
         }
         Ok(Writer {
             format,
@@ -414,11 +511,53 @@ impl<'r> Writer<'r> {
             source: input.to_string(),
             brand,
             joints: vec![0.0; robot.dof()],
+            program: program.map(|p| (p, Vec::new())),
         })
     }
 
+    /// The opening comment of a KRL, RAPID or TP program.
+    fn header(&self, language: Language) -> Vec<String> {
+        let axes = match language {
+            Language::Krl => "A1..A6",
+            Language::Rapid => "rax_1..rax_6",
+            Language::Tp => "J1..J6",
+        };
+        vec![
+            format!(
+                "compensated joint targets for {} from {}, written by kinecal {}",
+                self.robot.name,
+                self.source,
+                env!("CARGO_PKG_VERSION")
+            ),
+            format!(
+                "{axes} (deg) are joints 1 to 6 of the robot file, taken as the axes of the \
+                 controller"
+            ),
+        ]
+    }
+
+    /// Reads the program written to `written` back with kinecal's reader of its language: an
+    /// error (nothing is written) unless it gives what was meant, to the written decimals.
+    fn read_back(&self, written: &Path, out: &Path) -> Result<()> {
+        let Some((program, _)) = &self.program else {
+            return Ok(());
+        };
+        let title = program.language.title();
+        let text = std::fs::read_to_string(written).map_err(|e| write_error(out, e))?;
+        let refuse = |m: String| Error::Output {
+            path: out.display().to_string(),
+            message: format!("the {title} program, read back, {m}: nothing written"),
+        };
+        let read = read_program(program.language, &text, &out.display().to_string())
+            .map_err(|e| refuse(format!("does not read: {e}")))?;
+        match program.differs(&read) {
+            Some(d) => Err(refuse(format!("differs from what was meant: {d}"))),
+            None => Ok(()),
+        }
+    }
+
     fn sink<W: std::io::Write>(&self, w: W) -> Sink<W> {
-        if self.format == ProgramFormat::Urscript {
+        if self.format == ProgramFormat::Urscript || self.program.is_some() {
             Sink::Text(w)
         } else {
             Sink::Csv(Box::new(csv::Writer::from_writer(w)))
@@ -449,6 +588,10 @@ impl<'r> Writer<'r> {
             }
             (ProgramFormat::Urscript, _) => {
                 return Ok(w.text(&urscript_begin(self.robot, &self.source)));
+            }
+            // A program is written whole at the end.
+            (ProgramFormat::Krl | ProgramFormat::Rapid | ProgramFormat::Tp, _) => {
+                return Ok(Ok(()));
             }
             (_, Some(brand)) => {
                 if site {
@@ -498,6 +641,19 @@ impl<'r> Writer<'r> {
                 };
                 return w.text(&urscript_move(&text, &self.joints));
             }
+            (ProgramFormat::Krl | ProgramFormat::Rapid | ProgramFormat::Tp, Some(brand)) => {
+                brand.values(self.robot, out, &mut self.joints);
+                if let Some((program, labels)) = &mut self.program {
+                    let mut axes = [0.0; 6];
+                    axes.copy_from_slice(&self.joints[..6]);
+                    program.points.push(axes);
+                    labels.push(match site {
+                        Some(s) => format!("{label} ({s})"),
+                        None => label.to_string(),
+                    });
+                }
+                return Ok(());
+            }
             (_, Some(brand)) => {
                 brand.values(self.robot, out, &mut self.joints);
                 fields.extend(site);
@@ -511,6 +667,9 @@ impl<'r> Writer<'r> {
     fn end<W: std::io::Write>(&self, w: &mut Sink<W>) -> std::io::Result<()> {
         if self.format == ProgramFormat::Urscript {
             w.text(urscript_end())?;
+        }
+        if let Some((program, labels)) = &self.program {
+            w.text(&program.text(&self.header(program.language), labels))?;
         }
         Ok(())
     }
@@ -550,6 +709,76 @@ impl CompensateSpec {
         Ok(options)
     }
 
+    /// The empty program of a KRL, RAPID or TP format, its name, speed and zone checked (the
+    /// name by default `out`'s without its extension); `None` for another format, which
+    /// refuses a name, speed or zone.
+    pub fn program(&self, out: &str) -> Result<Option<Program>> {
+        let Some(language) = self.format.language() else {
+            for (given, setting) in [
+                (self.name.is_some(), Setting::ProgramName),
+                (self.speed.is_some(), Setting::Speed),
+                (self.zone.is_some(), Setting::Zone),
+            ] {
+                if given {
+                    return Err(invalid(
+                        setting,
+                        "is for a controller program: format krl, rapid or tp",
+                    ));
+                }
+            }
+            return Ok(None);
+        };
+        let speed = match self.speed {
+            Some(v) => language.speed(v).map_err(|m| invalid(Setting::Speed, m))?,
+            None => language.default_speed(),
+        };
+        let zone = match &self.zone {
+            Some(z) => z.check(language)?,
+            None => Zone::Fine,
+        };
+        // The file's own name, unless the output is standard output or a device.
+        let path = Path::new(out);
+        let stem = (out != "-" && !out.starts_with("/dev/") && !out.starts_with("/proc/"))
+            .then(|| path.file_stem().and_then(|s| s.to_str()))
+            .flatten();
+        let name = match (&self.name, stem) {
+            (Some(n), stem) => {
+                let name = language
+                    .program_name(n)
+                    .map_err(|m| invalid(Setting::ProgramName, m))?;
+                if let (Language::Krl, Some(stem)) = (language, stem) {
+                    if !stem.eq_ignore_ascii_case(&name) {
+                        return Err(invalid(
+                            Setting::ProgramName,
+                            format!(
+                                "`{name}` is not the name of {out}: a KRL module's DEF names its \
+                                 file (write it to {name}.src, or leave the name out)"
+                            ),
+                        ));
+                    }
+                }
+                name
+            }
+            (None, Some(stem)) => language.program_name(stem).map_err(|m| {
+                invalid(
+                    Setting::ProgramName,
+                    format!(
+                        "the program is named after its file {out}: {m}; {}",
+                        if language == Language::Krl {
+                            "name the file so (a KRL module's DEF names its file)"
+                        } else {
+                            "give the program a name"
+                        }
+                    ),
+                )
+            })?,
+            (None, None) => language
+                .program_name("kinecal_program")
+                .unwrap_or_else(|_| "KINECAL_PROGRAM".into()),
+        };
+        Ok(Some(Program::new(language, name, speed, zone)))
+    }
+
     /// The configuration Cartesian targets must be in, when the spec gives one.
     pub fn configuration(&self) -> Result<Option<Configuration>> {
         self.configuration
@@ -585,7 +814,8 @@ impl CompensateSpec {
         // keeps the columns so that `fk` and `check` see the same load.
         let payload = payload_columns(&rows)?;
         let search = self.target_search(&calibrated, &nominal, options, &kind)?;
-        let mut writer = Writer::new(self.format, &nominal, &self.input)?;
+        let program = self.program(out)?;
+        let mut writer = Writer::new(self.format, &nominal, &self.input, program)?;
         let units = nominal.units;
         let mut tally = CompensationSummary {
             length_unit: units.length.to_string(),
@@ -623,7 +853,8 @@ impl CompensateSpec {
             writer
                 .end(&mut w)
                 .and_then(|()| w.finish())
-                .map_err(|e| write_error(Path::new(out), e))
+                .map_err(|e| write_error(Path::new(out), e))?;
+            writer.read_back(tmp, Path::new(out))
         })?;
         if tally.rows == 0 {
             return Err(Error::input(Location::file(&rows.file), "no rows"));

@@ -62,7 +62,9 @@ pub use calibrate::{
 };
 pub use check::{CheckOutcome, CheckSpec};
 pub use common::{load_robot, weights, LengthAngle, Residuals};
-pub use compensate::{CompensateOutcome, CompensateSpec, CompensationSummary, ProgramFormat};
+pub use compensate::{
+    CompensateOutcome, CompensateSpec, CompensationSummary, ProgramFormat, ProgramZone,
+};
 pub use curves::{CurveKind, Curves, CurvesSpec, Sweep, SweptParameter};
 pub use export::{ExportFormat, ExportOutcome, ExportSpec, ImportFormat, ImportSpec};
 pub use history::{
