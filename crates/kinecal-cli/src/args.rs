@@ -187,7 +187,8 @@ Sections: summary, residuals per posture before/after, error histogram, paramete
 +-sigma bars, singular-value spectrum with the rank cut, redundant groups and determined
 combinations, warnings. `kinecal calibrate --html report.html` writes it directly.")]
     Report(ReportArgs),
-    /// Write a robot as URDF, UR kinematics, DH or a joint table, checked by reading it back.
+    /// Write a robot as URDF, ROS 2 files, UR kinematics, DH or a joint table, checked by reading
+    /// it back.
     #[command(subcommand)]
     Export(ExportCommand),
     /// Convert a public calibration data set (as in ../shared/data) into kinecal's files.
@@ -1078,18 +1079,25 @@ beyond --tolerance nothing is written. A slope other than 1 cannot be expressed 
     /// xacro that reads it, and static transforms of the measurement frames.
     #[command(after_help = "\
 Example:
-  kinecal export ros --robot calibrated.toml --template ur10_robot.urdf --base base_link --tip tool0 --out ur10_description/
+  kinecal export ros --robot calibrated.toml --template ur10_robot.urdf \\
+      --base base_link --tip tool0 --out ur10_description
 
-Writes into the folder (it must exist): calibration.yaml (each joint of the chains from the base
-to the tips: its origin x, y, z, roll, pitch, yaw as calibrated, in metres and radians; the
-robot's name; a hash of the values), <robot>.urdf.xacro (the template, each of those origins
-read from calibration.yaml by xacro.load_yaml; the xacro argument calibration:=FILE names
-another, relative to the xacro's folder), static_transforms.yaml and
-static_transforms.launch.py (tf2_ros static_transform_publisher nodes): the frame the robot was
-measured in (--measurement-frame) below the base link, the sessions' frames below it. The URDF
-keeps the template's base: what the calibration put before it is that transform. The xacro,
-expanded with the YAML as written, is read back and compared with the robot over the joint
-ranges; beyond --tolerance nothing is written.")]
+Writes into the folder (made when missing):
+  calibration.yaml             each joint of the chains from the base to the tips: its origin
+                               x, y, z, roll, pitch, yaw as calibrated (metres, radians); the
+                               robot's name; a hash of the values
+  <robot>.urdf.xacro           the template, those origins read from calibration.yaml by
+                               xacro.load_yaml (the argument calibration:=FILE names another,
+                               relative to the xacro's folder)
+  static_transforms.yaml       the frame the robot was measured in (--measurement-frame) in the
+                               base link, and each session's frame in it: parent, child, x, y, z,
+                               qx, qy, qz, qw
+  static_transforms.launch.py  a tf2_ros static_transform_publisher per transform of the YAML
+
+The URDF keeps the template's base: what the calibration put before it is the measurement
+frame's transform. Joint offsets are folded into the origins. The xacro, expanded with the YAML
+as written, is read back and compared with the robot over the joint ranges; beyond --tolerance
+nothing is written.")]
     Ros(ExportRosArgs),
     /// Write a calibrated UR arm as a Universal Robots kinematics file for the ROS driver.
     #[command(after_help = "\

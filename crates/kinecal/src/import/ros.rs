@@ -567,15 +567,12 @@ fn calibration_yaml(robot: &str, hash: &str, joints: &[JointOrigin]) -> String {
     let mut t = String::new();
     let _ = writeln!(
         t,
-        "# Written by kinecal export ros: the calibrated joint origins of `{robot}`, read by \
-         {} (xacro.load_yaml).",
+        "# Written by kinecal export ros: the calibrated joint origins of `{robot}`, which\n\
+         # {} reads (xacro.load_yaml). Each is the joint's <origin> in its parent link:\n\
+         # x, y, z in metres, roll, pitch, yaw in radians (Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)).\n\
+         # hash: SHA-256 over each joint's name, a zero byte and its six values as little-endian\n\
+         # doubles, in this order; its first 8 bytes in hex.",
         xacro_file_name(robot)
-    );
-    t.push_str(
-        "# Each is the joint's <origin> in its parent link: x, y, z in metres; roll, pitch, yaw \
-         in radians\n# (Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)). hash: SHA-256 over each joint's \
-         name, a zero byte and\n# its six values as little-endian doubles, in this order (the \
-         first 8 bytes).\n",
     );
     let _ = writeln!(t, "robot: {}", yaml_string(robot));
     let _ = writeln!(t, "hash: {hash}");
@@ -597,9 +594,9 @@ fn transforms_yaml(robot: &str, transforms: &[StaticTransform]) -> String {
     let mut t = String::new();
     let _ = writeln!(
         t,
-        "# Written by kinecal export ros: the frames kinecal estimated outside the robot \
-         `{robot}`,\n# read by {LAUNCH_FILE}. Each: the child frame's origin (x, y, z, metres) \
-         and orientation\n# (unit quaternion qx, qy, qz, qw) in the parent frame."
+        "# Written by kinecal export ros: the frames kinecal estimated outside the robot `{robot}`,\n\
+         # which {LAUNCH_FILE} publishes. Each: the child frame's origin (x, y, z,\n\
+         # metres) and orientation (unit quaternion qx, qy, qz, qw) in the parent frame."
     );
     let _ = writeln!(t, "robot: {}", yaml_string(robot));
     if transforms.is_empty() {
