@@ -1026,10 +1026,13 @@ fn curves_and_html_report() {
                 "{f} lacks section {id}"
             );
         }
-        // Self-contained: no URL, no external resource, no script.
-        for bad in ["http:", "https:", "src=", "<script", "<link", "@import"] {
+        // Self-contained: no URL, no external resource; the only script is the 3-D view's, in
+        // the page (its data and its renderer).
+        for bad in ["http:", "https:", "src=", "<link", "@import"] {
             assert!(!h.contains(bad), "{f} contains {bad}");
         }
+        assert_eq!(h.matches("<script").count(), 2, "{f}");
+        assert!(h.contains("id=\"view3d\"") && h.contains("<canvas"), "{f}");
         assert_eq!(h.matches("<svg").count(), h.matches("</svg>").count());
         assert!(h.matches("<svg").count() >= 4);
         assert!(h.contains("p3 - p9 - p15 - p21 - p27 - p33"), "{f}");

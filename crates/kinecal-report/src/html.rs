@@ -1,5 +1,5 @@
-//! The self-contained HTML calibration report: inline SVG, inline CSS, no script, no link to
-//! anything outside the file. The page renders the calibration's view
+//! The self-contained HTML calibration report: inline SVG, inline CSS, the 3-D view's own script
+//! in the page, no link to anything outside the file. The page renders the calibration's view
 //! ([`crate::view::CalibrationView`]), section after section ([`SECTIONS`]).
 
 use std::fmt::Write as _;
@@ -38,7 +38,7 @@ type Section = fn(&CalibrationView) -> Result<String, DrawError>;
 
 /// The page's sections, in order: what a reader needs first (the verdict, the facts of the run,
 /// the accuracy), then how it was reached (the parameters, the spectrum), then the warnings.
-const SECTIONS: [Section; 17] = [
+const SECTIONS: [Section; 18] = [
     title,
     verdict,
     facts,
@@ -48,6 +48,7 @@ const SECTIONS: [Section; 17] = [
     model_choice,
     cross_validation,
     per_observation,
+    view_3d,
     parameter_changes,
     prior,
     mass_model,
@@ -341,6 +342,14 @@ fn per_observation(v: &CalibrationView) -> Result<String, DrawError> {
         );
     }
     Ok(h)
+}
+
+/// The robots, the measured points and their residuals in 3-D ([`crate::view3d`]).
+fn view_3d(v: &CalibrationView) -> Result<String, DrawError> {
+    Ok(crate::view3d::section(
+        v.shown.scene.as_ref(),
+        v.convert.units,
+    ))
 }
 
 /// The estimated parameters: their changes charted with +-1 sigma bars, and their table.

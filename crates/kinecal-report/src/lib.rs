@@ -17,6 +17,7 @@ pub mod plan;
 pub mod predict;
 pub mod verdict;
 pub mod view;
+mod view3d;
 
 pub use chart::{render_png, render_svg, Line, Panel};
 pub use display::{DisplayChoice, DisplayUnits};

@@ -187,6 +187,11 @@ pub struct CalibrationReport {
     /// measured by position or pose, no uncertainty).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prediction: Option<crate::predict::PredictionReport>,
+    /// The 3-D scene the HTML report's view draws (the robots at chosen postures, the measured
+    /// points, their residuals, the measurement frames: [`super::scene`]), when an HTML report
+    /// was asked for; `kinecal export gltf --report` writes the same scene.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<super::scene::Scene>,
 }
 
 impl CalibrationReport {
@@ -316,6 +321,7 @@ impl CalibrationReport {
             spectrum: None,
             elastic: ElasticReport::new(robot, data, &cal.estimated),
             prediction: None,
+            scene: None,
         }
     }
 

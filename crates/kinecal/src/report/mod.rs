@@ -6,13 +6,17 @@
 //! - [`parameters`]: its parameters, their combinations, correlations, spectrum and pruning;
 //! - [`accuracy`]: errors before and after, validation, cross-validation, outliers;
 //! - [`elastic`]: the compliances of an elastic robot;
-//! - [`analysis`]: the document of an identifiability analysis.
+//! - [`analysis`]: the document of an identifiability analysis;
+//! - [`scene`]: the 3-D scene of a calibration (robots, measured points, residuals, frames),
+//!   drawn by the HTML report and written as glTF by [`gltf`].
 
 pub mod accuracy;
 pub mod analysis;
 pub mod calibration;
 pub mod elastic;
+pub mod gltf;
 pub mod parameters;
+pub mod scene;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

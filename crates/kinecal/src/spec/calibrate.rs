@@ -515,10 +515,21 @@ impl CalibrationJob {
         let mut spec = self.spec.clone();
         spec.outputs = OutputSpec::default();
         let spec = serde_json::to_value(&spec).expect("a spec is plain data JSON can hold");
+        let html = self.spec.outputs.html.is_some();
         result
             .map(|mut o| {
                 o.report.timings.insert(0, reading);
                 o.report.spec = Some(spec);
+                // The HTML report's 3-D view draws the scene, which the report then holds.
+                if html {
+                    o.report.scene = crate::report::scene::Scene::new(
+                        Some(&o.nominal),
+                        &o.calibration.calibrated,
+                        Some(&o.data),
+                        &Default::default(),
+                    )
+                    .ok();
+                }
                 o
             })
             .map_err(|e| match e {

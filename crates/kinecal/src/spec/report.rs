@@ -146,6 +146,14 @@ impl ReportSpec {
             crate::workflow::assess(&nominal, &calibrated, &data, weights, orientation, &sources)?;
         // The predicted accuracy and its map, as a calibration's HTML report gives them.
         crate::workflow::add_prediction(&mut outcome, &nominal, crate::predict::Level::Map);
+        // And its 3-D view.
+        outcome.report.scene = crate::report::scene::Scene::new(
+            Some(&nominal),
+            &calibrated,
+            Some(&data),
+            &Default::default(),
+        )
+        .ok();
         Ok(outcome.report)
     }
 

@@ -1,0 +1,440 @@
+//! The calibration report's 3-D view: the report's scene ([`kinecal::report::scene`]) drawn on
+//! a canvas by a small renderer of this crate (`view3d.js`, in the page: nothing is fetched),
+//! with its controls, its legend, the scale of the residual vectors, and the scene in words for
+//! a reader without the picture.
+
+use std::fmt::Write as _;
+
+use kinecal::report::scene::{Scene, Skeleton};
+
+use crate::display::DisplayUnits;
+use crate::number::{num, sig};
+use crate::page::esc;
+
+/// The renderer.
+const SCRIPT: &str = include_str!("view3d.js");
+
+/// `x` (finite) as a short JSON number, to `f32` precision.
+fn n(x: f64) -> String {
+    let v = x as f32;
+    if v == 0.0 || !v.is_finite() {
+        "0".into()
+    } else if (1e-3..1e7).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+fn v3(p: &[f64; 3], f: f64) -> String {
+    format!("[{},{},{}]", n(p[0] * f), n(p[1] * f), n(p[2] * f))
+}
+
+fn axes(a: &[[f64; 3]; 3]) -> String {
+    format!("[{},{},{}]", v3(&a[0], 1.0), v3(&a[1], 1.0), v3(&a[2], 1.0))
+}
+
+fn text(s: &str) -> String {
+    serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into())
+}
+
+fn skeleton(s: &Skeleton, f: f64) -> String {
+    let nodes: Vec<String> = s.nodes.iter().map(|p| v3(p, f)).collect();
+    let links: Vec<String> = s.links.iter().map(|[a, b]| format!("[{a},{b}]")).collect();
+    let joints: Vec<String> = s
+        .joints
+        .iter()
+        .map(|(i, a)| format!("[{i},{}]", v3(a, 1.0)))
+        .collect();
+    let tools: Vec<String> = s
+        .tools
+        .iter()
+        .map(|t| {
+            format!(
+                "{{\"name\":{},\"origin\":{},\"axes\":{}}}",
+                text(&t.name),
+                v3(&t.origin, f),
+                axes(&t.axes)
+            )
+        })
+        .collect();
+    format!(
+        "{{\"nodes\":[{}],\"links\":[{}],\"joints\":[{}],\"tools\":[{}]}}",
+        nodes.join(","),
+        links.join(","),
+        joints.join(","),
+        tools.join(",")
+    )
+}
+
+/// A round length near `x`: 1, 2 or 5 times a power of ten, not above it.
+fn round_down(x: f64) -> f64 {
+    if !(x.is_finite() && x > 0.0) {
+        return 1.0;
+    }
+    let p = 10f64.powf(x.log10().floor());
+    let m = x / p;
+    p * if m >= 5.0 {
+        5.0
+    } else if m >= 2.0 {
+        2.0
+    } else {
+        1.0
+    }
+}
+
+/// A round figure without trailing zeros: `500`, `0.25`, `2e-5`.
+fn round(x: f64) -> String {
+    let s = sig(x, 3);
+    let (mantissa, exponent) = match s.split_once('e') {
+        Some((m, e)) => (m, Some(e)),
+        None => (s.as_str(), None),
+    };
+    let mantissa = if mantissa.contains('.') {
+        mantissa.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        mantissa
+    };
+    match exponent {
+        Some(e) => format!("{mantissa}e{e}"),
+        None => mantissa.to_string(),
+    }
+}
+
+/// Thousands separated by commas.
+fn count(k: usize) -> String {
+    let s = k.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// What the points shown are, of how many.
+fn points_caption(scene: &Scene) -> String {
+    let shown = scene.points.len();
+    let mut s = if shown == scene.points_total {
+        format!("all {} measured points", count(shown))
+    } else {
+        format!(
+            "{} of {} measured points (the largest residuals and an even spread of the rest)",
+            count(shown),
+            count(scene.points_total)
+        )
+    };
+    if scene.points_unplottable > 0 {
+        let _ = write!(
+            s,
+            "; {} not drawn (not finite or beyond 1e6 m)",
+            count(scene.points_unplottable)
+        );
+    }
+    s
+}
+
+/// The section of the page: the view, or why there is none.
+pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
+    let mut h = String::from("<h2 id=\"view3d\">3-D view</h2>\n");
+    let Some(scene) = scene else {
+        h += "<p class=\"note\">No 3-D view: the report holds no scene (it is drawn when the \
+              HTML report is asked for with the calibration, or by <code>kinecal report \
+              --robot ... --data ...</code>).</p>\n";
+        return h;
+    };
+    if let Err(e) = scene.check() {
+        let _ = writeln!(
+            h,
+            "<p class=\"note\">No 3-D view: {}.</p>",
+            esc(&e.to_string())
+        );
+        return h;
+    }
+    let f = 1.0 / units.length.metres();
+    let l = units.length.as_str();
+    let axis = round_down(scene.reach * f / 5.0);
+    let k = scene.residual_scale;
+    let has_nominal = scene.postures.iter().any(|p| p.nominal.is_some());
+    let has_before = scene.points.iter().any(|p| p.before.is_some());
+    let scale_words = format!(
+        "residual vectors drawn {} times their length ({} {l} on the view is {} {l} of error)",
+        round(k),
+        round(axis),
+        round(axis / k)
+    );
+
+    // Controls.
+    h += "<div id=\"v3d\"><p class=\"controls\">";
+    if scene.postures.len() > 1 {
+        h += "<label>posture <select id=\"v3d-posture\">";
+        let worst = scene
+            .points
+            .iter()
+            .max_by(|a, b| a.error_after().total_cmp(&b.error_after()))
+            .map(|p| p.posture);
+        for (i, p) in scene.postures.iter().enumerate() {
+            let note = if Some(p.index) == worst {
+                " (largest residual)"
+            } else if i == 0 && p.index == 0 {
+                " (first measured)"
+            } else {
+                ""
+            };
+            let _ = write!(h, "<option value=\"{i}\">{}{note}</option>", esc(&p.label));
+        }
+        h += "</select></label> ";
+    }
+    let mut toggle = |name: &str, words: &str, on: bool, present: bool| {
+        if present {
+            let _ = write!(
+                h,
+                "<label><input type=\"checkbox\" name=\"{name}\"{}> {words}</label> ",
+                if on { " checked" } else { "" }
+            );
+        }
+    };
+    toggle("nominal", "nominal robot", true, has_nominal);
+    toggle("points", "measured points", true, !scene.points.is_empty());
+    toggle("after", "residuals after", true, !scene.points.is_empty());
+    toggle("before", "residuals before", false, has_before);
+    toggle("frames", "frames", true, true);
+    toggle("grid", "floor grid", true, true);
+    h += "</p>\n";
+
+    // The canvas, described for a reader who cannot see it.
+    let described = format!(
+        "The {} robot{} at posture {}, {}, {}.",
+        if has_nominal {
+            "nominal (grey, dashed) and the calibrated (blue)"
+        } else {
+            "calibrated (blue)"
+        },
+        if has_nominal { "s" } else { "" },
+        scene.postures[0].label,
+        points_caption(scene),
+        scale_words
+    );
+    let _ = writeln!(
+        h,
+        "<canvas id=\"v3d-canvas\" width=\"900\" height=\"540\" tabindex=\"0\" role=\"img\" \
+         aria-label=\"{}\" style=\"width:100%;max-width:1000px;border:1px solid #ccc;\
+         touch-action:none;cursor:grab\">{}</canvas>",
+        esc(&described),
+        esc(&described)
+    );
+
+    // Legend and scales.
+    let swatch = |color: &str, dashed: bool, words: &str| {
+        format!(
+            "<span style=\"display:inline-block;width:22px;border-top:3px {} {color};\
+             vertical-align:middle\"></span> {words}",
+            if dashed { "dashed" } else { "solid" }
+        )
+    };
+    let mut legend = vec![swatch(
+        "#1f63c7",
+        false,
+        "calibrated robot (joints: dots and axes)",
+    )];
+    if has_nominal {
+        legend.push(swatch("#8c8c8c", true, "nominal robot"));
+    }
+    if !scene.points.is_empty() {
+        legend.push(
+            "<span style=\"color:#222\">&#9679;</span> measured point \
+             (<span style=\"color:#e08a00\">&#9675;</span> those of the posture shown)"
+                .into(),
+        );
+        legend.push(swatch("#d62728", false, "residual after calibration"));
+        if has_before {
+            legend.push(swatch("#ff7f0e", false, "residual before"));
+        }
+    }
+    legend.push(format!(
+        "frames: {}, {}, {}",
+        swatch("#d62728", false, "x"),
+        swatch("#2ca02c", false, "y"),
+        swatch("#1f4fe0", false, "z")
+    ));
+    let _ = writeln!(
+        h,
+        "<p class=\"legend\">{}</p>\n<p>Scale: {scale_words}; axes and floor grid squares \
+         {} {l}. Shown: {}. Drag to turn, wheel to zoom (arrow keys and +/- when the view has \
+         the focus), double-click to reset.</p>",
+        legend.join(" &nbsp; "),
+        round(axis),
+        esc(&points_caption(scene)),
+    );
+
+    // The scene in words.
+    h += "<details><summary>The scene in words</summary>\n";
+    let p0 = &scene.postures[0];
+    let tip = |s: &Skeleton| {
+        s.tools
+            .first()
+            .map(|t| {
+                format!(
+                    "({}, {}, {})",
+                    num(t.origin[0] * f),
+                    num(t.origin[1] * f),
+                    num(t.origin[2] * f)
+                )
+            })
+            .unwrap_or_default()
+    };
+    let _ = write!(
+        h,
+        "<p>At posture {}, the calibrated robot's tool is at {} {l}",
+        esc(&p0.label),
+        tip(&p0.calibrated)
+    );
+    if let Some(nom) = &p0.nominal {
+        let _ = write!(h, ", the nominal robot's at {} {l}", tip(nom));
+    }
+    h += ".</p>\n";
+    let mut worst: Vec<&kinecal::report::scene::ScenePoint> = scene.points.iter().collect();
+    worst.sort_by(|a, b| b.error_after().total_cmp(&a.error_after()));
+    worst.truncate(10);
+    if !worst.is_empty() {
+        let _ = writeln!(
+            h,
+            "<table><tr><th class=\"l\">largest residuals: posture</th><th class=\"l\">target</th>\
+             <th>x</th><th>y</th><th>z</th><th>error after ({l})</th></tr>"
+        );
+        let labels: std::collections::HashMap<usize, &str> = scene
+            .postures
+            .iter()
+            .map(|p| (p.index, p.label.as_str()))
+            .collect();
+        for p in worst {
+            let posture = labels
+                .get(&p.posture)
+                .map(|s| s.to_string())
+                .unwrap_or_else(|| format!("#{}", p.posture + 1));
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td>\
+                 <td>{}</td><td>{}</td></tr>",
+                esc(&posture),
+                esc(&p.target),
+                num(p.measured[0] * f),
+                num(p.measured[1] * f),
+                num(p.measured[2] * f),
+                num(p.error_after() * f)
+            );
+        }
+        h += "</table>\n";
+    }
+    h += "<p>Frames: ";
+    let frames: Vec<String> = scene
+        .frames
+        .iter()
+        .map(|fr| {
+            format!(
+                "{} ({}) at ({}, {}, {}) {l}",
+                esc(&fr.name),
+                fr.kind.as_str(),
+                num(fr.origin[0] * f),
+                num(fr.origin[1] * f),
+                num(fr.origin[2] * f)
+            )
+        })
+        .collect();
+    h += &frames.join("; ");
+    h += ".</p></details>\n<noscript><p class=\"note\">The 3-D view is drawn by the page's \
+          script, which this browser does not run: the scene in words above holds its \
+          figures.</p></noscript>\n";
+
+    // The data and the renderer.
+    let postures: Vec<String> = scene
+        .postures
+        .iter()
+        .map(|p| {
+            format!(
+                "{{\"label\":{},\"index\":{},\"calibrated\":{},\"nominal\":{}}}",
+                text(&p.label),
+                p.index,
+                skeleton(&p.calibrated, f),
+                p.nominal.as_ref().map_or("null".into(), |s| skeleton(s, f))
+            )
+        })
+        .collect();
+    let points: Vec<String> = scene
+        .points
+        .iter()
+        .map(|p| {
+            format!(
+                "{{\"posture\":{},\"measured\":{},\"after\":{},\"before\":{}}}",
+                p.posture,
+                v3(&p.measured, f),
+                v3(&p.after, f),
+                p.before.as_ref().map_or("null".into(), |b| v3(b, f))
+            )
+        })
+        .collect();
+    let frames: Vec<String> = scene
+        .frames
+        .iter()
+        .map(|fr| {
+            format!(
+                "{{\"name\":{},\"kind\":{},\"origin\":{},\"axes\":{}}}",
+                text(&fr.name),
+                text(fr.kind.as_str()),
+                v3(&fr.origin, f),
+                axes(&fr.axes)
+            )
+        })
+        .collect();
+    let caption = format!(
+        "residuals x{}: {} {l} shown = {} {l} of error; grid {} {l}",
+        round(k),
+        round(axis),
+        round(axis / k),
+        round(axis)
+    );
+    let json = format!(
+        "{{\"title\":{},\"caption\":{},\"unit\":{},\"reach\":{},\"axis\":{},\"scale\":{},\
+         \"postures\":[{}],\"points\":[{}],\"frames\":[{}]}}",
+        text(&scene.robot),
+        text(&caption),
+        text(l),
+        n(scene.reach * f),
+        n(axis),
+        n(k),
+        postures.join(","),
+        points.join(","),
+        frames.join(",")
+    )
+    // Nothing in the data can close its element.
+    .replace('<', "\\u003c");
+    let _ = write!(
+        h,
+        "<script type=\"application/json\" id=\"v3d-data\">{json}</script>\n<script>\n{SCRIPT}</script>\n</div>\n"
+    );
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    #[allow(clippy::float_cmp)] // round numbers, exactly
+    fn numbers_are_short_and_finite() {
+        assert_eq!(n(0.1), "0.1");
+        assert_eq!(n(1e-5), "1e-5");
+        assert_eq!(n(f64::NAN), "0");
+        assert_eq!(n(1e308), "0");
+        assert_eq!(n(-2.5e7), "-2.5e7");
+        assert_eq!(count(16810), "16,810");
+        assert_eq!(count(999), "999");
+        assert_eq!(round_down(130.0), 100.0);
+        assert_eq!(round_down(0.3), 0.2);
+        assert_eq!(round(500.0), "500");
+        assert_eq!(round(0.25), "0.25");
+        assert_eq!(round(2e-5), "2e-5");
+    }
+}

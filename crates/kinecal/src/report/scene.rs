@@ -1,0 +1,695 @@
+//! The 3-D scene of a calibration: the nominal and the calibrated robot at chosen postures, the
+//! measured points with their residual vectors, and the frames things are measured in. One
+//! model, drawn twice: by the HTML report's 3-D view (`kinecal-report`) and written as glTF by
+//! `kinecal export gltf` ([`super::gltf`]), so that both show the same scene.
+//!
+//! Every coordinate is in metres, in the robot's global frame (z up): a point measured in a
+//! session with a frame of its own is brought back through the calibrated robot's session frame.
+//! Every number in a scene is finite and within [`LIMIT`] metres of the origin: a point beyond
+//! is left out (and counted), a robot beyond is refused.
+//!
+//! A new kind of frame (a camera, a calibration board) is a [`FrameKind`] and a line where the
+//! frames are gathered: the renderers draw every frame the same way, by kind.
+
+use nalgebra::{Matrix3, Vector3};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::model::kinematics::{Chain, Frame, Target, Workspace};
+use crate::model::robot::{JointKind, Robot};
+use crate::observe::{for_each_observation, target_name, Dataset, Observation};
+use crate::units::LengthUnit;
+
+/// How far from the origin (m) a drawn coordinate may be: a robot or a point beyond is not
+/// drawn (a thousand kilometres: far beyond any robot, well within `f32`).
+pub const LIMIT: f64 = 1e6;
+
+/// What a scene holds, and how much of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneOptions {
+    /// The measured points drawn at most (the largest residuals first, then evenly spread over
+    /// the rest).
+    pub max_points: usize,
+    /// The postures the robots are drawn at, at most.
+    pub max_postures: usize,
+    /// The posture drawn first, by label (default: the first measured).
+    pub posture: Option<String>,
+}
+
+impl Default for SceneOptions {
+    fn default() -> Self {
+        SceneOptions {
+            max_points: 2000,
+            max_postures: 24,
+            posture: None,
+        }
+    }
+}
+
+/// What a frame of the scene is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+#[non_exhaustive]
+pub enum FrameKind {
+    /// The robot's global frame (the measurement frame of data outside every session).
+    Base,
+    /// The measurement frame of a session (a laser tracker's position).
+    Measurement,
+    /// A tool frame of the robot at a posture: the end effector or a site.
+    Tool,
+}
+
+impl FrameKind {
+    /// The kind's name, as the renderers' legends write it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FrameKind::Base => "base",
+            FrameKind::Measurement => "measurement",
+            FrameKind::Tool => "tool",
+        }
+    }
+}
+
+/// A frame: its origin and its axes (unit vectors) in the global frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SceneFrame {
+    /// Its name.
+    pub name: String,
+    /// What it is.
+    pub kind: FrameKind,
+    /// Origin (m).
+    pub origin: [f64; 3],
+    /// The x, y and z axes.
+    pub axes: [[f64; 3]; 3],
+}
+
+/// A robot at a posture: the origins of its joints and tools joined by its links.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Skeleton {
+    /// Points (m): the global frame's origin first, then each joint's, each tool's.
+    pub nodes: Vec<[f64; 3]>,
+    /// Links, as pairs of indices into `nodes`.
+    pub links: Vec<[usize; 2]>,
+    /// For each joint: the index of its node and its axis (a unit vector).
+    pub joints: Vec<(usize, [f64; 3])>,
+    /// The tool frames: the end effector and the sites.
+    pub tools: Vec<SceneFrame>,
+}
+
+/// One posture the robots are drawn at.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ScenePosture {
+    /// Its label in the data (`home` without data).
+    pub label: String,
+    /// Its index in the data's postures (0 without data).
+    pub index: usize,
+    /// The nominal robot there, when the scene has one.
+    pub nominal: Option<Skeleton>,
+    /// The calibrated robot there.
+    pub calibrated: Skeleton,
+}
+
+/// A measured point and its residuals (`model - measured`, m, global frame's axes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ScenePoint {
+    /// The index of its posture in the data.
+    pub posture: usize,
+    /// The target measured (`ee` or a site's name).
+    pub target: String,
+    /// The measured point (m).
+    pub measured: [f64; 3],
+    /// The calibrated robot's residual.
+    pub after: [f64; 3],
+    /// The nominal robot's residual, when the scene has a nominal robot.
+    pub before: Option<[f64; 3]>,
+}
+
+impl ScenePoint {
+    /// The length of the calibrated robot's residual (m).
+    pub fn error_after(&self) -> f64 {
+        norm(&self.after)
+    }
+}
+
+/// The scene: see the module's documentation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[non_exhaustive]
+pub struct Scene {
+    /// The robot's name.
+    pub robot: String,
+    /// The robot file's length unit (the coordinates are metres whatever it is).
+    pub length_unit: LengthUnit,
+    /// The robot's reach (m): the distance from the global frame's origin to the farthest
+    /// node over the drawn postures, at least 1 mm.
+    pub reach: f64,
+    /// The postures the robots are drawn at; the first is the one shown first.
+    pub postures: Vec<ScenePosture>,
+    /// Postures in the data.
+    pub postures_total: usize,
+    /// The measured points drawn, in the data's order.
+    pub points: Vec<ScenePoint>,
+    /// Measured points (positions and poses) in the data.
+    pub points_total: usize,
+    /// Measured points left out because a coordinate or residual was not finite or beyond
+    /// [`LIMIT`].
+    pub points_unplottable: usize,
+    /// Residual vectors are drawn this many times their length.
+    pub residual_scale: f64,
+    /// The frames that do not move with the robot: the global frame and the sessions'
+    /// measurement frames.
+    pub frames: Vec<SceneFrame>,
+}
+
+fn norm(v: &[f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+fn arr(v: &Vector3<f64>) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+fn drawable(v: &[f64; 3]) -> bool {
+    v.iter().all(|x| x.is_finite() && x.abs() <= LIMIT)
+}
+
+fn frame_of(name: &str, kind: FrameKind, f: &Frame) -> SceneFrame {
+    let r = &f.rotation;
+    SceneFrame {
+        name: name.to_string(),
+        kind,
+        origin: arr(&f.translation),
+        axes: [0, 1, 2].map(|c| [r[(0, c)], r[(1, c)], r[(2, c)]]),
+    }
+}
+
+/// The inverse of a rigid transform.
+fn inverse(f: &Frame) -> Frame {
+    let rt: Matrix3<f64> = f.rotation.transpose();
+    Frame {
+        rotation: rt,
+        translation: -(rt * f.translation),
+    }
+}
+
+/// `robot` at `readings` (with the posture's payload, for an elastic robot).
+pub fn skeleton(
+    robot: &Robot,
+    readings: &[f64],
+    payload: Option<&crate::model::robot::Payload>,
+) -> Result<Skeleton> {
+    let n = robot.dof();
+    if readings.len() != n {
+        return Err(Error::Numerical(format!(
+            "a posture of {} readings for a robot of {n} joints",
+            readings.len()
+        )));
+    }
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    chain.forward_loaded(readings, None, payload, &mut ws);
+    let mut nodes = vec![[0.0; 3]];
+    let mut links = Vec::new();
+    let mut joints = Vec::new();
+    // The node of the frame right after each joint (0: the global frame).
+    let mut after = vec![0usize; n + 1];
+    for i in 0..=n {
+        let parent = robot.link_parent(i);
+        let from = after[parent];
+        // The distal end of link i: where joint i + 1 turns (or slides from), the end
+        // effector for the last link.
+        let distal = ws
+            .after_joint(parent)
+            .then(&Frame::from_link(&robot.links[i]));
+        nodes.push(arr(&distal.translation));
+        let at = nodes.len() - 1;
+        links.push([from, at]);
+        if i < n {
+            joints.push((at, arr(&distal.rotation.column(2).into_owned())));
+            after[i + 1] = match robot.joints[i].kind {
+                JointKind::Revolute => at,
+                JointKind::Prismatic => {
+                    nodes.push(arr(&ws.after_joint(i + 1).translation));
+                    links.push([at, nodes.len() - 1]);
+                    nodes.len() - 1
+                }
+            };
+        }
+    }
+    let mut tools = vec![frame_of(
+        robot.end_effector.as_deref().unwrap_or("ee"),
+        FrameKind::Tool,
+        ws.end_effector(),
+    )];
+    for (s, site) in robot.sites.iter().enumerate() {
+        let f = chain.target_frame(&ws, Target::Site(s));
+        nodes.push(arr(&f.translation));
+        links.push([after[site.joint.min(n)], nodes.len() - 1]);
+        tools.push(frame_of(&site.name, FrameKind::Tool, &f));
+    }
+    let bad = nodes.iter().any(|p| !drawable(p))
+        || tools
+            .iter()
+            .any(|t| !drawable(&t.origin) || t.axes.iter().any(|a| !drawable(a)))
+        || joints.iter().any(|(_, a)| !drawable(a));
+    if bad {
+        return Err(Error::Numerical(format!(
+            "robot `{}` has a frame that is not finite or lies beyond {LIMIT:e} m at this \
+             posture: it cannot be drawn",
+            robot.name
+        )));
+    }
+    Ok(Skeleton {
+        nodes,
+        links,
+        joints,
+        tools,
+    })
+}
+
+/// The measured point and the model's, in the measurement frame, of a position or a pose.
+fn measured(o: &Observation) -> Option<Vector3<f64>> {
+    match o {
+        Observation::Position(p) => Some(p.position),
+        Observation::Pose(p) => Some(p.position),
+        _ => None,
+    }
+}
+
+/// For every observation with a measured point: `(index, measured, model)`, in the
+/// measurement frame.
+fn model_points(robot: &Robot, data: &Dataset) -> Vec<Option<(Vector3<f64>, Vector3<f64>)>> {
+    let mut out = vec![None; data.observations.len()];
+    for_each_observation(robot, data, |i, o, frames| {
+        if let (Some(m), Some(f)) = (measured(o), frames.first()) {
+            out[i] = Some((m, f.translation));
+        }
+    });
+    out
+}
+
+/// Evenly spread picks of `k` of `n` indices (all when `k >= n`).
+fn spread(n: usize, k: usize) -> Vec<usize> {
+    if k >= n {
+        return (0..n).collect();
+    }
+    if k == 0 {
+        return Vec::new();
+    }
+    (0..k).map(|i| i * n / k).collect()
+}
+
+impl Scene {
+    /// The scene of `calibrated` (and `nominal`, when given, of the same structure) on `data`
+    /// (none: the robots at zero readings, no points).
+    pub fn new(
+        nominal: Option<&Robot>,
+        calibrated: &Robot,
+        data: Option<&Dataset>,
+        options: &SceneOptions,
+    ) -> Result<Scene> {
+        if let Some(nom) = nominal {
+            if !nom.same_structure(calibrated) {
+                return Err(Error::Numerical(format!(
+                    "the nominal robot `{}` and the calibrated robot `{}` differ in structure: \
+                     one scene cannot hold both",
+                    nom.name, calibrated.name
+                )));
+            }
+        }
+        let empty = Dataset::default();
+        let data = data.unwrap_or(&empty);
+
+        // The measured points, brought into the global frame through the calibrated robot's
+        // session frames.
+        let after = model_points(calibrated, data);
+        let before = nominal.map(|r| model_points(r, data));
+        let to_global = |posture: usize| -> Option<Frame> {
+            let p = data.postures.get(posture)?;
+            crate::observe::session_frame(calibrated, p).map(|f| inverse(&f))
+        };
+        let mut candidates = Vec::new();
+        let mut points_total = 0;
+        let mut points_unplottable = 0;
+        for (i, o) in data.observations.iter().enumerate() {
+            let Some((m, model)) = after[i] else {
+                continue;
+            };
+            points_total += 1;
+            let posture = o.posture();
+            let (m, r, rb) = match to_global(posture) {
+                Some(g) => (
+                    g.rotation * m + g.translation,
+                    g.rotation * (model - m),
+                    before
+                        .as_ref()
+                        .and_then(|b| b[i])
+                        .map(|(_, nm)| g.rotation * (nm - m)),
+                ),
+                None => (
+                    m,
+                    model - m,
+                    before.as_ref().and_then(|b| b[i]).map(|(_, nm)| nm - m),
+                ),
+            };
+            let point = ScenePoint {
+                posture,
+                target: target_name(calibrated, o.target()).to_string(),
+                measured: arr(&m),
+                after: arr(&r),
+                before: rb.map(|v| arr(&v)),
+            };
+            if drawable(&point.measured)
+                && drawable(&point.after)
+                && point.before.as_ref().is_none_or(drawable)
+            {
+                candidates.push(point);
+            } else {
+                points_unplottable += 1;
+            }
+        }
+
+        // The largest residuals always, then evenly spread over the rest.
+        let mut order: Vec<usize> = (0..candidates.len()).collect();
+        order.sort_by(|&a, &b| {
+            candidates[b]
+                .error_after()
+                .total_cmp(&candidates[a].error_after())
+        });
+        let largest = (options.max_points / 20).min(order.len());
+        let mut keep = vec![false; candidates.len()];
+        for &i in &order[..largest] {
+            keep[i] = true;
+        }
+        let rest: Vec<usize> = (0..candidates.len()).filter(|i| !keep[*i]).collect();
+        for k in spread(rest.len(), options.max_points.saturating_sub(largest)) {
+            keep[rest[k]] = true;
+        }
+        let worst_posture = order.first().map(|&i| candidates[i].posture);
+        let points: Vec<ScenePoint> = candidates
+            .into_iter()
+            .zip(keep)
+            .filter_map(|(p, k)| k.then_some(p))
+            .collect();
+
+        // The residuals' scale: the 95th percentile of the drawn residuals after calibration
+        // a twentieth of the robot's size, rounded down to 1, 2 or 5 times a power of ten.
+        let mut errors: Vec<f64> = points.iter().map(ScenePoint::error_after).collect();
+        errors.sort_by(f64::total_cmp);
+
+        // The postures: the chosen one first, the worst point's, then evenly spread.
+        let mut chosen: Vec<usize> = Vec::new();
+        if data.postures.is_empty() {
+            if options.posture.is_some() {
+                return Err(Error::Numerical(
+                    "a posture to draw is named, and there is no data to find it in".into(),
+                ));
+            }
+        } else {
+            let first = match &options.posture {
+                Some(label) => data
+                    .postures
+                    .iter()
+                    .position(|p| &p.label == label)
+                    .ok_or_else(|| {
+                        Error::Numerical(format!("no posture `{label}` in the data to draw"))
+                    })?,
+                None => 0,
+            };
+            chosen.push(first);
+            chosen.extend(worst_posture);
+            chosen.extend(spread(data.postures.len(), options.max_postures));
+            let mut seen = std::collections::HashSet::new();
+            chosen.retain(|p| seen.insert(*p));
+            chosen.truncate(options.max_postures.max(1));
+        }
+        let mut postures = Vec::new();
+        if chosen.is_empty() {
+            let zero = vec![0.0; calibrated.dof()];
+            postures.push(ScenePosture {
+                label: "home".into(),
+                index: 0,
+                nominal: nominal.map(|r| skeleton(r, &zero, None)).transpose()?,
+                calibrated: skeleton(calibrated, &zero, None)?,
+            });
+        }
+        for p in chosen {
+            let posture = &data.postures[p];
+            let payload = posture.payload.as_ref();
+            postures.push(ScenePosture {
+                label: posture.label.clone(),
+                index: p,
+                nominal: nominal
+                    .map(|r| skeleton(r, &posture.readings, payload))
+                    .transpose()?,
+                calibrated: skeleton(calibrated, &posture.readings, payload)?,
+            });
+        }
+
+        let reach = postures
+            .iter()
+            .flat_map(|p| p.calibrated.nodes.iter())
+            .map(norm)
+            .fold(1e-3, f64::max);
+        let typical = errors
+            .get((errors.len() * 95 / 100).min(errors.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0);
+        let mut residual_scale = residual_scale(typical, reach);
+        // A residual before calibration may be far longer than those after: its line, scaled,
+        // stays within 1e9 m.
+        let longest = points
+            .iter()
+            .flat_map(|p| [Some(p.after), p.before])
+            .flatten()
+            .map(|r| norm(&r))
+            .fold(0.0, f64::max);
+        while residual_scale > 1.0 && longest * residual_scale > 1e3 * LIMIT {
+            residual_scale /= 10.0;
+        }
+
+        let mut frames = vec![frame_of(
+            "global frame",
+            FrameKind::Base,
+            &Frame::identity(),
+        )];
+        for s in &calibrated.sessions {
+            let f = inverse(&Frame::from_link(&s.frame));
+            let sf = frame_of(&s.name, FrameKind::Measurement, &f);
+            if drawable(&sf.origin) && sf.axes.iter().all(drawable) {
+                frames.push(sf);
+            }
+        }
+        let scene = Scene {
+            robot: calibrated.name.clone(),
+            length_unit: calibrated.units.length,
+            reach,
+            postures,
+            postures_total: data.postures.len(),
+            points,
+            points_total,
+            points_unplottable,
+            residual_scale,
+            frames,
+        };
+        scene.check()?;
+        Ok(scene)
+    }
+}
+
+impl Scene {
+    /// Whether the scene can be drawn as it is (one read from a file is checked before it is):
+    /// a posture to draw, every coordinate finite and within [`LIMIT`], every index of a link
+    /// or joint a node, a positive finite scale.
+    pub fn check(&self) -> Result<()> {
+        let bad = |what: &str| {
+            Err(Error::Numerical(format!(
+                "the 3-D scene of `{}` cannot be drawn: {what}",
+                self.robot
+            )))
+        };
+        if self.postures.is_empty() {
+            return bad("it has no posture");
+        }
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if !positive(self.residual_scale) || !positive(self.reach) || self.reach > LIMIT {
+            return bad("its residual scale or reach is not a positive finite number");
+        }
+        let frame_ok = |f: &SceneFrame| drawable(&f.origin) && f.axes.iter().all(drawable);
+        let skeleton_ok = |s: &Skeleton| {
+            s.nodes.iter().all(drawable)
+                && s.links.iter().flatten().all(|&i| i < s.nodes.len())
+                && s.joints
+                    .iter()
+                    .all(|(i, a)| *i < s.nodes.len() && drawable(a))
+                && s.tools.iter().all(frame_ok)
+        };
+        if !self
+            .postures
+            .iter()
+            .all(|p| skeleton_ok(&p.calibrated) && p.nominal.as_ref().is_none_or(skeleton_ok))
+        {
+            return bad(
+                "a robot has a coordinate beyond 1e6 m or not finite, or a link to no joint",
+            );
+        }
+        if !self.points.iter().all(|p| {
+            drawable(&p.measured) && drawable(&p.after) && p.before.as_ref().is_none_or(drawable)
+        }) || !self.frames.iter().all(frame_ok)
+        {
+            return bad("a point, a residual or a frame is beyond 1e6 m or not finite");
+        }
+        // A residual drawn scaled stays within f32 too.
+        let longest = self
+            .points
+            .iter()
+            .flat_map(|p| [Some(p.after), p.before])
+            .flatten()
+            .map(|r| norm(&r))
+            .fold(0.0, f64::max);
+        if longest * self.residual_scale > 1e3 * LIMIT {
+            return bad("a residual drawn at the scene's scale reaches beyond 1e9 m");
+        }
+        Ok(())
+    }
+}
+
+/// The scale that draws a residual of `typical` metres a twentieth of `size`, rounded down to 1,
+/// 2 or 5 times a power of ten, between 1 and 1e9 (1 when there is no residual).
+pub fn residual_scale(typical: f64, size: f64) -> f64 {
+    if !(typical > 0.0 && typical.is_finite() && size.is_finite() && size > 0.0) {
+        return 1.0;
+    }
+    let want = (size / 20.0 / typical).clamp(1.0, 1e9);
+    let p = 10f64.powf(want.log10().floor());
+    let m = want / p;
+    let step = if m >= 5.0 {
+        5.0
+    } else if m >= 2.0 {
+        2.0
+    } else {
+        1.0
+    };
+    (step * p).clamp(1.0, 1e9)
+}
+
+#[cfg(test)]
+#[allow(clippy::float_cmp)] // exact values: a scale is a round number, a node a link's offset
+mod tests {
+    use super::*;
+    use crate::model::examples;
+    use crate::observe::point::Position;
+    use crate::observe::{Posture, View};
+
+    fn posture(label: &str, readings: Vec<f64>) -> Posture {
+        Posture {
+            label: label.into(),
+            readings,
+            session: None,
+            payload: None,
+        }
+    }
+
+    #[test]
+    fn skeleton_ends_at_the_end_effector_of_forward_kinematics() {
+        let robot = examples::ge_a4();
+        let q = vec![0.1, -0.4, 0.03, 0.7];
+        let s = skeleton(&robot, &q, None).unwrap();
+        let ee = Chain::new(&robot).frame_at(&q, Target::EndEffector);
+        let last = s.nodes[s.links.last().unwrap()[1]];
+        for (k, x) in last.iter().enumerate() {
+            assert!((x - ee.translation[k]).abs() < 1e-12);
+            assert!((s.tools[0].origin[k] - ee.translation[k]).abs() < 1e-12);
+        }
+        assert_eq!(s.joints.len(), 4);
+        // The prismatic joint 3 adds a node: its slide.
+        assert_eq!(s.nodes.len(), 1 + 5 + 1);
+        assert_eq!(s.nodes[0], [0.0; 3]);
+        // Joint 1 at the end of the first link.
+        let l1 = &robot.links[0];
+        assert_eq!(s.nodes[s.joints[0].0], [l1.x, l1.y, l1.z]);
+    }
+
+    #[test]
+    fn points_carry_residuals_and_the_largest_are_kept() {
+        let robot = examples::ge_a4();
+        let mut nominal = robot.clone();
+        nominal.links[2].x += 0.002;
+        let mut postures = Vec::new();
+        let mut obs = Vec::new();
+        for i in 0..200 {
+            let t = i as f64 * 0.01;
+            let q = vec![t, -t, 0.01 * t, 0.3];
+            let mut p = Chain::new(&robot)
+                .frame_at(&q, Target::EndEffector)
+                .translation;
+            if i == 123 {
+                p.x += 0.01; // the bad reflector
+            }
+            postures.push(posture(&format!("p{i}"), q));
+            obs.push(Observation::from(Position {
+                view: [View {
+                    posture: i,
+                    target: Target::EndEffector,
+                }],
+                position: p,
+                sigma_position: None,
+                line: 0,
+            }));
+        }
+        let data = Dataset::new(postures, obs);
+        let options = SceneOptions {
+            max_points: 40,
+            ..Default::default()
+        };
+        let scene = Scene::new(Some(&nominal), &robot, Some(&data), &options).unwrap();
+        assert_eq!(scene.points_total, 200);
+        assert_eq!(scene.points.len(), 40);
+        let bad = scene.points.iter().find(|p| p.posture == 123).unwrap();
+        assert!((bad.after[0] + 0.01).abs() < 1e-12, "{:?}", bad.after);
+        assert!(scene.points.iter().all(|p| p.before.is_some()));
+        // The worst point's posture is drawn, after the first.
+        assert_eq!(scene.postures[0].label, "p0");
+        assert_eq!(scene.postures[1].label, "p123");
+        assert!(scene.postures.iter().all(|p| p.nominal.is_some()));
+        assert!(scene.residual_scale >= 1.0);
+    }
+
+    #[test]
+    fn far_points_are_left_out_and_a_far_robot_refused() {
+        let robot = examples::ge_a4();
+        let q = vec![0.0; 4];
+        let obs = |x: f64| {
+            Observation::from(Position {
+                view: [View {
+                    posture: 0,
+                    target: Target::EndEffector,
+                }],
+                position: Vector3::new(x, 0.0, 0.0),
+                sigma_position: None,
+                line: 0,
+            })
+        };
+        let data = Dataset::new(
+            vec![posture("a", q.clone())],
+            vec![obs(1e308), obs(f64::NAN), obs(0.5)],
+        );
+        let scene = Scene::new(None, &robot, Some(&data), &SceneOptions::default()).unwrap();
+        assert_eq!(scene.points_total, 3);
+        assert_eq!(scene.points_unplottable, 2);
+        assert_eq!(scene.points.len(), 1);
+        let mut far = robot.clone();
+        far.links[1].x = 1e308;
+        let e = Scene::new(None, &far, Some(&data), &SceneOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("cannot be drawn"), "{e}");
+    }
+
+    #[test]
+    fn scale_is_one_two_or_five_times_a_power_of_ten() {
+        assert_eq!(residual_scale(1e-5, 1.0), 5000.0);
+        assert_eq!(residual_scale(0.0, 1.0), 1.0);
+        assert_eq!(residual_scale(f64::NAN, 1.0), 1.0);
+        assert_eq!(residual_scale(1.0, 1.0), 1.0);
+        assert_eq!(residual_scale(1e-300, 1.0), 1e9);
+    }
+}
