@@ -1334,9 +1334,10 @@ mod tests {
             f64::MAX,
         ] {
             let s = yaml_number(v);
+            let expected: f64 = if v == 0.0 { 0.0 } else { v };
             assert_eq!(
-                s.parse::<f64>().unwrap(),
-                if v == 0.0 { 0.0 } else { v },
+                s.parse::<f64>().unwrap().to_bits(),
+                expected.to_bits(),
                 "{s}"
             );
             // PyYAML's float: digits, a point, an optional signed exponent.
