@@ -417,6 +417,58 @@ impl Robot {
         Ok(e.text)
     }
 
+    /// The robot as the files of a ROS 2 description, what `kinecal export ros` writes into a
+    /// folder, by file name: `calibration.yaml` (the calibrated origins of the joints of the
+    /// chains of the URDF `template`, a path), `<robot>.urdf.xacro` (the template reading them
+    /// with `xacro.load_yaml`), `static_transforms.yaml` and `static_transforms.launch.py` (the
+    /// frame the robot was measured in, named `measurement_frame`, below the base link, the
+    /// session frames below it). The xacro, expanded with the YAML, is read back and compared
+    /// with the robot first: beyond `tolerance` a `KinecalError`; what URDF cannot express is
+    /// an `ExportWarning`.
+    #[pyo3(signature = (template, base=None, tip=None, measurement_frame=None, tolerance=None))]
+    fn to_ros(
+        &self,
+        py: Python<'_>,
+        template: PathBuf,
+        base: Option<&str>,
+        tip: Option<Tips>,
+        measurement_frame: Option<&str>,
+        tolerance: Option<(f64, f64)>,
+    ) -> PyResult<std::collections::BTreeMap<String, String>> {
+        let tolerance = tolerance_of(&self.robot, tolerance)?;
+        let s = Source::read(&template).map_err(|e| error(py, e))?;
+        let robot = &self.robot;
+        let tips = Tips::list(&tip);
+        let e = py
+            .detach(|| {
+                kinecal::import::ros::export_ros(
+                    robot,
+                    &s.text,
+                    &s.name,
+                    base,
+                    &tips,
+                    measurement_frame,
+                )
+            })
+            .map_err(|e| error(py, e))?;
+        e.check(robot, &tolerance).map_err(|e| error(py, e))?;
+        for w in &e.warnings {
+            if !matches!(w, kinecal::Warning::UrdfSlope { .. }) {
+                export_warning(py, &w.to_string())?;
+            }
+        }
+        for n in &e.notes {
+            export_warning(py, n)?;
+        }
+        for l in &e.lost {
+            export_warning(py, &l.line(robot.units))?;
+        }
+        Ok(e.files()
+            .iter()
+            .map(|(n, t)| (n.to_string(), t.to_string()))
+            .collect())
+    }
+
     /// The robot as a Denavit-Hartenberg table, what `kinecal export dh` writes: CSV in the
     /// robot's units (or `length_unit`, `angle_unit`), stating them, with a `beta` column where
     /// consecutive axes are nearly parallel and `fixed` rows for a base or tool frame. The table

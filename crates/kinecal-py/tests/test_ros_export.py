@@ -343,3 +343,19 @@ def test_ros_export_through_the_python_door(cli, tmp_path):
         assert (again / name).read_text() == (out / name).read_text(), name
     assert doc["read_back"].startswith("read back")
     assert sorted(name for name, _ in doc["files"]) == sorted(os.listdir(out))
+
+
+def test_ros_export_as_a_robot_method(cli, tmp_path):
+    """Robot.to_ros gives the files `kinecal export ros` writes, by name."""
+    import kinecal
+
+    (tmp_path / "arm.urdf").write_text(random_arm_urdf(5))
+    out, _, _ = export_and_expand(cli, tmp_path, str(tmp_path / "arm.urdf"), None, ["tool0"])
+    robot = kinecal.Robot.from_toml(str(tmp_path / "cal.toml"))
+    with pytest.warns(kinecal.ExportWarning, match="published as the frame `tracker_2`"):
+        files = robot.to_ros(str(tmp_path / "arm.urdf"))
+    assert sorted(files) == sorted(os.listdir(out))
+    for name, text in files.items():
+        assert (out / name).read_text() == text, name
+    with pytest.raises(kinecal.KinecalError, match="measurement_frame"):
+        robot.to_ros(str(tmp_path / "arm.urdf"), measurement_frame="link3")

@@ -93,6 +93,18 @@ class Robot:
         """The robot written into a URDF template's joint origins (``kinecal export urdf``),
         read back first: beyond ``tolerance`` (length, angle) a ``KinecalError``; what URDF
         cannot express is an ``ExportWarning``."""
+    def to_ros(
+        self,
+        template: _PathLike,
+        base: str | None = None,
+        tip: str | list[str] | None = None,
+        measurement_frame: str | None = None,
+        tolerance: tuple[float, float] | None = None,
+    ) -> dict[str, str]:
+        """The files ``kinecal export ros`` writes, by name: the calibration YAML, the template
+        as a xacro that reads it, the static transforms and their launch file; read back
+        first: beyond ``tolerance`` (length, angle) a ``KinecalError``; what URDF cannot
+        express is an ``ExportWarning``."""
     def to_dh(
         self,
         convention: str = "standard",

@@ -455,8 +455,12 @@ pub fn export_ros(
         let expected = match &b.kind {
             FrameKind::Measurement => inverse(&placement),
             FrameKind::Session(name) => {
-                let s = robot.sessions.iter().find(|s| &s.name == name);
-                inverse(&Frame::from_link(&s.expect("a session").frame))
+                let Some(s) = robot.sessions.iter().find(|s| &s.name == name) else {
+                    return Err(Error::Problem(format!(
+                        "session `{name}` is not the robot's (an export bug)"
+                    )));
+                };
+                inverse(&Frame::from_link(&s.frame))
             }
         };
         let apart = (fa.translation - expected.translation).norm()
