@@ -20,7 +20,7 @@ fn demo_shows_returning_and_redundant_parameters() {
 
 #[test]
 fn every_command_has_help_with_an_example() {
-    let commands: [&[&str]; 32] = [
+    let commands: [&[&str]; 33] = [
         &["demo"],
         &["iso9283"],
         &["iso9283", "plan"],
@@ -44,6 +44,7 @@ fn every_command_has_help_with_an_example() {
         &["import", "dh"],
         &["import", "poe"],
         &["export", "urdf"],
+        &["export", "ros"],
         &["curves", "pose"],
         &["curves", "objective"],
         &["history", "add"],
