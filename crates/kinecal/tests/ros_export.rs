@@ -589,6 +589,12 @@ fn bad_inputs_are_refused_and_nothing_is_written() {
         }
         std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
     }
+    // A folder no one can create files in, even root: the first file named, nothing written.
+    #[cfg(target_os = "linux")]
+    {
+        let e = refused(&spec(&robot, &template, Path::new("/proc/self")));
+        assert!(e.contains("/proc/self/calibration.yaml"), "{e}");
+    }
 
     // Keys other formats take, and a measurement frame that is a link.
     let e = refused(&format!(
