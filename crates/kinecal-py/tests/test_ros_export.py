@@ -6,8 +6,8 @@ the launch file read them), the hash is recomputed, the static transforms equal 
 file's session frames, and the launch file, run against stand-ins of `launch` and `launch_ros`,
 starts one static_transform_publisher per frame with the YAML's values.
 
-On the UR10 (../shared/data's URDF), a random 6-axis arm and the two-arm tree of
-examples/trees. Run by `bash crates/kinecal-py/test.sh -k ros`.
+On the UR10 (../shared/data's URDF), the Franka Panda (a prismatic finger), random 6-axis arms
+and the two-arm tree of examples/trees. Run by `bash crates/kinecal-py/test.sh -k ros`.
 """
 
 import csv
@@ -294,6 +294,15 @@ def test_ros_export_ur10(cli, tmp_path):
             pytest.fail(f"{urdf} is missing, and CI is set", pytrace=False)
         pytest.skip(f"{SKIP_REASON} ({urdf} not found)")
     check(cli, tmp_path, urdf, "base_link", ["tool0"], {"ee": "tool0"})
+
+
+def test_ros_export_panda_with_a_prismatic_finger(cli, tmp_path):
+    urdf = os.path.join(SHARED, "urdf", "franka_panda", "panda.urdf")
+    if not os.path.exists(urdf):
+        if os.environ.get("CI"):
+            pytest.fail(f"{urdf} is missing, and CI is set", pytrace=False)
+        pytest.skip(f"{SKIP_REASON} ({urdf} not found)")
+    check(cli, tmp_path, urdf, "panda_link0", ["panda_leftfinger"], {"ee": "panda_leftfinger"})
 
 
 def test_ros_export_random_six_axis_arm(cli, tmp_path):
