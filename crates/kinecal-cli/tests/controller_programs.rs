@@ -270,6 +270,33 @@ fn speed_and_zone_in_each_language() {
     assert!(tp.starts_with("/PROG  TP_PROG\n"), "{tp}");
     assert_eq!(tp.matches("] 100% FINE    ;\n").count(), 50);
 
+    // A program of one move: that move is the last, and stops exactly (KRL still states its
+    // $APO.CPTP); each reads back as written.
+    let poses = std::fs::read_to_string(d.join("poses.csv")).unwrap();
+    let one: String = poses.lines().take(2).map(|l| format!("{l}\n")).collect();
+    std::fs::write(d.join("one.csv"), one).unwrap();
+    for (language, out, last) in [
+        (Language::Krl, "one.src", "}\nEND\n"),
+        (
+            Language::Rapid,
+            "one.mod",
+            ", v100, fine, tool0;\n  ENDPROC\nENDMODULE\n",
+        ),
+        (Language::Tp, "one.ls", ":J P[1] 100% FINE    ;\n/POS\n"),
+    ] {
+        run_ok(
+            d,
+            &argv(&format!(
+                "compensate --robot true.toml --nominal irb120.toml --in one.csv --format {}
+                 --zone 10 --out {out}",
+                language.as_str()
+            )),
+        );
+        let text = std::fs::read_to_string(d.join(out)).unwrap();
+        assert!(text.contains(last), "{text}");
+        assert_eq!(read_program(language, &text, out).unwrap().points.len(), 1);
+    }
+
     // On standard output, the program is named kinecal_program.
     let (code, out, err) = run(
         d,

@@ -1286,3 +1286,61 @@ fn tp_point(file: &str, line: usize, body: &str) -> Result<[f64; 6]> {
     }
     Ok(axes)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each language's reader gives back what its writer wrote, to half a unit of the sixth
+    /// decimal (no `-0`), and a value moved by two units is seen.
+    #[test]
+    fn every_language_reads_back_what_it_writes_and_a_change_is_seen() {
+        for language in [Language::Krl, Language::Rapid, Language::Tp] {
+            for zone in [Zone::Fine, Zone::Blend(10)] {
+                let mut p = Program::new(language, "P1".into(), 30, zone);
+                p.points = vec![
+                    [0.0, -0.0, 179.999_999_6, -359.25, 1e-7, -1e-7],
+                    [12.5, -0.000_000_4, 90.0, 400.123_456_7, -45.5, 3.0],
+                    [1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+                ];
+                let labels = ["a; b".to_string(), "ü".to_string(), "3".to_string()];
+                let text = p.text(&["a header, of the program".into()], &labels);
+                assert!(!text.contains("-0.000000"), "{text}");
+                let read = read_program(language, &text, "p").unwrap();
+                assert_eq!(p.differs(&read), None, "{text}");
+                let mut moved = p.clone();
+                moved.points[1][3] += 2e-6;
+                assert!(
+                    moved
+                        .differs(&read)
+                        .is_some_and(|d| d.contains("move 2, axis 4")),
+                    "{language:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn names_speeds_and_zones_are_the_controllers() {
+        assert_eq!(Language::Tp.program_name("prog_1").unwrap(), "PROG_1");
+        assert_eq!(Language::Krl.program_name("Prog_1").unwrap(), "Prog_1");
+        assert!(Language::Krl.program_name(&"a".repeat(24)).is_ok());
+        assert!(Language::Krl.program_name(&"a".repeat(25)).is_err());
+        assert!(Language::Rapid.program_name(&"a".repeat(32)).is_ok());
+        assert!(Language::Tp.program_name(&"a".repeat(37)).is_err());
+        assert!(Language::Krl.program_name("ptp").is_err());
+        assert!(Language::Rapid.program_name("_a").is_err());
+        assert!(Language::Rapid.program_name("").is_err());
+        assert_eq!(Language::Rapid.speed(7000.0), Ok(7000));
+        assert!(Language::Rapid.speed(f64::NAN).is_err());
+        assert!(Language::Krl.speed(1e12).is_err());
+        assert_eq!(Language::Tp.zone(0.0), Ok(Zone::Blend(0)));
+        assert!(Language::Krl.zone(0.0).is_err());
+        assert_eq!(Language::Rapid.zone(200.0), Ok(Zone::Blend(200)));
+        assert!(Language::Rapid.zone(250.0).is_err());
+        assert_eq!(
+            wrap("a bb ccc dddddddddd", 4),
+            ["a bb", "ccc", "dddd", "dddd", "dd"]
+        );
+    }
+}
