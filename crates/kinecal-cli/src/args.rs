@@ -1148,6 +1148,47 @@ estimated: one row per compliance (axis `joint` or `lateral`), compliance in the
 angle unit per newton and length unit, stiffness its inverse (empty when the compliance is not
 positive), sigmas empty where the data does not determine them.")]
     Stiffness(ExportStiffnessArgs),
+    /// Write the 3-D scene of a calibration as glTF 2.0 binary (GLB): the calibrated and the
+    /// nominal robot at a posture, the measured points, their residuals, the frames.
+    #[command(after_help = "\
+Example:
+  kinecal export gltf --robot calibrated.toml --report report.json --data data.csv --out scene.glb
+
+The scene the HTML report's 3-D view draws, for any glTF viewer (Blender, three.js, a browser's
+model viewer): one node per layer under a root that turns the robot's z up into glTF's y up,
+metres. Layers: the calibrated robot's links (lines, blue) and joints (points), the nominal
+robot's links (grey), the measured points, the residual vectors after and before calibration
+(lines, red and orange, scaled as said), the axes of the global, session and tool frames (red,
+green, blue). With --report alone, the report's own scene (calibrate --html puts it there);
+with --data, the points and residuals of those observations: before calibration from --nominal,
+or the report's initial values. At most 2,000 points: the largest residuals, then an even
+spread of the rest (the count is said).")]
+    Gltf(ExportGltfArgs),
+}
+
+/// `kinecal export gltf`.
+#[derive(Debug, Args)]
+pub struct ExportGltfArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
+    /// The calibrated robot file.
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
+    /// The calibration report (JSON from `kinecal calibrate --report`): its scene, or its
+    /// initial values as the nominal robot.
+    #[arg(long, value_name = "REPORT.json")]
+    pub report: Option<PathBuf>,
+    /// The nominal robot (before calibration), drawn beside the calibrated one.
+    #[arg(long)]
+    pub nominal: Option<String>,
+    #[command(flatten)]
+    pub observations: ObservationFiles,
+    /// The posture the robots are drawn at, by label (default: the first measured).
+    #[arg(long, value_name = "LABEL")]
+    pub posture: Option<String>,
+    /// The GLB file to write.
+    #[arg(long, value_name = "FILE.glb", required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 }
 
 /// `kinecal export stiffness`.

@@ -16,8 +16,8 @@ use kinecal::Setting;
 
 use crate::args::{
     AnalyzeArgs, CheckArgs, CompensateArgs, CurvesObjectiveArgs, CurvesPoseArgs, CurvesRobotArgs,
-    ExportDhArgs, ExportJointsArgs, ExportRosArgs, ExportStiffnessArgs, ExportUrArgs,
-    ExportUrdfArgs, FkArgs, ImportDhArgs, ImportOutArgs, ImportPoeArgs, ImportUrArgs,
+    ExportDhArgs, ExportGltfArgs, ExportJointsArgs, ExportRosArgs, ExportStiffnessArgs,
+    ExportUrArgs, ExportUrdfArgs, FkArgs, ImportDhArgs, ImportOutArgs, ImportPoeArgs, ImportUrArgs,
     ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs, Iso9283PlanArgs, Iso9283SimulateArgs,
     ObservationFiles, PlanArgs, PredictArgs, ReadBackArgs, ReportArgs, ResidualArgs, SimulateArgs,
     SpecArgs, SweepArgs,
@@ -547,6 +547,18 @@ pub fn export_joints(a: &ExportJointsArgs) -> Result<ExportSpec> {
     over(&mut s.robot, a.robot.clone());
     over(&mut s.nominal, a.nominal.clone());
     read_back(&a.read_back, &mut s)?;
+    over(&mut s.out, opt_path(&a.out)?);
+    Ok(s)
+}
+
+/// `kinecal export gltf`'s spec.
+pub fn export_gltf(a: &ExportGltfArgs) -> Result<ExportSpec> {
+    let mut s = export_base(&a.door, ExportFormat::Gltf)?;
+    over(&mut s.robot, a.robot.clone());
+    over(&mut s.report, opt_path(&a.report)?);
+    over(&mut s.nominal, a.nominal.clone());
+    observations(&a.observations, &mut s.read, &mut s.observations)?;
+    over(&mut s.posture, a.posture.clone());
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }

@@ -130,6 +130,9 @@ fn export(c: ExportCommand) -> Result<u8> {
         ExportCommand::Stiffness(a) => {
             door::export_stiffness(&a).and_then(|s| job(s.into(), &a.door, render::export))
         }
+        ExportCommand::Gltf(a) => {
+            door::export_gltf(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
     }
 }
 

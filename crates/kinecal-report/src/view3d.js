@@ -41,7 +41,7 @@
     var x1 = cy * x - sy * y, y1 = sy * x + cy * y;
     var depth = y1 * cp - z * sp, up = y1 * sp + z * cp;
     var d = 4 * radius;
-    var f = view.zoom * Math.min(canvas.width, canvas.height) / (2.05 * radius) * d / Math.max(d + depth, 1e-3 * d);
+    var f = view.zoom * Math.min(canvas.width, canvas.height) / (1.6 * radius) * d / Math.max(d + depth, 1e-3 * d);
     return [canvas.width / 2 + x1 * f, canvas.height / 2 - up * f, depth];
   }
   function along(p, v, k) { return [p[0] + k * v[0], p[1] + k * v[1], p[2] + k * v[2]]; }
@@ -56,10 +56,10 @@
     if (ring) { ctx.strokeStyle = color; ctx.lineWidth = 2; ctx.setLineDash([]); ctx.stroke(); }
     else { ctx.fillStyle = color; ctx.fill(); }
   }
-  function label(a, text, color) {
+  function label(a, text, color, below) {
     var p = project(a);
     ctx.fillStyle = color; ctx.font = (12 * ratio) + "px sans-serif";
-    ctx.fillText(text, p[0] + 4 * ratio, p[1] - 4 * ratio);
+    ctx.fillText(text, p[0] + 4 * ratio, p[1] + (below ? 16 : -4) * ratio);
   }
   function skeleton(s, color, width, dash) {
     s.links.forEach(function (l) { line(s.nodes[l[0]], s.nodes[l[1]], color, width, dash); });
@@ -73,7 +73,7 @@
     ["x", "y", "z"].forEach(function (axis, k) {
       line(f.origin, along(f.origin, f.axes[k], size), colors[axis], 1.5 * ratio);
     });
-    if (name) { label(f.origin, f.name, "#555"); }
+    if (name) { label(f.origin, f.name, "#555", true); }
   }
   // The floor: a grid on the global frame's xy plane, in steps of the axes' length.
   function grid() {

@@ -5,7 +5,9 @@
 //! orange). The robot's drawn posture is the scene's first.
 //!
 //! Coordinates are the scene's (metres, z up) as `f32`; one root node turns them to glTF's
-//! y up, so that a viewer shows the robot standing. The JSON is made with `gltf-json`'s types.
+//! y up, so that a viewer shows the robot standing. The JSON is made with `gltf-json`'s types,
+//! and the file is read back (its JSON by `gltf-json`, every vertex from the binary chunk) and
+//! compared with the scene before it is returned.
 
 use gltf_json as json;
 use json::validation::Checked::Valid;
@@ -152,7 +154,7 @@ pub fn axis_length(scene: &Scene, f: &SceneFrame) -> f64 {
 /// `scene` as a GLB file's bytes.
 pub fn write_glb(scene: &Scene) -> Result<Vec<u8>> {
     if scene.postures.is_empty() {
-        return Err(Error::Numerical("a scene without a robot to draw".into()));
+        return Err(Error::Problem("a scene without a robot to draw".into()));
     }
     let mut root = json::Root {
         asset: json::Asset {
@@ -179,7 +181,7 @@ pub fn write_glb(scene: &Scene) -> Result<Vec<u8>> {
         for p in &layer.positions {
             for k in 0..3 {
                 if !p[k].is_finite() {
-                    return Err(Error::Numerical(format!(
+                    return Err(Error::Problem(format!(
                         "a coordinate of the {} is not finite",
                         layer.name
                     )));
@@ -269,8 +271,82 @@ pub fn write_glb(scene: &Scene) -> Result<Vec<u8>> {
     root.scene = Some(s);
     let text = root
         .to_vec()
-        .map_err(|e| Error::Numerical(format!("the glTF JSON: {e}")))?;
-    Ok(glb(text, bin))
+        .map_err(|e| Error::Problem(format!("the glTF JSON: {e}")))?;
+    let out = glb(text, bin);
+    read_back(&out, &layers(scene))?;
+    Ok(out)
+}
+
+/// Reads `glb` back (its container, its JSON by `gltf-json`, each layer's vertices from the
+/// binary chunk) and compares it with `expected`, bit for bit: what is written is the scene.
+fn read_back(glb: &[u8], expected: &[Layer]) -> Result<()> {
+    let differs = |what: String| {
+        Err(Error::Problem(format!(
+            "the GLB read back is not the scene: {what}"
+        )))
+    };
+    let word = |at: usize| -> Option<usize> {
+        glb.get(at..at + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    if glb.get(..4) != Some(b"glTF") || word(4) != Some(2) || word(8) != Some(glb.len()) {
+        return differs("its header".into());
+    }
+    let json_len = word(12).unwrap_or(0);
+    let bin_at = 20 + json_len;
+    if glb.get(16..20) != Some(b"JSON") || glb.get(bin_at + 4..bin_at + 8) != Some(b"BIN\0") {
+        return differs("its chunks".into());
+    }
+    let bin_len = word(bin_at).unwrap_or(0);
+    let (Some(text), Some(bin)) = (
+        glb.get(20..bin_at),
+        glb.get(bin_at + 8..bin_at + 8 + bin_len),
+    ) else {
+        return differs("its chunks' lengths".into());
+    };
+    let root = json::Root::from_slice(text)
+        .map_err(|e| Error::Problem(format!("the GLB read back: its JSON: {e}")))?;
+    let layers: Vec<&Layer> = expected
+        .iter()
+        .filter(|l| !l.positions.is_empty())
+        .collect();
+    if root.nodes.len() != layers.len() + 1 {
+        return differs(format!("{} nodes", root.nodes.len()));
+    }
+    for (node, layer) in root.nodes.iter().zip(layers) {
+        let vertices = node
+            .mesh
+            .and_then(|m| root.meshes.get(m.value()))
+            .and_then(|m| m.primitives.first())
+            .and_then(|p| p.attributes.get(&Valid(json::mesh::Semantic::Positions)))
+            .and_then(|a| root.accessors.get(a.value()))
+            .and_then(|a| {
+                let view = root.buffer_views.get(a.buffer_view?.value())?;
+                let at = view.byte_offset.map_or(0, |o| o.0 as usize);
+                let count = a.count.0 as usize;
+                let bytes = bin.get(at..at + 12 * count)?;
+                Some(
+                    bytes
+                        .chunks_exact(12)
+                        .map(|v| {
+                            [0, 4, 8]
+                                .map(|k| f32::from_le_bytes([v[k], v[k + 1], v[k + 2], v[k + 3]]))
+                        })
+                        .collect::<Vec<[f32; 3]>>(),
+                )
+            });
+        let same = node.name.as_deref() == Some(layer.name.as_str())
+            && vertices.is_some_and(|v| {
+                v.len() == layer.positions.len()
+                    && v.iter()
+                        .zip(&layer.positions)
+                        .all(|(a, b)| (0..3).all(|k| a[k].to_bits() == b[k].to_bits()))
+            });
+        if !same {
+            return differs(format!("the layer `{}`", layer.name));
+        }
+    }
+    Ok(())
 }
 
 /// The GLB container: a 12-byte header, the JSON chunk (padded with spaces) and the binary
@@ -296,4 +372,30 @@ fn glb(mut text: Vec<u8>, mut bin: Vec<u8>) -> Vec<u8> {
         out.extend_from_slice(&bin);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::scene::SceneOptions;
+
+    #[test]
+    fn a_changed_vertex_or_header_is_caught_on_reading_back() {
+        let robot = crate::model::examples::ge_a4();
+        let scene = Scene::new(None, &robot, None, &SceneOptions::default()).unwrap();
+        let good = write_glb(&scene).unwrap();
+        let expected = layers(&scene);
+        assert!(read_back(&good, &expected).is_ok());
+        // The last vertex's last byte, in the binary chunk.
+        let mut bad = good.clone();
+        let last = bad.len() - 1;
+        bad[last] ^= 0x40;
+        let e = read_back(&bad, &expected).unwrap_err();
+        assert!(e.to_string().contains("the layer"), "{e}");
+        let mut bad = good.clone();
+        bad[8] ^= 1;
+        let e = read_back(&bad, &expected).unwrap_err();
+        assert!(e.to_string().contains("header"), "{e}");
+        assert!(read_back(&good[..30], &expected).is_err());
+    }
 }

@@ -200,7 +200,7 @@ pub fn skeleton(
 ) -> Result<Skeleton> {
     let n = robot.dof();
     if readings.len() != n {
-        return Err(Error::Numerical(format!(
+        return Err(Error::Problem(format!(
             "a posture of {} readings for a robot of {n} joints",
             readings.len()
         )));
@@ -253,7 +253,7 @@ pub fn skeleton(
             .any(|t| !drawable(&t.origin) || t.axes.iter().any(|a| !drawable(a)))
         || joints.iter().any(|(_, a)| !drawable(a));
     if bad {
-        return Err(Error::Numerical(format!(
+        return Err(Error::Problem(format!(
             "robot `{}` has a frame that is not finite or lies beyond {LIMIT:e} m at this \
              posture: it cannot be drawn",
             robot.name
@@ -310,7 +310,7 @@ impl Scene {
     ) -> Result<Scene> {
         if let Some(nom) = nominal {
             if !nom.same_structure(calibrated) {
-                return Err(Error::Numerical(format!(
+                return Err(Error::Problem(format!(
                     "the nominal robot `{}` and the calibrated robot `{}` differ in structure: \
                      one scene cannot hold both",
                     nom.name, calibrated.name
@@ -401,7 +401,7 @@ impl Scene {
         let mut chosen: Vec<usize> = Vec::new();
         if data.postures.is_empty() {
             if options.posture.is_some() {
-                return Err(Error::Numerical(
+                return Err(Error::Problem(
                     "a posture to draw is named, and there is no data to find it in".into(),
                 ));
             }
@@ -412,7 +412,7 @@ impl Scene {
                     .iter()
                     .position(|p| &p.label == label)
                     .ok_or_else(|| {
-                        Error::Numerical(format!("no posture `{label}` in the data to draw"))
+                        Error::Problem(format!("no posture `{label}` in the data to draw"))
                     })?,
                 None => 0,
             };
@@ -503,7 +503,7 @@ impl Scene {
     /// or joint a node, a positive finite scale.
     pub fn check(&self) -> Result<()> {
         let bad = |what: &str| {
-            Err(Error::Numerical(format!(
+            Err(Error::Problem(format!(
                 "the 3-D scene of `{}` cannot be drawn: {what}",
                 self.robot
             )))

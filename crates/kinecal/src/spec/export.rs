@@ -1,6 +1,7 @@
 //! `export` (a calibrated robot into the form a controller or a tool reads: URDF, UR kinematics,
 //! DH table, joint table, stiffness table; every export read back and compared before it is
-//! written) and `import` (a robot file from URDF, DH, product of exponentials or UR kinematics).
+//! written; the 3-D scene of a calibration as glTF) and `import` (a robot file from URDF, DH,
+//! product of exponentials or UR kinematics).
 //!
 //! ```toml
 //! job = "export"
@@ -20,8 +21,12 @@ use crate::import::readback::Tolerance;
 use crate::model::robot::Robot;
 use crate::report::CalibrationReport;
 
-use super::common::{invalid, is_default, read_source, robot_as, visit_opt, LengthAngle};
+use super::common::{
+    invalid, is_default, read_observations, read_source, robot_as, visit_observations, visit_opt,
+    LengthAngle,
+};
 use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
+use crate::files::{ObservationFile, ReadSettings};
 
 /// What an export writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -43,6 +48,10 @@ pub enum ExportFormat {
     /// The files of a ROS 2 description: a calibration YAML, the URDF as a xacro that reads it,
     /// and the static transforms of the frames outside the robot (`out` is a folder).
     Ros,
+    /// The 3-D scene of a calibration as glTF 2.0 binary (GLB): the calibrated (and nominal)
+    /// robot at a posture, the measured points, the residuals, the frames
+    /// ([`crate::report::scene`]), as the HTML report's 3-D view draws it.
+    Gltf,
 }
 
 impl ExportFormat {
@@ -55,13 +64,15 @@ impl ExportFormat {
             ExportFormat::Joints => "joints",
             ExportFormat::Stiffness => "stiffness",
             ExportFormat::Ros => "ros",
+            ExportFormat::Gltf => "gltf",
         }
     }
 }
 
 /// An export. Which keys a format takes: `urdf`: robot, template, base, tip; `ros`: those and
 /// measurement_frame; `ur`: robot, template; `dh`: robot, convention, length_unit, angle_unit; `joints`:
-/// robot, nominal; `stiffness`: report. All but stiffness take a tolerance.
+/// robot, nominal; `stiffness`: report; `gltf`: robot, and optionally report, nominal,
+/// observations (with read) and posture. All but stiffness and gltf take a tolerance.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
@@ -104,6 +115,15 @@ pub struct ExportSpec {
     /// default `measurement`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measurement_frame: Option<String>,
+    /// The observations whose points and residuals the scene shows (gltf).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub observations: Vec<ObservationFile>,
+    /// How the observation files are read (gltf).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub read: ReadSettings,
+    /// The posture the robots are drawn at, by label (gltf; default the first measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub posture: Option<String>,
     /// The file to write (ros: the folder to write the files into).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
@@ -117,6 +137,7 @@ impl Spec for ExportSpec {
         visit_opt(f, PathRole::Input, &mut self.template);
         visit_opt(f, PathRole::Robot, &mut self.nominal);
         visit_opt(f, PathRole::Input, &mut self.report);
+        visit_observations(f, &mut self.observations);
         match (&mut self.out, self.format) {
             // A folder: when it exists, its files with fixed names are the outputs (the
             // xacro's, named after the robot, is checked when known), and the folder follows
@@ -227,6 +248,20 @@ pub struct ExportOutcome {
     /// The files written into a folder (ros), by name.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub files: Vec<(String, String)>,
+    /// The bytes written, for a binary file (gltf: the GLB).
+    #[serde(skip)]
+    pub bytes: Vec<u8>,
+}
+
+/// The calibration report at `path`.
+fn read_report(path: &str) -> Result<CalibrationReport> {
+    let s = read_source(path, Setting::Report)?;
+    CalibrationReport::from_json(&s.text).map_err(|e| {
+        Error::input(
+            Location::file(&s.name),
+            format!("not a kinecal calibration report: {e}"),
+        )
+    })
 }
 
 /// A unit named by `setting`.
@@ -263,7 +298,7 @@ impl ExportSpec {
             (
                 "robot",
                 self.robot.is_some(),
-                &[Urdf, Ur, Dh, Joints, Ros][..],
+                &[Urdf, Ur, Dh, Joints, Ros, Gltf][..],
             ),
             ("template", self.template.is_some(), &[Urdf, Ur, Ros]),
             ("base", self.base.is_some(), &[Urdf, Ros]),
@@ -273,7 +308,7 @@ impl ExportSpec {
                 self.measurement_frame.is_some(),
                 &[Ros],
             ),
-            ("nominal", self.nominal.is_some(), &[Joints]),
+            ("nominal", self.nominal.is_some(), &[Joints, Gltf]),
             ("convention", self.convention.is_some(), &[Dh]),
             ("length_unit", self.length_unit.is_some(), &[Dh]),
             ("angle_unit", self.angle_unit.is_some(), &[Dh]),
@@ -282,7 +317,10 @@ impl ExportSpec {
                 !is_default(&self.tolerance),
                 &[Urdf, Ur, Dh, Joints, Ros],
             ),
-            ("report", self.report.is_some(), &[Stiffness]),
+            ("report", self.report.is_some(), &[Stiffness, Gltf]),
+            ("observations", !self.observations.is_empty(), &[Gltf]),
+            ("read", !is_default(&self.read), &[Gltf]),
+            ("posture", self.posture.is_some(), &[Gltf]),
         ] {
             if given && !takes(formats) {
                 return Err(invalid(
@@ -314,19 +352,14 @@ impl ExportSpec {
             tcp: None,
             text: String::new(),
             files: Vec::new(),
+            bytes: Vec::new(),
         };
         if self.format == ExportFormat::Stiffness {
             let path = self.needs(&self.report, Setting::Report, "a calibration report")?;
-            let s = read_source(path, Setting::Report)?;
-            let report = CalibrationReport::from_json(&s.text).map_err(|e| {
-                Error::input(
-                    Location::file(&s.name),
-                    format!("not a kinecal calibration report: {e}"),
-                )
-            })?;
+            let report = read_report(path)?;
             let Some(elastic) = &report.elastic else {
                 return Err(Error::input(
-                    Location::file(&s.name),
+                    Location::file(path),
                     format!(
                         "the calibrated robot `{}` has no mass model, so no compliances (add \
                          [[bodies]] to its robot file, or import its URDF with masses)",
@@ -460,9 +493,115 @@ impl ExportSpec {
                     .map(|(n, t)| (n.to_string(), t.to_string()))
                     .collect();
             }
+            ExportFormat::Gltf => {
+                let (scene, from) = self.scene(&robot)?;
+                out.bytes = crate::report::gltf::write_glb(&scene)?;
+                let posture = &scene.postures[0];
+                let robots = if posture.nominal.is_some() {
+                    "the nominal and the calibrated robot"
+                } else {
+                    "the calibrated robot"
+                };
+                out.notes.push(if scene.postures_total == 0 {
+                    format!("{from}: {robots} at zero readings (no observations given)")
+                } else {
+                    format!(
+                        "{from}: {robots} at posture {}, {} of {} measured points, residuals \
+                         drawn {} times their length",
+                        posture.label,
+                        scene.points.len(),
+                        scene.points_total,
+                        scene.residual_scale
+                    )
+                });
+                if scene.points_unplottable > 0 {
+                    out.notes.push(format!(
+                        "{} measured points not drawn: not finite or beyond {:e} m",
+                        scene.points_unplottable,
+                        crate::report::scene::LIMIT
+                    ));
+                }
+            }
             ExportFormat::Stiffness => unreachable!("handled above"),
         }
         Ok(out)
+    }
+
+    /// The scene a gltf export writes, and where it came from: the report's own (the one its
+    /// HTML page draws) when the export gives nothing else; otherwise `robot` (the calibrated
+    /// robot) on the observations, beside the nominal robot (`nominal`, or the report's initial
+    /// values on `robot`'s structure), at `posture`.
+    fn scene(&self, robot: &Robot) -> Result<(crate::report::scene::Scene, &'static str)> {
+        use crate::report::scene::{Scene, SceneOptions};
+        let report = self.report.as_deref().map(read_report).transpose()?;
+        if let Some(rep) = &report {
+            if rep.robot != robot.name {
+                return Err(invalid(
+                    Setting::Report,
+                    format!(
+                        "the report is of robot `{}`, the robot file of `{}`",
+                        rep.robot, robot.name
+                    ),
+                ));
+            }
+        }
+        if let Some(scene) = report.as_ref().and_then(|r| r.scene.as_ref()) {
+            if self.observations.is_empty() && self.nominal.is_none() && self.posture.is_none() {
+                scene.check()?;
+                return Ok((scene.clone(), "the report's scene"));
+            }
+        }
+        let data = if self.observations.is_empty() {
+            if self.posture.is_some() {
+                return Err(invalid(
+                    Setting::Observations,
+                    "a posture to draw is named, and no observations to find it in are given",
+                ));
+            }
+            None
+        } else {
+            Some(read_observations(&self.read, &self.observations, robot)?.0)
+        };
+        if let (Some(label), Some(d)) = (&self.posture, &data) {
+            if !d.postures.iter().any(|p| &p.label == label) {
+                return Err(invalid(
+                    Setting::Observations,
+                    format!("no posture `{label}` in the observations"),
+                ));
+            }
+        }
+        let nominal = match (&self.nominal, &report) {
+            (Some(n), _) => Some(robot_as(n, Setting::NominalRobot)?.0),
+            (None, Some(rep)) => {
+                let path = self.report.as_deref().unwrap_or_default();
+                if rep.parameters.len() != robot.param_count() {
+                    return Err(Error::input(
+                        Location::file(path),
+                        format!(
+                            "the report has {} parameters, the robot {}",
+                            rep.parameters.len(),
+                            robot.param_count()
+                        ),
+                    ));
+                }
+                let units = crate::Units {
+                    length: rep.length_unit,
+                    angle: rep.angle_unit,
+                };
+                let mut n = robot.clone();
+                for (id, p) in robot.param_ids().zip(&rep.parameters) {
+                    n.set(id, units.to_si(robot.param_quantity(id), p.initial));
+                }
+                Some(n)
+            }
+            (None, None) => None,
+        };
+        let options = SceneOptions {
+            posture: self.posture.clone(),
+            ..SceneOptions::default()
+        };
+        let scene = Scene::new(nominal.as_ref(), robot, data.as_ref(), &options)?;
+        Ok((scene, "the scene"))
     }
 
     /// Exports and writes the file.
@@ -481,6 +620,7 @@ impl ExportSpec {
                 "wrote {} to {path}",
                 out.notes.last().map_or("", String::as_str)
             ),
+            ExportFormat::Gltf => format!("wrote the 3-D scene to {path}"),
             ExportFormat::Ros => format!(
                 "wrote {} into {path}",
                 out.files
@@ -511,6 +651,12 @@ impl ExportSpec {
         match &self.out {
             Some(p) if self.format == ExportFormat::Ros => {
                 self.write_folder(p, &out.files, env)?;
+                messages.push(Message::Note(written(p)));
+            }
+            Some(p) if self.format == ExportFormat::Gltf => {
+                let mut staged = crate::files::output::Staged::new();
+                staged.bytes(Path::new(p), &out.bytes)?;
+                staged.commit()?;
                 messages.push(Message::Note(written(p)));
             }
             Some(p) => {
@@ -651,6 +797,7 @@ impl ImportSpec {
                 tcp: None,
                 text,
                 files: Vec::new(),
+                bytes: Vec::new(),
             }),
             messages,
             status: super::Status::Ok,
