@@ -685,6 +685,56 @@ mod tests {
     }
 
     #[test]
+    fn a_session_s_points_are_brought_into_the_global_frame() {
+        use crate::model::robot::{Link, Session};
+        let mut robot = examples::ge_a4();
+        let frame = Link {
+            x: 2.0,
+            y: -1.0,
+            z: 0.5,
+            alpha: 0.7,
+            beta: -0.2,
+            gamma: 0.3,
+        };
+        robot.sessions.push(Session {
+            name: "tracker2".into(),
+            frame,
+        });
+        let q = vec![0.2, -0.3, 0.02, 0.5];
+        let ee = Chain::new(&robot).frame_at(&q, Target::EndEffector);
+        // The instrument of session tracker2 sees the tool at S * p (1 mm off in its x).
+        let seen = Frame::from_link(&frame).then(&ee).translation + Vector3::new(0.001, 0.0, 0.0);
+        let mut p = posture("a", q);
+        p.session = Some("tracker2".into());
+        let data = Dataset::new(
+            vec![p],
+            vec![Observation::from(Position {
+                view: [View {
+                    posture: 0,
+                    target: Target::EndEffector,
+                }],
+                position: seen,
+                sigma_position: None,
+                line: 0,
+            })],
+        );
+        let scene = Scene::new(None, &robot, Some(&data), &SceneOptions::default()).unwrap();
+        let point = &scene.points[0];
+        // In the global frame the measured point is the tool plus the 1 mm error, turned back
+        // through the session's rotation; the residual is that error reversed.
+        let back = Frame::from_link(&frame).rotation.transpose() * Vector3::new(0.001, 0.0, 0.0);
+        for k in 0..3 {
+            assert!((point.measured[k] - (ee.translation[k] + back[k])).abs() < 1e-12);
+            assert!((point.after[k] + back[k]).abs() < 1e-12);
+        }
+        // The session's measurement frame is drawn where it is in the global frame.
+        let f = scene.frames.iter().find(|f| f.name == "tracker2").unwrap();
+        assert_eq!(f.kind, FrameKind::Measurement);
+        let origin = inverse(&Frame::from_link(&frame)).translation;
+        assert!((0..3).all(|k| (f.origin[k] - origin[k]).abs() < 1e-12));
+    }
+
+    #[test]
     fn scale_is_one_two_or_five_times_a_power_of_ten() {
         assert_eq!(residual_scale(1e-5, 1.0), 5000.0);
         assert_eq!(residual_scale(0.0, 1.0), 1.0);
