@@ -143,7 +143,8 @@
 
   var drag = null;
   canvas.addEventListener("pointerdown", function (e) {
-    drag = [e.clientX, e.clientY]; canvas.setPointerCapture(e.pointerId);
+    drag = [e.clientX, e.clientY];
+    try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* a pointer already gone */ }
   });
   canvas.addEventListener("pointermove", function (e) {
     if (!drag) { return; }

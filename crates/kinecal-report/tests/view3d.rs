@@ -142,6 +142,35 @@ fn the_view_is_drawn_in_a_browser() {
         "{drawn} of {pixels} pixels drawn: is the canvas blank?"
     );
 
+    // Dragged, zoomed, another posture chosen, a layer turned on: each draws anew (a script
+    // of the test's, after the view's, acts as the mouse and the controls would).
+    let acted = page.replace(
+        "</body>",
+        "<script>(function () {\n\
+         var c = document.getElementById('v3d-canvas'), seen = [c.toDataURL()];\n\
+         function changed() { var u = c.toDataURL(); var n = seen.indexOf(u) < 0; seen.push(u); return n ? 1 : 0; }\n\
+         c.dispatchEvent(new PointerEvent('pointerdown', {clientX: 100, clientY: 100, pointerId: 1}));\n\
+         c.dispatchEvent(new PointerEvent('pointermove', {clientX: 180, clientY: 130, pointerId: 1}));\n\
+         c.dispatchEvent(new PointerEvent('pointerup', {pointerId: 1}));\n\
+         var n = changed();\n\
+         c.dispatchEvent(new WheelEvent('wheel', {deltaY: -400, cancelable: true}));\n\
+         n += changed();\n\
+         var s = document.getElementById('v3d-posture'); s.value = '1';\n\
+         s.dispatchEvent(new Event('change'));\n\
+         n += changed();\n\
+         var b = document.querySelector('#v3d input[name=before]'); b.checked = true;\n\
+         b.dispatchEvent(new Event('change'));\n\
+         n += changed();\n\
+         c.setAttribute('data-changes', String(n));\n\
+         })();</script></body>",
+    );
+    let dom = rendered_dom(&acted).unwrap();
+    assert_eq!(
+        attribute(&dom, "data-changes"),
+        Some(4),
+        "drag, wheel, posture, layer"
+    );
+
     // The same page without points draws the robot and its frames: fewer pixels, not none.
     let mut rep = report(&nominal, &data);
     let scene = rep.scene.as_mut().unwrap();
