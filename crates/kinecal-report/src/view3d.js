@@ -105,7 +105,7 @@
     }
     if (show.before) {
       data.points.forEach(function (p) {
-        if (p.before) { line(p.measured, along(p.measured, p.before, data.scale), colors.before, ratio); }
+        if (p.before) { line(p.measured, along(p.measured, p.before, data.scale_before), colors.before, ratio); }
       });
     }
     if (show.after) {

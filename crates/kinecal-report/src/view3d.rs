@@ -159,12 +159,22 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
     let k = scene.residual_scale;
     let has_nominal = scene.postures.iter().any(|p| p.nominal.is_some());
     let has_before = scene.points.iter().any(|p| p.before.is_some());
-    let scale_words = format!(
+    let kb = scene.residual_scale_before;
+    let mut scale_words = format!(
         "residual vectors drawn {} times their length ({} {l} on the view is {} {l} of error)",
         round(k),
         round(axis),
         round(axis / k)
     );
+    if has_before {
+        let _ = write!(
+            scale_words,
+            ", those before calibration {} times ({} {l} is {} {l})",
+            round(kb),
+            round(axis),
+            round(axis / kb)
+        );
+    }
 
     // Controls.
     h += "<div id=\"v3d\"><p class=\"controls\">";
@@ -389,21 +399,27 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         })
         .collect();
     let caption = format!(
-        "residuals x{}: {} {l} shown = {} {l} of error; grid {} {l}",
+        "residuals x{}: {} {l} shown = {} {l} of error{}; grid {} {l}",
         round(k),
         round(axis),
         round(axis / k),
+        if has_before {
+            format!(" (before: x{})", round(kb))
+        } else {
+            String::new()
+        },
         round(axis)
     );
     let json = format!(
         "{{\"title\":{},\"caption\":{},\"unit\":{},\"reach\":{},\"axis\":{},\"scale\":{},\
-         \"postures\":[{}],\"points\":[{}],\"frames\":[{}]}}",
+         \"scale_before\":{},\"postures\":[{}],\"points\":[{}],\"frames\":[{}]}}",
         text(&scene.robot),
         text(&caption),
         text(l),
         n(scene.reach * f),
         n(axis),
         n(k),
+        n(kb),
         postures.join(","),
         points.join(","),
         frames.join(",")

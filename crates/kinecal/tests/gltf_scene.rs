@@ -121,11 +121,14 @@ fn glb_reads_back_as_the_scene() {
         let tip = [0, 1, 2].map(|c| sp.measured[c] + k * sp.after[c]);
         assert!(close(after[2 * i + 1], &tip));
         let b = sp.before.unwrap();
-        let tip = [0, 1, 2].map(|c| sp.measured[c] + k * b[c]);
+        let kb = scene.residual_scale_before;
+        let tip = [0, 1, 2].map(|c| sp.measured[c] + kb * b[c]);
         assert!(close(before[2 * i + 1], &tip));
     }
-    // Residual vectors after calibration are the noise: tens of micrometres.
+    // Residual vectors after calibration are the noise: tens of micrometres; before, the
+    // nominal robot's millimetres, drawn at a smaller scale.
     assert!(scene.points.iter().all(|p| p.error_after() < 1e-3));
+    assert!(scene.residual_scale_before < scene.residual_scale);
 
     // Materials: the calibrated robot blue, the nominal grey.
     let mat = |name: &str| {

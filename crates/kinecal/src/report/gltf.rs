@@ -56,13 +56,16 @@ fn layers(scene: &Scene) -> Vec<Layer> {
             .flat_map(|[a, b]| [f32s(&s.nodes[*a]), f32s(&s.nodes[*b])])
             .collect()
     };
-    let k = scene.residual_scale;
     let residuals = |before: bool| -> Vec<[f32; 3]> {
         scene
             .points
             .iter()
             .filter_map(|p| {
-                let r = if before { p.before? } else { p.after };
+                let (r, k) = if before {
+                    (p.before?, scene.residual_scale_before)
+                } else {
+                    (p.after, scene.residual_scale)
+                };
                 Some([f32s(&p.measured), along(&p.measured, &r, k)])
             })
             .flatten()

@@ -154,8 +154,12 @@ pub struct Scene {
     /// Measured points left out because a coordinate or residual was not finite or beyond
     /// [`LIMIT`].
     pub points_unplottable: usize,
-    /// Residual vectors are drawn this many times their length.
+    /// Residual vectors after calibration are drawn this many times their length.
     pub residual_scale: f64,
+    /// Residual vectors before calibration (the nominal robot's, often far longer) are drawn
+    /// this many times their length.
+    #[serde(default = "unit_scale")]
+    pub residual_scale_before: f64,
     /// The frames that do not move with the robot: the global frame and the sessions'
     /// measurement frames.
     pub frames: Vec<SceneFrame>,
@@ -392,10 +396,10 @@ impl Scene {
             .filter_map(|(p, k)| k.then_some(p))
             .collect();
 
-        // The residuals' scale: the 95th percentile of the drawn residuals after calibration
-        // a twentieth of the robot's size, rounded down to 1, 2 or 5 times a power of ten.
-        let mut errors: Vec<f64> = points.iter().map(ScenePoint::error_after).collect();
-        errors.sort_by(f64::total_cmp);
+        // The residuals' scales (below): the 95th percentile of the drawn residuals, after
+        // calibration and before, a twentieth of the robot's size, rounded down to 1, 2 or 5
+        // times a power of ten.
+        let errors: Vec<f64> = points.iter().map(ScenePoint::error_after).collect();
 
         // The postures: the chosen one first, the worst point's, then evenly spread.
         let mut chosen: Vec<usize> = Vec::new();
@@ -451,22 +455,12 @@ impl Scene {
             .flat_map(|p| p.calibrated.nodes.iter())
             .map(norm)
             .fold(1e-3, f64::max);
-        let typical = errors
-            .get((errors.len() * 95 / 100).min(errors.len().saturating_sub(1)))
-            .copied()
-            .unwrap_or(0.0);
-        let mut residual_scale = residual_scale(typical, reach);
-        // A residual before calibration may be far longer than those after: its line, scaled,
-        // stays within 1e9 m.
-        let longest = points
+        let before: Vec<f64> = points
             .iter()
-            .flat_map(|p| [Some(p.after), p.before])
-            .flatten()
-            .map(|r| norm(&r))
-            .fold(0.0, f64::max);
-        while residual_scale > 1.0 && longest * residual_scale > 1e3 * LIMIT {
-            residual_scale /= 10.0;
-        }
+            .filter_map(|p| p.before.as_ref().map(norm))
+            .collect();
+        let residual_scale = scale_of(errors, reach);
+        let residual_scale_before = scale_of(before, reach);
 
         let mut frames = vec![frame_of(
             "global frame",
@@ -490,6 +484,7 @@ impl Scene {
             points_total,
             points_unplottable,
             residual_scale,
+            residual_scale_before,
             frames,
         };
         scene.check()?;
@@ -539,19 +534,45 @@ impl Scene {
         {
             return bad("a point, a residual or a frame is beyond 1e6 m or not finite");
         }
+        if !positive(self.residual_scale_before) {
+            return bad("its residual scale before calibration is not a positive finite number");
+        }
         // A residual drawn scaled stays within f32 too.
-        let longest = self
-            .points
-            .iter()
-            .flat_map(|p| [Some(p.after), p.before])
-            .flatten()
-            .map(|r| norm(&r))
-            .fold(0.0, f64::max);
-        if longest * self.residual_scale > 1e3 * LIMIT {
+        let longest = |r: &dyn Fn(&ScenePoint) -> Option<[f64; 3]>| {
+            self.points
+                .iter()
+                .filter_map(r)
+                .map(|v| norm(&v))
+                .fold(0.0, f64::max)
+        };
+        if longest(&|p| Some(p.after)) * self.residual_scale > 1e3 * LIMIT
+            || longest(&|p| p.before) * self.residual_scale_before > 1e3 * LIMIT
+        {
             return bad("a residual drawn at the scene's scale reaches beyond 1e9 m");
         }
         Ok(())
     }
+}
+
+fn unit_scale() -> f64 {
+    1.0
+}
+
+/// The scale of residuals of lengths `errors` (m) in a scene of size `size` (m): the 95th
+/// percentile's [`residual_scale`], made smaller (by tens) until the longest, scaled, is within
+/// 1e9 m.
+fn scale_of(mut errors: Vec<f64>, size: f64) -> f64 {
+    errors.sort_by(f64::total_cmp);
+    let typical = errors
+        .get((errors.len() * 95 / 100).min(errors.len().saturating_sub(1)))
+        .copied()
+        .unwrap_or(0.0);
+    let longest = errors.last().copied().unwrap_or(0.0);
+    let mut k = residual_scale(typical, size);
+    while k > 1.0 && longest * k > 1e3 * LIMIT {
+        k /= 10.0;
+    }
+    k
 }
 
 /// The scale that draws a residual of `typical` metres a twentieth of `size`, rounded down to 1,

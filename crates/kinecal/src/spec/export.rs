@@ -507,11 +507,16 @@ impl ExportSpec {
                 } else {
                     format!(
                         "{from}: {robots} at posture {}, {} of {} measured points, residuals \
-                         drawn {} times their length",
+                         drawn {} times their length{}",
                         posture.label,
                         scene.points.len(),
                         scene.points_total,
-                        scene.residual_scale
+                        scene.residual_scale,
+                        if scene.points.iter().any(|p| p.before.is_some()) {
+                            format!(" ({} before calibration)", scene.residual_scale_before)
+                        } else {
+                            String::new()
+                        }
                     )
                 });
                 if scene.points_unplottable > 0 {
