@@ -72,6 +72,7 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
         length_angle(a.residuals.weights.as_deref(), kinecal::Setting::Weights)?,
     );
     set(&mut res.orientation_error, a.residuals.orientation_error);
+    set(&mut res.model_error, a.model_error);
     over(&mut res.outlier_sigma, a.outlier_sigma);
     let v = &mut s.validation;
     // Each flag overrides its own key; a spec that checks the calibration another way keeps

@@ -138,6 +138,17 @@ pub enum Warning {
         /// The RMS attitude error after calibration (deg).
         rms_deg: f64,
     },
+    /// After calibration the measured positions still disagree with the model by more than 2 %
+    /// of the robot's reach (RMS): the fit stopped at a local minimum far from any calibration
+    /// of this robot, or the data do not belong to it.
+    PositionsUnfit {
+        /// The RMS position error after calibration (file units).
+        rms: f64,
+        /// The robot's reach (file units).
+        reach: f64,
+        /// The length unit.
+        unit: String,
+    },
     /// The calibrated robot does worse on the held-out data than the robot it started from:
     /// the mean error of `metric` grew from `before` to `after` (file units).
     WorseOnValidation {
@@ -156,6 +167,18 @@ pub enum Warning {
     SigmasOff {
         /// The variance factor.
         variance_factor: f64,
+    },
+    /// Rows with standard deviations of their own (an instrument's) had residuals far beyond
+    /// them: each was weighted by `sqrt(sigma^2 + m^2)`, with the model error `m` of its
+    /// quantity estimated from the residuals
+    /// ([`crate::solve::estimation::weighting`]).
+    ModelErrorFloor {
+        /// The own rows' residuals' RMS over their stated sigmas, before the floor.
+        scale: f64,
+        /// The model error added to the length rows, in mm (0: none, or no such rows).
+        length_mm: f64,
+        /// The model error added to the angle rows, in degrees (0: none, or no such rows).
+        angle_deg: f64,
     },
     /// The fit's residuals were far beyond the stated sigmas, so the identifiable set was
     /// chosen again at the residuals' noise (the noise-level rule at `scale` times the stated
@@ -239,7 +262,8 @@ impl Warning {
             | Warning::BarelyDetermined { .. }
             | Warning::UrdfSlope { .. }
             | Warning::UrdfCoupled { .. }
-            | Warning::UrdfToolAdded { .. } => Severity::Note,
+            | Warning::UrdfToolAdded { .. }
+            | Warning::ModelErrorFloor { .. } => Severity::Note,
             _ => Severity::Caution,
         }
     }
@@ -255,6 +279,7 @@ impl Warning {
                 | Warning::AngleUnitMismatch { .. }
                 | Warning::AttitudeMismatch { .. }
                 | Warning::AttitudesUnfit { .. }
+                | Warning::PositionsUnfit { .. }
                 | Warning::WorseOnValidation { .. }
                 | Warning::ChangeBeyondReach { .. }
         )
@@ -326,6 +351,16 @@ impl std::fmt::Display for Warning {
                  likely not ZYX Euler angles (alpha about z, then beta about y, then gamma about \
                  x) of the measured frame; convert them, or use the positions alone"
             ),
+            Warning::PositionsUnfit { rms, reach, unit } => write!(
+                f,
+                "after calibration the measured positions still disagree with the model by an RMS \
+                 of {rms:.6} {unit}, {:.0} % of the robot's reach ({reach:.6} {unit}): a model that \
+                 fits this robot does far better, so the solver stopped at a local minimum of a \
+                 start far from the robot, or the data are not this robot's; check the units of \
+                 the readings and positions and the robot file, or start from values nearer the \
+                 robot's (--initial)",
+                100.0 * rms / reach.max(f64::MIN_POSITIVE)
+            ),
             Warning::WorseOnValidation {
                 metric,
                 before,
@@ -338,6 +373,27 @@ impl std::fmt::Display for Warning {
                  postures (too many parameters for the data, postures that do not cover the \
                  workspace, or the validation data measured differently)"
             ),
+            Warning::ModelErrorFloor {
+                scale,
+                length_mm,
+                angle_deg,
+            } => {
+                let mut parts = Vec::new();
+                if *length_mm > 0.0 {
+                    parts.push(format!("{length_mm:.4} mm on lengths"));
+                }
+                if *angle_deg > 0.0 {
+                    parts.push(format!("{angle_deg:.5} deg on angles"));
+                }
+                write!(
+                    f,
+                    "the rows' own standard deviations are {scale:.0} times below their residuals \
+                     (they state the instrument's noise, not the model's): each such row was \
+                     weighted by sqrt(sigma^2 + m^2), with a model error m estimated from the \
+                     residuals: {}; model_error = \"none\" weighs them as stated",
+                    parts.join(", ")
+                )
+            }
             Warning::ChosenAtResidualNoise { scale, left_out } => write!(
                 f,
                 "the residuals of a first fit were {scale:.0} times the stated standard \

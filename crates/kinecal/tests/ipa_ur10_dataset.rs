@@ -270,9 +270,13 @@ fn the_suggested_calibration_holds_out_as_the_data_sets_readme_says() {
         assert!(within(after_uniform), "{name}: {after_uniform}");
         assert!(after < 0.7 * start, "{name}: {start} -> {after}");
         // Weighted by the tracker's sigmas (about 0.01 mm, spread over two decades, 50 times
-        // below the model error), the placement leans on the rows stated most precise: C stays
-        // within the README's figure, D comes within 6 % of it.
-        assert!(after <= reference * 1.07, "{name}: {after}");
+        // below the model error) and the model error the residuals show (the floor of
+        // `kinecal::solve::estimation::weighting`), the placement holds out as well: D at or
+        // below 0.445 mm (0.455 weighted by the sigmas alone).
+        assert!(within(after), "{name}: {after}");
+        if name == "series_D.csv" {
+            assert!(after <= 0.445e-3, "{name}: {after}");
+        }
         pooled_reference.0 += reference * data.postures.len() as f64;
         pooled_reference.1 += data.postures.len();
     }
@@ -284,6 +288,64 @@ fn the_suggested_calibration_holds_out_as_the_data_sets_readme_says() {
         "pooled {} for {pooled}",
         v.after.mean_position
     );
+}
+
+/// Identified on series C (its rows carrying the tracker's sigmas, 0.0004-0.08 mm, 50 times
+/// below the model error) and validated on A: the fit converges, ends at or below its start on
+/// A, and at or below the fit of the same rows without their sigma columns (within 0.1 %: the
+/// model-error floor weighs the rows within 4 % of uniform, and held-out means of two fits that
+/// close differ by rounding of the solver's stopping point). Weighted by the sigmas alone, the
+/// fit ended worse than its start (0.828 mm against 0.763), and with slopes drove joint6.slope
+/// from 1 to 0.0008.
+#[test]
+fn instrument_sigmas_fit_at_least_as_well_as_no_sigmas() {
+    let Some(dir) = folder() else { return };
+    let c = ipa_ur10::convert(&dir).unwrap();
+    let robot = parse_robot_toml(file(&c, "ur10.toml"), "ur10.toml").unwrap();
+    let read = |n: &str| parse_measurements(file(&c, n), n, &robot).unwrap();
+    let (ident, held) = (read("series_C.csv"), Arc::new(read("series_A.csv")));
+    let mut bare = ident.clone();
+    for o in &mut bare.observations {
+        if let Observation::Position(p) = o {
+            assert!(p.sigma_position.is_some());
+            p.sigma_position = None;
+        }
+    }
+    for estimate in ["identifiable", "identifiable,slopes"] {
+        let fit = |data: &Dataset| {
+            let mut req = Request::new(robot.clone(), data.clone());
+            req.selection = Selection::parse(estimate, None, &robot).unwrap();
+            req.validation = Validation::Data(held.clone());
+            workflow::run(&req, &mut ()).unwrap()
+        };
+        let (with, without) = (fit(&ident), fit(&bare));
+        let m = with.calibration.model_error.expect("rows with sigmas");
+        assert!(m.length > 1e-4 && m.length < 5e-4, "{m:?}");
+        let v = with.validation.as_ref().unwrap();
+        let (start, after) = (v.start.as_ref().unwrap().mean_position, v.after.mean_position);
+        let plain = without.validation.as_ref().unwrap().after.mean_position;
+        eprintln!(
+            "C -> A {estimate}: {:?} after {} iterations, model error {:.4} mm; held-out mean \
+             {:.4} mm (start {:.4}); without sigma columns {:.4} ({:?})",
+            with.calibration.termination,
+            with.calibration.iterations,
+            m.length * 1e3,
+            after * 1e3,
+            start * 1e3,
+            plain * 1e3,
+            without.calibration.termination
+        );
+        assert!(with.calibration.converged(), "{estimate}");
+        assert!(after <= plain * 1.001, "{estimate}: {after} vs {plain}");
+        if estimate == "identifiable" {
+            assert!(after <= start, "{estimate}: {start} -> {after}");
+        }
+        if estimate.contains("slopes") {
+            let id = robot.param_id(kinecal::ParamKind::Slope { joint: 5 });
+            let k = with.calibration.calibrated.get(id);
+            assert!((k - 1.0).abs() < 0.01, "joint6.slope {k}");
+        }
+    }
 }
 
 // --- Broken copies, in memory -----------------------------------------------------------------

@@ -55,6 +55,13 @@ pub(crate) fn check_data_with(
 /// model's: a calibration moves them by well under a degree.
 pub(crate) const ATTITUDE_LIMIT: f64 = 0.1;
 
+/// A calibrated robot whose RMS position error stays above this fraction of its reach fits
+/// no calibration of it: a model that fits reaches a few tenths of a per cent of the reach
+/// before calibration (a nominal industrial arm is off by millimetres over a metre) and less
+/// after; 2 % (20 mm over a metre) is a local minimum of a start far from the robot, a wrong
+/// unit, or a wrong robot file ([`Warning::PositionsUnfit`]).
+pub(crate) const POSITION_LIMIT: f64 = 0.02;
+
 /// At most this many pairs of poses are compared (spread over the file).
 const ATTITUDE_PAIRS: usize = 200;
 

@@ -308,7 +308,22 @@ impl CalibrationReport {
             down_weighted_rows: match cal.options.loss {
                 crate::solve::estimation::Loss::Squared => None,
                 crate::solve::estimation::Loss::Huber { .. } => {
-                    Some(cal.row_scale.iter().filter(|&&w| w < 1.0 - 1e-9).count())
+                    // The robust loss's part of the row scale: the floor's taken out.
+                    let floor = match &cal.model_error {
+                        Some(m) => crate::solve::estimation::weighting::floor_scale(
+                            &crate::solve::estimation::weighting::row_kinds(data),
+                            cal.problem(data).row_sigma(),
+                            m,
+                        ),
+                        None => vec![1.0; cal.row_scale.len()],
+                    };
+                    Some(
+                        cal.row_scale
+                            .iter()
+                            .zip(&floor)
+                            .filter(|(&w, &f)| w < f * (1.0 - 1e-9))
+                            .count(),
+                    )
                 }
             },
             timings: Vec::new(),

@@ -42,7 +42,7 @@ use crate::error::{Error, Location, Result, Setting};
 use crate::files::{detect_format, kind_index, read_files, ObservationFile, ReadSettings, FORMATS};
 use crate::model::robot::Robot;
 use crate::observe::{Dataset, OrientationError};
-use crate::solve::estimation::{Damping, Loss, Method, SolverOptions, Spread};
+use crate::solve::estimation::{Damping, Loss, Method, ModelErrorMode, SolverOptions, Spread};
 use crate::source::Source;
 use crate::units::DisplayChoice;
 use crate::workflow::{self, Candidate, Outcome, Request, SolutionRule, Validation};
@@ -174,6 +174,11 @@ pub struct ResidualSpec {
     /// Orientation residuals: `rotvec` (default) or `euler`.
     #[serde(default, skip_serializing_if = "is_default")]
     pub orientation_error: OrientationError,
+    /// Rows with standard deviations of their own (sigma columns): `auto` (default: weighted by
+    /// `sqrt(sigma^2 + m^2)`, the model error `m` estimated from the residuals when they show
+    /// more than the sigmas) or `none` (by their sigmas alone).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub model_error: ModelErrorMode,
     /// The outlier threshold, in robust standard deviations (default
     /// [`crate::solve::outliers::DEFAULT_SIGMAS`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -392,6 +397,7 @@ impl CalibrationSpec {
         };
         req.weights = weights(robot, &r.weights)?;
         req.orientation = r.orientation_error;
+        req.model_error = r.model_error;
         if let Some(k) = r.outlier_sigma {
             req.outlier_sigmas = k;
         }
@@ -700,6 +706,7 @@ mod tests {
                     angle: None,
                 },
                 orientation_error: OrientationError::Euler,
+                model_error: ModelErrorMode::None,
                 outlier_sigma: Some(4.0),
             },
             validation: ValidationSpec {

@@ -69,6 +69,8 @@ pub fn assess(
         iterations: 0,
         unfelt: Vec::new(),
         row_scale: vec![1.0; problem.rows()],
+        model_error: None,
+        staged: false,
         log: Vec::new(),
         residuals,
         start_r: None,

@@ -74,7 +74,8 @@ impl Checked {
     /// normalized residuals too.
     fn fitted(cal: &Calibration, data: &Dataset) -> Checked {
         let (before, after) = (cal.accuracy_before.clone(), cal.accuracy_after.clone());
-        if matches!(cal.options.loss, Loss::Squared) {
+        // The objectives are in the stated sigmas when no row scale (floor or loss) applies.
+        if matches!(cal.options.loss, Loss::Squared) && cal.row_scale.iter().all(|&s| s == 1.0) {
             let m = data.rows().max(1) as f64;
             return Checked {
                 postures: data.postures.len(),
@@ -213,6 +214,32 @@ pub(super) fn finish(
         &cal.calibrated,
         &cal.estimated,
     ));
+    if let Some(m) = cal.model_error.filter(|m| m.length > 0.0 || m.angle > 0.0) {
+        let kinds = crate::solve::estimation::weighting::row_kinds(&data);
+        let own: Vec<f64> = kinds
+            .iter()
+            .zip(&cal.residuals)
+            .filter(|((_, own), _)| *own)
+            .map(|(_, r)| r * r)
+            .collect();
+        warnings.push(Warning::ModelErrorFloor {
+            scale: (own.iter().sum::<f64>() / own.len().max(1) as f64).sqrt(),
+            length_mm: m.length * 1e3,
+            angle_deg: m.angle.to_degrees(),
+        });
+    }
+    let reach = nominal.reach();
+    if cal.accuracy_after.positions > 0
+        && reach > 0.0
+        && cal.accuracy_after.rms_position > crate::observe::sanity::POSITION_LIMIT * reach
+    {
+        let u = nominal.units;
+        warnings.push(Warning::PositionsUnfit {
+            rms: u.from_si(Quantity::Length, cal.accuracy_after.rms_position),
+            reach: u.from_si(Quantity::Length, reach),
+            unit: u.length.to_string(),
+        });
+    }
     if cal.accuracy_after.orientations > 0
         && cal.accuracy_after.rms_orientation > crate::observe::sanity::ATTITUDE_LIMIT
     {

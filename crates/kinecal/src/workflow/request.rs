@@ -63,6 +63,9 @@ pub struct Request {
     pub loss: Loss,
     /// Default residual weights.
     pub weights: Weights,
+    /// How rows with standard deviations of their own are weighted (a model-error floor, by
+    /// default: see [`crate::solve::estimation::weighting`]).
+    pub model_error: crate::solve::estimation::ModelErrorMode,
     /// Orientation residuals.
     pub orientation: OrientationError,
     /// Which of equally good answers.
@@ -102,6 +105,7 @@ impl Request {
             solver: SolverOptions::new(estimation::Method::LevenbergMarquardt),
             loss: Loss::Squared,
             weights: Weights::default(),
+            model_error: Default::default(),
             orientation: OrientationError::RotVec,
             solution: SolutionRule::Solver,
             prune: None,

@@ -194,6 +194,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         orientation: req.orientation,
         loss: req.loss,
         prior: req.prior.clone(),
+        model_error: req.model_error,
     };
     progress.phase(Phase::Estimation);
     let fitted = Fitted {
@@ -454,8 +455,10 @@ impl Fitted<'_> {
             return Ok((cal, None));
         }
         let (m, n) = (cal.residuals.len(), cal.options.estimate.len());
+        // In the stated sigmas (without a model-error floor's row scale).
+        let stated: f64 = cal.residuals.iter().map(|r| r * r).sum();
         let vf = if m > n {
-            cal.objective_after / (m - n) as f64
+            stated / (m - n) as f64
         } else {
             f64::NAN
         };
@@ -616,6 +619,7 @@ fn rigid_fit(robot: &Robot, data: &Dataset, candidates: &[ParamId], req: &Reques
         orientation: req.orientation,
         loss: Loss::Squared,
         prior: crate::model::robot::Prior::default(),
+        model_error: req.model_error,
     };
     match estimation::calibrate(robot, data, &opts, &mut |_| {}) {
         Ok(c) if c.objective_after < c.objective_before && c.calibrated.validate().is_ok() => {
@@ -667,7 +671,6 @@ fn fit(
         (cal.objective_after, cal.prior_objective, cal.accuracy_after) = estimation::settle(
             &plain,
             &calibrated,
-            opts.loss,
             &cal.row_scale,
             &mut cal.residuals,
         );

@@ -249,6 +249,7 @@ pub fn refit_sessions(
         orientation: opts.orientation,
         loss: Loss::Squared,
         prior: crate::model::robot::Prior::default(),
+        model_error: opts.model_error,
     };
     match estimation::calibrate(&r, data, &fit, &mut |_| {}) {
         Ok(c) => c.calibrated,

@@ -20,12 +20,14 @@
 
 pub(crate) mod least_squares;
 pub mod solver;
+pub mod weighting;
 
 pub use least_squares::{LeastSquares, RowSink};
 pub use solver::{
     solve, Damping, Iteration, Method, Solution, SolverOptions, Stationarity, Termination,
     DEFAULT_RCOND,
 };
+pub use weighting::{ModelErrorFloor, ModelErrorMode};
 
 use crate::error::{Error, Result};
 use crate::linalg::{Matrix, QrAccumulator, QR_BLOCK};
@@ -52,6 +54,8 @@ pub struct CalibrationOptions {
     /// A Gaussian prior on the estimated parameters' changes from the start (empty: none):
     /// one residual row per parameter it covers (see [`crate::solve::problem`]).
     pub prior: Prior,
+    /// How rows with standard deviations of their own are weighted (see [`weighting`]).
+    pub model_error: ModelErrorMode,
 }
 
 /// The loss applied to each weighted residual `r` (in standard deviations).
@@ -125,6 +129,7 @@ impl CalibrationOptions {
             orientation: OrientationError::RotVec,
             loss: Loss::Squared,
             prior: Prior::default(),
+            model_error: ModelErrorMode::Auto,
         }
     }
 }
@@ -162,9 +167,17 @@ pub struct Calibration {
     pub accuracy_after: Accuracy,
     /// Estimated parameters no residual felt at the start: they keep their initial values.
     pub unfelt: Vec<ParamId>,
-    /// The robust loss's final row scale (square roots of its weights; all 1 for least
-    /// squares), one per residual row of the data.
+    /// The final row scale, one per residual row of the data: the model-error floor's
+    /// (`s_i / sqrt(s_i^2 + m^2)` for rows with their own standard deviation `s_i`) times the
+    /// robust loss's (square roots of its weights); all 1 for least squares at the stated
+    /// standard deviations.
     pub row_scale: Vec<f64>,
+    /// The model error added to the rows' own standard deviations (see [`weighting`]), when
+    /// some rows carry their own.
+    pub model_error: Option<ModelErrorFloor>,
+    /// True when the fit started from uniform weights (the stated standard deviations spread
+    /// over more than 1 / [`weighting::STAGE_RATIO`]; see [`weighting`]).
+    pub staged: bool,
     /// Per-iteration log.
     pub log: Vec<Iteration>,
     /// The weighted residuals of `calibrated` (without the robust loss's row scale), one per
@@ -202,12 +215,12 @@ impl Calibration {
 }
 
 /// The weighted residuals of the data at `robot` (without the row scale) into `residuals`
-/// (one per row of the data), the data's objective under `loss` (with the robust loss's row
-/// scale `row_scale`), the prior's, and the accuracy: one pass of forward kinematics.
+/// (one per row of the data), the data's objective (with the row scale `row_scale`: the
+/// model-error floor's and the robust loss's), the prior's, and the accuracy: one pass of
+/// forward kinematics.
 pub(crate) fn settle(
     problem: &Problem<'_>,
     robot: &Robot,
-    loss: Loss,
     row_scale: &[f64],
     residuals: &mut [f64],
 ) -> (f64, f64, Accuracy) {
@@ -216,14 +229,12 @@ pub(crate) fn settle(
     let nd = problem.data_rows();
     residuals.copy_from_slice(&all[..nd]);
     let prior = all[nd..].iter().map(|r| r * r).sum();
-    let data = match loss {
-        Loss::Squared => residuals.iter().map(|r| r * r).sum(),
-        Loss::Huber { .. } => residuals
-            .iter()
-            .zip(row_scale)
-            .map(|(r, s)| (r * s) * (r * s))
-            .sum(),
-    };
+    // The row scale is the model-error floor's and the robust loss's (all 1 without either).
+    let data = residuals
+        .iter()
+        .zip(row_scale)
+        .map(|(r, s)| (r * s) * (r * s))
+        .sum();
     (data, prior, accuracy)
 }
 
@@ -311,36 +322,196 @@ pub(crate) fn calibrate_from(
                 (r0, accuracy)
             }
         };
-    // The solver's start: the data's R with the prior's rows folded in (they are 0 there).
-    let solver_start = problem.with_prior_rows(&start_r);
-    let mut sol = solver::drive(
-        &problem,
-        &x0,
-        &opts.solver,
-        opts.solver.method.rule(&opts.solver).as_mut(),
-        &mut |it: &Iteration| {
-            log.push(*it);
-            observer(it);
-        },
-        Some(&solver_start),
-    )?;
+    // Rows with standard deviations of their own: a staged start, and a model-error floor when
+    // their residuals show more than they state (see `weighting`).
+    let kinds = weighting::row_kinds(data);
+    let sigma = problem.row_sigma().to_vec();
+    let own_rows = kinds.iter().any(|(_, own)| *own);
+    let auto = own_rows && opts.model_error == ModelErrorMode::Auto;
+    let mut record = |it: &Iteration| {
+        log.push(*it);
+        observer(it);
+    };
+    let start_objective: f64 = (0..start_r.nrows())
+        .map(|i| start_r[(i, start_r.ncols() - 1)].powi(2))
+        .sum();
+    // The staged start: from uniform weights (always with a floor to estimate, which needs a
+    // fit its residuals can be read from; otherwise when the sigmas spread far).
+    let staged_scale = match (own_rows, auto) {
+        (false, _) => None,
+        (true, true) => Some(
+            weighting::staged_scale(&kinds, &sigma)
+                .unwrap_or_else(|| weighting::uniform_scale(&kinds, &sigma)),
+        ),
+        (true, false) => weighting::staged_scale(&kinds, &sigma),
+    };
+    let uniform = match &staged_scale {
+        Some(scale) => {
+            let floored = problem.clone().with_row_scale(scale);
+            Some(solve(&floored, &x0, &opts.solver, &mut record)?)
+        }
+        None => None,
+    };
+    let staged = uniform.is_some();
+    // The fit at the stated standard deviations (with a floor to weigh it against, a probe
+    // of at most `weighting::STATED_PROBE` iterations first: continued if it is chosen).
+    let mut probe = opts.solver;
+    if auto {
+        probe.max_iterations = probe.max_iterations.min(weighting::STATED_PROBE);
+    }
+    let mut sol = match &uniform {
+        Some(first) => {
+            let mut sol = solve(&problem, &first.x, &probe, &mut record)?;
+            sol.iterations += first.iterations;
+            sol.unfelt = first.unfelt.clone();
+            sol
+        }
+        None => {
+            // The solver's start: the data's R with the prior's rows folded in (0 there).
+            let solver_start = problem.with_prior_rows(&start_r);
+            solver::drive(
+                &problem,
+                &x0,
+                &opts.solver,
+                opts.solver.method.rule(&opts.solver).as_mut(),
+                &mut record,
+                Some(&solver_start),
+            )?
+        }
+    };
+    sol.objective_before = start_objective;
+    sol.start_r = start_r.clone();
     let unfelt: Vec<ParamId> = sol.unfelt.iter().map(|&j| opts.estimate[j]).collect();
-    // Huber loss: iteratively reweighted least squares, weights min(1, k/|r|) per residual.
-    let mut row_scale = vec![1.0; problem.data_rows()];
+    let mut floor_scale = vec![1.0; problem.data_rows()];
+    let mut model_error = None;
+    if let (true, Some(first)) = (auto, &uniform) {
+        let mut floor = ModelErrorFloor::default();
+        for (q, own) in &kinds {
+            if *own {
+                floor.rows[usize::from(*q == crate::observe::RowQuantity::Angle)] += 1;
+            }
+        }
+        let nd = problem.data_rows() as f64;
+        let dof_fraction = ((nd - problem.cols() as f64) / nd).max(0.0);
+        let mut all = vec![0.0; problem.rows()];
+        let residuals_at = |x: &[f64], all: &mut Vec<f64>| {
+            problem.evaluate(&problem.robot_at(x), all, None);
+        };
+        // The stated fit's residuals first: rows that match their sigmas there keep them.
+        residuals_at(&sol.x, &mut all);
+        let consistent = weighting::estimate_floor(
+            &kinds,
+            &sigma,
+            &all[..problem.data_rows()],
+            dof_fraction,
+            true,
+        )
+        .iter()
+        .all(|m| m.unwrap_or(0.0) == 0.0);
+        if !consistent {
+            // The floor, from the uniform fit on: estimated, fitted, estimated again until it
+            // settles.
+            let mut x = first.x.clone();
+            let mut fitted: Option<Solution> = None;
+            let mut floor_iterations = 0;
+            for round in 0..=weighting::FLOOR_ROUNDS {
+                residuals_at(&x, &mut all);
+                let est = weighting::estimate_floor(
+                    &kinds,
+                    &sigma,
+                    &all[..problem.data_rows()],
+                    dof_fraction,
+                    false,
+                );
+                let next = [est[0].unwrap_or(0.0), est[1].unwrap_or(0.0)];
+                let prev = [floor.length, floor.angle];
+                let settled = fitted.is_some()
+                    && next
+                        .iter()
+                        .zip(prev)
+                        .all(|(n, p)| (n - p).abs() <= 0.02 * p.max(*n));
+                if settled || round == weighting::FLOOR_ROUNDS {
+                    break;
+                }
+                floor.length = next[0];
+                floor.angle = next[1];
+                let scale = weighting::floor_scale(&kinds, &sigma, &floor);
+                let floored = problem.clone().with_row_scale(&scale);
+                let again = solve(&floored, &x, &opts.solver, &mut record)?;
+                floor.refits += 1;
+                floor_iterations += again.iterations;
+                x = again.x.clone();
+                fitted = Some(again);
+            }
+            // The floored fit against the stated one, by the likelihood of the residuals
+            // under each one's standard deviations.
+            let stated_cost = weighting::likelihood_cost(
+                &kinds,
+                &sigma,
+                &{
+                    residuals_at(&sol.x, &mut all);
+                    all[..problem.data_rows()].to_vec()
+                },
+                &ModelErrorFloor::default(),
+            );
+            residuals_at(&x, &mut all);
+            let floor_cost = weighting::likelihood_cost(
+                &kinds,
+                &sigma,
+                &all[..problem.data_rows()],
+                &floor,
+            );
+            if let Some(f) = fitted.filter(|_| floor_cost < stated_cost) {
+                floor_scale = weighting::floor_scale(&kinds, &sigma, &floor);
+                // The iterations of the path taken: the uniform fit's and the floor's.
+                sol.iterations = first.iterations + floor_iterations;
+                sol.x = f.x;
+                sol.termination = f.termination;
+                sol.stationarity = f.stationarity;
+                model_error = Some(floor);
+            }
+        }
+        if model_error.is_none() {
+            // The stated fit stands: the probe continued to the iteration cap.
+            let used = sol.iterations - first.iterations;
+            if sol.termination == Termination::MaxIterations && used < opts.solver.max_iterations
+            {
+                let mut rest = opts.solver;
+                rest.max_iterations -= used;
+                let more = solve(&problem, &sol.x, &rest, &mut record)?;
+                sol.iterations += more.iterations;
+                sol.x = more.x;
+                sol.termination = more.termination;
+                sol.stationarity = more.stationarity;
+            }
+            model_error = Some(ModelErrorFloor {
+                rows: floor.rows,
+                ..Default::default()
+            });
+        }
+    }
+    // Huber loss: iteratively reweighted least squares, weights min(1, k/|r|) per residual
+    // (on the residuals as the floor weighs them).
+    let mut row_scale = floor_scale.clone();
     if let Loss::Huber { k, spread } = opts.loss {
         let mut all = vec![0.0; problem.rows()];
         for _ in 0..50 {
             problem.evaluate(&problem.robot_at(&sol.x), &mut all, None);
             // The data's rows: the prior's keep weight 1.
-            let r = &all[..problem.data_rows()];
+            let r: Vec<f64> = all[..problem.data_rows()]
+                .iter()
+                .zip(&floor_scale)
+                .map(|(r, f)| r * f)
+                .collect();
             let s = match spread {
-                Spread::Robust => crate::observe::RobustSpread::of(data, r).per_row,
+                Spread::Robust => crate::observe::RobustSpread::of(data, &r).per_row,
                 Spread::Stated => vec![1.0; r.len()],
             };
             let new: Vec<f64> = r
                 .iter()
                 .zip(&s)
-                .map(|(&ri, &si)| (k * si / ri.abs()).min(1.0).sqrt())
+                .zip(&floor_scale)
+                .map(|((&ri, &si), f)| f * (k * si / ri.abs()).min(1.0).sqrt())
                 .collect();
             let change = new
                 .iter()
@@ -354,10 +525,7 @@ pub(crate) fn calibrate_from(
             let weighted = problem.clone().with_row_scale(&row_scale);
             let before = sol.objective_before;
             let unfelt = std::mem::take(&mut sol.unfelt);
-            sol = solve(&weighted, &sol.x, &opts.solver, &mut |it: &Iteration| {
-                log.push(*it);
-                observer(it);
-            })?;
+            sol = solve(&weighted, &sol.x, &opts.solver, &mut record)?;
             sol.objective_before = before;
             sol.unfelt = unfelt;
         }
@@ -370,8 +538,13 @@ pub(crate) fn calibrate_from(
         }
     }
     let mut residuals = vec![0.0; problem.data_rows()];
+    if model_error.is_some_and(|m| m.length > 0.0 || m.angle > 0.0) {
+        // The objective before, as the floor weighs the rows (so that before and after
+        // compare).
+        (sol.objective_before, _, _) = settle(&problem, initial, &floor_scale, &mut residuals);
+    }
     let (objective_after, prior_objective, accuracy_after) =
-        settle(&problem, &calibrated, opts.loss, &row_scale, &mut residuals);
+        settle(&problem, &calibrated, &row_scale, &mut residuals);
     Ok(Calibration {
         accuracy_before,
         accuracy_after,
@@ -387,6 +560,8 @@ pub(crate) fn calibrate_from(
         prior_objective,
         unfelt,
         row_scale,
+        model_error,
+        staged,
         log,
         residuals,
         start_r: Some(start_r),
