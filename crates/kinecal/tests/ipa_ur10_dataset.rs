@@ -322,7 +322,10 @@ fn instrument_sigmas_fit_at_least_as_well_as_no_sigmas() {
         let m = with.calibration.model_error.expect("rows with sigmas");
         assert!(m.length > 1e-4 && m.length < 5e-4, "{m:?}");
         let v = with.validation.as_ref().unwrap();
-        let (start, after) = (v.start.as_ref().unwrap().mean_position, v.after.mean_position);
+        let (start, after) = (
+            v.start.as_ref().unwrap().mean_position,
+            v.after.mean_position,
+        );
         let plain = without.validation.as_ref().unwrap().after.mean_position;
         eprintln!(
             "C -> A {estimate}: {:?} after {} iterations, model error {:.4} mm; held-out mean \

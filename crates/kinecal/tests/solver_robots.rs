@@ -319,7 +319,11 @@ fn a_local_minimum_far_above_the_optimum_is_never_called_a_calibration() {
             .any(|w| matches!(w, kinecal::Warning::PositionsUnfit { .. }));
         if c.converged() && c.objective_after <= best * (1.0 + 1e-6) {
             optimum += 1;
-            assert!(!unfit, "seed {seed}: at the optimum, yet {:?}", out.warnings);
+            assert!(
+                !unfit,
+                "seed {seed}: at the optimum, yet {:?}",
+                out.warnings
+            );
         } else if !c.converged() {
             capped += 1;
         } else {

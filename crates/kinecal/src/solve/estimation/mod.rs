@@ -455,12 +455,8 @@ pub(crate) fn calibrate_from(
                 &ModelErrorFloor::default(),
             );
             residuals_at(&x, &mut all);
-            let floor_cost = weighting::likelihood_cost(
-                &kinds,
-                &sigma,
-                &all[..problem.data_rows()],
-                &floor,
-            );
+            let floor_cost =
+                weighting::likelihood_cost(&kinds, &sigma, &all[..problem.data_rows()], &floor);
             if let Some(f) = fitted.filter(|_| floor_cost < stated_cost) {
                 floor_scale = weighting::floor_scale(&kinds, &sigma, &floor);
                 // The iterations of the path taken: the uniform fit's and the floor's.
@@ -474,8 +470,7 @@ pub(crate) fn calibrate_from(
         if model_error.is_none() {
             // The stated fit stands: the probe continued to the iteration cap.
             let used = sol.iterations - first.iterations;
-            if sol.termination == Termination::MaxIterations && used < opts.solver.max_iterations
-            {
+            if sol.termination == Termination::MaxIterations && used < opts.solver.max_iterations {
                 let mut rest = opts.solver;
                 rest.max_iterations -= used;
                 let more = solve(&problem, &sol.x, &rest, &mut record)?;
