@@ -26,7 +26,8 @@
 //! Every write is one transaction. A calibration's idempotency key is `UNIQUE`: concurrent
 //! writers of the same record (a retried job) leave one row. The model check of a robot's
 //! records runs under a transaction-scoped advisory lock per robot, so two writers of the same
-//! robot are checked one after the other.
+//! robot are checked one after the other. The schema is created or migrated under a session's
+//! advisory lock, so that concurrent first writers create it once.
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
@@ -362,13 +363,28 @@ impl PgStore {
         Ok(v.unwrap_or(0))
     }
 
-    /// Creates or migrates the schema, under an advisory lock (concurrent first writers wait
-    /// for each other; the version is read again under the lock).
+    /// Creates or migrates the schema, under an advisory lock: concurrent first writers wait
+    /// for each other, and the version is read again once the lock is held.
+    ///
+    /// The lock is the session's, taken before the migration's transaction begins. A
+    /// transaction that waited for a transaction-scoped lock would still see the catalog as it
+    /// was when it began (PostgreSQL takes in other sessions' catalog changes when a
+    /// transaction starts, not when an advisory lock is granted; this connection's version read
+    /// has cached the schema as missing): it would create the schema a second time and fail
+    /// with "relation schema_version already exists".
     fn migrate(&self) -> Result<()> {
         let mut c = self.client();
-        let mut tx = c.transaction().map_err(|e| self.err(e))?;
-        tx.execute("SELECT pg_advisory_xact_lock($1)", &[&MIGRATION_LOCK])
+        c.execute("SELECT pg_advisory_lock($1)", &[&MIGRATION_LOCK])
             .map_err(|e| self.err(e))?;
+        let migrated = self.migrate_locked(&mut c);
+        let unlocked = c.execute("SELECT pg_advisory_unlock($1)", &[&MIGRATION_LOCK]);
+        migrated?;
+        unlocked.map(|_| ()).map_err(|e| self.err(e))
+    }
+
+    /// [`PgStore::migrate`] once the migration lock is held.
+    fn migrate_locked(&self, c: &mut Client) -> Result<()> {
+        let mut tx = c.transaction().map_err(|e| self.err(e))?;
         let exists: bool = tx
             .query_one(
                 "SELECT to_regclass('kinecal.schema_version') IS NOT NULL",

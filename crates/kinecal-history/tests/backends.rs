@@ -111,6 +111,7 @@ on_both_backends!(
     events_cut_drift_into_segments,
     the_fleet_is_sorted_by_urgency,
     concurrent_writers_killed_and_retried_leave_every_record_once,
+    concurrent_first_writers_of_an_empty_history_all_write,
 );
 
 fn records_round_trip(loc: &str) {
@@ -391,6 +392,47 @@ fn concurrent_writers_killed_and_retried_leave_every_record_once(loc: &str) {
         "20 writers x 50 records, {kills} killed and rerun: 1000 records in {:.1} s",
         t.elapsed().as_secs_f64()
     );
+}
+
+/// 20 writers start at once on a location where no history is yet (no `history init`), each
+/// opening its own connection and adding 10 records: the schema is created once, while the
+/// others wait for it (PostgreSQL: an advisory lock, the schema read again in a transaction that
+/// begins once the lock is held; SQLite: the migration in an IMMEDIATE transaction that reads
+/// the version again). Every writer succeeds and all 200 records are there.
+fn concurrent_first_writers_of_an_empty_history_all_write(loc: &str) {
+    let rep = shared_report();
+    let start = std::sync::Barrier::new(20);
+    let failures: Vec<String> = std::thread::scope(|s| {
+        let writers: Vec<_> = (0..20)
+            .map(|w| {
+                let (rep, start) = (&rep, &start);
+                s.spawn(move || -> Result<(), String> {
+                    start.wait();
+                    let db = Database::open(loc).map_err(|e| format!("writer {w} opens: {e}"))?;
+                    for k in 0..10i64 {
+                        db.add(&format!("F{w}"), Some(T0 + k * DAY), rep, "")
+                            .map_err(|e| format!("writer {w}, record {k}: {e}"))?;
+                    }
+                    Ok(())
+                })
+            })
+            .collect();
+        writers
+            .into_iter()
+            .filter_map(|h| h.join().unwrap().err())
+            .collect()
+    });
+    assert!(
+        failures.is_empty(),
+        "{} writers failed: {failures:#?}",
+        failures.len()
+    );
+    let records = Database::open_read_only(loc)
+        .unwrap()
+        .records(None)
+        .unwrap();
+    assert!(records.damaged.is_empty());
+    assert_eq!(records.calibrations.len(), 200);
 }
 
 /// A history written by kinecal before schema version 2 (tests/data/README.md) opens for
