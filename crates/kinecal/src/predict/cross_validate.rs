@@ -29,7 +29,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::nearest::JointMetric;
 use super::{Bound, Growth, ModelError, Predictor};
 use crate::error::{Error, Result};
-use crate::model::kinematics::{log_so3, rot_zyx};
+use crate::model::kinematics::{log_so3, rot_zyx, Target};
 use crate::model::robot::Robot;
 use crate::observe::{for_each_observation, session_frame, Dataset, Observation};
 use crate::solve::estimation::{self, Calibration};
@@ -44,6 +44,8 @@ pub struct HeldOut {
     pub error: [f64; 3],
     /// The parameter part of the fold's prediction, `J C J^T` (global frame).
     pub parameters: [[f64; 3]; 3],
+    /// The frame the observation measured.
+    pub target: Target,
 }
 
 /// The held-out errors of a cross-validation.
@@ -213,6 +215,7 @@ fn cross_validate_at(
                 distance: d,
                 error: [e.x, e.y, e.z],
                 parameters: p,
+                target: o.target(),
             });
             if let Some(rm) = attitude {
                 let w = rs.transpose() * log_so3(&(frame.rotation * rm.transpose()));
@@ -220,12 +223,49 @@ fn cross_validate_at(
                     distance: d,
                     error: [w.x, w.y, w.z],
                     parameters: a,
+                    target: o.target(),
                 });
             }
         };
         for_each_observation(robot, &test, |_, o, frames| collect(o, &frames[0]));
     }
     Ok(())
+}
+
+/// The calibrated model's own residuals at the measured postures, per target: for each frame
+/// measured by position or pose (index 0 the end effector, `1 + s` site `s`), the number of
+/// observations and the mean per-axis square of the position residuals (m^2) and of the
+/// attitude residuals (rad^2; 0 when no pose measures it), global frame.
+pub fn identification_residuals(robot: &Robot, data: &Dataset) -> Vec<(usize, f64, f64)> {
+    let mut out = vec![(0usize, 0.0, 0.0); robot.sites.len() + 1];
+    let mut poses = vec![0usize; robot.sites.len() + 1];
+    for_each_observation(robot, data, |_, o, frames| {
+        let (position, attitude) = match o {
+            Observation::Position(m) => (m.position, None),
+            Observation::Pose(m) => (m.position, Some(rot_zyx(m.euler.x, m.euler.y, m.euler.z))),
+            _ => return,
+        };
+        let k = match o.target() {
+            Target::EndEffector => 0,
+            Target::Site(s) => 1 + s,
+        };
+        let frame = &frames[0];
+        out[k].0 += 1;
+        out[k].1 += (frame.translation - position).norm_squared();
+        if let Some(rm) = attitude {
+            poses[k] += 1;
+            out[k].2 += log_so3(&(frame.rotation * rm.transpose())).norm_squared();
+        }
+    });
+    for (o, p) in out.iter_mut().zip(&poses) {
+        if o.0 > 0 {
+            o.1 /= 3.0 * o.0 as f64;
+        }
+        if *p > 0 {
+            o.2 /= 3.0 * *p as f64;
+        }
+    }
+    out
 }
 
 /// The model-error term fitted to held-out errors, and how it and the alternatives cover them.
@@ -252,6 +292,13 @@ pub struct GrowthFit {
 
 /// Fits `s0, c` to `samples` by maximum likelihood (see the module).
 pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
+    fit_growth_floored(samples, 0.0)
+}
+
+/// [`fit_growth`] with `s0` at least `min_s0` (what the identification residuals show at the
+/// measured postures): when the likelihood's `s0` is below it, `s0 = min_s0` and `c` is fitted
+/// again with that `s0` (m or rad).
+pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
     // Each sample in the eigenbasis of its parameter part.
     let prepared: Vec<([f64; 3], [f64; 3], f64)> = samples
         .iter()
@@ -366,6 +413,34 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
         c: floor(best.2, b0),
         shape: 3.0,
     };
+    let minimum = if min_s0.is_finite() { min_s0 } else { 0.0 };
+    if growth.s0 < minimum {
+        // `s0` held at the floor, `c` by maximum likelihood again (0 a candidate).
+        let s2 = minimum * minimum;
+        let mut best = (nll(s2, 0.0), f64::NEG_INFINITY);
+        let mut step = 1.0;
+        for j in -14..=4 {
+            let b = b0 + j as f64 * step;
+            let f = nll(s2, b.exp());
+            if f < best.0 {
+                best = (f, b);
+            }
+        }
+        if best.1.is_finite() {
+            for _ in 0..20 {
+                step *= 0.5;
+                let centre = best.1;
+                for b in [centre - step, centre + step] {
+                    let f = nll(s2, b.exp());
+                    if f < best.0 {
+                        best = (f, b);
+                    }
+                }
+            }
+        }
+        growth.s0 = minimum;
+        growth.c = floor(best.1, b0);
+    }
     // The shape: the second-moment matrix of the errors, each in its own predicted standard
     // deviations, `tr M^2` with `tr M = 3`.
     let mut m = Matrix3::zeros();

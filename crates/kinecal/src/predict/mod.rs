@@ -45,7 +45,10 @@ use nalgebra::Vector3;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-pub use cross_validate::{cross_validate, fit_growth, CrossValidated, GrowthFit, HeldOut};
+pub use cross_validate::{
+    cross_validate, fit_growth, fit_growth_floored, identification_residuals, CrossValidated,
+    GrowthFit, HeldOut,
+};
 
 pub use map::{accuracy_map, AccuracyMap, JointSweep, Slice};
 pub use nearest::JointMetric;
@@ -171,7 +174,8 @@ pub struct Predictor<'r> {
     factor: Vec<f64>,
     n: usize,
     r: usize,
-    model: ModelError,
+    /// The model-error term of the end effector, then of each site.
+    models: Vec<ModelError>,
     metric: JointMetric,
     tree: NearestIndex,
 }
@@ -248,10 +252,31 @@ impl<'r> Predictor<'r> {
             factor,
             n,
             r,
-            model,
+            models: vec![model; 1 + robot.sites.len()],
             metric,
             tree,
         })
+    }
+
+    /// Predicts `target` with a model-error term of its own (a tree's arm, one of several
+    /// reflectors); `model` must predict attitudes when the others do.
+    pub fn set_target_model(&mut self, target: Target, model: ModelError) -> Result<()> {
+        if model.attitude.is_some() != self.models[0].attitude.is_some() {
+            return Err(Error::Problem(
+                "a target's model-error term must predict attitudes when the others do".into(),
+            ));
+        }
+        let k = target_index(target);
+        let slot = self.models.get_mut(k).ok_or_else(|| {
+            Error::Problem(format!("target {k} is not one of this robot's frames"))
+        })?;
+        *slot = model;
+        Ok(())
+    }
+
+    /// The model-error term of `target`.
+    pub fn model(&self, target: Target) -> &ModelError {
+        &self.models[target_index(target).min(self.models.len() - 1)]
     }
 
     /// The robot.
@@ -284,16 +309,12 @@ impl<'r> Predictor<'r> {
     pub fn predict(&self, readings: &[f64], target: Target, s: &mut Scratch) -> Prediction {
         let distance = self.distance(readings, s);
         let (p, a, position) = self.parameter_part(readings, target, s);
+        let model = self.model(target);
         Prediction {
             position,
             distance,
-            position_error: Bound::of(
-                &p,
-                self.model.position.variance(distance),
-                self.model.position.shape,
-            ),
-            attitude_error: self
-                .model
+            position_error: Bound::of(&p, model.position.variance(distance), model.position.shape),
+            attitude_error: model
                 .attitude
                 .map(|g| Bound::of(&a, g.variance(distance), g.shape)),
         }
@@ -343,6 +364,14 @@ impl<'r> Predictor<'r> {
             }
         }
         (p, a, frame.translation)
+    }
+}
+
+/// The index of `target` among a robot's frames: 0 the end effector, `1 + s` site `s`.
+fn target_index(target: Target) -> usize {
+    match target {
+        Target::EndEffector => 0,
+        Target::Site(s) => 1 + s,
     }
 }
 
@@ -495,6 +524,11 @@ pub struct GrowthReport {
     /// How unevenly the error spreads over the axes (3: evenly; 9: along one axis; see
     /// [`Growth::shape`]).
     pub shape: f64,
+    /// The floor of `s0`: what the calibrated model's residuals at the measured postures (of
+    /// this target) show, per axis (their mean square less the parameters' part there,
+    /// `tr J C J^T / 3`); `s0` is never below it.
+    #[serde(default)]
+    pub s0_floor: f64,
     /// The held-out observations of the cross-validation it was estimated from.
     pub points: usize,
     /// The share of them within their 95 % bound, with this term.
@@ -510,6 +544,19 @@ pub struct GrowthReport {
     pub distance_median: f64,
     /// See `distance_median`.
     pub distance_max: f64,
+}
+
+/// The model-error terms of one measured target (a tree's arm, one of several reflectors).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
+#[non_exhaustive]
+pub struct TargetModelError {
+    /// The target: `ee` or a site's name.
+    pub target: String,
+    /// Its position model-error term.
+    pub position: GrowthReport,
+    /// Its attitude model-error term, when attitudes were measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub attitude: Option<GrowthReport>,
 }
 
 /// The median and 95th percentile of the predicted 95 % bound over postures drawn in the joint
@@ -546,6 +593,12 @@ pub struct PredictionReport {
     /// The attitude model-error term, when attitudes were measured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub attitude: Option<GrowthReport>,
+    /// When the data measures more than one target (a tree's arms, several reflectors), each
+    /// one's own terms (fitted to its own held-out errors when it has at least 20, floored by
+    /// its own residuals); a prediction at a target uses its own. `position` and `attitude`
+    /// are the default target's.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<TargetModelError>,
     /// The blocks of nearby postures of each scale of the cross-validation.
     pub folds: Vec<usize>,
     /// Postures drawn in the joint ranges for the summary (seed 0).
@@ -616,25 +669,87 @@ pub fn assess(
     let mut folds = vec![FOLDS.min(measured.len() / 4).max(2), COARSE_FOLDS];
     folds.dedup();
     let cv = cross_validate(cal, data, reference, &metric, &folds)?;
-    let position = fit_growth(&cv.position);
-    let attitude = if pose && !cv.attitude.is_empty() {
-        Some(fit_growth(&cv.attitude))
-    } else {
-        None
-    };
-    let model = ModelError {
-        position: position.growth,
-        attitude: attitude.as_ref().map(|a| a.growth),
-    };
-    let predictor = Predictor::new(
+    // Each measured target's own term, its `s0` at least what the calibrated model's residuals
+    // show there; the default target's is the report's `position` and `attitude`.
+    let target = default_target(robot, data);
+    let att = pose && !cv.attitude.is_empty();
+    let mut predictor = Predictor::new(
         robot,
         estimated,
         covariance,
-        model,
+        ModelError::none(att),
         metric.clone(),
         measured.iter().copied(),
     )?;
-    let target = default_target(robot, data);
+    // The floors: per target, the residuals' mean square per axis less what the parameters'
+    // part of the bound already holds there (`tr J C J^T / 3`, the share of the errors the fit
+    // absorbed), so that the bound at the measured postures is at least the residuals' size.
+    let residuals = identification_residuals(robot, data);
+    let mut held = vec![(0.0, 0.0, 0usize, 0usize); residuals.len()];
+    {
+        let mut s = predictor.scratch();
+        for o in &data.observations {
+            let is_pose = match o {
+                Observation::Position(_) => false,
+                Observation::Pose(_) => true,
+                _ => continue,
+            };
+            let t = o.target();
+            let (p, a, _) =
+                predictor.parameter_part(&data.postures[o.posture()].readings, t, &mut s);
+            let h = &mut held[target_index(t)];
+            h.0 += (p[0][0] + p[1][1] + p[2][2]) / 3.0;
+            h.2 += 1;
+            if is_pose {
+                h.1 += (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+                h.3 += 1;
+            }
+        }
+    }
+    let mut terms: Vec<(Target, GrowthFit, Option<GrowthFit>, f64, f64)> = Vec::new();
+    for (k, &(count, p2, a2)) in residuals.iter().enumerate() {
+        if count == 0 {
+            continue;
+        }
+        let t = if k == 0 {
+            Target::EndEffector
+        } else {
+            Target::Site(k - 1)
+        };
+        let mean = |sum: f64, n: usize| if n > 0 { sum / n as f64 } else { 0.0 };
+        let floor_p = (p2 - mean(held[k].0, held[k].2)).max(0.0).sqrt();
+        let floor_a = (a2 - mean(held[k].1, held[k].3)).max(0.0).sqrt();
+        let own = |v: &[HeldOut]| -> Vec<HeldOut> {
+            v.iter().filter(|h| h.target == t).copied().collect()
+        };
+        let (mut position, mut attitude) = (own(&cv.position), own(&cv.attitude));
+        // Too few held out at this target for a term of its own: all of them, floored by its
+        // residuals.
+        if position.len() < MIN_POSTURES {
+            position = cv.position.clone();
+        }
+        if attitude.len() < MIN_POSTURES {
+            attitude = cv.attitude.clone();
+        }
+        let fit_p = fit_growth_floored(&position, floor_p);
+        let fit_a = att.then(|| fit_growth_floored(&attitude, floor_a));
+        terms.push((t, fit_p, fit_a, floor_p, floor_a));
+    }
+    let Some(default_k) = terms.iter().position(|x| x.0 == target) else {
+        return Err(Error::Problem(
+            "the default target has no measured position or pose".into(),
+        ));
+    };
+    let (position, attitude) = (terms[default_k].1, terms[default_k].2);
+    for x in &terms {
+        predictor.set_target_model(
+            x.0,
+            ModelError {
+                position: x.1.growth,
+                attitude: x.2.as_ref().map(|a| a.growth),
+            },
+        )?;
+    }
     let units = &robot.units;
     let len = |v: f64| units.from_si(Quantity::Length, v);
     let ang = |v: f64| units.from_si(Quantity::Angle, v);
@@ -662,10 +777,11 @@ pub fn assess(
     let samples = sample_readings(robot, SUMMARY_SAMPLES, 0);
     let position_summary = summarise(&samples, robot, false);
     let attitude_summary = pose.then(|| summarise(&samples, robot, true));
-    let growth_report = |g: &GrowthFit, angle: bool| {
+    let growth_report = |g: &GrowthFit, angle: bool, residuals: f64| {
         let q = |v: f64| if angle { ang(v) } else { len(v) };
         GrowthReport {
             s0: q(g.growth.s0),
+            s0_floor: q(residuals),
             // Per length unit of distance.
             c: q(g.growth.c) / len(1.0),
             shape: g.growth.shape,
@@ -694,8 +810,22 @@ pub fn assess(
             .collect(),
         levers: metric.levers().iter().map(|&l| len(l)).collect(),
         measured: measured.iter().map(|r| r.to_vec()).collect(),
-        position: growth_report(&position, false),
-        attitude: attitude.as_ref().map(|a| growth_report(a, true)),
+        position: growth_report(&position, false, terms[default_k].3),
+        attitude: attitude
+            .as_ref()
+            .map(|a| growth_report(a, true, terms[default_k].4)),
+        targets: if terms.len() > 1 {
+            terms
+                .iter()
+                .map(|x| TargetModelError {
+                    target: crate::observe::target_name(robot, x.0).to_string(),
+                    position: growth_report(&x.1, false, x.3),
+                    attitude: x.2.as_ref().map(|a| growth_report(a, true, x.4)),
+                })
+                .collect()
+        } else {
+            Vec::new()
+        },
         folds,
         samples: SUMMARY_SAMPLES,
         position_summary,
@@ -733,9 +863,13 @@ pub(crate) fn percentile(v: &mut [f64], q: f64) -> f64 {
 /// The header of the predictions table `kinecal predict` writes: the posture and its readings,
 /// where the target is (`x, y, z`), the distance to the nearest measured posture, and per
 /// quantity the RMS lengths of the parameters' and the model error's parts, the 95 % bound, and
-/// the 95 % bound of the parameters alone (the robot file's units).
-pub(crate) fn csv_header(robot: &Robot, attitude: bool) -> String {
+/// the 95 % bound of the parameters alone (the robot file's units). With `sites`, each row's
+/// target follows the posture (`site`).
+pub(crate) fn csv_header(robot: &Robot, attitude: bool, sites: bool) -> String {
     let mut h = String::from("posture");
+    if sites {
+        h += ",site";
+    }
     for j in 1..=robot.dof() {
         h += &format!(",v{j}");
     }
@@ -746,10 +880,12 @@ pub(crate) fn csv_header(robot: &Robot, attitude: bool) -> String {
     h
 }
 
-/// One row of the predictions table ([`csv_header`]), appended to `out` with its line end.
+/// One row of the predictions table ([`csv_header`]), appended to `out` with its line end
+/// (`site`: its target, when the table has the column).
 pub(crate) fn csv_row(
     robot: &Robot,
     label: &str,
+    site: Option<&str>,
     readings: &[f64],
     p: &Prediction,
     out: &mut String,
@@ -759,6 +895,10 @@ pub(crate) fn csv_row(
     let len = |v: f64| units.from_si(Quantity::Length, v);
     let ang = |v: f64| units.from_si(Quantity::Angle, v);
     out.push_str(label);
+    if let Some(site) = site {
+        out.push(',');
+        out.push_str(site);
+    }
     for v in readings {
         let _ = write!(out, ",{v}");
     }
@@ -866,14 +1006,24 @@ pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Pr
             .map(|a| growth(a, true))
             .transpose()?,
     };
-    Predictor::new(
+    let mut predictor = Predictor::new(
         robot,
         &estimated,
         &covariance,
         model,
         metric,
         report.measured.iter().map(Vec::as_slice),
-    )
+    )?;
+    for t in &report.targets {
+        let target = crate::files::site_target(robot, &t.target)
+            .map_err(|m| Error::Problem(format!("the report's model-error terms: {m}")))?;
+        let model = ModelError {
+            position: growth(&t.position, false)?,
+            attitude: t.attitude.as_ref().map(|a| growth(a, true)).transpose()?,
+        };
+        predictor.set_target_model(target, model)?;
+    }
+    Ok(predictor)
 }
 
 #[cfg(test)]

@@ -130,6 +130,7 @@ fn maximum_likelihood_recovers_a_known_growing_term() {
                 distance: d,
                 error: e,
                 parameters: p,
+                target: Target::EndEffector,
             }
         })
         .collect();
@@ -164,6 +165,20 @@ fn maximum_likelihood_recovers_a_known_growing_term() {
         .collect();
     let f2 = fit_growth(&flat);
     assert!(f2.growth.c * 0.25 < 0.2 * f2.growth.s0, "{:?}", f2.growth);
+    // A floor above the likelihood's s0 holds s0 there and fits c again (smaller: the floor
+    // covers some of the far errors' variance); a floor below it changes nothing.
+    let floored = fit_growth_floored(&samples, 2.0 * truth.s0);
+    assert_eq!(floored.growth.s0, 2.0 * truth.s0);
+    assert!(
+        floored.growth.c <= fit.growth.c * 1.0001,
+        "{:?}",
+        floored.growth
+    );
+    assert!(floored.growth.c > 0.5 * truth.c, "{:?}", floored.growth);
+    assert_eq!(
+        fit_growth_floored(&samples, 0.1 * truth.s0).growth,
+        fit.growth
+    );
 }
 
 #[test]
@@ -177,6 +192,7 @@ fn a_report_of_another_robot_or_a_broken_one_is_refused() {
         measured: vec![vec![0.0; 4]],
         position: GrowthReport {
             s0: 0.001,
+            s0_floor: 0.0,
             c: 0.01,
             shape: 3.0,
             points: 10,
@@ -188,6 +204,7 @@ fn a_report_of_another_robot_or_a_broken_one_is_refused() {
             distance_max: 2.0,
         },
         attitude: None,
+        targets: Vec::new(),
         folds: vec![5, 3],
         samples: 10,
         position_summary: BoundSummary {

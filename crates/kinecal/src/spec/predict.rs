@@ -60,7 +60,8 @@ pub struct PredictSpec {
     /// Its calibration report (JSON), with a prediction.
     #[serde(default)]
     pub report: String,
-    /// Postures to predict at (`posture,v1..vn`).
+    /// Postures to predict at (`posture,v1..vn`; with a `site` column, each row at its own
+    /// target, `ee` or a site; a measurement file: each position or pose at its target).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub postures: Option<String>,
     /// Instead, this many postures sampled within the joint ranges.
@@ -125,6 +126,9 @@ pub struct PredictionTable {
     /// The postures' labels.
     #[serde(default)]
     pub postures: Vec<String>,
+    /// Each row's target, when the postures file has a `site` column.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sites: Vec<String>,
     /// The spread of the 95 % position bound.
     pub position_bound95: BoundSpread,
     /// Every column of the CSV but `posture`, by its name (`v1`, ..., `x`, `y`, `z`,
@@ -273,6 +277,89 @@ fn reach_targets(
     Ok(reached)
 }
 
+/// A posture to predict at: its label, readings and, from a `site` column, its own target
+/// (name and frame).
+type Row = (String, Vec<f64>, Option<(String, Target)>);
+
+/// The rows of a postures file with a `site` column (`posture,site,v1..vn`, joint columns by
+/// name in any order; or a measurement file: each position or pose), each at its target;
+/// `None` when the file has no `site` column, or is a measurement file that measures `target`
+/// alone (then a row per posture, as a postures file).
+fn sited_postures(
+    text: &str,
+    file: &str,
+    robot: &Robot,
+    target: Target,
+) -> Result<Option<Vec<Row>>> {
+    use crate::observe::Observation;
+    let t = crate::files::table::read(text, file)?;
+    let Some(site) = t.column("site") else {
+        return Ok(None);
+    };
+    if t.column("x").is_some() {
+        let data = crate::files::parse_measurements(text, file, robot)?;
+        let rows: Vec<Row> = data
+            .observations
+            .iter()
+            .filter(|o| matches!(o, Observation::Position(_) | Observation::Pose(_)))
+            .map(|o| {
+                let p = &data.postures[o.posture()];
+                let name = crate::observe::target_name(robot, o.target()).to_string();
+                (
+                    p.label.clone(),
+                    p.readings.clone(),
+                    Some((name, o.target())),
+                )
+            })
+            .collect();
+        if rows
+            .iter()
+            .all(|r| r.2.as_ref().is_some_and(|o| o.1 == target))
+        {
+            return Ok(None);
+        }
+        return Ok(Some(rows));
+    }
+    let mut expected = vec!["posture".to_string(), "site".to_string()];
+    expected.extend((0..robot.dof()).map(|j| crate::files::reading_column(robot, &t.header, j)));
+    let cols: Option<Vec<usize>> = expected.iter().map(|c| t.column(c)).collect();
+    let cols = match cols {
+        Some(cols) if t.header.len() == expected.len() => cols,
+        _ => {
+            let mut want = crate::files::postures_header(robot);
+            want.insert(1, "site".into());
+            return Err(Error::input(
+                t.header_at(),
+                format!(
+                    "unexpected header `{}`: expected `{}` (joint columns may carry the \
+                     joints' names, in any order)",
+                    t.header.join(","),
+                    want.join(",")
+                ),
+            ));
+        }
+    };
+    t.check_rows()?;
+    let mut rows = Vec::new();
+    for (line, f) in t.rows() {
+        let readings = (0..robot.dof())
+            .map(|j| t.number(line, &expected[2 + j], &f[cols[2 + j]]))
+            .collect::<Result<Vec<_>>>()?;
+        let name = f[site].trim().to_string();
+        let target = crate::files::site_target(robot, &name)
+            .map_err(|m| Error::input(t.at(line, "site"), m))?;
+        let name = crate::observe::target_name(robot, target).to_string();
+        rows.push((f[cols[0]].to_string(), readings, Some((name, target))));
+    }
+    if rows.is_empty() {
+        return Err(Error::input(
+            Location::file(file),
+            "no postures: the file has a header but no rows",
+        ));
+    }
+    Ok(Some(rows))
+}
+
 impl PredictSpec {
     /// The predictor of `robot` from the prediction `pr` of its report, and the frame
     /// `target` names: the one translation, for files and for Python's arrays.
@@ -287,13 +374,14 @@ impl PredictSpec {
         Ok((predictor, target))
     }
 
-    /// The postures the spec names, labelled.
+    /// The postures the spec names, labelled, each with its own target when the postures file
+    /// has a `site` column.
     fn postures(
         &self,
         robot: &Robot,
         target: Target,
         messages: &mut Vec<Message>,
-    ) -> Result<Vec<(String, Vec<f64>)>> {
+    ) -> Result<Vec<Row>> {
         let given = [
             self.postures.is_some(),
             self.sample.is_some(),
@@ -307,9 +395,12 @@ impl PredictSpec {
         }
         if let Some(path) = &self.postures {
             let s = read_source(path, Setting::Postures)?;
+            if let Some(rows) = sited_postures(&s.text, &s.name, robot, target)? {
+                return Ok(rows);
+            }
             return Ok(crate::files::parse_postures(&s.text, &s.name, robot)?
                 .into_iter()
-                .map(|p| (p.label, p.readings))
+                .map(|p| (p.label, p.readings, None))
                 .collect());
         }
         if let Some(n) = self.sample {
@@ -317,11 +408,14 @@ impl PredictSpec {
             return Ok(predict::sample_readings(robot, n, self.seed.unwrap_or(1))
                 .chunks(robot.dof())
                 .enumerate()
-                .map(|(i, r)| ((i + 1).to_string(), r.to_vec()))
+                .map(|(i, r)| ((i + 1).to_string(), r.to_vec(), None))
                 .collect());
         }
         let path = self.targets.as_deref().unwrap_or_default();
-        reach_targets(robot, path, target, messages)
+        Ok(reach_targets(robot, path, target, messages)?
+            .into_iter()
+            .map(|(l, r)| (l, r, None))
+            .collect())
     }
 
     /// Reads the files, predicts and writes the outputs.
@@ -338,10 +432,15 @@ impl PredictSpec {
         env.progress
             .say(&format!("predicting {} postures", postures.len()));
         let attitude = pr.attitude.is_some();
-        let header = predict::csv_header(&robot, attitude);
+        let sited = postures.iter().any(|p| p.2.is_some());
+        let header = predict::csv_header(&robot, attitude, sited);
         let mut csv = header.clone();
         csv.push('\n');
-        let names: Vec<String> = header.split(',').skip(1).map(str::to_string).collect();
+        let names: Vec<String> = header
+            .split(',')
+            .skip(if sited { 2 } else { 1 })
+            .map(str::to_string)
+            .collect();
         let mut columns: Vec<Vec<f64>> = names
             .iter()
             .map(|_| Vec::with_capacity(postures.len()))
@@ -353,10 +452,12 @@ impl PredictSpec {
         );
         let mut s = predictor.scratch();
         let mut bounds = Vec::with_capacity(postures.len());
-        for (label, readings) in &postures {
-            let p = predictor.predict(readings, target, &mut s);
+        for (label, readings, own) in &postures {
+            let at = own.as_ref().map_or(target, |o| o.1);
+            let p = predictor.predict(readings, at, &mut s);
             bounds.push(l(p.position_error.bound));
-            predict::csv_row(&robot, label, readings, &p, &mut csv);
+            let site = own.as_ref().map(|o| o.0.as_str());
+            predict::csv_row(&robot, label, site, readings, &p, &mut csv);
             let b = p.position_error;
             let mut values: Vec<f64> = readings.clone();
             values.extend([
@@ -423,7 +524,15 @@ impl PredictSpec {
             target: target_name.clone(),
             length_unit: u.length.to_string(),
             angle_unit: u.angle.to_string(),
-            postures: postures.iter().map(|(l, _)| l.clone()).collect(),
+            postures: postures.iter().map(|p| p.0.clone()).collect(),
+            sites: if sited {
+                postures
+                    .iter()
+                    .map(|p| p.2.as_ref().map_or(target_name.clone(), |o| o.0.clone()))
+                    .collect()
+            } else {
+                Vec::new()
+            },
             position_bound95: BoundSpread {
                 median: pick(0.5),
                 p95: pick(0.95),
