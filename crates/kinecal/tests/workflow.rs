@@ -275,6 +275,37 @@ fn cross_validation_folds_partition_the_postures_and_check_each() {
     assert!(e.contains("folds") && e.contains("99"), "{e}");
 }
 
+/// A model choice's timings add up: the chosen model's phases and the phase `model choice` (the
+/// other candidates' fits, the repeated folds) sum to the wall time of the choice, within 10 %
+/// (what lies outside the clock: the scoring and the report's few lines).
+#[test]
+fn model_choice_timings_add_up_to_its_wall_time() {
+    use kinecal::workflow::{choose, Candidate};
+    let nominal = examples::ge_a4();
+    let mut truth = nominal.clone();
+    let id = parse_param_list("p14", &nominal).unwrap()[0];
+    truth.set(id, truth.get(id) + 0.001);
+    let mut data = simulate::measure(&truth, &simulate::sample_postures(&nominal, 30, 4), true);
+    simulate::add_noise(&mut data, 0.0005 * 0.0254, 0.0, 4);
+    let mut req = Request::new(nominal.clone(), data);
+    req.weights = Weights {
+        length: 0.0005 * 0.0254,
+        angle: 0.005f64.to_radians(),
+    };
+    let candidates = Candidate::defaults(&nominal).unwrap();
+    let t = std::time::Instant::now();
+    let choice = choose(&req, &candidates, 5, None, 2).unwrap();
+    let wall = t.elapsed().as_secs_f64();
+    let timings = &choice.outcome.report.timings;
+    let sum: f64 = timings.iter().map(|t| t.seconds).sum();
+    assert!(
+        (sum - wall).abs() <= 0.1 * wall,
+        "phases {sum:.4} s against {wall:.4} s of wall time: {timings:?}"
+    );
+    let choice_phase = timings.iter().find(|t| t.phase == "model choice");
+    assert!(choice_phase.is_some_and(|t| t.seconds > 0.0), "{timings:?}");
+}
+
 /// Model choice by cross-validation: when a joint's gear ratio really changed (joint 4's slope
 /// +0.02 deg/unit), the slope models earn their place and the geometric set is not chosen; when
 /// only lengths and zeros changed, no slope is kept (the one-standard-error rule keeps the

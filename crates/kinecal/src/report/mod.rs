@@ -49,7 +49,8 @@ pub struct SourceReport {
 #[non_exhaustive]
 pub struct PhaseTime {
     /// The phase (`reading`, `preparation`, `selection`, `estimation`, `pruning`,
-    /// `uncertainty`, `report`, `cross-validation`, `writing`).
+    /// `uncertainty`, `report`, `cross-validation`, `prediction`, `model choice`: with a
+    /// model choice, the chosen model's phases and the other candidates' fits).
     pub phase: String,
     /// Seconds.
     pub seconds: f64,
