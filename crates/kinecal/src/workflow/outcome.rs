@@ -75,7 +75,10 @@ impl Checked {
     fn fitted(cal: &Calibration, data: &Dataset) -> Checked {
         let (before, after) = (cal.accuracy_before.clone(), cal.accuracy_after.clone());
         // The objectives are in the stated sigmas when no row scale (floor or loss) applies.
-        if matches!(cal.options.loss, Loss::Squared) && cal.row_scale.iter().all(|&s| s == 1.0) {
+        let floored = cal
+            .model_error
+            .is_some_and(|m| m.length > 0.0 || m.angle > 0.0);
+        if matches!(cal.options.loss, Loss::Squared) && !floored {
             let m = data.rows().max(1) as f64;
             return Checked {
                 postures: data.postures.len(),
