@@ -281,3 +281,162 @@ fn cartesian_targets_are_reached_then_predicted() {
     assert_eq!(code, 1, "{e}");
     assert!(e.contains("odd.csv:1: unknown column `w`"), "{e}");
 }
+
+/// A two-arm tree (site `arm1` the left arm's tool, the end effector `arm2` the right's),
+/// calibrated with a prediction in `dir` from both arms' positions: `tree.toml`, `cal.toml`,
+/// `report.json`.
+fn calibrated_tree(dir: &Path) -> kinecal::Robot {
+    let robot = kinecal::apps::simulate::random_tree(2, &[4, 4], 11);
+    std::fs::write(
+        dir.join("tree.toml"),
+        kinecal::model::robot_file::write_robot_toml(&robot, None),
+    )
+    .unwrap();
+    for args in [
+        &argv(
+            "simulate --robot tree.toml --postures 60 --seed 3 --position-only
+             --perturb-std length=0.001,angle=0.05 --noise length=0.00005,angle=0 --out data.csv",
+        )[..],
+        &argv(
+            "calibrate --robot tree.toml --data data.csv --estimate identifiable
+             --weights length=0.00005,angle=0.001 --out cal.toml --report report.json --predict",
+        ),
+    ] {
+        let (code, _, e) = run(dir, args);
+        assert_eq!(code, 0, "{args:?}: {e}");
+    }
+    robot
+}
+
+#[test]
+fn a_site_column_predicts_each_row_at_its_site() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let robot = calibrated_tree(d);
+    // A mixed postures file: rows of the left arm (`arm1`), the right (`ee` and its name).
+    let postures = kinecal::apps::simulate::sample_postures(&robot, 6, 21);
+    let sites = ["arm1", "ee", "arm2", "arm1", "arm1", "ee"];
+    let mut text = String::from("posture,site");
+    for j in 1..=robot.dof() {
+        text += &format!(",v{j}");
+    }
+    text.push('\n');
+    for (p, site) in postures.iter().zip(sites) {
+        text += &format!("{},{site}", p.label);
+        for v in &p.readings {
+            text += &format!(",{v}");
+        }
+        text.push('\n');
+    }
+    std::fs::write(d.join("mixed.csv"), &text).unwrap();
+    let (code, _, e) = run(
+        d,
+        &argv("predict --robot cal.toml --report report.json --postures mixed.csv --out pred.csv"),
+    );
+    assert_eq!(code, 0, "{e}");
+    // `kinecal fk` of the same postures: every frame of each.
+    let mut plain = String::from("posture");
+    for j in 1..=robot.dof() {
+        plain += &format!(",v{j}");
+    }
+    plain.push('\n');
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        plain += &format!("{},{}\n", f[0], f[2..].join(","));
+    }
+    std::fs::write(d.join("plain.csv"), plain).unwrap();
+    let (code, _, e) = run(
+        d,
+        &argv("fk --robot cal.toml --postures plain.csv --out fk.csv"),
+    );
+    assert_eq!(code, 0, "{e}");
+    let fk = std::fs::read_to_string(d.join("fk.csv")).unwrap();
+    let fk_header: Vec<&str> = fk.lines().next().unwrap().split(',').collect();
+    let fcol = |h: &str| fk_header.iter().position(|x| *x == h).unwrap();
+    let cal = kinecal::model::robot_file::parse_robot_toml(
+        &std::fs::read_to_string(d.join("cal.toml")).unwrap(),
+        "cal.toml",
+    )
+    .unwrap();
+    let report = kinecal::report::CalibrationReport::from_json(
+        &std::fs::read_to_string(d.join("report.json")).unwrap(),
+    )
+    .unwrap();
+    let pr = report.prediction.as_ref().unwrap();
+    assert_eq!(pr.targets.len(), 2, "a term per arm: {:?}", pr.targets);
+    let p = kinecal::predict::from_report(&cal, pr).unwrap();
+    let mut s = p.scratch();
+    let table = std::fs::read_to_string(d.join("pred.csv")).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(&header[..3], &["posture", "site", "v1"], "{header:?}");
+    let col = |h: &str| header.iter().position(|x| *x == h).unwrap();
+    let mut rows = 0;
+    for ((line, posture), site) in lines.zip(&postures).zip(sites) {
+        let f: Vec<&str> = line.split(',').collect();
+        let v = |h: &str| f[col(h)].parse::<f64>().unwrap();
+        let target = kinecal::files::site_target(&cal, site).unwrap();
+        // The site written is the target's name (`ee` and `arm2` name one frame).
+        let name = if target == kinecal::Target::EndEffector {
+            "arm2"
+        } else {
+            site
+        };
+        assert_eq!(f[0], posture.label);
+        // Where fk puts that frame at that posture (a row per posture and frame).
+        let at = fk
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .find(|g| {
+                g[0] == posture.label
+                    && (g[fcol("site")] == name
+                        || (target == kinecal::Target::EndEffector && g[fcol("site")] == "ee"))
+            })
+            .unwrap_or_else(|| panic!("fk has no row {} {site}:\n{fk}", posture.label));
+        for axis in ["x", "y", "z"] {
+            let fkv: f64 = at[fcol(axis)].parse().unwrap();
+            assert!(
+                (v(axis) - fkv).abs() < 1e-9,
+                "{site} {axis}: {} {fkv}",
+                v(axis)
+            );
+        }
+        // Its own arm's term.
+        let q = p.predict(&posture.readings, target, &mut s);
+        assert!((v("position_bound95") - q.position_error.bound).abs() < 1e-12);
+        assert!((v("position_model") - q.position_error.model).abs() < 1e-12);
+        rows += 1;
+    }
+    assert_eq!(rows, sites.len());
+    // A measurement file (fk's: both arms at each posture) predicts each row at its site.
+    let (code, _, e) = run(
+        d,
+        &argv("predict --robot cal.toml --report report.json --postures fk.csv --out pred_fk.csv"),
+    );
+    assert_eq!(code, 0, "{e}");
+    let pred = std::fs::read_to_string(d.join("pred_fk.csv")).unwrap();
+    assert_eq!(pred.lines().count(), fk.lines().count());
+    for (a, b) in pred.lines().zip(fk.lines()).skip(1) {
+        let (a, b): (Vec<&str>, Vec<&str>) = (a.split(',').collect(), b.split(',').collect());
+        assert_eq!(a[..2], b[..2]);
+        for axis in ["x", "y", "z"] {
+            let (x, y): (f64, f64) = (
+                a[col(axis)].parse().unwrap(),
+                b[fcol(axis)].parse().unwrap(),
+            );
+            assert!((x - y).abs() < 1e-9, "{a:?} {b:?}");
+        }
+    }
+    // A site the robot does not have is refused with its line.
+    std::fs::write(d.join("bad.csv"), text.replacen(",arm1,", ",arm9,", 1)).unwrap();
+    let (code, _, e) = run(
+        d,
+        &argv("predict --robot cal.toml --report report.json --postures bad.csv --out x.csv"),
+    );
+    assert_eq!(code, 1, "{e}");
+    assert!(
+        e.contains("bad.csv:2") && e.contains("unknown site `arm9`"),
+        "{e}"
+    );
+}
