@@ -97,6 +97,14 @@ fn ur10_identified_on_a_predicts_c_and_d_within_their_bounds() {
         pr.position_summary.median_measured * 1e3,
     );
     let cal = &out.calibration;
+    // At the identification postures the bounds cover the model's own residuals.
+    let (at_a, alone_a, _, n_a) = coverage(&cal.calibrated, pr, &read("series_A.csv"));
+    eprintln!(
+        "series_A.csv (identification): {n_a} points; within the predicted 95 % bound: \
+         {at_a:.3} (parameters alone {alone_a:.3}); s0 floor {:.4} mm",
+        pr.position.s0_floor * 1e3
+    );
+    assert!(at_a >= 0.9, "identification coverage {at_a}");
     for name in ["series_C.csv", "series_D.csv"] {
         let data = read(name);
         let session = data.sessions()[0].to_string();
