@@ -173,3 +173,100 @@ fn random_dh_robots_are_exported_exactly() {
         }
     }
 }
+
+/// UR-like arms (the UR5's table, each value moved by up to 5 mm or 0.5 deg) calibrated in a
+/// tracker's frame 3.5 m away (link1 holds the placement, turned anyhow): the standard table's
+/// fixed base row holds the placement, its joint rows stay within the robot's size (`a`, `d`
+/// below the reach without link1), and it reads back to the robot's forward kinematics exactly.
+/// The modified convention, whose joint 1 row would hold it, is refused, naming link1 and the
+/// remedy.
+#[test]
+fn a_tracker_placement_stays_in_the_base_row() {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(37);
+    let u = Units {
+        length: LengthUnit::M,
+        angle: AngleUnit::Rad,
+    };
+    let ur5 = [
+        (0.0, 90f64, 0.089159),
+        (-0.425, 0.0, 0.0),
+        (-0.39225, 0.0, 0.0),
+        (0.0, 90.0, 0.10915),
+        (0.0, -90.0, 0.09465),
+        (0.0, 0.0, 0.0823),
+    ];
+    let mut refused = 0;
+    for case in 0..40 {
+        let (phi, theta) = (
+            rng.random_range(-1.5..1.5f64),
+            rng.random_range(-3.1..3.1f64),
+        );
+        let mut rows = vec![DhRow {
+            kind: RowKind::Fixed,
+            a: 3.5 * phi.cos(),
+            alpha: rng.random_range(-3.1..3.1),
+            d: 3.5 * phi.sin(),
+            theta,
+            beta: rng.random_range(-0.5..0.5),
+        }];
+        for &(a, alpha, d) in &ur5 {
+            rows.push(DhRow::new(
+                JointKind::Revolute,
+                a + rng.random_range(-0.005..0.005),
+                (alpha + rng.random_range(-0.5..0.5)).to_radians(),
+                d + rng.random_range(-0.005..0.005),
+                rng.random_range(-0.01..0.01),
+            ));
+        }
+        let robot = robot_from_dh("ur-like", u, &rows, Convention::Standard);
+        let placement = robot.links[0];
+        let from_tracker = (placement.x.powi(2) + placement.y.powi(2) + placement.z.powi(2)).sqrt();
+        assert!((from_tracker - 3.5).abs() < 0.2, "{from_tracker}");
+        let size: f64 = robot.links[1..]
+            .iter()
+            .map(|l| (l.x * l.x + l.y * l.y + l.z * l.z).sqrt())
+            .sum();
+        assert!(size < 1.5, "{size}");
+        let e = export_dh(&robot, Convention::Standard, u).unwrap();
+        assert!(
+            e.read_back.position < 1e-9 && e.read_back.attitude < 1e-9,
+            "case {case}: {:?}\n{}",
+            e.read_back,
+            e.text
+        );
+        e.check(&robot, &Tolerance::default_for(&robot)).unwrap();
+        assert!(e.fixed_rows().0, "case {case}\n{}", e.text);
+        for r in e.table.rows.iter().filter(|r| r.kind != RowKind::Fixed) {
+            assert!(
+                r.a.abs() < size && r.d.abs() < size,
+                "case {case}: a joint row beyond the robot's size ({size:.3} m): {r:?}\n{}",
+                e.text
+            );
+        }
+        match export_dh(&robot, Convention::Modified, u) {
+            Ok(m) => {
+                assert!(
+                    m.read_back.position < 1e-9,
+                    "case {case}: {:?}",
+                    m.read_back
+                );
+                for r in m.table.rows.iter().filter(|r| r.kind != RowKind::Fixed) {
+                    assert!(r.a.abs() < size && r.d.abs() < size, "case {case}: {r:?}");
+                }
+            }
+            Err(err) => {
+                let err = err.to_string();
+                assert!(
+                    err.contains("link1") && err.contains("--convention standard"),
+                    "{err}"
+                );
+                refused += 1;
+            }
+        }
+    }
+    assert!(
+        refused > 0,
+        "no modified table was refused: the refusal was not tested"
+    );
+}

@@ -586,6 +586,24 @@ fn along_z(rel: &Frame) -> (f64, f64) {
     )
 }
 
+/// A standard fixed row `Rz(theta) Tz(d) Tx(a) Rx(alpha) Ry(beta)` from the global frame to a
+/// frame on `line` at its point `p`, its z along the line (the row's five values reach any
+/// point and any direction).
+fn placement_row(line: &Line) -> DhRow {
+    let p = line.p;
+    let radius = p.x.hypot(p.y);
+    let theta = if radius > 1e-12 { p.y.atan2(p.x) } else { 0.0 };
+    let (alpha, beta) = twist_to(&(rz(-theta).rotation * line.z));
+    DhRow {
+        kind: RowKind::Fixed,
+        a: radius,
+        alpha,
+        d: p.z,
+        theta,
+        beta,
+    }
+}
+
 /// Whether a row would be written as all zeros (the identity).
 fn is_zero(r: &DhRow) -> bool {
     [r.a, r.alpha, r.d, r.theta, r.beta]
@@ -631,6 +649,15 @@ pub(crate) fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow
     let next_line = |k: usize| if k + 1 < n { lines[k + 1] } else { tool_line };
     let kind = |k: usize| RowKind::from(robot.joints[k].kind);
     let mut rows = Vec::with_capacity(n + 2);
+    // The robot's size without its placement (link1: for a robot calibrated in an instrument's
+    // frame, where the instrument saw it, metres away), and its longest link: a base row that
+    // meets axis 1 farther than that from joint 1's own frame would put the placement into
+    // the joint rows.
+    let lengths = robot.links[1..]
+        .iter()
+        .map(|l| (l.x * l.x + l.y * l.y + l.z * l.z).sqrt());
+    let size = lengths.clone().sum::<f64>().max(1e-3);
+    let longest = lengths.fold(1e-3, f64::max);
     match convention {
         Convention::Standard => {
             // One standard step: from s (on an axis) to the next line.
@@ -656,7 +683,15 @@ pub(crate) fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow
                 (row, next)
             };
             // Frame 0 on axis 1: the global frame when axis 1 is its z axis, else a fixed row.
-            let (base, mut s) = step(&Frame::identity(), &lines[0], Anchor::Plane, RowKind::Fixed);
+            let (mut base, mut s) =
+                step(&Frame::identity(), &lines[0], Anchor::Plane, RowKind::Fixed);
+            if (s.translation - lines[0].p).norm() > longest {
+                // Frame 0 farther from joint 1's own frame than any link is long: the placement
+                // would go on into joint 1's d. Frame 0 at joint 1's own frame instead, the
+                // whole placement in the base row.
+                base = placement_row(&lines[0]);
+                s = base.transform(Convention::Standard);
+            }
             if !is_zero(&base) {
                 rows.push(base);
             } else {
@@ -760,6 +795,28 @@ pub(crate) fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow
                 if !is_zero(&row) {
                     rows.push(row);
                 }
+            }
+        }
+    }
+    if convention == Convention::Modified {
+        if let Some(r) = rows.iter().find(|r| r.kind != RowKind::Fixed) {
+            // Beyond the robot's size and beyond a metre (a small robot's own DH base offsets
+            // stay): a placement, not a link.
+            let far = size.max(1.0);
+            if r.a.abs().max(r.d.abs()) > far && lines[0].p.norm() > far {
+                return Err(Error::Problem(format!(
+                    "the robot's base frame is {:.3} m from its first joint (link1, e.g. a \
+                     tracker's frame where the robot was calibrated): a modified DH table \
+                     would write that placement into joint 1's row (a = {:.3} m, d = {:.3} m, \
+                     beyond the robot's size of {:.3} m without it), which a controller does \
+                     not take; export the standard convention (`--convention standard`: its \
+                     fixed base row holds the placement), or place the robot in its own base \
+                     frame first",
+                    lines[0].p.norm(),
+                    r.a,
+                    r.d,
+                    size
+                )));
             }
         }
     }
