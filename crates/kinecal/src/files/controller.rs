@@ -215,21 +215,25 @@ pub const RAPID_SPEEDS: [u32; 25] = [
 /// The sizes of RAPID's predefined zonedata (`z0` .. `z200`, mm).
 pub const RAPID_ZONES: [u32; 14] = [0, 1, 5, 10, 15, 20, 30, 40, 50, 60, 80, 100, 150, 200];
 
-/// KRL keywords a module may not be named (KRL is case-insensitive).
+/// KRL keywords a module may not be named (KRL is case-insensitive), and `I`, the program's own
+/// loop variable.
 const KRL_KEYWORDS: &str =
     "ANIN ANOUT AND B_AND B_EXOR B_NOT B_OR BOOL BRAKE C_DIS C_ORI C_PTP C_VEL CASE CHAR CIRC \
      CIRC_REL CONST CONTINUE DECL DEF DEFAULT DEFDAT DEFFCT DELAY DO ELSE END ENDDAT ENDFCT \
      ENDFOR ENDIF ENDLOOP ENDSWITCH ENDWHILE ENUM EXIT EXOR EXT EXTFCT FALSE FOR GLOBAL GOTO \
      HALT IF IMPORT INT INTERRUPT LIN LIN_REL LOOP NOT OR PTP PTP_REL REAL REPEAT RETURN \
-     SWITCH";
+     SWITCH WHILE TO STEP THEN UNTIL WAIT SEC WHEN STRUC SIGNAL TRIGGER PULSE ON OFF PUBLIC \
+     PRIO DISTANCE MINIMUM MAXIMUM I";
 
-/// RAPID's reserved words (RAPID is case-insensitive), and `main`, the procedure inside.
+/// RAPID's reserved words (RAPID is case-insensitive), and the names the program itself uses:
+/// `main` (the procedure inside), `tool0`, `fine`, `vmax`, `MoveAbsJ`, `NoEOffs` (and, checked
+/// apart, the speeddata `vN` and zonedata `zN`).
 const RAPID_RESERVED: &str =
     "ALIAS AND BACKWARD CASE CONNECT CONST DEFAULT DIV DO ELSE ELSEIF ENDFOR ENDFUNC ENDIF \
      ENDMODULE ENDPROC ENDRECORD ENDTEST ENDTRAP ENDWHILE ERROR EXIT FALSE FOR FROM FUNC GOTO \
      IF INOUT LOCAL MOD MODULE NOSTEPIN NOT NOVIEW OR PERS PROC RAISE READONLY RECORD RETRY \
      RETURN STEP SYSMODULE TEST THEN TO TRAP TRUE TRYNEXT UNDO VAR VIEWONLY WHILE WITH XOR \
-     MAIN";
+     MAIN TOOL0 FINE VMAX MOVEABSJ NOEOFFS";
 
 impl Language {
     /// The format's name on the command line.
@@ -330,14 +334,22 @@ impl Language {
             Language::Rapid => RAPID_RESERVED,
             Language::Tp => "",
         };
-        if reserved.split_whitespace().any(|w| w == upper) {
+        // RAPID's speeddata `vN` and zonedata `zN` are names the program uses too.
+        let data_name = self == Language::Rapid
+            && upper.len() > 1
+            && upper.starts_with(['V', 'Z'])
+            && upper[1..].bytes().all(|b| b.is_ascii_digit());
+        if data_name || reserved.split_whitespace().any(|w| w == upper) {
             return Err(format!(
                 "`{name}` is a reserved word of {}{}",
                 self.title(),
-                if self == Language::Rapid {
-                    " (or the name of the procedure inside, main)"
-                } else {
-                    ""
+                match self {
+                    Language::Rapid => {
+                        " (or a name the program uses: main, tool0, fine, vmax, vN, zN, \
+                         MoveAbsJ, NoEOffs)"
+                    }
+                    Language::Krl => " (or I, the program's loop variable)",
+                    Language::Tp => "",
                 }
             ));
         }
@@ -1331,6 +1343,20 @@ mod tests {
         assert!(Language::Krl.program_name("ptp").is_err());
         assert!(Language::Rapid.program_name("_a").is_err());
         assert!(Language::Rapid.program_name("").is_err());
+        // Names the program itself uses: KRL's loop variable, RAPID's tool, zones and speeds.
+        for (language, name) in [
+            (Language::Krl, "i"),
+            (Language::Krl, "While"),
+            (Language::Rapid, "tool0"),
+            (Language::Rapid, "Fine"),
+            (Language::Rapid, "v100"),
+            (Language::Rapid, "z10"),
+            (Language::Rapid, "MoveAbsJ"),
+        ] {
+            assert!(language.program_name(name).is_err(), "{name}");
+        }
+        assert!(Language::Rapid.program_name("v100a").is_ok());
+        assert!(Language::Krl.program_name("i2").is_ok());
         assert_eq!(Language::Rapid.speed(7000.0), Ok(7000));
         assert!(Language::Rapid.speed(f64::NAN).is_err());
         assert!(Language::Krl.speed(1e12).is_err());

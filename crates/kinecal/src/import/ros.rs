@@ -232,13 +232,12 @@ pub fn values_hash(joints: &[JointOrigin]) -> String {
     format!("calib_kinecal_{hex}")
 }
 
-/// A name xacro and YAML can carry inside `${...['name']}`: no quote, backslash, `$`, brace or
-/// control character.
+/// A name xacro and YAML can carry inside `${...['name']}` in an XML attribute: no quote,
+/// backslash, `$`, brace, `&`, `<`, `>` or control character.
 fn check_name(name: &str, what: &str, file: &str) -> Result<()> {
-    if let Some(c) = name
-        .chars()
-        .find(|c| matches!(c, '\'' | '"' | '\\' | '$' | '{' | '}') || c.is_control())
-    {
+    if let Some(c) = name.chars().find(|c| {
+        matches!(c, '\'' | '"' | '\\' | '$' | '{' | '}' | '&' | '<' | '>') || c.is_control()
+    }) {
         return Err(err(
             file,
             format!(
@@ -310,13 +309,14 @@ pub fn export_ros(
 ) -> Result<RosExport> {
     let mframe = measurement.unwrap_or(DEFAULT_MEASUREMENT_FRAME);
     if mframe.is_empty()
+        || mframe.starts_with('/')
         || !mframe
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '/' | '-' | '.'))
     {
         return Err(Error::Problem(format!(
             "the measurement frame `{}` (measurement_frame) is not a TF frame name: letters, \
-             digits, `_`, `/`, `-` and `.` only",
+             digits, `_`, `/`, `-` and `.` only, not beginning with `/` (ROS 2 refuses those)",
             mframe.escape_debug()
         )));
     }
@@ -1364,5 +1364,16 @@ mod tests {
         );
         // Undoing it (a lone `$` stays) gives the text back.
         assert_eq!(unescape_dollars(&e), t);
+    }
+
+    /// Names a xacro attribute cannot carry unescaped (`&`, `<`, `>` would make the xacro
+    /// malformed XML while the read-back, substituting numbers first, passed) are refused, as
+    /// quotes and `$` are; a measurement frame may not begin with `/`.
+    #[test]
+    fn names_that_break_the_xacro_are_refused() {
+        for bad in ["j&1", "j<1", "j>1", "j'1", "j$1"] {
+            assert!(check_name(bad, "joint", "t.urdf").is_err(), "{bad}");
+        }
+        assert!(check_name("shoulder_pan-joint.1", "joint", "t.urdf").is_ok());
     }
 }

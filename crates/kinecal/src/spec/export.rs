@@ -702,16 +702,19 @@ impl ExportSpec {
             }
         });
         inputs.extend(env.also_inputs.iter().cloned());
-        if !folder.exists() {
+        // Outputs against inputs first (a folder not there yet holds no input), then the folder
+        // made: a refused export leaves nothing behind.
+        if folder.exists() {
+            crate::files::output::check_distinct(
+                &paths.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
+                &inputs.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
+            )?;
+        } else {
             std::fs::create_dir_all(folder).map_err(|cause| Error::Io {
                 path: dir.to_string(),
                 cause,
             })?;
         }
-        crate::files::output::check_distinct(
-            &paths.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
-            &inputs.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
-        )?;
         let mut staged = crate::files::output::Staged::new();
         for (path, (_, text)) in paths.iter().zip(files) {
             staged.text(path, text)?;

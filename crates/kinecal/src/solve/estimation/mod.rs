@@ -399,16 +399,16 @@ pub(crate) fn calibrate_from(
         };
         // The stated fit's residuals first: rows that match their sigmas there keep them.
         residuals_at(&sol.x, &mut all);
-        let consistent = weighting::estimate_floor(
+        // Which quantities' rows match their sigmas at the stated fit: those keep them.
+        let first_test = weighting::estimate_floor(
             &kinds,
             &sigma,
             &all[..problem.data_rows()],
             dof_fraction,
             true,
-        )
-        .iter()
-        .all(|m| m.unwrap_or(0.0) == 0.0);
-        if !consistent {
+        );
+        let held = first_test.map(|m| m.is_none_or(|m| m <= 0.0));
+        if !held.iter().all(|h| *h) {
             // The floor, from the uniform fit on: estimated, fitted, estimated again until it
             // settles.
             let mut x = first.x.clone();
@@ -423,7 +423,7 @@ pub(crate) fn calibrate_from(
                     dof_fraction,
                     false,
                 );
-                let next = [est[0].unwrap_or(0.0), est[1].unwrap_or(0.0)];
+                let next = [0, 1].map(|q| if held[q] { 0.0 } else { est[q].unwrap_or(0.0) });
                 let prev = [floor.length, floor.angle];
                 let settled = fitted.is_some()
                     && next
@@ -443,20 +443,39 @@ pub(crate) fn calibrate_from(
                 x = again.x.clone();
                 fitted = Some(again);
             }
-            // The floored fit against the stated one, by the likelihood of the residuals
-            // under each one's standard deviations.
-            let stated_cost = weighting::likelihood_cost(
-                &kinds,
-                &sigma,
-                &{
-                    residuals_at(&sol.x, &mut all);
-                    all[..problem.data_rows()].to_vec()
-                },
-                &ModelErrorFloor::default(),
-            );
+            // The floored fit against the stated one, by the likelihood of the residuals under
+            // each one's standard deviations, the floor's extra parameters (one per quantity
+            // floored) charged as Akaike's criterion charges them. A probe stopped at its cap
+            // is finished first when the floor would win against it.
             residuals_at(&x, &mut all);
             let floor_cost =
-                weighting::likelihood_cost(&kinds, &sigma, &all[..problem.data_rows()], &floor);
+                weighting::likelihood_cost(&kinds, &sigma, &all[..problem.data_rows()], &floor)
+                    + 2.0 * held.iter().filter(|h| !**h).count() as f64;
+            let mut stated_cost = f64::INFINITY;
+            for _ in 0..2 {
+                residuals_at(&sol.x, &mut all);
+                stated_cost = weighting::likelihood_cost(
+                    &kinds,
+                    &sigma,
+                    &all[..problem.data_rows()],
+                    &ModelErrorFloor::default(),
+                );
+                let used = sol.iterations - first.iterations;
+                if floor_cost < stated_cost
+                    && sol.termination == Termination::MaxIterations
+                    && used < opts.solver.max_iterations
+                {
+                    let mut rest = opts.solver;
+                    rest.max_iterations -= used;
+                    let more = solve(&problem, &sol.x, &rest, &mut record)?;
+                    sol.iterations += more.iterations;
+                    sol.x = more.x;
+                    sol.termination = more.termination;
+                    sol.stationarity = more.stationarity;
+                } else {
+                    break;
+                }
+            }
             if let Some(f) = fitted.filter(|_| floor_cost < stated_cost) {
                 floor_scale = weighting::floor_scale(&kinds, &sigma, &floor);
                 // The iterations of the path taken: the uniform fit's and the floor's.

@@ -22,9 +22,15 @@
 //! when the rows' residuals exceed their stated standard deviations significantly (the
 //! chi-square of the rows above its mean by three of its standard deviations, `n + 3 sqrt(2
 //! n)`), and re-estimated after each refit until it changes by less than 2 % (at most
-//! [`FLOOR_ROUNDS`] refits). Rows whose residuals match their standard deviations are left as
-//! stated: precise anchors that the model fits keep their weight. Rows without a standard
-//! deviation of their own are weighted by the default weights as stated, always.
+//! [`FLOOR_ROUNDS`] refits), for each quantity whose rows failed that test (the others keep a
+//! floor of 0). The floored fit is kept when the residuals' likelihood under `s_i^2 + m^2`,
+//! charged 2 per floored quantity (Akaike's criterion), beats the stated fit's under `s_i^2`; a
+//! stated fit stopped at its probe's cap ([`STATED_PROBE`]) is finished before it loses. Rows
+//! whose residuals match their standard deviations are left as stated: precise anchors that
+//! the model fits keep their weight. Rows without a standard deviation of their own are
+//! weighted by the default weights as stated, always. The degrees of freedom take the average
+//! leverage `p / N` off every row: rows stated far more precise than the rest have more, so
+//! the floor errs low for them (towards the stated sigmas).
 
 use crate::observe::{Dataset, RowQuantity};
 
