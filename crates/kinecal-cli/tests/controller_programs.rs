@@ -393,7 +393,7 @@ fn what_a_controller_would_not_take_is_refused() {
     );
     refused(
         "--format rapid --name main --out p.mod",
-        "is a reserved word of RAPID (or the name of the procedure inside, main)",
+        "is a reserved word of RAPID (or a name the program uses: main, tool0, fine",
     );
     refused(
         "--format rapid --name a_name_that_is_33_characters_long --out p.mod",
