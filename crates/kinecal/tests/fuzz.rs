@@ -781,3 +781,100 @@ fn iso9283_logs_and_roles() {
         })
     });
 }
+
+/// Controller programs (KRL, RAPID, TP) as `compensate --format krl|rapid|tp` writes them, read
+/// back by kinecal's reader of each language: what it accepts holds finite joint values, six per
+/// move.
+#[test]
+fn controller_programs() {
+    use kinecal::files::controller::{read_program, Language, Program, Zone};
+    for language in [Language::Krl, Language::Rapid, Language::Tp] {
+        let mut seeds = Vec::new();
+        for (k, zone) in [Zone::Fine, Zone::Blend(10)].into_iter().enumerate() {
+            let mut p = Program::new(language, format!("prog{k}"), 50, zone);
+            for i in 0..4 {
+                let v = i as f64;
+                p.points
+                    .push([10.5 * v, -20.25, 30.0 + v, -179.999999, 0.000001, 90.0 - v]);
+            }
+            let labels: Vec<String> = (1..=4).map(|i| format!("P{i}")).collect();
+            seeds.push(
+                p.text(&["written by kinecal".to_string()], &labels)
+                    .into_bytes(),
+            );
+        }
+        let file = match language {
+            Language::Krl => "p.src",
+            Language::Rapid => "p.mod",
+            Language::Tp => "p.ls",
+        };
+        fuzz(language.as_str(), file, &seeds, &|b| {
+            let t = match read_text(b, file) {
+                Ok(t) => t,
+                Err(o) => return o,
+            };
+            outcome(read_program(language, &t, file), |p| {
+                if p.points.iter().flatten().all(|v| v.is_finite()) {
+                    Ok(())
+                } else {
+                    Err("a non-finite joint value".into())
+                }
+            })
+        });
+    }
+}
+
+/// The two YAML files of `export ros` (`calibration.yaml`, `static_transforms.yaml`), from an
+/// export of the UR10 URDF: what the readers accept holds finite values, and unit quaternions.
+#[test]
+fn ros_calibration_files() {
+    use kinecal::import::ros::{export_ros, parse_calibration, parse_transforms};
+    let path = repo().join("../shared/data/urdf/universal_robots/urdf_plain/ur10_robot.urdf");
+    let template = std::fs::read_to_string(&path).expect("the UR10 URDF in ../shared/data");
+    let robot = kinecal::import::urdf::import_urdf_tree(&template, "t.urdf", None, &["tool0"])
+        .unwrap()
+        .robot;
+    let e = export_ros(&robot, &template, "t.urdf", None, &["tool0"], None).unwrap();
+    fuzz(
+        "ros-calibration",
+        "calibration.yaml",
+        &[e.calibration.clone().into_bytes()],
+        &|b| {
+            let t = match read_text(b, "calibration.yaml") {
+                Ok(t) => t,
+                Err(o) => return o,
+            };
+            outcome(parse_calibration(&t, "calibration.yaml"), |c| {
+                if c.joints.iter().flat_map(|j| j.origin).all(f64::is_finite) {
+                    Ok(())
+                } else {
+                    Err("a non-finite origin".into())
+                }
+            })
+        },
+    );
+    fuzz(
+        "ros-transforms",
+        "static_transforms.yaml",
+        &[e.transforms_yaml.clone().into_bytes()],
+        &|b| {
+            let t = match read_text(b, "static_transforms.yaml") {
+                Ok(t) => t,
+                Err(o) => return o,
+            };
+            outcome(parse_transforms(&t, "static_transforms.yaml"), |s| {
+                for tr in &s.transforms {
+                    if !tr.values.iter().all(|v| v.is_finite()) {
+                        return Err("a non-finite value".into());
+                    }
+                    let q = &tr.values[3..];
+                    let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    if (n - 1.0).abs() > 1e-6 {
+                        return Err(format!("a quaternion of norm {n}"));
+                    }
+                }
+                Ok(())
+            })
+        },
+    );
+}
