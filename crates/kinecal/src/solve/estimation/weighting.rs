@@ -115,28 +115,15 @@ pub(crate) fn row_kinds(data: &Dataset) -> Vec<(RowQuantity, bool)> {
 /// The row scale of the staged start (see the module documentation), or `None` when no
 /// quantity's standard deviations spread that far.
 pub(crate) fn staged_scale(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> Option<Vec<f64>> {
-    let mut median = [0.0; 2];
-    let mut staged = false;
-    for q in [RowQuantity::Length, RowQuantity::Angle] {
-        let mut s: Vec<f64> = kinds
-            .iter()
-            .zip(sigma)
-            .filter(|((k, _), _)| *k == q)
-            .map(|(_, &s)| s)
-            .collect();
-        if s.is_empty() {
-            continue;
-        }
-        s.sort_by(f64::total_cmp);
-        let m = s[s.len() / 2];
-        median[slot(q)] = m;
-        staged |= s[0] < STAGE_RATIO * m;
-    }
+    let spread = spread(kinds, sigma);
+    let staged = spread
+        .iter()
+        .any(|&(smallest, median)| smallest < STAGE_RATIO * median);
     staged.then(|| {
         kinds
             .iter()
             .zip(sigma)
-            .map(|(&(q, _), &s)| s / s.max(median[slot(q)]))
+            .map(|(&(q, _), &s)| s / s.max(spread[slot(q)].1))
             .collect()
     })
 }
@@ -144,24 +131,27 @@ pub(crate) fn staged_scale(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> Opti
 /// The staged start's row scale when the sigmas do not spread far: every row of a quantity at
 /// its median standard deviation (uniform weights, as the floor's first estimate needs them).
 pub(crate) fn uniform_scale(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> Vec<f64> {
-    let mut median = [0.0; 2];
-    for q in [RowQuantity::Length, RowQuantity::Angle] {
+    let spread = spread(kinds, sigma);
+    kinds
+        .iter()
+        .zip(sigma)
+        .map(|(&(q, _), &s)| s / spread[slot(q)].1)
+        .collect()
+}
+
+/// Per quantity (lengths, angles), the smallest and the median standard deviation of its rows
+/// (0 and 0 without rows).
+fn spread(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> [(f64, f64); 2] {
+    [RowQuantity::Length, RowQuantity::Angle].map(|q| {
         let mut s: Vec<f64> = kinds
             .iter()
             .zip(sigma)
             .filter(|((k, _), _)| *k == q)
             .map(|(_, &s)| s)
             .collect();
-        if !s.is_empty() {
-            s.sort_by(f64::total_cmp);
-            median[slot(q)] = s[s.len() / 2];
-        }
-    }
-    kinds
-        .iter()
-        .zip(sigma)
-        .map(|(&(q, _), &s)| s / median[slot(q)])
-        .collect()
+        s.sort_by(f64::total_cmp);
+        s.first().map_or((0.0, 0.0), |&lo| (lo, s[s.len() / 2]))
+    })
 }
 
 /// The negative log-likelihood (up to a constant) of the weighted residuals `r` (`e_i / s_i`)
