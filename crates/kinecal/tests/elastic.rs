@@ -377,6 +377,37 @@ fn a_robot_file_keeps_the_mass_model() {
     }
 }
 
+/// A negative compliance (or lateral compliance) turns the joint against gravity's torque: a
+/// robot that rises under its own weight. The robot file reader refuses it with the file, the
+/// line, the field and what it expects; 0 (rigid) is read.
+#[test]
+fn a_negative_compliance_in_a_robot_file_is_refused() {
+    let arm = "length_unit = \"m\"\nangle_unit = \"rad\"\n[[links]]\n[[links]]\n\
+               [[joints]]\nkind = \"revolute\"\n";
+    let bodies = "[[bodies]]\njoint = 1\nmass = 1.0\ncom = [0.3, 0, 0]\n";
+    for (key, line) in [("compliance", 7), ("lateral", 8)] {
+        let joint = if key == "lateral" {
+            "compliance = 1e-4\nlateral = -2e-5\n".to_string()
+        } else {
+            "compliance = -2e-5\n".to_string()
+        };
+        let text = format!("{arm}{joint}{bodies}");
+        let err = kinecal::model::robot_file::parse_robot_toml(&text, "arm.toml")
+            .expect_err(key)
+            .to_string();
+        assert!(
+            err.starts_with(&format!("arm.toml:{line}"))
+                && err.contains(&format!("joints[0].{key}"))
+                && err.contains("at least 0")
+                && err.contains("-0.00002"),
+            "{key}: {err}"
+        );
+    }
+    let rigid = format!("{arm}compliance = 0\nlateral = 0\n{bodies}");
+    let robot = kinecal::model::robot_file::parse_robot_toml(&rigid, "arm.toml").unwrap();
+    assert_eq!(robot.elastic.unwrap().joints[0].compliance.to_bits(), 0);
+}
+
 #[test]
 fn the_compliance_groups_leave_out_a_vertical_first_axis() {
     // An IRB 120: joint 1 vertical at the base, so gravity never loads it about its axis.

@@ -53,7 +53,8 @@
 //! com = [0.3, 0, 0.1]     # length_unit, centre of mass in that frame
 //! [[joints]]
 //! compliance = 2e-4       # angle_unit/(N length_unit): the joint turns by compliance * torque
-//! lateral = 5e-5          # the same about the lateral axis
+//!                         # (at least 0: a negative one is refused)
+//! lateral = 5e-5          # the same about the lateral axis (at least 0)
 //! lateral_axis = [1, 0, 0]   # unit, perpendicular to the joint axis, in the joint's frame;
 //!                            # default: the common normal with the parent axis (written back)
 //! ```
@@ -468,6 +469,17 @@ impl<'t> Reader<'t> {
                 ("lateral", &mut j.lateral),
             ] {
                 if let Some(v) = self.number(t, key, &format!("{what}.{key}"))? {
+                    // A negative compliance turns the joint against the torque: the arm rises.
+                    if v < 0.0 {
+                        return Err(self.err(
+                            t.get(key).and_then(Item::span),
+                            &format!("{what}.{key}"),
+                            format!(
+                                "expected a compliance of at least 0 (0: rigid), found {v}: a \
+                                 negative one turns the joint against gravity's torque"
+                            ),
+                        ));
+                    }
                     *slot = units.to_si(Quantity::Compliance, v);
                 }
             }
