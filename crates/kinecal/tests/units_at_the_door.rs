@@ -154,6 +154,61 @@ fn per_axis_standard_deviations() {
     assert!(err.contains("not both"), "{err}");
 }
 
+/// A row's own standard deviation more than 10^6 below its file's median for that quantity
+/// (issue 38): one row of 1e-15 mm among 0.01 mm outweighed the file 10^26 to 1, exit 0, a
+/// robot written whose attitudes were ten times worse than the nominal's. Refused with the
+/// file, the line and the column; an anchor stated 10^3 more precisely is read.
+#[test]
+fn a_standard_deviation_far_below_its_files_median_is_refused_with_its_line() {
+    let robot = robot_in(LengthUnit::Mm, AngleUnit::Deg);
+    let read = |text: &str| read_observations(text, "s.csv", &robot, &ReadOptions::default());
+    let poses = |sigmas: [(&str, &str); 4]| {
+        let mut t = String::from(
+            "posture,v1,v2,v3,v4,v5,x,y,z,alpha,beta,gamma,sigma_position,sigma_angle\n",
+        );
+        for (k, (p, a)) in sigmas.iter().enumerate() {
+            t += &format!("{k},0.{k},0,0,0,0,1,2,3,4,5,6,{p},{a}\n");
+        }
+        t
+    };
+    let ok = [("0.01", "0.001"); 4];
+    read(&poses(ok)).expect("uniform sigmas");
+    let mut anchor = ok;
+    anchor[2] = ("1e-5", "1e-6");
+    read(&poses(anchor)).expect("an anchor 10^3 more precise than the rest");
+    let mut slip = ok;
+    slip[1].0 = "1e-15";
+    let err = read(&poses(slip)).unwrap_err().to_string();
+    assert!(
+        err.starts_with("s.csv:3: field `sigma_position`: a standard deviation of 1e-15 mm")
+            && err.contains("median of the file's length standard deviations (0.01 mm)")
+            && err.contains("at most 1e6 times below"),
+        "{err}"
+    );
+    let mut slip = ok;
+    slip[3].1 = "1e-10";
+    let err = read(&poses(slip)).unwrap_err().to_string();
+    assert!(
+        err.starts_with("s.csv:5: field `sigma_angle`: a standard deviation of 1e-10 deg"),
+        "{err}"
+    );
+    // Per axis: the axis is named.
+    let axes = "posture,v1,v2,v3,v4,v5,x,y,z,sigma_x,sigma_y,sigma_z\n\
+                1,0,0,0,0,0,1,2,3,0.01,0.01,0.02\n2,1,0,0,0,0,1,2,3,0.01,1e-9,0.02\n\
+                3,2,0,0,0,0,1,2,3,0.01,0.01,0.02\n";
+    let err = read(axes).unwrap_err().to_string();
+    assert!(err.starts_with("s.csv:3: field `sigma_y`"), "{err}");
+    // Distances too.
+    let robot4 = simulate::random_robot(&[JointKind::Revolute; 4], 41);
+    let ballbar = "pair,a1,a2,a3,a4,b1,b2,b3,b4,distance,sigma_position\n\
+                   1,0,0,0,0,1,0,0,0,0.2,1e-4\n2,0,1,0,0,1,1,0,0,0.2,1e-4\n\
+                   3,0,0,1,0,1,0,1,0,0.2,1e-12\n";
+    let err = kinecal::files::parse_distances(ballbar, "b.csv", &robot4)
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("b.csv:4: field `sigma_position`"), "{err}");
+}
+
 /// What a caller that stops on implausible warnings sees.
 struct Strict(Vec<Warning>);
 

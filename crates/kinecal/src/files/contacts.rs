@@ -121,7 +121,7 @@ pub fn parse_contacts(text: &str, file: &str, robot: &Robot) -> Result<Dataset> 
         o.line = line;
         observations.push(o.into());
     }
-    postures.into_dataset(observations, file, "contacts")
+    postures.into_dataset(observations, file, "contacts", &units)
 }
 
 /// Writes the contacts of `data` as a contact file in `robot`'s units, read back by

@@ -90,7 +90,7 @@ pub fn parse_distances(text: &str, file: &str, robot: &Robot) -> Result<Dataset>
         o.line = line;
         observations.push(o.into());
     }
-    postures.into_dataset(observations, file, "distances")
+    postures.into_dataset(observations, file, "distances", &units)
 }
 
 /// Writes the distances of `data` as a distance file in `robot`'s units, read back by

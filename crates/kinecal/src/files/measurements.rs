@@ -295,7 +295,7 @@ pub fn parse_measurements_mapped(
         rows.row(line, label, &f)?;
     }
     rows.postures
-        .into_dataset(rows.observations, file, "measurements")
+        .into_dataset(rows.observations, file, "measurements", &rows.units)
 }
 
 /// `map` with the readings headed by the joints' names instead of `vK` mapped (an implicit
