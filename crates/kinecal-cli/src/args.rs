@@ -1615,6 +1615,7 @@ pub struct CalibrateArgs {
     /// The bodies' total mass (kg) of an elastic robot, held while their masses are estimated
     /// (`--estimate ...,masses`): it fixes their scale, which positions alone cannot tell from
     /// the compliances' (without it, one mass is held and the rest are relative to it).
+    /// Refused when the selection estimates no mass (the default parameters do not).
     #[arg(long, value_name = "KG")]
     pub total_mass: Option<f64>,
     /// Iteration cap, 1 to 1,000,000 (default 100; 5000 for sd).

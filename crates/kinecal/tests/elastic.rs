@@ -882,3 +882,50 @@ fn a_prismatic_joint_a_coupled_joint_and_two_bodies_on_one_joint_differentiate_t
     check_jacobian(&robot, Target::EndEffector, None, 3, 73);
     check_jacobian(&robot, Target::Site(0), None, 3, 79);
 }
+
+/// A total mass (`--total-mass`, `total_mass`) holds the sum of the estimated masses: with a
+/// selection that estimates none (the default parameters, a list without masses) it would do
+/// nothing, and it did so without a word. It is refused, naming the setting, before any work.
+#[test]
+fn a_total_mass_without_an_estimated_mass_is_refused() {
+    use kinecal::spec::{AnalyzeSpec, CalibrationSpec};
+    let robot = elastic_arm(5);
+    let data = simulate::measure(&robot, &simulate::sample_postures(&robot, 8, 3), false);
+    let refused = |r: kinecal::Result<()>| match r {
+        Err(kinecal::Error::InvalidOption { setting, message }) => {
+            assert_eq!(setting, kinecal::Setting::TotalMass, "{message}");
+            message
+        }
+        other => panic!("expected --total-mass refused, got {other:?}"),
+    };
+    for (estimate, why) in [
+        (None, "the default parameters keep the robot file's masses"),
+        (Some("offsets,compliance"), "the list names no mass"),
+        (
+            Some("identifiable,compliance"),
+            "the selection adds no mass to the default parameters",
+        ),
+        (Some("masses"), ""),
+        (Some("identifiable,body2.mass"), ""),
+    ] {
+        let mut spec = CalibrationSpec::default();
+        spec.selection.estimate = estimate.map(str::to_string);
+        spec.selection.total_mass = Some(20.0);
+        let calibrate = spec.request(&robot, data.clone(), None, None).map(|_| ());
+        let mut spec = AnalyzeSpec::default();
+        spec.selection.estimate = estimate.map(str::to_string);
+        spec.selection.total_mass = Some(20.0);
+        let analyze = spec.request(&robot).map(|_| ());
+        if why.is_empty() {
+            calibrate.expect("a mass is estimated");
+            analyze.expect("a mass is estimated");
+        } else {
+            for message in [refused(calibrate), refused(analyze)] {
+                assert!(
+                    message.contains("no mass is estimated") && message.contains(why),
+                    "{estimate:?}: {message}"
+                );
+            }
+        }
+    }
+}

@@ -195,6 +195,11 @@ impl AnalyzeSpec {
         let (weights, orientation) = self.residuals.resolve(robot)?;
         let selection =
             super::common::selection(s.estimate.as_deref(), "", s.fix.as_deref(), robot)?;
+        if s.total_mass.is_some() {
+            if let Some(m) = crate::workflow::total_mass_problem(&selection, robot) {
+                return Err(invalid(Setting::TotalMass, m));
+            }
+        }
         Ok((
             selection,
             AnalysisOptions {

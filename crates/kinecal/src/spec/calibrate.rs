@@ -343,6 +343,9 @@ impl CalibrationSpec {
         if let Some(total) = s.total_mass {
             crate::model::prior::set_total_mass(&mut req.prior, total, robot)
                 .map_err(|m| invalid(Setting::TotalMass, m))?;
+            if let Some(m) = crate::workflow::total_mass_problem(&req.selection, robot) {
+                return Err(invalid(Setting::TotalMass, m));
+            }
         }
         if let Some(guess) = &initial {
             if !robot.same_structure(guess) {

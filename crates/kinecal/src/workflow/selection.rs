@@ -107,6 +107,40 @@ impl Selection {
     }
 }
 
+/// Why a total mass (`--total-mass`, `total_mass`) cannot be held with `selection` on `robot`:
+/// the total holds the estimated masses, and this selection estimates none (the default set
+/// never does: masses are asked for, `masses` or `body2.mass`). `None` when some mass may be
+/// estimated. The identifiable set of a selection with masses may still keep none of them:
+/// the report's prior then says `on 0 parameters`.
+pub(crate) fn total_mass_problem(selection: &Selection, robot: &Robot) -> Option<String> {
+    let mass = |id: &&ParamId| {
+        matches!(
+            robot.try_param_kind(**id),
+            Some(ParamKind::Body {
+                component: crate::model::params::BodyComponent::Mass,
+                ..
+            })
+        )
+    };
+    let (some, what) = match selection {
+        Selection::Default { .. } => (false, "the default parameters keep the robot file's masses"),
+        Selection::List(ids) => (ids.iter().any(|id| mass(&id)), "the list names no mass"),
+        Selection::Identifiable { with, fix } => (
+            with.iter()
+                .filter(|id| !fix.contains(id))
+                .any(|id| mass(&id)),
+            "the selection adds no mass to the default parameters",
+        ),
+    };
+    (!some).then(|| {
+        format!(
+            "the total mass holds the sum of the estimated bodies' masses, and no mass is \
+             estimated ({what}): estimate them (`masses`, or `body2.mass`, ...) or leave the \
+             total mass out"
+        )
+    })
+}
+
 /// The parameters a selection stands for on `data`, analysed at `robot` with `opts` (sorted),
 /// and the default parameters left out because no observation sees them.
 pub fn resolve(
