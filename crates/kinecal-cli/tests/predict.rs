@@ -184,9 +184,148 @@ fn bad_input_is_refused_with_the_file_named() {
         "5".into(),
     ]);
     assert!(
-        e.contains("edited.json: the report's model-error term is not finite and non-negative"),
+        e.contains(
+            "edited.json: not a calibration report: prediction.position.c: expected at least 0"
+        ),
         "{e}"
     );
+}
+
+/// A report is checked before it is believed (issue 38): every reader of a report's JSON
+/// (`report --from`, `predict`) refuses a tampered one, naming the file and the field by its
+/// JSON path, exit 1, at once. Before, a covariance times 1e300 gave NaN bounds, negative
+/// variances a parameter part of 0, map values of 1e308 inf and NaN coordinates in the SVG,
+/// bin edges one short a panic, a sigma near 1e308 a `report --from` that ran for ever and a
+/// lever of 1e308 a panic in `predict`.
+#[test]
+fn a_report_that_makes_no_sense_is_refused_by_its_field() {
+    use serde_json::{json, Value};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    calibrated(d);
+    // The same calibration with its accuracy map (an HTML report asks for it).
+    let (code, _, e) = run(
+        d,
+        &argv(
+            "calibrate --robot ge-a4 --data data.csv --estimate p1,p2,p8,p14,offsets,slopes
+             --weights length=0.0005,angle=0.005 --out cal.toml --report report.json
+             --html page.html",
+        ),
+    );
+    assert_eq!(code, 0, "{e}");
+    let text = std::fs::read_to_string(d.join("report.json")).unwrap();
+    let good: Value = serde_json::from_str(&text).unwrap();
+    let (code, _, e) = run(d, &argv("report --from report.json --out again.html"));
+    assert_eq!(code, 0, "{e}");
+    type Edit = fn(&mut Value);
+    let cases: [(&str, Edit, &str); 10] = [
+        (
+            "cov",
+            |v| {
+                for row in v["prediction"]["covariance"].as_array_mut().unwrap() {
+                    for x in row.as_array_mut().unwrap() {
+                        *x = json!(x.as_f64().unwrap() * 1e300);
+                    }
+                }
+            },
+            "prediction.covariance[0][0]: ",
+        ),
+        (
+            "negative",
+            |v| {
+                let c = v["prediction"]["covariance"].as_array_mut().unwrap();
+                for (k, row) in c.iter_mut().enumerate() {
+                    let x = row[k].as_f64().unwrap();
+                    row[k] = json!(-x);
+                }
+            },
+            "prediction.covariance[0][0]: expected a variance of at least 0",
+        ),
+        (
+            "asymmetric",
+            |v| {
+                let x = v["prediction"]["covariance"][1][0].as_f64().unwrap();
+                v["prediction"]["covariance"][1][0] = json!(3.0 * x + 1e-9);
+            },
+            "prediction.covariance[1][0]: ",
+        ),
+        (
+            "map",
+            |v| {
+                for x in v["prediction"]["map"]["slices"][0]["values"]
+                    .as_array_mut()
+                    .unwrap()
+                {
+                    if !x.is_null() {
+                        *x = json!(1e308);
+                    }
+                }
+            },
+            "prediction.map.slices[0].values[",
+        ),
+        (
+            "edges",
+            |v| {
+                v["prediction"]["map"]["joints"][0]["edges"]
+                    .as_array_mut()
+                    .unwrap()
+                    .pop();
+            },
+            "prediction.map.joints[0].edges: 24 edges for 24 bins",
+        ),
+        (
+            "sigma",
+            |v| v["parameters"][0]["sigma"] = json!(1e307),
+            "parameters[0].sigma: 1e307 is beyond 1e100 in magnitude",
+        ),
+        (
+            "spread",
+            |v| v["parameters"][0]["sigma"] = json!(1e40),
+            "parameters[0].sigma: expected at least 0 and at most 1e12, found 1e40",
+        ),
+        (
+            "lever",
+            |v| v["prediction"]["levers"][1] = json!(1e50),
+            "prediction.levers[1]: expected a lever (length unit per reading unit) of at least \
+             0 and at most 1e12, found 1e50",
+        ),
+        (
+            "ids",
+            |v| {
+                let id = v["parameters"][0]["id"].clone();
+                v["parameters"][1]["id"] = id;
+            },
+            "parameters[1].id: `p1` again",
+        ),
+        (
+            "unknown",
+            |v| v["prediction"]["estimated"][0] = json!("p999"),
+            "prediction.estimated[0]: `p999` is not one of the report's parameters",
+        ),
+    ];
+    for (name, edit, words) in cases {
+        let mut v = good.clone();
+        edit(&mut v);
+        let file = format!("{name}.json");
+        std::fs::write(d.join(&file), v.to_string()).unwrap();
+        let page = format!("{name}.html");
+        for args in [
+            vec!["report", "--from", &file, "--out", &page],
+            vec![
+                "predict", "--robot", "cal.toml", "--report", &file, "--sample", "5",
+            ],
+        ] {
+            let start = std::time::Instant::now();
+            let (code, _, e) = run(d, &args);
+            assert_eq!(code, 1, "{args:?}: {e}");
+            assert!(
+                e.contains(&format!("{file}: not a")) && e.contains(words),
+                "{args:?}: {e}"
+            );
+            assert!(start.elapsed().as_secs() < 10, "{args:?}");
+        }
+        assert!(!d.join(&page).exists(), "{name}");
+    }
 }
 
 /// Cartesian targets: each reached by the calibrated robot's inverse kinematics, then predicted;

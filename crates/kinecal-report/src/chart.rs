@@ -165,7 +165,22 @@ const COLORS: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
+/// The data ranges of panel `p`'s axes ([`data_bounds`]), or the unit square when they are not
+/// finite spans (values near the doubles' limits): plotters looks for ticks on an infinite span
+/// for ever.
 fn bounds(p: &Panel) -> (f64, f64, f64, f64) {
+    let (x0, x1, y0, y1) = data_bounds(p);
+    if [x0, x1, y0, y1, x1 - x0, y1 - y0]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        (x0, x1, y0, y1)
+    } else {
+        (0.0, 1.0, 0.0, 1.0)
+    }
+}
+
+fn data_bounds(p: &Panel) -> (f64, f64, f64, f64) {
     if !p.bars.is_empty() {
         let x0 = p.bars.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
         let x1 = p.bars.iter().map(|b| b.1).fold(f64::NEG_INFINITY, f64::max);

@@ -52,14 +52,22 @@ fn ticks(lo: f64, hi: f64) -> Vec<f64> {
         .map(|m| m * mag)
         .find(|s| *s >= raw)
         .unwrap_or(10.0 * mag);
-    let mut t = (lo / step).ceil() * step;
+    // Counted, not stepped until past `hi`: a step below the spacing of the doubles near `lo`
+    // (a span of 1e-3 at 1e20) would never get there.
+    let first = (lo / step).ceil();
     let mut out = Vec::new();
-    while t <= hi + 1e-9 * step {
+    for k in 0..MAX_TICKS {
+        let t = (first + k as f64) * step;
+        if t.is_nan() || t > hi + 1e-9 * step {
+            break;
+        }
         out.push(if t.abs() < 1e-9 * step { 0.0 } else { t });
-        t += step;
     }
     out
 }
+
+/// The most ticks an axis gets (about five are asked for).
+const MAX_TICKS: usize = 12;
 
 fn slice_svg(s: &Slice, scale: [f64; 2], unit: &str) -> String {
     let [u0, u1, v0, v1] = s.extent;

@@ -565,7 +565,9 @@ impl CalibrationReport {
         serde_json::to_string_pretty(self).expect("report serializes")
     }
 
-    /// Reads a report written by [`CalibrationReport::to_json`].
+    /// Reads a report written by [`CalibrationReport::to_json`], checked for sense before it
+    /// is believed ([`super::validate`]): a field that makes none is refused by its JSON path
+    /// (`prediction.covariance[3][3]: expected a variance of at least 0 ...`).
     pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
         let report: CalibrationReport = serde_json::from_str(text)?;
         if report.schema_version > SCHEMA_VERSION {
@@ -575,6 +577,8 @@ impl CalibrationReport {
                 report.schema_version
             )));
         }
+        let value: serde_json::Value = serde_json::from_str(text)?;
+        super::validate::check(&value, &report).map_err(serde::de::Error::custom)?;
         Ok(report)
     }
 

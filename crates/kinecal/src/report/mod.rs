@@ -8,7 +8,8 @@
 //! - [`elastic`]: the compliances of an elastic robot;
 //! - [`analysis`]: the document of an identifiability analysis;
 //! - [`scene`]: the 3-D scene of a calibration (robots, measured points, residuals, frames),
-//!   drawn by the HTML report and written as glTF by [`gltf`].
+//!   drawn by the HTML report and written as glTF by [`gltf`];
+//! - [`validate`]: the checks a report read from a file passes before it is believed.
 
 pub mod accuracy;
 pub mod analysis;
@@ -17,6 +18,7 @@ pub mod elastic;
 pub mod gltf;
 pub mod parameters;
 pub mod scene;
+pub mod validate;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
