@@ -319,3 +319,54 @@ fn the_covariance_propagated_through_the_jacobian_is_the_spread_of_calibrated_po
         assert!((ratio - 1.0).abs() < 0.15, "posture {k}: ratio {ratio}");
     }
 }
+
+/// A joint lever of 1e308 (issue 38): the distances to the measured postures overflowed, the
+/// search for the nearest one found none and indexed past its points (a panic in `predict`).
+/// A lever is bounded where the predictor is made, with the joint named; the search names a
+/// posture even at an infinite distance.
+#[test]
+fn a_lever_beyond_any_robot_is_refused_where_the_predictor_is_made() {
+    let robot = kinecal::model::examples::ge_a4();
+    let postures = kinecal::apps::simulate::sample_postures(&robot, 24, 5);
+    let data = kinecal::apps::simulate::measure(&robot, &postures, false);
+    let mut req = Request::new(robot.clone(), data);
+    req.selection = Selection::parse("p1,p14,offsets", None, &robot).unwrap();
+    req.prediction = predict::Level::Summary;
+    let out = workflow::run(&req, &mut ()).unwrap();
+    let cal = &out.calibration.calibrated;
+    let good = out.report.prediction.clone().expect("a prediction");
+    let p = predict::from_report(cal, &good).unwrap();
+    let mut s = p.scratch();
+    let readings = &postures[0].readings;
+    assert!(p
+        .predict(readings, kinecal::Target::EndEffector, &mut s)
+        .position_error
+        .bound
+        .is_finite());
+    for lever in [1e308, -1.0, f64::NAN, 1e13] {
+        let mut bad = good.clone();
+        bad.levers[1] = lever;
+        let e = predict::from_report(cal, &bad)
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(
+            e.contains("the report's lever of joint 2 is") && e.contains("at most 1e12"),
+            "{lever}: {e}"
+        );
+    }
+    let metric = predict::JointMetric::new(cal, &[0.0, 1e308, 0.5, 0.1]);
+    let measured: Vec<&[f64]> = postures.iter().map(|p| p.readings.as_slice()).collect();
+    let e = predict::Predictor::new(
+        cal,
+        &[],
+        &[],
+        predict::ModelError::none(false),
+        metric,
+        measured.iter().copied(),
+    )
+    .err()
+    .expect("refused")
+    .to_string();
+    assert!(e.contains("the lever of joint 2 is 1e308"), "{e}");
+}

@@ -197,6 +197,15 @@ impl<'r> Predictor<'r> {
         measured: impl IntoIterator<Item = &'a [f64]>,
     ) -> Result<Predictor<'r>> {
         let n = estimated.len();
+        if let Some(j) = metric.levers().iter().position(|l| !lever_plausible(*l)) {
+            return Err(Error::Problem(format!(
+                "the lever of joint {} is {} m per reading unit: expected at least 0 and at most \
+                 {:e}",
+                j + 1,
+                crate::units::number::format_number(metric.levers()[j]),
+                crate::report::validate::MAX_SPREAD
+            )));
+        }
         if covariance.len() != n || covariance.iter().any(|r| r.len() != n) {
             return Err(Error::Problem(format!(
                 "the covariance is not {n} x {n} (one row and column per estimated parameter)"
@@ -369,6 +378,13 @@ impl<'r> Predictor<'r> {
         }
         (p, a, frame.translation)
     }
+}
+
+/// Whether `l` can be a joint's lever (length per reading unit): at least 0 and at most
+/// [`crate::report::validate::MAX_SPREAD`]. A lever of 1e308 made the distances to the measured
+/// postures infinite, and the search for the nearest one index past its points.
+fn lever_plausible(l: f64) -> bool {
+    (0.0..=crate::report::validate::MAX_SPREAD).contains(&l)
 }
 
 /// The index of `target` among a robot's frames: 0 the end effector, `1 + s` site `s`.
@@ -969,6 +985,15 @@ pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Pr
             "the report has {} joint levers; the robot has {} joints",
             report.levers.len(),
             robot.dof()
+        )));
+    }
+    if let Some(j) = report.levers.iter().position(|l| !lever_plausible(*l)) {
+        return Err(Error::Problem(format!(
+            "the report's lever of joint {} is {}: expected at least 0 and at most {:e} (length \
+             unit per reading unit)",
+            j + 1,
+            crate::units::number::format_number(report.levers[j]),
+            crate::report::validate::MAX_SPREAD
         )));
     }
     let si = |v: f64| units.to_si(Quantity::Length, v);

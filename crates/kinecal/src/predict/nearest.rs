@@ -204,7 +204,9 @@ impl NearestIndex {
         if n <= LEAF {
             for i in lo..hi {
                 let d = self.d2(i, q);
-                if d < best.1 {
+                // The first point seen is taken even at an infinite or NaN distance (a query
+                // beyond the doubles' range): the search always names one.
+                if d < best.1 || best.0 == usize::MAX {
                     *best = (i, d);
                 }
             }
@@ -214,7 +216,7 @@ impl NearestIndex {
         let d = self.split[mid] as usize;
         let diff = q[d] - self.points[mid * self.dims + d];
         let here = self.d2(mid, q);
-        if here < best.1 {
+        if here < best.1 || best.0 == usize::MAX {
             *best = (mid, here);
         }
         let (near, far) = if diff < 0.0 {
