@@ -10,3 +10,5 @@ pub mod estimation;
 pub mod registration;
 
 pub mod outliers;
+
+pub(crate) mod camera_start;
