@@ -31,6 +31,13 @@
 //!    sensor calibration: solving AX = XB on the Euclidean group", IEEE T-RA 10(5), 1994), with
 //!    [`relative_motions_eye_in_hand`] / [`relative_motions_eye_to_hand`] making the motions.
 //!
+//! Starting from nothing, a caller takes the distortion as zero, makes one [`homography`] per
+//! view from the raw pixels, [`intrinsics_zhang`] from all of them, [`board_pose`] per view, and
+//! then [`hand_eye_ax_yb`] with the robot's forward kinematics; the fit refines everything,
+//! distortion included, on the pixels. With a lens already known (distortion too), the
+//! homographies come from [`Lens::undistort`]ed points and [`board_pose_normalized`] gives the
+//! poses.
+//!
 //! Every function returns `None` rather than panic or produce a non-finite number: on
 //! non-finite input, too few data, or data that does not determine the answer (collinear
 //! points, parallel boards, rotations about one axis, identical views). The rank tests use
