@@ -347,8 +347,7 @@ fn a_lever_beyond_any_robot_is_refused_where_the_predictor_is_made() {
         let mut bad = good.clone();
         bad.levers[1] = lever;
         let e = predict::from_report(cal, &bad)
-            .err()
-            .expect("refused")
+            .expect_err("refused")
             .to_string();
         assert!(
             e.contains("the report's lever of joint 2 is") && e.contains("at most 1e12"),
@@ -365,8 +364,7 @@ fn a_lever_beyond_any_robot_is_refused_where_the_predictor_is_made() {
         metric,
         measured.iter().copied(),
     )
-    .err()
-    .expect("refused")
+    .expect_err("refused")
     .to_string();
     assert!(e.contains("the lever of joint 2 is 1e308"), "{e}");
 }
