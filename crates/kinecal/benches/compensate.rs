@@ -1,17 +1,23 @@
 //! Compensation throughput, one core: programs of a random 6-joint arm compensated for its
-//! perturbed twin (1 mm, 0.3 deg), full poses; and Cartesian targets without seeds (positions
-//! and poses the twin reaches inside its joint ranges), searched for a usable solution.
+//! perturbed twin (1 mm, 0.3 deg), full poses; the poses those programs mean as Cartesian
+//! targets seeded by the program's readings (what `fk` then `compensate` do); and Cartesian
+//! targets without seeds (positions and poses the twin reaches inside its joint ranges),
+//! searched for a usable solution.
 //!
-//! Run: `cargo bench -p kinecal --bench compensate`
+//! Run: `cargo bench -p kinecal --bench compensate`. With `KINECAL_BENCH_CPU=1` it prints
+//! instead, for each case, rows per CPU second of this thread (median of 5 rounds, the cases
+//! alternating) and how many rows were flagged, and why; `KINECAL_BENCH_CPU=seeded` runs
+//! only the cases whose names contain `seeded`.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use kinecal::apps::compensate::{Compensator, Goal, Options, TargetSearch};
+use kinecal::apps::compensate::{Compensator, Goal, Options, Solved, TargetSearch};
 use kinecal::apps::simulate::{self, PerturbStd};
-use kinecal::{Chain, JointKind, Target, Workspace};
+use kinecal::{Chain, JointKind, Robot, Target, Workspace};
 
-fn compensation(c: &mut Criterion) {
+/// The nominal arm (ranges set) and its calibrated twin.
+fn robots() -> (Robot, Robot) {
     let mut nominal = simulate::random_robot(&[JointKind::Revolute; 6], 21);
     for j in 0..6 {
         nominal.joints[j].range = Some(simulate::reading_range(&nominal, j));
@@ -22,52 +28,163 @@ fn compensation(c: &mut Criterion) {
         slope_fraction: 0.002,
     };
     let calibrated = simulate::perturb(&nominal, std, 22);
-    let postures = simulate::sample_postures(&nominal, 1000, 5);
+    (nominal, calibrated)
+}
+
+/// The four workloads over 1,000 postures: (name, goals, seeds); no goals for programs.
+type Case = (&'static str, Vec<Goal>, Option<Vec<Vec<f64>>>);
+
+fn cases(nominal: &Robot, calibrated: &Robot) -> (Vec<Vec<f64>>, Vec<Case>) {
+    let postures: Vec<Vec<f64>> = simulate::sample_postures(nominal, 1000, 5)
+        .into_iter()
+        .map(|p| p.readings)
+        .collect();
+    let frames = |robot: &Robot| -> Vec<_> {
+        let chain = Chain::new(robot);
+        let mut ws = Workspace::new(robot);
+        postures
+            .iter()
+            .map(|p| {
+                chain.forward(p, &mut ws);
+                chain.target_frame(&ws, Target::EndEffector)
+            })
+            .collect()
+    };
+    // Seeded: the poses the program means (the nominal model's), seeded by its readings.
+    let meant = frames(nominal);
+    // Unseeded: goals the calibrated twin reaches at postures inside its ranges.
+    let reached = frames(calibrated);
+    let cases = vec![
+        ("1000_programs_full_pose", Vec::new(), None),
+        (
+            "1000_targets_pose_seeded",
+            meant.iter().map(|f| Goal::Pose(*f)).collect(),
+            Some(postures.clone()),
+        ),
+        (
+            "1000_targets_position_unseeded",
+            reached
+                .iter()
+                .map(|f| Goal::Position(f.translation))
+                .collect(),
+            None,
+        ),
+        (
+            "1000_targets_pose_unseeded",
+            reached.iter().map(|f| Goal::Pose(*f)).collect(),
+            None,
+        ),
+    ];
+    (postures, cases)
+}
+
+/// Runs one case once over its rows, calling `each` with every solution.
+fn run(
+    comp: &mut Compensator<'_>,
+    search: &mut TargetSearch<'_>,
+    postures: &[Vec<f64>],
+    case: &Case,
+    out: &mut [f64],
+    mut each: impl FnMut(&Solved),
+) {
+    let (_, goals, seeds) = case;
+    if goals.is_empty() {
+        for p in postures {
+            each(&black_box(comp.program(p, Target::EndEffector, false, out)));
+        }
+    } else {
+        for (k, g) in goals.iter().enumerate() {
+            let seed = seeds.as_ref().map(|s| s[k].as_slice());
+            each(&black_box(search.solve(g, Target::EndEffector, seed, out)));
+        }
+    }
+}
+
+fn compensation(c: &mut Criterion) {
+    let (nominal, calibrated) = robots();
+    let (postures, cases) = cases(&nominal, &calibrated);
     let mut comp = Compensator::new(&calibrated, &nominal, Options::default()).unwrap();
     let mut out = vec![0.0; 6];
+    if let Ok(only) = std::env::var("KINECAL_BENCH_CPU") {
+        let cases: Vec<Case> = cases
+            .into_iter()
+            .filter(|c| only == "1" || c.0.contains(only.as_str()))
+            .collect();
+        cpu_figures(&calibrated, &nominal, &mut comp, &postures, &cases);
+        return;
+    }
     let mut group = c.benchmark_group("compensate_6R");
     group.throughput(Throughput::Elements(postures.len() as u64));
-    group.bench_function("1000_programs_full_pose", |b| {
-        b.iter(|| {
-            for p in &postures {
-                black_box(comp.program(&p.readings, Target::EndEffector, false, &mut out));
-            }
-        })
-    });
-    // Goals the calibrated twin reaches at postures inside its ranges.
-    let chain = Chain::new(&calibrated);
-    let mut ws = Workspace::new(&calibrated);
-    let frames: Vec<_> = postures
-        .iter()
-        .map(|p| {
-            chain.forward(&p.readings, &mut ws);
-            chain.target_frame(&ws, Target::EndEffector)
-        })
-        .collect();
-    for (name, pose) in [
-        ("1000_targets_position_unseeded", false),
-        ("1000_targets_pose_unseeded", true),
-    ] {
-        let goals: Vec<Goal> = frames
-            .iter()
-            .map(|f| {
-                if pose {
-                    Goal::Pose(*f)
-                } else {
-                    Goal::Position(f.translation)
-                }
-            })
-            .collect();
+    for case in &cases {
+        // A fresh search per case: no case starts from another's last solution.
         let mut search = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
-        group.bench_function(name, |b| {
-            b.iter(|| {
-                for g in &goals {
-                    black_box(search.solve(g, Target::EndEffector, None, &mut out));
-                }
-            })
+        group.bench_function(case.0, |b| {
+            b.iter(|| run(&mut comp, &mut search, &postures, case, &mut out, |_| {}))
         });
     }
     group.finish();
+}
+
+/// CPU time of this thread (ns): the first field of `/proc/thread-self/schedstat`.
+fn thread_cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .expect("/proc/thread-self/schedstat (Linux)")
+}
+
+fn cpu_figures(
+    calibrated: &Robot,
+    nominal: &Robot,
+    comp: &mut Compensator<'_>,
+    postures: &[Vec<f64>],
+    cases: &[Case],
+) {
+    let mut out = vec![0.0; 6];
+    let mut searches: Vec<TargetSearch<'_>> = cases
+        .iter()
+        .map(|_| TargetSearch::new(calibrated, nominal, Options::default()).unwrap())
+        .collect();
+    let mut rates = vec![Vec::new(); cases.len()];
+    let mut flagged = vec![[0usize; 6]; cases.len()];
+    for round in 0..6 {
+        for (k, case) in cases.iter().enumerate() {
+            let mut counts = [0usize; 6];
+            let t = thread_cpu_ns();
+            run(comp, &mut searches[k], postures, case, &mut out, |s| {
+                let f = &s.flags;
+                counts[0] += f.any() as usize;
+                counts[1] += f.unreachable as usize;
+                counts[2] += (f.out_of_range != 0) as usize;
+                counts[3] += f.singular as usize;
+                counts[4] += f.branch as usize;
+                counts[5] += f.configuration as usize;
+            });
+            let dt = (thread_cpu_ns() - t) as f64 * 1e-9;
+            // Round 0 warms up (and builds the searches' tables).
+            if round > 0 {
+                rates[k].push(postures.len() as f64 / dt);
+            }
+            flagged[k] = counts;
+        }
+    }
+    println!("case                              rows/CPU s  flagged (unreachable, range, singular, branch, configuration)");
+    for (k, case) in cases.iter().enumerate() {
+        let r = &mut rates[k];
+        r.sort_by(f64::total_cmp);
+        let f = flagged[k];
+        println!(
+            "{:<32} {:>11.0}  {} ({}, {}, {}, {}, {})",
+            case.0,
+            r[r.len() / 2],
+            f[0],
+            f[1],
+            f[2],
+            f[3],
+            f[4],
+            f[5]
+        );
+    }
 }
 
 criterion_group!(benches, compensation);

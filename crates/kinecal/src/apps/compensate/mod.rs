@@ -375,9 +375,12 @@ impl<'r> Compensator<'r> {
         let mut err = self.error(goal, target, out);
         let mut cost = err.norm_squared();
         let mut mu = 1e-12;
+        // Whether `self.ws` holds the forward kinematics at `out` (the last error evaluated
+        // there): then the linearisation needs only the Jacobian.
+        let mut at_out = true;
         while iterations < self.options.max_iterations && !self.reached(&err) {
             iterations += 1;
-            let (jjt, scale) = self.linearize(out, target, rows);
+            let (jjt, scale) = self.linearize_at(out, target, rows, at_out);
             let mut improved = false;
             for _ in 0..30 {
                 // Step = J^T (J J^T + mu I)^-1 e: the minimum-norm change.
@@ -393,7 +396,8 @@ impl<'r> Compensator<'r> {
                 let e = self.error(goal, target, &trial);
                 self.trial = trial;
                 let c = e.norm_squared();
-                if c < cost {
+                at_out = c < cost;
+                if at_out {
                     out.copy_from_slice(&self.trial);
                     err = e;
                     cost = c;
@@ -449,8 +453,22 @@ impl<'r> Compensator<'r> {
     /// first `rows` rows with its largest diagonal entry (at least the smallest positive
     /// number), the scale of the damping.
     fn linearize(&mut self, out: &[f64], target: Target, rows: usize) -> (Matrix6<f64>, f64) {
-        self.calibrated
-            .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
+        self.linearize_at(out, target, rows, false)
+    }
+
+    /// [`Compensator::linearize`], with the forward kinematics at `out` already in `self.ws`
+    /// when `fresh`.
+    fn linearize_at(
+        &mut self,
+        out: &[f64],
+        target: Target,
+        rows: usize,
+        fresh: bool,
+    ) -> (Matrix6<f64>, f64) {
+        if !fresh {
+            self.calibrated
+                .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
+        }
         self.calibrated
             .reading_jacobian(&self.ws, target, &mut self.jac);
         let jjt = self.normal(rows);

@@ -17,14 +17,23 @@
 //!    holds postures in it only.
 //! 3. When none of those is usable: [`TargetSearch::SPREAD`] starts spread over the table.
 //!
+//! With a seed, the table is looked at only when the seed's own solution is not usable, and
+//! then briefly: [`TargetSearch::SEEDED_ATTEMPTS`] nearest starts and
+//! [`TargetSearch::SEEDED_SPREAD`] spread ones at most, stopping at the first solution that is
+//! usable, or reached inside the ranges and the configuration and flagged only for a change of
+//! configuration or only for a singularity (a solution usable with this seed lies within
+//! [`Options::branch`] of it, where the seed's own attempt and the nearest starts look).
+//! Without a seed the search stops at the first usable solution; a goal reached, in range and
+//! in configuration but singular from the first 9 nearest starts skips the rest of them.
+//!
 //! Every solution has its revolute readings moved by whole turns (which leave the pose as it
 //! is) to the turn nearest the reference, then into the joint's range when that turn is
 //! outside it; a joint without a range in the robot file stays within half a turn of its
 //! reading range's middle (see [`crate::apps::simulate::reading_range`]), so that no reading comes
-//! back several turns away. Without a seed
-//! the first usable solution is taken (from step 1 when it is usable: the previous solution's
-//! neighbour); with a seed, every usable solution of the attempts made counts and the one
-//! nearest the seed wins. When none is usable, the least bad is returned with its flags, in
+//! back several turns away. The first usable solution is taken (from step 1 when it is
+//! usable: the seed's, or the previous solution's neighbour). When none is usable, the least
+//! bad of the attempts made is returned with its flags (the nearest the reference among
+//! equally bad ones), in
 //! the order: unreachable, outside a range, not in the configuration, a change of
 //! configuration from the seed given, near a singularity; so
 //! `unreachable` means that no start reached the goal, and `outside range` that every solution
@@ -76,6 +85,11 @@ impl<'r> TargetSearch<'r> {
     pub const SPREAD: usize = 32;
     /// Iteration cap of the damped least squares from a start of the table.
     pub(crate) const CAP: usize = 30;
+    /// With a seed whose own solution is not usable: starts of the table tried at most,
+    /// nearest first ...
+    pub(crate) const SEEDED_ATTEMPTS: usize = 8;
+    /// ... and then spread over the table.
+    pub(crate) const SEEDED_SPREAD: usize = 4;
 
     /// A search for `calibrated`; `nominal` is the model the targets' programs were made with
     /// (same structure).
@@ -184,8 +198,10 @@ impl<'r> TargetSearch<'r> {
         let dof = self.robot.dof();
         assert_eq!(out.len(), dof);
         self.ensure_table(target);
-        self.find_nearest(goal, target);
         self.seeded = seed.is_some();
+        // The table's nearest starts are looked up only when needed: a seed that converges
+        // needs none.
+        let mut looked_up = false;
         // Step 1: the reference, when it is one.
         let from_reference = match (seed, &self.previous) {
             (Some(s), _) => {
@@ -194,6 +210,8 @@ impl<'r> TargetSearch<'r> {
             }
             (None, Some(p)) => {
                 self.reference.copy_from_slice(p);
+                self.find_nearest(goal, target);
+                looked_up = true;
                 let reference = std::mem::take(&mut self.reference);
                 let d = self.distance_of(goal, target, &reference);
                 self.reference = reference;
@@ -214,31 +232,52 @@ impl<'r> TargetSearch<'r> {
                 return self.finish(best.expect("considered").1, out);
             }
         }
+        if !looked_up {
+            self.find_nearest(goal, target);
+        }
+        // Whether the search can stop without a usable solution: without a seed, once the
+        // goal shows itself at a singularity (reached, in range and configuration, and singular
+        // from 8 starts); with a seed, once a solution is reached in range and configuration,
+        // flagged only for its change of configuration or only for a singularity (a usable one
+        // lies within the box of starts just tried).
+        let settled = |best: &Option<(Rank, Solved)>, tried: usize| {
+            best.as_ref().is_some_and(|(r, _)| {
+                let f = r.0;
+                let placed = !f[0] && !f[1] && !f[2];
+                if seed.is_some() {
+                    placed && (!f[3] || !f[4])
+                } else {
+                    placed && !f[3] && f[4] && tried > 8
+                }
+            })
+        };
         // Step 2: the nearest starts of the table.
         let mut usable = false;
+        let mut tried = 0;
         for k in 0..self.nearest.len() {
+            if seed.is_some() && k >= Self::SEEDED_ATTEMPTS {
+                break;
+            }
             let i = self.nearest[k].1 as usize;
             usable |= self.attempt_start(i, goal, target, seed, &mut best, out);
+            tried += 1;
             if usable && seed.is_none() {
                 break;
             }
-            // Reached, in range and configuration, and singular from 8 starts: the goal is
-            // at a singularity, not a start away from it.
-            if k >= 8
-                && best
-                    .as_ref()
-                    .is_some_and(|b| b.0 .0 == [false, false, false, false, true])
-            {
+            if settled(&best, tried) {
                 break;
             }
         }
         // Step 3: nothing usable near the goal: starts spread over the whole table.
         let rows = self.starts.len() / dof;
-        if !usable && rows > 0 {
+        if !usable && rows > 0 && !(seed.is_some() && settled(&best, tried)) {
             for k in 0..Self::SPREAD {
+                if seed.is_some() && k >= Self::SEEDED_SPREAD {
+                    break;
+                }
                 let i = (k * rows / Self::SPREAD + rows / (2 * Self::SPREAD)) % rows;
                 usable |= self.attempt_start(i, goal, target, seed, &mut best, out);
-                if usable && seed.is_none() {
+                if (usable && seed.is_none()) || (seed.is_some() && settled(&best, tried)) {
                     break;
                 }
             }
@@ -271,13 +310,19 @@ impl<'r> TargetSearch<'r> {
     ) -> bool {
         let dof = self.robot.dof();
         let starts = std::mem::take(&mut self.starts);
-        // A start that has not converged in this many iterations is in another basin.
-        let cap = self.options.max_iterations;
-        self.comp.options.max_iterations = cap.min(Self::CAP);
-        let s = self.attempt(goal, target, &starts[i * dof..(i + 1) * dof], false);
-        self.comp.options.max_iterations = cap;
+        let s = self.attempt_capped(goal, target, &starts[i * dof..(i + 1) * dof]);
         self.starts = starts;
         self.consider(s, seed.is_some(), best, out)
+    }
+
+    /// [`TargetSearch::attempt`] from `start` within the search's iteration cap: a start that
+    /// has not converged in [`Self::CAP`] iterations is in another basin.
+    fn attempt_capped(&mut self, goal: &Goal, target: Target, start: &[f64]) -> Solved {
+        let cap = self.options.max_iterations;
+        self.comp.options.max_iterations = cap.min(Self::CAP);
+        let s = self.attempt(goal, target, start, false);
+        self.comp.options.max_iterations = cap;
+        s
     }
 
     /// Keeps the candidate in `out` when it ranks before `best`; whether it is usable.
@@ -418,7 +463,17 @@ impl<'r> TargetSearch<'r> {
             .1;
         let reach2 = self.comp.reach * self.comp.reach;
         self.nearest.clear();
+        let p = match goal {
+            Goal::Position(p) => p,
+            Goal::Pose(g) => &g.translation,
+        };
         for (i, k) in table.iter().enumerate() {
+            // The position part first: a start already farther than the last kept one by its
+            // position alone is passed over without its attitude term (which is never negative).
+            let dp = (p.x - k[0]).powi(2) + (p.y - k[1]).powi(2) + (p.z - k[2]).powi(2);
+            if self.nearest.len() == Self::ATTEMPTS && dp >= self.nearest[Self::ATTEMPTS - 1].0 {
+                continue;
+            }
             let d = key_distance(goal, k, reach2);
             if self.nearest.len() == Self::ATTEMPTS {
                 if d >= self.nearest[Self::ATTEMPTS - 1].0 {
