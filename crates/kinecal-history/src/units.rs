@@ -5,8 +5,11 @@ use kinecal::units::{AngleUnit, LengthUnit, Quantity, Units};
 
 /// The quantity of a unit label and the SI value of one unit, e.g. `mm` -> (length, 0.001).
 pub(crate) fn parse_label(label: &str) -> Option<(Quantity, f64)> {
-    if label == "kg" {
-        return Some((Quantity::Mass, 1.0));
+    match label {
+        "kg" => return Some((Quantity::Mass, 1.0)),
+        "px" => return Some((Quantity::Pixel, 1.0)),
+        "" => return Some((Quantity::Ratio, 1.0)),
+        _ => {}
     }
     // A compliance: `ANGLE/(N LENGTH)`.
     if let Some(inner) = label
@@ -66,6 +69,8 @@ pub(crate) fn quantity_words(q: Quantity) -> &'static str {
         Quantity::AnglePerReading => "an angle per reading (revolute slope)",
         Quantity::Compliance => "an angle per torque (joint compliance)",
         Quantity::Mass => "a mass",
+        Quantity::Pixel => "a number of pixels (a camera's lens)",
+        Quantity::Ratio => "a pure number (a lens's distortion)",
     }
 }
 

@@ -68,6 +68,7 @@ pub fn details<'py>(py: Python<'py>, outcome: &Outcome) -> PyResult<Bound<'py, P
             let q = match spec.quantity {
                 RowQuantity::Length => Quantity::Length,
                 RowQuantity::Angle => Quantity::Angle,
+                RowQuantity::Pixel => Quantity::Pixel,
             };
             residuals.push(units.from_si(q, cal.residuals[k] * sigma[k]));
             rows.push((

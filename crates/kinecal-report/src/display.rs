@@ -109,6 +109,10 @@ fn stats(s: &mut ErrorStats, c: &Convert) {
 }
 
 fn metric(m: &mut MetricStats, c: &Convert) {
+    // A camera's reprojection error is in pixels whatever the length unit.
+    if m.metric == "pixel" {
+        return;
+    }
     for v in [&mut m.rms, &mut m.mean, &mut m.p95, &mut m.max] {
         *v = c.length(*v);
     }

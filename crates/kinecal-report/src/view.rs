@@ -225,6 +225,7 @@ impl ErrorTable {
         let is = r.identification.start.as_ref();
         for (k, (b, af)) in ib.other.iter().zip(&ia.other).enumerate() {
             let st = is.and_then(|st| st.other.get(k));
+            let l = if b.metric == "pixel" { "px" } else { l };
             rows.push(row(
                 format!("RMS {} error ({l})", b.metric),
                 b.rms,
@@ -365,7 +366,12 @@ impl Validation {
             for m in &e.other {
                 let other = Metric::Other(m.metric.clone());
                 if !metrics.iter().any(|(k, _)| k == &other) {
-                    metrics.push((other, format!("{} error ({l})", m.metric)));
+                    let unit = if m.metric == "pixel" {
+                        "px"
+                    } else {
+                        l.as_str()
+                    };
+                    metrics.push((other, format!("{} error ({unit})", m.metric)));
                 }
             }
         }

@@ -127,6 +127,11 @@ pub enum Quantity {
     Compliance,
     /// A mass (kg, in files too).
     Mass,
+    /// A length in an image: pixels, in files too (a camera's focal lengths and principal
+    /// point).
+    Pixel,
+    /// A pure number, the same in every unit (a lens's distortion coefficients).
+    Ratio,
 }
 
 /// A pair of units: the ones a robot file (and its measurement files) is written in.
@@ -154,7 +159,7 @@ impl Units {
             Quantity::Length | Quantity::LengthPerReading => self.length.metres(),
             Quantity::Angle | Quantity::AnglePerReading => self.angle.radians(),
             Quantity::Compliance => self.angle.radians() / self.length.metres(),
-            Quantity::Mass => 1.0,
+            Quantity::Mass | Quantity::Pixel | Quantity::Ratio => 1.0,
         }
     }
 
@@ -177,6 +182,8 @@ impl Units {
             Quantity::AnglePerReading => format!("{}/unit", self.angle),
             Quantity::Compliance => format!("{}/(N {})", self.angle, self.length),
             Quantity::Mass => "kg".into(),
+            Quantity::Pixel => "px".into(),
+            Quantity::Ratio => String::new(),
         }
     }
 }

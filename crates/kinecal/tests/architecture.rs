@@ -128,6 +128,7 @@ fn modules_import_in_one_direction() {
         "crate::model::",
         &[
             "params",
+            "camera",
             "robot",
             "kinematics",
             "param_list",
@@ -139,7 +140,14 @@ fn modules_import_in_one_direction() {
     check_order(
         &src().join("solve"),
         "crate::solve::",
-        &["problem", "estimation", "registration", "outliers"],
+        &[
+            "problem",
+            "estimation",
+            "registration",
+            "camera_start",
+            "hand_eye",
+            "outliers",
+        ],
     );
     check_order(
         &src().join("apps"),

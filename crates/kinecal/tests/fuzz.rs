@@ -85,6 +85,9 @@ fn check_data(d: &Dataset) -> Result<(), String> {
             Observation::Position(p) => p.position.iter().all(|v| v.is_finite()),
             Observation::Distance(x) => x.distance.is_finite(),
             Observation::Contact(c) => c.gap.is_finite(),
+            Observation::Pixel(p) => {
+                p.uv.iter().all(|v| v.is_finite()) && p.sigma.is_none_or(|s| s.is_finite())
+            }
         };
         if !finite {
             return Err(format!(
@@ -127,7 +130,64 @@ fn robot_seeds() -> Vec<Vec<u8>> {
     seeds.push(write_robot_toml(&r, None).into_bytes());
     // A tree: named joints, parents, a named end effector and a site on the other branch.
     seeds.push(write_robot_toml(&simulate::random_tree(2, &[3, 2], 5), None).into_bytes());
+    seeds.push(write_robot_toml(&a4_with_camera(), None).into_bytes());
     seeds
+}
+
+/// The GE A4 with a camera on its end effector and a board beside it (issue 40).
+fn a4_with_camera() -> Robot {
+    use kinecal::model::camera::{Board, Camera, Mount};
+    let mut r = examples::ge_a4();
+    r.cameras.push(Camera {
+        name: "wrist".into(),
+        mount: Mount::EndEffector,
+        pose: kinecal::model::robot::Link {
+            z: 0.05,
+            alpha: 0.1,
+            ..Default::default()
+        },
+        fx: 600.0,
+        fy: 600.0,
+        cx: 320.0,
+        cy: 240.0,
+        distortion: [-0.2, 0.05, 0.001, -0.0005, 0.0],
+        width: 640,
+        height: 480,
+    });
+    r.boards.push(Board {
+        name: "board".into(),
+        mount: Mount::Base,
+        pose: kinecal::model::robot::Link {
+            x: 0.5,
+            ..Default::default()
+        },
+        cols: 9,
+        rows: 6,
+        spacing: 0.025,
+    });
+    r
+}
+
+#[test]
+fn pixel_files() {
+    let robot = a4_with_camera();
+    let seeds = vec![
+        b"posture,camera,point,v1,v2,v3,v4,u,v,sigma_px\n\
+          1,wrist,board:0,1,2,3,4,320.5,240.25,0.3\n1,wrist,board:53,1,2,3,4,10,20,\n\
+          2,wrist,board:17,0.5,-2,3,1e-3,600,470.125,\n"
+            .to_vec(),
+        b"posture;point;v1;v2;v3;v4;u;v\n1;board:3;1;2;3;4;320,5;240,25\n".to_vec(),
+    ];
+    fuzz("pixels", "f.csv", &seeds, &|b| {
+        let t = match read_text(b, "f.csv") {
+            Ok(t) => t,
+            Err(o) => return o,
+        };
+        outcome(
+            kinecal::files::parse_pixels(&t, "f.csv", &robot),
+            check_data,
+        )
+    });
 }
 
 #[test]

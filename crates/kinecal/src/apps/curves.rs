@@ -176,7 +176,11 @@ pub fn period(robot: &Robot, id: ParamId, readings: Option<&[f64]>) -> Option<f6
     match robot.param_kind(id) {
         ParamKind::Link { component, .. }
         | ParamKind::Site { component, .. }
-        | ParamKind::Session { component, .. } => {
+        | ParamKind::Session { component, .. }
+        | ParamKind::Board { component, .. } => {
+            (component.quantity() == Quantity::Angle).then_some(turn)
+        }
+        ParamKind::Camera { component, .. } => {
             (component.quantity() == Quantity::Angle).then_some(turn)
         }
         ParamKind::Offset { joint } => {

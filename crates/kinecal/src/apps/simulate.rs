@@ -14,7 +14,7 @@ use crate::model::params::ParamKind;
 use crate::model::robot::{JointKind, Link, Robot};
 use crate::observe::point::{Pose, Position};
 use crate::observe::{
-    for_each_observation, Context, Dataset, Observation, OrientationError, Posture,
+    for_each_observation, Context, Dataset, Noise, Observation, OrientationError, Posture,
 };
 use crate::units::Quantity;
 
@@ -162,14 +162,77 @@ pub fn remeasure(robot: &Robot, data: &Dataset) -> Dataset {
 }
 
 /// Adds Gaussian noise to every observation: `length` (m) to each measured length (a position
-/// coordinate, a distance), `angle` (rad) to each measured Euler angle.
+/// coordinate, a distance), `angle` (rad) to each measured Euler angle (pixels get none: see
+/// [`add_noise_with`]).
 pub fn add_noise(data: &mut Dataset, length: f64, angle: f64, seed: u64) {
+    let noise = Noise {
+        length,
+        angle,
+        pixel: 0.0,
+    };
+    add_noise_with(data, &noise, seed);
+}
+
+/// Adds Gaussian noise of the standard deviations `noise` gives to every observation: to each
+/// measured length, Euler angle and pixel coordinate.
+pub fn add_noise_with(data: &mut Dataset, noise: &Noise, seed: u64) {
     let mut r = rng(seed, 3);
     let unit = Normal::new(0.0, 1.0).expect("valid normal");
     let mut draw = || -> f64 { unit.sample(&mut r) };
     for o in &mut data.observations {
-        o.add_noise(&mut draw, length, angle);
+        o.add_noise(&mut draw, noise);
     }
+}
+
+/// What camera `camera` of `robot` sees of board `board` in each of `postures`: a pixel
+/// observation of every board point in front of the camera (at least 1 cm) and inside its
+/// image, for the postures that see at least `min_points` of them (the others are left out;
+/// their labels are kept). The pixels are the model's: add noise with [`add_noise_with`].
+pub fn camera_views(
+    robot: &Robot,
+    postures: &[Posture],
+    camera: usize,
+    board: usize,
+    min_points: usize,
+) -> Dataset {
+    use crate::observe::pixel::{Pixel, Seen};
+    use crate::observe::Observe as _;
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    let mut kept = Vec::new();
+    let mut observations: Vec<Observation> = Vec::new();
+    let mut frames = [crate::model::kinematics::Frame::identity(); 2];
+    for p in postures {
+        chain.forward_loaded(&p.readings, None, p.payload.as_ref(), &mut ws);
+        let index = kept.len();
+        let mut seen = Vec::new();
+        for k in 0..robot.boards[board].points() {
+            let Ok(mut o) = Pixel::new(
+                robot,
+                index,
+                camera,
+                Seen::Board { board, index: k },
+                [0.0; 2],
+            ) else {
+                return Dataset::default();
+            };
+            for (slot, v) in frames.iter_mut().zip(o.views()) {
+                *slot = chain.target_frame(&ws, v.target);
+            }
+            let n = o.views().len();
+            let q = o.in_camera(robot, &frames[..n]);
+            let uv = o.predicted(robot, &frames[..n]);
+            if q.z >= 0.01 && robot.cameras[camera].inside(&uv) {
+                o.uv = [uv.x, uv.y];
+                seen.push(Observation::Pixel(o));
+            }
+        }
+        if seen.len() >= min_points.max(1) {
+            kept.push(p.clone());
+            observations.extend(seen);
+        }
+    }
+    Dataset::new(kept, observations)
 }
 
 /// A random link (metres and radians): offsets `x, y, z` up to `reach` per axis, Euler angles
@@ -229,6 +292,8 @@ pub fn random_robot(kinds: &[JointKind], seed: u64) -> Robot {
         priors: Default::default(),
         elastic: None,
         end_effector: None,
+        cameras: Vec::new(),
+        boards: Vec::new(),
     }
 }
 

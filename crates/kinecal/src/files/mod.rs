@@ -32,12 +32,19 @@
 //!   block; default 0) and `sigma_position` (the row's own standard deviation). `site` as in
 //!   measurement files (`ee` when left out); `plane` names a plane of the robot file and may be
 //!   left out when the robot has only one.
+//! - Pixel file ([`parse_pixels`]): `posture, camera, point, v1..vn, u, v` and optionally
+//!   `sigma_px` (the row's own standard deviation, pixels). `camera` names a camera of the robot
+//!   file (left out when it has one); `point` a board's point as `BOARD:K` (0-based, row-major)
+//!   or a target as in measurement files (a marker the camera sees); `u, v` the pixel where it
+//!   was seen (OpenCV's image coordinates: the origin at the top-left pixel's centre, u to the
+//!   right, v down), from the user's corner or marker detector.
 
 mod contacts;
 pub mod controller;
 mod distances;
 mod measurements;
 pub mod output;
+mod pixels;
 mod read;
 pub mod stream;
 pub(crate) mod table;
@@ -55,30 +62,35 @@ pub use measurements::{
     parse_measurements, parse_measurements_mapped, parse_postures, write_measurements,
     write_postures, ColumnMap, NOT_READ,
 };
+pub use pixels::parse_pixels;
 pub use read::{read_files, ObservationFile, ReadSettings};
 
 pub(crate) use contacts::write_contacts;
 pub(crate) use distances::write_distances;
+pub(crate) use pixels::write_pixels;
 pub(crate) use measurements::{postures_header, COMPENSATED_COLUMNS, PAYLOAD_COLUMNS};
 pub(crate) use read::kind_index;
 
 /// The observations of `data` as one file of kinecal's, read back to the same numbers: a
 /// measurement file for poses and positions ([`write_measurements`]), a distance file for
-/// distances (`write_distances`), a contact file for contacts (`write_contacts`). A file
-/// holds one of these three; observations of two of them are refused, naming the kinds found.
+/// distances (`write_distances`), a contact file for contacts (`write_contacts`), a pixel file
+/// for pixels (`write_pixels`). A file holds one of these four; observations of two of them
+/// are refused, naming the kinds found.
 pub fn write_observations(robot: &Robot, data: &Dataset) -> Result<String> {
     let kinds = data.kinds();
     let family = |k: &str| match k {
         "pose" | "position" => 0,
         "distance" => 1,
+        "pixel" => 3,
         _ => 2,
     };
     let families: std::collections::BTreeSet<usize> =
         kinds.iter().map(|(k, _)| family(k)).collect();
     if families.len() > 1 {
         return Err(Error::Problem(format!(
-            "one file holds poses and positions, or distances, or contacts; these observations \
-             hold {}: write each kind from its own measurements (before merging them)",
+            "one file holds poses and positions, or distances, or contacts, or pixels; these \
+             observations hold {}: write each kind from its own measurements (before merging \
+             them)",
             kinds
                 .iter()
                 .map(|(k, n)| format!("{n} {k}"))
@@ -89,6 +101,7 @@ pub fn write_observations(robot: &Robot, data: &Dataset) -> Result<String> {
     Ok(match families.first() {
         Some(1) => write_distances(robot, data),
         Some(2) => write_contacts(robot, data),
+        Some(3) => write_pixels(robot, data),
         _ => write_measurements(robot, data),
     })
 }
@@ -119,7 +132,12 @@ impl fmt::Debug for Format {
 }
 
 /// Every observation file format, the measurement file (`data`) first.
-pub const FORMATS: &[Format] = &[measurements::FORMAT, distances::FORMAT, contacts::FORMAT];
+pub const FORMATS: &[Format] = &[
+    measurements::FORMAT,
+    distances::FORMAT,
+    contacts::FORMAT,
+    pixels::FORMAT,
+];
 
 /// The format of an observation file, told by its header (the first line that is not blank or
 /// a `#` comment): the first format all of whose [`Format::marks`] columns it names, else the

@@ -597,5 +597,7 @@ fn default_tier(robot: &Robot, id: ParamId) -> usize {
         ParamKind::Session { .. } => 8,
         ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => 9,
         ParamKind::Body { .. } => 10,
+        ParamKind::Camera { .. } => 11,
+        ParamKind::Board { .. } => 12,
     }
 }

@@ -298,6 +298,7 @@ pub(super) fn file_row_scale(robot: &Robot, data: &Dataset, problem: &Problem<'_
             scale.push(match row.quantity {
                 RowQuantity::Length => sigma[i] / units.length.metres(),
                 RowQuantity::Angle => sigma[i] / units.angle.radians(),
+                RowQuantity::Pixel => sigma[i],
             });
         }
     }

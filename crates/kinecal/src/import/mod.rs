@@ -125,6 +125,8 @@ pub(crate) fn tree_from_frames(
         priors: Default::default(),
         elastic: None,
         end_effector: None,
+        cameras: Vec::new(),
+        boards: Vec::new(),
     }
 }
 

@@ -7,9 +7,15 @@
 //! body's mass and centre, `body2.mass`, `body2.x`, `body2` its four). The two compliance
 //! groups leave out the joints gravity cannot load ([`crate::model::kinematics::gravity_free_joints`]:
 //! a vertical first axis): name such a joint's compliance to ask for it anyway.
+//!
+//! Cameras and boards ([`crate::model::camera`]): `NAME.x .. NAME.gamma` (a camera's or board's
+//! pose), `NAME.fx, NAME.fy, NAME.cx, NAME.cy, NAME.k1, NAME.k2, NAME.p1, NAME.p2, NAME.k3` (a
+//! camera's lens), `NAME` (all of a camera's or board's), and the groups `cameras` (every
+//! camera's 15), `intrinsics` (every camera's lens), `extrinsics` (every camera's pose) and
+//! `boards` (every board's pose).
 
 use crate::error::{Error, Result};
-use crate::model::params::{LinkComponent, ParamId, ParamKind, PlaneComponent};
+use crate::model::params::{CameraComponent, LinkComponent, ParamId, ParamKind, PlaneComponent};
 use crate::model::robot::Robot;
 
 /// Parses a comma-separated parameter list (see the module docs) into sorted, distinct ids.
@@ -64,6 +70,34 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         "couplings" => return Ok(pick(&|k| matches!(k, ParamKind::Coupling { .. }))),
         "planes" => return Ok(pick(&|k| matches!(k, ParamKind::Plane { .. }))),
         "sessions" => return Ok(pick(&|k| matches!(k, ParamKind::Session { .. }))),
+        "cameras" | "intrinsics" | "extrinsics" | "boards" => {
+            let (cameras, boards) = (robot.cameras.is_empty(), robot.boards.is_empty());
+            if token == "boards" && boards || token != "boards" && cameras {
+                return Err(format!(
+                    "`{token}`: the robot has no {} (add `[[{}]]` to the robot file)",
+                    if token == "boards" {
+                        "boards"
+                    } else {
+                        "cameras"
+                    },
+                    if token == "boards" {
+                        "boards"
+                    } else {
+                        "cameras"
+                    }
+                ));
+            }
+            return Ok(pick(&|k| match k {
+                ParamKind::Camera { component, .. } => match token {
+                    "cameras" => true,
+                    "intrinsics" => component.is_intrinsic(),
+                    "extrinsics" => !component.is_intrinsic(),
+                    _ => false,
+                },
+                ParamKind::Board { .. } => token == "boards",
+                _ => false,
+            }));
+        }
         "masses" => {
             if robot.elastic.is_none() {
                 return Err(format!(
@@ -121,7 +155,8 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
             "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
              link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
              plane.NAME.offset, session.NAME.x or joint2.compliance, or one of all, links, offsets, \
-             slopes, couplings, sites, planes, sessions, compliance, lateral, masses)"
+             slopes, couplings, sites, planes, sessions, compliance, lateral, masses, cameras, \
+             intrinsics, extrinsics, boards, or a camera's or board's NAME.x, NAME.fx)"
         )
     };
     if let Some(rest) = token.strip_prefix("site.") {
@@ -173,6 +208,38 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         Some((h, c)) => (h, Some(c)),
         None => (token, None),
     };
+    if let Some(camera) = robot.camera_index(head) {
+        return match comp {
+            None => Ok(CameraComponent::ALL
+                .map(|component| id(ParamKind::Camera { camera, component }))
+                .to_vec()),
+            Some(c) => {
+                let component = CameraComponent::parse(c).ok_or_else(|| {
+                    format!(
+                        "`{token}`: unknown camera parameter `{c}` (expected x, y, z, alpha, beta, \
+                         gamma, fx, fy, cx, cy, k1, k2, p1, p2 or k3)"
+                    )
+                })?;
+                Ok(vec![id(ParamKind::Camera { camera, component })])
+            }
+        };
+    }
+    if let Some(board) = robot.board_index(head) {
+        return match comp {
+            None => Ok(LinkComponent::ALL
+                .map(|component| id(ParamKind::Board { board, component }))
+                .to_vec()),
+            Some(c) => {
+                let component = LinkComponent::parse(c).ok_or_else(|| {
+                    format!(
+                        "`{token}`: unknown board parameter `{c}` (expected x, y, z, alpha, beta \
+                         or gamma)"
+                    )
+                })?;
+                Ok(vec![id(ParamKind::Board { board, component })])
+            }
+        };
+    }
     if let Some(num) = head.strip_prefix("body") {
         let nb = robot.body_count();
         let body = num.parse::<usize>().map_err(|_| unknown())?;

@@ -5,8 +5,8 @@
 //! factor per coupled joint and 3 per plane (`tilt_x, tilt_y, offset`), 6 per measurement session,
 //! and, for a robot with a mass model ([`crate::model::robot::Elastic`]), one joint compliance per
 //! revolute joint followed by one lateral compliance per revolute joint and 4 per body (mass and
-//! centre of mass), so that a robot without
-//! couplings and planes keeps the thesis's numbering. `ParamId(0)` is the thesis's `p1`.
+//! centre of mass), then 15 per camera and 6 per board ([`crate::model::camera`]), so that a
+//! robot without couplings and planes keeps the thesis's numbering. `ParamId(0)` is the thesis's `p1`.
 //! Lists of parameters are read by [`crate::model::param_list`].
 
 use std::fmt;
@@ -74,6 +74,149 @@ impl LinkComponent {
     /// The component called `s`.
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|c| c.as_str() == s)
+    }
+}
+
+/// The six parameters of a link (or of a site's attachment), internal units.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Link {
+    /// Distal origin along the proximal x axis (m).
+    pub x: f64,
+    /// Distal origin along the proximal y axis (m).
+    pub y: f64,
+    /// Distal origin along the proximal z axis (m).
+    pub z: f64,
+    /// First ZYX Euler angle, about z (rad).
+    pub alpha: f64,
+    /// Second ZYX Euler angle, about the new y (rad).
+    pub beta: f64,
+    /// Third ZYX Euler angle, about the newest x (rad).
+    pub gamma: f64,
+}
+
+impl Link {
+    /// The value of one component.
+    pub fn get(&self, c: LinkComponent) -> f64 {
+        match c {
+            LinkComponent::X => self.x,
+            LinkComponent::Y => self.y,
+            LinkComponent::Z => self.z,
+            LinkComponent::Alpha => self.alpha,
+            LinkComponent::Beta => self.beta,
+            LinkComponent::Gamma => self.gamma,
+        }
+    }
+
+    /// A mutable reference to one component.
+    pub fn get_mut(&mut self, c: LinkComponent) -> &mut f64 {
+        match c {
+            LinkComponent::X => &mut self.x,
+            LinkComponent::Y => &mut self.y,
+            LinkComponent::Z => &mut self.z,
+            LinkComponent::Alpha => &mut self.alpha,
+            LinkComponent::Beta => &mut self.beta,
+            LinkComponent::Gamma => &mut self.gamma,
+        }
+    }
+}
+
+/// One of the 15 parameters of a camera: its pose in the mount frame, then its lens.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CameraComponent {
+    /// A component of the camera's pose in its mount frame.
+    Pose(LinkComponent),
+    /// Focal length along the image's x, in pixels.
+    Fx,
+    /// Focal length along the image's y, in pixels.
+    Fy,
+    /// Principal point, x (pixels).
+    Cx,
+    /// Principal point, y (pixels).
+    Cy,
+    /// Radial distortion, r^2 term.
+    K1,
+    /// Radial distortion, r^4 term.
+    K2,
+    /// Tangential distortion p1.
+    P1,
+    /// Tangential distortion p2.
+    P2,
+    /// Radial distortion, r^6 term.
+    K3,
+}
+
+impl CameraComponent {
+    /// The 15 in parameter order.
+    pub const ALL: [CameraComponent; 15] = [
+        CameraComponent::Pose(LinkComponent::X),
+        CameraComponent::Pose(LinkComponent::Y),
+        CameraComponent::Pose(LinkComponent::Z),
+        CameraComponent::Pose(LinkComponent::Alpha),
+        CameraComponent::Pose(LinkComponent::Beta),
+        CameraComponent::Pose(LinkComponent::Gamma),
+        CameraComponent::Fx,
+        CameraComponent::Fy,
+        CameraComponent::Cx,
+        CameraComponent::Cy,
+        CameraComponent::K1,
+        CameraComponent::K2,
+        CameraComponent::P1,
+        CameraComponent::P2,
+        CameraComponent::K3,
+    ];
+
+    /// Its index in [`CameraComponent::ALL`].
+    pub fn index(self) -> usize {
+        match self {
+            CameraComponent::Pose(c) => c as usize,
+            CameraComponent::Fx => 6,
+            CameraComponent::Fy => 7,
+            CameraComponent::Cx => 8,
+            CameraComponent::Cy => 9,
+            CameraComponent::K1 => 10,
+            CameraComponent::K2 => 11,
+            CameraComponent::P1 => 12,
+            CameraComponent::P2 => 13,
+            CameraComponent::K3 => 14,
+        }
+    }
+
+    /// Name as used in parameter names (`wrist.fx`) and robot files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CameraComponent::Pose(c) => c.as_str(),
+            CameraComponent::Fx => "fx",
+            CameraComponent::Fy => "fy",
+            CameraComponent::Cx => "cx",
+            CameraComponent::Cy => "cy",
+            CameraComponent::K1 => "k1",
+            CameraComponent::K2 => "k2",
+            CameraComponent::P1 => "p1",
+            CameraComponent::P2 => "p2",
+            CameraComponent::K3 => "k3",
+        }
+    }
+
+    /// The component called `s`.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.as_str() == s)
+    }
+
+    /// Length or angle for the pose, pixels for the pinhole, a pure number for distortion.
+    pub fn quantity(self) -> Quantity {
+        match self {
+            CameraComponent::Pose(c) => c.quantity(),
+            CameraComponent::Fx
+            | CameraComponent::Fy
+            | CameraComponent::Cx
+            | CameraComponent::Cy => Quantity::Pixel,
+            _ => Quantity::Ratio,
+        }
+    }
+
+    /// Whether it is one of the lens's nine (not the pose).
+    pub fn is_intrinsic(self) -> bool {
+        !matches!(self, CameraComponent::Pose(_))
     }
 }
 
@@ -226,6 +369,22 @@ pub enum ParamKind {
         body: usize,
         /// Which component.
         component: BodyComponent,
+    },
+    /// A parameter of camera `camera` ([`crate::model::camera::Camera`]): its pose in its mount
+    /// frame or its lens.
+    Camera {
+        /// 0-based index into the robot's cameras.
+        camera: usize,
+        /// Which parameter.
+        component: CameraComponent,
+    },
+    /// A component of board `board`'s pose in its mount frame
+    /// ([`crate::model::camera::Board`]).
+    Board {
+        /// 0-based index into the robot's boards.
+        board: usize,
+        /// Which component.
+        component: LinkComponent,
     },
     /// The lateral compliance of revolute joint `joint`: the joint tilts about its lateral axis
     /// ([`crate::model::robot::JointElasticity::lateral_axis`]) by `lateral * tau_lateral`, the gravity

@@ -27,51 +27,10 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::model::camera::{Board, Camera, CameraComponent, Mount};
+pub use crate::model::params::Link;
 use crate::model::params::{BodyComponent, LinkComponent, ParamId, ParamKind, PlaneComponent};
 use crate::units::{Quantity, Units};
-
-/// The six parameters of a link (or of a site's attachment), internal units.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Link {
-    /// Distal origin along the proximal x axis (m).
-    pub x: f64,
-    /// Distal origin along the proximal y axis (m).
-    pub y: f64,
-    /// Distal origin along the proximal z axis (m).
-    pub z: f64,
-    /// First ZYX Euler angle, about z (rad).
-    pub alpha: f64,
-    /// Second ZYX Euler angle, about the new y (rad).
-    pub beta: f64,
-    /// Third ZYX Euler angle, about the newest x (rad).
-    pub gamma: f64,
-}
-
-impl Link {
-    /// The value of one component.
-    pub fn get(&self, c: LinkComponent) -> f64 {
-        match c {
-            LinkComponent::X => self.x,
-            LinkComponent::Y => self.y,
-            LinkComponent::Z => self.z,
-            LinkComponent::Alpha => self.alpha,
-            LinkComponent::Beta => self.beta,
-            LinkComponent::Gamma => self.gamma,
-        }
-    }
-
-    /// A mutable reference to one component.
-    pub fn get_mut(&mut self, c: LinkComponent) -> &mut f64 {
-        match c {
-            LinkComponent::X => &mut self.x,
-            LinkComponent::Y => &mut self.y,
-            LinkComponent::Z => &mut self.z,
-            LinkComponent::Alpha => &mut self.alpha,
-            LinkComponent::Beta => &mut self.beta,
-            LinkComponent::Gamma => &mut self.gamma,
-        }
-    }
-}
 
 /// Kind of a joint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -539,6 +498,10 @@ pub struct Robot {
     /// The end-effector frame's name, when it has one: measurement files' `site` column may
     /// name it (besides `ee`). A tree's other tool frames are sites.
     pub end_effector: Option<String>,
+    /// Cameras whose pixel observations calibrate the robot ([`crate::model::camera`]).
+    pub cameras: Vec<Camera>,
+    /// Calibration boards the cameras see.
+    pub boards: Vec<Board>,
 }
 
 /// How far each parameter is expected to deviate from its nominal value (internal units): the
@@ -642,6 +605,8 @@ impl Prior {
             (ParamKind::Coupling { .. }, _) => self.slope? * robot.get(id).abs().max(1.0),
             (_, Quantity::Length) => self.length?,
             (_, Quantity::Compliance) => self.compliance?,
+            // A lens has no group of its own: a prior on it is given per parameter.
+            (_, Quantity::Pixel | Quantity::Ratio | Quantity::Mass) => return None,
             _ => self.angle?,
         };
         // A slope of 0 (never a valid one) has no scale to take a fraction of.
@@ -661,6 +626,9 @@ impl Robot {
                 self.tolerances.slope_fraction * self.get(id).abs().max(1.0)
             }
             (_, Quantity::Length) => self.tolerances.length,
+            // A lens: a pixel of focal length or principal point, a hundredth of distortion.
+            (_, Quantity::Pixel) => 1.0,
+            (_, Quantity::Ratio) => 0.01,
             _ => self.tolerances.angle,
         };
         if t > 0.0 {
@@ -770,6 +738,8 @@ impl Robot {
             sites: Vec::new(),
             planes: Vec::new(),
             sessions: Vec::new(),
+            cameras: Vec::new(),
+            boards: Vec::new(),
             elastic: None,
             end_effector: None,
             tolerances: Tolerances::default(),
@@ -811,6 +781,8 @@ impl Robot {
             + 6 * self.sessions.len()
             + 2 * self.compliant_joints().count()
             + 4 * self.body_count()
+            + 15 * self.cameras.len()
+            + 6 * self.boards.len()
     }
 
     /// The bodies of the mass model (0 for a rigid robot).
@@ -894,6 +866,20 @@ impl Robot {
                 component: BodyComponent::ALL[i % 4],
             });
         }
+        i -= 4 * self.body_count();
+        if i < 15 * self.cameras.len() {
+            return Some(ParamKind::Camera {
+                camera: i / 15,
+                component: CameraComponent::ALL[i % 15],
+            });
+        }
+        i -= 15 * self.cameras.len();
+        if i < 6 * self.boards.len() {
+            return Some(ParamKind::Board {
+                board: i / 6,
+                component: LinkComponent::ALL[i % 6],
+            });
+        }
         None
     }
 
@@ -951,6 +937,14 @@ impl Robot {
                     + 4 * body
                     + component as usize
             }
+            ParamKind::Camera { camera, component } => {
+                self.param_count() - 6 * self.boards.len() - 15 * self.cameras.len()
+                    + 15 * camera
+                    + component.index()
+            }
+            ParamKind::Board { board, component } => {
+                self.param_count() - 6 * self.boards.len() + 6 * board + component as usize
+            }
         };
         assert!(id < self.param_count(), "parameter out of range");
         ParamId(id)
@@ -985,6 +979,12 @@ impl Robot {
                     component.as_str()
                 )
             }
+            ParamKind::Camera { camera, component } => {
+                format!("{}.{}", self.cameras[camera].name, component.as_str())
+            }
+            ParamKind::Board { board, component } => {
+                format!("{}.{}", self.boards[board].name, component.as_str())
+            }
         }
     }
 
@@ -1001,6 +1001,8 @@ impl Robot {
             ParamKind::Plane { component, .. } => component.quantity(),
             ParamKind::Compliance { .. } | ParamKind::Lateral { .. } => Quantity::Compliance,
             ParamKind::Body { component, .. } => component.quantity(),
+            ParamKind::Camera { component, .. } => component.quantity(),
+            ParamKind::Board { component, .. } => component.quantity(),
         }
     }
 
@@ -1027,6 +1029,8 @@ impl Robot {
                     BodyComponent::Z => b.com.z,
                 }
             }
+            ParamKind::Camera { camera, component } => self.cameras[camera].get(component),
+            ParamKind::Board { board, component } => self.boards[board].pose.get(component),
         }
     }
 
@@ -1068,6 +1072,12 @@ impl Robot {
                     BodyComponent::Z => b.com.z = value,
                 }
             }
+            ParamKind::Camera { camera, component } => {
+                *self.cameras[camera].get_mut(component) = value
+            }
+            ParamKind::Board { board, component } => {
+                *self.boards[board].pose.get_mut(component) = value
+            }
         }
     }
 
@@ -1089,6 +1099,61 @@ impl Robot {
     /// Index of the session called `name`.
     pub fn session_index(&self, name: &str) -> Option<usize> {
         self.sessions.iter().position(|s| s.name == name)
+    }
+
+    /// Index of the camera called `name`.
+    pub fn camera_index(&self, name: &str) -> Option<usize> {
+        self.cameras.iter().position(|c| c.name == name)
+    }
+
+    /// Index of the board called `name`.
+    pub fn board_index(&self, name: &str) -> Option<usize> {
+        self.boards.iter().position(|b| b.name == name)
+    }
+
+    /// The cameras' and boards' own checks, their mounts, and their names: unique among
+    /// them, and not a name the robot's other parameters start with (their parameters are
+    /// `NAME.x`, `NAME.fx`).
+    fn validate_optics(&self) -> Result<(), String> {
+        let mut names: Vec<&str> = Vec::new();
+        let mounts = self
+            .cameras
+            .iter()
+            .map(|c| ("camera", &c.name, c.mount))
+            .chain(self.boards.iter().map(|b| ("board", &b.name, b.mount)));
+        for (what, name, mount) in mounts {
+            let reserved = ["site", "plane", "session", "ee", "base"].contains(&name.as_str())
+                || ["link", "joint", "body"].iter().any(|p| {
+                    name.strip_prefix(p)
+                        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+                });
+            if name.trim().is_empty()
+                || reserved
+                || name.contains(['.', ':', ',', '"'])
+                || names.contains(&name.as_str())
+            {
+                return Err(format!(
+                    "{what} `{name}`: a camera's or board's name must be unique among them,                      without `.`, `:`, `,` or quotes, and not `ee`, `base`, `site`, `plane`,                      `session`, `linkK`, `jointK` or `bodyK` (its parameters are `{name}.x`, ...)"
+                ));
+            }
+            names.push(name);
+            if let Mount::Site(s) = mount {
+                if s >= self.sites.len() {
+                    return Err(format!(
+                        "{what} `{name}`: mounted on site {} but the robot has {} sites",
+                        s + 1,
+                        self.sites.len()
+                    ));
+                }
+            }
+        }
+        for c in &self.cameras {
+            c.validate()?;
+        }
+        for b in &self.boards {
+            b.validate()?;
+        }
+        Ok(())
     }
 
     /// Index of the plane called `name`.
@@ -1118,6 +1183,19 @@ impl Robot {
                 .eq(other.planes.iter().map(|p| &p.name))
             && self.elastic.is_some() == other.elastic.is_some()
             && self.body_count() == other.body_count()
+            && self
+                .cameras
+                .iter()
+                .map(|c| (&c.name, c.mount))
+                .eq(other.cameras.iter().map(|c| (&c.name, c.mount)))
+            && self
+                .boards
+                .iter()
+                .map(|b| (&b.name, b.mount, b.cols, b.rows))
+                .eq(other
+                    .boards
+                    .iter()
+                    .map(|b| (&b.name, b.mount, b.cols, b.rows)))
     }
 
     /// A characteristic length of the robot (m): the sum of its link offsets' lengths, at least
@@ -1240,6 +1318,7 @@ impl Robot {
         if let Some(e) = &self.elastic {
             e.validate(self)?;
         }
+        self.validate_optics()?;
         if let Some(id) = self
             .param_ids()
             .find(|&id| !crate::units::plausible(self.get_user(id)))

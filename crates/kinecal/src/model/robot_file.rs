@@ -30,6 +30,22 @@
 //! name = "C"              # the observations' `session`
 //! x = 508.0               # the robot's global frame in the session's measurement frame:
 //! gamma = 1.5             # x, y, z, alpha, beta, gamma as for links
+//! [[cameras]]             # optional: a camera whose pixel observations calibrate the robot
+//! name = "wrist"          # its parameters: wrist.x .. wrist.gamma, wrist.fx .. wrist.k3
+//! mount = "ee"            # "ee" (eye-in-hand), "base" (fixed beside the robot) or a site
+//! pose = [0, 0, 0, 0, 0, 0]   # camera frame in the mount frame: x, y, z, alpha, beta, gamma;
+//!                         # OpenCV's camera frame: z along the optical axis, x right, y down
+//! fx = 600.0              # pixels; fy, cx, cy too
+//! distortion = [-0.2, 0.05, 0, 0, 0]   # k1, k2, p1, p2, k3 (OpenCV's plumb bob); default 0
+//! width = 640             # image size, pixels
+//! height = 480
+//! [[boards]]              # optional: a calibration board the cameras see
+//! name = "board"          # its parameters: board.x .. board.gamma
+//! mount = "base"          # as for cameras
+//! pose = [0, 0, 0, 0, 0, 0]
+//! cols = 9                # points along the board's x; point k at ((k % cols) * spacing,
+//! rows = 6                # (k / cols) * spacing, 0) in the board frame
+//! spacing = 25.0          # length_unit
 //! [tolerances]            # optional: expected deviations, the metric of minimum-change answers
 //! length = 0.04           # length, angle (file units), slope (a fraction), any parameter
 //! [priors]                # optional: a calibration's Gaussian prior on the changes (the same
@@ -67,6 +83,7 @@ use std::ops::Range;
 use toml_edit::{DocumentMut, Item, Table, Value};
 
 use crate::error::{Error, Location, Result};
+use crate::model::camera::{Board, Camera, Mount};
 use crate::model::params::LinkComponent;
 use crate::model::robot::{
     Body, Coupling, Elastic, Joint, JointKind, Link, Plane, Robot, Session, Site,
@@ -230,6 +247,17 @@ impl<'t> Reader<'t> {
 
     /// A 3-vector `[a, b, c]` of numbers, if present.
     pub(crate) fn vec3(&self, table: &Table, key: &str, field: &str) -> Result<Option<[f64; 3]>> {
+        self.numbers(table, key, field, "[0, 0, 1]")
+    }
+
+    /// An array of `N` finite numbers within +-1e9 (`example` shows one in errors).
+    fn numbers<const N: usize>(
+        &self,
+        table: &Table,
+        key: &str,
+        field: &str,
+        example: &str,
+    ) -> Result<Option<[f64; N]>> {
         let Some(item) = table.get(key) else {
             return Ok(None);
         };
@@ -237,14 +265,14 @@ impl<'t> Reader<'t> {
             self.err(
                 item.span(),
                 field,
-                "expected an array of 3 finite numbers within +-1e9, e.g. [0, 0, 1]",
+                format!("expected an array of {N} finite numbers within +-1e9, e.g. {example}"),
             )
         };
         let arr = item.as_array().ok_or_else(bad)?;
-        if arr.len() != 3 {
+        if arr.len() != N {
             return Err(bad());
         }
-        let mut out = [0.0; 3];
+        let mut out = [0.0; N];
         for (k, v) in arr.iter().enumerate() {
             out[k] = match v {
                 Value::Float(f) => *f.value(),
@@ -546,6 +574,13 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
     let sessions = (r.tables(root, "sessions")?.iter().enumerate())
         .map(|(i, t)| r.session(t, i, &units))
         .collect::<Result<Vec<_>>>()?;
+    let mount_of = (sites.as_slice(), end_effector.as_deref());
+    let cameras = (r.tables(root, "cameras")?.iter().enumerate())
+        .map(|(i, t)| r.camera(t, i, &units, mount_of))
+        .collect::<Result<Vec<_>>>()?;
+    let boards = (r.tables(root, "boards")?.iter().enumerate())
+        .map(|(i, t)| r.board(t, i, &units, mount_of))
+        .collect::<Result<Vec<_>>>()?;
     let mut robot = Robot {
         name,
         units,
@@ -558,6 +593,8 @@ pub fn parse_robot_toml(text: &str, file: &str) -> Result<Robot> {
         priors: Default::default(),
         elastic: None,
         end_effector,
+        cameras,
+        boards,
     };
     let invalid = |m| Error::input(Location::file(file), m);
     robot.validate().map_err(invalid)?;
@@ -744,6 +781,179 @@ impl Reader<'_> {
         })
     }
 
+    /// A camera's or board's `mount`: `base`, `ee` (or the end effector's name), or a site.
+    fn mount(
+        &self,
+        t: &Table,
+        what: &str,
+        (sites, end_effector): (&[Site], Option<&str>),
+    ) -> Result<Mount> {
+        let field = format!("{what}.mount");
+        let expected = || {
+            let mut names = vec!["\"base\"".to_string(), "\"ee\"".to_string()];
+            names.extend(end_effector.map(|e| format!("\"{e}\"")));
+            names.extend(sites.iter().map(|s| format!("\"{}\"", s.name)));
+            format!("expected `mount` = {}", names.join(", "))
+        };
+        let name = self.string(t, "mount", &field)?.ok_or_else(|| {
+            self.err(t.span(), &field, format!("missing `mount`: {}", expected()))
+        })?;
+        match name {
+            "base" => Ok(Mount::Base),
+            "ee" => Ok(Mount::EndEffector),
+            n if end_effector == Some(n) => Ok(Mount::EndEffector),
+            n => match sites.iter().position(|s| s.name == n) {
+                Some(i) => Ok(Mount::Site(i)),
+                None => Err(self.err(
+                    t.get("mount").and_then(Item::span),
+                    &field,
+                    format!("unknown mount `{n}`: {}", expected()),
+                )),
+            },
+        }
+    }
+
+    /// A camera's or board's `pose = [x, y, z, alpha, beta, gamma]` in its mount frame (the
+    /// file's units; zeros when left out).
+    fn pose(&self, t: &Table, what: &str, units: &Units) -> Result<Link> {
+        let field = format!("{what}.pose");
+        let mut link = Link::default();
+        if let Some(v) = self.numbers::<6>(t, "pose", &field, "[0, 0, 0.1, 0, 0, 0]")? {
+            for (c, x) in LinkComponent::ALL.into_iter().zip(v) {
+                *link.get_mut(c) = units.to_si(c.quantity(), x);
+            }
+        }
+        Ok(link)
+    }
+
+    /// A whole number in `range`, or the error naming `field` and `expected`.
+    fn whole(
+        &self,
+        t: &Table,
+        key: &str,
+        field: &str,
+        range: std::ops::RangeInclusive<i64>,
+        expected: &str,
+    ) -> Result<u32> {
+        match t.get(key).map(|i| (i.as_integer(), i.span())) {
+            Some((Some(n), _)) if range.contains(&n) => Ok(n as u32),
+            Some((_, span)) => Err(self.err(span, field, format!("expected {expected}"))),
+            None => Err(self.err(t.span(), field, format!("missing `{key}`: {expected}"))),
+        }
+    }
+
+    /// Camera `i`: its mount, pose and lens.
+    fn camera(
+        &self,
+        t: &Table,
+        i: usize,
+        units: &Units,
+        mounts: (&[Site], Option<&str>),
+    ) -> Result<Camera> {
+        let what = format!("cameras[{i}]");
+        self.check_keys(
+            t,
+            &[
+                "name",
+                "mount",
+                "pose",
+                "fx",
+                "fy",
+                "cx",
+                "cy",
+                "distortion",
+                "width",
+                "height",
+            ],
+            &what,
+        )?;
+        let name = self.name(t, &what)?;
+        let mount = self.mount(t, &what, mounts)?;
+        let pose = self.pose(t, &what, units)?;
+        let mut lens = [0.0; 4];
+        for (slot, key) in lens.iter_mut().zip(["fx", "fy", "cx", "cy"]) {
+            let field = format!("{what}.{key}");
+            *slot = self
+                .number(t, key, &field)?
+                .ok_or_else(|| self.err(t.span(), &field, format!("missing `{key}` (pixels)")))?;
+        }
+        let distortion = self
+            .numbers::<5>(
+                t,
+                "distortion",
+                &format!("{what}.distortion"),
+                "[k1, k2, p1, p2, k3] = [-0.2, 0.05, 0, 0, 0]",
+            )?
+            .unwrap_or([0.0; 5]);
+        let size = "a whole number of pixels in 1..100000";
+        let width = self.whole(t, "width", &format!("{what}.width"), 1..=100_000, size)?;
+        let height = self.whole(t, "height", &format!("{what}.height"), 1..=100_000, size)?;
+        let camera = Camera {
+            name,
+            mount,
+            pose,
+            fx: lens[0],
+            fy: lens[1],
+            cx: lens[2],
+            cy: lens[3],
+            distortion,
+            width,
+            height,
+        };
+        camera
+            .validate()
+            .map_err(|m| self.err(t.get("fx").and_then(Item::span), &format!("{what}.fx"), m))?;
+        Ok(camera)
+    }
+
+    /// Board `i`: its mount, pose and grid.
+    fn board(
+        &self,
+        t: &Table,
+        i: usize,
+        units: &Units,
+        mounts: (&[Site], Option<&str>),
+    ) -> Result<Board> {
+        let what = format!("boards[{i}]");
+        self.check_keys(
+            t,
+            &["name", "mount", "pose", "cols", "rows", "spacing"],
+            &what,
+        )?;
+        let name = self.name(t, &what)?;
+        let mount = self.mount(t, &what, mounts)?;
+        let pose = self.pose(t, &what, units)?;
+        let count = "a whole number of points in 2..1000";
+        let cols = self.whole(t, "cols", &format!("{what}.cols"), 2..=1000, count)?;
+        let rows = self.whole(t, "rows", &format!("{what}.rows"), 2..=1000, count)?;
+        let field = format!("{what}.spacing");
+        let spacing = match self.number(t, "spacing", &field)? {
+            Some(v) if v > 0.0 => units.to_si(Quantity::Length, v),
+            Some(_) => {
+                return Err(self.err(
+                    t.get("spacing").and_then(Item::span),
+                    &field,
+                    "the spacing must be a positive length (length_unit)",
+                ))
+            }
+            None => {
+                return Err(self.err(
+                    t.span(),
+                    &field,
+                    "missing `spacing` (the distance between neighbouring points, length_unit)",
+                ))
+            }
+        };
+        Ok(Board {
+            name,
+            mount,
+            pose,
+            cols,
+            rows,
+            spacing,
+        })
+    }
+
     /// Session `i`: a name and the frame its instrument stood in.
     fn session(&self, t: &Table, i: usize, units: &Units) -> Result<Session> {
         let what = format!("sessions[{i}]");
@@ -834,7 +1044,9 @@ impl Scales {
             .links
             .iter()
             .chain(robot.sites.iter().map(|x| &x.frame))
-            .chain(robot.sessions.iter().map(|x| &x.frame));
+            .chain(robot.sessions.iter().map(|x| &x.frame))
+            .chain(robot.cameras.iter().map(|x| &x.pose))
+            .chain(robot.boards.iter().map(|x| &x.pose));
         for l in frames {
             for c in LinkComponent::ALL {
                 let q = c.quantity();
@@ -874,7 +1086,7 @@ impl Scales {
             Quantity::Angle => &mut self.angle,
             Quantity::LengthPerReading | Quantity::AnglePerReading => &mut self.slope,
             Quantity::Compliance => &mut self.compliance,
-            Quantity::Mass => &mut self.mass,
+            Quantity::Mass | Quantity::Pixel | Quantity::Ratio => &mut self.mass,
         }
     }
 
@@ -885,6 +1097,8 @@ impl Scales {
             Quantity::LengthPerReading | Quantity::AnglePerReading => self.slope,
             Quantity::Compliance => self.compliance,
             Quantity::Mass => self.mass,
+            // A lens's numbers have their own scales (see `write_optics`).
+            Quantity::Pixel | Quantity::Ratio => Scale(1.0),
         }
     }
 }
@@ -1011,6 +1225,76 @@ fn write_elastic(root: &mut Table, robot: &Robot, scales: &Scales) {
             );
         }
         set_vec3(t, "lateral_axis", &el.lateral_axis, Scale(1.0));
+    }
+}
+
+/// The name a `mount` key writes for `m`.
+fn mount_name(robot: &Robot, m: Mount) -> &str {
+    match m {
+        Mount::Base => "base",
+        Mount::EndEffector => robot.end_effector.as_deref().unwrap_or("ee"),
+        Mount::Site(s) => &robot.sites[s].name,
+    }
+}
+
+/// A pose as `[x, y, z, alpha, beta, gamma]` in the file's units.
+fn set_pose(t: &mut Table, l: &Link, units: &Units, scales: &Scales) {
+    let mut arr = toml_edit::Array::new();
+    for c in LinkComponent::ALL {
+        let q = c.quantity();
+        arr.push(toml_number(crate::units::tidy(
+            units.from_si(q, l.get(c)),
+            scales.of_quantity(q),
+        )));
+    }
+    let mut v = Value::Array(arr);
+    if let Some(old) = t.get("pose").and_then(Item::as_value) {
+        *v.decor_mut() = old.decor().clone();
+    }
+    t.insert("pose", Item::Value(v));
+}
+
+/// `[[cameras]]` and `[[boards]]`.
+fn write_optics(root: &mut Table, robot: &Robot, scales: &Scales) {
+    let units = robot.units;
+    if !robot.cameras.is_empty() || root.contains_key("cameras") {
+        let cameras = array_of_tables(root, "cameras", robot.cameras.len());
+        for (t, c) in cameras.iter_mut().zip(&robot.cameras) {
+            set_string(t, "name", &c.name);
+            set_string(t, "mount", mount_name(robot, c.mount));
+            set_pose(t, &c.pose, &units, scales);
+            let pixels = Scale::of([c.fx, c.fy, c.cx, c.cy]);
+            for (key, v) in [("fx", c.fx), ("fy", c.fy), ("cx", c.cx), ("cy", c.cy)] {
+                set_number(t, key, v, pixels);
+            }
+            let mut arr = toml_edit::Array::new();
+            for v in c.distortion {
+                arr.push(toml_number(crate::units::tidy(v, Scale(1.0))));
+            }
+            let mut v = Value::Array(arr);
+            if let Some(old) = t.get("distortion").and_then(Item::as_value) {
+                *v.decor_mut() = old.decor().clone();
+            }
+            t.insert("distortion", Item::Value(v));
+            t.insert("width", Item::Value(Value::from(c.width as i64)));
+            t.insert("height", Item::Value(Value::from(c.height as i64)));
+        }
+    }
+    if !robot.boards.is_empty() || root.contains_key("boards") {
+        let boards = array_of_tables(root, "boards", robot.boards.len());
+        for (t, b) in boards.iter_mut().zip(&robot.boards) {
+            set_string(t, "name", &b.name);
+            set_string(t, "mount", mount_name(robot, b.mount));
+            set_pose(t, &b.pose, &units, scales);
+            t.insert("cols", Item::Value(Value::from(b.cols as i64)));
+            t.insert("rows", Item::Value(Value::from(b.rows as i64)));
+            set_number(
+                t,
+                "spacing",
+                units.from_si(Quantity::Length, b.spacing),
+                scales.length,
+            );
+        }
     }
 }
 
@@ -1164,5 +1448,6 @@ pub fn write_robot_toml(robot: &Robot, original: Option<&str>) -> String {
             write_link(t, &s.frame, &units, &scales);
         }
     }
+    write_optics(root, robot, &scales);
     doc.to_string()
 }

@@ -5,7 +5,7 @@
 //! Their file, the contact file, is read in [`crate::files`].
 
 use super::{
-    target_name, Anchoring, Context, Derivatives, ErrorSample, Observe, Posture, Row, RowQuantity,
+    target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, Posture, Row, RowQuantity,
     View,
 };
 use crate::model::kinematics::{Frame, Target};
@@ -108,8 +108,8 @@ impl Observe for Contact {
         self.gap = ctx.robot.planes[self.plane].distance(&frames[0].translation);
     }
 
-    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, _angle: f64) {
-        self.gap += unit() * length;
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, noise: &Noise) {
+        self.gap += unit() * noise.length;
     }
 
     fn describe(&self, postures: &[Posture], robot: &Robot) -> String {

@@ -7,7 +7,7 @@
 //! Their file, the distance file, is read in [`crate::files`].
 
 use super::{
-    target_name, Anchoring, Context, Derivatives, ErrorSample, Observe, Posture, Row, RowQuantity,
+    target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, Posture, Row, RowQuantity,
     View,
 };
 use crate::model::kinematics::{Frame, Target};
@@ -90,8 +90,8 @@ impl Observe for Distance {
         self.distance = (frames[0].translation - frames[1].translation).norm();
     }
 
-    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, _angle: f64) {
-        self.distance += unit() * length;
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, noise: &Noise) {
+        self.distance += unit() * noise.length;
     }
 
     fn describe(&self, postures: &[Posture], robot: &Robot) -> String {

@@ -16,7 +16,9 @@
 //! - [`distance::Distance`]: the distance between a target's positions in two postures (ballbar,
 //!   fixed-length artefact), 1 row;
 //! - [`contact::Contact`]: a target touching a plane of the robot file, 1 row (its distance from
-//!   the plane).
+//!   the plane);
+//! - [`pixel::Pixel`]: where a camera of the robot file saw a board's corner or a marker, 2 rows
+//!   (the reprojection error in pixels).
 //!
 //! Values are internal (m, rad). A [`Dataset`] keeps its observations sorted by their first
 //! posture so that forward kinematics runs once per posture however many targets it measured.
@@ -47,6 +49,7 @@ macro_rules! observe_fields {
 
 pub mod contact;
 pub mod distance;
+pub mod pixel;
 pub mod point;
 pub(crate) mod sanity;
 
@@ -89,6 +92,8 @@ pub enum RowQuantity {
     Length,
     /// An angle (rad).
     Angle,
+    /// A position in an image (pixels).
+    Pixel,
 }
 
 /// One residual row of a kind: its label (`x`, `alpha`, `distance`, ...) and quantity.
@@ -126,13 +131,30 @@ impl Default for Weights {
 }
 
 impl Weights {
+    /// The standard deviation of a pixel row without one of its own (`sigma_px`): 1 pixel, about
+    /// what corner detectors reach on a focused image (0.1-1 px).
+    pub const PIXEL: f64 = 1.0;
+
     /// The default standard deviation of a row of `quantity`.
     pub fn of(&self, quantity: RowQuantity) -> f64 {
         match quantity {
             RowQuantity::Length => self.length,
             RowQuantity::Angle => self.angle,
+            RowQuantity::Pixel => Self::PIXEL,
         }
     }
+}
+
+/// The standard deviations of the Gaussian noise simulated data gets
+/// ([`Observe::add_noise`]): lengths (m), angles (rad) and pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Noise {
+    /// Of lengths (m).
+    pub length: f64,
+    /// Of angles (rad).
+    pub angle: f64,
+    /// Of pixel coordinates (pixels).
+    pub pixel: f64,
 }
 
 /// How an orientation residual is formed (in a calibration spec: `euler`, `rotvec`).
@@ -280,8 +302,8 @@ pub trait Observe: fmt::Debug {
     /// Replaces the measured value with the model's (for synthesizing data).
     fn remeasure(&mut self, ctx: &Context<'_>, frames: &[Frame]);
     /// Adds Gaussian noise to the measured value: `unit()` draws a standard normal number,
-    /// `length` and `angle` are the standard deviations (internal units).
-    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, angle: f64);
+    /// `noise` holds the standard deviations (internal units).
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, noise: &Noise);
     /// Whether its residual metric is degenerate here (a pose near gimbal lock under Euler
     /// residuals).
     fn degenerate(&self, _ctx: &Context<'_>) -> bool {
@@ -352,6 +374,8 @@ observation_kinds! {
     Distance(distance::Distance),
     /// A target touching a plane.
     Contact(contact::Contact),
+    /// A camera's pixel of a point.
+    Pixel(pixel::Pixel),
 }
 
 /// A set of postures and the observations made in them.

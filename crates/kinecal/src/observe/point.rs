@@ -5,7 +5,7 @@
 use nalgebra::Vector3;
 
 use super::{
-    target_name, Anchoring, Context, Derivatives, ErrorSample, Observe, OrientationError, Posture,
+    target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, OrientationError, Posture,
     Row, RowQuantity, View,
 };
 use crate::model::kinematics::{
@@ -204,12 +204,12 @@ impl Observe for Pose {
         self.euler = p.euler;
     }
 
-    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, angle: f64) {
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, noise: &Noise) {
         for k in 0..3 {
-            self.position[k] += unit() * length;
+            self.position[k] += unit() * noise.length;
         }
         for k in 0..3 {
-            self.euler[k] += unit() * angle;
+            self.euler[k] += unit() * noise.angle;
         }
     }
 
@@ -268,9 +268,9 @@ impl Observe for Position {
         self.position = frames[0].translation;
     }
 
-    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, length: f64, _angle: f64) {
+    fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, noise: &Noise) {
         for k in 0..3 {
-            self.position[k] += unit() * length;
+            self.position[k] += unit() * noise.length;
         }
     }
 

@@ -61,7 +61,8 @@ impl ErrorStats {
     }
 }
 
-/// Length errors of one metric other than positions (length unit).
+/// Errors of one metric other than positions (the length unit; pixels for `pixel`, a camera's
+/// reprojection error).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 #[non_exhaustive]
 pub struct MetricStats {
@@ -80,9 +81,15 @@ pub struct MetricStats {
 }
 
 impl MetricStats {
-    /// Converts a [`MetricAccuracy`] to the length unit of `units`.
+    /// Converts a [`MetricAccuracy`] to the length unit of `units` (pixels stay pixels).
     pub fn new(m: &MetricAccuracy, units: &Units) -> Self {
-        let len = |v: f64| units.from_si(Quantity::Length, v);
+        let len = |v: f64| {
+            if m.metric == "pixel" {
+                v
+            } else {
+                units.from_si(Quantity::Length, v)
+            }
+        };
         MetricStats {
             metric: m.metric.to_string(),
             count: m.count,

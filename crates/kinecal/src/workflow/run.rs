@@ -408,11 +408,13 @@ fn place_frames(
         .filter(|&id| matches!(start.param_kind(id), ParamKind::Session { .. }))
         .collect();
     let sessions_placed = crate::solve::registration::place_sessions(&start, data, &session_ids);
-    let placed = registration.is_some() || sessions_placed.is_some();
-    let start = match sessions_placed {
-        Some((placed, _, _)) => placed,
+    let start = match sessions_placed.as_ref() {
+        Some((placed, _, _)) => placed.clone(),
         None => start,
     };
+    let cameras_placed = crate::solve::hand_eye::place_cameras(&start, data, &candidates);
+    let placed = registration.is_some() || sessions_placed.is_some() || cameras_placed.is_some();
+    let start = cameras_placed.unwrap_or(start);
     let start = if placed {
         rigid_fit(&start, data, &candidates, req)
     } else {
@@ -603,6 +605,8 @@ fn rigid_fit(robot: &Robot, data: &Dataset, candidates: &[ParamId], req: &Reques
                 ParamKind::Link { link: 0, .. }
                     | ParamKind::Site { .. }
                     | ParamKind::Session { .. }
+                    | ParamKind::Camera { .. }
+                    | ParamKind::Board { .. }
             ) || matches!(robot.param_kind(id), ParamKind::Link { link, .. } if link == last)
         })
         .collect();

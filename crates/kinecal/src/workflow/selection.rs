@@ -209,6 +209,22 @@ pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<P
     let unseen_component = |dof: usize, c: LinkComponent| {
         dof == 0 || (dof < 6 && c.quantity() == crate::units::Quantity::Angle)
     };
+    let pixels: Vec<(usize, Option<usize>)> = data
+        .observations
+        .iter()
+        .filter_map(|o| match o {
+            crate::observe::Observation::Pixel(p) => Some((
+                p.camera,
+                match p.seen {
+                    crate::observe::pixel::Seen::Board { board, .. } => Some(board),
+                    crate::observe::pixel::Seen::Target(_) => None,
+                },
+            )),
+            _ => None,
+        })
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
     let (mut ids, mut unseen) = (Vec::new(), Vec::new());
     for id in robot.param_ids() {
         let default = match robot.param_kind(id) {
@@ -244,6 +260,12 @@ pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<P
                     .iter()
                     .any(|p| p.session.as_deref() == Some(name))
             }
+            // So are the poses of the cameras and boards pixels see (the hand-eye); a lens is
+            // asked for (`intrinsics`, `cameras`).
+            ParamKind::Camera { camera, component } => {
+                !component.is_intrinsic() && pixels.iter().any(|&(c, _)| c == camera)
+            }
+            ParamKind::Board { board, .. } => pixels.iter().any(|&(_, b)| b == Some(board)),
         };
         if default {
             ids.push(id);

@@ -387,8 +387,10 @@ pub(crate) fn calibrate_from(
     if let (true, Some(first)) = (auto, &uniform) {
         let mut floor = ModelErrorFloor::default();
         for (q, own) in &kinds {
-            if *own {
-                floor.rows[usize::from(*q == crate::observe::RowQuantity::Angle)] += 1;
+            match (q, own) {
+                (crate::observe::RowQuantity::Length, true) => floor.rows[0] += 1,
+                (crate::observe::RowQuantity::Angle, true) => floor.rows[1] += 1,
+                _ => {}
             }
         }
         let nd = problem.data_rows() as f64;

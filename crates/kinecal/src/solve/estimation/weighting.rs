@@ -90,14 +90,21 @@ impl ModelErrorFloor {
         match quantity {
             RowQuantity::Length => self.length,
             RowQuantity::Angle => self.angle,
+            // A camera's pixels keep their stated deviations: a detector's sigma is about the
+            // corners it found, and the lens is fitted with the robot.
+            RowQuantity::Pixel => 0.0,
         }
     }
 }
+
+/// The quantities in [`spread`]'s order.
+const QUANTITIES: [RowQuantity; 3] = [RowQuantity::Length, RowQuantity::Angle, RowQuantity::Pixel];
 
 fn slot(q: RowQuantity) -> usize {
     match q {
         RowQuantity::Length => 0,
         RowQuantity::Angle => 1,
+        RowQuantity::Pixel => 2,
     }
 }
 
@@ -139,10 +146,10 @@ pub(crate) fn uniform_scale(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> Vec
         .collect()
 }
 
-/// Per quantity (lengths, angles), the smallest and the median standard deviation of its rows
-/// (0 and 0 without rows).
-fn spread(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> [(f64, f64); 2] {
-    [RowQuantity::Length, RowQuantity::Angle].map(|q| {
+/// Per quantity (lengths, angles, pixels), the smallest and the median standard deviation of
+/// its rows (0 and 0 without rows).
+fn spread(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> [(f64, f64); 3] {
+    QUANTITIES.map(|q| {
         let mut s: Vec<f64> = kinds
             .iter()
             .zip(sigma)
