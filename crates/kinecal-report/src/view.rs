@@ -366,11 +366,7 @@ impl Validation {
             for m in &e.other {
                 let other = Metric::Other(m.metric.clone());
                 if !metrics.iter().any(|(k, _)| k == &other) {
-                    let unit = if m.metric == "pixel" {
-                        "px"
-                    } else {
-                        l.as_str()
-                    };
+                    let unit = if m.metric == "pixel" { "px" } else { l };
                     metrics.push((other, format!("{} error ({unit})", m.metric)));
                 }
             }

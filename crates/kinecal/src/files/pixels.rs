@@ -151,7 +151,7 @@ pub fn parse_pixels(text: &str, file: &str, robot: &Robot) -> Result<Dataset> {
         o.line = line;
         observations.push(o.into());
     }
-    postures.into_dataset(observations, file, "pixels")
+    postures.into_dataset(observations, file, "pixels", &robot.units)
 }
 
 /// Writes the pixels of `data` as a pixel file, read back by [`parse_pixels`] to the same

@@ -701,7 +701,7 @@ pub const SIGMA_SPREAD: f64 = 1e6;
 
 /// Refuses a row whose own standard deviation is more than [`SIGMA_SPREAD`] times below the
 /// median (the upper one, for an even count) of the standard deviations its file states for
-/// the same quantity (lengths, angles), naming the file, the line and the column: a typing or
+/// the same quantity (lengths, angles, pixels), naming the file, the line and the column: a typing or
 /// unit slip, not a measurement (the fit would follow that row alone). Refused rather than
 /// raised: raising it would change what the file says of its instrument by a factor kinecal
 /// chose, and the user who fixes the line knows the right value.
@@ -712,7 +712,7 @@ pub(crate) fn sigma_spread_problem(
 ) -> Result<()> {
     use crate::observe::RowQuantity;
     use crate::units::Quantity;
-    for quantity in [RowQuantity::Length, RowQuantity::Angle] {
+    for quantity in [RowQuantity::Length, RowQuantity::Angle, RowQuantity::Pixel] {
         let mut sigmas: Vec<f64> = observations
             .iter()
             .flat_map(|o| {
@@ -734,6 +734,7 @@ pub(crate) fn sigma_spread_problem(
         let q = match quantity {
             RowQuantity::Length => Quantity::Length,
             RowQuantity::Angle => Quantity::Angle,
+            RowQuantity::Pixel => Quantity::Pixel,
         };
         for o in observations {
             let rows = o.rows();
@@ -752,6 +753,7 @@ pub(crate) fn sigma_spread_problem(
                     .collect();
                 let field = match quantity {
                     RowQuantity::Angle => "sigma_angle".to_string(),
+                    RowQuantity::Pixel => "sigma_px".to_string(),
                     RowQuantity::Length
                         if axes.len() == 3
                             && axes.iter().any(|a| a.to_bits() != axes[0].to_bits()) =>
@@ -773,6 +775,7 @@ pub(crate) fn sigma_spread_problem(
                         match quantity {
                             RowQuantity::Length => "length standard deviations",
                             RowQuantity::Angle => "angle standard deviations",
+                            RowQuantity::Pixel => "pixel standard deviations",
                         },
                         crate::units::number::format_number(units.from_si(q, median)),
                     ),
