@@ -45,9 +45,6 @@
 //! start, which the caller's fit must judge. These are starting values only: the fit that
 //! follows minimises the pixel error over all of them together.
 
-// The camera fit that calls these lands in a later change (issue 40); until then only the
-// tests use them.
-#![allow(dead_code)]
 
 use nalgebra::{
     DMatrix, DVector, Dyn, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3,
@@ -55,6 +52,8 @@ use nalgebra::{
 };
 
 /// Relative motions `(A, B)`, pair by pair, for [`hand_eye_ax_xb`].
+// A second formulation the tests check the production path against.
+#[cfg(test)]
 pub(crate) type Motions = (Vec<Isometry3<f64>>, Vec<Isometry3<f64>>);
 
 /// `a > b`, false when either is NaN (the refusals below read `!exceeds(..)` so that NaN is
@@ -70,6 +69,8 @@ pub(crate) const RANK_TOL: f64 = 1e-8;
 
 /// Relative motions whose rotation angle is within this of pi are left out of
 /// [`hand_eye_ax_xb`]: the logarithm's axis sign is ambiguous there (radians).
+// A second formulation the tests check the production path against.
+#[cfg(test)]
 const NEAR_PI: f64 = 1e-2;
 
 /// The iteration cap of the SVDs (nalgebra's implicit-shift QR; 3 to 30 sweeps are typical).
@@ -119,6 +120,8 @@ impl Lens {
     /// pixels, through OpenCV's plumb bob: `r2 = x² + y²`, `radial = 1 + k1 r2 + k2 r2² + k3
     /// r2³`, `x' = x radial + 2 p1 x y + p2 (r2 + 2 x²)`, `y' = y radial + p1 (r2 + 2 y²) + 2
     /// p2 x y`, `u = fx x' + cx`, `v = fy y' + cy`.
+    // A second formulation the tests check the production path against.
+    #[cfg(test)]
     pub(crate) fn project_normalized(&self, x: f64, y: f64) -> [f64; 2] {
         let ([xd, yd], _) = self.distort(x, y);
         [self.fx * xd + self.cx, self.fy * yd + self.cy]
@@ -530,6 +533,8 @@ pub(crate) fn intrinsics_zhang(homographies: &[Matrix3<f64>]) -> Option<[f64; 4]
 /// intrinsics `lens_k = [fx, fy, cx, cy]` (distortion already removed from the pixels):
 /// [`board_pose_normalized`] of `K^-1 H`. `None` when `fx` or `fy` is not positive or not
 /// finite, or as [`board_pose_normalized`].
+// A second formulation the tests check the production path against.
+#[cfg(test)]
 pub(crate) fn board_pose(lens_k: [f64; 4], h: &Matrix3<f64>) -> Option<Isometry3<f64>> {
     let [fx, fy, cx, cy] = lens_k;
     if !(lens_k.iter().all(|x| x.is_finite()) && fx > 0.0 && fy > 0.0) {
@@ -680,6 +685,8 @@ pub(crate) fn hand_eye_ax_yb(
 ///
 /// `None` on fewer than 2 motions, different lengths, non-finite poses, or motions that do not
 /// determine `X` (fewer than two distinct rotation axes, e.g. all about one axis).
+// A second formulation the tests check the production path against.
+#[cfg(test)]
 pub(crate) fn hand_eye_ax_xb(a: &[Isometry3<f64>], b: &[Isometry3<f64>]) -> Option<Isometry3<f64>> {
     let n = a.len();
     if n < 2 || b.len() != n || !a.iter().chain(b).all(finite_isometry) {
@@ -718,6 +725,8 @@ pub(crate) fn hand_eye_ax_xb(a: &[Isometry3<f64>], b: &[Isometry3<f64>]) -> Opti
 /// T_ee_camera`, so `A_ij = E_j^-1 E_i` and `B_ij = P_j P_i^-1` satisfy `A_ij X = X B_ij`.
 /// `Y = E_i X P_i` for any `i` once `X` is known. `None` on fewer than 2 poses or different
 /// lengths.
+// A second formulation the tests check the production path against.
+#[cfg(test)]
 pub(crate) fn relative_motions_eye_in_hand(
     e: &[Isometry3<f64>],
     p: &[Isometry3<f64>],
@@ -727,6 +736,8 @@ pub(crate) fn relative_motions_eye_in_hand(
 
 /// As [`relative_motions_eye_in_hand`] for eye-to-hand: `E_i X = Y P_i` with `X =
 /// T_ee_board`, `Y = T_world_camera`, so `A_ij = E_j^-1 E_i` and `B_ij = P_j^-1 P_i`.
+// A second formulation the tests check the production path against.
+#[cfg(test)]
 pub(crate) fn relative_motions_eye_to_hand(
     e: &[Isometry3<f64>],
     p: &[Isometry3<f64>],
@@ -734,6 +745,8 @@ pub(crate) fn relative_motions_eye_to_hand(
     relative_motions(e, p, |pi, pj| pj.inverse() * pi)
 }
 
+// A second formulation the tests check the production path against.
+#[cfg(test)]
 fn relative_motions(
     e: &[Isometry3<f64>],
     p: &[Isometry3<f64>],

@@ -15,5 +15,3 @@ pub(crate) mod camera_start;
 pub mod hand_eye;
 
 pub mod outliers;
-
-pub(crate) mod camera_start;
