@@ -499,6 +499,11 @@ fn ur_kinematics_files() {
     });
 }
 
+/// Calibration reports, as `report --from`, `predict`, `export gltf --report` and `history
+/// record` read them: a report without a prediction, and one with its prediction and accuracy
+/// map. What the reader accepts must be believable: finite parameters, and a prediction that
+/// either its robot refuses (naming why) or predicts finite bounds from, with a map whose bins
+/// and cells add up.
 #[test]
 fn report_json() {
     let robot = examples::ge_a4();
@@ -506,7 +511,25 @@ fn report_json() {
     let mut req = kinecal::workflow::Request::new(robot.clone(), data);
     req.selection = kinecal::workflow::Selection::parse("p1,p14,offsets", None, &robot).unwrap();
     let out = kinecal::workflow::run(&req, &mut ()).unwrap();
-    let seeds = vec![out.report.to_json().into_bytes()];
+    let mut seeds = vec![out.report.to_json().into_bytes()];
+    let postures = simulate::sample_postures(&robot, 24, 5);
+    let mut req =
+        kinecal::workflow::Request::new(robot.clone(), simulate::measure(&robot, &postures, false));
+    req.selection = kinecal::workflow::Selection::parse("p1,p14,offsets", None, &robot).unwrap();
+    req.prediction = kinecal::predict::Level::Map;
+    let out = kinecal::workflow::run(&req, &mut ()).unwrap();
+    assert!(out
+        .report
+        .prediction
+        .as_ref()
+        .is_some_and(|p| p.map.is_some()));
+    seeds.push(out.report.to_json().into_bytes());
+    let calibrated = out.calibration.calibrated.clone();
+    let readings: Vec<&[f64]> = postures
+        .iter()
+        .take(3)
+        .map(|p| p.readings.as_slice())
+        .collect();
     // serde_json names no file: the caller adds it, as `kinecal report` does.
     fuzz("report_json", "f.json", &seeds, &|b| {
         let t = match read_text(b, "f.json") {
@@ -514,19 +537,57 @@ fn report_json() {
             Err(o) => return o,
         };
         match kinecal::report::CalibrationReport::from_json(&t) {
-            Ok(r) => Outcome::Accepted(
-                if r.parameters
-                    .iter()
-                    .all(|p| p.estimated.is_finite() && p.initial.is_finite())
-                {
-                    Ok(())
-                } else {
-                    Err("a parameter is not finite".into())
-                },
-            ),
+            Ok(r) => Outcome::Accepted(believable(&r, &calibrated, &readings)),
             Err(e) => Outcome::Refused(format!("f.json: {e}")),
         }
     });
+}
+
+/// What a report the reader accepted must hold (see [`report_json`]).
+fn believable(
+    r: &kinecal::report::CalibrationReport,
+    robot: &Robot,
+    readings: &[&[f64]],
+) -> Result<(), String> {
+    if !r
+        .parameters
+        .iter()
+        .all(|p| p.estimated.is_finite() && p.initial.is_finite())
+    {
+        return Err("a parameter is not finite".into());
+    }
+    let Some(pr) = &r.prediction else {
+        return Ok(());
+    };
+    if let Some(m) = &pr.map {
+        for s in &m.slices {
+            if s.nu * s.nv != s.values.len() || s.extent[0] >= s.extent[1] {
+                return Err(format!("a slice of {} x {} cells", s.nu, s.nv));
+            }
+        }
+        for j in &m.joints {
+            if j.edges.len() != j.median.len() + 1 || j.edges.windows(2).any(|w| w[0] > w[1]) {
+                return Err(format!("joint {}'s bins do not add up", j.joint));
+            }
+        }
+    }
+    // Its robot may refuse it (another robot's parameters): `predict` says so, with the file.
+    let Ok(p) = kinecal::predict::from_report(robot, pr) else {
+        return Ok(());
+    };
+    let mut s = p.scratch();
+    for q in readings {
+        let b = p
+            .predict(q, kinecal::Target::EndEffector, &mut s)
+            .position_error;
+        if ![b.bound, b.parameters, b.model, b.parameters_bound]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return Err(format!("a predicted bound is not finite: {b:?}"));
+        }
+    }
+    Ok(())
 }
 
 /// The spec reader of every job: a spec file, mutated, is read or refused with the file named;
