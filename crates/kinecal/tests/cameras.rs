@@ -500,3 +500,91 @@ fn the_closed_forms_alone_land_near_the_truth() {
         assert!(dt < 5e-3 && da < 0.5f64.to_radians() && bt < 5e-3 && ba < 0.5f64.to_radians());
     }
 }
+
+/// The identifiability analysis covers a camera's parameters: from 3 views k3 (the r^6 term)
+/// is not determined beyond the noise, and the tool link and the camera's pose on it are one
+/// frame to the pixels (the analysis says which of them the data cannot tell apart); from 25
+/// views the poses and k1 are.
+#[test]
+fn the_analysis_names_what_few_views_cannot_determine() {
+    use kinecal::identifiability::{analyze, AnalysisOptions};
+    let truth = truth(true);
+    let few = views(&truth, 3, 11);
+    let lens_and_poses =
+        kinecal::model::param_list::parse_param_list("cameras,boards", &truth).unwrap();
+    let k3 = kinecal::model::param_list::parse_param_list("wrist.k3", &truth).unwrap()[0];
+    let a = analyze(&truth, &few, &lens_and_poses, &AnalysisOptions::default()).unwrap();
+    assert!(
+        !a.identifiable.contains(&k3),
+        "k3 from 3 views: identifiable {:?}",
+        a.identifiable
+    );
+    let many = views(&truth, 25, 11);
+    let a = analyze(&truth, &many, &lens_and_poses, &AnalysisOptions::default()).unwrap();
+    let left: Vec<String> = lens_and_poses
+        .iter()
+        .filter(|id| !a.identifiable.contains(id))
+        .map(|&id| truth.param_name(id))
+        .collect();
+    eprintln!("25 views leave out: {left:?}");
+    // Both poses and the distortion's leading terms are determined; within the noise (1 px
+    // by default) the focal lengths trade off against the distance and the principal point
+    // against the camera's rotation for views of a board near the image's middle at one
+    // distance, and the analysis names them.
+    let needed =
+        kinecal::model::param_list::parse_param_list("wrist.k1,extrinsics,boards", &truth).unwrap();
+    for id in needed {
+        assert!(
+            a.identifiable.contains(&id),
+            "{} not identifiable from 25 views",
+            truth.param_name(id)
+        );
+    }
+    assert!(left.len() < lens_and_poses.len() - 15, "{left:?}");
+    // With the tool link too, 6 directions are the same motion seen two ways.
+    let mut with_tool = lens_and_poses.clone();
+    with_tool.extend(kinecal::model::param_list::parse_param_list("link7", &truth).unwrap());
+    let a = analyze(&truth, &many, &with_tool, &AnalysisOptions::default()).unwrap();
+    assert_eq!(a.rank, with_tool.len() - 6, "rank {}", a.rank);
+}
+
+/// Pixel rows take part in everything rows do: a corner mislocated by 25 px is flagged as an
+/// outlier, validation data of fresh views is checked in pixels, and a plan drawn from postures
+/// of a robot with a camera is a plan of views.
+#[test]
+fn outliers_validation_and_plans_see_pixels() {
+    let truth = truth(true);
+    let noise = Noise {
+        pixel: PIXEL_NOISE,
+        ..Default::default()
+    };
+    let mut data = views(&truth, 20, 11);
+    simulate::add_noise_with(&mut data, &noise, 5);
+    let bad = 37;
+    if let kinecal::observe::Observation::Pixel(p) = &mut data.observations[bad] {
+        p.uv[0] += 25.0;
+        p.line = 1000;
+    }
+    let mut fresh = views(&truth, 10, 77);
+    simulate::add_noise_with(&mut fresh, &noise, 9);
+    let mut req = Request::new(from_nothing(&truth), Arc::new(data.clone()));
+    req.selection = Selection::parse("extrinsics,boards", None, &truth).unwrap();
+    req.validation = kinecal::workflow::Validation::Data(Arc::new(fresh));
+    let out = run(&req, &mut ()).unwrap();
+    assert!(
+        out.outliers
+            .iter()
+            .any(|o| out.data.observations[o.observation].line() == 1000),
+        "outliers: {:?}",
+        out.outliers
+    );
+    let v = out.validation.as_ref().expect("validated");
+    let after = &v.after.other[0];
+    assert_eq!(after.metric, "pixel");
+    assert!(after.rms < 0.6, "validation RMS {} px", after.rms);
+    // A plan from sampled postures: its candidates are what the camera sees.
+    let postures = views(&truth, 40, 5).postures;
+    let pool = kinecal::apps::plan::candidates(&truth, postures, &[Target::EndEffector], false);
+    assert!(pool.observations.iter().all(|o| o.kind() == "pixel"));
+    assert_eq!(pool.postures.len(), 40);
+}

@@ -478,7 +478,9 @@ impl Plan {
 
 /// Observations at `postures` of the given `targets` (the end effector and sites), full poses
 /// or positions only, with the values the `robot` predicts: a pool of candidates or a plan to
-/// measure.
+/// measure. A robot with cameras and boards is measured by its cameras: the candidates are then
+/// the pixels each camera sees of each board (at least 4 points of one; postures that see less
+/// are left out).
 pub fn candidates(
     robot: &Robot,
     postures: Vec<Posture>,
@@ -487,6 +489,34 @@ pub fn candidates(
 ) -> Dataset {
     let chain = Chain::new(robot);
     let mut ws = Workspace::new(robot);
+    if !robot.cameras.is_empty() && !robot.boards.is_empty() {
+        let mut kept = Vec::new();
+        let mut observations: Vec<Observation> = Vec::new();
+        for p in postures {
+            chain.forward_loaded(&p.readings, None, p.payload.as_ref(), &mut ws);
+            let mut seen = Vec::new();
+            for camera in 0..robot.cameras.len() {
+                for board in 0..robot.boards.len() {
+                    let pixels = crate::apps::simulate::seen_pixels(
+                        robot,
+                        &chain,
+                        &ws,
+                        kept.len(),
+                        camera,
+                        board,
+                    );
+                    if pixels.len() >= 4 {
+                        seen.extend(pixels);
+                    }
+                }
+            }
+            if !seen.is_empty() {
+                kept.push(p);
+                observations.extend(seen);
+            }
+        }
+        return Dataset::new(kept, observations);
+    }
     let mut observations: Vec<Observation> = Vec::with_capacity(postures.len() * targets.len());
     for (i, p) in postures.iter().enumerate() {
         chain.forward(&p.readings, &mut ws);

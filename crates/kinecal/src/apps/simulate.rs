@@ -195,44 +195,59 @@ pub fn camera_views(
     board: usize,
     min_points: usize,
 ) -> Dataset {
-    use crate::observe::pixel::{Pixel, Seen};
-    use crate::observe::Observe as _;
     let chain = Chain::new(robot);
     let mut ws = Workspace::new(robot);
     let mut kept = Vec::new();
     let mut observations: Vec<Observation> = Vec::new();
-    let mut frames = [crate::model::kinematics::Frame::identity(); 2];
     for p in postures {
         chain.forward_loaded(&p.readings, None, p.payload.as_ref(), &mut ws);
-        let index = kept.len();
-        let mut seen = Vec::new();
-        for k in 0..robot.boards[board].points() {
-            let Ok(mut o) = Pixel::new(
-                robot,
-                index,
-                camera,
-                Seen::Board { board, index: k },
-                [0.0; 2],
-            ) else {
-                return Dataset::default();
-            };
-            for (slot, v) in frames.iter_mut().zip(o.views()) {
-                *slot = chain.target_frame(&ws, v.target);
-            }
-            let n = o.views().len();
-            let q = o.in_camera(robot, &frames[..n]);
-            let uv = o.predicted(robot, &frames[..n]);
-            if q.z >= 0.01 && robot.cameras[camera].inside(&uv) {
-                o.uv = [uv.x, uv.y];
-                seen.push(Observation::Pixel(o));
-            }
-        }
+        let seen = seen_pixels(robot, &chain, &ws, kept.len(), camera, board);
         if seen.len() >= min_points.max(1) {
             kept.push(p.clone());
             observations.extend(seen);
         }
     }
     Dataset::new(kept, observations)
+}
+
+/// The pixels camera `camera` sees of board `board` at the posture whose frames `ws` holds
+/// (numbered `posture`): every point at least 1 cm in front of the camera and inside its
+/// image, at the model's pixel.
+pub(crate) fn seen_pixels(
+    robot: &Robot,
+    chain: &Chain<'_>,
+    ws: &Workspace,
+    posture: usize,
+    camera: usize,
+    board: usize,
+) -> Vec<Observation> {
+    use crate::observe::pixel::{Pixel, Seen};
+    use crate::observe::Observe as _;
+    let mut frames = [crate::model::kinematics::Frame::identity(); 2];
+    let mut seen = Vec::new();
+    for k in 0..robot.boards[board].points() {
+        let Ok(mut o) = Pixel::new(
+            robot,
+            posture,
+            camera,
+            Seen::Board { board, index: k },
+            [0.0; 2],
+        ) else {
+            // Nothing moves: the camera and the board are both fixed, or on one frame.
+            return Vec::new();
+        };
+        for (slot, v) in frames.iter_mut().zip(o.views()) {
+            *slot = chain.target_frame(ws, v.target);
+        }
+        let n = o.views().len();
+        let q = o.in_camera(robot, &frames[..n]);
+        let uv = o.predicted(robot, &frames[..n]);
+        if q.z >= 0.01 && robot.cameras[camera].inside(&uv) {
+            o.uv = [uv.x, uv.y];
+            seen.push(Observation::Pixel(o));
+        }
+    }
+    seen
 }
 
 /// A random link (metres and radians): offsets `x, y, z` up to `reach` per axis, Euler angles
