@@ -13,7 +13,7 @@ use crate::model::{
 };
 #[cfg(feature = "postgres")]
 use crate::postgres::PgStore;
-use crate::record::new_record;
+use crate::record::{check_rows, new_record};
 use crate::sqlite::SqliteStore;
 use crate::store::{Access, Backend, Store, Write};
 use crate::text::printable;
@@ -44,8 +44,10 @@ impl Database {
     /// [`Location`]).
     ///
     /// An existing SQLite file is first opened read-only and inspected: a file that is not a
-    /// kinecal history (another schema, a negative or newer schema version, not SQLite at all)
-    /// or that fails `PRAGMA quick_check` is refused, and nothing is written to it. On a
+    /// kinecal history (another schema, a negative or newer schema version, not SQLite at all),
+    /// or a small one (up to 4 MiB) that fails `PRAGMA quick_check`, is refused, and nothing is
+    /// written to it; a larger file is checked page by page as a write reads it (see
+    /// [`Database::check`] for the whole file). On a
     /// server, the schema `kinecal` is created or migrated (which takes the database owner).
     /// A kinecal built without the `postgres` feature refuses a URL ([`Error::NoPostgres`]).
     pub fn open(location: impl Into<Location>) -> Result<Database> {
@@ -133,6 +135,12 @@ impl Database {
         options: AddOptions,
     ) -> Result<Added> {
         let rec = new_record(robot_id, at, at.unwrap_or_else(now), report, note)?;
+        check_rows(&rec, false).map_err(|problem| {
+            Error::Input(format!(
+                "the report of robot {}: {problem}; not recorded",
+                printable(robot_id)
+            ))
+        })?;
         self.store.insert(
             &rec,
             Write::New {
@@ -212,29 +220,58 @@ impl Database {
         })
     }
 
-    /// Writes every record and event of `dump` that is not already here, each in its own
-    /// transaction, keeping ids where they are free: importing into an empty store gives the
-    /// same history, ids included; importing twice adds nothing.
+    /// Checks the whole history on demand: `None` when it is sound, else the first problems
+    /// found. A SQLite file is checked whole (`PRAGMA integrity_check`: every page, every index
+    /// against its table), which a write does not do (it checks the pages it reads); a server
+    /// keeps its own checks. Every record is read back as well: a record with a damaged field
+    /// is named.
+    pub fn check(&self) -> Result<Option<String>> {
+        let mut problems = Vec::new();
+        if let Some(p) = self.store.check()? {
+            problems.push(p);
+        }
+        if problems.is_empty() {
+            for d in self.store.records(None)?.damaged.iter().take(5) {
+                problems.push(format!("calibration {}: {}", d.id, d.problem));
+            }
+        }
+        Ok((!problems.is_empty()).then(|| problems.join("; ")))
+    }
+
+    /// Writes every record and event of `dump` that is not already here, in one transaction
+    /// (all or nothing), keeping ids where they are free: importing into an empty store gives
+    /// the same history, ids included; importing twice adds nothing. On PostgreSQL the id
+    /// sequences move past the imported ids, so that the next record and event get new ones.
+    ///
+    /// Every record is checked first, and a damaged dump is refused before anything is written
+    /// ([`Error::Input`], naming the record by its place in the dump, its id and robot, and
+    /// what was expected): a calibration without a robot serial, without parameters, with a
+    /// parameter or combination twice, or whose parameter rows are not its report's.
     pub fn import(&self, dump: &Dump) -> Result<ImportSummary> {
-        let mut s = ImportSummary::default();
-        for r in &dump.calibrations {
+        for (k, r) in dump.calibrations.iter().enumerate() {
+            let which = || {
+                format!(
+                    "calibration {} of the dump (the {} in its list, robot {})",
+                    r.id,
+                    ordinal(k + 1),
+                    printable(&r.robot_id)
+                )
+            };
             if r.robot_id.trim().is_empty() {
                 return Err(Error::Input(format!(
-                    "calibration {} of the dump has no robot serial",
-                    r.id
+                    "calibration {} of the dump (the {} in its list) has no robot serial; nothing \
+                     was imported",
+                    r.id,
+                    ordinal(k + 1)
                 )));
             }
-            let a = self.store.insert(r, Write::Import).map_err(|e| match e {
-                Error::Database { path, message } => Error::Database {
-                    path,
-                    message: format!(
-                        "calibration {} (robot {}): {message}",
-                        r.id,
-                        printable(&r.robot_id)
-                    ),
-                },
-                e => e,
+            check_rows(r, true).map_err(|problem| {
+                Error::Input(format!("{}: {problem}; nothing was imported", which()))
             })?;
+        }
+        let (records, events) = self.store.import(&dump.calibrations, &dump.events)?;
+        let mut s = ImportSummary::default();
+        for (r, a) in dump.calibrations.iter().zip(records) {
             if !a.new {
                 s.present += 1;
                 continue;
@@ -244,8 +281,7 @@ impl Database {
                 s.renumbered.push((r.id, a.id));
             }
         }
-        for e in &dump.events {
-            let a = self.store.insert_event(e, Write::Import)?;
+        for a in events {
             if a.new {
                 s.events_added += 1;
             } else {
@@ -254,4 +290,16 @@ impl Database {
         }
         Ok(s)
     }
+}
+
+/// `1st`, `2nd`, `3rd`, `4th`, ..., `11th`, `21st`, ...
+fn ordinal(n: usize) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
 }

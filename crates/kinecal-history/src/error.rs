@@ -40,7 +40,8 @@ pub enum Error {
         /// What gave it away.
         reason: String,
     },
-    /// The database fails `PRAGMA quick_check`: nothing is written to it.
+    /// The database fails an integrity check (of the whole file, or of a page a write read):
+    /// nothing is written to it.
     #[error(
         "{path}: the database fails its integrity check ({problem}); nothing was written and the \
          file was not modified: restore it from a backup, or recover what can be read with \
@@ -49,7 +50,7 @@ pub enum Error {
     Corrupt {
         /// The file.
         path: String,
-        /// The first problems `quick_check` reported.
+        /// The first problems the check reported.
         problem: String,
     },
     /// A record could not be read (a damaged field).

@@ -914,7 +914,11 @@ fn import(s: &HistoryImportSpec, said: &mut Said) -> Result<Done> {
     let text = read_text(&s.dump)?;
     let dump = Dump::from_json(&text, &s.dump)?;
     let db = Database::open(location(s.db.as_deref())?)?;
-    let summary = db.import(&dump)?;
+    let summary = db.import(&dump).map_err(|e| match e {
+        // A damaged record: the file it is in.
+        Error::Input(m) => Error::Input(format!("{}: {m}", s.dump)),
+        e => e,
+    })?;
     said.note(format!(
         "imported into {}: {} calibrations written, {} already there; {} events written, {} \
          already there",
@@ -946,8 +950,16 @@ fn import(s: &HistoryImportSpec, said: &mut Said) -> Result<Done> {
 
 fn init(s: &HistoryInitSpec, said: &mut Said) -> Result<Done> {
     let db = Database::open(location(s.db.as_deref())?)?;
+    // The whole history checked, on demand (a write checks only the pages it reads).
+    if let Some(problem) = db.check()? {
+        return Err(Error::Corrupt {
+            path: db.path().to_string(),
+            problem,
+        }
+        .into());
+    }
     said.note(format!(
-        "{}: a kinecal history ({}), schema version {}",
+        "{}: a kinecal history ({}), schema version {}, checked whole: sound",
         db.path(),
         db.backend().name(),
         db.store().schema_version()

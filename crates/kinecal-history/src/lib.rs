@@ -19,10 +19,12 @@
 //! failing.
 //!
 //! Nothing is written to a file until it is known to be a kinecal history: an existing file is
-//! first opened read-only and inspected (schema version, tables and columns, `PRAGMA
-//! quick_check`); a database from a newer kinecal, a file that is not a kinecal database, and
-//! one that fails its integrity check are refused and never written to. Every write runs the
-//! integrity check again inside its transaction. Readers ([`Database::open_read_only`]) never
+//! first opened read-only and inspected (schema version, tables and columns); a database from a
+//! newer kinecal and a file that is not a kinecal database are refused and never written to.
+//! A write costs what its rows cost, not what the file holds: a small file (up to 4 MiB) is
+//! checked whole (`PRAGMA quick_check`) when opened for writing and refused when it fails; in a
+//! larger one every page a write reads is checked as it is read, and a damaged one refuses the
+//! write. [`Database::check`] checks a whole history on demand. Readers ([`Database::open_read_only`]) never
 //! create a file and work on read-only files and folders; a record with a damaged field is
 //! reported by id ([`Records::damaged`]) while the others are served.
 //!

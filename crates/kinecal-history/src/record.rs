@@ -189,6 +189,106 @@ pub(crate) fn new_record(
     })
 }
 
+/// Why a record cannot be stored as it is, if it cannot: no parameters, a parameter id or a
+/// combination's expression twice (each is one row of its calibration), or (`against_report`:
+/// a record of a dump, whose rows may have been damaged apart from its report) parameter rows
+/// that are not the stored report's parameters.
+pub(crate) fn check_rows(
+    rec: &StoredRecord,
+    against_report: bool,
+) -> std::result::Result<(), String> {
+    let reported = if against_report {
+        report_parameter_ids(&rec.report)
+    } else {
+        None
+    };
+    if rec.parameters.is_empty() {
+        return Err(format!(
+            "it has no parameters; expected one row per parameter of its robot model{} (a \
+             calibration without them cannot be compared: drift would find nothing changed)",
+            reported
+                .as_ref()
+                .filter(|r| !r.is_empty())
+                .map_or(String::new(), |r| format!(
+                    " (its report lists {})",
+                    r.len()
+                ))
+        ));
+    }
+    let mut seen = std::collections::HashMap::new();
+    for (k, p) in rec.parameters.iter().enumerate() {
+        if let Some(first) = seen.insert(p.id.as_str(), k) {
+            return Err(format!(
+                "parameter {} appears twice (as {} and as {}); expected each parameter once",
+                printable(&p.id),
+                printable(&rec.parameters[first].name),
+                printable(&p.name)
+            ));
+        }
+    }
+    let mut expressions = std::collections::HashSet::new();
+    for c in &rec.combinations {
+        if !expressions.insert(c.expression.as_str()) {
+            return Err(format!(
+                "the combination `{}` appears twice; expected each combination once",
+                printable(&c.expression)
+            ));
+        }
+    }
+    if let Some(reported) = reported.filter(|r| !r.is_empty()) {
+        let rows: std::collections::BTreeSet<&str> =
+            rec.parameters.iter().map(|p| p.id.as_str()).collect();
+        let listed: std::collections::BTreeSet<&str> =
+            reported.iter().map(String::as_str).collect();
+        if rows != listed {
+            let missing: Vec<&str> = listed.difference(&rows).copied().collect();
+            let extra: Vec<&str> = rows.difference(&listed).copied().collect();
+            let mut why = Vec::new();
+            if !missing.is_empty() {
+                why.push(format!("no row for {}", printable(&short_list(&missing))));
+            }
+            if !extra.is_empty() {
+                why.push(format!(
+                    "rows for {} that the report does not list",
+                    printable(&short_list(&extra))
+                ));
+            }
+            return Err(format!(
+                "its {} parameter rows are not the {} parameters of its report ({}); expected \
+                 one row per parameter of the report",
+                rows.len(),
+                listed.len(),
+                why.join(", ")
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `a, b, c` (at most 6, then `and N more`).
+fn short_list(ids: &[&str]) -> String {
+    let mut s = ids.iter().take(6).copied().collect::<Vec<_>>().join(", ");
+    if ids.len() > 6 {
+        s.push_str(&format!(" and {} more", ids.len() - 6));
+    }
+    s
+}
+
+/// The ids of the parameters a stored report lists, when it is a report with a parameter list.
+fn report_parameter_ids(text: &str) -> Option<Vec<String>> {
+    #[derive(Deserialize)]
+    struct Listed {
+        id: String,
+    }
+    #[derive(Deserialize)]
+    struct Parameters {
+        parameters: Vec<Listed>,
+    }
+    serde_json::from_str::<Parameters>(text)
+        .ok()
+        .map(|p| p.parameters.into_iter().map(|l| l.id).collect())
+}
+
 /// The fields of a stored report that [`rms_errors`] reads (the rest is skipped unparsed: a
 /// fleet reads thousands of reports).
 #[derive(Deserialize)]

@@ -1,12 +1,20 @@
 //! The SQLite store: one file, bundled SQLite (nothing to install), the embedded default.
 //!
 //! Nothing is written to a file until it is known to be a kinecal history: an existing file is
-//! first opened read-only and inspected (schema version, tables and columns, `PRAGMA
-//! quick_check`); a file from a newer kinecal, one that is not a kinecal database, and one that
-//! fails its integrity check are refused and never written to. Every write runs the integrity
-//! check again inside its IMMEDIATE transaction. The file uses the WAL journal and a busy
-//! timeout, so that concurrent writers wait for each other instead of failing. A reader never
-//! creates a file, and works on read-only files and folders.
+//! first opened read-only and inspected (schema version, tables and columns); a file from a
+//! newer kinecal and one that is not a kinecal database are refused and never written to.
+//!
+//! Integrity costs what a write costs, not what the file holds: a file of up to
+//! [`WHOLE_CHECK_BYTES`] is checked whole (`PRAGMA quick_check`, a few milliseconds) when opened
+//! for writing, and refused when it fails; a larger one is not read whole for each write (at
+//! 20,000 records, 390 MB, that took 0.3 s of CPU per check, twice per `history add`). Instead,
+//! every page a write reads is checked as SQLite reads it (`PRAGMA cell_size_check`), and a
+//! write that meets a damaged page is rolled back and refused ([`Error::Corrupt`]).
+//! [`SqliteStore::check`] checks the whole file on demand (`PRAGMA integrity_check`; `kinecal
+//! history init` runs it), and a reader runs `quick_check` when it opens the file (a reader
+//! reads the records anyway). The file uses the WAL journal and a busy timeout, so that
+//! concurrent writers wait for each other instead of failing. A reader never creates a file, and
+//! works on read-only files and folders.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -22,7 +30,7 @@ use crate::model::{
 };
 use crate::record::{report_figures, rms_errors};
 use crate::robot_model::RobotModel;
-use crate::store::{sealed, Access, Backend, Store, Write, SCHEMA_VERSION};
+use crate::store::{in_record, sealed, Access, Backend, Imported, Store, Write, SCHEMA_VERSION};
 use crate::text::{names, printable};
 use crate::timefmt::format_time;
 
@@ -196,10 +204,26 @@ fn schema_difference(version: i64, found: &Schema, reference: &Schema) -> Option
     ))
 }
 
+/// The largest file checked whole (`PRAGMA quick_check`) each time it is opened for writing:
+/// 4 MiB (about 200 records), checked in a few milliseconds. A larger file is checked page by
+/// page as a write reads it, and whole on demand ([`SqliteStore::check`]).
+pub(crate) const WHOLE_CHECK_BYTES: u64 = 4 << 20;
+
 /// `PRAGMA quick_check`: `None` when the file is sound, else the first problems reported.
 fn quick_check(conn: &Connection) -> Option<String> {
+    sound(conn, "PRAGMA quick_check(5)")
+}
+
+/// `PRAGMA integrity_check` (`quick_check` and every index against its table): `None` when the
+/// file is sound, else the first problems reported.
+fn integrity_check(conn: &Connection) -> Option<String> {
+    sound(conn, "PRAGMA integrity_check(5)")
+}
+
+/// Runs a check pragma: `None` when it answers `ok`, else what it reported.
+fn sound(conn: &Connection, pragma: &str) -> Option<String> {
     let rows = (|| -> rusqlite::Result<Vec<String>> {
-        let mut st = conn.prepare("PRAGMA quick_check(5)")?;
+        let mut st = conn.prepare(pragma)?;
         let rows = st.query_map([], |r| lossy(r, 0))?;
         rows.collect()
     })();
@@ -410,11 +434,16 @@ impl SqliteStore {
                 }
             }
             inspect(&ro, &shown)?;
-            if let Some(problem) = quick_check(&ro) {
-                return Err(Error::Corrupt {
-                    path: shown,
-                    problem,
-                });
+            // A small file is checked whole (milliseconds); a larger one page by page as the
+            // write reads it (see the module's documentation).
+            let small = std::fs::metadata(path).is_ok_and(|m| m.len() <= WHOLE_CHECK_BYTES);
+            if small {
+                if let Some(problem) = quick_check(&ro) {
+                    return Err(Error::Corrupt {
+                        path: shown,
+                        problem,
+                    });
+                }
             }
         } else if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir)
@@ -442,7 +471,9 @@ impl SqliteStore {
         };
         db.enable_wal()?;
         db.conn
-            .execute_batch("PRAGMA foreign_keys = ON; PRAGMA synchronous = NORMAL;")
+            .execute_batch(
+                "PRAGMA foreign_keys = ON; PRAGMA synchronous = NORMAL; PRAGMA cell_size_check = ON;",
+            )
             .map_err(|e| db.err(e))?;
         db.migrate(version)?;
         Ok(db)
@@ -555,23 +586,66 @@ impl SqliteStore {
     /// so two writers never deadlock half way.
     fn begin(&self) -> Result<Transaction<'_>> {
         Transaction::new_unchecked(&self.conn, rusqlite::TransactionBehavior::Immediate)
-            .map_err(|e| self.err(e))
+            .map_err(|e| self.sql(e))
     }
 
-    /// Writes `rec` in one IMMEDIATE transaction (see [`Store::insert`]). Before anything is
-    /// written, inside the transaction: the database must pass `PRAGMA quick_check`
-    /// ([`Error::Corrupt`] otherwise).
+    /// An SQLite error met while writing: a damaged page the write read is
+    /// [`Error::Corrupt`] (the transaction is rolled back: nothing was written).
+    fn sql(&self, e: rusqlite::Error) -> Error {
+        match e.sqlite_error_code() {
+            Some(ErrorCode::DatabaseCorrupt | ErrorCode::NotADatabase) => Error::Corrupt {
+                path: self.path.clone(),
+                problem: e.to_string(),
+            },
+            _ => self.err(e),
+        }
+    }
+
+    /// The whole file checked (`PRAGMA integrity_check`): `None` when it is sound, else the
+    /// first problems found.
+    pub(crate) fn check(&self) -> Result<Option<String>> {
+        if self.version == 0 {
+            return Ok(None);
+        }
+        Ok(integrity_check(&self.conn))
+    }
+
+    /// Writes `rec` in one IMMEDIATE transaction (see [`Store::insert`]). Every page the write
+    /// reads is checked as it is read: a damaged one refuses the write ([`Error::Corrupt`]),
+    /// and nothing is written.
     fn insert_record(&self, rec: &StoredRecord, write: Write) -> Result<Added> {
         if self.read_only {
             return Err(self.err("opened for reading only; nothing was written"));
         }
         let tx = self.begin()?;
-        if let Some(problem) = quick_check(&tx) {
-            return Err(Error::Corrupt {
-                path: self.path.clone(),
-                problem,
-            });
+        let added = self.insert_in(&tx, rec, write)?;
+        tx.commit().map_err(|e| self.sql(e))?;
+        Ok(added)
+    }
+
+    /// Writes the records and events of a dump in one IMMEDIATE transaction (see
+    /// [`Store::import`]).
+    fn import_all(&self, records: &[StoredRecord], events: &[Event]) -> Result<Imported> {
+        if self.read_only {
+            return Err(self.err("opened for reading only; nothing was written"));
         }
+        let tx = self.begin()?;
+        let mut out: Imported = (Vec::new(), Vec::new());
+        for rec in records {
+            out.0.push(
+                self.insert_in(&tx, rec, Write::Import)
+                    .map_err(|e| in_record(e, rec))?,
+            );
+        }
+        for e in events {
+            out.1.push(self.insert_event_in(&tx, e, Write::Import)?);
+        }
+        tx.commit().map_err(|e| self.sql(e))?;
+        Ok(out)
+    }
+
+    /// Writes `rec` within `tx` (not committed).
+    fn insert_in(&self, tx: &Transaction<'_>, rec: &StoredRecord, write: Write) -> Result<Added> {
         if let Some(key) = &rec.key {
             let existing: Option<i64> = tx
                 .query_row(
@@ -580,7 +654,7 @@ impl SqliteStore {
                     |r| r.get(0),
                 )
                 .optional()
-                .map_err(|e| self.err(e))?;
+                .map_err(|e| self.sql(e))?;
             if let Some(id) = existing {
                 return Ok(Added { id, new: false });
             }
@@ -590,7 +664,7 @@ impl SqliteStore {
             Write::New { force } => {
                 if !force {
                     self.check_model(
-                        &tx,
+                        tx,
                         &rec.robot_id,
                         &RobotModel::of_parameters(&rec.parameters),
                     )?;
@@ -604,7 +678,7 @@ impl SqliteStore {
                         |r| Ok((lossy(r, 0)?, r.get(1)?, lossy(r, 2)?)),
                     )
                     .optional()
-                    .map_err(|e| self.err(e))?;
+                    .map_err(|e| self.sql(e))?;
                 match same {
                     Some(s) if s == (rec.robot_id.clone(), rec.at, rec.report.clone()) => {
                         return Ok(Added {
@@ -642,7 +716,7 @@ impl SqliteStore {
                 rec.key,
             ],
         )
-        .map_err(|e| self.err(e))?;
+        .map_err(|e| self.sql(e))?;
         let id = tx.last_insert_rowid();
         for p in &rec.parameters {
             tx.execute(
@@ -650,16 +724,15 @@ impl SqliteStore {
                  VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
                 params![id, p.id, p.name, p.unit, p.value, p.sigma, p.estimated, p.determined],
             )
-            .map_err(|e| self.err(e))?;
+            .map_err(|e| self.sql(e))?;
         }
         for c in &rec.combinations {
             tx.execute(
                 "INSERT INTO combinations (calibration_id, expression, terms, value, sigma) VALUES (?1, ?2, ?3, ?4, ?5)",
                 params![id, c.expression, c.terms, c.value, c.sigma],
             )
-            .map_err(|e| self.err(e))?;
+            .map_err(|e| self.sql(e))?;
         }
-        tx.commit().map_err(|e| self.err(e))?;
         Ok(Added { id, new: true })
     }
 
@@ -672,14 +745,14 @@ impl SqliteStore {
                 "SELECT p.calibration_id, p.name, p.unit FROM parameters p
                  JOIN calibrations c ON c.id = p.calibration_id WHERE c.robot_id = ?1",
             )
-            .map_err(|e| self.err(e))?;
+            .map_err(|e| self.sql(e))?;
         let rows = st
             .query_map([robot_id], |r| {
                 Ok((r.get::<_, i64>(0)?, lossy(r, 1)?, lossy(r, 2)?))
             })
-            .map_err(|e| self.err(e))?;
+            .map_err(|e| self.sql(e))?;
         for row in rows {
-            let (id, name, unit) = row.map_err(|e| self.err(e))?;
+            let (id, name, unit) = row.map_err(|e| self.sql(e))?;
             earlier.entry(id).or_default().add_parameter(name, &unit);
         }
         model.check_against(robot_id, &earlier)
@@ -690,6 +763,13 @@ impl SqliteStore {
             return Err(self.err("opened for reading only; nothing was written"));
         }
         let tx = self.begin()?;
+        let added = self.insert_event_in(&tx, e, write)?;
+        tx.commit().map_err(|x| self.sql(x))?;
+        Ok(added)
+    }
+
+    /// Writes the event `e` within `tx` (not committed).
+    fn insert_event_in(&self, tx: &Transaction<'_>, e: &Event, write: Write) -> Result<Added> {
         let existing: Option<i64> = tx
             .query_row(
                 "SELECT id FROM events WHERE robot_id = ?1 AND at = ?2 AND note = ?3",
@@ -697,7 +777,7 @@ impl SqliteStore {
                 |r| r.get(0),
             )
             .optional()
-            .map_err(|x| self.err(x))?;
+            .map_err(|x| self.sql(x))?;
         if let Some(id) = existing {
             return Ok(Added { id, new: false });
         }
@@ -706,7 +786,7 @@ impl SqliteStore {
                 let taken: Option<i64> = tx
                     .query_row("SELECT id FROM events WHERE id = ?1", [e.id], |r| r.get(0))
                     .optional()
-                    .map_err(|x| self.err(x))?;
+                    .map_err(|x| self.sql(x))?;
                 taken.is_none().then_some(e.id)
             }
             Write::New { .. } => None,
@@ -715,9 +795,8 @@ impl SqliteStore {
             "INSERT INTO events (id, robot_id, at, note) VALUES (?1, ?2, ?3, ?4)",
             params![id, e.robot_id, e.at, e.note],
         )
-        .map_err(|x| self.err(x))?;
+        .map_err(|x| self.sql(x))?;
         let id = tx.last_insert_rowid();
-        tx.commit().map_err(|x| self.err(x))?;
         Ok(Added { id, new: true })
     }
 
@@ -1073,6 +1152,14 @@ impl Store for SqliteStore {
 
     fn insert(&self, record: &StoredRecord, write: Write) -> Result<Added> {
         self.insert_record(record, write)
+    }
+
+    fn import(&self, records: &[StoredRecord], events: &[Event]) -> Result<Imported> {
+        self.import_all(records, events)
+    }
+
+    fn check(&self) -> Result<Option<String>> {
+        SqliteStore::check(self)
     }
 
     fn robots(&self) -> Result<Vec<(String, i64)>> {

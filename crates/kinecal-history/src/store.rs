@@ -5,8 +5,28 @@
 //! back end (validation, keys, segments, dumps) is done once, by
 //! [`Database`](crate::Database), over this trait.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::model::{Added, Calibration, Event, Records, StoredRecord};
+use crate::text::printable;
+
+/// What an import wrote: for each record, then each event, of the dump, its id and whether it
+/// was new.
+pub(crate) type Imported = (Vec<Added>, Vec<Added>);
+
+/// An error met while writing a record of a dump, naming the record.
+pub(crate) fn in_record(e: Error, rec: &StoredRecord) -> Error {
+    match e {
+        Error::Database { path, message } => Error::Database {
+            path,
+            message: format!(
+                "calibration {} (robot {}): {message}",
+                rec.id,
+                printable(&rec.robot_id)
+            ),
+        },
+        e => e,
+    }
+}
 
 /// The schema version this build writes, the same on every back end: each store's migrations
 /// bring its schema from version `i` to `i + 1`. A store at a newer version is refused with the
@@ -80,6 +100,18 @@ pub trait Store: Send + sealed::Sealed {
     }
     /// Writes one calibration record (one transaction).
     fn insert(&self, record: &StoredRecord, write: Write) -> Result<Added>;
+    /// Writes the records, then the events, of a dump ([`Write::Import`]) in one transaction:
+    /// all or nothing.
+    fn import(
+        &self,
+        records: &[StoredRecord],
+        events: &[Event],
+    ) -> Result<(Vec<Added>, Vec<Added>)>;
+    /// Checks the whole store on demand: `None` when it is sound, else the first problems
+    /// found (a SQLite file: `PRAGMA integrity_check`; a server keeps its own checks).
+    fn check(&self) -> Result<Option<String>> {
+        Ok(None)
+    }
     /// The robots with a history, with their number of calibrations, by serial.
     fn robots(&self) -> Result<Vec<(String, i64)>>;
     /// Every calibration of `robot_id` (all when `None`), by robot then oldest first; records

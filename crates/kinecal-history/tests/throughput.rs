@@ -196,3 +196,122 @@ fn fleet_of_1000_robots_with_20_calibrations_each() {
         );
     }
 }
+
+/// Builds a history of 1,000 robots x 20 calibrations (20,000 records) at `loc` in one
+/// transaction: the rows of one recorded calibration copied (SQL, so that the figures of any
+/// kinecal version compare).
+fn fleet_size_history(name: &str, loc: &str, rep: &CalibrationReport) {
+    let db = Database::open(loc).unwrap();
+    db.add("R0000", Some(T0), rep, "").unwrap();
+    drop(db);
+    let (calibrations, parameters, combinations) = (
+        "INSERT INTO {s}calibrations (robot_id, at, robot_name, model_fingerprint, data_fingerprint,
+           method, solution, length_unit, angle_unit, rms_position_before, rms_position_after,
+           rms_orientation_before, rms_orientation_after, note, report, idempotency_key)
+         SELECT {serial}, {t0} + k * 30 * 86400, robot_name, model_fingerprint,
+           data_fingerprint, method, solution, length_unit, angle_unit, rms_position_before,
+           rms_position_after, rms_orientation_before, rms_orientation_after, note, report,
+           r || '-' || k
+         FROM {s}calibrations, {series} WHERE id = 1 AND (r, k) <> (0, 0) ORDER BY r, k",
+        "INSERT INTO {s}parameters SELECT c.id, param_id, name, unit, value, sigma, estimated, determined
+         FROM {s}parameters p, {s}calibrations c WHERE p.calibration_id = 1 AND c.id > 1",
+        "INSERT INTO {s}combinations SELECT c.id, expression, terms, value, sigma
+         FROM {s}combinations m, {s}calibrations c WHERE m.calibration_id = 1 AND c.id > 1",
+    );
+    let sql = |q: &str, s: &str, series: &str| {
+        let serial = if s.is_empty() {
+            "printf('R%04d', r)"
+        } else {
+            "'R' || lpad(r::text, 4, '0')"
+        };
+        q.replace("{s}", s)
+            .replace("{serial}", serial)
+            .replace("{t0}", &T0.to_string())
+            .replace("{series}", series)
+    };
+    if name == "sqlite" {
+        let mut c = rusqlite::Connection::open(loc).unwrap();
+        let tx = c.transaction().unwrap();
+        let series =
+            "(WITH RECURSIVE n(v) AS (SELECT 0 UNION ALL SELECT v + 1 FROM n WHERE v < 999)
+                       SELECT a.v AS r, b.v AS k FROM n a, n b WHERE b.v < 20)";
+        for q in [calibrations, parameters, combinations] {
+            tx.execute_batch(&sql(q, "", series)).unwrap();
+        }
+        tx.commit().unwrap();
+    } else {
+        #[cfg(feature = "postgres")]
+        {
+            let mut c = postgres::Client::connect(loc, postgres::NoTls).unwrap();
+            let mut tx = c.transaction().unwrap();
+            let series = "generate_series(0, 999) r, generate_series(0, 19) k";
+            for q in [calibrations, parameters, combinations] {
+                tx.batch_execute(&sql(q, "kinecal.", series)).unwrap();
+            }
+            tx.execute(
+                "SELECT setval('kinecal.calibrations_id_seq', (SELECT max(id) FROM kinecal.calibrations))",
+                &[],
+            )
+            .unwrap();
+            tx.commit().unwrap();
+        }
+    }
+    let n: usize = Database::open_read_only(loc)
+        .unwrap()
+        .robots()
+        .unwrap()
+        .iter()
+        .map(|r| r.1 as usize)
+        .sum();
+    assert_eq!(n, 20_000);
+}
+
+/// Records/s of `n` single `history add`s, each as one command runs it: open the history for
+/// writing, record one calibration (of a robot with earlier records when the history has them).
+fn single_adds(loc: &str, n: usize, rep: &CalibrationReport) -> f64 {
+    let t = Instant::now();
+    for k in 0..n {
+        let db = Database::open(loc).unwrap();
+        db.add(
+            &format!("R{:04}", k % 1000),
+            Some(T0 + 2000 * DAY + k as i64),
+            rep,
+            "",
+        )
+        .unwrap();
+    }
+    n as f64 / t.elapsed().as_secs_f64()
+}
+
+/// Issue 39, "history at fleet size": `history add` into a 20,000-record history against a
+/// fresh one, on both back ends, in the same run.
+#[test]
+#[ignore = "a measurement: run with --ignored --nocapture"]
+fn add_into_a_fleet_size_history() {
+    let rep = report();
+    for (name, loc, _keep) in places("fresh") {
+        let fresh = single_adds(&loc, 200, &rep);
+        eprintln!("{name}: history add into a fresh history: {fresh:.1} records/s (200 adds)");
+    }
+    for (name, loc, _keep) in places("fleetsize") {
+        let t = Instant::now();
+        fleet_size_history(&name, &loc, &rep);
+        eprintln!(
+            "{name}: 20,000 records built in {:.1} s",
+            t.elapsed().as_secs_f64()
+        );
+        if name == "sqlite" {
+            let bytes = std::fs::metadata(&loc).unwrap().len();
+            eprintln!("sqlite: the file holds {:.0} MB", bytes as f64 / 1e6);
+        }
+        let n = if name == "sqlite" && std::env::var_os("KINECAL_BENCH_FEW").is_some() {
+            10
+        } else {
+            200
+        };
+        let full = single_adds(&loc, n, &rep);
+        eprintln!(
+            "{name}: history add into a 20,000-record history: {full:.1} records/s ({n} adds)"
+        );
+    }
+}
