@@ -550,7 +550,21 @@ pub fn samples(history: &[Calibration], key: &str) -> Result<Vec<Sample>> {
     Ok(samples_in(history, &history_units(history)?, key))
 }
 
+/// Why a robot's `history` cannot be compared, when one of its calibrations has no parameters
+/// (a damaged record: there would be nothing to find changed).
+pub(crate) fn without_parameters(history: &[Calibration]) -> Option<String> {
+    let c = history.iter().find(|c| c.parameters.is_empty())?;
+    Some(format!(
+        "calibration {} of robot {} has no parameters (a damaged record): its drift cannot be \
+         computed; record the calibration again, or mark what was done with a maintenance event",
+        c.id,
+        printable(&c.robot_id)
+    ))
+}
+
 /// Compares the latest calibration of a robot's `history` (oldest first) with the baseline.
+/// A history holding a calibration without parameters (a damaged record) is refused
+/// ([`Error::Input`]): nothing would be found changed.
 pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport> {
     if !(opts.sigma.is_finite() && opts.sigma > 0.0) {
         return Err(Error::InvalidSigma { value: opts.sigma });
@@ -558,6 +572,9 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
     let (Some(first), Some(latest)) = (history.first(), history.last()) else {
         return Err(Error::Input("empty history".into()));
     };
+    if let Some(problem) = without_parameters(history) {
+        return Err(Error::Input(problem));
+    }
     let units = history_units(history)?;
     let series = series_in(history, &units);
     let base = match opts.baseline {

@@ -7,7 +7,7 @@
 
 use serde::Serialize;
 
-use crate::drift::{all_samples, drift, Baseline, DriftOptions, Sample};
+use crate::drift::{all_samples, drift, without_parameters, Baseline, DriftOptions, Sample};
 use crate::error::Result;
 use crate::model::{Calibration, Event};
 use crate::timefmt::format_time;
@@ -44,6 +44,9 @@ pub fn current_segment<'a>(
 pub enum Verdict {
     /// A quantity changed beyond its tolerance or K sigma: recalibrate and inspect.
     Flagged,
+    /// The robot's calibrations could not be compared (e.g. one has no parameters, a damaged
+    /// record): its state is unknown, never "ok" ([`RobotState::problem`] says why).
+    Unknown,
     /// Serviced (a maintenance event) after its latest calibration: calibrate it.
     Serviced,
     /// A trend crosses a tolerance within the horizon.
@@ -59,6 +62,7 @@ impl Verdict {
     pub fn word(self) -> &'static str {
         match self {
             Verdict::Flagged => "FLAGGED",
+            Verdict::Unknown => "UNKNOWN",
             Verdict::Serviced => "SERVICED",
             Verdict::Due => "DUE",
             Verdict::Ok => "ok",
@@ -222,6 +226,11 @@ fn robot_state(
         state.verdict = Verdict::Serviced;
         return Ok(state);
     }
+    if let Some(problem) = without_parameters(segment) {
+        state.verdict = Verdict::Unknown;
+        state.problem = Some(problem);
+        return Ok(state);
+    }
     if segment.len() < 2 {
         return Ok(state);
     }
@@ -234,6 +243,7 @@ fn robot_state(
     ) {
         Ok(r) => r,
         Err(e) => {
+            state.verdict = Verdict::Unknown;
             state.problem = Some(e.to_string());
             return Ok(state);
         }

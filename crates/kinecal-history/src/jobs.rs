@@ -216,12 +216,12 @@ impl FleetDocument {
         self.robots.iter().filter(|r| r.verdict == v).count()
     }
 
-    /// Whether any robot needs attention (flagged, serviced or due).
+    /// Whether any robot needs attention (flagged, unknown, serviced or due).
     pub fn attention(&self) -> bool {
         self.robots.iter().any(|r| {
             matches!(
                 r.verdict,
-                Verdict::Flagged | Verdict::Serviced | Verdict::Due
+                Verdict::Flagged | Verdict::Unknown | Verdict::Serviced | Verdict::Due
             )
         })
     }

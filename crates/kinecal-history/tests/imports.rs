@@ -1,0 +1,285 @@
+//! Records checked before they are believed (issue 38), on SQLite and PostgreSQL: a damaged
+//! dump (a calibration without parameters, a parameter twice or missing) is refused before
+//! anything is imported, naming the record and what was expected; a report with a parameter
+//! twice is refused by name, not by the store's constraint; a record without parameters already
+//! stored makes `drift` and `fleet` say so, never "ok"; after an import into PostgreSQL the next
+//! event and calibration get new ids (the sequences moved past the imported ones, and moved
+//! again when an earlier kinecal's import left them behind).
+
+mod common;
+
+#[cfg(feature = "postgres")]
+use common::pg::TestDb;
+use kinecal::report::CalibrationReport;
+use kinecal::solve::estimation::{calibrate, CalibrationOptions};
+use kinecal::{apps::simulate, model::examples, ParamId};
+use kinecal_history::{drift, fleet, Database, DriftOptions, Dump, Error, FleetOptions, Verdict};
+
+const T0: i64 = 1_790_000_000;
+const DAY: i64 = 86_400;
+
+/// A calibration of the GE A4 (link 1's x and y, link 3's y) on simulated data; `seed` varies
+/// the data (and so the record's key).
+fn report(seed: u64) -> CalibrationReport {
+    let robot = examples::ge_a4();
+    let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 10, seed), false);
+    simulate::add_noise(&mut data, 1e-5, 1e-5, seed + 1);
+    let cal = calibrate(
+        &robot,
+        &data,
+        &CalibrationOptions::new(vec![ParamId(0), ParamId(1), ParamId(13)]),
+        &mut |_| {},
+    )
+    .unwrap();
+    let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
+    let mut rep = CalibrationReport::new(&cal, &data);
+    rep.set_uncertainty(&cal, &u);
+    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(b"ge-a4"));
+    rep.data_file_sha256 = Some(kinecal_history::fingerprint(
+        format!("seed {seed}").as_bytes(),
+    ));
+    rep
+}
+
+/// What keeps a place alive: its folder, or its database on the server.
+#[allow(dead_code)]
+enum Keep {
+    Folder(tempfile::TempDir),
+    #[cfg(feature = "postgres")]
+    Server(TestDb),
+}
+
+/// A fresh SQLite file and (with a server) a fresh PostgreSQL database, as (location, keep).
+fn places(tag: &str) -> Vec<(String, Keep)> {
+    let dir = tempfile::tempdir().unwrap();
+    let mut v = vec![(
+        dir.path().join("h.sqlite").display().to_string(),
+        Keep::Folder(dir),
+    )];
+    #[cfg(feature = "postgres")]
+    if let Some(db) = TestDb::new(tag) {
+        v.push((db.url.clone(), Keep::Server(db)));
+    }
+    #[cfg(not(feature = "postgres"))]
+    let _ = tag;
+    v
+}
+
+/// Robot R1's three calibrations, a month apart, and one event, as a dump's JSON.
+fn dump_value() -> serde_json::Value {
+    static D: std::sync::OnceLock<serde_json::Value> = std::sync::OnceLock::new();
+    D.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let db = Database::open(dir.path().join("h.sqlite")).unwrap();
+        for k in 0..3 {
+            db.add("R1", Some(T0 + k * 30 * DAY), &report(10 + k as u64), "")
+                .unwrap();
+        }
+        db.add_event("R1", T0 + DAY, "gearbox J2 replaced").unwrap();
+        serde_json::from_str(&db.dump().unwrap().to_json()).unwrap()
+    })
+    .clone()
+}
+
+fn dump(v: &serde_json::Value) -> Dump {
+    Dump::from_json(&v.to_string(), "d.json").unwrap()
+}
+
+#[test]
+fn a_damaged_dump_is_refused_naming_the_record_and_nothing_is_imported() {
+    let whole = dump_value();
+    let listed = whole["calibrations"][1]["parameters"]
+        .as_array()
+        .unwrap()
+        .len();
+    for (loc, _keep) in places("damaged_dump") {
+        let db = Database::open(&loc).unwrap();
+        // No parameters at all.
+        let mut v = whole.clone();
+        v["calibrations"][1]["parameters"] = serde_json::json!([]);
+        let e = db.import(&dump(&v)).unwrap_err();
+        assert!(matches!(e, Error::Input(_)), "{e}");
+        let e = e.to_string();
+        assert!(
+            e.contains(&format!(
+                "calibration 2 of the dump (the 2nd in its list, robot R1): it has no parameters; \
+                 expected one row per parameter of its robot model (its report lists {listed})"
+            )) && e.contains("nothing was imported"),
+            "{loc}: {e}"
+        );
+        // One parameter row missing.
+        let mut v = whole.clone();
+        let removed = v["calibrations"][2]["parameters"]
+            .as_array_mut()
+            .unwrap()
+            .remove(4);
+        let e = db.import(&dump(&v)).unwrap_err().to_string();
+        assert!(
+            e.contains("calibration 3 of the dump (the 3rd in its list, robot R1)")
+                && e.contains(&format!("no row for {}", removed["id"].as_str().unwrap())),
+            "{loc}: {e}"
+        );
+        // A parameter twice.
+        let mut v = whole.clone();
+        let p = v["calibrations"][0]["parameters"][2].clone();
+        v["calibrations"][0]["parameters"]
+            .as_array_mut()
+            .unwrap()
+            .push(p.clone());
+        let e = db.import(&dump(&v)).unwrap_err().to_string();
+        assert!(
+            e.contains("calibration 1 of the dump (the 1st in its list, robot R1)")
+                && e.contains(&format!(
+                    "parameter {} appears twice",
+                    p["id"].as_str().unwrap()
+                )),
+            "{loc}: {e}"
+        );
+        assert!(!e.contains("UNIQUE") && !e.contains("duplicate key"), "{e}");
+        // Nothing of the damaged dumps was written; the whole one imports.
+        assert!(db.robots().unwrap().is_empty(), "{loc}");
+        assert!(db.events(None).unwrap().is_empty(), "{loc}");
+        let s = db.import(&dump(&whole)).unwrap();
+        assert_eq!((s.added, s.events_added), (3, 1));
+    }
+}
+
+#[test]
+fn a_report_with_a_parameter_twice_is_refused_by_name() {
+    let mut rep = report(1);
+    let twice = rep.parameters[1].clone();
+    rep.parameters.push(twice.clone());
+    for (loc, _keep) in places("param_twice") {
+        let db = Database::open(&loc).unwrap();
+        let e = db.add("R1", Some(T0), &rep, "").unwrap_err();
+        assert!(matches!(e, Error::Input(_)), "{e}");
+        let e = e.to_string();
+        assert!(
+            e.contains(&format!(
+                "the report of robot R1: parameter {} appears twice",
+                twice.id
+            )) && e.contains("not recorded"),
+            "{loc}: {e}"
+        );
+        assert!(!e.contains("UNIQUE") && !e.contains("duplicate key"), "{e}");
+        assert!(db.robots().unwrap().is_empty());
+    }
+}
+
+/// A record without parameters already stored (written by hand, or by an earlier kinecal's
+/// import): `drift` refuses to compare, `fleet` gives the robot the verdict UNKNOWN with the
+/// reason; neither calls it ok.
+#[test]
+fn a_stored_record_without_parameters_is_never_ok() {
+    for (loc, keep) in places("no_parameters") {
+        let db = Database::open(&loc).unwrap();
+        for k in 0..3u64 {
+            db.add("R1", Some(T0 + k as i64 * 30 * DAY), &report(20 + k), "")
+                .unwrap();
+            db.add("R2", Some(T0 + k as i64 * 30 * DAY), &report(30 + k), "")
+                .unwrap();
+        }
+        let latest = db.calibrations(Some("R1")).unwrap().last().unwrap().id;
+        let sql = format!("DELETE FROM {{s}}parameters WHERE calibration_id = {latest}");
+        match &keep {
+            Keep::Folder(_) => {
+                rusqlite::Connection::open(&loc)
+                    .unwrap()
+                    .execute_batch(&sql.replace("{s}", ""))
+                    .unwrap();
+            }
+            #[cfg(feature = "postgres")]
+            Keep::Server(t) => {
+                t.client()
+                    .batch_execute(&sql.replace("{s}", "kinecal."))
+                    .unwrap();
+            }
+        }
+        let records = db.records(None).unwrap();
+        let r1: Vec<_> = records
+            .calibrations
+            .iter()
+            .filter(|c| c.robot_id == "R1")
+            .cloned()
+            .collect();
+        let e = drift(&r1, &DriftOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!(
+                "calibration {latest} of robot R1 has no parameters"
+            )),
+            "{loc}: {e}"
+        );
+        let states = fleet(
+            &records.calibrations,
+            &[],
+            &FleetOptions {
+                drift: DriftOptions::default(),
+                now: T0 + 90 * DAY,
+                horizon: 90 * DAY,
+            },
+        )
+        .unwrap();
+        let r1 = states.iter().find(|s| s.robot_id == "R1").unwrap();
+        assert_eq!(r1.verdict, Verdict::Unknown, "{loc}");
+        assert!(
+            r1.problem.as_deref().unwrap().contains("has no parameters"),
+            "{loc}: {:?}",
+            r1.problem
+        );
+        let r2 = states.iter().find(|s| s.robot_id == "R2").unwrap();
+        assert_eq!(r2.verdict, Verdict::Ok, "{loc}");
+        // The unknown robot comes first after the flagged ones.
+        assert_eq!(states[0].robot_id, "R1");
+    }
+}
+
+/// After an import into PostgreSQL, the next event and calibration get new ids (issue 38: the
+/// README's dump holds one event, id 1, and the next `history event` failed with a raw
+/// duplicate key). A history imported by an earlier kinecal, whose sequences were left behind,
+/// heals on its next write.
+#[cfg(feature = "postgres")]
+#[test]
+fn postgres_ids_after_an_import_are_new() {
+    let Some(t) = TestDb::new("import_ids") else {
+        return;
+    };
+    let db = Database::open(&t.url).unwrap();
+    let whole = dump_value();
+    db.import(&dump(&whole)).unwrap();
+    let mut c = t.client();
+    let seq = |c: &mut postgres::Client, table: &str| -> (i64, bool) {
+        let r = c
+            .query_one(
+                &format!("SELECT last_value, is_called FROM kinecal.{table}_id_seq"),
+                &[],
+            )
+            .unwrap();
+        (r.get(0), r.get(1))
+    };
+    // The sequences moved past the imported ids (the event's id 1 included: a sequence never
+    // used hands out its start value next).
+    assert_eq!(seq(&mut c, "events"), (1, true));
+    assert_eq!(seq(&mut c, "calibrations"), (3, true));
+    let e = db
+        .add_event("R1", T0 + 50 * DAY, "motor J1 replaced")
+        .unwrap();
+    assert_eq!((e.id, e.new), (2, true));
+    let id = db.add("R1", Some(T0 + 100 * DAY), &report(13), "").unwrap();
+    assert_eq!(id, 4);
+    // As an earlier kinecal left them: the sequences at their start.
+    c.batch_execute(
+        "SELECT setval('kinecal.events_id_seq', 1, false);
+         SELECT setval('kinecal.calibrations_id_seq', 1, false);",
+    )
+    .unwrap();
+    let e = db
+        .add_event("R1", T0 + 60 * DAY, "J3 encoder replaced")
+        .unwrap();
+    assert_eq!((e.id, e.new), (3, true));
+    let id = db.add("R1", Some(T0 + 110 * DAY), &report(14), "").unwrap();
+    assert_eq!(id, 5);
+    assert_eq!(db.events(None).unwrap().len(), 3);
+    assert_eq!(db.calibrations(None).unwrap().len(), 5);
+}
