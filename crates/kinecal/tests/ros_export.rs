@@ -1,5 +1,6 @@
 //! `export ros`: the calibration YAML, the xacro that reads it and the static transforms, on a
-//! two-arm tree, a random 6-axis arm and the UR10; checked with an independent URDF forward
+//! two-arm tree, a random 6-axis arm and the UR10, and the frames of cameras and boards
+//! (eye-in-hand, eye-to-hand, on a site of a tree); checked with an independent URDF forward
 //! kinematics (4x4 matrices from the expanded xacro's origins), an independent hash, and the
 //! spec's door with its bad inputs. The real `xacro` tool's expansion is checked by the Python
 //! tests (crates/kinecal-py/tests/test_ros_export.py).
@@ -11,6 +12,7 @@ use kinecal::import::ros::{
     expand_xacro, export_ros, parse_calibration, parse_transforms, values_hash, JointOrigin,
 };
 use kinecal::import::urdf::import_urdf_tree;
+use kinecal::model::camera::{Board, Camera, Mount};
 use kinecal::model::kinematics::{Frame, Target};
 use kinecal::model::robot::{Link, Session};
 use kinecal::spec::{Env, Job};
@@ -647,4 +649,246 @@ fn malformed_yaml_is_refused_with_its_line() {
     let t = "robot: r\ntransforms:\n  - parent: w\n    child: b\n    x: 0.0\n    y: 0.0\n    z: 0.0\n    qx: 0.0\n    qy: 0.0\n    qz: 0.0\n    qw: 0.5\n";
     let e = parse_transforms(t, "t.yaml").unwrap_err().to_string();
     assert!(e.contains("quaternion"), "{e}");
+}
+
+/// A 640 x 480 camera of 600 px focal length (the set-up of tests/cameras.rs).
+fn camera(name: &str, mount: Mount, pose: Link) -> Camera {
+    Camera {
+        name: name.into(),
+        mount,
+        pose,
+        fx: 600.0,
+        fy: 610.0,
+        cx: 320.0,
+        cy: 240.0,
+        distortion: [-0.2, 0.0, 0.0, 0.0, 0.0],
+        width: 640,
+        height: 480,
+    }
+}
+
+/// A 9 x 6 board of 25 mm.
+fn board(name: &str, mount: Mount, pose: Link) -> Board {
+    Board {
+        name: name.into(),
+        mount,
+        pose,
+        cols: 9,
+        rows: 6,
+        spacing: 0.025,
+    }
+}
+
+/// A hand-eye pose: a few centimetres off the flange, turned.
+const HAND_EYE: Link = Link {
+    x: 0.03,
+    y: -0.05,
+    z: 0.04,
+    alpha: 0.05,
+    beta: -0.03,
+    gamma: 2.9,
+};
+
+/// A fixed camera or board, in the global frame: a metre out, turned.
+const BESIDE: Link = Link {
+    x: 0.9,
+    y: -0.4,
+    z: 0.6,
+    alpha: 2.2,
+    beta: 0.4,
+    gamma: -2.6,
+};
+
+/// Exports `cal` and checks each camera's and board's static transform: the chain of the
+/// written files to `<camera>_optical_frame` (or `<board>`) in the measurement frame (the
+/// measurement frame's transform inverted, the expanded xacro's origins and joint motions from
+/// the base link to the parent link, the camera's own transform; or the camera's transform
+/// alone when its parent is the measurement frame) equals kinecal's frame of the camera (its mount's frame at the
+/// posture then its pose) to 1e-12 m and 1e-12 at 50 postures. Returns the parents.
+fn check_cameras(cal: &Robot, template: &str, tips: &[&str]) -> Vec<(String, String)> {
+    let e = export_ros(cal, template, "t.urdf", None, tips, None).unwrap();
+    let tf = parse_transforms(&e.transforms_yaml, "static_transforms.yaml").unwrap();
+    assert_eq!(
+        tf.transforms.len(),
+        1 + cal.sessions.len() + cal.cameras.len() + cal.boards.len()
+    );
+    let cal_yaml = parse_calibration(&e.calibration, "calibration.yaml").unwrap();
+    let urdf =
+        urdf_rs::read_from_string(&expand_xacro(&e.xacro, &cal_yaml.joints, "x").unwrap()).unwrap();
+    let frame = |v: &[f64; 7]| {
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(v[6], v[3], v[4], v[5]));
+        let mut m = q.to_homogeneous();
+        m.fixed_view_mut::<3, 1>(0, 3)
+            .copy_from(&Vector3::new(v[0], v[1], v[2]));
+        m
+    };
+    let base = tf.transforms[0].parent.clone();
+    let mframe = tf.transforms[0].child.clone();
+    let placement = frame(&tf.transforms[0].values).try_inverse().unwrap();
+    let names: Vec<String> = cal.joints.iter().map(|j| j.name.clone().unwrap()).collect();
+    let chain = kinecal::Chain::new(cal);
+    let mounted: Vec<(String, Mount, Link)> = cal
+        .cameras
+        .iter()
+        .map(|c| (format!("{}_optical_frame", c.name), c.mount, c.pose))
+        .chain(cal.boards.iter().map(|b| (b.name.clone(), b.mount, b.pose)))
+        .collect();
+    let mut parents = Vec::new();
+    for (child, mount, pose) in &mounted {
+        let t = tf.transforms.iter().find(|t| &t.child == child).unwrap();
+        assert!(t.values[6] >= 0.0);
+        parents.push((child.clone(), t.parent.clone()));
+        let mut worst: (f64, f64) = (0.0, 0.0);
+        for p in simulate::sample_postures(cal, 50, 3) {
+            let q = |n: &str| p.readings[names.iter().position(|m| m == n).unwrap()];
+            // The written chain in the measurement frame (kinecal's global frame): the base
+            // link there (the inverse of the measurement frame's transform), the URDF to the
+            // parent link, then the static transform.
+            let to_parent = if t.parent == mframe {
+                Matrix4::identity()
+            } else {
+                placement * urdf_fk(&urdf, &base, &t.parent, &q)
+            };
+            let written = to_parent * frame(&t.values);
+            // kinecal's: the mount's frame at the posture, then the pose.
+            let at = match mount {
+                Mount::Base => Frame::identity(),
+                Mount::EndEffector => chain.frame_at(&p.readings, Target::EndEffector),
+                Mount::Site(s) => chain.frame_at(&p.readings, Target::Site(*s)),
+            };
+            let f = homogeneous(&at.then(&Frame::from_link(pose)));
+            let dp = (written.fixed_view::<3, 1>(0, 3) - f.fixed_view::<3, 1>(0, 3)).norm();
+            let dr = (written.fixed_view::<3, 3>(0, 0) - f.fixed_view::<3, 3>(0, 0)).norm();
+            worst = (worst.0.max(dp), worst.1.max(dr));
+        }
+        assert!(worst.0 < 1e-12 && worst.1 < 1e-12, "{child}: {worst:?}");
+        eprintln!(
+            "{child} (on {}): largest deviation {:e} m, {:e}",
+            t.parent, worst.0, worst.1
+        );
+    }
+    parents
+}
+
+#[test]
+fn an_eye_in_hand_camera_hangs_from_the_tool_link_and_its_board_from_the_measurement_frame() {
+    let text = random_arm_urdf(6, 1);
+    for tip in ["tool0", "link6"] {
+        let robot = import_urdf_tree(&text, "arm.urdf", None, &[tip])
+            .unwrap()
+            .robot;
+        let mut cal = calibrated(&robot, 4);
+        cal.cameras
+            .push(camera("wrist", Mount::EndEffector, HAND_EYE));
+        cal.boards.push(board("board", Mount::Base, BESIDE));
+        cal.validate().unwrap();
+        // The tool link: the template's tip, or the `_calibrated` link added after a tip that
+        // is the last movable joint's child.
+        let tool = if tip == "link6" {
+            "link6_calibrated"
+        } else {
+            "tool0"
+        };
+        assert_eq!(
+            check_cameras(&cal, &text, &[tip]),
+            [
+                ("wrist_optical_frame".to_string(), tool.to_string()),
+                ("board".to_string(), "measurement".to_string())
+            ]
+        );
+    }
+}
+
+#[test]
+fn an_eye_to_hand_camera_hangs_from_the_measurement_frame() {
+    let text = random_arm_urdf(6, 2);
+    let robot = import_urdf_tree(&text, "arm.urdf", None, &["tool0"])
+        .unwrap()
+        .robot;
+    let mut cal = calibrated(&robot, 5);
+    cal.cameras.push(camera("fixed cam", Mount::Base, BESIDE));
+    cal.boards
+        .push(board("target", Mount::EndEffector, HAND_EYE));
+    cal.validate().unwrap();
+    let e = export_ros(&cal, &text, "t.urdf", None, &["tool0"], None).unwrap();
+    // A name TF cannot carry is published with `_`, and said so.
+    assert!(
+        e.notes
+            .iter()
+            .any(|n| n.contains("`fixed_cam_optical_frame`")),
+        "{:?}",
+        e.notes
+    );
+    assert!(
+        e.transforms_yaml.contains(
+            "  # camera `fixed cam`'s optical frame (z along the optical axis, x right, y down)\n  - parent: measurement\n    child: fixed_cam_optical_frame\n"
+        ),
+        "{}",
+        e.transforms_yaml
+    );
+    cal.cameras[0].name = "fixed_cam".into();
+    assert_eq!(
+        check_cameras(&cal, &text, &["tool0"]),
+        [
+            (
+                "fixed_cam_optical_frame".to_string(),
+                "measurement".to_string()
+            ),
+            ("target".to_string(), "tool0".to_string())
+        ]
+    );
+}
+
+#[test]
+fn a_camera_on_a_site_hangs_from_that_tip_and_bad_frames_are_refused() {
+    let text = std::fs::read_to_string(repo().join("examples/trees/upper_body.urdf")).unwrap();
+    let tips = ["left_marker", "right_marker"];
+    let robot = import_urdf_tree(&text, "upper_body.urdf", None, &tips)
+        .unwrap()
+        .robot;
+    let mut cal = calibrated(&robot, 3);
+    cal.cameras
+        .push(camera("left_cam", Mount::Site(0), HAND_EYE));
+    cal.boards.push(board("board", Mount::EndEffector, BESIDE));
+    cal.validate().unwrap();
+    assert_eq!(
+        check_cameras(&cal, &text, &tips),
+        [
+            (
+                "left_cam_optical_frame".to_string(),
+                "left_marker".to_string()
+            ),
+            ("board".to_string(), "right_marker".to_string())
+        ]
+    );
+    // A frame that is a link, the measurement frame or a session's is refused.
+    let refused = |cal: &Robot| {
+        export_ros(cal, &text, "t.urdf", None, &tips, None)
+            .unwrap_err()
+            .to_string()
+    };
+    let mut bad = cal.clone();
+    bad.boards[0].name = "chest".into();
+    let e = refused(&bad);
+    assert!(
+        e.contains("`chest`") && e.contains("link of the URDF"),
+        "{e}"
+    );
+    bad.boards[0].name = "measurement".into();
+    let e = refused(&bad);
+    assert!(e.contains("the measurement frame"), "{e}");
+    bad.boards[0].name = "A".into();
+    let e = refused(&bad);
+    assert!(e.contains("`A`") && e.contains("published twice"), "{e}");
+    // A site the template does not end in has no link to hang from.
+    let mut extra = cal.clone();
+    extra.sites.push(kinecal::model::robot::Site {
+        name: "bracket".into(),
+        joint: 1,
+        frame: HAND_EYE,
+    });
+    extra.cameras[0].mount = Mount::Site(extra.sites.len() - 1);
+    extra.validate().unwrap();
+    let e = refused(&extra);
+    assert!(e.contains("`bracket`") && e.contains("not a tip"), "{e}");
 }

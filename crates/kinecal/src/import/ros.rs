@@ -20,8 +20,16 @@
 //!   was measured in (`measurement`, the robot file's global frame) in the robot's base link
 //!   (the inverse of the placement the calibration put into the robot's first link beyond the
 //!   template's), and each session's measurement frame in that frame. Hung below the base, the
-//!   instrument's frames never give a link of the URDF a second parent. The launch file starts one `tf2_ros` `static_transform_publisher` per entry of the YAML beside
-//!   it. ([`StaticTransform`]'s kind is where cameras and boards will go.)
+//!   instrument's frames never give a link of the URDF a second parent. Then each camera, as
+//!   `<camera>_optical_frame` (REP 103's optical frame: z along the optical axis, x right, y
+//!   down, which is kinecal's camera frame, so its pose is written as estimated), and each
+//!   board, as `<board>`: a fixed one (`mount = "base"`) in the measurement frame (its pose is
+//!   in the robot's global frame, like the sessions'), one on the end effector or a site in
+//!   the URDF link of that tool frame (the tip link of its chain, or the `<tip>_calibrated`
+//!   link the URDF export adds); a site that is not a tip of the template is refused. No
+//!   `<camera>_link` body frame: a camera driver publishes its own, and a frame with two
+//!   parents breaks TF. The launch file starts one `tf2_ros` `static_transform_publisher` per
+//!   entry of the YAML beside it.
 //!
 //! The URDF holds the robot on its own base: the template's first link, and every link that
 //! starts at the global frame (a tree's other roots, a site on the base) moved by the inverse of
@@ -42,6 +50,7 @@ use super::readback::{self, ReadBack, Tolerance};
 use super::urdf::{export_urdf, import_urdf, import_urdf_tree};
 use super::{inverse, link_of, Lost};
 use crate::error::{Error, Location, Result};
+use crate::model::camera::Mount;
 use crate::model::kinematics::{log_so3, Frame};
 use crate::model::robot::Robot;
 use crate::units::Units;
@@ -81,6 +90,13 @@ pub enum FrameKind {
     /// A session's measurement frame (the instrument where it stood), by its name in the robot
     /// file.
     Session(String),
+    /// A camera's optical frame (`<camera>_optical_frame`: z along the optical axis, x right,
+    /// y down, REP 103's optical convention and kinecal's camera frame), by its name in the
+    /// robot file.
+    Camera(String),
+    /// A calibration board's frame (`<board>`: its points in the x-y plane, point 0 at the
+    /// origin), by its name in the robot file.
+    Board(String),
 }
 
 /// A frame kinecal estimated outside the robot, as ROS publishes it.
@@ -439,6 +455,98 @@ pub fn export_ros(
             values: transform_values(&inverse(&Frame::from_link(&s.frame))),
         });
     }
+    // Cameras and boards: on the measurement frame when fixed (their poses are in the robot's
+    // global frame, as the sessions' are), else on the URDF link of the tool frame they move
+    // with (the end effector's or a site's tip link, or its `_calibrated` link when the URDF
+    // export added one): each pose as estimated, in the frame it was estimated in.
+    let tool_link = |site: Option<usize>| -> Result<String> {
+        let chain = match site {
+            None => &imported.chain,
+            Some(s) => imported.branches.get(s).ok_or_else(|| {
+                Error::Problem(format!(
+                    "site `{}` is not a tip of the template (its tips: {}): a camera or board \
+                     on it has no URDF link to hang from; import the template with that tip \
+                     (--tip) or mount the camera on the end effector",
+                    robot.sites[s].name,
+                    chains
+                        .iter()
+                        .map(|(c, _)| format!("`{}`", c.tip))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            })?,
+        };
+        let calibrated = format!("{}_calibrated", chain.tip);
+        Ok(if added.contains(&calibrated) {
+            calibrated
+        } else {
+            chain.tip.clone()
+        })
+    };
+    let mounted = robot
+        .cameras
+        .iter()
+        .map(|c| (true, &c.name, c.mount, &c.pose))
+        .chain(
+            robot
+                .boards
+                .iter()
+                .map(|b| (false, &b.name, b.mount, &b.pose)),
+        );
+    for (camera, name, mount, pose) in mounted {
+        let what = if camera { "camera" } else { "board" };
+        let base_name = frame_name(name);
+        let child = if camera {
+            format!("{base_name}_optical_frame")
+        } else {
+            base_name.clone()
+        };
+        if &base_name != name {
+            notes.push(format!(
+                "{what} `{name}` is published as the frame `{child}` (TF frame names: letters, \
+                 digits, `_`)"
+            ));
+        }
+        if child == mframe || links.contains(&child.as_str()) {
+            return Err(Error::Problem(format!(
+                "{what} `{name}`'s frame `{child}` is also {}: rename the {what}",
+                if child == mframe {
+                    "the measurement frame"
+                } else {
+                    "a link of the URDF"
+                }
+            )));
+        }
+        if transforms.iter().any(|t| t.child == child) {
+            return Err(Error::Problem(format!(
+                "{what} `{name}`'s frame `{child}` is published twice (a session, camera or \
+                 board of that frame name): rename one"
+            )));
+        }
+        let parent = match mount {
+            Mount::Base => {
+                if !robot.sessions.is_empty() {
+                    notes.push(format!(
+                        "{what} `{name}` is fixed (mount = \"base\") and the robot has \
+                         sessions: it is published in `{mframe}`, the robot's global frame"
+                    ));
+                }
+                mframe.to_string()
+            }
+            Mount::EndEffector => tool_link(None)?,
+            Mount::Site(s) => tool_link(Some(s))?,
+        };
+        transforms.push(StaticTransform {
+            parent,
+            child,
+            kind: if camera {
+                FrameKind::Camera(name.clone())
+            } else {
+                FrameKind::Board(name.clone())
+            },
+            values: transform_values(&Frame::from_link(pose)),
+        });
+    }
     let transforms_yaml = transforms_yaml(&urdf_name, &transforms);
     let launch = launch_text(&urdf_name);
 
@@ -462,6 +570,22 @@ pub fn export_ros(
                 };
                 inverse(&Frame::from_link(&s.frame))
             }
+            FrameKind::Camera(name) => match robot.cameras.iter().find(|c| &c.name == name) {
+                Some(c) => Frame::from_link(&c.pose),
+                None => {
+                    return Err(Error::Problem(format!(
+                        "camera `{name}` is not the robot's (an export bug)"
+                    )))
+                }
+            },
+            FrameKind::Board(name) => match robot.boards.iter().find(|b| &b.name == name) {
+                Some(b) => Frame::from_link(&b.pose),
+                None => {
+                    return Err(Error::Problem(format!(
+                        "board `{name}` is not the robot's (an export bug)"
+                    )))
+                }
+            },
         };
         let apart = (fa.translation - expected.translation).norm()
             + log_so3(&(fa.rotation.transpose() * expected.rotation)).norm();
@@ -616,6 +740,14 @@ fn transforms_yaml(robot: &str, transforms: &[StaticTransform]) -> String {
             }
             FrameKind::Session(name) => format!(
                 "the measurement frame of session `{}` (where the instrument stood)",
+                name.escape_debug()
+            ),
+            FrameKind::Camera(name) => format!(
+                "camera `{}`'s optical frame (z along the optical axis, x right, y down)",
+                name.escape_debug()
+            ),
+            FrameKind::Board(name) => format!(
+                "board `{}` (its points in the x-y plane, point 0 at the origin)",
                 name.escape_debug()
             ),
         };
@@ -920,8 +1052,9 @@ pub struct Calibration {
 pub struct Transforms {
     /// The robot's name.
     pub robot: String,
-    /// The transforms, in the file's order (their kind: a placement for the first, sessions
-    /// after; the file does not say).
+    /// The transforms, in the file's order (the file does not say what each is: the first is
+    /// taken as the placement, the others as [`FrameKind::Session`] with an empty name; the
+    /// exporter knows the cameras' and boards' entries by their order).
     pub transforms: Vec<StaticTransform>,
 }
 
