@@ -539,50 +539,63 @@ fn a_history_moves_between_back_ends_losslessly() {
     assert!(id > dump.calibrations.iter().map(|r| r.id).max().unwrap());
 }
 
-/// The roles of the README, created by its SQL: a reader reads and cannot write (a clear
-/// error), a writer writes; passwords never appear in a message.
+/// The roles of the documentation, created by its SQL: the roles by an administrator (with
+/// CREATEROLE), their rights by the database's owner, a role without CREATEROLE (issue 38: the
+/// SQL assumed an owner that can create roles); a reader reads and cannot write (a clear error),
+/// a writer writes; passwords never appear in a message.
 #[cfg(feature = "postgres")]
 #[test]
 fn roles_as_the_readme_creates_them() {
     let Some(t) = TestDb::new("roles") else {
         return;
     };
-    // The schema, by its owner.
-    let owner = Database::open(&t.url).unwrap();
-    owner.add("R1", Some(T0), &shared_report(), "").unwrap();
-    drop(owner);
-    // The roles' SQL as the documentation gives it.
-    let sql = ["docs/history.md"]
-        .iter()
-        .find_map(|doc| {
-            let text = std::fs::read_to_string(
-                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                    .join("../..")
-                    .join(doc),
-            )
-            .ok()?;
-            Some(
-                text.split("```sql\n")
-                    .nth(1)?
-                    .split("```")
-                    .next()?
-                    .to_string(),
-            )
-        })
-        .expect("the documentation's roles SQL");
     // Roles belong to the server, not the database: suffixed, so tests never collide.
     let suffix = format!("_{}", std::process::id());
-    let sql = sql
-        .replace("kinecal_reader", &format!("kinecal_reader{suffix}"))
-        .replace("kinecal_writer", &format!("kinecal_writer{suffix}"))
-        .replace("maint ", &format!("maint{suffix} "))
-        .replace("cell07 ", &format!("cell07{suffix} "))
-        .replace(
-            "DATABASE kinecal",
-            &format!("DATABASE {}", t.url.rsplit('/').next().unwrap()),
-        );
+    let dbname = t.url.rsplit('/').next().unwrap().to_string();
+    // The database's owner: may log in, may not create roles.
+    let (owner, owner_pw) = (format!("kowner{suffix}"), "owner-secret-77c1");
     let mut admin = t.client();
-    admin.batch_execute(&sql).unwrap();
+    admin
+        .batch_execute(&format!(
+            "CREATE ROLE {owner} LOGIN NOCREATEROLE NOSUPERUSER PASSWORD '{owner_pw}';
+             ALTER DATABASE {dbname} OWNER TO {owner};"
+        ))
+        .unwrap();
+    let owner_url = pg::with_user(&t.url, &owner, owner_pw);
+    // The schema, by its owner.
+    let db = Database::open(&owner_url).unwrap();
+    db.add("R1", Some(T0), &shared_report(), "").unwrap();
+    drop(db);
+    // The roles' SQL as the documentation gives it: the roles, then the rights.
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/history.md"),
+    )
+    .unwrap();
+    let block = |k: usize| {
+        text.split("```sql\n")
+            .nth(k)
+            .and_then(|b| b.split("```").next())
+            .expect("the documentation's roles SQL")
+            .replace("kinecal_reader", &format!("kinecal_reader{suffix}"))
+            .replace("kinecal_writer", &format!("kinecal_writer{suffix}"))
+            .replace("maint ", &format!("maint{suffix} "))
+            .replace("cell07 ", &format!("cell07{suffix} "))
+            .replace("DATABASE kinecal", &format!("DATABASE {dbname}"))
+    };
+    let (roles, rights) = (block(1), block(2));
+    assert!(roles.contains("CREATE ROLE") && !rights.contains("CREATE ROLE"));
+    let mut as_owner = postgres::Client::connect(&owner_url, postgres::NoTls).unwrap();
+    // The owner cannot create the roles (what the documentation says)...
+    let e = as_owner.batch_execute(&roles).unwrap_err();
+    assert!(
+        e.as_db_error()
+            .is_some_and(|d| d.message().contains("permission denied to create role")),
+        "{e:?}"
+    );
+    // ... the administrator does, and the owner grants the rights.
+    admin.batch_execute(&roles).unwrap();
+    as_owner.batch_execute(&rights).unwrap();
+    drop(as_owner);
     let (reader_pw, writer_pw) = ("maint-secret-5af3", "cell07-secret-91bd");
     let reader_url = pg::with_user(&t.url, &format!("maint{suffix}"), reader_pw);
     let writer_url = pg::with_user(&t.url, &format!("cell07{suffix}"), writer_pw);
@@ -641,8 +654,10 @@ fn roles_as_the_readme_creates_them() {
     let _ = admin.batch_execute(&format!(
         "REVOKE ALL ON ALL TABLES IN SCHEMA kinecal FROM kinecal_reader{suffix}, kinecal_writer{suffix};
          REVOKE ALL ON ALL SEQUENCES IN SCHEMA kinecal FROM kinecal_writer{suffix};
-         DROP OWNED BY maint{suffix}, cell07{suffix}, kinecal_reader{suffix}, kinecal_writer{suffix};
-         DROP ROLE maint{suffix}; DROP ROLE cell07{suffix}; DROP ROLE kinecal_writer{suffix}; DROP ROLE kinecal_reader{suffix};"
+         ALTER DATABASE {dbname} OWNER TO CURRENT_USER;
+         DROP OWNED BY maint{suffix}, cell07{suffix}, kinecal_reader{suffix}, kinecal_writer{suffix}, {owner};
+         DROP ROLE maint{suffix}; DROP ROLE cell07{suffix}; DROP ROLE kinecal_writer{suffix}; DROP ROLE kinecal_reader{suffix};
+         DROP ROLE {owner};"
     ));
 }
 
