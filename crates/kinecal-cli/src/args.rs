@@ -1738,6 +1738,11 @@ pub struct CalibrateArgs {
     /// beyond the robot's reach) as failures: exit 3, write and record nothing.
     #[arg(long)]
     pub strict: bool,
+    /// Write the calibrated robot (and record it) even when a unit check fired and the fit
+    /// ended far above its stated noise (without it such a run is refused: exit 3, the report
+    /// and the HTML page written with the reason, no robot).
+    #[arg(long)]
+    pub force_units: bool,
     /// Print one line per iteration (to standard error).
     #[arg(long, short)]
     pub verbose: bool,

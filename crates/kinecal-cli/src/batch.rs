@@ -817,7 +817,9 @@ fn run_one(e: &Entry) -> Finished {
         let done = kinecal::spec::run(job, &mut env)?;
         let status = match done.status {
             kinecal::spec::Status::NotConverged => Status::NotConverged,
-            kinecal::spec::Status::Implausible | kinecal::spec::Status::Flagged => Status::Flagged,
+            kinecal::spec::Status::Implausible
+            | kinecal::spec::Status::Flagged
+            | kinecal::spec::Status::Refused => Status::Flagged,
             _ => Status::Ok,
         };
         let document = Some(done.document.to_json());

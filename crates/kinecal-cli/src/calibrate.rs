@@ -104,6 +104,7 @@ pub fn spec_of(a: &CalibrateArgs) -> Result<CalibrationSpec> {
         }
     }
     s.strict |= a.strict;
+    s.force_units |= a.force_units;
     Ok(s)
 }
 

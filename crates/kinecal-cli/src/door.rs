@@ -34,7 +34,7 @@ pub const EXIT_NOT_CONVERGED: u8 = 4;
 pub fn exit_code(status: Status) -> u8 {
     match status {
         Status::NotConverged => EXIT_NOT_CONVERGED,
-        Status::Implausible | Status::Flagged => EXIT_FLAGGED,
+        Status::Implausible | Status::Flagged | Status::Refused => EXIT_FLAGGED,
         _ => 0,
     }
 }

@@ -1423,7 +1423,7 @@ fn curve_sweeps_are_bounded_and_sized_to_the_parameter() {
 }
 
 /// Data in millimetres against the built-in robot in inches: a warning that names the likely
-/// unit, and with --strict exit 3 with nothing written.
+/// unit, the fit refused for it (exit 3), and with --strict exit 3 with nothing solved.
 #[test]
 fn data_in_another_unit_is_said_and_strict_refuses_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -1450,8 +1450,9 @@ fn data_in_another_unit_is_said_and_strict_refuses_it() {
     }
     std::fs::write(d.join("mm.csv"), mm).unwrap();
     let (code, _, err) = run(d, &["calibrate", "--robot", "ge-a4", "--data", "mm.csv"]);
-    // Whether such a fit reaches a minimum or the iteration cap (exit 4), it runs, and says.
-    assert!(matches!(code, 0 | 4), "{err}");
+    // The fit runs, ends far above its noise, and is refused for its units (exit 3).
+    assert_eq!(code, 3, "{err}");
+    assert!(err.contains("REFUSED: a unit check fired"), "{err}");
     assert!(
         err.contains("warning: the measured positions spread 25 times as widely as the nominal robot predicts for the same postures: are they in mm? the data is read in the robot file's length unit (in): state the file's unit when it is another (--length-unit)"),
         "{err}"

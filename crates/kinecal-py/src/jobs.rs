@@ -92,6 +92,9 @@ pub fn calibrate_job(py: Python<'_>, spec: &str, form: &str) -> PyResult<Calibra
              the result would most likely be wrong",
         ));
     };
+    if let Some(why) = outcome.report.refused.as_ref() {
+        return Err(bad(format!("calibrate: {why}")));
+    }
     let text = match &job {
         Job::Calibrate(s) => kinecal::spec::load_robot(&s.robot)
             .map(|(_, source)| source.text)
@@ -119,6 +122,7 @@ pub fn run(py: Python<'_>, spec: &str, form: &str) -> PyResult<Ran> {
         Status::Ok => "ok",
         Status::NotConverged => "not-converged",
         Status::Implausible => "implausible",
+        Status::Refused => "refused",
         Status::Flagged => "flagged",
         _ => "other",
     };

@@ -1166,6 +1166,7 @@ fn calibrate(
     }
     let mut spec: CalibrationSpec = jobs::settings(py, spec)?;
     spec.robot = r.name.clone();
+    let force_units = spec.force_units;
     let request = spec
         .request(
             r,
@@ -1180,6 +1181,9 @@ fn calibrate(
     let outcome = py
         .detach(|| job.calibrate(&mut ()))
         .map_err(|e| error(py, e))?;
+    if let Some(why) = kinecal::spec::calibrate::refusal(&outcome).filter(|_| !force_units) {
+        return Err(bad(format!("calibrate: {why}")));
+    }
     let calibrated = Robot {
         robot: outcome.calibration.calibrated.clone(),
         text: robot.text.clone(),

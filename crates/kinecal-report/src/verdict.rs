@@ -97,7 +97,7 @@ pub fn verdict(rep: &CalibrationReport, units: DisplayUnits) -> Verdict {
 /// Failed when not converged or when an error says the result is wrong; a caution otherwise
 /// when any caution was raised.
 fn level(rep: &CalibrationReport, errors: usize, cautions: usize) -> Level {
-    if (!rep.converged && !rep.given) || errors > 0 {
+    if (!rep.converged && !rep.given) || errors > 0 || rep.refused.is_some() {
         Level::Failed
     } else if cautions > 0 {
         Level::Caution
@@ -115,6 +115,8 @@ fn plural(n: usize, thing: &str) -> String {
 fn headline(rep: &CalibrationReport, errors: usize, cautions: usize) -> String {
     if rep.given {
         "A given calibration, assessed on these data (not solved here).".to_string()
+    } else if let Some(why) = &rep.refused {
+        why.clone()
     } else if !rep.converged {
         format!(
             "NOT CONVERGED after {} iterations ({}): the numbers below are not a calibration's.",

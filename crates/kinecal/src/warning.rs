@@ -268,6 +268,30 @@ impl Warning {
         }
     }
 
+    /// True for the checks of the data's units at the door: lengths or angles that look like
+    /// another unit than the robot file's, readings outside the joints' ranges (often the other
+    /// angle unit), attitudes that disagree with the robot beyond any calibration error.
+    pub fn names_units(&self) -> bool {
+        matches!(
+            self,
+            Warning::ScaleMismatch { .. }
+                | Warning::ReadingsOutOfRange { .. }
+                | Warning::AngleUnitMismatch { .. }
+                | Warning::AttitudeMismatch { .. }
+        )
+    }
+
+    /// True for the checks of the fit's end that say the model could not fit the data: RMS
+    /// residuals beyond any calibration error, lengths moved beyond the robot's size.
+    pub fn fit_far_off(&self) -> bool {
+        matches!(
+            self,
+            Warning::AttitudesUnfit { .. }
+                | Warning::PositionsUnfit { .. }
+                | Warning::ChangeBeyondReach { .. }
+        )
+    }
+
     /// True for the warnings that say the result is most likely wrong, whatever the fit's
     /// figures (units mixed up, readings impossible for the robot, lengths moved beyond its
     /// size): a strict caller stops there.

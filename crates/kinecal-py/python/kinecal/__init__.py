@@ -393,6 +393,7 @@ def calibrate(
     prior: str | None = None,
     total_mass: float | None = None,
     predict: bool = False,
+    force_units: bool = False,
 ) -> Calibration:
     """Calibrates ``robot`` on ``data``: the same workflow as ``kinecal calibrate``.
 
@@ -411,7 +412,10 @@ def calibrate(
     (``"length=0.1,angle=0.05"`` in file units, slopes as a fraction, per-parameter entries
     ``"link3.y=0.5"``; ``"tolerances"``; ``"none"``); by default the robot file's ``[priors]``.
     ``total_mass``: the robot's known total mass (kg) for an elastic robot's masses, as
-    ``--total-mass``. ``predict``: also work out the predicted accuracy (``--predict``; the
+    ``--total-mass``. ``force_units``: return the calibration even when a unit check fired
+    and the fit ended far above its stated noise (such a calibration raises
+    :class:`KinecalError` otherwise, as ``kinecal calibrate`` refuses it without
+    ``--force-units``). ``predict``: also work out the predicted accuracy (``--predict``; the
     report's ``prediction``, and :meth:`Calibration.predict`). ``max_iterations``,
     ``damping`` (``"marquardt"`` or ``"identity"``) and ``rcond`` (the singular-value
     threshold of ``svd`` and ``gn``) as ``--max-iter``, ``--damping`` and ``--rcond``. None
@@ -459,6 +463,7 @@ def calibrate(
             "choose": ("validation.choose", None if choose is None else list(choose)),
             "repeats": ("validation.repeats", repeats),
             "predict": ("validation.predict", predict or None),
+            "force_units": ("force_units", force_units or None),
         },
     )
     with keywords as spec:

@@ -192,6 +192,10 @@ pub struct CalibrationReport {
     /// was asked for; `kinecal export gltf --report` writes the same scene.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scene: Option<super::scene::Scene>,
+    /// Why the calibration was refused (a unit check fired and the fit ended far above its
+    /// stated noise): its robot was neither written nor recorded. Absent when it stands.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refused: Option<String>,
 }
 
 impl CalibrationReport {
@@ -337,6 +341,7 @@ impl CalibrationReport {
             elastic: ElasticReport::new(robot, data, &cal.estimated),
             prediction: None,
             scene: None,
+            refused: None,
         }
     }
 

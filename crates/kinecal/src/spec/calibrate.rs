@@ -88,6 +88,48 @@ pub struct CalibrationSpec {
     /// as failures: nothing is written ([`Status::Implausible`]).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub strict: bool,
+    /// Write the calibrated robot (and record it) even when a unit check fired and the fit
+    /// ended far above the stated noise ([`Status::Refused`] otherwise).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub force_units: bool,
+}
+
+/// How far above its stated noise a fit may end (the RMS of its residuals in their own standard
+/// deviations) before a unit check that fired refuses it: a right model on data in the right
+/// units ends near 1, and an unmodelled effect a few times above (the model-error floor's
+/// regime); data in the wrong unit ends hundreds of times above.
+pub const FAR_ABOVE_NOISE: f64 = 10.0;
+
+/// Why `outcome` is refused, when it is: a unit check fired ([`crate::Warning::names_units`])
+/// and the fit ended far from the data ([`FAR_ABOVE_NOISE`] times its stated noise, or a fit
+/// check fired: [`crate::Warning::fit_far_off`]).
+pub fn refusal(outcome: &workflow::Outcome) -> Option<String> {
+    let units: Vec<String> = outcome
+        .warnings
+        .iter()
+        .filter(|w| w.names_units())
+        .map(|w| w.to_string())
+        .collect();
+    if units.is_empty() {
+        return None;
+    }
+    let normalized = outcome.identification.normalized_after;
+    let off = outcome.warnings.iter().any(crate::Warning::fit_far_off);
+    if !(off || normalized > FAR_ABOVE_NOISE) {
+        return None;
+    }
+    Some(format!(
+        "REFUSED: a unit check fired ({}) and the fit ends at {normalized:.3} times its stated \
+         noise{}: no calibrated robot is written or recorded. Read the data in its own units \
+         (the warning names them), or pass --force-units (force_units = true) to write the \
+         robot anyway",
+        units.join("; "),
+        if off {
+            ", with residuals or changes beyond any calibration error"
+        } else {
+            ""
+        }
+    ))
 }
 
 /// What to estimate (`[selection]`).
@@ -601,10 +643,17 @@ impl CalibrationJob {
                 pending: None,
             });
         }
+        // Wrong units end the run: the report and the page say why, no robot is written.
+        let refused = refusal(&outcome).filter(|_| !self.spec.force_units);
+        let mut outcome = outcome;
+        if let Some(why) = &refused {
+            outcome.report.refused = Some(why.clone());
+            messages.push(Message::Caution(why.clone()));
+        }
         env.progress.phase(workflow::Phase::Writing);
         let o = &self.spec.outputs;
         let mut staged = crate::files::output::Staged::new();
-        if let Some(path) = &o.robot {
+        if let Some(path) = o.robot.as_ref().filter(|_| refused.is_none()) {
             let text = crate::model::robot_file::write_robot_toml_checked(
                 &outcome.calibration.calibrated,
                 Some(&self.robot_source.text),
@@ -627,7 +676,7 @@ impl CalibrationJob {
             )?;
             staged.bytes(Path::new(path), &page)?;
         }
-        if let Some(r) = env.recorder.as_deref_mut() {
+        if let Some(r) = env.recorder.as_deref_mut().filter(|_| refused.is_none()) {
             env.progress.say("recording in the history");
             messages.push(Message::Note(r.record(&outcome.report)?));
         }
@@ -637,16 +686,19 @@ impl CalibrationJob {
             staged.commit()?;
             None
         };
+        let robot_written = o.robot.as_ref().filter(|_| refused.is_none());
         for (path, what) in [
-            (&o.robot, "the calibrated robot"),
-            (&o.report, "the report"),
-            (&o.html, "the HTML report"),
+            (robot_written, "the calibrated robot"),
+            (o.report.as_ref(), "the report"),
+            (o.html.as_ref(), "the HTML report"),
         ] {
             if let Some(p) = path {
                 messages.push(Message::Note(format!("wrote {what} to {p}")));
             }
         }
-        let status = if outcome.calibration.converged() {
+        let status = if refused.is_some() {
+            Status::Refused
+        } else if outcome.calibration.converged() {
             Status::Ok
         } else {
             Status::NotConverged

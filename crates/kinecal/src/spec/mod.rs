@@ -649,6 +649,10 @@ pub enum Status {
     NotConverged,
     /// A warning says the result is most likely wrong and the spec is strict: nothing written.
     Implausible,
+    /// A unit check fired and the fit ended far above the stated noise: the calibration is
+    /// refused (the report and the HTML page written, with the reason; no robot file and no
+    /// history record unless the spec says `force_units`).
+    Refused,
     /// A check or compensation found what needs a person: a robot out of its accuracy, rows
     /// flagged (a controller program then not written).
     Flagged,
