@@ -53,7 +53,16 @@ Example:
       --out data.csv --truth truth.toml
 
 Readings are drawn uniformly in each joint's min..max (otherwise +-150 deg or +-0.1 m about the
-offset). Perturbations are additive changes in the robot file's units.")]
+offset). Perturbations are additive changes in the robot file's units.
+
+With --camera and --board, the data is what a camera of the robot file sees of a board: a pixel
+file (posture,camera,point,v1..vn,u,v), every board point in front of the camera and inside its
+image, at postures drawn within the joint ranges until --postures of them see at least
+--min-points board points (at most 1000 draws per posture asked for, and 1,000,000 in all):
+  kinecal simulate --robot cell.toml --camera wrist --board board --postures 25 \\
+      --noise pixel=0.3 --out views.csv --truth truth.toml
+Narrow the joint ranges (min, max) about a posture that sees the board when too few views are
+found.")]
     Simulate(SimulateArgs),
     /// What the data can and cannot determine: singular values, rank, redundancies, a base set.
     #[command(after_help = "\
@@ -379,13 +388,22 @@ pub struct SimulateArgs {
     /// fraction of each slope).
     #[arg(long, value_name = "SPEC")]
     pub perturb_std: Option<String>,
-    /// Gaussian measurement noise: `length=L,angle=A` (file units).
+    /// Gaussian measurement noise: `length=L,angle=A,pixel=P` (any of them; file units, pixels).
     #[arg(long, value_name = "SPEC")]
     pub noise: Option<String>,
     /// Measure positions only (a laser tracker with one reflector).
     #[arg(long)]
     pub position_only: bool,
-    /// Measurement file to write.
+    /// Simulate what this camera of the robot file sees of --board: a pixel file.
+    #[arg(long, value_name = "NAME", requires = "board")]
+    pub camera: Option<String>,
+    /// The board of the robot file the camera sees (with --camera).
+    #[arg(long, value_name = "NAME", requires = "camera")]
+    pub board: Option<String>,
+    /// The fewest board points a kept view sees (with --camera) [default: 12].
+    #[arg(long, value_name = "N")]
+    pub min_points: Option<usize>,
+    /// Measurement file to write (a pixel file with --camera).
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
     /// Also write the perturbed ("true") robot file here.
@@ -1168,6 +1186,34 @@ spread of the rest (the count is said).")]
 
 /// `kinecal export gltf`.
 #[derive(Debug, Args)]
+    /// Write a camera's lens as the ROS camera_info YAML (camera_calibration_parsers' format).
+    #[command(after_help = "\
+Example:
+  kinecal export camera-info --robot calibrated.toml --camera wrist --out wrist.yaml
+
+Writes image_width, image_height, camera_name, camera_matrix (fx, 0, cx, 0, fy, cy, 0, 0, 1),
+distortion_model plumb_bob, distortion_coefficients (k1, k2, p1, p2, k3), rectification_matrix
+(the identity: a monocular camera) and projection_matrix (fx, 0, cx, 0, 0, fy, cy, 0, 0, 0, 1, 0),
+every number with all its digits, as ROS's camera_info_manager and image_proc read it. The file
+is read back and compared with the robot file's camera before it is written. The camera's pose
+(hand-eye) is not part of camera_info: it is in the calibrated robot file.")]
+    CameraInfo(ExportCameraInfoArgs),
+}
+
+/// `kinecal export camera-info`.
+#[derive(Debug, Args)]
+pub struct ExportCameraInfoArgs {
+    #[command(flatten)]
+    pub door: SpecArgs,
+    /// The (calibrated) robot file with the camera.
+    #[arg(long, required_unless_present = "spec")]
+    pub robot: Option<String>,
+    /// The camera, by name (default: the robot file's only camera).
+    #[arg(long, value_name = "NAME")]
+    pub camera: Option<String>,
+    /// The YAML file to write.
+    #[arg(long, value_name = "FILE.yaml", required_unless_present = "spec")]
+    pub out: Option<PathBuf>,
 pub struct ExportGltfArgs {
     #[command(flatten)]
     pub door: SpecArgs,

@@ -16,7 +16,7 @@ use kinecal::Setting;
 
 use crate::args::{
     AnalyzeArgs, CheckArgs, CompensateArgs, CurvesObjectiveArgs, CurvesPoseArgs, CurvesRobotArgs,
-    ExportDhArgs, ExportGltfArgs, ExportJointsArgs, ExportRosArgs, ExportStiffnessArgs,
+    ExportCameraInfoArgs, ExportDhArgs, ExportGltfArgs, ExportJointsArgs, ExportRosArgs, ExportStiffnessArgs,
     ExportUrArgs, ExportUrdfArgs, FkArgs, ImportDhArgs, ImportOutArgs, ImportPoeArgs, ImportUrArgs,
     ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs, Iso9283PlanArgs, Iso9283SimulateArgs,
     ObservationFiles, PlanArgs, PredictArgs, ReadBackArgs, ReportArgs, ResidualArgs, SimulateArgs,
@@ -417,11 +417,13 @@ pub fn simulate(a: &SimulateArgs) -> Result<SimulateSpec> {
         }
         s.perturb_std = p;
     }
-    set(
-        &mut s.noise,
-        length_angle(a.noise.as_deref(), Setting::Noise)?,
-    );
+    if let Some(text) = &a.noise {
+        s.noise = kinecal::spec::SimulateNoise::parse(text)?;
+    }
     s.position_only |= a.position_only;
+    over(&mut s.camera, a.camera.clone());
+    over(&mut s.board, a.board.clone());
+    over(&mut s.min_points, a.min_points);
     over(&mut s.out, opt_path(&a.out)?);
     over(&mut s.truth, opt_path(&a.truth)?);
     Ok(s)
@@ -559,6 +561,15 @@ pub fn export_gltf(a: &ExportGltfArgs) -> Result<ExportSpec> {
     over(&mut s.nominal, a.nominal.clone());
     observations(&a.observations, &mut s.read, &mut s.observations)?;
     over(&mut s.posture, a.posture.clone());
+    over(&mut s.out, opt_path(&a.out)?);
+    Ok(s)
+}
+
+/// `kinecal export camera-info`'s spec.
+pub fn export_camera_info(a: &ExportCameraInfoArgs) -> Result<ExportSpec> {
+    let mut s = export_base(&a.door, ExportFormat::CameraInfo)?;
+    over(&mut s.robot, a.robot.clone());
+    over(&mut s.camera, a.camera.clone());
     over(&mut s.out, opt_path(&a.out)?);
     Ok(s)
 }

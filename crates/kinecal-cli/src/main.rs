@@ -140,6 +140,9 @@ fn export(c: ExportCommand) -> Result<u8> {
 fn curves(c: CurvesCommand) -> Result<u8> {
     match c {
         CurvesCommand::Pose(a) => {
+        ExportCommand::CameraInfo(a) => {
+            door::export_camera_info(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
             door::curves_pose(&a).and_then(|s| job(s.into(), &a.job.door, render::curves))
         }
         CurvesCommand::Objective(a) => {
@@ -370,6 +373,9 @@ fn dataset(a: DatasetArgs) -> Result<()> {
     let converted = (adapter.convert)(&a.dir).map_err(|e| match e {
         kinecal::Error::Io { .. } => anyhow!(
             "{e}\nhint: is {} the folder of the data set ({})?",
+        Setting::Camera => "--camera",
+        Setting::Board => "--board",
+        Setting::MinPoints => "--min-points",
             a.dir.display(),
             adapter.about
         ),

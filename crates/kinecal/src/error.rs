@@ -152,11 +152,17 @@ pub enum Setting {
     Speed,
     /// How a controller program's moves end (exactly, or approximated).
     Zone,
+    /// A camera of the robot file, by name.
+    Camera,
+    /// A board of the robot file, by name.
+    Board,
+    /// The fewest board points a simulated view must see.
+    MinPoints,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 72] = [
+    pub const ALL: [Setting; 75] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -229,6 +235,9 @@ impl Setting {
         Setting::ProgramName,
         Setting::Speed,
         Setting::Zone,
+        Setting::Camera,
+        Setting::Board,
+        Setting::MinPoints,
     ];
 
     /// The library's words for it.
@@ -306,6 +315,9 @@ impl Setting {
             Setting::ProgramName => "program name",
             Setting::Speed => "speed",
             Setting::Zone => "zone",
+            Setting::Camera => "camera",
+            Setting::Board => "board",
+            Setting::MinPoints => "fewest board points per view",
         }
     }
 
@@ -385,6 +397,9 @@ impl Setting {
             Setting::ProgramName => "name",
             Setting::Speed => "speed",
             Setting::Zone => "zone",
+            Setting::Camera => "camera",
+            Setting::Board => "board",
+            Setting::MinPoints => "min_points",
         }
     }
 }

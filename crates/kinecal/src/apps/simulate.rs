@@ -210,6 +210,44 @@ pub fn camera_views(
     Dataset::new(kept, observations)
 }
 
+/// Views drawn at random: postures drawn uniformly within the joint ranges (as
+/// [`sample_postures`] draws them, from the same stream) until `count` of them see at least
+/// `min_points` points of board `board` from camera `camera` of `robot` (as [`camera_views`]
+/// keeps them), at most `max_draws` drawn. The views (labelled `1..`, their pixels the model's)
+/// and how many postures were drawn; fewer than `count` views when the draws ran out.
+pub fn draw_views(
+    robot: &Robot,
+    count: usize,
+    (camera, board): (usize, usize),
+    min_points: usize,
+    max_draws: usize,
+    seed: u64,
+) -> (Dataset, usize) {
+    let mut r = rng(seed, 1);
+    let ranges: Vec<(f64, f64)> = (0..robot.dof()).map(|j| reading_range(robot, j)).collect();
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    let mut kept: Vec<Posture> = Vec::new();
+    let mut observations: Vec<Observation> = Vec::new();
+    let mut draws = 0;
+    while kept.len() < count && draws < max_draws {
+        draws += 1;
+        let readings: Vec<f64> = ranges.iter().map(|&(a, b)| r.random_range(a..=b)).collect();
+        chain.forward_loaded(&readings, None, None, &mut ws);
+        let seen = seen_pixels(robot, &chain, &ws, kept.len(), camera, board);
+        if seen.len() >= min_points.max(1) {
+            kept.push(Posture {
+                label: (kept.len() + 1).to_string(),
+                readings,
+                session: None,
+                payload: None,
+            });
+            observations.extend(seen);
+        }
+    }
+    (Dataset::new(kept, observations), draws)
+}
+
 /// The pixels camera `camera` sees of board `board` at the posture whose frames `ws` holds
 /// (numbered `posture`): every point at least 1 cm in front of the camera and inside its
 /// image, at the model's pixel.

@@ -5,6 +5,7 @@
 //! them into links: `L1 = F1`, `L(i+1) = Fi^-1 F(i+1)`, `L(n+1) = Fn^-1 Tool`. With readings equal
 //! to the joint values (slope 1), the imported model has the same forward kinematics.
 
+pub mod camera_info;
 pub mod dh;
 pub mod joints;
 pub mod poe;

@@ -52,6 +52,8 @@ pub enum ExportFormat {
     /// robot at a posture, the measured points, the residuals, the frames
     /// ([`crate::report::scene`]), as the HTML report's 3-D view draws it.
     Gltf,
+    /// A camera's lens as ROS's `camera_info` YAML ([`crate::import::camera_info`]).
+    CameraInfo,
 }
 
 impl ExportFormat {
@@ -65,6 +67,7 @@ impl ExportFormat {
             ExportFormat::Stiffness => "stiffness",
             ExportFormat::Ros => "ros",
             ExportFormat::Gltf => "gltf",
+            ExportFormat::CameraInfo => "camera-info",
         }
     }
 }
@@ -72,7 +75,8 @@ impl ExportFormat {
 /// An export. Which keys a format takes: `urdf`: robot, template, base, tip; `ros`: those and
 /// measurement_frame; `ur`: robot, template; `dh`: robot, convention, length_unit, angle_unit; `joints`:
 /// robot, nominal; `stiffness`: report; `gltf`: robot, and optionally report, nominal,
-/// observations (with read) and posture. All but stiffness and gltf take a tolerance.
+/// observations (with read) and posture; `camera-info`: robot and camera. All but stiffness, gltf
+/// and camera-info take a tolerance (a camera_info file is read back to the same bits).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
@@ -124,6 +128,9 @@ pub struct ExportSpec {
     /// The posture the robots are drawn at, by label (gltf; default the first measured).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub posture: Option<String>,
+    /// The camera whose lens is written (camera-info; default the robot file's only camera).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<String>,
     /// The file to write (ros: the folder to write the files into).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
@@ -298,7 +305,7 @@ impl ExportSpec {
             (
                 "robot",
                 self.robot.is_some(),
-                &[Urdf, Ur, Dh, Joints, Ros, Gltf][..],
+                &[Urdf, Ur, Dh, Joints, Ros, Gltf, CameraInfo][..],
             ),
             ("template", self.template.is_some(), &[Urdf, Ur, Ros]),
             ("base", self.base.is_some(), &[Urdf, Ros]),
@@ -321,6 +328,7 @@ impl ExportSpec {
             ("observations", !self.observations.is_empty(), &[Gltf]),
             ("read", !is_default(&self.read), &[Gltf]),
             ("posture", self.posture.is_some(), &[Gltf]),
+            ("camera", self.camera.is_some(), &[CameraInfo]),
         ] {
             if given && !takes(formats) {
                 return Err(invalid(
@@ -527,6 +535,23 @@ impl ExportSpec {
                     ));
                 }
             }
+            ExportFormat::CameraInfo => {
+                let (info, text) =
+                    crate::import::camera_info::export_camera_info(&robot, self.camera.as_deref())?;
+                let [fx, fy, cx, cy] = info.intrinsics;
+                let [k1, k2, p1, p2, k3] = info.distortion;
+                out.read_back = Some(format!(
+                    "read back: the same lens to the last bit ({} x {} px; fx {fx}, fy {fy}, cx \
+                     {cx}, cy {cy}; k1, k2, p1, p2, k3 {k1}, {k2}, {p1}, {p2}, {k3})",
+                    info.width, info.height,
+                ));
+                out.notes.push(format!(
+                    "camera `{}`: its lens (camera_info holds no pose: the hand-eye stays in the \
+                     robot file)",
+                    info.name
+                ));
+                out.text = text;
+            }
             ExportFormat::Stiffness => unreachable!("handled above"),
         }
         Ok(out)
@@ -626,6 +651,7 @@ impl ExportSpec {
                 out.notes.last().map_or("", String::as_str)
             ),
             ExportFormat::Gltf => format!("wrote the 3-D scene to {path}"),
+            ExportFormat::CameraInfo => format!("wrote the camera_info to {path}"),
             ExportFormat::Ros => format!(
                 "wrote {} into {path}",
                 out.files

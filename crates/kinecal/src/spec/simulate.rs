@@ -11,6 +11,19 @@
 //! out = "data.csv"
 //! truth = "truth.toml"
 //! ```
+//!
+//! What a camera of the robot file sees of a board (a pixel file), at postures drawn within the
+//! joint ranges until `postures` of them see at least `min_points` of the board's points:
+//!
+//! ```toml
+//! job = "simulate"
+//! robot = "cell.toml"
+//! camera = "wrist"
+//! board = "board"
+//! postures = 25
+//! noise = { pixel = 0.3 }
+//! out = "views.csv"
+//! ```
 
 use std::collections::BTreeMap;
 use std::io::Write as _;
@@ -26,7 +39,7 @@ use crate::model::robot::Robot;
 use crate::observe::Dataset;
 use crate::units::Quantity;
 
-use super::common::{count, invalid, is_default, robot_as, visit_opt, LengthAngle};
+use super::common::{count, invalid, is_default, robot_as, visit_opt};
 use super::{Document, Done, Env, JobKind, Message, PathRole, Spec};
 
 /// The most postures a simulation makes.
@@ -53,6 +66,101 @@ pub struct PerturbSpread {
     pub slope: Option<f64>,
 }
 
+/// The fewest board points a simulated view sees, when not said.
+pub const MIN_POINTS: usize = 12;
+
+/// The most views a camera simulation makes.
+pub(crate) const MAX_VIEWS: usize = 100_000;
+
+/// How many postures a camera simulation draws, at most, per view asked for.
+pub(crate) const DRAWS_PER_VIEW: usize = 1000;
+
+/// The most postures a camera simulation draws (some seconds).
+pub(crate) const MAX_DRAWS: usize = 1_000_000;
+
+/// Gaussian noise on simulated measurements (`noise`): standard deviations of lengths and angles
+/// (robot file's units) and of pixel coordinates (pixels).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[non_exhaustive]
+pub struct SimulateNoise {
+    /// Of lengths (robot file's length unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+    /// Of angles (robot file's angle unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle: Option<f64>,
+    /// Of pixel coordinates (pixels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel: Option<f64>,
+}
+
+impl SimulateNoise {
+    /// Noise of lengths and angles only.
+    pub fn new(length: Option<f64>, angle: Option<f64>, pixel: Option<f64>) -> Self {
+        SimulateNoise {
+            length,
+            angle,
+            pixel,
+        }
+    }
+
+    /// Reads `length=L,angle=A,pixel=P` (any of them); numbers must be finite and not negative.
+    pub fn parse(text: &str) -> Result<SimulateNoise> {
+        let mut out = SimulateNoise::default();
+        for part in text.split(',').map(str::trim) {
+            let (k, v) = part.split_once('=').ok_or_else(|| {
+                invalid(
+                    Setting::Noise,
+                    format!("`{text}`: expected length=L,angle=A,pixel=P (any of them)"),
+                )
+            })?;
+            let v: f64 = v
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    invalid(
+                        Setting::Noise,
+                        format!("`{text}`: `{}` is not a finite number", v.trim()),
+                    )
+                })?;
+            let slot = match k.trim() {
+                "length" => &mut out.length,
+                "angle" => &mut out.angle,
+                "pixel" => &mut out.pixel,
+                other => {
+                    return Err(invalid(
+                        Setting::Noise,
+                        format!("`{text}`: unknown key `{other}` (expected length, angle, pixel)"),
+                    ))
+                }
+            };
+            *slot = Some(v);
+        }
+        out.check()?;
+        Ok(out)
+    }
+
+    /// Refuses numbers that are not finite or negative.
+    fn check(&self) -> Result<()> {
+        for (name, v) in [
+            ("length", self.length),
+            ("angle", self.angle),
+            ("pixel", self.pixel),
+        ] {
+            if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+                return Err(invalid(
+                    Setting::Noise,
+                    format!("the {name} must be non-negative and finite, not {v}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A simulation. See the [module documentation](self).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -73,12 +181,21 @@ pub struct SimulateSpec {
     /// Random changes of every parameter.
     #[serde(default, skip_serializing_if = "is_default")]
     pub perturb_std: PerturbSpread,
-    /// Gaussian noise on the measurements (robot file's units).
+    /// Gaussian noise on the measurements (robot file's units; pixels).
     #[serde(default, skip_serializing_if = "is_default")]
-    pub noise: LengthAngle,
+    pub noise: SimulateNoise,
     /// Measure positions only.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub position_only: bool,
+    /// Simulate what this camera of the robot file sees of `board`: a pixel file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<String>,
+    /// The board the camera sees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub board: Option<String>,
+    /// The fewest board points a kept view sees (default 12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_points: Option<usize>,
     /// The measurements to write.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
@@ -190,8 +307,109 @@ impl SimulateSpec {
         })
     }
 
+    /// The camera and the board of a camera simulation (indices in `robot`), `None` for
+    /// measurements of poses and positions.
+    pub fn camera_and_board(&self, robot: &Robot) -> Result<Option<(usize, usize)>> {
+        let (camera, board) = match (&self.camera, &self.board) {
+            (None, None) => return Ok(None),
+            (Some(c), Some(b)) => (c.trim(), b.trim()),
+            (Some(_), None) => {
+                return Err(invalid(
+                    Setting::Board,
+                    "a camera's views need the board it sees (board = NAME)",
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(invalid(
+                    Setting::Camera,
+                    "a board is seen by a camera: name it (camera = NAME)",
+                ))
+            }
+        };
+        let names = |v: Vec<&str>| {
+            if v.is_empty() {
+                "none".to_string()
+            } else {
+                v.join(", ")
+            }
+        };
+        let c = robot.camera_index(camera).ok_or_else(|| {
+            invalid(
+                Setting::Camera,
+                format!(
+                    "unknown camera `{camera}` (the robot file's [[cameras]]: {})",
+                    names(robot.cameras.iter().map(|c| c.name.as_str()).collect())
+                ),
+            )
+        })?;
+        let b = robot.board_index(board).ok_or_else(|| {
+            invalid(
+                Setting::Board,
+                format!(
+                    "unknown board `{board}` (the robot file's [[boards]]: {})",
+                    names(robot.boards.iter().map(|b| b.name.as_str()).collect())
+                ),
+            )
+        })?;
+        if robot.cameras[c].mount == robot.boards[b].mount {
+            return Err(invalid(
+                Setting::Board,
+                format!(
+                    "camera `{camera}` and board `{board}` are fixed to the same frame: no posture \
+                     moves one against the other"
+                ),
+            ));
+        }
+        if self.position_only {
+            return Err(invalid(
+                Setting::Camera,
+                "a camera sees pixels, not positions: position_only is for trackers",
+            ));
+        }
+        Ok(Some((c, b)))
+    }
+
+    /// The views of `truth`'s camera `camera` of board `board`, on `nominal`'s file.
+    fn views(&self, truth: &Robot, (camera, board): (usize, usize)) -> Result<Dataset> {
+        let n = count(Setting::Postures, self.postures, MAX_VIEWS, "views")?;
+        let points = truth.boards[board].points();
+        let min = self.min_points.unwrap_or(MIN_POINTS);
+        if min == 0 || min > points {
+            return Err(invalid(
+                Setting::MinPoints,
+                format!(
+                    "expected between 1 and {points} (the points of board `{}`), not {min}",
+                    truth.boards[board].name
+                ),
+            ));
+        }
+        let seed = self.seed.unwrap_or(1);
+        let max_draws = n.saturating_mul(DRAWS_PER_VIEW).min(MAX_DRAWS);
+        let (data, draws) = simulate::draw_views(truth, n, (camera, board), min, max_draws, seed);
+        if data.postures.len() < n {
+            return Err(invalid(
+                Setting::Postures,
+                format!(
+                    "only {} of {draws} postures drawn within the joint ranges see at least {min} \
+                     points of board `{}` from camera `{}` ({n} asked for): narrow the joint \
+                     ranges (min, max in the robot file's [[joints]]) about a posture that sees \
+                     the board, or ask for fewer postures or fewer points (min_points)",
+                    data.postures.len(),
+                    truth.boards[board].name,
+                    truth.cameras[camera].name
+                ),
+            ));
+        }
+        Ok(data)
+    }
+
     /// Simulates the measurements of `truth` at the spec's postures, on `nominal`'s file.
     pub fn measurements(&self, nominal: &Robot, truth: &Robot) -> Result<Dataset> {
+        if let Some(cb) = self.camera_and_board(nominal)? {
+            let mut data = self.views(truth, cb)?;
+            self.add_noise(nominal, &mut data)?;
+            return Ok(data);
+        }
         let n = count(Setting::Postures, self.postures, MAX_POSTURES, "postures")?;
         let frames = 1 + nominal.sites.len();
         if n.saturating_mul(frames) > MAX_MEASUREMENTS {
@@ -226,11 +444,18 @@ impl SimulateSpec {
 
     /// Adds the spec's noise (in `nominal`'s file units) to `data`.
     pub fn add_noise(&self, nominal: &Robot, data: &mut Dataset) -> Result<()> {
-        self.noise.check(Setting::Noise, false)?;
-        let (l, a) = self.noise.si(nominal);
-        if l.is_some() || a.is_some() {
+        self.noise.check()?;
+        let units = nominal.units;
+        let l = self.noise.length.map(|v| units.to_si(Quantity::Length, v));
+        let a = self.noise.angle.map(|v| units.to_si(Quantity::Angle, v));
+        if l.is_some() || a.is_some() || self.noise.pixel.is_some() {
             let seed = self.seed.unwrap_or(1);
-            simulate::add_noise(data, l.unwrap_or(0.0), a.unwrap_or(0.0), seed);
+            let noise = crate::observe::Noise {
+                length: l.unwrap_or(0.0),
+                angle: a.unwrap_or(0.0),
+                pixel: self.noise.pixel.unwrap_or(0.0),
+            };
+            simulate::add_noise_with(data, &noise, seed);
         }
         Ok(())
     }
@@ -240,7 +465,12 @@ impl SimulateSpec {
         let (nominal, source) = robot_as(&self.robot, Setting::Robot)?;
         let truth = self.truth(&nominal)?;
         let data = self.measurements(&nominal, &truth)?;
-        let text = write_measurements(&nominal, &data);
+        let pixels = self.camera.is_some();
+        let text = if pixels {
+            crate::files::write_pixels(&nominal, &data)
+        } else {
+            write_measurements(&nominal, &data)
+        };
         let truth_text =
             crate::model::robot_file::write_robot_toml_checked(&truth, Some(&source.text))?;
         let mut staged = crate::files::output::Staged::new();
@@ -253,11 +483,19 @@ impl SimulateSpec {
         staged.commit()?;
         let mut messages = Vec::new();
         if let Some(p) = &self.out {
-            messages.push(Message::Note(format!(
-                "wrote {} measurements ({} postures) to {p}",
-                data.observations.len(),
-                data.postures.len()
-            )));
+            messages.push(Message::Note(if pixels {
+                format!(
+                    "wrote {} pixels ({} views) to {p}",
+                    data.observations.len(),
+                    data.postures.len()
+                )
+            } else {
+                format!(
+                    "wrote {} measurements ({} postures) to {p}",
+                    data.observations.len(),
+                    data.postures.len()
+                )
+            }));
         }
         if let Some(p) = &self.truth {
             messages.push(Message::Note(format!("wrote the true robot to {p}")));
