@@ -145,16 +145,31 @@ fn headline(rep: &CalibrationReport, errors: usize, cautions: usize) -> String {
 }
 
 /// The accuracy on data the calibration did not see: the validation data's mean position
-/// error, else the cross-validated held-out mean; its label and value in the robot's unit.
-fn held_out(rep: &CalibrationReport) -> Option<(String, f64)> {
+/// error, else the cross-validated held-out mean; its label, its metric and its value in the
+/// robot's unit (pixels for `pixel`).
+fn held_out(rep: &CalibrationReport) -> Option<(String, String, f64)> {
     rep.validation
         .as_ref()
-        .filter(|v| v.after.positions > 0)
-        .map(|v| {
-            (
-                format!("held out ({} postures), mean position error", v.postures),
-                v.after.mean_position,
-            )
+        .and_then(|v| {
+            if v.after.positions > 0 {
+                Some((
+                    format!("held out ({} postures), mean position error", v.postures),
+                    "position".to_string(),
+                    v.after.mean_position,
+                ))
+            } else {
+                // Pixels without positions: their mean reprojection error.
+                v.after.other.iter().find(|m| m.metric == "pixel").map(|m| {
+                    (
+                        format!(
+                            "held out ({} postures), mean {} error",
+                            v.postures, m.metric
+                        ),
+                        m.metric.clone(),
+                        m.mean,
+                    )
+                })
+            }
         })
         .or_else(|| {
             rep.cross_validation.as_ref().map(|c| {
@@ -164,6 +179,7 @@ fn held_out(rep: &CalibrationReport) -> Option<(String, f64)> {
                         c.folds.len(),
                         c.metric
                     ),
+                    c.metric.clone(),
                     c.overall.mean,
                 )
             })
@@ -175,11 +191,19 @@ fn held_out(rep: &CalibrationReport) -> Option<(String, f64)> {
 fn figures(
     rep: &CalibrationReport,
     c: &Convert,
-    held_out: Option<&(String, f64)>,
+    held_out: Option<&(String, String, f64)>,
 ) -> Vec<(String, String)> {
     let l = c.l();
     // A length shown.
     let len = |v: f64| sig(c.length(v), 4);
+    // A value of `metric` shown with its unit: pixels stay pixels, lengths in the display unit.
+    let of = |metric: &str, v: f64| {
+        if metric == "pixel" {
+            format!("{} px", sig(v, 4))
+        } else {
+            format!("{} {l}", len(v))
+        }
+    };
     let mut figures = Vec::new();
     let (b, a) = (&rep.identification.before, &rep.identification.after);
     if b.positions > 0 {
@@ -194,11 +218,15 @@ fn figures(
     } else if let (Some(mb), Some(ma)) = (b.other.first(), a.other.first()) {
         figures.push((
             format!("identification, mean {} error", mb.metric),
-            format!("{} {l} (from {})", len(ma.mean), len(mb.mean)),
+            if ma.metric == "pixel" {
+                format!("{} px (from {})", sig(ma.mean, 4), sig(mb.mean, 4))
+            } else {
+                format!("{} {l} (from {})", len(ma.mean), len(mb.mean))
+            },
         ));
     }
-    if let Some((label, v)) = held_out {
-        figures.push((label.clone(), format!("{} {l}", len(*v))));
+    if let Some((label, metric, v)) = held_out {
+        figures.push((label.clone(), of(metric, *v)));
     }
     if let Some(p) = &rep.prediction {
         figures.push((
