@@ -27,6 +27,7 @@ const PAGES: &[&str] = &[
     "docs/analyze.md",
     "docs/real-robots.md",
     "docs/observations.md",
+    "docs/cameras.md",
     "docs/spec.md",
     "docs/compensate.md",
     "docs/accuracy.md",
