@@ -27,6 +27,10 @@ pub struct Cli {
     /// The command.
     #[command(subcommand)]
     pub command: Command,
+    /// No progress display on standard error (there is none either when standard error is
+    /// not a terminal). Every command takes it.
+    #[arg(long, short = 'q', global = true, display_order = 999)]
+    pub quiet: bool,
 }
 
 /// kinecal's commands.
@@ -1556,8 +1560,8 @@ pub struct BatchArgs {
     /// letters, digits, `.`, `_` and `-` written `_`).
     #[arg(long, value_name = "DIR")]
     pub documents: Option<PathBuf>,
-    /// No progress bar.
-    #[arg(long)]
+    /// No progress bar: the global `--quiet`.
+    #[arg(skip)]
     pub quiet: bool,
 }
 
@@ -1717,8 +1721,8 @@ pub struct CalibrateArgs {
     pub repeats: Option<usize>,
     /// Predict the calibrated robot's accuracy over the workspace: a model-error term fitted by
     /// cross-validation, the predicted 95 % bound's median and 95th percentile over the joint
-    /// ranges in the summary and the report (what `kinecal predict` needs; `--html` asks for it
-    /// too). Costs several fits.
+    /// ranges in the summary and the report (what `kinecal predict` needs), and with `--html`
+    /// the page's accuracy map. Costs some 13 more fits, so `--html` alone does not ask for it.
     #[arg(long)]
     pub predict: bool,
     /// Loss on the weighted residuals: least squares, or Huber (robust to a few bad rows)
@@ -1774,7 +1778,8 @@ pub struct CalibrateArgs {
     /// this serial (the robot was rebuilt).
     #[arg(long, requires = "record")]
     pub force: bool,
-    /// Also write a self-contained HTML report here.
+    /// Also write a self-contained HTML report here (with the predicted accuracy and its map
+    /// when --predict asks for them).
     #[arg(long, value_name = "FILE")]
     pub html: Option<PathBuf>,
     #[command(flatten)]
@@ -1792,8 +1797,8 @@ pub struct CalibrateArgs {
     /// Print one line per iteration (to standard error).
     #[arg(long, short)]
     pub verbose: bool,
-    /// No progress display on standard error.
-    #[arg(long, short = 'q')]
+    /// No progress display on standard error: the global `--quiet`.
+    #[arg(skip)]
     pub quiet: bool,
 }
 

@@ -63,7 +63,7 @@ struct Said<'a> {
 /// Runs a history command; returns the exit code.
 pub fn run(c: HistoryCommand) -> Result<u8> {
     let said = spec(&c)?;
-    let Some(done) = crate::door::run(said.job, said.door, &mut crate::Talk, &[])? else {
+    let Some(done) = crate::door::run(said.job, said.door, &mut crate::Talk::new(), &[])? else {
         return Ok(0);
     };
     let document = Document::of(&done.document)

@@ -49,6 +49,7 @@ fn main() -> ExitCode {
     }
     kinecal::files::output::remove_temporaries_on_signals();
     let cli = Cli::from_arg_matches(&command().get_matches()).unwrap_or_else(|e| e.exit());
+    QUIET.store(cli.quiet, std::sync::atomic::Ordering::Relaxed);
     match run(cli.command) {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
@@ -66,7 +67,10 @@ fn main() -> ExitCode {
 fn run(cmd: Command) -> Result<u8> {
     match cmd {
         Command::Demo => demo::run().map(|()| 0),
-        Command::Calibrate(a) => calibrate::run(a),
+        Command::Calibrate(mut a) => {
+            a.quiet = quiet();
+            calibrate::run(a)
+        }
         Command::Analyze(a) => {
             door::analyze(&a).and_then(|s| job(s.into(), &a.door, |d| analyze::show(d, &a)))
         }
@@ -88,7 +92,10 @@ fn run(cmd: Command) -> Result<u8> {
         Command::Iso9283(c) => iso9283_job(c),
         Command::Report(a) => door::report(&a).and_then(|s| job(s.into(), &a.door, |_| ())),
         Command::History(c) => history::run(c),
-        Command::Batch(a) => batch::run(a),
+        Command::Batch(mut a) => {
+            a.quiet = quiet();
+            batch::run(a)
+        }
         Command::Dataset(a) => dataset(a).map(|()| 0),
         Command::Completions(a) => {
             clap_complete::generate(a.shell, &mut command(), "kinecal", &mut std::io::stdout());
@@ -169,21 +176,80 @@ fn iso9283_job(c: Iso9283Command) -> Result<u8> {
     }
 }
 
-/// Progress of a job without phases: what it is doing, on a terminal.
-struct Talk;
+/// `--quiet` (global: every command takes it).
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether `--quiet` was given.
+pub fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// Progress of a job: a spinner on standard error with the time since the start and what the
+/// job is doing now (`predicting: 40000 of 100000 postures`, `planning: posture 12 of 30`,
+/// `prediction: fold 4 of 13`), drawn only on a terminal and not with `--quiet`.
+pub struct Talk {
+    bar: Option<indicatif::ProgressBar>,
+    /// The latest message.
+    latest: String,
+}
+
+impl Talk {
+    /// A display for this process: hidden when `--quiet` or standard error is not a terminal.
+    pub fn new() -> Talk {
+        Talk {
+            bar: None,
+            latest: String::new(),
+        }
+    }
+
+    fn shown(&self) -> bool {
+        !quiet() && std::io::IsTerminal::is_terminal(&std::io::stderr())
+    }
+
+    /// Clears the display.
+    pub fn done(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+}
 
 impl kinecal::spec::Progress for Talk {
+    fn phase(&mut self, phase: kinecal::workflow::Phase) {
+        kinecal::spec::Progress::say(self, phase.as_str());
+    }
+
     fn say(&mut self, what: &str) {
-        if what.ends_with("...") && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
-            eprintln!("{what}");
+        what.trim_end_matches([' ', '.'])
+            .clone_into(&mut self.latest);
+        if self.bar.is_none() && self.shown() {
+            let bar = indicatif::ProgressBar::new_spinner();
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                    .expect("a valid template"),
+            );
+            bar.enable_steady_tick(std::time::Duration::from_millis(120));
+            self.bar = Some(bar);
         }
+        if let Some(bar) = &self.bar {
+            bar.set_message(self.latest.clone());
+        }
+    }
+}
+
+impl Drop for Talk {
+    fn drop(&mut self) {
+        self.done();
     }
 }
 
 /// Runs `job` (its spec made of the command line) and shows its document with `show` on
 /// standard output, then what it said on standard error: the exit code of its status.
 fn job(job: Job, door: &args::SpecArgs, show: impl FnOnce(&Document)) -> Result<u8> {
-    let Some(done) = door::run(job, door, &mut Talk, &[])? else {
+    let mut talk = Talk::new();
+    let done = door::run(job, door, &mut talk, &[]);
+    talk.done();
+    let Some(done) = done? else {
         return Ok(0);
     };
     show(&done.document);

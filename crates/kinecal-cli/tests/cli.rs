@@ -1037,9 +1037,47 @@ fn curves_and_html_report() {
         assert_eq!(h.matches("<svg").count(), h.matches("</svg>").count());
         assert!(h.matches("<svg").count() >= 4);
         assert!(h.contains("p3 - p9 - p15 - p21 - p27 - p33"), "{f}");
-        // The predicted accuracy and its map, whether calibrated here or given (30 postures).
+        // The predicted accuracy and its map, whether calibrated here or given (30 postures);
+        // `calibrate --html` alone did not ask for it, and its page says how to.
         assert!(h.contains("id=\"prediction\""), "{f} lacks the prediction");
+        assert_eq!(
+            h.contains("--predict</code>"),
+            f == "a.html",
+            "{f}: how to get the prediction"
+        );
     }
+    // `--html` alone runs no prediction (no cross-validation folds): the report has none and no
+    // prediction phase among its timings; `--predict` runs it, and the page then shows the map.
+    let phases = |file: &str| -> (bool, Vec<String>) {
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join(file)).unwrap()).unwrap();
+        let phases = r["timings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["phase"].as_str().unwrap().to_string())
+            .collect();
+        (r.get("prediction").is_some(), phases)
+    };
+    let (predicted, timed) = phases("r.json");
+    assert!(
+        !predicted && !timed.iter().any(|p| p == "prediction"),
+        "{timed:?}"
+    );
+    run_ok(
+        d,
+        &argv(
+            "calibrate --robot ge-a4 --data data.csv --html p.html --report p.json --predict
+             --quiet",
+        ),
+    );
+    let (predicted, timed) = phases("p.json");
+    assert!(
+        predicted && timed.iter().any(|p| p == "prediction"),
+        "{timed:?}"
+    );
+    let h = std::fs::read_to_string(d.join("p.html")).unwrap();
+    assert!(h.contains("id=\"prediction\"") && !h.contains("--predict</code>"));
     // The page rebuilt from the JSON report alone is the one calibrate wrote.
     run_ok(d, &["report", "--from", "r.json", "--html", "d.html"]);
     assert_eq!(

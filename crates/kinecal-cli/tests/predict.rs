@@ -203,13 +203,13 @@ fn a_report_that_makes_no_sense_is_refused_by_its_field() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     calibrated(d);
-    // The same calibration with its accuracy map (an HTML report asks for it).
+    // The same calibration with its accuracy map (--predict with an HTML report asks for it).
     let (code, _, e) = run(
         d,
         &argv(
             "calibrate --robot ge-a4 --data data.csv --estimate p1,p2,p8,p14,offsets,slopes
              --weights length=0.0005,angle=0.005 --out cal.toml --report report.json
-             --html page.html",
+             --html page.html --predict",
         ),
     );
     assert_eq!(code, 0, "{e}");

@@ -543,12 +543,25 @@ fn redundancy(v: &CalibrationView) -> Result<String, DrawError> {
     Ok(h)
 }
 
-/// The predicted accuracy and its map ([`crate::predict::section`]).
+/// The predicted accuracy and its map ([`crate::predict::section`]); without them, how to get
+/// them and what they cost.
 fn prediction(v: &CalibrationView) -> Result<String, DrawError> {
-    Ok(v.shown
-        .prediction
-        .as_ref()
-        .map_or(String::new(), |p| crate::predict::section(p, v.l(), v.a())))
+    Ok(match &v.shown.prediction {
+        Some(p) => crate::predict::section(p, v.l(), v.a()),
+        // A given calibration is always predicted when it can be.
+        None if v.run.given => String::from(
+            "<h2 id=\"prediction\">Predicted accuracy</h2>\n<p>Not worked out: a prediction \
+             needs at least 20 postures measured by position or pose.</p>\n",
+        ),
+        None => String::from(
+            "<h2 id=\"prediction\">Predicted accuracy</h2>\n<p>Not worked out for this report: \
+             it was not asked for. <code>kinecal calibrate ... --predict</code> (a spec's \
+             <code>predict = true</code> under <code>[validation]</code>) adds the 95 % error \
+             bound over the joint ranges and, with <code>--html</code>, its map, from a \
+             cross-validation that refits the calibration on blocks of nearby postures (some 13 \
+             more fits; it needs at least 20 postures measured by position or pose).</p>\n",
+        ),
+    })
 }
 
 /// The warnings ranked (errors, then cautions, then notes), then the outliers.

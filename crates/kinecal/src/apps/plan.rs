@@ -707,6 +707,11 @@ fn root_eigenvalues(m: &[f64], n: usize) -> Vec<f64> {
 
 /// Chooses the plan (see the [module documentation](self)).
 pub fn plan(req: &PlanRequest) -> Result<Plan> {
+    plan_with(req, &mut |_| {})
+}
+
+/// [`plan`], saying what it does to `say` (`planning: posture 12 of 30`).
+pub(crate) fn plan_with(req: &PlanRequest, say: &mut dyn FnMut(&str)) -> Result<Plan> {
     let robot = &req.robot;
     if req.pool.is_empty() {
         return Err(Error::InvalidOption {
@@ -716,8 +721,10 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
     }
     let kept_postures = req.keep.postures.len();
     let all = req.keep.clone().merge(req.pool.clone());
+    say("planning: the parameters");
     let (parameters, _) = workflow::resolve(&req.selection, robot, &all, &req.analysis)?;
     let n = parameters.len();
+    say("planning: the candidates' information");
 
     // Candidates: groups of linked postures; the groups holding kept postures are forced.
     let groups = all.posture_groups();
@@ -739,7 +746,7 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
         pool: &pool_groups,
         average: &average,
     };
-    let (chosen, exchanges, passes) = search.run(req.count, req.criterion);
+    let (chosen, exchanges, passes) = search.run(req.count, req.criterion, say);
 
     let mut set: Vec<usize> = kept.iter().chain(&chosen).copied().collect();
     set.sort_unstable();
@@ -758,8 +765,10 @@ pub fn plan(req: &PlanRequest) -> Result<Plan> {
     let (postures, chosen_postures) =
         planned_postures(&all, &groups, &set, &leverage, kept_postures);
     let chosen_data = req.pool.subset(&chosen_postures[kept_postures..]);
-    let random = (pool_candidates > req.count)
-        .then(|| random_plans(req, &rater, &kept, &pool_groups, value));
+    let random = (pool_candidates > req.count).then(|| {
+        say("planning: against random plans");
+        random_plans(req, &rater, &kept, &pool_groups, value)
+    });
 
     Ok(Plan {
         parameters,
@@ -1132,7 +1141,12 @@ struct Search<'a> {
 
 impl Search<'_> {
     /// Chooses `count` of the pool; returns them and the swaps and passes of the exchange.
-    fn run(&self, count: usize, criterion: Criterion) -> (Vec<usize>, usize, usize) {
+    fn run(
+        &self,
+        count: usize,
+        criterion: Criterion,
+        say: &mut dyn FnMut(&str),
+    ) -> (Vec<usize>, usize, usize) {
         let d = self.design;
         let n = d.n;
         let mut chosen: Vec<usize> = Vec::with_capacity(count);
@@ -1142,6 +1156,11 @@ impl Search<'_> {
         let mut scratch = Scratch::default();
         // Greedy: the candidate that raises log det most.
         while chosen.len() < count {
+            say(&format!(
+                "planning: posture {} of {count} from {} candidates",
+                chosen.len() + 1,
+                self.pool.len()
+            ));
             cholesky(&m, n, &mut l).expect("the ridge keeps the information positive definite");
             let mut best: Option<(usize, f64)> = None;
             for &c in self.pool {
@@ -1159,6 +1178,7 @@ impl Search<'_> {
             d.add(&mut m, c, 1.0);
         }
         // Exchange, D first (the start of every other criterion).
+        say("planning: exchanging postures");
         let (mut swaps, mut passes) = self.exchange_d(&mut chosen, &mut in_plan, &mut m);
         let identity: Vec<f64> = (0..n * n)
             .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })

@@ -131,9 +131,27 @@ pub fn cross_validate(
     metric: &JointMetric,
     scales: &[usize],
 ) -> Result<CrossValidated> {
+    cross_validate_with(cal, data, reference, metric, scales, &mut |_| {})
+}
+
+/// [`cross_validate`], saying which fold it fits (`prediction: fold 4 of 13`) to `say`.
+pub(crate) fn cross_validate_with(
+    cal: &Calibration,
+    data: &Dataset,
+    reference: &Robot,
+    metric: &JointMetric,
+    scales: &[usize],
+    say: &mut dyn FnMut(&str),
+) -> Result<CrossValidated> {
     let mut out = CrossValidated::default();
+    let total: usize = scales.iter().sum();
+    let mut done = 0;
     for &k in scales {
-        cross_validate_at(cal, data, reference, metric, k, &mut out)?;
+        let mut fold = |f: usize| {
+            say(&format!("prediction: fold {} of {total}", done + f + 1));
+        };
+        cross_validate_at(cal, data, reference, metric, k, &mut fold, &mut out)?;
+        done += k;
     }
     if out.position.is_empty() {
         return Err(Error::Problem(
@@ -151,6 +169,7 @@ fn cross_validate_at(
     reference: &Robot,
     metric: &JointMetric,
     k: usize,
+    fold: &mut dyn FnMut(usize),
     out: &mut CrossValidated,
 ) -> Result<()> {
     let fold_of = blocks(data, metric, k);
@@ -161,6 +180,7 @@ fn cross_validate_at(
     };
     let (_, pose) = super::predictable(data);
     for f in 0..k {
+        fold(f);
         let held: Vec<bool> = fold_of.iter().map(|&x| x == f).collect();
         if !held.iter().any(|&h| h) {
             continue;

@@ -676,6 +676,28 @@ pub fn assess(
     covariance: &[Vec<f64>],
     level: Level,
 ) -> Result<PredictionReport> {
+    assess_with(
+        cal,
+        data,
+        reference,
+        estimated,
+        covariance,
+        level,
+        &mut |_| {},
+    )
+}
+
+/// [`assess`], saying what it does (`prediction: fold 4 of 13`, `prediction: the accuracy
+/// map`) to `say`: its cross-validation refits the calibration some 13 times.
+pub(crate) fn assess_with(
+    cal: &crate::solve::estimation::Calibration,
+    data: &Dataset,
+    reference: &Robot,
+    estimated: &[ParamId],
+    covariance: &[Vec<f64>],
+    level: Level,
+    say: &mut dyn FnMut(&str),
+) -> Result<PredictionReport> {
     let robot = &cal.calibrated;
     let (any, pose) = predictable(data);
     let measured: Vec<&[f64]> = measured_postures(data);
@@ -688,7 +710,7 @@ pub fn assess(
     let metric = JointMetric::new(robot, &levers(robot, data));
     let mut folds = vec![FOLDS.min(measured.len() / 4).max(2), COARSE_FOLDS];
     folds.dedup();
-    let cv = cross_validate(cal, data, reference, &metric, &folds)?;
+    let cv = cross_validate::cross_validate_with(cal, data, reference, &metric, &folds, say)?;
     // Each measured target's own term, its `s0` at least what the calibrated model's residuals
     // show there; the default target's is the report's `position` and `attitude`.
     let target = default_target(robot, data);
@@ -795,6 +817,7 @@ pub fn assess(
             median_measured: conv(percentile(&mut at, 0.5)),
         }
     };
+    say("prediction: the bound over the joint ranges");
     let samples = sample_readings(robot, SUMMARY_SAMPLES, 0);
     let position_summary = summarise(&samples, robot, false);
     let attitude_summary = pose.then(|| summarise(&samples, robot, true));
@@ -815,8 +838,10 @@ pub fn assess(
             distance_max: len(g.distance_max),
         }
     };
-    let map =
-        (level == Level::Map).then(|| accuracy_map(&predictor, target, &measured, MAP_SAMPLES, 0));
+    let map = (level == Level::Map).then(|| {
+        say("prediction: the accuracy map");
+        accuracy_map(&predictor, target, &measured, MAP_SAMPLES, 0)
+    });
     let f: Vec<f64> = estimated
         .iter()
         .map(|&id| units.factor(robot.param_quantity(id)))

@@ -321,7 +321,7 @@ impl PlanSpec {
         env.progress
             .say(&format!("planning: {} ...", pool.described));
         let req = self.request(robot, pool.data, keep)?;
-        let plan = crate::apps::plan::plan(&req)?;
+        let plan = crate::apps::plan::plan_with(&req, &mut |w| env.progress.say(w))?;
         let (file, written) = plan.chosen_file(robot, pool.observed);
         let report = PlanReport::new(&plan, robot);
         Ok((

@@ -452,7 +452,11 @@ impl PredictSpec {
         );
         let mut s = predictor.scratch();
         let mut bounds = Vec::with_capacity(postures.len());
-        for (label, readings, own) in &postures {
+        for (k, (label, readings, own)) in postures.iter().enumerate() {
+            if k % 5000 == 0 && k > 0 {
+                env.progress
+                    .say(&format!("predicting: {k} of {} postures", postures.len()));
+            }
             let at = own.as_ref().map_or(target, |o| o.1);
             let p = predictor.predict(readings, at, &mut s);
             bounds.push(l(p.position_error.bound));

@@ -255,7 +255,9 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     }
     if req.prediction != crate::predict::Level::Off && outcome.uncertainty.is_some() {
         progress.phase(Phase::Prediction);
-        add_prediction(&mut outcome, reference, req.prediction);
+        add_prediction_with(&mut outcome, reference, req.prediction, &mut |w| {
+            progress.say(w)
+        });
     }
     Ok(outcome)
 }
@@ -557,17 +559,28 @@ pub(crate) fn add_prediction(
     reference: &Robot,
     level: crate::predict::Level,
 ) {
+    add_prediction_with(outcome, reference, level, &mut |_| {});
+}
+
+/// [`add_prediction`], saying what it does to `say` (`prediction: fold 4 of 13`).
+fn add_prediction_with(
+    outcome: &mut Outcome,
+    reference: &Robot,
+    level: crate::predict::Level,
+    say: &mut dyn FnMut(&str),
+) {
     if level == crate::predict::Level::Off {
         return;
     }
     if let Some(u) = &outcome.uncertainty {
-        outcome.report.prediction = crate::predict::assess(
+        outcome.report.prediction = crate::predict::assess_with(
             &outcome.calibration,
             &outcome.data,
             reference,
             &u.analysis.parameters,
             u.covariance_internal(),
             level,
+            say,
         )
         .ok();
     }
