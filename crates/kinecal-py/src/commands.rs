@@ -472,7 +472,17 @@ pub fn simulate<'py>(
             .map_err(|e| error(py, e))?,
         Some(p) => {
             let postures = postures_of(py, p, "postures", nominal)?;
-            let mut data = sim::measure(&truth, &postures, spec.position_only);
+            let mut data = match spec.camera_and_board(nominal).map_err(|e| error(py, e))? {
+                // The views among the postures that see enough of the board.
+                Some(cb) => sim::camera_views(
+                    &truth,
+                    &postures,
+                    cb.0,
+                    cb.1,
+                    spec.min_points.unwrap_or(kinecal::spec::MIN_POINTS),
+                ),
+                None => sim::measure(&truth, &postures, spec.position_only),
+            };
             spec.add_noise(nominal, &mut data)
                 .map_err(|e| error(py, e))?;
             data

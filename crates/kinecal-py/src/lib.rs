@@ -229,6 +229,24 @@ impl Robot {
     fn target(&self, site: Option<&str>) -> PyResult<Target> {
         commands::target_of(&self.robot, site, "site")
     }
+
+    /// A camera's or a board's mount as the robot file says it.
+    fn mount_name(&self, m: kinecal::model::camera::Mount) -> String {
+        use kinecal::model::camera::Mount;
+        match m {
+            Mount::Base => "base".into(),
+            Mount::EndEffector => "ee".into(),
+            Mount::Site(i) => self.robot.sites[i].name.clone(),
+        }
+    }
+
+    /// The pose of camera or board `name` (file units): its six parameters.
+    fn pose_of(&self, name: &str) -> PyResult<Vec<f64>> {
+        ["x", "y", "z", "alpha", "beta", "gamma"]
+            .iter()
+            .map(|c| Ok(self.robot.get_user(self.param(&format!("{name}.{c}"))?)))
+            .collect()
+    }
 }
 
 fn site_names(robot: &kinecal::Robot) -> Vec<String> {
@@ -556,6 +574,87 @@ impl Robot {
             export_warning(py, &x.line(cal.units))?;
         }
         Ok(e.text)
+    }
+
+    /// The lens of camera `camera` (the robot file's only camera when `None`) as ROS's
+    /// `camera_info` YAML, what `kinecal export camera-info` writes (read back to the same bits
+    /// first). The camera's pose (hand-eye) is not part of it.
+    #[pyo3(signature = (camera=None))]
+    fn to_camera_info(&self, py: Python<'_>, camera: Option<&str>) -> PyResult<String> {
+        kinecal::import::camera_info::export_camera_info(&self.robot, camera)
+            .map(|(_, text)| text)
+            .map_err(|e| error(py, e))
+    }
+
+    /// A copy whose camera `camera` (the only one when `None`) has the lens of a ROS
+    /// `camera_info` YAML file (a path, or the YAML text: a string holding a newline).
+    #[pyo3(signature = (source, camera=None))]
+    fn with_camera_info(
+        &self,
+        py: Python<'_>,
+        source: &Bound<'_, PyAny>,
+        camera: Option<&str>,
+    ) -> PyResult<Robot> {
+        let text = source.extract::<String>().ok().filter(|t| t.contains('\n'));
+        let s = match text {
+            Some(t) => Source::text("<text>", t),
+            None => {
+                let path: PathBuf = source.extract()?;
+                Source::read(&path).map_err(|e| error(py, e))?
+            }
+        };
+        let robot =
+            kinecal::import::camera_info::with_camera_info(&self.robot, camera, &s.text, &s.name)
+                .map_err(|e| error(py, e))?;
+        Ok(Robot {
+            robot,
+            text: self.text.clone(),
+        })
+    }
+
+    /// The cameras of the robot file: one dict each, `name`, `mount` (`ee`, `base` or a site's
+    /// name), `pose` (x, y, z, alpha, beta, gamma in the file's units), `fx`, `fy`, `cx`, `cy`
+    /// (pixels), `distortion` (k1, k2, p1, p2, k3), `width`, `height`.
+    #[getter]
+    fn cameras<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, pyo3::types::PyDict>>> {
+        let r = &self.robot;
+        r.cameras
+            .iter()
+            .map(|c| {
+                let d = pyo3::types::PyDict::new(py);
+                d.set_item("name", &c.name)?;
+                d.set_item("mount", self.mount_name(c.mount))?;
+                d.set_item("pose", self.pose_of(&c.name)?)?;
+                d.set_item("fx", c.fx)?;
+                d.set_item("fy", c.fy)?;
+                d.set_item("cx", c.cx)?;
+                d.set_item("cy", c.cy)?;
+                d.set_item("distortion", c.distortion.to_vec())?;
+                d.set_item("width", c.width)?;
+                d.set_item("height", c.height)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// The calibration boards of the robot file: one dict each, `name`, `mount`, `pose` (as for
+    /// cameras), `cols`, `rows`, `spacing` (the file's length unit).
+    #[getter]
+    fn boards<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, pyo3::types::PyDict>>> {
+        let r = &self.robot;
+        r.boards
+            .iter()
+            .map(|b| {
+                let d = pyo3::types::PyDict::new(py);
+                d.set_item("name", &b.name)?;
+                d.set_item("mount", self.mount_name(b.mount))?;
+                d.set_item("pose", self.pose_of(&b.name)?)?;
+                d.set_item("cols", b.cols)?;
+                d.set_item("rows", b.rows)?;
+                d.set_item("spacing", r.units.from_si(Quantity::Length, b.spacing))?;
+                Ok(d)
+            })
+            .collect()
     }
 
     /// The robot's name.

@@ -758,6 +758,9 @@ def simulate(
     perturb_std: Spec = None,
     noise: Spec = None,
     position_only: bool = False,
+    camera: str | None = None,
+    board: str | None = None,
+    min_points: int | None = None,
 ) -> Simulation:
     """Synthesized measurements from a perturbed ("true") copy of ``robot``: the same as
     ``kinecal simulate`` (the same seed gives the same data).
@@ -767,9 +770,16 @@ def simulate(
     lists, e.g. ``{"p3": 0.1, "joint2.offset": -0.5}``, file units). ``perturb_std``:
     random Gaussian changes to every parameter, ``{"length": L, "angle": A, "slope": F}``
     (any of them; F a fraction of each slope) or ``(L, A, F)``. ``noise``: Gaussian
-    measurement noise, ``(length, angle)`` or a dict of either. ``position_only``: measure
-    positions only (a laser tracker). The end effector and every site are measured at each
-    posture.
+    measurement noise, ``(length, angle)`` or a dict of any of ``length``, ``angle`` and
+    ``pixel`` (pixels). ``position_only``: measure positions only (a laser tracker). The end
+    effector and every site are measured at each posture.
+
+    ``camera`` and ``board``: what that camera of the robot file sees of that board instead (as
+    ``kinecal simulate --camera --board``): the pixels of every board point in front of the
+    camera and inside its image, at the postures that see at least ``min_points`` of them
+    (default 12): with a number of postures, drawn within the joint ranges until that many
+    do; with readings, those of them that do. ``measurements.to_csv(robot)`` is the pixel
+    file.
     """
     count = postures if isinstance(postures, (int, np.integer)) and not isinstance(
         postures, bool) else None
@@ -784,6 +794,9 @@ def simulate(
             ),
             "noise": ("noise", _pair("noise", noise, ("length", "angle"))),
             "position_only": ("position_only", position_only or None),
+            "camera": ("camera", camera),
+            "board": ("board", board),
+            "min_points": ("min_points", min_points),
         },
     )
     with keywords as spec:

@@ -119,6 +119,18 @@ class Robot:
         """The Universal Robots kinematics file ``template`` rewritten (``kinecal export
         ur``), read back first; what it leaves out, cannot hold, and the TCP to enter are
         ``ExportWarning``s."""
+    def to_camera_info(self, camera: str | None = None) -> str:
+        """A camera's lens as ROS's ``camera_info`` YAML (``kinecal export camera-info``)."""
+    def with_camera_info(
+        self, source: str | os.PathLike[str], camera: str | None = None
+    ) -> Robot:
+        """A copy with a camera's lens from a ROS ``camera_info`` YAML file or text."""
+    @property
+    def cameras(self) -> list[dict[str, Any]]:
+        """The cameras: name, mount, pose, fx, fy, cx, cy, distortion, width, height."""
+    @property
+    def boards(self) -> list[dict[str, Any]]:
+        """The boards: name, mount, pose, cols, rows, spacing."""
     def to_joints(self, nominal: Robot, tolerance: tuple[float, float] | None = None) -> str:
         """The joint offsets and slopes and their change from ``nominal`` as CSV (``kinecal
         export joints``), applied to ``nominal`` and compared first; what the table cannot carry

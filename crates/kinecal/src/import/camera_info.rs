@@ -233,7 +233,28 @@ pub fn parse_camera_info(text: &str, file: &str) -> Result<CameraInfo> {
             continue;
         }
         let indented = content.starts_with(' ') || content.starts_with('\t');
-        let Some((key, value)) = content.trim().split_once(':') else {
+        let trimmed = content.trim();
+        // A block sequence's item (`- 500.5`, as PyYAML dumps lists): onto the last key's list.
+        if trimmed == "-" || trimmed.starts_with("- ") {
+            let item = trimmed[1..].trim();
+            let Some((_, value)) = entries
+                .last_mut()
+                .and_then(|(_, e)| e.nested.last_mut())
+                .map(|(k, _, v)| (k.clone(), v))
+            else {
+                return Err(err(n, item, "a list item outside any matrix".into()));
+            };
+            if value.is_empty() {
+                *value = format!("[{item}");
+            } else if value.starts_with('[') && !value.contains(']') {
+                value.push_str(", ");
+                value.push_str(item);
+            } else {
+                return Err(err(n, item, "a list item after a value".into()));
+            }
+            continue;
+        }
+        let Some((key, value)) = trimmed.split_once(':') else {
             return Err(err(
                 n,
                 content.trim(),
@@ -336,6 +357,12 @@ pub fn parse_camera_info(text: &str, file: &str) -> Result<CameraInfo> {
         }
         let Some((_, line, v)) = field("data") else {
             return Err(err(e.line, key, format!("`{key}` has no `data`")));
+        };
+        // A block sequence read as `[a, b` (its items, without a closing bracket).
+        let v = if v.starts_with('[') && !v.contains(']') {
+            format!("{v}]")
+        } else {
+            v.clone()
         };
         let inner = v
             .trim()
@@ -500,6 +527,13 @@ mod tests {
             \x20 cols: 5\n  data: [-0.3, 0.1, 0.001, -0.002, 0.]\n";
         let c = parse_camera_info(text, "ros.yaml").unwrap();
         assert_eq!(c.intrinsics, [1034.5, 1035.75, 640.25, 512.5]);
+        // Lists as block sequences (PyYAML's dump), keys in any order.
+        let block = "camera_matrix:\n  cols: 3\n  data:\n  - 1034.5\n  - 0\n  - 640.25\n  - 0\n  \
+            - 1035.75\n  - 512.5\n  - 0\n  - 0\n  - 1\n  rows: 3\nimage_height: 1024\n\
+            image_width: 1280\n";
+        let b = parse_camera_info(block, "dump.yaml").unwrap();
+        assert_eq!(b.intrinsics, c.intrinsics);
+        assert_eq!(b.distortion, [0.0; 5]);
         assert_eq!(c.distortion, [-0.3, 0.1, 0.001, -0.002, 0.0]);
         assert_eq!((c.width, c.height), (1280, 1024));
     }
