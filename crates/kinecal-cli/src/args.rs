@@ -793,6 +793,10 @@ pub struct CheckArgs {
     /// LENGTH[,ANGLE]: largest acceptable errors, in the robot file's units.
     #[arg(long, required_unless_present = "spec")]
     pub threshold: Option<String>,
+    /// Largest acceptable reprojection error of pixel observations, in pixels (required with
+    /// them: pixels are not compared with a length).
+    #[arg(long, value_name = "PX")]
+    pub pixel_threshold: Option<f64>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -1186,10 +1190,6 @@ with --data, the points and residuals of those observations: before calibration 
 or the report's initial values. At most 2,000 points: the largest residuals, then an even
 spread of the rest (the count is said).")]
     Gltf(ExportGltfArgs),
-}
-
-/// `kinecal export gltf`.
-#[derive(Debug, Args)]
     /// Write a camera's lens as the ROS camera_info YAML (camera_calibration_parsers' format).
     #[command(after_help = "\
 Example:
@@ -1218,6 +1218,10 @@ pub struct ExportCameraInfoArgs {
     /// The YAML file to write.
     #[arg(long, value_name = "FILE.yaml", required_unless_present = "spec")]
     pub out: Option<PathBuf>,
+}
+
+/// `kinecal export gltf`.
+#[derive(Debug, Args)]
 pub struct ExportGltfArgs {
     #[command(flatten)]
     pub door: SpecArgs,

@@ -465,6 +465,7 @@ pub fn check(a: &CheckArgs) -> Result<CheckSpec> {
             }
         };
     }
+    over(&mut s.pixel_threshold, a.pixel_threshold);
     Ok(s)
 }
 

@@ -140,6 +140,9 @@ fn export(c: ExportCommand) -> Result<u8> {
         ExportCommand::Gltf(a) => {
             door::export_gltf(&a).and_then(|s| job(s.into(), &a.door, render::export))
         }
+        ExportCommand::CameraInfo(a) => {
+            door::export_camera_info(&a).and_then(|s| job(s.into(), &a.door, render::export))
+        }
     }
 }
 
@@ -147,9 +150,6 @@ fn export(c: ExportCommand) -> Result<u8> {
 fn curves(c: CurvesCommand) -> Result<u8> {
     match c {
         CurvesCommand::Pose(a) => {
-        ExportCommand::CameraInfo(a) => {
-            door::export_camera_info(&a).and_then(|s| job(s.into(), &a.door, render::export))
-        }
             door::curves_pose(&a).and_then(|s| job(s.into(), &a.job.door, render::curves))
         }
         CurvesCommand::Objective(a) => {
@@ -373,6 +373,9 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::ProgramName => "--name",
         Setting::Speed => "--speed",
         Setting::Zone => "--zone",
+        Setting::Camera => "--camera",
+        Setting::Board => "--board",
+        Setting::MinPoints => "--min-points",
         // A setting of a later kinecal: named in the library's words.
         _ => setting.name(),
     }
@@ -439,9 +442,6 @@ fn dataset(a: DatasetArgs) -> Result<()> {
     let converted = (adapter.convert)(&a.dir).map_err(|e| match e {
         kinecal::Error::Io { .. } => anyhow!(
             "{e}\nhint: is {} the folder of the data set ({})?",
-        Setting::Camera => "--camera",
-        Setting::Board => "--board",
-        Setting::MinPoints => "--min-points",
             a.dir.display(),
             adapter.about
         ),

@@ -46,6 +46,16 @@ pub fn check(d: &Document, json: bool) {
         );
     }
     for m in &acc.other {
+        if m.metric == "pixel" {
+            println!(
+                "{} check pixels: max error {:.6} px (threshold {}), RMS {:.6}",
+                m.count,
+                m.max,
+                c.thresholds.pixel.unwrap_or(f64::NAN),
+                m.rms
+            );
+            continue;
+        }
         println!(
             "{} check {}s: max error {:.6} {} (threshold {lmax}), RMS {:.6}",
             m.count,

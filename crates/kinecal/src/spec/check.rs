@@ -39,6 +39,10 @@ pub struct CheckSpec {
     /// The largest acceptable errors: a length (required) and an angle (robot file's units).
     #[serde(default)]
     pub threshold: LengthAngle,
+    /// The largest acceptable reprojection error of pixel observations (pixels; required with
+    /// them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_threshold: Option<f64>,
 }
 
 impl Spec for CheckSpec {
@@ -75,7 +79,20 @@ impl CheckSpec {
                 "a length is needed (and an angle when attitudes are checked)",
             )
         })?;
-        Ok(Thresholds { length, angle })
+        if let Some(p) = self
+            .pixel_threshold
+            .filter(|p| !(p.is_finite() && *p > 0.0))
+        {
+            return Err(invalid(
+                Setting::CheckThreshold,
+                format!("the pixel threshold must be positive and finite, not {p}"),
+            ));
+        }
+        Ok(Thresholds {
+            length,
+            angle,
+            pixel: self.pixel_threshold,
+        })
     }
 
     /// Checks `robot` on `data`.

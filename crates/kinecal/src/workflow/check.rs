@@ -104,6 +104,8 @@ pub struct Thresholds {
     pub length: f64,
     /// Largest acceptable attitude error (rad), when attitudes are checked.
     pub angle: Option<f64>,
+    /// Largest acceptable reprojection error (pixels), when pixels are checked.
+    pub pixel: Option<f64>,
 }
 
 /// Whether a robot still meets its accuracy on check observations.
@@ -126,9 +128,27 @@ pub fn check(robot: &Robot, data: &Dataset, thresholds: Thresholds) -> Result<Ve
             message: "thresholds must be positive finite numbers".into(),
         });
     }
+    if thresholds.pixel.is_some_and(|p| !ok_threshold(p)) {
+        return Err(Error::InvalidOption {
+            setting: crate::error::Setting::CheckThreshold,
+            message: "thresholds must be positive finite numbers".into(),
+        });
+    }
     let acc = accuracy(robot, data);
+    // Pixels against the pixel threshold, never against a length.
+    if thresholds.pixel.is_none() && acc.other.iter().any(|m| m.metric == "pixel") {
+        return Err(Error::InvalidOption {
+            setting: crate::error::Setting::CheckThreshold,
+            message: "pixel observations are checked against a pixel threshold: give one \
+                      (pixel_threshold, --pixel-threshold PX)"
+                .into(),
+        });
+    }
     let mut ok = acc.max_position <= thresholds.length
-        && acc.other.iter().all(|m| m.max <= thresholds.length);
+        && acc.other.iter().all(|m| match m.metric {
+            "pixel" => thresholds.pixel.is_some_and(|p| m.max <= p),
+            _ => m.max <= thresholds.length,
+        });
     if let Some(t) = thresholds.angle {
         ok &= acc.orientations == 0 || acc.max_orientation <= t;
     }
@@ -161,15 +181,18 @@ pub struct CheckReport {
     pub threshold_length: f64,
     /// The angle threshold, when attitudes are checked.
     pub threshold_angle: Option<f64>,
+    /// The pixel threshold, when pixels are checked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold_pixel: Option<f64>,
 }
 
 /// A length metric of a check (in a [`CheckReport`]).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize, PartialEq, schemars::JsonSchema)]
 #[non_exhaustive]
 pub struct CheckMetric {
-    /// `distance`, `contact`.
+    /// `distance`, `contact`, `pixel`.
     pub metric: String,
-    /// Its largest error (length unit).
+    /// Its largest error (length unit; pixels for `pixel`).
     pub max: f64,
     /// Its RMS error.
     pub rms: f64,
@@ -193,14 +216,19 @@ impl CheckReport {
             other: acc
                 .other
                 .iter()
-                .map(|m| CheckMetric {
-                    metric: m.metric.to_string(),
-                    max: len(m.max),
-                    rms: len(m.rms),
+                .map(|m| {
+                    // Pixels stay pixels.
+                    let of = |x: f64| if m.metric == "pixel" { x } else { len(x) };
+                    CheckMetric {
+                        metric: m.metric.to_string(),
+                        max: of(m.max),
+                        rms: of(m.rms),
+                    }
                 })
                 .collect(),
             threshold_length: len(v.thresholds.length),
             threshold_angle: v.thresholds.angle.map(ang),
+            threshold_pixel: v.thresholds.pixel,
         }
     }
 
