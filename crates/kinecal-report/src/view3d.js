@@ -13,7 +13,8 @@
   var show = {};
   var colors = {
     calibrated: "#1f63c7", nominal: "#8c8c8c", points: "#222222", highlight: "#e08a00",
-    after: "#d62728", before: "#ff7f0e", x: "#d62728", y: "#2ca02c", z: "#1f4fe0", grid: "#e4e4e4"
+    after: "#d62728", before: "#ff7f0e", x: "#d62728", y: "#2ca02c", z: "#1f4fe0", grid: "#e4e4e4",
+    camera: "#9433b3", board: "#4d4d4d", seen: "#00998a"
   };
 
   // What the view turns about, and how big it is: every robot node and every point.
@@ -24,6 +25,9 @@
   data.postures.forEach(function (p) {
     p.calibrated.nodes.forEach(grow);
     if (p.nominal) { p.nominal.nodes.forEach(grow); }
+    (p.cameras || []).concat(p.boards || []).forEach(function (m) {
+      m.lines.forEach(function (l) { grow(l[0]); grow(l[1]); });
+    });
   });
   data.points.forEach(function (p) { grow(p.measured); });
   data.frames.forEach(function (f) { grow(f.origin); });
@@ -97,6 +101,20 @@
       var o = data.frames[0];
       if (o) ["x", "y", "z"].forEach(function (axis, k) {
         label(along(o.origin, o.axes[k], data.axis), axis, colors[axis]);
+      });
+    }
+    // Cameras (frustums) and boards (grids, the points seen at this posture dotted).
+    if (show.cameras) {
+      (posture.boards || []).forEach(function (b) {
+        b.lines.forEach(function (l) { line(l[0], l[1], colors.board, ratio); });
+        b.seen.forEach(function (p) { dot(p, colors.seen, 2 * ratio); });
+        if (show.frames) { frame(b, data.axis / 2, false); }
+        label(b.origin, b.name, colors.board, true);
+      });
+      (posture.cameras || []).forEach(function (c) {
+        c.lines.forEach(function (l) { line(l[0], l[1], colors.camera, 1.5 * ratio); });
+        if (show.frames) { frame(c, data.axis / 2, false); }
+        label(c.origin, c.name, colors.camera, false);
       });
     }
     if (show.nominal && posture.nominal) { skeleton(posture.nominal, colors.nominal, 2 * ratio, [6 * ratio, 4 * ratio]); }

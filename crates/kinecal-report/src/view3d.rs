@@ -5,7 +5,8 @@
 
 use std::fmt::Write as _;
 
-use kinecal::report::scene::{Scene, Skeleton};
+use kinecal::report::gltf::{board_lines, frustum_lines};
+use kinecal::report::scene::{Scene, ScenePosture, Skeleton};
 
 use crate::display::DisplayUnits;
 use crate::number::{num, sig};
@@ -64,6 +65,57 @@ fn skeleton(s: &Skeleton, f: f64) -> String {
         links.join(","),
         joints.join(","),
         tools.join(",")
+    )
+}
+
+/// Line segments as JSON, `[[a, b], ...]`.
+fn segments(lines: &[[[f64; 3]; 2]], f: f64) -> String {
+    let l: Vec<String> = lines
+        .iter()
+        .map(|[a, b]| format!("[{},{}]", v3(a, f), v3(b, f)))
+        .collect();
+    format!("[{}]", l.join(","))
+}
+
+/// A posture's cameras and boards as JSON: each its name, frame and lines (a camera's frustum,
+/// a board's grid), a board also the points seen there.
+fn mounted(p: &ScenePosture, f: f64) -> String {
+    let frame = |fr: &kinecal::report::scene::SceneFrame| {
+        format!(
+            "\"name\":{},\"origin\":{},\"axes\":{}",
+            text(&fr.name),
+            v3(&fr.origin, f),
+            axes(&fr.axes)
+        )
+    };
+    let cameras: Vec<String> = p
+        .cameras
+        .iter()
+        .map(|c| {
+            format!(
+                "{{{},\"lines\":{}}}",
+                frame(&c.frame),
+                segments(&frustum_lines(c), f)
+            )
+        })
+        .collect();
+    let boards: Vec<String> = p
+        .boards
+        .iter()
+        .map(|b| {
+            let seen: Vec<String> = b.seen.iter().map(|&k| v3(&b.point(k), f)).collect();
+            format!(
+                "{{{},\"lines\":{},\"seen\":[{}]}}",
+                frame(&b.frame),
+                segments(&board_lines(b), f),
+                seen.join(",")
+            )
+        })
+        .collect();
+    format!(
+        "\"cameras\":[{}],\"boards\":[{}]",
+        cameras.join(","),
+        boards.join(",")
     )
 }
 
@@ -159,6 +211,10 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
     let k = scene.residual_scale;
     let has_nominal = scene.postures.iter().any(|p| p.nominal.is_some());
     let has_before = scene.points.iter().any(|p| p.before.is_some());
+    let has_cameras = scene
+        .postures
+        .iter()
+        .any(|p| !p.cameras.is_empty() || !p.boards.is_empty());
     let kb = scene.residual_scale_before;
     let mut scale_words = format!(
         "residual vectors drawn {} times their length ({} {l} on the view is {} {l} of error)",
@@ -210,13 +266,14 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
     toggle("points", "measured points", true, !scene.points.is_empty());
     toggle("after", "residuals after", true, !scene.points.is_empty());
     toggle("before", "residuals before", false, has_before);
+    toggle("cameras", "cameras and boards", true, has_cameras);
     toggle("frames", "frames", true, true);
     toggle("grid", "floor grid", true, true);
     h += "</p>\n";
 
     // The canvas, described for a reader who cannot see it.
     let described = format!(
-        "The {} robot{} at posture {}, {}, {}.",
+        "The {} robot{} at posture {}{}, {}, {}.",
         if has_nominal {
             "nominal (grey, dashed) and the calibrated (blue)"
         } else {
@@ -224,6 +281,11 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         },
         if has_nominal { "s" } else { "" },
         scene.postures[0].label,
+        if has_cameras {
+            " with its cameras (purple frustums) and boards (grey grids)"
+        } else {
+            ""
+        },
         points_caption(scene),
         scale_words
     );
@@ -262,6 +324,19 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         if has_before {
             legend.push(swatch("#ff7f0e", false, "residual before"));
         }
+    }
+    if has_cameras {
+        legend.push(swatch(
+            "#9433b3",
+            false,
+            "camera (frustum to the image's corners; the tick marks the image's top)",
+        ));
+        legend.push(
+            "<span style=\"display:inline-block;width:22px;border-top:3px solid #4d4d4d;\
+             vertical-align:middle\"></span> board (<span style=\"color:#00998a\">&#9679;\
+             </span> the points seen at the posture shown)"
+                .into(),
+        );
     }
     legend.push(format!(
         "frames: {}, {}, {}",
@@ -354,7 +429,46 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         })
         .collect();
     h += &frames.join("; ");
-    h += ".</p></details>\n<noscript><p class=\"note\">The 3-D view is drawn by the page's \
+    h += ".</p>";
+    if has_cameras {
+        let mut words: Vec<String> = p0
+            .cameras
+            .iter()
+            .map(|c| {
+                format!(
+                    "camera {} at ({}, {}, {}) {l}, looking along ({}, {}, {})",
+                    esc(&c.frame.name),
+                    num(c.frame.origin[0] * f),
+                    num(c.frame.origin[1] * f),
+                    num(c.frame.origin[2] * f),
+                    num(c.frame.axes[2][0]),
+                    num(c.frame.axes[2][1]),
+                    num(c.frame.axes[2][2])
+                )
+            })
+            .collect();
+        words.extend(p0.boards.iter().map(|b| {
+            format!(
+                "board {} ({} x {} points) at ({}, {}, {}) {l}, {} of its points seen",
+                esc(&b.frame.name),
+                b.cols,
+                b.rows,
+                num(b.frame.origin[0] * f),
+                num(b.frame.origin[1] * f),
+                num(b.frame.origin[2] * f),
+                b.seen.len()
+            )
+        }));
+        let _ = write!(
+            h,
+            "\n<p>At posture {}: {}. Pixel observations have no measured 3-D point: they add \
+             no point nor residual vector (their error, in pixels, is in the summary); the board \
+             points seen stand for them.</p>",
+            esc(&p0.label),
+            words.join("; ")
+        );
+    }
+    h += "</details>\n<noscript><p class=\"note\">The 3-D view is drawn by the page's \
           script, which this browser does not run: the scene in words above holds its \
           figures.</p></noscript>\n";
 
@@ -364,11 +478,12 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         .iter()
         .map(|p| {
             format!(
-                "{{\"label\":{},\"index\":{},\"calibrated\":{},\"nominal\":{}}}",
+                "{{\"label\":{},\"index\":{},\"calibrated\":{},\"nominal\":{},{}}}",
                 text(&p.label),
                 p.index,
                 skeleton(&p.calibrated, f),
-                p.nominal.as_ref().map_or("null".into(), |s| skeleton(s, f))
+                p.nominal.as_ref().map_or("null".into(), |s| skeleton(s, f)),
+                mounted(p, f)
             )
         })
         .collect();

@@ -14,7 +14,7 @@ use kinecal::observe::Weights;
 use kinecal::report::scene::{Scene, SceneOptions};
 use kinecal::report::CalibrationReport;
 use kinecal::workflow::{self, Request};
-use kinecal::{Dataset, Robot};
+use kinecal::{Chain, Dataset, Frame, Link, Observation, Robot, Target};
 use kinecal_report::html_report;
 
 /// A 6-axis arm, its nominal model off by a millimetre and a milliradian, measured by
@@ -81,6 +81,56 @@ fn chromium() -> Option<PathBuf> {
         }
     }
     None
+}
+
+/// A screenshot of `page`'s 3-D view by Chromium into `png` (when there is a Chromium); `close`:
+/// the cameras and boards alone, filling the view.
+fn screenshot(page: &str, png: &std::path::Path, close: bool) {
+    let Some(browser) = chromium() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("view.html");
+    // The view alone (its section holds its data and script).
+    let view = format!(
+        "<!DOCTYPE html><html><head><meta charset=\"utf-8\"></head><body><h2 {}</body></html>",
+        section(page, "view3d")
+    );
+    let view = if close {
+        view.replacen(
+            "</script>\n<script>",
+            "</script>\n<script>(function () { var e = document.getElementById('v3d-data'), \
+             d = JSON.parse(e.textContent); d.points = []; d.frames = []; d.postures = \
+             d.postures.slice(0, 1); d.postures[0].nominal = null; d.postures[0].calibrated = \
+             {nodes: [], links: [], joints: [], tools: []}; e.textContent = JSON.stringify(d); \
+             })();</script>\n<script>",
+            1,
+        )
+    } else {
+        view
+    };
+    std::fs::write(&file, view).unwrap();
+    let out = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--hide-scrollbars",
+            "--virtual-time-budget=3000",
+            "--window-size=1000,700",
+        ])
+        .arg(format!(
+            "--user-data-dir={}",
+            dir.path().join("profile").display()
+        ))
+        .arg(format!("--screenshot={}", png.display()))
+        .arg(format!("file://{}", file.display()))
+        .output()
+        .expect("chromium runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// The page as Chromium leaves it once its script ran: the DOM, serialized.
@@ -265,4 +315,135 @@ fn a_scene_that_cannot_be_drawn_is_said_so() {
     rep.scene = None;
     let v = html_report(&rep).unwrap();
     assert!(section(&v, "view3d").contains("the report holds no scene"));
+}
+
+/// The arm of [`arm`] with a camera on its flange (640 x 480, 600 px focal length) and a 9 x 6
+/// board of 25 mm fixed 45 cm in front of it at the first posture, facing it, and the data with the
+/// pixels of the board points the camera sees at the first 5 postures.
+fn with_a_camera(truth: &Robot, data: &Dataset) -> (Robot, Dataset) {
+    use kinecal::model::camera::{Board, Camera, Mount};
+    use kinecal::observe::pixel::{Pixel, Seen};
+    let mut robot = truth.clone();
+    let hand_eye = Link {
+        x: 0.03,
+        y: -0.05,
+        z: 0.04,
+        alpha: 0.05,
+        beta: -0.03,
+        gamma: 0.02,
+    };
+    robot.cameras.push(Camera {
+        name: "wrist".into(),
+        mount: Mount::EndEffector,
+        pose: hand_eye,
+        fx: 600.0,
+        fy: 610.0,
+        cx: 320.0,
+        cy: 240.0,
+        distortion: [-0.2, 0.0, 0.0, 0.0, 0.0],
+        width: 640,
+        height: 480,
+    });
+    let kinematics = robot.clone();
+    let chain = Chain::new(&kinematics);
+    let camera_at = |readings: &[f64]| {
+        chain
+            .frame_at(readings, Target::EndEffector)
+            .then(&Frame::from_link(&hand_eye))
+    };
+    // The board square to the camera, its centre on the optical axis, turned a little.
+    let c0 = camera_at(&data.postures[0].readings);
+    let board = c0.then(&Frame::from_link(&Link {
+        x: -0.1,
+        y: -0.0625,
+        z: 0.45,
+        alpha: 0.3,
+        beta: 0.08,
+        gamma: -0.05,
+    }));
+    robot.boards.push(Board {
+        name: "board".into(),
+        mount: Mount::Base,
+        pose: kinecal::import::link_of(&board),
+        cols: 9,
+        rows: 6,
+        spacing: 0.025,
+    });
+    robot.validate().unwrap();
+    let mut observations = data.observations.clone();
+    for posture in 0..5 {
+        let c = camera_at(&data.postures[posture].readings);
+        for k in 0..robot.boards[0].points() {
+            let p = board.rotation * robot.boards[0].point(k) + board.translation;
+            let q = c.rotation.transpose() * (p - c.translation);
+            let uv = robot.cameras[0].project(&q).uv;
+            if q.z > 0.0 && robot.cameras[0].inside(&uv) {
+                let seen = Seen::Board { board: 0, index: k };
+                let px = Pixel::new(&robot, posture, 0, seen, [uv.x, uv.y]).unwrap();
+                observations.push(Observation::Pixel(px));
+            }
+        }
+    }
+    (robot, Dataset::new(data.postures.clone(), observations))
+}
+
+/// A robot with a camera: its frustum and its board drawn (the view draws more with them than
+/// with the layer turned off), the board points seen at the posture shown marked, the pixel
+/// rows adding no measured point. `KINECAL_VIEW3D_SCREENSHOT=FILE.png` keeps a screenshot.
+#[test]
+fn a_camera_and_its_board_are_drawn() {
+    let (nominal, truth, data) = arm(60);
+    let (robot, pixels) = with_a_camera(&truth, &data);
+    let mut rep = report(&nominal, &data);
+    let scene = Scene::new(None, &robot, Some(&pixels), &SceneOptions::default()).unwrap();
+    // The pixel rows are no measured points; the board's points seen at the first posture are
+    // the whole board (it faces the camera there).
+    assert_eq!(scene.points_total, 60);
+    let p0 = &scene.postures[0];
+    assert_eq!(p0.cameras.len(), 1);
+    assert_eq!(p0.boards[0].seen.len(), 54);
+    // The frustum's far corners at the depth, along the rays through the image's corners.
+    let cam = &p0.cameras[0];
+    let depth = scene.frustum_depth;
+    for corner in &cam.corners {
+        let d: Vec<f64> = (0..3).map(|k| corner[k] - cam.frame.origin[k]).collect();
+        let along_z: f64 = (0..3).map(|k| d[k] * cam.frame.axes[2][k]).sum();
+        assert!((along_z - depth).abs() < 1e-12, "{along_z} {depth}");
+    }
+    // The board's corner k = 53 is point 53 where the calibrated model puts it.
+    let b = &robot.boards[0];
+    let f = Frame::from_link(&b.pose);
+    let last = f.rotation * b.point(53) + f.translation;
+    assert!((0..3).all(|k| (p0.boards[0].point(53)[k] - last[k]).abs() < 1e-12));
+    rep.scene = Some(scene);
+    let page = html_report(&rep).unwrap();
+    let v = section(&page, "view3d");
+    for words in [
+        "name=\"cameras\"",
+        "camera (frustum",
+        "the points seen at the posture shown",
+        "camera wrist at (",
+        "board board (9 x 6 points)",
+        "54 of its points seen",
+        "Pixel observations have no measured 3-D point",
+    ] {
+        assert!(v.contains(words), "{words}");
+    }
+    if let Some(png) = std::env::var_os("KINECAL_VIEW3D_SCREENSHOT") {
+        let png = std::path::Path::new(&png);
+        screenshot(&page, png, false);
+        screenshot(&page, &png.with_extension("close.png"), true);
+    }
+    let Some(dom) = rendered_dom(&page) else {
+        return;
+    };
+    let drawn = attribute(&dom, "data-drawn").expect("the view's script ran to its end");
+    // The cameras' layer turned off before the view draws: fewer pixels.
+    let off = page.replace("name=\"cameras\" checked", "name=\"cameras\"");
+    let dom = rendered_dom(&off).unwrap();
+    let without = attribute(&dom, "data-drawn").unwrap();
+    eprintln!("drawn with the camera and board: {drawn} pixels, without: {without}");
+    // A frustum of 8 cm and a board of 20 x 12.5 cm by a robot of a metre: hundreds of
+    // pixels.
+    assert!(drawn > without + 400, "{drawn} vs {without}");
 }

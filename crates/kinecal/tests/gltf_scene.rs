@@ -80,11 +80,11 @@ fn glb_reads_back_as_the_scene() {
     let glb = write_glb(&scene).unwrap();
     check_container(&glb);
     let doc = gltf::Gltf::from_slice(&glb).expect("a valid glTF");
-    // One node per layer (the robot has no sessions: frames are the base and the tool), and
-    // the root that turns z up into y up.
-    assert_eq!(doc.nodes().count(), LAYERS.len() + 1);
+    // One node per layer (the robot has no sessions: frames are the base and the tool; no
+    // cameras nor boards: their 3 layers are left out), and the root that turns z up into y up.
+    assert_eq!(doc.nodes().count(), LAYERS.len() - 3 + 1);
     let root = doc.default_scene().unwrap().nodes().next().unwrap();
-    assert_eq!(root.children().count(), LAYERS.len());
+    assert_eq!(root.children().count(), LAYERS.len() - 3);
     let (_, r, _) = root.transform().decomposed();
     let h = std::f32::consts::FRAC_1_SQRT_2;
     let turn = [-h, 0.0, 0.0, h];
@@ -158,4 +158,53 @@ fn a_scene_without_data_or_nominal_is_the_robot_alone() {
     assert!(vertices(&doc, "measured points").is_none());
     // Links, joints and the frames' three axes.
     assert_eq!(doc.nodes().count(), 1 + 2 + 3);
+}
+
+/// A camera fixed beside the robot and a board on its flange: the frustum's 9 lines (4 rays,
+/// the far rectangle, the top's tick) and the board's grid (9 + 6 lines) read back.
+#[test]
+fn cameras_and_boards_read_back() {
+    use kinecal::model::camera::{Board, Camera, Mount};
+    use kinecal::model::robot::Link;
+    let mut robot = random_robot(&[JointKind::Revolute; 6], 7);
+    robot.cameras.push(Camera {
+        name: "fixed".into(),
+        mount: Mount::Base,
+        pose: Link {
+            x: 0.8,
+            y: 0.1,
+            z: 0.5,
+            alpha: 3.0,
+            beta: 0.2,
+            gamma: -1.7,
+        },
+        fx: 600.0,
+        fy: 610.0,
+        cx: 320.0,
+        cy: 240.0,
+        distortion: [0.0; 5],
+        width: 640,
+        height: 480,
+    });
+    robot.boards.push(Board {
+        name: "board".into(),
+        mount: Mount::EndEffector,
+        pose: Link::default(),
+        cols: 9,
+        rows: 6,
+        spacing: 0.025,
+    });
+    robot.validate().unwrap();
+    let scene = Scene::new(None, &robot, None, &SceneOptions::default()).unwrap();
+    let doc = gltf::Gltf::from_slice(&write_glb(&scene).unwrap()).unwrap();
+    let p = &scene.postures[0];
+    let cam = vertices(&doc, "cameras").unwrap();
+    assert_eq!(cam.len(), 2 * 9);
+    assert!(close(cam[0], &p.cameras[0].frame.origin));
+    assert!(close(cam[1], &p.cameras[0].corners[0]));
+    let board = vertices(&doc, "boards").unwrap();
+    assert_eq!(board.len(), 2 * (9 + 6));
+    assert!(close(board[0], &p.boards[0].corners[0]));
+    // No data, so no board point seen.
+    assert!(vertices(&doc, "board points seen").is_none());
 }

@@ -2,7 +2,8 @@
 //! robots' links as line meshes, the measured points as a point mesh, the residual vectors
 //! (scaled as the scene says) and the frames' axes as lines, one material per layer (the
 //! calibrated robot blue, the nominal robot grey, residuals after calibration red, before
-//! orange). The robot's drawn posture is the scene's first.
+//! orange; cameras as purple frustums, boards as grey grids with the points seen at the posture
+//! as teal points). The robot's drawn posture is the scene's first.
 //!
 //! Coordinates are the scene's (metres, z up) as `f32`; one root node turns them to glTF's
 //! y up, so that a viewer shows the robot standing. The JSON is made with `gltf-json`'s types,
@@ -36,7 +37,49 @@ pub const LAYERS: &[&str] = &[
     "frames x",
     "frames y",
     "frames z",
+    "cameras",
+    "boards",
+    "board points seen",
 ];
+
+/// The lines of camera frustums: from the camera's origin to each far corner, and the far
+/// rectangle; the top edge (the image's first row, y down) doubled by a short tick outward,
+/// so that a viewer tells up from down.
+pub fn frustum_lines(c: &super::scene::SceneCamera) -> Vec<[[f64; 3]; 2]> {
+    let o = c.frame.origin;
+    let k = &c.corners;
+    let mut out: Vec<[[f64; 3]; 2]> = k.iter().map(|p| [o, *p]).collect();
+    for i in 0..4 {
+        out.push([k[i], k[(i + 1) % 4]]);
+    }
+    // The tick: from the top edge's middle, away from the image's centre, a fifth of its width.
+    let mid = [0, 1, 2].map(|i| (k[0][i] + k[1][i]) / 2.0);
+    let centre = [0, 1, 2].map(|i| (k[0][i] + k[2][i]) / 2.0);
+    let up = [0, 1, 2].map(|i| mid[i] + 0.4 * (mid[i] - centre[i]));
+    out.push([mid, up]);
+    out
+}
+
+/// The lines of a board: its outline and its grid's rows and columns (at most 20 each way,
+/// evenly spread, on a larger grid).
+pub fn board_lines(b: &super::scene::SceneBoard) -> Vec<[[f64; 3]; 2]> {
+    let (cols, rows) = (b.cols.max(2) as usize, b.rows.max(2) as usize);
+    let pick = |n: usize| -> Vec<usize> {
+        if n <= 20 {
+            (0..n).collect()
+        } else {
+            (0..20).map(|i| i * (n - 1) / 19).collect()
+        }
+    };
+    let mut out = Vec::new();
+    for c in pick(cols) {
+        out.push([b.point(c), b.point(c + (rows - 1) * cols)]);
+    }
+    for r in pick(rows) {
+        out.push([b.point(r * cols), b.point(r * cols + cols - 1)]);
+    }
+    out
+}
 
 fn f32s(v: &[f64; 3]) -> [f32; 3] {
     v.map(|x| x as f32)
@@ -73,6 +116,8 @@ fn layers(scene: &Scene) -> Vec<Layer> {
     };
     let mut frames: Vec<&SceneFrame> = scene.frames.iter().collect();
     frames.extend(&posture.calibrated.tools);
+    frames.extend(posture.cameras.iter().map(|c| &c.frame));
+    frames.extend(posture.boards.iter().map(|b| &b.frame));
     let axis = |c: usize| -> Vec<[f32; 3]> {
         frames
             .iter()
@@ -142,14 +187,47 @@ fn layers(scene: &Scene) -> Vec<Layer> {
             color: [0.1, 0.2, 0.9, 1.0],
             positions: axis(2),
         },
+        Layer {
+            name: LAYERS[9].into(),
+            mode: Lines,
+            color: [0.58, 0.2, 0.7, 1.0],
+            positions: posture
+                .cameras
+                .iter()
+                .flat_map(frustum_lines)
+                .flat_map(|[a, b]| [f32s(&a), f32s(&b)])
+                .collect(),
+        },
+        Layer {
+            name: LAYERS[10].into(),
+            mode: Lines,
+            color: [0.3, 0.3, 0.3, 1.0],
+            positions: posture
+                .boards
+                .iter()
+                .flat_map(board_lines)
+                .flat_map(|[a, b]| [f32s(&a), f32s(&b)])
+                .collect(),
+        },
+        Layer {
+            name: LAYERS[11].into(),
+            mode: Points,
+            color: [0.0, 0.6, 0.5, 1.0],
+            positions: posture
+                .boards
+                .iter()
+                .flat_map(|b| b.seen.iter().map(|&k| f32s(&b.point(k))))
+                .collect(),
+        },
     ]
 }
 
 /// The length a frame's axes are drawn at (m): a tenth of the reach for the fixed frames, a
-/// twentieth for the tools.
+/// twentieth for the tools, cameras and boards.
 pub fn axis_length(scene: &Scene, f: &SceneFrame) -> f64 {
+    use super::scene::FrameKind;
     match f.kind {
-        super::scene::FrameKind::Tool => scene.reach / 20.0,
+        FrameKind::Tool | FrameKind::Camera | FrameKind::Board => scene.reach / 20.0,
         _ => scene.reach / 10.0,
     }
 }

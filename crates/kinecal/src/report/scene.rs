@@ -8,14 +8,18 @@
 //! Every number in a scene is finite and within [`LIMIT`] metres of the origin: a point beyond
 //! is left out (and counted), a robot beyond is refused.
 //!
-//! A new kind of frame (a camera, a calibration board) is a [`FrameKind`] and a line where the
-//! frames are gathered: the renderers draw every frame the same way, by kind.
+//! The calibrated robot's cameras and boards are drawn at each posture: a camera as its frame
+//! and a frustum (the rays through the image's corners, cut at [`Scene::frustum_depth`]), a
+//! board as its grid, with the points a camera saw in that posture marked. A pixel observation
+//! has no measured 3-D point, so it adds no point nor residual vector: its error is in pixels,
+//! in the report's pixel metric; the board points seen stand for it in the view.
 
 use nalgebra::{Matrix3, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::model::camera::Mount;
 use crate::model::kinematics::{Chain, Frame, Target, Workspace};
 use crate::model::robot::{JointKind, Robot};
 use crate::observe::{for_each_observation, target_name, Dataset, Observation};
@@ -58,6 +62,10 @@ pub enum FrameKind {
     Measurement,
     /// A tool frame of the robot at a posture: the end effector or a site.
     Tool,
+    /// A camera's frame (OpenCV's: z along the optical axis, x right, y down).
+    Camera,
+    /// A calibration board's frame.
+    Board,
 }
 
 impl FrameKind {
@@ -67,6 +75,8 @@ impl FrameKind {
             FrameKind::Base => "base",
             FrameKind::Measurement => "measurement",
             FrameKind::Tool => "tool",
+            FrameKind::Camera => "camera",
+            FrameKind::Board => "board",
         }
     }
 }
@@ -97,6 +107,48 @@ pub struct Skeleton {
     pub tools: Vec<SceneFrame>,
 }
 
+/// A camera of the calibrated robot at a posture: its frame (OpenCV's: z along the optical
+/// axis, x right, y down in the image) and a frustum, the rays through the image's corners cut
+/// at [`Scene::frustum_depth`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SceneCamera {
+    /// Its frame.
+    pub frame: SceneFrame,
+    /// The frustum's far corners (m): the image's corners `(0, 0)`, `(width, 0)`, `(width,
+    /// height)`, `(0, height)` seen through the pinhole (without distortion) at the depth.
+    pub corners: [[f64; 3]; 4],
+}
+
+/// A calibration board of the calibrated robot at a posture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SceneBoard {
+    /// Its frame (the points in its x-y plane, point 0 at the origin).
+    pub frame: SceneFrame,
+    /// Points along x.
+    pub cols: u32,
+    /// Points along y.
+    pub rows: u32,
+    /// The grid's corners (m): points `0`, `cols - 1`, the last, `(rows - 1) cols`.
+    pub corners: [[f64; 3]; 4],
+    /// The points (0-based, row-major) a camera saw at this posture (pixel observations have no
+    /// measured 3-D point: these are where the calibrated model puts the points seen).
+    pub seen: Vec<usize>,
+}
+
+impl SceneBoard {
+    /// Point `k` of the grid (m), from its corners.
+    pub fn point(&self, k: usize) -> [f64; 3] {
+        let cols = self.cols.max(2) as usize;
+        let rows = self.rows.max(2) as usize;
+        let (a, b) = (
+            (k % cols) as f64 / (cols - 1) as f64,
+            (k / cols) as f64 / (rows - 1) as f64,
+        );
+        let c = &self.corners;
+        [0, 1, 2].map(|i| c[0][i] + a * (c[1][i] - c[0][i]) + b * (c[3][i] - c[0][i]))
+    }
+}
+
 /// One posture the robots are drawn at.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ScenePosture {
@@ -108,6 +160,12 @@ pub struct ScenePosture {
     pub nominal: Option<Skeleton>,
     /// The calibrated robot there.
     pub calibrated: Skeleton,
+    /// The calibrated robot's cameras there.
+    #[serde(default)]
+    pub cameras: Vec<SceneCamera>,
+    /// The calibrated robot's boards there.
+    #[serde(default)]
+    pub boards: Vec<SceneBoard>,
 }
 
 /// A measured point and its residuals (`model - measured`, m, global frame's axes).
@@ -163,6 +221,10 @@ pub struct Scene {
     /// The frames that do not move with the robot: the global frame and the sessions'
     /// measurement frames.
     pub frames: Vec<SceneFrame>,
+    /// The depth (m) the cameras' frustums are cut at: a twelfth of the reach (8 cm for a
+    /// robot of a metre), whatever the lens.
+    #[serde(default)]
+    pub frustum_depth: f64,
 }
 
 fn norm(v: &[f64; 3]) -> f64 {
@@ -175,6 +237,10 @@ fn arr(v: &Vector3<f64>) -> [f64; 3] {
 
 fn drawable(v: &[f64; 3]) -> bool {
     v.iter().all(|x| x.is_finite() && x.abs() <= LIMIT)
+}
+
+fn frame_drawable(f: &SceneFrame) -> bool {
+    drawable(&f.origin) && f.axes.iter().all(drawable)
 }
 
 fn frame_of(name: &str, kind: FrameKind, f: &Frame) -> SceneFrame {
@@ -269,6 +335,88 @@ pub fn skeleton(
         joints,
         tools,
     })
+}
+
+/// The cameras and boards of `robot` at `readings` (the points each board shows as seen: those
+/// of `seen`, by board).
+fn cameras_and_boards(
+    robot: &Robot,
+    readings: &[f64],
+    payload: Option<&crate::model::robot::Payload>,
+    depth: f64,
+    seen: &[Vec<usize>],
+) -> (Vec<SceneCamera>, Vec<SceneBoard>) {
+    if robot.cameras.is_empty() && robot.boards.is_empty() {
+        return (Vec::new(), Vec::new());
+    }
+    let chain = Chain::new(robot);
+    let mut ws = Workspace::new(robot);
+    chain.forward_loaded(readings, None, payload, &mut ws);
+    let at = |m: Mount, pose: &crate::model::robot::Link| {
+        let mount = match crate::observe::pixel::mount_target(m) {
+            None => Frame::identity(),
+            Some(t) => chain.target_frame(&ws, t),
+        };
+        mount.then(&Frame::from_link(pose))
+    };
+    let point = |f: &Frame, p: Vector3<f64>| arr(&(f.rotation * p + f.translation));
+    let cameras = robot
+        .cameras
+        .iter()
+        .map(|c| {
+            let f = at(c.mount, &c.pose);
+            let (w, h) = (c.width as f64, c.height as f64);
+            let corners = [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)].map(|(u, v)| {
+                point(
+                    &f,
+                    depth * Vector3::new((u - c.cx) / c.fx, (v - c.cy) / c.fy, 1.0),
+                )
+            });
+            SceneCamera {
+                frame: frame_of(&c.name, FrameKind::Camera, &f),
+                corners,
+            }
+        })
+        .collect();
+    let boards = robot
+        .boards
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let f = at(b.mount, &b.pose);
+            let n = b.points().max(1);
+            let corners =
+                [0, b.cols as usize - 1, n - 1, n - b.cols as usize].map(|k| point(&f, b.point(k)));
+            SceneBoard {
+                frame: frame_of(&b.name, FrameKind::Board, &f),
+                cols: b.cols,
+                rows: b.rows,
+                corners,
+                seen: seen.get(i).cloned().unwrap_or_default(),
+            }
+        })
+        .collect();
+    (cameras, boards)
+}
+
+/// For each posture of `data`, by board: the points a camera saw there.
+fn seen_points(robot: &Robot, data: &Dataset) -> Vec<Vec<Vec<usize>>> {
+    let mut out = vec![vec![Vec::new(); robot.boards.len()]; data.postures.len()];
+    for o in &data.observations {
+        if let Observation::Pixel(p) = o {
+            if let crate::observe::pixel::Seen::Board { board, index } = p.seen {
+                if let Some(v) = out.get_mut(o.posture()).and_then(|b| b.get_mut(board)) {
+                    if !v.contains(&index) {
+                        v.push(index);
+                    }
+                }
+            }
+        }
+    }
+    for b in out.iter_mut().flatten() {
+        b.sort_unstable();
+    }
+    out
 }
 
 /// The measured point and the model's, in the measurement frame, of a position or a pose.
@@ -435,9 +583,11 @@ impl Scene {
                 index: 0,
                 nominal: nominal.map(|r| skeleton(r, &zero, None)).transpose()?,
                 calibrated: skeleton(calibrated, &zero, None)?,
+                cameras: Vec::new(),
+                boards: Vec::new(),
             });
         }
-        for p in chosen {
+        for &p in &chosen {
             let posture = &data.postures[p];
             let payload = posture.payload.as_ref();
             postures.push(ScenePosture {
@@ -447,6 +597,8 @@ impl Scene {
                     .map(|r| skeleton(r, &posture.readings, payload))
                     .transpose()?,
                 calibrated: skeleton(calibrated, &posture.readings, payload)?,
+                cameras: Vec::new(),
+                boards: Vec::new(),
             });
         }
 
@@ -455,6 +607,37 @@ impl Scene {
             .flat_map(|p| p.calibrated.nodes.iter())
             .map(norm)
             .fold(1e-3, f64::max);
+
+        // The cameras and boards at each posture drawn, with the board points seen there.
+        let frustum_depth = reach / 12.0;
+        let seen = seen_points(calibrated, data);
+        for sp in &mut postures {
+            let (readings, payload, seen) = match data.postures.get(sp.index) {
+                Some(p) if !chosen.is_empty() => (
+                    p.readings.clone(),
+                    p.payload.as_ref(),
+                    seen[sp.index].as_slice(),
+                ),
+                _ => (vec![0.0; calibrated.dof()], None, &[][..]),
+            };
+            let (cameras, boards) =
+                cameras_and_boards(calibrated, &readings, payload, frustum_depth, seen);
+            let ok = cameras
+                .iter()
+                .all(|c| frame_drawable(&c.frame) && c.corners.iter().all(drawable))
+                && boards
+                    .iter()
+                    .all(|b| frame_drawable(&b.frame) && b.corners.iter().all(drawable));
+            if !ok {
+                return Err(Error::Problem(format!(
+                    "a camera or board of `{}` is not finite or lies beyond {LIMIT:e} m at \
+                     posture {}: it cannot be drawn",
+                    calibrated.name, sp.label
+                )));
+            }
+            sp.cameras = cameras;
+            sp.boards = boards;
+        }
         let before: Vec<f64> = points
             .iter()
             .filter_map(|p| p.before.as_ref().map(norm))
@@ -486,6 +669,7 @@ impl Scene {
             residual_scale,
             residual_scale_before,
             frames,
+            frustum_depth,
         };
         scene.check()?;
         Ok(scene)
@@ -519,13 +703,29 @@ impl Scene {
                     .all(|(i, a)| *i < s.nodes.len() && drawable(a))
                 && s.tools.iter().all(frame_ok)
         };
-        if !self
-            .postures
-            .iter()
-            .all(|p| skeleton_ok(&p.calibrated) && p.nominal.as_ref().is_none_or(skeleton_ok))
-        {
+        let mounted_ok = |p: &ScenePosture| {
+            p.cameras
+                .iter()
+                .all(|c| frame_ok(&c.frame) && c.corners.iter().all(drawable))
+                && p.boards.iter().all(|b| {
+                    frame_ok(&b.frame)
+                        && b.corners.iter().all(drawable)
+                        && (2..=1_000_000).contains(&(b.cols as u64 * b.rows as u64))
+                        && b.cols >= 2
+                        && b.rows >= 2
+                        && b.seen
+                            .iter()
+                            .all(|&k| k < b.cols as usize * b.rows as usize)
+                })
+        };
+        if !self.postures.iter().all(|p| {
+            skeleton_ok(&p.calibrated)
+                && p.nominal.as_ref().is_none_or(skeleton_ok)
+                && mounted_ok(p)
+        }) {
             return bad(
-                "a robot has a coordinate beyond 1e6 m or not finite, or a link to no joint",
+                "a robot, camera or board has a coordinate beyond 1e6 m or not finite, a link to \
+                 no joint, or a board a grid or seen point out of its size",
             );
         }
         if !self.points.iter().all(|p| {
