@@ -408,7 +408,7 @@ pub fn parse_camera_info(text: &str, file: &str) -> Result<CameraInfo> {
     };
     let k = matrix("camera_matrix", 3, 3, 9)?;
     let line = need("camera_matrix")?.line;
-    if [k[1], k[3], k[6], k[7]].iter().any(|&v| v != 0.0) || k[8] != 1.0 {
+    if [k[1], k[3], k[6], k[7]].iter().any(|&v| v != 0.0) || (k[8] - 1.0).abs() > 1e-12 {
         return Err(err(
             line,
             "camera_matrix.data",
