@@ -199,6 +199,37 @@ pub enum Warning {
         /// The length unit.
         unit: String,
     },
+    /// Fitted joint compliances below zero: joints that would turn against gravity's torque, a
+    /// robot that rises (what the data gave where the compliances are poorly determined).
+    NegativeCompliance {
+        /// Their names and values (file units).
+        parameters: Vec<String>,
+    },
+    /// Fitted slopes far from the robot file's (by more than [`SLOPE_CHANGE`] of them):
+    /// readings in another unit or scale, or a coupling the model lacks.
+    SlopeFarOff {
+        /// Their names and values (file units).
+        parameters: Vec<String>,
+    },
+    /// The gravity deflection of a joint reaches beyond [`DEFLECTION_LIMIT`]: no industrial
+    /// joint yields that far under its own arm's weight.
+    LargeDeflection {
+        /// The largest deflection (deg).
+        degrees: f64,
+    },
+    /// Parameters determined worse than the robot's stated accuracy (their standard deviation
+    /// above their tolerance) and moved by many of their standard deviations: the data leaves
+    /// them to the start's pull and the noise's.
+    LooseAndMoved {
+        /// Their names, with the change in standard deviations.
+        parameters: Vec<String>,
+    },
+    /// Targets of the validation data that no identification row measures: their frames were
+    /// never identified, so their errors are the nominal frames' (not the calibration's).
+    ValidationTargetsUnseen {
+        /// Their names.
+        targets: Vec<String>,
+    },
     /// URDF export: a joint's slope cannot be expressed in URDF.
     UrdfSlope {
         /// Joint number (1-based).
@@ -309,6 +340,19 @@ impl Warning {
         )
     }
 }
+
+/// The change of a slope from the robot file's, as a fraction of it, beyond which
+/// [`Warning::SlopeFarOff`] says so: transducers are made to 0.1 %, a calibration moves them by
+/// a few tenths of a percent, a unit or gear-ratio slip by tens of percent or more.
+pub const SLOPE_CHANGE: f64 = 0.1;
+
+/// The gravity deflection (rad) beyond which [`Warning::LargeDeflection`] says so: a tenth of a
+/// radian (5.7 deg); an industrial arm's joints yield by hundredths of a degree.
+pub const DEFLECTION_LIMIT: f64 = 0.1;
+
+/// How many standard deviations a loosely determined parameter may move before
+/// [`Warning::LooseAndMoved`] names it.
+pub const LOOSE_MOVE_SIGMAS: f64 = 5.0;
 
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -471,6 +515,42 @@ impl std::fmt::Display for Warning {
                 "{} moved by more than the robot's reach ({reach:.4} {unit}): not a calibration \
                  of this robot (units, a wrong model, or a far start)",
                 parameters.join(", ")
+            ),
+            Warning::NegativeCompliance { parameters } => write!(
+                f,
+                "negative compliances: {} (a joint that turns against gravity's torque); the data \
+                 does not determine them: hold them, or give them a prior (--prior \
+                 compliance=...)",
+                parameters.join(", ")
+            ),
+            Warning::SlopeFarOff { parameters } => write!(
+                f,
+                "slopes changed by more than {:.0} % of the robot file's: {} (readings in another \
+                 unit or scale, a gear ratio, or a coupling the model lacks; hold the slopes, or \
+                 give them a prior: --prior slope=0.01)",
+                SLOPE_CHANGE * 100.0,
+                parameters.join(", ")
+            ),
+            Warning::LargeDeflection { degrees } => write!(
+                f,
+                "a joint deflects by {degrees:.2} deg under gravity (beyond {:.1} deg): the \
+                 compliances or masses are not physical; give them a prior (--prior \
+                 compliance=...) or fix the masses (--total-mass)",
+                DEFLECTION_LIMIT.to_degrees()
+            ),
+            Warning::LooseAndMoved { parameters } => write!(
+                f,
+                "determined worse than the robot's tolerances and moved by over {LOOSE_MOVE_SIGMAS} \
+                 of their standard deviations: {} (the data barely holds them: a prior, e.g. \
+                 --prior tolerances, or more postures)",
+                parameters.join(", ")
+            ),
+            Warning::ValidationTargetsUnseen { targets } => write!(
+                f,
+                "validation targets no identification row measures: {} (their frames were never \
+                 identified; their errors are the nominal frames', not the calibration's: \
+                 measure them in the identification data too)",
+                targets.join(", ")
             ),
             Warning::Unseen { parameters } => write!(
                 f,

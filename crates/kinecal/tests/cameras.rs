@@ -386,7 +386,9 @@ fn hand_eye_case(eye_in_hand: bool, lens: bool) {
         bt * 1e3,
         ba.to_degrees()
     );
-    // Every estimated parameter within 4 of its own standard deviations of the truth.
+    // Every estimated parameter within 4 of its own standard deviations of the truth: over the
+    // 21-27 parameters of a case, a 3-sigma bound would fail a correct fit about once in 14
+    // runs (0.27 % each); 4 sigma once in 600.
     let u = out.uncertainty.as_ref().expect("an uncertainty");
     for p in &u.parameters {
         let Some(s) = p.sigma else { continue };

@@ -929,3 +929,63 @@ fn a_total_mass_without_an_estimated_mass_is_refused() {
         }
     }
 }
+
+/// A fit that returns a negative compliance, or a deflection beyond a tenth of a radian, says
+/// so by name with the remedy (issue 37, item 5): the data here come from a truth with such a
+/// joint (a negative compliance in code; the robot file refuses one).
+#[test]
+fn unphysical_compliances_and_deflections_are_named() {
+    let mut nominal = elastic_arm(41);
+    nominal.sites.clear();
+    for j in &mut nominal.elastic.as_mut().unwrap().joints {
+        j.compliance = 0.0;
+        j.lateral = 0.0;
+    }
+    let postures = simulate::sample_postures(&nominal, 60, 13);
+    let noise = 1e-5;
+    let fit = |truth: &Robot| {
+        let mut data = simulate::measure(truth, &postures, false);
+        simulate::add_noise(&mut data, noise, noise, 77);
+        let mut req = Request::new(nominal.clone(), data);
+        req.selection = Selection::parse("compliance", None, &nominal).unwrap();
+        req.weights = kinecal::observe::Weights {
+            length: noise,
+            angle: noise,
+        };
+        run(&req, &mut ()).expect("calibration runs")
+    };
+    let mut negative = nominal.clone();
+    negative.elastic.as_mut().unwrap().joints[1].compliance = -2e-3;
+    let out = fit(&negative);
+    assert!(
+        out.warnings.iter().any(|w| matches!(
+            w,
+            kinecal::Warning::NegativeCompliance { parameters } if parameters[0].starts_with("joint2.compliance")
+        )),
+        "{:?}",
+        out.warnings
+    );
+    // Such a robot is not written: the reader would refuse it.
+    let e = kinecal::model::robot_file::write_robot_toml_checked(&out.calibration.calibrated, None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("negative compliances joint2.compliance"), "{e}");
+    let mut soft = nominal.clone();
+    soft.elastic.as_mut().unwrap().joints[1].compliance = 0.08;
+    let out = fit(&soft);
+    assert!(
+        out.warnings
+            .iter()
+            .any(|w| matches!(w, kinecal::Warning::LargeDeflection { degrees } if *degrees > 5.7)),
+        "{:?}",
+        out.warnings
+    );
+    // A physical truth raises neither.
+    let mut fine = nominal.clone();
+    fine.elastic.as_mut().unwrap().joints[1].compliance = 5e-4;
+    let out = fit(&fine);
+    assert!(!out.warnings.iter().any(|w| matches!(
+        w,
+        kinecal::Warning::NegativeCompliance { .. } | kinecal::Warning::LargeDeflection { .. }
+    )));
+}

@@ -1306,6 +1306,26 @@ pub fn write_robot_toml_checked(robot: &Robot, original: Option<&str>) -> Result
             "the computed robot cannot be written: {m} (diverged, or a unit mix-up in the input?)"
         ))
     })?;
+    // What the reader refuses is not written: a negative compliance (a fit the data left free).
+    let negative: Vec<String> = robot
+        .param_ids()
+        .filter(|&id| {
+            matches!(
+                robot.param_kind(id),
+                crate::model::params::ParamKind::Compliance { .. }
+                    | crate::model::params::ParamKind::Lateral { .. }
+            ) && robot.get(id) < 0.0
+        })
+        .map(|id| format!("{} = {}", robot.param_name(id), robot.get_user(id)))
+        .collect();
+    if !negative.is_empty() {
+        return Err(Error::Problem(format!(
+            "the computed robot cannot be written: negative compliances {} (a joint that turns \
+             against gravity; a robot file holds none): hold them, or give them a prior \
+             (--prior compliance=...)",
+            negative.join(", ")
+        )));
+    }
     Ok(write_robot_toml(robot, original))
 }
 

@@ -786,6 +786,7 @@ mod tests {
                 display_units: "um-deg".parse().unwrap(),
             },
             strict: true,
+            force_units: true,
         };
         let job = Job::Calibrate(spec);
         let text = job.to_toml().unwrap();

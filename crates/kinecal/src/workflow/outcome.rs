@@ -6,7 +6,8 @@
 use std::sync::Arc;
 
 use crate::error::Result;
-use crate::model::params::ParamId;
+use crate::model::kinematics::Target;
+use crate::model::params::{ParamId, ParamKind};
 use crate::model::robot::Robot;
 use crate::observe::{Accuracy, Dataset};
 use crate::report::CalibrationReport;
@@ -198,6 +199,61 @@ pub struct Outcome {
     pub report: CalibrationReport,
 }
 
+/// The fitted values outside their physical range: negative compliances (beyond twice their
+/// standard deviation, when `unc` gives one: a compliance the data puts at 0 may land a little
+/// below it), slopes far from the robot file's ([`crate::warning`]'s limits), named with their
+/// values in file units.
+fn plausibility(nominal: &Robot, cal: &Calibration, unc: Option<&Uncertainty>) -> Vec<Warning> {
+    let sigma = |id: ParamId| {
+        unc.and_then(|u| u.parameters.iter().find(|p| p.id == id))
+            .and_then(|p| p.sigma)
+    };
+    let robot = &cal.calibrated;
+    let value = |id: ParamId| {
+        format!(
+            "{} = {:.6} {}",
+            robot.param_name(id),
+            robot.get_user(id),
+            robot.param_unit(id)
+        )
+    };
+    let negative: Vec<String> = cal
+        .estimated
+        .iter()
+        .copied()
+        .filter(|&id| {
+            matches!(
+                robot.param_kind(id),
+                ParamKind::Compliance { .. } | ParamKind::Lateral { .. }
+            ) && robot.get(id) < 0.0
+                && sigma(id).is_none_or(|s| robot.get_user(id).abs() > 2.0 * s)
+        })
+        .map(value)
+        .collect();
+    let slopes: Vec<String> = cal
+        .estimated
+        .iter()
+        .copied()
+        .filter(|&id| {
+            let was = nominal.get(id);
+            matches!(robot.param_kind(id), ParamKind::Slope { .. })
+                && was.abs() > 0.0
+                && ((robot.get(id) - was) / was).abs() > crate::warning::SLOPE_CHANGE
+        })
+        .map(value)
+        .collect();
+    let mut out = Vec::new();
+    if !negative.is_empty() {
+        out.push(Warning::NegativeCompliance {
+            parameters: negative,
+        });
+    }
+    if !slopes.is_empty() {
+        out.push(Warning::SlopeFarOff { parameters: slopes });
+    }
+    out
+}
+
 /// Assembles an outcome: validation, outliers, warnings, the report.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn finish(
@@ -250,6 +306,7 @@ pub(super) fn finish(
             rms_deg: cal.accuracy_after.rms_orientation.to_degrees(),
         });
     }
+    warnings.extend(plausibility(&nominal, &cal, unc.as_ref().ok()));
     if !cal.unfelt.is_empty() {
         warnings.push(Warning::Unfelt {
             parameters: cal
@@ -265,6 +322,21 @@ pub(super) fn finish(
                 warnings.push(Warning::SigmasOff {
                     variance_factor: u.variance_factor,
                 });
+            }
+            let loose: Vec<String> = u
+                .parameters
+                .iter()
+                .filter_map(|p| {
+                    let s = p.sigma?;
+                    let q = nominal.param_quantity(p.id);
+                    let tolerance = nominal.units.from_si(q, nominal.tolerance(p.id));
+                    let moved = p.change.abs() / s;
+                    (s > tolerance && moved > crate::warning::LOOSE_MOVE_SIGMAS)
+                        .then(|| format!("{} ({moved:.1} sigma)", nominal.param_name(p.id)))
+                })
+                .collect();
+            if !loose.is_empty() {
+                warnings.push(Warning::LooseAndMoved { parameters: loose });
             }
             for &(a, b, rho) in &u.correlations {
                 warnings.push(Warning::Correlated {
@@ -302,6 +374,34 @@ pub(super) fn finish(
         .as_ref()
         .map(|v| Checked::new(&cal, v, &data, &nominal));
     let mut report = CalibrationReport::new(&cal, &data);
+    if let Some(v) = &validation_data {
+        let seen: std::collections::HashSet<Target> = data
+            .observations
+            .iter()
+            .flat_map(|o| o.views().iter().map(|v| v.target))
+            .collect();
+        let mut unseen: Vec<String> = Vec::new();
+        for o in &v.observations {
+            for view in o.views() {
+                let name = crate::observe::target_name(&cal.calibrated, view.target).to_string();
+                if !seen.contains(&view.target) && !unseen.contains(&name) {
+                    unseen.push(name);
+                }
+            }
+        }
+        if !unseen.is_empty() {
+            warnings.push(Warning::ValidationTargetsUnseen { targets: unseen });
+        }
+    }
+    if let Some(e) = report.elastic.as_ref() {
+        let u = cal.calibrated.units;
+        let deflection = u.to_si(Quantity::Angle, e.largest_deflection.abs());
+        if deflection > crate::warning::DEFLECTION_LIMIT {
+            warnings.push(Warning::LargeDeflection {
+                degrees: deflection.to_degrees(),
+            });
+        }
+    }
     if let Some(e) = report
         .elastic
         .as_ref()
@@ -363,11 +463,17 @@ pub(super) fn finish(
         let mut worse = |metric: &str, before: f64, after: f64| {
             // Beyond rounding: a held-out error that grew by more than a part in a million.
             if after > before * (1.0 + 1e-6) {
+                // A camera's errors are in pixels whatever the length unit.
+                let pixel = metric == "pixel";
                 warnings.push(Warning::WorseOnValidation {
                     metric: metric.to_string(),
-                    before: len(before),
-                    after: len(after),
-                    unit: cal.calibrated.units.length.to_string(),
+                    before: if pixel { before } else { len(before) },
+                    after: if pixel { after } else { len(after) },
+                    unit: if pixel {
+                        "px".to_string()
+                    } else {
+                        cal.calibrated.units.length.to_string()
+                    },
                 });
             }
         };
