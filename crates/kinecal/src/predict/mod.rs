@@ -65,6 +65,14 @@ use crate::model::robot::Robot;
 use crate::observe::{Dataset, Observation};
 use crate::units::Quantity;
 
+/// The largest standard deviation, model-error term (`s0`, `c`) and joint lever a prediction
+/// takes, in its own units: 1e12 (10^9 m in millimetres: a million kilometres). The predicted
+/// variance raises them to the fourth power with the readings (at most 1e9, as the measurement
+/// files read them): at most about 1e140, finite; a standard deviation near 1e308 made the
+/// report's pictures loop for ever. Reports are held to it when read
+/// (`crate::report::validate`).
+pub const MAX_SPREAD: f64 = 1e12;
+
 /// A model-error term: mean per-axis variance `v(d) = s0^2 + (c d)^2` at distance `d`
 /// (internal units: `s0` in m or rad, `c` in m or rad per m of distance), spread over the axes
 /// as unevenly as `shape` says.
@@ -203,7 +211,7 @@ impl<'r> Predictor<'r> {
                  {:e}",
                 j + 1,
                 crate::units::number::format_number(metric.levers()[j]),
-                crate::report::validate::MAX_SPREAD
+                MAX_SPREAD
             )));
         }
         if covariance.len() != n || covariance.iter().any(|r| r.len() != n) {
@@ -381,10 +389,10 @@ impl<'r> Predictor<'r> {
 }
 
 /// Whether `l` can be a joint's lever (length per reading unit): at least 0 and at most
-/// [`crate::report::validate::MAX_SPREAD`]. A lever of 1e308 made the distances to the measured
+/// [`MAX_SPREAD`]. A lever of 1e308 made the distances to the measured
 /// postures infinite, and the search for the nearest one index past its points.
 fn lever_plausible(l: f64) -> bool {
-    (0.0..=crate::report::validate::MAX_SPREAD).contains(&l)
+    (0.0..=MAX_SPREAD).contains(&l)
 }
 
 /// The index of `target` among a robot's frames: 0 the end effector, `1 + s` site `s`.
@@ -1018,7 +1026,7 @@ pub fn from_report<'r>(robot: &'r Robot, report: &PredictionReport) -> Result<Pr
              unit per reading unit)",
             j + 1,
             crate::units::number::format_number(report.levers[j]),
-            crate::report::validate::MAX_SPREAD
+            MAX_SPREAD
         )));
     }
     let si = |v: f64| units.to_si(Quantity::Length, v);

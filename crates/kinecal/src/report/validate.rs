@@ -29,12 +29,9 @@ use crate::predict::{AccuracyMap, GrowthReport, PredictionReport};
 /// largest double, 1.8e308): a renderer or a predictor that squares them never overflows.
 pub const MAX_NUMBER: f64 = 1e100;
 
-/// The largest standard deviation, model-error term (`s0`, `c`) and joint lever a report may
-/// hold, in its own units: 1e12 (10^9 m in millimetres: a million kilometres). The predicted
-/// variance raises them to the fourth power with the readings (at most 1e9, as the measurement
-/// files read them): at most about 1e140, finite; a standard deviation near 1e308 made the
-/// report's pictures loop for ever.
-pub const MAX_SPREAD: f64 = 1e12;
+/// The largest standard deviation, model-error term and joint lever a report may hold (the
+/// predictor's own bound: [`crate::predict::MAX_SPREAD`]).
+pub const MAX_SPREAD: f64 = crate::predict::MAX_SPREAD;
 
 /// The tolerance of the covariance's checks, relative to its entries' scale (`sqrt(c_aa c_bb)`):
 /// 1e-8. A covariance kinecal wrote is symmetric to the rounding of its computation (about
