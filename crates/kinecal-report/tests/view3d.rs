@@ -318,8 +318,8 @@ fn a_scene_that_cannot_be_drawn_is_said_so() {
 }
 
 /// The arm of [`arm`] with a camera on its flange (640 x 480, 600 px focal length) and a 9 x 6
-/// board of 25 mm fixed 45 cm in front of it at the first posture, facing it, and the data with the
-/// pixels of the board points the camera sees at the first 5 postures.
+/// board of 25 mm fixed 45 cm in front of it at the first posture, facing it, and the data
+/// with the pixels of the board points the camera sees at the first 5 postures.
 fn with_a_camera(truth: &Robot, data: &Dataset) -> (Robot, Dataset) {
     use kinecal::model::camera::{Board, Camera, Mount};
     use kinecal::observe::pixel::{Pixel, Seen};
