@@ -16,11 +16,11 @@ use kinecal::Setting;
 
 use crate::args::{
     AnalyzeArgs, CheckArgs, CompensateArgs, CurvesObjectiveArgs, CurvesPoseArgs, CurvesRobotArgs,
-    ExportCameraInfoArgs, ExportDhArgs, ExportGltfArgs, ExportJointsArgs, ExportRosArgs, ExportStiffnessArgs,
-    ExportUrArgs, ExportUrdfArgs, FkArgs, ImportDhArgs, ImportOutArgs, ImportPoeArgs, ImportUrArgs,
-    ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs, Iso9283PlanArgs, Iso9283SimulateArgs,
-    ObservationFiles, PlanArgs, PredictArgs, ReadBackArgs, ReportArgs, ResidualArgs, SimulateArgs,
-    SpecArgs, SweepArgs,
+    ExportCameraInfoArgs, ExportDhArgs, ExportGltfArgs, ExportJointsArgs, ExportRosArgs,
+    ExportStiffnessArgs, ExportUrArgs, ExportUrdfArgs, FkArgs, ImportDhArgs, ImportOutArgs,
+    ImportPoeArgs, ImportUrArgs, ImportUrdfArgs, Iso9283EvaluateArgs, Iso9283LogArgs,
+    Iso9283PlanArgs, Iso9283SimulateArgs, ObservationFiles, PlanArgs, PredictArgs, ReadBackArgs,
+    ReportArgs, ResidualArgs, SimulateArgs, SpecArgs, SweepArgs,
 };
 
 /// Exit code when a check or a compensation flags what needs a person, or a strict calibration

@@ -67,8 +67,8 @@ pub use read::{read_files, ObservationFile, ReadSettings};
 
 pub(crate) use contacts::write_contacts;
 pub(crate) use distances::write_distances;
-pub(crate) use pixels::write_pixels;
 pub(crate) use measurements::{postures_header, COMPENSATED_COLUMNS, PAYLOAD_COLUMNS};
+pub(crate) use pixels::write_pixels;
 pub(crate) use read::kind_index;
 
 /// The observations of `data` as one file of kinecal's, read back to the same numbers: a

@@ -5,8 +5,8 @@
 //! Their file, the contact file, is read in [`crate::files`].
 
 use super::{
-    target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, Posture, Row, RowQuantity,
-    View,
+    target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, Posture, Row,
+    RowQuantity, View,
 };
 use crate::model::kinematics::{Frame, Target};
 use crate::model::params::{ParamKind, PlaneComponent};

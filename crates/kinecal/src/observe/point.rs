@@ -5,8 +5,8 @@
 use nalgebra::Vector3;
 
 use super::{
-    target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, OrientationError, Posture,
-    Row, RowQuantity, View,
+    target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, OrientationError,
+    Posture, Row, RowQuantity, View,
 };
 use crate::model::kinematics::{
     euler_rates, euler_zyx, log_so3, rot_zyx, so3_right_jacobian_inverse, Frame, Target,

@@ -45,7 +45,6 @@
 //! start, which the caller's fit must judge. These are starting values only: the fit that
 //! follows minimises the pixel error over all of them together.
 
-
 use nalgebra::{
     DMatrix, DVector, Dyn, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3,
     SVD,

@@ -81,7 +81,9 @@ pub use predict::{
     calibrated, BoundSpread, PredictOutcome, PredictOutputs, PredictSpec, PredictionTable,
 };
 pub use report::ReportSpec;
-pub use simulate::{FkSpec, PerturbSpread, SimulateNoise, SimulateOutcome, SimulateSpec, MIN_POINTS};
+pub use simulate::{
+    FkSpec, PerturbSpread, SimulateNoise, SimulateOutcome, SimulateSpec, MIN_POINTS,
+};
 
 /// The kinds of job, as a spec's `job` key names them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
