@@ -187,6 +187,7 @@ pub fn quiet() -> bool {
 /// Progress of a job: a spinner on standard error with the time since the start and what the
 /// job is doing now (`predicting: 40000 of 100000 postures`, `planning: posture 12 of 30`,
 /// `prediction: fold 4 of 13`), drawn only on a terminal and not with `--quiet`.
+#[derive(Default)]
 pub struct Talk {
     bar: Option<indicatif::ProgressBar>,
     /// The latest message.
@@ -196,10 +197,7 @@ pub struct Talk {
 impl Talk {
     /// A display for this process: hidden when `--quiet` or standard error is not a terminal.
     pub fn new() -> Talk {
-        Talk {
-            bar: None,
-            latest: String::new(),
-        }
+        Talk::default()
     }
 
     fn shown(&self) -> bool {

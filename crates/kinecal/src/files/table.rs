@@ -592,6 +592,102 @@ impl PostureTable {
     }
 }
 
+/// How far below the median of its quantity's (lengths, angles) in its file a row's own
+/// standard deviation may lie: 10^6. A row stated that much more precise than its file's
+/// typical row carries 10^12 times its weight in the fit: it alone places the robot, and the
+/// rest of the file is bent to it (a row of 1e-15 mm among rows of 0.01 mm left the attitudes
+/// ten times worse than the nominal robot's). Anchors that are meant to weigh more (a reference
+/// point measured 10^3 times more precisely, see [`crate::solve::estimation::weighting`]) stay
+/// three orders of magnitude inside the bound.
+pub const SIGMA_SPREAD: f64 = 1e6;
+
+/// Refuses a row whose own standard deviation is more than [`SIGMA_SPREAD`] times below the
+/// median (the upper one, for an even count) of the standard deviations its file states for
+/// the same quantity (lengths, angles, pixels), naming the file, the line and the column: a typing or
+/// unit slip, not a measurement (the fit would follow that row alone). Refused rather than
+/// raised: raising it would change what the file says of its instrument by a factor kinecal
+/// chose, and the user who fixes the line knows the right value.
+pub(crate) fn sigma_spread_problem(
+    observations: &[crate::observe::Observation],
+    file: &str,
+    units: &crate::units::Units,
+) -> Result<()> {
+    use crate::observe::RowQuantity;
+    use crate::units::Quantity;
+    for quantity in [RowQuantity::Length, RowQuantity::Angle, RowQuantity::Pixel] {
+        let mut sigmas: Vec<f64> = observations
+            .iter()
+            .flat_map(|o| {
+                o.rows()
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, r)| r.quantity == quantity)
+                    .filter_map(|(k, _)| o.sigma(k))
+            })
+            .collect();
+        if sigmas.len() < 2 {
+            continue;
+        }
+        sigmas.sort_by(f64::total_cmp);
+        let median = sigmas[sigmas.len() / 2];
+        if sigmas[0] * SIGMA_SPREAD >= median {
+            continue;
+        }
+        let q = match quantity {
+            RowQuantity::Length => Quantity::Length,
+            RowQuantity::Angle => Quantity::Angle,
+            RowQuantity::Pixel => Quantity::Pixel,
+        };
+        for o in observations {
+            let rows = o.rows();
+            for (k, row) in rows.iter().enumerate() {
+                let Some(sigma) = o.sigma(k).filter(|_| row.quantity == quantity) else {
+                    continue;
+                };
+                if sigma * SIGMA_SPREAD >= median {
+                    continue;
+                }
+                // The column: sigma_angle; sigma_x..z where a row's axes differ; else
+                // sigma_position.
+                let axes: Vec<f64> = (0..rows.len())
+                    .filter(|&i| rows[i].quantity == RowQuantity::Length)
+                    .filter_map(|i| o.sigma(i))
+                    .collect();
+                let field = match quantity {
+                    RowQuantity::Angle => "sigma_angle".to_string(),
+                    RowQuantity::Pixel => "sigma_px".to_string(),
+                    RowQuantity::Length
+                        if axes.len() == 3
+                            && axes.iter().any(|a| a.to_bits() != axes[0].to_bits()) =>
+                    {
+                        format!("sigma_{}", row.label)
+                    }
+                    RowQuantity::Length => "sigma_position".to_string(),
+                };
+                let unit = units.label(q);
+                return Err(Error::input(
+                    Location::file(file).at_line(o.line()).with_field(field),
+                    format!(
+                        "a standard deviation of {} {unit} is {:.1e} times the median of the \
+                         file's {} ({} {unit}): expected at most {SIGMA_SPREAD:.0e} times below \
+                         it (such a row outweighs the rest of the file 10^12 to 1: a slip of \
+                         the pen or of the unit); correct the value or leave the field empty",
+                        crate::units::number::format_number(units.from_si(q, sigma)),
+                        sigma / median,
+                        match quantity {
+                            RowQuantity::Length => "length standard deviations",
+                            RowQuantity::Angle => "angle standard deviations",
+                            RowQuantity::Pixel => "pixel standard deviations",
+                        },
+                        crate::units::number::format_number(units.from_si(q, median)),
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -688,100 +784,4 @@ mod tests {
         assert!(!plain("a,b\r1,2\r"));
         assert!(plain("a,b\r\n1,2\r\n"));
     }
-}
-
-/// How far below the median of its quantity's (lengths, angles) in its file a row's own
-/// standard deviation may lie: 10^6. A row stated that much more precise than its file's
-/// typical row carries 10^12 times its weight in the fit: it alone places the robot, and the
-/// rest of the file is bent to it (a row of 1e-15 mm among rows of 0.01 mm left the attitudes
-/// ten times worse than the nominal robot's). Anchors that are meant to weigh more (a reference
-/// point measured 10^3 times more precisely, see [`crate::solve::estimation::weighting`]) stay
-/// three orders of magnitude inside the bound.
-pub const SIGMA_SPREAD: f64 = 1e6;
-
-/// Refuses a row whose own standard deviation is more than [`SIGMA_SPREAD`] times below the
-/// median (the upper one, for an even count) of the standard deviations its file states for
-/// the same quantity (lengths, angles, pixels), naming the file, the line and the column: a typing or
-/// unit slip, not a measurement (the fit would follow that row alone). Refused rather than
-/// raised: raising it would change what the file says of its instrument by a factor kinecal
-/// chose, and the user who fixes the line knows the right value.
-pub(crate) fn sigma_spread_problem(
-    observations: &[crate::observe::Observation],
-    file: &str,
-    units: &crate::units::Units,
-) -> Result<()> {
-    use crate::observe::RowQuantity;
-    use crate::units::Quantity;
-    for quantity in [RowQuantity::Length, RowQuantity::Angle, RowQuantity::Pixel] {
-        let mut sigmas: Vec<f64> = observations
-            .iter()
-            .flat_map(|o| {
-                o.rows()
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, r)| r.quantity == quantity)
-                    .filter_map(|(k, _)| o.sigma(k))
-            })
-            .collect();
-        if sigmas.len() < 2 {
-            continue;
-        }
-        sigmas.sort_by(f64::total_cmp);
-        let median = sigmas[sigmas.len() / 2];
-        if sigmas[0] * SIGMA_SPREAD >= median {
-            continue;
-        }
-        let q = match quantity {
-            RowQuantity::Length => Quantity::Length,
-            RowQuantity::Angle => Quantity::Angle,
-            RowQuantity::Pixel => Quantity::Pixel,
-        };
-        for o in observations {
-            let rows = o.rows();
-            for (k, row) in rows.iter().enumerate() {
-                let Some(sigma) = o.sigma(k).filter(|_| row.quantity == quantity) else {
-                    continue;
-                };
-                if sigma * SIGMA_SPREAD >= median {
-                    continue;
-                }
-                // The column: sigma_angle; sigma_x..z where a row's axes differ; else
-                // sigma_position.
-                let axes: Vec<f64> = (0..rows.len())
-                    .filter(|&i| rows[i].quantity == RowQuantity::Length)
-                    .filter_map(|i| o.sigma(i))
-                    .collect();
-                let field = match quantity {
-                    RowQuantity::Angle => "sigma_angle".to_string(),
-                    RowQuantity::Pixel => "sigma_px".to_string(),
-                    RowQuantity::Length
-                        if axes.len() == 3
-                            && axes.iter().any(|a| a.to_bits() != axes[0].to_bits()) =>
-                    {
-                        format!("sigma_{}", row.label)
-                    }
-                    RowQuantity::Length => "sigma_position".to_string(),
-                };
-                let unit = units.label(q);
-                return Err(Error::input(
-                    Location::file(file).at_line(o.line()).with_field(field),
-                    format!(
-                        "a standard deviation of {} {unit} is {:.1e} times the median of the \
-                         file's {} ({} {unit}): expected at most {SIGMA_SPREAD:.0e} times below \
-                         it (such a row outweighs the rest of the file 10^12 to 1: a slip of \
-                         the pen or of the unit); correct the value or leave the field empty",
-                        crate::units::number::format_number(units.from_si(q, sigma)),
-                        sigma / median,
-                        match quantity {
-                            RowQuantity::Length => "length standard deviations",
-                            RowQuantity::Angle => "angle standard deviations",
-                            RowQuantity::Pixel => "pixel standard deviations",
-                        },
-                        crate::units::number::format_number(units.from_si(q, median)),
-                    ),
-                ));
-            }
-        }
-    }
-    Ok(())
 }

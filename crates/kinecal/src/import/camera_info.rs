@@ -526,15 +526,17 @@ mod tests {
             distortion_model: plumb_bob  # OpenCV's\ndistortion_coefficients:\n  rows: 1\n\
             \x20 cols: 5\n  data: [-0.3, 0.1, 0.001, -0.002, 0.]\n";
         let c = parse_camera_info(text, "ros.yaml").unwrap();
-        assert_eq!(c.intrinsics, [1034.5, 1035.75, 640.25, 512.5]);
+        // Exact: the text's numbers read to the same doubles.
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&c.intrinsics), bits(&[1034.5, 1035.75, 640.25, 512.5]));
         // Lists as block sequences (PyYAML's dump), keys in any order.
         let block = "camera_matrix:\n  cols: 3\n  data:\n  - 1034.5\n  - 0\n  - 640.25\n  - 0\n  \
             - 1035.75\n  - 512.5\n  - 0\n  - 0\n  - 1\n  rows: 3\nimage_height: 1024\n\
             image_width: 1280\n";
         let b = parse_camera_info(block, "dump.yaml").unwrap();
-        assert_eq!(b.intrinsics, c.intrinsics);
-        assert_eq!(b.distortion, [0.0; 5]);
-        assert_eq!(c.distortion, [-0.3, 0.1, 0.001, -0.002, 0.0]);
+        assert_eq!(bits(&b.intrinsics), bits(&c.intrinsics));
+        assert_eq!(bits(&b.distortion), bits(&[0.0; 5]));
+        assert_eq!(bits(&c.distortion), bits(&[-0.3, 0.1, 0.001, -0.002, 0.0]));
         assert_eq!((c.width, c.height), (1280, 1024));
     }
 

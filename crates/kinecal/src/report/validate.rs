@@ -505,10 +505,10 @@ mod tests {
             // A rank-deficient one (two parameters the data cannot tell apart) too.
             let mut d = c.clone();
             if n > 2 {
-                for k in 0..n {
-                    d[k][1] = d[k][0];
-                    d[1][k] = d[0][k];
+                for row in d.iter_mut() {
+                    row[1] = row[0];
                 }
+                d[1] = d[0].clone();
                 d[1][1] = d[0][0];
                 covariance(&d).unwrap_or_else(|e| panic!("{n}: {e}"));
             }
