@@ -368,3 +368,66 @@ def test_ros_export_as_a_robot_method(cli, tmp_path):
         assert (out / name).read_text() == text, name
     with pytest.raises(kinecal.KinecalError, match="measurement_frame"):
         robot.to_ros(str(tmp_path / "arm.urdf"), measurement_frame="link3")
+
+
+def test_ros_export_robot_with_a_camera(cli, tmp_path):
+    """A UR10 with a wrist camera and a board beside it: the expanded xacro's tool link behind
+    the camera's static transform is kinecal's camera frame (the end effector of `kinecal fk`
+    times the camera's pose in the robot file, composed here), to 1e-9 m; the board's static
+    transform is its estimated pose in the measurement frame."""
+    urdf = os.path.join(SHARED, "urdf", "universal_robots", "urdf_plain", "ur10_robot.urdf")
+    if not os.path.exists(urdf):
+        if os.environ.get("CI"):
+            pytest.fail(f"{urdf} is missing, and CI is set", pytrace=False)
+        pytest.skip(f"{SKIP_REASON} ({urdf} not found)")
+    camera = (0.03, -0.05, 0.04, 0.05, -0.03, 0.02)
+    board = (0.8, 0.1, 0.2, 0.3, -0.2, 0.1)
+    run(cli, "import", "urdf", urdf, "--base", "base_link", "--tip", "tool0", "--out",
+        "nominal.toml", cwd=tmp_path)
+    run(cli, "simulate", "--robot", "nominal.toml", "--postures", "2", "--seed", "5",
+        "--perturb-std", "length=0.001,angle=0.003", "--out", "sim.csv", "--truth", "cal.toml",
+        cwd=tmp_path)
+    with open(tmp_path / "cal.toml", "a") as f:
+        f.write('\n[[cameras]]\nname = "wrist"\nmount = "ee"\n'
+                f"pose = [{', '.join(repr(v) for v in camera)}]\n"
+                "fx = 600.0\nfy = 610.0\ncx = 320.0\ncy = 240.0\n"
+                "distortion = [-0.2, 0.0, 0.0, 0.0, 0.0]\nwidth = 640\nheight = 480\n")
+        f.write('\n[[boards]]\nname = "board"\nmount = "base"\n'
+                f"pose = [{', '.join(repr(v) for v in board)}]\n"
+                "cols = 9\nrows = 6\nspacing = 0.025\n")
+    out = tmp_path / "description"
+    out.mkdir()
+    run(cli, "export", "ros", "--robot", "cal.toml", "--template", urdf, "--base", "base_link",
+        "--tip", "tool0", "--out", str(out), cwd=tmp_path)
+    xacros = [p for p in os.listdir(out) if p.endswith(".urdf.xacro")]
+    expanded = subprocess.run([xacro_command(), str(out / xacros[0])], check=True,
+                              capture_output=True, text=True, cwd="/").stdout
+    joints = urdf_joints(expanded)
+    with open(out / "static_transforms.yaml") as f:
+        tf = {t["child"]: t for t in yaml.safe_load(f)["transforms"]}
+    cam, brd = tf["wrist_optical_frame"], tf["board"]
+    assert brd["parent"] == "measurement"
+    # The board, fixed beside the robot: its pose in the measurement frame as estimated.
+    assert np.abs(transform(brd) - homogeneous(zyx(*board[3:]), board[:3])).max() < 1e-14
+    base_link = tf["measurement"]["parent"]
+    placement = np.linalg.inv(transform(tf["measurement"]))
+    import tomllib
+    with open(tmp_path / "cal.toml", "rb") as f:
+        names = [j["name"] for j in tomllib.load(f)["joints"]]
+    rng = random.Random(3)
+    with open(tmp_path / "postures.csv", "w") as f:
+        f.write("posture," + ",".join(f"v{k + 1}" for k in range(len(names))) + "\n")
+        f.writelines(f"{p + 1}," + ",".join(repr(rng.uniform(-3, 3)) for _ in names) + "\n"
+                     for p in range(30))
+    fk = run(cli, "fk", "--robot", "cal.toml", "--postures", "postures.csv", cwd=tmp_path).stdout
+    in_mount = homogeneous(zyx(*camera[3:]), camera[:3])
+    worst = 0.0
+    for row in csv.DictReader(fk.splitlines()):
+        q = {n: float(row[f"v{k + 1}"]) for k, n in enumerate(names)}
+        ee = homogeneous(zyx(float(row["alpha"]), float(row["beta"]), float(row["gamma"])),
+                         [float(row["x"]), float(row["y"]), float(row["z"])])
+        ours = ee @ in_mount
+        theirs = placement @ urdf_fk(joints, base_link, cam["parent"], q) @ transform(cam)
+        worst = max(worst, np.abs(ours - theirs).max())
+    assert worst < TOLERANCE, worst
+    print(f"camera: largest deviation {worst:.1e}")
