@@ -164,11 +164,6 @@ impl Camera {
         uv.x >= 0.0 && uv.y >= 0.0 && uv.x <= self.width as f64 && uv.y <= self.height as f64
     }
 
-    /// The lens as [`crate::solve::camera_start`] takes it.
-    pub fn intrinsics(&self) -> [f64; 4] {
-        [self.fx, self.fy, self.cx, self.cy]
-    }
-
     /// Checks the lens: focal lengths positive, image size positive, every value finite.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.fx > 0.0 && self.fy > 0.0 && self.fx.is_finite() && self.fy.is_finite()) {

@@ -1,5 +1,5 @@
 //! Cameras and boards placed from nothing, before the solver runs: the closed forms of
-//! [`super::camera_start`] applied to a calibration's pixel observations.
+//! `super::camera_start` applied to a calibration's pixel observations.
 //!
 //! For each camera whose pose or whose boards' poses are to be estimated and are all zero (not
 //! given), from the views in which it saw at least 4 points of one board:
