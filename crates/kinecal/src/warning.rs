@@ -327,17 +327,9 @@ impl Warning {
     /// figures (units mixed up, readings impossible for the robot, lengths moved beyond its
     /// size): a strict caller stops there.
     pub fn implausible(&self) -> bool {
-        matches!(
-            self,
-            Warning::ScaleMismatch { .. }
-                | Warning::ReadingsOutOfRange { .. }
-                | Warning::AngleUnitMismatch { .. }
-                | Warning::AttitudeMismatch { .. }
-                | Warning::AttitudesUnfit { .. }
-                | Warning::PositionsUnfit { .. }
-                | Warning::WorseOnValidation { .. }
-                | Warning::ChangeBeyondReach { .. }
-        )
+        self.names_units()
+            || self.fit_far_off()
+            || matches!(self, Warning::WorseOnValidation { .. })
     }
 }
 
