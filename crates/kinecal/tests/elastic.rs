@@ -930,6 +930,59 @@ fn a_total_mass_without_an_estimated_mass_is_refused() {
     }
 }
 
+/// A total mass with a selection that names masses, whose identifiability analysis keeps none
+/// of them (issue 38): the total held nothing, `prior ... on 0 parameters`, exit 0. Refused
+/// naming the setting and the masses, by the calibration and by the analysis; where the data
+/// see the masses (compliances that are not 0), the same selection runs.
+#[test]
+fn a_total_mass_the_identifiable_set_keeps_no_mass_of_is_refused() {
+    use kinecal::spec::{AnalyzeSpec, CalibrationSpec};
+    let loaded = elastic_arm(5);
+    // Rigid joints: no deflection, so no observation depends on a mass.
+    let mut stiff = loaded.clone();
+    for j in &mut stiff.elastic.as_mut().unwrap().joints {
+        j.compliance = 0.0;
+        j.lateral = 0.0;
+    }
+    let masses: Vec<String> = (1..=6).map(|b| format!("body{b}.mass")).collect();
+    let estimate = format!("identifiable,{}", masses.join(","));
+    for (robot, kept) in [(&stiff, false), (&loaded, true)] {
+        let data = simulate::measure(robot, &simulate::sample_postures(robot, 30, 3), false);
+        // Weighted at the data's noise (none: 1e-6), as the masses' deflections need.
+        let weights = kinecal::spec::LengthAngle {
+            length: Some(1e-6),
+            angle: Some(1e-6),
+        };
+        let mut spec = CalibrationSpec::default();
+        spec.selection.estimate = Some(estimate.clone());
+        spec.selection.total_mass = Some(12.0);
+        spec.residuals.weights = weights;
+        let req = spec
+            .request(robot, data.clone(), None, None)
+            .expect("the selection names masses");
+        let calibrated = run(&req, &mut ()).map(|_| ());
+        let mut spec = AnalyzeSpec::default();
+        spec.selection.estimate = Some(estimate.clone());
+        spec.selection.total_mass = Some(12.0);
+        spec.residuals.weights = weights;
+        let analysed = spec.analyze(robot, &data).map(|_| ());
+        for r in [calibrated, analysed] {
+            match r {
+                Ok(()) if kept => {}
+                Err(kinecal::Error::InvalidOption { setting, message }) if !kept => {
+                    assert_eq!(setting, kinecal::Setting::TotalMass, "{message}");
+                    assert!(
+                        message.contains("the identifiability analysis keeps none of the masses")
+                            && message.contains("body1.mass, body2.mass"),
+                        "{message}"
+                    );
+                }
+                other => panic!("kept {kept}: {other:?}"),
+            }
+        }
+    }
+}
+
 /// A fit that returns a negative compliance, or a deflection beyond a tenth of a radian, says
 /// so by name with the remedy (issue 37, item 5): the data here come from a truth with such a
 /// joint (a negative compliance in code; the robot file refuses one).

@@ -217,6 +217,13 @@ impl AnalyzeSpec {
     pub fn analyze(&self, robot: &Robot, data: &Dataset) -> Result<(AnalyzeOutcome, Vec<Message>)> {
         let (selection, opts) = self.request(robot)?;
         let (params, unseen) = crate::workflow::resolve(&selection, robot, data, &opts)?;
+        crate::workflow::check_total_mass_kept(
+            self.selection.total_mass,
+            &selection,
+            &params,
+            robot,
+            "the identifiability analysis",
+        )?;
         let mut messages = Vec::new();
         if !unseen.is_empty() {
             // A note here: the analysis shows what the data sees (a calibration warns).

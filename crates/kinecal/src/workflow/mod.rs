@@ -38,7 +38,7 @@ pub use model_choice::{choose, Candidate, Choice, Scored, CHOICE_REPEATS};
 pub use outcome::{Checked, Outcome, Pruning};
 pub use request::{Request, Validation};
 pub use run::{run, Phase, Progress};
-pub(crate) use selection::total_mass_problem;
+pub(crate) use selection::{check_total_mass_kept, total_mass_problem};
 pub use selection::{default_parameters, refit_sessions, resolve, Selection};
 
 pub(crate) use run::add_prediction;

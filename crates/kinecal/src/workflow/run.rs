@@ -20,7 +20,9 @@ use super::cross_validation::{cross_validate, cross_validation_report, CrossVali
 use super::min_change::{project_min_change, SolutionRule};
 use super::outcome::{data_warnings, finish, Outcome, Pruning, SIGMAS_TOO_SMALL};
 use super::request::{Request, Validation};
-use super::selection::{default_parameters, resolve_linearized, session_frames_for, Selection};
+use super::selection::{
+    check_total_mass_kept, default_parameters, resolve_linearized, session_frames_for, Selection,
+};
 
 /// The phases of a calibration, for progress displays and the report's timings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -184,6 +186,13 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     }
     let (estimate, unseen, lin) =
         resolve_linearized(&req.selection, reference, &data, &req.analysis_options())?;
+    check_total_mass_kept(
+        req.prior.total_mass,
+        &req.selection,
+        &estimate,
+        reference,
+        "the identifiability analysis",
+    )?;
     // The analysis linearised the problem at the reference: the solver's start when they are
     // the same robot (and the loss starts as least squares, which it always does).
     let lin = lin.filter(|_| *reference == start);
@@ -479,6 +488,13 @@ impl Fitted<'_> {
         if estimate == cal.options.estimate {
             return Ok((cal, None));
         }
+        check_total_mass_kept(
+            req.prior.total_mass,
+            &req.selection,
+            &estimate,
+            self.reference,
+            "the identifiability analysis at the residuals' noise",
+        )?;
         let left_out = cal
             .options
             .estimate
@@ -525,6 +541,13 @@ impl Fitted<'_> {
             if o.estimate.is_empty() {
                 break;
             }
+            check_total_mass_kept(
+                req.prior.total_mass,
+                &req.selection,
+                &o.estimate,
+                reference,
+                "pruning",
+            )?;
             removed.push(id);
             cal = self.fit(&o, lin, &mut ())?;
         }

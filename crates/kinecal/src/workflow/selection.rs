@@ -113,15 +113,7 @@ impl Selection {
 /// estimated. The identifiable set of a selection with masses may still keep none of them:
 /// the report's prior then says `on 0 parameters`.
 pub(crate) fn total_mass_problem(selection: &Selection, robot: &Robot) -> Option<String> {
-    let mass = |id: &&ParamId| {
-        matches!(
-            robot.try_param_kind(**id),
-            Some(ParamKind::Body {
-                component: crate::model::params::BodyComponent::Mass,
-                ..
-            })
-        )
-    };
+    let mass = |id: &&ParamId| is_mass(robot, **id);
     let (some, what) = match selection {
         Selection::Default { .. } => (false, "the default parameters keep the robot file's masses"),
         Selection::List(ids) => (ids.iter().any(|id| mass(&id)), "the list names no mass"),
@@ -138,6 +130,58 @@ pub(crate) fn total_mass_problem(selection: &Selection, robot: &Robot) -> Option
              estimated ({what}): estimate them (`masses`, or `body2.mass`, ...) or leave the \
              total mass out"
         )
+    })
+}
+
+/// Whether `id` is a body's mass on `robot`.
+fn is_mass(robot: &Robot, id: ParamId) -> bool {
+    matches!(
+        robot.try_param_kind(id),
+        Some(ParamKind::Body {
+            component: crate::model::params::BodyComponent::Mass,
+            ..
+        })
+    )
+}
+
+/// Refuses a total mass (`--total-mass`, `total_mass`) that `estimate`, the parameters an
+/// identifiable `selection` came to (`how`: the analysis that chose them), holds nothing of:
+/// the selection names masses ([`total_mass_problem`] passed it), but the identifiability
+/// analysis kept none of them, and the total would be dropped without a word (the report's
+/// prior said `on 0 parameters`). `Ok` when a mass is estimated or no total is given.
+pub(crate) fn check_total_mass_kept(
+    total_mass: Option<f64>,
+    selection: &Selection,
+    estimate: &[ParamId],
+    robot: &Robot,
+    how: &str,
+) -> Result<()> {
+    if total_mass.is_none() || estimate.iter().any(|&id| is_mass(robot, id)) {
+        return Ok(());
+    }
+    let named: Vec<String> = match selection {
+        Selection::Identifiable { with, fix } => with
+            .iter()
+            .filter(|&&id| is_mass(robot, id) && !fix.contains(&id))
+            .map(|&id| robot.param_name(id))
+            .collect(),
+        Selection::List(ids) => ids
+            .iter()
+            .filter(|&&id| is_mass(robot, id))
+            .map(|&id| robot.param_name(id))
+            .collect(),
+        Selection::Default { .. } => Vec::new(),
+    };
+    Err(Error::InvalidOption {
+        setting: crate::error::Setting::TotalMass,
+        message: format!(
+            "the total mass holds the sum of the estimated bodies' masses, and {how} keeps none \
+             of the masses the selection names ({}): the data do not determine them (a mass \
+             shows only through the deflections it causes, so it needs joints whose compliances \
+             are not 0 and postures that load them); measure such postures, or leave the total \
+             mass out",
+            named.join(", ")
+        ),
     })
 }
 
