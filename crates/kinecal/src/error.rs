@@ -524,16 +524,16 @@ pub enum Error {
         /// Fixed-point iterations taken.
         iterations: usize,
     },
-    /// Too few postures measured by position or pose for a prediction: measure more.
+    /// Too few postures measured by position, pose or pixel for a prediction: measure more.
     #[error(
-        "a prediction needs at least {needed} postures measured by position or pose; the data \
-         has {found}"
+        "a prediction needs at least {needed} postures measured by position, pose or pixel; the \
+         data has {found}"
     )]
     TooFewPostures {
         /// The least the prediction needs ([`crate::predict::MIN_POSTURES`]).
         needed: usize,
-        /// Postures measured by position or pose in the data (0 when it measures none that
-        /// way).
+        /// Postures measured by position, pose or pixel in the data (0 when it measures none
+        /// that way).
         found: usize,
     },
     /// A test pose of an ISO 9283 cube is out of the robot's reach (inside its joint ranges,

@@ -81,6 +81,11 @@ pub enum Warning {
         /// Why.
         reason: String,
     },
+    /// A prediction was asked for and cannot be made.
+    NoPrediction {
+        /// Why.
+        reason: String,
+    },
     /// The data has no degrees of freedom left: standard deviations are not estimated.
     ExactFit,
     /// The measured spread (positions about their centroid, or distances) is far from what the
@@ -604,6 +609,7 @@ impl std::fmt::Display for Warning {
                  step still does: the result is not a minimum"
             ),
             Warning::NoUncertainty { reason } => write!(f, "no uncertainty: {reason}"),
+            Warning::NoPrediction { reason } => write!(f, "no predicted accuracy: {reason}"),
             Warning::ExactFit => write!(
                 f,
                 "as many independent residuals as determined parameters: the fit is exact and no \

@@ -134,6 +134,12 @@ impl Pixel {
         })
     }
 
+    /// The robot frame whose motion the pixel measures: the point's frame when it moves with
+    /// the robot, else the camera's mount (one of them moves: [`Pixel::new`]).
+    pub fn robot_frame(&self) -> Target {
+        self.view[self.point_view.or(self.camera_view).unwrap_or(0)].target
+    }
+
     /// The frames the camera and the point are mounted on, in the measurement frame (the
     /// identity for the base), from the views' frames.
     pub fn mounts(&self, frames: &[Frame]) -> (Frame, Frame) {
@@ -155,8 +161,8 @@ impl Pixel {
         }
     }
 
-    /// The camera's frame in the measurement frame.
-    fn camera_frame(&self, robot: &Robot, frames: &[Frame]) -> Frame {
+    /// The camera's frame in the measurement frame, from the views' frames.
+    pub fn camera_frame(&self, robot: &Robot, frames: &[Frame]) -> Frame {
         let mount = self.camera_view.map_or(Frame::identity(), |v| frames[v]);
         mount.then(&Frame::from_link(&robot.cameras[self.camera].pose))
     }

@@ -40,12 +40,56 @@ use crate::solve::estimation::{self, Calibration};
 pub struct HeldOut {
     /// Distance to the nearest fitted posture (m).
     pub distance: f64,
-    /// `model - measured`, global frame.
+    /// `model - measured`, global frame; for a pixel, across its line of sight (the camera's
+    /// `x`, `y`, and 0: [`super::pixel`]).
     pub error: [f64; 3],
-    /// The parameter part of the fold's prediction, `J C J^T` (global frame).
+    /// The parameter part of the fold's prediction, `J C J^T` (global frame; a pixel's in the
+    /// same axes as its error, zero along the line of sight).
     pub parameters: [[f64; 3]; 3],
     /// The frame the observation measured.
     pub target: Target,
+    /// How many of the error's components were measured: 3, or 2 for a pixel (the first two).
+    pub axes: usize,
+}
+
+impl HeldOut {
+    /// A held-out error of three measured components.
+    pub fn new(
+        distance: f64,
+        error: [f64; 3],
+        parameters: [[f64; 3]; 3],
+        target: Target,
+    ) -> HeldOut {
+        HeldOut {
+            distance,
+            error,
+            parameters,
+            target,
+            axes: 3,
+        }
+    }
+
+    /// A pixel's error across its line of sight ([`super::pixel::Lateral`]) at `distance`.
+    pub fn across(l: &super::pixel::Lateral, distance: f64) -> HeldOut {
+        let p = l.parameters;
+        HeldOut {
+            distance,
+            error: [l.error[0], l.error[1], 0.0],
+            parameters: [[p[0][0], p[0][1], 0.0], [p[1][0], p[1][1], 0.0], [0.0; 3]],
+            target: l.target,
+            axes: 2,
+        }
+    }
+
+    /// The 95 % bound of its error's length with a model error of variance `v` per axis and
+    /// shape `shape` (a pixel's: isotropic across its line of sight).
+    pub fn bound(&self, v: f64, shape: f64) -> Bound {
+        if self.axes == 2 {
+            Bound::across(&self.parameters, v)
+        } else {
+            Bound::of(&self.parameters, v, shape)
+        }
+    }
 }
 
 /// The held-out errors of a cross-validation.
@@ -231,34 +275,39 @@ fn cross_validate_at(
             let d = predictor.distance(&posture.readings, &mut s);
             let (p, a, _) = predictor.parameter_part(&posture.readings, o.target(), &mut s);
             let e: Vector3<f64> = rs.transpose() * (frame.translation - position);
-            out.position.push(HeldOut {
-                distance: d,
-                error: [e.x, e.y, e.z],
-                parameters: p,
-                target: o.target(),
-            });
+            out.position
+                .push(HeldOut::new(d, [e.x, e.y, e.z], p, o.target()));
             if let Some(rm) = attitude {
                 let w = rs.transpose() * log_so3(&(frame.rotation * rm.transpose()));
-                out.attitude.push(HeldOut {
-                    distance: d,
-                    error: [w.x, w.y, w.z],
-                    parameters: a,
-                    target: o.target(),
-                });
+                out.attitude
+                    .push(HeldOut::new(d, [w.x, w.y, w.z], a, o.target()));
             }
         };
         for_each_observation(robot, &test, |_, o, frames| collect(o, &frames[0]));
+        let pixels = super::pixel::lateral_errors(
+            robot,
+            &test,
+            &u.analysis.parameters,
+            Some(u.covariance_internal()),
+        )?;
+        for l in &pixels {
+            let d = predictor.distance(&test.postures[l.posture].readings, &mut s);
+            out.position.push(HeldOut::across(l, d));
+        }
     }
     Ok(())
 }
 
 /// The calibrated model's own residuals at the measured postures, per target: for each frame
-/// measured by position or pose (index 0 the end effector, `1 + s` site `s`), the number of
-/// observations and the mean per-axis square of the position residuals (m^2) and of the
-/// attitude residuals (rad^2; 0 when no pose measures it), global frame.
+/// measured by position, pose or pixel (index 0 the end effector, `1 + s` site `s`), the
+/// number of observations and the mean per-axis square of the position residuals (m^2; a
+/// pixel's two components across its line of sight, [`super::pixel`]) and of the attitude
+/// residuals (rad^2; 0 when no pose measures it), global frame.
 pub fn identification_residuals(robot: &Robot, data: &Dataset) -> Vec<(usize, f64, f64)> {
     let mut out = vec![(0usize, 0.0, 0.0); robot.sites.len() + 1];
     let mut poses = vec![0usize; robot.sites.len() + 1];
+    // Measured components per frame.
+    let mut axes = vec![0usize; robot.sites.len() + 1];
     for_each_observation(robot, data, |_, o, frames| {
         let (position, attitude) = match o {
             Observation::Position(m) => (m.position, None),
@@ -271,15 +320,23 @@ pub fn identification_residuals(robot: &Robot, data: &Dataset) -> Vec<(usize, f6
         };
         let frame = &frames[0];
         out[k].0 += 1;
+        axes[k] += 3;
         out[k].1 += (frame.translation - position).norm_squared();
         if let Some(rm) = attitude {
             poses[k] += 1;
             out[k].2 += log_so3(&(frame.rotation * rm.transpose())).norm_squared();
         }
     });
-    for (o, p) in out.iter_mut().zip(&poses) {
-        if o.0 > 0 {
-            o.1 /= 3.0 * o.0 as f64;
+    // Pixels' errors need no covariance: this cannot fail.
+    for l in super::pixel::lateral_errors(robot, data, &[], None).unwrap_or_default() {
+        let k = super::target_index(l.target);
+        out[k].0 += 1;
+        axes[k] += 2;
+        out[k].1 += l.error[0] * l.error[0] + l.error[1] * l.error[1];
+    }
+    for ((o, p), &a) in out.iter_mut().zip(&poses).zip(&axes) {
+        if a > 0 {
+            o.1 /= a as f64;
         }
         if *p > 0 {
             o.2 /= 3.0 * *p as f64;
@@ -319,31 +376,40 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
 /// measured postures): when the likelihood's `s0` is below it, `s0 = min_s0` and `c` is fitted
 /// again with that `s0` (m or rad).
 pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
-    // Each sample in the eigenbasis of its parameter part.
-    let prepared: Vec<([f64; 3], [f64; 3], f64)> = samples
+    // Each sample in the eigenbasis of its parameter part (of its measured components).
+    let prepared: Vec<([f64; 3], [f64; 3], f64, usize)> = samples
         .iter()
         .map(|h| {
-            let p = Matrix3::from_fn(|i, j| 0.5 * (h.parameters[i][j] + h.parameters[j][i]));
-            let eig = p.symmetric_eigen();
-            let e = Vector3::from(h.error);
-            let g = eig.eigenvectors.transpose() * e;
-            (
-                [g.x * g.x, g.y * g.y, g.z * g.z],
-                [
-                    eig.eigenvalues.x.max(0.0),
-                    eig.eigenvalues.y.max(0.0),
-                    eig.eigenvalues.z.max(0.0),
-                ],
-                h.distance,
-            )
+            let sym = |i: usize, j: usize| 0.5 * (h.parameters[i][j] + h.parameters[j][i]);
+            let (g2, l) = if h.axes == 2 {
+                let eig = nalgebra::Matrix2::from_fn(sym).symmetric_eigen();
+                let g =
+                    eig.eigenvectors.transpose() * nalgebra::Vector2::new(h.error[0], h.error[1]);
+                (
+                    [g.x * g.x, g.y * g.y, 0.0],
+                    [eig.eigenvalues.x.max(0.0), eig.eigenvalues.y.max(0.0), 0.0],
+                )
+            } else {
+                let eig = Matrix3::from_fn(sym).symmetric_eigen();
+                let g = eig.eigenvectors.transpose() * Vector3::from(h.error);
+                (
+                    [g.x * g.x, g.y * g.y, g.z * g.z],
+                    [
+                        eig.eigenvalues.x.max(0.0),
+                        eig.eigenvalues.y.max(0.0),
+                        eig.eigenvalues.z.max(0.0),
+                    ],
+                )
+            };
+            (g2, l, h.distance, h.axes.min(3))
         })
         .collect();
     let nll = |s2: f64, c2: f64| -> f64 {
         prepared
             .iter()
-            .map(|(g2, l, d)| {
+            .map(|(g2, l, d, axes)| {
                 let v = s2 + c2 * d * d;
-                (0..3)
+                (0..*axes)
                     .map(|k| {
                         let t = (l[k] + v).max(1e-300);
                         t.ln() + g2[k] / t
@@ -353,11 +419,12 @@ pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
             .sum()
     };
     let n = samples.len().max(1) as f64;
+    let components = samples.iter().map(|h| h.axes).sum::<usize>().max(1) as f64;
     let m2 = (samples
         .iter()
         .map(|h| h.error.iter().map(|x| x * x).sum::<f64>())
         .sum::<f64>()
-        / (3.0 * n))
+        / components)
         .max(1e-30);
     let mut ds: Vec<f64> = samples.iter().map(|h| h.distance).collect();
     let distance_median = super::percentile(&mut ds, 0.5);
@@ -462,9 +529,10 @@ pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
         growth.c = floor(best.1, b0);
     }
     // The shape: the second-moment matrix of the errors, each in its own predicted standard
-    // deviations, `tr M^2` with `tr M = 3`.
+    // deviations, `tr M^2` with `tr M = 3` (of three-component errors only: a pixel's says
+    // nothing along its line of sight).
     let mut m = Matrix3::zeros();
-    for h in samples {
+    for h in samples.iter().filter(|h| h.axes == 3) {
         let p = h.parameters[0][0] + h.parameters[1][1] + h.parameters[2][2];
         let v = growth.variance(h.distance) + p / 3.0;
         if v > 0.0 {
@@ -482,7 +550,7 @@ pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
             .iter()
             .filter(|h| {
                 let e = Vector3::from(h.error).norm();
-                e <= Bound::of(&h.parameters, g.variance(h.distance), g.shape).bound
+                e <= h.bound(g.variance(h.distance), g.shape).bound
             })
             .count();
         inside as f64 / n

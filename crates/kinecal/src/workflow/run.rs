@@ -595,17 +595,26 @@ fn add_prediction_with(
     if level == crate::predict::Level::Off {
         return;
     }
-    if let Some(u) = &outcome.uncertainty {
-        outcome.report.prediction = crate::predict::assess_with(
-            &outcome.calibration,
-            &outcome.data,
-            reference,
-            &u.analysis.parameters,
-            u.covariance_internal(),
-            level,
-            say,
-        )
-        .ok();
+    let Some(u) = &outcome.uncertainty else {
+        // The uncertainty's own warning says why.
+        return;
+    };
+    match crate::predict::assess_with(
+        &outcome.calibration,
+        &outcome.data,
+        reference,
+        &u.analysis.parameters,
+        u.covariance_internal(),
+        level,
+        say,
+    ) {
+        Ok(p) => outcome.report.prediction = Some(p),
+        Err(e) => {
+            outcome.warnings.push(Warning::NoPrediction {
+                reason: e.to_string(),
+            });
+            outcome.report.set_warnings(&outcome.warnings);
+        }
     }
 }
 
