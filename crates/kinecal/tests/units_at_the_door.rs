@@ -209,6 +209,66 @@ fn a_standard_deviation_far_below_its_files_median_is_refused_with_its_line() {
     assert!(err.starts_with("b.csv:4: field `sigma_position`"), "{err}");
 }
 
+/// The files of one run are fitted together (issue 38): a distance file of one row stated at
+/// 1e-12 mm beside a measurement file at 0.01 mm passed each file's own check (one row is its
+/// own median) and outweighed the rest 10^20 to 1. The median is now of every file's standard
+/// deviations of a quantity: refused naming that file, its line and column and the files whose
+/// median it is; an anchor 10^3 more precise than the other file's rows is read.
+#[test]
+fn a_standard_deviation_far_below_the_median_of_the_runs_files_is_refused_with_its_line() {
+    use kinecal::files::{read_files, ObservationFile, ReadSettings};
+    let robot = robot_in(LengthUnit::Mm, AngleUnit::Deg);
+    let tmp = tempfile::tempdir().unwrap();
+    let mut poses =
+        String::from("posture,v1,v2,v3,v4,v5,x,y,z,alpha,beta,gamma,sigma_position,sigma_angle\n");
+    for k in 0..4 {
+        poses += &format!("{k},0.{k},0,0,0,0,1,2,3,4,5,6,0.01,0.001\n");
+    }
+    let data = tmp.path().join("poses.csv");
+    std::fs::write(&data, poses).unwrap();
+    let distance = |sigma: &str| {
+        let path = tmp.path().join(format!("ballbar{sigma}.csv"));
+        std::fs::write(
+            &path,
+            format!(
+                "pair,a1,a2,a3,a4,a5,b1,b2,b3,b4,b5,distance,sigma_position\n\
+                 1,0,0,0,0,0,1,0,0,0,0,200,{sigma}\n"
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let read = |other: &std::path::Path| {
+        read_files(
+            &ReadSettings::default(),
+            &[
+                ObservationFile::new(data.to_str().unwrap()),
+                ObservationFile::new(other.to_str().unwrap()),
+            ],
+            &robot,
+            &[],
+        )
+    };
+    let anchor = distance("1e-5");
+    let (both, _) = read(&anchor).expect("an anchor 10^3 more precise than the other file");
+    assert_eq!(both.observations.len(), 5);
+    let slip = distance("1e-12");
+    let err = read(&slip).unwrap_err().to_string();
+    let name = slip.to_str().unwrap();
+    assert!(
+        err.starts_with(&format!(
+            "{name}:2: field `sigma_position`: a standard deviation of 1e-12 mm"
+        )) && err.contains(&format!(
+            "median of the run's files' ({}, {name}) length standard deviations (0.01 mm)",
+            data.to_str().unwrap()
+        )) && err.contains("at most 1e6 times below"),
+        "{err}"
+    );
+    // Alone, the one row is its own median: the file's own check has nothing to compare.
+    kinecal::files::parse_distances(&std::fs::read_to_string(&slip).unwrap(), "b.csv", &robot)
+        .expect("one row alone");
+}
+
 /// What a caller that stops on implausible warnings sees.
 struct Strict(Vec<Warning>);
 

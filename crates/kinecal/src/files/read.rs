@@ -127,14 +127,16 @@ pub(crate) fn read_options(
 
 /// Reads the observation files `list` for `robot`, as `read` says, into one dataset, and
 /// their sources; with `read.session_per_file`, each file's session is named to tell it from
-/// the files `all` (`session_name`).
+/// the files `all` (`session_name`). The files are fitted together, so a row's own standard
+/// deviation is checked against the median of every file's for its quantity
+/// ([`super::table::sigma_spread_across`]), as each file's reader checks it against its own.
 pub fn read_files(
     read: &ReadSettings,
     list: &[ObservationFile],
     robot: &Robot,
     all: &[&Path],
 ) -> Result<(Dataset, Vec<Source>)> {
-    let mut data = Dataset::default();
+    let mut parts = Vec::with_capacity(list.len());
     let mut sources = Vec::new();
     for f in list {
         let source = Source::read(Path::new(&f.file))?;
@@ -149,9 +151,24 @@ pub fn read_files(
             (None, false) => None,
         };
         let d = read_observation_file(&source, kind, &opts, robot, session.as_deref())?;
-        data = data.merge(d);
+        parts.push((d, opts.units(robot, &source.name)?));
         sources.push(source);
     }
+    if parts.len() > 1 {
+        let files: Vec<super::table::FileRows<'_>> = parts
+            .iter()
+            .zip(&sources)
+            .map(|((d, units), source)| super::table::FileRows {
+                file: &source.name,
+                observations: &d.observations,
+                units: *units,
+            })
+            .collect();
+        super::table::sigma_spread_across(&files)?;
+    }
+    let data = parts
+        .into_iter()
+        .fold(Dataset::default(), |data, (d, _)| data.merge(d));
     Ok((data, sources))
 }
 

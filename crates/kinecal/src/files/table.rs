@@ -612,18 +612,42 @@ pub(crate) fn sigma_spread_problem(
     file: &str,
     units: &crate::units::Units,
 ) -> Result<()> {
+    sigma_spread_across(&[FileRows {
+        file,
+        observations,
+        units: *units,
+    }])
+}
+
+/// One observation file's rows, as the check of the standard deviations' spread sees them.
+pub(crate) struct FileRows<'a> {
+    /// The file's name, as errors give it.
+    pub file: &'a str,
+    /// Its observations (`line()`: their line in it).
+    pub observations: &'a [crate::observe::Observation],
+    /// The units its numbers are in (an error quotes its values in them).
+    pub units: crate::units::Units,
+}
+
+/// [`sigma_spread_problem`] over the files of one run together (measurements, contacts,
+/// distances, pixels: every file fitted at once), per quantity: the median is of every file's
+/// standard deviations of that quantity, so that a file of one row stated 10^12 times more
+/// precisely than the others' is refused as a row of one file is.
+pub(crate) fn sigma_spread_across(files: &[FileRows<'_>]) -> Result<()> {
     use crate::observe::RowQuantity;
-    use crate::units::Quantity;
-    for quantity in [RowQuantity::Length, RowQuantity::Angle, RowQuantity::Pixel] {
-        let mut sigmas: Vec<f64> = observations
+    let stated = |o: &crate::observe::Observation, quantity: RowQuantity| -> Vec<(usize, f64)> {
+        o.rows()
             .iter()
-            .flat_map(|o| {
-                o.rows()
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, r)| r.quantity == quantity)
-                    .filter_map(|(k, _)| o.sigma(k))
-            })
+            .enumerate()
+            .filter(|(_, r)| r.quantity == quantity)
+            .filter_map(|(k, _)| o.sigma(k).map(|s| (k, s)))
+            .collect()
+    };
+    for quantity in [RowQuantity::Length, RowQuantity::Angle, RowQuantity::Pixel] {
+        let mut sigmas: Vec<f64> = files
+            .iter()
+            .flat_map(|f| f.observations.iter())
+            .flat_map(|o| stated(o, quantity).into_iter().map(|(_, s)| s))
             .collect();
         if sigmas.len() < 2 {
             continue;
@@ -633,59 +657,89 @@ pub(crate) fn sigma_spread_problem(
         if sigmas[0] * SIGMA_SPREAD >= median {
             continue;
         }
-        let q = match quantity {
-            RowQuantity::Length => Quantity::Length,
-            RowQuantity::Angle => Quantity::Angle,
-            RowQuantity::Pixel => Quantity::Pixel,
+        // The files whose rows of this quantity state a standard deviation.
+        let stating: Vec<&str> = files
+            .iter()
+            .filter(|f| {
+                f.observations
+                    .iter()
+                    .any(|o| !stated(o, quantity).is_empty())
+            })
+            .map(|f| f.file)
+            .collect();
+        let whose = match stating.as_slice() {
+            [_] => "the file's".to_string(),
+            many => format!("the run's files' ({})", many.join(", ")),
         };
-        for o in observations {
-            let rows = o.rows();
-            for (k, row) in rows.iter().enumerate() {
-                let Some(sigma) = o.sigma(k).filter(|_| row.quantity == quantity) else {
+        for f in files {
+            for o in f.observations {
+                let Some((k, sigma)) = stated(o, quantity)
+                    .into_iter()
+                    .find(|&(_, s)| s * SIGMA_SPREAD < median)
+                else {
                     continue;
                 };
-                if sigma * SIGMA_SPREAD >= median {
-                    continue;
-                }
-                // The column: sigma_angle; sigma_x..z where a row's axes differ; else
-                // sigma_position.
-                let axes: Vec<f64> = (0..rows.len())
-                    .filter(|&i| rows[i].quantity == RowQuantity::Length)
-                    .filter_map(|i| o.sigma(i))
-                    .collect();
-                let field = match quantity {
-                    RowQuantity::Angle => "sigma_angle".to_string(),
-                    RowQuantity::Pixel => "sigma_px".to_string(),
-                    RowQuantity::Length
-                        if axes.len() == 3
-                            && axes.iter().any(|a| a.to_bits() != axes[0].to_bits()) =>
-                    {
-                        format!("sigma_{}", row.label)
-                    }
-                    RowQuantity::Length => "sigma_position".to_string(),
-                };
-                let unit = units.label(q);
-                return Err(Error::input(
-                    Location::file(file).at_line(o.line()).with_field(field),
-                    format!(
-                        "a standard deviation of {} {unit} is {:.1e} times the median of the \
-                         file's {} ({} {unit}): expected at most {SIGMA_SPREAD:.0e} times below \
-                         it (such a row outweighs the rest of the file 10^12 to 1: a slip of \
-                         the pen or of the unit); correct the value or leave the field empty",
-                        crate::units::number::format_number(units.from_si(q, sigma)),
-                        sigma / median,
-                        match quantity {
-                            RowQuantity::Length => "length standard deviations",
-                            RowQuantity::Angle => "angle standard deviations",
-                            RowQuantity::Pixel => "pixel standard deviations",
-                        },
-                        crate::units::number::format_number(units.from_si(q, median)),
-                    ),
-                ));
+                return Err(spread_error(f, o, k, sigma, median, &whose));
             }
         }
     }
     Ok(())
+}
+
+/// The refusal of row `k` of `o` in file `f`: its standard deviation `sigma` (SI) more than
+/// [`SIGMA_SPREAD`] below `median`, the median of `whose` standard deviations of its quantity.
+fn spread_error(
+    f: &FileRows<'_>,
+    o: &crate::observe::Observation,
+    k: usize,
+    sigma: f64,
+    median: f64,
+    whose: &str,
+) -> Error {
+    use crate::observe::RowQuantity;
+    use crate::units::Quantity;
+    let rows = o.rows();
+    let row = &rows[k];
+    let quantity = row.quantity;
+    let q = match quantity {
+        RowQuantity::Length => Quantity::Length,
+        RowQuantity::Angle => Quantity::Angle,
+        RowQuantity::Pixel => Quantity::Pixel,
+    };
+    // The column: sigma_angle; sigma_x..z where a row's axes differ; else sigma_position.
+    let axes: Vec<f64> = (0..rows.len())
+        .filter(|&i| rows[i].quantity == RowQuantity::Length)
+        .filter_map(|i| o.sigma(i))
+        .collect();
+    let field = match quantity {
+        RowQuantity::Angle => "sigma_angle".to_string(),
+        RowQuantity::Pixel => "sigma_px".to_string(),
+        RowQuantity::Length
+            if axes.len() == 3 && axes.iter().any(|a| a.to_bits() != axes[0].to_bits()) =>
+        {
+            format!("sigma_{}", row.label)
+        }
+        RowQuantity::Length => "sigma_position".to_string(),
+    };
+    let units = &f.units;
+    let unit = units.label(q);
+    Error::input(
+        Location::file(f.file).at_line(o.line()).with_field(field),
+        format!(
+            "a standard deviation of {} {unit} is {:.1e} times the median of {whose} {} ({} \
+             {unit}): expected at most {SIGMA_SPREAD:.0e} times below it (such a row outweighs \
+             the rest 10^12 to 1: a slip of the pen or of the unit); correct the value or leave \
+             the field empty",
+            crate::units::number::format_number(units.from_si(q, sigma)),
+            sigma / median,
+            match quantity {
+                RowQuantity::Length => "length standard deviations",
+                RowQuantity::Angle => "angle standard deviations",
+                RowQuantity::Pixel => "pixel standard deviations",
+            },
+            crate::units::number::format_number(units.from_si(q, median)),
+        ),
+    )
 }
 
 #[cfg(test)]
