@@ -324,6 +324,9 @@ pub struct ColumnPlan {
     /// The node the target hangs off (0-based joint a site follows; `n` for the end
     /// effector), for an elastic robot's response.
     node: usize,
+    /// Whether every planned link and joint is upstream of the target (a rigid robot's plan):
+    /// [`Chain::jacobian_columns`] then takes its rigid path.
+    rigid: bool,
 }
 
 /// The wanted columns of one link transform: its translations along and rotations about its
@@ -457,7 +460,10 @@ impl ColumnPlan {
             .zip(&covered)
             .filter_map(|(c, &done)| c.filter(|_| !done))
             .collect();
+        let rigid = links.iter().all(|l: &LinkColumns| l.upstream)
+            && joints.iter().all(|j: &JointColumns| j.upstream);
         ColumnPlan {
+            rigid,
             target,
             width: columns.iter().flatten().max().map_or(0, |&c| c + 1),
             links,
@@ -495,6 +501,33 @@ pub struct Chain<'r> {
     offset_trig: Vec<(f64, f64)>,
     /// [`Robot::link_parent`] of each link.
     parents: Vec<usize>,
+    /// What each joint's variable needs, packed for the serial pass.
+    joints: Vec<JointCache>,
+    /// Whether every link starts right after the previous joint (no branch): the rigid forward
+    /// kinematics then take [`Chain::forward_serial`], chosen here once.
+    serial: bool,
+}
+
+/// One joint's variable `q = offset + slope * V_own + factor * V_other`, packed: the serial
+/// pass reads these 40 bytes instead of the robot's [`crate::model::robot::Joint`].
+#[derive(Debug, Clone, Copy)]
+struct JointCache {
+    revolute: bool,
+    offset: f64,
+    slope: f64,
+    /// `(joint whose reading is added, factor)`.
+    coupling: Option<(usize, f64)>,
+}
+
+impl JointCache {
+    fn new(j: &crate::model::robot::Joint) -> Self {
+        JointCache {
+            revolute: j.kind == JointKind::Revolute,
+            offset: j.offset,
+            slope: j.slope,
+            coupling: j.coupling.map(|c| (c.joint, c.factor)),
+        }
+    }
 }
 
 impl<'r> Chain<'r> {
@@ -510,7 +543,15 @@ impl<'r> Chain<'r> {
                 .collect(),
             offset_trig: robot.joints.iter().map(|j| j.offset.sin_cos()).collect(),
             parents: (0..=robot.dof()).map(|i| robot.link_parent(i)).collect(),
+            joints: robot.joints.iter().map(JointCache::new).collect(),
+            serial: !robot.is_tree(),
         }
+    }
+
+    /// Whether the rigid forward kinematics take the serial pass (no branch in the chain; see
+    /// [`Chain::forward_serial`]), else the general one that also serves trees and deflections.
+    pub fn is_serial(&self) -> bool {
+        self.serial
     }
 
     /// The robot.
@@ -554,8 +595,60 @@ impl<'r> Chain<'r> {
             Some(model) if ws.elastic.is_some() => {
                 self.forward_elastic(model, readings, payload, ws)
             }
+            _ if self.serial => self.forward_serial(readings, reading_trig, ws),
             _ => self.forward_rigid(readings, reading_trig, None, ws),
         }
+    }
+
+    /// The rigid serial chain at `readings`: [`Chain::forward_rigid`] without its tree and
+    /// deflection cases, the joints read from their packed copies. Same arithmetic, same frames
+    /// to the last bit (`tests::the_serial_pass_is_the_general_one`).
+    #[inline]
+    fn forward_serial(
+        &self,
+        readings: &[f64],
+        reading_trig: Option<&[(f64, f64)]>,
+        ws: &mut Workspace,
+    ) {
+        let n = self.joints.len();
+        debug_assert_eq!(readings.len(), n);
+        debug_assert!(self.serial);
+        ws.readings.copy_from_slice(readings);
+        ws.after[0] = Frame::identity();
+        let (after, dist) = (&mut ws.after[1..=n], &mut ws.dist[..n]);
+        let mut current = Frame::identity().then(&self.links[0].frame);
+        for (i, joint) in self.joints.iter().enumerate() {
+            dist[i] = current;
+            // Joint::value, from the packed copy.
+            let q = || {
+                let q = joint.offset + joint.slope * readings[i];
+                match joint.coupling {
+                    Some((k, factor)) => q + factor * readings[k],
+                    None => q,
+                }
+            };
+            if joint.revolute {
+                let (s, c) = match reading_trig {
+                    Some(t) => {
+                        let ((so, co), (sb, cb)) = (self.offset_trig[i], t[i]);
+                        (so * cb + co * sb, co * cb - so * sb)
+                    }
+                    None => q().sin_cos(),
+                };
+                let r = &mut current.rotation;
+                for row in 0..3 {
+                    let (x, y) = (r[(row, 0)], r[(row, 1)]);
+                    r[(row, 0)] = x * c + y * s;
+                    r[(row, 1)] = y * c - x * s;
+                }
+            } else {
+                let z = current.rotation.column(2).into_owned();
+                current.translation += z * q();
+            }
+            after[i] = current;
+            current = current.then(&self.links[i + 1].frame);
+        }
+        ws.dist[n] = current;
     }
 
     /// The rigid chain at `readings`, with the deflections `delta` (see [`Workspace::deflections`])
@@ -666,6 +759,74 @@ impl<'r> Chain<'r> {
     /// also carries the motion of the target that the deflections' response to the parameter
     /// causes (see the `elastic` module), and the compliance and body columns are only that.
     pub fn jacobian_columns(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
+        assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
+        if plan.rigid && !(ws.elastic.is_some() && self.robot.elastic.is_some()) {
+            self.jacobian_rigid(ws, plan, out);
+        } else {
+            self.jacobian_general(ws, plan, out);
+        }
+    }
+
+    /// [`Chain::jacobian_columns`] of a rigid robot: every planned link and joint is upstream
+    /// of the target (a rigid plan holds no other), no deflection responds, and the compliance
+    /// and body columns are zero. The same columns as [`Chain::jacobian_general`], to the bit.
+    fn jacobian_rigid(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
+        let e = self.target_frame(ws, plan.target).translation;
+        let zero = Vector3::zeros();
+        for l in &plan.links {
+            let prox = &ws.after[l.frame];
+            let r = &prox.rotation;
+            for (k, col) in l.translation.iter().enumerate() {
+                if let Some(col) = *col {
+                    put(out, col, &r.column(k).into_owned(), &zero);
+                }
+            }
+            if l.rotation.iter().all(Option::is_none) {
+                continue;
+            }
+            let cache = match l.cache {
+                LinkOf::Link(i) => &self.links[i],
+                LinkOf::Site(s) => &self.sites[s],
+            };
+            let c = prox.translation + r * cache.frame.translation;
+            let lever = e - c;
+            for (k, axis_local) in [Vector3::z(), cache.beta_axis, cache.gamma_axis]
+                .iter()
+                .enumerate()
+            {
+                if let Some(col) = l.rotation[k] {
+                    let u = r * axis_local;
+                    put(out, col, &u.cross(&lever), &u);
+                }
+            }
+        }
+        for j in &plan.joints {
+            let (dp, w) = self.joint_motion(ws, j.joint, &e);
+            if let Some(col) = j.offset {
+                put(out, col, &dp, &w);
+            }
+            if let Some(col) = j.slope {
+                let v = ws.readings[j.joint];
+                put(out, col, &(dp * v), &(w * v));
+            }
+            if let Some((col, k)) = j.coupling {
+                let v = ws.readings[k];
+                put(out, col, &(dp * v), &(w * v));
+            }
+        }
+        for &(_, col) in &plan.elastic {
+            put(out, col, &zero, &zero);
+        }
+        for &(_, _, col) in &plan.bodies {
+            put(out, col, &zero, &zero);
+        }
+        for &col in &plan.zero {
+            put(out, col, &zero, &zero);
+        }
+    }
+
+    /// [`Chain::jacobian_columns`] for any robot, elastic or rigid.
+    fn jacobian_general(&self, ws: &Workspace, plan: &ColumnPlan, out: &mut [f64]) {
         assert!(out.len() >= 6 * plan.width, "Jacobian block too small");
         let elastic = ws.elastic.is_some() && self.robot.elastic.is_some();
         let e = self.target_frame(ws, plan.target).translation;
@@ -909,3 +1070,6 @@ pub(crate) fn so3_right_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
     };
     Matrix3::identity() + 0.5 * k + coef * k * k
 }
+
+#[cfg(test)]
+mod tests;
