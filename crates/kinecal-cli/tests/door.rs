@@ -100,6 +100,21 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
              --out poses.csv",
         ),
     );
+    // A camera on the IRB 120's flange and its views of a board (docs/cameras.md).
+    let cameras = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cameras");
+    std::fs::copy(cameras.join("eye_in_hand.toml"), d.join("cam.toml")).unwrap();
+    std::fs::copy(
+        cameras.join("eye_in_hand_truth.toml"),
+        d.join("cam_truth.toml"),
+    )
+    .unwrap();
+    ok(
+        d,
+        &argv(
+            "simulate --robot cam_truth.toml --camera wrist --board board --postures 22 --seed 5
+             --noise pixel=0.3 --out views.csv",
+        ),
+    );
     let cases = [
         case(
             "simulate",
@@ -250,6 +265,45 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
             false,
             &["a_iso.json"],
         ),
+        case(
+            "simulate-camera",
+            &argv(
+                "simulate --robot cam_truth.toml --camera wrist --board board --postures 6
+                 --seed 2 --noise pixel=0.5 --min-points 30 --out a_views.csv",
+            ),
+            false,
+            &["a_views.csv"],
+        ),
+        case(
+            "calibrate-camera",
+            &argv(
+                "calibrate --robot cam.toml --pixels views.csv --estimate extrinsics,boards
+                 --predict --out a_cam.toml --report a_cam.json -q",
+            ),
+            false,
+            &["a_cam.toml", "a_cam.json"],
+        ),
+        case(
+            "analyze-camera",
+            &argv(
+                "analyze --robot cam_truth.toml --pixels views.csv
+                 --estimate identifiable,cameras,boards --json",
+            ),
+            true,
+            &[],
+        ),
+        case(
+            "check-pixels",
+            &argv("check --robot cam_truth.toml --pixels views.csv --threshold 0.001 --pixel-threshold 1.5 --json"),
+            true,
+            &[],
+        ),
+        case(
+            "export-camera-info",
+            &argv("export camera-info --robot cam_truth.toml --camera wrist --out a_wrist.yaml"),
+            false,
+            &["a_wrist.yaml"],
+        ),
     ];
     // What three of the cases read.
     std::fs::create_dir(d.join("sub")).unwrap();
@@ -332,7 +386,7 @@ fn every_job_gives_the_same_outputs_by_flags_by_spec_and_in_a_batch() {
         &argv("batch jobs.toml --documents docs --quiet --jobs 2"),
     );
     assert_eq!(code, 0, "{table}\n{err}");
-    assert!(err.contains("jobs: 17 done, 0 failed"), "{err}");
+    assert!(err.contains("jobs: 22 done, 0 failed"), "{err}");
     for c in &cases {
         let here = if c.name == "import" {
             d.join("sub")
