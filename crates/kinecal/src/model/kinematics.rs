@@ -548,8 +548,9 @@ impl<'r> Chain<'r> {
         }
     }
 
-    /// Whether the rigid forward kinematics take the serial pass (no branch in the chain; see
-    /// [`Chain::forward_serial`]), else the general one that also serves trees and deflections.
+    /// Whether the rigid forward kinematics take the serial pass (no branch in the chain: each
+    /// link starts after the previous joint, so no frame is looked up per link), else the
+    /// general one that also serves trees and an elastic robot's deflections.
     pub fn is_serial(&self) -> bool {
         self.serial
     }
