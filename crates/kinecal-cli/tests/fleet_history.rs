@@ -344,3 +344,48 @@ fn a_version_1_history_prints_the_same_before_and_after_its_migration() {
     assert!(e.contains("schema version 2"), "{e}");
     check("after the migration");
 }
+
+/// A robot whose latest record lost its parameters (a damaged history) is UNKNOWN in the
+/// fleet's table, and the summary sentence counts it (issue 38: it counted the flagged,
+/// serviced, due, ok and single robots only, so its figures did not add up to the robots).
+#[test]
+fn the_fleet_summary_counts_the_unknown_robots() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = repo().join("examples/fleet/history.json");
+    ok(
+        dir.path(),
+        &[
+            "history",
+            "import",
+            dump.to_str().unwrap(),
+            "--db",
+            "h.sqlite",
+        ],
+    );
+    let db = rusqlite::Connection::open(dir.path().join("h.sqlite")).unwrap();
+    let latest: i64 = db
+        .query_row(
+            "SELECT MAX(id) FROM calibrations WHERE robot_id = 'A4-0102'",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    db.execute("DELETE FROM parameters WHERE calibration_id = ?1", [latest])
+        .unwrap();
+    drop(db);
+    let (code, out, err) = run(
+        dir.path(),
+        &argv("history fleet --db h.sqlite --now 2026-12-15"),
+    );
+    assert_eq!(code, 3, "{out}{err}");
+    let summary = out.lines().next().unwrap();
+    assert!(
+        summary.starts_with("4 robots: 1 flagged, 1 unknown, 0 serviced, 0 due, 2 ok, 0 with"),
+        "{out}"
+    );
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("A4-0102") && l.contains("UNKNOWN")),
+        "{out}"
+    );
+}

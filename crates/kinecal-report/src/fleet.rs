@@ -205,10 +205,12 @@ pub fn fleet_table(f: &FleetDocument) -> FleetTable {
         .map(|now| day_of(now.saturating_add((f.horizon_days * 86_400.0).round() as i64)))
         .unwrap_or_default();
     let summary = format!(
-        "{} robots: {} flagged, {} serviced, {} due, {} ok, {} with a single calibration (flag \
-         beyond {} sigma or a tolerance; due when a trend crosses a tolerance by {horizon_end})",
+        "{} robots: {} flagged, {} unknown, {} serviced, {} due, {} ok, {} with a single \
+         calibration (flag beyond {} sigma or a tolerance; due when a trend crosses a tolerance \
+         by {horizon_end})",
         f.robots.len(),
         f.count(Verdict::Flagged),
+        f.count(Verdict::Unknown),
         f.count(Verdict::Serviced),
         f.count(Verdict::Due),
         f.count(Verdict::Ok),
