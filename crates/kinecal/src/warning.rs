@@ -154,6 +154,36 @@ pub enum Warning {
         /// The length unit.
         unit: String,
     },
+    /// The fit from the given start ended with the positions unfit (beyond 2 % of the reach), so
+    /// it was tried again from other starts (the closed-form placement of the nominal robot and
+    /// of the local minimum, a few well-spread starts), the best by objective kept.
+    Restarted {
+        /// Every start tried, the given one first.
+        starts: Vec<StartTried>,
+        /// The start kept (one of `starts`).
+        kept: String,
+    },
+    /// The solver stopped where the scaled Jacobian determines fewer directions than at its start
+    /// ([`crate::solve::estimation::Termination::RankLost`]).
+    RankLost {
+        /// The rank at the start.
+        start_rank: usize,
+        /// The rank at the end.
+        rank: usize,
+    },
+    /// The postures fall into groups, each fitted far better by a rigid placement of its own
+    /// than by one for all: measurements from several placements of the instrument pooled in
+    /// one file without a `session` column.
+    PooledPlacements {
+        /// The groups, as line ranges of the measurement file (`lines 2-41`), in order.
+        blocks: Vec<String>,
+        /// The RMS position error with one placement for all, after the fit (file units).
+        rms_pooled: f64,
+        /// The RMS position error with a placement per group, the robot held (file units).
+        rms_per_block: f64,
+        /// The length unit.
+        unit: String,
+    },
     /// The calibrated robot does worse on the held-out data than the robot it started from:
     /// the mean error of `metric` grew from `before` to `after` (file units).
     WorseOnValidation {
@@ -299,7 +329,8 @@ impl Warning {
             | Warning::UrdfSlope { .. }
             | Warning::UrdfCoupled { .. }
             | Warning::UrdfToolAdded { .. }
-            | Warning::ModelErrorFloor { .. } => Severity::Note,
+            | Warning::ModelErrorFloor { .. }
+            | Warning::Restarted { .. } => Severity::Note,
             _ => Severity::Caution,
         }
     }
@@ -336,6 +367,19 @@ impl Warning {
             || self.fit_far_off()
             || matches!(self, Warning::WorseOnValidation { .. })
     }
+}
+
+/// One start of a fit that was tried again ([`Warning::Restarted`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct StartTried {
+    /// Which start (`given`, `nominal placed`, `local minimum placed`, `spread 1`, ...).
+    pub start: String,
+    /// The objective the fit from it reached.
+    pub objective: f64,
+    /// Its RMS position error (file units).
+    pub rms_position: f64,
+    /// Whether its solver converged.
+    pub converged: bool,
 }
 
 /// The change of a slope from the robot file's, as a fraction of it, beyond which
@@ -425,6 +469,45 @@ impl std::fmt::Display for Warning {
                  the readings and positions and the robot file, or start from values nearer the \
                  robot's (--initial)",
                 100.0 * rms / reach.max(f64::MIN_POSITIVE)
+            ),
+            Warning::Restarted { starts, kept } => write!(
+                f,
+                "the fit from the given start ended with the positions unfit, so it was tried from \
+                 {} starts in all (objective reached, RMS position error): {}; kept {kept}",
+                starts.len(),
+                starts
+                    .iter()
+                    .map(|s| format!(
+                        "{} {:.4e}, {:.6}{}",
+                        s.start,
+                        s.objective,
+                        s.rms_position,
+                        if s.converged { "" } else { " (not converged)" }
+                    ))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+            Warning::RankLost { start_rank, rank } => write!(
+                f,
+                "the solver stopped where the Jacobian determines {rank} directions, {start_rank} \
+                 at the start: the model lost a direction on the way (two joint axes lined up, a \
+                 frame folded onto another) and the result is not a minimum to trust; start from \
+                 values nearer the robot's (--initial) or estimate fewer parameters"
+            ),
+            Warning::PooledPlacements {
+                blocks,
+                rms_pooled,
+                rms_per_block,
+                unit,
+            } => write!(
+                f,
+                "the postures fall into {} groups, each fitted far better by a placement of the \
+                 measurement frame of its own ({rms_per_block:.6} {unit} RMS, the robot held) \
+                 than by one for all ({rms_pooled:.6} {unit} after the fit): {}; the instrument \
+                 was most likely moved between them. Add a `session` column naming each \
+                 placement so that each gets a frame of its own",
+                blocks.len(),
+                blocks.join(", ")
             ),
             Warning::WorseOnValidation {
                 metric,

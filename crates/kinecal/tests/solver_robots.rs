@@ -275,13 +275,18 @@ fn anchored_rows_from_a_far_start_reach_the_optimum() {
 }
 
 /// Random 6R robots started far away (every length 0.5 m and every angle 1 rad off, at
-/// random): no run ends "converged" above the objective a start at the truth reaches unless a
-/// warning says the result is most likely wrong (the positions unfit, beyond 2 % of the reach).
-/// Before, 8 of these 20 runs said "converged", exit 0, at 10^6-10^7 times the optimum.
+/// random): no run ends "converged" above the objective a start at the truth reaches. A fit
+/// whose positions end unfit (beyond 2 % of the reach) is tried again from the closed-form
+/// placement and a few well-spread starts, the best kept, and says what it tried; one that
+/// still ends unfit is "stalled at a local minimum", not converged, and warned about.
+/// Before the restarts, 8 of these 20 runs said "converged" at 10^6-10^7 times the optimum
+/// (flagged as unfit, but converged; 10 at the optimum, 2 at the cap); before that flag, they
+/// said so with exit 0.
 #[test]
 fn a_local_minimum_far_above_the_optimum_is_never_called_a_calibration() {
     use kinecal::workflow::{self, Request, Selection};
-    let (mut optimum, mut flagged, mut capped) = (0, 0, 0);
+    use kinecal::Warning;
+    let (mut optimum, mut restarted_to_optimum, mut said, mut above) = (0, 0, 0, 0);
     for seed in 0..20u64 {
         let nominal = simulate::random_robot(&[JointKind::Revolute; 6], 1000 + seed);
         let truth = simulate::perturb(
@@ -310,34 +315,73 @@ fn a_local_minimum_far_above_the_optimum_is_never_called_a_calibration() {
             req.selection = Selection::parse("", None, &nominal).unwrap();
             workflow::run(&req, &mut ())
         };
-        let best = run(&truth).unwrap().calibration.objective_after;
+        let at_truth = run(&truth).unwrap();
+        assert!(
+            !at_truth
+                .warnings
+                .iter()
+                .any(|w| matches!(w, Warning::Restarted { .. })),
+            "seed {seed}: a fit at the truth restarted"
+        );
+        let best = at_truth.calibration.objective_after;
         let out = run(&start).unwrap();
         let c = &out.calibration;
         let unfit = out
             .warnings
             .iter()
-            .any(|w| matches!(w, kinecal::Warning::PositionsUnfit { .. }));
-        if c.converged() && c.objective_after <= best * (1.0 + 1e-6) {
+            .any(|w| matches!(w, Warning::PositionsUnfit { .. }));
+        let restarted = out.warnings.iter().find_map(|w| match w {
+            Warning::Restarted { starts, kept } => Some((starts, kept)),
+            _ => None,
+        });
+        if let Some((starts, kept)) = restarted {
+            // Every start tried is listed, the given one first, the kept one the lowest.
+            assert_eq!(starts[0].start, "given", "seed {seed}");
+            assert!(starts.len() >= 9, "seed {seed}: {starts:?}");
+            let lowest = starts
+                .iter()
+                .map(|s| s.objective)
+                .fold(f64::INFINITY, f64::min);
+            let kept = starts
+                .iter()
+                .find(|s| &s.start == kept)
+                .expect("kept is listed");
+            assert_eq!(kept.objective.to_bits(), lowest.to_bits(), "seed {seed}");
+            assert!(
+                (c.total_objective() - lowest).abs() <= 1e-9 * lowest,
+                "seed {seed}"
+            );
+        }
+        let at_optimum = c.objective_after <= best * (1.0 + 1e-6);
+        if c.converged() && at_optimum {
             optimum += 1;
+            restarted_to_optimum += usize::from(restarted.is_some());
             assert!(
                 !unfit,
                 "seed {seed}: at the optimum, yet {:?}",
                 out.warnings
             );
         } else if !c.converged() {
-            capped += 1;
+            said += 1;
+            if c.termination == kinecal::solve::estimation::Termination::LocalMinimum {
+                assert!(
+                    unfit && restarted.is_some() && out.warnings.iter().any(|w| w.implausible()),
+                    "seed {seed}: {:?}",
+                    out.warnings
+                );
+            }
         } else {
-            flagged += 1;
-            assert!(
-                unfit && out.warnings.iter().any(|w| w.implausible()),
-                "seed {seed}: converged at {} where {best} is reachable, and nothing says so",
-                c.objective_after
+            above += 1;
+            eprintln!(
+                "seed {seed}: converged ({:?}) at {} where {best} is reachable",
+                c.termination, c.objective_after
             );
         }
     }
     eprintln!(
-        "far starts: {optimum} converged at the optimum, {capped} not converged (said so), \
-         {flagged} at a local minimum flagged as unfit"
+        "far starts: {optimum} converged at the optimum ({restarted_to_optimum} of them after a \
+         restart), {said} not converged and said so, {above} \"converged\" above it"
     );
-    assert!(optimum >= 8, "{optimum}");
+    assert_eq!(above, 0, "runs called converged above the optimum");
+    assert!(optimum >= 12, "{optimum}");
 }

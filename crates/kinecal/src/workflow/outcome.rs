@@ -287,12 +287,8 @@ pub(super) fn finish(
             angle_deg: m.angle.to_degrees(),
         });
     }
-    let reach = nominal.reach();
-    if cal.accuracy_after.positions > 0
-        && reach > 0.0
-        && cal.accuracy_after.rms_position > crate::observe::sanity::POSITION_LIMIT * reach
-    {
-        let u = nominal.units;
+    if super::restart::positions_unfit(&nominal, &cal) {
+        let (u, reach) = (nominal.units, nominal.reach());
         warnings.push(Warning::PositionsUnfit {
             rms: u.from_si(Quantity::Length, cal.accuracy_after.rms_position),
             reach: u.from_si(Quantity::Length, reach),
@@ -365,6 +361,10 @@ pub(super) fn finish(
         }),
         estimation::Termination::Stalled => warnings.push(Warning::Stalled {
             method: cal.options.solver.method.as_str().to_string(),
+        }),
+        estimation::Termination::RankLost => warnings.push(Warning::RankLost {
+            start_rank: cal.stationarity.start_rank,
+            rank: cal.stationarity.rank,
         }),
         _ => {}
     }

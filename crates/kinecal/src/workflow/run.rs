@@ -214,6 +214,17 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     };
     let cal = fitted.fit(&opts, lin.as_ref(), progress)?;
     let (cal, rechosen) = fitted.rechoose_at_residual_noise(cal, progress)?;
+    // A fit that ended with the positions unfit: tried again from other starts (nothing runs
+    // otherwise).
+    let chosen = cal.options.clone();
+    let (cal, restarted) = super::restart::restart_if_unfit(
+        &req.robot,
+        &start,
+        &data,
+        cal,
+        &mut |s, progress| fit(req, s, &data, &chosen, None, progress),
+        progress,
+    )?;
     // Pruning refits with the first analysis's linearisation, as the first fit did.
     let (cal, pruning) = match req.prune {
         Some(k) => {
@@ -226,6 +237,7 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     progress.phase(Phase::Uncertainty);
     let mut warnings = data_warns;
     warnings.extend(rechosen);
+    warnings.extend(restarted);
     if !unseen.is_empty() {
         warnings.insert(
             0,

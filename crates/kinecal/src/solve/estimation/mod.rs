@@ -381,6 +381,10 @@ pub(crate) fn calibrate_from(
     };
     sol.objective_before = start_objective;
     sol.start_r = start_r.clone();
+    // The rank at the start of the estimation: that of the first solve's start.
+    let start_rank = uniform
+        .as_ref()
+        .map_or(sol.stationarity.start_rank, |u| u.stationarity.start_rank);
     let unfelt: Vec<ParamId> = sol.unfelt.iter().map(|&j| opts.estimate[j]).collect();
     let mut floor_scale = vec![1.0; problem.data_rows()];
     let mut model_error = None;
@@ -545,6 +549,12 @@ pub(crate) fn calibrate_from(
             sol.objective_before = before;
             sol.unfelt = unfelt;
         }
+    }
+    // A stationary point where the model determines fewer directions than at the start (two
+    // joint axes lined up on the way) is not called converged.
+    sol.stationarity.start_rank = start_rank;
+    if sol.termination.converged() && sol.stationarity.rank < start_rank {
+        sol.termination = Termination::RankLost;
     }
     let mut calibrated = problem.robot_at(&sol.x);
     for &id in &opts.estimate {

@@ -39,8 +39,12 @@
 //! The scaled gradient (the largest cosine between the residual and a column of `J`, MINPACK's
 //! `gnorm`) is reported with them. A method whose steps no longer lower the objective at a
 //! point that passes none of these tests has *stalled* ([`Termination::Stalled`]), and the cap
-//! on iterations ends a run as not converged. So a run never reports convergence where the
-//! local model still promises a reduction the objective could show.
+//! on iterations ends a run as not converged. The rank of the scaled Jacobian at the start and
+//! at the end are both reported ([`Stationarity`]); a calibration that ends with fewer directions
+//! determined than it started with has lost rank ([`Termination::RankLost`], decided by
+//! [`super::calibrate`]: a test problem's genuine minimum may have a singular Jacobian, as
+//! Freudenstein and Roth's local one does, a robot model's does not). So a run never reports
+//! convergence where the local model still promises a reduction the objective could show.
 //!
 //! **The methods.**
 //! - `lm`: Levenberg-Marquardt as a trust region (Moré 1978, as in MINPACK's `lmder`): the step
@@ -222,6 +226,16 @@ pub enum Termination {
     Stalled,
     /// Not converged: the iteration cap was reached first.
     MaxIterations,
+    /// Not converged: a calibration's stationarity test passed, but with the scaled Jacobian's
+    /// rank (at `rcond`) below the start's: the model lost a direction on the way (two joint
+    /// axes lined up, a frame folded onto another), and the tests see only the directions left.
+    /// Decided by [`super::calibrate`], not by [`solve`].
+    RankLost,
+    /// Not converged: a stationary point whose measured positions stay beyond 2 % of the
+    /// robot's reach from every start tried (the given one, the closed-form placement and a
+    /// short multi-start; see [`crate::workflow`]): a local minimum far above any calibration
+    /// of this robot, or data that are not this robot's.
+    LocalMinimum,
     /// Not solved here: a calibration given from elsewhere (a robot file or a report) was
     /// assessed on the data ([`crate::workflow::assess`]).
     Given,
@@ -229,19 +243,28 @@ pub enum Termination {
 
 impl Termination {
     /// Every way a solve ends.
-    pub const ALL: [Termination; 7] = [
+    pub const ALL: [Termination; 9] = [
         Termination::ZeroObjective,
         Termination::SmallPredictedReduction,
         Termination::SmallStep,
         Termination::RoundingLimited,
         Termination::Stalled,
         Termination::MaxIterations,
+        Termination::RankLost,
+        Termination::LocalMinimum,
         Termination::Given,
     ];
 
-    /// True when the solver stopped at a stationary point (not at the cap, not stalled).
+    /// True when the solver stopped at a stationary point (not at the cap, not stalled, not
+    /// where the Jacobian lost rank, not at a local minimum that fits no start).
     pub fn converged(self) -> bool {
-        !matches!(self, Termination::MaxIterations | Termination::Stalled)
+        !matches!(
+            self,
+            Termination::MaxIterations
+                | Termination::Stalled
+                | Termination::RankLost
+                | Termination::LocalMinimum
+        )
     }
 
     /// A sentence for reports.
@@ -255,6 +278,14 @@ impl Termination {
                 "stalled: no step lowers the objective, yet the model predicts a reduction"
             }
             Termination::MaxIterations => "iteration cap reached before convergence",
+            Termination::RankLost => {
+                "stalled: the Jacobian lost rank on the way (fewer directions determined than at \
+                 the start)"
+            }
+            Termination::LocalMinimum => {
+                "stalled at a local minimum: the positions stay unfit (beyond 2 % of the reach) \
+                 from every start tried"
+            }
             Termination::Given => "a given calibration, assessed (not solved here)",
         }
     }
@@ -276,6 +307,10 @@ pub struct Stationarity {
     pub gradient: f64,
     /// The numerical rank of the scaled Jacobian (at `rcond`) the Gauss-Newton step used.
     pub rank: usize,
+    /// That rank at the start (of the solve; of the whole estimation in a
+    /// [`super::Calibration`]): a calibration whose rank falls below it ends as
+    /// [`Termination::RankLost`].
+    pub start_rank: usize,
 }
 
 /// One line of the per-iteration log.
@@ -992,6 +1027,7 @@ fn certify(
             step,
             gradient,
             rank,
+            start_rank: rank,
         },
         gauss_newton: p,
         well_conditioned,
@@ -1040,6 +1076,7 @@ pub(crate) fn drive(
     let mut norms = vec![1.0; n];
     let mut dead = vec![false; n];
     let mut stationarity;
+    let mut start_rank = None;
     let mut decided = false;
     loop {
         let f = lin.f;
@@ -1064,6 +1101,8 @@ pub(crate) fn drive(
         }
         let cert = certify(&lin, &x, &norms, &dead, opts.rcond);
         stationarity = cert.stationarity;
+        let start_rank = *start_rank.get_or_insert(stationarity.rank);
+        stationarity.start_rank = start_rank;
         if !decided {
             ev.use_gram = cert.well_conditioned;
             decided = true;
