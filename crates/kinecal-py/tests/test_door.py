@@ -62,6 +62,12 @@ def lab(cli: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
     run("iso9283", "simulate", "--robot", "irb.toml", "--poses", "poses.csv", "--cycles", "3",
         "--noise", "length=0.01", "--out", "log.csv")
     run("export", "dh", "--robot", "irb.toml", "--convention", "modified", "--out", "dh.csv")
+    # A camera on the IRB 120's flange and its views of a board (docs/cameras.md).
+    cameras = Path(ROOT) / "examples" / "cameras"
+    (d / "cam.toml").write_text((cameras / "eye_in_hand.toml").read_text())
+    (d / "cam_truth.toml").write_text((cameras / "eye_in_hand_truth.toml").read_text())
+    run("simulate", "--robot", "cam_truth.toml", "--camera", "wrist", "--board", "board",
+        "--postures", "22", "--seed", "5", "--noise", "pixel=0.3", "--out", "views.csv")
     # Roles of an ISO 9283 test in the GE A4's data: postures 1-27 as 3 cycles of 9 poses.
     roles = ["posture,test,pose,cycle"] + [
         f"{k + 1},cube 1,{'P1' if k % 9 == 0 else f'C{k % 9}'},{k // 9 + 1}" for k in range(27)
@@ -109,6 +115,18 @@ CASES: list[tuple[str, list[str], bool]] = [
                      "roles.csv", "--out", "a_iso_log.csv"], False),
     ("iso9283-evaluate", ["iso9283", "evaluate", "--data", "log.csv", "--json", "a_iso.json"],
      False),
+    ("simulate-camera", ["simulate", "--robot", "cam_truth.toml", "--camera", "wrist",
+                         "--board", "board", "--postures", "6", "--seed", "2", "--noise",
+                         "pixel=0.5", "--min-points", "30", "--out", "a_views.csv"], False),
+    ("calibrate-camera", ["calibrate", "--robot", "cam.toml", "--pixels", "views.csv",
+                          "--estimate", "extrinsics,boards", "--predict", "--out", "a_cam.toml",
+                          "--report", "a_cam.json", "-q"], False),
+    ("analyze-camera", ["analyze", "--robot", "cam_truth.toml", "--pixels", "views.csv",
+                        "--estimate", "identifiable,cameras,boards", "--json"], True),
+    ("check-pixels", ["check", "--robot", "cam_truth.toml", "--pixels", "views.csv",
+                      "--threshold", "0.001", "--pixel-threshold", "1.5", "--json"], True),
+    ("export-camera-info", ["export", "camera-info", "--robot", "cam_truth.toml", "--camera",
+                            "wrist", "--out", "a_wrist.yaml"], False),
 ]
 
 
@@ -144,6 +162,9 @@ def test_run_gives_the_command_line_s_outputs_and_document(
         assert normal(json.dumps(document)) == normal(flags.stdout), f"{name}: the document"
     if name == "calibrate":
         assert normal(json.dumps(document)) == normal((lab / "a_report.json").read_text())
+    if name == "calibrate-camera":
+        assert normal(json.dumps(document)) == normal((lab / "a_cam.json").read_text())
+        assert document["prediction"]["position"]["points"] > 0
 
 
 def test_named_functions_are_spellings_of_the_same_specs(lab: Path) -> None:

@@ -562,6 +562,37 @@ fn a_camera_calibration_predicts_its_accuracy_from_pixels() {
     );
 }
 
+/// `--perturb-std` moves the cameras' and boards' poses by its lengths and angles and keeps
+/// their lenses: a spread in metres or radians says nothing of pixels or distortion.
+#[test]
+fn a_perturbation_moves_poses_and_keeps_lenses() {
+    let truth = truth(true);
+    let bent = simulate::perturb(
+        &truth,
+        simulate::PerturbStd {
+            length: 1e-3,
+            angle: 1e-3,
+            slope_fraction: 0.0,
+        },
+        3,
+    );
+    let (a, b) = (&truth.cameras[0], &bent.cameras[0]);
+    assert_eq!(
+        (a.fx, a.fy, a.cx, a.cy, a.distortion),
+        (b.fx, b.fy, b.cx, b.cy, b.distortion)
+    );
+    let (t, r) = pose_error(&a.pose, &b.pose);
+    assert!(
+        t > 1e-5 && r > 1e-5,
+        "the camera's pose moved {t} m, {r} rad"
+    );
+    let (t, r) = pose_error(&truth.boards[0].pose, &bent.boards[0].pose);
+    assert!(
+        t > 1e-5 && r > 1e-5,
+        "the board's pose moved {t} m, {r} rad"
+    );
+}
+
 /// A prediction asked for and impossible (12 views: fewer postures than a cross-validation
 /// needs) is said, with the reason, where it used to be dropped without a word.
 #[test]

@@ -70,8 +70,9 @@ pub struct PerturbStd {
 }
 
 /// Adds independent Gaussian perturbations to every geometric parameter of `robot` (coupling
-/// factors like slopes, by a fraction of their magnitude or of 1, whichever is larger); the
-/// mass model (compliances, masses) is kept.
+/// factors like slopes, by a fraction of their magnitude or of 1, whichever is larger; the
+/// cameras' and boards' poses as lengths and angles); the mass model (compliances, masses) and
+/// the cameras' lenses (pixels and ratios, which no length or angle spread describes) are kept.
 pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
     let mut r = rng(seed, 2);
     let mut out = robot.clone();
@@ -86,7 +87,8 @@ pub fn perturb(robot: &Robot, std: PerturbStd, seed: u64) -> Robot {
                 _,
             ) => 0.0,
             (_, Quantity::Length) => std.length,
-            (_, _) => std.angle,
+            (_, Quantity::Angle) => std.angle,
+            (_, _) => 0.0,
         };
         let z: f64 = unit.sample(&mut r);
         out.set(id, v + s * z);
