@@ -36,6 +36,55 @@ pub fn parse_param_list(list: &str, robot: &Robot) -> Result<Vec<ParamId>> {
     Ok(out)
 }
 
+/// The words a parameter list takes for groups of parameters (`identifiable` is the selection's,
+/// [`crate::workflow::Selection::parse`]).
+const GROUP_WORDS: [&str; 16] = [
+    "identifiable",
+    "all",
+    "links",
+    "offsets",
+    "slopes",
+    "couplings",
+    "sites",
+    "planes",
+    "sessions",
+    "compliance",
+    "lateral",
+    "masses",
+    "cameras",
+    "intrinsics",
+    "extrinsics",
+    "boards",
+];
+
+/// The group word `token` most likely mistypes: the nearest of [`GROUP_WORDS`] within two
+/// edits (insertions, deletions, substitutions; case ignored), when there is one.
+fn did_you_mean(token: &str) -> Option<&'static str> {
+    let token = token.to_ascii_lowercase();
+    let distance = |a: &str, b: &str| -> usize {
+        let b: Vec<char> = b.chars().collect();
+        let mut row: Vec<usize> = (0..=b.len()).collect();
+        for (i, ca) in a.chars().enumerate() {
+            let mut diagonal = row[0];
+            row[0] = i + 1;
+            for (j, &cb) in b.iter().enumerate() {
+                let above = row[j + 1];
+                row[j + 1] = (diagonal + usize::from(ca != cb))
+                    .min(above + 1)
+                    .min(row[j] + 1);
+                diagonal = above;
+            }
+        }
+        row[b.len()]
+    };
+    GROUP_WORDS
+        .iter()
+        .map(|w| (distance(&token, w), *w))
+        .filter(|&(d, _)| d > 0 && d <= 2)
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, w)| w)
+}
+
 /// Parses one parameter reference (an id or a name) to exactly one parameter.
 pub(crate) fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
     let ids = parse_token(token, robot).map_err(|message| Error::ParamList {
@@ -151,12 +200,15 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
         format!("`{token}`: {what} `{i}` does not exist (this robot has {what}s 1..{max})")
     };
     let unknown = || {
+        let hint = did_you_mean(token)
+            .map(|w| format!(": did you mean `{w}`?"))
+            .unwrap_or_default();
         format!(
-            "unknown parameter `{token}` (expected an id like p3, a range like p1-p30, a name like \
-             link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
-             plane.NAME.offset, session.NAME.x or joint2.compliance, or one of all, links, offsets, \
-             slopes, couplings, sites, planes, sessions, compliance, lateral, masses, cameras, \
-             intrinsics, extrinsics, boards, or a camera's or board's NAME.x, NAME.fx)"
+            "unknown parameter `{token}`{hint} (expected an id like p3, a range like p1-p30, a \
+             name like link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
+             plane.NAME.offset, session.NAME.x or joint2.compliance, or one of {}, or a \
+             camera's or board's NAME.x, NAME.fx)",
+            GROUP_WORDS.join(", ")
         )
     };
     if let Some(rest) = token.strip_prefix("site.") {

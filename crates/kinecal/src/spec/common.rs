@@ -435,5 +435,19 @@ pub(crate) fn selection(
              (for example `identifiable`)",
         ));
     }
-    crate::workflow::Selection::parse(estimate.unwrap_or(default_list), fix, robot)
+    // A list that names nothing is refused as the setting it came from, so that each front end
+    // names its flag or its key (`--fix: ...`, `job.toml: estimate: ...`).
+    crate::workflow::Selection::parse(estimate.unwrap_or(default_list), fix, robot).map_err(|e| {
+        match e {
+            Error::ParamList { list, message } => invalid(
+                if fix.is_some_and(|f| f == list) {
+                    Setting::Fix
+                } else {
+                    Setting::Estimate
+                },
+                format!("parameter list `{list}`: {message}"),
+            ),
+            e => e,
+        }
+    })
 }
