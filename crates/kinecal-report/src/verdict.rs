@@ -219,7 +219,24 @@ fn figures(
         figures.push((
             format!("identification, mean {} error", mb.metric),
             if ma.metric == "pixel" {
-                format!("{} px (from {})", sig(ma.mean, 4), sig(mb.mean, 4))
+                // From the solver's start when it is not the robot file's: cameras and boards
+                // placed in closed form from poses at zero, where the file's put the points
+                // behind the camera (1e17 px).
+                match rep
+                    .identification
+                    .start
+                    .as_ref()
+                    .and_then(|s| s.other.iter().find(|m| m.metric == "pixel"))
+                {
+                    Some(ms) => format!(
+                        "{} px (from {} px at the solver's start, {} px with the robot file's \
+                         poses)",
+                        sig(ma.mean, 4),
+                        sig(ms.mean, 4),
+                        sig(mb.mean, 4)
+                    ),
+                    None => format!("{} px (from {})", sig(ma.mean, 4), sig(mb.mean, 4)),
+                }
             } else {
                 format!("{} {l} (from {})", len(ma.mean), len(mb.mean))
             },
