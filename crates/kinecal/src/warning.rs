@@ -177,7 +177,7 @@ pub enum Warning {
     PooledPlacements {
         /// The groups, as line ranges of the measurement file (`lines 2-41`), in order.
         blocks: Vec<String>,
-        /// The RMS position error with one placement for all, after the fit (file units).
+        /// The RMS position error with one placement for all, the robot held (file units).
         rms_pooled: f64,
         /// The RMS position error with a placement per group, the robot held (file units).
         rms_per_block: f64,
@@ -365,7 +365,10 @@ impl Warning {
     pub fn implausible(&self) -> bool {
         self.names_units()
             || self.fit_far_off()
-            || matches!(self, Warning::WorseOnValidation { .. })
+            || matches!(
+                self,
+                Warning::WorseOnValidation { .. } | Warning::PooledPlacements { .. }
+            )
     }
 }
 
@@ -503,9 +506,9 @@ impl std::fmt::Display for Warning {
                 f,
                 "the postures fall into {} groups, each fitted far better by a placement of the \
                  measurement frame of its own ({rms_per_block:.6} {unit} RMS, the robot held) \
-                 than by one for all ({rms_pooled:.6} {unit} after the fit): {}; the instrument \
-                 was most likely moved between them. Add a `session` column naming each \
-                 placement so that each gets a frame of its own",
+                 than by one for all ({rms_pooled:.6} {unit}): {}; the instrument was most \
+                 likely moved between them (not a unit mix-up). Add a `session` column naming \
+                 each placement, so that each gets a frame of its own",
                 blocks.len(),
                 blocks.join(", ")
             ),

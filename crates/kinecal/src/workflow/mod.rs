@@ -27,6 +27,7 @@ mod cross_validation;
 mod min_change;
 mod model_choice;
 mod outcome;
+mod placements;
 mod request;
 mod restart;
 mod run;

@@ -521,5 +521,12 @@ pub(super) fn data_warnings(
     data: &Dataset,
     predicted: &[[nalgebra::Vector3<f64>; 2]],
 ) -> Vec<Warning> {
-    crate::observe::sanity::check_data_with(robot, data, predicted)
+    let mut warnings = crate::observe::sanity::check_data_with(robot, data, predicted);
+    // Placements pooled without sessions spread unlike the robot too: said as what they are,
+    // not as a unit mix-up.
+    if let Some(pooled) = super::placements::pooled_placements(robot, data) {
+        warnings.retain(|w| !matches!(w, Warning::ScaleMismatch { .. }));
+        warnings.push(pooled);
+    }
+    warnings
 }
