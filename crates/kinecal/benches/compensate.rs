@@ -1,13 +1,15 @@
-//! Compensation throughput, one core: programs of a random 6-joint arm compensated for its
-//! perturbed twin (1 mm, 0.3 deg), full poses; the poses those programs mean as Cartesian
-//! targets seeded by the program's readings (what `fk` then `compensate` do); and Cartesian
-//! targets without seeds (positions and poses the twin reaches inside its joint ranges),
-//! searched for a usable solution.
+//! Compensation throughput, one core: programs of an arm compensated for its perturbed twin
+//! (1 mm, 0.3 deg), full poses; the poses those programs mean as Cartesian targets seeded by
+//! the program's readings (what `fk` then `compensate` do); and Cartesian targets without
+//! seeds (positions and poses the twin reaches inside its joint ranges), searched for a usable
+//! solution. Three arms: a random 6-joint arm (no closed form: the search of the table of
+//! starts; its cases keep their names), a UR10 (`ur10/`, the UR-type closed form) and the ABB
+//! IRB 120 of `examples/robots` (`irb120/`, a spherical wrist).
 //!
 //! Run: `cargo bench -p kinecal --bench compensate`. With `KINECAL_BENCH_CPU=1` it prints
 //! instead, for each case, rows per CPU second of this thread (median of 5 rounds, the cases
 //! alternating) and how many rows were flagged, and why; `KINECAL_BENCH_CPU=seeded` runs
-//! only the cases whose names contain `seeded`.
+//! only the cases whose names contain `seeded` (`ur10/` only the UR10's).
 
 use std::hint::black_box;
 
@@ -16,9 +18,42 @@ use kinecal::apps::compensate::{Compensator, Goal, Options, Solved, TargetSearch
 use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::{Chain, JointKind, Robot, Target, Workspace};
 
-/// The nominal arm (ranges set) and its calibrated twin.
-fn robots() -> (Robot, Robot) {
-    let mut nominal = simulate::random_robot(&[JointKind::Revolute; 6], 21);
+/// The arms: (prefix of the case names, nominal with ranges set, calibrated twin).
+fn robots() -> Vec<(&'static str, Robot, Robot)> {
+    use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
+    use std::f64::consts::FRAC_PI_2;
+    let row = |a: f64, alpha: f64, d: f64| DhRow::new(JointKind::Revolute, a, alpha, d, 0.0);
+    // The UR10's data-sheet DH (the nominal of ../shared/data/ipa_ur10_tracker).
+    let ur10 = robot_from_dh(
+        "UR10",
+        kinecal::units::Units::default(),
+        &[
+            row(0.0, FRAC_PI_2, 0.1273),
+            row(-0.612, 0.0, 0.0),
+            row(-0.5723, 0.0, 0.0),
+            row(0.0, FRAC_PI_2, 0.163941),
+            row(0.0, -FRAC_PI_2, 0.1157),
+            row(0.0, 0.0, 0.0922),
+        ],
+        Convention::Standard,
+    );
+    let irb120 = kinecal::model::robot_file::parse_robot_toml(
+        include_str!("../../../examples/robots/abb_irb120.toml"),
+        "abb_irb120.toml",
+    )
+    .unwrap();
+    vec![
+        ("", twin(simulate::random_robot(&[JointKind::Revolute; 6], 21))),
+        ("ur10/", twin(ur10)),
+        ("irb120/", twin(irb120)),
+    ]
+    .into_iter()
+    .map(|(p, (n, c))| (p, n, c))
+    .collect()
+}
+
+/// The nominal arm with ranges set (the file's, else +-150 deg) and its calibrated twin.
+fn twin(mut nominal: Robot) -> (Robot, Robot) {
     for j in 0..6 {
         nominal.joints[j].range = Some(simulate::reading_range(&nominal, j));
     }
@@ -32,9 +67,9 @@ fn robots() -> (Robot, Robot) {
 }
 
 /// The four workloads over 1,000 postures: (name, goals, seeds); no goals for programs.
-type Case = (&'static str, Vec<Goal>, Option<Vec<Vec<f64>>>);
+type Case = (String, Vec<Goal>, Option<Vec<Vec<f64>>>);
 
-fn cases(nominal: &Robot, calibrated: &Robot) -> (Vec<Vec<f64>>, Vec<Case>) {
+fn cases(prefix: &str, nominal: &Robot, calibrated: &Robot) -> (Vec<Vec<f64>>, Vec<Case>) {
     let postures: Vec<Vec<f64>> = simulate::sample_postures(nominal, 1000, 5)
         .into_iter()
         .map(|p| p.readings)
@@ -55,14 +90,14 @@ fn cases(nominal: &Robot, calibrated: &Robot) -> (Vec<Vec<f64>>, Vec<Case>) {
     // Unseeded: goals the calibrated twin reaches at postures inside its ranges.
     let reached = frames(calibrated);
     let cases = vec![
-        ("1000_programs_full_pose", Vec::new(), None),
+        (format!("{prefix}1000_programs_full_pose"), Vec::new(), None),
         (
-            "1000_targets_pose_seeded",
+            format!("{prefix}1000_targets_pose_seeded"),
             meant.iter().map(|f| Goal::Pose(*f)).collect(),
             Some(postures.clone()),
         ),
         (
-            "1000_targets_position_unseeded",
+            format!("{prefix}1000_targets_position_unseeded"),
             reached
                 .iter()
                 .map(|f| Goal::Position(f.translation))
@@ -70,7 +105,7 @@ fn cases(nominal: &Robot, calibrated: &Robot) -> (Vec<Vec<f64>>, Vec<Case>) {
             None,
         ),
         (
-            "1000_targets_pose_unseeded",
+            format!("{prefix}1000_targets_pose_unseeded"),
             reached.iter().map(|f| Goal::Pose(*f)).collect(),
             None,
         ),
@@ -101,28 +136,35 @@ fn run(
 }
 
 fn compensation(c: &mut Criterion) {
-    let (nominal, calibrated) = robots();
-    let (postures, cases) = cases(&nominal, &calibrated);
-    let mut comp = Compensator::new(&calibrated, &nominal, Options::default()).unwrap();
-    let mut out = vec![0.0; 6];
-    if let Ok(only) = std::env::var("KINECAL_BENCH_CPU") {
-        let cases: Vec<Case> = cases
-            .into_iter()
-            .filter(|c| only == "1" || c.0.contains(only.as_str()))
-            .collect();
-        cpu_figures(&calibrated, &nominal, &mut comp, &postures, &cases);
-        return;
+    let cpu = std::env::var("KINECAL_BENCH_CPU").ok();
+    if cpu.is_some() {
+        println!("case                                     rows/CPU s  flagged (unreachable, range, singular, branch, configuration)");
     }
-    let mut group = c.benchmark_group("compensate_6R");
-    group.throughput(Throughput::Elements(postures.len() as u64));
-    for case in &cases {
-        // A fresh search per case: no case starts from another's last solution.
-        let mut search = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
-        group.bench_function(case.0, |b| {
-            b.iter(|| run(&mut comp, &mut search, &postures, case, &mut out, |_| {}))
-        });
+    for (prefix, nominal, calibrated) in robots() {
+        let (postures, cases) = cases(prefix, &nominal, &calibrated);
+        let mut comp = Compensator::new(&calibrated, &nominal, Options::default()).unwrap();
+        let mut out = vec![0.0; 6];
+        if let Some(only) = &cpu {
+            let cases: Vec<Case> = cases
+                .into_iter()
+                .filter(|c| only == "1" || c.0.contains(only.as_str()))
+                .collect();
+            if !cases.is_empty() {
+                cpu_figures(&calibrated, &nominal, &mut comp, &postures, &cases);
+            }
+            continue;
+        }
+        let mut group = c.benchmark_group("compensate_6R");
+        group.throughput(Throughput::Elements(postures.len() as u64));
+        for case in &cases {
+            // A fresh search per case: no case starts from another's last solution.
+            let mut search = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
+            group.bench_function(&case.0, |b| {
+                b.iter(|| run(&mut comp, &mut search, &postures, case, &mut out, |_| {}))
+            });
+        }
+        group.finish();
     }
-    group.finish();
 }
 
 /// CPU time of this thread (ns): the first field of `/proc/thread-self/schedstat`.
@@ -168,13 +210,12 @@ fn cpu_figures(
             flagged[k] = counts;
         }
     }
-    println!("case                              rows/CPU s  flagged (unreachable, range, singular, branch, configuration)");
     for (k, case) in cases.iter().enumerate() {
         let r = &mut rates[k];
         r.sort_by(f64::total_cmp);
         let f = flagged[k];
         println!(
-            "{:<32} {:>11.0}  {} ({}, {}, {}, {}, {})",
+            "{:<40} {:>11.0}  {} ({}, {}, {}, {}, {})",
             case.0,
             r[r.len() / 2],
             f[0],

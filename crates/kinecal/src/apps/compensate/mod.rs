@@ -24,6 +24,7 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
+mod analytic;
 mod configuration;
 mod search;
 

@@ -10,6 +10,18 @@
 //! 1. From the *reference*: the seed readings given with the target, else the previous
 //!    target's solution (when it lies nearer the goal than any start below: a path). With a
 //!    seed this is the minimum change from the seed (for a redundant arm too).
+//!
+//!    For a pose goal on a robot whose nominal model has a closed form (a spherical wrist or
+//!    a UR-type arm: see the `analytic` module), its eight branches are the next starts (with
+//!    a seed, when the seed's own solution was reached away from a singularity; without one,
+//!    before the previous solution, which is tried only when the branches do not settle the
+//!    goal), refined on the calibrated model, in the order: branches the nominal robot
+//!    reaches, predicted inside the ranges, in the configuration, not turned from the seed,
+//!    then nearest the reference. The first usable one is taken. When none is, the best is
+//!    kept without looking further if every branch the nominal robot reaches refined to a
+//!    solution of its own and the best is flagged only for a range or a change from the
+//!    seed; otherwise (near a singularity the calibrated robot may have solutions the nominal
+//!    one has not) the table below is searched as for any robot.
 //! 2. From the sampled postures whose target frames lie nearest the goal (a table of
 //!    [`TargetSearch::STARTS`] postures drawn within the joint ranges, built once per target
 //!    frame; nearness is the position distance plus the reach times the attitude angle),
@@ -39,6 +51,7 @@
 //! `unreachable` means that no start reached the goal, and `outside range` that every solution
 //! found needs a joint beyond its range.
 
+use super::analytic::Analytic;
 use super::configuration::Classifier;
 use super::{Compensator, Configuration, Flags, Goal, Options, Solved};
 use crate::error::Result;
@@ -49,6 +62,12 @@ use crate::model::robot::{JointKind, Robot};
 pub struct TargetSearch<'r> {
     comp: Compensator<'r>,
     robot: &'r Robot,
+    nominal: &'r Robot,
+    /// Per target frame: the nominal robot's closed form, when it has one.
+    closed_forms: Vec<(Target, Option<Analytic>)>,
+    /// Whether pose goals start from the closed form's branches (tests turn it off to compare
+    /// with the search alone).
+    use_closed_form: bool,
     options: Options,
     /// Reading ranges starts are drawn from (the file's, else [`crate::apps::simulate::reading_range`]).
     middle: Vec<f64>,
@@ -126,6 +145,9 @@ impl<'r> TargetSearch<'r> {
         Ok(TargetSearch {
             comp,
             robot: calibrated,
+            nominal,
+            closed_forms: Vec::new(),
+            use_closed_form: true,
             options,
             middle,
             turn,
@@ -197,8 +219,8 @@ impl<'r> TargetSearch<'r> {
     ) -> Solved {
         let dof = self.robot.dof();
         assert_eq!(out.len(), dof);
-        self.ensure_table(target);
         self.seeded = seed.is_some();
+        let closed_form = matches!(goal, Goal::Pose(_)) && self.has_closed_form(target);
         // The table's nearest starts are looked up only when needed: a seed that converges
         // needs none.
         let mut looked_up = false;
@@ -207,6 +229,11 @@ impl<'r> TargetSearch<'r> {
             (Some(s), _) => {
                 self.reference.copy_from_slice(s);
                 true
+            }
+            (None, Some(p)) if closed_form => {
+                // The branch nearest the previous solution is among the closed form's.
+                self.reference.copy_from_slice(p);
+                false
             }
             (None, Some(p)) => {
                 self.reference.copy_from_slice(p);
@@ -230,6 +257,33 @@ impl<'r> TargetSearch<'r> {
             self.start = start;
             if self.consider(s, seed.is_some(), &mut best, out) {
                 return self.finish(best.expect("considered").1, out);
+            }
+        }
+        // Step 1b: the nominal robot's closed-form branches; with a seed, only when the seed's
+        // own solution was reached away from a singularity (else the goal lies near one, where
+        // the branches do not settle it).
+        let seed_regular = best.as_ref().is_some_and(|(r, _)| !r.0[0] && !r.0[4]);
+        if closed_form && (seed.is_none() || seed_regular) {
+            if self.closed_form_branches(goal, target, &mut best, out) {
+                return self.finish(best.expect("a branch was tried").1, out);
+            }
+            if let (None, Some(p)) = (seed, &self.previous) {
+                // Not settled: the previous solution as a start too, as for any robot.
+                self.reference.copy_from_slice(p);
+                self.find_nearest(goal, target);
+                looked_up = true;
+                let reference = std::mem::take(&mut self.reference);
+                let d = self.distance_of(goal, target, &reference);
+                self.reference = reference;
+                if self.nearest.first().is_none_or(|&(b, _)| d <= b) {
+                    let mut start = std::mem::take(&mut self.start);
+                    start.copy_from_slice(&self.reference);
+                    let s = self.attempt(goal, target, &start, true);
+                    self.start = start;
+                    if self.consider(s, false, &mut best, out) {
+                        return self.finish(best.expect("considered").1, out);
+                    }
+                }
             }
         }
         if !looked_up {
@@ -295,6 +349,118 @@ impl<'r> TargetSearch<'r> {
             solved = s;
         }
         self.finish(solved, out)
+    }
+
+    /// Whether the nominal robot has a closed form for `target` (worked out once per target).
+    fn has_closed_form(&mut self, target: Target) -> bool {
+        if !self.use_closed_form {
+            return false;
+        }
+        if let Some((_, a)) = self.closed_forms.iter().find(|(t, _)| *t == target) {
+            return a.is_some();
+        }
+        let a = Analytic::new(self.nominal, target);
+        let found = a.is_some();
+        self.closed_forms.push((target, a));
+        found
+    }
+
+    /// The search without the closed form: the table of starts for every goal.
+    #[cfg(test)]
+    pub(crate) fn without_closed_form(mut self) -> Self {
+        self.use_closed_form = false;
+        self
+    }
+
+    /// Step 1b: the nominal robot's closed-form branches as starts, each refined on the
+    /// calibrated model within the search's iteration cap, in the order: branches the nominal
+    /// robot reaches before those it does not, then by what the branch itself predicts
+    /// (outside a range, not in the configuration, turned from the seed beyond
+    /// [`Options::branch`]), then nearest the reference first. Stops at the first usable
+    /// solution. Whether the search is settled: a usable solution found, or every branch the
+    /// nominal robot reaches refined to a reached solution of its own, none two to the same,
+    /// and the best of them in the configuration and away from singularities, flagged only for
+    /// a joint range or a change from the seed (the goal's solutions are then all known; near
+    /// a singularity the calibrated robot may have solutions the nominal one has not, which
+    /// the table of starts looks for).
+    fn closed_form_branches(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        best: &mut Option<(Rank, Solved)>,
+        out: &mut [f64],
+    ) -> bool {
+        let Goal::Pose(frame) = goal else {
+            return false;
+        };
+        let Some(analytic) = self
+            .closed_forms
+            .iter()
+            .find(|(t, _)| *t == target)
+            .and_then(|(_, a)| a.as_ref())
+        else {
+            return false;
+        };
+        let branches = analytic.solve(frame);
+        // ((inexact, outside a range, not in the configuration, turned), squared distance to
+        // the reference), readings.
+        type Key = ([bool; 4], f64);
+        let mut keyed: [(Key, [f64; 6]); 8] = [(([false; 4], 0.0), [0.0; 6]); 8];
+        for (k, b) in keyed.iter_mut().zip(&branches) {
+            let mut v = b.readings;
+            let outside = self.place_turns(&mut v) != 0;
+            let turned = self.seeded && self.turned_from_reference(&v);
+            let elsewhere = self.classifier.as_ref().is_some_and(|c| {
+                self.comp.calibrated.forward(&v, &mut self.ws);
+                !c.matches(self.robot, &v, &self.ws)
+            });
+            let distance = v
+                .iter()
+                .zip(&self.reference)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>();
+            *k = (([!b.exact, outside, elsewhere, turned], distance), v);
+        }
+        keyed.sort_by(|a, b| a.0 .0.cmp(&b.0 .0).then(a.0 .1.total_cmp(&b.0 .1)));
+        let seeded = self.seeded;
+        // The solutions the branches the nominal robot reaches refined to.
+        let mut found = [[0.0; 6]; 8];
+        let mut exact_reached = 0;
+        let mut exact_failed = false;
+        for (i, ((predicted, _), v)) in keyed.iter().enumerate() {
+            // The same solution twice (a singular goal): refined once.
+            if keyed[..i]
+                .iter()
+                .any(|(_, u)| u.iter().zip(v).all(|(a, b)| (a - b).abs() < 1e-9))
+            {
+                continue;
+            }
+            let s = self.attempt_capped(goal, target, v);
+            if !predicted[0] {
+                if s.flags.unreachable {
+                    exact_failed = true;
+                } else {
+                    found[exact_reached].copy_from_slice(&self.candidate);
+                    exact_reached += 1;
+                }
+            }
+            if self.consider(s, seeded, best, out) {
+                return true;
+            }
+        }
+        // Two branches refined to one solution: near a singularity the calibrated robot's
+        // solutions moved from the nominal's, and one was missed.
+        let merged = (1..exact_reached).any(|i| {
+            found[..i]
+                .iter()
+                .any(|u| u.iter().zip(&found[i]).all(|(a, b)| (a - b).abs() < 1e-6))
+        });
+        // Outside a range or turned from the seed is the goal's; not in the configuration or
+        // near a singularity, the solutions may be where the nominal robot has none.
+        let placed = best
+            .as_ref()
+            .is_some_and(|(r, _)| !r.0[0] && !r.0[2] && !r.0[4]);
+        placed && exact_reached > 0 && !exact_failed && !merged
     }
 
     /// One attempt from start `i` of the table, within the search's iteration cap; whether its
@@ -372,8 +538,27 @@ impl<'r> TargetSearch<'r> {
             .comp
             .local(goal, target, &from, nearest, &mut candidate);
         self.from = from;
+        s.flags.out_of_range |= self.place_turns(&mut candidate);
+        if self.seeded {
+            // A change of configuration from the seed given (the reference).
+            s.flags.branch |= self.turned_from_reference(&candidate);
+        }
+        if let Some(c) = &self.classifier {
+            // The geometry does not change with whole turns: the solver's last forward
+            // kinematics is the solution's.
+            s.flags.configuration = !c.matches(self.robot, &candidate, &self.comp.ws);
+        }
+        self.candidate = candidate;
+        s
+    }
+
+    /// Moves the revolute readings of `v` by whole turns to the turn nearest the reference,
+    /// then into the joint's range when that turn is outside it (see the module's
+    /// documentation); the joints (bit `j` for joint `j + 1`) then outside their range.
+    fn place_turns(&self, v: &mut [f64]) -> u64 {
+        let mut outside = 0;
         for (j, joint) in self.robot.joints.iter().enumerate() {
-            let v = &mut candidate[j];
+            let v = &mut v[j];
             if let Some(t) = self.turn[j] {
                 *v += t * ((self.reference[j] - *v) / t).round();
                 let (lo, hi) = joint
@@ -393,26 +578,20 @@ impl<'r> TargetSearch<'r> {
             }
             if let Some((lo, hi)) = joint.range {
                 if *v < lo || *v > hi {
-                    s.flags.out_of_range |= 1 << j;
+                    outside |= 1 << j;
                 }
             }
         }
-        if self.seeded {
-            // A change of configuration from the seed given (the reference).
-            for (j, joint) in self.robot.joints.iter().enumerate() {
-                if joint.kind == JointKind::Revolute {
-                    let moved = joint.value(&candidate, j) - joint.value(&self.reference, j);
-                    s.flags.branch |= moved.abs() > self.options.branch;
-                }
-            }
-        }
-        if let Some(c) = &self.classifier {
-            // The geometry does not change with whole turns: the solver's last forward
-            // kinematics is the solution's.
-            s.flags.configuration = !c.matches(self.robot, &candidate, &self.comp.ws);
-        }
-        self.candidate = candidate;
-        s
+        outside
+    }
+
+    /// Whether a revolute joint of `v` turned more than [`Options::branch`] (rad) from the
+    /// reference: a change of configuration from the seed.
+    fn turned_from_reference(&self, v: &[f64]) -> bool {
+        self.robot.joints.iter().enumerate().any(|(j, joint)| {
+            joint.kind == JointKind::Revolute
+                && (joint.value(v, j) - joint.value(&self.reference, j)).abs() > self.options.branch
+        })
     }
 
     fn rank(&self, s: &Solved, seeded: bool) -> Rank {
@@ -455,6 +634,7 @@ impl<'r> TargetSearch<'r> {
 
     /// Fills `self.nearest` with the [`Self::ATTEMPTS`] starts nearest `goal`, nearest first.
     fn find_nearest(&mut self, goal: &Goal, target: Target) {
+        self.ensure_table(target);
         let table = &self
             .tables
             .iter()
@@ -519,5 +699,178 @@ fn key_distance(goal: &Goal, k: &[f64; 12], reach2: f64) -> f64 {
                 + (p.z - k[2]).powi(2)
                 + reach2 * (3.0 - trace)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::analytic::{tests::random_arm, Family};
+    use super::*;
+    use crate::apps::simulate::{perturb, reading_range, sample_postures, PerturbStd};
+    use crate::model::kinematics::Chain;
+
+    /// A nominal arm with its ranges set (+-150 deg: one turn of each joint in range) and its
+    /// calibrated twin (1 mm, 0.3 deg).
+    fn twin(mut nominal: Robot, seed: u64) -> (Robot, Robot) {
+        for j in 0..nominal.dof() {
+            nominal.joints[j].range = Some(reading_range(&nominal, j));
+        }
+        let std = PerturbStd {
+            length: 1e-3,
+            angle: 0.3f64.to_radians(),
+            slope_fraction: 0.002,
+        };
+        let calibrated = perturb(&nominal, std, seed);
+        (nominal, calibrated)
+    }
+
+    /// Solves `goals` (with their seeds) with the closed form's branches and with the search of
+    /// the table alone: the rows flagged each way, the largest difference of readings where
+    /// both are usable and converged below 1e-10 (the table's starts stop at
+    /// [`TargetSearch::CAP`] iterations, some within the tolerances but not below that), and the rows whose flags rank worse with the closed form (unreachable,
+    /// outside a range, not in the configuration, a change of configuration, singular).
+    fn both_ways(
+        nominal: &Robot,
+        calibrated: &Robot,
+        goals: &[(Goal, Option<Vec<f64>>)],
+        configuration: Option<Configuration>,
+    ) -> (usize, usize, f64, usize) {
+        let make = |closed: bool| {
+            let s = TargetSearch::new(calibrated, nominal, Options::default()).unwrap();
+            let s = if closed { s } else { s.without_closed_form() };
+            match &configuration {
+                Some(c) => s.with_configuration(c.clone()).unwrap(),
+                None => s,
+            }
+        };
+        let (mut closed, mut plain) = (make(true), make(false));
+        let (mut a, mut b) = (vec![0.0; 6], vec![0.0; 6]);
+        let (mut flagged_closed, mut flagged_plain, mut largest, mut worse) = (0, 0, 0.0f64, 0);
+        let rank = |f: &Flags| {
+            [
+                f.unreachable,
+                f.out_of_range != 0,
+                f.configuration,
+                f.branch,
+                f.singular,
+            ]
+        };
+        for (goal, seed) in goals {
+            let sa = closed.solve(goal, Target::EndEffector, seed.as_deref(), &mut a);
+            let sb = plain.solve(goal, Target::EndEffector, seed.as_deref(), &mut b);
+            flagged_closed += sa.flags.any() as usize;
+            flagged_plain += sb.flags.any() as usize;
+            worse += (rank(&sa.flags) > rank(&sb.flags)) as usize;
+            let converged =
+                |s: &Solved| s.position_error < 1e-10 && s.attitude_error.is_none_or(|a| a < 1e-10);
+            if !sa.flags.any() && !sb.flags.any() && converged(&sa) && converged(&sb) {
+                for (x, y) in a.iter().zip(&b) {
+                    largest = largest.max((x - y).abs());
+                }
+            }
+        }
+        (flagged_closed, flagged_plain, largest, worse)
+    }
+
+    fn poses(robot: &Robot, postures: &[Vec<f64>]) -> Vec<crate::model::kinematics::Frame> {
+        let chain = Chain::new(robot);
+        postures
+            .iter()
+            .map(|p| chain.frame_at(p, Target::EndEffector))
+            .collect()
+    }
+
+    /// Seeded targets (the poses programs of the nominal arm mean, seeded by their readings):
+    /// the closed form's branches give what the search of the table gives where both find a
+    /// usable solution (to 1e-9 in readings; both converge far below it). Seeded targets and
+    /// unseeded ones in a named configuration: no row is flagged worse than by the search of
+    /// the table, and at most 3 of 300 better (the search is not exhaustive). (Unseeded
+    /// solutions may differ: with random joint offsets, several branches can be in one named
+    /// configuration, and each way takes the first usable one it finds.)
+    fn agrees_with_the_search(family: Family) {
+        for seed in [3, 8] {
+            let (nominal, calibrated) = twin(random_arm(family, seed), seed + 50);
+            assert!(Analytic::new(&nominal, Target::EndEffector).is_some());
+            let postures: Vec<Vec<f64>> = sample_postures(&nominal, 300, seed)
+                .into_iter()
+                .map(|p| p.readings)
+                .collect();
+            let seeded: Vec<(Goal, Option<Vec<f64>>)> = poses(&nominal, &postures)
+                .into_iter()
+                .zip(&postures)
+                .map(|(f, p)| (Goal::Pose(f), Some(p.clone())))
+                .collect();
+            let (c, p, d, w) = both_ways(&nominal, &calibrated, &seeded, None);
+            assert_eq!(
+                w, 0,
+                "{family:?} seed {seed}: seeded rows flagged worse ({c}, {p})"
+            );
+            assert!(
+                c <= p && p <= c + 3,
+                "{family:?} seed {seed}: flagged {c}, {p}"
+            );
+            assert!(
+                d < 1e-9,
+                "{family:?} seed {seed}: seeded solutions {d} apart"
+            );
+            let unseeded: Vec<(Goal, Option<Vec<f64>>)> = poses(&calibrated, &postures)
+                .into_iter()
+                .map(|f| (Goal::Pose(f), None))
+                .collect();
+            let arm = Configuration::parse("shoulder=front,elbow=up,wrist=noflip").unwrap();
+            let (c, p, _, w) = both_ways(&nominal, &calibrated, &unseeded, Some(arm));
+            assert_eq!(
+                w, 0,
+                "{family:?} seed {seed}: unseeded rows flagged worse ({c}, {p})"
+            );
+            assert!(
+                c <= p && p <= c + 3,
+                "{family:?} seed {seed}: flagged {c}, {p}"
+            );
+        }
+    }
+
+    #[test]
+    fn ur_type_closed_form_agrees_with_the_search() {
+        agrees_with_the_search(Family::UrType);
+    }
+
+    #[test]
+    fn spherical_wrist_closed_form_agrees_with_the_search() {
+        agrees_with_the_search(Family::SphericalWrist);
+    }
+
+    /// A random 6R arm has no closed form: its targets go through the table of starts, as
+    /// without the closed form (the same solutions), and are reached.
+    #[test]
+    fn an_arm_outside_the_families_falls_back_to_the_search() {
+        let (nominal, calibrated) = twin(
+            crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21),
+            22,
+        );
+        let postures: Vec<Vec<f64>> = sample_postures(&nominal, 100, 4)
+            .into_iter()
+            .map(|p| p.readings)
+            .collect();
+        let goals: Vec<(Goal, Option<Vec<f64>>)> = poses(&calibrated, &postures)
+            .into_iter()
+            .map(|f| (Goal::Pose(f), None))
+            .collect();
+        let mut search = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
+        assert!(!search.has_closed_form(Target::EndEffector));
+        let mut out = vec![0.0; 6];
+        let unreachable = goals
+            .iter()
+            .filter(|(g, _)| {
+                search
+                    .solve(g, Target::EndEffector, None, &mut out)
+                    .flags
+                    .unreachable
+            })
+            .count();
+        assert_eq!(unreachable, 0);
+        let (c, p, d, w) = both_ways(&nominal, &calibrated, &goals, None);
+        assert_eq!((c, w), (p, 0));
+        assert!(d < 1e-12, "{d}");
     }
 }
