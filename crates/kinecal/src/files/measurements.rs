@@ -268,7 +268,12 @@ pub fn parse_measurements_mapped(
     map: &ColumnMap,
 ) -> Result<Dataset> {
     let t = table::read(text, file)?;
-    let map = with_named_readings(&t, robot, map);
+    let mut known = canonical_columns(robot.dof());
+    known.extend(COMPENSATED_COLUMNS.map(String::from));
+    let known: Vec<&str> = known.iter().map(String::as_str).collect();
+    let readings = super::ReadingColumns::of(robot, &t.header, &known);
+    let plain = map.is_identity();
+    let map = with_named_readings(&readings, map);
     let layout = Layout::of(&t, robot, &map)?;
     t.check_rows()?;
     layout.check_sigma_columns(&t)?;
@@ -294,18 +299,26 @@ pub fn parse_measurements_mapped(
         };
         rows.row(line, label, &f)?;
     }
-    rows.postures
-        .into_dataset(rows.observations, file, "measurements", &rows.units)
+    let data = rows
+        .postures
+        .into_dataset(rows.observations, file, "measurements", &rows.units)?;
+    if plain {
+        // A mapped file's other columns are read past without a word, as they always were.
+        readings.note(file, robot);
+    }
+    Ok(data)
 }
 
 /// `map` with the readings headed by the joints' names instead of `vK` mapped (an implicit
 /// mapping).
-fn with_named_readings(t: &table::Table<'_>, robot: &Robot, map: &ColumnMap) -> ColumnMap {
+fn with_named_readings(readings: &super::ReadingColumns, map: &ColumnMap) -> ColumnMap {
     let mut named = map.clone();
-    for (j, v) in reading_columns(robot.dof()).iter().enumerate() {
-        let column = super::reading_column(robot, &t.header, j);
-        if column != *v && !named.shared.iter().any(|(o, _)| o == v) {
-            named.shared.push((v.clone(), column));
+    for (v, column) in reading_columns(readings.names.len())
+        .iter()
+        .zip(&readings.names)
+    {
+        if column != v && !named.shared.iter().any(|(o, _)| o == v) {
+            named.shared.push((v.clone(), column.clone()));
         }
     }
     named
@@ -857,12 +870,14 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
     if t.column("x").is_some() {
         return Ok(parse_measurements(text, file, robot)?.postures);
     }
-    // `posture` and one column per joint (`vK` or the joint's name), in any order.
+    // `posture` and one column per joint (`vK` or the joint's name), in any order; other
+    // joints' columns read past.
+    let readings = super::ReadingColumns::of(robot, &t.header, &["posture"]);
     let mut expected = vec!["posture".to_string()];
-    expected.extend((0..robot.dof()).map(|j| super::reading_column(robot, &t.header, j)));
+    expected.extend(readings.names.iter().cloned());
     let cols: Option<Vec<usize>> = expected.iter().map(|c| t.column(c)).collect();
     let cols = match cols {
-        Some(cols) if t.header.len() == expected.len() => cols,
+        Some(cols) if t.header.len() == expected.len() + readings.others.len() => cols,
         _ => {
             return Err(Error::input(
                 t.header_at(),
@@ -896,6 +911,7 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
             "no postures: the file has a header but no rows",
         ));
     }
+    readings.note(file, robot);
     Ok(table.postures)
 }
 

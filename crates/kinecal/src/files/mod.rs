@@ -276,23 +276,126 @@ pub(crate) fn reading_column(robot: &Robot, header: &[String], j: usize) -> Stri
     }
 }
 
-/// The target a `site` field names: the end effector when it is empty or `ee`, else the site of
-/// `robot` so called; otherwise the message of the error, which lists the robot's targets.
-pub fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
-    match name {
-        "" | "ee" => Ok(Target::EndEffector),
-        name if robot.end_effector.as_deref() == Some(name) => Ok(Target::EndEffector),
-        name => robot.site_index(name).map(Target::Site).ok_or_else(|| {
-            let known: Vec<&str> = std::iter::once("ee")
-                .chain(robot.end_effector.as_deref())
-                .chain(robot.sites.iter().map(|s| s.name.as_str()))
-                .collect();
-            format!(
-                "unknown site `{name}` (the robot file defines: {})",
-                known.join(", ")
-            )
-        }),
+/// Where a file's joint readings are, told by its header: each joint's column
+/// ([`reading_column`]), and the columns of other joints the file carries.
+///
+/// A file written for a larger robot (the 13 joints of two arms on a torso, read against one
+/// arm's chain) carries joints this robot does not have. When every joint of the robot is read
+/// by its own name, the header's columns that are neither the format's (`known`) nor this
+/// robot's readings are those other joints': they are read past, with a note naming them
+/// ([`ReadingColumns::note`]). A file read by `vK` columns has no such columns: `vK` says
+/// nothing of which joint it is.
+pub(crate) struct ReadingColumns {
+    /// Per joint (0-based), the column heading its readings.
+    pub names: Vec<String>,
+    /// The other joints' columns, read past, as the header spells them.
+    pub others: Vec<String>,
+}
+
+impl ReadingColumns {
+    /// The reading columns of `robot` in a file of `header`, whose format's own columns are
+    /// `known` (ASCII case ignored, as everywhere in headers).
+    pub fn of(robot: &Robot, header: &[String], known: &[&str]) -> ReadingColumns {
+        let names: Vec<String> = (0..robot.dof())
+            .map(|j| reading_column(robot, header, j))
+            .collect();
+        let by_name = robot
+            .joints
+            .iter()
+            .zip(&names)
+            .all(|(joint, c)| joint.name.as_deref() == Some(c.as_str()));
+        let others = if by_name {
+            header
+                .iter()
+                .filter(|h| {
+                    !h.is_empty()
+                        && !known.iter().any(|k| k.eq_ignore_ascii_case(h))
+                        && !names.iter().any(|c| c.eq_ignore_ascii_case(h))
+                })
+                .cloned()
+                .collect()
+        } else {
+            Vec::new()
+        };
+        ReadingColumns { names, others }
     }
+
+    /// Whether header column `h` is another joint's, read past.
+    pub fn is_other(&self, h: &str) -> bool {
+        self.others.iter().any(|o| o.eq_ignore_ascii_case(h))
+    }
+
+    /// Says which columns of `file` were read past as other joints' (nothing when none were).
+    pub fn note(&self, file: &str, robot: &Robot) {
+        if self.others.is_empty() {
+            return;
+        }
+        note(format!(
+            "{file}: column{} {} {} no joint of this robot (its {} joints are read by their \
+             names): read past, as another robot's joints",
+            if self.others.len() == 1 { "" } else { "s" },
+            self.others
+                .iter()
+                .map(|o| format!("`{o}`"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if self.others.len() == 1 {
+                "names"
+            } else {
+                "name"
+            },
+            robot.dof()
+        ));
+    }
+}
+
+thread_local! {
+    /// What the readers said of the files they read on this thread ([`take_notes`]).
+    static NOTES: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// At most this many notes wait to be taken (a program that never takes them keeps no more).
+const MAX_NOTES: usize = 64;
+
+/// Keeps a note of a reader's, once, for [`take_notes`].
+pub(crate) fn note(text: String) {
+    NOTES.with(|n| {
+        let mut n = n.borrow_mut();
+        if n.len() < MAX_NOTES && !n.contains(&text) {
+            n.push(text);
+        }
+    });
+}
+
+/// The notes the file readers made on this thread since the last call, in order, each once
+/// (columns read past, ...). A job ([`crate::spec::run`]) returns them among its messages; a
+/// program calling the readers itself takes them here.
+pub fn take_notes() -> Vec<String> {
+    NOTES.with(|n| std::mem::take(&mut *n.borrow_mut()))
+}
+
+/// Puts `notes` back, before any made since (a job run inside another keeps the outer one's).
+pub(crate) fn restore_notes(mut notes: Vec<String>) {
+    NOTES.with(|n| {
+        let mut n = n.borrow_mut();
+        notes.append(&mut n);
+        *n = notes;
+    });
+}
+
+/// The target a `site` field names: the end effector when it is empty, else as
+/// [`Robot::target_named`] says (`ee` or the end effector's own name, or a site's); otherwise
+/// the message of the error, which lists the robot's targets.
+pub fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
+    if name.is_empty() {
+        return Ok(Target::EndEffector);
+    }
+    robot.target_named(name).ok_or_else(|| {
+        format!(
+            "unknown site `{name}` (the robot file defines: {})",
+            robot.target_names().join(", ")
+        )
+    })
 }
 
 #[cfg(test)]

@@ -64,14 +64,14 @@ pub fn parse_pixels(text: &str, file: &str, robot: &Robot) -> Result<Dataset> {
     }
     let n = robot.dof();
     let header = FORMAT.header.replace("v1..vn", &format!("v1..v{n}"));
-    let readings: Vec<String> = (0..n)
-        .map(|j| super::reading_column(robot, &t.header, j))
-        .collect();
-    let mut known: Vec<String> = ["posture", "camera", "point", "u", "v", "sigma_px"]
-        .map(String::from)
-        .to_vec();
+    let own = ["posture", "camera", "point", "u", "v", "sigma_px"];
+    let columns = super::ReadingColumns::of(robot, &t.header, &own);
+    let readings = columns.names.clone();
+    let mut known: Vec<String> = own.map(String::from).to_vec();
     known.extend(readings.iter().cloned());
+    known.extend(columns.others.iter().cloned());
     t.refuse_unknown(&known, &header)?;
+    columns.note(file, robot);
     let need = |name: &str| t.require(name, &header);
     let posture_col = need("posture")?;
     let cols = readings

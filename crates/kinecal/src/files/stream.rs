@@ -28,6 +28,8 @@ pub struct Rows {
     reader: csv::Reader<Box<dyn Read>>,
     /// The header, lower case.
     pub header: Vec<String>,
+    /// The header as the file spells it (for messages).
+    pub spelled: Vec<String>,
     /// The file's name, for messages.
     pub file: String,
     record: csv::StringRecord,
@@ -91,27 +93,32 @@ impl Rows {
             .trim(csv::Trim::All)
             .flexible(true)
             .from_reader(reader);
-        let header: Vec<String> = reader
+        let spelled: Vec<String> = reader
             .headers()
             .map_err(|e| Error::input(Location::file(&file), e.to_string()))?
             .iter()
-            .map(str::to_ascii_lowercase)
+            .map(String::from)
             .collect();
+        let header: Vec<String> = spelled.iter().map(|h| h.to_ascii_lowercase()).collect();
         if header.iter().all(String::is_empty) {
             return Err(at(&file, 1, "empty file: a header line is required"));
         }
         Ok(Rows {
             reader,
             header,
+            spelled,
             file,
             record: csv::StringRecord::new(),
             decimal_comma: delimiter != b',',
         })
     }
 
-    /// The index of a column.
+    /// The index of the column called `name` (ASCII case ignored, as in every header: a
+    /// joint named `L_S1` heads a column `l_s1` or `L_S1`).
     pub fn column(&self, name: &str) -> Option<usize> {
-        self.header.iter().position(|h| h == name)
+        self.header
+            .iter()
+            .position(|h| h.eq_ignore_ascii_case(name))
     }
 
     /// Field `i` of the current row (after [`Rows::advance`]).

@@ -83,7 +83,8 @@ fn err(file: &str, message: impl Into<String>) -> Error {
 }
 
 /// Reads the chain from `base` to `tip` of a URDF. `base` defaults to the root link, `tip` to the
-/// only leaf (an error lists the leaves when there are several).
+/// only leaf (an error lists the leaves when there are several). The end effector is named after
+/// the tip link ([`Robot::end_effector`]): files' `site` column may call it so, or `ee`.
 pub fn import_urdf(
     text: &str,
     file: &str,
@@ -275,8 +276,12 @@ pub fn import_urdf_tree(
         joint.name = (!reads_like_v && !name.trim().is_empty()).then(|| name.clone());
     }
     let ee_chain = chains.pop().expect("a tip");
-    if !chains.is_empty() {
+    // The end effector is called by its link's name, as well as `ee`, whether it is a chain's
+    // only tip or a tree's last (`ee` itself needs no second name).
+    if ee_chain.tip != "ee" {
         robot.end_effector = Some(ee_chain.tip.clone());
+    }
+    if !chains.is_empty() {
         for (c, &(joint, frame)) in chains.iter().zip(&ends) {
             if joint == 0 {
                 return Err(chain(

@@ -338,12 +338,17 @@ fn header_error(rows: &Rows, message: impl Into<String>) -> Error {
 /// Tells the layout from the header.
 fn kind(rows: &Rows, robot: &Robot) -> Result<Kind> {
     let dof = robot.dof();
-    // `vK`, or the joint's name (a tree's, a URDF's).
-    let columns: Vec<String> = (0..dof)
-        .map(|j| crate::files::reading_column(robot, &rows.header, j))
-        .collect();
+    // `vK`, or the joint's name (a tree's, a URDF's); other joints' columns read past.
+    let mut own = vec![
+        "target", "posture", "site", "x", "y", "z", "alpha", "beta", "gamma",
+    ];
+    own.extend(MEASUREMENT_EXTRAS);
+    own.extend(crate::files::PAYLOAD_COLUMNS);
+    let found = crate::files::ReadingColumns::of(robot, &rows.spelled, &own);
+    found.note(&rows.file, robot);
+    let columns = &found.names;
     let readings: Option<Vec<usize>> = columns.iter().map(|c| rows.column(c)).collect();
-    let reading = |h: &str| columns.iter().any(|c| c.eq_ignore_ascii_case(h));
+    let reading = |h: &str| columns.iter().any(|c| c.eq_ignore_ascii_case(h)) || found.is_other(h);
     let known = |extra: &[&str]| {
         rows.header
             .iter()

@@ -801,7 +801,15 @@ pub fn run(job: &Job, env: &mut Env<'_>) -> Result<Done> {
         &outputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
         &inputs.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
     )?;
-    job.run_in(env)
+    // The readers' notes of this job's files (an enclosing job's kept aside), said first.
+    let outer = crate::files::take_notes();
+    let done = job.run_in(env);
+    let notes = crate::files::take_notes();
+    crate::files::restore_notes(outer);
+    let mut done = done?;
+    done.messages
+        .splice(0..0, notes.into_iter().map(Message::Note));
+    Ok(done)
 }
 
 #[cfg(test)]

@@ -558,24 +558,18 @@ impl FkSpec {
         }
         // A postures file, or what `compensate` writes (its label `target` or `posture`, a
         // `site`, and the remaining errors and flags, read past).
-        let dof = robot.dof();
         let label = rows.column("posture").or_else(|| rows.column("target"));
-        let readings: Option<Vec<usize>> = (0..dof)
-            .map(|j| rows.column(&crate::files::reading_column(robot, &rows.header, j)))
-            .collect();
-        let compensated = [
-            "site",
-            "position_error",
-            "attitude_error",
-            "iterations",
-            "flags",
-        ];
+        let mut known = vec!["posture", "target", "site"];
+        known.extend(crate::files::COMPENSATED_COLUMNS);
+        known.extend(crate::files::PAYLOAD_COLUMNS);
+        let columns = crate::files::ReadingColumns::of(robot, &rows.spelled, &known);
+        let readings: Option<Vec<usize>> = columns.names.iter().map(|c| rows.column(c)).collect();
         let payload_cols = payload_columns(&rows)?;
         let unknown = rows.header.iter().enumerate().find(|(i, h)| {
             Some(*i) != label
                 && !readings.as_ref().is_some_and(|r| r.contains(i))
-                && !compensated.contains(&h.as_str())
-                && !payload_cols.contains(&Some(*i))
+                && !known[2..].contains(&h.as_str())
+                && !columns.is_other(h)
         });
         let (Some(label), Some(readings), None) = (label, readings, unknown) else {
             return Err(Error::input(
@@ -633,6 +627,7 @@ impl FkSpec {
                 "no postures: the file has a header but no rows",
             ));
         }
+        columns.note(&rows.file, robot);
         Ok(())
     }
 
