@@ -22,6 +22,24 @@
 //! off towards infinity (a calibrated UR5's `d` of hundreds of metres). Readings are the joint
 //! values `q` in the table's units (slope 1); `theta` (revolute) or `d` (prismatic) becomes the
 //! joint offset.
+//!
+//! A tree (two arms on a torso) is a table per branch under the one header, with a `name`
+//! column (any column order): a joint's name heads its reading column, and a branch hangs from
+//! a named row. The rows before the first `# branch = TIP, from = ROW` line are the trunk; each
+//! such line starts a branch at the frame after row `ROW` (the trunk's end without `from`, the
+//! global frame with `from = base`), ending in the tool frame `TIP`: the last branch's is the
+//! end effector (so named, besides `ee`), the others' are sites on their branch's last joint.
+//!
+//! ```text
+//! name,kind,a,alpha,d,theta
+//! TORSO,revolute,0,0,800,0
+//! # branch = LEFT_tool0, from = TORSO
+//! LEFT_S,revolute,0,90,89.159,0
+//! ...
+//! # branch = RIGHT_tool0, from = TORSO
+//! RIGHT_S,revolute,0,90,89.159,0
+//! ...
+//! ```
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -188,46 +206,264 @@ pub fn robot_from_dh(name: &str, units: Units, rows: &[DhRow], convention: Conve
     let mut current = Frame::identity();
     let mut joints = Vec::with_capacity(rows.len());
     for row in rows {
-        let Some(kind) = row.kind.joint() else {
-            current = current.then(&row.transform(convention));
-            continue;
-        };
-        // The part of the row before the joint, and the part after it.
-        let (before, offset, after) = match (convention, kind) {
-            (Convention::Standard, JointKind::Revolute) => (
-                Frame::identity(),
-                row.theta,
-                tr(row.a, row.d).then(&rx(row.alpha)).then(&ry(row.beta)),
-            ),
-            (Convention::Standard, JointKind::Prismatic) => (
-                rz(row.theta),
-                row.d,
-                tr(row.a, 0.0).then(&rx(row.alpha)).then(&ry(row.beta)),
-            ),
-            (Convention::Modified, JointKind::Revolute) => (
-                rx(row.alpha).then(&tr(row.a, 0.0)).then(&ry(row.beta)),
-                row.theta,
-                tr(0.0, row.d),
-            ),
-            (Convention::Modified, JointKind::Prismatic) => (
-                rx(row.alpha)
-                    .then(&tr(row.a, 0.0))
-                    .then(&ry(row.beta))
-                    .then(&rz(row.theta)),
-                row.d,
-                Frame::identity(),
-            ),
-        };
-        let frame = current.then(&before);
-        joints.push(ImportedJoint {
-            kind,
-            frame,
-            offset,
-            range: None,
-        });
-        current = frame.then(&after);
+        if let Some(joint) = walk_row(row, convention, &mut current) {
+            joints.push(joint);
+        }
     }
     chain_from_frames(name, units, &joints, &current)
+}
+
+/// Walks one row at joint value 0 from the global frame `current` (moved to the frame after the
+/// row): the joint the row makes, acting in the global frame recorded, with `theta` (revolute) or
+/// `d` (prismatic) as its offset; `None` for a fixed row (folded into `current`).
+fn walk_row(row: &DhRow, convention: Convention, current: &mut Frame) -> Option<ImportedJoint> {
+    let Some(kind) = row.kind.joint() else {
+        *current = current.then(&row.transform(convention));
+        return None;
+    };
+    // The part of the row before the joint, and the part after it.
+    let (before, offset, after) = match (convention, kind) {
+        (Convention::Standard, JointKind::Revolute) => (
+            Frame::identity(),
+            row.theta,
+            tr(row.a, row.d).then(&rx(row.alpha)).then(&ry(row.beta)),
+        ),
+        (Convention::Standard, JointKind::Prismatic) => (
+            rz(row.theta),
+            row.d,
+            tr(row.a, 0.0).then(&rx(row.alpha)).then(&ry(row.beta)),
+        ),
+        (Convention::Modified, JointKind::Revolute) => (
+            rx(row.alpha).then(&tr(row.a, 0.0)).then(&ry(row.beta)),
+            row.theta,
+            tr(0.0, row.d),
+        ),
+        (Convention::Modified, JointKind::Prismatic) => (
+            rx(row.alpha)
+                .then(&tr(row.a, 0.0))
+                .then(&ry(row.beta))
+                .then(&rz(row.theta)),
+            row.d,
+            Frame::identity(),
+        ),
+    };
+    let frame = current.then(&before);
+    *current = frame.then(&after);
+    Some(ImportedJoint {
+        kind,
+        frame,
+        offset,
+        range: None,
+    })
+}
+
+/// A section of a tree's DH table: the trunk (the rows before the first `# branch` line) or a
+/// branch.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct DhSection {
+    /// The branch's tip (the tool frame after its last row); `None` for the trunk.
+    pub tip: Option<String>,
+    /// The row the branch hangs from (`base`: the global frame; `None`: the trunk's end).
+    pub from: Option<String>,
+    /// The `# branch` line.
+    pub line: usize,
+    /// Its rows.
+    pub rows: Vec<NamedRow>,
+}
+
+/// The `# branch = TIP[, from = ROW]` lines of a DH table (`:` for `=` too), each with its
+/// line; other comments are free text. An error names a line that starts `# branch` and says
+/// anything else.
+fn branch_lines(text: &str, file: &str) -> Result<Vec<(usize, String, Option<String>)>> {
+    let mut out = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let Some(comment) = raw.trim_start_matches('\u{feff}').trim().strip_prefix('#') else {
+            continue;
+        };
+        let comment = comment.trim();
+        let Some(rest) = comment.strip_prefix("branch") else {
+            continue;
+        };
+        if !rest.trim_start().starts_with(['=', ':']) {
+            continue;
+        }
+        let at = || Location::file(file).at_line(i + 1).with_field("branch");
+        let (mut tip, mut from) = (None, None);
+        for part in comment.split(',') {
+            let Some((key, value)) = part.split_once(['=', ':']) else {
+                return Err(Error::input(
+                    at(),
+                    format!("`{}`: expected `# branch = TIP, from = ROW`", part.trim()),
+                ));
+            };
+            let value = value.trim().trim_matches('"').to_string();
+            let slot = match key.trim() {
+                "branch" => &mut tip,
+                "from" => &mut from,
+                other => {
+                    return Err(Error::input(
+                        at(),
+                        format!(
+                            "unknown key `{other}`: expected `# branch = TIP, from = ROW` (the \
+                             tool frame the branch ends in, the named row it hangs from)"
+                        ),
+                    ))
+                }
+            };
+            if value.is_empty() {
+                return Err(Error::input(at(), format!("`{}` needs a name", key.trim())));
+            }
+            *slot = Some(value);
+        }
+        let tip = tip.ok_or_else(|| Error::input(at(), "a branch needs its tip's name"))?;
+        out.push((i + 1, tip, from));
+    }
+    Ok(out)
+}
+
+/// The sections of a DH table: its rows split at its `# branch` lines (a table without any is
+/// one trunk, a chain).
+pub(crate) fn dh_sections(text: &str, file: &str, units: Units) -> Result<Vec<DhSection>> {
+    let rows = parse_dh_rows(text, file, units)?;
+    let header_line = {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        text.lines()
+            .position(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+            .map_or(1, |i| i + 1)
+    };
+    let mut sections = vec![DhSection {
+        tip: None,
+        from: None,
+        line: 0,
+        rows: Vec::new(),
+    }];
+    for (line, tip, from) in branch_lines(text, file)? {
+        if line < header_line {
+            return Err(Error::input(
+                Location::file(file).at_line(line).with_field("branch"),
+                "a branch starts after the table's header",
+            ));
+        }
+        sections.push(DhSection {
+            tip: Some(tip),
+            from,
+            line,
+            rows: Vec::new(),
+        });
+    }
+    for row in rows {
+        let s = sections
+            .iter_mut()
+            .rev()
+            .find(|s| s.line < row.line)
+            .expect("the trunk starts at line 0");
+        s.rows.push(row);
+    }
+    Ok(sections)
+}
+
+/// Where a walk through a tree's table stands: the global frame at zero readings and the last
+/// joint on the path from the base (1-based; 0 for none).
+#[derive(Debug, Clone, Copy)]
+struct Station {
+    frame: Frame,
+    joint: usize,
+}
+
+/// The robot of a tree's DH table: the trunk's rows from the global frame, each branch's from
+/// the frame after the row it hangs from (`from = ROW`; the trunk's end without, the global
+/// frame for `from = base`), every joint once, named after its row. The last branch ends in the
+/// end effector, named after its tip; every other tip becomes a site of that name on the last
+/// joint of its path.
+pub(crate) fn robot_from_dh_tree(
+    name: &str,
+    units: Units,
+    sections: &[DhSection],
+    convention: Convention,
+    file: &str,
+) -> Result<Robot> {
+    let at = |line: usize, field: &str| Location::file(file).at_line(line).with_field(field);
+    let mut joints: Vec<ImportedJoint> = Vec::new();
+    let mut parents: Vec<usize> = Vec::new();
+    let mut joint_names: Vec<Option<String>> = Vec::new();
+    let mut named: Vec<(&str, Station)> = Vec::new();
+    let base = Station {
+        frame: Frame::identity(),
+        joint: 0,
+    };
+    let mut trunk_end = base;
+    // Each branch's tip: (name, where it is, its line).
+    let mut tips: Vec<(&str, Station, usize)> = Vec::new();
+    for s in sections {
+        let mut at_row = match s.from.as_deref() {
+            None => trunk_end,
+            Some("base") => base,
+            Some(row) => match named.iter().find(|(n, _)| *n == row) {
+                Some((_, st)) => *st,
+                None => {
+                    return Err(Error::input(
+                        at(s.line, "from"),
+                        format!(
+                            "no row named `{row}` before this branch (it hangs from a named row \
+                             of the trunk or of an earlier branch, or from `base`)"
+                        ),
+                    ))
+                }
+            },
+        };
+        for r in &s.rows {
+            if let Some(joint) = walk_row(&r.row, convention, &mut at_row.frame) {
+                joints.push(joint);
+                parents.push(at_row.joint);
+                joint_names.push(r.name.clone());
+                at_row.joint = joints.len();
+            }
+            if let Some(n) = &r.name {
+                if n == "base" {
+                    return Err(Error::input(
+                        at(r.line, "name"),
+                        "`base` is the global frame: name the row otherwise",
+                    ));
+                }
+                named.push((n, at_row));
+            }
+        }
+        match &s.tip {
+            None => trunk_end = at_row,
+            Some(tip) => tips.push((tip, at_row, s.line)),
+        }
+    }
+    let (ee_name, ee, ee_line) = match tips.pop() {
+        Some(t) => (Some(t.0), t.1, t.2),
+        None => (None, trunk_end, 0),
+    };
+    if ee.joint != joints.len() {
+        return Err(Error::input(
+            at(ee_line, "branch"),
+            "the last branch ends in the end effector and must end with the table's last joint: \
+             put a branch with joints of its own last",
+        ));
+    }
+    let mut robot = super::tree_from_frames(name, units, &joints, &parents, &ee.frame);
+    for (joint, n) in robot.joints.iter_mut().zip(joint_names) {
+        joint.name = n;
+    }
+    robot.end_effector = ee_name.filter(|n| *n != "ee").map(String::from);
+    for (tip, st, line) in tips {
+        if st.joint == 0 {
+            return Err(Error::input(
+                at(line, "branch"),
+                format!("branch `{tip}`: no joint between the base and its tip"),
+            ));
+        }
+        let carrier = joints[st.joint - 1].frame;
+        robot.sites.push(crate::model::robot::Site {
+            name: tip.to_string(),
+            joint: st.joint,
+            frame: super::link_of(&super::inverse(&carrier).then(&st.frame)),
+        });
+    }
+    Ok(robot)
 }
 
 /// A DH table: its rows (internal units), and the units and convention it is written in.
@@ -383,7 +619,17 @@ pub fn import_dh(
     convention: Option<Convention>,
 ) -> Result<Robot> {
     let t = read_dh_table(text, file, length, angle, convention)?;
-    let robot = robot_from_dh(name, t.units, &t.rows, t.convention);
+    let sections = dh_sections(text, file, t.units)?;
+    let tree = sections.len() > 1
+        || sections
+            .iter()
+            .flat_map(|s| &s.rows)
+            .any(|r| r.name.is_some());
+    let robot = if tree {
+        robot_from_dh_tree(name, t.units, &sections, t.convention, file)?
+    } else {
+        robot_from_dh(name, t.units, &t.rows, t.convention)
+    };
     robot.validate().map_err(|m| {
         Error::input(
             Location::file(file),
@@ -396,6 +642,40 @@ pub fn import_dh(
 /// Parses a DH table's rows (`kind,a,alpha,d,theta[,beta]`) in `units`. Comment lines (`#`)
 /// are skipped; a leading byte-order mark is not part of the header.
 pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> {
+    Ok(parse_dh_rows(text, file, units)?
+        .into_iter()
+        .map(|r| r.row)
+        .collect())
+}
+
+/// A row of a DH table as the file has it: its name (the `name` column: a joint's reading
+/// column, a frame a branch hangs from), the row, and its line.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct NamedRow {
+    /// The row's name; `None` where the column is absent or the field empty.
+    pub name: Option<String>,
+    /// The row (internal units).
+    pub row: DhRow,
+    /// Its line in the file.
+    pub line: usize,
+}
+
+/// The columns of a DH table: `kind, a, alpha, d, theta` required, `beta` and `name` optional,
+/// in any order (case ignored); their indices in that order, `None` for an absent optional one.
+fn dh_columns(header: &[String]) -> Option<[Option<usize>; 7]> {
+    const COLUMNS: [&str; 7] = ["kind", "a", "alpha", "d", "theta", "beta", "name"];
+    let mut at = [None; 7];
+    for (i, h) in header.iter().enumerate() {
+        let k = COLUMNS.iter().position(|c| c == h)?;
+        if at[k].replace(i).is_some() {
+            return None;
+        }
+    }
+    at[..5].iter().all(Option::is_some).then_some(at)
+}
+
+/// [`parse_dh_csv`] with each row's name and line.
+pub(crate) fn parse_dh_rows(text: &str, file: &str, units: Units) -> Result<Vec<NamedRow>> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
@@ -405,36 +685,49 @@ pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> 
     let record = rdr
         .headers()
         .map_err(|e| Error::input(loc.at_line(1), format!("invalid CSV: {e}")))?;
-    let header_line = record.position().map_or(1, |p| p.line() as usize);
+    // A record's line: the first line from its byte offset (where the previous record ended)
+    // that is not blank or a comment. The reader's own count leaves out the comment lines it
+    // skips.
+    let line_of = |p: Option<&csv::Position>| {
+        p.map_or(0, |p| {
+            let mut at = (p.byte() as usize).min(text.len());
+            let mut line = 1 + memchr::memchr_iter(b'\n', &text.as_bytes()[..at]).count();
+            while let Some(rest) = text.get(at..).filter(|r| !r.is_empty()) {
+                let end = rest.find('\n').map_or(rest.len(), |i| i + 1);
+                let l = rest[..end].trim();
+                if !(l.is_empty() || l.starts_with('#')) {
+                    break;
+                }
+                at += end;
+                line += 1;
+            }
+            line
+        })
+    };
+    let header_line = line_of(record.position()).max(1);
     let header: Vec<String> = record.iter().map(|h| h.to_ascii_lowercase()).collect();
     const NAMES: [&str; 5] = ["a", "alpha", "d", "theta", "beta"];
-    let with_beta = match header.as_slice() {
-        [k, a, al, d, t] if [k, a, al, d, t] == ["kind", "a", "alpha", "d", "theta"] => false,
-        [k, a, al, d, t, b]
-            if [k, a, al, d, t, b] == ["kind", "a", "alpha", "d", "theta", "beta"] =>
-        {
-            true
-        }
-        _ => {
-            return Err(Error::input(
-                loc.at_line(header_line),
-                format!(
-                    "unexpected header `{}`: expected `kind,a,alpha,d,theta` or \
-                     `kind,a,alpha,d,theta,beta`",
-                    header.join(",")
-                ),
-            ))
-        }
+    let Some(cols) = dh_columns(&header) else {
+        return Err(Error::input(
+            loc.at_line(header_line),
+            format!(
+                "unexpected header `{}`: expected `kind,a,alpha,d,theta` or \
+                 `kind,a,alpha,d,theta,beta`, and optionally `name` (a joint's reading column, \
+                 a frame a branch hangs from), in any order",
+                header.join(",")
+            ),
+        ));
     };
-    let mut rows = Vec::new();
+    let mut rows: Vec<NamedRow> = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line() as usize);
+            let line = line_of(e.position());
             Error::input(loc.at_line(line), format!("invalid CSV: {e}"))
         })?;
-        let line = rec.position().map_or(0, |p| p.line() as usize);
+        let line = line_of(rec.position());
         let at = |f: &str| loc.at_line(line).with_field(f);
-        let kind = match &rec[0] {
+        let field = |k: usize| cols[k].map_or("", |i| &rec[i]);
+        let kind = match field(0) {
             "revolute" | "R" | "r" => RowKind::Revolute,
             "prismatic" | "P" | "p" => RowKind::Prismatic,
             "fixed" => RowKind::Fixed,
@@ -446,8 +739,11 @@ pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> 
             }
         };
         let mut v = [0.0; 5];
-        for (k, name) in NAMES.iter().enumerate().take(if with_beta { 5 } else { 4 }) {
-            v[k] = rec[k + 1]
+        for (k, name) in NAMES.iter().enumerate() {
+            if cols[k + 1].is_none() {
+                continue;
+            }
+            v[k] = field(k + 1)
                 .parse::<f64>()
                 .ok()
                 .filter(|x| crate::units::plausible(*x))
@@ -456,21 +752,34 @@ pub fn parse_dh_csv(text: &str, file: &str, units: Units) -> Result<Vec<DhRow>> 
                         at(name),
                         format!(
                             "expected a finite number within +-1e9, found `{}`",
-                            &rec[k + 1]
+                            field(k + 1)
                         ),
                     )
                 })?;
         }
-        rows.push(DhRow {
-            kind,
-            a: units.to_si(Quantity::Length, v[0]),
-            alpha: units.to_si(Quantity::Angle, v[1]),
-            d: units.to_si(Quantity::Length, v[2]),
-            theta: units.to_si(Quantity::Angle, v[3]),
-            beta: units.to_si(Quantity::Angle, v[4]),
+        let name = Some(field(6)).filter(|n| !n.is_empty()).map(String::from);
+        if let Some(n) = &name {
+            if let Some(first) = rows.iter().find(|r| r.name.as_ref() == Some(n)) {
+                return Err(Error::input(
+                    at("name"),
+                    format!("row name `{n}` used twice (first on line {})", first.line),
+                ));
+            }
+        }
+        rows.push(NamedRow {
+            name,
+            row: DhRow {
+                kind,
+                a: units.to_si(Quantity::Length, v[0]),
+                alpha: units.to_si(Quantity::Angle, v[1]),
+                d: units.to_si(Quantity::Length, v[2]),
+                theta: units.to_si(Quantity::Angle, v[3]),
+                beta: units.to_si(Quantity::Angle, v[4]),
+            },
+            line,
         });
     }
-    if !rows.iter().any(|r| r.kind != RowKind::Fixed) {
+    if !rows.iter().any(|r| r.row.kind != RowKind::Fixed) {
         return Err(Error::input(
             loc,
             "no joints: the table has no revolute or prismatic row",
