@@ -237,25 +237,49 @@ pub fn identity(path: &Path) -> Option<Identity> {
     }
 }
 
-/// Refuses outputs that are inputs of the run, or repeated, or folders.
+/// Refuses outputs that are inputs of the run, or repeated, or folders, naming both paths (and
+/// saying when they are one file under two names: the same device and inode).
 pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
-    let inputs: Vec<Identity> = inputs.iter().filter_map(|p| identity(p)).collect();
-    let mut seen: Vec<Identity> = Vec::new();
+    let inputs: Vec<(&Path, Identity)> = inputs
+        .iter()
+        .filter_map(|p| identity(p).map(|id| (*p, id)))
+        .collect();
+    // `out` (whose identity is `id`) and `other` (`its`), one file.
+    let both = |out: &Path, id: &Identity, other: &Path, its: &Identity, as_what: &str| {
+        let same = if out == other {
+            ""
+        } else if id.path == its.path {
+            " (the same file)"
+        } else {
+            " (the same file under another name: the same device and inode)"
+        };
+        format!("{as_what} `{}`{same}", other.display())
+    };
+    let mut seen: Vec<(&Path, Identity)> = Vec::new();
     for out in outputs {
         let Target::Replace { path, existing } = target(out)? else {
             continue;
         };
         let id = Identity::of(path, existing.as_ref());
-        if inputs.contains(&id) {
+        if let Some((input, its)) = inputs.iter().find(|(_, i)| *i == id) {
             return Err(refuse(
                 out,
-                "refusing to write an output over an input of this run",
+                &format!(
+                    "refusing to write an output over an input of this run: {}",
+                    both(out, &id, input, its, "it is the input")
+                ),
             ));
         }
-        if seen.contains(&id) {
-            return Err(refuse(out, "named as two outputs of this run"));
+        if let Some((first, its)) = seen.iter().find(|(_, i)| *i == id) {
+            return Err(refuse(
+                out,
+                &format!(
+                    "named as two outputs of this run: {}",
+                    both(out, &id, first, its, "it is also the output")
+                ),
+            ));
         }
-        seen.push(id);
+        seen.push((out, id));
     }
     Ok(())
 }
