@@ -790,8 +790,9 @@ pub struct CheckArgs {
     pub robot: Option<String>,
     #[command(flatten)]
     pub observations: ObservationFiles,
-    /// LENGTH[,ANGLE]: largest acceptable errors, in the robot file's units.
-    #[arg(long, required_unless_present = "spec")]
+    /// LENGTH[,ANGLE]: largest acceptable errors, in the robot file's units (not needed for
+    /// pixels alone).
+    #[arg(long, required_unless_present_any = ["spec", "pixel_threshold"])]
     pub threshold: Option<String>,
     /// Largest acceptable reprojection error of pixel observations, in pixels (required with
     /// them: pixels are not compared with a length).

@@ -35,7 +35,11 @@ pub fn check(d: &Document, json: bool) {
     let len = |v: f64| u.from_si(Quantity::Length, v);
     let ang = |v: f64| u.from_si(Quantity::Angle, v);
     let acc = &c.verdict.accuracy;
-    let (lmax, amax) = (len(c.thresholds.length), c.thresholds.angle.map(ang));
+    let lmax = c
+        .thresholds
+        .length
+        .map_or(String::from("none"), |l| len(l).to_string());
+    let amax = c.thresholds.angle.map(ang);
     if acc.positions > 0 {
         println!(
             "{} check measurements: max position error {:.6} {} (threshold {lmax}), RMS {:.6}",

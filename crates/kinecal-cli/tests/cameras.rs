@@ -76,6 +76,28 @@ fn views_calibrate_check_and_export_camera_info() {
         &argv("check --robot cal.toml --pixels views.csv --threshold 1 --pixel-threshold 0.1"),
     );
     assert_eq!(code, 3);
+    // Pixels alone need no length threshold (it used to be required, and meant nothing); the
+    // document then has none. Positions still need one.
+    let out = run_ok(
+        d,
+        &argv("check --robot cal.toml --pixels views.csv --pixel-threshold 2 --json"),
+    );
+    let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(doc["ok"], true, "{out}");
+    assert!(doc.get("threshold_length").is_none(), "{out}");
+    assert_eq!(doc["threshold_pixel"], 2.0);
+    run_ok(
+        d,
+        &argv("simulate --robot eye_in_hand_truth.toml --postures 5 --out points.csv"),
+    );
+    let err = run_err(
+        d,
+        &argv("check --robot cal.toml --data points.csv --pixel-threshold 2"),
+    );
+    assert!(
+        err.contains("--threshold") && err.contains("a length threshold is needed"),
+        "{err}"
+    );
     // The camera_info YAML, read back to the calibrated lens.
     run_ok(
         d,

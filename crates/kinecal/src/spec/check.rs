@@ -36,7 +36,8 @@ pub struct CheckSpec {
     /// The check observations.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub observations: Vec<ObservationFile>,
-    /// The largest acceptable errors: a length (required) and an angle (robot file's units).
+    /// The largest acceptable errors: a length (required unless every observation is a pixel)
+    /// and an angle (robot file's units).
     #[serde(default)]
     pub threshold: LengthAngle,
     /// The largest acceptable reprojection error of pixel observations (pixels; required with
@@ -73,12 +74,13 @@ impl CheckSpec {
     pub fn thresholds(&self, robot: &Robot) -> Result<Thresholds> {
         self.threshold.check(Setting::CheckThreshold, true)?;
         let (length, angle) = self.threshold.si(robot);
-        let length = length.ok_or_else(|| {
-            invalid(
+        if length.is_none() && (angle.is_some() || self.pixel_threshold.is_none()) {
+            return Err(invalid(
                 Setting::CheckThreshold,
-                "a length is needed (and an angle when attitudes are checked)",
-            )
-        })?;
+                "a length is needed (and an angle when attitudes are checked; pixels alone need \
+                 only the pixel threshold)",
+            ));
+        }
         if let Some(p) = self
             .pixel_threshold
             .filter(|p| !(p.is_finite() && *p > 0.0))

@@ -100,8 +100,9 @@ pub fn assess(
 #[non_exhaustive]
 pub struct Thresholds {
     /// Largest acceptable length error (m): position errors, and the errors of other length
-    /// metrics (distances, contacts).
-    pub length: f64,
+    /// metrics (distances, contacts); needed when the data has any of them (a check of pixels
+    /// alone needs none).
+    pub length: Option<f64>,
     /// Largest acceptable attitude error (rad), when attitudes are checked.
     pub angle: Option<f64>,
     /// Largest acceptable reprojection error (pixels), when pixels are checked.
@@ -122,7 +123,7 @@ pub struct Verdict {
 /// Checks `robot`'s predictions against check observations.
 pub fn check(robot: &Robot, data: &Dataset, thresholds: Thresholds) -> Result<Verdict> {
     let ok_threshold = |v: f64| v.is_finite() && v > 0.0;
-    if !ok_threshold(thresholds.length) || !thresholds.angle.is_none_or(ok_threshold) {
+    if !thresholds.length.is_none_or(ok_threshold) || !thresholds.angle.is_none_or(ok_threshold) {
         return Err(Error::InvalidOption {
             setting: crate::error::Setting::CheckThreshold,
             message: "thresholds must be positive finite numbers".into(),
@@ -144,10 +145,22 @@ pub fn check(robot: &Robot, data: &Dataset, thresholds: Thresholds) -> Result<Ve
                 .into(),
         });
     }
-    let mut ok = acc.max_position <= thresholds.length
+    let lengths = acc.positions + acc.other.iter().filter(|m| m.metric != "pixel").count();
+    let Some(length) = thresholds
+        .length
+        .or((lengths == 0).then_some(f64::INFINITY))
+    else {
+        return Err(Error::InvalidOption {
+            setting: crate::error::Setting::CheckThreshold,
+            message: "the data has positions, poses, distances or contacts: a length threshold \
+                      is needed (threshold, --threshold LENGTH[,ANGLE])"
+                .into(),
+        });
+    };
+    let mut ok = (acc.positions == 0 || acc.max_position <= length)
         && acc.other.iter().all(|m| match m.metric {
             "pixel" => thresholds.pixel.is_some_and(|p| m.max <= p),
-            _ => m.max <= thresholds.length,
+            _ => m.max <= length,
         });
     if let Some(t) = thresholds.angle {
         ok &= acc.orientations == 0 || acc.max_orientation <= t;
@@ -177,8 +190,9 @@ pub struct CheckReport {
     pub max_orientation_error: Option<f64>,
     /// The other length metrics (distances, contacts).
     pub other: Vec<CheckMetric>,
-    /// The length threshold.
-    pub threshold_length: f64,
+    /// The length threshold (absent for a check of pixels alone given none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold_length: Option<f64>,
     /// The angle threshold, when attitudes are checked.
     pub threshold_angle: Option<f64>,
     /// The pixel threshold, when pixels are checked.
@@ -226,7 +240,7 @@ impl CheckReport {
                     }
                 })
                 .collect(),
-            threshold_length: len(v.thresholds.length),
+            threshold_length: v.thresholds.length.map(len),
             threshold_angle: v.thresholds.angle.map(ang),
             threshold_pixel: v.thresholds.pixel,
         }
