@@ -264,7 +264,7 @@ pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
         if let Some((input, its)) = inputs.iter().find(|(_, i)| *i == id) {
             return Err(refuse(
                 out,
-                &format!(
+                format!(
                     "refusing to write an output over an input of this run: {}",
                     both(out, &id, input, its, "it is the input")
                 ),
@@ -273,7 +273,7 @@ pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
         if let Some((first, its)) = seen.iter().find(|(_, i)| *i == id) {
             return Err(refuse(
                 out,
-                &format!(
+                format!(
                     "named as two outputs of this run: {}",
                     both(out, &id, first, its, "it is also the output")
                 ),
