@@ -293,7 +293,7 @@ def test_ros_export_ur10(cli, tmp_path):
         if os.environ.get("CI"):
             pytest.fail(f"{urdf} is missing, and CI is set", pytrace=False)
         pytest.skip(f"{SKIP_REASON} ({urdf} not found)")
-    check(cli, tmp_path, urdf, "base_link", ["tool0"], {"ee": "tool0"})
+    check(cli, tmp_path, urdf, "base_link", ["tool0"], {"ee": "tool0", "tool0": "tool0"})
 
 
 def test_ros_export_panda_with_a_prismatic_finger(cli, tmp_path):
@@ -302,7 +302,7 @@ def test_ros_export_panda_with_a_prismatic_finger(cli, tmp_path):
         if os.environ.get("CI"):
             pytest.fail(f"{urdf} is missing, and CI is set", pytrace=False)
         pytest.skip(f"{SKIP_REASON} ({urdf} not found)")
-    check(cli, tmp_path, urdf, "panda_link0", ["panda_leftfinger"], {"ee": "panda_leftfinger"})
+    check(cli, tmp_path, urdf, "panda_link0", ["panda_leftfinger"], {"ee": "panda_leftfinger", "panda_leftfinger": "panda_leftfinger"})
 
 
 def test_ros_export_random_six_axis_arm(cli, tmp_path):
@@ -310,7 +310,7 @@ def test_ros_export_random_six_axis_arm(cli, tmp_path):
         d = tmp_path / f"arm{seed}"
         d.mkdir()
         (d / "arm.urdf").write_text(random_arm_urdf(seed))
-        check(cli, d, str(d / "arm.urdf"), None, ["tool0"], {"ee": "tool0"})
+        check(cli, d, str(d / "arm.urdf"), None, ["tool0"], {"ee": "tool0", "tool0": "tool0"})
 
 
 def test_ros_export_two_arm_tree(cli, tmp_path):
