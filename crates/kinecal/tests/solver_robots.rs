@@ -363,6 +363,11 @@ fn a_local_minimum_far_above_the_optimum_is_never_called_a_calibration() {
             );
         } else if !c.converged() {
             said += 1;
+            eprintln!(
+                "seed {seed}: {:?} at {:.3e} times the optimum",
+                c.termination,
+                c.objective_after / best
+            );
             if c.termination == kinecal::solve::estimation::Termination::LocalMinimum {
                 assert!(
                     unfit && restarted.is_some() && out.warnings.iter().any(|w| w.implausible()),
