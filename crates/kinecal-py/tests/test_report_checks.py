@@ -16,6 +16,9 @@ import numpy as np
 import pytest
 
 import kinecal
+import kinecal.history
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
 
 
 @pytest.fixture(scope="module")
@@ -125,3 +128,76 @@ def test_a_tampered_report_raises_naming_its_json_path_as_the_command_line_refus
     # Nothing was believed: no NaN came back from the good one either.
     p = kinecal.predict(robot, good, postures=postures)
     assert np.all(np.isfinite(p["position_bound95"]))
+
+
+def test_every_front_end_refuses_the_same_output_over_an_input(cli, tmp_path):
+    """One output writer for every front end (issue 38, scope item 1): a spec whose ``[outputs]``
+    robot is its own data file under another name (a hard link: the same device and inode) is
+    refused before any work, naming both, by the command line, ``kinecal.calibrate(spec)``,
+    ``kinecal.run``, a batch job; the measurements are left as they were. A history export over
+    its own database is refused by the command line and by ``kinecal.history.export``."""
+    d = tmp_path
+    subprocess.run(
+        [
+            cli,
+            "simulate",
+            "--robot",
+            "ge-a4",
+            "--postures",
+            "20",
+            "--seed",
+            "7",
+            "--out",
+            "data.csv",
+        ],
+        cwd=d,
+        check=True,
+        capture_output=True,
+    )
+    os.link(d / "data.csv", d / "same.csv")
+    before = (d / "data.csv").read_bytes()
+    spec = (
+        'job = "calibrate"\nrobot = "ge-a4"\n\n[[observations]]\nfile = "data.csv"\n\n'
+        '[outputs]\nrobot = "same.csv"\n'
+    )
+    (d / "job.toml").write_text(spec, encoding="utf-8")
+    said = "refusing to write an output over an input"
+    out = subprocess.run(
+        [cli, "calibrate", "--spec", "job.toml"], cwd=d, capture_output=True, text=True, check=False
+    )
+    assert out.returncode == 1 and said in out.stderr, out.stderr
+    assert "same.csv" in out.stderr and "data.csv" in out.stderr, out.stderr
+    for call in (kinecal.calibrate, kinecal.run):
+        with pytest.raises(kinecal.KinecalError) as e:
+            call(str(d / "job.toml"))
+        assert said in str(e.value) and "same.csv" in str(e.value), str(e.value)
+        assert "data.csv" in str(e.value), str(e.value)
+    jobs = (
+        '[[jobs]]\njob = "calibrate"\nname = "one"\nrobot = "ge-a4"\n'
+        'observations = [{ file = "data.csv" }]\noutputs = { robot = "same.csv" }\n'
+    )
+    (d / "jobs.toml").write_text(jobs, encoding="utf-8")
+    out = subprocess.run(
+        [cli, "batch", "jobs.toml"], cwd=d, capture_output=True, text=True, check=False
+    )
+    assert out.returncode != 0 and said in out.stdout + out.stderr, out.stdout + out.stderr
+    assert (d / "data.csv").read_bytes() == before
+    # The history's export over its own database.
+    dump = os.path.join(ROOT, "examples", "fleet", "history.json")
+    subprocess.run(
+        [cli, "history", "import", dump, "--db", "h.sqlite"], cwd=d, check=True, capture_output=True
+    )
+    os.link(d / "h.sqlite", d / "h2.sqlite")
+    db = (d / "h.sqlite").read_bytes()
+    out = subprocess.run(
+        [cli, "history", "export", "--format", "csv", "--out", "h2.sqlite", "--db", "h.sqlite"],
+        cwd=d,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert out.returncode == 1 and "h2.sqlite" in out.stderr, out.stderr
+    with pytest.raises(kinecal.KinecalError) as e:
+        kinecal.history.export(db=d / "h.sqlite", format="csv", out=d / "h2.sqlite")
+    assert "h2.sqlite" in str(e.value), str(e.value)
+    assert (d / "h.sqlite").read_bytes() == db
