@@ -43,7 +43,10 @@ fn robots() -> Vec<(&'static str, Robot, Robot)> {
     )
     .unwrap();
     vec![
-        ("", twin(simulate::random_robot(&[JointKind::Revolute; 6], 21))),
+        (
+            "",
+            twin(simulate::random_robot(&[JointKind::Revolute; 6], 21)),
+        ),
         ("ur10/", twin(ur10)),
         ("irb120/", twin(irb120)),
     ]

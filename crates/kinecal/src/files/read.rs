@@ -129,7 +129,7 @@ pub(crate) fn read_options(
 /// their sources; with `read.session_per_file`, each file's session is named to tell it from
 /// the files `all` (`session_name`). The files are fitted together, so a row's own standard
 /// deviation is checked against the median of every file's for its quantity
-/// ([`super::table::sigma_spread_across`]), as each file's reader checks it against its own.
+/// (`table::sigma_spread_across`), as each file's reader checks it against its own.
 pub fn read_files(
     read: &ReadSettings,
     list: &[ObservationFile],
