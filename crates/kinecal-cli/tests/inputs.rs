@@ -208,3 +208,48 @@ fn a_standard_deviation_finer_than_any_instrument_is_refused_naming_weights() {
         &argv("calibrate --robot ge-a4 --data data.csv --weights length=4e-8 -q"),
     );
 }
+
+/// Mix-ups are named with what to do (issue 38): a URDF given as the robot, a robot file given
+/// as data, joint columns named `j1..jn`, and Excel's `sep=;` line; each used to get a correct
+/// but undiagnostic error ("invalid TOML: key with no value", "no column `v1` in the header").
+#[test]
+fn mix_ups_are_named_with_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &argv("simulate --robot ge-a4 --postures 5 --seed 1 --out data.csv"),
+    );
+    let data = std::fs::read_to_string(d.join("data.csv")).unwrap();
+    let urdf = "<?xml version=\"1.0\"?>\n<robot name=\"arm\">\n  <link name=\"base\"/>\n</robot>\n";
+    std::fs::write(d.join("arm.urdf"), urdf).unwrap();
+    let err = run_err(d, &argv("calibrate --robot arm.urdf --data data.csv"));
+    assert!(
+        err.contains("arm.urdf: this is a URDF, not a kinecal robot file")
+            && err.contains("kinecal import urdf arm.urdf --out robot.toml"),
+        "{err}"
+    );
+    std::fs::copy(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/robots/ge_a4.toml"),
+        d.join("ge.toml"),
+    )
+    .unwrap();
+    let err = run_err(d, &argv("calibrate --robot ge-a4 --data ge.toml"));
+    assert!(
+        err.contains("looks like a robot file (TOML), not a data file: give it as --robot"),
+        "{err}"
+    );
+    let renamed = data.replacen("v1,v2,v3,v4", "j1,j2,j3,j4", 1);
+    std::fs::write(d.join("j.csv"), renamed).unwrap();
+    let err = run_err(d, &argv("calibrate --robot ge-a4 --data j.csv"));
+    assert!(err.contains("map them with --columns v1=j1"), "{err}");
+    // And the mapping the hint gives reads it.
+    run_ok(
+        d,
+        &argv("analyze --robot ge-a4 --data j.csv --columns v1=j1,v2=j2,v3=j3,v4=j4"),
+    );
+    let excel = format!("sep=;\n{}", data.replace(',', ";"));
+    std::fs::write(d.join("excel.csv"), excel).unwrap();
+    let err = run_err(d, &argv("calibrate --robot ge-a4 --data excel.csv"));
+    assert!(err.contains("Excel's `sep=` line"), "{err}");
+}

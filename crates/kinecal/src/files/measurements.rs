@@ -400,14 +400,15 @@ impl Finder<'_, '_> {
             None => Err(Error::input(
                 t.header_at().with_field(name.clone()),
                 format!(
-                    "no column `{name}`{} in the header `{}` (expected {})",
+                    "no column `{name}`{} in the header `{}` (expected {}){}",
                     if name == ours {
                         String::new()
                     } else {
                         format!(" (for kinecal's `{ours}`)")
                     },
                     t.header.join(","),
-                    FORMAT.header.replace("v1..vn", &format!("v1..v{}", self.n))
+                    FORMAT.header.replace("v1..vn", &format!("v1..v{}", self.n)),
+                    super::table::header_hint(&t.header)
                 ),
             )),
         }

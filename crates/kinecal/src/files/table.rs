@@ -81,6 +81,34 @@ pub(crate) fn detect_delimiter(text: &str) -> u8 {
     }
 }
 
+/// What a header that lacks kinecal's columns most likely is, as a sentence to add to the error
+/// (empty when nothing is recognised): Excel's `sep=` line, a robot file given as data, or joint
+/// columns named `j1`, `q1`, `joint1`, `a1`, `axis1` or `theta1` instead of `v1`.
+pub(crate) fn header_hint(header: &[impl AsRef<str>]) -> &'static str {
+    let first = header.first().map_or("", |h| h.as_ref().trim());
+    if first.to_ascii_lowercase().starts_with("sep=") {
+        return "; the first line is Excel's `sep=` line (a separator hint): delete it, kinecal \
+                finds `,`, `;` or tab itself";
+    }
+    if first.starts_with('[') || first.contains('=') {
+        return "; this looks like a robot file (TOML), not a data file: give it as --robot \
+                (robot in a spec)";
+    }
+    let joint_like = |h: &str| {
+        let h = h.trim().to_ascii_lowercase();
+        let digits = h.trim_start_matches(|c: char| !c.is_ascii_digit());
+        let stem = h[..h.len() - digits.len()].trim_end_matches('_');
+        !digits.is_empty()
+            && digits.chars().all(|c| c.is_ascii_digit())
+            && ["j", "q", "joint", "a", "axis", "theta"].contains(&stem)
+    };
+    if header.iter().any(|h| joint_like(h.as_ref())) {
+        return "; the joint columns are v1..vn or the robot's joint names: rename yours, or map \
+                them with --columns v1=j1,v2=j2,... where a command takes it (columns in a spec)";
+    }
+    ""
+}
+
 /// Reads a table. Rows may have any number of fields: check the header first, then
 /// [`Table::check_rows`].
 ///
@@ -409,7 +437,10 @@ impl Table<'_> {
         self.column(name).ok_or_else(|| {
             Error::input(
                 self.header_at().with_field(name),
-                format!("no column `{name}` in the header: expected {expected}"),
+                format!(
+                    "no column `{name}` in the header: expected {expected}{}",
+                    header_hint(&self.header)
+                ),
             )
         })
     }

@@ -291,6 +291,25 @@ impl<'t> Reader<'t> {
         toml_edit::Document::parse(self.text).map_err(|e| {
             let mut at = Location::file(self.file);
             at.line = line_of(self.text, e.span());
+            // An XML file (a URDF, a xacro) where a robot file was expected: say so.
+            let start = self.text.trim_start_matches('\u{feff}').trim_start();
+            if start.starts_with('<') {
+                let kind = if start.contains("xmlns:xacro") {
+                    "a xacro file"
+                } else if start.contains("<robot") {
+                    "a URDF"
+                } else {
+                    "XML"
+                };
+                return Error::input(
+                    Location::file(self.file),
+                    format!(
+                        "this is {kind}, not a kinecal robot file (TOML): import it first, \
+                         `kinecal import urdf {} --out robot.toml`, and give robot.toml",
+                        self.file
+                    ),
+                );
+            }
             Error::input(at, format!("invalid TOML: {}", e.message().trim()))
         })
     }
