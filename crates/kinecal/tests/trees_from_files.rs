@@ -249,7 +249,10 @@ fn a_tool_frame_is_called_ee_or_by_its_link_in_a_chain_as_in_a_tree() {
         let back =
             kinecal::model::robot_file::parse_robot_toml(&write_robot_toml(robot, None), "r.toml")
                 .unwrap();
-        assert_eq!(back.target_named("RIGHT_tool0"), Some(Target::EndEffector));
+        assert_eq!(
+            Target::named(&back, "RIGHT_tool0"),
+            Some(Target::EndEffector)
+        );
     }
     assert_eq!(site_target(&tree, "LEFT_tool0"), Ok(Target::Site(0)));
     assert_eq!(site_target(&left, "LEFT_tool0"), Ok(Target::EndEffector));

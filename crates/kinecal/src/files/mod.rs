@@ -384,13 +384,13 @@ pub(crate) fn restore_notes(mut notes: Vec<String>) {
 }
 
 /// The target a `site` field names: the end effector when it is empty, else as
-/// [`Robot::target_named`] says (`ee` or the end effector's own name, or a site's); otherwise
+/// [`Target::named`] says (`ee` or the end effector's own name, or a site's); otherwise
 /// the message of the error, which lists the robot's targets.
 pub fn site_target(robot: &Robot, name: &str) -> std::result::Result<Target, String> {
     if name.is_empty() {
         return Ok(Target::EndEffector);
     }
-    robot.target_named(name).ok_or_else(|| {
+    Target::named(robot, name).ok_or_else(|| {
         format!(
             "unknown site `{name}` (the robot file defines: {})",
             robot.target_names().join(", ")

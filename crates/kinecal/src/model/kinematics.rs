@@ -150,6 +150,23 @@ pub enum Target {
     Site(usize),
 }
 
+impl Target {
+    /// The tool frame of `robot` called `name`: the end effector by `ee` or by its own name
+    /// ([`Robot::end_effector`]: an imported URDF's tip link, a chain's as a tree's), else the
+    /// site so called. The one rule every file, option and spec names a target by.
+    pub fn named(robot: &Robot, name: &str) -> Option<Target> {
+        match name {
+            "ee" => Some(Target::EndEffector),
+            name if robot.end_effector.as_deref() == Some(name) => Some(Target::EndEffector),
+            name => robot
+                .sites
+                .iter()
+                .position(|s| s.name == name)
+                .map(Target::Site),
+        }
+    }
+}
+
 /// Posture-independent data of one link (or site) transform, precomputed once per parameter set.
 #[derive(Debug, Clone, Copy)]
 struct LinkCache {

@@ -1096,19 +1096,8 @@ impl Robot {
         self.sites.iter().position(|s| s.name == name)
     }
 
-    /// The tool frame called `name`: the end effector by `ee` or by its own name
-    /// ([`Robot::end_effector`]: an imported URDF's tip link, a chain's as a tree's), else the
-    /// site so called. The one rule every file, option and spec names a target by.
-    pub fn target_named(&self, name: &str) -> Option<crate::model::kinematics::Target> {
-        use crate::model::kinematics::Target;
-        match name {
-            "ee" => Some(Target::EndEffector),
-            name if self.end_effector.as_deref() == Some(name) => Some(Target::EndEffector),
-            name => self.site_index(name).map(Target::Site),
-        }
-    }
-
-    /// Every name [`Robot::target_named`] takes: `ee`, the end effector's own name, the sites'.
+    /// Every name [`crate::model::kinematics::Target::named`] takes: `ee`, the end effector's
+    /// own name, the sites'.
     pub fn target_names(&self) -> Vec<&str> {
         std::iter::once("ee")
             .chain(self.end_effector.as_deref())

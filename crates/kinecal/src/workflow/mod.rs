@@ -28,6 +28,7 @@ mod min_change;
 mod model_choice;
 mod outcome;
 mod placements;
+mod progress;
 mod request;
 mod restart;
 mod run;

@@ -27,7 +27,7 @@ use crate::solve::registration::register;
 use crate::units::Quantity;
 use crate::warning::{StartTried, Warning};
 
-use super::run::Progress;
+use super::progress::Progress;
 
 /// How many well-spread starts are tried after the closed-form placements.
 pub const SPREAD_STARTS: u64 = 8;
