@@ -1178,3 +1178,65 @@ fn exit_code(rows: &[Row], calibrations_only: bool) -> u8 {
         0
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::fuzz_driver::{fuzz, Outcome};
+
+    /// Manifests (issue 38), CSV and TOML: a mutated manifest is read as `batch` reads it (no
+    /// panic, no hang, a refusal that names the manifest); an accepted one lists at most as
+    /// many entries as it has lines (ended by `\n` or `\r`), each serial within the history's
+    /// bound.
+    fn manifests(target: &str, name: &str, seeds: &[&str]) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(name);
+        let shown = path.display().to_string();
+        let seeds: Vec<Vec<u8>> = seeds.iter().map(|s| s.as_bytes().to_vec()).collect();
+        fuzz(target, &shown, &seeds, &|b| {
+            if let Err(e) = std::fs::write(&path, b) {
+                return Outcome::Accepted(Err(format!("the manifest could not be written: {e}")));
+            }
+            match super::read_manifest(&path) {
+                Ok(entries) => Outcome::Accepted(
+                    if entries.len() <= b.split(|&c| c == b'\n' || c == b'\r').count()
+                        && entries.iter().all(|e| {
+                            e.serial.chars().count() <= kinecal::spec::limits::MAX_SERIAL_CHARS
+                        })
+                    {
+                        Ok(())
+                    } else {
+                        Err(format!(
+                            "{} entries, or a serial beyond the bound",
+                            entries.len()
+                        ))
+                    },
+                ),
+                Err(e) => Outcome::Refused(format!("{e:#}")),
+            }
+        });
+    }
+
+    #[test]
+    fn csv_manifests() {
+        manifests(
+            "batch manifest csv",
+            "robots.csv",
+            &[
+                "serial,robot,data,options\nR1,ge-a4,r1.csv,--estimate identifiable\nR2,ge-a4,r2.csv,\n",
+                "# a fleet\nserial,robot,data\nA-7,robot.toml,a7.csv\n",
+            ],
+        );
+    }
+
+    #[test]
+    fn toml_manifests() {
+        manifests(
+            "batch manifest toml",
+            "jobs.toml",
+            &[
+                "[[jobs]]\nname = \"R1\"\njob = \"calibrate\"\nrobot = \"ge-a4\"\n\n[[jobs.observations]]\nfile = \"r1.csv\"\n",
+                "[[jobs]]\nname = \"plan\"\njob = \"plan\"\nrobot = \"ge-a4\"\nsample = 150\ncount = 6\n",
+            ],
+        );
+    }
+}

@@ -8,6 +8,10 @@ mod batch;
 mod calibrate;
 mod demo;
 mod door;
+/// The workspace's mutation driver, for the manifest reader's fuzz tests (`batch.rs`).
+#[cfg(test)]
+#[path = "../../kinecal/tests/fuzz_driver/mod.rs"]
+mod fuzz_driver;
 mod history;
 mod iso9283;
 mod plan;
