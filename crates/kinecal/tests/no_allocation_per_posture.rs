@@ -3,10 +3,11 @@
 //! (an elastic robot's sizes its response then), and
 //! a pass of the problem with its full Jacobian allocates as often for 2,000 postures as for 200
 //! (its buffers are made per pass, not per posture). Counted by a global allocator that tallies
-//! every allocation of this test binary; the tests share one lock so their counts do not mix.
+//! each thread's allocations apart (the library's hot path runs on the calling thread), so the
+//! test harness's own threads and the other tests cannot add to a count.
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::cell::Cell;
 use std::sync::Mutex;
 
 use kinecal::apps::simulate;
@@ -17,19 +18,27 @@ use kinecal::{Chain, JointKind, ParamId, Robot, Target, Workspace};
 
 struct Counting;
 
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+thread_local! {
+    /// This thread's allocations (a const-initialised cell: counting allocates nothing).
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// Counts one allocation of the calling thread (none while the thread is being torn down).
+fn count() {
+    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        count();
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        count();
         unsafe { System.realloc(ptr, layout, new_size) }
     }
 }
@@ -37,11 +46,11 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// The allocations `f` makes.
+/// The allocations `f` makes on this thread.
 fn allocations(f: impl FnOnce()) -> usize {
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = ALLOCATIONS.with(Cell::get);
     f();
-    ALLOCATIONS.load(Ordering::Relaxed) - before
+    ALLOCATIONS.with(Cell::get) - before
 }
 
 fn elastic(mut robot: Robot) -> Robot {
