@@ -524,7 +524,7 @@ pub(super) fn data_warnings(
     let mut warnings = crate::observe::sanity::check_data_with(robot, data, predicted);
     // Placements pooled without sessions spread unlike the robot too: said as what they are,
     // not as a unit mix-up.
-    if let Some(pooled) = super::placements::pooled_placements(robot, data) {
+    if let Some(pooled) = super::placements::pooled_placements(robot, data, predicted) {
         warnings.retain(|w| !matches!(w, Warning::ScaleMismatch { .. }));
         warnings.push(pooled);
     }

@@ -77,6 +77,46 @@ fn misfits<'a>(robot: &Robot, data: &Dataset, rows: impl Iterator<Item = &'a Row
     .collect()
 }
 
+/// The RMS distance (m) between the measured positions of `data` and the nominal robot's
+/// (`predicted`, per observation), after the best rigid motion of the measured ones (Kabsch);
+/// `None` without positions or when the motion is undetermined.
+fn rigid_rms(data: &Dataset, predicted: &[[Vector3<f64>; 2]]) -> Option<f64> {
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = data
+        .observations
+        .iter()
+        .zip(predicted)
+        .filter_map(|(o, p)| match o {
+            Observation::Position(m) => Some((p[0], m.position)),
+            Observation::Pose(m) => Some((p[0], m.position)),
+            _ => None,
+        })
+        .collect();
+    if pairs.len() < 3 {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let (cp, cm) = pairs
+        .iter()
+        .fold((Vector3::zeros(), Vector3::zeros()), |a, (p, m)| {
+            (a.0 + p / n, a.1 + m / n)
+        });
+    let h = pairs.iter().fold(nalgebra::Matrix3::zeros(), |h, (p, m)| {
+        h + (m - cm) * (p - cp).transpose()
+    });
+    let svd = h.svd(true, true);
+    let (u, vt) = (svd.u?, svd.v_t?);
+    let mut d = nalgebra::Matrix3::identity();
+    d[(2, 2)] = (u * vt).determinant().signum();
+    // The rotation taking measured offsets onto the model's.
+    let r = u * d * vt;
+    let sum: f64 = pairs
+        .iter()
+        .map(|(p, m)| (r.transpose() * (m - cm) - (p - cp)).norm_squared())
+        .sum();
+    let e = (sum / n).sqrt();
+    e.is_finite().then_some(e)
+}
+
 fn rms(e: &[f64]) -> f64 {
     (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt()
 }
@@ -124,7 +164,11 @@ fn blocks(
 
 /// A [`Warning::PooledPlacements`] when `data` (without sessions) falls into groups of rows each
 /// fitted by a placement of its own and not by one for all (see the module documentation).
-pub(super) fn pooled_placements(robot: &Robot, data: &Dataset) -> Option<Warning> {
+pub(super) fn pooled_placements(
+    robot: &Robot,
+    data: &Dataset,
+    predicted: &[[Vector3<f64>; 2]],
+) -> Option<Warning> {
     if !data.sessions().is_empty() {
         return None;
     }
@@ -133,6 +177,13 @@ pub(super) fn pooled_placements(robot: &Robot, data: &Dataset) -> Option<Warning
         return None;
     }
     let tol = crate::observe::sanity::POSITION_LIMIT * robot.reach();
+    // The common case first, from the nominal points the data check already has: one rigid
+    // motion of the measurement frame puts every measured position within the tolerance, so
+    // there is one placement (a pass over the rows, where the closed-form placement below costs
+    // as much as the rest of a whole calibration's preparation).
+    if rigid_rms(data, predicted).is_some_and(|e| e <= tol) {
+        return None;
+    }
     let ids: Vec<ParamId> = robot.param_ids().collect();
     let all: Vec<&Row> = rows.iter().collect();
     let pooled = rms(&misfits(&place(robot, data, &all, &ids), data, rows.iter()));
