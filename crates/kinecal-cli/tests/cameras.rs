@@ -49,7 +49,7 @@ fn views_calibrate_check_and_export_camera_info() {
         d,
         &argv(
             "calibrate --robot eye_in_hand.toml --pixels views.csv --estimate extrinsics,boards
-             --out cal.toml -q",
+             --out cal.toml --html cal.html -q",
         ),
     );
     assert!(
@@ -57,6 +57,20 @@ fn views_calibrate_check_and_export_camera_info() {
         "{out}"
     );
     assert!(out.contains("RMS pixel error (px)"), "{out}");
+    // The page's charts show pixels in pixels (they were drawn as lengths: 0.4 px as "400 mm").
+    let page = std::fs::read_to_string(d.join("cal.html")).unwrap();
+    assert!(
+        page.contains("pixel error (px, log scale)"),
+        "no pixel axis"
+    );
+    assert!(
+        page.contains("pixel error (px; bins of"),
+        "no pixel histogram axis"
+    );
+    assert!(
+        !page.contains("pixel error (mm"),
+        "pixels drawn as millimetres"
+    );
     // The check: pixels against a pixel threshold, and only that.
     let err = run_err(
         d,

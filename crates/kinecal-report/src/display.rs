@@ -293,8 +293,11 @@ fn observation_errors(r: &mut CalibrationReport, c: &Convert) {
         o.orientation_error = o.orientation_error.map(|v| c.angle(v));
     }
     if let Some(e) = &mut r.observation_errors {
+        // Pixels stay pixels (a camera's data alone: the metric is `pixel`).
+        let pixels = e.metric == "pixel";
+        let length = |v: f64| if pixels { v } else { c.length(v) };
         for v in e.before.iter_mut().chain(e.after.iter_mut()) {
-            *v = c.length(*v);
+            *v = length(*v);
         }
         for list in [&mut e.attitude_before, &mut e.attitude_after]
             .into_iter()
@@ -304,7 +307,7 @@ fn observation_errors(r: &mut CalibrationReport, c: &Convert) {
                 *v = c.angle(*v);
             }
         }
-        e.histogram_width = c.length(e.histogram_width);
+        e.histogram_width = length(e.histogram_width);
     }
 }
 

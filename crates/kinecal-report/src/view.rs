@@ -649,6 +649,15 @@ pub(crate) fn cap(s: &str) -> String {
         .unwrap_or_default()
 }
 
+/// The unit errors of `metric` are shown in: `px` for pixels, else the page's length unit.
+fn error_unit(metric: &str, c: &Convert) -> String {
+    if metric == "pixel" {
+        "px".into()
+    } else {
+        c.l().to_string()
+    }
+}
+
 /// Errors per observation, before and after: positions (or lengths of another metric), and
 /// attitudes when the observations are poses. Log axes: the errors after calibration are
 /// 10-1000 times smaller than before, and both must be readable.
@@ -656,7 +665,7 @@ fn per_observation(r: &CalibrationReport, c: &Convert) -> Vec<Panel> {
     let Some(oe) = &r.observation_errors else {
         return Vec::new();
     };
-    let (l, a) = (c.l(), c.a());
+    let (l, a) = (error_unit(&oe.metric, c), c.a());
     let kind_of_error = oe.metric.as_str();
     let note = if oe.run == 1 {
         String::new()
@@ -714,7 +723,7 @@ fn histogram(r: &CalibrationReport, c: &Convert) -> Option<Panel> {
         ),
         x_label: format!(
             "{kind_of_error} error ({}; bins of {})",
-            c.l(),
+            error_unit(&oe.metric, c),
             tick_label(width, width)
         ),
         y_label: "observations".into(),

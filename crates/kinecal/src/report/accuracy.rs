@@ -303,7 +303,12 @@ pub(crate) fn observation_errors(cal: &Calibration, data: &Dataset) -> Observati
         crate::observe::for_each_observation(robot, data, |_, o, frames| {
             let e = o.error(&ctx, frames);
             out.push((
-                u.from_si(Quantity::Length, e.length),
+                // Pixels stay pixels.
+                if e.metric == "pixel" {
+                    e.length
+                } else {
+                    u.from_si(Quantity::Length, e.length)
+                },
                 e.angle.map(|a| u.from_si(Quantity::Angle, a)),
             ));
         });
