@@ -52,6 +52,7 @@ pub mod distance;
 pub mod pixel;
 pub mod point;
 pub(crate) mod sanity;
+mod trig_cache;
 
 use std::fmt;
 
@@ -379,12 +380,23 @@ observation_kinds! {
 }
 
 /// A set of postures and the observations made in them.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Dataset {
     /// The postures.
     pub postures: Vec<Posture>,
     /// The observations, sorted by their first posture.
     pub observations: Vec<Observation>,
+    /// The sines and cosines of the readings, made on first use by a pass of forward
+    /// kinematics and shared by the passes after it ([`Dataset::reading_trig`]).
+    trig: trig_cache::TrigCache,
+}
+
+/// Datasets are equal when their postures and observations are (the kept tables are not
+/// data).
+impl PartialEq for Dataset {
+    fn eq(&self, other: &Self) -> bool {
+        self.postures == other.postures && self.observations == other.observations
+    }
 }
 
 /// The robust spread of residual rows, taken per group of rows *alike*: the same kind of
@@ -449,7 +461,18 @@ impl Dataset {
         Dataset {
             postures,
             observations,
+            trig: Default::default(),
         }
+    }
+
+    /// The sines and cosines of the reading parts of `robot`'s joint angles at every posture
+    /// (a table for its slopes and couplings; see [`crate::model::kinematics::ReadingTrig`]),
+    /// made once and kept: the passes of forward kinematics over these postures share it.
+    pub(crate) fn reading_trig(
+        &self,
+        robot: &Robot,
+    ) -> std::sync::Arc<crate::model::kinematics::ReadingTrig> {
+        self.trig.get(robot, &self.postures)
     }
 
     /// Total residual rows.
@@ -777,11 +800,13 @@ pub(crate) fn for_each_observation(
 ) {
     let chain = crate::model::kinematics::Chain::new(robot);
     let mut cache = FrameCache::new(robot);
+    let trig = data.reading_trig(robot);
     let mut frames = [Frame::identity(); 2];
     for (i, o) in data.observations.iter().enumerate() {
         let views = o.views();
         for (k, v) in views.iter().enumerate() {
-            let at = chain.target_frame(cache.posture(&chain, data, v.posture), v.target);
+            let ws = cache.posture_with(&chain, data, v.posture, Some(&trig));
+            let at = chain.target_frame(ws, v.target);
             frames[k] = observed_frame(robot, data, o, *v, at);
         }
         f(i, o, &frames[..views.len()]);
@@ -808,18 +833,9 @@ impl FrameCache {
         }
     }
 
-    /// The workspace holding `posture`'s frames, computing them if needed.
-    pub fn posture(
-        &mut self,
-        chain: &crate::model::kinematics::Chain<'_>,
-        data: &Dataset,
-        posture: usize,
-    ) -> &crate::model::kinematics::Workspace {
-        self.posture_with(chain, data, posture, None)
-    }
-
-    /// [`FrameCache::posture`] with the reading parts of the joint angles' sines and cosines
-    /// known (a table that fits the chain's robot).
+    /// The workspace holding `posture`'s frames, computing them if needed, with the reading
+    /// parts of the joint angles' sines and cosines known when `trig` is given (a table that
+    /// fits the chain's robot: [`Dataset::reading_trig`]).
     pub(crate) fn posture_with(
         &mut self,
         chain: &crate::model::kinematics::Chain<'_>,

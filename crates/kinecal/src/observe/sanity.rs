@@ -144,12 +144,14 @@ fn attitudes(robot: &Robot, data: &Dataset) -> Option<Warning> {
 pub(crate) fn predicted(robot: &Robot, data: &Dataset) -> Vec<[Vector3<f64>; 2]> {
     let chain = Chain::new(robot);
     let mut cache = crate::observe::FrameCache::new(robot);
+    // The readings' sines and cosines, made here and kept with the data for the fit's passes.
+    let trig = data.reading_trig(robot);
     data.observations
         .iter()
         .map(|o| {
             let mut at = [Vector3::zeros(); 2];
             for (p, v) in at.iter_mut().zip(o.views()) {
-                let ws = cache.posture(&chain, data, v.posture);
+                let ws = cache.posture_with(&chain, data, v.posture, Some(&trig));
                 *p = chain.target_frame(ws, v.target).translation;
             }
             at

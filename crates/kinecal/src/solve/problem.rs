@@ -243,8 +243,8 @@ impl<'a> Problem<'a> {
             )
         });
         if !moves_readings {
-            let readings = self.data.postures.iter().map(|p| p.readings.as_slice());
-            self.trig = Some(std::sync::Arc::new(ReadingTrig::new(self.base, readings)));
+            // The dataset's own table: the data check made it, the report reuses it.
+            self.trig = Some(self.data.reading_trig(self.base));
         }
         self
     }
