@@ -550,12 +550,7 @@ pub(crate) fn calibrate_from(
             sol.unfelt = unfelt;
         }
     }
-    // A stationary point where the model determines fewer directions than at the start (two
-    // joint axes lined up on the way) is not called converged.
     sol.stationarity.start_rank = start_rank;
-    if sol.termination.converged() && sol.stationarity.rank < start_rank {
-        sol.termination = Termination::RankLost;
-    }
     let mut calibrated = problem.robot_at(&sol.x);
     for &id in &opts.estimate {
         if initial.param_quantity(id) == Quantity::Angle {
@@ -571,6 +566,12 @@ pub(crate) fn calibrate_from(
     }
     let (objective_after, prior_objective, accuracy_after) =
         settle(&problem, &calibrated, &row_scale, &mut residuals);
+    sol.termination = rank_verdict(
+        sol.termination,
+        &sol.stationarity,
+        &residuals,
+        problem.cols(),
+    );
     Ok(Calibration {
         accuracy_before,
         accuracy_after,
@@ -592,6 +593,37 @@ pub(crate) fn calibrate_from(
         residuals,
         start_r: Some(start_r),
     })
+}
+
+/// The verdict on a stationary point where the scaled Jacobian determines fewer directions than
+/// at the start (two joint axes lined up on the way, a frame folded onto another):
+/// [`Termination::RankLost`], not converged, unless the residuals are at the stated noise.
+///
+/// The stationarity tests certify a minimum only in the directions the Jacobian still
+/// determines. A point whose weighted residuals `residuals` (at the stated standard deviations,
+/// without the model-error floor's or the robust loss's row scale) the stated noise explains,
+/// their chi-square within three of its standard deviations of its mean `N - p` (`p` =
+/// `estimated`; the test the model-error floor starts with), is a minimum to the data's
+/// precision in every direction: no point fits significantly better. The direction lost there
+/// is one the data leave undetermined at the answer (a tool pitched at a right angle: its ZYX
+/// angles `alpha` and `gamma` turn about one axis at `beta` = 90 deg), which the uncertainty
+/// reports, not a stall. Any other termination is returned as it is.
+fn rank_verdict(
+    termination: Termination,
+    stationarity: &Stationarity,
+    residuals: &[f64],
+    estimated: usize,
+) -> Termination {
+    if !termination.converged() || stationarity.rank >= stationarity.start_rank {
+        return termination;
+    }
+    let dof = residuals.len().saturating_sub(estimated) as f64;
+    let chi2: f64 = residuals.iter().map(|r| r * r).sum();
+    if chi2 <= dof + 3.0 * (2.0 * dof).sqrt() {
+        termination
+    } else {
+        Termination::RankLost
+    }
 }
 
 /// The error for a start where the objective is not finite, naming the first observation with a

@@ -229,7 +229,8 @@ pub enum Termination {
     /// Not converged: a calibration's stationarity test passed, but with the scaled Jacobian's
     /// rank (at `rcond`) below the start's: the model lost a direction on the way (two joint
     /// axes lined up, a frame folded onto another), and the tests see only the directions left.
-    /// Decided by [`super::calibrate`], not by [`solve`].
+    /// Decided by [`super::calibrate`], not by [`solve`], and only while the residuals stay
+    /// above the stated noise (where it explains them, no point fits better).
     RankLost,
     /// Not converged: a stationary point whose measured positions stay beyond 2 % of the
     /// robot's reach from every start tried (the given one, the closed-form placement and a
