@@ -389,3 +389,55 @@ pub fn random_tree(torso: usize, arms: &[usize], seed: u64) -> Robot {
     }
     robot
 }
+
+/// The report's chart of errors, from a simulated calibration (here, where the simulation is).
+#[cfg(test)]
+mod report_tests {
+    /// The errors the calibration's own passes kept (its start and its settled end) are the
+    /// errors a pass of forward kinematics gives, and are not used for another robot.
+    #[test]
+    fn kept_errors_are_the_errors_of_a_fresh_pass_and_only_of_their_robot() {
+        use crate::apps::simulate;
+        use crate::report::accuracy::observation_errors;
+        use crate::solve::estimation::{calibrate, CalibrationOptions};
+        let truth = crate::model::examples::ge_a4();
+        let mut data = simulate::measure(&truth, &simulate::sample_postures(&truth, 40, 3), false);
+        simulate::add_noise(&mut data, 1e-5, 1e-5, 4);
+        let spread = simulate::PerturbStd {
+            length: 1e-3,
+            angle: 1e-3,
+            ..Default::default()
+        };
+        let nominal = simulate::perturb(&truth, spread, 5);
+        let all: Vec<_> = nominal.param_ids().collect();
+        let opts = crate::identifiability::AnalysisOptions::default();
+        let estimate = crate::identifiability::analyze(&nominal, &data, &all, &opts)
+            .unwrap()
+            .identifiable;
+        let opts = CalibrationOptions::new(estimate);
+        let mut cal = calibrate(&nominal, &data, &opts, &mut |_| {}).unwrap();
+        assert!(cal.errors_before.is_some() && cal.errors_after.is_some());
+        let kept = observation_errors(&cal, &data);
+        let (before, after) = (cal.errors_before.take(), cal.errors_after.take());
+        let fresh = observation_errors(&cal, &data);
+        let close = |a: &[f64], b: &[f64]| {
+            a.len() == b.len()
+                && a.iter()
+                    .zip(b)
+                    .all(|(x, y)| (x - y).abs() <= 1e-12 * (1.0 + y.abs()))
+        };
+        assert!(close(&kept.before, &fresh.before));
+        assert!(close(&kept.after, &fresh.after));
+        assert!(kept.before.iter().zip(&kept.after).any(|(b, a)| a < b));
+        // Another robot than the one they were computed for: not used.
+        cal.errors_before = before;
+        cal.errors_after = after;
+        let moved = cal.estimated[0];
+        cal.calibrated.set(moved, cal.calibrated.get(moved) + 0.01);
+        let stale = observation_errors(&cal, &data);
+        cal.errors_after = None;
+        let recomputed = observation_errors(&cal, &data);
+        assert!(close(&stale.after, &recomputed.after));
+        assert!(!close(&stale.after, &kept.after));
+    }
+}

@@ -437,8 +437,10 @@ impl RobustSpread {
         let spread: Vec<f64> = values
             .iter_mut()
             .map(|v| {
-                v.sort_by(f64::total_cmp);
-                (1.4826 * v[v.len() / 2]).max(1e-6)
+                // The median: the element a sort would put in the middle, found in linear time.
+                let mid = v.len() / 2;
+                let (_, median, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+                (1.4826 * *median).max(1e-6)
             })
             .collect();
         RobustSpread {
@@ -457,7 +459,10 @@ impl Dataset {
     /// Builds a dataset, sorting observations by their first posture (stable: file order within
     /// a posture).
     pub fn new(postures: Vec<Posture>, mut observations: Vec<Observation>) -> Self {
-        observations.sort_by_key(|o| o.posture());
+        // Files list a posture's rows together: most arrive sorted, and are left as they are.
+        if !observations.is_sorted_by_key(|o| o.posture()) {
+            observations.sort_by_key(|o| o.posture());
+        }
         Dataset {
             postures,
             observations,
@@ -892,10 +897,38 @@ pub(crate) struct AccuracyTally {
     positions: Vec<f64>,
     orientations: Vec<f64>,
     other: Vec<(&'static str, Vec<f64>)>,
+    /// Every observation's error, in order.
+    samples: Vec<ErrorSample>,
+}
+
+/// Each observation's error at one robot, kept from the pass of forward kinematics that
+/// computed them for the accuracy figures, so that the report's chart of errors reuses them
+/// instead of another pass. They are used only for the same robot, bit for bit, and as many
+/// observations ([`KeptErrors::for_robot`]).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct KeptErrors {
+    robot: Robot,
+    samples: Vec<ErrorSample>,
+}
+
+impl KeptErrors {
+    pub(crate) fn new(robot: &Robot, samples: Vec<ErrorSample>) -> Self {
+        KeptErrors {
+            robot: robot.clone(),
+            samples,
+        }
+    }
+
+    /// The errors, when they were computed for `robot` over `observations` observations.
+    pub(crate) fn for_robot(&self, robot: &Robot, observations: usize) -> Option<&[ErrorSample]> {
+        (self.robot == *robot && self.samples.len() == observations)
+            .then_some(self.samples.as_slice())
+    }
 }
 
 impl AccuracyTally {
     pub(crate) fn push(&mut self, e: ErrorSample) {
+        self.samples.push(e);
         if e.metric == "position" {
             self.positions.push(e.length);
             if let Some(a) = e.angle {
@@ -910,11 +943,16 @@ impl AccuracyTally {
     }
 
     pub(crate) fn finish(self) -> Accuracy {
+        self.finish_keeping().0
+    }
+
+    /// [`AccuracyTally::finish`], with every observation's error in order.
+    pub(crate) fn finish_keeping(self) -> (Accuracy, Vec<ErrorSample>) {
         let (positions, orientations) = (self.positions.len(), self.orientations.len());
         let (rms_position, mean_position, p95_position, max_position) = stats(self.positions);
         let (rms_orientation, mean_orientation, p95_orientation, max_orientation) =
             stats(self.orientations);
-        Accuracy {
+        let accuracy = Accuracy {
             positions,
             rms_position,
             mean_position,
@@ -930,6 +968,7 @@ impl AccuracyTally {
                 .into_iter()
                 .map(|(metric, e)| MetricAccuracy::of_errors(metric, e))
                 .collect(),
-        }
+        };
+        (accuracy, self.samples)
     }
 }

@@ -293,16 +293,10 @@ pub struct OutlierReport {
 
 /// The errors of every observation of `data` with `cal`'s initial and calibrated robots.
 pub(crate) fn observation_errors(cal: &Calibration, data: &Dataset) -> ObservationErrors {
-    let errors = |robot: &Robot| {
+    let errors = |robot: &Robot, kept: Option<&crate::observe::KeptErrors>| {
         let u = robot.units;
-        let ctx = crate::observe::Context {
-            robot,
-            orientation: crate::observe::OrientationError::default(),
-        };
-        let mut out = Vec::with_capacity(data.observations.len());
-        crate::observe::for_each_observation(robot, data, |_, o, frames| {
-            let e = o.error(&ctx, frames);
-            out.push((
+        let shown = |e: crate::observe::ErrorSample| {
+            (
                 // Pixels stay pixels.
                 if e.metric == "pixel" {
                     e.length
@@ -310,7 +304,20 @@ pub(crate) fn observation_errors(cal: &Calibration, data: &Dataset) -> Observati
                     u.from_si(Quantity::Length, e.length)
                 },
                 e.angle.map(|a| u.from_si(Quantity::Angle, a)),
-            ));
+            )
+        };
+        // The errors the calibration's own pass computed for this robot, else a pass here.
+        let n = data.observations.len();
+        if let Some(samples) = kept.and_then(|k| k.for_robot(robot, n)) {
+            return samples.iter().map(|&e| shown(e)).collect();
+        }
+        let ctx = crate::observe::Context {
+            robot,
+            orientation: crate::observe::OrientationError::default(),
+        };
+        let mut out = Vec::with_capacity(n);
+        crate::observe::for_each_observation(robot, data, |_, o, frames| {
+            out.push(shown(o.error(&ctx, frames)));
         });
         out
     };
@@ -322,7 +329,11 @@ pub(crate) fn observation_errors(cal: &Calibration, data: &Dataset) -> Observati
     } else {
         "length"
     };
-    ObservationErrors::new(metric, &errors(&cal.initial), &errors(&cal.calibrated))
+    ObservationErrors::new(
+        metric,
+        &errors(&cal.initial, cal.errors_before.as_ref()),
+        &errors(&cal.calibrated, cal.errors_after.as_ref()),
+    )
 }
 
 /// The errors of each observation before and after calibration, as charts draw them: every

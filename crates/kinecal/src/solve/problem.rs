@@ -21,7 +21,7 @@ use crate::model::kinematics::{Chain, ColumnPlan, Frame, ReadingTrig, Target};
 use crate::model::params::{LinkComponent, ParamId, ParamKind};
 use crate::model::robot::{Prior, Robot};
 use crate::observe::{
-    Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, Observation,
+    Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, KeptErrors, Observation,
     OrientationError, Weights,
 };
 use crate::units::{wrap_angle, Quantity};
@@ -395,13 +395,14 @@ impl<'a> Problem<'a> {
     }
 
     /// [`Problem::evaluate_qr`], with the errors of every observation summarised (the
-    /// [`crate::observe::accuracy`] of `robot`) from the same pass of forward kinematics.
+    /// [`crate::observe::accuracy`] of `robot`) and kept, from the same pass of forward
+    /// kinematics.
     pub(crate) fn evaluate_qr_checked(
         &self,
         robot: &Robot,
         res: &mut [f64],
         acc: &mut QrAccumulator,
-    ) -> (f64, Accuracy) {
+    ) -> (f64, Accuracy, KeptErrors) {
         assert_eq!(acc.cols(), self.cols() + 1);
         acc.clear();
         self.evaluate_tallied(robot, res, Some(Sink::Rows(acc)))
@@ -416,13 +417,18 @@ impl<'a> Problem<'a> {
         res: &mut [f64],
         rows: &mut dyn RowSink,
     ) -> (f64, Accuracy) {
-        self.evaluate_tallied(robot, res, Some(Sink::Rows(rows)))
+        let (f, accuracy, _) = self.evaluate_tallied(robot, res, Some(Sink::Rows(rows)));
+        (f, accuracy)
     }
 
     /// [`Problem::evaluate`] without derivatives, and with the errors of every observation
-    /// summarised (the [`crate::observe::accuracy`] of `robot`) from the same pass of forward
-    /// kinematics.
-    pub(crate) fn evaluate_checked(&self, robot: &Robot, res: &mut [f64]) -> (f64, Accuracy) {
+    /// summarised (the [`crate::observe::accuracy`] of `robot`) and kept, from the same pass of
+    /// forward kinematics.
+    pub(crate) fn evaluate_checked(
+        &self,
+        robot: &Robot,
+        res: &mut [f64],
+    ) -> (f64, Accuracy, KeptErrors) {
         self.evaluate_tallied(robot, res, None)
     }
 
@@ -434,7 +440,7 @@ impl<'a> Problem<'a> {
         robot: &Robot,
         res: &mut [f64],
         jac: Option<Sink<'_>>,
-    ) -> (f64, Accuracy) {
+    ) -> (f64, Accuracy, KeptErrors) {
         let ctx = Context {
             robot,
             orientation: OrientationError::default(),
@@ -446,7 +452,8 @@ impl<'a> Problem<'a> {
             jac,
             Some(&mut |o: &Observation, frames: &[Frame]| tally.push(o.error(&ctx, frames))),
         );
-        (f, tally.finish())
+        let (accuracy, samples) = tally.finish_keeping();
+        (f, accuracy, KeptErrors::new(robot, samples))
     }
 
     fn evaluate_with(

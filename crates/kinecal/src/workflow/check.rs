@@ -52,8 +52,10 @@ pub fn assess(
     options.orientation = orientation;
     let problem = Problem::new(nominal, data, &estimated, weights, orientation);
     let mut residuals = vec![0.0; problem.rows()];
-    let (objective_before, accuracy_before) = problem.evaluate_checked(nominal, &mut residuals);
-    let (objective_after, accuracy_after) = problem.evaluate_checked(&calibrated, &mut residuals);
+    let (objective_before, accuracy_before, errors_before) =
+        problem.evaluate_checked(nominal, &mut residuals);
+    let (objective_after, accuracy_after, errors_after) =
+        problem.evaluate_checked(&calibrated, &mut residuals);
     let cal = Calibration {
         objective_before,
         objective_after,
@@ -74,6 +76,8 @@ pub fn assess(
         log: Vec::new(),
         residuals,
         start_r: None,
+        errors_before: Some(errors_before),
+        errors_after: Some(errors_after),
     };
     let mut warnings = data_warnings(
         nominal,

@@ -137,7 +137,7 @@ impl Checked {
         let mut r = vec![0.0; p.rows()];
         let mut check = |robot: &Robot| {
             let m = p.rows().max(1);
-            let (f, acc) = p.evaluate_checked(robot, &mut r);
+            let (f, acc, _) = p.evaluate_checked(robot, &mut r);
             ((f / m as f64).sqrt(), acc)
         };
         let (normalized_start, start) = check(&initial);
@@ -423,7 +423,8 @@ pub(super) fn finish(
             cal.options.orientation,
         );
         let mut r = vec![0.0; p.rows()];
-        p.evaluate_checked(&nominal, &mut r)
+        let (objective, accuracy, _) = p.evaluate_checked(&nominal, &mut r);
+        (objective, accuracy)
     });
     if let Some((objective, accuracy)) = &nominal_figures {
         report.set_nominal(*objective, accuracy, &nominal.units);

@@ -133,6 +133,7 @@ pub(super) fn restart_if_unfit(
     best.initial = cal.initial;
     best.objective_before = cal.objective_before;
     best.accuracy_before = cal.accuracy_before;
+    best.errors_before = cal.errors_before;
     best.start_r = cal.start_r;
     if positions_unfit(nominal, &best) && best.converged() {
         best.termination = Termination::LocalMinimum;

@@ -667,8 +667,14 @@ fn fit(
         }
         let plain = Problem::new(start, data, &opts.estimate, opts.weights, opts.orientation)
             .with_prior(&opts.prior);
-        (cal.objective_after, cal.prior_objective, cal.accuracy_after) =
-            estimation::settle(&plain, &calibrated, &cal.row_scale, &mut cal.residuals);
+        let kept;
+        (
+            cal.objective_after,
+            cal.prior_objective,
+            cal.accuracy_after,
+            kept,
+        ) = estimation::settle(&plain, &calibrated, &cal.row_scale, &mut cal.residuals);
+        cal.errors_after = Some(kept);
         cal.calibrated = calibrated;
     }
     Ok(cal)

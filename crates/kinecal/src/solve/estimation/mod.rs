@@ -33,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::linalg::{Matrix, QrAccumulator, QR_BLOCK};
 use crate::model::params::ParamId;
 use crate::model::robot::{Prior, Robot};
-use crate::observe::{Accuracy, Dataset, OrientationError, Weights};
+use crate::observe::{Accuracy, Dataset, KeptErrors, OrientationError, Weights};
 use crate::solve::problem::{Linearized, Problem};
 use crate::units::{wrap_angle, Quantity};
 
@@ -187,6 +187,11 @@ pub struct Calibration {
     /// `estimated` (see [`solver::Solution::start_r`]), when the solver computed it there;
     /// the uncertainty at the start reuses it instead of another pass.
     pub(crate) start_r: Option<Matrix>,
+    /// Each observation's error at `initial` and at `calibrated`, from the passes that gave
+    /// the accuracy figures (the report's chart reuses them; see [`KeptErrors`]).
+    pub(crate) errors_before: Option<KeptErrors>,
+    /// At `calibrated`.
+    pub(crate) errors_after: Option<KeptErrors>,
 }
 
 impl Calibration {
@@ -216,16 +221,16 @@ impl Calibration {
 
 /// The weighted residuals of the data at `robot` (without the row scale) into `residuals`
 /// (one per row of the data), the data's objective (with the row scale `row_scale`: the
-/// model-error floor's and the robust loss's), the prior's, and the accuracy: one pass of
-/// forward kinematics.
+/// model-error floor's and the robust loss's), the prior's, and the accuracy with each
+/// observation's error: one pass of forward kinematics.
 pub(crate) fn settle(
     problem: &Problem<'_>,
     robot: &Robot,
     row_scale: &[f64],
     residuals: &mut [f64],
-) -> (f64, f64, Accuracy) {
+) -> (f64, f64, Accuracy, KeptErrors) {
     let mut all = vec![0.0; problem.rows()];
-    let (_, accuracy) = problem.evaluate_checked(robot, &mut all);
+    let (_, accuracy, kept) = problem.evaluate_checked(robot, &mut all);
     let nd = problem.data_rows();
     residuals.copy_from_slice(&all[..nd]);
     let prior = all[nd..].iter().map(|r| r * r).sum();
@@ -235,7 +240,7 @@ pub(crate) fn settle(
         .zip(row_scale)
         .map(|(r, s)| (r * s) * (r * s))
         .sum();
-    (data, prior, accuracy)
+    (data, prior, accuracy, kept)
 }
 
 /// Estimates `opts.estimate` of `initial` from `data`, keeping the other parameters.
@@ -303,8 +308,8 @@ pub(crate) fn calibrate_from(
     let mut log = Vec::new();
     // The linearisation at the start, with the errors there from the same pass: given, or
     // computed here (by QR: its R is what the uncertainty at the start reuses).
-    let (start_r, accuracy_before) =
-        match start.and_then(|l| Some((l.restricted(&opts.estimate)?, l.accuracy.clone()))) {
+    let (start_r, accuracy_before, errors_before) =
+        match start.and_then(|l| Some((l.restricted(&opts.estimate)?, l.accuracy.clone(), None))) {
             Some(given) => given,
             None => {
                 // The data's rows only: the prior's are added below (the uncertainty at the
@@ -313,13 +318,13 @@ pub(crate) fn calibrate_from(
                 let n = problem.cols();
                 let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
                 let mut r = vec![0.0; data_only.rows()];
-                let (f, accuracy) = data_only.evaluate_qr_checked(initial, &mut r, &mut acc);
+                let (f, accuracy, kept) = data_only.evaluate_qr_checked(initial, &mut r, &mut acc);
                 if !f.is_finite() {
                     return Err(non_finite_start(&problem, &r));
                 }
                 let mut r0 = Matrix::zeros(0, 0);
                 acc.r_into(&mut r0);
-                (r0, accuracy)
+                (r0, accuracy, Some(kept))
             }
         };
     // Rows with standard deviations of their own: a staged start, and a model-error floor when
@@ -562,9 +567,9 @@ pub(crate) fn calibrate_from(
     if model_error.is_some_and(|m| m.length > 0.0 || m.angle > 0.0) {
         // The objective before, as the floor weighs the rows (so that before and after
         // compare).
-        (sol.objective_before, _, _) = settle(&problem, initial, &floor_scale, &mut residuals);
+        (sol.objective_before, _, _, _) = settle(&problem, initial, &floor_scale, &mut residuals);
     }
-    let (objective_after, prior_objective, accuracy_after) =
+    let (objective_after, prior_objective, accuracy_after, errors_after) =
         settle(&problem, &calibrated, &row_scale, &mut residuals);
     sol.termination = rank_verdict(
         sol.termination,
@@ -592,6 +597,8 @@ pub(crate) fn calibrate_from(
         log,
         residuals,
         start_r: Some(start_r),
+        errors_before,
+        errors_after: Some(errors_after),
     })
 }
 
