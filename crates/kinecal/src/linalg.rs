@@ -297,6 +297,30 @@ impl QrAccumulator {
         self.filled += 1;
     }
 
+    /// Appends `rows` rows held row-major in `src`, row `i` the first
+    /// [`QrAccumulator::cols`] entries of `src[i * stride..]`: the same as pushing them one by
+    /// one, copied a column at a time (contiguous writes, however long the block).
+    pub(crate) fn push_rows(&mut self, src: &[f64], rows: usize, stride: usize) {
+        let cols = self.cols;
+        assert!(stride >= cols && (rows == 0 || src.len() >= (rows - 1) * stride + cols));
+        let mut done = 0;
+        while done < rows {
+            if self.cols + self.filled == self.stack.rows {
+                self.fold();
+            }
+            let at = self.cols + self.filled;
+            let chunk = (self.stack.rows - at).min(rows - done);
+            for j in 0..cols {
+                let col = &mut self.stack.col_mut(j)[at..at + chunk];
+                for (i, v) in col.iter_mut().enumerate() {
+                    *v = src[(done + i) * stride + j];
+                }
+            }
+            self.filled += chunk;
+            done += chunk;
+        }
+    }
+
     fn fold(&mut self) {
         if self.filled == 0 || self.cols == 0 {
             return;
@@ -422,6 +446,26 @@ impl GramAccumulator {
         self.fold();
         out.refill(self.cols, self.cols, |i, j| self.gram[(i, j)]);
     }
+}
+
+/// `d -= b c` on row-major blocks of `rows` rows: `d` (`rows x k`, row stride `k`) less `b`
+/// (the first `l` columns of a row-major block of row stride `b_stride`) times `c` (`l x k`),
+/// a matrix product.
+pub(crate) fn sub_product_row_major(
+    d: &mut [f64],
+    b: &[f64],
+    b_stride: usize,
+    c: &Matrix,
+    rows: usize,
+) {
+    let (l, k) = (c.rows, c.cols);
+    assert!(b_stride >= l && d.len() >= rows * k && b.len() >= rows * b_stride);
+    // The transpose of a column-major view (faer 0.24.4's `from_row_major_slice_with_stride_mut`
+    // swaps the strides: it views the slice column-major).
+    let dst = faer::MatMut::from_column_major_slice_with_stride_mut(&mut d[..rows * k], k, rows, k)
+        .transpose_mut();
+    let lhs = MatRef::from_row_major_slice_with_stride(&b[..rows * b_stride], rows, l, b_stride);
+    faer::linalg::matmul::matmul(dst, Accum::Add, lhs, c.faer(), -1.0, Par::Seq);
 }
 
 /// Something rows of a tall matrix are pushed into, one at a time: the `R` of a QR being
@@ -964,5 +1008,45 @@ mod tests {
             }
         }
         assert!(cholesky(&g).is_none() || cholesky(&g).unwrap()[(3, 3)].abs() < 1e-6);
+    }
+
+    /// The block product against three loops, on row-major blocks wider than the product
+    /// reads (the stride of a row past its columns).
+    #[test]
+    fn sub_product_row_major_is_the_product() {
+        let (rows, l, k, w) = (7, 3, 2, 5);
+        let b: Vec<f64> = (0..rows * w).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut d: Vec<f64> = (0..rows * k).map(|i| (i as f64 * 0.11).cos()).collect();
+        let c = Matrix::from_fn(l, k, |i, j| (i * 3 + j) as f64 * 0.5 - 1.0);
+        let mut want = d.clone();
+        for i in 0..rows {
+            for j in 0..k {
+                for p in 0..l {
+                    want[i * k + j] -= b[i * w + p] * c[(p, j)];
+                }
+            }
+        }
+        sub_product_row_major(&mut d, &b, w, &c, rows);
+        for (x, y) in d.iter().zip(&want) {
+            assert!((x - y).abs() < 1e-14, "{d:?} vs {want:?}");
+        }
+    }
+
+    /// Rows pushed as a row-major block (across folds) give the `R` of rows pushed one by
+    /// one.
+    #[test]
+    fn rows_pushed_as_a_block_are_rows_pushed_one_by_one() {
+        let (cols, w, rows) = (4, 6, 23);
+        let src: Vec<f64> = (0..rows * w).map(|i| (i as f64 * 0.73).sin()).collect();
+        let (mut a, mut b) = (QrAccumulator::new(cols, 5), QrAccumulator::new(cols, 5));
+        for i in 0..rows {
+            a.push(&src[i * w..i * w + cols]);
+        }
+        b.push_rows(&src[..10 * w], 10, w);
+        b.push_rows(&src[10 * w..], rows - 10, w);
+        let (mut ra, mut rb) = (Matrix::zeros(0, 0), Matrix::zeros(0, 0));
+        a.r_into(&mut ra);
+        b.r_into(&mut rb);
+        assert_eq!(ra, rb);
     }
 }

@@ -556,7 +556,7 @@ pub(super) fn select_base(
 /// The analysed columns (`params`, by position) in order of preference, and each one's tier:
 /// the user's `priority` first, each parameter its own tier, then [`default_priority`] in its
 /// tiers.
-fn priority_order(
+pub(super) fn priority_order(
     robot: &Robot,
     params: &[ParamId],
     priority: &[ParamId],

@@ -27,6 +27,7 @@
 //! display ([`jacobian_table`]).
 
 mod base;
+mod basis;
 mod expected;
 mod groups;
 mod spectrum;
@@ -271,7 +272,7 @@ pub fn analyze(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, None, true).map(|(a, _)| a)
+    analyze_with(robot, data, params, opts, None, true, false).map(|(a, _)| a)
 }
 
 /// [`analyze`] without what only a display needs: the row labels, the file-unit Jacobian and
@@ -283,18 +284,20 @@ pub(crate) fn analyze_core(
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, None, false).map(|(a, _)| a)
+    analyze_with(robot, data, params, opts, None, false, false).map(|(a, _)| a)
 }
 
 /// [`analyze_core`], keeping the linearisation it made at `robot` (for a solver that starts
-/// there: its first evaluation then costs no pass).
+/// there: its first evaluation then costs no pass). On large data the rows are folded through
+/// a basis of the columns found on a subsample and proved on every row (see `basis`): the same
+/// `R` up to rounding, for a QR of fewer columns.
 pub(crate) fn analyze_linearized(
     robot: &Robot,
     data: &Dataset,
     params: &[ParamId],
     opts: &AnalysisOptions,
 ) -> Result<(Analysis, Linearized)> {
-    let (analysis, lin) = analyze_with(robot, data, params, opts, None, false)?;
+    let (analysis, lin) = analyze_with(robot, data, params, opts, None, false, true)?;
     let lin = lin.ok_or_else(|| Error::Numerical("no linearisation was made".into()))?;
     Ok((analysis, lin))
 }
@@ -315,7 +318,7 @@ pub(crate) fn analyze_from_r(
     opts: &AnalysisOptions,
     raug: &Matrix,
 ) -> Result<Analysis> {
-    analyze_with(robot, data, params, opts, Some((raug, None)), false).map(|(a, _)| a)
+    analyze_with(robot, data, params, opts, Some((raug, None)), false, false).map(|(a, _)| a)
 }
 
 /// [`analyze_core`] from a linearisation at `robot` made by [`analyze_linearized`] over
@@ -328,7 +331,7 @@ pub(crate) fn analyze_from_linearized(
     opts: &AnalysisOptions,
 ) -> Result<Analysis> {
     let known = Some((&lin.r, Some(lin.typical_row.as_slice())));
-    analyze_with(robot, data, &lin.params, opts, known, false).map(|(a, _)| a)
+    analyze_with(robot, data, &lin.params, opts, known, false, false).map(|(a, _)| a)
 }
 
 fn analyze_with(
@@ -338,6 +341,7 @@ fn analyze_with(
     opts: &AnalysisOptions,
     known_r: Option<(&Matrix, Option<&[f64]>)>,
     display: bool,
+    subsample: bool,
 ) -> Result<(Analysis, Option<Linearized>)> {
     let params = checked_parameters(robot, params, opts)?;
     let n = params.len();
@@ -345,7 +349,15 @@ fn analyze_with(
     let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
     let m = problem.rows();
     let clamp = base::row_clamp(data, &problem);
-    let rows = spectrum::rows(robot, &problem, &clamp, known_r, n)?;
+    let through_basis = if subsample && known_r.is_none() {
+        basis::rows(robot, data, &problem, &params, opts, &clamp)?
+    } else {
+        None
+    };
+    let rows = match through_basis {
+        Some(rows) => rows,
+        None => spectrum::rows(robot, &problem, &clamp, known_r, n)?,
+    };
     // With a prior, its rows folded in: the analysis is of the data and the prior together,
     // and what the data alone determines is decided on the data's R.
     let with_prior = problem.clone().with_prior(&opts.prior);

@@ -326,12 +326,13 @@ pub(super) fn dot(x: &[f64], y: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// A [`RowSink`] that passes each row `[J_i | r_i]` on to a QR accumulator and adds up, per
-/// parameter column, the squares of the row's entries times its clamp factor: the sums
-/// behind `e_j` ([`Analysis::typical_row`]), from the same pass that builds `R`.
-struct TypicalRowTally<'a> {
-    /// The QR the rows go into.
-    pub acc: &'a mut QrAccumulator,
+/// A [`RowSink`] that passes each row `[J_i | r_i]` on to another (the `R` of a QR, or the
+/// fold through a subsample's basis) and adds up, per parameter column, the squares of the
+/// row's entries times its clamp factor: the sums behind `e_j` ([`Analysis::typical_row`]),
+/// from the same pass that builds `R`.
+pub(super) struct TypicalRowTally<'a> {
+    /// Where the rows go (the `R` of a QR).
+    pub acc: &'a mut dyn RowSink,
     /// Each row's clamp factor.
     pub clamp: &'a [f64],
     /// The rows passed so far.

@@ -295,3 +295,209 @@ fn a_linearisation_carries_the_typical_rows() {
         }
     }
 }
+
+/// A 6R arm of random geometry (metres, radians; every link's six parameters non-zero) and
+/// `count` measurements of its end effector at pseudo-random readings, poses or positions, in
+/// CSV (made here from the forward kinematics: this module may not use the simulation). With
+/// `held`, joint 6 stays at 0.3 rad in the first `held` postures.
+fn random_arm(seed: u64, count: usize, pose: bool, held: usize) -> (Robot, Dataset) {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut toml = String::from("name = \"arm\"\nlength_unit = \"m\"\nangle_unit = \"rad\"\n");
+    for _ in 0..7 {
+        let l: Vec<f64> = (0..3).map(|_| rng.random_range(-0.4..0.4)).collect();
+        let a: Vec<f64> = (0..3).map(|_| rng.random_range(-1.2..1.2)).collect();
+        toml.push_str(&format!(
+            "[[links]]\nx = {}\ny = {}\nz = {}\nalpha = {}\nbeta = {}\ngamma = {}\n",
+            l[0], l[1], l[2], a[0], a[1], a[2]
+        ));
+    }
+    for _ in 0..6 {
+        let offset: f64 = rng.random_range(-3.0..3.0);
+        toml.push_str(&format!(
+            "[[joints]]\nkind = \"revolute\"\noffset = {offset}\n"
+        ));
+    }
+    let robot = crate::model::robot_file::parse_robot_toml(&toml, "arm.toml").unwrap();
+    let chain = crate::model::kinematics::Chain::new(&robot);
+    let mut ws = crate::model::kinematics::Workspace::new(&robot);
+    let mut csv = String::from("posture,v1,v2,v3,v4,v5,v6,x,y,z");
+    csv.push_str(if pose { ",alpha,beta,gamma\n" } else { "\n" });
+    for i in 0..count {
+        let mut v: Vec<f64> = (0..6).map(|_| rng.random_range(-3.0..3.0)).collect();
+        if i < held {
+            v[5] = 0.3;
+        }
+        chain.forward(&v, &mut ws);
+        let p = chain
+            .target_frame(&ws, crate::model::kinematics::Target::EndEffector)
+            .pose();
+        let v: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+        let (x, e) = (p.position, p.euler);
+        csv.push_str(&format!(
+            "{},{},{},{},{}",
+            i + 1,
+            v.join(","),
+            x.x,
+            x.y,
+            x.z
+        ));
+        if pose {
+            csv.push_str(&format!(",{},{},{}", e.x, e.y, e.z));
+        }
+        csv.push('\n');
+    }
+    let data = parse_measurements(&csv, "arm.csv", &robot).unwrap();
+    (robot, data)
+}
+
+/// `R^T R` of two `R`s agree entry by entry within `tol` of the product of the columns' norms
+/// (the inner products of the Jacobian's columns, which is all an `R` stands for); columns
+/// unfelt in both (norms within 1e-12 of the largest, which the analysis zeroes) aside.
+fn assert_same_inner_products(a: &Matrix, b: &Matrix, tol: f64) {
+    let n = a.ncols();
+    assert_eq!(n, b.ncols());
+    let (ga, gb) = (linalg::gram(a), linalg::gram(b));
+    let norm = |j: usize| ga[(j, j)].max(gb[(j, j)]).sqrt();
+    let largest = (0..n).map(norm).fold(0.0, f64::max);
+    let unfelt = |j: usize| norm(j) <= 1e-12 * largest;
+    for i in 0..n {
+        for j in 0..n {
+            if unfelt(i) || unfelt(j) {
+                continue;
+            }
+            let d = (ga[(i, j)] - gb[(i, j)]).abs() / (norm(i) * norm(j));
+            assert!(
+                d <= tol,
+                "({i}, {j}): {} vs {} ({d:e})",
+                ga[(i, j)],
+                gb[(i, j)]
+            );
+        }
+    }
+}
+
+/// The analysis of every row, and that of the rows folded through a subsample's basis:
+/// the same identifiable set, rank, unobservable and noise-dependent parameters, and the same
+/// inner products of the columns (to 1e-11 of their norms).
+fn assert_same_analysis(robot: &Robot, data: &Dataset, params: &[ParamId], lin: &Linearized) {
+    let opts = AnalysisOptions::default();
+    let full = analyze_core(robot, data, params, &opts).unwrap();
+    let fast = analyze_from_linearized(robot, data, lin, &opts).unwrap();
+    assert_eq!(fast.identifiable, full.identifiable);
+    assert_eq!(fast.rank, full.rank);
+    assert_eq!(fast.unobservable, full.unobservable);
+    let ids = |a: &Analysis| a.noise_dependent.iter().map(|d| d.id).collect::<Vec<_>>();
+    assert_eq!(ids(&fast), ids(&full));
+    let problem = Problem::new(robot, data, params, opts.weights, opts.orientation);
+    let mut acc = linalg::QrAccumulator::new(params.len() + 1, 512);
+    let mut r = vec![0.0; problem.rows()];
+    problem.evaluate_qr(robot, &mut r, &mut acc);
+    let mut whole = Matrix::zeros(0, 0);
+    acc.r_into(&mut whole);
+    assert_same_inner_products(&lin.r, &whole, 1e-11);
+}
+
+/// Random arms, poses and positions, every parameter analysed (the tool link's angles
+/// unobservable from positions): large enough data is folded through a subsample's basis
+/// (36 of the 54 columns for poses, 33 for positions: the 18 or 21 others found dependent
+/// there are proved so on every row), and the analysis is that of every row.
+#[test]
+fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
+    for seed in 0..4 {
+        let pose = seed % 2 == 0;
+        let (robot, data) = random_arm(seed, 1800, pose, 0);
+        let params: Vec<ParamId> = robot.param_ids().collect();
+        let opts = AnalysisOptions::default();
+        let keep = basis::subsample(&data, params.len()).expect("a subsample of 1,800 postures");
+        let kept = keep.iter().filter(|&&k| k).count();
+        assert!((200..=225).contains(&kept), "{kept} postures kept");
+        let sub = data.subset(&keep);
+        let b = basis::Basis::of(&robot, &sub, &params, &opts)
+            .unwrap()
+            .unwrap();
+        assert_eq!(b.basis.len(), if pose { 36 } else { 33 }, "seed {seed}");
+        let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
+        let clamp = base::row_clamp(&data, &problem);
+        assert!(b.fold_all(&robot, &problem, &clamp, opts.rcond).is_some());
+        let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
+        assert_same_analysis(&robot, &data, &params, &lin);
+    }
+}
+
+/// A subsample that lost rank is not taken for all the data: its basis, from postures where
+/// joint 6 stays put (its offset then one with the tool's roll), or from too few postures,
+/// leaves out columns that are not combinations of it on every row, and the proof fails; a
+/// subsample of full rank passes. Then the whole analysis runs, as without a subsample.
+#[test]
+fn a_subsample_that_lost_rank_fails_its_proof() {
+    use rand::{RngExt, SeedableRng};
+    let (robot, data) = random_arm(7, 1800, true, 300);
+    let params: Vec<ParamId> = robot.param_ids().collect();
+    let opts = AnalysisOptions::default();
+    let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
+    let clamp = base::row_clamp(&data, &problem);
+    let full = analyze_core(&robot, &data, &params, &opts).unwrap();
+    assert_eq!(full.rank, 36);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let (mut lost, mut kept) = (0, 0);
+    for trial in 0..24 {
+        // Postures of the held joint (trial 0), or a few anywhere.
+        let keep: Vec<bool> = if trial == 0 {
+            (0..1800).map(|i| i < 300).collect()
+        } else {
+            let p = rng.random_range(0.001..0.012);
+            (0..1800).map(|_| rng.random_range(0.0..1.0) < p).collect()
+        };
+        let sub = data.subset(&keep);
+        if sub.observations.is_empty() {
+            continue;
+        }
+        let b = basis::Basis::of(&robot, &sub, &params, &opts)
+            .unwrap()
+            .unwrap();
+        let folded = b.fold_all(&robot, &problem, &clamp, opts.rcond);
+        if b.basis.len() < full.rank {
+            lost += 1;
+            assert!(
+                folded.is_none(),
+                "trial {trial}: a basis of {}",
+                b.basis.len()
+            );
+        } else {
+            kept += 1;
+            let rows = folded.expect("a basis of full rank passes");
+            let lin = Linearized {
+                params: params.clone(),
+                r: rows.raug,
+                typical_row: rows.typical.unwrap(),
+                accuracy: rows.accuracy.unwrap(),
+            };
+            assert_same_analysis(&robot, &data, &params, &lin);
+        }
+    }
+    assert!(lost >= 5 && kept >= 5, "{lost} lost rank, {kept} kept it");
+    // Data whose subsample lost rank: the whole analysis.
+    let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
+    assert_same_analysis(&robot, &data, &params, &lin);
+}
+
+/// The subsample keeps every kind of observation: 40 postures of a second session among
+/// 3,000 are all kept (at least 2 n of each kind), the first session's evenly spaced.
+#[test]
+fn the_subsample_keeps_every_session() {
+    let (_, mut data) = random_arm(3, 3000, false, 0);
+    let other: std::sync::Arc<str> = "b".into();
+    for p in data.postures.iter_mut().skip(1000).take(40) {
+        p.session = Some(other.clone());
+    }
+    let keep = basis::subsample(&data, 30).unwrap();
+    assert!(keep[1000..1040].iter().all(|&k| k));
+    let first: Vec<usize> = (0..3000)
+        .filter(|&i| keep[i] && !(1000..1040).contains(&i))
+        .collect();
+    assert_eq!(first.len(), 119);
+    assert!(first[0] == 0 && *first.last().unwrap() > 2900);
+    // Too small a dataset for a subsample to pay.
+    assert!(basis::subsample(&data, 100).is_none());
+}

@@ -1,0 +1,365 @@
+//! The rows of a large dataset folded through a basis found on a subsample: the same `R` as
+//! [`super::spectrum::rows`] gives (up to rounding), for a QR of the basis's columns only.
+//!
+//! Most of a calibration's candidate parameters are exact combinations of the others at every
+//! posture (a base set of a 6R arm has 30 of its 54 link parameters), and the rank of a
+//! Jacobian can only grow with its rows. So the columns of a basis `B` of a well-spread
+//! subsample, and the coefficients `C` that write the other columns `D` as combinations of
+//! them there (`J_D = J_B C`), are found on a few hundred postures; the pass over all the
+//! data then folds only `[J_B | r]` into a QR (`R_B`) and *proves* the dependence on every
+//! row, `|J_D - J_B C|` (the Jacobian times the subsample's null-space basis `[-C; I]`,
+//! streamed a block of rows at a time) at most [`SLACK`] times the rank tolerance of each
+//! column's own norm. Then `[J | r] = Q [R_B | R_B C]` (columns in place), whose `R` is that
+//! of the whole Jacobian: the analysis that follows runs unchanged. A column that is not
+//! such a combination on all the data (the subsample missed an excitation: a session, a
+//! target, a joint range) fails the proof, and the rows are folded whole, as without a
+//! subsample.
+//!
+//! Worth it on large data only: the QR of `n` columns costs `2 m n^2`, of the basis's `b`
+//! columns `2 m b^2`, the proof `2 m b (n - b)`.
+
+use crate::linalg::{self, Matrix, QrAccumulator, RowSink, QR_BLOCK};
+use crate::model::params::ParamId;
+use crate::model::robot::Robot;
+use crate::observe::Dataset;
+use crate::solve::problem::Problem;
+
+use super::base::{priority_order, select_base};
+use super::spectrum::{Rows, Scaled, Spectrum, TypicalRowTally};
+use super::AnalysisOptions;
+
+/// Subsample groups of postures per analysed parameter: a subsample 4 `n` groups deep has at
+/// least 12 `n` rows (positions), a few times what the rank needs.
+const GROUPS_PER_PARAMETER: usize = 4;
+
+/// The fewest groups of each kind of observation (session, kind, frame) the subsample keeps
+/// (all of them when there are fewer), per analysed parameter: a rare kind is seen a few times.
+const FLOOR_PER_PARAMETER: usize = 2;
+
+/// The subsample is used only when it holds at most this share of the groups: otherwise the
+/// analysis of all the rows costs little more than the subsample's.
+const MAX_SHARE: usize = 8;
+
+/// A dependent column passes the proof when its distance from the basis's span, over all the
+/// rows, is at most `SLACK * rcond` of its own norm: 1,000 times below the tolerance at which
+/// the rank is decided, so that the analysis on the reconstructed `R` decides what it decides
+/// on the whole Jacobian's (which sees these columns at their rounding, ~1e-15 relative).
+pub(super) const SLACK: f64 = 1e-3;
+
+/// A column at most this share of the largest column's norm is unfelt: no measurement feels
+/// it, and the analysis zeroes it (the same threshold as there).
+const UNFELT: f64 = 1e-12;
+
+/// Per posture, whether a subsample of the data keeps it: `None` when the data is too small
+/// for a subsample to pay ([`MAX_SHARE`]). Groups of linked postures (see
+/// [`Dataset::posture_groups`]) are kept whole, keyed by the session, kind and frame of their
+/// first observation; of each key's groups, evenly spaced ones in file order (every sweep of
+/// sweep data), in proportion to the key's share and at least [`FLOOR_PER_PARAMETER`] `n`.
+pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
+    let groups = data.posture_groups();
+    let mut group_of = vec![usize::MAX; data.postures.len()];
+    for (g, members) in groups.iter().enumerate() {
+        for &p in members {
+            group_of[p] = g;
+        }
+    }
+    type Key<'d> = (
+        Option<&'d str>,
+        &'static str,
+        crate::model::kinematics::Target,
+    );
+    let mut keys: Vec<Key<'_>> = Vec::new();
+    let mut by_key: Vec<Vec<usize>> = Vec::new();
+    let mut keyed = vec![false; groups.len()];
+    for o in &data.observations {
+        let view = &o.views()[0];
+        let g = group_of[view.posture];
+        if g == usize::MAX || keyed[g] {
+            continue;
+        }
+        keyed[g] = true;
+        let key = (
+            data.postures[view.posture].session.as_deref(),
+            o.kind(),
+            view.target,
+        );
+        let k = match keys.iter().position(|x| *x == key) {
+            Some(k) => k,
+            None => {
+                keys.push(key);
+                by_key.push(Vec::new());
+                keys.len() - 1
+            }
+        };
+        by_key[k].push(g);
+    }
+    let total: usize = by_key.iter().map(Vec::len).sum();
+    let target = GROUPS_PER_PARAMETER * n;
+    let floor = FLOOR_PER_PARAMETER * n;
+    let mut keep = vec![false; data.postures.len()];
+    let mut kept = 0;
+    for gs in &by_key {
+        let c = gs.len();
+        let want = (target * c).div_ceil(total.max(1)).max(floor.min(c)).min(c);
+        for i in 0..want {
+            for &p in &groups[gs[i * c / want]] {
+                keep[p] = true;
+            }
+        }
+        kept += want;
+    }
+    (kept * MAX_SHARE <= total).then_some(keep)
+}
+
+/// The rows of `problem` (over `params`, ascending) folded through a basis found on a
+/// subsample of `data`, with the typical-row sums, or `None` when there is no subsample to
+/// use, every column is in the basis, or the dependence fails its proof on all the rows (the
+/// caller then folds them whole).
+pub(super) fn rows(
+    robot: &Robot,
+    data: &Dataset,
+    problem: &Problem<'_>,
+    params: &[ParamId],
+    opts: &AnalysisOptions,
+    clamp: &[f64],
+) -> crate::error::Result<Option<Rows>> {
+    let n = params.len();
+    let Some(keep) = subsample(data, n) else {
+        return Ok(None);
+    };
+    let Some(basis) = Basis::of(robot, &data.subset(&keep), params, opts)? else {
+        return Ok(None);
+    };
+    Ok(basis.fold_all(robot, problem, clamp, opts.rcond))
+}
+
+/// A basis of the columns on a subsample, and the other columns as combinations of it.
+pub(super) struct Basis {
+    /// The basis's columns, ascending.
+    pub basis: Vec<usize>,
+    /// The other columns, ascending.
+    pub dependent: Vec<usize>,
+    /// `b x k`: column `i` the coefficients writing `dependent[i]` on the basis's columns.
+    pub coef: Matrix,
+    /// The number of columns (the residual aside).
+    pub n: usize,
+}
+
+impl Basis {
+    /// The basis of `params`' columns on `sub` (the rank at `opts.rcond`, chosen by a pivoted
+    /// QR in the order of preference), `None` when it has every column.
+    pub(super) fn of(
+        robot: &Robot,
+        sub: &Dataset,
+        params: &[ParamId],
+        opts: &AnalysisOptions,
+    ) -> crate::error::Result<Option<Basis>> {
+        let n = params.len();
+        let problem = Problem::new(robot, sub, params, opts.weights, opts.orientation);
+        let mut acc = QrAccumulator::new(n + 1, QR_BLOCK.max(n + 1));
+        let mut r = vec![0.0; problem.rows()];
+        problem.evaluate_rows(robot, &mut r, &mut acc);
+        let mut raug = Matrix::zeros(0, 0);
+        acc.r_into(&mut raug);
+        if (0..=n).any(|j| raug.col(j).iter().any(|v| !v.is_finite())) {
+            return Ok(None);
+        }
+        let scaled = Scaled::of(&raug, n, params)?;
+        let spectrum = Spectrum::of(&scaled, opts.rcond, problem.rows());
+        let (order, tiers) = priority_order(robot, params, &opts.priority);
+        let gain: Vec<f64> = scaled
+            .unfelt
+            .iter()
+            .map(|&u| if u { 0.0 } else { 1.0 })
+            .collect();
+        let none = vec![0.0; n];
+        let tol = opts.rcond * spectrum.largest;
+        let mut basis =
+            select_base(&scaled.r, &gain, &order, &tiers, spectrum.rank, tol, &none).chosen;
+        if basis.len() == n {
+            return Ok(None);
+        }
+        basis.sort();
+        let mut basis = Basis::from_r(&raug, basis, n);
+        // An unfelt column (rounding noise, zeroed by the analysis) is no combination.
+        for (i, &j) in basis.dependent.iter().enumerate() {
+            if scaled.unfelt[j] {
+                for l in 0..basis.basis.len() {
+                    basis.coef[(l, i)] = 0.0;
+                }
+            }
+        }
+        Ok(Some(basis))
+    }
+
+    /// The dependent columns' coefficients on `basis` from the `R` (`(n + 1)` square) of the
+    /// subsample's `[J | r]`: the least-squares fit of each on the basis's columns.
+    pub(super) fn from_r(raug: &Matrix, basis: Vec<usize>, n: usize) -> Basis {
+        let dependent: Vec<usize> = (0..n).filter(|j| !basis.contains(j)).collect();
+        let b = basis.len();
+        let cols: Vec<usize> = basis.iter().chain(&dependent).copied().collect();
+        let t = linalg::r_of_columns(raug, &cols);
+        let mut coef = Matrix::zeros(b, dependent.len());
+        for i in 0..dependent.len() {
+            let c = linalg::solve_upper(&t, &t.col(b + i)[..b], b);
+            for (l, v) in c.into_iter().enumerate() {
+                coef[(l, i)] = if v.is_finite() { v } else { 0.0 };
+            }
+        }
+        Basis {
+            basis,
+            dependent,
+            coef,
+            n,
+        }
+    }
+
+    /// One pass over `problem`'s rows: `[J_B | r]` folded into a QR, the dependence proved on
+    /// every row at `SLACK * rcond`, the typical-row sums tallied; the `R` of the whole
+    /// `[J | r]` rebuilt from them, or `None` when the proof fails.
+    pub(super) fn fold_all(
+        &self,
+        robot: &Robot,
+        problem: &Problem<'_>,
+        clamp: &[f64],
+        rcond: f64,
+    ) -> Option<Rows> {
+        let n = self.n;
+        let mut sink = BasisRows::new(self);
+        let mut tally = TypicalRowTally {
+            acc: &mut sink,
+            clamp,
+            row: 0,
+            sums: vec![0.0; n],
+        };
+        let mut r = vec![0.0; problem.rows()];
+        let accuracy = problem.evaluate_rows_checked(robot, &mut r, &mut tally).1;
+        let sums = std::mem::take(&mut tally.sums);
+        let rb = sink.finish(rcond * SLACK)?;
+        let mf = problem.rows().max(1) as f64;
+        Some(Rows {
+            raug: self.rebuild(&rb),
+            typical: Some(sums.iter().map(|s| (s / mf).sqrt()).collect()),
+            accuracy: Some(accuracy),
+        })
+    }
+
+    /// The `R` of `[J | r]` (`(n + 1)` square) from `rb`, the `R` of `[J_B | r]`:
+    /// `[J | r] = Q G`, `G`'s columns `R_B`'s for the basis and the residual, `R_B C` for the
+    /// others, and `R` that of `G`.
+    pub(super) fn rebuild(&self, rb: &Matrix) -> Matrix {
+        let (n, b) = (self.n, self.basis.len());
+        let mut g = Matrix::zeros(b + 1, n + 1);
+        for (p, &j) in self.basis.iter().enumerate() {
+            for i in 0..=b {
+                g[(i, j)] = rb[(i, p)];
+            }
+        }
+        for (k, &j) in self.dependent.iter().enumerate() {
+            for i in 0..=b {
+                let mut s = 0.0;
+                for l in i..b {
+                    s += rb[(i, l)] * self.coef[(l, k)];
+                }
+                g[(i, j)] = s;
+            }
+        }
+        for i in 0..=b {
+            g[(i, n)] = rb[(i, b)];
+        }
+        let all: Vec<usize> = (0..=n).collect();
+        linalg::r_of_columns(&g, &all)
+    }
+}
+
+/// The sink of [`Basis::fold_all`]: rows gathered in row-major blocks, `[J_B | r]` and `J_D`;
+/// each block's `[J_B | r]` folded into a QR, and its `J_D` and `J_D - J_B C` summed up in
+/// squares per column.
+struct BasisRows<'a> {
+    basis: &'a Basis,
+    acc: QrAccumulator,
+    /// `[J_B | r]` of the block's rows, row-major (`b + 1` wide).
+    block_b: Vec<f64>,
+    /// `J_D` of the block's rows, row-major (`k` wide).
+    block_d: Vec<f64>,
+    filled: usize,
+    /// Per dependent column, the sum of squares of `J_D - J_B C`...
+    off: Vec<f64>,
+    /// ...and of `J_D`.
+    norm: Vec<f64>,
+}
+
+impl<'a> BasisRows<'a> {
+    fn new(basis: &'a Basis) -> Self {
+        let (b, k) = (basis.basis.len(), basis.dependent.len());
+        BasisRows {
+            basis,
+            acc: QrAccumulator::new(b + 1, QR_BLOCK.max(b + 1)),
+            block_b: vec![0.0; QR_BLOCK * (b + 1)],
+            block_d: vec![0.0; QR_BLOCK * k],
+            filled: 0,
+            off: vec![0.0; k],
+            norm: vec![0.0; k],
+        }
+    }
+
+    fn flush(&mut self) {
+        let f = self.filled;
+        if f == 0 {
+            return;
+        }
+        let (w, k) = (self.basis.basis.len() + 1, self.basis.dependent.len());
+        self.acc.push_rows(&self.block_b, f, w);
+        let squares = |sums: &mut [f64], block: &[f64]| {
+            for row in block[..f * k].chunks_exact(k) {
+                for (s, &v) in sums.iter_mut().zip(row) {
+                    *s += v * v;
+                }
+            }
+        };
+        squares(&mut self.norm, &self.block_d);
+        linalg::sub_product_row_major(&mut self.block_d, &self.block_b, w, &self.basis.coef, f);
+        squares(&mut self.off, &self.block_d);
+        self.filled = 0;
+    }
+
+    /// `R` of `[J_B | r]` when every dependent column is within `tol` of its norm from the
+    /// basis's span, or it and its combination are both unfelt (below [`UNFELT`] times
+    /// [`SLACK`] of the largest column's norm, where the analysis zeroes them); `None`
+    /// otherwise (non-finite rows too).
+    fn finish(&mut self, tol: f64) -> Option<Matrix> {
+        self.flush();
+        let mut rb = Matrix::zeros(0, 0);
+        self.acc.r_into(&mut rb);
+        let b = self.basis.basis.len();
+        let largest = (0..b)
+            .map(|j| linalg::col_norm(&rb, j))
+            .chain(self.norm.iter().map(|s| s.sqrt()))
+            .fold(0.0, f64::max);
+        let proved = self.off.iter().zip(&self.norm).all(|(&off, &norm)| {
+            let (off, norm) = (off.sqrt(), norm.sqrt());
+            off <= tol * norm || norm + off <= UNFELT * SLACK * largest
+        });
+        proved.then_some(rb)
+    }
+}
+
+impl RowSink for BasisRows<'_> {
+    fn push(&mut self, row: &[f64]) {
+        if self.filled == QR_BLOCK {
+            self.flush();
+        }
+        let basis = self.basis;
+        let (b, k) = (basis.basis.len(), basis.dependent.len());
+        let to = &mut self.block_b[self.filled * (b + 1)..(self.filled + 1) * (b + 1)];
+        for (x, &j) in to.iter_mut().zip(&basis.basis) {
+            *x = row[j];
+        }
+        to[b] = row[basis.n];
+        let to = &mut self.block_d[self.filled * k..(self.filled + 1) * k];
+        for (x, &j) in to.iter_mut().zip(&basis.dependent) {
+            *x = row[j];
+        }
+        self.filled += 1;
+    }
+}
