@@ -202,6 +202,13 @@ impl<'r> TargetSearch<'r> {
         self.comp.set_payload(payload);
     }
 
+    /// Forward kinematics of the calibrated model the solver has evaluated so far (not those
+    /// of the table of starts, built once per target frame).
+    #[cfg(test)]
+    pub(crate) fn evaluations(&self) -> u64 {
+        self.comp.evaluations()
+    }
+
     /// The configuration asked for, if any.
     pub fn configuration(&self) -> Option<&Configuration> {
         self.classifier.as_ref().map(|c| c.configuration())
@@ -369,6 +376,14 @@ impl<'r> TargetSearch<'r> {
     #[cfg(test)]
     pub(crate) fn without_closed_form(mut self) -> Self {
         self.use_closed_form = false;
+        self
+    }
+
+    /// The search with every attempt run to its iteration cap, stalled or not (as before the
+    /// stall exit).
+    #[cfg(test)]
+    pub(crate) fn without_stall_exit(mut self) -> Self {
+        self.comp.stall_exit = false;
         self
     }
 
@@ -838,6 +853,109 @@ mod tests {
     #[test]
     fn spherical_wrist_closed_form_agrees_with_the_search() {
         agrees_with_the_search(Family::SphericalWrist);
+    }
+
+    /// Solves `goals` with and without the stall exit (every attempt run to its cap): each
+    /// row's flags ranked (see `both_ways`), its readings, whether converged below 1e-10, and
+    /// the forward kinematics evaluated, per way.
+    #[allow(clippy::type_complexity)]
+    fn with_and_without_stall_exit(
+        nominal: &Robot,
+        calibrated: &Robot,
+        goals: &[(Goal, Option<Vec<f64>>)],
+    ) -> [(Vec<([bool; 5], Vec<f64>, bool)>, u64); 2] {
+        [true, false].map(|exit| {
+            let s = TargetSearch::new(calibrated, nominal, Options::default()).unwrap();
+            let mut s = if exit { s } else { s.without_stall_exit() };
+            let mut out = vec![0.0; 6];
+            let rows = goals
+                .iter()
+                .map(|(g, seed)| {
+                    let r = s.solve(g, Target::EndEffector, seed.as_deref(), &mut out);
+                    let f = r.flags;
+                    let converged =
+                        r.position_error < 1e-10 && r.attitude_error.is_none_or(|a| a < 1e-10);
+                    (
+                        [
+                            f.unreachable,
+                            f.out_of_range != 0,
+                            f.configuration,
+                            f.branch,
+                            f.singular,
+                        ],
+                        out.clone(),
+                        converged,
+                    )
+                })
+                .collect();
+            (rows, s.evaluations())
+        })
+    }
+
+    /// The stall exit (an attempt stuck at a local minimum of the error ends there, instead of
+    /// running to its cap) changes no answer and saves work: on a random arm (no closed form)
+    /// and a spherical-wrist arm, over seeded pose targets (the nominal poses of programs, some
+    /// of whose seeds fail) and unseeded pose and position targets, every row is usable or not
+    /// as without it, usable rows converged both ways agree to 1e-9 in readings (both converge
+    /// far below it: a stalled attempt is never the one taken), and fewer forward kinematics
+    /// are evaluated (measured: 0.62 and 0.78 of them on the random arm, seeded and unseeded;
+    /// 0.59 and 0.95 on the wrist arm, whose unseeded goals seldom stall; the bounds leave a
+    /// margin, and an unchanged solver gives 1).
+    #[test]
+    fn stalled_attempts_end_early_and_change_no_answer() {
+        let arms = [
+            (
+                crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21),
+                0.7,
+                0.85,
+            ),
+            (random_arm(Family::SphericalWrist, 8), 0.7, 0.98),
+        ];
+        for (arm, (nominal, seeded_fall, unseeded_fall)) in arms.into_iter().enumerate() {
+            let (nominal, calibrated) = twin(nominal, 22);
+            let postures: Vec<Vec<f64>> = sample_postures(&nominal, 200, 5)
+                .into_iter()
+                .map(|p| p.readings)
+                .collect();
+            let seeded: Vec<(Goal, Option<Vec<f64>>)> = poses(&nominal, &postures)
+                .into_iter()
+                .zip(&postures)
+                .map(|(f, p)| (Goal::Pose(f), Some(p.clone())))
+                .collect();
+            let reached = poses(&calibrated, &postures);
+            let unseeded: Vec<(Goal, Option<Vec<f64>>)> = reached
+                .iter()
+                .map(|f| (Goal::Pose(*f), None))
+                .chain(
+                    reached
+                        .iter()
+                        .map(|f| (Goal::Position(f.translation), None)),
+                )
+                .collect();
+            for (kind, goals, fall) in [
+                ("seeded", &seeded, seeded_fall),
+                ("unseeded", &unseeded, unseeded_fall),
+            ] {
+                let [(new, cost_new), (old, cost_old)] =
+                    with_and_without_stall_exit(&nominal, &calibrated, goals);
+                let mut flagged = 0;
+                for (k, (a, b)) in new.iter().zip(&old).enumerate() {
+                    let usable = |r: &[bool; 5]| *r == [false; 5];
+                    assert_eq!(usable(&a.0), usable(&b.0), "arm {arm} {kind} row {k}");
+                    flagged += !usable(&a.0) as usize;
+                    if usable(&a.0) && a.2 && b.2 {
+                        let d = a.1.iter().zip(&b.1).map(|(x, y)| (x - y).abs());
+                        let d = d.fold(0.0, f64::max);
+                        assert!(d < 1e-9, "arm {arm} {kind} row {k}: {d}");
+                    }
+                }
+                assert!(
+                    (cost_new as f64) < fall * cost_old as f64,
+                    "arm {arm} {kind}: {cost_new} against {cost_old} forward kinematics \
+                     ({flagged} rows flagged)"
+                );
+            }
+        }
     }
 
     /// A random 6R arm has no closed form: its targets go through the table of starts, as
