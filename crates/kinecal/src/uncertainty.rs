@@ -36,6 +36,7 @@
 
 use crate::error::{Error, Result};
 use crate::identifiability::{analyze_core, analyze_from_r, Analysis, AnalysisOptions};
+use crate::linalg::Matrix;
 use crate::model::params::ParamId;
 use crate::observe::Dataset;
 use crate::solve::estimation::Calibration;
@@ -228,21 +229,57 @@ pub fn uncertainty_of_fit(
     nominal: &crate::model::robot::Robot,
 ) -> Result<Uncertainty> {
     let ascending = cal.estimated.windows(2).all(|w| w[0] < w[1]);
+    let opts = AnalysisOptions {
+        weights: cal.options.weights,
+        orientation: cal.options.orientation,
+        prior: cal.options.prior.clone(),
+        ..Default::default()
+    };
+    // Rows the fit weighed other than as stated (a model-error floor, a robust loss): the
+    // information is that of the rows as the fit weighed them, as the objective that scales
+    // it is (at the stated sigmas, a floor 40 times above them made every sigma 40 times too
+    // small).
+    if ascending && !unit_scale(&cal.row_scale) {
+        let r = scaled_r(cal, data, nominal);
+        return from_analysis(
+            cal,
+            analyze_from_r(nominal, data, &cal.estimated, &opts, &r)?,
+        );
+    }
     match &cal.start_r {
-        Some(r) if ascending && nominal == &cal.initial => {
-            let opts = AnalysisOptions {
-                weights: cal.options.weights,
-                orientation: cal.options.orientation,
-                prior: cal.options.prior.clone(),
-                ..Default::default()
-            };
-            from_analysis(
-                cal,
-                analyze_from_r(nominal, data, &cal.estimated, &opts, r)?,
-            )
-        }
+        Some(r) if ascending && nominal == &cal.initial => from_analysis(
+            cal,
+            analyze_from_r(nominal, data, &cal.estimated, &opts, r)?,
+        ),
         _ => uncertainty(cal, data, nominal),
     }
+}
+
+/// Whether every row keeps the weight its standard deviation gives it (no floor, no robust
+/// down-weighting).
+fn unit_scale(row_scale: &[f64]) -> bool {
+    row_scale.iter().all(|s| s.to_bits() == 1.0f64.to_bits())
+}
+
+/// The `R` of the QR of the data's weighted `[J | r]` at `nominal` over the calibration's
+/// estimated parameters, each row also times its final row scale (the floor's and the robust
+/// loss's): the rows as the fit weighed them. One pass of forward kinematics.
+fn scaled_r(cal: &Calibration, data: &Dataset, nominal: &crate::model::robot::Robot) -> Matrix {
+    use crate::linalg::{QrAccumulator, QR_BLOCK};
+    let problem = crate::solve::problem::Problem::new(
+        nominal,
+        data,
+        &cal.estimated,
+        cal.options.weights,
+        cal.options.orientation,
+    )
+    .with_row_scale(&cal.row_scale);
+    let mut acc = QrAccumulator::new(problem.cols() + 1, QR_BLOCK);
+    let mut res = vec![0.0; problem.rows()];
+    problem.evaluate_qr(nominal, &mut res, &mut acc);
+    let mut r = Matrix::zeros(0, 0);
+    acc.r_into(&mut r);
+    r
 }
 
 fn from_analysis(cal: &Calibration, analysis: Analysis) -> Result<Uncertainty> {
