@@ -108,3 +108,32 @@ fn a_fit_above_the_noise_that_lost_a_direction_is_not_called_converged() {
          robot's (--initial) or estimate fewer parameters"
     );
 }
+
+/// The 1 mm case at the default weights (1 mm, 1 mrad: a scale, not a stated noise): the
+/// residuals are about the size of that scale, so a chi-square test at it would call the stop
+/// converged, whatever a better point could reach. Without a stated noise only an exact fit is
+/// exempt: this run is not converged.
+#[test]
+fn a_lost_direction_at_the_default_weights_is_not_called_converged() {
+    let mut truth = pitched_tool(90f64.to_radians());
+    let x = truth.param_id(ParamKind::Link {
+        link: 6,
+        component: LinkComponent::X,
+    });
+    truth.set(x, 0.051);
+    let start = pitched_tool(80f64.to_radians());
+    let mut req = Request::new(start.clone(), Arc::new(exact_poses(&truth)));
+    req.selection = Selection::parse("link7.alpha,link7.beta,link7.gamma", None, &start).unwrap();
+    let out = workflow::run(&req, &mut ()).unwrap();
+    let cal = &out.calibration;
+    assert!(
+        cal.stationarity.rank < cal.stationarity.start_rank,
+        "the direction is lost: {:?}",
+        cal.stationarity
+    );
+    assert_eq!(cal.termination, Termination::RankLost);
+    assert!(out
+        .warnings
+        .iter()
+        .any(|w| matches!(w, Warning::RankLost { .. })));
+}
