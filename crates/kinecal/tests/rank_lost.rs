@@ -29,6 +29,17 @@ fn pitched_tool(beta: f64) -> Robot {
     robot
 }
 
+/// The tool pitched at 90 deg, its length 1 mm longer than [`pitched_tool`] says (51 mm).
+fn pitched_tool_a_millimetre_longer() -> Robot {
+    let mut truth = pitched_tool(90f64.to_radians());
+    let x = truth.param_id(ParamKind::Link {
+        link: 6,
+        component: LinkComponent::X,
+    });
+    truth.set(x, 0.051);
+    truth
+}
+
 /// Exact poses of `truth` at 40 postures.
 fn exact_poses(truth: &Robot) -> Dataset {
     let ps = simulate::sample_postures(truth, 40, 7);
@@ -83,12 +94,7 @@ fn a_fit_at_the_noise_where_two_angles_became_one_direction_converges() {
 /// the warning gives both ranks and what to do.
 #[test]
 fn a_fit_above_the_noise_that_lost_a_direction_is_not_called_converged() {
-    let mut truth = pitched_tool(90f64.to_radians());
-    let x = truth.param_id(ParamKind::Link {
-        link: 6,
-        component: LinkComponent::X,
-    });
-    truth.set(x, 0.051);
+    let truth = pitched_tool_a_millimetre_longer();
     let out = fit_tool_angles(exact_poses(&truth));
     let cal = &out.calibration;
     assert_eq!(cal.termination, Termination::RankLost);
@@ -115,12 +121,7 @@ fn a_fit_above_the_noise_that_lost_a_direction_is_not_called_converged() {
 /// exempt: this run is not converged.
 #[test]
 fn a_lost_direction_at_the_default_weights_is_not_called_converged() {
-    let mut truth = pitched_tool(90f64.to_radians());
-    let x = truth.param_id(ParamKind::Link {
-        link: 6,
-        component: LinkComponent::X,
-    });
-    truth.set(x, 0.051);
+    let truth = pitched_tool_a_millimetre_longer();
     let start = pitched_tool(80f64.to_radians());
     let mut req = Request::new(start.clone(), Arc::new(exact_poses(&truth)));
     req.selection = Selection::parse("link7.alpha,link7.beta,link7.gamma", None, &start).unwrap();
