@@ -441,3 +441,75 @@ mod report_tests {
         assert!(!close(&stale.after, &kept.after));
     }
 }
+
+#[cfg(test)]
+mod solver_pass_tests {
+    use crate::apps::simulate;
+    use crate::model::params::ParamId;
+    use crate::model::robot::Robot;
+    use crate::observe::{OrientationError, Weights};
+    use crate::solve::estimation::LeastSquares;
+    use crate::solve::problem::Problem;
+
+    /// The solver's passes are kept for the settle: one taken at the robot it was made at gives
+    /// the residuals, accuracy and errors of a fresh pass to the last bit; the last two are
+    /// kept, each taken once, and a clone (whose weights may differ) keeps none.
+    #[test]
+    fn a_kept_solver_pass_is_a_fresh_pass_and_only_at_its_robot() {
+        let truth = crate::model::examples::ge_a4();
+        let mut data = simulate::measure(&truth, &simulate::sample_postures(&truth, 30, 7), true);
+        simulate::add_noise(&mut data, 1e-4, 1e-4, 8);
+        let estimated: Vec<ParamId> = truth.param_ids().take(12).collect();
+        let problem = Problem::new(
+            &truth,
+            &data,
+            &estimated,
+            Weights::default(),
+            OrientationError::default(),
+        );
+        let x0 = problem.values(&truth);
+        let at = |k: f64| -> Vec<f64> { x0.iter().map(|v| v + k * 1e-3).collect() };
+        let mut r = vec![0.0; problem.rows()];
+        let mut gram = crate::linalg::GramAccumulator::new(problem.cols() + 1, 8);
+        LeastSquares::linearize(&problem, &at(1.0), &mut r, &mut gram);
+        LeastSquares::residuals(&problem, &at(2.0), &mut r);
+        let fresh = |robot: &Robot| {
+            let mut all = vec![0.0; problem.rows()];
+            let (_, accuracy, errors) = problem.evaluate_checked(robot, &mut all);
+            (all, accuracy, errors)
+        };
+        for k in [1.0, 2.0] {
+            let robot = problem.robot_at(&at(k));
+            let pass = problem
+                .ended_at(&robot)
+                .expect("one of the last two passes");
+            let (all, accuracy, errors) = fresh(&robot);
+            assert_eq!(
+                pass.residuals
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                all.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            );
+            assert_eq!(pass.accuracy, accuracy);
+            let n = data.observations.len();
+            assert_eq!(
+                pass.errors.for_robot(&robot, n),
+                errors.for_robot(&robot, n)
+            );
+            // Taken: asked again, there is none.
+            assert!(problem.ended_at(&robot).is_none());
+        }
+        // Only the last two are kept; another robot's is none; a clone keeps none.
+        for k in [3.0, 4.0, 5.0] {
+            LeastSquares::residuals(&problem, &at(k), &mut r);
+        }
+        assert!(problem.ended_at(&problem.robot_at(&at(3.0))).is_none());
+        assert!(problem.ended_at(&problem.robot_at(&at(6.0))).is_none());
+        assert!(problem
+            .clone()
+            .ended_at(&problem.robot_at(&at(5.0)))
+            .is_none());
+        assert!(problem.ended_at(&problem.robot_at(&at(5.0))).is_some());
+    }
+}
