@@ -11,9 +11,9 @@ use std::time::{Duration, Instant};
 
 #[cfg(feature = "postgres")]
 use common::pg::{self, TestDb};
+use common::report::{ge_a4_report, LINK1_XY_LINK3_Y};
 use kinecal::report::CalibrationReport;
-use kinecal::solve::estimation::{calibrate, CalibrationOptions};
-use kinecal::{apps::simulate, model::examples, ParamId};
+use kinecal::{model::examples, ParamId};
 use kinecal_history::{
     current_segment, drift, fleet, AddOptions, Database, DriftOptions, Error, FleetOptions,
     Tolerances, Verdict,
@@ -23,27 +23,10 @@ use rand::{RngExt, SeedableRng};
 /// A calibration of the GE A4 (link 1's x and y, link 3's y) on simulated data; `shift` moves
 /// link 3's y (inches, the robot file's unit).
 fn report(seed: u64, shift: f64) -> CalibrationReport {
-    let mut robot = examples::ge_a4();
-    robot.set(ParamId(13), robot.get(ParamId(13)) + shift * 0.0254);
-    let nominal = examples::ge_a4();
-    let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 10, seed), false);
-    simulate::add_noise(&mut data, 1e-5, 1e-5, seed + 1);
-    let cal = calibrate(
-        &nominal,
-        &data,
-        &CalibrationOptions::new(vec![ParamId(0), ParamId(1), ParamId(13)]),
-        &mut |_| {},
-    )
-    .unwrap();
-    let u = kinecal::uncertainty::uncertainty(&cal, &data, &nominal).unwrap();
-    let mut rep = CalibrationReport::new(&cal, &data);
-    rep.set_uncertainty(&cal, &u);
-    // As `kinecal calibrate` keys them: by the files read (here, what they would hold).
-    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(b"ge-a4"));
-    rep.data_file_sha256 = Some(kinecal_history::fingerprint(
-        format!("seed {seed}, shift {shift}").as_bytes(),
-    ));
-    rep
+    let mut truth = examples::ge_a4();
+    truth.set(ParamId(13), truth.get(ParamId(13)) + shift * 0.0254);
+    let key = format!("seed {seed}, shift {shift}");
+    ge_a4_report(&truth, 10, seed, &LINK1_XY_LINK3_Y, Some(&key))
 }
 
 fn shared_report() -> CalibrationReport {

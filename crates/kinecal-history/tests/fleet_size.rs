@@ -12,9 +12,9 @@ use std::path::Path;
 
 #[cfg(feature = "postgres")]
 use common::pg::TestDb;
+use common::report::{ge_a4_report, LINK1_XY_LINK3_Y};
+use kinecal::model::examples;
 use kinecal::report::CalibrationReport;
-use kinecal::solve::estimation::{calibrate, CalibrationOptions};
-use kinecal::{apps::simulate, model::examples, ParamId};
 use kinecal_history::{AddOptions, Database, Dump, Error};
 
 const T0: i64 = 1_790_000_000;
@@ -25,25 +25,8 @@ const EACH: usize = 20;
 /// A calibration of the GE A4 (link 1's x and y, link 3's y) on simulated data.
 fn report() -> CalibrationReport {
     static R: std::sync::OnceLock<CalibrationReport> = std::sync::OnceLock::new();
-    R.get_or_init(|| {
-        let robot = examples::ge_a4();
-        let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 10, 1), false);
-        simulate::add_noise(&mut data, 1e-5, 1e-5, 2);
-        let cal = calibrate(
-            &robot,
-            &data,
-            &CalibrationOptions::new(vec![ParamId(0), ParamId(1), ParamId(13)]),
-            &mut |_| {},
-        )
-        .unwrap();
-        let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
-        let mut rep = CalibrationReport::new(&cal, &data);
-        rep.set_uncertainty(&cal, &u);
-        rep.robot_file_sha256 = Some(kinecal_history::fingerprint(b"ge-a4"));
-        rep.data_file_sha256 = Some(kinecal_history::fingerprint(b"data"));
-        rep
-    })
-    .clone()
+    R.get_or_init(|| ge_a4_report(&examples::ge_a4(), 10, 1, &LINK1_XY_LINK3_Y, Some("data")))
+        .clone()
 }
 
 /// A dump of 1,000 robots x 20 calibrations (ids 1..=20,000, robot by robot), each with six

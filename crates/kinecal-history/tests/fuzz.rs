@@ -3,6 +3,8 @@
 //! file named when refused). Long run:
 //! `KINECAL_FUZZ_ITERS=1000000 cargo test --release -p kinecal-history --test fuzz -- --nocapture`.
 
+mod common;
+
 #[path = "../../kinecal/tests/fuzz_driver/mod.rs"]
 mod fuzz_driver;
 
@@ -41,30 +43,21 @@ fn tolerance_files() {
 /// stored number is finite.
 #[test]
 fn history_dumps() {
-    use kinecal::report::CalibrationReport;
-    use kinecal::solve::estimation::{calibrate, CalibrationOptions};
-    use kinecal::{apps::simulate, model::examples, ParamId};
+    use kinecal::model::examples;
     use kinecal_history::{Database, Dump};
 
     let dir = tempfile::tempdir().unwrap();
     // The seeds: a dump of two calibrations of the GE A4 and an event.
     let seed = {
         let db = Database::open(dir.path().join("seed.sqlite")).unwrap();
-        let robot = examples::ge_a4();
         for k in 0..2u64 {
-            let mut data =
-                simulate::measure(&robot, &simulate::sample_postures(&robot, 10, k), false);
-            simulate::add_noise(&mut data, 1e-5, 1e-5, k + 1);
-            let cal = calibrate(
-                &robot,
-                &data,
-                &CalibrationOptions::new(vec![ParamId(0), ParamId(1), ParamId(13)]),
-                &mut |_| {},
-            )
-            .unwrap();
-            let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
-            let mut rep = CalibrationReport::new(&cal, &data);
-            rep.set_uncertainty(&cal, &u);
+            let rep = common::report::ge_a4_report(
+                &examples::ge_a4(),
+                10,
+                k,
+                &common::report::LINK1_XY_LINK3_Y,
+                None,
+            );
             db.add("R1", Some(1_790_000_000 + k as i64 * 86_400), &rep, "")
                 .unwrap();
         }

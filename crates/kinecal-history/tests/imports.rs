@@ -10,9 +10,9 @@ mod common;
 
 #[cfg(feature = "postgres")]
 use common::pg::TestDb;
+use common::report::{ge_a4_report, LINK1_XY_LINK3_Y};
+use kinecal::model::examples;
 use kinecal::report::CalibrationReport;
-use kinecal::solve::estimation::{calibrate, CalibrationOptions};
-use kinecal::{apps::simulate, model::examples, ParamId};
 use kinecal_history::{drift, fleet, Database, DriftOptions, Dump, Error, FleetOptions, Verdict};
 
 const T0: i64 = 1_790_000_000;
@@ -21,24 +21,8 @@ const DAY: i64 = 86_400;
 /// A calibration of the GE A4 (link 1's x and y, link 3's y) on simulated data; `seed` varies
 /// the data (and so the record's key).
 fn report(seed: u64) -> CalibrationReport {
-    let robot = examples::ge_a4();
-    let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 10, seed), false);
-    simulate::add_noise(&mut data, 1e-5, 1e-5, seed + 1);
-    let cal = calibrate(
-        &robot,
-        &data,
-        &CalibrationOptions::new(vec![ParamId(0), ParamId(1), ParamId(13)]),
-        &mut |_| {},
-    )
-    .unwrap();
-    let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
-    let mut rep = CalibrationReport::new(&cal, &data);
-    rep.set_uncertainty(&cal, &u);
-    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(b"ge-a4"));
-    rep.data_file_sha256 = Some(kinecal_history::fingerprint(
-        format!("seed {seed}").as_bytes(),
-    ));
-    rep
+    let key = format!("seed {seed}");
+    ge_a4_report(&examples::ge_a4(), 10, seed, &LINK1_XY_LINK3_Y, Some(&key))
 }
 
 /// What keeps a place alive: its folder, or its database on the server.

@@ -1,29 +1,19 @@
 //! Database faults: concurrent writers, a writer killed mid-transaction, a newer schema, a
 //! corrupt file, a read-only location. Each behaves as documented, and no data is lost.
 
+mod common;
+
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use common::report::ge_a4_report;
 use kinecal::report::CalibrationReport;
-use kinecal::solve::estimation::{calibrate, CalibrationOptions};
-use kinecal::{apps::simulate, model::examples, ParamId};
+use kinecal::{model::examples, ParamId};
 use kinecal_history::{Database, Error};
 
+/// A calibration of the GE A4 (link 1's x and y) on simulated data.
 fn report() -> CalibrationReport {
-    let robot = examples::ge_a4();
-    let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 10, 1), false);
-    simulate::add_noise(&mut data, 1e-5, 1e-5, 2);
-    let cal = calibrate(
-        &robot,
-        &data,
-        &CalibrationOptions::new(vec![ParamId(0), ParamId(1)]),
-        &mut |_| {},
-    )
-    .unwrap();
-    let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
-    let mut rep = CalibrationReport::new(&cal, &data);
-    rep.set_uncertainty(&cal, &u);
-    rep
+    ge_a4_report(&examples::ge_a4(), 10, 1, &[ParamId(0), ParamId(1)], None)
 }
 
 fn count(path: &Path) -> i64 {

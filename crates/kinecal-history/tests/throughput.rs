@@ -15,9 +15,9 @@ use std::time::Instant;
 
 #[cfg(feature = "postgres")]
 use common::pg::TestDb;
+use common::report::ge_a4_report;
 use kinecal::report::CalibrationReport;
-use kinecal::solve::estimation::{calibrate, CalibrationOptions};
-use kinecal::{apps::simulate, model::examples, ParamId};
+use kinecal::{model::examples, ParamId};
 use kinecal_history::{fleet, Database, DriftOptions, FleetOptions, Tolerances};
 
 const T0: i64 = 1_790_000_000;
@@ -25,20 +25,11 @@ const DAY: i64 = 86_400;
 
 /// A calibration of the GE A4 on 30 simulated postures (every parameter but the z lengths).
 fn report() -> CalibrationReport {
-    let robot = examples::ge_a4();
-    let mut data = simulate::measure(&robot, &simulate::sample_postures(&robot, 30, 1), false);
-    simulate::add_noise(&mut data, 1e-5, 1e-5, 2);
     let params: Vec<ParamId> = (0..38)
         .filter(|i| ![2, 8].contains(i))
         .map(ParamId)
         .collect();
-    let cal = calibrate(&robot, &data, &CalibrationOptions::new(params), &mut |_| {}).unwrap();
-    let u = kinecal::uncertainty::uncertainty(&cal, &data, &robot).unwrap();
-    let mut rep = CalibrationReport::new(&cal, &data);
-    rep.set_uncertainty(&cal, &u);
-    rep.robot_file_sha256 = Some(kinecal_history::fingerprint(b"ge-a4"));
-    rep.data_file_sha256 = Some(kinecal_history::fingerprint(b"data"));
-    rep
+    ge_a4_report(&examples::ge_a4(), 30, 1, &params, Some("data"))
 }
 
 /// Records/s of `writers` threads writing `per_writer` records each into `loc`.
