@@ -59,11 +59,14 @@ def main():
                 [sys.executable, BASELINE, "solve", d, "--n", str(n), "--mask", "ident",
                  "--repeat", "3"], check=True, capture_output=True, text=True).stdout)
             q, p = load(os.path.join(d, f"calib_{n}.csv"), robot)
-            data = kinecal.Measurements(robot, q, p)
 
-            def timed(data=data, **kw):
+            def timed(q=q, p=p, **kw):
+                # Each call on Measurements of its own, built before the clock starts: a
+                # Measurements keeps the sines of its readings for the next calibration on it,
+                # which the peer's solve would not get from a repeat.
+                fresh = [kinecal.Measurements(robot, q, p) for _ in range(a.repeat)]
                 times = []
-                for _ in range(a.repeat):
+                for data in fresh:
                     t0 = time.process_time()
                     result = kinecal.calibrate(robot, data, estimate=estimate, **kw)
                     times.append(time.process_time() - t0)

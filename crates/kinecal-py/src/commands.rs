@@ -284,7 +284,7 @@ fn pool_of(
 ) -> PyResult<(Dataset, bool)> {
     if let Ok(m) = obj.extract::<PyRef<'_, Measurements>>() {
         m.check(robot, keyword)?;
-        let mut data = m.data.clone();
+        let mut data = Dataset::clone(&m.data);
         if position_only {
             for o in &mut data.observations {
                 if let Observation::Pose(p) = o {
@@ -442,7 +442,7 @@ fn planned<'py>(
     d.set_item(
         "observations",
         Measurements {
-            data: p.chosen.clone(),
+            data: p.chosen.clone().into(),
             dof: r.dof(),
             sites: site_names(r),
         },
@@ -490,7 +490,7 @@ pub fn simulate<'py>(
     };
     Ok((
         Measurements {
-            data,
+            data: data.into(),
             dof: nominal.dof(),
             sites: site_names(nominal),
         },

@@ -66,16 +66,16 @@ fn said(done: &kinecal::spec::Done) -> Said {
 /// What a job said: `(kind, text)` pairs, `note` or `warning`.
 type Said = Vec<(String, String)>;
 
-/// A calibration job's result for Python: the calibrated robot, the report (JSON), the
-/// outcome's arrays and what it said.
-type Calibrated = (crate::Robot, String, Py<pyo3::types::PyDict>, Said);
+/// A calibration job's result for Python: the calibrated robot, the outcome (its report and
+/// arrays made when read) and what it said.
+type Calibrated = (crate::Robot, crate::outcome::CalibrationOutcome, Said);
 
 /// A job's result for Python: its kind, its document (JSON), what it said and its status.
 type Ran = (String, String, Said, String);
 
 /// Runs a calibration spec (`form` as for [`run`]) as `kinecal calibrate --spec` runs it, its
-/// outputs written: the calibrated robot, the report (JSON), the outcome's arrays and what it
-/// said (an error when the spec is not a calibration's).
+/// outputs written: the calibrated robot, the outcome and what it said (an error when the spec
+/// is not a calibration's).
 #[pyfunction]
 pub fn calibrate_job(py: Python<'_>, spec: &str, form: &str) -> PyResult<Calibrated> {
     let job = job_of(py, spec, form)?;
@@ -86,7 +86,8 @@ pub fn calibrate_job(py: Python<'_>, spec: &str, form: &str) -> PyResult<Calibra
         )));
     }
     let done = run_job(py, &job, (form == "path").then_some(spec))?;
-    let kinecal::spec::Document::Calibration(outcome) = &done.document else {
+    let messages = said(&done);
+    let kinecal::spec::Document::Calibration(outcome) = done.document else {
         return Err(bad(
             "calibrate: the strict calibration stopped before solving: the data's warnings say \
              the result would most likely be wrong",
@@ -105,8 +106,11 @@ pub fn calibrate_job(py: Python<'_>, spec: &str, form: &str) -> PyResult<Calibra
         robot: outcome.calibration.calibrated.clone(),
         text,
     };
-    let details = crate::outcome::details(py, outcome)?.unbind();
-    Ok((robot, outcome.report.to_json(), details, said(&done)))
+    Ok((
+        robot,
+        crate::outcome::CalibrationOutcome::new(outcome),
+        messages,
+    ))
 }
 
 /// Runs a spec (`form`: `path` for a spec file, `toml` for its text, `json` for a dict's JSON)

@@ -17,6 +17,7 @@ mod outcome;
 
 use std::ffi::CString;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use kinecal::files::{detect_format, FORMATS};
 use kinecal::import::dh::{robot_from_dh, Convention, DhRow};
@@ -871,7 +872,9 @@ fn readings_array(
 #[pyclass(module = "kinecal", name = "Measurements")]
 #[derive(Clone)]
 struct Measurements {
-    data: Dataset,
+    /// Shared with the calibrations run on it (the library takes a dataset by `Arc`): a call
+    /// copies none of it.
+    data: Arc<Dataset>,
     /// The robot's joint count and site names when built (checked against the robot used).
     dof: usize,
     sites: Vec<String>,
@@ -1118,7 +1121,7 @@ impl Measurements {
         let targets = row_targets(r, sites, rows)?;
         let labels = row_labels(postures, rows)?;
         Ok(Measurements {
-            data: rows_dataset(r, &q, &columns, &targets, &labels)?,
+            data: Arc::new(rows_dataset(r, &q, &columns, &targets, &labels)?),
             dof: n,
             sites: site_names(r),
         })
@@ -1164,7 +1167,7 @@ impl Measurements {
         let (data, _) =
             kinecal::files::read_files(&read, &[f], r, &[]).map_err(|e| error(py, e))?;
         Ok(Measurements {
-            data,
+            data: Arc::new(data),
             dof: r.dof(),
             sites: site_names(r),
         })
@@ -1176,7 +1179,7 @@ impl Measurements {
             return Err(bad("merge: the two were built for different robots"));
         }
         Ok(Measurements {
-            data: self.data.clone().merge(other.data.clone()),
+            data: Arc::new(Dataset::clone(&self.data).merge(Dataset::clone(&other.data))),
             dof: self.dof,
             sites: self.sites.clone(),
         })
@@ -1246,8 +1249,9 @@ impl Measurements {
 
 /// Calibrates `robot` on `data` (see the Python package's `kinecal.calibrate`): `spec` is the
 /// calibration spec of the keywords, which the library translates as every front end's
-/// (`validate` and `initial` given in memory). Returns the calibrated robot, the report as JSON
-/// text and the outcome's arrays ([`outcome::details`]).
+/// (`validate` and `initial` given in memory). Returns the calibrated robot and the
+/// outcome, whose report and arrays are made when Python reads them
+/// ([`outcome::CalibrationOutcome`]).
 #[pyfunction]
 #[pyo3(signature = (robot, data, spec, validate=None, initial=None))]
 fn calibrate(
@@ -1257,7 +1261,7 @@ fn calibrate(
     spec: &str,
     validate: Option<&Measurements>,
     initial: Option<&Robot>,
-) -> PyResult<(Robot, String, Py<pyo3::types::PyDict>)> {
+) -> PyResult<(Robot, outcome::CalibrationOutcome)> {
     let r = &robot.robot;
     data.check(r, "data")?;
     if let Some(v) = validate {
@@ -1271,14 +1275,14 @@ fn calibrate(
             r,
             data.data.clone(),
             initial.map(|i| i.robot.clone()),
-            validate.map(|v| v.data.clone()),
+            validate.map(|v| Dataset::clone(&v.data)),
         )
         .map_err(|e| error(py, e))?;
     let text = robot.text.clone().unwrap_or_default();
     let job = CalibrationJob::new(spec, request, Source::text(r.name.clone(), text))
         .map_err(|e| error(py, e))?;
     let outcome = py
-        .detach(|| job.calibrate(&mut ()))
+        .detach(move || job.calibrate(&mut ()))
         .map_err(|e| error(py, e))?;
     if let Some(why) = kinecal::spec::calibrate::refusal(&outcome).filter(|_| !force_units) {
         return Err(bad(format!("calibrate: {why}")));
@@ -1287,8 +1291,10 @@ fn calibrate(
         robot: outcome.calibration.calibrated.clone(),
         text: robot.text.clone(),
     };
-    let details = outcome::details(py, &outcome)?.unbind();
-    Ok((calibrated, outcome.report.to_json(), details))
+    Ok((
+        calibrated,
+        outcome::CalibrationOutcome::new(Box::new(outcome)),
+    ))
 }
 
 /// What `data` determines about `robot`'s parameters (see the Python package's
@@ -1357,7 +1363,7 @@ fn dataset(
         }
         .map_err(|e| error(py, e))?;
         Ok(Measurements {
-            data,
+            data: Arc::new(data),
             dof: robot.robot.dof(),
             sites: site_names(&robot.robot),
         })
@@ -1369,7 +1375,7 @@ fn dataset(
         validation = Some(match validation {
             None => m,
             Some(mut all) => {
-                all.data = all.data.merge(m.data);
+                all.data = Arc::new(Dataset::clone(&all.data).merge(Dataset::clone(&m.data)));
                 all
             }
         });
@@ -1408,6 +1414,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Robot>()?;
     m.add_class::<Measurements>()?;
+    m.add_class::<outcome::CalibrationOutcome>()?;
     m.add_function(wrap_pyfunction!(jobs::run, m)?)?;
     m.add_function(wrap_pyfunction!(jobs::calibrate_job, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;

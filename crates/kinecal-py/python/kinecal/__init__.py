@@ -87,17 +87,51 @@ class Calibration:
     document as ``kinecal calibrate --report``: every parameter, uncertainty, determined
     combinations, identification and validation accuracy, outliers, warnings, timings).
     Values are in the robot's units.
+
+    What :func:`calibrate` returns keeps the library's outcome and makes each part when it is
+    first read, then keeps it: the report's JSON text, its dict (:attr:`report`, which every
+    figure is read from), :attr:`covariance`, :attr:`residuals` and :attr:`residual_rows`; a
+    caller who uses only :attr:`robot` pays for none of them. ``Calibration(robot,
+    report_json)`` makes one from a report's JSON text (without the outcome's arrays).
     """
 
     def __init__(
         self, robot: Robot, report_json: str, details: dict[str, Any] | None = None
     ) -> None:
         self.robot: Robot = robot
-        self.report: dict[str, Any] = json.loads(report_json)
-        self._json = report_json
+        self._json: str | None = report_json
+        self._report: dict[str, Any] | None = None
+        self._outcome: _native.Outcome | None = None
         self._details = details
+        self._residuals: Floats | None = None
+        self._rows: list[ResidualRow] | None = None
         if details is not None and details["covariance_names"] != self.estimated:
             raise KinecalError("the covariance is not in the order of the estimated parameters")
+
+    @classmethod
+    def _of(cls, robot: Robot, outcome: _native.Outcome) -> Calibration:
+        """The calibration of ``outcome`` (the native module's), its parts made when read."""
+        made = cls.__new__(cls)
+        made.robot = robot
+        made._json = None
+        made._report = None
+        made._outcome = outcome
+        made._details = None
+        made._residuals = None
+        made._rows = None
+        return made
+
+    @property
+    def report(self) -> dict[str, Any]:
+        """The full report as a dict (the JSON of :meth:`to_json`, read when first asked
+        for; the same dict after that)."""
+        if self._report is None:
+            self._report = json.loads(self.to_json())
+        return self._report
+
+    @report.setter
+    def report(self, value: dict[str, Any]) -> None:
+        self._report = value
 
     @property
     def converged(self) -> bool:
@@ -155,6 +189,8 @@ class Calibration:
         squared, and for any determined combination ``c`` (see :attr:`combinations`)
         ``c @ covariance @ c`` is its variance. The entries of parameters determined only in
         combination mean nothing on their own."""
+        if self._outcome is not None:
+            return self._outcome.covariance()
         c: Floats | None = self._detail("covariance")
         return None if c is None else c.copy()
 
@@ -171,13 +207,23 @@ class Calibration:
         ``"euler"``); one row for a distance or a plane contact. :attr:`residual_rows` names
         each row; dividing by its ``sigma`` gives the weighted residual the solver
         minimised."""
-        r: Floats = self._detail("residuals")
-        return r.copy()
+        if self._residuals is None:
+            self._residuals = (
+                self._detail("residuals") if self._outcome is None else self._outcome.residuals()
+            )
+        return self._residuals.copy()
 
     @property
     def residual_rows(self) -> list[ResidualRow]:
         """What each row of :attr:`residuals` is."""
-        return [ResidualRow(*row) for row in self._detail("residual_rows")]
+        if self._rows is None:
+            rows = (
+                self._detail("residual_rows")
+                if self._outcome is None
+                else self._outcome.residual_rows()
+            )
+            self._rows = list(map(ResidualRow._make, rows))
+        return list(self._rows)
 
     @property
     def undetermined(self) -> list[str]:
@@ -213,6 +259,9 @@ class Calibration:
 
     def to_json(self) -> str:
         """The report as JSON text (what ``kinecal calibrate --report`` writes)."""
+        if self._json is None:
+            assert self._outcome is not None
+            self._json = self._outcome.report_json()
         return self._json
 
     def predict(
@@ -433,9 +482,9 @@ def calibrate(
         if data is not None:
             raise TypeError("calibrate(spec): the spec names its data; give no data")
         form, text = _spec_form(robot)
-        robot_out, report, details, messages = _native.calibrate_job(text, form)
+        robot_out, outcome, messages = _native.calibrate_job(text, form)
         _warn(messages)
-        return Calibration(robot_out, report, details)
+        return Calibration._of(robot_out, outcome)
     if data is None:
         raise TypeError("calibrate: data is needed with a Robot (or give a spec)")
     keywords = _Keywords(
@@ -467,8 +516,8 @@ def calibrate(
         },
     )
     with keywords as spec:
-        robot_out, report, details = _native.calibrate(robot, data, spec, validate, initial)
-    return Calibration(robot_out, report, details)
+        robot_out, outcome = _native.calibrate(robot, data, spec, validate, initial)
+    return Calibration._of(robot_out, outcome)
 
 
 def analyze(

@@ -18,6 +18,7 @@ __all__ = [
     "ExportWarning",
     "KinecalError",
     "Measurements",
+    "Outcome",
     "Robot",
     "__version__",
     "analyze",
@@ -217,11 +218,25 @@ def run(spec: str, form: str) -> tuple[str, str, list[tuple[str, str]], str]:
     """Runs a spec (``form``: ``path``, ``toml`` or ``json``): the job's kind, its document as
     JSON text, what it said (``(note|warning, text)``) and its status."""
 
+@final
+class Outcome:
+    """A calibration's outcome, kept whole: its report and arrays made when asked for."""
+
+    def report_json(self) -> str:
+        """The report as JSON text (what ``kinecal calibrate --report`` writes)."""
+    def covariance(self) -> npt.NDArray[np.float64] | None:
+        """The covariance of the estimated parameters in the report's order (file units), or
+        None when the uncertainty could not be computed."""
+    def residuals(self) -> npt.NDArray[np.float64]:
+        """The identification data's residuals, ``model - measured`` per row (file units)."""
+    def residual_rows(self) -> list[tuple[str, str, str, str, float]]:
+        """``(posture, kind, target, row, sigma)`` per residual row, sigma in file units."""
+
 def calibrate_job(
     spec: str, form: str
-) -> tuple[Robot, str, dict[str, Any], list[tuple[str, str]]]:
-    """Runs a calibration spec, its outputs written: the calibrated robot, the report as JSON
-    text, the outcome's arrays and what it said."""
+) -> tuple[Robot, Outcome, list[tuple[str, str]]]:
+    """Runs a calibration spec, its outputs written: the calibrated robot, the outcome and what
+    it said."""
 
 def calibrate(
     robot: Robot,
@@ -229,9 +244,8 @@ def calibrate(
     spec: str,
     validate: Measurements | None = None,
     initial: Robot | None = None,
-) -> tuple[Robot, str, dict[str, Any]]:
-    """The calibrated robot, the report as JSON text and the outcome's arrays
-    (``covariance``, ``covariance_names``, ``residuals``, ``residual_rows``)."""
+) -> tuple[Robot, Outcome]:
+    """The calibrated robot and the outcome (its report and arrays made when read)."""
 
 def analyze(robot: Robot, data: Measurements, spec: str) -> str:
     """The document of ``kinecal analyze --json`` as JSON text, plus ``unseen``."""
