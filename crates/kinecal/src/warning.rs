@@ -225,6 +225,13 @@ pub enum Warning {
         /// The parameters left out then.
         left_out: Vec<String>,
     },
+    /// Parameters the start's closed-form placement set from the data, estimated although the
+    /// data determine them more loosely than the noise-level rule of the identifiable set
+    /// allows (see [`crate::identifiability::AnalysisOptions::placed`]).
+    PlacedLoose {
+        /// Their names, each with its standard deviation and its change (mm or deg).
+        parameters: Vec<String>,
+    },
     /// Estimated lengths moved by more than the robot's reach.
     ChangeBeyondReach {
         /// Their names.
@@ -588,6 +595,15 @@ impl std::fmt::Display for Warning {
                     .map(ToString::to_string)
                     .collect::<Vec<_>>()
                     .join(", ")
+            ),
+            Warning::PlacedLoose { parameters } => write!(
+                f,
+                "estimated although the data determine them too loosely for the identifiable \
+                 set's noise rule: {}; the start's closed-form placement had set them from the \
+                 data with the nominal robot, and held there they would keep that fit's error \
+                 (more varied postures determine them: other tool attitudes, for a tool's \
+                 length along its axis)",
+                parameters.join(", ")
             ),
             Warning::ChangeBeyondReach {
                 parameters,

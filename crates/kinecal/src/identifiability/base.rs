@@ -31,6 +31,9 @@ pub(super) struct IdentifiableSet {
     pub noise_dependent: Vec<NoiseDependent>,
     /// The noise rule in words.
     pub noise_rule: String,
+    /// The chosen parameters of [`AnalysisOptions::placed`] the rule would have left out, with
+    /// their standard deviations given the whole set (file units, at the noise scale).
+    pub placed_loose: Vec<(ParamId, f64)>,
     /// `e_j` per parameter.
     pub typical: Vec<f64>,
     /// The columns by preference.
@@ -77,7 +80,15 @@ pub(super) fn identifiable_set(
             }
         })
         .collect();
-    let mut threshold = noise_thresholds(robot, params, opts.noise_scale, &typical);
+    // The rule's thresholds, and those it applies: none for the parameters the start already
+    // placed from the data (only the rounding rule leaves them out).
+    let rule = noise_thresholds(robot, params, opts.noise_scale, &typical);
+    let placed: Vec<bool> = params.iter().map(|id| opts.placed.contains(id)).collect();
+    let mut threshold: Vec<f64> = rule
+        .iter()
+        .zip(&placed)
+        .map(|(&t, &p)| if p { 0.0 } else { t })
+        .collect();
     // On R's columns (n long, the same inner products as the scaled Jacobian's m-long ones).
     // A parameter chosen early (a high tier) is judged given only the columns before it: given
     // the whole set, it may be as loose as the rule forbids (a joint offset and a link length
@@ -128,6 +139,21 @@ pub(super) fn identifiable_set(
         loose_sigma[j] = Some(sigma);
         base = select(&threshold);
     }
+    let placed_loose = if placed.iter().any(|p| *p) {
+        let sigma = linalg::marginal_sigmas(&scaled.r, &base.chosen);
+        base.chosen
+            .iter()
+            .zip(&sigma)
+            .filter(|&(&j, &s)| placed[j] && gain[j] / s < rule[j])
+            .map(|(&j, &s)| {
+                let id = params[j];
+                let si = opts.noise_scale * s / column_norms[j];
+                (id, robot.units.from_si(robot.param_quantity(id), si))
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     let mut identifiable: Vec<ParamId> = base.chosen.iter().map(|&j| params[j]).collect();
     identifiable.sort();
     let noise_dependent = base
@@ -152,6 +178,7 @@ pub(super) fn identifiable_set(
         identifiable,
         noise_dependent,
         noise_rule: noise_rule_words(m, exact_typical, opts.noise_scale),
+        placed_loose,
         typical,
         order,
     }

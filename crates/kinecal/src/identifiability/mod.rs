@@ -72,6 +72,16 @@ pub struct AnalysisOptions {
     /// and the covariance are those of the data and the prior together, and
     /// [`Analysis::determined_by_data`] says what the data alone determines.
     pub prior: crate::model::robot::Prior,
+    /// Parameters whose values the start already took from the data (a calibration's
+    /// closed-form placement of the measurement and tool frames, see
+    /// [`crate::solve::registration`]): the noise-level rule does not leave them out, only
+    /// dependence at the rounding level does. Held, such a parameter would keep the value a fit
+    /// of the nominal robot gave it, and along a direction the data barely determine the
+    /// nominal model's error moves it furthest (the IPA UR10's series D, measured at one tool
+    /// attitude: the tool's length along the flange axis placed 38 mm from where every other
+    /// series puts it); estimated, the data place it together with the rest, and
+    /// [`Analysis::placed_loose`] names those the rule would have left out.
+    pub placed: Vec<ParamId>,
 }
 
 /// Default relative singular-value tolerance for the numerical rank.
@@ -86,6 +96,7 @@ impl Default for AnalysisOptions {
             priority: Vec::new(),
             noise_scale: 1.0,
             prior: crate::model::robot::Prior::default(),
+            placed: Vec::new(),
         }
     }
 }
@@ -209,6 +220,11 @@ pub struct Analysis {
     pub noise_dependent: Vec<NoiseDependent>,
     /// The noise-level rule, in words, with this analysis's threshold.
     pub noise_rule: String,
+    /// The identifiable parameters among [`AnalysisOptions::placed`] that the noise-level rule
+    /// would have left out, each with its standard deviation given the whole identifiable set
+    /// (at the stated weights times [`AnalysisOptions::noise_scale`], the robot file's unit of
+    /// the parameter): kept because the start already took their values from the data.
+    pub placed_loose: Vec<(ParamId, f64)>,
     /// Per analysed parameter, `e_j`: what one typical row tells about it, the RMS over the
     /// `m` rows of its weighted Jacobian column (internal units), each row's weight
     /// `w_i = 1 / sigma_i` clamped at the median weight of the rows of its quantity (lengths
@@ -420,6 +436,7 @@ fn analyze_with(
         identifiable: set.identifiable,
         noise_dependent: set.noise_dependent,
         noise_rule: set.noise_rule,
+        placed_loose: set.placed_loose,
         typical_row: set.typical,
         determined: null.determined,
         determined_by_data,

@@ -209,6 +209,7 @@ impl AnalyzeSpec {
                 priority,
                 noise_scale: 1.0,
                 prior,
+                placed: Vec::new(),
             },
         ))
     }

@@ -127,6 +127,7 @@ impl Request {
             priority: self.priority.clone(),
             noise_scale: 1.0,
             prior: crate::model::robot::Prior::default(),
+            placed: Vec::new(),
         }
     }
 }

@@ -114,7 +114,9 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
             after: "the checks of the data against the nominal robot",
         });
     }
+    let unplaced = start.clone();
     let (start, registration) = place_frames(req, start, &data, &nominal_points);
+    let placed = placed_frames(&unplaced, &start);
     let reference = match req.solution {
         SolutionRule::MinChange => &req.robot,
         SolutionRule::Solver => &start,
@@ -122,8 +124,16 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
     if matches!(req.selection, Selection::Identifiable { .. }) {
         progress.phase(Phase::Selection);
     }
-    let (estimate, unseen, lin) =
-        resolve_linearized(&req.selection, reference, &data, &req.analysis_options())?;
+    let analysis_options = AnalysisOptions {
+        placed,
+        ..req.analysis_options()
+    };
+    let super::selection::Resolved {
+        estimate,
+        unseen,
+        lin,
+        placed_loose,
+    } = resolve_linearized(&req.selection, reference, &data, &analysis_options)?;
     check_total_mass_kept(
         req.prior.total_mass,
         &req.selection,
@@ -149,9 +159,11 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         start: &start,
         data: &data,
         reference,
+        analysis_options: &analysis_options,
     };
     let cal = fitted.fit(&opts, lin.as_ref(), progress)?;
-    let (cal, rechosen) = fitted.rechoose_at_residual_noise(cal, progress)?;
+    let (cal, rechosen, placed_loose) =
+        fitted.rechoose_at_residual_noise(cal, placed_loose, progress)?;
     // A fit that ended with the positions unfit: tried again from other starts (nothing runs
     // otherwise).
     let chosen = cal.options.clone();
@@ -185,6 +197,12 @@ fn run_clocked(req: &Request, progress: &mut dyn Progress) -> Result<Outcome> {
         );
     }
     let unc = uncertainty::uncertainty_of_fit(&cal, &data, reference);
+    warnings.extend(placed_loose_warning(
+        &req.robot,
+        &cal,
+        unc.as_ref().ok(),
+        &placed_loose,
+    ));
     progress.phase(Phase::Report);
     let mut outcome = finish(
         req.robot.clone(),
@@ -384,13 +402,79 @@ fn place_frames(
     (start, registration)
 }
 
-/// What every fit of one calibration shares: the request, the start, the data and the robot the
-/// solution rule measures changes from.
+/// Parameters the identifiable set kept only because the start's placement had set them, with
+/// their standard deviations at the analysis's weights (file units; see
+/// [`crate::identifiability::Analysis::placed_loose`]).
+type PlacedLoose = Vec<(ParamId, f64)>;
+
+/// A [`Warning::PlacedLoose`] for the parameters of `placed_loose` (with their standard
+/// deviations at the analysis's weights, file units) that `cal` estimated: kept in the
+/// identifiable set only because the start's placement had set them from the data. Each is
+/// named with its standard deviation as the fit's uncertainty `unc` gives it (the analysis's
+/// without one) and its change, in mm or degrees.
+fn placed_loose_warning(
+    robot: &Robot,
+    cal: &Calibration,
+    unc: Option<&uncertainty::Uncertainty>,
+    placed_loose: &[(ParamId, f64)],
+) -> Option<Warning> {
+    let shown = |id: ParamId, v: f64| {
+        let q = robot.param_quantity(id);
+        let si = robot.units.to_si(q, v);
+        match q {
+            Quantity::Length => format!("{:.1} mm", si * 1e3),
+            Quantity::Angle => format!("{:.3} deg", si.to_degrees()),
+            _ => format!(
+                "{} {}",
+                crate::identifiability::fmt_sig(v),
+                robot.units.label(q)
+            ),
+        }
+    };
+    let parameters: Vec<String> = placed_loose
+        .iter()
+        .filter(|(id, _)| cal.estimated.contains(id))
+        .map(|&(id, analysed)| {
+            let sigma = unc
+                .and_then(|u| u.parameters.iter().find(|p| p.id == id))
+                .and_then(|p| p.sigma)
+                .unwrap_or(analysed);
+            let change = cal.calibrated.get(id) - cal.initial.get(id);
+            format!(
+                "{} (sigma {}, moved {})",
+                robot.param_name(id),
+                shown(id, sigma),
+                shown(id, robot.units.from_si(robot.param_quantity(id), change))
+            )
+        })
+        .collect();
+    (!parameters.is_empty()).then_some(Warning::PlacedLoose { parameters })
+}
+
+/// The frame parameters [`place_frames`] set from the data (`unplaced` before, `placed` after):
+/// the identifiable set's noise-level rule keeps them (see
+/// [`crate::identifiability::AnalysisOptions::placed`]). A lens's closed form is not a
+/// placement: a camera's intrinsics are judged as any parameter.
+fn placed_frames(unplaced: &Robot, placed: &Robot) -> Vec<ParamId> {
+    placed
+        .param_ids()
+        .filter(|&id| placed.get(id).to_bits() != unplaced.get(id).to_bits())
+        .filter(|&id| match placed.param_kind(id) {
+            ParamKind::Camera { component, .. } => !component.is_intrinsic(),
+            _ => true,
+        })
+        .collect()
+}
+
+/// What every fit of one calibration shares: the request, the start, the data, the robot the
+/// solution rule measures changes from, and the identifiability analysis's options (with what
+/// the start's placement set).
 struct Fitted<'a> {
     req: &'a Request,
     start: &'a Robot,
     data: &'a Arc<Dataset>,
     reference: &'a Robot,
+    analysis_options: &'a AnalysisOptions,
 }
 
 impl Fitted<'_> {
@@ -408,14 +492,17 @@ impl Fitted<'_> {
     /// tracker's own sigmas under a model error ten times larger) show the rows' real noise: the
     /// set is chosen again at it, and fitted again when that leaves parameters out (those only
     /// the stated precision made look determined, along whose valley the solver crawls).
+    /// `placed_loose` is the first analysis's ([`crate::identifiability::Analysis::placed_loose`]);
+    /// returned is that of the set fitted.
     fn rechoose_at_residual_noise(
         &self,
         cal: Calibration,
+        placed_loose: PlacedLoose,
         progress: &mut dyn Progress,
-    ) -> Result<(Calibration, Option<Warning>)> {
+    ) -> Result<(Calibration, Option<Warning>, PlacedLoose)> {
         let req = self.req;
         if !matches!(req.selection, Selection::Identifiable { .. }) {
-            return Ok((cal, None));
+            return Ok((cal, None, placed_loose));
         }
         let (m, n) = (cal.residuals.len(), cal.options.estimate.len());
         // In the stated sigmas (without a model-error floor's row scale).
@@ -426,17 +513,17 @@ impl Fitted<'_> {
             f64::NAN
         };
         if vf.is_nan() || vf <= SIGMAS_TOO_SMALL {
-            return Ok((cal, None));
+            return Ok((cal, None, placed_loose));
         }
         let aopts = AnalysisOptions {
             noise_scale: vf.sqrt(),
-            ..req.analysis_options()
+            ..self.analysis_options.clone()
         };
         progress.phase(Phase::Selection);
-        let (estimate, _, new_lin) =
-            resolve_linearized(&req.selection, self.reference, self.data, &aopts)?;
+        let again = resolve_linearized(&req.selection, self.reference, self.data, &aopts)?;
+        let (estimate, new_lin) = (again.estimate, again.lin);
         if estimate == cal.options.estimate {
-            return Ok((cal, None));
+            return Ok((cal, None, again.placed_loose));
         }
         check_total_mass_kept(
             req.prior.total_mass,
@@ -461,7 +548,7 @@ impl Fitted<'_> {
             scale: vf.sqrt(),
             left_out,
         };
-        Ok((cal, Some(warning)))
+        Ok((cal, Some(warning), again.placed_loose))
     }
 
     /// Pruning: the least significant parameter below `k` standard deviations left out and the

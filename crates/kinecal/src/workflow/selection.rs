@@ -193,18 +193,29 @@ pub fn resolve(
     data: &Dataset,
     opts: &AnalysisOptions,
 ) -> Result<(Vec<ParamId>, Vec<ParamId>)> {
-    resolve_linearized(selection, robot, data, opts).map(|(ids, unseen, _)| (ids, unseen))
+    resolve_linearized(selection, robot, data, opts).map(|r| (r.estimate, r.unseen))
 }
 
-/// [`resolve`], with the linearisation the identifiability analysis made at `robot` (over the
-/// candidates) when it ran: a fit starting at `robot` needs no first pass.
+/// What [`resolve_linearized`] found: the parameters to estimate (sorted), the default ones no
+/// observation sees, the identifiability analysis's linearisation at the robot when it ran (a
+/// fit starting there needs no first pass), and the parameters the analysis kept only because
+/// the start placed them ([`identifiability::Analysis::placed_loose`]).
+pub(super) struct Resolved {
+    pub estimate: Vec<ParamId>,
+    pub unseen: Vec<ParamId>,
+    pub lin: Option<Linearized>,
+    pub placed_loose: Vec<(ParamId, f64)>,
+}
+
+/// [`resolve`], with what else the identifiability analysis found (see [`Resolved`]).
 pub(super) fn resolve_linearized(
     selection: &Selection,
     robot: &Robot,
     data: &Dataset,
     opts: &AnalysisOptions,
-) -> Result<(Vec<ParamId>, Vec<ParamId>, Option<Linearized>)> {
+) -> Result<Resolved> {
     let mut lin = None;
+    let mut placed_loose = Vec::new();
     let (mut ids, unseen) = match selection {
         Selection::Default { fix } => {
             let (mut ids, unseen) = default_parameters(robot, data);
@@ -223,6 +234,7 @@ pub(super) fn resolve_linearized(
             }
             let (analysis, at) = identifiability::analyze_linearized(robot, data, &ids, opts)?;
             lin = Some(at);
+            placed_loose = analysis.placed_loose;
             (analysis.identifiable, unseen)
         }
     };
@@ -231,7 +243,12 @@ pub(super) fn resolve_linearized(
     if ids.is_empty() {
         return Err(Error::NothingToEstimate);
     }
-    Ok((ids, unseen, lin))
+    Ok(Resolved {
+        estimate: ids,
+        unseen,
+        lin,
+        placed_loose,
+    })
 }
 
 /// The default parameters on `data`: every link and site parameter and every joint offset, and
