@@ -21,8 +21,8 @@ use crate::model::kinematics::{Chain, ColumnPlan, Frame, ReadingTrig, Target};
 use crate::model::params::{LinkComponent, ParamId, ParamKind};
 use crate::model::robot::{Prior, Robot};
 use crate::observe::{
-    Accuracy, AccuracyTally, Context, Dataset, Derivatives, ErrorSample, FrameCache, KeptErrors,
-    Observation, OrientationError, Weights,
+    Accuracy, AccuracyTally, Context, Dataset, Derivatives, FrameCache, KeptErrors, Observation,
+    OrientationError, Weights,
 };
 use crate::units::{wrap_angle, Quantity};
 use nalgebra::Vector3;
@@ -103,43 +103,6 @@ pub struct Problem<'a> {
     /// parameter's value in `base` (the prior's centre), `1 / s_p`, and whether it is an angle
     /// (its difference wrapped).
     prior: Vec<PriorRow>,
-    /// The solver's last two passes, with the observations' errors, for the settle at the
-    /// same robot ([`Problem::ended_at`]).
-    passes: SolverPasses,
-}
-
-/// The weighted residuals of a pass (the data's rows, then the prior's) and the observations'
-/// errors from the same pass of forward kinematics.
-pub(crate) struct Pass {
-    pub residuals: Vec<f64>,
-    pub accuracy: Accuracy,
-    pub errors: KeptErrors,
-}
-
-/// The last two passes a solver made through [`LeastSquares`] (the point a solve ends at is its
-/// last accepted trial's, or its polishing step's after it), with each observation's error, so
-/// that the settle at the same robot takes one instead of another pass of forward kinematics.
-/// Their buffers are reused from pass to pass. A clone starts empty: its weights (a row scale)
-/// may differ from those of the problem the passes were made for.
-#[derive(Default)]
-struct SolverPasses {
-    slots: std::cell::RefCell<[KeptPass; 2]>,
-    next: std::cell::Cell<usize>,
-}
-
-/// One pass of [`SolverPasses`]: the robot it was made at (none while the slot is empty or
-/// being filled).
-#[derive(Default)]
-struct KeptPass {
-    robot: Option<Robot>,
-    residuals: Vec<f64>,
-    samples: Vec<ErrorSample>,
-}
-
-impl Clone for SolverPasses {
-    fn clone(&self) -> Self {
-        SolverPasses::default()
-    }
 }
 
 /// One row of a prior: `(sum of the columns' parameters - center) * weight` (one column for a
@@ -208,7 +171,6 @@ impl<'a> Problem<'a> {
             posture_session,
             session_cols,
             prior: Vec::new(),
-            passes: SolverPasses::default(),
         }
     }
 
@@ -291,63 +253,7 @@ impl<'a> Problem<'a> {
     /// robust-loss weights.
     pub(crate) fn with_row_scale(mut self, scale: &'a [f64]) -> Self {
         self.row_scale = Some(scale);
-        self.passes = SolverPasses::default();
         self
-    }
-
-    /// A pass the solver made at `robot` (every parameter equal) over this problem's
-    /// observations, when one of its last two was; taken, so asked once.
-    pub(crate) fn ended_at(&self, robot: &Robot) -> Option<Pass> {
-        let mut slots = self.passes.slots.borrow_mut();
-        let observations = self.data.observations.len();
-        let slot = slots
-            .iter_mut()
-            .find(|s| s.robot.as_ref() == Some(robot) && s.samples.len() == observations)?;
-        slot.robot = None;
-        let mut tally = AccuracyTally::default();
-        for &e in &slot.samples {
-            tally.push(e);
-        }
-        let (accuracy, samples) = tally.finish_keeping();
-        Some(Pass {
-            residuals: std::mem::take(&mut slot.residuals),
-            accuracy,
-            errors: KeptErrors::new(robot, samples),
-        })
-    }
-
-    /// [`Problem::evaluate_with`] at `x`, each row `[J_i | r_i]` into `rows` when given, the residuals and each observation's
-    /// error kept in the older of the solver's two passes ([`Problem::ended_at`]).
-    pub(crate) fn solver_pass(
-        &self,
-        x: &[f64],
-        r: &mut [f64],
-        rows: Option<&mut dyn RowSink>,
-    ) -> f64 {
-        let robot = self.robot_at(x);
-        let mut slots = self.passes.slots.borrow_mut();
-        let i = self.passes.next.get();
-        self.passes.next.set(1 - i);
-        let slot = &mut slots[i];
-        slot.robot = None;
-        slot.samples.clear();
-        let f = {
-            let ctx = Context {
-                robot: &robot,
-                orientation: OrientationError::default(),
-            };
-            let samples = &mut slot.samples;
-            self.evaluate_with(
-                &robot,
-                r,
-                rows.map(Sink::Rows),
-                Some(&mut |o: &Observation, frames: &[Frame]| samples.push(o.error(&ctx, frames))),
-            )
-        };
-        slot.residuals.clear();
-        slot.residuals.extend_from_slice(r);
-        slot.robot = Some(robot);
-        f
     }
 
     /// Number of residuals: the data's, then the prior's.

@@ -39,15 +39,11 @@ impl LeastSquares for Problem<'_> {
         Problem::cols(self)
     }
 
-    /// Kept, with each observation's error, for the settle at the same robot (the calibration
-    /// takes it instead of another pass).
     fn residuals(&self, x: &[f64], r: &mut [f64]) -> f64 {
-        self.solver_pass(x, r, None)
+        self.evaluate(&self.robot_at(x), r, None)
     }
 
-    /// Kept, with each observation's error, for the settle at the same robot (the calibration
-    /// takes it instead of another pass).
     fn linearize(&self, x: &[f64], r: &mut [f64], rows: &mut dyn RowSink) -> f64 {
-        self.solver_pass(x, r, Some(rows))
+        self.evaluate_rows(&self.robot_at(x), r, rows)
     }
 }

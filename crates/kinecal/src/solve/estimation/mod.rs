@@ -229,15 +229,8 @@ pub(crate) fn settle(
     row_scale: &[f64],
     residuals: &mut [f64],
 ) -> (f64, f64, Accuracy, KeptErrors) {
-    // The solve's own last pass when it was made at `robot`; else one here.
-    let (all, accuracy, kept) = match problem.ended_at(robot) {
-        Some(pass) => (pass.residuals, pass.accuracy, pass.errors),
-        None => {
-            let mut all = vec![0.0; problem.rows()];
-            let (_, accuracy, kept) = problem.evaluate_checked(robot, &mut all);
-            (all, accuracy, kept)
-        }
-    };
+    let mut all = vec![0.0; problem.rows()];
+    let (_, accuracy, kept) = problem.evaluate_checked(robot, &mut all);
     let nd = problem.data_rows();
     residuals.copy_from_slice(&all[..nd]);
     let prior = all[nd..].iter().map(|r| r * r).sum();
@@ -566,8 +559,8 @@ pub(crate) fn calibrate_from(
     let mut calibrated = problem.robot_at(&sol.x);
     for &id in &opts.estimate {
         if initial.param_quantity(id) == Quantity::Angle {
-            // Only an angle that went round is moved (the others keep every bit, so that the
-            // solve's last pass at them stands for the settle's).
+            // Only an angle that went round is moved: the others keep the solver's value to the
+            // last bit (`v0 + wrap(v - v0)` rounds a negative change).
             let (v0, v) = (initial.get(id), calibrated.get(id));
             if (v - v0).abs() > std::f64::consts::PI {
                 calibrated.set(id, v0 + wrap_angle(v - v0));
