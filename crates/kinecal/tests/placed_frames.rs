@@ -8,55 +8,14 @@ use kinecal::observe::{accuracy, Dataset, Posture};
 use kinecal::workflow::{self, Request, Selection, Validation};
 use kinecal::{Chain, Robot, Target, Warning};
 
-const UR10: &str = "kinematics:
-  shoulder:
-    x: 0
-    y: 0
-    z: 0.1273
-    roll: 0
-    pitch: 0
-    yaw: 0
-  upper_arm:
-    x: 0
-    y: 0
-    z: 0
-    roll: 1.570796327
-    pitch: 0
-    yaw: 0
-  forearm:
-    x: -0.612
-    y: 0
-    z: 0
-    roll: 0
-    pitch: 0
-    yaw: 0
-  wrist_1:
-    x: -0.5723
-    y: 0
-    z: 0.163941
-    roll: 0
-    pitch: 0
-    yaw: 0
-  wrist_2:
-    x: 0
-    y: -0.1157
-    z: 0
-    roll: 1.570796327
-    pitch: 0
-    yaw: 0
-  wrist_3:
-    x: 0
-    y: 0.0922
-    z: 0
-    roll: 1.570796327
-    pitch: 3.141592654
-    yaw: 3.141592654
-";
-
+/// The nominal UR10 (the UR description's kinematics, as the IPA data set's adapter has it).
 fn ur10() -> Robot {
-    kinecal::import::ur::import_ur(UR10, "ur10.yaml")
-        .unwrap()
-        .robot
+    kinecal::import::ur::import_ur(
+        kinecal::apps::datasets::ipa_ur10::UR10_KINEMATICS,
+        "ur10.yaml",
+    )
+    .unwrap()
+    .robot
 }
 
 /// A small deterministic generator (uniform in [0, 1)).
