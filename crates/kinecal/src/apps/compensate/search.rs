@@ -795,6 +795,25 @@ mod tests {
             .collect()
     }
 
+    /// `count` postures of `nominal` drawn with `seed` (their readings), and the poses they
+    /// reach as seeded targets (each seeded by its own readings).
+    fn seeded_targets(
+        nominal: &Robot,
+        count: usize,
+        seed: u64,
+    ) -> (Vec<Vec<f64>>, Vec<(Goal, Option<Vec<f64>>)>) {
+        let postures: Vec<Vec<f64>> = sample_postures(nominal, count, seed)
+            .into_iter()
+            .map(|p| p.readings)
+            .collect();
+        let seeded = poses(nominal, &postures)
+            .into_iter()
+            .zip(&postures)
+            .map(|(f, p)| (Goal::Pose(f), Some(p.clone())))
+            .collect();
+        (postures, seeded)
+    }
+
     /// Seeded targets (the poses programs of the nominal arm mean, seeded by their readings):
     /// the closed form's branches give what the search of the table gives where both find a
     /// usable solution (to 1e-9 in readings; both converge far below it). Seeded targets and
@@ -806,15 +825,7 @@ mod tests {
         for seed in [3, 8] {
             let (nominal, calibrated) = twin(random_arm(family, seed), seed + 50);
             assert!(Analytic::new(&nominal, Target::EndEffector).is_some());
-            let postures: Vec<Vec<f64>> = sample_postures(&nominal, 300, seed)
-                .into_iter()
-                .map(|p| p.readings)
-                .collect();
-            let seeded: Vec<(Goal, Option<Vec<f64>>)> = poses(&nominal, &postures)
-                .into_iter()
-                .zip(&postures)
-                .map(|(f, p)| (Goal::Pose(f), Some(p.clone())))
-                .collect();
+            let (postures, seeded) = seeded_targets(&nominal, 300, seed);
             let (c, p, d, w) = both_ways(&nominal, &calibrated, &seeded, None);
             assert_eq!(
                 w, 0,
@@ -913,15 +924,7 @@ mod tests {
         ];
         for (arm, (nominal, seeded_fall, unseeded_fall)) in arms.into_iter().enumerate() {
             let (nominal, calibrated) = twin(nominal, 22);
-            let postures: Vec<Vec<f64>> = sample_postures(&nominal, 200, 5)
-                .into_iter()
-                .map(|p| p.readings)
-                .collect();
-            let seeded: Vec<(Goal, Option<Vec<f64>>)> = poses(&nominal, &postures)
-                .into_iter()
-                .zip(&postures)
-                .map(|(f, p)| (Goal::Pose(f), Some(p.clone())))
-                .collect();
+            let (postures, seeded) = seeded_targets(&nominal, 200, 5);
             let reached = poses(&calibrated, &postures);
             let unseeded: Vec<(Goal, Option<Vec<f64>>)> = reached
                 .iter()
