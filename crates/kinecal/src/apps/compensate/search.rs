@@ -795,13 +795,12 @@ mod tests {
             .collect()
     }
 
+    /// Goals, each with the readings that seed it (if any).
+    type Goals = Vec<(Goal, Option<Vec<f64>>)>;
+
     /// `count` postures of `nominal` drawn with `seed` (their readings), and the poses they
     /// reach as seeded targets (each seeded by its own readings).
-    fn seeded_targets(
-        nominal: &Robot,
-        count: usize,
-        seed: u64,
-    ) -> (Vec<Vec<f64>>, Vec<(Goal, Option<Vec<f64>>)>) {
+    fn seeded_targets(nominal: &Robot, count: usize, seed: u64) -> (Vec<Vec<f64>>, Goals) {
         let postures: Vec<Vec<f64>> = sample_postures(nominal, count, seed)
             .into_iter()
             .map(|p| p.readings)
