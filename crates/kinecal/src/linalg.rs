@@ -384,8 +384,11 @@ pub(crate) fn householder(alpha: f64, sigma: f64) -> (f64, f64, f64) {
 /// decisions.
 pub(crate) struct GramAccumulator {
     cols: usize,
-    /// The rows pushed since the last fold (`block x cols`, column-major).
-    block: Matrix,
+    /// The rows pushed since the last fold, row-major (`block x cols`, row `i` at
+    /// `i * cols`): a row is one contiguous copy.
+    block: Vec<f64>,
+    /// The rows `block` holds.
+    capacity: usize,
     filled: usize,
     gram: Mat<f64>,
 }
@@ -393,9 +396,11 @@ pub(crate) struct GramAccumulator {
 impl GramAccumulator {
     /// An empty accumulator of `cols` columns, folding every `block` rows.
     pub(crate) fn new(cols: usize, block: usize) -> Self {
+        let capacity = block.max(1);
         GramAccumulator {
             cols,
-            block: Matrix::zeros(block.max(1), cols),
+            block: vec![0.0; capacity * cols],
+            capacity,
             filled: 0,
             gram: Mat::zeros(cols, cols),
         }
@@ -410,13 +415,11 @@ impl GramAccumulator {
     /// Appends one row (length [`GramAccumulator::cols`]).
     pub(crate) fn push(&mut self, row: &[f64]) {
         debug_assert_eq!(row.len(), self.cols);
-        if self.filled == self.block.rows {
+        if self.filled == self.capacity {
             self.fold();
         }
-        let i = self.filled;
-        for (j, &v) in row.iter().enumerate() {
-            self.block[(i, j)] = v;
-        }
+        let at = self.filled * self.cols;
+        self.block[at..at + self.cols].copy_from_slice(row);
         self.filled += 1;
     }
 
@@ -424,11 +427,10 @@ impl GramAccumulator {
         if self.filled == 0 {
             return;
         }
-        let b = MatRef::from_column_major_slice_with_stride(
-            &self.block.data,
+        let b = MatRef::from_row_major_slice(
+            &self.block[..self.filled * self.cols],
             self.filled,
             self.cols,
-            self.block.rows,
         );
         faer::linalg::matmul::matmul(
             self.gram.as_mut(),
