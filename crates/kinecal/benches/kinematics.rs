@@ -1,5 +1,5 @@
 //! Hot-path benchmarks on a 6-joint all-revolute robot with all 54 parameters:
-//! forward kinematics and the analytic Jacobian per posture, and a full Levenberg-Marquardt
+//! forward kinematics (also four postures at once) and the analytic Jacobian per posture, and a full Levenberg-Marquardt
 //! calibration from 1,000 full-pose postures; and the same arm made elastic (a body per joint,
 //! compliances about both axes): its equilibrium, and its Jacobian with the compliances; and a
 //! tree, a 2-joint torso carrying two 6-joint arms, both tools per posture.
@@ -10,6 +10,7 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use kinecal::apps::simulate::{self, PerturbStd};
+use kinecal::model::kinematics::{ReadingTrig, BATCH};
 use kinecal::solve::estimation::{calibrate, CalibrationOptions};
 use kinecal::{Chain, JointKind, ParamId, Target, Workspace};
 
@@ -36,6 +37,30 @@ fn kinematics(c: &mut Criterion) {
             i = (i + 1) % postures.len();
             chain.forward(black_box(&postures[i].readings), &mut ws);
             black_box(ws.end_effector().translation.x)
+        })
+    });
+    // The calibration's passes: the readings' sines and cosines from the table, one posture
+    // at a time and four at once (the batched pass, per batch of four).
+    let trig = ReadingTrig::new(&robot, postures.iter().map(|p| p.readings.as_slice()));
+    c.bench_function("fk_frames_table_per_posture_6R", |b| {
+        b.iter(|| {
+            i = (i + 1) % postures.len();
+            chain.forward_with(
+                black_box(&postures[i].readings),
+                Some(trig.posture(i)),
+                &mut ws,
+            );
+            black_box(ws.end_effector().translation.x)
+        })
+    });
+    let mut batch: [Workspace; BATCH] = std::array::from_fn(|_| Workspace::new(&robot));
+    c.bench_function("fk_frames_table_4_postures_batched_6R", |b| {
+        b.iter(|| {
+            i = (i + BATCH) % (postures.len() - BATCH);
+            let readings = std::array::from_fn(|k| black_box(postures[i + k].readings.as_slice()));
+            let rows = std::array::from_fn(|k| trig.posture(i + k));
+            chain.forward_batch(readings, Some(rows), &mut batch);
+            black_box(batch[3].end_effector().translation.x)
         })
     });
     let plan = kinecal::model::kinematics::ColumnPlan::all(&robot, Target::EndEffector);

@@ -941,6 +941,215 @@ impl<'r> Chain<'r> {
     }
 }
 
+/// How many postures [`Chain::forward_batch`] computes at once.
+pub const BATCH: usize = 4;
+
+/// One matrix entry of [`BATCH`] postures.
+type Lanes = [f64; BATCH];
+
+/// The same frame of [`BATCH`] postures, entry by entry (structure of arrays): each operation
+/// on it is one vector operation, lane `k` doing exactly what the scalar pass does for posture
+/// `k`.
+#[derive(Clone, Copy)]
+struct Frames {
+    /// `rotation[(i, j)]` of each posture.
+    rotation: [[Lanes; 3]; 3],
+    /// `translation[i]` of each posture.
+    translation: [Lanes; 3],
+}
+
+#[inline(always)]
+fn lanes_add(a: Lanes, b: Lanes) -> Lanes {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]]
+}
+
+#[inline(always)]
+fn lanes_sub(a: Lanes, b: Lanes) -> Lanes {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]]
+}
+
+#[inline(always)]
+fn lanes_mul(a: Lanes, b: Lanes) -> Lanes {
+    [a[0] * b[0], a[1] * b[1], a[2] * b[2], a[3] * b[3]]
+}
+
+/// `a * s` in every lane.
+#[inline(always)]
+fn lanes_scale(a: Lanes, s: f64) -> Lanes {
+    [a[0] * s, a[1] * s, a[2] * s, a[3] * s]
+}
+
+impl Frames {
+    #[inline(always)]
+    fn splat(f: &Frame) -> Frames {
+        Frames {
+            rotation: std::array::from_fn(|i| std::array::from_fn(|j| [f.rotation[(i, j)]; BATCH])),
+            translation: std::array::from_fn(|i| [f.translation[i]; BATCH]),
+        }
+    }
+
+    /// Lane `k`'s frame.
+    #[inline(always)]
+    fn lane(&self, k: usize) -> Frame {
+        let r = &self.rotation;
+        let t = &self.translation;
+        Frame {
+            rotation: Matrix3::new(
+                r[0][0][k], r[0][1][k], r[0][2][k], r[1][0][k], r[1][1][k], r[1][2][k], r[2][0][k],
+                r[2][1][k], r[2][2][k],
+            ),
+            translation: Vector3::new(t[0][k], t[1][k], t[2][k]),
+        }
+    }
+
+    /// [`Frame::then`] in every lane, `other` the same for all: the same products and sums in
+    /// the same order.
+    #[inline(always)]
+    fn then(&self, other: &Frame) -> Frames {
+        let a = &self.rotation;
+        let b = &other.rotation;
+        let t = &other.translation;
+        let mut rotation = [[[0.0; BATCH]; 3]; 3];
+        for (i, row) in rotation.iter_mut().enumerate() {
+            for (j, entry) in row.iter_mut().enumerate() {
+                *entry = lanes_add(
+                    lanes_add(
+                        lanes_scale(a[i][0], b[(0, j)]),
+                        lanes_scale(a[i][1], b[(1, j)]),
+                    ),
+                    lanes_scale(a[i][2], b[(2, j)]),
+                );
+            }
+        }
+        let translation = std::array::from_fn(|i| {
+            lanes_add(
+                lanes_add(
+                    lanes_add(self.translation[i], lanes_scale(a[i][0], t.x)),
+                    lanes_scale(a[i][1], t.y),
+                ),
+                lanes_scale(a[i][2], t.z),
+            )
+        });
+        Frames {
+            rotation,
+            translation,
+        }
+    }
+}
+
+impl Chain<'_> {
+    /// [`Chain::forward_with`] at [`BATCH`] postures at once: `ws[k]` gets the frames of
+    /// `readings[k]` (with `reading_trig[k]`, the rows of a [`ReadingTrig`] for them, when
+    /// given), the same frames to the last bit as [`BATCH`] calls of [`Chain::forward_with`].
+    /// A rigid serial chain computes them together, each matrix entry of the postures side by
+    /// side in one vector (AVX2 when the processor has it); a tree or an elastic robot
+    /// computes them one by one.
+    pub fn forward_batch(
+        &self,
+        readings: [&[f64]; BATCH],
+        reading_trig: Option<[&[(f64, f64)]; BATCH]>,
+        ws: &mut [Workspace; BATCH],
+    ) {
+        let elastic = self.robot.elastic.is_some() && ws.iter().any(|w| w.elastic.is_some());
+        if !self.serial || elastic {
+            for (k, w) in ws.iter_mut().enumerate() {
+                self.forward_with(readings[k], reading_trig.map(|t| t[k]), w);
+            }
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2, checked just above.
+            unsafe { self.forward_serial_batch_avx2(readings, reading_trig, ws) };
+            return;
+        }
+        self.forward_serial_batch(readings, reading_trig, ws);
+    }
+
+    /// [`Chain::forward_serial_batch`] compiled for AVX2: the lanes of a matrix entry are one
+    /// 256-bit vector.
+    ///
+    /// # Safety
+    ///
+    /// The processor must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn forward_serial_batch_avx2(
+        &self,
+        readings: [&[f64]; BATCH],
+        reading_trig: Option<[&[(f64, f64)]; BATCH]>,
+        ws: &mut [Workspace; BATCH],
+    ) {
+        self.forward_serial_batch(readings, reading_trig, ws);
+    }
+
+    /// [`Chain::forward_serial`] at [`BATCH`] postures, lane `k` doing for posture `k` the
+    /// same arithmetic in the same order (`tests::the_batched_pass_is_the_serial_one`).
+    #[inline(always)]
+    fn forward_serial_batch(
+        &self,
+        readings: [&[f64]; BATCH],
+        reading_trig: Option<[&[(f64, f64)]; BATCH]>,
+        ws: &mut [Workspace; BATCH],
+    ) {
+        let n = self.joints.len();
+        debug_assert!(self.serial);
+        for (w, r) in ws.iter_mut().zip(readings) {
+            debug_assert_eq!(r.len(), n);
+            w.readings.copy_from_slice(r);
+            w.after[0] = Frame::identity();
+        }
+        let mut current = Frames::splat(&Frame::identity().then(&self.links[0].frame));
+        for (i, joint) in self.joints.iter().enumerate() {
+            for (k, w) in ws.iter_mut().enumerate() {
+                w.dist[i] = current.lane(k);
+            }
+            // Joint::value of each posture, from the packed copy.
+            let q = |k: usize| {
+                let q = joint.offset + joint.slope * readings[k][i];
+                match joint.coupling {
+                    Some((c, factor)) => q + factor * readings[k][c],
+                    None => q,
+                }
+            };
+            if joint.revolute {
+                let (s, c): (Lanes, Lanes) = match reading_trig {
+                    Some(t) => {
+                        let (so, co) = self.offset_trig[i];
+                        let sb: Lanes = std::array::from_fn(|k| t[k][i].0);
+                        let cb: Lanes = std::array::from_fn(|k| t[k][i].1);
+                        (
+                            lanes_add(lanes_scale(cb, so), lanes_scale(sb, co)),
+                            lanes_sub(lanes_scale(cb, co), lanes_scale(sb, so)),
+                        )
+                    }
+                    None => {
+                        let sc: [(f64, f64); BATCH] = std::array::from_fn(|k| q(k).sin_cos());
+                        (sc.map(|v| v.0), sc.map(|v| v.1))
+                    }
+                };
+                for row in &mut current.rotation {
+                    let (x, y) = (row[0], row[1]);
+                    row[0] = lanes_add(lanes_mul(x, c), lanes_mul(y, s));
+                    row[1] = lanes_sub(lanes_mul(y, c), lanes_mul(x, s));
+                }
+            } else {
+                let q: Lanes = std::array::from_fn(q);
+                for (t, row) in current.translation.iter_mut().zip(&current.rotation) {
+                    *t = lanes_add(*t, lanes_mul(row[2], q));
+                }
+            }
+            for (k, w) in ws.iter_mut().enumerate() {
+                w.after[i + 1] = current.lane(k);
+            }
+            current = current.then(&self.links[i + 1].frame);
+        }
+        for (k, w) in ws.iter_mut().enumerate() {
+            w.dist[n] = current.lane(k);
+        }
+    }
+}
+
 /// Writes one Jacobian column: `dp` in rows 0-2, `w` in rows 3-5.
 #[inline]
 fn put(out: &mut [f64], col: usize, dp: &Vector3<f64>, w: &Vector3<f64>) {

@@ -57,7 +57,7 @@ mod trig_cache;
 use std::fmt;
 
 use crate::error::{Error, Result};
-use crate::model::kinematics::{Frame, Target};
+use crate::model::kinematics::{Chain, Frame, ReadingTrig, Target, Workspace, BATCH};
 use crate::model::params::ParamId;
 use crate::model::robot::Robot;
 
@@ -818,24 +818,36 @@ pub(crate) fn for_each_observation(
     }
 }
 
-/// Two workspaces holding the frames of the last two postures visited: observations sorted by
-/// posture reuse them, and a distance's second posture does not evict its first.
+/// Two groups of workspaces holding the frames of the postures of the last two misses, the
+/// group used last kept by the next miss: observations sorted by posture reuse them, and a
+/// distance's second posture does not evict its first. A rigid serial robot whose passes walk the postures in order fills a group with
+/// the posture missed and the next [`BATCH`]` - 1` at once ([`Chain::forward_batch`]), so that
+/// the next calls find theirs; otherwise (a tree, an elastic robot, a jump, the last postures)
+/// a group holds the one posture missed.
 pub(crate) struct FrameCache {
-    ws: [crate::model::kinematics::Workspace; 2],
-    at: [usize; 2],
+    ws: [[Workspace; BATCH]; 2],
+    /// The posture each workspace holds (`usize::MAX`: none).
+    at: [[usize; BATCH]; 2],
+    /// The group the next miss fills.
     next: usize,
 }
 
 impl FrameCache {
     pub fn new(robot: &Robot) -> Self {
+        let group = || std::array::from_fn(|_| Workspace::new(robot));
         FrameCache {
-            ws: [
-                crate::model::kinematics::Workspace::new(robot),
-                crate::model::kinematics::Workspace::new(robot),
-            ],
-            at: [usize::MAX; 2],
+            ws: [group(), group()],
+            at: [[usize::MAX; BATCH]; 2],
             next: 0,
         }
+    }
+
+    /// The group and slot holding `posture`'s frames.
+    fn find(&self, posture: usize) -> Option<(usize, usize)> {
+        (0..2).find_map(|g| {
+            let s = self.at[g].iter().position(|&p| p == posture)?;
+            Some((g, s))
+        })
     }
 
     /// The workspace holding `posture`'s frames, computing them if needed, with the reading
@@ -843,28 +855,41 @@ impl FrameCache {
     /// fits the chain's robot: [`Dataset::reading_trig`]).
     pub(crate) fn posture_with(
         &mut self,
-        chain: &crate::model::kinematics::Chain<'_>,
+        chain: &Chain<'_>,
         data: &Dataset,
         posture: usize,
-        trig: Option<&crate::model::kinematics::ReadingTrig>,
-    ) -> &crate::model::kinematics::Workspace {
-        let slot = match self.at.iter().position(|&p| p == posture) {
-            Some(s) => s,
-            None => {
-                let s = self.next;
-                self.next = 1 - s;
-                let p = &data.postures[posture];
-                chain.forward_loaded(
-                    &p.readings,
-                    trig.map(|t| t.posture(posture)),
-                    p.payload.as_ref(),
-                    &mut self.ws[s],
-                );
-                self.at[s] = posture;
-                s
-            }
-        };
-        &self.ws[slot]
+        trig: Option<&ReadingTrig>,
+    ) -> &Workspace {
+        if let Some((g, s)) = self.find(posture) {
+            // The group used last is not the one the next miss fills.
+            self.next = 1 - g;
+            return &self.ws[g][s];
+        }
+        // In order: the first posture, or the one after a posture held.
+        let in_order = posture == 0 || self.find(posture - 1).is_some();
+        let batched = in_order
+            && chain.is_serial()
+            && chain.robot().elastic.is_none()
+            && posture + BATCH <= data.postures.len();
+        let g = self.next;
+        self.next = 1 - g;
+        self.at[g] = [usize::MAX; BATCH];
+        if batched {
+            let readings = std::array::from_fn(|k| data.postures[posture + k].readings.as_slice());
+            let rows = trig.map(|t| std::array::from_fn(|k| t.posture(posture + k)));
+            chain.forward_batch(readings, rows, &mut self.ws[g]);
+            self.at[g] = std::array::from_fn(|k| posture + k);
+        } else {
+            let p = &data.postures[posture];
+            chain.forward_loaded(
+                &p.readings,
+                trig.map(|t| t.posture(posture)),
+                p.payload.as_ref(),
+                &mut self.ws[g][0],
+            );
+            self.at[g][0] = posture;
+        }
+        &self.ws[g][0]
     }
 }
 
@@ -970,5 +995,139 @@ impl AccuracyTally {
                 .collect(),
         };
         (accuracy, self.samples)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector3;
+
+    use super::{Dataset, FrameCache, Posture, BATCH};
+    use crate::model::kinematics::{Chain, Workspace};
+    use crate::model::robot::{Body, Coupling, Elastic, Joint, JointKind, Link, Robot};
+
+    /// A 7-joint arm with a prismatic joint, slopes other than 1 and a coupling: serial,
+    /// or with its sixth joint hung after the third (a tree), or elastic.
+    fn arm(shape: &str) -> Robot {
+        let link = |i: usize| {
+            let x = i as f64;
+            Link {
+                x: 0.1 * x,
+                y: 0.05 - 0.02 * x,
+                z: 0.3,
+                alpha: 0.4 * x - 1.0,
+                beta: 0.1 * x - 0.3,
+                gamma: 1.2 - 0.3 * x,
+            }
+        };
+        let mut joints: Vec<Joint> = (0..7)
+            .map(|j| {
+                let kind = if j == 2 {
+                    JointKind::Prismatic
+                } else {
+                    JointKind::Revolute
+                };
+                Joint::new(kind, 0.3 * j as f64 - 0.5, 1.0 - 0.15 * j as f64)
+            })
+            .collect();
+        joints[6].coupling = Some(Coupling {
+            joint: 4,
+            factor: -0.7,
+        });
+        let mut robot = Robot {
+            name: shape.into(),
+            units: Default::default(),
+            links: (0..8).map(link).collect(),
+            joints,
+            sites: Vec::new(),
+            planes: Vec::new(),
+            sessions: Vec::new(),
+            tolerances: Default::default(),
+            priors: Default::default(),
+            elastic: None,
+            end_effector: None,
+            cameras: Vec::new(),
+            boards: Vec::new(),
+        };
+        match shape {
+            "tree" => robot.joints[5].parent = Some(2),
+            "elastic" => {
+                let bodies = (1..=7)
+                    .map(|joint| Body {
+                        joint,
+                        mass: 2.0,
+                        com: Vector3::new(0.1, 0.0, 0.05),
+                    })
+                    .collect();
+                let mut model = Elastic::new(&robot, bodies);
+                for j in &mut model.joints {
+                    j.compliance = 2e-4;
+                    j.lateral = 1e-4;
+                }
+                robot.elastic = Some(model);
+            }
+            _ => {}
+        }
+        robot
+    }
+
+    /// The cache against one fresh pass per posture, every frame to the bit (a workspace's
+    /// `Debug` text writes each number as the shortest text that reads back to it), over 11
+    /// postures (not a multiple of [`BATCH`]) visited in order, by pairs as distances visit
+    /// them, backwards and by jumps; and a distance's first posture is still held after its
+    /// second. A serial rigid arm visited in order has the next postures computed with the
+    /// first.
+    #[test]
+    fn the_frame_cache_holds_what_one_pass_per_posture_gives() {
+        let postures: Vec<Posture> = (0..11)
+            .map(|p| Posture {
+                label: p.to_string(),
+                readings: (0..7)
+                    .map(|j| ((p * 7 + j) as f64 * 1.37).sin() * 2.5)
+                    .collect(),
+                session: None,
+                payload: None,
+            })
+            .collect();
+        let data = Dataset::new(postures, Vec::new());
+        let in_order: Vec<usize> = (0..11).collect();
+        let pairs: Vec<usize> = (0..10).flat_map(|p| [p, p + 1]).collect();
+        let far_pairs: Vec<usize> = (0..6).flat_map(|p| [p, p + 5]).collect();
+        let backwards: Vec<usize> = (0..11).rev().collect();
+        let jumps = vec![3, 9, 4, 10, 0, 7, 1, 8, 2, 6, 5, 10, 9];
+        for shape in ["serial", "tree", "elastic"] {
+            let robot = arm(shape);
+            let chain = Chain::new(&robot);
+            let trig = data.reading_trig(&robot);
+            let mut fresh = Workspace::new(&robot);
+            for table in [None, Some(&*trig)] {
+                for (name, order) in [
+                    ("in order", &in_order),
+                    ("pairs", &pairs),
+                    ("far pairs", &far_pairs),
+                    ("backwards", &backwards),
+                    ("jumps", &jumps),
+                ] {
+                    let mut cache = FrameCache::new(&robot);
+                    for (i, &p) in order.iter().enumerate() {
+                        let what = format!("{shape}, {name}, call {i}, posture {p}");
+                        let held = format!("{:?}", cache.posture_with(&chain, &data, p, table));
+                        chain.forward_with(
+                            &data.postures[p].readings,
+                            table.map(|t| t.posture(p)),
+                            &mut fresh,
+                        );
+                        assert_eq!(held, format!("{fresh:?}"), "{what}");
+                        if name.contains("pairs") && i % 2 == 1 {
+                            assert!(cache.find(order[i - 1]).is_some(), "{what}: first kept");
+                        }
+                        if shape == "serial" && name == "in order" && p + BATCH <= 11 {
+                            let last = p / BATCH * BATCH + BATCH - 1;
+                            assert!(cache.find(last).is_some(), "{what}: batch");
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{Chain, ColumnPlan, Frame, ReadingTrig, Target, Workspace};
+use super::{Chain, ColumnPlan, Frame, ReadingTrig, Target, Workspace, BATCH};
 use crate::model::robot::{Body, Coupling, Elastic, Joint, JointKind, Link, Robot, Site};
 
 const TOL: f64 = 1e-12;
@@ -283,6 +283,107 @@ fn a_tree_and_an_elastic_robot_take_the_general_paths() {
             assert!(
                 apart > 1e-9,
                 "elastic, {t:?}: the response is in the columns"
+            );
+        }
+    }
+}
+
+/// Every frame and reading the two workspaces hold is the same number, to the bit.
+fn assert_workspaces_identical(a: &Workspace, b: &Workspace, what: &str) {
+    let bits = |f: &Frame| -> Vec<u64> {
+        f.rotation
+            .iter()
+            .chain(f.translation.iter())
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    for (k, (fa, fb)) in a.after.iter().zip(&b.after).enumerate() {
+        assert_eq!(bits(fa), bits(fb), "{what}: after joint {k}");
+    }
+    for (k, (fa, fb)) in a.dist.iter().zip(&b.dist).enumerate() {
+        assert_eq!(bits(fa), bits(fb), "{what}: end of link {k}");
+    }
+    let readings = |w: &Workspace| w.readings.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(readings(a), readings(b), "{what}: readings");
+}
+
+/// The batched pass (AVX2 when the processor has it, and the portable build of the same code)
+/// against one serial pass per posture, every frame to the bit, with and without the table of
+/// reading sines; the workspaces hold another robot's posture first, so nothing may be left
+/// over.
+#[test]
+fn the_batched_pass_is_the_serial_one() {
+    for seed in 0..80u64 {
+        let robot = random_serial(1 + seed as usize % 8, seed);
+        let chain = Chain::new(&robot);
+        let mut r = ChaCha8Rng::seed_from_u64(3000 + seed);
+        let postures: Vec<Vec<f64>> = (0..4 * BATCH).map(|_| readings(&robot, &mut r)).collect();
+        let trig = ReadingTrig::new(&robot, postures.iter().map(Vec::as_slice));
+        let mut one = Workspace::new(&robot);
+        let mut batch: [Workspace; BATCH] = std::array::from_fn(|_| Workspace::new(&robot));
+        for first in (0..postures.len()).step_by(BATCH) {
+            let readings = std::array::from_fn(|k| postures[first + k].as_slice());
+            for table in [None, Some(std::array::from_fn(|k| trig.posture(first + k)))] {
+                for portable in [false, true] {
+                    for (k, w) in batch.iter_mut().enumerate() {
+                        chain.forward(&postures[(first + k + 5) % postures.len()], w);
+                    }
+                    if portable {
+                        chain.forward_serial_batch(readings, table, &mut batch);
+                    } else {
+                        chain.forward_batch(readings, table, &mut batch);
+                    }
+                    for (k, w) in batch.iter().enumerate() {
+                        chain.forward_with(readings[k], table.map(|t| t[k]), &mut one);
+                        let what = format!(
+                            "seed {seed}, posture {}, table {}, portable {portable}",
+                            first + k,
+                            table.is_some()
+                        );
+                        assert_workspaces_identical(w, &one, &what);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A tree and an elastic robot computed in a batch: each posture by its own pass (the tree's
+/// branches, the elastic robot's equilibrium), not the serial one.
+#[test]
+fn a_batch_of_a_tree_or_an_elastic_robot_is_posture_by_posture() {
+    let mut r = ChaCha8Rng::seed_from_u64(11);
+    let mut elastic = random_serial(6, 4);
+    let bodies = (1..=6)
+        .map(|joint| Body {
+            joint,
+            mass: 3.0,
+            com: Vector3::new(0.2, 0.0, 0.1),
+        })
+        .collect();
+    let mut model = Elastic::new(&elastic, bodies);
+    for j in &mut model.joints {
+        j.compliance = 2e-4;
+        j.lateral = 1e-4;
+    }
+    elastic.elastic = Some(model);
+    for (robot, what) in [(tree(3), "tree"), (elastic, "elastic")] {
+        let chain = Chain::new(&robot);
+        let postures: [Vec<f64>; BATCH] = std::array::from_fn(|_| readings(&robot, &mut r));
+        let mut batch: [Workspace; BATCH] = std::array::from_fn(|_| Workspace::new(&robot));
+        chain.forward_batch(
+            std::array::from_fn(|k| postures[k].as_slice()),
+            None,
+            &mut batch,
+        );
+        let mut one = Workspace::new(&robot);
+        for (k, w) in batch.iter().enumerate() {
+            chain.forward(&postures[k], &mut one);
+            assert_workspaces_identical(w, &one, &format!("{what}, posture {k}"));
+            assert_eq!(
+                w.deflections().map(<[f64]>::to_vec),
+                one.deflections().map(<[f64]>::to_vec),
+                "{what}, posture {k}"
             );
         }
     }
