@@ -762,15 +762,10 @@ impl Rows<'_, '_> {
         let view = [View { posture, target }];
         let position = Vector3::from(pos);
         self.observations.push(match euler {
-            Some(euler) => Pose {
-                view,
-                position,
-                euler,
-                sigma_position,
-                sigma_angle,
-                line,
+            Some(euler) => {
+                Pose::with_sigmas(view[0], position, euler, sigma_position, sigma_angle, line)
+                    .into()
             }
-            .into(),
             None => Position {
                 view,
                 position,

@@ -2,7 +2,7 @@
 //! measurement frame: the global frame, or the session's). Their file, the measurement file, is
 //! read and written in [`crate::files`].
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::{
     target_name, Anchoring, Context, Derivatives, ErrorSample, Noise, Observe, OrientationError,
@@ -45,7 +45,7 @@ const POSE_ROWS: &[Row] = &[
 /// residual rows: the position difference (m), then the orientation difference (rad): Euler
 /// angle differences wrapped to (-pi, pi] (thesis eq. 3.1), or the rotation vector of
 /// `R_measured^T R_model`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Pose {
     /// The posture and target.
     pub view: [View; 1],
@@ -60,6 +60,39 @@ pub struct Pose {
     pub sigma_angle: Option<f64>,
     /// Line in the file (0 when synthesized).
     pub line: usize,
+    /// The rotation of `euler`, made once rather than at every pass (three `sin_cos`s of each
+    /// pose in every evaluation): see [`Pose::measured_rotation`].
+    rotation: MeasuredRotation,
+}
+
+/// The measured rotation `R_zyx(euler)` and the angles it was made from: used only while they
+/// are still `Pose::euler`, to the bit (the field is public and may be changed).
+#[derive(Debug, Clone)]
+struct MeasuredRotation {
+    of: Vector3<f64>,
+    matrix: Matrix3<f64>,
+}
+
+impl MeasuredRotation {
+    fn of(euler: &Vector3<f64>) -> Self {
+        MeasuredRotation {
+            of: *euler,
+            matrix: rot_zyx(euler.x, euler.y, euler.z),
+        }
+    }
+}
+
+/// Poses are equal when what was measured is: the kept rotation is a copy of what the angles
+/// give.
+impl PartialEq for Pose {
+    fn eq(&self, other: &Self) -> bool {
+        self.view == other.view
+            && self.position == other.position
+            && self.euler == other.euler
+            && self.sigma_position == other.sigma_position
+            && self.sigma_angle == other.sigma_angle
+            && self.line == other.line
+    }
 }
 
 /// A measured position of a target's origin in the global frame. Three residual rows (m).
@@ -83,13 +116,42 @@ impl Pose {
         position: Vector3<f64>,
         euler: Vector3<f64>,
     ) -> Self {
+        Pose::with_sigmas(View { posture, target }, position, euler, None, None, 0)
+    }
+
+    /// A pose seen in `view`, with the row's own standard deviations (see the fields) and its
+    /// line in the file.
+    pub fn with_sigmas(
+        view: View,
+        position: Vector3<f64>,
+        euler: Vector3<f64>,
+        sigma_position: Option<Vector3<f64>>,
+        sigma_angle: Option<f64>,
+        line: usize,
+    ) -> Self {
         Pose {
-            view: [View { posture, target }],
+            view: [view],
             position,
             euler,
-            sigma_position: None,
-            sigma_angle: None,
-            line: 0,
+            sigma_position,
+            sigma_angle,
+            line,
+            rotation: MeasuredRotation::of(&euler),
+        }
+    }
+
+    /// The measured rotation, `R_zyx(alpha, beta, gamma)` of [`Pose::euler`]: the one made
+    /// with the pose while the angles are still those (compared to the bit), else made now.
+    pub fn measured_rotation(&self) -> Matrix3<f64> {
+        let same = |a: &Vector3<f64>, b: &Vector3<f64>| {
+            a.iter()
+                .zip(b.iter())
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        if same(&self.rotation.of, &self.euler) {
+            self.rotation.matrix
+        } else {
+            rot_zyx(self.euler.x, self.euler.y, self.euler.z)
         }
     }
 
@@ -158,7 +220,7 @@ impl Observe for Pose {
                 Map::Euler(e.x, e.y)
             }
             OrientationError::RotVec => {
-                let rm = rot_zyx(self.euler.x, self.euler.y, self.euler.z);
+                let rm = self.measured_rotation();
                 let phi = log_so3(&(rm.transpose() * f.rotation));
                 res[3..6].copy_from_slice(phi.as_slice());
                 Map::Matrix(so3_right_jacobian_inverse(&phi) * f.rotation.transpose())
@@ -182,7 +244,7 @@ impl Observe for Pose {
 
     fn error(&self, _ctx: &Context<'_>, frames: &[Frame]) -> ErrorSample {
         let f = &frames[0];
-        let rm = rot_zyx(self.euler.x, self.euler.y, self.euler.z);
+        let rm = self.measured_rotation();
         ErrorSample {
             metric: "position",
             length: (f.translation - self.position).norm(),
@@ -202,6 +264,7 @@ impl Observe for Pose {
         let p = frames[0].pose();
         self.position = p.position;
         self.euler = p.euler;
+        self.rotation = MeasuredRotation::of(&self.euler);
     }
 
     fn add_noise(&mut self, unit: &mut dyn FnMut() -> f64, noise: &Noise) {
@@ -211,6 +274,7 @@ impl Observe for Pose {
         for k in 0..3 {
             self.euler[k] += unit() * noise.angle;
         }
+        self.rotation = MeasuredRotation::of(&self.euler);
     }
 
     fn degenerate(&self, ctx: &Context<'_>) -> bool {
@@ -276,5 +340,50 @@ impl Observe for Position {
 
     fn describe(&self, postures: &[Posture], robot: &Robot) -> String {
         describe_view(&self.view[0], postures, robot)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bits(m: &Matrix3<f64>) -> Vec<u64> {
+        m.iter().map(|v| v.to_bits()).collect()
+    }
+
+    /// The kept rotation is what the angles give, to the bit, and is not used once the public
+    /// angles are changed behind its back; equality ignores it.
+    #[test]
+    fn a_pose_keeps_its_measured_rotation_only_while_its_angles_are_the_same() {
+        let euler = Vector3::new(0.3, -1.2, 2.9);
+        let mut p = Pose::new(0, Target::EndEffector, Vector3::new(1.0, 2.0, 3.0), euler);
+        assert_eq!(bits(&p.measured_rotation()), bits(&rot_zyx(0.3, -1.2, 2.9)));
+        let fresh = Pose::new(
+            0,
+            Target::EndEffector,
+            p.position,
+            Vector3::new(0.3, 0.4, 2.9),
+        );
+        p.euler.y = 0.4;
+        assert_eq!(bits(&p.measured_rotation()), bits(&rot_zyx(0.3, 0.4, 2.9)));
+        assert_eq!(p, fresh);
+        let mut noisy = fresh.clone();
+        let mut unit = || 0.5;
+        noisy.add_noise(
+            &mut unit,
+            &Noise {
+                length: 0.0,
+                angle: 0.1,
+                pixel: 0.0,
+            },
+        );
+        assert_eq!(
+            bits(&noisy.measured_rotation()),
+            bits(&rot_zyx(0.3 + 0.5 * 0.1, 0.4 + 0.5 * 0.1, 2.9 + 0.5 * 0.1))
+        );
+        assert_eq!(
+            bits(&noisy.rotation.matrix),
+            bits(&noisy.measured_rotation())
+        );
     }
 }
