@@ -10,6 +10,8 @@
 //! instead, for each case, rows per CPU second of this thread (median of 5 rounds, the cases
 //! alternating) and how many rows were flagged, and why; `KINECAL_BENCH_CPU=seeded` runs
 //! only the cases whose names contain `seeded` (`ur10/` only the UR10's).
+//! `KINECAL_BENCH_DUMP=FILE` (with `KINECAL_BENCH_CPU`) appends every row's flags, remaining
+//! errors and readings to FILE, from a fresh search per case: two builds' answers compared.
 
 use std::hint::black_box;
 
@@ -123,17 +125,19 @@ fn run(
     postures: &[Vec<f64>],
     case: &Case,
     out: &mut [f64],
-    mut each: impl FnMut(&Solved),
+    mut each: impl FnMut(&Solved, &[f64]),
 ) {
     let (_, goals, seeds) = case;
     if goals.is_empty() {
         for p in postures {
-            each(&black_box(comp.program(p, Target::EndEffector, false, out)));
+            let s = black_box(comp.program(p, Target::EndEffector, false, out));
+            each(&s, out);
         }
     } else {
         for (k, g) in goals.iter().enumerate() {
             let seed = seeds.as_ref().map(|s| s[k].as_slice());
-            each(&black_box(search.solve(g, Target::EndEffector, seed, out)));
+            let s = black_box(search.solve(g, Target::EndEffector, seed, out));
+            each(&s, out);
         }
     }
 }
@@ -163,7 +167,7 @@ fn compensation(c: &mut Criterion) {
             // A fresh search per case: no case starts from another's last solution.
             let mut search = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
             group.bench_function(&case.0, |b| {
-                b.iter(|| run(&mut comp, &mut search, &postures, case, &mut out, |_| {}))
+                b.iter(|| run(&mut comp, &mut search, &postures, case, &mut out, |_, _| {}))
             });
         }
         group.finish();
@@ -198,11 +202,37 @@ fn cpu_figures(
         .collect();
     let mut rates = vec![Vec::new(); cases.len()];
     let mut flagged = vec![[0usize; 6]; cases.len()];
+    let mut dump = std::env::var("KINECAL_BENCH_DUMP").ok().map(|path| {
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+            .expect("KINECAL_BENCH_DUMP: a file to append to")
+    });
     for round in 0..6 {
         for (k, case) in cases.iter().enumerate() {
+            if round == 0 {
+                if let Some(file) = dump.as_mut() {
+                    use std::io::Write;
+                    let mut row = 0;
+                    run(comp, &mut searches[k], postures, case, &mut out, |s, v| {
+                        writeln!(
+                            file,
+                            "{} {row} {:?} {:e} {:e} {:?}",
+                            case.0,
+                            s.flags,
+                            s.position_error,
+                            s.attitude_error.unwrap_or(0.0),
+                            v,
+                        )
+                        .unwrap();
+                        row += 1;
+                    });
+                }
+            }
             let mut counts = [0usize; 6];
             let t = thread_cpu_ns();
-            run(comp, &mut searches[k], postures, case, &mut out, |s| {
+            run(comp, &mut searches[k], postures, case, &mut out, |s, _| {
                 let f = &s.flags;
                 counts[0] += f.any() as usize;
                 counts[1] += f.unreachable as usize;
