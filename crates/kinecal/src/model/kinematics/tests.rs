@@ -307,8 +307,8 @@ fn assert_workspaces_identical(a: &Workspace, b: &Workspace, what: &str) {
     assert_eq!(readings(a), readings(b), "{what}: readings");
 }
 
-/// The batched pass (AVX2 when the processor has it, and the portable build of the same code)
-/// against one serial pass per posture, every frame to the bit, with and without the table of
+/// The batched pass (the one the processor takes, its AVX2 build when the processor has AVX2,
+/// and the portable build of the same code) against one serial pass per posture, every frame to the bit, with and without the table of
 /// reading sines; the workspaces hold another robot's posture first, so nothing may be left
 /// over.
 #[test]
@@ -324,19 +324,28 @@ fn the_batched_pass_is_the_serial_one() {
         for first in (0..postures.len()).step_by(BATCH) {
             let readings = std::array::from_fn(|k| postures[first + k].as_slice());
             for table in [None, Some(std::array::from_fn(|k| trig.posture(first + k)))] {
-                for portable in [false, true] {
+                for build in ["dispatched", "avx2", "portable"] {
                     for (k, w) in batch.iter_mut().enumerate() {
                         chain.forward(&postures[(first + k + 5) % postures.len()], w);
                     }
-                    if portable {
-                        chain.forward_serial_batch(readings, table, &mut batch);
-                    } else {
-                        chain.forward_batch(readings, table, &mut batch);
+                    match build {
+                        "portable" => chain.forward_serial_batch(
+                            readings,
+                            table,
+                            &mut batch,
+                            super::store_lanes,
+                        ),
+                        #[cfg(target_arch = "x86_64")]
+                        "avx2" if std::arch::is_x86_feature_detected!("avx2") => {
+                            // SAFETY: the processor has AVX2, checked just above.
+                            unsafe { chain.forward_serial_batch_avx2(readings, table, &mut batch) }
+                        }
+                        _ => chain.forward_batch(readings, table, &mut batch),
                     }
                     for (k, w) in batch.iter().enumerate() {
                         chain.forward_with(readings[k], table.map(|t| t[k]), &mut one);
                         let what = format!(
-                            "seed {seed}, posture {}, table {}, portable {portable}",
+                            "seed {seed}, posture {}, table {}, {build} build",
                             first + k,
                             table.is_some()
                         );
