@@ -728,7 +728,8 @@ impl<'r> TargetSearch<'r> {
         self.tables.push((target, table));
     }
 
-    /// Fills `self.nearest` with the [`Self::ATTEMPTS`] starts nearest `goal`, nearest first.
+    /// Fills `self.nearest` with the [`Self::ATTEMPTS`] starts nearest `goal` (for a seeded
+    /// goal [`Self::SEEDED_ATTEMPTS`]), nearest first.
     fn find_nearest(&mut self, goal: &Goal, target: Target) {
         self.ensure_table(target);
         let table = &self
@@ -739,6 +740,12 @@ impl<'r> TargetSearch<'r> {
             .1;
         let reach2 = self.comp.reach * self.comp.reach;
         self.nearest.clear();
+        // A seeded goal tries no more than its few nearest: only those are kept.
+        let keep = if self.seeded {
+            Self::SEEDED_ATTEMPTS
+        } else {
+            Self::ATTEMPTS
+        };
         let p = match goal {
             Goal::Position(p) => p,
             Goal::Pose(g) => &g.translation,
@@ -747,12 +754,12 @@ impl<'r> TargetSearch<'r> {
             // The position part first: a start already farther than the last kept one by its
             // position alone is passed over without its attitude term (which is never negative).
             let dp = (p.x - k[0]).powi(2) + (p.y - k[1]).powi(2) + (p.z - k[2]).powi(2);
-            if self.nearest.len() == Self::ATTEMPTS && dp >= self.nearest[Self::ATTEMPTS - 1].0 {
+            if self.nearest.len() == keep && dp >= self.nearest[keep - 1].0 {
                 continue;
             }
             let d = key_distance(goal, k, reach2);
-            if self.nearest.len() == Self::ATTEMPTS {
-                if d >= self.nearest[Self::ATTEMPTS - 1].0 {
+            if self.nearest.len() == keep {
+                if d >= self.nearest[keep - 1].0 {
                     continue;
                 }
                 self.nearest.pop();
