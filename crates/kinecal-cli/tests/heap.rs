@@ -36,6 +36,12 @@ fn advised(smaps: &str) -> bool {
 
 #[test]
 fn a_running_command_has_its_heap_advised_for_huge_pages() {
+    // A kernel built without transparent huge pages refuses the advice (the command runs on
+    // with its thresholds alone): nothing to check there.
+    if !std::path::Path::new("/sys/kernel/mm/transparent_hugepage/enabled").exists() {
+        eprintln!("skipped: this kernel has no transparent huge pages to advise");
+        return;
+    }
     let dir = tempfile::tempdir().unwrap();
     let mut child = Command::new(assert_cmd::cargo::cargo_bin("kinecal"))
         .current_dir(dir.path())

@@ -1,8 +1,8 @@
-//! Hot-path benchmarks on a 6-joint all-revolute robot with all 54 parameters:
-//! forward kinematics (also four postures at once) and the analytic Jacobian per posture, and a full Levenberg-Marquardt
-//! calibration from 1,000 full-pose postures; and the same arm made elastic (a body per joint,
-//! compliances about both axes): its equilibrium, and its Jacobian with the compliances; and a
-//! tree, a 2-joint torso carrying two 6-joint arms, both tools per posture.
+//! Hot-path benchmarks on a 6-joint all-revolute robot with all 54 parameters: forward kinematics
+//! (also four postures at once) and the analytic Jacobian per posture, and a full
+//! Levenberg-Marquardt calibration from 1,000 full-pose postures; and the same arm made elastic (a
+//! body per joint, compliances about both axes): its equilibrium, and its Jacobian with the
+//! compliances; and a tree, a 2-joint torso carrying two 6-joint arms, both tools per posture.
 //!
 //! Run: `cargo bench -p kinecal --bench kinematics`
 

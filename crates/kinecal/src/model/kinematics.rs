@@ -1098,7 +1098,8 @@ impl Chain<'_> {
     /// given), the same frames to the last bit as [`BATCH`] calls of [`Chain::forward_with`].
     /// A rigid serial chain computes them together, each matrix entry of the postures side by
     /// side in one vector (AVX2 when the processor has it, with the 32 vector registers of
-    /// AVX-512 when it has those); a tree or an elastic robot computes them one by one.
+    /// AVX-512 when it has those; elsewhere the same code, compiled for any processor, to the
+    /// same bits); a tree or an elastic robot computes them one by one.
     pub fn forward_batch(
         &self,
         readings: [&[f64]; BATCH],

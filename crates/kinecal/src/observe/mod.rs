@@ -818,12 +818,12 @@ pub(crate) fn for_each_observation(
     }
 }
 
-/// Two groups of workspaces holding the frames of the postures of the last two misses, the
-/// group used last kept by the next miss: observations sorted by posture reuse them, and a
-/// distance's second posture does not evict its first. A rigid serial robot whose passes walk the postures in order fills a group with
-/// the posture missed and the next [`BATCH`]` - 1` at once ([`Chain::forward_batch`]), so that
-/// the next calls find theirs; otherwise (a tree, an elastic robot, a jump, the last postures)
-/// a group holds the one posture missed.
+/// Two groups of workspaces holding the frames of the postures of the last two misses, the group
+/// used last kept by the next miss: observations sorted by posture reuse them, and a distance's
+/// second posture does not evict its first. A rigid serial robot whose passes walk the postures in
+/// order fills a group with the posture missed and the next [`BATCH`]` - 1` at once
+/// ([`Chain::forward_batch`]), so that the next calls find theirs; otherwise (a tree, an elastic
+/// robot, a jump, the last postures) a group holds the one posture missed.
 pub(crate) struct FrameCache {
     ws: [[Workspace; BATCH]; 2],
     /// The posture each workspace holds (`usize::MAX`: none).

@@ -83,7 +83,7 @@ impl MeasuredRotation {
 }
 
 /// Poses are equal when what was measured is: the kept rotation is a copy of what the angles
-/// give.
+/// give. (A field added to [`Pose`] is compared here too.)
 impl PartialEq for Pose {
     fn eq(&self, other: &Self) -> bool {
         self.view == other.view

@@ -80,6 +80,11 @@ impl ReachBound {
             return None;
         }
         let c = r[3] + w[3] * ((w[3].dot(&d) - b * w[4].dot(&d)) / den);
+        // Axes 4 and 5 nearly parallel put that point far out along axis 4, where the
+        // geometry's rounding outgrows the margin below: no bound (real wrists' axes cross).
+        if (c - r[3]).norm() > calibrated.reach().max(1.0) {
+            return None;
+        }
         let p5 = foot(&c, 4);
         let p6 = foot(&p5, 5);
         let offsets = (c - p5).norm() + (p5 - p6).norm();

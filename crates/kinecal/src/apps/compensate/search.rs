@@ -30,9 +30,10 @@
 //! 3. When none of those is usable: [`TargetSearch::SPREAD`] starts spread over the table.
 //!
 //! A pose goal that the calibrated arm's reach bound (the `reach` module: its wrist point too
-//! far from, or too near, its shoulder for any posture) proves out of reach is tried from the
-//! reference alone (without one, from the table's nearest start), and that attempt polished as
-//! below: no start can reach it.
+//! far from, or too near, its shoulder for any posture) proves out of reach is tried once: from
+//! its seed; without one, from the previous goal's solution where step 1 takes it as the
+//! reference, else from the table's nearest start; and that attempt polished as below: no start
+//! can reach it.
 //!
 //! With a seed, the table is looked at only when the seed's own solution is not usable, and
 //! then briefly: [`TargetSearch::SEEDED_ATTEMPTS`] nearest starts and

@@ -307,10 +307,10 @@ fn assert_workspaces_identical(a: &Workspace, b: &Workspace, what: &str) {
     assert_eq!(readings(a), readings(b), "{what}: readings");
 }
 
-/// The batched pass (the one the processor takes, its AVX2 build when the processor has AVX2,
-/// and the portable build of the same code) against one serial pass per posture, every frame to the bit, with and without the table of
-/// reading sines; the workspaces hold another robot's posture first, so nothing may be left
-/// over.
+/// The batched pass (the one the processor takes, its AVX2 build when the processor has AVX2, and
+/// the portable build of the same code) against one serial pass per posture, every frame to the
+/// bit, with and without the table of reading sines; the workspaces hold another posture
+/// first, so nothing may be left over.
 #[test]
 fn the_batched_pass_is_the_serial_one() {
     for seed in 0..80u64 {
