@@ -77,6 +77,26 @@ fn random_serial(dof: usize, seed: u64) -> Robot {
     robot
 }
 
+/// [`random_serial`]`(6, 4)` made elastic: a 3 kg body on each joint, 0.2 m out along x and
+/// 0.1 m along z, and every joint yielding 2e-4 rad/(N m) about its axis, 1e-4 across it.
+fn elastic_serial() -> Robot {
+    let mut robot = random_serial(6, 4);
+    let bodies = (1..=6)
+        .map(|joint| Body {
+            joint,
+            mass: 3.0,
+            com: Vector3::new(0.2, 0.0, 0.1),
+        })
+        .collect();
+    let mut model = Elastic::new(&robot, bodies);
+    for j in &mut model.joints {
+        j.compliance = 2e-4;
+        j.lateral = 1e-4;
+    }
+    robot.elastic = Some(model);
+    robot
+}
+
 /// Two 3-joint arms on a 2-joint torso: the second arm's first link starts after the torso.
 fn tree(seed: u64) -> Robot {
     let mut robot = random_serial(8, seed);
@@ -241,20 +261,7 @@ fn a_tree_and_an_elastic_robot_take_the_general_paths() {
 
     // An elastic robot: its joints sag under the bodies' weight, so the pass solves the
     // equilibrium and the Jacobian carries the deflections' response.
-    let mut robot = random_serial(6, 4);
-    let bodies = (1..=6)
-        .map(|joint| Body {
-            joint,
-            mass: 3.0,
-            com: Vector3::new(0.2, 0.0, 0.1),
-        })
-        .collect();
-    let mut model = Elastic::new(&robot, bodies);
-    for j in &mut model.joints {
-        j.compliance = 2e-4;
-        j.lateral = 1e-4;
-    }
-    robot.elastic = Some(model);
+    let robot = elastic_serial();
     let chain = Chain::new(&robot);
     let rigid = robot.rigid();
     let rigid_chain = Chain::new(&rigid);
@@ -362,20 +369,7 @@ fn the_batched_pass_is_the_serial_one() {
 #[test]
 fn a_batch_of_a_tree_or_an_elastic_robot_is_posture_by_posture() {
     let mut r = ChaCha8Rng::seed_from_u64(11);
-    let mut elastic = random_serial(6, 4);
-    let bodies = (1..=6)
-        .map(|joint| Body {
-            joint,
-            mass: 3.0,
-            com: Vector3::new(0.2, 0.0, 0.1),
-        })
-        .collect();
-    let mut model = Elastic::new(&elastic, bodies);
-    for j in &mut model.joints {
-        j.compliance = 2e-4;
-        j.lateral = 1e-4;
-    }
-    elastic.elastic = Some(model);
+    let elastic = elastic_serial();
     for (robot, what) in [(tree(3), "tree"), (elastic, "elastic")] {
         let chain = Chain::new(&robot);
         let postures: [Vec<f64>; BATCH] = std::array::from_fn(|_| readings(&robot, &mut r));
