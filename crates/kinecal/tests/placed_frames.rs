@@ -3,20 +3,11 @@
 
 use std::sync::Arc;
 
+use kinecal::apps::datasets::ipa_ur10;
 use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::observe::{accuracy, Dataset, Posture};
 use kinecal::workflow::{self, Request, Selection, Validation};
 use kinecal::{Chain, Robot, Target, Warning};
-
-/// The nominal UR10 (the UR description's kinematics, as the IPA data set's adapter has it).
-fn ur10() -> Robot {
-    kinecal::import::ur::import_ur(
-        kinecal::apps::datasets::ipa_ur10::UR10_KINEMATICS,
-        "ur10.yaml",
-    )
-    .unwrap()
-    .robot
-}
 
 /// A small deterministic generator (uniform in [0, 1)).
 struct Lcg(u64);
@@ -75,7 +66,7 @@ fn tool_down(robot: &Robot, n: usize, tilt: f64, seed: u64) -> Vec<Posture> {
 /// postures with the flange axis within about `tilt` of pointing down; held out, 200 postures
 /// spread over the joint ranges in the same tracker frame.
 fn tool_down_series(tilt: f64, n: usize) -> (Robot, Robot, Dataset, Dataset) {
-    let nominal = ur10();
+    let nominal = ipa_ur10::nominal_robot();
     let mut truth = simulate::perturb(
         &nominal,
         PerturbStd {

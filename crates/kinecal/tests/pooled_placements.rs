@@ -3,25 +3,16 @@
 
 use std::sync::Arc;
 
+use kinecal::apps::datasets::ipa_ur10;
 use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::observe::Dataset;
 use kinecal::workflow::{self, Request, Selection};
 use kinecal::{Robot, Warning};
 
-/// The nominal UR10 (the UR description's kinematics, as the IPA data set's adapter has it).
-fn ur10() -> Robot {
-    kinecal::import::ur::import_ur(
-        kinecal::apps::datasets::ipa_ur10::UR10_KINEMATICS,
-        "ur10.yaml",
-    )
-    .unwrap()
-    .robot
-}
-
 /// The UR10 with small errors and a probe 0.1 m off the flange, and three tracker placements
 /// metres and tens of degrees apart, `n` postures each.
 fn placements(n: usize) -> (Robot, Vec<Dataset>) {
-    let nominal = ur10();
+    let nominal = ipa_ur10::nominal_robot();
     let truth = simulate::perturb(
         &nominal,
         PerturbStd {

@@ -1086,8 +1086,9 @@ kinematics:
         pub goals: Vec<Vec<[f64; 3]>>,
     }
 
-    /// The nominal UR10 ([`UR10_KINEMATICS`] imported).
-    pub(crate) fn nominal_robot() -> Robot {
+    /// The nominal UR10 ([`UR10_KINEMATICS`] imported): the robot the adapter writes beside
+    /// the series.
+    pub fn nominal_robot() -> Robot {
         let mut robot = crate::import::ur::import_ur(UR10_KINEMATICS, "<ur10 default_kinematics>")
             .expect("the built-in UR10 kinematics import")
             .robot;
