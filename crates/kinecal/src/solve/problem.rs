@@ -394,18 +394,17 @@ impl<'a> Problem<'a> {
         self.evaluate_with(robot, res, Some(Sink::Rows(rows)), None)
     }
 
-    /// [`Problem::evaluate_qr`], with the errors of every observation summarised (the
+    /// [`Problem::evaluate_rows`] (each weighted row `[J_i | r_i]` pushed into `rows`, which is
+    /// not cleared first), with the errors of every observation summarised (the
     /// [`crate::observe::accuracy`] of `robot`) and kept, from the same pass of forward
     /// kinematics.
-    pub(crate) fn evaluate_qr_checked(
+    pub(crate) fn evaluate_rows_kept(
         &self,
         robot: &Robot,
         res: &mut [f64],
-        acc: &mut QrAccumulator,
+        rows: &mut dyn RowSink,
     ) -> (f64, Accuracy, KeptErrors) {
-        assert_eq!(acc.cols(), self.cols() + 1);
-        acc.clear();
-        self.evaluate_tallied(robot, res, Some(Sink::Rows(acc)))
+        self.evaluate_tallied(robot, res, Some(Sink::Rows(rows)))
     }
 
     /// [`Problem::evaluate_rows`] (each weighted row `[J_i | r_i]` pushed into `rows`, which is

@@ -30,7 +30,7 @@ pub use solver::{
 pub use weighting::{ModelErrorFloor, ModelErrorMode};
 
 use crate::error::{Error, Result};
-use crate::linalg::{Matrix, QrAccumulator, QR_BLOCK};
+use crate::linalg::{GramAccumulator, Matrix, QrAccumulator, QR_BLOCK};
 use crate::model::params::ParamId;
 use crate::model::robot::{Prior, Robot};
 use crate::observe::{Accuracy, Dataset, KeptErrors, OrientationError, Weights};
@@ -313,17 +313,26 @@ pub(crate) fn calibrate_from(
             Some(given) => given,
             None => {
                 // The data's rows only: the prior's are added below (the uncertainty at the
-                // start wants the data's R).
+                // start wants the data's R). By the Gram matrix first, a third of a QR's cost:
+                // its R is as accurate as the QR's where the Jacobian is well conditioned (the
+                // solver's own test, `solver::augmented_from_gram`); by QR otherwise.
                 let data_only = problem.clone().with_prior(&Prior::default());
                 let n = problem.cols();
-                let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
+                let mut gram = GramAccumulator::new(n + 1, QR_BLOCK);
                 let mut r = vec![0.0; data_only.rows()];
-                let (f, accuracy, kept) = data_only.evaluate_qr_checked(initial, &mut r, &mut acc);
+                let (f, accuracy, kept) = data_only.evaluate_rows_kept(initial, &mut r, &mut gram);
                 if !f.is_finite() {
                     return Err(non_finite_start(&problem, &r));
                 }
-                let mut r0 = Matrix::zeros(0, 0);
-                acc.r_into(&mut r0);
+                let mut g = Matrix::zeros(0, 0);
+                gram.gram_into(&mut g);
+                let r0 = solver::augmented_from_gram(&g, f).unwrap_or_else(|| {
+                    let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
+                    data_only.evaluate_rows(initial, &mut r, &mut acc);
+                    let mut r0 = Matrix::zeros(0, 0);
+                    acc.r_into(&mut r0);
+                    r0
+                });
                 (r0, accuracy, Some(kept))
             }
         };

@@ -881,6 +881,27 @@ impl Linearization {
     }
 }
 
+/// The `R` of `[J | r]` (`(n + 1)` square, upper triangular; `n + 1` the side of `gram`, the
+/// Gram matrix of `[J | r]`, and `f = |r|^2`) as the Gram matrix gives it, when `J` is well
+/// enough conditioned for that (see [`Linearization::set_from_gram`]; dead columns zero): rows
+/// `[R | z]`, then the residual the linear model leaves, `sqrt(f - |z|^2)` (0 where rounding
+/// makes that negative), so that the last column's squares sum to `f`. `None` otherwise: a QR
+/// is then needed.
+pub(crate) fn augmented_from_gram(gram: &Matrix, f: f64) -> Option<Matrix> {
+    let n = gram.nrows() - 1;
+    let mut lin = Linearization::new(n);
+    if !lin.set_from_gram(gram, f) {
+        return None;
+    }
+    let explained: f64 = lin.z.iter().map(|z| z * z).sum();
+    Some(Matrix::from_fn(n + 1, n + 1, |i, j| match (i < n, j < n) {
+        (true, true) => lin.r[(i, j)],
+        (true, false) => lin.z[i],
+        (false, false) => (f - explained).max(0.0).sqrt(),
+        (false, true) => 0.0,
+    }))
+}
+
 /// Evaluates a problem into linearisations, by QR, or by the Gram matrix once that is known to
 /// be accurate.
 struct Evaluator<'p> {
@@ -1250,6 +1271,57 @@ impl schemars::JsonSchema for Termination {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The start's `R` of `[J | r]` from the Gram matrix is the QR's (each row up to its
+    /// sign), and the squares of its last column sum to `|r|^2`, where `J` is well conditioned
+    /// (here its scaled condition is about 10: the Gram matrix squares it, so 1e-12 of the
+    /// entries' size is a hundred times the rounding it can add); a `J` with two columns equal
+    /// to 1e-9 gets none (a QR is needed).
+    #[test]
+    fn the_gram_start_is_the_qr_start_where_j_is_well_conditioned() {
+        use crate::linalg::{GramAccumulator, QrAccumulator};
+        let (m, n) = (40, 5);
+        let rows = |near: bool| -> Vec<Vec<f64>> {
+            (0..m)
+                .map(|i| {
+                    let mut row: Vec<f64> = (0..=n)
+                        .map(|j| ((i * 7 + j * 13) as f64 * 0.37).sin() + (i % (j + 2)) as f64)
+                        .collect();
+                    if near {
+                        row[2] = row[1] + 1e-9 * ((i * 3) as f64).cos();
+                    }
+                    row
+                })
+                .collect()
+        };
+        let factors = |rows: &[Vec<f64>]| {
+            let (mut qr, mut gram) = (QrAccumulator::new(n + 1, 8), GramAccumulator::new(n + 1, 8));
+            for row in rows {
+                qr.push(row);
+                gram.push(row);
+            }
+            let (mut r, mut g) = (Matrix::zeros(0, 0), Matrix::zeros(0, 0));
+            qr.r_into(&mut r);
+            gram.gram_into(&mut g);
+            let f: f64 = rows.iter().map(|row| row[n] * row[n]).sum();
+            (r, g, f)
+        };
+        let (r, g, f) = factors(&rows(false));
+        let r0 = augmented_from_gram(&g, f).expect("well conditioned");
+        let scale = (0..=n).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
+        for i in 0..=n {
+            // Rows are determined up to their sign: compare with the diagonal's made positive.
+            let (s, s0) = (r[(i, i)].signum(), r0[(i, i)].signum());
+            for j in 0..=n {
+                let (a, b) = (s * r[(i, j)], s0 * r0[(i, j)]);
+                assert!((a - b).abs() <= 1e-12 * scale, "({i}, {j}): {a} vs {b}");
+            }
+        }
+        let last: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
+        assert!((last - f).abs() <= 1e-12 * f, "{last} vs {f}");
+        let (_, g, f) = factors(&rows(true));
+        assert!(augmented_from_gram(&g, f).is_none());
+    }
 
     /// The damped solve against the normal equations `(T^T T + par I) u = -T^T w`.
     #[test]
