@@ -33,6 +33,79 @@ pub struct Cli {
     pub quiet: bool,
 }
 
+/// A command's arguments, added to its `clap::Command` only when that command is the one run
+/// or its help is asked for (`clap::Command::defer`): a run builds the arguments of one
+/// command, not of all of them. Reads as the arguments themselves (`Deref`).
+#[derive(Debug)]
+pub struct Deferred<T>(pub T);
+
+impl<T> std::ops::Deref for Deferred<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+impl<T> std::ops::DerefMut for Deferred<T> {
+    fn deref_mut(&mut self) -> &mut T {
+        &mut self.0
+    }
+}
+
+impl<T: FromArgMatches> FromArgMatches for Deferred<T> {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        T::from_arg_matches(m).map(Deferred)
+    }
+    fn from_arg_matches_mut(m: &mut ArgMatches) -> Result<Self, clap::Error> {
+        T::from_arg_matches_mut(m).map(Deferred)
+    }
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        self.0.update_from_arg_matches(m)
+    }
+    fn update_from_arg_matches_mut(&mut self, m: &mut ArgMatches) -> Result<(), clap::Error> {
+        self.0.update_from_arg_matches_mut(m)
+    }
+}
+
+impl<T: Args> Args for Deferred<T> {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        cmd.defer(|cmd| keep_texts(&cmd.clone(), T::augment_args(cmd)))
+    }
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        cmd.defer(|cmd| keep_texts(&cmd.clone(), T::augment_args_for_update(cmd)))
+    }
+    fn group_id() -> Option<clap::Id> {
+        T::group_id()
+    }
+}
+
+/// `built` with the help texts the command's own attributes gave it (`before`), as an
+/// argument struct's doc comment would not override them had they come after it (the order of
+/// a command built at once).
+fn keep_texts(before: &clap::Command, built: clap::Command) -> clap::Command {
+    let mut c = match before.get_about() {
+        Some(t) => built.about(t.clone()),
+        None => built.about(None::<&str>),
+    };
+    c = match before.get_long_about() {
+        Some(t) => c.long_about(t.clone()),
+        None => c.long_about(None::<&str>),
+    };
+    if let Some(t) = before.get_after_help() {
+        c = c.after_help(t.clone());
+    }
+    if let Some(t) = before.get_after_long_help() {
+        c = c.after_long_help(t.clone());
+    }
+    if let Some(t) = before.get_before_help() {
+        c = c.before_help(t.clone());
+    }
+    if let Some(t) = before.get_before_long_help() {
+        c = c.before_long_help(t.clone());
+    }
+    c
+}
+
 /// kinecal's commands.
 #[derive(Debug, Subcommand)]
 #[allow(clippy::large_enum_variant)] // parsed once per run: size does not matter
@@ -48,7 +121,7 @@ Example:
 The postures file is CSV with the header posture,v1,...,vn (one transducer reading per joint),
 and optionally payload_mass,payload_cx,payload_cy,payload_cz (what the tool carries: an elastic
 robot sags under it). The output is in the measurement format, in the robot file's units.")]
-    Fk(FkArgs),
+    Fk(Deferred<FkArgs>),
     /// Synthesize measurements from a perturbed ("true") copy of a robot.
     #[command(after_help = "\
 Example:
@@ -67,7 +140,7 @@ image, at postures drawn within the joint ranges until --postures of them see at
       --noise pixel=0.3 --out views.csv --truth truth.toml
 Narrow the joint ranges (min, max) about a posture that sees the board when too few views are
 found.")]
-    Simulate(SimulateArgs),
+    Simulate(Deferred<SimulateArgs>),
     /// What the data can and cannot determine: singular values, rank, redundancies, a base set.
     #[command(after_help = "\
 Examples:
@@ -81,7 +154,7 @@ normalised), where units cannot distort them; the file-unit figures show what un
 (thesis Tables 4.4 and 4.5). The expected count is the thesis's, generalised: 4 per revolute
 joint, 2 per prismatic, 1 per slope or coupling, 6 or 3 per observed frame, 3 per estimated
 plane, minus the motions of the world the observations cannot see.")]
-    Analyze(AnalyzeArgs),
+    Analyze(Deferred<AnalyzeArgs>),
     /// Convert a robot from another convention (product of exponentials, Denavit-Hartenberg).
     #[command(subcommand)]
     Import(ImportCommand),
@@ -112,7 +185,7 @@ Payload columns (payload_mass, payload_cx, payload_cy, payload_cz: kg, and the c
 the end-effector frame) give what the tool carries at each row: an elastic robot (one with a mass
 model) is solved sagging under it, and the table keeps them. Files of any length stream through.
 Exit code 3 when any row is flagged.")]
-    Compensate(CompensateArgs),
+    Compensate(Deferred<CompensateArgs>),
     /// Calibrate a fleet: every robot of a manifest, in parallel, with a summary table.
     #[command(after_help = "\
 Examples:
@@ -144,7 +217,7 @@ history: kinecal batch fleet.csv --shard 3/8 --record --db postgres://writer@db/
 Exit code 0: every robot
 calibrated and converged; 1: some failed (the summary says why); 3: some flagged by --strict;
 4: some did not converge.")]
-    Batch(BatchArgs),
+    Batch(Deferred<BatchArgs>),
     /// Plan the measurements: which postures to measure to determine the parameters best.
     #[command(after_help = "\
 Examples:
@@ -163,7 +236,7 @@ the observability indices o1-o5. Greedy start, then exchange until no swap impro
 reached, the information per posture against the candidates' average (D-efficiency), and the
 same figures for 100 random plans. --out gets the chosen postures (a measurement file when the
 candidates were one).")]
-    Plan(PlanArgs),
+    Plan(Deferred<PlanArgs>),
     /// Does a calibrated robot still meet its accuracy? (exit 0 yes, 3 no)
     #[command(after_help = "\
 Example:
@@ -172,7 +245,7 @@ Example:
 Compares the robot's predictions with a few measured check postures. The threshold is the
 largest acceptable position error (length unit) and, optionally, attitude error (angle unit).
 Exit code 0: within the threshold; 3: recalibrate; 1: bad input. Usable from cron.")]
-    Check(CheckArgs),
+    Check(Deferred<CheckArgs>),
     /// Characteristic curves: the pose or the objective against one parameter at a time.
     #[command(subcommand)]
     Curves(CurvesCommand),
@@ -199,7 +272,7 @@ Example:
 Sections: summary, residuals per posture before/after, error histogram, parameter changes with
 +-sigma bars, singular-value spectrum with the rank cut, redundant groups and determined
 combinations, warnings. `kinecal calibrate --html report.html` writes it directly.")]
-    Report(ReportArgs),
+    Report(Deferred<ReportArgs>),
     /// Write a robot as URDF, ROS 2 files, UR kinematics, DH or a joint table, checked by reading
     /// it back.
     #[command(subcommand)]
@@ -225,13 +298,13 @@ figures a correct calibration reaches). For ipa-ur10:
   kinecal dataset ipa-ur10 ../shared/data/ipa_ur10_tracker --out ipa
   kinecal calibrate --robot ipa/ur10.toml --data ipa/series_A.csv --validate ipa/series_C.csv \\
     --validate ipa/series_D.csv --estimate identifiable")]
-    Dataset(DatasetArgs),
+    Dataset(Deferred<DatasetArgs>),
     /// Print a shell completion script.
     #[command(after_help = "\
 Example:
   kinecal completions bash > ~/.local/share/bash-completion/completions/kinecal
   kinecal completions zsh > ~/.zfunc/_kinecal")]
-    Completions(CompletionsArgs),
+    Completions(Deferred<CompletionsArgs>),
     /// Estimate kinematic parameters from observations: poses, positions, distances, contacts.
     #[command(after_help = "\
 Examples:
@@ -252,7 +325,7 @@ equally good answers, the one closest to the --robot file (tolerances from its [
 table); with `--prior`, what the data cannot determine is held by a Gaussian prior on each
 parameter's change. Observation files combine; rows may carry their own sigma_position and
 sigma_angle.")]
-    Calibrate(CalibrateArgs),
+    Calibrate(Deferred<CalibrateArgs>),
     /// Predicted accuracy of a calibrated robot: the 95 % bound on its position (and attitude)
     /// error at postures, and the accuracy map.
     #[command(after_help = "\
@@ -273,7 +346,7 @@ the 95 % bound of the parameters alone, in the robot file's units. --html draws 
 takes Cartesian goals instead (positions, or poses with ZYX Euler angles), each reached by the
 calibrated robot's inverse kinematics (what a compensated program commands); a goal out of reach
 or outside a joint range is refused with its line.")]
-    Predict(PredictArgs),
+    Predict(Deferred<PredictArgs>),
 }
 
 /// The job as a spec file, and the spec of this command line written down: every job command
@@ -428,7 +501,7 @@ The file is TOML: length_unit, angle_unit, [[joints]] with kind, axis = [x, y, z
 position = [x, y, z] and optional euler = [alpha, beta, gamma]; optional [[sites]] with name, joint,
 position, euler at the zero configuration. Joint frames go on the axes with x along the common
 normal, which keeps every link's beta at 0. Readings are joint values (slope 1).")]
-    Poe(ImportPoeArgs),
+    Poe(Deferred<ImportPoeArgs>),
     /// The serial chain of a URDF file.
     #[command(after_help = "\
 Example:
@@ -441,7 +514,7 @@ other than +z are folded exactly into the neighbouring links. Readings are the U
 With --masses, the links' <inertial> masses become [[bodies]] of a mass model (gravity 9.81 m/s^2
 along -z of the base, compliances 0): the robot is then elastic and each revolute joint gains a
 compliance and a lateral compliance to estimate.")]
-    Urdf(ImportUrdfArgs),
+    Urdf(Deferred<ImportUrdfArgs>),
     /// A Denavit-Hartenberg table.
     #[command(after_help = "\
 Example:
@@ -455,7 +528,7 @@ becomes the joint offset. The units and convention are those the table states in
 before its header (`# length_unit = mm`, `# angle_unit = deg`, `# convention = standard`, as kinecal
 export dh writes them); a table that states none needs --length-unit, --angle-unit and
 --convention, and flags that contradict the table are refused.")]
-    Dh(ImportDhArgs),
+    Dh(Deferred<ImportDhArgs>),
     /// A Universal Robots kinematics file (default_kinematics.yaml, or a robot's factory
     /// calibration extracted by the UR driver).
     #[command(after_help = "\
@@ -465,7 +538,7 @@ Example:
 The file gives each joint's origin (x, y, z, roll, pitch, yaw) in its parent; the chain is the
 UR description's, from base_link to tool0. Readings are the joint values (rad, slope 1), ranges
 +-2 pi. The model is written in metres and radians.")]
-    Ur(ImportUrArgs),
+    Ur(Deferred<ImportUrArgs>),
 }
 
 /// `kinecal import ur`.
@@ -492,7 +565,7 @@ One panel pair (positions, angles) per parameter, the nominal value marked by do
 (thesis Figs 4.2-4.5). Angles are unwrapped: no false jumps at +-180 deg. --out ending in .svg,
 .png or .csv (columns param,value,x,y,z,alpha,beta,gamma). Default span, either side: the robot's
 reach for lengths, 50 deg for angles, half the value for slopes. At most 100000 points.")]
-    Pose(CurvesPoseArgs),
+    Pose(Deferred<CurvesPoseArgs>),
     /// The objective over a data set against each parameter.
     #[command(after_help = "\
 Example:
@@ -503,7 +576,7 @@ solver started there could stop in a false valley, thesis 4.4.4); prints the per
 parameters (360 deg for angles, 360/V for a revolute slope at reading V). --out ending in .svg,
 .png or .csv (columns param,value,objective). Default span, either side: a fifth of the robot's
 reach for lengths, 10 deg for angles, a tenth of the value for slopes. At most 100000 points.")]
-    Objective(CurvesObjectiveArgs),
+    Objective(Deferred<CurvesObjectiveArgs>),
 }
 
 /// `kinecal iso9283 ...`.
@@ -524,7 +597,7 @@ working space is tested with the inverse kinematics and the largest cube of reac
 grown or shrunk until its test poses and its eight corners are reached inside the joint ranges,
 away from singularities: a search, not a proof of the largest cube. --out gets
 pose,x,y,z[,a,b,c],v1..vn in the robot file's units.")]
-    Plan(Iso9283PlanArgs),
+    Plan(Deferred<Iso9283PlanArgs>),
     /// A simulated log: a robot sent round the test poses, plus noise (no measurement).
     #[command(after_help = "\
 Example:
@@ -535,7 +608,7 @@ The commanded poses are the plan's (the model it was planned with); the attained
 forward kinematics at the plan's readings (a \"true\" robot, e.g. from kinecal simulate --truth),
 plus Gaussian noise of the given standard deviations (robot file units) on every coordinate and
 angle. The log says it is simulated, and so do the figures of kinecal iso9283 evaluate.")]
-    Simulate(Iso9283SimulateArgs),
+    Simulate(Deferred<Iso9283SimulateArgs>),
     /// Pose accuracy and repeatability (AP, RP, AD, RD, vAP) from a log of attained poses.
     #[command(after_help = "\
 Examples:
@@ -560,7 +633,7 @@ pose also gets the AP the calibration predicts once the program is compensated: 
 RMS and 95 % bound of the calibrated model's error at the pose's readings (the log's, or the
 calibrated model's inverse kinematics of the commanded pose). The log must then be in the robot's
 base frame.")]
-    Evaluate(Iso9283EvaluateArgs),
+    Evaluate(Deferred<Iso9283EvaluateArgs>),
     /// An ISO 9283 log from a measurement file: commanded and attained poses in the base frame.
     #[command(after_help = "\
 Example:
@@ -576,7 +649,7 @@ mean readings of the pose's cycles. So the figures are those of the robot driven
 model: the nominal one before calibration, a calibrated one for the compensated robot. Postures
 without a role are left out, and counted. The log is in the robot file's units, or its lengths in
 --length-unit.")]
-    Log(Iso9283LogArgs),
+    Log(Deferred<Iso9283LogArgs>),
 }
 
 /// `kinecal iso9283 log`.
@@ -810,20 +883,20 @@ pub enum HistoryCommand {
     #[command(
         after_help = "Example:\n  kinecal history add --robot-id A4-0042 --report report.json --at 2026-11-01"
     )]
-    Add(HistoryAddArgs),
+    Add(Deferred<HistoryAddArgs>),
     /// List recorded calibrations (one robot or all).
     #[command(after_help = "Example:\n  kinecal history list --robot-id A4-0042")]
-    List(HistoryListArgs),
+    List(Deferred<HistoryListArgs>),
     /// Show one calibration: by id, or the latest of a robot.
     #[command(
         after_help = "Example:\n  kinecal history show --robot-id A4-0042\n  kinecal history show --id 17"
     )]
-    Show(HistoryShowArgs),
+    Show(Deferred<HistoryShowArgs>),
     /// Export the history as CSV (one row per parameter), JSON, or a dump for `history import`.
     #[command(
         after_help = "Examples:\n  kinecal history export --robot-id A4-0042 --format csv --out a4.csv\n  kinecal history export --format dump --out history.json   # every field, for history import"
     )]
-    Export(HistoryExportArgs),
+    Export(Deferred<HistoryExportArgs>),
     /// Flag determined quantities that changed since the baseline (exit 0 none, 3 some).
     #[command(after_help = "\
 Example:
@@ -833,13 +906,13 @@ Tracks individually determined parameters and the determined combinations of red
 never a lone redundant parameter (it wanders between runs with no physical change). A tolerance
 file has `key = value` lines, keys being parameter names or ids (link3.y, p14) or combination
 expressions (\"p14 + p20\"), values in the quantity's unit.")]
-    Drift(HistoryDriftArgs),
+    Drift(Deferred<HistoryDriftArgs>),
     /// Plot the history of each quantity with sigma bands and tolerance lines (SVG or PNG).
     #[command(
         after_help = "Example:\n  kinecal history plot --robot-id A4-0042 --out a4.svg\n\n\
 Maintenance events are drawn as vertical lines; drift is computed since the latest one."
     )]
-    Plot(HistoryPlotArgs),
+    Plot(Deferred<HistoryPlotArgs>),
     /// Every robot: last calibration, drift flags, trends, predicted tolerance crossings.
     #[command(after_help = "\
 Examples:
@@ -855,7 +928,7 @@ latest event). The rate of each quantity is a weighted regression over that segm
 of 30 days with its standard error; a crossing is predicted when a tolerance applies and the
 rate exceeds twice its standard error. --html writes a page with one chart per flagged or due
 robot. Exit code 0 when every robot is ok, 3 when any is flagged, serviced or due.")]
-    Fleet(HistoryFleetArgs),
+    Fleet(Deferred<HistoryFleetArgs>),
     /// Record a maintenance event: drift is computed within the segments between events.
     #[command(after_help = "\
 Example:
@@ -863,10 +936,10 @@ Example:
 
 The calibrations at or after the event's time start a new segment: drift, trends and the fleet's
 verdicts compare only calibrations of the same segment. The same event twice is recorded once.")]
-    Event(HistoryEventArgs),
+    Event(Deferred<HistoryEventArgs>),
     /// List maintenance events.
     #[command(after_help = "Example:\n  kinecal history events --robot-id A4-0042")]
-    Events(HistoryListArgs),
+    Events(Deferred<HistoryListArgs>),
     /// Read a history dump (`history export --format dump`) into this history.
     #[command(after_help = "\
 Example:
@@ -876,7 +949,7 @@ Example:
 Every record and event is written verbatim (ids kept where free), each in its own transaction;
 what is already there (the same idempotency key, or the same id and contents) is skipped, so an
 interrupted import is finished by running it again.")]
-    Import(HistoryImportArgs),
+    Import(Deferred<HistoryImportArgs>),
     /// Create the history's schema, or migrate it to this kinecal's version.
     #[command(after_help = "\
 Example:
@@ -885,7 +958,7 @@ Example:
 Any write creates or migrates the schema when it may; on a PostgreSQL server that takes the
 database owner, so the owner runs this once (and after upgrading kinecal), then writers and
 readers use their own roles.")]
-    Init(HistoryArgs),
+    Init(Deferred<HistoryArgs>),
 }
 
 /// `kinecal history fleet`.
@@ -1101,7 +1174,7 @@ for the tool frame) change, a joint without one gets one; visuals, inertias, lim
 formatting and a byte-order mark are kept. Joint offsets are folded into the origins. The URDF is
 read back and compared with the robot over the joint ranges (the largest deviation is printed);
 beyond --tolerance nothing is written. A slope other than 1 cannot be expressed in URDF.")]
-    Urdf(ExportUrdfArgs),
+    Urdf(Deferred<ExportUrdfArgs>),
     /// Write a calibrated robot as ROS 2 description files: a calibration YAML, the URDF as a
     /// xacro that reads it, and static transforms of the measurement frames.
     #[command(after_help = "\
@@ -1125,7 +1198,7 @@ The URDF keeps the template's base: what the calibration put before it is the me
 frame's transform. Joint offsets are folded into the origins. The xacro, expanded with the YAML
 as written, is read back and compared with the robot over the joint ranges; beyond --tolerance
 nothing is written.")]
-    Ros(ExportRosArgs),
+    Ros(Deferred<ExportRosArgs>),
     /// Write a calibrated UR arm as a Universal Robots kinematics file for the ROS driver.
     #[command(after_help = "\
 Example:
@@ -1138,7 +1211,7 @@ session frames are left out, and said. The tool correction is printed as the TCP
 controller (mm and rotation vector, and as set_tcp). The file, with that TCP, is read back and
 compared with the robot over the joint ranges; what it cannot hold (transducer slopes other than
 1, couplings) is named with its deviation, and beyond --tolerance nothing is written.")]
-    Ur(ExportUrArgs),
+    Ur(Deferred<ExportUrArgs>),
     /// Write the joint offsets and slopes as a table, for controllers that take only those.
     #[command(after_help = "\
 Example:
@@ -1149,7 +1222,7 @@ zero reading, joint units per reading unit, and their change from the nominal ro
 is read back onto the nominal robot and compared with the calibrated one over the joint ranges:
 what a joint table cannot carry (link and tool changes, couplings) is the largest deviation it
 leaves at the tool, and beyond --tolerance nothing is written.")]
-    Joints(ExportJointsArgs),
+    Joints(Deferred<ExportJointsArgs>),
     /// Write a robot as a Denavit-Hartenberg table, read back and compared before it is written.
     #[command(after_help = "\
 Example:
@@ -1162,7 +1235,7 @@ that kinecal import dh reads. A base or tool frame the DH frames cannot be is a 
 table is read back and compared with the robot over the joint ranges (the largest deviation is
 printed); what DH cannot hold (transducer slopes other than 1, couplings: the table's joint
 variables are the readings) is named, and beyond --tolerance nothing is written.")]
-    Dh(ExportDhArgs),
+    Dh(Deferred<ExportDhArgs>),
     /// Write the joint compliances and stiffnesses of an elastic robot's calibration, with
     /// their standard deviations, as a table.
     #[command(after_help = "\
@@ -1174,7 +1247,7 @@ writes parameter,joint,axis,compliance,compliance_sigma,stiffness,stiffness_sigm
 estimated: one row per compliance (axis `joint` or `lateral`), compliance in the robot file's
 angle unit per newton and length unit, stiffness its inverse (empty when the compliance is not
 positive), sigmas empty where the data does not determine them.")]
-    Stiffness(ExportStiffnessArgs),
+    Stiffness(Deferred<ExportStiffnessArgs>),
     /// Write the 3-D scene of a calibration as glTF 2.0 binary (GLB): the calibrated and the
     /// nominal robot at a posture, the measured points, their residuals, the frames.
     #[command(after_help = "\
@@ -1190,7 +1263,7 @@ green, blue). With --report alone, the report's own scene (calibrate --html puts
 with --data, the points and residuals of those observations: before calibration from --nominal,
 or the report's initial values. At most 2,000 points: the largest residuals, then an even
 spread of the rest (the count is said).")]
-    Gltf(ExportGltfArgs),
+    Gltf(Deferred<ExportGltfArgs>),
     /// Write a camera's lens as the ROS camera_info YAML (camera_calibration_parsers' format).
     #[command(after_help = "\
 Example:
@@ -1202,7 +1275,7 @@ distortion_model plumb_bob, distortion_coefficients (k1, k2, p1, p2, k3), rectif
 every number with all its digits, as ROS's camera_info_manager and image_proc read it. The file
 is read back and compared with the robot file's camera before it is written. The camera's pose
 (hand-eye) is not part of camera_info: it is in the calibrated robot file.")]
-    CameraInfo(ExportCameraInfoArgs),
+    CameraInfo(Deferred<ExportCameraInfoArgs>),
 }
 
 /// `kinecal export camera-info`.

@@ -114,7 +114,7 @@ fn run(cmd: Command) -> Result<u8> {
         Command::Demo => demo::run().map(|()| 0),
         Command::Calibrate(mut a) => {
             a.quiet = quiet();
-            calibrate::run(a)
+            calibrate::run(a.0)
         }
         Command::Analyze(a) => {
             door::analyze(&a).and_then(|s| job(s.into(), &a.door, |d| analyze::show(d, &a)))
@@ -139,9 +139,9 @@ fn run(cmd: Command) -> Result<u8> {
         Command::History(c) => history::run(c),
         Command::Batch(mut a) => {
             a.quiet = quiet();
-            batch::run(a)
+            batch::run(a.0)
         }
-        Command::Dataset(a) => dataset(a).map(|()| 0),
+        Command::Dataset(a) => dataset(a.0).map(|()| 0),
         Command::Completions(a) => {
             clap_complete::generate(a.shell, &mut command(), "kinecal", &mut std::io::stdout());
             Ok(0)
@@ -582,7 +582,10 @@ mod tests {
             }
         }
         let mut known = Vec::new();
-        longs(&Cli::command(), &mut known);
+        // Built: each command's arguments are added when it is built (`args::Deferred`).
+        let mut cli = Cli::command();
+        cli.build();
+        longs(&cli, &mut known);
         for s in Setting::ALL {
             if matches!(
                 s,

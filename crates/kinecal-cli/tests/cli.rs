@@ -63,6 +63,25 @@ fn every_command_has_help_with_an_example() {
     }
 }
 
+/// The completion scripts hold every command's options: a command's arguments are built only
+/// when it runs (`args::Deferred`), and a script must build them all.
+#[test]
+fn completion_scripts_hold_every_commands_options() {
+    for shell in ["bash", "zsh", "fish"] {
+        let out = run_ok(Path::new("."), &["completions", shell]);
+        // One option of a top-level command, of a nested one and the global one.
+        for option in [
+            "huber-scale",
+            "min-points",
+            "robot-id",
+            "measurement-frame",
+            "quiet",
+        ] {
+            assert!(out.contains(option), "{shell}: no {option}");
+        }
+    }
+}
+
 #[test]
 fn fk_reproduces_table_4_2_posture_4() {
     let dir = tempfile::tempdir().unwrap();
