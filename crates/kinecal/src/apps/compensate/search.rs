@@ -93,8 +93,11 @@ pub struct TargetSearch<'r> {
     turn: Vec<Option<f64>>,
     /// Start postures, `STARTS` rows of `dof` readings.
     starts: Vec<f64>,
-    /// Per target frame: the start postures' frames, 12 numbers each (position, rotation).
-    tables: Vec<(Target, Vec<[f64; 12]>)>,
+    /// Per target frame: the start postures' frames, 12 numbers each (position, rotation),
+    /// stored number by number: `tables[t].1[c][i]` is number `c` of start `i`.
+    tables: Vec<(Target, [Vec<f64>; 12])>,
+    /// Each start's distance from the goal being looked up (one per start).
+    distances: Vec<f64>,
     classifier: Option<Classifier>,
     previous: Option<Vec<f64>>,
     reference: Vec<f64>,
@@ -174,6 +177,7 @@ impl<'r> TargetSearch<'r> {
             turn,
             starts,
             tables: Vec::new(),
+            distances: Vec::new(),
             classifier: None,
             previous: None,
             reference: vec![0.0; dof],
@@ -740,10 +744,14 @@ impl<'r> TargetSearch<'r> {
         }
         let dof = self.robot.dof();
         let starts = std::mem::take(&mut self.starts);
-        let table = starts
-            .chunks_exact(dof)
-            .map(|r| self.frame_key(r, target))
-            .collect();
+        let mut table: [Vec<f64>; 12] = Default::default();
+        for r in starts.chunks_exact(dof) {
+            let k = self.frame_key(r, target);
+            for (column, x) in table.iter_mut().zip(k) {
+                column.push(x);
+            }
+        }
+        self.distances.resize(table[0].len(), 0.0);
         self.starts = starts;
         self.tables.push((target, table));
     }
@@ -766,18 +774,31 @@ impl<'r> TargetSearch<'r> {
         } else {
             Self::ATTEMPTS
         };
+        // Every start's distance first, in one pass over the table number by number (the
+        // same operations, in the same order, as `key_distance`: the same distances to the
+        // bit), then the nearest kept in index order.
+        let n = table[0].len();
+        let distances = &mut self.distances[..n];
+        let (x, y, z) = (&table[0][..n], &table[1][..n], &table[2][..n]);
         let p = match goal {
             Goal::Position(p) => p,
             Goal::Pose(g) => &g.translation,
         };
-        for (i, k) in table.iter().enumerate() {
-            // The position part first: a start already farther than the last kept one by its
-            // position alone is passed over without its attitude term (which is never negative).
-            let dp = (p.x - k[0]).powi(2) + (p.y - k[1]).powi(2) + (p.z - k[2]).powi(2);
-            if self.nearest.len() == keep && dp >= self.nearest[keep - 1].0 {
-                continue;
+        for (i, d) in distances.iter_mut().enumerate() {
+            *d = (p.x - x[i]).powi(2) + (p.y - y[i]).powi(2) + (p.z - z[i]).powi(2);
+        }
+        if let Goal::Pose(g) = goal {
+            let r = g.rotation.as_slice();
+            let c: [&[f64]; 9] = std::array::from_fn(|k| &table[3 + k][..n]);
+            for (i, d) in distances.iter_mut().enumerate() {
+                let mut trace = 0.0;
+                for k in 0..9 {
+                    trace += r[k] * c[k][i];
+                }
+                *d += reach2 * (3.0 - trace);
             }
-            let d = key_distance(goal, k, reach2);
+        }
+        for (i, &d) in self.distances[..n].iter().enumerate() {
             if self.nearest.len() == keep {
                 if d >= self.nearest[keep - 1].0 {
                     continue;
