@@ -33,9 +33,10 @@ pub struct Cli {
     pub quiet: bool,
 }
 
-/// A command's arguments, added to its `clap::Command` only when that command is the one run
-/// or its help is asked for (`clap::Command::defer`): a run builds the arguments of one
-/// command, not of all of them. Reads as the arguments themselves (`Deref`).
+/// A command's arguments, added to its `clap::Command` only when that command is the one run,
+/// its help is asked for, or the whole tree is built (completions, `Command::build`;
+/// `clap::Command::defer`): a run builds the arguments of one command, not of all of them.
+/// Reads as the arguments themselves (`Deref`).
 #[derive(Debug)]
 pub struct Deferred<T>(pub T);
 

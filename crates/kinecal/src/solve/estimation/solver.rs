@@ -350,8 +350,9 @@ pub struct Solution {
     /// Columns (in the problem's order) that no residual felt at the start: their Jacobian
     /// column was zero, or below 1e-12 of the largest.
     pub unfelt: Vec<usize>,
-    /// The linearisation at the start: the `(cols + 1) x (cols + 1)` upper-triangular `R` of the
-    /// QR of `[J | r]` at `x0` (the residual last), as the first evaluation left it.
+    /// The linearisation at the start: the `(cols + 1) x (cols + 1)` upper-triangular `R` of
+    /// `[J | r]` at `x0` (the residual last; by QR, or from the Gram matrix where that is
+    /// accurate), as the first evaluation left it.
     pub(crate) start_r: Matrix,
 }
 
@@ -883,14 +884,31 @@ impl Linearization {
 
 /// The `R` of `[J | r]` (`(n + 1)` square, upper triangular; `n + 1` the side of `gram`, the
 /// Gram matrix of `[J | r]`, and `f = |r|^2`) as the Gram matrix gives it, when `J` is well
-/// enough conditioned for that (see [`Linearization::set_from_gram`]; dead columns zero): rows
-/// `[R | z]`, then the residual the linear model leaves, `sqrt(f - |z|^2)` (0 where rounding
-/// makes that negative), so that the last column's squares sum to `f`. `None` otherwise: a QR
-/// is then needed.
+/// enough conditioned for that: every entry finite, the Cholesky factor of the scaled Gram
+/// matrix made ([`Linearization::set_from_gram`]; dead columns zero), and its condition below
+/// `GRAM_CONDITION` by the pivoted QR's diagonal, the test by which the solver starts trusting
+/// the Gram matrix (`certify`). The Gram matrix squares the condition, so at 1e4 its `R` keeps
+/// about 8 of the QR's 16 digits in the weakest direction. Rows `[R | z]`, then the residual the
+/// linear model leaves, `sqrt(f - |z|^2)` (0 where rounding makes that negative), so that the
+/// last column's squares sum to `f`. `None` otherwise: a QR is then needed.
 pub(crate) fn augmented_from_gram(gram: &Matrix, f: f64) -> Option<Matrix> {
     let n = gram.nrows() - 1;
+    if !f.is_finite() || !(0..=n).all(|i| (0..=n).all(|j| gram[(i, j)].is_finite())) {
+        return None;
+    }
     let mut lin = Linearization::new(n);
     if !lin.set_from_gram(gram, f) {
+        return None;
+    }
+    let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&lin.r, j)).collect();
+    let live: Vec<usize> = (0..n).filter(|&j| norms[j] > 0.0).collect();
+    // The live rows and columns (a dead column's row and column are zero), columns scaled.
+    let scaled = Matrix::from_fn(live.len(), live.len(), |a, b| {
+        lin.r[(live[a], live[b])] / norms[live[b]]
+    });
+    let diag = PivotedQr::new(&scaled).diagonal();
+    let (first, last) = (diag.first()?.abs(), diag.last()?.abs());
+    if last < first / GRAM_CONDITION {
         return None;
     }
     let explained: f64 = lin.z.iter().map(|z| z * z).sum();
@@ -1276,7 +1294,8 @@ mod tests {
     /// sign), and the squares of its last column sum to `|r|^2`, where `J` is well conditioned
     /// (here its scaled condition is about 10: the Gram matrix squares it, so 1e-12 of the
     /// entries' size is a hundred times the rounding it can add); a `J` with two columns equal
-    /// to 1e-9 gets none (a QR is needed).
+    /// to 1e-9 gets none (a QR is needed), nor one whose Cholesky pivots look fine while its
+    /// condition is 1e6.
     #[test]
     fn the_gram_start_is_the_qr_start_where_j_is_well_conditioned() {
         use crate::linalg::{GramAccumulator, QrAccumulator};
@@ -1294,7 +1313,7 @@ mod tests {
                 })
                 .collect()
         };
-        let factors = |rows: &[Vec<f64>]| {
+        fn factors_of(n: usize, rows: &[Vec<f64>]) -> (Matrix, Matrix, f64) {
             let (mut qr, mut gram) = (QrAccumulator::new(n + 1, 8), GramAccumulator::new(n + 1, 8));
             for row in rows {
                 qr.push(row);
@@ -1305,7 +1324,8 @@ mod tests {
             gram.gram_into(&mut g);
             let f: f64 = rows.iter().map(|row| row[n] * row[n]).sum();
             (r, g, f)
-        };
+        }
+        let factors = |rows: &[Vec<f64>]| factors_of(n, rows);
         let (r, g, f) = factors(&rows(false));
         let r0 = augmented_from_gram(&g, f).expect("well conditioned");
         let scale = (0..=n).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
@@ -1317,9 +1337,31 @@ mod tests {
                 assert!((a - b).abs() <= 1e-12 * scale, "({i}, {j}): {a} vs {b}");
             }
         }
-        let last: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
-        assert!((last - f).abs() <= 1e-12 * f, "{last} vs {f}");
         let (_, g, f) = factors(&rows(true));
+        assert!(augmented_from_gram(&g, f).is_none());
+        // Cholesky pivots can all stay above 1 / GRAM_CONDITION while the condition is far
+        // above it: J unit upper triangular with -1 above the diagonal (20 columns, scaled:
+        // pivots at least 0.22, condition 1.3e6; a pivoted QR's diagonal falls to 3.3e-6 of
+        // its first entry, numpy's QR with pivoting). The pivoted QR refuses it.
+        let k = 20;
+        let (_, g, f) = factors_of(
+            k,
+            &(0..k)
+                .map(|i| {
+                    let mut row: Vec<f64> = (0..k)
+                        .map(|j| match j.cmp(&i) {
+                            std::cmp::Ordering::Less => 0.0,
+                            std::cmp::Ordering::Equal => 1.0,
+                            std::cmp::Ordering::Greater => -1.0,
+                        })
+                        .collect();
+                    row.push(1.0);
+                    row
+                })
+                .collect::<Vec<_>>(),
+        );
+        let mut lin = Linearization::new(k);
+        assert!(lin.set_from_gram(&g, f), "the pivots alone would take it");
         assert!(augmented_from_gram(&g, f).is_none());
     }
 
