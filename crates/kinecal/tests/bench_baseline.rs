@@ -1,8 +1,9 @@
 //! The README's speed table is the stored baseline of the speed guard
 //! (`crates/kinecal/benches/baseline.json`, written with the table by
-//! `bash scripts/bench-guard.sh --update`): every row's figures are the stored ones, to the
-//! digits the table prints, and every guarded figure has its row. A baseline stored without
-//! the table (or a table edited by hand) fails here.
+//! `bash scripts/bench-guard.sh --update`): every row's figures are the stored ones of its
+//! machine class, to the digits the table prints, and every guarded figure of every stored
+//! class has its row, the classes in sorted order. A baseline stored without the table (or a
+//! table edited by hand) fails here.
 
 use std::path::Path;
 
@@ -35,12 +36,15 @@ fn the_readme_speed_table_is_the_stored_baseline() {
         &std::fs::read_to_string(repo().join("crates/kinecal/benches/baseline.json")).unwrap(),
     )
     .expect("benches/baseline.json is JSON");
-    let figures = &base["figures"];
-    let figure = |key: &str| {
-        figures[key]
-            .as_f64()
-            .unwrap_or_else(|| panic!("baseline.json lacks the figure {key}"))
-    };
+    let machines = base["machines"]
+        .as_object()
+        .expect("baseline.json holds its figures per machine class");
+    assert!(
+        !machines.is_empty(),
+        "baseline.json stores no machine class"
+    );
+    let mut levels: Vec<&String> = machines.keys().collect();
+    levels.sort();
     let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
     let table = readme
         .split_once(BEGIN)
@@ -55,29 +59,37 @@ fn the_readme_speed_table_is_the_stored_baseline() {
         .collect();
     assert_eq!(
         rows.len(),
-        ROWS.len(),
-        "one row per guarded figure:\n{table}"
+        ROWS.len() * levels.len(),
+        "one row per guarded figure and machine class:\n{table}"
     );
-    for (row, &(key, poses, what)) in rows.iter().zip(ROWS) {
+    let expected = levels
+        .iter()
+        .flat_map(|level| ROWS.iter().map(move |row| (level.as_str(), row)));
+    for (row, (level, &(key, poses, what))) in rows.iter().zip(expected) {
+        let figure = |key: &str| {
+            machines[level]["figures"][key]
+                .as_f64()
+                .unwrap_or_else(|| panic!("baseline.json lacks {level}'s figure {key}"))
+        };
         let n = key.rsplit('_').next().unwrap();
         let (ratio, peer) = (figure(key), figure(&format!("peer_cpu_s_{n}")));
-        assert!(ratio > 0.0 && peer > 0.0, "{key}: {ratio}, {peer}");
-        assert_eq!((row[0], row[1]), (poses, what), "{row:?}");
+        assert!(ratio > 0.0 && peer > 0.0, "{level} {key}: {ratio}, {peer}");
+        assert_eq!((row[0], row[1], row[2]), (level, poses, what), "{row:?}");
         assert!(
-            shows(row[2], peer),
-            "{key}: the peer's {} is not {peer}",
-            row[2]
+            shows(row[3], peer),
+            "{level} {key}: the peer's {} is not {peer}",
+            row[3]
         );
         assert!(
-            shows(row[3], peer / ratio),
-            "{key}: kinecal's {} is not {}",
-            row[3],
+            shows(row[4], peer / ratio),
+            "{level} {key}: kinecal's {} is not {}",
+            row[4],
             peer / ratio
         );
         assert!(
-            shows(row[4], ratio),
-            "{key}: ratio {} is not {ratio}",
-            row[4]
+            shows(row[5], ratio),
+            "{level} {key}: ratio {} is not {ratio}",
+            row[5]
         );
     }
 }
