@@ -443,6 +443,25 @@ impl GramAccumulator {
         self.filled = 0;
     }
 
+    /// Adds `rows` rows held row-major in `src` (row stride [`GramAccumulator::cols`]): the
+    /// same sum as pushing them one by one, the block's product taken in place (no copy).
+    pub(crate) fn push_rows(&mut self, src: &[f64], rows: usize) {
+        assert!(src.len() >= rows * self.cols);
+        self.fold();
+        if rows == 0 {
+            return;
+        }
+        let b = MatRef::from_row_major_slice(&src[..rows * self.cols], rows, self.cols);
+        faer::linalg::matmul::matmul(
+            self.gram.as_mut(),
+            Accum::Add,
+            b.transpose(),
+            b,
+            1.0,
+            Par::Seq,
+        );
+    }
+
     /// `A^T A` of all the rows pushed so far (`cols x cols`, symmetric), written to `out`.
     pub(crate) fn gram_into(&mut self, out: &mut Matrix) {
         self.fold();

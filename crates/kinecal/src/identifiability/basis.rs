@@ -17,8 +17,16 @@
 //!
 //! Worth it on large data only: the QR of `n` columns costs `2 m n^2`, of the basis's `b`
 //! columns `2 m b^2`, the proof `2 m b (n - b)`.
+//!
+//! The basis's `R_B` is taken from the Gram matrix of `[J_B | r]` (a matrix product, several
+//! times cheaper than a QR update of the same rows) when that is accurate: the basis has full
+//! rank on the subsample, and the Gram path is accepted only where the solver accepts it
+//! ([`crate::solve::estimation::solver::augmented_from_gram`]: its scaled condition below
+//! 1e4), so that `R_B` keeps about 8 digits in its weakest direction, far above the rank
+//! tolerance (`rcond`, 1e-9), and its `R^T R` is `[J_B | r]^T [J_B | r]` to rounding. A basis
+//! conditioned worse is folded again by QR.
 
-use crate::linalg::{self, Matrix, QrAccumulator, RowSink, QR_BLOCK};
+use crate::linalg::{self, GramAccumulator, Matrix, QrAccumulator, RowSink, QR_BLOCK};
 use crate::model::params::ParamId;
 use crate::model::robot::Robot;
 use crate::observe::Dataset;
@@ -214,8 +222,9 @@ impl Basis {
         }
     }
 
-    /// One pass over `problem`'s rows: `[J_B | r]` folded into a QR, the dependence proved on
-    /// every row at `SLACK * rcond`, the typical-row sums tallied; the `R` of the whole
+    /// One pass over `problem`'s rows: `[J_B | r]` folded into its Gram matrix (or, when that
+    /// is too ill-conditioned to give `R_B`, a second pass into a QR), the dependence proved
+    /// on every row at `SLACK * rcond`, the typical-row sums tallied; the `R` of the whole
     /// `[J | r]` rebuilt from them, or `None` when the proof fails.
     pub(super) fn fold_all(
         &self,
@@ -224,8 +233,27 @@ impl Basis {
         clamp: &[f64],
         rcond: f64,
     ) -> Option<Rows> {
+        match self.fold_all_by(robot, problem, clamp, rcond, Fold::Gram)? {
+            Folded::Rows(rows) => Some(rows),
+            Folded::NeedsQr => match self.fold_all_by(robot, problem, clamp, rcond, Fold::Qr)? {
+                Folded::Rows(rows) => Some(rows),
+                Folded::NeedsQr => None,
+            },
+        }
+    }
+
+    /// [`Basis::fold_all`] with `R_B` made as `by` says: `NeedsQr` when by the Gram matrix
+    /// and that is not accurate enough (never by QR).
+    pub(super) fn fold_all_by(
+        &self,
+        robot: &Robot,
+        problem: &Problem<'_>,
+        clamp: &[f64],
+        rcond: f64,
+        by: Fold,
+    ) -> Option<Folded> {
         let n = self.n;
-        let mut sink = BasisRows::new(self);
+        let mut sink = BasisRows::new(self, by);
         let mut tally = TypicalRowTally {
             acc: &mut sink,
             clamp,
@@ -235,13 +263,15 @@ impl Basis {
         let mut r = vec![0.0; problem.rows()];
         let accuracy = problem.evaluate_rows_checked(robot, &mut r, &mut tally).1;
         let sums = std::mem::take(&mut tally.sums);
-        let rb = sink.finish(rcond * SLACK)?;
+        let Some(rb) = sink.finish(rcond * SLACK)? else {
+            return Some(Folded::NeedsQr);
+        };
         let mf = problem.rows().max(1) as f64;
-        Some(Rows {
+        Some(Folded::Rows(Rows {
             raug: self.rebuild(&rb),
             typical: Some(sums.iter().map(|s| (s / mf).sqrt()).collect()),
             accuracy: Some(accuracy),
-        })
+        }))
     }
 
     /// The `R` of `[J | r]` (`(n + 1)` square) from `rb`, the `R` of `[J_B | r]`:
@@ -272,12 +302,34 @@ impl Basis {
     }
 }
 
+/// How [`Basis::fold_all_by`] makes `R_B`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Fold {
+    /// From the Gram matrix of `[J_B | r]`, when that is accurate enough.
+    Gram,
+    /// By a QR of `[J_B | r]`.
+    Qr,
+}
+
+/// What [`Basis::fold_all_by`] found (when the proof held).
+pub(super) enum Folded {
+    Rows(Rows),
+    /// The Gram matrix was too ill-conditioned for `R_B`: fold again by QR.
+    NeedsQr,
+}
+
+/// Where the basis's rows `[J_B | r]` go.
+enum BasisSink {
+    Gram(GramAccumulator),
+    Qr(QrAccumulator),
+}
+
 /// The sink of [`Basis::fold_all`]: rows gathered in row-major blocks, `[J_B | r]` and `J_D`;
-/// each block's `[J_B | r]` folded into a QR, and its `J_D` and `J_D - J_B C` summed up in
-/// squares per column.
+/// each block's `[J_B | r]` folded into a Gram matrix or a QR, and its `J_D` and
+/// `J_D - J_B C` summed up in squares per column.
 struct BasisRows<'a> {
     basis: &'a Basis,
-    acc: QrAccumulator,
+    acc: BasisSink,
     /// `[J_B | r]` of the block's rows, row-major (`b + 1` wide).
     block_b: Vec<f64>,
     /// `J_D` of the block's rows, row-major (`k` wide).
@@ -290,11 +342,14 @@ struct BasisRows<'a> {
 }
 
 impl<'a> BasisRows<'a> {
-    fn new(basis: &'a Basis) -> Self {
+    fn new(basis: &'a Basis, by: Fold) -> Self {
         let (b, k) = (basis.basis.len(), basis.dependent.len());
         BasisRows {
             basis,
-            acc: QrAccumulator::new(b + 1, QR_BLOCK.max(b + 1)),
+            acc: match by {
+                Fold::Gram => BasisSink::Gram(GramAccumulator::new(b + 1, 1)),
+                Fold::Qr => BasisSink::Qr(QrAccumulator::new(b + 1, QR_BLOCK.max(b + 1))),
+            },
             block_b: vec![0.0; QR_BLOCK * (b + 1)],
             block_d: vec![0.0; QR_BLOCK * k],
             filled: 0,
@@ -309,7 +364,10 @@ impl<'a> BasisRows<'a> {
             return;
         }
         let (w, k) = (self.basis.basis.len() + 1, self.basis.dependent.len());
-        self.acc.push_rows(&self.block_b, f, w);
+        match &mut self.acc {
+            BasisSink::Gram(acc) => acc.push_rows(&self.block_b, f),
+            BasisSink::Qr(acc) => acc.push_rows(&self.block_b, f, w),
+        }
         let squares = |sums: &mut [f64], block: &[f64]| {
             for row in block[..f * k].chunks_exact(k) {
                 for (s, &v) in sums.iter_mut().zip(row) {
@@ -325,13 +383,29 @@ impl<'a> BasisRows<'a> {
 
     /// `R` of `[J_B | r]` when every dependent column is within `tol` of its norm from the
     /// basis's span, or it and its combination are both unfelt (below [`UNFELT`] times
-    /// [`SLACK`] of the largest column's norm, where the analysis zeroes them); `None`
-    /// otherwise (non-finite rows too).
-    fn finish(&mut self, tol: f64) -> Option<Matrix> {
+    /// [`SLACK`] of the largest column's norm, where the analysis zeroes them); `Some(None)`
+    /// when folded into a Gram matrix too ill-conditioned to give it (the proof is then left
+    /// to the QR pass); `None` when the proof fails (non-finite rows too).
+    fn finish(&mut self, tol: f64) -> Option<Option<Matrix>> {
         self.flush();
-        let mut rb = Matrix::zeros(0, 0);
-        self.acc.r_into(&mut rb);
         let b = self.basis.basis.len();
+        let rb = match &mut self.acc {
+            BasisSink::Qr(acc) => {
+                let mut rb = Matrix::zeros(0, 0);
+                acc.r_into(&mut rb);
+                Some(rb)
+            }
+            BasisSink::Gram(acc) => {
+                let mut gram = Matrix::zeros(0, 0);
+                acc.gram_into(&mut gram);
+                let f = gram[(b, b)];
+                crate::solve::estimation::solver::augmented_from_gram(&gram, f)
+            }
+        };
+        // A Gram matrix too ill-conditioned for `R_B`: the QR pass proves the dependence.
+        let Some(rb) = rb else {
+            return Some(None);
+        };
         let largest = (0..b)
             .map(|j| linalg::col_norm(&rb, j))
             .chain(self.norm.iter().map(|s| s.sqrt()))
@@ -340,7 +414,7 @@ impl<'a> BasisRows<'a> {
             let (off, norm) = (off.sqrt(), norm.sqrt());
             off <= tol * norm || norm + off <= UNFELT * SLACK * largest
         });
-        proved.then_some(rb)
+        proved.then_some(Some(rb))
     }
 }
 

@@ -301,6 +301,22 @@ fn a_linearisation_carries_the_typical_rows() {
 /// CSV (made here from the forward kinematics: this module may not use the simulation). With
 /// `held`, joint 6 stays at 0.3 rad in the first `held` postures.
 fn random_arm(seed: u64, count: usize, pose: bool, held: usize) -> (Robot, Dataset) {
+    random_arm_with(seed, count, pose, held, 0.0)
+}
+
+/// [`random_arm`] with joint 6 at 0.3 rad within `+-spread` at every posture.
+fn random_arm_joint6(seed: u64, count: usize, pose: bool, spread: f64) -> (Robot, Dataset) {
+    random_arm_with(seed, count, pose, count, spread)
+}
+
+/// A random arm and data; joint 6 at 0.3 rad within `+-spread` in the first `held` postures.
+fn random_arm_with(
+    seed: u64,
+    count: usize,
+    pose: bool,
+    held: usize,
+    spread: f64,
+) -> (Robot, Dataset) {
     use rand::{RngExt, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut toml = String::from("name = \"arm\"\nlength_unit = \"m\"\nangle_unit = \"rad\"\n");
@@ -326,7 +342,7 @@ fn random_arm(seed: u64, count: usize, pose: bool, held: usize) -> (Robot, Datas
     for i in 0..count {
         let mut v: Vec<f64> = (0..6).map(|_| rng.random_range(-3.0..3.0)).collect();
         if i < held {
-            v[5] = 0.3;
+            v[5] = 0.3 + spread * v[5] / 3.0;
         }
         chain.forward(&v, &mut ws);
         let p = chain
@@ -420,9 +436,45 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
         let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
         let clamp = base::row_clamp(&data, &problem);
         assert!(b.fold_all(&robot, &problem, &clamp, opts.rcond).is_some());
+        // The basis of these arms is well conditioned: its R comes from the Gram matrix, and
+        // gives the columns' inner products that the QR's R gives.
+        let folded = |by| match b.fold_all_by(&robot, &problem, &clamp, opts.rcond, by) {
+            Some(basis::Folded::Rows(rows)) => rows.raug,
+            Some(basis::Folded::NeedsQr) => panic!("seed {seed}: {by:?} needs a QR"),
+            None => panic!("seed {seed}: {by:?} failed its proof"),
+        };
+        let (gram, qr) = (folded(basis::Fold::Gram), folded(basis::Fold::Qr));
+        assert_same_inner_products(&gram, &qr, 1e-12);
         let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
         assert_same_analysis(&robot, &data, &params, &lin);
     }
+}
+
+/// A basis that the rows determine only poorly (joint 6 moved within +-2e-5 rad: its offset
+/// and the tool link's roll nearly one column, though not within the rank tolerance) has a
+/// Gram matrix too ill-conditioned for its `R` (a condition above 1e4): the fold asks for a
+/// QR, and the analysis is then that of every row.
+#[test]
+fn an_ill_conditioned_basis_is_folded_by_qr() {
+    let (robot, data) = random_arm_joint6(5, 1800, true, 2e-5);
+    let params: Vec<ParamId> = robot.param_ids().collect();
+    let opts = AnalysisOptions::default();
+    let keep = basis::subsample(&data, params.len()).expect("a subsample of 1,800 postures");
+    let b = basis::Basis::of(&robot, &data.subset(&keep), &params, &opts)
+        .unwrap()
+        .unwrap();
+    let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
+    let clamp = base::row_clamp(&data, &problem);
+    assert!(matches!(
+        b.fold_all_by(&robot, &problem, &clamp, opts.rcond, basis::Fold::Gram),
+        Some(basis::Folded::NeedsQr)
+    ));
+    assert!(matches!(
+        b.fold_all_by(&robot, &problem, &clamp, opts.rcond, basis::Fold::Qr),
+        Some(basis::Folded::Rows(_))
+    ));
+    let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
+    assert_same_analysis(&robot, &data, &params, &lin);
 }
 
 /// A subsample that lost rank is not taken for all the data: its basis, from postures where
