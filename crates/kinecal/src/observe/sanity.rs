@@ -193,17 +193,37 @@ pub(crate) fn check_result(
 }
 
 /// RMS distance of points from their centroid.
-fn spread(points: &[nalgebra::Vector3<f64>]) -> f64 {
-    let n = points.len() as f64;
-    let c = points.iter().sum::<nalgebra::Vector3<f64>>() / n;
-    (points.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / n).sqrt()
+/// The spread of a set of points (the root mean square distance from their centroid), taken
+/// a point at a time (Welford's update of the mean and the sum of squared deviations: no
+/// cancellation however far the points are from the origin), so that no copy of the points is
+/// kept.
+#[derive(Clone, Copy, Default)]
+struct Spread {
+    count: usize,
+    mean: Vector3<f64>,
+    /// The sum of squared distances from the running mean.
+    m2: f64,
+}
+
+impl Spread {
+    fn push(&mut self, p: Vector3<f64>) {
+        self.count += 1;
+        let d = p - self.mean;
+        self.mean += d / self.count as f64;
+        self.m2 += d.dot(&(p - self.mean));
+    }
+
+    /// The sum of squared distances from the centroid: the squared spread times the count.
+    fn sum_of_squares(&self) -> f64 {
+        self.m2.max(0.0)
+    }
 }
 
 fn scale(robot: &Robot, data: &Dataset, predicted: &[[Vector3<f64>; 2]]) -> Vec<Warning> {
     let mut out = Vec::new();
     // Positions: per target, as different targets are different points, and per measurement
-    // session, as each has its own frame.
-    let (mut measured, mut modelled) = (Vec::new(), Vec::new());
+    // session, as each has its own frame: the measured points' spread and the modelled ones'.
+    let mut spreads: Vec<(Spread, Spread)> = Vec::new();
     let mut targets: Vec<(Target, Option<&str>)> = Vec::new();
     for (o, at) in data.observations.iter().zip(predicted) {
         let (view, position) = match o {
@@ -214,18 +234,17 @@ fn scale(robot: &Robot, data: &Dataset, predicted: &[[Vector3<f64>; 2]]) -> Vec<
         let key = (view.target, data.postures[view.posture].session.as_deref());
         let k = targets.iter().position(|t| *t == key).unwrap_or_else(|| {
             targets.push(key);
-            measured.push(Vec::new());
-            modelled.push(Vec::new());
+            spreads.push(Default::default());
             targets.len() - 1
         });
-        measured[k].push(position);
-        modelled[k].push(at[0]);
+        spreads[k].0.push(position);
+        spreads[k].1.push(at[0]);
     }
     let (mut sm, mut sp) = (0.0f64, 0.0f64);
-    for (m, p) in measured.iter().zip(&modelled) {
-        if m.len() >= 3 {
-            sm += spread(m).powi(2) * m.len() as f64;
-            sp += spread(p).powi(2) * p.len() as f64;
+    for (m, p) in &spreads {
+        if m.count >= 3 {
+            sm += m.sum_of_squares();
+            sp += p.sum_of_squares();
         }
     }
     if let Some(w) = ratio_warning("position", sm.sqrt(), sp.sqrt(), robot) {
@@ -363,4 +382,47 @@ fn readings(robot: &Robot, data: &Dataset) -> Vec<Warning> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The running spread is the two-pass one (the centroid first, then the squared
+    /// distances from it) for clouds near the origin and far from it, loose and tightly
+    /// packed, to what the points themselves carry: each coordinate is held to `eps` of the
+    /// offset, `eps * offset / size` of the spread, so both sums agree to `1e-12` plus ten
+    /// times twice that (a sum of squares doubles a relative error). A single point and a
+    /// repeated one have no spread at all.
+    #[test]
+    fn the_running_spread_is_the_two_pass_spread() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for (offset, size) in [(0.0, 1.0), (3.0, 0.5), (1e4, 1e-3), (-50.0, 1e-6)] {
+            let points: Vec<Vector3<f64>> = (0..500)
+                .map(|_| Vector3::from_fn(|_, _| offset + size * rng.random_range(-1.0..1.0)))
+                .collect();
+            let mut running = Spread::default();
+            for &p in &points {
+                running.push(p);
+            }
+            let c = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+            let two_pass: f64 = points.iter().map(|p| (p - c).norm_squared()).sum();
+            let d = (running.sum_of_squares() - two_pass).abs();
+            let carried = 20.0 * f64::EPSILON * (offset.abs() + size) / size;
+            assert!(
+                d <= (1e-12 + carried) * two_pass,
+                "offset {offset}, size {size}: {d:e}"
+            );
+            assert_eq!(running.count, 500);
+        }
+        let mut one = Spread::default();
+        one.push(Vector3::new(1.0, 2.0, 3.0));
+        assert_eq!(one.sum_of_squares().to_bits(), 0.0f64.to_bits());
+        let mut same = Spread::default();
+        for _ in 0..10 {
+            same.push(Vector3::new(0.1, 0.2, 0.3));
+        }
+        assert_eq!(same.sum_of_squares().to_bits(), 0.0f64.to_bits());
+    }
 }
