@@ -79,28 +79,28 @@ fn misfits<'a>(robot: &Robot, data: &Dataset, rows: impl Iterator<Item = &'a Row
 
 /// The RMS distance (m) between the measured positions of `data` and the nominal robot's
 /// (`predicted`, per observation), after the best rigid motion of the measured ones (Kabsch);
-/// `None` without positions or when the motion is undetermined.
+/// `None` without positions or when the motion is undetermined. Passes over the observations
+/// (no copy of the pairs: memory flat in the number of postures).
 fn rigid_rms(data: &Dataset, predicted: &[[Vector3<f64>; 2]]) -> Option<f64> {
-    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = data
-        .observations
-        .iter()
-        .zip(predicted)
-        .filter_map(|(o, p)| match o {
-            Observation::Position(m) => Some((p[0], m.position)),
-            Observation::Pose(m) => Some((p[0], m.position)),
-            _ => None,
-        })
-        .collect();
-    if pairs.len() < 3 {
+    let pairs = || {
+        data.observations
+            .iter()
+            .zip(predicted)
+            .filter_map(|(o, p)| match o {
+                Observation::Position(m) => Some((p[0], m.position)),
+                Observation::Pose(m) => Some((p[0], m.position)),
+                _ => None,
+            })
+    };
+    let count = pairs().count();
+    if count < 3 {
         return None;
     }
-    let n = pairs.len() as f64;
-    let (cp, cm) = pairs
-        .iter()
-        .fold((Vector3::zeros(), Vector3::zeros()), |a, (p, m)| {
-            (a.0 + p / n, a.1 + m / n)
-        });
-    let h = pairs.iter().fold(nalgebra::Matrix3::zeros(), |h, (p, m)| {
+    let n = count as f64;
+    let (cp, cm) = pairs().fold((Vector3::zeros(), Vector3::zeros()), |a, (p, m)| {
+        (a.0 + p / n, a.1 + m / n)
+    });
+    let h = pairs().fold(nalgebra::Matrix3::zeros(), |h, (p, m)| {
         h + (m - cm) * (p - cp).transpose()
     });
     let svd = h.svd(true, true);
@@ -109,8 +109,7 @@ fn rigid_rms(data: &Dataset, predicted: &[[Vector3<f64>; 2]]) -> Option<f64> {
     d[(2, 2)] = (u * vt).determinant().signum();
     // The rotation taking measured offsets onto the model's.
     let r = u * d * vt;
-    let sum: f64 = pairs
-        .iter()
+    let sum: f64 = pairs()
         .map(|(p, m)| (r.transpose() * (m - cm) - (p - cp)).norm_squared())
         .sum();
     let e = (sum / n).sqrt();
