@@ -168,6 +168,9 @@ pub struct Compensator<'r> {
     evaluations: u64,
     /// Whether a stall ends the damped least squares early (tests turn it off to compare).
     stall_exit: bool,
+    /// Whether the flags at a solution reuse the solver's last forward kinematics when it was
+    /// evaluated there (tests turn it off to compare).
+    reuse_last_forward: bool,
 }
 
 impl<'r> Compensator<'r> {
@@ -204,6 +207,7 @@ impl<'r> Compensator<'r> {
             payload: None,
             evaluations: 0,
             stall_exit: true,
+            reuse_last_forward: true,
         })
     }
 
@@ -289,7 +293,7 @@ impl<'r> Compensator<'r> {
             Goal::Pose(_) => 6,
             Goal::Position(_) => 3,
         };
-        let (mut err, mut iterations) = self.converge(goal, target, out, rows, 0);
+        let (mut err, mut iterations, mut at_out) = self.converge(goal, target, out, rows, 0);
         // Redundant (more joints than error rows): remove, step by step, the part of the change
         // from the seed that lies along the self-motion (the null space of the Jacobian), then
         // re-reach the goal, until the change is orthogonal to the self-motion: the first-order
@@ -309,6 +313,8 @@ impl<'r> Compensator<'r> {
             let mut alpha: f64 = 1.0;
             let mut kept = std::mem::take(&mut self.kept);
             kept.resize(n, 0.0);
+            // The loop evaluates elsewhere than at the solution it keeps.
+            at_out = false;
             for _ in 0..100 {
                 let (jjt, scale) = self.linearize(out, target, rows);
                 // z = seed - V; its null-space part N z = z - J^T (J J^T)^-1 J z.
@@ -338,7 +344,7 @@ impl<'r> Compensator<'r> {
                 for (o, t) in out.iter_mut().zip(&self.trial) {
                     *o += alpha * t;
                 }
-                let (e, it) = self.converge(goal, target, out, rows, 0);
+                let (e, it, _) = self.converge(goal, target, out, rows, 0);
                 iterations += it;
                 let d = distance(out);
                 if self.reached(&e) && d < best {
@@ -357,9 +363,13 @@ impl<'r> Compensator<'r> {
             Vector3::new(err[0], err[1], err[2]).norm(),
             (rows == 6).then(|| Vector3::new(err[3], err[4], err[5]).norm() / self.reach),
         );
-        self.evaluations += 1;
-        self.calibrated
-            .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
+        // The forward kinematics at the solution, unless the solver's last evaluation was
+        // there (the same readings: the same numbers).
+        if !(at_out && self.reuse_last_forward) {
+            self.evaluations += 1;
+            self.calibrated
+                .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
+        }
         self.calibrated
             .reading_jacobian(&self.ws, target, &mut self.jac);
         let conditioning = self.conditioning(rows);
@@ -383,9 +393,10 @@ impl<'r> Compensator<'r> {
         }
     }
 
-    /// Damped least squares from `out` towards `goal`; returns the final weighted error and
-    /// the iteration count (continuing from `iterations`). Ends at a stall (see the module's
-    /// documentation) unless the stall exit is off.
+    /// Damped least squares from `out` towards `goal`; returns the final weighted error, the
+    /// iteration count (continuing from `iterations`), and whether `self.ws` holds the forward
+    /// kinematics at `out` (the last one evaluated was there). Ends at a stall (see the
+    /// module's documentation) unless the stall exit is off.
     fn converge(
         &mut self,
         goal: &Goal,
@@ -393,7 +404,7 @@ impl<'r> Compensator<'r> {
         out: &mut [f64],
         rows: usize,
         mut iterations: usize,
-    ) -> (Vector6<f64>, usize) {
+    ) -> (Vector6<f64>, usize, bool) {
         let mut err = self.error(goal, target, out);
         let mut cost = err.norm_squared();
         let mut mu = 1e-12;
@@ -441,7 +452,7 @@ impl<'r> Compensator<'r> {
                 break;
             }
         }
-        (err, iterations)
+        (err, iterations, at_out)
     }
 
     /// Weight of error row `k`: 1 for positions, the reach for attitudes.

@@ -492,6 +492,14 @@ impl<'r> TargetSearch<'r> {
         self
     }
 
+    /// The search with the forward kinematics at every attempt's solution evaluated anew, as
+    /// before the solver's last one was reused.
+    #[cfg(test)]
+    pub(crate) fn without_last_forward_reused(mut self) -> Self {
+        self.comp.reuse_last_forward = false;
+        self
+    }
+
     /// Step 1b: the nominal robot's closed-form branches as starts, each refined on the
     /// calibrated model within the search's iteration cap, in the order: branches the nominal
     /// robot reaches before those it does not, then by what the branch itself predicts
@@ -1086,6 +1094,58 @@ mod tests {
                     "arm {arm} {kind}: {cost_new} against {cost_old} forward kinematics \
                      ({flagged} rows flagged)"
                 );
+            }
+        }
+    }
+
+    /// The solver's last forward kinematics, when evaluated at the solution, serves the flags
+    /// there (its Jacobian and conditioning) instead of being evaluated again: on a random 6R
+    /// arm and the IRB 120, over seeded pose targets and unseeded pose and position targets,
+    /// every row's result (errors, iterations, conditioning, flags) and readings are the same to
+    /// the bit, with fewer forward kinematics (measured: 0.95-0.97 of them).
+    #[test]
+    fn the_last_forward_kinematics_is_reused_at_the_solution() {
+        let random = crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21);
+        let irb120 = reach_test_arms().remove(1).1;
+        for (arm, nominal) in [random, irb120].into_iter().enumerate() {
+            let (nominal, calibrated) = twin(nominal, 22);
+            let (postures, seeded) = seeded_targets(&nominal, 200, 5);
+            let reached = poses(&calibrated, &postures);
+            let unseeded: Goals = reached
+                .iter()
+                .map(|f| (Goal::Pose(*f), None))
+                .chain(
+                    reached
+                        .iter()
+                        .map(|f| (Goal::Position(f.translation), None)),
+                )
+                .collect();
+            for (kind, goals) in [("seeded", &seeded), ("unseeded", &unseeded)] {
+                let [(new, cost_new), (old, cost_old)] = [true, false].map(|reuse| {
+                    let s = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
+                    let mut s = if reuse {
+                        s
+                    } else {
+                        s.without_last_forward_reused()
+                    };
+                    let mut out = vec![0.0; 6];
+                    let rows: Vec<(Solved, Vec<f64>)> = goals
+                        .iter()
+                        .map(|(g, seed)| {
+                            let r = s.solve(g, Target::EndEffector, seed.as_deref(), &mut out);
+                            (r, out.clone())
+                        })
+                        .collect();
+                    (rows, s.evaluations())
+                });
+                for (k, (a, b)) in new.iter().zip(&old).enumerate() {
+                    assert_eq!(a, b, "arm {arm} {kind} row {k}");
+                }
+                assert!(
+                    cost_new < cost_old,
+                    "arm {arm} {kind}: {cost_new} against {cost_old} forward kinematics"
+                );
+                eprintln!("arm {arm} {kind}: {cost_new} against {cost_old}");
             }
         }
     }
