@@ -15,8 +15,9 @@ set of rounds confirms it (one noisy set does not fail a build; a real slowdown 
 
 The figures are stored per machine class: the x86-64 level the CPU offers (AVX-512, AVX2, ...).
 The peer's numpy picks its kernels by that level, so the ratio moves with it: the same kinecal
-measured 7.7x against the peer at 1,000 poses where numpy ran AVX-512 kernels and 13.9x on an
-AVX2-only CPU, where the peer's solve took three times as long and kinecal's process 1.4 times.
+measured 7.7x against the peer at 1,000 poses where numpy ran AVX-512 kernels and 14.2x on an
+AVX2-only CPU, where the peer's solve took 2.9 times as long and kinecal's process 1.55 times.
+Each class keeps the peer's versions it was measured with.
 A machine of a class with no stored figures is measured and its figures printed, not checked
 (--update stores them beside the others).
 
@@ -203,22 +204,39 @@ def main():
     ap.add_argument("--json", help="also write this run's figures here")
     a = ap.parse_args()
     t0 = time.monotonic()
+    level, model = machine()
+    # The stored figures, read before anything is measured: a file of another layout is named
+    # now, not after minutes of runs.
+    try:
+        with open(BASELINE) as f:
+            base = json.load(f)
+    except FileNotFoundError:
+        if not a.update:
+            sys.exit(f"bench-guard: {BASELINE} is missing: `bash scripts/bench-guard.sh "
+                     "--update` stores this machine's figures there")
+        base = {}
+    except (OSError, ValueError) as e:
+        sys.exit(f"bench-guard: {BASELINE} cannot be read: {e}")
+    if base and not isinstance(base.get("machines"), dict):
+        sys.exit(f"bench-guard: {BASELINE} holds no figures per machine class (a `machines` "
+                 "object, each class's `peer` and `figures`): store them again with --update "
+                 "after moving the file aside")
+    base.setdefault("problem",
+                    "../shared/bench/ur10_mdh, 19 identifiable parameters, positions only")
+    base.setdefault("command", "bash scripts/bench-guard.sh --update")
+    base.setdefault("machines", {})
     with tempfile.TemporaryDirectory() as work:
         bench = Bench(a.kinecal, a.python, work)
         samples = bench.rounds(a.rounds)
         now = figures(samples)
-        level, model = machine()
-        base = json.load(open(BASELINE))
         if a.update:
-            base["peer"] = versions(a.python)
             base["machines"][level] = {
                 "cpu": model,
                 "cores": os.cpu_count(),
                 "rounds": a.rounds,
+                "peer": versions(a.python),
                 "figures": {k: round(v, 6) for k, v in now.items()},
             }
-            # The peer's versions are the ones every class was measured with: a change of them
-            # leaves the other classes' figures unchecked until they are measured again.
             with open(BASELINE, "w") as f:
                 json.dump(base, f, indent=2)
                 f.write("\n")
@@ -242,9 +260,10 @@ def main():
         print(f"bench-guard: {level} ({model}): against the figures stored for this class",
               file=sys.stderr)
         peer = versions(a.python)
-        if peer != base["peer"]:
-            print(f"bench-guard: the peer runs {peer}, the baseline was measured with "
-                  f"{base['peer']}: its speed may differ by itself", file=sys.stderr)
+        if peer != base["machines"][level].get("peer"):
+            print(f"bench-guard: the peer runs {peer}, this class's figures were measured with "
+                  f"{base['machines'][level].get('peer')}: its speed may differ by itself",
+                  file=sys.stderr)
 
         def drops(fig):
             return [k for k in LABELS if fig[k] < (1 - a.tolerance) * stored[k]]

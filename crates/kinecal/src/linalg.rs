@@ -444,7 +444,8 @@ impl GramAccumulator {
     }
 
     /// Adds `rows` rows held row-major in `src` (row stride [`GramAccumulator::cols`]): the
-    /// same sum as pushing them one by one, the block's product taken in place (no copy).
+    /// sum of pushing them one by one (to rounding: the blocks are split differently), the
+    /// block's product taken in place (no copy).
     pub(crate) fn push_rows(&mut self, src: &[f64], rows: usize) {
         assert!(src.len() >= rows * self.cols);
         self.fold();
@@ -872,6 +873,40 @@ mod tests {
             acc.r_into(&mut r);
             let n2: f64 = row.iter().map(|v| v * v).sum();
             assert!((gram(&r)[(0, 0)] - row[0] * row[0]).abs() < 1e-12 * n2);
+        }
+    }
+
+    /// Rows added as a row-major block (`push_rows`), between rows pushed one by one, sum to
+    /// the inner products summed one term at a time, as pushing them all does.
+    #[test]
+    fn rows_added_as_a_block_are_summed_as_pushed_ones() {
+        let (rows, cols) = (300, 4);
+        let a: Vec<f64> = (0..rows * cols)
+            .map(|k| ((k * 13) as f64 * 0.21).cos() + 0.05 * (k % 7) as f64)
+            .collect();
+        let mut acc = GramAccumulator::new(cols, 32);
+        for row in a[..40 * cols].chunks_exact(cols) {
+            acc.push(row);
+        }
+        acc.push_rows(&a[40 * cols..250 * cols], 210);
+        acc.push_rows(&a[250 * cols..], 0);
+        for row in a[250 * cols..].chunks_exact(cols) {
+            acc.push(row);
+        }
+        let mut g = Matrix::zeros(0, 0);
+        acc.gram_into(&mut g);
+        for i in 0..cols {
+            for j in 0..cols {
+                let direct: f64 = (0..rows).map(|k| a[k * cols + i] * a[k * cols + j]).sum();
+                let size: f64 = (0..rows)
+                    .map(|k| (a[k * cols + i] * a[k * cols + j]).abs())
+                    .sum();
+                assert!(
+                    (g[(i, j)] - direct).abs() <= 1e-13 * size,
+                    "({i},{j}) {} vs {direct}",
+                    g[(i, j)]
+                );
+            }
         }
     }
 

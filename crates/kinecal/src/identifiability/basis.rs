@@ -23,13 +23,17 @@
 //! rank on the subsample, and the Gram path is accepted only where the solver accepts it
 //! ([`crate::solve::estimation::solver::augmented_from_gram`]: its scaled condition below
 //! 1e4), so that `R_B` keeps about 8 digits in its weakest direction, far above the rank
-//! tolerance (`rcond`, 1e-9), and its `R^T R` is `[J_B | r]^T [J_B | r]` to rounding. A basis
-//! conditioned worse is folded again by QR.
+//! tolerance (`rcond`, 1e-9), and its `R^T R` is `[J_B | r]^T [J_B | r]` to rounding (the
+//! analysis reads `R`'s columns of `J`; the residual's last entry, `sqrt(|r|^2 - |z|^2)`, loses
+//! digits where the linear model explains nearly all of `|r|^2`, and nothing reads it). A basis
+//! conditioned worse on the subsample is folded by QR at once; one that the Gram matrix of all
+//! the rows shows worse (rare: more rows seldom worsen it) is folded again by QR.
 
 use crate::linalg::{self, GramAccumulator, Matrix, QrAccumulator, RowSink, QR_BLOCK};
 use crate::model::params::ParamId;
 use crate::model::robot::Robot;
 use crate::observe::Dataset;
+use crate::solve::estimation::solver::GRAM_CONDITION;
 use crate::solve::problem::Problem;
 
 use super::base::{priority_order, select_base};
@@ -151,6 +155,10 @@ pub(super) struct Basis {
     pub coef: Matrix,
     /// The number of columns (the residual aside).
     pub n: usize,
+    /// Whether the basis's columns are well enough conditioned on the subsample for their `R`
+    /// to come from the Gram matrix of all the rows (the scaled condition below the solver's
+    /// `GRAM_CONDITION`); otherwise the pass folds them by QR.
+    pub gram: bool,
 }
 
 impl Basis {
@@ -214,11 +222,27 @@ impl Basis {
                 coef[(l, i)] = if v.is_finite() { v } else { 0.0 };
             }
         }
+        // The basis's own R on the subsample, its columns scaled to unit norm: the pivoted QR's
+        // diagonal gives its condition, as the solver's test reads it.
+        let scaled = Matrix::from_fn(b, b, |i, j| {
+            let norm = t.col(j)[..=j].iter().map(|v| v * v).sum::<f64>().sqrt();
+            if norm > 0.0 {
+                t[(i, j)] / norm
+            } else {
+                0.0
+            }
+        });
+        let diag = linalg::PivotedQr::new(&scaled).diagonal();
+        let gram = match (diag.first(), diag.last()) {
+            (Some(first), Some(last)) => last.abs() * GRAM_CONDITION >= first.abs(),
+            _ => false,
+        };
         Basis {
             basis,
             dependent,
             coef,
             n,
+            gram,
         }
     }
 
@@ -233,6 +257,12 @@ impl Basis {
         clamp: &[f64],
         rcond: f64,
     ) -> Option<Rows> {
+        if !self.gram {
+            return match self.fold_all_by(robot, problem, clamp, rcond, Fold::Qr)? {
+                Folded::Rows(rows) => Some(rows),
+                Folded::NeedsQr => None,
+            };
+        }
         match self.fold_all_by(robot, problem, clamp, rcond, Fold::Gram)? {
             Folded::Rows(rows) => Some(rows),
             Folded::NeedsQr => match self.fold_all_by(robot, problem, clamp, rcond, Fold::Qr)? {
@@ -383,38 +413,47 @@ impl<'a> BasisRows<'a> {
 
     /// `R` of `[J_B | r]` when every dependent column is within `tol` of its norm from the
     /// basis's span, or it and its combination are both unfelt (below [`UNFELT`] times
-    /// [`SLACK`] of the largest column's norm, where the analysis zeroes them); `Some(None)`
-    /// when folded into a Gram matrix too ill-conditioned to give it (the proof is then left
-    /// to the QR pass); `None` when the proof fails (non-finite rows too).
+    /// [`SLACK`] of the largest column's norm, where the analysis zeroes them), and
+    /// `Some(None)` when it is proved but the Gram matrix it was folded into is too
+    /// ill-conditioned to give `R`; `None` when the proof fails (non-finite rows too).
     fn finish(&mut self, tol: f64) -> Option<Option<Matrix>> {
         self.flush();
         let b = self.basis.basis.len();
-        let rb = match &mut self.acc {
+        // The basis's columns' norms: from `R_B`, or from the Gram matrix's diagonal.
+        let (rb, norms) = match &mut self.acc {
             BasisSink::Qr(acc) => {
                 let mut rb = Matrix::zeros(0, 0);
                 acc.r_into(&mut rb);
-                Some(rb)
+                let norms = (0..b).map(|j| linalg::col_norm(&rb, j)).collect::<Vec<_>>();
+                (Some(rb), norms)
             }
             BasisSink::Gram(acc) => {
                 let mut gram = Matrix::zeros(0, 0);
                 acc.gram_into(&mut gram);
+                let norms = (0..b).map(|j| gram[(j, j)].max(0.0).sqrt()).collect();
                 let f = gram[(b, b)];
-                crate::solve::estimation::solver::augmented_from_gram(&gram, f)
+                (
+                    crate::solve::estimation::solver::augmented_from_gram(&gram, f),
+                    norms,
+                )
             }
         };
-        // A Gram matrix too ill-conditioned for `R_B`: the QR pass proves the dependence.
-        let Some(rb) = rb else {
-            return Some(None);
-        };
-        let largest = (0..b)
-            .map(|j| linalg::col_norm(&rb, j))
+        let largest = norms
+            .into_iter()
             .chain(self.norm.iter().map(|s| s.sqrt()))
             .fold(0.0, f64::max);
         let proved = self.off.iter().zip(&self.norm).all(|(&off, &norm)| {
             let (off, norm) = (off.sqrt(), norm.sqrt());
             off <= tol * norm || norm + off <= UNFELT * SLACK * largest
         });
-        proved.then_some(Some(rb))
+        if !proved {
+            return None;
+        }
+        // A Gram matrix too ill-conditioned for `R_B`: the QR pass gives it.
+        let Some(rb) = rb else {
+            return Some(None);
+        };
+        Some(Some(rb))
     }
 }
 

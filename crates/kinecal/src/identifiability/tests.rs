@@ -438,6 +438,10 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
         assert!(b.fold_all(&robot, &problem, &clamp, opts.rcond).is_some());
         // The basis of these arms is well conditioned: its R comes from the Gram matrix, and
         // gives the columns' inner products that the QR's R gives.
+        assert!(
+            b.gram,
+            "seed {seed}: the basis's condition on the subsample"
+        );
         let folded = |by| match b.fold_all_by(&robot, &problem, &clamp, opts.rcond, by) {
             Some(basis::Folded::Rows(rows)) => rows.raug,
             Some(basis::Folded::NeedsQr) => panic!("seed {seed}: {by:?} needs a QR"),
@@ -452,8 +456,9 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
 
 /// A basis that the rows determine only poorly (joint 6 moved within +-2e-5 rad: its offset
 /// and the tool link's roll nearly one column, though not within the rank tolerance) has a
-/// Gram matrix too ill-conditioned for its `R` (a condition above 1e4): the fold asks for a
-/// QR, and the analysis is then that of every row.
+/// Gram matrix too ill-conditioned for its `R` (a condition above 1e4): seen on the
+/// subsample, the basis is folded by QR at once; forced through the Gram matrix of all the
+/// rows, the fold asks for a QR. Either way the analysis is that of every row.
 #[test]
 fn an_ill_conditioned_basis_is_folded_by_qr() {
     let (robot, data) = random_arm_joint6(5, 1800, true, 2e-5);
@@ -463,8 +468,21 @@ fn an_ill_conditioned_basis_is_folded_by_qr() {
     let b = basis::Basis::of(&robot, &data.subset(&keep), &params, &opts)
         .unwrap()
         .unwrap();
+    assert!(
+        !b.gram,
+        "the basis's condition on the subsample is above 1e4"
+    );
     let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
     let clamp = base::row_clamp(&data, &problem);
+    let rows = b
+        .fold_all(&robot, &problem, &clamp, opts.rcond)
+        .expect("the basis's proof holds");
+    let mut acc = linalg::QrAccumulator::new(params.len() + 1, 512);
+    let mut r = vec![0.0; problem.rows()];
+    problem.evaluate_qr(&robot, &mut r, &mut acc);
+    let mut whole = Matrix::zeros(0, 0);
+    acc.r_into(&mut whole);
+    assert_same_inner_products(&rows.raug, &whole, 1e-11);
     assert!(matches!(
         b.fold_all_by(&robot, &problem, &clamp, opts.rcond, basis::Fold::Gram),
         Some(basis::Folded::NeedsQr)

@@ -194,8 +194,9 @@ pub(crate) fn check_result(
 
 /// RMS distance of points from their centroid.
 /// The spread of a set of points (the root mean square distance from their centroid), taken
-/// a point at a time (Welford's update of the mean and the sum of squared deviations: no
-/// cancellation however far the points are from the origin), so that no copy of the points is
+/// a point at a time (Welford's update of the mean and the sum of squared deviations: the sum
+/// is formed from deviations, not from the points' squares, so points far from the origin lose
+/// only the digits `p - mean` loses, as a two-pass sum does), so that no copy of the points is
 /// kept.
 #[derive(Clone, Copy, Default)]
 struct Spread {
@@ -390,10 +391,9 @@ mod tests {
 
     /// The running spread is the two-pass one (the centroid first, then the squared
     /// distances from it) for clouds near the origin and far from it, loose and tightly
-    /// packed, to what the points themselves carry: each coordinate is held to `eps` of the
-    /// offset, `eps * offset / size` of the spread, so both sums agree to `1e-12` plus ten
-    /// times twice that (a sum of squares doubles a relative error). A single point and a
-    /// repeated one have no spread at all.
+    /// packed: both form deviations `p - mean` rounded to `eps` of the offset, `eps * offset /
+    /// size` of the spread, so the sums agree to `1e-12` plus ten times twice that (a sum of
+    /// squares doubles a relative error). A single point and a repeated one have no spread.
     #[test]
     fn the_running_spread_is_the_two_pass_spread() {
         use rand::{RngExt, SeedableRng};

@@ -811,7 +811,7 @@ pub fn solve(
 
 /// The Jacobian's condition (of the column-scaled `R`, by the pivoted QR's diagonal) below
 /// which the Gram matrix is accurate enough to stand in for the QR.
-const GRAM_CONDITION: f64 = 1e4;
+pub(crate) const GRAM_CONDITION: f64 = 1e4;
 
 /// A linearisation: `R` (`n x n`), `z` and the objective, at one point.
 struct Linearization {
