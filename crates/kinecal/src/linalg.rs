@@ -427,19 +427,7 @@ impl GramAccumulator {
         if self.filled == 0 {
             return;
         }
-        let b = MatRef::from_row_major_slice(
-            &self.block[..self.filled * self.cols],
-            self.filled,
-            self.cols,
-        );
-        faer::linalg::matmul::matmul(
-            self.gram.as_mut(),
-            Accum::Add,
-            b.transpose(),
-            b,
-            1.0,
-            Par::Seq,
-        );
+        add_gram_of(&mut self.gram, &self.block, self.filled, self.cols);
         self.filled = 0;
     }
 
@@ -449,18 +437,9 @@ impl GramAccumulator {
     pub(crate) fn push_rows(&mut self, src: &[f64], rows: usize) {
         assert!(src.len() >= rows * self.cols);
         self.fold();
-        if rows == 0 {
-            return;
+        if rows > 0 {
+            add_gram_of(&mut self.gram, src, rows, self.cols);
         }
-        let b = MatRef::from_row_major_slice(&src[..rows * self.cols], rows, self.cols);
-        faer::linalg::matmul::matmul(
-            self.gram.as_mut(),
-            Accum::Add,
-            b.transpose(),
-            b,
-            1.0,
-            Par::Seq,
-        );
     }
 
     /// `A^T A` of all the rows pushed so far (`cols x cols`, symmetric), written to `out`.
@@ -468,6 +447,13 @@ impl GramAccumulator {
         self.fold();
         out.refill(self.cols, self.cols, |i, j| self.gram[(i, j)]);
     }
+}
+
+/// Adds `B^T B` to `gram`, `B` the first `rows` rows of the row-major block `block` (`cols`
+/// wide): a matrix product.
+fn add_gram_of(gram: &mut Mat<f64>, block: &[f64], rows: usize, cols: usize) {
+    let b = MatRef::from_row_major_slice(&block[..rows * cols], rows, cols);
+    faer::linalg::matmul::matmul(gram.as_mut(), Accum::Add, b.transpose(), b, 1.0, Par::Seq);
 }
 
 /// `d -= b c` on row-major blocks of `rows` rows: `d` (`rows x k`, row stride `k`) less `b`

@@ -936,6 +936,21 @@ mod tests {
     /// Goals, each with the readings that seed it (if any).
     type Goals = Vec<(Goal, Option<Vec<f64>>)>;
 
+    /// The poses `robot` reaches at `postures` as unseeded pose goals, then their positions
+    /// as unseeded position goals.
+    fn unseeded_pose_and_position_goals(robot: &Robot, postures: &[Vec<f64>]) -> Goals {
+        let reached = poses(robot, postures);
+        reached
+            .iter()
+            .map(|f| (Goal::Pose(*f), None))
+            .chain(
+                reached
+                    .iter()
+                    .map(|f| (Goal::Position(f.translation), None)),
+            )
+            .collect()
+    }
+
     /// `count` postures of `nominal` drawn with `seed` (their readings), and the poses they
     /// reach as seeded targets (each seeded by its own readings).
     fn seeded_targets(nominal: &Robot, count: usize, seed: u64) -> (Vec<Vec<f64>>, Goals) {
@@ -1062,16 +1077,7 @@ mod tests {
         for (arm, (nominal, seeded_fall, unseeded_fall)) in arms.into_iter().enumerate() {
             let (nominal, calibrated) = twin(nominal, 22);
             let (postures, seeded) = seeded_targets(&nominal, 200, 5);
-            let reached = poses(&calibrated, &postures);
-            let unseeded: Vec<(Goal, Option<Vec<f64>>)> = reached
-                .iter()
-                .map(|f| (Goal::Pose(*f), None))
-                .chain(
-                    reached
-                        .iter()
-                        .map(|f| (Goal::Position(f.translation), None)),
-                )
-                .collect();
+            let unseeded = unseeded_pose_and_position_goals(&calibrated, &postures);
             for (kind, goals, fall) in [
                 ("seeded", &seeded, seeded_fall),
                 ("unseeded", &unseeded, unseeded_fall),
@@ -1110,16 +1116,7 @@ mod tests {
         for (arm, nominal) in [random, irb120].into_iter().enumerate() {
             let (nominal, calibrated) = twin(nominal, 22);
             let (postures, seeded) = seeded_targets(&nominal, 200, 5);
-            let reached = poses(&calibrated, &postures);
-            let unseeded: Goals = reached
-                .iter()
-                .map(|f| (Goal::Pose(*f), None))
-                .chain(
-                    reached
-                        .iter()
-                        .map(|f| (Goal::Position(f.translation), None)),
-                )
-                .collect();
+            let unseeded = unseeded_pose_and_position_goals(&calibrated, &postures);
             for (kind, goals) in [("seeded", &seeded), ("unseeded", &unseeded)] {
                 let [(new, cost_new), (old, cost_old)] = [true, false].map(|reuse| {
                     let s = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
