@@ -33,7 +33,6 @@ use crate::linalg::{self, GramAccumulator, Matrix, QrAccumulator, RowSink, QR_BL
 use crate::model::params::ParamId;
 use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::solve::estimation::solver::GRAM_CONDITION;
 use crate::solve::problem::Problem;
 
 use super::base::{priority_order, select_base};
@@ -222,21 +221,11 @@ impl Basis {
                 coef[(l, i)] = if v.is_finite() { v } else { 0.0 };
             }
         }
-        // The basis's own R on the subsample, its columns scaled to unit norm: the pivoted QR's
-        // diagonal gives its condition, as the solver's test reads it.
-        let scaled = Matrix::from_fn(b, b, |i, j| {
-            let norm = t.col(j)[..=j].iter().map(|v| v * v).sum::<f64>().sqrt();
-            if norm > 0.0 {
-                t[(i, j)] / norm
-            } else {
-                0.0
-            }
-        });
-        let diag = linalg::PivotedQr::new(&scaled).diagonal();
-        let gram = match (diag.first(), diag.last()) {
-            (Some(first), Some(last)) => last.abs() * GRAM_CONDITION >= first.abs(),
-            _ => false,
-        };
+        // The basis's own R on the subsample, conditioned as the solver's test asks.
+        let gram =
+            crate::solve::estimation::solver::gram_conditioned(&Matrix::from_fn(b, b, |i, j| {
+                t[(i, j)]
+            }));
         Basis {
             basis,
             dependent,
@@ -257,13 +246,8 @@ impl Basis {
         clamp: &[f64],
         rcond: f64,
     ) -> Option<Rows> {
-        if !self.gram {
-            return match self.fold_all_by(robot, problem, clamp, rcond, Fold::Qr)? {
-                Folded::Rows(rows) => Some(rows),
-                Folded::NeedsQr => None,
-            };
-        }
-        match self.fold_all_by(robot, problem, clamp, rcond, Fold::Gram)? {
+        let by = if self.gram { Fold::Gram } else { Fold::Qr };
+        match self.fold_all_by(robot, problem, clamp, rcond, by)? {
             Folded::Rows(rows) => Some(rows),
             Folded::NeedsQr => match self.fold_all_by(robot, problem, clamp, rcond, Fold::Qr)? {
                 Folded::Rows(rows) => Some(rows),
@@ -449,11 +433,8 @@ impl<'a> BasisRows<'a> {
         if !proved {
             return None;
         }
-        // A Gram matrix too ill-conditioned for `R_B`: the QR pass gives it.
-        let Some(rb) = rb else {
-            return Some(None);
-        };
-        Some(Some(rb))
+        // `None` for a Gram matrix too ill-conditioned for `R_B`: the QR pass gives it.
+        Some(rb)
     }
 }
 

@@ -811,7 +811,7 @@ pub fn solve(
 
 /// The Jacobian's condition (of the column-scaled `R`, by the pivoted QR's diagonal) below
 /// which the Gram matrix is accurate enough to stand in for the QR.
-pub(crate) const GRAM_CONDITION: f64 = 1e4;
+const GRAM_CONDITION: f64 = 1e4;
 
 /// A linearisation: `R` (`n x n`), `z` and the objective, at one point.
 struct Linearization {
@@ -900,15 +900,12 @@ pub(crate) fn augmented_from_gram(gram: &Matrix, f: f64) -> Option<Matrix> {
     if !lin.set_from_gram(gram, f) {
         return None;
     }
-    let norms: Vec<f64> = (0..n).map(|j| linalg::col_norm(&lin.r, j)).collect();
-    let live: Vec<usize> = (0..n).filter(|&j| norms[j] > 0.0).collect();
-    // The live rows and columns (a dead column's row and column are zero), columns scaled.
-    let scaled = Matrix::from_fn(live.len(), live.len(), |a, b| {
-        lin.r[(live[a], live[b])] / norms[live[b]]
-    });
-    let diag = PivotedQr::new(&scaled).diagonal();
-    let (first, last) = (diag.first()?.abs(), diag.last()?.abs());
-    if last < first / GRAM_CONDITION {
+    let live: Vec<usize> = (0..n)
+        .filter(|&j| linalg::col_norm(&lin.r, j) > 0.0)
+        .collect();
+    // The live rows and columns (a dead column's row and column are zero).
+    let r = Matrix::from_fn(live.len(), live.len(), |a, b| lin.r[(live[a], live[b])]);
+    if !gram_conditioned(&r) {
         return None;
     }
     let explained: f64 = lin.z.iter().map(|z| z * z).sum();
@@ -918,6 +915,23 @@ pub(crate) fn augmented_from_gram(gram: &Matrix, f: f64) -> Option<Matrix> {
         (false, false) => (f - explained).max(0.0).sqrt(),
         (false, true) => 0.0,
     }))
+}
+
+/// Whether the upper-triangular `r` (square) is conditioned well enough for the Gram matrix to
+/// stand in for a QR: the pivoted QR's diagonal of its copy with columns scaled to unit norm
+/// spans less than `GRAM_CONDITION`. Not with no columns or a zero one.
+pub(crate) fn gram_conditioned(r: &Matrix) -> bool {
+    let k = r.ncols();
+    let norms: Vec<f64> = (0..k).map(|j| linalg::col_norm(r, j)).collect();
+    if norms.iter().any(|&v| v.is_nan() || v <= 0.0) {
+        return false;
+    }
+    let scaled = Matrix::from_fn(k, k, |i, j| r[(i, j)] / norms[j]);
+    let diag = PivotedQr::new(&scaled).diagonal();
+    match (diag.first(), diag.last()) {
+        (Some(first), Some(last)) => last.abs() >= first.abs() / GRAM_CONDITION,
+        _ => false,
+    }
 }
 
 /// Evaluates a problem into linearisations, by QR, or by the Gram matrix once that is known to
