@@ -33,6 +33,7 @@ mod analytic;
 mod configuration;
 mod reach;
 mod search;
+mod start_table;
 
 pub use configuration::{Configuration, Side};
 
@@ -709,8 +710,10 @@ fn cholesky_solve<const N: usize>(
     e: &Vector6<f64>,
     y: &mut Vector6<f64>,
 ) -> bool {
-    // Lower factor L (L L^T = A + mu I), row by row.
+    // Lower factor L (L L^T = A + mu I), row by row, with the reciprocals of its diagonal
+    // (one division per row: the rest multiply).
     let mut l = [[0.0f64; N]; N];
+    let mut inv = [0.0f64; N];
     for i in 0..N {
         for j in 0..=i {
             let mut sum = a[(i, j)] + if i == j { mu } else { 0.0 };
@@ -722,8 +725,9 @@ fn cholesky_solve<const N: usize>(
                     return false;
                 }
                 l[i][i] = sum.sqrt();
+                inv[i] = 1.0 / l[i][i];
             } else {
-                l[i][j] = sum / l[j][j];
+                l[i][j] = sum * inv[j];
             }
         }
     }
@@ -733,14 +737,14 @@ fn cholesky_solve<const N: usize>(
         for k in 0..i {
             sum -= l[i][k] * y[k];
         }
-        y[i] = sum / l[i][i];
+        y[i] = sum * inv[i];
     }
     for i in (0..N).rev() {
         let mut sum = y[i];
         for k in i + 1..N {
             sum -= l[k][i] * y[k];
         }
-        y[i] = sum / l[i][i];
+        y[i] = sum * inv[i];
     }
     true
 }

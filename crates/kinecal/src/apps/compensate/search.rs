@@ -63,6 +63,7 @@
 use super::analytic::Analytic;
 use super::configuration::Classifier;
 use super::reach::ReachBound;
+use super::start_table::StartTable;
 use super::{Compensator, Configuration, Flags, Goal, Options, Solved};
 use crate::error::Result;
 use crate::model::kinematics::{Target, Workspace};
@@ -93,11 +94,8 @@ pub struct TargetSearch<'r> {
     turn: Vec<Option<f64>>,
     /// Start postures, `STARTS` rows of `dof` readings.
     starts: Vec<f64>,
-    /// Per target frame: the start postures' frames, 12 numbers each (position, rotation),
-    /// stored number by number: `tables[t].1[c][i]` is number `c` of start `i`.
-    tables: Vec<(Target, [Vec<f64>; 12])>,
-    /// Each start's distance from the goal being looked up (one per start).
-    distances: Vec<f64>,
+    /// Per target frame: the start postures' frames, indexed by position.
+    tables: Vec<(Target, StartTable)>,
     classifier: Option<Classifier>,
     previous: Option<Vec<f64>>,
     reference: Vec<f64>,
@@ -177,7 +175,6 @@ impl<'r> TargetSearch<'r> {
             turn,
             starts,
             tables: Vec::new(),
-            distances: Vec::new(),
             classifier: None,
             previous: None,
             reference: vec![0.0; dof],
@@ -231,7 +228,7 @@ impl<'r> TargetSearch<'r> {
     /// of the table of starts, built once per target frame).
     #[cfg(test)]
     pub(crate) fn evaluations(&self) -> u64 {
-        self.comp.evaluations()
+        self.comp.evaluations
     }
 
     /// The configuration asked for, if any.
@@ -752,20 +749,16 @@ impl<'r> TargetSearch<'r> {
         }
         let dof = self.robot.dof();
         let starts = std::mem::take(&mut self.starts);
-        let mut table: [Vec<f64>; 12] = Default::default();
-        for r in starts.chunks_exact(dof) {
-            let k = self.frame_key(r, target);
-            for (column, x) in table.iter_mut().zip(k) {
-                column.push(x);
-            }
-        }
-        self.distances.resize(table[0].len(), 0.0);
+        let keys: Vec<[f64; 12]> = starts
+            .chunks_exact(dof)
+            .map(|r| self.frame_key(r, target))
+            .collect();
         self.starts = starts;
-        self.tables.push((target, table));
+        self.tables.push((target, StartTable::new(&keys)));
     }
 
     /// Fills `self.nearest` with the [`Self::ATTEMPTS`] starts nearest `goal` (for a seeded
-    /// goal [`Self::SEEDED_ATTEMPTS`]), nearest first.
+    /// goal [`Self::SEEDED_ATTEMPTS`]), nearest first (ties by start index).
     fn find_nearest(&mut self, goal: &Goal, target: Target) {
         self.ensure_table(target);
         let table = &self
@@ -774,48 +767,14 @@ impl<'r> TargetSearch<'r> {
             .find(|(t, _)| *t == target)
             .expect("built")
             .1;
-        let reach2 = self.comp.reach * self.comp.reach;
-        self.nearest.clear();
         // A seeded goal tries no more than its few nearest: only those are kept.
         let keep = if self.seeded {
             Self::SEEDED_ATTEMPTS
         } else {
             Self::ATTEMPTS
         };
-        // Every start's distance first, in one pass over the table number by number (the
-        // same operations, in the same order, as `key_distance`: the same distances to the
-        // bit), then the nearest kept in index order.
-        let n = table[0].len();
-        let distances = &mut self.distances[..n];
-        let (x, y, z) = (&table[0][..n], &table[1][..n], &table[2][..n]);
-        let p = match goal {
-            Goal::Position(p) => p,
-            Goal::Pose(g) => &g.translation,
-        };
-        for (i, d) in distances.iter_mut().enumerate() {
-            *d = (p.x - x[i]).powi(2) + (p.y - y[i]).powi(2) + (p.z - z[i]).powi(2);
-        }
-        if let Goal::Pose(g) = goal {
-            let r = g.rotation.as_slice();
-            let c: [&[f64]; 9] = std::array::from_fn(|k| &table[3 + k][..n]);
-            for (i, d) in distances.iter_mut().enumerate() {
-                let mut trace = 0.0;
-                for k in 0..9 {
-                    trace += r[k] * c[k][i];
-                }
-                *d += reach2 * (3.0 - trace);
-            }
-        }
-        for (i, &d) in self.distances[..n].iter().enumerate() {
-            if self.nearest.len() == keep {
-                if d >= self.nearest[keep - 1].0 {
-                    continue;
-                }
-                self.nearest.pop();
-            }
-            let at = self.nearest.partition_point(|&(e, _)| e <= d);
-            self.nearest.insert(at, (d, i as u32));
-        }
+        let reach2 = self.comp.reach * self.comp.reach;
+        table.nearest(goal, reach2, keep, &mut self.nearest);
     }
 
     /// The squared task distance from the frame `target` has at `readings` to `goal`.

@@ -1,0 +1,374 @@
+//! The table of start postures' target frames, and the lookup of the starts nearest a goal.
+//!
+//! Nearness is the task distance of [`super::search`]: the squared position distance (m^2),
+//! plus, for a pose goal, `reach^2 (3 - tr(R_goal^T R))` (`reach^2 theta^2` to second order in
+//! the attitude angle `theta`). The starts are kept in a uniform grid of cubic cells over their
+//! positions' bounding box (about four starts to a cell of the box), stored cell by cell. A
+//! position goal's lookup visits the cells in rings of growing Chebyshev distance from the
+//! goal's cell and stops once the last of the starts it keeps is nearer than any cell not yet
+//! visited can be. A pose goal's looks at every start in one pass: its attitude's part
+//! dominates the distance, so that the rings would end only after nearly every cell. Either
+//! returns the starts a scan of the whole table in index order returns: the `keep` smallest by
+//! (distance, start index), each distance worked out by the same operations in the same order.
+
+use super::Goal;
+
+/// Starts per cell the grid is sized for, over its bounding box.
+const PER_CELL: f64 = 4.0;
+/// Most cells along an axis.
+const MOST_CELLS: usize = 64;
+
+/// The target frames of a table of start postures, indexed by position.
+pub(crate) struct StartTable {
+    /// Per entry, in cell order: the position (m), then the rotation's columns; stored number
+    /// by number: `columns[c][e]` is number `c` of entry `e`.
+    columns: [Vec<f64>; 12],
+    /// Per entry: the start's index in the table of postures.
+    index: Vec<u32>,
+    /// The entries of cell `c` are `offsets[c]..offsets[c + 1]`; cells x fastest, then y, z.
+    offsets: Vec<u32>,
+    /// The grid's lowest corner (m).
+    origin: [f64; 3],
+    /// The cells' edge (m).
+    cell: f64,
+    /// Cells along x, y, z.
+    dims: [usize; 3],
+}
+
+impl StartTable {
+    /// The table of the frames `keys` (position, then the rotation's columns), start `i` the
+    /// `i`-th.
+    pub(crate) fn new(keys: &[[f64; 12]]) -> Self {
+        let n = keys.len();
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for k in keys {
+            for a in 0..3 {
+                // `min`/`max` pass over a NaN: a start whose frame is not finite lands in a
+                // border cell and is still looked at when the ring reaches it.
+                lo[a] = lo[a].min(k[a]);
+                hi[a] = hi[a].max(k[a]);
+            }
+        }
+        if n == 0 || lo.iter().chain(&hi).any(|v| !v.is_finite()) {
+            lo = [0.0; 3];
+            hi = [0.0; 3];
+        }
+        let extent: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+        let widest = extent.iter().cloned().fold(0.0, f64::max);
+        let volume: f64 = extent.iter().product();
+        let cells = (n as f64 / PER_CELL).max(1.0);
+        // A flat or straight workspace (no volume) is cut by its widest extent.
+        let cell = (volume / cells)
+            .cbrt()
+            .max(widest / MOST_CELLS as f64)
+            .max(widest / cells.sqrt())
+            .max(1e-9);
+        let dims = extent.map(|e| ((e / cell).floor() as usize + 1).min(MOST_CELLS));
+        let mut table = StartTable {
+            columns: Default::default(),
+            index: Vec::with_capacity(n),
+            offsets: vec![0; dims[0] * dims[1] * dims[2] + 1],
+            origin: lo,
+            cell,
+            dims,
+        };
+        let homes: Vec<usize> = keys.iter().map(|k| table.home(k)).collect();
+        for &h in &homes {
+            table.offsets[h + 1] += 1;
+        }
+        for c in 1..table.offsets.len() {
+            table.offsets[c] += table.offsets[c - 1];
+        }
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        order.sort_by_key(|&i| (homes[i as usize], i));
+        for &i in &order {
+            table.index.push(i);
+            for (column, x) in table.columns.iter_mut().zip(keys[i as usize]) {
+                column.push(x);
+            }
+        }
+        table
+    }
+
+    /// The cell coordinate of `x` along axis `a`, clamped to the grid.
+    fn coordinate(&self, a: usize, x: f64) -> usize {
+        let c = ((x - self.origin[a]) / self.cell).floor();
+        // A NaN, or a position below the grid, is cell 0 (`as` saturates).
+        (c.max(0.0) as usize).min(self.dims[a] - 1)
+    }
+
+    /// The cell holding position `k[..3]`.
+    fn home(&self, k: &[f64]) -> usize {
+        let [x, y, z] = [0, 1, 2].map(|a| self.coordinate(a, k[a]));
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+
+    /// Fills `out` with the `keep` starts nearest `goal`, nearest first, as `(squared task
+    /// distance, start index)`; `reach2` weighs the attitude (m^2 per unit of `3 - trace`).
+    pub(crate) fn nearest(&self, goal: &Goal, reach2: f64, keep: usize, out: &mut Vec<(f64, u32)>) {
+        out.clear();
+        if keep == 0 || self.index.is_empty() {
+            return;
+        }
+        let p = match goal {
+            Goal::Position(p) => p,
+            Goal::Pose(g) => &g.translation,
+        };
+        let p = [p.x, p.y, p.z];
+        if let Goal::Pose(_) = goal {
+            // The attitude's part of the distance dominates (the starts nearest in position
+            // are seldom nearest in attitude): the rings would visit nearly every cell, one by
+            // one; the whole table in one pass costs less.
+            let cells = self.offsets.len() - 1;
+            self.scan(0, cells, goal, &p, reach2, keep, out);
+            return;
+        }
+        let home = [0, 1, 2].map(|a| self.coordinate(a, p[a]));
+        let [nx, ny, nz] = self.dims;
+        let rings = nx.max(ny).max(nz);
+        for r in 0..rings {
+            // The cells at Chebyshev distance `r` from the goal's cell.
+            let span = |a: usize| {
+                let lo = home[a].saturating_sub(r);
+                let hi = (home[a] + r).min(self.dims[a] - 1);
+                (lo, hi)
+            };
+            let ((x0, x1), (y0, y1), (z0, z1)) = (span(0), span(1), span(2));
+            for z in z0..=z1 {
+                let z_on = z.abs_diff(home[2]) == r;
+                for y in y0..=y1 {
+                    let yz_on = z_on || y.abs_diff(home[1]) == r;
+                    let row = self.dims[0] * (y + self.dims[1] * z);
+                    if yz_on {
+                        self.scan(row + x0, row + x1 + 1, goal, &p, reach2, keep, out);
+                    } else {
+                        // Inside the ring along y and z (so r > 0): only its two x ends.
+                        if home[0] >= r {
+                            let x = row + home[0] - r;
+                            self.scan(x, x + 1, goal, &p, reach2, keep, out);
+                        }
+                        if home[0] + r < nx {
+                            let x = row + home[0] + r;
+                            self.scan(x, x + 1, goal, &p, reach2, keep, out);
+                        }
+                    }
+                }
+            }
+            // How near a cell outside the rings visited can be: the nearest face of their
+            // block that does not lie on the grid's border.
+            let mut bound = f64::INFINITY;
+            for a in 0..3 {
+                if home[a] >= r + 1 {
+                    let face = self.origin[a] + (home[a] - r) as f64 * self.cell;
+                    bound = bound.min(p[a] - face);
+                }
+                if home[a] + r + 1 < self.dims[a] {
+                    let face = self.origin[a] + (home[a] + r + 1) as f64 * self.cell;
+                    bound = bound.min(face - p[a]);
+                }
+            }
+            if bound == f64::INFINITY {
+                break;
+            }
+            if out.len() == keep {
+                // Less a margin for the rounding of the cells' assignment.
+                let b = (bound - 1e-9 * self.cell).max(0.0);
+                // NaN distances (a goal that is not finite) never prove the search done.
+                if b * b > out[keep - 1].0 {
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Looks at the entries of cells `from..to` (one row of cells), keeping the nearest in
+    /// `out` (at most `keep`, by distance then start index).
+    fn scan(
+        &self,
+        from: usize,
+        to: usize,
+        goal: &Goal,
+        p: &[f64; 3],
+        reach2: f64,
+        keep: usize,
+        out: &mut Vec<(f64, u32)>,
+    ) {
+        let (a, b) = (self.offsets[from] as usize, self.offsets[to] as usize);
+        // The distances of a chunk first, number by number (loops the compiler vectorises),
+        // then the nearest kept.
+        const CHUNK: usize = 64;
+        let mut d = [0.0f64; CHUNK];
+        let mut start = a;
+        while start < b {
+            let end = (start + CHUNK).min(b);
+            let m = end - start;
+            let d = &mut d[..m];
+            let [x, y, z] = [0, 1, 2].map(|c| &self.columns[c][start..end]);
+            for e in 0..m {
+                // The same operations in the same order as a scan of the whole table.
+                d[e] = (p[0] - x[e]).powi(2) + (p[1] - y[e]).powi(2) + (p[2] - z[e]).powi(2);
+            }
+            if let Goal::Pose(g) = goal {
+                let r = g.rotation.as_slice();
+                let c: [&[f64]; 9] = std::array::from_fn(|k| &self.columns[3 + k][start..end]);
+                for e in 0..m {
+                    let mut trace = 0.0;
+                    for k in 0..9 {
+                        trace += r[k] * c[k][e];
+                    }
+                    d[e] += reach2 * (3.0 - trace);
+                }
+            }
+            for (e, &d) in d.iter().enumerate() {
+                let i = self.index[start + e];
+                if out.len() == keep {
+                    // Not before the last kept (NaN: never kept once the list is full).
+                    let (w, j) = out[keep - 1];
+                    if !(d < w || (d == w && i < j)) {
+                        continue;
+                    }
+                    out.pop();
+                }
+                let at = out.partition_point(|&(f, j)| f < d || (f == d && j < i));
+                out.insert(at, (d, i));
+            }
+            start = end;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::kinematics::Frame;
+    use nalgebra::{Matrix3, Rotation3, Vector3};
+    use rand::{RngExt, SeedableRng};
+
+    /// The whole table scanned in index order: the `keep` smallest by (distance, index).
+    fn scanned(keys: &[[f64; 12]], goal: &Goal, reach2: f64, keep: usize) -> Vec<(f64, u32)> {
+        let mut all: Vec<(f64, u32)> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, k)| {
+                let (p, att) = match goal {
+                    Goal::Position(p) => (p, 0.0),
+                    Goal::Pose(g) => {
+                        let r = g.rotation.as_slice();
+                        let trace: f64 = (0..9).fold(0.0, |t, c| t + r[c] * k[3 + c]);
+                        (&g.translation, reach2 * (3.0 - trace))
+                    }
+                };
+                let d = (p.x - k[0]).powi(2) + (p.y - k[1]).powi(2) + (p.z - k[2]).powi(2);
+                (
+                    if matches!(goal, Goal::Pose(_)) {
+                        d + att
+                    } else {
+                        d
+                    },
+                    i as u32,
+                )
+            })
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all.truncate(keep);
+        all
+    }
+
+    fn rotation(rng: &mut impl rand::Rng) -> Matrix3<f64> {
+        let v = Vector3::new(
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-3.0..3.0),
+        );
+        *Rotation3::new(v).matrix()
+    }
+
+    /// The grid's lookup returns exactly what a scan of the whole table returns (the same
+    /// starts, order and distances to the bit), for position and pose goals inside, at the
+    /// border of and far outside the starts' box, with ties (starts repeated), on a workspace
+    /// that fills a ball, one that is flat (a planar arm) and one that is a single point.
+    #[test]
+    fn the_grid_finds_what_a_scan_of_the_whole_table_finds() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let ball = |rng: &mut rand_chacha::ChaCha8Rng| {
+            let mut k = [0.0; 12];
+            loop {
+                let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.3..1.3));
+                if v.iter().map(|x| x * x).sum::<f64>() < 1.69 {
+                    k[..3].copy_from_slice(&v);
+                    break;
+                }
+            }
+            k[3..].copy_from_slice(rotation(rng).as_slice());
+            k
+        };
+        let flat = |rng: &mut rand_chacha::ChaCha8Rng| {
+            let mut k = ball(rng);
+            k[2] = 0.4;
+            k
+        };
+        let point = |rng: &mut rand_chacha::ChaCha8Rng| {
+            let mut k = ball(rng);
+            k[..3].copy_from_slice(&[0.1, -0.2, 0.3]);
+            k
+        };
+        let makers: [&dyn Fn(&mut rand_chacha::ChaCha8Rng) -> [f64; 12]; 3] =
+            [&ball, &flat, &point];
+        for make in makers {
+            for n in [1, 7, 300, 4096] {
+                let mut keys: Vec<[f64; 12]> = (0..n).map(|_| make(&mut rng)).collect();
+                // Ties: some starts twice.
+                for i in (0..n).step_by(5) {
+                    keys.push(keys[i]);
+                }
+                let table = StartTable::new(&keys);
+                let mut out = Vec::new();
+                for q in 0..200 {
+                    let scale = [0.5, 1.0, 1.5, 10.0][q % 4];
+                    let p = Vector3::from_fn(|_, _| scale * rng.random_range(-1.3..1.3));
+                    // Some goals exactly at a start.
+                    let at = (q % 7 == 0).then(|| keys[q % keys.len()]);
+                    let p = at.map_or(p, |k| Vector3::new(k[0], k[1], k[2]));
+                    let goals = [
+                        Goal::Position(p),
+                        Goal::Pose(Frame {
+                            rotation: at.map_or_else(
+                                || rotation(&mut rng),
+                                |k| Matrix3::from_column_slice(&k[3..]),
+                            ),
+                            translation: p,
+                        }),
+                    ];
+                    for goal in &goals {
+                        for keep in [1, 8, 32] {
+                            let reach2 = 1.69;
+                            table.nearest(goal, reach2, keep, &mut out);
+                            let expected = scanned(&keys, goal, reach2, keep);
+                            assert_eq!(out.len(), expected.len());
+                            for (a, b) in out.iter().zip(&expected) {
+                                assert_eq!(a.1, b.1, "n {n}, goal {q}, keep {keep}");
+                                assert_eq!(a.0.to_bits(), b.0.to_bits());
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// A goal that is not finite gets starts and no panic.
+    #[test]
+    fn a_goal_that_is_not_finite_is_looked_up_without_a_panic() {
+        let keys = vec![[0.0; 12], [1.0; 12]];
+        let table = StartTable::new(&keys);
+        let mut out = Vec::new();
+        table.nearest(
+            &Goal::Position(Vector3::new(f64::NAN, 0.0, f64::INFINITY)),
+            1.0,
+            2,
+            &mut out,
+        );
+        assert_eq!(out.len(), 2);
+    }
+}
