@@ -308,18 +308,23 @@ pub(super) fn row_clamp(data: &Dataset, problem: &Problem<'_>) -> Vec<f64> {
         }
     }
     let weight = |i: usize| 1.0 / sigma[i];
-    let median = |q: RowQuantity| -> f64 {
-        let mut w: Vec<f64> = (0..sigma.len())
-            .filter(|&i| quantity.get(i) == Some(&q))
-            .map(weight)
-            .collect();
+    // The weights of the length rows and of the angle rows, in one pass.
+    let (mut lengths, mut angles) = (Vec::new(), Vec::new());
+    for (i, q) in quantity.iter().enumerate().take(sigma.len()) {
+        match q {
+            RowQuantity::Length => lengths.push(weight(i)),
+            RowQuantity::Angle => angles.push(weight(i)),
+            _ => {}
+        }
+    }
+    let median = |mut w: Vec<f64>| -> f64 {
         if w.is_empty() {
             return f64::INFINITY;
         }
         let k = (w.len() - 1) / 2;
         *w.select_nth_unstable_by(k, f64::total_cmp).1
     };
-    let (length, angle) = (median(RowQuantity::Length), median(RowQuantity::Angle));
+    let (length, angle) = (median(lengths), median(angles));
     (0..sigma.len())
         .map(|i| {
             let med = match quantity.get(i) {

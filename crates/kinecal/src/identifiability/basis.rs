@@ -36,7 +36,7 @@ use crate::observe::Dataset;
 use crate::solve::problem::Problem;
 
 use super::base::{priority_order, select_base};
-use super::spectrum::{Rows, Scaled, Spectrum, TypicalRowTally};
+use super::spectrum::{Rows, Scaled, Spectrum};
 use super::AnalysisOptions;
 
 /// Subsample groups of postures per analysed parameter: a subsample 4 `n` groups deep has at
@@ -67,13 +67,7 @@ const UNFELT: f64 = 1e-12;
 /// first observation; of each key's groups, evenly spaced ones in file order (every sweep of
 /// sweep data), in proportion to the key's share and at least [`FLOOR_PER_PARAMETER`] `n`.
 pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
-    let groups = data.posture_groups();
-    let mut group_of = vec![usize::MAX; data.postures.len()];
-    for (g, members) in groups.iter().enumerate() {
-        for &p in members {
-            group_of[p] = g;
-        }
-    }
+    let (group_of, groups) = data.posture_group_of();
     type Key<'d> = (
         Option<&'d str>,
         &'static str,
@@ -81,11 +75,11 @@ pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
     );
     let mut keys: Vec<Key<'_>> = Vec::new();
     let mut by_key: Vec<Vec<usize>> = Vec::new();
-    let mut keyed = vec![false; groups.len()];
+    let mut keyed = vec![false; groups];
     for o in &data.observations {
         let view = &o.views()[0];
         let g = group_of[view.posture];
-        if g == usize::MAX || keyed[g] {
+        if keyed[g] {
             continue;
         }
         keyed[g] = true;
@@ -107,19 +101,17 @@ pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
     let total: usize = by_key.iter().map(Vec::len).sum();
     let target = GROUPS_PER_PARAMETER * n;
     let floor = FLOOR_PER_PARAMETER * n;
-    let mut keep = vec![false; data.postures.len()];
+    let mut chosen = vec![false; groups];
     let mut kept = 0;
     for gs in &by_key {
         let c = gs.len();
         let want = (target * c).div_ceil(total.max(1)).max(floor.min(c)).min(c);
         for i in 0..want {
-            for &p in &groups[gs[i * c / want]] {
-                keep[p] = true;
-            }
+            chosen[gs[i * c / want]] = true;
         }
         kept += want;
     }
-    (kept * MAX_SHARE <= total).then_some(keep)
+    (kept * MAX_SHARE <= total).then(|| group_of.iter().map(|&g| chosen[g]).collect())
 }
 
 /// The rows of `problem` (over `params`, ascending) folded through a basis found on a
@@ -248,9 +240,9 @@ impl Basis {
     ) -> Option<Rows> {
         let by = if self.gram { Fold::Gram } else { Fold::Qr };
         match self.fold_all_by(robot, problem, clamp, rcond, by)? {
-            Folded::Rows(rows) => Some(rows),
+            Folded::Rows(rows) => Some(*rows),
             Folded::NeedsQr => match self.fold_all_by(robot, problem, clamp, rcond, Fold::Qr)? {
-                Folded::Rows(rows) => Some(rows),
+                Folded::Rows(rows) => Some(*rows),
                 Folded::NeedsQr => None,
             },
         }
@@ -267,25 +259,26 @@ impl Basis {
         by: Fold,
     ) -> Option<Folded> {
         let n = self.n;
-        let mut sink = BasisRows::new(self, by);
-        let mut tally = TypicalRowTally {
-            acc: &mut sink,
-            clamp,
-            row: 0,
-            sums: vec![0.0; n],
-        };
+        let mut sink = BasisRows::new(self, by, clamp);
         let mut r = vec![0.0; problem.rows()];
-        let accuracy = problem.evaluate_rows_checked(robot, &mut r, &mut tally).1;
-        let sums = std::mem::take(&mut tally.sums);
+        let (_, accuracy, errors) = problem.evaluate_rows_kept(robot, &mut r, &mut sink);
         let Some(rb) = sink.finish(rcond * SLACK)? else {
             return Some(Folded::NeedsQr);
         };
+        // The typical-row sums back in the columns' order.
+        let mut sums = vec![0.0; n];
+        for (&j, &s) in self.basis.iter().zip(&sink.typical_b) {
+            sums[j] = s;
+        }
+        for (&j, &s) in self.dependent.iter().zip(&sink.typical_d) {
+            sums[j] = s;
+        }
         let mf = problem.rows().max(1) as f64;
-        Some(Folded::Rows(Rows {
+        Some(Folded::Rows(Box::new(Rows {
             raug: self.rebuild(&rb),
             typical: Some(sums.iter().map(|s| (s / mf).sqrt()).collect()),
-            accuracy: Some(accuracy),
-        }))
+            accuracy: Some((accuracy, errors)),
+        })))
     }
 
     /// The `R` of `[J | r]` (`(n + 1)` square) from `rb`, the `R` of `[J_B | r]`:
@@ -327,7 +320,7 @@ pub(super) enum Fold {
 
 /// What [`Basis::fold_all_by`] found (when the proof held).
 pub(super) enum Folded {
-    Rows(Rows),
+    Rows(Box<Rows>),
     /// The Gram matrix was too ill-conditioned for `R_B`: fold again by QR.
     NeedsQr,
 }
@@ -340,10 +333,20 @@ enum BasisSink {
 
 /// The sink of [`Basis::fold_all`]: rows gathered in row-major blocks, `[J_B | r]` and `J_D`;
 /// each block's `[J_B | r]` folded into a Gram matrix or a QR, and its `J_D` and
-/// `J_D - J_B C` summed up in squares per column.
+/// `J_D - J_B C` summed up in squares per column, and the typical-row sums tallied (each
+/// column's clamped squares, row after row: the sums [`super::spectrum::TypicalRowTally`]
+/// makes, to the bit).
 struct BasisRows<'a> {
     basis: &'a Basis,
     acc: BasisSink,
+    /// Each row's clamp factor (1 beyond its end).
+    clamp: &'a [f64],
+    /// The rows pushed so far (the block's last).
+    row: usize,
+    /// Per basis column, the sum of its clamped squares...
+    typical_b: Vec<f64>,
+    /// ...and per dependent column.
+    typical_d: Vec<f64>,
     /// `[J_B | r]` of the block's rows, row-major (`b + 1` wide).
     block_b: Vec<f64>,
     /// `J_D` of the block's rows, row-major (`k` wide).
@@ -356,7 +359,7 @@ struct BasisRows<'a> {
 }
 
 impl<'a> BasisRows<'a> {
-    fn new(basis: &'a Basis, by: Fold) -> Self {
+    fn new(basis: &'a Basis, by: Fold, clamp: &'a [f64]) -> Self {
         let (b, k) = (basis.basis.len(), basis.dependent.len());
         BasisRows {
             basis,
@@ -364,6 +367,10 @@ impl<'a> BasisRows<'a> {
                 Fold::Gram => BasisSink::Gram(GramAccumulator::new(b + 1, 1)),
                 Fold::Qr => BasisSink::Qr(QrAccumulator::new(b + 1, QR_BLOCK.max(b + 1))),
             },
+            clamp,
+            row: 0,
+            typical_b: vec![0.0; b],
+            typical_d: vec![0.0; k],
             block_b: vec![0.0; QR_BLOCK * (b + 1)],
             block_d: vec![0.0; QR_BLOCK * k],
             filled: 0,
@@ -382,16 +389,32 @@ impl<'a> BasisRows<'a> {
             BasisSink::Gram(acc) => acc.push_rows(&self.block_b, f),
             BasisSink::Qr(acc) => acc.push_rows(&self.block_b, f, w),
         }
-        let squares = |sums: &mut [f64], block: &[f64]| {
-            for row in block[..f * k].chunks_exact(k) {
-                for (s, &v) in sums.iter_mut().zip(row) {
-                    *s += v * v;
-                }
+        // Before the product overwrites `J_D`: the typical-row sums and `J_D`'s squares.
+        let first = self.row - f;
+        let b = w - 1;
+        for i in 0..f {
+            let c = self.clamp.get(first + i).copied().unwrap_or(1.0);
+            for (s, &v) in self
+                .typical_b
+                .iter_mut()
+                .zip(&self.block_b[i * w..i * w + b])
+            {
+                let v = v * c;
+                *s += v * v;
             }
-        };
-        squares(&mut self.norm, &self.block_d);
+            let d = &self.block_d[i * k..(i + 1) * k];
+            for ((s, n), &v) in self.typical_d.iter_mut().zip(&mut self.norm).zip(d) {
+                *n += v * v;
+                let v = v * c;
+                *s += v * v;
+            }
+        }
         linalg::sub_product_row_major(&mut self.block_d, &self.block_b, w, &self.basis.coef, f);
-        squares(&mut self.off, &self.block_d);
+        for row in self.block_d[..f * k].chunks_exact(k) {
+            for (s, &v) in self.off.iter_mut().zip(row) {
+                *s += v * v;
+            }
+        }
         self.filled = 0;
     }
 
@@ -455,5 +478,6 @@ impl RowSink for BasisRows<'_> {
             *x = row[j];
         }
         self.filled += 1;
+        self.row += 1;
     }
 }

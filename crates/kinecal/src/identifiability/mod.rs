@@ -412,11 +412,12 @@ fn analyze_with(
     warnings.extend(euler_singular.iter().map(|frame| Warning::EulerSingular {
         frame: frame.clone(),
     }));
-    let lin = rows.accuracy.map(|accuracy| Linearized {
+    let lin = rows.accuracy.map(|(accuracy, errors)| Linearized {
         params: params.clone(),
         r: rows.raug,
         typical_row: set.typical.clone(),
         accuracy,
+        errors,
     });
     let analysis = Analysis {
         expected: expected_rank(robot, data, &params),

@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::linalg::{self, Matrix, QrAccumulator, RowSink, QR_BLOCK};
 use crate::model::params::ParamId;
 use crate::model::robot::Robot;
-use crate::observe::{Accuracy, Dataset, RowQuantity};
+use crate::observe::{Accuracy, Dataset, KeptErrors, RowQuantity};
 use crate::solve::problem::Problem;
 use crate::warning::Warning;
 
@@ -17,8 +17,8 @@ pub(super) struct Rows {
     pub(crate) raug: Matrix,
     /// `e_j` per parameter ([`super::Analysis::typical_row`]), when the rows were at hand.
     pub typical: Option<Vec<f64>>,
-    /// The accuracy at the rows, when they were evaluated.
-    pub accuracy: Option<Accuracy>,
+    /// The accuracy at the rows, and each observation's error, when they were evaluated.
+    pub accuracy: Option<(Accuracy, KeptErrors)>,
 }
 
 /// The rows of `problem` folded into the `R` of a QR, a block at a time, or `known` (an `R`
@@ -65,7 +65,7 @@ pub(super) fn rows(
                 row: 0,
                 sums: vec![0.0; n],
             };
-            let accuracy = problem.evaluate_rows_checked(robot, &mut r, &mut tally).1;
+            let (_, accuracy, errors) = problem.evaluate_rows_kept(robot, &mut r, &mut tally);
             let mf = m.max(1) as f64;
             let typical = tally.sums.iter().map(|s| (s / mf).sqrt()).collect();
             let mut raug = Matrix::zeros(0, 0);
@@ -73,7 +73,7 @@ pub(super) fn rows(
             Ok(Rows {
                 raug,
                 typical: Some(typical),
-                accuracy: Some(accuracy),
+                accuracy: Some((accuracy, errors)),
             })
         }
     }

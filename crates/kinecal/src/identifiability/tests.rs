@@ -449,9 +449,59 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
         };
         let (gram, qr) = (folded(basis::Fold::Gram), folded(basis::Fold::Qr));
         assert_same_inner_products(&gram, &qr, 1e-12);
+        // The fold tallies the typical-row sums and keeps the accuracy and each observation's
+        // error as the pass of the whole rows does (`TypicalRowTally`), to the bit.
+        let whole = spectrum::rows(&robot, &problem, &clamp, None, params.len()).unwrap();
+        let Some(basis::Folded::Rows(rows)) =
+            b.fold_all_by(&robot, &problem, &clamp, opts.rcond, basis::Fold::Gram)
+        else {
+            panic!("seed {seed}: the fold");
+        };
+        assert_eq!(rows.typical, whole.typical, "seed {seed}");
+        assert!(rows.accuracy.is_some());
+        assert_eq!(rows.accuracy, whole.accuracy, "seed {seed}");
         let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
         assert_same_analysis(&robot, &data, &params, &lin);
     }
+}
+
+/// A fit that starts at the analysis's linearisation reports the errors at its start from
+/// the analysis's pass, not a pass of its own: those of every observation, each within 1e-14
+/// (m, rad) of a separate pass's, which takes the joint angles' sines from the dataset's table
+/// (the same errors but for the rounding of coordinates about 1 m: 2.2e-16 m each).
+#[test]
+fn a_fit_from_the_linearisation_keeps_its_errors() {
+    use crate::solve::estimation::{calibrate_from, CalibrationOptions};
+    let (mut robot, data) = random_arm(1, 1800, true, 0);
+    // Away from the robot that measured the data (every error non-zero): a link length and a
+    // joint offset changed by 1 mm and 1 mrad.
+    let params: Vec<ParamId> = robot.param_ids().collect();
+    for (id, by) in [
+        (ParamId(6), 1e-3),
+        (robot.param_id(ParamKind::Offset { joint: 0 }), 1e-3),
+    ] {
+        robot.set(id, robot.get(id) + by);
+    }
+    let opts = AnalysisOptions::default();
+    let (an, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
+    let fit = CalibrationOptions::new(an.identifiable.clone());
+    let cal = calibrate_from(&robot, &data, &fit, &mut |_| {}, Some(&lin)).unwrap();
+    assert_eq!(cal.errors_before.as_ref(), Some(&lin.errors));
+    let n = data.observations.len();
+    let kept = lin
+        .errors
+        .for_robot(&robot, n)
+        .expect("errors at the robot");
+    let fresh = crate::observe::errors(&robot, &data);
+    assert_eq!(kept.len(), fresh.len());
+    for (k, f) in kept.iter().zip(&fresh) {
+        assert_eq!(k.metric, f.metric);
+        assert!((k.length - f.length).abs() <= 1e-14, "{k:?} vs {f:?}");
+        let (ka, fa) = (k.angle.unwrap(), f.angle.unwrap());
+        assert!((ka - fa).abs() <= 1e-14, "{k:?} vs {f:?}");
+    }
+    // Not the calibrated robot's: those the report computes.
+    assert!(lin.errors.for_robot(&cal.calibrated, n).is_none());
 }
 
 /// A basis that the rows determine only poorly (joint 6 moved within +-2e-5 rad: its offset
@@ -537,11 +587,13 @@ fn a_subsample_that_lost_rank_fails_its_proof() {
         } else {
             kept += 1;
             let rows = folded.expect("a basis of full rank passes");
+            let (accuracy, errors) = rows.accuracy.unwrap();
             let lin = Linearized {
                 params: params.clone(),
                 r: rows.raug,
                 typical_row: rows.typical.unwrap(),
-                accuracy: rows.accuracy.unwrap(),
+                accuracy,
+                errors,
             };
             assert_same_analysis(&robot, &data, &params, &lin);
         }

@@ -557,6 +557,17 @@ impl Dataset {
     /// Groups of postures that must stay together when data is split (postures linked by an
     /// observation, such as the two ends of a distance), in order of their first posture.
     pub(crate) fn posture_groups(&self) -> Vec<Vec<usize>> {
+        let (group_of, count) = self.posture_group_of();
+        let mut groups: Vec<Vec<usize>> = vec![Vec::new(); count];
+        for (p, &g) in group_of.iter().enumerate() {
+            groups[g].push(p);
+        }
+        groups
+    }
+
+    /// The groups of [`Dataset::posture_groups`] as each posture's group (numbered in the
+    /// same order), and their number: no list per group.
+    pub(crate) fn posture_group_of(&self) -> (Vec<usize>, usize) {
         let n = self.postures.len();
         let mut parent: Vec<usize> = (0..n).collect();
         fn root(parent: &mut [usize], mut i: usize) -> usize {
@@ -578,17 +589,18 @@ impl Dataset {
                 }
             }
         }
-        let mut groups: Vec<Vec<usize>> = Vec::new();
         let mut index = vec![usize::MAX; n];
-        for p in 0..n {
+        let mut group_of = vec![0; n];
+        let mut count = 0;
+        for (p, g) in group_of.iter_mut().enumerate() {
             let r = root(&mut parent, p);
             if index[r] == usize::MAX {
-                index[r] = groups.len();
-                groups.push(Vec::new());
+                index[r] = count;
+                count += 1;
             }
-            groups[index[r]].push(p);
+            *g = index[r];
         }
-        groups
+        (group_of, count)
     }
 
     /// The postures for which `keep` is true and the observations all of whose postures are
@@ -933,14 +945,15 @@ pub(crate) struct AccuracyTally {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct KeptErrors {
     robot: Robot,
-    samples: Vec<ErrorSample>,
+    /// Shared: a linearisation and the fits that start from it hold the same errors.
+    samples: std::sync::Arc<Vec<ErrorSample>>,
 }
 
 impl KeptErrors {
     pub(crate) fn new(robot: &Robot, samples: Vec<ErrorSample>) -> Self {
         KeptErrors {
             robot: robot.clone(),
-            samples,
+            samples: std::sync::Arc::new(samples),
         }
     }
 

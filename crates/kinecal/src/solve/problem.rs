@@ -57,6 +57,9 @@ pub(crate) struct Linearized {
     pub typical_row: Vec<f64>,
     /// The errors at the robot.
     pub accuracy: Accuracy,
+    /// Each observation's error at the robot, from the same pass (a fit starting there
+    /// reports them without another pass).
+    pub errors: KeptErrors,
 }
 
 impl Linearized {
@@ -405,19 +408,6 @@ impl<'a> Problem<'a> {
         rows: &mut dyn RowSink,
     ) -> (f64, Accuracy, KeptErrors) {
         self.evaluate_tallied(robot, res, Some(Sink::Rows(rows)))
-    }
-
-    /// [`Problem::evaluate_rows`] (each weighted row `[J_i | r_i]` pushed into `rows`, which is
-    /// not cleared first), with the errors of every observation summarised (the
-    /// [`crate::observe::accuracy`] of `robot`) from the same pass of forward kinematics.
-    pub(crate) fn evaluate_rows_checked(
-        &self,
-        robot: &Robot,
-        res: &mut [f64],
-        rows: &mut dyn RowSink,
-    ) -> (f64, Accuracy) {
-        let (f, accuracy, _) = self.evaluate_tallied(robot, res, Some(Sink::Rows(rows)));
-        (f, accuracy)
     }
 
     /// [`Problem::evaluate`] without derivatives, and with the errors of every observation

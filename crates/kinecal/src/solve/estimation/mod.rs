@@ -309,9 +309,10 @@ pub(crate) fn calibrate_from(
     let mut log = Vec::new();
     // The linearisation at the start, with the errors there from the same pass: given, or
     // computed here (its R is what the uncertainty at the start reuses).
-    let (start_r, accuracy_before, errors_before) = match start
-        .and_then(|l| Some((l.restricted(&opts.estimate)?, l.accuracy.clone(), None)))
-    {
+    let (start_r, accuracy_before, errors_before) = match start.and_then(|l| {
+        let r = l.restricted(&opts.estimate)?;
+        Some((r, l.accuracy.clone(), Some(l.errors.clone())))
+    }) {
         Some(given) => given,
         None => {
             // The data's rows only: the prior's are added below (the uncertainty at the
