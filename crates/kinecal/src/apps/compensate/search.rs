@@ -228,7 +228,7 @@ impl<'r> TargetSearch<'r> {
     /// of the table of starts, built once per target frame).
     #[cfg(test)]
     pub(crate) fn evaluations(&self) -> u64 {
-        self.comp.evaluations
+        self.comp.evaluations()
     }
 
     /// The configuration asked for, if any.

@@ -159,7 +159,7 @@ impl StartTable {
             // block that does not lie on the grid's border.
             let mut bound = f64::INFINITY;
             for a in 0..3 {
-                if home[a] >= r + 1 {
+                if home[a] > r {
                     let face = self.origin[a] + (home[a] - r) as f64 * self.cell;
                     bound = bound.min(p[a] - face);
                 }
@@ -184,6 +184,7 @@ impl StartTable {
 
     /// Looks at the entries of cells `from..to` (one row of cells), keeping the nearest in
     /// `out` (at most `keep`, by distance then start index).
+    #[allow(clippy::too_many_arguments)]
     fn scan(
         &self,
         from: usize,
@@ -224,17 +225,26 @@ impl StartTable {
                 let i = self.index[start + e];
                 if out.len() == keep {
                     // Not before the last kept (NaN: never kept once the list is full).
-                    let (w, j) = out[keep - 1];
-                    if !(d < w || (d == w && i < j)) {
+                    if !before(d, i, out[keep - 1]) {
                         continue;
                     }
                     out.pop();
                 }
-                let at = out.partition_point(|&(f, j)| f < d || (f == d && j < i));
+                let at = out.partition_point(|&(f, j)| before(f, j, (d, i)));
                 out.insert(at, (d, i));
             }
             start = end;
         }
+    }
+}
+
+/// Whether `(d, i)` comes before `(w, j)`: a smaller distance, or the same and a smaller start
+/// index (a NaN distance comes before nothing).
+fn before(d: f64, i: u32, (w, j): (f64, u32)) -> bool {
+    match d.partial_cmp(&w) {
+        Some(std::cmp::Ordering::Less) => true,
+        Some(std::cmp::Ordering::Equal) => i < j,
+        _ => false,
     }
 }
 
@@ -313,8 +323,8 @@ mod tests {
             k[..3].copy_from_slice(&[0.1, -0.2, 0.3]);
             k
         };
-        let makers: [&dyn Fn(&mut rand_chacha::ChaCha8Rng) -> [f64; 12]; 3] =
-            [&ball, &flat, &point];
+        type Maker<'a> = &'a dyn Fn(&mut rand_chacha::ChaCha8Rng) -> [f64; 12];
+        let makers: [Maker<'_>; 3] = [&ball, &flat, &point];
         for make in makers {
             for n in [1, 7, 300, 4096] {
                 let mut keys: Vec<[f64; 12]> = (0..n).map(|_| make(&mut rng)).collect();
