@@ -36,7 +36,7 @@ use crate::observe::Dataset;
 use crate::solve::problem::Problem;
 
 use super::base::{priority_order, select_base};
-use super::spectrum::{Rows, Scaled, Spectrum};
+use super::spectrum::{add_clamped_squares, Rows, Scaled, Spectrum};
 use super::AnalysisOptions;
 
 /// Subsample groups of postures per analysed parameter: a subsample 4 `n` groups deep has at
@@ -394,20 +394,10 @@ impl<'a> BasisRows<'a> {
         let b = w - 1;
         for i in 0..f {
             let c = self.clamp.get(first + i).copied().unwrap_or(1.0);
-            for (s, &v) in self
-                .typical_b
-                .iter_mut()
-                .zip(&self.block_b[i * w..i * w + b])
-            {
-                let v = v * c;
-                *s += v * v;
-            }
+            add_clamped_squares(&mut self.typical_b, &self.block_b[i * w..i * w + b], c);
             let d = &self.block_d[i * k..(i + 1) * k];
-            for ((s, n), &v) in self.typical_d.iter_mut().zip(&mut self.norm).zip(d) {
-                *n += v * v;
-                let v = v * c;
-                *s += v * v;
-            }
+            add_clamped_squares(&mut self.typical_d, d, c);
+            add_clamped_squares(&mut self.norm, d, 1.0);
         }
         linalg::sub_product_row_major(&mut self.block_d, &self.block_b, w, &self.basis.coef, f);
         for row in self.block_d[..f * k].chunks_exact(k) {

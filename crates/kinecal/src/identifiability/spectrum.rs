@@ -346,9 +346,15 @@ impl RowSink for TypicalRowTally<'_> {
         self.acc.push(row);
         let f = self.clamp.get(self.row).copied().unwrap_or(1.0);
         self.row += 1;
-        for (s, &c) in self.sums.iter_mut().zip(row) {
-            let v = c * f;
-            *s += v * v;
-        }
+        add_clamped_squares(&mut self.sums, row, f);
+    }
+}
+
+/// Adds to each of `sums` the square of its entry of `row` times the row's clamp factor `f`
+/// (the typical row's sums, one row at a time).
+pub(super) fn add_clamped_squares(sums: &mut [f64], row: &[f64], f: f64) {
+    for (s, &c) in sums.iter_mut().zip(row) {
+        let v = c * f;
+        *s += v * v;
     }
 }
