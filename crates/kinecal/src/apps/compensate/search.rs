@@ -123,6 +123,17 @@ pub struct TargetSearch<'r> {
 /// reference.
 type Rank = ([bool; 5], f64);
 
+/// How bad a solution's flags are, as the search ranks them (see [`Rank`]).
+fn flag_rank(f: &Flags) -> [bool; 5] {
+    [
+        f.unreachable,
+        f.out_of_range != 0,
+        f.configuration,
+        f.branch,
+        f.singular,
+    ]
+}
+
 /// Keeps in `judged` the better of it and `rank`.
 fn lower(judged: &mut Option<Rank>, rank: Rank) {
     if judged.is_none_or(|j| rank < j) {
@@ -786,16 +797,7 @@ impl<'r> TargetSearch<'r> {
         } else {
             0.0
         };
-        (
-            [
-                f.unreachable,
-                f.out_of_range != 0,
-                f.configuration,
-                f.branch,
-                f.singular,
-            ],
-            distance,
-        )
+        (flag_rank(f), distance)
     }
 
     /// Builds the table of start frames for `target` (once).
@@ -914,21 +916,12 @@ mod tests {
         let (mut closed, mut plain) = (make(true), make(false));
         let (mut a, mut b) = (vec![0.0; 6], vec![0.0; 6]);
         let (mut flagged_closed, mut flagged_plain, mut largest, mut worse) = (0, 0, 0.0f64, 0);
-        let rank = |f: &Flags| {
-            [
-                f.unreachable,
-                f.out_of_range != 0,
-                f.configuration,
-                f.branch,
-                f.singular,
-            ]
-        };
         for (goal, seed) in goals {
             let sa = closed.solve(goal, Target::EndEffector, seed.as_deref(), &mut a);
             let sb = plain.solve(goal, Target::EndEffector, seed.as_deref(), &mut b);
             flagged_closed += sa.flags.any() as usize;
             flagged_plain += sb.flags.any() as usize;
-            worse += (rank(&sa.flags) > rank(&sb.flags)) as usize;
+            worse += (flag_rank(&sa.flags) > flag_rank(&sb.flags)) as usize;
             let converged =
                 |s: &Solved| s.position_error < 1e-10 && s.attitude_error.is_none_or(|a| a < 1e-10);
             if !sa.flags.any() && !sb.flags.any() && converged(&sa) && converged(&sb) {
@@ -1053,17 +1046,7 @@ mod tests {
                     let f = r.flags;
                     let converged =
                         r.position_error < 1e-10 && r.attitude_error.is_none_or(|a| a < 1e-10);
-                    (
-                        [
-                            f.unreachable,
-                            f.out_of_range != 0,
-                            f.configuration,
-                            f.branch,
-                            f.singular,
-                        ],
-                        out.clone(),
-                        converged,
-                    )
+                    (flag_rank(&f), out.clone(), converged)
                 })
                 .collect();
             (rows, s.evaluations())
@@ -1323,17 +1306,11 @@ mod tests {
                 (flags, s.evaluations())
             };
             let ((new, cost_new), (old, cost_old)) = (solve(true), solve(false));
-            let rank = |f: &Flags| {
-                [
-                    f.unreachable,
-                    f.out_of_range != 0,
-                    f.configuration,
-                    f.branch,
-                    f.singular,
-                ]
-            };
             for (k, (a, b)) in new.iter().zip(&old).enumerate() {
-                assert!(rank(a) <= rank(b), "{name}: goal {k}: {a:?} against {b:?}");
+                assert!(
+                    flag_rank(a) <= flag_rank(b),
+                    "{name}: goal {k}: {a:?} against {b:?}"
+                );
             }
             let unreachable = new.iter().filter(|f| f.unreachable).count();
             assert!(unreachable >= 10, "{name}: {unreachable} goals unreachable");
