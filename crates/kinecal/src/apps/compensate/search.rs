@@ -134,6 +134,11 @@ fn flag_rank(f: &Flags) -> [bool; 5] {
     ]
 }
 
+/// Whether a solution of this rank is usable: flagged for nothing.
+fn usable(rank: &Rank) -> bool {
+    rank.0 == [false; 5]
+}
+
 /// Keeps in `judged` the better of it and `rank`.
 fn lower(judged: &mut Option<Rank>, rank: Rank) {
     if judged.is_none_or(|j| rank < j) {
@@ -316,7 +321,7 @@ impl<'r> TargetSearch<'r> {
             start.copy_from_slice(&self.reference);
             let s = self.attempt(goal, target, &start, true);
             self.start = start;
-            if self.consider(s, seed.is_some(), &mut best, out) {
+            if usable(&self.consider(s, seed.is_some(), &mut best, out)) {
                 return self.finish(best.expect("considered").1, out);
             }
         }
@@ -375,7 +380,7 @@ impl<'r> TargetSearch<'r> {
                     start.copy_from_slice(&self.reference);
                     let s = self.attempt(goal, target, &start, true);
                     self.start = start;
-                    if self.consider(s, false, &mut best, out) {
+                    if usable(&self.consider(s, false, &mut best, out)) {
                         return self.finish(best.expect("considered").1, out);
                     }
                 }
@@ -410,7 +415,7 @@ impl<'r> TargetSearch<'r> {
             })
         };
         // Step 2: the nearest starts of the table.
-        let mut usable = false;
+        let mut any_usable = false;
         let mut tried = 0;
         for k in 0..self.nearest.len() {
             if seed.is_some() && k >= Self::SEEDED_ATTEMPTS {
@@ -418,10 +423,10 @@ impl<'r> TargetSearch<'r> {
             }
             let i = self.nearest[k].1 as usize;
             let rank = self.attempt_start(i, goal, target, seed, &mut best, out);
-            usable |= rank.0 == [false; 5];
+            any_usable |= usable(&rank);
             lower(&mut judged, rank);
             tried += 1;
-            if usable && seed.is_none() {
+            if any_usable && seed.is_none() {
                 break;
             }
             if settled(&judged, tried) {
@@ -433,16 +438,16 @@ impl<'r> TargetSearch<'r> {
         let rows = self.starts.len() / dof;
         let settled_now = settled(&judged, tried)
             && (seed.is_some() || (branches_tried && self.skip_spread_if_singular));
-        if !usable && rows > 0 && !settled_now {
+        if !any_usable && rows > 0 && !settled_now {
             for k in 0..Self::SPREAD {
                 if seed.is_some() && k >= Self::SEEDED_SPREAD {
                     break;
                 }
                 let i = (k * rows / Self::SPREAD + rows / (2 * Self::SPREAD)) % rows;
                 let rank = self.attempt_start(i, goal, target, seed, &mut best, out);
-                usable |= rank.0 == [false; 5];
+                any_usable |= usable(&rank);
                 lower(&mut judged, rank);
-                if (usable && seed.is_none()) || (seed.is_some() && settled(&judged, tried)) {
+                if (any_usable && seed.is_none()) || (seed.is_some() && settled(&judged, tried)) {
                     break;
                 }
             }
@@ -631,7 +636,7 @@ impl<'r> TargetSearch<'r> {
                     exact_reached += 1;
                 }
             }
-            if self.consider(s, seeded, best, out) {
+            if usable(&self.consider(s, seeded, best, out)) {
                 return (true, exact);
             }
         }
@@ -668,9 +673,7 @@ impl<'r> TargetSearch<'r> {
         let starts = std::mem::take(&mut self.starts);
         let s = self.attempt_capped(goal, target, &starts[i * dof..(i + 1) * dof]);
         self.starts = starts;
-        let rank = self.rank(&s, seed.is_some());
-        self.consider(s, seed.is_some(), best, out);
-        rank
+        self.consider(s, seed.is_some(), best, out)
     }
 
     /// [`TargetSearch::attempt`] from `start` within the search's iteration cap: a start that
@@ -683,21 +686,20 @@ impl<'r> TargetSearch<'r> {
         s
     }
 
-    /// Keeps the candidate in `out` when it ranks before `best`; whether it is usable.
+    /// Keeps the candidate in `out` when it ranks before `best`; its rank.
     fn consider(
         &self,
         solved: Solved,
         seeded: bool,
         best: &mut Option<(Rank, Solved)>,
         out: &mut [f64],
-    ) -> bool {
+    ) -> Rank {
         let rank = self.rank(&solved, seeded);
-        let usable = rank.0 == [false; 5];
         if best.as_ref().is_none_or(|(b, _)| rank < *b) {
             out.copy_from_slice(&self.candidate);
             *best = Some((rank, solved));
         }
-        usable
+        rank
     }
 
     /// Records the solution of a reached goal as the next reference.
