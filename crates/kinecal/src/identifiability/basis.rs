@@ -16,7 +16,11 @@
 //! subsample.
 //!
 //! Worth it on large data only: the QR of `n` columns costs `2 m n^2`, of the basis's `b`
-//! columns `2 m b^2`, the proof `2 m b (n - b)`.
+//! columns `2 m b^2`, the proof `2 m t`, `t` the coefficients that are not rounding (a base
+//! set's dependences are mostly one column equal to another or its negative: on a UR10's
+//! full poses 20 of 540), or `2 m b (n - b)` by a matrix product when more than a quarter are
+//! terms. The pass computes the columns in the order basis first, so that each row's `J_B`
+//! and `J_D` are contiguous.
 //!
 //! The basis's `R_B` is taken from the Gram matrix of `[J_B | r]` (a matrix product, several
 //! times cheaper than a QR update of the same rows) when that is accurate: the basis has full
@@ -56,6 +60,11 @@ const MAX_SHARE: usize = 8;
 /// the rank is decided, so that the analysis on the reconstructed `R` decides what it decides
 /// on the whole Jacobian's (which sees these columns at their rounding, ~1e-15 relative).
 pub(super) const SLACK: f64 = 1e-3;
+
+/// A coefficient of a dependent column whose term is at most `PRUNE * rcond / b` of the
+/// column's norm (`b` the basis's size) is set to 0: together such terms stay below a tenth of
+/// the proof's tolerance (`SLACK * rcond`).
+const PRUNE: f64 = SLACK / 10.0;
 
 /// A column at most this share of the largest column's norm is unfelt: no measurement feels
 /// it, and the analysis zeroes it (the same threshold as there).
@@ -137,13 +146,19 @@ pub(super) fn rows(
 }
 
 /// A basis of the columns on a subsample, and the other columns as combinations of it.
+#[derive(Clone)]
 pub(super) struct Basis {
     /// The basis's columns, ascending.
     pub basis: Vec<usize>,
     /// The other columns, ascending.
     pub dependent: Vec<usize>,
-    /// `b x k`: column `i` the coefficients writing `dependent[i]` on the basis's columns.
+    /// `b x k`: column `i` the coefficients writing `dependent[i]` on the basis's columns
+    /// (those whose share is below rounding set to 0: see [`Basis::from_r`]).
     pub coef: Matrix,
+    /// Per dependent column, its nonzero coefficients `(basis position, coefficient)`: the
+    /// proof's product when they are few (a base set's dependences are mostly a column equal
+    /// to another, or its negative), `None` when they are many (a matrix product then).
+    terms: Option<Vec<Vec<(usize, f64)>>>,
     /// The number of columns (the residual aside).
     pub n: usize,
     /// Whether the basis's columns are well enough conditioned on the subsample for their `R`
@@ -153,6 +168,19 @@ pub(super) struct Basis {
 }
 
 impl Basis {
+    /// The same basis, its proof taken by a matrix product whatever the number of terms.
+    #[cfg(test)]
+    pub(super) fn dense(mut self) -> Basis {
+        self.terms = None;
+        self
+    }
+
+    /// Whether the proof takes the terms one by one (they are few).
+    #[cfg(test)]
+    pub(super) fn sparse(&self) -> bool {
+        self.terms.is_some()
+    }
+
     /// The basis of `params`' columns on `sub` (the rank at `opts.rcond`, chosen by a pivoted
     /// QR in the order of preference), `None` when it has every column.
     pub(super) fn of(
@@ -187,7 +215,7 @@ impl Basis {
             return Ok(None);
         }
         basis.sort();
-        let mut basis = Basis::from_r(&raug, basis, n);
+        let mut basis = Basis::from_r(&raug, basis, n, opts.rcond);
         // An unfelt column (rounding noise, zeroed by the analysis) is no combination.
         for (i, &j) in basis.dependent.iter().enumerate() {
             if scaled.unfelt[j] {
@@ -196,21 +224,32 @@ impl Basis {
                 }
             }
         }
+        basis.terms = sparse_terms(&basis.coef);
         Ok(Some(basis))
     }
 
     /// The dependent columns' coefficients on `basis` from the `R` (`(n + 1)` square) of the
-    /// subsample's `[J | r]`: the least-squares fit of each on the basis's columns.
-    pub(super) fn from_r(raug: &Matrix, basis: Vec<usize>, n: usize) -> Basis {
+    /// subsample's `[J | r]`: the least-squares fit of each on the basis's columns. A
+    /// coefficient whose term is at most [`PRUNE`] `* rcond` of its column's norm on the
+    /// subsample is rounding (the exact combinations of a base set are a few terms of order 1)
+    /// and set to 0: all of a column's such terms together stay a tenth of the tolerance of
+    /// the proof, which checks the coefficients kept.
+    pub(super) fn from_r(raug: &Matrix, basis: Vec<usize>, n: usize, rcond: f64) -> Basis {
         let dependent: Vec<usize> = (0..n).filter(|j| !basis.contains(j)).collect();
         let b = basis.len();
         let cols: Vec<usize> = basis.iter().chain(&dependent).copied().collect();
         let t = linalg::r_of_columns(raug, &cols);
+        let norms: Vec<f64> = (0..cols.len()).map(|j| linalg::col_norm(&t, j)).collect();
         let mut coef = Matrix::zeros(b, dependent.len());
         for i in 0..dependent.len() {
             let c = linalg::solve_upper(&t, &t.col(b + i)[..b], b);
+            let negligible = PRUNE * rcond * norms[b + i] / b as f64;
             for (l, v) in c.into_iter().enumerate() {
-                coef[(l, i)] = if v.is_finite() { v } else { 0.0 };
+                coef[(l, i)] = if v.is_finite() && (v * norms[l]).abs() > negligible {
+                    v
+                } else {
+                    0.0
+                };
             }
         }
         // The basis's own R on the subsample, conditioned as the solver's test asks.
@@ -218,10 +257,12 @@ impl Basis {
             crate::solve::estimation::solver::gram_conditioned(&Matrix::from_fn(b, b, |i, j| {
                 t[(i, j)]
             }));
+        let terms = sparse_terms(&coef);
         Basis {
             basis,
             dependent,
             coef,
+            terms,
             n,
             gram,
         }
@@ -259,6 +300,15 @@ impl Basis {
         by: Fold,
     ) -> Option<Folded> {
         let n = self.n;
+        // The columns in the basis's order, then the dependent ones': each row's `J_B` and
+        // `J_D` are then contiguous.
+        let order: Vec<ParamId> = self
+            .basis
+            .iter()
+            .chain(&self.dependent)
+            .map(|&j| problem.estimated()[j])
+            .collect();
+        let problem = problem.with_column_order(&order);
         let mut sink = BasisRows::new(self, by, clamp);
         let mut r = vec![0.0; problem.rows()];
         let (_, accuracy, errors) = problem.evaluate_rows_kept(robot, &mut r, &mut sink);
@@ -309,6 +359,22 @@ impl Basis {
     }
 }
 
+/// Per column of `coef`, its nonzero entries `(row, value)`, when they are at most a quarter
+/// of the entries (a product term by term then costs less than a matrix product).
+fn sparse_terms(coef: &Matrix) -> Option<Vec<Vec<(usize, f64)>>> {
+    let (b, k) = (coef.nrows(), coef.ncols());
+    let terms: Vec<Vec<(usize, f64)>> = (0..k)
+        .map(|i| {
+            (0..b)
+                .filter(|&l| coef[(l, i)] != 0.0)
+                .map(|l| (l, coef[(l, i)]))
+                .collect()
+        })
+        .collect();
+    let count: usize = terms.iter().map(Vec::len).sum();
+    (4 * count <= b * k).then_some(terms)
+}
+
 /// How [`Basis::fold_all_by`] makes `R_B`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Fold {
@@ -331,7 +397,8 @@ enum BasisSink {
     Qr(QrAccumulator),
 }
 
-/// The sink of [`Basis::fold_all`]: rows gathered in row-major blocks, `[J_B | r]` and `J_D`;
+/// The sink of [`Basis::fold_all`]: rows (`[J_B | J_D | r]`) gathered in row-major blocks,
+/// `[J_B | r]` and `J_D`;
 /// each block's `[J_B | r]` folded into a Gram matrix or a QR, and its `J_D` and
 /// `J_D - J_B C` summed up in squares per column, and the typical-row sums tallied (each
 /// column's clamped squares, row after row: the sums [`super::spectrum::TypicalRowTally`]
@@ -389,20 +456,34 @@ impl<'a> BasisRows<'a> {
             BasisSink::Gram(acc) => acc.push_rows(&self.block_b, f),
             BasisSink::Qr(acc) => acc.push_rows(&self.block_b, f, w),
         }
-        // Before the product overwrites `J_D`: the typical-row sums and `J_D`'s squares.
+        // Row by row, while it is in cache: the typical-row sums, `J_D`'s squares and, with
+        // few terms, `J_D - J_B C`'s. Each sum takes its rows in order (the tally's sums to
+        // the bit).
         let first = self.row - f;
         let b = w - 1;
+        let terms = self.basis.terms.as_deref();
         for i in 0..f {
             let c = self.clamp.get(first + i).copied().unwrap_or(1.0);
-            add_clamped_squares(&mut self.typical_b, &self.block_b[i * w..i * w + b], c);
+            let row_b = &self.block_b[i * w..(i + 1) * w];
+            add_clamped_squares(&mut self.typical_b, &row_b[..b], c);
             let d = &self.block_d[i * k..(i + 1) * k];
-            add_clamped_squares(&mut self.typical_d, d, c);
-            add_clamped_squares(&mut self.norm, d, 1.0);
+            for (j, &dj) in d.iter().enumerate() {
+                let v = dj * c;
+                self.typical_d[j] += v * v;
+                self.norm[j] += dj * dj;
+                if let Some(terms) = terms {
+                    let e = terms[j].iter().fold(dj, |e, &(l, a)| e - a * row_b[l]);
+                    self.off[j] += e * e;
+                }
+            }
         }
-        linalg::sub_product_row_major(&mut self.block_d, &self.block_b, w, &self.basis.coef, f);
-        for row in self.block_d[..f * k].chunks_exact(k) {
-            for (s, &v) in self.off.iter_mut().zip(row) {
-                *s += v * v;
+        if terms.is_none() {
+            // Many terms: `J_D - J_B C` by a matrix product, over `J_D`.
+            linalg::sub_product_row_major(&mut self.block_d, &self.block_b, w, &self.basis.coef, f);
+            for row in self.block_d[..f * k].chunks_exact(k) {
+                for (s, &v) in self.off.iter_mut().zip(row) {
+                    *s += v * v;
+                }
             }
         }
         self.filled = 0;
@@ -456,17 +537,12 @@ impl RowSink for BasisRows<'_> {
         if self.filled == QR_BLOCK {
             self.flush();
         }
-        let basis = self.basis;
-        let (b, k) = (basis.basis.len(), basis.dependent.len());
+        // The row is `[J_B | J_D | r]` (the problem's columns in that order).
+        let (b, k) = (self.basis.basis.len(), self.basis.dependent.len());
         let to = &mut self.block_b[self.filled * (b + 1)..(self.filled + 1) * (b + 1)];
-        for (x, &j) in to.iter_mut().zip(&basis.basis) {
-            *x = row[j];
-        }
-        to[b] = row[basis.n];
-        let to = &mut self.block_d[self.filled * k..(self.filled + 1) * k];
-        for (x, &j) in to.iter_mut().zip(&basis.dependent) {
-            *x = row[j];
-        }
+        to[..b].copy_from_slice(&row[..b]);
+        to[b] = row[b + k];
+        self.block_d[self.filled * k..(self.filled + 1) * k].copy_from_slice(&row[b..b + k]);
         self.filled += 1;
         self.row += 1;
     }

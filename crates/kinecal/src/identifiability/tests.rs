@@ -449,6 +449,18 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
         };
         let (gram, qr) = (folded(basis::Fold::Gram), folded(basis::Fold::Qr));
         assert_same_inner_products(&gram, &qr, 1e-12);
+        // A base set's dependences are a few terms each (mostly a column equal to another or
+        // its negative): the proof takes them one by one, and agrees with the matrix product
+        // of every coefficient.
+        assert!(b.sparse(), "seed {seed}: the dependences' terms");
+        let Some(basis::Folded::Rows(dense)) =
+            b.clone()
+                .dense()
+                .fold_all_by(&robot, &problem, &clamp, opts.rcond, basis::Fold::Gram)
+        else {
+            panic!("seed {seed}: the dense proof");
+        };
+        assert_same_inner_products(&gram, &dense.raug, 1e-12);
         // The fold tallies the typical-row sums and keeps the accuracy and each observation's
         // error as the pass of the whole rows does (`TypicalRowTally`), to the bit.
         let whole = spectrum::rows(&robot, &problem, &clamp, None, params.len()).unwrap();
@@ -463,6 +475,39 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
         let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
         assert_same_analysis(&robot, &data, &params, &lin);
     }
+}
+
+/// A problem with its columns in another order (the order the subsample basis's proof reads
+/// them in) gives each parameter's column, and the residuals, to the bit.
+#[test]
+fn a_problem_with_its_columns_reordered_gives_the_same_columns() {
+    let (robot, data) = random_arm(1, 60, true, 0);
+    let params: Vec<ParamId> = robot.param_ids().collect();
+    let opts = AnalysisOptions::default();
+    let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
+    // Every third parameter first, then the rest, reversed.
+    let mut order: Vec<ParamId> = params.iter().copied().step_by(3).collect();
+    order.extend(params.iter().rev().filter(|id| id.0 % 3 != 0).copied());
+    let reordered = problem.with_column_order(&order);
+    let (m, n) = (problem.rows(), params.len());
+    let (mut r1, mut r2) = (vec![0.0; m], vec![0.0; m]);
+    let (mut j1, mut j2) = (Matrix::zeros(m, n), Matrix::zeros(m, n));
+    problem.evaluate(&robot, &mut r1, Some(&mut j1));
+    reordered.evaluate(&robot, &mut r2, Some(&mut j2));
+    assert_eq!(r1, r2);
+    let mut nonzero = 0;
+    for (c2, id) in order.iter().enumerate() {
+        let c1 = params.iter().position(|p| p == id).unwrap();
+        for i in 0..m {
+            assert_eq!(
+                j1[(i, c1)].to_bits(),
+                j2[(i, c2)].to_bits(),
+                "{id:?}, row {i}"
+            );
+            nonzero += usize::from(j1[(i, c1)] != 0.0);
+        }
+    }
+    assert!(nonzero > m * n / 2, "{nonzero} nonzero entries");
 }
 
 /// A fit that starts at the analysis's linearisation reports the errors at its start from
@@ -584,6 +629,11 @@ fn a_subsample_that_lost_rank_fails_its_proof() {
                 "trial {trial}: a basis of {}",
                 b.basis.len()
             );
+            // The same by a matrix product of every coefficient.
+            let dense = b.clone().dense();
+            assert!(dense
+                .fold_all(&robot, &problem, &clamp, opts.rcond)
+                .is_none());
         } else {
             kept += 1;
             let rows = folded.expect("a basis of full rank passes");

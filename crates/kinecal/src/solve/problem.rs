@@ -134,17 +134,7 @@ impl<'a> Problem<'a> {
                 sigma.push(o.sigma(k).unwrap_or(weights.of(row.quantity)));
             }
         }
-        let mut columns = vec![None; base.param_count()];
-        for (c, id) in estimated.iter().enumerate() {
-            if let Some(slot) = columns.get_mut(id.0) {
-                *slot = Some(c);
-            }
-        }
         let weight = sigma.iter().map(|s| 1.0 / s).collect();
-        let plans = std::iter::once(Target::EndEffector)
-            .chain((0..base.sites.len()).map(Target::Site))
-            .map(|t| ColumnPlan::new(base, t, &columns))
-            .collect();
         let posture_session = if base.sessions.is_empty() {
             Vec::new()
         } else {
@@ -153,14 +143,7 @@ impl<'a> Problem<'a> {
                 .map(|p| p.session.as_deref().and_then(|s| base.session_index(s)))
                 .collect()
         };
-        let session_cols = (0..base.sessions.len())
-            .map(|session| {
-                LinkComponent::ALL.map(|component| {
-                    columns[base.param_id(ParamKind::Session { session, component }).0]
-                })
-            })
-            .collect();
-        Problem {
+        let mut problem = Problem {
             base,
             data,
             estimated,
@@ -168,13 +151,56 @@ impl<'a> Problem<'a> {
             sigma,
             weight,
             row_scale: None,
-            columns,
-            plans,
+            columns: Vec::new(),
+            plans: Vec::new(),
             trig: None,
             posture_session,
-            session_cols,
+            session_cols: Vec::new(),
             prior: Vec::new(),
+        };
+        problem.place_columns();
+        problem
+    }
+
+    /// The same problem with its columns in the order of `estimated`, the same parameters
+    /// (each column's entries, to the bit, are where its parameter now stands). Without a prior
+    /// (its rows name columns).
+    pub(crate) fn with_column_order(&self, estimated: &'a [ParamId]) -> Problem<'a> {
+        debug_assert!(self.prior.is_empty());
+        debug_assert!({
+            let (mut a, mut b) = (self.estimated.to_vec(), estimated.to_vec());
+            a.sort();
+            b.sort();
+            a == b
+        });
+        let mut problem = self.clone();
+        problem.estimated = estimated;
+        problem.place_columns();
+        problem
+    }
+
+    /// Each estimated parameter's column, the targets' column plans and the sessions'
+    /// columns, from `estimated`.
+    fn place_columns(&mut self) {
+        let base = self.base;
+        let mut columns = vec![None; base.param_count()];
+        for (c, id) in self.estimated.iter().enumerate() {
+            if let Some(slot) = columns.get_mut(id.0) {
+                *slot = Some(c);
+            }
         }
+        self.plans = std::iter::once(Target::EndEffector)
+            .chain((0..base.sites.len()).map(Target::Site))
+            .map(|t| ColumnPlan::new(base, t, &columns))
+            .collect();
+        self.session_cols = (0..base.sessions.len())
+            .map(|session| {
+                LinkComponent::ALL.map(|component| {
+                    columns[base.param_id(ParamKind::Session { session, component }).0]
+                })
+            })
+            .collect();
+        self.columns = columns;
     }
 
     /// The same problem with a row `(p - p0) / s_p` after the data's for each estimated
