@@ -230,10 +230,10 @@ impl Basis {
 
     /// The dependent columns' coefficients on `basis` from the `R` (`(n + 1)` square) of the
     /// subsample's `[J | r]`: the least-squares fit of each on the basis's columns. A
-    /// coefficient whose term is at most [`PRUNE`] `* rcond` of its column's norm on the
-    /// subsample is rounding (the exact combinations of a base set are a few terms of order 1)
-    /// and set to 0: all of a column's such terms together stay a tenth of the tolerance of
-    /// the proof, which checks the coefficients kept.
+    /// coefficient whose term is at most [`PRUNE`] `* rcond / b` of its column's norm on the
+    /// subsample (`b` the basis's size) is rounding (the exact combinations of a base set are
+    /// a few terms of order 1) and set to 0: all of a column's such terms together stay under
+    /// a tenth of the proof's tolerance, and the proof checks the coefficients kept.
     pub(super) fn from_r(raug: &Matrix, basis: Vec<usize>, n: usize, rcond: f64) -> Basis {
         let dependent: Vec<usize> = (0..n).filter(|j| !basis.contains(j)).collect();
         let b = basis.len();
@@ -398,11 +398,10 @@ enum BasisSink {
 }
 
 /// The sink of [`Basis::fold_all`]: rows (`[J_B | J_D | r]`) gathered in row-major blocks,
-/// `[J_B | r]` and `J_D`;
-/// each block's `[J_B | r]` folded into a Gram matrix or a QR, and its `J_D` and
-/// `J_D - J_B C` summed up in squares per column, and the typical-row sums tallied (each
-/// column's clamped squares, row after row: the sums [`super::spectrum::TypicalRowTally`]
-/// makes, to the bit).
+/// `[J_B | r]` and `J_D`; each block's `[J_B | r]` folded into a Gram matrix or a QR, and its
+/// `J_D` and `J_D - J_B C` summed up in squares per column, and the typical-row sums tallied
+/// (each column's clamped squares, row after row: the sums
+/// [`super::spectrum::TypicalRowTally`] makes, to the bit).
 struct BasisRows<'a> {
     basis: &'a Basis,
     acc: BasisSink,
