@@ -10,8 +10,12 @@
 //! instead, for each case, rows per CPU second of this thread (median of 5 rounds, the cases
 //! alternating) and how many rows were flagged, and why; `KINECAL_BENCH_CPU=seeded` runs
 //! only the cases whose names contain `seeded` (`ur10/` only the UR10's).
+//! `KINECAL_BENCH_COST=1` (with `KINECAL_BENCH_CPU`) then prints where each target case's time
+//! goes: per set of flags, its rows, their CPU time and the solver's forward kinematics
+//! (deterministic: two builds' costs compared where rows per second are noisy).
 //! `KINECAL_BENCH_DUMP=FILE` (with `KINECAL_BENCH_CPU`) appends every row's flags, remaining
-//! errors and readings to FILE, from a fresh search per case: two builds' answers compared.
+//! errors, conditioning and readings to FILE, from a fresh search per case: two builds'
+//! answers compared.
 
 use std::hint::black_box;
 
@@ -218,11 +222,12 @@ fn cpu_figures(
                     run(comp, &mut searches[k], postures, case, &mut out, |s, v| {
                         writeln!(
                             file,
-                            "{} {row} {:?} {:e} {:e} {:?}",
+                            "{} {row} {:?} {:e} {:e} {:e} {:?}",
                             case.0,
                             s.flags,
                             s.position_error,
                             s.attitude_error.unwrap_or(0.0),
+                            s.conditioning,
                             v,
                         )
                         .unwrap();
@@ -249,6 +254,11 @@ fn cpu_figures(
             flagged[k] = counts;
         }
     }
+    if std::env::var_os("KINECAL_BENCH_COST").is_some() {
+        for (k, case) in cases.iter().enumerate() {
+            cost_by_flags(&mut searches[k], case, &mut out);
+        }
+    }
     for (k, case) in cases.iter().enumerate() {
         let r = &mut rates[k];
         r.sort_by(f64::total_cmp);
@@ -263,6 +273,37 @@ fn cpu_figures(
             f[3],
             f[4],
             f[5]
+        );
+    }
+}
+
+/// Prints, per set of flags the rows of a target case came back with, how many rows, their CPU
+/// time and the solver's forward kinematics (a round of the case with `search` as it is).
+fn cost_by_flags(search: &mut TargetSearch<'_>, case: &Case, out: &mut [f64]) {
+    let (name, goals, seeds) = case;
+    // (rows, CPU ns, forward kinematics) per flags, in the order first met.
+    let mut by: Vec<(String, [u64; 3])> = Vec::new();
+    for (k, goal) in goals.iter().enumerate() {
+        let seed = seeds.as_ref().map(|s| s[k].as_slice());
+        let (t, e) = (thread_cpu_ns(), search.evaluations());
+        let s = search.solve(goal, Target::EndEffector, seed, out);
+        let cost = [1, thread_cpu_ns() - t, search.evaluations() - e];
+        let flags = if s.flags.any() {
+            s.flags.describe()
+        } else {
+            "usable".to_string()
+        };
+        match by.iter_mut().find(|(f, _)| *f == flags) {
+            Some((_, c)) => c.iter_mut().zip(cost).for_each(|(c, v)| *c += v),
+            None => by.push((flags, cost)),
+        }
+    }
+    for (flags, [rows, ns, fk]) in by {
+        println!(
+            "  {name}: {rows} {} {flags}: {:.2} ms CPU, {:.1} forward kinematics per row",
+            if rows == 1 { "row" } else { "rows" },
+            ns as f64 * 1e-6,
+            fk as f64 / rows as f64
         );
     }
 }

@@ -220,9 +220,9 @@ impl<'r> Compensator<'r> {
     }
 
     /// Forward kinematics of the calibrated model evaluated so far by the solver (each step
-    /// tried, each linearisation not at the last step's readings): its cost.
-    #[cfg(test)]
-    pub(crate) fn evaluations(&self) -> u64 {
+    /// tried, each linearisation not at the last step's readings): its cost, deterministic
+    /// where CPU times are not.
+    pub fn evaluations(&self) -> u64 {
         self.evaluations
     }
 

@@ -258,9 +258,9 @@ impl<'r> TargetSearch<'r> {
     }
 
     /// Forward kinematics of the calibrated model the solver has evaluated so far (not those
-    /// of the table of starts, built once per target frame).
-    #[cfg(test)]
-    pub(crate) fn evaluations(&self) -> u64 {
+    /// of the table of starts, built once per target frame): the search's cost, deterministic
+    /// where CPU times are not.
+    pub fn evaluations(&self) -> u64 {
         self.comp.evaluations()
     }
 
