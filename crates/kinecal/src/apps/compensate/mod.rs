@@ -222,7 +222,7 @@ impl<'r> Compensator<'r> {
     /// Forward kinematics of the calibrated model evaluated so far by the solver (each step
     /// tried, each linearisation not at the last step's readings): its cost, deterministic
     /// where CPU times are not.
-    pub fn evaluations(&self) -> u64 {
+    pub(crate) fn evaluations(&self) -> u64 {
         self.evaluations
     }
 
