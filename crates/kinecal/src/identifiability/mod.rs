@@ -362,7 +362,8 @@ fn analyze_with(
     let params = checked_parameters(robot, params, opts)?;
     let n = params.len();
     data.check_orientation(robot, opts.orientation)?;
-    let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
+    let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation)
+        .with_start_reading_trig();
     let m = problem.rows();
     let clamp = base::row_clamp(data, &problem);
     let through_basis = if subsample && known_r.is_none() {

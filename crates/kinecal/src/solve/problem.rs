@@ -278,6 +278,14 @@ impl<'a> Problem<'a> {
         self
     }
 
+    /// The same problem with the dataset's table of the readings' sines and cosines at its
+    /// robot, whatever is estimated: for a pass at that robot alone (an identifiability
+    /// analysis), which the table serves in full (the data check made it, so it costs a lookup).
+    pub(crate) fn with_start_reading_trig(mut self) -> Self {
+        self.trig = Some(self.data.reading_trig(self.base));
+        self
+    }
+
     /// Multiplies residual row `i` (and its Jacobian row) by `scale[i]`: the square roots of
     /// robust-loss weights.
     pub(crate) fn with_row_scale(mut self, scale: &'a [f64]) -> Self {
