@@ -362,8 +362,14 @@ fn analyze_with(
     let params = checked_parameters(robot, params, opts)?;
     let n = params.len();
     data.check_orientation(robot, opts.orientation)?;
-    let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation)
-        .with_start_reading_trig();
+    let problem = Problem::new(robot, data, &params, opts.weights, opts.orientation);
+    // A pass over the rows (none when `R` is known) takes the readings' sines and cosines from
+    // the dataset's table.
+    let problem = if known_r.is_none() {
+        problem.with_start_reading_trig()
+    } else {
+        problem
+    };
     let m = problem.rows();
     let clamp = base::row_clamp(data, &problem);
     let through_basis = if subsample && known_r.is_none() {
