@@ -297,12 +297,11 @@ impl QrAccumulator {
         self.filled += 1;
     }
 
-    /// Appends `rows` rows held row-major in `src`, row `i` the first
-    /// [`QrAccumulator::cols`] entries of `src[i * stride..]`: the same as pushing them one by
-    /// one, copied a column at a time (contiguous writes, however long the block).
-    pub(crate) fn push_rows(&mut self, src: &[f64], rows: usize, stride: usize) {
+    /// Appends `rows` rows held column-major in `src` (leading dimension `ld`: entry `(i, j)`
+    /// at `src[j * ld + i]`): the same as pushing them one by one, copied a column at a time.
+    pub(crate) fn push_cols(&mut self, src: &[f64], rows: usize, ld: usize) {
         let cols = self.cols;
-        assert!(stride >= cols && (rows == 0 || src.len() >= (rows - 1) * stride + cols));
+        assert!(ld >= rows && (rows == 0 || cols == 0 || src.len() >= (cols - 1) * ld + rows));
         let mut done = 0;
         while done < rows {
             if self.cols + self.filled == self.stack.rows {
@@ -311,10 +310,8 @@ impl QrAccumulator {
             let at = self.cols + self.filled;
             let chunk = (self.stack.rows - at).min(rows - done);
             for j in 0..cols {
-                let col = &mut self.stack.col_mut(j)[at..at + chunk];
-                for (i, v) in col.iter_mut().enumerate() {
-                    *v = src[(done + i) * stride + j];
-                }
+                self.stack.col_mut(j)[at..at + chunk]
+                    .copy_from_slice(&src[j * ld + done..j * ld + done + chunk]);
             }
             self.filled += chunk;
             done += chunk;
@@ -432,14 +429,15 @@ impl GramAccumulator {
         self.filled = 0;
     }
 
-    /// Adds `rows` rows held row-major in `src` (row stride [`GramAccumulator::cols`]): the
-    /// sum of pushing them one by one (to rounding: the blocks are split differently), the
-    /// block's product taken in place (no copy).
-    pub(crate) fn push_rows(&mut self, src: &[f64], rows: usize) {
-        assert!(src.len() >= rows * self.cols);
+    /// Adds `rows` rows held column-major in `src` (leading dimension `ld`: entry `(i, j)` at
+    /// `src[j * ld + i]`): the sum of pushing them one by one (to rounding: the blocks are
+    /// split differently), the block's product taken in place (no copy).
+    pub(crate) fn push_cols(&mut self, src: &[f64], rows: usize, ld: usize) {
         self.fold();
-        if rows > 0 {
-            add_gram_of(&mut self.gram, src, rows, self.cols);
+        if rows > 0 && self.cols > 0 {
+            assert!(ld >= rows && src.len() >= (self.cols - 1) * ld + rows);
+            let b = MatRef::from_column_major_slice_with_stride(src, rows, self.cols, ld);
+            add_gram(&mut self.gram, b);
         }
     }
 
@@ -453,8 +451,15 @@ impl GramAccumulator {
 /// Adds `B^T B` to the lower triangle of `gram` (the upper one is not kept), `B` the first
 /// `rows` rows of the row-major block `block` (`cols` wide): a matrix product.
 fn add_gram_of(gram: &mut Mat<f64>, block: &[f64], rows: usize, cols: usize) {
+    add_gram(
+        gram,
+        MatRef::from_row_major_slice(&block[..rows * cols], rows, cols),
+    );
+}
+
+/// Adds `B^T B` to the lower triangle of `gram` (the upper one is not kept): a matrix product.
+fn add_gram(gram: &mut Mat<f64>, b: MatRef<'_, f64>) {
     use faer::linalg::matmul::triangular::{matmul, BlockStructure};
-    let b = MatRef::from_row_major_slice(&block[..rows * cols], rows, cols);
     matmul(
         gram.as_mut(),
         BlockStructure::TriangularLower,
@@ -468,23 +473,18 @@ fn add_gram_of(gram: &mut Mat<f64>, block: &[f64], rows: usize, cols: usize) {
     );
 }
 
-/// `d -= b c` on row-major blocks of `rows` rows: `d` (`rows x k`, row stride `k`) less `b`
-/// (the first `l` columns of a row-major block of row stride `b_stride`) times `c` (`l x k`),
-/// a matrix product.
-pub(crate) fn sub_product_row_major(
-    d: &mut [f64],
-    b: &[f64],
-    b_stride: usize,
-    c: &Matrix,
-    rows: usize,
-) {
+/// `d -= b c` on column-major blocks of `rows` rows (leading dimension `ld`, entry `(i, j)` at
+/// `[j * ld + i]`): `d` (`rows x k`) less the first `l` columns of `b` times `c` (`l x k`), a
+/// matrix product.
+pub(crate) fn sub_product_col_major(d: &mut [f64], b: &[f64], ld: usize, c: &Matrix, rows: usize) {
     let (l, k) = (c.rows, c.cols);
-    assert!(b_stride >= l && d.len() >= rows * k && b.len() >= rows * b_stride);
-    // The transpose of a column-major view (faer 0.24.4's `from_row_major_slice_with_stride_mut`
-    // swaps the strides: it views the slice column-major).
-    let dst = faer::MatMut::from_column_major_slice_with_stride_mut(&mut d[..rows * k], k, rows, k)
-        .transpose_mut();
-    let lhs = MatRef::from_row_major_slice_with_stride(&b[..rows * b_stride], rows, l, b_stride);
+    if rows == 0 || k == 0 {
+        return;
+    }
+    assert!(ld >= rows && d.len() >= (k - 1) * ld + rows);
+    assert!(l == 0 || b.len() >= (l - 1) * ld + rows);
+    let dst = faer::MatMut::from_column_major_slice_with_stride_mut(d, rows, k, ld);
+    let lhs = MatRef::from_column_major_slice_with_stride(b, rows, l, ld);
     faer::linalg::matmul::matmul(dst, Accum::Add, lhs, c.faer(), -1.0, Par::Seq);
 }
 
@@ -874,7 +874,7 @@ mod tests {
         }
     }
 
-    /// Rows added as a row-major block (`push_rows`), between rows pushed one by one, sum to
+    /// Rows added as a column-major block (`push_cols`), between rows pushed one by one, sum to
     /// the inner products summed one term at a time, as pushing them all does.
     #[test]
     fn rows_added_as_a_block_are_summed_as_pushed_ones() {
@@ -886,8 +886,13 @@ mod tests {
         for row in a[..40 * cols].chunks_exact(cols) {
             acc.push(row);
         }
-        acc.push_rows(&a[40 * cols..250 * cols], 210);
-        acc.push_rows(&a[250 * cols..], 0);
+        // Rows 40..250 as a column-major block (leading dimension 210), then no rows.
+        let block: Vec<f64> = (0..cols)
+            .flat_map(|j| (40..250).map(move |k| (k, j)))
+            .map(|(k, j)| a[k * cols + j])
+            .collect();
+        acc.push_cols(&block, 210, 210);
+        acc.push_cols(&block, 0, 210);
         for row in a[250 * cols..].chunks_exact(cols) {
             acc.push(row);
         }
@@ -1071,40 +1076,42 @@ mod tests {
         assert!(cholesky(&g).is_none() || cholesky(&g).unwrap()[(3, 3)].abs() < 1e-6);
     }
 
-    /// The block product against three loops, on row-major blocks wider than the product
-    /// reads (the stride of a row past its columns).
+    /// The block product against three loops, on column-major blocks longer than the rows
+    /// the product reads (a leading dimension past them), and wider (columns it does not read).
     #[test]
-    fn sub_product_row_major_is_the_product() {
-        let (rows, l, k, w) = (7, 3, 2, 5);
-        let b: Vec<f64> = (0..rows * w).map(|i| (i as f64 * 0.37).sin()).collect();
-        let mut d: Vec<f64> = (0..rows * k).map(|i| (i as f64 * 0.11).cos()).collect();
+    fn sub_product_col_major_is_the_product() {
+        let (rows, l, k, w, ld) = (7, 3, 2, 5, 9);
+        let b: Vec<f64> = (0..w * ld).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut d: Vec<f64> = (0..k * ld).map(|i| (i as f64 * 0.11).cos()).collect();
         let c = Matrix::from_fn(l, k, |i, j| (i * 3 + j) as f64 * 0.5 - 1.0);
         let mut want = d.clone();
         for i in 0..rows {
             for j in 0..k {
                 for p in 0..l {
-                    want[i * k + j] -= b[i * w + p] * c[(p, j)];
+                    want[j * ld + i] -= b[p * ld + i] * c[(p, j)];
                 }
             }
         }
-        sub_product_row_major(&mut d, &b, w, &c, rows);
+        sub_product_col_major(&mut d, &b, ld, &c, rows);
         for (x, y) in d.iter().zip(&want) {
             assert!((x - y).abs() < 1e-14, "{d:?} vs {want:?}");
         }
     }
 
-    /// Rows pushed as a row-major block (across folds) give the `R` of rows pushed one by
+    /// Rows pushed as a column-major block (across folds) give the `R` of rows pushed one by
     /// one.
     #[test]
     fn rows_pushed_as_a_block_are_rows_pushed_one_by_one() {
-        let (cols, w, rows) = (4, 6, 23);
-        let src: Vec<f64> = (0..rows * w).map(|i| (i as f64 * 0.73).sin()).collect();
+        let (cols, ld, rows) = (4, 30, 23);
+        // Column-major, `ld` long: entry (i, j) at j * ld + i; the rows past `rows` unread.
+        let src: Vec<f64> = (0..cols * ld).map(|i| (i as f64 * 0.73).sin()).collect();
         let (mut a, mut b) = (QrAccumulator::new(cols, 5), QrAccumulator::new(cols, 5));
         for i in 0..rows {
-            a.push(&src[i * w..i * w + cols]);
+            let row: Vec<f64> = (0..cols).map(|j| src[j * ld + i]).collect();
+            a.push(&row);
         }
-        b.push_rows(&src[..10 * w], 10, w);
-        b.push_rows(&src[10 * w..], rows - 10, w);
+        b.push_cols(&src, 10, ld);
+        b.push_cols(&src[10..], rows - 10, ld);
         let (mut ra, mut rb) = (Matrix::zeros(0, 0), Matrix::zeros(0, 0));
         a.r_into(&mut ra);
         b.r_into(&mut rb);

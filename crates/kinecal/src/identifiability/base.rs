@@ -299,18 +299,38 @@ const NEAR: f64 = 1e-6;
 /// same quantity. Per quantity, because comparing a length row's weight (1/m) with an angle
 /// row's (1/rad) would depend on the internal units; the lower median, so that of two equally
 /// common weights the larger is the one clamped.
+///
+/// Empty when no row is clamped (every factor 1: a row beyond the slice's end counts 1), as
+/// with uniform weights per quantity, found in one pass without the medians: the passes over
+/// the rows then tally no typical-row sums, since `e_j` is the column's norm over `sqrt(m)`.
 pub(super) fn row_clamp(data: &Dataset, problem: &Problem<'_>) -> Vec<f64> {
     let sigma = problem.row_sigma();
-    let mut quantity = Vec::with_capacity(sigma.len());
-    for o in &data.observations {
-        for row in o.rows() {
-            quantity.push(row.quantity);
-        }
+    let quantities = || {
+        data.observations
+            .iter()
+            .flat_map(|o| o.rows().iter().map(|row| row.quantity))
+            .take(sigma.len())
+    };
+    // One weight per quantity (uniform weights, the default) and no pixel rows (weighed
+    // against the lengths' median below): nothing is clamped.
+    let (mut length, mut angle) = (None, None);
+    let uniform = quantities().zip(sigma).all(|(q, &s)| {
+        let first = match q {
+            RowQuantity::Length => &mut length,
+            RowQuantity::Angle => &mut angle,
+            RowQuantity::Pixel => return false,
+        };
+        // The same weight to the bit.
+        first.get_or_insert(s).to_bits() == s.to_bits()
+    });
+    if uniform {
+        return Vec::new();
     }
+    let quantity: Vec<RowQuantity> = quantities().collect();
     let weight = |i: usize| 1.0 / sigma[i];
     // The weights of the length rows and of the angle rows, in one pass.
     let (mut lengths, mut angles) = (Vec::new(), Vec::new());
-    for (i, q) in quantity.iter().enumerate().take(sigma.len()) {
+    for (i, q) in quantity.iter().enumerate() {
         match q {
             RowQuantity::Length => lengths.push(weight(i)),
             RowQuantity::Angle => angles.push(weight(i)),
@@ -325,7 +345,7 @@ pub(super) fn row_clamp(data: &Dataset, problem: &Problem<'_>) -> Vec<f64> {
         *w.select_nth_unstable_by(k, f64::total_cmp).1
     };
     let (length, angle) = (median(lengths), median(angles));
-    (0..sigma.len())
+    let clamp: Vec<f64> = (0..sigma.len())
         .map(|i| {
             let med = match quantity.get(i) {
                 Some(RowQuantity::Angle) => angle,
@@ -339,7 +359,12 @@ pub(super) fn row_clamp(data: &Dataset, problem: &Problem<'_>) -> Vec<f64> {
                 1.0
             }
         })
-        .collect()
+        .collect();
+    if clamp.iter().all(|&c| c >= 1.0) {
+        Vec::new()
+    } else {
+        clamp
+    }
 }
 
 /// The noise-level rule in words, for `m` rows; `exact` when `e_j` came from the rows.

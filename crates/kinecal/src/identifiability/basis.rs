@@ -40,7 +40,7 @@ use crate::observe::Dataset;
 use crate::solve::problem::Problem;
 
 use super::base::{priority_order, select_base};
-use super::spectrum::{add_clamped_squares, Rows, Scaled, Spectrum};
+use super::spectrum::{Rows, Scaled, Spectrum};
 use super::AnalysisOptions;
 
 /// Subsample groups of postures per analysed parameter: a subsample 4 `n` groups deep has at
@@ -315,18 +315,22 @@ impl Basis {
         let Some(rb) = sink.finish(rcond * SLACK)? else {
             return Some(Folded::NeedsQr);
         };
-        // The typical-row sums back in the columns' order.
-        let mut sums = vec![0.0; n];
-        for (&j, &s) in self.basis.iter().zip(&sink.typical_b) {
-            sums[j] = s;
-        }
-        for (&j, &s) in self.dependent.iter().zip(&sink.typical_d) {
-            sums[j] = s;
-        }
-        let mf = problem.rows().max(1) as f64;
+        // The typical-row sums back in the columns' order (none tallied when no row is
+        // clamped: `e_j` is then the column's norm over `sqrt(m)`).
+        let typical = (!clamp.is_empty()).then(|| {
+            let mut sums = vec![0.0; n];
+            for (&j, &s) in self.basis.iter().zip(&sink.typical_b) {
+                sums[j] = s;
+            }
+            for (&j, &s) in self.dependent.iter().zip(&sink.typical_d) {
+                sums[j] = s;
+            }
+            let mf = problem.rows().max(1) as f64;
+            sums.iter().map(|s| (s / mf).sqrt()).collect()
+        });
         Some(Folded::Rows(Box::new(Rows {
             raug: self.rebuild(&rb),
-            typical: Some(sums.iter().map(|s| (s / mf).sqrt()).collect()),
+            typical,
             accuracy: Some((accuracy, errors)),
         })))
     }
@@ -397,15 +401,17 @@ enum BasisSink {
     Qr(QrAccumulator),
 }
 
-/// The sink of [`Basis::fold_all`]: rows (`[J_B | J_D | r]`) gathered in row-major blocks,
+/// The sink of [`Basis::fold_all`]: rows (`[J_B | J_D | r]`) gathered in column-major blocks,
 /// `[J_B | r]` and `J_D`; each block's `[J_B | r]` folded into a Gram matrix or a QR, and its
-/// `J_D` and `J_D - J_B C` summed up in squares per column, and the typical-row sums tallied
-/// (each column's clamped squares, row after row: the sums
-/// [`super::spectrum::TypicalRowTally`] makes, to the bit).
+/// `J_D` and `J_D - J_B C` summed up in squares per column, and, when some row is clamped
+/// (`clamp` not empty), the typical-row sums tallied (each column's clamped squares, row after
+/// row: the sums [`super::spectrum::TypicalRowTally`] makes, to the bit). Column-major, so
+/// that the proof's products run down contiguous columns.
 struct BasisRows<'a> {
     basis: &'a Basis,
     acc: BasisSink,
-    /// Each row's clamp factor (1 beyond its end).
+    /// Each row's clamp factor (1 beyond its end; empty when no row is clamped, and then no
+    /// typical-row sums are tallied).
     clamp: &'a [f64],
     /// The rows pushed so far (the block's last).
     row: usize,
@@ -413,10 +419,12 @@ struct BasisRows<'a> {
     typical_b: Vec<f64>,
     /// ...and per dependent column.
     typical_d: Vec<f64>,
-    /// `[J_B | r]` of the block's rows, row-major (`b + 1` wide).
+    /// `[J_B | r]` of the block's rows, column-major ([`QR_BLOCK`] long, `b + 1` columns).
     block_b: Vec<f64>,
-    /// `J_D` of the block's rows, row-major (`k` wide).
+    /// `J_D` of the block's rows, column-major ([`QR_BLOCK`] long, `k` columns).
     block_d: Vec<f64>,
+    /// The block's rows as pushed, row-major (`b + k + 1` wide).
+    rows: Vec<f64>,
     filled: usize,
     /// Per dependent column, the sum of squares of `J_D - J_B C`...
     off: Vec<f64>,
@@ -439,6 +447,7 @@ impl<'a> BasisRows<'a> {
             typical_d: vec![0.0; k],
             block_b: vec![0.0; QR_BLOCK * (b + 1)],
             block_d: vec![0.0; QR_BLOCK * k],
+            rows: vec![0.0; QR_BLOCK * (b + k + 1)],
             filled: 0,
             off: vec![0.0; k],
             norm: vec![0.0; k],
@@ -450,40 +459,67 @@ impl<'a> BasisRows<'a> {
         if f == 0 {
             return;
         }
-        let (w, k) = (self.basis.basis.len() + 1, self.basis.dependent.len());
+        let ld = QR_BLOCK;
+        // The rows `[J_B | J_D | r]` into the column-major blocks: column after column, down
+        // the rows.
+        let (b, k) = (self.basis.basis.len(), self.basis.dependent.len());
+        let w = b + k + 1;
+        let rows = &self.rows[..f * w];
+        let columns = (0..b).chain([b + k]).zip(self.block_b.chunks_exact_mut(ld));
+        for (c, col) in columns.chain((b..b + k).zip(self.block_d.chunks_exact_mut(ld))) {
+            for (to, row) in col.iter_mut().zip(rows.chunks_exact(w)) {
+                *to = row[c];
+            }
+        }
         match &mut self.acc {
-            BasisSink::Gram(acc) => acc.push_rows(&self.block_b, f),
-            BasisSink::Qr(acc) => acc.push_rows(&self.block_b, f, w),
+            BasisSink::Gram(acc) => acc.push_cols(&self.block_b, f, ld),
+            BasisSink::Qr(acc) => acc.push_cols(&self.block_b, f, ld),
         }
-        // Row by row, while it is in cache: the typical-row sums, `J_D`'s squares and, with
-        // few terms, `J_D - J_B C`'s. Each sum takes its rows in order (the tally's sums to
-        // the bit).
-        let first = self.row - f;
-        let b = w - 1;
-        let terms = self.basis.terms.as_deref();
-        for i in 0..f {
-            let c = self.clamp.get(first + i).copied().unwrap_or(1.0);
-            let row_b = &self.block_b[i * w..(i + 1) * w];
-            add_clamped_squares(&mut self.typical_b, &row_b[..b], c);
-            let d = &self.block_d[i * k..(i + 1) * k];
-            for (j, &dj) in d.iter().enumerate() {
-                let v = dj * c;
-                self.typical_d[j] += v * v;
-                self.norm[j] += dj * dj;
-                if let Some(terms) = terms {
-                    let e = terms[j].iter().fold(dj, |e, &(l, a)| e - a * row_b[l]);
-                    self.off[j] += e * e;
+        // While the block is in cache: the typical-row sums (each column's sum takes its rows
+        // in order: the tally's sums to the bit)...
+        if !self.clamp.is_empty() {
+            let first = self.row - f;
+            let clamp = |i: usize| self.clamp.get(first + i).copied().unwrap_or(1.0);
+            let blocks = [
+                (&self.block_b, &mut self.typical_b),
+                (&self.block_d, &mut self.typical_d),
+            ];
+            for (block, sums) in blocks {
+                for (j, s) in sums.iter_mut().enumerate() {
+                    for (i, &v) in block[j * ld..j * ld + f].iter().enumerate() {
+                        let v = v * clamp(i);
+                        *s += v * v;
+                    }
                 }
             }
         }
-        if terms.is_none() {
-            // Many terms: `J_D - J_B C` by a matrix product, over `J_D`.
-            linalg::sub_product_row_major(&mut self.block_d, &self.block_b, w, &self.basis.coef, f);
-            for row in self.block_d[..f * k].chunks_exact(k) {
-                for (s, &v) in self.off.iter_mut().zip(row) {
-                    *s += v * v;
+        // ...then per dependent column the squares of `J_D` and of `J_D - J_B C`: with few
+        // terms, down each column (its terms' columns subtracted in place), else by a matrix
+        // product. `block_d` is spent.
+        for (j, s) in self.norm.iter_mut().enumerate() {
+            *s += sum_of_squares(&self.block_d[j * ld..j * ld + f]);
+        }
+        match &self.basis.terms {
+            Some(terms) => {
+                for (j, terms) in terms.iter().enumerate() {
+                    let d = &mut self.block_d[j * ld..j * ld + f];
+                    for &(l, a) in terms {
+                        for (e, &v) in d.iter_mut().zip(&self.block_b[l * ld..l * ld + f]) {
+                            *e -= a * v;
+                        }
+                    }
                 }
             }
+            None => linalg::sub_product_col_major(
+                &mut self.block_d,
+                &self.block_b,
+                ld,
+                &self.basis.coef,
+                f,
+            ),
+        }
+        for (j, s) in self.off.iter_mut().enumerate() {
+            *s += sum_of_squares(&self.block_d[j * ld..j * ld + f]);
         }
         self.filled = 0;
     }
@@ -536,13 +572,24 @@ impl RowSink for BasisRows<'_> {
         if self.filled == QR_BLOCK {
             self.flush();
         }
-        // The row is `[J_B | J_D | r]` (the problem's columns in that order).
-        let (b, k) = (self.basis.basis.len(), self.basis.dependent.len());
-        let to = &mut self.block_b[self.filled * (b + 1)..(self.filled + 1) * (b + 1)];
-        to[..b].copy_from_slice(&row[..b]);
-        to[b] = row[b + k];
-        self.block_d[self.filled * k..(self.filled + 1) * k].copy_from_slice(&row[b..b + k]);
+        // The row is `[J_B | J_D | r]` (the problem's columns in that order), kept as it is
+        // until the block is full (a copy; `flush` transposes the block).
+        let w = row.len();
+        self.rows[self.filled * w..(self.filled + 1) * w].copy_from_slice(row);
         self.filled += 1;
         self.row += 1;
     }
+}
+
+/// `sum x_i^2`, in four partial sums (the order of the proof's rounding is immaterial).
+fn sum_of_squares(x: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 4];
+    let mut chunks = x.chunks_exact(4);
+    for c in &mut chunks {
+        for l in 0..4 {
+            acc[l] += c[l] * c[l];
+        }
+    }
+    let tail: f64 = chunks.remainder().iter().map(|v| v * v).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }

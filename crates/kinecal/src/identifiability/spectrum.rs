@@ -15,7 +15,8 @@ use crate::warning::Warning;
 pub(super) struct Rows {
     /// `R` of the weighted `[J | r]`.
     pub(crate) raug: Matrix,
-    /// `e_j` per parameter ([`super::Analysis::typical_row`]), when the rows were at hand.
+    /// `e_j` per parameter ([`super::Analysis::typical_row`]), when the rows were at hand and
+    /// some row's weight was clamped (otherwise it is the column's norm over `sqrt(m)`).
     pub typical: Option<Vec<f64>>,
     /// The accuracy at the rows, and each observation's error, when they were evaluated.
     pub accuracy: Option<(Accuracy, KeptErrors)>,
@@ -59,20 +60,28 @@ pub(super) fn rows(
             let m = problem.rows();
             let mut r = vec![0.0; m];
             let mut acc = QrAccumulator::new(n + 1, QR_BLOCK.max(n + 1));
-            let mut tally = TypicalRowTally {
-                acc: &mut acc,
-                clamp,
-                row: 0,
-                sums: vec![0.0; n],
+            // No row clamped (`clamp` empty): `e_j` is the column's norm over `sqrt(m)`, from
+            // `R`, and there is nothing to tally.
+            let (accuracy, errors, typical) = if clamp.is_empty() {
+                let (_, accuracy, errors) = problem.evaluate_rows_kept(robot, &mut r, &mut acc);
+                (accuracy, errors, None)
+            } else {
+                let mut tally = TypicalRowTally {
+                    acc: &mut acc,
+                    clamp,
+                    row: 0,
+                    sums: vec![0.0; n],
+                };
+                let (_, accuracy, errors) = problem.evaluate_rows_kept(robot, &mut r, &mut tally);
+                let mf = m.max(1) as f64;
+                let typical = tally.sums.iter().map(|s| (s / mf).sqrt()).collect();
+                (accuracy, errors, Some(typical))
             };
-            let (_, accuracy, errors) = problem.evaluate_rows_kept(robot, &mut r, &mut tally);
-            let mf = m.max(1) as f64;
-            let typical = tally.sums.iter().map(|s| (s / mf).sqrt()).collect();
             let mut raug = Matrix::zeros(0, 0);
             acc.r_into(&mut raug);
             Ok(Rows {
                 raug,
-                typical: Some(typical),
+                typical,
                 accuracy: Some((accuracy, errors)),
             })
         }

@@ -261,6 +261,27 @@ fn arm_positions(count: usize, anchors: usize, tiny: f64, sigma: f64) -> (Robot,
     (robot, data)
 }
 
+/// The clamp factors: none with uniform weights (the passes then tally nothing); with three
+/// anchored postures (sigma 1e-9 among 5e-5), their nine rows' weights clamped at the median's,
+/// the others' factor 1.
+#[test]
+fn row_clamp_is_empty_for_uniform_weights_and_clamps_the_anchors() {
+    let params = |robot: &Robot| robot.param_ids().collect::<Vec<ParamId>>();
+    let opts = AnalysisOptions::default();
+    let (robot, data) = arm_positions(40, 0, 1e-9, 5e-5);
+    let ids = params(&robot);
+    let problem = Problem::new(&robot, &data, &ids, opts.weights, opts.orientation);
+    assert!(base::row_clamp(&data, &problem).is_empty());
+    let (robot, data) = arm_positions(40, 3, 1e-9, 5e-5);
+    let problem = Problem::new(&robot, &data, &ids, opts.weights, opts.orientation);
+    let clamp = base::row_clamp(&data, &problem);
+    assert_eq!(clamp.len(), 120);
+    for (i, &c) in clamp.iter().enumerate() {
+        let want = if i < 9 { 1e-9 / 5e-5 } else { 1.0 };
+        assert!((c - want).abs() <= 1e-12 * want, "row {i}: {c} vs {want}");
+    }
+}
+
 /// The e_j travel with a linearisation: an analysis from it (no pass) is the analysis
 /// that made it. From a bare R, e_j is bounded from the column norms: exact with uniform
 /// weights; with anchors, below the exact values, and it leaves out no more than the rule.
@@ -461,17 +482,35 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
             panic!("seed {seed}: the dense proof");
         };
         assert_same_inner_products(&gram, &dense.raug, 1e-12);
-        // The fold tallies the typical-row sums and keeps the accuracy and each observation's
-        // error as the pass of the whole rows does (`TypicalRowTally`), to the bit.
-        let whole = spectrum::rows(&robot, &problem, &clamp, None, params.len()).unwrap();
-        let Some(basis::Folded::Rows(rows)) =
-            b.fold_all_by(&robot, &problem, &clamp, opts.rcond, basis::Fold::Gram)
-        else {
-            panic!("seed {seed}: the fold");
-        };
-        assert_eq!(rows.typical, whole.typical, "seed {seed}");
-        assert!(rows.accuracy.is_some());
-        assert_eq!(rows.accuracy, whole.accuracy, "seed {seed}");
+        // The fold keeps the accuracy and each observation's error as the pass of the whole
+        // rows does; with uniform weights no row is clamped and neither tallies typical-row
+        // sums, and with rows clamped (factors set here, as unequal weights would) the fold
+        // tallies them as the pass does (`TypicalRowTally`), to the bit.
+        assert!(
+            clamp.is_empty(),
+            "seed {seed}: uniform weights clamp no row"
+        );
+        let factors: Vec<f64> = (0..problem.rows())
+            .map(|i| {
+                if i % 3 == 0 {
+                    0.25 + (i % 7) as f64 * 0.1
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        for clamp in [&clamp[..], &factors[..]] {
+            let whole = spectrum::rows(&robot, &problem, clamp, None, params.len()).unwrap();
+            let Some(basis::Folded::Rows(rows)) =
+                b.fold_all_by(&robot, &problem, clamp, opts.rcond, basis::Fold::Gram)
+            else {
+                panic!("seed {seed}: the fold");
+            };
+            assert_eq!(rows.typical.is_some(), !clamp.is_empty(), "seed {seed}");
+            assert_eq!(rows.typical, whole.typical, "seed {seed}");
+            assert!(rows.accuracy.is_some());
+            assert_eq!(rows.accuracy, whole.accuracy, "seed {seed}");
+        }
         let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
         assert_same_analysis(&robot, &data, &params, &lin);
     }
@@ -638,10 +677,16 @@ fn a_subsample_that_lost_rank_fails_its_proof() {
             kept += 1;
             let rows = folded.expect("a basis of full rank passes");
             let (accuracy, errors) = rows.accuracy.unwrap();
+            // No row is clamped (uniform weights): `e_j` is the column's norm over `sqrt(m)`.
+            assert!(clamp.is_empty() && rows.typical.is_none());
+            let root_m = (problem.rows() as f64).sqrt();
+            let typical_row = (0..params.len())
+                .map(|j| linalg::col_norm(&rows.raug, j) / root_m)
+                .collect();
             let lin = Linearized {
                 params: params.clone(),
                 r: rows.raug,
-                typical_row: rows.typical.unwrap(),
+                typical_row,
                 accuracy,
                 errors,
             };
