@@ -40,7 +40,7 @@ use crate::observe::Dataset;
 use crate::solve::problem::Problem;
 
 use super::base::{priority_order, select_base};
-use super::spectrum::{Rows, Scaled, Spectrum};
+use super::spectrum::{unclamped_typical, Rows, Scaled, Spectrum};
 use super::AnalysisOptions;
 
 /// Subsample groups of postures per analysed parameter: a subsample 4 `n` groups deep has at
@@ -317,7 +317,11 @@ impl Basis {
         };
         // The typical-row sums back in the columns' order (none tallied when no row is
         // clamped: `e_j` is then the column's norm over `sqrt(m)`).
-        let typical = (!clamp.is_empty()).then(|| {
+        let m = problem.rows();
+        let raug = self.rebuild(&rb);
+        let typical = if clamp.is_empty() {
+            unclamped_typical(&raug, n, m)
+        } else {
             let mut sums = vec![0.0; n];
             for (&j, &s) in self.basis.iter().zip(&sink.typical_b) {
                 sums[j] = s;
@@ -325,12 +329,12 @@ impl Basis {
             for (&j, &s) in self.dependent.iter().zip(&sink.typical_d) {
                 sums[j] = s;
             }
-            let mf = problem.rows().max(1) as f64;
+            let mf = m.max(1) as f64;
             sums.iter().map(|s| (s / mf).sqrt()).collect()
-        });
+        };
         Some(Folded::Rows(Box::new(Rows {
-            raug: self.rebuild(&rb),
-            typical,
+            raug,
+            typical: Some(typical),
             accuracy: Some((accuracy, errors)),
         })))
     }

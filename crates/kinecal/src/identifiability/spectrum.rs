@@ -15,8 +15,8 @@ use crate::warning::Warning;
 pub(super) struct Rows {
     /// `R` of the weighted `[J | r]`.
     pub(crate) raug: Matrix,
-    /// `e_j` per parameter ([`super::Analysis::typical_row`]), when the rows were at hand and
-    /// some row's weight was clamped (otherwise it is the column's norm over `sqrt(m)`).
+    /// `e_j` per parameter ([`super::Analysis::typical_row`]), when the rows were at hand
+    /// (tallied when some row's weight is clamped, else [`unclamped_typical`]).
     pub typical: Option<Vec<f64>>,
     /// The accuracy at the rows, and each observation's error, when they were evaluated.
     pub accuracy: Option<(Accuracy, KeptErrors)>,
@@ -61,7 +61,7 @@ pub(super) fn rows(
             let mut r = vec![0.0; m];
             let mut acc = QrAccumulator::new(n + 1, QR_BLOCK.max(n + 1));
             // No row clamped (`clamp` empty): `e_j` is the column's norm over `sqrt(m)`, from
-            // `R`, and there is nothing to tally.
+            // `R` (below), and there is nothing to tally.
             let (accuracy, errors, typical) = if clamp.is_empty() {
                 let (_, accuracy, errors) = problem.evaluate_rows_kept(robot, &mut r, &mut acc);
                 (accuracy, errors, None)
@@ -79,9 +79,10 @@ pub(super) fn rows(
             };
             let mut raug = Matrix::zeros(0, 0);
             acc.r_into(&mut raug);
+            let typical = typical.unwrap_or_else(|| unclamped_typical(&raug, n, m));
             Ok(Rows {
                 raug,
-                typical,
+                typical: Some(typical),
                 accuracy: Some((accuracy, errors)),
             })
         }
@@ -333,6 +334,16 @@ pub(super) fn dot(x: &[f64], y: &[f64]) -> f64 {
         .map(|(a, b)| a * b)
         .sum();
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// `e_j` of rows none of which is clamped, from the `R` of their `[J | r]` (the data's rows
+/// only, no prior's): each column's norm over `sqrt(m)`, what the tally of its squares gives
+/// (to rounding).
+pub(super) fn unclamped_typical(raug: &Matrix, n: usize, m: usize) -> Vec<f64> {
+    let root_m = (m.max(1) as f64).sqrt();
+    (0..n)
+        .map(|j| crate::linalg::col_norm(raug, j) / root_m)
+        .collect()
 }
 
 /// A [`RowSink`] that passes each row `[J_i | r_i]` on to another (the `R` of a QR, or the
