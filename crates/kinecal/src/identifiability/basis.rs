@@ -40,7 +40,7 @@ use crate::observe::Dataset;
 use crate::solve::problem::Problem;
 
 use super::base::{priority_order, select_base};
-use super::spectrum::{unclamped_typical, Rows, Scaled, Spectrum};
+use super::spectrum::{dot, unclamped_typical, Rows, Scaled, Spectrum};
 use super::AnalysisOptions;
 
 /// Subsample groups of postures per analysed parameter: a subsample 4 `n` groups deep has at
@@ -500,8 +500,8 @@ impl<'a> BasisRows<'a> {
         // ...then per dependent column the squares of `J_D` and of `J_D - J_B C`: with few
         // terms, down each column (its terms' columns subtracted in place), else by a matrix
         // product. `block_d` is spent.
-        for (j, s) in self.norm.iter_mut().enumerate() {
-            *s += sum_of_squares(&self.block_d[j * ld..j * ld + f]);
+        for (s, d) in self.norm.iter_mut().zip(self.block_d.chunks_exact(ld)) {
+            *s += dot(&d[..f], &d[..f]);
         }
         match &self.basis.terms {
             Some(terms) => {
@@ -522,8 +522,8 @@ impl<'a> BasisRows<'a> {
                 f,
             ),
         }
-        for (j, s) in self.off.iter_mut().enumerate() {
-            *s += sum_of_squares(&self.block_d[j * ld..j * ld + f]);
+        for (s, d) in self.off.iter_mut().zip(self.block_d.chunks_exact(ld)) {
+            *s += dot(&d[..f], &d[..f]);
         }
         self.filled = 0;
     }
@@ -583,17 +583,4 @@ impl RowSink for BasisRows<'_> {
         self.filled += 1;
         self.row += 1;
     }
-}
-
-/// `sum x_i^2`, in four partial sums (the order of the proof's rounding is immaterial).
-fn sum_of_squares(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 4];
-    let mut chunks = x.chunks_exact(4);
-    for c in &mut chunks {
-        for l in 0..4 {
-            acc[l] += c[l] * c[l];
-        }
-    }
-    let tail: f64 = chunks.remainder().iter().map(|v| v * v).sum();
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }

@@ -264,18 +264,19 @@ impl<'a> Problem<'a> {
     /// angles once for all evaluations (worth it for a solver's many passes), unless slopes or
     /// couplings are estimated. Evaluations at a robot with other slopes or couplings do
     /// without the table.
-    pub(crate) fn with_reading_trig(mut self) -> Self {
+    pub(crate) fn with_reading_trig(self) -> Self {
         let moves_readings = self.estimated.iter().any(|&id| {
             matches!(
                 self.base.try_param_kind(id),
                 Some(ParamKind::Slope { .. } | ParamKind::Coupling { .. })
             )
         });
-        if !moves_readings {
+        if moves_readings {
+            self
+        } else {
             // The dataset's own table: the data check made it, the report reuses it.
-            self.trig = Some(self.data.reading_trig(self.base));
+            self.with_start_reading_trig()
         }
-        self
     }
 
     /// The same problem with the dataset's table of the readings' sines and cosines at its
