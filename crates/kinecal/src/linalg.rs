@@ -297,27 +297,6 @@ impl QrAccumulator {
         self.filled += 1;
     }
 
-    /// Appends `rows` rows held column-major in `src` (leading dimension `ld`: entry `(i, j)`
-    /// at `src[j * ld + i]`): the same as pushing them one by one, copied a column at a time.
-    pub(crate) fn push_cols(&mut self, src: &[f64], rows: usize, ld: usize) {
-        let cols = self.cols;
-        assert!(ld >= rows && (rows == 0 || cols == 0 || src.len() >= (cols - 1) * ld + rows));
-        let mut done = 0;
-        while done < rows {
-            if self.cols + self.filled == self.stack.rows {
-                self.fold();
-            }
-            let at = self.cols + self.filled;
-            let chunk = (self.stack.rows - at).min(rows - done);
-            for j in 0..cols {
-                self.stack.col_mut(j)[at..at + chunk]
-                    .copy_from_slice(&src[j * ld + done..j * ld + done + chunk]);
-            }
-            self.filled += chunk;
-            done += chunk;
-        }
-    }
-
     fn fold(&mut self) {
         if self.filled == 0 || self.cols == 0 {
             return;
@@ -413,11 +392,18 @@ impl GramAccumulator {
     /// Appends one row (length [`GramAccumulator::cols`]).
     pub(crate) fn push(&mut self, row: &[f64]) {
         debug_assert_eq!(row.len(), self.cols);
+        self.push_with(|slot| slot.copy_from_slice(row));
+    }
+
+    /// Appends one row written in place by `fill` (given the row's [`GramAccumulator::cols`]
+    /// entries, to be overwritten whole): a row put together from parts takes no copy of its
+    /// own.
+    pub(crate) fn push_with(&mut self, fill: impl FnOnce(&mut [f64])) {
         if self.filled == self.capacity {
             self.fold();
         }
         let at = self.filled * self.cols;
-        self.block[at..at + self.cols].copy_from_slice(row);
+        fill(&mut self.block[at..at + self.cols]);
         self.filled += 1;
     }
 
@@ -427,18 +413,6 @@ impl GramAccumulator {
         }
         add_gram_of(&mut self.gram, &self.block, self.filled, self.cols);
         self.filled = 0;
-    }
-
-    /// Adds `rows` rows held column-major in `src` (leading dimension `ld`: entry `(i, j)` at
-    /// `src[j * ld + i]`): the sum of pushing them one by one (to rounding: the blocks are
-    /// split differently), the block's product taken in place (no copy).
-    pub(crate) fn push_cols(&mut self, src: &[f64], rows: usize, ld: usize) {
-        self.fold();
-        if rows > 0 && self.cols > 0 {
-            assert!(ld >= rows && src.len() >= (self.cols - 1) * ld + rows);
-            let b = MatRef::from_column_major_slice_with_stride(src, rows, self.cols, ld);
-            add_gram(&mut self.gram, b);
-        }
     }
 
     /// `A^T A` of all the rows pushed so far (`cols x cols`, symmetric), written to `out`.
@@ -874,45 +848,6 @@ mod tests {
         }
     }
 
-    /// Rows added as a column-major block (`push_cols`), between rows pushed one by one, sum to
-    /// the inner products summed one term at a time, as pushing them all does.
-    #[test]
-    fn rows_added_as_a_block_are_summed_as_pushed_ones() {
-        let (rows, cols) = (300, 4);
-        let a: Vec<f64> = (0..rows * cols)
-            .map(|k| ((k * 13) as f64 * 0.21).cos() + 0.05 * (k % 7) as f64)
-            .collect();
-        let mut acc = GramAccumulator::new(cols, 32);
-        for row in a[..40 * cols].chunks_exact(cols) {
-            acc.push(row);
-        }
-        // Rows 40..250 as a column-major block (leading dimension 210), then no rows.
-        let block: Vec<f64> = (0..cols)
-            .flat_map(|j| (40..250).map(move |k| (k, j)))
-            .map(|(k, j)| a[k * cols + j])
-            .collect();
-        acc.push_cols(&block, 210, 210);
-        acc.push_cols(&block, 0, 210);
-        for row in a[250 * cols..].chunks_exact(cols) {
-            acc.push(row);
-        }
-        let mut g = Matrix::zeros(0, 0);
-        acc.gram_into(&mut g);
-        for i in 0..cols {
-            for j in 0..cols {
-                let direct: f64 = (0..rows).map(|k| a[k * cols + i] * a[k * cols + j]).sum();
-                let size: f64 = (0..rows)
-                    .map(|k| (a[k * cols + i] * a[k * cols + j]).abs())
-                    .sum();
-                assert!(
-                    (g[(i, j)] - direct).abs() <= 1e-13 * size,
-                    "({i},{j}) {} vs {direct}",
-                    g[(i, j)]
-                );
-            }
-        }
-    }
-
     #[test]
     fn accumulated_gram_is_a_transpose_a() {
         // 40 columns: the triangular product splits into blocks (its lower triangle only).
@@ -1096,25 +1031,5 @@ mod tests {
         for (x, y) in d.iter().zip(&want) {
             assert!((x - y).abs() < 1e-14, "{d:?} vs {want:?}");
         }
-    }
-
-    /// Rows pushed as a column-major block (across folds) give the `R` of rows pushed one by
-    /// one.
-    #[test]
-    fn rows_pushed_as_a_block_are_rows_pushed_one_by_one() {
-        let (cols, ld, rows) = (4, 30, 23);
-        // Column-major, `ld` long: entry (i, j) at j * ld + i; the rows past `rows` unread.
-        let src: Vec<f64> = (0..cols * ld).map(|i| (i as f64 * 0.73).sin()).collect();
-        let (mut a, mut b) = (QrAccumulator::new(cols, 5), QrAccumulator::new(cols, 5));
-        for i in 0..rows {
-            let row: Vec<f64> = (0..cols).map(|j| src[j * ld + i]).collect();
-            a.push(&row);
-        }
-        b.push_cols(&src, 10, ld);
-        b.push_cols(&src[10..], rows - 10, ld);
-        let (mut ra, mut rb) = (Matrix::zeros(0, 0), Matrix::zeros(0, 0));
-        a.r_into(&mut ra);
-        b.r_into(&mut rb);
-        assert_eq!(ra, rb);
     }
 }

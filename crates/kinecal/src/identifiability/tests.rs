@@ -532,6 +532,46 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
     }
 }
 
+/// The proof bounds each dependent column's norm by its combination's, `|J_B c|`, from the
+/// basis's `R_B` or its Gram matrix (no sum of its own squares): on every row of a random arm,
+/// both give the dependent column's norm that the `R` of all the columns gives, to 1e-12 of
+/// it (the coefficients' pruned terms are below `PRUNE * rcond`, 1e-13 of the column, and `R`
+/// rounds at 1e-15), plus 1e-13 of the largest column for an unfelt one (zeroed
+/// coefficients: rounding noise against 0).
+#[test]
+fn a_combination_norm_is_the_dependent_column_norm() {
+    for (seed, pose) in [(2, true), (3, false)] {
+        let (robot, data) = random_arm(seed, 1800, pose, 0);
+        let params: Vec<ParamId> = robot.param_ids().collect();
+        let opts = AnalysisOptions::default();
+        let keep = basis::subsample(&data, params.len()).unwrap();
+        let b = basis::Basis::of(&robot, &data.subset(&keep), &params, &opts)
+            .unwrap()
+            .unwrap();
+        let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
+        let whole = spectrum::rows(&robot, &problem, &[], None, params.len()).unwrap();
+        let rb = crate::linalg::r_of_columns(&whole.raug, &b.basis);
+        let gram = Matrix::from_fn(b.basis.len(), b.basis.len(), |i, j| {
+            let (ci, cj) = (whole.raug.col(b.basis[i]), whole.raug.col(b.basis[j]));
+            ci.iter().zip(cj).map(|(x, y)| x * y).sum()
+        });
+        let by_r = basis::combination_norms(&b.coef, basis::CrossProducts::R(&rb));
+        let by_gram = basis::combination_norms(&b.coef, basis::CrossProducts::Gram(&gram));
+        let largest = (0..params.len())
+            .map(|j| crate::linalg::col_norm(&whole.raug, j))
+            .fold(0.0, f64::max);
+        for (k, &d) in b.dependent.iter().enumerate() {
+            let norm = crate::linalg::col_norm(&whole.raug, d);
+            for c in [by_r[k], by_gram[k]] {
+                assert!(
+                    (c - norm).abs() <= 1e-12 * norm + 1e-13 * largest,
+                    "seed {seed}: column {d}: {c} vs {norm}"
+                );
+            }
+        }
+    }
+}
+
 /// A problem with its columns in another order (the order the subsample basis's proof reads
 /// them in) gives each parameter's column, and the residuals, to the bit.
 #[test]
