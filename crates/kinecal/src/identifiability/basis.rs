@@ -405,14 +405,21 @@ enum BasisSink {
     Qr(QrAccumulator),
 }
 
+/// The proof's terms, flat: dependent column `j`'s are `terms[ends[j - 1]..ends[j]]`
+/// (`(basis position, coefficient)`).
+struct RowProof {
+    terms: Vec<(usize, f64)>,
+    ends: Vec<usize>,
+}
+
 /// The sink of [`Basis::fold_all`]: each row (`[J_B | J_D | r]`) has its `[J_B | r]` folded
-/// into a Gram matrix or a QR as it comes (row-major, as a fit's pass folds its rows), and is
-/// kept until a block of rows is full. The block then proves the dependence: with few terms and
-/// no row clamped (the common case), `J_D - J_B C` is formed eight rows at a time from the rows
-/// in place and summed up in squares per column; otherwise the block's columns are gathered
-/// column-major, the typical-row sums tallied when some row is clamped (each column's clamped
-/// squares, row after row: the sums [`super::spectrum::TypicalRowTally`] makes, to the bit),
-/// and `J_D - J_B C` formed down the columns (by a matrix product when the terms are many).
+/// into a Gram matrix or a QR as it comes (row-major, as a fit's pass folds its rows), and the
+/// dependence proved on it: with few terms and no row clamped (the common case), `J_D - J_B C`
+/// at once, each dependent column less its terms, summed up in squares per column; otherwise
+/// the rows are kept until a block is full, its columns gathered column-major, the typical-row
+/// sums tallied when some row is clamped (each column's clamped squares, row after row: the
+/// sums [`super::spectrum::TypicalRowTally`] makes, to the bit), and `J_D - J_B C` formed down
+/// the columns (by a matrix product when the terms are many).
 struct BasisRows<'a> {
     basis: &'a Basis,
     acc: BasisSink,
@@ -430,8 +437,11 @@ struct BasisRows<'a> {
     block_b: Vec<f64>,
     /// `J_D` of the block's rows, column-major ([`QR_BLOCK`] long, `k` columns), likewise.
     block_d: Vec<f64>,
-    /// The block's rows as pushed, row-major (`b + k + 1` wide).
+    /// The block's rows as pushed, row-major (`b + k + 1` wide), when the proof is taken by
+    /// blocks.
     rows: Vec<f64>,
+    /// The proof's terms when it is taken row by row (few terms, no row clamped).
+    by_rows: Option<RowProof>,
     /// One row's `[J_B | r]`, as the QR takes it.
     row_b: Vec<f64>,
     filled: usize,
@@ -442,9 +452,31 @@ struct BasisRows<'a> {
 impl<'a> BasisRows<'a> {
     fn new(basis: &'a Basis, by: Fold, clamp: &'a [f64]) -> Self {
         let (b, k) = (basis.basis.len(), basis.dependent.len());
-        // The column-major blocks only where the block is taken by columns.
-        let by_columns = basis.terms.is_none() || !clamp.is_empty();
-        let block = |cols: usize| vec![0.0; if by_columns { QR_BLOCK * cols } else { 0 }];
+        // With few terms and no row clamped (the common case), each row is proved as it comes;
+        // otherwise its rows are kept, a block at a time.
+        let by_rows = match &basis.terms {
+            Some(terms) if clamp.is_empty() => Some(RowProof {
+                terms: terms.iter().flatten().copied().collect(),
+                ends: terms
+                    .iter()
+                    .scan(0, |end, t| {
+                        *end += t.len();
+                        Some(*end)
+                    })
+                    .collect(),
+            }),
+            _ => None,
+        };
+        let block = |cols: usize| {
+            vec![
+                0.0;
+                if by_rows.is_none() {
+                    QR_BLOCK * cols
+                } else {
+                    0
+                }
+            ]
+        };
         BasisRows {
             basis,
             acc: match by {
@@ -457,7 +489,8 @@ impl<'a> BasisRows<'a> {
             typical_d: vec![0.0; k],
             block_b: block(b),
             block_d: block(k),
-            rows: vec![0.0; QR_BLOCK * (b + k + 1)],
+            rows: block(b + k + 1),
+            by_rows,
             row_b: vec![0.0; b + 1],
             filled: 0,
             off: vec![0.0; k],
@@ -465,39 +498,13 @@ impl<'a> BasisRows<'a> {
     }
 
     fn flush(&mut self) {
-        let f = self.filled;
-        if f == 0 {
-            return;
+        if self.filled > 0 {
+            self.flush_columns();
+            self.filled = 0;
         }
-        let (b, k) = (self.basis.basis.len(), self.basis.dependent.len());
-        let w = b + k + 1;
-        let rows = &self.rows[..f * w];
-        match &self.basis.terms {
-            // Few terms and nothing to tally (the common case): `J_D - J_B C` down the rows
-            // eight at a time, each dependent column less its terms in eight lanes, read in
-            // place (the tile's `8 w` entries stay in the first-level cache).
-            Some(terms) if self.clamp.is_empty() => {
-                for tile in rows.chunks(8 * w) {
-                    for (j, terms) in terms.iter().enumerate() {
-                        let mut e = [0.0; 8];
-                        for (e, row) in e.iter_mut().zip(tile.chunks_exact(w)) {
-                            *e = row[b + j];
-                        }
-                        for &(l, a) in terms {
-                            for (e, row) in e.iter_mut().zip(tile.chunks_exact(w)) {
-                                *e -= a * row[l];
-                            }
-                        }
-                        self.off[j] += e.iter().map(|v| v * v).sum::<f64>();
-                    }
-                }
-            }
-            _ => self.flush_columns(),
-        }
-        self.filled = 0;
     }
 
-    /// [`BasisRows::flush`] by columns: the block's `J_B` and `J_D` gathered column-major
+    /// A block of rows kept: its `J_B` and `J_D` gathered column-major
     /// (eight rows at a time), the typical-row sums tallied when some row is clamped, and
     /// `J_D - J_B C` formed down the columns (by a matrix product when the terms are many).
     fn flush_columns(&mut self) {
@@ -650,7 +657,7 @@ impl RowSink for BasisRows<'_> {
             self.flush();
         }
         // The row is `[J_B | J_D | r]` (the problem's columns in that order): its `[J_B | r]`
-        // folded now, the whole kept until the block is full (a copy; `flush` gathers it).
+        // folded now.
         let (b, w) = (self.basis.basis.len(), row.len());
         let put = |to: &mut [f64]| {
             to[..b].copy_from_slice(&row[..b]);
@@ -663,8 +670,25 @@ impl RowSink for BasisRows<'_> {
                 acc.push(&self.row_b);
             }
         }
-        self.rows[self.filled * w..(self.filled + 1) * w].copy_from_slice(row);
-        self.filled += 1;
         self.row += 1;
+        match &self.by_rows {
+            // Each dependent column less its few terms, in this row.
+            Some(proof) => {
+                let mut start = 0;
+                for ((&end, off), &d) in proof.ends.iter().zip(&mut self.off).zip(&row[b..]) {
+                    let mut e = d;
+                    for &(l, a) in &proof.terms[start..end] {
+                        e -= a * row[l];
+                    }
+                    *off += e * e;
+                    start = end;
+                }
+            }
+            // Kept until the block is full (a copy; `flush` gathers it).
+            None => {
+                self.rows[self.filled * w..(self.filled + 1) * w].copy_from_slice(row);
+                self.filled += 1;
+            }
+        }
     }
 }

@@ -30,7 +30,7 @@ pub fn expected_rank(robot: &Robot, data: &Dataset, params: &[ParamId]) -> Optio
     let has = |id: ParamId| params.binary_search(&id).is_ok();
     let (nl, nj) = (robot.links.len(), robot.dof());
     // The degrees of freedom observed of a frame (0, 3 or 6).
-    let seen = |t: Target| data.observed_dof(t);
+    let seen = data.observed_dofs();
     // A frame observed as a point needs only its position parameters: its angles change nothing.
     let needed = |dof: usize, c: LinkComponent| dof == 6 || c.quantity() == Quantity::Length;
     let ee = seen(Target::EndEffector);

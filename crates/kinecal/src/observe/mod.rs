@@ -282,6 +282,13 @@ pub trait Observe: fmt::Debug {
     fn rows(&self) -> &'static [Row];
     /// Row `row`'s own standard deviation (internal units), when the file gives one.
     fn sigma(&self, row: usize) -> Option<f64>;
+    /// Appends each row's standard deviation (internal units): its own ([`Observe::sigma`]),
+    /// else `weights`' for the row's quantity (one call per observation, not per row).
+    fn push_sigmas(&self, weights: Weights, out: &mut Vec<f64>) {
+        for (k, row) in self.rows().iter().enumerate() {
+            out.push(self.sigma(k).unwrap_or(weights.of(row.quantity)));
+        }
+    }
     /// The line of the file it came from (0 when synthesized).
     fn line(&self) -> usize;
     /// Residuals `model - measured` (internal units, unweighted) from the frames of its views,
@@ -490,16 +497,20 @@ impl Dataset {
         self.observations.is_empty()
     }
 
-    /// The degrees of freedom of frame `t` its observations determine
-    /// ([`Observe::measured_frame`]): 6 when a pose of it is measured, 3 when only its origin
-    /// is (positions, distances, contacts), 0 when no observation sees it.
-    pub fn observed_dof(&self, t: Target) -> usize {
-        self.observations
-            .iter()
-            .filter(|o| o.measured_frame().0 == t)
-            .map(|o| o.measured_frame().1)
-            .max()
-            .unwrap_or(0)
+    /// The degrees of freedom of each frame its observations determine
+    /// ([`Observe::measured_frame`]), as a function of the frame: 6 when a pose of it is
+    /// measured, 3 when only its origin is (positions, distances, contacts), 0 when no
+    /// observation sees it. One pass over the observations.
+    pub fn observed_dofs(&self) -> impl Fn(Target) -> usize {
+        let mut seen: Vec<(Target, usize)> = Vec::new();
+        for o in &self.observations {
+            let (t, dof) = o.measured_frame();
+            match seen.iter_mut().find(|(u, _)| *u == t) {
+                Some(e) => e.1 = e.1.max(dof),
+                None => seen.push((t, dof)),
+            }
+        }
+        move |t| seen.iter().find(|(u, _)| *u == t).map_or(0, |e| e.1)
     }
 
     /// The observations of each kind: `(kind, count)` in order of first appearance.

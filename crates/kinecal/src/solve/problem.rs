@@ -132,9 +132,7 @@ impl<'a> Problem<'a> {
     ) -> Self {
         let mut sigma: Vec<f64> = Vec::with_capacity(data.rows());
         for o in &data.observations {
-            for (k, row) in o.rows().iter().enumerate() {
-                sigma.push(o.sigma(k).unwrap_or(weights.of(row.quantity)));
-            }
+            o.push_sigmas(weights, &mut sigma);
         }
         let weight = sigma.iter().map(|s| 1.0 / s).collect();
         let sigma = sigma.into();

@@ -264,7 +264,7 @@ pub fn default_parameters(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, Vec<P
         .iter()
         .all(|j| (robot.units.from_si(j.kind.slope(), j.slope) - 1.0).abs() < 1e-12);
     // The degrees of freedom observed of a frame (0, 3 or 6).
-    let seen = |t: Target| data.observed_dof(t);
+    let seen = data.observed_dofs();
     let ee = seen(Target::EndEffector);
     let last = robot.links.len() - 1;
     let unseen_component = |dof: usize, c: LinkComponent| {
