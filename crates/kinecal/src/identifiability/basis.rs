@@ -8,7 +8,7 @@
 //! them there (`J_D = J_B C`), are found on a few hundred postures; the pass over all the
 //! data then folds only `[J_B | r]` into a QR (`R_B`) and *proves* the dependence on every
 //! row, `|J_D - J_B C|` (the Jacobian times the subsample's null-space basis `[-C; I]`,
-//! streamed a block of rows at a time) at most [`SLACK`] times the rank tolerance of each
+//! streamed row by row) at most [`SLACK`] times the rank tolerance of each
 //! column's own norm. Then `[J | r] = Q [R_B | R_B C]` (columns in place), whose `R` is that
 //! of the whole Jacobian: the analysis that follows runs unchanged. A column that is not
 //! such a combination on all the data (the subsample missed an excitation: a session, a
@@ -432,13 +432,12 @@ struct BasisRows<'a> {
     typical_b: Vec<f64>,
     /// ...and per dependent column.
     typical_d: Vec<f64>,
-    /// `J_B` of the block's rows, column-major ([`QR_BLOCK`] long, `b` columns), when the
-    /// block is taken by columns ([`BasisRows::flush_columns`]).
+    /// `J_B` of the block's rows, column-major ([`QR_BLOCK`] long, `b` columns), when rows
+    /// are kept ([`BasisRows::flush`]).
     block_b: Vec<f64>,
     /// `J_D` of the block's rows, column-major ([`QR_BLOCK`] long, `k` columns), likewise.
     block_d: Vec<f64>,
-    /// The block's rows as pushed, row-major (`b + k + 1` wide), when the proof is taken by
-    /// blocks.
+    /// The block's rows as pushed, row-major (`b + k + 1` wide), when rows are kept.
     rows: Vec<f64>,
     /// The proof's terms when it is taken row by row (few terms, no row clamped).
     by_rows: Option<RowProof>,
@@ -467,16 +466,7 @@ impl<'a> BasisRows<'a> {
             }),
             _ => None,
         };
-        let block = |cols: usize| {
-            vec![
-                0.0;
-                if by_rows.is_none() {
-                    QR_BLOCK * cols
-                } else {
-                    0
-                }
-            ]
-        };
+        let kept = if by_rows.is_none() { QR_BLOCK } else { 0 };
         BasisRows {
             basis,
             acc: match by {
@@ -487,9 +477,9 @@ impl<'a> BasisRows<'a> {
             row: 0,
             typical_b: vec![0.0; b],
             typical_d: vec![0.0; k],
-            block_b: block(b),
-            block_d: block(k),
-            rows: block(b + k + 1),
+            block_b: vec![0.0; kept * b],
+            block_d: vec![0.0; kept * k],
+            rows: vec![0.0; kept * (b + k + 1)],
             by_rows,
             row_b: vec![0.0; b + 1],
             filled: 0,
@@ -497,18 +487,15 @@ impl<'a> BasisRows<'a> {
         }
     }
 
+    /// The block of rows kept (none when each row is proved as it comes): its `J_B` and `J_D`
+    /// gathered column-major (eight rows at a time), the typical-row sums tallied when some
+    /// row is clamped, and `J_D - J_B C` formed down the columns (by a matrix product when the
+    /// terms are many).
     fn flush(&mut self) {
-        if self.filled > 0 {
-            self.flush_columns();
-            self.filled = 0;
-        }
-    }
-
-    /// A block of rows kept: its `J_B` and `J_D` gathered column-major
-    /// (eight rows at a time), the typical-row sums tallied when some row is clamped, and
-    /// `J_D - J_B C` formed down the columns (by a matrix product when the terms are many).
-    fn flush_columns(&mut self) {
         let (ld, f) = (QR_BLOCK, self.filled);
+        if f == 0 {
+            return;
+        }
         let (b, k) = (self.basis.basis.len(), self.basis.dependent.len());
         let w = b + k + 1;
         let rows = &self.rows[..f * w];
@@ -563,6 +550,7 @@ impl<'a> BasisRows<'a> {
         for (s, d) in self.off.iter_mut().zip(self.block_d.chunks_exact(ld)) {
             *s += dot(&d[..f], &d[..f]);
         }
+        self.filled = 0;
     }
 
     /// `R` of `[J_B | r]` when every dependent column is within `tol` of its norm from the
