@@ -214,7 +214,9 @@ pub struct Derivatives<'b> {
     /// The estimated column of each parameter (indexed by `ParamId.0`), for parameters that
     /// enter an observation directly (planes).
     pub columns: &'b [Option<usize>],
-    /// The output: `rows x k`, row-major, zeroed.
+    /// Where row `i`'s entries start in `out`: every `stride` entries (at least `k`).
+    pub stride: usize,
+    /// The output: row `i`'s `k` derivatives at `i * stride`, zeroed.
     pub out: &'b mut [f64],
 }
 
@@ -242,7 +244,7 @@ impl Derivatives<'_> {
     /// Sets entry (row, column).
     #[inline]
     pub fn set(&mut self, row: usize, c: usize, v: f64) {
-        self.out[row * self.cols + c] = v;
+        self.out[row * self.stride + c] = v;
     }
 }
 

@@ -559,32 +559,33 @@ impl<'a> Problem<'a> {
             let r = &mut res[row..row + nrows];
             match jac.as_mut() {
                 Some(sink) => {
+                    // Each row's derivatives with a slot for its residual after them: the
+                    // row `[J_i | r_i]` is then weighted in place and pushed as it stands.
+                    let stride = k + 1;
                     out.clear();
-                    out.resize(nrows * k, 0.0);
+                    out.resize(nrows * stride, 0.0);
                     let refs = [blocks[0].as_slice(), blocks[1].as_slice()];
                     let mut d = Derivatives {
                         cols: k,
+                        stride,
                         blocks: &refs[..views.len()],
                         columns: &self.columns,
                         out: &mut out,
                     };
                     o.evaluate(&ctx, &frames[..views.len()], r, Some(&mut d));
-                    for i in 0..nrows {
+                    for (i, jr) in out.chunks_exact_mut(stride).enumerate() {
                         let (w, s) = (self.weight[row + i], self.row_scale.map(|s| s[row + i]));
-                        let scaled = |v: f64| s.map_or(v * w, |s| v * w * s);
+                        jr[k] = r[i];
+                        for v in jr.iter_mut() {
+                            *v = s.map_or(*v * w, |s| *v * w * s);
+                        }
                         match sink {
                             Sink::Full(j) => {
-                                for c in 0..k {
-                                    j[(row + i, c)] = scaled(out[i * k + c]);
+                                for (c, &v) in jr[..k].iter().enumerate() {
+                                    j[(row + i, c)] = v;
                                 }
                             }
-                            Sink::Rows(acc) => {
-                                for c in 0..k {
-                                    qr_row[c] = scaled(out[i * k + c]);
-                                }
-                                qr_row[k] = scaled(r[i]);
-                                acc.push(&qr_row);
-                            }
+                            Sink::Rows(acc) => acc.push(jr),
                         }
                     }
                 }
