@@ -158,7 +158,7 @@ pub(super) struct Basis {
     /// Per dependent column, its nonzero coefficients `(basis position, coefficient)`: the
     /// proof's product when they are few (a base set's dependences are mostly a column equal
     /// to another, or its negative), `None` when they are many (a matrix product then).
-    terms: Option<Vec<Vec<(usize, f64)>>>,
+    terms: Option<SparseTerms>,
     /// The number of columns (the residual aside).
     pub n: usize,
     /// Whether the basis's columns are well enough conditioned on the subsample for their `R`
@@ -367,20 +367,37 @@ impl Basis {
     }
 }
 
-/// Per column of `coef`, its nonzero entries `(row, value)`, when they are at most a quarter
-/// of the entries (a product term by term then costs less than a matrix product).
-fn sparse_terms(coef: &Matrix) -> Option<Vec<Vec<(usize, f64)>>> {
+/// The nonzero entries `(row, value)` of each column of a coefficient matrix, flat: column
+/// `j`'s are `terms[ends[j - 1]..ends[j]]`.
+#[derive(Clone)]
+struct SparseTerms {
+    terms: Vec<(usize, f64)>,
+    ends: Vec<usize>,
+}
+
+impl SparseTerms {
+    /// Each column's terms, in order.
+    fn columns(&self) -> impl Iterator<Item = &[(usize, f64)]> {
+        let starts = std::iter::once(0).chain(self.ends.iter().copied());
+        starts.zip(&self.ends).map(|(a, &b)| &self.terms[a..b])
+    }
+}
+
+/// The nonzero entries of `coef`'s columns, when they are at most a quarter of the entries (a
+/// product term by term then costs less than a matrix product).
+fn sparse_terms(coef: &Matrix) -> Option<SparseTerms> {
     let (b, k) = (coef.nrows(), coef.ncols());
-    let terms: Vec<Vec<(usize, f64)>> = (0..k)
-        .map(|i| {
+    let mut terms = Vec::new();
+    let mut ends = Vec::with_capacity(k);
+    for i in 0..k {
+        terms.extend(
             (0..b)
                 .filter(|&l| coef[(l, i)] != 0.0)
-                .map(|l| (l, coef[(l, i)]))
-                .collect()
-        })
-        .collect();
-    let count: usize = terms.iter().map(Vec::len).sum();
-    (4 * count <= b * k).then_some(terms)
+                .map(|l| (l, coef[(l, i)])),
+        );
+        ends.push(terms.len());
+    }
+    (4 * terms.len() <= b * k).then_some(SparseTerms { terms, ends })
 }
 
 /// How [`Basis::fold_all_by`] makes `R_B`.
@@ -403,13 +420,6 @@ pub(super) enum Folded {
 enum BasisSink {
     Gram(GramAccumulator),
     Qr(QrAccumulator),
-}
-
-/// The proof's terms, flat: dependent column `j`'s are `terms[ends[j - 1]..ends[j]]`
-/// (`(basis position, coefficient)`).
-struct RowProof {
-    terms: Vec<(usize, f64)>,
-    ends: Vec<usize>,
 }
 
 /// The sink of [`Basis::fold_all`]: each row (`[J_B | J_D | r]`) has its `[J_B | r]` folded
@@ -439,8 +449,8 @@ struct BasisRows<'a> {
     block_d: Vec<f64>,
     /// The block's rows as pushed, row-major (`b + k + 1` wide), when rows are kept.
     rows: Vec<f64>,
-    /// The proof's terms when it is taken row by row (few terms, no row clamped).
-    by_rows: Option<RowProof>,
+    /// Whether each row is proved as it comes (few terms, no row clamped).
+    by_rows: bool,
     /// One row's `[J_B | r]`, as the QR takes it.
     row_b: Vec<f64>,
     filled: usize,
@@ -453,20 +463,8 @@ impl<'a> BasisRows<'a> {
         let (b, k) = (basis.basis.len(), basis.dependent.len());
         // With few terms and no row clamped (the common case), each row is proved as it comes;
         // otherwise its rows are kept, a block at a time.
-        let by_rows = match &basis.terms {
-            Some(terms) if clamp.is_empty() => Some(RowProof {
-                terms: terms.iter().flatten().copied().collect(),
-                ends: terms
-                    .iter()
-                    .scan(0, |end, t| {
-                        *end += t.len();
-                        Some(*end)
-                    })
-                    .collect(),
-            }),
-            _ => None,
-        };
-        let kept = if by_rows.is_none() { QR_BLOCK } else { 0 };
+        let by_rows = basis.terms.is_some() && clamp.is_empty();
+        let kept = if by_rows { 0 } else { QR_BLOCK };
         BasisRows {
             basis,
             acc: match by {
@@ -530,7 +528,7 @@ impl<'a> BasisRows<'a> {
         // `block_d` is spent.
         match &self.basis.terms {
             Some(terms) => {
-                for (j, terms) in terms.iter().enumerate() {
+                for (j, terms) in terms.columns().enumerate() {
                     let d = &mut self.block_d[j * ld..j * ld + f];
                     for &(l, a) in terms {
                         for (e, &v) in d.iter_mut().zip(&self.block_b[l * ld..l * ld + f]) {
@@ -659,21 +657,17 @@ impl RowSink for BasisRows<'_> {
             }
         }
         self.row += 1;
-        match &self.by_rows {
+        match &self.basis.terms {
             // Each dependent column less its few terms, in this row.
-            Some(proof) => {
-                let mut start = 0;
-                for ((&end, off), &d) in proof.ends.iter().zip(&mut self.off).zip(&row[b..]) {
-                    let mut e = d;
-                    for &(l, a) in &proof.terms[start..end] {
-                        e -= a * row[l];
-                    }
+            Some(terms) if self.by_rows => {
+                let dependent = terms.columns().zip(&mut self.off).zip(&row[b..]);
+                for ((terms, off), &d) in dependent {
+                    let e = terms.iter().fold(d, |e, &(l, a)| e - a * row[l]);
                     *off += e * e;
-                    start = end;
                 }
             }
             // Kept until the block is full (a copy; `flush` gathers it).
-            None => {
+            _ => {
                 self.rows[self.filled * w..(self.filled + 1) * w].copy_from_slice(row);
                 self.filled += 1;
             }
