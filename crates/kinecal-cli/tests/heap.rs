@@ -2,6 +2,7 @@
 //! in one large step and advised for 2 MB pages, so that a large run faults its memory in a few
 //! pages at a time. Checked on a running `kinecal` (waiting for its data on standard input):
 //! its heap mapping carries the kernel's `hg` flag (`MADV_HUGEPAGE`) in `/proc/PID/smaps`.
+//! And the command is linked position-dependent (`build.rs`): nothing to relocate at start.
 #![cfg(all(target_os = "linux", target_env = "gnu"))]
 
 use std::io::Write as _;
@@ -93,4 +94,25 @@ VmFlags: rd mr mw me
     assert!(advised(smaps));
     assert!(heap_flags("7f00-7f01 r--p 0 0:0 0 /x\nVmFlags: rd\n").is_empty());
     assert!(!advised(&smaps.replace(" hg", "")));
+}
+
+/// The ELF type of the file at `path` (`e_type`, little-endian at byte 16): 2 for a
+/// position-dependent executable, 3 for a shared object (a position-independent one).
+fn elf_type(path: &std::path::Path) -> u16 {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..4], b"\x7fELF", "{} is not an ELF file", path.display());
+    u16::from_le_bytes([bytes[16], bytes[17]])
+}
+
+#[test]
+fn the_command_is_linked_position_dependent() {
+    let exe = assert_cmd::cargo::cargo_bin("kinecal");
+    assert_eq!(
+        elf_type(&exe),
+        2,
+        "{} is not a position-dependent executable (ET_EXEC): build.rs links it with -no-pie",
+        exe.display()
+    );
+    // The reader itself: this test's own binary is built position-independent (ET_DYN).
+    assert_eq!(elf_type(&std::env::current_exe().unwrap()), 3);
 }
