@@ -181,6 +181,14 @@ impl Basis {
         self.terms.is_some()
     }
 
+    /// Per dependent column, how many terms the proof takes (`None` by a matrix product).
+    #[cfg(test)]
+    pub(super) fn term_counts(&self) -> Option<Vec<usize>> {
+        self.terms
+            .as_ref()
+            .map(|t| t.columns().map(<[_]>::len).collect())
+    }
+
     /// The basis of `params`' columns on `sub` (the rank at `opts.rcond`, chosen by a pivoted
     /// QR in the order of preference), `None` when it has every column.
     pub(super) fn of(
@@ -451,6 +459,12 @@ struct BasisRows<'a> {
     rows: Vec<f64>,
     /// Whether each row is proved as it comes (few terms, no row clamped).
     by_rows: bool,
+    /// When proved as it comes: the dependent columns of a single term, `(dependent
+    /// position, basis position, coefficient)` (most of a base set's: a column equal to
+    /// another, or its negative)...
+    single: Vec<(usize, usize, f64)>,
+    /// ...and the others, `(dependent position, their terms' range in the flat terms)`.
+    multiple: Vec<(usize, std::ops::Range<usize>)>,
     /// One row's `[J_B | r]`, as the QR takes it.
     row_b: Vec<f64>,
     filled: usize,
@@ -465,6 +479,17 @@ impl<'a> BasisRows<'a> {
         // otherwise its rows are kept, a block at a time.
         let by_rows = basis.terms.is_some() && clamp.is_empty();
         let kept = if by_rows { 0 } else { QR_BLOCK };
+        let (mut single, mut multiple) = (Vec::new(), Vec::new());
+        if let (true, Some(terms)) = (by_rows, &basis.terms) {
+            let mut start = 0;
+            for (j, &end) in terms.ends.iter().enumerate() {
+                match &terms.terms[start..end] {
+                    &[(l, a)] => single.push((j, l, a)),
+                    _ => multiple.push((j, start..end)),
+                }
+                start = end;
+            }
+        }
         BasisRows {
             basis,
             acc: match by {
@@ -479,6 +504,8 @@ impl<'a> BasisRows<'a> {
             block_d: vec![0.0; kept * k],
             rows: vec![0.0; kept * (b + k + 1)],
             by_rows,
+            single,
+            multiple,
             row_b: vec![0.0; b + 1],
             filled: 0,
             off: vec![0.0; k],
@@ -658,12 +685,19 @@ impl RowSink for BasisRows<'_> {
         }
         self.row += 1;
         match &self.basis.terms {
-            // Each dependent column less its few terms, in this row.
+            // Each dependent column less its few terms, in this row (the columns of one term
+            // in a loop of their own: the common case, and the pass's inner loop).
             Some(terms) if self.by_rows => {
-                let dependent = terms.columns().zip(&mut self.off).zip(&row[b..]);
-                for ((terms, off), &d) in dependent {
-                    let e = terms.iter().fold(d, |e, &(l, a)| e - a * row[l]);
-                    *off += e * e;
+                let d = &row[b..];
+                for &(j, l, a) in &self.single {
+                    let e = d[j] - a * row[l];
+                    self.off[j] += e * e;
+                }
+                for (j, range) in &self.multiple {
+                    let e = terms.terms[range.clone()]
+                        .iter()
+                        .fold(d[*j], |e, &(l, a)| e - a * row[l]);
+                    self.off[*j] += e * e;
                 }
             }
             // Kept until the block is full (a copy; `flush` gathers it).

@@ -338,12 +338,39 @@ fn random_arm_with(
     held: usize,
     spread: f64,
 ) -> (Robot, Dataset) {
+    arm_data(seed, count, pose, held, spread, false)
+}
+
+/// A random arm of a DH table's kind (link twists of 0 or +-90 deg, no other angles, links
+/// along x and z) and data, as [`random_arm`]: many of its dependences are one column equal
+/// to another or its negative, where a random arm's are several terms each.
+fn dh_arm(seed: u64, count: usize, pose: bool) -> (Robot, Dataset) {
+    arm_data(seed, count, pose, 0, 0.0, true)
+}
+
+fn arm_data(
+    seed: u64,
+    count: usize,
+    pose: bool,
+    held: usize,
+    spread: f64,
+    dh: bool,
+) -> (Robot, Dataset) {
     use rand::{RngExt, SeedableRng};
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut toml = String::from("name = \"arm\"\nlength_unit = \"m\"\nangle_unit = \"rad\"\n");
     for _ in 0..7 {
-        let l: Vec<f64> = (0..3).map(|_| rng.random_range(-0.4..0.4)).collect();
-        let a: Vec<f64> = (0..3).map(|_| rng.random_range(-1.2..1.2)).collect();
+        let mut l: Vec<f64> = (0..3).map(|_| rng.random_range(-0.4..0.4)).collect();
+        let mut a: Vec<f64> = (0..3).map(|_| rng.random_range(-1.2..1.2)).collect();
+        if dh {
+            l[1] = 0.0;
+            let twist = [
+                0.0,
+                std::f64::consts::FRAC_PI_2,
+                -std::f64::consts::FRAC_PI_2,
+            ];
+            a = vec![twist[rng.random_range(0..3)], 0.0, 0.0];
+        }
         toml.push_str(&format!(
             "[[links]]\nx = {}\ny = {}\nz = {}\nalpha = {}\nbeta = {}\ngamma = {}\n",
             l[0], l[1], l[2], a[0], a[1], a[2]
@@ -527,6 +554,46 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
         for (a, b) in typical[0].iter().zip(&typical[1]) {
             assert!((a - b).abs() <= 1e-12 * b, "seed {seed}: {a} vs {b}");
         }
+        let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
+        assert_same_analysis(&robot, &data, &params, &lin);
+    }
+}
+
+/// Arms of a DH table's kind: many dependences are a single term (a column equal to another
+/// or its negative), which the proof takes in a loop of their own, row by row; the fold
+/// agrees with the proof by a matrix product of every coefficient, and the analysis is that
+/// of every row.
+#[test]
+fn single_term_dependences_are_proved_row_by_row() {
+    for (seed, pose) in [(5, true), (6, false)] {
+        let (robot, data) = dh_arm(seed, 1800, pose);
+        let params: Vec<ParamId> = robot.param_ids().collect();
+        let opts = AnalysisOptions::default();
+        let keep = basis::subsample(&data, params.len()).expect("a subsample");
+        let b = basis::Basis::of(&robot, &data.subset(&keep), &params, &opts)
+            .unwrap()
+            .unwrap();
+        let counts = b.term_counts().expect("few terms");
+        let single = counts.iter().filter(|&&c| c == 1).count();
+        // Both loops of the proof run: the single terms' and the others'.
+        assert!(
+            single >= 3 && single < counts.len(),
+            "seed {seed}: {single} single terms of {counts:?}"
+        );
+        let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
+        let clamp = base::row_clamp(&data, &problem);
+        assert!(clamp.is_empty(), "uniform weights: proved row by row");
+        let raug = |b: &basis::Basis| match b.fold_all_by(
+            &robot,
+            &problem,
+            &clamp,
+            opts.rcond,
+            basis::Fold::Qr,
+        ) {
+            Some(basis::Folded::Rows(rows)) => rows.raug,
+            _ => panic!("seed {seed}: the proof failed"),
+        };
+        assert_same_inner_products(&raug(&b), &raug(&b.clone().dense()), 1e-12);
         let (_, lin) = analyze_linearized(&robot, &data, &params, &opts).unwrap();
         assert_same_analysis(&robot, &data, &params, &lin);
     }
