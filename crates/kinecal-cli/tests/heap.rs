@@ -100,7 +100,12 @@ VmFlags: rd mr mw me
 /// position-dependent executable, 3 for a shared object (a position-independent one).
 fn elf_type(path: &std::path::Path) -> u16 {
     let bytes = std::fs::read(path).unwrap();
-    assert_eq!(&bytes[..4], b"\x7fELF", "{} is not an ELF file", path.display());
+    assert_eq!(
+        &bytes[..4],
+        b"\x7fELF",
+        "{} is not an ELF file",
+        path.display()
+    );
     u16::from_le_bytes([bytes[16], bytes[17]])
 }
 

@@ -936,7 +936,7 @@ pub fn accuracy(robot: &Robot, data: &Dataset) -> Accuracy {
         robot,
         orientation: OrientationError::default(),
     };
-    let mut acc = AccuracyTally::default();
+    let mut acc = AccuracyTally::for_observations(data.observations.len());
     for_each_observation(robot, data, |_, o, frames| acc.push(o.error(&ctx, frames)));
     acc.finish()
 }
@@ -978,6 +978,16 @@ impl KeptErrors {
 }
 
 impl AccuracyTally {
+    /// An empty tally with room for `observations` errors (and as many positions): a pass
+    /// over the data grows no list, copying what it holds, as it goes.
+    pub(crate) fn for_observations(observations: usize) -> Self {
+        AccuracyTally {
+            positions: Vec::with_capacity(observations),
+            samples: Vec::with_capacity(observations),
+            ..Default::default()
+        }
+    }
+
     pub(crate) fn push(&mut self, e: ErrorSample) {
         self.samples.push(e);
         if e.metric == "position" {

@@ -470,7 +470,7 @@ impl<'a> Problem<'a> {
             robot,
             orientation: OrientationError::default(),
         };
-        let mut tally = AccuracyTally::default();
+        let mut tally = AccuracyTally::for_observations(self.data.observations.len());
         let f = self.evaluate_with(
             robot,
             res,

@@ -38,23 +38,22 @@ struct Row {
 
 /// The measured positions of `data` (positions and poses), in file order.
 fn rows_of(data: &Dataset) -> Vec<Row> {
-    data.observations
-        .iter()
-        .filter_map(|o| {
-            let position = match o {
-                Observation::Position(p) => p.position,
-                Observation::Pose(p) => p.position,
-                _ => return None,
-            };
-            let view = o.views().first()?;
-            Some(Row {
-                posture: view.posture,
-                line: o.line(),
-                target: view.target,
-                position,
-            })
+    let mut rows = Vec::with_capacity(data.observations.len());
+    rows.extend(data.observations.iter().filter_map(|o| {
+        let position = match o {
+            Observation::Position(p) => p.position,
+            Observation::Pose(p) => p.position,
+            _ => return None,
+        };
+        let view = o.views().first()?;
+        Some(Row {
+            posture: view.posture,
+            line: o.line(),
+            target: view.target,
+            position,
         })
-        .collect()
+    }));
+    rows
 }
 
 /// `robot` with its measurement and measured frames placed in closed form on `rows` (the robot
