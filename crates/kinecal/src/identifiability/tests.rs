@@ -415,6 +415,18 @@ fn arm_data(
     (robot, data)
 }
 
+/// Every parameter of `robot`, the default options, and the basis of their columns found on
+/// `data`'s subsample (which a test's data is large enough to have).
+fn subsample_basis(robot: &Robot, data: &Dataset) -> (Vec<ParamId>, AnalysisOptions, basis::Basis) {
+    let params: Vec<ParamId> = robot.param_ids().collect();
+    let opts = AnalysisOptions::default();
+    let keep = basis::subsample(data, params.len()).expect("a subsample");
+    let b = basis::Basis::of(robot, &data.subset(&keep), &params, &opts)
+        .unwrap()
+        .expect("dependent columns");
+    (params, opts, b)
+}
+
 /// `R^T R` of two `R`s agree entry by entry within `tol` of the product of the columns' norms
 /// (the inner products of the Jacobian's columns, which is all an `R` stands for); columns
 /// unfelt in both (norms within 1e-12 of the largest, which the analysis zeroes) aside.
@@ -567,12 +579,7 @@ fn rows_folded_through_a_subsample_basis_are_all_the_rows() {
 fn single_term_dependences_are_proved_row_by_row() {
     for (seed, pose) in [(5, true), (6, false)] {
         let (robot, data) = dh_arm(seed, 1800, pose);
-        let params: Vec<ParamId> = robot.param_ids().collect();
-        let opts = AnalysisOptions::default();
-        let keep = basis::subsample(&data, params.len()).expect("a subsample");
-        let b = basis::Basis::of(&robot, &data.subset(&keep), &params, &opts)
-            .unwrap()
-            .unwrap();
+        let (params, opts, b) = subsample_basis(&robot, &data);
         let counts = b.term_counts().expect("few terms");
         let single = counts.iter().filter(|&&c| c == 1).count();
         // Both loops of the proof run: the single terms' and the others'.
@@ -609,12 +616,7 @@ fn single_term_dependences_are_proved_row_by_row() {
 fn a_combination_norm_is_the_dependent_column_norm() {
     for (seed, pose) in [(2, true), (3, false)] {
         let (robot, data) = random_arm(seed, 1800, pose, 0);
-        let params: Vec<ParamId> = robot.param_ids().collect();
-        let opts = AnalysisOptions::default();
-        let keep = basis::subsample(&data, params.len()).unwrap();
-        let b = basis::Basis::of(&robot, &data.subset(&keep), &params, &opts)
-            .unwrap()
-            .unwrap();
+        let (params, opts, b) = subsample_basis(&robot, &data);
         let problem = Problem::new(&robot, &data, &params, opts.weights, opts.orientation);
         let whole = spectrum::rows(&robot, &problem, &[], None, params.len()).unwrap();
         let rb = crate::linalg::r_of_columns(&whole.raug, &b.basis);
@@ -719,12 +721,7 @@ fn a_fit_from_the_linearisation_keeps_its_errors() {
 #[test]
 fn an_ill_conditioned_basis_is_folded_by_qr() {
     let (robot, data) = random_arm_joint6(5, 1800, true, 2e-5);
-    let params: Vec<ParamId> = robot.param_ids().collect();
-    let opts = AnalysisOptions::default();
-    let keep = basis::subsample(&data, params.len()).expect("a subsample of 1,800 postures");
-    let b = basis::Basis::of(&robot, &data.subset(&keep), &params, &opts)
-        .unwrap()
-        .unwrap();
+    let (params, opts, b) = subsample_basis(&robot, &data);
     assert!(
         !b.gram,
         "the basis's condition on the subsample is above 1e4"
