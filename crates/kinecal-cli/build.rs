@@ -1,4 +1,4 @@
-//! Links the command position-dependent (`-no-pie`) on Linux with glibc.
+//! Links the command position-dependent (`-no-pie`) on Linux with glibc, dynamically linked.
 //!
 //! A position-independent executable has its own pointers relocated by the dynamic loader at
 //! every start: 18,500 of them in this command (clap's tables, vtables, static strings), which
@@ -10,9 +10,12 @@
 //! Python module and the tests are built as before.
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
-    let os = std::env::var("CARGO_CFG_TARGET_OS").unwrap_or_default();
-    let env = std::env::var("CARGO_CFG_TARGET_ENV").unwrap_or_default();
-    if os == "linux" && env == "gnu" {
+    let var = |name: &str| std::env::var(name).unwrap_or_default();
+    // A static build (`crt-static`) is linked as the toolchain links it (a static PIE).
+    let dynamic = !var("CARGO_CFG_TARGET_FEATURE")
+        .split(',')
+        .any(|f| f == "crt-static");
+    if var("CARGO_CFG_TARGET_OS") == "linux" && var("CARGO_CFG_TARGET_ENV") == "gnu" && dynamic {
         println!("cargo:rustc-link-arg-bins=-no-pie");
     }
 }
