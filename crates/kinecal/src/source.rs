@@ -24,7 +24,26 @@ pub struct Source {
     pub sha256: String,
 }
 
+/// A file read, known by its name and the SHA-256 of its bytes: what a report records of it.
+/// Its text is not kept: a data file's is dropped once it is parsed, so that a run does not
+/// hold every file it read for as long as it works on their data.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Fingerprint {
+    /// The path as the user gave it (or `<built-in ge-a4>`).
+    pub name: String,
+    /// SHA-256 of the bytes read.
+    pub sha256: String,
+}
+
 impl Source {
+    /// Its name and fingerprint, without the text.
+    pub fn fingerprint(&self) -> Fingerprint {
+        Fingerprint {
+            name: self.name.clone(),
+            sha256: self.sha256.clone(),
+        }
+    }
+
     /// Text that did not come from a file (a built-in robot), named `name`.
     pub fn text(name: impl Into<String>, text: impl Into<String>) -> Source {
         let text = text.into();

@@ -10,7 +10,7 @@ use super::{detect_format, read_observations_as, ColumnMap, ReadOptions, FORMATS
 use crate::error::{Error, Result, Setting};
 use crate::model::robot::Robot;
 use crate::observe::Dataset;
-use crate::source::Source;
+use crate::source::{Fingerprint, Source};
 
 fn is_default<T: Default + PartialEq>(t: &T) -> bool {
     *t == T::default()
@@ -126,7 +126,7 @@ pub(crate) fn read_options(
 }
 
 /// Reads the observation files `list` for `robot`, as `read` says, into one dataset, and
-/// their sources; with `read.session_per_file`, each file's session is named to tell it from
+/// their fingerprints (each file's text is dropped once it is parsed); with `read.session_per_file`, each file's session is named to tell it from
 /// the files `all` (`session_name`). The files are fitted together, so a row's own standard
 /// deviation is checked against the median of every file's for its quantity
 /// (`table::sigma_spread_across`), as each file's reader checks it against its own.
@@ -135,9 +135,9 @@ pub fn read_files(
     list: &[ObservationFile],
     robot: &Robot,
     all: &[&Path],
-) -> Result<(Dataset, Vec<Source>)> {
+) -> Result<(Dataset, Vec<Fingerprint>)> {
     let mut parts = Vec::with_capacity(list.len());
-    let mut sources = Vec::new();
+    let mut sources = Vec::with_capacity(list.len());
     for f in list {
         let source = Source::read(Path::new(&f.file))?;
         let kind = match &f.kind {
@@ -152,7 +152,7 @@ pub fn read_files(
         };
         let d = read_observation_file(&source, kind, &opts, robot, session.as_deref())?;
         parts.push((d, opts.units(robot, &source.name)?));
-        sources.push(source);
+        sources.push(source.fingerprint());
     }
     if parts.len() > 1 {
         let files: Vec<super::table::FileRows<'_>> = parts

@@ -9,7 +9,7 @@ use crate::model::robot::Robot;
 use crate::observe::{target_name, Accuracy, Dataset};
 use crate::solve::estimation::Calibration;
 use crate::solve::outliers::Outlier;
-use crate::source::Source;
+use crate::source::Fingerprint;
 use crate::uncertainty::{Uncertainty, NOISE_SIGMAS};
 use crate::units::{Quantity, Units};
 use crate::warning::Warning;
@@ -553,7 +553,7 @@ impl CalibrationReport {
     }
 
     /// Records the files read: the first is the robot file, the second the (first) data file.
-    pub(crate) fn set_sources(&mut self, sources: &[Source]) {
+    pub(crate) fn set_sources(&mut self, sources: &[Fingerprint]) {
         self.robot_file_sha256 = sources.first().map(|s| s.sha256.clone());
         self.data_file_sha256 = sources.get(1).map(|s| s.sha256.clone());
         self.sources = sources

@@ -43,7 +43,7 @@ use crate::files::{detect_format, kind_index, read_files, ObservationFile, ReadS
 use crate::model::robot::Robot;
 use crate::observe::{Dataset, OrientationError};
 use crate::solve::estimation::{Damping, Loss, Method, ModelErrorMode, SolverOptions, Spread};
-use crate::source::Source;
+use crate::source::{Fingerprint, Source};
 use crate::units::DisplayChoice;
 use crate::workflow::{self, Candidate, Outcome, Request, SolutionRule, Validation};
 
@@ -310,12 +310,13 @@ impl CalibrationSpec {
         self.load()?.run(env)
     }
 
-    /// Reads the observation files of `list` for `robot` into one dataset, and their sources.
+    /// Reads the observation files of `list` for `robot` into one dataset, and their
+    /// fingerprints.
     fn read_files(
         &self,
         list: &[ObservationFile],
         robot: &Robot,
-    ) -> Result<(Dataset, Vec<Source>)> {
+    ) -> Result<(Dataset, Vec<Fingerprint>)> {
         let all: Vec<&Path> = self
             .observations
             .iter()
@@ -486,7 +487,7 @@ impl CalibrationSpec {
             Some(self.read_files(&self.validation.files, &robot)?.0)
         };
         let mut request = self.request(&robot, data, initial.map(|(r, _)| r), held_out)?;
-        request.sources = std::iter::once(robot_source.clone())
+        request.sources = std::iter::once(robot_source.fingerprint())
             .chain(sources)
             .collect();
         let choice = candidates(self, &robot)?;

@@ -333,7 +333,7 @@ pub(crate) fn read_observations(
     read: &crate::files::ReadSettings,
     list: &[crate::files::ObservationFile],
     robot: &Robot,
-) -> Result<(crate::Dataset, Vec<crate::source::Source>)> {
+) -> Result<(crate::Dataset, Vec<crate::source::Fingerprint>)> {
     if list.is_empty() {
         return Err(invalid(Setting::Observations, "no observation file given"));
     }

@@ -141,7 +141,9 @@ impl ReportSpec {
         let (data, sources) = read_observations(&self.read, &self.observations, &nominal)?;
         let (weights, orientation) = self.residuals.resolve(&nominal)?;
         let calibrated = self.calibrated_robot(&nominal)?;
-        let sources: Vec<_> = std::iter::once(source).chain(sources).collect();
+        let sources: Vec<_> = std::iter::once(source.fingerprint())
+            .chain(sources)
+            .collect();
         let mut outcome =
             crate::workflow::assess(&nominal, &calibrated, &data, weights, orientation, &sources)?;
         // The predicted accuracy and its map, as a calibration's HTML report gives them.

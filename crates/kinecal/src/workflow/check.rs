@@ -11,7 +11,7 @@ use crate::observe::{accuracy, Accuracy, Dataset, OrientationError, Weights};
 use crate::solve::estimation::{self, Calibration, CalibrationOptions};
 use crate::solve::outliers;
 use crate::solve::problem::Problem;
-use crate::source::Source;
+use crate::source::Fingerprint;
 use crate::uncertainty;
 
 use super::min_change::SolutionRule;
@@ -26,7 +26,7 @@ pub fn assess(
     data: &Dataset,
     weights: Weights,
     orientation: OrientationError,
-    sources: &[Source],
+    sources: &[Fingerprint],
 ) -> Result<Outcome> {
     if !nominal.same_structure(calibrated) {
         return Err(Error::OtherStructure {

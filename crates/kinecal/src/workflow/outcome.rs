@@ -14,7 +14,7 @@ use crate::report::CalibrationReport;
 use crate::solve::estimation::{self, Calibration, Loss};
 use crate::solve::outliers::{self, Outlier};
 use crate::solve::problem::Problem;
-use crate::source::Source;
+use crate::source::Fingerprint;
 use crate::uncertainty::Uncertainty;
 use crate::units::Quantity;
 use crate::warning::Warning;
@@ -265,7 +265,7 @@ pub(super) fn finish(
     pruning: Option<Pruning>,
     outlier_sigmas: f64,
     solution: SolutionRule,
-    sources: &[Source],
+    sources: &[Fingerprint],
     warnings: &mut Vec<Warning>,
 ) -> Outcome {
     warnings.extend(crate::observe::sanity::check_result(

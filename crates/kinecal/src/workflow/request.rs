@@ -9,7 +9,7 @@ use crate::model::robot::Robot;
 use crate::observe::{Dataset, OrientationError, Weights};
 use crate::solve::estimation::{self, Loss, SolverOptions};
 use crate::solve::outliers;
-use crate::source::Source;
+use crate::source::Fingerprint;
 
 use super::min_change::SolutionRule;
 use super::selection::Selection;
@@ -86,7 +86,7 @@ pub struct Request {
     /// answer; the identifiable set of a [`Selection::Identifiable`] is the data's alone.
     pub prior: crate::model::robot::Prior,
     /// The files read (for the report's fingerprints): the robot file first, then the data.
-    pub sources: Vec<Source>,
+    pub sources: Vec<Fingerprint>,
     /// How much of the predicted accuracy to work out ([`crate::predict`]): by default the
     /// model-error term and the summary over the joint ranges; the accuracy map too for an HTML
     /// report. The refits of cross-validation and model choice make none.
