@@ -46,10 +46,11 @@ impl TrigCache {
             robot,
             postures.iter().map(|p| p.readings.as_slice()),
         ));
-        let readings = postures
-            .iter()
-            .flat_map(|p| p.readings.iter().copied())
-            .collect();
+        // Made at its size: collected from a flattening iterator it would grow by doubling.
+        let mut readings = Vec::with_capacity(postures.iter().map(|p| p.readings.len()).sum());
+        for p in postures {
+            readings.extend_from_slice(&p.readings);
+        }
         tables.insert(
             0,
             Made {
