@@ -782,17 +782,24 @@ impl MetricAccuracy {
     }
 }
 
-/// RMS, mean, 95th percentile (nearest rank) and max of non-negative errors.
+/// RMS, mean, 95th percentile (nearest rank) and max of non-negative errors. The sums run in
+/// the errors' order; the percentile and the max are the elements a sort by
+/// [`f64::total_cmp`] would put at their ranks, found in linear time (a sort of 10,000 errors
+/// cost a 10,000-pose calibration about 1 % of its CPU, four times over).
 pub fn stats(mut e: Vec<f64>) -> (f64, f64, f64, f64) {
-    if e.is_empty() {
+    let Some(&first) = e.first() else {
         return (0.0, 0.0, 0.0, 0.0);
-    }
-    e.sort_by(f64::total_cmp);
+    };
     let n = e.len() as f64;
     let rms = (e.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
     let mean = e.iter().sum::<f64>() / n;
+    let max = e
+        .iter()
+        .copied()
+        .fold(first, |m, x| if x.total_cmp(&m).is_gt() { x } else { m });
     let rank = ((0.95 * n).ceil() as usize).clamp(1, e.len());
-    (rms, mean, e[rank - 1], e[e.len() - 1])
+    let (_, p95, _) = e.select_nth_unstable_by(rank - 1, f64::total_cmp);
+    (rms, mean, *p95, max)
 }
 
 /// The measurement frame `posture`'s poses and positions are in, when its session has a frame
@@ -1113,6 +1120,42 @@ mod tests {
     /// them, backwards and by jumps; and a distance's first posture is still held after its
     /// second. A serial rigid arm visited in order has the next postures computed with the
     /// first.
+    /// The statistics against their definition on a sorted copy: the percentile and the max
+    /// to the bit (the same elements), the sums within the rounding of `n` additions in
+    /// another order (`n` times the unit roundoff, relative: all terms are non-negative).
+    #[test]
+    fn stats_are_those_of_the_sorted_errors() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        for n in (1..40).chain([97, 1000, 4321]) {
+            // Ties too: a fifth of the errors repeat an earlier one.
+            let mut e: Vec<f64> = Vec::with_capacity(n);
+            for i in 0..n {
+                let x = if i > 0 && rng.random::<f64>() < 0.2 {
+                    e[rng.random_range(0..i)]
+                } else {
+                    rng.random::<f64>() * 10f64.powi(rng.random_range(-3..3))
+                };
+                e.push(x);
+            }
+            let mut sorted = e.clone();
+            sorted.sort_by(f64::total_cmp);
+            let rank = ((0.95 * n as f64).ceil() as usize).clamp(1, n);
+            let rms = (sorted.iter().map(|x| x * x).sum::<f64>() / n as f64).sqrt();
+            let mean = sorted.iter().sum::<f64>() / n as f64;
+            let (r, m, p95, max) = super::stats(e);
+            assert_eq!(p95.to_bits(), sorted[rank - 1].to_bits(), "n = {n}");
+            assert_eq!(max.to_bits(), sorted[n - 1].to_bits(), "n = {n}");
+            let tol = n as f64 * f64::EPSILON;
+            assert!((r - rms).abs() <= tol * rms, "n = {n}: {r} against {rms}");
+            assert!(
+                (m - mean).abs() <= tol * mean,
+                "n = {n}: {m} against {mean}"
+            );
+        }
+        assert_eq!(super::stats(Vec::new()), (0.0, 0.0, 0.0, 0.0));
+    }
+
     #[test]
     fn the_frame_cache_holds_what_one_pass_per_posture_gives() {
         let postures: Vec<Posture> = (0..11)
