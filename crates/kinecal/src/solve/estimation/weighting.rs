@@ -164,8 +164,13 @@ fn spread(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> [(f64, f64); 3] {
             .filter(|((k, _), _)| *k == q)
             .map(|(_, &s)| s)
             .collect();
-        s.sort_by(f64::total_cmp);
-        s.first().map_or((0.0, 0.0), |&lo| (lo, s[s.len() / 2]))
+        // The smallest and the element a sort would put at the middle, found in linear time.
+        let Some(lo) = s.iter().copied().min_by(f64::total_cmp) else {
+            return (0.0, 0.0);
+        };
+        let mid = s.len() / 2;
+        let (_, median, _) = s.select_nth_unstable_by(mid, f64::total_cmp);
+        (lo, *median)
     })
 }
 
@@ -298,6 +303,39 @@ mod tests {
         let [none, angle] = estimate_floor(&kinds, &sigma, &r_stated, 1.0, true);
         assert_eq!(none, Some(0.0));
         assert_eq!(angle, None);
+    }
+
+    /// Each quantity's smallest and middle standard deviation are a sorted copy's first and
+    /// middle elements, to the bit, with ties and with a quantity that has no rows.
+    #[test]
+    fn the_spread_is_that_of_the_sorted_sigmas() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for n in [0, 1, 2, 3, 10, 101, 2000] {
+            let kinds: Vec<(RowQuantity, bool)> = (0..n)
+                .map(|_| (QUANTITIES[rng.random_range(0..2)], true))
+                .collect();
+            // Sigmas from a few values: many ties.
+            let sigma: Vec<f64> = (0..n)
+                .map(|_| 1e-4 * f64::from(rng.random_range(1..20u8)))
+                .collect();
+            let got = spread(&kinds, &sigma);
+            for (q, (lo, mid)) in QUANTITIES.iter().zip(got) {
+                let mut s: Vec<f64> = kinds
+                    .iter()
+                    .zip(&sigma)
+                    .filter(|((k, _), _)| k == q)
+                    .map(|(_, &s)| s)
+                    .collect();
+                s.sort_by(f64::total_cmp);
+                let want = s.first().map_or((0.0, 0.0), |&l| (l, s[s.len() / 2]));
+                assert_eq!(
+                    (lo.to_bits(), mid.to_bits()),
+                    (want.0.to_bits(), want.1.to_bits()),
+                    "{q:?}, {n} rows"
+                );
+            }
+        }
     }
 
     /// A spread of 1000 between anchors and the rest stages the start; a spread of 50 does not.
