@@ -126,10 +126,11 @@ pub(crate) fn read_options(
 }
 
 /// Reads the observation files `list` for `robot`, as `read` says, into one dataset, and
-/// their fingerprints (each file's text is dropped once it is parsed); with `read.session_per_file`, each file's session is named to tell it from
-/// the files `all` (`session_name`). The files are fitted together, so a row's own standard
-/// deviation is checked against the median of every file's for its quantity
-/// (`table::sigma_spread_across`), as each file's reader checks it against its own.
+/// their fingerprints (each file's text is dropped once it is parsed); with
+/// `read.session_per_file`, each file's session is named to tell it from the files `all`
+/// (`session_name`). The files are fitted together, so a row's own standard deviation is
+/// checked against the median of every file's for its quantity (`table::sigma_spread_across`),
+/// as each file's reader checks it against its own.
 pub fn read_files(
     read: &ReadSettings,
     list: &[ObservationFile],
