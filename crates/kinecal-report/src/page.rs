@@ -29,7 +29,7 @@ pub(crate) fn page_head(title: &str) -> String {
          table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}\
          th{{background:#eee}}td.l,th.l{{text-align:left}}.warn{{color:#a33}}svg{{max-width:100%;height:auto}}.charts{{display:flex;flex-wrap:wrap;gap:0}}.charts svg{{max-width:50%}}\
          .verdict{{border-left:8px solid #4a4;background:#f2f8f2;padding:0.6em 1em;margin:1em 0}}.verdict.caution{{border-color:#c90;background:#fbf6ea}}.verdict.failed{{border-color:#c33;background:#fbeeee}}.verdict p.head{{font-size:1.15em;font-weight:bold;margin:0.2em 0}}\
-         .error{{color:#a22;font-weight:bold}}.caution{{color:#8a5a00}}.note{{color:#555}}dl.facts{{display:grid;grid-template-columns:max-content auto;gap:2px 1em;font-size:0.9em}}dl.facts dt{{color:#555}}dl.facts dd{{margin:0}}</style></head><body>\n",
+         .error{{color:#a22;font-weight:bold}}.caution{{color:#8a5a00}}.note{{color:#555}}dl.facts{{display:grid;grid-template-columns:max-content minmax(0,1fr);gap:2px 1em;font-size:0.9em}}dl.facts dt{{color:#555}}dl.facts dd{{margin:0;overflow-wrap:anywhere}}</style></head><body>\n",
         esc(title)
     )
 }

@@ -1,6 +1,7 @@
 //! The HTML report's 3-D view: drawn in a real browser (headless Chromium: the canvas has
 //! many drawn pixels, so the script ran and drew the scene), its legend and scale stated, its
-//! size bounded at 16,810 postures, and a scene that cannot be drawn said so rather than drawn.
+//! size bounded at 16,810 postures, and a scene that cannot be drawn said so rather than drawn;
+//! and the page around it within its window's width.
 //!
 //! Chromium is `chromium` (or `chromium-browser`) on the PATH; without it the browser test is
 //! skipped on a developer's machine and fails in CI (`CI=true`), where `.ci/run` installs it.
@@ -446,4 +447,35 @@ fn a_camera_and_its_board_are_drawn() {
     // A frustum of 8 cm and a board of 20 x 12.5 cm by a robot of a metre: hundreds of
     // pixels.
     assert!(drawn > without + 400, "{drawn} vs {without}");
+}
+
+/// The page fits its window's width: a job with a long estimate list (one token of several
+/// hundred characters, as `--estimate` writes it) wraps in the facts under the verdict rather
+/// than widening the page past a 1,200-pixel window (it did before: a horizontal scroll bar).
+#[test]
+fn a_long_job_wraps_within_the_window() {
+    let (nominal, _, data) = arm(30);
+    let mut rep = report(&nominal, &data);
+    let estimate: Vec<String> = (1..=7)
+        .flat_map(|l| ["x", "y", "z", "alpha", "beta", "gamma"].map(|p| format!("link{l}.{p}")))
+        .collect();
+    rep.spec = Some(serde_json::json!({
+        "robot": "a_robot_file_with_a_long_name.toml",
+        "selection": {"estimate": estimate.join(",")},
+    }));
+    let page = html_report(&rep).unwrap().replace(
+        "</body>",
+        "<script>document.body.setAttribute('data-overflow', String(Math.max(0, \
+         document.documentElement.scrollWidth - document.documentElement.clientWidth)));\
+         </script></body>",
+    );
+    let Some(dom) = rendered_dom(&page) else {
+        return;
+    };
+    assert!(dom.contains("link7.gamma"), "the job is on the page");
+    assert_eq!(
+        attribute(&dom, "data-overflow"),
+        Some(0),
+        "pixels of the page beyond the window's width"
+    );
 }
