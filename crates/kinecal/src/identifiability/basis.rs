@@ -43,9 +43,9 @@ use super::base::{priority_order, select_base};
 use super::spectrum::{dot, unclamped_typical, Rows, Scaled, Spectrum};
 use super::AnalysisOptions;
 
-/// Subsample groups of postures per analysed parameter: a subsample 4 `n` groups deep has at
-/// least 12 `n` rows (positions), a few times what the rank needs.
-const GROUPS_PER_PARAMETER: usize = 4;
+/// Subsample rows per analysed parameter, a few times what the rank needs: 4 `n` groups of
+/// postures measured by position, 2 `n` by pose.
+const ROWS_PER_PARAMETER: usize = 12;
 
 /// The fewest groups of each kind of observation (session, kind, frame) the subsample keeps
 /// (all of them when there are fewer), per analysed parameter: a rare kind is seen a few times.
@@ -74,7 +74,8 @@ const UNFELT: f64 = 1e-12;
 /// for a subsample to pay ([`MAX_SHARE`]). Groups of linked postures (see
 /// [`Dataset::posture_groups`]) are kept whole, keyed by the session, kind and frame of their
 /// first observation; of each key's groups, evenly spaced ones in file order (every sweep of
-/// sweep data), in proportion to the key's share and at least [`FLOOR_PER_PARAMETER`] `n`.
+/// sweep data), in proportion to the key's share and at least [`FLOOR_PER_PARAMETER`] `n`;
+/// [`ROWS_PER_PARAMETER`] `n` rows in all, at the data's mean rows per group.
 pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
     let (group_of, groups) = data.posture_group_of();
     type Key<'d> = (
@@ -108,7 +109,9 @@ pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
         by_key[k].push(g);
     }
     let total: usize = by_key.iter().map(Vec::len).sum();
-    let target = GROUPS_PER_PARAMETER * n;
+    let rows: usize = data.observations.iter().map(|o| o.rows().len()).sum();
+    let per_group = (rows / groups.max(1)).max(1);
+    let target = (ROWS_PER_PARAMETER * n).div_ceil(per_group);
     let floor = FLOOR_PER_PARAMETER * n;
     let mut chosen = vec![false; groups];
     let mut kept = 0;
