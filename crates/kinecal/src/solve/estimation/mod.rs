@@ -33,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::linalg::{GramAccumulator, Matrix, QrAccumulator, QR_BLOCK};
 use crate::model::params::ParamId;
 use crate::model::robot::{Prior, Robot};
-use crate::observe::{Accuracy, Dataset, KeptErrors, OrientationError, Weights};
+use crate::observe::{Accuracy, Dataset, KeptErrors, OrientationError, RowQuantity, Weights};
 use crate::solve::problem::{Linearized, Problem};
 use crate::units::{wrap_angle, Quantity};
 
@@ -266,47 +266,8 @@ pub(crate) fn calibrate_from(
     observer: &mut dyn FnMut(&Iteration),
     start: Option<&Linearized>,
 ) -> Result<Calibration> {
-    if opts.estimate.is_empty() {
-        return Err(Error::NothingToEstimate);
-    }
-    if let Some(bad) = opts
-        .estimate
-        .iter()
-        .find(|id| id.0 >= initial.param_count())
-    {
-        return Err(Error::Problem(format!(
-            "parameter {bad} does not exist in this robot"
-        )));
-    }
-    data.check_orientation(initial, opts.orientation)?;
-    let problem = Problem::new(
-        initial,
-        data,
-        &opts.estimate,
-        opts.weights,
-        opts.orientation,
-    )
-    .with_reading_trig()
-    .with_prior(&opts.prior);
-    if problem.rows() < problem.cols() {
-        return Err(Error::TooFewResiduals {
-            residuals: problem.rows(),
-            observations: data.observations.len(),
-            parameters: problem.cols(),
-        });
-    }
-    if let Loss::Huber { k, .. } = opts.loss {
-        if !(k.is_finite() && k >= 1e-6) {
-            return Err(Error::InvalidOption {
-                setting: crate::error::Setting::HuberScale,
-                message: format!(
-                    "expected a number of standard deviations of at least 1e-6, got {k}"
-                ),
-            });
-        }
-    }
+    let problem = checked_problem(initial, data, opts)?;
     let x0 = problem.values(initial);
-    let mut log = Vec::new();
     // The linearisation at the start, with the errors there from the same pass: given, or
     // computed here (its R is what the uncertainty at the start reuses).
     let (start_r, accuracy_before, errors_before) = match start.and_then(|l| {
@@ -314,48 +275,9 @@ pub(crate) fn calibrate_from(
         Some((r, l.accuracy.clone(), Some(l.errors.clone())))
     }) {
         Some(given) => given,
-        None => {
-            // The data's rows only: the prior's are added below (the uncertainty at the
-            // start wants the data's R). By the Gram matrix first, a pass about 40 % cheaper
-            // than by QR: its R is accurate enough where the Jacobian is well conditioned
-            // (the solver's own test, `solver::augmented_from_gram`); by a QR pass
-            // otherwise. With a prior the data alone seldom determine every parameter (that
-            // is what priors are for): QR at once, not a Gram pass wasted first.
-            let data_only = problem.clone().with_prior(&Prior::default());
-            let n = problem.cols();
-            let mut r = vec![0.0; data_only.rows()];
-            let by_qr = |r: &mut Vec<f64>| {
-                let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
-                let (f, accuracy, kept) = data_only.evaluate_rows_kept(initial, r, &mut acc);
-                let mut r0 = Matrix::zeros(0, 0);
-                acc.r_into(&mut r0);
-                (f, r0, accuracy, kept)
-            };
-            let (f, r0, accuracy, kept) = if opts.prior.is_empty() {
-                let mut gram = GramAccumulator::new(n + 1, QR_BLOCK);
-                let (f, accuracy, kept) = data_only.evaluate_rows_kept(initial, &mut r, &mut gram);
-                let mut g = Matrix::zeros(0, 0);
-                gram.gram_into(&mut g);
-                match solver::augmented_from_gram(&g, f) {
-                    Some(r0) => (f, r0, accuracy, kept),
-                    None if f.is_finite() => by_qr(&mut r),
-                    None => (f, g, accuracy, kept),
-                }
-            } else {
-                by_qr(&mut r)
-            };
-            if !f.is_finite() {
-                return Err(non_finite_start(&problem, &r));
-            }
-            (r0, accuracy, Some(kept))
-        }
+        None => linearize_start(&problem, initial, opts)?,
     };
-    // Rows with standard deviations of their own: a staged start, and a model-error floor when
-    // their residuals show more than they state (see `weighting`).
-    let kinds = weighting::row_kinds(data);
-    let sigma = problem.row_sigma().to_vec();
-    let own_rows = kinds.iter().any(|(_, own)| *own);
-    let auto = own_rows && opts.model_error == ModelErrorMode::Auto;
+    let mut log = Vec::new();
     let mut record = |it: &Iteration| {
         log.push(*it);
         observer(it);
@@ -363,233 +285,31 @@ pub(crate) fn calibrate_from(
     let start_objective: f64 = (0..start_r.nrows())
         .map(|i| start_r[(i, start_r.ncols() - 1)].powi(2))
         .sum();
-    // The staged start: from uniform weights (always with a floor to estimate, which needs a
-    // fit its residuals can be read from; otherwise when the sigmas spread far).
-    let staged_scale = match (own_rows, auto) {
-        (false, _) => None,
-        (true, true) => Some(
-            weighting::staged_scale(&kinds, &sigma)
-                .unwrap_or_else(|| weighting::uniform_scale(&kinds, &sigma)),
-        ),
-        (true, false) => weighting::staged_scale(&kinds, &sigma),
-    };
-    let uniform = match &staged_scale {
-        Some(scale) => {
-            let floored = problem.clone().with_row_scale(scale);
-            Some(solve(&floored, &x0, &opts.solver, &mut record)?)
-        }
-        None => None,
-    };
-    let staged = uniform.is_some();
-    // The fit at the stated standard deviations (with a floor to weigh it against, a probe
-    // of at most `weighting::STATED_PROBE` iterations first: continued if it is chosen).
-    let mut probe = opts.solver;
-    if auto {
-        probe.max_iterations = probe.max_iterations.min(weighting::STATED_PROBE);
-    }
-    let mut sol = match &uniform {
-        Some(first) => {
-            let mut sol = solve(&problem, &first.x, &probe, &mut record)?;
-            sol.iterations += first.iterations;
-            sol.unfelt = first.unfelt.clone();
-            sol
-        }
-        None => {
-            // The solver's start: the data's R with the prior's rows folded in (0 there).
-            let solver_start = problem.with_prior_rows(&start_r);
-            solver::drive(
-                &problem,
-                &x0,
-                &opts.solver,
-                opts.solver.method.rule(&opts.solver).as_mut(),
-                &mut record,
-                Some(&solver_start),
-            )?
-        }
-    };
+    let WeightedFit {
+        mut sol,
+        floor_scale,
+        model_error,
+        staged,
+        start_rank,
+        unfelt,
+        own_rows,
+    } = fit_weighted(&problem, opts, &x0, &start_r, &mut record)?;
     sol.objective_before = start_objective;
-    sol.start_r = start_r.clone();
-    // The rank at the start of the estimation: that of the first solve's start.
-    let start_rank = uniform
-        .as_ref()
-        .map_or(sol.stationarity.start_rank, |u| u.stationarity.start_rank);
-    let unfelt: Vec<ParamId> = sol.unfelt.iter().map(|&j| opts.estimate[j]).collect();
-    let mut floor_scale = vec![1.0; problem.data_rows()];
-    let mut model_error = None;
-    if let (true, Some(first)) = (auto, &uniform) {
-        let mut floor = ModelErrorFloor::default();
-        for (q, own) in &kinds {
-            match (q, own) {
-                (crate::observe::RowQuantity::Length, true) => floor.rows[0] += 1,
-                (crate::observe::RowQuantity::Angle, true) => floor.rows[1] += 1,
-                _ => {}
-            }
-        }
-        let nd = problem.data_rows() as f64;
-        let dof_fraction = ((nd - problem.cols() as f64) / nd).max(0.0);
-        let mut all = vec![0.0; problem.rows()];
-        let residuals_at = |x: &[f64], all: &mut Vec<f64>| {
-            problem.evaluate(&problem.robot_at(x), all, None);
-        };
-        // The stated fit's residuals first: rows that match their sigmas there keep them.
-        residuals_at(&sol.x, &mut all);
-        // Which quantities' rows match their sigmas at the stated fit: those keep them.
-        let first_test = weighting::estimate_floor(
-            &kinds,
-            &sigma,
-            &all[..problem.data_rows()],
-            dof_fraction,
-            true,
-        );
-        let held = first_test.map(|m| m.is_none_or(|m| m <= 0.0));
-        if !held.iter().all(|h| *h) {
-            // The floor, from the uniform fit on: estimated, fitted, estimated again until it
-            // settles.
-            let mut x = first.x.clone();
-            let mut fitted: Option<Solution> = None;
-            let mut floor_iterations = 0;
-            for round in 0..=weighting::FLOOR_ROUNDS {
-                residuals_at(&x, &mut all);
-                let est = weighting::estimate_floor(
-                    &kinds,
-                    &sigma,
-                    &all[..problem.data_rows()],
-                    dof_fraction,
-                    false,
-                );
-                let next = [0, 1].map(|q| if held[q] { 0.0 } else { est[q].unwrap_or(0.0) });
-                let prev = [floor.length, floor.angle];
-                let settled = fitted.is_some()
-                    && next
-                        .iter()
-                        .zip(prev)
-                        .all(|(n, p)| (n - p).abs() <= 0.02 * p.max(*n));
-                if settled || round == weighting::FLOOR_ROUNDS {
-                    break;
-                }
-                floor.length = next[0];
-                floor.angle = next[1];
-                let scale = weighting::floor_scale(&kinds, &sigma, &floor);
-                let floored = problem.clone().with_row_scale(&scale);
-                let again = solve(&floored, &x, &opts.solver, &mut record)?;
-                floor.refits += 1;
-                floor_iterations += again.iterations;
-                x = again.x.clone();
-                fitted = Some(again);
-            }
-            // The floored fit against the stated one, by the likelihood of the residuals under
-            // each one's standard deviations, the floor's extra parameters (one per quantity
-            // floored) charged as Akaike's criterion charges them. A probe stopped at its cap
-            // is finished first when the floor would win against it.
-            residuals_at(&x, &mut all);
-            let floor_cost =
-                weighting::likelihood_cost(&kinds, &sigma, &all[..problem.data_rows()], &floor)
-                    + 2.0 * held.iter().filter(|h| !**h).count() as f64;
-            let mut stated_cost = f64::INFINITY;
-            for _ in 0..2 {
-                residuals_at(&sol.x, &mut all);
-                stated_cost = weighting::likelihood_cost(
-                    &kinds,
-                    &sigma,
-                    &all[..problem.data_rows()],
-                    &ModelErrorFloor::default(),
-                );
-                let used = sol.iterations - first.iterations;
-                if floor_cost < stated_cost
-                    && sol.termination == Termination::MaxIterations
-                    && used < opts.solver.max_iterations
-                {
-                    let mut rest = opts.solver;
-                    rest.max_iterations -= used;
-                    let more = solve(&problem, &sol.x, &rest, &mut record)?;
-                    sol.iterations += more.iterations;
-                    sol.x = more.x;
-                    sol.termination = more.termination;
-                    sol.stationarity = more.stationarity;
-                } else {
-                    break;
-                }
-            }
-            if let Some(f) = fitted.filter(|_| floor_cost < stated_cost) {
-                floor_scale = weighting::floor_scale(&kinds, &sigma, &floor);
-                // The iterations of the path taken: the uniform fit's and the floor's.
-                sol.iterations = first.iterations + floor_iterations;
-                sol.x = f.x;
-                sol.termination = f.termination;
-                sol.stationarity = f.stationarity;
-                model_error = Some(floor);
-            }
-        }
-        if model_error.is_none() {
-            // The stated fit stands: the probe continued to the iteration cap.
-            let used = sol.iterations - first.iterations;
-            if sol.termination == Termination::MaxIterations && used < opts.solver.max_iterations {
-                let mut rest = opts.solver;
-                rest.max_iterations -= used;
-                let more = solve(&problem, &sol.x, &rest, &mut record)?;
-                sol.iterations += more.iterations;
-                sol.x = more.x;
-                sol.termination = more.termination;
-                sol.stationarity = more.stationarity;
-            }
-            model_error = Some(ModelErrorFloor {
-                rows: floor.rows,
-                ..Default::default()
-            });
-        }
-    }
-    // Huber loss: iteratively reweighted least squares, weights min(1, k/|r|) per residual
-    // (on the residuals as the floor weighs them).
-    let mut row_scale = floor_scale.clone();
-    if let Loss::Huber { k, spread } = opts.loss {
-        let mut all = vec![0.0; problem.rows()];
-        for _ in 0..50 {
-            problem.evaluate(&problem.robot_at(&sol.x), &mut all, None);
-            // The data's rows: the prior's keep weight 1.
-            let r: Vec<f64> = all[..problem.data_rows()]
-                .iter()
-                .zip(&floor_scale)
-                .map(|(r, f)| r * f)
-                .collect();
-            let s = match spread {
-                Spread::Robust => crate::observe::RobustSpread::of(data, &r).per_row,
-                Spread::Stated => vec![1.0; r.len()],
-            };
-            let new: Vec<f64> = r
-                .iter()
-                .zip(&s)
-                .zip(&floor_scale)
-                .map(|((&ri, &si), f)| f * (k * si / ri.abs()).min(1.0).sqrt())
-                .collect();
-            let change = new
-                .iter()
-                .zip(&row_scale)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            row_scale = new;
-            if change < 1e-9 {
-                break;
-            }
-            let weighted = problem.clone().with_row_scale(&row_scale);
-            let before = sol.objective_before;
-            let unfelt = std::mem::take(&mut sol.unfelt);
-            sol = solve(&weighted, &sol.x, &opts.solver, &mut record)?;
-            sol.objective_before = before;
-            sol.unfelt = unfelt;
-        }
-    }
+    let row_scale = match opts.loss {
+        Loss::Huber { k, spread } => reweight_huber(
+            &problem,
+            data,
+            opts,
+            k,
+            spread,
+            &floor_scale,
+            &mut sol,
+            &mut record,
+        )?,
+        Loss::Squared => floor_scale.clone(),
+    };
     sol.stationarity.start_rank = start_rank;
-    let mut calibrated = problem.robot_at(&sol.x);
-    for &id in &opts.estimate {
-        if initial.param_quantity(id) == Quantity::Angle {
-            // Only an angle that went round is moved: the others keep the solver's value to the
-            // last bit (`v0 + wrap(v - v0)` rounds a negative change).
-            let (v0, v) = (initial.get(id), calibrated.get(id));
-            if (v - v0).abs() > std::f64::consts::PI {
-                calibrated.set(id, v0 + wrap_angle(v - v0));
-            }
-        }
-    }
+    let calibrated = angles_near(initial, problem.robot_at(&sol.x), &opts.estimate);
     let mut residuals = vec![0.0; problem.data_rows()];
     if model_error.is_some_and(|m| m.length > 0.0 || m.angle > 0.0) {
         // The objective before, as the floor weighs the rows (so that before and after
@@ -631,6 +351,429 @@ pub(crate) fn calibrate_from(
         errors_before,
         errors_after: Some(errors_after),
     })
+}
+
+/// `calibrated` with its estimated angles within half a turn of `initial`'s (angles are
+/// periodic). Only an angle that went round is moved: the others keep the solver's value to the
+/// last bit (`v0 + wrap(v - v0)` rounds a negative change).
+fn angles_near(initial: &Robot, mut calibrated: Robot, estimated: &[ParamId]) -> Robot {
+    for &id in estimated {
+        if initial.param_quantity(id) == Quantity::Angle {
+            let (v0, v) = (initial.get(id), calibrated.get(id));
+            if (v - v0).abs() > std::f64::consts::PI {
+                calibrated.set(id, v0 + wrap_angle(v - v0));
+            }
+        }
+    }
+    calibrated
+}
+
+/// The problem of `opts` over `data` at `initial`, once the options are checked: something to
+/// estimate, parameters the robot has, orientation residuals the data allow, at least as many
+/// residuals as parameters and a Huber scale that is a number of standard deviations.
+fn checked_problem<'a>(
+    initial: &'a Robot,
+    data: &'a Dataset,
+    opts: &'a CalibrationOptions,
+) -> Result<Problem<'a>> {
+    if opts.estimate.is_empty() {
+        return Err(Error::NothingToEstimate);
+    }
+    if let Some(bad) = opts
+        .estimate
+        .iter()
+        .find(|id| id.0 >= initial.param_count())
+    {
+        return Err(Error::Problem(format!(
+            "parameter {bad} does not exist in this robot"
+        )));
+    }
+    data.check_orientation(initial, opts.orientation)?;
+    let problem = Problem::new(
+        initial,
+        data,
+        &opts.estimate,
+        opts.weights,
+        opts.orientation,
+    )
+    .with_reading_trig()
+    .with_prior(&opts.prior);
+    if problem.rows() < problem.cols() {
+        return Err(Error::TooFewResiduals {
+            residuals: problem.rows(),
+            observations: data.observations.len(),
+            parameters: problem.cols(),
+        });
+    }
+    if let Loss::Huber { k, .. } = opts.loss {
+        if !(k.is_finite() && k >= 1e-6) {
+            return Err(Error::InvalidOption {
+                setting: crate::error::Setting::HuberScale,
+                message: format!(
+                    "expected a number of standard deviations of at least 1e-6, got {k}"
+                ),
+            });
+        }
+    }
+    Ok(problem)
+}
+
+/// The linearisation at `initial` over the data's rows (the prior's are added by the solver:
+/// the uncertainty at the start wants the data's `R`), with the accuracy and each
+/// observation's error from the same pass.
+///
+/// By the Gram matrix first, a pass about 40 % cheaper than by QR: its `R` is accurate enough
+/// where the Jacobian is well conditioned (the solver's own test,
+/// [`solver::augmented_from_gram`]); by a QR pass otherwise. With a prior the data alone seldom
+/// determine every parameter (that is what priors are for): QR at once, not a Gram pass wasted
+/// first. A start whose objective is not finite is an error that names the rows.
+fn linearize_start(
+    problem: &Problem<'_>,
+    initial: &Robot,
+    opts: &CalibrationOptions,
+) -> Result<(Matrix, Accuracy, Option<KeptErrors>)> {
+    let data_only = problem.clone().with_prior(&Prior::default());
+    let n = problem.cols();
+    let mut r = vec![0.0; data_only.rows()];
+    let by_qr = |r: &mut Vec<f64>| {
+        let mut acc = QrAccumulator::new(n + 1, QR_BLOCK);
+        let (f, accuracy, kept) = data_only.evaluate_rows_kept(initial, r, &mut acc);
+        let mut r0 = Matrix::zeros(0, 0);
+        acc.r_into(&mut r0);
+        (f, r0, accuracy, kept)
+    };
+    let (f, r0, accuracy, kept) = if opts.prior.is_empty() {
+        let mut gram = GramAccumulator::new(n + 1, QR_BLOCK);
+        let (f, accuracy, kept) = data_only.evaluate_rows_kept(initial, &mut r, &mut gram);
+        let mut g = Matrix::zeros(0, 0);
+        gram.gram_into(&mut g);
+        match solver::augmented_from_gram(&g, f) {
+            Some(r0) => (f, r0, accuracy, kept),
+            None if f.is_finite() => by_qr(&mut r),
+            None => (f, g, accuracy, kept),
+        }
+    } else {
+        by_qr(&mut r)
+    };
+    if !f.is_finite() {
+        return Err(non_finite_start(problem, &r));
+    }
+    Ok((r0, accuracy, Some(kept)))
+}
+
+/// The fit at the rows' weights ([`fit_weighted`]) before a robust loss reweighs it.
+struct WeightedFit {
+    sol: Solution,
+    /// The model-error floor's row scale (`s_i / sqrt(s_i^2 + m^2)`; all 1 without a floor).
+    floor_scale: Vec<f64>,
+    /// The floor, when rows carry standard deviations of their own and it is estimated.
+    model_error: Option<ModelErrorFloor>,
+    /// Whether the fit started from uniform weights.
+    staged: bool,
+    /// The rank of the first solve's start.
+    start_rank: usize,
+    /// The estimated parameters no residual felt at the start.
+    unfelt: Vec<ParamId>,
+    /// Whether some rows carry standard deviations of their own.
+    own_rows: bool,
+}
+
+/// The fit at the rows' weights. Rows with standard deviations of their own get a staged
+/// start (from uniform weights: always when a floor is to be estimated, which needs a fit its
+/// residuals can be read from; otherwise when the sigmas spread far) and, with
+/// [`ModelErrorMode::Auto`], a model-error floor when their residuals show more than they state
+/// ([`choose_floor`]); see [`weighting`].
+fn fit_weighted(
+    problem: &Problem<'_>,
+    opts: &CalibrationOptions,
+    x0: &[f64],
+    start_r: &Matrix,
+    record: &mut dyn FnMut(&Iteration),
+) -> Result<WeightedFit> {
+    let kinds = weighting::row_kinds(problem.data());
+    let sigma = problem.row_sigma().to_vec();
+    let own_rows = kinds.iter().any(|(_, own)| *own);
+    let auto = own_rows && opts.model_error == ModelErrorMode::Auto;
+    let staged_scale = match (own_rows, auto) {
+        (false, _) => None,
+        (true, true) => Some(
+            weighting::staged_scale(&kinds, &sigma)
+                .unwrap_or_else(|| weighting::uniform_scale(&kinds, &sigma)),
+        ),
+        (true, false) => weighting::staged_scale(&kinds, &sigma),
+    };
+    let uniform = match &staged_scale {
+        Some(scale) => {
+            let floored = problem.clone().with_row_scale(scale);
+            Some(solve(&floored, x0, &opts.solver, record)?)
+        }
+        None => None,
+    };
+    // The fit at the stated standard deviations (with a floor to weigh it against, a probe
+    // of at most `weighting::STATED_PROBE` iterations first: continued if it is chosen).
+    let mut probe = opts.solver;
+    if auto {
+        probe.max_iterations = probe.max_iterations.min(weighting::STATED_PROBE);
+    }
+    let mut sol = match &uniform {
+        Some(first) => {
+            let mut sol = solve(problem, &first.x, &probe, record)?;
+            sol.iterations += first.iterations;
+            sol.unfelt = first.unfelt.clone();
+            sol
+        }
+        None => {
+            // The solver's start: the data's R with the prior's rows folded in (0 there).
+            let solver_start = problem.with_prior_rows(start_r);
+            solver::drive(
+                problem,
+                x0,
+                &opts.solver,
+                opts.solver.method.rule(&opts.solver).as_mut(),
+                record,
+                Some(&solver_start),
+            )?
+        }
+    };
+    // The rank at the start of the estimation: that of the first solve's start.
+    let start_rank = uniform
+        .as_ref()
+        .map_or(sol.stationarity.start_rank, |u| u.stationarity.start_rank);
+    let unfelt: Vec<ParamId> = sol.unfelt.iter().map(|&j| opts.estimate[j]).collect();
+    let (floor_scale, model_error) = match (auto, &uniform) {
+        (true, Some(first)) => {
+            let (scale, floor) =
+                choose_floor(problem, opts, &kinds, &sigma, first, &mut sol, record)?;
+            (scale, Some(floor))
+        }
+        _ => (vec![1.0; problem.data_rows()], None),
+    };
+    Ok(WeightedFit {
+        sol,
+        floor_scale,
+        model_error,
+        staged: uniform.is_some(),
+        start_rank,
+        unfelt,
+        own_rows,
+    })
+}
+
+/// The model-error floor against the stated standard deviations, from the uniform fit `first`
+/// and the stated fit `sol` (a probe): rows whose residuals match their sigmas at the stated fit
+/// keep them; for the others the floor is estimated, fitted and estimated again until it
+/// settles, and kept when it wins by the likelihood of the residuals (its extra parameters
+/// charged as Akaike's criterion charges them). `sol` becomes the fit chosen (the stated probe
+/// continued to the iteration cap when the floor loses). Returns the floor's row scale (all 1
+/// when it loses) and the floor (its row counts alone when it loses).
+fn choose_floor(
+    problem: &Problem<'_>,
+    opts: &CalibrationOptions,
+    kinds: &[(RowQuantity, bool)],
+    sigma: &[f64],
+    first: &Solution,
+    sol: &mut Solution,
+    record: &mut dyn FnMut(&Iteration),
+) -> Result<(Vec<f64>, ModelErrorFloor)> {
+    let mut floor = ModelErrorFloor::default();
+    for (q, own) in kinds {
+        match (q, own) {
+            (RowQuantity::Length, true) => floor.rows[0] += 1,
+            (RowQuantity::Angle, true) => floor.rows[1] += 1,
+            _ => {}
+        }
+    }
+    let nd = problem.data_rows() as f64;
+    let dof_fraction = ((nd - problem.cols() as f64) / nd).max(0.0);
+    let mut all = vec![0.0; problem.rows()];
+    let residuals_at = |x: &[f64], all: &mut Vec<f64>| {
+        problem.evaluate(&problem.robot_at(x), all, None);
+    };
+    // The stated probe continued to the iteration cap (`rest` of it left).
+    let finish_stated = |sol: &mut Solution, record: &mut dyn FnMut(&Iteration)| -> Result<()> {
+        let used = sol.iterations - first.iterations;
+        if sol.termination == Termination::MaxIterations && used < opts.solver.max_iterations {
+            let mut rest = opts.solver;
+            rest.max_iterations -= used;
+            let more = solve(problem, &sol.x, &rest, record)?;
+            sol.iterations += more.iterations;
+            sol.x = more.x;
+            sol.termination = more.termination;
+            sol.stationarity = more.stationarity;
+        }
+        Ok(())
+    };
+    // Which quantities' rows match their sigmas at the stated fit: those keep them.
+    residuals_at(&sol.x, &mut all);
+    let first_test = weighting::estimate_floor(
+        kinds,
+        sigma,
+        &all[..problem.data_rows()],
+        dof_fraction,
+        true,
+    );
+    let held = first_test.map(|m| m.is_none_or(|m| m <= 0.0));
+    if !held.iter().all(|h| *h) {
+        let (fitted, floor_iterations) = iterate_floor(
+            problem,
+            opts,
+            (kinds, sigma),
+            held,
+            dof_fraction,
+            first,
+            &mut floor,
+            record,
+        )?;
+        let x = fitted.as_ref().map_or(&first.x, |f| &f.x);
+        // The floored fit against the stated one, by the likelihood of the residuals under
+        // each one's standard deviations, the floor's extra parameters (one per quantity
+        // floored) charged as Akaike's criterion charges them. A probe stopped at its cap
+        // is finished first when the floor would win against it.
+        residuals_at(x, &mut all);
+        let floor_cost =
+            weighting::likelihood_cost(kinds, sigma, &all[..problem.data_rows()], &floor)
+                + 2.0 * held.iter().filter(|h| !**h).count() as f64;
+        let mut stated_cost = f64::INFINITY;
+        for _ in 0..2 {
+            residuals_at(&sol.x, &mut all);
+            stated_cost = weighting::likelihood_cost(
+                kinds,
+                sigma,
+                &all[..problem.data_rows()],
+                &ModelErrorFloor::default(),
+            );
+            let capped = sol.termination == Termination::MaxIterations
+                && sol.iterations - first.iterations < opts.solver.max_iterations;
+            if floor_cost < stated_cost && capped {
+                finish_stated(sol, record)?;
+            } else {
+                break;
+            }
+        }
+        if let Some(f) = fitted.filter(|_| floor_cost < stated_cost) {
+            // The iterations of the path taken: the uniform fit's and the floor's.
+            sol.iterations = first.iterations + floor_iterations;
+            sol.x = f.x;
+            sol.termination = f.termination;
+            sol.stationarity = f.stationarity;
+            return Ok((weighting::floor_scale(kinds, sigma, &floor), floor));
+        }
+    }
+    // The stated fit stands: the probe continued to the iteration cap.
+    finish_stated(sol, record)?;
+    Ok((
+        vec![1.0; problem.data_rows()],
+        ModelErrorFloor {
+            rows: floor.rows,
+            ..Default::default()
+        },
+    ))
+}
+
+/// The model-error floor from the uniform fit `first` on: estimated from the residuals,
+/// fitted, estimated again until it settles (each quantity's floor within 2 % of the last) or
+/// [`weighting::FLOOR_ROUNDS`] rounds; quantities whose rows `held` their sigmas get none.
+/// `floor` holds the last floor fitted; returns that fit (none when the first estimate ends
+/// it) and the iterations of all the fits.
+#[allow(clippy::too_many_arguments)]
+fn iterate_floor(
+    problem: &Problem<'_>,
+    opts: &CalibrationOptions,
+    (kinds, sigma): (&[(RowQuantity, bool)], &[f64]),
+    held: [bool; 2],
+    dof_fraction: f64,
+    first: &Solution,
+    floor: &mut ModelErrorFloor,
+    record: &mut dyn FnMut(&Iteration),
+) -> Result<(Option<Solution>, usize)> {
+    let mut all = vec![0.0; problem.rows()];
+    let mut fitted: Option<Solution> = None;
+    let mut iterations = 0;
+    for round in 0..=weighting::FLOOR_ROUNDS {
+        let x = fitted.as_ref().map_or(&first.x, |f| &f.x);
+        problem.evaluate(&problem.robot_at(x), &mut all, None);
+        let est = weighting::estimate_floor(
+            kinds,
+            sigma,
+            &all[..problem.data_rows()],
+            dof_fraction,
+            false,
+        );
+        let next = [0, 1].map(|q| if held[q] { 0.0 } else { est[q].unwrap_or(0.0) });
+        let prev = [floor.length, floor.angle];
+        let settled = fitted.is_some()
+            && next
+                .iter()
+                .zip(prev)
+                .all(|(n, p)| (n - p).abs() <= 0.02 * p.max(*n));
+        if settled || round == weighting::FLOOR_ROUNDS {
+            break;
+        }
+        floor.length = next[0];
+        floor.angle = next[1];
+        let scale = weighting::floor_scale(kinds, sigma, floor);
+        let floored = problem.clone().with_row_scale(&scale);
+        let again = solve(&floored, x, &opts.solver, record)?;
+        floor.refits += 1;
+        iterations += again.iterations;
+        fitted = Some(again);
+    }
+    Ok((fitted, iterations))
+}
+
+/// The Huber loss by iteratively reweighted least squares: weights `min(1, k s_i / |r_i|)` per
+/// residual, on the residuals as the floor weighs them (`floor_scale`; `s_i` the robust or the
+/// stated spread), refitted until they change by less than 1e-9 (at most 50 rounds). `sol`
+/// becomes the last fit (its objective before and unfelt columns kept); returns the final row
+/// scale (the floor's times the loss's square-root weights).
+#[allow(clippy::too_many_arguments)]
+fn reweight_huber(
+    problem: &Problem<'_>,
+    data: &Dataset,
+    opts: &CalibrationOptions,
+    k: f64,
+    spread: Spread,
+    floor_scale: &[f64],
+    sol: &mut Solution,
+    record: &mut dyn FnMut(&Iteration),
+) -> Result<Vec<f64>> {
+    let mut row_scale = floor_scale.to_vec();
+    let mut all = vec![0.0; problem.rows()];
+    for _ in 0..50 {
+        problem.evaluate(&problem.robot_at(&sol.x), &mut all, None);
+        // The data's rows: the prior's keep weight 1.
+        let r: Vec<f64> = all[..problem.data_rows()]
+            .iter()
+            .zip(floor_scale)
+            .map(|(r, f)| r * f)
+            .collect();
+        let s = match spread {
+            Spread::Robust => crate::observe::RobustSpread::of(data, &r).per_row,
+            Spread::Stated => vec![1.0; r.len()],
+        };
+        let new: Vec<f64> = r
+            .iter()
+            .zip(&s)
+            .zip(floor_scale)
+            .map(|((&ri, &si), f)| f * (k * si / ri.abs()).min(1.0).sqrt())
+            .collect();
+        let change = new
+            .iter()
+            .zip(&row_scale)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        row_scale = new;
+        if change < 1e-9 {
+            break;
+        }
+        let weighted = problem.clone().with_row_scale(&row_scale);
+        let before = sol.objective_before;
+        let unfelt = std::mem::take(&mut sol.unfelt);
+        *sol = solve(&weighted, &sol.x, &opts.solver, record)?;
+        sol.objective_before = before;
+        sol.unfelt = unfelt;
+    }
+    Ok(row_scale)
 }
 
 /// The verdict on a stationary point where the scaled Jacobian determines fewer directions than
