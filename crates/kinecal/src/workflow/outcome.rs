@@ -268,84 +268,10 @@ pub(super) fn finish(
     sources: &[Fingerprint],
     warnings: &mut Vec<Warning>,
 ) -> Outcome {
-    warnings.extend(crate::observe::sanity::check_result(
-        &nominal,
-        &cal.calibrated,
-        &cal.estimated,
-    ));
-    if let Some(m) = cal.model_error.filter(|m| m.length > 0.0 || m.angle > 0.0) {
-        let kinds = crate::solve::estimation::weighting::row_kinds(&data);
-        let own: Vec<f64> = kinds
-            .iter()
-            .zip(&cal.residuals)
-            .filter(|((_, own), _)| *own)
-            .map(|(_, r)| r * r)
-            .collect();
-        warnings.push(Warning::ModelErrorFloor {
-            scale: (own.iter().sum::<f64>() / own.len().max(1) as f64).sqrt(),
-            length_mm: m.length * 1e3,
-            angle_deg: m.angle.to_degrees(),
-        });
-    }
-    if super::restart::positions_unfit(&nominal, &cal) {
-        let (u, reach) = (nominal.units, nominal.reach());
-        warnings.push(Warning::PositionsUnfit {
-            rms: u.from_si(Quantity::Length, cal.accuracy_after.rms_position),
-            reach: u.from_si(Quantity::Length, reach),
-            unit: u.length.to_string(),
-        });
-    }
-    if cal.accuracy_after.orientations > 0
-        && cal.accuracy_after.rms_orientation > crate::observe::sanity::ATTITUDE_LIMIT
-    {
-        warnings.push(Warning::AttitudesUnfit {
-            rms_deg: cal.accuracy_after.rms_orientation.to_degrees(),
-        });
-    }
-    warnings.extend(plausibility(&nominal, &cal, unc.as_ref().ok()));
-    if !cal.unfelt.is_empty() {
-        warnings.push(Warning::Unfelt {
-            parameters: cal
-                .unfelt
-                .iter()
-                .map(|&id| cal.calibrated.param_name(id))
-                .collect(),
-        });
-    }
+    result_warnings(&nominal, &data, &cal, unc.as_ref().ok(), warnings);
     let uncertainty = match unc {
         Ok(u) => {
-            if u.dof > 0 && !(SIGMAS_TOO_LARGE..=SIGMAS_TOO_SMALL).contains(&u.variance_factor) {
-                warnings.push(Warning::SigmasOff {
-                    variance_factor: u.variance_factor,
-                });
-            }
-            let loose: Vec<String> = u
-                .parameters
-                .iter()
-                .filter_map(|p| {
-                    let s = p.sigma?;
-                    let q = nominal.param_quantity(p.id);
-                    let tolerance = nominal.units.from_si(q, nominal.tolerance(p.id));
-                    let moved = p.change.abs() / s;
-                    (s > tolerance && moved > crate::warning::LOOSE_MOVE_SIGMAS)
-                        .then(|| format!("{} ({moved:.1} sigma)", nominal.param_name(p.id)))
-                })
-                .collect();
-            if !loose.is_empty() {
-                warnings.push(Warning::LooseAndMoved { parameters: loose });
-            }
-            for &(a, b, rho) in &u.correlations {
-                warnings.push(Warning::Correlated {
-                    a: a.to_string(),
-                    b: b.to_string(),
-                    rho,
-                });
-            }
-            for w in &u.analysis.warnings {
-                if !warnings.contains(w) {
-                    warnings.push(w.clone());
-                }
-            }
+            uncertainty_warnings(&nominal, &u, warnings);
             Some(u)
         }
         Err(e) => {
@@ -355,19 +281,7 @@ pub(super) fn finish(
             None
         }
     };
-    match cal.termination {
-        estimation::Termination::MaxIterations => warnings.push(Warning::NotConverged {
-            iterations: cal.iterations,
-        }),
-        estimation::Termination::Stalled => warnings.push(Warning::Stalled {
-            method: cal.options.solver.method.as_str().to_string(),
-        }),
-        estimation::Termination::RankLost => warnings.push(Warning::RankLost {
-            start_rank: cal.stationarity.start_rank,
-            rank: cal.stationarity.rank,
-        }),
-        _ => {}
-    }
+    warnings.extend(termination_warning(&cal));
     let outliers = outliers::outliers_of_fit(&cal, &data, outlier_sigmas);
     let mut identification = Checked::fitted(&cal, &data);
     let validation = validation_data
@@ -375,58 +289,12 @@ pub(super) fn finish(
         .map(|v| Checked::new(&cal, v, &data, &nominal));
     let mut report = CalibrationReport::new(&cal, &data);
     if let Some(v) = &validation_data {
-        let seen: std::collections::HashSet<Target> = data
-            .observations
-            .iter()
-            .flat_map(|o| o.views().iter().map(|v| v.target))
-            .collect();
-        let mut unseen: Vec<String> = Vec::new();
-        for o in &v.observations {
-            for view in o.views() {
-                let name = crate::observe::target_name(&cal.calibrated, view.target).to_string();
-                if !seen.contains(&view.target) && !unseen.contains(&name) {
-                    unseen.push(name);
-                }
-            }
-        }
-        if !unseen.is_empty() {
-            warnings.push(Warning::ValidationTargetsUnseen { targets: unseen });
-        }
+        warnings.extend(unseen_targets(&data, v, &cal.calibrated));
     }
     if let Some(e) = report.elastic.as_ref() {
-        let u = cal.calibrated.units;
-        let deflection = u.to_si(Quantity::Angle, e.largest_deflection.abs());
-        if deflection > crate::warning::DEFLECTION_LIMIT {
-            warnings.push(Warning::LargeDeflection {
-                degrees: deflection.to_degrees(),
-            });
-        }
+        warnings.extend(elastic_warnings(e, &cal.calibrated, &data));
     }
-    if let Some(e) = report
-        .elastic
-        .as_ref()
-        .filter(|e| e.unconverged_postures > 0)
-    {
-        warnings.push(Warning::EquilibriumNotConverged {
-            postures: e.unconverged_postures,
-            of: data.postures.len(),
-        });
-    }
-    // The solver started elsewhere than the nominal robot (frames placed in closed form, an
-    // initial guess): "before" is the nominal robot, the start is said apart.
-    let nominal_figures = (cal.initial != nominal).then(|| {
-        let p = Problem::new(
-            &nominal,
-            &data,
-            &[],
-            cal.options.weights,
-            cal.options.orientation,
-        );
-        let mut r = vec![0.0; p.rows()];
-        let (objective, accuracy, _) = p.evaluate_checked(&nominal, &mut r);
-        (objective, accuracy)
-    });
-    if let Some((objective, accuracy)) = &nominal_figures {
+    if let Some((objective, accuracy)) = &nominal_figures(&nominal, &cal, &data) {
         report.set_nominal(*objective, accuracy, &nominal.units);
         identification.start = Some(std::mem::replace(
             &mut identification.before,
@@ -460,33 +328,7 @@ pub(super) fn finish(
     }
     let validation = validation.map(|(v, _)| v);
     if let Some(v) = &validation {
-        let len = |x: f64| cal.calibrated.units.from_si(Quantity::Length, x);
-        let mut worse = |metric: &str, before: f64, after: f64| {
-            // Beyond rounding: a held-out error that grew by more than a part in a million.
-            if after > before * (1.0 + 1e-6) {
-                // A camera's errors are in pixels whatever the length unit.
-                let pixel = metric == "pixel";
-                warnings.push(Warning::WorseOnValidation {
-                    metric: metric.to_string(),
-                    before: if pixel { before } else { len(before) },
-                    after: if pixel { after } else { len(after) },
-                    unit: if pixel {
-                        "px".to_string()
-                    } else {
-                        cal.calibrated.units.length.to_string()
-                    },
-                });
-            }
-        };
-        // Against the start when it is not the nominal robot (a nominal whose frames were far
-        // off says nothing).
-        let base = v.start.as_ref().unwrap_or(&v.before);
-        if base.positions > 0 {
-            worse("position", base.mean_position, v.after.mean_position);
-        }
-        for (b, a) in base.other.iter().zip(&v.after.other) {
-            worse(b.metric, b.mean, a.mean);
-        }
+        warnings.extend(worse_on_validation(v, &cal.calibrated));
     }
     if let Some(u) = &uncertainty {
         report.set_uncertainty(&cal, u);
@@ -512,6 +354,212 @@ pub(super) fn finish(
         cross_validation: None,
         report,
     }
+}
+
+/// Warnings about the fit's result: implausible values ([`crate::observe::sanity`]), a
+/// model-error floor in use, positions or attitudes left far off, physical quantities out of
+/// their range ([`plausibility`]), parameters no residual felt.
+fn result_warnings(
+    nominal: &Robot,
+    data: &Dataset,
+    cal: &Calibration,
+    unc: Option<&Uncertainty>,
+    warnings: &mut Vec<Warning>,
+) {
+    warnings.extend(crate::observe::sanity::check_result(
+        nominal,
+        &cal.calibrated,
+        &cal.estimated,
+    ));
+    if let Some(m) = cal.model_error.filter(|m| m.length > 0.0 || m.angle > 0.0) {
+        let kinds = crate::solve::estimation::weighting::row_kinds(data);
+        let own: Vec<f64> = kinds
+            .iter()
+            .zip(&cal.residuals)
+            .filter(|((_, own), _)| *own)
+            .map(|(_, r)| r * r)
+            .collect();
+        warnings.push(Warning::ModelErrorFloor {
+            scale: (own.iter().sum::<f64>() / own.len().max(1) as f64).sqrt(),
+            length_mm: m.length * 1e3,
+            angle_deg: m.angle.to_degrees(),
+        });
+    }
+    if super::restart::positions_unfit(nominal, cal) {
+        let (u, reach) = (nominal.units, nominal.reach());
+        warnings.push(Warning::PositionsUnfit {
+            rms: u.from_si(Quantity::Length, cal.accuracy_after.rms_position),
+            reach: u.from_si(Quantity::Length, reach),
+            unit: u.length.to_string(),
+        });
+    }
+    if cal.accuracy_after.orientations > 0
+        && cal.accuracy_after.rms_orientation > crate::observe::sanity::ATTITUDE_LIMIT
+    {
+        warnings.push(Warning::AttitudesUnfit {
+            rms_deg: cal.accuracy_after.rms_orientation.to_degrees(),
+        });
+    }
+    warnings.extend(plausibility(nominal, cal, unc));
+    if !cal.unfelt.is_empty() {
+        warnings.push(Warning::Unfelt {
+            parameters: cal
+                .unfelt
+                .iter()
+                .map(|&id| cal.calibrated.param_name(id))
+                .collect(),
+        });
+    }
+}
+
+/// Warnings about the uncertainty: standard deviations that do not describe the residuals,
+/// parameters determined loosely yet moved by many sigmas, strong correlations, and the
+/// analysis's own (those not already in `warnings`).
+fn uncertainty_warnings(nominal: &Robot, u: &Uncertainty, warnings: &mut Vec<Warning>) {
+    if u.dof > 0 && !(SIGMAS_TOO_LARGE..=SIGMAS_TOO_SMALL).contains(&u.variance_factor) {
+        warnings.push(Warning::SigmasOff {
+            variance_factor: u.variance_factor,
+        });
+    }
+    let loose: Vec<String> = u
+        .parameters
+        .iter()
+        .filter_map(|p| {
+            let s = p.sigma?;
+            let q = nominal.param_quantity(p.id);
+            let tolerance = nominal.units.from_si(q, nominal.tolerance(p.id));
+            let moved = p.change.abs() / s;
+            (s > tolerance && moved > crate::warning::LOOSE_MOVE_SIGMAS)
+                .then(|| format!("{} ({moved:.1} sigma)", nominal.param_name(p.id)))
+        })
+        .collect();
+    if !loose.is_empty() {
+        warnings.push(Warning::LooseAndMoved { parameters: loose });
+    }
+    for &(a, b, rho) in &u.correlations {
+        warnings.push(Warning::Correlated {
+            a: a.to_string(),
+            b: b.to_string(),
+            rho,
+        });
+    }
+    for w in &u.analysis.warnings {
+        if !warnings.contains(w) {
+            warnings.push(w.clone());
+        }
+    }
+}
+
+/// The nominal robot's objective and accuracy on `data`, when the solver started elsewhere
+/// (frames placed in closed form, an initial guess): "before" is then the nominal robot, and
+/// the start is said apart.
+fn nominal_figures(nominal: &Robot, cal: &Calibration, data: &Dataset) -> Option<(f64, Accuracy)> {
+    (cal.initial != *nominal).then(|| {
+        let p = Problem::new(
+            nominal,
+            data,
+            &[],
+            cal.options.weights,
+            cal.options.orientation,
+        );
+        let mut r = vec![0.0; p.rows()];
+        let (objective, accuracy, _) = p.evaluate_checked(nominal, &mut r);
+        (objective, accuracy)
+    })
+}
+
+/// The warning for a fit that did not converge: stopped at the iteration cap, stalled, or at
+/// a point where the Jacobian lost rank.
+fn termination_warning(cal: &Calibration) -> Option<Warning> {
+    match cal.termination {
+        estimation::Termination::MaxIterations => Some(Warning::NotConverged {
+            iterations: cal.iterations,
+        }),
+        estimation::Termination::Stalled => Some(Warning::Stalled {
+            method: cal.options.solver.method.as_str().to_string(),
+        }),
+        estimation::Termination::RankLost => Some(Warning::RankLost {
+            start_rank: cal.stationarity.start_rank,
+            rank: cal.stationarity.rank,
+        }),
+        _ => None,
+    }
+}
+
+/// The validation data's targets (sites, end effector) that no identification row measures,
+/// named: their held-out errors say nothing about the calibration.
+fn unseen_targets(data: &Dataset, validation: &Dataset, calibrated: &Robot) -> Option<Warning> {
+    let seen: std::collections::HashSet<Target> = data
+        .observations
+        .iter()
+        .flat_map(|o| o.views().iter().map(|v| v.target))
+        .collect();
+    let mut unseen: Vec<String> = Vec::new();
+    for o in &validation.observations {
+        for view in o.views() {
+            let name = crate::observe::target_name(calibrated, view.target).to_string();
+            if !seen.contains(&view.target) && !unseen.contains(&name) {
+                unseen.push(name);
+            }
+        }
+    }
+    (!unseen.is_empty()).then_some(Warning::ValidationTargetsUnseen { targets: unseen })
+}
+
+/// An elastic robot's warnings: a deflection beyond [`crate::warning::DEFLECTION_LIMIT`], and
+/// postures whose equilibrium did not converge.
+fn elastic_warnings(
+    e: &crate::report::ElasticReport,
+    calibrated: &Robot,
+    data: &Dataset,
+) -> Vec<Warning> {
+    let mut out = Vec::new();
+    let deflection = calibrated
+        .units
+        .to_si(Quantity::Angle, e.largest_deflection.abs());
+    if deflection > crate::warning::DEFLECTION_LIMIT {
+        out.push(Warning::LargeDeflection {
+            degrees: deflection.to_degrees(),
+        });
+    }
+    if e.unconverged_postures > 0 {
+        out.push(Warning::EquilibriumNotConverged {
+            postures: e.unconverged_postures,
+            of: data.postures.len(),
+        });
+    }
+    out
+}
+
+/// Held-out errors that grew with the calibration (by more than a part in a million), per
+/// metric, against the start when it is not the nominal robot (a nominal whose frames were far
+/// off says nothing); a camera's in pixels, the others in the robot file's length unit.
+fn worse_on_validation(v: &Checked, calibrated: &Robot) -> Vec<Warning> {
+    let len = |x: f64| calibrated.units.from_si(Quantity::Length, x);
+    let mut out = Vec::new();
+    let mut worse = |metric: &str, before: f64, after: f64| {
+        if after > before * (1.0 + 1e-6) {
+            let pixel = metric == "pixel";
+            out.push(Warning::WorseOnValidation {
+                metric: metric.to_string(),
+                before: if pixel { before } else { len(before) },
+                after: if pixel { after } else { len(after) },
+                unit: if pixel {
+                    "px".to_string()
+                } else {
+                    calibrated.units.length.to_string()
+                },
+            });
+        }
+    };
+    let base = v.start.as_ref().unwrap_or(&v.before);
+    if base.positions > 0 {
+        worse("position", base.mean_position, v.after.mean_position);
+    }
+    for (b, a) in base.other.iter().zip(&v.after.other) {
+        worse(b.metric, b.mean, a.mean);
+    }
+    out
 }
 
 /// Warnings about the data itself: units that do not match the robot file's, readings the
