@@ -47,7 +47,7 @@ use quick_xml::Reader;
 use sha2::{Digest, Sha256};
 
 use super::readback::{self, ReadBack, Tolerance};
-use super::urdf::{export_urdf, import_urdf, import_urdf_tree};
+use super::urdf::{export_urdf, import_urdf, import_urdf_tree, UrdfChain, UrdfImport};
 use super::{inverse, link_of, Lost};
 use crate::error::{Error, Location, Result};
 use crate::model::camera::Mount;
@@ -324,35 +324,9 @@ pub fn export_ros(
     measurement: Option<&str>,
 ) -> Result<RosExport> {
     let mframe = measurement.unwrap_or(DEFAULT_MEASUREMENT_FRAME);
-    if mframe.is_empty()
-        || mframe.starts_with('/')
-        || !mframe
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '/' | '-' | '.'))
-    {
-        return Err(Error::Problem(format!(
-            "the measurement frame `{}` (measurement_frame) is not a TF frame name: letters, \
-             digits, `_`, `/`, `-` and `.` only, not beginning with `/` (ROS 2 refuses those)",
-            mframe.escape_debug()
-        )));
-    }
+    check_measurement_frame(mframe)?;
     let imported = import_urdf_tree(template, file, base, tips)?;
-    if imported.robot.dof() != robot.dof() || imported.robot.links.is_empty() {
-        return Err(Error::Problem(format!(
-            "the robot has {} joints, but the URDF's chain{} from `{}` to {} has {} movable joints",
-            robot.dof(),
-            if tips.len() > 1 { "s" } else { "" },
-            imported.chain.base,
-            imported
-                .branches
-                .iter()
-                .chain([&imported.chain])
-                .map(|c| format!("`{}`", c.tip))
-                .collect::<Vec<_>>()
-                .join(", "),
-            imported.robot.dof()
-        )));
-    }
+    check_joint_count(robot, &imported, tips.len())?;
     let urdf_name = imported.robot.name.clone();
     check_name(&urdf_name, "the robot's name", file)?;
     let first = imported.robot.links[0];
@@ -362,7 +336,7 @@ pub fn export_ros(
     let mut notes = Vec::new();
 
     // The joints on the chains (and the added tool joints), in the order of the file.
-    let chains: Vec<(&super::urdf::UrdfChain, Option<usize>)> = imported
+    let chains: Vec<(&UrdfChain, Option<usize>)> = imported
         .branches
         .iter()
         .enumerate()
@@ -378,7 +352,116 @@ pub fn export_ros(
         })
         .collect();
     let written = parse_urdf(&e.text, file)?;
-    let index = super::xml::scan(&e.text, file)?;
+    let joints = joint_origins(&e.text, &written, &chains, &added, file)?;
+    let hash = values_hash(&joints);
+    let calibration = calibration_yaml(&urdf_name, &hash, &joints);
+    let xacro = xacro_text(&e.text, file, &joints)?;
+
+    // The frames outside the robot.
+    let mut transforms = vec![StaticTransform {
+        parent: imported.chain.base.clone(),
+        child: mframe.to_string(),
+        kind: FrameKind::Measurement,
+        values: transform_values(&inverse(&placement)),
+    }];
+    let links: Vec<&str> = written.links.iter().map(|l| l.name.as_str()).collect();
+    if links.contains(&mframe) {
+        return Err(Error::Problem(format!(
+            "the measurement frame `{mframe}` (measurement_frame) is a link of the URDF: name the \
+             frame the robot was measured in otherwise"
+        )));
+    }
+    session_transforms(robot, mframe, &links, &mut transforms, &mut notes)?;
+    let mounts = Mounts {
+        robot,
+        imported: &imported,
+        chains: &chains,
+        added: &added,
+        mframe,
+        links: &links,
+    };
+    mounted_transforms(&mounts, &mut transforms, &mut notes)?;
+    let transforms_yaml = transforms_yaml(&urdf_name, &transforms);
+    let launch = launch_text(&urdf_name);
+
+    // Read back: the files as a reader takes them.
+    let cal = parse_calibration(&calibration, CALIBRATION_FILE)?;
+    if cal.joints != joints || cal.hash != hash || values_hash(&cal.joints) != hash {
+        return Err(Error::Problem(
+            "calibration.yaml, read back, does not hold the values written (an export bug)".into(),
+        ));
+    }
+    let tf = transforms_read_back(&transforms_yaml, &transforms, robot, &placement)?;
+    let expanded = expand_xacro(&xacro, &cal.joints, file)?;
+    same_urdf(&expanded, &e.text, file)?;
+    let placed = inverse(&tf.transforms[0].frame());
+    let read_back = chains_read_back(robot, &chains, &added, &expanded, &urdf_name, &placed)?;
+    Ok(RosExport {
+        xacro_file: xacro_file_name(&urdf_name),
+        robot: urdf_name,
+        calibration,
+        xacro,
+        transforms_yaml,
+        launch,
+        joints,
+        transforms,
+        hash,
+        read_back,
+        lost: e.lost,
+        warnings: e.warnings,
+        notes,
+    })
+}
+
+/// Refuses a measurement frame name that is not a TF frame name.
+fn check_measurement_frame(mframe: &str) -> Result<()> {
+    if mframe.is_empty()
+        || mframe.starts_with('/')
+        || !mframe
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '/' | '-' | '.'))
+    {
+        return Err(Error::Problem(format!(
+            "the measurement frame `{}` (measurement_frame) is not a TF frame name: letters, \
+             digits, `_`, `/`, `-` and `.` only, not beginning with `/` (ROS 2 refuses those)",
+            mframe.escape_debug()
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a template whose chains from the base to the `tips` (`tips` of them) do not have the
+/// robot's joints.
+fn check_joint_count(robot: &Robot, imported: &UrdfImport, tips: usize) -> Result<()> {
+    if imported.robot.dof() != robot.dof() || imported.robot.links.is_empty() {
+        return Err(Error::Problem(format!(
+            "the robot has {} joints, but the URDF's chain{} from `{}` to {} has {} movable joints",
+            robot.dof(),
+            if tips > 1 { "s" } else { "" },
+            imported.chain.base,
+            imported
+                .branches
+                .iter()
+                .chain([&imported.chain])
+                .map(|c| format!("`{}`", c.tip))
+                .collect::<Vec<_>>()
+                .join(", "),
+            imported.robot.dof()
+        )));
+    }
+    Ok(())
+}
+
+/// The origins of the joints on the `chains` and of the tool joints the URDF export `added`
+/// (their links' names), in the order of the exported file `text` (`written` as parsed).
+fn joint_origins(
+    text: &str,
+    written: &urdf_rs::Robot,
+    chains: &[(&UrdfChain, Option<usize>)],
+    added: &[String],
+    file: &str,
+) -> Result<Vec<JointOrigin>> {
+    let index = super::xml::scan(text, file)?;
     let wanted = |name: &str| {
         chains
             .iter()
@@ -404,24 +487,19 @@ pub fn export_ros(
             origin: [x, y, z, roll, pitch, yaw].map(clean),
         });
     }
-    let hash = values_hash(&joints);
-    let calibration = calibration_yaml(&urdf_name, &hash, &joints);
-    let xacro = xacro_text(&e.text, file, &joints)?;
+    Ok(joints)
+}
 
-    // The frames outside the robot.
-    let mut transforms = vec![StaticTransform {
-        parent: imported.chain.base.clone(),
-        child: mframe.to_string(),
-        kind: FrameKind::Measurement,
-        values: transform_values(&inverse(&placement)),
-    }];
-    let links: Vec<&str> = written.links.iter().map(|l| l.name.as_str()).collect();
-    if links.contains(&mframe) {
-        return Err(Error::Problem(format!(
-            "the measurement frame `{mframe}` (measurement_frame) is a link of the URDF: name the \
-             frame the robot was measured in otherwise"
-        )));
-    }
+/// The sessions' frames (the global frame in each session's), published on the measurement
+/// frame `mframe`; a name that is not a TF frame name is published cleaned (with a note), and
+/// one that clashes with a link, the measurement frame or another frame is refused.
+fn session_transforms(
+    robot: &Robot,
+    mframe: &str,
+    links: &[&str],
+    transforms: &mut Vec<StaticTransform>,
+    notes: &mut Vec<String>,
+) -> Result<()> {
     for s in &robot.sessions {
         let child = frame_name(&s.name);
         if child != s.name {
@@ -455,6 +533,37 @@ pub fn export_ros(
             values: transform_values(&inverse(&Frame::from_link(&s.frame))),
         });
     }
+    Ok(())
+}
+
+/// What [`mounted_transforms`] hangs cameras and boards from.
+struct Mounts<'a> {
+    robot: &'a Robot,
+    imported: &'a UrdfImport,
+    /// The template's chains, each with its site (`None`: the end effector's).
+    chains: &'a [(&'a UrdfChain, Option<usize>)],
+    /// The links the URDF export added (`<tip>_calibrated`).
+    added: &'a [String],
+    /// The measurement frame.
+    mframe: &'a str,
+    /// The exported URDF's links.
+    links: &'a [&'a str],
+}
+
+/// The cameras' and boards' frames, each pose as estimated, in the frame it was estimated in.
+fn mounted_transforms(
+    m: &Mounts<'_>,
+    transforms: &mut Vec<StaticTransform>,
+    notes: &mut Vec<String>,
+) -> Result<()> {
+    let Mounts {
+        robot,
+        imported,
+        chains,
+        added,
+        mframe,
+        links,
+    } = *m;
     // Cameras and boards: on the measurement frame when fixed (their poses are in the robot's
     // global frame, as the sessions' are), else on the URDF link of the tool frame they move
     // with (the end effector's or a site's tip link, or its `_calibrated` link when the URDF
@@ -547,21 +656,22 @@ pub fn export_ros(
             values: transform_values(&Frame::from_link(pose)),
         });
     }
-    let transforms_yaml = transforms_yaml(&urdf_name, &transforms);
-    let launch = launch_text(&urdf_name);
+    Ok(())
+}
 
-    // Read back: the files as a reader takes them.
-    let cal = parse_calibration(&calibration, CALIBRATION_FILE)?;
-    if cal.joints != joints || cal.hash != hash || values_hash(&cal.joints) != hash {
-        return Err(Error::Problem(
-            "calibration.yaml, read back, does not hold the values written (an export bug)".into(),
-        ));
-    }
-    let tf = parse_transforms(&transforms_yaml, TRANSFORMS_FILE)?;
-    for (a, b) in tf.transforms.iter().zip(&transforms) {
+/// `static_transforms.yaml` read back: each frame where it was written (to 1e-12) and none
+/// missing; an export bug otherwise.
+fn transforms_read_back(
+    yaml: &str,
+    transforms: &[StaticTransform],
+    robot: &Robot,
+    placement: &Frame,
+) -> Result<Transforms> {
+    let tf = parse_transforms(yaml, TRANSFORMS_FILE)?;
+    for (a, b) in tf.transforms.iter().zip(transforms) {
         let fa = a.frame();
         let expected = match &b.kind {
-            FrameKind::Measurement => inverse(&placement),
+            FrameKind::Measurement => inverse(placement),
             FrameKind::Session(name) => {
                 let Some(s) = robot.sessions.iter().find(|s| &s.name == name) else {
                     return Err(Error::Problem(format!(
@@ -602,15 +712,26 @@ pub fn export_ros(
             "static_transforms.yaml, read back, lacks transforms (an export bug)".into(),
         ));
     }
-    let expanded = expand_xacro(&xacro, &cal.joints, file)?;
-    same_urdf(&expanded, &e.text, file)?;
-    let placed = inverse(&tf.transforms[0].frame());
+    Ok(tf)
+}
+
+/// Each chain of the expanded xacro, imported again and placed by the measurement frame's
+/// transform read back (`placed`), against the robot's branch over its joint ranges: the worst
+/// position and attitude apart, and the postures compared.
+fn chains_read_back(
+    robot: &Robot,
+    chains: &[(&UrdfChain, Option<usize>)],
+    added: &[String],
+    expanded: &str,
+    urdf_name: &str,
+    placed: &Frame,
+) -> Result<ReadBack> {
     let mut read_back = ReadBack {
         position: 0.0,
         attitude: 0.0,
         postures: 0,
     };
-    for &(chain, site) in &chains {
+    for &(chain, site) in chains {
         let (serial, _) = robot.branch(site).map_err(Error::Problem)?;
         let added_link = format!("{}_calibrated", chain.tip);
         let tip = if added.contains(&added_link) {
@@ -619,8 +740,8 @@ pub fn export_ros(
             chain.tip.clone()
         };
         let mut back = import_urdf(
-            &expanded,
-            &format!("{} (expanded)", xacro_file_name(&urdf_name)),
+            expanded,
+            &format!("{} (expanded)", xacro_file_name(urdf_name)),
             Some(&chain.base),
             Some(&tip),
         )?
@@ -646,21 +767,7 @@ pub fn export_ros(
         read_back.attitude = read_back.attitude.max(r.attitude);
         read_back.postures += r.postures;
     }
-    Ok(RosExport {
-        xacro_file: xacro_file_name(&urdf_name),
-        robot: urdf_name,
-        calibration,
-        xacro,
-        transforms_yaml,
-        launch,
-        joints,
-        transforms,
-        hash,
-        read_back,
-        lost: e.lost,
-        warnings: e.warnings,
-        notes,
-    })
+    Ok(read_back)
 }
 
 /// The xacro's file name for a robot called `name`.
