@@ -1,6 +1,8 @@
 //! Input files as read: their text and a fingerprint of the bytes actually read, so that what a
 //! report records is what the calibration used.
 
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::error::{Error, Location, Result};
@@ -24,14 +26,17 @@ pub struct Source {
     pub sha256: String,
 }
 
-/// A file read, known by its name and the SHA-256 of its bytes: what a report records of it.
-/// Its text is not kept: a data file's is dropped once it is parsed, so that a run does not
-/// hold every file it read for as long as it works on their data.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A file the calibration read, with the SHA-256 of the bytes read.
+// What a report records of a file. Its text is not kept: a data file's is dropped once it is
+// parsed, so that a run does not hold every file it read for as long as it works on their data.
+// (The report's schema keeps the name it had when the report had a type of its own for it.)
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[schemars(rename = "SourceReport")]
 pub struct Fingerprint {
-    /// The path as the user gave it (or `<built-in ge-a4>`).
+    /// The file name as given.
+    // (`<built-in ge-a4>` for a built-in robot.)
     pub name: String,
-    /// SHA-256 of the bytes read.
+    /// SHA-256, hex.
     pub sha256: String,
 }
 

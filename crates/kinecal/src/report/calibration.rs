@@ -169,7 +169,7 @@ pub struct CalibrationReport {
     pub data_file_sha256: Option<String>,
     /// Every file read, with its SHA-256.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub sources: Vec<SourceReport>,
+    pub sources: Vec<Fingerprint>,
     /// The errors of each observation of the identification data, before and after.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub observation_errors: Option<ObservationErrors>,
@@ -556,13 +556,7 @@ impl CalibrationReport {
     pub(crate) fn set_sources(&mut self, sources: &[Fingerprint]) {
         self.robot_file_sha256 = sources.first().map(|s| s.sha256.clone());
         self.data_file_sha256 = sources.get(1).map(|s| s.sha256.clone());
-        self.sources = sources
-            .iter()
-            .map(|s| SourceReport {
-                name: s.name.clone(),
-                sha256: s.sha256.clone(),
-            })
-            .collect();
+        self.sources = sources.to_vec();
     }
 
     /// Pretty-printed JSON.

@@ -36,16 +36,6 @@ pub use parameters::{
     SpectrumReport, TermReport,
 };
 
-/// A file the calibration read, with the SHA-256 of the bytes read.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
-#[non_exhaustive]
-pub struct SourceReport {
-    /// The file name as given.
-    pub name: String,
-    /// SHA-256, hex.
-    pub sha256: String,
-}
-
 /// The wall time of one phase.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, JsonSchema)]
 #[non_exhaustive]
