@@ -43,9 +43,13 @@ use super::base::{priority_order, select_base};
 use super::spectrum::{dot, unclamped_typical, Rows, Scaled, Spectrum};
 use super::AnalysisOptions;
 
-/// Subsample rows per analysed parameter, a few times what the rank needs: 4 `n` groups of
-/// postures measured by position, 2 `n` by pose.
+/// Subsample rows per analysed parameter, a few times what the rank needs, at most
+/// [`MAX_GROUPS_PER_PARAMETER`] groups: 2 `n` groups of postures measured by pose, 4 `n` by
+/// position, distance or contact.
 const ROWS_PER_PARAMETER: usize = 12;
+
+/// The most subsample groups of postures per analysed parameter (where each holds few rows).
+const MAX_GROUPS_PER_PARAMETER: usize = 4;
 
 /// The fewest groups of each kind of observation (session, kind, frame) the subsample keeps
 /// (all of them when there are fewer), per analysed parameter: a rare kind is seen a few times.
@@ -75,7 +79,9 @@ const UNFELT: f64 = 1e-12;
 /// [`Dataset::posture_groups`]) are kept whole, keyed by the session, kind and frame of their
 /// first observation; of each key's groups, evenly spaced ones in file order (every sweep of
 /// sweep data), in proportion to the key's share and at least [`FLOOR_PER_PARAMETER`] `n`;
-/// [`ROWS_PER_PARAMETER`] `n` rows in all, at the data's mean rows per group.
+/// [`ROWS_PER_PARAMETER`] `n` rows in all at the data's mean rows per observed group (its
+/// rows over its groups that hold an observation, rounded down), at most
+/// [`MAX_GROUPS_PER_PARAMETER`] `n` groups.
 pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
     let (group_of, groups) = data.posture_group_of();
     type Key<'d> = (
@@ -110,8 +116,10 @@ pub(super) fn subsample(data: &Dataset, n: usize) -> Option<Vec<bool>> {
     }
     let total: usize = by_key.iter().map(Vec::len).sum();
     let rows: usize = data.observations.iter().map(|o| o.rows().len()).sum();
-    let per_group = (rows / groups.max(1)).max(1);
-    let target = (ROWS_PER_PARAMETER * n).div_ceil(per_group);
+    let per_group = (rows / total.max(1)).max(1);
+    let target = (ROWS_PER_PARAMETER * n)
+        .div_ceil(per_group)
+        .min(MAX_GROUPS_PER_PARAMETER * n);
     let floor = FLOOR_PER_PARAMETER * n;
     let mut chosen = vec![false; groups];
     let mut kept = 0;

@@ -418,9 +418,9 @@ fn checked_problem<'a>(
     Ok(problem)
 }
 
-/// The linearisation at `initial` over the data's rows (the prior's are added by the solver:
-/// the uncertainty at the start wants the data's `R`), with the accuracy and each
-/// observation's error from the same pass.
+/// The linearisation at `initial` over the data's rows (the prior's are folded in before the
+/// solver starts from it, by [`fit_weighted`]: the uncertainty at the start wants the data's
+/// `R`), with the accuracy and each observation's error from the same pass.
 ///
 /// By the Gram matrix first, a pass about 40 % cheaper than by QR: its `R` is accurate enough
 /// where the Jacobian is well conditioned (the solver's own test,
@@ -673,8 +673,8 @@ fn choose_floor(
 /// The model-error floor from the uniform fit `first` on: estimated from the residuals,
 /// fitted, estimated again until it settles (each quantity's floor within 2 % of the last) or
 /// [`weighting::FLOOR_ROUNDS`] rounds; quantities whose rows `held` their sigmas get none.
-/// `floor` holds the last floor fitted; returns that fit (none when the first estimate ends
-/// it) and the iterations of all the fits.
+/// `floor` holds the last floor fitted; returns that fit (none only when
+/// [`weighting::FLOOR_ROUNDS`] is 0) and the iterations of all the fits.
 #[allow(clippy::too_many_arguments)]
 fn iterate_floor(
     problem: &Problem<'_>,
