@@ -363,198 +363,230 @@ impl ExportSpec {
             bytes: Vec::new(),
         };
         if self.format == ExportFormat::Stiffness {
-            let path = self.needs(&self.report, Setting::Report, "a calibration report")?;
-            let report = read_report(path)?;
-            let Some(elastic) = &report.elastic else {
-                return Err(Error::input(
-                    Location::file(path),
-                    format!(
-                        "the calibrated robot `{}` has no mass model, so no compliances (add \
-                         [[bodies]] to its robot file, or import its URDF with masses)",
-                        report.robot
-                    ),
-                ));
-            };
-            out.text = elastic.table();
-            out.notes.push(format!(
-                "{} compliances ({} estimated)",
-                elastic.joints.len(),
-                elastic.joints.iter().filter(|j| j.estimated).count()
-            ));
+            self.stiffness(&mut out)?;
             return Ok(out);
         }
         let name = self.needs(&self.robot, Setting::Robot, "the calibrated robot")?;
         let (robot, _) = robot_as(name, Setting::Robot)?;
         let tol = tolerance(&self.tolerance, &robot)?;
-        let units = robot.units;
         match self.format {
-            ExportFormat::Urdf => {
-                let t = read_source(
-                    self.needs(
-                        &self.template,
-                        Setting::Template,
-                        "the URDF it was imported from",
-                    )?,
-                    Setting::Template,
-                )?;
-                let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
-                let e = crate::import::urdf::export_urdf(
-                    &robot,
-                    &t.text,
-                    &t.name,
-                    self.base.as_deref(),
-                    &tips,
-                )?;
-                e.check(&robot, &tol)?;
-                // A slope is said with its deviation, as what the URDF cannot hold.
-                out.notes.extend(
-                    e.warnings
-                        .iter()
-                        .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
-                        .map(|w| format!("warning: {w}")),
-                );
-                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
-                out.read_back = Some(e.read_back.line(units));
-                out.text = e.text;
-            }
-            ExportFormat::Ur => {
-                let t = read_source(
-                    self.needs(
-                        &self.template,
-                        Setting::Template,
-                        "the kinematics file it was imported from",
-                    )?,
-                    Setting::Template,
-                )?;
-                let e = crate::import::ur::export_ur(&robot, &t.text, &t.name)?;
-                e.check(&tol)?;
-                out.notes.extend(e.left_out());
-                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
-                out.read_back = Some(e.read_back.line(units));
-                out.tcp = Some(e.tcp_line());
-                out.text = e.text;
-            }
-            ExportFormat::Dh => {
-                let convention = self.convention.ok_or_else(|| {
-                    invalid(Setting::Convention, "a dh export needs the convention")
-                })?;
-                let dh_units = crate::Units {
-                    length: unit(self.length_unit.as_deref(), Setting::LengthUnit)?
-                        .unwrap_or(units.length),
-                    angle: unit(self.angle_unit.as_deref(), Setting::AngleUnit)?
-                        .unwrap_or(units.angle),
-                };
-                let e = crate::import::dh::export_dh(&robot, convention, dh_units)?;
-                e.check(&robot, &tol)?;
-                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
-                out.read_back = Some(e.read_back.line(units));
-                out.notes.extend(e.notes());
-                out.notes.push(format!(
-                    "the {} DH table ({}, {})",
-                    convention.as_str(),
-                    dh_units.length,
-                    dh_units.angle
-                ));
-                out.text = e.text;
-            }
-            ExportFormat::Joints => {
-                let n = self.needs(&self.nominal, Setting::NominalRobot, "the nominal robot")?;
-                let (nominal, _) = robot_as(n, Setting::NominalRobot)?;
-                let e = crate::import::joints::joint_table(&robot, &nominal)?;
-                e.check(&robot, &tol)?;
-                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
-                out.read_back = Some(e.read_back.line(units));
-                out.text = e.text;
-            }
-            ExportFormat::Ros => {
-                let t = read_source(
-                    self.needs(
-                        &self.template,
-                        Setting::Template,
-                        "the URDF it was imported from",
-                    )?,
-                    Setting::Template,
-                )?;
-                let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
-                let e = crate::import::ros::export_ros(
-                    &robot,
-                    &t.text,
-                    &t.name,
-                    self.base.as_deref(),
-                    &tips,
-                    self.measurement_frame.as_deref(),
-                )?;
-                e.check(&robot, &tol)?;
-                out.notes.extend(
-                    e.warnings
-                        .iter()
-                        .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
-                        .map(|w| format!("warning: {w}")),
-                );
-                out.notes.extend(e.notes.iter().cloned());
-                out.lost = e.lost.iter().map(|l| l.line(units)).collect();
-                out.read_back = Some(e.read_back.line(units));
-                out.text = e.calibration.clone();
-                out.files = e
-                    .files()
-                    .iter()
-                    .map(|(n, t)| (n.to_string(), t.to_string()))
-                    .collect();
-            }
-            ExportFormat::Gltf => {
-                let (scene, from) = self.scene(&robot)?;
-                out.bytes = crate::report::gltf::write_glb(&scene)?;
-                let posture = &scene.postures[0];
-                let robots = if posture.nominal.is_some() {
-                    "the nominal and the calibrated robot"
-                } else {
-                    "the calibrated robot"
-                };
-                out.notes.push(if scene.postures_total == 0 {
-                    format!("{from}: {robots} at zero readings (no observations given)")
-                } else {
-                    format!(
-                        "{from}: {robots} at posture {}, {} of {} measured points, residuals \
-                         drawn {} times their length{}",
-                        posture.label,
-                        scene.points.len(),
-                        scene.points_total,
-                        scene.residual_scale,
-                        if scene.points.iter().any(|p| p.before.is_some()) {
-                            format!(" ({} before calibration)", scene.residual_scale_before)
-                        } else {
-                            String::new()
-                        }
-                    )
-                });
-                if scene.points_unplottable > 0 {
-                    out.notes.push(format!(
-                        "{} measured points not drawn: not finite or beyond {:e} m",
-                        scene.points_unplottable,
-                        crate::report::scene::LIMIT
-                    ));
-                }
-            }
-            ExportFormat::CameraInfo => {
-                let (info, text) =
-                    crate::import::camera_info::export_camera_info(&robot, self.camera.as_deref())?;
-                let [fx, fy, cx, cy] = info.intrinsics;
-                let [k1, k2, p1, p2, k3] = info.distortion;
-                out.read_back = Some(format!(
-                    "read back: the same lens to the last bit ({} x {} px; fx {fx}, fy {fy}, cx \
-                     {cx}, cy {cy}; k1, k2, p1, p2, k3 {k1}, {k2}, {p1}, {p2}, {k3})",
-                    info.width, info.height,
-                ));
-                out.notes.push(format!(
-                    "camera `{}`: its lens (camera_info holds no pose: the hand-eye stays in the \
-                     robot file)",
-                    info.name
-                ));
-                out.text = text;
-            }
+            ExportFormat::Urdf => self.urdf(&robot, &tol, &mut out)?,
+            ExportFormat::Ur => self.ur(&robot, &tol, &mut out)?,
+            ExportFormat::Dh => self.dh(&robot, &tol, &mut out)?,
+            ExportFormat::Joints => self.joints(&robot, &tol, &mut out)?,
+            ExportFormat::Ros => self.ros(&robot, &tol, &mut out)?,
+            ExportFormat::Gltf => self.gltf(&robot, &mut out)?,
+            ExportFormat::CameraInfo => self.camera_info(&robot, &mut out)?,
             ExportFormat::Stiffness => unreachable!("handled above"),
         }
         Ok(out)
+    }
+
+    /// The stiffness table of a calibration report's mass model.
+    fn stiffness(&self, out: &mut ExportOutcome) -> Result<()> {
+        let path = self.needs(&self.report, Setting::Report, "a calibration report")?;
+        let report = read_report(path)?;
+        let Some(elastic) = &report.elastic else {
+            return Err(Error::input(
+                Location::file(path),
+                format!(
+                    "the calibrated robot `{}` has no mass model, so no compliances (add \
+                     [[bodies]] to its robot file, or import its URDF with masses)",
+                    report.robot
+                ),
+            ));
+        };
+        out.text = elastic.table();
+        out.notes.push(format!(
+            "{} compliances ({} estimated)",
+            elastic.joints.len(),
+            elastic.joints.iter().filter(|j| j.estimated).count()
+        ));
+        Ok(())
+    }
+
+    /// A URDF: the template with the calibrated joint origins, read back within `tol`.
+    fn urdf(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
+        let units = robot.units;
+        let t = read_source(
+            self.needs(
+                &self.template,
+                Setting::Template,
+                "the URDF it was imported from",
+            )?,
+            Setting::Template,
+        )?;
+        let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
+        let e =
+            crate::import::urdf::export_urdf(robot, &t.text, &t.name, self.base.as_deref(), &tips)?;
+        e.check(robot, tol)?;
+        // A slope is said with its deviation, as what the URDF cannot hold.
+        out.notes.extend(
+            e.warnings
+                .iter()
+                .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
+                .map(|w| format!("warning: {w}")),
+        );
+        out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+        out.read_back = Some(e.read_back.line(units));
+        out.text = e.text;
+        Ok(())
+    }
+
+    /// A Universal Robots kinematics file (the template's, with the calibration), read back
+    /// within `tol`.
+    fn ur(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
+        let units = robot.units;
+        let t = read_source(
+            self.needs(
+                &self.template,
+                Setting::Template,
+                "the kinematics file it was imported from",
+            )?,
+            Setting::Template,
+        )?;
+        let e = crate::import::ur::export_ur(robot, &t.text, &t.name)?;
+        e.check(tol)?;
+        out.notes.extend(e.left_out());
+        out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+        out.read_back = Some(e.read_back.line(units));
+        out.tcp = Some(e.tcp_line());
+        out.text = e.text;
+        Ok(())
+    }
+
+    /// A DH table in the convention and units asked for, read back within `tol`.
+    fn dh(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
+        let units = robot.units;
+        let convention = self
+            .convention
+            .ok_or_else(|| invalid(Setting::Convention, "a dh export needs the convention"))?;
+        let dh_units = crate::Units {
+            length: unit(self.length_unit.as_deref(), Setting::LengthUnit)?.unwrap_or(units.length),
+            angle: unit(self.angle_unit.as_deref(), Setting::AngleUnit)?.unwrap_or(units.angle),
+        };
+        let e = crate::import::dh::export_dh(robot, convention, dh_units)?;
+        e.check(robot, tol)?;
+        out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+        out.read_back = Some(e.read_back.line(units));
+        out.notes.extend(e.notes());
+        out.notes.push(format!(
+            "the {} DH table ({}, {})",
+            convention.as_str(),
+            dh_units.length,
+            dh_units.angle
+        ));
+        out.text = e.text;
+        Ok(())
+    }
+
+    /// The joint table (offsets against the nominal robot's), read back within `tol`.
+    fn joints(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
+        let units = robot.units;
+        let n = self.needs(&self.nominal, Setting::NominalRobot, "the nominal robot")?;
+        let (nominal, _) = robot_as(n, Setting::NominalRobot)?;
+        let e = crate::import::joints::joint_table(robot, &nominal)?;
+        e.check(robot, tol)?;
+        out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+        out.read_back = Some(e.read_back.line(units));
+        out.text = e.text;
+        Ok(())
+    }
+
+    /// The ROS 2 description files, read back within `tol`.
+    fn ros(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
+        let units = robot.units;
+        let t = read_source(
+            self.needs(
+                &self.template,
+                Setting::Template,
+                "the URDF it was imported from",
+            )?,
+            Setting::Template,
+        )?;
+        let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
+        let e = crate::import::ros::export_ros(
+            robot,
+            &t.text,
+            &t.name,
+            self.base.as_deref(),
+            &tips,
+            self.measurement_frame.as_deref(),
+        )?;
+        e.check(robot, tol)?;
+        out.notes.extend(
+            e.warnings
+                .iter()
+                .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
+                .map(|w| format!("warning: {w}")),
+        );
+        out.notes.extend(e.notes.iter().cloned());
+        out.lost = e.lost.iter().map(|l| l.line(units)).collect();
+        out.read_back = Some(e.read_back.line(units));
+        out.text = e.calibration.clone();
+        out.files = e
+            .files()
+            .iter()
+            .map(|(n, t)| (n.to_string(), t.to_string()))
+            .collect();
+        Ok(())
+    }
+
+    /// The 3-D scene as a binary glTF.
+    fn gltf(&self, robot: &Robot, out: &mut ExportOutcome) -> Result<()> {
+        let (scene, from) = self.scene(robot)?;
+        out.bytes = crate::report::gltf::write_glb(&scene)?;
+        let posture = &scene.postures[0];
+        let robots = if posture.nominal.is_some() {
+            "the nominal and the calibrated robot"
+        } else {
+            "the calibrated robot"
+        };
+        out.notes.push(if scene.postures_total == 0 {
+            format!("{from}: {robots} at zero readings (no observations given)")
+        } else {
+            format!(
+                "{from}: {robots} at posture {}, {} of {} measured points, residuals \
+                 drawn {} times their length{}",
+                posture.label,
+                scene.points.len(),
+                scene.points_total,
+                scene.residual_scale,
+                if scene.points.iter().any(|p| p.before.is_some()) {
+                    format!(" ({} before calibration)", scene.residual_scale_before)
+                } else {
+                    String::new()
+                }
+            )
+        });
+        if scene.points_unplottable > 0 {
+            out.notes.push(format!(
+                "{} measured points not drawn: not finite or beyond {:e} m",
+                scene.points_unplottable,
+                crate::report::scene::LIMIT
+            ));
+        }
+        Ok(())
+    }
+
+    /// A camera's lens as a ROS camera_info file.
+    fn camera_info(&self, robot: &Robot, out: &mut ExportOutcome) -> Result<()> {
+        let (info, text) =
+            crate::import::camera_info::export_camera_info(robot, self.camera.as_deref())?;
+        let [fx, fy, cx, cy] = info.intrinsics;
+        let [k1, k2, p1, p2, k3] = info.distortion;
+        out.read_back = Some(format!(
+            "read back: the same lens to the last bit ({} x {} px; fx {fx}, fy {fy}, cx \
+             {cx}, cy {cy}; k1, k2, p1, p2, k3 {k1}, {k2}, {p1}, {p2}, {k3})",
+            info.width, info.height,
+        ));
+        out.notes.push(format!(
+            "camera `{}`: its lens (camera_info holds no pose: the hand-eye stays in the \
+             robot file)",
+            info.name
+        ));
+        out.text = text;
+        Ok(())
     }
 
     /// The scene a gltf export writes, and where it came from: the report's own (the one its
