@@ -100,43 +100,72 @@ pub(crate) fn parse_param(token: &str, robot: &Robot) -> Result<ParamId> {
     }
 }
 
+/// The parameters one reference names: a group word, an id or a range of ids, or a name.
 fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, String> {
-    let (nl, nj) = (robot.links.len(), robot.joints.len());
-    let id = |k: ParamKind| robot.param_id(k);
     let all: Vec<ParamId> = robot.param_ids().collect();
+    if let Some(ids) = group(token, robot, &all) {
+        return ids;
+    }
+    if let Some(ids) = numbered(token, all.len()) {
+        return ids;
+    }
+    if let Some(ids) = frame_named(token, robot) {
+        return ids;
+    }
+    let (head, comp) = match token.split_once('.') {
+        Some((h, c)) => (h, Some(c)),
+        None => (token, None),
+    };
+    if let Some(ids) = camera_or_board(token, head, comp, robot) {
+        return ids;
+    }
+    if let Some(num) = head.strip_prefix("body") {
+        return body_params(token, num, comp, robot);
+    }
+    if let Some(num) = head.strip_prefix("link") {
+        return link_params(token, num, comp, robot);
+    }
+    if let Some(num) = head.strip_prefix("joint") {
+        return joint_params(token, num, comp, robot);
+    }
+    Err(unknown(token))
+}
+
+/// A group word's parameters (`all`, `links`, `offsets`, ..., `compliance`, `lateral`), or an
+/// error when the robot has none of that kind to give; `None` when `token` is no group word.
+fn group(
+    token: &str,
+    robot: &Robot,
+    all: &[ParamId],
+) -> Option<std::result::Result<Vec<ParamId>, String>> {
     let pick = |f: &dyn Fn(ParamKind) -> bool| -> Vec<ParamId> {
         all.iter()
             .copied()
             .filter(|&p| f(robot.param_kind(p)))
             .collect()
     };
-    match token {
-        "all" => return Ok(all.clone()),
-        "links" => return Ok(pick(&|k| matches!(k, ParamKind::Link { .. }))),
-        "offsets" => return Ok(pick(&|k| matches!(k, ParamKind::Offset { .. }))),
-        "slopes" => return Ok(pick(&|k| matches!(k, ParamKind::Slope { .. }))),
-        "sites" => return Ok(pick(&|k| matches!(k, ParamKind::Site { .. }))),
-        "couplings" => return Ok(pick(&|k| matches!(k, ParamKind::Coupling { .. }))),
-        "planes" => return Ok(pick(&|k| matches!(k, ParamKind::Plane { .. }))),
-        "sessions" => return Ok(pick(&|k| matches!(k, ParamKind::Session { .. }))),
+    Some(Ok(match token {
+        "all" => all.to_vec(),
+        "links" => pick(&|k| matches!(k, ParamKind::Link { .. })),
+        "offsets" => pick(&|k| matches!(k, ParamKind::Offset { .. })),
+        "slopes" => pick(&|k| matches!(k, ParamKind::Slope { .. })),
+        "sites" => pick(&|k| matches!(k, ParamKind::Site { .. })),
+        "couplings" => pick(&|k| matches!(k, ParamKind::Coupling { .. })),
+        "planes" => pick(&|k| matches!(k, ParamKind::Plane { .. })),
+        "sessions" => pick(&|k| matches!(k, ParamKind::Session { .. })),
         "cameras" | "intrinsics" | "extrinsics" | "boards" => {
             let (cameras, boards) = (robot.cameras.is_empty(), robot.boards.is_empty());
             if token == "boards" && boards || token != "boards" && cameras {
-                return Err(format!(
-                    "`{token}`: the robot has no {} (add `[[{}]]` to the robot file)",
-                    if token == "boards" {
-                        "boards"
-                    } else {
-                        "cameras"
-                    },
-                    if token == "boards" {
-                        "boards"
-                    } else {
-                        "cameras"
-                    }
-                ));
+                let what = if token == "boards" {
+                    "boards"
+                } else {
+                    "cameras"
+                };
+                return Some(Err(format!(
+                    "`{token}`: the robot has no {what} (add `[[{what}]]` to the robot file)"
+                )));
             }
-            return Ok(pick(&|k| match k {
+            pick(&|k| match k {
                 ParamKind::Camera { component, .. } => match token {
                     "cameras" => true,
                     "intrinsics" => component.is_intrinsic(),
@@ -145,123 +174,128 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
                 },
                 ParamKind::Board { .. } => token == "boards",
                 _ => false,
-            }));
+            })
         }
         "masses" => {
             if robot.elastic.is_none() {
-                return Err(format!(
+                return Some(Err(format!(
                     "`{token}`: the robot has no mass model (add `[[bodies]]` to the robot file)"
-                ));
+                )));
             }
-            return Ok(pick(&|k| matches!(k, ParamKind::Body { .. })));
+            pick(&|k| matches!(k, ParamKind::Body { .. }))
         }
         "compliance" | "lateral" => {
             if robot.elastic.is_none() {
-                return Err(format!(
+                return Some(Err(format!(
                     "`{token}`: the robot has no mass model (add `[[bodies]]` with masses and \
                      centres of mass to the robot file, or import a URDF with <inertial>)"
-                ));
+                )));
             }
             let free = crate::model::kinematics::gravity_free_joints(robot);
             let lateral = token == "lateral";
-            return Ok(pick(&|k| match k {
+            pick(&|k| match k {
                 ParamKind::Compliance { joint } => !lateral && !free.joint.contains(&joint),
                 ParamKind::Lateral { joint } => lateral && !free.lateral.contains(&joint),
                 _ => false,
-            }));
+            })
         }
-        _ => {}
-    }
+        _ => return None,
+    }))
+}
+
+/// An id (`p3`) or a range of ids (`p1-p30`) of a robot with `count` parameters; `None` when
+/// `token` is neither.
+fn numbered(token: &str, count: usize) -> Option<std::result::Result<Vec<ParamId>, String>> {
     let p_number = |s: &str| -> Option<std::result::Result<ParamId, String>> {
         let digits = s.strip_prefix('p').or_else(|| s.strip_prefix('P'))?;
         let n: usize = digits.parse().ok()?;
-        Some(if n >= 1 && n <= all.len() {
+        Some(if n >= 1 && n <= count {
             Ok(ParamId(n - 1))
         } else {
             Err(format!(
-                "`{s}` is out of range: this robot has parameters p1..p{}",
-                all.len()
+                "`{s}` is out of range: this robot has parameters p1..p{count}"
             ))
         })
     };
     if let Some((a, b)) = token.split_once('-') {
         if let (Some(a), Some(b)) = (p_number(a), p_number(b)) {
-            let (a, b) = (a?, b?);
-            if a > b {
-                return Err(format!("range `{token}` runs backwards"));
-            }
-            return Ok((a.0..=b.0).map(ParamId).collect());
+            return Some((|| {
+                let (a, b) = (a?, b?);
+                if a > b {
+                    return Err(format!("range `{token}` runs backwards"));
+                }
+                Ok((a.0..=b.0).map(ParamId).collect())
+            })());
         }
     }
-    if let Some(p) = p_number(token) {
-        return p.map(|p| vec![p]);
-    }
-    let bad_index = |what: &str, i: &str, max: usize| {
-        format!("`{token}`: {what} `{i}` does not exist (this robot has {what}s 1..{max})")
-    };
-    let unknown = || {
-        let hint = did_you_mean(token)
-            .map(|w| format!(": did you mean `{w}`?"))
-            .unwrap_or_default();
-        format!(
-            "unknown parameter `{token}`{hint} (expected an id like p3, a range like p1-p30, a \
-             name like link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
-             plane.NAME.offset, session.NAME.x or joint2.compliance, or one of {}, or a \
-             camera's or board's NAME.x, NAME.fx)",
-            GROUP_WORDS.join(", ")
-        )
-    };
-    if let Some(rest) = token.strip_prefix("site.") {
-        let (name, comp) = match rest.rsplit_once('.') {
-            Some((n, c)) if LinkComponent::parse(c).is_some() => (n, Some(c)),
+    p_number(token).map(|p| p.map(|p| vec![p]))
+}
+
+/// A site's, session's or plane's parameters (`site.NAME.x`, `session.NAME`,
+/// `plane.NAME.offset`; without a component, all of its); `None` when `token` names none of
+/// those.
+fn frame_named(token: &str, robot: &Robot) -> Option<std::result::Result<Vec<ParamId>, String>> {
+    let id = |k: ParamKind| robot.param_id(k);
+    // The name and the component: a last dot-separated part that `parse` takes is one.
+    fn split<'t>(rest: &'t str, parse: &dyn Fn(&str) -> bool) -> (&'t str, Option<&'t str>) {
+        match rest.rsplit_once('.') {
+            Some((n, c)) if parse(c) => (n, Some(c)),
             _ => (rest, None),
+        }
+    }
+    if let Some(rest) = token.strip_prefix("site.") {
+        let (name, comp) = split(rest, &|c| LinkComponent::parse(c).is_some());
+        let Some(site) = robot.site_index(name) else {
+            return Some(Err(format!(
+                "`{token}`: the robot has no site named `{name}`"
+            )));
         };
-        let site = robot
-            .site_index(name)
-            .ok_or_else(|| format!("`{token}`: the robot has no site named `{name}`"))?;
-        return Ok(match comp.and_then(LinkComponent::parse) {
+        return Some(Ok(match comp.and_then(LinkComponent::parse) {
             Some(component) => vec![id(ParamKind::Site { site, component })],
             None => LinkComponent::ALL
                 .map(|component| id(ParamKind::Site { site, component }))
                 .to_vec(),
-        });
+        }));
     }
     if let Some(rest) = token.strip_prefix("session.") {
-        let (name, comp) = match rest.rsplit_once('.') {
-            Some((n, c)) if LinkComponent::parse(c).is_some() => (n, Some(c)),
-            _ => (rest, None),
+        let (name, comp) = split(rest, &|c| LinkComponent::parse(c).is_some());
+        let Some(session) = robot.session_index(name) else {
+            return Some(Err(format!(
+                "`{token}`: the robot has no session named `{name}`"
+            )));
         };
-        let session = robot
-            .session_index(name)
-            .ok_or_else(|| format!("`{token}`: the robot has no session named `{name}`"))?;
-        return Ok(match comp.and_then(LinkComponent::parse) {
+        return Some(Ok(match comp.and_then(LinkComponent::parse) {
             Some(component) => vec![id(ParamKind::Session { session, component })],
             None => LinkComponent::ALL
                 .map(|component| id(ParamKind::Session { session, component }))
                 .to_vec(),
-        });
+        }));
     }
-    if let Some(rest) = token.strip_prefix("plane.") {
-        let (name, comp) = match rest.rsplit_once('.') {
-            Some((n, c)) if PlaneComponent::parse(c).is_some() => (n, Some(c)),
-            _ => (rest, None),
-        };
-        let plane = robot
-            .plane_index(name)
-            .ok_or_else(|| format!("`{token}`: the robot has no plane named `{name}`"))?;
-        return Ok(match comp.and_then(PlaneComponent::parse) {
-            Some(component) => vec![id(ParamKind::Plane { plane, component })],
-            None => PlaneComponent::ALL
-                .map(|component| id(ParamKind::Plane { plane, component }))
-                .to_vec(),
-        });
-    }
-    let (head, comp) = match token.split_once('.') {
-        Some((h, c)) => (h, Some(c)),
-        None => (token, None),
+    let rest = token.strip_prefix("plane.")?;
+    let (name, comp) = split(rest, &|c| PlaneComponent::parse(c).is_some());
+    let Some(plane) = robot.plane_index(name) else {
+        return Some(Err(format!(
+            "`{token}`: the robot has no plane named `{name}`"
+        )));
     };
+    Some(Ok(match comp.and_then(PlaneComponent::parse) {
+        Some(component) => vec![id(ParamKind::Plane { plane, component })],
+        None => PlaneComponent::ALL
+            .map(|component| id(ParamKind::Plane { plane, component }))
+            .to_vec(),
+    }))
+}
+
+/// A camera's or board's parameters (`NAME`, `NAME.fx`); `None` when `head` names neither.
+fn camera_or_board(
+    token: &str,
+    head: &str,
+    comp: Option<&str>,
+    robot: &Robot,
+) -> Option<std::result::Result<Vec<ParamId>, String>> {
+    let id = |k: ParamKind| robot.param_id(k);
     if let Some(camera) = robot.camera_index(head) {
-        return match comp {
+        return Some(match comp {
             None => Ok(CameraComponent::ALL
                 .map(|component| id(ParamKind::Camera { camera, component }))
                 .to_vec()),
@@ -271,114 +305,146 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
                         "`{token}`: unknown camera parameter `{c}` (expected x, y, z, alpha, beta, \
                          gamma, fx, fy, cx, cy, k1, k2, p1, p2 or k3)"
                     )
-                })?;
-                Ok(vec![id(ParamKind::Camera { camera, component })])
+                });
+                component.map(|component| vec![id(ParamKind::Camera { camera, component })])
             }
-        };
+        });
     }
-    if let Some(board) = robot.board_index(head) {
-        return match comp {
-            None => Ok(LinkComponent::ALL
-                .map(|component| id(ParamKind::Board { board, component }))
-                .to_vec()),
-            Some(c) => {
-                let component = LinkComponent::parse(c).ok_or_else(|| {
-                    format!(
-                        "`{token}`: unknown board parameter `{c}` (expected x, y, z, alpha, beta \
-                         or gamma)"
-                    )
-                })?;
-                Ok(vec![id(ParamKind::Board { board, component })])
-            }
-        };
-    }
-    if let Some(num) = head.strip_prefix("body") {
-        let nb = robot.body_count();
-        let body = num.parse::<usize>().map_err(|_| unknown())?;
-        if body == 0 || body > nb {
-            return Err(bad_index("body", num, nb));
+    let board = robot.board_index(head)?;
+    Some(match comp {
+        None => Ok(LinkComponent::ALL
+            .map(|component| id(ParamKind::Board { board, component }))
+            .to_vec()),
+        Some(c) => {
+            let component = LinkComponent::parse(c).ok_or_else(|| {
+                format!(
+                    "`{token}`: unknown board parameter `{c}` (expected x, y, z, alpha, beta \
+                     or gamma)"
+                )
+            });
+            component.map(|component| vec![id(ParamKind::Board { board, component })])
         }
-        let body = body - 1;
-        return match comp {
-            None => Ok(crate::model::params::BodyComponent::ALL
-                .map(|component| id(ParamKind::Body { body, component }))
-                .to_vec()),
-            Some(c) => {
-                let component = crate::model::params::BodyComponent::parse(c).ok_or_else(|| {
-                    format!("`{token}`: unknown body component `{c}` (expected mass, x, y or z)")
-                })?;
-                Ok(vec![id(ParamKind::Body { body, component })])
-            }
-        };
+    })
+}
+
+/// The 0-based index of `what` number `num` (1-based, as written) of `max`.
+fn index_of(token: &str, what: &str, num: &str, max: usize) -> std::result::Result<usize, String> {
+    let i = num.parse::<usize>().map_err(|_| unknown(token))?;
+    if i == 0 || i > max {
+        return Err(format!(
+            "`{token}`: {what} `{num}` does not exist (this robot has {what}s 1..{max})"
+        ));
     }
-    if let Some(num) = head.strip_prefix("link") {
-        let link = num.parse::<usize>().map_err(|_| unknown())?;
-        if link == 0 || link > nl {
-            return Err(bad_index("link", num, nl));
+    Ok(i - 1)
+}
+
+/// A body's mass-model parameters (`body2`, `body2.mass`).
+fn body_params(
+    token: &str,
+    num: &str,
+    comp: Option<&str>,
+    robot: &Robot,
+) -> std::result::Result<Vec<ParamId>, String> {
+    use crate::model::params::BodyComponent;
+    let body = index_of(token, "body", num, robot.body_count())?;
+    let id = |component| robot.param_id(ParamKind::Body { body, component });
+    match comp {
+        None => Ok(BodyComponent::ALL.map(id).to_vec()),
+        Some(c) => {
+            let component = BodyComponent::parse(c).ok_or_else(|| {
+                format!("`{token}`: unknown body component `{c}` (expected mass, x, y or z)")
+            })?;
+            Ok(vec![id(component)])
         }
-        let link = link - 1;
-        return match comp {
-            None => Ok(LinkComponent::ALL
-                .map(|component| id(ParamKind::Link { link, component }))
-                .to_vec()),
-            Some(c) => {
-                let component = LinkComponent::parse(c).ok_or_else(|| {
-                    format!("`{token}`: unknown link component `{c}` (expected x, y, z, alpha, beta or gamma)")
-                })?;
-                Ok(vec![id(ParamKind::Link { link, component })])
-            }
-        };
     }
-    if let Some(num) = head.strip_prefix("joint") {
-        let joint = num.parse::<usize>().map_err(|_| unknown())?;
-        if joint == 0 || joint > nj {
-            return Err(bad_index("joint", num, nj));
+}
+
+/// A link's parameters (`link3`, `link3.x`).
+fn link_params(
+    token: &str,
+    num: &str,
+    comp: Option<&str>,
+    robot: &Robot,
+) -> std::result::Result<Vec<ParamId>, String> {
+    let link = index_of(token, "link", num, robot.links.len())?;
+    let id = |component| robot.param_id(ParamKind::Link { link, component });
+    match comp {
+        None => Ok(LinkComponent::ALL.map(id).to_vec()),
+        Some(c) => {
+            let component = LinkComponent::parse(c).ok_or_else(|| {
+                format!("`{token}`: unknown link component `{c}` (expected x, y, z, alpha, beta or gamma)")
+            })?;
+            Ok(vec![id(component)])
         }
-        let joint = joint - 1;
-        let coupled = robot.joints[joint].coupling.is_some();
-        return match comp {
-            None => {
-                let mut v = vec![
-                    id(ParamKind::Offset { joint }),
-                    id(ParamKind::Slope { joint }),
-                ];
-                if coupled {
-                    v.push(id(ParamKind::Coupling { joint }));
-                }
-                Ok(v)
+    }
+}
+
+/// A joint's parameters (`joint2`: its offset, slope and coupling; `joint2.offset`, `.slope`,
+/// `.coupling`, `.compliance`, `.lateral`).
+fn joint_params(
+    token: &str,
+    num: &str,
+    comp: Option<&str>,
+    robot: &Robot,
+) -> std::result::Result<Vec<ParamId>, String> {
+    let joint = index_of(token, "joint", num, robot.joints.len())?;
+    let id = |k: ParamKind| robot.param_id(k);
+    let coupled = robot.joints[joint].coupling.is_some();
+    match comp {
+        None => {
+            let mut v = vec![
+                id(ParamKind::Offset { joint }),
+                id(ParamKind::Slope { joint }),
+            ];
+            if coupled {
+                v.push(id(ParamKind::Coupling { joint }));
             }
-            Some("offset") => Ok(vec![id(ParamKind::Offset { joint })]),
-            Some("slope") => Ok(vec![id(ParamKind::Slope { joint })]),
-            Some("coupling") if coupled => Ok(vec![id(ParamKind::Coupling { joint })]),
-            Some("coupling") => Err(format!(
-                "`{token}`: joint {} is not coupled to another joint (add `coupling = {{ joint = K, \
-                 factor = F }}` to it in the robot file)",
-                joint + 1
-            )),
-            Some(c @ ("compliance" | "lateral")) => {
-                if robot.compliant_joints().any(|j| j == joint) {
-                    Ok(vec![id(if c == "compliance" {
-                        ParamKind::Compliance { joint }
-                    } else {
-                        ParamKind::Lateral { joint }
-                    })])
-                } else if robot.elastic.is_none() {
-                    Err(format!(
-                        "`{token}`: the robot has no mass model (add `[[bodies]]` to the robot \
-                         file)"
-                    ))
+            Ok(v)
+        }
+        Some("offset") => Ok(vec![id(ParamKind::Offset { joint })]),
+        Some("slope") => Ok(vec![id(ParamKind::Slope { joint })]),
+        Some("coupling") if coupled => Ok(vec![id(ParamKind::Coupling { joint })]),
+        Some("coupling") => Err(format!(
+            "`{token}`: joint {} is not coupled to another joint (add `coupling = {{ joint = K, \
+             factor = F }}` to it in the robot file)",
+            joint + 1
+        )),
+        Some(c @ ("compliance" | "lateral")) => {
+            if robot.compliant_joints().any(|j| j == joint) {
+                Ok(vec![id(if c == "compliance" {
+                    ParamKind::Compliance { joint }
                 } else {
-                    Err(format!(
-                        "`{token}`: joint {} is prismatic: only revolute joints have compliances",
-                        joint + 1
-                    ))
-                }
+                    ParamKind::Lateral { joint }
+                })])
+            } else if robot.elastic.is_none() {
+                Err(format!(
+                    "`{token}`: the robot has no mass model (add `[[bodies]]` to the robot \
+                     file)"
+                ))
+            } else {
+                Err(format!(
+                    "`{token}`: joint {} is prismatic: only revolute joints have compliances",
+                    joint + 1
+                ))
             }
-            Some(c) => Err(format!(
-                "`{token}`: unknown joint parameter `{c}` (expected offset, slope, coupling, \
-                 compliance or lateral)"
-            )),
-        };
+        }
+        Some(c) => Err(format!(
+            "`{token}`: unknown joint parameter `{c}` (expected offset, slope, coupling, \
+             compliance or lateral)"
+        )),
     }
-    Err(unknown())
+}
+
+/// The error for a reference that names no parameter, with the closest word when there is one.
+fn unknown(token: &str) -> String {
+    let hint = did_you_mean(token)
+        .map(|w| format!(": did you mean `{w}`?"))
+        .unwrap_or_default();
+    format!(
+        "unknown parameter `{token}`{hint} (expected an id like p3, a range like p1-p30, a \
+         name like link1.x, joint2.offset, joint2.slope, joint3.coupling, site.NAME.x, \
+         plane.NAME.offset, session.NAME.x or joint2.compliance, or one of {}, or a \
+         camera's or board's NAME.x, NAME.fx)",
+        GROUP_WORDS.join(", ")
+    )
 }
