@@ -131,8 +131,11 @@ fn parse_token(token: &str, robot: &Robot) -> std::result::Result<Vec<ParamId>, 
     Err(unknown(token))
 }
 
-/// A group word's parameters (`all`, `links`, `offsets`, ..., `compliance`, `lateral`), or an
-/// error when the robot has none of that kind to give; `None` when `token` is no group word.
+/// A group word's parameters (`all`, `links`, `offsets`, ..., `compliance`, `lateral`; empty
+/// when the robot has none of the kind), or an error for `cameras`, `intrinsics`,
+/// `extrinsics`, `boards`, `masses`, `compliance` or `lateral` on a robot without cameras,
+/// boards or a mass model; `None` for any other token (`identifiable` among them: the selection
+/// resolves it, not this list).
 fn group(
     token: &str,
     robot: &Robot,
@@ -232,8 +235,8 @@ fn numbered(token: &str, count: usize) -> Option<std::result::Result<Vec<ParamId
 }
 
 /// A site's, session's or plane's parameters (`site.NAME.x`, `session.NAME`,
-/// `plane.NAME.offset`; without a component, all of its); `None` when `token` names none of
-/// those.
+/// `plane.NAME.offset`; without a component, all of its), or an error naming what the robot
+/// lacks; `None` when `token` has none of the prefixes `site.`, `session.` or `plane.`.
 fn frame_named(token: &str, robot: &Robot) -> Option<std::result::Result<Vec<ParamId>, String>> {
     let id = |k: ParamKind| robot.param_id(k);
     // The name and the component: a last dot-separated part that `parse` takes is one.
@@ -379,8 +382,8 @@ fn link_params(
     }
 }
 
-/// A joint's parameters (`joint2`: its offset, slope and coupling; `joint2.offset`, `.slope`,
-/// `.coupling`, `.compliance`, `.lateral`).
+/// A joint's parameters (`joint2`: its offset and slope, and its coupling when it is coupled;
+/// `joint2.offset`, `.slope`, `.coupling`, `.compliance`, `.lateral`).
 fn joint_params(
     token: &str,
     num: &str,

@@ -480,7 +480,8 @@ impl ExportSpec {
         Ok(())
     }
 
-    /// The joint table (offsets against the nominal robot's), read back within `tol`.
+    /// The joint table (each joint's calibrated offset and slope, and their changes from the
+    /// nominal robot's), read back within `tol`.
     fn joints(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
         let units = robot.units;
         let n = self.needs(&self.nominal, Setting::NominalRobot, "the nominal robot")?;
