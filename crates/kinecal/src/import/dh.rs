@@ -935,29 +935,7 @@ fn is_zero(r: &DhRow) -> bool {
 /// (modified), after the last one for the tool. Every value is finite; an error names the
 /// joint otherwise.
 pub(crate) fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow>> {
-    use crate::model::kinematics::{Chain, Target, Workspace};
-    let n = robot.dof();
-    let chain = Chain::new(robot);
-    let mut ws = Workspace::new(robot);
-    chain.forward(&vec![0.0; n], &mut ws);
-    // The global frame in which joint k acts is the one after joint k - 1 through link k.
-    let lines: Vec<Line> = (0..n)
-        .map(|k| {
-            let f = ws.after_joint(k).then(&Frame::from_link(&robot.links[k]));
-            Line {
-                p: f.translation,
-                z: f.rotation.column(2).into_owned(),
-            }
-        })
-        .collect();
-    let tool = chain.target_frame(&ws, Target::EndEffector);
-    let tool_line = Line {
-        p: tool.translation,
-        z: tool.rotation.column(2).into_owned(),
-    };
-    let next_line = |k: usize| if k + 1 < n { lines[k + 1] } else { tool_line };
-    let kind = |k: usize| RowKind::from(robot.joints[k].kind);
-    let mut rows = Vec::with_capacity(n + 2);
+    let axes = Axes::of(robot);
     // The robot's size without its placement (link1: for a robot calibrated in an instrument's
     // frame, where the instrument saw it, metres away), and its longest link: a base row that
     // meets axis 1 farther than that from joint 1's own frame would put the placement into
@@ -967,170 +945,252 @@ pub(crate) fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow
         .map(|l| (l.x * l.x + l.y * l.y + l.z * l.z).sqrt());
     let size = lengths.clone().sum::<f64>().max(1e-3);
     let longest = lengths.fold(1e-3, f64::max);
-    match convention {
-        Convention::Standard => {
-            // One standard step: from s (on an axis) to the next line.
-            let step = |s: &Frame, line: &Line, anchor: Anchor, kind: RowKind| {
-                let (foot, x, q) = toward(s, line, anchor);
-                let (xf, yf, z) = (
-                    s.rotation.column(0).into_owned(),
-                    s.rotation.column(1).into_owned(),
-                    s.rotation.column(2).into_owned(),
-                );
-                let theta = x.dot(&yf).atan2(x.dot(&xf));
-                let turned = Matrix3::from_columns(&[x, z.cross(&x), z]);
-                let (alpha, beta) = twist_to(&(turned.transpose() * line.z));
-                let row = DhRow {
-                    kind,
-                    a: (q - foot).dot(&x),
-                    alpha,
-                    d: (foot - s.translation).dot(&z),
-                    theta,
-                    beta,
-                };
-                let next = s.then(&row.transform(Convention::Standard));
-                (row, next)
-            };
-            // Frame 0 on axis 1: the global frame when axis 1 is its z axis, else a fixed row.
-            let (mut base, mut s) =
-                step(&Frame::identity(), &lines[0], Anchor::Plane, RowKind::Fixed);
-            if (s.translation - lines[0].p).norm() > longest {
-                // Frame 0 farther from joint 1's own frame than any link is long: the placement
-                // would go on into joint 1's d. Frame 0 at joint 1's own frame instead, the
-                // whole placement in the base row.
-                base = placement_row(&lines[0]);
-                s = base.transform(Convention::Standard);
-            }
-            if !is_zero(&base) {
-                rows.push(base);
-            } else {
-                s = Frame::identity();
-            }
-            let mut tool_done = false;
-            for k in 0..n {
-                if k + 1 == n && standard_fits(&s, &tool) {
-                    let rel = super::inverse(&s).then(&tool);
-                    let theta = rel.rotation[(1, 0)].atan2(rel.rotation[(0, 0)]);
-                    let (c, si) = (theta.cos(), theta.sin());
-                    // R = Rz(theta) Rx(alpha): alpha from Rz(-theta) R.
-                    let m = Matrix3::new(c, si, 0.0, -si, c, 0.0, 0.0, 0.0, 1.0) * rel.rotation;
-                    rows.push(DhRow {
-                        kind: kind(k),
-                        a: rel.translation.x * c + rel.translation.y * si,
-                        alpha: m[(2, 1)].atan2(m[(1, 1)]),
-                        d: rel.translation.z,
-                        theta,
-                        beta: 0.0,
-                    });
-                    tool_done = true;
-                    break;
-                }
-                let line = next_line(k);
-                let (row, next) = step(&s, &line, Anchor::Point(line.p), kind(k));
-                rows.push(row);
-                s = next;
-            }
-            if !tool_done {
-                let (theta, d) = along_z(&super::inverse(&s).then(&tool));
-                let row = DhRow::new(RowKind::Fixed, 0.0, 0.0, d, theta);
-                if !is_zero(&row) {
-                    rows.push(row);
-                }
-            }
-        }
+    let rows = match convention {
+        Convention::Standard => standard_rows(&axes, longest),
         Convention::Modified => {
-            // Frame k on axis k, its x towards the next line: `Rz(theta) Tz(d)` from `l` (the
-            // frame where the previous row landed on the axis), and the point it points to.
-            let place = |l: &Frame, line: &Line, anchor: Anchor| {
-                let (foot, x, q) = toward(l, line, anchor);
-                let (xl, yl, z) = (
-                    l.rotation.column(0).into_owned(),
-                    l.rotation.column(1).into_owned(),
-                    l.rotation.column(2).into_owned(),
-                );
-                let theta = x.dot(&yl).atan2(x.dot(&xl));
-                let d = (foot - l.translation).dot(&z);
-                let m = l.then(&rz(theta)).then(&tr(0.0, d));
-                (theta, d, m, q)
-            };
-            // From frame m along its x to `q` on `line`, turned onto the line: `Rx(alpha) Tx(a)
-            // Ry(beta)`, and the frame it lands in.
-            let land = |m: &Frame, line: &Line, q: &Vector3<f64>| {
-                let a = (q - m.translation).dot(&m.rotation.column(0));
-                let (alpha, beta) = twist_to(&(m.rotation.transpose() * line.z));
-                let l = m.then(&rx(alpha)).then(&tr(a, 0.0)).then(&ry(beta));
-                (alpha, a, beta, l)
-            };
-            let (theta0, d0, mut m, mut q) = place(&Frame::identity(), &lines[0], Anchor::Plane);
-            let base = DhRow::new(RowKind::Fixed, 0.0, 0.0, d0, theta0);
-            if !is_zero(&base) {
-                rows.push(base);
-            } else {
-                m = Frame::identity();
-            }
-            let mut tool_done = false;
-            for (k, axis) in lines.iter().enumerate() {
-                let (alpha, a, beta, l) = land(&m, axis, &q);
-                let (theta, d) = if k + 1 == n && modified_fits(axis, &tool) {
-                    tool_done = true;
-                    along_z(&super::inverse(&l).then(&tool))
-                } else {
-                    let line = next_line(k);
-                    let (theta, d, next, nq) = place(&l, &line, Anchor::Point(line.p));
-                    m = next;
-                    q = nq;
-                    (theta, d)
-                };
-                rows.push(DhRow {
-                    kind: kind(k),
-                    a,
-                    alpha,
-                    d,
-                    theta,
-                    beta,
-                });
-            }
-            if !tool_done {
-                let (alpha, a, beta, l) = land(&m, &tool_line, &q);
-                let (theta, d) = along_z(&super::inverse(&l).then(&tool));
-                let row = DhRow {
-                    kind: RowKind::Fixed,
-                    a,
-                    alpha,
-                    d,
-                    theta,
-                    beta,
-                };
-                if !is_zero(&row) {
-                    rows.push(row);
+            let rows = modified_rows(&axes);
+            placement_in_joint_rows(&rows, &axes, size)?;
+            rows
+        }
+    };
+    all_finite(&rows, convention)?;
+    Ok(rows)
+}
+
+/// The joint axes at zero readings (the global frame in which joint `k` acts is the one after
+/// joint `k - 1` through link `k`), the tool frame and its z axis, and each joint's row kind.
+struct Axes {
+    lines: Vec<Line>,
+    tool: Frame,
+    tool_line: Line,
+    kinds: Vec<RowKind>,
+}
+
+impl Axes {
+    fn of(robot: &Robot) -> Axes {
+        use crate::model::kinematics::{Chain, Target, Workspace};
+        let n = robot.dof();
+        let chain = Chain::new(robot);
+        let mut ws = Workspace::new(robot);
+        chain.forward(&vec![0.0; n], &mut ws);
+        let lines = (0..n)
+            .map(|k| {
+                let f = ws.after_joint(k).then(&Frame::from_link(&robot.links[k]));
+                Line {
+                    p: f.translation,
+                    z: f.rotation.column(2).into_owned(),
                 }
-            }
+            })
+            .collect();
+        let tool = chain.target_frame(&ws, Target::EndEffector);
+        Axes {
+            lines,
+            tool,
+            tool_line: Line {
+                p: tool.translation,
+                z: tool.rotation.column(2).into_owned(),
+            },
+            kinds: robot.joints.iter().map(|j| RowKind::from(j.kind)).collect(),
         }
     }
-    if convention == Convention::Modified {
-        if let Some(r) = rows.iter().find(|r| r.kind != RowKind::Fixed) {
-            // Beyond the robot's size and beyond a metre (a small robot's own DH base offsets
-            // stay): a placement, not a link.
-            let far = size.max(1.0);
-            if r.a.abs().max(r.d.abs()) > far && lines[0].p.norm() > far {
-                return Err(Error::Problem(format!(
-                    "the robot's base frame is {:.3} m from its first joint (link1, e.g. a \
-                     tracker's frame where the robot was calibrated): a modified DH table \
-                     would write that placement into joint 1's row (a = {:.3} m, d = {:.3} m, \
-                     beyond the robot's size of {:.3} m without it), which a controller does \
-                     not take; export the standard convention (`--convention standard`: its \
-                     fixed base row holds the placement), or place the robot in its own base \
-                     frame first",
-                    lines[0].p.norm(),
-                    r.a,
-                    r.d,
-                    size
-                )));
-            }
+
+    /// The line after joint `k`'s axis: the next joint's, or the tool's z axis after the last.
+    fn next_line(&self, k: usize) -> Line {
+        if k + 1 < self.lines.len() {
+            self.lines[k + 1]
+        } else {
+            self.tool_line
         }
     }
+}
+
+/// The standard table: frame `k` on axis `k + 1`, reached from axis `k` along their common
+/// normal; a fixed base row when axis 1 is not the base z axis (at joint 1's own frame, with
+/// the whole placement, when the base frame meets axis 1 farther than the `longest` link); the
+/// tool as the last joint's frame when it fits, else a fixed tool row.
+fn standard_rows(axes: &Axes, longest: f64) -> Vec<DhRow> {
+    let n = axes.lines.len();
+    let mut rows = Vec::with_capacity(n + 2);
+    // One standard step: from s (on an axis) to the next line.
+    let step = |s: &Frame, line: &Line, anchor: Anchor, kind: RowKind| {
+        let (foot, x, q) = toward(s, line, anchor);
+        let (xf, yf, z) = (
+            s.rotation.column(0).into_owned(),
+            s.rotation.column(1).into_owned(),
+            s.rotation.column(2).into_owned(),
+        );
+        let theta = x.dot(&yf).atan2(x.dot(&xf));
+        let turned = Matrix3::from_columns(&[x, z.cross(&x), z]);
+        let (alpha, beta) = twist_to(&(turned.transpose() * line.z));
+        let row = DhRow {
+            kind,
+            a: (q - foot).dot(&x),
+            alpha,
+            d: (foot - s.translation).dot(&z),
+            theta,
+            beta,
+        };
+        let next = s.then(&row.transform(Convention::Standard));
+        (row, next)
+    };
+    // Frame 0 on axis 1: the global frame when axis 1 is its z axis, else a fixed row.
+    let (mut base, mut s) = step(
+        &Frame::identity(),
+        &axes.lines[0],
+        Anchor::Plane,
+        RowKind::Fixed,
+    );
+    if (s.translation - axes.lines[0].p).norm() > longest {
+        // Frame 0 farther from joint 1's own frame than any link is long: the placement
+        // would go on into joint 1's d. Frame 0 at joint 1's own frame instead, the
+        // whole placement in the base row.
+        base = placement_row(&axes.lines[0]);
+        s = base.transform(Convention::Standard);
+    }
+    if !is_zero(&base) {
+        rows.push(base);
+    } else {
+        s = Frame::identity();
+    }
+    let mut tool_done = false;
+    for k in 0..n {
+        if k + 1 == n && standard_fits(&s, &axes.tool) {
+            let rel = super::inverse(&s).then(&axes.tool);
+            let theta = rel.rotation[(1, 0)].atan2(rel.rotation[(0, 0)]);
+            let (c, si) = (theta.cos(), theta.sin());
+            // R = Rz(theta) Rx(alpha): alpha from Rz(-theta) R.
+            let m = Matrix3::new(c, si, 0.0, -si, c, 0.0, 0.0, 0.0, 1.0) * rel.rotation;
+            rows.push(DhRow {
+                kind: axes.kinds[k],
+                a: rel.translation.x * c + rel.translation.y * si,
+                alpha: m[(2, 1)].atan2(m[(1, 1)]),
+                d: rel.translation.z,
+                theta,
+                beta: 0.0,
+            });
+            tool_done = true;
+            break;
+        }
+        let line = axes.next_line(k);
+        let (row, next) = step(&s, &line, Anchor::Point(line.p), axes.kinds[k]);
+        rows.push(row);
+        s = next;
+    }
+    if !tool_done {
+        let (theta, d) = along_z(&super::inverse(&s).then(&axes.tool));
+        let row = DhRow::new(RowKind::Fixed, 0.0, 0.0, d, theta);
+        if !is_zero(&row) {
+            rows.push(row);
+        }
+    }
+    rows
+}
+
+/// The modified table: frame `k` on axis `k`, its x along the common normal to the next axis;
+/// a fixed base row when the base x is not the first common normal, the tool as the last
+/// joint's frame when it sits on the last axis, else a fixed tool row.
+fn modified_rows(axes: &Axes) -> Vec<DhRow> {
+    let n = axes.lines.len();
+    let mut rows = Vec::with_capacity(n + 2);
+    // Frame k on axis k, its x towards the next line: `Rz(theta) Tz(d)` from `l` (the
+    // frame where the previous row landed on the axis), and the point it points to.
+    let place = |l: &Frame, line: &Line, anchor: Anchor| {
+        let (foot, x, q) = toward(l, line, anchor);
+        let (xl, yl, z) = (
+            l.rotation.column(0).into_owned(),
+            l.rotation.column(1).into_owned(),
+            l.rotation.column(2).into_owned(),
+        );
+        let theta = x.dot(&yl).atan2(x.dot(&xl));
+        let d = (foot - l.translation).dot(&z);
+        let m = l.then(&rz(theta)).then(&tr(0.0, d));
+        (theta, d, m, q)
+    };
+    // From frame m along its x to `q` on `line`, turned onto the line: `Rx(alpha) Tx(a)
+    // Ry(beta)`, and the frame it lands in.
+    let land = |m: &Frame, line: &Line, q: &Vector3<f64>| {
+        let a = (q - m.translation).dot(&m.rotation.column(0));
+        let (alpha, beta) = twist_to(&(m.rotation.transpose() * line.z));
+        let l = m.then(&rx(alpha)).then(&tr(a, 0.0)).then(&ry(beta));
+        (alpha, a, beta, l)
+    };
+    let (theta0, d0, mut m, mut q) = place(&Frame::identity(), &axes.lines[0], Anchor::Plane);
+    let base = DhRow::new(RowKind::Fixed, 0.0, 0.0, d0, theta0);
+    if !is_zero(&base) {
+        rows.push(base);
+    } else {
+        m = Frame::identity();
+    }
+    let mut tool_done = false;
+    for (k, axis) in axes.lines.iter().enumerate() {
+        let (alpha, a, beta, l) = land(&m, axis, &q);
+        let (theta, d) = if k + 1 == n && modified_fits(axis, &axes.tool) {
+            tool_done = true;
+            along_z(&super::inverse(&l).then(&axes.tool))
+        } else {
+            let line = axes.next_line(k);
+            let (theta, d, next, nq) = place(&l, &line, Anchor::Point(line.p));
+            m = next;
+            q = nq;
+            (theta, d)
+        };
+        rows.push(DhRow {
+            kind: axes.kinds[k],
+            a,
+            alpha,
+            d,
+            theta,
+            beta,
+        });
+    }
+    if !tool_done {
+        let (alpha, a, beta, l) = land(&m, &axes.tool_line, &q);
+        let (theta, d) = along_z(&super::inverse(&l).then(&axes.tool));
+        let row = DhRow {
+            kind: RowKind::Fixed,
+            a,
+            alpha,
+            d,
+            theta,
+            beta,
+        };
+        if !is_zero(&row) {
+            rows.push(row);
+        }
+    }
+    rows
+}
+
+/// Refuses a modified table whose first joint row holds the robot's placement (beyond its
+/// `size` and a metre): a controller does not take it.
+fn placement_in_joint_rows(rows: &[DhRow], axes: &Axes, size: f64) -> Result<()> {
+    if let Some(r) = rows.iter().find(|r| r.kind != RowKind::Fixed) {
+        // Beyond the robot's size and beyond a metre (a small robot's own DH base offsets
+        // stay): a placement, not a link.
+        let far = size.max(1.0);
+        if r.a.abs().max(r.d.abs()) > far && axes.lines[0].p.norm() > far {
+            return Err(Error::Problem(format!(
+                "the robot's base frame is {:.3} m from its first joint (link1, e.g. a \
+                 tracker's frame where the robot was calibrated): a modified DH table \
+                 would write that placement into joint 1's row (a = {:.3} m, d = {:.3} m, \
+                 beyond the robot's size of {:.3} m without it), which a controller does \
+                 not take; export the standard convention (`--convention standard`: its \
+                 fixed base row holds the placement), or place the robot in its own base \
+                 frame first",
+                axes.lines[0].p.norm(),
+                r.a,
+                r.d,
+                size
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a table with a value that is not finite, naming the row.
+fn all_finite(rows: &[DhRow], convention: Convention) -> Result<()> {
     let mut joint = 0;
-    for r in &rows {
+    for r in rows {
         if ![r.a, r.alpha, r.d, r.theta, r.beta]
             .iter()
             .all(|v| crate::units::plausible(*v))
@@ -1150,7 +1210,7 @@ pub(crate) fn dh_rows(robot: &Robot, convention: Convention) -> Result<Vec<DhRow
             joint += 1;
         }
     }
-    Ok(rows)
+    Ok(())
 }
 
 /// A number as a DH table holds it: 15 significant digits (the frames are products along the
