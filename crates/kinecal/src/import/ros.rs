@@ -558,40 +558,14 @@ fn mounted_transforms(
 ) -> Result<()> {
     let Mounts {
         robot,
-        imported,
-        chains,
-        added,
         mframe,
         links,
+        ..
     } = *m;
     // Cameras and boards: on the measurement frame when fixed (their poses are in the robot's
     // global frame, as the sessions' are), else on the URDF link of the tool frame they move
     // with (the end effector's or a site's tip link, or its `_calibrated` link when the URDF
     // export added one): each pose as estimated, in the frame it was estimated in.
-    let tool_link = |site: Option<usize>| -> Result<String> {
-        let chain = match site {
-            None => &imported.chain,
-            Some(s) => imported.branches.get(s).ok_or_else(|| {
-                Error::Problem(format!(
-                    "site `{}` is not a tip of the template (its tips: {}): a camera or board \
-                     on it has no URDF link to hang from; import the template with that tip \
-                     (--tip) or mount the camera on the end effector",
-                    robot.sites[s].name,
-                    chains
-                        .iter()
-                        .map(|(c, _)| format!("`{}`", c.tip))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ))
-            })?,
-        };
-        let calibrated = format!("{}_calibrated", chain.tip);
-        Ok(if added.contains(&calibrated) {
-            calibrated
-        } else {
-            chain.tip.clone()
-        })
-    };
     let mounted = robot
         .cameras
         .iter()
@@ -642,8 +616,8 @@ fn mounted_transforms(
                 }
                 mframe.to_string()
             }
-            Mount::EndEffector => tool_link(None)?,
-            Mount::Site(s) => tool_link(Some(s))?,
+            Mount::EndEffector => tool_link(m, None)?,
+            Mount::Site(s) => tool_link(m, Some(s))?,
         };
         transforms.push(StaticTransform {
             parent,
@@ -657,6 +631,33 @@ fn mounted_transforms(
         });
     }
     Ok(())
+}
+
+/// The URDF link a camera or board mounted on the end effector (`site` `None`) or on a site
+/// hangs from: the tip link of its chain, or the `_calibrated` link the URDF export added there.
+fn tool_link(m: &Mounts<'_>, site: Option<usize>) -> Result<String> {
+    let chain = match site {
+        None => &m.imported.chain,
+        Some(s) => m.imported.branches.get(s).ok_or_else(|| {
+            Error::Problem(format!(
+                "site `{}` is not a tip of the template (its tips: {}): a camera or board \
+                 on it has no URDF link to hang from; import the template with that tip \
+                 (--tip) or mount the camera on the end effector",
+                m.robot.sites[s].name,
+                m.chains
+                    .iter()
+                    .map(|(c, _)| format!("`{}`", c.tip))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })?,
+    };
+    let calibrated = format!("{}_calibrated", chain.tip);
+    Ok(if m.added.contains(&calibrated) {
+        calibrated
+    } else {
+        chain.tip.clone()
+    })
 }
 
 /// `static_transforms.yaml` read back: each frame where it was written (to 1e-12) and none

@@ -575,14 +575,11 @@ fn choose_floor(
     sol: &mut Solution,
     record: &mut dyn FnMut(&Iteration),
 ) -> Result<(Vec<f64>, ModelErrorFloor)> {
-    let mut floor = ModelErrorFloor::default();
-    for (q, own) in kinds {
-        match (q, own) {
-            (RowQuantity::Length, true) => floor.rows[0] += 1,
-            (RowQuantity::Angle, true) => floor.rows[1] += 1,
-            _ => {}
-        }
-    }
+    let mut floor = ModelErrorFloor {
+        rows: [RowQuantity::Length, RowQuantity::Angle]
+            .map(|q| kinds.iter().filter(|&&k| k == (q, true)).count()),
+        ..Default::default()
+    };
     let nd = problem.data_rows() as f64;
     let dof_fraction = ((nd - problem.cols() as f64) / nd).max(0.0);
     let mut all = vec![0.0; problem.rows()];
