@@ -336,13 +336,7 @@ pub fn export_ros(
     let mut notes = Vec::new();
 
     // The joints on the chains (and the added tool joints), in the order of the file.
-    let chains: Vec<(&UrdfChain, Option<usize>)> = imported
-        .branches
-        .iter()
-        .enumerate()
-        .map(|(s, c)| (c, Some(s)))
-        .chain([(&imported.chain, None)])
-        .collect();
+    let chains = imported.chains();
     let added: Vec<String> = e
         .warnings
         .iter()

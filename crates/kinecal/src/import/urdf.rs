@@ -69,6 +69,19 @@ pub struct UrdfImport {
     pub branches: Vec<UrdfChain>,
 }
 
+impl UrdfImport {
+    /// Each chain with the site at its tip (`None`: the end effector's): the sites' first, in
+    /// the order of the import.
+    pub fn chains(&self) -> Vec<(&UrdfChain, Option<usize>)> {
+        self.branches
+            .iter()
+            .enumerate()
+            .map(|(s, c)| (c, Some(s)))
+            .chain([(&self.chain, None)])
+            .collect()
+    }
+}
+
 /// A chain end that is not in `file` or not unique.
 fn chain(setting: Setting, file: &str, message: String) -> Error {
     Error::ChainEnd {
@@ -802,13 +815,7 @@ pub fn export_urdf(
         )));
     }
     // Each chain with the robot's branch to its tool frame: the sites first, as imported.
-    let chains: Vec<(&UrdfChain, Option<usize>)> = imported
-        .branches
-        .iter()
-        .enumerate()
-        .map(|(s, c)| (c, Some(s)))
-        .chain([(&imported.chain, None)])
-        .collect();
+    let chains = imported.chains();
     let mut origins: Vec<NewOrigin> = Vec::new();
     let mut warnings: Vec<Warning> = Vec::new();
     let mut tools = Vec::new();

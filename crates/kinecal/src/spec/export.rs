@@ -281,6 +281,15 @@ fn unit<U: std::str::FromStr<Err = String>>(
         .map_err(|m: String| invalid(setting, m))
 }
 
+/// A URDF export's warnings as notes, but for the slopes: a slope is said with its deviation,
+/// as what the URDF cannot hold.
+fn urdf_warning_notes(warnings: &[crate::Warning]) -> impl Iterator<Item = String> + '_ {
+    warnings
+        .iter()
+        .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
+        .map(|w| format!("warning: {w}"))
+}
+
 /// The tolerance of an export of `robot`: the spec's over the default.
 fn tolerance(t: &LengthAngle, robot: &Robot) -> Result<Tolerance> {
     t.check(Setting::Tolerance, false)?;
@@ -405,28 +414,27 @@ impl ExportSpec {
         Ok(())
     }
 
-    /// A URDF: the template with the calibrated joint origins, read back within `tol`.
-    fn urdf(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
-        let units = robot.units;
-        let t = read_source(
+    /// The URDF the robot was imported from (`template`), read.
+    fn urdf_template(&self) -> Result<crate::source::Source> {
+        read_source(
             self.needs(
                 &self.template,
                 Setting::Template,
                 "the URDF it was imported from",
             )?,
             Setting::Template,
-        )?;
+        )
+    }
+
+    /// A URDF: the template with the calibrated joint origins, read back within `tol`.
+    fn urdf(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
+        let units = robot.units;
+        let t = self.urdf_template()?;
         let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
         let e =
             crate::import::urdf::export_urdf(robot, &t.text, &t.name, self.base.as_deref(), &tips)?;
         e.check(robot, tol)?;
-        // A slope is said with its deviation, as what the URDF cannot hold.
-        out.notes.extend(
-            e.warnings
-                .iter()
-                .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
-                .map(|w| format!("warning: {w}")),
-        );
+        out.notes.extend(urdf_warning_notes(&e.warnings));
         out.lost = e.lost.iter().map(|l| l.line(units)).collect();
         out.read_back = Some(e.read_back.line(units));
         out.text = e.text;
@@ -497,14 +505,7 @@ impl ExportSpec {
     /// The ROS 2 description files, read back within `tol`.
     fn ros(&self, robot: &Robot, tol: &Tolerance, out: &mut ExportOutcome) -> Result<()> {
         let units = robot.units;
-        let t = read_source(
-            self.needs(
-                &self.template,
-                Setting::Template,
-                "the URDF it was imported from",
-            )?,
-            Setting::Template,
-        )?;
+        let t = self.urdf_template()?;
         let tips: Vec<&str> = self.tip.iter().map(String::as_str).collect();
         let e = crate::import::ros::export_ros(
             robot,
@@ -515,12 +516,7 @@ impl ExportSpec {
             self.measurement_frame.as_deref(),
         )?;
         e.check(robot, tol)?;
-        out.notes.extend(
-            e.warnings
-                .iter()
-                .filter(|w| !matches!(w, crate::Warning::UrdfSlope { .. }))
-                .map(|w| format!("warning: {w}")),
-        );
+        out.notes.extend(urdf_warning_notes(&e.warnings));
         out.notes.extend(e.notes.iter().cloned());
         out.lost = e.lost.iter().map(|l| l.line(units)).collect();
         out.read_back = Some(e.read_back.line(units));
