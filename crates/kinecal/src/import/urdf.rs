@@ -123,7 +123,55 @@ pub fn import_urdf_tree(
     let index = super::xml::scan(text, file)?;
     let urdf = urdf_rs::read_from_string(text.strip_prefix('\u{feff}').unwrap_or(text))
         .map_err(|e| err(file, format!("not a valid URDF: {e}")))?;
-    // Every number of every joint is finite and of a plausible size (a metre is a metre).
+    check_joint_numbers(&urdf, &index, file)?;
+    let links: Vec<&str> = urdf.links.iter().map(|l| l.name.as_str()).collect();
+    let parent_of = parent_joints(&urdf, &links, file)?;
+    let base = chain_base(base, &links, &parent_of, file)?;
+    let tip_names = tip_links(tips, &links, &urdf, file)?;
+    let Joined {
+        tree,
+        names,
+        parents,
+        mut chains,
+        ends,
+    } = joined_chains(&urdf, &parent_of, file, base, &tip_names)?;
+    let (ee_joint, ee_frame) = *ends.last().expect("a tip");
+    if ee_joint != tree.len() {
+        return Err(chain(
+            Setting::ChainTip,
+            file,
+            format!(
+                "the last tip, `{}`, is the end effector and must end the last branch: name it \
+                 before the tips whose chains go on past it",
+                tip_names.last().expect("a tip")
+            ),
+        ));
+    }
+    let mut robot =
+        super::tree_from_frames(&urdf.name, Units::default(), &tree, &parents, &ee_frame);
+    for (joint, name) in robot.joints.iter_mut().zip(&names) {
+        // A URDF joint name heads its reading column (unless it reads like `vK`).
+        let reads_like_v = name.starts_with('v') && name[1..].parse::<usize>().is_ok();
+        joint.name = (!reads_like_v && !name.trim().is_empty()).then(|| name.clone());
+    }
+    let ee_chain = chains.pop().expect("a tip");
+    // The end effector is called by its link's name, as well as `ee`, whether it is a chain's
+    // only tip or a tree's last (`ee` itself needs no second name).
+    if ee_chain.tip != "ee" {
+        robot.end_effector = Some(ee_chain.tip.clone());
+    }
+    add_sites(&mut robot, &tree, &chains, &ends, base, file)?;
+    robot.validate().map_err(|m| err(file, m))?;
+    Ok(UrdfImport {
+        robot,
+        chain: ee_chain,
+        branches: chains,
+    })
+}
+
+/// Every number of every joint is finite and of a plausible size (a metre is a metre): an
+/// error names the joint, its field and its line (from `index`) otherwise.
+fn check_joint_numbers(urdf: &urdf_rs::Robot, index: &super::xml::Index, file: &str) -> Result<()> {
     for j in &urdf.joints {
         let line = index.joint(&j.name).map(|s| s.line);
         let bad = |field: &str, what: String| {
@@ -155,7 +203,16 @@ pub fn import_urdf_tree(
             }
         }
     }
-    let links: Vec<&str> = urdf.links.iter().map(|l| l.name.as_str()).collect();
+    Ok(())
+}
+
+/// Each link's parent joint, keyed by the link's name: an error when a joint names a link
+/// that `links` lacks, or a link is the child of two joints (a closed chain).
+fn parent_joints<'u>(
+    urdf: &'u urdf_rs::Robot,
+    links: &[&str],
+    file: &str,
+) -> Result<HashMap<&'u str, &'u urdf_rs::Joint>> {
     let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
     for j in &urdf.joints {
         for (role, l) in [("parent", &j.parent.link), ("child", &j.child.link)] {
@@ -176,34 +233,51 @@ pub fn import_urdf_tree(
             ));
         }
     }
+    Ok(parent_of)
+}
+
+/// The chain's base link: `base` when `links` has it, else the only root (a link no joint
+/// is the parent of).
+fn chain_base<'a>(
+    base: Option<&'a str>,
+    links: &[&'a str],
+    parent_of: &HashMap<&str, &urdf_rs::Joint>,
+    file: &str,
+) -> Result<&'a str> {
     let roots: Vec<&str> = links
         .iter()
         .copied()
         .filter(|l| !parent_of.contains_key(l))
         .collect();
-    let base = match base {
-        Some(b) if links.contains(&b) => b,
-        Some(b) => {
-            return Err(chain(
+    match base {
+        Some(b) if links.contains(&b) => Ok(b),
+        Some(b) => Err(chain(
+            Setting::ChainBase,
+            file,
+            format!("no link named `{b}` (the chain's base)"),
+        )),
+        None => match roots.as_slice() {
+            [one] => Ok(*one),
+            _ => Err(chain(
                 Setting::ChainBase,
                 file,
-                format!("no link named `{b}` (the chain's base)"),
-            ))
-        }
-        None => match roots.as_slice() {
-            [one] => *one,
-            _ => {
-                return Err(chain(
-                    Setting::ChainBase,
-                    file,
-                    format!(
-                        "several root links ({}): name the chain's base",
-                        roots.join(", ")
-                    ),
-                ))
-            }
+                format!(
+                    "several root links ({}): name the chain's base",
+                    roots.join(", ")
+                ),
+            )),
         },
-    };
+    }
+}
+
+/// The chains' tip links: `tips`, each a link of `links` named once, else the only leaf (a
+/// link no joint is the parent of).
+fn tip_links<'a>(
+    tips: &[&'a str],
+    links: &[&'a str],
+    urdf: &urdf_rs::Robot,
+    file: &str,
+) -> Result<Vec<&'a str>> {
     let has_children: Vec<&str> = urdf.joints.iter().map(|j| j.parent.link.as_str()).collect();
     let mut tip_names: Vec<&str> = Vec::new();
     for &t in tips {
@@ -224,36 +298,58 @@ pub fn import_urdf_tree(
         tip_names.push(t);
     }
     if tip_names.is_empty() {
-        tip_names.push({
-            let leaves: Vec<&str> = links
-                .iter()
-                .copied()
-                .filter(|l| !has_children.contains(l))
-                .collect();
-            match leaves.as_slice() {
-                [one] => *one,
-                _ => {
-                    return Err(chain(
-                        Setting::ChainTip,
-                        file,
-                        format!(
-                            "several leaf links ({}): name the chain's tip",
-                            leaves.join(", ")
-                        ),
-                    ))
-                }
+        let leaves: Vec<&str> = links
+            .iter()
+            .copied()
+            .filter(|l| !has_children.contains(l))
+            .collect();
+        match leaves.as_slice() {
+            [one] => tip_names.push(*one),
+            _ => {
+                return Err(chain(
+                    Setting::ChainTip,
+                    file,
+                    format!(
+                        "several leaf links ({}): name the chain's tip",
+                        leaves.join(", ")
+                    ),
+                ))
             }
-        });
+        }
     }
-    // Each tip's chain, then the tree they make.
+    Ok(tip_names)
+}
+
+/// The tree the tips' chains make: its movable joints each once (parents before children).
+struct Joined {
+    /// The joints, each frame global at the zero configuration.
+    tree: Vec<ImportedJoint>,
+    /// Their URDF names.
+    names: Vec<String>,
+    /// Per joint, its parent joint (1-based; 0 the base).
+    parents: Vec<usize>,
+    /// Per tip, its chain.
+    chains: Vec<UrdfChain>,
+    /// Per tip: the last movable joint on its chain (1-based) and the tip's frame.
+    ends: Vec<(usize, Frame)>,
+}
+
+/// Each tip's chain from `base`, then the tree they make: a joint already met on an earlier
+/// chain is shared, not repeated.
+fn joined_chains(
+    urdf: &urdf_rs::Robot,
+    parent_of: &HashMap<&str, &urdf_rs::Joint>,
+    file: &str,
+    base: &str,
+    tip_names: &[&str],
+) -> Result<Joined> {
     let mut tree: Vec<ImportedJoint> = Vec::new();
     let mut names: Vec<String> = Vec::new();
     let mut parents: Vec<usize> = Vec::new();
     let mut chains: Vec<UrdfChain> = Vec::new();
-    // Per tip: the last movable joint on its chain (1-based) and the tip's frame.
     let mut ends: Vec<(usize, Frame)> = Vec::new();
-    for &tip in &tip_names {
-        let (c, movables, tip_frame) = tip_chain(&urdf, &parent_of, file, base, tip)?;
+    for &tip in tip_names {
+        let (c, movables, tip_frame) = tip_chain(urdf, parent_of, file, base, tip)?;
         let mut last = 0;
         for (name, joint) in movables {
             match names.iter().position(|n| *n == name) {
@@ -269,54 +365,42 @@ pub fn import_urdf_tree(
         chains.push(c);
         ends.push((last, tip_frame));
     }
-    let (ee_joint, ee_frame) = *ends.last().expect("a tip");
-    if ee_joint != tree.len() {
-        return Err(chain(
-            Setting::ChainTip,
-            file,
-            format!(
-                "the last tip, `{}`, is the end effector and must end the last branch: name it \
-                 before the tips whose chains go on past it",
-                tip_names.last().expect("a tip")
-            ),
-        ));
-    }
-    let mut robot =
-        super::tree_from_frames(&urdf.name, Units::default(), &tree, &parents, &ee_frame);
-    for (joint, name) in robot.joints.iter_mut().zip(&names) {
-        // A URDF joint name heads its reading column (unless it reads like `vK`).
-        let reads_like_v = name.starts_with('v') && name[1..].parse::<usize>().is_ok();
-        joint.name = (!reads_like_v && !name.trim().is_empty()).then(|| name.clone());
-    }
-    let ee_chain = chains.pop().expect("a tip");
-    // The end effector is called by its link's name, as well as `ee`, whether it is a chain's
-    // only tip or a tree's last (`ee` itself needs no second name).
-    if ee_chain.tip != "ee" {
-        robot.end_effector = Some(ee_chain.tip.clone());
-    }
-    if !chains.is_empty() {
-        for (c, &(joint, frame)) in chains.iter().zip(&ends) {
-            if joint == 0 {
-                return Err(chain(
-                    Setting::ChainTip,
-                    file,
-                    format!("no movable joint between `{base}` and tip `{}`", c.tip),
-                ));
-            }
-            let carrier = tree[joint - 1].frame;
-            robot.sites.push(crate::model::robot::Site {
-                name: c.tip.clone(),
-                joint,
-                frame: super::link_of(&inverse(&carrier).then(&frame)),
-            });
-        }
-    }
-    robot.validate().map_err(|m| err(file, m))?;
-    Ok(UrdfImport {
-        robot,
-        chain: ee_chain,
-        branches: chains,
+    Ok(Joined {
+        tree,
+        names,
+        parents,
+        chains,
+        ends,
     })
+}
+
+/// Each of `chains`' tips (all but the end effector's) as a site of `robot` named after its
+/// link, on the last movable joint of its chain (`ends`, in the chains' order), its frame
+/// relative to that joint's (`tree`, global frames at zero).
+fn add_sites(
+    robot: &mut Robot,
+    tree: &[ImportedJoint],
+    chains: &[UrdfChain],
+    ends: &[(usize, Frame)],
+    base: &str,
+    file: &str,
+) -> Result<()> {
+    for (c, &(joint, frame)) in chains.iter().zip(ends) {
+        if joint == 0 {
+            return Err(chain(
+                Setting::ChainTip,
+                file,
+                format!("no movable joint between `{base}` and tip `{}`", c.tip),
+            ));
+        }
+        let carrier = tree[joint - 1].frame;
+        robot.sites.push(crate::model::robot::Site {
+            name: c.tip.clone(),
+            joint,
+            frame: super::link_of(&inverse(&carrier).then(&frame)),
+        });
+    }
+    Ok(())
 }
 
 /// The movable joints of one chain: (name, joint), each joint's frame global at the zero

@@ -753,38 +753,125 @@ pub(crate) fn assess_with(
         metric.clone(),
         measured.iter().copied(),
     )?;
-    // The floors: per target, the residuals' mean square per axis less what the parameters'
-    // part of the bound already holds there (`tr J C J^T / 3`, the share of the errors the fit
-    // absorbed), so that the bound at the measured postures is at least the residuals' size.
     let residuals = identification_residuals(robot, data);
-    let mut held = vec![(0.0, 0.0, 0usize, 0usize); residuals.len()];
+    let held = held_parts(
+        robot,
+        data,
+        estimated,
+        covariance,
+        &predictor,
+        residuals.len(),
+    )?;
+    let terms = target_terms(&residuals, &held, &cv, folds.len(), att);
+    let Some(default_k) = terms.iter().position(|x| x.target == target) else {
+        return Err(Error::Problem(
+            "the default target has no measured position or pose".into(),
+        ));
+    };
+    let (position, attitude) = (terms[default_k].position, terms[default_k].attitude);
+    for x in &terms {
+        predictor.set_target_model(
+            x.target,
+            ModelError {
+                position: x.position.growth,
+                attitude: x.attitude.as_ref().map(|a| a.growth),
+            },
+        )?;
+    }
+    let units = &robot.units;
+    let len = |v: f64| units.from_si(Quantity::Length, v);
+    say("prediction: the bound over the joint ranges");
+    let samples = sample_readings(robot, SUMMARY_SAMPLES, 0);
+    let summarise =
+        |attitude: bool| bound_summary(&predictor, target, &measured, &samples, robot, attitude);
+    let position_summary = summarise(false);
+    let attitude_summary = pose.then(|| summarise(true));
+    let map = (level == Level::Map).then(|| {
+        say("prediction: the accuracy map");
+        accuracy_map(&predictor, target, &measured, MAP_SAMPLES, 0)
+    });
+    Ok(PredictionReport {
+        target: crate::observe::target_name(robot, target).to_string(),
+        estimated: estimated.iter().map(ToString::to_string).collect(),
+        covariance: covariance_in_units(robot, estimated, covariance),
+        levers: metric.levers().iter().map(|&l| len(l)).collect(),
+        measured: measured.iter().map(|r| r.to_vec()).collect(),
+        position: growth_report(&position, false, terms[default_k].floor_position, units),
+        attitude: attitude
+            .as_ref()
+            .map(|a| growth_report(a, true, terms[default_k].floor_attitude, units)),
+        targets: target_reports(robot, &terms),
+        folds,
+        samples: SUMMARY_SAMPLES,
+        position_summary,
+        attitude_summary,
+        map,
+    })
+}
+
+/// Per target (0 the end effector, `k` site `k - 1`), what the parameters' part of the bound
+/// already holds at the measured postures: `(position sum, attitude sum, position count,
+/// attitude count)`, each term a third of `tr J C J^T` (a pixel's half the trace across its
+/// line of sight), in squared internal units.
+fn held_parts(
+    robot: &Robot,
+    data: &Dataset,
+    estimated: &[ParamId],
+    covariance: &[Vec<f64>],
+    predictor: &Predictor<'_>,
+    targets: usize,
+) -> Result<Vec<(f64, f64, usize, usize)>> {
+    let mut held = vec![(0.0, 0.0, 0usize, 0usize); targets];
     // A pixel's part is across its line of sight: per axis, half its trace.
     for l in pixel::lateral_errors(robot, data, estimated, Some(covariance))? {
         let h = &mut held[target_index(l.target)];
         h.0 += 0.5 * (l.parameters[0][0] + l.parameters[1][1]);
         h.2 += 1;
     }
-    {
-        let mut s = predictor.scratch();
-        for o in &data.observations {
-            let is_pose = match o {
-                Observation::Position(_) => false,
-                Observation::Pose(_) => true,
-                _ => continue,
-            };
-            let t = o.target();
-            let (p, a, _) =
-                predictor.parameter_part(&data.postures[o.posture()].readings, t, &mut s);
-            let h = &mut held[target_index(t)];
-            h.0 += (p[0][0] + p[1][1] + p[2][2]) / 3.0;
-            h.2 += 1;
-            if is_pose {
-                h.1 += (a[0][0] + a[1][1] + a[2][2]) / 3.0;
-                h.3 += 1;
-            }
+    let mut s = predictor.scratch();
+    for o in &data.observations {
+        let is_pose = match o {
+            Observation::Position(_) => false,
+            Observation::Pose(_) => true,
+            _ => continue,
+        };
+        let t = o.target();
+        let (p, a, _) = predictor.parameter_part(&data.postures[o.posture()].readings, t, &mut s);
+        let h = &mut held[target_index(t)];
+        h.0 += (p[0][0] + p[1][1] + p[2][2]) / 3.0;
+        h.2 += 1;
+        if is_pose {
+            h.1 += (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+            h.3 += 1;
         }
     }
-    let mut terms: Vec<(Target, GrowthFit, Option<GrowthFit>, f64, f64)> = Vec::new();
+    Ok(held)
+}
+
+/// One measured target's model-error terms, and the floors under their `s0` (internal units).
+struct TargetTerm {
+    target: Target,
+    position: GrowthFit,
+    attitude: Option<GrowthFit>,
+    floor_position: f64,
+    floor_attitude: f64,
+}
+
+/// Each measured target's own term, its `s0` at least what the calibrated model's residuals
+/// show there: per axis, the residuals' mean square (`residuals`, per target as
+/// [`identification_residuals`] gives them) less what the parameters' part of the bound
+/// already holds (`held`, [`held_parts`]), so that the bound at the measured postures is at
+/// least the residuals' size. A target held out fewer than [`MIN_POSTURES`] times per scale
+/// (`scales` of them) is fitted on every target's held-out errors, floored by its own
+/// residuals; `attitude` says whether attitudes have a term.
+fn target_terms(
+    residuals: &[(usize, f64, f64)],
+    held: &[(f64, f64, usize, usize)],
+    cv: &CrossValidated,
+    scales: usize,
+    attitude: bool,
+) -> Vec<TargetTerm> {
+    let mut terms = Vec::new();
     for (k, &(count, p2, a2)) in residuals.iter().enumerate() {
         if count == 0 {
             continue;
@@ -800,120 +887,131 @@ pub(crate) fn assess_with(
         let own = |v: &[HeldOut]| -> Vec<HeldOut> {
             v.iter().filter(|h| h.target == t).copied().collect()
         };
-        let (mut position, mut attitude) = (own(&cv.position), own(&cv.attitude));
+        let (mut position, mut attitudes) = (own(&cv.position), own(&cv.attitude));
         // Too few held out at this target for a term of its own (fewer than MIN_POSTURES
         // postures: each is held out once per scale): all of them, floored by its residuals.
-        let fewest = MIN_POSTURES * folds.len();
+        let fewest = MIN_POSTURES * scales;
         if position.len() < fewest {
             position = cv.position.clone();
         }
-        if attitude.len() < fewest {
-            attitude = cv.attitude.clone();
+        if attitudes.len() < fewest {
+            attitudes = cv.attitude.clone();
         }
-        let fit_p = fit_growth_floored(&position, floor_p);
-        let fit_a = att.then(|| fit_growth_floored(&attitude, floor_a));
-        terms.push((t, fit_p, fit_a, floor_p, floor_a));
+        terms.push(TargetTerm {
+            target: t,
+            position: fit_growth_floored(&position, floor_p),
+            attitude: attitude.then(|| fit_growth_floored(&attitudes, floor_a)),
+            floor_position: floor_p,
+            floor_attitude: floor_a,
+        });
     }
-    let Some(default_k) = terms.iter().position(|x| x.0 == target) else {
-        return Err(Error::Problem(
-            "the default target has no measured position or pose".into(),
-        ));
+    terms
+}
+
+/// The predicted 95 % bound of `target`'s position (or attitude) over `samples` (readings,
+/// `robot.dof()` a sample) and at the `measured` postures: medians and 95th percentile, in
+/// the robot's units.
+fn bound_summary(
+    predictor: &Predictor<'_>,
+    target: Target,
+    measured: &[&[f64]],
+    samples: &[f64],
+    robot: &Robot,
+    attitude: bool,
+) -> BoundSummary {
+    let mut s = predictor.scratch();
+    let dof = robot.dof();
+    // The predicted 95 % bound at readings `r`: of the attitude or of the position.
+    let mut bound = |r: &[f64]| {
+        let p = predictor.predict(r, target, &mut s);
+        if attitude {
+            p.attitude_error.map_or(0.0, |b| b.bound)
+        } else {
+            p.position_error.bound
+        }
     };
-    let (position, attitude) = (terms[default_k].1, terms[default_k].2);
-    for x in &terms {
-        predictor.set_target_model(
-            x.0,
-            ModelError {
-                position: x.1.growth,
-                attitude: x.2.as_ref().map(|a| a.growth),
-            },
-        )?;
+    let mut bounds: Vec<f64> = samples.chunks(dof).map(&mut bound).collect();
+    let mut at: Vec<f64> = measured.iter().map(|r| bound(r)).collect();
+    let quantity = if attitude {
+        Quantity::Angle
+    } else {
+        Quantity::Length
+    };
+    let conv = |v: f64| robot.units.from_si(quantity, v);
+    BoundSummary {
+        median: conv(percentile(&mut bounds, 0.5)),
+        p95: conv(percentile(&mut bounds, 0.95)),
+        median_measured: conv(percentile(&mut at, 0.5)),
     }
-    let units = &robot.units;
-    let len = |v: f64| units.from_si(Quantity::Length, v);
-    let ang = |v: f64| units.from_si(Quantity::Angle, v);
-    let summarise = |samples: &[f64], robot: &Robot, attitude: bool| -> BoundSummary {
-        let mut s = predictor.scratch();
-        let dof = robot.dof();
-        // The predicted 95 % bound at readings `r`: of the attitude or of the position.
-        let mut bound = |r: &[f64]| {
-            let p = predictor.predict(r, target, &mut s);
-            if attitude {
-                p.attitude_error.map_or(0.0, |b| b.bound)
-            } else {
-                p.position_error.bound
-            }
-        };
-        let mut bounds: Vec<f64> = samples.chunks(dof).map(&mut bound).collect();
-        let mut at: Vec<f64> = measured.iter().map(|r| bound(r)).collect();
-        let conv = |v: f64| if attitude { ang(v) } else { len(v) };
-        BoundSummary {
-            median: conv(percentile(&mut bounds, 0.5)),
-            p95: conv(percentile(&mut bounds, 0.95)),
-            median_measured: conv(percentile(&mut at, 0.5)),
-        }
-    };
-    say("prediction: the bound over the joint ranges");
-    let samples = sample_readings(robot, SUMMARY_SAMPLES, 0);
-    let position_summary = summarise(&samples, robot, false);
-    let attitude_summary = pose.then(|| summarise(&samples, robot, true));
-    let growth_report = |g: &GrowthFit, angle: bool, residuals: f64| {
-        let q = |v: f64| if angle { ang(v) } else { len(v) };
-        GrowthReport {
-            s0: q(g.growth.s0),
-            s0_floor: q(residuals),
-            // Per length unit of distance.
-            c: q(g.growth.c) / len(1.0),
-            shape: g.growth.shape,
-            points: g.points,
-            coverage: g.coverage,
-            coverage_constant: g.coverage_constant,
-            s0_constant: q(g.s0_constant),
-            coverage_parameters_only: g.coverage_parameters_only,
-            distance_median: len(g.distance_median),
-            distance_max: len(g.distance_max),
-        }
-    };
-    let map = (level == Level::Map).then(|| {
-        say("prediction: the accuracy map");
-        accuracy_map(&predictor, target, &measured, MAP_SAMPLES, 0)
-    });
+}
+
+/// The parameters' covariance (internal units, in the order of `estimated`) in the robot's
+/// units.
+fn covariance_in_units(
+    robot: &Robot,
+    estimated: &[ParamId],
+    covariance: &[Vec<f64>],
+) -> Vec<Vec<f64>> {
     let f: Vec<f64> = estimated
         .iter()
-        .map(|&id| units.factor(robot.param_quantity(id)))
+        .map(|&id| robot.units.factor(robot.param_quantity(id)))
         .collect();
-    Ok(PredictionReport {
-        target: crate::observe::target_name(robot, target).to_string(),
-        estimated: estimated.iter().map(ToString::to_string).collect(),
-        covariance: covariance
-            .iter()
-            .zip(&f)
-            .map(|(row, fa)| row.iter().zip(&f).map(|(c, fb)| c / (fa * fb)).collect())
-            .collect(),
-        levers: metric.levers().iter().map(|&l| len(l)).collect(),
-        measured: measured.iter().map(|r| r.to_vec()).collect(),
-        position: growth_report(&position, false, terms[default_k].3),
-        attitude: attitude
-            .as_ref()
-            .map(|a| growth_report(a, true, terms[default_k].4)),
-        targets: if terms.len() > 1 {
-            terms
-                .iter()
-                .map(|x| TargetModelError {
-                    target: crate::observe::target_name(robot, x.0).to_string(),
-                    position: growth_report(&x.1, false, x.3),
-                    attitude: x.2.as_ref().map(|a| growth_report(a, true, x.4)),
-                })
-                .collect()
+    covariance
+        .iter()
+        .zip(&f)
+        .map(|(row, fa)| row.iter().zip(&f).map(|(c, fb)| c / (fa * fb)).collect())
+        .collect()
+}
+
+/// Each target's terms as reported, when there are several targets (none when one).
+fn target_reports(robot: &Robot, terms: &[TargetTerm]) -> Vec<TargetModelError> {
+    if terms.len() <= 1 {
+        return Vec::new();
+    }
+    let units = &robot.units;
+    terms
+        .iter()
+        .map(|x| TargetModelError {
+            target: crate::observe::target_name(robot, x.target).to_string(),
+            position: growth_report(&x.position, false, x.floor_position, units),
+            attitude: x
+                .attitude
+                .as_ref()
+                .map(|a| growth_report(a, true, x.floor_attitude, units)),
+        })
+        .collect()
+}
+
+/// A model-error term fitted by cross-validation as reported, in `units` (`angle`: an
+/// attitude's), with `residuals` the floor under its `s0` (internal units).
+fn growth_report(
+    g: &GrowthFit,
+    angle: bool,
+    residuals: f64,
+    units: &crate::units::Units,
+) -> GrowthReport {
+    let len = |v: f64| units.from_si(Quantity::Length, v);
+    let q = |v: f64| {
+        if angle {
+            units.from_si(Quantity::Angle, v)
         } else {
-            Vec::new()
-        },
-        folds,
-        samples: SUMMARY_SAMPLES,
-        position_summary,
-        attitude_summary,
-        map,
-    })
+            len(v)
+        }
+    };
+    GrowthReport {
+        s0: q(g.growth.s0),
+        s0_floor: q(residuals),
+        // Per length unit of distance.
+        c: q(g.growth.c) / len(1.0),
+        shape: g.growth.shape,
+        points: g.points,
+        coverage: g.coverage,
+        coverage_constant: g.coverage_constant,
+        s0_constant: q(g.s0_constant),
+        coverage_parameters_only: g.coverage_parameters_only,
+        distance_median: len(g.distance_median),
+        distance_max: len(g.distance_max),
+    }
 }
 
 /// The readings of the postures `data` measures by position, pose or pixel, in posture order.
