@@ -210,17 +210,42 @@ struct Entry {
 /// `rows`, `cols` and a flow sequence `data: [...]`, which may span lines). `file` names it in
 /// errors.
 pub fn parse_camera_info(text: &str, file: &str) -> Result<CameraInfo> {
-    let err = |line: usize, field: &str, message: String| {
-        Error::input(
-            Location {
-                file: file.to_string(),
-                line: Some(line),
-                field: Some(field.to_string()),
-            },
-            message,
-        )
-    };
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let entries = Entries {
+        file,
+        list: read_entries(text, file)?,
+    };
+    let width = entries.pixels("image_width")?;
+    let height = entries.pixels("image_height")?;
+    let name = entries.camera_name();
+    entries.check_distortion_model()?;
+    let intrinsics = entries.intrinsics()?;
+    let distortion = entries.distortion()?;
+    Ok(CameraInfo {
+        name,
+        width,
+        height,
+        intrinsics,
+        distortion,
+    })
+}
+
+/// An input error at 1-based `line` of `file`, naming `field` (a key, `parent.key`, or the
+/// offending text).
+fn field_error(file: &str, line: usize, field: &str, message: String) -> Error {
+    Error::input(
+        Location {
+            file: file.to_string(),
+            line: Some(line),
+            field: Some(field.to_string()),
+        },
+        message,
+    )
+}
+
+/// The top-level keys of a `camera_info` file's `text` (its BOM already removed; `file` names
+/// it in errors), in file order, each with its 1-based line, its value and its nested keys.
+fn read_entries(text: &str, file: &str) -> Result<Vec<(String, Entry)>> {
     let lines: Vec<&str> = text.lines().collect();
     let mut entries: Vec<(String, Entry)> = Vec::new();
     let mut i = 0;
@@ -236,26 +261,12 @@ pub fn parse_camera_info(text: &str, file: &str) -> Result<CameraInfo> {
         let trimmed = content.trim();
         // A block sequence's item (`- 500.5`, as PyYAML dumps lists): onto the last key's list.
         if trimmed == "-" || trimmed.starts_with("- ") {
-            let item = trimmed[1..].trim();
-            let Some((_, value)) = entries
-                .last_mut()
-                .and_then(|(_, e)| e.nested.last_mut())
-                .map(|(k, _, v)| (k.clone(), v))
-            else {
-                return Err(err(n, item, "a list item outside any matrix".into()));
-            };
-            if value.is_empty() {
-                *value = format!("[{item}");
-            } else if value.starts_with('[') && !value.contains(']') {
-                value.push_str(", ");
-                value.push_str(item);
-            } else {
-                return Err(err(n, item, "a list item after a value".into()));
-            }
+            push_list_item(&mut entries, n, trimmed[1..].trim(), file)?;
             continue;
         }
         let Some((key, value)) = trimmed.split_once(':') else {
-            return Err(err(
+            return Err(field_error(
+                file,
                 n,
                 content.trim(),
                 "expected `key: value` (a camera_info YAML file)".into(),
@@ -264,90 +275,198 @@ pub fn parse_camera_info(text: &str, file: &str) -> Result<CameraInfo> {
         let (key, mut value) = (key.trim().to_string(), value.trim().to_string());
         // A flow sequence spanning lines: read on to its `]`.
         if value.starts_with('[') {
-            while !value.contains(']') && i < lines.len() {
-                value.push(' ');
-                value.push_str(strip_comment(lines[i]).trim());
-                i += 1;
-            }
-            if !value.contains(']') {
-                return Err(err(n, &key, "a `[` without its `]`".into()));
-            }
+            i = read_flow_sequence(&lines, i, &mut value, n, &key, file)?;
         }
-        if indented {
-            let Some((parent, entry)) = entries.last_mut() else {
-                return Err(err(n, &key, "an indented key outside any matrix".into()));
-            };
-            if !entry.value.is_empty() {
-                return Err(err(
-                    n,
-                    &format!("{parent}.{key}"),
-                    format!("`{parent}` has a value: it holds no keys"),
-                ));
-            }
-            entry.nested.push((key, n, value));
-        } else {
-            if entries.iter().any(|(k, _)| *k == key) {
-                return Err(err(n, &key, format!("`{key}` given twice")));
-            }
-            entries.push((
-                key,
-                Entry {
-                    line: n,
-                    value,
-                    nested: Vec::new(),
-                },
+        push_key(&mut entries, n, key, value, indented, file)?;
+    }
+    Ok(entries)
+}
+
+/// Appends block-sequence `item` (at 1-based `line`) to the last nested key's value, kept as
+/// an unclosed flow sequence `[a, b`; an error outside a matrix or after a value.
+fn push_list_item(
+    entries: &mut [(String, Entry)],
+    line: usize,
+    item: &str,
+    file: &str,
+) -> Result<()> {
+    let Some(value) = entries
+        .last_mut()
+        .and_then(|(_, e)| e.nested.last_mut())
+        .map(|(_, _, v)| v)
+    else {
+        return Err(field_error(
+            file,
+            line,
+            item,
+            "a list item outside any matrix".into(),
+        ));
+    };
+    if value.is_empty() {
+        *value = format!("[{item}");
+    } else if value.starts_with('[') && !value.contains(']') {
+        value.push_str(", ");
+        value.push_str(item);
+    } else {
+        return Err(field_error(
+            file,
+            line,
+            item,
+            "a list item after a value".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Appends to `value` (key `key`'s flow sequence, begun at 1-based `line`) the lines from
+/// index `next` on until its `]`; returns the index of the line after it.
+fn read_flow_sequence(
+    lines: &[&str],
+    next: usize,
+    value: &mut String,
+    line: usize,
+    key: &str,
+    file: &str,
+) -> Result<usize> {
+    let mut i = next;
+    while !value.contains(']') && i < lines.len() {
+        value.push(' ');
+        value.push_str(strip_comment(lines[i]).trim());
+        i += 1;
+    }
+    if !value.contains(']') {
+        return Err(field_error(file, line, key, "a `[` without its `]`".into()));
+    }
+    Ok(i)
+}
+
+/// Adds `key: value` (at 1-based `line`): nested under the last top-level key when
+/// `indented`, else a new top-level key; an error for a key given twice or misplaced.
+fn push_key(
+    entries: &mut Vec<(String, Entry)>,
+    line: usize,
+    key: String,
+    value: String,
+    indented: bool,
+    file: &str,
+) -> Result<()> {
+    if indented {
+        let Some((parent, entry)) = entries.last_mut() else {
+            return Err(field_error(
+                file,
+                line,
+                &key,
+                "an indented key outside any matrix".into(),
+            ));
+        };
+        if !entry.value.is_empty() {
+            return Err(field_error(
+                file,
+                line,
+                &format!("{parent}.{key}"),
+                format!("`{parent}` has a value: it holds no keys"),
             ));
         }
+        entry.nested.push((key, line, value));
+    } else {
+        if entries.iter().any(|(k, _)| *k == key) {
+            return Err(field_error(
+                file,
+                line,
+                &key,
+                format!("`{key}` given twice"),
+            ));
+        }
+        entries.push((
+            key,
+            Entry {
+                line,
+                value,
+                nested: Vec::new(),
+            },
+        ));
     }
-    let get = |key: &str| entries.iter().find(|(k, _)| k == key).map(|(_, e)| e);
-    let need = |key: &str| {
-        get(key).ok_or_else(|| {
+    Ok(())
+}
+
+/// A `camera_info` file's top-level keys (as [`read_entries`] reads them) and the file's
+/// name, for errors.
+struct Entries<'a> {
+    file: &'a str,
+    list: Vec<(String, Entry)>,
+}
+
+impl Entries<'_> {
+    /// The entry of top-level `key`, if the file has it.
+    fn get(&self, key: &str) -> Option<&Entry> {
+        self.list.iter().find(|(k, _)| k == key).map(|(_, e)| e)
+    }
+
+    /// The entry of top-level `key`; an error naming the file (no line) when it has none.
+    fn need(&self, key: &str) -> Result<&Entry> {
+        self.get(key).ok_or_else(|| {
             Error::input(
-                Location::file(file),
+                Location::file(self.file),
                 format!("no `{key}`: not a camera_info YAML file"),
             )
         })
-    };
-    let whole = |key: &str| -> Result<u32> {
-        let e = need(key)?;
+    }
+
+    /// The value of required key `key` (`image_width`, `image_height`) as a positive whole
+    /// number of pixels.
+    fn pixels(&self, key: &str) -> Result<u32> {
+        let e = self.need(key)?;
         e.value
             .parse::<u32>()
             .ok()
             .filter(|&v| v > 0)
             .ok_or_else(|| {
-                err(
+                field_error(
+                    self.file,
                     e.line,
                     key,
                     format!("expected a positive number of pixels, not `{}`", e.value),
                 )
             })
-    };
-    let width = whole("image_width")?;
-    let height = whole("image_height")?;
-    let name = match get("camera_name") {
-        Some(e) => unquote(&e.value),
-        None => String::new(),
-    };
-    if let Some(e) = get("distortion_model") {
-        let model = unquote(&e.value);
-        if model != "plumb_bob" && model != "rational_polynomial" {
-            return Err(err(
-                e.line,
-                "distortion_model",
-                format!(
-                    "`{model}`: kinecal's lens is OpenCV's plumb_bob (k1, k2, p1, p2, k3); \
-                     equidistant (fisheye) lenses are not modelled"
-                ),
-            ));
+    }
+
+    /// `camera_name`, unquoted; empty when the file has none.
+    fn camera_name(&self) -> String {
+        match self.get("camera_name") {
+            Some(e) => unquote(&e.value),
+            None => String::new(),
         }
     }
-    let matrix = |key: &str, rows: usize, cols: usize, at_least: usize| -> Result<Vec<f64>> {
-        let e = need(key)?;
+
+    /// Checks `distortion_model`, when given, is `plumb_bob` or `rational_polynomial`.
+    fn check_distortion_model(&self) -> Result<()> {
+        if let Some(e) = self.get("distortion_model") {
+            let model = unquote(&e.value);
+            if model != "plumb_bob" && model != "rational_polynomial" {
+                return Err(field_error(
+                    self.file,
+                    e.line,
+                    "distortion_model",
+                    format!(
+                        "`{model}`: kinecal's lens is OpenCV's plumb_bob (k1, k2, p1, p2, k3); \
+                         equidistant (fisheye) lenses are not modelled"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The numbers (row-major) of required matrix `key`: `rows` x `cols` of them, its `rows`
+    /// and `cols` checked when given; with `rows * cols` 0, any count of at least `at_least`.
+    fn matrix(&self, key: &str, rows: usize, cols: usize, at_least: usize) -> Result<Vec<f64>> {
+        let e = self.need(key)?;
         let field = |k: &str| e.nested.iter().find(|(n, _, _)| n == k);
         for (k, want) in [("rows", rows), ("cols", cols)] {
             if let Some((_, line, v)) = field(k) {
                 if want > 0 && v.parse::<usize>().ok() != Some(want) {
-                    return Err(err(
+                    return Err(field_error(
+                        self.file,
                         *line,
                         &format!("{key}.{k}"),
                         format!("expected {want}, not `{v}`"),
@@ -356,102 +475,124 @@ pub fn parse_camera_info(text: &str, file: &str) -> Result<CameraInfo> {
             }
         }
         let Some((_, line, v)) = field("data") else {
-            return Err(err(e.line, key, format!("`{key}` has no `data`")));
+            return Err(field_error(
+                self.file,
+                e.line,
+                key,
+                format!("`{key}` has no `data`"),
+            ));
         };
-        // A block sequence read as `[a, b` (its items, without a closing bracket).
-        let v = if v.starts_with('[') && !v.contains(']') {
-            format!("{v}]")
-        } else {
-            v.clone()
-        };
-        let inner = v
-            .trim()
-            .strip_prefix('[')
-            .and_then(|s| s.trim_end().strip_suffix(']'))
-            .ok_or_else(|| {
-                err(
-                    *line,
-                    &format!("{key}.data"),
-                    "expected a list `[a, b, ...]`".into(),
-                )
-            })?;
-        let values = inner
-            .split(',')
-            .map(str::trim)
-            .filter(|s| !s.is_empty())
-            .map(|s| {
-                s.parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| {
-                        err(
-                            *line,
-                            &format!("{key}.data"),
-                            format!("`{s}` is not a finite number"),
-                        )
-                    })
-            })
-            .collect::<Result<Vec<f64>>>()?;
+        let values = data_values(self.file, *line, key, v)?;
         let expected = if rows * cols > 0 {
             rows * cols
         } else {
             at_least
         };
         if values.len() < at_least || (rows * cols > 0 && values.len() != expected) {
-            return Err(err(
+            return Err(field_error(
+                self.file,
                 *line,
                 &format!("{key}.data"),
                 format!("expected {expected} numbers, found {}", values.len()),
             ));
         }
         Ok(values)
-    };
-    let k = matrix("camera_matrix", 3, 3, 9)?;
-    let line = need("camera_matrix")?.line;
-    if [k[1], k[3], k[6], k[7]].iter().any(|&v| v != 0.0) || (k[8] - 1.0).abs() > 1e-12 {
-        return Err(err(
-            line,
-            "camera_matrix.data",
-            "expected [fx, 0, cx, 0, fy, cy, 0, 0, 1] (no skew)".into(),
-        ));
     }
-    let intrinsics = [k[0], k[4], k[2], k[5]];
-    if !(intrinsics[0] > 0.0 && intrinsics[1] > 0.0) {
-        return Err(err(
-            line,
-            "camera_matrix.data",
-            format!(
-                "fx and fy must be positive, not {} and {}",
-                intrinsics[0], intrinsics[1]
-            ),
-        ));
-    }
-    let mut distortion = [0.0; 5];
-    if get("distortion_coefficients").is_some() {
-        let d = matrix("distortion_coefficients", 0, 0, 0)?;
-        let e = need("distortion_coefficients")?;
-        if d.len() > 5 && d[5..].iter().any(|&v| v != 0.0) {
-            return Err(err(
-                e.line,
-                "distortion_coefficients.data",
+
+    /// `fx, fy, cx, cy` (pixels) from `camera_matrix`, which must be
+    /// `[fx, 0, cx, 0, fy, cy, 0, 0, 1]` (no skew) with fx and fy positive.
+    fn intrinsics(&self) -> Result<[f64; 4]> {
+        let k = self.matrix("camera_matrix", 3, 3, 9)?;
+        let line = self.need("camera_matrix")?.line;
+        if [k[1], k[3], k[6], k[7]].iter().any(|&v| v != 0.0) || (k[8] - 1.0).abs() > 1e-12 {
+            return Err(field_error(
+                self.file,
+                line,
+                "camera_matrix.data",
+                "expected [fx, 0, cx, 0, fy, cy, 0, 0, 1] (no skew)".into(),
+            ));
+        }
+        let intrinsics = [k[0], k[4], k[2], k[5]];
+        if !(intrinsics[0] > 0.0 && intrinsics[1] > 0.0) {
+            return Err(field_error(
+                self.file,
+                line,
+                "camera_matrix.data",
                 format!(
-                    "{} coefficients: kinecal's lens has five (k1, k2, p1, p2, k3); the \
-                     rational model's k4, k5, k6 must be 0",
-                    d.len()
+                    "fx and fy must be positive, not {} and {}",
+                    intrinsics[0], intrinsics[1]
                 ),
             ));
         }
-        for (slot, v) in distortion.iter_mut().zip(&d) {
-            *slot = *v;
-        }
+        Ok(intrinsics)
     }
-    Ok(CameraInfo {
-        name,
-        width,
-        height,
-        intrinsics,
-        distortion,
-    })
+
+    /// `k1, k2, p1, p2, k3` from `distortion_coefficients` (missing ones 0; all 0 without the
+    /// key); an error when the rational model's k4, k5, k6 are not 0.
+    fn distortion(&self) -> Result<[f64; 5]> {
+        let mut distortion = [0.0; 5];
+        if self.get("distortion_coefficients").is_some() {
+            let d = self.matrix("distortion_coefficients", 0, 0, 0)?;
+            let e = self.need("distortion_coefficients")?;
+            if d.len() > 5 && d[5..].iter().any(|&v| v != 0.0) {
+                return Err(field_error(
+                    self.file,
+                    e.line,
+                    "distortion_coefficients.data",
+                    format!(
+                        "{} coefficients: kinecal's lens has five (k1, k2, p1, p2, k3); the \
+                         rational model's k4, k5, k6 must be 0",
+                        d.len()
+                    ),
+                ));
+            }
+            for (slot, v) in distortion.iter_mut().zip(&d) {
+                *slot = *v;
+            }
+        }
+        Ok(distortion)
+    }
+}
+
+/// The finite numbers of matrix `key`'s `data` value `v` (a flow sequence, or a block
+/// sequence read as an unclosed `[a, b`), at 1-based `line` of `file`.
+fn data_values(file: &str, line: usize, key: &str, v: &str) -> Result<Vec<f64>> {
+    // A block sequence read as `[a, b` (its items, without a closing bracket).
+    let v = if v.starts_with('[') && !v.contains(']') {
+        format!("{v}]")
+    } else {
+        v.to_string()
+    };
+    let inner = v
+        .trim()
+        .strip_prefix('[')
+        .and_then(|s| s.trim_end().strip_suffix(']'))
+        .ok_or_else(|| {
+            field_error(
+                file,
+                line,
+                &format!("{key}.data"),
+                "expected a list `[a, b, ...]`".into(),
+            )
+        })?;
+    inner
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    field_error(
+                        file,
+                        line,
+                        &format!("{key}.data"),
+                        format!("`{s}` is not a finite number"),
+                    )
+                })
+        })
+        .collect()
 }
 
 /// A line without its comment (`#` at the start or after a space, outside quotes).
