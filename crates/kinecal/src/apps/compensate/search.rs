@@ -849,7 +849,8 @@ impl<'r> TargetSearch<'r> {
             .map(|r| self.frame_key(r, target))
             .collect();
         self.starts = starts;
-        self.tables.push((target, StartTable::new(&keys)));
+        self.tables
+            .push((target, StartTable::new(&keys, self.comp.reach)));
     }
 
     /// Fills `self.nearest` with the [`Self::ATTEMPTS`] starts nearest `goal` (for a seeded

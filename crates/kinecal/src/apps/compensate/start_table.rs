@@ -6,10 +6,18 @@
 //! positions' bounding box (about four starts to a cell of the box), stored cell by cell. A
 //! position goal's lookup visits the cells in rings of growing Chebyshev distance from the
 //! goal's cell and stops once the last of the starts it keeps is nearer than any cell not yet
-//! visited can be. A pose goal's looks at every start in one pass: its attitude's part
-//! dominates the distance, so that the rings would end only after nearly every cell. Either
-//! returns the starts a scan of the whole table in index order returns: the `keep` smallest by
-//! (distance, start index), each distance worked out by the same operations in the same order.
+//! visited can be. A pose goal's attitude part dominates its distance, so that the rings would
+//! end only after nearly every cell: the starts are also kept in leaves of a k-d tree over
+//! position and rotation (about [`LEAF`] starts each, the rotation's numbers weighed by
+//! `reach / sqrt 2`, so that the split follows the task distance), each with the box of its
+//! numbers. A box bounds its starts' distances from below: the position's distance from the box,
+//! plus `reach^2 (3 - t)` with `t` the largest `tr(R_goal^T R)` over the box (a linear function
+//! of `R`'s numbers: at a corner). The lookup scans the [`FIRST_LEAVES`] leaves whose bounds are
+//! smallest, then, in leaf order, every other leaf whose bound does not exceed the last kept
+//! distance (by more than the bound's rounding). Either lookup returns the starts a scan of the
+//! whole table in index order returns: the `keep` smallest by (distance, start index), each
+//! distance worked out by the same operations in the same order (a goal whose every distance is
+//! NaN gets some `keep` starts).
 
 use super::Goal;
 
@@ -17,6 +25,15 @@ use super::Goal;
 const PER_CELL: f64 = 4.0;
 /// Most cells along an axis.
 const MOST_CELLS: usize = 64;
+/// Starts per leaf of the pose lookup's tree, at least (a table of more than 4,096 starts has
+/// larger leaves, [`MOST_LEAVES`] of them).
+const LEAF: usize = 16;
+/// The most leaves of the pose lookup's tree (halving a table until its parts hold at most
+/// `ceil(n / MOST_LEAVES)` starts makes at most this many).
+const MOST_LEAVES: usize = 256;
+/// Leaves a pose lookup scans first, those whose bounds are smallest: the distance it then
+/// keeps rules most other leaves out.
+const FIRST_LEAVES: usize = 8;
 
 /// The target frames of a table of start postures, indexed by position.
 pub(crate) struct StartTable {
@@ -33,12 +50,134 @@ pub(crate) struct StartTable {
     cell: f64,
     /// Cells along x, y, z.
     dims: [usize; 3],
+    /// The same entries, leaf by leaf, for pose goals.
+    leaves: Leaves,
+}
+
+/// The starts in the leaves of a k-d tree, for the lookup of pose goals (see the module's
+/// documentation).
+#[derive(Default)]
+struct Leaves {
+    /// Per entry, in leaf order, as [`StartTable`]'s `columns`.
+    columns: [Vec<f64>; 12],
+    /// Per entry: the start's index.
+    index: Vec<u32>,
+    /// The entries of leaf `l` are `offsets[l]..offsets[l + 1]`.
+    offsets: Vec<u32>,
+    /// Per leaf, the smallest and the largest of each number of its entries (`lo[c][l]`).
+    lo: [Vec<f64>; 12],
+    hi: [Vec<f64>; 12],
+}
+
+impl Leaves {
+    /// The leaves of `keys` (position, then the rotation's columns); `reach` (m) weighs the
+    /// rotation's numbers when choosing where to split.
+    fn new(keys: &[[f64; 12]], reach: f64) -> Leaves {
+        let n = keys.len();
+        let size = LEAF.max(n.div_ceil(MOST_LEAVES));
+        let weight = if reach.is_finite() && reach > 0.0 {
+            reach / std::f64::consts::SQRT_2
+        } else {
+            1.0
+        };
+        let scale = |c: usize| if c < 3 { 1.0 } else { weight };
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut leaves = Leaves::default();
+        leaves.offsets.push(0);
+        // Each range of `order` is split at its middle along its widest number, until it
+        // holds at most `size` entries.
+        let mut ranges = vec![(0, n)];
+        let mut done = Vec::new();
+        while let Some((a, b)) = ranges.pop() {
+            if b - a <= size {
+                done.push((a, b));
+                continue;
+            }
+            let part = &mut order[a..b];
+            let spread = |c: usize| {
+                let (lo, hi) =
+                    part.iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &i| {
+                            let x = keys[i as usize][c];
+                            (l.min(x), h.max(x))
+                        });
+                (hi - lo) * scale(c)
+            };
+            let widest = (0..12)
+                .map(|c| (spread(c), c))
+                .fold(
+                    (f64::NEG_INFINITY, 0),
+                    |best, s| if s.0 > best.0 { s } else { best },
+                )
+                .1;
+            part.sort_by(|&i, &j| {
+                keys[i as usize][widest]
+                    .total_cmp(&keys[j as usize][widest])
+                    .then(i.cmp(&j))
+            });
+            let mid = a + (b - a) / 2;
+            // Popped last first: the leaves come out in the order of the split.
+            ranges.push((mid, b));
+            ranges.push((a, mid));
+        }
+        for (a, b) in done {
+            for &i in &order[a..b] {
+                leaves.index.push(i);
+                for (column, x) in leaves.columns.iter_mut().zip(keys[i as usize]) {
+                    column.push(x);
+                }
+            }
+            leaves.offsets.push(b as u32);
+            for (c, (lo, hi)) in leaves.lo.iter_mut().zip(&mut leaves.hi).enumerate() {
+                let numbers = order[a..b].iter().map(|&i| keys[i as usize][c]);
+                // `min`/`max` pass over a NaN: a start whose frame is not finite has a NaN
+                // distance and is never kept.
+                lo.push(numbers.clone().fold(f64::INFINITY, f64::min));
+                hi.push(numbers.fold(f64::NEG_INFINITY, f64::max));
+            }
+        }
+        leaves
+    }
+
+    /// The number of leaves.
+    fn len(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// Per leaf, a lower bound of its entries' squared task distances from the pose goal at
+    /// position `p` with rotation `r` (column-major), less the bound's rounding, into `out`.
+    fn bounds(&self, p: &[f64; 3], r: &[f64], reach2: f64, out: &mut [f64]) {
+        for (l, b) in out.iter_mut().enumerate() {
+            let mut position = 0.0;
+            // The squares of the goal's and the box's coordinates: what the distances' position
+            // parts are made of.
+            let mut squares = 0.0;
+            for (a, &x) in p.iter().enumerate() {
+                let (lo, hi) = (self.lo[a][l], self.hi[a][l]);
+                let gap = (lo - x).max(x - hi).max(0.0);
+                position += gap * gap;
+                squares += x * x + (lo * lo).max(hi * hi);
+            }
+            let mut trace = 0.0;
+            let mut size = 0.0;
+            for (k, &g) in r.iter().enumerate() {
+                let (lo, hi) = (g * self.lo[3 + k][l], g * self.hi[3 + k][l]);
+                trace += lo.max(hi);
+                size += lo.abs().max(hi.abs());
+            }
+            let bound = position + reach2 * (3.0 - trace);
+            // The distances are worked out by other operations: each is within a few
+            // roundings (1e-16) of the sizes of its terms, which the margin covers 1,000 times
+            // over.
+            *b = bound - 1e-12 * (2.0 * squares + reach2 * (3.0 + size));
+        }
+    }
 }
 
 impl StartTable {
     /// The table of the frames `keys` (position, then the rotation's columns), start `i` the
-    /// `i`-th.
-    pub(crate) fn new(keys: &[[f64; 12]]) -> Self {
+    /// `i`-th; `reach` (m) the arm's, which weighs attitudes in the task distance.
+    pub(crate) fn new(keys: &[[f64; 12]], reach: f64) -> Self {
         let n = keys.len();
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
@@ -72,6 +211,7 @@ impl StartTable {
             origin: lo,
             cell,
             dims,
+            leaves: Leaves::new(keys, reach),
         };
         let homes: Vec<usize> = keys.iter().map(|k| table.home(k)).collect();
         for &h in &homes {
@@ -116,12 +256,10 @@ impl StartTable {
             Goal::Pose(g) => &g.translation,
         };
         let p = [p.x, p.y, p.z];
-        if let Goal::Pose(_) = goal {
+        if let Goal::Pose(g) = goal {
             // The attitude's part of the distance dominates (the starts nearest in position
-            // are seldom nearest in attitude): the rings would visit nearly every cell, one by
-            // one; the whole table in one pass costs less.
-            let cells = self.offsets.len() - 1;
-            self.scan(0, cells, goal, &p, reach2, keep, out);
+            // are seldom nearest in attitude): the leaves of the tree, not the rings.
+            self.nearest_pose(goal, &p, g.rotation.as_slice(), reach2, keep, out);
             return;
         }
         let home = [0, 1, 2].map(|a| self.coordinate(a, p[a]));
@@ -182,6 +320,62 @@ impl StartTable {
         }
     }
 
+    /// [`StartTable::nearest`] of a pose goal (at `p`, rotation `r` column-major): the leaves
+    /// whose bounds are smallest, then every other leaf that can hold a start nearer than the
+    /// last kept.
+    fn nearest_pose(
+        &self,
+        goal: &Goal,
+        p: &[f64; 3],
+        r: &[f64],
+        reach2: f64,
+        keep: usize,
+        out: &mut Vec<(f64, u32)>,
+    ) {
+        let leaves = &self.leaves;
+        let n = leaves.len();
+        let mut bound = [0.0f64; MOST_LEAVES];
+        let bound = &mut bound[..n];
+        leaves.bounds(p, r, reach2, bound);
+        let scan = |l: usize, out: &mut Vec<(f64, u32)>| {
+            let (a, b) = (leaves.offsets[l] as usize, leaves.offsets[l + 1] as usize);
+            scan_entries(
+                &leaves.columns,
+                &leaves.index,
+                a,
+                b,
+                goal,
+                p,
+                reach2,
+                keep,
+                out,
+            );
+        };
+        // The leaves with the smallest bounds first (NaN bounds last).
+        let mut first = [(0.0f64, 0u32); MOST_LEAVES];
+        let first = &mut first[..n];
+        for (l, f) in first.iter_mut().enumerate() {
+            *f = (bound[l], l as u32);
+        }
+        let m = FIRST_LEAVES.min(n);
+        if m < n {
+            first.select_nth_unstable_by(m, |a, b| a.0.total_cmp(&b.0));
+        }
+        let mut scanned = [false; MOST_LEAVES];
+        for &(_, l) in &first[..m] {
+            scan(l as usize, out);
+            scanned[l as usize] = true;
+        }
+        for (l, &b) in bound.iter().enumerate() {
+            // Scanned already; or a bound beyond the last kept distance: no start kept there
+            // (a NaN bound or distance proves nothing: the leaf is scanned).
+            if scanned[l] || (out.len() == keep && b > out[keep - 1].0) {
+                continue;
+            }
+            scan(l, out);
+        }
+    }
+
     /// Looks at the entries of cells `from..to` (one row of cells), keeping the nearest in
     /// `out` (at most `keep`, by distance then start index).
     #[allow(clippy::too_many_arguments)]
@@ -196,45 +390,62 @@ impl StartTable {
         out: &mut Vec<(f64, u32)>,
     ) {
         let (a, b) = (self.offsets[from] as usize, self.offsets[to] as usize);
-        // The distances of a chunk first, number by number (loops the compiler vectorises),
-        // then the nearest kept.
-        const CHUNK: usize = 64;
-        let mut d = [0.0f64; CHUNK];
-        let mut start = a;
-        while start < b {
-            let end = (start + CHUNK).min(b);
-            let m = end - start;
-            let d = &mut d[..m];
-            let [x, y, z] = [0, 1, 2].map(|c| &self.columns[c][start..end]);
-            for e in 0..m {
-                // The same operations in the same order as a scan of the whole table.
-                d[e] = (p[0] - x[e]).powi(2) + (p[1] - y[e]).powi(2) + (p[2] - z[e]).powi(2);
-            }
-            if let Goal::Pose(g) = goal {
-                let r = g.rotation.as_slice();
-                let c: [&[f64]; 9] = std::array::from_fn(|k| &self.columns[3 + k][start..end]);
-                for e in 0..m {
-                    let mut trace = 0.0;
-                    for k in 0..9 {
-                        trace += r[k] * c[k][e];
-                    }
-                    d[e] += reach2 * (3.0 - trace);
-                }
-            }
-            for (e, &d) in d.iter().enumerate() {
-                let i = self.index[start + e];
-                if out.len() == keep {
-                    // Not before the last kept (NaN: never kept once the list is full).
-                    if !before(d, i, out[keep - 1]) {
-                        continue;
-                    }
-                    out.pop();
-                }
-                let at = out.partition_point(|&(f, j)| before(f, j, (d, i)));
-                out.insert(at, (d, i));
-            }
-            start = end;
+        scan_entries(&self.columns, &self.index, a, b, goal, p, reach2, keep, out);
+    }
+}
+
+/// Looks at entries `a..b` of `columns` (start indices `index`), keeping the nearest in `out`
+/// (at most `keep`, by distance then start index).
+#[allow(clippy::too_many_arguments)]
+fn scan_entries(
+    columns: &[Vec<f64>; 12],
+    index: &[u32],
+    a: usize,
+    b: usize,
+    goal: &Goal,
+    p: &[f64; 3],
+    reach2: f64,
+    keep: usize,
+    out: &mut Vec<(f64, u32)>,
+) {
+    // The distances of a chunk first, number by number (loops the compiler vectorises),
+    // then the nearest kept.
+    const CHUNK: usize = 64;
+    let mut d = [0.0f64; CHUNK];
+    let mut start = a;
+    while start < b {
+        let end = (start + CHUNK).min(b);
+        let m = end - start;
+        let d = &mut d[..m];
+        let [x, y, z] = [0, 1, 2].map(|c| &columns[c][start..end]);
+        for e in 0..m {
+            // The same operations in the same order as a scan of the whole table.
+            d[e] = (p[0] - x[e]).powi(2) + (p[1] - y[e]).powi(2) + (p[2] - z[e]).powi(2);
         }
+        if let Goal::Pose(g) = goal {
+            let r = g.rotation.as_slice();
+            let c: [&[f64]; 9] = std::array::from_fn(|k| &columns[3 + k][start..end]);
+            for e in 0..m {
+                let mut trace = 0.0;
+                for k in 0..9 {
+                    trace += r[k] * c[k][e];
+                }
+                d[e] += reach2 * (3.0 - trace);
+            }
+        }
+        for (e, &d) in d.iter().enumerate() {
+            let i = index[start + e];
+            if out.len() == keep {
+                // Not before the last kept (NaN: never kept once the list is full).
+                if !before(d, i, out[keep - 1]) {
+                    continue;
+                }
+                out.pop();
+            }
+            let at = out.partition_point(|&(f, j)| before(f, j, (d, i)));
+            out.insert(at, (d, i));
+        }
+        start = end;
     }
 }
 
@@ -332,7 +543,7 @@ mod tests {
                 for i in (0..n).step_by(5) {
                     keys.push(keys[i]);
                 }
-                let table = StartTable::new(&keys);
+                let table = StartTable::new(&keys, 1.3);
                 let mut out = Vec::new();
                 for q in 0..200 {
                     let scale = [0.5, 1.0, 1.5, 10.0][q % 4];
@@ -367,11 +578,61 @@ mod tests {
         }
     }
 
+    /// Pose goals far away (1e200 m or infinitely), or with a rotation that is no rotation,
+    /// get what a scan of the whole table gives them too; goals whose every distance is NaN
+    /// get as many starts as asked.
+    #[test]
+    fn extreme_pose_goals_get_what_a_scan_gives() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+        let keys: Vec<[f64; 12]> = (0..4096)
+            .map(|_| {
+                let mut k = [0.0; 12];
+                for x in &mut k[..3] {
+                    *x = rng.random_range(-1.0..1.0);
+                }
+                k[3..].copy_from_slice(rotation(&mut rng).as_slice());
+                k
+            })
+            .collect();
+        let table = StartTable::new(&keys, 1.3);
+        let mut out = Vec::new();
+        let far = Vector3::new(1e200, -1e200, 3.0);
+        let nan = Vector3::new(f64::NAN, 0.0, 0.0);
+        let inf = Vector3::new(0.0, f64::INFINITY, 0.0);
+        let near = Vector3::new(0.1, 0.2, 0.3);
+        let goals = [
+            (far, rotation(&mut rng)),
+            (nan, rotation(&mut rng)),
+            (inf, rotation(&mut rng)),
+            (near, Matrix3::from_element(f64::NAN)),
+            (near, Matrix3::from_element(1e10)),
+            (near, Matrix3::zeros()),
+            (near, 3.0 * rotation(&mut rng)),
+        ];
+        for (k, (translation, rotation)) in goals.into_iter().enumerate() {
+            let goal = Goal::Pose(Frame {
+                rotation,
+                translation,
+            });
+            for keep in [1, 8, 32] {
+                table.nearest(&goal, 1.69, keep, &mut out);
+                let expected = scanned(&keys, &goal, 1.69, keep);
+                let ids = |v: &[(f64, u32)]| v.iter().map(|x| x.1).collect::<Vec<_>>();
+                if k == 1 || k == 3 {
+                    // NaN distances, every one: any starts, as many as asked.
+                    assert_eq!(out.len(), keep);
+                } else {
+                    assert_eq!(ids(&out), ids(&expected), "goal {k}, keep {keep}");
+                }
+            }
+        }
+    }
+
     /// A goal that is not finite gets starts and no panic.
     #[test]
     fn a_goal_that_is_not_finite_is_looked_up_without_a_panic() {
         let keys = vec![[0.0; 12], [1.0; 12]];
-        let table = StartTable::new(&keys);
+        let table = StartTable::new(&keys, 1.3);
         let mut out = Vec::new();
         table.nearest(
             &Goal::Position(Vector3::new(f64::NAN, 0.0, f64::INFINITY)),
