@@ -119,7 +119,11 @@ pub struct TargetSearch<'r> {
     start: Vec<f64>,
     /// An attempt's start, with the joints that do not move the target at the reference.
     from: Vec<f64>,
+    /// The starts nearest the goal, nearest first: the first [`Self::FIRST_NEAREST`] of them
+    /// until more are needed.
     nearest: Vec<(f64, u32)>,
+    /// How many starts `nearest` was looked up for.
+    nearest_asked: usize,
     ws: Workspace,
 }
 
@@ -165,6 +169,10 @@ impl<'r> TargetSearch<'r> {
     pub(crate) const SEEDED_ATTEMPTS: usize = 8;
     /// ... and then spread over the table.
     pub(crate) const SEEDED_SPREAD: usize = 4;
+    /// The nearest starts looked up first; the rest of [`Self::ATTEMPTS`] (or
+    /// [`Self::SEEDED_ATTEMPTS`]) only for a goal none of them settles (most goals need one or
+    /// two, and a lookup that keeps fewer looks at fewer starts).
+    pub(crate) const FIRST_NEAREST: usize = 4;
 
     /// A search for `calibrated`; `nominal` is the model the targets' programs were made with
     /// (same structure).
@@ -222,6 +230,7 @@ impl<'r> TargetSearch<'r> {
             start: vec![0.0; dof],
             from: vec![0.0; dof],
             nearest: Vec::with_capacity(Self::ATTEMPTS + 1),
+            nearest_asked: 0,
             ws: Workspace::new(calibrated),
         })
     }
@@ -423,8 +432,8 @@ impl<'r> TargetSearch<'r> {
         // Step 2: the nearest starts of the table.
         let mut any_usable = false;
         let mut tried = 0;
-        for k in 0..self.nearest.len() {
-            if seed.is_some() && k >= Self::SEEDED_ATTEMPTS {
+        for k in 0.. {
+            if k == self.nearest.len() && !self.more_nearest(goal, target) {
                 break;
             }
             let i = self.nearest[k].1 as usize;
@@ -853,9 +862,38 @@ impl<'r> TargetSearch<'r> {
             .push((target, StartTable::new(&keys, self.comp.reach)));
     }
 
-    /// Fills `self.nearest` with the [`Self::ATTEMPTS`] starts nearest `goal` (for a seeded
-    /// goal [`Self::SEEDED_ATTEMPTS`]), nearest first (ties by start index).
+    /// Fills `self.nearest` with the [`Self::FIRST_NEAREST`] starts nearest `goal`, nearest
+    /// first (ties by start index): most goals need no more (see [`Self::more_nearest`]).
     fn find_nearest(&mut self, goal: &Goal, target: Target) {
+        let keep = Self::FIRST_NEAREST.min(self.most_nearest());
+        self.look_up_nearest(goal, target, keep);
+    }
+
+    /// Extends `self.nearest` to the [`Self::ATTEMPTS`] starts nearest `goal` (for a seeded
+    /// goal [`Self::SEEDED_ATTEMPTS`]), the ones it holds first, in the same order (the same
+    /// lookup, keeping more); whether it now holds more.
+    fn more_nearest(&mut self, goal: &Goal, target: Target) -> bool {
+        let (held, most) = (self.nearest.len(), self.most_nearest());
+        // Fewer held than asked for: the table has no more.
+        if held < self.nearest_asked || held >= most {
+            return false;
+        }
+        self.look_up_nearest(goal, target, most);
+        self.nearest.len() > held
+    }
+
+    /// How many of the nearest starts a goal tries at most: a seeded goal only a few.
+    fn most_nearest(&self) -> usize {
+        if self.seeded {
+            Self::SEEDED_ATTEMPTS
+        } else {
+            Self::ATTEMPTS
+        }
+    }
+
+    /// Fills `self.nearest` with the `keep` starts nearest `goal`, nearest first (ties by
+    /// start index).
+    fn look_up_nearest(&mut self, goal: &Goal, target: Target, keep: usize) {
         self.ensure_table(target);
         let table = &self
             .tables
@@ -863,14 +901,9 @@ impl<'r> TargetSearch<'r> {
             .find(|(t, _)| *t == target)
             .expect("built")
             .1;
-        // A seeded goal tries no more than its few nearest: only those are kept.
-        let keep = if self.seeded {
-            Self::SEEDED_ATTEMPTS
-        } else {
-            Self::ATTEMPTS
-        };
         let reach2 = self.comp.reach * self.comp.reach;
         table.nearest(goal, reach2, keep, &mut self.nearest);
+        self.nearest_asked = keep;
     }
 
     /// The squared task distance from the frame `target` has at `readings` to `goal`.

@@ -10,9 +10,11 @@
 //! end only after nearly every cell: the starts are also kept in leaves of a k-d tree over
 //! position and rotation (about [`LEAF`] starts each, the rotation's numbers weighed by
 //! `reach / sqrt 2`, so that the split follows the task distance), each with the box of its
-//! numbers. A box bounds its starts' distances from below: the position's distance from the box,
-//! plus `reach^2 (3 - t)` with `t` the largest `tr(R_goal^T R)` over the box (a linear function
-//! of `R`'s numbers: at a corner). The lookup scans the [`FIRST_LEAVES`] leaves whose bounds are
+//! numbers. A box bounds its starts' distances from below: the position's squared distance from
+//! the box, plus `reach^2` times the larger of two bounds of `3 - tr(R_goal^T R)` (`3 - t`, `t`
+//! the largest trace over the box, a linear function of `R`'s numbers: at a corner; and half the
+//! squared distance of `R_goal` from the box, through `3 - tr(G^T R) = |G - R|^2 / 2 + (3 -
+//! |G|^2) / 2 + (3 - |R|^2) / 2`). The lookup scans the [`FIRST_LEAVES`] leaves whose bounds are
 //! smallest, then, in leaf order, every other leaf whose bound does not exceed the last kept
 //! distance (by more than the bound's rounding). Either lookup returns the starts a scan of the
 //! whole table in index order returns: the `keep` smallest by (distance, start index), each
@@ -67,6 +69,8 @@ struct Leaves {
     /// Per leaf, the smallest and the largest of each number of its entries (`lo[c][l]`).
     lo: [Vec<f64>; 12],
     hi: [Vec<f64>; 12],
+    /// Per leaf, the least `3 - |R|^2` of its entries' rotations `R` (0 to rounding).
+    unit: Vec<f64>,
 }
 
 impl Leaves {
@@ -135,6 +139,12 @@ impl Leaves {
                 lo.push(numbers.clone().fold(f64::INFINITY, f64::min));
                 hi.push(numbers.fold(f64::NEG_INFINITY, f64::max));
             }
+            leaves.unit.push(
+                order[a..b]
+                    .iter()
+                    .map(|&i| 3.0 - keys[i as usize][3..].iter().map(|x| x * x).sum::<f64>())
+                    .fold(f64::INFINITY, f64::min),
+            );
         }
         leaves
     }
@@ -147,29 +157,54 @@ impl Leaves {
     /// Per leaf, a lower bound of its entries' squared task distances from the pose goal at
     /// position `p` with rotation `r` (column-major), less the bound's rounding, into `out`.
     fn bounds(&self, p: &[f64; 3], r: &[f64], reach2: f64, out: &mut [f64]) {
-        for (l, b) in out.iter_mut().enumerate() {
-            let mut position = 0.0;
-            // The squares of the goal's and the box's coordinates: what the distances' position
-            // parts are made of.
-            let mut squares = 0.0;
-            for (a, &x) in p.iter().enumerate() {
-                let (lo, hi) = (self.lo[a][l], self.hi[a][l]);
-                let gap = (lo - x).max(x - hi).max(0.0);
-                position += gap * gap;
-                squares += x * x + (lo * lo).max(hi * hi);
+        let n = out.len();
+        // Per leaf, accumulated number by number (loops over the leaves, which the compiler
+        // vectorises): the position's squared distance from the box; the largest trace
+        // `tr(G^T R)` over the box; the squared distance of `G` from the rotation's box; and the
+        // sizes of the terms, for the margin.
+        let mut position = [0.0f64; MOST_LEAVES];
+        let mut trace = [0.0f64; MOST_LEAVES];
+        let mut apart = [0.0f64; MOST_LEAVES];
+        let mut size = [0.0f64; MOST_LEAVES];
+        let (position, trace, apart, size) = (
+            &mut position[..n],
+            &mut trace[..n],
+            &mut apart[..n],
+            &mut size[..n],
+        );
+        for (a, &x) in p.iter().enumerate() {
+            let (lo, hi) = (&self.lo[a][..n], &self.hi[a][..n]);
+            for l in 0..n {
+                let gap = (lo[l] - x).max(x - hi[l]).max(0.0);
+                position[l] += gap * gap;
+                size[l] += 2.0 * (x * x + (lo[l] * lo[l]).max(hi[l] * hi[l]));
             }
-            let mut trace = 0.0;
-            let mut size = 0.0;
-            for (k, &g) in r.iter().enumerate() {
-                let (lo, hi) = (g * self.lo[3 + k][l], g * self.hi[3 + k][l]);
-                trace += lo.max(hi);
-                size += lo.abs().max(hi.abs());
+        }
+        for (k, &g) in r.iter().enumerate() {
+            let (lo, hi) = (&self.lo[3 + k][..n], &self.hi[3 + k][..n]);
+            for l in 0..n {
+                let (glo, ghi) = (g * lo[l], g * hi[l]);
+                trace[l] += glo.max(ghi);
+                let gap = (lo[l] - g).max(g - hi[l]).max(0.0);
+                apart[l] += gap * gap;
+                size[l] += reach2
+                    * (glo.abs().max(ghi.abs()) + g * g + (lo[l] * lo[l]).max(hi[l] * hi[l]));
             }
-            let bound = position + reach2 * (3.0 - trace);
+        }
+        // `|G|^2` (3 for a rotation).
+        let norm2: f64 = r.iter().map(|g| g * g).sum();
+        for l in 0..n {
+            // The attitude's part, `3 - tr(G^T R)`, bounded twice: by the largest trace over
+            // the box (linear in `R`: at a corner), and through `3 - tr(G^T R) = |G - R|^2 / 2
+            // + (3 - |G|^2) / 2 + (3 - |R|^2) / 2`, whose first term is at least half the
+            // squared distance of `G` from the box, and whose last the leaf's least.
+            let linear = 3.0 - trace[l];
+            let quadratic = 0.5 * (apart[l] + (3.0 - norm2) + self.unit[l]);
+            let bound = position[l] + reach2 * linear.max(quadratic);
             // The distances are worked out by other operations: each is within a few
             // roundings (1e-16) of the sizes of its terms, which the margin covers 1,000 times
             // over.
-            *b = bound - 1e-12 * (2.0 * squares + reach2 * (3.0 + size));
+            out[l] = bound - 1e-12 * (size[l] + 3.0 * reach2);
         }
     }
 }
