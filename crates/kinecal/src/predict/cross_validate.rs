@@ -376,8 +376,68 @@ pub fn fit_growth(samples: &[HeldOut]) -> GrowthFit {
 /// measured postures): when the likelihood's `s0` is below it, `s0 = min_s0` and `c` is fitted
 /// again with that `s0` (m or rad).
 pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
-    // Each sample in the eigenbasis of its parameter part (of its measured components).
-    let prepared: Vec<([f64; 3], [f64; 3], f64, usize)> = samples
+    let prepared = eigen_parts(samples);
+    let nll = |s2: f64, c2: f64| negative_log_likelihood(&prepared, s2, c2);
+    let components = samples.iter().map(|h| h.axes).sum::<usize>().max(1) as f64;
+    let m2 = (samples
+        .iter()
+        .map(|h| h.error.iter().map(|x| x * x).sum::<f64>())
+        .sum::<f64>()
+        / components)
+        .max(1e-30);
+    let mut ds: Vec<f64> = samples.iter().map(|h| h.distance).collect();
+    let distance_median = super::percentile(&mut ds, 0.5);
+    let distance_max = ds.last().copied().unwrap_or(0.0);
+    let dscale = if distance_median > 0.0 {
+        distance_median
+    } else if distance_max > 0.0 {
+        distance_max
+    } else {
+        1.0
+    };
+    let (a0, b0) = (m2.ln(), (m2 / (dscale * dscale)).ln());
+    let constant = constant_fit(&nll, a0);
+    let best = growing_fit(&nll, constant, a0, b0);
+    let mut growth = Growth {
+        s0: term(best.1, a0),
+        c: term(best.2, b0),
+        shape: 3.0,
+    };
+    let minimum = if min_s0.is_finite() { min_s0 } else { 0.0 };
+    if growth.s0 < minimum {
+        // `s0` held at the floor, `c` by maximum likelihood again (0 a candidate).
+        growth.s0 = minimum;
+        growth.c = term(growth_at(&nll, minimum * minimum, b0), b0);
+    }
+    growth.shape = error_shape(samples, &growth);
+    let s0_constant = term(constant.1, a0);
+    GrowthFit {
+        growth,
+        points: samples.len(),
+        coverage: coverage(samples, growth),
+        coverage_constant: coverage(
+            samples,
+            Growth {
+                s0: s0_constant,
+                c: 0.0,
+                shape: 3.0,
+            },
+        ),
+        s0_constant,
+        coverage_parameters_only: coverage(samples, Growth::ZERO),
+        distance_median,
+        distance_max,
+    }
+}
+
+/// A held-out error in the eigenbasis of its parameter part (of its measured components):
+/// its squared components, the part's eigenvalues (negative ones as 0), its distance (m), and
+/// its number of components.
+type EigenPart = ([f64; 3], [f64; 3], f64, usize);
+
+/// Each sample in the eigenbasis of its parameter part.
+fn eigen_parts(samples: &[HeldOut]) -> Vec<EigenPart> {
+    samples
         .iter()
         .map(|h| {
             let sym = |i: usize, j: usize| 0.5 * (h.parameters[i][j] + h.parameters[j][i]);
@@ -403,63 +463,58 @@ pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
             };
             (g2, l, h.distance, h.axes.min(3))
         })
-        .collect();
-    let nll = |s2: f64, c2: f64| -> f64 {
-        prepared
-            .iter()
-            .map(|(g2, l, d, axes)| {
-                let v = s2 + c2 * d * d;
-                (0..*axes)
-                    .map(|k| {
-                        let t = (l[k] + v).max(1e-300);
-                        t.ln() + g2[k] / t
-                    })
-                    .sum::<f64>()
-            })
-            .sum()
-    };
-    let n = samples.len().max(1) as f64;
-    let components = samples.iter().map(|h| h.axes).sum::<usize>().max(1) as f64;
-    let m2 = (samples
+        .collect()
+}
+
+/// Twice the negative log-likelihood (less constants) of the held-out errors with the model
+/// error's variance `s2 + c2 d^2` per component added to the parameters' part.
+fn negative_log_likelihood(prepared: &[EigenPart], s2: f64, c2: f64) -> f64 {
+    prepared
         .iter()
-        .map(|h| h.error.iter().map(|x| x * x).sum::<f64>())
-        .sum::<f64>()
-        / components)
-        .max(1e-30);
-    let mut ds: Vec<f64> = samples.iter().map(|h| h.distance).collect();
-    let distance_median = super::percentile(&mut ds, 0.5);
-    let distance_max = ds.last().copied().unwrap_or(0.0);
-    let dscale = if distance_median > 0.0 {
-        distance_median
-    } else if distance_max > 0.0 {
-        distance_max
-    } else {
-        1.0
-    };
-    let (a0, b0) = (m2.ln(), (m2 / (dscale * dscale)).ln());
-    // The constant fit: log s0^2 on a grid, refined.
-    let constant = {
-        let mut best = (f64::INFINITY, a0);
-        let mut step = 1.0;
-        for i in -14..=2 {
-            let a = a0 + i as f64 * step;
+        .map(|(g2, l, d, axes)| {
+            let v = s2 + c2 * d * d;
+            (0..*axes)
+                .map(|k| {
+                    let t = (l[k] + v).max(1e-300);
+                    t.ln() + g2[k] / t
+                })
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// The constant term's fit `(nll, log s0^2)`: a grid of `log s0^2` in steps of 1 from `a0 -
+/// 14` to `a0 + 2`, refined by halving 20 times.
+fn constant_fit(nll: &dyn Fn(f64, f64) -> f64, a0: f64) -> (f64, f64) {
+    let mut best = (f64::INFINITY, a0);
+    let mut step = 1.0;
+    for i in -14..=2 {
+        let a = a0 + i as f64 * step;
+        let f = nll(a.exp(), 0.0);
+        if f < best.0 {
+            best = (f, a);
+        }
+    }
+    for _ in 0..20 {
+        step *= 0.5;
+        for a in [best.1 - step, best.1 + step] {
             let f = nll(a.exp(), 0.0);
             if f < best.0 {
                 best = (f, a);
             }
         }
-        for _ in 0..20 {
-            step *= 0.5;
-            for a in [best.1 - step, best.1 + step] {
-                let f = nll(a.exp(), 0.0);
-                if f < best.0 {
-                    best = (f, a);
-                }
-            }
-        }
-        best
-    };
-    // The growing term: a grid over (log s0^2, log c^2), refined by halving.
+    }
+    best
+}
+
+/// The growing term's fit `(nll, log s0^2, log c^2)`, from the `constant` fit (`log c^2`
+/// minus infinity): a grid over (log s0^2, log c^2) around `(a0, b0)`, refined by halving.
+fn growing_fit(
+    nll: &dyn Fn(f64, f64) -> f64,
+    constant: (f64, f64),
+    a0: f64,
+    b0: f64,
+) -> (f64, f64, f64) {
     let mut best = (constant.0, constant.1, f64::NEG_INFINITY);
     let mut step = 1.0;
     for i in -14..=2 {
@@ -486,51 +541,51 @@ pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
             }
         }
     }
-    // At the grid's lower end a term is not told from none (the parameters' part covers the
-    // held-out errors): none.
-    let floor = |log_sq: f64, log_ref: f64| {
-        if log_sq.is_finite() && log_sq > log_ref - 13.5 {
-            (0.5 * log_sq).exp()
-        } else {
-            0.0
+    best
+}
+
+/// `log c^2` by maximum likelihood with `s0^2` held at `s2` (minus infinity, no growth, a
+/// candidate): a grid around `b0`, refined by halving.
+fn growth_at(nll: &dyn Fn(f64, f64) -> f64, s2: f64, b0: f64) -> f64 {
+    let mut best = (nll(s2, 0.0), f64::NEG_INFINITY);
+    let mut step = 1.0;
+    for j in -14..=4 {
+        let b = b0 + j as f64 * step;
+        let f = nll(s2, b.exp());
+        if f < best.0 {
+            best = (f, b);
         }
-    };
-    let mut growth = Growth {
-        s0: floor(best.1, a0),
-        c: floor(best.2, b0),
-        shape: 3.0,
-    };
-    let minimum = if min_s0.is_finite() { min_s0 } else { 0.0 };
-    if growth.s0 < minimum {
-        // `s0` held at the floor, `c` by maximum likelihood again (0 a candidate).
-        let s2 = minimum * minimum;
-        let mut best = (nll(s2, 0.0), f64::NEG_INFINITY);
-        let mut step = 1.0;
-        for j in -14..=4 {
-            let b = b0 + j as f64 * step;
-            let f = nll(s2, b.exp());
-            if f < best.0 {
-                best = (f, b);
-            }
-        }
-        if best.1.is_finite() {
-            for _ in 0..20 {
-                step *= 0.5;
-                let centre = best.1;
-                for b in [centre - step, centre + step] {
-                    let f = nll(s2, b.exp());
-                    if f < best.0 {
-                        best = (f, b);
-                    }
+    }
+    if best.1.is_finite() {
+        for _ in 0..20 {
+            step *= 0.5;
+            let centre = best.1;
+            for b in [centre - step, centre + step] {
+                let f = nll(s2, b.exp());
+                if f < best.0 {
+                    best = (f, b);
                 }
             }
         }
-        growth.s0 = minimum;
-        growth.c = floor(best.1, b0);
     }
-    // The shape: the second-moment matrix of the errors, each in its own predicted standard
-    // deviations, `tr M^2` with `tr M = 3` (of three-component errors only: a pixel's says
-    // nothing along its line of sight).
+    best.1
+}
+
+/// A term from its fitted `log_sq` (its square's logarithm): none at the grid's lower end
+/// (13.5 below `log_ref`), where a term is not told from none (the parameters' part covers the
+/// held-out errors).
+fn term(log_sq: f64, log_ref: f64) -> f64 {
+    if log_sq.is_finite() && log_sq > log_ref - 13.5 {
+        (0.5 * log_sq).exp()
+    } else {
+        0.0
+    }
+}
+
+/// The shape of the errors under `growth`: the second-moment matrix of the errors, each in its
+/// own predicted standard deviations, `9 tr M^2 / (tr M)^2` within 3 to 9 (of three-component
+/// errors only: a pixel's says nothing along its line of sight); 3 when no error counts.
+fn error_shape(samples: &[HeldOut], growth: &Growth) -> f64 {
     let mut m = Matrix3::zeros();
     for h in samples.iter().filter(|h| h.axes == 3) {
         let p = h.parameters[0][0] + h.parameters[1][1] + h.parameters[2][2];
@@ -542,31 +597,21 @@ pub fn fit_growth_floored(samples: &[HeldOut], min_s0: f64) -> GrowthFit {
     }
     let tr = m.trace();
     if tr > 0.0 {
-        growth.shape = (9.0 * (m * m).trace() / (tr * tr)).clamp(3.0, 9.0);
+        (9.0 * (m * m).trace() / (tr * tr)).clamp(3.0, 9.0)
+    } else {
+        growth.shape
     }
-    let s0_constant = floor(constant.1, a0);
-    let cover = |g: Growth| {
-        let inside = samples
-            .iter()
-            .filter(|h| {
-                let e = Vector3::from(h.error).norm();
-                e <= h.bound(g.variance(h.distance), g.shape).bound
-            })
-            .count();
-        inside as f64 / n
-    };
-    GrowthFit {
-        growth,
-        points: samples.len(),
-        coverage: cover(growth),
-        coverage_constant: cover(Growth {
-            s0: s0_constant,
-            c: 0.0,
-            shape: 3.0,
-        }),
-        s0_constant,
-        coverage_parameters_only: cover(Growth::ZERO),
-        distance_median,
-        distance_max,
-    }
+}
+
+/// The share of `samples` whose error lies within its predicted 95 % bound under `g`.
+fn coverage(samples: &[HeldOut], g: Growth) -> f64 {
+    let n = samples.len().max(1) as f64;
+    let inside = samples
+        .iter()
+        .filter(|h| {
+            let e = Vector3::from(h.error).norm();
+            e <= h.bound(g.variance(h.distance), g.shape).bound
+        })
+        .count();
+    inside as f64 / n
 }
