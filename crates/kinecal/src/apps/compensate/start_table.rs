@@ -291,10 +291,16 @@ impl StartTable {
             Goal::Pose(g) => &g.translation,
         };
         let p = [p.x, p.y, p.z];
+        let q = Query {
+            goal,
+            p,
+            reach2,
+            keep,
+        };
         if let Goal::Pose(g) = goal {
             // The attitude's part of the distance dominates (the starts nearest in position
             // are seldom nearest in attitude): the leaves of the tree, not the rings.
-            self.nearest_pose(goal, &p, g.rotation.as_slice(), reach2, keep, out);
+            self.nearest_pose(&q, g.rotation.as_slice(), out);
             return;
         }
         let home = [0, 1, 2].map(|a| self.coordinate(a, p[a]));
@@ -314,16 +320,16 @@ impl StartTable {
                     let yz_on = z_on || y.abs_diff(home[1]) == r;
                     let row = self.dims[0] * (y + self.dims[1] * z);
                     if yz_on {
-                        self.scan(row + x0, row + x1 + 1, goal, &p, reach2, keep, out);
+                        self.scan(row + x0, row + x1 + 1, &q, out);
                     } else {
                         // Inside the ring along y and z (so r > 0): only its two x ends.
                         if home[0] >= r {
                             let x = row + home[0] - r;
-                            self.scan(x, x + 1, goal, &p, reach2, keep, out);
+                            self.scan(x, x + 1, &q, out);
                         }
                         if home[0] + r < nx {
                             let x = row + home[0] + r;
-                            self.scan(x, x + 1, goal, &p, reach2, keep, out);
+                            self.scan(x, x + 1, &q, out);
                         }
                     }
                 }
@@ -355,36 +361,19 @@ impl StartTable {
         }
     }
 
-    /// [`StartTable::nearest`] of a pose goal (at `p`, rotation `r` column-major): the leaves
+    /// [`StartTable::nearest`] of a pose goal (`q`, its rotation `r` column-major): the leaves
     /// whose bounds are smallest, then every other leaf that can hold a start nearer than the
     /// last kept.
-    fn nearest_pose(
-        &self,
-        goal: &Goal,
-        p: &[f64; 3],
-        r: &[f64],
-        reach2: f64,
-        keep: usize,
-        out: &mut Vec<(f64, u32)>,
-    ) {
+    fn nearest_pose(&self, q: &Query<'_>, r: &[f64], out: &mut Vec<(f64, u32)>) {
         let leaves = &self.leaves;
         let n = leaves.len();
+        let keep = q.keep;
         let mut bound = [0.0f64; MOST_LEAVES];
         let bound = &mut bound[..n];
-        leaves.bounds(p, r, reach2, bound);
+        leaves.bounds(&q.p, r, q.reach2, bound);
         let scan = |l: usize, out: &mut Vec<(f64, u32)>| {
             let (a, b) = (leaves.offsets[l] as usize, leaves.offsets[l + 1] as usize);
-            scan_entries(
-                &leaves.columns,
-                &leaves.index,
-                a,
-                b,
-                goal,
-                p,
-                reach2,
-                keep,
-                out,
-            );
+            scan_entries(&leaves.columns, &leaves.index, a, b, q, out);
         };
         // The leaves with the smallest bounds first (NaN bounds last).
         let mut first = [(0.0f64, 0u32); MOST_LEAVES];
@@ -413,36 +402,28 @@ impl StartTable {
 
     /// Looks at the entries of cells `from..to` (one row of cells), keeping the nearest in
     /// `out` (at most `keep`, by distance then start index).
-    #[allow(clippy::too_many_arguments)]
-    fn scan(
-        &self,
-        from: usize,
-        to: usize,
-        goal: &Goal,
-        p: &[f64; 3],
-        reach2: f64,
-        keep: usize,
-        out: &mut Vec<(f64, u32)>,
-    ) {
+    fn scan(&self, from: usize, to: usize, q: &Query<'_>, out: &mut Vec<(f64, u32)>) {
         let (a, b) = (self.offsets[from] as usize, self.offsets[to] as usize);
-        scan_entries(&self.columns, &self.index, a, b, goal, p, reach2, keep, out);
+        scan_entries(&self.columns, &self.index, a, b, q, out);
     }
 }
 
 /// Looks at entries `a..b` of `columns` (start indices `index`), keeping the nearest in `out`
 /// (at most `keep`, by distance then start index).
-#[allow(clippy::too_many_arguments)]
 fn scan_entries(
     columns: &[Vec<f64>; 12],
     index: &[u32],
     a: usize,
     b: usize,
-    goal: &Goal,
-    p: &[f64; 3],
-    reach2: f64,
-    keep: usize,
+    q: &Query<'_>,
     out: &mut Vec<(f64, u32)>,
 ) {
+    let Query {
+        goal,
+        p,
+        reach2,
+        keep,
+    } = *q;
     // The distances of a chunk first, number by number (loops the compiler vectorises),
     // then the nearest kept.
     const CHUNK: usize = 64;
@@ -482,6 +463,15 @@ fn scan_entries(
         }
         start = end;
     }
+}
+
+/// One lookup: the goal, its position (m), the weight of attitudes (m^2 per unit of `3 -
+/// trace`) and how many starts to keep.
+struct Query<'g> {
+    goal: &'g Goal,
+    p: [f64; 3],
+    reach2: f64,
+    keep: usize,
 }
 
 /// Whether `(d, i)` comes before `(w, j)`: a smaller distance, or the same and a smaller start
