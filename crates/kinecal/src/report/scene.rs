@@ -460,184 +460,25 @@ impl Scene {
         data: Option<&Dataset>,
         options: &SceneOptions,
     ) -> Result<Scene> {
-        if let Some(nom) = nominal {
-            if !nom.same_structure(calibrated) {
-                return Err(Error::Problem(format!(
-                    "the nominal robot `{}` and the calibrated robot `{}` differ in structure: \
-                     one scene cannot hold both",
-                    nom.name, calibrated.name
-                )));
-            }
-        }
+        check_same_structure(nominal, calibrated)?;
         let empty = Dataset::default();
         let data = data.unwrap_or(&empty);
 
-        // The measured points, brought into the global frame through the calibrated robot's
-        // session frames.
-        let after = model_points(calibrated, data);
-        let before = nominal.map(|r| model_points(r, data));
-        let to_global = |posture: usize| -> Option<Frame> {
-            let p = data.postures.get(posture)?;
-            crate::observe::session_frame(calibrated, p).map(|f| inverse(&f))
-        };
-        let mut candidates = Vec::new();
-        let mut points_total = 0;
-        let mut points_unplottable = 0;
-        for (i, o) in data.observations.iter().enumerate() {
-            let Some((m, model)) = after[i] else {
-                continue;
-            };
-            points_total += 1;
-            let posture = o.posture();
-            let (m, r, rb) = match to_global(posture) {
-                Some(g) => (
-                    g.rotation * m + g.translation,
-                    g.rotation * (model - m),
-                    before
-                        .as_ref()
-                        .and_then(|b| b[i])
-                        .map(|(_, nm)| g.rotation * (nm - m)),
-                ),
-                None => (
-                    m,
-                    model - m,
-                    before.as_ref().and_then(|b| b[i]).map(|(_, nm)| nm - m),
-                ),
-            };
-            let point = ScenePoint {
-                posture,
-                target: target_name(calibrated, o.target()).to_string(),
-                measured: arr(&m),
-                after: arr(&r),
-                before: rb.map(|v| arr(&v)),
-            };
-            if drawable(&point.measured)
-                && drawable(&point.after)
-                && point.before.as_ref().is_none_or(drawable)
-            {
-                candidates.push(point);
-            } else {
-                points_unplottable += 1;
-            }
-        }
+        let candidates = global_points(nominal, calibrated, data);
+        let (points, worst_posture) = pick_points(candidates.points, options.max_points);
 
-        // The largest residuals always, then evenly spread over the rest.
-        let mut order: Vec<usize> = (0..candidates.len()).collect();
-        order.sort_by(|&a, &b| {
-            candidates[b]
-                .error_after()
-                .total_cmp(&candidates[a].error_after())
-        });
-        let largest = (options.max_points / 20).min(order.len());
-        let mut keep = vec![false; candidates.len()];
-        for &i in &order[..largest] {
-            keep[i] = true;
-        }
-        let rest: Vec<usize> = (0..candidates.len()).filter(|i| !keep[*i]).collect();
-        for k in spread(rest.len(), options.max_points.saturating_sub(largest)) {
-            keep[rest[k]] = true;
-        }
-        let worst_posture = order.first().map(|&i| candidates[i].posture);
-        let points: Vec<ScenePoint> = candidates
-            .into_iter()
-            .zip(keep)
-            .filter_map(|(p, k)| k.then_some(p))
-            .collect();
-
-        // The residuals' scales (below): the 95th percentile of the drawn residuals, after
-        // calibration and before, a twentieth of the robot's size, rounded down to 1, 2 or 5
-        // times a power of ten.
-        let errors: Vec<f64> = points.iter().map(ScenePoint::error_after).collect();
-
-        // The postures: the chosen one first, the worst point's, then evenly spread.
-        let mut chosen: Vec<usize> = Vec::new();
-        if data.postures.is_empty() {
-            if options.posture.is_some() {
-                return Err(Error::Problem(
-                    "a posture to draw is named, and there is no data to find it in".into(),
-                ));
-            }
-        } else {
-            let first = match &options.posture {
-                Some(label) => data
-                    .postures
-                    .iter()
-                    .position(|p| &p.label == label)
-                    .ok_or_else(|| {
-                        Error::Problem(format!("no posture `{label}` in the data to draw"))
-                    })?,
-                None => 0,
-            };
-            chosen.push(first);
-            chosen.extend(worst_posture);
-            chosen.extend(spread(data.postures.len(), options.max_postures));
-            let mut seen = std::collections::HashSet::new();
-            chosen.retain(|p| seen.insert(*p));
-            chosen.truncate(options.max_postures.max(1));
-        }
-        let mut postures = Vec::new();
-        if chosen.is_empty() {
-            let zero = vec![0.0; calibrated.dof()];
-            postures.push(ScenePosture {
-                label: "home".into(),
-                index: 0,
-                nominal: nominal.map(|r| skeleton(r, &zero, None)).transpose()?,
-                calibrated: skeleton(calibrated, &zero, None)?,
-                cameras: Vec::new(),
-                boards: Vec::new(),
-            });
-        }
-        for &p in &chosen {
-            let posture = &data.postures[p];
-            let payload = posture.payload.as_ref();
-            postures.push(ScenePosture {
-                label: posture.label.clone(),
-                index: p,
-                nominal: nominal
-                    .map(|r| skeleton(r, &posture.readings, payload))
-                    .transpose()?,
-                calibrated: skeleton(calibrated, &posture.readings, payload)?,
-                cameras: Vec::new(),
-                boards: Vec::new(),
-            });
-        }
-
-        let reach = postures
-            .iter()
-            .flat_map(|p| p.calibrated.nodes.iter())
-            .map(norm)
-            .fold(1e-3, f64::max);
+        let chosen = choose_postures(data, options, worst_posture)?;
+        let mut postures = posture_skeletons(nominal, calibrated, data, &chosen)?;
+        let reach = reach_of(&postures);
 
         // The cameras and boards at each posture drawn, with the board points seen there.
         let frustum_depth = reach / 12.0;
-        let seen = seen_points(calibrated, data);
-        for sp in &mut postures {
-            let (readings, payload, seen) = match data.postures.get(sp.index) {
-                Some(p) if !chosen.is_empty() => (
-                    p.readings.clone(),
-                    p.payload.as_ref(),
-                    seen[sp.index].as_slice(),
-                ),
-                _ => (vec![0.0; calibrated.dof()], None, &[][..]),
-            };
-            let (cameras, boards) =
-                cameras_and_boards(calibrated, &readings, payload, frustum_depth, seen);
-            let ok = cameras
-                .iter()
-                .all(|c| frame_drawable(&c.frame) && c.corners.iter().all(drawable))
-                && boards
-                    .iter()
-                    .all(|b| frame_drawable(&b.frame) && b.corners.iter().all(drawable));
-            if !ok {
-                return Err(Error::Problem(format!(
-                    "a camera or board of `{}` is not finite or lies beyond {LIMIT:e} m at \
-                     posture {}: it cannot be drawn",
-                    calibrated.name, sp.label
-                )));
-            }
-            sp.cameras = cameras;
-            sp.boards = boards;
-        }
+        mount_cameras_and_boards(calibrated, data, &chosen, frustum_depth, &mut postures)?;
+
+        // The residuals' scales: the 95th percentile of the drawn residuals, after calibration
+        // and before, a twentieth of the robot's size, rounded down to 1, 2 or 5 times a power
+        // of ten.
+        let errors: Vec<f64> = points.iter().map(ScenePoint::error_after).collect();
         let before: Vec<f64> = points
             .iter()
             .filter_map(|p| p.before.as_ref().map(norm))
@@ -645,18 +486,6 @@ impl Scene {
         let residual_scale = scale_of(errors, reach);
         let residual_scale_before = scale_of(before, reach);
 
-        let mut frames = vec![frame_of(
-            "global frame",
-            FrameKind::Base,
-            &Frame::identity(),
-        )];
-        for s in &calibrated.sessions {
-            let f = inverse(&Frame::from_link(&s.frame));
-            let sf = frame_of(&s.name, FrameKind::Measurement, &f);
-            if drawable(&sf.origin) && sf.axes.iter().all(drawable) {
-                frames.push(sf);
-            }
-        }
         let scene = Scene {
             robot: calibrated.name.clone(),
             length_unit: calibrated.units.length,
@@ -664,16 +493,263 @@ impl Scene {
             postures,
             postures_total: data.postures.len(),
             points,
-            points_total,
-            points_unplottable,
+            points_total: candidates.total,
+            points_unplottable: candidates.unplottable,
             residual_scale,
             residual_scale_before,
-            frames,
+            frames: fixed_frames(calibrated),
             frustum_depth,
         };
         scene.check()?;
         Ok(scene)
     }
+}
+
+/// Refuses a `nominal` robot whose structure differs from `calibrated`'s (one scene draws both
+/// on the same nodes); `Ok` without a nominal robot.
+fn check_same_structure(nominal: Option<&Robot>, calibrated: &Robot) -> Result<()> {
+    if let Some(nom) = nominal {
+        if !nom.same_structure(calibrated) {
+            return Err(Error::Problem(format!(
+                "the nominal robot `{}` and the calibrated robot `{}` differ in structure: \
+                 one scene cannot hold both",
+                nom.name, calibrated.name
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The measured points of a dataset that can be drawn, and how many there are in all.
+struct GlobalPoints {
+    /// The drawable points (m, global frame), in the data's order.
+    points: Vec<ScenePoint>,
+    /// Measured points (positions and poses) in the data.
+    total: usize,
+    /// Measured points left out: a coordinate or residual not finite or beyond [`LIMIT`].
+    unplottable: usize,
+}
+
+/// The measured points of `data` and their residuals (m), brought from each posture's
+/// measurement frame into the global frame through `calibrated`'s session frames.
+fn global_points(nominal: Option<&Robot>, calibrated: &Robot, data: &Dataset) -> GlobalPoints {
+    let after = model_points(calibrated, data);
+    let before = nominal.map(|r| model_points(r, data));
+    let to_global = |posture: usize| -> Option<Frame> {
+        let p = data.postures.get(posture)?;
+        crate::observe::session_frame(calibrated, p).map(|f| inverse(&f))
+    };
+    let mut candidates = Vec::new();
+    let mut points_total = 0;
+    let mut points_unplottable = 0;
+    for (i, o) in data.observations.iter().enumerate() {
+        let Some((m, model)) = after[i] else {
+            continue;
+        };
+        points_total += 1;
+        let posture = o.posture();
+        let (m, r, rb) = match to_global(posture) {
+            Some(g) => (
+                g.rotation * m + g.translation,
+                g.rotation * (model - m),
+                before
+                    .as_ref()
+                    .and_then(|b| b[i])
+                    .map(|(_, nm)| g.rotation * (nm - m)),
+            ),
+            None => (
+                m,
+                model - m,
+                before.as_ref().and_then(|b| b[i]).map(|(_, nm)| nm - m),
+            ),
+        };
+        let point = ScenePoint {
+            posture,
+            target: target_name(calibrated, o.target()).to_string(),
+            measured: arr(&m),
+            after: arr(&r),
+            before: rb.map(|v| arr(&v)),
+        };
+        if drawable(&point.measured)
+            && drawable(&point.after)
+            && point.before.as_ref().is_none_or(drawable)
+        {
+            candidates.push(point);
+        } else {
+            points_unplottable += 1;
+        }
+    }
+    GlobalPoints {
+        points: candidates,
+        total: points_total,
+        unplottable: points_unplottable,
+    }
+}
+
+/// At most `max_points` of `candidates` (the largest residuals always, then evenly spread over
+/// the rest), in their order; and the posture index of the largest residual, if any.
+fn pick_points(candidates: Vec<ScenePoint>, max_points: usize) -> (Vec<ScenePoint>, Option<usize>) {
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by(|&a, &b| {
+        candidates[b]
+            .error_after()
+            .total_cmp(&candidates[a].error_after())
+    });
+    let largest = (max_points / 20).min(order.len());
+    let mut keep = vec![false; candidates.len()];
+    for &i in &order[..largest] {
+        keep[i] = true;
+    }
+    let rest: Vec<usize> = (0..candidates.len()).filter(|i| !keep[*i]).collect();
+    for k in spread(rest.len(), max_points.saturating_sub(largest)) {
+        keep[rest[k]] = true;
+    }
+    let worst_posture = order.first().map(|&i| candidates[i].posture);
+    let points: Vec<ScenePoint> = candidates
+        .into_iter()
+        .zip(keep)
+        .filter_map(|(p, k)| k.then_some(p))
+        .collect();
+    (points, worst_posture)
+}
+
+/// The indices into `data.postures` to draw: the chosen one first, the worst point's, then
+/// evenly spread, without repeats (empty without data; an error for a posture not found).
+fn choose_postures(
+    data: &Dataset,
+    options: &SceneOptions,
+    worst_posture: Option<usize>,
+) -> Result<Vec<usize>> {
+    let mut chosen: Vec<usize> = Vec::new();
+    if data.postures.is_empty() {
+        if options.posture.is_some() {
+            return Err(Error::Problem(
+                "a posture to draw is named, and there is no data to find it in".into(),
+            ));
+        }
+    } else {
+        let first = match &options.posture {
+            Some(label) => data
+                .postures
+                .iter()
+                .position(|p| &p.label == label)
+                .ok_or_else(|| {
+                    Error::Problem(format!("no posture `{label}` in the data to draw"))
+                })?,
+            None => 0,
+        };
+        chosen.push(first);
+        chosen.extend(worst_posture);
+        chosen.extend(spread(data.postures.len(), options.max_postures));
+        let mut seen = std::collections::HashSet::new();
+        chosen.retain(|p| seen.insert(*p));
+        chosen.truncate(options.max_postures.max(1));
+    }
+    Ok(chosen)
+}
+
+/// The robots' skeletons (m, global frame) at the `chosen` postures of `data`, or at zero
+/// readings (`home`) when none is chosen; cameras and boards still empty.
+fn posture_skeletons(
+    nominal: Option<&Robot>,
+    calibrated: &Robot,
+    data: &Dataset,
+    chosen: &[usize],
+) -> Result<Vec<ScenePosture>> {
+    let mut postures = Vec::new();
+    if chosen.is_empty() {
+        let zero = vec![0.0; calibrated.dof()];
+        postures.push(ScenePosture {
+            label: "home".into(),
+            index: 0,
+            nominal: nominal.map(|r| skeleton(r, &zero, None)).transpose()?,
+            calibrated: skeleton(calibrated, &zero, None)?,
+            cameras: Vec::new(),
+            boards: Vec::new(),
+        });
+    }
+    for &p in chosen {
+        let posture = &data.postures[p];
+        let payload = posture.payload.as_ref();
+        postures.push(ScenePosture {
+            label: posture.label.clone(),
+            index: p,
+            nominal: nominal
+                .map(|r| skeleton(r, &posture.readings, payload))
+                .transpose()?,
+            calibrated: skeleton(calibrated, &posture.readings, payload)?,
+            cameras: Vec::new(),
+            boards: Vec::new(),
+        });
+    }
+    Ok(postures)
+}
+
+/// The reach (m): the largest distance from the global frame's origin to a node of the
+/// calibrated robot over `postures`, at least 1 mm.
+fn reach_of(postures: &[ScenePosture]) -> f64 {
+    postures
+        .iter()
+        .flat_map(|p| p.calibrated.nodes.iter())
+        .map(norm)
+        .fold(1e-3, f64::max)
+}
+
+/// Fills in each of `postures` the `calibrated` robot's cameras (frustums cut at `depth`, m)
+/// and boards with the points seen there; an error when one cannot be drawn.
+fn mount_cameras_and_boards(
+    calibrated: &Robot,
+    data: &Dataset,
+    chosen: &[usize],
+    depth: f64,
+    postures: &mut [ScenePosture],
+) -> Result<()> {
+    let seen = seen_points(calibrated, data);
+    for sp in postures {
+        let (readings, payload, seen) = match data.postures.get(sp.index) {
+            Some(p) if !chosen.is_empty() => (
+                p.readings.clone(),
+                p.payload.as_ref(),
+                seen[sp.index].as_slice(),
+            ),
+            _ => (vec![0.0; calibrated.dof()], None, &[][..]),
+        };
+        let (cameras, boards) = cameras_and_boards(calibrated, &readings, payload, depth, seen);
+        let ok = cameras
+            .iter()
+            .all(|c| frame_drawable(&c.frame) && c.corners.iter().all(drawable))
+            && boards
+                .iter()
+                .all(|b| frame_drawable(&b.frame) && b.corners.iter().all(drawable));
+        if !ok {
+            return Err(Error::Problem(format!(
+                "a camera or board of `{}` is not finite or lies beyond {LIMIT:e} m at \
+                 posture {}: it cannot be drawn",
+                calibrated.name, sp.label
+            )));
+        }
+        sp.cameras = cameras;
+        sp.boards = boards;
+    }
+    Ok(())
+}
+
+/// The frames that do not move with the robot: the global frame, then `calibrated`'s session
+/// (measurement) frames in the global frame, those that can be drawn.
+fn fixed_frames(calibrated: &Robot) -> Vec<SceneFrame> {
+    let mut frames = vec![frame_of(
+        "global frame",
+        FrameKind::Base,
+        &Frame::identity(),
+    )];
+    for s in &calibrated.sessions {
+        let f = inverse(&Frame::from_link(&s.frame));
+        let sf = frame_of(&s.name, FrameKind::Measurement, &f);
+        if drawable(&sf.origin) && sf.axes.iter().all(drawable) {
+            frames.push(sf);
+        }
+    }
+    frames
 }
 
 impl Scene {
