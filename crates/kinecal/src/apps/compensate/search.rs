@@ -318,12 +318,9 @@ impl<'r> TargetSearch<'r> {
             }
             (None, Some(p)) => {
                 self.reference.copy_from_slice(p);
-                self.find_nearest(goal, target);
-                looked_up = true;
-                let reference = std::mem::take(&mut self.reference);
-                let d = self.distance_of(goal, target, &reference);
-                self.reference = reference;
-                self.nearest.first().is_none_or(|&(best, _)| d <= best)
+                let (nearest, looked) = self.reference_is_nearest(goal, target);
+                looked_up = looked;
+                nearest
             }
             (None, None) => {
                 self.reference.copy_from_slice(&self.middle);
@@ -385,12 +382,9 @@ impl<'r> TargetSearch<'r> {
             if let (None, Some(p)) = (seed, &self.previous) {
                 // Not settled: the previous solution as a start too, as for any robot.
                 self.reference.copy_from_slice(p);
-                self.find_nearest(goal, target);
-                looked_up = true;
-                let reference = std::mem::take(&mut self.reference);
-                let d = self.distance_of(goal, target, &reference);
-                self.reference = reference;
-                if self.nearest.first().is_none_or(|&(b, _)| d <= b) {
+                let (nearest, looked) = self.reference_is_nearest(goal, target);
+                looked_up |= looked;
+                if nearest {
                     let mut start = std::mem::take(&mut self.start);
                     start.copy_from_slice(&self.reference);
                     let s = self.attempt(goal, target, &start, true);
@@ -904,6 +898,34 @@ impl<'r> TargetSearch<'r> {
         let reach2 = self.comp.reach * self.comp.reach;
         table.nearest(goal, reach2, keep, &mut self.nearest);
         self.nearest_asked = keep;
+    }
+
+    /// Whether the reference (the previous solution) lies at least as near `goal` as every
+    /// start of the table (the search then starts there), and whether the table's nearest
+    /// starts were looked up into `self.nearest` to tell: for a pose goal only when some start
+    /// lies nearer (most goals of a path lie near the previous one).
+    fn reference_is_nearest(&mut self, goal: &Goal, target: Target) -> (bool, bool) {
+        let reference = std::mem::take(&mut self.reference);
+        let d = self.distance_of(goal, target, &reference);
+        self.reference = reference;
+        if matches!(goal, Goal::Pose(_)) && d.is_finite() {
+            self.ensure_table(target);
+            let table = &self
+                .tables
+                .iter()
+                .find(|(t, _)| *t == target)
+                .expect("built")
+                .1;
+            let reach2 = self.comp.reach * self.comp.reach;
+            if !table.pose_nearer(goal, reach2, d) {
+                return (true, false);
+            }
+        }
+        self.find_nearest(goal, target);
+        (
+            self.nearest.first().is_none_or(|&(best, _)| d <= best),
+            true,
+        )
     }
 
     /// The squared task distance from the frame `target` has at `readings` to `goal`.

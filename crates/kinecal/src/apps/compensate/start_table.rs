@@ -33,6 +33,8 @@ const LEAF: usize = 16;
 /// The most leaves of the pose lookup's tree (halving a table until its parts hold at most
 /// `ceil(n / MOST_LEAVES)` starts makes at most this many).
 const MOST_LEAVES: usize = 256;
+/// Leaves whose bounds are worked out at once (loops over them vectorised).
+const BLOCK: usize = 16;
 /// Leaves a pose lookup scans first, those whose bounds are smallest: the distance it then
 /// keeps rules most other leaves out.
 const FIRST_LEAVES: usize = 8;
@@ -154,18 +156,28 @@ impl Leaves {
         self.offsets.len() - 1
     }
 
-    /// Per leaf, a lower bound of its entries' squared task distances from the pose goal at
-    /// position `p` with rotation `r` (column-major), less the bound's rounding, into `out`.
-    fn bounds(&self, p: &[f64; 3], r: &[f64], reach2: f64, out: &mut [f64]) {
+    /// Per leaf from leaf `from` on (as many as `out` holds), a lower bound of its entries'
+    /// squared task distances from the pose goal at position `p` with rotation `r`
+    /// (column-major), less the bound's rounding, into `out`.
+    fn bounds(&self, p: &[f64; 3], r: &[f64], reach2: f64, from: usize, out: &mut [f64]) {
+        // A block of leaves at a time.
+        for (k, out) in out.chunks_mut(BLOCK).enumerate() {
+            self.block_bounds(p, r, reach2, from + k * BLOCK, out);
+        }
+    }
+
+    /// [`Leaves::bounds`] of at most [`BLOCK`] leaves.
+    fn block_bounds(&self, p: &[f64; 3], r: &[f64], reach2: f64, from: usize, out: &mut [f64]) {
         let n = out.len();
+        let leaves = from..from + n;
         // Per leaf, accumulated number by number (loops over the leaves, which the compiler
         // vectorises): the position's squared distance from the box; the largest trace
         // `tr(G^T R)` over the box; the squared distance of `G` from the rotation's box; and the
         // sizes of the terms, for the margin.
-        let mut position = [0.0f64; MOST_LEAVES];
-        let mut trace = [0.0f64; MOST_LEAVES];
-        let mut apart = [0.0f64; MOST_LEAVES];
-        let mut size = [0.0f64; MOST_LEAVES];
+        let mut position = [0.0f64; BLOCK];
+        let mut trace = [0.0f64; BLOCK];
+        let mut apart = [0.0f64; BLOCK];
+        let mut size = [0.0f64; BLOCK];
         let (position, trace, apart, size) = (
             &mut position[..n],
             &mut trace[..n],
@@ -173,7 +185,7 @@ impl Leaves {
             &mut size[..n],
         );
         for (a, &x) in p.iter().enumerate() {
-            let (lo, hi) = (&self.lo[a][..n], &self.hi[a][..n]);
+            let (lo, hi) = (&self.lo[a][leaves.clone()], &self.hi[a][leaves.clone()]);
             for l in 0..n {
                 let gap = (lo[l] - x).max(x - hi[l]).max(0.0);
                 position[l] += gap * gap;
@@ -181,7 +193,10 @@ impl Leaves {
             }
         }
         for (k, &g) in r.iter().enumerate() {
-            let (lo, hi) = (&self.lo[3 + k][..n], &self.hi[3 + k][..n]);
+            let (lo, hi) = (
+                &self.lo[3 + k][leaves.clone()],
+                &self.hi[3 + k][leaves.clone()],
+            );
             for l in 0..n {
                 let (glo, ghi) = (g * lo[l], g * hi[l]);
                 trace[l] += glo.max(ghi);
@@ -199,7 +214,7 @@ impl Leaves {
             // + (3 - |G|^2) / 2 + (3 - |R|^2) / 2`, whose first term is at least half the
             // squared distance of `G` from the box, and whose last the leaf's least.
             let linear = 3.0 - trace[l];
-            let quadratic = 0.5 * (apart[l] + (3.0 - norm2) + self.unit[l]);
+            let quadratic = 0.5 * (apart[l] + (3.0 - norm2) + self.unit[from + l]);
             let bound = position[l] + reach2 * linear.max(quadratic);
             // The distances are worked out by other operations: each is within a few
             // roundings (1e-16) of the sizes of its terms, which the margin covers 1,000 times
@@ -370,7 +385,7 @@ impl StartTable {
         let keep = q.keep;
         let mut bound = [0.0f64; MOST_LEAVES];
         let bound = &mut bound[..n];
-        leaves.bounds(&q.p, r, q.reach2, bound);
+        leaves.bounds(&q.p, r, q.reach2, 0, bound);
         let scan = |l: usize, out: &mut Vec<(f64, u32)>| {
             let (a, b) = (leaves.offsets[l] as usize, leaves.offsets[l + 1] as usize);
             scan_entries(&leaves.columns, &leaves.index, a, b, q, out);
@@ -400,6 +415,54 @@ impl StartTable {
         }
     }
 
+    /// Whether some start lies nearer than `threshold` (squared task distance, finite) to the
+    /// pose goal `goal` (its distance worked out as [`StartTable::nearest`] does): only the
+    /// leaves whose bounds lie below it are looked at, none when the threshold is small (the
+    /// previous solution of a path's goal).
+    pub(crate) fn pose_nearer(&self, goal: &Goal, reach2: f64, threshold: f64) -> bool {
+        let Goal::Pose(g) = goal else {
+            return false;
+        };
+        let leaves = &self.leaves;
+        let n = leaves.len();
+        if self.index.is_empty() {
+            return false;
+        }
+        let t = &g.translation;
+        let q = Query {
+            goal,
+            p: [t.x, t.y, t.z],
+            reach2,
+            keep: 1,
+        };
+        // Leaves a block at a time, in leaf order: a far threshold is passed in the first.
+        let mut bound = [0.0f64; BLOCK];
+        let mut d = [0.0f64; CHUNK];
+        for from in (0..n).step_by(BLOCK) {
+            let bound = &mut bound[..BLOCK.min(n - from)];
+            leaves.bounds(&q.p, g.rotation.as_slice(), reach2, from, bound);
+            for (l, &b) in bound.iter().enumerate() {
+                // Every start of the leaf at or beyond the bound: none nearer.
+                if b >= threshold {
+                    continue;
+                }
+                let l = from + l;
+                let (a, b) = (leaves.offsets[l] as usize, leaves.offsets[l + 1] as usize);
+                let mut start = a;
+                while start < b {
+                    let end = (start + CHUNK).min(b);
+                    let d = &mut d[..end - start];
+                    chunk_distances(&leaves.columns, start, end, &q, d);
+                    if d.iter().any(|&d| d < threshold) {
+                        return true;
+                    }
+                    start = end;
+                }
+            }
+        }
+        false
+    }
+
     /// Looks at the entries of cells `from..to` (one row of cells), keeping the nearest in
     /// `out` (at most `keep`, by distance then start index).
     fn scan(&self, from: usize, to: usize, q: &Query<'_>, out: &mut Vec<(f64, u32)>) {
@@ -418,37 +481,13 @@ fn scan_entries(
     q: &Query<'_>,
     out: &mut Vec<(f64, u32)>,
 ) {
-    let Query {
-        goal,
-        p,
-        reach2,
-        keep,
-    } = *q;
-    // The distances of a chunk first, number by number (loops the compiler vectorises),
-    // then the nearest kept.
-    const CHUNK: usize = 64;
+    let keep = q.keep;
     let mut d = [0.0f64; CHUNK];
     let mut start = a;
     while start < b {
         let end = (start + CHUNK).min(b);
-        let m = end - start;
-        let d = &mut d[..m];
-        let [x, y, z] = [0, 1, 2].map(|c| &columns[c][start..end]);
-        for e in 0..m {
-            // The same operations in the same order as a scan of the whole table.
-            d[e] = (p[0] - x[e]).powi(2) + (p[1] - y[e]).powi(2) + (p[2] - z[e]).powi(2);
-        }
-        if let Goal::Pose(g) = goal {
-            let r = g.rotation.as_slice();
-            let c: [&[f64]; 9] = std::array::from_fn(|k| &columns[3 + k][start..end]);
-            for e in 0..m {
-                let mut trace = 0.0;
-                for k in 0..9 {
-                    trace += r[k] * c[k][e];
-                }
-                d[e] += reach2 * (3.0 - trace);
-            }
-        }
+        let d = &mut d[..end - start];
+        chunk_distances(columns, start, end, q, d);
         for (e, &d) in d.iter().enumerate() {
             let i = index[start + e];
             if out.len() == keep {
@@ -462,6 +501,37 @@ fn scan_entries(
             out.insert(at, (d, i));
         }
         start = end;
+    }
+}
+
+/// Entries a scan works out the distances of at once.
+const CHUNK: usize = 64;
+
+/// The squared task distances of entries `start..end` of `columns` from `q`'s goal into `d`,
+/// number by number (loops the compiler vectorises): the same operations in the same order
+/// whichever lookup asks.
+fn chunk_distances(
+    columns: &[Vec<f64>; 12],
+    start: usize,
+    end: usize,
+    q: &Query<'_>,
+    d: &mut [f64],
+) {
+    let (p, m) = (q.p, end - start);
+    let [x, y, z] = [0, 1, 2].map(|c| &columns[c][start..end]);
+    for e in 0..m {
+        d[e] = (p[0] - x[e]).powi(2) + (p[1] - y[e]).powi(2) + (p[2] - z[e]).powi(2);
+    }
+    if let Goal::Pose(g) = q.goal {
+        let r = g.rotation.as_slice();
+        let c: [&[f64]; 9] = std::array::from_fn(|k| &columns[3 + k][start..end]);
+        for e in 0..m {
+            let mut trace = 0.0;
+            for k in 0..9 {
+                trace += r[k] * c[k][e];
+            }
+            d[e] += q.reach2 * (3.0 - trace);
+        }
     }
 }
 
@@ -651,6 +721,51 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Whether a start lies nearer a pose goal than a threshold, as a scan of the whole table
+    /// tells it: at the nearest start's distance itself (no start strictly nearer), just above
+    /// and below it, at 0 and far above, for goals inside and outside the starts' box.
+    #[test]
+    fn a_start_nearer_than_a_threshold_is_found_as_a_scan_finds_it() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+        let keys: Vec<[f64; 12]> = (0..4096)
+            .map(|_| {
+                let mut k = [0.0; 12];
+                for x in &mut k[..3] {
+                    *x = rng.random_range(-1.0..1.0);
+                }
+                k[3..].copy_from_slice(rotation(&mut rng).as_slice());
+                k
+            })
+            .collect();
+        let table = StartTable::new(&keys, 1.3);
+        let mut checked = 0;
+        for q in 0..300 {
+            let scale = [0.3, 1.0, 3.0][q % 3];
+            let goal = Goal::Pose(Frame {
+                rotation: rotation(&mut rng),
+                translation: Vector3::from_fn(|_, _| scale * rng.random_range(-1.0..1.0)),
+            });
+            let nearest = scanned(&keys, &goal, 1.69, 1)[0].0;
+            for t in [
+                nearest,
+                nearest * (1.0 + 1e-15),
+                nearest * (1.0 - 1e-15),
+                nearest.next_up(),
+                0.0,
+                2.0 * nearest,
+                1e6,
+            ] {
+                assert_eq!(
+                    table.pose_nearer(&goal, 1.69, t),
+                    nearest < t,
+                    "goal {q}, threshold {t:e}, nearest {nearest:e}"
+                );
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 2100);
     }
 
     /// A goal that is not finite gets starts and no panic.
