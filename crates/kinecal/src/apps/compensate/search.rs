@@ -885,18 +885,24 @@ impl<'r> TargetSearch<'r> {
         }
     }
 
-    /// Fills `self.nearest` with the `keep` starts nearest `goal`, nearest first (ties by
-    /// start index).
-    fn look_up_nearest(&mut self, goal: &Goal, target: Target, keep: usize) {
+    /// The table of starts' frames for `target` (built when first asked for).
+    fn table(&mut self, target: Target) -> &StartTable {
         self.ensure_table(target);
-        let table = &self
+        &self
             .tables
             .iter()
             .find(|(t, _)| *t == target)
             .expect("built")
-            .1;
+            .1
+    }
+
+    /// Fills `self.nearest` with the `keep` starts nearest `goal`, nearest first (ties by
+    /// start index).
+    fn look_up_nearest(&mut self, goal: &Goal, target: Target, keep: usize) {
         let reach2 = self.comp.reach * self.comp.reach;
-        table.nearest(goal, reach2, keep, &mut self.nearest);
+        let mut nearest = std::mem::take(&mut self.nearest);
+        self.table(target).nearest(goal, reach2, keep, &mut nearest);
+        self.nearest = nearest;
         self.nearest_asked = keep;
     }
 
@@ -909,15 +915,8 @@ impl<'r> TargetSearch<'r> {
         let d = self.distance_of(goal, target, &reference);
         self.reference = reference;
         if matches!(goal, Goal::Pose(_)) && d.is_finite() {
-            self.ensure_table(target);
-            let table = &self
-                .tables
-                .iter()
-                .find(|(t, _)| *t == target)
-                .expect("built")
-                .1;
             let reach2 = self.comp.reach * self.comp.reach;
-            if !table.pose_nearer(goal, reach2, d) {
+            if !self.table(target).pose_nearer(goal, reach2, d) {
                 return (true, false);
             }
         }

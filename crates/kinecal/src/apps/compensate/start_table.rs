@@ -600,6 +600,21 @@ mod tests {
         *Rotation3::new(v).matrix()
     }
 
+    /// `n` frames at random: positions in the cube of side 2 m about the origin, rotations at
+    /// random.
+    fn cube_keys(rng: &mut rand_chacha::ChaCha8Rng, n: usize) -> Vec<[f64; 12]> {
+        (0..n)
+            .map(|_| {
+                let mut k = [0.0; 12];
+                for x in &mut k[..3] {
+                    *x = rng.random_range(-1.0..1.0);
+                }
+                k[3..].copy_from_slice(rotation(rng).as_slice());
+                k
+            })
+            .collect()
+    }
+
     /// The grid's lookup returns exactly what a scan of the whole table returns (the same
     /// starts, order and distances to the bit), for position and pose goals inside, at the
     /// border of and far outside the starts' box, with ties (starts repeated), on a workspace
@@ -679,16 +694,7 @@ mod tests {
     #[test]
     fn extreme_pose_goals_get_what_a_scan_gives() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
-        let keys: Vec<[f64; 12]> = (0..4096)
-            .map(|_| {
-                let mut k = [0.0; 12];
-                for x in &mut k[..3] {
-                    *x = rng.random_range(-1.0..1.0);
-                }
-                k[3..].copy_from_slice(rotation(&mut rng).as_slice());
-                k
-            })
-            .collect();
+        let keys = cube_keys(&mut rng, 4096);
         let table = StartTable::new(&keys, 1.3);
         let mut out = Vec::new();
         let far = Vector3::new(1e200, -1e200, 3.0);
@@ -729,16 +735,7 @@ mod tests {
     #[test]
     fn a_start_nearer_than_a_threshold_is_found_as_a_scan_finds_it() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
-        let keys: Vec<[f64; 12]> = (0..4096)
-            .map(|_| {
-                let mut k = [0.0; 12];
-                for x in &mut k[..3] {
-                    *x = rng.random_range(-1.0..1.0);
-                }
-                k[3..].copy_from_slice(rotation(&mut rng).as_slice());
-                k
-            })
-            .collect();
+        let keys = cube_keys(&mut rng, 4096);
         let table = StartTable::new(&keys, 1.3);
         let mut checked = 0;
         for q in 0..300 {
