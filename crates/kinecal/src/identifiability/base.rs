@@ -55,90 +55,22 @@ pub(super) fn identifiable_set(
     col_factor: &[f64],
     m: usize,
 ) -> IdentifiableSet {
-    let n = params.len();
     let column_norms = &scaled.column_norms;
     let (order, tiers) = priority_order(robot, params, &opts.priority);
-    // e_j: from the rows when they were at hand, else its lower bound from the column norms
-    // (exact when no row's weight is clamped).
-    let least_clamp = clamp.iter().copied().fold(1.0, f64::min);
-    let exact_typical = typical.is_some() || least_clamp >= 1.0;
-    let typical = typical.unwrap_or_else(|| {
-        let root_m = (m.max(1) as f64).sqrt();
-        column_norms
-            .iter()
-            .map(|c| least_clamp * c / root_m)
-            .collect()
-    });
-    // The noise-scaled columns a_j / e_j are the unit columns times |a_j| / e_j.
-    let gain: Vec<f64> = (0..n)
-        .map(|j| {
-            let g = column_norms[j] / typical[j];
-            if scaled.unfelt[j] || !g.is_finite() {
-                0.0
-            } else {
-                g
-            }
-        })
-        .collect();
+    let (typical, exact_typical) = typical_errors(typical, clamp, column_norms, m);
+    let gain = noise_gains(scaled, &typical);
     // The rule's thresholds, and those it applies: none for the parameters the start already
     // placed from the data (only the rounding rule leaves them out).
     let rule = noise_thresholds(robot, params, opts.noise_scale, &typical);
     let placed: Vec<bool> = params.iter().map(|id| opts.placed.contains(id)).collect();
-    let mut threshold: Vec<f64> = rule
+    let threshold: Vec<f64> = rule
         .iter()
         .zip(&placed)
         .map(|(&t, &p)| if p { 0.0 } else { t })
         .collect();
-    // On R's columns (n long, the same inner products as the scaled Jacobian's m-long ones).
-    // A parameter chosen early (a high tier) is judged given only the columns before it: given
-    // the whole set, it may be as loose as the rule forbids (a joint offset and a link length
-    // one the same lever at the noise). Then the loosest of those goes, and the set is chosen
-    // again without it. Of the loose ones, the least preferred goes (its partner in the
-    // near-dependence, if any, is then judged again without it): priorities decide, as they do
-    // in the pivoting.
-    let rank_of: Vec<usize> = {
-        let mut r = vec![usize::MAX; n];
-        for (k, &j) in order.iter().enumerate() {
-            r[j] = r[j].min(k);
-        }
-        r
-    };
-    let loose_given_all = |chosen: &[usize], threshold: &[f64]| -> Option<(usize, f64)> {
-        let sigma = linalg::marginal_sigmas(&scaled.r, chosen);
-        chosen
-            .iter()
-            .zip(&sigma)
-            .filter(|&(&j, &s)| {
-                // Given all the others, a unit column's remaining norm is 1 / s (s its
-                // standard deviation on unit columns): gain[j] / s in the gained metric.
-                gain[j] / s < threshold[j]
-            })
-            .max_by_key(|&(&j, _)| (tiers[j], rank_of[j]))
-            .map(|(&j, &s)| (j, s / column_norms[j]))
-    };
     let tol = opts.rcond * spectrum.largest;
-    let select = |threshold: &[f64]| {
-        select_base(
-            &scaled.r,
-            &gain,
-            &order,
-            &tiers,
-            spectrum.rank,
-            tol,
-            threshold,
-        )
-    };
-    let mut base = select(&threshold);
-    // The standard deviation (internal units) of those left out given the whole set.
-    let mut loose_sigma: Vec<Option<f64>> = vec![None; n];
-    for _ in 0..n {
-        let Some((j, sigma)) = loose_given_all(&base.chosen, &threshold) else {
-            break;
-        };
-        threshold[j] = f64::INFINITY;
-        loose_sigma[j] = Some(sigma);
-        base = select(&threshold);
-    }
+    let (base, loose_sigma) =
+        select_without_loose(scaled, &gain, &order, &tiers, spectrum.rank, tol, threshold);
     let placed_loose = if placed.iter().any(|p| *p) {
         let sigma = linalg::marginal_sigmas(&scaled.r, &base.chosen);
         base.chosen
@@ -182,6 +114,96 @@ pub(super) fn identifiable_set(
         typical,
         order,
     }
+}
+
+/// `e_j` per column: from the rows when they were at hand (`typical`), else its lower bound
+/// from the column norms (exact when no row's weight is clamped); and whether it is exact.
+fn typical_errors(
+    typical: Option<Vec<f64>>,
+    clamp: &[f64],
+    column_norms: &[f64],
+    m: usize,
+) -> (Vec<f64>, bool) {
+    let least_clamp = clamp.iter().copied().fold(1.0, f64::min);
+    let exact = typical.is_some() || least_clamp >= 1.0;
+    let typical = typical.unwrap_or_else(|| {
+        let root_m = (m.max(1) as f64).sqrt();
+        column_norms
+            .iter()
+            .map(|c| least_clamp * c / root_m)
+            .collect()
+    });
+    (typical, exact)
+}
+
+/// The factor from the unit columns to the noise-scaled ones, `|a_j| / e_j` (the noise-scaled
+/// column `a_j / e_j` is the unit column times it); 0 for a column the rows do not feel.
+fn noise_gains(scaled: &Scaled, typical: &[f64]) -> Vec<f64> {
+    (0..scaled.column_norms.len())
+        .map(|j| {
+            let g = scaled.column_norms[j] / typical[j];
+            if scaled.unfelt[j] || !g.is_finite() {
+                0.0
+            } else {
+                g
+            }
+        })
+        .collect()
+}
+
+/// [`select_base`] on `R`'s columns (n long, the same inner products as the scaled Jacobian's
+/// m-long ones), then again without the loosest parameter given the whole set while one is
+/// loose; the selection, and the standard deviation (internal units) given the whole set of
+/// each parameter so left out.
+///
+/// A parameter chosen early (a high tier) is judged given only the columns before it: given
+/// the whole set, it may be as loose as the rule forbids (a joint offset and a link length one
+/// the same lever at the noise). Then the loosest of those goes, and the set is chosen again
+/// without it. Of the loose ones, the least preferred goes (its partner in the near-dependence,
+/// if any, is then judged again without it): priorities decide, as they do in the pivoting.
+fn select_without_loose(
+    scaled: &Scaled,
+    gain: &[f64],
+    order: &[usize],
+    tiers: &[usize],
+    rank: usize,
+    tol: f64,
+    mut threshold: Vec<f64>,
+) -> (BaseSelection, Vec<Option<f64>>) {
+    let n = gain.len();
+    let rank_of: Vec<usize> = {
+        let mut r = vec![usize::MAX; n];
+        for (k, &j) in order.iter().enumerate() {
+            r[j] = r[j].min(k);
+        }
+        r
+    };
+    let loose_given_all = |chosen: &[usize], threshold: &[f64]| -> Option<(usize, f64)> {
+        let sigma = linalg::marginal_sigmas(&scaled.r, chosen);
+        chosen
+            .iter()
+            .zip(&sigma)
+            .filter(|&(&j, &s)| {
+                // Given all the others, a unit column's remaining norm is 1 / s (s its
+                // standard deviation on unit columns): gain[j] / s in the gained metric.
+                gain[j] / s < threshold[j]
+            })
+            .max_by_key(|&(&j, _)| (tiers[j], rank_of[j]))
+            .map(|(&j, &s)| (j, s / scaled.column_norms[j]))
+    };
+    let select =
+        |threshold: &[f64]| select_base(&scaled.r, gain, order, tiers, rank, tol, threshold);
+    let mut base = select(&threshold);
+    let mut loose_sigma: Vec<Option<f64>> = vec![None; n];
+    for _ in 0..n {
+        let Some((j, sigma)) = loose_given_all(&base.chosen, &threshold) else {
+            break;
+        };
+        threshold[j] = f64::INFINITY;
+        loose_sigma[j] = Some(sigma);
+        base = select(&threshold);
+    }
+    (base, loose_sigma)
 }
 
 /// The noise threshold of each column, in the gained metric: below one typical row's worth
@@ -448,120 +470,189 @@ pub(super) fn select_base(
     tol: f64,
     noise: &[f64],
 ) -> BaseSelection {
-    #[derive(Clone, Copy, PartialEq)]
-    enum State {
-        Candidate,
-        Chosen,
-        /// Left out as dependent within the noise: its column is still transformed, for its
-        /// regression on the chosen ones at the end.
-        Noise,
-        /// Left out (dependent at the rounding level) or not considered.
-        Out,
-    }
-    let (rows, n) = (units.nrows(), units.ncols());
     let tol = tol.max(1e-12);
-    let mut state = vec![State::Out; n];
-    let mut pref = vec![usize::MAX; n];
-    for (k, &j) in order.iter().enumerate() {
-        if j < n && pref[j] == usize::MAX && gain[j] > 0.0 && gain[j].is_finite() {
-            pref[j] = k;
-            state[j] = State::Candidate;
-        }
-    }
-    // The working matrix: the gained columns, transformed step by step.
-    let mut w = Matrix::from_fn(rows, n, |i, j| {
-        if state[j] == State::Candidate {
-            units[(i, j)] * gain[j]
-        } else {
-            0.0
-        }
-    });
-    let norm_from = |w: &Matrix, j: usize, k: usize| {
-        let c = &w.col(j)[k..];
-        dot(c, c).sqrt()
-    };
-    let mut norms: Vec<f64> = (0..n).map(|j| norm_from(&w, j, 0)).collect();
-    let mut exact = norms.clone();
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut noisy: Vec<(usize, f64)> = Vec::new();
-    let mut v = vec![0.0; rows];
-    let tol3z = f64::EPSILON.sqrt();
-    let mut tier_cands: Vec<usize> = Vec::with_capacity(n);
-    while chosen.len() < rank && chosen.len() < rows {
-        let k = chosen.len();
-        let Some(t) = (0..n)
-            .filter(|&j| state[j] == State::Candidate)
-            .map(|j| tier[j])
-            .min()
-        else {
+    let mut qr = Pivoting::new(units, gain, order);
+    let rows = units.nrows();
+    while qr.chosen.len() < rank && qr.chosen.len() < rows {
+        let Some(t) = qr.lowest_tier(tier) else {
             break;
         };
-        tier_cands.clear();
-        tier_cands.extend((0..n).filter(|&j| state[j] == State::Candidate && tier[j] == t));
-        // Near the largest, downdated norms are not accurate enough for ties: afresh.
-        let big = tier_cands.iter().map(|&j| norms[j]).fold(0.0, f64::max);
-        for &j in &tier_cands {
-            if norms[j] >= big * (1.0 - NEAR) {
-                norms[j] = norm_from(&w, j, k);
-                exact[j] = norms[j];
+        let Some(p) = qr.pivot(tier, t) else {
+            continue;
+        };
+        let (ratio, sine) = (qr.norms[p], qr.norms[p] / gain[p]);
+        if ratio < noise[p] {
+            qr.leave_out_within_noise(p, tol);
+        } else if sine <= tol {
+            qr.state[p] = State::Out;
+        } else {
+            qr.choose(p);
+        }
+    }
+    qr.selection()
+}
+
+/// Where a column stands in [`select_base`]'s pivoting.
+#[derive(Clone, Copy, PartialEq)]
+enum State {
+    Candidate,
+    Chosen,
+    /// Left out as dependent within the noise: its column is still transformed, for its
+    /// regression on the chosen ones at the end.
+    Noise,
+    /// Left out (dependent at the rounding level) or not considered.
+    Out,
+}
+
+/// The working state of [`select_base`]: the gained columns, transformed by the Householder
+/// reflections of the columns chosen so far (step `k` = how many), with each candidate's
+/// remaining norm below row `k` (downdated, and as last computed afresh).
+struct Pivoting<'a> {
+    gain: &'a [f64],
+    /// The gained columns `units[.., j] * gain[j]` of the candidates (zero for the others),
+    /// transformed step by step.
+    w: Matrix,
+    state: Vec<State>,
+    /// Each column's place in the order of preference (`usize::MAX`: not considered).
+    pref: Vec<usize>,
+    /// Remaining norms below the current step, downdated.
+    norms: Vec<f64>,
+    /// Each remaining norm as last computed afresh (to see cancellation coming).
+    exact: Vec<f64>,
+    chosen: Vec<usize>,
+    /// Columns left out within the noise, with their remaining norm then.
+    noisy: Vec<(usize, f64)>,
+    /// The Householder vector of the last reflection.
+    v: Vec<f64>,
+    tier_cands: Vec<usize>,
+}
+
+impl<'a> Pivoting<'a> {
+    /// The candidates: the columns listed in `order` with a positive, finite gain.
+    fn new(units: &Matrix, gain: &'a [f64], order: &[usize]) -> Self {
+        let (rows, n) = (units.nrows(), units.ncols());
+        let mut state = vec![State::Out; n];
+        let mut pref = vec![usize::MAX; n];
+        for (k, &j) in order.iter().enumerate() {
+            if j < n && pref[j] == usize::MAX && gain[j] > 0.0 && gain[j].is_finite() {
+                pref[j] = k;
+                state[j] = State::Candidate;
             }
         }
-        let big = tier_cands.iter().map(|&j| norms[j]).fold(0.0, f64::max);
-        let Some(p) = tier_cands
+        let w = Matrix::from_fn(rows, n, |i, j| {
+            if state[j] == State::Candidate {
+                units[(i, j)] * gain[j]
+            } else {
+                0.0
+            }
+        });
+        let mut qr = Pivoting {
+            gain,
+            w,
+            state,
+            pref,
+            norms: Vec::new(),
+            exact: Vec::new(),
+            chosen: Vec::new(),
+            noisy: Vec::new(),
+            v: vec![0.0; rows],
+            tier_cands: Vec::with_capacity(n),
+        };
+        qr.norms = (0..n).map(|j| qr.norm_from(j, 0)).collect();
+        qr.exact = qr.norms.clone();
+        qr
+    }
+
+    /// The norm of column `j` from row `k` down, computed afresh.
+    fn norm_from(&self, j: usize, k: usize) -> f64 {
+        let c = &self.w.col(j)[k..];
+        dot(c, c).sqrt()
+    }
+
+    /// The lowest tier a candidate is left in.
+    fn lowest_tier(&self, tier: &[usize]) -> Option<usize> {
+        (0..self.state.len())
+            .filter(|&j| self.state[j] == State::Candidate)
+            .map(|j| tier[j])
+            .min()
+    }
+
+    /// The pivot among tier `t`'s candidates: the largest remaining norm (norms near the
+    /// largest computed afresh), ties within [`TIE`] to the earliest preferred. `None` when the
+    /// tier's norms are all NaN (a column of NaN): the tier is then left out.
+    fn pivot(&mut self, tier: &[usize], t: usize) -> Option<usize> {
+        let k = self.chosen.len();
+        let mut cands = std::mem::take(&mut self.tier_cands);
+        cands.clear();
+        cands.extend(
+            (0..self.state.len()).filter(|&j| self.state[j] == State::Candidate && tier[j] == t),
+        );
+        // Near the largest, downdated norms are not accurate enough for ties: afresh.
+        let big = cands.iter().map(|&j| self.norms[j]).fold(0.0, f64::max);
+        for &j in &cands {
+            if self.norms[j] >= big * (1.0 - NEAR) {
+                self.norms[j] = self.norm_from(j, k);
+                self.exact[j] = self.norms[j];
+            }
+        }
+        let big = cands.iter().map(|&j| self.norms[j]).fold(0.0, f64::max);
+        let p = cands
             .iter()
             .copied()
-            .filter(|&j| norms[j] >= big * (1.0 - TIE))
-            .min_by_key(|&j| pref[j])
-        else {
-            // Only NaN norms (a column of NaN): nothing in this tier can be chosen.
-            for &j in &tier_cands {
-                state[j] = State::Out;
+            .filter(|&j| self.norms[j] >= big * (1.0 - TIE))
+            .min_by_key(|&j| self.pref[j]);
+        if p.is_none() {
+            for &j in &cands {
+                self.state[j] = State::Out;
             }
-            continue;
-        };
-        let (ratio, sine) = (norms[p], norms[p] / gain[p]);
-        if ratio < noise[p] {
-            // Dependent within the noise (or, within the rounding tolerance, dependent).
-            let r = norm_from(&w, p, k);
-            if r / gain[p] > tol {
-                state[p] = State::Noise;
-                noisy.push((p, r));
-            } else {
-                state[p] = State::Out;
-            }
-            continue;
         }
-        if sine <= tol {
-            state[p] = State::Out;
-            continue;
+        self.tier_cands = cands;
+        p
+    }
+
+    /// Leaves out column `p`, below its noise threshold: dependent within the noise, or, within
+    /// the rounding tolerance `tol` on the unit columns, dependent.
+    fn leave_out_within_noise(&mut self, p: usize, tol: f64) {
+        let r = self.norm_from(p, self.chosen.len());
+        if r / self.gain[p] > tol {
+            self.state[p] = State::Noise;
+            self.noisy.push((p, r));
+        } else {
+            self.state[p] = State::Out;
         }
+    }
+
+    /// Chooses column `p`: reflects it onto row `k` (the step) and the other candidates and
+    /// noise columns with it, then downdates the candidates' norms.
+    fn choose(&mut self, p: usize) {
+        let k = self.chosen.len();
+        let rows = self.w.nrows();
         // Householder reflection H = I - tau v v^T (v_k = 1) with H w[k.., p] = (mu, 0, ...).
-        let alpha = w[(k, p)];
+        let alpha = self.w[(k, p)];
         let sigma: f64 = {
-            let c = &w.col(p)[k + 1..];
+            let c = &self.w.col(p)[k + 1..];
             dot(c, c)
         };
-        state[p] = State::Chosen;
-        chosen.push(p);
-        if sigma == 0.0 {
-            // Already zero below row k: nothing to reflect.
-        } else {
+        self.state[p] = State::Chosen;
+        self.chosen.push(p);
+        if sigma != 0.0 {
+            // (Already zero below row k otherwise: nothing to reflect.)
             let (mu, beta, tau) = linalg::householder(alpha, sigma);
-            v[k] = 1.0;
+            self.v[k] = 1.0;
             for i in k + 1..rows {
-                v[i] = w[(i, p)] / beta;
+                self.v[i] = self.w[(i, p)] / beta;
             }
             {
-                let col = w.col_mut(p);
+                let col = self.w.col_mut(p);
                 col[k] = mu;
                 col[k + 1..].fill(0.0);
             }
-            let vk = &v[k..rows];
-            for (j, st) in state.iter().enumerate() {
+            let vk = &self.v[k..rows];
+            for (j, st) in self.state.iter().enumerate() {
                 if !matches!(st, State::Candidate | State::Noise) {
                     continue;
                 }
-                let col = &mut w.col_mut(j)[k..];
+                let col = &mut self.w.col_mut(j)[k..];
                 let s = tau * dot(vk, col);
                 if s != 0.0 {
                     for (x, &y) in col.iter_mut().zip(vk) {
@@ -570,44 +661,57 @@ pub(super) fn select_base(
                 }
             }
         }
-        // Downdate the candidates' norms by their entry in row k; afresh on cancellation.
-        for j in 0..n {
-            if state[j] != State::Candidate || norms[j] == 0.0 {
+        self.downdate(k);
+    }
+
+    /// Downdates the candidates' norms by their entry in row `k`; afresh when cancellation has
+    /// eaten half their digits (LAPACK's `dgeqp3`).
+    fn downdate(&mut self, k: usize) {
+        let tol3z = f64::EPSILON.sqrt();
+        for j in 0..self.state.len() {
+            if self.state[j] != State::Candidate || self.norms[j] == 0.0 {
                 continue;
             }
-            let q = w[(k, j)].abs() / norms[j];
+            let q = self.w[(k, j)].abs() / self.norms[j];
             let left = (1.0 - q * q).max(0.0);
-            let since = norms[j] / exact[j];
+            let since = self.norms[j] / self.exact[j];
             if left * since * since <= tol3z {
-                norms[j] = norm_from(&w, j, k + 1);
-                exact[j] = norms[j];
+                self.norms[j] = self.norm_from(j, k + 1);
+                self.exact[j] = self.norms[j];
             } else {
-                norms[j] *= left.sqrt();
+                self.norms[j] *= left.sqrt();
             }
         }
     }
-    // Each noise-dependent column on the chosen ones: T_SS c = (its first K entries).
-    let kk = chosen.len();
-    let noise = noisy
-        .into_iter()
-        .map(|(j, ratio)| {
-            let mut c: Vec<f64> = w.col(j)[..kk].to_vec();
-            for l in (0..kk).rev() {
-                let mut s = c[l];
-                for (m, &cm) in c.iter().enumerate().skip(l + 1) {
-                    s -= w[(l, chosen[m])] * cm;
+
+    /// The chosen columns, and each noise-dependent column's regression on them:
+    /// `T_SS c = (its first K entries)`.
+    fn selection(self) -> BaseSelection {
+        let w = &self.w;
+        let chosen = self.chosen;
+        let kk = chosen.len();
+        let noise = self
+            .noisy
+            .into_iter()
+            .map(|(j, ratio)| {
+                let mut c: Vec<f64> = w.col(j)[..kk].to_vec();
+                for l in (0..kk).rev() {
+                    let mut s = c[l];
+                    for (m, &cm) in c.iter().enumerate().skip(l + 1) {
+                        s -= w[(l, chosen[m])] * cm;
+                    }
+                    let d = w[(l, chosen[l])];
+                    c[l] = if d != 0.0 { s / d } else { 0.0 };
                 }
-                let d = w[(l, chosen[l])];
-                c[l] = if d != 0.0 { s / d } else { 0.0 };
-            }
-            NoiseColumn {
-                column: j,
-                ratio,
-                coef: c,
-            }
-        })
-        .collect();
-    BaseSelection { chosen, noise }
+                NoiseColumn {
+                    column: j,
+                    ratio,
+                    coef: c,
+                }
+            })
+            .collect();
+        BaseSelection { chosen, noise }
+    }
 }
 
 /// The analysed columns (`params`, by position) in order of preference, and each one's tier:
