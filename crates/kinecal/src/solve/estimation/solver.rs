@@ -1104,23 +1104,7 @@ pub(crate) fn drive(
     let mut x = x0.to_vec();
     let mut ev = Evaluator::new(problem);
     let mut lin = Linearization::new(n);
-    let given = start.filter(|r0| r0.nrows() == n + 1 && r0.ncols() == n + 1);
-    let start_r = match given {
-        Some(r0) => {
-            let f: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
-            lin.set_from_augmented(r0, f);
-            r0.clone()
-        }
-        None => {
-            let f = ev.linearize(&x, &mut lin);
-            if !f.is_finite() {
-                return Err(Error::NonFiniteObjective {
-                    at: "the starting point",
-                });
-            }
-            ev.raug.clone()
-        }
-    };
+    let start_r = linearize_start(&mut ev, &mut lin, &x, start)?;
     let objective_before = lin.f;
     let mut trial_lin = Linearization::new(n);
     let termination;
@@ -1134,25 +1118,7 @@ pub(crate) fn drive(
     let mut decided = false;
     loop {
         let f = lin.f;
-        for (j, c) in norms.iter_mut().enumerate() {
-            *c = linalg::col_norm(&lin.r, j);
-        }
-        // Columns no residual feels (rounding noise, below 1e-12 of the largest) are left out.
-        // Column norms may legitimately span many orders of magnitude away from the start, so
-        // after it a column is left out that way only if it was unfelt at the start too (a
-        // parameter the observations cannot see), or is exactly zero.
-        let max_norm = norms.iter().copied().fold(0.0, f64::max);
-        let faint: Vec<bool> = norms
-            .iter()
-            .map(|&c| !c.is_finite() || c <= 1e-12 * max_norm)
-            .collect();
-        let unfelt = unfelt.get_or_insert_with(|| (0..n).filter(|&j| faint[j]).collect::<Vec<_>>());
-        for j in 0..n {
-            dead[j] = (faint[j] && unfelt.contains(&j)) || norms[j] == 0.0 || !norms[j].is_finite();
-            if dead[j] {
-                norms[j] = 1.0;
-            }
-        }
+        scale_columns(&lin, &mut unfelt, &mut norms, &mut dead);
         let cert = certify(&lin, &x, &norms, &dead, opts.rcond);
         stationarity = cert.stationarity;
         let start_rank = *start_rank.get_or_insert(stationarity.rank);
@@ -1161,42 +1127,10 @@ pub(crate) fn drive(
             ev.use_gram = cert.well_conditioned;
             decided = true;
         }
-        // The residual rounding the parameters alone would make: `|J dx|` for `|dx_j| <= eps
-        // |x_j|`, at most `eps sqrt(n) |D x|`.
-        let xs = (0..n)
-            .filter(|&j| !dead[j])
-            .map(|j| (x[j] * norms[j]).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let floor = 16.0 * f64::EPSILON * (n as f64).sqrt() * xs;
-        if f == 0.0 || f <= floor * floor {
-            termination = Termination::ZeroObjective;
-            break;
-        }
-        if stationarity.predicted_reduction <= opts.ftol {
-            termination = Termination::SmallPredictedReduction;
-            break;
-        }
-        if stationarity.step <= opts.xtol {
-            // The last Gauss-Newton step is below xtol: taken when it does not raise the
-            // objective (one pass of the residuals), it leaves the parameters at rounding
-            // rather than at xtol (at a zero-residual solution, the step is the error).
-            let polished: Vec<f64> = x
-                .iter()
-                .zip(&cert.gauss_newton)
-                .map(|(a, b)| a + b)
-                .collect();
-            let mut r = vec![0.0; problem.rows()];
-            let fp = problem.residuals(&polished, &mut r);
-            if fp.is_finite() && fp <= f {
-                x = polished;
-                lin.f = fp;
-            }
-            termination = Termination::SmallStep;
-            break;
-        }
-        if iterations >= opts.max_iterations {
-            termination = Termination::MaxIterations;
+        if let Some(t) = stop_at(
+            problem, opts, &cert, &mut x, &mut lin.f, &norms, &dead, iterations,
+        ) {
+            termination = t;
             break;
         }
         iterations += 1;
@@ -1266,6 +1200,114 @@ pub(crate) fn drive(
         unfelt: unfelt.unwrap_or_default(),
         start_r,
     })
+}
+
+/// The linearisation at the start into `lin`: from `start` (an augmented `R` of the right
+/// size: the last column holds `Q^T r`, its squares summing to the objective), else from the
+/// residuals at `x`; the augmented `R` kept as the solution's `start_r`.
+fn linearize_start(
+    ev: &mut Evaluator<'_>,
+    lin: &mut Linearization,
+    x: &[f64],
+    start: Option<&Matrix>,
+) -> Result<Matrix> {
+    let n = x.len();
+    match start.filter(|r0| r0.nrows() == n + 1 && r0.ncols() == n + 1) {
+        Some(r0) => {
+            let f: f64 = (0..=n).map(|i| r0[(i, n)] * r0[(i, n)]).sum();
+            lin.set_from_augmented(r0, f);
+            Ok(r0.clone())
+        }
+        None => {
+            let f = ev.linearize(x, lin);
+            if !f.is_finite() {
+                return Err(Error::NonFiniteObjective {
+                    at: "the starting point",
+                });
+            }
+            Ok(ev.raug.clone())
+        }
+    }
+}
+
+/// The columns' scales at this linearisation, `norms[j] = |R e_j|`, and which columns are
+/// `dead` (left out of the step; their scale then 1). Columns no residual feels (rounding noise,
+/// below 1e-12 of the largest) are left out. Column norms may legitimately span many orders of
+/// magnitude away from the start, so after it a column is left out that way only if it was
+/// unfelt at the start too (`unfelt`, set at the first call: a parameter the observations
+/// cannot see), or is exactly zero.
+fn scale_columns(
+    lin: &Linearization,
+    unfelt: &mut Option<Vec<usize>>,
+    norms: &mut [f64],
+    dead: &mut [bool],
+) {
+    let n = norms.len();
+    for (j, c) in norms.iter_mut().enumerate() {
+        *c = linalg::col_norm(&lin.r, j);
+    }
+    let max_norm = norms.iter().copied().fold(0.0, f64::max);
+    let faint: Vec<bool> = norms
+        .iter()
+        .map(|&c| !c.is_finite() || c <= 1e-12 * max_norm)
+        .collect();
+    let unfelt = unfelt.get_or_insert_with(|| (0..n).filter(|&j| faint[j]).collect::<Vec<_>>());
+    for j in 0..n {
+        dead[j] = (faint[j] && unfelt.contains(&j)) || norms[j] == 0.0 || !norms[j].is_finite();
+        if dead[j] {
+            norms[j] = 1.0;
+        }
+    }
+}
+
+/// How the iteration ends at `x` (objective `*f`), if it does: a zero objective (to the
+/// rounding the parameters alone make), a predicted reduction below `ftol`, a Gauss-Newton step
+/// below `xtol` (taken first when it does not raise the objective: `x` and `*f` updated), or
+/// the iteration cap.
+#[allow(clippy::too_many_arguments)]
+fn stop_at(
+    problem: &dyn LeastSquares,
+    opts: &SolverOptions,
+    cert: &Certificate,
+    x: &mut Vec<f64>,
+    f: &mut f64,
+    norms: &[f64],
+    dead: &[bool],
+    iterations: usize,
+) -> Option<Termination> {
+    let n = x.len();
+    // The residual rounding the parameters alone would make: `|J dx|` for `|dx_j| <= eps
+    // |x_j|`, at most `eps sqrt(n) |D x|`.
+    let xs = (0..n)
+        .filter(|&j| !dead[j])
+        .map(|j| (x[j] * norms[j]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let floor = 16.0 * f64::EPSILON * (n as f64).sqrt() * xs;
+    if *f == 0.0 || *f <= floor * floor {
+        return Some(Termination::ZeroObjective);
+    }
+    if cert.stationarity.predicted_reduction <= opts.ftol {
+        return Some(Termination::SmallPredictedReduction);
+    }
+    if cert.stationarity.step <= opts.xtol {
+        // The last Gauss-Newton step is below xtol: taken when it does not raise the
+        // objective (one pass of the residuals), it leaves the parameters at rounding
+        // rather than at xtol (at a zero-residual solution, the step is the error).
+        let polished: Vec<f64> = x
+            .iter()
+            .zip(&cert.gauss_newton)
+            .map(|(a, b)| a + b)
+            .collect();
+        let mut r = vec![0.0; problem.rows()];
+        let fp = problem.residuals(&polished, &mut r);
+        if fp.is_finite() && fp <= *f {
+            *x = polished;
+            *f = fp;
+        }
+        return Some(Termination::SmallStep);
+    }
+    (iterations >= opts.max_iterations).then_some(Termination::MaxIterations)
 }
 
 // In reports a termination is its sentence ([`Termination::describe`]), read back exactly.
