@@ -38,9 +38,9 @@ use crate::error::{Error, Location, Result};
 use crate::files::table;
 use crate::model::kinematics::{euler_zyx, Chain, Target};
 use crate::model::robot::Robot;
-use crate::observe::{session_frame, Dataset, Observation};
+use crate::observe::{session_frame, Dataset, Observation, Posture, View};
 use crate::predict::Predictor;
-use crate::units::{AngleUnit, Quantity};
+use crate::units::{AngleUnit, Quantity, Units};
 
 /// The role of one posture in a series of ISO 9283 tests.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -226,40 +226,60 @@ pub fn log_from_measurements(
     roles: &Roles,
 ) -> Result<(Log, Vec<String>)> {
     let file = roles.file.as_str();
-    let chain = Chain::new(robot);
-    let u = robot.units;
-    let l = |v: f64| u.from_si(Quantity::Length, v);
-    let a = |v: f64| u.from_si(Quantity::Angle, v);
-    // The measured position (and rotation) of each posture, in the global frame.
-    struct Row {
-        role: Role,
-        posture: usize,
-        target: Target,
-        position: Vector3<f64>,
-        rotation: Option<Matrix3<f64>>,
-        line: usize,
+    let (measured, left_out) = measured_in_global_frame(robot, data, roles)?;
+    let commanded = commanded_poses(robot, data, &measured)?;
+    let rows = log_rows(robot.units, data, &measured, &commanded);
+    if rows.is_empty() {
+        return Err(Error::input(
+            Location::file(file),
+            "no measured posture of the data has a role here (are the posture labels the data's?)",
+        ));
     }
-    let mut rows: Vec<Row> = Vec::new();
+    let log = Log {
+        file: file.to_string(),
+        length_unit: Some(robot.units.length),
+        angle_unit: Some(robot.units.angle),
+        simulated: false,
+        rows,
+    };
+    Ok((log, left_out))
+}
+
+/// One measured posture with a role, its measurement in the robot's global frame.
+struct Measured {
+    /// Its test, pose and cycle.
+    role: Role,
+    /// The posture (an index into the data's postures).
+    posture: usize,
+    /// The target measured.
+    target: Target,
+    /// The measured position (m, global frame).
+    position: Vector3<f64>,
+    /// The measured rotation (global frame), when a pose was measured.
+    rotation: Option<Matrix3<f64>>,
+    /// The measurement's line in its file.
+    line: usize,
+}
+
+/// The measured postures of `data` that have a role, in the data's order, their measurements
+/// taken into `robot`'s global frame; and the labels of those without a role (left out, one per
+/// measurement). An error for an observation other than a position or a pose, a posture
+/// measured twice, or a session `robot` has no measurement frame for.
+fn measured_in_global_frame(
+    robot: &Robot,
+    data: &Dataset,
+    roles: &Roles,
+) -> Result<(Vec<Measured>, Vec<String>)> {
+    let mut measured = Vec::new();
     let mut seen = vec![false; data.postures.len()];
     let mut left_out = Vec::new();
     for o in &data.observations {
-        let (view, position, rotation, line) = match o {
-            Observation::Position(p) => (p.view[0], p.position, None, p.line),
-            Observation::Pose(p) => (
-                p.view[0],
-                p.position,
-                Some(crate::model::kinematics::rot_zyx(
-                    p.euler.x, p.euler.y, p.euler.z,
-                )),
-                p.line,
-            ),
-            _ => {
-                return Err(Error::Problem(format!(
-                    "an ISO 9283 log takes positions or poses; the data has {} observations",
-                    o.kind()
-                )))
-            }
-        };
+        let Measurement {
+            view,
+            position,
+            rotation,
+            line,
+        } = measurement(o)?;
         let posture = &data.postures[view.posture];
         let Some(role) = roles.by_posture.get(&posture.label) else {
             left_out.push(posture.label.clone());
@@ -272,28 +292,8 @@ pub fn log_from_measurements(
                 posture.label
             )));
         }
-        // Into the global frame: the session frame is the global frame's pose in the
-        // instrument's frame.
-        let (position, rotation) = match session_frame(robot, posture) {
-            Some(f) => {
-                let rt = f.rotation.transpose();
-                (rt * (position - f.translation), rotation.map(|r| rt * r))
-            }
-            None => {
-                if let Some(s) = posture
-                    .session
-                    .as_deref()
-                    .filter(|_| !robot.sessions.is_empty())
-                {
-                    return Err(Error::Problem(format!(
-                        "session `{s}` has no measurement frame in the robot: calibrate with this \
-                         data, or let `kinecal iso9283 log` re-estimate it"
-                    )));
-                }
-                (position, rotation)
-            }
-        };
-        rows.push(Row {
+        let (position, rotation) = into_global_frame(robot, posture, position, rotation)?;
+        measured.push(Measured {
             role: role.clone(),
             posture: view.posture,
             target: view.target,
@@ -302,38 +302,109 @@ pub fn log_from_measurements(
             line,
         });
     }
-    // Commanded: the model at the mean readings of each test's pose.
-    let mut groups: BTreeMap<(String, usize), Vec<usize>> = BTreeMap::new();
-    for (k, r) in rows.iter().enumerate() {
-        groups
-            .entry((r.role.test.clone(), r.role.pose))
-            .or_default()
-            .push(k);
+    Ok((measured, left_out))
+}
+
+/// What one observation measured, in the instrument's frame.
+struct Measurement {
+    /// The posture and target.
+    view: View,
+    /// The measured position (m).
+    position: Vector3<f64>,
+    /// The measured rotation, for a pose.
+    rotation: Option<Matrix3<f64>>,
+    /// The observation's line in its file.
+    line: usize,
+}
+
+/// What an observation measured (the rotation of a pose from its ZYX Euler angles `alpha,
+/// beta, gamma`); an error for an observation that is neither a position nor a pose.
+fn measurement(o: &Observation) -> Result<Measurement> {
+    let (view, position, rotation, line) = match o {
+        Observation::Position(p) => (p.view[0], p.position, None, p.line),
+        Observation::Pose(p) => (
+            p.view[0],
+            p.position,
+            Some(crate::model::kinematics::rot_zyx(
+                p.euler.x, p.euler.y, p.euler.z,
+            )),
+            p.line,
+        ),
+        _ => {
+            return Err(Error::Problem(format!(
+                "an ISO 9283 log takes positions or poses; the data has {} observations",
+                o.kind()
+            )))
+        }
+    };
+    Ok(Measurement {
+        view,
+        position,
+        rotation,
+        line,
+    })
+}
+
+/// A measured position (m) and rotation taken from the instrument's frame into the global frame
+/// through `posture`'s session frame `(R, t)`, the global frame's pose in the instrument's
+/// frame: `R^T (p - t)` and `R^T R_measured`. Unchanged when the posture has no session, or
+/// `robot` no session frames at all; an error names a session `robot` has no frame for.
+fn into_global_frame(
+    robot: &Robot,
+    posture: &Posture,
+    position: Vector3<f64>,
+    rotation: Option<Matrix3<f64>>,
+) -> Result<(Vector3<f64>, Option<Matrix3<f64>>)> {
+    match session_frame(robot, posture) {
+        Some(f) => {
+            let rt = f.rotation.transpose();
+            Ok((rt * (position - f.translation), rotation.map(|r| rt * r)))
+        }
+        None => {
+            if let Some(s) = posture
+                .session
+                .as_deref()
+                .filter(|_| !robot.sessions.is_empty())
+            {
+                return Err(Error::Problem(format!(
+                    "session `{s}` has no measurement frame in the robot: calibrate with this \
+                     data, or let `kinecal iso9283 log` re-estimate it"
+                )));
+            }
+            Ok((position, rotation))
+        }
     }
-    // Per test and pose: the commanded position, and attitude (ISO's a, b, c) when measured.
-    type Commanded = (Vector3<f64>, Option<Vector3<f64>>);
-    let mut commanded: BTreeMap<(String, usize), Commanded> = BTreeMap::new();
-    for (key, members) in &groups {
-        let first = &rows[members[0]];
-        if let Some(other) = members.iter().find(|&&k| rows[k].target != first.target) {
+}
+
+/// A commanded pose: the position (m, global frame), and the attitude as ISO's `a, b, c` (rad;
+/// kinecal's ZYX `gamma, beta, alpha`) when the pose was measured as a pose.
+type Commanded = (Vector3<f64>, Option<Vector3<f64>>);
+
+/// The commanded pose of each test's pose (by test label and pose number): where `robot`'s
+/// model puts the measured target at the mean readings of the pose's cycles, with an attitude
+/// when its first measurement is a pose. An error when a pose was measured at two targets.
+fn commanded_poses(
+    robot: &Robot,
+    data: &Dataset,
+    measured: &[Measured],
+) -> Result<BTreeMap<(String, usize), Commanded>> {
+    let chain = Chain::new(robot);
+    let mut commanded = BTreeMap::new();
+    for (key, members) in &by_test_and_pose(measured) {
+        let first = &measured[members[0]];
+        if let Some(other) = members
+            .iter()
+            .find(|&&k| measured[k].target != first.target)
+        {
             return Err(Error::Problem(format!(
                 "test `{}`: {} is measured at two targets (lines {} and {})",
                 key.0,
                 pose_name(key.1),
                 first.line,
-                rows[*other].line
+                measured[*other].line
             )));
         }
-        let n = robot.dof();
-        let mut mean = vec![0.0; n];
-        for &k in members {
-            for (m, v) in mean
-                .iter_mut()
-                .zip(&data.postures[rows[k].posture].readings)
-            {
-                *m += v / members.len() as f64;
-            }
-        }
+        let mean = mean_readings(robot.dof(), data, measured, members);
         let f = chain.frame_at(&mean, first.target);
         let e = euler_zyx(&f.rotation);
         commanded.insert(
@@ -344,24 +415,56 @@ pub fn log_from_measurements(
             ),
         );
     }
-    let turn = match u.angle {
-        AngleUnit::Deg => 360.0,
-        _ => std::f64::consts::TAU,
-    };
-    let mut out = Vec::with_capacity(rows.len());
-    for r in &rows {
+    Ok(commanded)
+}
+
+/// The measurements of each test's pose (indices into `measured`, in order), by test label and
+/// pose number.
+fn by_test_and_pose(measured: &[Measured]) -> BTreeMap<(String, usize), Vec<usize>> {
+    let mut groups: BTreeMap<(String, usize), Vec<usize>> = BTreeMap::new();
+    for (k, r) in measured.iter().enumerate() {
+        groups
+            .entry((r.role.test.clone(), r.role.pose))
+            .or_default()
+            .push(k);
+    }
+    groups
+}
+
+/// The mean of the joint readings (transducer units, `dof` of them) of the postures of the
+/// measurements `members` (indices into `measured`).
+fn mean_readings(dof: usize, data: &Dataset, measured: &[Measured], members: &[usize]) -> Vec<f64> {
+    let mut mean = vec![0.0; dof];
+    for &k in members {
+        for (m, v) in mean
+            .iter_mut()
+            .zip(&data.postures[measured[k].posture].readings)
+        {
+            *m += v / members.len() as f64;
+        }
+    }
+    mean
+}
+
+/// The log's rows, one per measurement in order, in `units` (the robot file's): the commanded
+/// pose of its test's pose, the attained pose measured (its attitude only with a commanded
+/// one), and the posture's readings.
+fn log_rows(
+    units: Units,
+    data: &Dataset,
+    measured: &[Measured],
+    commanded: &BTreeMap<(String, usize), Commanded>,
+) -> Vec<LogRow> {
+    let l = |v: f64| units.from_si(Quantity::Length, v);
+    let a = |v: f64| units.from_si(Quantity::Angle, v);
+    let mut out = Vec::with_capacity(measured.len());
+    for r in measured {
         let (c, c_abc) = commanded[&(r.role.test.clone(), r.role.pose)];
         let commanded_attitude = c_abc.map(|v| [a(v.x), a(v.y), a(v.z)]);
-        let attained_attitude = r.rotation.zip(commanded_attitude).map(|(rot, ca)| {
-            // ISO's a, b, c are kinecal's gamma, beta, alpha; each angle within half a turn of
-            // the commanded one.
-            let e = euler_zyx(&rot);
-            let abc = [a(e.z), a(e.y), a(e.x)];
-            std::array::from_fn(|k| {
-                let d = abc[k] - ca[k];
-                ca[k] + d - turn * (d / turn).round()
-            })
-        });
+        let attained_attitude = r
+            .rotation
+            .zip(commanded_attitude)
+            .map(|(rot, ca)| attained_abc(&rot, ca, units));
         let readings = data.postures[r.posture].readings.clone();
         out.push(LogRow {
             line: r.line,
@@ -376,20 +479,29 @@ pub fn log_from_measurements(
             readings: Some(readings),
         });
     }
-    if out.is_empty() {
-        return Err(Error::input(
-            Location::file(file),
-            "no measured posture of the data has a role here (are the posture labels the data's?)",
-        ));
+    out
+}
+
+/// A measured rotation (global frame) as ISO's `a, b, c` (kinecal's ZYX `gamma, beta, alpha`)
+/// in `units`' angle unit, each angle within half a turn of the commanded one `commanded` (same
+/// unit).
+fn attained_abc(rotation: &Matrix3<f64>, commanded: [f64; 3], units: Units) -> [f64; 3] {
+    let a = |v: f64| units.from_si(Quantity::Angle, v);
+    let turn = full_turn(units.angle);
+    let e = euler_zyx(rotation);
+    let abc = [a(e.z), a(e.y), a(e.x)];
+    std::array::from_fn(|k| {
+        let d = abc[k] - commanded[k];
+        commanded[k] + d - turn * (d / turn).round()
+    })
+}
+
+/// A whole turn in `unit`: 360 deg, or `2 pi` rad.
+fn full_turn(unit: AngleUnit) -> f64 {
+    match unit {
+        AngleUnit::Deg => 360.0,
+        _ => std::f64::consts::TAU,
     }
-    let log = Log {
-        file: file.to_string(),
-        length_unit: Some(u.length),
-        angle_unit: Some(u.angle),
-        simulated: false,
-        rows: out,
-    };
-    Ok((log, left_out))
 }
 
 /// What [`log_placed`] made: the log, the measured postures left out (no role), and the sessions

@@ -394,100 +394,15 @@ fn search(
     reacher: &mut Reacher<'_>,
     resolution: usize,
 ) -> Result<(Cube, Vec<TestPose>, SearchInfo)> {
-    // The box of positions the end effector reaches within the joint ranges, at any attitude.
-    let chain = Chain::new(robot);
-    let samples: Vec<Vector3<f64>> = crate::apps::simulate::sample_postures(robot, 2000, 9283)
-        .iter()
-        .map(|p| chain.frame_at(&p.readings, Target::EndEffector).translation)
-        .collect();
-    let mut lo = Vector3::repeat(f64::INFINITY);
-    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-    for s in &samples {
-        lo = lo.inf(s);
-        hi = hi.sup(s);
-    }
-    let extent = (hi - lo).max();
-    if !(extent.is_finite() && extent > 0.0) {
-        return Err(Error::Problem(
-            "the end effector does not move within the joint ranges: no cube to search".into(),
-        ));
-    }
-    let h = extent / (resolution - 1) as f64;
-    let n: [usize; 3] = std::array::from_fn(|a| ((hi[a] - lo[a]) / h).round() as usize + 1);
-    let at = |i: usize, j: usize, k: usize| -> [f64; 3] {
-        [
-            lo.x + i as f64 * h,
-            lo.y + j as f64 * h,
-            lo.z + k as f64 * h,
-        ]
-    };
-    let idx = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
-    let mut reached = vec![false; n[0] * n[1] * n[2]];
-    let (mut tested, mut count) = (0, 0);
-    // Serpentine order: each point next to the one before (the search starts from the previous
-    // solution).
-    for k in 0..n[2] {
-        for jj in 0..n[1] {
-            let j = if k % 2 == 0 { jj } else { n[1] - 1 - jj };
-            for ii in 0..n[0] {
-                let i = if (k * n[1] + jj) % 2 == 0 {
-                    ii
-                } else {
-                    n[0] - 1 - ii
-                };
-                let p = Vector3::from(at(i, j, k));
-                // Far from every sampled position: out of reach, not worth a search.
-                if !samples.iter().any(|s| (s - p).norm_squared() <= h * h) {
-                    continue;
-                }
-                tested += 1;
-                if reacher.reach(p.into()).is_some() {
-                    reached[idx(i, j, k)] = true;
-                    count += 1;
-                }
-            }
-        }
-    }
-    let info = SearchInfo {
-        step: h,
-        tested,
-        reached: count,
-    };
-    // The largest cubes of reached grid points: size[p] = points along the edge of the largest
-    // such cube whose high corner is p.
-    let mut size = vec![0usize; reached.len()];
-    for k in 0..n[2] {
-        for j in 0..n[1] {
-            for i in 0..n[0] {
-                if !reached[idx(i, j, k)] {
-                    continue;
-                }
-                let m = if i == 0 || j == 0 || k == 0 {
-                    0
-                } else {
-                    [
-                        idx(i - 1, j, k),
-                        idx(i, j - 1, k),
-                        idx(i, j, k - 1),
-                        idx(i - 1, j - 1, k),
-                        idx(i - 1, j, k - 1),
-                        idx(i, j - 1, k - 1),
-                        idx(i - 1, j - 1, k - 1),
-                    ]
-                    .iter()
-                    .map(|&q| size[q])
-                    .min()
-                    .unwrap_or(0)
-                };
-                size[idx(i, j, k)] = m + 1;
-            }
-        }
-    }
+    let samples = sample_workspace(robot);
+    let grid = SearchGrid::over(&samples, resolution)?;
+    let (reached, info) = reach_grid(reacher, &grid, &samples);
+    let size = reached_cube_sizes(&grid, &reached);
     let largest = size.iter().copied().max().unwrap_or(0);
     if largest == 0 {
         return Err(Error::Problem(format!(
             "no grid point of the working space (step {} {}) is reached{}: no cube found",
-            number::format_number(robot.units.from_si(Quantity::Length, h)),
+            number::format_number(robot.units.from_si(Quantity::Length, grid.step)),
             robot.units.length,
             if reacher.rotation.is_some() {
                 " at the attitude"
@@ -496,25 +411,192 @@ fn search(
             }
         )));
     }
-    // Candidates: the largest cubes, then those one grid step smaller; a few of each.
+    let best = best_grid_cube(reacher, &grid, &size, largest)
+        .map(|best| recentre(reacher, best, grid.step));
+    match best {
+        Some((cube, poses)) => Ok((cube, poses, info)),
+        None => Err(Error::Problem(
+            "no cube whose test poses and corners are all reached was found".into(),
+        )),
+    }
+}
+
+/// Positions the end effector reaches within the joint ranges, at any attitude (m, global
+/// frame): its forward kinematics at 2000 postures sampled across the joint ranges (seed 9283:
+/// the same sample on every run).
+fn sample_workspace(robot: &Robot) -> Vec<Vector3<f64>> {
+    let chain = Chain::new(robot);
+    crate::apps::simulate::sample_postures(robot, 2000, 9283)
+        .iter()
+        .map(|p| chain.frame_at(&p.readings, Target::EndEffector).translation)
+        .collect()
+}
+
+/// The search's grid of positions (m, global frame): `n[a]` points along axis `a`, `step`
+/// apart (the same along every axis), from the low corner `lo` of the box of sampled positions.
+struct SearchGrid {
+    /// The low corner of the box (m).
+    lo: Vector3<f64>,
+    /// The distance between neighbouring points (m).
+    step: f64,
+    /// The number of points along `x`, `y`, `z`.
+    n: [usize; 3],
+}
+
+impl SearchGrid {
+    /// The grid over the box bounding `samples` (m), `resolution` points (at least 2) along its
+    /// longest side; an error when the box has no extent (the end effector does not move).
+    fn over(samples: &[Vector3<f64>], resolution: usize) -> Result<Self> {
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for s in samples {
+            lo = lo.inf(s);
+            hi = hi.sup(s);
+        }
+        let extent = (hi - lo).max();
+        if !(extent.is_finite() && extent > 0.0) {
+            return Err(Error::Problem(
+                "the end effector does not move within the joint ranges: no cube to search".into(),
+            ));
+        }
+        let step = extent / (resolution - 1) as f64;
+        let n = std::array::from_fn(|a| ((hi[a] - lo[a]) / step).round() as usize + 1);
+        Ok(SearchGrid { lo, step, n })
+    }
+
+    /// The position of grid point `(i, j, k)` (m, global frame).
+    fn at(&self, i: usize, j: usize, k: usize) -> [f64; 3] {
+        [
+            self.lo.x + i as f64 * self.step,
+            self.lo.y + j as f64 * self.step,
+            self.lo.z + k as f64 * self.step,
+        ]
+    }
+
+    /// The index of grid point `(i, j, k)` in a per-point array (`i` changing fastest).
+    fn index(&self, i: usize, j: usize, k: usize) -> usize {
+        (k * self.n[1] + j) * self.n[0] + i
+    }
+
+    /// The number of grid points.
+    fn point_count(&self) -> usize {
+        self.n[0] * self.n[1] * self.n[2]
+    }
+
+    /// Every grid point `(i, j, k)` in index order (`i` changing fastest, then `j`, then `k`).
+    fn points(&self) -> impl Iterator<Item = (usize, usize, usize)> {
+        let n = self.n;
+        (0..n[2]).flat_map(move |k| (0..n[1]).flat_map(move |j| (0..n[0]).map(move |i| (i, j, k))))
+    }
+
+    /// Every grid point `(i, j, k)` in serpentine order: layer by layer in `z`, each row of a
+    /// layer (along `x`) the other way from the one before, the rows of a layer the other way
+    /// from the layer before, so that each point is next to the one before.
+    fn serpentine(&self) -> impl Iterator<Item = (usize, usize, usize)> {
+        let n = self.n;
+        (0..n[2]).flat_map(move |k| {
+            (0..n[1]).flat_map(move |jj| {
+                let j = if k % 2 == 0 { jj } else { n[1] - 1 - jj };
+                (0..n[0]).map(move |ii| {
+                    let i = if (k * n[1] + jj) % 2 == 0 {
+                        ii
+                    } else {
+                        n[0] - 1 - ii
+                    };
+                    (i, j, k)
+                })
+            })
+        })
+    }
+}
+
+/// Which grid points the end effector reaches (per [`SearchGrid::index`]), and how many were
+/// tested and reached. The points are tested with the inverse kinematics in serpentine order
+/// (each search starts from the previous solution); a point farther than a grid step from every
+/// sampled position is out of reach, not worth a search, and not tested.
+fn reach_grid(
+    reacher: &mut Reacher<'_>,
+    grid: &SearchGrid,
+    samples: &[Vector3<f64>],
+) -> (Vec<bool>, SearchInfo) {
+    let h = grid.step;
+    let mut reached = vec![false; grid.point_count()];
+    let (mut tested, mut count) = (0, 0);
+    for (i, j, k) in grid.serpentine() {
+        let p = Vector3::from(grid.at(i, j, k));
+        if !samples.iter().any(|s| (s - p).norm_squared() <= h * h) {
+            continue;
+        }
+        tested += 1;
+        if reacher.reach(p.into()).is_some() {
+            reached[grid.index(i, j, k)] = true;
+            count += 1;
+        }
+    }
+    let info = SearchInfo {
+        step: h,
+        tested,
+        reached: count,
+    };
+    (reached, info)
+}
+
+/// Per grid point (per [`SearchGrid::index`]): the number of points along the edge of the
+/// largest cube of reached grid points whose high corner (`+x, +y, +z`) it is; 0 where the point
+/// is not reached.
+fn reached_cube_sizes(grid: &SearchGrid, reached: &[bool]) -> Vec<usize> {
+    let idx = |i: usize, j: usize, k: usize| grid.index(i, j, k);
+    let mut size = vec![0usize; reached.len()];
+    for (i, j, k) in grid.points() {
+        if !reached[idx(i, j, k)] {
+            continue;
+        }
+        let m = if i == 0 || j == 0 || k == 0 {
+            0
+        } else {
+            [
+                idx(i - 1, j, k),
+                idx(i, j - 1, k),
+                idx(i, j, k - 1),
+                idx(i - 1, j - 1, k),
+                idx(i - 1, j, k - 1),
+                idx(i, j - 1, k - 1),
+                idx(i - 1, j - 1, k - 1),
+            ]
+            .iter()
+            .map(|&q| size[q])
+            .min()
+            .unwrap_or(0)
+        };
+        size[idx(i, j, k)] = m + 1;
+    }
+    size
+}
+
+/// The largest cube [`fit`] finds about the grid's candidates: the first 4 (in index order) of
+/// the largest cubes of reached grid points (`largest` points along the edge, per
+/// `size`), then, unless one of those verified holds its size, the first 4 one grid step
+/// smaller. `None` when no candidate has its test poses and corners all reached.
+fn best_grid_cube(
+    reacher: &mut Reacher<'_>,
+    grid: &SearchGrid,
+    size: &[usize],
+    largest: usize,
+) -> Option<(Cube, Vec<TestPose>)> {
+    let h = grid.step;
     let mut best: Option<(Cube, Vec<TestPose>)> = None;
     for m in (largest.saturating_sub(1).max(1)..=largest).rev() {
-        let mut tried = 0;
-        for k in 0..n[2] {
-            for j in 0..n[1] {
-                for i in 0..n[0] {
-                    if size[idx(i, j, k)] != m || tried >= 4 {
-                        continue;
-                    }
-                    tried += 1;
-                    let side = (m - 1) as f64 * h;
-                    let top = at(i, j, k);
-                    let centre = std::array::from_fn(|a| top[a] - 0.5 * side);
-                    if let Some(found) = fit(reacher, centre, side, h, true) {
-                        if best.as_ref().is_none_or(|b| found.0.side > b.0.side) {
-                            best = Some(found);
-                        }
-                    }
+        let candidates = grid
+            .points()
+            .filter(|&(i, j, k)| size[grid.index(i, j, k)] == m)
+            .take(4);
+        for (i, j, k) in candidates {
+            let side = (m - 1) as f64 * h;
+            let top = grid.at(i, j, k);
+            let centre = std::array::from_fn(|a| top[a] - 0.5 * side);
+            if let Some(found) = fit(reacher, centre, side, h, true) {
+                if best.as_ref().is_none_or(|b| found.0.side > b.0.side) {
+                    best = Some(found);
                 }
             }
         }
@@ -525,32 +607,34 @@ fn search(
             }
         }
     }
-    // The grid puts the centre within half a step of the best one: move it half a step, then a
-    // quarter step, along each axis either way, keeping what grows the cube.
-    if let Some((cube, _)) = &best {
-        let mut centre = cube.centre;
-        for shift in [0.5 * h, 0.25 * h] {
-            for axis in 0..3 {
-                for sign in [-1.0, 1.0] {
-                    let mut c = centre;
-                    c[axis] += sign * shift;
-                    let side = best.as_ref().map_or(0.0, |b| b.0.side);
-                    if let Some(found) = fit(reacher, c, side, 0.25 * h, false) {
-                        if found.0.side > side * (1.0 + 1e-9) {
-                            centre = c;
-                            best = Some(found);
-                        }
+    best
+}
+
+/// `best` with its centre moved (m, global frame) by half the grid step `h`, then a quarter
+/// step, along each axis either way, keeping each move that lets the cube grow (by more than a
+/// part in 10^9): the grid puts the centre within half a step of the best one.
+fn recentre(
+    reacher: &mut Reacher<'_>,
+    mut best: (Cube, Vec<TestPose>),
+    h: f64,
+) -> (Cube, Vec<TestPose>) {
+    let mut centre = best.0.centre;
+    for shift in [0.5 * h, 0.25 * h] {
+        for axis in 0..3 {
+            for sign in [-1.0, 1.0] {
+                let mut c = centre;
+                c[axis] += sign * shift;
+                let side = best.0.side;
+                if let Some(found) = fit(reacher, c, side, 0.25 * h, false) {
+                    if found.0.side > side * (1.0 + 1e-9) {
+                        centre = c;
+                        best = found;
                     }
                 }
             }
         }
     }
-    match best {
-        Some((cube, poses)) => Ok((cube, poses, info)),
-        None => Err(Error::Problem(
-            "no cube whose test poses and corners are all reached was found".into(),
-        )),
-    }
+    best
 }
 
 /// The largest side, about `centre`, found from `side` by steps of `h` and bisection, whose test
@@ -894,147 +978,18 @@ const LOG_EXPECTED: &str =
 /// joint readings `v1..vn`. Units as the file states them in comment lines before its header,
 /// or as `given` (both: they must agree). Every error names the file, line and field.
 pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
-    let stated = crate::import::dh::stated(text, file)?;
-    let settle = |stated: Option<(String, usize)>,
-                  given: Option<String>,
-                  setting: Setting,
-                  key: &str|
-     -> Result<()> {
-        match (stated, given) {
-            (Some((s, line)), Some(g)) if s != g => Err(Error::InvalidOption {
-                setting,
-                message: format!("{file}:{line} states `{key} = {s}`, not {g}"),
-            }),
-            _ => Ok(()),
-        }
-    };
-    settle(
-        stated.length.map(|(u, l)| (u.to_string(), l)),
-        given.length.map(|u| u.to_string()),
-        Setting::LengthUnit,
-        "length_unit",
-    )?;
-    settle(
-        stated.angle.map(|(u, l)| (u.to_string(), l)),
-        given.angle.map(|u| u.to_string()),
-        Setting::AngleUnit,
-        "angle_unit",
-    )?;
-    let length_unit = stated.length.map(|s| s.0).or(given.length);
-    let angle_unit = stated.angle.map(|s| s.0).or(given.angle);
+    let (length_unit, angle_unit) = log_units(text, file, given)?;
     let t = table::read(text, file)?;
-    let readings_count = (1..)
-        .take_while(|k| t.column(&format!("v{k}")).is_some())
-        .count();
-    let mut known: Vec<String> = LOG_COLUMNS.map(String::from).to_vec();
-    known.extend((1..=readings_count).map(|k| format!("v{k}")));
-    t.refuse_unknown(&known, LOG_EXPECTED)?;
-    let readings_c: Vec<usize> = (1..=readings_count)
-        .map(|k| t.column(&format!("v{k}")).unwrap_or(0))
-        .collect();
-    let test_c = t.column("test");
-    let col = |name: &str| t.require(name, LOG_EXPECTED);
-    let pose_c = col("pose")?;
-    let cycle_c = col("cycle")?;
-    let commanded_c = [col("xc")?, col("yc")?, col("zc")?];
-    let attained_c = [col("x")?, col("y")?, col("z")?];
-    let angles = ["ac", "bc", "cc", "a", "b", "c"];
-    let present: Vec<Option<usize>> = angles.iter().map(|n| t.column(n)).collect();
-    let attitude = if present.iter().all(Option::is_some) {
-        Some(present.iter().map(|c| c.unwrap_or(0)).collect::<Vec<_>>())
-    } else if let Some(k) = present.iter().position(Option::is_some) {
-        let missing = angles
-            .iter()
-            .zip(&present)
-            .filter(|(_, c)| c.is_none())
-            .map(|(n, _)| *n)
-            .collect::<Vec<_>>();
-        return Err(Error::input(
-            t.header_at().with_field(angles[k]),
-            format!(
-                "attitudes need all of ac,bc,cc,a,b,c (commanded and attained); missing {}",
-                missing.join(",")
-            ),
-        ));
-    } else {
-        None
-    };
-    if attitude.is_some() && angle_unit.is_none() {
+    let columns = LogColumns::locate(&t)?;
+    if columns.attitude.is_some() && angle_unit.is_none() {
         return Err(Error::input(
             Location::file(file),
             "the log has attitudes but states no angle unit: give it (--angle-unit), or write \
              `# angle_unit = deg` (or rad) before the header",
         ));
     }
-    let direction_c = t.column("direction");
     t.check_rows()?;
-    let mut rows = Vec::new();
-    let mut seen: BTreeMap<(Option<String>, usize, u64, Option<String>), usize> = BTreeMap::new();
-    for (line, f) in t.rows() {
-        let pose = pose_index(&t, line, &f[pose_c], true)?;
-        let test = test_c.map(|c| f[c].to_string()).filter(|d| !d.is_empty());
-        let cs = &f[cycle_c];
-        let cycle: u64 = cs.parse().map_err(|_| {
-            Error::input(
-                t.at(line, "cycle"),
-                format!("expected a cycle number (a whole number), found `{cs}`"),
-            )
-        })?;
-        let three = |cols: &[usize]| -> Result<[f64; 3]> {
-            let mut v = [0.0; 3];
-            for (k, &c) in cols.iter().enumerate() {
-                v[k] = t.number(line, &t.header[c], &f[c])?;
-            }
-            Ok(v)
-        };
-        let commanded = three(&commanded_c)?;
-        let attained = three(&attained_c)?;
-        let (commanded_attitude, attained_attitude) = match &attitude {
-            Some(c) => (Some(three(&c[..3])?), Some(three(&c[3..])?)),
-            None => (None, None),
-        };
-        let direction = direction_c
-            .map(|c| f[c].to_string())
-            .filter(|d| !d.is_empty());
-        let readings = if readings_c.is_empty() {
-            None
-        } else {
-            Some(
-                readings_c
-                    .iter()
-                    .map(|&c| t.number(line, &t.header[c], &f[c]))
-                    .collect::<Result<Vec<f64>>>()?,
-            )
-        };
-        if let Some(first) = seen.insert((test.clone(), pose, cycle, direction.clone()), line) {
-            return Err(Error::input(
-                t.at(line, "cycle"),
-                format!(
-                    "{}{} in cycle {cycle}{} appears twice (also on line {first})",
-                    test.as_deref()
-                        .map(|t| format!("test `{t}`: "))
-                        .unwrap_or_default(),
-                    pose_name(pose),
-                    direction
-                        .as_deref()
-                        .map(|d| format!(" from direction `{d}`"))
-                        .unwrap_or_default()
-                ),
-            ));
-        }
-        rows.push(LogRow {
-            line,
-            test,
-            pose,
-            cycle,
-            commanded,
-            commanded_attitude,
-            attained,
-            attained_attitude,
-            direction,
-            readings,
-        });
-    }
+    let rows = read_log_rows(&t, &columns)?;
     if rows.is_empty() {
         return Err(Error::input(
             Location::file(file),
@@ -1045,12 +1000,254 @@ pub fn read_log(text: &str, file: &str, given: LogUnits) -> Result<Log> {
         file: file.to_string(),
         length_unit,
         angle_unit,
-        simulated: text
-            .lines()
-            .take_while(|l| l.trim_start().starts_with('#'))
-            .any(|l| l.contains("SIMULATED")),
+        simulated: says_simulated(text),
         rows,
     })
+}
+
+/// A log's length and angle units: those its comment lines state before its header (`#
+/// length_unit = mm`, `# angle_unit = deg`), else those `given`; an error (naming the line)
+/// when a unit stated and the one given differ.
+fn log_units(
+    text: &str,
+    file: &str,
+    given: LogUnits,
+) -> Result<(Option<LengthUnit>, Option<AngleUnit>)> {
+    let stated = crate::import::dh::stated(text, file)?;
+    refuse_unit_conflict(
+        file,
+        stated.length.map(|(u, l)| (u.to_string(), l)),
+        given.length.map(|u| u.to_string()),
+        Setting::LengthUnit,
+        "length_unit",
+    )?;
+    refuse_unit_conflict(
+        file,
+        stated.angle.map(|(u, l)| (u.to_string(), l)),
+        given.angle.map(|u| u.to_string()),
+        Setting::AngleUnit,
+        "angle_unit",
+    )?;
+    let length_unit = stated.length.map(|s| s.0).or(given.length);
+    let angle_unit = stated.angle.map(|s| s.0).or(given.angle);
+    Ok((length_unit, angle_unit))
+}
+
+/// Refuses a unit a log states (its name and the line stating it) that differs from the one
+/// given for it (`setting`, whose comment key is `key`: `length_unit` or `angle_unit`).
+fn refuse_unit_conflict(
+    file: &str,
+    stated: Option<(String, usize)>,
+    given: Option<String>,
+    setting: Setting,
+    key: &str,
+) -> Result<()> {
+    match (stated, given) {
+        (Some((s, line)), Some(g)) if s != g => Err(Error::InvalidOption {
+            setting,
+            message: format!("{file}:{line} states `{key} = {s}`, not {g}"),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Where a log's fields are: the index of each column in its header.
+struct LogColumns {
+    /// `test`, when the log holds several tests.
+    test: Option<usize>,
+    /// `pose`.
+    pose: usize,
+    /// `cycle`.
+    cycle: usize,
+    /// The commanded position `xc, yc, zc`.
+    commanded: [usize; 3],
+    /// The attained position `x, y, z`.
+    attained: [usize; 3],
+    /// The commanded then the attained attitude, `ac, bc, cc, a, b, c`, when the log has them.
+    attitude: Option<[usize; 6]>,
+    /// `direction`, when the log has approach directions.
+    direction: Option<usize>,
+    /// The joint readings `v1..vn` (none when the log has no readings).
+    readings: Vec<usize>,
+}
+
+impl LogColumns {
+    /// Finds the columns in the header of `t`; an error (naming the field) for an unknown
+    /// column, a required one missing, or only some of the attitude columns.
+    fn locate(t: &table::Table<'_>) -> Result<Self> {
+        let readings_count = (1..)
+            .take_while(|k| t.column(&format!("v{k}")).is_some())
+            .count();
+        let mut known: Vec<String> = LOG_COLUMNS.map(String::from).to_vec();
+        known.extend((1..=readings_count).map(|k| format!("v{k}")));
+        t.refuse_unknown(&known, LOG_EXPECTED)?;
+        let readings: Vec<usize> = (1..=readings_count)
+            .map(|k| t.column(&format!("v{k}")).unwrap_or(0))
+            .collect();
+        let test = t.column("test");
+        let col = |name: &str| t.require(name, LOG_EXPECTED);
+        let pose = col("pose")?;
+        let cycle = col("cycle")?;
+        let commanded = [col("xc")?, col("yc")?, col("zc")?];
+        let attained = [col("x")?, col("y")?, col("z")?];
+        let attitude = attitude_columns(t)?;
+        Ok(LogColumns {
+            test,
+            pose,
+            cycle,
+            commanded,
+            attained,
+            attitude,
+            direction: t.column("direction"),
+            readings,
+        })
+    }
+}
+
+/// The attitude columns of a log, commanded then attained (`ac, bc, cc, a, b, c`), when it has
+/// them all; `None` when it has none; an error listing the missing ones when it has only some.
+fn attitude_columns(t: &table::Table<'_>) -> Result<Option<[usize; 6]>> {
+    let angles = ["ac", "bc", "cc", "a", "b", "c"];
+    let present: [Option<usize>; 6] = angles.map(|n| t.column(n));
+    if present.iter().all(Option::is_some) {
+        Ok(Some(present.map(|c| c.unwrap_or(0))))
+    } else if let Some(k) = present.iter().position(Option::is_some) {
+        let missing = angles
+            .iter()
+            .zip(&present)
+            .filter(|(_, c)| c.is_none())
+            .map(|(n, _)| *n)
+            .collect::<Vec<_>>();
+        Err(Error::input(
+            t.header_at().with_field(angles[k]),
+            format!(
+                "attitudes need all of ac,bc,cc,a,b,c (commanded and attained); missing {}",
+                missing.join(",")
+            ),
+        ))
+    } else {
+        Ok(None)
+    }
+}
+
+/// The rows of a log's table, in file order; an error when a test's pose is logged twice in one
+/// cycle from one direction.
+fn read_log_rows(t: &table::Table<'_>, columns: &LogColumns) -> Result<Vec<LogRow>> {
+    let mut rows = Vec::new();
+    let mut seen: BTreeMap<(Option<String>, usize, u64, Option<String>), usize> = BTreeMap::new();
+    for (line, f) in t.rows() {
+        let row = read_log_row(t, columns, line, f)?;
+        let key = (row.test.clone(), row.pose, row.cycle, row.direction.clone());
+        if let Some(first) = seen.insert(key, line) {
+            return Err(repeated_pose(t, &row, first));
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// The log row on `line` (fields `f`): its test, pose, cycle, commanded and attained poses (in
+/// the log's units), direction and readings; an error names the line and the field.
+fn read_log_row(
+    t: &table::Table<'_>,
+    columns: &LogColumns,
+    line: usize,
+    f: table::Fields<'_>,
+) -> Result<LogRow> {
+    let pose = pose_index(t, line, &f[columns.pose], true)?;
+    let test = columns
+        .test
+        .map(|c| f[c].to_string())
+        .filter(|d| !d.is_empty());
+    let cycle = cycle_number(t, line, &f[columns.cycle])?;
+    let triple = |cols: &[usize]| read_triple(t, line, f, cols);
+    let commanded = triple(&columns.commanded)?;
+    let attained = triple(&columns.attained)?;
+    let (commanded_attitude, attained_attitude) = match &columns.attitude {
+        Some(c) => (Some(triple(&c[..3])?), Some(triple(&c[3..])?)),
+        None => (None, None),
+    };
+    let direction = columns
+        .direction
+        .map(|c| f[c].to_string())
+        .filter(|d| !d.is_empty());
+    let readings = if columns.readings.is_empty() {
+        None
+    } else {
+        Some(
+            columns
+                .readings
+                .iter()
+                .map(|&c| t.number(line, &t.header[c], &f[c]))
+                .collect::<Result<Vec<f64>>>()?,
+        )
+    };
+    Ok(LogRow {
+        line,
+        test,
+        pose,
+        cycle,
+        commanded,
+        commanded_attitude,
+        attained,
+        attained_attitude,
+        direction,
+        readings,
+    })
+}
+
+/// The cycle of a log row: a whole number `s` (an error naming the line and the `cycle` field).
+fn cycle_number(t: &table::Table<'_>, line: usize, s: &str) -> Result<u64> {
+    s.parse().map_err(|_| {
+        Error::input(
+            t.at(line, "cycle"),
+            format!("expected a cycle number (a whole number), found `{s}`"),
+        )
+    })
+}
+
+/// Three numbers of the row on `line` (fields `f`), from the columns `cols` (three of them): a
+/// position `x, y, z` or an attitude `a, b, c`, in the log's units.
+fn read_triple(
+    t: &table::Table<'_>,
+    line: usize,
+    f: table::Fields<'_>,
+    cols: &[usize],
+) -> Result<[f64; 3]> {
+    let mut v = [0.0; 3];
+    for (k, &c) in cols.iter().enumerate() {
+        v[k] = t.number(line, &t.header[c], &f[c])?;
+    }
+    Ok(v)
+}
+
+/// The error for `row`, a test's pose logged again in one cycle from one direction (first on
+/// line `first`).
+fn repeated_pose(t: &table::Table<'_>, row: &LogRow, first: usize) -> Error {
+    Error::input(
+        t.at(row.line, "cycle"),
+        format!(
+            "{}{} in cycle {}{} appears twice (also on line {first})",
+            row.test
+                .as_deref()
+                .map(|t| format!("test `{t}`: "))
+                .unwrap_or_default(),
+            pose_name(row.pose),
+            row.cycle,
+            row.direction
+                .as_deref()
+                .map(|d| format!(" from direction `{d}`"))
+                .unwrap_or_default()
+        ),
+    )
+}
+
+/// Whether a log says it was simulated: `SIMULATED` in a comment line at its start (before its
+/// header).
+fn says_simulated(text: &str) -> bool {
+    text.lines()
+        .take_while(|l| l.trim_start().starts_with('#'))
+        .any(|l| l.contains("SIMULATED"))
 }
 
 /// A log as CSV: comment lines (what it is, its units), then [`LOG_COLUMNS`] (the attitude
