@@ -1747,7 +1747,9 @@ pub struct CalibrateArgs {
     /// Refused when the selection estimates no mass (the default parameters do not).
     #[arg(long, value_name = "KG")]
     pub total_mass: Option<f64>,
-    /// Iteration cap, 1 to 1,000,000 (default 100; 5000 for sd).
+    /// Iteration cap of each fit, 1 to 1,000,000 (default 100; 5000 for sd); the model-error
+    /// floor's and the Huber loss's refits each get it, and the iterations reported are all
+    /// the fits'.
     #[arg(long, value_name = "N")]
     pub max_iter: Option<usize>,
     #[command(flatten)]
