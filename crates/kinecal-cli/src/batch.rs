@@ -476,10 +476,20 @@ fn table_job(table: toml_edit::Table, dir: &Path, at: &str) -> std::result::Resu
 /// spec of any job (`job = "analyze"`, ...; a calibration when absent) with an optional `name`
 /// (a calibration's `serial` records it with `--record`).
 fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec<Entry>> {
+    if doc.get("job").is_some() || doc.get("robot").is_some_and(|r| !r.is_array_of_tables()) {
+        let job = doc
+            .get("job")
+            .and_then(|j| j.as_str())
+            .unwrap_or("calibrate");
+        bail!(
+            "{name}: a spec of one job, not a batch manifest: run it with `kinecal {job} --spec \
+             {name}`, or list it in a manifest as a `[[jobs]]` table (see docs/spec.md)"
+        );
+    }
     if doc.get("robot").is_some() {
         bail!(
             "{name}: `[[robot]]` tables with `options` are no longer read: write each robot as a \
-             `[[robots]]` table holding its calibration spec and `serial` (see docs/batch.md), \
+             `[[robots]]` table holding its calibration spec and `serial` (see docs/spec.md), \
              or use a CSV manifest"
         );
     }

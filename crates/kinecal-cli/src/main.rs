@@ -544,6 +544,7 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::Camera => "--camera",
         Setting::Board => "--board",
         Setting::MinPoints => "--min-points",
+        Setting::Readings => "--readings",
         // A setting of a later kinecal: named in the library's words.
         _ => setting.name(),
     }

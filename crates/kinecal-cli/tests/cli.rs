@@ -1458,6 +1458,15 @@ fn curve_sweeps_are_bounded_and_sized_to_the_parameter() {
         let err = run_err(d, &a);
         assert!(err.contains(expect), "{err}");
     }
+    // Readings given inline are named as such (they were named `--postures`).
+    let err = run_err(
+        d,
+        &argv("curves pose --robot ge-a4 --readings 1,2,3 --param p1 --out c.csv"),
+    );
+    assert!(
+        err.contains("--readings: 3 readings for a robot with 4 joints"),
+        "{err}"
+    );
     let mut a: Vec<&str> = r.to_vec();
     a.extend(["--param", "p1,p4", "--points", "3", "--out", "c.csv"]);
     run_ok(d, &a);
@@ -1733,6 +1742,18 @@ fn batch_calibrates_a_fleet_and_survives_a_bad_row() {
             "m7.toml",
             "[[robot]]\nserial = \"A\"\nrobot = \"ge-a4\"\n",
             "`[[robot]]` tables with `options` are no longer read",
+        ),
+        // A spec of one job (what `calibrate --write-spec` writes) is named as one.
+        (
+            "m9.toml",
+            "robot = \"ge-a4\"\ndata = [\"d1.csv\"]\n",
+            "fleet/m9.toml: a spec of one job, not a batch manifest: run it with `kinecal \
+             calibrate --spec fleet/m9.toml`",
+        ),
+        (
+            "m10.toml",
+            "job = \"analyze\"\nrobot = \"ge-a4\"\n",
+            "run it with `kinecal analyze --spec fleet/m10.toml`",
         ),
         (
             "m6.csv",

@@ -158,11 +158,13 @@ pub enum Setting {
     Board,
     /// The fewest board points a simulated view must see.
     MinPoints,
+    /// Joint readings given inline (one posture).
+    Readings,
 }
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 75] = [
+    pub const ALL: [Setting; 76] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -238,6 +240,7 @@ impl Setting {
         Setting::Camera,
         Setting::Board,
         Setting::MinPoints,
+        Setting::Readings,
     ];
 
     /// The library's words for it.
@@ -318,6 +321,7 @@ impl Setting {
             Setting::Camera => "camera",
             Setting::Board => "board",
             Setting::MinPoints => "fewest board points per view",
+            Setting::Readings => "readings",
         }
     }
 
@@ -400,6 +404,7 @@ impl Setting {
             Setting::Camera => "camera",
             Setting::Board => "board",
             Setting::MinPoints => "min_points",
+            Setting::Readings => "readings",
         }
     }
 }

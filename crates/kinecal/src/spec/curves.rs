@@ -234,9 +234,15 @@ impl CurvesSpec {
                 ))
             }
         };
+        // What was wrong is the readings given, or the posture read from the file.
+        let setting = if self.readings.is_some() {
+            Setting::Readings
+        } else {
+            Setting::Postures
+        };
         if readings.len() != robot.dof() {
             return Err(invalid(
-                Setting::Postures,
+                setting,
                 format!(
                     "{} readings for a robot with {} joints",
                     readings.len(),
@@ -245,10 +251,7 @@ impl CurvesSpec {
             ));
         }
         if let Some(v) = readings.iter().find(|v| !v.is_finite()) {
-            return Err(invalid(
-                Setting::Postures,
-                format!("{v} is not a finite reading"),
-            ));
+            return Err(invalid(setting, format!("{v} is not a finite reading")));
         }
         Ok(readings)
     }
