@@ -1484,7 +1484,7 @@ pub struct ImportDhArgs {
     /// not state it.
     #[arg(long)]
     pub angle_unit: Option<String>,
-    /// Robot name.
+    /// Robot name (default: the table's file name without its extension).
     #[arg(long)]
     pub name: Option<String>,
     #[command(flatten)]

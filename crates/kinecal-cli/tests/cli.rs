@@ -2358,8 +2358,49 @@ fn dh_tables_state_their_units_and_exports_refuse_what_misses() {
             table.contains("# length_unit = m\n# angle_unit = rad\n"),
             "{table}"
         );
+        // The URDF's joint names go into the table and come back; the robot is named after the
+        // table's file (it was named "").
+        assert!(
+            table.contains(",name\n") && table.contains(",shoulder_pan_joint\n"),
+            "{table}"
+        );
         run_ok(t, &["import", "dh", "ur5.csv", "--out", "back.toml"]);
+        let back = std::fs::read_to_string(t.join("back.toml")).unwrap();
+        assert!(back.starts_with("name = \"ur5\"\n"), "{back}");
+        std::fs::write(
+            t.join("named.csv"),
+            "posture,wrist_3_joint,wrist_2_joint,wrist_1_joint,elbow_joint,shoulder_lift_joint,\
+             shoulder_pan_joint\n1,0.2,1.57,-0.3,1.5,-1.2,0.1\n2,3,-1,1,-1,-0.5,2\n",
+        )
+        .unwrap();
+        let by_name = run_ok(
+            t,
+            &["fk", "--robot", "back.toml", "--postures", "named.csv"],
+        );
         let b = run_ok(t, &["fk", "--robot", "back.toml", "--postures", "p.csv"]);
+        assert_eq!(
+            by_name
+                .lines()
+                .skip(1)
+                .map(|l| l
+                    .split_once(',')
+                    .unwrap()
+                    .1
+                    .split(',')
+                    .skip(7)
+                    .collect::<Vec<_>>())
+                .collect::<Vec<_>>(),
+            b.lines()
+                .skip(1)
+                .map(|l| l
+                    .split_once(',')
+                    .unwrap()
+                    .1
+                    .split(',')
+                    .skip(7)
+                    .collect::<Vec<_>>())
+                .collect::<Vec<_>>()
+        );
         for (x, y) in a.lines().zip(b.lines()).skip(1) {
             for (u, v) in x.split(',').zip(y.split(',')).skip(7) {
                 let (u, v): (f64, f64) = (u.parse().unwrap(), v.parse().unwrap());

@@ -270,3 +270,50 @@ fn a_tracker_placement_stays_in_the_base_row() {
         "no modified table was refused: the refusal was not tested"
     );
 }
+
+/// A robot whose joints have names (a DH table's `name` column, a URDF's joints) is exported
+/// with them, so that the table read back heads its postures columns the same way (the names
+/// were dropped: `posture,S,L,E` was then refused); names that CSV must quote are quoted, and a
+/// robot without names gets no column.
+#[test]
+fn joint_names_go_into_the_table_and_come_back() {
+    let named = "kind,a,alpha,d,theta,name\n\
+                 revolute,0,90,0.6718,0,S\n\
+                 revolute,0.4318,0,0,0,\"L, lower arm\"\n\
+                 revolute,0.0203,-90,0.15005,0,\"E \"\"elbow\"\"\"\n";
+    let robot = kinecal::import::dh::import_dh(
+        named,
+        "named.csv",
+        "arm",
+        Some(LengthUnit::M),
+        Some(AngleUnit::Deg),
+        Some(Convention::Standard),
+    )
+    .unwrap();
+    let names = |r: &kinecal::Robot| -> Vec<Option<String>> {
+        r.joints.iter().map(|j| j.name.clone()).collect()
+    };
+    assert_eq!(
+        names(&robot),
+        [
+            Some("S".to_string()),
+            Some("L, lower arm".to_string()),
+            Some("E \"elbow\"".to_string())
+        ]
+    );
+    for convention in [Convention::Standard, Convention::Modified] {
+        let e = export_dh(&robot, convention, units()).unwrap();
+        assert!(e.text.contains(",name\n"), "{}", e.text);
+        let back =
+            kinecal::import::dh::import_dh(&e.text, "back.csv", "arm", None, None, None).unwrap();
+        assert_eq!(names(&back), names(&robot), "{convention:?}: {}", e.text);
+        // Postures headed by the names read on the table read back.
+        let postures = "posture,S,\"L, lower arm\",\"E \"\"elbow\"\"\"\np1,10,20,30\n";
+        let p = kinecal::files::parse_postures(postures, "p.csv", &back).unwrap();
+        assert_eq!(p[0].readings, [10.0, 20.0, 30.0]);
+    }
+    let rows = parse_dh_csv(PUMA_STANDARD, "puma.csv", units()).unwrap();
+    let unnamed = robot_from_dh("puma", units(), &rows, Convention::Standard);
+    let e = export_dh(&unnamed, Convention::Standard, units()).unwrap();
+    assert!(!e.text.contains("name"), "{}", e.text);
+}

@@ -1227,6 +1227,20 @@ fn num(v: f64) -> String {
 /// (with its formula) and the units, then `kind,a,alpha,d,theta`, with a `beta` column when a
 /// row has one.
 pub fn write_dh_table(rows: &[DhRow], units: Units, convention: Convention) -> String {
+    write_named_dh_table(rows, &[], units, convention)
+}
+
+/// [`write_dh_table`] with a `name` column when a row has a name (`names[k]`, row `k`'s; rows
+/// past the list have none): a joint row's name is its joint's, which heads its reading
+/// column in measurement and postures files (quoted when it holds a comma, a quote or a line
+/// break, or begins or ends with a space).
+pub fn write_named_dh_table(
+    rows: &[DhRow],
+    names: &[Option<&str>],
+    units: Units,
+    convention: Convention,
+) -> String {
+    let with_names = names.iter().take(rows.len()).any(|n| n.is_some());
     let with_beta = rows.iter().any(|r| num(r.beta) != "0");
     let mut out = format!(
         "# DH table ({} convention): each row is {}, a revolute joint's variable added to \
@@ -1246,11 +1260,12 @@ pub fn write_dh_table(rows: &[DhRow], units: Units, convention: Convention) -> S
         convention.as_str()
     );
     out.push_str(if with_beta {
-        "kind,a,alpha,d,theta,beta\n"
+        "kind,a,alpha,d,theta,beta"
     } else {
-        "kind,a,alpha,d,theta\n"
+        "kind,a,alpha,d,theta"
     });
-    for r in rows {
+    out.push_str(if with_names { ",name\n" } else { "\n" });
+    for (k, r) in rows.iter().enumerate() {
         out.push_str(&format!(
             "{},{},{},{},{}",
             r.kind.as_str(),
@@ -1262,9 +1277,24 @@ pub fn write_dh_table(rows: &[DhRow], units: Units, convention: Convention) -> S
         if with_beta {
             out.push_str(&format!(",{}", num(units.from_si(Quantity::Angle, r.beta))));
         }
+        if with_names {
+            out.push(',');
+            out.push_str(&csv_field(names.get(k).copied().flatten().unwrap_or("")));
+        }
         out.push('\n');
     }
     out
+}
+
+/// `text` as one CSV field: quoted (its quotes doubled) when it holds a comma, a quote or a line
+/// break, or begins or ends with whitespace.
+fn csv_field(text: &str) -> String {
+    let plain = !text.contains([',', '"', '\n', '\r']) && text.trim() == text;
+    if plain {
+        text.to_string()
+    } else {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    }
 }
 
 /// A DH export: the table, its text, and what it reproduces of the robot.
@@ -1384,7 +1414,22 @@ pub fn export_dh(robot: &Robot, convention: Convention, units: Units) -> Result<
         )));
     }
     let rows = dh_rows(robot, convention)?;
-    let text = write_dh_table(&rows, units, convention);
+    // A joint row is the next joint's (the chain's joints in order), and carries its name.
+    let mut joints = robot.joints.iter();
+    let names: Vec<Option<&str>> = rows
+        .iter()
+        .map(|r| match r.kind {
+            RowKind::Fixed => None,
+            _ => joints.next().and_then(|j| j.name.as_deref()),
+        })
+        .collect();
+    // `base` names the global frame in a table: a joint so named keeps `vK` columns.
+    let names = if names.contains(&Some("base")) {
+        Vec::new()
+    } else {
+        names
+    };
+    let text = write_named_dh_table(&rows, &names, units, convention);
     let back = import_dh(
         &text,
         "<the DH table written>",

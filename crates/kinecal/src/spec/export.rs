@@ -218,7 +218,7 @@ pub struct ImportSpec {
     /// The DH table's angle unit, when it does not state it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angle_unit: Option<String>,
-    /// The robot's name (DH).
+    /// The robot's name (DH; default: the table's file name without its extension).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robot_name: Option<String>,
     /// The robot file to write.
@@ -825,7 +825,13 @@ impl ImportSpec {
             ImportFormat::Dh => crate::import::dh::import_dh(
                 &s.text,
                 &s.name,
-                self.robot_name.as_deref().unwrap_or(""),
+                // Unnamed: the table's file name without its extension.
+                self.robot_name.as_deref().unwrap_or_else(|| {
+                    std::path::Path::new(&self.file)
+                        .file_stem()
+                        .and_then(|s| s.to_str())
+                        .unwrap_or("")
+                }),
                 unit(self.length_unit.as_deref(), Setting::LengthUnit)?,
                 unit(self.angle_unit.as_deref(), Setting::AngleUnit)?,
                 self.convention,
