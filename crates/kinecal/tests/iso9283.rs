@@ -372,6 +372,12 @@ fn bad_logs_name_file_line_and_field() {
             "log.csv:2",
             "out of 1..5",
         ),
+        // Some attitude columns: the field named is the first one missing.
+        (
+            "pose,cycle,xc,yc,zc,x,y,z,bc,cc,a,b,c\n1,1,0,0,0,1,0,0,0,0,0,0,0\n",
+            "log.csv:1: field `ac`",
+            "missing ac",
+        ),
         (
             "pose,cycle,xc,yc,zc,x,y,z\n1,1.5,0,0,0,1,0,0\n",
             "log.csv:2",
@@ -589,6 +595,19 @@ fn a_given_cube_is_checked_and_written() {
     let e = plan(&robot, &far).unwrap_err().to_string();
     assert!(
         e.contains("P1 (2, 0, 0.3 m)") && e.contains("out of reach"),
+        "{e}"
+    );
+    // A centre that is not a number is named as such (it was worded as a bad side).
+    let nowhere = PlanRequest {
+        cube: Some(Cube {
+            centre: [f64::NAN, 0.0, 0.3],
+            side: 0.2,
+        }),
+        ..far
+    };
+    let e = plan(&robot, &nowhere).unwrap_err().to_string();
+    assert!(
+        e.contains("the cube's centre must be finite, got NaN"),
         "{e}"
     );
     // The simulated log of the plan on its own robot: AP within the noise, 30 cycles.

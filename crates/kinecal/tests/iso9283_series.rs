@@ -303,6 +303,35 @@ fn a_log_from_measurements_puts_the_tracker_data_in_the_base_frame() {
         assert!((c1.ap - want).abs() < 1e-12, "{} vs {want}", c1.ap);
         assert!(e.summary.is_some());
     }
+    // A posture without a role is left out once, however often it was measured (it was listed
+    // once per measurement); poses mixed with positions are refused (a row without an attitude
+    // was written with zero angles).
+    let mut model = nominal.clone();
+    model.sessions.push(Session {
+        name: "D".into(),
+        frame: tracker,
+    });
+    let mut data: Dataset = simulate::measure(&truth, &postures, false);
+    let again = data.observations[5].clone();
+    data.observations.push(again);
+    let (_, left_out) = log_from_measurements(&model, &data, &roles).unwrap();
+    assert_eq!(left_out, vec!["D6".to_string()]);
+    if let kinecal::observe::Observation::Pose(p) = &data.observations[2] {
+        let position = kinecal::observe::Observation::Position(kinecal::observe::point::Position {
+            view: p.view,
+            position: p.position,
+            sigma_position: None,
+            line: 4,
+        });
+        data.observations[2] = position;
+    }
+    let e = log_from_measurements(&model, &data, &roles)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("the measurements mix poses (line ") && e.contains(") and positions (line 4)"),
+        "{e}"
+    );
     // A robot without the session's frame is refused, saying what to do.
     let mut other = nominal.clone();
     other.sessions.push(Session {

@@ -219,7 +219,8 @@ pub fn cube_roles(goals: &[[f64; 3]], tolerance: f64) -> std::result::Result<Vec
 /// with a role, in `robot`'s file units (lengths, angles), the readings kept (`v1..vn`), and the
 /// labels of the measured postures without a role (left out). Each measured posture must be a
 /// position or a pose of one target, in a session whose frame `robot` has (or in the global
-/// frame). An error names the session without a frame, or a pose measured at two targets.
+/// frame), and all of them positions or all poses. An error names the session without a frame,
+/// a pose measured at two targets, or a pose and a position mixed.
 pub fn log_from_measurements(
     robot: &Robot,
     data: &Dataset,
@@ -227,6 +228,7 @@ pub fn log_from_measurements(
 ) -> Result<(Log, Vec<String>)> {
     let file = roles.file.as_str();
     let (measured, left_out) = measured_in_global_frame(robot, data, roles)?;
+    one_kind(&measured)?;
     let commanded = commanded_poses(robot, data, &measured)?;
     let rows = log_rows(robot.units, data, &measured, &commanded);
     if rows.is_empty() {
@@ -243,6 +245,21 @@ pub fn log_from_measurements(
         rows,
     };
     Ok((log, left_out))
+}
+
+/// Refuses measurements that mix poses and positions: a log's rows all have attitudes or none
+/// (a row without one would be written with zero angles).
+fn one_kind(measured: &[Measured]) -> Result<()> {
+    let pose = measured.iter().find(|m| m.rotation.is_some());
+    let position = measured.iter().find(|m| m.rotation.is_none());
+    if let (Some(pose), Some(position)) = (pose, position) {
+        return Err(Error::Problem(format!(
+            "the measurements mix poses (line {}) and positions (line {}): an ISO 9283 log has \
+             attitudes in every row or in none; measure poses throughout, or give positions only",
+            pose.line, position.line
+        )));
+    }
+    Ok(())
 }
 
 /// One measured posture with a role, its measurement in the robot's global frame.
@@ -272,6 +289,8 @@ fn measured_in_global_frame(
 ) -> Result<(Vec<Measured>, Vec<String>)> {
     let mut measured = Vec::new();
     let mut seen = vec![false; data.postures.len()];
+    // A posture without a role is left out once, however many targets it measured.
+    let mut left = vec![false; data.postures.len()];
     let mut left_out = Vec::new();
     for o in &data.observations {
         let Measurement {
@@ -282,7 +301,9 @@ fn measured_in_global_frame(
         } = measurement(o)?;
         let posture = &data.postures[view.posture];
         let Some(role) = roles.by_posture.get(&posture.label) else {
-            left_out.push(posture.label.clone());
+            if !std::mem::replace(&mut left[view.posture], true) {
+                left_out.push(posture.label.clone());
+            }
             continue;
         };
         if std::mem::replace(&mut seen[view.posture], true) {

@@ -334,11 +334,15 @@ pub fn plan(robot: &Robot, request: &PlanRequest) -> Result<TestPlan> {
         poses
     };
     if let Some(cube) = request.cube {
-        if !(cube.side.is_finite() && cube.side > 0.0 && cube.centre.iter().all(|v| v.is_finite()))
-        {
+        if !(cube.side.is_finite() && cube.side > 0.0) {
             return Err(Error::Problem(format!(
                 "the cube's side must be a positive number, got {}",
                 cube.side
+            )));
+        }
+        if let Some(v) = cube.centre.iter().find(|v| !v.is_finite()) {
+            return Err(Error::Problem(format!(
+                "the cube's centre must be finite, got {v}"
             )));
         }
         let mut poses = Vec::new();
@@ -1111,15 +1115,16 @@ fn attitude_columns(t: &table::Table<'_>) -> Result<Option<[usize; 6]>> {
     let present: [Option<usize>; 6] = angles.map(|n| t.column(n));
     if present.iter().all(Option::is_some) {
         Ok(Some(present.map(|c| c.unwrap_or(0))))
-    } else if let Some(k) = present.iter().position(Option::is_some) {
+    } else if present.iter().any(Option::is_some) {
         let missing = angles
             .iter()
             .zip(&present)
             .filter(|(_, c)| c.is_none())
             .map(|(n, _)| *n)
             .collect::<Vec<_>>();
+        // The field is the first column missing (it named the first one present).
         Err(Error::input(
-            t.header_at().with_field(angles[k]),
+            t.header_at().with_field(missing[0]),
             format!(
                 "attitudes need all of ac,bc,cc,a,b,c (commanded and attained); missing {}",
                 missing.join(",")
