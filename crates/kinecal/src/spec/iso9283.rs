@@ -455,9 +455,10 @@ impl Iso9283LogSpec {
         let text = write_log(&log);
         messages.extend(write_one(self.out.as_deref(), &text, |o| {
             format!(
-                "wrote the ISO 9283 log of {} rows ({tests} test{}; commanded: {}'s model at the \
+                "wrote the ISO 9283 log of {} row{} ({tests} test{}; commanded: {}'s model at the \
                  readings; attained: measured, in its base frame) to {o}",
                 log.rows.len(),
+                if log.rows.len() == 1 { "" } else { "s" },
                 if tests == 1 { "" } else { "s" },
                 self.robot,
             )
