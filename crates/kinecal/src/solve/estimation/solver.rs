@@ -1154,24 +1154,13 @@ pub(crate) fn drive(
         let step = match rule.step(&sys, &mut trials)? {
             Proposal::Step(step) => step,
             Proposal::Exhausted { at_rounding } => {
-                termination =
-                    if at_rounding || stationarity.predicted_reduction <= ROUNDING_REDUCTION {
-                        Termination::RoundingLimited
-                    } else {
-                        Termination::Stalled
-                    };
+                termination = exhausted(at_rounding, &stationarity);
                 iterations -= 1;
                 break;
             }
         };
         let last_trial = trials.last;
-        let step_norm = step
-            .p
-            .iter()
-            .zip(&norms)
-            .map(|(p, d)| (p * d) * (p * d))
-            .sum::<f64>()
-            .sqrt();
+        let step_norm = scaled_norm(&step.p, &norms);
         let x_new: Vec<f64> = x.iter().zip(&step.p).map(|(a, b)| a + b).collect();
         if x_new == trial_x && last_trial.is_finite() {
             // The accepted point is the last one evaluated: its linearisation is at hand.
@@ -1200,6 +1189,26 @@ pub(crate) fn drive(
         unfelt: unfelt.unwrap_or_default(),
         start_r,
     })
+}
+
+/// How a solve ends when its step rule finds no step that lowers the objective: converged to
+/// the objective's precision when the rule says it is at rounding or the local model predicts
+/// a reduction below [`ROUNDING_REDUCTION`], else stalled.
+fn exhausted(at_rounding: bool, stationarity: &Stationarity) -> Termination {
+    if at_rounding || stationarity.predicted_reduction <= ROUNDING_REDUCTION {
+        Termination::RoundingLimited
+    } else {
+        Termination::Stalled
+    }
+}
+
+/// `|D p|`: the step `p` in the columns' scales `norms`.
+fn scaled_norm(p: &[f64], norms: &[f64]) -> f64 {
+    p.iter()
+        .zip(norms)
+        .map(|(p, d)| (p * d) * (p * d))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// The linearisation at the start into `lin`: from `start` (an augmented `R` of the right
