@@ -323,7 +323,7 @@ impl Robot {
     /// dh` writes them); a file that states none needs `length_unit`, `angle_unit` and
     /// `convention`. `convention`: "standard" or "modified".
     #[staticmethod]
-    #[pyo3(signature = (table, convention=None, length_unit=None, angle_unit=None, kinds=None, name="dh"))]
+    #[pyo3(signature = (table, convention=None, length_unit=None, angle_unit=None, kinds=None, name=None))]
     fn from_dh(
         py: Python<'_>,
         table: &Bound<'_, PyAny>,
@@ -331,7 +331,7 @@ impl Robot {
         length_unit: Option<&str>,
         angle_unit: Option<&str>,
         kinds: Option<Vec<String>>,
-        name: &str,
+        name: Option<&str>,
     ) -> PyResult<Robot> {
         let convention = convention.map(convention_of).transpose()?;
         if table.cast::<PyString>().is_ok() || table.hasattr("__fspath__")? {
@@ -343,6 +343,9 @@ impl Robot {
             let angle = angle_unit
                 .map(|a| a.parse().map_err(|e| bad(format!("angle_unit: {e}"))))
                 .transpose()?;
+            // Unnamed: the file's name without its extension, as `kinecal import dh` names it.
+            let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+            let name = name.unwrap_or(stem);
             let robot =
                 kinecal::import::dh::import_dh(&s.text, &s.name, name, length, angle, convention)
                     .map_err(|e| error(py, e))?;
@@ -390,7 +393,7 @@ impl Robot {
                 beta: r.get(4).map_or(0.0, |b| b * a),
             })
             .collect();
-        let robot = robot_from_dh(name, u, &rows, convention);
+        let robot = robot_from_dh(name.unwrap_or("dh"), u, &rows, convention);
         robot
             .validate()
             .map_err(|m| bad(format!("table: the robot it describes is not usable: {m}")))?;

@@ -1128,6 +1128,8 @@ def test_dh_export_reads_back_and_is_the_cli_table(cli, puma, tmp_path):
             back = kinecal.Robot.from_dh(tmp_path / f"{convention}.csv")
             np.testing.assert_allclose(back.fk(q, matrix=True), nominal.fk(q, matrix=True),
                                        atol=1e-9)
+            # Named after its file, as `kinecal import dh` names it.
+            assert back.name == convention
         # The perturbed twin's geometry is a DH table too (beta, base and tool rows), exactly,
         # and the command line writes the same table.
         table = truth.to_dh("modified")

@@ -77,11 +77,12 @@ class Robot:
         length_unit: str | None = None,
         angle_unit: str | None = None,
         kinds: Sequence[str] | None = None,
-        name: str = "dh",
+        name: str | None = None,
     ) -> Robot:
         """An ``(n, 4)`` table of ``a, alpha, d, theta`` (``(n, 5)`` with ``beta``; metres and
         degrees unless given), or a DH CSV file in the units and convention it states;
-        ``convention``: ``"standard"`` (default for arrays) or ``"modified"``."""
+        ``convention``: ``"standard"`` (default for arrays) or ``"modified"``; ``name``: the
+        robot's (default: a file's name without its extension, ``"dh"`` for an array)."""
     def to_toml(self) -> str:
         """The robot file's text (keeping the comments of the file it came from)."""
     def to_urdf(
