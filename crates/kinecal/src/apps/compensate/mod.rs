@@ -299,67 +299,108 @@ impl<'r> Compensator<'r> {
         // from the seed that lies along the self-motion (the null space of the Jacobian), then
         // re-reach the goal, until the change is orthogonal to the self-motion: the first-order
         // condition of the minimum change.
-        let n = out.len();
         if nearest && n > rows && self.reached(&err) {
-            let distance = |v: &[f64]| -> f64 {
-                v.iter()
-                    .zip(seed)
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum::<f64>()
-                    .sqrt()
-            };
-            let mut best = distance(out);
-            // The null-space step is exact only to first order: halve it when the re-reached
-            // solution is not nearer the seed, double it back when it is.
-            let mut alpha: f64 = 1.0;
-            let mut kept = std::mem::take(&mut self.kept);
-            kept.resize(n, 0.0);
+            let (e, it) = self.nearest_to_seed(goal, target, seed, rows, err, out);
+            err = e;
+            iterations += it;
             // The loop evaluates elsewhere than at the solution it keeps.
             at_out = false;
-            for _ in 0..100 {
-                let (jjt, scale) = self.linearize(out, target, rows);
-                // z = seed - V; its null-space part N z = z - J^T (J J^T)^-1 J z.
-                for ((t, s), o) in self.trial.iter_mut().zip(seed).zip(out.iter()) {
-                    *t = s - o;
-                }
-                let mut jz = Vector6::zeros();
-                for (c, z) in self.jac.chunks_exact(6).zip(&self.trial) {
-                    for k in 0..rows {
-                        jz[k] += c[k] * self.w(k) * z;
-                    }
-                }
-                let Some(y) = solve_spd(&jjt, 1e-14 * scale, &jz, rows) else {
-                    break;
-                };
-                back_project(&self.jac, self.reach, &y, rows, &mut self.step);
-                let mut size: f64 = 0.0;
-                for (t, b) in self.trial.iter_mut().zip(&self.step) {
-                    *t -= b;
-                    size = size.max(t.abs());
-                }
-                // Orthogonal to the self-motion to rounding, or no smaller step helps.
-                if size * alpha <= 1e-10 * best.max(1e-3) {
-                    break;
-                }
-                kept.copy_from_slice(out);
-                for (o, t) in out.iter_mut().zip(&self.trial) {
-                    *o += alpha * t;
-                }
-                let (e, it, _) = self.converge(goal, target, out, rows, 0);
-                iterations += it;
-                let d = distance(out);
-                if self.reached(&e) && d < best {
-                    err = e;
-                    best = d;
-                    alpha = (2.0 * alpha).min(1.0);
-                } else {
-                    out.copy_from_slice(&kept);
-                    alpha /= 2.0;
-                }
-            }
-            self.kept = kept;
         }
-        // Residuals, conditioning and flags at the solution.
+        self.judge_solution(target, out, rows, &err, iterations, at_out)
+    }
+
+    /// A redundant arm's reached solution `out` of `goal` moved along the self-motion to the
+    /// one nearest `seed`: null-space steps towards the seed (see
+    /// [`Compensator::self_motion_towards`]), each re-reaching the goal and kept when the
+    /// solution reached is nearer the seed. Returns the kept solution's weighted error (`err`,
+    /// the reached solution's, when none is kept) and the iterations of the re-reaching.
+    fn nearest_to_seed(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seed: &[f64],
+        rows: usize,
+        mut err: Vector6<f64>,
+        out: &mut [f64],
+    ) -> (Vector6<f64>, usize) {
+        let mut iterations = 0;
+        let n = out.len();
+        let mut best = reading_distance(out, seed);
+        // The null-space step is exact only to first order: halve it when the re-reached
+        // solution is not nearer the seed, double it back when it is.
+        let mut alpha: f64 = 1.0;
+        let mut kept = std::mem::take(&mut self.kept);
+        kept.resize(n, 0.0);
+        for _ in 0..100 {
+            let Some(size) = self.self_motion_towards(seed, out, target, rows) else {
+                break;
+            };
+            // Orthogonal to the self-motion to rounding, or no smaller step helps.
+            if size * alpha <= 1e-10 * best.max(1e-3) {
+                break;
+            }
+            kept.copy_from_slice(out);
+            for (o, t) in out.iter_mut().zip(&self.trial) {
+                *o += alpha * t;
+            }
+            let (e, it, _) = self.converge(goal, target, out, rows, 0);
+            iterations += it;
+            let d = reading_distance(out, seed);
+            if self.reached(&e) && d < best {
+                err = e;
+                best = d;
+                alpha = (2.0 * alpha).min(1.0);
+            } else {
+                out.copy_from_slice(&kept);
+                alpha /= 2.0;
+            }
+        }
+        self.kept = kept;
+        (err, iterations)
+    }
+
+    /// The self-motion part of the change from `out` to `seed`, linearised at `out`, into
+    /// `self.trial`; its largest component (`None` when the normal matrix cannot be solved).
+    fn self_motion_towards(
+        &mut self,
+        seed: &[f64],
+        out: &[f64],
+        target: Target,
+        rows: usize,
+    ) -> Option<f64> {
+        let (jjt, scale) = self.linearize(out, target, rows);
+        // z = seed - V; its null-space part N z = z - J^T (J J^T)^-1 J z.
+        for ((t, s), o) in self.trial.iter_mut().zip(seed).zip(out.iter()) {
+            *t = s - o;
+        }
+        let mut jz = Vector6::zeros();
+        for (c, z) in self.jac.chunks_exact(6).zip(&self.trial) {
+            for k in 0..rows {
+                jz[k] += c[k] * self.w(k) * z;
+            }
+        }
+        let y = solve_spd(&jjt, 1e-14 * scale, &jz, rows)?;
+        back_project(&self.jac, self.reach, &y, rows, &mut self.step);
+        let mut size: f64 = 0.0;
+        for (t, b) in self.trial.iter_mut().zip(&self.step) {
+            *t -= b;
+            size = size.max(t.abs());
+        }
+        Some(size)
+    }
+
+    /// Residuals, conditioning and flags at the solution `out` of weighted error `err`, after
+    /// `iterations`; `at_out` when `self.ws` holds the forward kinematics there already (it
+    /// does afterwards).
+    fn judge_solution(
+        &mut self,
+        target: Target,
+        out: &[f64],
+        rows: usize,
+        err: &Vector6<f64>,
+        iterations: usize,
+        at_out: bool,
+    ) -> Solved {
         let (position_error, attitude_error) = (
             Vector3::new(err[0], err[1], err[2]).norm(),
             (rows == 6).then(|| Vector3::new(err[3], err[4], err[5]).norm() / self.reach),
@@ -589,6 +630,15 @@ impl<'r> Compensator<'r> {
             0.0
         }
     }
+}
+
+/// The Euclidean distance between readings `v` and `seed`.
+fn reading_distance(v: &[f64], seed: &[f64]) -> f64 {
+    v.iter()
+        .zip(seed)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// A step of the damped least squares ends a stall ([`Compensator::converge`]) when, with the

@@ -155,6 +155,24 @@ fn lower(judged: &mut Option<Rank>, rank: Rank) {
     }
 }
 
+/// Whether the search can stop without a usable solution, by the best rank `judged` so far
+/// after `tried` of the table's nearest starts: without a seed, once the goal shows itself at a
+/// singularity (reached, in range and configuration, and singular from 9 starts); with a seed
+/// (`seeded`), once a solution is reached in range and configuration, flagged only for its
+/// change of configuration or only for a singularity (a usable one lies within the box of
+/// starts just tried).
+fn settled(judged: &Option<Rank>, tried: usize, seeded: bool) -> bool {
+    judged.as_ref().is_some_and(|r| {
+        let f = r.0;
+        let placed = !f[0] && !f[1] && !f[2];
+        if seeded {
+            placed && (!f[3] || !f[4])
+        } else {
+            placed && !f[3] && f[4] && tried > 8
+        }
+    })
+}
+
 impl<'r> TargetSearch<'r> {
     /// Start postures in the table.
     pub(crate) const STARTS: usize = 4096;
@@ -302,62 +320,19 @@ impl<'r> TargetSearch<'r> {
             Goal::Pose(frame) => self.out_of_reach(frame, target),
             Goal::Position(_) => false,
         };
-        // The table's nearest starts are looked up only when needed: a seed that converges
-        // needs none.
-        let mut looked_up = false;
-        // Step 1: the reference, when it is one.
-        let from_reference = match (seed, &self.previous) {
-            (Some(s), _) => {
-                self.reference.copy_from_slice(s);
-                true
-            }
-            (None, Some(p)) if closed_form => {
-                // The branch nearest the previous solution is among the closed form's.
-                self.reference.copy_from_slice(p);
-                false
-            }
-            (None, Some(p)) => {
-                self.reference.copy_from_slice(p);
-                let (nearest, looked) = self.reference_is_nearest(goal, target);
-                looked_up = looked;
-                nearest
-            }
-            (None, None) => {
-                self.reference.copy_from_slice(&self.middle);
-                false
-            }
-        };
+        // Step 1: the reference, when it is one. The table's nearest starts are looked up only
+        // when needed: a seed that converges needs none.
+        let (from_reference, mut looked_up) =
+            self.choose_reference(goal, target, seed, closed_form);
         let mut best: Option<(Rank, Solved)> = None;
         if from_reference {
-            let mut start = std::mem::take(&mut self.start);
-            start.copy_from_slice(&self.reference);
-            let s = self.attempt(goal, target, &start, true);
-            self.start = start;
-            if usable(&self.consider(s, seed.is_some(), &mut best, out)) {
+            let rank = self.attempt_from_reference(goal, target, seed.is_some(), &mut best, out);
+            if usable(&rank) {
                 return self.finish(best.expect("considered").1, out);
             }
         }
         if out_of_reach {
-            // No start can reach the goal: the reference's attempt, else the nearest start's,
-            // is the answer.
-            if best.is_none() {
-                if !looked_up {
-                    self.find_nearest(goal, target);
-                }
-                match self.nearest.first() {
-                    Some(&(_, i)) => {
-                        self.attempt_start(i as usize, goal, target, seed, &mut best, out);
-                    }
-                    None => {
-                        let mut start = std::mem::take(&mut self.start);
-                        start.copy_from_slice(&self.reference);
-                        let s = self.attempt(goal, target, &start, true);
-                        self.start = start;
-                        self.consider(s, seed.is_some(), &mut best, out);
-                    }
-                }
-            }
-            return self.polish(best.expect("an attempt"), goal, target, out);
+            return self.answer_out_of_reach(goal, target, seed, looked_up, best, out);
         }
         // Step 1b: the nominal robot's closed-form branches; with a seed, unless the seed's own
         // solution was reached at a singularity (the goal lies at one, where the branches do
@@ -368,62 +343,167 @@ impl<'r> TargetSearch<'r> {
         let branches_tried =
             closed_form && !seed_singular && (!seed_failed || self.branches_when_seed_fails);
         if branches_tried {
-            let (settled, exact) = self.closed_form_branches(goal, target, &mut best, out);
-            if settled {
-                return self.finish(best.expect("a branch was tried").1, out);
-            }
-            // With a seed, no solution reached from it nor from any branch, among them branches
-            // the nominal robot reaches exactly: the calibrated robot's solutions lie near those
-            // (the two models differ by a calibration), so the goal is out of its reach (the
-            // table's starts found no solution for any such goal of the compensate bench).
-            if seed.is_some() && best.as_ref().is_some_and(|(r, _)| r.0[0]) && exact > 0 {
-                return self.polish(best.expect("at least one attempt"), goal, target, out);
-            }
-            if let (None, Some(p)) = (seed, &self.previous) {
-                // Not settled: the previous solution as a start too, as for any robot.
-                self.reference.copy_from_slice(p);
-                let (nearest, looked) = self.reference_is_nearest(goal, target);
-                looked_up |= looked;
-                if nearest {
-                    let mut start = std::mem::take(&mut self.start);
-                    start.copy_from_slice(&self.reference);
-                    let s = self.attempt(goal, target, &start, true);
-                    self.start = start;
-                    if usable(&self.consider(s, false, &mut best, out)) {
-                        return self.finish(best.expect("considered").1, out);
-                    }
-                }
+            let answer = self.try_closed_form(goal, target, seed, &mut best, &mut looked_up, out);
+            if let Some(solved) = answer {
+                return solved;
             }
         }
         if !looked_up {
             self.find_nearest(goal, target);
         }
-        // Whether the search can stop without a usable solution: without a seed, once the
-        // goal shows itself at a singularity (reached, in range and configuration, and singular
-        // from 9 starts); with a seed, once a solution is reached in range and configuration,
-        // flagged only for its change of configuration or only for a singularity (a usable one
-        // lies within the box of starts just tried). Judged on the attempts before the table's
-        // and the table's own, except, with a seed its own attempt did not reach, the closed
-        // form's branches: the table's starts then look for the seed's solution as they would
-        // without the branches (a stall of the seed's attempt near a singularity, and of the
-        // branch nearest it, can hide a solution the table's nearest starts find).
+        // The search is settled (see [`settled`]) judged on the attempts before the table's and
+        // the table's own, except, with a seed its own attempt did not reach, the closed form's
+        // branches: the table's starts then look for the seed's solution as they would without
+        // the branches (a stall of the seed's attempt near a singularity, and of the branch
+        // nearest it, can hide a solution the table's nearest starts find).
         let mut judged = if seed_failed && branches_tried {
             seed_rank
         } else {
             best.as_ref().map(|(r, _)| *r)
         };
-        let settled = |judged: &Option<Rank>, tried: usize| {
-            judged.as_ref().is_some_and(|r| {
-                let f = r.0;
-                let placed = !f[0] && !f[1] && !f[2];
-                if seed.is_some() {
-                    placed && (!f[3] || !f[4])
-                } else {
-                    placed && !f[3] && f[4] && tried > 8
-                }
-            })
-        };
         // Step 2: the nearest starts of the table.
+        let (any_usable, tried) =
+            self.try_nearest_starts(goal, target, seed, &mut best, &mut judged, out);
+        // Step 3: nothing usable near the goal: starts spread over the whole table, unless the
+        // search is settled (with a seed; without one, after the closed form's branches too).
+        let settled_now = settled(&judged, tried, seed.is_some())
+            && (seed.is_some() || (branches_tried && self.skip_spread_if_singular));
+        if !any_usable && !settled_now {
+            self.try_spread_starts(goal, target, seed, &mut best, &mut judged, tried, out);
+        }
+        self.polish(best.expect("at least one attempt"), goal, target, out)
+    }
+
+    /// Step 1: sets the reference: the seed given, else the previous goal's solution, else the
+    /// middle of the reading ranges. Returns whether the search starts from it (the seed;
+    /// without one, the previous solution when no closed form's branches come first and it
+    /// lies nearer the goal than any start of the table), and whether the table's nearest
+    /// starts were looked up into `self.nearest` to tell.
+    fn choose_reference(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seed: Option<&[f64]>,
+        closed_form: bool,
+    ) -> (bool, bool) {
+        match (seed, &self.previous) {
+            (Some(s), _) => {
+                self.reference.copy_from_slice(s);
+                (true, false)
+            }
+            (None, Some(p)) if closed_form => {
+                // The branch nearest the previous solution is among the closed form's.
+                self.reference.copy_from_slice(p);
+                (false, false)
+            }
+            (None, Some(p)) => {
+                self.reference.copy_from_slice(p);
+                self.reference_is_nearest(goal, target)
+            }
+            (None, None) => {
+                self.reference.copy_from_slice(&self.middle);
+                (false, false)
+            }
+        }
+    }
+
+    /// One attempt from the reference, with the full iteration cap and (for a redundant arm)
+    /// the solution nearest it; its rank (its solution kept in `out` when it ranks before
+    /// `best`, judged with a seed when `seeded`).
+    fn attempt_from_reference(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seeded: bool,
+        best: &mut Option<(Rank, Solved)>,
+        out: &mut [f64],
+    ) -> Rank {
+        let mut start = std::mem::take(&mut self.start);
+        start.copy_from_slice(&self.reference);
+        let s = self.attempt(goal, target, &start, true);
+        self.start = start;
+        self.consider(s, seeded, best, out)
+    }
+
+    /// The answer for a goal the reach bound proves out of reach (`best`: the reference's
+    /// attempt, if one was made): a single attempt, polished ([`Self::polish`]).
+    fn answer_out_of_reach(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seed: Option<&[f64]>,
+        looked_up: bool,
+        mut best: Option<(Rank, Solved)>,
+        out: &mut [f64],
+    ) -> Solved {
+        // No start can reach the goal: the reference's attempt, else the nearest start's,
+        // is the answer.
+        if best.is_none() {
+            if !looked_up {
+                self.find_nearest(goal, target);
+            }
+            match self.nearest.first() {
+                Some(&(_, i)) => {
+                    self.attempt_start(i as usize, goal, target, seed, &mut best, out);
+                }
+                None => {
+                    self.attempt_from_reference(goal, target, seed.is_some(), &mut best, out);
+                }
+            }
+        }
+        self.polish(best.expect("an attempt"), goal, target, out)
+    }
+
+    /// Step 1b: the closed form's branches ([`Self::closed_form_branches`]), then, without a
+    /// seed, the previous solution when it lies nearer the goal than any start of the table.
+    /// The answer when they end the search: a usable solution, every solution of the goal
+    /// known, or, with a seed, a goal out of the calibrated robot's reach; `None` when the
+    /// table's starts are to be tried (`looked_up` set when their nearest were looked up).
+    fn try_closed_form(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seed: Option<&[f64]>,
+        best: &mut Option<(Rank, Solved)>,
+        looked_up: &mut bool,
+        out: &mut [f64],
+    ) -> Option<Solved> {
+        let (settled, exact) = self.closed_form_branches(goal, target, best, out);
+        if settled {
+            return Some(self.finish(best.take().expect("a branch was tried").1, out));
+        }
+        // With a seed, no solution reached from it nor from any branch, among them branches
+        // the nominal robot reaches exactly: the calibrated robot's solutions lie near those
+        // (the two models differ by a calibration), so the goal is out of its reach (the
+        // table's starts found no solution for any such goal of the compensate bench).
+        if seed.is_some() && best.as_ref().is_some_and(|(r, _)| r.0[0]) && exact > 0 {
+            let attempt = best.take().expect("at least one attempt");
+            return Some(self.polish(attempt, goal, target, out));
+        }
+        if let (None, Some(p)) = (seed, &self.previous) {
+            // Not settled: the previous solution as a start too, as for any robot.
+            self.reference.copy_from_slice(p);
+            let (nearest, looked) = self.reference_is_nearest(goal, target);
+            *looked_up |= looked;
+            if nearest && usable(&self.attempt_from_reference(goal, target, false, best, out)) {
+                return Some(self.finish(best.take().expect("considered").1, out));
+            }
+        }
+        None
+    }
+
+    /// Step 2: attempts from the table's starts nearest the goal, nearest first (looked up
+    /// further as needed), until one is usable (without a seed) or the search is [`settled`],
+    /// each ranked into `judged`. Returns whether one was usable, and how many were tried.
+    fn try_nearest_starts(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seed: Option<&[f64]>,
+        best: &mut Option<(Rank, Solved)>,
+        judged: &mut Option<Rank>,
+        out: &mut [f64],
+    ) -> (bool, usize) {
         let mut any_usable = false;
         let mut tried = 0;
         for k in 0.. {
@@ -431,37 +511,54 @@ impl<'r> TargetSearch<'r> {
                 break;
             }
             let i = self.nearest[k].1 as usize;
-            let rank = self.attempt_start(i, goal, target, seed, &mut best, out);
+            let rank = self.attempt_start(i, goal, target, seed, best, out);
             any_usable |= usable(&rank);
-            lower(&mut judged, rank);
+            lower(judged, rank);
             tried += 1;
             if any_usable && seed.is_none() {
                 break;
             }
-            if settled(&judged, tried) {
+            if settled(judged, tried, seed.is_some()) {
                 break;
             }
         }
-        // Step 3: nothing usable near the goal: starts spread over the whole table, unless the
-        // search is settled (with a seed; without one, after the closed form's branches too).
-        let rows = self.starts.len() / dof;
-        let settled_now = settled(&judged, tried)
-            && (seed.is_some() || (branches_tried && self.skip_spread_if_singular));
-        if !any_usable && rows > 0 && !settled_now {
-            for k in 0..Self::SPREAD {
-                if seed.is_some() && k >= Self::SEEDED_SPREAD {
-                    break;
-                }
-                let i = (k * rows / Self::SPREAD + rows / (2 * Self::SPREAD)) % rows;
-                let rank = self.attempt_start(i, goal, target, seed, &mut best, out);
-                any_usable |= usable(&rank);
-                lower(&mut judged, rank);
-                if (any_usable && seed.is_none()) || (seed.is_some() && settled(&judged, tried)) {
-                    break;
-                }
+        (any_usable, tried)
+    }
+
+    /// Step 3: attempts from [`Self::SPREAD`] starts spread evenly over the table (with a
+    /// seed, the first [`Self::SEEDED_SPREAD`] of them), each ranked into `judged`, until one
+    /// is usable (without a seed) or, with a seed, the search is [`settled`] (`tried` nearest
+    /// starts having been tried before).
+    #[allow(clippy::too_many_arguments)]
+    fn try_spread_starts(
+        &mut self,
+        goal: &Goal,
+        target: Target,
+        seed: Option<&[f64]>,
+        best: &mut Option<(Rank, Solved)>,
+        judged: &mut Option<Rank>,
+        tried: usize,
+        out: &mut [f64],
+    ) {
+        let rows = self.starts.len() / self.robot.dof();
+        if rows == 0 {
+            return;
+        }
+        let mut any_usable = false;
+        for k in 0..Self::SPREAD {
+            if seed.is_some() && k >= Self::SEEDED_SPREAD {
+                break;
+            }
+            let i = (k * rows / Self::SPREAD + rows / (2 * Self::SPREAD)) % rows;
+            let rank = self.attempt_start(i, goal, target, seed, best, out);
+            any_usable |= usable(&rank);
+            lower(judged, rank);
+            if (any_usable && seed.is_none())
+                || (seed.is_some() && settled(judged, tried, seed.is_some()))
+            {
+                break;
             }
         }
-        self.polish(best.expect("at least one attempt"), goal, target, out)
     }
 
     /// The best attempt `(rank, solved)`, its readings in `out`, finished (the next goal's
