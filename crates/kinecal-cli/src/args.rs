@@ -1557,7 +1557,9 @@ pub struct CompensateArgs {
     /// measurement file (its measured poses are the targets, its readings their seeds).
     #[arg(long = "in", value_name = "FILE", required_unless_present = "spec")]
     pub input: Option<PathBuf>,
-    /// The frame that must reach the goal: `ee` (default) or a site of the robot.
+    /// The frame that must reach the goal: `ee` (default) or a site of the robot. A program of
+    /// a tree may name one tool per branch, comma-separated (`ee,LEFT_tool0`): each reaches its
+    /// pose with its own branch's joints, the joints the branches share held as programmed.
     #[arg(long)]
     pub site: Option<String>,
     /// Reach the positions only: a program's meant positions, or the targets' positions with

@@ -99,7 +99,9 @@ pub fn compensate<'py>(
     let options = spec.options(nom).map_err(|e| error(py, e))?;
     let position_only = spec.position_only;
     let configuration = spec.configuration().map_err(|e| error(py, e))?;
-    let target = target_of(nom, spec.site.as_deref(), "site")?;
+    // The frames reached: the site named, or a tree program's tools (one per branch).
+    let tools = spec.tools(nom).map_err(|e| error(py, e))?;
+    let target = tools[0];
     let work = match (program, targets) {
         (Some(p), None) => {
             if seeds.is_some() {
@@ -115,6 +117,12 @@ pub fn compensate<'py>(
                 "readings, one column per joint",
             )?;
             Work::Program(v)
+        }
+        (None, Some(_)) if tools.len() > 1 => {
+            return Err(bad(
+                "site: several tools are for a program of a tree (a target's frame is the one \
+                 site)",
+            ))
         }
         (None, Some(t)) => targets_work(py, nom, t, seeds, position_only)?,
         (Some(_), Some(_)) | (None, None) => {
@@ -141,7 +149,7 @@ pub fn compensate<'py>(
         match &work {
             Work::Program(v) => {
                 for r in v.chunks(dof) {
-                    let s = comp.program(r, target, position_only, &mut out);
+                    let s = comp.program_tools(r, &tools, position_only, &mut out);
                     rows.push((out.clone(), s));
                 }
             }

@@ -545,6 +545,36 @@ def test_a_urdf_tree_imports_with_its_tips_and_exports_back(tmp_path):
         np.testing.assert_allclose(back.fk(q, site=site), moved.fk(q, site=site), atol=1e-9)
 
 
+def test_a_tree_program_reaches_each_named_tool_and_holds_the_torso():
+    path = os.path.join(ROOT, "examples", "trees", "upper_body.urdf")
+    tips = ["left_marker", "right_marker"]
+    nominal = kinecal.Robot.from_urdf(path, tip=tips)
+    real = nominal
+    for name, dv in [("link1.z", 0.002), ("joint1.offset", 0.003), ("joint3.offset", -0.004),
+                     ("joint10.offset", 0.002), ("link12.x", 0.001)]:
+        real = real.with_value(name, real.get(name) + dv)
+    q = np.random.default_rng(7).uniform(-0.8, 0.8, size=(6, nominal.dof))
+    # The end effector (right marker) alone: the torso's and the left arm's joints as
+    # programmed; both tools, as the command line's --site ee,left_marker: each at its pose.
+    right = kinecal.compensate(real, nominal, program=q)
+    both = kinecal.compensate(real, nominal, program=q, site="ee,left_marker")
+    shared = [0, 1]
+    left_arm = list(range(2, 8))
+    np.testing.assert_array_equal(right.readings[:, shared + left_arm], q[:, shared + left_arm])
+    np.testing.assert_array_equal(both.readings[:, shared], q[:, shared])
+    # Rows near a wrist's singularity are flagged (unreachable there); the rest reach both.
+    usable = ~both.flagged
+    assert usable.sum() >= 4
+    for site in tips:
+        meant = nominal.fk(q[usable], site=site)
+        got = real.fk(both.readings[usable], site=site)
+        np.testing.assert_allclose(got, meant, atol=1e-9)
+    with pytest.raises(kinecal.KinecalError, match="lie on one branch"):
+        kinecal.compensate(real, nominal, program=q, site="ee,right_marker")
+    with pytest.raises(kinecal.KinecalError, match="several tools are for a program"):
+        kinecal.compensate(real, nominal, targets=nominal.fk(q), site="ee,left_marker")
+
+
 def test_urdf_masses_make_an_elastic_robot():
     path = shared_data("urdf", "universal_robots", "urdf_plain", "ur10_robot.urdf")
     rigid = kinecal.Robot.from_urdf(path, base="base_link", tip="tool0")
@@ -881,7 +911,7 @@ def test_compensation_flags_and_its_settings():
         ({"program": np.zeros((2, 4)), "configuration": "+,+,+,+"}, kinecal.KinecalError,
          "configuration: is for Cartesian targets"),
         ({"program": np.zeros((1, 4)), "site": "tcp"}, kinecal.KinecalError,
-         "site: `tcp` is not a site of GE A4"),
+         "site: unknown site `tcp` (the robot file defines: ee)"),
         ({"program": np.zeros((1, 4)), "singular": 1.5}, kinecal.KinecalError,
          "singular: expected a fraction from 0 to below 1, not 1.5"),
         ({"program": np.zeros((1, 4)), "branch": -1.0}, kinecal.KinecalError,

@@ -646,7 +646,9 @@ def compensate(
     taken. ``configuration``: the configuration targets must be in, as ``kinecal compensate
     --configuration`` takes it (``"shoulder=front,elbow=up,wrist=noflip"``, any of them, for an
     arm of six revolute joints; or a sign pattern of the joint values ``"+,*,-,*,+,*"``). ``site``: the frame that must reach the goal (None or ``"ee"``: the
-    end effector). ``tolerance``: the largest acceptable remaining error, ``(length,
+    end effector); a program of a tree may name one tool per branch, comma-separated
+    (``"ee,left_marker"``): each reaches its pose with its own branch's joints, the joints
+    the branches share held as programmed. ``tolerance``: the largest acceptable remaining error, ``(length,
     angle)`` or a dict of either (default 1 um and 1 urad). ``singular``: flag solutions
     whose conditioning is below it. ``branch``: flag a revolute joint turning more than this
     angle from the seed (default 0.5 rad).

@@ -152,7 +152,9 @@ pub struct CompensateSpec {
     /// `-` for standard input).
     #[serde(default, rename = "in")]
     pub input: String,
-    /// The frame that must reach the goal: `ee` (default) or a site.
+    /// The frame that must reach the goal: `ee` (default) or a site. A program of a tree may
+    /// name one tool per branch, comma-separated (`ee,LEFT_tool0`): each reaches its pose with
+    /// its own branch's joints, the joints the branches share held at the program's readings.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub site: Option<String>,
     /// Reach the positions only.
@@ -792,6 +794,33 @@ impl CompensateSpec {
             .transpose()
     }
 
+    /// The frames the rows reach: the site named (the end effector by default), or a tree's
+    /// tools, one per branch, comma-separated (a program's; see
+    /// [`Compensator::program_tools`]).
+    pub fn tools(&self, robot: &Robot) -> Result<Vec<Target>> {
+        let names = self.site.as_deref().unwrap_or("ee");
+        let mut tools: Vec<Target> = Vec::new();
+        for name in names.split(',').map(str::trim) {
+            let t =
+                crate::files::site_target(robot, name).map_err(|m| invalid(Setting::Site, m))?;
+            if let Some(&u) = tools
+                .iter()
+                .find(|&&u| crate::apps::compensate::on_one_branch(robot, t, u))
+            {
+                return Err(invalid(
+                    Setting::Site,
+                    format!(
+                        "{name} and {} lie on one branch (one moves the other, or they are \
+                         the same frame): a program reaches one tool per branch of a tree",
+                        target_name(robot, u)
+                    ),
+                ));
+            }
+            tools.push(t);
+        }
+        Ok(tools)
+    }
+
     /// Reads the robots and the input, compensates row by row and writes the output.
     pub(crate) fn run(&self, env: &mut Env<'_>) -> Result<Done> {
         let (calibrated, _) = robot_as(&self.robot, Setting::Robot)?;
@@ -801,9 +830,8 @@ impl CompensateSpec {
             .as_deref()
             .ok_or_else(|| invalid(Setting::Output, "no output file given"))?;
         let options = self.options(&nominal)?;
-        let default_target =
-            crate::files::site_target(&nominal, self.site.as_deref().unwrap_or("ee"))
-                .map_err(|m| invalid(Setting::Site, m))?;
+        let tools = self.tools(&nominal)?;
+        let default_target = tools[0];
         let comp = Compensator::new(&calibrated, &nominal, options).map_err(|e| {
             invalid(
                 Setting::NominalRobot,
@@ -815,6 +843,19 @@ impl CompensateSpec {
         }
         let mut rows = Rows::open(Path::new(&self.input))?;
         let kind = kind(&rows, &nominal)?;
+        if tools.len() > 1 && !matches!(kind, Kind::Program { .. }) {
+            return Err(invalid(
+                Setting::Site,
+                format!(
+                    "{} names several tools: a list is for a program of a tree (a target \
+                     row's frame is its site column's, else one --site)",
+                    self.site.as_deref().unwrap_or_default()
+                ),
+            ));
+        }
+        if matches!(kind, Kind::Program { .. }) {
+            note_tools_left_as_programmed(&nominal, &tools);
+        }
         // What the tool carries at each row: the elastic robot yields to it, and the output
         // keeps the columns so that `fk` and `check` see the same load.
         let payload = payload_columns(&rows)?;
@@ -832,6 +873,7 @@ impl CompensateSpec {
             nominal: &nominal,
             payload,
             default_target,
+            tools,
             position_only: self.position_only,
             comp,
             search,
@@ -997,6 +1039,77 @@ fn conclude(
     Ok((messages, status))
 }
 
+/// A target's name as files give it: the end effector's own (else `ee`), a site's.
+fn target_name(robot: &Robot, t: Target) -> String {
+    match t {
+        Target::EndEffector => robot.end_effector.clone().unwrap_or_else(|| "ee".into()),
+        Target::Site(i) => robot.sites[i].name.clone(),
+    }
+}
+
+/// Joint `j`'s (0-based) name, else its reading column `v{j+1}`.
+fn joint_name(robot: &Robot, j: usize) -> String {
+    robot.joints[j]
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("v{}", j + 1))
+}
+
+/// On a tree, a program that reaches some tools and leaves another branch's tool as
+/// programmed says so, with the joints held and how to name every tool.
+fn note_tools_left_as_programmed(robot: &Robot, tools: &[Target]) {
+    let held: u64 = tools.iter().fold(0, |h, &t| {
+        h | crate::apps::compensate::shared_joints(robot, t)
+    });
+    if held == 0 {
+        return;
+    }
+    let mut others: Vec<String> = Vec::new();
+    let mut all: Vec<String> = tools.iter().map(|&t| target_name(robot, t)).collect();
+    for (i, site) in robot.sites.iter().enumerate() {
+        let t = Target::Site(i);
+        let reached = tools
+            .iter()
+            .any(|&u| crate::apps::compensate::on_one_branch(robot, t, u));
+        if !reached
+            && !others.iter().any(|o| {
+                let u = Target::named(robot, o).expect("a site");
+                crate::apps::compensate::on_one_branch(robot, t, u)
+            })
+        {
+            others.push(site.name.clone());
+            all.push(site.name.clone());
+        }
+    }
+    let joints: Vec<String> = (0..robot.dof())
+        .filter(|j| held & (1 << j) != 0)
+        .map(|j| joint_name(robot, j))
+        .collect();
+    let reached: Vec<String> = tools.iter().map(|&t| target_name(robot, t)).collect();
+    if others.is_empty() {
+        crate::files::note(format!(
+            "a tree: the program reaches {} each with its own branch's joints; {} (shared by \
+             the branches) {} at the program's readings",
+            reached.join(", "),
+            joints.join(", "),
+            if joints.len() == 1 { "stays" } else { "stay" }
+        ));
+    } else {
+        crate::files::note(format!(
+            "a tree: the program reaches {} with its own branch's joints; {} (shared with \
+             another branch) {} at the program's readings and {} {} left as programmed: name \
+             every tool to compensate {} too (--site {})",
+            reached.join(", "),
+            joints.join(", "),
+            if joints.len() == 1 { "stays" } else { "stay" },
+            others.join(", "),
+            if others.len() == 1 { "is" } else { "are" },
+            if others.len() == 1 { "it" } else { "them" },
+            all.join(",")
+        ));
+    }
+}
+
 /// What compensates one row after another: the solvers of programs and targets, the input's
 /// payload columns and the row's buffers.
 struct RowSolver<'r> {
@@ -1004,6 +1117,8 @@ struct RowSolver<'r> {
     payload: [Option<usize>; 4],
     /// Where a row without a site column aims (the spec's site, else the end effector).
     default_target: Target,
+    /// What a program's rows reach: the default target, or a tree's tools, one per branch.
+    tools: Vec<Target>,
     position_only: bool,
     comp: Compensator<'r>,
     search: TargetSearch<'r>,
@@ -1051,16 +1166,13 @@ impl RowSolver<'_> {
             *s = cell(rows, line, c)?;
         }
         let col = rows.column("posture").expect("checked");
-        Ok((
-            rows.field(col).to_string(),
-            None,
-            self.comp.program(
-                &self.seed,
-                self.default_target,
-                self.position_only,
-                &mut self.solution,
-            ),
-        ))
+        let solved = self.comp.program_tools(
+            &self.seed,
+            &self.tools,
+            self.position_only,
+            &mut self.solution,
+        );
+        Ok((rows.field(col).to_string(), None, solved))
     }
 
     /// A Cartesian target's row: the readings that put its site at its goal, from its seed

@@ -160,6 +160,8 @@ pub struct Compensator<'r> {
     step: Vec<f64>,
     trial: Vec<f64>,
     kept: Vec<f64>,
+    /// A program row's readings after its tools so far: the next tool's start.
+    tool_start: Vec<f64>,
     /// Weight of attitude rows (m per rad): the reach.
     reach: f64,
     options: Options,
@@ -178,6 +180,9 @@ pub struct Compensator<'r> {
     defer_conditioning: bool,
     /// The normal matrix `W J J^T W` at the last solution judged.
     judged_normal: Matrix6<f64>,
+    /// Joints (bit `j` for joint `j + 1`) held at their start: on a tree, with a seed, those
+    /// the target shares with another branch's tool ([`shared_joints`]).
+    held: u64,
 }
 
 impl<'r> Compensator<'r> {
@@ -209,6 +214,7 @@ impl<'r> Compensator<'r> {
             step: vec![0.0; n],
             trial: vec![0.0; n],
             kept: vec![0.0; n],
+            tool_start: vec![0.0; n],
             reach,
             options,
             payload: None,
@@ -217,6 +223,7 @@ impl<'r> Compensator<'r> {
             reuse_last_forward: true,
             defer_conditioning: false,
             judged_normal: Matrix6::zeros(),
+            held: 0,
         })
     }
 
@@ -260,11 +267,43 @@ impl<'r> Compensator<'r> {
         self.solve(&goal, target, readings, out)
     }
 
+    /// [`Compensator::program`] for a tree's tools, one per branch (see [`on_one_branch`]):
+    /// each reaches what the nominal model meant at `readings` with its own branch's joints,
+    /// from the solution so far, the joints the branches share held at the program's readings.
+    /// The row's solution: the largest remaining errors, the iterations of all, the worst
+    /// conditioning, every flag.
+    pub fn program_tools(
+        &mut self,
+        readings: &[f64],
+        tools: &[Target],
+        position_only: bool,
+        out: &mut [f64],
+    ) -> Solved {
+        let mut solved = self.program(readings, tools[0], position_only, out);
+        for &tool in &tools[1..] {
+            let f = self.intended(readings, tool);
+            let goal = match position_only {
+                true => Goal::Position(f.translation),
+                false => Goal::Pose(f),
+            };
+            let mut start = std::mem::take(&mut self.tool_start);
+            start.copy_from_slice(out);
+            let s = self.solve(&goal, tool, &start, out);
+            self.tool_start = start;
+            solved = worse_of(solved, s);
+        }
+        solved
+    }
+
     /// Writes into `out` the readings, nearest `seed`, at which the calibrated model puts
     /// `target` at `goal`; the flags judge the solution against the seed (a change of
     /// configuration) and the robot file's ranges.
+    /// On a tree, the joints the target shares with another branch's tool (a torso under two
+    /// arms) stay at the seed: the other branches keep their poses.
     pub fn solve(&mut self, goal: &Goal, target: Target, seed: &[f64], out: &mut [f64]) -> Solved {
+        self.held = shared_joints(self.calibrated.robot(), target);
         let mut solved = self.local(goal, target, seed, true, out);
+        self.held = 0;
         let robot = self.calibrated.robot();
         for (j, joint) in robot.joints.iter().enumerate() {
             if let Some((lo, hi)) = joint.range {
@@ -420,8 +459,7 @@ impl<'r> Compensator<'r> {
             self.calibrated
                 .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
         }
-        self.calibrated
-            .reading_jacobian(&self.ws, target, &mut self.jac);
+        self.jacobian(target);
         let normal = self.normal(rows);
         self.judged_normal = normal;
         let bounded = match self.defer_conditioning {
@@ -602,11 +640,25 @@ impl<'r> Compensator<'r> {
             self.calibrated
                 .forward_loaded(out, None, self.payload.as_ref(), &mut self.ws);
         }
-        self.calibrated
-            .reading_jacobian(&self.ws, target, &mut self.jac);
+        self.jacobian(target);
         let jjt = self.normal(rows);
         let scale = jjt.diagonal().max().max(f64::MIN_POSITIVE);
         (jjt, scale)
+    }
+
+    /// The reading Jacobian of `target` at the forward kinematics in the workspace, into
+    /// `self.jac`, with the columns of the joints held ([`Compensator::held`]) zero: the
+    /// damped steps leave those joints where they started.
+    fn jacobian(&mut self, target: Target) {
+        self.calibrated
+            .reading_jacobian(&self.ws, target, &mut self.jac);
+        if self.held != 0 {
+            for (j, c) in self.jac.chunks_exact_mut(6).enumerate() {
+                if self.held & (1 << j) != 0 {
+                    c.fill(0.0);
+                }
+            }
+        }
     }
 
     /// `W J J^T W` over the first `rows` rows (the rest zero).
@@ -684,6 +736,64 @@ impl<'r> Compensator<'r> {
             0.0
         }
     }
+}
+
+/// One solution of a program row from those of its tools: the largest remaining errors, the
+/// iterations of all, the worst conditioning, every flag.
+fn worse_of(a: Solved, b: Solved) -> Solved {
+    let mut f = a.flags;
+    f.unreachable |= b.flags.unreachable;
+    f.out_of_range |= b.flags.out_of_range;
+    f.singular |= b.flags.singular;
+    f.branch |= b.flags.branch;
+    f.configuration |= b.flags.configuration;
+    Solved {
+        position_error: a.position_error.max(b.position_error),
+        attitude_error: match (a.attitude_error, b.attitude_error) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        },
+        iterations: a.iterations + b.iterations,
+        conditioning: a.conditioning.min(b.conditioning),
+        flags: f,
+    }
+}
+
+/// Whether targets `a` and `b` lie on one path from the base (one's frame moves with the
+/// other's joints, or they hang on the same joint): always on a chain.
+pub(crate) fn on_one_branch(robot: &Robot, a: Target, b: Target) -> bool {
+    let (a, b) = (
+        crate::model::kinematics::target_joint(robot, a),
+        crate::model::kinematics::target_joint(robot, b),
+    );
+    let before = |x: usize, y: usize| x == 0 || robot.joint_moves(x - 1, y);
+    before(a, b) || before(b, a)
+}
+
+/// The joints (bit `j` for joint `j + 1`) that move `target` and also a tool frame on
+/// another branch of a tree (the end effector or a site attached where neither frame lies on
+/// the other's path from the base): a torso under two arms, for either arm's tool. None on a
+/// chain, where every frame lies on one path.
+pub(crate) fn shared_joints(robot: &Robot, target: Target) -> u64 {
+    if !robot.is_tree() {
+        return 0;
+    }
+    let k = crate::model::kinematics::target_joint(robot, target);
+    let tools =
+        std::iter::once(Target::EndEffector).chain((0..robot.sites.len()).map(Target::Site));
+    let mut shared = 0u64;
+    for tool in tools {
+        if on_one_branch(robot, tool, target) {
+            continue;
+        }
+        let t = crate::model::kinematics::target_joint(robot, tool);
+        for j in 0..robot.dof().min(64) {
+            if robot.joint_moves(j, k) && robot.joint_moves(j, t) {
+                shared |= 1 << j;
+            }
+        }
+    }
+    shared
 }
 
 /// The Euclidean distance between readings `v` and `seed`.

@@ -321,6 +321,12 @@ impl<'r> TargetSearch<'r> {
         let dof = self.robot.dof();
         assert_eq!(out.len(), dof);
         self.seeded = seed.is_some();
+        // On a tree, with a seed, the joints shared with another branch's tool stay at the
+        // seed (the other arms keep their poses: a posture's rows agree on them).
+        self.comp.held = match seed {
+            Some(_) => super::shared_joints(self.robot, target),
+            None => 0,
+        };
         let closed_form = matches!(goal, Goal::Pose(_)) && self.has_closed_form(target);
         let out_of_reach = match goal {
             Goal::Pose(frame) => self.out_of_reach(frame, target),
@@ -878,13 +884,14 @@ impl<'r> TargetSearch<'r> {
     fn attempt(&mut self, goal: &Goal, target: Target, start: &[f64], nearest: bool) -> Solved {
         let mut candidate = std::mem::take(&mut self.candidate);
         // A tree's joints on other branches cannot move the target: they start, and so stay,
-        // at the reference (the seed, the previous row's solution, or mid-range).
+        // at the reference (the seed, the previous row's solution, or mid-range); so do the
+        // joints held at the seed.
         let mut from = std::mem::take(&mut self.from);
         from.copy_from_slice(start);
         if self.robot.is_tree() {
             let attach = crate::model::kinematics::target_joint(self.robot, target);
             for (j, v) in from.iter_mut().enumerate() {
-                if !self.robot.joint_moves(j, attach) {
+                if !self.robot.joint_moves(j, attach) || self.comp.held & (1 << j) != 0 {
                     *v = self.reference[j];
                 }
             }
