@@ -555,6 +555,13 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
         if serial.is_some() && kind != "calibrate" {
             bail!("{at}: a serial names a robot whose calibration is recorded: give other jobs a `name`");
         }
+        // A compensation writing a controller program takes the name as its program's too,
+        // as its spec run alone does (a KRL module's DEF, a RAPID module, a TP program).
+        let controller = ["krl", "rapid", "tp"]
+            .contains(&table.get("format").and_then(|f| f.as_str()).unwrap_or(""));
+        if let (true, true, Some(l)) = (kind == "compensate", controller, &label) {
+            table.insert("name", toml_edit::value(l.as_str()));
+        }
         let label = serial
             .or(label)
             .unwrap_or_else(|| format!("{kind} {}", k + 1));

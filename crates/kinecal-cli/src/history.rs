@@ -411,9 +411,10 @@ fn change(v: f64, unit: &str) -> String {
 fn show_drift(d: &DriftDocument) {
     let r = &d.report;
     println!(
-        "robot {}: {} calibrations; latest {} ({}) against baseline {} ({}); flag beyond {} sigma",
+        "robot {}: {} calibration{}; latest {} ({}) against baseline {} ({}); flag beyond {} sigma",
         printable(&r.robot_id),
         r.calibrations,
+        if r.calibrations == 1 { "" } else { "s" },
         r.latest_id,
         r.latest_at,
         r.baseline_id,

@@ -12,9 +12,10 @@ pub fn prediction(d: &Document) {
     let s = &p.summary;
     let b = &s.position_bound95;
     eprintln!(
-        "predicted {} postures of {} ({}): 95 % position bound median {}, 95th percentile {}, \
+        "predicted {} posture{} of {} ({}): 95 % position bound median {}, 95th percentile {}, \
          largest {} {}",
         s.postures.len(),
+        if s.postures.len() == 1 { "" } else { "s" },
         s.robot,
         s.target,
         num(b.median),

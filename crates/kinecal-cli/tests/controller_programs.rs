@@ -556,3 +556,53 @@ fn the_readers_name_the_line_of_a_damaged_program() {
         assert!(e.contains(expected), "{e}");
     }
 }
+
+/// The name a controller takes is the name of the file written: through a symbolic link, the
+/// link's target (the writer writes there; before, the KRL `DEF` named the link, and the
+/// controller would refuse the file), made yet or not; and a batch's compensation job named
+/// `name` writes the program its spec run alone writes (before, the batch took the name as
+/// the job's label only, and the program was named after its file).
+#[test]
+fn a_program_is_named_after_the_file_written_and_a_batch_names_it_as_its_spec() {
+    let dir = setup();
+    let d = dir.path();
+    std::os::unix::fs::symlink("target.src", d.join("link.src")).unwrap();
+    for round in ["made by the run", "there already"] {
+        let (code, err) = comp(d, "--format krl --out link.src");
+        assert_eq!(code, 0, "{round}: {err}");
+        assert!(d.join("link.src").is_symlink());
+        let text = std::fs::read_to_string(d.join("target.src")).unwrap();
+        assert!(text.contains("DEF target()"), "{round}: {text}");
+    }
+    let (code, err) = comp(d, "--format krl --name link --out link.src");
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("is not the name of link.src (a link to"),
+        "{err}"
+    );
+    let job = "job = \"compensate\"\nname = \"cell5\"\nrobot = \"true.toml\"\n\
+               nominal = \"irb120.toml\"\nin = \"poses.csv\"\nformat = \"rapid\"\n";
+    std::fs::write(d.join("one.toml"), format!("{job}out = \"alone.mod\"\n")).unwrap();
+    run_ok(d, &argv("compensate --spec one.toml"));
+    std::fs::write(
+        d.join("jobs.toml"),
+        format!(
+            "[[jobs]]\n{job}out = \"batch.mod\"\n\n[[jobs]]\n{}out = \"table.csv\"\n",
+            job.replace("format = \"rapid\"\n", "")
+                .replace("cell5", "as a table")
+        ),
+    )
+    .unwrap();
+    let (code, out, err) = run(d, &argv("batch jobs.toml"));
+    assert_eq!(code, 0, "{out}{err}");
+    let alone = std::fs::read_to_string(d.join("alone.mod")).unwrap();
+    let batch = std::fs::read_to_string(d.join("batch.mod")).unwrap();
+    assert!(alone.contains("MODULE cell5"), "{alone}");
+    let strip = |t: &str| t.replace("alone.mod", "X").replace("batch.mod", "X");
+    assert_eq!(strip(&alone), strip(&batch));
+    // A table is no program: the name stays the job's label alone.
+    assert!(
+        out.contains("as a table") && d.join("table.csv").exists(),
+        "{out}"
+    );
+}

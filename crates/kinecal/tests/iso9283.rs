@@ -632,4 +632,10 @@ fn a_given_cube_is_checked_and_written() {
         assert!(f.ap_abc.unwrap().iter().all(|a| a.abs() < 1e-5), "{f:?}");
     }
     assert!(e.warnings.iter().any(|w| w.contains("simulated")));
+    // Saved by a spreadsheet as "CSV UTF-8" (a byte order mark first): the same log, still
+    // marked simulated (before: its first comment line was read as the header).
+    let bom = format!("\u{feff}{}", write_log(&log));
+    let back = read_log(&bom, "sim.csv", LogUnits::default()).unwrap();
+    assert!(back.simulated);
+    assert_eq!(back.rows.len(), log.rows.len());
 }

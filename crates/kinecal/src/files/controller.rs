@@ -74,7 +74,7 @@ impl Brand {
             return Err(Error::InvalidOption {
                 setting: Setting::OutputFormat,
                 message: format!(
-                    "joint {} is prismatic: a {} joint target holds angles only",
+                    "joint {} is prismatic: the {} joint targets hold angles only",
                     j + 1,
                     self.as_str()
                 ),

@@ -147,7 +147,7 @@ pub fn detect_format(text: &str) -> usize {
     let header: Vec<String> = text
         .lines()
         .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .find(|l| !l.is_empty() && !table::is_comment(l))
         .unwrap_or("")
         .trim_start_matches('\u{feff}')
         .split(delimiter)

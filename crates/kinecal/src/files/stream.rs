@@ -73,7 +73,7 @@ impl Rows {
             head.extend_from_slice(&line);
             let text = String::from_utf8_lossy(&line);
             let t = text.trim();
-            if !t.is_empty() && !t.starts_with('#') {
+            if !t.is_empty() && !super::table::is_comment(t) {
                 first = t.to_string();
                 break;
             }

@@ -62,13 +62,20 @@ impl std::ops::Index<usize> for Fields<'_> {
     }
 }
 
+/// Whether `line` is a comment: its first character other than blanks and a byte order mark
+/// (a spreadsheet's "CSV UTF-8" starts the file with one) is `#`.
+pub(crate) fn is_comment(line: &str) -> bool {
+    line.trim_start_matches(|c: char| c == '\u{feff}' || c.is_whitespace())
+        .starts_with('#')
+}
+
 /// The delimiter of a table: the most frequent of `,`, `;` and tab in its first line that is not
 /// blank or a comment (`,` when none occurs).
 pub(crate) fn detect_delimiter(text: &str) -> u8 {
     let first = text
         .lines()
         .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .find(|l| !l.is_empty() && !is_comment(l))
         .unwrap_or("");
     let count = |c: char| first.matches(c).count();
     let (comma, semi, tab) = (count(','), count(';'), count('\t'));
@@ -152,7 +159,7 @@ fn read_plain<'a>(text: &'a str, file: &str) -> Result<Table<'a>> {
         at += line.len() + 1;
         let line = line.strip_suffix('\r').unwrap_or(line);
         // Empty lines are no record; comment lines are skipped wherever they are.
-        if line.is_empty() || line.trim_start().starts_with('#') {
+        if line.is_empty() || is_comment(line) {
             continue;
         }
         let number = i + 1;
@@ -253,13 +260,7 @@ fn read_quoted<'a>(text: &str, file: &str) -> Result<Table<'a>> {
     let text = if text.contains('#') {
         uncommented = text
             .split('\n')
-            .map(|l| {
-                if l.trim_start().starts_with('#') {
-                    ""
-                } else {
-                    l
-                }
-            })
+            .map(|l| if is_comment(l) { "" } else { l })
             .collect::<Vec<_>>()
             .join("\n");
         &uncommented
@@ -868,5 +869,25 @@ mod tests {
         assert!(!plain("\u{feff}a,b\n1,2\n"));
         assert!(!plain("a,b\r1,2\r"));
         assert!(plain("a,b\r\n1,2\r\n"));
+    }
+
+    /// A byte order mark before a comment line (a spreadsheet's "CSV UTF-8" of a file that
+    /// starts with one, as kinecal's logs, plans and tables do) leaves it a comment: the header
+    /// is the next line, the delimiter and format are told from it, and the line numbers count
+    /// the comment (before, the comment was read as the header).
+    #[test]
+    fn a_comment_behind_a_byte_order_mark_is_a_comment() {
+        let text = "\u{feff}# measured 2026\nposture;v1;v2\n# a note\n7;1,5;2\n";
+        assert!(is_comment("\u{feff}# x") && is_comment("  # x") && !is_comment("\u{feff}a,#"));
+        assert_eq!(detect_delimiter(text), b';');
+        let (header, line, rows) = seen(read(text, "t.csv")).unwrap();
+        assert_eq!(header, ["posture", "v1", "v2"]);
+        assert_eq!(line, 2);
+        assert_eq!(rows, [(4, vec!["7".into(), "1,5".into(), "2".into()])]);
+        let text = "\u{feff}# contacts\nposture;plane;v1;v2\n";
+        assert_eq!(
+            crate::files::FORMATS[crate::files::detect_format(text)].option,
+            "contacts"
+        );
     }
 }

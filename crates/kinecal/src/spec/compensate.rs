@@ -743,9 +743,23 @@ impl CompensateSpec {
             Some(z) => z.check(language)?,
             None => Zone::Fine,
         };
-        // The file's own name, unless the output is standard output or a device.
+        // The file's own name, unless the output is standard output or a device; through a
+        // symbolic link, the name of the file written (the link's target).
         let path = Path::new(out);
-        let stem = (out != "-" && !out.starts_with("/dev/") && !out.starts_with("/proc/"))
+        let resolved = path.is_symlink().then(|| {
+            std::fs::canonicalize(path).unwrap_or_else(|_| {
+                // A link to a file not made yet: its target, beside the link when relative.
+                let target = std::fs::read_link(path).unwrap_or_else(|_| path.into());
+                path.parent().map_or(target.clone(), |d| d.join(&target))
+            })
+        });
+        let shown = match &resolved {
+            Some(r) => format!("{out} (a link to {})", r.display()),
+            None => out.to_string(),
+        };
+        let path = resolved.as_deref().unwrap_or(path);
+        let device = out == "-" || path.starts_with("/dev") || path.starts_with("/proc");
+        let stem = (!device)
             .then(|| path.file_stem().and_then(|s| s.to_str()))
             .flatten();
         let name = match (&self.name, stem) {
@@ -758,8 +772,8 @@ impl CompensateSpec {
                         return Err(invalid(
                             Setting::ProgramName,
                             format!(
-                                "`{name}` is not the name of {out}: a KRL module's DEF names its \
-                                 file (write it to {name}.src, or leave the name out)"
+                                "`{name}` is not the name of {shown}: a KRL module's DEF names \
+                                 its file (write it to {name}.src, or leave the name out)"
                             ),
                         ));
                     }
@@ -770,7 +784,7 @@ impl CompensateSpec {
                 invalid(
                     Setting::ProgramName,
                     format!(
-                        "the program is named after its file {out}: {m}; {}",
+                        "the program is named after its file {shown}: {m}; {}",
                         if language == Language::Krl {
                             "name the file so (a KRL module's DEF names its file)"
                         } else {

@@ -1251,7 +1251,7 @@ fn repeated_pose(t: &table::Table<'_>, row: &LogRow, first: usize) -> Error {
 /// header).
 fn says_simulated(text: &str) -> bool {
     text.lines()
-        .take_while(|l| l.trim_start().starts_with('#'))
+        .take_while(|l| crate::files::table::is_comment(l))
         .any(|l| l.contains("SIMULATED"))
 }
 
