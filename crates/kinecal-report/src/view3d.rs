@@ -6,7 +6,7 @@
 use std::fmt::Write as _;
 
 use kinecal::report::gltf::{board_lines, frustum_lines};
-use kinecal::report::scene::{Scene, ScenePosture, Skeleton};
+use kinecal::report::scene::{Scene, ScenePoint, ScenePosture, Skeleton};
 
 use crate::display::DisplayUnits;
 use crate::number::{num, sig};
@@ -188,7 +188,47 @@ fn points_caption(scene: &Scene) -> String {
     s
 }
 
-/// The section of the page: the view, or why there is none.
+/// What every part of the section draws from: the scene, the page's length unit and the round
+/// length the axes, the floor grid and the residual scales are stated in.
+struct View<'a> {
+    scene: &'a Scene,
+    /// Display units per metre: a scene coordinate (m) times this is in `unit`.
+    f: f64,
+    /// The page's length unit (`mm`, `in`, ...).
+    unit: &'static str,
+    /// The length of the frame axes and the floor grid's squares, in `unit`: a round fifth of
+    /// the robot's reach.
+    axis: f64,
+    /// Whether the scene draws a nominal robot beside the calibrated one.
+    has_nominal: bool,
+    /// Whether the points carry residuals before calibration (the nominal robot's).
+    has_before: bool,
+    /// Whether any posture has a camera or a board.
+    has_cameras: bool,
+}
+
+impl<'a> View<'a> {
+    /// The view of `scene` with lengths shown in `units`.
+    fn new(scene: &'a Scene, units: DisplayUnits) -> Self {
+        let f = 1.0 / units.length.metres();
+        View {
+            scene,
+            f,
+            unit: units.length.as_str(),
+            axis: round_down(scene.reach * f / 5.0),
+            has_nominal: scene.postures.iter().any(|p| p.nominal.is_some()),
+            has_before: scene.points.iter().any(|p| p.before.is_some()),
+            has_cameras: scene
+                .postures
+                .iter()
+                .any(|p| !p.cameras.is_empty() || !p.boards.is_empty()),
+        }
+    }
+}
+
+/// The section of the page: the view, or why there is none. The view is, in order: the
+/// controls, the canvas, the legend and scales, the scene in words, then the scene's data and
+/// the renderer.
 pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
     let mut h = String::from("<h2 id=\"view3d\">3-D view</h2>\n");
     let Some(scene) = scene else {
@@ -205,24 +245,32 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         );
         return h;
     }
-    let f = 1.0 / units.length.metres();
-    let l = units.length.as_str();
-    let axis = round_down(scene.reach * f / 5.0);
-    let k = scene.residual_scale;
-    let has_nominal = scene.postures.iter().any(|p| p.nominal.is_some());
-    let has_before = scene.points.iter().any(|p| p.before.is_some());
-    let has_cameras = scene
-        .postures
-        .iter()
-        .any(|p| !p.cameras.is_empty() || !p.boards.is_empty());
-    let kb = scene.residual_scale_before;
+    let v = View::new(scene, units);
+    let scale_words = residual_scale_sentence(&v);
+    h += "<div id=\"v3d\">";
+    h += &controls(&v);
+    h += &canvas(&v, &scale_words);
+    h += &legend_and_scale(&v, &scale_words);
+    h += &scene_in_words(&v);
+    h += &data_and_renderer(&v);
+    h
+}
+
+/// The residual vectors' magnification in words, for the page and the canvas's description:
+/// "residual vectors drawn 500 times their length (100 mm on the view is 0.2 mm of error)",
+/// with the before-calibration scale when the scene has those residuals.
+fn residual_scale_sentence(v: &View<'_>) -> String {
+    let l = v.unit;
+    let axis = v.axis;
+    let k = v.scene.residual_scale;
+    let kb = v.scene.residual_scale_before;
     let mut scale_words = format!(
         "residual vectors drawn {} times their length ({} {l} on the view is {} {l} of error)",
         round(k),
         round(axis),
         round(axis / k)
     );
-    if has_before {
+    if v.has_before {
         let _ = write!(
             scale_words,
             ", those before calibration {} times ({} {l} is {} {l})",
@@ -231,28 +279,17 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
             round(axis / kb)
         );
     }
+    scale_words
+}
 
-    // Controls.
-    h += "<div id=\"v3d\"><p class=\"controls\">";
-    if scene.postures.len() > 1 {
-        h += "<label>posture <select id=\"v3d-posture\">";
-        let worst = scene
-            .points
-            .iter()
-            .max_by(|a, b| a.error_after().total_cmp(&b.error_after()))
-            .map(|p| p.posture);
-        for (i, p) in scene.postures.iter().enumerate() {
-            let note = if Some(p.index) == worst {
-                " (largest residual)"
-            } else if i == 0 && p.index == 0 {
-                " (first measured)"
-            } else {
-                ""
-            };
-            let _ = write!(h, "<option value=\"{i}\">{}{note}</option>", esc(&p.label));
-        }
-        h += "</select></label> ";
+/// The controls above the view: the posture picker (when there are several postures) and a
+/// checkbox per layer the scene has, as a `<p class="controls">` line.
+fn controls(v: &View<'_>) -> String {
+    let mut h = String::from("<p class=\"controls\">");
+    if v.scene.postures.len() > 1 {
+        h += &posture_picker(v.scene);
     }
+    let scene = v.scene;
     let mut toggle = |name: &str, words: &str, on: bool, present: bool| {
         if present {
             let _ = write!(
@@ -262,16 +299,45 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
             );
         }
     };
-    toggle("nominal", "nominal robot", true, has_nominal);
+    toggle("nominal", "nominal robot", true, v.has_nominal);
     toggle("points", "measured points", true, !scene.points.is_empty());
     toggle("after", "residuals after", true, !scene.points.is_empty());
-    toggle("before", "residuals before", false, has_before);
-    toggle("cameras", "cameras and boards", true, has_cameras);
+    toggle("before", "residuals before", false, v.has_before);
+    toggle("cameras", "cameras and boards", true, v.has_cameras);
     toggle("frames", "frames", true, true);
     toggle("grid", "floor grid", true, true);
     h += "</p>\n";
+    h
+}
 
-    // The canvas, described for a reader who cannot see it.
+/// The posture drop-down: one option per drawn posture, the one with the largest residual and
+/// the first measured one marked.
+fn posture_picker(scene: &Scene) -> String {
+    let mut h = String::from("<label>posture <select id=\"v3d-posture\">");
+    let worst = scene
+        .points
+        .iter()
+        .max_by(|a, b| a.error_after().total_cmp(&b.error_after()))
+        .map(|p| p.posture);
+    for (i, p) in scene.postures.iter().enumerate() {
+        let note = if Some(p.index) == worst {
+            " (largest residual)"
+        } else if i == 0 && p.index == 0 {
+            " (first measured)"
+        } else {
+            ""
+        };
+        let _ = write!(h, "<option value=\"{i}\">{}{note}</option>", esc(&p.label));
+    }
+    h += "</select></label> ";
+    h
+}
+
+/// The canvas the renderer draws on, its label and fallback content describing the view for a
+/// reader who cannot see it.
+fn canvas(v: &View<'_>, scale_words: &str) -> String {
+    let scene = v.scene;
+    let has_nominal = v.has_nominal;
     let described = format!(
         "The {} robot{} at posture {}{}, {}, {}.",
         if has_nominal {
@@ -281,7 +347,7 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         },
         if has_nominal { "s" } else { "" },
         scene.postures[0].label,
-        if has_cameras {
+        if v.has_cameras {
             " with its cameras (purple frustums) and boards (grey grids)"
         } else {
             ""
@@ -289,29 +355,34 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         points_caption(scene),
         scale_words
     );
-    let _ = writeln!(
-        h,
+    format!(
         "<canvas id=\"v3d-canvas\" width=\"900\" height=\"540\" tabindex=\"0\" role=\"img\" \
          aria-label=\"{}\" style=\"width:100%;max-width:1000px;border:1px solid #ccc;\
-         touch-action:none;cursor:grab\">{}</canvas>",
+         touch-action:none;cursor:grab\">{}</canvas>\n",
         esc(&described),
         esc(&described)
-    );
+    )
+}
 
-    // Legend and scales.
-    let swatch = |color: &str, dashed: bool, words: &str| {
-        format!(
-            "<span style=\"display:inline-block;width:22px;border-top:3px {} {color};\
-             vertical-align:middle\"></span> {words}",
-            if dashed { "dashed" } else { "solid" }
-        )
-    };
+/// A legend entry: a short line in `color`, solid or dashed, then `words`.
+fn swatch(color: &str, dashed: bool, words: &str) -> String {
+    format!(
+        "<span style=\"display:inline-block;width:22px;border-top:3px {} {color};\
+         vertical-align:middle\"></span> {words}",
+        if dashed { "dashed" } else { "solid" }
+    )
+}
+
+/// The legend (a colour swatch per layer the scene has) and the paragraph under it: the
+/// scales, what the points shown are, and how to turn and zoom the view.
+fn legend_and_scale(v: &View<'_>, scale_words: &str) -> String {
+    let scene = v.scene;
     let mut legend = vec![swatch(
         "#1f63c7",
         false,
         "calibrated robot (joints: dots and axes)",
     )];
-    if has_nominal {
+    if v.has_nominal {
         legend.push(swatch("#8c8c8c", true, "nominal robot"));
     }
     if !scene.points.is_empty() {
@@ -321,11 +392,11 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
                 .into(),
         );
         legend.push(swatch("#d62728", false, "residual after calibration"));
-        if has_before {
+        if v.has_before {
             legend.push(swatch("#ff7f0e", false, "residual before"));
         }
     }
-    if has_cameras {
+    if v.has_cameras {
         legend.push(swatch(
             "#9433b3",
             false,
@@ -344,77 +415,114 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
         swatch("#2ca02c", false, "y"),
         swatch("#1f4fe0", false, "z")
     ));
-    let _ = writeln!(
-        h,
+    let l = v.unit;
+    format!(
         "<p class=\"legend\">{}</p>\n<p>Scale: {scale_words}; axes and floor grid squares \
          {} {l}. Shown: {}. Drag to turn, wheel to zoom (arrow keys and +/- when the view has \
-         the focus), double-click to reset.</p>",
+         the focus), double-click to reset.</p>\n",
         legend.join(" &nbsp; "),
-        round(axis),
+        round(v.axis),
         esc(&points_caption(scene)),
-    );
+    )
+}
 
-    // The scene in words.
-    h += "<details><summary>The scene in words</summary>\n";
-    let p0 = &scene.postures[0];
-    let tip = |s: &Skeleton| {
-        s.tools
-            .first()
-            .map(|t| {
-                format!(
-                    "({}, {}, {})",
-                    num(t.origin[0] * f),
-                    num(t.origin[1] * f),
-                    num(t.origin[2] * f)
-                )
-            })
-            .unwrap_or_default()
-    };
+/// The scene in words, a `<details>` block for a reader without the picture: where the tool is
+/// at the first posture, the largest residuals, the fixed frames and the cameras and boards;
+/// then the `<noscript>` note.
+fn scene_in_words(v: &View<'_>) -> String {
+    let mut h = String::from("<details><summary>The scene in words</summary>\n");
+    h += &tool_positions(v);
+    h += &largest_residuals_table(v);
+    h += &frames_in_words(v);
+    if v.has_cameras {
+        h += &cameras_and_boards_in_words(v);
+    }
+    h += "</details>\n<noscript><p class=\"note\">The 3-D view is drawn by the page's \
+          script, which this browser does not run: the scene in words above holds its \
+          figures.</p></noscript>\n";
+    h
+}
+
+/// A skeleton's first tool's origin, `(x, y, z)` in display units (empty without a tool).
+fn tool_tip(s: &Skeleton, f: f64) -> String {
+    s.tools
+        .first()
+        .map(|t| {
+            format!(
+                "({}, {}, {})",
+                num(t.origin[0] * f),
+                num(t.origin[1] * f),
+                num(t.origin[2] * f)
+            )
+        })
+        .unwrap_or_default()
+}
+
+/// Where the calibrated (and the nominal) robot's tool is at the first posture, as a paragraph.
+fn tool_positions(v: &View<'_>) -> String {
+    let (f, l) = (v.f, v.unit);
+    let p0 = &v.scene.postures[0];
+    let mut h = String::new();
     let _ = write!(
         h,
         "<p>At posture {}, the calibrated robot's tool is at {} {l}",
         esc(&p0.label),
-        tip(&p0.calibrated)
+        tool_tip(&p0.calibrated, f)
     );
     if let Some(nom) = &p0.nominal {
-        let _ = write!(h, ", the nominal robot's at {} {l}", tip(nom));
+        let _ = write!(h, ", the nominal robot's at {} {l}", tool_tip(nom, f));
     }
     h += ".</p>\n";
-    let mut worst: Vec<&kinecal::report::scene::ScenePoint> = scene.points.iter().collect();
+    h
+}
+
+/// The table of the ten largest residuals after calibration: posture, target, measured point
+/// and error; empty when the scene has no points.
+fn largest_residuals_table(v: &View<'_>) -> String {
+    let (f, l, scene) = (v.f, v.unit, v.scene);
+    let mut worst: Vec<&ScenePoint> = scene.points.iter().collect();
     worst.sort_by(|a, b| b.error_after().total_cmp(&a.error_after()));
     worst.truncate(10);
-    if !worst.is_empty() {
+    let mut h = String::new();
+    if worst.is_empty() {
+        return h;
+    }
+    let _ = writeln!(
+        h,
+        "<table><tr><th class=\"l\">largest residuals: posture</th><th class=\"l\">target</th>\
+         <th>x</th><th>y</th><th>z</th><th>error after ({l})</th></tr>"
+    );
+    let labels: std::collections::HashMap<usize, &str> = scene
+        .postures
+        .iter()
+        .map(|p| (p.index, p.label.as_str()))
+        .collect();
+    for p in worst {
+        let posture = labels
+            .get(&p.posture)
+            .map(|s| s.to_string())
+            .unwrap_or_else(|| format!("#{}", p.posture + 1));
         let _ = writeln!(
             h,
-            "<table><tr><th class=\"l\">largest residuals: posture</th><th class=\"l\">target</th>\
-             <th>x</th><th>y</th><th>z</th><th>error after ({l})</th></tr>"
+            "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td>\
+             <td>{}</td><td>{}</td></tr>",
+            esc(&posture),
+            esc(&p.target),
+            num(p.measured[0] * f),
+            num(p.measured[1] * f),
+            num(p.measured[2] * f),
+            num(p.error_after() * f)
         );
-        let labels: std::collections::HashMap<usize, &str> = scene
-            .postures
-            .iter()
-            .map(|p| (p.index, p.label.as_str()))
-            .collect();
-        for p in worst {
-            let posture = labels
-                .get(&p.posture)
-                .map(|s| s.to_string())
-                .unwrap_or_else(|| format!("#{}", p.posture + 1));
-            let _ = writeln!(
-                h,
-                "<tr><td class=\"l\">{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td>\
-                 <td>{}</td><td>{}</td></tr>",
-                esc(&posture),
-                esc(&p.target),
-                num(p.measured[0] * f),
-                num(p.measured[1] * f),
-                num(p.measured[2] * f),
-                num(p.error_after() * f)
-            );
-        }
-        h += "</table>\n";
     }
-    h += "<p>Frames: ";
-    let frames: Vec<String> = scene
+    h += "</table>\n";
+    h
+}
+
+/// The fixed frames (global, measurement frames) with their kinds and origins, as a paragraph.
+fn frames_in_words(v: &View<'_>) -> String {
+    let (f, l) = (v.f, v.unit);
+    let frames: Vec<String> = v
+        .scene
         .frames
         .iter()
         .map(|fr| {
@@ -428,65 +536,66 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
             )
         })
         .collect();
-    h += &frames.join("; ");
-    h += ".</p>";
-    if has_cameras {
-        let mut words: Vec<String> = p0
-            .cameras
-            .iter()
-            .map(|c| {
-                format!(
-                    "camera {} at ({}, {}, {}) {l}, looking along ({}, {}, {})",
-                    esc(&c.frame.name),
-                    num(c.frame.origin[0] * f),
-                    num(c.frame.origin[1] * f),
-                    num(c.frame.origin[2] * f),
-                    num(c.frame.axes[2][0]),
-                    num(c.frame.axes[2][1]),
-                    num(c.frame.axes[2][2])
-                )
-            })
-            .collect();
-        words.extend(p0.boards.iter().map(|b| {
-            format!(
-                "board {} ({} x {} points) at ({}, {}, {}) {l}, {} of its points seen",
-                esc(&b.frame.name),
-                b.cols,
-                b.rows,
-                num(b.frame.origin[0] * f),
-                num(b.frame.origin[1] * f),
-                num(b.frame.origin[2] * f),
-                b.seen.len()
-            )
-        }));
-        let _ = write!(
-            h,
-            "\n<p>At posture {}: {}. Pixel observations have no measured 3-D point: they add \
-             no point nor residual vector (their error, in pixels, is in the summary); the board \
-             points seen stand for them.</p>",
-            esc(&p0.label),
-            words.join("; ")
-        );
-    }
-    h += "</details>\n<noscript><p class=\"note\">The 3-D view is drawn by the page's \
-          script, which this browser does not run: the scene in words above holds its \
-          figures.</p></noscript>\n";
+    format!("<p>Frames: {}.</p>", frames.join("; "))
+}
 
-    // The data and the renderer.
-    let postures: Vec<String> = scene
-        .postures
+/// The first posture's cameras (where each is and looks) and boards (where, its size, the
+/// points seen), as a paragraph that also says why pixel observations draw no residual.
+fn cameras_and_boards_in_words(v: &View<'_>) -> String {
+    let (f, l) = (v.f, v.unit);
+    let p0 = &v.scene.postures[0];
+    let mut words: Vec<String> = p0
+        .cameras
         .iter()
-        .map(|p| {
+        .map(|c| {
             format!(
-                "{{\"label\":{},\"index\":{},\"calibrated\":{},\"nominal\":{},{}}}",
-                text(&p.label),
-                p.index,
-                skeleton(&p.calibrated, f),
-                p.nominal.as_ref().map_or("null".into(), |s| skeleton(s, f)),
-                mounted(p, f)
+                "camera {} at ({}, {}, {}) {l}, looking along ({}, {}, {})",
+                esc(&c.frame.name),
+                num(c.frame.origin[0] * f),
+                num(c.frame.origin[1] * f),
+                num(c.frame.origin[2] * f),
+                num(c.frame.axes[2][0]),
+                num(c.frame.axes[2][1]),
+                num(c.frame.axes[2][2])
             )
         })
         .collect();
+    words.extend(p0.boards.iter().map(|b| {
+        format!(
+            "board {} ({} x {} points) at ({}, {}, {}) {l}, {} of its points seen",
+            esc(&b.frame.name),
+            b.cols,
+            b.rows,
+            num(b.frame.origin[0] * f),
+            num(b.frame.origin[1] * f),
+            num(b.frame.origin[2] * f),
+            b.seen.len()
+        )
+    }));
+    format!(
+        "\n<p>At posture {}: {}. Pixel observations have no measured 3-D point: they add \
+         no point nor residual vector (their error, in pixels, is in the summary); the board \
+         points seen stand for them.</p>",
+        esc(&p0.label),
+        words.join("; ")
+    )
+}
+
+/// The scene as the renderer's JSON data block, then the renderer itself, closing the view's
+/// `<div>`.
+fn data_and_renderer(v: &View<'_>) -> String {
+    // Nothing in the data can close its element.
+    let json = scene_json(v).replace('<', "\\u003c");
+    format!(
+        "<script type=\"application/json\" id=\"v3d-data\">{json}</script>\n<script>\n{SCRIPT}</script>\n</div>\n"
+    )
+}
+
+/// The scene as the JSON `view3d.js` reads: title, caption, unit, scales, and the postures
+/// (both robots, cameras, boards), points and frames, every length in display units.
+fn scene_json(v: &View<'_>) -> String {
+    let (f, scene) = (v.f, v.scene);
+    let postures: Vec<String> = scene.postures.iter().map(|p| posture_json(p, f)).collect();
     let points: Vec<String> = scene
         .points
         .iter()
@@ -513,39 +622,54 @@ pub(crate) fn section(scene: Option<&Scene>, units: DisplayUnits) -> String {
             )
         })
         .collect();
-    let caption = format!(
+    format!(
+        "{{\"title\":{},\"caption\":{},\"unit\":{},\"reach\":{},\"axis\":{},\"scale\":{},\
+         \"scale_before\":{},\"postures\":[{}],\"points\":[{}],\"frames\":[{}]}}",
+        text(&scene.robot),
+        text(&canvas_caption(v)),
+        text(v.unit),
+        n(scene.reach * f),
+        n(v.axis),
+        n(scene.residual_scale),
+        n(scene.residual_scale_before),
+        postures.join(","),
+        points.join(","),
+        frames.join(",")
+    )
+}
+
+/// A posture as JSON: its label and index, the calibrated and nominal (or `null`) robots, its
+/// cameras and boards.
+fn posture_json(p: &ScenePosture, f: f64) -> String {
+    format!(
+        "{{\"label\":{},\"index\":{},\"calibrated\":{},\"nominal\":{},{}}}",
+        text(&p.label),
+        p.index,
+        skeleton(&p.calibrated, f),
+        p.nominal.as_ref().map_or("null".into(), |s| skeleton(s, f)),
+        mounted(p, f)
+    )
+}
+
+/// The short scale line the renderer writes on the canvas: "residuals x500: 100 mm shown =
+/// 0.2 mm of error (before: x5); grid 100 mm".
+fn canvas_caption(v: &View<'_>) -> String {
+    let l = v.unit;
+    let axis = v.axis;
+    let k = v.scene.residual_scale;
+    let kb = v.scene.residual_scale_before;
+    format!(
         "residuals x{}: {} {l} shown = {} {l} of error{}; grid {} {l}",
         round(k),
         round(axis),
         round(axis / k),
-        if has_before {
+        if v.has_before {
             format!(" (before: x{})", round(kb))
         } else {
             String::new()
         },
         round(axis)
-    );
-    let json = format!(
-        "{{\"title\":{},\"caption\":{},\"unit\":{},\"reach\":{},\"axis\":{},\"scale\":{},\
-         \"scale_before\":{},\"postures\":[{}],\"points\":[{}],\"frames\":[{}]}}",
-        text(&scene.robot),
-        text(&caption),
-        text(l),
-        n(scene.reach * f),
-        n(axis),
-        n(k),
-        n(kb),
-        postures.join(","),
-        points.join(","),
-        frames.join(",")
     )
-    // Nothing in the data can close its element.
-    .replace('<', "\\u003c");
-    let _ = write!(
-        h,
-        "<script type=\"application/json\" id=\"v3d-data\">{json}</script>\n<script>\n{SCRIPT}</script>\n</div>\n"
-    );
-    h
 }
 
 #[cfg(test)]
