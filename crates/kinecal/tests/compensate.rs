@@ -457,3 +457,59 @@ fn targets_are_solved_in_the_configuration_asked_for() {
         .to_string()
         .contains("expected up or down"));
 }
+
+/// A program's compensated readings lie at the turn of each revolute joint nearest its
+/// programmed reading, or in the joint's range when a whole turn gets them there: at a wrist
+/// singularity (the IRB 120 at its home posture, all readings zero, and postures with joint 5 at
+/// zero) the solver can wander along the wrist's self-motion, and a reading it leaves beyond
+/// the range by more than a turn's worth of slack was flagged "outside range" where the same
+/// pose lies inside it (joint 4 at 4.157 rad, range +-2.79, where -2.126 is the same pose). The
+/// pose reached is the same either way.
+#[test]
+fn a_programs_readings_lie_at_the_turn_nearest_the_seed_or_in_range() {
+    let nominal = irb120();
+    let std = PerturbStd {
+        length: 1e-3,
+        angle: 0.3f64.to_radians(),
+        slope_fraction: 0.0,
+    };
+    let mut wrapped = 0;
+    for seed in 0..20 {
+        let calibrated = simulate::perturb(&nominal, std, 40 + seed);
+        let mut comp = Compensator::new(&calibrated, &nominal, Options::default()).unwrap();
+        let mut postures: Vec<Vec<f64>> = vec![vec![0.0; 6]];
+        for p in simulate::sample_postures(&nominal, 10, seed) {
+            let mut r = p.readings;
+            r[4] = 0.0;
+            postures.push(r);
+        }
+        let mut out = vec![0.0; 6];
+        for program in &postures {
+            let s = comp.program(program, Target::EndEffector, false, &mut out);
+            let goal = Goal::Pose(comp.intended(program, Target::EndEffector));
+            if !s.flags.unreachable {
+                let (p, a) = miss(&calibrated, &goal, &out);
+                assert!(p < 1e-9 && a < 1e-9, "{p} {a}");
+            }
+            for (j, joint) in calibrated.joints.iter().enumerate() {
+                let (lo, hi) = joint.range.unwrap();
+                let v = out[j];
+                let turn = std::f64::consts::TAU;
+                let nearest = (v - program[j]).abs() <= 0.5 * turn + 1e-12;
+                let in_range = (lo..=hi).contains(&v);
+                // In range, or at the seed's turn when no whole turn gets it in.
+                assert!(
+                    in_range
+                        || (nearest
+                            && !(lo..=hi).contains(&(v - turn))
+                            && !(lo..=hi).contains(&(v + turn))),
+                    "joint {} at {v} for {program:?} (range {lo} to {hi})",
+                    j + 1
+                );
+                assert_eq!(s.flags.out_of_range & (1 << j) != 0, !in_range);
+                wrapped += (!nearest) as usize;
+            }
+        }
+    }
+    eprintln!("{wrapped} readings moved into range by a whole turn");
+}

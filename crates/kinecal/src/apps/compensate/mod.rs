@@ -162,6 +162,8 @@ pub struct Compensator<'r> {
     kept: Vec<f64>,
     /// A program row's readings after its tools so far: the next tool's start.
     tool_start: Vec<f64>,
+    /// Readings per whole turn of each joint ([`whole_turns`]).
+    turn: Vec<Option<f64>>,
     /// Weight of attitude rows (m per rad): the reach.
     reach: f64,
     options: Options,
@@ -215,6 +217,7 @@ impl<'r> Compensator<'r> {
             trial: vec![0.0; n],
             kept: vec![0.0; n],
             tool_start: vec![0.0; n],
+            turn: whole_turns(calibrated),
             reach,
             options,
             payload: None,
@@ -300,12 +303,21 @@ impl<'r> Compensator<'r> {
     /// configuration) and the robot file's ranges.
     /// On a tree, the joints the target shares with another branch's tool (a torso under two
     /// arms) stay at the seed: the other branches keep their poses.
+    /// A revolute reading is moved by whole turns to the turn nearest the seed, then into its
+    /// range when a whole turn gets it there (the same pose: near a singularity the solver can
+    /// wander a turn away).
     pub fn solve(&mut self, goal: &Goal, target: Target, seed: &[f64], out: &mut [f64]) -> Solved {
         self.held = shared_joints(self.calibrated.robot(), target);
         let mut solved = self.local(goal, target, seed, true, out);
         self.held = 0;
         let robot = self.calibrated.robot();
         for (j, joint) in robot.joints.iter().enumerate() {
+            if let Some(t) = self.turn[j] {
+                let range = joint
+                    .range
+                    .unwrap_or((seed[j] - 0.5 * t, seed[j] + 0.5 * t));
+                out[j] = place_turn(out[j], t, seed[j], range);
+            }
             if let Some((lo, hi)) = joint.range {
                 if out[j] < lo || out[j] > hi {
                     solved.flags.out_of_range |= 1 << j;
@@ -756,6 +768,40 @@ fn worse_of(a: Solved, b: Solved) -> Solved {
         iterations: a.iterations + b.iterations,
         conditioning: a.conditioning.min(b.conditioning),
         flags: f,
+    }
+}
+
+/// Readings per whole turn of each revolute joint whose reading no other joint couples to
+/// (`2 pi / |slope|`): a reading moved by it gives the same pose. `None` for the rest.
+pub(crate) fn whole_turns(robot: &Robot) -> Vec<Option<f64>> {
+    (0..robot.dof())
+        .map(|k| {
+            let j = &robot.joints[k];
+            let coupled_to = robot
+                .joints
+                .iter()
+                .any(|o| o.coupling.is_some_and(|c| c.joint == k));
+            (j.kind == JointKind::Revolute && !coupled_to && j.slope != 0.0)
+                .then(|| std::f64::consts::TAU / j.slope.abs())
+        })
+        .collect()
+}
+
+/// Reading `v` moved by whole turns `t` to the turn nearest `reference`, then into
+/// `(lo, hi)` when a whole turn gets it there (else the reference's turn).
+pub(crate) fn place_turn(v: f64, t: f64, reference: f64, (lo, hi): (f64, f64)) -> f64 {
+    let v = v + t * ((reference - v) / t).round();
+    let moved = if v < lo {
+        v + t * ((lo - v) / t).ceil()
+    } else if v > hi {
+        v - t * ((v - hi) / t).ceil()
+    } else {
+        v
+    };
+    if (lo..=hi).contains(&moved) {
+        moved
+    } else {
+        v
     }
 }
 

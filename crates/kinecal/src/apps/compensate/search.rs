@@ -208,23 +208,7 @@ impl<'r> TargetSearch<'r> {
                 0.5 * (lo + hi)
             })
             .collect();
-        let coupled_to: Vec<bool> = (0..dof)
-            .map(|k| {
-                calibrated
-                    .joints
-                    .iter()
-                    .any(|j| j.coupling.is_some_and(|c| c.joint == k))
-            })
-            .collect();
-        let turn = calibrated
-            .joints
-            .iter()
-            .zip(&coupled_to)
-            .map(|(j, &c)| {
-                (j.kind == JointKind::Revolute && !c && j.slope != 0.0)
-                    .then(|| std::f64::consts::TAU / j.slope.abs())
-            })
-            .collect();
+        let turn = super::whole_turns(calibrated);
         let starts = crate::apps::simulate::sample_postures(calibrated, Self::STARTS, 7919)
             .into_iter()
             .flat_map(|p| p.readings)
@@ -922,21 +906,10 @@ impl<'r> TargetSearch<'r> {
         for (j, joint) in self.robot.joints.iter().enumerate() {
             let v = &mut v[j];
             if let Some(t) = self.turn[j] {
-                *v += t * ((self.reference[j] - *v) / t).round();
-                let (lo, hi) = joint
+                let range = joint
                     .range
                     .unwrap_or((self.middle[j] - 0.5 * t, self.middle[j] + 0.5 * t));
-                // Into the range when a whole turn gets it there; else the reference's turn.
-                let moved = if *v < lo {
-                    *v + t * ((lo - *v) / t).ceil()
-                } else if *v > hi {
-                    *v - t * ((*v - hi) / t).ceil()
-                } else {
-                    *v
-                };
-                if (lo..=hi).contains(&moved) {
-                    *v = moved;
-                }
+                *v = super::place_turn(*v, t, self.reference[j], range);
             }
             if let Some((lo, hi)) = joint.range {
                 if *v < lo || *v > hi {
