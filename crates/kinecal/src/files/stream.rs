@@ -15,6 +15,20 @@ fn at(file: &str, line: u64, message: impl Into<String>) -> Error {
 }
 
 /// An I/O error reading `file`.
+/// The reader's error as an input error at its line: text that is not UTF-8 (a file saved
+/// as UTF-16, say) said in words, not as the parser's.
+fn csv_error(file: &str, e: csv::Error) -> Error {
+    let at = match e.position() {
+        Some(p) => Location::file(file).at_line(p.line() as usize),
+        None => Location::file(file),
+    };
+    match e.kind() {
+        csv::ErrorKind::Utf8 { .. } => Error::input(at, "not UTF-8 text; save the file as UTF-8"),
+        csv::ErrorKind::Io(_) => Error::input(at, e.to_string()),
+        _ => Error::input(at, format!("invalid CSV: {e}")),
+    }
+}
+
 fn io(file: &str, cause: std::io::Error) -> Error {
     Error::Io {
         path: file.to_string(),
@@ -95,7 +109,7 @@ impl Rows {
             .from_reader(reader);
         let spelled: Vec<String> = reader
             .headers()
-            .map_err(|e| Error::input(Location::file(&file), e.to_string()))?
+            .map_err(|e| csv_error(&file, e))?
             .iter()
             .map(String::from)
             .collect();
@@ -132,7 +146,7 @@ impl Rows {
             if !self
                 .reader
                 .read_record(&mut self.record)
-                .map_err(|e| Error::input(Location::file(&self.file), e.to_string()))?
+                .map_err(|e| csv_error(&self.file, e))?
             {
                 return Ok(None);
             }
@@ -247,4 +261,37 @@ pub(crate) fn payload_at(
         }
     }
     Ok(Some(Payload { mass, com }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A program saved as UTF-16 (a text editor's "Unicode") is refused in words, at its line,
+    /// with the remedy (before: the CSV parser's `invalid utf-8: ... record 0 (line 1, field: 0,
+    /// byte: 0)`); so is a file whose later line is not UTF-8.
+    #[test]
+    fn text_that_is_not_utf8_is_refused_in_words() {
+        let dir = tempfile::tempdir().unwrap();
+        let utf16: Vec<u8> = "posture,v1\n1,0\n"
+            .encode_utf16()
+            .flat_map(u16::to_le_bytes)
+            .collect();
+        let p = dir.path().join("u16.csv");
+        std::fs::write(&p, [&[0xff, 0xfe][..], &utf16].concat()).unwrap();
+        let e = Rows::open(&p).err().expect("refused").to_string();
+        assert!(
+            e.ends_with("u16.csv:1: not UTF-8 text; save the file as UTF-8"),
+            "{e}"
+        );
+        let p = dir.path().join("late.csv");
+        std::fs::write(&p, b"posture,v1\n1,0\n2,\xe9\n").unwrap();
+        let mut rows = Rows::open(&p).unwrap();
+        assert!(rows.advance().unwrap().is_some());
+        let e = rows.advance().expect_err("refused").to_string();
+        assert!(
+            e.ends_with("late.csv:3: not UTF-8 text; save the file as UTF-8"),
+            "{e}"
+        );
+    }
 }
