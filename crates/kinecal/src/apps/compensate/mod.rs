@@ -270,7 +270,7 @@ impl<'r> Compensator<'r> {
         self.solve(&goal, target, readings, out)
     }
 
-    /// [`Compensator::program`] for a tree's tools, one per branch (see [`on_one_branch`]):
+    /// [`Compensator::program`] for a tree's tools, one per branch (none on the path of another):
     /// each reaches what the nominal model meant at `readings` with its own branch's joints,
     /// from the solution so far, the joints the branches share held at the program's readings.
     /// The row's solution: the largest remaining errors, the iterations of all, the worst
