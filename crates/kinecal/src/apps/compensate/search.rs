@@ -1339,13 +1339,14 @@ mod tests {
         }
     }
 
-    /// The solver's last forward kinematics, when evaluated at the solution, serves the flags
-    /// there (its Jacobian and conditioning) instead of being evaluated again: on a random 6R
-    /// arm and the IRB 120, over seeded pose targets and unseeded pose and position targets,
-    /// every row's result (errors, iterations, conditioning, flags) and readings are the same to
-    /// the bit, with fewer forward kinematics (measured: 0.95-0.97 of them).
-    #[test]
-    fn the_last_forward_kinematics_is_reused_at_the_solution() {
+    /// Every row of a search and of the same search changed by `variant`: on a random 6R arm
+    /// and the IRB 120 (each with its calibrated twin), over 200 seeded pose targets and the
+    /// unseeded pose and position targets of the same postures, `check` is given the arm, the
+    /// kind of goals, and each search's rows (result and readings) with its forward kinematics.
+    fn compare_with_variant(
+        variant: impl Fn(TargetSearch<'_>) -> TargetSearch<'_>,
+        check: impl Fn(usize, &str, [(Vec<(Solved, Vec<f64>)>, u64); 2]),
+    ) {
         let random = crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21);
         let irb120 = reach_test_arms().remove(1).1;
         for (arm, nominal) in [random, irb120].into_iter().enumerate() {
@@ -1353,56 +1354,9 @@ mod tests {
             let (postures, seeded) = seeded_targets(&nominal, 200, 5);
             let unseeded = unseeded_pose_and_position_goals(&calibrated, &postures);
             for (kind, goals) in [("seeded", &seeded), ("unseeded", &unseeded)] {
-                let [(new, cost_new), (old, cost_old)] = [true, false].map(|reuse| {
+                let runs = [false, true].map(|changed| {
                     let s = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
-                    let mut s = if reuse {
-                        s
-                    } else {
-                        s.without_last_forward_reused()
-                    };
-                    let mut out = vec![0.0; 6];
-                    let rows: Vec<(Solved, Vec<f64>)> = goals
-                        .iter()
-                        .map(|(g, seed)| {
-                            let r = s.solve(g, Target::EndEffector, seed.as_deref(), &mut out);
-                            (r, out.clone())
-                        })
-                        .collect();
-                    (rows, s.evaluations())
-                });
-                for (k, (a, b)) in new.iter().zip(&old).enumerate() {
-                    assert_eq!(a, b, "arm {arm} {kind} row {k}");
-                }
-                assert!(
-                    cost_new < cost_old,
-                    "arm {arm} {kind}: {cost_new} against {cost_old} forward kinematics"
-                );
-                eprintln!("arm {arm} {kind}: {cost_new} against {cost_old}");
-            }
-        }
-    }
-
-    /// Deferring the conditioning of attempts (the singular flag settled by bounds, the
-    /// eigenvalues worked out for the answer alone) changes no answer: on a random 6R arm and
-    /// the IRB 120, over seeded pose targets and unseeded pose and position targets, every
-    /// row's result (errors, iterations, conditioning, flags) and readings are the same to the
-    /// bit, with the same forward kinematics.
-    #[test]
-    fn deferred_conditioning_changes_no_answer() {
-        let random = crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21);
-        let irb120 = reach_test_arms().remove(1).1;
-        for (arm, nominal) in [random, irb120].into_iter().enumerate() {
-            let (nominal, calibrated) = twin(nominal, 22);
-            let (postures, seeded) = seeded_targets(&nominal, 200, 5);
-            let unseeded = unseeded_pose_and_position_goals(&calibrated, &postures);
-            for (kind, goals) in [("seeded", &seeded), ("unseeded", &unseeded)] {
-                let [deferred, eigen] = [true, false].map(|defer| {
-                    let s = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
-                    let mut s = if defer {
-                        s
-                    } else {
-                        s.without_deferred_conditioning()
-                    };
+                    let mut s = if changed { variant(s) } else { s };
                     let mut out = vec![0.0; 6];
                     let rows: Vec<(Solved, Vec<f64>)> = goals
                         .iter()
@@ -1414,14 +1368,50 @@ mod tests {
                         .collect();
                     (rows, s.evaluations())
                 });
-                assert_eq!(deferred.1, eigen.1, "arm {arm} {kind}");
-                for (k, (a, b)) in deferred.0.iter().zip(&eigen.0).enumerate() {
-                    assert_eq!(a, b, "arm {arm} {kind} row {k}");
-                }
-                let singular = deferred.0.iter().filter(|r| r.0.flags.singular).count();
-                assert!(singular > 0, "arm {arm} {kind}: no singular row to settle");
+                check(arm, kind, runs);
             }
         }
+    }
+
+    /// The solver's last forward kinematics, when evaluated at the solution, serves the flags
+    /// there (its Jacobian and conditioning) instead of being evaluated again: on a random 6R
+    /// arm and the IRB 120, over seeded pose targets and unseeded pose and position targets,
+    /// every row's result (errors, iterations, conditioning, flags) and readings are the same to
+    /// the bit, with fewer forward kinematics (measured: 0.95-0.97 of them).
+    #[test]
+    fn the_last_forward_kinematics_is_reused_at_the_solution() {
+        compare_with_variant(
+            |s| s.without_last_forward_reused(),
+            |arm, kind, [(new, cost_new), (old, cost_old)]| {
+                for (k, (a, b)) in new.iter().zip(&old).enumerate() {
+                    assert_eq!(a, b, "arm {arm} {kind} row {k}");
+                }
+                assert!(
+                    cost_new < cost_old,
+                    "arm {arm} {kind}: {cost_new} against {cost_old} forward kinematics"
+                );
+            },
+        );
+    }
+
+    /// Deferring the conditioning of attempts (the singular flag settled by bounds, the
+    /// eigenvalues worked out for the answer alone) changes no answer: on a random 6R arm and
+    /// the IRB 120, over seeded pose targets and unseeded pose and position targets, every
+    /// row's result (errors, iterations, conditioning, flags) and readings are the same to the
+    /// bit, with the same forward kinematics; some rows of each are singular.
+    #[test]
+    fn deferred_conditioning_changes_no_answer() {
+        compare_with_variant(
+            |s| s.without_deferred_conditioning(),
+            |arm, kind, [(deferred, cost_deferred), (eigen, cost_eigen)]| {
+                assert_eq!(cost_deferred, cost_eigen, "arm {arm} {kind}");
+                for (k, (a, b)) in deferred.iter().zip(&eigen).enumerate() {
+                    assert_eq!(a, b, "arm {arm} {kind} row {k}");
+                }
+                let singular = deferred.iter().filter(|r| r.0.flags.singular).count();
+                assert!(singular > 0, "arm {arm} {kind}: no singular row to settle");
+            },
+        );
     }
 
     /// The arms the reach bound is tested on, each with its calibrated twin: a random
