@@ -444,6 +444,17 @@ fn merge_tables(base: &mut toml_edit::Table, over: &toml_edit::Table) {
 }
 
 /// Takes a string key out of `table`, for an entry at `at`.
+/// A compensation job writing a controller program takes the job's name (`label`) as its
+/// program's too, as its spec run alone does (a KRL module's DEF, a RAPID module, a TP
+/// program); other jobs keep it as their label alone.
+fn name_the_program(table: &mut toml_edit::Table, kind: &str, label: Option<&str>) {
+    let controller = ["krl", "rapid", "tp"]
+        .contains(&table.get("format").and_then(|f| f.as_str()).unwrap_or(""));
+    if let (true, true, Some(l)) = (kind == "compensate", controller, label) {
+        table.insert("name", toml_edit::value(l));
+    }
+}
+
 fn take_string(table: &mut toml_edit::Table, key: &str, at: &str) -> Result<Option<String>> {
     match table.remove(key) {
         Some(v) => {
@@ -555,13 +566,7 @@ fn toml_jobs(doc: &toml_edit::DocumentMut, dir: &Path, name: &str) -> Result<Vec
         if serial.is_some() && kind != "calibrate" {
             bail!("{at}: a serial names a robot whose calibration is recorded: give other jobs a `name`");
         }
-        // A compensation writing a controller program takes the name as its program's too,
-        // as its spec run alone does (a KRL module's DEF, a RAPID module, a TP program).
-        let controller = ["krl", "rapid", "tp"]
-            .contains(&table.get("format").and_then(|f| f.as_str()).unwrap_or(""));
-        if let (true, true, Some(l)) = (kind == "compensate", controller, &label) {
-            table.insert("name", toml_edit::value(l.as_str()));
-        }
+        name_the_program(&mut table, &kind, label.as_deref());
         let label = serial
             .or(label)
             .unwrap_or_else(|| format!("{kind} {}", k + 1));
