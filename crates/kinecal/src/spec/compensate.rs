@@ -826,7 +826,7 @@ impl CompensateSpec {
                     format!(
                         "{name} and {} lie on one branch (one moves the other, or they are \
                          the same frame): a program reaches one tool per branch of a tree",
-                        target_name(robot, u)
+                        crate::observe::target_name(robot, u)
                     ),
                 ));
             }
@@ -1053,14 +1053,6 @@ fn conclude(
     Ok((messages, status))
 }
 
-/// A target's name as files give it: the end effector's own (else `ee`), a site's.
-fn target_name(robot: &Robot, t: Target) -> String {
-    match t {
-        Target::EndEffector => robot.end_effector.clone().unwrap_or_else(|| "ee".into()),
-        Target::Site(i) => robot.sites[i].name.clone(),
-    }
-}
-
 /// Joint `j`'s (0-based) name, else its reading column `v{j+1}`.
 fn joint_name(robot: &Robot, j: usize) -> String {
     robot.joints[j]
@@ -1078,28 +1070,25 @@ fn note_tools_left_as_programmed(robot: &Robot, tools: &[Target]) {
     if held == 0 {
         return;
     }
-    let mut others: Vec<String> = Vec::new();
-    let mut all: Vec<String> = tools.iter().map(|&t| target_name(robot, t)).collect();
-    for (i, site) in robot.sites.iter().enumerate() {
-        let t = Target::Site(i);
-        let reached = tools
-            .iter()
-            .any(|&u| crate::apps::compensate::on_one_branch(robot, t, u));
-        if !reached
-            && !others.iter().any(|o| {
-                let u = Target::named(robot, o).expect("a site");
-                crate::apps::compensate::on_one_branch(robot, t, u)
-            })
-        {
-            others.push(site.name.clone());
-            all.push(site.name.clone());
+    // A tool on each branch no tool named reaches: the first site there.
+    let mut others: Vec<Target> = Vec::new();
+    for t in (0..robot.sites.len()).map(Target::Site) {
+        let on = |u: &Target| crate::apps::compensate::on_one_branch(robot, t, *u);
+        if !tools.iter().chain(&others).any(on) {
+            others.push(t);
         }
     }
+    let names = |ts: &[Target]| -> Vec<&str> {
+        ts.iter()
+            .map(|&t| crate::observe::target_name(robot, t))
+            .collect()
+    };
+    let (reached, others) = (names(tools), names(&others));
+    let all = [reached.clone(), others.clone()].concat();
     let joints: Vec<String> = (0..robot.dof())
         .filter(|j| held & (1 << j) != 0)
         .map(|j| joint_name(robot, j))
         .collect();
-    let reached: Vec<String> = tools.iter().map(|&t| target_name(robot, t)).collect();
     if others.is_empty() {
         crate::files::note(format!(
             "a tree: the program reaches {} each with its own branch's joints; {} (shared by \
