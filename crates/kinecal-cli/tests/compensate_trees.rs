@@ -187,6 +187,29 @@ fn a_program_of_two_arms_reaches_each_tool_and_never_moves_the_other_arm() {
     let (code, _, err) = run(
         d,
         &argv(
+            "compensate --robot real.toml --nominal dual.toml --in program.csv
+             --site ee,,LEFT_tool0 --out x.csv",
+        ),
+    );
+    assert_eq!(code, 1);
+    assert!(err.contains("an empty name in the list of tools"), "{err}");
+    // The other arm's tool alone: the end effector is the tool left as programmed.
+    let (code, _, err) = run(
+        d,
+        &argv(
+            "compensate --robot real.toml --nominal dual.toml --in program.csv
+             --site LEFT_tool0 --out left.csv",
+        ),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("RIGHT_tool0 is left as programmed")
+            && err.contains("--site LEFT_tool0,RIGHT_tool0"),
+        "{err}"
+    );
+    let (code, _, err) = run(
+        d,
+        &argv(
             "compensate --robot real.toml --nominal dual.toml --in m.csv
              --site ee,LEFT_tool0 --out x.csv",
         ),

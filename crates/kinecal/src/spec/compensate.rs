@@ -815,6 +815,12 @@ impl CompensateSpec {
         let names = self.site.as_deref().unwrap_or("ee");
         let mut tools: Vec<Target> = Vec::new();
         for name in names.split(',').map(str::trim) {
+            if name.is_empty() && names.contains(',') {
+                return Err(invalid(
+                    Setting::Site,
+                    format!("`{names}`: an empty name in the list of tools"),
+                ));
+            }
             let t =
                 crate::files::site_target(robot, name).map_err(|m| invalid(Setting::Site, m))?;
             if let Some(&u) = tools
@@ -1070,9 +1076,10 @@ fn note_tools_left_as_programmed(robot: &Robot, tools: &[Target]) {
     if held == 0 {
         return;
     }
-    // A tool on each branch no tool named reaches: the first site there.
+    // A tool on each branch no tool named reaches: the end effector, else the first site there.
     let mut others: Vec<Target> = Vec::new();
-    for t in (0..robot.sites.len()).map(Target::Site) {
+    let candidates = std::iter::once(Target::EndEffector);
+    for t in candidates.chain((0..robot.sites.len()).map(Target::Site)) {
         let on = |u: &Target| crate::apps::compensate::on_one_branch(robot, t, *u);
         if !tools.iter().chain(&others).any(on) {
             others.push(t);
