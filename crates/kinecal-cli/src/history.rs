@@ -429,6 +429,10 @@ fn show_drift(d: &DriftDocument) {
             d.before_event
         );
     }
+    if let Some(why) = &r.nothing_to_compare {
+        println!("nothing to compare: {}", printable(why));
+        return;
+    }
     if !d.converted.is_empty() {
         println!(
             "values in {} and {}, the units of the first calibration; converted from other units: calibration {}",
@@ -438,8 +442,15 @@ fn show_drift(d: &DriftDocument) {
         );
     }
     println!();
+    let name = |q: &kinecal_history::Quantity| format!("{} [{}]", printable(&q.quantity), q.unit);
+    // The longest name sets the column (a combination's words run long).
+    let width = r
+        .quantities
+        .iter()
+        .map(|q| name(q).chars().count())
+        .fold(50, usize::max);
     println!(
-        "{:<50} {:>13} {:>11} {:>8} {:>22}  ",
+        "{:<width$} {:>13} {:>11} {:>8} {:>22}  ",
         "quantity", "change", "sigma", "z", "trend per 30 days"
     );
     for q in &r.quantities {
@@ -448,8 +459,8 @@ fn show_drift(d: &DriftDocument) {
             _ => "-".into(),
         };
         println!(
-            "{:<50} {:>13} {:>11.3e} {:>8.1} {:>22}  {}",
-            format!("{} [{}]", printable(&q.quantity), q.unit),
+            "{:<width$} {:>13} {:>11.3e} {:>8.1} {:>22}  {}",
+            name(q),
             change(q.change, &q.unit),
             q.sigma,
             q.significance,

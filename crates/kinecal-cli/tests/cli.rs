@@ -803,6 +803,18 @@ fn history_record_drift_plot_and_check() {
         "history drift --robot-id A4-7 --db h.sqlite --sigma 1000 --baseline latest-ok",
     ));
     assert_eq!(code, 0, "{out}");
+    // The latest calibration as the baseline: nothing to compare, said, and no table of zeros.
+    let latest = r["latest_id"].as_i64().unwrap();
+    let (code, out, _) = run_code(&argv(&format!(
+        "history drift --robot-id A4-7 --db h.sqlite --baseline {latest}"
+    )));
+    assert_eq!(code, 0, "{out}");
+    assert!(
+        out.contains("nothing to compare: the baseline is the latest calibration itself")
+            && !out.contains("nothing flagged")
+            && !out.contains("link 1"),
+        "{out}"
+    );
     run_ok(
         d,
         &[

@@ -210,6 +210,10 @@ pub struct DriftReport {
     /// segment since one ([`crate::current_segment`]); `drift` itself leaves it empty.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub since_event: Option<Event>,
+    /// Why nothing was compared, when the baseline is the latest calibration itself (a history
+    /// of one calibration, or `--baseline` naming the latest): no quantities, nothing flagged.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nothing_to_compare: Option<String>,
 }
 
 /// A value with its sigma, words and members, keyed for matching across calibrations; in the
@@ -564,8 +568,41 @@ pub(crate) fn without_parameters(history: &[Calibration]) -> Option<String> {
 
 /// Compares the latest calibration of a robot's `history` (oldest first) with the baseline.
 /// A history holding a calibration without parameters (a damaged record) is refused
-/// ([`Error::Input`]): nothing would be found changed.
+/// ([`Error::Input`]): nothing would be found changed. When the baseline is the latest
+/// calibration itself (a history of one, or a baseline naming the latest), nothing is
+/// compared: no quantities, and [`DriftReport::nothing_to_compare`] says why (every change
+/// would be zero, and "nothing flagged" would read as a clean bill of health).
 pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport> {
+    let mut report = drift_or_tracked(history, opts)?;
+    if report.baseline_id == report.latest_id {
+        report.nothing_to_compare = Some(if history.len() == 1 {
+            format!(
+                "one calibration of robot `{}` to look at (calibration {}): drift compares the \
+                 latest calibration with an earlier one; record another to compare",
+                printable(&report.robot_id),
+                report.latest_id
+            )
+        } else {
+            format!(
+                "the baseline is the latest calibration itself (calibration {}): name an \
+                 earlier one",
+                report.latest_id
+            )
+        });
+        report.quantities.clear();
+        report.flags.clear();
+        report.left_out.clear();
+        report.unused_tolerances.clear();
+    }
+    Ok(report)
+}
+
+/// [`drift`], with the latest calibration compared with itself when it is the baseline: every
+/// quantity it tracks, for a plot of one calibration.
+pub(crate) fn drift_or_tracked(
+    history: &[Calibration],
+    opts: &DriftOptions,
+) -> Result<DriftReport> {
     if !(opts.sigma.is_finite() && opts.sigma > 0.0) {
         return Err(Error::InvalidSigma { value: opts.sigma });
     }
@@ -634,6 +671,7 @@ pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport
         left_out,
         unused_tolerances,
         since_event: None,
+        nothing_to_compare: None,
     })
 }
 

@@ -761,7 +761,8 @@ impl Historian<'_> {
         let history = said.calibrations(&db, Some(robot_id))?;
         let events = db.events(Some(robot_id))?;
         let (seg, _) = segment(&history, &events, robot_id)?;
-        let r = drift(
+        // One calibration plots too: the quantities it tracks.
+        let r = crate::drift::drift_or_tracked(
             seg,
             &DriftOptions {
                 tolerances,

@@ -7,8 +7,18 @@ use crate::error::{Error, Result};
 
 /// Parses `2026-11-22T08:00:00Z`, `2026-11-22T08:00:00+01:00` or `2026-11-22` (midnight UTC)
 /// into Unix seconds.
+/// A leap second (`23:59:60`) is refused: Unix seconds have none, and it would be stored as
+/// the second before it.
 pub fn parse_time(s: &str) -> Result<i64> {
     if let Ok(t) = OffsetDateTime::parse(s, &Rfc3339) {
+        // The parser reads second 60 as 59.999999999 (RFC 3339 allows it; Unix time cannot
+        // hold it): nothing else written as whole seconds ends there.
+        if t.nanosecond() == 999_999_999 && s.get(17..19) == Some("60") {
+            return Err(Error::Input(format!(
+                "time `{s}`: a leap second (second 60) has no Unix time, and the history stores \
+                 Unix seconds: give the second before it (:59) or the next minute (:00)"
+            )));
+        }
         return Ok(t.unix_timestamp());
     }
     let fmt = time::format_description::parse_borrowed::<2>("[year]-[month]-[day]")
@@ -34,4 +44,30 @@ pub fn format_time(unix: i64) -> String {
 /// The current time, Unix seconds.
 pub(crate) fn now() -> i64 {
     OffsetDateTime::now_utc().unix_timestamp()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_leap_second_is_refused_and_its_neighbours_are_read() {
+        let e = parse_time("2016-12-31T23:59:60Z").unwrap_err().to_string();
+        assert!(
+            e.contains("leap second") && e.contains("2016-12-31T23:59:60Z"),
+            "{e}"
+        );
+        let before = parse_time("2016-12-31T23:59:59Z").unwrap();
+        assert_eq!(parse_time("2017-01-01T00:00:00Z").unwrap(), before + 1);
+        assert_eq!(format_time(before), "2016-12-31T23:59:59Z");
+        // A fraction of a second below 60 is not a leap second.
+        assert_eq!(
+            parse_time("2016-12-31T23:59:59.999999999Z").unwrap(),
+            before
+        );
+        assert_eq!(
+            parse_time("2026-11-22").unwrap(),
+            parse_time("2026-11-22T00:00:00Z").unwrap()
+        );
+    }
 }

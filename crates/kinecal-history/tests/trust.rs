@@ -9,7 +9,7 @@ use kinecal::report::CalibrationReport;
 use kinecal::units::{LengthUnit, Units};
 use kinecal::workflow::{self, Request, Selection, SolutionRule};
 use kinecal::{model::examples, Robot};
-use kinecal_history::{drift, AddOptions, Database, DriftOptions, Error, Tolerances};
+use kinecal_history::{drift, AddOptions, Baseline, Database, DriftOptions, Error, Tolerances};
 use rand::{RngExt, SeedableRng};
 
 /// A calibration of the GE A4 (every parameter, minimum change) on 30 simulated postures,
@@ -577,4 +577,47 @@ fn tolerance_files_accept_dotted_keys_and_refuse_ambiguity() {
             "{text}: {e}"
         );
     }
+}
+
+/// A history of one calibration, or a baseline that is the latest calibration, has nothing to
+/// compare: no table of zero changes that "flags nothing", but the reason. Two calibrations
+/// compare as before.
+#[test]
+fn drift_of_the_latest_against_itself_says_there_is_nothing_to_compare() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("h.sqlite");
+    history(&path, 1);
+    let one = Database::open(&path).unwrap().calibrations(None).unwrap();
+    let opts = DriftOptions {
+        tolerances: Tolerances::from_entries(vec![("link1.x".into(), 0.01)]),
+        ..Default::default()
+    };
+    let r = drift(&one, &opts).unwrap();
+    let why = r.nothing_to_compare.as_deref().expect("nothing to compare");
+    assert!(why.contains("one calibration of robot `R1`"), "{why}");
+    assert!(r.quantities.is_empty() && r.flags.is_empty() && r.left_out.is_empty());
+    // A tolerance is not "unused" where nothing was compared.
+    assert!(r.unused_tolerances.is_empty(), "{:?}", r.unused_tolerances);
+    let db = Database::open(&path).unwrap();
+    db.add("R1", Some(1_795_000_000), &report(), "later")
+        .unwrap();
+    let two = db.calibrations(None).unwrap();
+    assert_eq!(two.len(), 2);
+    let latest = two.last().unwrap().id;
+    let r = drift(
+        &two,
+        &DriftOptions {
+            baseline: Baseline::Id(latest),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let why = r.nothing_to_compare.as_deref().expect("nothing to compare");
+    assert!(
+        why.contains("the baseline is the latest calibration itself"),
+        "{why}"
+    );
+    assert!(r.quantities.is_empty());
+    let r = drift(&two, &DriftOptions::default()).unwrap();
+    assert!(r.nothing_to_compare.is_none() && !r.quantities.is_empty());
 }

@@ -66,6 +66,11 @@ def test_each_function_gives_the_command_line_s_document(
     assert drift == cli_json(cli, d, "history", "drift", "--robot-id", "A4-0101", "--tolerance",
                              str(FLEET / "tolerances.toml"), "--db", "cli.sqlite")
     assert [f["key"] for f in drift["flags"]] == ["p14 + p20"]
+    # One calibration: nothing compared, and the reason, from both front ends.
+    alone = kinecal.history.drift("A4-0105", db=db)
+    assert alone == cli_json(cli, d, "history", "drift", "--robot-id", "A4-0105", "--db",
+                             "cli.sqlite")
+    assert "one calibration" in alone["nothing_to_compare"] and alone["quantities"] == []
     assert kinecal.history.events(db=db) == cli_json(cli, d, "history", "events", "--db",
                                                      "cli.sqlite")
     fleet = kinecal.history.fleet(db=db, now="2026-12-15", tolerance=FLEET / "tolerances.toml",

@@ -111,7 +111,9 @@ def drift(
     """The determined quantities of ``robot_id`` that changed since ``baseline`` (``"first"``
     of the segment since its latest maintenance event, ``"latest-ok"``, or a calibration's id):
     each with its change, sigma, significance and trend; ``flags`` lists those beyond ``sigma``
-    standard deviations or their tolerance (``tolerance``: a TOML file of ``key = value``)."""
+    standard deviations or their tolerance (``tolerance``: a TOML file of ``key = value``).
+    With one calibration (or ``baseline`` naming the latest) nothing is compared:
+    ``nothing_to_compare`` says why, and ``quantities`` is empty."""
     return dict(
         _run(
             "history-drift",
