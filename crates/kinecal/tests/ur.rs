@@ -199,8 +199,74 @@ fn broken_kinematics_files_are_refused_with_their_line() {
         ),
         ("kinematics:\n  shoulder:\n    twist: 0\n", "unknown key"),
         ("kinematics:\n    x: 0\n", "unknown joint `x`"),
+        (
+            "kinematics: {shoulder: {x: 0}}\n",
+            "1: `kinematics:` in flow style",
+        ),
+        (
+            "---\nkinematics:\n---\nkinematics:\n",
+            "3: `---` after the end of the kinematics document",
+        ),
+        (
+            "kinematics:\n...\n  shoulder:\n",
+            "3: `shoulder:` after the end",
+        ),
     ] {
         let e = parse_ur_kinematics(text, "k.yaml").unwrap_err().to_string();
         assert!(e.contains("k.yaml") && e.contains(says), "{text:?}: {e}");
+    }
+}
+
+/// A robot imported from one kinematics file is exported only onto that file: another model's
+/// defaults, or the model's defaults instead of the arm's factory calibration, would put their
+/// base (and, for another model, their geometry) in the file as this robot's.
+#[test]
+fn export_refuses_a_template_other_than_the_file_the_robot_came_from() {
+    let Some(d) = dir() else { return };
+    let read = |p: &str| std::fs::read_to_string(d.join(p)).unwrap();
+    let factory = read("real_factory_calibration_ur3e/ur3e_calibration.yaml");
+    let robot = import_ur(&factory, "ur3e_calibration.yaml").unwrap().robot;
+    for other in [
+        "config/ur3e/default_kinematics.yaml",
+        "config/ur10e/default_kinematics.yaml",
+    ] {
+        let err = export_ur(&robot, &read(other), "template.yaml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("imported from the UR kinematics file `calib_13258964235769181718`")
+                && err.contains("template.yaml is `calib_"),
+            "{other}: {err}"
+        );
+    }
+    let e = export_ur(&robot, &factory, "ur3e_calibration.yaml").unwrap();
+    assert!(e.read_back.position < 1e-9, "{:?}", e.read_back);
+    // A robot renamed by its user is not checked by name (nothing to compare).
+    let mut renamed = robot.clone();
+    renamed.name = "cell 4 arm".into();
+    export_ur(
+        &renamed,
+        &read("config/ur3e/default_kinematics.yaml"),
+        "t.yaml",
+    )
+    .unwrap();
+}
+
+/// What YAML writers add around the mapping (a byte order mark, the document markers `---` and
+/// `...`, comments after them) reads as the file without it.
+#[test]
+fn yaml_document_markers_and_a_byte_order_mark_are_read() {
+    let Some(d) = dir() else { return };
+    let text =
+        std::fs::read_to_string(d.join("real_factory_calibration_ur3e/ur3e_calibration.yaml"))
+            .unwrap();
+    let plain = parse_ur_kinematics(&text, "k.yaml").unwrap();
+    for wrapped in [
+        format!("\u{feff}{text}"),
+        format!("---\n{text}"),
+        format!("--- # written by ur_calibration\n{text}\n...\n# end\n"),
+        format!("\u{feff}---\n{text}\n...\n"),
+    ] {
+        assert_eq!(parse_ur_kinematics(&wrapped, "k.yaml").unwrap(), plain);
     }
 }

@@ -60,7 +60,10 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
     let mut joint: Option<usize> = None;
     // The indentation of the joints' names (the first indented line's); keys are deeper.
     let mut joint_indent: Option<usize> = None;
-    for (i, raw) in text.lines().enumerate() {
+    // YAML's document markers: `---` before the mapping, `...` after it (nothing but comments
+    // may follow); a second document is refused.
+    let mut ended = false;
+    for (i, raw) in text.trim_start_matches('\u{feff}').lines().enumerate() {
         let line = i + 1;
         let no_comment = raw.split('#').next().unwrap_or("");
         if no_comment.trim().is_empty() {
@@ -68,6 +71,20 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
         }
         let indent = no_comment.len() - no_comment.trim_start().len();
         let content = no_comment.trim();
+        let marker = indent == 0 && (content == "---" || content == "...");
+        if ended || (marker && content == "---" && seen_root) {
+            return Err(Error::input(
+                at(line),
+                format!(
+                    "`{content}` after the end of the kinematics document: one document per \
+                     file"
+                ),
+            ));
+        }
+        if marker {
+            ended = content == "...";
+            continue;
+        }
         let Some((key, value)) = content.split_once(':') else {
             return Err(Error::input(
                 at(line),
@@ -77,6 +94,13 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
         let (key, value) = (key.trim(), value.trim());
         match (indent, seen_root) {
             (0, false) if key == "kinematics" && value.is_empty() => seen_root = true,
+            (0, false) if key == "kinematics" && value.starts_with('{') => {
+                return Err(Error::input(
+                    at(line),
+                    "`kinematics:` in flow style (`{...}`): write it in block style, a key \
+                     per line as the UR description's files are",
+                ))
+            }
             (0, _) => {
                 return Err(Error::input(
                     at(line),
@@ -383,6 +407,21 @@ pub fn pose_vector(f: &Frame) -> [f64; 6] {
 /// than 1 and couplings, which the file has no place for, are listed with their deviations.
 pub fn export_ur(robot: &Robot, template: &str, file: &str) -> Result<UrExport> {
     let k0 = parse_ur_kinematics(template, file)?;
+    // The robot file keeps the name the import gave it, `UR (<hash>)`: another file's base
+    // (another model, or the nominal instead of the factory calibration) would be written as
+    // this robot's without a word.
+    let template_is = k0.hash.as_deref().unwrap_or("kinematics without a hash");
+    let imported_from = robot
+        .name
+        .strip_prefix("UR (")
+        .and_then(|s| s.strip_suffix(')'));
+    if let Some(from) = imported_from.filter(|from| *from != template_is) {
+        return Err(Error::Problem(format!(
+            "the robot was imported from the UR kinematics file `{from}`, and the template \
+             {file} is `{template_is}`: give the file the robot was imported from (the \
+             template's base is kept, and another file's would be written as this robot's)"
+        )));
+    }
     let imported = import_urdf(&ur_urdf(&k0), file, Some("base_link"), Some("tool0"))?;
     if !robot.same_structure(&imported.robot) {
         return Err(Error::Problem(
