@@ -38,9 +38,10 @@ struct Entry {
 enum Status {
     Ok,
     NotConverged,
-    /// A strict calibration and a warning that the result is most likely wrong (nothing
-    /// written), or a job that flagged what needs a person.
-    Flagged,
+    /// What needs a person, in words: a strict calibration and a warning that the result is
+    /// most likely wrong (nothing written), a calibration refused for its units, or a job that
+    /// flagged something (a check out of its accuracy, a drift, compensated rows).
+    Flagged(&'static str),
     Failed(String),
 }
 
@@ -49,8 +50,20 @@ impl Status {
         match self {
             Status::Ok => "ok".into(),
             Status::NotConverged => "not converged".into(),
-            Status::Flagged => "flagged (--strict): nothing written".into(),
+            Status::Flagged(why) => (*why).into(),
             Status::Failed(e) => format!("failed: {e}"),
+        }
+    }
+
+    /// How a job that ended with `status` is summed up.
+    fn of(status: kinecal::spec::Status) -> Status {
+        use kinecal::spec::Status as S;
+        match status {
+            S::NotConverged => Status::NotConverged,
+            S::Implausible => Status::Flagged("flagged (--strict): nothing written"),
+            S::Refused => Status::Flagged("refused: no robot written or recorded"),
+            S::Flagged => Status::Flagged("flagged"),
+            _ => Status::Ok,
         }
     }
 }
@@ -837,14 +850,18 @@ fn run_one(e: &Entry) -> Finished {
         env.hold = true;
         env.historian = Some(&crate::door::HISTORIAN);
         let done = kinecal::spec::run(job, &mut env)?;
-        let status = match done.status {
-            kinecal::spec::Status::NotConverged => Status::NotConverged,
-            kinecal::spec::Status::Implausible
-            | kinecal::spec::Status::Flagged
-            | kinecal::spec::Status::Refused => Status::Flagged,
-            _ => Status::Ok,
-        };
+        let status = Status::of(done.status);
         let document = Some(done.document.to_json());
+        // A job other than a calibration: its warnings are the row's (what it flagged).
+        let said: Vec<String> = done
+            .messages
+            .iter()
+            .filter_map(|m| match m {
+                kinecal::spec::Message::Warning(w) => Some(w.to_string()),
+                kinecal::spec::Message::Caution(c) => Some(c.clone()),
+                _ => None,
+            })
+            .collect();
         Ok(match done.document {
             Document::Calibration(o) => Finished {
                 row: figures(&e.serial, status, &o),
@@ -855,6 +872,7 @@ fn run_one(e: &Entry) -> Finished {
             _ => Finished {
                 row: Row {
                     status,
+                    warnings: said,
                     ..failed(&e.serial, String::new())
                 },
                 pending: done.pending,
@@ -939,7 +957,7 @@ fn summary_csv(rows: &[Row]) -> Result<String> {
         let status = match &r.status {
             Status::Ok => "ok".to_string(),
             Status::NotConverged => "not converged".into(),
-            Status::Flagged => "flagged".into(),
+            Status::Flagged(_) => "flagged".into(),
             Status::Failed(_) => "failed".into(),
         };
         let detail = match &r.status {
@@ -1177,7 +1195,7 @@ fn exit_code(rows: &[Row], calibrations_only: bool) -> u8 {
     let count = |f: fn(&Status) -> bool| rows.iter().filter(|r| f(&r.status)).count();
     let (failed, flagged, unconverged) = (
         count(|s| matches!(s, Status::Failed(_))),
-        count(|s| matches!(s, Status::Flagged)),
+        count(|s| matches!(s, Status::Flagged(_))),
         count(|s| matches!(s, Status::NotConverged)),
     );
     let (what, done) = if calibrations_only {

@@ -680,6 +680,15 @@ fn history_jobs_are_the_same_by_flags_by_spec_and_in_a_batch() {
         err.contains("10 jobs: 8 done, 0 failed, 2 flagged"),
         "{err}"
     );
+    // A flagged drift is not a strict calibration's refusal.
+    let drift_row = table
+        .lines()
+        .find(|l| l.starts_with("history-drift "))
+        .expect("a row per job");
+    assert!(
+        drift_row.ends_with("flagged") && !table.contains("--strict"),
+        "{table}"
+    );
     for c in &cases {
         for o in &c.outputs {
             let a = std::fs::read_to_string(d.join(o)).unwrap();
