@@ -60,8 +60,7 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
     let mut joint: Option<usize> = None;
     // The indentation of the joints' names (the first indented line's); keys are deeper.
     let mut joint_indent: Option<usize> = None;
-    // YAML's document markers: `---` before the mapping, `...` after it (nothing but comments
-    // may follow); a second document is refused.
+    // After YAML's document end marker `...` ([`document_marker`]).
     let mut ended = false;
     for (i, raw) in text.trim_start_matches('\u{feff}').lines().enumerate() {
         let line = i + 1;
@@ -71,18 +70,7 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
         }
         let indent = no_comment.len() - no_comment.trim_start().len();
         let content = no_comment.trim();
-        let marker = indent == 0 && (content == "---" || content == "...");
-        if ended || (marker && content == "---" && seen_root) {
-            return Err(Error::input(
-                at(line),
-                format!(
-                    "`{content}` after the end of the kinematics document: one document per \
-                     file"
-                ),
-            ));
-        }
-        if marker {
-            ended = content == "...";
+        if document_marker(content, indent, seen_root, &mut ended, at(line))? {
             continue;
         }
         let Some((key, value)) = content.split_once(':') else {
@@ -122,24 +110,7 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
                     joint = None;
                     continue;
                 }
-                let j = JOINTS
-                    .iter()
-                    .position(|(name, _, _)| *name == key)
-                    .ok_or_else(|| {
-                        Error::input(
-                            at(line),
-                            format!(
-                                "unknown joint `{key}`: expected shoulder, upper_arm, forearm, \
-                             wrist_1, wrist_2, wrist_3 or hash"
-                            ),
-                        )
-                    })?;
-                if !value.is_empty() {
-                    return Err(Error::input(
-                        at(line),
-                        format!("`{key}:` must open a mapping"),
-                    ));
-                }
+                let j = joint_of(key, value, at(line))?;
                 if origins[j].iter().any(|v| !v.is_nan()) {
                     return Err(Error::input(at(line), format!("joint `{key}` given twice")));
                 }
@@ -149,24 +120,7 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
                 let j = joint.ok_or_else(|| {
                     Error::input(at(line), format!("`{key}` outside a joint's mapping"))
                 })?;
-                let k = KEYS.iter().position(|k| *k == key).ok_or_else(|| {
-                    Error::input(
-                        at(line).with_field(key.to_string()),
-                        "unknown key: expected x, y, z, roll, pitch, yaw",
-                    )
-                })?;
-                let v: f64 = value.parse().map_err(|_| {
-                    Error::input(
-                        at(line).with_field(key.to_string()),
-                        format!("expected a number, found `{value}`"),
-                    )
-                })?;
-                if !(v.is_finite() && v.abs() <= 1e3) {
-                    return Err(Error::input(
-                        at(line).with_field(key.to_string()),
-                        format!("{v:e} is not a plausible origin value (metres or radians)"),
-                    ));
-                }
+                let (k, v) = origin_value(key, value, at(line))?;
                 if !origins[j][k].is_nan() {
                     return Err(Error::input(
                         at(line).with_field(key.to_string()),
@@ -192,6 +146,68 @@ pub fn parse_ur_kinematics(text: &str, file: &str) -> Result<UrKinematics> {
         }
     }
     Ok(UrKinematics { origins, hash })
+}
+
+/// Whether a line is one of YAML's document markers: `---` before the mapping, `...` after it
+/// (setting `ended`: nothing but comments may follow). A second document is refused.
+fn document_marker(
+    content: &str,
+    indent: usize,
+    seen_root: bool,
+    ended: &mut bool,
+    at: Location,
+) -> Result<bool> {
+    let marker = indent == 0 && (content == "---" || content == "...");
+    if *ended || (marker && content == "---" && seen_root) {
+        return Err(Error::input(
+            at,
+            format!("`{content}` after the end of the kinematics document: one document per file"),
+        ));
+    }
+    *ended |= marker && content == "...";
+    Ok(marker)
+}
+
+/// The joint a joint's line names (`shoulder:`, opening its mapping), in [`JOINTS`] order.
+fn joint_of(key: &str, value: &str, at: Location) -> Result<usize> {
+    let j = JOINTS
+        .iter()
+        .position(|(name, _, _)| *name == key)
+        .ok_or_else(|| {
+            Error::input(
+                at.clone(),
+                format!(
+                    "unknown joint `{key}`: expected shoulder, upper_arm, forearm, wrist_1, \
+                     wrist_2, wrist_3 or hash"
+                ),
+            )
+        })?;
+    if !value.is_empty() {
+        return Err(Error::input(at, format!("`{key}:` must open a mapping")));
+    }
+    Ok(j)
+}
+
+/// An origin's line (`x: 0.1`): the key's index in [`KEYS`] and its value (metres or radians,
+/// finite and at most 1,000 in size).
+fn origin_value(key: &str, value: &str, at: Location) -> Result<(usize, f64)> {
+    let at = at.with_field(key.to_string());
+    let k = KEYS.iter().position(|k| *k == key).ok_or_else(|| {
+        Error::input(
+            at.clone(),
+            "unknown key: expected x, y, z, roll, pitch, yaw",
+        )
+    })?;
+    let v: f64 = value
+        .parse()
+        .map_err(|_| Error::input(at.clone(), format!("expected a number, found `{value}`")))?;
+    if !(v.is_finite() && v.abs() <= 1e3) {
+        return Err(Error::input(
+            at,
+            format!("{v:e} is not a plausible origin value (metres or radians)"),
+        ));
+    }
+    Ok((k, v))
 }
 
 /// The shortest text that reads back to the same number; small magnitudes with an exponent,
