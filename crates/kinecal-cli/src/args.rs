@@ -147,7 +147,8 @@ found.")]
 Examples:
   kinecal analyze --robot ge-a4 --data data.csv
   kinecal analyze --robot ge-a4 --postures postures.csv --estimate all --fix slopes --json
-  kinecal analyze --robot ge-a4 --data data.csv --estimate p1-p6,p14,p29 --print hessian --units file
+  kinecal analyze --robot ge-a4 --data data.csv --estimate p1-p6,p14,p29 --print hessian \\
+      --units file
   kinecal analyze --robot arm.toml --distances ballbar.csv --estimate links,offsets
 
 Ranks and dependencies are decided on the scaled Jacobian (residuals weighted, columns
@@ -435,8 +436,8 @@ pub struct FkArgs {
     /// Robot file (TOML) or built-in robot name.
     #[arg(long, required_unless_present = "spec")]
     pub robot: Option<String>,
-    /// Postures file: CSV `posture,v1,...,vn` (a measurement file, or what `kinecal compensate`
-    /// writes, also works).
+    /// Postures file: CSV `posture,v1,...,vn` (a measurement file, or a table `kinecal
+    /// compensate` writes with --format table or joints-ur|abb|kuka|fanuc, also works).
     #[arg(long, required_unless_present = "spec")]
     pub postures: Option<PathBuf>,
     /// Write the poses here instead of standard output.
@@ -519,7 +520,8 @@ compliance and a lateral compliance to estimate.")]
     /// A Denavit-Hartenberg table.
     #[command(after_help = "\
 Example:
-  kinecal import dh --convention modified puma560.csv --length-unit m --angle-unit deg --out puma.toml
+  kinecal import dh --convention modified puma560.csv --length-unit m --angle-unit deg \\
+      --out puma.toml
 
 The table is CSV `kind,a,alpha,d,theta`, with an optional `beta` column (the Hayati/Mooring twist
 about y, 0 when absent), one row per joint or `fixed` transform. standard: Rz(theta+q) Tz(d) Tx(a)
@@ -560,12 +562,14 @@ pub enum CurvesCommand {
     /// The six pose components of the end effector (or a site) against each parameter.
     #[command(after_help = "\
 Example:
-  kinecal curves pose --robot ge-a4 --readings -6.883,13.301,4.122,-28.645 --param p1,p4,p35 --out pose.svg
+  kinecal curves pose --robot ge-a4 --readings -6.883,13.301,4.122,-28.645 --param p1,p4,p35 \\
+      --out pose.svg
 
 One panel pair (positions, angles) per parameter, the nominal value marked by dotted guide lines
 (thesis Figs 4.2-4.5). Angles are unwrapped: no false jumps at +-180 deg. --out ending in .svg,
-.png or .csv (columns param,value,x,y,z,alpha,beta,gamma). Default span, either side: the robot's
-reach for lengths, 50 deg for angles, half the value for slopes. At most 100000 points.")]
+.png or .csv (columns param,value,x,y,z,alpha,beta,gamma), or - for the CSV on standard output
+(what the curves show then goes to standard error). Default span, either side: the robot's reach
+for lengths, 50 deg for angles, half the value for slopes. At most 100000 points.")]
     Pose(Deferred<CurvesPoseArgs>),
     /// The objective over a data set against each parameter.
     #[command(after_help = "\
@@ -575,8 +579,9 @@ Example:
 Lists every local minimum inside the span and warns when the objective is not convex there (a
 solver started there could stop in a false valley, thesis 4.4.4); prints the period of periodic
 parameters (360 deg for angles, 360/V for a revolute slope at reading V). --out ending in .svg,
-.png or .csv (columns param,value,objective). Default span, either side: a fifth of the robot's
-reach for lengths, 10 deg for angles, a tenth of the value for slopes. At most 100000 points.")]
+.png or .csv (columns param,value,objective), or - for the CSV on standard output (what the
+curves show then goes to standard error). Default span, either side: a fifth of the robot's reach
+for lengths, 10 deg for angles, a tenth of the value for slopes. At most 100000 points.")]
     Objective(Deferred<CurvesObjectiveArgs>),
 }
 
@@ -764,7 +769,7 @@ pub struct SweepArgs {
     /// Parameters to sweep.
     #[arg(long, value_name = "LIST", required_unless_present = "spec")]
     pub param: Option<String>,
-    /// Total width of the sweep, centred on the nominal value (file units).
+    /// Total width of the sweep, a positive number, centred on the nominal value (file units).
     #[arg(long, conflicts_with_all = ["from", "to"])]
     pub span: Option<f64>,
     /// Start of the sweep (with --to).
@@ -776,7 +781,7 @@ pub struct SweepArgs {
     /// Samples per curve (3 to 100,000).
     #[arg(long)]
     pub points: Option<usize>,
-    /// Output: .svg, .png or .csv.
+    /// Output: .svg, .png or .csv, or - for the CSV on standard output.
     #[arg(long, required_unless_present = "spec")]
     pub out: Option<PathBuf>,
 }
@@ -1168,7 +1173,8 @@ pub enum ExportCommand {
     /// Write a calibrated robot into the URDF it was imported from.
     #[command(after_help = "\
 Example:
-  kinecal export urdf --robot calibrated.toml --template ur5_robot.urdf --base base_link --tip tool0 --out ur5_calibrated.urdf
+  kinecal export urdf --robot calibrated.toml --template ur5_robot.urdf --base base_link \\
+      --tip tool0 --out ur5_calibrated.urdf
 
 Only the <origin> of the chain's movable joints (and of the first fixed joint after the last one,
 for the tool frame) change, a joint without one gets one; visuals, inertias, limits, comments,
@@ -1203,7 +1209,8 @@ nothing is written.")]
     /// Write a calibrated UR arm as a Universal Robots kinematics file for the ROS driver.
     #[command(after_help = "\
 Example:
-  kinecal export ur --robot calibrated.toml --template default_kinematics.yaml --out my_robot_calibration.yaml
+  kinecal export ur --robot calibrated.toml --template default_kinematics.yaml \\
+      --out my_robot_calibration.yaml
 
 The robot must have been imported from the template (kinecal import ur). Joint offsets are
 folded into the origins exactly. The controller's base stays the template's: the measurement

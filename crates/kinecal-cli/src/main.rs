@@ -318,14 +318,14 @@ fn export(c: ExportCommand) -> Result<u8> {
 
 /// `kinecal curves`: characteristic curves.
 fn curves(c: CurvesCommand) -> Result<u8> {
-    match c {
-        CurvesCommand::Pose(a) => {
-            door::curves_pose(&a).and_then(|s| job(s.into(), &a.job.door, render::curves))
-        }
-        CurvesCommand::Objective(a) => {
-            door::curves_objective(&a).and_then(|s| job(s.into(), &a.job.door, render::curves))
-        }
-    }
+    let (spec, door) = match &c {
+        CurvesCommand::Pose(a) => (door::curves_pose(a)?, &a.job.door),
+        CurvesCommand::Objective(a) => (door::curves_objective(a)?, &a.job.door),
+    };
+    // With the table on standard output (`--out -`), what the curves show goes to standard
+    // error.
+    let table_out = spec.out.as_deref() == Some("-");
+    job(spec.into(), door, |d| render::curves(d, table_out))
 }
 
 /// `kinecal iso9283`: the test poses, a simulated or measured log, and its figures.
@@ -482,6 +482,7 @@ pub fn flag_of(setting: Setting) -> &'static str {
         Setting::CheckThreshold => "--threshold",
         Setting::ParameterChange => "--perturb",
         Setting::Sweep => "--from/--to/--span/--points",
+        Setting::Span => "--span",
         Setting::NominalRobot => "--nominal",
         Setting::ChainBase => "--base",
         Setting::ChainTip => "--tip",

@@ -96,11 +96,16 @@ pub fn export(d: &Document) {
     }
 }
 
-/// Curves: what they show (periods, minima, convexity).
-pub fn curves(d: &Document) {
+/// Curves: what they show (periods, minima, convexity); on standard error when the table is
+/// written on standard output (`to_stderr`).
+pub fn curves(d: &Document, to_stderr: bool) {
     let Document::Curves(c) = d else { return };
     for line in &c.findings {
-        println!("{line}");
+        if to_stderr {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
     }
 }
 

@@ -1500,6 +1500,97 @@ fn curve_sweeps_are_bounded_and_sized_to_the_parameter() {
     assert_eq!(p4, [-50.0, 0.0, 50.0]);
 }
 
+/// A sweep that is refused says its numbers as kinecal's tables write them (`5`, not `5e0`), and
+/// a span that is not positive is named, by its flag or its spec key, with its value and what it
+/// must be. Before, `--span 0` said "from 9e0 to 9e0: a sweep runs from a smaller to a larger
+/// number" under `--from/--to/--span/--points`.
+#[test]
+fn a_bad_sweep_is_said_plainly_and_a_span_must_be_positive() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let r = argv("curves pose --robot ge-a4 --readings -6.883,13.301,4.122,-28.645 --param p4");
+    for span in ["0", "-5", "-0.25"] {
+        let mut a: Vec<&str> = r.to_vec();
+        a.extend(["--span", span, "--out", "c.csv"]);
+        let err = run_err(d, &a);
+        assert!(
+            err.contains(&format!(
+                "--span: {span}: expected a positive number, the width of the sweep (from the \
+                 parameter's value less half of it to the value plus half, in the robot file's \
+                 units)"
+            )),
+            "{err}"
+        );
+    }
+    let mut a: Vec<&str> = r.to_vec();
+    a.extend(["--from", "5", "--to", "5", "--out", "c.csv"]);
+    let err = run_err(d, &a);
+    assert!(
+        err.contains("from 5 to 5: a sweep runs from a smaller to a larger number within +-1e9"),
+        "{err}"
+    );
+    // A spec's span is named by its key.
+    std::fs::write(
+        d.join("s.toml"),
+        "job = \"curves\"\ncurve = \"pose\"\nrobot = \"ge-a4\"\n\
+         readings = [1.0, 2.0, 3.0, 4.0]\nsweep = { param = \"p4\", span = 0.0 }\n\
+         out = \"c.csv\"\n",
+    )
+    .unwrap();
+    let err = run_err(d, &argv("curves pose --spec s.toml"));
+    assert!(
+        err.contains("s.toml: span: 0: expected a positive number"),
+        "{err}"
+    );
+    assert!(!d.join("c.csv").exists());
+}
+
+/// `curves --out -` writes the table on standard output, as `fk` and `predict` do with
+/// `--out -` (the shared output writer), and what the curves show then goes to standard error;
+/// the table is the file `--out o.csv` writes, its numbers as kinecal's tables write them (the
+/// objective of Fig 4.11 at the true value, 4e-26, with its exponent, not in 26 zeros). Before,
+/// `-` was refused: "the name must end in .svg, .png or .csv".
+#[test]
+fn curves_write_their_table_on_standard_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("p.csv"),
+        "posture,v1,v2,v3,v4\n1,-11.053,12.369,4.009,-11.583\n2,-12.696,9.037,1.493,5.156\n",
+    )
+    .unwrap();
+    run_ok(d, &argv("fk --robot ge-a4 --postures p.csv --out d.csv"));
+    let curve = "curves objective --robot ge-a4 --data d.csv --param p38 --span 100 --points 11";
+    let (code, shown, said) = run(d, &argv(&format!("{curve} --out o.csv")));
+    assert_eq!(code, 0, "{said}");
+    assert_eq!(said, "wrote o.csv\n");
+    let file = std::fs::read_to_string(d.join("o.csv")).unwrap();
+    let (code, table, said) = run(d, &argv(&format!("{curve} --out -")));
+    assert_eq!(code, 0, "{said}");
+    assert_eq!(table, file);
+    assert_eq!(said, shown);
+    let at_9 = table
+        .lines()
+        .find_map(|l| l.strip_prefix("p38,9,"))
+        .unwrap_or_else(|| panic!("{table}"));
+    assert!(
+        at_9.contains("e-") && at_9.parse::<f64>().unwrap() < 1e-20,
+        "{table}"
+    );
+    // The pose curve too.
+    let (code, table, said) = run(
+        d,
+        &argv("curves pose --robot ge-a4 --readings 0,0,0,0 --param p4 --points 3 --out -"),
+    );
+    assert_eq!(code, 0, "{said}");
+    assert!(
+        table.starts_with("param,value,x,y,z,alpha,beta,gamma\np4,-50,"),
+        "{table}"
+    );
+    assert_eq!(table.lines().count(), 4, "{table}");
+    assert_eq!(said, "p4 (link1.alpha): periodic, period 360.000000 deg\n");
+}
+
 /// Data in millimetres against the built-in robot in inches: a warning that names the likely
 /// unit, the fit refused for it (exit 3), and with --strict exit 3 with nothing solved.
 #[test]

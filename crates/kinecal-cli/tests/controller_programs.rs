@@ -3,7 +3,7 @@
 //! the joint table (`--format joints-kuka`, ten decimals) within the six written decimals;
 //! speed and zone in each language's words; programs refused, with the reason, for a robot
 //! that is not a 6-axis arm, a name the controller would not take, a speed or zone it has not,
-//! and a flagged row.
+//! and a flagged row; `kinecal fk` reads the joint tables back.
 
 mod common;
 
@@ -605,4 +605,95 @@ fn a_program_is_named_after_the_file_written_and_a_batch_names_it_as_its_spec() 
         out.contains("as a table") && d.join("table.csv").exists(),
         "{out}"
     );
+}
+
+/// The poses (`x..gamma`) of an `fk` output, row by row.
+fn poses(d: &Path, file: &str) -> Vec<[f64; 6]> {
+    let text = std::fs::read_to_string(d.join(file)).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let x = header.iter().position(|h| *h == "x").unwrap();
+    lines
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').skip(x).map(|v| v.parse().unwrap()).collect();
+            v.try_into().unwrap()
+        })
+        .collect()
+}
+
+/// `kinecal fk` reads every table `kinecal compensate` writes, as the docs say: the plain table
+/// (its remaining errors and flags read past, with a note naming them) and the joint targets of
+/// each brand (`joints-ur|abb|kuka|fanuc`, in the brand's names and unit), and through the
+/// true robot each lands on the targets. A program is refused with the tables it does read
+/// named (before, every `joints-*` table was refused as an "unexpected header", the message
+/// saying fk read "what `kinecal compensate` writes").
+#[test]
+fn fk_reads_every_table_compensate_writes() {
+    let dir = setup();
+    let d = dir.path();
+    let targets: Vec<[f64; 6]> = std::fs::read_to_string(d.join("poses.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').skip(1).map(|v| v.parse().unwrap()).collect();
+            v.try_into().unwrap()
+        })
+        .collect();
+    for format in [
+        "table",
+        "joints-ur",
+        "joints-abb",
+        "joints-kuka",
+        "joints-fanuc",
+    ] {
+        let (code, err) = comp(d, &format!("--format {format} --out {format}.csv"));
+        assert_eq!(code, 0, "{format}: {err}");
+        let (code, _, err) = run(
+            d,
+            &argv(&format!(
+                "fk --robot true.toml --postures {format}.csv --out {format}_fk.csv"
+            )),
+        );
+        assert_eq!(code, 0, "{format}: {err}");
+        assert!(
+            err.contains(&format!("wrote 50 poses to {format}_fk.csv")),
+            "{err}"
+        );
+        let read_past = format!(
+            "{format}.csv: columns `position_error`, `attitude_error`, `iterations`, `flags` are \
+             what `kinecal compensate` adds (its remaining errors and flags): read past"
+        );
+        assert_eq!(
+            err.contains(&read_past),
+            format == "table",
+            "{format}: {err}"
+        );
+        let landed = poses(d, &format!("{format}_fk.csv"));
+        assert_eq!(landed.len(), targets.len(), "{format}");
+        for (i, (a, b)) in landed.iter().zip(&targets).enumerate() {
+            for k in 0..6 {
+                // Ten decimals of a radian (UR) move the tool by less than 1e-9 m.
+                let d = (a[k] - b[k]).abs();
+                let d = if k < 3 {
+                    d
+                } else {
+                    d.min(std::f64::consts::TAU - d)
+                };
+                assert!(d < 1e-8, "{format}: row {}, {k}: {a:?} {b:?}", i + 1);
+            }
+        }
+    }
+    // A program is not a table: the message names what fk reads, for this robot.
+    let (code, err) = comp(d, "--format krl --out prog.src");
+    assert_eq!(code, 0, "{err}");
+    let err = run_err(d, &argv("fk --robot true.toml --postures prog.src"));
+    for said in [
+        "prog.src:1: unexpected header",
+        "a table of `kinecal compensate`: `--format table`, `joints-ur` (`base..wrist3` in rad), \
+         `joints-abb` (`rax_1..rax_6` in deg), `joints-kuka` (`A1..A6` in deg) or \
+         `joints-fanuc` (`J1..J6` in deg); not its programs",
+    ] {
+        assert!(err.contains(said), "{err}");
+    }
 }

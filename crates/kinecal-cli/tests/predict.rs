@@ -191,6 +191,49 @@ fn bad_input_is_refused_with_the_file_named() {
     );
 }
 
+/// The predictions table writes its numbers as `kinecal fk` writes the same ones (one shared
+/// writer, `kinecal::units::number`): a reading given as `-0` is `0` in both, and the readings
+/// and the position of each posture are the same text. Before, predict wrote `-0` where fk
+/// wrote `0`.
+#[test]
+fn the_table_writes_numbers_as_fk_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    calibrated(d);
+    std::fs::write(
+        d.join("p.csv"),
+        "posture,v1,v2,v3,v4\nzero,0,0,0,0\nminus,-0,-0.0,0,-0\nsome,-6.883,13.301,4.122,-28.645\n",
+    )
+    .unwrap();
+    let (code, pred, e) = run(
+        d,
+        &argv("predict --robot cal.toml --report report.json --postures p.csv --out -"),
+    );
+    assert_eq!(code, 0, "{e}");
+    let (code, fk, e) = run(d, &argv("fk --robot cal.toml --postures p.csv"));
+    assert_eq!(code, 0, "{e}");
+    // The fields of `columns` of each row, by posture.
+    let fields = |table: &str, columns: &[&str]| -> Vec<(String, Vec<String>)> {
+        let mut lines = table.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        lines
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                let at = |c: &str| f[header.iter().position(|h| h == &c).unwrap()].to_string();
+                (at("posture"), columns.iter().map(|c| at(c)).collect())
+            })
+            .collect()
+    };
+    let columns = ["v1", "v2", "v3", "v4", "x", "y", "z"];
+    let (p, f) = (fields(&pred, &columns), fields(&fk, &columns));
+    assert_eq!(p.len(), 3, "{pred}");
+    assert_eq!(p, f, "predict:\n{pred}\nfk:\n{fk}");
+    assert_eq!(p[1].1[..4], ["0", "0", "0", "0"], "{pred}");
+    for line in pred.lines() {
+        assert!(!line.split(',').any(|v| v == "-0"), "{line}");
+    }
+}
+
 /// A report is checked before it is believed (issue 38): every reader of a report's JSON
 /// (`report --from`, `predict`) refuses a tampered one, naming the file and the field by its
 /// JSON path, exit 1, at once. Before, a covariance times 1e300 gave NaN bounds, negative

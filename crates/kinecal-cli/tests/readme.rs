@@ -258,6 +258,13 @@ fn help_texts_match_their_snapshots() {
                 }
             }
         }
+        if let Some(line) = wrapped_example(&text) {
+            failures.push(format!(
+                "`kinecal {} --help`: an example wrapped at 100 columns, so that its first line \
+                 run as shown lacks the rest (break it with ` \\`): `{line}`",
+                path.join(" ")
+            ));
+        }
         let name = if path.is_empty() {
             "kinecal".to_string()
         } else {
@@ -283,8 +290,47 @@ fn help_texts_match_their_snapshots() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The first line of a help's examples that is neither a command (`  kinecal ...`) nor the
+/// continuation (indented deeper) of a line broken with ` \`: a command the help's wrapping
+/// broke, whose first line, copied, runs without the rest.
+fn wrapped_example(help: &str) -> Option<String> {
+    let mut in_examples = false;
+    let mut continued = false;
+    for line in help.lines() {
+        if line == "Example:" || line == "Examples:" {
+            in_examples = true;
+            continue;
+        }
+        if !in_examples {
+            continue;
+        }
+        if line.is_empty() {
+            in_examples = false;
+            continue;
+        }
+        let command = line.starts_with("  kinecal ");
+        if !(command || continued && line.starts_with("      ")) {
+            return Some(line.to_string());
+        }
+        continued = line.trim_end().ends_with(" \\");
+    }
+    None
+}
+
 #[test]
 fn matching_rules() {
+    assert_eq!(
+        wrapped_example("Examples:\n  kinecal a --x \\\n      --y\n  kinecal b\n\nText\n"),
+        None
+    );
+    assert_eq!(
+        wrapped_example("Example:\n  kinecal a --x\n  y\n").as_deref(),
+        Some("  y")
+    );
+    assert_eq!(
+        wrapped_example("Example:\n  kinecal a --x\n      --y\n").as_deref(),
+        Some("      --y")
+    );
     assert!(line_matches("a [..] c", "a b c"));
     assert!(line_matches("[..]x", "yyx"));
     assert!(!line_matches("a [..] c", "a b d"));

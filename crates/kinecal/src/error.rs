@@ -36,6 +36,8 @@ pub enum Setting {
     ParameterChange,
     /// The range and sampling of a characteristic curve.
     Sweep,
+    /// The width of a characteristic curve's sweep.
+    Span,
     /// The nominal robot of a compensation.
     NominalRobot,
     /// The first link of a chain read from a URDF file.
@@ -164,7 +166,7 @@ pub enum Setting {
 
 impl Setting {
     /// Every setting.
-    pub const ALL: [Setting; 76] = [
+    pub const ALL: [Setting; 77] = [
         Setting::OutlierThreshold,
         Setting::PruningThreshold,
         Setting::Rcond,
@@ -179,6 +181,7 @@ impl Setting {
         Setting::CheckThreshold,
         Setting::ParameterChange,
         Setting::Sweep,
+        Setting::Span,
         Setting::NominalRobot,
         Setting::ChainBase,
         Setting::ChainTip,
@@ -260,6 +263,7 @@ impl Setting {
             Setting::CheckThreshold => "check threshold",
             Setting::ParameterChange => "parameter change",
             Setting::Sweep => "sweep",
+            Setting::Span => "sweep span",
             Setting::NominalRobot => "nominal robot",
             Setting::ChainBase => "chain base",
             Setting::ChainTip => "chain tip",
@@ -343,6 +347,7 @@ impl Setting {
             Setting::CheckThreshold => "threshold",
             Setting::ParameterChange => "perturb",
             Setting::Sweep => "sweep",
+            Setting::Span => "span",
             Setting::NominalRobot => "nominal",
             Setting::ChainBase => "base",
             Setting::ChainTip => "tip",

@@ -9,6 +9,7 @@ use crate::model::params::{ParamId, ParamKind};
 use crate::model::robot::{JointKind, Robot};
 use crate::observe::{Dataset, OrientationError, Weights};
 use crate::solve::problem::Problem;
+use crate::units::number::format_number;
 use crate::units::Quantity;
 
 /// Most samples a curve may have.
@@ -24,14 +25,16 @@ pub fn sweep(from: f64, to: f64, points: usize) -> crate::Result<Vec<f64>> {
     if !(3..=MAX_POINTS).contains(&points) {
         return Err(bad(format!("{points} points: between 3 and {MAX_POINTS}")));
     }
+    // The numbers as kinecal's tables write them (`5`, not `5e0`).
+    let (a, b) = (format_number(from), format_number(to));
     if !(crate::units::plausible(from) && crate::units::plausible(to) && from < to) {
         return Err(bad(format!(
-            "from {from:e} to {to:e}: a sweep runs from a smaller to a larger number within +-1e9"
+            "from {a} to {b}: a sweep runs from a smaller to a larger number within +-1e9"
         )));
     }
     if (to - from) < 1e-12 * from.abs().max(to.abs()) {
         return Err(bad(format!(
-            "from {from} to {to}: too narrow for the numbers to tell its points apart"
+            "from {a} to {b}: too narrow for the numbers to tell its points apart"
         )));
     }
     Ok(samples(from, to, points))

@@ -44,6 +44,9 @@ pub(crate) enum Brand {
 }
 
 impl Brand {
+    /// Every brand.
+    pub const ALL: [Brand; 4] = [Brand::Ur, Brand::Abb, Brand::Kuka, Brand::Fanuc];
+
     /// The brand's name on the command line.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -109,6 +112,16 @@ impl Brand {
                 AngleUnit::Deg => si.to_degrees(),
             };
         }
+    }
+
+    /// A joint value in the brand's unit as a reading of `robot` (the robot file's angle
+    /// unit): what [`Brand::values`] wrote, read back.
+    pub fn reading(self, robot: &Robot, value: f64) -> f64 {
+        let si = match self.angle_unit() {
+            AngleUnit::Rad => value,
+            AngleUnit::Deg => value.to_radians(),
+        };
+        robot.units.from_si(Quantity::Angle, si)
     }
 }
 

@@ -31,6 +31,31 @@ pub(super) const FORMAT: Format = Format {
 pub(crate) const COMPENSATED_COLUMNS: [&str; 4] =
     ["position_error", "attitude_error", "iterations", "flags"];
 
+/// Says which of the columns `kinecal compensate` adds ([`COMPENSATED_COLUMNS`]) the file
+/// `file` of header `spelled` carries, read past as postures are read from it (nothing when it
+/// has none), as [`super::ReadingColumns::note`] says of other joints' columns.
+pub(crate) fn note_compensated_columns(file: &str, spelled: &[String]) {
+    let found: Vec<String> = spelled
+        .iter()
+        .filter(|h| {
+            COMPENSATED_COLUMNS
+                .iter()
+                .any(|c| c.eq_ignore_ascii_case(h))
+        })
+        .map(|h| format!("`{h}`"))
+        .collect();
+    if found.is_empty() {
+        return;
+    }
+    super::note(format!(
+        "{file}: column{} {} {} what `kinecal compensate` adds (its remaining errors and flags): \
+         read past",
+        if found.len() == 1 { "" } else { "s" },
+        found.join(", "),
+        if found.len() == 1 { "is" } else { "are" },
+    ));
+}
+
 /// The columns of the payload a posture's tool carries (kg; centre of mass in the end-effector
 /// frame, in the file's length unit): an elastic robot's joints yield to its weight.
 pub(crate) const PAYLOAD_COLUMNS: [&str; 4] =
@@ -914,15 +939,29 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
 /// The scales of a file's joint readings (see [`crate::units::number`]): one for the readings of
 /// revolute joints, one for prismatic ones.
 pub(crate) fn reading_scales(robot: &Robot, postures: &[Posture]) -> Vec<Scale> {
+    reading_scales_of(robot, postures.iter().map(|p| p.readings.as_slice()))
+}
+
+/// [`reading_scales`] of postures given by their readings.
+fn reading_scales_of<'a>(
+    robot: &Robot,
+    postures: impl IntoIterator<Item = &'a [f64]>,
+) -> Vec<Scale> {
     let mut by_kind = [Scale::default(); 2];
     let kind =
         |j: usize| usize::from(robot.joints.get(j).map(|j| j.kind) == Some(JointKind::Prismatic));
-    for p in postures {
-        for (j, v) in p.readings.iter().enumerate() {
+    for readings in postures {
+        for (j, v) in readings.iter().enumerate() {
             by_kind[kind(j)].include(*v);
         }
     }
     (0..robot.dof()).map(|j| by_kind[kind(j)]).collect()
+}
+
+/// One posture's readings, each `,value`, with the scales of that posture alone: a row of a
+/// table written one posture at a time, as `kinecal fk` streams a postures file.
+pub(crate) fn write_posture_readings(robot: &Robot, out: &mut String, readings: &[f64]) {
+    write_readings(out, readings, &reading_scales_of(robot, [readings]));
 }
 
 /// A posture's readings, each `,value` ([`number::write`] with its scale).

@@ -67,7 +67,10 @@ pub use read::{read_files, ObservationFile, ReadSettings};
 
 pub(crate) use contacts::write_contacts;
 pub(crate) use distances::write_distances;
-pub(crate) use measurements::{postures_header, COMPENSATED_COLUMNS, PAYLOAD_COLUMNS};
+pub(crate) use measurements::{
+    note_compensated_columns, postures_header, write_posture_readings, COMPENSATED_COLUMNS,
+    PAYLOAD_COLUMNS,
+};
 pub(crate) use pixels::write_pixels;
 pub(crate) use read::kind_index;
 

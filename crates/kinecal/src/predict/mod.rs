@@ -1061,7 +1061,9 @@ pub(crate) fn csv_header(robot: &Robot, attitude: bool, sites: bool) -> String {
 }
 
 /// One row of the predictions table ([`csv_header`]), appended to `out` with its line end
-/// (`site`: its target, when the table has the column).
+/// (`site`: its target, when the table has the column). Numbers are written as `kinecal fk`
+/// writes a posture's row ([`crate::units::number`]): the readings and the position with the
+/// row's scales (float noise and `-0` as 0), the figures exactly.
 pub(crate) fn csv_row(
     robot: &Robot,
     label: &str,
@@ -1070,7 +1072,7 @@ pub(crate) fn csv_row(
     p: &Prediction,
     out: &mut String,
 ) {
-    use std::fmt::Write as _;
+    use crate::units::number::{format_number, write, Scale};
     let units = &robot.units;
     let len = |v: f64| units.from_si(Quantity::Length, v);
     let ang = |v: f64| units.from_si(Quantity::Angle, v);
@@ -1079,30 +1081,27 @@ pub(crate) fn csv_row(
         out.push(',');
         out.push_str(site);
     }
-    for v in readings {
-        let _ = write!(out, ",{v}");
+    crate::files::write_posture_readings(robot, out, readings);
+    let position = [p.position.x, p.position.y, p.position.z].map(len);
+    let scale = Scale::of(position);
+    for v in position {
+        out.push(',');
+        out.push_str(&write(v, scale));
     }
-    let _ = write!(
-        out,
-        ",{},{},{},{},{},{},{},{}",
-        len(p.position.x),
-        len(p.position.y),
-        len(p.position.z),
+    let e = &p.position_error;
+    let mut figures = vec![
         len(p.distance),
-        len(p.position_error.parameters),
-        len(p.position_error.model),
-        len(p.position_error.bound),
-        len(p.position_error.parameters_bound)
-    );
+        len(e.parameters),
+        len(e.model),
+        len(e.bound),
+        len(e.parameters_bound),
+    ];
     if let Some(a) = &p.attitude_error {
-        let _ = write!(
-            out,
-            ",{},{},{},{}",
-            ang(a.parameters),
-            ang(a.model),
-            ang(a.bound),
-            ang(a.parameters_bound)
-        );
+        figures.extend([a.parameters, a.model, a.bound, a.parameters_bound].map(ang));
+    }
+    for v in figures {
+        out.push(',');
+        out.push_str(&format_number(v));
     }
     out.push('\n');
 }

@@ -7,7 +7,7 @@
 //! robot = "ge-a4"
 //! readings = [12.5, -16.25, 1.0, 10.0]
 //! sweep = { param = "p4", span = 360.0 }
-//! out = "p4.svg"                  # .svg, .png or .csv
+//! out = "p4.svg"                  # .svg, .png or .csv; "-": the table on standard output
 //! ```
 
 use std::fmt::Write as _;
@@ -19,6 +19,7 @@ use crate::apps::curves::{is_convex, local_minima, objective_curve, period, pose
 use crate::error::{Error, Location, Result, Setting};
 use crate::files::{parse_postures, ObservationFile, ReadSettings};
 use crate::model::robot::Robot;
+use crate::units::number::format_number;
 use crate::{JointKind, ParamId, ParamKind};
 
 use super::common::{
@@ -97,7 +98,8 @@ pub struct CurvesSpec {
     /// The sweep.
     #[serde(default)]
     pub sweep: Sweep,
-    /// The file to write: `.svg`, `.png` or `.csv` by its extension.
+    /// The file to write: `.svg`, `.png` or `.csv` by its extension; `-` writes the table
+    /// (CSV) on standard output.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub out: Option<String>,
 }
@@ -161,6 +163,10 @@ enum Out {
 }
 
 fn out_kind(path: &str) -> Result<Out> {
+    // Standard output gets the table.
+    if path == "-" {
+        return Ok(Out::Csv);
+    }
     match Path::new(path)
         .extension()
         .and_then(|e| e.to_str())
@@ -172,7 +178,10 @@ fn out_kind(path: &str) -> Result<Out> {
         Some("csv") => Ok(Out::Csv),
         _ => Err(invalid(
             Setting::Output,
-            format!("{path}: the name must end in .svg, .png or .csv"),
+            format!(
+                "{path}: the name must end in .svg, .png or .csv (or be `-`: the table on \
+                 standard output)"
+            ),
         )),
     }
 }
@@ -191,7 +200,20 @@ impl CurvesSpec {
         let v = robot.get_user(id);
         let (a, b) = match (s.from, s.to, s.span) {
             (Some(a), Some(b), None) => (a, b),
-            (None, None, Some(w)) => (v - w / 2.0, v + w / 2.0),
+            (None, None, Some(w)) => {
+                if !(w.is_finite() && w > 0.0) {
+                    return Err(invalid(
+                        Setting::Span,
+                        format!(
+                            "{}: expected a positive number, the width of the sweep (from the \
+                             parameter's value less half of it to the value plus half, in the \
+                             robot file's units)",
+                            format_number(w)
+                        ),
+                    ));
+                }
+                (v - w / 2.0, v + w / 2.0)
+            }
             (None, None, None) => {
                 let half = crate::apps::curves::default_half_width(
                     robot,
@@ -281,11 +303,11 @@ impl CurvesSpec {
             let name = robot.param_name(id);
             let unit = robot.param_unit(id);
             for (v, row) in x.iter().zip(&c) {
-                let _ = writeln!(
-                    csv,
-                    "{id},{v},{},{},{},{},{},{}",
-                    row[0], row[1], row[2], row[3], row[4], row[5]
-                );
+                let _ = write!(csv, "{id},{}", format_number(*v));
+                for r in row {
+                    let _ = write!(csv, ",{}", format_number(*r));
+                }
+                csv.push('\n');
             }
             let col = |k: usize| c.iter().map(|r| r[k]).collect::<Vec<_>>();
             let mark_x = robot.get_user(id);
@@ -349,13 +371,13 @@ impl CurvesSpec {
             let name = robot.param_name(id);
             let unit = robot.param_unit(id);
             for (v, o) in x.iter().zip(&f) {
-                let _ = writeln!(csv, "{id},{v},{o}");
+                let _ = writeln!(csv, "{id},{},{}", format_number(*v), format_number(*o));
             }
             let minima = local_minima(&x, &f);
             findings.push(format!(
                 "{id} ({name}), {} .. {} {unit}:",
-                x[0],
-                x[x.len() - 1]
+                format_number(x[0]),
+                format_number(x[x.len() - 1])
             ));
             if minima.is_empty() {
                 findings.push(
@@ -443,7 +465,7 @@ impl CurvesSpec {
             staged.commit()?;
         }
         let mut done = Done::ok(Document::Curves(Box::new(curves)));
-        if let Some(p) = &self.out {
+        if let Some(p) = self.out.as_deref().filter(|p| *p != "-") {
             done.note(format!("wrote {p}"));
         }
         Ok(done)

@@ -33,6 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::apps::simulate::{self, PerturbStd};
 use crate::error::{Error, Location, Result, Setting};
+use crate::files::controller::Brand;
 use crate::files::stream::{cell, payload_at, payload_columns, Rows};
 use crate::files::{parse_postures, write_measurements};
 use crate::model::robot::Robot;
@@ -222,8 +223,8 @@ pub struct FkSpec {
     /// The robot.
     #[serde(default)]
     pub robot: String,
-    /// The postures (`posture,v1..vn`, what `compensate` writes, or a measurement file; `-` for
-    /// standard input).
+    /// The postures (`posture,v1..vn`, a table `compensate` writes with the format `table` or
+    /// `joints-ur|abb|kuka|fanuc`, or a measurement file; `-` for standard input).
     #[serde(default)]
     pub postures: String,
     /// The poses to write (a measurement file; standard output when absent).
@@ -526,6 +527,50 @@ impl SimulateSpec {
     }
 }
 
+/// The columns of the joint targets of a brand that `robot` fits (`kinecal compensate --format
+/// joints-ur|abb|kuka|fanuc`), when `rows` has every one of them: the brand, and per joint its
+/// column.
+fn brand_columns(robot: &Robot, rows: &Rows) -> Option<(Brand, Vec<usize>)> {
+    Brand::ALL.into_iter().find_map(|brand| {
+        let names = brand.columns(robot).ok()?;
+        let found: Option<Vec<usize>> = names.iter().map(|c| rows.column(c)).collect();
+        found.map(|found| (brand, found))
+    })
+}
+
+/// The error of a header `fk` does not read, saying exactly what it reads: postures, a
+/// measurement file, and the tables `kinecal compensate` writes for this robot.
+fn fk_header_error(robot: &Robot, rows: &Rows) -> Error {
+    let mut tables = vec!["`--format table`".to_string()];
+    for brand in Brand::ALL {
+        if let Some(names) = brand.columns(robot).ok().filter(|n| !n.is_empty()) {
+            tables.push(format!(
+                "`joints-{}` (`{}..{}` in {})",
+                brand.as_str(),
+                names[0],
+                names[names.len() - 1],
+                brand.angle_unit().as_str()
+            ));
+        }
+    }
+    let last = tables.pop().unwrap_or_default();
+    let tables = if tables.is_empty() {
+        last
+    } else {
+        format!("{} or {last}", tables.join(", "))
+    };
+    Error::input(
+        Location::file(&rows.file).at_line(1),
+        format!(
+            "unexpected header `{}`: expected postures `{}` (the joints' columns may carry their \
+             names, in any order), a measurement file, or a table of `kinecal compensate`: \
+             {tables}; not its programs (`urscript`, `krl`, `rapid`, `tp`)",
+            rows.spelled.join(","),
+            crate::files::postures_header(robot).join(",")
+        ),
+    )
+}
+
 impl FkSpec {
     /// Writes the poses of the postures' file: a postures file streams through row by row
     /// (flat memory, any length); a measurement file is read whole.
@@ -552,34 +597,38 @@ impl FkSpec {
             }
             let data = simulate::measure(robot, &postures, false);
             *poses = data.observations.len();
-            return w
-                .write_all(write_measurements(robot, &data).as_bytes())
-                .map_err(io);
+            w.write_all(write_measurements(robot, &data).as_bytes())
+                .map_err(io)?;
+            crate::files::note_compensated_columns(&rows.file, &rows.spelled);
+            return Ok(());
         }
-        // A postures file, or what `compensate` writes (its label `target` or `posture`, a
-        // `site`, and the remaining errors and flags, read past).
+        // A postures file, or a table `compensate` writes: `--format table` (its label `target`
+        // or `posture`, a `site`, and the remaining errors and flags, read past) or a brand's
+        // joint targets (`--format joints-ur|abb|kuka|fanuc`: the brand's names and unit).
         let label = rows.column("posture").or_else(|| rows.column("target"));
         let mut known = vec!["posture", "target", "site"];
         known.extend(crate::files::COMPENSATED_COLUMNS);
         known.extend(crate::files::PAYLOAD_COLUMNS);
         let columns = crate::files::ReadingColumns::of(robot, &rows.spelled, &known);
-        let readings: Option<Vec<usize>> = columns.names.iter().map(|c| rows.column(c)).collect();
+        let own: Option<Vec<usize>> = columns.names.iter().map(|c| rows.column(c)).collect();
+        let (readings, brand) = match own {
+            Some(own) => (Some(own), None),
+            None => match brand_columns(robot, &rows) {
+                Some((brand, found)) => (Some(found), Some(brand)),
+                None => (None, None),
+            },
+        };
         let payload_cols = payload_columns(&rows)?;
+        // Another joint's column is read past in a table of the robot's own columns only.
+        let other = |h: &str| brand.is_none() && columns.is_other(h);
         let unknown = rows.header.iter().enumerate().find(|(i, h)| {
             Some(*i) != label
                 && !readings.as_ref().is_some_and(|r| r.contains(i))
                 && !known[2..].contains(&h.as_str())
-                && !columns.is_other(h)
+                && !other(h)
         });
         let (Some(label), Some(readings), None) = (label, readings, unknown) else {
-            return Err(Error::input(
-                Location::file(&rows.file).at_line(1),
-                format!(
-                    "unexpected header `{}`: expected `{}` (or what `kinecal compensate` writes)",
-                    rows.header.join(","),
-                    crate::files::postures_header(robot).join(",")
-                ),
-            ));
+            return Err(fk_header_error(robot, &rows));
         };
         let mut first = true;
         let mut posture = crate::Posture {
@@ -592,7 +641,8 @@ impl FkSpec {
             posture.label.clear();
             posture.label.push_str(rows.field(label));
             for (j, &c) in readings.iter().enumerate() {
-                posture.readings[j] = cell(&rows, line, c)?;
+                let v = cell(&rows, line, c)?;
+                posture.readings[j] = brand.map_or(v, |b| b.reading(robot, v));
             }
             // With payload columns every row writes them: an empty one is no load, 0 kg.
             posture.payload = payload_at(&rows, line, &payload_cols, &robot.units)?.or_else(|| {
@@ -627,7 +677,10 @@ impl FkSpec {
                 "no postures: the file has a header but no rows",
             ));
         }
-        columns.note(&rows.file, robot);
+        if brand.is_none() {
+            columns.note(&rows.file, robot);
+        }
+        crate::files::note_compensated_columns(&rows.file, &rows.spelled);
         Ok(())
     }
 
