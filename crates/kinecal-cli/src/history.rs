@@ -399,6 +399,16 @@ fn show_events(events: &[Event]) {
     }
 }
 
+/// `calibration 3 is` or `calibrations 1, 2 and 3 are`.
+fn ids(ids: &[i64]) -> String {
+    let ids: Vec<String> = ids.iter().map(i64::to_string).collect();
+    match ids.split_last() {
+        Some((last, [])) => format!("calibration {last} is"),
+        Some((last, rest)) => format!("calibrations {} and {last} are", rest.join(", ")),
+        None => "no calibration is".into(),
+    }
+}
+
 /// A change: compliances (1e-6..1e-3 rad/(N m)) in significant digits, others in 6 decimals.
 fn change(v: f64, unit: &str) -> String {
     if unit.contains("/(N ") {
@@ -427,6 +437,17 @@ fn show_drift(d: &DriftDocument) {
             e.at_text(),
             printable(&e.note),
             d.before_event
+        );
+    }
+    if let Some(m) = &r.since_model_change {
+        println!(
+            "since the change of robot model at calibration {} ({}; against calibration {}: {}): \
+             {} not compared",
+            m.first_id,
+            m.first_at,
+            m.earlier_id,
+            printable(&m.difference),
+            ids(&m.left_out)
         );
     }
     if let Some(why) = &r.nothing_to_compare {
@@ -546,6 +567,25 @@ fn show_fleet(f: &FleetDocument) {
         println!("{heading}:");
         for l in lines {
             println!("  {l}");
+        }
+    }
+    // Robots whose current segment starts at a change of robot model (the table counts
+    // those calibrations as "since event").
+    let changed: Vec<_> = f
+        .robots
+        .iter()
+        .filter_map(|r| r.model_change.as_ref().map(|m| (r, m)))
+        .collect();
+    if !changed.is_empty() {
+        println!();
+        println!("changes of robot model (the calibrations before are not compared):");
+        for (r, m) in changed {
+            println!(
+                "  {}: {} not compared: {}",
+                printable(&r.robot_id),
+                ids(&m.left_out),
+                m.reason()
+            );
         }
     }
 }

@@ -342,10 +342,16 @@ fn a_report_of_another_robot_model_is_refused() {
         d,
         &argv("history add --robot-id OTHER-1 --report other.json --db h.sqlite"),
     );
-    // A rebuilt robot keeps its serial with --force.
-    run_ok(
+    // A rebuilt robot keeps its serial with --force: the record starts a new segment, said.
+    let (code, _, err) = run(
         d,
         &argv("history add --robot-id A4-7 --report other.json --db h.sqlite --force"),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("calibration 3 changes the robot model of robot A4-7")
+            && err.contains("joint 3 is revolute, earlier prismatic"),
+        "{err}"
     );
     let list = run_ok(
         d,
@@ -356,6 +362,37 @@ fn a_report_of_another_robot_model_is_refused() {
         2,
         "{list}"
     );
+    // Drift never compares the two models: the earlier one is left out, saying why.
+    let out = run_ok(d, &argv("history drift --robot-id A4-7 --db h.sqlite"));
+    assert!(
+        out.contains("since the change of robot model at calibration 3")
+            && out.contains("calibration 1 is not compared")
+            && out.contains("nothing to compare: one calibration"),
+        "{out}"
+    );
+}
+
+/// `history add` of a report whose calibration `calibrate` refused (its units) recorded it,
+/// exit 0: refused, naming the report and why, and no history file is created.
+#[test]
+fn a_refused_calibration_is_not_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut r: serde_json::Value = serde_json::from_str(&reports().0).unwrap();
+    r["refused"] = "REFUSED: a unit check fired (are they in mm?): no calibrated robot is \
+                    written or recorded."
+        .into();
+    std::fs::write(d.join("refused.json"), r.to_string()).unwrap();
+    let err = run_err(
+        d,
+        &argv("history add --robot-id RF --report refused.json --db h.sqlite"),
+    );
+    assert!(
+        err.contains("refused.json: the report says the calibration was REFUSED (a unit check")
+            && err.contains("nothing was written"),
+        "{err}"
+    );
+    assert!(!d.join("h.sqlite").exists());
 }
 
 #[test]

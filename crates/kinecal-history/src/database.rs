@@ -9,15 +9,15 @@ use crate::error::{Error, Result};
 use crate::location::redact;
 use crate::location::Location;
 use crate::model::{
-    AddOptions, Added, Calibration, Dump, Event, ImportSummary, Records, DUMP_FORMAT,
+    AddOptions, Added, Calibration, Dump, Event, ImportSummary, Records, StoredRecord, DUMP_FORMAT,
 };
 #[cfg(feature = "postgres")]
 use crate::postgres::PgStore;
-use crate::record::{check_rows, new_record};
+use crate::record::{check_rows, new_record, serial_problem};
 use crate::sqlite::SqliteStore;
 use crate::store::{Access, Backend, Store, Write};
 use crate::text::printable;
-use crate::timefmt::now;
+use crate::timefmt::{now, time_problem};
 
 /// The PostgreSQL store at `url`.
 #[cfg(feature = "postgres")]
@@ -134,15 +134,14 @@ impl Database {
         note: &str,
         options: AddOptions,
     ) -> Result<Added> {
-        let rec = new_record(robot_id, at, at.unwrap_or_else(now), report, note)?;
-        check_rows(&rec, false).map_err(|problem| {
-            Error::Input(format!(
-                "the report of robot {}: {problem}; not recorded",
-                printable(robot_id)
-            ))
-        })?;
+        let rec = prepare(robot_id, at, report, note)?;
+        self.insert_prepared(&rec, options)
+    }
+
+    /// Writes a record [`prepare`] made.
+    pub(crate) fn insert_prepared(&self, rec: &StoredRecord, options: AddOptions) -> Result<Added> {
         self.store.insert(
-            &rec,
+            rec,
             Write::New {
                 force: options.force,
             },
@@ -152,12 +151,10 @@ impl Database {
     /// Records a maintenance event of `robot_id` at `at` (Unix seconds): drift is computed
     /// within the segments between events. The same event again is not written twice.
     pub fn add_event(&self, robot_id: &str, at: i64, note: &str) -> Result<Added> {
-        if robot_id.trim().is_empty() {
-            return Err(Error::Input(
-                "the robot id (serial) must not be empty".into(),
-            ));
-        }
         crate::record::bounded_texts(robot_id, note)?;
+        if let Some(problem) = time_problem(at) {
+            return Err(Error::Input(format!("the event's time: {problem}")));
+        }
         if note.trim().is_empty() {
             return Err(Error::Input(
                 "an event needs a note saying what was done (e.g. \"gearbox J2 replaced\")".into(),
@@ -243,32 +240,15 @@ impl Database {
     /// the same history, ids included; importing twice adds nothing. On PostgreSQL the id
     /// sequences move past the imported ids, so that the next record and event get new ones.
     ///
-    /// Every record is checked first, and a damaged dump is refused before anything is written
-    /// ([`Error::Input`], naming the record by its place in the dump, its id and robot, and
-    /// what was expected): a calibration without a robot serial, without parameters, with a
-    /// parameter or combination twice, or whose parameter rows are not its report's.
+    /// Every record and event is checked first ([`check_dump`]), and a damaged dump is
+    /// refused before anything is written.
     pub fn import(&self, dump: &Dump) -> Result<ImportSummary> {
-        for (k, r) in dump.calibrations.iter().enumerate() {
-            let which = || {
-                format!(
-                    "calibration {} of the dump (the {} in its list, robot {})",
-                    r.id,
-                    ordinal(k + 1),
-                    printable(&r.robot_id)
-                )
-            };
-            if r.robot_id.trim().is_empty() {
-                return Err(Error::Input(format!(
-                    "calibration {} of the dump (the {} in its list) has no robot serial; nothing \
-                     was imported",
-                    r.id,
-                    ordinal(k + 1)
-                )));
-            }
-            check_rows(r, true).map_err(|problem| {
-                Error::Input(format!("{}: {problem}; nothing was imported", which()))
-            })?;
-        }
+        check_dump(dump)?;
+        self.import_checked(dump)
+    }
+
+    /// [`Database::import`] of a dump [`check_dump`] accepted.
+    pub(crate) fn import_checked(&self, dump: &Dump) -> Result<ImportSummary> {
         let (records, events) = self.store.import(&dump.calibrations, &dump.events)?;
         let mut s = ImportSummary::default();
         for (r, a) in dump.calibrations.iter().zip(records) {
@@ -289,6 +269,96 @@ impl Database {
             }
         }
         Ok(s)
+    }
+}
+
+/// The record of a calibration report, checked as [`Database::record`] checks it (nothing is
+/// opened: a front end checks a report before it opens, or creates, a history).
+pub(crate) fn prepare(
+    robot_id: &str,
+    at: Option<i64>,
+    report: &CalibrationReport,
+    note: &str,
+) -> Result<StoredRecord> {
+    if let Some(problem) = at.and_then(time_problem) {
+        return Err(Error::Input(format!("the calibration's time: {problem}")));
+    }
+    let rec = new_record(robot_id, at, at.unwrap_or_else(now), report, note)?;
+    check_rows(&rec, false).map_err(|problem| {
+        Error::Input(format!(
+            "the report of robot {}: {problem}; not recorded",
+            printable(robot_id)
+        ))
+    })?;
+    Ok(rec)
+}
+
+/// Checks every record and event of `dump` as a write would check it, before anything is
+/// written: a damaged dump is refused ([`Error::Input`], naming the record or event by its
+/// place in the dump, its id and robot, the field, its value and what was expected; nothing
+/// was imported). A calibration is refused when its robot serial is one `history add` refuses
+/// (empty, with white space at its start or end, longer than 128 characters), its time is
+/// outside years 0000-9999 (it could not be shown as a date), its length or angle unit is
+/// not a kinecal unit, a parameter's unit is not the record's unit of its quantity or not its
+/// report's, a value is not finite, a sigma is not positive and finite, it has no parameters,
+/// a parameter or combination twice, or parameter rows that are not its report's; an event,
+/// when its serial or time is refused, or it has no note.
+pub fn check_dump(dump: &Dump) -> Result<()> {
+    let refused = |what: String, problem: String| {
+        Error::Input(format!("{what}: {problem}; nothing was imported"))
+    };
+    for (k, r) in dump.calibrations.iter().enumerate() {
+        let which = || {
+            format!(
+                "calibration {} of the dump (the {} in its list, robot {})",
+                r.id,
+                ordinal(k + 1),
+                shown_serial(&r.robot_id)
+            )
+        };
+        if let Some(problem) = serial_problem(&r.robot_id) {
+            return Err(refused(which(), format!("its robot_id: {problem}")));
+        }
+        if let Some(problem) = time_problem(r.at) {
+            return Err(refused(which(), format!("its at: {problem}")));
+        }
+        check_rows(r, true).map_err(|problem| refused(which(), problem))?;
+    }
+    for (k, e) in dump.events.iter().enumerate() {
+        let which = || {
+            format!(
+                "event {} of the dump (the {} in its list of events, robot {})",
+                e.id,
+                ordinal(k + 1),
+                shown_serial(&e.robot_id)
+            )
+        };
+        if let Some(problem) = serial_problem(&e.robot_id) {
+            return Err(refused(which(), format!("its robot_id: {problem}")));
+        }
+        if let Some(problem) = time_problem(e.at) {
+            return Err(refused(which(), format!("its at: {problem}")));
+        }
+        if e.note.trim().is_empty() {
+            return Err(refused(
+                which(),
+                "its note is empty; expected what was done (e.g. \"gearbox J2 replaced\")".into(),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A serial for a message: printable, and cut after 40 characters when longer.
+fn shown_serial(robot_id: &str) -> String {
+    let n = robot_id.chars().count();
+    if n > 40 {
+        format!(
+            "{}... ({n} characters)",
+            printable(&robot_id.chars().take(40).collect::<String>())
+        )
+    } else {
+        printable(robot_id).into_owned()
     }
 }
 

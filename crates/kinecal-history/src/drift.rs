@@ -21,6 +21,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::model::{Calibration, Event};
+use crate::robot_model::{latest_model_start, ModelChange};
 use crate::text::printable;
 use crate::units::{conversion, parse_units};
 
@@ -38,9 +39,16 @@ pub enum Baseline {
 
 /// Per-quantity tolerances: keys are parameter names or ids (`link3.y`, `p14`) or combination
 /// expressions (`p14 + p20`), values in the quantity's unit (that of the robot's first record).
+///
+/// One quantity takes one tolerance: a file naming it twice (the same key twice, or a parameter
+/// by its id and by its name, `p1` and `link1.x`) is refused, naming both.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Tolerances {
     entries: Vec<(String, f64)>,
+    /// The file, when read from one.
+    file: Option<String>,
+    /// The line of each entry in the file, when read from one.
+    lines: Vec<Option<usize>>,
 }
 
 impl Tolerances {
@@ -54,7 +62,8 @@ impl Tolerances {
         };
         let doc: tolerance_file::Table = tolerance_file::parse(text).map_err(fail)?;
         let mut entries: Vec<(String, f64)> = Vec::new();
-        for (k, v) in doc {
+        let mut lines = Vec::new();
+        for (k, v, line) in doc {
             if !(v > 0.0 && v.is_finite()) {
                 return Err(fail(format!(
                     "tolerance `{}` must be a positive number",
@@ -68,13 +77,66 @@ impl Tolerances {
                 )));
             }
             entries.push((k, v));
+            lines.push(line);
         }
-        Ok(Tolerances { entries })
+        Ok(Tolerances {
+            entries,
+            file: Some(file.to_string()),
+            lines,
+        })
     }
 
     /// A tolerance per key.
     pub fn from_entries(entries: Vec<(String, f64)>) -> Self {
-        Tolerances { entries }
+        Tolerances {
+            entries,
+            ..Default::default()
+        }
+    }
+
+    /// Refuses tolerances that name one parameter of `history` twice: by its id and by its
+    /// name (`p1 = 0.0001` and `link1.x = 1`); which one applied would depend on their order.
+    fn check_names_against(&self, history: &[Calibration]) -> Result<()> {
+        if self.entries.is_empty() {
+            return Ok(());
+        }
+        let find = |k: &str| self.entries.iter().position(|(e, _)| e == k);
+        for c in history {
+            for p in &c.parameters {
+                if p.id == p.name {
+                    continue;
+                }
+                let (Some(a), Some(b)) = (find(&p.id), find(&p.name)) else {
+                    continue;
+                };
+                let (a, b) = (a.min(b), a.max(b));
+                let at = |k: usize| {
+                    let key = format!("`{}`", printable(&self.entries[k].0));
+                    match self.lines.get(k).copied().flatten() {
+                        Some(line) => format!("{key} (line {line})"),
+                        None => key,
+                    }
+                };
+                let message = format!(
+                    "tolerances {} and {} name the same quantity (parameter {} is {} in \
+                     calibration {} of robot {}); give it one tolerance, by its id or by its name",
+                    at(a),
+                    at(b),
+                    printable(&p.id),
+                    printable(&p.name),
+                    c.id,
+                    printable(&c.robot_id)
+                );
+                return Err(match &self.file {
+                    Some(file) => Error::Tolerance {
+                        file: file.clone(),
+                        message,
+                    },
+                    None => Error::Input(format!("the tolerances: {message}")),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The keys, in file order.
@@ -210,6 +272,11 @@ pub struct DriftReport {
     /// segment since one ([`crate::current_segment`]); `drift` itself leaves it empty.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub since_event: Option<Event>,
+    /// The change of robot model the compared calibrations follow, when the history holds
+    /// calibrations of another model (a rebuilt robot recorded with the force option): those
+    /// before it are not compared ([`ModelChange::left_out`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub since_model_change: Option<ModelChange>,
     /// Why nothing was compared, when the baseline is the latest calibration itself (a history
     /// of one calibration, or `--baseline` naming the latest): no quantities, nothing flagged.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -554,6 +621,20 @@ pub fn samples(history: &[Calibration], key: &str) -> Result<Vec<Sample>> {
     Ok(samples_in(history, &history_units(history)?, key))
 }
 
+/// [`samples`] in the units of the record `like` (the first of the segment whose quantities
+/// are drawn), not of `history`'s first.
+pub(crate) fn samples_like(
+    history: &[Calibration],
+    like: &Calibration,
+    key: &str,
+) -> Result<Vec<Sample>> {
+    Ok(samples_in(
+        history,
+        &history_units(std::slice::from_ref(like))?,
+        key,
+    ))
+}
+
 /// Why a robot's `history` cannot be compared, when one of its calibrations has no parameters
 /// (a damaged record: there would be nothing to find changed).
 pub(crate) fn without_parameters(history: &[Calibration]) -> Option<String> {
@@ -571,11 +652,14 @@ pub(crate) fn without_parameters(history: &[Calibration]) -> Option<String> {
 /// ([`Error::Input`]): nothing would be found changed. When the baseline is the latest
 /// calibration itself (a history of one, or a baseline naming the latest), nothing is
 /// compared: no quantities, and [`DriftReport::nothing_to_compare`] says why (every change
-/// would be zero, and "nothing flagged" would read as a clean bill of health).
+/// would be zero, and "nothing flagged" would read as a clean bill of health). Calibrations
+/// of two robot models are never compared: when `history` changes model (a rebuilt robot
+/// recorded with the force option), only the calibrations since the latest change are, and
+/// [`DriftReport::since_model_change`] names the change and the calibrations left out.
 pub fn drift(history: &[Calibration], opts: &DriftOptions) -> Result<DriftReport> {
     let mut report = drift_or_tracked(history, opts)?;
     if report.baseline_id == report.latest_id {
-        report.nothing_to_compare = Some(if history.len() == 1 {
+        report.nothing_to_compare = Some(if report.calibrations == 1 {
             format!(
                 "one calibration of robot `{}` to look at (calibration {}): drift compares the \
                  latest calibration with an earlier one; record another to compare",
@@ -606,33 +690,53 @@ pub(crate) fn drift_or_tracked(
     if !(opts.sigma.is_finite() && opts.sigma > 0.0) {
         return Err(Error::InvalidSigma { value: opts.sigma });
     }
-    let (Some(first), Some(latest)) = (history.first(), history.last()) else {
+    if history.is_empty() {
         return Err(Error::Input("empty history".into()));
-    };
+    }
     if let Some(problem) = without_parameters(history) {
         return Err(Error::Input(problem));
     }
+    // Two robot models are never compared: only the calibrations of the latest one, since it
+    // changed.
+    let (start, model_change) = latest_model_start(history);
+    let (whole, history) = (history, &history[start..]);
+    let (Some(first), Some(latest)) = (history.first(), history.last()) else {
+        return Err(Error::Input("empty history".into()));
+    };
+    opts.tolerances.check_names_against(history)?;
     let units = history_units(history)?;
     let series = series_in(history, &units);
-    let base = match opts.baseline {
-        Baseline::First => first,
-        Baseline::Id(id) => history.iter().find(|c| c.id == id).ok_or_else(|| {
-            Error::Input(format!(
-                "calibration {id} is not in the history of robot `{}`",
-                printable(&latest.robot_id)
-            ))
-        })?,
-        Baseline::LatestOk => history[..history.len() - 1]
-            .iter()
-            .rev()
-            .find(|c| {
-                compare(&series, &units, first, c, opts)
-                    .0
-                    .iter()
-                    .all(|q| !q.flagged)
-            })
-            .unwrap_or(first),
-    };
+    let base =
+        match opts.baseline {
+            Baseline::First => first,
+            Baseline::Id(id) => history.iter().find(|c| c.id == id).ok_or_else(|| {
+                match model_change
+                    .as_ref()
+                    .filter(|_| whole.iter().any(|c| c.id == id))
+                {
+                    Some(m) => Error::Input(format!(
+                        "calibration {id} cannot be the baseline of robot `{}`: {}; name a \
+                     calibration of the latest model",
+                        printable(&latest.robot_id),
+                        m.reason()
+                    )),
+                    None => Error::Input(format!(
+                        "calibration {id} is not in the history of robot `{}`",
+                        printable(&latest.robot_id)
+                    )),
+                }
+            })?,
+            Baseline::LatestOk => history[..history.len() - 1]
+                .iter()
+                .rev()
+                .find(|c| {
+                    compare(&series, &units, first, c, opts)
+                        .0
+                        .iter()
+                        .all(|q| !q.flagged)
+                })
+                .unwrap_or(first),
+        };
     let (quantities, left_out) = compare(&series, &units, base, latest, opts);
     let unused_tolerances = opts
         .tolerances
@@ -671,6 +775,7 @@ pub(crate) fn drift_or_tracked(
         left_out,
         unused_tolerances,
         since_event: None,
+        since_model_change: model_change,
         nothing_to_compare: None,
     })
 }
@@ -680,12 +785,12 @@ pub(crate) fn drift_or_tracked(
 mod tolerance_file {
     use toml_edit::{Item, TableLike};
 
-    pub(super) type Table = Vec<(String, f64)>;
+    /// Each key, its value and its line (1 first).
+    pub(super) type Table = Vec<(String, f64, Option<usize>)>;
 
     pub(super) fn parse(text: &str) -> Result<Table, String> {
-        let doc: toml_edit::DocumentMut = text
-            .parse()
-            .map_err(|e: toml_edit::TomlError| e.to_string())?;
+        // A parsed document (not an editable one) keeps where each value is: its line.
+        let doc = toml_edit::Document::parse(text).map_err(|e| e.to_string())?;
         let root = doc.as_table();
         let mut out = Vec::new();
         match root.get("tolerances").and_then(Item::as_table_like) {
@@ -695,15 +800,20 @@ mod tolerance_file {
                         "`{k}` is outside the [tolerances] table: put every tolerance under it"
                     ));
                 }
-                flatten("", t, &mut out)?;
+                flatten(text, "", t, &mut out)?;
             }
-            None => flatten("", root, &mut out)?,
+            None => flatten(text, "", root, &mut out)?,
         }
         Ok(out)
     }
 
     /// `link1.x = 1` is a table `link1` holding `x`: its keys joined with dots.
-    fn flatten(prefix: &str, table: &dyn TableLike, out: &mut Table) -> Result<(), String> {
+    fn flatten(
+        text: &str,
+        prefix: &str,
+        table: &dyn TableLike,
+        out: &mut Table,
+    ) -> Result<(), String> {
         for (k, v) in table.iter() {
             let key = if prefix.is_empty() {
                 k.to_string()
@@ -711,14 +821,18 @@ mod tolerance_file {
                 format!("{prefix}.{k}")
             };
             if let Some(t) = v.as_table_like() {
-                flatten(&key, t, out)?;
+                flatten(text, &key, t, out)?;
                 continue;
             }
             let n = v
                 .as_float()
                 .or_else(|| v.as_integer().map(|i| i as f64))
                 .ok_or_else(|| format!("`{key}`: expected a number"))?;
-            out.push((key, n));
+            let line = v
+                .span()
+                .and_then(|r| text.get(..r.start))
+                .map(|before| before.matches('\n').count() + 1);
+            out.push((key, n, line));
         }
         Ok(())
     }

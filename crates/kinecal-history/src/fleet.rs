@@ -1,40 +1,67 @@
 //! The fleet's state: every robot's last calibration, its drift flags, the trend of each
 //! determined quantity and when a tolerance will be crossed, most urgent first.
 //!
-//! A robot's history is cut into segments by its maintenance events ([`Event`]): a repaired
-//! robot is another robot as far as drift goes, so drift and trends are computed within the
-//! current segment (the calibrations at or after its latest event).
+//! A robot's history is cut into segments by its maintenance events ([`Event`]) and by changes
+//! of its robot model ([`ModelChange`]): a repaired or rebuilt robot is another robot as far as
+//! drift goes, so drift and trends are computed within the current segment (the calibrations
+//! at or after its latest event, of its latest model since that changed).
 
 use serde::Serialize;
 
 use crate::drift::{all_samples, drift, without_parameters, Baseline, DriftOptions, Sample};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::model::{Calibration, Event};
+use crate::robot_model::{latest_model_start, ModelChange};
 use crate::timefmt::format_time;
 
 /// Seconds in the month of the rates (30 days).
 pub(crate) const MONTH: f64 = 30.0 * 86_400.0;
 
-/// The calibrations of a robot's `history` (oldest first) since its latest maintenance event
-/// in `events` (a calibration at the event's time belongs to the new segment), and that event.
-/// An event after the latest calibration gives an empty segment (the robot was serviced and
-/// not calibrated since).
-pub fn current_segment<'a>(
-    history: &'a [Calibration],
-    events: &'a [Event],
-) -> (&'a [Calibration], Option<&'a Event>) {
+/// A robot's current segment: what drift compares.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct Segment<'a> {
+    /// The calibrations since the robot's latest maintenance event and since the latest change
+    /// of its robot model (oldest first); empty when the robot was serviced after its latest
+    /// calibration.
+    pub calibrations: &'a [Calibration],
+    /// The latest maintenance event, if any.
+    pub event: Option<&'a Event>,
+    /// The change of robot model that starts the segment, when one does (a calibration of a
+    /// rebuilt robot recorded with the force option, after the latest event).
+    pub model_change: Option<ModelChange>,
+}
+
+/// The current segment of a robot's `history` (oldest first): the calibrations since its
+/// latest maintenance event in `events` (a calibration at the event's time belongs to the new
+/// segment) and, within those, since the latest change of robot model (drift never compares
+/// two models: a change starts a segment as an event does). An event after the latest
+/// calibration gives an empty segment (the robot was serviced and not calibrated since).
+pub fn segment_of<'a>(history: &'a [Calibration], events: &'a [Event]) -> Segment<'a> {
     let robot = history.first().map(|c| c.robot_id.as_str());
     let last = events
         .iter()
         .filter(|e| robot.is_none_or(|r| r == e.robot_id))
         .max_by_key(|e| (e.at, e.id));
-    match last {
-        None => (history, None),
-        Some(e) => {
-            let start = history.partition_point(|c| c.at < e.at);
-            (&history[start..], Some(e))
-        }
+    let since_event = match last {
+        None => history,
+        Some(e) => &history[history.partition_point(|c| c.at < e.at)..],
+    };
+    let (start, model_change) = latest_model_start(since_event);
+    Segment {
+        calibrations: &since_event[start..],
+        event: last,
+        model_change,
     }
+}
+
+/// The calibrations of [`segment_of`] and the robot's latest event.
+pub fn current_segment<'a>(
+    history: &'a [Calibration],
+    events: &'a [Event],
+) -> (&'a [Calibration], Option<&'a Event>) {
+    let s = segment_of(history, events);
+    (s.calibrations, s.event)
 }
 
 /// How a robot stands.
@@ -126,6 +153,8 @@ pub struct RobotState {
     pub in_segment: usize,
     /// The latest maintenance event, if any.
     pub since_event: Option<Event>,
+    /// The change of robot model that starts the current segment, if one does.
+    pub model_change: Option<ModelChange>,
     /// The latest calibration's id.
     pub last_id: i64,
     /// Its time (RFC 3339).
@@ -206,13 +235,18 @@ fn robot_state(
     opts: &FleetOptions,
 ) -> Result<RobotState> {
     let last = history.last().expect("a robot has a calibration");
-    let (segment, event) = current_segment(history, events);
+    let Segment {
+        calibrations: segment,
+        event,
+        model_change,
+    } = segment_of(history, events);
     let mut state = RobotState {
         robot_id: last.robot_id.clone(),
         verdict: Verdict::Single,
         calibrations: history.len(),
         in_segment: segment.len(),
         since_event: event.cloned(),
+        model_change,
         last_id: last.id,
         last_at: last.at_text.clone(),
         last_rms_after: last.rms_position_after,
@@ -242,6 +276,8 @@ fn robot_state(
         },
     ) {
         Ok(r) => r,
+        // The tolerance file is at fault, not the robot: the fleet is refused, naming it.
+        Err(e @ Error::Tolerance { .. }) => return Err(e),
         Err(e) => {
             state.verdict = Verdict::Unknown;
             state.problem = Some(e.to_string());

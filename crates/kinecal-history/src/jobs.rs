@@ -20,9 +20,9 @@ use kinecal::Setting;
 use serde::Serialize;
 
 use crate::{
-    current_segment, drift, fleet, format_time, parse_time, printable, samples, AddOptions,
-    Baseline, Calibration, Database, DriftOptions, DriftReport, Dump, Error, Event, FleetOptions,
-    ImportSummary, Location, Quantity, RobotState, Sample, Tolerances, Verdict,
+    drift, fleet, format_time, parse_time, printable, segment_of, AddOptions, Baseline,
+    Calibration, Database, DriftOptions, DriftReport, Dump, Error, Event, FleetOptions,
+    ImportSummary, Location, Quantity, RobotState, Sample, Segment, Tolerances, Verdict,
 };
 
 /// What draws the history's pictures and pages: the `kinecal-report` crate's artist.
@@ -41,9 +41,10 @@ pub struct PlotView<'a> {
     pub robot_id: &'a str,
     /// Each quantity drawn, with every calibration's value of it (history units).
     pub series: &'a [(Quantity, Vec<Sample>)],
-    /// The time the x axis counts days from (the robot's first calibration, Unix seconds).
+    /// The time the x axis counts days from (the first calibration drawn, Unix seconds).
     pub t0: i64,
-    /// The robot's maintenance events.
+    /// The robot's maintenance events (those since the first calibration drawn when the robot
+    /// changed model).
     pub events: &'a [Event],
 }
 
@@ -177,7 +178,8 @@ pub struct DriftDocument {
     /// The comparison.
     #[serde(flatten)]
     pub report: DriftReport,
-    /// The calibrations before the latest maintenance event (not compared).
+    /// The calibrations before the latest maintenance event (not compared; those after it of
+    /// another robot model are in the report's `since_model_change`).
     pub before_event: usize,
     /// The compared calibrations recorded in other units than the first (converted), as
     /// `id (length unit and angle unit)`.
@@ -306,6 +308,16 @@ fn serial(robot_id: &str) -> Result<&str> {
     Ok(robot_id)
 }
 
+/// A robot serial a job records (a calibration, an event): as [`serial`], and one the history
+/// keeps (no white space at its ends: never trimmed silently).
+fn serial_to_write(robot_id: &str) -> Result<&str> {
+    let robot_id = serial(robot_id)?;
+    match crate::record::serial_problem(robot_id) {
+        Some(problem) => Err(invalid(Setting::RobotId, problem)),
+        None => Ok(robot_id),
+    }
+}
+
 /// Reads a text file, naming it in errors.
 fn read_text(path: &str) -> Result<String> {
     Ok(kinecal::source::Source::read(Path::new(path))?.text)
@@ -319,6 +331,10 @@ fn tolerances(path: Option<&str>) -> Result<Tolerances> {
     })
 }
 
+/// The longest horizon of a fleet's crossings, days (100 years): a date beyond it means
+/// nothing to maintenance, and the horizon's end is shown as a date.
+pub const MAX_HORIZON_DAYS: f64 = 36_500.0;
+
 /// A drift threshold: positive and finite.
 fn check_sigma(sigma: f64) -> Result<()> {
     if !(sigma.is_finite() && sigma > 0.0) {
@@ -328,6 +344,79 @@ fn check_sigma(sigma: f64) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// The history at `location` opened for writing, and whether this created its file (a
+/// SQLite file that was not there; a server's database is never created).
+fn open_to_write(location: Location) -> Result<(Database, Option<Created>)> {
+    let created = location.file().and_then(Created::before);
+    Ok((Database::open(location)?, created))
+}
+
+/// A history file (and the folders above it) a write is about to create, to remove again when
+/// the write fails: a refused write leaves no file behind.
+struct Created {
+    file: std::path::PathBuf,
+    /// The folders above the file that were not there, innermost first.
+    folders: Vec<std::path::PathBuf>,
+}
+
+impl Created {
+    /// What opening `file` would create; `None` when it exists.
+    fn before(file: &Path) -> Option<Created> {
+        if !matches!(file.try_exists(), Ok(false)) {
+            return None;
+        }
+        let folders = file
+            .ancestors()
+            .skip(1)
+            .filter(|d| !d.as_os_str().is_empty())
+            .take_while(|d| matches!(d.try_exists(), Ok(false)))
+            .map(Path::to_path_buf)
+            .collect();
+        Some(Created {
+            file: file.to_path_buf(),
+            folders,
+        })
+    }
+
+    /// Removes the file, its journal files and the folders created for it (each only if it is
+    /// still empty).
+    fn remove(&self) {
+        for suffix in ["", "-wal", "-shm", "-journal"] {
+            let mut name = self.file.clone().into_os_string();
+            name.push(suffix);
+            let _ = std::fs::remove_file(name);
+        }
+        for d in &self.folders {
+            let _ = std::fs::remove_dir(d);
+        }
+    }
+}
+
+/// Runs `write` into `db`; when it fails and opening `db` created its file, that file is
+/// removed again (when nothing is in it: another writer may have written meanwhile), so that
+/// a refused write leaves no history behind.
+fn write_into<T>(
+    db: Database,
+    created: Option<Created>,
+    write: impl FnOnce(&Database) -> std::result::Result<T, Error>,
+) -> Result<(Database, T)> {
+    match write(&db) {
+        Ok(v) => Ok((db, v)),
+        Err(e) => {
+            if let Some(c) = created {
+                let empty = db.robots().is_ok_and(|r| r.is_empty())
+                    && db.events(None).is_ok_and(|e| e.is_empty());
+                // Closed before its files go.
+                drop(db);
+                if empty {
+                    c.remove();
+                }
+            }
+            Err(e.into())
+        }
+    }
 }
 
 /// What a job says as it goes, and its outputs.
@@ -431,7 +520,7 @@ fn history_of(job: &Job) -> Option<String> {
 }
 
 fn add(s: &HistoryAddSpec, said: &mut Said) -> Result<Done> {
-    let robot_id = serial(&s.robot_id)?;
+    let robot_id = serial_to_write(&s.robot_id)?;
     if s.report.is_empty() {
         return Err(invalid(
             Setting::Report,
@@ -446,20 +535,42 @@ fn add(s: &HistoryAddSpec, said: &mut Said) -> Result<Done> {
             format!("not a kinecal calibration report: {e}"),
         )
     })?;
-    let db = Database::open(location(s.db.as_deref())?)?;
-    let added = db.record(
-        robot_id,
-        at,
-        &report,
-        &s.note,
-        AddOptions { force: s.force },
-    )?;
+    // Every check of the report before the history is opened: a refused report creates no
+    // file.
+    if let Some(problem) = crate::record::refusal(&report) {
+        return Err(kinecal::Error::input(
+            kinecal::Location::file(&s.report),
+            format!("{problem}; nothing was written"),
+        ));
+    }
+    let rec = crate::database::prepare(robot_id, at, &report, &s.note)?;
+    let (db, created) = open_to_write(location(s.db.as_deref())?)?;
+    let (db, added) = write_into(db, created, |db| {
+        db.insert_prepared(&rec, AddOptions { force: s.force })
+    })?;
     if added.new {
         said.note(format!(
             "recorded calibration {} of robot {}",
             added.id,
             printable(robot_id)
         ));
+        // A forced record of another model starts a new segment: say so.
+        if s.force {
+            let cals = db.calibrations(Some(robot_id)).unwrap_or_default();
+            if let Some(m) = crate::robot_model::latest_model_start(&cals)
+                .1
+                .filter(|m| m.first_id == added.id)
+            {
+                said.note(format!(
+                    "calibration {} changes the robot model of robot {} ({}, against calibration \
+                     {}): drift, fleet and plot compare it only with the calibrations after it",
+                    added.id,
+                    printable(robot_id),
+                    printable(&m.difference),
+                    m.earlier_id
+                ));
+            }
+        }
     } else {
         said.note(format!(
             "already recorded as calibration {} of robot {} (the same calibration: nothing written)",
@@ -479,7 +590,7 @@ fn add(s: &HistoryAddSpec, said: &mut Said) -> Result<Done> {
 }
 
 fn event(s: &HistoryEventSpec, said: &mut Said) -> Result<Done> {
-    let robot_id = serial(&s.robot_id)?;
+    let robot_id = serial_to_write(&s.robot_id)?;
     if s.note.trim().is_empty() {
         return Err(invalid(
             Setting::Note,
@@ -617,11 +728,18 @@ fn export(s: &HistoryExportSpec, said: &mut Said) -> Result<Done> {
     let db = said.read(location(s.db.as_deref())?)?;
     let text = match s.format {
         HistoryFormat::Dump => db.dump()?.to_json(),
-        HistoryFormat::Json => {
+        format => {
             let cals = said.calibrations(&db, s.robot_id.as_deref())?;
-            serde_json::to_string_pretty(&cals).expect("calibrations are plain data") + "\n"
+            // A robot named with nothing recorded: the error `list` gives, not an empty file.
+            if let (true, Some(r)) = (cals.is_empty(), &s.robot_id) {
+                return Err(Error::NoHistory(printable(r).into_owned()).into());
+            }
+            if format == HistoryFormat::Json {
+                serde_json::to_string_pretty(&cals).expect("calibrations are plain data") + "\n"
+            } else {
+                csv(&cals)
+            }
         }
-        _ => csv(&said.calibrations(&db, s.robot_id.as_deref())?),
     };
     let (written, text) = match &s.out {
         Some(p) => {
@@ -641,18 +759,15 @@ fn export(s: &HistoryExportSpec, said: &mut Said) -> Result<Done> {
     ))
 }
 
-/// The calibrations of a robot's history since its latest maintenance event (drift is computed
-/// within segments), and that event; an error when it has none since.
-fn segment<'a>(
-    all: &'a [Calibration],
-    events: &'a [Event],
-    robot_id: &str,
-) -> Result<(&'a [Calibration], Option<&'a Event>)> {
+/// The current segment of a robot's history ([`segment_of`]: since its latest maintenance
+/// event and its latest change of robot model; drift is computed within segments); an error
+/// when it has no calibration since its latest event.
+fn segment<'a>(all: &'a [Calibration], events: &'a [Event], robot_id: &str) -> Result<Segment<'a>> {
     if all.is_empty() {
         return Err(Error::NoHistory(printable(robot_id).into_owned()).into());
     }
-    let (seg, event) = current_segment(all, events);
-    if let (true, Some(e)) = (seg.is_empty(), event) {
+    let seg = segment_of(all, events);
+    if let (true, Some(e)) = (seg.calibrations.is_empty(), seg.event) {
         return Err(Error::Input(format!(
             "robot `{}`: no calibration since its maintenance event of {} ({}): drift is \
              computed within the segments between events; calibrate it",
@@ -662,7 +777,17 @@ fn segment<'a>(
         ))
         .into());
     }
-    Ok((seg, event))
+    Ok(seg)
+}
+
+/// `calibration 3` or `calibrations 1, 2 and 3`.
+fn calibration_ids(ids: &[i64]) -> String {
+    let ids: Vec<String> = ids.iter().map(i64::to_string).collect();
+    match ids.split_last() {
+        Some((last, [])) => format!("calibration {last}"),
+        Some((last, rest)) => format!("calibrations {} and {last}", rest.join(", ")),
+        None => "no calibration".into(),
+    }
 }
 
 /// The baseline a spec names.
@@ -694,7 +819,8 @@ fn drift_job(s: &HistoryDriftSpec, said: &mut Said) -> Result<Done> {
     let db = said.read(location(s.db.as_deref())?)?;
     let all = said.calibrations(&db, Some(robot_id))?;
     let events = db.events(Some(robot_id))?;
-    let (history, event) = segment(&all, &events, robot_id)?;
+    let seg = segment(&all, &events, robot_id)?;
+    let history = seg.calibrations;
     let mut report = drift(
         history,
         &DriftOptions {
@@ -703,7 +829,11 @@ fn drift_job(s: &HistoryDriftSpec, said: &mut Said) -> Result<Done> {
             tolerances,
         },
     )?;
-    report.since_event = event.cloned();
+    report.since_event = seg.event.cloned();
+    if report.since_model_change.is_none() {
+        report.since_model_change = seg.model_change.clone();
+    }
+    let other_model = seg.model_change.as_ref().map_or(0, |m| m.left_out.len());
     let converted = history
         .iter()
         .filter(|c| c.length_unit != report.length_unit || c.angle_unit != report.angle_unit)
@@ -724,7 +854,7 @@ fn drift_job(s: &HistoryDriftSpec, said: &mut Said) -> Result<Done> {
     Ok(said.done(
         Document::Drift(Box::new(DriftDocument {
             report,
-            before_event: all.len() - history.len(),
+            before_event: all.len() - history.len() - other_model,
             converted,
         })),
         status,
@@ -758,9 +888,44 @@ impl Historian<'_> {
         let tolerances = tolerances(s.tolerance.as_deref())?;
         let pages = self.pages(&s.out)?;
         let db = said.read(location(s.db.as_deref())?)?;
-        let history = said.calibrations(&db, Some(robot_id))?;
-        let events = db.events(Some(robot_id))?;
-        let (seg, _) = segment(&history, &events, robot_id)?;
+        let all = said.calibrations(&db, Some(robot_id))?;
+        if all.is_empty() {
+            return Err(Error::NoHistory(printable(robot_id).into_owned()).into());
+        }
+        let mut events = db.events(Some(robot_id))?;
+        // The whole history of the robot's latest model is drawn, every segment, the events as
+        // vertical lines; calibrations of an earlier model (before a rebuild recorded with the
+        // force option) are not: their quantities are another robot's.
+        let (start, model_change) = crate::robot_model::latest_model_start(&all);
+        let history = &all[start..];
+        if let Some(m) = &model_change {
+            let t0 = history[0].at;
+            events.retain(|e| e.at >= t0);
+            said.note(format!(
+                "not drawn: {}, before calibration {} changed the robot model ({})",
+                calibration_ids(&m.left_out),
+                m.first_id,
+                printable(&m.difference)
+            ));
+        }
+        // The quantities drawn: those the latest segment with calibrations tracks (since the
+        // latest event at or before the latest calibration).
+        let last_at = history[history.len() - 1].at;
+        let until_last: Vec<Event> = events.iter().filter(|e| e.at <= last_at).cloned().collect();
+        let seg = segment_of(history, &until_last).calibrations;
+        if let Some(e) = events
+            .iter()
+            .filter(|e| e.at > last_at)
+            .max_by_key(|e| (e.at, e.id))
+        {
+            said.caution(format!(
+                "robot {} was serviced after its latest calibration (maintenance event of {}: \
+                 {}): calibrate it; drawn: its calibrations up to the event, the event as a line",
+                printable(robot_id),
+                e.at_text(),
+                printable(&e.note)
+            ));
+        }
         // One calibration plots too: the quantities it tracks.
         let r = crate::drift::drift_or_tracked(
             seg,
@@ -800,7 +965,11 @@ impl Historian<'_> {
             if !s.param.is_empty() && !s.param.iter().any(|k| matches(k, &q.key, &q.parameters)) {
                 continue;
             }
-            series.push((q.clone(), samples(&history, &q.key)?));
+            // In the units the quantity is given in: those of the segment's first record.
+            series.push((
+                q.clone(),
+                crate::drift::samples_like(history, &seg[0], &q.key)?,
+            ));
         }
         if series.is_empty() {
             return Err(invalid(
@@ -845,14 +1014,30 @@ impl Historian<'_> {
 
     fn fleet(&self, s: &HistoryFleetSpec, said: &mut Said) -> Result<Done> {
         check_sigma(s.sigma)?;
-        if !(s.horizon.is_finite() && s.horizon >= 0.0) {
+        if !(s.horizon.is_finite() && (0.0..=MAX_HORIZON_DAYS).contains(&s.horizon)) {
             return Err(invalid(
                 Setting::Horizon,
-                format!("{}: expected a number of days, 0 or more", s.horizon),
+                format!(
+                    "{}: expected a number of days from 0 to {MAX_HORIZON_DAYS} (100 years)",
+                    s.horizon
+                ),
             ));
         }
         let tolerances = tolerances(s.tolerance.as_deref())?;
         let now = time(s.now.as_deref(), Setting::Now)?.unwrap_or_else(now);
+        let horizon = (s.horizon * 86_400.0).round() as i64;
+        // The horizon's end is shown as a date ("due ... by 2027-06-13").
+        if crate::timefmt::time_problem(now + horizon).is_some() {
+            return Err(invalid(
+                Setting::Horizon,
+                format!(
+                    "{} days after {} is beyond the year 9999: give a shorter horizon or an \
+                     earlier now",
+                    s.horizon,
+                    format_time(now)
+                ),
+            ));
+        }
         let pages = match &s.html {
             Some(p) => Some(self.pages(p)?),
             None => None,
@@ -867,7 +1052,7 @@ impl Historian<'_> {
                 ..Default::default()
             },
             now,
-            horizon: (s.horizon * 86_400.0).round() as i64,
+            horizon,
         };
         let document = FleetDocument {
             history: db.path().to_string(),
@@ -914,12 +1099,15 @@ fn import(s: &HistoryImportSpec, said: &mut Said) -> Result<Done> {
     }
     let text = read_text(&s.dump)?;
     let dump = Dump::from_json(&text, &s.dump)?;
-    let db = Database::open(location(s.db.as_deref())?)?;
-    let summary = db.import(&dump).map_err(|e| match e {
-        // A damaged record: the file it is in.
+    // A damaged record: the file it is in. Checked before the history is opened: a refused
+    // dump creates no file.
+    let in_dump = |e: Error| match e {
         Error::Input(m) => Error::Input(format!("{}: {m}", s.dump)),
         e => e,
-    })?;
+    };
+    crate::check_dump(&dump).map_err(in_dump)?;
+    let (db, created) = open_to_write(location(s.db.as_deref())?)?;
+    let (db, summary) = write_into(db, created, |db| db.import_checked(&dump).map_err(in_dump))?;
     said.note(format!(
         "imported into {}: {} calibrations written, {} already there; {} events written, {} \
          already there",

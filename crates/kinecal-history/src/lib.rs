@@ -75,13 +75,15 @@ mod text;
 mod timefmt;
 mod units;
 
-pub use database::Database;
+pub use database::{check_dump, Database};
 pub use drift::{
     all_samples, drift, samples, Baseline, DriftOptions, DriftReport, LeftOut, Quantity, Sample,
     Tolerances, UnusedTolerance,
 };
 pub use error::{Error, Result};
-pub use fleet::{current_segment, fleet, FleetOptions, RobotState, Trend, Verdict};
+pub use fleet::{
+    current_segment, fleet, segment_of, FleetOptions, RobotState, Segment, Trend, Verdict,
+};
 pub use kinecal::source::fingerprint;
 pub use location::{default_db_path, Location};
 pub use model::{
@@ -89,6 +91,7 @@ pub use model::{
     Parameter, Records, RmsError, StoredCombination, StoredParameter, StoredRecord, DUMP_FORMAT,
 };
 pub use record::idempotency_key;
+pub use robot_model::ModelChange;
 pub use store::{Backend, Store, Write, SCHEMA_VERSION};
 pub use text::printable;
 pub use timefmt::{format_time, parse_time};

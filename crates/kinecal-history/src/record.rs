@@ -11,6 +11,8 @@ use serde::Deserialize;
 use crate::error::{Error, Result};
 use crate::model::{RmsError, StoredCombination, StoredParameter, StoredRecord};
 use crate::text::printable;
+use crate::units::{parse_label, parse_units, quantity_words};
+use kinecal::units::LengthUnit;
 
 /// The idempotency key of a calibration of `robot_id`: SHA-256 over the serial, the time when
 /// one was given, the fingerprints of the robot and measurement files, and what was estimated
@@ -90,17 +92,60 @@ fn check_finite(report: &CalibrationReport) -> Result<()> {
     Ok(())
 }
 
-/// Refuses a serial or a note longer than the history keeps (every table and page of it
-/// draws them): [`kinecal::spec::limits`].
-pub(crate) fn bounded_texts(robot_id: &str, note: &str) -> Result<()> {
-    let word = |e: kinecal::Error| match e {
+/// The words of a refused text of the door's limits.
+fn limit_words(e: kinecal::Error) -> String {
+    match e {
         kinecal::Error::InvalidOption { setting, message } => {
-            Error::Input(format!("the {}: {message}", setting.name()))
+            format!("the {}: {message}", setting.name())
         }
-        e => Error::Input(e.to_string()),
-    };
-    kinecal::spec::limits::serial(kinecal::Setting::RobotId, robot_id).map_err(word)?;
-    kinecal::spec::limits::note(note).map_err(word)
+        e => e.to_string(),
+    }
+}
+
+/// Why `robot_id` cannot be a robot's serial in a history, if it cannot: empty, with a space
+/// (or another white space) at its start or end (`" A4-0042"` would be another robot than
+/// `A4-0042`: refused, never trimmed silently), or longer than the history keeps
+/// ([`kinecal::spec::limits::serial`], the limit of `history add`). Every write checks it: a
+/// calibration, an event, every record and event of an imported dump.
+pub(crate) fn serial_problem(robot_id: &str) -> Option<String> {
+    if robot_id.trim().is_empty() {
+        return Some("the robot id (serial) must not be empty".into());
+    }
+    if robot_id.trim() != robot_id {
+        return Some(format!(
+            "the robot id (serial) `{}` has white space at its start or end; expected the serial \
+             alone (`{}`): with the spaces it would be another robot",
+            printable(robot_id),
+            printable(robot_id.trim())
+        ));
+    }
+    kinecal::spec::limits::serial(kinecal::Setting::RobotId, robot_id)
+        .err()
+        .map(limit_words)
+}
+
+/// Refuses a serial (see [`serial_problem`]) or a note longer than the history keeps (every
+/// table and page of it draws them): [`kinecal::spec::limits`].
+pub(crate) fn bounded_texts(robot_id: &str, note: &str) -> Result<()> {
+    if let Some(problem) = serial_problem(robot_id) {
+        return Err(Error::Input(problem));
+    }
+    kinecal::spec::limits::note(note).map_err(|e| Error::Input(limit_words(e)))
+}
+
+/// Why a report cannot be recorded because it says the calibration was refused (a unit check
+/// fired and the fit ended far above its stated noise: its robot was neither written nor
+/// recorded), if it does.
+pub(crate) fn refusal(report: &CalibrationReport) -> Option<String> {
+    report.refused.as_ref().map(|why| {
+        let why = why.trim();
+        let why = why.strip_prefix("REFUSED:").unwrap_or(why).trim_start();
+        format!(
+            "the report says the calibration was REFUSED ({}); a refused calibration is not \
+             recorded (calibrate again once the cause is fixed)",
+            printable(why.trim_end_matches('.'))
+        )
+    })
 }
 
 /// The record of a calibration report, ready to store (its id 0: the store assigns one).
@@ -112,12 +157,10 @@ pub(crate) fn new_record(
     report: &CalibrationReport,
     note: &str,
 ) -> Result<StoredRecord> {
-    if robot_id.trim().is_empty() {
-        return Err(Error::Input(
-            "the robot id (serial) must not be empty".into(),
-        ));
-    }
     bounded_texts(robot_id, note)?;
+    if let Some(problem) = refusal(report) {
+        return Err(Error::Input(format!("{problem}; not recorded")));
+    }
     if report.rank.is_none() {
         return Err(Error::Input(
             "the report has no uncertainty (no rank or sigmas): recalibrate with a kinecal that writes them".into(),
@@ -190,18 +233,91 @@ pub(crate) fn new_record(
 }
 
 /// Why a record cannot be stored as it is, if it cannot: no parameters, a parameter id or a
-/// combination's expression twice (each is one row of its calibration), or (`against_report`:
-/// a record of a dump, whose rows may have been damaged apart from its report) parameter rows
-/// that are not the stored report's parameters.
+/// combination's expression twice (each is one row of its calibration), a length or angle
+/// unit that is not a kinecal unit, a parameter whose unit is not the record's unit of its
+/// quantity (`mm` in a record in inches: drift would convert it wrongly), a value or sigma that
+/// is not a finite number, a sigma that is not positive (drift divides by it), or
+/// (`against_report`: a record of a dump, whose rows may have been damaged apart from its
+/// report) parameter rows that are not the stored report's parameters, or of other units.
 pub(crate) fn check_rows(
     rec: &StoredRecord,
     against_report: bool,
 ) -> std::result::Result<(), String> {
     let reported = if against_report {
-        report_parameter_ids(&rec.report)
+        report_parameters(&rec.report)
     } else {
         None
     };
+    let units = parse_units(&rec.length_unit, &rec.angle_unit).ok_or_else(|| {
+        let (field, value, expected) = if rec.length_unit.parse::<LengthUnit>().is_err() {
+            ("length_unit", &rec.length_unit, "m, mm or in")
+        } else {
+            ("angle_unit", &rec.angle_unit, "deg or rad")
+        };
+        format!(
+            "its {field} `{}` is not a kinecal unit; expected {expected}",
+            printable(value)
+        )
+    })?;
+    for p in &rec.parameters {
+        let which = || format!("parameter {} ({})", printable(&p.id), printable(&p.name));
+        let Some((quantity, _)) = parse_label(&p.unit) else {
+            return Err(format!(
+                "{} has the unit `{}`, which is not a kinecal unit; expected a unit of the \
+                 record's units ({} and {}: e.g. `{}`, `{}`, `{}/unit`)",
+                which(),
+                printable(&p.unit),
+                units.length,
+                units.angle,
+                units.length,
+                units.angle,
+                units.angle
+            ));
+        };
+        let expected = units.label(quantity);
+        if p.unit != expected {
+            return Err(format!(
+                "{} has the unit `{}`; expected `{expected}`, the unit of {} in a record in {} \
+                 and {} (its length_unit and angle_unit)",
+                which(),
+                printable(&p.unit),
+                quantity_words(quantity),
+                units.length,
+                units.angle
+            ));
+        }
+        if !p.value.is_finite() {
+            return Err(format!(
+                "{} has the value {}; expected a finite number",
+                which(),
+                p.value
+            ));
+        }
+        if let Some(sigma) = p.sigma.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(format!(
+                "{} has the sigma {sigma}; expected a positive, finite standard deviation (or \
+                 none, for a parameter the data did not determine)",
+                which()
+            ));
+        }
+    }
+    for c in &rec.combinations {
+        if !c.value.is_finite() {
+            return Err(format!(
+                "the combination `{}` has the value {}; expected a finite number",
+                printable(&c.expression),
+                c.value
+            ));
+        }
+        if !(c.sigma.is_finite() && c.sigma > 0.0) {
+            return Err(format!(
+                "the combination `{}` has the sigma {}; expected a positive, finite standard \
+                 deviation",
+                printable(&c.expression),
+                c.sigma
+            ));
+        }
+    }
     if rec.parameters.is_empty() {
         return Err(format!(
             "it has no parameters; expected one row per parameter of its robot model{} (a \
@@ -239,7 +355,7 @@ pub(crate) fn check_rows(
         let rows: std::collections::BTreeSet<&str> =
             rec.parameters.iter().map(|p| p.id.as_str()).collect();
         let listed: std::collections::BTreeSet<&str> =
-            reported.iter().map(String::as_str).collect();
+            reported.iter().map(|l| l.id.as_str()).collect();
         if rows != listed {
             let missing: Vec<&str> = listed.difference(&rows).copied().collect();
             let extra: Vec<&str> = rows.difference(&listed).copied().collect();
@@ -261,6 +377,22 @@ pub(crate) fn check_rows(
                 why.join(", ")
             ));
         }
+        for p in &rec.parameters {
+            let unit = reported
+                .iter()
+                .find(|l| l.id == p.id)
+                .and_then(|l| l.unit.as_deref());
+            if let Some(unit) = unit.filter(|u| *u != p.unit) {
+                return Err(format!(
+                    "parameter {} ({}) has the unit `{}`; expected `{}`, its unit in the \
+                     record's report",
+                    printable(&p.id),
+                    printable(&p.name),
+                    printable(&p.unit),
+                    printable(unit)
+                ));
+            }
+        }
     }
     Ok(())
 }
@@ -274,19 +406,23 @@ fn short_list(ids: &[&str]) -> String {
     s
 }
 
-/// The ids of the parameters a stored report lists, when it is a report with a parameter list.
-fn report_parameter_ids(text: &str) -> Option<Vec<String>> {
-    #[derive(Deserialize)]
-    struct Listed {
-        id: String,
-    }
+/// A parameter a stored report lists: its id, and its unit when the report gives one.
+#[derive(Deserialize)]
+struct Listed {
+    id: String,
+    #[serde(default)]
+    unit: Option<String>,
+}
+
+/// The parameters a stored report lists, when it is a report with a parameter list.
+fn report_parameters(text: &str) -> Option<Vec<Listed>> {
     #[derive(Deserialize)]
     struct Parameters {
         parameters: Vec<Listed>,
     }
     serde_json::from_str::<Parameters>(text)
         .ok()
-        .map(|p| p.parameters.into_iter().map(|l| l.id).collect())
+        .map(|p| p.parameters)
 }
 
 /// The fields of a stored report that [`rms_errors`] reads (the rest is skipped unparsed: a

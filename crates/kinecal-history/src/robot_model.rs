@@ -9,8 +9,10 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use serde::Serialize;
+
 use crate::error::{Error, Result};
-use crate::model::StoredParameter;
+use crate::model::{Calibration, StoredParameter};
 use crate::text::{names, printable};
 use crate::units::{parse_label, quantity_words};
 
@@ -52,6 +54,15 @@ impl RobotModel {
     pub(crate) fn of_parameters(parameters: &[StoredParameter]) -> RobotModel {
         let mut model = RobotModel::default();
         for p in parameters {
+            model.add_parameter(p.name.clone(), &p.unit);
+        }
+        model
+    }
+
+    /// The model of a calibration read back.
+    pub(crate) fn of_calibration(c: &Calibration) -> RobotModel {
+        let mut model = RobotModel::default();
+        for p in &c.parameters {
             model.add_parameter(p.name.clone(), &p.unit);
         }
         model
@@ -148,4 +159,72 @@ impl RobotModel {
             parts.join("; ")
         }
     }
+}
+
+/// Where a robot's calibrations change robot model: a calibration recorded with the force
+/// option (the robot was rebuilt: other joints, joint kinds or parameters). Drift never
+/// compares calibrations of two models: like a maintenance event, the change starts a new
+/// segment, and the calibrations before it are not compared.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[non_exhaustive]
+pub struct ModelChange {
+    /// The first calibration of the latest robot model.
+    pub first_id: i64,
+    /// Its time (RFC 3339).
+    pub first_at: String,
+    /// The calibration before it, of another model.
+    pub earlier_id: i64,
+    /// How the latest model differs from that one, in words ("6 joints, earlier 4; ...").
+    pub difference: String,
+    /// The calibrations before the change (and after the latest maintenance event, when the
+    /// segment is cut by one too), by id: not compared.
+    pub left_out: Vec<i64>,
+}
+
+impl ModelChange {
+    /// Why the calibrations before the change are not compared, in words.
+    pub fn reason(&self) -> String {
+        format!(
+            "calibration {} ({}) is of another robot model than calibration {} before it ({}): \
+             drift compares only the calibrations since the latest change of robot model",
+            self.first_id,
+            self.first_at,
+            self.earlier_id,
+            printable(&self.difference)
+        )
+    }
+}
+
+/// Where the run of calibrations of the latest robot model begins in `history` (one robot's,
+/// oldest first), and the change of model before it, if any. A calibration without parameters
+/// (a damaged record) has no model to tell: it neither starts nor ends a run.
+pub(crate) fn latest_model_start(history: &[Calibration]) -> (usize, Option<ModelChange>) {
+    let Some(last) = history.iter().rposition(|c| !c.parameters.is_empty()) else {
+        return (0, None);
+    };
+    let model = RobotModel::of_calibration(&history[last]);
+    let mut start = last;
+    for k in (0..last).rev() {
+        let c = &history[k];
+        if c.parameters.is_empty() {
+            start = k;
+            continue;
+        }
+        let other = RobotModel::of_calibration(c);
+        if other != model {
+            let first = &history[start];
+            return (
+                start,
+                Some(ModelChange {
+                    first_id: first.id,
+                    first_at: first.at_text.clone(),
+                    earlier_id: c.id,
+                    difference: model.difference(&other),
+                    left_out: history[..start].iter().map(|c| c.id).collect(),
+                }),
+            );
+        }
+        start = k;
+    }
+    (0, None)
 }

@@ -41,6 +41,25 @@ pub fn format_time(unix: i64) -> String {
         .unwrap_or_else(|| unix.to_string())
 }
 
+/// The first and last Unix seconds [`format_time`] writes as RFC 3339: from
+/// 0000-01-01T00:00:00Z to 9999-12-31T23:59:59Z (RFC 3339 has four-digit years).
+pub(crate) const TIME_RANGE: std::ops::RangeInclusive<i64> = -62_167_219_200..=253_402_300_799;
+
+/// Why `unix` cannot be a time of the history, if it cannot: outside [`TIME_RANGE`] (a time
+/// that would be printed as raw seconds, not as a date).
+pub(crate) fn time_problem(unix: i64) -> Option<String> {
+    (!TIME_RANGE.contains(&unix)).then(|| {
+        format!(
+            "{unix} Unix seconds is not a time of years 0000 to 9999; expected a time between \
+             {} ({}) and {} ({})",
+            TIME_RANGE.start(),
+            format_time(*TIME_RANGE.start()),
+            TIME_RANGE.end(),
+            format_time(*TIME_RANGE.end())
+        )
+    })
+}
+
 /// The current time, Unix seconds.
 pub(crate) fn now() -> i64 {
     OffsetDateTime::now_utc().unix_timestamp()
@@ -69,5 +88,17 @@ mod tests {
             parse_time("2026-11-22").unwrap(),
             parse_time("2026-11-22T00:00:00Z").unwrap()
         );
+    }
+
+    #[test]
+    fn the_time_range_is_what_format_time_writes_as_a_date() {
+        let (first, last) = (*TIME_RANGE.start(), *TIME_RANGE.end());
+        assert_eq!(format_time(first), "0000-01-01T00:00:00Z");
+        assert_eq!(format_time(last), "9999-12-31T23:59:59Z");
+        assert_eq!(format_time(first - 1), (first - 1).to_string());
+        assert_eq!(format_time(last + 1), (last + 1).to_string());
+        assert!(time_problem(first).is_none() && time_problem(last).is_none());
+        assert!(time_problem(1_000_000_000_000_000).is_some());
+        assert!(time_problem(-1_000_000_000_000).is_some());
     }
 }

@@ -95,6 +95,8 @@ on_both_backends!(
     the_fleet_is_sorted_by_urgency,
     concurrent_writers_killed_and_retried_leave_every_record_once,
     concurrent_first_writers_of_an_empty_history_all_write,
+    a_forced_model_change_starts_a_new_segment,
+    serials_with_white_space_at_their_ends_are_refused,
 );
 
 fn records_round_trip(loc: &str) {
@@ -230,6 +232,138 @@ fn events_cut_drift_into_segments(loc: &str) {
         .unwrap();
     let events = db.events(None).unwrap();
     assert!(current_segment(&history, &events).0.is_empty());
+}
+
+/// `rep` as a calibration of a rebuilt robot: joint 3 revolute (it was prismatic), and link
+/// 1's beta 180 degrees away (the tester's 6-joint robot under a 4-joint serial).
+fn rebuilt(rep: &CalibrationReport) -> CalibrationReport {
+    let mut r = rep.clone();
+    for p in &mut r.parameters {
+        match p.name.as_str() {
+            "joint3.offset" => p.unit = "deg".into(),
+            "joint3.slope" => p.unit = "deg/unit".into(),
+            "link1.beta" => p.estimated -= 180.0,
+            _ => {}
+        }
+    }
+    r
+}
+
+/// A report of another robot model recorded with the force option under a serial (the robot
+/// was rebuilt) starts a new segment: drift and the fleet never compare it with the earlier
+/// model's calibrations (they compared link 1's beta across the models: 180 degrees, flagged
+/// at thousands of sigma), and say which calibrations they left out and why.
+fn a_forced_model_change_starts_a_new_segment(loc: &str) {
+    let db = Database::open(loc).unwrap();
+    for k in 0..3i64 {
+        db.add(
+            "R1",
+            Some(T0 + 30 * DAY * k),
+            &report(60 + k as u64, 0.0),
+            "",
+        )
+        .unwrap();
+    }
+    let force = AddOptions { force: true };
+    let first_new = db
+        .add_with(
+            "R1",
+            Some(T0 + 100 * DAY),
+            &rebuilt(&report(63, 0.0)),
+            "",
+            force,
+        )
+        .unwrap();
+    let history = db.calibrations(Some("R1")).unwrap();
+    let before: Vec<i64> = history[..3].iter().map(|c| c.id).collect();
+    // One calibration of the new model: nothing to compare, nothing flagged.
+    let r = drift(&history, &DriftOptions::default()).unwrap();
+    assert!(r.flags.is_empty(), "{:?}", r.flags);
+    assert!(r.nothing_to_compare.is_some());
+    let m = r.since_model_change.as_ref().expect("the change is said");
+    assert_eq!((m.first_id, m.earlier_id), (first_new, before[2]));
+    assert_eq!(m.left_out, before);
+    assert!(
+        m.difference
+            .contains("joint 3 is revolute, earlier prismatic"),
+        "{}",
+        m.difference
+    );
+    assert!(
+        m.reason().contains("of another robot model"),
+        "{}",
+        m.reason()
+    );
+    // Two: compared with each other only.
+    let latest = db
+        .add("R1", Some(T0 + 130 * DAY), &rebuilt(&report(64, 0.0)), "")
+        .unwrap();
+    let history = db.calibrations(Some("R1")).unwrap();
+    let r = drift(&history, &DriftOptions::default()).unwrap();
+    assert_eq!((r.baseline_id, r.latest_id), (first_new, latest));
+    assert_eq!(r.calibrations, 2);
+    assert!(r.flags.is_empty(), "{:?}", r.flags);
+    assert!(!r.quantities.is_empty());
+    assert_eq!(r.since_model_change.as_ref().unwrap().left_out, before);
+    // A baseline of the earlier model is refused, saying why.
+    let e = drift(
+        &history,
+        &DriftOptions {
+            baseline: kinecal_history::Baseline::Id(before[0]),
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("of another robot model"), "{e}");
+    let events = db.events(Some("R1")).unwrap();
+    let seg = kinecal_history::segment_of(&history, &events);
+    assert_eq!(seg.calibrations.len(), 2);
+    assert_eq!(seg.model_change.unwrap().left_out, before);
+    let f = fleet(
+        &history,
+        &events,
+        &FleetOptions {
+            drift: DriftOptions::default(),
+            now: T0 + 140 * DAY,
+            horizon: 90 * DAY,
+        },
+    )
+    .unwrap();
+    assert_eq!(f[0].verdict, Verdict::Ok, "{:?}", f[0]);
+    assert_eq!((f[0].calibrations, f[0].in_segment), (5, 2));
+    assert_eq!(f[0].model_change.as_ref().unwrap().first_id, first_new);
+    // A maintenance event after the change: the segment is cut there, as before.
+    db.add_event("R1", T0 + 120 * DAY, "J3 encoder replaced")
+        .unwrap();
+    let events = db.events(Some("R1")).unwrap();
+    let seg = kinecal_history::segment_of(&history, &events);
+    assert_eq!(seg.calibrations.len(), 1);
+    assert!(seg.model_change.is_none() && seg.event.is_some());
+}
+
+/// `history add` kept the spaces around a serial: "  X  " and "X" were two robots. Refused,
+/// saying so (never trimmed silently), for a calibration and for an event.
+fn serials_with_white_space_at_their_ends_are_refused(loc: &str) {
+    let db = Database::open(loc).unwrap();
+    for serial in [
+        "  X  ", "X ", "	X", "X
+",
+    ] {
+        let e = db.add(serial, Some(T0), &shared_report(), "").unwrap_err();
+        assert!(matches!(e, Error::Input(_)), "{e}");
+        assert!(
+            e.to_string()
+                .contains("has white space at its start or end"),
+            "{e}"
+        );
+        let e = db.add_event(serial, T0, "cable").unwrap_err().to_string();
+        assert!(e.contains("has white space at its start or end"), "{e}");
+    }
+    assert!(db.robots().unwrap().is_empty());
+    assert!(db.events(None).unwrap().is_empty());
+    // Spaces inside a serial are the serial's.
+    db.add("A4 0042", Some(T0), &shared_report(), "").unwrap();
 }
 
 /// Three robots: one drifting past its tolerance (flagged), one drifting slowly (due within the

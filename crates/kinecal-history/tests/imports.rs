@@ -267,3 +267,173 @@ fn postgres_ids_after_an_import_are_new() {
     assert_eq!(db.events(None).unwrap().len(), 3);
     assert_eq!(db.calibrations(None).unwrap().len(), 5);
 }
+
+/// A dump whose records were damaged field by field (issue: damaged records imported, then
+/// wrong drift): each is refused before anything is written, naming the record, the field,
+/// its value and what was expected.
+#[test]
+fn a_dump_with_a_damaged_field_is_refused_naming_the_field() {
+    let whole = dump_value();
+    // (what is damaged, the damage, the words of the refusal)
+    type Damage = fn(&mut serde_json::Value);
+    let cases: Vec<(&str, Damage, Vec<String>)> = vec![
+        (
+            "a negative sigma",
+            |v| v["calibrations"][1]["parameters"][0]["sigma"] = serde_json::json!(-0.0004),
+            vec![
+                "calibration 2 of the dump (the 2nd in its list, robot R1)".into(),
+                "parameter p1 (link1.x) has the sigma -0.0004; expected a positive, finite \
+                 standard deviation"
+                    .into(),
+            ],
+        ),
+        (
+            "a zero sigma",
+            |v| v["calibrations"][0]["parameters"][1]["sigma"] = serde_json::json!(0.0),
+            vec!["parameter p2 (link1.y) has the sigma 0; expected a positive".into()],
+        ),
+        (
+            "a combination's negative sigma",
+            |v| {
+                v["calibrations"][2]["combinations"] = serde_json::json!([{
+                    "expression": "p14 + p20",
+                    "terms": "[[\"p14\",\"link3.y\",1.0],[\"p20\",\"link4.y\",1.0]]",
+                    "value": 11.81,
+                    "sigma": -1.0,
+                }])
+            },
+            vec![
+                "calibration 3 of the dump (the 3rd in its list, robot R1)".into(),
+                "the combination `p14 + p20` has the sigma -1; expected a positive, finite \
+                 standard deviation"
+                    .into(),
+            ],
+        ),
+        (
+            "a length in millimetres in a record in inches",
+            |v| v["calibrations"][0]["parameters"][0]["unit"] = serde_json::json!("mm"),
+            vec![
+                "parameter p1 (link1.x) has the unit `mm`; expected `in`, the unit of a length \
+                 in a record in in and deg"
+                    .into(),
+            ],
+        ),
+        (
+            "a slope in another length unit",
+            |v| {
+                let ps = v["calibrations"][0]["parameters"].as_array_mut().unwrap();
+                let p = ps.iter_mut().find(|p| p["name"] == "joint3.slope").unwrap();
+                p["unit"] = serde_json::json!("mm/unit");
+            },
+            vec!["has the unit `mm/unit`; expected `in/unit`".into()],
+        ),
+        (
+            "an angle in a length's place",
+            |v| v["calibrations"][0]["parameters"][0]["unit"] = serde_json::json!("deg"),
+            vec![
+                "parameter p1 (link1.x) has the unit `deg`; expected `in`, its unit in the \
+                  record's report"
+                    .into(),
+            ],
+        ),
+        (
+            "a unit that is no unit",
+            |v| v["calibrations"][0]["parameters"][0]["unit"] = serde_json::json!("furlong"),
+            vec!["has the unit `furlong`, which is not a kinecal unit".into()],
+        ),
+        (
+            "an unknown length unit",
+            |v| v["calibrations"][1]["length_unit"] = serde_json::json!("furlong"),
+            vec!["its length_unit `furlong` is not a kinecal unit; expected m, mm or in".into()],
+        ),
+        (
+            "an unknown angle unit",
+            |v| v["calibrations"][1]["angle_unit"] = serde_json::json!("grad"),
+            vec!["its angle_unit `grad` is not a kinecal unit; expected deg or rad".into()],
+        ),
+        (
+            "a time far in the future",
+            |v| v["calibrations"][0]["at"] = serde_json::json!(1_000_000_000_000_000i64),
+            vec![
+                "its at: 1000000000000000 Unix seconds is not a time of years 0000 to 9999".into(),
+            ],
+        ),
+        (
+            "a time far in the past",
+            |v| v["calibrations"][2]["at"] = serde_json::json!(-1_000_000_000_000i64),
+            vec!["its at: -1000000000000 Unix seconds is not a time of years 0000".into()],
+        ),
+        (
+            "an event's time",
+            |v| v["events"][0]["at"] = serde_json::json!(1_000_000_000_000_000i64),
+            vec!["event 1 of the dump (the 1st in its list of events, robot R1): its at:".into()],
+        ),
+        (
+            "a serial with spaces",
+            |v| v["calibrations"][1]["robot_id"] = serde_json::json!("  R1  "),
+            vec![
+                "its robot_id: the robot id (serial) `  R1  ` has white space at its start or \
+                  end"
+                .into(),
+            ],
+        ),
+        (
+            "a serial longer than history add takes",
+            |v| v["calibrations"][1]["robot_id"] = serde_json::json!("R".repeat(129)),
+            vec![
+                "robot RRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRRR... (129 characters)".into(),
+                "its robot_id: the robot serial: expected a serial of at most 128 characters, \
+                 not 129"
+                    .into(),
+            ],
+        ),
+        (
+            "an event's serial longer than history add takes",
+            |v| v["events"][0]["robot_id"] = serde_json::json!("R".repeat(129)),
+            vec!["at most 128 characters, not 129".into()],
+        ),
+    ];
+    for (loc, _keep) in places("damaged_fields") {
+        let db = Database::open(&loc).unwrap();
+        for (what, damage, words) in &cases {
+            let mut v = whole.clone();
+            damage(&mut v);
+            let e = db.import(&dump(&v)).unwrap_err();
+            assert!(matches!(e, Error::Input(_)), "{what}: {e}");
+            let e = e.to_string();
+            for w in words {
+                assert!(e.contains(w.as_str()), "{loc}: {what}: {e}\n(expected {w})");
+            }
+            assert!(e.ends_with("nothing was imported"), "{what}: {e}");
+            // The same check, before a history is opened.
+            assert_eq!(
+                kinecal_history::check_dump(&dump(&v))
+                    .unwrap_err()
+                    .to_string(),
+                e
+            );
+        }
+        assert!(db.robots().unwrap().is_empty(), "{loc}");
+        assert!(db.events(None).unwrap().is_empty(), "{loc}");
+        // The whole dump imports, its times at the ends of what a date can show included.
+        let mut v = whole.clone();
+        v["calibrations"][0]["at"] = serde_json::json!(-62_167_219_200i64);
+        v["calibrations"][2]["at"] = serde_json::json!(253_402_300_799i64);
+        let s = db.import(&dump(&v)).unwrap();
+        assert_eq!((s.added, s.events_added), (3, 1));
+        let times: Vec<String> = db
+            .calibrations(None)
+            .unwrap()
+            .into_iter()
+            .map(|c| c.at_text)
+            .collect();
+        assert!(
+            times.contains(&"0000-01-01T00:00:00Z".to_string()),
+            "{times:?}"
+        );
+        assert!(
+            times.contains(&"9999-12-31T23:59:59Z".to_string()),
+            "{times:?}"
+        );
+    }
+}

@@ -621,3 +621,59 @@ fn drift_of_the_latest_against_itself_says_there_is_nothing_to_compare() {
     let r = drift(&two, &DriftOptions::default()).unwrap();
     assert!(r.nothing_to_compare.is_none() && !r.quantities.is_empty());
 }
+
+/// A tolerance file naming one quantity twice, by its parameter's id and by its name, was
+/// resolved by line order (the first line won): refused, naming both keys and their lines,
+/// by `drift` and by the fleet.
+#[test]
+fn a_tolerance_file_naming_a_parameter_by_id_and_by_name_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("h.sqlite");
+    history(&path, 2);
+    let db = Database::open(&path).unwrap();
+    let two = db.calibrations(None).unwrap();
+    for text in [
+        "p1 = 0.0001\n# link 1\nlink1.x = 1\n",
+        "[tolerances]\nlink1.x = 1\n\"p1\" = 0.0001\n",
+    ] {
+        let tolerances = Tolerances::parse_toml(text, "t.toml").unwrap();
+        let opts = DriftOptions {
+            tolerances,
+            ..Default::default()
+        };
+        let e = drift(&two, &opts).unwrap_err();
+        assert!(matches!(e, Error::Tolerance { .. }), "{e}");
+        let e = e.to_string();
+        let (first, second) = if text.starts_with("p1") {
+            ("`p1` (line 1)", "`link1.x` (line 3)")
+        } else {
+            ("`link1.x` (line 2)", "`p1` (line 3)")
+        };
+        assert!(
+            e.starts_with("t.toml: ")
+                && e.contains(&format!(
+                    "tolerances {first} and {second} name the same quantity"
+                ))
+                && e.contains("parameter p1 is link1.x"),
+            "{e}"
+        );
+        let f = kinecal_history::fleet(
+            &two,
+            &[],
+            &kinecal_history::FleetOptions {
+                drift: opts,
+                now: 1_800_000_000,
+                horizon: 86_400,
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(f, e);
+    }
+    // Each named once: accepted.
+    let opts = DriftOptions {
+        tolerances: Tolerances::parse_toml("p1 = 0.0001\nlink1.y = 1\n", "t.toml").unwrap(),
+        ..Default::default()
+    };
+    drift(&two, &opts).unwrap();
+}

@@ -119,6 +119,8 @@ def test_run_of_the_written_spec_gives_the_same_document(
         (lambda db: kinecal.history.drift("", db=db), "robot_id"),
         (lambda db: kinecal.history.fleet(horizon=float("inf"), db=db), "horizon"),
         (lambda db: kinecal.history.fleet(horizon="soon", db=db), "horizon"),
+        (lambda db: kinecal.history.fleet(horizon=1e9, db=db), "horizon"),
+        (lambda db: kinecal.history.add("  A  ", FLEET / "history.json", db=db), "robot_id"),
         (lambda db: kinecal.history.event("A", "x", at="yesterday", db=db), "at"),
         (lambda db: kinecal.history.event("A", "", db=db), "note"),
         (lambda db: kinecal.history.show(db=db), "id"),
@@ -142,3 +144,19 @@ def test_store_errors_name_the_database(tmp_path: Path) -> None:
     (tmp_path / "foreign.sqlite").write_text("not a database")
     with pytest.raises(kinecal.KinecalError, match="foreign.sqlite"):
         kinecal.history.add("A", tmp_path / "foreign.sqlite", db=tmp_path / "foreign.sqlite")
+
+
+def test_a_refused_report_is_not_recorded(tmp_path: Path) -> None:
+    report = json.loads((FLEET / "history.json").read_text())["calibrations"][0]["report"]
+    refused = json.loads(report)
+    refused["refused"] = "REFUSED: a unit check fired: no calibrated robot is written or recorded."
+    (tmp_path / "refused.json").write_text(json.dumps(refused))
+    db = tmp_path / "h.sqlite"
+    with pytest.raises(kinecal.KinecalError, match="refused.json: the report says the calibration"):
+        kinecal.history.add("RF", tmp_path / "refused.json", db=db)
+    assert not db.exists()
+    # An export of a robot with nothing recorded raises, as list does.
+    kinecal.history.import_dump(FLEET / "history.json", db=db)
+    for fmt in ("csv", "json"):
+        with pytest.raises(kinecal.KinecalError, match="no calibration recorded for robot `NOPE`"):
+            kinecal.history.export(robot_id="NOPE", format=fmt, db=db)  # type: ignore[arg-type]

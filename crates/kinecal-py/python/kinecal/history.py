@@ -59,7 +59,10 @@ def add(
     """Records the calibration report ``report`` (``kinecal calibrate --report``, or
     :meth:`kinecal.Calibration.report` written to a file) as a calibration of ``robot_id``,
     at ``at`` (default now). The same calibration twice is recorded once. A report of another
-    robot model than the serial's earlier records is refused unless ``force``. Returns
+    robot model than the serial's earlier records is refused unless ``force`` (the forced record
+    then starts a new segment: drift never compares two models). A report that says its
+    calibration was refused (its ``refused`` field) is not recorded, nor a serial with white
+    space at its start or end; a refused add creates no history file. Returns
     ``{"history", "robot_id", "id", "new"}``."""
     return dict(
         _run(
@@ -94,7 +97,8 @@ def export(
 ) -> dict[str, Any]:
     """The history as CSV (a row per calibration and parameter), JSON, or a lossless dump
     (every stored field, for :func:`import_dump`; the whole history). Written to ``out``, or
-    returned as ``{"format", "text"}``."""
+    returned as ``{"format", "text"}``. A ``robot_id`` with nothing recorded raises, as
+    :func:`list` does."""
     return dict(
         _run("history-export", {"db": db, "robot_id": robot_id, "format": format, "out": out})
     )
@@ -133,7 +137,9 @@ def plot(
 ) -> dict[str, Any]:
     """Draws each tracked quantity of ``robot_id`` over time (``param``: only these) to
     ``out`` (``.svg`` or ``.png``), with sigma bars, the first value's 3-sigma band, tolerances
-    and maintenance events. Returns ``{"written", "quantities"}``."""
+    and maintenance events: the whole history of its latest robot model, every segment (a robot
+    serviced after its latest calibration is drawn too, with a warning to calibrate it).
+    Returns ``{"written", "quantities"}``."""
     return dict(
         _run(
             "history-plot",
@@ -155,8 +161,8 @@ def fleet(
     html: Path | None = None,
 ) -> dict[str, Any]:
     """Every robot's state, most urgent first: flagged, serviced, due (a trend crosses a
-    tolerance within ``horizon`` days of ``now``), ok or single. Also written as JSON to
-    ``json`` and as a page to ``html`` when given."""
+    tolerance within ``horizon`` days of ``now``, at most 36500), ok or single. Also written as
+    JSON to ``json`` and as a page to ``html`` when given."""
     return dict(
         _run(
             "history-fleet",
@@ -184,7 +190,9 @@ def events(
 
 def import_dump(dump: Path, *, db: Path | None = None) -> dict[str, Any]:
     """Reads a dump (:func:`export` with ``format="dump"``) into the history: every record
-    and event verbatim, what is already there skipped. Returns the counts."""
+    and event verbatim, what is already there skipped. Every record is checked first (units,
+    sigmas, times, serials, ...): a damaged dump raises naming the record and field, and
+    nothing is written (no history file is created). Returns the counts."""
     return dict(_run("history-import", {"dump": dump, "db": db}))
 
 
