@@ -50,7 +50,7 @@ fn comp(d: &Path, extra: &str) -> (i32, String) {
     (code, err)
 }
 
-/// The rows of a joint table (`target,A1..A6`, degrees).
+/// The rows of a six-column table after its label (`target,A1..A6`, degrees; a pose file).
 fn table(d: &Path, file: &str) -> Vec<[f64; 6]> {
     std::fs::read_to_string(d.join(file))
         .unwrap()
@@ -631,15 +631,7 @@ fn poses(d: &Path, file: &str) -> Vec<[f64; 6]> {
 fn fk_reads_every_table_compensate_writes() {
     let dir = setup();
     let d = dir.path();
-    let targets: Vec<[f64; 6]> = std::fs::read_to_string(d.join("poses.csv"))
-        .unwrap()
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let v: Vec<f64> = l.split(',').skip(1).map(|v| v.parse().unwrap()).collect();
-            v.try_into().unwrap()
-        })
-        .collect();
+    let targets = table(d, "poses.csv");
     for format in [
         "table",
         "joints-ur",

@@ -61,6 +61,23 @@ fn run_with(pages: Option<&(dyn Pages + Sync)>, spec: serde_json::Value) -> kine
     kinecal::spec::run(&job, &mut env)
 }
 
+/// `history plot` of robot R1 of the history at `db` into `dir/r1.svg`: the job's outcome and
+/// what it drew.
+fn plot_r1(dir: &Path, db: &Path) -> (Done, Drawn) {
+    let pages = Recorder::default();
+    let out = dir.join("r1.svg");
+    let done = run_with(
+        Some(&pages),
+        serde_json::json!({
+            "job": "history-plot", "robot_id": "R1", "out": text(&out), "db": text(db),
+        }),
+    )
+    .unwrap();
+    assert!(out.exists());
+    let drawn = pages.drawn.lock().unwrap().take().unwrap();
+    (done, drawn)
+}
+
 fn run(spec: serde_json::Value) -> kinecal::Result<Done> {
     run_with(None, spec)
 }
@@ -252,17 +269,7 @@ fn plot_draws_the_history_of_a_robot_serviced_after_its_latest_calibration() {
         .unwrap();
     db.add_event("R1", T0 + 100 * DAY, "motor J3 replaced")
         .unwrap();
-    let pages = Recorder::default();
-    let out = dir.path().join("r1.svg");
-    let done = run_with(
-        Some(&pages),
-        serde_json::json!({
-            "job": "history-plot", "robot_id": "R1", "out": text(&out), "db": text(&path),
-        }),
-    )
-    .unwrap();
-    assert!(out.exists());
-    let (series, events, t0) = pages.drawn.lock().unwrap().take().unwrap();
+    let (done, (series, events, t0)) = plot_r1(dir.path(), &path);
     assert_eq!(t0, T0);
     assert!(!series.is_empty());
     for (key, drawn) in &series {
@@ -338,16 +345,7 @@ fn jobs_never_compare_two_robot_models() {
         json["since_model_change"]["left_out"],
         serde_json::json!(old)
     );
-    let pages = Recorder::default();
-    let out = dir.path().join("r1.svg");
-    let done = run_with(
-        Some(&pages),
-        serde_json::json!({
-            "job": "history-plot", "robot_id": "R1", "out": text(&out), "db": text(&path),
-        }),
-    )
-    .unwrap();
-    let (series, _, t0) = pages.drawn.lock().unwrap().take().unwrap();
+    let (done, (series, _, t0)) = plot_r1(dir.path(), &path);
     assert_eq!(t0, T0 + 100 * DAY);
     for (key, drawn) in &series {
         assert_eq!(drawn, &new, "{key}");
