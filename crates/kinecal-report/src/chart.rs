@@ -253,6 +253,38 @@ fn data_bounds(p: &Panel) -> (f64, f64, f64, f64) {
     (x0, x1.max(x0 + 1e-12), y0 - pad, y1 + pad)
 }
 
+/// The step plotters puts between the ticks of an axis from `lo` to `hi` with at most
+/// `most` of them: the finest of 1, 2 or 5 times a power of ten that puts at most `most` of its
+/// multiples in the range (plotters' own rule, so that labels get the decimals its ticks need:
+/// a step guessed coarser would print two neighbouring ticks alike).
+fn tick_step(lo: f64, hi: f64, most: usize) -> f64 {
+    let span = hi - lo;
+    if !(span.is_finite() && span > 0.0 && lo.is_finite()) {
+        return nice_step(span.abs());
+    }
+    // Multiples of `step` within the range, rounding aside.
+    let count = |step: f64| {
+        let first = (lo / step - 1e-9).ceil();
+        let last = (hi / step + 1e-9).floor();
+        (last - first + 1.0).max(0.0)
+    };
+    let mut step = 10f64.powf(span.log10().ceil());
+    // From a step with at most two multiples in the range, finer while few enough.
+    for _ in 0..64 {
+        let finer = [step / 2.0, step / 5.0, step / 10.0];
+        match finer
+            .iter()
+            .take_while(|s| count(**s) <= most as f64)
+            .count()
+        {
+            0 => return step,
+            3 => step = finer[2],
+            n => return finer[n - 1],
+        }
+    }
+    step
+}
+
 /// The step plotters puts between ticks for about `raw` (1, 2 or 5 times a power of ten, at
 /// least `raw`).
 fn nice_step(raw: f64) -> f64 {
@@ -320,7 +352,7 @@ fn legend_position(p: &Panel, (x0, x1, y0, y1): (f64, f64, f64, f64)) -> (f64, f
         }
     }
     let entries = legend_entries(p);
-    let (w, h) = (0.32, 0.08 + 0.06 * entries as f64);
+    let (w, h) = (legend_width(p), 0.08 + 0.06 * entries as f64);
     let covered = |bx: f64, by: f64| {
         pts.iter()
             .filter(|&&(x, y)| {
@@ -345,6 +377,23 @@ fn legend_position(p: &Panel, (x0, x1, y0, y1): (f64, f64, f64, f64)) -> (f64, f
 
 /// The labels of a panel's legend: each distinct non-empty label once.
 pub(crate) fn legend_entries(p: &Panel) -> usize {
+    legend_labels(p).len()
+}
+
+/// The legend's width in fractions of the plotting area: the longest label at about 6.5
+/// pixels a character (12-pixel sans-serif), after its marker and padding (45 pixels), at
+/// least a third of the width; the area is the panel less its axes (about 100 pixels).
+fn legend_width(p: &Panel) -> f64 {
+    let longest = legend_labels(p)
+        .iter()
+        .map(|l| l.chars().count())
+        .max()
+        .unwrap_or(0);
+    ((45.0 + 6.5 * longest as f64) / (W as f64 - 100.0)).clamp(0.32, 0.97)
+}
+
+/// The legend's labels, each once.
+fn legend_labels(p: &Panel) -> Vec<&str> {
     let mut seen: Vec<&str> = Vec::new();
     for label in p
         .lines
@@ -357,7 +406,7 @@ pub(crate) fn legend_entries(p: &Panel) -> usize {
             seen.push(label);
         }
     }
-    seen.len()
+    seen
 }
 
 /// The smallest height of an error bar, in pixels: taller than the point (radius 3) it crosses.
@@ -506,8 +555,8 @@ where
     fn mesh(&mut self) -> Result<(), DrawError> {
         let (chart, p, frame) = (&mut *self.chart, self.panel, self.frame);
         let (x0, x1, y0, y1) = frame;
-        let x_step = nice_step((x1 - x0) / 10.0);
-        let y_step = nice_step((y1 - y0) / 10.0);
+        let x_step = tick_step(x0, x1, 10);
+        let y_step = tick_step(y0, y1, 10);
         let x_fmt = |v: &f64| -> String {
             if p.x_names.is_empty() {
                 tick_label(*v, x_step)
@@ -819,6 +868,46 @@ mod tests {
         assert_eq!(log_tick_label(2e-5), "2e-5");
         assert!((nice_step(0.0075) - 0.01).abs() < 1e-15);
         assert!((nice_step(0.3) - 0.5).abs() < 1e-15);
+    }
+
+    /// Over random ranges, the ticks plotters draws (at most 10) are the multiples of
+    /// [`tick_step`], and their labels are all different (a history plot labelled `11.812` twice
+    /// where plotters put ticks 0.0005 apart).
+    #[test]
+    fn tick_labels_tell_plotters_ticks_apart() {
+        use plotters::coord::ranged1d::Ranged;
+        use plotters::coord::types::RangedCoordf64;
+        let mut rng = 12345u64;
+        let mut next = || {
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (rng >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..20_000 {
+            let centre = (next() - 0.5) * 10f64.powf(next() * 8.0 - 3.0);
+            let span = 10f64.powf(next() * 10.0 - 6.0);
+            let (lo, hi) = (centre - next() * span, centre + next() * span + 1e-300);
+            let coord: RangedCoordf64 = (lo..hi).into();
+            let ticks = coord.key_points(10);
+            let step = tick_step(lo, hi, 10);
+            let labels: Vec<String> = ticks.iter().map(|v| tick_label(*v, step)).collect();
+            for w in ticks.windows(2) {
+                // A difference of ticks loses the rounding of their magnitude.
+                assert!(
+                    (w[1] - w[0] - step).abs() <= 1e-6 * step + 1e-12 * w[0].abs(),
+                    "{lo}..{hi}: ticks {ticks:?}, step {step}"
+                );
+            }
+            for w in labels.windows(2) {
+                assert_ne!(w[0], w[1], "{lo}..{hi}: ticks {ticks:?}, labels {labels:?}");
+            }
+        }
+        // Ten multiples of 0.0005 fit (11.8075 to 11.8120): ticks 0.0005 apart, four decimals
+        // (a step guessed from the span over 10, 0.00049, rounded up, said 0.001).
+        let step = tick_step(11.8075, 11.8124, 10);
+        assert!((step - 0.0005).abs() < 1e-15, "{step}");
+        assert_eq!(tick_label(11.8115, step), "11.8115");
     }
 
     /// The texts of an SVG (tick labels, titles, legend entries).
