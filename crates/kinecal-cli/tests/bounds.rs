@@ -245,20 +245,28 @@ fn a_serial_longer_than_128_characters_is_refused_and_a_stored_one_is_drawn() {
         e.contains("--note: expected a note of at most 1000 characters, not 1001"),
         "{e}"
     );
-    // A history written before the bound may hold a long serial (here through a dump): its
-    // fleet is drawn, the serial whole.
-    run_ok(
-        d,
-        &argv("history export --format dump --db h.sqlite --out dump.json"),
-    );
-    let dump = std::fs::read_to_string(d.join("dump.json")).unwrap();
+    // A history written before the bound may hold a long serial (written here into the file
+    // itself): its fleet is drawn, the serial whole. A dump holding it is refused, as
+    // `history add` would refuse the serial.
+    std::fs::copy(d.join("h.sqlite"), d.join("old.sqlite")).unwrap();
     let long = "S".repeat(70_000);
-    std::fs::write(
-        d.join("dump2.json"),
-        dump.replace("\"A1\"", &format!("\"{long}\"")),
+    let db = rusqlite::Connection::open(d.join("old.sqlite")).unwrap();
+    db.execute(
+        "UPDATE calibrations SET robot_id = ?1 WHERE robot_id = 'A1'",
+        [&long],
     )
     .unwrap();
-    run_ok(d, &argv("history import dump2.json --db old.sqlite"));
+    drop(db);
     let out = run_ok(d, &argv("history fleet --db old.sqlite"));
     assert!(out.contains(&long), "the serial drawn whole");
+    run_ok(
+        d,
+        &argv("history export --format dump --db old.sqlite --out dump.json"),
+    );
+    let e = run_err(d, &argv("history import dump.json --db new.sqlite"));
+    assert!(
+        e.contains("expected a serial of at most 128 characters, not 70000"),
+        "{e}"
+    );
+    assert!(!d.join("new.sqlite").exists());
 }
