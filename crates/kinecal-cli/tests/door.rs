@@ -727,7 +727,7 @@ fn a_bad_history_value_names_the_flag_or_the_key() {
         ),
         (
             &["history", "fleet", "--horizon", "-3", "--db", "h.sqlite"][..],
-            "--horizon: -3: expected a number of days, 0 or more",
+            "--horizon: -3: expected a number of days from 0 to 36500",
         ),
         (
             &argv("history drift --robot-id A --baseline last --db h.sqlite")[..],
