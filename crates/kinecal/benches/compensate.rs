@@ -2,9 +2,10 @@
 //! (1 mm, 0.3 deg), full poses; the poses those programs mean as Cartesian targets seeded by
 //! the program's readings (what `fk` then `compensate` do); and Cartesian targets without
 //! seeds (positions and poses the twin reaches inside its joint ranges), searched for a usable
-//! solution. Three arms: a random 6-joint arm (no closed form: the search of the table of
-//! starts; its cases keep their names), a UR10 (`ur10/`, the UR-type closed form) and the ABB
-//! IRB 120 of `examples/robots` (`irb120/`, a spherical wrist).
+//! solution. Three arms: a random 6-joint arm (the general closed form, see
+//! `apps::compensate`'s `general` module; its cases keep their names), a UR10 (`ur10/`, the
+//! UR-type closed form) and the ABB IRB 120 of `examples/robots` (`irb120/`, a spherical
+//! wrist).
 //!
 //! Run: `cargo bench -p kinecal --bench compensate`. With `KINECAL_BENCH_CPU=1` it prints
 //! instead, for each case, rows per CPU second of this thread (median of 5 rounds, the cases

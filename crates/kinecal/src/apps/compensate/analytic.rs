@@ -12,6 +12,9 @@
 //!   parallel, axis 1 is not parallel to them, axes 5 and 6 meet, and axis 5 is parallel
 //!   neither to axis 4 nor to axis 6.
 //!
+//! Any other arm of six revolute joints gets the general form (the `general` module: every
+//! solution, up to 16, from a polynomial in joint 3's turn), [`Family::General`].
+//!
 //! Axes are parallel, or meet, to a millionth (of a radian; of the reach). The target frame
 //! must hang off joint 6 (the end effector, or a site of the last link). Joints may have any
 //! offset and slope, but no coupling.
@@ -51,9 +54,43 @@ pub(crate) enum Family {
     SphericalWrist,
     /// Axes 2, 3 and 4 are parallel; axes 5 and 6 meet.
     UrType,
+    /// Any other arm of six revolute joints (see the `general` module): up to 16 solutions.
+    General,
 }
 
-/// One of the eight solutions: readings (robot file's units), and whether every subproblem on
+/// Most solutions a goal has (a general arm's; the families have eight).
+pub(crate) const MOST: usize = 16;
+
+/// The solutions of one goal, `len` of them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Branches {
+    list: [Branch; MOST],
+    len: usize,
+}
+
+impl Branches {
+    fn new() -> Self {
+        Branches {
+            list: [Branch {
+                readings: [0.0; 6],
+                exact: false,
+            }; MOST],
+            len: 0,
+        }
+    }
+
+    fn push(&mut self, b: Branch) {
+        self.list[self.len] = b;
+        self.len += 1;
+    }
+
+    /// The solutions.
+    pub(crate) fn as_slice(&self) -> &[Branch] {
+        &self.list[..self.len]
+    }
+}
+
+/// One of the solutions: readings (robot file's units), and whether every subproblem on
 /// the way had a real solution (else the nearest was taken: a start, not a solution).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Branch {
@@ -79,6 +116,8 @@ pub(crate) struct Analytic {
     centre: Vector3<f64>,
     /// Each joint's slope: radians of turn per reading unit.
     slope: [f64; 6],
+    /// The general closed form ([`Family::General`] only).
+    general: Option<Box<super::general::General>>,
 }
 
 impl Analytic {
@@ -130,7 +169,15 @@ impl Analytic {
         {
             (Family::UrType, c)
         } else {
-            return None;
+            (Family::General, r[5])
+        };
+        let general = match family {
+            Family::General => Some(Box::new(super::general::General::new(
+                &w,
+                &r,
+                rigid.reach(),
+            )?)),
+            _ => None,
         };
         Some(Analytic {
             family,
@@ -139,11 +186,11 @@ impl Analytic {
             home_inv: inverse(&home),
             centre,
             slope: std::array::from_fn(|i| rigid.joints[i].slope),
+            general,
         })
     }
 
     /// The family told from the nominal geometry.
-    #[cfg(test)]
     pub(crate) fn family(&self) -> Family {
         self.family
     }
@@ -151,8 +198,17 @@ impl Analytic {
     /// The eight branches for the goal frame `goal` (global frame, m), some inexact when the
     /// goal is out of the nominal robot's reach; the same solution may come more than once at a
     /// singularity.
-    pub(crate) fn solve(&self, goal: &Frame) -> [Branch; 8] {
+    pub(crate) fn solve(&self, goal: &Frame) -> Branches {
         let d = goal.then(&self.home_inv);
+        let mut branches = Branches::new();
+        if let Some(g) = &self.general {
+            let mut turns = [([0.0; 6], false); MOST];
+            let n = g.solve(&d.rotation, &d.translation, &mut turns);
+            for &(t, exact) in &turns[..n] {
+                branches.push(self.branch(t, exact));
+            }
+            return branches;
+        }
         let mut out = [Branch {
             readings: [0.0; 6],
             exact: false,
@@ -211,9 +267,13 @@ impl Analytic {
                         }
                     }
                 }
+                Family::General => unreachable!("solved above"),
             }
         }
-        out
+        for b in out {
+            branches.push(b);
+        }
+        branches
     }
 
     /// The planar part: turns `(t_2, t_3)` of the parallel axes 2 and 3 that bring point `x`
@@ -385,6 +445,9 @@ pub(crate) mod tests {
                 (0.0, s[4] * FRAC_PI_2, len(0.08, 0.15)),
                 (len(-0.05, 0.05), len(-1.0, 1.0), len(0.05, 0.2)),
             ],
+            Family::General => (0..6)
+                .map(|_| (len(-0.5, 0.5), len(-3.0, 3.0), len(-0.5, 0.5)))
+                .collect(),
         };
         let mut g = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1000);
         let dh: Vec<DhRow> = rows
@@ -429,7 +492,7 @@ pub(crate) mod tests {
                 let branches = a.solve(&goal);
                 let mut found = false;
                 let mut exact = 0;
-                for b in branches.iter().filter(|b| b.exact) {
+                for b in branches.as_slice().iter().filter(|b| b.exact) {
                     exact += 1;
                     let f = frame(&robot, &b.readings);
                     let dp = (f.translation - goal.translation).norm();
@@ -469,16 +532,25 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn arms_outside_the_families_have_no_closed_form() {
-        // A random 6R arm, the UR's twists with joint 5's axis moved off joint 6's, a robot
-        // of 5 joints, a coupled wrist, and a site on link 3.
-        let random = crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21);
+    fn arms_outside_the_families_have_the_general_form_or_none() {
+        // A random arm of six joints with a prismatic one, the UR's twists with joint 5's axis
+        // moved off joint 6's (the general form), a robot of 5 joints, a coupled wrist, and a
+        // site on link 3.
+        use JointKind::{Prismatic, Revolute};
+        let kinds = [Revolute, Revolute, Prismatic, Revolute, Revolute, Revolute];
+        let random = crate::apps::simulate::random_robot(&kinds, 21);
         assert!(Analytic::new(&random, Target::EndEffector).is_none());
         let ur = random_arm(Family::UrType, 3);
-        assert!(Analytic::new(&ur, Target::EndEffector).is_some());
+        assert_eq!(
+            Analytic::new(&ur, Target::EndEffector).map(|a| a.family()),
+            Some(Family::UrType)
+        );
         let mut off = ur.clone();
         off.links[5].x += 0.01;
-        assert!(Analytic::new(&off, Target::EndEffector).is_none());
+        assert_eq!(
+            Analytic::new(&off, Target::EndEffector).map(|a| a.family()),
+            Some(Family::General)
+        );
         let five = crate::apps::simulate::random_robot(&[JointKind::Revolute; 5], 2);
         assert!(Analytic::new(&five, Target::EndEffector).is_none());
         let mut coupled = random_arm(Family::SphericalWrist, 4);

@@ -31,6 +31,7 @@ use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 mod analytic;
 mod configuration;
+mod general;
 mod reach;
 mod search;
 mod start_table;

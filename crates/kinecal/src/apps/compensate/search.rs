@@ -12,7 +12,9 @@
 //!    seed this is the minimum change from the seed (for a redundant arm too).
 //!
 //!    For a pose goal on a robot whose nominal model has a closed form (a spherical wrist or
-//!    a UR-type arm: see the `analytic` module), its eight branches are the next starts (with
+//!    a UR-type arm: see the `analytic` module; any other arm of six revolute joints has the
+//!    general form of the `general` module, up to 16 branches, which end the search only with
+//!    a usable solution, as one can be missed), its eight branches are the next starts (with
 //!    a seed, unless the seed's own solution was reached at a singularity; without one,
 //!    before the previous solution, which is tried only when the branches do not settle the
 //!    goal), refined on the calibrated model, in the order: branches the nominal robot
@@ -67,7 +69,7 @@
 //! `unreachable` means that no start reached the goal, and `outside range` that every solution
 //! found needs a joint beyond its range.
 
-use super::analytic::Analytic;
+use super::analytic::{Analytic, Family, MOST};
 use super::configuration::Classifier;
 use super::reach::ReachBound;
 use super::start_table::StartTable;
@@ -336,8 +338,13 @@ impl<'r> TargetSearch<'r> {
         let seed_rank = best.as_ref().map(|(r, _)| *r);
         let seed_singular = seed_rank.is_some_and(|r| !r.0[0] && r.0[4]);
         let seed_failed = seed_rank.is_some_and(|r| r.0[0]);
-        let branches_tried =
-            closed_form && !seed_singular && (!seed_failed || self.branches_when_seed_fails);
+        // The general form's branches seldom lie within a change of configuration of a seed
+        // that failed, and cannot end the search without a usable one: a seeded goal goes to
+        // the table's starts near its seed directly.
+        let branches_tried = closed_form
+            && !seed_singular
+            && (!seed_failed || self.branches_when_seed_fails)
+            && (seed.is_none() || self.closed_form_complete(target));
         if branches_tried {
             let answer = self.try_closed_form(goal, target, seed, &mut best, &mut looked_up, out);
             if let Some(solved) = answer {
@@ -363,7 +370,10 @@ impl<'r> TargetSearch<'r> {
         // Step 3: nothing usable near the goal: starts spread over the whole table, unless the
         // search is settled (with a seed; without one, after the closed form's branches too).
         let settled_now = settled(&judged, tried, seed.is_some())
-            && (seed.is_some() || (branches_tried && self.skip_spread_if_singular));
+            && (seed.is_some()
+                || (branches_tried
+                    && self.skip_spread_if_singular
+                    && self.closed_form_complete(target)));
         if !any_usable && !settled_now {
             self.try_spread_starts(goal, target, seed, &mut best, &mut judged, tried, out);
         }
@@ -472,7 +482,11 @@ impl<'r> TargetSearch<'r> {
         // the nominal robot reaches exactly: the calibrated robot's solutions lie near those
         // (the two models differ by a calibration), so the goal is out of its reach (the
         // table's starts found no solution for any such goal of the compensate bench).
-        if seed.is_some() && best.as_ref().is_some_and(|(r, _)| r.0[0]) && exact > 0 {
+        if seed.is_some()
+            && best.as_ref().is_some_and(|(r, _)| r.0[0])
+            && exact > 0
+            && self.closed_form_complete(target)
+        {
             let attempt = best.take().expect("at least one attempt");
             return Some(self.polish(attempt, goal, target, out));
         }
@@ -596,6 +610,17 @@ impl<'r> TargetSearch<'r> {
         found
     }
 
+    /// Whether the closed form for `target` gives every solution the nominal robot has: the
+    /// families' eight branches do; the general form's roots may miss one near a double root
+    /// (see the `general` module), so its branches settle a goal only by a usable solution.
+    fn closed_form_complete(&self, target: Target) -> bool {
+        self.closed_forms
+            .iter()
+            .find(|(t, _)| *t == target)
+            .and_then(|(_, a)| a.as_ref())
+            .is_some_and(|a| a.family() != Family::General)
+    }
+
     /// Whether the calibrated arm's reach bound proves that no posture puts `target` at
     /// `goal` (the bound worked out once per target).
     fn out_of_reach(&mut self, goal: &crate::model::kinematics::Frame, target: Target) -> bool {
@@ -712,12 +737,15 @@ impl<'r> TargetSearch<'r> {
             return (false, 0);
         };
         let branches = analytic.solve(frame);
+        let complete = analytic.family() != Family::General;
+        let branches = branches.as_slice();
         let exact = branches.iter().filter(|b| b.exact).count();
         // ((inexact, outside a range, not in the configuration, turned), squared distance to
         // the reference), readings.
         type Key = ([bool; 4], f64);
-        let mut keyed: [(Key, [f64; 6]); 8] = [(([false; 4], 0.0), [0.0; 6]); 8];
-        for (k, b) in keyed.iter_mut().zip(&branches) {
+        let mut keyed: [(Key, [f64; 6]); MOST] = [(([false; 4], 0.0), [0.0; 6]); MOST];
+        let keyed = &mut keyed[..branches.len()];
+        for (k, b) in keyed.iter_mut().zip(branches) {
             let mut v = b.readings;
             let outside = self.place_turns(&mut v) != 0;
             let turned = self.seeded && self.turned_from_reference(&v);
@@ -746,7 +774,7 @@ impl<'r> TargetSearch<'r> {
             _ => None,
         };
         // The solutions the branches the nominal robot reaches refined to.
-        let mut found = [[0.0; 6]; 8];
+        let mut found = [[0.0; 6]; MOST];
         let mut exact_reached = 0;
         let mut exact_failed = false;
         for (i, ((predicted, _), v)) in keyed.iter().enumerate() {
@@ -793,7 +821,7 @@ impl<'r> TargetSearch<'r> {
             .as_ref()
             .is_some_and(|(r, _)| !r.0[0] && !r.0[2] && !r.0[4]);
         (
-            placed && exact_reached > 0 && !exact_failed && !merged,
+            complete && placed && exact_reached > 0 && !exact_failed && !merged,
             exact,
         )
     }
@@ -1212,6 +1240,11 @@ mod tests {
     }
 
     #[test]
+    fn general_closed_form_agrees_with_the_search() {
+        agrees_with_the_search(Family::General);
+    }
+
+    #[test]
     fn ur_type_closed_form_agrees_with_the_search() {
         agrees_with_the_search(Family::UrType);
     }
@@ -1229,9 +1262,15 @@ mod tests {
         nominal: &Robot,
         calibrated: &Robot,
         goals: &[(Goal, Option<Vec<f64>>)],
+        closed_form: bool,
     ) -> [(Vec<([bool; 5], Vec<f64>, bool)>, u64); 2] {
         [true, false].map(|exit| {
             let s = TargetSearch::new(calibrated, nominal, Options::default()).unwrap();
+            let s = if closed_form {
+                s
+            } else {
+                s.without_closed_form()
+            };
             let mut s = if exit { s } else { s.without_stall_exit() };
             let mut out = vec![0.0; 6];
             let rows = goals
@@ -1249,8 +1288,9 @@ mod tests {
     }
 
     /// The stall exit (an attempt stuck at a local minimum of the error ends there, instead of
-    /// running to its cap) changes no answer and saves work: on a random arm (no closed form)
-    /// and a spherical-wrist arm, over seeded pose targets (the nominal poses of programs, some
+    /// running to its cap) changes no answer and saves work: on a random arm (its closed form
+    /// turned off: the search of the table alone, as for an arm with none) and a
+    /// spherical-wrist arm, over seeded pose targets (the nominal poses of programs, some
     /// of whose seeds fail) and unseeded pose and position targets, every row is usable or not
     /// as without it, usable rows converged both ways agree to 1e-9 in readings (both converge
     /// far below it: a stalled attempt is never the one taken), and fewer forward kinematics
@@ -1264,10 +1304,13 @@ mod tests {
                 crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21),
                 0.7,
                 0.85,
+                false,
             ),
-            (random_arm(Family::SphericalWrist, 8), 0.7, 0.98),
+            (random_arm(Family::SphericalWrist, 8), 0.7, 0.98, true),
         ];
-        for (arm, (nominal, seeded_fall, unseeded_fall)) in arms.into_iter().enumerate() {
+        for (arm, (nominal, seeded_fall, unseeded_fall, closed_form)) in
+            arms.into_iter().enumerate()
+        {
             let (nominal, calibrated) = twin(nominal, 22);
             let (postures, seeded) = seeded_targets(&nominal, 200, 5);
             let unseeded = unseeded_pose_and_position_goals(&calibrated, &postures);
@@ -1276,7 +1319,7 @@ mod tests {
                 ("unseeded", &unseeded, unseeded_fall),
             ] {
                 let [(new, cost_new), (old, cost_old)] =
-                    with_and_without_stall_exit(&nominal, &calibrated, goals);
+                    with_and_without_stall_exit(&nominal, &calibrated, goals, closed_form);
                 let mut flagged = 0;
                 for (k, (a, b)) in new.iter().zip(&old).enumerate() {
                     let usable = |r: &[bool; 5]| *r == [false; 5];
@@ -1639,14 +1682,14 @@ mod tests {
         }
     }
 
-    /// A random 6R arm has no closed form: its targets go through the table of starts, as
-    /// without the closed form (the same solutions), and are reached.
+    /// A random arm of six joints, one of them prismatic, has no closed form: its targets go
+    /// through the table of starts, as without the closed form (the same solutions), and are
+    /// reached.
     #[test]
     fn an_arm_outside_the_families_falls_back_to_the_search() {
-        let (nominal, calibrated) = twin(
-            crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], 21),
-            22,
-        );
+        use JointKind::{Prismatic, Revolute};
+        let kinds = [Revolute, Revolute, Prismatic, Revolute, Revolute, Revolute];
+        let (nominal, calibrated) = twin(crate::apps::simulate::random_robot(&kinds, 21), 22);
         let postures: Vec<Vec<f64>> = sample_postures(&nominal, 100, 4)
             .into_iter()
             .map(|p| p.readings)

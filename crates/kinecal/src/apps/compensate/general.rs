@@ -1,0 +1,864 @@
+//! The inverse kinematics of a general arm of six revolute joints: every solution of a pose
+//! goal, from one polynomial equation in the third joint's turn (Raghavan and Roth, 1993; the
+//! elimination of Manocha and Canny, 1994), for arms no simpler closed form covers.
+//!
+//! Joint `i` turns by `t_i` about a line (point `r_i`, unit direction `w_i`) as it lies at the
+//! reference posture; `e_i(t_i)` is that rigid motion, and `D = e_1 ... e_6` the motion a goal
+//! asks for (the goal times the inverse of the target frame at the reference posture). Then
+//! `e_3 e_4 e_5 = e_2^-1 e_1^-1 D e_6^-1`; applied to joint 6's axis (a point `c` of it and its
+//! direction `w_6`, which `e_6` leaves as they are) both sides give a point `p` and a direction
+//! `l`, and so 14 scalars: `p`, `l`, `p . p`, `p . l`, `p x l` and `(p . p) l - 2 (p . l) p`.
+//! Each of the 14 is, on the left, a polynomial of degree one in each of `cos t_i`, `sin t_i`
+//! for `i = 3, 4, 5` (27 terms) and, on the right, in those of `t_1` and `t_2` (9 terms,
+//! the constant moved left): one rigid motion about a line maps the 14 of its input linearly
+//! onto the 14 of its output, with coefficients of degree one in its turn (the squares cancel
+//! by `a x (b x c) = b (a . c) - c (a . b)`). Their coefficients are read off by sampling each
+//! turn at three angles a third of a turn apart (exact for such polynomials, and checked at
+//! random turns when the arm is set up).
+//!
+//! Eliminating the 8 products of `t_1` and `t_2` leaves 6 equations in the 9 products of
+//! `t_4` and `t_5`, with coefficients of degree one in `cos t_3` and `sin t_3`. In the
+//! half-angle tangents `x_4`, `x_5` they hold the monomials `x_4^i x_5^j` (`i, j <= 2`);
+//! multiplied by `x_4` too, they are 12 linear equations in 12 monomials, which have a solution
+//! only where the 12 x 12 matrix is singular: its determinant, a trigonometric polynomial in
+//! `t_3` of degree 8 (up to 16 real roots, the arm's at most 16 solutions), is found from 17
+//! samples and its real roots by bracketing. At each root the matrix's null vector gives `t_4`
+//! and `t_5`, the 14 equations `t_1` and `t_2` (least squares), and the rotation left `t_6`;
+//! Newton's method on the product of the six turns then removes the roots' rounding, and a
+//! solution is *exact* when the turns reach the goal to 1e-9 (of the reach; rad).
+//!
+//! Not covered: an arm whose 14 scalars do not take this form (checked when it is set up: no
+//! general form, its targets search the table of starts); goals at which the products of `t_1`
+//! and `t_2` are dependent (axes 1 and 2 meeting or parallel, which the simpler families
+//! mostly cover: no solution given); and roots the grid cannot tell apart: an extremum of the
+//! determinant near zero is tried as a double root, but three roots within a cell may lose
+//! one (2 of 1,000 random goals, at conditionings 0.004-0.011). The search therefore takes
+//! this form's solutions as starts, never as proof that no other solution exists.
+
+use nalgebra::{Matrix3, Vector3};
+use std::f64::consts::TAU;
+
+/// Equations: the 14 scalars of a point and a direction.
+const ROWS: usize = 14;
+/// Samples of the determinant: a trigonometric polynomial of degree 8.
+const SAMPLES: usize = 17;
+/// Degree of the determinant in `t_3`.
+const DEGREE: usize = 8;
+/// Grid the determinant's sign is looked at on, to bracket its roots.
+const GRID: usize = 96;
+
+/// An extremum of the determinant within this fraction of its largest value of zero is tried as
+/// a double root (the caller's refinement on the forward kinematics tells).
+const DOUBLE: f64 = 1e-3;
+
+/// `cos` and `sin` of the three sampling angles `0, 2 pi / 3, 4 pi / 3`.
+const C3: [f64; 3] = [1.0, -0.5, -0.5];
+const S3: [f64; 3] = [0.0, 0.866_025_403_784_438_6, -0.866_025_403_784_438_6];
+
+/// The general closed form of one arm (coordinates shifted to a point of axis 3 and scaled by
+/// the reach: every scalar near unit size).
+#[derive(Debug, Clone)]
+pub(crate) struct General {
+    w: [Vector3<f64>; 6],
+    r: [Vector3<f64>; 6],
+    origin: Vector3<f64>,
+    scale: f64,
+    /// The left sides: `lhs[q][m3][m45]`, the coefficient of `b(t_3)[m3] b(t_4)[m4] b(t_5)[m5]`
+    /// (`m45 = 3 m4 + m5`, `b(t) = (1, cos t, sin t)`) in scalar `q`.
+    lhs: [[[f64; 9]; 3]; ROWS],
+}
+
+/// Screw motion about the line through `r` along unit `w` by `t`, applied to point `p`.
+fn turn_point(
+    w: &Vector3<f64>,
+    r: &Vector3<f64>,
+    c: f64,
+    s: f64,
+    p: &Vector3<f64>,
+) -> Vector3<f64> {
+    r + turn_vector(w, c, s, &(p - r))
+}
+
+/// Rotation about unit `w` by the angle of cosine `c` and sine `s`, applied to `v` (Rodrigues).
+fn turn_vector(w: &Vector3<f64>, c: f64, s: f64, v: &Vector3<f64>) -> Vector3<f64> {
+    v * c + w.cross(v) * s + w * (w.dot(v) * (1.0 - c))
+}
+
+/// The 14 scalars of point `p` and direction `l`.
+fn scalars(p: &Vector3<f64>, l: &Vector3<f64>) -> [f64; ROWS] {
+    let pp = p.dot(p);
+    let pl = p.dot(l);
+    let x = p.cross(l);
+    let v = l * pp - p * (2.0 * pl);
+    [
+        p.x, p.y, p.z, l.x, l.y, l.z, pp, pl, x.x, x.y, x.z, v.x, v.y, v.z,
+    ]
+}
+
+/// The coefficient of basis function `m` (`1, cos, sin`) from samples at the three angles.
+fn weight(m: usize, k: usize) -> f64 {
+    match m {
+        0 => 1.0 / 3.0,
+        1 => 2.0 / 3.0 * C3[k],
+        _ => 2.0 / 3.0 * S3[k],
+    }
+}
+
+/// `(1, cos t, sin t)`.
+fn basis(t: f64) -> [f64; 3] {
+    let (s, c) = t.sin_cos();
+    [1.0, c, s]
+}
+
+/// Half-angle form: `(1 + x^2) b(t)` as coefficients of `1, x, x^2` (`x = tan(t / 2)`).
+const HALF: [[f64; 3]; 3] = [[1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [0.0, 2.0, 0.0]];
+
+impl General {
+    /// The closed form of the arm with joint axes `(w, r)` at the reference posture (global
+    /// frame, m) and reach `reach` (m); `None` when the 14 scalars do not follow the structure
+    /// the elimination needs (checked at random turns) or the goal's products are dependent.
+    pub(crate) fn new(w: &[Vector3<f64>; 6], r: &[Vector3<f64>; 6], reach: f64) -> Option<General> {
+        if !(reach.is_finite() && reach > 0.0) {
+            return None;
+        }
+        let scale = 1.0 / reach;
+        let origin = r[2];
+        let mut g = General {
+            w: *w,
+            r: std::array::from_fn(|i| (r[i] - origin) * scale),
+            origin,
+            scale,
+            lhs: [[[0.0; 9]; 3]; ROWS],
+        };
+        for k3 in 0..3 {
+            for k4 in 0..3 {
+                for k5 in 0..3 {
+                    let f = g.left(C3[k3], S3[k3], C3[k4], S3[k4], C3[k5], S3[k5]);
+                    for m3 in 0..3 {
+                        for m4 in 0..3 {
+                            for m5 in 0..3 {
+                                let wt = weight(m3, k3) * weight(m4, k4) * weight(m5, k5);
+                                for (q, v) in f.iter().enumerate() {
+                                    g.lhs[q][m3][3 * m4 + m5] += wt * v;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // The structure, checked at turns off the sampling grid.
+        for (t3, t4, t5) in [(0.3, -1.1, 2.2), (2.9, 0.7, -0.4), (-2.0, 1.9, 1.3)] {
+            let ([_, c3, s3], [_, c4, s4], [_, c5, s5]) = (basis(t3), basis(t4), basis(t5));
+            let direct = g.left(c3, s3, c4, s4, c5, s5);
+            let b45 = products(t4, t5);
+            let b3 = basis(t3);
+            for (q, d) in direct.iter().enumerate() {
+                let v: f64 = (0..3).map(|m3| b3[m3] * dot9(&g.lhs[q][m3], &b45)).sum();
+                if (v - d).abs() > 1e-9 * (1.0 + d.abs()) {
+                    return None;
+                }
+            }
+        }
+        Some(g)
+    }
+
+    /// The 14 scalars of `e_3 e_4 e_5` applied to joint 6's axis, for the turns' cosines and
+    /// sines.
+    fn left(&self, c3: f64, s3: f64, c4: f64, s4: f64, c5: f64, s5: f64) -> [f64; ROWS] {
+        let (w, r) = (&self.w, &self.r);
+        let mut p = r[5];
+        let mut l = w[5];
+        for (i, (c, s)) in [(4, (c5, s5)), (3, (c4, s4)), (2, (c3, s3))] {
+            p = turn_point(&w[i], &r[i], c, s, &p);
+            l = turn_vector(&w[i], c, s, &l);
+        }
+        scalars(&p, &l)
+    }
+
+    /// Every solution found for the motion `d` (rotation, and translation in m): turns
+    /// `t_1 .. t_6` (rad) written into `out` with whether they solve it (to 1e-9 of the reach;
+    /// rad), their count returned.
+    pub(crate) fn solve(
+        &self,
+        rotation: &Matrix3<f64>,
+        translation: &Vector3<f64>,
+        out: &mut [([f64; 6], bool); 2 * DEGREE],
+    ) -> usize {
+        // D in the shifted, scaled coordinates: x -> R x + (R o + t - o) s.
+        let dt = (rotation * self.origin + translation - self.origin) * self.scale;
+        let goal_p = rotation * self.r[5] + dt;
+        let goal_l = rotation * self.w[5];
+        let Some((m, f)) = self.equations(&goal_p, &goal_l) else {
+            return 0;
+        };
+        let mut roots = [0.0; 2 * DEGREE];
+        let count = Determinant::of(&f).real_roots(&mut roots);
+        let mut found = 0;
+        for &t3 in &roots[..count] {
+            let Some(turns) = self.back_substitute(&f, &m, t3, rotation) else {
+                continue;
+            };
+            let (turns, exact) = self.refine(turns, rotation, &goal_p);
+            let seen = out[..found].iter().any(|(u, _)| {
+                u.iter()
+                    .zip(&turns)
+                    .all(|(a, b)| super::configuration::wrap_pi(a - b).abs() < 1e-6)
+            });
+            if !seen {
+                out[found] = (turns, exact);
+                found += 1;
+            }
+        }
+        found
+    }
+
+    /// The 14 equations for the goal's joint 6 axis (point `goal_p`, direction `goal_l`,
+    /// scaled coordinates) as `[Q | P]` (Q the 8 products of `t_1`, `t_2`, P the 27 of `t_3`,
+    /// `t_4`, `t_5`), and the 6 equations free of `t_1`, `t_2` in half-angle monomials:
+    /// `f[k][row][3 i + j]` the coefficient of `x_4^i x_5^j` times basis function `k` of `t_3`.
+    /// `None` when Q's columns are dependent.
+    #[allow(clippy::type_complexity)]
+    fn equations(
+        &self,
+        goal_p: &Vector3<f64>,
+        goal_l: &Vector3<f64>,
+    ) -> Option<([[f64; 35]; ROWS], [[[f64; 9]; 6]; 3])> {
+        let (w, r) = (&self.w, &self.r);
+        // The right sides: e_2^-1 e_1^-1 applied to D's axis 6, sampled on the 3 x 3 grid.
+        let mut rhs = [[0.0; 9]; ROWS];
+        for k1 in 0..3 {
+            // e_1^-1: a turn by -t_1.
+            let p1 = turn_point(&w[0], &r[0], C3[k1], -S3[k1], goal_p);
+            let l1 = turn_vector(&w[0], C3[k1], -S3[k1], goal_l);
+            for k2 in 0..3 {
+                let p = turn_point(&w[1], &r[1], C3[k2], -S3[k2], &p1);
+                let l = turn_vector(&w[1], C3[k2], -S3[k2], &l1);
+                let f = scalars(&p, &l);
+                for m1 in 0..3 {
+                    for m2 in 0..3 {
+                        let wt = weight(m1, k1) * weight(m2, k2);
+                        for (q, v) in f.iter().enumerate() {
+                            rhs[q][3 * m1 + m2] += wt * v;
+                        }
+                    }
+                }
+            }
+        }
+        // [Q | P]: Q the 8 products of t_1, t_2 (right side), P the 27 of t_3, t_4, t_5 (left
+        // side, the right side's constant moved into it).
+        let mut m = [[0.0; 35]; ROWS];
+        for q in 0..ROWS {
+            m[q][..8].copy_from_slice(&rhs[q][1..]);
+            for m3 in 0..3 {
+                m[q][8 + 9 * m3..17 + 9 * m3].copy_from_slice(&self.lhs[q][m3]);
+            }
+            m[q][8] -= rhs[q][0];
+        }
+        let keep = m;
+        // Eliminate Q's columns (partial pivoting): the last 6 rows are free of t_1, t_2.
+        let big = m
+            .iter()
+            .flat_map(|row| &row[..8])
+            .fold(0.0, |b: f64, v| b.max(v.abs()));
+        for c in 0..8 {
+            let p = (c..ROWS)
+                .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
+                .expect("rows");
+            if m[p][c].abs() <= 1e-10 * big {
+                return None;
+            }
+            m.swap(c, p);
+            let pivot = m[c];
+            for row in m.iter_mut().skip(c + 1) {
+                let f = row[c] / pivot[c];
+                if f != 0.0 {
+                    for (x, y) in row.iter_mut().zip(&pivot).skip(c) {
+                        *x -= f * y;
+                    }
+                }
+            }
+        }
+        // The 6 equations in half-angle monomials.
+        let mut f = [[[0.0; 9]; 6]; 3];
+        for k in 0..3 {
+            for row in 0..6 {
+                let e = &m[8 + row][8 + 9 * k..17 + 9 * k];
+                for m4 in 0..3 {
+                    for m5 in 0..3 {
+                        let c = e[3 * m4 + m5];
+                        if c == 0.0 {
+                            continue;
+                        }
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                f[k][row][3 * i + j] += c * HALF[m4][i] * HALF[m5][j];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Some((keep, f))
+    }
+
+    /// The turns at root `t3` of the determinant: `t_4`, `t_5` from the null vector of the
+    /// 12 x 12 matrix, `t_1`, `t_2` from the 14 equations, `t_6` from the rotation left.
+    fn back_substitute(
+        &self,
+        f: &[[[f64; 9]; 6]; 3],
+        m: &[[f64; 35]; ROWS],
+        t3: f64,
+        rotation: &Matrix3<f64>,
+    ) -> Option<[f64; 6]> {
+        let (s3, c3) = t3.sin_cos();
+        let v = null12(&sigma(f, c3, s3))?;
+        // v[column(i, j)] ~ x_4^i x_5^j: each tangent from its best-scaled pair.
+        let mut best4 = (0.0, 0.0, -1.0);
+        let mut best5 = (0.0, 0.0, -1.0);
+        for i in 0..4 {
+            for j in 0..3 {
+                let lo = v[column(i, j)];
+                if i < 3 {
+                    let hi = v[column(i + 1, j)];
+                    let n = lo * lo + hi * hi;
+                    if n > best4.2 {
+                        best4 = (hi, lo, n);
+                    }
+                }
+                if j < 2 {
+                    let hi = v[column(i, j + 1)];
+                    let n = lo * lo + hi * hi;
+                    if n > best5.2 {
+                        best5 = (hi, lo, n);
+                    }
+                }
+            }
+        }
+        let t4 = 2.0 * best4.0.atan2(best4.1);
+        let t5 = 2.0 * best5.0.atan2(best5.1);
+        // t_1, t_2: Q y = P(t_3, t_4, t_5), least squares (normal equations).
+        let b3 = basis(t3);
+        let b45 = products(t4, t5);
+        let mut qtq = nalgebra::SMatrix::<f64, 8, 8>::zeros();
+        let mut qth = nalgebra::SVector::<f64, 8>::zeros();
+        for row in m {
+            let h: f64 = (0..3)
+                .map(|k| b3[k] * dot9(row[8 + 9 * k..17 + 9 * k].try_into().expect("9"), &b45))
+                .sum();
+            for i in 0..8 {
+                qth[i] += row[i] * h;
+                for j in 0..8 {
+                    qtq[(i, j)] += row[i] * row[j];
+                }
+            }
+        }
+        let y = qtq.cholesky()?.solve(&qth);
+        // y: c2, s2, c1, c1 c2, c1 s2, s1, s1 c2, s1 s2.
+        let t1 = y[5].atan2(y[2]);
+        let t2 = y[1].atan2(y[0]);
+        // t_6: R_6 = (R_1 .. R_5)^T R_D, a turn about w_6.
+        let w = &self.w;
+        let turns = [t1, t2, t3, t4, t5];
+        let x = w[5].cross(&if w[5].x.abs() < 0.6 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        });
+        // u = R_5^T .. R_1^T R_D x: R_1^T applied first.
+        let mut u = rotation * x;
+        for (wi, t) in w.iter().zip(&turns) {
+            let (s, c) = t.sin_cos();
+            u = turn_vector(wi, c, -s, &u);
+        }
+        // x is perpendicular to w_6 (not of unit length: only the angle counts).
+        let up = u - w[5] * w[5].dot(&u);
+        let t6 = w[5].dot(&x.cross(&up)).atan2(x.dot(&up));
+        let out = [t1, t2, t3, t4, t5, t6];
+        out.iter().all(|t| t.is_finite()).then_some(out)
+    }
+}
+
+impl General {
+    /// The error of turns `t`: joint 6's axis point and the frame against `goal_p` and
+    /// `rotation` (scaled coordinates, rad), and with `jacobian` the turns' Jacobian of it.
+    fn error(
+        &self,
+        t: &[f64; 6],
+        rotation: &Matrix3<f64>,
+        goal_p: &Vector3<f64>,
+        jacobian: Option<&mut nalgebra::Matrix6<f64>>,
+    ) -> nalgebra::Vector6<f64> {
+        let (w, r) = (&self.w, &self.r);
+        // The moved axes (spatial frame), and the motion so far: x -> rot x + shift.
+        let mut ws = [Vector3::zeros(); 6];
+        let mut rs = [Vector3::zeros(); 6];
+        let mut rot = Matrix3::identity();
+        let mut shift = Vector3::zeros();
+        for i in 0..6 {
+            ws[i] = rot * w[i];
+            rs[i] = rot * r[i] + shift;
+            let ri = rodrigues(&w[i], t[i]);
+            shift += rot * (r[i] - ri * r[i]);
+            rot *= ri;
+        }
+        let p = rot * r[5] + shift;
+        let dp = goal_p - p;
+        let da = crate::model::kinematics::log_so3(&(rotation * rot.transpose()));
+        if let Some(j) = jacobian {
+            for i in 0..6 {
+                let v = ws[i].cross(&(p - rs[i]));
+                j.fixed_view_mut::<3, 1>(0, i).copy_from(&v);
+                j.fixed_view_mut::<3, 1>(3, i).copy_from(&ws[i]);
+            }
+        }
+        nalgebra::Vector6::new(dp.x, dp.y, dp.z, da.x, da.y, da.z)
+    }
+
+    /// Turns from a root of the determinant, which carries its rounding into them (much of
+    /// it at a double root), refined by Newton's method on the product of the six turns (at
+    /// most 4 steps, while the error falls); whether they then solve the goal to 1e-9 (of the
+    /// reach; rad).
+    fn refine(
+        &self,
+        mut turns: [f64; 6],
+        rotation: &Matrix3<f64>,
+        goal_p: &Vector3<f64>,
+    ) -> ([f64; 6], bool) {
+        let mut e = self.error(&turns, rotation, goal_p, None);
+        if e.norm() < 1e-12 {
+            return (turns, true);
+        }
+        let mut j = nalgebra::Matrix6::zeros();
+        self.error(&turns, rotation, goal_p, Some(&mut j));
+        for _ in 0..4 {
+            let Some(step) = j.lu().solve(&e) else {
+                break;
+            };
+            let trial: [f64; 6] = std::array::from_fn(|i| turns[i] + step[i]);
+            let e2 = self.error(&trial, rotation, goal_p, Some(&mut j));
+            // NaN included: only a smaller error is kept.
+            if e2.norm().partial_cmp(&e.norm()) != Some(std::cmp::Ordering::Less) {
+                break;
+            }
+            (turns, e) = (trial, e2);
+            if e.norm() < 1e-12 {
+                break;
+            }
+        }
+        (turns, e.norm() < 1e-9)
+    }
+}
+
+/// Rotation by `t` about the unit `w`.
+fn rodrigues(w: &Vector3<f64>, t: f64) -> Matrix3<f64> {
+    let (s, c) = t.sin_cos();
+    let k = Matrix3::new(0.0, -w.z, w.y, w.z, 0.0, -w.x, -w.y, w.x, 0.0);
+    Matrix3::identity() + k * s + k * k * (1.0 - c)
+}
+
+/// The determinant of the 12 x 12 matrix as a trigonometric polynomial of degree 8 in `t_3`:
+/// `a[0] + sum_d a[d] cos(d t) + b[d] sin(d t)`.
+struct Determinant {
+    a: [f64; DEGREE + 1],
+    b: [f64; DEGREE + 1],
+}
+
+impl Determinant {
+    /// From its samples at 17 angles a 17th of a turn apart (exact for degree 8).
+    fn of(f: &[[[f64; 9]; 6]; 3]) -> Determinant {
+        let tables = tables();
+        let mut a = [0.0; DEGREE + 1];
+        let mut b = [0.0; DEGREE + 1];
+        for row in &tables.samples {
+            let v = det12(&mut sigma(f, row[1].0, row[1].1));
+            for d in 0..=DEGREE {
+                a[d] += v * row[d].0;
+                b[d] += v * row[d].1;
+            }
+        }
+        let norm = 2.0 / SAMPLES as f64;
+        for d in 0..=DEGREE {
+            a[d] *= norm;
+            b[d] *= norm;
+        }
+        a[0] *= 0.5;
+        Determinant { a, b }
+    }
+
+    /// The value and derivative at an angle whose multiples' cosines and sines are `cs`.
+    fn at(&self, cs: &[(f64, f64); DEGREE + 1]) -> (f64, f64) {
+        let (a, b) = (&self.a, &self.b);
+        let (mut v, mut dv) = (a[0], 0.0);
+        for d in 1..=DEGREE {
+            let (c, s) = cs[d];
+            v += a[d] * c + b[d] * s;
+            dv += d as f64 * (b[d] * c - a[d] * s);
+        }
+        (v, dv)
+    }
+
+    /// The value and derivative at `t`.
+    fn value(&self, t: f64) -> (f64, f64) {
+        self.at(&multiples(t))
+    }
+
+    /// The derivative and second derivative at `t`.
+    fn slope(&self, t: f64) -> (f64, f64) {
+        let (a, b) = (&self.a, &self.b);
+        let cs = multiples(t);
+        let (mut dv, mut ddv) = (0.0, 0.0);
+        for d in 1..=DEGREE {
+            let (c, s) = cs[d];
+            let k = d as f64;
+            dv += k * (b[d] * c - a[d] * s);
+            ddv -= k * k * (a[d] * c + b[d] * s);
+        }
+        (dv, ddv)
+    }
+
+    /// Its real roots in `[-pi, pi]` into `roots`, their count: sign changes on a grid of
+    /// [`GRID`] cells, and of the derivative (two roots in one cell lie on either side of an
+    /// extremum; an extremum within [`DOUBLE`] of the largest value of zero is taken as a
+    /// double root), each refined by Newton's method.
+    fn real_roots(&self, roots: &mut [f64; 2 * DEGREE]) -> usize {
+        let tables = tables();
+        let mut count = 0;
+        let mut push = |t: f64| {
+            if count < roots.len() {
+                roots[count] = t;
+                count += 1;
+            }
+        };
+        let value = |t: f64| self.value(t);
+        let slope = |t: f64| self.slope(t);
+        // The values on the grid; the largest tells an extremum near zero.
+        let mut grid = [(0.0, 0.0); GRID + 1];
+        let mut size: f64 = 0.0;
+        for (g, cs) in grid.iter_mut().zip(&tables.grid) {
+            *g = self.at(cs);
+            size = size.max(g.0.abs());
+        }
+        let step = TAU / GRID as f64;
+        for k in 1..=GRID {
+            let (t0, t1) = (
+                -std::f64::consts::PI + step * (k - 1) as f64,
+                -std::f64::consts::PI + step * k as f64,
+            );
+            let ((f0, g0), (f1, g1)) = (grid[k - 1], grid[k]);
+            if f0 == 0.0 {
+                push(t0);
+            } else if f0.signum() != f1.signum() {
+                if f1 != 0.0 {
+                    push(newton(&value, t0, t1, f0, f1));
+                }
+            } else if g0.signum() != g1.signum() && g0 != 0.0 && g1 != 0.0 {
+                let tm = newton(&slope, t0, t1, g0, g1);
+                let fm = value(tm).0;
+                if fm.signum() != f0.signum() && fm != 0.0 {
+                    push(newton(&value, t0, tm, f0, fm));
+                    push(newton(&value, tm, t1, fm, f1));
+                } else if fm.abs() < DOUBLE * size {
+                    // An extremum at rounding's distance from zero: a double root (two
+                    // solutions merging at a singularity), or a pair rounding made complex.
+                    push(tm);
+                }
+            }
+        }
+        count
+    }
+}
+
+/// `b(t_4) (x) b(t_5)`: the 9 products, `3 m4 + m5`.
+fn products(t4: f64, t5: f64) -> [f64; 9] {
+    let (b4, b5) = (basis(t4), basis(t5));
+    std::array::from_fn(|k| b4[k / 3] * b5[k % 3])
+}
+
+fn dot9(a: &[f64; 9], b: &[f64; 9]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Where monomial `x_4^i x_5^j` (`i <= 3`, `j <= 2`) is in the 12 x 12 matrix: the columns of
+/// `i = 0` (held by the first 6 equations only) first, then `i = 3` (the last 6 only), then
+/// `i = 1, 2`: LU's first six steps then each touch one half of the rows.
+const fn column(i: usize, j: usize) -> usize {
+    let block = match i {
+        0 => 0,
+        3 => 1,
+        1 => 2,
+        _ => 3,
+    };
+    3 * block + j
+}
+
+/// The 12 x 12 matrix at `t_3` (`c3`, `s3` its cosine and sine): the 6 equations in the
+/// monomials `x_4^i x_5^j` (`i <= 2`), then the same times `x_4` (`1 <= i <= 3`); columns as
+/// [`column`] places them.
+fn sigma(f: &[[[f64; 9]; 6]; 3], c3: f64, s3: f64) -> [[f64; 12]; 12] {
+    let mut s = [[0.0; 12]; 12];
+    for row in 0..6 {
+        for i in 0..3 {
+            for j in 0..3 {
+                let c = 3 * i + j;
+                let v = f[0][row][c] + c3 * f[1][row][c] + s3 * f[2][row][c];
+                s[row][column(i, j)] = v;
+                s[row + 6][column(i + 1, j)] = v;
+            }
+        }
+    }
+    s
+}
+
+/// LU of a 12 x 12 matrix with partial pivoting, in place (the upper triangle is `U`); the
+/// determinant, 0 at a zero column.
+fn lu12(a: &mut [[f64; 12]; 12]) -> f64 {
+    let mut det = 1.0;
+    for c in 0..12 {
+        let mut p = c;
+        for r in c + 1..12 {
+            if a[r][c].abs() > a[p][c].abs() {
+                p = r;
+            }
+        }
+        if a[p][c] == 0.0 {
+            return 0.0;
+        }
+        if p != c {
+            a.swap(p, c);
+            det = -det;
+        }
+        let pivot = a[c];
+        det *= pivot[c];
+        for row in a[c + 1..].iter_mut() {
+            // Rows the matrix's blocks of zeros keep out of this step are left alone.
+            if row[c] == 0.0 {
+                continue;
+            }
+            let f = row[c] / pivot[c];
+            for (x, y) in row[c..].iter_mut().zip(&pivot[c..]) {
+                *x -= f * y;
+            }
+        }
+    }
+    det
+}
+
+/// The determinant of a 12 x 12 matrix (the matrix is overwritten).
+fn det12(a: &mut [[f64; 12]; 12]) -> f64 {
+    lu12(a)
+}
+
+/// A null vector of a singular 12 x 12 matrix: from its LU (partial pivoting) with the last
+/// pivot taken as zero, checked against the matrix (rounding-sized residual); else from LU with
+/// full pivoting. `None` when neither gives one.
+fn null12(a: &[[f64; 12]; 12]) -> Option<[f64; 12]> {
+    let mut u = *a;
+    lu12(&mut u);
+    let mut z = [0.0; 12];
+    z[11] = 1.0;
+    for i in (0..11).rev() {
+        let s: f64 = (i + 1..12).map(|k| u[i][k] * z[k]).sum();
+        z[i] = -s / u[i][i];
+    }
+    let size = a.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let norm = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let residual = a
+        .iter()
+        .map(|row| row.iter().zip(&z).map(|(x, y)| x * y).sum::<f64>().abs())
+        .fold(0.0_f64, f64::max);
+    if z.iter().all(|x| x.is_finite()) && residual <= 1e-8 * size * norm {
+        return Some(z);
+    }
+    null12_full(&mut a.clone())
+}
+
+/// [`null12`] by LU with full pivoting (the matrix is overwritten).
+fn null12_full(a: &mut [[f64; 12]; 12]) -> Option<[f64; 12]> {
+    let mut cols: [usize; 12] = std::array::from_fn(|k| k);
+    for c in 0..11 {
+        let (mut pr, mut pc, mut big) = (c, c, 0.0);
+        for (r, row) in a.iter().enumerate().skip(c) {
+            for (k, v) in row.iter().enumerate().skip(c) {
+                if v.abs() > big {
+                    (pr, pc, big) = (r, k, v.abs());
+                }
+            }
+        }
+        if big == 0.0 {
+            return None;
+        }
+        a.swap(c, pr);
+        for row in a.iter_mut() {
+            row.swap(c, pc);
+        }
+        cols.swap(c, pc);
+        let pivot = a[c];
+        for row in a.iter_mut().skip(c + 1) {
+            let f = row[c] / pivot[c];
+            for k in c..12 {
+                row[k] -= f * pivot[k];
+            }
+        }
+    }
+    // U z = 0 with z_11 = 1.
+    let mut z = [0.0; 12];
+    z[11] = 1.0;
+    for i in (0..11).rev() {
+        let s: f64 = (i + 1..12).map(|k| a[i][k] * z[k]).sum();
+        z[i] = -s / a[i][i];
+    }
+    let mut v = [0.0; 12];
+    for (k, &c) in cols.iter().enumerate() {
+        v[c] = z[k];
+    }
+    v.iter().all(|x| x.is_finite()).then_some(v)
+}
+
+/// `(cos d t, sin d t)` for `d = 0 ..= DEGREE`.
+fn multiples(t: f64) -> [(f64, f64); DEGREE + 1] {
+    let (s1, c1) = t.sin_cos();
+    let mut out = [(1.0, 0.0); DEGREE + 1];
+    for d in 1..=DEGREE {
+        let (c, s) = out[d - 1];
+        out[d] = (c * c1 - s * s1, s * c1 + c * s1);
+    }
+    out
+}
+
+/// The multiples of the determinant's sampling angles and of the grid's.
+struct Tables {
+    samples: [[(f64, f64); DEGREE + 1]; SAMPLES],
+    grid: [[(f64, f64); DEGREE + 1]; GRID + 1],
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(|| Tables {
+        samples: std::array::from_fn(|k| multiples(TAU * k as f64 / SAMPLES as f64)),
+        grid: std::array::from_fn(|k| {
+            multiples(-std::f64::consts::PI + TAU * k as f64 / GRID as f64)
+        }),
+    })
+}
+
+/// A root of `f` (value and derivative) in `[a, b]`, where it changes sign (`fa` at `a`, `fb`
+/// at `b`): Newton's method from the secant's root, bisecting when a step leaves the bracket,
+/// to rounding.
+fn newton(f: &impl Fn(f64) -> (f64, f64), mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
+    let mut x = a - fa * (b - a) / (fb - fa);
+    if !(x > a.min(b) && x < a.max(b)) {
+        x = 0.5 * (a + b);
+    }
+    for _ in 0..30 {
+        let (v, dv) = f(x);
+        if v == 0.0 {
+            return x;
+        }
+        if v.signum() == fa.signum() {
+            a = x;
+        } else {
+            b = x;
+        }
+        let next = x - v / dv;
+        let next = if next > a.min(b) && next < a.max(b) {
+            next
+        } else {
+            0.5 * (a + b)
+        };
+        // Rounding's size in the angle: the refinement on the turns does the rest.
+        if (next - x).abs() <= 1e-13 {
+            return next;
+        }
+        x = next;
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::analytic::{Analytic, Family};
+    use super::super::configuration::wrap_pi;
+    use crate::model::kinematics::{log_so3, Chain, Target};
+    use crate::model::robot::JointKind;
+    use rand::{RngExt, SeedableRng};
+
+    /// On random arms of six revolute joints (no simpler closed form): every exact solution
+    /// reaches its goal to 1e-9 (m and rad) through the robot's own forward kinematics (an
+    /// independent formulation: link frames, offsets and slopes), the posture a goal came from
+    /// is among them, and they are distinct; some goals have more than eight.
+    #[test]
+    fn every_solution_of_random_arms_is_found() {
+        let mut counts = [0usize; 17];
+        let mut missed = 0;
+        for seed in 0..20u64 {
+            let robot = crate::apps::simulate::random_robot(&[JointKind::Revolute; 6], seed);
+            let a = Analytic::new(&robot, Target::EndEffector).expect("a closed form");
+            assert_eq!(a.family(), Family::General, "seed {seed}");
+            let chain = Chain::new(&robot);
+            let mut g = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 7);
+            for _ in 0..50 {
+                let v: Vec<f64> = robot
+                    .joints
+                    .iter()
+                    .map(|j| g.random_range(-3.1..3.1) / j.slope.abs())
+                    .collect();
+                let goal = chain.frame_at(&v, Target::EndEffector);
+                let branches = a.solve(&goal);
+                let branches = branches.as_slice();
+                counts[branches.len()] += 1;
+                let mut found = false;
+                for (k, b) in branches.iter().enumerate() {
+                    let f = chain.frame_at(&b.readings, Target::EndEffector);
+                    let dp = (f.translation - goal.translation).norm();
+                    let da = log_so3(&(f.rotation * goal.rotation.transpose())).norm();
+                    if b.exact {
+                        assert!(dp < 1e-9 && da < 1e-9, "seed {seed}: {dp} m, {da} rad");
+                    }
+                    let same = |x: &[f64], y: &[f64]| {
+                        x.iter()
+                            .zip(y)
+                            .zip(&robot.joints)
+                            .all(|((x, y), j)| wrap_pi((x - y) * j.slope).abs() < 1e-6)
+                    };
+                    found |= same(&b.readings, &v);
+                    assert!(
+                        branches[..k]
+                            .iter()
+                            .all(|c| !same(&c.readings, &b.readings)),
+                        "seed {seed}: a solution found twice"
+                    );
+                }
+                if !found {
+                    missed += 1;
+                    // The reading Jacobian by central differences (position, attitude).
+                    let m = nalgebra::DMatrix::from_fn(6, 6, |row, col| {
+                        let h = 1e-6;
+                        let (mut a, mut b) = (v.clone(), v.clone());
+                        a[col] += h;
+                        b[col] -= h;
+                        let (fa, fb) = (
+                            chain.frame_at(&a, Target::EndEffector),
+                            chain.frame_at(&b, Target::EndEffector),
+                        );
+                        if row < 3 {
+                            (fa.translation[row] - fb.translation[row]) / (2.0 * h)
+                        } else {
+                            log_so3(&(fa.rotation * fb.rotation.transpose()))[row - 3] / (2.0 * h)
+                        }
+                    });
+                    let sv = m.singular_values();
+                    let conditioning = sv.min() / sv.max();
+                    assert!(
+                        conditioning < 0.02,
+                        "seed {seed}: a posture {conditioning:.2e} from a singularity missed"
+                    );
+                }
+            }
+        }
+        // Measured: 2 of the 1,000 postures missed, at conditionings 0.011 and 0.0038 (three
+        // roots within 0.04 rad, two of them merged by rounding into a complex pair).
+        assert!(missed <= 3, "{missed} of 1000 postures missed");
+        assert!(counts[9..].iter().sum::<usize>() > 0, "{counts:?}");
+    }
+}
