@@ -91,7 +91,8 @@ impl Branches {
 }
 
 /// One of the solutions: readings (robot file's units), and whether every subproblem on
-/// the way had a real solution (else the nearest was taken: a start, not a solution).
+/// the way had a real solution (else the nearest was taken: a start, not a solution); for the
+/// general form, whether the turns reach the goal to 1e-9 (of the reach; rad).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Branch {
     /// Readings of joints 1 to 6, each joint's turn from the reference posture in `(-pi, pi]`
@@ -469,6 +470,15 @@ pub(crate) mod tests {
         robot
     }
 
+    /// Readings that turn each joint by up to 3.1 rad either way.
+    pub(crate) fn random_readings(robot: &Robot, g: &mut impl rand::Rng) -> Vec<f64> {
+        robot
+            .joints
+            .iter()
+            .map(|j| g.random_range(-3.1..3.1) / j.slope.abs())
+            .collect()
+    }
+
     fn frame(robot: &Robot, readings: &[f64]) -> Frame {
         Chain::new(robot).frame_at(readings, Target::EndEffector)
     }
@@ -483,11 +493,7 @@ pub(crate) mod tests {
             assert_eq!(a.family(), family, "seed {seed}");
             let mut g = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 99);
             for _ in 0..50 {
-                let v: Vec<f64> = robot
-                    .joints
-                    .iter()
-                    .map(|j| g.random_range(-3.1..3.1) / j.slope.abs())
-                    .collect();
+                let v = random_readings(&robot, &mut g);
                 let goal = frame(&robot, &v);
                 let branches = a.solve(&goal);
                 let mut found = false;

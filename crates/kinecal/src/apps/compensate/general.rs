@@ -777,11 +777,11 @@ fn newton(f: &impl Fn(f64) -> (f64, f64), mut a: f64, mut b: f64, fa: f64, fb: f
 
 #[cfg(test)]
 mod tests {
-    use super::super::analytic::{Analytic, Family};
+    use super::super::analytic::{tests::random_readings, Analytic, Family};
     use super::super::configuration::wrap_pi;
     use crate::model::kinematics::{log_so3, Chain, Target};
     use crate::model::robot::JointKind;
-    use rand::{RngExt, SeedableRng};
+    use rand::SeedableRng;
 
     /// On random arms of six revolute joints (no simpler closed form): every exact solution
     /// reaches its goal to 1e-9 (m and rad) through the robot's own forward kinematics (an
@@ -798,11 +798,7 @@ mod tests {
             let chain = Chain::new(&robot);
             let mut g = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 7);
             for _ in 0..50 {
-                let v: Vec<f64> = robot
-                    .joints
-                    .iter()
-                    .map(|j| g.random_range(-3.1..3.1) / j.slope.abs())
-                    .collect();
+                let v = random_readings(&robot, &mut g);
                 let goal = chain.frame_at(&v, Target::EndEffector);
                 let branches = a.solve(&goal);
                 let branches = branches.as_slice();
