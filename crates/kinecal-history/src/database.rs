@@ -304,6 +304,12 @@ pub(crate) fn prepare(
 /// a parameter or combination twice, or parameter rows that are not its report's; an event,
 /// when its serial or time is refused, or it has no note.
 pub fn check_dump(dump: &Dump) -> Result<()> {
+    // What a write refuses in a record's or event's robot serial and time.
+    let identity_problem = |robot_id: &str, at: i64| {
+        serial_problem(robot_id)
+            .map(|p| format!("its robot_id: {p}"))
+            .or_else(|| time_problem(at).map(|p| format!("its at: {p}")))
+    };
     let refused = |what: String, problem: String| {
         Error::Input(format!("{what}: {problem}; nothing was imported"))
     };
@@ -316,11 +322,8 @@ pub fn check_dump(dump: &Dump) -> Result<()> {
                 shown_serial(&r.robot_id)
             )
         };
-        if let Some(problem) = serial_problem(&r.robot_id) {
-            return Err(refused(which(), format!("its robot_id: {problem}")));
-        }
-        if let Some(problem) = time_problem(r.at) {
-            return Err(refused(which(), format!("its at: {problem}")));
+        if let Some(problem) = identity_problem(&r.robot_id, r.at) {
+            return Err(refused(which(), problem));
         }
         check_rows(r, true).map_err(|problem| refused(which(), problem))?;
     }
@@ -333,11 +336,8 @@ pub fn check_dump(dump: &Dump) -> Result<()> {
                 shown_serial(&e.robot_id)
             )
         };
-        if let Some(problem) = serial_problem(&e.robot_id) {
-            return Err(refused(which(), format!("its robot_id: {problem}")));
-        }
-        if let Some(problem) = time_problem(e.at) {
-            return Err(refused(which(), format!("its at: {problem}")));
+        if let Some(problem) = identity_problem(&e.robot_id, e.at) {
+            return Err(refused(which(), problem));
         }
         if e.note.trim().is_empty() {
             return Err(refused(
