@@ -66,6 +66,7 @@ pub(crate) const MOST: usize = 16;
 pub(crate) struct Branches {
     list: [Branch; MOST],
     len: usize,
+    complete: bool,
 }
 
 impl Branches {
@@ -76,6 +77,7 @@ impl Branches {
                 exact: false,
             }; MOST],
             len: 0,
+            complete: true,
         }
     }
 
@@ -87,6 +89,12 @@ impl Branches {
     /// The solutions.
     pub(crate) fn as_slice(&self) -> &[Branch] {
         &self.list[..self.len]
+    }
+
+    /// Whether the exact branches are every solution the nominal robot has: always for the
+    /// families' eight; for the general form, when it can tell (see `general::Solutions`).
+    pub(crate) fn complete(&self) -> bool {
+        self.complete
     }
 }
 
@@ -204,10 +212,11 @@ impl Analytic {
         let mut branches = Branches::new();
         if let Some(g) = &self.general {
             let mut turns = [([0.0; 6], false); MOST];
-            let n = g.solve(&d.rotation, &d.translation, &mut turns);
-            for &(t, exact) in &turns[..n] {
+            let found = g.solve(&d.rotation, &d.translation, &mut turns);
+            for &(t, exact) in &turns[..found.count] {
                 branches.push(self.branch(t, exact));
             }
+            branches.complete = found.complete;
             return branches;
         }
         let mut out = [Branch {

@@ -12,17 +12,21 @@
 //!    seed this is the minimum change from the seed (for a redundant arm too).
 //!
 //!    For a pose goal on a robot whose nominal model has a closed form (a spherical wrist or
-//!    a UR-type arm: see the `analytic` module; any other arm of six revolute joints has the
-//!    general form of the `general` module, up to 16 branches, which end the search only with
-//!    a usable solution, as one can be missed), its eight branches are the next starts (with
+//!    a UR-type arm: see the `analytic` module), its eight branches are the next starts (with
 //!    a seed, unless the seed's own solution was reached at a singularity; without one,
 //!    before the previous solution, which is tried only when the branches do not settle the
 //!    goal), refined on the calibrated model, in the order: branches the nominal robot
 //!    reaches, predicted inside the ranges, in the configuration, not turned from the seed,
 //!    then nearest the reference (a branch at the seed itself, as a program's readings are
 //!    for the pose the nominal model gives them, is not refined again: the seed's own attempt
-//!    stands for it). The first usable one is taken. When none is, the best is
-//!    kept without looking further if every branch the nominal robot reaches refined to a
+//!    stands for it). Any other arm of six revolute joints has the general form (the
+//!    `general` module), which needs no special geometry: its branches are the calibrated
+//!    arm's own solutions (of its rigid geometry), up to 16, and they are *complete* when
+//!    the form can tell that they are all the arm has (every root of its polynomial told
+//!    apart; 850 of 1,000 random goals); with a seed, branches not complete are not tried.
+//!    The first usable one is taken. When none is, the best is
+//!    kept without looking further if the branches are complete, every branch the nominal
+//!    robot reaches refined to a
 //!    solution of its own and the best is flagged only for a range or a change from the
 //!    seed, or, with a seed, if neither the seed nor any branch reached the goal though the
 //!    nominal robot reaches it exactly (the calibrated robot's solutions lie near the
@@ -52,9 +56,10 @@
 //! [`Options::branch`] of it, where the seed's own attempt and the nearest starts look).
 //! Without a seed the search stops at the first usable solution; a goal reached, in range and
 //! in configuration but singular from the first 9 nearest starts skips the rest of them, and,
-//! when the closed form's branches were tried too (none usable), the spread ones (the goal lies
-//! at a singularity: on a random 6R arm, spread starts still found a regular solution for 5 of
-//! 23 such goals of the compensate bench; on the IRB 120 and the UR10, for none).
+//! when the closed form's branches were tried too (none usable) and are complete, the spread
+//! ones (the goal lies at a singularity: on the random 6R arm of the compensate bench, whose
+//! general form's branches are its solutions, the spread starts found no other for any of its
+//! 23 such goals; neither on the IRB 120 and the UR10).
 //!
 //! Every solution has its revolute readings moved by whole turns (which leave the pose as it
 //! is) to the turn nearest the reference, then into the joint's range when that turn is
@@ -338,15 +343,15 @@ impl<'r> TargetSearch<'r> {
         let seed_rank = best.as_ref().map(|(r, _)| *r);
         let seed_singular = seed_rank.is_some_and(|r| !r.0[0] && r.0[4]);
         let seed_failed = seed_rank.is_some_and(|r| r.0[0]);
-        // The general form's branches seldom lie within a change of configuration of a seed
-        // that failed, and cannot end the search without a usable one: a seeded goal goes to
-        // the table's starts near its seed directly.
-        let branches_tried = closed_form
-            && !seed_singular
-            && (!seed_failed || self.branches_when_seed_fails)
-            && (seed.is_none() || self.closed_form_complete(target));
+        let branches_tried =
+            closed_form && !seed_singular && (!seed_failed || self.branches_when_seed_fails);
+        // Whether the branches were every solution the nominal robot has (see
+        // [`Branches::complete`]).
+        let mut complete = false;
         if branches_tried {
-            let answer = self.try_closed_form(goal, target, seed, &mut best, &mut looked_up, out);
+            let answer;
+            (answer, complete) =
+                self.try_closed_form(goal, target, seed, &mut best, &mut looked_up, out);
             if let Some(solved) = answer {
                 return solved;
             }
@@ -370,10 +375,7 @@ impl<'r> TargetSearch<'r> {
         // Step 3: nothing usable near the goal: starts spread over the whole table, unless the
         // search is settled (with a seed; without one, after the closed form's branches too).
         let settled_now = settled(&judged, tried, seed.is_some())
-            && (seed.is_some()
-                || (branches_tried
-                    && self.skip_spread_if_singular
-                    && self.closed_form_complete(target)));
+            && (seed.is_some() || (complete && self.skip_spread_if_singular));
         if !any_usable && !settled_now {
             self.try_spread_starts(goal, target, seed, &mut best, &mut judged, tried, out);
         }
@@ -465,6 +467,7 @@ impl<'r> TargetSearch<'r> {
     /// The answer when they end the search: a usable solution, every solution of the goal
     /// known, or, with a seed, a goal out of the calibrated robot's reach; `None` when the
     /// table's starts are to be tried (`looked_up` set when their nearest were looked up).
+    /// With whether the branches were every solution the nominal robot has.
     fn try_closed_form(
         &mut self,
         goal: &Goal,
@@ -473,22 +476,19 @@ impl<'r> TargetSearch<'r> {
         best: &mut Option<(Rank, Solved)>,
         looked_up: &mut bool,
         out: &mut [f64],
-    ) -> Option<Solved> {
-        let (settled, exact) = self.closed_form_branches(goal, target, best, out);
+    ) -> (Option<Solved>, bool) {
+        let (settled, exact, complete) = self.closed_form_branches(goal, target, best, out);
         if settled {
-            return Some(self.finish(best.take().expect("a branch was tried").1, goal, out));
+            let solved = self.finish(best.take().expect("a branch was tried").1, goal, out);
+            return (Some(solved), complete);
         }
         // With a seed, no solution reached from it nor from any branch, among them branches
         // the nominal robot reaches exactly: the calibrated robot's solutions lie near those
         // (the two models differ by a calibration), so the goal is out of its reach (the
         // table's starts found no solution for any such goal of the compensate bench).
-        if seed.is_some()
-            && best.as_ref().is_some_and(|(r, _)| r.0[0])
-            && exact > 0
-            && self.closed_form_complete(target)
-        {
+        if seed.is_some() && best.as_ref().is_some_and(|(r, _)| r.0[0]) && exact > 0 && complete {
             let attempt = best.take().expect("at least one attempt");
-            return Some(self.polish(attempt, goal, target, out));
+            return (Some(self.polish(attempt, goal, target, out)), complete);
         }
         if let (None, Some(p)) = (seed, &self.previous) {
             // Not settled: the previous solution as a start too, as for any robot.
@@ -496,10 +496,11 @@ impl<'r> TargetSearch<'r> {
             let (nearest, looked) = self.reference_is_nearest(goal, target);
             *looked_up |= looked;
             if nearest && usable(&self.attempt_from_reference(goal, target, false, best, out)) {
-                return Some(self.finish(best.take().expect("considered").1, goal, out));
+                let solved = self.finish(best.take().expect("considered").1, goal, out);
+                return (Some(solved), complete);
             }
         }
-        None
+        (None, complete)
     }
 
     /// Step 2: attempts from the table's starts nearest the goal, nearest first (looked up
@@ -604,21 +605,16 @@ impl<'r> TargetSearch<'r> {
         if let Some((_, a)) = self.closed_forms.iter().find(|(t, _)| *t == target) {
             return a.is_some();
         }
-        let a = Analytic::new(self.nominal, target);
+        let a = match Analytic::new(self.nominal, target) {
+            Some(a) if a.family() != Family::General => Some(a),
+            // The general form needs no special geometry: the calibrated robot's own, whose
+            // branches are its exact solutions (of its rigid geometry).
+            Some(_) => Analytic::new(self.robot, target),
+            None => None,
+        };
         let found = a.is_some();
         self.closed_forms.push((target, a));
         found
-    }
-
-    /// Whether the closed form for `target` gives every solution the nominal robot has: the
-    /// families' eight branches do; the general form's roots may miss one near a double root
-    /// (see the `general` module), so its branches settle a goal only by a usable solution.
-    fn closed_form_complete(&self, target: Target) -> bool {
-        self.closed_forms
-            .iter()
-            .find(|(t, _)| *t == target)
-            .and_then(|(_, a)| a.as_ref())
-            .is_some_and(|a| a.family() != Family::General)
     }
 
     /// Whether the calibrated arm's reach bound proves that no posture puts `target` at
@@ -724,9 +720,9 @@ impl<'r> TargetSearch<'r> {
         target: Target,
         best: &mut Option<(Rank, Solved)>,
         out: &mut [f64],
-    ) -> (bool, usize) {
+    ) -> (bool, usize, bool) {
         let Goal::Pose(frame) = goal else {
-            return (false, 0);
+            return (false, 0, false);
         };
         let Some(analytic) = self
             .closed_forms
@@ -734,10 +730,16 @@ impl<'r> TargetSearch<'r> {
             .find(|(t, _)| *t == target)
             .and_then(|(_, a)| a.as_ref())
         else {
-            return (false, 0);
+            return (false, 0, false);
         };
         let branches = analytic.solve(frame);
-        let complete = analytic.family() != Family::General;
+        let complete = branches.complete();
+        // With a seed, branches that may not be all the goal's solutions are not tried: they
+        // seldom lie within a change of configuration of a seed that failed, and the table's
+        // starts near the seed look for its solution.
+        if self.seeded && !complete {
+            return (false, 0, false);
+        }
         let branches = branches.as_slice();
         let exact = branches.iter().filter(|b| b.exact).count();
         // ((inexact, outside a range, not in the configuration, turned), squared distance to
@@ -805,7 +807,7 @@ impl<'r> TargetSearch<'r> {
                 }
             }
             if usable(&self.consider(s, seeded, best, out)) {
-                return (true, exact);
+                return (true, exact, complete);
             }
         }
         // Two branches refined to one solution: near a singularity the calibrated robot's
@@ -823,6 +825,7 @@ impl<'r> TargetSearch<'r> {
         (
             complete && placed && exact_reached > 0 && !exact_failed && !merged,
             exact,
+            complete,
         )
     }
 
@@ -1458,8 +1461,8 @@ mod tests {
     }
 
     /// The arms the reach bound is tested on, each with its calibrated twin: a random
-    /// spherical-wrist arm, the ABB IRB 120 of `examples/robots`, and a random 6R arm (no
-    /// closed form; its bound is loose).
+    /// spherical-wrist arm, the ABB IRB 120 of `examples/robots`, and a random 6R arm (the
+    /// general form; its bound is loose).
     fn reach_test_arms() -> Vec<(&'static str, Robot, Robot)> {
         let irb120 = crate::model::robot_file::parse_robot_toml(
             include_str!("../../../../../examples/robots/abb_irb120.toml"),
@@ -1635,11 +1638,11 @@ mod tests {
 
     /// An unseeded pose goal that the closed form's branches and the nearest starts find only at
     /// a singularity skips the spread starts, and no row is flagged otherwise for it: on the
-    /// arms of the reach bound's tests (a spherical-wrist arm, the IRB 120; a random 6R arm,
-    /// without a closed form, is searched as before), over the poses and positions the
-    /// calibrated twin reaches at 400 postures, every row has the same flags as with the spread
-    /// starts tried; on the arms with a closed form, some goals at a singularity and fewer
-    /// forward kinematics, on the random arm the same.
+    /// arms of the reach bound's tests (a spherical-wrist arm, the IRB 120, and a random 6R arm
+    /// with the general form, whose complete branches settle such a goal too), over the poses
+    /// and positions the calibrated twin reaches at 400 postures, every row has the same flags
+    /// as with the spread starts tried, some goals at a singularity, and fewer forward
+    /// kinematics.
     #[test]
     fn a_goal_singular_from_the_nearest_starts_skips_the_spread_ones() {
         for (name, nominal, calibrated) in reach_test_arms() {
@@ -1668,17 +1671,11 @@ mod tests {
             for (k, (a, b)) in skipping.iter().zip(&trying).enumerate() {
                 assert_eq!(a, b, "{name}: goal {k}");
             }
-            if name == "random 6R" {
-                // A guard: the rule stays confined to arms with a closed form (on this arm the
-                // spread starts found regular solutions the nearest ones had not).
-                assert_eq!(cost_skipping, cost_trying, "{name}");
-            } else {
-                assert!(singular > 0, "{name}: no goal at a singularity");
-                assert!(
-                    cost_skipping < cost_trying,
-                    "{name}: {cost_skipping} against {cost_trying} forward kinematics"
-                );
-            }
+            assert!(singular > 0, "{name}: no goal at a singularity");
+            assert!(
+                cost_skipping < cost_trying,
+                "{name}: {cost_skipping} against {cost_trying} forward kinematics"
+            );
         }
     }
 
