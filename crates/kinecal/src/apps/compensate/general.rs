@@ -23,7 +23,7 @@
 //! only where the 12 x 12 matrix is singular: its determinant, a trigonometric polynomial in
 //! `t_3` of degree 8 (up to 16 real roots, the arm's at most 16 solutions), is found from 17
 //! samples and its real roots by bracketing on a grid. At each root the matrix's null vector
-//! gives `t_4` and `t_5`, the 14 equations `t_1` and `t_2` (least squares), and the rotation
+//! gives `t_4` and `t_5`, the 8 equations the elimination pivoted on `t_1` and `t_2`, and the rotation
 //! left `t_6`; Newton's method on the product of the six turns then removes the roots'
 //! rounding, and a solution is *exact* when the turns reach the goal to 1e-9 (of the reach;
 //! rad).
@@ -73,6 +73,9 @@ const CERTAIN: f64 = 1e-7;
 /// Halvings of a grid cell the bounds of the determinant's derivatives may need to tell its
 /// roots (a cell of 1/96 of a turn down to 1/6,144).
 const DEPTH: u32 = 6;
+/// Steps of Newton's method on the determinant stop below this (rad): rounding's size in the
+/// angle (the refinement on the turns does the rest).
+const ROUNDING: f64 = 1e-13;
 /// `POWERS[j][d] = d^j`.
 const POWERS: [[f64; DEGREE + 1]; DEGREE + 1] = {
     let mut p = [[1.0; DEGREE + 1]; DEGREE + 1];
@@ -281,7 +284,8 @@ impl General {
 
     /// The 14 equations for the goal's joint 6 axis (point `goal_p`, direction `goal_l`,
     /// scaled coordinates) as `[Q | P]` (Q the 8 products of `t_1`, `t_2`, P the 27 of `t_3`,
-    /// `t_4`, `t_5`), and the 6 equations free of `t_1`, `t_2` in half-angle monomials:
+    /// `t_4`, `t_5`), eliminated: the 8 pivot rows (Q upper triangular), and the 6 equations
+    /// free of `t_1`, `t_2` in half-angle monomials:
     /// `f[k][row][3 i + j]` the coefficient of `x_4^i x_5^j` times basis function `k` of `t_3`.
     /// `None` when Q's columns are dependent; with whether they are well apart (each pivot of
     /// the elimination above [`WELL_POSED`] of the largest entry, else the 6 equations may
@@ -291,7 +295,7 @@ impl General {
         &self,
         goal_p: &Vector3<f64>,
         goal_l: &Vector3<f64>,
-    ) -> Option<([[f64; 35]; ROWS], [[[f64; 9]; 6]; 3], bool)> {
+    ) -> Option<([[f64; 35]; 8], [[[f64; 9]; 6]; 3], bool)> {
         let (w, r) = (&self.w, &self.r);
         // The right sides: e_2^-1 e_1^-1 applied to D's axis 6, sampled on the 3 x 3 grid.
         let mut rhs = [[0.0; 9]; ROWS];
@@ -323,7 +327,6 @@ impl General {
             }
             m[q][8] -= rhs[q][0];
         }
-        let keep = m;
         // Eliminate Q's columns (partial pivoting): the last 6 rows are free of t_1, t_2.
         let big = m
             .iter()
@@ -369,15 +372,17 @@ impl General {
                 }
             }
         }
-        Some((keep, f, well_posed))
+        let pivots = std::array::from_fn(|i| m[i]);
+        Some((pivots, f, well_posed))
     }
 
     /// The turns at root `t3` of the determinant: `t_4`, `t_5` from the null vector of the
-    /// 12 x 12 matrix, `t_1`, `t_2` from the 14 equations, `t_6` from the rotation left.
+    /// 12 x 12 matrix, `t_1`, `t_2` from the eliminated equations' pivot rows `m`, `t_6` from
+    /// the rotation left.
     fn back_substitute(
         &self,
         f: &[[[f64; 9]; 6]; 3],
-        m: &[[f64; 35]; ROWS],
+        m: &[[f64; 35]; 8],
         t3: f64,
         rotation: &Matrix3<f64>,
     ) -> Option<[f64; 6]> {
@@ -407,23 +412,19 @@ impl General {
         }
         let t4 = 2.0 * best4.0.atan2(best4.1);
         let t5 = 2.0 * best5.0.atan2(best5.1);
-        // t_1, t_2: Q y = P(t_3, t_4, t_5), least squares (normal equations).
+        // t_1, t_2: Q y = P(t_3, t_4, t_5), by the elimination's 8 pivot rows (upper
+        // triangular in Q; the other 6 hold at the root).
         let b3 = basis(t3);
         let b45 = products(t4, t5);
-        let mut qtq = nalgebra::SMatrix::<f64, 8, 8>::zeros();
-        let mut qth = nalgebra::SVector::<f64, 8>::zeros();
-        for row in m {
+        let mut y = [0.0; 8];
+        for i in (0..8).rev() {
+            let row = &m[i];
             let h: f64 = (0..3)
                 .map(|k| b3[k] * dot9(row[8 + 9 * k..17 + 9 * k].try_into().expect("9"), &b45))
                 .sum();
-            for i in 0..8 {
-                qth[i] += row[i] * h;
-                for j in 0..8 {
-                    qtq[(i, j)] += row[i] * row[j];
-                }
-            }
+            let known: f64 = (i + 1..8).map(|j| row[j] * y[j]).sum();
+            y[i] = (h - known) / row[i];
         }
-        let y = qtq.cholesky()?.solve(&qth);
         // y: c2, s2, c1, c1 c2, c1 s2, s1, s1 c2, s1 s2.
         let t1 = y[5].atan2(y[2]);
         let t2 = y[1].atan2(y[0]);
@@ -721,26 +722,26 @@ impl Determinant {
                 y[j].abs() > spread
             }
         };
-        // An extremum whose value does not reach zero: the pair of complex roots there, when
-        // within [`NEAR`] of the real line (the value's gap to zero against its curvature),
-        // is two solutions about to merge (of the nominal robot; the calibrated one may have
-        // them): a start.
-        let extremum_near = |found: &mut Found<'_>, tm: f64, fm: f64| {
-            let curvature = self.value(tm)[2];
-            if 2.0 * fm.abs() < NEAR * NEAR * curvature.abs() {
+        // An extremum (value and curvature `em`) whose value does not reach zero: the pair of
+        // complex roots there, when within [`NEAR`] of the real line (the value's gap to zero
+        // against its curvature), is two solutions about to merge, a start (a goal just out of
+        // reach: the nearest posture; an elastic arm's sag may bring them).
+        let extremum_near = |found: &mut Found<'_>, tm: f64, em: [f64; 3]| {
+            if 2.0 * em[0].abs() < NEAR * NEAR * em[2].abs() {
                 found.push(tm, true);
             }
         };
         if !crosses && signed(0) {
             if g0.signum() != g1.signum() && g0 != 0.0 && g1 != 0.0 {
-                let tm = newton(&slope, t0, t1, g0, g1);
-                extremum_near(found, tm, value(tm).0);
+                // Where only for a start: to a millionth of a radian.
+                let tm = newton(&slope, t0, t1, g0, g1, 1e-6);
+                extremum_near(found, tm, self.value(tm));
             }
             return true;
         }
         if signed(1) {
             if crosses {
-                found.push(newton(&value, t0, t1, f0, f1), false);
+                found.push(newton(&value, t0, t1, f0, f1, ROUNDING), false);
             }
             return true;
         }
@@ -748,25 +749,26 @@ impl Determinant {
             // At most one extremum.
             if g0.signum() == g1.signum() || g0 == 0.0 || g1 == 0.0 {
                 if crosses {
-                    found.push(newton(&value, t0, t1, f0, f1), false);
+                    found.push(newton(&value, t0, t1, f0, f1, ROUNDING), false);
                 }
                 return g0 != 0.0 && g1 != 0.0;
             }
-            let tm = newton(&slope, t0, t1, g0, g1);
-            let fm = value(tm).0;
+            let tm = newton(&slope, t0, t1, g0, g1, ROUNDING);
+            let em = self.value(tm);
+            let fm = em[0];
             // Within rounding of zero, the roots are uncertain, found as the values tell.
             let certain = fm.abs() > limits.rounding;
             if crosses {
                 if fm.signum() != f0.signum() {
-                    found.push(newton(&value, t0, tm, f0, fm), false);
+                    found.push(newton(&value, t0, tm, f0, fm, ROUNDING), false);
                 } else {
-                    found.push(newton(&value, tm, t1, fm, f1), false);
+                    found.push(newton(&value, tm, t1, fm, f1, ROUNDING), false);
                 }
             } else if fm.signum() != f0.signum() {
-                found.push(newton(&value, t0, tm, f0, fm), false);
-                found.push(newton(&value, tm, t1, fm, f1), false);
+                found.push(newton(&value, t0, tm, f0, fm, ROUNDING), false);
+                found.push(newton(&value, tm, t1, fm, f1, ROUNDING), false);
             } else if certain {
-                extremum_near(found, tm, fm);
+                extremum_near(found, tm, em);
             } else {
                 found.push(tm, false);
             }
@@ -782,15 +784,16 @@ impl Determinant {
         // What the grid alone tells: a sign change is a root; two roots lie on either side of
         // an extremum; an extremum near zero is tried as a double root.
         if crosses {
-            found.push(newton(&value, t0, t1, f0, f1), false);
+            found.push(newton(&value, t0, t1, f0, f1, ROUNDING), false);
         } else if g0.signum() != g1.signum() && g0 != 0.0 && g1 != 0.0 {
-            let tm = newton(&slope, t0, t1, g0, g1);
-            let fm = value(tm).0;
+            let tm = newton(&slope, t0, t1, g0, g1, ROUNDING);
+            let em = self.value(tm);
+            let fm = em[0];
             if fm.signum() != f0.signum() && fm != 0.0 {
-                found.push(newton(&value, t0, tm, f0, fm), false);
-                found.push(newton(&value, tm, t1, fm, f1), false);
+                found.push(newton(&value, t0, tm, f0, fm, ROUNDING), false);
+                found.push(newton(&value, tm, t1, fm, f1, ROUNDING), false);
             } else {
-                extremum_near(found, tm, fm);
+                extremum_near(found, tm, em);
             }
         }
         false
@@ -886,15 +889,19 @@ fn lu12(a: &mut [[f64; 12]; 12]) -> f64 {
             a.swap(p, c);
             det = -det;
         }
-        let pivot = a[c];
+        let (done, rest) = a.split_at_mut(c + 1);
+        let pivot = &done[c];
         det *= pivot[c];
-        for row in a[c + 1..].iter_mut() {
+        let inverse = 1.0 / pivot[c];
+        for row in rest {
             // Rows the matrix's blocks of zeros keep out of this step are left alone.
-            if row[c] == 0.0 {
+            let f = row[c] * inverse;
+            if f == 0.0 {
                 continue;
             }
-            let f = row[c] / pivot[c];
-            for (x, y) in row[c..].iter_mut().zip(&pivot[c..]) {
+            // The whole row, a fixed width (the pivot row's entries left of c are rounding's,
+            // and only the upper triangle is read).
+            for (x, y) in row.iter_mut().zip(pivot) {
                 *x -= f * y;
             }
         }
@@ -1002,8 +1009,15 @@ fn tables() -> &'static Tables {
 
 /// A root of `f` (value and derivative) in `[a, b]`, where it changes sign (`fa` at `a`, `fb`
 /// at `b`): Newton's method from the secant's root, bisecting when a step leaves the bracket,
-/// to rounding.
-fn newton(f: &impl Fn(f64) -> (f64, f64), mut a: f64, mut b: f64, fa: f64, fb: f64) -> f64 {
+/// until a step is below `tolerance` (rad).
+fn newton(
+    f: &impl Fn(f64) -> (f64, f64),
+    mut a: f64,
+    mut b: f64,
+    fa: f64,
+    fb: f64,
+    tolerance: f64,
+) -> f64 {
     let mut x = a - fa * (b - a) / (fb - fa);
     if !(x > a.min(b) && x < a.max(b)) {
         x = 0.5 * (a + b);
@@ -1024,8 +1038,7 @@ fn newton(f: &impl Fn(f64) -> (f64, f64), mut a: f64, mut b: f64, fa: f64, fb: f
         } else {
             0.5 * (a + b)
         };
-        // Rounding's size in the angle: the refinement on the turns does the rest.
-        if (next - x).abs() <= 1e-13 {
+        if (next - x).abs() <= tolerance {
             return next;
         }
         x = next;
