@@ -88,7 +88,8 @@ pub struct TargetSearch<'r> {
     comp: Compensator<'r>,
     robot: &'r Robot,
     nominal: &'r Robot,
-    /// Per target frame: the nominal robot's closed form, when it has one.
+    /// Per target frame: the nominal robot's closed form, when it has one (of a family; for
+    /// the general form, the calibrated robot's own).
     closed_forms: Vec<(Target, Option<Analytic>)>,
     /// Whether pose goals start from the closed form's branches (tests turn it off to compare
     /// with the search alone).
@@ -345,8 +346,8 @@ impl<'r> TargetSearch<'r> {
         let seed_failed = seed_rank.is_some_and(|r| r.0[0]);
         let branches_tried =
             closed_form && !seed_singular && (!seed_failed || self.branches_when_seed_fails);
-        // Whether the branches were every solution the nominal robot has (see
-        // [`Branches::complete`]).
+        // Whether the branches were every solution of the arm they solve (the nominal robot
+        // for the families, the calibrated one for the general form; `Branches::complete`).
         let mut complete = false;
         if branches_tried {
             let answer;
@@ -467,7 +468,7 @@ impl<'r> TargetSearch<'r> {
     /// The answer when they end the search: a usable solution, every solution of the goal
     /// known, or, with a seed, a goal out of the calibrated robot's reach; `None` when the
     /// table's starts are to be tried (`looked_up` set when their nearest were looked up).
-    /// With whether the branches were every solution the nominal robot has.
+    /// With whether the branches were every solution of the arm they solve.
     fn try_closed_form(
         &mut self,
         goal: &Goal,
@@ -707,13 +708,16 @@ impl<'r> TargetSearch<'r> {
     /// robot reaches before those it does not, then by what the branch itself predicts
     /// (outside a range, not in the configuration, turned from the seed beyond
     /// [`Options::branch`]), then nearest the reference first. Stops at the first usable
-    /// solution. Whether the search is settled: a usable solution found, or every branch the
-    /// nominal robot reaches refined to a reached solution of its own, none two to the same,
-    /// and the best of them in the configuration and away from singularities, flagged only for
-    /// a joint range or a change from the seed (the goal's solutions are then all known; near
-    /// a singularity the calibrated robot may have solutions the nominal one has not, which
-    /// the table of starts looks for). Returns whether it is settled, and how many branches
-    /// the nominal robot reaches exactly.
+    /// solution. Whether the search is settled: a usable solution found, or the branches
+    /// complete (see `Branches::complete`; with a seed, branches not complete are not tried),
+    /// every branch the nominal robot reaches refined to a reached solution of its own, none
+    /// two to the same, and the best of them in the configuration and away from
+    /// singularities, flagged only for a joint range or a change from the seed (the goal's
+    /// solutions are then all known; near a singularity the calibrated robot may have
+    /// solutions the nominal one has not, which the table of starts looks for). Returns
+    /// whether it is settled, how many branches the nominal robot reaches exactly, and
+    /// whether they were complete. (For the general form, "the nominal robot" is the
+    /// calibrated one it solves.)
     fn closed_form_branches(
         &mut self,
         goal: &Goal,
