@@ -467,7 +467,8 @@ pub struct SimulateArgs {
     /// fraction of each slope).
     #[arg(long, value_name = "SPEC")]
     pub perturb_std: Option<String>,
-    /// Gaussian measurement noise: `length=L,angle=A,pixel=P` (any of them; file units, pixels).
+    /// Gaussian measurement noise: `length=L,angle=A,pixel=P` (any of them; file units, pixels;
+    /// at most the robot's reach, half a turn, the largest image's larger side).
     #[arg(long, value_name = "SPEC")]
     pub noise: Option<String>,
     /// Measure positions only (a laser tracker with one reflector).
@@ -721,7 +722,8 @@ pub struct Iso9283SimulateArgs {
     /// Cycles (1 to 100,000) [default: 30].
     #[arg(long, value_name = "N")]
     pub cycles: Option<usize>,
-    /// Gaussian noise on the attained poses: `length=L,angle=A` (robot file units).
+    /// Gaussian noise on the attained poses: `length=L,angle=A` (robot file units; at most the
+    /// robot's reach and half a turn).
     #[arg(long, value_name = "SPEC")]
     pub noise: Option<String>,
     /// Random seed, 0 to 2^63-1 (the same seed gives the same log on every machine).

@@ -270,3 +270,94 @@ fn a_serial_longer_than_128_characters_is_refused_and_a_stored_one_is_drawn() {
     );
     assert!(!d.join("new.sqlite").exists());
 }
+
+/// A simulation's noise is bounded by what an instrument could have: at most the robot's reach,
+/// half a turn, the larger side of the robot file's largest image. Beyond, refused with the
+/// bound and no file written (a noise of 1e300 wrote coordinates the readers refuse); at the
+/// bound, the file written reads back.
+#[test]
+fn simulated_noise_beyond_any_instrument_is_refused_and_at_the_bound_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let cameras = examples.join("cameras");
+    let robot = cameras.join("eye_in_hand_truth.toml");
+    let robot = robot.to_str().unwrap();
+    // The GE A4's file is in inches and degrees.
+    for (noise, message) in [
+        (
+            "length=1e300",
+            "--noise: the length noise 1e300 in is more than any instrument's: at most \
+             52.454418 in (the robot's reach)",
+        ),
+        (
+            "angle=200",
+            "--noise: the angle noise 200 deg is more than any instrument's: at most 180 deg \
+             (half a turn)",
+        ),
+    ] {
+        let e = run_err(
+            d,
+            &argv(&format!(
+                "simulate --robot ge-a4 --postures 5 --noise {noise} --out m.csv"
+            )),
+        );
+        assert!(e.contains(message), "{e}");
+        assert!(!d.join("m.csv").exists());
+    }
+    let e = run_err(
+        d,
+        &argv(&format!(
+            "simulate --robot {robot} --camera wrist --board board --postures 3 --seed 1 \
+             --noise pixel=641 --out px.csv"
+        )),
+    );
+    assert!(
+        e.contains(
+            "the pixel noise 641 px is more than any instrument's: at most 640 px (the larger \
+             side of the robot file's largest image)"
+        ),
+        "{e}"
+    );
+    assert!(!d.join("px.csv").exists());
+    // The ISO 9283 log's simulation too.
+    run_ok(d, &argv("iso9283 plan --robot ge-a4 --out poses.csv"));
+    let e = run_err(
+        d,
+        &argv("iso9283 simulate --robot ge-a4 --poses poses.csv --cycles 2 --noise length=1e300 --out log.csv"),
+    );
+    assert!(e.contains("the length noise 1e300 in is more than"), "{e}");
+    assert!(!d.join("log.csv").exists());
+    // At the bounds: written, and read back (the fits may go where they like; the readers
+    // take every row).
+    run_ok(
+        d,
+        &argv("simulate --robot ge-a4 --postures 20 --seed 2 --noise length=52.45,angle=180 --out m.csv"),
+    );
+    let (_, out, err) = run(
+        d,
+        &argv("calibrate --robot ge-a4 --data m.csv --out fit.toml"),
+    );
+    assert!(!err.contains("m.csv:"), "{out}{err}");
+    run_ok(
+        d,
+        &argv(&format!(
+            "simulate --robot {robot} --camera wrist --board board --postures 3 --seed 1 \
+             --noise pixel=640 --out px.csv"
+        )),
+    );
+    let model = cameras.join("eye_in_hand.toml");
+    let (_, out, err) = run(
+        d,
+        &argv(&format!(
+            "calibrate --robot {} --pixels px.csv --out cam.toml",
+            model.to_str().unwrap()
+        )),
+    );
+    assert!(!err.contains("px.csv:"), "{out}{err}");
+    run_ok(
+        d,
+        &argv("iso9283 simulate --robot ge-a4 --poses poses.csv --cycles 2 --noise length=52.45 --out log.csv"),
+    );
+    run_ok(d, &argv("iso9283 evaluate --data log.csv"));
+}

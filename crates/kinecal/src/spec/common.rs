@@ -296,6 +296,60 @@ impl LengthAngle {
     }
 }
 
+/// Refuses a noise no instrument has, so that the file a simulation writes can be read back
+/// (a noise of 1e300 wrote coordinates the readers refuse): `[length, angle, pixel]` in
+/// `robot`'s file units and pixels, at most the robot's reach, half a turn, and the larger
+/// side of the robot file's largest image.
+pub(crate) fn check_noise(setting: Setting, robot: &Robot, noise: [Option<f64>; 3]) -> Result<()> {
+    let units = robot.units;
+    let image = robot
+        .cameras
+        .iter()
+        .map(|c| c.width.max(c.height))
+        .max()
+        .map_or(f64::INFINITY, f64::from);
+    let most = [
+        (
+            "length",
+            Quantity::Length,
+            robot.reach(),
+            "the robot's reach",
+        ),
+        (
+            "angle",
+            Quantity::Angle,
+            std::f64::consts::PI,
+            "half a turn",
+        ),
+        (
+            "pixel",
+            Quantity::Pixel,
+            image,
+            "the larger side of the robot file's largest image",
+        ),
+    ];
+    for (given, (name, q, bound, what)) in noise.into_iter().zip(most) {
+        let Some(v) = given.filter(|&v| units.to_si(q, v) > bound) else {
+            continue;
+        };
+        let unit = units.label(q);
+        let v = if v.abs() >= 1e6 {
+            format!("{v:e}")
+        } else {
+            crate::identifiability::fmt_sig(v)
+        };
+        return Err(invalid(
+            setting,
+            format!(
+                "the {name} noise {v} {unit} is more than any instrument's: at most {} {unit} \
+                 ({what})",
+                crate::identifiability::fmt_sig(units.from_si(q, bound))
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// How residuals are formed, for the jobs that form them without fitting (`[residuals]` of
 /// analyze, plan, curves, report): the weights and the orientation residual.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]

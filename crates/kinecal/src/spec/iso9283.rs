@@ -370,6 +370,11 @@ impl Iso9283SimulateSpec {
             "cycles",
         )?;
         self.noise.check(Setting::Noise, false)?;
+        super::common::check_noise(
+            Setting::Noise,
+            &robot,
+            [self.noise.length, self.noise.angle, None],
+        )?;
         let (length, angle) = self.noise.si(&robot);
         let log = simulate(
             &robot,

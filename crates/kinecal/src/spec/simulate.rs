@@ -443,12 +443,18 @@ impl SimulateSpec {
         Ok(data)
     }
 
-    /// Adds the spec's noise (in `nominal`'s file units) to `data`.
+    /// Adds the spec's noise (in `nominal`'s file units) to `data` (a noise no instrument has
+    /// refused: see `common::check_noise`).
     pub fn add_noise(&self, nominal: &Robot, data: &mut Dataset) -> Result<()> {
         self.noise.check()?;
         let units = nominal.units;
         let l = self.noise.length.map(|v| units.to_si(Quantity::Length, v));
         let a = self.noise.angle.map(|v| units.to_si(Quantity::Angle, v));
+        super::common::check_noise(
+            Setting::Noise,
+            nominal,
+            [self.noise.length, self.noise.angle, self.noise.pixel],
+        )?;
         if l.is_some() || a.is_some() || self.noise.pixel.is_some() {
             let seed = self.seed.unwrap_or(1);
             let noise = crate::observe::Noise {
