@@ -689,3 +689,67 @@ fn fk_reads_every_table_compensate_writes() {
         assert!(err.contains(said), "{err}");
     }
 }
+
+/// A robot whose joints are named as a brand names its joint targets (`J1..J6`, FANUC's) but in
+/// another unit (radians, FANUC's are degrees): a file headed `J1..J6` could be either, so `fk`,
+/// `compensate` and the postures readers (`analyze` here) refuse it, saying how to tell (before, `fk` read the
+/// `joints-fanuc` table's degrees as radians, every joint moved, exit 0). With `v1..v6` the
+/// same readings are read, and the robot without names reads the FANUC table as FANUC's.
+#[test]
+fn joint_names_that_are_a_brands_in_another_unit_are_refused() {
+    let dir = setup();
+    let d = dir.path();
+    let text = std::fs::read_to_string(d.join("true.toml")).unwrap();
+    let mut named = String::new();
+    for (k, part) in text.split("[[joints]]\n").enumerate() {
+        if k > 0 {
+            named += &format!("[[joints]]\nname = \"J{k}\"\n");
+        }
+        named += part;
+    }
+    std::fs::write(d.join("named.toml"), named).unwrap();
+    let (code, err) = comp(d, "--format joints-fanuc --out fanuc.csv");
+    assert_eq!(code, 0, "{err}");
+    let said = "fanuc.csv:1: the columns `J1..J6` are this robot's joint names (readings in rad) \
+                and FANUC's joint targets too (`kinecal compensate --format joints-fanuc` \
+                writes them in deg): the file's unit cannot be told; head the readings `v1..v6` \
+                (in rad), or give the robot's joints other names";
+    for line in [
+        "fk --robot named.toml --postures fanuc.csv --out named_fk.csv",
+        "compensate --robot named.toml --nominal named.toml --in fanuc.csv --out c.csv",
+        "analyze --robot named.toml --postures fanuc.csv",
+    ] {
+        let err = run_err(d, &argv(line));
+        assert!(err.contains(said), "{line}: {err}");
+    }
+    for file in ["named_fk.csv", "c.csv"] {
+        assert!(!d.join(file).exists(), "{file}");
+    }
+    // Read by the robot without names, the table is FANUC's: the true robot lands on the
+    // targets.
+    run_ok(
+        d,
+        &argv("fk --robot true.toml --postures fanuc.csv --out fanuc_fk.csv"),
+    );
+    let targets = table(d, "poses.csv");
+    for (a, b) in poses(d, "fanuc_fk.csv").iter().zip(&targets) {
+        assert!((a[0] - b[0]).abs() < 1e-8, "{a:?} {b:?}");
+    }
+    // The same readings headed `v1..v6`, in radians, read by the named robot: the same poses.
+    let fk = std::fs::read_to_string(d.join("fanuc_fk.csv")).unwrap();
+    let mut postures = String::from("posture,v1,v2,v3,v4,v5,v6\n");
+    for l in fk.lines().skip(1) {
+        let f: Vec<&str> = l.split(',').collect();
+        postures += &format!("{},{}\n", f[0], f[2..8].join(","));
+    }
+    std::fs::write(d.join("v.csv"), postures).unwrap();
+    run_ok(
+        d,
+        &argv("fk --robot named.toml --postures v.csv --out v_fk.csv"),
+    );
+    for (a, b) in poses(d, "v_fk.csv").iter().zip(&targets) {
+        for k in 0..3 {
+            assert!((a[k] - b[k]).abs() < 1e-8, "{a:?} {b:?}");
+        }
+    }
+}

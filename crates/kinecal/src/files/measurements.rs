@@ -894,6 +894,7 @@ pub fn parse_postures(text: &str, file: &str, robot: &Robot) -> Result<Vec<Postu
     // `posture` and one column per joint (`vK` or the joint's name), in any order; other
     // joints' columns read past.
     let readings = super::ReadingColumns::of(robot, &t.header, &["posture"]);
+    readings.check_brand_clash(robot, file)?;
     let mut expected = vec!["posture".to_string()];
     expected.extend(readings.names.iter().cloned());
     let cols: Option<Vec<usize>> = expected.iter().map(|c| t.column(c)).collect();

@@ -323,6 +323,44 @@ impl ReadingColumns {
         ReadingColumns { names, others }
     }
 
+    /// Refuses readings whose columns are both this robot's joint names and a controller
+    /// brand's joint targets in another angle unit (`J1..J6` of a radian robot are FANUC's
+    /// degrees too, as `kinecal compensate --format joints-fanuc` writes them): the file's unit
+    /// cannot be told, and the wrong one moves every joint (such a table was read back in
+    /// radians). `file` names the file in the error.
+    pub fn check_brand_clash(&self, robot: &Robot, file: &str) -> Result<()> {
+        use crate::files::controller::Brand;
+        let Some(brand) = Brand::ALL.into_iter().find(|b| {
+            b.angle_unit() != robot.units.angle
+                && b.columns(robot).is_ok_and(|names| {
+                    names.len() == self.names.len()
+                        && names
+                            .iter()
+                            .zip(&self.names)
+                            .all(|(a, b)| a.eq_ignore_ascii_case(b))
+                })
+        }) else {
+            return Ok(());
+        };
+        let n = self.names.len();
+        Err(Error::input(
+            crate::error::Location::file(file).at_line(1),
+            format!(
+                "the columns `{}..{}` are this robot's joint names (readings in {}) and {}'s \
+                 joint targets too (`kinecal compensate --format joints-{}` writes them in {}): \
+                 the file's unit cannot be told; head the readings `v1..v{n}` (in {}), or give \
+                 the robot's joints other names",
+                self.names[0],
+                self.names[n - 1],
+                robot.units.angle.as_str(),
+                brand.as_str().to_uppercase(),
+                brand.as_str(),
+                brand.angle_unit().as_str(),
+                robot.units.angle.as_str(),
+            ),
+        ))
+    }
+
     /// Whether header column `h` is another joint's, read past.
     pub fn is_other(&self, h: &str) -> bool {
         self.others.iter().any(|o| o.eq_ignore_ascii_case(h))

@@ -347,6 +347,10 @@ fn kind(rows: &Rows, robot: &Robot) -> Result<Kind> {
     own.extend(MEASUREMENT_EXTRAS);
     own.extend(crate::files::PAYLOAD_COLUMNS);
     let found = crate::files::ReadingColumns::of(robot, &rows.spelled, &own);
+    if rows.column("x").is_none() {
+        // A program: its readings' unit.
+        found.check_brand_clash(robot, &rows.file)?;
+    }
     found.note(&rows.file, robot);
     let columns = &found.names;
     let readings: Option<Vec<usize>> = columns.iter().map(|c| rows.column(c)).collect();

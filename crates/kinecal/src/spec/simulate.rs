@@ -617,6 +617,13 @@ impl FkSpec {
         known.extend(crate::files::PAYLOAD_COLUMNS);
         let columns = crate::files::ReadingColumns::of(robot, &rows.spelled, &known);
         let own: Option<Vec<usize>> = columns.names.iter().map(|c| rows.column(c)).collect();
+        // A table `compensate --format table` writes holds the robot's own readings.
+        let compensated = crate::files::COMPENSATED_COLUMNS
+            .iter()
+            .any(|c| rows.column(c).is_some());
+        if own.is_some() && !compensated {
+            columns.check_brand_clash(robot, &rows.file)?;
+        }
         let (readings, brand) = match own {
             Some(own) => (Some(own), None),
             None => match brand_columns(robot, &rows) {
