@@ -331,7 +331,8 @@ impl ReadingColumns {
     pub fn check_brand_clash(&self, robot: &Robot, file: &str) -> Result<()> {
         use crate::files::controller::Brand;
         let Some(brand) = Brand::ALL.into_iter().find(|b| {
-            b.angle_unit() != robot.units.angle
+            !self.names.is_empty()
+                && b.angle_unit() != robot.units.angle
                 && b.columns(robot).is_ok_and(|names| {
                     names.len() == self.names.len()
                         && names

@@ -782,7 +782,7 @@ impl Determinant {
             return left && right;
         }
         // What the grid alone tells: a sign change is a root; two roots lie on either side of
-        // an extremum; an extremum near zero is tried as a double root.
+        // an extremum; an extremum near zero is tried as a start.
         if crosses {
             found.push(newton(&value, t0, t1, f0, f1, ROUNDING), false);
         } else if g0.signum() != g1.signum() && g0 != 0.0 && g1 != 0.0 {
