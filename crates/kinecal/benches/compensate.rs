@@ -10,7 +10,8 @@
 //! Run: `cargo bench -p kinecal --bench compensate`. With `KINECAL_BENCH_CPU=1` it prints
 //! instead, for each case, rows per CPU second of this thread (median of 5 rounds, the cases
 //! alternating) and how many rows were flagged, and why; `KINECAL_BENCH_CPU=seeded` runs
-//! only the cases whose names contain `seeded` (`ur10/` only the UR10's).
+//! only the cases whose names contain `seeded` (`ur10/` only the UR10's; `=NAME` the case so
+//! named).
 //! `KINECAL_BENCH_COST=1` (with `KINECAL_BENCH_CPU`) then prints where each target case's time
 //! goes: per set of flags, its rows, their CPU time and the solver's forward kinematics
 //! (deterministic: two builds' costs compared where rows per second are noisy).
@@ -159,7 +160,10 @@ fn compensation(c: &mut Criterion) {
         if let Some(only) = &cpu {
             let cases: Vec<Case> = cases
                 .into_iter()
-                .filter(|c| only == "1" || c.0.contains(only.as_str()))
+                .filter(|c| match only.strip_prefix('=') {
+                    Some(name) => c.0 == name,
+                    None => only == "1" || c.0.contains(only.as_str()),
+                })
                 .collect();
             if !cases.is_empty() {
                 cpu_figures(&calibrated, &nominal, &mut comp, &postures, &cases);

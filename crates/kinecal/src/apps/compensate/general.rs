@@ -22,7 +22,8 @@
 //! multiplied by `x_4` too, they are 12 linear equations in 12 monomials, which have a solution
 //! only where the 12 x 12 matrix is singular: its determinant, a trigonometric polynomial in
 //! `t_3` of degree 8 (up to 16 real roots, the arm's at most 16 solutions), is found from 17
-//! samples and its real roots by bracketing on a grid. At each root the matrix's null vector
+//! samples (each factorised by the matrix's blocks, see [`Factors`]) and its real roots by
+//! bracketing on a grid. At each root the matrix's null vector
 //! gives `t_4` and `t_5`, the 8 equations the elimination pivoted on `t_1` and `t_2`, and the rotation
 //! left `t_6`; Newton's method on the product of the six turns then removes the roots'
 //! rounding, and a solution is *exact* when the turns reach the goal to 1e-9 (of the reach;
@@ -89,6 +90,16 @@ const POWERS: [[f64; DEGREE + 1]; DEGREE + 1] = {
         j += 1;
     }
     p
+};
+/// `1 / k!` for the terms of a Taylor series to the ninth.
+const INVERSE_FACTORIALS: [f64; DEGREE + 2] = {
+    let mut f = [1.0; DEGREE + 2];
+    let mut k = 1;
+    while k < f.len() {
+        f[k] = f[k - 1] / k as f64;
+        k += 1;
+    }
+    f
 };
 /// Pivots of the elimination of joints 1 and 2 above this fraction of the largest entry leave
 /// the 6 equations of joints 3 to 5 rounding's size of error.
@@ -387,7 +398,7 @@ impl General {
         rotation: &Matrix3<f64>,
     ) -> Option<[f64; 6]> {
         let (s3, c3) = t3.sin_cos();
-        let v = null12(&sigma(f, c3, s3))?;
+        let v = null_vector(&equations_at(f, c3, s3))?;
         // v[column(i, j)] ~ x_4^i x_5^j: each tangent from its best-scaled pair.
         let mut best4 = (0.0, 0.0, -1.0);
         let mut best5 = (0.0, 0.0, -1.0);
@@ -542,7 +553,7 @@ impl Determinant {
         let mut a = [0.0; DEGREE + 1];
         let mut b = [0.0; DEGREE + 1];
         for row in &tables.samples {
-            let v = det12(&mut sigma(f, row[1].0, row[1].1));
+            let v = Factors::of(&equations_at(f, row[1].0, row[1].1)).det;
             for d in 0..=DEGREE {
                 a[d] += v * row[d].0;
                 b[d] += v * row[d].1;
@@ -609,12 +620,23 @@ impl Determinant {
         near: &mut [bool; 2 * DEGREE],
     ) -> (usize, bool) {
         let tables = tables();
-        let mut grid = [[0.0; 3]; GRID + 1];
-        let mut size: f64 = 0.0;
-        for (g, cs) in grid.iter_mut().zip(&tables.grid) {
-            *g = self.at(cs);
-            size = size.max(g[0].abs());
+        // The value and its two derivatives on the grid, as [`Self::at`] works them out (the
+        // same sums in the same order), a degree at a time over the whole grid.
+        let mut values = [[self.a[0]; GRID + 1], [0.0; GRID + 1], [0.0; GRID + 1]];
+        for d in 1..=DEGREE {
+            let (a, b, k) = (self.a[d], self.b[d], d as f64);
+            let [v, dv, ddv] = &mut values;
+            for i in 0..=GRID {
+                let (c, s) = (tables.cos[d][i], tables.sin[d][i]);
+                let (even, odd) = (a * c + b * s, b * c - a * s);
+                v[i] += even;
+                dv[i] += k * odd;
+                ddv[i] -= k * k * even;
+            }
         }
+        let grid: [[f64; 3]; GRID + 1] =
+            std::array::from_fn(|i| [values[0][i], values[1][i], values[2][i]]);
+        let size = values[0].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         // Bounds of the first three derivatives' sizes: sum_d d^k |(a_d, b_d)|.
         let mut bound = [0.0; 3];
         let mut ninth = 0.0;
@@ -700,9 +722,19 @@ impl Determinant {
             let (x0, x1) = ends[j];
             x0.signum() == x1.signum() && x0.abs() + x1.abs() > limits.bound[j] * h
         };
+        // Or by the series at either end to the curvature, the rest bounded by the third
+        // derivative's size over the turn (no work beyond the grid's).
+        let third = limits.bound[2];
+        let near_end = |j: usize| {
+            [e0, e1].iter().any(|&[f, g, c]| match j {
+                0 => f.abs() > h * (g.abs() + h * (0.5 * c.abs() + h * third / 6.0)),
+                1 => g.abs() > h * (c.abs() + 0.5 * h * third),
+                _ => false,
+            })
+        };
         let mut local = None;
         let mut signed = |j: usize| {
-            global(j) || {
+            global(j) || near_end(j) || {
                 let (y, steps) = local.get_or_insert_with(|| {
                     let y = match cs0 {
                         Some(cs) => self.derivatives(cs),
@@ -710,8 +742,10 @@ impl Determinant {
                     };
                     // h^k / k!
                     let mut steps = [1.0; DEGREE + 2];
+                    let mut power = 1.0;
                     for k in 1..steps.len() {
-                        steps[k] = steps[k - 1] * h / k as f64;
+                        power *= h;
+                        steps[k] = power * INVERSE_FACTORIALS[k];
                     }
                     (y, steps)
                 });
@@ -853,31 +887,58 @@ const fn column(i: usize, j: usize) -> usize {
     3 * block + j
 }
 
-/// The 12 x 12 matrix at `t_3` (`c3`, `s3` its cosine and sine): the 6 equations in the
-/// monomials `x_4^i x_5^j` (`i <= 2`), then the same times `x_4` (`1 <= i <= 3`); columns as
-/// [`column`] places them.
-fn sigma(f: &[[[f64; 9]; 6]; 3], c3: f64, s3: f64) -> [[f64; 12]; 12] {
+/// The 12 x 12 matrix of the 6 equations `v` at a `t_3`: the equations in the monomials
+/// `x_4^i x_5^j` (`i <= 2`), then the same times `x_4` (`1 <= i <= 3`); columns as [`column`]
+/// places them.
+fn sigma(v: &[[f64; 9]; 6]) -> [[f64; 12]; 12] {
     let mut s = [[0.0; 12]; 12];
-    for row in 0..6 {
+    for (row, e) in v.iter().enumerate() {
         for i in 0..3 {
             for j in 0..3 {
-                let c = 3 * i + j;
-                let v = f[0][row][c] + c3 * f[1][row][c] + s3 * f[2][row][c];
-                s[row][column(i, j)] = v;
-                s[row + 6][column(i + 1, j)] = v;
+                s[row][column(i, j)] = e[3 * i + j];
+                s[row + 6][column(i + 1, j)] = e[3 * i + j];
             }
         }
     }
     s
 }
 
-/// LU of a 12 x 12 matrix with partial pivoting, in place (the upper triangle is `U`); the
-/// determinant, 0 at a zero column.
-fn lu12(a: &mut [[f64; 12]; 12]) -> f64 {
+/// The 6 equations at `t_3` (cosine `c3`, sine `s3`): `v[row][3 i + j]` the coefficient of
+/// `x_4^i x_5^j` (`i, j <= 2`).
+#[inline(always)]
+fn equations_at(f: &[[[f64; 9]; 6]; 3], c3: f64, s3: f64) -> [[f64; 9]; 6] {
+    std::array::from_fn(|row| {
+        std::array::from_fn(|c| f[0][row][c] + c3 * f[1][row][c] + s3 * f[2][row][c])
+    })
+}
+
+/// The 12 x 12 matrix of [`sigma`] factorised by its blocks. Its first 6 rows (the equations
+/// `v`) hold no `x_4^3` and its last 6 (times `x_4`) no `x_4^0`, so partial pivoting
+/// eliminates `x_4^0` within the first half and `x_4^3` within the second, each a 6 x 9 block
+/// (`top` = `v`, `bottom` its columns of `x_4^2, x_4^0, x_4^1`, which the second half holds at
+/// `x_4^3, x_4^1, x_4^2`), and leaves 3 rows of each half in the 6 monomials of `x_4^1` and
+/// `x_4^2`: `schur`, 6 x 6. The same pivots as partial pivoting of the whole matrix, in about
+/// half its work.
+struct Factors {
+    /// Rows 0-2: the first half's pivot rows (upper triangular in columns 0-2); rows 3-5 are
+    /// zero there, their columns 3-8 moved into `schur`.
+    top: [[f64; 9]; 6],
+    bottom: [[f64; 9]; 6],
+    /// LU of the 6 rows left, in place (`U` the upper triangle).
+    schur: [[f64; 6]; 6],
+    /// The determinant of the 12 x 12 matrix (0 at a zero pivot, the factors then partial).
+    det: f64,
+}
+
+/// Partial-pivoting elimination of the first `N` columns of the rows of `a`, in place (whole
+/// rows: the entries left of a pivot are rounding's, never read); the product of the pivots
+/// with the permutation's sign, 0 at a zero column.
+#[inline(always)]
+fn eliminate<const N: usize, const W: usize, const R: usize>(a: &mut [[f64; W]; R]) -> f64 {
     let mut det = 1.0;
-    for c in 0..12 {
+    for c in 0..N {
         let mut p = c;
-        for r in c + 1..12 {
+        for r in c + 1..R {
             if a[r][c].abs() > a[p][c].abs() {
                 p = r;
             }
@@ -889,19 +950,12 @@ fn lu12(a: &mut [[f64; 12]; 12]) -> f64 {
             a.swap(p, c);
             det = -det;
         }
-        let (done, rest) = a.split_at_mut(c + 1);
-        let pivot = &done[c];
+        let pivot = a[c];
         det *= pivot[c];
         let inverse = 1.0 / pivot[c];
-        for row in rest {
-            // Rows the matrix's blocks of zeros keep out of this step are left alone.
+        for row in a[c + 1..].iter_mut() {
             let f = row[c] * inverse;
-            if f == 0.0 {
-                continue;
-            }
-            // The whole row, a fixed width (the pivot row's entries left of c are rounding's,
-            // and only the upper triangle is read).
-            for (x, y) in row.iter_mut().zip(pivot) {
+            for (x, y) in row.iter_mut().zip(&pivot) {
                 *x -= f * y;
             }
         }
@@ -909,36 +963,86 @@ fn lu12(a: &mut [[f64; 12]; 12]) -> f64 {
     det
 }
 
-/// The determinant of a 12 x 12 matrix (the matrix is overwritten).
-fn det12(a: &mut [[f64; 12]; 12]) -> f64 {
-    lu12(a)
+impl Factors {
+    #[inline(always)]
+    fn of(v: &[[f64; 9]; 6]) -> Factors {
+        let mut top = *v;
+        let mut bottom: [[f64; 9]; 6] = std::array::from_fn(|r| {
+            let e = &v[r];
+            [e[6], e[7], e[8], e[0], e[1], e[2], e[3], e[4], e[5]]
+        });
+        let mut schur = [[0.0; 6]; 6];
+        let dt = eliminate::<3, 9, 6>(&mut top);
+        let db = eliminate::<3, 9, 6>(&mut bottom);
+        for r in 0..3 {
+            schur[r].copy_from_slice(&top[3 + r][3..]);
+            schur[3 + r].copy_from_slice(&bottom[3 + r][3..]);
+        }
+        // Rows reordered to (top pivots, bottom pivots, the rest): the bottom pivots past the
+        // top's 3 other rows, 9 transpositions; then block upper triangular.
+        let ds = if dt == 0.0 || db == 0.0 {
+            0.0
+        } else {
+            eliminate::<6, 6, 6>(&mut schur)
+        };
+        Factors {
+            top,
+            bottom,
+            schur,
+            det: -dt * db * ds,
+        }
+    }
+
+    /// The null vector with the last pivot taken as zero, in the columns of [`column`].
+    fn null_vector(&self) -> [f64; 12] {
+        let u = &self.schur;
+        // The monomials of x_4^1, x_4^2 (z[6..]), the last set to 1.
+        let mut z = [0.0; 12];
+        z[11] = 1.0;
+        for i in (0..5).rev() {
+            let s: f64 = (i + 1..6).map(|k| u[i][k] * z[6 + k]).sum();
+            z[6 + i] = -s / u[i][i];
+        }
+        // Then x_4^0 (z[..3]) from the first half's pivot rows, x_4^3 (z[3..6]) from the
+        // second's.
+        for (block, a) in [(0, &self.top), (3, &self.bottom)] {
+            for i in (0..3).rev() {
+                let known: f64 = (i + 1..3).map(|k| a[i][k] * z[block + k]).sum::<f64>()
+                    + (0..6).map(|k| a[i][3 + k] * z[6 + k]).sum::<f64>();
+                z[block + i] = -known / a[i][i];
+            }
+        }
+        z
+    }
 }
 
-/// A null vector of a singular 12 x 12 matrix: from its LU (partial pivoting) with the last
-/// pivot taken as zero, checked against the matrix (rounding-sized residual); else from LU with
-/// full pivoting. `None` when neither gives one.
-fn null12(a: &[[f64; 12]; 12]) -> Option<[f64; 12]> {
-    let mut u = *a;
-    lu12(&mut u);
-    let mut z = [0.0; 12];
-    z[11] = 1.0;
-    for i in (0..11).rev() {
-        let s: f64 = (i + 1..12).map(|k| u[i][k] * z[k]).sum();
-        z[i] = -s / u[i][i];
-    }
-    let size = a.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let norm = z.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let residual = a
+/// A null vector (in the columns of [`column`]) of the 12 x 12 matrix of the equations `v` at
+/// a root of its determinant: from its [`Factors`] with the last pivot taken as zero, checked
+/// against the matrix (rounding-sized residual); else from LU of the whole matrix with full
+/// pivoting. `None` when neither gives one.
+fn null_vector(v: &[[f64; 9]; 6]) -> Option<[f64; 12]> {
+    let z = Factors::of(v).null_vector();
+    // The first half's monomials x_4^0..2, the second's x_4^1..3 (times x_4).
+    let first = |k: usize| if k < 3 { z[k] } else { z[3 + k] };
+    let second = |k: usize| if k < 6 { z[6 + k] } else { z[k - 3] };
+    let size = v.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let norm = z.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let residual = v
         .iter()
-        .map(|row| row.iter().zip(&z).map(|(x, y)| x * y).sum::<f64>().abs())
+        .flat_map(|row| {
+            let a: f64 = (0..9).map(|k| row[k] * first(k)).sum();
+            let b: f64 = (0..9).map(|k| row[k] * second(k)).sum();
+            [a.abs(), b.abs()]
+        })
         .fold(0.0_f64, f64::max);
     if z.iter().all(|x| x.is_finite()) && residual <= 1e-8 * size * norm {
         return Some(z);
     }
-    null12_full(&mut a.clone())
+    null12_full(&mut sigma(v))
 }
 
-/// [`null12`] by LU with full pivoting (the matrix is overwritten).
+/// A null vector of a singular 12 x 12 matrix by LU with full pivoting (the matrix is
+/// overwritten).
 fn null12_full(a: &mut [[f64; 12]; 12]) -> Option<[f64; 12]> {
     let mut cols: [usize; 12] = std::array::from_fn(|k| k);
     for c in 0..11 {
@@ -991,19 +1095,27 @@ fn multiples(t: f64) -> [(f64, f64); DEGREE + 1] {
     out
 }
 
-/// The multiples of the determinant's sampling angles and of the grid's.
+/// The multiples of the determinant's sampling angles and of the grid's (those also by degree:
+/// `cos[d][k]`, `sin[d][k]` at grid angle `k`).
 struct Tables {
     samples: [[(f64, f64); DEGREE + 1]; SAMPLES],
     grid: [[(f64, f64); DEGREE + 1]; GRID + 1],
+    cos: [[f64; GRID + 1]; DEGREE + 1],
+    sin: [[f64; GRID + 1]; DEGREE + 1],
 }
 
 fn tables() -> &'static Tables {
     static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
-    TABLES.get_or_init(|| Tables {
-        samples: std::array::from_fn(|k| multiples(TAU * k as f64 / SAMPLES as f64)),
-        grid: std::array::from_fn(|k| {
+    TABLES.get_or_init(|| {
+        let grid: [[(f64, f64); DEGREE + 1]; GRID + 1] = std::array::from_fn(|k| {
             multiples(-std::f64::consts::PI + TAU * k as f64 / GRID as f64)
-        }),
+        });
+        Tables {
+            samples: std::array::from_fn(|k| multiples(TAU * k as f64 / SAMPLES as f64)),
+            cos: std::array::from_fn(|d| std::array::from_fn(|k| grid[k][d].0)),
+            sin: std::array::from_fn(|d| std::array::from_fn(|k| grid[k][d].1)),
+            grid,
+        }
     })
 }
 
@@ -1053,6 +1165,55 @@ mod tests {
     use crate::model::kinematics::{log_so3, Chain, Target};
     use crate::model::robot::JointKind;
     use rand::SeedableRng;
+
+    /// The factorisation by blocks against nalgebra's LU of the whole 12 x 12 matrix (an
+    /// independent determinant), on random equations; and its null vector on equations made
+    /// singular at a known one (the monomials of two tangents): the same vector, to rounding
+    /// (the entries are of unit size; 1e-10 leaves a thousandfold of a 12 x 12 LU's rounding).
+    #[test]
+    fn factors_by_blocks_match_the_whole_matrix() {
+        use rand::RngExt;
+        let mut g = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..200 {
+            let mut v: [[f64; 9]; 6] =
+                std::array::from_fn(|_| std::array::from_fn(|_| g.random_range(-1.0..1.0)));
+            let whole = nalgebra::DMatrix::from_fn(12, 12, |r, c| super::sigma(&v)[r][c]);
+            let det = whole.determinant();
+            let blocks = super::Factors::of(&v).det;
+            assert!(
+                (blocks - det).abs() <= 1e-10 * det.abs(),
+                "{blocks} against {det}"
+            );
+            // Singular at x_4, x_5: each row orthogonal to their monomials (the second half's,
+            // x_4 times the first's, then too).
+            let (x4, x5): (f64, f64) = (g.random_range(-2.0..2.0), g.random_range(-2.0..2.0));
+            let first: [f64; 9] =
+                std::array::from_fn(|k| x4.powi(k as i32 / 3) * x5.powi(k as i32 % 3));
+            for row in &mut v {
+                let c = super::dot9(row, &first) / super::dot9(&first, &first);
+                for i in 0..9 {
+                    row[i] -= c * first[i];
+                }
+            }
+            let z = super::null_vector(&v).expect("a null vector");
+            let expected: [f64; 12] = std::array::from_fn(|c| {
+                let (i, j) = (0..4)
+                    .flat_map(|i| (0..3).map(move |j| (i, j)))
+                    .find(|&(i, j)| super::column(i, j) == c)
+                    .expect("a column");
+                x4.powi(i as i32) * x5.powi(j as i32)
+            });
+            let scale = z.iter().zip(&expected).map(|(a, b)| a * b).sum::<f64>()
+                / expected.iter().map(|b| b * b).sum::<f64>();
+            let size = expected.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            for (a, b) in z.iter().zip(&expected) {
+                assert!(
+                    (a / scale - b).abs() <= 1e-8 * size,
+                    "{z:?} against {expected:?}"
+                );
+            }
+        }
+    }
 
     /// On random arms of six revolute joints (no simpler closed form): every exact solution
     /// reaches its goal to 1e-9 (of the reach; rad) through the robot's own forward kinematics (an

@@ -28,7 +28,8 @@
 //!    kept without looking further if the branches are complete, every branch the nominal
 //!    robot reaches refined to a
 //!    solution of its own and the best is flagged only for a range or a change from the
-//!    seed, or, with a seed, if neither the seed nor any branch reached the goal though the
+//!    seed (or, the general form of an arm without an elastic model, at a singularity: its
+//!    branches are then all the arm's solutions), or, with a seed, if neither the seed nor any branch reached the goal though the
 //!    nominal robot reaches it exactly (the calibrated robot's solutions lie near the
 //!    nominal's: the goal is beyond its reach, typically by a fraction of a millimetre at a
 //!    stretched elbow, which the reach bound below cannot prove); otherwise (near a
@@ -57,9 +58,13 @@
 //! Without a seed the search stops at the first usable solution; a goal reached, in range and
 //! in configuration but singular from the first 9 nearest starts skips the rest of them, and,
 //! when the closed form's branches were tried too (none usable) and are complete, the spread
-//! ones (the goal lies at a singularity: on the random 6R arm of the compensate bench, whose
-//! general form's branches are its solutions, the spread starts found no other for any of its
-//! 23 such goals; neither on the IRB 120 and the UR10).
+//! ones (the goal lies at a singularity: on the IRB 120 and the UR10 of the compensate bench
+//! the spread starts found no other solution for any such goal). On an arm without an elastic
+//! model, the general form's complete branches are every solution the arm has: when each
+//! refines to a reached solution of its own and the best is flagged only at a singularity (or
+//! for a range), the goal is settled without the table (on the random 6R arm of the
+//! compensate bench its 23 such goals keep their flags and solutions, at 147 forward
+//! kinematics each instead of 490).
 //!
 //! Every solution has its revolute readings moved by whole turns (which leave the pose as it
 //! is) to the turn nearest the reference, then into the joint's range when that turn is
@@ -99,9 +104,11 @@ pub struct TargetSearch<'r> {
     /// Whether goals the reach bound proves out of reach skip the search (tests turn it off to
     /// compare with the search's verdict).
     use_reach_bound: bool,
-    /// Whether an unseeded goal settled at a singularity by the nearest starts skips the spread
-    /// ones (tests turn it off to compare).
-    skip_spread_if_singular: bool,
+    /// Whether a goal at a singularity, shown so by complete closed-form branches, skips
+    /// starts of the table: unseeded, settled by the nearest starts, the spread ones; on a rigid
+    /// arm's general form, whose branches are then all its solutions, every start (tests turn it
+    /// off to compare).
+    skip_table_if_singular: bool,
     /// Whether a seeded goal whose seed does not reach it is tried from the closed form's
     /// branches, and the search ends there when none reaches it either (tests turn it off to
     /// compare with the table's starts tried instead).
@@ -229,7 +236,7 @@ impl<'r> TargetSearch<'r> {
             use_closed_form: true,
             reach_bounds: Vec::new(),
             use_reach_bound: true,
-            skip_spread_if_singular: true,
+            skip_table_if_singular: true,
             branches_when_seed_fails: true,
             refine_seed_branch: false,
             options,
@@ -376,7 +383,7 @@ impl<'r> TargetSearch<'r> {
         // Step 3: nothing usable near the goal: starts spread over the whole table, unless the
         // search is settled (with a seed; without one, after the closed form's branches too).
         let settled_now = settled(&judged, tried, seed.is_some())
-            && (seed.is_some() || (complete && self.skip_spread_if_singular));
+            && (seed.is_some() || (complete && self.skip_table_if_singular));
         if !any_usable && !settled_now {
             self.try_spread_starts(goal, target, seed, &mut best, &mut judged, tried, out);
         }
@@ -648,11 +655,11 @@ impl<'r> TargetSearch<'r> {
         self
     }
 
-    /// The search with an unseeded goal singular from the nearest starts still tried from the
-    /// spread ones.
+    /// The search with a goal at a singularity still tried from the table's starts: the
+    /// nearest, and unseeded, the spread ones.
     #[cfg(test)]
-    pub(crate) fn with_spread_if_singular(mut self) -> Self {
-        self.skip_spread_if_singular = false;
+    pub(crate) fn with_table_if_singular(mut self) -> Self {
+        self.skip_table_if_singular = false;
         self
     }
 
@@ -738,6 +745,9 @@ impl<'r> TargetSearch<'r> {
         };
         let branches = analytic.solve(frame);
         let complete = branches.complete();
+        let every_solution = self.skip_table_if_singular
+            && analytic.family() == Family::General
+            && self.robot.elastic.is_none();
         // With a seed, branches that may not be all the goal's solutions are not tried: they
         // seldom lie within a change of configuration of a seed that failed, and the table's
         // starts near the seed look for its solution.
@@ -822,10 +832,13 @@ impl<'r> TargetSearch<'r> {
                 .any(|u| u.iter().zip(&found[i]).all(|(a, b)| (a - b).abs() < 1e-6))
         });
         // Outside a range or turned from the seed is the goal's; not in the configuration or
-        // near a singularity, the solutions may be where the nominal robot has none.
+        // near a singularity, the solutions may be where the nominal robot has none. The
+        // general form's complete branches of a rigid arm are every solution of the arm
+        // searched, near a singularity too: a singular best is the goal's (the table's starts
+        // converge to those solutions, or stall).
         let placed = best
             .as_ref()
-            .is_some_and(|(r, _)| !r.0[0] && !r.0[2] && !r.0[4]);
+            .is_some_and(|(r, _)| !r.0[0] && !r.0[2] && (!r.0[4] || every_solution));
         (
             complete && placed && exact_reached > 0 && !exact_failed && !merged,
             exact,
@@ -1643,7 +1656,8 @@ mod tests {
     /// An unseeded pose goal that the closed form's branches and the nearest starts find only at
     /// a singularity skips the spread starts, and no row is flagged otherwise for it: on the
     /// arms of the reach bound's tests (a spherical-wrist arm, the IRB 120, and a random 6R arm
-    /// with the general form, whose complete branches settle such a goal too), over the poses
+    /// with the general form, whose complete branches, all the rigid arm's solutions, settle
+    /// such a goal without any start of the table), over the poses
     /// and positions the calibrated twin reaches at 400 postures, every row has the same flags
     /// as with the spread starts tried, some goals at a singularity, and fewer forward
     /// kinematics.
@@ -1662,7 +1676,7 @@ mod tests {
                 .collect();
             let solve = |skip: bool| {
                 let s = TargetSearch::new(&calibrated, &nominal, Options::default()).unwrap();
-                let mut s = if skip { s } else { s.with_spread_if_singular() };
+                let mut s = if skip { s } else { s.with_table_if_singular() };
                 let mut out = vec![0.0; 6];
                 let flags: Vec<Flags> = goals
                     .iter()
