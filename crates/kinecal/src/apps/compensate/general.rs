@@ -354,10 +354,13 @@ impl General {
             well_posed &= m[p][c].abs() > WELL_POSED * big;
             m.swap(c, p);
             let pivot = m[c];
+            let inverse = 1.0 / pivot[c];
             for row in m.iter_mut().skip(c + 1) {
-                let f = row[c] / pivot[c];
+                let f = row[c] * inverse;
                 if f != 0.0 {
-                    for (x, y) in row.iter_mut().zip(&pivot).skip(c) {
+                    // Whole rows (a fixed width): the entries left of c are rounding's, and
+                    // neither Q's lower triangle nor the last rows' Q are read.
+                    for (x, y) in row.iter_mut().zip(&pivot) {
                         *x -= f * y;
                     }
                 }
@@ -622,21 +625,22 @@ impl Determinant {
         let tables = tables();
         // The value and its two derivatives on the grid, as [`Self::at`] works them out (the
         // same sums in the same order), a degree at a time over the whole grid.
-        let mut values = [[self.a[0]; GRID + 1], [0.0; GRID + 1], [0.0; GRID + 1]];
+        let mut v = [self.a[0]; GRID + 1];
+        let mut dv = [0.0; GRID + 1];
+        let mut ddv = [0.0; GRID + 1];
         for d in 1..=DEGREE {
             let (a, b, k) = (self.a[d], self.b[d], d as f64);
-            let [v, dv, ddv] = &mut values;
-            for i in 0..=GRID {
-                let (c, s) = (tables.cos[d][i], tables.sin[d][i]);
+            let kk = k * k;
+            let terms = v.iter_mut().zip(&mut dv).zip(&mut ddv);
+            for (((v, dv), ddv), (c, s)) in terms.zip(tables.cos[d].iter().zip(&tables.sin[d])) {
                 let (even, odd) = (a * c + b * s, b * c - a * s);
-                v[i] += even;
-                dv[i] += k * odd;
-                ddv[i] -= k * k * even;
+                *v += even;
+                *dv += k * odd;
+                *ddv -= kk * even;
             }
         }
-        let grid: [[f64; 3]; GRID + 1] =
-            std::array::from_fn(|i| [values[0][i], values[1][i], values[2][i]]);
-        let size = values[0].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let grid: [[f64; 3]; GRID + 1] = std::array::from_fn(|i| [v[i], dv[i], ddv[i]]);
+        let size = v.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         // Bounds of the first three derivatives' sizes: sum_d d^k |(a_d, b_d)|.
         let mut bound = [0.0; 3];
         let mut ninth = 0.0;
