@@ -32,9 +32,10 @@
 //! **Every solution, or say so.** The determinant's values span orders of magnitude over a
 //! turn, so each cell of the grid is told by bounds: the value, its slope or its curvature
 //! keeps its sign over the cell when its size at one end exceeds what the next derivatives
-//! can change in the cell (the Taylor series at the cell's start, exact to degree 8, the rest
-//! bounded by the sizes of the coefficients); a cell neither bound tells is halved, up to 6
-//! times. The roots are then certain: none where the value keeps its sign, one at a sign
+//! can change in the cell (first the series at either end to the curvature, the grid's own
+//! values, the rest bounded by the third derivative's size over the turn; else the Taylor
+//! series at the cell's start, exact to degree 8, the rest bounded by the sizes of the
+//! coefficients); a cell no bound tells is halved, up to 6 times. The roots are then certain: none where the value keeps its sign, one at a sign
 //! change where it is monotone, and where it has a single extremum two, one or none by the
 //! extremum's value, unless that lies within rounding of zero (two solutions merging: a
 //! double root, not certain). The solutions are *complete* when the elimination is well
@@ -925,7 +926,7 @@ fn equations_at(f: &[[[f64; 9]; 6]; 3], c3: f64, s3: f64) -> [[f64; 9]; 6] {
 /// half its work.
 struct Factors {
     /// Rows 0-2: the first half's pivot rows (upper triangular in columns 0-2); rows 3-5 are
-    /// zero there, their columns 3-8 moved into `schur`.
+    /// eliminated there (rounding's, never read), their columns 3-8 moved into `schur`.
     top: [[f64; 9]; 6],
     bottom: [[f64; 9]; 6],
     /// LU of the 6 rows left, in place (`U` the upper triangle).
@@ -1199,7 +1200,10 @@ mod tests {
                     row[i] -= c * first[i];
                 }
             }
-            let z = super::null_vector(&v).expect("a null vector");
+            // The factors' own (not the fallback's: `null_vector` would hide an error there),
+            // which the residual check accepts.
+            let z = super::Factors::of(&v).null_vector();
+            assert_eq!(super::null_vector(&v), Some(z));
             let expected: [f64; 12] = std::array::from_fn(|c| {
                 let (i, j) = (0..4)
                     .flat_map(|i| (0..3).map(move |j| (i, j)))
