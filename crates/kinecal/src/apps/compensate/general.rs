@@ -133,6 +133,12 @@ pub(crate) struct General {
     /// The left sides: `lhs[q][m3][m45]`, the coefficient of `b(t_3)[m3] b(t_4)[m4] b(t_5)[m5]`
     /// (`m45 = 3 m4 + m5`, `b(t) = (1, cos t, sin t)`) in scalar `q`.
     lhs: [[[f64; 9]; 3]; ROWS],
+    /// Each joint's `K` (`K v = w x v`) and `K^2`, and both applied to its point `r` (for
+    /// Rodrigues' formula in [`General::error`]).
+    skew: [Matrix3<f64>; 6],
+    skew2: [Matrix3<f64>; 6],
+    skew_r: [Vector3<f64>; 6],
+    skew2_r: [Vector3<f64>; 6],
 }
 
 /// Screw motion about the line through `r` along unit `w` by `t`, applied to point `p`.
@@ -177,9 +183,6 @@ fn basis(t: f64) -> [f64; 3] {
     [1.0, c, s]
 }
 
-/// Half-angle form: `(1 + x^2) b(t)` as coefficients of `1, x, x^2` (`x = tan(t / 2)`).
-const HALF: [[f64; 3]; 3] = [[1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [0.0, 2.0, 0.0]];
-
 impl General {
     /// The closed form of the arm with joint axes `(w, r)` at the reference posture (global
     /// frame, m) and reach `reach` (m); `None` when the 14 scalars do not follow the structure
@@ -190,12 +193,19 @@ impl General {
         }
         let scale = 1.0 / reach;
         let origin = r[2];
+        let skew: [Matrix3<f64>; 6] = std::array::from_fn(|i| w[i].cross_matrix());
+        let skew2: [Matrix3<f64>; 6] = std::array::from_fn(|i| skew[i] * skew[i]);
+        let r: [Vector3<f64>; 6] = std::array::from_fn(|i| (r[i] - origin) * scale);
         let mut g = General {
             w: *w,
-            r: std::array::from_fn(|i| (r[i] - origin) * scale),
+            r,
             origin,
             scale,
             lhs: [[[0.0; 9]; 3]; ROWS],
+            skew,
+            skew2,
+            skew_r: std::array::from_fn(|i| skew[i] * r[i]),
+            skew2_r: std::array::from_fn(|i| skew2[i] * r[i]),
         };
         for k3 in 0..3 {
             for k4 in 0..3 {
@@ -218,7 +228,7 @@ impl General {
         for (t3, t4, t5) in [(0.3, -1.1, 2.2), (2.9, 0.7, -0.4), (-2.0, 1.9, 1.3)] {
             let ([_, c3, s3], [_, c4, s4], [_, c5, s5]) = (basis(t3), basis(t4), basis(t5));
             let direct = g.left(c3, s3, c4, s4, c5, s5);
-            let b45 = products(t4, t5);
+            let b45 = products((c4, s4), (c5, s5));
             let b3 = basis(t3);
             for (q, d) in direct.iter().enumerate() {
                 let v: f64 = (0..3).map(|m3| b3[m3] * dot9(&g.lhs[q][m3], &b45)).sum();
@@ -270,11 +280,11 @@ impl General {
         let mut complete = well_posed && certain;
         let mut found = 0;
         for (&t3, &near) in roots[..count].iter().zip(&near) {
-            let Some(turns) = self.back_substitute(&f, &m, t3, rotation) else {
+            let Some((turns, cs)) = self.back_substitute(&f, &m, t3, rotation) else {
                 complete &= near;
                 continue;
             };
-            let (turns, exact) = self.refine(turns, rotation, &goal_p);
+            let (turns, exact) = self.refine(turns, cs, rotation, &goal_p);
             let seen = out[..found].iter().any(|(u, _)| {
                 u.iter()
                     .zip(&turns)
@@ -367,22 +377,20 @@ impl General {
                 }
             }
         }
-        // The 6 equations in half-angle monomials.
+        // The 6 equations in half-angle monomials (`x = tan(t / 2)`): `(1 + x^2) b(t)` is
+        // `(1 + x^2, 1 - x^2, 2 x)`, so coefficients `(a, b, c)` of `b(t)` become `(a + b,
+        // 2 c, a - b)` on `(1, x, x^2)`; `e[m4][m5]` so, over m5, then over m4.
+        let half = |a: f64, b: f64, c: f64| [a + b, 2.0 * c, a - b];
         let mut f = [[[0.0; 9]; 6]; 3];
-        for k in 0..3 {
-            for row in 0..6 {
+        for (k, fk) in f.iter_mut().enumerate() {
+            for (row, out) in fk.iter_mut().enumerate() {
                 let e = &m[8 + row][8 + 9 * k..17 + 9 * k];
-                for m4 in 0..3 {
-                    for m5 in 0..3 {
-                        let c = e[3 * m4 + m5];
-                        if c == 0.0 {
-                            continue;
-                        }
-                        for i in 0..3 {
-                            for j in 0..3 {
-                                f[k][row][3 * i + j] += c * HALF[m4][i] * HALF[m5][j];
-                            }
-                        }
+                let g: [[f64; 3]; 3] =
+                    std::array::from_fn(|m4| half(e[3 * m4], e[3 * m4 + 1], e[3 * m4 + 2]));
+                for j in 0..3 {
+                    let col = half(g[0][j], g[1][j], g[2][j]);
+                    for i in 0..3 {
+                        out[3 * i + j] = col[i];
                     }
                 }
             }
@@ -393,14 +401,15 @@ impl General {
 
     /// The turns at root `t3` of the determinant: `t_4`, `t_5` from the null vector of the
     /// 12 x 12 matrix, `t_1`, `t_2` from the eliminated equations' pivot rows `m`, `t_6` from
-    /// the rotation left.
+    /// the rotation left; with their cosines and sines (from the same ratios as the turns).
+    #[allow(clippy::type_complexity)]
     fn back_substitute(
         &self,
         f: &[[[f64; 9]; 6]; 3],
         m: &[[f64; 35]; 8],
         t3: f64,
         rotation: &Matrix3<f64>,
-    ) -> Option<[f64; 6]> {
+    ) -> Option<([f64; 6], [(f64, f64); 6])> {
         let (s3, c3) = t3.sin_cos();
         let v = null_vector(&equations_at(f, c3, s3))?;
         // v[column(i, j)] ~ x_4^i x_5^j: each tangent from its best-scaled pair.
@@ -425,12 +434,12 @@ impl General {
                 }
             }
         }
-        let t4 = 2.0 * best4.0.atan2(best4.1);
-        let t5 = 2.0 * best5.0.atan2(best5.1);
+        let (t4, cs4) = half_angle(best4.0, best4.1);
+        let (t5, cs5) = half_angle(best5.0, best5.1);
         // t_1, t_2: Q y = P(t_3, t_4, t_5), by the elimination's 8 pivot rows (upper
         // triangular in Q; the other 6 hold at the root).
-        let b3 = basis(t3);
-        let b45 = products(t4, t5);
+        let b3 = [1.0, c3, s3];
+        let b45 = products(cs4, cs5);
         let mut y = [0.0; 8];
         for i in (0..8).rev() {
             let row = &m[i];
@@ -441,11 +450,10 @@ impl General {
             y[i] = (h - known) / row[i];
         }
         // y: c2, s2, c1, c1 c2, c1 s2, s1, s1 c2, s1 s2.
-        let t1 = y[5].atan2(y[2]);
-        let t2 = y[1].atan2(y[0]);
+        let (t1, cs1) = angle(y[5], y[2]);
+        let (t2, cs2) = angle(y[1], y[0]);
         // t_6: R_6 = (R_1 .. R_5)^T R_D, a turn about w_6.
         let w = &self.w;
-        let turns = [t1, t2, t3, t4, t5];
         let x = w[5].cross(&if w[5].x.abs() < 0.6 {
             Vector3::x()
         } else {
@@ -453,27 +461,29 @@ impl General {
         });
         // u = R_5^T .. R_1^T R_D x: R_1^T applied first.
         let mut u = rotation * x;
-        for (wi, t) in w.iter().zip(&turns) {
-            let (s, c) = t.sin_cos();
+        for (wi, (c, s)) in w.iter().zip([cs1, cs2, (c3, s3), cs4, cs5]) {
             u = turn_vector(wi, c, -s, &u);
         }
         // x is perpendicular to w_6 (not of unit length: only the angle counts).
         let up = u - w[5] * w[5].dot(&u);
-        let t6 = w[5].dot(&x.cross(&up)).atan2(x.dot(&up));
+        let (t6, cs6) = angle(w[5].dot(&x.cross(&up)), x.dot(&up));
         let out = [t1, t2, t3, t4, t5, t6];
-        out.iter().all(|t| t.is_finite()).then_some(out)
+        let cs = [cs1, cs2, (c3, s3), cs4, cs5, cs6];
+        let finite = cs.iter().all(|(c, s)| c.is_finite() && s.is_finite());
+        (finite && out.iter().all(|t| t.is_finite())).then_some((out, cs))
     }
 }
 
 impl General {
-    /// The error of turns `t`: joint 6's axis point and the frame against `goal_p` and
-    /// `rotation` (scaled coordinates, rad), and with `jacobian` the turns' Jacobian of it.
+    /// The error of the turns whose cosines and sines are `cs`: joint 6's axis point and the
+    /// frame against `goal_p` and `rotation` (scaled coordinates, rad), and the turns'
+    /// Jacobian of it into `jacobian`.
     fn error(
         &self,
-        t: &[f64; 6],
+        cs: &[(f64, f64); 6],
         rotation: &Matrix3<f64>,
         goal_p: &Vector3<f64>,
-        jacobian: Option<&mut nalgebra::Matrix6<f64>>,
+        jacobian: &mut nalgebra::Matrix6<f64>,
     ) -> nalgebra::Vector6<f64> {
         let (w, r) = (&self.w, &self.r);
         // The moved axes (spatial frame), and the motion so far: x -> rot x + shift.
@@ -481,53 +491,53 @@ impl General {
         let mut rs = [Vector3::zeros(); 6];
         let mut rot = Matrix3::identity();
         let mut shift = Vector3::zeros();
-        for i in 0..6 {
+        for (i, &(c, s)) in cs.iter().enumerate() {
             ws[i] = rot * w[i];
             rs[i] = rot * r[i] + shift;
-            let ri = rodrigues(&w[i], t[i]);
-            shift += rot * (r[i] - ri * r[i]);
-            rot *= ri;
+            // Rodrigues: R_i = I + s K + (1 - c) K^2, so r - R_i r = -(s K r + (1 - c) K^2 r).
+            let (k, kk) = (&self.skew[i], &self.skew2[i]);
+            shift -= rot * (self.skew_r[i] * s + self.skew2_r[i] * (1.0 - c));
+            rot += rot * (k * s + kk * (1.0 - c));
         }
         let p = rot * r[5] + shift;
         let dp = goal_p - p;
         let da = crate::model::kinematics::log_so3(&(rotation * rot.transpose()));
-        if let Some(j) = jacobian {
-            for i in 0..6 {
-                let v = ws[i].cross(&(p - rs[i]));
-                j.fixed_view_mut::<3, 1>(0, i).copy_from(&v);
-                j.fixed_view_mut::<3, 1>(3, i).copy_from(&ws[i]);
-            }
+        for i in 0..6 {
+            let v = ws[i].cross(&(p - rs[i]));
+            jacobian.fixed_view_mut::<3, 1>(0, i).copy_from(&v);
+            jacobian.fixed_view_mut::<3, 1>(3, i).copy_from(&ws[i]);
         }
         nalgebra::Vector6::new(dp.x, dp.y, dp.z, da.x, da.y, da.z)
     }
 
-    /// Turns from a root of the determinant, which carries its rounding into them (much of
-    /// it at a double root), refined by Newton's method on the product of the six turns (at
-    /// most 4 steps, while the error falls); whether they then solve the goal to 1e-9 (of the
-    /// reach; rad).
+    /// Turns from a root of the determinant (their cosines and sines `cs`), which carries its
+    /// rounding into them (much of it at a double root), refined by Newton's method on the
+    /// product of the six turns (at most 4 steps, while the error falls); whether they then
+    /// solve the goal to 1e-9 (of the reach; rad).
     fn refine(
         &self,
         mut turns: [f64; 6],
+        mut cs: [(f64, f64); 6],
         rotation: &Matrix3<f64>,
         goal_p: &Vector3<f64>,
     ) -> ([f64; 6], bool) {
-        let mut e = self.error(&turns, rotation, goal_p, None);
+        let mut j = nalgebra::Matrix6::zeros();
+        let mut e = self.error(&cs, rotation, goal_p, &mut j);
         if e.norm() < 1e-12 {
             return (turns, true);
         }
-        let mut j = nalgebra::Matrix6::zeros();
-        self.error(&turns, rotation, goal_p, Some(&mut j));
         for _ in 0..4 {
             let Some(step) = j.lu().solve(&e) else {
                 break;
             };
             let trial: [f64; 6] = std::array::from_fn(|i| turns[i] + step[i]);
-            let e2 = self.error(&trial, rotation, goal_p, Some(&mut j));
+            let trial_cs = std::array::from_fn(|i| turned(cs[i], turns[i], trial[i]));
+            let e2 = self.error(&trial_cs, rotation, goal_p, &mut j);
             // NaN included: only a smaller error is kept.
             if e2.norm().partial_cmp(&e.norm()) != Some(std::cmp::Ordering::Less) {
                 break;
             }
-            (turns, e) = (trial, e2);
+            (turns, cs, e) = (trial, trial_cs, e2);
             if e.norm() < 1e-12 {
                 break;
             }
@@ -536,11 +546,48 @@ impl General {
     }
 }
 
-/// Rotation by `t` about the unit `w`.
-fn rodrigues(w: &Vector3<f64>, t: f64) -> Matrix3<f64> {
-    let (s, c) = t.sin_cos();
-    let k = Matrix3::new(0.0, -w.z, w.y, w.z, 0.0, -w.x, -w.y, w.x, 0.0);
-    Matrix3::identity() + k * s + k * k * (1.0 - c)
+/// `(t, (cos t, sin t))` for `t = atan2(y, x)`, the cosine and sine from the same ratio
+/// (`(1, 0)` when both are zero, as `atan2` gives 0).
+fn angle(y: f64, x: f64) -> (f64, (f64, f64)) {
+    // Ratios of unit-sized values: no overflow to guard against (a non-finite one is
+    // refused with the turns).
+    let r = (x * x + y * y).sqrt();
+    if r == 0.0 {
+        return (y.atan2(x), (1.0, 0.0));
+    }
+    (y.atan2(x), (x / r, y / r))
+}
+
+/// `(t, (cos t, sin t))` for `t = 2 atan2(y, x)` (a turn from its half-angle tangent's ratio).
+fn half_angle(y: f64, x: f64) -> (f64, (f64, f64)) {
+    let n = x * x + y * y;
+    if n == 0.0 {
+        return (2.0 * y.atan2(x), (1.0, 0.0));
+    }
+    (2.0 * y.atan2(x), ((x * x - y * y) / n, 2.0 * x * y / n))
+}
+
+/// Largest turn from a known angle that [`turned`] takes by its series: the grid's step
+/// (`2 pi / 96`, 0.0654 rad) with room, and any Newton step of the refinement near a root.
+const SERIES: f64 = 0.07;
+
+/// `(cos t, sin t)` from `cs0 = (cos t0, sin t0)`, by the angle sum with the Taylor series of
+/// `d = t - t0` when `|d| <= SERIES` (to `d^9` and `d^8`: the next terms are below 1e-18),
+/// else by the library.
+fn turned(cs0: (f64, f64), t0: f64, t: f64) -> (f64, f64) {
+    let d = t - t0;
+    if d.abs() > SERIES {
+        let (s, c) = t.sin_cos();
+        return (c, s);
+    }
+    // 1 / k! for the terms' factorials (multiplications: no divisions in the chain).
+    const S: [f64; 4] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362_880.0];
+    const C: [f64; 4] = [-0.5, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40_320.0];
+    let d2 = d * d;
+    let sd = d + d * d2 * (S[0] + d2 * (S[1] + d2 * (S[2] + d2 * S[3])));
+    let cd = 1.0 + d2 * (C[0] + d2 * (C[1] + d2 * (C[2] + d2 * C[3])));
+    let (c0, s0) = cs0;
+    (c0 * cd - s0 * sd, s0 * cd + c0 * sd)
 }
 
 /// The determinant of the 12 x 12 matrix as a trigonometric polynomial of degree 8 in `t_3`:
@@ -588,9 +635,11 @@ impl Determinant {
         [v, dv, ddv]
     }
 
-    /// The value and its first two derivatives at `t`.
-    fn value(&self, t: f64) -> [f64; 3] {
-        self.at(&multiples(t))
+    /// The value and its first two derivatives at `t`, within [`SERIES`] of the grid angle
+    /// `base` (its angle, and its cosine and sine), where its cosine and sine are worked out
+    /// from the grid's ([`turned`]).
+    fn value(&self, base: (f64, (f64, f64)), t: f64) -> [f64; 3] {
+        self.at(&multiples(turned(base.1, base.0, t)))
     }
 
     /// The value and its first [`DEGREE`] derivatives at an angle whose multiples' cosines
@@ -669,8 +718,12 @@ impl Determinant {
         for k in 1..=GRID {
             let t0 = -std::f64::consts::PI + step * (k - 1) as f64;
             let t1 = -std::f64::consts::PI + step * k as f64;
+            if limits.quiet(&grid[k - 1], &grid[k], t1 - t0) {
+                continue;
+            }
             certain &= self.cell(
-                Some(&tables.grid[k - 1]),
+                (t0, &tables.grid[k - 1]),
+                true,
                 (t0, grid[k - 1]),
                 (t1, grid[k]),
                 &limits,
@@ -689,27 +742,32 @@ impl Determinant {
     /// where the value is monotone; where it has a single extremum (its second derivative keeps
     /// its sign), two, one or none by the extremum's value, unless that lies within rounding
     /// of zero (a double root: pushed, uncertain). Otherwise the cell is halved, `depth` times
-    /// at most, then looked at as the grid alone tells (uncertain).
+    /// at most, then looked at as the grid alone tells (uncertain). `grid` is the grid angle
+    /// the cell lies after (within a grid step) with its multiples' cosines and sines, and
+    /// `at_grid` whether `t0` is that angle.
+    #[allow(clippy::too_many_arguments)]
     fn cell(
         &self,
-        cs0: Option<&[(f64, f64); DEGREE + 1]>,
+        grid: (f64, &[(f64, f64); DEGREE + 1]),
+        at_grid: bool,
         (t0, e0): (f64, [f64; 3]),
         (t1, e1): (f64, [f64; 3]),
         limits: &Limits,
         depth: u32,
         found: &mut Found<'_>,
     ) -> bool {
+        let base = (grid.0, grid.1[1]);
         let value = |t: f64| {
-            let e = self.value(t);
+            let e = self.value(base, t);
             (e[0], e[1])
         };
         let slope = |t: f64| {
-            let e = self.value(t);
+            let e = self.value(base, t);
             (e[1], e[2])
         };
         let h = t1 - t0;
-        let [f0, g0, c0] = e0;
-        let [f1, g1, c1] = e1;
+        let [f0, g0, _] = e0;
+        let [f1, g1, _] = e1;
         if f0 == 0.0 {
             found.push(t0, false);
             return false;
@@ -720,30 +778,15 @@ impl Determinant {
         }
         let crosses = f0.signum() != f1.signum();
         // Which of the value, its slope and its curvature keeps its sign over the cell: told
-        // by the sizes of the next derivative over the whole turn, else by the Taylor series
-        // at t0 (exact to degree 8, the rest bounded by the ninth derivative's size).
-        let ends = [(f0, f1), (g0, g1), (c0, c1)];
-        let global = |j: usize| {
-            let (x0, x1) = ends[j];
-            x0.signum() == x1.signum() && x0.abs() + x1.abs() > limits.bound[j] * h
-        };
-        // Or by the series at either end to the curvature, the rest bounded by the third
-        // derivative's size over the turn (no work beyond the grid's).
-        let third = limits.bound[2];
-        let near_end = |j: usize| {
-            [e0, e1].iter().any(|&[f, g, c]| match j {
-                0 => f.abs() > h * (g.abs() + h * (0.5 * c.abs() + h * third / 6.0)),
-                1 => g.abs() > h * (c.abs() + 0.5 * h * third),
-                _ => false,
-            })
-        };
+        // by the bounds alone ([`Limits::signed`]), else by the Taylor series at t0 (exact to
+        // degree 8, the rest bounded by the ninth derivative's size).
         let mut local = None;
         let mut signed = |j: usize| {
-            global(j) || near_end(j) || {
+            limits.signed(j, &e0, &e1, h) || {
                 let (y, steps) = local.get_or_insert_with(|| {
-                    let y = match cs0 {
-                        Some(cs) => self.derivatives(cs),
-                        None => self.derivatives(&multiples(t0)),
+                    let y = match at_grid {
+                        true => self.derivatives(grid.1),
+                        false => self.derivatives(&multiples(turned(base.1, base.0, t0))),
                     };
                     // h^k / k!
                     let mut steps = [1.0; DEGREE + 2];
@@ -771,10 +814,10 @@ impl Determinant {
             }
         };
         if !crosses && signed(0) {
-            if g0.signum() != g1.signum() && g0 != 0.0 && g1 != 0.0 {
+            if limits.turns_near(&e0, &e1, h) {
                 // Where only for a start: to a millionth of a radian.
                 let tm = newton(&slope, t0, t1, g0, g1, 1e-6);
-                extremum_near(found, tm, self.value(tm));
+                extremum_near(found, tm, self.value(base, tm));
             }
             return true;
         }
@@ -793,7 +836,7 @@ impl Determinant {
                 return g0 != 0.0 && g1 != 0.0;
             }
             let tm = newton(&slope, t0, t1, g0, g1, ROUNDING);
-            let em = self.value(tm);
+            let em = self.value(base, tm);
             let fm = em[0];
             // Within rounding of zero, the roots are uncertain, found as the values tell.
             let certain = fm.abs() > limits.rounding;
@@ -815,9 +858,9 @@ impl Determinant {
         }
         if depth > 0 {
             let tm = 0.5 * (t0 + t1);
-            let em = self.value(tm);
-            let left = self.cell(cs0, (t0, e0), (tm, em), limits, depth - 1, found);
-            let right = self.cell(None, (tm, em), (t1, e1), limits, depth - 1, found);
+            let em = self.value(base, tm);
+            let left = self.cell(grid, at_grid, (t0, e0), (tm, em), limits, depth - 1, found);
+            let right = self.cell(grid, false, (tm, em), (t1, e1), limits, depth - 1, found);
             return left && right;
         }
         // What the grid alone tells: a sign change is a root; two roots lie on either side of
@@ -826,7 +869,7 @@ impl Determinant {
             found.push(newton(&value, t0, t1, f0, f1, ROUNDING), false);
         } else if g0.signum() != g1.signum() && g0 != 0.0 && g1 != 0.0 {
             let tm = newton(&slope, t0, t1, g0, g1, ROUNDING);
-            let em = self.value(tm);
+            let em = self.value(base, tm);
             let fm = em[0];
             if fm.signum() != f0.signum() && fm != 0.0 {
                 found.push(newton(&value, t0, tm, f0, fm, ROUNDING), false);
@@ -846,6 +889,48 @@ struct Limits {
     /// Of the ninth derivative's size.
     ninth: f64,
     rounding: f64,
+}
+
+impl Limits {
+    /// Whether derivative `j` (0 the value, 1 the slope) keeps its sign over the cell between
+    /// `e0` and `e1` (value, slope and curvature at either end, `h` apart), told by the bounds
+    /// alone: by the next derivative's size over the whole turn, or by the series at either
+    /// end to the curvature with the rest bounded by the third derivative's size (no work
+    /// beyond the grid's).
+    fn signed(&self, j: usize, e0: &[f64; 3], e1: &[f64; 3], h: f64) -> bool {
+        let (x0, x1) = (e0[j], e1[j]);
+        let third = self.bound[2];
+        (x0.signum() == x1.signum() && x0.abs() + x1.abs() > self.bound[j] * h)
+            || [e0, e1].iter().any(|&&[f, g, c]| match j {
+                0 => f.abs() > h * (g.abs() + h * (0.5 * c.abs() + h * third / 6.0)),
+                1 => g.abs() > h * (c.abs() + 0.5 * h * third),
+                _ => false,
+            })
+    }
+
+    /// Whether a cell whose value keeps its sign has an extremum (the slope changes sign)
+    /// that may come within [`NEAR`] of zero. Its value is at least the larger end's less
+    /// what the curvature can take over the cell, the curvature at most the smaller end's
+    /// plus what the third derivative adds: when that leaves it twice out of reach (room for
+    /// rounding), it is no start and is not looked for.
+    fn turns_near(&self, e0: &[f64; 3], e1: &[f64; 3], h: f64) -> bool {
+        let ([f0, g0, c0], [f1, g1, c1]) = (*e0, *e1);
+        let curvature = c0.abs().min(c1.abs()) + h * self.bound[2];
+        let gap = f0.abs().max(f1.abs()) - 0.5 * curvature * h * h;
+        g0.signum() != g1.signum() && g0 != 0.0 && g1 != 0.0 && gap <= NEAR * NEAR * curvature
+    }
+
+    /// Whether a grid cell is quiet by the bounds alone: its value, nonzero at both ends,
+    /// keeps its sign, with no extremum near zero. [`Determinant::cell`] would find nothing
+    /// there and call it certain: the common case, told without it.
+    fn quiet(&self, e0: &[f64; 3], e1: &[f64; 3], h: f64) -> bool {
+        let (f0, f1) = (e0[0], e1[0]);
+        f0 != 0.0
+            && f1 != 0.0
+            && f0.signum() == f1.signum()
+            && self.signed(0, e0, e1, h)
+            && !self.turns_near(e0, e1, h)
+    }
 }
 
 /// The roots found so far, `near` marking extrema close to zero.
@@ -869,9 +954,9 @@ impl Found<'_> {
     }
 }
 
-/// `b(t_4) (x) b(t_5)`: the 9 products, `3 m4 + m5`.
-fn products(t4: f64, t5: f64) -> [f64; 9] {
-    let (b4, b5) = (basis(t4), basis(t5));
+/// `b(t_4) (x) b(t_5)`: the 9 products, `3 m4 + m5`, from the turns' cosines and sines.
+fn products((c4, s4): (f64, f64), (c5, s5): (f64, f64)) -> [f64; 9] {
+    let (b4, b5) = ([1.0, c4, s4], [1.0, c5, s5]);
     std::array::from_fn(|k| b4[k / 3] * b5[k % 3])
 }
 
@@ -1089,9 +1174,8 @@ fn null12_full(a: &mut [[f64; 12]; 12]) -> Option<[f64; 12]> {
     v.iter().all(|x| x.is_finite()).then_some(v)
 }
 
-/// `(cos d t, sin d t)` for `d = 0 ..= DEGREE`.
-fn multiples(t: f64) -> [(f64, f64); DEGREE + 1] {
-    let (s1, c1) = t.sin_cos();
+/// `(cos d t, sin d t)` for `d = 0 ..= DEGREE`, from `(cos t, sin t)`.
+fn multiples((c1, s1): (f64, f64)) -> [(f64, f64); DEGREE + 1] {
     let mut out = [(1.0, 0.0); DEGREE + 1];
     for d in 1..=DEGREE {
         let (c, s) = out[d - 1];
@@ -1113,10 +1197,14 @@ fn tables() -> &'static Tables {
     static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
     TABLES.get_or_init(|| {
         let grid: [[(f64, f64); DEGREE + 1]; GRID + 1] = std::array::from_fn(|k| {
-            multiples(-std::f64::consts::PI + TAU * k as f64 / GRID as f64)
+            let (s, c) = (-std::f64::consts::PI + TAU * k as f64 / GRID as f64).sin_cos();
+            multiples((c, s))
         });
         Tables {
-            samples: std::array::from_fn(|k| multiples(TAU * k as f64 / SAMPLES as f64)),
+            samples: std::array::from_fn(|k| {
+                let (s, c) = (TAU * k as f64 / SAMPLES as f64).sin_cos();
+                multiples((c, s))
+            }),
             cos: std::array::from_fn(|d| std::array::from_fn(|k| grid[k][d].0)),
             sin: std::array::from_fn(|d| std::array::from_fn(|k| grid[k][d].1)),
             grid,
@@ -1221,6 +1309,38 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The cosines and sines worked out without the library's `sin_cos` against it: by the
+    /// series from a known angle (the grid's step and the refinement's steps, either sign, and
+    /// past [`super::SERIES`], where the library takes over), and from `atan2`'s ratios (a turn
+    /// and a half-angle tangent's). Each is a few roundings of unit-sized values (the known
+    /// angle's cosine and sine, the series, the angle sum: under 5 ulps of 1), so 1e-15.
+    #[test]
+    fn cosines_and_sines_match_the_library() {
+        use super::{angle, half_angle, turned, SERIES};
+        use std::f64::consts::{PI, TAU};
+        let close = |(c, s): (f64, f64), t: f64| {
+            let (s2, c2) = t.sin_cos();
+            (c - c2).abs() <= 1e-15 && (s - s2).abs() <= 1e-15
+        };
+        for i in 0..=960 {
+            let t0 = -PI + TAU * i as f64 / 960.0;
+            let (s0, c0) = t0.sin_cos();
+            for d in [
+                0.0, 1e-12, -3e-7, 0.01, -0.05, 0.0654, -SERIES, SERIES, 0.08, -1.3,
+            ] {
+                let t = t0 + d;
+                assert!(close(turned((c0, s0), t0, t), t), "t0 {t0} d {d}");
+            }
+            let (y, x) = (3.7 * s0, 3.7 * c0);
+            let (t, cs) = angle(y, x);
+            assert!((t - y.atan2(x)).abs() == 0.0 && close(cs, t), "angle {t0}");
+            let (t, cs) = half_angle(y, x);
+            assert!(close(cs, t), "half angle {t0}");
+        }
+        assert_eq!(angle(0.0, 0.0), (0.0, (1.0, 0.0)));
+        assert_eq!(half_angle(0.0, 0.0), (0.0, (1.0, 0.0)));
     }
 
     /// On random arms of six revolute joints (no simpler closed form): every exact solution
