@@ -997,9 +997,13 @@ fn sigma(v: &[[f64; 9]; 6]) -> [[f64; 12]; 12] {
 /// `x_4^i x_5^j` (`i, j <= 2`).
 #[inline(always)]
 fn equations_at(f: &[[[f64; 9]; 6]; 3], c3: f64, s3: f64) -> [[f64; 9]; 6] {
-    std::array::from_fn(|row| {
-        std::array::from_fn(|c| f[0][row][c] + c3 * f[1][row][c] + s3 * f[2][row][c])
-    })
+    let mut v = [[0.0; 9]; 6];
+    for (row, out) in v.iter_mut().enumerate() {
+        for (c, x) in out.iter_mut().enumerate() {
+            *x = f[0][row][c] + c3 * f[1][row][c] + s3 * f[2][row][c];
+        }
+    }
+    v
 }
 
 /// The 12 x 12 matrix of [`sigma`] factorised by its blocks. Its first 6 rows (the equations
@@ -1057,10 +1061,12 @@ impl Factors {
     #[inline(always)]
     fn of(v: &[[f64; 9]; 6]) -> Factors {
         let mut top = *v;
-        let mut bottom: [[f64; 9]; 6] = std::array::from_fn(|r| {
-            let e = &v[r];
-            [e[6], e[7], e[8], e[0], e[1], e[2], e[3], e[4], e[5]]
-        });
+        let mut bottom = [[0.0; 9]; 6];
+        for (b, e) in bottom.iter_mut().zip(v) {
+            for (k, x) in b.iter_mut().enumerate() {
+                *x = e[(k + 6) % 9];
+            }
+        }
         let mut schur = [[0.0; 6]; 6];
         let dt = eliminate::<3, 9, 6>(&mut top);
         let db = eliminate::<3, 9, 6>(&mut bottom);
@@ -1175,13 +1181,23 @@ fn null12_full(a: &mut [[f64; 12]; 12]) -> Option<[f64; 12]> {
 }
 
 /// `(cos d t, sin d t)` for `d = 0 ..= DEGREE`, from `(cos t, sin t)`.
-fn multiples((c1, s1): (f64, f64)) -> [(f64, f64); DEGREE + 1] {
-    let mut out = [(1.0, 0.0); DEGREE + 1];
-    for d in 1..=DEGREE {
-        let (c, s) = out[d - 1];
-        out[d] = (c * c1 - s * s1, s * c1 + c * s1);
-    }
-    out
+fn multiples(m1: (f64, f64)) -> [(f64, f64); DEGREE + 1] {
+    // Angle sums, by powers of two first: three products deep, not eight (a chain the root
+    // search waits on at every step).
+    let sum = |(c, s): (f64, f64), (c1, s1): (f64, f64)| (c * c1 - s * s1, s * c1 + c * s1);
+    let m2 = sum(m1, m1);
+    let (m3, m4) = (sum(m2, m1), sum(m2, m2));
+    [
+        (1.0, 0.0),
+        m1,
+        m2,
+        m3,
+        m4,
+        sum(m4, m1),
+        sum(m4, m2),
+        sum(m4, m3),
+        sum(m4, m4),
+    ]
 }
 
 /// The multiples of the determinant's sampling angles and of the grid's (those also by degree:
