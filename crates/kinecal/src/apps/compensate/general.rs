@@ -546,25 +546,42 @@ impl General {
     }
 }
 
-/// `(t, (cos t, sin t))` for `t = atan2(y, x)`, the cosine and sine from the same ratio
-/// (`(1, 0)` when both are zero, as `atan2` gives 0).
+/// `(t, (cos t, sin t))` for `t = atan2(y, x)`, the cosine and sine from the same ratio.
 fn angle(y: f64, x: f64) -> (f64, (f64, f64)) {
-    // Ratios of unit-sized values: no overflow to guard against (a non-finite one is
-    // refused with the turns).
-    let r = (x * x + y * y).sqrt();
-    if r == 0.0 {
-        return (y.atan2(x), (1.0, 0.0));
+    let t = y.atan2(x);
+    match scaled(y, x) {
+        Some((y, x)) => {
+            let r = (x * x + y * y).sqrt();
+            (t, (x / r, y / r))
+        }
+        None => (t, library(t)),
     }
-    (y.atan2(x), (x / r, y / r))
 }
 
 /// `(t, (cos t, sin t))` for `t = 2 atan2(y, x)` (a turn from its half-angle tangent's ratio).
 fn half_angle(y: f64, x: f64) -> (f64, (f64, f64)) {
-    let n = x * x + y * y;
-    if n == 0.0 {
-        return (2.0 * y.atan2(x), (1.0, 0.0));
+    let t = 2.0 * y.atan2(x);
+    match scaled(y, x) {
+        Some((y, x)) => {
+            let n = x * x + y * y;
+            (t, ((x * x - y * y) / n, 2.0 * x * y / n))
+        }
+        None => (t, library(t)),
     }
-    (2.0 * y.atan2(x), ((x * x - y * y) / n, 2.0 * x * y / n))
+}
+
+/// `(y, x)` divided by the larger size (their squares neither overflow nor vanish); `None`
+/// when both are zero or either is not finite (the library then tells the angle's cosine and
+/// sine: `atan2` of signed zeros is 0 or pi, of an infinity a limit, of a NaN a NaN).
+fn scaled(y: f64, x: f64) -> Option<(f64, f64)> {
+    let m = x.abs().max(y.abs());
+    (m > 0.0 && m.is_finite()).then(|| (y / m, x / m))
+}
+
+/// `(cos t, sin t)` by the library.
+fn library(t: f64) -> (f64, f64) {
+    let (s, c) = t.sin_cos();
+    (c, s)
 }
 
 /// Largest turn from a known angle that [`turned`] takes by its series: the grid's step
@@ -577,8 +594,7 @@ const SERIES: f64 = 0.07;
 fn turned(cs0: (f64, f64), t0: f64, t: f64) -> (f64, f64) {
     let d = t - t0;
     if d.abs() > SERIES {
-        let (s, c) = t.sin_cos();
-        return (c, s);
+        return library(t);
     }
     // 1 / k! for the terms' factorials (multiplications: no divisions in the chain).
     const S: [f64; 4] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362_880.0];
@@ -666,7 +682,8 @@ impl Determinant {
 
     /// Its real roots in `[-pi, pi]` into `roots` (and, marked in `near`, extrema close to
     /// zero: starts where two solutions merge), their count, and whether the roots are all it
-    /// has, each simple: sign changes on a grid of [`GRID`] cells, each cell [`Self::cell`].
+    /// has, each simple: sign changes on a grid of [`GRID`] cells, each cell
+    /// [`Self::cell`] (told inline when [`Limits::quiet`]).
     fn real_roots(
         &self,
         roots: &mut [f64; 2 * DEGREE],
@@ -1330,8 +1347,10 @@ mod tests {
     /// The cosines and sines worked out without the library's `sin_cos` against it: by the
     /// series from a known angle (the grid's step and the refinement's steps, either sign, and
     /// past [`super::SERIES`], where the library takes over), and from `atan2`'s ratios (a turn
-    /// and a half-angle tangent's). Each is a few roundings of unit-sized values (the known
-    /// angle's cosine and sine, the series, the angle sum: under 5 ulps of 1), so 1e-15.
+    /// and a half-angle tangent's, degenerate ones included). Each is a few roundings of
+    /// unit-sized values (the known angle's cosine and sine, the series, the angle sum: under 5
+    /// ulps of 1), so 1e-15; the sine's last term (`d^9 / 9!`, at most 1.1e-16) is below that,
+    /// so only the terms before it are told apart here.
     #[test]
     fn cosines_and_sines_match_the_library() {
         use super::{angle, half_angle, turned, SERIES};
@@ -1355,8 +1374,27 @@ mod tests {
             let (t, cs) = half_angle(y, x);
             assert!(close(cs, t), "half angle {t0}");
         }
-        assert_eq!(angle(0.0, 0.0), (0.0, (1.0, 0.0)));
-        assert_eq!(half_angle(0.0, 0.0), (0.0, (1.0, 0.0)));
+        // Signed zeros (atan2 gives 0 or pi), sizes whose squares overflow or vanish, and an
+        // infinity: the pair is still the angle's.
+        for (y, x) in [
+            (0.0, 0.0),
+            (0.0, -0.0),
+            (-0.0, -0.0),
+            (3e-200, -7e-200),
+            (-4e200, 1e200),
+            (1.0, f64::INFINITY),
+            (f64::INFINITY, -2.0),
+        ] {
+            let (t, cs) = angle(y, x);
+            assert!(
+                t.to_bits() == y.atan2(x).to_bits() && close(cs, t),
+                "angle ({y}, {x}): {cs:?}"
+            );
+            let (t, cs) = half_angle(y, x);
+            assert!(close(cs, t), "half angle ({y}, {x}): {cs:?}");
+        }
+        let (t, (c, s)) = angle(f64::NAN, 1.0);
+        assert!(t.is_nan() && c.is_nan() && s.is_nan());
     }
 
     /// On random arms of six revolute joints (no simpler closed form): every exact solution
