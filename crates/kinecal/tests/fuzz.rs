@@ -12,10 +12,12 @@
 //! - when it refuses it, name the file in the message (and a line where the reader has lines).
 //!
 //! In the normal test run each target gets `KINECAL_FUZZ_ITERS` inputs (default 300) from a
-//! fixed seed. The long run (at least 10^6 inputs per target):
+//! fixed seed; `KINECAL_FUZZ_SEED=N` draws other inputs (a long run should take a seed no run
+//! took before: the same seed repeats the same inputs). The long run (at least 10^6 inputs per
+//! target):
 //!
 //! ```text
-//! KINECAL_FUZZ_ITERS=1000000 cargo test --release -p kinecal --test fuzz -- --nocapture
+//! KINECAL_FUZZ_SEED=7 KINECAL_FUZZ_ITERS=1000000 cargo test --release -p kinecal --test fuzz -- --nocapture
 //! ```
 //!
 //! Inputs that once failed are kept in `tests/fuzz-corpus/` and replayed first.

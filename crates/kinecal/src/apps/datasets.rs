@@ -1188,6 +1188,8 @@ kinematics:
         let mut observations: Vec<Observation> = Vec::with_capacity(rows);
         let mut temperatures = Vec::with_capacity(rows);
         let mut goals = Vec::with_capacity(rows);
+        // Each row's line and per-axis standard deviations (mm), for the spread check below.
+        let mut stated: Vec<(usize, [f64; 3])> = Vec::new();
         let mut last = 1;
         for (i, line) in lines {
             if line.trim().is_empty() {
@@ -1237,6 +1239,7 @@ kinematics:
                             ));
                         }
                     }
+                    stated.push((i + 1, [s.x, s.y, s.z]));
                     Some(s * 1e-3)
                 }
                 None => None,
@@ -1265,7 +1268,47 @@ kinematics:
                 ),
             ));
         }
+        if let Some(cols) = std {
+            spread_of_sigmas(file, &stated, cols.map(|k| columns[k]))?;
+        }
         Ok((Dataset::new(postures, observations), temperatures, goals))
+    }
+
+    /// A series' standard deviations as kinecal reads them back from the file it is written
+    /// to: none more than [`SIGMA_SPREAD`](crate::files::table::SIGMA_SPREAD) times below
+    /// the median of the series' (the measurement reader refuses such a row as a slip, see
+    /// `files::table::sigma_spread_problem`), refused here with the source's line and column.
+    /// `stated`: each row's line and per-axis values (mm); `columns`: the axes' column names.
+    fn spread_of_sigmas(
+        file: &str,
+        stated: &[(usize, [f64; 3])],
+        columns: [&str; 3],
+    ) -> Result<()> {
+        use crate::files::table::SIGMA_SPREAD;
+        let mut all: Vec<f64> = stated.iter().flat_map(|(_, s)| *s).collect();
+        if all.len() < 2 {
+            return Ok(());
+        }
+        all.sort_by(f64::total_cmp);
+        // The upper median, as the reader takes it.
+        let median = all[all.len() / 2];
+        for (line, s) in stated {
+            for (a, &v) in s.iter().enumerate() {
+                if v * SIGMA_SPREAD < median {
+                    return Err(Error::input(
+                        Location::file(file).at_line(*line).with_field(columns[a]),
+                        format!(
+                            "a standard deviation of {v} mm is {:.1e} times the median of the \
+                             series' ({median} mm): expected at most {SIGMA_SPREAD:.0e} times \
+                             below it (converted, kinecal would refuse the row as a slip: it \
+                             would outweigh the rest 10^12 to 1); correct the value",
+                            v / median
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Loads the data set from its folder (`../shared/data/ipa_ur10_tracker`).

@@ -1087,7 +1087,9 @@ fn read_tp(text: &str, file: &str) -> Result<Program> {
     let mut speed: Option<u32> = None;
     // Each move: its line, its point, its zone.
     let mut moves: Vec<(usize, usize, Option<u32>)> = Vec::new();
-    let mut positions: Vec<Option<[f64; 6]>> = Vec::new();
+    // By number: a point's number is the program's to choose (`P[1000000]` alone is one
+    // point, not a million).
+    let mut positions: std::collections::BTreeMap<usize, [f64; 6]> = Default::default();
     // The point being read: its number, the line it began, its text.
     let mut point: Option<(usize, usize, String)> = None;
     let mut last = 0;
@@ -1163,13 +1165,9 @@ fn read_tp(text: &str, file: &str) -> Result<Program> {
                 if let Some((n, begun, mut body)) = point.take() {
                     if code == "};" {
                         let axes = tp_point(file, begun, &body)?;
-                        if positions.len() < n {
-                            positions.resize(n, None);
-                        }
-                        if positions[n - 1].is_some() {
+                        if positions.insert(n, axes).is_some() {
                             return Err(at(file, begun, format!("P[{n}] twice")));
                         }
-                        positions[n - 1] = Some(axes);
                     } else {
                         body += code;
                         body.push('\n');
@@ -1205,8 +1203,8 @@ fn read_tp(text: &str, file: &str) -> Result<Program> {
     }
     let mut points = Vec::with_capacity(moves.len());
     for &(line, p, _) in &moves {
-        match positions.get(p - 1).copied().flatten() {
-            Some(a) => points.push(a),
+        match positions.get(&p) {
+            Some(&a) => points.push(a),
             None => return Err(at(file, line, format!("P[{p}] is not in /POS"))),
         }
     }
@@ -1343,6 +1341,30 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A TP program's point numbers are its own: `P[1000000000000000]` is one point (it was
+    /// a table of that many, and the process aborted asking for 18 PB; a fuzzed input), and a
+    /// move to a number /POS lacks is refused by name.
+    #[test]
+    fn tp_point_numbers_may_be_sparse_and_large() {
+        let mut p = Program::new(Language::Tp, "P1".into(), 30, Zone::Fine);
+        p.points = vec![
+            [1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+            [6.0, 5.0, 4.0, 3.0, 2.0, 1.0],
+        ];
+        let text = p.text(&[], &["a".to_string(), "b".to_string()]);
+        let big = "1000000000000000";
+        let sparse = text.replace("P[2]", &format!("P[{big}]"));
+        assert_ne!(sparse, text);
+        let read = read_program(Language::Tp, &sparse, "p.ls").unwrap();
+        assert_eq!(p.differs(&read), None, "{sparse}");
+        // The move to it left pointing at a number /POS lacks.
+        let missing = sparse.replacen(&format!("P[{big}]{{"), "P[7]{", 1);
+        let err = read_program(Language::Tp, &missing, "p.ls")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(&format!("P[{big}] is not in /POS")), "{err}");
     }
 
     #[test]

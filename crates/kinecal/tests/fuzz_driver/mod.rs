@@ -20,6 +20,18 @@ pub fn iterations() -> usize {
         .unwrap_or(300)
 }
 
+/// The run's seed: `KINECAL_FUZZ_SEED` (0 to 2^64-1), default 0, the inputs the test suite
+/// has always drawn. Another seed draws other mutations: a long run that repeats an earlier
+/// one's seed repeats its inputs, so each long run should take a seed of its own.
+pub fn run_seed() -> u64 {
+    match std::env::var("KINECAL_FUZZ_SEED") {
+        Ok(s) => s
+            .parse()
+            .unwrap_or_else(|_| panic!("KINECAL_FUZZ_SEED={s}: expected an integer 0 to 2^64-1")),
+        Err(_) => 0,
+    }
+}
+
 const TOKENS: &[&str] = &[
     "nan",
     "NaN",
@@ -215,7 +227,10 @@ pub fn fuzz(target: &str, file: &str, seeds: &[Vec<u8>], read: &dyn Fn(&[u8]) ->
         }
     }
     let n = iterations();
-    let mut rng = ChaCha8Rng::seed_from_u64(0x6b69_6e65 ^ target.len() as u64);
+    let run = run_seed();
+    // Each target its own stream: the run's seed mixed with the target's name (a seed of 0
+    // and a name's length alone gave the seed of the test suite's runs, kept).
+    let mut rng = ChaCha8Rng::seed_from_u64(0x6b69_6e65 ^ target.len() as u64 ^ mix(run, target));
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
     let (mut accepted, mut slowest) = (0usize, Duration::ZERO);
@@ -261,7 +276,8 @@ pub fn fuzz(target: &str, file: &str, seeds: &[Vec<u8>], read: &dyn Fn(&[u8]) ->
             let dump = std::env::temp_dir().join(format!("kinecal-fuzz-{target}-{k}"));
             std::fs::write(&dump, &input).unwrap();
             panic!(
-                "{target}, {what}: {f}\ninput saved to {} (copy it into {} to keep it)\n{}",
+                "{target}, {what} (KINECAL_FUZZ_SEED={run}): {f}\ninput saved to {} (copy it \
+                 into {} to keep it)\n{}",
                 dump.display(),
                 corpus_dir.display(),
                 String::from_utf8_lossy(&input[..input.len().min(2000)])
@@ -270,11 +286,28 @@ pub fn fuzz(target: &str, file: &str, seeds: &[Vec<u8>], read: &dyn Fn(&[u8]) ->
     }
     std::panic::set_hook(hook);
     eprintln!(
-        "{target}: {total} inputs ({} corpus, {} seeds, {n} mutations) in {:.1?}: {accepted} \
+        "{target}: {total} inputs ({} corpus, {} seeds, {n} mutations, KINECAL_FUZZ_SEED={run}) \
+         in {:.1?}: {accepted} \
          accepted, the rest refused with the file named; slowest {slowest:?}; 0 panics, 0 \
          hangs, 0 non-finite",
         corpus.len(),
         seeds.len(),
         start.elapsed()
     );
+}
+
+/// 0 for the run seed 0 (the test suite's inputs, as before there was a run seed); otherwise
+/// the seed and the target's name hashed (FNV-1a, then a SplitMix64 finaliser), so that
+/// targets whose names are as long draw different streams.
+fn mix(run: u64, target: &str) -> u64 {
+    if run == 0 {
+        return 0;
+    }
+    let mut h = 0xcbf2_9ce4_8422_2325_u64 ^ run;
+    for b in target.bytes() {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+    }
+    h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    h ^ (h >> 31)
 }
