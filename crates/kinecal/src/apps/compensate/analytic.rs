@@ -204,6 +204,12 @@ impl Analytic {
         self.family
     }
 
+    /// The general closed form and the motion it solves for `goal` (tests look at its roots).
+    #[cfg(test)]
+    pub(crate) fn general_motion(&self, goal: &Frame) -> Option<(&super::general::General, Frame)> {
+        Some((self.general.as_deref()?, goal.then(&self.home_inv)))
+    }
+
     /// The eight branches for the goal frame `goal` (global frame, m), some inexact when the
     /// goal is out of the nominal robot's reach; the same solution may come more than once at a
     /// singularity.
