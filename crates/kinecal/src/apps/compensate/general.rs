@@ -42,11 +42,10 @@
 //! posed, every cell is certain, the real roots are even in number (a periodic function
 //! crosses zero an even number of times), and each gives an exact solution of its own:
 //! 940 of 1,000 random goals; the rest lie near a singularity or have two roots so close
-//! that both refine to one solution. The roots are refined before the starts where two
-//! solutions are about to merge (below): such a start may come within 1e-6 of a root's
-//! solution without reaching it, and must not take its place. An extremum whose pair of complex roots lies within
+//! that both refine to one solution. An extremum whose pair of complex roots lies within
 //! 0.1 rad of the real line is added as a start (two solutions about to merge: a goal just
-//! out of reach).
+//! out of reach). The roots are refined before such starts: a start may come within 1e-6 of
+//! a root's solution without reaching it, and must not take its place.
 //!
 //! Not covered: an arm whose 14 scalars do not take this form (checked when it is set up: no
 //! general form, its targets search the table of starts); goals at which the products of `t_1`
