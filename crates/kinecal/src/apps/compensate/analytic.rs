@@ -127,6 +127,9 @@ pub(crate) struct Analytic {
     slope: [f64; 6],
     /// The general closed form ([`Family::General`] only).
     general: Option<Box<super::general::General>>,
+    /// Whether the robot has an elastic model: its sag may bring solutions the rigid
+    /// geometry misses (see `general::General::solve`).
+    sag: bool,
 }
 
 impl Analytic {
@@ -196,6 +199,7 @@ impl Analytic {
             centre,
             slope: std::array::from_fn(|i| rigid.joints[i].slope),
             general,
+            sag: nominal.elastic.is_some(),
         })
     }
 
@@ -218,7 +222,7 @@ impl Analytic {
         let mut branches = Branches::new();
         if let Some(g) = &self.general {
             let mut turns = [([0.0; 6], false); MOST];
-            let found = g.solve(&d.rotation, &d.translation, &mut turns);
+            let found = g.solve(&d.rotation, &d.translation, self.sag, &mut turns);
             for &(t, exact) in &turns[..found.count] {
                 branches.push(self.branch(t, exact));
             }
