@@ -1162,17 +1162,13 @@ impl Factors {
 fn null_vector(v: &[[f64; 9]; 6]) -> Option<[f64; 12]> {
     let z = Factors::of(v).null_vector();
     // The first half's monomials x_4^0..2, the second's x_4^1..3 (times x_4).
-    let first = |k: usize| if k < 3 { z[k] } else { z[3 + k] };
-    let second = |k: usize| if k < 6 { z[6 + k] } else { z[k - 3] };
+    let first: [f64; 9] = std::array::from_fn(|k| if k < 3 { z[k] } else { z[3 + k] });
+    let second: [f64; 9] = std::array::from_fn(|k| if k < 6 { z[6 + k] } else { z[k - 3] });
     let size = v.iter().flatten().fold(0.0_f64, |m, x| m.max(x.abs()));
     let norm = z.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     let residual = v
         .iter()
-        .flat_map(|row| {
-            let a: f64 = (0..9).map(|k| row[k] * first(k)).sum();
-            let b: f64 = (0..9).map(|k| row[k] * second(k)).sum();
-            [a.abs(), b.abs()]
-        })
+        .map(|row| dot9(row, &first).abs().max(dot9(row, &second).abs()))
         .fold(0.0_f64, f64::max);
     if z.iter().all(|x| x.is_finite()) && residual <= 1e-8 * size * norm {
         return Some(z);
