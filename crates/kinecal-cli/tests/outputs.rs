@@ -335,21 +335,29 @@ fn new_outputs_follow_the_umask_and_existing_ones_keep_their_mode() {
     assert_eq!(temporaries(d), Vec::<String>::new());
 }
 
-#[test]
-fn a_stopped_run_removes_its_temporary_files() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+/// A calibration in `d` that waits at the FIFO `wait.fifo` (nobody reads it) with its report
+/// staged beside `r.json` (which holds "keep"), started with SIGHUP ignored when `nohup`.
+fn waiting_at_a_fifo(d: &Path, nohup: bool) -> Child {
+    use std::os::unix::process::CommandExt as _;
     data(d, "d.csv", 3);
     fs::write(d.join("r.json"), "keep").unwrap();
-    // Nobody reads the FIFO: kinecal waits there, its report staged beside r.json.
     mkfifo(&d.join("wait.fifo"));
-    let mut child = Command::new(BIN)
+    let mut command = Command::new(BIN);
+    command
         .current_dir(d)
         .args(calibrate(&["--out", "wait.fifo", "--report", "r.json"]))
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+        .stderr(Stdio::null());
+    if nohup {
+        // SAFETY: only sets a signal's disposition in the child before it runs kinecal.
+        unsafe {
+            command.pre_exec(|| {
+                libc::signal(libc::SIGHUP, libc::SIG_IGN);
+                Ok(())
+            });
+        }
+    }
+    let mut child = command.spawn().unwrap();
     let start = Instant::now();
     while temporaries(d).is_empty() {
         assert!(
@@ -363,16 +371,50 @@ fn a_stopped_run_removes_its_temporary_files() {
         std::thread::sleep(Duration::from_millis(5));
     }
     std::thread::sleep(Duration::from_millis(300));
-    // SAFETY: signalling our own child.
-    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    child
+}
+
+/// The run `waiting_at_a_fifo` started ended by `sig`: its status says so, its temporary file
+/// is gone, `r.json` and the FIFO are as they were.
+fn ended_by(d: &Path, child: &mut Child, sig: i32) {
     let status = child.wait().unwrap();
-    assert_eq!(status.signal(), Some(libc::SIGTERM), "{status:?}");
-    assert_eq!(temporaries(d), Vec::<String>::new());
+    assert_eq!(status.signal(), Some(sig), "{status:?}");
+    assert_eq!(temporaries(d), Vec::<String>::new(), "signal {sig}");
     assert_eq!(fs::read_to_string(d.join("r.json")).unwrap(), "keep");
     assert!(fs::symlink_metadata(d.join("wait.fifo"))
         .unwrap()
         .file_type()
         .is_fifo());
+}
+
+#[test]
+fn a_stopped_run_removes_its_temporary_files() {
+    for sig in [libc::SIGTERM, libc::SIGINT, libc::SIGHUP] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut child = waiting_at_a_fifo(d, false);
+        // SAFETY: signalling our own child.
+        unsafe { libc::kill(child.id() as i32, sig) };
+        ended_by(d, &mut child, sig);
+    }
+}
+
+#[test]
+fn a_signal_ignored_at_the_start_stays_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut child = waiting_at_a_fifo(d, true);
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGHUP) };
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "SIGHUP ended a run started with it ignored"
+    );
+    assert_eq!(temporaries(d).len(), 1, "the staged report is gone");
+    // SAFETY: as above.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    ended_by(d, &mut child, libc::SIGTERM);
 }
 
 #[test]

@@ -39,6 +39,7 @@
 //!   was seen (OpenCV's image coordinates: the origin at the top-left pixel's centre, u to the
 //!   right, v down), from the user's corner or marker detector.
 
+mod cleanup;
 mod contacts;
 pub mod controller;
 mod distances;

@@ -4,7 +4,8 @@
 //!
 //! - A regular file, or no file yet, is *replaced*: the output is first written to a temporary
 //!   file beside it (`.kinecal-tmp-<pid>-<random>-<name>`, created exclusively, never following
-//!   an existing file or symlink), flushed to disk, and only when every step of the run has
+//!   an existing file or symlink), flushed to disk (its bytes and what reading them back needs,
+//!   its size: `fdatasync`, not its times), and only when every step of the run has
 //!   succeeded renamed onto the target: readers see the old file or the new one, never a part.
 //!   Symlinks are followed (the folder canonicalised, then each link of the final name), so
 //!   `--out link` updates the file the link points to, even a file not written yet, and the
@@ -22,9 +23,10 @@
 //! Temporary files are removed on every way out: an error or a panic (the temporary file's
 //! owner removes it when dropped), and, in a program that asked for it with
 //! [`remove_temporaries_on_signals`] (the `kinecal` command does; a Python process keeps its
-//! own handlers), SIGINT, SIGTERM and SIGHUP (a thread, started with the first temporary file,
-//! removes them and then ends the process as the signal would; a signal the process was started
-//! ignoring, as under `nohup`, stays ignored). A write into a pipe whose
+//! own handlers), SIGINT, SIGTERM and SIGHUP (a handler, installed with the first temporary
+//! file, removes them and then ends the process as the signal would; during the renames of a
+//! commit it waits for the last; a signal the process was started ignoring, as under `nohup`,
+//! stays ignored: see [`super::cleanup`]). A write into a pipe whose
 //! reader is gone fails with an error rather than ending the process on SIGPIPE. Only a process
 //! killed outright (SIGKILL, a power cut) leaves its temporary files; the next run that writes
 //! into the same folder removes those whose process id names no running process and that are
@@ -43,10 +45,8 @@ use std::ffi::OsString;
 use std::fs::{self, Metadata};
 use std::io::{self, Read as _, Write as _};
 use std::path::{Component, Path, PathBuf};
-use std::sync::{Mutex, MutexGuard, PoisonError};
+use std::sync::{Mutex, PoisonError};
 use std::time::Duration;
-
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use tempfile::NamedTempFile;
 
@@ -68,14 +68,11 @@ fn failed(path: &Path, cause: io::Error) -> Error {
     }
 }
 
-/// Whether the program asked for temporary files to be removed on SIGINT, SIGTERM and SIGHUP.
-static ON_SIGNALS: AtomicBool = AtomicBool::new(false);
-
 /// Asks that temporary files be removed on SIGINT, SIGTERM and SIGHUP (then the process ends as
 /// the signal would): for a program that owns its signals, such as the `kinecal` command. A
 /// library host (Python) keeps its own handlers and does not call it.
 pub fn remove_temporaries_on_signals() {
-    ON_SIGNALS.store(true, Ordering::Relaxed);
+    super::cleanup::ask();
 }
 
 /// The start of the name of every temporary file kinecal writes.
@@ -284,66 +281,18 @@ pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
-/// The temporary files alive in this process, for the signal thread to remove.
-static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-
-fn live() -> MutexGuard<'static, Vec<PathBuf>> {
-    LIVE.lock().unwrap_or_else(PoisonError::into_inner)
+/// A temporary file, known to the signal handler while it lives; removed when dropped (then
+/// forgotten by the handler).
+struct Temp {
+    file: Option<NamedTempFile>,
+    _known: super::cleanup::Registered,
 }
-
-/// Starts, once, the thread that removes the live temporary files on SIGINT, SIGTERM or
-/// SIGHUP and then ends the process as the signal would have.
-#[cfg(unix)]
-fn watch_signals() {
-    if !ON_SIGNALS.load(Ordering::Relaxed) {
-        return;
-    }
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-        let wanted: Vec<i32> = [SIGINT, SIGTERM, SIGHUP]
-            .into_iter()
-            .filter(|&s| !ignored(s))
-            .collect();
-        let Ok(mut signals) = signal_hook::iterator::Signals::new(&wanted) else {
-            return;
-        };
-        std::thread::spawn(move || {
-            if let Some(sig) = signals.forever().next() {
-                // Held to the end: no temporary file is renamed after this point.
-                let live = live();
-                for p in live.iter() {
-                    let _ = fs::remove_file(p);
-                }
-                let _ = signal_hook::low_level::emulate_default_handler(sig);
-                std::process::exit(128 + sig);
-            }
-        });
-    });
-}
-
-/// Whether the process was started with `sig` ignored (`nohup`, a background job).
-#[cfg(unix)]
-fn ignored(sig: i32) -> bool {
-    // SAFETY: reads the current action only (a null new action changes nothing).
-    unsafe {
-        let mut old: libc::sigaction = std::mem::zeroed();
-        libc::sigaction(sig, std::ptr::null(), &mut old) == 0 && old.sa_sigaction == libc::SIG_IGN
-    }
-}
-
-#[cfg(not(unix))]
-fn watch_signals() {}
-
-/// A temporary file, known to the signal thread while it lives; removed when dropped.
-struct Temp(Option<NamedTempFile>);
 
 impl Temp {
     /// A fresh temporary file in `dir` for the output `name`, with the mode `mode` (less the
     /// umask). The folder is first cleared of temporary files of killed runs.
     fn create(dir: &Path, name: &std::ffi::OsStr, mode: u32) -> io::Result<Temp> {
         sweep(dir);
-        watch_signals();
         let name = name.to_string_lossy();
         // The target's name ends the temporary one (writers that look at the extension see the
         // target's); a long name is shortened to its extension, within the usual 255 bytes.
@@ -367,21 +316,22 @@ impl Temp {
         #[cfg(not(unix))]
         let _ = mode;
         let file = b.tempfile_in(dir)?;
-        live().push(file.path().to_path_buf());
-        Ok(Temp(Some(file)))
+        let registered = super::cleanup::register(file.path());
+        Ok(Temp {
+            file: Some(file),
+            _known: registered,
+        })
     }
 
     fn file(&self) -> &NamedTempFile {
-        self.0.as_ref().expect("a live temporary file")
+        self.file.as_ref().expect("a live temporary file")
     }
 }
 
 impl Drop for Temp {
     fn drop(&mut self) {
-        if let Some(file) = self.0.take() {
-            live().retain(|p| p != file.path());
-            drop(file);
-        }
+        // Removed first, forgotten by the handler after (the field, dropped next).
+        drop(self.file.take());
     }
 }
 
@@ -525,7 +475,7 @@ impl Staged {
                 let temp = self.temp(path, &to, existing.as_ref())?;
                 let mut file = temp.file().as_file();
                 file.write_all(contents)
-                    .and_then(|()| file.sync_all())
+                    .and_then(|()| file.sync_data())
                     .map_err(|e| failed(path, e))?;
                 self.replace.push(Replacement {
                     shown: path.to_path_buf(),
@@ -568,7 +518,7 @@ impl Staged {
                 write(temp.file().path())?;
                 temp.file()
                     .as_file()
-                    .sync_all()
+                    .sync_data()
                     .map_err(|e| failed(path, e))?;
                 self.replace.push(Replacement {
                     shown: path.to_path_buf(),
@@ -606,13 +556,13 @@ impl Staged {
         }
         let mut pending = self.replace.into_iter();
         let result = {
-            let mut live = live();
+            // A signal now waits for the last rename.
+            let _committing = super::cleanup::committing();
             let mut result = Ok(());
             for mut r in pending.by_ref() {
-                let file = r.temp.0.take().expect("a live temporary file");
-                let temp = file.path().to_path_buf();
+                let file = r.temp.file.take().expect("a live temporary file");
+                // The handler forgets the file when `r` is dropped, after the rename.
                 let done = file.persist(&r.target);
-                live.retain(|p| p != &temp);
                 if let Err(e) = done {
                     drop(e.file);
                     result = Err(failed(&r.shown, e.error));
@@ -621,7 +571,7 @@ impl Staged {
             }
             result
         };
-        // The rest are removed (their owners need the lock released above).
+        // The rest are removed.
         drop(pending);
         result
     }
