@@ -147,43 +147,60 @@ fn plain(text: &str) -> bool {
 
 /// [`read`] of a [`plain`] text: a record per line; comment lines, empty lines and rows whose
 /// fields are all blank skipped; the first record the header.
+///
+/// One scan finds every delimiter and line end of the text (SIMD, in large strides), rather than
+/// a search per line and then per field: a file's fields are a few bytes apart, and most of a
+/// short search is its start.
 fn read_plain<'a>(text: &'a str, file: &str) -> Result<Table<'a>> {
     let loc = Location::file(file);
     let delimiter = detect_delimiter(text);
+    let bytes = text.as_bytes();
     let mut header: Option<(Vec<String>, usize)> = None;
-    let mut spans = Vec::new();
+    let mut spans: Vec<(u32, u32)> = Vec::new();
     let mut starts = Vec::new();
-    let mut at = 0;
-    for (i, line) in text.split('\n').enumerate() {
-        let offset = at;
-        at += line.len() + 1;
-        let line = line.strip_suffix('\r').unwrap_or(line);
-        // Empty lines are no record; comment lines are skipped wherever they are.
-        if line.is_empty() || is_comment(line) {
+    // The current line's start and number, its first field's index in `spans`, and where its
+    // next field starts.
+    let (mut line_start, mut number, mut first, mut field_start) = (0, 1, 0, 0);
+    let ends = memchr::memchr2_iter(delimiter, b'\n', bytes).chain(std::iter::once(bytes.len()));
+    for end in ends {
+        let line_end = end == bytes.len() || bytes[end] == b'\n';
+        // A line's carriage return (the first half of a CRLF: `plain`) is not in its last field.
+        let field_end = if line_end && end > field_start && bytes[end - 1] == b'\r' {
+            end - 1
+        } else {
+            end
+        };
+        // Within 4 GiB (checked by `read`).
+        spans.push(trimmed(bytes, field_start, field_end));
+        field_start = end + 1;
+        if !line_end {
             continue;
         }
-        let number = i + 1;
+        let line = &text[line_start..field_end];
+        let this = number;
+        line_start = end + 1;
+        number += 1;
+        // Empty lines are no record; comment lines are skipped wherever they are.
+        if line.is_empty() || is_comment(line) {
+            spans.truncate(first);
+            continue;
+        }
         let Some((h, _)) = &header else {
-            let names: Vec<String> = split_fields(line, delimiter)
-                .map(|(a, b)| line[a..b].to_string())
+            let names: Vec<String> = spans[first..]
+                .iter()
+                .map(|&(a, b)| text[a as usize..b as usize].to_string())
                 .collect();
-            check_header(&names, number, &loc)?;
+            spans.truncate(first);
+            check_header(&names, this, &loc)?;
             // Room for every row with as many fields as the header, and a trailing delimiter.
-            let rest = text.get(at..).unwrap_or_default();
+            let rest = text.get(line_start..).unwrap_or_default();
             let lines = memchr::memchr_iter(b'\n', rest.as_bytes()).count() + 1;
             spans.reserve(lines * (names.len() + 1));
             starts.reserve(lines);
-            header = Some((names, number));
+            header = Some((names, this));
             continue;
         };
-        let first = spans.len();
-        let mut blank = true;
-        for (a, b) in split_fields(line, delimiter) {
-            blank &= a == b;
-            // Within 4 GiB (checked above).
-            spans.push(((offset + a) as u32, (offset + b) as u32));
-        }
-        if blank {
+        if spans[first..].iter().all(|&(a, b)| a == b) {
             // A row of blank fields is no row.
             spans.truncate(first);
             continue;
@@ -193,7 +210,8 @@ fn read_plain<'a>(text: &'a str, file: &str) -> Result<Table<'a>> {
         if spans.len() - first == h.len() + 1 && spans.last().is_some_and(|&(a, b)| a == b) {
             spans.pop();
         }
-        starts.push((number, first));
+        starts.push((this, first));
+        first = spans.len();
     }
     // No header at all: refused as a header of no name.
     let (header, header_line) = match header {
@@ -211,23 +229,15 @@ fn read_plain<'a>(text: &'a str, file: &str) -> Result<Table<'a>> {
     })
 }
 
-/// The byte ranges of a line's fields, trimmed of ASCII white space.
-fn split_fields(line: &str, delimiter: u8) -> impl Iterator<Item = (usize, usize)> + '_ {
-    let bytes = line.as_bytes();
-    let mut start = 0;
-    memchr::memchr_iter(delimiter, bytes)
-        .chain(std::iter::once(bytes.len()))
-        .map(move |end| {
-            let (mut a, mut b) = (start, end);
-            while a < b && bytes[a].is_ascii_whitespace() {
-                a += 1;
-            }
-            while b > a && bytes[b - 1].is_ascii_whitespace() {
-                b -= 1;
-            }
-            start = end + 1;
-            (a, b)
-        })
+/// The byte range `a..b` of `bytes` trimmed of ASCII white space, as `u32`s.
+fn trimmed(bytes: &[u8], mut a: usize, mut b: usize) -> (u32, u32) {
+    while a < b && bytes[a].is_ascii_whitespace() {
+        a += 1;
+    }
+    while b > a && bytes[b - 1].is_ascii_whitespace() {
+        b -= 1;
+    }
+    (a as u32, b as u32)
 }
 
 /// A header must name a column, and no column twice.
