@@ -336,7 +336,9 @@ fn new_outputs_follow_the_umask_and_existing_ones_keep_their_mode() {
 }
 
 /// A calibration in `d` that waits at the FIFO `wait.fifo` (nobody reads it) with its report
-/// staged beside `r.json` (which holds "keep"), started with SIGHUP ignored when `nohup`.
+/// staged beside `r.json` (which holds "keep"), started with SIGINT, SIGTERM and SIGHUP at their
+/// default actions whatever this test inherited (a shell's background job ignores SIGINT), or
+/// with SIGHUP ignored when `nohup`.
 fn waiting_at_a_fifo(d: &Path, nohup: bool) -> Child {
     use std::os::unix::process::CommandExt as _;
     data(d, "d.csv", 3);
@@ -348,14 +350,18 @@ fn waiting_at_a_fifo(d: &Path, nohup: bool) -> Child {
         .args(calibrate(&["--out", "wait.fifo", "--report", "r.json"]))
         .stdout(Stdio::null())
         .stderr(Stdio::null());
-    if nohup {
-        // SAFETY: only sets a signal's disposition in the child before it runs kinecal.
-        unsafe {
-            command.pre_exec(|| {
+    // SAFETY: only sets signals' dispositions in the child before it runs kinecal (`signal` is
+    // async-signal-safe).
+    unsafe {
+        command.pre_exec(move || {
+            for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+                libc::signal(sig, libc::SIG_DFL);
+            }
+            if nohup {
                 libc::signal(libc::SIGHUP, libc::SIG_IGN);
-                Ok(())
-            });
-        }
+            }
+            Ok(())
+        });
     }
     let mut child = command.spawn().unwrap();
     let start = Instant::now();
