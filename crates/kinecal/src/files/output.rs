@@ -26,7 +26,7 @@
 //! own handlers), SIGINT, SIGTERM and SIGHUP (a handler, installed with the first temporary
 //! file, removes them and then ends the process as the signal would; during the renames of a
 //! commit it waits for the last; a signal the process was started ignoring, as under `nohup`,
-//! stays ignored: see [`super::cleanup`]). A write into a pipe whose
+//! stays ignored: see the `files::cleanup` module). A write into a pipe whose
 //! reader is gone fails with an error rather than ending the process on SIGPIPE. Only a process
 //! killed outright (SIGKILL, a power cut) leaves its temporary files; the next run that writes
 //! into the same folder removes those whose process id names no running process and that are
