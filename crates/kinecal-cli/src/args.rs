@@ -1821,9 +1821,9 @@ pub struct CalibrateArgs {
     /// [default: squared].
     #[arg(long, value_enum)]
     pub loss: Option<LossKind>,
-    /// Rows with sigma columns: weighted by sqrt(sigma^2 + m^2), the model error m estimated
-    /// from the residuals when they show more than the sigmas (auto), or by the sigmas alone
-    /// (none) [default: auto].
+    /// Rows with sigma columns: weighted by max(sigma, m), the model error m estimated from the
+    /// residuals when they show more than the sigmas (auto), or by the sigmas alone (none)
+    /// [default: auto].
     #[arg(long, value_enum)]
     pub model_error: Option<kinecal::solve::estimation::ModelErrorMode>,
     /// Huber threshold, in spreads of the residuals (see --huber-spread) [default: 1.345].

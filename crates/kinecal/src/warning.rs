@@ -204,15 +204,17 @@ pub enum Warning {
         variance_factor: f64,
     },
     /// Rows with standard deviations of their own (an instrument's) had residuals far beyond
-    /// them: each was weighted by `sqrt(sigma^2 + m^2)`, with the model error `m` of its
-    /// quantity estimated from the residuals
+    /// them: each was weighted by `max(sigma, m)`, with the model error `m` of its quantity
+    /// estimated from the residuals
     /// ([`crate::solve::estimation::weighting`]).
     ModelErrorFloor {
         /// The own rows' residuals' RMS over their stated sigmas, before the floor.
         scale: f64,
-        /// The model error added to the length rows, in mm (0: none, or no such rows).
+        /// The model error bounding the length rows' sigmas from below, in mm (0: none, or no
+        /// such rows).
         length_mm: f64,
-        /// The model error added to the angle rows, in degrees (0: none, or no such rows).
+        /// The model error bounding the angle rows' sigmas from below, in degrees (0: none, or
+        /// no such rows).
         angle_deg: f64,
     },
     /// The fit's residuals were far beyond the stated sigmas, so the identifiable set was
@@ -547,7 +549,7 @@ impl std::fmt::Display for Warning {
                     f,
                     "the rows' own standard deviations are {scale:.0} times below their residuals \
                      (they state the instrument's noise, not the model's): each such row was \
-                     weighted by sqrt(sigma^2 + m^2), with a model error m estimated from the \
+                     weighted by max(sigma, m), with a model error m estimated from the \
                      residuals: {}; model_error = \"none\" weighs them as stated",
                     parts.join(", ")
                 )

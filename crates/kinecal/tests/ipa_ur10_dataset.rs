@@ -290,15 +290,18 @@ fn the_suggested_calibration_holds_out_as_the_data_sets_readme_says() {
     );
 }
 
-/// Identified on series C (its rows carrying the tracker's sigmas, 0.0004-0.08 mm, 50 times
+/// Identified on series C (its rows carrying the tracker's sigmas, 0.0004-0.056 mm, 50 times
 /// below the model error) and validated on A: the fit converges, ends at or below its start on
-/// A, and at or below the fit of the same rows without their sigma columns (within 0.1 %: the
-/// model-error floor weighs the rows within 4 % of uniform, every parameter within 0.06 of its
-/// standard error of the unweighted fit's; the 0.04 % it ends above, 0.7463 mm against 0.7460,
-/// is those weights' doing, as docs/calibrate.md shows, and the residuals favour them: B -> A
-/// gains by the same weights). Weighted by the sigmas alone, the
-/// fit ended worse than its start (0.828 mm against 0.763), and with slopes drove joint6.slope
-/// from 1 to 0.0008.
+/// A, and at or below the fit of the same rows without their sigma columns. Every sigma is below
+/// the model-error floor, so the floor weighs C's rows alike: the fit is the unweighted one,
+/// up to the solvers' stopping points (measured 4e-14 relative on `identifiable`; bound 1e-9).
+/// With slopes the two sets differ by one parameter: chosen at the residuals' noise (0.28 mm,
+/// as rows that state sigmas 50 times below their residuals have it) the set keeps
+/// `joint6.slope` (0.9971 +- 0.0082), which the noise rule at the default weights (1 mm) leaves
+/// out; held out, 0.83679 mm against 0.83674 (bound 1e-3). Weighted by the sigmas alone, the fit
+/// ended worse than its start (0.828 mm against 0.763), and with slopes drove joint6.slope from
+/// 1 to 0.0008; under the quadrature floor `sqrt(s^2 + m^2)` it ended 0.0003 mm above the
+/// unweighted fit (0.7463 mm against 0.7460).
 #[test]
 fn instrument_sigmas_fit_at_least_as_well_as_no_sigmas() {
     let Some(dir) = folder() else { return };
@@ -341,9 +344,14 @@ fn instrument_sigmas_fit_at_least_as_well_as_no_sigmas() {
             without.calibration.termination
         );
         assert!(with.calibration.converged(), "{estimate}");
-        assert!(after <= plain * 1.001, "{estimate}: {after} vs {plain}");
         if estimate == "identifiable" {
+            assert!(
+                after <= plain * (1.0 + 1e-9),
+                "{estimate}: {after} vs {plain}"
+            );
             assert!(after <= start, "{estimate}: {start} -> {after}");
+        } else {
+            assert!(after <= plain * 1.001, "{estimate}: {after} vs {plain}");
         }
         if estimate.contains("slopes") {
             let id = robot.param_id(kinecal::ParamKind::Slope { joint: 5 });

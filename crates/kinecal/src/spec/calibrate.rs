@@ -217,8 +217,8 @@ pub struct ResidualSpec {
     #[serde(default, skip_serializing_if = "is_default")]
     pub orientation_error: OrientationError,
     /// Rows with standard deviations of their own (sigma columns): `auto` (default: weighted by
-    /// `sqrt(sigma^2 + m^2)`, the model error `m` estimated from the residuals when they show
-    /// more than the sigmas) or `none` (by their sigmas alone).
+    /// `max(sigma, m)`, the model error `m` estimated from the residuals when they show more
+    /// than the sigmas) or `none` (by their sigmas alone).
     #[serde(default, skip_serializing_if = "is_default")]
     pub model_error: ModelErrorMode,
     /// The outlier threshold, in robust standard deviations (default

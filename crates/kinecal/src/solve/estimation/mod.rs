@@ -168,12 +168,12 @@ pub struct Calibration {
     /// Estimated parameters no residual felt at the start: they keep their initial values.
     pub unfelt: Vec<ParamId>,
     /// The final row scale, one per residual row of the data: the model-error floor's
-    /// (`s_i / sqrt(s_i^2 + m^2)` for rows with their own standard deviation `s_i`) times the
+    /// (`s_i / max(s_i, m)` for rows with their own standard deviation `s_i`) times the
     /// robust loss's (square roots of its weights); all 1 for least squares at the stated
     /// standard deviations.
     pub row_scale: Vec<f64>,
-    /// The model error added to the rows' own standard deviations (see [`weighting`]), when
-    /// some rows carry their own.
+    /// The model error bounding the rows' own standard deviations from below (see
+    /// [`weighting`]), when some rows carry their own.
     pub model_error: Option<ModelErrorFloor>,
     /// True when the fit started from uniform weights (the stated standard deviations spread
     /// over more than 1 / [`weighting::STAGE_RATIO`]; see [`weighting`]).
@@ -464,7 +464,7 @@ fn linearize_start(
 /// The fit at the rows' weights ([`fit_weighted`]) before a robust loss reweighs it.
 struct WeightedFit {
     sol: Solution,
-    /// The model-error floor's row scale (`s_i / sqrt(s_i^2 + m^2)`; all 1 without a floor).
+    /// The model-error floor's row scale (`s_i / max(s_i, m)`; all 1 without a floor).
     floor_scale: Vec<f64>,
     /// The floor, when rows carry standard deviations of their own and it is estimated.
     model_error: Option<ModelErrorFloor>,
