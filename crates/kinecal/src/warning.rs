@@ -216,6 +216,11 @@ pub enum Warning {
         /// The model error bounding the angle rows' sigmas from below, in degrees (0: none, or
         /// no such rows).
         angle_deg: f64,
+        /// The length and angle rows with a standard deviation of their own.
+        rows: usize,
+        /// Those of them stating one above their quantity's model error, which they keep (the
+        /// others are weighted alike, by the model error).
+        above: usize,
     },
     /// The fit's residuals were far beyond the stated sigmas, so the identifiable set was
     /// chosen again at the residuals' noise (the noise-level rule at `scale` times the stated
@@ -537,6 +542,8 @@ impl std::fmt::Display for Warning {
                 scale,
                 length_mm,
                 angle_deg,
+                rows,
+                above,
             } => {
                 let mut parts = Vec::new();
                 if *length_mm > 0.0 {
@@ -550,8 +557,13 @@ impl std::fmt::Display for Warning {
                     "the rows' own standard deviations are {scale:.0} times below their residuals \
                      (they state the instrument's noise, not the model's): each such row was \
                      weighted by max(sigma, m), with a model error m estimated from the \
-                     residuals: {}; model_error = \"none\" weighs them as stated",
-                    parts.join(", ")
+                     residuals: {}; {}; model_error = \"none\" weighs them as stated",
+                    parts.join(", "),
+                    if *above == 0 {
+                        format!("every one of the {rows} rows states less, so they weigh alike")
+                    } else {
+                        format!("{above} of the {rows} rows state more and keep their own")
+                    }
                 )
             }
             Warning::ChosenAtResidualNoise { scale, left_out } => write!(

@@ -74,3 +74,58 @@ fn sigmas_under_a_model_error_floor_are_those_of_the_rows_as_weighed() {
     }
     assert!(compared >= 20, "only {compared} parameters compared");
 }
+
+/// A tenth of the points stated at 1 mm, above the 0.2 mm model error, the rest at 0.005 mm:
+/// the note counts the rows that keep their own sigma (the 1 mm ones) among those with one,
+/// and the fit weighs them by it, so they pull less than the rest.
+#[test]
+fn the_note_counts_the_rows_stated_above_the_floor() {
+    let nominal = simulate::random_robot(&[JointKind::Revolute; 6], 81);
+    let truth = simulate::perturb(
+        &nominal,
+        PerturbStd {
+            length: 0.001,
+            angle: 0.002,
+            slope_fraction: 0.0,
+        },
+        82,
+    );
+    let postures = simulate::sample_postures(&nominal, 300, 83);
+    let mut data = simulate::measure(&truth, &postures, true);
+    simulate::add_noise(&mut data, 2e-4, 0.0, 84);
+    let mut data = with_sigma(&data, Some(5e-6));
+    for o in data.observations.iter_mut().take(30) {
+        if let Observation::Position(p) = o {
+            p.sigma_position = Some(nalgebra::Vector3::repeat(1e-3));
+        }
+    }
+    let mut req = Request::new(nominal.clone(), data);
+    req.selection = Selection::parse("identifiable", None, &nominal).unwrap();
+    let out = workflow::run(&req, &mut ()).unwrap();
+    let note = out
+        .warnings
+        .iter()
+        .find(|w| matches!(w, kinecal::Warning::ModelErrorFloor { .. }))
+        .expect("the floor named");
+    let kinecal::Warning::ModelErrorFloor {
+        length_mm,
+        rows,
+        above,
+        ..
+    } = note
+    else {
+        unreachable!()
+    };
+    assert!((0.15..0.25).contains(length_mm), "{length_mm} mm");
+    assert_eq!((*rows, *above), (900, 90));
+    assert!(
+        note.to_string()
+            .contains("90 of the 900 rows state more and keep their own"),
+        "{note}"
+    );
+    // The row scale: s / max(s, m), so 1 for the 1 mm rows and 0.005 / m for the others.
+    let scale = &out.calibration.row_scale;
+    assert!(scale[..90].iter().all(|&k| k.to_bits() == 1f64.to_bits()));
+    let m = length_mm * 1e-3;
+    assert!(scale[90..].iter().all(|&k| (k - 5e-6 / m).abs() < 1e-12));
+}

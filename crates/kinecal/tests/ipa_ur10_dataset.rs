@@ -326,6 +326,12 @@ fn instrument_sigmas_fit_at_least_as_well_as_no_sigmas() {
         let (with, without) = (fit(&ident), fit(&bare));
         let m = with.calibration.model_error.expect("rows with sigmas");
         assert!(m.length > 1e-4 && m.length < 5e-4, "{m:?}");
+        // Every sigma of C is below the floor: the note says the rows weigh alike.
+        let counted = with.warnings.iter().find_map(|w| match w {
+            kinecal::Warning::ModelErrorFloor { rows, above, .. } => Some((*rows, *above)),
+            _ => None,
+        });
+        assert_eq!(counted, Some((3 * 2773, 0)));
         let v = with.validation.as_ref().unwrap();
         let (start, after) = (
             v.start.as_ref().unwrap().mean_position,

@@ -19,7 +19,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicUsize, Ordering::SeqCst};
 
 /// The most temporary files a signal removes (alive at once).
-pub(crate) const SLOTS: usize = 256;
+const SLOTS: usize = 256;
 
 /// Set in a [`Gate`]'s state once a signal is ending the process: no commit starts after it.
 const ENDING: usize = 1 << (usize::BITS - 1);

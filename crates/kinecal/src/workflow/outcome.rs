@@ -379,10 +379,13 @@ fn result_warnings(
             .filter(|((_, own), _)| *own)
             .map(|(_, r)| r * r)
             .collect();
+        let (rows, above) = crate::solve::estimation::weighting::rows_above_floor(data, &m);
         warnings.push(Warning::ModelErrorFloor {
             scale: (own.iter().sum::<f64>() / own.len().max(1) as f64).sqrt(),
             length_mm: m.length * 1e3,
             angle_deg: m.angle.to_degrees(),
+            rows,
+            above,
         });
     }
     if super::restart::positions_unfit(nominal, cal) {

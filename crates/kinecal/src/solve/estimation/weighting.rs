@@ -134,6 +134,22 @@ pub(crate) fn row_kinds(data: &Dataset) -> Vec<(RowQuantity, bool)> {
     out
 }
 
+/// The rows of `data` with a standard deviation of their own, and how many of them state one
+/// above `floor` (those keep it; the others are weighted by the floor alike), over lengths
+/// and angles together (pixels keep theirs and are not counted).
+pub(crate) fn rows_above_floor(data: &Dataset, floor: &ModelErrorFloor) -> (usize, usize) {
+    let (mut own, mut above) = (0, 0);
+    for o in &data.observations {
+        for (k, row) in o.rows().iter().enumerate() {
+            if let (Some(s), false) = (o.sigma(k), row.quantity == RowQuantity::Pixel) {
+                own += 1;
+                above += usize::from(s > floor.of(row.quantity));
+            }
+        }
+    }
+    (own, above)
+}
+
 /// The row scale of the staged start (see the module documentation), or `None` when no
 /// quantity's standard deviations spread that far.
 pub(crate) fn staged_scale(kinds: &[(RowQuantity, bool)], sigma: &[f64]) -> Option<Vec<f64>> {
