@@ -8,7 +8,7 @@
 use kinecal::apps::simulate::{self, PerturbStd};
 use kinecal::model::robot::JointKind;
 use kinecal::workflow::{self, Request, Selection};
-use kinecal::{Dataset, Observation};
+use kinecal::{Dataset, Observation, Robot};
 
 fn with_sigma(data: &Dataset, sigma: Option<f64>) -> Dataset {
     let mut data = data.clone();
@@ -20,9 +20,10 @@ fn with_sigma(data: &Dataset, sigma: Option<f64>) -> Dataset {
     data
 }
 
-#[test]
-fn sigmas_under_a_model_error_floor_are_those_of_the_rows_as_weighed() {
-    let nominal = simulate::random_robot(&[JointKind::Revolute; 6], 71);
+/// A random six-axis arm (seeds from `seed` on) and 300 of its positions measured with 0.2 mm
+/// of noise, no sigma columns.
+fn noisy_arm(seed: u64) -> (Robot, Dataset) {
+    let nominal = simulate::random_robot(&[JointKind::Revolute; 6], seed);
     let truth = simulate::perturb(
         &nominal,
         PerturbStd {
@@ -30,12 +31,18 @@ fn sigmas_under_a_model_error_floor_are_those_of_the_rows_as_weighed() {
             angle: 0.002,
             slope_fraction: 0.0,
         },
-        72,
+        seed + 1,
     );
-    let postures = simulate::sample_postures(&nominal, 300, 73);
+    let postures = simulate::sample_postures(&nominal, 300, seed + 2);
     let mut data = simulate::measure(&truth, &postures, true);
+    simulate::add_noise(&mut data, 2e-4, 0.0, seed + 3);
+    (nominal, data)
+}
+
+#[test]
+fn sigmas_under_a_model_error_floor_are_those_of_the_rows_as_weighed() {
     // 0.2 mm of noise; the rows state 0.005 mm, 40 times less.
-    simulate::add_noise(&mut data, 2e-4, 0.0, 74);
+    let (nominal, data) = noisy_arm(71);
     let run = |data: Dataset| {
         let mut req = Request::new(nominal.clone(), data);
         req.selection = Selection::parse("identifiable", None, &nominal).unwrap();
@@ -80,19 +87,7 @@ fn sigmas_under_a_model_error_floor_are_those_of_the_rows_as_weighed() {
 /// and the fit weighs them by it, so they pull less than the rest.
 #[test]
 fn the_note_counts_the_rows_stated_above_the_floor() {
-    let nominal = simulate::random_robot(&[JointKind::Revolute; 6], 81);
-    let truth = simulate::perturb(
-        &nominal,
-        PerturbStd {
-            length: 0.001,
-            angle: 0.002,
-            slope_fraction: 0.0,
-        },
-        82,
-    );
-    let postures = simulate::sample_postures(&nominal, 300, 83);
-    let mut data = simulate::measure(&truth, &postures, true);
-    simulate::add_noise(&mut data, 2e-4, 0.0, 84);
+    let (nominal, data) = noisy_arm(81);
     let mut data = with_sigma(&data, Some(5e-6));
     for o in data.observations.iter_mut().take(30) {
         if let Observation::Position(p) = o {
