@@ -111,7 +111,11 @@ def fit(kinecal, robot, d, data, extra=()):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(
+        description=__doc__.split("\n")[0],
+        epilog="example: python3 scripts/weighting-study.py --regime near --sets 20 "
+        "--baseline /tmp/kinecal-other-build",
+    )
     ap.add_argument("--regime", choices=sorted(REGIMES), required=True)
     ap.add_argument("--sets", type=int, default=20)
     ap.add_argument("--first-seed", type=int, default=1)
