@@ -15,7 +15,7 @@ use kinecal::observe::Weights;
 use kinecal::report::scene::{Scene, SceneOptions};
 use kinecal::report::CalibrationReport;
 use kinecal::workflow::{self, Request};
-use kinecal::{Chain, Dataset, Frame, Link, Observation, Robot, Target};
+use kinecal::{Chain, Dataset, Frame, Link, Robot, Target};
 use kinecal_report::html_report;
 
 /// A 6-axis arm, its nominal model off by a millimetre and a milliradian, measured by
@@ -381,7 +381,7 @@ fn with_a_camera(truth: &Robot, data: &Dataset) -> (Robot, Dataset) {
             if q.z > 0.0 && robot.cameras[0].inside(&uv) {
                 let seen = Seen::Board { board: 0, index: k };
                 let px = Pixel::new(&robot, posture, 0, seen, [uv.x, uv.y]).unwrap();
-                observations.push(Observation::Pixel(px));
+                observations.push(px.into());
             }
         }
     }

@@ -284,7 +284,7 @@ pub(crate) fn seen_pixels(
         let uv = o.predicted(robot, &frames[..n]);
         if q.z >= 0.01 && robot.cameras[camera].inside(&uv) {
             o.uv = [uv.x, uv.y];
-            seen.push(Observation::Pixel(o));
+            seen.push(o.into());
         }
     }
     seen

@@ -164,7 +164,7 @@ pub(crate) fn write_pixels(robot: &Robot, data: &Dataset) -> String {
         .observations
         .iter()
         .filter_map(|o| match o {
-            Observation::Pixel(p) => Some(p),
+            Observation::Pixel(p) => Some(&**p),
             _ => None,
         })
         .collect();

@@ -352,7 +352,7 @@ macro_rules! observation_kinds {
             type Target = dyn Observe;
             fn deref(&self) -> &(dyn Observe + 'static) {
                 match self {
-                    $(Observation::$variant(o) => o,)*
+                    $(Observation::$variant(o) => o.observe(),)*
                 }
             }
         }
@@ -360,7 +360,7 @@ macro_rules! observation_kinds {
         impl std::ops::DerefMut for Observation {
             fn deref_mut(&mut self) -> &mut (dyn Observe + 'static) {
                 match self {
-                    $(Observation::$variant(o) => o,)*
+                    $(Observation::$variant(o) => o.observe_mut(),)*
                 }
             }
         }
@@ -373,11 +373,43 @@ macro_rules! observation_kinds {
     };
 }
 
+/// How a kind of observation is held in an [`Observation`]: in place, or boxed.
+trait Held {
+    fn observe(&self) -> &(dyn Observe + 'static);
+    fn observe_mut(&mut self) -> &mut (dyn Observe + 'static);
+}
+
+impl<T: Observe + 'static> Held for Box<T> {
+    fn observe(&self) -> &(dyn Observe + 'static) {
+        &**self
+    }
+    fn observe_mut(&mut self) -> &mut (dyn Observe + 'static) {
+        &mut **self
+    }
+}
+
+macro_rules! held_in_place {
+    ($($ty:ty),*) => {
+        $(impl Held for $ty {
+            fn observe(&self) -> &(dyn Observe + 'static) {
+                self
+            }
+            fn observe_mut(&mut self) -> &mut (dyn Observe + 'static) {
+                self
+            }
+        })*
+    };
+}
+held_in_place!(point::Position, distance::Distance, contact::Contact);
+
 // The kinds of observation. A new kind: a file in this folder implementing `Observe`, a line
-// here, and its file format in `crate::files::FORMATS`.
+// here, and its file format in `crate::files::FORMATS`. Kinds larger than a position are
+// boxed, so that an observation takes 96 bytes, a file of positions (the common case) is
+// looped over in steps of that size: 224 bytes in place cost a tenth of a 10,000-position
+// calibration's CPU (`docs/verification.md`).
 observation_kinds! {
     /// A full pose.
-    Pose(point::Pose),
+    Pose(Box<point::Pose>),
     /// A position.
     Position(point::Position),
     /// A distance between two postures' positions of a target.
@@ -385,7 +417,19 @@ observation_kinds! {
     /// A target touching a plane.
     Contact(contact::Contact),
     /// A camera's pixel of a point.
-    Pixel(pixel::Pixel),
+    Pixel(Box<pixel::Pixel>),
+}
+
+impl From<point::Pose> for Observation {
+    fn from(o: point::Pose) -> Self {
+        Observation::Pose(Box::new(o))
+    }
+}
+
+impl From<pixel::Pixel> for Observation {
+    fn from(o: pixel::Pixel) -> Self {
+        Observation::Pixel(Box::new(o))
+    }
 }
 
 /// A set of postures and the observations made in them.
@@ -1045,7 +1089,17 @@ impl AccuracyTally {
 mod tests {
     use nalgebra::Vector3;
 
-    use super::{Dataset, FrameCache, Posture, BATCH};
+    use super::{Dataset, FrameCache, Observation, Posture, BATCH};
+
+    /// An observation is no larger than a position and its tag: the kinds larger than that
+    /// are boxed (a file of positions is looped over in steps of this size).
+    #[test]
+    fn an_observation_is_the_size_of_a_position() {
+        let position = std::mem::size_of::<super::point::Position>();
+        assert!(position <= 88, "a position takes {position} bytes");
+        let size = std::mem::size_of::<Observation>();
+        assert!(size <= position + 8, "an observation takes {size} bytes");
+    }
     use crate::model::kinematics::{Chain, Workspace};
     use crate::model::robot::{Body, Coupling, Elastic, Joint, JointKind, Link, Robot};
 
