@@ -408,7 +408,7 @@ held_in_place!(point::Position, distance::Distance, contact::Contact);
 // looped over in steps of that size: 224 bytes in place cost a tenth of a 10,000-position
 // calibration's CPU (`docs/verification.md`).
 observation_kinds! {
-    /// A full pose.
+    /// A full pose (boxed: `point::Pose::into()` makes one).
     Pose(Box<point::Pose>),
     /// A position.
     Position(point::Position),
@@ -416,7 +416,7 @@ observation_kinds! {
     Distance(distance::Distance),
     /// A target touching a plane.
     Contact(contact::Contact),
-    /// A camera's pixel of a point.
+    /// A camera's pixel of a point (boxed: `pixel::Pixel::into()` makes one).
     Pixel(Box<pixel::Pixel>),
 }
 
@@ -1090,6 +1090,8 @@ mod tests {
     use nalgebra::Vector3;
 
     use super::{Dataset, FrameCache, Observation, Posture, BATCH};
+    use crate::model::kinematics::{Chain, Workspace};
+    use crate::model::robot::{Body, Coupling, Elastic, Joint, JointKind, Link, Robot};
 
     /// An observation is no larger than a position and its tag: the kinds larger than that
     /// are boxed (a file of positions is looped over in steps of this size).
@@ -1100,8 +1102,6 @@ mod tests {
         let size = std::mem::size_of::<Observation>();
         assert!(size <= position + 8, "an observation takes {size} bytes");
     }
-    use crate::model::kinematics::{Chain, Workspace};
-    use crate::model::robot::{Body, Coupling, Elastic, Joint, JointKind, Link, Robot};
 
     /// A 7-joint arm with a prismatic joint, slopes other than 1 and a coupling: serial,
     /// or with its sixth joint hung after the third (a tree), or elastic.
